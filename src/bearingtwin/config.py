@@ -1,0 +1,36 @@
+"""Where the Hydra configs live, and the error handling every entry point shares."""
+
+from __future__ import annotations
+
+import functools
+import sys
+from pathlib import Path
+from typing import Callable
+
+from omegaconf import OmegaConf
+
+from bearingtwin.errors import BearingTwinError
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+CONF_DIR = str(REPO_ROOT / "conf")
+
+# ``${bt_repo:}`` in a config resolves to the checkout, so default paths work from any cwd.
+OmegaConf.register_new_resolver("bt_repo", lambda: str(REPO_ROOT), replace=True)
+
+
+def exit_on_user_error(task: Callable) -> Callable:
+    """Turn a :class:`BearingTwinError` into a one-line message on stderr and exit status 2.
+
+    Wraps the body of a single-run entry point (apply it *inside* ``@hydra.main`` so
+    Hydra has composed the config). Programming errors keep their tracebacks.
+    """
+
+    @functools.wraps(task)
+    def wrapped(*args, **kwargs):
+        try:
+            return task(*args, **kwargs)
+        except BearingTwinError as error:
+            print(f"error: {error}", file=sys.stderr)
+            sys.exit(2)
+
+    return wrapped

@@ -1,0 +1,1 @@
+"""Data sources: simulated (the twin) and real (CWRU, HUST, generic files), windowing and splits."""

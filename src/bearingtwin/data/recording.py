@@ -1,0 +1,121 @@
+"""One vibration record and the labelled windows cut from many.
+
+A :class:`Recording` is what every source yields, simulated or measured: one 1-D
+signal with the facts needed to interpret it (sampling rate, shaft speed, bearing
+state). A :class:`WindowedDataset` is what feature extractors and classifiers
+consume: equal-length windows, their labels, and where each came from, so splits
+can keep windows of one record apart.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import FAULTS, check_fault
+
+
+@dataclass
+class Recording:
+    """A single-channel vibration record.
+
+    Attributes:
+        signal: 1-D float64 array (units in ``unit``).
+        fs: sampling rate in Hz.
+        rpm: shaft speed in rev/min (None when unknown).
+        fault: bearing state, one of :data:`~bearingtwin.physics.geometry.FAULTS` (None when unknown).
+        source: where it came from (a file path or a simulator description), used in messages.
+        channel: channel name within the source (e.g. ``DE``, ``X``, ``inner_x``).
+        unit: physical unit of ``signal`` (``m/s^2``, ``g``, ``V``, ...).
+    """
+
+    signal: np.ndarray
+    fs: float
+    rpm: float | None = None
+    fault: str | None = None
+    source: str = "<memory>"
+    channel: str = ""
+    unit: str = ""
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        signal = np.asarray(self.signal)
+        if signal.ndim != 1:
+            raise BearingTwinError(f"{self.source}: a recording holds one channel, got shape {signal.shape}")
+        if signal.size == 0:
+            raise BearingTwinError(f"{self.source}: the recording is empty")
+        if not np.issubdtype(signal.dtype, np.number):
+            raise BearingTwinError(f"{self.source}: the signal is not numeric (dtype {signal.dtype})")
+        self.signal = signal.astype(np.float64, copy=False)
+        n_bad = int(np.count_nonzero(~np.isfinite(self.signal)))
+        if n_bad:
+            raise BearingTwinError(f"{self.source}: {n_bad} NaN or infinite values in channel {self.channel or '?'}")
+        if not self.fs > 0:
+            raise BearingTwinError(f"{self.source}: sampling rate must be positive, got {self.fs}")
+        if self.rpm is not None and not self.rpm > 0:
+            raise BearingTwinError(f"{self.source}: rpm must be positive, got {self.rpm}")
+        if self.fault is not None:
+            check_fault(self.fault)
+
+    @property
+    def duration(self) -> float:
+        """Length in seconds."""
+        return self.signal.size / self.fs
+
+    @property
+    def label(self) -> int:
+        """Class index of the bearing state in :data:`FAULTS` order."""
+        if self.fault is None:
+            raise BearingTwinError(f"{self.source}: the bearing state is unknown, so it has no label")
+        return FAULTS.index(self.fault)
+
+
+@dataclass
+class WindowedDataset:
+    """Equal-length windows cut from one or more recordings.
+
+    Attributes:
+        windows: (n_windows, window_length) float64.
+        labels: (n_windows,) int class indices into ``class_names``.
+        record_ids: (n_windows,) int index into ``records`` of the record each window came from.
+        starts: (n_windows,) int first sample of each window within its record.
+        records: the source of every record (file path or simulator key), for reports.
+        fs: common sampling rate in Hz.
+        class_names: names of the classes, index = label.
+        key: a stable identifier of the dataset's content (used as a cache key and logged).
+    """
+
+    windows: np.ndarray
+    labels: np.ndarray
+    record_ids: np.ndarray
+    starts: np.ndarray
+    records: list[str]
+    fs: float
+    class_names: tuple[str, ...] = FAULTS
+    key: str = ""
+    record_lengths: list[int] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        n = len(self.windows)
+        for name in ("labels", "record_ids", "starts"):
+            if len(getattr(self, name)) != n:
+                raise BearingTwinError(f"WindowedDataset.{name} has {len(getattr(self, name))} entries for {n} windows")
+
+    def __len__(self) -> int:
+        return len(self.windows)
+
+    def subset(self, index: np.ndarray) -> "WindowedDataset":
+        """The windows at ``index`` (records and keys kept)."""
+        return WindowedDataset(
+            windows=self.windows[index],
+            labels=self.labels[index],
+            record_ids=self.record_ids[index],
+            starts=self.starts[index],
+            records=self.records,
+            fs=self.fs,
+            class_names=self.class_names,
+            key=self.key,
+            record_lengths=self.record_lengths,
+        )

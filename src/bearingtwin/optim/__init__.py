@@ -1,0 +1,1 @@
+"""Optimizers for VMD parameters: SABO as an Optuna sampler."""

@@ -1,0 +1,1 @@
+"""Signal processing in the style of scipy.signal: arrays in, arrays out, batched along the leading axis."""

@@ -1,0 +1,1 @@
+"""MLflow logging of runs and the reports that read them back."""

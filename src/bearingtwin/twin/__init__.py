@@ -1,0 +1,1 @@
+"""The twin held against a measurement: comparison views, calibration and effect ranking."""
