@@ -1,0 +1,97 @@
+"""Cutting records into windows, and train/test splits that can keep them honest.
+
+The paper cuts each 30 s record into 150 windows of 2048 points and splits the
+windows at random 70/30. When the windows of a record overlap (150 x 2048 points
+from a 12 kHz, 10 s record do), a random split puts samples that appear in test
+windows into training windows as well: the test set is not unseen data. The
+``block`` split trains on windows from the first part of every record and tests
+on windows from the last part, discarding any window that would straddle the
+boundary, so no sample is shared.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bearingtwin.errors import BearingTwinError
+
+SPLITS = ("random", "block")
+
+
+def window_starts(n_samples: int, window_length: int, n_windows: int) -> np.ndarray:
+    """First sample of ``n_windows`` windows spread evenly over ``n_samples``.
+
+    The stride follows from the record length: ``(n_samples - window_length) / (n_windows - 1)``,
+    rounded down per window, so windows overlap when the record is short and leave gaps
+    when it is long. The first window starts at 0 and the last ends at the record's end.
+    """
+    if window_length < 1 or n_windows < 1:
+        raise BearingTwinError(f"window_length and n_windows must be positive (got {window_length}, {n_windows})")
+    if n_samples < window_length:
+        raise BearingTwinError(
+            f"the record has {n_samples} samples, shorter than one window of {window_length}"
+        )
+    if n_windows == 1:
+        return np.zeros(1, dtype=np.int64)
+    return np.floor(np.linspace(0, n_samples - window_length, n_windows)).astype(np.int64)
+
+
+def cut_windows(signal: np.ndarray, window_length: int, n_windows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cut ``n_windows`` windows of ``window_length`` samples from a 1-D signal.
+
+    Returns:
+        windows: (n_windows, window_length) copy of the signal's samples.
+        starts: (n_windows,) first sample of each window.
+    """
+    signal = np.asarray(signal)
+    if signal.ndim != 1:
+        raise BearingTwinError(f"cut_windows takes a 1-D signal, got shape {signal.shape}")
+    starts = window_starts(signal.size, window_length, n_windows)
+    return signal[starts[:, None] + np.arange(window_length)], starts
+
+
+def split_indices(
+    labels: np.ndarray,
+    record_ids: np.ndarray,
+    starts: np.ndarray,
+    record_lengths: np.ndarray,
+    window_length: int,
+    method: str = "block",
+    train_fraction: float = 0.7,
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the training and test windows.
+
+    Args:
+        labels: (n,) class of each window; ``random`` stratifies on it.
+        record_ids: (n,) the record each window came from.
+        starts: (n,) first sample of each window in its record.
+        record_lengths: (n_records,) samples in each record.
+        window_length: samples per window.
+        method: ``random`` (the paper's: stratified shuffle of windows) or ``block`` (train
+            on windows lying wholly in the first ``train_fraction`` of their record, test on
+            windows lying wholly in the rest; windows straddling the boundary are dropped).
+        train_fraction: share of windows (random) or of each record (block) used for training.
+        seed: seeds the random split.
+
+    Returns:
+        (train_index, test_index), sorted int arrays.
+    """
+    if method not in SPLITS:
+        raise BearingTwinError(f"split={method!r} is not a split method; choose one of {', '.join(SPLITS)}")
+    if not 0.0 < train_fraction < 1.0:
+        raise BearingTwinError(f"train_fraction must lie strictly between 0 and 1, got {train_fraction}")
+    labels = np.asarray(labels)
+    if method == "random":
+        from sklearn.model_selection import train_test_split
+
+        index = np.arange(labels.size)
+        train, test = train_test_split(index, train_size=train_fraction, stratify=labels, random_state=seed)
+        return np.sort(train), np.sort(test)
+    boundary = np.floor(np.asarray(record_lengths)[np.asarray(record_ids)] * train_fraction)
+    ends = np.asarray(starts) + window_length
+    train = np.flatnonzero(ends <= boundary)
+    test = np.flatnonzero(np.asarray(starts) >= boundary)
+    if train.size == 0 or test.size == 0:
+        raise BearingTwinError("the block split left no training or no test windows; records are too short")
+    return train, test
