@@ -1,0 +1,113 @@
+"""Windowing and splits: the stride follows the record, and the block split shares no sample."""
+
+import numpy as np
+import pytest
+
+from bearingtwin.data.recording import Recording, WindowedDataset
+from bearingtwin.data.windows import cut_windows, split_indices, window_starts
+from bearingtwin.errors import BearingTwinError
+
+
+def test_windows_span_the_record_and_copy_its_samples():
+    signal = np.arange(10_000.0)
+    windows, starts = cut_windows(signal, window_length=2048, n_windows=5)
+    assert windows.shape == (5, 2048)
+    assert starts[0] == 0 and starts[-1] + 2048 == signal.size
+    np.testing.assert_array_equal(windows[:, 0], starts)
+    np.testing.assert_array_equal(windows[3], signal[starts[3] : starts[3] + 2048])
+
+
+def test_windows_overlap_when_the_record_is_short():
+    # The paper's 150 windows of 2048 points from a 10 s, 12 kHz record must overlap.
+    starts = window_starts(120_000, 2048, 150)
+    assert np.all(np.diff(starts) < 2048)
+
+
+def test_a_record_shorter_than_one_window_is_an_error_not_padding():
+    with pytest.raises(BearingTwinError, match="shorter than one window"):
+        cut_windows(np.zeros(1000), window_length=2048, n_windows=1)
+
+
+def _two_records(n_per_record=150, length=60_000, window=2048):
+    starts = window_starts(length, window, n_per_record)
+    return (
+        np.repeat([0, 1], n_per_record),  # labels
+        np.repeat([0, 1], n_per_record),  # record ids
+        np.tile(starts, 2),
+        np.array([length, length]),
+    )
+
+
+def test_block_split_shares_no_sample_between_train_and_test():
+    labels, record_ids, starts, lengths = _two_records()
+    train, test = split_indices(labels, record_ids, starts, lengths, 2048, method="block")
+    for record in (0, 1):
+        train_samples = {
+            s for i in train[record_ids[train] == record] for s in range(starts[i], starts[i] + 2048)
+        }
+        test_samples = {s for i in test[record_ids[test] == record] for s in range(starts[i], starts[i] + 2048)}
+        assert train_samples and test_samples
+        assert not train_samples & test_samples
+
+
+def test_random_split_of_overlapping_windows_leaks_samples():
+    labels, record_ids, starts, lengths = _two_records()
+    train, test = split_indices(labels, record_ids, starts, lengths, 2048, method="random", seed=0)
+    assert abs(len(test) / len(labels) - 0.3) < 0.01
+    train_samples = {s for i in train[record_ids[train] == 0] for s in range(starts[i], starts[i] + 2048)}
+    test_samples = {s for i in test[record_ids[test] == 0] for s in range(starts[i], starts[i] + 2048)}
+    assert len(train_samples & test_samples) > 0.5 * len(test_samples)
+
+
+def test_random_split_is_stratified_and_seeded():
+    labels, record_ids, starts, lengths = _two_records()
+    a = split_indices(labels, record_ids, starts, lengths, 2048, method="random", seed=1)
+    b = split_indices(labels, record_ids, starts, lengths, 2048, method="random", seed=1)
+    c = split_indices(labels, record_ids, starts, lengths, 2048, method="random", seed=2)
+    np.testing.assert_array_equal(a[1], b[1])
+    assert not np.array_equal(a[1], c[1])
+    assert np.bincount(labels[a[1]]).tolist() == [45, 45]
+
+
+def test_unknown_split_names_the_choices():
+    labels, record_ids, starts, lengths = _two_records()
+    with pytest.raises(BearingTwinError, match="random, block"):
+        split_indices(labels, record_ids, starts, lengths, 2048, method="kfold")
+
+
+def test_recording_rejects_nan_and_names_the_source():
+    signal = np.ones(100)
+    signal[7] = np.nan
+    with pytest.raises(BearingTwinError, match=r"rec\.npy: 1 NaN"):
+        Recording(signal, fs=1000, source="rec.npy")
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"signal": np.ones((2, 10))}, "one channel"),
+        ({"signal": np.array([])}, "empty"),
+        ({"signal": np.array(["a", "b"])}, "not numeric"),
+        ({"fs": 0}, "sampling rate"),
+        ({"rpm": -1}, "rpm"),
+        ({"fault": "cage"}, "fault='cage'"),
+    ],
+)
+def test_recording_validates_its_fields(kwargs, message):
+    args = {"signal": np.ones(10), "fs": 1000.0, **kwargs}
+    with pytest.raises(BearingTwinError, match=message):
+        Recording(**args)
+
+
+def test_subset_keeps_records_and_key():
+    data = WindowedDataset(
+        windows=np.zeros((4, 8)),
+        labels=np.array([0, 1, 2, 3]),
+        record_ids=np.arange(4),
+        starts=np.zeros(4, int),
+        records=["a", "b", "c", "d"],
+        fs=1000.0,
+        key="k",
+    )
+    part = data.subset(np.array([1, 3]))
+    assert len(part) == 2 and part.labels.tolist() == [1, 3] and part.key == "k" and part.records == data.records
