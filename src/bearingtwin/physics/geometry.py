@@ -18,7 +18,8 @@ this gives BPFO 107.34 Hz and BSF 70.51 Hz as the paper reports, but BPFI
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Mapping
 
 from bearingtwin.errors import BearingTwinError
 
@@ -68,6 +69,29 @@ class BearingGeometry:
             )
         if self.ball_diameter_mm >= self.pitch_diameter_mm:
             raise BearingTwinError("bearing.ball_diameter_mm must be smaller than the pitch diameter")
+
+    @classmethod
+    def from_config(cls, bearing_cfg: Mapping) -> "BearingGeometry":
+        """The geometry part of a ``conf/bearing/*.yaml`` config (masses, stiffnesses etc. are ignored)."""
+        names = [f.name for f in fields(cls)]
+        missing = [name for name in names[:5] if name not in bearing_cfg]
+        if missing:
+            raise BearingTwinError(f"bearing config lacks {', '.join('bearing.' + m for m in missing)}")
+        return cls(**{name: bearing_cfg[name] for name in names if name in bearing_cfg})
+
+    @property
+    def ball_radius_m(self) -> float:
+        return self.ball_diameter_mm / 2000.0
+
+    @property
+    def inner_race_radius_m(self) -> float:
+        """Radius of the inner raceway's contact circle, (Dm - Db) / 2."""
+        return (self.pitch_diameter_mm - self.ball_diameter_mm) / 2000.0
+
+    @property
+    def outer_race_radius_m(self) -> float:
+        """Radius of the outer raceway's contact circle, (Dm + Db) / 2."""
+        return (self.pitch_diameter_mm + self.ball_diameter_mm) / 2000.0
 
     @property
     def _diameter_ratio(self) -> float:

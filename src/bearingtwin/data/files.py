@@ -1,0 +1,316 @@
+"""Reading vibration records from files: one raw reader per format, one path to a Recording.
+
+Reading happens in two steps because the two users want different things:
+:func:`read_raw` returns every channel as stored, NaNs included, so ``bearingtwin-inspect``
+can *report* a damaged file; :func:`load_recording` picks one channel, reconciles the
+sampling rate and speed given by the user with those the file declares, and builds a
+validated :class:`~bearingtwin.data.recording.Recording`, so a learning pipeline never
+sees a NaN, a guessed sampling rate or a silently chosen channel.
+
+Formats (chosen by extension): ``.npy`` (1-D, or 2-D as channels x samples), ``.npz``
+(arrays are channels; scalars ``fs`` / ``rpm`` and a string ``fault`` are facts, as written
+by ``bearingtwin-simulate``), ``.csv`` (columns are channels, optional header row, a
+``time`` / ``time_s`` column gives the sampling rate), ``.mat`` (CWRU files by their
+variable names, otherwise numeric variables are channels and scalars ``fs`` / ``rpm`` are
+facts), ``.wav`` (rate from the header) and ``.xls`` (HUST text exports).
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bearingtwin.data.recording import Recording
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import FAULTS
+
+FORMATS = (".npy", ".npz", ".csv", ".mat", ".wav", ".xls")
+
+FS_RELATIVE_TOLERANCE = 0.01
+"""A user's sampling rate may differ this much from one measured in the file (a time column
+printed with a few decimals) before it counts as a contradiction."""
+
+TIME_COLUMN_NAMES = ("time", "time_s", "t")
+
+
+@dataclass
+class RawRecord:
+    """Every channel of a file as stored (NaN allowed), with what the file says about itself.
+
+    Attributes:
+        path: the file, used in every message.
+        format: the reader used (``npy``, ``cwru-mat``, ``hust-xls``, ...).
+        channels: channel name -> 1-D float64 samples.
+        fs: sampling rate in Hz the file declares (None when it declares none).
+        fs_origin: how ``fs`` was obtained (``header``, ``time column``, ``declared``, ...);
+            a ``declared`` rate is a convention about the data set, not a measurement, so a
+            user's value replaces it instead of contradicting it.
+        rpm: shaft speed the file declares (None when unknown).
+        fault: bearing state the file or its name declares (None when unknown).
+        unit: physical unit of the channels, when known.
+        meta: anything else read from the file or its name.
+    """
+
+    path: str
+    format: str
+    channels: dict[str, np.ndarray]
+    fs: float | None = None
+    fs_origin: str = ""
+    rpm: float | None = None
+    fault: str | None = None
+    unit: str = ""
+    meta: dict = field(default_factory=dict)
+
+    def channel(self, name: str | int | None) -> tuple[str, np.ndarray]:
+        """The channel called ``name`` (or at position ``name``); the only one when ``name`` is None."""
+        names = list(self.channels)
+        if name is None:
+            if len(names) != 1:
+                raise BearingTwinError(f"{self.path}: holds channels {', '.join(names)}; choose one with channel=<name>")
+            return names[0], self.channels[names[0]]
+        key = str(name)
+        if key in self.channels:
+            return key, self.channels[key]
+        if isinstance(name, int) or key.lstrip("-").isdigit():
+            index = int(key)
+            if 0 <= index < len(names):
+                return names[index], self.channels[names[index]]
+        raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds {', '.join(names)}")
+
+
+def read_raw(path: str | Path) -> RawRecord:
+    """Read every channel of a supported file, without judging its values."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in FORMATS:
+        raise BearingTwinError(f"{path}: unknown file type {path.suffix or '(no extension)'}; supported: {', '.join(FORMATS)}")
+    if not path.is_file():
+        raise BearingTwinError(f"{path}: no such file")
+    if path.stat().st_size == 0:
+        raise BearingTwinError(f"{path}: the file is empty")
+    if suffix == ".xls":
+        from bearingtwin.data.hust import read_hust_raw
+
+        return read_hust_raw(path)
+    if suffix == ".mat":
+        from bearingtwin.data.cwru import is_cwru_mat, read_cwru_raw
+
+        variables = _load_mat(path)
+        return read_cwru_raw(path, variables) if is_cwru_mat(variables) else _read_generic_mat(path, variables)
+    return {".npy": _read_npy, ".npz": _read_npz, ".csv": _read_csv, ".wav": _read_wav}[suffix](path)
+
+
+def load_recording(
+    path: str | Path,
+    channel: str | int | None = None,
+    fs: float | None = None,
+    rpm: float | None = None,
+    fault: str | None = None,
+) -> Recording:
+    """One validated channel of a file.
+
+    ``fs`` and ``rpm`` fill in what the file does not declare; where it does, a different
+    value is an error rather than a silent override (a ``declared`` data-set convention is
+    the exception: the user's value wins). Non-finite samples raise: nothing is dropped.
+    """
+    return recording_from_raw(read_raw(path), channel, fs, rpm, fault)
+
+
+def recording_from_raw(
+    raw: RawRecord,
+    channel: str | int | None = None,
+    fs: float | None = None,
+    rpm: float | None = None,
+    fault: str | None = None,
+) -> Recording:
+    """The validated Recording of one channel of an already read file (see :func:`load_recording`)."""
+    name, signal = raw.channel(channel)
+    return Recording(
+        signal=signal,
+        fs=resolve_fs(raw, fs),
+        rpm=_resolve_fact(raw, "rpm", raw.rpm, rpm),
+        fault=_resolve_fact(raw, "fault", raw.fault, fault),
+        source=raw.path,
+        channel=name,
+        unit=raw.unit,
+        meta=dict(raw.meta, format=raw.format, fs_origin=raw.fs_origin if fs is None else "config"),
+    )
+
+
+def resolve_fs(raw: RawRecord, fs: float | None) -> float:
+    """The sampling rate to use: the user's, checked against the file's unless the file's is only declared."""
+    if fs is None:
+        if raw.fs is None:
+            raise BearingTwinError(f"{raw.path}: the file does not state its sampling rate; give fs=<Hz>")
+        return float(raw.fs)
+    fs = float(fs)
+    if not fs > 0:
+        raise BearingTwinError(f"fs must be a positive sampling rate in Hz, got {fs}")
+    if raw.fs is not None and raw.fs_origin != "declared" and abs(fs / raw.fs - 1.0) > FS_RELATIVE_TOLERANCE:
+        raise BearingTwinError(
+            f"{raw.path}: fs={fs:g} Hz contradicts the file's {raw.fs:g} Hz (from its {raw.fs_origin})"
+        )
+    return fs
+
+
+def _resolve_fact(raw: RawRecord, name: str, from_file, from_user):
+    if from_user is None:
+        return from_file
+    if from_file is not None and from_user != from_file:
+        raise BearingTwinError(f"{raw.path}: {name}={from_user!r} contradicts the file's {name}={from_file!r}")
+    return from_user
+
+
+def fs_from_time_column(time_s: np.ndarray, source: str) -> float:
+    """Sampling rate in Hz from a time column: samples per second over the whole span.
+
+    The span rather than one step is used because exported time stamps are rounded to a
+    few decimals, which makes single steps jitter by percent while the span stays exact.
+    """
+    time_s = np.asarray(time_s, dtype=np.float64)
+    if time_s.size < 2 or not np.all(np.isfinite(time_s)):
+        raise BearingTwinError(f"{source}: the time column needs at least two finite values to give a sampling rate")
+    steps = np.diff(time_s)
+    if np.any(steps <= 0):
+        row = int(np.argmax(steps <= 0)) + 1
+        raise BearingTwinError(f"{source}: the time column does not increase at data row {row + 1}")
+    return float((time_s.size - 1) / (time_s[-1] - time_s[0]))
+
+
+def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Numeric arrays as float64 channels: 1-D as is, 2-D as (channels, samples)."""
+    channels: dict[str, np.ndarray] = {}
+    for name, array in arrays.items():
+        array = np.asarray(array)
+        if not (np.issubdtype(array.dtype, np.number) or array.dtype == bool) or np.iscomplexobj(array):
+            raise BearingTwinError(f"{path}: array {name!r} is not real numeric (dtype {array.dtype})")
+        array = np.squeeze(array)
+        if array.ndim == 1:
+            channels[name] = array.astype(np.float64)
+        elif array.ndim == 2:
+            for row, values in enumerate(array):
+                channels[f"{name}[{row}]" if name else str(row)] = values.astype(np.float64)
+        else:
+            raise BearingTwinError(f"{path}: array {name!r} has shape {array.shape}; expected 1-D or (channels, samples)")
+    if not channels:
+        raise BearingTwinError(f"{path}: holds no signal array")
+    return channels
+
+
+def _scalar(path: Path, name: str, value) -> float:
+    try:
+        return float(np.asarray(value).reshape(()))
+    except (TypeError, ValueError):
+        raise BearingTwinError(f"{path}: {name} must be a single number, got {value!r}") from None
+
+
+def _read_npy(path: Path) -> RawRecord:
+    try:
+        array = np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as error:
+        raise BearingTwinError(f"{path}: not a readable .npy file ({error})") from None
+    return RawRecord(str(path), "npy", _float_channels(path, {"": array} if array.ndim == 2 else {"0": array}))
+
+
+def _split_facts(path: Path, items: dict[str, np.ndarray]) -> tuple[dict, dict]:
+    """Separate size-1 entries and strings (facts about the record) from the signal arrays."""
+    facts, arrays = {}, {}
+    for name, value in items.items():
+        value = np.asarray(value)
+        if value.dtype.kind in "USO":
+            facts[name] = str(value.reshape(-1)[0]) if value.size == 1 else value.tolist()
+        elif value.size == 1:
+            facts[name] = _scalar(path, name, value)
+        else:
+            arrays[name] = value
+    return facts, arrays
+
+
+def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawRecord:
+    lowered = {name.lower(): value for name, value in facts.items()}
+    fs = lowered.get("fs", lowered.get("fs_hz"))
+    rpm = lowered.get("rpm")
+    fault = lowered.get("fault")
+    if fault is not None and fault not in FAULTS:
+        raise BearingTwinError(f"{path}: fault {fault!r} is not a bearing state ({', '.join(FAULTS)})")
+    return RawRecord(
+        str(path),
+        fmt,
+        _float_channels(path, arrays),
+        fs=fs,
+        fs_origin="file" if fs is not None else "",
+        rpm=rpm,
+        fault=fault,
+        unit=str(lowered.get("unit", "")),
+        meta={k: v for k, v in facts.items() if k.lower() not in ("fs", "fs_hz", "rpm", "fault", "unit")},
+    )
+
+
+def _read_npz(path: Path) -> RawRecord:
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            items = {name: archive[name] for name in archive.files}
+    except (ValueError, OSError, EOFError) as error:
+        raise BearingTwinError(f"{path}: not a readable .npz archive ({error})") from None
+    facts, arrays = _split_facts(path, items)
+    return _facts_to_record(path, "npz", facts, arrays)
+
+
+def _load_mat(path: Path) -> dict:
+    import scipy.io
+
+    try:
+        variables = scipy.io.loadmat(path)
+    except (ValueError, OSError, TypeError, NotImplementedError) as error:
+        raise BearingTwinError(f"{path}: not a readable MATLAB file ({error})") from None
+    return {name: value for name, value in variables.items() if not name.startswith("__")}
+
+
+def _read_generic_mat(path: Path, variables: dict) -> RawRecord:
+    facts, arrays = _split_facts(path, variables)
+    return _facts_to_record(path, "mat", facts, arrays)
+
+
+def _read_wav(path: Path) -> RawRecord:
+    import scipy.io.wavfile
+
+    try:
+        fs, data = scipy.io.wavfile.read(path)
+    except (ValueError, OSError, EOFError) as error:
+        raise BearingTwinError(f"{path}: not a readable .wav file ({error})") from None
+    channels = {"0": data} if data.ndim == 1 else {"": data.T}
+    return RawRecord(str(path), "wav", _float_channels(path, channels), fs=float(fs), fs_origin="header")
+
+
+def _read_csv(path: Path) -> RawRecord:
+    """Comma-separated columns, optionally under one header row of names."""
+    with open(path, newline="") as handle:
+        first = next((line for line in handle if line.strip()), "")
+    header = [cell.strip() for cell in next(csv.reader([first]))] if first else []
+    if not header:
+        raise BearingTwinError(f"{path}: the file holds no rows")
+    has_header = not all(_is_number(cell) for cell in header)
+    names = header if has_header else [str(i) for i in range(len(header))]
+    try:
+        values = np.loadtxt(path, delimiter=",", skiprows=1 if has_header else 0, ndmin=2, dtype=np.float64)
+    except ValueError as error:
+        raise BearingTwinError(f"{path}: {error}") from None
+    if values.shape[0] == 0:
+        raise BearingTwinError(f"{path}: the file holds a header but no data rows")
+    if values.shape[1] != len(names):
+        raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}")
+    columns = dict(zip(names, values.T))
+    time_name = next((name for name in names if name.lower() in TIME_COLUMN_NAMES), None)
+    fs = fs_from_time_column(columns.pop(time_name), str(path)) if time_name is not None else None
+    return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

@@ -1,0 +1,182 @@
+"""The HUST bearing data set (Zhao, Zio, Shen, RESS 2024): the seed paper's second experiment.
+
+The files are named ``.xls`` but are tab-separated text exported by the rig's software:
+a header block (``Title:``, ``DAQ Settings:``, ``Total Data Rows``, ``Legend`` ...), a line
+reading ``Data``, then rows of time (s), speed (not meaningful), X, Y, Z acceleration.
+This layout was reported by users of the data and not checked against a real file here,
+so the reader finds the ``Data`` line instead of counting header lines, checks the row
+count against the header when it states one, and names the file and line on any
+deviation. The shaft speed and bearing state come from the file name,
+``<prefix><state>_<condition>.xls``: prefix ``0.5X_`` = medium damage, none = severe;
+states H, I, O, B, C; conditions ``<f>Hz`` (shaft Hz) or ``VS_0_40_0Hz`` (variable speed).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from bearingtwin.data.files import RawRecord, fs_from_time_column, load_recording
+from bearingtwin.data.recording import Recording
+from bearingtwin.errors import BearingTwinError
+
+COLUMNS = ("time", "speed", "X", "Y", "Z")
+CHANNELS = COLUMNS[2:]
+STATES = {"H": "normal", "I": "inner", "B": "ball", "O": "outer", "C": None}
+"""File-name state letter -> bearing state; C (inner + outer combined) has no single FAULTS label."""
+
+HEADER_LINE_LIMIT = 200
+"""The ``Data`` line must appear within this many lines; the reported header has about 21."""
+
+_NAME = re.compile(r"^(?P<prefix>0\.5X_)?(?P<state>[HIOBC])_(?P<condition>\d+(?:\.\d+)?Hz|VS_[\d_]+Hz)$")
+
+
+@dataclass(frozen=True)
+class HustName:
+    """What a HUST file name says: state letter, damage level and operating condition."""
+
+    state: str
+    severity: str  # "none", "medium" or "severe"
+    condition: str  # as written, e.g. "65Hz" or "VS_0_40_0Hz"
+    shaft_hz: float | None  # None for the variable-speed condition
+
+    @property
+    def fault(self) -> str | None:
+        return STATES[self.state]
+
+    @property
+    def rpm(self) -> float | None:
+        return None if self.shaft_hz is None else self.shaft_hz * 60.0
+
+
+def parse_hust_name(path: str | Path) -> HustName | None:
+    """The state and condition encoded in a HUST file name (None if the name has another form)."""
+    match = _NAME.match(Path(path).stem)
+    if match is None:
+        return None
+    state, condition = match["state"], match["condition"]
+    severity = "none" if state == "H" else ("medium" if match["prefix"] else "severe")
+    shaft_hz = None if condition.startswith("VS_") else float(condition[:-2])
+    return HustName(state=state, severity=severity, condition=condition, shaft_hz=shaft_hz)
+
+
+def hust_file_name(class_stem: str, condition) -> str:
+    """The file name of a class (``H``, ``0.5X_I``, ...) at a condition (``65`` or ``VS_0_40_0``)."""
+    return f"{class_stem}_{condition}Hz.xls"
+
+
+def read_hust_raw(path: str | Path) -> RawRecord:
+    """All five columns of a HUST export (speed included, NaN cells kept), with the header as meta."""
+    path = Path(path)
+    header, data_line = _read_header(path)
+    table = _read_table(path, data_line)
+    declared_rows = _declared_rows(header)
+    if declared_rows is not None and declared_rows != table.shape[0]:
+        raise BearingTwinError(
+            f"{path}: the header declares {declared_rows} data rows (Total Data Rows) but the file holds "
+            f"{table.shape[0]}; the file is truncated or not a single export"
+        )
+    name = parse_hust_name(path)
+    channels = dict(zip(COLUMNS[1:], table[:, 1:].T))
+    meta = {"header": header, "data_line": data_line + 1}
+    if name is not None:
+        meta.update(state=name.state, severity=name.severity, condition=name.condition)
+    return RawRecord(
+        str(path),
+        "hust-xls",
+        channels,
+        fs=fs_from_time_column(table[:, 0], str(path)),
+        fs_origin="time column",
+        rpm=None if name is None else name.rpm,
+        fault=None if name is None else name.fault,
+        meta=meta,
+    )
+
+
+def load_hust(path: str | Path, channel: str = "X", fs: float | None = None) -> Recording:
+    """One accelerometer axis (X, Y or Z) of a HUST file, fs checked against the time column."""
+    if channel not in CHANNELS:
+        raise BearingTwinError(f"channel={channel!r} is not a HUST accelerometer axis; choose one of {', '.join(CHANNELS)}")
+    return load_recording(path, channel=channel, fs=fs)
+
+
+def _read_header(path: Path) -> tuple[dict[str, str], int]:
+    """Header key/value pairs and the 0-based index of the ``Data`` line."""
+    with open(path, "rb") as handle:
+        magic = handle.read(8)
+    if magic.startswith(b"\xd0\xcf\x11\xe0") or magic.startswith(b"PK\x03\x04"):
+        raise BearingTwinError(
+            f"{path}: is a binary Excel workbook, not the tab-separated text export the HUST files are; "
+            "export it as text or point data.root at the original files"
+        )
+    header: dict[str, str] = {}
+    with open(path, encoding="latin-1") as handle:
+        for index, line in enumerate(handle):
+            text = line.strip()
+            if text == "Data":
+                return header, index
+            if index >= HEADER_LINE_LIMIT:
+                break
+            key, _, value = re.split(r"(\t|:)", text, maxsplit=1) if re.search(r"\t|:", text) else (text, "", "")
+            if key:
+                header[key.strip()] = value.strip(" \t:")
+    raise BearingTwinError(
+        f"{path}: no line reading 'Data' within the first {HEADER_LINE_LIMIT} lines; expected a HUST text "
+        "export (header block, a 'Data' line, then rows of time, speed, X, Y, Z)"
+    )
+
+
+def _declared_rows(header: dict[str, str]) -> int | None:
+    text = header.get("Total Data Rows", "").replace(",", "").split("\t")[0].strip()
+    return int(text) if text.isdigit() else None
+
+
+def _read_table(path: Path, data_line: int) -> np.ndarray:
+    """The rows after the ``Data`` line as (n, 5) float64.
+
+    pandas' C parser reads a 262,144-row file several times faster than numpy.loadtxt
+    (benchmarks/hust_read.md) but pads short rows and empty cells with NaN and names no
+    line on a bad cell; so whenever it fails or returns a NaN, the rows are re-checked one
+    by one to tell a NaN written in the file from a damaged row and to name the line.
+    """
+    import pandas as pd
+
+    try:
+        table = pd.read_csv(path, sep="\t", header=None, skiprows=data_line + 1, dtype=np.float64, engine="c").to_numpy()
+    except pd.errors.EmptyDataError:
+        raise BearingTwinError(f"{path}: no data rows after the 'Data' line (line {data_line + 1})") from None
+    except (ValueError, pd.errors.ParserError) as error:
+        _diagnose_rows(path, data_line)
+        raise BearingTwinError(f"{path}: unreadable data rows ({error})") from None
+    if table.shape[1] != len(COLUMNS):
+        raise BearingTwinError(
+            f"{path}: data rows have {table.shape[1]} columns, expected {len(COLUMNS)} ({', '.join(COLUMNS)})"
+        )
+    if np.isnan(table).any():
+        _diagnose_rows(path, data_line)
+    return table
+
+
+def _diagnose_rows(path: Path, data_line: int) -> None:
+    """Raise naming the first row that is not five numbers; NaN written as such is allowed."""
+    with open(path, encoding="latin-1") as handle:
+        lines = handle.read().splitlines()
+    numbered = [(number, line) for number, line in enumerate(lines, 1) if number > data_line + 1 and line.strip()]
+    last = numbered[-1][0] if numbered else 0
+    for number, line in numbered:
+        cells = line.split("\t")
+        if len(cells) != len(COLUMNS):
+            hint = " (truncated last row?)" if number == last else ""
+            raise BearingTwinError(
+                f"{path}: line {number} has {len(cells)} columns, expected {len(COLUMNS)} ({', '.join(COLUMNS)}){hint}"
+            )
+        for column, cell in zip(COLUMNS, cells):
+            if not cell.strip():
+                raise BearingTwinError(f"{path}: line {number} column {column} is empty")
+            try:
+                float(cell)
+            except ValueError:
+                raise BearingTwinError(f"{path}: line {number} column {column}: {cell!r} is not a number") from None

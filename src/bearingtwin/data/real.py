@@ -1,0 +1,177 @@
+"""Labelled windows from real measurements: the CWRU and HUST data sets as WindowedDatasets.
+
+Each class is one record (one file); ``samples_per_class`` windows of ``window_length``
+samples are spread evenly over it (``data.windows.cut_windows``), so the stride follows the
+record length. Labels are indices into ``FAULTS`` whatever subset of classes is built, so a
+three-class CWRU set at 1-3 hp (no healthy record there) still labels an inner-race window 1.
+The split is not made here: ``data.windows.split_indices`` takes the dataset's ``labels``,
+``record_ids``, ``starts`` and ``record_lengths`` with ``data.split`` and ``data.train_fraction``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
+from bearingtwin.data.hust import hust_file_name, load_hust
+from bearingtwin.data.recording import Recording, WindowedDataset
+from bearingtwin.data.windows import SPLITS, cut_windows
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import FAULTS
+
+KEY_IGNORES = ("root", "split", "train_fraction")
+"""Config fields that do not change the windows: moving the data or re-splitting keeps the key."""
+
+
+def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> WindowedDataset:
+    """Windows of the CWRU records at ``data.load`` hp, one record per class in ``data.classes``.
+
+    ``data_root`` is the folder holding the .mat files (default: ``data.root``).
+    """
+    cfg = _as_dict(data_cfg)
+    _check_split(cfg)
+    root = Path(data_root if data_root is not None else _get(cfg, "root"))
+    load = _get(cfg, "load")
+    if load not in (0, 1, 2, 3):
+        raise BearingTwinError(f"data.load={load!r} is not a CWRU motor load; choose 0, 1, 2 or 3 (hp)")
+    stems = _get(cfg, "files")
+    paths = [_find_cwru_file(root, stems, fault, load) for fault in _classes(cfg["classes"], allowed=stems)]
+    recordings = []
+    for path in paths:
+        record = parse_cwru_name(path).record
+        recordings.append(
+            load_cwru(
+                path,
+                channel=_get(cfg, "channel"),
+                fs=declared_fs_hz(record, _get(cfg, "fs"), cfg.get("fs_by_record")),
+                check_fs=bool(_get(cfg, "check_fs")),
+                tolerance=float(_get(cfg, "fs_check_tolerance")),
+            )
+        )
+    return windows_from_recordings(
+        recordings, int(_get(cfg, "window_length")), int(_get(cfg, "samples_per_class")), dataset_key(paths, cfg)
+    )
+
+
+def build_hust_dataset(data_cfg) -> WindowedDataset:
+    """Windows of the HUST files of ``data.classes`` at ``data.condition`` (the paper's Table 5 set)."""
+    cfg = _as_dict(data_cfg)
+    _check_split(cfg)
+    root = Path(_get(cfg, "root"))
+    stems = _get(cfg, "classes")
+    faults = _classes(list(stems), allowed=FAULTS)
+    names = [hust_file_name(stems[fault], _get(cfg, "condition")) for fault in faults]
+    missing = [name for name in names if not (root / name).is_file()]
+    if missing:
+        raise BearingTwinError(
+            f"HUST files missing in {root}: {', '.join(missing)}. This data set needs {', '.join(names)} "
+            f"(from the HUST bearing data set); put them in one folder and pass data.root=<dir>"
+        )
+    paths = [root / name for name in names]
+    recordings = [load_hust(path, channel=_get(cfg, "channel"), fs=_get(cfg, "fs")) for path in paths]
+    for fault, recording in zip(faults, recordings):
+        if recording.fault != fault:
+            raise BearingTwinError(
+                f"{recording.source}: data.classes.{fault} names a file whose state is {recording.fault or 'combined'}"
+            )
+    return windows_from_recordings(
+        recordings, int(_get(cfg, "window_length")), int(_get(cfg, "samples_per_class")), dataset_key(paths, cfg)
+    )
+
+
+def windows_from_recordings(
+    recordings: list[Recording], window_length: int, windows_per_record: int, key: str
+) -> WindowedDataset:
+    """Cut the same number of windows from every recording; labels are FAULTS indices."""
+    rates = {recording.fs for recording in recordings}
+    if len(rates) != 1:
+        listing = ", ".join(f"{Path(r.source).name}: {r.fs:g} Hz" for r in recordings)
+        raise BearingTwinError(f"the records have different sampling rates ({listing}); windows would span different times")
+    windows, labels, record_ids, starts, lengths = [], [], [], [], []
+    for index, recording in enumerate(recordings):
+        if recording.signal.size < window_length:
+            raise BearingTwinError(
+                f"{recording.source}: {recording.signal.size} samples, shorter than one window of {window_length}"
+            )
+        cut, first = cut_windows(recording.signal, window_length, windows_per_record)
+        windows.append(cut)
+        starts.append(first)
+        labels.append(np.full(len(cut), recording.label))
+        record_ids.append(np.full(len(cut), index))
+        lengths.append(recording.signal.size)
+    return WindowedDataset(
+        windows=np.concatenate(windows),
+        labels=np.concatenate(labels),
+        record_ids=np.concatenate(record_ids),
+        starts=np.concatenate(starts),
+        records=[recording.source for recording in recordings],
+        fs=rates.pop(),
+        class_names=FAULTS,
+        key=key,
+        record_lengths=lengths,
+    )
+
+
+def dataset_key(paths: list[Path], cfg: dict) -> str:
+    """Hash of the files' names and sizes and of the config fields that shape the windows."""
+    content = {
+        "files": [(Path(path).name, Path(path).stat().st_size) for path in paths],
+        "config": {name: value for name, value in cfg.items() if name not in KEY_IGNORES},
+    }
+    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def _find_cwru_file(root: Path, stems: dict, fault: str, load: int) -> Path:
+    if not root.is_dir():
+        raise BearingTwinError(f"data.root={root} is not a folder; point it at the CWRU .mat files")
+    matches = sorted(
+        path
+        for path in root.glob("*.mat")
+        if path.stem.startswith(f"{stems[fault]}_{load}_") and parse_cwru_name(path) is not None
+    )
+    if len(matches) == 1:
+        return matches[0]
+    if matches:
+        raise BearingTwinError(f"{root}: several {fault} records at {load} hp: {', '.join(p.name for p in matches)}")
+    if fault == "normal" and load != 0:
+        raise BearingTwinError(
+            f"{root}: no healthy record at {load} hp (the CWRU files here have one only at 0 hp); "
+            "build the three fault classes with data.classes=[inner,ball,outer]"
+        )
+    raise BearingTwinError(f"{root}: no file {stems[fault]}_{load}_<record>.mat for class {fault}")
+
+
+def _classes(classes, allowed) -> list[str]:
+    classes = list(classes)
+    for name in classes:
+        if name not in FAULTS or name not in allowed:
+            raise BearingTwinError(f"data.classes: {name!r} is not a class here; choose from {', '.join(allowed)}")
+    if len(set(classes)) != len(classes) or not classes:
+        raise BearingTwinError(f"data.classes must list distinct classes, got {classes}")
+    return sorted(classes, key=FAULTS.index)
+
+
+def _check_split(cfg: dict) -> None:
+    if _get(cfg, "split") not in SPLITS:
+        raise BearingTwinError(f"data.split={cfg['split']!r} is not a split method; choose one of {', '.join(SPLITS)}")
+
+
+def _get(cfg: dict, name: str):
+    if name not in cfg or cfg[name] is None:
+        raise BearingTwinError(f"data.{name} is missing")
+    return cfg[name]
+
+
+def _as_dict(data_cfg) -> dict:
+    if isinstance(data_cfg, DictConfig):
+        try:
+            return OmegaConf.to_container(data_cfg, resolve=True, throw_on_missing=True)
+        except OmegaConfBaseException as error:
+            raise BearingTwinError(f"data config: {error}") from None
+    return dict(data_cfg)

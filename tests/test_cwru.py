@@ -1,0 +1,102 @@
+"""CWRU records: names, channels, measured speed, and sampling rates checked against the shaft line.
+
+Runs on the real files in ../shared/data/cwru (or $BEARINGTWIN_DATA/cwru)."""
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bearingtwin.config import REPO_ROOT
+from bearingtwin.data.cwru import check_shaft_line, declared_fs_hz, load_cwru, parse_cwru_name
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal.envelope import envelope_spectrum
+
+CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+needs_data = pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason=f"CWRU files not found in {CWRU}")
+
+# Multiples of shaft speed from the README (SKF 6205-2RS JEM).
+BPFO_ORDER, BPFI_ORDER = 3.5848, 5.4152
+
+
+def test_names_give_state_load_and_record():
+    outer = parse_cwru_name("12k_Drive_End_OR007@6_0_130.mat")
+    assert (outer.fault, outer.load_hp, outer.record, outer.fault_size_in, outer.position) == ("outer", 0, 130, 0.007, "6")
+    inner = parse_cwru_name("12k_Drive_End_IR007_3_108.mat")
+    assert (inner.fault, inner.load_hp, inner.record) == ("inner", 3, 108)
+    normal = parse_cwru_name("normal_0_97.mat")
+    assert (normal.fault, normal.load_hp, normal.record) == ("normal", 0, 97)
+    assert parse_cwru_name("bearing.mat") is None
+
+
+def test_declared_rate_per_record():
+    assert declared_fs_hz(97, 12000, {97: 48000}) == 48000
+    assert declared_fs_hz(105, 12000, {"97": 48000}) == 12000
+
+
+def strongest_envelope_line_hz(recording, low_hz=10.0, high_hz=400.0):
+    freqs, amplitude = envelope_spectrum(recording.signal, recording.fs, window="hann")
+    band = (freqs > low_hz) & (freqs < high_hz)
+    return freqs[band][np.argmax(amplitude[band])]
+
+
+@needs_data
+@pytest.mark.parametrize("name,order", [("12k_Drive_End_OR007@6_0_130.mat", BPFO_ORDER), ("12k_Drive_End_IR007_0_105.mat", BPFI_ORDER)])
+def test_envelope_spectrum_shows_the_defect_frequency(name, order):
+    recording = load_cwru(CWRU / name)
+    shaft_hz = recording.rpm / 60
+    assert strongest_envelope_line_hz(recording) / shaft_hz == pytest.approx(order, rel=0.01)
+
+
+@needs_data
+def test_record_facts_come_from_file_and_name():
+    recording = load_cwru(CWRU / "12k_Drive_End_IR007_0_105.mat", channel="FE")
+    assert (recording.rpm, recording.fault, recording.channel, recording.unit) == (1797.0, "inner", "FE", "g")
+    assert recording.meta["record"] == 105 and recording.meta["load_hp"] == 0
+    assert recording.fs == 12000 and recording.signal.size == 121265
+    assert recording.meta["shaft_line"]["matches"]
+
+
+@needs_data
+@pytest.mark.parametrize("path", sorted(CWRU.glob("*.mat")), ids=lambda p: p.name)
+def test_every_record_matches_its_declared_12_khz(path):
+    recording = load_cwru(path)
+    check = check_shaft_line(recording.signal, recording.fs, recording.rpm)
+    assert check.matches and check.observed_hz == pytest.approx(recording.rpm / 60, rel=0.005)
+
+
+@needs_data
+def test_record_97_declared_at_48_khz_is_contradicted():
+    with pytest.raises(BearingTwinError, match=r"normal_0_97.mat: fs = 48000 Hz contradicts the shaft speed.*fs_by_record.97"):
+        load_cwru(CWRU / "normal_0_97.mat", fs=48000)
+    unchecked = load_cwru(CWRU / "normal_0_97.mat", fs=48000, check_fs=False)
+    assert unchecked.fs == 48000 and not unchecked.meta["shaft_line"]["matches"]
+
+
+@needs_data
+def test_a_wrong_rate_implies_the_true_one():
+    recording = load_cwru(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
+    check = check_shaft_line(recording.signal, 11000.0, recording.rpm)
+    assert not check.matches
+    assert check.implied_fs_hz == pytest.approx(12000, rel=0.01)
+
+
+@needs_data
+def test_missing_or_unknown_channel_is_named():
+    with pytest.raises(BearingTwinError, match=r"normal_0_97.mat: no channel 'BA'; the file holds DE, FE"):
+        load_cwru(CWRU / "normal_0_97.mat", channel="BA")
+    with pytest.raises(BearingTwinError, match="channel='XY' is not a CWRU channel"):
+        load_cwru(CWRU / "normal_0_97.mat", channel="XY")
+
+
+def test_shaft_line_of_a_synthetic_record():
+    fs, rpm = 10000.0, 1500.0
+    t = np.arange(int(20 * fs)) / fs
+    rng = np.random.default_rng(0)
+    signal = sum(np.sin(2 * np.pi * k * rpm / 60 * t) / k for k in range(1, 6)) + rng.standard_normal(t.size)
+    assert check_shaft_line(signal, fs, rpm).matches
+    doubled = check_shaft_line(signal, 2 * fs, rpm)
+    assert not doubled.matches and doubled.implied_fs_hz == pytest.approx(fs, rel=0.01)
+    with pytest.raises(BearingTwinError, match="too short"):
+        check_shaft_line(signal[:1000], fs, rpm)

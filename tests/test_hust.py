@@ -1,0 +1,123 @@
+"""HUST text exports: the reader returns the written columns, the physics of the file name, and
+names the file and the problem for every damaged layout (fixtures: tests/fixtures/make_hust_fixtures.py)."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bearingtwin.data.files import read_raw
+from bearingtwin.data.hust import load_hust, parse_hust_name
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal.envelope import envelope
+
+FIXTURES = Path(__file__).parent / "fixtures"
+HUST = FIXTURES / "hust"
+sys.path.insert(0, str(FIXTURES))
+import make_hust_fixtures as fixtures  # noqa: E402
+
+
+def impact_rate_hz(signal: np.ndarray, fs: float) -> float:
+    """Repetition rate of the impacts: the strongest envelope autocorrelation lag below 1 kHz."""
+    env = envelope(signal)
+    env = env - env.mean()
+    corr = np.correlate(env, env, mode="full")[env.size - 1 :]
+    shortest = int(fs / 1000.0)
+    lag = shortest + int(np.argmax(corr[shortest : env.size // 3]))
+    return fs / lag
+
+
+@pytest.mark.parametrize("index,stem", list(enumerate(fixtures.CLASSES)))
+def test_loader_returns_the_written_axes(index, stem):
+    fault = fixtures.CLASSES[stem]
+    written = fixtures.synthetic_axes(fault, fixtures.SEED + index)
+    for axis, expected in zip("XYZ", written):
+        recording = load_hust(HUST / f"{stem}_65Hz.xls", channel=axis, fs=25600)
+        np.testing.assert_allclose(recording.signal, expected, atol=5.1e-4)  # printed with 3 decimals
+        assert recording.channel == axis
+        assert recording.fault == fault
+        assert recording.rpm == 65 * 60
+        assert recording.fs == 25600
+
+
+def test_fs_comes_from_the_time_column():
+    raw = read_raw(HUST / "H_65Hz.xls")
+    assert raw.fs == pytest.approx(fixtures.FS_HZ, rel=1e-4)
+    assert raw.fs_origin == "time column"
+    assert load_hust(HUST / "H_65Hz.xls").fs == pytest.approx(25600, rel=1e-4)
+
+
+@pytest.mark.parametrize("stem,defect", [("0.5X_I", "bpfi"), ("0.5X_O", "bpfo")])
+def test_impacts_repeat_at_the_er16k_defect_frequency(stem, defect):
+    recording = load_hust(HUST / f"{stem}_65Hz.xls", channel="X")
+    geometry = fixtures.er16k()
+    expected = geometry.defect_frequencies(recording.rpm)[defect]
+    assert impact_rate_hz(recording.signal, recording.fs) == pytest.approx(expected, rel=0.03)
+
+
+@pytest.mark.parametrize(
+    "name,state,severity,rpm,fault",
+    [
+        ("0.5X_I_65Hz.xls", "I", "medium", 3900.0, "inner"),
+        ("B_20Hz.xls", "B", "severe", 1200.0, "ball"),
+        ("H_VS_0_40_0Hz.xls", "H", "none", None, "normal"),
+        ("0.5X_C_80Hz.xls", "C", "medium", 4800.0, None),
+    ],
+)
+def test_file_names_give_state_and_speed(name, state, severity, rpm, fault):
+    parsed = parse_hust_name(name)
+    assert (parsed.state, parsed.severity, parsed.rpm, parsed.fault) == (state, severity, rpm, fault)
+
+
+def test_other_names_are_not_hust_names():
+    assert parse_hust_name("X_65Hz.xls") is None
+    assert parse_hust_name("H_65.xls") is None
+
+
+@pytest.mark.parametrize(
+    "name,problem",
+    [
+        ("no_data_line.xls", "no line reading 'Data'"),
+        ("wrong_columns.xls", "4 columns, expected 5"),
+        ("non_numeric.xls", "line 73 column Y: 'abc' is not a number"),
+        ("truncated.xls", "line 222 has 3 columns"),
+        ("empty.xls", "the file is empty"),
+        ("row_count.xls", "declares 300 data rows"),
+    ],
+)
+def test_damaged_files_name_file_and_problem(name, problem):
+    with pytest.raises(BearingTwinError) as error:
+        load_hust(HUST / "damaged" / name)
+    assert name in str(error.value) and problem in str(error.value)
+
+
+def test_nan_cell_is_counted_raw_and_refused_when_loaded():
+    path = HUST / "damaged" / "nan_cell.xls"
+    raw = read_raw(path)
+    assert {name: int(np.isnan(values).sum()) for name, values in raw.channels.items()} == {
+        "speed": 0, "X": 0, "Y": 0, "Z": 1
+    }
+    with pytest.raises(BearingTwinError, match=r"nan_cell.xls: 1 NaN or infinite values in channel Z"):
+        load_hust(path, channel="Z")
+
+
+def test_unknown_axis_and_contradicting_fs_are_refused():
+    with pytest.raises(BearingTwinError, match="channel='W'.*X, Y, Z"):
+        load_hust(HUST / "H_65Hz.xls", channel="W")
+    with pytest.raises(BearingTwinError, match=r"H_65Hz.xls: fs=48000 Hz contradicts the file's 25600 Hz"):
+        load_hust(HUST / "H_65Hz.xls", fs=48000)
+
+
+def test_binary_workbook_is_named(tmp_path):
+    path = tmp_path / "H_65Hz.xls"
+    path.write_bytes(b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + bytes(512))
+    with pytest.raises(BearingTwinError, match="H_65Hz.xls: is a binary Excel workbook"):
+        load_hust(path)
+
+
+def test_fixtures_are_what_the_script_writes(tmp_path, monkeypatch):
+    monkeypatch.setattr(fixtures, "HERE", tmp_path)
+    fixtures.main()
+    for path in sorted(HUST.rglob("*.xls")):
+        assert (tmp_path / path.relative_to(HUST)).read_bytes() == path.read_bytes(), path
