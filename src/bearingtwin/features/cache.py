@@ -1,0 +1,104 @@
+"""Extract a dataset's features once per configuration, safely from parallel sweep jobs.
+
+A SABO-VMD extraction costs minutes to hours (``per_sample``: one search per window), and
+five training seeds or a sweep over classifiers reuse it. The cache file is named by a hash
+of what determines the numbers: the dataset key, the feature config (without ``n_jobs`` and
+``progress``, which do not change them) and, when the extractor is fitted on the training
+windows (``global``, ``per_class``), the training indices. It is written to a temporary file
+and moved into place with ``os.replace``, so concurrent jobs never read half a file; two jobs
+missing at once both compute and the second replace is harmless.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from bearingtwin.data.recording import WindowedDataset
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.features.extractor import RawFeatures, build_feature_extractor
+
+log = logging.getLogger(__name__)
+
+CACHE_FORMAT = 1  # bump when the stored layout or the extraction's numbers change
+_NOT_AFFECTING_NUMBERS = ("n_jobs", "progress")
+
+
+def _config_dict(features_cfg) -> dict:
+    from omegaconf import DictConfig, OmegaConf
+
+    if isinstance(features_cfg, DictConfig):
+        return OmegaConf.to_container(features_cfg, resolve=True)
+    return dict(features_cfg)
+
+
+def _dataset_key(dataset: WindowedDataset) -> str:
+    """The dataset's declared key, or a hash of its windows and labels when it has none."""
+    if dataset.key:
+        return dataset.key
+    digest = hashlib.sha256(np.ascontiguousarray(dataset.windows).tobytes())
+    digest.update(np.ascontiguousarray(dataset.labels).tobytes())
+    return "content-" + digest.hexdigest()
+
+
+def cache_path(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -> Path:
+    """Where the extraction for this configuration, dataset and training split is stored."""
+    cfg = _config_dict(features_cfg)
+    uses_training_set = cfg.get("kind") == "sabo_vmd" and cfg.get("vmd_params", "global") in ("global", "per_class")
+    material = {
+        "format": CACHE_FORMAT,
+        "dataset": _dataset_key(dataset),
+        "features": {key: value for key, value in cfg.items() if key not in _NOT_AFFECTING_NUMBERS},
+        "train": hashlib.sha256(np.sort(np.asarray(train_index, dtype=np.int64)).tobytes()).hexdigest()
+        if uses_training_set
+        else None,
+    }
+    digest = hashlib.sha256(json.dumps(material, sort_keys=True, default=str).encode()).hexdigest()[:20]
+    return Path(cache_dir) / "features" / f"{cfg.get('name', 'features')}-{digest}.npz"
+
+
+def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -> tuple[np.ndarray, list[dict]]:
+    """Features of every window of ``dataset``, fitted on ``train_index``; cached.
+
+    Args:
+        features_cfg: the ``features`` config group (``conf/features/*.yaml``) or an equivalent dict.
+        dataset: all windows; the extractor is fitted on ``dataset.windows[train_index]`` (with their
+            labels) and applied to every window. With ``vmd_params=per_class`` every window's own
+            label chooses its parameters, test windows included - the paper's protocol.
+        train_index: indices of the training windows.
+        cache_dir: root of the cache (``paths.cache_dir``); files go to ``<cache_dir>/features/``.
+
+    Returns:
+        features: (n_windows, 9) for SABO-VMD features; the windows themselves (not cached) for ``raw``.
+        table: the VMD parameters used (rows as in :attr:`SaboVmdFeatures.vmd_params_`).
+    """
+    extractor = build_feature_extractor(features_cfg)
+    train_index = np.asarray(train_index)
+    if train_index.size == 0 or train_index.min() < 0 or train_index.max() >= len(dataset):
+        raise BearingTwinError(f"train_index must hold indices into the {len(dataset)} windows of {dataset.key or 'the dataset'}")
+    if isinstance(extractor, RawFeatures):
+        return extractor.fit(dataset.windows[train_index]).transform(dataset.windows), []
+    path = cache_path(features_cfg, dataset, train_index, cache_dir)
+    if path.exists():
+        log.info("features: cache hit %s", path)
+        with np.load(path, allow_pickle=False) as stored:
+            return stored["features"], json.loads(str(stored["table"]))
+    log.info("features: extracting %d windows into %s", len(dataset), path)
+    extractor.fit(dataset.windows[train_index], dataset.labels[train_index])
+    features, table = extractor.extract(dataset.windows, dataset.labels)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            np.savez(stream, features=features, table=np.array(json.dumps(table)))
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    return features, table
