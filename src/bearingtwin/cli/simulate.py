@@ -1,0 +1,70 @@
+"""``bearingtwin-simulate``: simulate one bearing state and write it to an ``.npz`` (and plots).
+
+    bearingtwin-simulate fault=outer simulator.rpm=1797 simulator.fs=10000 simulator.duration=2.0 out=/tmp/run.npz
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import hydra
+import numpy as np
+from omegaconf import DictConfig
+
+from bearingtwin.config import CONF_DIR, exit_on_user_error
+from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.physics.simulator import CHANNELS, simulate
+
+
+def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geometry: BearingGeometry) -> list[Path]:
+    """Time signal and envelope spectrum with the defect frequencies and harmonics marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bearingtwin.signal.envelope import envelope_spectrum
+
+    paths = [out.with_name(out.stem + "_signal.png"), out.with_name(out.stem + "_envelope.png")]
+    figure, axis = plt.subplots(figsize=(9, 3.5))
+    shown = min(signal.size, int(0.2 * fs))
+    axis.plot(np.arange(shown) / fs, signal[:shown], lw=0.7)
+    axis.set(xlabel="time (s)", ylabel="acceleration (m/s$^2$)", title=f"{fault}: first {shown / fs:.2f} s")
+    figure.tight_layout()
+    figure.savefig(paths[0], dpi=120)
+    plt.close(figure)
+
+    freqs, amplitude = envelope_spectrum(signal, fs)
+    frequencies = geometry.defect_frequencies(rpm)
+    figure, axis = plt.subplots(figsize=(9, 3.5))
+    band = freqs <= 5.0 * frequencies["bpfi"]
+    axis.plot(freqs[band], amplitude[band], lw=0.7, color="k")
+    for (name, color) in (("bpfo", "tab:red"), ("bpfi", "tab:blue"), ("bsf", "tab:green")):
+        for harmonic in (1, 2, 3):
+            axis.axvline(harmonic * frequencies[name], color=color, ls="--", lw=0.8,
+                         label=f"{name.upper()} {frequencies[name]:.2f} Hz" if harmonic == 1 else None)
+    axis.set(xlabel="frequency (Hz)", ylabel="envelope amplitude (m/s$^2$)", title=f"{fault}: envelope spectrum")
+    axis.legend(loc="upper right")
+    figure.tight_layout()
+    figure.savefig(paths[1], dpi=120)
+    plt.close(figure)
+    return paths
+
+
+@hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="simulate")
+@exit_on_user_error
+def main(cfg: DictConfig) -> None:
+    recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)
+    out = Path(cfg.out).expanduser()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
+             rpm=recording.rpm, fault=recording.fault, sensor=recording.channel)
+    written = [out]
+    if cfg.plot:
+        written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
+                         BearingGeometry.from_config(cfg.bearing))
+    print("wrote " + ", ".join(str(path) for path in written))
+
+
+if __name__ == "__main__":
+    main()

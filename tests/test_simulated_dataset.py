@@ -1,0 +1,61 @@
+"""The simulated dataset: windows and labels from the twin, cached once per configuration."""
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.data import simulated
+from bearingtwin.data.simulated import build_simulated_dataset, simulation_config
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import FAULTS
+from bearingtwin.physics.simulator import simulate
+
+BEARING = OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml")
+SIMULATOR = OmegaConf.load(f"{CONF_DIR}/simulator/default.yaml")
+DATA = OmegaConf.merge(OmegaConf.load(f"{CONF_DIR}/data/simulated.yaml"),
+                       {"duration": 0.4, "samples_per_class": 6, "window_length": 512, "n_jobs": 1})
+
+
+def test_paper_defaults():
+    paper = OmegaConf.load(f"{CONF_DIR}/data/simulated.yaml")
+    assert (paper.rpm, paper.fs, paper.duration, paper.samples_per_class, paper.window_length) == (
+        1797, 10000, 30.0, 150, 2048)
+    assert paper.split == "random" and paper.train_fraction == 0.7
+
+
+def test_windows_labels_and_provenance(tmp_path):
+    dataset = build_simulated_dataset(DATA, BEARING, SIMULATOR, {}, tmp_path)
+    assert dataset.windows.shape == (4 * 6, 512)
+    np.testing.assert_array_equal(dataset.labels, np.repeat(np.arange(4), 6))
+    assert dataset.class_names == FAULTS and dataset.fs == 10000.0
+    assert dataset.record_lengths == [4000] * 4
+    # the ball-fault windows are slices of the simulator's ball record at the data config's operating point
+    ball, _ = simulate("ball", BEARING, simulation_config(DATA, SIMULATOR))
+    for window, start in zip(dataset.windows[dataset.labels == 2], dataset.starts[dataset.labels == 2]):
+        np.testing.assert_array_equal(window, ball.signal[start:start + 512])
+    assert dataset.starts[-1] + 512 == 4000  # windows reach the record's end
+
+
+def test_second_build_reads_the_cache_and_configs_key_it(tmp_path, monkeypatch):
+    first = build_simulated_dataset(DATA, BEARING, SIMULATOR, {}, tmp_path)
+    files = list((tmp_path / "simulated").iterdir())
+    assert len(files) == 1 and files[0].suffix == ".npz"  # no temporary file left behind
+
+    def no_simulation(*args, **kwargs):
+        raise AssertionError("simulated although the cache holds these records")
+
+    monkeypatch.setattr(simulated, "simulate_many", no_simulation)
+    again = build_simulated_dataset(OmegaConf.merge(DATA, {"samples_per_class": 3, "n_jobs": 2}), BEARING,
+                                    SIMULATOR, {}, tmp_path)
+    np.testing.assert_array_equal(again.windows[again.labels == 3][0], first.windows[first.labels == 3][0])
+    assert again.key != first.key  # same records, other windows
+    with pytest.raises(AssertionError, match="simulated although"):
+        build_simulated_dataset(DATA, OmegaConf.merge(BEARING, {"clearance_mm": 0.01}), SIMULATOR, {}, tmp_path)
+
+
+def test_bad_data_config_names_the_field(tmp_path):
+    with pytest.raises(BearingTwinError, match="data.window_length"):
+        build_simulated_dataset(OmegaConf.merge(DATA, {"window_length": 0}), BEARING, SIMULATOR, {}, tmp_path)
+    with pytest.raises(BearingTwinError, match="data.source"):
+        build_simulated_dataset(OmegaConf.merge(DATA, {"source": "cwru"}), BEARING, SIMULATOR, {}, tmp_path)
