@@ -90,3 +90,15 @@ def test_bad_inputs_name_the_field():
         envelope_spectrum(np.ones(100), 1.0, window=np.ones(50))
     with pytest.raises(BearingTwinError, match="target_hz"):
         peak_near(np.arange(10.0), np.ones(10), 50.0, 1.0)
+
+
+def test_peak_near_stays_within_half_a_bin_at_a_band_edge():
+    # The band's largest bin is its edge, next to a larger line just outside it:
+    # interpolation must not follow the outside line (it once returned -642 Hz).
+    freqs = np.arange(0.0, 100.0, 1.0)
+    amplitude = np.full(freqs.size, 1e-3)
+    amplitude[50] = 2.99e-3  # a slightly larger line just outside the band
+    amplitude[49] = 2e-3  # the band's top bin, at its upper edge: nearly flat curvature
+    peak_freq, peak_amp = peak_near(freqs, amplitude, target_hz=46.0, tolerance_hz=3.0)
+    assert 43.0 <= float(peak_freq) <= 49.0
+    assert float(peak_amp) == pytest.approx(2e-3)

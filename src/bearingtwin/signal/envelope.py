@@ -117,7 +117,9 @@ def peak_near(freqs_hz, amplitude, target_hz: float, tolerance_hz: float, *, int
     left = np.take_along_axis(amplitude, np.clip(top - 1, 0, None)[..., None], axis=-1)[..., 0]
     right = np.take_along_axis(amplitude, np.clip(top + 1, None, freqs_hz.size - 1)[..., None], axis=-1)[..., 0]
     curvature = left - 2.0 * peak_amp + right
-    usable = inner & (curvature < 0)
+    # Only a local maximum has its parabola's vertex within half a bin; a band-edge bin
+    # beside a larger line outside the band would send the vertex anywhere.
+    usable = inner & (curvature < 0) & (peak_amp >= left) & (peak_amp >= right)
     safe_curvature = np.where(usable, curvature, -1.0)
     offset = np.where(usable, 0.5 * (left - right) / safe_curvature, 0.0)
     spacing = freqs_hz[1] - freqs_hz[0]
