@@ -1,0 +1,38 @@
+"""``bearingtwin-report <name> [key=value ...]``: tables from the MLflow store beside the paper's.
+
+Names: table3, table4, vmd_params, seeds, repeat (``run_id=<id>``), and any report
+registered in :mod:`bearingtwin.tracking.reports`. Common settings: ``uri=``,
+``experiment=``, ``out=``, ``sweep_dir=``, ``source=`` (default simulated; ``all``).
+Exit status: 0, 1 when ``repeat`` finds a metric that differs, 2 for bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.reports import REPORTS, run_report
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="bearingtwin-report", description=__doc__.splitlines()[0])
+    parser.add_argument("name", help=f"report: {', '.join(sorted(REPORTS))}")
+    parser.add_argument("settings", nargs="*", metavar="key=value")
+    args = parser.parse_args(argv)
+    try:
+        malformed = [item for item in args.settings if "=" not in item]
+        if malformed:
+            raise BearingTwinError(f"settings are key=value, got {', '.join(malformed)}")
+        report = run_report(args.name, dict(item.split("=", 1) for item in args.settings))
+    except BearingTwinError as error:
+        print(f"error: {error}", file=sys.stderr)
+        sys.exit(2)
+    print(report.markdown)
+    if not report.ok:
+        sys.exit(1)
+    return 0
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,27 @@
+"""Build a classifier from its config group (``classifier=cnn_bilstm`` | ``classifier=svm``)."""
+
+from __future__ import annotations
+
+from omegaconf import DictConfig, OmegaConf
+
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
+from bearingtwin.models.svm import make_svm
+
+CLASSIFIERS = {"cnn_bilstm": CnnBiLstmClassifier, "svm": make_svm}
+
+
+def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: int, root_dir: str | None = None):
+    """An unfitted scikit-learn-style classifier; every key but ``name`` is a constructor argument.
+
+    ``trainer_cfg`` (epochs, gradient clipping, accelerator) applies to the network only;
+    ``seed`` is the run's seed; ``root_dir`` is where Lightning may write (the Hydra run dir).
+    """
+    params = OmegaConf.to_container(classifier_cfg, resolve=True)
+    name = params.pop("name", None)
+    if name not in CLASSIFIERS:
+        raise BearingTwinError(f"classifier.name={name!r} is not a classifier; choose one of {', '.join(CLASSIFIERS)}")
+    if name == "cnn_bilstm":
+        trainer = OmegaConf.to_container(trainer_cfg, resolve=True)
+        return CnnBiLstmClassifier(**params, **trainer, random_state=seed, root_dir=root_dir)
+    return make_svm(**params, random_state=seed)

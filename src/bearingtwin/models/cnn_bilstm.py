@@ -1,0 +1,304 @@
+"""The paper's CNN-BiLSTM (section 3.3) as a Lightning module, with a scikit-learn face.
+
+Architecture, as the paper gives it: Conv1d (1 -> 8 filters, kernel 6), ReLU,
+BatchNorm1d, MaxPool1d(2), a bidirectional LSTM of 30 hidden units, Dropout 0.2,
+a fully connected layer to 4 classes and softmax (here: CrossEntropyLoss on the
+logits, which is softmax + log-loss in one numerically stable step). Training: Adam,
+learning rate 0.01, L2 factor 0.001, gradient threshold 1.0, 100 epochs.
+
+Where MATLAB's ``trainNetwork`` (the paper's tool) and PyTorch differ, we choose:
+
+- **L2 factor.** MATLAB adds ``L2/2 * ||w||^2`` to the loss, i.e. ``L2 * w`` to the
+  gradient *before* the Adam moments; PyTorch's ``Adam(weight_decay=L2)`` adds exactly
+  ``L2 * w`` to the gradient before the moments (coupled L2, not AdamW's decoupled
+  decay), so the factor carries over unchanged. MATLAB's ``BiasL2Factor`` defaults to 0,
+  so the biases of the convolution, LSTM and fully connected layers are not decayed;
+  batch-norm scale and offset are (MATLAB's ``Scale/OffsetL2Factor`` default to 1).
+- **Gradient threshold.** MATLAB's default ``l2norm`` method clips each parameter
+  tensor's gradient separately; Lightning's ``gradient_clip_val`` clips the global norm
+  of all gradients, which is at least as strict. We use Lightning's.
+- **Mini-batch.** MATLAB's default ``MiniBatchSize`` is 128 (the paper names none);
+  ``batch_size`` defaults to 128 and the training set is reshuffled every epoch.
+- **BiLSTM output.** MATLAB's sequence-to-label networks use ``OutputMode="last"``:
+  the BiLSTM output at the last time step (forward and backward halves) feeds the
+  fully connected layer. ``lstm_output="last"`` does that; ``"flatten"`` feeds all
+  time steps instead.
+- **Input.** Each sample is a one-channel sequence: the nine features (batch, 1, 9)
+  or a raw window (batch, 1, 2048). Columns are standardized with statistics of the
+  training set only (for raw windows the per-position statistics are all close to the
+  signal's overall ones, so this equals scaling by the training signal's level).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import tempfile
+from dataclasses import dataclass
+
+import lightning as L
+import numpy as np
+import torch
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.preprocessing import StandardScaler
+from torch import nn
+from torch.utils.data import DataLoader, TensorDataset
+
+from bearingtwin.errors import BearingTwinError
+
+LSTM_OUTPUTS = ("last", "flatten")
+
+
+@dataclass(frozen=True)
+class CnnBiLstmShape:
+    """Layer sizes of the network; validated so a bad config names its field."""
+
+    input_length: int
+    n_classes: int = 4
+    n_filters: int = 8
+    kernel_size: int = 6
+    pool_size: int = 2
+    hidden_units: int = 30
+    dropout: float = 0.2
+    lstm_output: str = "last"
+
+    def __post_init__(self) -> None:
+        for name in ("input_length", "n_classes", "n_filters", "kernel_size", "pool_size", "hidden_units"):
+            if int(getattr(self, name)) < 1:
+                raise BearingTwinError(f"classifier.{name} must be a positive integer, got {getattr(self, name)}")
+        if self.n_classes < 2:
+            raise BearingTwinError(f"the training labels hold {self.n_classes} class; a classifier needs at least 2")
+        if not 0.0 <= self.dropout < 1.0:
+            raise BearingTwinError(f"classifier.dropout must lie in [0, 1), got {self.dropout}")
+        if self.lstm_output not in LSTM_OUTPUTS:
+            raise BearingTwinError(f"classifier.lstm_output={self.lstm_output!r}; choose one of {', '.join(LSTM_OUTPUTS)}")
+        if self.sequence_length < 1:
+            raise BearingTwinError(
+                f"an input of {self.input_length} points is too short for classifier.kernel_size="
+                f"{self.kernel_size} followed by classifier.pool_size={self.pool_size}"
+            )
+
+    @property
+    def sequence_length(self) -> int:
+        """Time steps the BiLSTM sees: after a 'valid' convolution and non-overlapping pooling."""
+        return (self.input_length - self.kernel_size + 1) // self.pool_size
+
+
+class CnnBiLstmModule(L.LightningModule):
+    """CNN-BiLSTM network, its loss, optimizer and per-epoch training curves.
+
+    ``history`` collects one dict per epoch (``epoch``, ``train_loss``, ``train_accuracy``
+    and, when a validation set is given, ``val_loss``, ``val_accuracy``) so curves can be
+    logged after fitting without a Lightning logger writing files.
+    """
+
+    def __init__(self, shape: CnnBiLstmShape, learning_rate: float = 0.01, l2_factor: float = 0.001) -> None:
+        super().__init__()
+        self.shape = shape
+        self.learning_rate = learning_rate
+        self.l2_factor = l2_factor
+        self.features = nn.Sequential(
+            nn.Conv1d(1, shape.n_filters, shape.kernel_size),
+            nn.ReLU(),
+            nn.BatchNorm1d(shape.n_filters),
+            nn.MaxPool1d(shape.pool_size),
+        )
+        self.bilstm = nn.LSTM(shape.n_filters, shape.hidden_units, batch_first=True, bidirectional=True)
+        self.dropout = nn.Dropout(shape.dropout)
+        steps_to_fc = 1 if shape.lstm_output == "last" else shape.sequence_length
+        self.classify = nn.Linear(2 * shape.hidden_units * steps_to_fc, shape.n_classes)
+        self.loss = nn.CrossEntropyLoss()
+        self.history: list[dict] = []
+        self._epoch_sums: dict[str, list[float]] = {}
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """Logits (batch, n_classes) of inputs (batch, 1, input_length)."""
+        sequence, _ = self.bilstm(self.features(x).transpose(1, 2))
+        if self.shape.lstm_output == "last":
+            sequence = sequence[:, -1, :]
+        return self.classify(self.dropout(sequence.flatten(1)))
+
+    def _accumulate(self, stage: str, batch) -> torch.Tensor:
+        x, y = batch
+        logits = self(x)
+        loss = self.loss(logits, y)
+        sums = self._epoch_sums.setdefault(stage, [0.0, 0.0, 0.0])
+        sums[0] += float(loss.detach()) * len(y)
+        sums[1] += float((logits.argmax(1) == y).sum())
+        sums[2] += len(y)
+        return loss
+
+    def training_step(self, batch, batch_idx):
+        return self._accumulate("train", batch)
+
+    def validation_step(self, batch, batch_idx):
+        self._accumulate("val", batch)
+
+    def on_train_epoch_end(self) -> None:
+        # Lightning runs validation before this hook, so both stages are summed by now.
+        record = {"epoch": self.current_epoch}
+        for stage, (loss_sum, correct, count) in self._epoch_sums.items():
+            record[f"{stage}_loss"] = loss_sum / count
+            record[f"{stage}_accuracy"] = correct / count
+        self.history.append(record)
+        self._epoch_sums = {}
+
+    def configure_optimizers(self):
+        unregularized = {id(m.bias) for m in self.modules() if isinstance(m, (nn.Conv1d, nn.Linear))}
+        unregularized |= {id(p) for name, p in self.bilstm.named_parameters() if name.startswith("bias")}
+        decayed = [p for p in self.parameters() if id(p) not in unregularized]
+        plain = [p for p in self.parameters() if id(p) in unregularized]
+        return torch.optim.Adam(
+            [{"params": decayed, "weight_decay": self.l2_factor}, {"params": plain, "weight_decay": 0.0}],
+            lr=self.learning_rate,
+        )
+
+
+class SequenceDataModule(L.LightningDataModule):
+    """Standardized samples as (n, 1, length) float32 tensors; the training set reshuffled each epoch."""
+
+    def __init__(self, X_train, y_train, X_val=None, y_val=None, batch_size: int = 128, seed: int = 0) -> None:
+        super().__init__()
+        self.train = _tensor_dataset(X_train, y_train)
+        self.val = None if X_val is None else _tensor_dataset(X_val, y_val)
+        self.batch_size = batch_size
+        self.seed = seed
+
+    def train_dataloader(self):
+        generator = torch.Generator().manual_seed(self.seed)
+        return DataLoader(self.train, batch_size=self.batch_size, shuffle=True, generator=generator)
+
+    def val_dataloader(self):
+        return [] if self.val is None else DataLoader(self.val, batch_size=self.batch_size)
+
+
+def _tensor_dataset(X: np.ndarray, y: np.ndarray) -> TensorDataset:
+    return TensorDataset(torch.as_tensor(X, dtype=torch.float32).unsqueeze(1), torch.as_tensor(y, dtype=torch.long))
+
+
+class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
+    """scikit-learn wrapper: ``CnnBiLstmClassifier(**params).fit(X, y).predict(X)``.
+
+    ``X`` is (n_samples, sequence_length): nine features or a raw window per row.
+    ``eval_set=(X_val, y_val)`` in :meth:`fit` only records validation curves; it never
+    steers training (no early stopping), so passing the test set does not leak it.
+
+    Fitted attributes: ``classes_``, ``scaler_``, ``module_``, ``history_`` (per-epoch
+    loss and accuracy).
+    """
+
+    def __init__(
+        self,
+        n_filters: int = 8,
+        kernel_size: int = 6,
+        pool_size: int = 2,
+        hidden_units: int = 30,
+        dropout: float = 0.2,
+        lstm_output: str = "last",
+        learning_rate: float = 0.01,
+        l2_factor: float = 0.001,
+        gradient_clip_val: float = 1.0,
+        batch_size: int = 128,
+        max_epochs: int = 100,
+        accelerator: str = "auto",
+        random_state: int = 0,
+        root_dir: str | None = None,
+    ) -> None:
+        self.n_filters = n_filters
+        self.kernel_size = kernel_size
+        self.pool_size = pool_size
+        self.hidden_units = hidden_units
+        self.dropout = dropout
+        self.lstm_output = lstm_output
+        self.learning_rate = learning_rate
+        self.l2_factor = l2_factor
+        self.gradient_clip_val = gradient_clip_val
+        self.batch_size = batch_size
+        self.max_epochs = max_epochs
+        self.accelerator = accelerator
+        self.random_state = random_state
+        self.root_dir = root_dir
+
+    def fit(self, X, y, eval_set: tuple | None = None) -> "CnnBiLstmClassifier":
+        X, y = _check_xy(X, y)
+        for name in ("batch_size", "max_epochs"):
+            if int(getattr(self, name)) < 1:
+                raise BearingTwinError(f"classifier.{name} must be a positive integer, got {getattr(self, name)}")
+        L.seed_everything(self.random_state, workers=True, verbose=False)
+        self.classes_, y_index = np.unique(y, return_inverse=True)
+        shape = CnnBiLstmShape(
+            input_length=X.shape[1],
+            n_classes=len(self.classes_),
+            n_filters=self.n_filters,
+            kernel_size=self.kernel_size,
+            pool_size=self.pool_size,
+            hidden_units=self.hidden_units,
+            dropout=self.dropout,
+            lstm_output=self.lstm_output,
+        )
+        self.scaler_ = StandardScaler().fit(X)
+        val = None
+        if eval_set is not None:
+            X_val, y_val = _check_xy(*eval_set)
+            val = (self.scaler_.transform(X_val), np.searchsorted(self.classes_, y_val))
+        data = SequenceDataModule(
+            self.scaler_.transform(X), y_index, *(val or (None, None)), batch_size=self.batch_size, seed=self.random_state
+        )
+        self.module_ = CnnBiLstmModule(shape, learning_rate=self.learning_rate, l2_factor=self.l2_factor)
+        with tempfile.TemporaryDirectory() as scratch, _quiet_lightning():
+            trainer = L.Trainer(
+                max_epochs=self.max_epochs,
+                gradient_clip_val=self.gradient_clip_val,
+                accelerator=self.accelerator,
+                devices=1,
+                deterministic=True,
+                logger=False,
+                enable_checkpointing=False,
+                enable_progress_bar=False,
+                enable_model_summary=False,
+                num_sanity_val_steps=0,
+                limit_val_batches=0 if eval_set is None else 1.0,
+                default_root_dir=self.root_dir or scratch,
+            )
+            trainer.fit(self.module_, datamodule=data)
+        self.module_.to("cpu").eval()
+        self.history_ = list(self.module_.history)
+        return self
+
+    def predict_proba(self, X) -> np.ndarray:
+        """Class probabilities (n_samples, n_classes), columns in ``classes_`` order."""
+        X = _check_x(X)
+        inputs = torch.as_tensor(self.scaler_.transform(X), dtype=torch.float32).unsqueeze(1)
+        with torch.inference_mode():
+            return torch.softmax(self.module_(inputs), dim=1).numpy()
+
+    def predict(self, X) -> np.ndarray:
+        return self.classes_[self.predict_proba(X).argmax(axis=1)]
+
+
+@contextlib.contextmanager
+def _quiet_lightning():
+    """Silence Lightning's per-fit banners (device summary, tips, 'max_epochs reached'): a sweep fits hundreds."""
+    lightning_log = logging.getLogger("lightning.pytorch")
+    level = lightning_log.level
+    lightning_log.setLevel(logging.WARNING)
+    try:
+        yield
+    finally:
+        lightning_log.setLevel(level)
+
+
+def _check_x(X) -> np.ndarray:
+    X = np.asarray(X, dtype=np.float64)
+    if X.ndim != 2:
+        raise BearingTwinError(f"the classifier takes samples as rows of a 2-D array, got shape {X.shape}")
+    if not np.all(np.isfinite(X)):
+        raise BearingTwinError(f"the classifier input holds {np.count_nonzero(~np.isfinite(X))} NaN or infinite values")
+    return X
+
+
+def _check_xy(X, y) -> tuple[np.ndarray, np.ndarray]:
+    X, y = _check_x(X), np.asarray(y)
+    if y.shape != (X.shape[0],):
+        raise BearingTwinError(f"labels have shape {y.shape}, expected ({X.shape[0]},) for {X.shape[0]} samples")
+    return X, y

@@ -1,0 +1,94 @@
+"""bearingtwin-report on the store of a real smoke sweep: our figures beside the paper's."""
+
+import shutil
+import subprocess
+import sys
+
+import pytest
+from mlflow import MlflowClient
+
+from bearingtwin.cli.report import main
+from bearingtwin.tracking import paper
+from bearingtwin.tracking.reports import mean_std
+
+from test_sweep_e2e import smoke_sweep_store
+
+
+@pytest.fixture(scope="session")
+def uri(tmp_path_factory):
+    return smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")
+
+
+def report(name, *settings):
+    return subprocess.run(
+        [sys.executable, "-m", "bearingtwin.cli.report", name, *settings], capture_output=True, text=True, timeout=600
+    )
+
+
+def finished(uri, method):
+    client = MlflowClient(uri)
+    experiment_id = client.get_experiment_by_name("bearingtwin").experiment_id
+    return client.search_runs([experiment_id], f"tags.method = '{method}' and attributes.status = 'FINISHED'")
+
+
+def test_paper_figures_are_consistent_with_their_stated_statistics():
+    mean, std = mean_std(paper.SEED_ACCURACIES)
+    assert (round(mean, 2), round(std, 2)) == (paper.ACCURACY_MEAN, paper.ACCURACY_STD)
+    assert paper.TABLE4[paper.PROPOSED] in paper.SEED_ACCURACIES
+
+
+def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
+    done = report("table4", f"uri={uri}", f"out={tmp_path}/table4.md")
+    assert done.returncode == 0, done.stderr
+    lines = {line.split(" | ")[1]: line for line in done.stdout.splitlines() if line.count("|") > 5 and "+" in line}
+    for method, published in paper.TABLE4.items():
+        (run,) = finished(uri, method)
+        ours = 100 * run.data.metrics["accuracy"]
+        assert f"| {ours:.2f} ± 0.00 | 1 | {published:.2f} | {ours - published:+.2f} |" in lines[method]
+    assert (tmp_path / "table4.md").read_text() == done.stdout.rstrip("\n") + "\n"
+    client = MlflowClient(uri)
+    experiment_id = client.get_experiment_by_name("bearingtwin").experiment_id
+    logged = client.search_runs([experiment_id], "tags.`bt.kind` = 'report' and tags.report = 'table4'")
+    assert logged and "table4.md" in {a.path for a in client.list_artifacts(logged[0].info.run_id)}
+
+
+def test_table3_per_class_beside_the_paper(uri, tmp_path):
+    done = report("table3", f"uri={uri}", f"out={tmp_path}/table3.md")
+    assert done.returncode == 0, done.stderr
+    (run,) = finished(uri, paper.PROPOSED)
+    recall = run.data.metrics["recall_normal"]
+    assert f"| normal | recall | {recall:.3f} ± 0.000 | 0.933 | {recall - 0.933:+.3f} |" in done.stdout
+    assert f"{paper.ACCURACY_MEAN:.2f} ± {paper.ACCURACY_STD:.2f}" in done.stdout
+
+
+def test_seeds_and_vmd_params_reports(uri, tmp_path):
+    seeds = report("seeds", f"uri={uri}", f"out={tmp_path}/seeds.md")
+    assert seeds.returncode == 0 and "98.33, 98.88, 98.88, 97.78, 98.33" in seeds.stdout
+    scopes = report("vmd_params", f"uri={uri}", f"out={tmp_path}/vmd.md")
+    assert scopes.returncode == 0 and "| global |" in scopes.stdout
+
+
+def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path):
+    (run,) = finished(uri, "sabo_vmd_pemie+svm")
+    same = report("repeat", f"uri={uri}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat.md")
+    assert same.returncode == 0, same.stderr
+    assert "every metric matches" in same.stdout and "| NO |" not in same.stdout
+    database = uri.removeprefix("sqlite:///")
+    shutil.copy(database, tmp_path / "copy.db")
+    tampered = f"sqlite:///{tmp_path}/copy.db"
+    MlflowClient(tampered).log_metric(run.info.run_id, "accuracy", run.data.metrics["accuracy"] - 0.1)
+    differs = report("repeat", f"uri={tampered}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat2.md")
+    assert differs.returncode == 1 and "MISMATCH" in differs.stdout
+    assert "| accuracy |" in differs.stdout and "| NO |" in differs.stdout
+
+
+def test_bad_requests_exit_2_naming_the_problem(uri, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["table5", f"uri={uri}"])
+    assert exit_info.value.code == 2 and "unknown report 'table5'" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["table4", f"uri={uri}", "colour=blue"])
+    assert "table4 does not take colour" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["repeat", f"uri={uri}", "run_id=0123"])
+    assert "run_id=0123" in capsys.readouterr().err

@@ -1,0 +1,103 @@
+"""A real Table 4 multirun, smoke-sized, in parallel (joblib) into a fresh SQLite MLflow store.
+
+``seed=0,-1``: every seed-0 job must finish, every seed -1 job must fail (bad seed) and be
+logged FAILED while the sweep goes on. The SABO methods and the raw method run as two
+invocations of the same sweep because the search-size overrides (``features.population``
+...) do not exist in ``features=raw``.
+"""
+
+import functools
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mlflow import MlflowClient
+
+SABO_METHODS = "+method=sabo_pemie_cnn_bilstm,sabo_minen_cnn_bilstm,sabo_pemie_svm"
+DATA = ["data.samples_per_class=12", "data.duration=1.0", "trainer.max_epochs=2"]
+SEARCH = ["features.population=3", "features.iterations=1", "features.search_windows=2", "features.progress=false"]
+
+
+def sweep_command(base: Path, *args: str) -> list[str]:
+    return [
+        sys.executable, "-m", "bearingtwin.cli.train", "-m", "+sweep=table4", *args, *DATA,
+        f"tracking.uri=sqlite:///{base}/mlflow.db", f"paths.cache_dir={base}/cache",
+    ]
+
+
+def run_sabo_sweep(base: Path) -> subprocess.CompletedProcess:
+    command = sweep_command(base, SABO_METHODS, "seed=0,-1", "launcher=joblib", *SEARCH, f"hydra.sweep.dir={base}/multirun")
+    return subprocess.run(command, cwd=base, capture_output=True, text=True, timeout=900)
+
+
+@functools.lru_cache(maxsize=None)
+def smoke_sweep_store(base: Path) -> str:
+    """Run the smoke sweep once per session into ``base``; returns the tracking URI."""
+    base.mkdir(parents=True, exist_ok=True)
+    for done in (
+        run_sabo_sweep(base),
+        subprocess.run(
+            sweep_command(base, "+method=raw_cnn_bilstm", "seed=0", f"hydra.sweep.dir={base}/multirun_raw"),
+            cwd=base, capture_output=True, text=True, timeout=900,
+        ),
+    ):
+        assert done.returncode == 0, done.stderr[-3000:]
+    return f"sqlite:///{base}/mlflow.db"
+
+
+@pytest.fixture(scope="session")
+def store(tmp_path_factory):
+    uri = smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")
+    client = MlflowClient(uri)
+    return client, client.get_experiment_by_name("bearingtwin").experiment_id
+
+
+def training_runs(client, experiment_id):
+    return client.search_runs([experiment_id], "tags.`bt.kind` = 'train'", max_results=1000)
+
+
+def test_every_good_job_finished_with_metrics_and_artifacts(store, tmp_path):
+    client, experiment_id = store
+    finished = [r for r in training_runs(client, experiment_id) if r.info.status == "FINISHED"]
+    assert sorted(r.info.run_name for r in finished) == [
+        "raw+cnn_bilstm seed=0",
+        "sabo_vmd_minen+cnn_bilstm seed=0",
+        "sabo_vmd_pemie+cnn_bilstm seed=0",
+        "sabo_vmd_pemie+svm seed=0",
+    ]
+    for run in finished:
+        artifacts = {a.path for a in client.list_artifacts(run.info.run_id)}
+        assert {"config.yaml", "confusion_matrix.csv", "confusion_matrix.png", "per_class.csv"} <= artifacts
+        assert ("vmd_params.csv" in artifacts) == (run.data.tags["features"] != "raw")
+        assert ("training_curves.png" in artifacts) == (run.data.tags["classifier"] == "cnn_bilstm")
+        assert run.data.metrics["inference_ms_per_sample"] > 0
+        csv = Path(client.download_artifacts(run.info.run_id, "confusion_matrix.csv", str(tmp_path / run.info.run_id)))
+        confusion = np.array([row.split(",")[1:] for row in csv.read_text().splitlines()[1:]], dtype=int)
+        assert run.data.metrics["accuracy"] == pytest.approx(np.trace(confusion) / confusion.sum())
+        assert confusion.sum() == run.data.metrics["n_test"]
+        if run.data.tags["classifier"] == "cnn_bilstm":
+            assert [m.step for m in client.get_metric_history(run.info.run_id, "val_accuracy")] == [0, 1]
+
+
+def test_failing_jobs_are_failed_and_grouped_under_the_sweep(store):
+    client, experiment_id = store
+    runs = training_runs(client, experiment_id)
+    failed = [r for r in runs if r.info.status == "FAILED"]
+    assert len(failed) == 3 and all("seed must be a non-negative integer" in r.data.tags["error"] for r in failed)
+    (parent,) = client.search_runs([experiment_id], "tags.`bt.kind` = 'sweep' and tags.sweep_dir LIKE '%multirun'")
+    assert parent.data.tags["sweep"] == "table4" and parent.info.status == "FAILED"
+    assert (parent.data.tags["n_finished"], parent.data.tags["n_failed"]) == ("3", "3")
+    children = [r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id]
+    assert len(children) == 6 and {r.data.tags["sweep_dir"] for r in children} == {parent.data.tags["sweep_dir"]}
+
+
+def test_relaunching_the_sweep_skips_finished_jobs(store, tmp_path_factory):
+    client, experiment_id = store
+    before = {r.info.run_id: r.info.status for r in training_runs(client, experiment_id)}
+    done = run_sabo_sweep(tmp_path_factory.getbasetemp() / "smoke_sweep")
+    assert done.returncode == 0, done.stderr[-3000:]
+    after = {r.info.run_id: r.info.status for r in training_runs(client, experiment_id)}
+    new = set(after) - set(before)
+    assert all(after[run_id] == "FAILED" for run_id in new) and len(new) == 3  # only the bad-seed jobs re-ran

@@ -1,0 +1,147 @@
+"""MLflow logging of a run: what is stored, failures, resuming, and concurrent SQLite writers.
+
+The training step is injected (``train_tracked(..., train=...)``) so these tests check the
+tracking alone, against a real SQLite MLflow store in a temporary folder.
+"""
+
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mlflow import MlflowClient
+from omegaconf import OmegaConf
+
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.models.experiment import ExperimentResult
+from bearingtwin.physics.geometry import FAULTS
+from bearingtwin.tracking.mlflow_logging import (
+    SweepInfo,
+    config_hash,
+    flatten,
+    open_store,
+    stored_config,
+    train_tracked,
+)
+
+CHOICES = {"features": "sabo_vmd_pemie", "classifier": "cnn_bilstm"}
+
+
+def make_cfg(store: Path, seed: int = 0, **tracking) -> OmegaConf:
+    return OmegaConf.create(
+        {
+            "seed": seed,
+            "paths": {"repo": "/somewhere", "cache_dir": "/somewhere/.cache"},
+            "data": {"source": "simulated", "samples_per_class": 10},
+            "features": {"name": "sabo_vmd_pemie", "vmd_params": "global"},
+            "classifier": {"name": "cnn_bilstm", "hidden_units": 30},
+            "tracking": {"uri": f"sqlite:///{store}/mlflow.db", "experiment": "test", "artifact_root": None, "skip_finished": True, **tracking},
+        }
+    )
+
+
+def fake_result(seed: int) -> ExperimentResult:
+    """A run's outcome whose numbers depend on the seed, so mix-ups between runs show."""
+    confusion = np.diag([15, 15, 15, 15]) + np.eye(4, k=3, dtype=int) * seed
+    metrics = {"accuracy": 0.9 + seed / 100, "inference_ms_per_sample": 0.5}
+    for name in FAULTS:
+        metrics.update({f"precision_{name}": 1.0, f"recall_{name}": 0.9, f"f1_{name}": 0.95})
+    history = [{"epoch": e, "train_loss": 1.0 / (e + 1), "train_accuracy": 0.5 + e / 10} for e in range(3)]
+    table = [{"scope": "global", "k": 5, "alpha": 1234.5, "optimal_imf": 2}]
+    return ExperimentResult(metrics, confusion, FAULTS, history, table, "data-key", "", 42, 18)
+
+
+def fake_train(cfg, root_dir):
+    return fake_result(cfg.seed)
+
+
+def failing_train(cfg, root_dir):
+    raise BearingTwinError("data.samples_per_class must be positive, got -3")
+
+
+def test_store_puts_artifacts_beside_the_sqlite_database(tmp_path):
+    client, experiment_id = open_store(make_cfg(tmp_path).tracking)
+    location = client.get_experiment(experiment_id).artifact_location
+    assert location == (tmp_path / "artifacts" / "test").as_uri()
+    assert open_store(make_cfg(tmp_path).tracking)[1] == experiment_id  # found, not created twice
+
+
+def test_config_hash_ignores_where_and_how_but_not_what(tmp_path):
+    base = make_cfg(tmp_path)
+    assert config_hash(base) == config_hash(make_cfg(tmp_path / "elsewhere"))
+    moved = make_cfg(tmp_path)
+    moved.paths.cache_dir = "/other"
+    assert config_hash(base) == config_hash(moved)
+    assert config_hash(base) != config_hash(make_cfg(tmp_path, seed=1))
+    assert flatten({"a": {"b": 1, "c": [1, 2]}, "d": {}}) == {"a.b": "1", "a.c": "[1, 2]", "d": "{}"}
+
+
+def test_a_run_logs_config_metrics_curves_and_tables(tmp_path):
+    cfg = make_cfg(tmp_path, seed=2)
+    metrics = train_tracked(cfg, CHOICES, None, None, fake_train)
+    assert metrics["accuracy"] == pytest.approx(0.92)
+    client, experiment_id = open_store(cfg.tracking)
+    (run,) = client.search_runs([experiment_id])
+    assert run.info.status == "FINISHED"
+    assert run.info.run_name == "sabo_vmd_pemie+cnn_bilstm seed=2"
+    assert run.data.params["classifier.hidden_units"] == "30" and run.data.params["data.source"] == "simulated"
+    tags = run.data.tags
+    assert tags["config_hash"] == config_hash(cfg) and tags["dataset_key"] == "data-key"
+    assert tags["method"] == "sabo_vmd_pemie+cnn_bilstm" and tags["version.torch"].startswith("2.")
+    assert tags["git_commit"]
+    assert run.data.metrics["recall_normal"] == pytest.approx(0.9)
+    curve = client.get_metric_history(run.info.run_id, "train_loss")
+    assert sorted((m.step, m.value) for m in curve) == [(0, 1.0), (1, 0.5), (2, pytest.approx(1 / 3))]
+    names = {a.path for a in client.list_artifacts(run.info.run_id)}
+    assert {"config.yaml", "confusion_matrix.csv", "confusion_matrix.png", "per_class.md", "vmd_params.csv", "training_curves.png"} <= names
+    folder = Path(client.download_artifacts(run.info.run_id, "confusion_matrix.csv", str(tmp_path / "dl")))
+    rows = [line.split(",") for line in folder.read_text().splitlines()]
+    assert rows[0][1:] == list(FAULTS) and rows[1] == ["normal", "15", "0", "0", "2"]
+    vmd = client.download_artifacts(run.info.run_id, "vmd_params.md", str(tmp_path / "dl"))
+    assert "| global | 5 | 1234.5 | 2 |" in Path(vmd).read_text()
+    assert stored_config(client, run.info.run_id).classifier.hidden_units == 30
+
+
+def test_a_failing_run_is_failed_with_its_error(tmp_path):
+    cfg = make_cfg(tmp_path)
+    with pytest.raises(BearingTwinError, match="samples_per_class"):
+        train_tracked(cfg, CHOICES, None, None, failing_train)  # single run: re-raised -> exit 2
+    sweep = SweepInfo("table4", str(tmp_path / "multirun"), ("features.vmd_params=global",))
+    assert train_tracked(make_cfg(tmp_path, seed=1), CHOICES, sweep, None, failing_train) is None  # sweep goes on
+    client, experiment_id = open_store(cfg.tracking)
+    runs = client.search_runs([experiment_id])
+    assert [r.info.status for r in runs] == ["FAILED", "FAILED"]
+    assert all("samples_per_class must be positive" in r.data.tags["error"] for r in runs)
+    in_sweep = next(r for r in runs if r.data.tags.get("sweep") == "table4")
+    assert in_sweep.info.run_name == "sabo_vmd_pemie+cnn_bilstm features.vmd_params=global seed=1"
+    assert "error.txt" in {a.path for a in client.list_artifacts(in_sweep.info.run_id)}
+
+
+def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path):
+    cfg = make_cfg(tmp_path)
+    with pytest.raises(BearingTwinError):
+        train_tracked(cfg, CHOICES, None, None, failing_train)
+    train_tracked(cfg, CHOICES, None, None, fake_train)  # the failed run does not count as done
+    again = train_tracked(cfg, CHOICES, None, None, failing_train)  # would fail if it ran
+    assert again["accuracy"] == pytest.approx(0.9)
+    client, experiment_id = open_store(cfg.tracking)
+    assert sorted(r.info.status for r in client.search_runs([experiment_id])) == ["FAILED", "FINISHED"]
+    train_tracked(make_cfg(tmp_path, skip_finished=False), CHOICES, None, None, fake_train)
+    assert len(client.search_runs([experiment_id])) == 3
+
+
+def _log_runs(store: str, worker: int, n_runs: int) -> int:
+    for i in range(n_runs):
+        train_tracked(make_cfg(Path(store), seed=100 * worker + i), CHOICES, None, None, fake_train)
+    return n_runs
+
+
+def test_concurrent_writers_on_one_sqlite_store_lose_no_run(tmp_path):
+    """Four processes log three runs each into one fresh SQLite file (schema creation included)."""
+    with ProcessPoolExecutor(max_workers=4) as pool:
+        done = sum(pool.map(_log_runs, [str(tmp_path)] * 4, range(4), [3] * 4))
+    client = MlflowClient(f"sqlite:///{tmp_path}/mlflow.db")
+    runs = client.search_runs([client.get_experiment_by_name("test").experiment_id], max_results=100)
+    assert done == 12 and len(runs) == 12
+    assert all(r.info.status == "FINISHED" and "accuracy" in r.data.metrics for r in runs)
+    assert sorted(int(r.data.tags["seed"]) for r in runs) == sorted(100 * w + i for w in range(4) for i in range(3))
