@@ -151,7 +151,7 @@ def test_raw_features_are_the_windows(data):
 
 def compose_features(name, *overrides):
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        return compose(config_name=f"features/{name}", overrides=list(overrides)).features
+        return compose(config_name="train", overrides=[f"features={name}", *overrides]).features
 
 
 def test_configs_build_the_paper_settings_and_unknown_values_fail():
@@ -159,11 +159,14 @@ def test_configs_build_the_paper_settings_and_unknown_values_fail():
     assert (pemie.fitness, pemie.population, pemie.iterations, tuple(pemie.k_range), tuple(pemie.alpha_range)) == (
         "pe_mie", 15, 20, (3, 10), (100, 3000))
     assert pemie.vmd_params == "global" and pemie.fitness_params["pe_of"] == "selected"
+    # The optimizer and its budget are top-level, so one override reaches every SABO-VMD config.
+    tpe = build_feature_extractor(compose_features("sabo_vmd_minen", "optimizer=tpe", "search.population=5", "search.windows=3"))
+    assert (tpe.optimizer, tpe.population, tpe.search_windows) == ("tpe", 5, 3)
     minen = build_feature_extractor(compose_features("sabo_vmd_minen", "features.vmd_params=per_class"))
     assert (minen.fitness, minen.vmd_params, minen.fitness_params) == ("min_envelope_entropy", "per_class", None)
     assert isinstance(build_feature_extractor(compose_features("raw")), RawFeatures)
     with pytest.raises(BearingTwinError, match="optimizer='annealing'"):
-        build_feature_extractor(compose_features("sabo_vmd_pemie", "features.optimizer=annealing"))
+        build_feature_extractor(compose_features("sabo_vmd_pemie", "optimizer=annealing"))
     with pytest.raises(BearingTwinError, match="vmd_params='per_window'"):
         build_feature_extractor(compose_features("sabo_vmd_pemie", "features.vmd_params=per_window"))
     with pytest.raises(BearingTwinError, match="features.kind='wavelet'"):
@@ -175,7 +178,7 @@ def test_configs_build_the_paper_settings_and_unknown_values_fail():
 
 
 def small_cfg(**changes):
-    cfg = OmegaConf.to_container(compose_features("sabo_vmd_minen"))
+    cfg = OmegaConf.to_container(compose_features("sabo_vmd_minen"), resolve=True)
     cfg.update(population=4, iterations=1, search_windows=2, vmd_options={"max_iter": 60}, progress=False, **changes)
     return cfg
 

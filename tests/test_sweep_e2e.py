@@ -2,8 +2,7 @@
 
 ``seed=0,-1``: every seed-0 job must finish, every seed -1 job must fail (bad seed) and be
 logged FAILED while the sweep goes on. The SABO methods and the raw method run as two
-invocations of the same sweep because the search-size overrides (``features.population``
-...) do not exist in ``features=raw``.
+invocations of the same sweep: the second checks a sequential (basic launcher) sweep too.
 """
 
 import functools
@@ -17,7 +16,7 @@ from mlflow import MlflowClient
 
 SABO_METHODS = "+method=sabo_pemie_cnn_bilstm,sabo_minen_cnn_bilstm,sabo_pemie_svm"
 DATA = ["data.samples_per_class=12", "data.duration=1.0", "trainer.max_epochs=2"]
-SEARCH = ["features.population=3", "features.iterations=1", "features.search_windows=2", "features.progress=false"]
+SEARCH = ["search.population=3", "search.iterations=1", "search.windows=2", "features.progress=false"]
 
 
 def sweep_command(base: Path, *args: str) -> list[str]:

@@ -16,9 +16,9 @@ from bearingtwin.models.experiment import TIMING_METRICS, run_experiment
 SMOKE = [
     "data.samples_per_class=12",
     "data.duration=1.0",
-    "features.population=3",
-    "features.iterations=1",
-    "features.search_windows=2",
+    "search.population=3",
+    "search.iterations=1",
+    "search.windows=2",
     "features.progress=false",
     "trainer.max_epochs=2",
 ]
