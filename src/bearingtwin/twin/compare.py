@@ -1,0 +1,416 @@
+"""How far the twin is from a measurement, view by view, and where it fails.
+
+A twin in m/s^2 and a measurement in g or volts are only comparable up to a sensor
+gain, and two records of a random process only up to their realization. So every
+view compares *statistics* that average over the record (Welch band levels,
+segment-averaged envelope spectra, medians over windows), in dB, after one sensor
+gain fitted in closed form: the gain that makes the twin's band levels agree with the
+measurement's in the least-squares sense (the mean dB difference). Each view's error
+is an RMS of dB differences, hence scale-free and exactly 0 when the twin is the
+measurement times any gain; the overall discrepancy is the weighted mean of the views,
+and each view's share of it says where the twin fails.
+
+Views:
+    psd: Welch power per log-spaced frequency band -- where in frequency the energy disagrees.
+    envelope: segment-averaged envelope spectrum relative to its median, bin by bin up to
+        past the last harmonic -- the paper's Figure 10 as a number.
+    harmonics: prominence of the defect frequency's harmonics and sidebands above the
+        envelope floor, and their half-power widths -- sharp lines versus smeared ones.
+    statistics: medians over windows of the nine time-domain features (the gain applied),
+        the signed mean left out -- impulsiveness and level.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+from scipy import signal as sps
+
+from bearingtwin.data.recording import Recording
+from bearingtwin.data.windows import cut_windows
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
+from bearingtwin.physics.geometry import BearingGeometry, check_fault
+from bearingtwin.signal.envelope import envelope_spectrum, peak_near
+
+VIEWS = ("psd", "envelope", "harmonics", "statistics")
+
+# dB per decade of ratio: power-like features take 10 log10, amplitude-like 20 log10.
+_FEATURE_DB_PER_DECADE = {"variance": 10.0, "kurtosis": 10.0}
+_SIGNED_FEATURES = ("mean",)
+_REFERENCE_NAME = {"inner": "BPFI", "outer": "BPFO", "ball": "BSF", "normal": "shaft"}
+
+
+@dataclass(frozen=True)
+class CompareSettings:
+    """Resolution of the views; mirrors the ``compare:`` block of ``conf/twin.yaml``.
+
+    Attributes:
+        welch_segment_s: Welch segment length in s (sets the PSD resolution, 1 / segment).
+        band_min_hz: lower edge of the lowest PSD band; bands are log-spaced up to fs / 2.
+        n_bands: number of PSD bands.
+        dynamic_range_db: levels more than this below a spectrum's maximum are clipped there,
+            as a real sensor's noise floor would, so numerically silent bands do not dominate.
+        envelope_segment_s: envelope spectra are averaged over segments of this length (50 %
+            overlap); twin and measurement share it so line widths are comparable.
+        envelope_highpass_hz: the envelope is taken above this frequency (4th-order Butterworth,
+            zero phase), as in classical envelope analysis: impacts are broadband, while strong
+            low-frequency lines (supply, shaft) would otherwise beat in the envelope.
+        envelope_dynamic_range_db: envelope-spectrum levels are floored this far below the
+            spectrum's highest line, so the leakage floor of a perfectly periodic twin (60 dB
+            and more down) and a slightly jittered one do not count as different.
+        n_harmonics: harmonics of the defect frequency examined.
+        smooth_hz: moving-average width of the dB envelope spectrum in the envelope view.
+        stats_window_s: window length for the time-domain statistics.
+        weights: weight of each view in the overall discrepancy.
+    """
+
+    welch_segment_s: float = 0.1
+    band_min_hz: float = 50.0
+    n_bands: int = 12
+    dynamic_range_db: float = 80.0
+    envelope_segment_s: float = 0.5
+    envelope_highpass_hz: float = 500.0
+    envelope_dynamic_range_db: float = 40.0
+    n_harmonics: int = 5
+    smooth_hz: float = 10.0
+    stats_window_s: float = 0.1
+    weights: dict = field(default_factory=lambda: {view: 1.0 for view in VIEWS})
+
+    @classmethod
+    def from_config(cls, cfg) -> "CompareSettings":
+        """Settings from a mapping (the ``compare`` config block); unknown keys are an error."""
+        known = {f.name for f in fields(cls)}
+        values = dict(cfg or {})
+        unknown = set(values) - known
+        if unknown:
+            raise BearingTwinError(f"compare.{sorted(unknown)[0]} is not a comparison setting; known: {sorted(known)}")
+        if "weights" in values:
+            weights = dict(values["weights"])
+            bad = set(weights) - set(VIEWS)
+            if bad:
+                raise BearingTwinError(f"compare.weights.{sorted(bad)[0]} is not a view; views: {', '.join(VIEWS)}")
+            if any(not w >= 0 for w in weights.values()) or not sum(weights.values()) > 0:
+                raise BearingTwinError("compare.weights must be non-negative and not all zero")
+            values["weights"] = {view: float(weights.get(view, 0.0)) for view in VIEWS}
+        return cls(**values)
+
+
+@dataclass
+class Profile:
+    """Everything a view needs from one signal, computed once per signal."""
+
+    psd_freqs_hz: np.ndarray
+    psd: np.ndarray
+    band_db: np.ndarray
+    env_freqs_hz: np.ndarray
+    env_amplitude: np.ndarray
+    env_db: np.ndarray
+    line_db: np.ndarray
+    widths_hz: np.ndarray
+    windows: np.ndarray
+
+
+@dataclass
+class ViewResult:
+    """One view's error (dB RMS), its share of the overall discrepancy, and what it saw."""
+
+    name: str
+    error_db: float
+    share: float
+    finding: str
+
+
+@dataclass
+class Comparison:
+    """The outcome of holding a twin against a measurement."""
+
+    discrepancy_db: float
+    gain: float
+    views: dict[str, ViewResult]
+    measured: Profile
+    twin: Profile
+    context: "Comparator"
+
+    @property
+    def summary(self) -> str:
+        """Where the twin fails, largest share first: the sentence the CLI prints."""
+        ranked = sorted(self.views.values(), key=lambda v: -v.share)
+        shares = ", ".join(f"{v.name} {100 * v.share:.0f}%" for v in ranked)
+        findings = "; ".join(v.finding for v in ranked[:2] if v.share > 0)
+        return f"discrepancy {self.discrepancy_db:.2f} dB ({shares}): {findings}"
+
+    def as_dict(self) -> dict:
+        """JSON-ready numbers of the comparison."""
+        return {
+            "discrepancy_db": self.discrepancy_db,
+            "gain": self.gain,
+            "views": {name: {"error_db": view.error_db, "share": view.share, "finding": view.finding}
+                      for name, view in self.views.items()},
+            "summary": self.summary,
+        }
+
+
+def _db(power_ratio: np.ndarray, dynamic_range_db: float) -> np.ndarray:
+    return 10.0 * np.log10(np.maximum(power_ratio, 10 ** (-dynamic_range_db / 10.0)))
+
+
+def rms_widths_hz(freqs_hz: np.ndarray, amplitude: np.ndarray, centres_hz: np.ndarray, reach_hz: float,
+                  floor: float) -> np.ndarray:
+    """Twice the RMS spread in Hz of the power above ``floor`` within ``reach_hz`` of each centre.
+
+    A second moment rather than a half-power crossing: a line smeared into several
+    jagged bumps (slip, speed fluctuation) has no clean half-power points, but its power
+    still spreads, and the moment does not jump when one bump crosses a threshold. A line
+    sharper than the bin spacing gets at least one bin.
+    """
+    df = freqs_hz[1] - freqs_hz[0]
+    widths = np.empty(len(centres_hz))
+    for i, centre in enumerate(centres_hz):
+        near = np.abs(freqs_hz - centre) <= reach_hz
+        power = np.clip(amplitude[near] ** 2 - floor**2, 0.0, None)
+        total = power.sum()
+        if total <= 0:
+            widths[i] = 2 * reach_hz
+            continue
+        mean = np.sum(power * freqs_hz[near]) / total
+        widths[i] = max(2 * math.sqrt(np.sum(power * (freqs_hz[near] - mean) ** 2) / total), df)
+    return widths
+
+
+class Comparator:
+    """A measurement prepared once, against which any number of twins are compared.
+
+    Calibration compares hundreds of twins to one measurement, so the measurement's
+    profile and the frequencies to look at are computed here, once.
+    """
+
+    def __init__(self, measured: Recording, geometry: BearingGeometry, settings: CompareSettings | None = None):
+        self.settings = settings or CompareSettings()
+        self.fs = float(measured.fs)
+        for fact in ("rpm", "fault"):
+            if getattr(measured, fact) is None:
+                raise BearingTwinError(f"{measured.source}: measured.{fact} is needed to compare with the twin")
+        self.fault = check_fault(measured.fault)
+        self.rpm = float(measured.rpm)
+        rates = geometry.defect_frequencies(self.rpm)
+        self.reference_name = _REFERENCE_NAME[self.fault]
+        self.reference_hz = geometry.fault_frequency_hz(self.fault, self.rpm) or rates["shaft"]
+        sideband_hz = {"inner": rates["shaft"], "ball": rates["ftf"]}.get(self.fault)
+        s = self.settings
+        harmonics = self.reference_hz * np.arange(1, s.n_harmonics + 1)
+        self.harmonics_hz = harmonics
+        self.sidebands_hz = (
+            np.concatenate([harmonics - sideband_hz, harmonics + sideband_hz]) if sideband_hz else np.empty(0)
+        )
+        self.env_max_hz = (s.n_harmonics + 0.5) * self.reference_hz
+        self.width_reach_hz = 0.4 * min(self.reference_hz, sideband_hz or self.reference_hz)
+        if self.env_max_hz >= self.fs / 2:
+            raise BearingTwinError(
+                f"measured.fs={self.fs:g} Hz is too low: the envelope view needs {s.n_harmonics} harmonics of "
+                f"{self.reference_name} ({self.reference_hz:.1f} Hz), i.e. fs above {2 * self.env_max_hz:.0f} Hz"
+            )
+        self.segment = int(round(s.envelope_segment_s * self.fs))
+        self.env_df = self.fs / self.segment
+        if self.env_df > self.reference_hz / 4:
+            raise BearingTwinError(
+                f"compare.envelope_segment_s={s.envelope_segment_s} resolves only {self.env_df:.1f} Hz, too coarse "
+                f"for {self.reference_name} at {self.reference_hz:.1f} Hz"
+            )
+        if not 0 < s.envelope_highpass_hz < self.fs / 2:
+            raise BearingTwinError(
+                f"compare.envelope_highpass_hz={s.envelope_highpass_hz} must lie between 0 and "
+                f"fs/2 = {self.fs / 2:g} Hz"
+            )
+        self.highpass = sps.butter(4, s.envelope_highpass_hz, "highpass", fs=self.fs, output="sos")
+        self.nperseg = int(round(s.welch_segment_s * self.fs))
+        self.band_edges_hz = np.geomspace(s.band_min_hz, self.fs / 2, s.n_bands + 1)
+        psd_freqs = np.fft.rfftfreq(self.nperseg, 1.0 / self.fs)
+        self.band_of_bin = np.searchsorted(self.band_edges_hz, psd_freqs, side="right") - 1
+        self.band_of_bin[psd_freqs >= self.fs / 2] = s.n_bands - 1
+        self.in_bands = self.band_of_bin >= 0
+        empty = np.setdiff1d(np.arange(s.n_bands), self.band_of_bin)
+        if empty.size:
+            lo, hi = self.band_edges_hz[empty[0]], self.band_edges_hz[empty[0] + 1]
+            raise BearingTwinError(
+                f"compare.band_min_hz={s.band_min_hz}: the band {lo:.0f}-{hi:.0f} Hz holds no Welch bin at "
+                f"{self.fs / self.nperseg:.1f} Hz resolution; raise band_min_hz or welch_segment_s"
+            )
+        self.stats_window = int(round(s.stats_window_s * self.fs))
+        self.line_hz = np.concatenate([harmonics, self.sidebands_hz])
+        self.measured = self.profile(measured.signal)
+
+    def _tolerance_hz(self, centre_hz: float) -> float:
+        """Search half-width for a line: enough for rpm uncertainty and slip, never reaching a sideband."""
+        return min(max(1.5 * self.env_df, 0.01 * centre_hz), 0.4 * self.reference_hz)
+
+    def profile(self, x: np.ndarray) -> Profile:
+        """The statistics every view compares, for one signal at the measurement's fs."""
+        x = np.asarray(x, dtype=np.float64)
+        s = self.settings
+        if x.size < max(self.segment, self.nperseg, self.stats_window):
+            raise BearingTwinError(
+                f"a signal of {x.size / self.fs:.3f} s is shorter than one comparison segment "
+                f"(compare.envelope_segment_s={s.envelope_segment_s}, welch_segment_s={s.welch_segment_s})"
+            )
+        psd_freqs, psd = sps.welch(x, fs=self.fs, nperseg=self.nperseg)
+        band_power = np.bincount(self.band_of_bin[self.in_bands], weights=psd[self.in_bands], minlength=s.n_bands)
+        band_db = _db(band_power / band_power.max(), s.dynamic_range_db) + 10 * np.log10(band_power.max())
+        n_segments = max(1, 2 * x.size // self.segment - 1)
+        segments, _ = cut_windows(sps.sosfiltfilt(self.highpass, x), self.segment, n_segments)
+        env_freqs, env_amp = envelope_spectrum(segments, self.fs, window="hann")
+        env_amp = env_amp.mean(axis=0)
+        in_range = (env_freqs >= 0.5 * min(self.reference_hz, self.rpm / 60.0)) & (env_freqs <= self.env_max_hz)
+        lowest = env_amp[in_range].max() * 10 ** (-s.envelope_dynamic_range_db / 20.0)
+        floor = max(np.median(env_amp[in_range]), lowest)
+        env_db = 20 * np.log10(np.maximum(env_amp[in_range], lowest) / floor)
+        lines = np.array([peak_near(env_freqs, env_amp, f, self._tolerance_hz(f))[1] for f in self.line_hz])
+        line_db = 20 * np.log10(np.maximum(lines, lowest) / floor)
+        widths = rms_widths_hz(env_freqs, env_amp, self.harmonics_hz, self.width_reach_hz, floor)
+        n_windows = max(1, x.size // self.stats_window)
+        windows, _ = cut_windows(x, self.stats_window, n_windows)
+        return Profile(psd_freqs, psd, band_db, env_freqs, env_amp, env_db, line_db, widths, windows)
+
+    def __call__(self, twin: Recording | np.ndarray) -> Comparison:
+        """Compare a twin signal (same fs as the measurement) with the measurement."""
+        if isinstance(twin, Recording):
+            if not math.isclose(twin.fs, self.fs):
+                raise BearingTwinError(f"{twin.source}: twin fs={twin.fs} differs from the measurement's {self.fs}")
+            twin = twin.signal
+        return self.compare_profiles(self.profile(twin))
+
+    def compare_profiles(self, twin: Profile) -> Comparison:
+        """The views' errors between the measurement and an already profiled twin."""
+        m, s = self.measured, self.settings
+        residual = m.band_db - twin.band_db
+        gain_db = float(residual.mean())
+        residual = residual - gain_db
+        worst = int(np.argmax(np.abs(residual)))
+        lo, hi = self.band_edges_hz[worst], self.band_edges_hz[worst + 1]
+        psd_finding = (
+            f"energy between {_hz(lo)} and {_hz(hi)} is {abs(residual[worst]):.0f} dB "
+            f"{'above' if residual[worst] > 0 else 'below'} the twin"
+        )
+
+        smooth = max(1, int(round(s.smooth_hz / self.env_df)))
+        kernel = np.ones(smooth) / smooth
+        env_diff = np.convolve(m.env_db - twin.env_db, kernel, mode="same")
+        env_error = float(np.sqrt(np.mean(env_diff**2)))
+        env_finding = f"the envelope spectrum up to {_hz(self.env_max_hz)} differs by {env_error:.1f} dB RMS"
+
+        line_diff = m.line_db - twin.line_db
+        width_ratio = m.widths_hz / twin.widths_hz
+        width_db = 20 * np.log10(width_ratio)
+        harmonic_error = float(np.sqrt(np.mean(np.concatenate([line_diff, width_db]) ** 2)))
+        k = len(self.harmonics_hz)
+        mean_ratio = float(np.exp(np.mean(np.log(width_ratio))))
+        prominence = float(np.mean(line_diff[:k]))
+        harmonic_finding = (
+            f"{self.reference_name} harmonics are {_times(mean_ratio)} "
+            f"{'wider' if mean_ratio >= 1 else 'narrower'} and {abs(prominence):.0f} dB "
+            f"{'more' if prominence >= 0 else 'less'} prominent in the measurement"
+        )
+        if self.sidebands_hz.size:
+            sideband = float(np.mean(line_diff[k:]))
+            harmonic_finding += f", sidebands {abs(sideband):.0f} dB {'stronger' if sideband >= 0 else 'weaker'}"
+
+        gain = 10 ** (gain_db / 20.0)
+        features_m = np.median(time_domain_features(m.windows), axis=0)
+        features_t = np.median(time_domain_features(gain * twin.windows), axis=0)
+        stat_db, stat_names = [], []
+        for name, fm, ft in zip(FEATURE_NAMES, features_m, features_t):
+            if name in _SIGNED_FEATURES:
+                continue
+            per_decade = _FEATURE_DB_PER_DECADE.get(name, 20.0)
+            stat_db.append(per_decade * math.log10(max(fm, 1e-300) / max(ft, 1e-300)))
+            stat_names.append(name)
+        stat_db = np.array(stat_db)
+        stat_error = float(np.sqrt(np.mean(stat_db**2)))
+        worst_stat = int(np.argmax(np.abs(stat_db)))
+        ratio = 10 ** (stat_db[worst_stat] / _FEATURE_DB_PER_DECADE.get(stat_names[worst_stat], 20.0))
+        stat_finding = f"the {stat_names[worst_stat].replace('_', ' ')} is {_times(ratio)} the twin's"
+
+        errors = {"psd": float(np.sqrt(np.mean(residual**2))), "envelope": env_error,
+                  "harmonics": harmonic_error, "statistics": stat_error}
+        findings = {"psd": psd_finding, "envelope": env_finding, "harmonics": harmonic_finding,
+                    "statistics": stat_finding}
+        weighted = {v: s.weights[v] * errors[v] for v in VIEWS}
+        total_weight = sum(s.weights.values())
+        discrepancy = sum(weighted.values()) / total_weight
+        views = {
+            v: ViewResult(v, errors[v], weighted[v] / sum(weighted.values()) if discrepancy > 0 else 0.0, findings[v])
+            for v in VIEWS
+        }
+        return Comparison(float(discrepancy), gain, views, m, twin, self)
+
+
+def _hz(f: float) -> str:
+    return f"{f / 1000:.2g} kHz" if f >= 1000 else f"{f:.0f} Hz"
+
+
+def _times(ratio: float) -> str:
+    return f"{ratio:.2g}x" if ratio >= 1 else f"1/{1 / ratio:.2g}x"
+
+
+def plot_comparison(comparison: Comparison, out_dir: str | Path, prefix: str = "compare") -> list[Path]:
+    """One PNG per view (Agg backend), named ``<prefix>_<view>.png``, overlaying twin and measurement."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    c, m, t = comparison.context, comparison.measured, comparison.twin
+    power_gain = comparison.gain**2
+    paths = []
+
+    def save(fig, view):
+        result = comparison.views[view]
+        fig.suptitle(f"{view}: {result.error_db:.2f} dB -- {result.finding}", fontsize=8)
+        fig.tight_layout()
+        path = out_dir / f"{prefix}_{view}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.semilogy(m.psd_freqs_hz, m.psd, lw=0.8, label="measurement")
+    ax.semilogy(t.psd_freqs_hz, power_gain * t.psd, lw=0.8, label=f"twin x gain {comparison.gain:.3g}")
+    for edge in c.band_edges_hz:
+        ax.axvline(edge, color="0.85", lw=0.5)
+    ax.set_xscale("log")
+    ax.set(xlabel="frequency (Hz)", ylabel="PSD (unit^2/Hz)")
+    ax.legend(fontsize=8)
+    save(fig, "psd")
+
+    for view in ("envelope", "harmonics"):
+        fig, ax = plt.subplots(figsize=(8, 4))
+        keep = m.env_freqs_hz <= c.env_max_hz
+        ax.plot(m.env_freqs_hz[keep], m.env_amplitude[keep] / m.env_amplitude[keep].max(), lw=0.8, label="measurement")
+        ax.plot(t.env_freqs_hz[keep], t.env_amplitude[keep] / t.env_amplitude[keep].max(), lw=0.8, label="twin")
+        for k, f in enumerate(c.harmonics_hz, start=1):
+            ax.axvline(f, color="r", ls="--", lw=0.6)
+            ax.text(f, 1.02, f"{k}x{c.reference_name}", fontsize=6, ha="center")
+            if view == "harmonics":
+                ax.axvspan(f - m.widths_hz[k - 1] / 2, f + m.widths_hz[k - 1] / 2, color="C0", alpha=0.2)
+                ax.axvspan(f - t.widths_hz[k - 1] / 2, f + t.widths_hz[k - 1] / 2, color="C1", alpha=0.2)
+        for f in c.sidebands_hz:
+            ax.axvline(f, color="g", ls=":", lw=0.6)
+        ax.set(xlabel="frequency (Hz)", ylabel="envelope amplitude (normalised)")
+        ax.legend(fontsize=8)
+        save(fig, view)
+
+    features_m = time_domain_features(m.windows)
+    features_t = time_domain_features(comparison.gain * t.windows)
+    fig, axes = plt.subplots(1, len(FEATURE_NAMES), figsize=(14, 3))
+    for i, (ax, name) in enumerate(zip(axes, FEATURE_NAMES)):
+        ax.boxplot([features_m[:, i], features_t[:, i]])
+        ax.set_xticks([1, 2], ["meas", "twin"], fontsize=6)
+        ax.set_title(name, fontsize=7)
+        ax.tick_params(labelsize=6)
+    save(fig, "statistics")
+    return paths

@@ -1,0 +1,138 @@
+"""From a composed ``twin`` config to a calibrated, ranked twin: the report, its figures, its MLflow run.
+
+``run_twin`` is the whole of ``bearingtwin-twin``: read the measurement, set the
+simulator to its operating point, rank the candidate effects, write
+``twin_report.json`` and the PNGs, and log both to MLflow when tracking is enabled.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from omegaconf import DictConfig, OmegaConf
+
+from bearingtwin.data.files import load_recording
+from bearingtwin.data.recording import Recording
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.twin.calibrate import parse_space
+from bearingtwin.twin.compare import Comparator, CompareSettings, plot_comparison
+from bearingtwin.twin.model import TwinModel
+from bearingtwin.twin.rank import EffectRanker, TwinFit
+
+REPORT_NAME = "twin_report.json"
+
+
+def load_measurement(measured_cfg) -> Recording:
+    """The measured record the config points at, with fs, rpm and bearing state all known."""
+    recording = load_recording(measured_cfg.path, channel=measured_cfg.channel, fs=measured_cfg.fs,
+                               rpm=measured_cfg.rpm, fault=measured_cfg.fault)
+    for name in ("rpm", "fault"):
+        if getattr(recording, name) is None:
+            raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
+    return recording
+
+
+def build_ranker(cfg: DictConfig) -> EffectRanker:
+    """The effect ranker the ``calibration`` / ``ranking`` / ``candidates`` / ``effects`` config describes."""
+    return EffectRanker(
+        candidates=list(cfg.candidates),
+        fixed_effects=OmegaConf.to_container(cfg.effects, resolve=True),
+        base_space=parse_space(cfg.calibration.base, "calibration.base"),
+        n_trials_base=int(cfg.calibration.n_trials_base),
+        n_trials_effect=int(cfg.calibration.n_trials_effect),
+        n_trials_refine=int(cfg.calibration.n_trials_refine),
+        min_explained=float(cfg.ranking.min_explained),
+        max_effects=int(cfg.ranking.max_effects),
+        seed=int(cfg.seed),
+    )
+
+
+def twin_for(measured: Recording, cfg: DictConfig) -> TwinModel:
+    """The simulator at the measurement's operating point (rpm, fs, fault), ``twin.duration`` long."""
+    simulator_cfg = OmegaConf.to_container(cfg.simulator, resolve=True)
+    simulator_cfg.update(rpm=float(measured.rpm), fs=float(measured.fs), duration=float(cfg.twin.duration))
+    return TwinModel(measured.fault, OmegaConf.to_container(cfg.bearing, resolve=True), simulator_cfg, int(cfg.seed))
+
+
+def write_report(fit: TwinFit, out_dir: Path, figures: bool) -> list[Path]:
+    """``twin_report.json`` and, with ``figures``, the comparison views before and after and the error curve."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    report = fit.as_dict()
+    report["baseline_comparison"] = fit.steps[0].comparison.as_dict()
+    report["final_comparison"] = fit.steps[-1].comparison.as_dict()
+    path = out_dir / REPORT_NAME
+    path.write_text(json.dumps(report, indent=2, default=float))
+    written = [path]
+    if figures:
+        written += plot_comparison(fit.steps[0].comparison, out_dir, prefix="baseline")
+        if len(fit.steps) > 1:
+            written += plot_comparison(fit.steps[-1].comparison, out_dir, prefix="final")
+        written += plot_steps(fit, out_dir)
+    return written
+
+
+def plot_steps(fit: TwinFit, out_dir: Path) -> list[Path]:
+    """Discrepancy against effects added, and the first-round ranking of every candidate."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
+    labels = ["twin"] + [f"+{step}" for step in (fit.added[i].effect for i in range(len(fit.added)))]
+    left.plot(range(len(fit.steps)), [s.error for s in fit.steps], "o-")
+    left.set_xticks(range(len(fit.steps)), labels, rotation=30, fontsize=8)
+    left.set(ylabel="discrepancy (dB)", title="error against effects added")
+    names = [f.effect for f in fit.ranking]
+    right.barh(range(len(names)), [100 * f.explained for f in fit.ranking])
+    right.set_yticks(range(len(names)), names, fontsize=8)
+    right.invert_yaxis()
+    right.set(xlabel="share of the discrepancy explained (%)", title="each candidate alone on the calibrated twin")
+    fig.tight_layout()
+    path = out_dir / "error_steps.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path]
+
+
+def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: list[Path]) -> str:
+    """One MLflow run: config, discrepancy per step and per view, the ranking, the report and figures."""
+    from mlflow.entities import Metric, Param, RunStatus
+
+    from bearingtwin.tracking.mlflow_logging import flatten, loggable_config, open_store
+
+    client, experiment_id = open_store(cfg.tracking)
+    run = client.create_run(experiment_id, run_name=f"twin {Path(str(measured.source)).name} {measured.fault}",
+                            tags={"bt.kind": "twin", "measured": str(measured.source)})
+    run_id = run.info.run_id
+    params = [Param(k[:250], str(v)[:6000]) for k, v in flatten(loggable_config(cfg)).items()]
+    for first in range(0, len(params), 100):  # MLflow takes at most 100 params per batch
+        client.log_batch(run_id, params=params[first:first + 100])
+    now = int(time.time() * 1000)
+    metrics = [Metric("discrepancy_db", s.error, now, i) for i, s in enumerate(fit.steps)]
+    metrics += [Metric(f"view_{v}_db", r.error_db, now, i) for i, s in enumerate(fit.steps)
+                for v, r in s.comparison.views.items()]
+    metrics += [Metric(f"explained_{f.effect}", f.explained, now, 0) for f in fit.ranking]
+    metrics += [Metric("baseline_error", fit.baseline_error, now, 0), Metric("final_error", fit.final_error, now, 0)]
+    client.log_batch(run_id, metrics=metrics)
+    client.set_tag(run_id, "summary", fit.summary[:5000])
+    for path in files:
+        client.log_artifact(run_id, str(path))
+    client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
+    return run_id
+
+
+def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path]]:
+    """Everything ``bearingtwin-twin`` does; returns the fit and the files written."""
+    measured = load_measurement(cfg.measured)
+    settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
+    comparator = Comparator(measured, BearingGeometry.from_config(cfg.bearing), settings)
+    twin = twin_for(measured, cfg)
+    ranker = build_ranker(cfg).fit(twin, comparator)
+    files = write_report(ranker.fit_, Path(str(cfg.out)).expanduser(), bool(cfg.figures))
+    if cfg.tracking.enabled:
+        log_to_mlflow(cfg, measured, ranker.fit_, files)
+    return ranker.fit_, files

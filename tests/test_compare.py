@@ -1,0 +1,125 @@
+"""Comparison views: scale-free, zero for the same signal, and naming where two signals differ."""
+
+import json
+
+import numpy as np
+import pytest
+from scipy import signal as sps
+
+from bearingtwin.data.recording import Recording
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.effect_library import base_excitation_filter
+from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
+
+FS = 12000.0
+RPM = 1797.0
+GEOMETRY = BearingGeometry(52.0, 25.0, 7.94, 39.0, 9)
+
+
+def impacts(fault: str, seconds: float, seed: int, jitter: float = 0.0, noise: float = 1e-3) -> np.ndarray:
+    """Defect impacts ringing a 3 kHz mode: a stand-in measurement that needs no simulator.
+
+    ``jitter`` displaces every impact by that fraction of the impact spacing (random slip).
+    """
+    rng = np.random.default_rng(seed)
+    rate = GEOMETRY.fault_frequency_hz(fault, RPM)
+    n = int(seconds * FS)
+    times = np.arange(0, seconds, 1 / rate)
+    times = times + rng.normal(0, jitter / rate, times.size)
+    x = np.zeros(n)
+    index = np.round(times * FS).astype(int)
+    weights = np.ones(index.size)
+    if fault == "inner":  # load-zone modulation at the shaft rate
+        weights = 1.0 + 0.8 * np.cos(2 * np.pi * RPM / 60.0 * times)
+    keep = (index >= 0) & (index < n)
+    np.add.at(x, index[keep], weights[keep])
+    return base_excitation_filter(x, FS, 3000.0, 0.05) + noise * rng.standard_normal(n)
+
+
+def measured(x: np.ndarray, fault: str = "outer") -> Recording:
+    return Recording(x, FS, RPM, fault, source="test.npy")
+
+
+def test_identical_signals_compare_to_zero_at_any_gain():
+    x = impacts("outer", 2.0, seed=0)
+    comparator = Comparator(measured(x), GEOMETRY)
+    same = comparator(x)
+    assert same.discrepancy_db == pytest.approx(0.0, abs=1e-9)
+    assert same.gain == pytest.approx(1.0)
+    scaled = comparator(x * 9.81)  # twin in m/s^2, measurement in g
+    assert scaled.discrepancy_db == pytest.approx(0.0, abs=1e-6)
+    assert scaled.gain == pytest.approx(1 / 9.81, rel=1e-6)
+    different = comparator(impacts("outer", 2.0, seed=0, jitter=0.05))
+    assert different.discrepancy_db > 0.5
+    assert sum(view.share for view in different.views.values()) == pytest.approx(1.0)
+
+
+def test_psd_view_names_the_band_where_energy_is_added():
+    twin = impacts("outer", 2.0, seed=0)
+    rng = np.random.default_rng(1)
+    band = sps.sosfiltfilt(sps.butter(6, [1300, 1700], "bandpass", fs=FS, output="sos"), rng.standard_normal(twin.size))
+    meas = twin + 3 * twin.std() * band / band.std()
+    result = Comparator(measured(meas), GEOMETRY)(twin)
+    finding = result.views["psd"].finding
+    assert "above the twin" in finding
+    low, high = (float(part.split()[0]) * (1000 if "kHz" in part else 1)
+                 for part in finding.removeprefix("energy between ").split(" is ")[0].split(" and "))
+    assert low <= 1300 and 1700 <= high
+
+
+def test_harmonics_view_sees_smeared_lines_as_wider():
+    sharp = impacts("outer", 2.0, seed=0)
+    rate = GEOMETRY.bpfo_hz(RPM)
+    # A slowly wandering rate (+-3 %) smears the harmonics without changing the band energies.
+    t = np.arange(sharp.size) / FS
+    phase = np.cumsum(rate * (1 + 0.03 * np.sin(2 * np.pi * 1.3 * t))) / FS
+    pulses = np.diff(np.floor(phase), prepend=0.0)
+    smeared = base_excitation_filter(pulses, FS, 3000.0, 0.05) + 1e-3 * np.random.default_rng(0).standard_normal(t.size)
+    result = Comparator(measured(smeared), GEOMETRY)(sharp)
+    assert np.all(result.measured.widths_hz[2:] > 1.5 * result.twin.widths_hz[2:])
+    assert "BPFO harmonics are" in result.views["harmonics"].finding and "wider" in result.views["harmonics"].finding
+
+
+def test_inner_race_sidebands_sit_at_the_shaft_rate():
+    comparator = Comparator(measured(impacts("inner", 2.0, seed=0), "inner"), GEOMETRY)
+    shaft = RPM / 60.0
+    np.testing.assert_allclose(comparator.sidebands_hz[: comparator.settings.n_harmonics],
+                               comparator.harmonics_hz - shaft)
+    # The load-zone modulation puts real lines there: well above the envelope floor.
+    assert np.all(comparator.measured.line_db[comparator.settings.n_harmonics:] > 6.0)
+
+
+def test_statistics_view_sees_lost_impulsiveness():
+    twin = impacts("outer", 2.0, seed=0)
+    noisy = twin + 2 * twin.std() * np.random.default_rng(3).standard_normal(twin.size)
+    result = Comparator(measured(noisy), GEOMETRY)(twin)
+    assert result.views["statistics"].error_db > 1.0
+    assert result.summary.startswith(f"discrepancy {result.discrepancy_db:.2f} dB")
+
+
+def test_sampling_rate_too_low_for_the_harmonics_is_named():
+    x = impacts("inner", 2.0, seed=0)
+    with pytest.raises(BearingTwinError, match="measured.fs=1000 Hz is too low"):
+        Comparator(Recording(x[::12], 1000.0, RPM, "inner"), GEOMETRY)
+
+
+def test_bad_settings_name_the_field():
+    with pytest.raises(BearingTwinError, match="compare.bands"):
+        CompareSettings.from_config({"bands": 3})
+    with pytest.raises(BearingTwinError, match="compare.weights.spectrum"):
+        CompareSettings.from_config({"weights": {"spectrum": 1.0}})
+    with pytest.raises(BearingTwinError, match="compare.band_min_hz"):
+        Comparator(measured(impacts("outer", 2.0, 0)), GEOMETRY, CompareSettings(band_min_hz=1.0))
+    with pytest.raises(BearingTwinError, match="shorter than one comparison segment"):
+        Comparator(measured(impacts("outer", 2.0, 0)), GEOMETRY)(np.zeros(100))
+
+
+def test_figures_and_numbers_are_written(tmp_path):
+    x = impacts("outer", 1.0, seed=0)
+    result = Comparator(measured(x), GEOMETRY)(impacts("outer", 1.0, seed=0, jitter=0.02))
+    paths = plot_comparison(result, tmp_path)
+    assert sorted(p.name for p in paths) == sorted(f"compare_{view}.png" for view in VIEWS)
+    assert all(p.read_bytes()[:4] == b"\x89PNG" for p in paths)
+    numbers = json.loads(json.dumps(result.as_dict()))
+    assert set(numbers["views"]) == set(VIEWS)

@@ -1,0 +1,190 @@
+"""The effect library: each effect does the physics it documents, and is wired by name and YAML."""
+
+import inspect
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+from scipy import signal as sps
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics import effect_library as lib
+from bearingtwin.physics.dynamics import DynamicParameters, linear_modes, static_equilibrium
+from bearingtwin.physics.effects import _REGISTRY, build_effects, registered_effects
+from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.physics.kinematics import rigid_kinematics
+
+LIBRARY = ("resonance", "slip", "speed_fluctuation", "noise", "tones", "lubrication", "load_zone")
+FS = 12000.0
+GEOMETRY = BearingGeometry(52.0, 25.0, 7.94, 39.0, 9)
+
+
+def _yaml(name):
+    return OmegaConf.to_container(OmegaConf.load(Path(CONF_DIR) / "effects" / f"{name}.yaml"))
+
+
+@pytest.mark.parametrize("name", LIBRARY)
+def test_every_effect_has_a_yaml_a_search_space_and_a_signature(name):
+    assert name in registered_effects()
+    content = _yaml(name)
+    assert list(content) == [name]
+    (effect,) = build_effects(content)
+    arguments = set(inspect.signature(type(effect).__init__).parameters) - {"self"}
+    assert set(content[name]) == arguments
+    assert effect.signature and set(effect.search_space) <= arguments
+    for parameter, (low, high, log) in effect.search_space.items():
+        assert low < high and (not log or low > 0)
+        assert low <= content[name][parameter] <= high
+
+
+def test_composed_effects_keep_their_order():
+    from hydra import compose, initialize_config_dir
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("twin", overrides=["measured.path=x.npy", "effects=[tones,resonance]"])
+    assert list(cfg.effects) == ["tones", "resonance"]
+    assert [e.name for e in build_effects(cfg.effects)] == ["tones", "resonance"]
+
+
+@pytest.mark.parametrize("natural_frequency_hz, damping_ratio", [(3000.0, 0.05), (1200.0, 0.1)])
+def test_resonance_peaks_at_its_natural_frequency_with_gain_one_over_two_zeta(natural_frequency_hz, damping_ratio):
+    impulse = np.zeros(2**16)
+    impulse[0] = 1.0
+    response = lib.base_excitation_filter(impulse, FS, natural_frequency_hz, damping_ratio)
+    gain = np.abs(np.fft.rfft(response))
+    freqs = np.fft.rfftfreq(impulse.size, 1 / FS)
+    assert freqs[np.argmax(gain)] == pytest.approx(natural_frequency_hz, rel=0.02)
+    assert gain.max() == pytest.approx(math.sqrt(1 + 4 * damping_ratio**2) / (2 * damping_ratio), rel=0.03)
+    assert gain[np.searchsorted(freqs, 20.0)] == pytest.approx(1.0, abs=0.01)
+
+
+def test_resonance_above_nyquist_is_named():
+    with pytest.raises(BearingTwinError, match="resonance.natural_frequency_hz"):
+        lib.Resonance(natural_frequency_hz=7000.0, damping_ratio=0.05).modify_signal(np.ones(100), FS, None)
+    with pytest.raises(BearingTwinError, match="resonance.damping_ratio"):
+        lib.Resonance(natural_frequency_hz=3000.0, damping_ratio=-1.0)
+
+
+@pytest.mark.parametrize("snr_db, slope", [(10.0, 0.0), (0.0, 1.0)])
+def test_noise_has_the_requested_snr_and_spectral_slope(snr_db, slope):
+    rng = np.random.default_rng(0)
+    clean = np.sin(2 * np.pi * 50 * np.arange(2**16) / FS)
+    noisy = lib.Noise(snr_db=snr_db, spectral_slope=slope).modify_signal(clean, FS, rng)
+    noise = noisy - clean
+    assert 10 * np.log10(np.mean(clean**2) / np.mean(noise**2)) == pytest.approx(snr_db, abs=0.01)
+    freqs, psd = sps.welch(noise, FS, nperseg=4096)
+    band = (freqs > 100) & (freqs < 5000)
+    fitted_slope = -np.polyfit(np.log10(freqs[band]), np.log10(psd[band]), 1)[0]
+    assert fitted_slope == pytest.approx(slope, abs=0.1)
+
+
+def test_tones_put_harmonic_lines_at_their_level():
+    x = np.random.default_rng(1).standard_normal(60000)  # 5 s: the lines fall on bins
+    tones = lib.Tones(frequency_hz=60.0, level_db=6.0, n_harmonics=3)
+    lines = tones.modify_signal(x, FS, np.random.default_rng(2)) - x
+    spectrum = np.abs(np.fft.rfft(lines)) * 2 / lines.size
+    freqs = np.fft.rfftfreq(lines.size, 1 / FS)
+    amplitudes = [spectrum[np.abs(freqs - k * 60.0) < 1.0].max() for k in (1, 2, 3)]
+    fundamental = math.sqrt(2) * x.std() * 10 ** (6 / 20)
+    np.testing.assert_allclose(amplitudes, [fundamental, fundamental / 2, fundamental / 3], rtol=0.05)
+    assert spectrum[np.abs(freqs - 240.0) < 1.0].max() < 1e-3 * fundamental  # only three harmonics
+
+
+def test_slip_jitters_the_balls_by_the_requested_fraction_of_their_spacing():
+    kinematics = rigid_kinematics(GEOMETRY, 1797.0, FS, 120000)
+    slipped = lib.Slip(jitter=0.02).modify_kinematics(kinematics, np.random.default_rng(0))
+    offsets = slipped.ball_offset_rad
+    spacing = 2 * np.pi / GEOMETRY.n_balls
+    # Knots hold std = jitter x spacing; linear interpolation between them averages to 2/3 of the variance.
+    assert offsets.std() / spacing == pytest.approx(0.02 * math.sqrt(2 / 3), rel=0.1)
+    np.testing.assert_array_equal(slipped.cage_angle_rad, kinematics.cage_angle_rad)
+    # Independent from ball to ball: slip breaks the spacing, not just the phase of the whole set.
+    assert abs(np.corrcoef(offsets[:, 0], offsets[:, 1])[0, 1]) < 0.1
+
+
+def test_speed_fluctuation_modulates_speed_and_keeps_rolling_ratios():
+    kinematics = rigid_kinematics(GEOMETRY, 1797.0, FS, 60000)
+    effect = lib.SpeedFluctuation(depth=0.03, frequency_hz=4.0)
+    varied = effect.modify_kinematics(kinematics, np.random.default_rng(0))
+    speed_ratio = varied.shaft_speed_rad_s / kinematics.shaft_speed_rad_s
+    assert speed_ratio.max() - 1 == pytest.approx(0.03, rel=0.01)
+    assert 1 - speed_ratio.min() == pytest.approx(0.03, rel=0.01)
+    freqs = np.fft.rfftfreq(speed_ratio.size, 1 / FS)
+    assert freqs[np.argmax(np.abs(np.fft.rfft(speed_ratio - 1)))] == pytest.approx(4.0, abs=0.25)
+    cage_per_shaft = np.diff(varied.cage_angle_rad) / np.diff(varied.shaft_angle_rad)
+    np.testing.assert_allclose(cage_per_shaft, GEOMETRY.ftf_hz(1797.0) / (1797.0 / 60), rtol=1e-9)
+    # The mean speed is kept: after whole modulation periods the shaft is where it would have been.
+    period = int(FS / 4.0)
+    drift = varied.shaft_angle_rad[10 * period] - kinematics.shaft_angle_rad[10 * period]
+    assert abs(drift) < 0.03 * 2 * np.pi * 1797 / 60 / (2 * np.pi * 4.0) * 2
+
+
+def _params():
+    return DynamicParameters(inner_mass_kg=5.5, outer_mass_kg=12.64, inner_damping_ns_per_m=3376.84,
+                             outer_damping_ns_per_m=2310.68, inner_stiffness_n_per_m=5.24e4,
+                             outer_stiffness_n_per_m=1.51e7, contact_stiffness_n_per_m1_5=9.26e9,
+                             clearance_m=5e-6, n_balls=9)
+
+
+def test_load_zone_narrows_with_clearance_and_widens_with_load():
+    angles = 2 * np.pi * np.arange(9) / 9 - np.pi / 2
+
+    def loaded_balls(load_n, clearance_um):
+        params = lib.LoadZone(radial_load_n=load_n, clearance_um=clearance_um).modify_parameters(_params())
+        state = static_equilibrium(params, angles)
+        deflection = (state[0] - state[2]) * np.cos(angles) + (state[1] - state[3]) * np.sin(angles)
+        return int(np.sum(deflection > params.clearance_m))
+
+    assert loaded_balls(2000.0, 1.0) > loaded_balls(2000.0, 30.0)
+    assert loaded_balls(5000.0, 10.0) >= loaded_balls(100.0, 10.0)
+    with pytest.raises(BearingTwinError, match="load_zone.clearance_um"):
+        lib.LoadZone(radial_load_n=100.0, clearance_um=-1.0)
+
+
+def test_lubrication_softens_and_damps_the_contacts():
+    params = _params()
+    lubricated = lib.Lubrication(stiffness_ratio=0.5, damping_ns_per_m=2000.0).modify_parameters(params)
+    assert lubricated.contact_stiffness_n_per_m1_5 == pytest.approx(0.5 * params.contact_stiffness_n_per_m1_5)
+    angles = 2 * np.pi * np.arange(9) / 9 - np.pi / 2
+    dry_state = static_equilibrium(params, angles)
+    _, dry_decay = linear_modes(params, dry_state, angles)
+    _, wet_decay = linear_modes(replace(params, contact_damping_ns_per_m=2000.0), dry_state, angles)
+    assert wet_decay > dry_decay  # the film damps the slowest mode faster
+    with pytest.raises(BearingTwinError, match="lubrication.stiffness_ratio"):
+        lib.Lubrication(stiffness_ratio=1.5, damping_ns_per_m=10.0)
+
+
+def test_unknown_effect_and_bad_parameters_are_named():
+    with pytest.raises(BearingTwinError, match="effects.wobble: unknown effect"):
+        build_effects({"wobble": {}})
+    with pytest.raises(BearingTwinError, match="effects.slip: bad parameters"):
+        build_effects({"slip": {"jitter": 0.01, "colour": 3}})
+    assert all(_REGISTRY[name].__module__ == lib.__name__ for name in LIBRARY)
+
+
+def test_lubricated_contacts_damp_the_impacts_in_both_solvers():
+    """The contact-damping extension of the hook: both solvers agree, and the film drains the contact modes."""
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.physics.simulator import simulate
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["simulator.fs=12000", "simulator.duration=0.2"])
+    film = {"lubrication": {"stiffness_ratio": 1.0, "damping_ns_per_m": 3000.0}}
+    dry, _ = simulate("inner", cfg.bearing, cfg.simulator)
+    fast, _ = simulate("inner", cfg.bearing, cfg.simulator, film)
+    cfg.simulator.solver = "reference"
+    reference, _ = simulate("inner", cfg.bearing, cfg.simulator, film)
+    assert np.corrcoef(fast.signal, reference.signal)[0, 1] > 0.99
+    # The contact modes of the linearized bearing hold less energy once the film damps them.
+    params = DynamicParameters.from_config(cfg.bearing, cfg.simulator)
+    angles = 2 * np.pi * np.arange(params.n_balls) / params.n_balls
+    highest_mode_hz, _ = linear_modes(params, static_equilibrium(params, angles), angles)
+    freqs, psd = sps.welch(np.stack([dry.signal, fast.signal]), 12000, nperseg=600)
+    modes = (freqs > 0.4 * highest_mode_hz) & (freqs < 1.2 * highest_mode_hz)
+    dry_energy, film_energy = psd[:, modes].sum(axis=1)
+    assert film_energy < 0.7 * dry_energy

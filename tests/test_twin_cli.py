@@ -1,0 +1,95 @@
+"""``bearingtwin-twin`` end to end: the report contract, figures, MLflow, and clear failures."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from mlflow import MlflowClient
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.twin.model import TwinModel
+
+FAST = ["twin.duration=1.0", "compare.envelope_segment_s=0.25", "calibration.n_trials_base=6",
+        "calibration.n_trials_effect=8", "calibration.n_trials_refine=8", "ranking.max_effects=2"]
+
+
+def run_cli(*overrides, env=None, cwd=None):
+    return subprocess.run([sys.executable, "-m", "bearingtwin.cli.twin", *overrides], capture_output=True, text=True,
+                          env={**os.environ, **(env or {})}, timeout=300, cwd=cwd)
+
+
+@pytest.fixture(scope="module")
+def measurement(tmp_path_factory):
+    """1 s of an outer-race twin seen through a 2.4 kHz mount resonance, in g, as a bare .npy."""
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["simulator.fs=12000", "simulator.rpm=1797", "simulator.duration=1.0"])
+    twin = TwinModel("outer", cfg.bearing, cfg.simulator, seed=11)
+    signal = twin.signal({"simulator.defect.depth_mm": 0.004},
+                         {"resonance": {"natural_frequency_hz": 2400.0, "damping_ratio": 0.07}})
+    path = tmp_path_factory.mktemp("measured") / "measured.npy"
+    np.save(path, signal / 9.81)
+    return path
+
+
+def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path):
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    out = tmp_path / "report"
+    result = run_cli(f"measured.path={measurement}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
+                     f"out={out}", "candidates=[resonance,slip,noise]", *FAST, env={"MLFLOW_TRACKING_URI": uri})
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "`resonance`" in result.stdout
+    report = json.loads((out / "twin_report.json").read_text())
+    assert isinstance(report["baseline_error"], float) and isinstance(report["final_error"], float)
+    assert [entry["effect"] for entry in report["ranking"]][0] == "resonance"
+    assert {"effect", "error", "params"} <= set(report["ranking"][0])
+    errors = [entry["error"] for entry in report["ranking"]]
+    assert errors == sorted(errors)
+    assert report["steps"][0]["effects"] == [] and report["steps"][1]["effects"] == ["resonance"]
+    assert report["steps"][0]["error"] == report["baseline_error"]
+    assert report["final_error"] == report["steps"][-1]["error"] < report["baseline_error"]
+    assert 1000 < report["ranking"][0]["params"]["natural_frequency_hz"] < 4000
+    assert "resonance" in report["summary"]
+    pngs = sorted(p.name for p in out.glob("*.png"))
+    assert "error_steps.png" in pngs and "baseline_envelope.png" in pngs and "final_psd.png" in pngs
+
+    client = MlflowClient(tracking_uri=uri)
+    (run,) = client.search_runs([client.get_experiment_by_name("bearingtwin-twin").experiment_id])
+    assert run.info.status == "FINISHED"
+    history = client.get_metric_history(run.info.run_id, "discrepancy_db")
+    assert [m.value for m in sorted(history, key=lambda m: m.step)] == [s["error"] for s in report["steps"]]
+    artifacts = {a.path for a in client.list_artifacts(run.info.run_id)}
+    assert "twin_report.json" in artifacts and "error_steps.png" in artifacts
+
+
+def test_fixed_effects_stay_in_every_step(measurement, tmp_path):
+    out = tmp_path / "report"
+    result = run_cli(f"measured.path={measurement}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
+                     f"out={out}", "effects=[noise]", "effects.noise.snr_db=40", "candidates=[resonance]",
+                     "tracking.enabled=false", "figures=false", *FAST, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]  # nothing else left in the working directory
+    report = json.loads((out / "twin_report.json").read_text())
+    assert all(step["effects"][0] == "noise" for step in report["steps"])
+    assert list(out.glob("*.png")) == []
+
+
+@pytest.mark.parametrize("overrides, message", [
+    (["measured.path={missing}", "measured.fs=12000"], "missing.npy"),
+    (["measured.path={measured}", "measured.fs=600"], "measured.fs=600 Hz is too low"),
+    (["measured.path={measured}", "measured.fs=12000", "candidates=[resonance,wobble]"], "unknown effect 'wobble'"),
+    (["measured.path={measured}", "measured.fs=12000", "measured.fault=cracked"], "fault='cracked'"),
+])
+def test_bad_input_exits_nonzero_naming_the_problem(measurement, tmp_path, overrides, message):
+    overrides = [o.format(missing=tmp_path / "missing.npy", measured=measurement) for o in overrides]
+    defaults = ["measured.rpm=1797", "measured.fault=outer"]
+    given = {o.split("=")[0] for o in overrides}
+    result = run_cli(*overrides, *[d for d in defaults if d.split("=")[0] not in given], f"out={tmp_path / 'r'}",
+                     "tracking.enabled=false", *FAST)
+    assert result.returncode != 0
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not (tmp_path / "r" / "twin_report.json").exists()
