@@ -85,6 +85,8 @@ class WindowedDataset:
         fs: common sampling rate in Hz.
         class_names: names of the classes, index = label.
         key: a stable identifier of the dataset's content (used as a cache key and logged).
+        fixed_split: (train_index, test_index) when the source decides the split itself (twin
+            windows train, real windows test); None lets ``data.split`` decide.
     """
 
     windows: np.ndarray
@@ -96,6 +98,7 @@ class WindowedDataset:
     class_names: tuple[str, ...] = FAULTS
     key: str = ""
     record_lengths: list[int] = field(default_factory=list)
+    fixed_split: tuple[np.ndarray, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         n = len(self.windows)

@@ -88,16 +88,19 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     L.seed_everything(seed, workers=True, verbose=False)
     classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)  # bad settings fail first
     dataset = build_dataset(cfg)
-    train, test = split_indices(
-        dataset.labels,
-        dataset.record_ids,
-        dataset.starts,
-        dataset.record_lengths,
-        dataset.windows.shape[1],
-        method=cfg.data.split,
-        train_fraction=cfg.data.train_fraction,
-        seed=seed,
-    )
+    if dataset.fixed_split is not None:
+        train, test = dataset.fixed_split
+    else:
+        train, test = split_indices(
+            dataset.labels,
+            dataset.record_ids,
+            dataset.starts,
+            dataset.record_lengths,
+            dataset.windows.shape[1],
+            method=cfg.data.split,
+            train_fraction=cfg.data.train_fraction,
+            seed=seed,
+        )
     features, vmd_params = extract_features(cfg.features, dataset, train, cfg.paths.cache_dir)
     y = dataset.labels
     if isinstance(classifier, CnnBiLstmClassifier):

@@ -1,0 +1,251 @@
+"""Train on the twin, test on real bearings: a dataset whose training windows are all simulated.
+
+The twin is set to the operating points of the real CWRU records (each file's measured
+rpm, its 12 kHz rate, the cwru_6205 geometry, a housing channel) and simulates every
+bearing state there, with the base parameters and effects of one step of a
+``bearingtwin-twin`` calibration report. The test windows are the real records at
+motor loads never used for calibration. Nothing measured enters training: the twin
+was calibrated on records of ``calibration.classes`` at ``calibration.load`` only,
+and those may not be test records, which the builder enforces on every run.
+
+The twin speaks m/s^2, the CWRU channel g, and the twin's severity for the inner-race
+and ball faults is not calibrated at all: with ``normalize_windows`` every window is
+scaled to zero mean and unit standard deviation, so amplitude-dependent features
+describe waveform shape, not a unit or a guessed defect depth.
+
+The split is fixed by construction (:attr:`WindowedDataset.fixed_split`): twin
+windows train, real windows test; ``data.split`` plays no part.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
+from bearingtwin.data.recording import Recording, WindowedDataset
+from bearingtwin.data.windows import cut_windows
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import FAULTS, check_fault
+from bearingtwin.physics.simulator import simulate
+
+TWIN_PREFIX = "twin:"
+"""Records whose source starts with this are simulated; every other record is a measurement file."""
+
+
+def _plain(cfg) -> dict:
+    if isinstance(cfg, DictConfig):
+        try:
+            return OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
+        except OmegaConfBaseException as error:
+            raise BearingTwinError(f"data config: {error}") from None
+    return dict(cfg or {})
+
+
+def _digest(content) -> str:
+    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def cwru_file(root: Path, stem: str) -> Path:
+    """``<root>/<stem>.mat``, which must exist and carry a CWRU name (state, load, record)."""
+    path = root / f"{stem}.mat"
+    if parse_cwru_name(path) is None:
+        raise BearingTwinError(f"{path.name}: not a CWRU record name (<state><size>_<load>_<record> or normal_<load>_<record>)")
+    if not path.is_file():
+        raise BearingTwinError(f"{path}: no such CWRU record; point data.root at the folder of .mat files")
+    return path
+
+
+def test_files(data_cfg: Mapping) -> list[Path]:
+    """The test records: one per class in ``test.classes`` and load in ``test.loads``, found by file stem."""
+    root, stems = Path(data_cfg["root"]), data_cfg["files"]
+    found = []
+    for load in data_cfg["test"]["loads"]:
+        for fault in data_cfg["test"]["classes"]:
+            check_fault(fault)
+            matches = sorted(p for p in root.glob(f"{stems[fault]}_{load}_*.mat") if parse_cwru_name(p) is not None)
+            if len(matches) != 1:
+                raise BearingTwinError(
+                    f"data.test: need exactly one {fault} record at {load} hp in {root}, found "
+                    f"{', '.join(p.name for p in matches) or 'none'}"
+                )
+            found.append(matches[0])
+    return found
+
+
+def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
+    """The calibration and test records, after checking that no record is both.
+
+    A calibration record must be of a state in ``calibration.classes`` at ``calibration.load``
+    (the twin may have seen only those); the test loads must exclude the calibration load.
+    """
+    calibration = data_cfg["calibration"]
+    allowed, load = list(calibration["classes"]), calibration["load"]
+    if load in list(data_cfg["test"]["loads"]):
+        raise BearingTwinError(f"data.test.loads: {load} hp is the calibration load (data.calibration.load); "
+                               "test only at loads the twin was never fitted to")
+    root = Path(data_cfg["root"])
+    calibration_paths = []
+    for stem in calibration["records"]:
+        name = parse_cwru_name(f"{stem}.mat")
+        if name is None or name.fault not in allowed or name.load_hp != load:
+            raise BearingTwinError(
+                f"data.calibration.records: {stem} is not a calibration record; the twin may be fitted only "
+                f"to {' or '.join(allowed)} records at {load} hp"
+            )
+        calibration_paths.append(cwru_file(root, stem))
+    if calibration["record"] not in calibration["records"]:
+        raise BearingTwinError(f"data.calibration.record={calibration['record']}: not among data.calibration.records "
+                               f"({', '.join(calibration['records'])})")
+    tests = test_files(data_cfg)
+    shared = {p.name for p in tests} & {p.name for p in calibration_paths}
+    if shared:
+        raise BearingTwinError(f"data.test: {sorted(shared)[0]} is a calibration record")
+    return calibration_paths, tests
+
+
+def calibration_step(report_path: str | Path, step: int) -> tuple[dict, dict]:
+    """Base parameters (dotted config keys) and effects of step ``step`` of a ``twin_report.json``.
+
+    Step 0 is the bare twin (base parameters fitted, no effect); step k adds the first k
+    effects the forward selection chose, with the parameters fitted at that step.
+    """
+    path = Path(report_path)
+    if not path.is_file():
+        raise BearingTwinError(f"data.calibration.report={path}: no such file; run bearingtwin-twin on the "
+                               "calibration record first (scripts/cwru_twin_study.py)")
+    try:
+        steps = json.loads(path.read_text())["steps"]
+    except (json.JSONDecodeError, KeyError, TypeError):
+        raise BearingTwinError(f"{path}: not a twin_report.json (no 'steps' list)") from None
+    if not (isinstance(step, int) and 0 <= step < len(steps)):
+        raise BearingTwinError(f"data.calibration.step={step!r}: {path.name} has steps 0..{len(steps) - 1}")
+    chosen = steps[step]
+    return dict(chosen.get("base_params") or {}), dict(chosen.get("params") or {})
+
+
+def operating_points_rpm(recordings: list[Recording]) -> list[float]:
+    """The distinct measured speeds (rev/min, to 0.1) of the records, ascending."""
+    return sorted({round(float(r.rpm), 1) for r in recordings})
+
+
+def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, effects: Mapping,
+                 cache_dir: str | os.PathLike) -> tuple[np.ndarray, str]:
+    """Sensor signals (len(faults) * len(rpms), n) in m/s^2, fault-major; cached by their config.
+
+    Every record gets its own seed for the twin's random effects, derived from
+    ``simulator.seed``, so two operating points do not share one noise realization.
+    """
+    key = _digest({"bearing": bearing_cfg, "simulator": simulator_cfg, "effects": effects,
+                   "faults": list(faults), "rpms": list(rpms)})
+    path = Path(cache_dir) / "twin_to_real" / f"records-{key}.npz"
+    if path.exists():
+        with np.load(path) as cached:
+            return cached["signals"], key
+    signals = []
+    for fault in faults:
+        for index, rpm in enumerate(rpms):
+            seed = int(np.random.SeedSequence([int(simulator_cfg["seed"]), FAULTS.index(fault), index])
+                       .generate_state(1)[0])
+            recording, _ = simulate(fault, bearing_cfg, {**simulator_cfg, "rpm": float(rpm), "seed": seed}, effects)
+            signals.append(recording.signal)
+    signals = np.stack(signals)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
+    try:
+        with os.fdopen(handle, "wb") as file:
+            np.savez(file, signals=signals)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    return signals, key
+
+
+def _normalized(windows: np.ndarray) -> np.ndarray:
+    std = windows.std(axis=1, keepdims=True)
+    if np.any(std == 0):
+        raise BearingTwinError("data.normalize_windows: a window is constant, so it has no scale to normalize")
+    return (windows - windows.mean(axis=1, keepdims=True)) / std
+
+
+def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> WindowedDataset:
+    """Twin windows (training) at the real records' operating points, real windows (test).
+
+    Args:
+        data_cfg: ``conf/data/twin_to_real.yaml``.
+        bearing_cfg: must be the bearing named by ``data.bearing`` (``bearing=cwru_6205``).
+        simulator_cfg: the simulator group; rpm, fs, duration and sensor are set from ``data``.
+        effects_cfg: must be empty: the effects come from the calibration report's step.
+        cache_dir: twin records are cached under ``<cache_dir>/twin_to_real/``.
+    """
+    cfg, bearing, simulator = _plain(data_cfg), _plain(bearing_cfg), _plain(simulator_cfg)
+    if cfg.get("source") != "twin_to_real":
+        raise BearingTwinError(f"data.source={cfg.get('source')!r}: build_twin_to_real_dataset needs 'twin_to_real'")
+    if bearing.get("name") != cfg["bearing"]:
+        raise BearingTwinError(f"data=twin_to_real simulates the {cfg['bearing']} bearing of the records: add "
+                               f"bearing={cfg['bearing']} (got bearing.name={bearing.get('name')!r})")
+    if _plain(effects_cfg):
+        raise BearingTwinError("effects: data=twin_to_real takes its effects from the calibration report "
+                               "(data.calibration.step); leave effects= empty")
+    for name in ("window_length",):
+        if not (isinstance(cfg[name], int) and cfg[name] > 0):
+            raise BearingTwinError(f"data.{name} must be a positive integer, got {cfg[name]!r}")
+    for section in ("twin", "test"):
+        if not (isinstance(cfg[section]["windows_per_record"], int) and cfg[section]["windows_per_record"] > 0):
+            raise BearingTwinError(f"data.{section}.windows_per_record must be a positive integer, "
+                                   f"got {cfg[section]['windows_per_record']!r}")
+    calibration_paths, test_paths = check_protocol(cfg)
+    base_params, effects = calibration_step(cfg["calibration"]["report"], cfg["calibration"]["step"])
+
+    def measured(path: Path) -> Recording:
+        return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
+                         check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]))
+
+    tests = [measured(path) for path in test_paths]
+    # Operating points: speeds only (what a tachometer gives in service), never a test signal.
+    rpms = operating_points_rpm(tests + [measured(path) for path in calibration_paths])
+    simulator.update(fs=float(cfg["fs"]), duration=float(cfg["twin"]["duration"]), sensor=cfg["twin"]["sensor"])
+    twin_cfg = OmegaConf.create({"bearing": bearing, "simulator": simulator})
+    for key, value in base_params.items():
+        if OmegaConf.select(twin_cfg, key, default=None) is None:
+            raise BearingTwinError(f"{cfg['calibration']['report']}: base parameter {key} is no bearing.* / simulator.* key")
+        OmegaConf.update(twin_cfg, key, value, merge=False)
+    bearing, simulator = OmegaConf.to_container(twin_cfg.bearing), OmegaConf.to_container(twin_cfg.simulator)
+    faults = [check_fault(f) for f in cfg["twin"]["classes"]]
+    signals, twin_key = twin_signals(faults, rpms, bearing, simulator, effects, cache_dir)
+
+    length = cfg["window_length"]
+    sources = [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" for fault in faults for rpm in rpms]
+    labels = [FAULTS.index(fault) for fault in faults for _ in rpms]
+    cuts = [cut_windows(signal, length, cfg["twin"]["windows_per_record"]) for signal in signals]
+    cuts += [cut_windows(r.signal, length, cfg["test"]["windows_per_record"]) for r in tests]
+    labels += [r.label for r in tests]
+    sources += [str(r.source) for r in tests]
+    windows = np.concatenate([w for w, _ in cuts])
+    if cfg["normalize_windows"]:
+        windows = _normalized(windows)
+    record_ids = np.concatenate([np.full(len(w), i) for i, (w, _) in enumerate(cuts)])
+    n_twin = sum(len(w) for w, _ in cuts[:len(signals)])
+    index = np.arange(len(windows))
+    return WindowedDataset(
+        windows=windows,
+        labels=np.concatenate([np.full(len(w), label) for (w, _), label in zip(cuts, labels)]),
+        record_ids=record_ids,
+        starts=np.concatenate([s for _, s in cuts]),
+        records=sources,
+        fs=float(cfg["fs"]),
+        class_names=FAULTS,
+        key=_digest({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
+                     "config": {k: v for k, v in cfg.items() if k != "root"}}),
+        record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests],
+        fixed_split=(index[:n_twin], index[n_twin:]),
+    )
