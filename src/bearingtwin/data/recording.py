@@ -87,6 +87,8 @@ class WindowedDataset:
         key: a stable identifier of the dataset's content (used as a cache key and logged).
         fixed_split: (train_index, test_index) when the source decides the split itself (twin
             windows train, real windows test); None lets ``data.split`` decide.
+        record_rpms: shaft speed of each record in rev/min, for features on the shaft-order
+            axis; None when the source does not give it.
     """
 
     windows: np.ndarray
@@ -99,6 +101,7 @@ class WindowedDataset:
     key: str = ""
     record_lengths: list[int] = field(default_factory=list)
     fixed_split: tuple[np.ndarray, np.ndarray] | None = None
+    record_rpms: list[float] | None = None
 
     def __post_init__(self) -> None:
         n = len(self.windows)
@@ -108,6 +111,11 @@ class WindowedDataset:
 
     def __len__(self) -> int:
         return len(self.windows)
+
+    @property
+    def window_rpms(self) -> np.ndarray | None:
+        """(n_windows,) shaft speed in rev/min of each window's record, or None when unknown."""
+        return None if self.record_rpms is None else np.asarray(self.record_rpms, dtype=np.float64)[self.record_ids]
 
     def subset(self, index: np.ndarray) -> "WindowedDataset":
         """The windows at ``index`` (records and keys kept)."""
@@ -121,4 +129,5 @@ class WindowedDataset:
             class_names=self.class_names,
             key=self.key,
             record_lengths=self.record_lengths,
+            record_rpms=self.record_rpms,
         )

@@ -132,6 +132,33 @@ def calibration_step(report_path: str | Path, step: int) -> tuple[dict, dict]:
     return dict(chosen.get("base_params") or {}), dict(chosen.get("params") or {})
 
 
+def merged_calibration(calibration: Mapping) -> tuple[dict, dict]:
+    """Base parameters and effects of the twin that ``data.calibration`` describes.
+
+    The base parameters and the ranked effects up to ``step`` come from ``report`` (the
+    fault record); the first ``healthy.step`` effects found on the healthy record
+    (``healthy.report``) are added to every bearing state, after the fault record's ones:
+    they describe what the sensor sees besides the bearing (noise found on record 97) and
+    apply last, on the sensor path. ``healthy: null`` or ``healthy.step: 0`` adds nothing.
+    """
+    base_params, effects = calibration_step(calibration["report"], calibration["step"])
+    healthy = calibration.get("healthy")
+    if not healthy or not healthy.get("step"):
+        return base_params, effects
+    if healthy["record"] not in calibration["records"]:
+        raise BearingTwinError(f"data.calibration.healthy.record={healthy['record']}: not among data.calibration.records "
+                               f"({', '.join(calibration['records'])})")
+    name = parse_cwru_name(f"{healthy['record']}.mat")
+    if name is None or name.fault != "normal":
+        raise BearingTwinError(f"data.calibration.healthy.record={healthy['record']}: not a healthy (normal) record")
+    _, healthy_effects = calibration_step(healthy["report"], healthy["step"])
+    shared = sorted(set(effects) & set(healthy_effects))
+    if shared:
+        raise BearingTwinError(f"data.calibration.healthy: effect {shared[0]} was found on both calibration records; "
+                               "choose one (lower data.calibration.healthy.step or data.calibration.step)")
+    return base_params, {**effects, **healthy_effects}
+
+
 def operating_points_rpm(recordings: list[Recording]) -> list[float]:
     """The distinct measured speeds (rev/min, to 0.1) of the records, ascending."""
     return sorted({round(float(r.rpm), 1) for r in recordings})
@@ -204,7 +231,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
             raise BearingTwinError(f"data.{section}.windows_per_record must be a positive integer, "
                                    f"got {cfg[section]['windows_per_record']!r}")
     calibration_paths, test_paths = check_protocol(cfg)
-    base_params, effects = calibration_step(cfg["calibration"]["report"], cfg["calibration"]["step"])
+    base_params, effects = merged_calibration(cfg["calibration"])
 
     def measured(path: Path) -> Recording:
         return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
@@ -248,4 +275,5 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                      "config": {k: v for k, v in cfg.items() if k != "root"}}),
         record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests],
         fixed_split=(index[:n_twin], index[n_twin:]),
+        record_rpms=[float(rpm) for _ in faults for rpm in rpms] + [float(r.rpm) for r in tests],
     )

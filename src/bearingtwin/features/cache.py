@@ -22,7 +22,7 @@ import numpy as np
 
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.features.extractor import RawFeatures, build_feature_extractor
+from bearingtwin.features.extractor import EnvelopeOrderFeatures, RawFeatures, build_feature_extractor
 
 log = logging.getLogger(__name__)
 
@@ -75,7 +75,8 @@ def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_
         cache_dir: root of the cache (``paths.cache_dir``); files go to ``<cache_dir>/features/``.
 
     Returns:
-        features: (n_windows, 9) for SABO-VMD features; the windows themselves (not cached) for ``raw``.
+        features: (n_windows, 9) for SABO-VMD features; the windows themselves (not cached) for ``raw``;
+            envelope-order fractions (not cached, need ``dataset.record_rpms``) for ``envelope_orders``.
         table: the VMD parameters used (rows as in :attr:`SaboVmdFeatures.vmd_params_`).
     """
     extractor = build_feature_extractor(features_cfg)
@@ -84,6 +85,10 @@ def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_
         raise BearingTwinError(f"train_index must hold indices into the {len(dataset)} windows of {dataset.key or 'the dataset'}")
     if isinstance(extractor, RawFeatures):
         return extractor.fit(dataset.windows[train_index]).transform(dataset.windows), []
+    if isinstance(extractor, EnvelopeOrderFeatures):  # milliseconds per window: not worth a cache file
+        rpms = dataset.window_rpms
+        extractor.fit(dataset.windows[train_index], fs_hz=dataset.fs, rpm=None if rpms is None else rpms[train_index])
+        return extractor.transform(dataset.windows, fs_hz=dataset.fs, rpm=rpms), []
     path = cache_path(features_cfg, dataset, train_index, cache_dir)
     if path.exists():
         log.info("features: cache hit %s", path)

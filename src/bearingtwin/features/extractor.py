@@ -24,6 +24,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from tqdm.auto import tqdm
 
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.fitness import FITNESS, optimal_mode, resolve_fitness
 from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
 from bearingtwin.optim.search import OPTIMIZERS, search_vmd_params
@@ -235,10 +236,10 @@ class RawFeatures(TransformerMixin, BaseEstimator):
         return self.transform(X), []
 
 
-EXTRACTORS = {"sabo_vmd": SaboVmdFeatures, "raw": RawFeatures}
+EXTRACTORS = {"sabo_vmd": SaboVmdFeatures, "raw": RawFeatures, "envelope_orders": EnvelopeOrderFeatures}
 
 
-def build_feature_extractor(features_cfg) -> SaboVmdFeatures | RawFeatures:
+def build_feature_extractor(features_cfg) -> SaboVmdFeatures | RawFeatures | EnvelopeOrderFeatures:
     """The extractor a ``conf/features/*.yaml`` describes: ``kind`` picks the class, the other keys
     (except ``name``) are its parameters."""
     from omegaconf import DictConfig, OmegaConf
@@ -253,7 +254,7 @@ def build_feature_extractor(features_cfg) -> SaboVmdFeatures | RawFeatures:
     if unknown:
         raise BearingTwinError(f"features: unknown key(s) {sorted(unknown)} for kind {kind}")
     extractor = cls(**cfg)
-    if isinstance(extractor, SaboVmdFeatures):
+    if hasattr(extractor, "check_params"):
         extractor.check_params()
     return extractor
 

@@ -1,0 +1,86 @@
+"""Envelope-order features: physics (which band an impulse train lands in), invariances, config."""
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures, defect_orders
+from bearingtwin.features.extractor import build_feature_extractor
+from bearingtwin.physics.geometry import BearingGeometry
+
+FS_HZ = 12000.0
+N = 4096
+
+
+@pytest.fixture(scope="module")
+def bearing():
+    with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
+        cfg = compose("train", overrides=["bearing=cwru_6205", "features=envelope_orders"])
+    return dict(cfg.bearing)
+
+
+def ringing_impacts(rate_hz, rng, n=N, resonance_hz=3500.0, decay_s=1.5e-3, noise=0.05):
+    """Impacts at ``rate_hz`` (with the 1 % jitter of real rolling), each ringing a resonance, plus white noise."""
+    t = np.arange(n) / FS_HZ
+    times = np.cumsum(1.0 / rate_hz * (1.0 + 0.01 * rng.standard_normal(int(n / FS_HZ * rate_hz) + 2)))
+    x = np.zeros(n)
+    for t0 in times[times < t[-1]]:
+        after = t >= t0
+        x[after] += np.exp(-(t[after] - t0) / decay_s) * np.sin(2 * np.pi * resonance_hz * (t[after] - t0))
+    return x + noise * rng.standard_normal(n)
+
+
+def features_of(bearing, windows, rpm):
+    extractor = EnvelopeOrderFeatures(bearing=bearing)
+    return extractor.fit_transform(windows, fs_hz=FS_HZ, rpm=rpm), extractor.feature_names_
+
+
+@pytest.mark.parametrize("rate", ["bpfo", "bpfi", "bsf2"])
+def test_an_impulse_train_at_a_defect_rate_puts_most_power_in_its_band(bearing, rate):
+    rpm = 1750.0
+    rate_hz = defect_orders(BearingGeometry.from_config(bearing))[rate] * rpm / 60.0
+    rng = np.random.default_rng(1)
+    features, names = features_of(bearing, np.stack([ringing_impacts(rate_hz, rng) for _ in range(3)]), rpm)
+    fundamentals = [f"1x{r}" for r in ("bpfi", "bpfo", "bsf2", "ftf")]
+    columns = [names.index(name) for name in fundamentals]
+    assert [fundamentals[i] for i in features[:, columns].argmax(axis=1)] == [f"1x{rate}"] * 3
+    assert np.all(features >= 0) and np.all(features.sum(axis=1) <= 1 + 1e-12)
+
+
+def test_features_do_not_change_with_gain_and_are_seed_free(bearing):
+    rng = np.random.default_rng(2)
+    windows = np.stack([ringing_impacts(107.0, rng), rng.standard_normal(N)])
+    features, _ = features_of(bearing, windows, 1797.0)
+    scaled, _ = features_of(bearing, 37.5 * windows, 1797.0)
+    assert np.allclose(features, scaled, rtol=1e-9)
+    assert np.array_equal(features, features_of(bearing, windows, 1797.0)[0])
+
+
+def test_features_follow_the_shaft_speed_window_by_window(bearing):
+    """The same defect at two speeds gives the same order features when each window carries its rpm."""
+    bpfo = defect_orders(BearingGeometry.from_config(bearing))["bpfo"]
+    rng = np.random.default_rng(3)
+    slow, fast = 1500.0, 1800.0
+    windows = np.stack([ringing_impacts(bpfo * slow / 60.0, rng), ringing_impacts(bpfo * fast / 60.0, rng)])
+    right, names = features_of(bearing, windows, np.array([slow, fast]))
+    wrong, _ = features_of(bearing, windows, fast)  # the slow window read at the wrong speed
+    column = names.index("1xbpfo")
+    assert right[0, column] == pytest.approx(right[1, column], rel=0.5) and right[0, column] > 0.05
+    assert wrong[0, column] < 0.2 * right[0, column]
+
+
+def test_the_config_builds_the_extractor_and_bad_settings_name_their_field(bearing):
+    with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
+        cfg = compose("train", overrides=["bearing=cwru_6205", "features=envelope_orders"])
+    extractor = build_feature_extractor(cfg.features)
+    assert isinstance(extractor, EnvelopeOrderFeatures) and extractor.bearing["n_balls"] == 9
+    with pytest.raises(BearingTwinError, match=r"features\.band_nyquist"):
+        build_feature_extractor({**dict(cfg.features), "band_nyquist": [0.5, 0.2]})
+    with pytest.raises(BearingTwinError, match=r"features: unknown key\(s\) \['bandwidth'\]"):
+        build_feature_extractor({**dict(cfg.features), "bandwidth": 3})
+    with pytest.raises(BearingTwinError, match=r"rpm: .*shaft speed"):
+        EnvelopeOrderFeatures(bearing=bearing).fit(np.ones((2, 64)), fs_hz=FS_HZ, rpm=None)
+    with pytest.raises(BearingTwinError, match=r"rpm must be positive"):
+        EnvelopeOrderFeatures(bearing=bearing).fit(np.ones((2, 64)), fs_hz=FS_HZ, rpm=[1797.0, -1.0])

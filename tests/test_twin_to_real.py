@@ -1,0 +1,183 @@
+"""Train on the twin, test on real CWRU bearings: protocol, operating points, end to end, report.
+
+Reads the CWRU records in place (skipped when they are absent). The calibration report is
+a small ``twin_report.json`` in the format ``bearingtwin-twin`` writes (bare step + one
+``noise`` step), so the test does not depend on the committed study.
+"""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from mlflow import MlflowClient
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.data.build import build_dataset
+from bearingtwin.data.cwru import load_cwru
+from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol, merged_calibration
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import FAULTS
+from bearingtwin.tracking.reports import run_report
+from bearingtwin.twin.model import effect_defaults
+
+DATA = Path(CONF_DIR).parent.parent / "shared" / "data" / "cwru"
+pytestmark = pytest.mark.skipif(not (DATA / "normal_0_97.mat").is_file(), reason="CWRU records not present")
+
+CALIBRATION = {"normal_0_97", "12k_Drive_End_OR007@6_0_130"}
+SMALL = [
+    "data.twin.duration=0.5",
+    "data.twin.windows_per_record=2",
+    "data.test.windows_per_record=3",
+    "data.test.loads=[1]",
+    "features.progress=false",
+    "search.population=3",
+    "search.iterations=1",
+    "search.windows=2",
+    "data.calibration.healthy.step=0",
+]
+
+
+@pytest.fixture(scope="module")
+def report_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("calibration") / "twin_report.json"
+    steps = [{"effects": [], "params": {}, "base_params": {"simulator.defect.depth_mm": 0.01}},
+             {"effects": ["noise"], "params": {"noise": effect_defaults("noise")},
+              "base_params": {"simulator.defect.depth_mm": 0.005}}]
+    path.write_text(json.dumps({"steps": steps}))
+    return path
+
+
+def compose_train(overrides):
+    with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
+        return compose("train", overrides=["data=twin_to_real", "bearing=cwru_6205", *overrides])
+
+
+def test_twin_at_the_records_speeds_and_no_measured_window_in_training(report_path, tmp_path):
+    cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=1",
+                                 f"paths.cache_dir={tmp_path}"])
+    dataset = build_dataset(cfg)
+    train, test = dataset.fixed_split
+    tests = [p for p in dataset.records if not p.startswith(TWIN_PREFIX)]
+    assert sorted(Path(p).name for p in tests) == ["12k_Drive_End_B007_1_119.mat", "12k_Drive_End_IR007_1_106.mat",
+                                                  "12k_Drive_End_OR007@6_1_131.mat"]
+    # Speeds: each file's measured rpm (test and calibration records), every state at each.
+    files = [DATA / Path(p).name for p in tests] + [DATA / f"{stem}.mat" for stem in CALIBRATION]
+    rpms = sorted({round(load_cwru(f).rpm, 1) for f in files})
+    twin_records = [p for p in dataset.records if p.startswith(TWIN_PREFIX)]
+    assert twin_records == [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" for fault in FAULTS for rpm in rpms]
+    assert 1797 not in rpms and len(rpms) >= 3  # 1796 (0 hp) and the 1 hp speeds, not the nominal one
+    # Training windows come only from twin records, test windows only from the 1 hp files.
+    assert all(dataset.records[i].startswith(TWIN_PREFIX) for i in dataset.record_ids[train])
+    assert {Path(dataset.records[i]).name for i in dataset.record_ids[test]} == {Path(p).name for p in tests}
+    assert set(dataset.labels[test]) == {1, 2, 3} and set(dataset.labels[train]) == {0, 1, 2, 3}
+    assert len(train) == 4 * len(rpms) * 2 and len(test) == 3 * 3
+    # Per-window normalization makes twin (m/s^2) and CWRU (g) windows scale-free alike.
+    assert np.allclose(dataset.windows.std(axis=1), 1.0) and np.allclose(dataset.windows.mean(axis=1), 0.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("stem", ["12k_Drive_End_IR007_0_105", "12k_Drive_End_OR007@6_1_131"])
+def test_calibration_on_a_record_outside_the_protocol_is_refused(stem):
+    cfg = compose_train([f"data.calibration.records=[normal_0_97,'{stem}']"])
+    with pytest.raises(BearingTwinError, match=rf"data\.calibration\.records: {stem} is not a calibration record"):
+        check_protocol(dict(cfg.data))
+
+
+def test_testing_at_the_calibration_load_is_refused():
+    cfg = compose_train(["data.test.loads=[0,1]"])
+    with pytest.raises(BearingTwinError, match=r"data\.test\.loads: 0 hp is the calibration load"):
+        check_protocol(dict(cfg.data))
+
+
+def test_step_beyond_the_report_names_the_field(report_path, tmp_path):
+    cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=2",
+                                 f"paths.cache_dir={tmp_path}"])
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.step=2: twin_report\.json has steps 0\.\.1"):
+        build_dataset(cfg)
+
+
+def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    for step in (0, 1):
+        done = subprocess.run(
+            [sys.executable, "-m", "bearingtwin.cli.train", "classifier=svm", *SMALL,
+             f"data.calibration.report={report_path}", f"data.calibration.step={step}", "data=twin_to_real",
+             "bearing=cwru_6205", f"tracking.uri={uri}", f"paths.cache_dir={tmp_path}/cache",
+             f"hydra.run.dir={tmp_path}/run{step}"],
+            cwd=tmp_path, capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr[-3000:]
+    client = MlflowClient(uri)
+    runs = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
+    assert {r.info.status for r in runs} == {"FINISHED"} and {r.data.metrics["n_test"] for r in runs} == {9.0}
+
+    out = tmp_path / "sim2real.md"
+    report = run_report("sim2real", {"uri": uri, "out": str(out)})
+    rows = json.loads(out.with_suffix(".json").read_text())
+    assert [row["effects"] for row in rows] == [[], ["noise"]]
+    for row, run_step in zip(rows, (0, 1)):
+        assert {"effects", "accuracy_mean", "accuracy_std", "n_test_windows", "test_records"} <= set(row)
+        assert row["n_test_windows"] == 9 and 0.0 <= row["accuracy_mean"] <= 1.0 and row["accuracy_std"] == 0.0
+        assert "12k_Drive_End_OR007@6_1_131.mat" in row["test_records"] and len(row["test_records"]) == 3
+        assert np.sum(row["confusion"]) == 9
+        (run,) = [r for r in runs if r.data.params["data.calibration.step"] == str(run_step)]
+        assert row["accuracy_mean"] == pytest.approx(run.data.metrics["accuracy"])
+    assert "twin + noise" in report.markdown
+
+
+@pytest.fixture(scope="module")
+def healthy_report_path(tmp_path_factory):
+    """A healthy record's report in bearingtwin-twin's format: bare step + one noise step."""
+    path = tmp_path_factory.mktemp("healthy") / "twin_report.json"
+    steps = [{"effects": [], "params": {}, "base_params": {"simulator.defect.depth_mm": 0.02}},
+             {"effects": ["noise"], "params": {"noise": {"snr_db": -3.0, "spectral_slope": 1.0}},
+              "base_params": {"simulator.defect.depth_mm": 0.03}}]
+    path.write_text(json.dumps({"steps": steps}))
+    return path
+
+
+@pytest.fixture(scope="module")
+def slip_report_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("outer") / "twin_report.json"
+    steps = [{"effects": [], "params": {}, "base_params": {"simulator.defect.depth_mm": 0.01}},
+             {"effects": ["slip"], "params": {"slip": {"jitter": 0.01}}, "base_params": {"simulator.defect.depth_mm": 0.004}}]
+    path.write_text(json.dumps({"steps": steps}))
+    return path
+
+
+def test_the_healthy_records_noise_joins_every_twin_after_the_fault_records_effects(healthy_report_path,
+                                                                                    slip_report_path, tmp_path):
+    calibration = {"report": str(slip_report_path), "step": 1, "records": ["normal_0_97"],
+                   "healthy": {"record": "normal_0_97", "report": str(healthy_report_path), "step": 1}}
+    base, effects = merged_calibration(calibration)
+    # Base parameters are the fault record's (a defect depth fitted on a healthy record means nothing).
+    assert base == {"simulator.defect.depth_mm": 0.004}
+    assert list(effects) == ["slip", "noise"] and effects["noise"] == {"snr_db": -3.0, "spectral_slope": 1.0}
+    assert merged_calibration({**calibration, "healthy": {**calibration["healthy"], "step": 0}})[1] == {"slip": {"jitter": 0.01}}
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.healthy: effect noise was found on both"):
+        merged_calibration({**calibration, "report": str(healthy_report_path)})
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.healthy\.record=12k_Drive_End_OR007@6_0_130: not a healthy"):
+        merged_calibration({**calibration, "records": ["12k_Drive_End_OR007@6_0_130"],
+                            "healthy": {**calibration["healthy"], "record": "12k_Drive_End_OR007@6_0_130"}})
+
+    # In the dataset: windows carry their record's speed, and the -3 dB noise is in every twin state.
+    def dataset(healthy_step):
+        cfg = compose_train(SMALL + [f"data.calibration.report={slip_report_path}", "data.calibration.step=1",
+                                     f"data.calibration.healthy.report={healthy_report_path}",
+                                     f"data.calibration.healthy.step={healthy_step}", "data.normalize_windows=false",
+                                     f"paths.cache_dir={tmp_path}"])
+        return build_dataset(cfg)
+
+    quiet, noisy = dataset(0), dataset(1)
+    for part in (quiet, noisy):
+        expected = [float(r.split("@")[1].removesuffix("rpm")) if r.startswith(TWIN_PREFIX) else load_cwru(r).rpm
+                    for r in part.records]
+        assert np.allclose(part.window_rpms, np.asarray(expected)[part.record_ids])
+    train = quiet.fixed_split[0]
+    for label in range(len(FAULTS)):
+        rows = train[quiet.labels[train] == label]
+        # Noise 3 dB above the bearing signal: each twin window's power grows about threefold.
+        ratio = np.mean(noisy.windows[rows] ** 2) / np.mean(quiet.windows[rows] ** 2)
+        assert 2.0 < ratio < 4.5, (FAULTS[label], ratio)
