@@ -68,6 +68,26 @@ def test_seeds_and_vmd_params_reports(uri, tmp_path):
     assert scopes.returncode == 0 and "| global |" in scopes.stdout
 
 
+def test_a_later_run_with_other_vmd_params_does_not_displace_the_tables_runs(uri, tmp_path):
+    (proposed,) = finished(uri, paper.PROPOSED)
+    (raw,) = finished(uri, "raw+cnn_bilstm")
+    copy = f"sqlite:///{tmp_path}/copy.db"
+    shutil.copy(uri.removeprefix("sqlite:///"), tmp_path / "copy.db")
+    client = MlflowClient(copy)
+    tags = {"bt.kind": "train", "method": paper.PROPOSED, "seed": proposed.data.tags["seed"]}
+    later = client.create_run(proposed.info.experiment_id, tags=tags).info.run_id  # newer than every smoke run
+    client.log_param(later, "features.vmd_params", "per_class")
+    client.log_param(later, "data.source", proposed.data.params["data.source"])
+    client.log_metric(later, "accuracy", 0.25)
+    client.set_terminated(later, "FINISHED")
+    honest = report("table4", f"uri={copy}", f"out={tmp_path}/global.md")
+    leaky = report("table4", f"uri={copy}", "vmd_params=per_class", f"out={tmp_path}/per_class.md")
+    assert honest.returncode == 0 and leaky.returncode == 0, honest.stderr + leaky.stderr
+    assert f"| {100 * proposed.data.metrics['accuracy']:.2f} ± 0.00 | 1 |" in honest.stdout and "vmd_params=global" in honest.stdout
+    assert f"| {paper.PROPOSED} | 25.00 ± 0.00 | 1 |" in leaky.stdout
+    assert f"| {100 * raw.data.metrics['accuracy']:.2f} ± 0.00 | 1 |" in leaky.stdout  # raw features have no VMD parameters
+
+
 def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path):
     (run,) = finished(uri, "sabo_vmd_pemie+svm")
     same = report("repeat", f"uri={uri}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat.md")

@@ -9,6 +9,9 @@ simulates and measures together selects the matching group itself (``bearing=cwr
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Iterable
+
 from omegaconf import DictConfig
 
 from bearingtwin.data.recording import WindowedDataset
@@ -33,7 +36,13 @@ def _hust(cfg: DictConfig) -> WindowedDataset:
     return build_hust_dataset(cfg.data)
 
 
-SOURCES = {"simulated": _simulated, "cwru": _cwru, "hust": _hust}
+def _twin_to_real(cfg: DictConfig) -> WindowedDataset:
+    from bearingtwin.data.twin_to_real import build_twin_to_real_dataset
+
+    return build_twin_to_real_dataset(cfg.data, cfg.bearing, cfg.simulator, cfg.effects, cfg.paths.cache_dir)
+
+
+SOURCES = {"simulated": _simulated, "cwru": _cwru, "hust": _hust, "twin_to_real": _twin_to_real}
 
 
 def build_dataset(cfg: DictConfig) -> WindowedDataset:
@@ -44,3 +53,38 @@ def build_dataset(cfg: DictConfig) -> WindowedDataset:
         raise BearingTwinError(f"data.source={source!r} is not a data source; choose one of {', '.join(SOURCES)}")
     return SOURCES[source](cfg)
 
+
+
+def _hust_files(cfg: DictConfig) -> list[Path]:
+    from bearingtwin.data.real import hust_paths
+
+    return list(hust_paths(cfg.data).values())
+
+
+# Sources whose files are known from the config alone; the others find their files when
+# they load them (CWRU) or make them (simulated).
+REQUIRED_FILES = {"hust": _hust_files}
+
+
+def require_files(cfgs: Iterable[DictConfig]) -> None:
+    """Raise naming every file the composed configs (one per job) need that is absent.
+
+    Runs before any job so that a sweep on data that is not there stops at once, saying
+    what to fetch and where to put it, instead of logging one failed run per job.
+    """
+    needed: dict[Path, str] = {}
+    for cfg in cfgs:
+        source = cfg.data.get("source")
+        for path in REQUIRED_FILES.get(source, lambda _: [])(cfg):
+            needed.setdefault(path, source)
+    missing = [path for path in needed if not path.is_file()]
+    if not missing:
+        return
+    folders = ", ".join(sorted({str(path.parent) for path in missing}))
+    sources = "/".join(sorted({needed[path].upper() for path in missing}))
+    found = [path.name for path in needed if path not in missing]
+    raise BearingTwinError(
+        f"{sources} data files missing from {folders}: {', '.join(path.name for path in missing)}"
+        + (f" (found: {', '.join(found)})" if found else "")
+        + ". Put all of them in one folder and pass data.root=<that folder>"
+    )

@@ -63,17 +63,15 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
     """Windows of the HUST files of ``data.classes`` at ``data.condition`` (the paper's Table 5 set)."""
     cfg = _as_dict(data_cfg)
     _check_split(cfg)
-    root = Path(_get(cfg, "root"))
-    stems = _get(cfg, "classes")
-    faults = _classes(list(stems), allowed=FAULTS)
-    names = [hust_file_name(stems[fault], _get(cfg, "condition")) for fault in faults]
-    missing = [name for name in names if not (root / name).is_file()]
+    files = hust_paths(cfg)
+    faults, paths = list(files), list(files.values())
+    root, names = Path(_get(cfg, "root")), [path.name for path in paths]
+    missing = [path.name for path in paths if not path.is_file()]
     if missing:
         raise BearingTwinError(
             f"HUST files missing in {root}: {', '.join(missing)}. This data set needs {', '.join(names)} "
             f"(from the HUST bearing data set); put them in one folder and pass data.root=<dir>"
         )
-    paths = [root / name for name in names]
     recordings = [load_hust(path, channel=_get(cfg, "channel"), fs=_get(cfg, "fs")) for path in paths]
     for fault, recording in zip(faults, recordings):
         if recording.fault != fault:
@@ -83,6 +81,14 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
     return windows_from_recordings(
         recordings, int(_get(cfg, "window_length")), int(_get(cfg, "samples_per_class")), dataset_key(paths, cfg)
     )
+
+
+def hust_paths(data_cfg) -> dict[str, Path]:
+    """The file each class of a HUST data config reads (FAULTS order), known without reading any,
+    so that a sweep can check them all before it starts."""
+    cfg = _as_dict(data_cfg)
+    root, stems = Path(_get(cfg, "root")), _get(cfg, "classes")
+    return {fault: root / hust_file_name(stems[fault], _get(cfg, "condition")) for fault in _classes(list(stems), allowed=FAULTS)}
 
 
 def windows_from_recordings(

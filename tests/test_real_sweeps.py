@@ -1,0 +1,212 @@
+"""The HUST and CWRU sweeps and their reports.
+
+A HUST sweep on absent files must stop before MLflow sees anything; a smoke-size HUST sweep
+on the fixture files (65 Hz committed, 60 / 70 Hz written here by the fixture generator)
+runs end to end into a fresh store and ``bearingtwin-report hust`` reads it back. The CWRU
+report's arithmetic (mean +- std over seeds, random - block, per-class recall of the classes
+present, confusions) is checked on runs logged with known numbers.
+"""
+
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from mlflow import MlflowClient
+from omegaconf import OmegaConf
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "fixtures"))
+
+import make_hust_fixtures  # noqa: E402
+
+from bearingtwin.cli.report import main as report_main  # noqa: E402
+from bearingtwin.config import CONF_DIR  # noqa: E402
+from bearingtwin.data.build import require_files  # noqa: E402
+from bearingtwin.errors import BearingTwinError  # noqa: E402
+from bearingtwin.physics.geometry import FAULTS  # noqa: E402
+from bearingtwin.tracking import paper  # noqa: E402
+from bearingtwin.tracking.mlflow_logging import open_store  # noqa: E402
+from bearingtwin.tracking.tables import csv_table  # noqa: E402
+
+FIXTURES = Path(__file__).resolve().parent / "fixtures" / "hust"
+HUST_STEMS = ("H", "0.5X_I", "0.5X_B", "0.5X_O")
+# Every stage real, sized for a test: the fixture files hold 1280 rows, so windows are 256 samples.
+SMOKE = [
+    "seed=0",
+    "data.samples_per_class=8",
+    "data.window_length=256",
+    "search.population=3",
+    "search.iterations=1",
+    "search.windows=2",
+    "trainer.max_epochs=2",
+    "features.progress=false",
+]
+
+
+def train_sweep(base: Path, *args: str) -> subprocess.CompletedProcess:
+    command = [
+        sys.executable, "-m", "bearingtwin.cli.train", "-m", "+sweep=hust", *args,
+        f"tracking.uri=sqlite:///{base}/mlflow.db", f"paths.cache_dir={base}/cache", f"hydra.sweep.dir={base}/multirun",
+    ]
+    return subprocess.run(command, cwd=base, capture_output=True, text=True, timeout=900)
+
+
+def stored_runs(uri: str) -> list:
+    client = MlflowClient(uri)
+    return [run for experiment in client.search_experiments() for run in client.search_runs([experiment.experiment_id])]
+
+
+def test_the_sweeps_compose_the_papers_conditions():
+    with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
+        hust = compose("train", overrides=["+sweep=hust"], return_hydra_config=True)
+        cwru = compose("train", overrides=["+sweep=cwru"], return_hydra_config=True)
+        at = {hp: compose("train", overrides=["+sweep=cwru", f"+cwru_condition={hp}hp"]).data for hp in range(4)}
+    assert hust.data.source == "hust" and hust.hydra.sweeper.params["data.condition"] == "60,65,70"
+    assert hust.hydra.callbacks.mlflow_sweep._target_ == "bearingtwin.cli.train.DataCheckedSweepParentRun"
+    assert cwru.data.source == "cwru" and cwru.hydra.sweeper.params["data.split"] == "random,block"
+    assert [(at[hp].load, list(at[hp].classes)) for hp in range(4)] == [
+        (0, ["normal", "inner", "ball", "outer"]), *((hp, ["inner", "ball", "outer"]) for hp in (1, 2, 3))
+    ]
+
+
+def test_require_files_names_only_the_absent_files_and_data_root(tmp_path):
+    def hust(condition):
+        return OmegaConf.create({"data": {"source": "hust", "root": str(FIXTURES), "condition": condition,
+                                          "classes": dict(zip(FAULTS, HUST_STEMS))}})
+
+    require_files([hust(65)])  # the committed fixtures: nothing missing
+    with pytest.raises(BearingTwinError) as error:
+        require_files([hust(condition) for condition in (60, 65, 70)])
+    message = str(error.value)
+    missing = message.split(":", 1)[1].split("(found")[0]
+    assert sorted(re.findall(r"[\w.]+\.xls", missing)) == sorted(f"{s}_{hz}Hz.xls" for s in HUST_STEMS for hz in (60, 70))
+    assert str(FIXTURES) in message and "data.root=" in message
+
+
+def test_hust_sweep_on_absent_files_exits_2_and_logs_nothing(tmp_path):
+    present = tmp_path / "hust"
+    present.mkdir()
+    for path in FIXTURES.glob("*_65Hz.xls"):
+        shutil.copy(path, present)
+    done = train_sweep(tmp_path, f"data.root={present}", *SMOKE)
+    assert done.returncode == 2, done.stderr[-2000:]
+    error = done.stderr.strip().splitlines()[-1]
+    for stem in HUST_STEMS:
+        assert f"{stem}_60Hz.xls" in error and f"{stem}_70Hz.xls" in error
+    assert "data.root=" in error and str(present) in error
+    assert not (tmp_path / "mlflow.db").exists() or stored_runs(f"sqlite:///{tmp_path}/mlflow.db") == []
+
+
+@pytest.fixture(scope="module")
+def hust_store(tmp_path_factory):
+    base = tmp_path_factory.mktemp("hust_sweep")
+    root = base / "hust"
+    root.mkdir()
+    for path in FIXTURES.glob("*_65Hz.xls"):
+        shutil.copy(path, root)
+    for hz in (60, 70):
+        make_hust_fixtures.write_class_files(root, hz)
+    done = train_sweep(base, f"data.root={root}", *SMOKE)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return f"sqlite:///{base}/mlflow.db", base
+
+
+def test_hust_sweep_trains_every_condition_and_split_on_its_own_files(hust_store):
+    uri, _ = hust_store
+    runs = [run for run in stored_runs(uri) if run.data.tags.get("bt.kind") == "train"]
+    assert all(run.info.status == "FINISHED" for run in runs)
+    cells = sorted((run.data.params["data.condition"], run.data.params["data.split"]) for run in runs)
+    assert cells == [(hz, split) for hz in ("60", "65", "70") for split in ("block", "random")]
+    # Each speed reads its own four files, so the datasets differ.
+    assert len({run.data.tags["dataset_key"] for run in runs}) == 3
+    sweep = [run for run in stored_runs(uri) if run.data.tags.get("bt.kind") == "sweep"]
+    assert len(sweep) == 1 and sweep[0].info.status == "FINISHED" and sweep[0].data.tags["n_finished"] == "6"
+
+
+def table_rows(markdown: str, first_cell: str) -> list[list[str]]:
+    rows = [[cell.strip() for cell in line.strip("|").split("|")] for line in markdown.splitlines() if line.startswith("|")]
+    return [row for row in rows if row[0].startswith(first_cell)]
+
+
+def test_hust_report_sets_the_papers_figure_beside_each_speed(hust_store, capsys):
+    uri, base = hust_store
+    out = base / "hust.md"
+    assert report_main(["hust", f"uri={uri}", f"out={out}"]) == 0
+    markdown = out.read_text()
+    assert markdown in capsys.readouterr().out
+    runs = {(r.data.params["data.condition"], r.data.params["data.split"]): r
+            for r in stored_runs(uri) if r.data.tags.get("bt.kind") == "train"}
+    rows = table_rows(markdown, "")
+    for hz, published in paper.HUST.items():
+        for split in ("random", "block"):
+            row = next(r for r in rows if r[0] == f"{hz} Hz" and r[1] == split)
+            ours = 100 * runs[(str(hz), split)].data.metrics["accuracy"]
+            assert row[3] == f"{ours:.2f} ± 0.00" and row[4] == "1"
+            assert row[7] == f"{published:.2f}" and row[8] == f"{ours - published:+.2f}"
+        leak = next(r for r in rows if r[0] == f"{hz} Hz" and len(r) == 5)
+        gap = 100 * (runs[(str(hz), "random")].data.metrics["accuracy"] - runs[(str(hz), "block")].data.metrics["accuracy"])
+        assert leak[4] == f"{gap:+.2f}"
+    reports = [r for r in stored_runs(uri) if r.data.tags.get("bt.kind") == "report"]
+    assert [r.data.tags["report"] for r in reports] == ["hust"]
+    # condition= keeps one speed.
+    assert report_main(["hust", f"uri={uri}", f"out={base / 'hust65.md'}", "condition=65"]) == 0
+    assert {row[0] for row in table_rows((base / "hust65.md").read_text(), "")} & {"60 Hz", "70 Hz"} == set()
+
+
+def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion):
+    """A FINISHED cwru training run carrying what train_tracked logs that the report reads."""
+    confusion = np.asarray(confusion)
+    labels = [FAULTS.index(name) for name in classes]
+    full = np.zeros((4, 4), dtype=int)
+    full[np.ix_(labels, labels)] = confusion
+    run = client.create_run(experiment_id, tags={"bt.kind": "train", "method": paper.PROPOSED, "seed": str(seed)})
+    run_id = run.info.run_id
+    for key, value in {"data.source": "cwru", "data.load": str(load), "data.split": split, "data.classes": str(list(classes))}.items():
+        client.log_param(run_id, key, value)
+    client.log_metric(run_id, "accuracy", np.trace(full) / full.sum())
+    for index, name in enumerate(FAULTS):
+        client.log_metric(run_id, f"recall_{name}", full[index, index] / full[index].sum() if full[index].sum() else 0.0)
+    client.log_text(run_id, csv_table(["true \\ predicted", *FAULTS], [[n, *row] for n, row in zip(FAULTS, full)]), "confusion_matrix.csv")
+    client.set_terminated(run_id, "FINISHED")
+
+
+def test_cwru_report_measures_leakage_as_random_minus_block(tmp_path, capsys):
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    client, experiment_id = open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin", "artifact_root": None}))
+    four, three = list(FAULTS), ["inner", "ball", "outer"]
+    perfect4, perfect3 = np.eye(4, dtype=int) * 10, np.eye(3, dtype=int) * 10
+    ball_as_outer = perfect3.copy()
+    ball_as_outer[1] = [0, 6, 4]  # ball recall 60 %
+    log_cwru_run(client, experiment_id, 0, four, "random", 0, perfect4)
+    log_cwru_run(client, experiment_id, 0, four, "random", 1, perfect4)
+    log_cwru_run(client, experiment_id, 2, three, "random", 0, perfect3)
+    log_cwru_run(client, experiment_id, 2, three, "block", 0, ball_as_outer)
+    log_cwru_run(client, experiment_id, 2, three, "block", 1, perfect3)
+    out = tmp_path / "cwru.md"
+    assert report_main(["cwru", f"uri={uri}", f"out={out}"]) == 0
+    markdown = out.read_text()
+    assert "no published figure" in markdown and "paper %" not in markdown
+    rows = table_rows(markdown, "")
+    zero = next(r for r in rows if r[:2] == ["0 hp", "random"])
+    assert zero[3:5] == ["100.00 ± 0.00", "2"] and zero[6] == "none"
+    assert all(name in zero[5] for name in FAULTS)
+    block = next(r for r in rows if r[:2] == ["2 hp", "block"])
+    block_accuracies = np.array([26 / 30, 1.0]) * 100
+    assert block[3] == f"{block_accuracies.mean():.2f} ± {block_accuracies.std():.2f}"
+    assert "normal" not in block[5] and "ball 80.0 ± 20.0" in block[5]  # no healthy record at 2 hp
+    assert block[6] == "ball→outer 4"
+    leak = next(r for r in rows if r[0] == "2 hp" and len(r) == 5)
+    assert leak[4] == f"{100 - block_accuracies.mean():+.2f}"
+    assert not any(r[0] == "0 hp" and len(r) == 5 for r in rows)  # 0 hp has no block runs
+    assert markdown in capsys.readouterr().out
+
+
+def test_reports_without_runs_say_what_is_missing(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        report_main(["hust", f"uri=sqlite:///{tmp_path}/empty.db", f"out={tmp_path}/x.md"])
+    assert exit_.value.code == 2
+    assert "data.source=hust" in capsys.readouterr().err
