@@ -39,6 +39,7 @@ import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 from hydra.experimental.callback import Callback
@@ -47,7 +48,8 @@ from mlflow.entities import Metric, Param, RunStatus, RunTag
 from mlflow.exceptions import MlflowException
 from omegaconf import DictConfig, OmegaConf
 
-from bearingtwin.config import REPO_ROOT
+from bearingtwin.config import REPO_ROOT, exit_on_user_error
+from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
@@ -360,14 +362,32 @@ def stored_config(client: MlflowClient, run_id: str) -> DictConfig:
 # ---------------------------------------------------------------- sweeps
 
 
+def sweep_job_configs(config: DictConfig) -> Iterator[DictConfig]:
+    """Every job's composed config, expanded and composed as Hydra's basic sweeper does."""
+    from hydra._internal.core_plugins.basic_sweeper import BasicSweeper  # its job expansion, reused as is
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    params = [f"{key}={value}" for key, value in (config.hydra.sweeper.get("params") or {}).items()]
+    overrides = OverridesParser.create().parse_overrides(params + list(config.hydra.overrides.task))
+    loader = GlobalHydra.instance().config_loader()
+    for batch in BasicSweeper.split_arguments(overrides, None):
+        for job in batch:
+            yield loader.load_sweep_config(config, list(job))
+
+
 class SweepParentRun(Callback):
     """Hydra callback: one parent MLflow run per multirun, closed with the children's outcome.
 
-    Created before any job starts (so parallel jobs also find an initialised store);
-    ends FINISHED when every child run finished, FAILED otherwise, with counts as tags.
+    Created before any job starts (so parallel jobs also find an initialised store), and
+    only once every job's data files are present: a sweep on absent files exits with
+    status 2 naming them (exiting, not raising: Hydra turns a callback's exception into a
+    warning and goes on) and logs nothing. Ends FINISHED when every child run finished,
+    FAILED otherwise, with counts as tags.
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        exit_on_user_error(require_files)(sweep_job_configs(config))
         client, experiment_id = open_store(config.tracking)
         name = str(config.hydra.runtime.choices.get("sweep") or "cli")
         sweep_dir = str(Path(config.hydra.sweep.dir).resolve())
