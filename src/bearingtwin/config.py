@@ -7,7 +7,8 @@ import sys
 from pathlib import Path
 from typing import Callable
 
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin.errors import BearingTwinError
 
@@ -34,3 +35,14 @@ def exit_on_user_error(task: Callable) -> Callable:
             sys.exit(2)
 
     return wrapped
+
+
+def plain_config(cfg, name: str = "config") -> dict:
+    """A config node (or mapping) as a plain, resolved dict; a missing value (``???``) is an
+    error naming ``name``, so a half-filled config never reaches a computation or a cache key."""
+    if isinstance(cfg, DictConfig):
+        try:
+            return OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
+        except OmegaConfBaseException as error:
+            raise BearingTwinError(f"{name}: {error}") from None
+    return dict(cfg or {})

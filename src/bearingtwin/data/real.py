@@ -15,9 +15,8 @@ import json
 from pathlib import Path
 
 import numpy as np
-from omegaconf import DictConfig, OmegaConf
-from omegaconf.errors import OmegaConfBaseException
 
+from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
@@ -34,7 +33,7 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
 
     ``data_root`` is the folder holding the .mat files (default: ``data.root``).
     """
-    cfg = _as_dict(data_cfg)
+    cfg = plain_config(data_cfg, "data config")
     _check_split(cfg)
     root = Path(data_root if data_root is not None else _get(cfg, "root"))
     load = _get(cfg, "load")
@@ -61,7 +60,7 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
 
 def build_hust_dataset(data_cfg) -> WindowedDataset:
     """Windows of the HUST files of ``data.classes`` at ``data.condition`` (the paper's Table 5 set)."""
-    cfg = _as_dict(data_cfg)
+    cfg = plain_config(data_cfg, "data config")
     _check_split(cfg)
     files = hust_paths(cfg)
     faults, paths = list(files), list(files.values())
@@ -86,7 +85,7 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
 def hust_paths(data_cfg) -> dict[str, Path]:
     """The file each class of a HUST data config reads (FAULTS order), known without reading any,
     so that a sweep can check them all before it starts."""
-    cfg = _as_dict(data_cfg)
+    cfg = plain_config(data_cfg, "data config")
     root, stems = Path(_get(cfg, "root")), _get(cfg, "classes")
     return {fault: root / hust_file_name(stems[fault], _get(cfg, "condition")) for fault in _classes(list(stems), allowed=FAULTS)}
 
@@ -174,10 +173,3 @@ def _get(cfg: dict, name: str):
     return cfg[name]
 
 
-def _as_dict(data_cfg) -> dict:
-    if isinstance(data_cfg, DictConfig):
-        try:
-            return OmegaConf.to_container(data_cfg, resolve=True, throw_on_missing=True)
-        except OmegaConfBaseException as error:
-            raise BearingTwinError(f"data config: {error}") from None
-    return dict(data_cfg)

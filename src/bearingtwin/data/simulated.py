@@ -14,22 +14,18 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
-from omegaconf import DictConfig, OmegaConf
 
+from bearingtwin.config import plain_config
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.physics.simulator import simulate_many
-
-
-def _plain(cfg) -> dict:
-    return OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else dict(cfg or {})
+from bearingtwin.storage import save_npz_atomic
 
 
 def _digest(content) -> str:
@@ -38,7 +34,7 @@ def _digest(content) -> str:
 
 def simulation_config(data_cfg: Mapping, simulator_cfg: Mapping) -> dict:
     """The simulator config with the dataset's operating point (rpm, fs, duration) applied."""
-    simulator = _plain(simulator_cfg)
+    simulator = plain_config(simulator_cfg)
     for name in ("rpm", "fs", "duration"):
         simulator[name] = data_cfg[name]
     return simulator
@@ -46,8 +42,8 @@ def simulation_config(data_cfg: Mapping, simulator_cfg: Mapping) -> dict:
 
 def records_key(data_cfg: Mapping, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg: Mapping | None) -> str:
     """Hash of everything that determines the simulated records."""
-    return _digest({"bearing": _plain(bearing_cfg), "simulator": simulation_config(data_cfg, simulator_cfg),
-                    "effects": _plain(effects_cfg), "faults": FAULTS})
+    return _digest({"bearing": plain_config(bearing_cfg), "simulator": simulation_config(data_cfg, simulator_cfg),
+                    "effects": plain_config(effects_cfg), "faults": FAULTS})
 
 
 def _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> tuple[np.ndarray, str]:
@@ -60,15 +56,7 @@ def _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_
     results = simulate_many(FAULTS, bearing_cfg, simulation_config(data_cfg, simulator_cfg), effects_cfg,
                             n_jobs=int(data_cfg.get("n_jobs", 1)))
     signals = np.stack([recording.signal for recording, _ in results])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
-    try:
-        with os.fdopen(handle, "wb") as file:
-            np.savez(file, signals=signals)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    save_npz_atomic(path, signals=signals)
     return signals, key
 
 
@@ -79,7 +67,7 @@ def build_simulated_dataset(data_cfg: Mapping, bearing_cfg: Mapping, simulator_c
     ``data.rpm``, ``data.fs`` and ``data.duration`` replace the simulator's values; the
     windows are spread evenly over each record by :func:`~bearingtwin.data.windows.cut_windows`.
     """
-    data_cfg = _plain(data_cfg)
+    data_cfg = plain_config(data_cfg)
     if data_cfg.get("source", "simulated") != "simulated":
         raise BearingTwinError(f"data.source={data_cfg['source']!r}: build_simulated_dataset needs 'simulated'")
     for name in ("samples_per_class", "window_length"):

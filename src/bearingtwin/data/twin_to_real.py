@@ -22,32 +22,24 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
-from omegaconf import DictConfig, OmegaConf
-from omegaconf.errors import OmegaConfBaseException
+from omegaconf import OmegaConf
 
+from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, check_fault
 from bearingtwin.physics.simulator import simulate
+from bearingtwin.storage import save_npz_atomic
 
 TWIN_PREFIX = "twin:"
 """Records whose source starts with this are simulated; every other record is a measurement file."""
 
-
-def _plain(cfg) -> dict:
-    if isinstance(cfg, DictConfig):
-        try:
-            return OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
-        except OmegaConfBaseException as error:
-            raise BearingTwinError(f"data config: {error}") from None
-    return dict(cfg or {})
 
 
 def _digest(content) -> str:
@@ -185,15 +177,7 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
             recording, _ = simulate(fault, bearing_cfg, {**simulator_cfg, "rpm": float(rpm), "seed": seed}, effects)
             signals.append(recording.signal)
     signals = np.stack(signals)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
-    try:
-        with os.fdopen(handle, "wb") as file:
-            np.savez(file, signals=signals)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    save_npz_atomic(path, signals=signals)
     return signals, key
 
 
@@ -214,13 +198,13 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         effects_cfg: must be empty: the effects come from the calibration report's step.
         cache_dir: twin records are cached under ``<cache_dir>/twin_to_real/``.
     """
-    cfg, bearing, simulator = _plain(data_cfg), _plain(bearing_cfg), _plain(simulator_cfg)
+    cfg, bearing, simulator = plain_config(data_cfg), plain_config(bearing_cfg), plain_config(simulator_cfg)
     if cfg.get("source") != "twin_to_real":
         raise BearingTwinError(f"data.source={cfg.get('source')!r}: build_twin_to_real_dataset needs 'twin_to_real'")
     if bearing.get("name") != cfg["bearing"]:
         raise BearingTwinError(f"data=twin_to_real simulates the {cfg['bearing']} bearing of the records: add "
                                f"bearing={cfg['bearing']} (got bearing.name={bearing.get('name')!r})")
-    if _plain(effects_cfg):
+    if plain_config(effects_cfg):
         raise BearingTwinError("effects: data=twin_to_real takes its effects from the calibration report "
                                "(data.calibration.step); leave effects= empty")
     for name in ("window_length",):

@@ -14,14 +14,13 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.storage import save_npz_atomic
 from bearingtwin.features.extractor import EnvelopeOrderFeatures, RawFeatures, build_feature_extractor
 
 log = logging.getLogger(__name__)
@@ -97,13 +96,5 @@ def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_
     log.info("features: extracting %d windows into %s", len(dataset), path)
     extractor.fit(dataset.windows[train_index], dataset.labels[train_index])
     features, table = extractor.extract(dataset.windows, dataset.labels)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, features=features, table=np.array(json.dumps(table)))
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    save_npz_atomic(path, features=features, table=np.array(json.dumps(table)))
     return features, table

@@ -16,9 +16,9 @@ from typing import Mapping, Sequence
 
 import joblib
 import numpy as np
-from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
+from bearingtwin.config import plain_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics import solvers
@@ -31,10 +31,6 @@ from bearingtwin.physics.solvers import fast, reference
 
 CHANNELS = ("inner_x", "inner_y", "outer_x", "outer_y")
 """Rows of the (4, n) acceleration array, and the values ``simulator.sensor`` accepts."""
-
-
-def _plain(cfg) -> dict:
-    return OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else dict(cfg or {})
 
 
 def _check_settings(simulator_cfg: Mapping) -> None:
@@ -58,7 +54,7 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
         channels: (4, n) accelerations in m/s^2 of the races, rows in :data:`CHANNELS` order.
     """
     check_fault(fault)
-    bearing_cfg, simulator_cfg = _plain(bearing_cfg), _plain(simulator_cfg)
+    bearing_cfg, simulator_cfg = plain_config(bearing_cfg), plain_config(simulator_cfg)
     _check_settings(simulator_cfg)
     rpm, fs = float(simulator_cfg["rpm"]), float(simulator_cfg["fs"])
     geometry = BearingGeometry.from_config(bearing_cfg)
@@ -118,7 +114,7 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
 def simulate_many(faults: Sequence[str], bearing_cfg: Mapping, simulator_cfg: Mapping,
                   effects_cfg: Mapping | None = None, n_jobs: int = 1) -> list[tuple[Recording, np.ndarray]]:
     """:func:`simulate` for several bearing states, in parallel processes when ``n_jobs`` > 1."""
-    bearing_cfg, simulator_cfg, effects_cfg = _plain(bearing_cfg), _plain(simulator_cfg), _plain(effects_cfg)
+    bearing_cfg, simulator_cfg, effects_cfg = plain_config(bearing_cfg), plain_config(simulator_cfg), plain_config(effects_cfg)
     for fault in faults:
         check_fault(fault)
     return joblib.Parallel(n_jobs=n_jobs)(
