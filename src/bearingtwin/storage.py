@@ -1,7 +1,9 @@
-"""Writing cache files that parallel sweep jobs share."""
+"""Cache files that parallel sweep jobs share: their keys and their atomic writes."""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import tempfile
 from pathlib import Path
@@ -26,3 +28,12 @@ def save_npz_atomic(path: str | Path, **arrays: np.ndarray) -> None:
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
+
+
+def content_key(content, length: int = 16) -> str:
+    """A stable hex key for JSON-able ``content`` (dict order ignored; non-JSON values by ``str``).
+
+    Equal configurations give equal keys in every process and session, which is what lets a
+    sweep's jobs find one another's cached simulations and features.
+    """
+    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:length]

@@ -10,13 +10,12 @@ The split is not made here: ``data.windows.split_indices`` takes the dataset's `
 
 from __future__ import annotations
 
-import hashlib
-import json
 from pathlib import Path
 
 import numpy as np
 
 from bearingtwin.config import plain_config
+from bearingtwin.storage import content_key
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
@@ -129,7 +128,7 @@ def dataset_key(paths: list[Path], cfg: dict) -> str:
         "files": [(Path(path).name, Path(path).stat().st_size) for path in paths],
         "config": {name: value for name, value in cfg.items() if name not in KEY_IGNORES},
     }
-    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:16]
+    return content_key(content)
 
 
 def _find_cwru_file(root: Path, stems: dict, fault: str, load: int) -> Path:

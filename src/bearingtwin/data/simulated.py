@@ -11,8 +11,6 @@ parallel sweep jobs either find a complete file or none.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 from pathlib import Path
 from typing import Mapping
@@ -25,11 +23,9 @@ from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.physics.simulator import simulate_many
-from bearingtwin.storage import save_npz_atomic
+from bearingtwin.storage import content_key, save_npz_atomic
 
 
-def _digest(content) -> str:
-    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
 def simulation_config(data_cfg: Mapping, simulator_cfg: Mapping) -> dict:
@@ -42,7 +38,7 @@ def simulation_config(data_cfg: Mapping, simulator_cfg: Mapping) -> dict:
 
 def records_key(data_cfg: Mapping, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg: Mapping | None) -> str:
     """Hash of everything that determines the simulated records."""
-    return _digest({"bearing": plain_config(bearing_cfg), "simulator": simulation_config(data_cfg, simulator_cfg),
+    return content_key({"bearing": plain_config(bearing_cfg), "simulator": simulation_config(data_cfg, simulator_cfg),
                     "effects": plain_config(effects_cfg), "faults": FAULTS})
 
 
@@ -89,7 +85,7 @@ def build_simulated_dataset(data_cfg: Mapping, bearing_cfg: Mapping, simulator_c
         records=[f"simulated:{fault}:{records}" for fault in FAULTS],
         fs=float(data_cfg["fs"]),
         class_names=FAULTS,
-        key=_digest({"records": records, "samples_per_class": data_cfg["samples_per_class"],
+        key=content_key({"records": records, "samples_per_class": data_cfg["samples_per_class"],
                      "window_length": data_cfg["window_length"]}),
         record_lengths=[signal.size for signal in signals],
     )

@@ -19,7 +19,6 @@ windows train, real windows test; ``data.split`` plays no part.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 from pathlib import Path
@@ -35,15 +34,13 @@ from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, check_fault
 from bearingtwin.physics.simulator import simulate
-from bearingtwin.storage import save_npz_atomic
+from bearingtwin.storage import content_key, save_npz_atomic
 
 TWIN_PREFIX = "twin:"
 """Records whose source starts with this are simulated; every other record is a measurement file."""
 
 
 
-def _digest(content) -> str:
-    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
 def cwru_file(root: Path, stem: str) -> Path:
@@ -163,7 +160,7 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     Every record gets its own seed for the twin's random effects, derived from
     ``simulator.seed``, so two operating points do not share one noise realization.
     """
-    key = _digest({"bearing": bearing_cfg, "simulator": simulator_cfg, "effects": effects,
+    key = content_key({"bearing": bearing_cfg, "simulator": simulator_cfg, "effects": effects,
                    "faults": list(faults), "rpms": list(rpms)})
     path = Path(cache_dir) / "twin_to_real" / f"records-{key}.npz"
     if path.exists():
@@ -255,7 +252,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         records=sources,
         fs=float(cfg["fs"]),
         class_names=FAULTS,
-        key=_digest({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
+        key=content_key({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
                      "config": {k: v for k, v in cfg.items() if k != "root"}}),
         record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests],
         fixed_split=(index[:n_twin], index[n_twin:]),

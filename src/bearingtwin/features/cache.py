@@ -20,7 +20,7 @@ import numpy as np
 
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.storage import save_npz_atomic
+from bearingtwin.storage import content_key, save_npz_atomic
 from bearingtwin.features.extractor import EnvelopeOrderFeatures, RawFeatures, build_feature_extractor
 
 log = logging.getLogger(__name__)
@@ -58,8 +58,7 @@ def cache_path(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -
         if uses_training_set
         else None,
     }
-    digest = hashlib.sha256(json.dumps(material, sort_keys=True, default=str).encode()).hexdigest()[:20]
-    return Path(cache_dir) / "features" / f"{cfg.get('name', 'features')}-{digest}.npz"
+    return Path(cache_dir) / "features" / f"{cfg.get('name', 'features')}-{content_key(material, 20)}.npz"
 
 
 def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -> tuple[np.ndarray, list[dict]]:
