@@ -13,12 +13,13 @@ from scipy import signal as sps
 from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics import effect_library as lib
-from bearingtwin.physics.dynamics import DynamicParameters, linear_modes, static_equilibrium
+from bearingtwin.physics.dynamics import DynamicParameters, contact_force, linear_modes, static_equilibrium
 from bearingtwin.physics.effects import _REGISTRY, build_effects, registered_effects
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.kinematics import rigid_kinematics
 
-LIBRARY = ("resonance", "slip", "speed_fluctuation", "noise", "tones", "lubrication", "load_zone")
+LIBRARY = ("resonance", "slip", "speed_fluctuation", "noise", "tones", "lubrication", "load_zone", "preload",
+           "spin_slip")
 FS = 12000.0
 GEOMETRY = BearingGeometry(52.0, 25.0, 7.94, 39.0, 9)
 
@@ -188,3 +189,140 @@ def test_lubricated_contacts_damp_the_impacts_in_both_solvers():
     modes = (freqs > 0.4 * highest_mode_hz) & (freqs < 1.2 * highest_mode_hz)
     dry_energy, film_energy = psd[:, modes].sum(axis=1)
     assert film_energy < 0.7 * dry_energy
+
+
+def test_noise_with_a_reference_rms_has_the_same_absolute_level_whatever_the_signal():
+    """A sensor's noise floor: with ``reference_rms`` the SNR refers to it, not to each signal's own power."""
+    t = np.arange(2**15) / FS
+    quiet = np.sin(2 * np.pi * 50 * t) + 0.3 * np.random.default_rng(3).standard_normal(t.size)
+    expected_rms = 0.8 * 10 ** (-6.0 / 20)
+    for slope in (0.0, 1.0):
+        effect = lib.Noise(snr_db=6.0, spectral_slope=slope, reference_rms=0.8)
+        noise = [effect.modify_signal(x, FS, np.random.default_rng(4)) - x for x in (quiet, 10 * quiet)]
+        for n in noise:
+            assert np.sqrt(np.mean(n**2)) == pytest.approx(expected_rms, rel=0.02)
+        assert np.sqrt(np.mean(noise[1] ** 2)) == pytest.approx(np.sqrt(np.mean(noise[0] ** 2)), rel=1e-9)
+    # Several signals at once (last axis = time): one absolute level for all rows ...
+    both = np.stack([quiet, 10 * quiet])
+    rows = lib.add_noise(both, FS, 6.0, 0.0, np.random.default_rng(5), reference_rms=0.8) - both
+    np.testing.assert_allclose(np.sqrt(np.mean(rows**2, axis=1)), expected_rms, rtol=0.02)
+    # ... while without it each row keeps its own SNR, so the louder signal gets ten times the noise.
+    relative = lib.add_noise(both, FS, 6.0, 0.0, np.random.default_rng(5)) - both
+    rms = np.sqrt(np.mean(relative**2, axis=1))
+    assert rms[1] / rms[0] == pytest.approx(10.0, rel=0.02)
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(BearingTwinError, match="noise.reference_rms"):
+            lib.Noise(snr_db=6.0, spectral_slope=0.0, reference_rms=bad)
+        with pytest.raises(BearingTwinError, match="noise.reference_rms"):
+            lib.add_noise(quiet, FS, 6.0, 0.0, np.random.default_rng(0), reference_rms=bad)
+
+
+def _cwru_config(duration_s, depth_mm=None):
+    """The cwru_6205 twin at the CWRU rig's operating point: 12 kHz, 1772 rev/min, housing sensor."""
+    from hydra import compose, initialize_config_dir
+
+    overrides = ["bearing=cwru_6205", "simulator.fs=12000", "simulator.rpm=1772", "simulator.sensor=outer_y",
+                 f"simulator.duration={duration_s}"]
+    if depth_mm is not None:
+        overrides.append(f"simulator.defect.depth_mm={depth_mm}")
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose("simulate", overrides=overrides)
+
+
+def _envelope_orders(cfg, signal):
+    """Mean envelope-order features of 2048-sample windows, each normalised to zero mean and unit std."""
+    from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
+
+    windows = signal[: signal.size // 2048 * 2048].reshape(-1, 2048)
+    windows = (windows - windows.mean(axis=1, keepdims=True)) / windows.std(axis=1, keepdims=True)
+    extractor = EnvelopeOrderFeatures(bearing=dict(cfg.bearing))
+    features = extractor.fit_transform(windows, fs_hz=12000.0, rpm=1772.0)
+    return dict(zip(extractor.feature_names_, features.mean(axis=0)))
+
+
+CWRU_LOAD_ZONE = {"load_zone": {"radial_load_n": 1842.6, "clearance_um": 2.3}}
+
+
+def test_preload_keeps_every_ball_loaded_under_a_radial_load():
+    cfg = _cwru_config(1.0)
+    params = lib.LoadZone(radial_load_n=1842.6, clearance_um=5.0).modify_parameters(
+        DynamicParameters.from_config(cfg.bearing, cfg.simulator))
+    preloaded = lib.Preload(interference_um=30.0).modify_parameters(params)
+    assert preloaded.clearance_m == pytest.approx(-30e-6) and preloaded.load_y_n == params.load_y_n
+    angles = 2 * np.pi * np.arange(params.n_balls) / params.n_balls
+
+    def ball_loads(p):
+        state = static_equilibrium(p, angles)
+        compression = (state[0] - state[2]) * np.cos(angles) + (state[1] - state[3]) * np.sin(angles) - p.clearance_m
+        carried = contact_force(state, angles, np.zeros(p.n_balls), p)
+        return compression, p.contact_stiffness_n_per_m1_5 * np.clip(compression, 0.0, None) ** 1.5, carried
+
+    compression, _, carried = ball_loads(params)
+    assert np.sum(compression <= 0) >= 3  # with clearance the upper balls carry nothing
+    preloaded_compression, preloaded_loads, preloaded_carried = ball_loads(preloaded)
+    assert np.all(preloaded_compression > 0)  # with preload every ball is compressed: a full-circle load zone
+    assert preloaded_loads.min() > 0.3 * preloaded_loads.max()
+    # The balls still carry the same radial load (plus the inner race's weight), shared out around the circle.
+    np.testing.assert_allclose(preloaded_carried, carried, rtol=0.01, atol=1.0)
+    assert -carried[1] == pytest.approx(1842.6 + params.inner_mass_kg * params.gravity_m_per_s2, rel=0.01)
+    with pytest.raises(BearingTwinError, match="preload.interference_um"):
+        lib.Preload(interference_um=0.0)
+    with pytest.raises(BearingTwinError, match="preload.interference_um"):
+        lib.Preload(interference_um=-5.0)
+
+
+def test_preload_removes_the_shaft_rate_modulation_of_an_inner_race_fault():
+    """An inner-race defect struck at every angle, not only in the load zone, has no shaft-rate sidebands."""
+    from bearingtwin.physics.simulator import simulate
+
+    cfg = _cwru_config(1.5, depth_mm=0.0007)
+    preloaded_effects = {**CWRU_LOAD_ZONE, "preload": {"interference_um": 25.0}}  # after load_zone: replaces its clearance
+    ratios = []
+    for effects in (CWRU_LOAD_ZONE, preloaded_effects):
+        recording, _ = simulate("inner", cfg.bearing, cfg.simulator, effects)
+        f = _envelope_orders(cfg, recording.signal)
+        ratios.append((f["1xbpfi-1x"] + f["1xbpfi+1x"]) / f["1xbpfi"])
+    clearance_ratio, preload_ratio = ratios
+    # Measured: 1.39 with clearance (deep modulation), 0.023 with 25 um preload.
+    assert clearance_ratio > 0.7
+    assert preload_ratio < 0.3
+
+
+def test_spin_slip_random_walks_the_ball_spin_only():
+    kinematics = rigid_kinematics(GEOMETRY, 1772.0, FS, 120000)
+    slipped = lib.SpinSlip(jitter=0.2).modify_kinematics(kinematics, np.random.default_rng(0))
+    for name in ("shaft_angle_rad", "shaft_speed_rad_s", "cage_angle_rad", "ball_offset_rad"):
+        np.testing.assert_array_equal(getattr(slipped, name), getattr(kinematics, name))
+    walk = slipped.ball_spin_angle_rad - kinematics.ball_spin_angle_rad
+    assert walk[0] == 0.0 and np.abs(walk).max() > 2 * np.pi
+    # Read at whole spin revolutions (the knots), the walk steps by jitter x 2 pi per revolution ...
+    samples_per_revolution = FS / GEOMETRY.bsf_hz(1772.0)
+    knots = walk[np.round(np.arange(int((walk.size - 1) / samples_per_revolution)) * samples_per_revolution).astype(int)]
+    steps = np.diff(knots)
+    assert steps.std() == pytest.approx(0.2 * 2 * np.pi, rel=0.1)
+    # ... and wanders like a random walk (spread ~ sqrt(lag)), not a bounded jitter (spread independent of lag).
+    assert 2.5 < (knots[16:] - knots[:-16]).std() / steps.std() < 6.0
+    for bad in (0.0, -0.1, float("nan")):
+        with pytest.raises(BearingTwinError, match="spin_slip.jitter"):
+            lib.SpinSlip(jitter=bad)
+
+
+def test_spin_slip_smears_the_ball_fault_lines_and_keeps_the_cage_modulation():
+    """A ball defect whose spin wanders loses its 2 x BSF rhythm; its trips through the load zone (FTF) stay."""
+    from bearingtwin.physics.simulator import simulate
+
+    cfg = _cwru_config(2.0, depth_mm=0.0007)
+    rolling = _envelope_orders(cfg, simulate("ball", cfg.bearing, cfg.simulator, CWRU_LOAD_ZONE)[0].signal)
+    family = ("1xbsf2", "2xbsf2", "3xbsf2")
+    slipping = []
+    for seed in (0, 1, 2):
+        cfg.simulator.seed = seed
+        recording, _ = simulate("ball", cfg.bearing, cfg.simulator, {**CWRU_LOAD_ZONE, "spin_slip": {"jitter": 0.2}})
+        slipping.append(_envelope_orders(cfg, recording.signal))
+    # Measured: 1xbsf2 0.081 rolling, 0.036 / 0.046 / 0.035 slipping (seeds 0-2); the 2 x BSF harmonics
+    # together keep 0.30 / 0.37 / 0.30 of their share; 1xftf 0.069 rolling, 0.068-0.071 slipping.
+    assert np.mean([f["1xbsf2"] for f in slipping]) < 0.6 * rolling["1xbsf2"]
+    for f in slipping:
+        assert f["1xbsf2"] < 0.75 * rolling["1xbsf2"]
+        assert sum(f[name] for name in family) < 0.5 * sum(rolling[name] for name in family)
+        assert f["1xftf"] == pytest.approx(rolling["1xftf"], rel=0.1)

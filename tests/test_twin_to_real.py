@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
+from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.data.build import build_dataset
 from bearingtwin.data.cwru import load_cwru
-from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol, merged_calibration
+from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol, healthy_twin_rms, merged_calibration
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking.reports import run_report
@@ -101,12 +102,14 @@ def test_step_beyond_the_report_names_the_field(report_path, tmp_path):
 
 def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
     uri = f"sqlite:///{tmp_path}/mlflow.db"
-    for step in (0, 1):
+    # The calibrated steps 0 and 1, then step 1 with an effect set by hand (outside the protocol).
+    for name, extra in (("step0", ["data.calibration.step=0"]), ("step1", ["data.calibration.step=1"]),
+                        ("hand", ["data.calibration.step=1", "effects=[preload]"])):
         done = subprocess.run(
-            [sys.executable, "-m", "bearingtwin.cli.train", "classifier=svm", *SMALL,
-             f"data.calibration.report={report_path}", f"data.calibration.step={step}", "data=twin_to_real",
+            [sys.executable, "-m", "bearingtwin.cli.train", "classifier=svm", *SMALL, *extra,
+             f"data.calibration.report={report_path}", "data=twin_to_real",
              "bearing=cwru_6205", f"tracking.uri={uri}", f"paths.cache_dir={tmp_path}/cache",
-             f"hydra.run.dir={tmp_path}/run{step}"],
+             f"hydra.run.dir={tmp_path}/{name}"],
             cwd=tmp_path, capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr[-3000:]
     client = MlflowClient(uri)
@@ -116,7 +119,11 @@ def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
     out = tmp_path / "sim2real.md"
     report = run_report("sim2real", {"uri": uri, "out": str(out)})
     rows = json.loads(out.with_suffix(".json").read_text())
-    assert [row["effects"] for row in rows] == [[], ["noise"]]
+    assert [row["effects"] for row in rows] == [[], ["noise"], ["noise", "preload"]]
+    assert [row["hand_set_effects"] for row in rows] == [[], [], ["preload"]]
+    assert rows[2]["effect_params"]["preload"] == {"interference_um": 20.0}  # conf/effects/preload.yaml
+    assert "twin + noise + preload (hand-set)" in report.markdown
+    runs = [r for r in runs if "effects.preload.interference_um" not in r.data.params]
     for row, run_step in zip(rows, (0, 1)):
         assert {"effects", "accuracy_mean", "accuracy_std", "n_test_windows", "test_records"} <= set(row)
         assert row["n_test_windows"] == 9 and 0.0 <= row["accuracy_mean"] <= 1.0 and row["accuracy_std"] == 0.0
@@ -125,6 +132,13 @@ def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
         (run,) = [r for r in runs if r.data.params["data.calibration.step"] == str(run_step)]
         assert row["accuracy_mean"] == pytest.approx(run.data.metrics["accuracy"])
     assert "twin + noise" in report.markdown
+
+
+def test_a_hand_set_effect_the_calibration_already_found_is_refused(report_path, tmp_path):
+    cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=1",
+                                 "effects=[noise]", f"paths.cache_dir={tmp_path}"])
+    with pytest.raises(BearingTwinError, match="effects: noise is already in the calibrated twin"):
+        build_dataset(cfg)
 
 
 @pytest.fixture(scope="module")
@@ -167,7 +181,8 @@ def test_the_healthy_records_noise_joins_every_twin_after_the_fault_records_effe
         cfg = compose_train(SMALL + [f"data.calibration.report={slip_report_path}", "data.calibration.step=1",
                                      f"data.calibration.healthy.report={healthy_report_path}",
                                      f"data.calibration.healthy.step={healthy_step}", "data.normalize_windows=false",
-                                     f"paths.cache_dir={tmp_path}"])
+                                     # each state's own SNR (absolute: test_absolute_noise_level_gives_...)
+                                     "data.calibration.healthy.noise_level=relative", f"paths.cache_dir={tmp_path}"])
         return build_dataset(cfg)
 
     quiet, noisy = dataset(0), dataset(1)
@@ -181,3 +196,80 @@ def test_the_healthy_records_noise_joins_every_twin_after_the_fault_records_effe
         # Noise 3 dB above the bearing signal: each twin window's power grows about threefold.
         ratio = np.mean(noisy.windows[rows] ** 2) / np.mean(quiet.windows[rows] ** 2)
         assert 2.0 < ratio < 4.5, (FAULTS[label], ratio)
+
+
+def test_an_unknown_noise_level_is_refused_before_any_simulation(report_path, healthy_report_path, tmp_path, monkeypatch):
+    import bearingtwin.data.twin_to_real as twin_to_real
+
+    def no_simulation(*args, **kwargs):
+        raise AssertionError("simulated before the configuration was checked")
+
+    monkeypatch.setattr(twin_to_real, "simulate", no_simulation)
+    cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=0",
+                                 f"data.calibration.healthy.report={healthy_report_path}", "data.calibration.healthy.step=1",
+                                 "data.calibration.healthy.noise_level=loud", f"paths.cache_dir={tmp_path}"])
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.healthy\.noise_level='loud': choose absolute or relative"):
+        build_dataset(cfg)
+
+
+@pytest.fixture(scope="module")
+def white_noise_report_path(tmp_path_factory):
+    """A healthy record's report whose noise is white (its level in a short window is then tight), fitted on a
+    healthy twin with some unbalance (a base parameter that changes the healthy signal, unlike a defect depth)."""
+    path = tmp_path_factory.mktemp("white") / "twin_report.json"
+    steps = [{"effects": [], "params": {}, "base_params": {"simulator.defect.depth_mm": 0.02}},
+             {"effects": ["noise"], "params": {"noise": {"snr_db": -3.0, "spectral_slope": 0.0}},
+              "base_params": {"simulator.defect.depth_mm": 0.03, "simulator.eccentricity_mm": 0.02}}]
+    path.write_text(json.dumps({"steps": steps}))
+    return path
+
+
+def test_absolute_noise_level_gives_every_twin_state_the_healthy_twins_noise_floor(report_path, white_noise_report_path,
+                                                                                  tmp_path):
+    """noise_level=absolute: record 97's noise, fitted as a ratio to its healthy twin's power, is one absolute floor
+    for every state; relative: each state's own power sets it, so a loud fault gets a loud floor."""
+    from bearingtwin.physics.simulator import simulate
+
+    def dataset(healthy_step, noise_level):
+        cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=0",
+                                     f"data.calibration.healthy.report={white_noise_report_path}",
+                                     f"data.calibration.healthy.step={healthy_step}",
+                                     f"data.calibration.healthy.noise_level={noise_level}",
+                                     "data.normalize_windows=false", f"paths.cache_dir={tmp_path}"])
+        return cfg, build_dataset(cfg)
+
+    cfg, quiet = dataset(0, "absolute")
+    _, absolute = dataset(1, "absolute")
+    _, relative = dataset(1, "relative")
+    assert absolute.records == quiet.records == relative.records
+    train, test = quiet.fixed_split
+    np.testing.assert_array_equal(absolute.windows[test], quiet.windows[test])  # the real windows get no noise
+
+    # The reference: the noise-free healthy twin with the healthy report's base parameters, at record 97's speed.
+    healthy = load_cwru(DATA / "normal_0_97.mat")
+    bearing = OmegaConf.to_container(cfg.bearing)
+    simulator = {**OmegaConf.to_container(cfg.simulator), "fs": 12000.0, "duration": 0.5, "sensor": "outer_y"}
+    fitted = {**simulator, "rpm": healthy.rpm, "eccentricity_mm": 0.02,
+              "defect": {**simulator["defect"], "depth_mm": 0.03}}
+    reference_rms = float(simulate("normal", bearing, fitted)[0].signal.std())
+    assert healthy_twin_rms(white_noise_report_path, 1, healthy, bearing, simulator) == pytest.approx(reference_rms, rel=1e-9)
+    # The unbalance matters: the healthy twin of the fault record's base parameters is quieter.
+    assert float(simulate("normal", bearing, {**simulator, "rpm": healthy.rpm})[0].signal.std()) < 0.9 * reference_rms
+    noise_rms = reference_rms * 10 ** (3.0 / 20)
+
+    twin_ids = [i for i, r in enumerate(quiet.records) if r.startswith(TWIN_PREFIX)]
+    assert len(twin_ids) >= 4 * 3
+    for record_id in twin_ids:
+        rows = train[quiet.record_ids[train] == record_id]
+        signal_rms = np.sqrt(np.mean(quiet.windows[rows] ** 2))
+        absolute_rms = np.sqrt(np.mean((absolute.windows[rows] - quiet.windows[rows]) ** 2))
+        relative_rms = np.sqrt(np.mean((relative.windows[rows] - quiet.windows[rows]) ** 2))
+        state = quiet.records[record_id]
+        # Absolute: one floor, the healthy twin's RMS 3 dB up, in every state at every speed.
+        assert absolute_rms == pytest.approx(noise_rms, rel=0.03), state
+        # Relative: each state's own SNR of -3 dB.
+        # (rel 0.1: the SNR refers to the whole 0.5 s record, these are two windows of it.)
+        assert relative_rms == pytest.approx(signal_rms * 10 ** (3.0 / 20), rel=0.1), state
+        if not state.startswith(f"{TWIN_PREFIX}normal@"):
+            # A fault signal is an order of magnitude above the healthy one: relative noise would bury it.
+            assert signal_rms > 5 * reference_rms and relative_rms > 5 * absolute_rms, state

@@ -148,6 +148,31 @@ def merged_calibration(calibration: Mapping) -> tuple[dict, dict]:
     return base_params, {**effects, **healthy_effects}
 
 
+def with_base_params(bearing_cfg: Mapping, simulator_cfg: Mapping, base_params: Mapping,
+                     report: str | Path) -> tuple[dict, dict]:
+    """Copies of the bearing and simulator configs with a report's fitted base parameters set."""
+    twin_cfg = OmegaConf.create({"bearing": dict(bearing_cfg), "simulator": dict(simulator_cfg)})
+    for key, value in base_params.items():
+        if OmegaConf.select(twin_cfg, key, default=None) is None:
+            raise BearingTwinError(f"{report}: base parameter {key} is no bearing.* / simulator.* key")
+        OmegaConf.update(twin_cfg, key, value, merge=False)
+    return OmegaConf.to_container(twin_cfg.bearing), OmegaConf.to_container(twin_cfg.simulator)
+
+
+def healthy_twin_rms(report_path: str | Path, step: int, healthy: Recording, bearing_cfg: Mapping,
+                     simulator_cfg: Mapping) -> float:
+    """RMS (m/s^2) of the noise-free healthy twin of the healthy record's calibration, at its speed.
+
+    The healthy record's ``noise`` was fitted as a ratio to this twin's power; with it as the
+    noise's ``reference_rms`` every bearing state gets the same absolute noise floor.
+    """
+    base_params, effects = calibration_step(report_path, step)
+    effects.pop("noise", None)
+    bearing, simulator = with_base_params(bearing_cfg, simulator_cfg, base_params, report_path)
+    recording, _ = simulate("normal", bearing, {**simulator, "rpm": float(healthy.rpm)}, effects)
+    return float(recording.signal.std())
+
+
 def operating_points_rpm(recordings: list[Recording]) -> list[float]:
     """The distinct measured speeds (rev/min, to 0.1) of the records, ascending."""
     return sorted({round(float(r.rpm), 1) for r in recordings})
@@ -192,7 +217,9 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         data_cfg: ``conf/data/twin_to_real.yaml``.
         bearing_cfg: must be the bearing named by ``data.bearing`` (``bearing=cwru_6205``).
         simulator_cfg: the simulator group; rpm, fs, duration and sensor are set from ``data``.
-        effects_cfg: must be empty: the effects come from the calibration report's step.
+        effects_cfg: effects set by hand on top of the calibrated ones (``effects=[preload]``), for
+            diagnosis: they were not fitted to a calibration record, so a twin with them is outside
+            the protocol, and ``bearingtwin-report sim2real`` labels its rows "hand-set".
         cache_dir: twin records are cached under ``<cache_dir>/twin_to_real/``.
     """
     cfg, bearing, simulator = plain_config(data_cfg), plain_config(bearing_cfg), plain_config(simulator_cfg)
@@ -201,9 +228,6 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     if bearing.get("name") != cfg["bearing"]:
         raise BearingTwinError(f"data=twin_to_real simulates the {cfg['bearing']} bearing of the records: add "
                                f"bearing={cfg['bearing']} (got bearing.name={bearing.get('name')!r})")
-    if plain_config(effects_cfg):
-        raise BearingTwinError("effects: data=twin_to_real takes its effects from the calibration report "
-                               "(data.calibration.step); leave effects= empty")
     for name in ("window_length",):
         if not (isinstance(cfg[name], int) and cfg[name] > 0):
             raise BearingTwinError(f"data.{name} must be a positive integer, got {cfg[name]!r}")
@@ -211,23 +235,33 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         if not (isinstance(cfg[section]["windows_per_record"], int) and cfg[section]["windows_per_record"] > 0):
             raise BearingTwinError(f"data.{section}.windows_per_record must be a positive integer, "
                                    f"got {cfg[section]['windows_per_record']!r}")
+    noise_level = (cfg["calibration"].get("healthy") or {}).get("noise_level", "absolute")
+    if noise_level not in ("absolute", "relative"):
+        raise BearingTwinError(f"data.calibration.healthy.noise_level={noise_level!r}: choose absolute or relative")
     calibration_paths, test_paths = check_protocol(cfg)
     base_params, effects = merged_calibration(cfg["calibration"])
+    hand_set = plain_config(effects_cfg) or {}
+    if set(hand_set) & set(effects):
+        raise BearingTwinError(f"effects: {sorted(set(hand_set) & set(effects))[0]} is already in the calibrated twin "
+                               "(data.calibration); set only effects the calibration did not find")
+    effects = {**effects, **hand_set}  # after the calibrated ones of the same stage: preload replaces load_zone's clearance
 
     def measured(path: Path) -> Recording:
         return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
                          check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]))
 
     tests = [measured(path) for path in test_paths]
+    calibration_records = {path.stem: measured(path) for path in calibration_paths}
     # Operating points: speeds only (what a tachometer gives in service), never a test signal.
-    rpms = operating_points_rpm(tests + [measured(path) for path in calibration_paths])
+    rpms = operating_points_rpm(tests + list(calibration_records.values()))
     simulator.update(fs=float(cfg["fs"]), duration=float(cfg["twin"]["duration"]), sensor=cfg["twin"]["sensor"])
-    twin_cfg = OmegaConf.create({"bearing": bearing, "simulator": simulator})
-    for key, value in base_params.items():
-        if OmegaConf.select(twin_cfg, key, default=None) is None:
-            raise BearingTwinError(f"{cfg['calibration']['report']}: base parameter {key} is no bearing.* / simulator.* key")
-        OmegaConf.update(twin_cfg, key, value, merge=False)
-    bearing, simulator = OmegaConf.to_container(twin_cfg.bearing), OmegaConf.to_container(twin_cfg.simulator)
+    healthy = cfg["calibration"].get("healthy") or {}
+    # Only noise found on the healthy record has a healthy twin to refer to; noise found on the
+    # fault record keeps the ratio it was fitted as.
+    if noise_level == "absolute" and healthy.get("step") and "noise" in calibration_step(healthy["report"], healthy["step"])[1]:
+        effects["noise"] = {**effects["noise"], "reference_rms": healthy_twin_rms(
+            healthy["report"], healthy["step"], calibration_records[healthy["record"]], bearing, simulator)}
+    bearing, simulator = with_base_params(bearing, simulator, base_params, cfg["calibration"]["report"])
     faults = [check_fault(f) for f in cfg["twin"]["classes"]]
     signals, twin_key = twin_signals(faults, rpms, bearing, simulator, effects, cache_dir)
 

@@ -46,7 +46,7 @@ class DynamicParameters:
     inner_stiffness_n_per_m: float
     outer_stiffness_n_per_m: float
     contact_stiffness_n_per_m1_5: float
-    clearance_m: float
+    clearance_m: float  # radial internal clearance; negative = preload (every ball compressed at rest)
     n_balls: int
     eccentricity_m: float = 0.0
     load_x_n: float = 0.0
@@ -59,9 +59,11 @@ class DynamicParameters:
             if not getattr(self, name) > 0:
                 raise BearingTwinError(f"{name} must be positive, got {getattr(self, name)}")
         for name in ("inner_damping_ns_per_m", "outer_damping_ns_per_m", "inner_stiffness_n_per_m",
-                     "outer_stiffness_n_per_m", "clearance_m", "eccentricity_m", "contact_damping_ns_per_m"):
+                     "outer_stiffness_n_per_m", "eccentricity_m", "contact_damping_ns_per_m"):
             if not getattr(self, name) >= 0:
                 raise BearingTwinError(f"{name} must not be negative, got {getattr(self, name)}")
+        if not np.isfinite(self.clearance_m):
+            raise BearingTwinError(f"clearance_m must be finite (negative = preload), got {self.clearance_m}")
 
     def as_array(self) -> np.ndarray:
         """Packed form the numba kernel reads (order = field order)."""

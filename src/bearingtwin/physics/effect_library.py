@@ -75,12 +75,21 @@ def coloured_noise(shape: tuple[int, ...], fs: float, spectral_slope: float, rng
     return noise / np.maximum(noise.std(axis=-1, keepdims=True), np.finfo(float).tiny)
 
 
-def add_noise(x: np.ndarray, fs: float, snr_db: float, spectral_slope: float, rng: np.random.Generator) -> np.ndarray:
-    """``x`` plus coloured noise at a signal-to-noise power ratio of ``snr_db`` (per signal, last axis)."""
+def add_noise(x: np.ndarray, fs: float, snr_db: float, spectral_slope: float, rng: np.random.Generator,
+              reference_rms: float | None = None) -> np.ndarray:
+    """``x`` plus coloured noise at a signal-to-noise power ratio of ``snr_db`` (per signal, last axis).
+
+    The signal power the ratio refers to is each signal's own, or ``reference_rms`` squared
+    when given (same units as ``x``): then every signal gets noise of the same absolute level,
+    as a sensor's noise floor does whatever the bearing's state.
+    """
     if not np.isfinite(snr_db):
         raise BearingTwinError(f"noise.snr_db must be finite, got {snr_db}")
     x = np.asarray(x, dtype=np.float64)
-    rms = np.sqrt(np.mean(x**2, axis=-1, keepdims=True))
+    if reference_rms is None:
+        rms = np.sqrt(np.mean(x**2, axis=-1, keepdims=True))
+    else:
+        rms = _positive("noise.reference_rms", reference_rms)
     return x + rms * 10 ** (-snr_db / 20.0) * coloured_noise(x.shape, fs, spectral_slope, rng)
 
 
@@ -181,6 +190,38 @@ class Slip(Effect):
 
 
 @register_effect
+class SpinSlip(Effect):
+    """Erratic ball spin: a ball defect strikes the races at irregular times.
+
+    A ball's spin axis is not fixed: the ball skids and its axis precesses, so a spall on
+    it leaves and re-enters the rolling track and its strikes lose the strict 2 x BSF
+    rhythm (Randall & Antoni 2011, section 2.2: ball faults "may not strike the races every
+    revolution"). Modelled as a random walk of the spin angle: once per spin revolution the
+    phase takes a Gaussian step of standard deviation ``jitter`` x 2 pi, linearly interpolated
+    in between. Race defects are unaffected (their impacts follow the cage and the shaft).
+
+    Signature: the 2 x BSF envelope lines smear into a raised floor, while the cage-rate (FTF)
+    modulation of a ball defect passing through the load zone survives.
+    """
+
+    name = "spin_slip"
+    signature = "2 x BSF envelope lines smear, cage-rate modulation stays"
+    search_space = {"jitter": (0.005, 0.5, True)}
+
+    def __init__(self, jitter: float):
+        self.jitter = _positive("spin_slip.jitter", jitter)
+
+    def modify_kinematics(self, kinematics: Kinematics, rng: np.random.Generator) -> Kinematics:
+        spin = kinematics.ball_spin_angle_rad
+        revolutions = abs(spin[-1] - spin[0]) / (2 * math.pi)
+        position = np.abs(spin - spin[0]) / (2 * math.pi)  # spin revolutions so far, per sample
+        knots = np.concatenate([[0.0], np.cumsum(rng.normal(0.0, self.jitter * 2 * math.pi,
+                                                            size=int(math.ceil(revolutions)) + 1))])
+        walk = np.interp(position, np.arange(len(knots)), knots)
+        return replace(kinematics, ball_spin_angle_rad=spin + walk)
+
+
+@register_effect
 class SpeedFluctuation(Effect):
     """Periodic variation of the shaft speed (load torque ripple, a coupling, a belt).
 
@@ -224,6 +265,11 @@ class Noise(Effect):
     Args:
         snr_db: ratio of the bearing signal's power to the noise power, in dB.
         spectral_slope: exponent of the noise PSD ~ f^-slope (0 white, 1 pink, 2 brown).
+        reference_rms: the signal RMS (m/s^2) that ``snr_db`` refers to; null = each simulated
+            signal's own. Fitted on one record, the noise is a property of the sensor and the
+            machine, not of the bearing's state: ``data=twin_to_real`` sets this to the healthy
+            twin's RMS so that a faulty twin gets the healthy record's noise floor, not one
+            scaled up with its own fault.
 
     Signature: a raised floor in the bands where the bearing is quiet, lower kurtosis and
     crest factor, a raised envelope-spectrum floor.
@@ -233,15 +279,16 @@ class Noise(Effect):
     signature = "raised floor in quiet bands, lower kurtosis"
     search_space = {"snr_db": (-10.0, 30.0, False), "spectral_slope": (0.0, 2.0, False)}
 
-    def __init__(self, snr_db: float, spectral_slope: float):
+    def __init__(self, snr_db: float, spectral_slope: float, reference_rms: float | None = None):
         if not np.isfinite(snr_db):
             raise BearingTwinError(f"noise.snr_db must be finite, got {snr_db}")
         if not 0.0 <= spectral_slope <= 3.0:
             raise BearingTwinError(f"noise.spectral_slope must lie in [0, 3], got {spectral_slope}")
         self.snr_db, self.spectral_slope = float(snr_db), float(spectral_slope)
+        self.reference_rms = None if reference_rms is None else _positive("noise.reference_rms", reference_rms)
 
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator) -> np.ndarray:
-        return add_noise(signal, fs, self.snr_db, self.spectral_slope, rng)
+        return add_noise(signal, fs, self.snr_db, self.spectral_slope, rng, self.reference_rms)
 
 
 @register_effect
@@ -301,6 +348,36 @@ class LoadZone(Effect):
 
     def modify_parameters(self, params: DynamicParameters) -> DynamicParameters:
         return replace(params, load_y_n=-self.radial_load_n, clearance_m=self.clearance_um * 1e-6)
+
+
+@register_effect
+class Preload(Effect):
+    """A preloaded bearing: every ball is compressed, so the load zone spans the whole circle.
+
+    Motor bearings are usually held by an axial wave spring (or fitted with interference),
+    which presses every ball against both races. In this radial model that is a negative
+    internal clearance: each ball starts ``interference_um`` compressed, so the radial load
+    only varies the ball loads around the circle instead of unloading half of them.
+
+    Args:
+        interference_um: radial compression of every ball at rest, in micrometres; replaces
+            the clearance (a ball carrying ~1 kN of a 6205's load sinks ~20 um, so a few tens
+            of micrometres keep every ball loaded).
+
+    Signature: a rotating defect (inner race, ball) strikes at every position, so its
+    shaft- or cage-rate modulation and the sidebands around its harmonics shrink, and the
+    defect lines carry a larger share of the envelope.
+    """
+
+    name = "preload"
+    signature = "modulation sidebands shrink, defect lines dominate the envelope"
+    search_space = {"interference_um": (1.0, 60.0, True)}
+
+    def __init__(self, interference_um: float):
+        self.interference_um = _positive("preload.interference_um", interference_um)
+
+    def modify_parameters(self, params: DynamicParameters) -> DynamicParameters:
+        return replace(params, clearance_m=-self.interference_um * 1e-6)
 
 
 @register_effect

@@ -375,26 +375,39 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
     keys = ("report", "step", "healthy.record", "healthy.report", "healthy.step")
 
     def twin(run) -> tuple[str, ...]:
-        return tuple(run.data.params.get(f"data.calibration.{key}", "0" if key == "healthy.step" else "") for key in keys)
+        """The twin's calibration; runs from before ``healthy.noise_level`` existed had relative noise."""
+        params = run.data.params
+        found = tuple(params.get(f"data.calibration.{key}", "0" if key == "healthy.step" else "") for key in keys)
+        noise_level = params.get("data.calibration.healthy.noise_level", "relative") if found[-1] != "0" else ""
+        hand_set = json.dumps(sorted((key, value) for key, value in params.items() if key.startswith("effects.")))
+        return (*found, noise_level, hand_set)
 
-    runs = source.training_runs(group_by=twin)
+    def method(run) -> str:  # the SVM's kernel is part of the method when it is not the default
+        kernel = run.data.params.get("classifier.kernel", "rbf")
+        return run.data.tags.get("method", "") + ("" if kernel == "rbf" else f" ({kernel})")
+
+    runs = source.training_runs(group_by=lambda run: (method(run), *twin(run)))
     if not runs:
         raise _missing("data.source=twin_to_real", source)
     groups: dict[tuple, list] = {}
     for run in runs:
-        groups.setdefault((run.data.tags.get("method"), *twin(run)), []).append(run)
+        groups.setdefault((method(run), *twin(run)), []).append(run)
 
     def order(key):  # method, then effects in the order they were added: 97's before 130's steps
-        method, _, step, _, _, healthy_step = key
-        return (method, int(step) + int(healthy_step), int(step))
+        method, _, step, _, _, healthy_step, noise_level, hand_set = key
+        return (method, noise_level == "relative", hand_set != "[]", int(step) + int(healthy_step), int(step))
 
     rows = []
     for key in sorted(groups, key=order):
-        method, report, step, healthy_record, healthy_report, healthy_step = key
+        method, report, step, healthy_record, healthy_report, healthy_step, noise_level, hand_set = key
         chosen = groups[key]
         calibration = {"report": report, "step": int(step), "records": [healthy_record],
                        "healthy": {"record": healthy_record, "report": healthy_report, "step": int(healthy_step)}}
         _, effects = merged_calibration(calibration)
+        hand_set_effects: dict[str, dict] = {}
+        for name, value in json.loads(hand_set):  # effects.<effect>.<parameter>, logged as strings
+            effect, parameter = name.split(".")[1:3]
+            hand_set_effects.setdefault(effect, {})[parameter] = float(value)
         cfg = stored_config(source.client, chosen[0].info.run_id)
         n_test = {int(run.data.metrics["n_test"]) for run in chosen}
         if len(n_test) != 1:
@@ -406,8 +419,10 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
             "step": int(step),
             "healthy_report": healthy_report or None,
             "healthy_step": int(healthy_step),
-            "effects": list(effects),
-            "effect_params": json.loads(json.dumps(effects, default=float)),
+            "noise_level": noise_level or None,
+            "effects": [*effects, *hand_set_effects],
+            "effect_params": json.loads(json.dumps({**effects, **hand_set_effects}, default=float)),
+            "hand_set_effects": list(hand_set_effects),
             "accuracy_mean": accuracy_mean,
             "accuracy_std": accuracy_std,
             "accuracies": _accuracies(chosen),
@@ -436,7 +451,9 @@ def sim2real(source: ReportInput) -> Report:
         confusion = np.array(row["confusion"])
         recalls = ", ".join(f"{FAULTS[i]} {100 * confusion[i, i] / confusion[i].sum():.1f}"
                             for i in range(len(FAULTS)) if confusion[i].sum())
-        added = [*row["effects"][:row["step"]], *(f"{name} (97)" for name in row["effects"][row["step"]:])]
+        calibrated = [name for name in row["effects"] if name not in row["hand_set_effects"]]
+        added = [*calibrated[:row["step"]], *(f"{name} (97, {row['noise_level']})" for name in calibrated[row["step"]:]),
+                 *(f"{name} (hand-set)" for name in row["hand_set_effects"])]
         table.append([row["step"], " + ".join(["twin", *added]), row["method"],
                       _pm(row["accuracies"]), len(row["seeds"]), row["n_test_windows"], recalls,
                       _top_confusions(confusion)])
