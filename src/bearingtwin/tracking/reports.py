@@ -379,7 +379,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
         params = run.data.params
         found = tuple(params.get(f"data.calibration.{key}", "0" if key == "healthy.step" else "") for key in keys)
         noise_level = params.get("data.calibration.healthy.noise_level", "relative") if found[-1] != "0" else ""
-        hand_set = json.dumps(sorted((key, value) for key, value in params.items() if key.startswith("effects.")))
+        hand_set = tuple(sorted((key, value) for key, value in params.items() if key.startswith("effects.")))
         return (*found, noise_level, hand_set)
 
     def method(run) -> str:  # the SVM's kernel is part of the method when it is not the default
@@ -395,7 +395,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
 
     def order(key):  # method, then effects in the order they were added: 97's before 130's steps
         method, _, step, _, _, healthy_step, noise_level, hand_set = key
-        return (method, noise_level == "relative", hand_set != "[]", int(step) + int(healthy_step), int(step))
+        return (method, noise_level == "relative", bool(hand_set), int(step) + int(healthy_step), int(step))
 
     rows = []
     for key in sorted(groups, key=order):
@@ -405,7 +405,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
                        "healthy": {"record": healthy_record, "report": healthy_report, "step": int(healthy_step)}}
         _, effects = merged_calibration(calibration)
         hand_set_effects: dict[str, dict] = {}
-        for name, value in json.loads(hand_set):  # effects.<effect>.<parameter>, logged as strings
+        for name, value in hand_set:  # effects.<effect>.<parameter>, logged as strings
             effect, parameter = name.split(".")[1:3]
             hand_set_effects.setdefault(effect, {})[parameter] = float(value)
         cfg = stored_config(source.client, chosen[0].info.run_id)
