@@ -28,6 +28,7 @@ from omegaconf import OmegaConf
 from bearingtwin.config import CONF_DIR, REPO_ROOT
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.tracking.tables import write_generated
 from bearingtwin.twin.compare import Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.report import load_measurement, twin_for
 
@@ -87,14 +88,14 @@ def summarize(_) -> None:
     header = ("| record | state | load hp | baseline dB | effects found | fitted parameters | defect depth mm | "
               "final dB | sensor gain (g per m/s^2) | first-round ranking (share explained) | figures |\n"
               "|---|---|---|---|---|---|---|---|---|---|---|\n")
-    generated = (f"{GENERATED}\n\n{header}" + "\n".join(rows)
+    generated = (header + "\n".join(rows)
                  + "\n\nCalibration for sim2real (record 130, `ranking.min_explained=0.1`):\n\n"
                  "| step | effects | fitted parameters | defect depth mm | discrepancy dB |\n|---|---|---|---|---|\n"
-                 + steps + f"\n\n{GENERATED}")
+                 + steps)
     path = REPO_ROOT / "results" / "cwru_twin_study.md"
-    text = path.read_text() if path.exists() else f"# The twin against the CWRU records\n\n{GENERATED}\n{GENERATED}\n"
-    before, _, after = text.split(GENERATED, 2)
-    path.write_text(before + generated + after)
+    if not path.exists():
+        path.write_text(f"# The twin against the CWRU records\n\n{GENERATED}\n{GENERATED}\n")
+    write_generated(path, generated, GENERATED)
     print(path)
 
 

@@ -2,11 +2,12 @@
 
 import numpy as np
 import pytest
+import scipy.signal
 from hydra import compose, initialize_config_dir
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures, defect_orders
+from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures, band_centres, defect_orders
 from bearingtwin.features.extractor import build_feature_extractor
 from bearingtwin.physics.geometry import BearingGeometry
 
@@ -46,7 +47,26 @@ def test_an_impulse_train_at_a_defect_rate_puts_most_power_in_its_band(bearing, 
     fundamentals = [f"1x{r}" for r in ("bpfi", "bpfo", "bsf2", "ftf")]
     columns = [names.index(name) for name in fundamentals]
     assert [fundamentals[i] for i in features[:, columns].argmax(axis=1)] == [f"1x{rate}"] * 3
-    assert np.all(features >= 0) and np.all(features.sum(axis=1) <= 1 + 1e-12)
+    shares = features[:, [i for i, name in enumerate(names) if name != "band_power_log10"]]
+    assert np.all(shares >= 0) and np.all(shares.sum(axis=1) <= 1 + 1e-12)
+
+
+def test_band_power_tells_impacts_ringing_in_the_band_from_power_below_it(bearing):
+    """Impacts ringing at 3.5 kHz keep nearly all their power in the 1.5-5.4 kHz band-pass; shaft and
+    ball-pass harmonics (30, 107, 214 Hz) with the same white noise keep about its in-band share."""
+    rng = np.random.default_rng(4)
+    t = np.arange(N) / FS_HZ
+    low = sum(np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) for f in (30.0, 107.0, 214.0))
+    windows = np.stack([ringing_impacts(107.0, rng), low + 0.05 * rng.standard_normal(N)])
+    features, names = features_of(bearing, windows, 1797.0)
+    band_power = features[:, names.index("band_power_log10")]
+    assert names[-1] == "band_power_log10"
+    assert band_power[0] > np.log10(0.8)
+    white_in_band = 0.05 ** 2 * 0.65 / np.var(windows[1])  # 1.5-5.4 kHz is 65 % of a white spectrum
+    assert band_power[1] == pytest.approx(np.log10(white_in_band), abs=0.15) and band_power[1] < -2.5
+    without = EnvelopeOrderFeatures(bearing=bearing, band_power=False).fit(windows, fs_hz=FS_HZ, rpm=1797.0)
+    assert "band_power_log10" not in without.feature_names_
+    assert np.array_equal(without.transform(windows, fs_hz=FS_HZ, rpm=1797.0), features[:, :-1])
 
 
 def test_features_do_not_change_with_gain_and_are_seed_free(bearing):
@@ -78,9 +98,38 @@ def test_the_config_builds_the_extractor_and_bad_settings_name_their_field(beari
     assert isinstance(extractor, EnvelopeOrderFeatures) and extractor.bearing["n_balls"] == 9
     with pytest.raises(BearingTwinError, match=r"features\.band_nyquist"):
         build_feature_extractor({**dict(cfg.features), "band_nyquist": [0.5, 0.2]})
+    with pytest.raises(BearingTwinError, match=r"features\.line_measure='height': choose one of share, prominence"):
+        build_feature_extractor({**dict(cfg.features), "line_measure": "height"})
+    with pytest.raises(BearingTwinError, match=r"features\.floor_width_orders must be positive"):
+        build_feature_extractor({**dict(cfg.features), "floor_width_orders": 0})
+    with pytest.raises(BearingTwinError, match=r"features\.band_power must be true or false"):
+        build_feature_extractor({**dict(cfg.features), "band_power": "yes"})
     with pytest.raises(BearingTwinError, match=r"features: unknown key\(s\) \['bandwidth'\]"):
         build_feature_extractor({**dict(cfg.features), "bandwidth": 3})
     with pytest.raises(BearingTwinError, match=r"rpm: .*shaft speed"):
         EnvelopeOrderFeatures(bearing=bearing).fit(np.ones((2, 64)), fs_hz=FS_HZ, rpm=None)
     with pytest.raises(BearingTwinError, match=r"rpm must be positive"):
         EnvelopeOrderFeatures(bearing=bearing).fit(np.ones((2, 64)), fs_hz=FS_HZ, rpm=[1797.0, -1.0])
+
+
+def test_prominence_sees_a_line_above_the_floor_and_none_in_noise_whatever_the_floor(bearing):
+    """An impulse train at BPFO stands 10x and more above its flanks at 1xBPFO; white noise has no line
+    anywhere (prominences about 0 = log10 1). Narrowing the ringing band raises every share of the
+    envelope's power below the narrow band's width (400 Hz) but not the noise's prominences."""
+    geometry = BearingGeometry.from_config(bearing)
+    rpm = 1797.0
+    rng = np.random.default_rng(5)
+    impacts = np.stack([ringing_impacts(defect_orders(geometry)["bpfo"] * rpm / 60.0, rng) for _ in range(3)])
+    noise = rng.standard_normal((20, N))
+    narrow = scipy.signal.sosfiltfilt(scipy.signal.butter(4, [3300, 3700], "bandpass", fs=FS_HZ, output="sos"), noise)
+    prominence = EnvelopeOrderFeatures(bearing=bearing, line_measure="prominence", band_power=False)
+    names = prominence.fit(impacts, fs_hz=FS_HZ, rpm=rpm).feature_names_
+    lines = prominence.transform(impacts, fs_hz=FS_HZ, rpm=rpm)
+    assert np.all(lines[:, names.index("1xbpfo")] > 1.0) and np.all(lines[:, names.index("1xbpfi")] < 0.5)
+    broad, narrowed = (prominence.transform(x, fs_hz=FS_HZ, rpm=rpm).mean(axis=0) for x in (noise, narrow))
+    assert np.all(np.abs(broad) < 0.35) and np.all(np.abs(narrowed) < 0.35), (broad, narrowed)
+    share = EnvelopeOrderFeatures(bearing=bearing, band_power=False)
+    broad_share, narrow_share = (share.fit_transform(x, fs_hz=FS_HZ, rpm=rpm).mean(axis=0) for x in (noise, narrow))
+    below = [order * rpm / 60.0 < 300.0 for order in band_centres(geometry, 3).values()]
+    assert narrow_share[below].mean() > 3 * broad_share[below].mean()  # measured 5.8x
+    assert np.allclose(prominence.transform(40.0 * impacts, fs_hz=FS_HZ, rpm=rpm), lines)

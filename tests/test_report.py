@@ -112,3 +112,20 @@ def test_bad_requests_exit_2_naming_the_problem(uri, capsys):
     with pytest.raises(SystemExit):
         main(["repeat", f"uri={uri}", "run_id=0123"])
     assert "run_id=0123" in capsys.readouterr().err
+
+
+def test_the_twin_chosen_without_the_test_records_is_the_best_validated_then_the_simplest():
+    from bearingtwin.tracking.reports import chosen_without_test
+
+    def row(effects, val, step=0, hand_set=(), variants=None):
+        return {"effects": list(effects), "calibration_accuracy_mean": val, "step": step, "hand_set_effects": list(hand_set),
+                "variants": variants or {}}
+
+    bare, slip = row([], 0.90), row(["slip"], 0.99, step=1)
+    full = row(["slip", "load_zone", "noise"], 0.9995, step=2)
+    varied = row(["slip", "load_zone", "noise"], 0.9992, step=2, variants={"spin_slip.jitter": [0.1, 0.4]})
+    hand = row(["slip", "preload"], 1.0, step=1, hand_set=["preload"])
+    # Within 0.1 % of the best, the simplest wins; a hand-set twin is never a candidate, however well it validates.
+    assert chosen_without_test([bare, full, varied, slip, hand]) is full  # slip is 0.95 % below: not tied
+    assert chosen_without_test([bare, row(["slip"], 0.9990, step=1), full, hand])["effects"] == ["slip"]
+    assert chosen_without_test([row([], None), hand]) is None

@@ -9,6 +9,7 @@ Exit status: 0, 1 when ``repeat`` finds a metric that differs, 2 for bad input.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from bearingtwin.errors import BearingTwinError
@@ -20,6 +21,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("name", help=f"report: {', '.join(sorted(REPORTS))}")
     parser.add_argument("settings", nargs="*", metavar="key=value")
     args = parser.parse_args(argv)
+    # A report reads one small artifact per run: MLflow's per-download progress bar would bury the table.
+    os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
     try:
         malformed = [item for item in args.settings if "=" not in item]
         if malformed:

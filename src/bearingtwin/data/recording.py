@@ -89,6 +89,8 @@ class WindowedDataset:
             windows train, real windows test); None lets ``data.split`` decide.
         record_rpms: shaft speed of each record in rev/min, for features on the shaft-order
             axis; None when the source does not give it.
+        validation: indices of windows in neither part of ``fixed_split``, scored on their own
+            (``calibration_*`` metrics) and never trained on; empty when the source has none.
     """
 
     windows: np.ndarray
@@ -102,6 +104,7 @@ class WindowedDataset:
     record_lengths: list[int] = field(default_factory=list)
     fixed_split: tuple[np.ndarray, np.ndarray] | None = None
     record_rpms: list[float] | None = None
+    validation: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def __post_init__(self) -> None:
         n = len(self.windows)

@@ -14,11 +14,20 @@ scaled to zero mean and unit standard deviation, so amplitude-dependent features
 describe waveform shape, not a unit or a guessed defect depth.
 
 The split is fixed by construction (:attr:`WindowedDataset.fixed_split`): twin
-windows train, real windows test; ``data.split`` plays no part.
+windows train, real windows test; ``data.split`` plays no part. Windows of the
+calibration records (0 hp) are scored apart as a validation set
+(:attr:`WindowedDataset.validation`): the test set holds no healthy bearing, so only
+there does a twin show whether it calls a healthy bearing faulty.
+
+Effect parameters the calibration records cannot determine (how erratically a ball
+with a spall spins, say: there is no ball record to fit it to) can be spanned instead of
+guessed: ``twin.variants`` simulates every state at every combination of the listed
+values, each a twin record of its own (domain randomization on a grid).
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 from pathlib import Path
@@ -38,9 +47,6 @@ from bearingtwin.storage import content_key, save_npz_atomic
 
 TWIN_PREFIX = "twin:"
 """Records whose source starts with this are simulated; every other record is a measurement file."""
-
-
-
 
 
 def cwru_file(root: Path, stem: str) -> Path:
@@ -179,14 +185,15 @@ def operating_points_rpm(recordings: list[Recording]) -> list[float]:
 
 
 def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, effects: Mapping,
-                 cache_dir: str | os.PathLike) -> tuple[np.ndarray, str]:
+                 cache_dir: str | os.PathLike, variant: int | None = None) -> tuple[np.ndarray, str]:
     """Sensor signals (len(faults) * len(rpms), n) in m/s^2, fault-major; cached by their config.
 
     Every record gets its own seed for the twin's random effects, derived from
-    ``simulator.seed``, so two operating points do not share one noise realization.
+    ``simulator.seed`` (and the index of the ``twin.variants`` combination, if any), so
+    two operating points or two variants do not share one noise realization.
     """
     key = content_key({"bearing": bearing_cfg, "simulator": simulator_cfg, "effects": effects,
-                   "faults": list(faults), "rpms": list(rpms)})
+                       "faults": list(faults), "rpms": list(rpms), "variant": variant})
     path = Path(cache_dir) / "twin_to_real" / f"records-{key}.npz"
     if path.exists():
         with np.load(path) as cached:
@@ -194,13 +201,40 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     signals = []
     for fault in faults:
         for index, rpm in enumerate(rpms):
-            seed = int(np.random.SeedSequence([int(simulator_cfg["seed"]), FAULTS.index(fault), index])
-                       .generate_state(1)[0])
+            entropy = [int(simulator_cfg["seed"]), *([] if variant is None else [variant]), FAULTS.index(fault), index]
+            seed = int(np.random.SeedSequence(entropy).generate_state(1)[0])
             recording, _ = simulate(fault, bearing_cfg, {**simulator_cfg, "rpm": float(rpm), "seed": seed}, effects)
             signals.append(recording.signal)
     signals = np.stack(signals)
     save_npz_atomic(path, signals=signals)
     return signals, key
+
+
+def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[str, dict]]:
+    """(label, effects) for every combination of ``twin.variants`` values; [("", effects)] without any.
+
+    ``variants`` maps effect -> parameter -> list of values, like the effects config it
+    overrides (``{spin_slip: {jitter: [0.05, 0.2]}}``); an effect the twin lacks is added
+    with its other parameters at their defaults.
+    """
+    axes = []
+    for effect, parameters in (variants or {}).items():
+        if not isinstance(parameters, Mapping) or not parameters:
+            raise BearingTwinError(f"data.twin.variants.{effect}: give parameter: [values, ...], got {parameters!r}")
+        for parameter, values in parameters.items():
+            if not isinstance(values, (list, tuple)) or not values:
+                raise BearingTwinError(f"data.twin.variants.{effect}.{parameter}: need a non-empty list of values, got {values!r}")
+            axes.append((effect, parameter, list(values)))
+    if not axes:
+        return [("", dict(effects))]
+    combinations = []
+    for values in itertools.product(*(axis[2] for axis in axes)):
+        varied = {name: dict(params) for name, params in effects.items()}
+        for (effect, parameter, _), value in zip(axes, values):
+            varied.setdefault(effect, {})[parameter] = value
+        combinations.append((",".join(f"{e}.{p}={v:g}" if isinstance(v, float) else f"{e}.{p}={v}"
+                                      for (e, p, _), v in zip(axes, values)), varied))
+    return combinations
 
 
 def _normalized(windows: np.ndarray) -> np.ndarray:
@@ -221,6 +255,9 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
             diagnosis: they were not fitted to a calibration record, so a twin with them is outside
             the protocol, and ``bearingtwin-report sim2real`` labels its rows "hand-set".
         cache_dir: twin records are cached under ``<cache_dir>/twin_to_real/``.
+
+    Returns windows in the order twin (training), test records, calibration records
+    (``validation``, ``calibration.validation_windows_per_record`` each; none when 0).
     """
     cfg, bearing, simulator = plain_config(data_cfg), plain_config(bearing_cfg), plain_config(simulator_cfg)
     if cfg.get("source") != "twin_to_real":
@@ -235,6 +272,9 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         if not (isinstance(cfg[section]["windows_per_record"], int) and cfg[section]["windows_per_record"] > 0):
             raise BearingTwinError(f"data.{section}.windows_per_record must be a positive integer, "
                                    f"got {cfg[section]['windows_per_record']!r}")
+    n_validation = cfg["calibration"].get("validation_windows_per_record", 0)
+    if not (isinstance(n_validation, int) and not isinstance(n_validation, bool) and n_validation >= 0):
+        raise BearingTwinError(f"data.calibration.validation_windows_per_record must be an integer >= 0, got {n_validation!r}")
     noise_level = (cfg["calibration"].get("healthy") or {}).get("noise_level", "absolute")
     if noise_level not in ("absolute", "relative"):
         raise BearingTwinError(f"data.calibration.healthy.noise_level={noise_level!r}: choose absolute or relative")
@@ -263,20 +303,30 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
             healthy["report"], healthy["step"], calibration_records[healthy["record"]], bearing, simulator)}
     bearing, simulator = with_base_params(bearing, simulator, base_params, cfg["calibration"]["report"])
     faults = [check_fault(f) for f in cfg["twin"]["classes"]]
-    signals, twin_key = twin_signals(faults, rpms, bearing, simulator, effects, cache_dir)
+    variants = effect_variants(effects, cfg["twin"].get("variants"))
+    signals, twin_keys, sources = [], [], []
+    for index, (label, varied) in enumerate(variants):
+        variant_signals, key = twin_signals(faults, rpms, bearing, simulator, varied, cache_dir,
+                                            variant=index if len(variants) > 1 else None)
+        signals.extend(variant_signals)
+        twin_keys.append(key)
+        sources += [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" + (f"[{label}]" if label else "") for fault in faults for rpm in rpms]
+    twin_key = twin_keys[0] if len(twin_keys) == 1 else content_key(twin_keys)
 
     length = cfg["window_length"]
-    sources = [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" for fault in faults for rpm in rpms]
-    labels = [FAULTS.index(fault) for fault in faults for _ in rpms]
+    labels = [FAULTS.index(fault) for _ in variants for fault in faults for _ in rpms]
+    validation_records = list(calibration_records.values()) if n_validation else []
     cuts = [cut_windows(signal, length, cfg["twin"]["windows_per_record"]) for signal in signals]
     cuts += [cut_windows(r.signal, length, cfg["test"]["windows_per_record"]) for r in tests]
-    labels += [r.label for r in tests]
-    sources += [str(r.source) for r in tests]
+    cuts += [cut_windows(r.signal, length, n_validation) for r in validation_records]
+    labels += [r.label for r in tests + validation_records]
+    sources += [str(r.source) for r in tests + validation_records]
     windows = np.concatenate([w for w, _ in cuts])
     if cfg["normalize_windows"]:
         windows = _normalized(windows)
     record_ids = np.concatenate([np.full(len(w), i) for i, (w, _) in enumerate(cuts)])
     n_twin = sum(len(w) for w, _ in cuts[:len(signals)])
+    n_test = sum(len(w) for w, _ in cuts[len(signals):len(signals) + len(tests)])
     index = np.arange(len(windows))
     return WindowedDataset(
         windows=windows,
@@ -288,7 +338,9 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         class_names=FAULTS,
         key=content_key({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
                      "config": {k: v for k, v in cfg.items() if k != "root"}}),
-        record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests],
-        fixed_split=(index[:n_twin], index[n_twin:]),
-        record_rpms=[float(rpm) for _ in faults for rpm in rpms] + [float(r.rpm) for r in tests],
+        record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests + validation_records],
+        fixed_split=(index[:n_twin], index[n_twin:n_twin + n_test]),
+        validation=index[n_twin + n_test:],
+        record_rpms=[float(rpm) for _ in variants for _ in faults for rpm in rpms]
+                    + [float(r.rpm) for r in tests + validation_records],
     )

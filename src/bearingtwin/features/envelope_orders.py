@@ -15,6 +15,21 @@ The band-pass is fixed as a fraction of the Nyquist rate (default 0.25-0.9, i.e.
 at CWRU's 12 kHz): above the shaft harmonics and gear/electrical lines that dominate the low
 band, and covering the housing resonances where impacts ring (the twin study on record 130
 placed one at 3.7 kHz).
+
+The shares of the envelope say *which* defect repeats, not *whether* anything rings at all: a
+healthy bearing's envelope is noise, shared out as evenly as a faint fault's. So one more
+feature (``band_power``) is how much of the window's power lies in that band-pass, in log10:
+a localized defect's impacts ring the housing's resonances, a healthy bearing puts its power
+at the shaft and ball-pass harmonics below it (the high-frequency resonance technique's premise).
+It is a ratio of two powers of one window, so it is gain-invariant too.
+
+A share of the total also depends on how wide the envelope spectrum is, which the ringing
+resonance's bandwidth sets, a property of the path, not of the defect: the same impacts
+through a narrower resonance put larger shares everywhere. ``line_measure="prominence"``
+reads each band instead as a line's height above the envelope spectrum's local floor (log10
+of its mean power over the median power of the flanks within ``floor_width_orders``), as a
+diagnostician reads an envelope spectrum: a line or no line, whatever the floor's level
+(``features=envelope_prominence``).
 """
 
 from __future__ import annotations
@@ -28,6 +43,7 @@ from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal import envelope_spectrum
 
 DEFECT_RATES = ("bpfi", "bpfo", "bsf2", "ftf")
+LINE_MEASURES = ("share", "prominence")
 """Repetition rates read from the envelope: bsf2 = 2 x BSF, since a spall on a ball strikes both races per spin."""
 
 
@@ -52,7 +68,7 @@ def band_centres(geometry: BearingGeometry, harmonics: int) -> dict[str, float]:
 
 
 class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
-    """Fractions of band-passed envelope power in narrow bands around the defect orders.
+    """Band-passed envelope power in narrow bands around the defect orders: shares of the total, or prominences.
 
     ``fit`` / ``transform`` take the windows' operating point as keyword arguments, because it
     belongs to the data, not to the extractor: ``fs_hz`` (one rate) and ``rpm`` (one shaft speed
@@ -65,19 +81,30 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         harmonics: harmonics of each defect rate.
         half_width_orders: half width of each band in shaft orders; widened to at least one
             envelope-spectrum bin so a band never falls between bins.
+        band_power: add ``band_power_log10``, log10 of the share of the window's power (about
+            its mean) inside the band-pass.
+        line_measure: ``share`` (fraction of the envelope's power in each band) or
+            ``prominence`` (log10 of the band's mean power over the median of its flanks).
+        floor_width_orders: width in shaft orders of each flank that sets a prominence's floor,
+            beyond the band's half width on either side.
 
     Fitted attributes:
-        feature_names_: one name per column (``<h>x<rate>`` and the inner-race sidebands).
+        feature_names_: one name per column (``<h>x<rate>``, the inner-race sidebands, then
+            ``band_power_log10`` when ``band_power``).
         band_hz_: the band-pass edges in Hz at the fitted rate.
     """
 
     def __init__(self, bearing: dict | None = None, band_nyquist: tuple[float, float] = (0.25, 0.9),
-                 filter_order: int = 4, harmonics: int = 3, half_width_orders: float = 0.15) -> None:
+                 filter_order: int = 4, harmonics: int = 3, half_width_orders: float = 0.15,
+                 band_power: bool = True, line_measure: str = "share", floor_width_orders: float = 1.0) -> None:
         self.bearing = bearing
         self.band_nyquist = band_nyquist
         self.filter_order = filter_order
         self.harmonics = harmonics
         self.half_width_orders = half_width_orders
+        self.band_power = band_power
+        self.line_measure = line_measure
+        self.floor_width_orders = floor_width_orders
 
     def check_params(self) -> BearingGeometry:
         """The bearing's geometry, after checking every parameter (errors name the parameter)."""
@@ -92,6 +119,12 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"features.harmonics must be a positive integer, got {self.harmonics!r}")
         if not float(self.half_width_orders) > 0:
             raise BearingTwinError(f"features.half_width_orders must be positive, got {self.half_width_orders!r}")
+        if not isinstance(self.band_power, bool):
+            raise BearingTwinError(f"features.band_power must be true or false, got {self.band_power!r}")
+        if self.line_measure not in LINE_MEASURES:
+            raise BearingTwinError(f"features.line_measure={self.line_measure!r}: choose one of {', '.join(LINE_MEASURES)}")
+        if not (np.isfinite(float(self.floor_width_orders)) and float(self.floor_width_orders) > 0):
+            raise BearingTwinError(f"features.floor_width_orders must be positive, got {self.floor_width_orders!r}")
         return BearingGeometry.from_config(self.bearing)
 
     def fit(self, X, y=None, *, fs_hz: float, rpm) -> "EnvelopeOrderFeatures":
@@ -99,27 +132,42 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         geometry = self.check_params()
         X, _ = self._check(X, fs_hz, rpm)
         self.band_hz_ = tuple(float(v) * fs_hz / 2.0 for v in self.band_nyquist)
-        self.feature_names_ = list(band_centres(geometry, self.harmonics))
+        self.feature_names_ = list(band_centres(geometry, self.harmonics)) + (["band_power_log10"] if self.band_power else [])
         return self
 
     def transform(self, X, y=None, *, fs_hz: float, rpm) -> np.ndarray:
-        """(n_windows, n_features) fractions of each window's envelope power (excluding DC)."""
+        """(n_windows, n_features): each band's share of the envelope's power (excluding DC) or its prominence."""
         if not hasattr(self, "band_hz_"):
             raise BearingTwinError("EnvelopeOrderFeatures: call fit before transform")
         if not np.isclose(fs_hz, 2.0 * self.band_hz_[1] / float(self.band_nyquist[1])):
             raise BearingTwinError(f"fs_hz={fs_hz}: the extractor was fitted at a different sampling rate")
         X, shaft_hz = self._check(X, fs_hz, rpm)
         sos = scipy.signal.butter(self.filter_order, self.band_hz_, btype="bandpass", fs=fs_hz, output="sos")
-        freqs_hz, amplitude = envelope_spectrum(scipy.signal.sosfiltfilt(sos, X, axis=-1), fs_hz, window="hann")
+        in_band = scipy.signal.sosfiltfilt(sos, X, axis=-1)
+        freqs_hz, amplitude = envelope_spectrum(in_band, fs_hz, window="hann")
         power = amplitude[:, 1:] ** 2
         orders = freqs_hz[None, 1:] / shaft_hz[:, None]
         half_width = np.maximum(float(self.half_width_orders), (freqs_hz[1] - freqs_hz[0]) / shaft_hz)[:, None]
         total = power.sum(axis=1)
         if np.any(total == 0):
             raise BearingTwinError("X: a window has no envelope power in the band-pass, so its power cannot be shared out")
-        centres = band_centres(self.check_params(), self.harmonics)
-        return np.stack([np.where(np.abs(orders - centres[name]) <= half_width, power, 0.0).sum(axis=1) / total
-                         for name in self.feature_names_], axis=1)
+        columns = []
+        for centre in band_centres(self.check_params(), self.harmonics).values():
+            distance = np.abs(orders - centre)
+            in_line = distance <= half_width
+            if self.line_measure == "share":
+                columns.append(np.where(in_line, power, 0.0).sum(axis=1) / total)
+                continue
+            flanks = ~in_line & (distance <= half_width + float(self.floor_width_orders))
+            if not np.all(flanks.any(axis=1) & in_line.any(axis=1)):
+                raise BearingTwinError(f"X: order {centre:.2f} lies beyond the envelope spectrum of a window; "
+                                       "use longer windows or fewer features.harmonics")
+            floor = np.nanmedian(np.where(flanks, power, np.nan), axis=1)
+            line = np.where(in_line, power, 0.0).sum(axis=1) / in_line.sum(axis=1)
+            columns.append(np.log10(np.maximum(line, 1e-300) / np.maximum(floor, 1e-300)))
+        if self.band_power:
+            columns.append(np.log10(np.mean(in_band ** 2, axis=1) / np.var(X, axis=1)))
+        return np.stack(columns, axis=1)
 
     def fit_transform(self, X, y=None, *, fs_hz: float, rpm) -> np.ndarray:
         return self.fit(X, y, fs_hz=fs_hz, rpm=rpm).transform(X, fs_hz=fs_hz, rpm=rpm)

@@ -31,8 +31,10 @@ class ExperimentResult:
     """Scores and by-products of one run, ready to be logged.
 
     ``metrics`` holds ``accuracy`` and ``precision_/recall_/f1_<class>`` (Table 3's form)
-    as fractions, plus ``inference_ms_per_sample``; ``confusion`` is counts with true
-    classes as rows; ``history`` the per-epoch training curves (empty for the SVM);
+    as fractions; ``calibration_accuracy`` and ``calibration_recall_<class>`` on the dataset's
+    validation windows if it has any (the calibration records of a twin-to-real run; not
+    ``val_``, which names the CNN's per-epoch curves); and ``inference_ms_per_sample``.
+    ``confusion`` is counts with true classes as rows; ``history`` the per-epoch training curves (empty for the SVM);
     ``vmd_params`` the VMD parameters the features used (Table 2's form).
     """
 
@@ -119,6 +121,11 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     else:
         classifier.fit(features[train], y[train])
     scores, confusion = classification_scores(y[test], classifier.predict(features[test]), dataset.class_names)
+    if len(dataset.validation):  # accuracy, and recall of the classes present (the others would read 0)
+        y_val = y[dataset.validation]
+        validation, _ = classification_scores(y_val, classifier.predict(features[dataset.validation]), dataset.class_names)
+        present = ["accuracy", *(f"recall_{dataset.class_names[c]}" for c in np.unique(y_val))]
+        scores.update({f"calibration_{name}": validation[name] for name in present})
     scores["inference_ms_per_sample"] = inference_ms_per_sample(classifier, features[test])
     return ExperimentResult(
         metrics=scores,

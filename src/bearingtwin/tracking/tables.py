@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+from pathlib import Path
 from typing import Sequence
 
 
@@ -20,3 +21,21 @@ def csv_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
     writer.writerow(header)
     writer.writerows(rows)
     return buffer.getvalue()
+
+
+def write_generated(path: Path, generated: str, marker: str) -> None:
+    """Write ``generated`` to ``path``, keeping hand-written text around it.
+
+    If the file holds two ``marker`` lines, only the text between them is replaced, so the
+    prose a person wrote above and below a table survives regenerating it; otherwise the
+    whole file becomes ``generated``.
+    """
+    text = path.read_text() if path.exists() else ""
+    if text.count(marker) >= 2:
+        before, _, rest = text.partition(marker)
+        _, _, after = rest.partition(marker)
+        text = f"{before}{marker}\n\n{generated.strip()}\n\n{marker}{after}"
+    else:
+        text = generated
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
