@@ -129,3 +129,19 @@ def test_the_twin_chosen_without_the_test_records_is_the_best_validated_then_the
     assert chosen_without_test([bare, full, varied, slip, hand]) is full  # slip is 0.95 % below: not tied
     assert chosen_without_test([bare, row(["slip"], 0.9990, step=1), full, hand])["effects"] == ["slip"]
     assert chosen_without_test([row([], None), hand]) is None
+
+
+def test_the_sim2real_figure_draws_validated_twins_with_the_healthy_records_noise_only(tmp_path):
+    from bearingtwin.tracking.reports import _plot_sim2real
+
+    def row(step, healthy_step=1, validated=True, variants=None):
+        return {"method": "envelope_prominence+band_power+svm (linear)", "step": step, "healthy_step": healthy_step,
+                "hand_set_effects": [], "variants": variants or {}, "accuracy_mean": 0.5 + 0.1 * step,
+                "accuracy_std": 0.02, "calibration_accuracy_mean": 0.9 if validated else None,
+                "calibration_recall_normal_mean": 0.8 if validated else None}
+
+    path = tmp_path / "sim2real.png"
+    drawn = _plot_sim2real([row(s) for s in range(4)] + [row(s, variants={"spin_slip.jitter": [0.1]}) for s in range(4)], path)
+    assert drawn == path and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+    other = tmp_path / "none.png"  # session-2 runs (no calibration check) and twins without 97's noise: nothing to draw
+    assert _plot_sim2real([row(0, validated=False), row(1, healthy_step=0)], other) is None and not other.exists()

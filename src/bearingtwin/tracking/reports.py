@@ -465,6 +465,7 @@ def sim2real(source: ReportInput) -> Report:
     for row in rows:
         row["chosen_without_test"] = any(row is c for c in chosen)
     out.write_text(json.dumps(rows, indent=2))
+    figure = _plot_sim2real(rows, out.with_suffix(".png"))
     header = ["step (130)", "twin", "accuracy % (mean ± std)", "seeds", "test windows",
               "recall % by class (summed over seeds)", "confusions (true→predicted, summed over seeds)",
               "calibration records 97 + 130 (0 hp) % (healthy 97 called normal %)"]
@@ -488,7 +489,43 @@ def sim2real(source: ReportInput) -> Report:
               + "".join(f"* {row['method']}: **{_twin_label(row)}: {_pm(row['accuracies'])} %** on the test records "
                         f"({100 * row['calibration_accuracy_mean']:.1f} % on the calibration records)\n" for row in chosen)
               if chosen else "No run scored the calibration records, so no twin can be chosen without the test records.\n")
-    return Report(f"{title}\n\nTest records: {records}.\n\n{choice}\n" + "\n".join(sections))
+    picture = f"![test accuracy and false alarms by twin step]({figure.name})\n\n" if figure else ""
+    return Report(f"{title}\n\nTest records: {records}.\n\n{choice}\n{picture}" + "\n".join(sections))
+
+
+def _plot_sim2real(rows: list[dict], path: Path) -> Path | None:
+    """Test accuracy and the healthy record's recall against the twin's step, one line per method and
+    variant grid, for twins with record 97's noise that were scored on the calibration records.
+
+    Returns the PNG's path, or None when no row qualifies (nothing is written then).
+    """
+    from matplotlib.figure import Figure
+
+    lines: dict[str, list[dict]] = {}
+    for row in rows:
+        if row["calibration_accuracy_mean"] is not None and row["healthy_step"] and not row["hand_set_effects"]:
+            label = row["method"] + (" + spin-slip variants" if row["variants"] else "")
+            lines.setdefault(label, []).append(row)
+    if not lines:
+        return None
+    figure = Figure(figsize=(11, 4 + 0.18 * len(lines)), layout="constrained")
+    test_axes, healthy_axes = figure.subplots(1, 2, sharex=True)
+    for label, points in lines.items():
+        points.sort(key=lambda row: row["step"])
+        steps = [row["step"] for row in points]
+        style = "--" if "variants" in label else "-"
+        test_axes.errorbar(steps, [100 * row["accuracy_mean"] for row in points],
+                           yerr=[100 * row["accuracy_std"] for row in points], fmt=style + "o", capsize=3, label=label)
+        healthy_axes.plot(steps, [100 * row["calibration_recall_normal_mean"] for row in points], style + "o")
+    test_axes.axhline(90, color="grey", lw=0.8, ls=":")
+    test_axes.set(ylabel="accuracy on 1-3 hp fault records, %", ylim=(0, 100),
+                  title="real faults at unseen loads (twin data only)")
+    healthy_axes.set(ylabel="healthy record 97 called normal, %", ylim=(-2, 102), title="false alarms on the healthy record")
+    for axes in (test_axes, healthy_axes):
+        axes.set(xlabel="step: 0 bare, 1 +slip, 2 +load_zone, 3 +resonance (all + 97's noise)", xticks=[0, 1, 2, 3])
+    figure.legend(*test_axes.get_legend_handles_labels(), loc="outside lower center", ncols=2, fontsize=8)
+    figure.savefig(path, dpi=100)
+    return path
 
 
 def _twin_label(row: dict) -> str:
