@@ -373,7 +373,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
 
     source = ReportInput(source.client, source.experiment_id, {"source": "twin_to_real", **source.settings})
     keys = ("report", "step", "healthy.record", "healthy.report", "healthy.step")
-    VARIANTS = "data.twin.variants."
+    variants_prefix = "data.twin.variants."
 
     def twin(run) -> tuple[str, ...]:
         """The twin's calibration; runs from before ``healthy.noise_level`` existed had relative noise."""
@@ -381,7 +381,8 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
         found = tuple(params.get(f"data.calibration.{key}", "0" if key == "healthy.step" else "") for key in keys)
         noise_level = params.get("data.calibration.healthy.noise_level", "relative") if found[-1] != "0" else ""
         hand_set = tuple(sorted((key, value) for key, value in params.items() if key.startswith("effects.")))
-        variants = tuple(sorted((key[len(VARIANTS):], value) for key, value in params.items() if key.startswith(VARIANTS)))
+        variants = tuple(sorted((key[len(variants_prefix):], value) for key, value in params.items()
+                                if key.startswith(variants_prefix)))
         return (*found, noise_level, hand_set, variants)
 
     def method(run) -> str:
