@@ -327,6 +327,8 @@ def test_variants_simulate_every_state_at_every_value_and_the_value_reaches_the_
     ("+data.twin.variants.spin_slip.jitter=[]", r"data\.twin\.variants\.spin_slip\.jitter: need a non-empty list"),
     ("+data.twin.variants.spin_slip=0.2", r"data\.twin\.variants\.spin_slip: give parameter: \[values"),
     ("data.calibration.validation_windows_per_record=-1", r"data\.calibration\.validation_windows_per_record"),
+    ("+data.twin.variants.spinslip.jitter=[0.1]", r"data\.twin\.variants \(spinslip\.jitter=0\.1\): .*unknown effect"),
+    ("+data.twin.variants.spin_slip.jitter=[0.1,-0.1]", r"data\.twin\.variants \(spin_slip\.jitter=-0\.1\): .*positive"),
 ])
 def test_bad_variants_and_validation_settings_name_their_field(report_path, tmp_path, variants, message):
     cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", f"paths.cache_dir={tmp_path}", variants])

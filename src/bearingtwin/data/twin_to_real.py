@@ -41,6 +41,7 @@ from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, check_fault
 from bearingtwin.physics.simulator import simulate
 from bearingtwin.storage import content_key, save_npz_atomic
@@ -232,8 +233,12 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
         varied = {name: dict(params) for name, params in effects.items()}
         for (effect, parameter, _), value in zip(axes, values):
             varied.setdefault(effect, {})[parameter] = value
-        combinations.append((",".join(f"{e}.{p}={v:g}" if isinstance(v, float) else f"{e}.{p}={v}"
-                                      for (e, p, _), v in zip(axes, values)), varied))
+        label = ",".join(f"{e}.{p}={v:g}" if isinstance(v, float) else f"{e}.{p}={v}" for (e, p, _), v in zip(axes, values))
+        try:  # every combination is checked before the first simulation starts
+            build_effects(varied)
+        except BearingTwinError as error:
+            raise BearingTwinError(f"data.twin.variants ({label}): {error}") from None
+        combinations.append((label, varied))
     return combinations
 
 
