@@ -123,6 +123,14 @@ def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
     client = MlflowClient(uri)
     runs = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
     assert {r.info.status for r in runs} == {"FINISHED"} and {r.data.metrics["n_test"] for r in runs} == {9.0}
+    import csv
+    for run in runs:  # which record fails: one row per test file, averaging to the run's accuracy
+        with open(client.download_artifacts(run.info.run_id, "per_record.csv", str(tmp_path))) as handle:
+            per_record = list(csv.DictReader(handle))
+        assert [(row["record"], row["class"], row["windows"]) for row in per_record] == [
+            ("12k_Drive_End_IR007_1_106.mat", "inner", "3"), ("12k_Drive_End_B007_1_119.mat", "ball", "3"),
+            ("12k_Drive_End_OR007@6_1_131.mat", "outer", "3")]
+        assert np.mean([float(row["accuracy"]) for row in per_record]) == pytest.approx(run.data.metrics["accuracy"], abs=1e-4)
     for run in runs:  # the calibration records, scored apart: 2 healthy + 2 outer-race windows
         val = {k: v for k, v in run.data.metrics.items() if k.startswith("calibration_")}
         assert set(val) == {"calibration_accuracy", "calibration_recall_normal", "calibration_recall_outer"}

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import lightning as L
 import numpy as np
@@ -35,7 +36,8 @@ class ExperimentResult:
     validation windows if it has any (the calibration records of a twin-to-real run; not
     ``val_``, which names the CNN's per-epoch curves); and ``inference_ms_per_sample``.
     ``confusion`` is counts with true classes as rows; ``history`` the per-epoch training curves (empty for the SVM);
-    ``vmd_params`` the VMD parameters the features used (Table 2's form).
+    ``vmd_params`` the VMD parameters the features used (Table 2's form); ``per_record``
+    one row per test record (``record``, ``class``, ``windows``, ``accuracy``): which file fails.
     """
 
     metrics: dict[str, float]
@@ -47,6 +49,18 @@ class ExperimentResult:
     features_key: str = ""
     n_train: int = 0
     n_test: int = 0
+    per_record: list[dict] = field(default_factory=list)
+
+
+def per_record_accuracy(dataset, test: np.ndarray, predicted: np.ndarray) -> list[dict]:
+    """Accuracy of the test windows of each record, in record order."""
+    rows = []
+    for record_id in np.unique(dataset.record_ids[test]):
+        of_record = dataset.record_ids[test] == record_id
+        true = dataset.labels[test][of_record]
+        rows.append({"record": Path(dataset.records[record_id]).name, "class": dataset.class_names[true[0]],
+                     "windows": int(of_record.sum()), "accuracy": float(np.mean(predicted[of_record] == true))})
+    return rows
 
 
 def classification_scores(y_true, y_pred, class_names) -> tuple[dict[str, float], np.ndarray]:
@@ -120,7 +134,8 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         classifier.fit(features[train], y[train], eval_set=(features[test], y[test]))
     else:
         classifier.fit(features[train], y[train])
-    scores, confusion = classification_scores(y[test], classifier.predict(features[test]), dataset.class_names)
+    predicted = classifier.predict(features[test])
+    scores, confusion = classification_scores(y[test], predicted, dataset.class_names)
     if len(dataset.validation):  # accuracy, and recall of the classes present (the others would read 0)
         y_val = y[dataset.validation]
         validation, _ = classification_scores(y_val, classifier.predict(features[dataset.validation]), dataset.class_names)
@@ -137,5 +152,6 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         features_key=cache_path(cfg.features, dataset, train, cfg.paths.cache_dir).name,
         n_train=len(train),
         n_test=len(test),
+        per_record=per_record_accuracy(dataset, test, predicted),
     )
 

@@ -228,7 +228,7 @@ def log_params_and_tags(client: MlflowClient, run_id: str, params: dict[str, str
 
 
 def log_result(client: MlflowClient, run_id: str, result) -> None:
-    """Metrics, training curves (as stepped metrics and a PNG), confusion matrix, Table 2 / 3 artifacts."""
+    """Metrics, training curves (as stepped metrics and a PNG), confusion matrix, per-record accuracy, Table 2 / 3 artifacts."""
     now = int(time.time() * 1000)
     metrics = [Metric(k, float(v), now, 0) for k, v in result.metrics.items()]
     for record in result.history:
@@ -247,6 +247,10 @@ def log_result(client: MlflowClient, run_id: str, result) -> None:
             (folder / "vmd_params.md").write_text(markdown_table(header, rows))
         if result.history:
             _plot_curves(result.history, folder / "training_curves.png")
+        if result.per_record:
+            header = list(result.per_record[0])
+            rows = [[row[k] if k != "accuracy" else f"{row[k]:.4f}" for k in header] for row in result.per_record]
+            (folder / "per_record.csv").write_text(csv_table(header, rows))
         client.log_artifacts(run_id, str(folder))
 
 
