@@ -136,6 +136,7 @@ def test_the_sim2real_figure_draws_validated_twins_with_the_healthy_records_nois
 
     def row(step, healthy_step=1, validated=True, variants=None):
         return {"method": "envelope_prominence+band_power+svm (linear)", "step": step, "healthy_step": healthy_step,
+                "effects": ["slip", "load_zone", "resonance", "noise"],
                 "hand_set_effects": [], "variants": variants or {}, "accuracy_mean": 0.5 + 0.1 * step,
                 "accuracy_std": 0.02, "calibration_accuracy_mean": 0.9 if validated else None,
                 "calibration_recall_normal_mean": 0.8 if validated else None}

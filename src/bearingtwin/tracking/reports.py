@@ -505,16 +505,18 @@ def _plot_sim2real(rows: list[dict], path: Path) -> Path | None:
     lines: dict[str, list[dict]] = {}
     for row in rows:
         if row["calibration_accuracy_mean"] is not None and row["healthy_step"] and not row["hand_set_effects"]:
-            label = row["method"] + (" + spin-slip variants" if row["variants"] else "")
+            label = " + ".join([row["method"], *_variant_labels(row["variants"])])
             lines.setdefault(label, []).append(row)
     if not lines:
         return None
-    figure = Figure(figsize=(11, 4 + 0.18 * len(lines)), layout="constrained")
+    deepest = max((row for points in lines.values() for row in points), key=lambda row: row["step"])
+    steps_added = ", ".join(f"{step} +{name}" for step, name in enumerate(deepest["effects"][:deepest["step"]], start=1))
+    figure = Figure(figsize=(11, 4 + 0.2 * len(lines)), layout="constrained")
     test_axes, healthy_axes = figure.subplots(1, 2, sharex=True)
     for label, points in lines.items():
         points.sort(key=lambda row: row["step"])
         steps = [row["step"] for row in points]
-        style = "--" if "variants" in label else "-"
+        style = "--" if points[0]["variants"] else "-"
         test_axes.errorbar(steps, [100 * row["accuracy_mean"] for row in points],
                            yerr=[100 * row["accuracy_std"] for row in points], fmt=style + "o", capsize=3, label=label)
         healthy_axes.plot(steps, [100 * row["calibration_recall_normal_mean"] for row in points], style + "o")
@@ -523,8 +525,8 @@ def _plot_sim2real(rows: list[dict], path: Path) -> Path | None:
                   title="real faults at unseen loads (twin data only)")
     healthy_axes.set(ylabel="healthy record 97 called normal, %", ylim=(-2, 102), title="false alarms on the healthy record")
     for axes in (test_axes, healthy_axes):
-        axes.set(xlabel="step: 0 bare, 1 +slip, 2 +load_zone, 3 +resonance (all + 97's noise)", xticks=[0, 1, 2, 3])
-    figure.legend(*test_axes.get_legend_handles_labels(), loc="outside lower center", ncols=2, fontsize=8)
+        axes.set(xlabel=f"step: 0 bare, {steps_added} (all + 97's noise)", xticks=range(deepest["step"] + 1))
+    figure.legend(*test_axes.get_legend_handles_labels(), loc="outside lower center", ncols=1, fontsize=8)
     figure.savefig(path, dpi=100)
     return path
 
@@ -533,9 +535,13 @@ def _twin_label(row: dict) -> str:
     """'twin + slip + noise (97, absolute) + ...': calibrated steps, then hand-set effects and variants."""
     calibrated = [name for name in row["effects"] if name not in row["hand_set_effects"]]
     added = [*calibrated[:row["step"]], *(f"{name} (97, {row['noise_level']})" for name in calibrated[row["step"]:]),
-             *(f"{name} (hand-set)" for name in row["hand_set_effects"]),
-             *(f"{name} ∈ {{{', '.join(f'{v:g}' for v in values)}}} (variants)" for name, values in row["variants"].items())]
+             *(f"{name} (hand-set)" for name in row["hand_set_effects"]), *_variant_labels(row["variants"])]
     return " + ".join(["twin", *added])
+
+
+def _variant_labels(variants: dict) -> list[str]:
+    """'spin_slip.jitter ∈ {0.01, 0.4} (variants)' for each varied parameter."""
+    return [f"{name} ∈ {{{', '.join(f'{v:g}' for v in values)}}} (variants)" for name, values in variants.items()]
 
 
 def chosen_without_test(rows: list[dict]) -> dict | None:
