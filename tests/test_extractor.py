@@ -186,7 +186,7 @@ def small_cfg(**changes):
 def test_cache_reuses_an_extraction_and_keys_on_config_dataset_and_split(dataset, tmp_path):
     cfg = small_cfg()
     train = np.arange(0, len(dataset), 2)
-    features, table = extract_features(cfg, dataset, train, tmp_path)
+    features, table, _ = extract_features(cfg, dataset, train, tmp_path)
     path = cache_path(cfg, dataset, train, tmp_path)
     assert path.exists() and [p.name for p in path.parent.iterdir()] == [path.name]  # no temp file left
     assert features.shape == (len(dataset), 9) and table[0]["scope"] == "global"
@@ -209,6 +209,6 @@ def test_cache_refuses_bad_training_indices(dataset, tmp_path):
 
 
 def test_raw_extraction_returns_the_windows_uncached(dataset, tmp_path):
-    features, table = extract_features({"name": "raw", "kind": "raw"}, dataset, [0, 1], tmp_path)
+    features, table, _ = extract_features({"name": "raw", "kind": "raw"}, dataset, [0, 1], tmp_path)
     np.testing.assert_array_equal(features, dataset.windows)
     assert table == [] and not os.path.exists(tmp_path / "features")

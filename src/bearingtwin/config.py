@@ -46,3 +46,23 @@ def plain_config(cfg, name: str = "config") -> dict:
         except OmegaConfBaseException as error:
             raise BearingTwinError(f"{name}: {error}") from None
     return dict(cfg or {})
+
+
+def bearing_config(name: str) -> dict:
+    """``conf/bearing/<name>.yaml`` composed as Hydra would (its defaults chain applied), as a dict.
+
+    Works inside a running Hydra app (which has initialized Hydra) and outside one.
+    """
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.errors import MissingConfigException
+
+    try:
+        if GlobalHydra.instance().is_initialized():
+            cfg = compose(overrides=[f"+bearing={name}"])
+        else:
+            with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+                cfg = compose(overrides=[f"+bearing={name}"])
+    except MissingConfigException:
+        raise BearingTwinError(f"bearing {name!r}: no such bearing config in {CONF_DIR}/bearing") from None
+    return OmegaConf.to_container(cfg.bearing, resolve=True)

@@ -91,6 +91,8 @@ class WindowedDataset:
             axis; None when the source does not give it.
         validation: indices of windows in neither part of ``fixed_split``, scored on their own
             (``calibration_*`` metrics) and never trained on; empty when the source has none.
+        window_normalization: what was done to every window after cutting (``none`` or ``zscore``,
+            :func:`bearingtwin.data.windows.normalize_windows`); a diagnosis repeats it.
     """
 
     windows: np.ndarray
@@ -105,6 +107,7 @@ class WindowedDataset:
     fixed_split: tuple[np.ndarray, np.ndarray] | None = None
     record_rpms: list[float] | None = None
     validation: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    window_normalization: str = "none"
 
     def __post_init__(self) -> None:
         n = len(self.windows)
@@ -133,4 +136,5 @@ class WindowedDataset:
             key=self.key,
             record_lengths=self.record_lengths,
             record_rpms=self.record_rpms,
+            window_normalization=self.window_normalization,
         )

@@ -39,7 +39,7 @@ from omegaconf import OmegaConf
 from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.recording import Recording, WindowedDataset
-from bearingtwin.data.windows import cut_windows
+from bearingtwin.data.windows import cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, check_fault
@@ -242,13 +242,6 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
     return combinations
 
 
-def _normalized(windows: np.ndarray) -> np.ndarray:
-    std = windows.std(axis=1, keepdims=True)
-    if np.any(std == 0):
-        raise BearingTwinError("data.normalize_windows: a window is constant, so it has no scale to normalize")
-    return (windows - windows.mean(axis=1, keepdims=True)) / std
-
-
 def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> WindowedDataset:
     """Twin windows (training) at the real records' operating points, real windows (test).
 
@@ -327,8 +320,11 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     labels += [r.label for r in tests + validation_records]
     sources += [str(r.source) for r in tests + validation_records]
     windows = np.concatenate([w for w, _ in cuts])
-    if cfg["normalize_windows"]:
-        windows = _normalized(windows)
+    normalization = "zscore" if cfg["normalize_windows"] else "none"
+    try:
+        windows = normalize_windows(windows, normalization)
+    except BearingTwinError as error:
+        raise BearingTwinError(f"data.normalize_windows: {error}") from None
     record_ids = np.concatenate([np.full(len(w), i) for i, (w, _) in enumerate(cuts)])
     n_twin = sum(len(w) for w, _ in cuts[:len(signals)])
     n_test = sum(len(w) for w, _ in cuts[len(signals):len(signals) + len(tests)])
@@ -345,6 +341,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                      "config": {k: v for k, v in cfg.items() if k != "root"}}),
         record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests + validation_records],
         fixed_split=(index[:n_twin], index[n_twin:n_twin + n_test]),
+        window_normalization=normalization,
         validation=index[n_twin + n_test:],
         record_rpms=[float(rpm) for _ in variants for _ in faults for rpm in rpms]
                     + [float(r.rpm) for r in tests + validation_records],

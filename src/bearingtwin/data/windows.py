@@ -50,6 +50,26 @@ def cut_windows(signal: np.ndarray, window_length: int, n_windows: int) -> tuple
     return signal[starts[:, None] + np.arange(window_length)], starts
 
 
+WINDOW_NORMALIZATIONS = ("none", "zscore")
+
+
+def normalize_windows(windows: np.ndarray, method: str = "zscore") -> np.ndarray:
+    """Each window (row) to zero mean and unit standard deviation (``zscore``), or as is (``none``).
+
+    Used where the training data and the data to diagnose differ in unit or gain (a twin in
+    m/s^2, a CWRU record in g): what is left is the window's shape.
+    """
+    if method not in WINDOW_NORMALIZATIONS:
+        raise BearingTwinError(f"window normalization {method!r}: choose one of {', '.join(WINDOW_NORMALIZATIONS)}")
+    windows = np.asarray(windows, dtype=np.float64)
+    if method == "none":
+        return windows
+    std = windows.std(axis=-1, keepdims=True)
+    if np.any(std == 0):
+        raise BearingTwinError("a window is constant, so it has no scale to normalize")
+    return (windows - windows.mean(axis=-1, keepdims=True)) / std
+
+
 def split_indices(
     labels: np.ndarray,
     record_ids: np.ndarray,

@@ -61,7 +61,7 @@ def cache_path(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -
     return Path(cache_dir) / "features" / f"{cfg.get('name', 'features')}-{content_key(material, 20)}.npz"
 
 
-def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -> tuple[np.ndarray, list[dict]]:
+def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -> tuple[np.ndarray, list[dict], object]:
     """Features of every window of ``dataset``, fitted on ``train_index``; cached.
 
     Args:
@@ -76,24 +76,29 @@ def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_
         features: (n_windows, 9) for SABO-VMD features; the windows themselves (not cached) for ``raw``;
             envelope-order fractions (not cached, need ``dataset.record_rpms``) for ``envelope_orders``.
         table: the VMD parameters used (rows as in :attr:`SaboVmdFeatures.vmd_params_`).
+        extractor: the fitted extractor, ready to transform new windows as these were (on a cache
+            hit its fitted state is restored from the stored table): the feature path a diagnosis reuses.
     """
     extractor = build_feature_extractor(features_cfg)
     train_index = np.asarray(train_index)
     if train_index.size == 0 or train_index.min() < 0 or train_index.max() >= len(dataset):
         raise BearingTwinError(f"train_index must hold indices into the {len(dataset)} windows of {dataset.key or 'the dataset'}")
     if isinstance(extractor, RawFeatures):
-        return extractor.fit(dataset.windows[train_index]).transform(dataset.windows), []
+        return extractor.fit(dataset.windows[train_index]).transform(dataset.windows), [], extractor
     if isinstance(extractor, EnvelopeOrderFeatures):  # milliseconds per window: not worth a cache file
         rpms = dataset.window_rpms
         extractor.fit(dataset.windows[train_index], fs_hz=dataset.fs, rpm=None if rpms is None else rpms[train_index])
-        return extractor.transform(dataset.windows, fs_hz=dataset.fs, rpm=rpms), []
+        return extractor.transform(dataset.windows, fs_hz=dataset.fs, rpm=rpms), [], extractor
     path = cache_path(features_cfg, dataset, train_index, cache_dir)
     if path.exists():
         log.info("features: cache hit %s", path)
         with np.load(path, allow_pickle=False) as stored:
-            return stored["features"], json.loads(str(stored["table"]))
+            features, table = stored["features"], json.loads(str(stored["table"]))
+        # The stored table is the fitted state (per_sample fits nothing: its rows are per window).
+        extractor.vmd_params_ = [] if extractor.vmd_params == "per_sample" else table
+        return features, table, extractor
     log.info("features: extracting %d windows into %s", len(dataset), path)
     extractor.fit(dataset.windows[train_index], dataset.labels[train_index])
     features, table = extractor.extract(dataset.windows, dataset.labels)
     save_npz_atomic(path, features=features, table=np.array(json.dumps(table)))
-    return features, table
+    return features, table, extractor

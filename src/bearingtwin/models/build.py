@@ -6,9 +6,9 @@ from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
-from bearingtwin.models.svm import make_svm
+from bearingtwin.models.svm import SvmClassifier
 
-CLASSIFIERS = {"cnn_bilstm": CnnBiLstmClassifier, "svm": make_svm}
+CLASSIFIERS = {"cnn_bilstm": CnnBiLstmClassifier, "svm": SvmClassifier}
 
 
 def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: int, root_dir: str | None = None):
@@ -24,4 +24,6 @@ def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: 
     if name == "cnn_bilstm":
         trainer = OmegaConf.to_container(trainer_cfg, resolve=True)
         return CnnBiLstmClassifier(**params, **trainer, random_state=seed, root_dir=root_dir)
-    return make_svm(**params, random_state=seed)
+    svm = SvmClassifier(**params, random_state=seed)
+    svm.check_params()  # bad settings fail before any data is built
+    return svm

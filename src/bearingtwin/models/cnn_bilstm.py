@@ -34,7 +34,8 @@ from __future__ import annotations
 import contextlib
 import logging
 import tempfile
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import lightning as L
 import numpy as np
@@ -274,6 +275,35 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
 
     def predict(self, X) -> np.ndarray:
         return self.classes_[self.predict_proba(X).argmax(axis=1)]
+
+    def save(self, path) -> dict:
+        """Write the network's weights to ``path`` (torch ``state_dict``); returns the rest of the
+        fitted state (parameters, layer sizes, classes, feature scaler) as JSON-able values."""
+        torch.save(self.module_.state_dict(), path)
+        params = {k: v for k, v in self.get_params().items() if k != "root_dir"}
+        return {
+            "params": params,
+            "shape": asdict(self.module_.shape),
+            "classes": self.classes_.tolist(),
+            "scaler": {"mean": self.scaler_.mean_.tolist(), "scale": self.scaler_.scale_.tolist()},
+            "weights": Path(path).name,
+        }
+
+    @classmethod
+    def load(cls, path, state: dict) -> "CnnBiLstmClassifier":
+        """The fitted classifier :meth:`save` wrote, on the CPU, in evaluation mode; no Trainer is involved."""
+        classifier = cls(**state["params"])
+        classifier.classes_ = np.asarray(state["classes"])
+        classifier.scaler_ = StandardScaler()
+        classifier.scaler_.mean_ = np.asarray(state["scaler"]["mean"])
+        classifier.scaler_.scale_ = np.asarray(state["scaler"]["scale"])
+        classifier.scaler_.var_ = classifier.scaler_.scale_ ** 2
+        classifier.scaler_.n_features_in_ = classifier.scaler_.mean_.size
+        module = CnnBiLstmModule(CnnBiLstmShape(**state["shape"]), classifier.learning_rate, classifier.l2_factor)
+        module.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+        classifier.module_ = module.eval()
+        classifier.history_ = []
+        return classifier
 
 
 @contextlib.contextmanager

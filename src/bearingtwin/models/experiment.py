@@ -13,10 +13,12 @@ from pathlib import Path
 import lightning as L
 import numpy as np
 import torch
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 
+from bearingtwin.config import bearing_config
 from bearingtwin.data.build import build_dataset
+from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.cache import cache_path, extract_features
@@ -38,6 +40,8 @@ class ExperimentResult:
     ``confusion`` is counts with true classes as rows; ``history`` the per-epoch training curves (empty for the SVM);
     ``vmd_params`` the VMD parameters the features used (Table 2's form); ``per_record``
     one row per test record (``record``, ``class``, ``windows``, ``accuracy``): which file fails.
+    ``pipeline`` is the fitted extractor and classifier with what a diagnosis needs (the run's model);
+    ``example_windows`` two test windows (and their shaft speed) as the model's input example.
     """
 
     metrics: dict[str, float]
@@ -50,6 +54,9 @@ class ExperimentResult:
     n_train: int = 0
     n_test: int = 0
     per_record: list[dict] = field(default_factory=list)
+    pipeline: DiagnosisPipeline | None = None
+    example_windows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    example_rpm: float | None = None
 
 
 def per_record_accuracy(dataset, test: np.ndarray, predicted: np.ndarray) -> list[dict]:
@@ -128,7 +135,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
             train_fraction=cfg.data.train_fraction,
             seed=seed,
         )
-    features, vmd_params = extract_features(cfg.features, dataset, train, cfg.paths.cache_dir)
+    features, vmd_params, extractor = extract_features(cfg.features, dataset, train, cfg.paths.cache_dir)
     y = dataset.labels
     if isinstance(classifier, CnnBiLstmClassifier):
         classifier.fit(features[train], y[train], eval_set=(features[test], y[test]))
@@ -153,5 +160,24 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         n_train=len(train),
         n_test=len(test),
         per_record=per_record_accuracy(dataset, test, predicted),
+        example_windows=dataset.windows[test[:2]],
+        example_rpm=None if dataset.window_rpms is None else float(dataset.window_rpms[test[0]]),
+        pipeline=DiagnosisPipeline(
+            extractor=extractor,
+            classifier=classifier,
+            window_length=dataset.windows.shape[1],
+            fs_hz=dataset.fs,
+            window_normalization=dataset.window_normalization,
+            bearing=data_bearing(cfg),
+            config={k: v for k, v in OmegaConf.to_container(cfg, resolve=True).items() if k != "hydra"},
+        ),
     )
+
+
+def data_bearing(cfg: DictConfig) -> dict:
+    """The bearing the data describe: real-data configs name theirs (``data.bearing``), the twin's is ``bearing``."""
+    name = cfg.data.get("bearing")
+    if name is None or name == cfg.bearing.get("name"):
+        return OmegaConf.to_container(cfg.bearing, resolve=True)
+    return bearing_config(name)
 

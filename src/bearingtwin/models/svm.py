@@ -3,10 +3,19 @@
 The scaler sits inside the pipeline so its statistics come from the training set only,
 as for the CNN-BiLSTM. The paper gives no SVM hyperparameters; ``conf/classifier/svm.yaml``
 holds scikit-learn's defaults (C = 1, RBF kernel, gamma = 1 / (n_features * var)).
+
+A diagnosis also wants class probabilities, which an SVM does not give. :class:`SvmClassifier`
+predicts with the SVM exactly as trained (so every accuracy in the results is the plain SVM's)
+and estimates probabilities with scikit-learn's ``CalibratedClassifierCV`` (Platt's sigmoid on
+cross-validated decision values; ``SVC(probability=True)`` is deprecated for it). At the margin
+of two classes the most probable class can then differ from the predicted one.
 """
 
 from __future__ import annotations
 
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.calibration import CalibratedClassifierCV
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
@@ -14,6 +23,7 @@ from sklearn.svm import SVC
 from bearingtwin.errors import BearingTwinError
 
 KERNELS = ("linear", "poly", "rbf", "sigmoid")
+CALIBRATION_FOLDS = 5
 
 
 def make_svm(C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", random_state: int = 0) -> Pipeline:
@@ -25,3 +35,42 @@ def make_svm(C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", 
     if not (gamma in ("scale", "auto") or (isinstance(gamma, (int, float)) and gamma > 0)):
         raise BearingTwinError(f"classifier.gamma must be 'scale', 'auto' or a positive number, got {gamma!r}")
     return Pipeline([("scale", StandardScaler()), ("svc", SVC(C=C, kernel=kernel, gamma=gamma, random_state=random_state))])
+
+
+class SvmClassifier(ClassifierMixin, BaseEstimator):
+    """The scaled SVM of :func:`make_svm`, with calibrated class probabilities.
+
+    Fitted attributes: ``classes_``, ``svm_`` (the pipeline that predicts), ``calibration_``
+    (a ``CalibratedClassifierCV`` around a clone of it, ``ensemble=False``: one SVM fitted on all
+    training data, its sigmoid fitted on ``CALIBRATION_FOLDS``-fold cross-validated decisions).
+    """
+
+    def __init__(self, C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", random_state: int = 0) -> None:
+        self.C = C
+        self.kernel = kernel
+        self.gamma = gamma
+        self.random_state = random_state
+
+    def check_params(self) -> None:
+        """Raise :class:`BearingTwinError` naming the first impossible parameter."""
+        make_svm(self.C, self.kernel, self.gamma, self.random_state)
+
+    def fit(self, X, y) -> "SvmClassifier":
+        svm = make_svm(self.C, self.kernel, self.gamma, self.random_state)
+        y = np.asarray(y)
+        self.classes_, counts = np.unique(y, return_counts=True)
+        if counts.min() < 2:
+            raise BearingTwinError(f"the SVM's probabilities are calibrated by cross-validation, which needs at least 2 "
+                                   f"training windows per class; class {self.classes_[counts.argmin()]} has {counts.min()}")
+        self.svm_ = svm.fit(X, y)
+        folds = int(min(CALIBRATION_FOLDS, counts.min()))
+        self.calibration_ = CalibratedClassifierCV(make_svm(self.C, self.kernel, self.gamma, self.random_state),
+                                                   method="sigmoid", cv=folds, ensemble=False).fit(X, y)
+        return self
+
+    def predict(self, X) -> np.ndarray:
+        return self.svm_.predict(X)
+
+    def predict_proba(self, X) -> np.ndarray:
+        """(n_samples, n_classes) calibrated probabilities, columns in ``classes_`` order."""
+        return self.calibration_.predict_proba(X)

@@ -339,6 +339,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         result = train(cfg, root_dir)
         log_params_and_tags(client, run_id, {}, {"dataset_key": result.dataset_key, "features_key": result.features_key})
         log_result(client, run_id, result)
+        log_model(cfg, experiment_id, run_id, result, digest)
     except Exception as error:
         client.set_tag(run_id, "error", f"{type(error).__name__}: {error}"[:8000])
         client.log_text(run_id, traceback.format_exc(), "error.txt")
@@ -349,6 +350,23 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         return None
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
     return result.metrics
+
+
+def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: str) -> None:
+    """The run's fitted pipeline as its MLflow model ``model``; registered as ``register`` (alias
+    ``register_alias``) when the config asks."""
+    from bearingtwin.diagnosis.mlflow_model import log_diagnosis_model, register_model
+
+    result.pipeline.config_hash = digest
+    uri = str(cfg.tracking.uri)
+    info = log_diagnosis_model(uri, experiment_id, run_id, result.pipeline, result.example_windows, result.example_rpm)
+    name, alias = cfg.get("register"), cfg.get("register_alias")
+    if alias and not name:
+        raise BearingTwinError("register_alias needs register=<model name>")
+    if name:
+        version = register_model(uri, info.model_uri, str(name), None if alias is None else str(alias))
+        log.info("registered %s version %s%s", name, version, f" as @{alias}" if alias else "")
+        MlflowClient(tracking_uri=uri).set_tag(run_id, "registered_model", f"{name}/{version}")
 
 
 def stored_config(client: MlflowClient, run_id: str) -> DictConfig:

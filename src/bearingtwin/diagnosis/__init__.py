@@ -1,0 +1,1 @@
+"""Diagnosing recordings with trained models: the fitted pipeline, its MLflow model, physics evidence."""

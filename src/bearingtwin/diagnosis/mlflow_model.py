@@ -1,0 +1,126 @@
+"""A trained pipeline as an MLflow model: pyfunc flavor, signature, input example, registry.
+
+``mlflow.pyfunc.load_model("runs:/<run_id>/model").predict(windows, params={"rpm": 1797})``
+takes raw windows (n, window_length) at the model's sampling rate and returns one row per
+window: ``state`` and one probability column per class. ``rpm`` (rev/min; 0 = not given) is
+needed by models whose features are read on the shaft-order axis. The same model is served by
+``mlflow models serve -m models:/<name>@<alias> --env-manager local`` and queried with
+``{"inputs": [[...], ...], "params": {"rpm": 1797}}``.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from mlflow.pyfunc import PythonModel
+
+from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
+from bearingtwin.errors import BearingTwinError
+
+ARTIFACT_PATH = "model"
+STATE_COLUMN = "state"
+RUNTIME_PACKAGES = ("bearingtwin", "numpy", "scipy", "pandas", "scikit-learn", "skops", "torch", "lightning", "mlflow")
+
+
+class DiagnosisModel(PythonModel):
+    """pyfunc face of a :class:`DiagnosisPipeline` (loaded from the ``pipeline`` artifact)."""
+
+    def load_context(self, context) -> None:
+        self.pipeline = DiagnosisPipeline.load(context.artifacts["pipeline"])
+
+    def predict(self, context, model_input: np.ndarray, params: dict | None = None) -> pd.DataFrame:
+        rpm = float((params or {}).get("rpm") or 0.0)
+        return predictions_frame(self.pipeline, np.asarray(model_input, dtype=np.float64), rpm if rpm > 0 else None)
+
+
+def predictions_frame(pipeline: DiagnosisPipeline, windows: np.ndarray, rpm: float | None) -> pd.DataFrame:
+    """``state`` and one probability column per class, one row per window."""
+    states, probabilities = pipeline.predict(windows, rpm)
+    frame = pd.DataFrame(probabilities, columns=pipeline.class_names)
+    frame.insert(0, STATE_COLUMN, states)
+    return frame
+
+
+def _requirements() -> list[str]:
+    pins = []
+    for package in RUNTIME_PACKAGES:
+        try:
+            pins.append(f"{package}=={importlib.metadata.version(package)}")
+        except importlib.metadata.PackageNotFoundError:
+            pins.append(package)
+    return pins
+
+
+def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipeline: DiagnosisPipeline,
+                        example_windows: np.ndarray, example_rpm: float | None):
+    """Log ``pipeline`` as the run's MLflow model ``model``; returns MLflow's ``ModelInfo``.
+
+    The signature is a float64 tensor (n, window_length) in, the prediction frame out, and
+    ``rpm`` as a parameter. A model that cannot diagnose (``vmd_params=per_class``) is logged
+    all the same, with a signature built without predicting, and refuses at prediction time.
+    """
+    import mlflow
+    from mlflow.models import Model, infer_signature
+
+    mlflow.set_tracking_uri(tracking_uri)  # Model.log resolves the store globally; jobs in one process run one at a time
+    mlflow.set_experiment(experiment_id=experiment_id)
+    windows = np.asarray(example_windows, dtype=np.float64)[:2]
+    try:
+        output = predictions_frame(pipeline, windows, example_rpm)
+        can_diagnose = True
+    except BearingTwinError:
+        output = pd.DataFrame({STATE_COLUMN: ["normal"] * len(windows), **{n: np.zeros(len(windows)) for n in pipeline.class_names}})
+        can_diagnose = False
+    signature = infer_signature(windows, output, params={"rpm": float(example_rpm or 0.0)})
+    with tempfile.TemporaryDirectory() as folder:
+        pipeline.save(Path(folder) / "pipeline")
+        return Model.log(
+            artifact_path=None,
+            name=ARTIFACT_PATH,
+            flavor=mlflow.pyfunc,
+            run_id=run_id,
+            python_model=str(Path(__file__).with_name("pyfunc_model.py")),
+            artifacts={"pipeline": str(Path(folder) / "pipeline")},
+            signature=signature,
+            input_example=(windows, {"rpm": float(example_rpm or 0.0)}) if can_diagnose else None,
+            pip_requirements=_requirements(),
+            metadata={"window_length": pipeline.window_length, "fs_hz": pipeline.fs_hz,
+                      "class_names": pipeline.class_names, "config_hash": pipeline.config_hash,
+                      "can_diagnose": can_diagnose},
+        )
+
+
+def register_model(tracking_uri: str, model_uri: str, name: str, alias: str | None = None) -> str:
+    """Register a logged model under ``name`` in MLflow's Model Registry (same store); returns the version."""
+    import mlflow
+    from mlflow import MlflowClient
+
+    mlflow.set_tracking_uri(tracking_uri)
+    mlflow.set_registry_uri(tracking_uri)
+    version = mlflow.register_model(model_uri, name).version
+    if alias:
+        MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri).set_registered_model_alias(name, alias, version)
+    return str(version)
+
+
+def load_diagnosis_model(model_uri: str, tracking_uri: str):
+    """The pyfunc model at ``model_uri`` (``models:/name@alias``, ``models:/name/version``, ``runs:/id/model``)
+    and its pipeline; an unknown URI is a :class:`BearingTwinError` naming it."""
+    import mlflow
+    from mlflow.exceptions import MlflowException
+
+    mlflow.set_tracking_uri(tracking_uri)
+    mlflow.set_registry_uri(tracking_uri)
+    try:
+        model = mlflow.pyfunc.load_model(model_uri)
+    except (MlflowException, OSError) as error:
+        first_line = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({first_line})") from None
+    python_model = model.unwrap_python_model()
+    if not isinstance(python_model, DiagnosisModel):
+        raise BearingTwinError(f"model={model_uri}: not a bearingtwin diagnosis model ({type(python_model).__name__})")
+    return model, python_model.pipeline

@@ -1,0 +1,191 @@
+"""The product of a training run: everything needed to go from raw windows to a diagnosis.
+
+A :class:`DiagnosisPipeline` is built by the training run from the very objects it fitted
+(``models.experiment.run_experiment``): the window normalization the dataset applied, the
+fitted feature extractor (with its VMD parameters) and the fitted classifier. Diagnosing a
+window therefore runs the same code path as training did, never a copy of it.
+
+It is saved as plain, inspectable files, nothing from the training data or the cache:
+
+- ``pipeline.json``: window length, sampling rate, normalization, class names, bearing
+  geometry, the extractor's parameters and fitted state, the classifier's kind, the config
+  and its hash;
+- ``network.pt`` (CNN-BiLSTM): the network's ``state_dict``, loadable on a CPU without a
+  Lightning Trainer, beside the feature scaler's statistics in ``pipeline.json``;
+- ``svm.skops`` (SVM): the fitted scikit-learn objects in skops' format.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bearingtwin.data.windows import normalize_windows
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
+from bearingtwin.features.extractor import EXTRACTORS
+from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
+from bearingtwin.models.svm import SvmClassifier
+from bearingtwin.physics.geometry import FAULTS
+
+FORMAT = 1  # bump when the saved layout changes
+PIPELINE_FILE = "pipeline.json"
+
+
+@dataclass
+class DiagnosisPipeline:
+    """Fitted extractor + classifier, and the facts a recording must match to be diagnosed.
+
+    Attributes:
+        extractor: a fitted extractor of :data:`bearingtwin.features.extractor.EXTRACTORS`.
+        classifier: a fitted :class:`CnnBiLstmClassifier` or :class:`SvmClassifier`; its
+            ``classes_`` are :data:`FAULTS` indices.
+        window_length: samples per window.
+        fs_hz: sampling rate the model was trained at, Hz.
+        window_normalization: ``none`` or ``zscore`` (:func:`normalize_windows`).
+        bearing: the bearing config of the data (geometry: defect frequencies).
+        config: the resolved training config; ``config_hash`` its hash.
+    """
+
+    extractor: object
+    classifier: object
+    window_length: int
+    fs_hz: float
+    window_normalization: str = "none"
+    bearing: dict = field(default_factory=dict)
+    config: dict = field(default_factory=dict)
+    config_hash: str = ""
+
+    @property
+    def class_names(self) -> list[str]:
+        """State names of the classifier's outputs, in its column order."""
+        return [FAULTS[int(label)] for label in self.classifier.classes_]
+
+    @property
+    def needs_rpm(self) -> bool:
+        """Whether the features read the spectrum on the shaft-order axis (the shaft speed is required)."""
+        return isinstance(self.extractor, EnvelopeOrderFeatures)
+
+    def check_can_diagnose(self) -> None:
+        """Refuse a model whose features need the true label of the window they describe."""
+        if getattr(self.extractor, "vmd_params", None) == "per_class":
+            raise BearingTwinError(
+                "this model was trained with features.vmd_params=per_class: each window is decomposed with its own "
+                "label's VMD parameters, so it cannot diagnose an unlabeled window (retrain with features.vmd_params=global)"
+            )
+
+    def features(self, windows, rpm=None) -> np.ndarray:
+        """The classifier's input for raw ``windows`` (n, window_length) at ``fs_hz``; ``rpm`` per window or one."""
+        self.check_can_diagnose()
+        windows = np.asarray(windows, dtype=np.float64)
+        if windows.ndim != 2 or windows.shape[1] != self.window_length:
+            raise BearingTwinError(f"windows must have shape (n, {self.window_length}), got {windows.shape}")
+        windows = normalize_windows(windows, self.window_normalization)
+        if self.needs_rpm:
+            if rpm is None:
+                raise BearingTwinError("rpm: this model's features are read on the shaft-order axis; give the shaft speed")
+            return self.extractor.transform(windows, fs_hz=self.fs_hz, rpm=rpm)
+        return self.extractor.transform(windows)
+
+    def predict_proba(self, windows, rpm=None) -> np.ndarray:
+        """(n, n_classes) probabilities, columns in :attr:`class_names` order."""
+        return self.classifier.predict_proba(self.features(windows, rpm))
+
+    def predict(self, windows, rpm=None) -> tuple[np.ndarray, np.ndarray]:
+        """Each window's state name (as the trained classifier predicts it) and the probabilities."""
+        X = self.features(windows, rpm)
+        states = np.array([FAULTS[int(label)] for label in self.classifier.predict(X)])
+        return states, self.classifier.predict_proba(X)
+
+    # ------------------------------------------------------------ files
+
+    def save(self, folder: str | Path) -> Path:
+        """Write the pipeline into ``folder`` (created); returns ``folder``."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        meta = {
+            "format": FORMAT,
+            "window_length": int(self.window_length),
+            "fs_hz": float(self.fs_hz),
+            "window_normalization": self.window_normalization,
+            "class_names": self.class_names,
+            "bearing": self.bearing,
+            "config_hash": self.config_hash,
+            "config": self.config,
+            "extractor": _extractor_state(self.extractor),
+            "classifier": _save_classifier(self.classifier, folder),
+        }
+        (folder / PIPELINE_FILE).write_text(json.dumps(meta, indent=1, default=_jsonable))
+        return folder
+
+    @classmethod
+    def load(cls, folder: str | Path) -> "DiagnosisPipeline":
+        folder = Path(folder)
+        try:
+            meta = json.loads((folder / PIPELINE_FILE).read_text())
+        except (OSError, ValueError) as error:
+            raise BearingTwinError(f"{folder}: not a saved diagnosis pipeline ({error})") from None
+        if meta.get("format") != FORMAT:
+            raise BearingTwinError(f"{folder}: pipeline format {meta.get('format')}, this version reads {FORMAT}")
+        return cls(
+            extractor=_extractor_from_state(meta["extractor"]),
+            classifier=_load_classifier(meta["classifier"], folder),
+            window_length=meta["window_length"],
+            fs_hz=meta["fs_hz"],
+            window_normalization=meta["window_normalization"],
+            bearing=meta["bearing"],
+            config=meta["config"],
+            config_hash=meta["config_hash"],
+        )
+
+
+def _jsonable(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"{type(value).__name__} is not JSON serializable")
+
+
+def _extractor_state(extractor) -> dict:
+    """Kind, constructor parameters and fitted attributes (scikit-learn's trailing ``_``)."""
+    kind = next(name for name, cls in EXTRACTORS.items() if type(extractor) is cls)
+    fitted = {name: value for name, value in vars(extractor).items() if name.endswith("_") and not name.startswith("_")}
+    return {"kind": kind, "params": extractor.get_params(), "fitted": fitted}
+
+
+def _extractor_from_state(state: dict):
+    params = dict(state["params"])
+    if "progress" in params:  # a diagnosis shows its own progress, over records
+        params["progress"] = False
+    extractor = EXTRACTORS[state["kind"]](**params)
+    for name, value in state["fitted"].items():
+        setattr(extractor, name, value)
+    return extractor
+
+
+def _save_classifier(classifier, folder: Path) -> dict:
+    if isinstance(classifier, CnnBiLstmClassifier):
+        return {"kind": "cnn_bilstm", **classifier.save(folder / "network.pt")}
+    if isinstance(classifier, SvmClassifier):
+        import skops.io
+
+        skops.io.dump(classifier, folder / "svm.skops")
+        return {"kind": "svm", "file": "svm.skops"}
+    raise BearingTwinError(f"cannot save a {type(classifier).__name__} as a diagnosis model")
+
+
+def _load_classifier(state: dict, folder: Path):
+    if state["kind"] == "cnn_bilstm":
+        return CnnBiLstmClassifier.load(folder / "network.pt", state)
+    import skops.io
+
+    path = folder / state["file"]
+    # skops trusts only what it knows; ours and scikit-learn's private calibration helpers are added by name, nothing else.
+    trusted = [name for name in skops.io.get_untrusted_types(file=path)
+               if name == "bearingtwin.models.svm.SvmClassifier" or name.startswith("sklearn.")]
+    return skops.io.load(path, trusted=trusted)
+

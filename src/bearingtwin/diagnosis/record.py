@@ -1,0 +1,199 @@
+"""Diagnose one recording with a trained model: read, check, window, predict, weigh against physics.
+
+A record is checked against the model before anything is predicted: its sampling rate
+(resampled with ``scipy.signal.resample_poly`` to the model's when it differs, and said so),
+its length (at least one window), its values (finite) and its shaft speed where the model's
+features or the physics evidence need it. It is then cut into non-overlapping windows over its
+whole length, every window is predicted, and the record's verdict is the state most windows
+voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
+
+``record``, ``model_uri``, ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
+``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
+and, when known, ``true_state`` and ``correct``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import scipy.signal
+
+from bearingtwin.data.cwru import check_shaft_line, describe_mismatch, parse_cwru_name
+from bearingtwin.data.files import read_raw, recording_from_raw
+from bearingtwin.data.recording import Recording
+from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
+from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN
+from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import check_fault
+
+CWRU_DEFAULT_CHANNEL = "DE"  # the drive-end accelerometer: the bearing the CWRU faults are in
+MAX_RESAMPLE_DENOMINATOR = 1000
+
+
+@dataclass
+class PreparedRecord:
+    """A recording ready for a model: at the model's rate, with what was done to it."""
+
+    recording: Recording
+    true_state: str | None
+    original_fs: float
+    notes: list[str] = field(default_factory=list)
+
+
+def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
+                true_state: str | None = None) -> PreparedRecord:
+    """Read one file, check it against the model and bring it to the model's sampling rate.
+
+    ``channel``, ``fs`` and ``rpm`` fill in what the file does not state. A CWRU record's declared
+    rate is checked against its shaft line, so a record at another rate is refused, not misread.
+    """
+    raw = read_raw(path)
+    is_cwru = raw.format == "cwru-mat"
+    recording = recording_from_raw(raw, channel if channel is not None else (CWRU_DEFAULT_CHANNEL if is_cwru else None),
+                                   fs=fs, rpm=rpm)
+    notes = []
+    if recording.rpm is not None:
+        notes.extend(_check_rate(recording, declared_only=is_cwru and fs is None))
+    if true_state is not None:
+        true_state = check_fault(true_state)
+    else:  # what the file's name (CWRU) or content states
+        name = parse_cwru_name(path) if is_cwru else None
+        true_state = name.fault if name is not None else recording.fault
+    original_fs = recording.fs
+    if not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9):
+        recording, note = resample_to(recording, pipeline.fs_hz)
+        notes.append(note)
+    if recording.signal.size < pipeline.window_length:
+        raise BearingTwinError(
+            f"{recording.source}: {recording.signal.size} samples at {recording.fs:g} Hz "
+            f"({recording.duration:.3f} s), shorter than one window of {pipeline.window_length} samples"
+        )
+    if pipeline.needs_rpm and recording.rpm is None:
+        raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; give rpm=<rev/min>")
+    return PreparedRecord(recording, true_state, original_fs, notes)
+
+
+def _check_rate(recording: Recording, declared_only: bool) -> list[str]:
+    """The shaft-line check of the sampling rate; a merely declared rate that contradicts it is refused."""
+    try:
+        check = check_shaft_line(recording.signal, recording.fs, recording.rpm)
+    except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
+        return [f"sampling rate not checked ({error})"]
+    if check.matches:
+        return []
+    if declared_only:
+        raise BearingTwinError(f"{recording.source}: {describe_mismatch(check)}; give the record's rate with fs=<Hz>")
+    return [f"sampling rate unconfirmed: {describe_mismatch(check)}"]
+
+
+def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]:
+    """The recording at ``target_fs`` by polyphase resampling (``scipy.signal.resample_poly``), and a note."""
+    ratio = Fraction(target_fs / recording.fs).limit_denominator(MAX_RESAMPLE_DENOMINATOR)
+    if ratio == 0 or abs(float(ratio) * recording.fs - target_fs) > 1e-6 * target_fs:
+        raise BearingTwinError(f"{recording.source}: cannot resample {recording.fs:g} Hz to the model's "
+                               f"{target_fs:g} Hz by a ratio of small integers")
+    signal = scipy.signal.resample_poly(recording.signal, ratio.numerator, ratio.denominator)
+    resampled = Recording(signal, target_fs, recording.rpm, recording.fault, recording.source, recording.channel,
+                          recording.unit, dict(recording.meta))
+    return resampled, f"resampled {recording.fs:g} Hz -> {target_fs:g} Hz (resample_poly, up {ratio.numerator}, down {ratio.denominator})"
+
+
+def record_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray]:
+    """Non-overlapping windows over the whole record (a remainder shorter than a window is left out)
+    and their first samples."""
+    starts = np.arange(0, signal.size - window_length + 1, window_length)
+    return signal[starts[:, None] + np.arange(window_length)], starts
+
+
+def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipeline, model_uri: str,
+                       evidence_settings: dict) -> tuple[dict, PhysicsEvidence | None]:
+    """The ``diagnosis.json`` content of one record, and the physics evidence behind it."""
+    recording = prepared.recording
+    windows, starts = record_windows(recording.signal, pipeline.window_length)
+    frame = model.predict(windows, params={"rpm": float(recording.rpm or 0.0)})
+    names = pipeline.class_names
+    states = frame[STATE_COLUMN].to_numpy()
+    probabilities = frame[names].to_numpy()
+    counts = {name: int(np.sum(states == name)) for name in names}
+    verdict = max(names, key=lambda name: (counts[name], probabilities[:, names.index(name)].mean()))
+    evidence = None
+    if recording.rpm is not None and pipeline.bearing:
+        evidence = physics_evidence(recording.signal, recording.fs, recording.rpm, pipeline.bearing, **evidence_settings)
+    result = {
+        "record": Path(str(recording.source)).stem,
+        "model_uri": model_uri,
+        "fs": recording.fs,
+        "rpm": recording.rpm,
+        "verdict": verdict,
+        "share": counts[verdict] / len(states),
+        "mean_probability": float(probabilities[:, names.index(verdict)].mean()),
+        "windows": [
+            {"start_s": float(start / recording.fs), "state": str(state),
+             "probabilities": {name: float(p) for name, p in zip(names, row)}}
+            for start, state, row in zip(starts, states, probabilities)
+        ],
+        "evidence": None if evidence is None else evidence.as_dict(),
+        "evidence_state": None if evidence is None else evidence.evidence_state,
+        "agree": None if evidence is None else bool(evidence.evidence_state == verdict),
+        "source": str(recording.source),
+        "channel": recording.channel,
+        "original_fs": prepared.original_fs,
+        "notes": prepared.notes,
+    }
+    if prepared.true_state is not None:
+        result["true_state"] = prepared.true_state
+        result["correct"] = bool(verdict == prepared.true_state)
+        result["windows_correct"] = int(np.sum(states == prepared.true_state))
+    return result, evidence
+
+
+def one_line(result: dict) -> str:
+    """What a reliability engineer reads first: verdict, confidence, physics, truth."""
+    line = f"{result['record']}: {result['verdict']} ({result['share']:.0%} of {len(result['windows'])} windows, p {result['mean_probability']:.2f})"
+    if result["evidence_state"] is not None:
+        prominence = result["evidence"]["prominence_db"]
+        top = max(prominence, key=prominence.get)
+        line += f"; physics: {result['evidence_state']} ({top} lines {prominence[top]:+.1f} dB)"
+        if not result["agree"]:
+            line += " - DISAGREES with the model"
+    if "true_state" in result:
+        line += f"; true {result['true_state']}: {'right' if result['correct'] else 'WRONG'}"
+    return line
+
+
+def plot_diagnosis(result: dict, evidence: PhysicsEvidence | None, class_names: list[str], path: Path) -> Path:
+    """Per-window class probabilities along time, and the envelope spectrum with defect harmonics marked."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(10, 6.5))
+    top, bottom = figure.subplots(2, 1)
+    times = [w["start_s"] for w in result["windows"]]
+    for name in class_names:
+        top.plot(times, [w["probabilities"][name] for w in result["windows"]], marker=".", lw=1, label=name)
+    top.set(xlabel="window start (s)", ylabel="class probability", ylim=(-0.02, 1.02),
+            title=f"{result['record']}: {result['verdict']} ({result['share']:.0%} of windows)")
+    top.legend(loc="upper right", ncol=len(class_names))
+    if evidence is None:
+        bottom.text(0.5, 0.5, "no shaft speed: physics evidence not computed", ha="center", va="center")
+        bottom.set_axis_off()
+    else:
+        top_line = max(max(lines) for lines in evidence.lines_hz.values())
+        shown = evidence.freqs_hz <= 1.15 * top_line
+        bottom.semilogy(evidence.freqs_hz[shown], evidence.spectrum[shown], color="k", lw=0.7)
+        colors = {"inner": "tab:blue", "ball": "tab:green", "outer": "tab:red"}
+        for state, lines in evidence.lines_hz.items():
+            for index, line in enumerate(lines):
+                bottom.axvline(line, color=colors[state], ls="--", lw=0.9,
+                               label=f"{state} {evidence.prominence_db[state]:+.1f} dB" if index == 0 else None)
+        low, high = evidence.band_hz
+        bottom.set(xlabel="frequency (Hz)", ylabel="squared-envelope PSD (unit$^4$/Hz)",
+                   title=f"envelope of {low:.0f}-{high:.0f} Hz: physics says {evidence.evidence_state}")
+        bottom.legend(loc="upper right")
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    return path

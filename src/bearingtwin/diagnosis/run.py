@@ -1,0 +1,155 @@
+"""Everything ``bearingtwin-diagnose`` does: find the records, diagnose each, score, write, log.
+
+Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; for several records
+``<out>/summary.csv`` (one row per record; ``true_state, correct`` when the truth is known from
+CWRU file names, the files themselves or ``labels=<csv with record,state>``). A record that
+cannot be diagnosed is reported in ``summary.csv`` with its error and the others go on.
+"""
+
+from __future__ import annotations
+
+import csv
+import glob
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from omegaconf import DictConfig, OmegaConf
+from tqdm.auto import tqdm
+
+from bearingtwin.data.files import FORMATS
+from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
+from bearingtwin.errors import BearingTwinError
+
+SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree")
+TRUTH_COLUMNS = ("true_state", "correct")
+LABELS_FILE = "labels.csv"
+
+
+@dataclass
+class DiagnosisRun:
+    """What one command did: the rows of ``summary.csv``, failures, scores and where it wrote."""
+
+    rows: list[dict] = field(default_factory=list)
+    failures: dict[str, str] = field(default_factory=dict)
+    out: Path = Path(".")
+    files: list[Path] = field(default_factory=list)
+    scores: dict[str, float] = field(default_factory=dict)
+    run_id: str | None = None
+
+
+def find_records(path: str, labels_path: Path | None) -> list[Path]:
+    """The recordings ``path`` names: one file, every readable file of a folder, or a glob."""
+    candidate = Path(path).expanduser()
+    if candidate.is_dir():
+        found = sorted(p for p in candidate.iterdir() if p.is_file() and p.suffix.lower() in FORMATS)
+    elif candidate.is_file():
+        return [candidate]
+    elif glob.has_magic(path):
+        found = sorted(Path(p) for p in glob.glob(str(candidate)) if Path(p).is_file())
+    else:
+        raise BearingTwinError(f"path={path}: no such file or folder")
+    labels = {labels_path.resolve()} if labels_path is not None else set()
+    found = [p for p in found if p.resolve() not in labels and p.name != LABELS_FILE]
+    if not found:
+        raise BearingTwinError(f"path={path}: holds no recording ({', '.join(FORMATS)})")
+    return found
+
+
+def read_labels(path: Path | None) -> dict[str, str]:
+    """``record -> state`` from a CSV with columns ``record,state`` (record: file name or stem)."""
+    if path is None:
+        return {}
+    try:
+        with open(path, newline="") as handle:
+            rows = list(csv.DictReader(handle))
+    except (OSError, UnicodeDecodeError) as error:
+        raise BearingTwinError(f"labels={path}: cannot read it ({error})") from None
+    if not rows or not {"record", "state"} <= set(rows[0]):
+        raise BearingTwinError(f"labels={path}: needs a header with columns record,state")
+    return {Path(row["record"].strip()).stem: row["state"].strip() for row in rows}
+
+
+def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
+    """Diagnose every record ``cfg.path`` names with ``cfg.model``; write and log the results."""
+    tracking_uri = str(cfg.tracking.uri)
+    labels_path = None if cfg.labels is None else Path(str(cfg.labels)).expanduser()
+    labels = read_labels(labels_path)
+    records = find_records(str(cfg.path), labels_path)
+    model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
+    pipeline.check_can_diagnose()
+    out = Path(str(cfg.out)).expanduser()
+    settings = OmegaConf.to_container(cfg.evidence, resolve=True)
+    run = DiagnosisRun(out=out)
+    windows_total = windows_correct = 0
+    progress = tqdm(records, desc="diagnose", unit="file", disable=len(records) < 2)
+    for path in progress:
+        try:
+            prepared = read_record(path, pipeline, cfg.channel, cfg.fs, cfg.rpm, labels.get(path.stem))
+            result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
+        except BearingTwinError as error:
+            run.failures[path.name] = str(error)
+            run.rows.append({"record": path.stem, "error": str(error)})
+            progress.write(f"{path.stem}: FAILED - {error}")
+            continue
+        folder = out / result["record"]
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
+        run.files.append(folder / "diagnosis.json")
+        if cfg.figures:
+            run.files.append(plot_diagnosis(result, evidence, pipeline.class_names, folder / "diagnosis.png"))
+        for note in result["notes"]:
+            progress.write(f"{result['record']}: {note}")
+        progress.write(one_line(result))
+        row = {name: result[name] for name in SUMMARY_COLUMNS}
+        if "true_state" in result:
+            row.update(true_state=result["true_state"], correct=result["correct"])
+            windows_total += len(result["windows"])
+            windows_correct += result["windows_correct"]
+        run.rows.append(row)
+    scored = [row for row in run.rows if "correct" in row]
+    if scored:
+        run.scores = {"accuracy_records": sum(row["correct"] for row in scored) / len(scored),
+                      "accuracy_windows": windows_correct / windows_total, "n_scored": len(scored)}
+    if len(records) > 1 or run.failures:
+        run.files.append(write_summary(run.rows, out / "summary.csv"))
+    if cfg.tracking.enabled:
+        run.run_id = log_diagnosis(cfg, run, len(records))
+    return run
+
+
+def write_summary(rows: list[dict], path: Path) -> Path:
+    columns = list(SUMMARY_COLUMNS)
+    if any("true_state" in row for row in rows):
+        columns += TRUTH_COLUMNS
+    if any("error" in row for row in rows):
+        columns.append("error")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns, restval="")
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int) -> str:
+    """One MLflow run in ``tracking.experiment``: the model and path as params, scores, the JSONs and figures."""
+    from mlflow.entities import Metric, Param, RunStatus
+
+    from bearingtwin.tracking.mlflow_logging import open_store
+
+    client, experiment_id = open_store(cfg.tracking)
+    mlflow_run = client.create_run(experiment_id, run_name=f"diagnose {Path(str(cfg.path)).name} with {cfg.model}",
+                                   tags={"bt.kind": "diagnose", "model_uri": str(cfg.model)})
+    run_id = mlflow_run.info.run_id
+    params = {"model": cfg.model, "path": cfg.path, "labels": cfg.labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm}
+    client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])
+    now = int(time.time() * 1000)
+    metrics = {"n_records": n_records, "n_failed": len(run.failures), **run.scores}
+    client.log_batch(run_id, metrics=[Metric(key, float(value), now, 0) for key, value in metrics.items()])
+    for path in run.files:
+        client.log_artifact(run_id, str(path), None if path.parent == run.out else path.parent.name)
+    client.set_terminated(run_id, RunStatus.to_string(RunStatus.FAILED if run.failures else RunStatus.FINISHED))
+    return run_id
