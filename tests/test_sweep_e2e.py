@@ -100,3 +100,11 @@ def test_relaunching_the_sweep_skips_finished_jobs(store, tmp_path_factory):
     after = {r.info.run_id: r.info.status for r in training_runs(client, experiment_id)}
     new = set(after) - set(before)
     assert all(after[run_id] == "FAILED" for run_id in new) and len(new) == 3  # only the bad-seed jobs re-ran
+
+
+def test_every_finished_job_logged_its_fitted_pipeline_as_a_model(store):
+    client, experiment_id = store
+    finished = [r for r in training_runs(client, experiment_id) if r.info.status == "FINISHED"]
+    for run in finished:
+        models = client.search_logged_models([experiment_id], filter_string=f"source_run_id = '{run.info.run_id}'")
+        assert [(m.name, str(m.status)) for m in models] == [("model", "READY")]

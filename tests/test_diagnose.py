@@ -1,0 +1,236 @@
+"""Diagnosing recordings: the saved pipeline, its MLflow model and registry entry, the physics
+evidence, and ``bearingtwin-diagnose`` end to end on real CWRU records and generated files."""
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mlflow import MlflowClient
+
+from bearingtwin.config import REPO_ROOT, bearing_config
+from bearingtwin.data.recording import Recording
+from bearingtwin.diagnosis.evidence import physics_evidence
+from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
+from bearingtwin.diagnosis.record import record_windows, resample_to
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
+from bearingtwin.features.extractor import SaboVmdFeatures
+from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
+from bearingtwin.models.svm import SvmClassifier
+from bearingtwin.physics.geometry import BearingGeometry
+
+CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
+needs_cwru = pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
+BEARING = bearing_config("cwru_6205")
+FS = 12000.0
+RPM = 1797.0
+SMOKE = ["data.samples_per_class=12", "data.duration=1.0", "search.population=3", "search.iterations=1",
+         "search.windows=2", "features.progress=false", "classifier=svm"]
+
+
+def fault_signal(rate_hz: float | None, seconds: float = 4.0, fs: float = FS, seed: int = 0) -> np.ndarray:
+    """Impacts repeating at ``rate_hz`` ringing a 3 kHz resonance, in noise (``None``: noise alone)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * fs)) / fs
+    signal = 0.05 * rng.standard_normal(t.size)
+    if rate_hz is not None:
+        ring = np.exp(-800 * t[:200]) * np.sin(2 * np.pi * 3000 * t[:200])
+        impacts = np.zeros(t.size)
+        impacts[(np.arange(0, seconds, 1 / rate_hz) * fs).astype(int)] = 1.0
+        signal += np.convolve(impacts, ring)[: t.size]
+    return signal
+
+
+def class_windows(n_per_class=16, length=2048):
+    """Windows whose class is their defect rate: normal (noise), inner (BPFI), outer (BPFO)."""
+    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
+    windows, labels = [], []
+    for label, rate in ((0, None), (1, rates["bpfi"]), (3, rates["bpfo"])):
+        signal = fault_signal(rate, seconds=n_per_class * length / FS, seed=label)
+        windows.append(signal[: n_per_class * length].reshape(n_per_class, length))
+        labels += [label] * n_per_class
+    return np.concatenate(windows), np.array(labels)
+
+
+# ---------------------------------------------------------------- the pipeline
+
+
+def test_saved_pipelines_predict_exactly_as_the_fitted_ones(tmp_path):
+    X, y = class_windows()
+    vmd = SaboVmdFeatures(population=3, iterations=1, search_windows=2, vmd_options={"max_iter": 60}, progress=False)
+    svm_pipeline = DiagnosisPipeline(vmd.fit(X, y), SvmClassifier().fit(vmd.transform(X), y), 2048, FS, bearing=BEARING)
+    envelope = EnvelopeOrderFeatures(bearing=BEARING, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
+    network = CnnBiLstmClassifier(max_epochs=3, random_state=0).fit(envelope.transform(X, fs_hz=FS, rpm=RPM), y)
+    cnn_pipeline = DiagnosisPipeline(envelope, network, 2048, FS, window_normalization="zscore", bearing=BEARING)
+    for index, pipeline in enumerate((svm_pipeline, cnn_pipeline)):
+        loaded = DiagnosisPipeline.load(pipeline.save(tmp_path / str(index)))
+        np.testing.assert_allclose(loaded.predict_proba(X, RPM), pipeline.predict_proba(X, RPM), atol=1e-7)
+        assert loaded.class_names == ["normal", "inner", "outer"] and loaded.window_normalization == pipeline.window_normalization
+    states, _ = svm_pipeline.predict(X)
+    assert np.mean(states == np.array(["normal", "inner", "outer"])[np.searchsorted([0, 1, 3], y)]) > 0.5
+    with pytest.raises(BearingTwinError, match="rpm"):  # shaft-order features need the speed
+        cnn_pipeline.predict(X)
+    with pytest.raises(BearingTwinError, match=r"shape \(n, 2048\)"):
+        svm_pipeline.predict(X[:, :1000])
+
+
+def test_a_per_class_pipeline_refuses_to_diagnose(tmp_path):
+    X, y = class_windows(n_per_class=6)
+    vmd = SaboVmdFeatures(vmd_params="per_class", population=3, iterations=1, search_windows=2,
+                          vmd_options={"max_iter": 60}, progress=False).fit(X, y)
+    pipeline = DiagnosisPipeline(vmd, SvmClassifier().fit(vmd.transform(X, y), y), 2048, FS)
+    loaded = DiagnosisPipeline.load(pipeline.save(tmp_path / "per_class"))  # saving it is fine
+    with pytest.raises(BearingTwinError, match="vmd_params=per_class.*cannot diagnose an unlabeled window"):
+        loaded.predict(X)
+
+
+def test_the_svm_predicts_as_the_plain_svm_and_its_probabilities_sum_to_one():
+    from bearingtwin.models.svm import make_svm
+
+    X, y = class_windows(n_per_class=10)
+    features = np.c_[X.std(axis=1), np.abs(X).max(axis=1), (X ** 4).mean(axis=1)]
+    svm = SvmClassifier().fit(features, y)
+    np.testing.assert_array_equal(svm.predict(features), make_svm().fit(features, y).predict(features))
+    np.testing.assert_allclose(svm.predict_proba(features).sum(axis=1), 1.0)
+    with pytest.raises(BearingTwinError, match="at least 2 training windows per class"):
+        SvmClassifier().fit(features[:21], y[:21])  # one window of the last class
+
+
+# ---------------------------------------------------------------- physics evidence
+
+
+def test_evidence_names_the_fault_whose_harmonic_series_stands_out():
+    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
+    for state, rate in (("inner", rates["bpfi"]), ("outer", rates["bpfo"]), ("ball", 2 * rates["bsf"])):
+        evidence = physics_evidence(fault_signal(rate), FS, RPM, BEARING)
+        assert evidence.evidence_state == state, evidence.prominence_db
+        others = [value for name, value in evidence.prominence_db.items() if name != state]
+        assert evidence.prominence_db[state] > 10.0 and evidence.prominence_db[state] > max(others) + 6.0
+    healthy = physics_evidence(fault_signal(None), FS, RPM, BEARING)
+    assert healthy.evidence_state == "normal" and max(healthy.prominence_db.values()) < healthy.threshold_db
+
+
+def test_evidence_does_not_depend_on_the_sensors_gain():
+    signal = fault_signal(BearingGeometry.from_config(BEARING).defect_frequencies(RPM)["bpfo"])
+    in_g = physics_evidence(signal, FS, RPM, BEARING).prominence_db
+    in_ms2 = physics_evidence(9.81 * signal, FS, RPM, BEARING).prominence_db
+    assert in_g == pytest.approx(in_ms2, abs=1e-9)
+
+
+# ---------------------------------------------------------------- records
+
+
+def test_resampling_keeps_the_frequencies_and_says_what_it_did():
+    fs = 48000.0
+    t = np.arange(int(2 * fs)) / fs
+    recording = Recording(np.sin(2 * np.pi * 157.0 * t), fs, rpm=RPM, source="tone.npy")
+    resampled, note = resample_to(recording, 12000.0)
+    assert resampled.fs == 12000.0 and resampled.signal.size == t.size // 4 and "48000 Hz -> 12000 Hz" in note
+    spectrum = np.abs(np.fft.rfft(resampled.signal * np.hanning(resampled.signal.size)))
+    peak_hz = np.fft.rfftfreq(resampled.signal.size, 1 / 12000.0)[spectrum.argmax()]
+    assert peak_hz == pytest.approx(157.0, abs=0.5)
+
+
+def test_windows_tile_the_record_without_overlap():
+    windows, starts = record_windows(np.arange(10_000.0), 2048)
+    assert windows.shape == (4, 2048) and list(starts) == [0, 2048, 4096, 6144]
+    np.testing.assert_array_equal(windows.ravel(), np.arange(4 * 2048.0))
+
+
+# ---------------------------------------------------------------- end to end
+
+
+def run(module: str, *args: str, cwd: Path, uri: str) -> subprocess.CompletedProcess:
+    env = {**__import__("os").environ, "MLFLOW_TRACKING_URI": uri}
+    return subprocess.run([sys.executable, "-m", f"bearingtwin.cli.{module}", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def registered(tmp_path_factory):
+    """A smoke-size model trained at CWRU's 12 kHz, registered as diag@champion; a per_class one as diag_per_class."""
+    base = tmp_path_factory.mktemp("diagnose")
+    uri = f"sqlite:///{base}/mlflow.db"
+    for extra in (["register=diag", "register_alias=champion"], ["features.vmd_params=per_class", "register=diag_per_class"]):
+        done = run("train", *SMOKE, "data.fs=12000", f"paths.cache_dir={base}/cache", *extra, cwd=base, uri=uri)
+        assert done.returncode == 0, done.stderr[-3000:]
+    return base, uri
+
+
+def test_training_registers_its_model_with_signature_and_alias(registered):
+    import mlflow
+
+    base, uri = registered
+    client = MlflowClient(uri)
+    version = client.get_model_version_by_alias("diag", "champion")
+    run = client.get_run(version.run_id)
+    assert run.data.tags["registered_model"] == f"diag/{version.version}"
+    mlflow.set_tracking_uri(uri)
+    model = mlflow.pyfunc.load_model(f"runs:/{version.run_id}/model")
+    signature = model.metadata.get_input_schema().inputs[0]
+    assert signature.shape == (-1, 2048) and model.metadata.get_params_schema().to_dict()[0]["name"] == "rpm"
+    answer = model.predict(np.random.default_rng(0).standard_normal((3, 2048)))
+    assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer"] and len(answer) == 3
+    np.testing.assert_allclose(answer[["normal", "inner", "ball", "outer"]].sum(axis=1), 1.0)
+
+
+@needs_cwru
+def test_diagnose_a_cwru_record_by_registry_alias(registered, tmp_path):
+    base, uri = registered
+    record = CWRU / "12k_Drive_End_OR007@6_1_131.mat"
+    done = run("diagnose", f"path={record}", "model=models:/diag@champion", f"out={tmp_path}/out", cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads((tmp_path / "out" / record.stem / "diagnosis.json").read_text())
+    contract = {"record", "model_uri", "fs", "rpm", "verdict", "share", "mean_probability", "windows", "evidence",
+                "evidence_state", "agree"}
+    assert contract <= set(result) and result["model_uri"] == "models:/diag@champion"
+    assert result["fs"] == 12000.0 and result["rpm"] == pytest.approx(1772, abs=5) and result["true_state"] == "outer"
+    assert len(result["windows"]) == 122_426 // 2048  # non-overlapping windows over the whole record
+    states = [w["state"] for w in result["windows"]]
+    assert result["share"] == pytest.approx(states.count(result["verdict"]) / len(states))
+    assert result["evidence_state"] == "outer" and result["evidence"]["prominence_db"]["outer"] > 20  # a clear BPFO series
+    assert result["agree"] == (result["verdict"] == "outer")
+    assert (tmp_path / "out" / record.stem / "diagnosis.png").stat().st_size > 10_000
+    assert record.stem in done.stdout and "mlflow ui --backend-store-uri" in done.stdout
+    logged = MlflowClient(uri).search_runs([MlflowClient(uri).get_experiment_by_name("bearingtwin-diagnose").experiment_id])
+    assert logged[0].info.status == "FINISHED" and logged[0].data.params["model"] == "models:/diag@champion"
+
+
+@needs_cwru
+def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, tmp_path):
+    base, uri = registered
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
+    np.savez(folder / "pump_a.npz", signal=fault_signal(rates["bpfo"], seconds=3), fs=FS, rpm=RPM)
+    np.savez(folder / "pump_b.npz", signal=fault_signal(None, seconds=3, seed=5), fs=48000.0, rpm=RPM)  # resampled
+    np.savez(folder / "short.npz", signal=np.ones(100), fs=FS)
+    np.savez(folder / "nan.npz", signal=np.full(30000, np.nan), fs=FS)
+    (folder / "labels.csv").write_text("record,state\npump_a,outer\npump_b.npz,normal\n")
+    done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"labels={folder}/labels.csv",
+               f"out={tmp_path}/out", "rpm=1797", cwd=tmp_path, uri=uri)
+    assert done.returncode == 2  # some records failed, the others were diagnosed
+    rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
+    assert set(rows) == {"pump_a", "pump_b", "short", "nan"}
+    assert "shorter than one window" in rows["short"]["error"] and "NaN" in rows["nan"]["error"]
+    assert rows["pump_a"]["true_state"] == "outer" and rows["pump_a"]["evidence_state"] == "outer"
+    assert rows["pump_b"]["true_state"] == "normal" and rows["pump_b"]["correct"] in ("True", "False")
+    assert "resampled 48000 Hz -> 12000 Hz" in done.stdout
+    assert "accuracy over 2 records" in done.stdout and "error: short.npz" in done.stderr
+
+
+def test_bad_models_fail_in_one_line(registered, tmp_path):
+    base, uri = registered
+    record = tmp_path / "r.npz"
+    np.savez(record, signal=fault_signal(None, seconds=1), fs=FS, rpm=RPM)
+    unknown = run("diagnose", f"path={record}", "model=models:/no_such_model@champion", cwd=tmp_path, uri=uri)
+    assert unknown.returncode == 2 and "model=models:/no_such_model@champion" in unknown.stderr
+    assert "Traceback" not in unknown.stderr
+    per_class = run("diagnose", f"path={record}", "model=models:/diag_per_class/1", cwd=tmp_path, uri=uri)
+    assert per_class.returncode == 2 and "vmd_params=per_class" in per_class.stderr and "Traceback" not in per_class.stderr
+    missing = run("diagnose", f"path={tmp_path}/absent.mat", "model=models:/diag/1", cwd=tmp_path, uri=uri)
+    assert missing.returncode == 2 and "absent.mat" in missing.stderr

@@ -1,0 +1,212 @@
+"""A registered model served by ``mlflow models serve`` answers as ``bearingtwin-diagnose`` does.
+
+Everything is real: smoke-size models are trained and registered by ``bearingtwin-train``
+into temporary SQLite stores, ``mlflow models serve -m models:/<name>@<alias> --env-manager
+local`` serves them on loopback ports, and windows of a CWRU record are posted to
+``/invocations`` in the documented form ``{"inputs": [[...], ...], "params": {"rpm": ...}}``.
+The answers must be ``bearingtwin-diagnose``'s ``diagnosis.json`` for the same record, window
+for window. Runs on ../shared/data/cwru (or $BEARINGTWIN_DATA/cwru).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bearingtwin.config import REPO_ROOT
+from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, load_diagnosis_model
+from bearingtwin.diagnosis.record import read_record, record_windows
+
+CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+# 1 hp outer race, 12 kHz: the simulated-data models run at 10 kHz, so diagnose resamples it first
+# and the posted windows must be the resampled ones.
+RECORD = CWRU / "12k_Drive_End_OR007@6_1_131.mat"
+needs_record = pytest.mark.skipif(not RECORD.is_file(), reason=f"CWRU record {RECORD.name} not found in {CWRU}")
+
+MODEL_NAME = "served"
+MODEL_ALIAS = "champion"
+# Smallest runs that still go through every stage (twin data, SABO-VMD, classifier, model logging,
+# registry). The proposed CNN-BiLSTM and the SVM: two classifier files (network.pt, svm.skops).
+# Models whose features need rpm (features=envelope_orders) only train on data=twin_to_real, too slow here.
+SMOKE = ["data.samples_per_class=12", "data.duration=1.0", "search.population=3", "search.iterations=1",
+         "search.windows=2", "features.progress=false"]
+CASES = {"cnn_bilstm": ["trainer.max_epochs=2"], "svm": ["classifier=svm"]}
+
+TRAIN_TIMEOUT_S = 300
+SERVER_START_TIMEOUT_S = 120  # import + model load of a served model takes ~15 s on 2 idle cores
+REQUEST_TIMEOUT_S = 60
+PROBABILITY_TOLERANCE = 1e-6
+
+
+def free_loopback_port() -> int:
+    """A port the kernel just handed out on 127.0.0.1 (released again for the server to bind)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def child_env(store_uri: str, cache: Path) -> dict:
+    env = dict(os.environ, MLFLOW_TRACKING_URI=store_uri, BEARINGTWIN_CACHE=str(cache),
+               MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR="false")
+    # `mlflow models serve` execs `uvicorn` by name: it must be this interpreter's, not another on PATH.
+    env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
+    return env
+
+
+def start(args: list[str], env: dict, cwd: Path, log: Path) -> subprocess.Popen:
+    """A child in its own process group (so the server's uvicorn worker is ended with it), output in ``log``."""
+    with open(log, "wb") as handle:
+        return subprocess.Popen(args, env=env, cwd=cwd, stdout=handle, stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def stop(process: subprocess.Popen) -> None:
+    """End ``process`` and every process of its group: TERM, then KILL if it lingers."""
+    for sig, grace_s in ((signal.SIGTERM, 10), (signal.SIGKILL, 10)):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, sig)
+        try:
+            process.wait(timeout=grace_s)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    # The group may outlive its leader (uvicorn under mlflow's shell): make sure nothing of it is left.
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(process.pid, signal.SIGKILL)
+
+
+def wait_done(process: subprocess.Popen, log: Path, what: str, timeout_s: float) -> None:
+    try:
+        process.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"{what} did not finish in {timeout_s} s:\n{tail(log)}")
+    assert process.returncode == 0, f"{what} exited {process.returncode}:\n{tail(log)}"
+
+
+def tail(log: Path, lines: int = 30) -> str:
+    return "\n".join(log.read_text(errors="replace").splitlines()[-lines:])
+
+
+def wait_until_serving(url: str, server: subprocess.Popen, log: Path, timeout_s: float) -> None:
+    """Poll ``/ping`` until it answers 200; fail early if the server died, and after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if server.poll() is not None:
+            pytest.fail(f"mlflow models serve exited {server.returncode} before serving:\n{tail(log)}")
+        with contextlib.suppress(OSError):
+            with urllib.request.urlopen(f"{url}/ping", timeout=2) as answer:
+                if answer.status == 200:
+                    return
+        time.sleep(0.25)
+    pytest.fail(f"mlflow models serve did not answer /ping within {timeout_s} s:\n{tail(log)}")
+
+
+def post_json(url: str, payload: dict) -> tuple[int, dict]:
+    """HTTP status and decoded JSON body of a POST (error answers included, not raised)."""
+    request = urllib.request.Request(url, data=json.dumps(payload).encode(), headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(request, timeout=REQUEST_TIMEOUT_S) as answer:
+            return answer.status, json.load(answer)
+    except urllib.error.HTTPError as error:
+        body = error.read()
+        try:
+            return error.code, json.loads(body)
+        except ValueError:
+            return error.code, {"body": body.decode(errors="replace")}
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """Per case: the server's URL, its store and ``bearingtwin-diagnose``'s diagnosis.json of RECORD.
+
+    The two trainings run side by side (separate stores, no SQLite contention), then both servers
+    start while ``bearingtwin-diagnose`` runs: on 2 cores this halves the wall time.
+    """
+    if not RECORD.is_file():
+        pytest.skip(f"CWRU record {RECORD.name} not found in {CWRU}")
+    root = tmp_path_factory.mktemp("serve")
+    cases = {}
+    processes = []
+    try:
+        for case, overrides in CASES.items():
+            folder = root / case
+            folder.mkdir()
+            store_uri = f"sqlite:///{folder / 'mlflow.db'}"
+            env = child_env(store_uri, folder / "cache")
+            log = folder / "train.log"
+            train = start([sys.executable, "-m", "bearingtwin.cli.train", *SMOKE, *overrides,
+                           f"register={MODEL_NAME}", f"register_alias={MODEL_ALIAS}"], env, folder, log)
+            processes.append(train)
+            cases[case] = {"folder": folder, "store_uri": store_uri, "env": env, "train": (train, log)}
+        for case, info in cases.items():
+            wait_done(*info["train"], what=f"bearingtwin-train ({case})", timeout_s=TRAIN_TIMEOUT_S)
+
+        model_uri = f"models:/{MODEL_NAME}@{MODEL_ALIAS}"
+        for case, info in cases.items():
+            port = free_loopback_port()
+            info["url"] = f"http://127.0.0.1:{port}"
+            info["server_log"] = info["folder"] / "serve.log"
+            info["server"] = start([sys.executable, "-m", "mlflow", "models", "serve", "-m", model_uri,
+                                    "--env-manager", "local", "-h", "127.0.0.1", "-p", str(port)],
+                                   info["env"], info["folder"], info["server_log"])
+            processes.append(info["server"])
+            log = info["folder"] / "diagnose.log"
+            diagnose = start([sys.executable, "-m", "bearingtwin.cli.diagnose", f"path={RECORD}", f"model={model_uri}",
+                              f"out={info['folder'] / 'diagnosis'}", "figures=false", "tracking.enabled=false"],
+                             info["env"], info["folder"], log)
+            processes.append(diagnose)
+            info["diagnose"] = (diagnose, log)
+        for case, info in cases.items():
+            wait_done(*info["diagnose"], what=f"bearingtwin-diagnose ({case})", timeout_s=TRAIN_TIMEOUT_S)
+            info["diagnosis"] = json.loads((info["folder"] / "diagnosis" / RECORD.stem / "diagnosis.json").read_text())
+            wait_until_serving(info["url"], info["server"], info["server_log"], SERVER_START_TIMEOUT_S)
+        yield cases
+    finally:
+        for process in processes:
+            stop(process)
+
+
+@needs_record
+@pytest.mark.parametrize("case", list(CASES))
+def test_served_model_answers_as_bearingtwin_diagnose(served, case):
+    info = served[case]
+    diagnosis = info["diagnosis"]
+    _, pipeline = load_diagnosis_model(f"models:/{MODEL_NAME}@{MODEL_ALIAS}", info["store_uri"])
+    prepared = read_record(RECORD, pipeline)  # as diagnose reads it: DE channel, resampled to the model's rate
+    windows, starts = record_windows(prepared.recording.signal, pipeline.window_length)
+    assert windows.shape[0] == len(diagnosis["windows"]) > 1
+    np.testing.assert_allclose(starts / prepared.recording.fs, [w["start_s"] for w in diagnosis["windows"]], atol=1e-9)
+
+    status, answer = post_json(f"{info['url']}/invocations",
+                               {"inputs": windows.tolist(), "params": {"rpm": prepared.recording.rpm}})
+    assert status == 200, answer
+    rows = answer["predictions"]
+    assert len(rows) == len(diagnosis["windows"])
+    names = pipeline.class_names
+    for index, (row, expected) in enumerate(zip(rows, diagnosis["windows"])):
+        assert set(row) == {STATE_COLUMN, *names}
+        assert row[STATE_COLUMN] == expected["state"], f"window {index}"
+        np.testing.assert_allclose([row[name] for name in names], [expected["probabilities"][name] for name in names],
+                                   rtol=0, atol=PROBABILITY_TOLERANCE, err_msg=f"window {index}")
+
+
+@needs_record
+def test_served_model_refuses_a_wrong_window_length(served):
+    info = next(iter(served.values()))
+    _, pipeline = load_diagnosis_model(f"models:/{MODEL_NAME}@{MODEL_ALIAS}", info["store_uri"])
+    short = np.zeros((2, pipeline.window_length - 1)).tolist()
+    # post_json's bounded timeout turns a hang into a failure.
+    status, answer = post_json(f"{info['url']}/invocations", {"inputs": short, "params": {"rpm": 1797.0}})
+    assert 400 <= status < 600, answer
+    assert str(pipeline.window_length) in json.dumps(answer)  # the answer says which shape was expected
