@@ -234,3 +234,22 @@ def test_bad_models_fail_in_one_line(registered, tmp_path):
     assert per_class.returncode == 2 and "vmd_params=per_class" in per_class.stderr and "Traceback" not in per_class.stderr
     missing = run("diagnose", f"path={tmp_path}/absent.mat", "model=models:/diag/1", cwd=tmp_path, uri=uri)
     assert missing.returncode == 2 and "absent.mat" in missing.stderr
+
+
+@needs_cwru
+def test_a_cwru_record_at_48_khz_is_read_at_the_rate_its_shaft_line_implies(registered, tmp_path):
+    import scipy.io
+    import scipy.signal
+
+    base, uri = registered
+    stored = scipy.io.loadmat(CWRU / "normal_0_97.mat")
+    at_48k = scipy.signal.resample_poly(stored["X097_DE_time"][:, 0], 4, 1)  # 97 as if recorded at 48 kHz
+    record = tmp_path / "normal_1_98.mat"  # a healthy baseline name: it states no rate, 12 kHz is declared
+    scipy.io.savemat(record, {"X098_DE_time": at_48k[:, None], "X098_FE_time": at_48k[:, None], "X098RPM": stored["X097RPM"]})
+    done = run("diagnose", f"path={record}", "model=models:/diag@champion", f"out={tmp_path}/out", "tracking.enabled=false",
+               cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "stands where it belongs at 48000 Hz" in done.stdout and "read at 48000 Hz" in done.stdout
+    assert "48000 Hz -> 12000 Hz" in done.stdout
+    result = json.loads((tmp_path / "out" / "normal_1_98" / "diagnosis.json").read_text())
+    assert result["original_fs"] == 48000.0 and len(result["windows"]) == stored["X097_DE_time"].size // 2048

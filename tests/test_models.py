@@ -147,7 +147,7 @@ def test_build_from_the_config_files():
     assert (params["learning_rate"], params["l2_factor"], params["gradient_clip_val"]) == (0.01, 0.001, 1.0)
     assert (params["max_epochs"], params["random_state"]) == (100, 7)
     svm = build_classifier(OmegaConf.load(Path(CONF_DIR) / "classifier" / "svm.yaml"), trainer, seed=7)
-    assert svm.named_steps["svc"].C == 1.0
+    assert (svm.C, svm.kernel, svm.gamma, svm.random_state) == (1.0, "rbf", "scale", 7)
     with pytest.raises(BearingTwinError, match="classifier.name='forest'"):
         build_classifier(OmegaConf.create({"name": "forest"}), trainer, seed=0)
 

@@ -44,10 +44,12 @@ SMOKE = ["data.samples_per_class=12", "data.duration=1.0", "search.population=3"
          "search.windows=2", "features.progress=false"]
 CASES = {"cnn_bilstm": ["trainer.max_epochs=2"], "svm": ["classifier=svm"]}
 
-TRAIN_TIMEOUT_S = 300
+CHILD_TIMEOUT_S = 300  # a training or diagnose command; ~10 s each on 2 idle cores
 SERVER_START_TIMEOUT_S = 120  # import + model load of a served model takes ~15 s on 2 idle cores
 REQUEST_TIMEOUT_S = 60
 PROBABILITY_TOLERANCE = 1e-6
+# Straight to the loopback server: an http_proxy in the environment must not intercept it.
+LOOPBACK = urllib.request.build_opener(urllib.request.ProxyHandler({}))
 
 
 def free_loopback_port() -> int:
@@ -105,7 +107,7 @@ def wait_until_serving(url: str, server: subprocess.Popen, log: Path, timeout_s:
         if server.poll() is not None:
             pytest.fail(f"mlflow models serve exited {server.returncode} before serving:\n{tail(log)}")
         with contextlib.suppress(OSError):
-            with urllib.request.urlopen(f"{url}/ping", timeout=2) as answer:
+            with LOOPBACK.open(f"{url}/ping", timeout=2) as answer:
                 if answer.status == 200:
                     return
         time.sleep(0.25)
@@ -116,7 +118,7 @@ def post_json(url: str, payload: dict) -> tuple[int, dict]:
     """HTTP status and decoded JSON body of a POST (error answers included, not raised)."""
     request = urllib.request.Request(url, data=json.dumps(payload).encode(), headers={"Content-Type": "application/json"})
     try:
-        with urllib.request.urlopen(request, timeout=REQUEST_TIMEOUT_S) as answer:
+        with LOOPBACK.open(request, timeout=REQUEST_TIMEOUT_S) as answer:
             return answer.status, json.load(answer)
     except urllib.error.HTTPError as error:
         body = error.read()
@@ -128,13 +130,12 @@ def post_json(url: str, payload: dict) -> tuple[int, dict]:
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    """Per case: the server's URL, its store and ``bearingtwin-diagnose``'s diagnosis.json of RECORD.
+    """Per case: the server's URL, ``bearingtwin-diagnose``'s diagnosis.json of RECORD, the loaded
+    pipeline and RECORD's windows as diagnose cuts them.
 
     The two trainings run side by side (separate stores, no SQLite contention), then both servers
     start while ``bearingtwin-diagnose`` runs: on 2 cores this halves the wall time.
     """
-    if not RECORD.is_file():
-        pytest.skip(f"CWRU record {RECORD.name} not found in {CWRU}")
     root = tmp_path_factory.mktemp("serve")
     cases = {}
     processes = []
@@ -150,7 +151,7 @@ def served(tmp_path_factory):
             processes.append(train)
             cases[case] = {"folder": folder, "store_uri": store_uri, "env": env, "train": (train, log)}
         for case, info in cases.items():
-            wait_done(*info["train"], what=f"bearingtwin-train ({case})", timeout_s=TRAIN_TIMEOUT_S)
+            wait_done(*info["train"], what=f"bearingtwin-train ({case})", timeout_s=CHILD_TIMEOUT_S)
 
         model_uri = f"models:/{MODEL_NAME}@{MODEL_ALIAS}"
         for case, info in cases.items():
@@ -167,8 +168,12 @@ def served(tmp_path_factory):
                              info["env"], info["folder"], log)
             processes.append(diagnose)
             info["diagnose"] = (diagnose, log)
+        for info in cases.values():  # meanwhile, the windows as diagnose prepares them, from the registered model
+            _, info["pipeline"] = load_diagnosis_model(model_uri, info["store_uri"])
+            info["prepared"] = read_record(RECORD, info["pipeline"])  # DE channel, resampled to the model's rate
+            info["windows"], info["starts"] = record_windows(info["prepared"].recording.signal, info["pipeline"].window_length)
         for case, info in cases.items():
-            wait_done(*info["diagnose"], what=f"bearingtwin-diagnose ({case})", timeout_s=TRAIN_TIMEOUT_S)
+            wait_done(*info["diagnose"], what=f"bearingtwin-diagnose ({case})", timeout_s=CHILD_TIMEOUT_S)
             info["diagnosis"] = json.loads((info["folder"] / "diagnosis" / RECORD.stem / "diagnosis.json").read_text())
             wait_until_serving(info["url"], info["server"], info["server_log"], SERVER_START_TIMEOUT_S)
         yield cases
@@ -181,12 +186,10 @@ def served(tmp_path_factory):
 @pytest.mark.parametrize("case", list(CASES))
 def test_served_model_answers_as_bearingtwin_diagnose(served, case):
     info = served[case]
-    diagnosis = info["diagnosis"]
-    _, pipeline = load_diagnosis_model(f"models:/{MODEL_NAME}@{MODEL_ALIAS}", info["store_uri"])
-    prepared = read_record(RECORD, pipeline)  # as diagnose reads it: DE channel, resampled to the model's rate
-    windows, starts = record_windows(prepared.recording.signal, pipeline.window_length)
+    diagnosis, pipeline, prepared, windows = info["diagnosis"], info["pipeline"], info["prepared"], info["windows"]
+    assert "resampled" in " ".join(diagnosis["notes"])  # 12 kHz record, 10 kHz model: the served windows are resampled
     assert windows.shape[0] == len(diagnosis["windows"]) > 1
-    np.testing.assert_allclose(starts / prepared.recording.fs, [w["start_s"] for w in diagnosis["windows"]], atol=1e-9)
+    np.testing.assert_allclose(info["starts"] / prepared.recording.fs, [w["start_s"] for w in diagnosis["windows"]], atol=1e-9)
 
     status, answer = post_json(f"{info['url']}/invocations",
                                {"inputs": windows.tolist(), "params": {"rpm": prepared.recording.rpm}})
@@ -204,7 +207,7 @@ def test_served_model_answers_as_bearingtwin_diagnose(served, case):
 @needs_record
 def test_served_model_refuses_a_wrong_window_length(served):
     info = next(iter(served.values()))
-    _, pipeline = load_diagnosis_model(f"models:/{MODEL_NAME}@{MODEL_ALIAS}", info["store_uri"])
+    pipeline = info["pipeline"]
     short = np.zeros((2, pipeline.window_length - 1)).tolist()
     # post_json's bounded timeout turns a hang into a failure.
     status, answer = post_json(f"{info['url']}/invocations", {"inputs": short, "params": {"rpm": 1797.0}})

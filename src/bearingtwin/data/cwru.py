@@ -45,6 +45,7 @@ class CwruName:
     record: int
     fault_size_in: float | None = None  # defect diameter in inches (0.007 for "007")
     position: str | None = None  # outer-race defect position in o'clock ("6"), None elsewhere
+    rate_hz: float | None = None  # sampling rate the name states ("48k_..." -> 48000), None when it states none
 
 
 def parse_cwru_name(path: str | Path) -> CwruName | None:
@@ -60,6 +61,7 @@ def parse_cwru_name(path: str | Path) -> CwruName | None:
         record=int(match["record"]),
         fault_size_in=int(match["size"]) / 1000.0,
         position=match["position"],
+        rate_hz=1000.0 * int(match["rate"][:-1]),
     )
 
 
@@ -92,7 +94,7 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         str(path),
         "cwru-mat",
         {channel: channels[channel] for channel in CHANNELS if channel in channels},
-        fs=DECLARED_FS_HZ,
+        fs=DECLARED_FS_HZ if name is None or name.rate_hz is None else name.rate_hz,
         fs_origin="declared",
         rpm=rpm,
         fault=None if name is None else name.fault,

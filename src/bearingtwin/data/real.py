@@ -119,6 +119,8 @@ def windows_from_recordings(
         class_names=FAULTS,
         key=key,
         record_lengths=lengths,
+        # Shaft speeds when every record states one (CWRU): features on the shaft-order axis need them.
+        record_rpms=None if any(r.rpm is None for r in recordings) else [float(r.rpm) for r in recordings],
     )
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
+import scipy.fft
 import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
@@ -81,7 +82,9 @@ def squared_envelope_spectrum(signal, fs_hz: float, band_hz: tuple[float, float]
         raise BearingTwinError(f"band_hz={list(band_hz)}: need 0 < low < high < fs/2 = {fs_hz / 2:g} Hz")
     sos = scipy.signal.butter(filter_order, (low, high), btype="bandpass", fs=fs_hz, output="sos")
     in_band = scipy.signal.sosfiltfilt(sos, signal, axis=-1)
-    squared_envelope = np.abs(scipy.signal.hilbert(in_band, axis=-1)) ** 2
+    # A record's length is often a slow FFT size (CWRU 131: 43 x 2847): pad the Hilbert transform's FFT.
+    n = signal.shape[-1]
+    squared_envelope = np.abs(scipy.signal.hilbert(in_band, N=scipy.fft.next_fast_len(n), axis=-1)[..., :n]) ** 2
     nperseg = min(signal.shape[-1], max(16, int(round(segment_s * fs_hz))))
     return scipy.signal.welch(squared_envelope, fs=fs_hz, nperseg=nperseg, detrend="constant", axis=-1)
 

@@ -11,6 +11,7 @@ needed by models whose features are read on the shaft-order axis. The same model
 from __future__ import annotations
 
 import importlib.metadata
+import sys
 import tempfile
 from pathlib import Path
 
@@ -31,10 +32,25 @@ class DiagnosisModel(PythonModel):
 
     def load_context(self, context) -> None:
         self.pipeline = DiagnosisPipeline.load(context.artifacts["pipeline"])
+        use_one_thread_per_library()
 
     def predict(self, context, model_input: np.ndarray, params: dict | None = None) -> pd.DataFrame:
         rpm = float((params or {}).get("rpm") or 0.0)
         return predictions_frame(self.pipeline, np.asarray(model_input, dtype=np.float64), rpm if rpm > 0 else None)
+
+
+def use_one_thread_per_library() -> None:
+    """One thread each for numba (VMD) and torch (the network) in a diagnosing process.
+
+    Their two OpenMP pools spin against each other on a small machine: measured on 2 cores
+    (benchmarks/RESULTS.md), one LSTM forward pass took ~140 ms with two threads each and
+    ~1 ms with one; a diagnosis batch of windows is too small to gain from more threads.
+    """
+    import numba
+
+    numba.set_num_threads(1)
+    if "torch" in sys.modules:  # loaded by a network's pipeline; an SVM model's process need not import it
+        sys.modules["torch"].set_num_threads(1)
 
 
 def predictions_frame(pipeline: DiagnosisPipeline, windows: np.ndarray, rpm: float | None) -> pd.DataFrame:

@@ -27,8 +27,6 @@ from bearingtwin.data.windows import normalize_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import EXTRACTORS
-from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
-from bearingtwin.models.svm import SvmClassifier
 from bearingtwin.physics.geometry import FAULTS
 
 FORMAT = 1  # bump when the saved layout changes
@@ -96,9 +94,8 @@ class DiagnosisPipeline:
 
     def predict(self, windows, rpm=None) -> tuple[np.ndarray, np.ndarray]:
         """Each window's state name (as the trained classifier predicts it) and the probabilities."""
-        X = self.features(windows, rpm)
-        states = np.array([FAULTS[int(label)] for label in self.classifier.predict(X)])
-        return states, self.classifier.predict_proba(X)
+        labels, probabilities = self.classifier.predict_with_proba(self.features(windows, rpm))
+        return np.array([FAULTS[int(label)] for label in labels]), probabilities
 
     # ------------------------------------------------------------ files
 
@@ -167,7 +164,12 @@ def _extractor_from_state(state: dict):
     return extractor
 
 
+# The classifiers' modules are imported where they are needed: the network's pulls in Lightning,
+# which a diagnosis with an SVM model (or a model server starting up) need not wait for.
 def _save_classifier(classifier, folder: Path) -> dict:
+    from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
+    from bearingtwin.models.svm import SvmClassifier
+
     if isinstance(classifier, CnnBiLstmClassifier):
         return {"kind": "cnn_bilstm", **classifier.save(folder / "network.pt")}
     if isinstance(classifier, SvmClassifier):
@@ -180,6 +182,8 @@ def _save_classifier(classifier, folder: Path) -> dict:
 
 def _load_classifier(state: dict, folder: Path):
     if state["kind"] == "cnn_bilstm":
+        from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
+
         return CnnBiLstmClassifier.load(folder / "network.pt", state)
     import skops.io
 

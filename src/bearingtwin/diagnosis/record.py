@@ -32,6 +32,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import check_fault
 
 CWRU_DEFAULT_CHANNEL = "DE"  # the drive-end accelerometer: the bearing the CWRU faults are in
+CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
 
 
@@ -58,7 +59,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                    fs=fs, rpm=rpm)
     notes = []
     if recording.rpm is not None:
-        notes.extend(_check_rate(recording, declared_only=is_cwru and fs is None))
+        recording, notes = _checked_rate(recording, declared_only=is_cwru and fs is None)
     if true_state is not None:
         true_state = check_fault(true_state)
     else:  # what the file's name (CWRU) or content states
@@ -78,17 +79,32 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     return PreparedRecord(recording, true_state, original_fs, notes)
 
 
-def _check_rate(recording: Recording, declared_only: bool) -> list[str]:
-    """The shaft-line check of the sampling rate; a merely declared rate that contradicts it is refused."""
+def _checked_rate(recording: Recording, declared_only: bool) -> tuple[Recording, list[str]]:
+    """The recording after the shaft-line check of its sampling rate, and what the check said.
+
+    A rate the file states is kept (a contradiction is reported). A rate only declared by the data
+    set's convention (a CWRU file's) is tried against the data set's rates, and the highest rate
+    under which the shaft's harmonic series stands where it belongs is the record's: read at a
+    whole-number fraction of its true rate, a record puts a higher shaft harmonic onto the expected
+    line, so a lower rate can seem to match, while a higher one cannot (the CWRU healthy baselines
+    exist at 48 kHz under names that state no rate). No matching rate: the record is refused.
+    """
     try:
         check = check_shaft_line(recording.signal, recording.fs, recording.rpm)
     except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
-        return [f"sampling rate not checked ({error})"]
-    if check.matches:
-        return []
-    if declared_only:
+        return recording, [f"sampling rate not checked ({error})"]
+    if not declared_only:
+        return recording, [] if check.matches else [f"sampling rate unconfirmed: {describe_mismatch(check)}"]
+    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and check_shaft_line(recording.signal, rate, recording.rpm).matches]
+    if not higher:
+        if check.matches:
+            return recording, []
         raise BearingTwinError(f"{recording.source}: {describe_mismatch(check)}; give the record's rate with fs=<Hz>")
-    return [f"sampling rate unconfirmed: {describe_mismatch(check)}"]
+    rate = max(higher)
+    corrected = Recording(recording.signal, rate, recording.rpm, recording.fault, recording.source,
+                          recording.channel, recording.unit, dict(recording.meta))
+    return corrected, [f"the shaft line stands where it belongs at {rate:g} Hz, not only at the declared "
+                       f"{recording.fs:g} Hz: read at {rate:g} Hz"]
 
 
 def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]:

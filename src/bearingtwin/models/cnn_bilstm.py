@@ -274,7 +274,12 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
             return torch.softmax(self.module_(inputs), dim=1).numpy()
 
     def predict(self, X) -> np.ndarray:
-        return self.classes_[self.predict_proba(X).argmax(axis=1)]
+        return self.predict_with_proba(X)[0]
+
+    def predict_with_proba(self, X) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted classes and the probabilities behind them, from one forward pass."""
+        probabilities = self.predict_proba(X)
+        return self.classes_[probabilities.argmax(axis=1)], probabilities
 
     def save(self, path) -> dict:
         """Write the network's weights to ``path`` (torch ``state_dict``); returns the rest of the

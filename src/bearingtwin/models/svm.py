@@ -74,3 +74,7 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
     def predict_proba(self, X) -> np.ndarray:
         """(n_samples, n_classes) calibrated probabilities, columns in ``classes_`` order."""
         return self.calibration_.predict_proba(X)
+
+    def predict_with_proba(self, X) -> tuple[np.ndarray, np.ndarray]:
+        """The SVM's predictions and the calibrated probabilities beside them."""
+        return self.predict(X), self.predict_proba(X)
