@@ -211,6 +211,30 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     return signals, key
 
 
+def simulator_settings(simulator_cfg: Mapping, randomize: Mapping | None) -> list[tuple[str, dict]]:
+    """(label, simulator config) for every combination of ``twin.randomize`` values; [("", config)] without any.
+
+    ``randomize`` maps a dotted simulator key to a list of values (``{defect.width_mm: [0.178, 0.533],
+    defect.outer_angle_deg: [null, 0.0]}``): what no calibration record determines, such as the
+    size and position of a defect, is spanned rather than guessed. Every key must exist.
+    """
+    axes = []
+    for key, values in (randomize or {}).items():
+        if OmegaConf.select(OmegaConf.create(dict(simulator_cfg)), key, default="<absent>") == "<absent>":
+            raise BearingTwinError(f"data.twin.randomize: simulator.{key} is no simulator setting")
+        if not isinstance(values, (list, tuple)) or not values:
+            raise BearingTwinError(f"data.twin.randomize.{key}: need a non-empty list of values, got {values!r}")
+        axes.append((key, list(values)))
+    settings = []
+    for values in itertools.product(*(values for _, values in axes)):
+        setting = OmegaConf.create(dict(simulator_cfg))
+        for (key, _), value in zip(axes, values):
+            OmegaConf.update(setting, key, value, merge=False)
+        label = ",".join(f"simulator.{key}={value}" for (key, _), value in zip(axes, values))
+        settings.append((label, OmegaConf.to_container(setting)))
+    return settings
+
+
 def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[str, dict]]:
     """(label, effects) for every combination of ``twin.variants`` values; [("", effects)] without any.
 
@@ -301,10 +325,12 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
             healthy["report"], healthy["step"], calibration_records[healthy["record"]], bearing, simulator)}
     bearing, simulator = with_base_params(bearing, simulator, base_params, cfg["calibration"]["report"])
     faults = [check_fault(f) for f in cfg["twin"]["classes"]]
-    variants = effect_variants(effects, cfg["twin"].get("variants"))
+    variants = [(",".join(filter(None, (effect_label, setting_label))), varied, setting)
+                for effect_label, varied in effect_variants(effects, cfg["twin"].get("variants"))
+                for setting_label, setting in simulator_settings(simulator, cfg["twin"].get("randomize"))]
     signals, twin_keys, sources = [], [], []
-    for index, (label, varied) in enumerate(variants):
-        variant_signals, key = twin_signals(faults, rpms, bearing, simulator, varied, cache_dir,
+    for index, (label, varied, setting) in enumerate(variants):
+        variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,
                                             variant=index if len(variants) > 1 else None)
         signals.extend(variant_signals)
         twin_keys.append(key)

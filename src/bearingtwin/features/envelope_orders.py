@@ -40,10 +40,11 @@ from sklearn.base import BaseEstimator, TransformerMixin
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.signal import envelope_spectrum
+from bearingtwin.signal import cepstral_prewhiten, envelope_spectrum
 
 DEFECT_RATES = ("bpfi", "bpfo", "bsf2", "ftf")
 LINE_MEASURES = ("share", "prominence")
+PREWHITENING = ("none", "cepstral")
 """Repetition rates read from the envelope: bsf2 = 2 x BSF, since a spall on a ball strikes both races per spin."""
 
 
@@ -87,6 +88,10 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             ``prominence`` (log10 of the band's mean power over the median of its flanks).
         floor_width_orders: width in shaft orders of each flank that sets a prominence's floor,
             beyond the band's half width on either side.
+        prewhiten: ``none`` or ``cepstral``: the lines are read from the envelope of the
+            cepstrally pre-whitened window (:func:`bearingtwin.signal.cepstral_prewhiten`), which
+            no longer carries the transfer path's spectral shape; ``band_power`` is always the raw
+            window's.
 
     Fitted attributes:
         feature_names_: one name per column (``<h>x<rate>``, the inner-race sidebands, then
@@ -96,7 +101,8 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
 
     def __init__(self, bearing: dict | None = None, band_nyquist: tuple[float, float] = (0.25, 0.9),
                  filter_order: int = 4, harmonics: int = 3, half_width_orders: float = 0.15,
-                 band_power: bool = True, line_measure: str = "share", floor_width_orders: float = 1.0) -> None:
+                 band_power: bool = True, line_measure: str = "share", floor_width_orders: float = 1.0,
+                 prewhiten: str = "none") -> None:
         self.bearing = bearing
         self.band_nyquist = band_nyquist
         self.filter_order = filter_order
@@ -105,6 +111,7 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         self.band_power = band_power
         self.line_measure = line_measure
         self.floor_width_orders = floor_width_orders
+        self.prewhiten = prewhiten
 
     def check_params(self) -> BearingGeometry:
         """The bearing's geometry, after checking every parameter (errors name the parameter)."""
@@ -123,6 +130,8 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"features.band_power must be true or false, got {self.band_power!r}")
         if self.line_measure not in LINE_MEASURES:
             raise BearingTwinError(f"features.line_measure={self.line_measure!r}: choose one of {', '.join(LINE_MEASURES)}")
+        if self.prewhiten not in PREWHITENING:
+            raise BearingTwinError(f"features.prewhiten={self.prewhiten!r}: choose one of {', '.join(PREWHITENING)}")
         if not (np.isfinite(float(self.floor_width_orders)) and float(self.floor_width_orders) > 0):
             raise BearingTwinError(f"features.floor_width_orders must be positive, got {self.floor_width_orders!r}")
         return BearingGeometry.from_config(self.bearing)
@@ -144,7 +153,8 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         X, shaft_hz = self._check(X, fs_hz, rpm)
         sos = scipy.signal.butter(self.filter_order, self.band_hz_, btype="bandpass", fs=fs_hz, output="sos")
         in_band = scipy.signal.sosfiltfilt(sos, X, axis=-1)
-        freqs_hz, amplitude = envelope_spectrum(in_band, fs_hz, window="hann")
+        lines_from = scipy.signal.sosfiltfilt(sos, cepstral_prewhiten(X), axis=-1) if self.prewhiten == "cepstral" else in_band
+        freqs_hz, amplitude = envelope_spectrum(lines_from, fs_hz, window="hann")
         power = amplitude[:, 1:] ** 2
         orders = freqs_hz[None, 1:] / shaft_hz[:, None]
         half_width = np.maximum(float(self.half_width_orders), (freqs_hz[1] - freqs_hz[0]) / shaft_hz)[:, None]

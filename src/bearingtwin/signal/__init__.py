@@ -7,11 +7,12 @@ from bearingtwin.signal.entropy import (
     mutual_information,
     permutation_entropy,
 )
-from bearingtwin.signal.envelope import envelope, envelope_spectrum, peak_near
+from bearingtwin.signal.envelope import cepstral_prewhiten, envelope, envelope_spectrum, peak_near
 from bearingtwin.signal.vmd import vmd, vmd_batch
 
 __all__ = [
     "bin_indices",
+    "cepstral_prewhiten",
     "envelope",
     "envelope_entropy",
     "envelope_spectrum",

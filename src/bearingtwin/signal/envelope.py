@@ -28,6 +28,24 @@ def _as_signal(x, name: str = "x") -> np.ndarray:
     return x
 
 
+def cepstral_prewhiten(x) -> np.ndarray:
+    """The signal with every frequency's magnitude set to one and its phase kept, along the last axis.
+
+    Cepstral pre-whitening (Sawalhi & Randall; Borghesani, Pennacchi, Randall et al., MSSP 2013):
+    zeroing the real cepstrum except at zero quefrency divides the spectrum by its own magnitude.
+    What the transfer path does to the spectrum's shape (resonances, the sensor's response) and
+    discrete lines' dominance go; the timing of repeated impacts, which lives in the phases, stays,
+    so the envelope of the whitened signal shows the defect's repetition rate whatever the path.
+    The output has unit power per frequency bin, whatever the input's unit.
+    """
+    x = _as_signal(x)
+    spectrum = np.fft.rfft(x - x.mean(axis=-1, keepdims=True), axis=-1)
+    magnitude = np.abs(spectrum)
+    whitened = np.where(magnitude > 0, spectrum / np.where(magnitude > 0, magnitude, 1.0), 0.0)
+    whitened[..., 0] = 0.0  # the mean was removed: what is left at DC is rounding, its sign arbitrary
+    return np.fft.irfft(whitened, n=x.shape[-1], axis=-1)
+
+
 def envelope(x) -> np.ndarray:
     """Magnitude of the analytic signal along the last axis (same shape as ``x``).
 
