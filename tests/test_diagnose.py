@@ -110,6 +110,8 @@ def test_evidence_names_the_fault_whose_harmonic_series_stands_out():
         assert evidence.evidence_state == state, evidence.prominence_db
         others = [value for name, value in evidence.prominence_db.items() if name != state]
         assert evidence.prominence_db[state] > 10.0 and evidence.prominence_db[state] > max(others) + 6.0
+        by_kurtogram = physics_evidence(fault_signal(rate), FS, RPM, BEARING, band="kurtogram")
+        assert by_kurtogram.evidence_state == state, by_kurtogram.band_hz
     healthy = physics_evidence(fault_signal(None), FS, RPM, BEARING)
     assert healthy.evidence_state == "normal" and max(healthy.prominence_db.values()) < healthy.threshold_db
 

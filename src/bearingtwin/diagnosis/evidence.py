@@ -14,7 +14,8 @@ do not depend on the sensor's gain or unit. The spectrum is a Welch average over
 ``segment_s`` seconds, which steadies the floor; a speed that drifts by up to ``tolerance``
 (relative) keeps its line inside the search band.
 
-The settings (band as a fraction of the Nyquist rate, three harmonics, 6 dB) are fixed a priori
+The band is fixed by default, or chosen per record by the kurtogram (``band="kurtogram"``: where
+the record is most impulsive). The settings (band as a fraction of the Nyquist rate, three harmonics, 6 dB) are fixed a priori
 for any rig, not tuned to a data set: the band is the one the envelope-order features use,
 6 dB is a line four times the floor's power.
 """
@@ -29,6 +30,7 @@ import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.signal.kurtogram import kurtogram
 
 STATE_RATES = {"inner": "bpfi", "ball": "bsf2", "outer": "bpfo"}
 """Fault state -> the repetition rate its impacts leave in the envelope."""
@@ -101,7 +103,10 @@ def line_prominence_db(freqs_hz: np.ndarray, power: np.ndarray, line_hz: float, 
     return float(10.0 * np.log10(max(power[in_line].max(), 1e-300) / max(floor, 1e-300)))
 
 
-def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band_nyquist=(0.25, 0.9),
+BANDS = ("fixed", "kurtogram")
+
+
+def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: str = "fixed", band_nyquist=(0.25, 0.9),
                      harmonics: int = 3, segment_s: float = 1.0, tolerance: float = 0.01,
                      threshold_db: float = 6.0) -> PhysicsEvidence:
     """The envelope spectrum of one record read at each fault state's defect-frequency harmonics.
@@ -110,7 +115,9 @@ def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band_ny
         signal: 1-D record, any unit.
         fs_hz: its sampling rate; rpm: its shaft speed, rev/min.
         bearing: the bearing config (geometry -> defect frequencies).
-        band_nyquist: band-pass edges as fractions of the Nyquist rate.
+        band: ``fixed`` (``band_nyquist``) or ``kurtogram``: the record's most impulsive band above
+            a tenth of Nyquist (:func:`bearingtwin.signal.kurtogram.kurtogram`).
+        band_nyquist: band-pass edges as fractions of the Nyquist rate, for ``band="fixed"``.
         harmonics: harmonics of each rate that form its series.
         segment_s: Welch segment length, s.
         tolerance: relative half width of each line's search band (speed drift, slip), at least one bin.
@@ -120,9 +127,18 @@ def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band_ny
         raise BearingTwinError(f"rpm must be a positive shaft speed, got {rpm}")
     if not (isinstance(harmonics, int) and harmonics > 0):
         raise BearingTwinError(f"evidence.harmonics must be a positive integer, got {harmonics!r}")
-    band_hz = tuple(float(v) * fs_hz / 2.0 for v in band_nyquist)
-    freqs_hz, power = squared_envelope_spectrum(signal, fs_hz, band_hz, segment_s)
+    if band not in BANDS:
+        raise BearingTwinError(f"evidence.band={band!r}: choose one of {', '.join(BANDS)}")
     frequencies = BearingGeometry.from_config(bearing).defect_frequencies(rpm)
+    if band == "kurtogram":
+        # Above the shaft harmonics and electrical lines, and wide enough to carry the fastest
+        # defect rate's modulation sidebands (a band narrower than 2 x BPFI cannot show BPFI).
+        widest_rate = max(frequencies["bpfi"], frequencies["bpfo"], 2.0 * frequencies["bsf"])
+        levels = [n for n in (16, 32, 64, 128, 256) if fs_hz / n >= 2.0 * widest_rate] or [16]
+        band_hz = kurtogram(np.asarray(signal, dtype=np.float64), fs_hz, nperseg=levels, min_hz=0.05 * fs_hz).band_hz
+    else:
+        band_hz = tuple(float(v) * fs_hz / 2.0 for v in band_nyquist)
+    freqs_hz, power = squared_envelope_spectrum(signal, fs_hz, band_hz, segment_s)
     rates = {"bpfi": frequencies["bpfi"], "bpfo": frequencies["bpfo"], "bsf2": 2.0 * frequencies["bsf"]}
     resolution = freqs_hz[1] - freqs_hz[0]
     shaft_hz = frequencies["shaft"]

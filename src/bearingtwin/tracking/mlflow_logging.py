@@ -322,6 +322,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "method": method,
         "features": choices.get("features", ""),
         "classifier": choices.get("classifier", ""),
+        "experiment": choices.get("experiment") or "",  # +experiment=<name>: a protocol's runs
         "seed": str(cfg.seed),
         "git_commit": _git_commit(),
         **_versions(),

@@ -1,0 +1,139 @@
+"""The result of a pre-registered sim2real protocol: its runs' scores beside the physics baseline.
+
+A protocol is a config in ``conf/experiment/`` (``sim2real.yaml`` is version 1), stated in words in
+``results/sim2real_protocol.md`` before its runs. Its runs carry the tag ``experiment=<name>``;
+:func:`protocol_headline` reads every FINISHED one (one per seed) and sets them beside the
+physics baseline on the same test records: the envelope analysis of
+:func:`bearingtwin.diagnosis.evidence.physics_evidence`, no learning, per record.
+"""
+
+from __future__ import annotations
+
+import csv
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from mlflow import MlflowClient
+
+from bearingtwin.config import bearing_config
+from bearingtwin.data.cwru import load_cwru, parse_cwru_name
+from bearingtwin.diagnosis.evidence import physics_evidence
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.mlflow_logging import find_runs
+from bearingtwin.tracking.tables import markdown_table
+
+FAULT_CLASSES = ("inner", "ball", "outer")
+
+
+@dataclass
+class ProtocolResult:
+    """Scores of a protocol's runs (fractions, one value per seed) and of the physics baseline."""
+
+    experiment: str
+    seeds: list[int]
+    accuracy: list[float]
+    recall: dict[str, list[float]]
+    healthy_called_healthy: list[float]
+    per_record: dict[str, list[float]]  # record -> window accuracy per seed
+    physics: dict[str, str]  # record -> the state its envelope spectrum points to
+    truth: dict[str, str]
+
+    def physics_recall(self, state: str) -> float:
+        records = [r for r, t in self.truth.items() if t == state]
+        return float(np.mean([self.physics[r] == state for r in records]))
+
+
+def protocol_runs(client: MlflowClient, experiment_id: str, name: str) -> list:
+    runs = find_runs(client, experiment_id, f"tags.experiment = '{name}' and tags.`bt.kind` = 'train' "
+                                            "and attributes.status = 'FINISHED'")
+    by_seed = {}
+    for run in sorted(runs, key=lambda run: run.info.start_time):  # a re-run seed: its newest run
+        by_seed[int(run.data.params["seed"])] = run
+    if not by_seed:
+        raise BearingTwinError(f"no FINISHED run of +experiment={name} in the store; run bearingtwin-train "
+                               f"-m +experiment={name} seed=0,1,2,3,4 first")
+    return [by_seed[seed] for seed in sorted(by_seed)]
+
+
+def _per_record(client: MlflowClient, run_id: str) -> dict[str, float]:
+    with tempfile.TemporaryDirectory() as folder:
+        path = client.download_artifacts(run_id, "per_record.csv", folder)
+        return {Path(row["record"]).stem: float(row["accuracy"]) for row in csv.DictReader(open(path))}
+
+
+def physics_baseline(records: list[Path], bearing: str, channel: str = "DE") -> dict[str, str]:
+    """Each CWRU record's physics evidence state (whole record, the diagnose defaults)."""
+    geometry = bearing_config(bearing)
+    states = {}
+    for path in records:
+        recording = load_cwru(path, channel=channel)
+        states[path.stem] = physics_evidence(recording.signal, recording.fs, recording.rpm, geometry).evidence_state
+    return states
+
+
+def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_root: Path) -> ProtocolResult:
+    runs = protocol_runs(client, experiment_id, name)
+    per_record = {}
+    for run in runs:
+        for record, accuracy in _per_record(client, run.info.run_id).items():
+            per_record.setdefault(record, []).append(accuracy)
+    paths = [data_root / f"{record}.mat" for record in per_record]
+    missing = [str(path) for path in paths if not path.is_file()]
+    if missing:
+        raise BearingTwinError(f"the physics baseline reads the test records themselves: {', '.join(missing)} missing")
+    bearing = runs[0].data.params.get("data.bearing", "cwru_6205")
+    return ProtocolResult(
+        experiment=name,
+        seeds=[int(run.data.params["seed"]) for run in runs],
+        accuracy=[run.data.metrics["accuracy"] for run in runs],
+        recall={state: [run.data.metrics[f"recall_{state}"] for run in runs] for state in FAULT_CLASSES},
+        healthy_called_healthy=[run.data.metrics.get("calibration_recall_normal", float("nan")) for run in runs],
+        per_record=per_record,
+        physics=physics_baseline(paths, bearing),
+        truth={record: parse_cwru_name(f"{record}.mat").fault for record in per_record},
+    )
+
+
+def _pm(values) -> str:
+    values = 100 * np.asarray(values, dtype=float)
+    return f"{values.mean():.1f} ± {values.std(ddof=1) if values.size > 1 else 0.0:.1f}"
+
+
+def headline_markdown(result: ProtocolResult, version: str) -> str:
+    """One table: the protocol's test accuracy, per fault type, false alarms, beside the physics baseline."""
+    rows = [[f"{version} (`+experiment={result.experiment}`, seeds {', '.join(map(str, result.seeds))})",
+             _pm(result.accuracy), *(_pm(result.recall[state]) for state in FAULT_CLASSES),
+             _pm(result.healthy_called_healthy)]]
+    physics_records = [result.physics[r] == result.truth[r] for r in result.per_record]
+    rows.append(["physics baseline (envelope analysis, no learning; records, not windows)",
+                 f"{100 * np.mean(physics_records):.1f} ({sum(physics_records)}/{len(physics_records)} records)",
+                 *(f"{100 * result.physics_recall(state):.0f}" for state in FAULT_CLASSES), "(record 97: "
+                 + ("healthy" if result.physics.get("normal_0_97", "normal") == "normal" else "not healthy") + ")"])
+    table = markdown_table(["", "test windows right %", "inner %", "ball %", "outer %", "record 97 windows called healthy %"], rows)
+    record_rows = [[record, result.truth[record], _pm(result.per_record[record]), result.physics[record]]
+                   for record in sorted(result.per_record, key=lambda r: (FAULT_CLASSES.index(result.truth[r]), r))]
+    return table + "\nPer test record (windows right, mean ± std over seeds; the physics baseline's state for the whole record):\n\n" + \
+        markdown_table(["record", "true state", "windows right %", "physics says"], record_rows)
+
+
+def plot_headline(result: ProtocolResult, path: Path) -> Path:
+    """Per fault type: the protocol's window recall (mean and spread over seeds) beside the physics baseline."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(7, 3.6))
+    axes = figure.subplots()
+    x = np.arange(len(FAULT_CLASSES) + 1)
+    model = [np.mean(result.recall[s]) for s in FAULT_CLASSES] + [np.nanmean(result.healthy_called_healthy)]
+    spread = [np.std(result.recall[s]) for s in FAULT_CLASSES] + [np.nanstd(result.healthy_called_healthy)]
+    physics = [result.physics_recall(s) for s in FAULT_CLASSES] + [float(result.physics.get("normal_0_97", "normal") == "normal")]
+    axes.bar(x - 0.2, 100 * np.asarray(model), 0.4, yerr=100 * np.asarray(spread), label=f"twin-trained ({result.experiment})")
+    axes.bar(x + 0.2, 100 * np.asarray(physics), 0.4, label="physics baseline (records)")
+    axes.set_xticks(x, [*FAULT_CLASSES, "healthy 97\n(calibration)"])
+    axes.set(ylabel="right (%)", ylim=(0, 105), title="Real CWRU records at 1-3 hp, twin-trained classifier vs envelope analysis")
+    axes.axhline(90, color="grey", lw=0.7, ls=":")
+    axes.legend(loc="lower left", fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    return path
