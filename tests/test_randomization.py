@@ -74,10 +74,11 @@ def test_prewhitening_flattens_the_spectrum_and_keeps_the_impact_rate():
 
 def test_the_sim2real_experiment_composes_the_protocol():
     with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
-        cfg = compose("train", overrides=["+experiment=sim2real"])
+        cfg = compose("train", overrides=["+experiment=sim2real", "seed=3"])
     assert (cfg.data.source, cfg.bearing.name, cfg.features.name, cfg.classifier.name) == (
         "twin_to_real", "cwru_6205", "envelope_prominence", "svm")
     assert (cfg.classifier.kernel, cfg.features.prewhiten, cfg.data.calibration.step) == ("linear", "cepstral", 3)
     assert list(cfg.data.twin.randomize["defect.width_mm"]) == [0.178, 0.356, 0.533]
     assert list(cfg.data.twin.variants.spin_slip.jitter) == [0.01, 0.1, 0.4]
     assert list(cfg.data.test.loads) == [1, 2, 3] and (cfg.register, cfg.register_alias) == ("sim2real", "champion")
+    assert cfg.simulator.seed == 3  # the seed is also the twin's

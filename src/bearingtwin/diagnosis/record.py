@@ -59,7 +59,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                    fs=fs, rpm=rpm)
     notes = []
     if recording.rpm is not None:
-        recording, notes = _checked_rate(recording, declared_only=is_cwru and fs is None)
+        recording, notes = _checked_rate(recording, declared_only=fs is None and raw.fs_origin == "declared")
     if true_state is not None:
         true_state = check_fault(true_state)
     else:  # what the file's name (CWRU) or content states
