@@ -255,3 +255,10 @@ def test_a_cwru_record_at_48_khz_is_read_at_the_rate_its_shaft_line_implies(regi
     assert "48000 Hz -> 12000 Hz" in done.stdout
     result = json.loads((tmp_path / "out" / "normal_1_98" / "diagnosis.json").read_text())
     assert result["original_fs"] == 48000.0 and len(result["windows"]) == stored["X097_DE_time"].size // 2048
+
+
+def test_an_alias_without_a_name_fails_before_any_work(tmp_path):
+    done = run("train", *SMOKE, "register_alias=champion", f"paths.cache_dir={tmp_path}/cache", cwd=tmp_path,
+               uri=f"sqlite:///{tmp_path}/mlflow.db")
+    assert done.returncode == 2 and "register_alias=champion needs register=<model name>" in done.stderr
+    assert not (tmp_path / "cache").exists()  # nothing was simulated

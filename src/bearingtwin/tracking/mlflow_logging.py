@@ -308,6 +308,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     a sweep it is logged and swallowed so the sweep goes on (returns None), in a single run
     it is re-raised so the entry point exits non-zero.
     """
+    check_registration(cfg)
     client, experiment_id = open_store(cfg.tracking)
     digest = config_hash(cfg)
     if cfg.tracking.skip_finished:
@@ -353,6 +354,14 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     return result.metrics
 
 
+def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
+    """``register`` and ``register_alias``, checked before any work is done."""
+    name, alias = cfg.get("register"), cfg.get("register_alias")
+    if alias and not name:
+        raise BearingTwinError(f"register_alias={alias} needs register=<model name> (or register_alias=null)")
+    return name, alias
+
+
 def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: str) -> None:
     """The run's fitted pipeline as its MLflow model ``model``; registered as ``register`` (alias
     ``register_alias``) when the config asks."""
@@ -361,9 +370,7 @@ def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: 
     result.pipeline.config_hash = digest
     uri = str(cfg.tracking.uri)
     info = log_diagnosis_model(uri, experiment_id, run_id, result.pipeline, result.example_windows, result.example_rpm)
-    name, alias = cfg.get("register"), cfg.get("register_alias")
-    if alias and not name:
-        raise BearingTwinError("register_alias needs register=<model name>")
+    name, alias = check_registration(cfg)
     if name:
         version = register_model(uri, info.model_uri, str(name), None if alias is None else str(alias))
         log.info("registered %s version %s%s", name, version, f" as @{alias}" if alias else "")
