@@ -1,0 +1,155 @@
+"""Every command in the README and in docs/guide.md runs as written.
+
+The bash blocks are read in order, the README's first, and each command runs in one temporary
+working directory against one temporary MLflow store, so a command may use what an earlier
+one wrote (a simulated record, a sweep's runs); a command the guide repeats from the README
+is not run twice. Only size is changed: where a
+command trains or calibrates, smoke settings are appended (for the keys its composed config
+has), and a sweep runs one job of its grid (every swept key pinned to its first value).
+Paths are the documents' own with two substitutions: ``/tmp/`` becomes the test's folder and
+``../shared/data`` the data root (``paths.data_root``). A command that needs data which is
+not present is skipped, naming it. Commands that are not bearingtwin's (install, the test
+suite itself, a server) are listed in ``NOT_RUN`` with the reason; any other command fails
+the test, so a new kind of example cannot go unchecked.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from mlflow import MlflowClient
+from omegaconf import OmegaConf
+
+from bearingtwin.config import CONF_DIR, REPO_ROOT
+
+DOCUMENTS = ("README.md", "docs/guide.md")
+
+# Appended where the command's composed config has the key: every stage still runs, on little data.
+TRAIN_SMOKE = {
+    "data.duration": "1.0",
+    "data.samples_per_class": "12",
+    "data.windows_per_record": "12",
+    "data.twin.duration": "0.5",
+    "data.twin.windows_per_record": "2",
+    "data.test.windows_per_record": "3",
+    "data.test.loads": "[1]",
+    "data.calibration.validation_windows_per_record": "2",
+    "search.population": "3",
+    "search.iterations": "1",
+    "search.windows": "2",
+    "features.progress": "false",
+    "trainer.max_epochs": "2",
+}
+TWIN_SMOKE = ["twin.duration=0.5", "compare.envelope_segment_s=0.25", "calibration.n_trials_base=3",
+              "calibration.n_trials_effect=3", "calibration.n_trials_refine=3", "ranking.max_effects=1"]
+
+NOT_RUN = {
+    "pip install": "installs the package: the suite runs on the installed package",
+    "python -m pytest": "the test suite itself",
+    "mlflow ui": "starts a web server",
+    "python scripts/": "studies over full-size sweeps (their pieces are tested on their own)",
+}
+SHELL_COMMANDS = ("printf ", "mkdir ")  # file set-up steps of an example, run as written by bash
+SUMMARY_TITLES = {"simulate": "== bearingtwin-simulate ==", "twin": "== bearingtwin-twin:", "train": "== bearingtwin-train:"}
+
+
+def document_commands(document: str) -> list[str]:
+    """The commands of a document's bash blocks, in order: continuations joined, comments and
+    blank lines dropped, ``a && b`` as two commands."""
+    text = (REPO_ROOT / document).read_text()
+    commands = []
+    for block in re.findall(r"```bash\n(.*?)```", text, flags=re.S):
+        for line in block.replace("\\\n", " ").splitlines():
+            line = line.split(" #", 1)[0].strip()
+            if line and not line.startswith("#"):
+                commands += [part.strip() for part in line.split("&&")]
+    return commands
+
+
+def data_root() -> Path:
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return Path(compose("train").paths.data_root).resolve()
+
+
+def compose_train(overrides: list[str]):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose("train", overrides=overrides, return_hydra_config=True)
+
+
+def train_additions(args: list[str]) -> tuple[list[str], str | None]:
+    """Smoke settings and sweep pins for a ``bearingtwin-train`` command, and the data folder
+    it needs (None when it makes its own data)."""
+    multirun = "-m" in args
+    cfg = compose_train([arg for arg in args if arg != "-m"])
+    added = [f"{key}={value}" for key, value in TRAIN_SMOKE.items() if OmegaConf.select(cfg, key) is not None]
+    if multirun:
+        for key, values in (cfg.hydra.sweeper.params or {}).items():
+            values = str(values)
+            added.append(f"{key}={values if '[' in values else values.split(',')[0]}")
+    needs = None if cfg.data.source in ("simulated", "files") else str(cfg.data.root)
+    return added, needs
+
+
+def newest_finished_training_run(uri: str) -> str:
+    client = MlflowClient(uri)
+    experiment = client.get_experiment_by_name("bearingtwin")
+    (run,) = client.search_runs([experiment.experiment_id], "tags.`bt.kind` = 'train' and attributes.status = 'FINISHED'",
+                                max_results=1, order_by=["attributes.start_time DESC"])
+    return run.info.run_id
+
+
+def checkout_state() -> str:
+    return subprocess.run(["git", "-C", str(REPO_ROOT), "status", "--porcelain", "--untracked-files=all"],
+                          capture_output=True, text=True, check=True).stdout
+
+
+def test_every_documented_command_runs_as_written(tmp_path):
+    commands = [(document, command) for document in DOCUMENTS for command in document_commands(document)]
+    assert {document for document, command in commands if command.startswith("bearingtwin-train")} == set(DOCUMENTS)
+    root = data_root()
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    env = {**os.environ, "MLFLOW_TRACKING_URI": uri}
+    before = checkout_state()
+    ran, skipped, failures = [], [], []
+    for document, command in commands:
+        if any(command.startswith(prefix) for prefix in NOT_RUN) or command in ran:
+            continue
+        written = command
+        command = command.replace("/tmp/", f"{tmp_path}/").replace("../shared/data", str(root))
+        if command.startswith(SHELL_COMMANDS):
+            subprocess.run(["bash", "-c", command], cwd=tmp_path, check=True)
+            ran.append(written)
+            continue
+        assert command.startswith("bearingtwin-"), f"{document}: {written!r} is neither bearingtwin's nor in NOT_RUN"
+        name, *args = shlex.split(command)
+        name = name.removeprefix("bearingtwin-")
+        if "<id>" in command:
+            args = [arg.replace("<id>", newest_finished_training_run(uri)) for arg in args]
+        needs = next((arg.split("=", 1)[-1] for arg in args if str(root) in arg), None)
+        if name == "train":
+            added, needs = train_additions(args)
+            args += added
+        elif name == "twin":
+            args += TWIN_SMOKE
+        elif name == "report":
+            args.append(f"out={tmp_path}/results/{args[0]}.md")  # never the checkout's results/
+        if needs is not None and not Path(needs).exists():
+            skipped.append(f"{written} (needs {needs}, not present)")
+            continue
+        done = subprocess.run([sys.executable, "-m", f"bearingtwin.cli.{name}", *args], cwd=tmp_path, env=env,
+                              capture_output=True, text=True, timeout=900)
+        ran.append(written)
+        title = SUMMARY_TITLES.get(name) if "-m" not in args else None
+        if done.returncode != 0 or (title is not None and title not in done.stdout):
+            failures.append(f"{document}: {written}\n  exit {done.returncode}\n  stdout: {done.stdout[-800:]}\n  stderr: {done.stderr[-1500:]}")
+    assert not failures, f"{len(failures)} of {len(ran)} commands failed:\n" + "\n".join(failures)
+    assert checkout_state() == before, "a documented command wrote into the checkout"
+    if skipped:
+        pytest.skip(f"ran {len(ran)} commands; skipped for absent data: " + "; ".join(skipped))
