@@ -105,6 +105,23 @@ def newest_finished_training_run(uri: str) -> str:
     return run.info.run_id
 
 
+def summary_problem(stdout: str, title: str, uri: str) -> str:
+    """What is wrong with a command's closing summary ("" when nothing): it must be there, and the
+    MLflow run it names must exist, be FINISHED and hold the accuracy it prints."""
+    if title not in stdout:
+        return f"no closing summary {title!r}"
+    named = re.search(r"MLflow run: (\w+)", stdout)
+    if named is None:
+        return ""
+    run = MlflowClient(uri).get_run(named[1])
+    if run.info.status != "FINISHED":
+        return f"the summary's run {named[1]} is {run.info.status}"
+    printed = re.search(r"accuracy: ([\d.]+) %", stdout)
+    if printed and printed[1] != f"{100 * run.data.metrics['accuracy']:.2f}":
+        return f"the summary says accuracy {printed[1]} %, the run logged {run.data.metrics['accuracy']}"
+    return ""
+
+
 def checkout_state() -> str:
     return subprocess.run(["git", "-C", str(REPO_ROOT), "status", "--porcelain", "--untracked-files=all"],
                           capture_output=True, text=True, check=True).stdout
@@ -147,8 +164,11 @@ def test_every_documented_command_runs_as_written(tmp_path):
                               capture_output=True, text=True, timeout=900)
         ran.append(written)
         title = SUMMARY_TITLES.get(name) if "-m" not in args else None
-        if done.returncode != 0 or (title is not None and title not in done.stdout):
-            failures.append(f"{document}: {written}\n  exit {done.returncode}\n  stdout: {done.stdout[-800:]}\n  stderr: {done.stderr[-1500:]}")
+        problem = "" if done.returncode == 0 else f"exit {done.returncode}"
+        if not problem and title is not None:
+            problem = summary_problem(done.stdout, title, uri)
+        if problem:
+            failures.append(f"{document}: {written}\n  {problem}\n  stdout: {done.stdout[-800:]}\n  stderr: {done.stderr[-1500:]}")
     assert not failures, f"{len(failures)} of {len(ran)} commands failed:\n" + "\n".join(failures)
     assert checkout_state() == before, "a documented command wrote into the checkout"
     if skipped:
