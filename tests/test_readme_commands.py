@@ -3,7 +3,8 @@
 The bash blocks are read in order, the README's first, and each command runs in one temporary
 working directory against one temporary MLflow store, so a command may use what an earlier
 one wrote (a simulated record, a sweep's runs); a command the guide repeats from the README
-is not run twice. Only size is changed: where a
+is not run twice. Single training runs that read nothing another command writes run beside the
+others, two at a time on two cores. Only size is changed: where a
 command trains or calibrates, smoke settings are appended (for the keys its composed config
 has), and a sweep runs one job of its grid (every swept key pinned to its first value).
 Paths are the documents' own with two substitutions: ``/tmp/`` becomes the test's folder and
@@ -20,6 +21,7 @@ import re
 import shlex
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -127,28 +129,32 @@ def checkout_state() -> str:
                           capture_output=True, text=True, check=True).stdout
 
 
+def is_independent(name: str, args: list[str]) -> bool:
+    """A single training run that names no file or folder (which another command might write): it
+    may run beside the others."""
+    return name == "train" and "-m" not in args and not any(re.search(r"(root|path|labels|report)=|/", arg) for arg in args)
+
+
 def test_every_documented_command_runs_as_written(tmp_path):
-    commands = [(document, command) for document in DOCUMENTS for command in document_commands(document)]
-    assert {document for document, command in commands if command.startswith("bearingtwin-train")} == set(DOCUMENTS)
+    documented = [(document, command) for document in DOCUMENTS for command in document_commands(document)]
+    assert {document for document, command in documented if command.startswith("bearingtwin-train")} == set(DOCUMENTS)
     root = data_root()
     uri = f"sqlite:///{tmp_path}/mlflow.db"
     env = {**os.environ, "MLFLOW_TRACKING_URI": uri}
     before = checkout_state()
-    ran, skipped, failures = [], [], []
-    for document, command in commands:
-        if any(command.startswith(prefix) for prefix in NOT_RUN) or command in ran:
+    # Each command once, in order, as (document, as written, module, arguments); skips and shell steps apart.
+    runs, skipped, seen = [], [], set()
+    for document, written in documented:
+        if any(written.startswith(prefix) for prefix in NOT_RUN) or written in seen:
             continue
-        written = command
-        command = command.replace("/tmp/", f"{tmp_path}/").replace("../shared/data", str(root))
+        seen.add(written)
+        command = written.replace("/tmp/", f"{tmp_path}/").replace("../shared/data", str(root))
         if command.startswith(SHELL_COMMANDS):
-            subprocess.run(["bash", "-c", command], cwd=tmp_path, check=True)
-            ran.append(written)
+            runs.append((document, written, None, command))
             continue
         assert command.startswith("bearingtwin-"), f"{document}: {written!r} is neither bearingtwin's nor in NOT_RUN"
         name, *args = shlex.split(command)
         name = name.removeprefix("bearingtwin-")
-        if "<id>" in command:
-            args = [arg.replace("<id>", newest_finished_training_run(uri)) for arg in args]
         needs = next((arg.split("=", 1)[-1] for arg in args if str(root) in arg), None)
         if name == "train":
             added, needs = train_additions(args)
@@ -160,16 +166,31 @@ def test_every_documented_command_runs_as_written(tmp_path):
         if needs is not None and not Path(needs).exists():
             skipped.append(f"{written} (needs {needs}, not present)")
             continue
+        runs.append((document, written, name, args))
+
+    def run(document, written, name, args) -> str | None:
+        """Run one command; a description of what went wrong, or None."""
+        if name is None:
+            subprocess.run(["bash", "-c", args], cwd=tmp_path, check=True)
+            return None
+        if any("<id>" in arg for arg in args):  # run_id=<id>: a run logged by an earlier command
+            args = [arg.replace("<id>", newest_finished_training_run(uri)) for arg in args]
         done = subprocess.run([sys.executable, "-m", f"bearingtwin.cli.{name}", *args], cwd=tmp_path, env=env,
                               capture_output=True, text=True, timeout=900)
-        ran.append(written)
         title = SUMMARY_TITLES.get(name) if "-m" not in args else None
         problem = "" if done.returncode == 0 else f"exit {done.returncode}"
         if not problem and title is not None:
             problem = summary_problem(done.stdout, title, uri)
-        if problem:
-            failures.append(f"{document}: {written}\n  {problem}\n  stdout: {done.stdout[-800:]}\n  stderr: {done.stderr[-1500:]}")
-    assert not failures, f"{len(failures)} of {len(ran)} commands failed:\n" + "\n".join(failures)
+        return f"{document}: {written}\n  {problem}\n  stdout: {done.stdout[-800:]}\n  stderr: {done.stderr[-1500:]}" if problem else None
+
+    # Two lanes for two cores: single training runs that read nothing another command writes run
+    # beside the rest, which keeps its order (a twin needs its simulated record, a report its sweep).
+    independent = [r for r in runs if r[2] is not None and is_independent(r[2], r[3])]
+    ordered = [r for r in runs if r not in independent]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        side = pool.submit(lambda: [run(*r) for r in independent])
+        failures = [problem for problem in [run(*r) for r in ordered] + side.result() if problem]
+    assert not failures, f"{len(failures)} of {len(runs)} commands failed:\n" + "\n".join(failures)
     assert checkout_state() == before, "a documented command wrote into the checkout"
     if skipped:
-        pytest.skip(f"ran {len(ran)} commands; skipped for absent data: " + "; ".join(skipped))
+        pytest.skip(f"ran {len(runs)} commands; skipped for absent data: " + "; ".join(skipped))
