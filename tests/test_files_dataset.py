@@ -62,8 +62,12 @@ def test_labels_table_gives_each_file_its_state_and_the_split_keeps_records_apar
 def test_a_file_name_pattern_labels_instead_of_a_table(tmp_path):
     for state in ("normal", "ball"):
         np.save(tmp_path / f"{state}_run1.npy", tone(state))
+    (tmp_path / "labels.csv").write_text("record,state\nnormal_run1.npy,inner\n")  # not read, not a recording
     dataset = build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
-    assert sorted({FAULTS[label] for label in dataset.labels}) == ["ball", "normal"]
+    assert sorted({FAULTS[label] for label in dataset.labels}) == ["ball", "normal"] and len(dataset.records) == 2
+    np.save(tmp_path / "run2.npy", tone("outer"))
+    with pytest.raises(BearingTwinError, match=r"run2.npy: data.pattern=.* does not match its name"):
+        build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
 
 
 @pytest.mark.parametrize("change, message", [

@@ -98,6 +98,8 @@ def hust_paths(data_cfg) -> dict[str, Path]:
 
 LABEL_COLUMNS = ("record", "state", "rpm", "fs")
 """Columns of a labels table: ``record`` (file name in ``data.root``) and ``state`` are required."""
+DEFAULT_LABELS = "labels.csv"
+"""The labels table ``data=files`` reads from ``data.root`` unless ``data.labels`` names another."""
 
 
 def build_files_dataset(data_cfg) -> WindowedDataset:
@@ -132,7 +134,7 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
 
 def _rows_from_labels(root: Path, cfg: dict) -> list[tuple[Path, str, float | None, float | None]]:
     """``(file, state, rpm, fs)`` per row of the labels table."""
-    table = Path(cfg.get("labels") or root / "labels.csv").expanduser()
+    table = Path(cfg.get("labels") or root / DEFAULT_LABELS).expanduser()
     if not table.is_file():
         raise BearingTwinError(
             f"data.labels: no labels file {table}; write one with columns {','.join(LABEL_COLUMNS)} "
@@ -167,7 +169,9 @@ def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, Non
         raise BearingTwinError(f"data.pattern={cfg['pattern']!r} is not a regular expression ({error})") from None
     if "state" not in pattern.groupindex:
         raise BearingTwinError(f"data.pattern={cfg['pattern']!r} has no (?P<state>...) group naming the bearing state")
-    paths = sorted(path for path in root.iterdir() if path.is_file() and path.suffix.lower() in FORMATS)
+    # A labels table left in the folder is not a recording.
+    paths = sorted(path for path in root.iterdir()
+                   if path.is_file() and path.suffix.lower() in FORMATS and path.name != DEFAULT_LABELS)
     if not paths:
         raise BearingTwinError(f"data.root={root} holds no file bearingtwin reads ({', '.join(FORMATS)})")
     rows = []
