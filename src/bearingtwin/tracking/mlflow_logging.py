@@ -22,7 +22,7 @@ and is named ``<features>+<classifier> <data source> [<vmd_params> [<optimizer>]
 seed=<n>`` (:func:`run_name`), so runs of different configurations read apart.
 
 Resuming: every run is tagged ``config_hash`` (the resolved config without paths,
-tracking and Hydra settings); with ``tracking.skip_finished`` a job whose config already
+tracking, Hydra and display settings, :data:`UNHASHED_KEYS`); with ``tracking.skip_finished`` a job whose config already
 has a FINISHED run is skipped, so re-launching an interrupted sweep only runs what is
 missing.
 """
@@ -331,8 +331,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     """Run ``train(cfg, root_dir) -> ExperimentResult`` inside an MLflow run and log everything.
 
     Returns the run and its metrics (the earlier run, ``skipped``, when one with this config
-    already FINISHED). A failure
-    marks the run FAILED with the error as tag ``error`` and artifact ``error.txt``; inside
+    already FINISHED). A failure marks the run FAILED with the error as tag ``error`` and artifact ``error.txt``; inside
     a sweep it is logged and swallowed so the sweep goes on (returns None), in a single run
     it is re-raised so the entry point exits non-zero.
     """
