@@ -3,8 +3,8 @@
 The bash blocks are read in order, the README's first, and each command runs in one temporary
 working directory against one temporary MLflow store, so a command may use what an earlier
 one wrote (a simulated record, a sweep's runs); a command the guide repeats from the README
-is not run twice. Single training runs that read nothing another command writes run beside the
-others, two at a time on two cores. Only size is changed: where a
+is not run twice. Commands run two at a time, each after the earlier ones it depends on (those
+naming the same file or folder; for a report, all of them). Only size is changed: where a
 command trains or calibrates, smoke settings are appended (for the keys its composed config
 has), and a sweep runs one job of its grid (every swept key pinned to its first value).
 Paths are the documents' own with two substitutions: ``/tmp/`` becomes the test's folder and
@@ -129,10 +129,23 @@ def checkout_state() -> str:
                           capture_output=True, text=True, check=True).stdout
 
 
-def is_independent(name: str, args: list[str]) -> bool:
-    """A single training run that names no file or folder (which another command might write): it
-    may run beside the others."""
-    return name == "train" and "-m" not in args and not any(re.search(r"(root|path|labels|report)=|/", arg) for arg in args)
+def named_paths(words: list[str]) -> list[Path]:
+    """The files and folders a command names: words (or ``key=value`` values) holding a ``/``, and
+    values of keys ending in root, path, out or labels."""
+    paths = []
+    for word in words:
+        key, _, value = word.rpartition("=")
+        if "/" in value or key.endswith(("root", "path", "out", "labels")):
+            paths.append(Path(value))
+    return paths
+
+
+def related(first: list[Path], second: list[Path], workdir: Path) -> bool:
+    """Whether two commands name the same file or folder, one inside the other, or two files of
+    one folder other than the working directory (an example's folder of recordings)."""
+    def near(a: Path, b: Path) -> bool:
+        return a == b or a in b.parents or b in a.parents or (a.parent == b.parent and a.parent not in (workdir, Path(".")))
+    return any(near(a, b) for a in first for b in second)
 
 
 def test_every_documented_command_runs_as_written(tmp_path):
@@ -183,13 +196,24 @@ def test_every_documented_command_runs_as_written(tmp_path):
             problem = summary_problem(done.stdout, title, uri)
         return f"{document}: {written}\n  {problem}\n  stdout: {done.stdout[-800:]}\n  stderr: {done.stderr[-1500:]}" if problem else None
 
-    # Two lanes for two cores: single training runs that read nothing another command writes run
-    # beside the rest, which keeps its order (a twin needs its simulated record, a report its sweep).
-    independent = [r for r in runs if r[2] is not None and is_independent(r[2], r[3])]
-    ordered = [r for r in runs if r not in independent]
+    # Two at a time, for two cores: a command waits for the earlier ones that name a file or folder
+    # it names (a twin needs its simulated record, a training its folder of recordings); a report
+    # waits for every earlier command (its sweep, the run it repeats). Tasks start in document
+    # order, so whatever a waiting task waits for is already running or done.
+    words = [shlex.split(args) if name is None else args for _, _, name, args in runs]
+    after = [list(range(i)) if runs[i][2] == "report"
+             else [j for j in range(i) if related(named_paths(words[i]), named_paths(words[j]), tmp_path)] for i in range(len(runs))]
+    futures = []
+
+    def run_after(i):
+        for j in after[i]:
+            futures[j].result()
+        return run(*runs[i])
+
     with ThreadPoolExecutor(max_workers=2) as pool:
-        side = pool.submit(lambda: [run(*r) for r in independent])
-        failures = [problem for problem in [run(*r) for r in ordered] + side.result() if problem]
+        for i in range(len(runs)):
+            futures.append(pool.submit(run_after, i))
+        failures = [problem for problem in (future.result() for future in futures) if problem]
     assert not failures, f"{len(failures)} of {len(runs)} commands failed:\n" + "\n".join(failures)
     assert checkout_state() == before, "a documented command wrote into the checkout"
     if skipped:
