@@ -86,3 +86,11 @@ def test_a_bad_folder_is_refused_naming_the_file_or_field(folder, change, messag
     with pytest.raises(BearingTwinError) as error:
         build_dataset(files_cfg(folder, "data.fs=null"))  # rates from the files or the labels table
     assert message in str(error.value) and "\n" not in str(error.value)
+
+
+def test_no_folder_given_is_named_in_one_line():
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("train", overrides=["data=files"])
+    with pytest.raises(BearingTwinError, match=r"^data.root: Missing mandatory value") as error:
+        build_dataset(cfg)
+    assert "\n" not in str(error.value)
