@@ -27,6 +27,8 @@ REPORT_NAME = "twin_report.json"
 
 def load_measurement(measured_cfg) -> Recording:
     """The measured record the config points at, with fs, rpm and bearing state all known."""
+    if OmegaConf.is_missing(measured_cfg, "path"):
+        raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .mat, .wav or .xls)")
     recording = load_recording(measured_cfg.path, channel=measured_cfg.channel, fs=measured_cfg.fs,
                                rpm=measured_cfg.rpm, fault=measured_cfg.fault)
     for name in ("rpm", "fault"):
