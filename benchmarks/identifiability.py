@@ -128,17 +128,14 @@ def write_results(cases: list[dict], timings: dict | None, args, wall_s: float) 
          "hard_pairs": [{"true": a, "confused_with": b, "confused": confusions[(a, b)], "thin_margin": thin[(a, b)]}
                         for a, b in hard],
          "settings": vars(args)}, indent=2, default=float))
+    command = " ".join(["python benchmarks/identifiability.py", *sys.argv[1:]])
     lines = [
         "# Identifiability of the effect library",
         "",
-        f"Command: `python benchmarks/identifiability.py {' '.join(sys.argv[1:])}`. Machine: {platform.machine()}, "
-        f"{os.cpu_count()} cores shared with other jobs, Python {platform.python_version()}; wall time {wall_s / 60:.1f} min.",
+        "How often `bearingtwin-twin`'s ranking names an effect hidden in a twin-made measurement. "
+        f"Regenerate (about {wall_s / 60:.0f} min):",
         "",
-        f"Each case hides one effect (rows) in a {args.duration:g} s measurement at {args.fs:g} Hz, {args.rpm:g} rpm "
-        f"(faults: {', '.join(args.faults)}; seeds: {args.seeds}; {len(GRID['slip'])} parameter values per effect; "
-        "other random realization and defect depth than the twin, sensor in g), then ranks all seven candidates "
-        f"with {args.trials_base} base / {args.trials_effect} per-candidate Optuna trials. Columns: effect ranked "
-        f"first; `none` = no candidate explains {100 * args.min_explained:.0f}% of the discrepancy.",
+        f"```bash\n{command}\n```",
         "",
         markdown_table(["true \\ ranked first"] + columns,
                        [[t] + [matrix[t].get(c, 0) or "" for c in columns] for t in truths]),
@@ -147,6 +144,17 @@ def write_results(cases: list[dict], timings: dict | None, args, wall_s: float) 
         f"identified: {np.mean([c['explained'] for c in halved if c['ranked_first'] == c['effect']] or [0]):.2f}; "
         f"error at least halved in {sum(c['final_error'] <= 0.5 * c['baseline_error'] for c in halved)}/{len(halved)} "
         "cases with a hidden effect.",
+        "",
+        "## How these numbers were made",
+        "",
+        f"Machine: {platform.machine()}, {os.cpu_count()} cores shared with other jobs, Python {platform.python_version()}; "
+        f"wall time {wall_s / 60:.1f} min.",
+        "",
+        f"Each case hides one effect (rows) in a {args.duration:g} s measurement at {args.fs:g} Hz, {args.rpm:g} rpm "
+        f"(faults: {', '.join(args.faults)}; seeds: {args.seeds}; {len(GRID['slip'])} parameter values per effect; "
+        "other random realization and defect depth than the twin, sensor in g), then ranks all seven candidates "
+        f"with {args.trials_base} base / {args.trials_effect} per-candidate Optuna trials. Columns: effect ranked "
+        f"first; `none` = no candidate explains {100 * args.min_explained:.0f}% of the discrepancy.",
         "",
         "## Hard-to-separate pairs",
         "",

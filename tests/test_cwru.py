@@ -10,6 +10,7 @@ import pytest
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.data.cwru import check_shaft_line, declared_fs_hz, load_cwru, parse_cwru_name
+from bearingtwin.data.files import load_recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
 
@@ -56,6 +57,8 @@ def test_record_facts_come_from_file_and_name():
     assert recording.meta["record"] == 105 and recording.meta["load_hp"] == 0
     assert recording.fs == 12000 and recording.signal.size == 121265
     assert recording.meta["shaft_line"]["matches"]
+    default = load_recording(CWRU / "12k_Drive_End_IR007_0_105.mat")  # no channel asked for: the drive end
+    assert default.channel == "DE" and not np.array_equal(default.signal, recording.signal)
 
 
 @needs_data

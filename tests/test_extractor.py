@@ -203,6 +203,24 @@ def test_cache_reuses_an_extraction_and_keys_on_config_dataset_and_split(dataset
     assert cache_path(per_sample, dataset, train, tmp_path) == cache_path(per_sample, dataset, train[1:], tmp_path)
 
 
+def test_training_seeds_share_an_extraction_exactly_when_their_training_windows_are_the_same(dataset, tmp_path):
+    """What the README promises: under a block split every seed trains on the same windows, so
+    one extraction serves all seeds; a random split draws other windows per seed, so it cannot."""
+    from bearingtwin.data.windows import split_indices
+
+    n = len(dataset)
+    per_record = n // 4  # one record per class, its windows side by side
+    records, starts, lengths = np.repeat(np.arange(4), per_record), np.tile(np.arange(per_record) * LENGTH, 4), [per_record * LENGTH] * 4
+
+    def path(method, seed, vmd_params="global"):
+        train, _ = split_indices(dataset.labels, records, starts, lengths, LENGTH, method=method, train_fraction=0.5, seed=seed)
+        return cache_path({**small_cfg(), "vmd_params": vmd_params}, dataset, train, tmp_path)
+
+    assert len({path("block", seed) for seed in range(5)}) == 1
+    assert len({path("random", seed) for seed in range(5)}) == 5
+    assert len({path("random", seed, "per_sample") for seed in range(5)}) == 1
+
+
 def test_cache_refuses_bad_training_indices(dataset, tmp_path):
     with pytest.raises(BearingTwinError, match="train_index"):
         extract_features(small_cfg(), dataset, [0, len(dataset)], tmp_path)

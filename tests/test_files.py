@@ -29,8 +29,11 @@ def test_npz_as_the_simulator_writes_it(tmp_path, signal):
         load_recording(path, channel="signal", fs=9000)
     with pytest.raises(BearingTwinError, match=r"sim.npz: rpm=1000.0 contradicts the file's rpm=1797.0"):
         load_recording(path, channel="signal", rpm=1000.0)
-    with pytest.raises(BearingTwinError, match=r"sim.npz: holds channels signal, accelerations\[0\], accelerations\[1\]; choose one"):
-        load_recording(path)
+    np.testing.assert_array_equal(load_recording(path).signal, signal)  # `signal` is the .npz default channel
+    two = tmp_path / "two.npz"
+    np.savez(two, left=signal, right=2 * signal, fs=FS)
+    with pytest.raises(BearingTwinError, match=r"two.npz: holds channels left, right; choose one"):
+        load_recording(two)
 
 
 def test_npy_needs_fs_from_config(tmp_path, signal):

@@ -165,3 +165,12 @@ def test_scores_reproduce_the_form_of_table3():
         for metric, value in published.items():
             assert scores[f"{metric}_{name}"] == pytest.approx(value, abs=1e-3)
     assert scores["accuracy"] == pytest.approx(59 / 60)
+
+
+def test_the_epoch_progress_bar_goes_to_stderr_only_when_asked_for(capfd):
+    X, y = four_blobs(8)
+    CnnBiLstmClassifier(max_epochs=2, batch_size=16, progress_bar=True).fit(X, y, eval_set=(X, y))
+    shown = capfd.readouterr()
+    assert "Epoch 1" in shown.err and "Epoch" not in shown.out  # stdout is kept for a command's summary
+    CnnBiLstmClassifier(max_epochs=2, batch_size=16, progress_bar="auto").fit(X, y)  # unresolved auto: silent
+    assert "Epoch" not in capfd.readouterr().err

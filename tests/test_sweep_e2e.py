@@ -61,10 +61,10 @@ def test_every_good_job_finished_with_metrics_and_artifacts(store, tmp_path):
     client, experiment_id = store
     finished = [r for r in training_runs(client, experiment_id) if r.info.status == "FINISHED"]
     assert sorted(r.info.run_name for r in finished) == [
-        "raw+cnn_bilstm seed=0",
-        "sabo_vmd_minen+cnn_bilstm seed=0",
-        "sabo_vmd_pemie+cnn_bilstm seed=0",
-        "sabo_vmd_pemie+svm seed=0",
+        "raw+cnn_bilstm simulated seed=0",
+        "sabo_vmd_minen+cnn_bilstm simulated global seed=0",
+        "sabo_vmd_pemie+cnn_bilstm simulated global seed=0",
+        "sabo_vmd_pemie+svm simulated global seed=0",
     ]
     for run in finished:
         artifacts = {a.path for a in client.list_artifacts(run.info.run_id)}

@@ -33,7 +33,7 @@ def make_cfg(store: Path, seed: int = 0, **tracking) -> OmegaConf:
             "seed": seed,
             "paths": {"repo": "/somewhere", "cache_dir": "/somewhere/.cache"},
             "data": {"source": "simulated", "samples_per_class": 10},
-            "features": {"name": "sabo_vmd_pemie", "vmd_params": "global"},
+            "features": {"name": "sabo_vmd_pemie", "kind": "sabo_vmd", "vmd_params": "global", "optimizer": "sabo"},
             "classifier": {"name": "cnn_bilstm", "hidden_units": 30},
             "tracking": {"uri": f"sqlite:///{store}/mlflow.db", "experiment": "test", "artifact_root": None, "skip_finished": True, **tracking},
         }
@@ -74,16 +74,23 @@ def test_config_hash_ignores_where_and_how_but_not_what(tmp_path):
     assert config_hash(base) == config_hash(moved)
     assert config_hash(base) != config_hash(make_cfg(tmp_path, seed=1))
     assert flatten({"a": {"b": 1, "c": [1, 2]}, "d": {}}) == {"a.b": "1", "a.c": "[1, 2]", "d": "{}"}
+    shown = make_cfg(tmp_path)
+    shown.trainer = {"max_epochs": 2, "progress_bar": True}
+    hidden = make_cfg(tmp_path)
+    hidden.trainer = {"max_epochs": 2, "progress_bar": False}
+    assert config_hash(shown) == config_hash(hidden)  # how a run is shown is not what it computes
+    hidden.trainer.max_epochs = 3
+    assert config_hash(shown) != config_hash(hidden)
 
 
 def test_a_run_logs_config_metrics_curves_and_tables(tmp_path):
     cfg = make_cfg(tmp_path, seed=2)
-    metrics = train_tracked(cfg, CHOICES, None, None, fake_train)
-    assert metrics["accuracy"] == pytest.approx(0.92)
+    tracked = train_tracked(cfg, CHOICES, None, None, fake_train)
+    assert tracked.metrics["accuracy"] == pytest.approx(0.92) and not tracked.skipped
     client, experiment_id = open_store(cfg.tracking)
     (run,) = client.search_runs([experiment_id])
-    assert run.info.status == "FINISHED"
-    assert run.info.run_name == "sabo_vmd_pemie+cnn_bilstm seed=2"
+    assert run.info.status == "FINISHED" and run.info.run_id == tracked.run_id
+    assert run.info.run_name == "sabo_vmd_pemie+cnn_bilstm simulated global seed=2"
     assert run.data.params["classifier.hidden_units"] == "30" and run.data.params["data.source"] == "simulated"
     tags = run.data.tags
     assert tags["config_hash"] == config_hash(cfg) and tags["dataset_key"] == "data-key"
@@ -113,7 +120,7 @@ def test_a_failing_run_is_failed_with_its_error(tmp_path):
     assert [r.info.status for r in runs] == ["FAILED", "FAILED"]
     assert all("samples_per_class must be positive" in r.data.tags["error"] for r in runs)
     in_sweep = next(r for r in runs if r.data.tags.get("sweep") == "table4")
-    assert in_sweep.info.run_name == "sabo_vmd_pemie+cnn_bilstm features.vmd_params=global seed=1"
+    assert in_sweep.info.run_name == "sabo_vmd_pemie+cnn_bilstm simulated global features.vmd_params=global seed=1"
     assert "error.txt" in {a.path for a in client.list_artifacts(in_sweep.info.run_id)}
 
 
@@ -121,9 +128,9 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path):
     cfg = make_cfg(tmp_path)
     with pytest.raises(BearingTwinError):
         train_tracked(cfg, CHOICES, None, None, failing_train)
-    train_tracked(cfg, CHOICES, None, None, fake_train)  # the failed run does not count as done
+    done = train_tracked(cfg, CHOICES, None, None, fake_train)  # the failed run does not count as done
     again = train_tracked(cfg, CHOICES, None, None, failing_train)  # would fail if it ran
-    assert again["accuracy"] == pytest.approx(0.9)
+    assert again.skipped and again.run_id == done.run_id and again.metrics["accuracy"] == pytest.approx(0.9)
     client, experiment_id = open_store(cfg.tracking)
     assert sorted(r.info.status for r in client.search_runs([experiment_id])) == ["FAILED", "FINISHED"]
     train_tracked(make_cfg(tmp_path, skip_finished=False), CHOICES, None, None, fake_train)

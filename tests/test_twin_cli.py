@@ -93,3 +93,13 @@ def test_bad_input_exits_nonzero_naming_the_problem(measurement, tmp_path, overr
     assert message in result.stderr
     assert "Traceback" not in result.stderr
     assert not (tmp_path / "r" / "twin_report.json").exists()
+
+
+def test_no_measurement_given_is_named():
+    from omegaconf import OmegaConf
+
+    from bearingtwin.errors import BearingTwinError
+    from bearingtwin.twin.report import load_measurement
+
+    with pytest.raises(BearingTwinError, match=r"^measured.path is missing: give measured.path=<file>"):
+        load_measurement(OmegaConf.create({"path": "???", "channel": None, "fs": None, "rpm": None, "fault": None}))

@@ -11,6 +11,7 @@ import hydra
 import numpy as np
 from omegaconf import DictConfig
 
+from bearingtwin.cli.summary import closing_summary
 from bearingtwin.config import CONF_DIR, exit_on_user_error
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate
@@ -63,7 +64,13 @@ def main(cfg: DictConfig) -> None:
     if cfg.plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
                          BearingGeometry.from_config(cfg.bearing))
-    print("wrote " + ", ".join(str(path) for path in written))
+    facts = {
+        "record": f"{recording.fault}, {recording.signal.size / recording.fs:g} s at {recording.fs:g} Hz, "
+                  f"{recording.rpm:g} rpm, sensor {recording.channel} (m/s^2)",
+        "written": ", ".join(path.name for path in written),
+        "next": f"bearingtwin-twin measured.path={out.resolve()} holds the twin against this record",
+    }
+    print(closing_summary("bearingtwin-simulate", facts, out=str(out.parent.resolve())))
 
 
 if __name__ == "__main__":

@@ -7,18 +7,50 @@ parallel). A failing job in a sweep is logged FAILED and the sweep goes on.
 Data files a config names (HUST) are checked before any MLflow run is opened: a single run
 checks its own here, a sweep checks every job's in :class:`SweepParentRun`. Absent files end
 the command with exit status 2 and a message naming them and ``data.root=``.
+
+A single run ends with a summary (accuracy, F1 per class, the MLflow run and how to open it,
+the output folder); a sweep job prints one line, the sweep as a whole is summarised by
+:class:`SweepParentRun`.
 """
 
 from __future__ import annotations
+
+import os
+import sys
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
+from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import CONF_DIR, exit_on_user_error
 from bearingtwin.data.build import require_files
+from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.experiment import run_experiment
-from bearingtwin.tracking.mlflow_logging import sweep_info, train_tracked
+from bearingtwin.tracking.mlflow_logging import TrackedRun, method_name, run_name, sweep_info, train_tracked
+
+
+def show_progress_bar(setting, in_sweep: bool) -> bool:
+    """``trainer.progress_bar``: ``auto`` shows Lightning's epoch bar only where someone watches one
+    run (a terminal, not a sweep, whose parallel jobs would interleave bars, nor CI)."""
+    if isinstance(setting, bool):
+        return setting
+    if setting != "auto":
+        raise BearingTwinError(f"trainer.progress_bar must be auto, true or false, got {setting!r}")
+    return not in_sweep and sys.stderr.isatty() and not os.environ.get("CI")
+
+
+def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str) -> str:
+    """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one)."""
+    metrics = tracked.metrics
+    lines = {"accuracy": percent(metrics["accuracy"])}
+    f1 = {key.removeprefix("f1_"): value for key, value in metrics.items() if key.startswith("f1_")}
+    lines["F1 per class"] = ", ".join(f"{state} {value:.3f}" for state, value in f1.items())
+    if "calibration_accuracy" in metrics:
+        lines["calibration accuracy"] = percent(metrics["calibration_accuracy"])
+    if tracked.skipped:
+        lines["note"] = "an earlier run with this exact config had FINISHED, so nothing ran (tracking.skip_finished=false re-runs)"
+    return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out)
 
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="train")
@@ -27,8 +59,18 @@ def main(cfg: DictConfig) -> float | None:
     sweep = sweep_info(hydra_cfg)
     if sweep is None:
         exit_on_user_error(require_files)([cfg])
-    metrics = exit_on_user_error(train_tracked)(cfg, dict(hydra_cfg.runtime.choices), sweep, hydra_cfg.runtime.output_dir, run_experiment)
-    return None if metrics is None else metrics.get("accuracy")
+    cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(cfg.trainer.get("progress_bar", "auto"), sweep is not None)
+    choices = dict(hydra_cfg.runtime.choices)
+    output_dir = hydra_cfg.runtime.output_dir
+    tracked = exit_on_user_error(train_tracked)(cfg, choices, sweep, output_dir, run_experiment)
+    if tracked is None:
+        return None
+    name = run_name(cfg, method_name(choices), sweep)
+    if sweep is None:
+        print(training_summary(name, tracked, str(cfg.tracking.uri), output_dir))
+    else:
+        print(f"{name}: accuracy {percent(tracked.metrics['accuracy'])} (MLflow run {tracked.run_id})")
+    return tracked.metrics.get("accuracy")
 
 
 if __name__ == "__main__":

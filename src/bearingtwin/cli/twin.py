@@ -8,19 +8,37 @@ PNG figures beside it; logs them to MLflow unless tracking.enabled=false.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import hydra
 from omegaconf import DictConfig
 
+from bearingtwin.cli.summary import closing_summary
 from bearingtwin.config import CONF_DIR, exit_on_user_error
+from bearingtwin.twin.rank import TwinFit
 from bearingtwin.twin.report import run_twin
+
+
+def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str | None) -> str:
+    """The effects found, in order, and how much of the discrepancy they closed."""
+    found = ", ".join(added.effect for added in fit.added)
+    drop = fit.baseline_error - fit.final_error
+    share = f" ({100 * drop / fit.baseline_error:.0f} % less)" if fit.baseline_error > 0 else ""
+    lines = {
+        "effects found": found or f"none closes ranking.min_explained={cfg.ranking.min_explained} of the gap",
+        "discrepancy": f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}",
+        "written": f"{files[0].name} and {len(files) - 1} figures",
+    }
+    title = f"bearingtwin-twin: {Path(str(cfg.measured.path)).name}"
+    return closing_summary(title, lines, run_id, str(cfg.tracking.uri) if run_id else None, str(files[0].parent.resolve()))
 
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="twin")
 @exit_on_user_error
 def main(cfg: DictConfig) -> None:
-    fit, files = run_twin(cfg)
+    fit, files, run_id = run_twin(cfg)
     print(fit.summary)
-    print(f"wrote {files[0]} and {len(files) - 1} figures")
+    print(twin_summary(cfg, fit, files, run_id))
 
 
 if __name__ == "__main__":

@@ -36,13 +36,19 @@ def _hust(cfg: DictConfig) -> WindowedDataset:
     return build_hust_dataset(cfg.data)
 
 
+def _files(cfg: DictConfig) -> WindowedDataset:
+    from bearingtwin.data.real import build_files_dataset
+
+    return build_files_dataset(cfg.data)
+
+
 def _twin_to_real(cfg: DictConfig) -> WindowedDataset:
     from bearingtwin.data.twin_to_real import build_twin_to_real_dataset
 
     return build_twin_to_real_dataset(cfg.data, cfg.bearing, cfg.simulator, cfg.effects, cfg.paths.cache_dir)
 
 
-SOURCES = {"simulated": _simulated, "cwru": _cwru, "hust": _hust, "twin_to_real": _twin_to_real}
+SOURCES = {"simulated": _simulated, "cwru": _cwru, "hust": _hust, "files": _files, "twin_to_real": _twin_to_real}
 
 
 def build_dataset(cfg: DictConfig) -> WindowedDataset:

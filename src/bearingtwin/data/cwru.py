@@ -100,6 +100,7 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         fault=None if name is None else name.fault,
         unit="g",
         meta=meta,
+        default_channel="DE",  # the drive-end accelerometer: the channel the data set is known by
     )
 
 

@@ -9,10 +9,13 @@ sees a NaN, a guessed sampling rate or a silently chosen channel.
 
 Formats (chosen by extension): ``.npy`` (1-D, or 2-D as channels x samples), ``.npz``
 (arrays are channels; scalars ``fs`` / ``rpm`` and a string ``fault`` are facts, as written
-by ``bearingtwin-simulate``), ``.csv`` (columns are channels, optional header row, a
+by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` (columns are channels, optional header row, a
 ``time`` / ``time_s`` column gives the sampling rate), ``.mat`` (CWRU files by their
 variable names, otherwise numeric variables are channels and scalars ``fs`` / ``rpm`` are
 facts), ``.wav`` (rate from the header) and ``.xls`` (HUST text exports).
+
+Channel: when none is asked for, the file's only channel, or the one its format designates
+(CWRU: the drive-end ``DE`` accelerometer; ``.npz``: ``signal``); otherwise the user must choose.
 """
 
 from __future__ import annotations
@@ -52,6 +55,7 @@ class RawRecord:
         fault: bearing state the file or its name declares (None when unknown).
         unit: physical unit of the channels, when known.
         meta: anything else read from the file or its name.
+        default_channel: the channel used when none is asked for, if the format designates one.
     """
 
     path: str
@@ -63,11 +67,15 @@ class RawRecord:
     fault: str | None = None
     unit: str = ""
     meta: dict = field(default_factory=dict)
+    default_channel: str | None = None
 
     def channel(self, name: str | int | None) -> tuple[str, np.ndarray]:
-        """The channel called ``name`` (or at position ``name``); the only one when ``name`` is None."""
+        """The channel called ``name`` (or at position ``name``); when ``name`` is None, the
+        format's default channel or else the only one."""
         names = list(self.channels)
         if name is None:
+            if self.default_channel in self.channels:
+                return self.default_channel, self.channels[self.default_channel]
             if len(names) != 1:
                 raise BearingTwinError(f"{self.path}: holds channels {', '.join(names)}; choose one with channel=<name>")
             return names[0], self.channels[names[0]]
@@ -246,6 +254,7 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
         fault=fault,
         unit=str(lowered.get("unit", "")),
         meta={k: v for k, v in facts.items() if k.lower() not in ("fs", "fs_hz", "rpm", "fault", "unit")},
+        default_channel="signal" if fmt == "npz" else None,
     )
 
 

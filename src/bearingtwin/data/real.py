@@ -1,8 +1,11 @@
-"""Labelled windows from real measurements: the CWRU and HUST data sets as WindowedDatasets.
+"""Labelled windows from real measurements: the CWRU and HUST data sets, and a folder of your
+own recordings, as WindowedDatasets.
 
-Each class is one record (one file); ``samples_per_class`` windows of ``window_length``
-samples are spread evenly over it (``data.windows.cut_windows``), so the stride follows the
-record length. Labels are indices into ``FAULTS`` whatever subset of classes is built, so a
+CWRU and HUST: each class is one record (one file); ``samples_per_class`` windows of
+``window_length`` samples are spread evenly over it (``data.windows.cut_windows``), so the
+stride follows the record length. Your own folder (``data=files``): any number of files per
+state, ``windows_per_record`` windows from each, the state of each file from a labels table
+or a file-name pattern (:func:`build_files_dataset`). Labels are indices into ``FAULTS`` whatever subset of classes is built, so a
 three-class CWRU set at 1-3 hp (no healthy record there) still labels an inner-race window 1.
 The split is not made here: ``data.windows.split_indices`` takes the dataset's ``labels``,
 ``record_ids``, ``starts`` and ``record_lengths`` with ``data.split`` and ``data.train_fraction``.
@@ -12,11 +15,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import csv
+import re
+
 import numpy as np
 
 from bearingtwin.config import plain_config
 from bearingtwin.storage import content_key
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
+from bearingtwin.data.files import FORMATS, load_recording
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import SPLITS, cut_windows
@@ -87,6 +94,108 @@ def hust_paths(data_cfg) -> dict[str, Path]:
     cfg = plain_config(data_cfg, "data config")
     root, stems = Path(_get(cfg, "root")), _get(cfg, "classes")
     return {fault: root / hust_file_name(stems[fault], _get(cfg, "condition")) for fault in _classes(list(stems), allowed=FAULTS)}
+
+
+LABEL_COLUMNS = ("record", "state", "rpm", "fs")
+"""Columns of a labels table: ``record`` (file name in ``data.root``) and ``state`` are required."""
+DEFAULT_LABELS = "labels.csv"
+"""The labels table ``data=files`` reads from ``data.root`` unless ``data.labels`` names another."""
+
+
+def build_files_dataset(data_cfg) -> WindowedDataset:
+    """Windows of every labelled recording in ``data.root``: the user's own data, checked as CWRU's.
+
+    The state of each file comes from the labels table ``data.labels`` (default
+    ``<root>/labels.csv``: columns ``record,state[,rpm,fs]``, one row per file) or, when
+    ``data.pattern`` is set, from the regular expression's ``state`` group matched on every
+    readable file's name. ``rpm`` and ``fs`` fill in what a file does not state (a row's value
+    before ``data.rpm`` / ``data.fs``); a value the file contradicts is an error.
+    """
+    cfg = plain_config(data_cfg, "data config")
+    _check_split(cfg)
+    root = Path(_get(cfg, "root")).expanduser()
+    if not root.is_dir():
+        raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of your recordings")
+    rows = _rows_from_pattern(root, cfg) if cfg.get("pattern") else _rows_from_labels(root, cfg)
+    recordings = [
+        load_recording(path, channel=cfg.get("channel"), fault=state,
+                       rpm=rpm if rpm is not None else cfg.get("rpm"), fs=fs if fs is not None else cfg.get("fs"))
+        for path, state, rpm, fs in rows
+    ]
+    labelling = [(path.name, state) for path, state, _, _ in rows]
+    dataset = windows_from_recordings(
+        recordings, int(_get(cfg, "window_length")), int(_get(cfg, "windows_per_record")),
+        dataset_key([path for path, *_ in rows], {**cfg, "labels": labelling, "pattern": None}),
+    )
+    if all(recording.rpm is not None for recording in recordings):
+        dataset.record_rpms = [recording.rpm for recording in recordings]  # for shaft-order features
+    return dataset
+
+
+def _rows_from_labels(root: Path, cfg: dict) -> list[tuple[Path, str, float | None, float | None]]:
+    """``(file, state, rpm, fs)`` per row of the labels table."""
+    table = Path(cfg.get("labels") or root / DEFAULT_LABELS).expanduser()
+    if not table.is_file():
+        raise BearingTwinError(
+            f"data.labels: no labels file {table}; write one with columns {','.join(LABEL_COLUMNS)} "
+            "(one row per file) or give data.pattern=<regex with a (?P<state>...) group>"
+        )
+    with open(table, newline="") as handle:
+        reader = csv.DictReader(handle)
+        columns = [name.strip() for name in reader.fieldnames or []]
+        missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
+        if missing:
+            raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
+        rows = []
+        for line, row in enumerate(reader, start=2):
+            row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
+            where = f"{table} line {line}"
+            path = root / row["record"]
+            if not row["record"] or not path.is_file():
+                raise BearingTwinError(f"{where}: record {row['record']!r} is not a file in {root}")
+            rows.append((path, _state(row["state"], where), _number(row.get("rpm"), "rpm", where), _number(row.get("fs"), "fs", where)))
+    if not rows:
+        raise BearingTwinError(f"{table}: lists no recordings")
+    return rows
+
+
+def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, None]]:
+    """``(file, state, None, None)`` for every readable file in ``root``, the state from its name."""
+    if cfg.get("labels"):
+        raise BearingTwinError("data.labels and data.pattern both set; label the files one way")
+    try:
+        pattern = re.compile(cfg["pattern"])
+    except re.error as error:
+        raise BearingTwinError(f"data.pattern={cfg['pattern']!r} is not a regular expression ({error})") from None
+    if "state" not in pattern.groupindex:
+        raise BearingTwinError(f"data.pattern={cfg['pattern']!r} has no (?P<state>...) group naming the bearing state")
+    # A labels table left in the folder is not a recording.
+    paths = sorted(path for path in root.iterdir()
+                   if path.is_file() and path.suffix.lower() in FORMATS and path.name != DEFAULT_LABELS)
+    if not paths:
+        raise BearingTwinError(f"data.root={root} holds no file bearingtwin reads ({', '.join(FORMATS)})")
+    rows = []
+    for path in paths:
+        match = pattern.search(path.name)
+        if match is None:
+            raise BearingTwinError(f"{path}: data.pattern={cfg['pattern']!r} does not match its name; rename it or move it out of data.root")
+        rows.append((path, _state(match["state"], f"{path} (data.pattern)"), None, None))
+    return rows
+
+
+def _state(value: str, where: str) -> str:
+    if value not in FAULTS:
+        raise BearingTwinError(f"{where}: state {value!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
+    return value
+
+
+def _number(value: str | None, name: str, where: str) -> float | None:
+    if not value:
+        return None
+    try:
+        return float(value)
+    except ValueError:
+        raise BearingTwinError(f"{where}: {name} {value!r} is not a number") from None
 
 
 def windows_from_recordings(

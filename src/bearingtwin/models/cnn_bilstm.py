@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import sys
 import tempfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -40,6 +41,7 @@ from pathlib import Path
 import lightning as L
 import numpy as np
 import torch
+from lightning.pytorch.callbacks import TQDMProgressBar
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.preprocessing import StandardScaler
 from torch import nn
@@ -183,6 +185,8 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
     ``X`` is (n_samples, sequence_length): nine features or a raw window per row.
     ``eval_set=(X_val, y_val)`` in :meth:`fit` only records validation curves; it never
     steers training (no early stopping), so passing the test set does not leak it.
+    ``progress_bar=True`` shows Lightning's epoch bar on stderr; anything else (``trainer.progress_bar``'s
+    ``auto`` before the entry point resolves it) keeps training silent.
 
     Fitted attributes: ``classes_``, ``scaler_``, ``module_``, ``history_`` (per-epoch
     loss and accuracy).
@@ -202,6 +206,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         batch_size: int = 128,
         max_epochs: int = 100,
         accelerator: str = "auto",
+        progress_bar: bool = False,
         random_state: int = 0,
         root_dir: str | None = None,
     ) -> None:
@@ -217,6 +222,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         self.batch_size = batch_size
         self.max_epochs = max_epochs
         self.accelerator = accelerator
+        self.progress_bar = progress_bar
         self.random_state = random_state
         self.root_dir = root_dir
 
@@ -255,7 +261,8 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
                 deterministic=True,
                 logger=False,
                 enable_checkpointing=False,
-                enable_progress_bar=False,
+                enable_progress_bar=self.progress_bar is True,
+                callbacks=[StderrProgressBar()] if self.progress_bar is True else [],
                 enable_model_summary=False,
                 num_sanity_val_steps=0,
                 limit_val_batches=0 if eval_set is None else 1.0,
@@ -309,6 +316,19 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         classifier.module_ = module.eval()
         classifier.history_ = []
         return classifier
+
+
+class StderrProgressBar(TQDMProgressBar):
+    """Lightning's epoch bar on stderr, beside the VMD bars: Lightning writes it to stdout, which
+    a command keeps for its results (the closing summary)."""
+
+    def init_train_tqdm(self):
+        with contextlib.redirect_stdout(sys.stderr):  # Lightning reads sys.stdout when it builds the bar
+            return super().init_train_tqdm()
+
+    def init_validation_tqdm(self):
+        with contextlib.redirect_stdout(sys.stderr):
+            return super().init_validation_tqdm()
 
 
 @contextlib.contextmanager

@@ -18,10 +18,11 @@ four concurrent writers lose no run. (For many machines use a server or PostgreS
 Sweeps: a Hydra callback (:class:`SweepParentRun`) opens a parent run per multirun,
 tagged ``bt.kind=sweep``, ``sweep`` (the sweep config's name) and ``sweep_dir`` (the
 Hydra sweep dir); each job's run carries the same two tags and ``mlflow.parentRunId``,
-and is named ``<features>+<classifier> [varied overrides] seed=<n>``.
+and is named ``<features>+<classifier> <data source> [<vmd_params> [<optimizer>]] [varied overrides]
+seed=<n>`` (:func:`run_name`), so runs of different configurations read apart.
 
 Resuming: every run is tagged ``config_hash`` (the resolved config without paths,
-tracking and Hydra settings); with ``tracking.skip_finished`` a job whose config already
+tracking, Hydra and display settings, :data:`UNHASHED_KEYS`); with ``tracking.skip_finished`` a job whose config already
 has a FINISHED run is skipped, so re-launching an interrupted sweep only runs what is
 missing.
 """
@@ -55,8 +56,8 @@ from bearingtwin.tracking.tables import csv_table, markdown_table
 
 log = logging.getLogger(__name__)
 
-# Settings that say where things are or how they are logged, not what is computed.
-UNHASHED_KEYS = ("paths", "tracking", "hydra")
+# Settings that say where things are or how they are logged or shown, not what is computed.
+UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar")
 PACKAGES = ("bearingtwin", "numpy", "scipy", "torch", "lightning", "scikit-learn", "mlflow", "optuna", "hydra-core")
 CONFIG_ARTIFACT = "config.yaml"
 MAX_BATCH = 100  # MLflow's limit on params / tags per log_batch call
@@ -69,6 +70,15 @@ class SweepInfo:
     name: str
     sweep_dir: str
     varied: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class TrackedRun:
+    """The MLflow run a training ended in: its id, its metrics, and whether it was an earlier run (skipped)."""
+
+    run_id: str
+    metrics: dict
+    skipped: bool = False
 
 
 # ---------------------------------------------------------------- store
@@ -129,8 +139,15 @@ def loggable_config(cfg: DictConfig) -> dict:
 
 
 def config_hash(cfg: DictConfig) -> str:
-    """Hash of what a run computes: the resolved config without paths, tracking and Hydra settings."""
-    container = {k: v for k, v in loggable_config(cfg).items() if k not in UNHASHED_KEYS}
+    """Hash of what a run computes: the resolved config without the :data:`UNHASHED_KEYS` (dotted paths)."""
+    container = loggable_config(cfg)
+    for key in UNHASHED_KEYS:
+        *parents, leaf = key.split(".")
+        node = container
+        for parent in parents:
+            node = node.get(parent) if isinstance(node, dict) else None
+        if isinstance(node, dict):
+            node.pop(leaf, None)
     return hashlib.sha256(OmegaConf.to_yaml(OmegaConf.create(container)).encode()).hexdigest()[:16]
 
 
@@ -151,9 +168,19 @@ def method_name(choices: dict) -> str:
     return f"{choices.get('features', '?')}+{choices.get('classifier', '?')}"
 
 
-def run_name(method: str, seed: object, sweep: SweepInfo | None) -> str:
-    varied = " ".join(sweep.varied) if sweep else ""
-    return " ".join(part for part in (method, varied, f"seed={seed}") if part)
+def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
+    """``<method> <data source> [<vmd_params> [<optimizer>]] [varied overrides] seed=<n>``: what sets
+    runs apart at a glance (the VMD settings only where the features search VMD parameters; the
+    optimizer only when it is not the default SABO)."""
+    parts = [method, str(cfg.data.get("source", ""))]
+    features = cfg.get("features") or {}
+    if features.get("kind") == "sabo_vmd":
+        parts.append(str(features.get("vmd_params", "")))
+        if features.get("optimizer", "sabo") != "sabo":
+            parts.append(str(features.optimizer))
+    if sweep:
+        parts += sweep.varied
+    return " ".join(part for part in (*parts, f"seed={cfg.seed}") if part)
 
 
 def _git_commit() -> str:
@@ -300,11 +327,11 @@ def _plot_curves(history: list[dict], path: Path) -> None:
 # ---------------------------------------------------------------- the tracked run
 
 
-def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_dir: str | None, train) -> dict | None:
+def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_dir: str | None, train) -> TrackedRun | None:
     """Run ``train(cfg, root_dir) -> ExperimentResult`` inside an MLflow run and log everything.
 
-    Returns the run's metrics (the metrics of the earlier run when skipped). A failure
-    marks the run FAILED with the error as tag ``error`` and artifact ``error.txt``; inside
+    Returns the run and its metrics (the earlier run, ``skipped``, when one with this config
+    already FINISHED). A failure marks the run FAILED with the error as tag ``error`` and artifact ``error.txt``; inside
     a sweep it is logged and swallowed so the sweep goes on (returns None), in a single run
     it is re-raised so the entry point exits non-zero.
     """
@@ -315,7 +342,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         done = find_finished_run(client, experiment_id, digest)
         if done is not None:
             log.info("skipped: run %s already FINISHED with this config (config_hash %s)", done.info.run_id, digest)
-            return dict(done.data.metrics)
+            return TrackedRun(done.info.run_id, dict(done.data.metrics), skipped=True)
     method = method_name(choices)
     tags = {
         "bt.kind": "train",
@@ -333,7 +360,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         parent = find_sweep_parent(client, experiment_id, sweep.sweep_dir)
         if parent is not None:
             tags["mlflow.parentRunId"] = parent.info.run_id
-    run = client.create_run(experiment_id, run_name=run_name(method, cfg.seed, sweep), tags={"bt.kind": "train"})
+    run = client.create_run(experiment_id, run_name=run_name(cfg, method, sweep), tags={"bt.kind": "train"})
     run_id = run.info.run_id
     try:
         log_params_and_tags(client, run_id, flatten(loggable_config(cfg)), tags)
@@ -351,7 +378,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         log.error("run %s FAILED: %s: %s (the sweep goes on)", run_id, type(error).__name__, error)
         return None
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
-    return result.metrics
+    return TrackedRun(run_id, result.metrics)
 
 
 def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:

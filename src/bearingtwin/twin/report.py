@@ -27,6 +27,8 @@ REPORT_NAME = "twin_report.json"
 
 def load_measurement(measured_cfg) -> Recording:
     """The measured record the config points at, with fs, rpm and bearing state all known."""
+    if OmegaConf.is_missing(measured_cfg, "path"):
+        raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .mat, .wav or .xls)")
     recording = load_recording(measured_cfg.path, channel=measured_cfg.channel, fs=measured_cfg.fs,
                                rpm=measured_cfg.rpm, fault=measured_cfg.fault)
     for name in ("rpm", "fault"):
@@ -125,14 +127,14 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
     return run_id
 
 
-def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path]]:
-    """Everything ``bearingtwin-twin`` does; returns the fit and the files written."""
+def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
+    """Everything ``bearingtwin-twin`` does; returns the fit, the files written and the MLflow
+    run id (None when tracking is disabled)."""
     measured = load_measurement(cfg.measured)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     comparator = Comparator(measured, BearingGeometry.from_config(cfg.bearing), settings)
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg).fit(twin, comparator)
     files = write_report(ranker.fit_, Path(str(cfg.out)).expanduser(), bool(cfg.figures))
-    if cfg.tracking.enabled:
-        log_to_mlflow(cfg, measured, ranker.fit_, files)
-    return ranker.fit_, files
+    run_id = log_to_mlflow(cfg, measured, ranker.fit_, files) if cfg.tracking.enabled else None
+    return ranker.fit_, files, run_id

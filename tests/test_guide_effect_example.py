@@ -1,4 +1,4 @@
-"""The README's worked example of adding an effect runs as written and leaves its signature."""
+"""The guide's worked example of adding an effect (docs/guide.md) runs as written and leaves its signature."""
 
 import re
 from pathlib import Path
@@ -14,17 +14,17 @@ from bearingtwin.physics.effects import build_effects, registered_effects
 from bearingtwin.physics.simulator import simulate
 
 
-def readme_block(language: str, marker: str) -> str:
-    blocks = re.findall(rf"```{language}\n(.*?)```", (REPO_ROOT / "README.md").read_text(), flags=re.S)
+def guide_block(language: str, marker: str) -> str:
+    blocks = re.findall(rf"```{language}\n(.*?)```", (REPO_ROOT / "docs" / "guide.md").read_text(), flags=re.S)
     (block,) = [b for b in blocks if marker in b]
     return block
 
 
-def test_the_readme_effect_is_one_class_and_one_yaml_and_shows_a_line_at_twice_the_shaft_rate():
+def test_the_guides_effect_is_one_class_and_one_yaml_and_shows_a_line_at_twice_the_shaft_rate():
     namespace = dict(vars(effect_library))  # the example lives in effect_library.py: its imports
-    exec(readme_block("python", "class Misalignment"), namespace)
+    exec(guide_block("python", "class Misalignment"), namespace)
     assert "misalignment" in registered_effects()
-    effects_cfg = yaml.safe_load(readme_block("yaml", "misalignment:"))
+    effects_cfg = yaml.safe_load(guide_block("yaml", "misalignment:"))
     (effect,) = build_effects(effects_cfg)
     assert effect.name == "misalignment" and effect.frequency_hz == 59.9
 

@@ -1,0 +1,96 @@
+"""``data=files``: a folder of the user's recordings, labelled by labels.csv or a name pattern,
+windowed and split as CWRU's; every bad folder is refused naming the file or field."""
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.data.build import build_dataset
+from bearingtwin.data.windows import split_indices
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import FAULTS
+
+FS = 8000.0
+TONES_HZ = {"normal": 150.0, "inner": 410.0, "ball": 730.0, "outer": 1210.0}
+
+
+def tone(state: str, seconds: float = 1.0, seed: int = 0) -> np.ndarray:
+    t = np.arange(int(seconds * FS)) / FS
+    return np.sin(2 * np.pi * TONES_HZ[state] * t) + 0.1 * np.random.default_rng(seed).standard_normal(t.size)
+
+
+@pytest.fixture
+def folder(tmp_path):
+    """Two .npy recordings of normal and outer, one .csv (with a time column) of inner, a labels table."""
+    root = tmp_path / "mine"
+    root.mkdir()
+    np.save(root / "a.npy", tone("normal"))
+    np.save(root / "b.npy", tone("normal", seed=1))
+    np.save(root / "c.npy", tone("outer"))
+    signal = tone("inner")
+    np.savetxt(root / "d.csv", np.column_stack([np.arange(signal.size) / FS, signal]), delimiter=",",
+               header="time,acc", comments="", fmt="%.9f")
+    (root / "labels.csv").write_text("record,state,rpm\na.npy,normal,1797\nb.npy,normal,1797\nc.npy,outer,1797\nd.csv,inner,1797\n")
+    return root
+
+
+def files_cfg(root, *overrides):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose("train", overrides=["data=files", f"data.root={root}", "data.windows_per_record=10",
+                                           "data.window_length=512", "data.fs=8000", *overrides])
+
+
+def test_labels_table_gives_each_file_its_state_and_the_split_keeps_records_apart(folder):
+    dataset = build_dataset(files_cfg(folder))
+    assert [name.rsplit("/", 1)[-1] for name in dataset.records] == ["a.npy", "b.npy", "c.npy", "d.csv"]
+    states = [FAULTS[label] for label in dataset.labels[::10]]
+    assert states == ["normal", "normal", "outer", "inner"] and dataset.windows.shape == (40, 512)
+    assert dataset.fs == FS and dataset.record_rpms == [1797.0] * 4
+    train, test = split_indices(dataset.labels, dataset.record_ids, dataset.starts, dataset.record_lengths,
+                                512, method="block", train_fraction=0.7, seed=0)
+    for record in range(4):  # block split: per record, every training window ends before the first test window
+        of_record = dataset.record_ids == record
+        ends = dataset.starts[train][of_record[train]] + 512
+        assert ends.max() <= dataset.starts[test][of_record[test]].min()
+    # The key follows the content and labelling, not where the folder lives.
+    assert build_dataset(files_cfg(folder)).key == dataset.key
+    (folder / "labels.csv").write_text("record,state\na.npy,normal\nb.npy,ball\nc.npy,outer\nd.csv,inner\n")
+    assert build_dataset(files_cfg(folder)).key != dataset.key
+
+
+def test_a_file_name_pattern_labels_instead_of_a_table(tmp_path):
+    for state in ("normal", "ball"):
+        np.save(tmp_path / f"{state}_run1.npy", tone(state))
+    (tmp_path / "labels.csv").write_text("record,state\nnormal_run1.npy,inner\n")  # not read, not a recording
+    dataset = build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
+    assert sorted({FAULTS[label] for label in dataset.labels}) == ["ball", "normal"] and len(dataset.records) == 2
+    np.save(tmp_path / "run2.npy", tone("outer"))
+    with pytest.raises(BearingTwinError, match=r"run2.npy: data.pattern=.* does not match its name"):
+        build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda root: (root / "labels.csv").unlink(), "data.labels: no labels file"),
+    (lambda root: (root / "labels.csv").write_text("record,state\na.npy,cracked\n"), "labels.csv line 2: state 'cracked' is not a bearing state"),
+    (lambda root: (root / "labels.csv").write_text("record,state\nz.npy,normal\n"), "labels.csv line 2: record 'z.npy' is not a file"),
+    (lambda root: (root / "labels.csv").write_text("file,state\na.npy,normal\n"), "labels.csv: no column record"),
+    (lambda root: ((root / "labels.csv").write_text("record,state,fs\nc.npy,outer,8000\n"), (root / "c.npy").write_bytes(b"x")),
+     "c.npy: not a readable .npy file"),
+    (lambda root: (root / "labels.csv").write_text("record,state,fs\na.npy,normal,8000\nc.npy,outer,16000\n"),
+     "different sampling rates (a.npy: 8000 Hz, c.npy: 16000 Hz)"),
+    (lambda root: None, "a.npy: the file does not state its sampling rate"),
+])
+def test_a_bad_folder_is_refused_naming_the_file_or_field(folder, change, message):
+    change(folder)
+    with pytest.raises(BearingTwinError) as error:
+        build_dataset(files_cfg(folder, "data.fs=null"))  # rates from the files or the labels table
+    assert message in str(error.value) and "\n" not in str(error.value)
+
+
+def test_no_folder_given_is_named_in_one_line():
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("train", overrides=["data=files"])
+    with pytest.raises(BearingTwinError, match=r"^data.root: Missing mandatory value") as error:
+        build_dataset(cfg)
+    assert "\n" not in str(error.value)

@@ -1,0 +1,40 @@
+"""The closing block every command prints, and when training shows its progress bar."""
+
+import pytest
+
+from bearingtwin.cli.summary import closing_summary, open_command
+from bearingtwin.cli.train import show_progress_bar, training_summary
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.mlflow_logging import TrackedRun
+
+
+def test_the_block_names_what_ran_its_results_the_run_and_how_to_open_it():
+    text = closing_summary("bearingtwin-x: y", {"accuracy": "96.00 %"}, "abc123", "sqlite:////data/mlflow.db", "/out")
+    assert text.splitlines() == [
+        "== bearingtwin-x: y ==",
+        "  accuracy: 96.00 %",
+        "  MLflow run: abc123  (mlflow ui --backend-store-uri sqlite:////data/mlflow.db)",
+        "  output: /out",
+    ]
+    assert closing_summary("t", ["a line"]) == "== t ==\n  a line"  # nothing logged, nothing written: no such lines
+    assert open_command("http://mlflow.example:5000") == "open http://mlflow.example:5000"
+
+
+def test_training_summary_gives_accuracy_and_f1_per_class_and_says_when_nothing_ran():
+    metrics = {"accuracy": 0.95, "f1_normal": 1.0, "f1_inner": 0.9, "precision_inner": 0.8, "inference_ms_per_sample": 1.0}
+    text = training_summary("m simulated global seed=0", TrackedRun("r1", metrics), "sqlite:///s.db", "/o")
+    assert "  accuracy: 95.00 %" in text and "  F1 per class: normal 1.000, inner 0.900" in text
+    assert "skip_finished" not in text
+    assert "skip_finished=false" in training_summary("m", TrackedRun("r0", metrics, skipped=True), "sqlite:///s.db", "/o")
+
+
+def test_the_progress_bar_shows_for_one_watched_run_only(monkeypatch):
+    assert show_progress_bar(True, in_sweep=True) and not show_progress_bar(False, in_sweep=False)
+    monkeypatch.setattr("sys.stderr.isatty", lambda: True)
+    monkeypatch.delenv("CI", raising=False)
+    assert show_progress_bar("auto", in_sweep=False)
+    assert not show_progress_bar("auto", in_sweep=True)  # parallel jobs would interleave their bars
+    monkeypatch.setenv("CI", "true")
+    assert not show_progress_bar("auto", in_sweep=False)
+    with pytest.raises(BearingTwinError, match="trainer.progress_bar must be auto, true or false"):
+        show_progress_bar("maybe", in_sweep=False)
