@@ -222,7 +222,7 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert rows["pump_a"]["true_state"] == "outer" and rows["pump_a"]["evidence_state"] == "outer"
     assert rows["pump_b"]["true_state"] == "normal" and rows["pump_b"]["correct"] in ("True", "False")
     assert "resampled 48000 Hz -> 12000 Hz" in done.stdout
-    assert "accuracy over 2 records" in done.stdout and "error: short.npz" in done.stderr
+    assert "records right: " in done.stdout and "of 2 with a known state" in done.stdout and "error: short.npz" in done.stderr
 
 
 def test_bad_models_fail_in_one_line(registered, tmp_path):

@@ -56,10 +56,13 @@ NOT_RUN = {
     "pip install": "installs the package: the suite runs on the installed package",
     "python -m pytest": "the test suite itself",
     "mlflow ui": "starts a web server",
+    "mlflow models serve": "starts a model server (tests/test_serve.py serves and queries one)",
+    "curl ": "queries the model server above",
     "python scripts/": "studies over full-size sweeps (their pieces are tested on their own)",
 }
 SHELL_COMMANDS = ("printf ", "mkdir ")  # file set-up steps of an example, run as written by bash
-SUMMARY_TITLES = {"simulate": "== bearingtwin-simulate ==", "twin": "== bearingtwin-twin:", "train": "== bearingtwin-train:"}
+SUMMARY_TITLES = {"simulate": "== bearingtwin-simulate ==", "twin": "== bearingtwin-twin:", "train": "== bearingtwin-train:",
+                  "diagnose": "== bearingtwin-diagnose:"}
 
 
 def document_commands(document: str) -> list[str]:
@@ -174,6 +177,8 @@ def test_every_documented_command_runs_as_written(tmp_path):
             args += added
         elif name == "twin":
             args += TWIN_SMOKE
+        elif name == "diagnose":
+            args.append("figures=false")  # the figures are tested in tests/test_diagnose.py
         elif name == "report":
             args.append(f"out={tmp_path}/results/{args[0]}.md")  # never the checkout's results/
         if needs is not None and not Path(needs).exists():
@@ -199,10 +204,12 @@ def test_every_documented_command_runs_as_written(tmp_path):
     # Two at a time, for two cores: a command waits for the earlier ones that name a file or folder
     # it names (a twin needs its simulated record, a training its folder of recordings); a report
     # waits for every earlier command (its sweep, the run it repeats). Tasks start in document
-    # order, so whatever a waiting task waits for is already running or done.
+    # order, so whatever a waiting task waits for is already running or done. A diagnosis waits for
+    # every earlier training too: the model it names is registered by one.
     words = [shlex.split(args) if name is None else args for _, _, name, args in runs]
     after = [list(range(i)) if runs[i][2] == "report"
-             else [j for j in range(i) if related(named_paths(words[i]), named_paths(words[j]), tmp_path)] for i in range(len(runs))]
+             else [j for j in range(i) if related(named_paths(words[i]), named_paths(words[j]), tmp_path)
+                   or (runs[i][2] == "diagnose" and runs[j][2] == "train")] for i in range(len(runs))]
     futures = []
 
     def run_after(i):

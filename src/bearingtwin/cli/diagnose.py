@@ -3,7 +3,7 @@
     bearingtwin-diagnose path=<file | folder | glob> model=models:/<name>@<alias> out=<dir>
 
 Writes <out>/<record>/diagnosis.json and diagnosis.png per record, <out>/summary.csv for
-several, prints one line per record and a closing summary; logs to MLflow (experiment
+several, prints one line per record and a closing summary (verdicts, scores, disagreements); logs to MLflow (experiment
 ``bearingtwin-diagnose``) unless tracking.enabled=false. Exit status 2 when any record could
 not be diagnosed (the others are still diagnosed) or the model cannot be used.
 """
@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import os
 import sys
+from collections import Counter
 
 import hydra
 from omegaconf import DictConfig
 
+from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import CONF_DIR, exit_on_user_error
-from bearingtwin.diagnosis.run import diagnose_paths
+from bearingtwin.diagnosis.run import DiagnosisRun, diagnose_paths
 
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="diagnose")
@@ -25,21 +27,29 @@ from bearingtwin.diagnosis.run import diagnose_paths
 def main(cfg: DictConfig) -> None:
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")  # one bar: over the files
     run = diagnose_paths(cfg)
-    diagnosed = [row for row in run.rows if "error" not in row]
-    print(f"\ndiagnosed {len(diagnosed)} of {len(run.rows)} records with {cfg.model}")
-    if run.scores:
-        print(f"accuracy over {run.scores['n_scored']} records with known state: {run.scores['accuracy_records']:.1%} "
-              f"(over their windows: {run.scores['accuracy_windows']:.1%})")
-    disagreements = [row["record"] for row in diagnosed if row.get("agree") is False]
-    if disagreements:
-        print(f"model and physics disagree on: {', '.join(disagreements)}")
-    print(f"wrote {run.out}/")
-    if run.run_id:
-        print(f"MLflow run {run.run_id}: mlflow ui --backend-store-uri {cfg.tracking.uri}")
+    print(closing_summary(f"bearingtwin-diagnose: {cfg.path} with {cfg.model}", diagnosis_lines(run), run.run_id,
+                          str(cfg.tracking.uri) if run.run_id else None, str(run.out)))
     if run.failures:
         for name, reason in run.failures.items():
             print(f"error: {name}: {reason}", file=sys.stderr)
         sys.exit(2)
+
+
+def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
+    """Verdicts, scores where the truth is known, disagreements with the physics, failures."""
+    diagnosed = [row for row in run.rows if "error" not in row]
+    verdicts = Counter(row["verdict"] for row in diagnosed)
+    lines = {"records diagnosed": f"{len(diagnosed)} of {len(run.rows)}",
+             "verdicts": ", ".join(f"{state} {count}" for state, count in verdicts.most_common()) or "none"}
+    if run.scores:
+        lines["records right"] = f"{percent(run.scores['accuracy_records'])} of {run.scores['n_scored']} with a known state"
+        lines["windows right"] = percent(run.scores["accuracy_windows"])
+    disagreements = [row["record"] for row in diagnosed if row.get("agree") is False]
+    if disagreements:
+        lines["model and physics disagree on"] = ", ".join(disagreements)
+    if run.failures:
+        lines["could not be diagnosed"] = ", ".join(run.failures)
+    return lines
 
 
 if __name__ == "__main__":

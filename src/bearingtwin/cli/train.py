@@ -48,6 +48,8 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     lines["F1 per class"] = ", ".join(f"{state} {value:.3f}" for state, value in f1.items())
     if "calibration_accuracy" in metrics:
         lines["calibration accuracy"] = percent(metrics["calibration_accuracy"])
+    if tracked.model:
+        lines["model"] = tracked.model
     if tracked.skipped:
         lines["note"] = "an earlier run with this exact config had FINISHED, so nothing ran (tracking.skip_finished=false re-runs)"
     return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out)

@@ -74,11 +74,13 @@ class SweepInfo:
 
 @dataclass(frozen=True)
 class TrackedRun:
-    """The MLflow run a training ended in: its id, its metrics, and whether it was an earlier run (skipped)."""
+    """The MLflow run a training ended in: its id, its metrics, whether it was an earlier run (skipped),
+    and its model (``runs:/<id>/model``, and the registered ``models:/<name>/<version>`` if any)."""
 
     run_id: str
     metrics: dict
     skipped: bool = False
+    model: str = ""
 
 
 # ---------------------------------------------------------------- store
@@ -368,7 +370,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         result = train(cfg, root_dir)
         log_params_and_tags(client, run_id, {}, {"dataset_key": result.dataset_key, "features_key": result.features_key})
         log_result(client, run_id, result)
-        log_model(cfg, experiment_id, run_id, result, digest)
+        model = log_model(cfg, experiment_id, run_id, result, digest)
     except Exception as error:
         client.set_tag(run_id, "error", f"{type(error).__name__}: {error}"[:8000])
         client.log_text(run_id, traceback.format_exc(), "error.txt")
@@ -378,7 +380,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         log.error("run %s FAILED: %s: %s (the sweep goes on)", run_id, type(error).__name__, error)
         return None
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
-    return TrackedRun(run_id, result.metrics)
+    return TrackedRun(run_id, result.metrics, model=model)
 
 
 def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
@@ -389,9 +391,9 @@ def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
     return name, alias
 
 
-def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: str) -> None:
+def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: str) -> str:
     """The run's fitted pipeline as its MLflow model ``model``; registered as ``register`` (alias
-    ``register_alias``) when the config asks."""
+    ``register_alias``) when the config asks. Returns the model's URIs, for the closing summary."""
     from bearingtwin.diagnosis.mlflow_model import log_diagnosis_model, register_model
 
     result.pipeline.config_hash = digest
@@ -402,6 +404,8 @@ def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: 
         version = register_model(uri, info.model_uri, str(name), None if alias is None else str(alias))
         log.info("registered %s version %s%s", name, version, f" as @{alias}" if alias else "")
         MlflowClient(tracking_uri=uri).set_tag(run_id, "registered_model", f"{name}/{version}")
+        return f"runs:/{run_id}/model = models:/{name}/{version}" + (f" = models:/{name}@{alias}" if alias else "")
+    return f"runs:/{run_id}/model"
 
 
 def stored_config(client: MlflowClient, run_id: str) -> DictConfig:
