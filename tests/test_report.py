@@ -16,7 +16,7 @@ from test_sweep_e2e import smoke_sweep_store
 
 @pytest.fixture(scope="session")
 def uri(tmp_path_factory):
-    return smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")
+    return smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")[0]
 
 
 def report(name, *settings):

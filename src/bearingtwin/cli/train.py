@@ -4,9 +4,13 @@ Single run: ``bearingtwin-train classifier=svm seed=3``. Sweep: ``bearingtwin-tr
 +sweep=table4`` (add ``hydra/launcher=joblib`` or ``launcher=joblib`` to run jobs in
 parallel). A failing job in a sweep is logged FAILED and the sweep goes on.
 
-Data files a config names (HUST) are checked before any MLflow run is opened: a single run
-checks its own here, a sweep checks every job's in :class:`SweepParentRun`. Absent files end
-the command with exit status 2 and a message naming them and ``data.root=``.
+Data files a config names are checked before any MLflow run is opened: a single run checks
+its own here, a sweep checks every job's in :class:`SweepParentRun`. Absent files end the
+command with exit status 2 and a message naming them and ``data.root=``.
+
+Exit status: 0 when the run (every job of a sweep) finished or was skipped as already
+finished; 1 when a sweep job failed (after all jobs ran, with a summary); 2 for bad input;
+130 / 143 on SIGINT / SIGTERM, with the open runs marked KILLED.
 """
 
 from __future__ import annotations
@@ -18,17 +22,23 @@ from omegaconf import DictConfig
 from bearingtwin.config import CONF_DIR, exit_on_user_error
 from bearingtwin.data.build import require_files
 from bearingtwin.models.experiment import run_experiment
+from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
 from bearingtwin.tracking.mlflow_logging import sweep_info, train_tracked
 
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="train")
-def main(cfg: DictConfig) -> float | None:
+def train(cfg: DictConfig) -> float | None:
     hydra_cfg = HydraConfig.get()
     sweep = sweep_info(hydra_cfg)
     if sweep is None:
         exit_on_user_error(require_files)([cfg])
+    else:
+        watch_sweep_process()
     metrics = exit_on_user_error(train_tracked)(cfg, dict(hydra_cfg.runtime.choices), sweep, hydra_cfg.runtime.output_dir, run_experiment)
     return None if metrics is None else metrics.get("accuracy")
+
+
+main = stop_cleanly(train)
 
 
 if __name__ == "__main__":
