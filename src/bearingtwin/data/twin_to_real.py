@@ -44,7 +44,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, check_fault
 from bearingtwin.physics.simulator import simulate
-from bearingtwin.storage import content_key, save_npz_atomic
+from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
 
 TWIN_PREFIX = "twin:"
 """Records whose source starts with this are simulated; every other record is a measurement file."""
@@ -196,9 +196,9 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     key = content_key({"bearing": bearing_cfg, "simulator": simulator_cfg, "effects": effects,
                        "faults": list(faults), "rpms": list(rpms), "variant": variant})
     path = Path(cache_dir) / "twin_to_real" / f"records-{key}.npz"
-    if path.exists():
-        with np.load(path) as cached:
-            return cached["signals"], key
+    cached = load_npz_or_heal(path, "signals")
+    if cached is not None:
+        return cached["signals"], key
     signals = []
     for fault in faults:
         for index, rpm in enumerate(rpms):
