@@ -130,6 +130,16 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path):
     assert len(client.search_runs([experiment_id])) == 3
 
 
+def test_by_default_a_sweep_job_resumes_and_a_single_run_runs_again(tmp_path):
+    cfg = make_cfg(tmp_path, skip_finished=None)
+    sweep = SweepInfo("cli", str(tmp_path / "multirun"))
+    train_tracked(cfg, CHOICES, None, None, fake_train)
+    train_tracked(cfg, CHOICES, None, None, fake_train)  # asked again: runs again
+    assert train_tracked(cfg, CHOICES, sweep, None, failing_train)["accuracy"] == pytest.approx(0.9)  # resumed: skipped
+    client, experiment_id = open_store(cfg.tracking)
+    assert [r.info.status for r in client.search_runs([experiment_id])] == ["FINISHED", "FINISHED"]
+
+
 def _log_runs(store: str, worker: int, n_runs: int) -> int:
     for i in range(n_runs):
         train_tracked(make_cfg(Path(store), seed=100 * worker + i), CHOICES, None, None, fake_train)
