@@ -19,7 +19,7 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from bearingtwin.config import CONF_DIR, exit_on_user_error
+from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.models.experiment import run_experiment
 from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
@@ -30,7 +30,8 @@ from bearingtwin.tracking.mlflow_logging import sweep_info, train_tracked
 def train(cfg: DictConfig) -> float | None:
     hydra_cfg = HydraConfig.get()
     sweep = sweep_info(hydra_cfg)
-    if sweep is None:
+    if sweep is None:  # a sweep checks every job's before the first starts (SweepParentRun)
+        exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
         exit_on_user_error(require_files)([cfg])
     else:
         watch_sweep_process()

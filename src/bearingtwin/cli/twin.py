@@ -9,15 +9,17 @@ PNG figures beside it; logs them to MLflow unless tracking.enabled=false.
 from __future__ import annotations
 
 import hydra
+from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from bearingtwin.config import CONF_DIR, exit_on_user_error
+from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.twin.report import run_twin
 
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="twin")
 @exit_on_user_error
 def main(cfg: DictConfig) -> None:
+    refuse_unknown_keys(HydraConfig.get())
     fit, files = run_twin(cfg)
     print(fit.summary)
     print(f"wrote {files[0]} and {len(files) - 1} figures")

@@ -55,7 +55,7 @@ from mlflow.entities import Metric, Param, RunStatus, RunTag
 from mlflow.exceptions import MlflowException
 from omegaconf import DictConfig, OmegaConf, open_dict
 
-from bearingtwin.config import REPO_ROOT, exit_on_user_error
+from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import SWEEP_PID_ENV, owner_tags, reap_dead_runs, register_open_run
@@ -462,14 +462,17 @@ class SweepParentRun(Callback):
     """Hydra callback: one parent MLflow run per multirun, closed with the children's outcome.
 
     Created before any job starts (so parallel jobs also find an initialised store), and
-    only once every job's data files are present: a sweep on absent files exits with
-    status 2 naming them and logs nothing. At the end it prints a summary and ends
+    only once every job's overrides name declared keys and its data files are present:
+    otherwise the sweep exits with status 2 naming them and logs nothing. At the end it prints a summary and ends
     FINISHED when every job finished or was skipped; otherwise FAILED, and the command
     exits 1. (Exiting, not raising: Hydra turns a callback's exception into a warning.)
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
-        exit_on_user_error(require_files)(sweep_job_configs(config))
+        jobs = list(sweep_job_configs(config))
+        for job in jobs:
+            exit_on_user_error(refuse_unknown_keys)(job.hydra)
+        exit_on_user_error(require_files)(jobs)
         client, experiment_id = open_store(config.tracking)
         reap_dead_runs(client, experiment_id)
         name = str(config.hydra.runtime.choices.get("sweep") or "cli")

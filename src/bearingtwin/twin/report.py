@@ -8,9 +8,11 @@ simulator to its operating point, rank the candidate effects, write
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
+import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.data.files import load_recording
@@ -28,10 +30,17 @@ REPORT_NAME = "twin_report.json"
 def load_measurement(measured_cfg) -> Recording:
     """The measured record the config points at, with fs, rpm and bearing state all known."""
     recording = load_recording(measured_cfg.path, channel=measured_cfg.channel, fs=measured_cfg.fs,
-                               rpm=measured_cfg.rpm, fault=measured_cfg.fault)
+                               rpm=measured_cfg.rpm, fault=measured_cfg.fault, channel_key="measured.channel")
     for name in ("rpm", "fault"):
         if getattr(recording, name) is None:
             raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
+    with np.errstate(over="ignore"):
+        fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
+    if not np.isfinite(fourth_moment):
+        raise BearingTwinError(
+            f"{measured_cfg.path}: samples up to {np.max(np.abs(recording.signal)):.3g} overflow the comparison's "
+            "statistics; check the file's unit and scale"
+        )
     return recording
 
 
@@ -52,8 +61,11 @@ def build_ranker(cfg: DictConfig) -> EffectRanker:
 
 def twin_for(measured: Recording, cfg: DictConfig) -> TwinModel:
     """The simulator at the measurement's operating point (rpm, fs, fault), ``twin.duration`` long."""
+    duration = cfg.twin.duration
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration) and duration > 0):
+        raise BearingTwinError(f"twin.duration must be a positive, finite number of seconds, got {duration!r}")
     simulator_cfg = OmegaConf.to_container(cfg.simulator, resolve=True)
-    simulator_cfg.update(rpm=float(measured.rpm), fs=float(measured.fs), duration=float(cfg.twin.duration))
+    simulator_cfg.update(rpm=float(measured.rpm), fs=float(measured.fs), duration=float(duration))
     return TwinModel(measured.fault, OmegaConf.to_container(cfg.bearing, resolve=True), simulator_cfg, int(cfg.seed))
 
 
