@@ -41,6 +41,31 @@ def exit_on_user_error(task: Callable) -> Callable:
     return wrapped
 
 
+def compose_config(config_name: str | None = None, overrides=()) -> DictConfig:
+    """A config composed from ``conf/`` as Hydra would, inside a running Hydra app or outside one."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    if GlobalHydra.instance().is_initialized():
+        return compose(config_name, overrides=list(overrides))
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose(config_name, overrides=list(overrides))
+
+
+def load_bearing(name: str, key: str = "bearing"):
+    """The :class:`~bearingtwin.physics.geometry.BearingGeometry` of ``conf/bearing/<name>.yaml``;
+    an unknown name raises naming ``key``, the setting it came from."""
+    from hydra.errors import MissingConfigException
+
+    from bearingtwin.physics.geometry import BearingGeometry
+
+    try:
+        cfg = compose_config(overrides=[f"+bearing={name}"])
+    except MissingConfigException:
+        raise BearingTwinError(f"{key}={name!r}: no such bearing config in {CONF_DIR}/bearing") from None
+    return BearingGeometry.from_config(cfg.bearing)
+
+
 def plain_config(cfg, name: str = "config") -> dict:
     """A config node (or mapping) as a plain, resolved dict; a missing value (``???``) is an
     error naming ``name``, so a half-filled config never reaches a computation or a cache key."""

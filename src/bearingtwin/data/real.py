@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bearingtwin.config import plain_config
+from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.hust import hust_file_name, load_hust
@@ -35,6 +35,7 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
     cfg = plain_config(data_cfg, "data config")
     _check_split(cfg)
     paths = cwru_paths(cfg, data_root)
+    bearing = load_bearing(cfg["bearing"], "data.bearing") if cfg.get("bearing") else None  # the rate check's second witness
     recordings = []
     for path in paths:
         record = parse_cwru_name(path).record
@@ -45,6 +46,7 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
                 fs=declared_fs_hz(record, _get(cfg, "fs"), cfg.get("fs_by_record")),
                 check_fs=bool(_get(cfg, "check_fs")),
                 tolerance=float(_get(cfg, "fs_check_tolerance")),
+                bearing=bearing,
             )
         )
     return windows_from_recordings(

@@ -42,7 +42,7 @@ from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
-from bearingtwin.physics.geometry import FAULTS, check_fault
+from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import simulate
 from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
 
@@ -293,7 +293,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
 
     def measured(path: Path) -> Recording:
         return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
-                         check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]))
+                         check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),
+                         bearing=BearingGeometry.from_config(bearing))
 
     tests = [measured(path) for path in test_paths]
     calibration_records = {path.stem: measured(path) for path in calibration_paths}

@@ -19,6 +19,7 @@ from bearingtwin.data.files import load_recording
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.signal.sampling_rate import require_plausible_rate
 from bearingtwin.twin.calibrate import parse_space
 from bearingtwin.twin.compare import Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel
@@ -27,13 +28,17 @@ from bearingtwin.twin.rank import EffectRanker, TwinFit
 REPORT_NAME = "twin_report.json"
 
 
-def load_measurement(measured_cfg) -> Recording:
-    """The measured record the config points at, with fs, rpm and bearing state all known."""
+def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Recording:
+    """The measured record the config points at, with fs, rpm and bearing state all known, and
+    its sampling rate checked against its shaft speed (``bearing``'s defect lines as a second witness)."""
     recording = load_recording(measured_cfg.path, channel=measured_cfg.channel, fs=measured_cfg.fs,
                                rpm=measured_cfg.rpm, fault=measured_cfg.fault, channel_key="measured.channel")
     for name in ("rpm", "fault"):
         if getattr(recording, name) is None:
             raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
+    if measured_cfg.get("check_fs", True):
+        require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
+                               defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None)
     with np.errstate(over="ignore"):
         fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
     if not np.isfinite(fourth_moment):
@@ -139,9 +144,10 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
 
 def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path]]:
     """Everything ``bearingtwin-twin`` does; returns the fit and the files written."""
-    measured = load_measurement(cfg.measured)
+    geometry = BearingGeometry.from_config(cfg.bearing)
+    measured = load_measurement(cfg.measured, geometry)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
-    comparator = Comparator(measured, BearingGeometry.from_config(cfg.bearing), settings)
+    comparator = Comparator(measured, geometry, settings)
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg).fit(twin, comparator)
     files = write_report(ranker.fit_, Path(str(cfg.out)).expanduser(), bool(cfg.figures))
