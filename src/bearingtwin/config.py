@@ -86,7 +86,6 @@ def refuse_unknown_keys(hydra_cfg) -> None:
     and is always allowed. ``hydra_cfg`` is a run's (or a sweep job's) ``hydra`` node; the
     config is composed again without the added keys to see what the configs declare.
     """
-    from hydra import compose
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
     config_name = hydra_cfg.job.config_name
@@ -95,7 +94,7 @@ def refuse_unknown_keys(hydra_cfg) -> None:
     added = [o for o in overrides if (o.is_add() or o.is_force_add()) and o.key_or_group not in groups]
     if not added:
         return
-    declared = compose(config_name, overrides=[o.input_line for o in overrides if o not in added])
+    declared = compose_config(config_name, [o.input_line for o in overrides if o not in added])
     for override in added:
         key = override.key_or_group
         if OmegaConf.select(declared, key, default=None) is not None:
