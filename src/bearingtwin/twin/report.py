@@ -119,12 +119,15 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
     """One MLflow run: config, discrepancy per step and per view, the ranking, the report and figures."""
     from mlflow.entities import Metric, Param, RunStatus
 
+    from bearingtwin.tracking.lifecycle import owner_tags, reap_dead_runs, register_open_run
     from bearingtwin.tracking.mlflow_logging import flatten, loggable_config, open_store
 
     client, experiment_id = open_store(cfg.tracking)
+    reap_dead_runs(client, experiment_id)
     run = client.create_run(experiment_id, run_name=f"twin {Path(str(measured.source)).name} {measured.fault}",
-                            tags={"bt.kind": "twin", "measured": str(measured.source)})
+                            tags={"bt.kind": "twin", "measured": str(measured.source), **owner_tags()})
     run_id = run.info.run_id
+    register_open_run(client, run_id)
     params = [Param(k[:250], str(v)[:6000]) for k, v in flatten(loggable_config(cfg)).items()]
     for first in range(0, len(params), 100):  # MLflow takes at most 100 params per batch
         client.log_batch(run_id, params=params[first:first + 100])
