@@ -48,7 +48,7 @@ def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
         ours = 100 * run.data.metrics["accuracy"]
         assert f"| {ours:.2f} ± 0.00 | 1 | {published:.2f} | {ours - published:+.2f} |" in lines[method]
     written = (tmp_path / "table4.md").read_text()
-    assert written.startswith(done.stdout.rstrip("\n") + "\n")
+    assert written == done.stdout.rstrip("\n") + "\n"
     assert recorded_sizes(written) == {"data.duration": [1.0], "data.samples_per_class": [12.0], "search.iterations": [1.0],
                                        "search.population": [3.0], "search.windows": [2.0], "trainer.max_epochs": [2.0]}
     client = MlflowClient(uri)

@@ -315,7 +315,6 @@ def skips_finished(tracking_cfg: DictConfig, sweep: SweepInfo | None) -> bool:
     return sweep is not None if choice is None else bool(choice)
 
 
-
 def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_dir: str | None, train) -> dict | None:
     """Run ``train(cfg, root_dir) -> ExperimentResult`` inside an MLflow run and log everything.
 

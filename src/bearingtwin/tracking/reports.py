@@ -237,7 +237,7 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
     share samples with training windows; the block split does not. Their difference in
     accuracy is therefore a measurement of that leakage.
     """
-    source = ReportInput(source.client, source.experiment_id, {"source": data_source, **source.settings})
+    source = ReportInput(source.client, source.experiment_id, {"source": data_source, **source.settings}, source.used_runs)
     wanted = f"params.`data.{condition}` = '{source.settings[condition]}'" if condition in source.settings else ""
 
     def group(run) -> tuple[str, str]:
@@ -388,7 +388,9 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
     out = results_path(settings, f"{stem}.md")
     sizes = run_sizes(source.used_runs)
     check_replacement(out, sizes, default_sizes(), force=settings.get("force") == "true")
-    write_generated(out, report.markdown.rstrip() + "\n\n" + size_record(sizes) + "\n", GENERATED)
+    if sizes:  # printed too: what is on screen is what the file holds
+        report.markdown = report.markdown.rstrip() + "\n\n" + size_record(sizes) + "\n"
+    write_generated(out, report.markdown, GENERATED)
     run = client.create_run(experiment_id, run_name=f"report {stem}", tags={"bt.kind": "report", "report": name})
     client.log_text(run.info.run_id, report.markdown, f"{stem}.md")
     client.set_terminated(run.info.run_id, "FINISHED" if report.ok else "FAILED")
@@ -402,7 +404,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
 
     from bearingtwin.data.twin_to_real import merged_calibration, test_files
 
-    source = ReportInput(source.client, source.experiment_id, {"source": "twin_to_real", **source.settings})
+    source = ReportInput(source.client, source.experiment_id, {"source": "twin_to_real", **source.settings}, source.used_runs)
     keys = ("report", "step", "healthy.record", "healthy.report", "healthy.step")
     variants_prefix = "data.twin.variants."
 
