@@ -154,10 +154,12 @@ def check_sampling_rate(
         return ShaftLineCheck(**common, implied_fs_hz=fs, matches=True, verdict="consistent",
                               reason=f"the shaft series stands at {observed:.2f} Hz and nowhere between its harmonics")
     suspicion = (f"the shaft series also stands between its harmonics, at odd multiples of {expected / fraction:.2f} Hz "
-                 f"(prominence {in_between[fraction]:.0f}): fs may be {fs * fraction:g} Hz, {fraction} times the declared")
-    verdict, implied, why = "ambiguous", None, "; no defect frequency given to decide" if not defect_hz else ""
+                 f"(prominence {in_between[fraction]:.0f})")
+    verdict, implied, why = "ambiguous", None, "no defect frequency was given to decide"
     if defect_hz:
         verdict, implied, why = _defect_witness(signal, fs, defect_hz, fraction, prominence)
+    if verdict == "ambiguous":
+        why = f": fs may be {fs * fraction:g} Hz ({fraction} times the declared); {why}"
     return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
                           reason=suspicion + why)
 
@@ -168,7 +170,7 @@ def _defect_witness(signal, fs, defect_hz: Mapping[str, float], k: int, prominen
 
     lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2}
     if not lines:
-        return "ambiguous", None, "; no defect frequency below the Nyquist frequency to decide"
+        return "ambiguous", None, "no defect frequency below the Nyquist frequency to decide"
     top = max(lines.values()) * 1.1
     ratio, resolution = _prominence_spectrum(envelope(signal), fs, top, background_hz=5.0)
     at_f = _peak(ratio, resolution, np.array(list(lines.values())), 0.005)
@@ -176,10 +178,11 @@ def _defect_witness(signal, fs, defect_hz: Mapping[str, float], k: int, prominen
     wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
     right = [name for name, a, b in zip(lines, at_f, at_fraction) if a >= prominence and b < prominence]
     if wrong and not right:
-        return "contradicted", fs * k, f"; the envelope line of {wrong[0]} stands at 1/{k} of its frequency, so it is"
+        return "contradicted", fs * k, (f", and the envelope line of {wrong[0]} stands at 1/{k} of its frequency: "
+                                        f"the true rate is {fs * k:g} Hz")
     if right and not wrong:
-        return "consistent", fs, f"; but the envelope line of {right[0]} stands at its frequency, so these are real subharmonics"
-    return "ambiguous", None, "; the defect lines do not decide"
+        return "consistent", fs, f", but the envelope line of {right[0]} stands at its frequency: real subharmonics"
+    return "ambiguous", None, "the defect lines do not decide"
 
 
 def describe_mismatch(check: ShaftLineCheck) -> str:
