@@ -57,30 +57,33 @@ def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
     assert logged and "table4.md" in {a.path for a in client.list_artifacts(logged[0].info.run_id)}
 
 
-def report_in(cwd, *args):
-    return subprocess.run([sys.executable, "-m", "bearingtwin.cli.report", *args], capture_output=True, text=True,
-                          timeout=600, cwd=cwd)
+def report_here(capsys, *args) -> tuple[int, str]:
+    """``bearingtwin-report <args>`` in this process: exit status and stderr."""
+    try:
+        code = main(list(args))
+    except SystemExit as stop:
+        code = stop.code
+    return code, capsys.readouterr().err
 
 
-def test_results_go_to_the_working_directory_and_smoke_runs_do_not_replace_full_ones(uri, tmp_path):
+def test_results_go_to_the_working_directory_and_smoke_runs_do_not_replace_full_ones(uri, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     checkout_results = {path: path.stat().st_mtime for path in (REPO_ROOT / "results").glob("*.md")}
-    done = report_in(tmp_path, "table4", f"uri={uri}")
-    assert done.returncode == 0, done.stderr
+    assert report_here(capsys, "table4", f"uri={uri}")[0] == 0
     assert (tmp_path / "results" / "table4.md").is_file()
     assert {path: path.stat().st_mtime for path in (REPO_ROOT / "results").glob("*.md")} == checkout_results
     # A file made from full-size runs (the committed table4.md records none: it counts as full size).
     full = tmp_path / "full.md"
     shutil.copy(REPO_ROOT / "results" / "table4.md", full)
-    refused = report_in(tmp_path, "table4", f"uri={uri}", f"out={full}")
-    assert refused.returncode == 2 and full.read_text() == (REPO_ROOT / "results" / "table4.md").read_text()
-    (line,) = refused.stderr.strip().splitlines()
+    code, err = report_here(capsys, "table4", f"uri={uri}", f"out={full}")
+    assert code == 2 and full.read_text() == (REPO_ROOT / "results" / "table4.md").read_text()
+    (line,) = err.strip().splitlines()
     assert f"{full}: holds results of larger runs than these" in line
     assert "data.samples_per_class=12 (file: 150)" in line and "trainer.max_epochs=2 (file: 100)" in line and "force=true" in line
-    forced = report_in(tmp_path, "table4", f"uri={uri}", f"out={full}", "force=true")
-    assert forced.returncode == 0 and recorded_sizes(full.read_text())["data.samples_per_class"] == [12.0]
+    assert report_here(capsys, "table4", f"uri={uri}", f"out={full}", "force=true")[0] == 0
+    assert recorded_sizes(full.read_text())["data.samples_per_class"] == [12.0]
     assert "Commands, from the checkout root" in full.read_text()  # the hand-written header is kept
-    again = report_in(tmp_path, "table4", f"uri={uri}", f"out={full}")  # same sizes: no force needed
-    assert again.returncode == 0, again.stderr
+    assert report_here(capsys, "table4", f"uri={uri}", f"out={full}")[0] == 0  # same sizes: no force needed
 
 
 def test_table3_per_class_beside_the_paper(uri, tmp_path):

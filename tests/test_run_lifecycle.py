@@ -16,7 +16,7 @@ import pytest
 from mlflow import MlflowClient
 from omegaconf import OmegaConf
 
-from bearingtwin.tracking.lifecycle import owner_tags, reap_dead_runs
+from bearingtwin.tracking.lifecycle import owner_tags
 from bearingtwin.tracking.mlflow_logging import open_store, train_tracked
 
 from test_tracking import CHOICES, fake_train, make_cfg
@@ -110,22 +110,41 @@ def test_a_terminated_sweep_kills_its_runs_and_its_workers(tmp_path):
     assert not any(alive(pid) for pid in workers), "a joblib worker outlived its sweep"
 
 
-def test_workers_of_a_killed_sweep_stop_and_close_their_runs(tmp_path):
-    """SIGKILL cannot be caught: the workers notice their sweep process is gone."""
-    process = start_training(tmp_path, "-m", "seed=0,1", "launcher=joblib", f"hydra.sweep.dir={tmp_path}/multirun")
-    wait_for_running(tmp_path, process, 2)
-    workers = child_pids(process.pid)
-    process.kill()
-    process.communicate(timeout=60)
+# A sweep process (SIGKILLed below) and its worker, which opens a run and watches the sweep as a
+# joblib worker of bearingtwin-train does; a stand-in for a whole sweep, to keep the test fast.
+SWEEP = """
+import os, subprocess, sys, time
+os.environ["BEARINGTWIN_SWEEP_PID"] = str(os.getpid())
+subprocess.Popen([sys.executable, "-c", sys.argv[1], sys.argv[2]])
+time.sleep(600)
+"""
+WORKER = """
+import sys, time
+from mlflow import MlflowClient
+from bearingtwin.tracking.lifecycle import owner_tags, register_open_run, watch_sweep_process
+client = MlflowClient(sys.argv[1])
+run = client.create_run(client.get_experiment_by_name("bearingtwin").experiment_id, tags={"bt.kind": "train", **owner_tags()})
+register_open_run(client, run.info.run_id)
+watch_sweep_process(poll_s=0.2)
+time.sleep(600)
+"""
+
+
+def test_a_worker_of_a_killed_sweep_stops_and_closes_its_run(tmp_path):
+    """SIGKILL cannot be caught: the worker notices its sweep process is gone."""
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin"}))
+    sweep = subprocess.Popen([sys.executable, "-c", SWEEP, WORKER, uri])
+    (run,) = wait_for_running(tmp_path, sweep, 1)
+    worker = int(run.data.tags["bt.pid"])
+    assert worker in child_pids(sweep.pid)
+    sweep.kill()
+    sweep.wait(timeout=60)
     deadline = time.monotonic() + 15
-    while any(alive(pid) for pid in workers) and time.monotonic() < deadline:
+    while alive(worker) and time.monotonic() < deadline:
         time.sleep(0.2)
-    assert not any(alive(pid) for pid in workers), "a joblib worker outlived its sweep"
-    statuses = {r.data.tags["bt.kind"] + r.info.run_id: r.info.status for r in runs(tmp_path)}
-    assert sorted(statuses.values()) == ["KILLED", "KILLED", "RUNNING"]  # the parent is left to the next launch
-    client, experiment_id = open_store(OmegaConf.create({"uri": f"sqlite:///{tmp_path}/mlflow.db", "experiment": "bearingtwin"}))
-    assert len(reap_dead_runs(client, experiment_id)) == 1
-    assert {r.info.status for r in runs(tmp_path)} == {"KILLED"}
+    assert not alive(worker), "the worker outlived its sweep"
+    assert [r.info.status for r in runs(tmp_path)] == ["KILLED"]
 
 
 def test_a_relaunch_marks_runs_of_dead_processes_killed(tmp_path):
