@@ -15,6 +15,8 @@ finished; 1 when a sweep job failed (after all jobs ran, with a summary); 2 for 
 
 from __future__ import annotations
 
+import logging
+
 import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
@@ -25,6 +27,8 @@ from bearingtwin.models.experiment import run_experiment
 from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
 from bearingtwin.tracking.mlflow_logging import sweep_info, train_tracked
 
+log = logging.getLogger(__name__)
+
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="train")
 def train(cfg: DictConfig) -> float | None:
@@ -33,9 +37,14 @@ def train(cfg: DictConfig) -> float | None:
     if sweep is None:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
         exit_on_user_error(require_files)([cfg])
+        metrics = exit_on_user_error(train_tracked)(cfg, dict(hydra_cfg.runtime.choices), None, hydra_cfg.runtime.output_dir, run_experiment)
     else:
         watch_sweep_process()
-    metrics = exit_on_user_error(train_tracked)(cfg, dict(hydra_cfg.runtime.choices), sweep, hydra_cfg.runtime.output_dir, run_experiment)
+        try:
+            metrics = train_tracked(cfg, dict(hydra_cfg.runtime.choices), sweep, hydra_cfg.runtime.output_dir, run_experiment)
+        except Exception as error:  # before its run existed: Hydra would end the sweep here, without a summary
+            log.error("job %s did not start its run: %s: %s (the sweep goes on)", hydra_cfg.job.num, type(error).__name__, error)
+            return None
     return None if metrics is None else metrics.get("accuracy")
 
 

@@ -54,6 +54,7 @@ from mlflow import MlflowClient
 from mlflow.entities import Metric, Param, RunStatus, RunTag
 from mlflow.exceptions import MlflowException
 from omegaconf import DictConfig, OmegaConf, open_dict
+from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
@@ -418,7 +419,11 @@ def sweep_outcomes(client: MlflowClient, experiment_id: str, parent_run_id: str,
     outcomes = []
     for job in jobs:
         overrides = " ".join(o for o in job.hydra.overrides.task if o not in shared)
-        digest = config_hash(_task_config(job))
+        try:
+            digest = config_hash(_task_config(job))
+        except OmegaConfBaseException as error:  # the job failed on the same config before logging anything
+            outcomes.append(JobOutcome(overrides, "NOT RUN", f"{type(error).__name__}: {error}"))
+            continue
         child = children.get(digest)
         if child is not None:
             reason = child.data.tags.get("error") or child.data.tags.get("bt.killed") or ""
@@ -428,7 +433,7 @@ def sweep_outcomes(client: MlflowClient, experiment_id: str, parent_run_id: str,
         elif find_finished_run(client, experiment_id, digest) is not None:
             outcomes.append(JobOutcome(overrides, "SKIPPED"))
         else:
-            outcomes.append(JobOutcome(overrides, "NOT RUN", "the job ended before its MLflow run was created (see the job's log)"))
+            outcomes.append(JobOutcome(overrides, "NOT RUN", "the job ended before its MLflow run was created (see its log)"))
     return outcomes
 
 
@@ -468,6 +473,13 @@ class SweepParentRun(Callback):
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        try:
+            self._open_parent(config)
+        except Exception as error:  # Hydra would warn and run the jobs unparented, then exit 0
+            print(f"error: the sweep could not start: {type(error).__name__}: {error}", file=sys.stderr)
+            sys.exit(1)
+
+    def _open_parent(self, config: DictConfig) -> None:
         jobs = list(sweep_job_configs(config))
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
