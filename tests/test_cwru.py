@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bearingtwin.config import REPO_ROOT
-from bearingtwin.data.cwru import check_shaft_line, declared_fs_hz, load_cwru, parse_cwru_name
+from bearingtwin.config import REPO_ROOT, load_bearing
+from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import load_recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
+from bearingtwin.signal.sampling_rate import check_sampling_rate
 
 CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 needs_data = pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason=f"CWRU files not found in {CWRU}")
@@ -65,8 +66,41 @@ def test_record_facts_come_from_file_and_name():
 @pytest.mark.parametrize("path", sorted(CWRU.glob("*.mat")), ids=lambda p: p.name)
 def test_every_record_matches_its_declared_12_khz(path):
     recording = load_cwru(path)
-    check = check_shaft_line(recording.signal, recording.fs, recording.rpm)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    check = check_sampling_rate(recording.signal, recording.fs, recording.rpm, defect_hz=defect_hz)
     assert check.matches and check.observed_hz == pytest.approx(recording.rpm / 60, rel=0.005)
+    # The healthy record has lines at half orders too, and no defect line to settle what they mean.
+    assert check.verdict == ("ambiguous" if recording.fault == "normal" else "consistent"), check.reason
+
+
+@needs_data
+@pytest.mark.parametrize("record, declared, verdict", [
+    ("12k_Drive_End_IR007_0_105.mat", 6000, "contradicted"),
+    ("12k_Drive_End_OR007@6_0_130.mat", 4000, "contradicted"),
+    ("12k_Drive_End_OR007@6_0_130.mat", 6000, "ambiguous"),
+])
+def test_a_whole_fraction_of_the_true_rate_is_not_taken_for_it(record, declared, verdict):
+    """Every k-th line of the true shaft series lands on the expected one, which still "matches";
+    the lines in between and the defect lines tell."""
+    recording = load_cwru(CWRU / record, check_fs=False)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    assert check_sampling_rate(recording.signal, declared, recording.rpm).verdict == "ambiguous"  # no second witness
+    check = check_sampling_rate(recording.signal, declared, recording.rpm, defect_hz=defect_hz)
+    assert check.matches and check.fraction == 12000 // declared and check.verdict == verdict
+    if verdict == "contradicted":
+        assert check.implied_fs_hz == 12000
+        with pytest.raises(BearingTwinError, match=rf"{record}: fs = {declared} Hz contradicts .* the true rate is 12000 Hz"):
+            load_cwru(CWRU / record, fs=declared, bearing=load_bearing("cwru_6205"))
+
+
+@needs_data
+def test_training_on_cwru_at_half_the_rate_is_refused():
+    from bearingtwin.config import compose_config
+    from bearingtwin.data.real import build_cwru_dataset
+
+    cfg = compose_config("train", ["data=cwru", "data.fs=6000", f"data.root={CWRU}"])
+    with pytest.raises(BearingTwinError, match="fs = 6000 Hz contradicts"):
+        build_cwru_dataset(cfg.data)
 
 
 @needs_data
@@ -80,7 +114,7 @@ def test_record_97_declared_at_48_khz_is_contradicted():
 @needs_data
 def test_a_wrong_rate_implies_the_true_one():
     recording = load_cwru(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
-    check = check_shaft_line(recording.signal, 11000.0, recording.rpm)
+    check = check_sampling_rate(recording.signal, 11000.0, recording.rpm)
     assert not check.matches
     assert check.implied_fs_hz == pytest.approx(12000, rel=0.01)
 
@@ -97,9 +131,11 @@ def test_shaft_line_of_a_synthetic_record():
     fs, rpm = 10000.0, 1500.0
     t = np.arange(int(20 * fs)) / fs
     rng = np.random.default_rng(0)
-    signal = sum(np.sin(2 * np.pi * k * rpm / 60 * t) / k for k in range(1, 6)) + rng.standard_normal(t.size)
-    assert check_shaft_line(signal, fs, rpm).matches
-    doubled = check_shaft_line(signal, 2 * fs, rpm)
+    signal = sum(np.sin(2 * np.pi * k * rpm / 60 * t) / k for k in range(1, 13)) + rng.standard_normal(t.size)
+    assert check_sampling_rate(signal, fs, rpm).verdict == "consistent"
+    halved = check_sampling_rate(signal, fs / 2, rpm)  # lines 1, 3, 5 now fall between the expected ones
+    assert halved.matches and halved.fraction == 2 and halved.verdict == "ambiguous"
+    doubled = check_sampling_rate(signal, 2 * fs, rpm)
     assert not doubled.matches and doubled.implied_fs_hz == pytest.approx(fs, rel=0.01)
     with pytest.raises(BearingTwinError, match="too short"):
-        check_shaft_line(signal[:1000], fs, rpm)
+        check_sampling_rate(signal[:1000], fs, rpm)

@@ -262,3 +262,9 @@ def test_an_alias_without_a_name_fails_before_any_work(tmp_path):
                uri=f"sqlite:///{tmp_path}/mlflow.db")
     assert done.returncode == 2 and "register_alias=champion needs register=<model name>" in done.stderr
     assert not (tmp_path / "cache").exists()  # nothing was simulated
+
+
+def test_unknown_keys_are_refused(tmp_path):
+    done = run("diagnose", "path=x.npz", "model=runs:/x/model", "+evidence.threshold=3", cwd=tmp_path,
+               uri=f"sqlite:///{tmp_path}/mlflow.db")
+    assert done.returncode == 2 and "evidence.threshold" in done.stderr and "Traceback" not in done.stderr

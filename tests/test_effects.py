@@ -243,6 +243,24 @@ def _envelope_orders(cfg, signal):
 CWRU_LOAD_ZONE = {"load_zone": {"radial_load_n": 1842.6, "clearance_um": 2.3}}
 
 
+@pytest.mark.parametrize("radial_load_n, clearance_um", [(0.0, 20.0), (100.0, 0.0), (100.0, 20.0), (1842.6, 5.0)])
+@pytest.mark.parametrize("interference_um", [1.0, 30.0, 100.0])
+def test_static_equilibrium_is_found_under_any_preload(radial_load_n, clearance_um, interference_um):
+    """A heavy preload under a light load once stalled the solver ("no static equilibrium found")."""
+    cfg = _cwru_config(1.0)
+    params = DynamicParameters.from_config(cfg.bearing, cfg.simulator)
+    if radial_load_n:
+        params = lib.LoadZone(radial_load_n=radial_load_n, clearance_um=clearance_um).modify_parameters(params)
+    params = lib.Preload(interference_um=interference_um).modify_parameters(params)
+    angles = 2 * np.pi * np.arange(params.n_balls) / params.n_balls
+    state = static_equilibrium(params, angles)
+    carried = contact_force(state, angles, np.zeros(params.n_balls), params)
+    weight = params.inner_mass_kg * params.gravity_m_per_s2
+    # The balls carry the load and the inner race's weight, less what its support takes.
+    support = params.inner_stiffness_n_per_m * state[:2]
+    np.testing.assert_allclose(carried + support, [params.load_x_n, params.load_y_n - weight], atol=1e-3)
+
+
 def test_preload_keeps_every_ball_loaded_under_a_radial_load():
     cfg = _cwru_config(1.0)
     params = lib.LoadZone(radial_load_n=1842.6, clearance_um=5.0).modify_parameters(

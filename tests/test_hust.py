@@ -41,11 +41,17 @@ def test_loader_returns_the_written_axes(index, stem):
         assert recording.fs == 25600
 
 
-def test_fs_comes_from_the_time_column():
+def test_fs_is_the_headers_sampling_rate_checked_against_the_time_column(tmp_path):
     raw = read_raw(HUST / "H_65Hz.xls")
-    assert raw.fs == pytest.approx(fixtures.FS_HZ, rel=1e-4)
-    assert raw.fs_origin == "time column"
-    assert load_hust(HUST / "H_65Hz.xls").fs == pytest.approx(25600, rel=1e-4)
+    assert raw.fs == fixtures.FS_HZ == 25600 and raw.fs_origin == "header"  # exact, not 25599.9997
+    assert load_hust(HUST / "H_65Hz.xls").fs == 25600
+    text = (HUST / "H_65Hz.xls").read_text(encoding="latin-1")
+    (tmp_path / "H_65Hz.xls").write_text(text.replace("Sampling Rate\t25600", "Sampling Rate\t51200"), encoding="latin-1")
+    with pytest.raises(BearingTwinError, match=r"H_65Hz.xls: the header's Sampling Rate 51200 Hz contradicts the time column's 25600"):
+        read_raw(tmp_path / "H_65Hz.xls")
+    (tmp_path / "H_65Hz.xls").write_text(text.replace("Sampling Rate\t25600\n", ""), encoding="latin-1")
+    without = read_raw(tmp_path / "H_65Hz.xls")
+    assert without.fs_origin == "time column" and without.fs == pytest.approx(25600, rel=1e-4)
 
 
 @pytest.mark.parametrize("stem,defect", [("0.5X_I", "bpfi"), ("0.5X_O", "bpfo")])

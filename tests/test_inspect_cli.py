@@ -14,28 +14,30 @@ from bearingtwin.cli.inspect import main
 HUST = Path(__file__).parent / "fixtures" / "hust"
 
 
-def run(capsys, *argv):
+def run(capsys, monkeypatch, *overrides):
+    """``bearingtwin-inspect <overrides>`` in this process: exit status, stdout, stderr."""
+    monkeypatch.setattr(sys, "argv", ["bearingtwin-inspect", *overrides])
     with pytest.raises(SystemExit) as stop:
-        main(list(argv))
+        main()
         raise SystemExit(0)
     out, err = capsys.readouterr()
     return stop.value.code, out, err
 
 
-def test_hust_file_with_er16k_defect_frequencies(capsys):
-    code, out, _ = run(capsys, str(HUST / "0.5X_O_65Hz.xls"), "--bearing", "er16k")
+def test_hust_file_with_er16k_defect_frequencies(capsys, monkeypatch):
+    code, out, _ = run(capsys, monkeypatch, f"path={HUST / '0.5X_O_65Hz.xls'}", "bearing=er16k")
     summary = json.loads(out)
     assert code == 0
     assert summary["format"] == "hust-xls" and summary["channels"] == ["speed", "X", "Y", "Z"]
-    assert summary["fs_hz"] == pytest.approx(25600, rel=1e-4) and summary["rpm"] == 3900
+    assert summary["fs_hz"] == 25600 and summary["fs_origin"] == "header" and summary["rpm"] == 3900
     assert summary["n_samples"] == 1280 and summary["duration_s"] == pytest.approx(1280 / 25600, rel=1e-4)
     # README: ER-16K BPFO 3.572 and BPFI 5.428 times the shaft speed.
     assert summary["defect_frequencies_hz"]["bpfo"] == pytest.approx(3.572 * 65, rel=1e-3)
     assert summary["defect_orders"]["bpfi"] == pytest.approx(5.428, rel=1e-3)
 
 
-def test_nan_cell_is_reported_not_refused(capsys):
-    code, out, _ = run(capsys, str(HUST / "damaged" / "nan_cell.xls"))
+def test_nan_cell_is_reported_not_refused(capsys, monkeypatch):
+    code, out, _ = run(capsys, monkeypatch, f"path={HUST / 'damaged' / 'nan_cell.xls'}")
     assert code == 0 and json.loads(out)["nan_count"] == {"speed": 0, "X": 0, "Y": 0, "Z": 1}
 
 
@@ -43,28 +45,31 @@ def test_nan_cell_is_reported_not_refused(capsys):
     "name,problem",
     [("truncated.xls", "line 222 has 3 columns"), ("empty.xls", "the file is empty"), ("non_numeric.xls", "'abc' is not a number")],
 )
-def test_unreadable_files_exit_2_naming_file_and_problem(capsys, name, problem):
-    code, out, err = run(capsys, str(HUST / "damaged" / name))
+def test_unreadable_files_exit_2_naming_file_and_problem(capsys, monkeypatch, name, problem):
+    code, out, err = run(capsys, monkeypatch, f"path={HUST / 'damaged' / name}")
     assert code == 2 and out == ""
     assert name in err and problem in err
 
 
-def test_npy_with_options_and_unknown_bearing(capsys, tmp_path):
+def test_npy_with_options_and_unknown_bearing(capsys, monkeypatch, tmp_path):
     path = tmp_path / "x.npy"
     np.save(path, np.ones((2, 500)))
-    code, out, _ = run(capsys, str(path), "--fs", "1000", "--rpm", "1797", "--bearing", "cwru_6205", "--channel", "1")
+    code, out, _ = run(capsys, monkeypatch, f"path={path}", "fs=1000", "rpm=1797", "bearing=cwru_6205", "channel=1")
     summary = json.loads(out)
     assert code == 0 and summary["channels"] == ["0", "1"] and summary["nan_count"] == {"1": 0}
     assert summary["duration_s"] == 0.5 and summary["fs_origin"] == "option"
     # README: CWRU drive-end bearing BPFI 5.4152 x shaft.
     assert summary["defect_frequencies_hz"]["bpfi"] == pytest.approx(5.4152 * 1797 / 60, rel=1e-4)
-    code, _, err = run(capsys, str(path), "--bearing", "nope")
-    assert code == 2 and "'nope'" in err
+    assert summary["shaft_line_check"]["verdict"] == "not checked"  # 0.5 s cannot resolve a 30 Hz series
+    code, _, err = run(capsys, monkeypatch, f"path={path}", "+fs_hz=1000")
+    assert code == 2 and "fs_hz is not a setting of inspect" in err
 
 
-def test_runs_as_a_module():
+def test_runs_as_a_module_with_hydra_overrides_and_a_help_text():
     done = subprocess.run(
-        [sys.executable, "-m", "bearingtwin.cli.inspect", str(HUST / "damaged" / "no_data_line.xls")],
+        [sys.executable, "-m", "bearingtwin.cli.inspect", f"path={HUST / 'damaged' / 'no_data_line.xls'}"],
         capture_output=True, text=True,
     )
     assert done.returncode == 2 and "no_data_line.xls: no line reading 'Data'" in done.stderr
+    usage = subprocess.run([sys.executable, "-m", "bearingtwin.cli.inspect", "--help"], capture_output=True, text=True)
+    assert usage.returncode == 0 and "Usage: bearingtwin-inspect path=<file> [bearing=<name>]" in usage.stdout

@@ -100,6 +100,22 @@ def test_hust_sweep_on_absent_files_exits_2_and_logs_nothing(tmp_path):
     assert not (tmp_path / "mlflow.db").exists() or stored_runs(f"sqlite:///{tmp_path}/mlflow.db") == []
 
 
+def test_cwru_sweep_on_an_absent_folder_exits_2_and_logs_nothing(tmp_path):
+    command = [
+        sys.executable, "-m", "bearingtwin.cli.train", "-m", "data=cwru", "seed=0,1",
+        f"data.root={tmp_path}/nonexistent", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun",
+    ]
+    done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert done.stderr.strip().startswith("error: ") and len(done.stderr.strip().splitlines()) == 1
+    assert f"{tmp_path}/nonexistent" in done.stderr and "Launching" not in done.stdout
+    assert not (tmp_path / "mlflow.db").exists() or stored_runs(f"sqlite:///{tmp_path}/mlflow.db") == []
+    with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
+        twin_to_real = compose("train", overrides=["data=twin_to_real", "bearing=cwru_6205", f"data.root={tmp_path}/nonexistent"])
+    with pytest.raises(BearingTwinError, match=f"{tmp_path}/nonexistent/normal_0_97.mat: no such CWRU record"):
+        require_files([twin_to_real])
+
+
 @pytest.fixture(scope="module")
 def hust_store(tmp_path_factory):
     base = tmp_path_factory.mktemp("hust_sweep")

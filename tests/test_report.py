@@ -8,6 +8,8 @@ import pytest
 from mlflow import MlflowClient
 
 from bearingtwin.cli.report import main
+from bearingtwin.config import REPO_ROOT
+from bearingtwin.tracking.provenance import recorded_sizes
 from bearingtwin.tracking import paper
 from bearingtwin.tracking.reports import mean_std
 
@@ -16,7 +18,7 @@ from test_sweep_e2e import smoke_sweep_store
 
 @pytest.fixture(scope="session")
 def uri(tmp_path_factory):
-    return smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")
+    return smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")[0]
 
 
 def report(name, *settings):
@@ -45,11 +47,43 @@ def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
         (run,) = finished(uri, method)
         ours = 100 * run.data.metrics["accuracy"]
         assert f"| {ours:.2f} ± 0.00 | 1 | {published:.2f} | {ours - published:+.2f} |" in lines[method]
-    assert (tmp_path / "table4.md").read_text() == done.stdout.rstrip("\n") + "\n"
+    written = (tmp_path / "table4.md").read_text()
+    assert written == done.stdout.rstrip("\n") + "\n"
+    assert recorded_sizes(written) == {"data.duration": [1.0], "data.samples_per_class": [12.0], "search.iterations": [1.0],
+                                       "search.population": [3.0], "search.windows": [2.0], "trainer.max_epochs": [2.0]}
     client = MlflowClient(uri)
     experiment_id = client.get_experiment_by_name("bearingtwin").experiment_id
     logged = client.search_runs([experiment_id], "tags.`bt.kind` = 'report' and tags.report = 'table4'")
     assert logged and "table4.md" in {a.path for a in client.list_artifacts(logged[0].info.run_id)}
+
+
+def report_here(capsys, *args) -> tuple[int, str]:
+    """``bearingtwin-report <args>`` in this process: exit status and stderr."""
+    try:
+        code = main(list(args))
+    except SystemExit as stop:
+        code = stop.code
+    return code, capsys.readouterr().err
+
+
+def test_results_go_to_the_working_directory_and_smoke_runs_do_not_replace_full_ones(uri, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    checkout_results = {path: path.stat().st_mtime for path in (REPO_ROOT / "results").glob("*.md")}
+    assert report_here(capsys, "table4", f"uri={uri}")[0] == 0
+    assert (tmp_path / "results" / "table4.md").is_file()
+    assert {path: path.stat().st_mtime for path in (REPO_ROOT / "results").glob("*.md")} == checkout_results
+    # A file made from full-size runs (the committed table4.md records none: it counts as full size).
+    full = tmp_path / "full.md"
+    shutil.copy(REPO_ROOT / "results" / "table4.md", full)
+    code, err = report_here(capsys, "table4", f"uri={uri}", f"out={full}")
+    assert code == 2 and full.read_text() == (REPO_ROOT / "results" / "table4.md").read_text()
+    (line,) = err.strip().splitlines()
+    assert f"{full}: holds results of larger runs than these" in line
+    assert "data.samples_per_class=12 (file: 150)" in line and "trainer.max_epochs=2 (file: 100)" in line and "force=true" in line
+    assert report_here(capsys, "table4", f"uri={uri}", f"out={full}", "force=true")[0] == 0
+    assert recorded_sizes(full.read_text())["data.samples_per_class"] == [12.0]
+    assert "Commands, from the checkout root" in full.read_text()  # the hand-written header is kept
+    assert report_here(capsys, "table4", f"uri={uri}", f"out={full}")[0] == 0  # same sizes: no force needed
 
 
 def test_table3_per_class_beside_the_paper(uri, tmp_path):

@@ -1,7 +1,7 @@
 """A real Table 4 multirun, smoke-sized, in parallel (joblib) into a fresh SQLite MLflow store.
 
 ``seed=0,-1``: every seed-0 job must finish, every seed -1 job must fail (bad seed) and be
-logged FAILED while the sweep goes on. The SABO methods and the raw method run as two
+logged FAILED while the sweep goes on, which then exits 1 with a summary naming them. The SABO methods and the raw method run as two
 invocations of the same sweep: the second checks a sequential (basic launcher) sweep too.
 """
 
@@ -32,24 +32,28 @@ def run_sabo_sweep(base: Path) -> subprocess.CompletedProcess:
 
 
 @functools.lru_cache(maxsize=None)
-def smoke_sweep_store(base: Path) -> str:
-    """Run the smoke sweep once per session into ``base``; returns the tracking URI."""
+def smoke_sweep_store(base: Path) -> tuple[str, str]:
+    """Run the smoke sweep once per session into ``base``; returns the tracking URI and the
+    SABO sweep's standard output (its summary)."""
     base.mkdir(parents=True, exist_ok=True)
-    for done in (
-        run_sabo_sweep(base),
-        subprocess.run(
-            sweep_command(base, "+method=raw_cnn_bilstm", "seed=0", f"hydra.sweep.dir={base}/multirun_raw"),
-            cwd=base, capture_output=True, text=True, timeout=900,
-        ),
-    ):
-        assert done.returncode == 0, done.stderr[-3000:]
-    return f"sqlite:///{base}/mlflow.db"
+    sabo = run_sabo_sweep(base)
+    assert sabo.returncode == 1, sabo.stderr[-3000:]  # some jobs failed: the exit status says so
+    raw = subprocess.run(
+        sweep_command(base, "+method=raw_cnn_bilstm", "seed=0", f"hydra.sweep.dir={base}/multirun_raw"),
+        cwd=base, capture_output=True, text=True, timeout=900,
+    )
+    assert raw.returncode == 0, raw.stderr[-3000:]
+    return f"sqlite:///{base}/mlflow.db", sabo.stdout
 
 
 @pytest.fixture(scope="session")
-def store(tmp_path_factory):
-    uri = smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")
-    client = MlflowClient(uri)
+def sweep_output(tmp_path_factory):
+    return smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")
+
+
+@pytest.fixture(scope="session")
+def store(sweep_output):
+    client = MlflowClient(sweep_output[0])
     return client, client.get_experiment_by_name("bearingtwin").experiment_id
 
 
@@ -92,11 +96,22 @@ def test_failing_jobs_are_failed_and_grouped_under_the_sweep(store):
     assert len(children) == 6 and {r.data.tags["sweep_dir"] for r in children} == {parent.data.tags["sweep_dir"]}
 
 
+def test_the_sweep_ends_with_a_summary_of_every_job(store, sweep_output):
+    summary = [line for line in sweep_output[1].splitlines() if not line.startswith("[")]
+    assert summary[0].startswith("sweep table4 (run ")
+    assert summary[0].endswith("6 jobs, 3 finished, 3 failed, 0 skipped (already finished)")
+    failed = summary[1:]
+    assert len(failed) == 3 and all(line.startswith("  FAILED: +method=") for line in failed)
+    assert all("seed=-1: BearingTwinError: seed must be a non-negative integer" in line for line in failed)
+    assert not any("tracking.uri" in line for line in failed)  # overrides shared by every job are left out
+
+
 def test_relaunching_the_sweep_skips_finished_jobs(store, tmp_path_factory):
     client, experiment_id = store
     before = {r.info.run_id: r.info.status for r in training_runs(client, experiment_id)}
     done = run_sabo_sweep(tmp_path_factory.getbasetemp() / "smoke_sweep")
-    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.returncode == 1, done.stderr[-3000:]
+    assert "6 jobs, 0 finished, 3 failed, 3 skipped (already finished)" in done.stdout
     after = {r.info.run_id: r.info.status for r in training_runs(client, experiment_id)}
     new = set(after) - set(before)
     assert all(after[run_id] == "FAILED" for run_id in new) and len(new) == 3  # only the bad-seed jobs re-ran

@@ -18,9 +18,12 @@ from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking.mlflow_logging import (
     SweepInfo,
     config_hash,
+    find_sweep_parent,
     flatten,
+    format_sweep_summary,
     open_store,
     stored_config,
+    sweep_outcomes,
     train_tracked,
 )
 
@@ -137,6 +140,16 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path):
     assert len(client.search_runs([experiment_id])) == 3
 
 
+def test_by_default_a_sweep_job_resumes_and_a_single_run_runs_again(tmp_path):
+    cfg = make_cfg(tmp_path, skip_finished=None)
+    sweep = SweepInfo("cli", str(tmp_path / "multirun"))
+    train_tracked(cfg, CHOICES, None, None, fake_train)
+    train_tracked(cfg, CHOICES, None, None, fake_train)  # asked again: runs again
+    assert train_tracked(cfg, CHOICES, sweep, None, failing_train)["accuracy"] == pytest.approx(0.9)  # resumed: skipped
+    client, experiment_id = open_store(cfg.tracking)
+    assert [r.info.status for r in client.search_runs([experiment_id])] == ["FINISHED", "FINISHED"]
+
+
 def _log_runs(store: str, worker: int, n_runs: int) -> int:
     for i in range(n_runs):
         train_tracked(make_cfg(Path(store), seed=100 * worker + i), CHOICES, None, None, fake_train)
@@ -152,3 +165,27 @@ def test_concurrent_writers_on_one_sqlite_store_lose_no_run(tmp_path):
     assert done == 12 and len(runs) == 12
     assert all(r.info.status == "FINISHED" and "accuracy" in r.data.metrics for r in runs)
     assert sorted(int(r.data.tags["seed"]) for r in runs) == sorted(100 * w + i for w in range(4) for i in range(3))
+
+
+def test_a_sweep_summary_says_what_became_of_every_job(tmp_path):
+    sweep = SweepInfo("cli", str(tmp_path / "multirun"))
+    client, experiment_id = open_store(make_cfg(tmp_path).tracking)
+    parent = client.create_run(experiment_id, tags={"bt.kind": "sweep", "sweep_dir": sweep.sweep_dir})
+    train_tracked(make_cfg(tmp_path, seed=1), CHOICES, None, None, fake_train)  # finished before the sweep
+    train_tracked(make_cfg(tmp_path, seed=0), CHOICES, sweep, None, fake_train)
+    train_tracked(make_cfg(tmp_path, seed=2), CHOICES, sweep, None, failing_train)
+    assert find_sweep_parent(client, experiment_id, sweep.sweep_dir).info.run_id == parent.info.run_id
+
+    def job(seed):  # a job's composed config as Hydra's sweeper makes it
+        cfg = make_cfg(tmp_path, seed=seed)
+        cfg.hydra = {"overrides": {"task": [f"seed={seed}", "data.samples_per_class=10"]}}
+        return cfg
+
+    outcomes = sweep_outcomes(client, experiment_id, parent.info.run_id, [job(0), job(1), job(2), job(3)])
+    assert [(o.overrides, o.status) for o in outcomes] == [
+        ("seed=0", "FINISHED"), ("seed=1", "SKIPPED"), ("seed=2", "FAILED"), ("seed=3", "NOT RUN")]
+    assert outcomes[2].reason == "BearingTwinError: data.samples_per_class must be positive, got -3"
+    summary = format_sweep_summary("cli", parent.info.run_id, outcomes).splitlines()
+    assert summary[0] == f"sweep cli (run {parent.info.run_id}): 4 jobs, 1 finished, 2 failed, 1 skipped (already finished)"
+    assert summary[1:] == ["  FAILED: seed=2: BearingTwinError: data.samples_per_class must be positive, got -3",
+                           "  NOT RUN: seed=3: the job ended before its MLflow run was created (see its log)"]

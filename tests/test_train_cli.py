@@ -72,3 +72,8 @@ def test_bad_value_exits_2_naming_the_field_and_the_run_is_failed(tmp_path):
 def test_unknown_key_is_refused(tmp_path):
     done = run_cli(["classifier.hidden_unitz=3", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"], tmp_path)
     assert done.returncode != 0 and "hidden_unitz" in done.stderr
+    added = run_cli(["+unknown.key=1", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"], tmp_path)
+    assert added.returncode == 2 and added.stderr.strip().splitlines() == [
+        "error: +unknown.key=1: unknown.key is not a setting of train (no config declares it); "
+        "check its spelling, or set a declared key without '+'"]
+    assert not (tmp_path / "mlflow.db").exists()

@@ -1,14 +1,24 @@
-"""Cache files that parallel sweep jobs share: their keys and their atomic writes."""
+"""Cache files that parallel sweep jobs share: their keys, atomic writes, and reads that heal.
+
+A cache entry is never the only copy of anything: it can always be recomputed from its
+configuration. So an entry that cannot be read (a truncated, empty or bit-flipped file
+left by a full disk, a crash or bad storage) is not an error but a miss:
+:func:`load_npz_or_heal` logs one line naming the file, removes it and lets the caller
+recompute and rewrite it.
+"""
 
 from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import tempfile
 from pathlib import Path
 
 import numpy as np
+
+log = logging.getLogger(__name__)
 
 
 def save_npz_atomic(path: str | Path, **arrays: np.ndarray) -> None:
@@ -28,6 +38,27 @@ def save_npz_atomic(path: str | Path, **arrays: np.ndarray) -> None:
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
+
+
+def load_npz_or_heal(path: str | Path, *names: str) -> dict[str, np.ndarray] | None:
+    """The arrays ``names`` of the cache entry at ``path``; None when there is no usable entry.
+
+    Every array is read in full, which makes ``zipfile`` check its CRC, so a flipped bit is
+    caught here and not in a computation later. An unreadable entry is logged (file and
+    reason), removed and reported as a miss. (Should another job replace the entry in the
+    instant between the failed read and the removal, its good copy goes too: one more
+    recomputation, never a wrong number.)
+    """
+    path = Path(path)
+    if not path.exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            return {name: np.array(stored[name]) for name in names}
+    except Exception as error:  # any failure to read means the entry is unusable; it is recomputed
+        log.warning("cache entry %s is unreadable (%s: %s); removed, recomputing it", path, type(error).__name__, error)
+        path.unlink(missing_ok=True)
+        return None
 
 
 def content_key(content, length: int = 16) -> str:

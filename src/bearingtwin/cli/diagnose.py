@@ -15,16 +15,19 @@ import sys
 from collections import Counter
 
 import hydra
+from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary, percent
-from bearingtwin.config import CONF_DIR, exit_on_user_error
+from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.diagnosis.run import DiagnosisRun, diagnose_paths
+from bearingtwin.tracking.lifecycle import stop_cleanly
 
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="diagnose")
 @exit_on_user_error
-def main(cfg: DictConfig) -> None:
+def diagnose(cfg: DictConfig) -> None:
+    refuse_unknown_keys(HydraConfig.get())
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")  # one bar: over the files
     run = diagnose_paths(cfg)
     print(closing_summary(f"bearingtwin-diagnose: {cfg.path} with {cfg.model}", diagnosis_lines(run), run.run_id,
@@ -50,6 +53,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     if run.failures:
         lines["could not be diagnosed"] = ", ".join(run.failures)
     return lines
+
+
+main = stop_cleanly(diagnose)  # a signal marks the MLflow run KILLED, never left RUNNING
 
 
 if __name__ == "__main__":

@@ -4,17 +4,22 @@ Single run: ``bearingtwin-train classifier=svm seed=3``. Sweep: ``bearingtwin-tr
 +sweep=table4`` (add ``hydra/launcher=joblib`` or ``launcher=joblib`` to run jobs in
 parallel). A failing job in a sweep is logged FAILED and the sweep goes on.
 
-Data files a config names (HUST) are checked before any MLflow run is opened: a single run
-checks its own here, a sweep checks every job's in :class:`SweepParentRun`. Absent files end
-the command with exit status 2 and a message naming them and ``data.root=``.
+Data files a config names are checked before any MLflow run is opened: a single run checks
+its own here, a sweep checks every job's in :class:`SweepParentRun`. Absent files end the
+command with exit status 2 and a message naming them and ``data.root=``.
 
-A single run ends with a summary (accuracy, F1 per class, the MLflow run and how to open it,
-the output folder); a sweep job prints one line, the sweep as a whole is summarised by
+A single run ends with a summary (accuracy, F1 per class, its model, the MLflow run and how to
+open it, the output folder); a sweep job prints one line, the sweep as a whole is summarised by
 :class:`SweepParentRun`.
+
+Exit status: 0 when the run (every job of a sweep) finished or was skipped as already
+finished; 1 when a sweep job failed (after all jobs ran, with a summary); 2 for bad input;
+130 / 143 on SIGINT / SIGTERM, with the open runs marked KILLED.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 
@@ -23,11 +28,14 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary, percent
-from bearingtwin.config import CONF_DIR, exit_on_user_error
+from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.experiment import run_experiment
+from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
 from bearingtwin.tracking.mlflow_logging import TrackedRun, method_name, run_name, sweep_info, train_tracked
+
+log = logging.getLogger(__name__)
 
 
 def show_progress_bar(setting, in_sweep: bool) -> bool:
@@ -56,15 +64,23 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
 
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="train")
-def main(cfg: DictConfig) -> float | None:
+def train(cfg: DictConfig) -> float | None:
     hydra_cfg = HydraConfig.get()
     sweep = sweep_info(hydra_cfg)
-    if sweep is None:
-        exit_on_user_error(require_files)([cfg])
     cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(cfg.trainer.get("progress_bar", "auto"), sweep is not None)
     choices = dict(hydra_cfg.runtime.choices)
     output_dir = hydra_cfg.runtime.output_dir
-    tracked = exit_on_user_error(train_tracked)(cfg, choices, sweep, output_dir, run_experiment)
+    if sweep is None:  # a sweep checks every job's before the first starts (SweepParentRun)
+        exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
+        exit_on_user_error(require_files)([cfg])
+        tracked = exit_on_user_error(train_tracked)(cfg, choices, None, output_dir, run_experiment)
+    else:
+        watch_sweep_process()
+        try:
+            tracked = train_tracked(cfg, choices, sweep, output_dir, run_experiment)
+        except Exception as error:  # before its run existed: Hydra would end the sweep here, without a summary
+            log.error("job %s did not start its run: %s: %s (the sweep goes on)", hydra_cfg.job.num, type(error).__name__, error)
+            return None
     if tracked is None:
         return None
     name = run_name(cfg, method_name(choices), sweep)
@@ -73,6 +89,9 @@ def main(cfg: DictConfig) -> float | None:
     else:
         print(f"{name}: accuracy {percent(tracked.metrics['accuracy'])} (MLflow run {tracked.run_id})")
     return tracked.metrics.get("accuracy")
+
+
+main = stop_cleanly(train)
 
 
 if __name__ == "__main__":

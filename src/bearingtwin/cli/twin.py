@@ -11,10 +11,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import hydra
+from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary
-from bearingtwin.config import CONF_DIR, exit_on_user_error
+from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
+from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.twin.rank import TwinFit
 from bearingtwin.twin.report import run_twin
 
@@ -35,10 +37,14 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
 
 @hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="twin")
 @exit_on_user_error
-def main(cfg: DictConfig) -> None:
+def twin(cfg: DictConfig) -> None:
+    refuse_unknown_keys(HydraConfig.get())
     fit, files, run_id = run_twin(cfg)
     print(fit.summary)
     print(twin_summary(cfg, fit, files, run_id))
+
+
+main = stop_cleanly(twin)  # a signal marks the MLflow run KILLED, never left RUNNING
 
 
 if __name__ == "__main__":

@@ -67,9 +67,24 @@ def _hust_files(cfg: DictConfig) -> list[Path]:
     return list(hust_paths(cfg.data).values())
 
 
-# Sources whose files are known from the config alone; the others find their files when
-# they load them (CWRU) or make them (simulated).
-REQUIRED_FILES = {"hust": _hust_files}
+def _cwru_files(cfg: DictConfig) -> list[Path]:
+    from bearingtwin.data.real import cwru_paths
+
+    return cwru_paths(cfg.data)
+
+
+def _twin_to_real_files(cfg: DictConfig) -> list[Path]:
+    from bearingtwin.config import plain_config
+    from bearingtwin.data.twin_to_real import check_protocol
+
+    calibration, tests = check_protocol(plain_config(cfg.data, "data config"))
+    return calibration + tests
+
+
+# Every real-data source: the files a job will read, found from its config before any job
+# starts. The HUST names are fixed, so absent files are listed; CWRU records are found by
+# pattern, so their finders raise naming the folder or class with no record.
+REQUIRED_FILES = {"hust": _hust_files, "cwru": _cwru_files, "twin_to_real": _twin_to_real_files}
 
 
 def require_files(cfgs: Iterable[DictConfig]) -> None:
@@ -79,18 +94,27 @@ def require_files(cfgs: Iterable[DictConfig]) -> None:
     what to fetch and where to put it, instead of logging one failed run per job.
     """
     needed: dict[Path, str] = {}
+    problems: list[str] = []
     for cfg in cfgs:
         source = cfg.data.get("source")
-        for path in REQUIRED_FILES.get(source, lambda _: [])(cfg):
+        try:
+            paths = REQUIRED_FILES.get(source, lambda _: [])(cfg)
+        except BearingTwinError as error:
+            if str(error) not in problems:
+                problems.append(str(error))
+            continue
+        for path in paths:
             needed.setdefault(path, source)
     missing = [path for path in needed if not path.is_file()]
-    if not missing:
-        return
-    folders = ", ".join(sorted({str(path.parent) for path in missing}))
-    sources = "/".join(sorted({needed[path].upper() for path in missing}))
-    found = [path.name for path in needed if path not in missing]
-    raise BearingTwinError(
-        f"{sources} data files missing from {folders}: {', '.join(path.name for path in missing)}"
-        + (f" (found: {', '.join(found)})" if found else "")
-        + ". Put all of them in one folder and pass data.root=<that folder>"
-    )
+    if missing:
+        folders = ", ".join(sorted({str(path.parent) for path in missing}))
+        sources = "/".join(sorted({needed[path].upper() for path in missing}))
+        found = [path.name for path in needed if path not in missing]
+        problems.insert(0,
+            f"{sources} data files missing from {folders}: {', '.join(path.name for path in missing)}"
+            + (f" (found: {', '.join(found)})" if found else "")
+            + ". Put all of them in one folder and pass data.root=<that folder>"
+        )
+    if problems:
+        more = f" (and {len(problems) - 3} more problems)" if len(problems) > 3 else ""
+        raise BearingTwinError("; ".join(problems[:3]) + more)

@@ -6,22 +6,25 @@ drive-end records used here) is a convention of the data set, and the literature
 disagrees about some records (97 may be 48 kHz). So the rate is *declared* per record
 and then *checked*: a shaft turning at ``rpm`` puts a series of lines at multiples of
 ``rpm / 60`` into the spectrum, and under a wrong rate that series appears scaled by
-``declared / true``. :func:`check_shaft_line` looks for it.
+``declared / true``. :func:`bearingtwin.signal.sampling_rate.check_sampling_rate` looks for it.
 """
 
 from __future__ import annotations
 
-import math
+import logging
 import re
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from bearingtwin.data.files import RawRecord, read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.signal.sampling_rate import check_sampling_rate, describe_mismatch
+
+log = logging.getLogger(__name__)
 
 CHANNELS = ("DE", "FE", "BA")
 DECLARED_FS_HZ = 12000.0
@@ -110,106 +113,6 @@ def declared_fs_hz(record: int, default_hz: float, by_record: dict | None = None
     return by_record.get(int(record), float(default_hz))
 
 
-@dataclass(frozen=True)
-class ShaftLineCheck:
-    """Whether a record's spectrum shows its shaft speed where the declared rate puts it.
-
-    Attributes:
-        expected_hz: rpm / 60.
-        observed_hz: the strong shaft-harmonic series nearest to ``expected_hz`` (None if none).
-        implied_fs_hz: the rate under which ``observed_hz`` would be the shaft speed.
-        score: median prominence (peak / local median spectrum) of the first harmonics at
-            ``observed_hz`` (at ``expected_hz`` if nothing was observed).
-        matches: ``observed_hz`` lies within the tolerance of ``expected_hz``.
-    """
-
-    fs_hz: float
-    rpm: float
-    expected_hz: float
-    observed_hz: float | None
-    implied_fs_hz: float | None
-    score: float
-    matches: bool
-
-    def as_dict(self) -> dict:
-        return asdict(self)
-
-
-def check_shaft_line(
-    signal: np.ndarray,
-    fs: float,
-    rpm: float,
-    *,
-    tolerance: float = 0.02,
-    prominence: float = 20.0,
-    n_harmonics: int = 5,
-    harmonic_tolerance: float = 0.005,
-    search_factor: float = 5.0,
-    background_hz: float = 5.0,
-) -> ShaftLineCheck:
-    """Look for the shaft's harmonic series near rpm / 60 under the sampling rate ``fs`` (Hz).
-
-    A single line is a weak witness (a record's shaft line can be weaker than a supply or
-    defect line nearby), so the witness is the *series*: for every trial fundamental
-    between ``expected / search_factor`` and ``expected * search_factor`` the first
-    ``n_harmonics`` harmonics are scored by their prominence over the local median
-    spectrum (``background_hz`` wide), and the series' score is the median, so most
-    harmonics must stand out. The strong series (score >= ``prominence``) nearest the
-    expected frequency is taken as the shaft's. A sampling rate that is an integer multiple
-    *below* the true one maps a higher shaft harmonic onto the expected frequency and is
-    not detectable this way.
-
-    Args:
-        signal: 1-D record (whole record: the resolution fs / n must resolve the harmonics).
-        fs: declared sampling rate in Hz.
-        rpm: measured shaft speed in rev/min.
-        tolerance: relative distance between observed and expected that still matches.
-        prominence: how many times above the local median spectrum the series must stand.
-        harmonic_tolerance: relative width of the search window around each harmonic.
-    """
-    signal = np.asarray(signal, dtype=np.float64)
-    if signal.ndim != 1 or not np.all(np.isfinite(signal)):
-        raise BearingTwinError("check_shaft_line needs a 1-D, finite signal")
-    if not (fs > 0 and rpm > 0):
-        raise BearingTwinError(f"check_shaft_line needs positive fs and rpm (got fs={fs}, rpm={rpm})")
-    expected = rpm / 60.0
-    resolution = fs / signal.size
-    if resolution > tolerance * expected:
-        raise BearingTwinError(
-            f"the record is too short to check its sampling rate: {signal.size} samples give {resolution:.3g} Hz "
-            f"resolution, too coarse to place a {expected:.3g} Hz shaft line within {tolerance:.0%}"
-        )
-    spectrum = np.abs(np.fft.rfft((signal - signal.mean()) * np.hanning(signal.size)))
-    top_bin = min(spectrum.size, int(math.ceil(n_harmonics * expected * search_factor * 1.1 / resolution)) + 2)
-    spectrum = spectrum[:top_bin]
-    background = median_filter(spectrum, size=2 * int(round(background_hz / resolution / 2)) + 1, mode="nearest")
-    ratio = spectrum / np.maximum(background, np.finfo(float).tiny)
-    n_grid = int(math.ceil(2 * math.log(search_factor) / harmonic_tolerance)) + 1
-    grid = expected * np.geomspace(1 / search_factor, search_factor, n_grid)
-    per_harmonic = np.empty((n_harmonics, grid.size))
-    for k in range(1, n_harmonics + 1):
-        half_width = np.maximum(k * grid * harmonic_tolerance, resolution)
-        low = np.clip(np.floor((k * grid - half_width) / resolution).astype(int), 0, top_bin - 1)
-        high = np.clip(np.ceil((k * grid + half_width) / resolution).astype(int) + 1, low + 1, top_bin)
-        per_harmonic[k - 1] = [ratio[a:b].max() for a, b in zip(low, high)]
-    score = np.median(per_harmonic, axis=0)
-    strong = np.flatnonzero(score >= prominence)
-    if strong.size == 0:
-        at_expected = float(score[np.argmin(np.abs(np.log(grid / expected)))])
-        return ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False)
-    nearest = strong[np.argmin(np.abs(np.log(grid[strong] / expected)))]
-    observed = float(grid[nearest])
-    return ShaftLineCheck(
-        fs_hz=fs,
-        rpm=rpm,
-        expected_hz=expected,
-        observed_hz=observed,
-        implied_fs_hz=fs * expected / observed,
-        score=float(score[nearest]),
-        matches=abs(observed / expected - 1.0) <= tolerance,
-    )
-
-
 def load_cwru(
     path: str | Path,
     channel: str = "DE",
@@ -217,14 +120,17 @@ def load_cwru(
     check_fs: bool = True,
     tolerance: float = 0.02,
     prominence: float = 20.0,
+    bearing: BearingGeometry | None = None,
 ) -> Recording:
     """One channel of a CWRU record, its declared sampling rate checked against the shaft line.
 
     ``fs`` is the rate declared for this record (None: the data set's 12 kHz). All channels
     of a record share one rate, so every channel is a witness: the rate stands if the shaft
-    series appears where expected in any of them (the fan-end channel of the fault records
-    shows it only weakly). With ``check_fs`` a rate no channel supports raises, naming the
-    rate the drive-end channel implies.
+    series confirms it in any of them (the fan-end channel of the fault records shows it only
+    weakly). ``bearing`` (the record's bearing) adds its defect lines as a second witness,
+    which tells a rate too low by a whole factor from real subharmonics. With ``check_fs`` a
+    rate no channel supports raises, naming the rate the evidence implies; one the evidence
+    cannot decide is logged and kept.
     """
     if channel not in CHANNELS:
         raise BearingTwinError(f"channel={channel!r} is not a CWRU channel; choose one of {', '.join(CHANNELS)}")
@@ -234,29 +140,21 @@ def load_cwru(
     recording = recording_from_raw(raw, channel=channel, fs=fs)
     if recording.rpm is None:
         raise BearingTwinError(f"{path}: no X<nnn>RPM variable, so the speed is unknown")
+    defect_hz = None if bearing is None else bearing.defect_frequencies(recording.rpm)
     checks = {
-        name: check_shaft_line(values, recording.fs, recording.rpm, tolerance=tolerance, prominence=prominence)
+        name: check_sampling_rate(values, recording.fs, recording.rpm, defect_hz=defect_hz, tolerance=tolerance,
+                                  prominence=prominence)
         for name, values in raw.channels.items()
         if np.all(np.isfinite(values))
     }
-    witness = next((name for name, check in checks.items() if check.matches), next(iter(checks)))
+    ranked = sorted(checks, key=lambda name: ("consistent", "ambiguous", "contradicted").index(checks[name].verdict))
+    witness = ranked[0]
     recording.meta["shaft_line"] = dict(checks[witness].as_dict(), channel=witness)
-    if check_fs and not checks[witness].matches:
+    if check_fs and checks[witness].verdict == "contradicted":
         raise BearingTwinError(
             f"{path}: {describe_mismatch(checks[witness])} (channel {witness}); declare the record's rate "
             f"(+data.fs_by_record.{recording.meta['record']}=<Hz>) or set data.check_fs=false"
         )
+    if check_fs and checks[witness].verdict == "ambiguous":
+        log.warning("%s: %s (channel %s)", path, describe_mismatch(checks[witness]), witness)
     return recording
-
-
-def describe_mismatch(check: ShaftLineCheck) -> str:
-    """One sentence on why a declared rate was rejected."""
-    where = (
-        f"the nearest strong harmonic series is at {check.observed_hz:.2f} Hz, implying fs = {check.implied_fs_hz:.0f} Hz"
-        if check.observed_hz is not None
-        else f"no shaft harmonic series stands out nearby (prominence {check.score:.1f})"
-    )
-    return (
-        f"fs = {check.fs_hz:g} Hz contradicts the shaft speed: at {check.rpm:g} rpm the shaft line belongs at "
-        f"{check.expected_hz:.2f} Hz, but {where}"
-    )

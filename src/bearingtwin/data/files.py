@@ -69,30 +69,35 @@ class RawRecord:
     meta: dict = field(default_factory=dict)
     default_channel: str | None = None
 
-    def channel(self, name: str | int | None) -> tuple[str, np.ndarray]:
+    def channel(self, name: str | int | None, key: str = "channel") -> tuple[str, np.ndarray]:
         """The channel called ``name`` (or at position ``name``); when ``name`` is None, the
-        format's default channel or else the only one."""
+        format's default channel or else the only one.
+
+        ``key`` is the setting the caller reads ``name`` from, named in the error messages.
+        """
         names = list(self.channels)
         if name is None:
             if self.default_channel in self.channels:
                 return self.default_channel, self.channels[self.default_channel]
             if len(names) != 1:
-                raise BearingTwinError(f"{self.path}: holds channels {', '.join(names)}; choose one with channel=<name>")
+                raise BearingTwinError(f"{self.path}: holds channels {', '.join(names)}; choose one with {key}=<name>")
             return names[0], self.channels[names[0]]
-        key = str(name)
-        if key in self.channels:
-            return key, self.channels[key]
-        if isinstance(name, int) or key.lstrip("-").isdigit():
-            index = int(key)
+        wanted = str(name)
+        if wanted in self.channels:
+            return wanted, self.channels[wanted]
+        if isinstance(name, int) or wanted.lstrip("-").isdigit():
+            index = int(wanted)
             if 0 <= index < len(names):
                 return names[index], self.channels[names[index]]
-        raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds {', '.join(names)}")
+        raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds {', '.join(names)} (choose with {key}=<name>)")
 
 
 def read_raw(path: str | Path) -> RawRecord:
     """Read every channel of a supported file, without judging its values."""
     path = Path(path)
     suffix = path.suffix.lower()
+    if path.is_dir():
+        raise BearingTwinError(f"{path}: is a folder; give one file ({', '.join(FORMATS)})")
     if suffix not in FORMATS:
         raise BearingTwinError(f"{path}: unknown file type {path.suffix or '(no extension)'}; supported: {', '.join(FORMATS)}")
     if not path.is_file():
@@ -117,14 +122,16 @@ def load_recording(
     fs: float | None = None,
     rpm: float | None = None,
     fault: str | None = None,
+    channel_key: str = "channel",
 ) -> Recording:
     """One validated channel of a file.
 
     ``fs`` and ``rpm`` fill in what the file does not declare; where it does, a different
     value is an error rather than a silent override (a ``declared`` data-set convention is
     the exception: the user's value wins). Non-finite samples raise: nothing is dropped.
+    ``channel_key`` is the setting ``channel`` comes from, as messages name it.
     """
-    return recording_from_raw(read_raw(path), channel, fs, rpm, fault)
+    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key)
 
 
 def recording_from_raw(
@@ -133,9 +140,10 @@ def recording_from_raw(
     fs: float | None = None,
     rpm: float | None = None,
     fault: str | None = None,
+    channel_key: str = "channel",
 ) -> Recording:
     """The validated Recording of one channel of an already read file (see :func:`load_recording`)."""
-    name, signal = raw.channel(channel)
+    name, signal = raw.channel(channel, channel_key)
     return Recording(
         signal=signal,
         fs=resolve_fs(raw, fs),
@@ -296,8 +304,11 @@ def _read_wav(path: Path) -> RawRecord:
 
 def _read_csv(path: Path) -> RawRecord:
     """Comma-separated columns, optionally under one header row of names."""
-    with open(path, newline="") as handle:
-        first = next((line for line in handle if line.strip()), "")
+    try:
+        with open(path, newline="") as handle:
+            first = next((line for line in handle if line.strip()), "")
+    except UnicodeDecodeError:
+        raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)") from None
     header = [cell.strip() for cell in next(csv.reader([first]))] if first else []
     if not header:
         raise BearingTwinError(f"{path}: the file holds no rows")
@@ -305,7 +316,7 @@ def _read_csv(path: Path) -> RawRecord:
     names = header if has_header else [str(i) for i in range(len(header))]
     try:
         values = np.loadtxt(path, delimiter=",", skiprows=1 if has_header else 0, ndmin=2, dtype=np.float64)
-    except ValueError as error:
+    except (ValueError, UnicodeDecodeError) as error:
         raise BearingTwinError(f"{path}: {error}") from None
     if values.shape[0] == 0:
         raise BearingTwinError(f"{path}: the file holds a header but no data rows")

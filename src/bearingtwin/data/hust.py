@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bearingtwin.data.files import RawRecord, fs_from_time_column, load_recording
+from bearingtwin.data.files import FS_RELATIVE_TOLERANCE, RawRecord, fs_from_time_column, load_recording
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 
@@ -84,12 +84,13 @@ def read_hust_raw(path: str | Path) -> RawRecord:
     meta = {"header": header, "data_line": data_line + 1}
     if name is not None:
         meta.update(state=name.state, severity=name.severity, condition=name.condition)
+    fs, fs_origin = _sampling_rate(path, header, table[:, 0])
     return RawRecord(
         str(path),
         "hust-xls",
         channels,
-        fs=fs_from_time_column(table[:, 0], str(path)),
-        fs_origin="time column",
+        fs=fs,
+        fs_origin=fs_origin,
         rpm=None if name is None else name.rpm,
         fault=None if name is None else name.fault,
         meta=meta,
@@ -127,6 +128,28 @@ def _read_header(path: Path) -> tuple[dict[str, str], int]:
         f"{path}: no line reading 'Data' within the first {HEADER_LINE_LIMIT} lines; expected a HUST text "
         "export (header block, a 'Data' line, then rows of time, speed, X, Y, Z)"
     )
+
+
+def _sampling_rate(path: Path, header: dict[str, str], time_s: np.ndarray) -> tuple[float, str]:
+    """The rate the header's ``Sampling Rate`` line states, checked against the time column;
+    the time column's alone when the header states none.
+
+    The header is exact (25600), while the time column, printed to a microsecond, only
+    approximates it (25599.9997 Hz over a whole file).
+    """
+    from_time = fs_from_time_column(time_s, str(path))
+    text = header.get("Sampling Rate", "").replace(",", "").split("\t")[0].strip()
+    if not text:
+        return from_time, "time column"
+    try:
+        stated = float(text)
+    except ValueError:
+        raise BearingTwinError(f"{path}: the header's Sampling Rate {text!r} is not a number") from None
+    if not (np.isfinite(stated) and stated > 0) or abs(from_time / stated - 1.0) > FS_RELATIVE_TOLERANCE:
+        raise BearingTwinError(
+            f"{path}: the header's Sampling Rate {text} Hz contradicts the time column's {from_time:.6g} Hz"
+        )
+    return stated, "header"
 
 
 def _declared_rows(header: dict[str, str]) -> int | None:

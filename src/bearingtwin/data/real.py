@@ -20,7 +20,7 @@ import re
 
 import numpy as np
 
-from bearingtwin.config import plain_config
+from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import FORMATS, load_recording
@@ -41,12 +41,8 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
     """
     cfg = plain_config(data_cfg, "data config")
     _check_split(cfg)
-    root = Path(data_root if data_root is not None else _get(cfg, "root"))
-    load = _get(cfg, "load")
-    if load not in (0, 1, 2, 3):
-        raise BearingTwinError(f"data.load={load!r} is not a CWRU motor load; choose 0, 1, 2 or 3 (hp)")
-    stems = _get(cfg, "files")
-    paths = [_find_cwru_file(root, stems, fault, load) for fault in _classes(cfg["classes"], allowed=stems)]
+    paths = cwru_paths(cfg, data_root)
+    bearing = load_bearing(cfg["bearing"], "data.bearing") if cfg.get("bearing") else None  # the rate check's second witness
     recordings = []
     for path in paths:
         record = parse_cwru_name(path).record
@@ -57,11 +53,24 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
                 fs=declared_fs_hz(record, _get(cfg, "fs"), cfg.get("fs_by_record")),
                 check_fs=bool(_get(cfg, "check_fs")),
                 tolerance=float(_get(cfg, "fs_check_tolerance")),
+                bearing=bearing,
             )
         )
     return windows_from_recordings(
         recordings, int(_get(cfg, "window_length")), int(_get(cfg, "samples_per_class")), dataset_key(paths, cfg)
     )
+
+
+def cwru_paths(data_cfg, data_root: str | Path | None = None) -> list[Path]:
+    """The record each class of a CWRU data config reads (FAULTS order), found in ``data.root``
+    (or ``data_root``); raises naming the folder or the class whose record is not there."""
+    cfg = plain_config(data_cfg, "data config")
+    root = Path(data_root if data_root is not None else _get(cfg, "root"))
+    load = _get(cfg, "load")
+    if load not in (0, 1, 2, 3):
+        raise BearingTwinError(f"data.load={load!r} is not a CWRU motor load; choose 0, 1, 2 or 3 (hp)")
+    stems = _get(cfg, "files")
+    return [_find_cwru_file(root, stems, fault, load) for fault in _classes(cfg["classes"], allowed=stems)]
 
 
 def build_hust_dataset(data_cfg) -> WindowedDataset:

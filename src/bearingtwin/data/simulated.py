@@ -6,7 +6,8 @@ records are the expensive part, so they are cached under ``cache_dir/simulated/`
 keyed by a hash of everything that shapes them (bearing, simulator with the data
 config's rpm/fs/duration, effects): a sweep over classifier or window settings
 simulates once. Files are written to a temporary name and renamed into place, so
-parallel sweep jobs either find a complete file or none.
+parallel sweep jobs either find a complete file or none; an unreadable one is removed and
+simulated again.
 """
 
 from __future__ import annotations
@@ -23,9 +24,7 @@ from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.physics.simulator import simulate_many
-from bearingtwin.storage import content_key, save_npz_atomic
-
-
+from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
 
 
 def simulation_config(data_cfg: Mapping, simulator_cfg: Mapping) -> dict:
@@ -46,9 +45,9 @@ def _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_
     """Sensor signals (4, n) in FAULTS order, from the cache or freshly simulated (then cached)."""
     key = records_key(data_cfg, bearing_cfg, simulator_cfg, effects_cfg)
     path = Path(cache_dir) / "simulated" / f"records-{key}.npz"
-    if path.exists():
-        with np.load(path) as cached:
-            return cached["signals"], key
+    cached = load_npz_or_heal(path, "signals")
+    if cached is not None:
+        return cached["signals"], key
     results = simulate_many(FAULTS, bearing_cfg, simulation_config(data_cfg, simulator_cfg), effects_cfg,
                             n_jobs=int(data_cfg.get("n_jobs", 1)))
     signals = np.stack([recording.signal for recording, _ in results])

@@ -42,9 +42,9 @@ from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
-from bearingtwin.physics.geometry import FAULTS, check_fault
+from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import simulate
-from bearingtwin.storage import content_key, save_npz_atomic
+from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
 
 TWIN_PREFIX = "twin:"
 """Records whose source starts with this are simulated; every other record is a measurement file."""
@@ -196,9 +196,9 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     key = content_key({"bearing": bearing_cfg, "simulator": simulator_cfg, "effects": effects,
                        "faults": list(faults), "rpms": list(rpms), "variant": variant})
     path = Path(cache_dir) / "twin_to_real" / f"records-{key}.npz"
-    if path.exists():
-        with np.load(path) as cached:
-            return cached["signals"], key
+    cached = load_npz_or_heal(path, "signals")
+    if cached is not None:
+        return cached["signals"], key
     signals = []
     for fault in faults:
         for index, rpm in enumerate(rpms):
@@ -310,7 +310,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
 
     def measured(path: Path) -> Recording:
         return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
-                         check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]))
+                         check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),
+                         bearing=BearingGeometry.from_config(bearing))
 
     tests = [measured(path) for path in test_paths]
     calibration_records = {path.stem: measured(path) for path in calibration_paths}

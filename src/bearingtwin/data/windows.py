@@ -106,6 +106,14 @@ def split_indices(
         from sklearn.model_selection import train_test_split
 
         index = np.arange(labels.size)
+        n_classes, fewest = np.unique(labels).size, np.unique(labels, return_counts=True)[1].min()
+        n_train = int(np.floor(train_fraction * labels.size))  # as train_test_split rounds
+        if fewest < 2 or min(n_train, labels.size - n_train) < n_classes:
+            raise BearingTwinError(
+                f"too few windows for a stratified split: {labels.size} windows ({fewest} in the smallest class) cannot "
+                f"give every one of {n_classes} classes a training and a test window at train_fraction={train_fraction}; "
+                "raise data.samples_per_class"
+            )
         train, test = train_test_split(index, train_size=train_fraction, stratify=labels, random_state=seed)
         return np.sort(train), np.sort(test)
     boundary = np.floor(np.asarray(record_lengths)[np.asarray(record_ids)] * train_fraction)

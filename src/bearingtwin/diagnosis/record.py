@@ -22,14 +22,15 @@ from pathlib import Path
 import numpy as np
 import scipy.signal
 
-from bearingtwin.data.cwru import check_shaft_line, describe_mismatch, parse_cwru_name
+from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.geometry import check_fault
+from bearingtwin.physics.geometry import BearingGeometry, check_fault
+from bearingtwin.signal.sampling_rate import check_sampling_rate, describe_mismatch
 
 CWRU_DEFAULT_CHANNEL = "DE"  # the drive-end accelerometer: the bearing the CWRU faults are in
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
@@ -59,7 +60,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                    fs=fs, rpm=rpm)
     notes = []
     if recording.rpm is not None:
-        recording, notes = _checked_rate(recording, declared_only=fs is None and raw.fs_origin == "declared")
+        recording, notes = _checked_rate(recording, pipeline.bearing, declared_only=fs is None and raw.fs_origin == "declared")
     if true_state is not None:
         true_state = check_fault(true_state)
     else:  # what the file's name (CWRU) or content states
@@ -79,27 +80,35 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     return PreparedRecord(recording, true_state, original_fs, notes)
 
 
-def _checked_rate(recording: Recording, declared_only: bool) -> tuple[Recording, list[str]]:
-    """The recording after the shaft-line check of its sampling rate, and what the check said.
+def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> tuple[Recording, list[str]]:
+    """The recording after the sampling-rate check (shaft series, and the bearing's defect lines as a
+    second witness), and what the check said.
 
-    A rate the file states is kept (a contradiction is reported). A rate only declared by the data
-    set's convention (a CWRU file's) is tried against the data set's rates, and the highest rate
-    under which the shaft's harmonic series stands where it belongs is the record's: read at a
-    whole-number fraction of its true rate, a record puts a higher shaft harmonic onto the expected
-    line, so a lower rate can seem to match, while a higher one cannot (the CWRU healthy baselines
-    exist at 48 kHz under names that state no rate). No matching rate: the record is refused.
+    A rate the file states is kept (a doubt is reported). A rate only declared by the data set's
+    convention (a CWRU file whose name states none) is tried against the data set's rates, and the
+    highest rate the check finds consistent is the record's: read at a whole-number fraction of its
+    true rate, a record puts a higher shaft harmonic onto the expected line, so a lower rate can seem
+    to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz). A declared rate the check
+    contradicts, with no other rate consistent, is refused.
     """
+    geometry = BearingGeometry.from_config(bearing) if bearing else None
+
+    def check(rate: float):
+        defect_hz = None if geometry is None else geometry.defect_frequencies(recording.rpm)
+        return check_sampling_rate(recording.signal, rate, recording.rpm, defect_hz=defect_hz)
+
     try:
-        check = check_shaft_line(recording.signal, recording.fs, recording.rpm)
+        declared = check(recording.fs)
     except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
         return recording, [f"sampling rate not checked ({error})"]
+    doubt = [] if declared.verdict == "consistent" else [f"sampling rate unconfirmed: {describe_mismatch(declared)}"]
     if not declared_only:
-        return recording, [] if check.matches else [f"sampling rate unconfirmed: {describe_mismatch(check)}"]
-    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and check_shaft_line(recording.signal, rate, recording.rpm).matches]
+        return recording, doubt
+    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and check(rate).verdict == "consistent"]
     if not higher:
-        if check.matches:
-            return recording, []
-        raise BearingTwinError(f"{recording.source}: {describe_mismatch(check)}; give the record's rate with fs=<Hz>")
+        if declared.verdict == "contradicted":
+            raise BearingTwinError(f"{recording.source}: {describe_mismatch(declared)}; give the record's rate with fs=<Hz>")
+        return recording, doubt
     rate = max(higher)
     corrected = Recording(recording.signal, rate, recording.rpm, recording.fault, recording.source,
                           recording.channel, recording.unit, dict(recording.meta))

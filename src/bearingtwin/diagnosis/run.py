@@ -138,12 +138,14 @@ def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int) -> str:
     """One MLflow run in ``tracking.experiment``: the model and path as params, scores, the JSONs and figures."""
     from mlflow.entities import Metric, Param, RunStatus
 
+    from bearingtwin.tracking.lifecycle import owner_tags, register_open_run
     from bearingtwin.tracking.mlflow_logging import open_store
 
     client, experiment_id = open_store(cfg.tracking)
     mlflow_run = client.create_run(experiment_id, run_name=f"diagnose {Path(str(cfg.path)).name} with {cfg.model}",
-                                   tags={"bt.kind": "diagnose", "model_uri": str(cfg.model)})
+                                   tags={"bt.kind": "diagnose", "model_uri": str(cfg.model), **owner_tags()})
     run_id = mlflow_run.info.run_id
+    register_open_run(client, run_id)
     params = {"model": cfg.model, "path": cfg.path, "labels": cfg.labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm}
     client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])
     now = int(time.time() * 1000)

@@ -6,7 +6,8 @@ of what determines the numbers: the dataset key, the feature config (without ``n
 ``progress``, which do not change them) and, when the extractor is fitted on the training
 windows (``global``, ``per_class``), the training indices. It is written to a temporary file
 and moved into place with ``os.replace``, so concurrent jobs never read half a file; two jobs
-missing at once both compute and the second replace is harmless.
+missing at once both compute and the second replace is harmless. An entry that cannot be
+read is removed and recomputed (:func:`~bearingtwin.storage.load_npz_or_heal`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.storage import content_key, save_npz_atomic
+from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
 from bearingtwin.features.extractor import EnvelopeOrderFeatures, RawFeatures, build_feature_extractor
 
 log = logging.getLogger(__name__)
@@ -90,10 +91,10 @@ def extract_features(features_cfg, dataset: WindowedDataset, train_index, cache_
         extractor.fit(dataset.windows[train_index], fs_hz=dataset.fs, rpm=None if rpms is None else rpms[train_index])
         return extractor.transform(dataset.windows, fs_hz=dataset.fs, rpm=rpms), [], extractor
     path = cache_path(features_cfg, dataset, train_index, cache_dir)
-    if path.exists():
+    stored = load_npz_or_heal(path, "features", "table")
+    if stored is not None:
         log.info("features: cache hit %s", path)
-        with np.load(path, allow_pickle=False) as stored:
-            features, table = stored["features"], json.loads(str(stored["table"]))
+        features, table = stored["features"], json.loads(str(stored["table"]))
         # The stored table is the fitted state (per_sample fits nothing: its rows are per window).
         extractor.vmd_params_ = [] if extractor.vmd_params == "per_sample" else table
         return features, table, extractor

@@ -155,12 +155,23 @@ def static_equilibrium(params: DynamicParameters, ball_angles: np.ndarray) -> np
     outer_guess = total / max(params.outer_stiffness_n_per_m, 1.0)
     magnitude = float(np.hypot(*load))
     direction = load / magnitude if magnitude > 0 else np.array([0.0, -1.0])
-    squeeze = params.clearance_m + (magnitude / params.contact_stiffness_n_per_m1_5) ** (2.0 / 3.0)
+    # The inner race moves through the clearance, then compresses the loaded balls. A preload
+    # (negative clearance) holds every ball compressed already, so the race hardly moves.
+    squeeze = max(params.clearance_m, 0.0) + (magnitude / params.contact_stiffness_n_per_m1_5) ** (2.0 / 3.0)
     guess = np.concatenate([outer_guess + squeeze * direction, outer_guess]) / scale
-    solution = scipy.optimize.root(residual, guess, method="hybr", options={"xtol": 1e-12})
-    if not solution.success or np.max(np.abs(residual(solution.x))) > 1e-6 * params.gravity_m_per_s2 + 1e-9:
-        raise BearingTwinError(f"no static equilibrium found for these loads and stiffnesses ({solution.message})")
-    return np.concatenate([solution.x * scale, still])
+    # Accelerations below this (m/s^2) are equilibrium: a millionth of gravity, far below any
+    # force the model resolves, yet above the round-off of summing contact forces of ~1e3 N.
+    tolerance = 1e-6 * params.gravity_m_per_s2 + 1e-9
+    # Powell's hybrid method is fast but can stall where a ball's contact opens or closes (the
+    # Hertz force has no second derivative at zero compression). Levenberg-Marquardt from where
+    # it stopped gets past such a kink; Powell again polishes the result.
+    point, message = guess, ""
+    for method, options in (("hybr", {"xtol": 1e-12}), ("lm", {"xtol": 1e-15, "ftol": 1e-15}), ("hybr", {"xtol": 1e-12})):
+        solution = scipy.optimize.root(residual, point, method=method, options=options)
+        point, message = solution.x, solution.message
+        if np.max(np.abs(residual(point))) <= tolerance:
+            return np.concatenate([point * scale, still])
+    raise BearingTwinError(f"no static equilibrium found for these loads and stiffnesses ({message})")
 
 
 def linear_modes(params: DynamicParameters, state: np.ndarray, ball_angles: np.ndarray) -> tuple[float, float]:

@@ -35,8 +35,9 @@ CHANNELS = ("inner_x", "inner_y", "outer_x", "outer_y")
 
 def _check_settings(simulator_cfg: Mapping) -> None:
     for name in ("rpm", "fs", "duration"):
-        if not simulator_cfg[name] > 0:
-            raise BearingTwinError(f"simulator.{name} must be positive, got {simulator_cfg[name]}")
+        value = simulator_cfg[name]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+            raise BearingTwinError(f"simulator.{name} must be a positive, finite number, got {value!r}")
     if simulator_cfg["solver"] not in solvers.SOLVERS:
         raise BearingTwinError(f"simulator.solver={simulator_cfg['solver']!r}: choose one of {', '.join(solvers.SOLVERS)}")
     if simulator_cfg["sensor"] not in CHANNELS:

@@ -22,19 +22,27 @@ and is named ``<features>+<classifier> <data source> [<vmd_params> [<optimizer>]
 seed=<n>`` (:func:`run_name`), so runs of different configurations read apart.
 
 Resuming: every run is tagged ``config_hash`` (the resolved config without paths,
-tracking, Hydra and display settings, :data:`UNHASHED_KEYS`); with ``tracking.skip_finished`` a job whose config already
-has a FINISHED run is skipped, so re-launching an interrupted sweep only runs what is
-missing.
+tracking, Hydra and display settings, :data:`UNHASHED_KEYS`); a sweep job whose config already
+has a FINISHED run is skipped, so re-launching an interrupted sweep only runs what is missing.
+A single run runs again, as MLflow users expect (``tracking.skip_finished=true|false`` decides
+for both).
+
+Ending: a multirun prints a summary (finished / failed / skipped, each failed job's
+overrides and reason) and exits 1 if any job did not finish. Runs are tagged with the
+host and process that opened them, and never left RUNNING (:mod:`.lifecycle`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import copy
 import fcntl
 import hashlib
 import importlib.metadata
 import logging
+import os
 import subprocess
+import sys
 import tempfile
 import time
 import traceback
@@ -47,11 +55,13 @@ from hydra.experimental.callback import Callback
 from mlflow import MlflowClient
 from mlflow.entities import Metric, Param, RunStatus, RunTag
 from mlflow.exceptions import MlflowException
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig, OmegaConf, open_dict
+from omegaconf.errors import OmegaConfBaseException
 
-from bearingtwin.config import REPO_ROOT, exit_on_user_error
+from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.lifecycle import SWEEP_PID_ENV, owner_tags, reap_dead_runs, register_open_run
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
 log = logging.getLogger(__name__)
@@ -329,6 +339,13 @@ def _plot_curves(history: list[dict], path: Path) -> None:
 # ---------------------------------------------------------------- the tracked run
 
 
+def skips_finished(tracking_cfg: DictConfig, sweep: SweepInfo | None) -> bool:
+    """Whether a config that already FINISHED is skipped: ``tracking.skip_finished``, or when
+    unset (null), in a sweep (resuming it) but not in a single run (asked for again)."""
+    choice = tracking_cfg.get("skip_finished")
+    return sweep is not None if choice is None else bool(choice)
+
+
 def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_dir: str | None, train) -> TrackedRun | None:
     """Run ``train(cfg, root_dir) -> ExperimentResult`` inside an MLflow run and log everything.
 
@@ -339,8 +356,10 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     """
     check_registration(cfg)
     client, experiment_id = open_store(cfg.tracking)
+    if sweep is None:  # a sweep's process reaps once for all its jobs
+        reap_dead_runs(client, experiment_id)
     digest = config_hash(cfg)
-    if cfg.tracking.skip_finished:
+    if skips_finished(cfg.tracking, sweep):
         done = find_finished_run(client, experiment_id, digest)
         if done is not None:
             log.info("skipped: run %s already FINISHED with this config (config_hash %s)", done.info.run_id, digest)
@@ -362,8 +381,9 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         parent = find_sweep_parent(client, experiment_id, sweep.sweep_dir)
         if parent is not None:
             tags["mlflow.parentRunId"] = parent.info.run_id
-    run = client.create_run(experiment_id, run_name=run_name(cfg, method, sweep), tags={"bt.kind": "train"})
+    run = client.create_run(experiment_id, run_name=run_name(cfg, method, sweep), tags={"bt.kind": "train", **owner_tags()})
     run_id = run.info.run_id
+    register_open_run(client, run_id)
     try:
         log_params_and_tags(client, run_id, flatten(loggable_config(cfg)), tags)
         client.log_text(run_id, OmegaConf.to_yaml(OmegaConf.create(loggable_config(cfg))), CONFIG_ARTIFACT)
@@ -437,26 +457,102 @@ def sweep_job_configs(config: DictConfig) -> Iterator[DictConfig]:
             yield loader.load_sweep_config(config, list(job))
 
 
+@dataclass(frozen=True)
+class JobOutcome:
+    """What became of one job of a multirun: ``FINISHED``, ``SKIPPED`` (an earlier run had
+    finished this config), or anything else (``FAILED``, ``KILLED``, ``NOT RUN``) with a reason."""
+
+    overrides: str
+    status: str
+    reason: str = ""
+
+
+def sweep_outcomes(client: MlflowClient, experiment_id: str, parent_run_id: str, jobs: list[DictConfig]) -> list[JobOutcome]:
+    """Each job's outcome, by matching its config hash to the parent's child runs."""
+    children = {}
+    for child in find_runs(client, experiment_id, f"tags.`mlflow.parentRunId` = '{parent_run_id}'"):
+        children.setdefault(child.data.tags.get("config_hash"), child)  # newest first
+    # Overrides every job shares (store, sizes) say nothing about which job it was.
+    shared = set.intersection(*(set(job.hydra.overrides.task) for job in jobs)) if len(jobs) > 1 else set()
+    outcomes = []
+    for job in jobs:
+        overrides = " ".join(o for o in job.hydra.overrides.task if o not in shared)
+        try:
+            digest = config_hash(_task_config(job))
+        except OmegaConfBaseException as error:  # the job failed on the same config before logging anything
+            outcomes.append(JobOutcome(overrides, "NOT RUN", f"{type(error).__name__}: {error}"))
+            continue
+        child = children.get(digest)
+        if child is not None:
+            reason = child.data.tags.get("error") or child.data.tags.get("bt.killed") or ""
+            if child.info.status == "KILLED" and not reason:
+                reason = "interrupted"
+            outcomes.append(JobOutcome(overrides, child.info.status, reason.splitlines()[0] if reason else ""))
+        elif find_finished_run(client, experiment_id, digest) is not None:
+            outcomes.append(JobOutcome(overrides, "SKIPPED"))
+        else:
+            outcomes.append(JobOutcome(overrides, "NOT RUN", "the job ended before its MLflow run was created (see its log)"))
+    return outcomes
+
+
+def _task_config(job: DictConfig) -> DictConfig:
+    """A job's config as its task sees it: without the ``hydra`` node, as Hydra's ``run_job``
+    removes it (its unset runtime fields could not be resolved here)."""
+    task = copy.deepcopy(job)
+    with open_dict(task):
+        del task["hydra"]
+    return task
+
+
+def format_sweep_summary(name: str, parent_run_id: str, outcomes: list[JobOutcome], max_listed: int = 15) -> str:
+    """One screen: the counts, then each job that did not finish with its overrides and reason."""
+    counts = {status: sum(o.status == status for o in outcomes) for status in ("FINISHED", "SKIPPED")}
+    failed = [o for o in outcomes if o.status not in counts]
+    lines = [
+        f"sweep {name} (run {parent_run_id}): {len(outcomes)} jobs, {counts['FINISHED']} finished, "
+        f"{len(failed)} failed, {counts['SKIPPED']} skipped (already finished)"
+    ]
+    for outcome in failed[:max_listed]:
+        reason = outcome.reason if len(outcome.reason) <= 160 else outcome.reason[:157] + "..."
+        lines.append(f"  {outcome.status}: {outcome.overrides or '(no overrides)'}: {reason}")
+    if len(failed) > max_listed:
+        lines.append(f"  ... and {len(failed) - max_listed} more (tags.error of the sweep's child runs in MLflow)")
+    return "\n".join(lines)
+
+
 class SweepParentRun(Callback):
     """Hydra callback: one parent MLflow run per multirun, closed with the children's outcome.
 
     Created before any job starts (so parallel jobs also find an initialised store), and
-    only once every job's data files are present: a sweep on absent files exits with
-    status 2 naming them (exiting, not raising: Hydra turns a callback's exception into a
-    warning and goes on) and logs nothing. Ends FINISHED when every child run finished,
-    FAILED otherwise, with counts as tags.
+    only once every job's overrides name declared keys and its data files are present:
+    otherwise the sweep exits with status 2 naming them and logs nothing. At the end it prints a summary and ends
+    FINISHED when every job finished or was skipped; otherwise FAILED, and the command
+    exits 1. (Exiting, not raising: Hydra turns a callback's exception into a warning.)
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
-        exit_on_user_error(require_files)(sweep_job_configs(config))
+        try:
+            self._open_parent(config)
+        except Exception as error:  # Hydra would warn and run the jobs unparented, then exit 0
+            print(f"error: the sweep could not start: {type(error).__name__}: {error}", file=sys.stderr)
+            sys.exit(1)
+
+    def _open_parent(self, config: DictConfig) -> None:
+        jobs = list(sweep_job_configs(config))
+        for job in jobs:
+            exit_on_user_error(refuse_unknown_keys)(job.hydra)
+        exit_on_user_error(require_files)(jobs)
         client, experiment_id = open_store(config.tracking)
+        reap_dead_runs(client, experiment_id)
         name = str(config.hydra.runtime.choices.get("sweep") or "cli")
         sweep_dir = str(Path(config.hydra.sweep.dir).resolve())
-        client.create_run(
+        run = client.create_run(
             experiment_id,
             run_name=f"sweep {name} {Path(sweep_dir).name}",
-            tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir},
+            tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir, **owner_tags()},
         )
+        register_open_run(client, run.info.run_id, label="sweep", with_children=True)
+        os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         client, experiment_id = open_store(config.tracking)
@@ -464,12 +560,16 @@ class SweepParentRun(Callback):
         parent = find_sweep_parent(client, experiment_id, sweep_dir)
         if parent is None:
             return
-        children = find_runs(client, experiment_id, f"tags.`mlflow.parentRunId` = '{parent.info.run_id}'")
-        statuses = [child.info.status for child in children]
-        n_failed = sum(status != "FINISHED" for status in statuses)
-        client.set_tag(parent.info.run_id, "n_finished", str(len(statuses) - n_failed))
-        client.set_tag(parent.info.run_id, "n_failed", str(n_failed))
-        client.set_terminated(parent.info.run_id, "FAILED" if n_failed else "FINISHED")
+        parent_id = parent.info.run_id
+        outcomes = sweep_outcomes(client, experiment_id, parent_id, list(sweep_job_configs(config)))
+        n_failed = sum(o.status not in ("FINISHED", "SKIPPED") for o in outcomes)
+        for tag, count in (("n_finished", sum(o.status == "FINISHED" for o in outcomes)), ("n_failed", n_failed),
+                           ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
+            client.set_tag(parent_id, tag, str(count))
+        client.set_terminated(parent_id, "FAILED" if n_failed else "FINISHED")
+        print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
+        if n_failed:
+            sys.exit(1)
 
 
 def sweep_info(hydra_cfg) -> SweepInfo | None:

@@ -8,15 +8,18 @@ simulator to its operating point, rank the candidate effects, write
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
+import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.data.files import load_recording
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.signal.sampling_rate import require_plausible_rate
 from bearingtwin.twin.calibrate import parse_space
 from bearingtwin.twin.compare import Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel
@@ -25,15 +28,26 @@ from bearingtwin.twin.rank import EffectRanker, TwinFit
 REPORT_NAME = "twin_report.json"
 
 
-def load_measurement(measured_cfg) -> Recording:
-    """The measured record the config points at, with fs, rpm and bearing state all known."""
+def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Recording:
+    """The measured record the config points at, with fs, rpm and bearing state all known, and
+    its sampling rate checked against its shaft speed (``bearing``'s defect lines as a second witness)."""
     if OmegaConf.is_missing(measured_cfg, "path"):
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .mat, .wav or .xls)")
     recording = load_recording(measured_cfg.path, channel=measured_cfg.channel, fs=measured_cfg.fs,
-                               rpm=measured_cfg.rpm, fault=measured_cfg.fault)
+                               rpm=measured_cfg.rpm, fault=measured_cfg.fault, channel_key="measured.channel")
     for name in ("rpm", "fault"):
         if getattr(recording, name) is None:
             raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
+    if measured_cfg.get("check_fs", True):
+        require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
+                               defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None)
+    with np.errstate(over="ignore"):
+        fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
+    if not np.isfinite(fourth_moment):
+        raise BearingTwinError(
+            f"{measured_cfg.path}: samples up to {np.max(np.abs(recording.signal)):.3g} overflow the comparison's "
+            "statistics; check the file's unit and scale"
+        )
     return recording
 
 
@@ -54,8 +68,11 @@ def build_ranker(cfg: DictConfig) -> EffectRanker:
 
 def twin_for(measured: Recording, cfg: DictConfig) -> TwinModel:
     """The simulator at the measurement's operating point (rpm, fs, fault), ``twin.duration`` long."""
+    duration = cfg.twin.duration
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration) and duration > 0):
+        raise BearingTwinError(f"twin.duration must be a positive, finite number of seconds, got {duration!r}")
     simulator_cfg = OmegaConf.to_container(cfg.simulator, resolve=True)
-    simulator_cfg.update(rpm=float(measured.rpm), fs=float(measured.fs), duration=float(cfg.twin.duration))
+    simulator_cfg.update(rpm=float(measured.rpm), fs=float(measured.fs), duration=float(duration))
     return TwinModel(measured.fault, OmegaConf.to_container(cfg.bearing, resolve=True), simulator_cfg, int(cfg.seed))
 
 
@@ -104,12 +121,15 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
     """One MLflow run: config, discrepancy per step and per view, the ranking, the report and figures."""
     from mlflow.entities import Metric, Param, RunStatus
 
+    from bearingtwin.tracking.lifecycle import owner_tags, reap_dead_runs, register_open_run
     from bearingtwin.tracking.mlflow_logging import flatten, loggable_config, open_store
 
     client, experiment_id = open_store(cfg.tracking)
+    reap_dead_runs(client, experiment_id)
     run = client.create_run(experiment_id, run_name=f"twin {Path(str(measured.source)).name} {measured.fault}",
-                            tags={"bt.kind": "twin", "measured": str(measured.source)})
+                            tags={"bt.kind": "twin", "measured": str(measured.source), **owner_tags()})
     run_id = run.info.run_id
+    register_open_run(client, run_id)
     params = [Param(k[:250], str(v)[:6000]) for k, v in flatten(loggable_config(cfg)).items()]
     for first in range(0, len(params), 100):  # MLflow takes at most 100 params per batch
         client.log_batch(run_id, params=params[first:first + 100])
@@ -130,9 +150,10 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
 def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     """Everything ``bearingtwin-twin`` does; returns the fit, the files written and the MLflow
     run id (None when tracking is disabled)."""
-    measured = load_measurement(cfg.measured)
+    geometry = BearingGeometry.from_config(cfg.bearing)
+    measured = load_measurement(cfg.measured, geometry)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
-    comparator = Comparator(measured, BearingGeometry.from_config(cfg.bearing), settings)
+    comparator = Comparator(measured, geometry, settings)
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg).fit(twin, comparator)
     files = write_report(ranker.fit_, Path(str(cfg.out)).expanduser(), bool(cfg.figures))

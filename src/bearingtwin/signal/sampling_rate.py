@@ -1,0 +1,211 @@
+"""Is a record's sampling rate the one declared? The shaft's harmonic series as a witness.
+
+A shaft turning at ``rpm`` puts a series of lines at multiples of ``rpm / 60`` into the
+spectrum; under a wrong rate every frequency appears scaled by ``declared / true``.
+:func:`check_sampling_rate` (the one check every command applies: training, twin,
+inspect, and any caller with a signal, a rate and a speed) looks for that series.
+
+A rate that is a whole-number fraction of the true one (``true / k``: 6000 Hz declared
+for a 12 kHz record) is the hard case: every k-th line of the true series lands on the
+expected series, which therefore still "matches". What gives it away is the rest of the
+true series, which then falls *between* the expected harmonics, at odd multiples of
+``rpm / 60 / k``. Such in-between lines can also be real (subharmonics of a loose or
+rubbing machine), so a second witness decides when the caller knows the bearing's defect
+frequencies: their envelope lines appear at ``f / k`` under the wrong rate and at ``f``
+under the right one. Without a decisive witness the verdict is ``ambiguous``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Mapping
+
+import numpy as np
+from scipy.ndimage import median_filter
+
+from bearingtwin.errors import BearingTwinError
+
+VERDICTS = ("consistent", "contradicted", "ambiguous")
+
+
+@dataclass(frozen=True)
+class ShaftLineCheck:
+    """Whether a record's spectrum shows its shaft speed where the declared rate puts it.
+
+    Attributes:
+        fs_hz: the declared sampling rate; rpm: the measured speed.
+        expected_hz: rpm / 60.
+        observed_hz: the strong shaft-harmonic series nearest to ``expected_hz`` (None if none).
+        implied_fs_hz: the rate the evidence points to (``fs_hz`` when consistent; None if unknown).
+        score: median prominence (peak / local median spectrum) of the first harmonics at
+            ``observed_hz`` (at ``expected_hz`` if nothing was observed).
+        matches: ``observed_hz`` lies within the tolerance of ``expected_hz``.
+        verdict: ``consistent``, ``contradicted`` or ``ambiguous`` (see the module docstring).
+        fraction: k when the series also stands at odd multiples of expected / k (the rate may be true / k).
+        reason: one sentence explaining the verdict.
+    """
+
+    fs_hz: float
+    rpm: float
+    expected_hz: float
+    observed_hz: float | None
+    implied_fs_hz: float | None
+    score: float
+    matches: bool
+    verdict: str = "consistent"
+    fraction: int | None = None
+    reason: str = ""
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def _prominence_spectrum(signal: np.ndarray, fs: float, top_hz: float, background_hz: float) -> tuple[np.ndarray, float]:
+    """Spectrum / local median spectrum up to ``top_hz``, and the bin width in Hz."""
+    resolution = fs / signal.size
+    spectrum = np.abs(np.fft.rfft((signal - signal.mean()) * np.hanning(signal.size)))
+    spectrum = spectrum[: min(spectrum.size, int(math.ceil(top_hz / resolution)) + 2)]
+    background = median_filter(spectrum, size=2 * int(round(background_hz / resolution / 2)) + 1, mode="nearest")
+    return spectrum / np.maximum(background, np.finfo(float).tiny), resolution
+
+
+def _peak(ratio: np.ndarray, resolution: float, frequencies_hz: np.ndarray, relative_width: float) -> np.ndarray:
+    """The largest prominence within ``relative_width`` (at least one bin) of each frequency."""
+    frequencies_hz = np.asarray(frequencies_hz, dtype=float)
+    half_width = np.maximum(frequencies_hz * relative_width, resolution)
+    low = np.clip(np.floor((frequencies_hz - half_width) / resolution).astype(int), 0, ratio.size - 1)
+    high = np.clip(np.ceil((frequencies_hz + half_width) / resolution).astype(int) + 1, low + 1, ratio.size)
+    return np.array([ratio[a:b].max() for a, b in zip(low.ravel(), high.ravel())]).reshape(frequencies_hz.shape)
+
+
+def check_sampling_rate(
+    signal: np.ndarray,
+    fs: float,
+    rpm: float,
+    *,
+    defect_hz: Mapping[str, float] | None = None,
+    tolerance: float = 0.02,
+    prominence: float = 20.0,
+    n_harmonics: int = 5,
+    harmonic_tolerance: float = 0.005,
+    search_factor: float = 5.0,
+    background_hz: float = 5.0,
+    max_fraction: int = 8,
+) -> ShaftLineCheck:
+    """Check the declared sampling rate ``fs`` (Hz) of a record against its shaft speed ``rpm``.
+
+    For every trial fundamental between ``expected / search_factor`` and ``expected *
+    search_factor`` the first ``n_harmonics`` harmonics are scored by their prominence over
+    the local median spectrum (``background_hz`` wide); a series' score is the median, so
+    most harmonics must stand out. The strong series (score >= ``prominence``) nearest the
+    expected frequency is taken as the shaft's: far from it, the rate is contradicted. Near
+    it, the in-between lines of every whole-number fraction k (2 .. ``max_fraction``) are
+    scored too, and ``defect_hz`` (the bearing's defect frequencies at ``rpm``, any subset)
+    decides whether strong ones mean a rate of ``fs * k``.
+
+    Args:
+        signal: 1-D record (whole record: the resolution fs / n must resolve the harmonics).
+        fs: declared sampling rate in Hz.
+        rpm: measured shaft speed in rev/min.
+        defect_hz: defect frequencies in Hz (e.g. ``BearingGeometry.defect_frequencies(rpm)``),
+            the second witness; None: fractions stay ``ambiguous``.
+        tolerance: relative distance between observed and expected that still matches.
+        prominence: how many times above the local median spectrum a series or line must stand.
+        harmonic_tolerance: relative width of the search window around each harmonic.
+    """
+    signal = np.asarray(signal, dtype=np.float64)
+    if signal.ndim != 1 or not np.all(np.isfinite(signal)):
+        raise BearingTwinError("the sampling-rate check needs a 1-D, finite signal")
+    if not (fs > 0 and rpm > 0 and math.isfinite(fs) and math.isfinite(rpm)):
+        raise BearingTwinError(f"the sampling-rate check needs positive, finite fs and rpm (got fs={fs}, rpm={rpm})")
+    expected = rpm / 60.0
+    resolution = fs / signal.size
+    if resolution > tolerance * expected:
+        raise BearingTwinError(
+            f"the record is too short to check its sampling rate: {signal.size} samples give {resolution:.3g} Hz "
+            f"resolution, too coarse to place a {expected:.3g} Hz shaft line within {tolerance:.0%}"
+        )
+    ratio, resolution = _prominence_spectrum(signal, fs, n_harmonics * expected * search_factor * 1.1, background_hz)
+    n_grid = int(math.ceil(2 * math.log(search_factor) / harmonic_tolerance)) + 1
+    grid = expected * np.geomspace(1 / search_factor, search_factor, n_grid)
+    harmonics = np.arange(1, n_harmonics + 1)
+    score = np.median(_peak(ratio, resolution, np.outer(harmonics, grid), harmonic_tolerance), axis=0)
+    strong = np.flatnonzero(score >= prominence)
+    if strong.size == 0:
+        at_expected = float(score[np.argmin(np.abs(np.log(grid / expected)))])
+        return ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
+                              f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f})")
+    nearest = strong[np.argmin(np.abs(np.log(grid[strong] / expected)))]
+    observed = float(grid[nearest])
+    common = dict(fs_hz=fs, rpm=rpm, expected_hz=expected, observed_hz=observed, score=float(score[nearest]))
+    if abs(observed / expected - 1.0) > tolerance:
+        return ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False, verdict="contradicted",
+                              reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
+                                     f"implying fs = {fs * expected / observed:.0f} Hz")
+
+    # The same series' in-between lines, n * expected / k for n not a multiple of k.
+    in_between = {}
+    for k in range(2, max_fraction + 1):
+        n = np.array([m for m in range(1, n_harmonics * k) if m % k][: 2 * n_harmonics])
+        in_between[k] = float(np.median(_peak(ratio, resolution, n * expected / k, harmonic_tolerance)))
+    fraction = max(in_between, key=in_between.get)
+    if in_between[fraction] < prominence:
+        return ShaftLineCheck(**common, implied_fs_hz=fs, matches=True, verdict="consistent",
+                              reason=f"the shaft series stands at {observed:.2f} Hz and nowhere between its harmonics")
+    suspicion = (f"the shaft series also stands between its harmonics, at odd multiples of {expected / fraction:.2f} Hz "
+                 f"(prominence {in_between[fraction]:.0f})")
+    verdict, implied, why = "ambiguous", None, "no defect frequency was given to decide"
+    if defect_hz:
+        verdict, implied, why = _defect_witness(signal, fs, defect_hz, fraction, prominence)
+    if verdict == "ambiguous":
+        why = f": fs may be {fs * fraction:g} Hz ({fraction} times the declared); {why}"
+    return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
+                          reason=suspicion + why)
+
+
+def _defect_witness(signal, fs, defect_hz: Mapping[str, float], k: int, prominence: float) -> tuple[str, float | None, str]:
+    """Envelope lines of the defect frequencies at f (right rate) against f / k (rate too low by k)."""
+    from bearingtwin.signal.envelope import envelope
+
+    lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2}
+    if not lines:
+        return "ambiguous", None, "no defect frequency below the Nyquist frequency to decide"
+    top = max(lines.values()) * 1.1
+    ratio, resolution = _prominence_spectrum(envelope(signal), fs, top, background_hz=5.0)
+    at_f = _peak(ratio, resolution, np.array(list(lines.values())), 0.005)
+    at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) / k, 0.005)
+    wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
+    right = [name for name, a, b in zip(lines, at_f, at_fraction) if a >= prominence and b < prominence]
+    if wrong and not right:
+        return "contradicted", fs * k, (f", and the envelope line of {wrong[0]} stands at 1/{k} of its frequency: "
+                                        f"the true rate is {fs * k:g} Hz")
+    if right and not wrong:
+        return "consistent", fs, f", but the envelope line of {right[0]} stands at its frequency: real subharmonics"
+    return "ambiguous", None, "the defect lines do not decide"
+
+
+def describe_mismatch(check: ShaftLineCheck) -> str:
+    """One sentence on why a declared rate was rejected (or could not be confirmed)."""
+    return (f"fs = {check.fs_hz:g} Hz {'contradicts' if check.verdict == 'contradicted' else 'is not confirmed by'} "
+            f"the shaft speed: at {check.rpm:g} rpm the shaft line belongs at {check.expected_hz:.2f} Hz, but {check.reason}")
+
+
+def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: str,
+                           defect_hz: Mapping[str, float] | None = None) -> ShaftLineCheck | None:
+    """The check as a command applies it: a contradicted rate raises naming ``source`` and the
+    setting to correct (``fs_key``); an ambiguous one is logged; a record too short to check is
+    logged as unchecked (None)."""
+    import logging
+
+    log = logging.getLogger(__name__)
+    try:
+        check = check_sampling_rate(signal, fs, rpm, defect_hz=defect_hz)
+    except BearingTwinError as error:
+        log.warning("%s: sampling rate not checked: %s", source, error)
+        return None
+    if check.verdict == "contradicted":
+        raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>")
+    if check.verdict == "ambiguous":
+        log.warning("%s: %s", source, describe_mismatch(check))
+    return check

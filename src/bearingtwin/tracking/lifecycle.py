@@ -1,0 +1,185 @@
+"""No MLflow run left RUNNING: what happens to runs when a process stops before closing them.
+
+Three ways a run can be left open, three remedies:
+
+* **A signal** (Ctrl-C, SIGTERM from a scheduler): :func:`stop_cleanly` turns SIGINT and
+  SIGTERM into :class:`Interrupted`, marks every run this process opened and has not
+  closed KILLED (a sweep parent's still-running children too, whose worker processes
+  joblib kills as the exception unwinds through it), prints one line and exits
+  ``128 + signal``. Any other exception escaping an entry point marks them FAILED.
+* **A dead owner** (SIGKILL, power loss): every run is tagged with the host and process
+  that opened it (:func:`owner_tags`); :func:`reap_dead_runs`, called when a run or sweep
+  starts, marks RUNNING runs of this host whose process is gone KILLED.
+* **An orphaned worker**: a joblib worker whose sweep process died would go on computing
+  and log a FINISHED run nobody waits for; :func:`watch_sweep_process` ends it instead.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import os
+import signal
+import socket
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+from mlflow import MlflowClient
+from mlflow.entities import RunStatus
+from mlflow.exceptions import MlflowException
+
+log = logging.getLogger(__name__)
+
+HOST_TAG, PID_TAG = "bt.host", "bt.pid"
+SWEEP_PID_ENV = "BEARINGTWIN_SWEEP_PID"
+"""Set by the sweep's process for its workers, which inherit it: the process they live for."""
+
+
+class Interrupted(BaseException):
+    """SIGINT or SIGTERM arrived. A BaseException, like KeyboardInterrupt, so that no
+    ``except Exception`` on the way up mistakes it for a failed computation."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+@dataclass(frozen=True)
+class OpenRun:
+    client: MlflowClient
+    run_id: str
+    label: str  # "run" or "sweep": how the exit line names it
+    with_children: bool  # a sweep parent: its children may run in other processes
+
+
+_open_runs: list[OpenRun] = []
+
+
+def owner_tags() -> dict[str, str]:
+    """Tags naming the process that opens a run, so a later process can tell whether it died."""
+    return {HOST_TAG: socket.gethostname(), PID_TAG: str(os.getpid())}
+
+
+def register_open_run(client: MlflowClient, run_id: str, label: str = "run", with_children: bool = False) -> None:
+    """Remember a run this process opened: if the process stops early, the run is closed for it."""
+    _open_runs.append(OpenRun(client, run_id, label, with_children))
+
+
+def close_open_runs(status: str) -> list[str]:
+    """Mark every registered run still RUNNING (and, for a sweep, its RUNNING children) ``status``.
+
+    Returns ``"<label> <run id>"`` for each run closed; a store that cannot be reached is
+    logged and skipped, so one dead connection does not keep the others open.
+    """
+    closed = []
+    for run in reversed(_open_runs):
+        try:
+            if run.with_children:
+                children = run.client.search_runs(
+                    [run.client.get_run(run.run_id).info.experiment_id],
+                    f"tags.`mlflow.parentRunId` = '{run.run_id}' and attributes.status = 'RUNNING'",
+                )
+                for child in children:
+                    run.client.set_terminated(child.info.run_id, status)
+                    closed.append(f"run {child.info.run_id}")
+            if run.client.get_run(run.run_id).info.status == "RUNNING":
+                run.client.set_terminated(run.run_id, status)
+                closed.append(f"{run.label} {run.run_id}")
+        except MlflowException as error:
+            log.error("could not mark %s %s %s: %s", run.label, run.run_id, status, error)
+    _open_runs.clear()
+    return closed
+
+
+def _raise_interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
+def stop_cleanly(entry_point: Callable) -> Callable:
+    """Wrap a command's ``main`` so that no run it opened outlives it in state RUNNING.
+
+    SIGINT / SIGTERM: open runs KILLED, one line on stderr, exit status 128 + signal number
+    (130, 143). An exception: open runs FAILED, then the exception goes on as before.
+    """
+
+    @functools.wraps(entry_point)
+    def wrapped(*args, **kwargs):
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, _raise_interrupted)
+        try:
+            return entry_point(*args, **kwargs)
+        except (Interrupted, KeyboardInterrupt) as stop:
+            signum = stop.signum if isinstance(stop, Interrupted) else signal.SIGINT
+            # A second signal while closing the runs must not leave half of them open.
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            closed = close_open_runs(RunStatus.to_string(RunStatus.KILLED))
+            what = f"marked KILLED: {', '.join(closed)}" if closed else "no run was open"
+            print(f"interrupted by {signal.Signals(signum).name}; {what}", file=sys.stderr)
+            sys.exit(128 + signum)
+        except BaseException:
+            close_open_runs(RunStatus.to_string(RunStatus.FAILED))
+            raise
+
+    return wrapped
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def reap_dead_runs(client: MlflowClient, experiment_id: str) -> list[str]:
+    """Mark KILLED the RUNNING runs opened on this host by a process that no longer exists.
+
+    Only this host's runs can be judged (a pid means nothing elsewhere); a run without
+    owner tags (logged by another tool) is left alone. Returns the ids marked.
+    """
+    host = socket.gethostname()
+    running = client.search_runs(
+        [experiment_id], f"attributes.status = 'RUNNING' and tags.`{HOST_TAG}` = '{host}'", max_results=1000
+    )
+    reaped = []
+    for run in running:
+        pid = run.data.tags.get(PID_TAG, "")
+        if pid.isdigit() and not _process_alive(int(pid)):
+            client.set_terminated(run.info.run_id, RunStatus.to_string(RunStatus.KILLED))
+            client.set_tag(run.info.run_id, "bt.killed", f"process {pid} on {host} ended without closing the run")
+            reaped.append(run.info.run_id)
+    if reaped:
+        log.warning("marked KILLED %d run(s) left RUNNING by processes that died: %s", len(reaped), ", ".join(reaped))
+    return reaped
+
+
+_watching = threading.Event()
+
+
+def watch_sweep_process(poll_s: float = 1.0) -> None:
+    """In a sweep's worker process: end this process when the sweep's process is gone.
+
+    Started once per worker; a no-op in the sweep's own process, where jobs run in line, and
+    where the sweep process is not the parent (remote launchers).
+    The worker's open runs are marked KILLED first, so the store says what happened.
+    """
+    sweep_pid = os.environ.get(SWEEP_PID_ENV, "")
+    # The parent pid, not the sweep pid's existence, is the witness: a killed sweep process
+    # lingers as a zombie until its own parent reaps it, but its workers are re-parented at once.
+    if not sweep_pid.isdigit() or os.getppid() != int(sweep_pid) or _watching.is_set():
+        return
+    _watching.set()
+
+    def watch():
+        while os.getppid() == int(sweep_pid):
+            time.sleep(poll_s)
+        close_open_runs(RunStatus.to_string(RunStatus.KILLED))
+        os._exit(128 + signal.SIGTERM)
+
+    threading.Thread(target=watch, name="bearingtwin-sweep-watch", daemon=True).start()

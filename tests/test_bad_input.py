@@ -1,0 +1,133 @@
+"""Every bad input found by probing the commands gives one line naming the file or field, exit 2.
+
+Where the command-line layer matters (Hydra, the exit status) the command runs as a
+subprocess; where only the message does, the function behind it is called, since every
+entry point turns a BearingTwinError into that line and status 2 the same way.
+"""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+
+from bearingtwin.cli.report import main as report_main
+from bearingtwin.config import CONF_DIR, REPO_ROOT, compose_config, load_bearing, refuse_unknown_keys
+from bearingtwin.data.files import read_raw
+from bearingtwin.data.windows import split_indices
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.models.experiment import run_experiment
+from bearingtwin.twin.report import load_measurement, twin_for
+
+CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+RECORD_130 = CWRU / "12k_Drive_End_OR007@6_0_130.mat"
+
+
+def command(module: str, *overrides: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", f"bearingtwin.cli.{module}", *overrides], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+def assert_one_line_exit_2(done: subprocess.CompletedProcess, *named: str) -> None:
+    assert done.returncode == 2, done.stderr[-2000:]
+    lines = [line for line in done.stderr.splitlines() if line.startswith("error: ")]
+    assert len(lines) == 1 and "Traceback" not in done.stderr, done.stderr[-2000:]
+    assert all(name in lines[0] for name in named), lines[0]
+
+
+@pytest.mark.parametrize("module, overrides", [
+    ("train", ["-m", "seed=0,1", "+simulator.foo=1"]),  # every job of a sweep, before any starts
+    ("simulate", ["+simulator.foo=1"]),
+    ("twin", ["measured.path=x.npy", "+unknown.key=1"]),
+])
+def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
+    """(bearingtwin-train as a single run, and bearingtwin-inspect: tests/test_train_cli.py, tests/test_inspect_cli.py)"""
+    sweep_dir = [f"hydra.sweep.dir={tmp_path}/multirun"] if "-m" in overrides else []
+    done = command(module, *overrides, *sweep_dir, cwd=tmp_path)
+    key = overrides[-1].split("=")[0].lstrip("+")
+    assert_one_line_exit_2(done, key, "not a setting")
+    assert not (tmp_path / "mlflow.db").exists() and not list(tmp_path.glob("*.npz"))
+
+
+def test_an_unknown_report_setting_is_refused(capsys):
+    with pytest.raises(SystemExit) as stop:
+        report_main(["table4", "+unknown.key=1"])
+    assert stop.value.code == 2 and "table4 does not take +unknown.key" in capsys.readouterr().err
+
+
+def train_hydra_node(*overrides):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose("train", overrides=list(overrides), return_hydra_config=True).hydra
+
+
+def test_a_key_added_into_a_free_form_map_is_accepted():
+    """data.fs_by_record and data.twin.variants are declared empty: adding into them is their purpose."""
+    refuse_unknown_keys(train_hydra_node("data=cwru", "+data.fs_by_record.97=48000"))
+    refuse_unknown_keys(train_hydra_node("data=twin_to_real", "bearing=cwru_6205", "+data.twin.variants.spin_slip.jitter=[0.1]"))
+    refuse_unknown_keys(train_hydra_node("+method=raw_cnn_bilstm", "++seed=3"))  # a group, and a declared key
+    with pytest.raises(BearingTwinError, match=r"\+data.fs_by_record.97=48000: data.fs_by_record.97 is not a setting of train"):
+        refuse_unknown_keys(train_hydra_node("+data.fs_by_record.97=48000"))  # simulated data has no such map
+
+
+def test_too_few_windows_per_class_for_a_split(tmp_path):
+    cfg = compose_config("train", ["data.samples_per_class=1", "data.duration=0.3", "classifier=svm", "features=raw",
+                                   f"paths.cache_dir={tmp_path}"])
+    with pytest.raises(BearingTwinError, match="1 in the smallest class.*raise data.samples_per_class"):
+        run_experiment(cfg, root_dir=str(tmp_path))
+    labels = np.repeat(np.arange(4), 2)  # data.samples_per_class=2: 8 windows, 2 test windows for 4 classes
+    with pytest.raises(BearingTwinError, match="2 in the smallest class.*raise data.samples_per_class"):
+        split_indices(labels, labels, np.zeros(8), np.full(4, 100), 10, method="random")
+
+
+def test_a_missing_mandatory_value_is_named(tmp_path):
+    assert_one_line_exit_2(command("twin", cwd=tmp_path), "measured.path is missing")
+
+
+def test_a_non_finite_simulator_setting(tmp_path):
+    assert_one_line_exit_2(command("simulate", "simulator.duration=inf", f"out={tmp_path}/x.npz", cwd=tmp_path),
+                           "simulator.duration", "finite")
+
+
+def twin_config(*overrides):
+    return compose_config("twin", list(overrides))
+
+
+def test_measurement_files_that_are_not_measurements(tmp_path):
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(BearingTwinError, match="binary.csv: not a text file"):
+        read_raw(binary)
+    with pytest.raises(BearingTwinError, match=f"{tmp_path}: is a folder"):
+        read_raw(tmp_path)
+    huge = tmp_path / "huge.npy"
+    np.save(huge, np.full(4000, 1e300) * np.sign(np.sin(np.arange(4000))))
+    cfg = twin_config(f"measured.path={huge}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer")
+    with pytest.raises(BearingTwinError, match="huge.npy: samples up to 1e\\+300 overflow"):
+        load_measurement(cfg.measured)
+    channels = tmp_path / "two.npy"
+    np.save(channels, np.ones((2, 4000)))
+    cfg = twin_config(f"measured.path={channels}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer")
+    with pytest.raises(BearingTwinError, match=r"two.npy: holds channels 0, 1; choose one with measured.channel=<name>"):
+        load_measurement(cfg.measured)
+
+
+def test_a_twin_of_no_duration(tmp_path):
+    path = tmp_path / "x.npy"
+    np.save(path, np.sin(np.arange(12000)))
+    cfg = twin_config(f"measured.path={path}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
+                      "twin.duration=0")
+    with pytest.raises(BearingTwinError, match="twin.duration must be a positive, finite number of seconds, got 0"):
+        twin_for(load_measurement(cfg.measured), cfg)
+
+
+@pytest.mark.skipif(not RECORD_130.is_file(), reason=f"CWRU record 130 not found in {CWRU}")
+@pytest.mark.parametrize("fs", [48000, 2000])
+def test_the_twin_refuses_a_sampling_rate_the_record_contradicts(fs):
+    cfg = twin_config(f"measured.path={RECORD_130}", f"measured.fs={fs}", "measured.channel=DE", "bearing=cwru_6205")
+    with pytest.raises(BearingTwinError, match=f"OR007@6_0_130.mat: fs = {fs} Hz contradicts .* measured.fs=<Hz>"):
+        load_measurement(cfg.measured, load_bearing("cwru_6205"))
+    load_measurement(twin_config(f"measured.path={RECORD_130}", f"measured.fs={fs}", "measured.channel=DE",
+                                 "measured.check_fs=false").measured)  # the user can overrule the check

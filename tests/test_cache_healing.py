@@ -1,0 +1,89 @@
+"""Caches heal: a damaged entry of each of the three caches is named, removed and recomputed.
+
+Each cache is filled for real, its file damaged as storage damages files (cut short,
+emptied, one bit flipped), and the next read must give the original numbers with one
+warning naming the file.
+"""
+
+import logging
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.data.simulated import build_simulated_dataset
+from bearingtwin.data.twin_to_real import twin_signals
+from bearingtwin.features.cache import cache_path, extract_features
+
+from test_extractor import dataset, data, small_cfg  # noqa: F401  (fixtures)
+
+BEARING = OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml")
+SIMULATOR = OmegaConf.load(f"{CONF_DIR}/simulator/default.yaml")
+DATA = OmegaConf.merge(OmegaConf.load(f"{CONF_DIR}/data/simulated.yaml"),
+                       {"duration": 0.3, "samples_per_class": 4, "window_length": 512, "n_jobs": 1})
+
+
+def damage(path, how: str) -> None:
+    content = path.read_bytes()
+    if how == "truncated":
+        path.write_bytes(content[: len(content) // 2])
+    elif how == "empty":
+        path.write_bytes(b"")
+    else:  # one bit flipped in the middle of the stored arrays: only the CRC can tell
+        middle = len(content) // 2
+        path.write_bytes(content[:middle] + bytes([content[middle] ^ 0x01]) + content[middle + 1:])
+
+
+def only_file(folder):
+    (path,) = list(folder.iterdir())
+    return path
+
+
+def assert_healed(caplog, path):
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 1 and str(path) in warnings[0] and "unreadable" in warnings[0]
+    np.load(path)  # rewritten whole
+    assert [p.name for p in path.parent.iterdir()] == [path.name]  # no temporary file left
+
+
+HOW = ["truncated", "empty", "bit-flipped"]
+
+
+@pytest.mark.parametrize("how", HOW)
+def test_simulated_dataset_cache(tmp_path, caplog, how):
+    first = build_simulated_dataset(DATA, BEARING, SIMULATOR, {}, tmp_path)
+    path = only_file(tmp_path / "simulated")
+    damage(path, how)
+    with caplog.at_level(logging.WARNING):
+        again = build_simulated_dataset(DATA, BEARING, SIMULATOR, {}, tmp_path)
+    np.testing.assert_array_equal(again.windows, first.windows)
+    assert_healed(caplog, path)
+
+
+@pytest.mark.parametrize("how", HOW)
+def test_twin_to_real_cache(tmp_path, caplog, how):
+    simulator = {**OmegaConf.to_container(SIMULATOR, resolve=True), "duration": 0.3}
+    bearing = OmegaConf.to_container(BEARING, resolve=True)
+    first, key = twin_signals(["outer"], [1797.0], bearing, simulator, {}, tmp_path)
+    path = only_file(tmp_path / "twin_to_real")
+    damage(path, how)
+    with caplog.at_level(logging.WARNING):
+        again, same_key = twin_signals(["outer"], [1797.0], bearing, simulator, {}, tmp_path)
+    np.testing.assert_array_equal(again, first)
+    assert same_key == key
+    assert_healed(caplog, path)
+
+
+@pytest.mark.parametrize("how", HOW)
+def test_features_cache(dataset, tmp_path, caplog, how):  # noqa: F811
+    cfg = small_cfg()
+    train = np.arange(0, len(dataset), 2)
+    first, table = extract_features(cfg, dataset, train, tmp_path)
+    path = cache_path(cfg, dataset, train, tmp_path)
+    damage(path, how)
+    with caplog.at_level(logging.WARNING):
+        again, again_table = extract_features(cfg, dataset, train, tmp_path)
+    np.testing.assert_array_equal(again, first)
+    assert again_table == table
+    assert_healed(caplog, path)

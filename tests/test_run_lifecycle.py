@@ -1,0 +1,162 @@
+"""No run left RUNNING: signals sent to real training processes, a sweep's workers, dead owners.
+
+The training processes simulate 10 s of each bearing state into a fresh cache, which
+takes several seconds: long enough to be caught with a run open.
+"""
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from mlflow import MlflowClient
+from omegaconf import OmegaConf
+
+from bearingtwin.tracking.lifecycle import owner_tags
+from bearingtwin.tracking.mlflow_logging import open_store, train_tracked
+
+from test_tracking import CHOICES, fake_train, make_cfg
+
+SLOW = ["classifier=svm", "features=raw", "data.duration=10", "data.samples_per_class=12"]
+
+
+def start_training(base: Path, *args: str) -> subprocess.Popen:
+    command = [sys.executable, "-m", "bearingtwin.cli.train", *args, *SLOW,
+               f"tracking.uri=sqlite:///{base}/mlflow.db", f"paths.cache_dir={base}/cache"]
+    return subprocess.Popen(command, cwd=base, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def runs(base: Path) -> list:
+    # Plain SQL until the process under test has created the schema: an MLflow client opening
+    # a half-made database would try to create it too.
+    try:
+        with sqlite3.connect(f"file:{base}/mlflow.db?mode=ro", uri=True) as database:
+            if not database.execute("select count(*) from runs").fetchone()[0]:
+                return []
+    except sqlite3.Error:
+        return []
+    client = MlflowClient(f"sqlite:///{base}/mlflow.db")
+    experiment = client.get_experiment_by_name("bearingtwin")
+    return [] if experiment is None else client.search_runs([experiment.experiment_id])
+
+
+def wait_for_running(base: Path, process: subprocess.Popen, n_train: int, timeout_s: float = 120) -> list:
+    """Poll the store until ``n_train`` training runs are RUNNING."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        assert process.poll() is None, process.communicate()[1][-2000:]
+        running = [r for r in runs(base) if r.info.status == "RUNNING" and r.data.tags.get("bt.kind") == "train"]
+        if len(running) >= n_train:
+            return running
+        time.sleep(0.3)
+    process.kill()
+    raise AssertionError("no training run started in time")
+
+
+def child_pids(pid: int) -> set[int]:
+    """Processes whose parent is ``pid`` (joblib's workers), read from /proc."""
+    children = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            if ppid == pid:
+                children.add(int(entry.name))
+    return children
+
+
+def alive(pid: int) -> bool:
+    try:
+        state = (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state != "Z"
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_a_signalled_run_is_killed_with_one_line_and_128_plus_signal(tmp_path, signum):
+    process = start_training(tmp_path)
+    (run,) = wait_for_running(tmp_path, process, 1)
+    assert run.data.tags["bt.pid"] == str(process.pid)
+    process.send_signal(signum)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 128 + signum, err[-2000:]
+    assert err.strip().splitlines()[-1] == f"interrupted by {signal.Signals(signum).name}; marked KILLED: run {run.info.run_id}"
+    assert "Traceback" not in err
+    assert [r.info.status for r in runs(tmp_path)] == ["KILLED"]
+
+
+def test_a_terminated_sweep_kills_its_runs_and_its_workers(tmp_path):
+    process = start_training(tmp_path, "-m", "seed=0,1", "launcher=joblib", f"hydra.sweep.dir={tmp_path}/multirun")
+    running = wait_for_running(tmp_path, process, 2)
+    workers = child_pids(process.pid)
+    assert workers and {int(r.data.tags["bt.pid"]) for r in running} <= workers
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 143, err[-2000:]
+    # (loky's resource tracker may add a warning about the semaphores of the killed workers)
+    assert any(line.startswith("interrupted by SIGTERM; marked KILLED: ") for line in err.splitlines())
+    statuses = {r.data.tags["bt.kind"]: r.info.status for r in runs(tmp_path)}
+    assert [r.info.status for r in runs(tmp_path)] == ["KILLED"] * 3 and set(statuses) == {"sweep", "train"}
+    deadline = time.monotonic() + 10
+    while any(alive(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not any(alive(pid) for pid in workers), "a joblib worker outlived its sweep"
+
+
+# A sweep process (SIGKILLed below) and its worker, which opens a run and watches the sweep as a
+# joblib worker of bearingtwin-train does; a stand-in for a whole sweep, to keep the test fast.
+SWEEP = """
+import os, subprocess, sys, time
+os.environ["BEARINGTWIN_SWEEP_PID"] = str(os.getpid())
+subprocess.Popen([sys.executable, "-c", sys.argv[1], sys.argv[2]])
+time.sleep(600)
+"""
+WORKER = """
+import sys, time
+from mlflow import MlflowClient
+from bearingtwin.tracking.lifecycle import owner_tags, register_open_run, watch_sweep_process
+client = MlflowClient(sys.argv[1])
+run = client.create_run(client.get_experiment_by_name("bearingtwin").experiment_id, tags={"bt.kind": "train", **owner_tags()})
+register_open_run(client, run.info.run_id)
+watch_sweep_process(poll_s=0.2)
+time.sleep(600)
+"""
+
+
+def test_a_worker_of_a_killed_sweep_stops_and_closes_its_run(tmp_path):
+    """SIGKILL cannot be caught: the worker notices its sweep process is gone."""
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin"}))
+    sweep = subprocess.Popen([sys.executable, "-c", SWEEP, WORKER, uri])
+    (run,) = wait_for_running(tmp_path, sweep, 1)
+    worker = int(run.data.tags["bt.pid"])
+    assert worker in child_pids(sweep.pid)
+    sweep.kill()
+    sweep.wait(timeout=60)
+    deadline = time.monotonic() + 15
+    while alive(worker) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not alive(worker), "the worker outlived its sweep"
+    assert [r.info.status for r in runs(tmp_path)] == ["KILLED"]
+
+
+def test_a_relaunch_marks_runs_of_dead_processes_killed(tmp_path):
+    cfg = make_cfg(tmp_path)
+    client, experiment_id = open_store(cfg.tracking)
+    finished = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead = client.create_run(experiment_id, tags={**owner_tags(), "bt.pid": finished.stdout.strip()})
+    living = client.create_run(experiment_id, tags=owner_tags())  # this test's process: alive
+    foreign = client.create_run(experiment_id, tags={"bt.host": "elsewhere", "bt.pid": finished.stdout.strip()})
+    train_tracked(cfg, CHOICES, None, None, fake_train)
+    status = {run.info.run_id: run.info.status for run in client.search_runs([experiment_id])}
+    assert status[dead.info.run_id] == "KILLED" and "ended without closing" in client.get_run(dead.info.run_id).data.tags["bt.killed"]
+    assert status[living.info.run_id] == "RUNNING" and status[foreign.info.run_id] == "RUNNING"
+    assert sorted(status.values()) == ["FINISHED", "KILLED", "RUNNING", "RUNNING"]
+    assert os.getpid() != int(finished.stdout)
