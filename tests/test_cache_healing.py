@@ -79,11 +79,11 @@ def test_twin_to_real_cache(tmp_path, caplog, how):
 def test_features_cache(dataset, tmp_path, caplog, how):  # noqa: F811
     cfg = small_cfg()
     train = np.arange(0, len(dataset), 2)
-    first, table = extract_features(cfg, dataset, train, tmp_path)
+    first, table, _ = extract_features(cfg, dataset, train, tmp_path)
     path = cache_path(cfg, dataset, train, tmp_path)
     damage(path, how)
     with caplog.at_level(logging.WARNING):
-        again, again_table = extract_features(cfg, dataset, train, tmp_path)
+        again, again_table, _ = extract_features(cfg, dataset, train, tmp_path)
     np.testing.assert_array_equal(again, first)
     assert again_table == table
     assert_healed(caplog, path)

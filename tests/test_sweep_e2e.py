@@ -97,7 +97,8 @@ def test_failing_jobs_are_failed_and_grouped_under_the_sweep(store):
 
 
 def test_the_sweep_ends_with_a_summary_of_every_job(store, sweep_output):
-    summary = [line for line in sweep_output[1].splitlines() if not line.startswith("[")]
+    lines = [line for line in sweep_output[1].splitlines() if not line.startswith("[")]
+    summary = lines[next(i for i, line in enumerate(lines) if line.startswith("sweep table4 (run ")):]  # after the jobs' lines
     assert summary[0].startswith("sweep table4 (run ")
     assert summary[0].endswith("6 jobs, 3 finished, 3 failed, 0 skipped (already finished)")
     failed = summary[1:]

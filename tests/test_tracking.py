@@ -145,7 +145,7 @@ def test_by_default_a_sweep_job_resumes_and_a_single_run_runs_again(tmp_path):
     sweep = SweepInfo("cli", str(tmp_path / "multirun"))
     train_tracked(cfg, CHOICES, None, None, fake_train)
     train_tracked(cfg, CHOICES, None, None, fake_train)  # asked again: runs again
-    assert train_tracked(cfg, CHOICES, sweep, None, failing_train)["accuracy"] == pytest.approx(0.9)  # resumed: skipped
+    assert train_tracked(cfg, CHOICES, sweep, None, failing_train).metrics["accuracy"] == pytest.approx(0.9)  # resumed: skipped
     client, experiment_id = open_store(cfg.tracking)
     assert [r.info.status for r in client.search_runs([experiment_id])] == ["FINISHED", "FINISHED"]
 

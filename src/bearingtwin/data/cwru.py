@@ -98,7 +98,7 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         "cwru-mat",
         {channel: channels[channel] for channel in CHANNELS if channel in channels},
         fs=DECLARED_FS_HZ if name is None or name.rate_hz is None else name.rate_hz,
-        fs_origin="declared" if name is None or name.rate_hz is None else "file name",
+        fs_origin="declared",  # a convention of the data set (the name's 12k / 48k at best), checked, not measured
         rpm=rpm,
         fault=None if name is None else name.fault,
         unit="g",

@@ -85,8 +85,8 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> t
     second witness), and what the check said.
 
     A rate the file states is kept (a doubt is reported). A rate only declared by the data set's
-    convention (a CWRU file whose name states none) is tried against the data set's rates, and the
-    highest rate the check finds consistent is the record's: read at a whole-number fraction of its
+    convention (a CWRU file's) is tried against the data set's rates, and the highest rate under which
+    the shaft's harmonic series stands where it belongs is the record's: read at a whole-number fraction of its
     true rate, a record puts a higher shaft harmonic onto the expected line, so a lower rate can seem
     to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz). A declared rate the check
     contradicts, with no other rate consistent, is refused.
@@ -104,7 +104,9 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> t
     doubt = [] if declared.verdict == "consistent" else [f"sampling rate unconfirmed: {describe_mismatch(declared)}"]
     if not declared_only:
         return recording, doubt
-    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and check(rate).verdict == "consistent"]
+    # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between
+    # lines (a machine's half orders) may leave the higher rate's verdict ambiguous, never contradicted.
+    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and check(rate).matches]
     if not higher:
         if declared.verdict == "contradicted":
             raise BearingTwinError(f"{recording.source}: {describe_mismatch(declared)}; give the record's rate with fs=<Hz>")

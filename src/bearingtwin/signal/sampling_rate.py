@@ -192,10 +192,12 @@ def describe_mismatch(check: ShaftLineCheck) -> str:
 
 
 def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: str,
-                           defect_hz: Mapping[str, float] | None = None) -> ShaftLineCheck | None:
+                           defect_hz: Mapping[str, float] | None = None, refuse: bool = True) -> ShaftLineCheck | None:
     """The check as a command applies it: a contradicted rate raises naming ``source`` and the
     setting to correct (``fs_key``); an ambiguous one is logged; a record too short to check is
-    logged as unchecked (None)."""
+    logged as unchecked (None). ``refuse=False`` only logs a contradiction: for a rate the file
+    itself records (a header, a time column), which a record without a visible shaft line (a
+    simulation, a machine without unbalance) cannot contradict."""
     import logging
 
     log = logging.getLogger(__name__)
@@ -204,8 +206,10 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
-    if check.verdict == "contradicted":
+    if check.verdict == "contradicted" and refuse:
         raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>")
+    if check.verdict == "contradicted":
+        log.warning("%s: %s (the rate the file records is kept)", source, describe_mismatch(check))
     if check.verdict == "ambiguous":
         log.warning("%s: %s", source, describe_mismatch(check))
     return check

@@ -416,6 +416,8 @@ def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: 
     ``register_alias``) when the config asks. Returns the model's URIs, for the closing summary."""
     from bearingtwin.diagnosis.mlflow_model import log_diagnosis_model, register_model
 
+    if result.pipeline is None:  # a result made without fitting one (a stand-in trainer) has no model to log
+        return ""
     result.pipeline.config_hash = digest
     uri = str(cfg.tracking.uri)
     info = log_diagnosis_model(uri, experiment_id, run_id, result.pipeline, result.example_windows, result.example_rpm)

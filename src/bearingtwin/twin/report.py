@@ -39,8 +39,11 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
         if getattr(recording, name) is None:
             raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
     if measured_cfg.get("check_fs", True):
+        # A rate given here or only declared by a data set's convention is refused when the record contradicts
+        # it; one the file records itself is kept, the doubt logged.
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
-                               defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None)
+                               defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
+                               refuse=recording.meta.get("fs_origin") in ("config", "declared"))
     with np.errstate(over="ignore"):
         fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
     if not np.isfinite(fourth_moment):
