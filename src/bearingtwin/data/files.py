@@ -143,6 +143,9 @@ def recording_from_raw(
     channel_key: str = "channel",
 ) -> Recording:
     """The validated Recording of one channel of an already read file (see :func:`load_recording`)."""
+    # A rate the file records stays the file's when the user repeats it (resolve_fs refuses any other);
+    # a given rate replaces a merely declared one, or fills in a missing one.
+    fs_origin = raw.fs_origin if fs is None or (raw.fs is not None and raw.fs_origin != "declared") else "config"
     name, signal = raw.channel(channel, channel_key)
     return Recording(
         signal=signal,
@@ -152,7 +155,7 @@ def recording_from_raw(
         source=raw.path,
         channel=name,
         unit=raw.unit,
-        meta=dict(raw.meta, format=raw.format, fs_origin=raw.fs_origin if fs is None else "config"),
+        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin),
     )
 
 
