@@ -17,6 +17,7 @@ the test, so a new kind of example cannot go unchecked.
 from __future__ import annotations
 
 import os
+import glob
 import re
 import shlex
 import subprocess
@@ -104,6 +105,12 @@ def train_additions(args: list[str]) -> tuple[list[str], str | None]:
     return added, needs
 
 
+def present(path: str) -> bool:
+    """Whether a path a command needs exists (a Hydra-quoted glob: whether it matches anything)."""
+    path = path.strip("'\"")
+    return bool(glob.glob(path)) if glob.has_magic(path) else Path(path).exists()
+
+
 def newest_finished_training_run(uri: str) -> str:
     client = MlflowClient(uri)
     experiment = client.get_experiment_by_name("bearingtwin")
@@ -183,7 +190,7 @@ def test_every_documented_command_runs_as_written(tmp_path):
             args.append("figures=false")  # the figures are tested in tests/test_diagnose.py
         elif name == "report":
             args.append(f"out={tmp_path}/results/{args[0]}.md")  # never the checkout's results/
-        if needs is not None and not Path(needs).exists():
+        if needs is not None and not present(needs):
             skipped.append(f"{written} (needs {needs}, not present)")
             continue
         runs.append((document, written, name, args))
