@@ -1,7 +1,6 @@
 """The guide's worked example of adding an effect (docs/guide.md) runs as written and leaves its signature."""
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
