@@ -14,6 +14,7 @@ and, when known, ``true_state`` and ``correct``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -32,7 +33,6 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import check_sampling_rate, describe_mismatch
 
-CWRU_DEFAULT_CHANNEL = "DE"  # the drive-end accelerometer: the bearing the CWRU faults are in
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
 
@@ -51,20 +51,18 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                 true_state: str | None = None) -> PreparedRecord:
     """Read one file, check it against the model and bring it to the model's sampling rate.
 
-    ``channel``, ``fs`` and ``rpm`` fill in what the file does not state. A CWRU record's declared
-    rate is checked against its shaft line, so a record at another rate is refused, not misread.
+    ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs`` and ``rpm`` fill in what the
+    file does not state. The rate is checked against the shaft line (:func:`_checked_rate`).
     """
     raw = read_raw(path)
-    is_cwru = raw.format == "cwru-mat"
-    recording = recording_from_raw(raw, channel if channel is not None else (CWRU_DEFAULT_CHANNEL if is_cwru else None),
-                                   fs=fs, rpm=rpm)
+    recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm)
     notes = []
     if recording.rpm is not None:
         recording, notes = _checked_rate(recording, pipeline.bearing, declared_only=fs is None and raw.fs_origin == "declared")
     if true_state is not None:
         true_state = check_fault(true_state)
     else:  # what the file's name (CWRU) or content states
-        name = parse_cwru_name(path) if is_cwru else None
+        name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
         true_state = name.fault if name is not None else recording.fault
     original_fs = recording.fs
     if not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9):
@@ -91,10 +89,9 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> t
     to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz). A declared rate the check
     contradicts, with no other rate consistent, is refused.
     """
-    geometry = BearingGeometry.from_config(bearing) if bearing else None
+    defect_hz = BearingGeometry.from_config(bearing).defect_frequencies(recording.rpm) if bearing else None
 
     def check(rate: float):
-        defect_hz = None if geometry is None else geometry.defect_frequencies(recording.rpm)
         return check_sampling_rate(recording.signal, rate, recording.rpm, defect_hz=defect_hz)
 
     try:
@@ -112,10 +109,8 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> t
             raise BearingTwinError(f"{recording.source}: {describe_mismatch(declared)}; give the record's rate with fs=<Hz>")
         return recording, doubt
     rate = max(higher)
-    corrected = Recording(recording.signal, rate, recording.rpm, recording.fault, recording.source,
-                          recording.channel, recording.unit, dict(recording.meta))
-    return corrected, [f"the shaft line stands where it belongs at {rate:g} Hz, not only at the declared "
-                       f"{recording.fs:g} Hz: read at {rate:g} Hz"]
+    note = f"the shaft line stands where it belongs at {rate:g} Hz, not only at the declared {recording.fs:g} Hz: read at {rate:g} Hz"
+    return dataclasses.replace(recording, fs=rate), [note]
 
 
 def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]:
@@ -125,9 +120,7 @@ def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]
         raise BearingTwinError(f"{recording.source}: cannot resample {recording.fs:g} Hz to the model's "
                                f"{target_fs:g} Hz by a ratio of small integers")
     signal = scipy.signal.resample_poly(recording.signal, ratio.numerator, ratio.denominator)
-    resampled = Recording(signal, target_fs, recording.rpm, recording.fault, recording.source, recording.channel,
-                          recording.unit, dict(recording.meta))
-    return resampled, f"resampled {recording.fs:g} Hz -> {target_fs:g} Hz (resample_poly, up {ratio.numerator}, down {ratio.denominator})"
+    return dataclasses.replace(recording, signal=signal, fs=target_fs), f"resampled {recording.fs:g} Hz -> {target_fs:g} Hz (resample_poly, up {ratio.numerator}, down {ratio.denominator})"
 
 
 def record_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray]:
