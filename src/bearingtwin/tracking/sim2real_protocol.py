@@ -22,6 +22,7 @@ from bearingtwin.data.cwru import load_cwru, parse_cwru_name
 from bearingtwin.diagnosis.evidence import physics_evidence
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.mlflow_logging import find_runs
+from bearingtwin.tracking.reports import mean_std
 from bearingtwin.tracking.tables import markdown_table
 
 FAULT_CLASSES = ("inner", "ball", "outer")
@@ -36,13 +37,18 @@ class ProtocolResult:
     accuracy: list[float]
     recall: dict[str, list[float]]
     healthy_called_healthy: list[float]
-    per_record: dict[str, list[float]]  # record -> window accuracy per seed
-    physics: dict[str, str]  # record -> the state its envelope spectrum points to
-    truth: dict[str, str]
+    per_record: dict[str, list[float]]  # test record -> window accuracy per seed
+    physics: dict[str, str]  # test records and the healthy record -> the state its envelope spectrum points to
+    truth: dict[str, str]  # test record -> its state
+    healthy_record: str  # the healthy calibration record, scored apart for false alarms
 
     def physics_recall(self, state: str) -> float:
         records = [r for r, t in self.truth.items() if t == state]
         return float(np.mean([self.physics[r] == state for r in records]))
+
+    @property
+    def physics_calls_healthy_record_healthy(self) -> bool:
+        return self.physics[self.healthy_record] == "normal"
 
 
 def protocol_runs(client: MlflowClient, experiment_id: str, name: str) -> list:
@@ -79,7 +85,8 @@ def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_
     for run in runs:
         for record, accuracy in _per_record(client, run.info.run_id).items():
             per_record.setdefault(record, []).append(accuracy)
-    paths = [data_root / f"{record}.mat" for record in per_record]
+    healthy_record = runs[0].data.params["data.calibration.healthy.record"]
+    paths = [data_root / f"{record}.mat" for record in [*per_record, healthy_record]]
     missing = [str(path) for path in paths if not path.is_file()]
     if missing:
         raise BearingTwinError(f"the physics baseline reads the test records themselves: {', '.join(missing)} missing")
@@ -89,16 +96,18 @@ def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_
         seeds=[int(run.data.params["seed"]) for run in runs],
         accuracy=[run.data.metrics["accuracy"] for run in runs],
         recall={state: [run.data.metrics[f"recall_{state}"] for run in runs] for state in FAULT_CLASSES},
-        healthy_called_healthy=[run.data.metrics.get("calibration_recall_normal", float("nan")) for run in runs],
+        healthy_called_healthy=[run.data.metrics["calibration_recall_normal"] for run in runs],
         per_record=per_record,
         physics=physics_baseline(paths, bearing),
         truth={record: parse_cwru_name(f"{record}.mat").fault for record in per_record},
+        healthy_record=healthy_record,
     )
 
 
 def _pm(values) -> str:
-    values = 100 * np.asarray(values, dtype=float)
-    return f"{values.mean():.1f} ± {values.std(ddof=1) if values.size > 1 else 0.0:.1f}"
+    """Percent, mean ± std over seeds, as every results table gives it (:func:`~bearingtwin.tracking.reports.mean_std`)."""
+    mean, std = mean_std(100 * np.asarray(values, dtype=float))
+    return f"{mean:.1f} ± {std:.1f}"
 
 
 def headline_markdown(result: ProtocolResult, version: str) -> str:
@@ -109,9 +118,10 @@ def headline_markdown(result: ProtocolResult, version: str) -> str:
     physics_records = [result.physics[r] == result.truth[r] for r in result.per_record]
     rows.append(["physics baseline (envelope analysis, no learning; records, not windows)",
                  f"{100 * np.mean(physics_records):.1f} ({sum(physics_records)}/{len(physics_records)} records)",
-                 *(f"{100 * result.physics_recall(state):.0f}" for state in FAULT_CLASSES), "(record 97: "
-                 + ("healthy" if result.physics.get("normal_0_97", "normal") == "normal" else "not healthy") + ")"])
-    table = markdown_table(["", "test windows right %", "inner %", "ball %", "outer %", "record 97 windows called healthy %"], rows)
+                 *(f"{100 * result.physics_recall(state):.0f}" for state in FAULT_CLASSES),
+                 f"(record {result.healthy_record}: {'healthy' if result.physics_calls_healthy_record_healthy else 'not healthy'})"])
+    table = markdown_table(["", "test windows right %", "inner %", "ball %", "outer %",
+                            f"{result.healthy_record} windows called healthy %"], rows)
     record_rows = [[record, result.truth[record], _pm(result.per_record[record]), result.physics[record]]
                    for record in sorted(result.per_record, key=lambda r: (FAULT_CLASSES.index(result.truth[r]), r))]
     return table + "\nPer test record (windows right, mean ± std over seeds; the physics baseline's state for the whole record):\n\n" + \
@@ -125,12 +135,12 @@ def plot_headline(result: ProtocolResult, path: Path) -> Path:
     figure = Figure(figsize=(7, 3.6))
     axes = figure.subplots()
     x = np.arange(len(FAULT_CLASSES) + 1)
-    model = [np.mean(result.recall[s]) for s in FAULT_CLASSES] + [np.nanmean(result.healthy_called_healthy)]
-    spread = [np.std(result.recall[s]) for s in FAULT_CLASSES] + [np.nanstd(result.healthy_called_healthy)]
-    physics = [result.physics_recall(s) for s in FAULT_CLASSES] + [float(result.physics.get("normal_0_97", "normal") == "normal")]
+    model = [mean_std(result.recall[s])[0] for s in FAULT_CLASSES] + [mean_std(result.healthy_called_healthy)[0]]
+    spread = [mean_std(result.recall[s])[1] for s in FAULT_CLASSES] + [mean_std(result.healthy_called_healthy)[1]]
+    physics = [result.physics_recall(s) for s in FAULT_CLASSES] + [float(result.physics_calls_healthy_record_healthy)]
     axes.bar(x - 0.2, 100 * np.asarray(model), 0.4, yerr=100 * np.asarray(spread), label=f"twin-trained ({result.experiment})")
     axes.bar(x + 0.2, 100 * np.asarray(physics), 0.4, label="physics baseline (records)")
-    axes.set_xticks(x, [*FAULT_CLASSES, "healthy 97\n(calibration)"])
+    axes.set_xticks(x, [*FAULT_CLASSES, f"healthy {result.healthy_record}\n(calibration)"])
     axes.set(ylabel="right (%)", ylim=(0, 105), title="Real CWRU records at 1-3 hp, twin-trained classifier vs envelope analysis")
     axes.axhline(90, color="grey", lw=0.7, ls=":")
     axes.legend(loc="lower left", fontsize=8)

@@ -1,0 +1,42 @@
+"""The pre-registered protocol's headline: its runs read back from a real MLflow store, beside the
+physics baseline computed on the real test records and on the record scored for false alarms."""
+
+import pytest
+from mlflow import MlflowClient
+
+from bearingtwin.config import REPO_ROOT
+from bearingtwin.tracking.sim2real_protocol import headline_markdown, plot_headline, protocol_headline
+
+CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
+TEST_RECORDS = {"12k_Drive_End_IR007_1_106": 0.75, "12k_Drive_End_OR007@6_1_131": 1.0}
+
+
+def log_protocol_run(client, experiment_id, seed, accuracy, false_alarm_record):
+    run = client.create_run(experiment_id, tags={"bt.kind": "train", "experiment": "sim2real"})
+    run_id = run.info.run_id
+    for key, value in {"seed": seed, "data.bearing": "cwru_6205", "data.calibration.healthy.record": false_alarm_record}.items():
+        client.log_param(run_id, key, value)
+    metrics = {"accuracy": accuracy, "recall_inner": 0.75, "recall_ball": 0.5, "recall_outer": 1.0,
+               "calibration_recall_normal": 0.9 + seed / 100}
+    for key, value in metrics.items():
+        client.log_metric(run_id, key, value)
+    client.log_text(run_id, "record,class,windows,accuracy\n" + "".join(
+        f"{record}.mat,x,50,{value}\n" for record, value in TEST_RECORDS.items()), "per_record.csv")
+    client.set_terminated(run_id, "FINISHED")
+
+
+@pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
+def test_the_headline_reads_every_seed_and_computes_the_physics_of_the_false_alarm_record(tmp_path):
+    client = MlflowClient(f"sqlite:///{tmp_path}/mlflow.db")
+    experiment_id = client.create_experiment("protocol", artifact_location=(tmp_path / "artifacts").as_uri())
+    # An outer-race record in the false-alarm role: the physics must be computed on it, and say so.
+    for seed, accuracy in ((0, 0.8), (1, 0.9)):
+        log_protocol_run(client, experiment_id, seed, accuracy, "12k_Drive_End_OR007@6_0_130")
+    result = protocol_headline(client, experiment_id, "sim2real", CWRU)
+    assert result.seeds == [0, 1] and result.accuracy == [0.8, 0.9]
+    assert result.physics["12k_Drive_End_IR007_1_106"] == "inner" and result.physics["12k_Drive_End_OR007@6_1_131"] == "outer"
+    assert result.physics["12k_Drive_End_OR007@6_0_130"] == "outer" and not result.physics_calls_healthy_record_healthy
+    table = headline_markdown(result, "v1")
+    assert "| 85.0 ± 5.0 |" in table  # mean ± std over the seeds, as every results table gives them
+    assert "(record 12k_Drive_End_OR007@6_0_130: not healthy)" in table and "| 12k_Drive_End_IR007_1_106 | inner | 75.0 ± 0.0 | inner |" in table
+    assert plot_headline(result, tmp_path / "headline.png").stat().st_size > 10_000
