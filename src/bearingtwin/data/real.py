@@ -149,23 +149,42 @@ def _rows_from_labels(root: Path, cfg: dict) -> list[tuple[Path, str, float | No
             f"data.labels: no labels file {table}; write one with columns {','.join(LABEL_COLUMNS)} "
             "(one row per file) or give data.pattern=<regex with a (?P<state>...) group>"
         )
-    with open(table, newline="") as handle:
-        reader = csv.DictReader(handle)
-        columns = [name.strip() for name in reader.fieldnames or []]
-        missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
-        if missing:
-            raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
-        rows = []
-        for line, row in enumerate(reader, start=2):
-            row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
-            where = f"{table} line {line}"
-            path = root / row["record"]
-            if not row["record"] or not path.is_file():
-                raise BearingTwinError(f"{where}: record {row['record']!r} is not a file in {root}")
-            rows.append((path, _state(row["state"], where), _number(row.get("rpm"), "rpm", where), _number(row.get("fs"), "fs", where)))
+    rows = []
+    for where, record, state, rpm, fs in labels_table(table):
+        path = root / record
+        if not record or not path.is_file():
+            raise BearingTwinError(f"{where}: record {record!r} is not a file in {root}")
+        rows.append((path, state, rpm, fs))
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
     return rows
+
+
+def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None]]:
+    """``(where, record, state, rpm, fs)`` per row of a labels table (columns ``record,state[,rpm,fs]``);
+    ``where`` is the file and line, for messages. A bad header, state or number raises naming its line."""
+    try:
+        with open(table, newline="") as handle:
+            reader = csv.DictReader(handle)
+            columns = [name.strip() for name in reader.fieldnames or []]
+            missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
+            if missing:
+                raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
+            rows = []
+            for line, row in enumerate(reader, start=2):
+                row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
+                where = f"{table} line {line}"
+                rows.append((where, row["record"], _state(row["state"], where), _number(row.get("rpm"), "rpm", where),
+                             _number(row.get("fs"), "fs", where)))
+    except (OSError, UnicodeDecodeError) as error:
+        raise BearingTwinError(f"{table}: cannot read it ({error})") from None
+    return rows
+
+
+def recordings_in(folder: Path) -> list[Path]:
+    """The files of a folder bearingtwin reads, sorted; a labels table left among them is not a recording."""
+    return sorted(path for path in folder.iterdir()
+                  if path.is_file() and path.suffix.lower() in FORMATS and path.name != DEFAULT_LABELS)
 
 
 def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, None]]:
@@ -178,9 +197,7 @@ def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, Non
         raise BearingTwinError(f"data.pattern={cfg['pattern']!r} is not a regular expression ({error})") from None
     if "state" not in pattern.groupindex:
         raise BearingTwinError(f"data.pattern={cfg['pattern']!r} has no (?P<state>...) group naming the bearing state")
-    # A labels table left in the folder is not a recording.
-    paths = sorted(path for path in root.iterdir()
-                   if path.is_file() and path.suffix.lower() in FORMATS and path.name != DEFAULT_LABELS)
+    paths = recordings_in(root)
     if not paths:
         raise BearingTwinError(f"data.root={root} holds no file bearingtwin reads ({', '.join(FORMATS)})")
     rows = []

@@ -19,13 +19,13 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
 from bearingtwin.data.files import FORMATS
+from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
 
 SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree")
 TRUTH_COLUMNS = ("true_state", "correct")
-LABELS_FILE = "labels.csv"
 
 
 @dataclass
@@ -44,7 +44,7 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     """The recordings ``path`` names: one file, every readable file of a folder, or a glob."""
     candidate = Path(path).expanduser()
     if candidate.is_dir():
-        found = sorted(p for p in candidate.iterdir() if p.is_file() and p.suffix.lower() in FORMATS)
+        found = recordings_in(candidate)
     elif candidate.is_file():
         return [candidate]
     elif glob.has_magic(path):
@@ -52,24 +52,15 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     else:
         raise BearingTwinError(f"path={path}: no such file or folder")
     labels = {labels_path.resolve()} if labels_path is not None else set()
-    found = [p for p in found if p.resolve() not in labels and p.name != LABELS_FILE]
+    found = [p for p in found if p.resolve() not in labels and p.name != DEFAULT_LABELS]
     if not found:
         raise BearingTwinError(f"path={path}: holds no recording ({', '.join(FORMATS)})")
     return found
 
 
 def read_labels(path: Path | None) -> dict[str, str]:
-    """``record -> state`` from a CSV with columns ``record,state`` (record: file name or stem)."""
-    if path is None:
-        return {}
-    try:
-        with open(path, newline="") as handle:
-            rows = list(csv.DictReader(handle))
-    except (OSError, UnicodeDecodeError) as error:
-        raise BearingTwinError(f"labels={path}: cannot read it ({error})") from None
-    if not rows or not {"record", "state"} <= set(rows[0]):
-        raise BearingTwinError(f"labels={path}: needs a header with columns record,state")
-    return {Path(row["record"].strip()).stem: row["state"].strip() for row in rows}
+    """``record -> state`` from a labels table (``record,state[,rpm,fs]``; record: file name or stem)."""
+    return {} if path is None else {Path(record).stem: state for _, record, state, _, _ in labels_table(path)}
 
 
 def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
