@@ -10,7 +10,6 @@ needed by models whose features are read on the shaft-order axis. The same model
 
 from __future__ import annotations
 
-import importlib.metadata
 import sys
 import tempfile
 from pathlib import Path
@@ -21,6 +20,7 @@ from mlflow.pyfunc import PythonModel
 
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.provenance import installed_versions
 
 ARTIFACT_PATH = "model"
 STATE_COLUMN = "state"
@@ -62,13 +62,8 @@ def predictions_frame(pipeline: DiagnosisPipeline, windows: np.ndarray, rpm: flo
 
 
 def _requirements() -> list[str]:
-    pins = []
-    for package in RUNTIME_PACKAGES:
-        try:
-            pins.append(f"{package}=={importlib.metadata.version(package)}")
-        except importlib.metadata.PackageNotFoundError:
-            pins.append(package)
-    return pins
+    return [package if version is None else f"{package}=={version}"
+            for package, version in installed_versions(RUNTIME_PACKAGES).items()]
 
 
 def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipeline: DiagnosisPipeline,

@@ -38,7 +38,6 @@ import contextlib
 import copy
 import fcntl
 import hashlib
-import importlib.metadata
 import logging
 import os
 import subprocess
@@ -62,6 +61,7 @@ from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_key
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import SWEEP_PID_ENV, owner_tags, reap_dead_runs, register_open_run
+from bearingtwin.tracking.provenance import installed_versions
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
 log = logging.getLogger(__name__)
@@ -212,13 +212,7 @@ def _git_commit() -> str:
 
 
 def _versions() -> dict[str, str]:
-    versions = {}
-    for package in PACKAGES:
-        try:
-            versions[f"version.{package}"] = importlib.metadata.version(package)
-        except importlib.metadata.PackageNotFoundError:
-            versions[f"version.{package}"] = "absent"
-    return versions
+    return {f"version.{package}": version or "absent" for package, version in installed_versions(PACKAGES).items()}
 
 
 # ---------------------------------------------------------------- finding runs

@@ -1,4 +1,5 @@
-"""Results files say which run sizes produced their numbers, and a smoke run cannot replace a full one.
+"""Where numbers come from: the package versions a run or a model was made with, and which run
+sizes produced a results file's numbers (a smoke run cannot replace a full one).
 
 A table regenerated after a smoke sweep (2 s of signal, 12 windows, 2 epochs) looks just
 like the committed full-size one, with other numbers. So every generated block records the
@@ -9,11 +10,23 @@ without a record (written before records existed) counts as made at the configur
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import re
 from pathlib import Path
 
 from bearingtwin.errors import BearingTwinError
+
+
+def installed_versions(packages) -> dict[str, str | None]:
+    """Each package's installed version (None when it is not installed)."""
+    versions = {}
+    for package in packages:
+        try:
+            versions[package] = importlib.metadata.version(package)
+        except importlib.metadata.PackageNotFoundError:
+            versions[package] = None
+    return versions
 
 SIZE_KEYS = (
     "data.duration",
