@@ -13,10 +13,10 @@ from pathlib import Path
 import lightning as L
 import numpy as np
 import torch
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 
-from bearingtwin.config import bearing_config
+from bearingtwin.config import bearing_config, plain_config
 from bearingtwin.data.build import build_dataset
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.data.windows import split_indices
@@ -171,7 +171,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
             fs_hz=dataset.fs,
             window_normalization=dataset.window_normalization,
             bearing=data_bearing(cfg),
-            config={k: v for k, v in OmegaConf.to_container(cfg, resolve=True).items() if k != "hydra"},
+            config=plain_config(cfg),
         ),
     )
 
@@ -180,6 +180,6 @@ def data_bearing(cfg: DictConfig) -> dict:
     """The bearing the data describe: real-data configs name theirs (``data.bearing``), the twin's is ``bearing``."""
     name = cfg.data.get("bearing")
     if name is None or name == cfg.bearing.get("name"):
-        return OmegaConf.to_container(cfg.bearing, resolve=True)
+        return plain_config(cfg.bearing, "bearing")
     return bearing_config(name)
 
