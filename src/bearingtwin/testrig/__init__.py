@@ -15,3 +15,10 @@ ranks first; :data:`OUT_OF_LIBRARY` lists those it has none for.
 Modules: ``geometry`` (kinematics in shaft orders), ``loadzone`` (ball loads), ``path`` (transfer
 path), ``effects`` (the hideable effects), ``rig`` (the simulator).
 """
+
+from bearingtwin.testrig.effects import OUT_OF_LIBRARY, RIG_EFFECTS, build_rig_effects
+from bearingtwin.testrig.geometry import RigBearing
+from bearingtwin.testrig.rig import FAULTS, RigOperatingPoint, RigSetup, simulate_rig
+
+__all__ = ["FAULTS", "OUT_OF_LIBRARY", "RIG_EFFECTS", "RigBearing", "RigOperatingPoint", "RigSetup",
+           "build_rig_effects", "simulate_rig"]
