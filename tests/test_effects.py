@@ -21,6 +21,7 @@ from bearingtwin.physics.kinematics import rigid_kinematics
 LIBRARY = ("resonance", "slip", "speed_fluctuation", "noise", "tones", "lubrication", "load_zone", "preload",
            "spin_slip")
 FS = 12000.0
+SHAFT_HZ = 1797.0 / 60
 GEOMETRY = BearingGeometry(52.0, 25.0, 7.94, 39.0, 9)
 
 
@@ -65,7 +66,7 @@ def test_resonance_peaks_at_its_natural_frequency_with_gain_one_over_two_zeta(na
 
 def test_resonance_above_nyquist_is_named():
     with pytest.raises(BearingTwinError, match="resonance.natural_frequency_hz"):
-        lib.Resonance(natural_frequency_hz=7000.0, damping_ratio=0.05).modify_signal(np.ones(100), FS, None)
+        lib.Resonance(natural_frequency_hz=7000.0, damping_ratio=0.05).modify_signal(np.ones(100), FS, None, SHAFT_HZ)
     with pytest.raises(BearingTwinError, match="resonance.damping_ratio"):
         lib.Resonance(natural_frequency_hz=3000.0, damping_ratio=-1.0)
 
@@ -74,7 +75,7 @@ def test_resonance_above_nyquist_is_named():
 def test_noise_has_the_requested_snr_and_spectral_slope(snr_db, slope):
     rng = np.random.default_rng(0)
     clean = np.sin(2 * np.pi * 50 * np.arange(2**16) / FS)
-    noisy = lib.Noise(snr_db=snr_db, spectral_slope=slope).modify_signal(clean, FS, rng)
+    noisy = lib.Noise(snr_db=snr_db, spectral_slope=slope).modify_signal(clean, FS, rng, SHAFT_HZ)
     noise = noisy - clean
     assert 10 * np.log10(np.mean(clean**2) / np.mean(noise**2)) == pytest.approx(snr_db, abs=0.01)
     freqs, psd = sps.welch(noise, FS, nperseg=4096)
@@ -86,7 +87,7 @@ def test_noise_has_the_requested_snr_and_spectral_slope(snr_db, slope):
 def test_tones_put_harmonic_lines_at_their_level():
     x = np.random.default_rng(1).standard_normal(60000)  # 5 s: the lines fall on bins
     tones = lib.Tones(frequency_hz=60.0, level_db=6.0, n_harmonics=3)
-    lines = tones.modify_signal(x, FS, np.random.default_rng(2)) - x
+    lines = tones.modify_signal(x, FS, np.random.default_rng(2), SHAFT_HZ) - x
     spectrum = np.abs(np.fft.rfft(lines)) * 2 / lines.size
     freqs = np.fft.rfftfreq(lines.size, 1 / FS)
     amplitudes = [spectrum[np.abs(freqs - k * 60.0) < 1.0].max() for k in (1, 2, 3)]
@@ -198,7 +199,7 @@ def test_noise_with_a_reference_rms_has_the_same_absolute_level_whatever_the_sig
     expected_rms = 0.8 * 10 ** (-6.0 / 20)
     for slope in (0.0, 1.0):
         effect = lib.Noise(snr_db=6.0, spectral_slope=slope, reference_rms=0.8)
-        noise = [effect.modify_signal(x, FS, np.random.default_rng(4)) - x for x in (quiet, 10 * quiet)]
+        noise = [effect.modify_signal(x, FS, np.random.default_rng(4), SHAFT_HZ) - x for x in (quiet, 10 * quiet)]
         for n in noise:
             assert np.sqrt(np.mean(n**2)) == pytest.approx(expected_rms, rel=0.02)
         assert np.sqrt(np.mean(noise[1] ** 2)) == pytest.approx(np.sqrt(np.mean(noise[0] ** 2)), rel=1e-9)

@@ -149,7 +149,7 @@ class Resonance(Effect):
         self.natural_frequency_hz = _positive("resonance.natural_frequency_hz", natural_frequency_hz)
         self.damping_ratio = _positive("resonance.damping_ratio", damping_ratio)
 
-    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator) -> np.ndarray:
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         return base_excitation_filter(signal, fs, self.natural_frequency_hz, self.damping_ratio)
 
 
@@ -287,7 +287,7 @@ class Noise(Effect):
         self.snr_db, self.spectral_slope = float(snr_db), float(spectral_slope)
         self.reference_rms = None if reference_rms is None else _positive("noise.reference_rms", reference_rms)
 
-    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator) -> np.ndarray:
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         return add_noise(signal, fs, self.snr_db, self.spectral_slope, rng, self.reference_rms)
 
 
@@ -316,7 +316,7 @@ class Tones(Effect):
             raise BearingTwinError(f"tones.n_harmonics must be a positive integer, got {n_harmonics}")
         self.level_db, self.n_harmonics = float(level_db), int(n_harmonics)
 
-    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator) -> np.ndarray:
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         return add_tones(signal, fs, self.frequency_hz, self.level_db, self.n_harmonics, rng)
 
 
