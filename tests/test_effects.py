@@ -19,7 +19,7 @@ from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.kinematics import rigid_kinematics
 
 LIBRARY = ("resonance", "slip", "speed_fluctuation", "noise", "tones", "lubrication", "load_zone", "preload",
-           "spin_slip")
+           "spin_slip", "clipping", "second_resonance")
 FS = 12000.0
 SHAFT_HZ = 1797.0 / 60
 GEOMETRY = BearingGeometry(52.0, 25.0, 7.94, 39.0, 9)
@@ -345,3 +345,52 @@ def test_spin_slip_smears_the_ball_fault_lines_and_keeps_the_cage_modulation():
         assert f["1xbsf2"] < 0.75 * rolling["1xbsf2"]
         assert sum(f[name] for name in family) < 0.5 * sum(rolling[name] for name in family)
         assert f["1xftf"] == pytest.approx(rolling["1xftf"], rel=0.1)
+
+
+# ---- sensor saturation and a second mode of the transmission path ----------------------------------------------
+
+
+def test_clipping_caps_the_signal_and_flattens_its_impacts():
+    rng = np.random.default_rng(0)
+    impulsive = rng.standard_normal(24000) * 0.2
+    impulsive[::400] += 8.0  # impacts: kurtosis far above 3
+    clipped = lib.Clipping(clip_level=3.0).modify_signal(impulsive, FS, rng, SHAFT_HZ)
+    rms = np.sqrt(np.mean(impulsive**2))
+    assert np.abs(clipped).max() == pytest.approx(3.0 * rms)
+    untouched = np.abs(impulsive) < 3.0 * rms
+    np.testing.assert_array_equal(clipped[untouched], impulsive[untouched])
+
+    def kurtosis(x):
+        return np.mean((x - x.mean()) ** 4) / np.var(x) ** 2
+
+    def crest(x):
+        return np.abs(x).max() / np.sqrt(np.mean(x**2))
+
+    assert kurtosis(clipped) < 0.5 * kurtosis(impulsive) and crest(clipped) < 0.5 * crest(impulsive)
+    batch = lib.clip_at_rms(np.stack([impulsive, 10 * impulsive]), 3.0)  # per signal: scale-free
+    np.testing.assert_allclose(batch[1], 10 * batch[0])
+
+
+def test_second_resonance_adds_a_band_around_its_frequency_and_needs_the_first():
+    assert lib.SecondResonance.requires == ("resonance",) and lib.Resonance.requires == ()
+    assert all(_REGISTRY[name].requires == () for name in LIBRARY if name != "second_resonance")
+    x = np.random.default_rng(0).standard_normal(24000)
+    one = lib.Resonance(natural_frequency_hz=3000.0, damping_ratio=0.05).modify_signal(x, FS, None, SHAFT_HZ)
+    two = lib.SecondResonance(natural_frequency_hz=1200.0, damping_ratio=0.05).modify_signal(one, FS, None, SHAFT_HZ)
+    freqs, psd = sps.welch(np.stack([one, two]), FS, nperseg=1024)
+    band = np.abs(freqs - 1200.0) < 100.0
+    gain_db = 10 * np.log10(psd[1, band].sum() / psd[0, band].sum())
+    assert gain_db > 10.0  # ~ 1 / (2 zeta) = 10 in amplitude at the peak
+    np.testing.assert_allclose(two, lib.base_excitation_filter(one, FS, 1200.0, 0.05))  # the same filter
+
+
+def test_clipping_and_second_resonance_name_the_bad_field():
+    bad = [
+        (lambda: lib.Clipping(clip_level=0.0), "clipping.clip_level"),
+        (lambda: lib.SecondResonance(natural_frequency_hz=1000.0, damping_ratio=-0.1), "second_resonance.damping_ratio"),
+        (lambda: lib.SecondResonance(natural_frequency_hz=7000.0, damping_ratio=0.05).modify_signal(
+            np.ones(100), FS, None, SHAFT_HZ), "second_resonance.natural_frequency_hz"),
+    ]
+    for make, field in bad:
+        with pytest.raises(BearingTwinError, match=field.replace(".", r"\.")):
+            make()

@@ -2,11 +2,13 @@
 
 Each effect is a small class with one or two physically meaningful parameters and
 acts at the stage of the twin where the physics happens (see
-:mod:`bearingtwin.physics.effects`): the sensor path (``resonance``, ``noise``,
-``tones``), the kinematics the solver reads (``slip``, ``speed_fluctuation``) or the
-dynamic parameters (``lubrication``, ``load_zone``). The sensor-path physics is also
-exposed as plain signal functions (arrays in, arrays out, batched along the leading
-axis) so it can be used and tested without a simulator.
+:mod:`bearingtwin.physics.effects`): the sensor path (``resonance``,
+``second_resonance``, ``noise``, ``tones``, ``clipping``), the kinematics the solver
+reads (``slip``, ``spin_slip``, ``speed_fluctuation``) or the dynamic parameters
+(``lubrication``, ``load_zone``, ``preload``). The sensor-path physics is also exposed as
+plain signal functions (arrays in, arrays out, batched along the leading axis) so it can
+be used and tested without a simulator. Sensor-path effects cost the twin a filter, not
+a simulation, so whatever physics allows is modelled there.
 
 Adding an effect is one class decorated with ``@register_effect`` and one
 ``conf/effects/<name>.yaml``; comparison, calibration and ranking pick it up by name.
@@ -34,21 +36,23 @@ def _positive(field: str, value: float) -> float:
     return float(value)
 
 
-def base_excitation_filter(x: np.ndarray, fs: float, natural_frequency_hz: float, damping_ratio: float) -> np.ndarray:
+def base_excitation_filter(x: np.ndarray, fs: float, natural_frequency_hz: float, damping_ratio: float,
+                           effect: str = "resonance") -> np.ndarray:
     """Absolute acceleration of a sensor mount driven by the bearing housing's acceleration.
 
     The mount is a single-degree-of-freedom oscillator excited at its base, so its
     transmissibility is (2 zeta wn s + wn^2) / (s^2 + 2 zeta wn s + wn^2): unity far below
     ``natural_frequency_hz``, a peak of about 1 / (2 zeta) at it, -20 dB/decade above.
     The bilinear transform is prewarped at the natural frequency so the peak stays at
-    the right place for any sampling rate ``fs`` (Hz). Filters along the last axis.
+    the right place for any sampling rate ``fs`` (Hz). Filters along the last axis; errors
+    name the parameters as those of ``effect``.
     """
     fs = _positive("fs", fs)
-    natural_frequency_hz = _positive("resonance.natural_frequency_hz", natural_frequency_hz)
-    damping_ratio = _positive("resonance.damping_ratio", damping_ratio)
+    natural_frequency_hz = _positive(f"{effect}.natural_frequency_hz", natural_frequency_hz)
+    damping_ratio = _positive(f"{effect}.damping_ratio", damping_ratio)
     if natural_frequency_hz >= fs / 2:
         raise BearingTwinError(
-            f"resonance.natural_frequency_hz={natural_frequency_hz} must lie below the Nyquist frequency {fs / 2} Hz"
+            f"{effect}.natural_frequency_hz={natural_frequency_hz} must lie below the Nyquist frequency {fs / 2} Hz"
         )
     wn = 2 * math.pi * natural_frequency_hz
     k = wn / math.tan(wn / (2 * fs))
@@ -122,6 +126,14 @@ def add_tones(
     return x + amplitude * lines
 
 
+def clip_at_rms(x: np.ndarray, clip_level: float) -> np.ndarray:
+    """``x`` limited to +- ``clip_level`` times its RMS (per signal, last axis): a saturated sensor."""
+    clip_level = _positive("clipping.clip_level", clip_level)
+    x = np.asarray(x, dtype=np.float64)
+    limit = clip_level * np.sqrt(np.mean(x**2, axis=-1, keepdims=True))
+    return np.clip(x, -limit, limit)
+
+
 def _fluctuated_angle(angle_rad: np.ndarray, factor: np.ndarray) -> np.ndarray:
     """An unwrapped angle series whose rate is multiplied by ``factor`` (per interval), same start."""
     steps = np.diff(angle_rad) * 0.5 * (factor[1:] + factor[:-1])
@@ -146,11 +158,34 @@ class Resonance(Effect):
     search_space = {"natural_frequency_hz": (300.0, 5000.0, True), "damping_ratio": (0.01, 0.3, True)}
 
     def __init__(self, natural_frequency_hz: float, damping_ratio: float):
-        self.natural_frequency_hz = _positive("resonance.natural_frequency_hz", natural_frequency_hz)
-        self.damping_ratio = _positive("resonance.damping_ratio", damping_ratio)
+        self.natural_frequency_hz = _positive(f"{self.name}.natural_frequency_hz", natural_frequency_hz)
+        self.damping_ratio = _positive(f"{self.name}.damping_ratio", damping_ratio)
 
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
-        return base_excitation_filter(signal, fs, self.natural_frequency_hz, self.damping_ratio)
+        return base_excitation_filter(signal, fs, self.natural_frequency_hz, self.damping_ratio, self.name)
+
+
+@register_effect
+class SecondResonance(Resonance):
+    """A second mode of the transmission path, in series with ``resonance``'s (same filter).
+
+    Housing and mount each have a mode, and a bolted sensor sees both: the path's
+    transmissibility is the product of two base-excitation filters. Offered alone, the
+    ranking could not tell this mode from the first (``resonance`` explains a lone mode
+    equally well), so it ``requires`` ``resonance`` to be in the twin already.
+
+    Args:
+        natural_frequency_hz: the second mode's natural frequency (0.3-6 kHz; below or above
+            the first).
+        damping_ratio: its damping ratio zeta (0.01-0.1).
+
+    Signature: a second band of raised energy (peak gain ~1/(2 zeta)) where the twin with one
+    resonance is short of energy; impacts ring at two frequencies.
+    """
+
+    name = "second_resonance"
+    requires = ("resonance",)
+    signature = "a second band of raised energy around its natural frequency"
 
 
 @register_effect
@@ -318,6 +353,35 @@ class Tones(Effect):
 
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         return add_tones(signal, fs, self.frequency_hz, self.level_db, self.n_harmonics, rng)
+
+
+@register_effect
+class Clipping(Effect):
+    """Sensor saturation: the recorded signal is the true one limited to the sensor's range.
+
+    An accelerometer's amplifier or the acquisition's converter stops at its full-scale
+    range. Modelled as a hard limit, not a soft one (tanh): a converter's full scale is
+    exact and an IEPE amplifier stays linear almost to its rail, which is what saturated
+    records show, flat tops. The range is given relative to the RMS of the signal reaching
+    the sensor, because the twin's absolute scale is the fitted sensor gain.
+
+    Args:
+        clip_level: the range as a multiple of the signal's RMS (1-10; impacts of a defect
+            reach 4-10 times the RMS, so a clip level of a few RMS cuts them).
+
+    Signature: flat-topped peaks; lower kurtosis and crest factor; the clipped impacts'
+    energy spreads to odd harmonics and a broadband floor.
+    """
+
+    name = "clipping"
+    signature = "flat-topped peaks, lower kurtosis and crest factor"
+    search_space = {"clip_level": (1.0, 10.0, True)}
+
+    def __init__(self, clip_level: float):
+        self.clip_level = _positive("clipping.clip_level", clip_level)
+
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
+        return clip_at_rms(signal, self.clip_level)
 
 
 @register_effect
