@@ -189,7 +189,7 @@ class HookProbe(Effect):
         return Kinematics(kinematics.fs_hz, kinematics.shaft_angle_rad, kinematics.shaft_speed_rad_s, frozen,
                           kinematics.ball_spin_angle_rad, kinematics.ball_offset_rad)
 
-    def modify_signal(self, signal, fs, rng):
+    def modify_signal(self, signal, fs, rng, shaft_hz):
         return self.gain * signal + self.noise * rng.standard_normal(signal.size)
 
 

@@ -1,6 +1,7 @@
 """The effect library: each effect does the physics it documents, and is wired by name and YAML."""
 
 import inspect
+import json
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -19,8 +20,11 @@ from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.kinematics import rigid_kinematics
 
 LIBRARY = ("resonance", "slip", "speed_fluctuation", "noise", "tones", "lubrication", "load_zone", "preload",
-           "spin_slip")
+           "spin_slip", "unbalance", "misalignment", "looseness", "line_frequency", "clipping", "second_resonance")
+SENSOR_ONLY = ("resonance", "noise", "tones", "unbalance", "misalignment", "looseness", "line_frequency", "clipping",
+               "second_resonance")
 FS = 12000.0
+SHAFT_HZ = 1797.0 / 60
 GEOMETRY = BearingGeometry(52.0, 25.0, 7.94, 39.0, 9)
 
 
@@ -65,7 +69,7 @@ def test_resonance_peaks_at_its_natural_frequency_with_gain_one_over_two_zeta(na
 
 def test_resonance_above_nyquist_is_named():
     with pytest.raises(BearingTwinError, match="resonance.natural_frequency_hz"):
-        lib.Resonance(natural_frequency_hz=7000.0, damping_ratio=0.05).modify_signal(np.ones(100), FS, None)
+        lib.Resonance(natural_frequency_hz=7000.0, damping_ratio=0.05).modify_signal(np.ones(100), FS, None, SHAFT_HZ)
     with pytest.raises(BearingTwinError, match="resonance.damping_ratio"):
         lib.Resonance(natural_frequency_hz=3000.0, damping_ratio=-1.0)
 
@@ -74,7 +78,7 @@ def test_resonance_above_nyquist_is_named():
 def test_noise_has_the_requested_snr_and_spectral_slope(snr_db, slope):
     rng = np.random.default_rng(0)
     clean = np.sin(2 * np.pi * 50 * np.arange(2**16) / FS)
-    noisy = lib.Noise(snr_db=snr_db, spectral_slope=slope).modify_signal(clean, FS, rng)
+    noisy = lib.Noise(snr_db=snr_db, spectral_slope=slope).modify_signal(clean, FS, rng, SHAFT_HZ)
     noise = noisy - clean
     assert 10 * np.log10(np.mean(clean**2) / np.mean(noise**2)) == pytest.approx(snr_db, abs=0.01)
     freqs, psd = sps.welch(noise, FS, nperseg=4096)
@@ -83,16 +87,22 @@ def test_noise_has_the_requested_snr_and_spectral_slope(snr_db, slope):
     assert fitted_slope == pytest.approx(slope, abs=0.1)
 
 
-def test_tones_put_harmonic_lines_at_their_level():
-    x = np.random.default_rng(1).standard_normal(60000)  # 5 s: the lines fall on bins
-    tones = lib.Tones(frequency_hz=60.0, level_db=6.0, n_harmonics=3)
-    lines = tones.modify_signal(x, FS, np.random.default_rng(2)) - x
+def _line_amplitudes(lines, frequencies_hz):
+    """Amplitude of the spectrum of ``lines`` (an integer number of cycles of each line) at each frequency."""
     spectrum = np.abs(np.fft.rfft(lines)) * 2 / lines.size
     freqs = np.fft.rfftfreq(lines.size, 1 / FS)
-    amplitudes = [spectrum[np.abs(freqs - k * 60.0) < 1.0].max() for k in (1, 2, 3)]
-    fundamental = math.sqrt(2) * x.std() * 10 ** (6 / 20)
-    np.testing.assert_allclose(amplitudes, [fundamental, fundamental / 2, fundamental / 3], rtol=0.05)
-    assert spectrum[np.abs(freqs - 240.0) < 1.0].max() < 1e-3 * fundamental  # only three harmonics
+    return np.array([spectrum[np.abs(freqs - f) < 0.1].max() for f in frequencies_hz])
+
+
+def test_tones_put_independent_lines_at_their_levels():
+    x = np.random.default_rng(1).standard_normal(60000)  # 5 s: the lines fall on bins
+    tones = lib.Tones(frequencies_hz=[60.0, 157.4, 333.2], levels_db=[6.0, -3.0, -10.0], level_offset_db=-2.0)
+    lines = tones.modify_signal(x, FS, np.random.default_rng(2), SHAFT_HZ) - x
+    rms_db = np.array([6.0, -3.0, -10.0]) - 2.0
+    np.testing.assert_allclose(_line_amplitudes(lines, [60.0, 157.4, 333.2]),
+                               math.sqrt(2) * x.std() * 10 ** (rms_db / 20), rtol=0.02)
+    assert _line_amplitudes(lines, [120.0, 180.0]).max() < 1e-3  # no harmonics: the lines are independent
+    assert np.array_equal(lib.Tones([], []).modify_signal(x, FS, np.random.default_rng(2), SHAFT_HZ), x)
 
 
 def test_slip_jitters_the_balls_by_the_requested_fraction_of_their_spacing():
@@ -198,7 +208,7 @@ def test_noise_with_a_reference_rms_has_the_same_absolute_level_whatever_the_sig
     expected_rms = 0.8 * 10 ** (-6.0 / 20)
     for slope in (0.0, 1.0):
         effect = lib.Noise(snr_db=6.0, spectral_slope=slope, reference_rms=0.8)
-        noise = [effect.modify_signal(x, FS, np.random.default_rng(4)) - x for x in (quiet, 10 * quiet)]
+        noise = [effect.modify_signal(x, FS, np.random.default_rng(4), SHAFT_HZ) - x for x in (quiet, 10 * quiet)]
         for n in noise:
             assert np.sqrt(np.mean(n**2)) == pytest.approx(expected_rms, rel=0.02)
         assert np.sqrt(np.mean(noise[1] ** 2)) == pytest.approx(np.sqrt(np.mean(noise[0] ** 2)), rel=1e-9)
@@ -344,3 +354,223 @@ def test_spin_slip_smears_the_ball_fault_lines_and_keeps_the_cage_modulation():
         assert f["1xbsf2"] < 0.75 * rolling["1xbsf2"]
         assert sum(f[name] for name in family) < 0.5 * sum(rolling[name] for name in family)
         assert f["1xftf"] == pytest.approx(rolling["1xftf"], rel=0.1)
+
+
+# ---- the machine's lines, clipping and the second mode: sensor-path effects -------------------------------
+
+SHAFT_ORDERS = np.arange(1, 21) / 2  # 0.5x ... 10x
+ROUND_SHAFT_HZ = 30.0  # over 10 s every half order of it falls on a bin of the FFT
+
+
+def _added_lines(effect, seed=2):
+    """The lines ``effect`` adds to 10 s of unit white noise at ROUND_SHAFT_HZ, and their amplitudes at SHAFT_ORDERS."""
+    x = np.random.default_rng(1).standard_normal(int(10 * FS))
+    lines = effect.modify_signal(x, FS, np.random.default_rng(seed), ROUND_SHAFT_HZ) - x
+    return lines, _line_amplitudes(lines, ROUND_SHAFT_HZ * SHAFT_ORDERS)
+
+
+@pytest.mark.parametrize("name", SENSOR_ONLY)
+def test_sensor_path_effects_cost_a_filter_not_a_simulation(name):
+    """Effects that only override modify_signal are re-run on the twin's cached simulation."""
+    from bearingtwin.physics.effects import Effect
+
+    cls = _REGISTRY[name]
+    assert cls.modify_parameters is Effect.modify_parameters and cls.modify_kinematics is Effect.modify_kinematics
+    assert cls.modify_signal is not Effect.modify_signal
+
+
+def test_unbalance_is_one_line_at_the_shaft_rate():
+    lines, amplitudes = _added_lines(lib.Unbalance(level_db=-6.0))
+    assert amplitudes[SHAFT_ORDERS == 1.0][0] == pytest.approx(math.sqrt(2) * 10 ** (-6 / 20), rel=0.02)
+    assert amplitudes[SHAFT_ORDERS != 1.0].max() < 1e-3 * amplitudes.max()  # nothing at 2x, nor anywhere else
+    assert np.sqrt(np.mean(lines**2)) == pytest.approx(10 ** (-6 / 20), rel=0.02)
+
+
+def test_misalignment_puts_its_largest_line_at_twice_the_shaft_rate():
+    _, amplitudes = _added_lines(lib.Misalignment(level_db=0.0, one_x_db=-6.0, three_x_db=-10.0))
+    one, two, three = (amplitudes[SHAFT_ORDERS == k][0] for k in (1.0, 2.0, 3.0))
+    assert two > one > three > 0.1 * two
+    assert 20 * np.log10([one / two, three / two]) == pytest.approx([-6.0, -10.0], abs=0.2)
+    assert amplitudes[SHAFT_ORDERS > 3].max() < 1e-3 * two
+
+
+def test_looseness_is_a_comb_of_shaft_harmonics_with_half_orders():
+    _, amplitudes = _added_lines(lib.Looseness(level_db=0.0, half_order_db=-6.0, n_harmonics=10, decay_db_per_order=1.0))
+    level_db = 20 * np.log10(amplitudes / (math.sqrt(2)))
+    integer, half = SHAFT_ORDERS % 1 == 0, SHAFT_ORDERS % 1 != 0
+    np.testing.assert_allclose(level_db[integer], -(SHAFT_ORDERS[integer] - 1), atol=0.2)  # 1 dB per order
+    assert level_db[SHAFT_ORDERS == 0.5][0] == pytest.approx(-6.0, abs=0.2)
+    assert level_db[SHAFT_ORDERS == 1.5][0] == pytest.approx(-6.0 - 0.5, abs=0.2)
+    np.testing.assert_allclose(level_db[half], -6.0 - np.maximum(SHAFT_ORDERS[half] - 1, 0), atol=0.2)
+
+
+def test_line_frequency_puts_its_largest_line_at_twice_the_supply():
+    effect = lib.LineFrequency(supply_hz=50.0, level_db=0.0, fundamental_db=-12.0, n_harmonics=3)
+    x = np.random.default_rng(1).standard_normal(int(10 * FS))
+    lines = effect.modify_signal(x, FS, np.random.default_rng(2), SHAFT_HZ) - x
+    spectrum = np.abs(np.fft.rfft(lines)) * 2 / lines.size
+    freqs = np.fft.rfftfreq(lines.size, 1 / FS)
+    assert freqs[np.argmax(spectrum)] == pytest.approx(100.0, abs=0.1)
+    amplitudes = _line_amplitudes(lines, [50.0, 100.0, 200.0, 300.0])
+    np.testing.assert_allclose(amplitudes / amplitudes[1], [10 ** (-12 / 20), 1.0, 1 / 2, 1 / 3], rtol=0.02)
+
+
+def test_clipping_caps_the_signal_and_flattens_its_impacts():
+    rng = np.random.default_rng(0)
+    impulsive = rng.standard_normal(24000) * 0.2
+    impulsive[::400] += 8.0  # impacts: kurtosis far above 3
+    clipped = lib.Clipping(clip_level=3.0).modify_signal(impulsive, FS, rng, SHAFT_HZ)
+    rms = np.sqrt(np.mean(impulsive**2))
+    assert np.abs(clipped).max() == pytest.approx(3.0 * rms)
+    untouched = np.abs(impulsive) < 3.0 * rms
+    np.testing.assert_array_equal(clipped[untouched], impulsive[untouched])
+
+    def kurtosis(x):
+        return np.mean((x - x.mean()) ** 4) / np.var(x) ** 2
+
+    def crest(x):
+        return np.abs(x).max() / np.sqrt(np.mean(x**2))
+
+    assert kurtosis(clipped) < 0.5 * kurtosis(impulsive) and crest(clipped) < 0.5 * crest(impulsive)
+    batch = lib.clip_at_rms(np.stack([impulsive, 10 * impulsive]), 3.0)  # per signal: scale-free
+    np.testing.assert_allclose(batch[1], 10 * batch[0])
+
+
+def test_second_resonance_adds_a_band_around_its_frequency_and_needs_the_first():
+    assert lib.SecondResonance.requires == ("resonance",) and lib.Resonance.requires == ()
+    assert all(_REGISTRY[name].requires == () for name in LIBRARY if name != "second_resonance")
+    x = np.random.default_rng(0).standard_normal(24000)
+    one = lib.Resonance(natural_frequency_hz=3000.0, damping_ratio=0.05).modify_signal(x, FS, None, SHAFT_HZ)
+    two = lib.SecondResonance(natural_frequency_hz=1200.0, damping_ratio=0.05).modify_signal(one, FS, None, SHAFT_HZ)
+    freqs, psd = sps.welch(np.stack([one, two]), FS, nperseg=1024)
+    band = np.abs(freqs - 1200.0) < 100.0
+    gain_db = 10 * np.log10(psd[1, band].sum() / psd[0, band].sum())
+    assert gain_db > 10.0  # ~ 1 / (2 zeta) = 10 in amplitude at the peak
+    np.testing.assert_allclose(two, lib.base_excitation_filter(one, FS, 1200.0, 0.05))  # the same filter
+
+
+def test_line_effects_are_deterministic_under_a_seeded_rng():
+    x = np.random.default_rng(1).standard_normal(12000)
+    for name in ("tones", "unbalance", "misalignment", "looseness", "line_frequency", "noise"):
+        (effect,) = build_effects({name: _yaml(name)[name]})
+        first, again, other = (effect.modify_signal(x, FS, np.random.default_rng(seed), SHAFT_HZ) for seed in (5, 5, 6))
+        np.testing.assert_array_equal(first, again)
+        assert not np.array_equal(first, other), name  # random phases (or noise) follow the seed
+
+
+def test_new_effects_name_the_bad_field():
+    bad = [
+        (lambda: lib.Tones([100.0], [0.0, -3.0]), "tones.levels_db"),
+        (lambda: lib.Tones([-5.0], [0.0]), "tones.frequencies_hz"),
+        (lambda: lib.Tones([100.0], [float("nan")]), "tones.levels_db"),
+        (lambda: lib.Tones([100.0], [0.0], level_offset_db=float("inf")), "tones.level_offset_db"),
+        (lambda: lib.Unbalance(level_db=float("nan")), "unbalance.level_db"),
+        (lambda: lib.Misalignment(level_db=0.0, one_x_db=3.0), "misalignment.one_x_db"),
+        (lambda: lib.Misalignment(level_db=0.0, three_x_db=1.0), "misalignment.three_x_db"),
+        (lambda: lib.Looseness(level_db=0.0, n_harmonics=0), "looseness.n_harmonics"),
+        (lambda: lib.Looseness(level_db=0.0, decay_db_per_order=-1.0), "looseness.decay_db_per_order"),
+        (lambda: lib.LineFrequency(supply_hz=0.0, level_db=0.0), "line_frequency.supply_hz"),
+        (lambda: lib.LineFrequency(supply_hz=50.0, level_db=0.0, fundamental_db=3.0), "line_frequency.fundamental_db"),
+        (lambda: lib.LineFrequency(supply_hz=50.0, level_db=0.0, n_harmonics=1.5), "line_frequency.n_harmonics"),
+        (lambda: lib.Clipping(clip_level=0.0), "clipping.clip_level"),
+        (lambda: lib.SecondResonance(natural_frequency_hz=1000.0, damping_ratio=-0.1), "second_resonance.damping_ratio"),
+        (lambda: lib.SecondResonance(natural_frequency_hz=7000.0, damping_ratio=0.05).modify_signal(
+            np.ones(100), FS, None, SHAFT_HZ), "second_resonance.natural_frequency_hz"),
+        (lambda: lib.Unbalance(level_db=0.0).modify_signal(np.ones(100), FS, None, 0.0), "shaft_hz"),
+    ]
+    for make, field in bad:
+        with pytest.raises(BearingTwinError, match=field.replace(".", r"\.")):
+            make()
+    with pytest.raises(BearingTwinError, match="effects.tones: bad parameters"):  # the old single-family form
+        build_effects({"tones": {"frequency_hz": 60.0, "level_db": 0.0, "n_harmonics": 3}})
+
+
+# ---- starting points read off a measurement ------------------------------------------------------------------
+
+
+def _bearing_like(seed, seconds=2.0):
+    """A stand-in for a twin's signal: a resonance ringing under noise, with impacts at 107 Hz."""
+    rng = np.random.default_rng(seed)
+    x = 0.3 * rng.standard_normal(int(seconds * FS))
+    x[:: int(FS / 107.0)] += 4.0
+    return lib.base_excitation_filter(x, FS, 3000.0, 0.05)
+
+
+def test_tones_guess_finds_three_hidden_lines_and_leaves_the_other_effects_lines():
+    twin, base = _bearing_like(0), _bearing_like(1)  # two realizations: the twin is not the measurement
+    frequencies_hz, levels_db = [137.3, 263.7, 611.1], [-6.0, -10.0, -14.0]
+    hidden = lib.Tones(frequencies_hz, levels_db).modify_signal(base, FS, np.random.default_rng(3), SHAFT_HZ)
+    # Lines the other effects explain: unbalance (1x), looseness (2.5x), the 2 x 60 Hz magnetic pull.
+    hidden = lib.add_lines(hidden, FS, [SHAFT_HZ, 2.5 * SHAFT_HZ, 120.0], [-6.0, -10.0, -6.0], np.random.default_rng(4))
+    guess = lib.Tones.initial_guess(hidden, twin, FS, SHAFT_HZ)
+    assert json.loads(json.dumps(guess)) == guess  # a plain dict: it goes into a report as it is
+    bin_hz = lib.LINE_RESOLUTION_HZ
+    assert len(guess["frequencies_hz"]) == 3
+    np.testing.assert_allclose(guess["frequencies_hz"], frequencies_hz, atol=bin_hz)
+    np.testing.assert_allclose(guess["levels_db"], levels_db, atol=2.0)
+    assert guess["level_offset_db"] == 0.0
+    assert lib.Tones.initial_guess(base, twin, FS, SHAFT_HZ)["frequencies_hz"] == []  # nothing hidden: no lines
+    (effect,) = build_effects({"tones": guess})
+    assert effect.frequencies_hz == guess["frequencies_hz"]
+
+
+def test_tones_guess_closes_the_gap_the_lines_open():
+    """The motivating failure: with the guessed lines the twin matches a measurement with extra tones."""
+    from bearingtwin.data.recording import Recording
+    from bearingtwin.twin.compare import Comparator
+
+    twin, base = _bearing_like(0), _bearing_like(1)
+    hidden = lib.Tones([137.3, 263.7, 611.1], [0.0, -4.0, -8.0]).modify_signal(base, FS, np.random.default_rng(3),
+                                                                                SHAFT_HZ)
+    comparator = Comparator(Recording(hidden, FS, 60 * SHAFT_HZ, "normal"), GEOMETRY)
+    guess = lib.Tones.initial_guess(hidden, twin, FS, SHAFT_HZ)
+    with_lines = lib.Tones(**guess).modify_signal(twin, FS, np.random.default_rng(5), SHAFT_HZ)
+    before, after = comparator(twin).views["psd"].error_db, comparator(with_lines).views["psd"].error_db
+    assert after < 0.5 * before
+
+
+@pytest.mark.parametrize("level_db", [-12.0, 0.0])
+def test_unbalance_guess_reads_the_shaft_line_level(level_db):
+    twin, base = _bearing_like(0), _bearing_like(1)
+    measured = lib.Unbalance(level_db).modify_signal(base, FS, np.random.default_rng(3), SHAFT_HZ)
+    assert lib.Unbalance.initial_guess(measured, twin, FS, SHAFT_HZ)["level_db"] == pytest.approx(level_db, abs=2.0)
+    # Without the line, the guess is the search space's floor: the unbalance the data leave room for.
+    assert lib.Unbalance.initial_guess(base, twin, FS, SHAFT_HZ)["level_db"] < -25.0
+
+
+def test_misalignment_and_looseness_guesses_read_their_lines():
+    twin, base = _bearing_like(0), _bearing_like(1)
+    misaligned = lib.Misalignment(-4.0, one_x_db=-8.0, three_x_db=-12.0).modify_signal(
+        base, FS, np.random.default_rng(3), SHAFT_HZ)
+    guess = lib.Misalignment.initial_guess(misaligned, twin, FS, SHAFT_HZ)
+    assert [guess[k] for k in ("level_db", "one_x_db", "three_x_db")] == pytest.approx([-4.0, -8.0, -12.0], abs=2.0)
+    loose = lib.Looseness(-8.0, half_order_db=-6.0).modify_signal(base, FS, np.random.default_rng(3), SHAFT_HZ)
+    guess = lib.Looseness.initial_guess(loose, twin, FS, SHAFT_HZ)
+    assert [guess["level_db"], guess["half_order_db"]] == pytest.approx([-8.0, -6.0], abs=2.0)
+
+
+@pytest.mark.parametrize("supply_hz", [50.0, 59.7])
+def test_line_frequency_guess_finds_the_supply(supply_hz):
+    twin, base = _bearing_like(0), _bearing_like(1)
+    measured = lib.LineFrequency(supply_hz, -3.0, fundamental_db=-10.0).modify_signal(
+        base, FS, np.random.default_rng(3), SHAFT_HZ)
+    guess = lib.LineFrequency.initial_guess(measured, twin, FS, SHAFT_HZ)
+    assert guess["supply_hz"] == pytest.approx(supply_hz, abs=0.5)
+    assert guess["level_db"] == pytest.approx(-3.0, abs=2.0) and guess["fundamental_db"] == pytest.approx(-10.0, abs=2.0)
+
+
+def test_guesses_are_gain_free_and_build_their_effect():
+    """A guess reads levels relative to the twin, so a sensor gain on both leaves it unchanged."""
+    from bearingtwin.physics.effects import Effect
+
+    twin, base = _bearing_like(0), _bearing_like(1)
+    measured = lib.Misalignment(-4.0).modify_signal(base, FS, np.random.default_rng(3), SHAFT_HZ)
+    for name in ("tones", "unbalance", "misalignment", "looseness", "line_frequency"):
+        cls = _REGISTRY[name]
+        guess = cls.initial_guess(measured, twin, FS, SHAFT_HZ)
+        scaled = cls.initial_guess(measured / 9.81, twin / 9.81, FS, SHAFT_HZ)
+        assert scaled == pytest.approx(guess), name
+        assert set(guess) <= set(_yaml(name)[name])
+        build_effects({name: {**_yaml(name)[name], **guess}})
+    assert Effect.initial_guess(measured, twin, FS, SHAFT_HZ) is None
+    assert lib.Resonance.initial_guess(measured, twin, FS, SHAFT_HZ) is None

@@ -19,24 +19,24 @@ def guide_block(language: str, marker: str) -> str:
     return block
 
 
-def test_the_guides_effect_is_one_class_and_one_yaml_and_shows_a_line_at_twice_the_shaft_rate():
+def test_the_guides_effect_is_one_class_and_one_yaml_and_shows_a_line_at_the_gear_mesh_rate():
     namespace = dict(vars(effect_library))  # the example lives in effect_library.py: its imports
-    exec(guide_block("python", "class Misalignment"), namespace)
-    assert "misalignment" in registered_effects()
-    effects_cfg = yaml.safe_load(guide_block("yaml", "misalignment:"))
+    exec(guide_block("python", "class GearMesh"), namespace)
+    assert "gear_mesh" in registered_effects()
+    effects_cfg = yaml.safe_load(guide_block("yaml", "gear_mesh:"))
     (effect,) = build_effects(effects_cfg)
-    assert effect.name == "misalignment" and effect.frequency_hz == 59.9
+    assert effect.name == "gear_mesh" and effect.n_teeth == 20
 
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose(config_name="simulate", overrides=["fault=normal", "simulator.duration=1.0"])
     bare, _ = simulate("normal", cfg.bearing, cfg.simulator)
     with_line, _ = simulate("normal", cfg.bearing, cfg.simulator, effects_cfg)
     # The effect adds a single line and changes nothing else: the difference of the two
-    # signals is a sinusoid at 59.9 Hz holding the line's power.
+    # signals is a sinusoid at 20 times the shaft rate holding the line's power.
     added = with_line.signal - bare.signal
     spectrum = np.abs(np.fft.rfft(added)) ** 2
     freqs = np.fft.rfftfreq(added.size, 1.0 / bare.fs)
-    near_line = np.abs(freqs - 59.9) <= 2.0
+    near_line = np.abs(freqs - 20 * cfg.simulator.rpm / 60) <= 2.0
     assert spectrum[near_line].sum() > 0.99 * spectrum.sum()
     line_rms = np.sqrt(np.mean(added**2))
     assert line_rms == pytest.approx(np.sqrt(np.mean(bare.signal**2)), rel=0.02)  # level_db = 0: the signal's RMS

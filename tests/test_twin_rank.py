@@ -21,7 +21,8 @@ HIDDEN = {  # none of these is the YAML default the calibration starts from
     "slip": {"jitter": 0.03},
     "speed_fluctuation": {"depth": 0.02, "frequency_hz": 5.0},
     "noise": {"snr_db": 5.0, "spectral_slope": 1.0},
-    "tones": {"frequency_hz": 60.0, "level_db": 6.0, "n_harmonics": 3},
+    # The YAML's lines 6 dB up: calibration fits the levels; the frequencies are Tones.initial_guess's to find.
+    "tones": {"frequencies_hz": [718.6, 838.6, 958.6], "levels_db": [-4.0, 0.0, -4.0], "level_offset_db": 0.0},
     "lubrication": {"stiffness_ratio": 0.5, "damping_ns_per_m": 3000.0},
     "load_zone": {"radial_load_n": 1500.0, "clearance_um": 15.0},
 }

@@ -2,11 +2,19 @@
 
 Each effect is a small class with one or two physically meaningful parameters and
 acts at the stage of the twin where the physics happens (see
-:mod:`bearingtwin.physics.effects`): the sensor path (``resonance``, ``noise``,
-``tones``), the kinematics the solver reads (``slip``, ``speed_fluctuation``) or the
-dynamic parameters (``lubrication``, ``load_zone``). The sensor-path physics is also
-exposed as plain signal functions (arrays in, arrays out, batched along the leading
-axis) so it can be used and tested without a simulator.
+:mod:`bearingtwin.physics.effects`): the sensor path (``resonance``,
+``second_resonance``, ``noise``, ``clipping`` and the line effects ``tones``,
+``unbalance``, ``misalignment``, ``looseness``, ``line_frequency``), the kinematics the
+solver reads (``slip``, ``spin_slip``, ``speed_fluctuation``) or the dynamic parameters
+(``lubrication``, ``load_zone``, ``preload``). The sensor-path physics is also exposed as
+plain signal functions (arrays in, arrays out, batched along the leading axis) so it can
+be used and tested without a simulator. Sensor-path effects cost the twin a filter, not
+a simulation, so whatever physics allows is modelled there.
+
+The line effects are the machine's usual suspects, each a set of narrow lines at
+frequencies it knows from the shaft rate or the supply, rendered by one function
+(:func:`add_lines`); each reads its starting parameters off the measured spectrum
+(``initial_guess``), because a narrow line is found by looking, not by a short search.
 
 Adding an effect is one class decorated with ``@register_effect`` and one
 ``conf/effects/<name>.yaml``; comparison, calibration and ranking pick it up by name.
@@ -21,11 +29,13 @@ from dataclasses import replace
 
 import numpy as np
 from scipy import signal as sps
+from scipy.ndimage import median_filter
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.dynamics import DynamicParameters
 from bearingtwin.physics.effects import Effect, register_effect
 from bearingtwin.physics.kinematics import Kinematics
+from bearingtwin.signal.envelope import peak_near
 
 
 def _positive(field: str, value: float) -> float:
@@ -34,21 +44,23 @@ def _positive(field: str, value: float) -> float:
     return float(value)
 
 
-def base_excitation_filter(x: np.ndarray, fs: float, natural_frequency_hz: float, damping_ratio: float) -> np.ndarray:
+def base_excitation_filter(x: np.ndarray, fs: float, natural_frequency_hz: float, damping_ratio: float,
+                           effect: str = "resonance") -> np.ndarray:
     """Absolute acceleration of a sensor mount driven by the bearing housing's acceleration.
 
     The mount is a single-degree-of-freedom oscillator excited at its base, so its
     transmissibility is (2 zeta wn s + wn^2) / (s^2 + 2 zeta wn s + wn^2): unity far below
     ``natural_frequency_hz``, a peak of about 1 / (2 zeta) at it, -20 dB/decade above.
     The bilinear transform is prewarped at the natural frequency so the peak stays at
-    the right place for any sampling rate ``fs`` (Hz). Filters along the last axis.
+    the right place for any sampling rate ``fs`` (Hz). Filters along the last axis; errors
+    name the parameters as those of ``effect``.
     """
     fs = _positive("fs", fs)
-    natural_frequency_hz = _positive("resonance.natural_frequency_hz", natural_frequency_hz)
-    damping_ratio = _positive("resonance.damping_ratio", damping_ratio)
+    natural_frequency_hz = _positive(f"{effect}.natural_frequency_hz", natural_frequency_hz)
+    damping_ratio = _positive(f"{effect}.damping_ratio", damping_ratio)
     if natural_frequency_hz >= fs / 2:
         raise BearingTwinError(
-            f"resonance.natural_frequency_hz={natural_frequency_hz} must lie below the Nyquist frequency {fs / 2} Hz"
+            f"{effect}.natural_frequency_hz={natural_frequency_hz} must lie below the Nyquist frequency {fs / 2} Hz"
         )
     wn = 2 * math.pi * natural_frequency_hz
     k = wn / math.tan(wn / (2 * fs))
@@ -93,33 +105,154 @@ def add_noise(x: np.ndarray, fs: float, snr_db: float, spectral_slope: float, rn
     return x + rms * 10 ** (-snr_db / 20.0) * coloured_noise(x.shape, fs, spectral_slope, rng)
 
 
-def add_tones(
-    x: np.ndarray,
-    fs: float,
-    frequency_hz: float,
-    level_db: float,
-    n_harmonics: int,
-    rng: np.random.Generator,
-) -> np.ndarray:
-    """``x`` plus a family of discrete lines at k * ``frequency_hz``, k = 1..``n_harmonics``.
+def add_lines(x: np.ndarray, fs: float, frequencies_hz, levels_db, rng: np.random.Generator) -> np.ndarray:
+    """``x`` plus one sinusoid per frequency in ``frequencies_hz`` (Hz), at ``levels_db`` (dB).
 
-    The fundamental's amplitude is ``level_db`` relative to the RMS of ``x``; harmonic k has
-    1/k of it (the spectrum of a distorted periodic force: supply-frequency magnetic pull,
-    shaft unbalance and misalignment). Phases are random (drawn from ``rng``) because they
-    are not observable in a spectrum. Lines at or above the Nyquist frequency are left out.
+    A line's level is its RMS relative to the RMS of ``x`` (a sinusoid of amplitude A has
+    RMS A / sqrt(2)), per signal along the last axis, so the lines keep their share of
+    whatever scale the bearing signal has. Phases are uniform random from ``rng``, one per
+    signal and line, because a power spectrum does not observe them. Lines at or above the
+    Nyquist frequency ``fs / 2`` are left out (their phases are still drawn, so the random
+    stream does not depend on ``fs``).
     """
-    frequency_hz = _positive("tones.frequency_hz", frequency_hz)
-    if n_harmonics < 1:
-        raise BearingTwinError(f"tones.n_harmonics must be at least 1, got {n_harmonics}")
+    frequencies_hz = np.atleast_1d(np.asarray(frequencies_hz, dtype=np.float64))
+    levels_db = np.atleast_1d(np.asarray(levels_db, dtype=np.float64))
+    if frequencies_hz.ndim != 1 or frequencies_hz.shape != levels_db.shape:
+        raise BearingTwinError(f"frequencies_hz and levels_db must be two lists of one length, got "
+                               f"{frequencies_hz.tolist()} and {levels_db.tolist()}")
+    if not np.all(np.isfinite(frequencies_hz) & (frequencies_hz > 0)):
+        raise BearingTwinError(f"frequencies_hz must be positive numbers, got {frequencies_hz.tolist()}")
+    if not np.all(np.isfinite(levels_db)):
+        raise BearingTwinError(f"levels_db must be finite, got {levels_db.tolist()}")
+    fs = _positive("fs", fs)
     x = np.asarray(x, dtype=np.float64)
     t = np.arange(x.shape[-1]) / fs
-    rms = np.sqrt(np.mean(x**2, axis=-1, keepdims=True))
-    amplitude = rms * math.sqrt(2.0) * 10 ** (level_db / 20.0)
-    lines = np.zeros(x.shape[-1])
-    for k in range(1, n_harmonics + 1):
-        if k * frequency_hz < fs / 2:
-            lines += np.cos(2 * math.pi * k * frequency_hz * t + rng.uniform(0, 2 * math.pi)) / k
-    return x + amplitude * lines
+    amplitudes = np.sqrt(np.mean(x**2, axis=-1, keepdims=True)) * math.sqrt(2.0) * 10 ** (levels_db / 20.0)
+    phases = rng.uniform(0.0, 2 * math.pi, size=x.shape[:-1] + frequencies_hz.shape)
+    out = x.copy()
+    for k in np.flatnonzero(frequencies_hz < fs / 2):  # one line at a time: memory stays at one signal
+        out += amplitudes[..., k, None] * np.cos(2 * math.pi * frequencies_hz[k] * t + phases[..., k, None])
+    return out
+
+
+def clip_at_rms(x: np.ndarray, clip_level: float) -> np.ndarray:
+    """``x`` limited to +- ``clip_level`` times its RMS (per signal, last axis): a saturated sensor."""
+    clip_level = _positive("clipping.clip_level", clip_level)
+    x = np.asarray(x, dtype=np.float64)
+    limit = clip_level * np.sqrt(np.mean(x**2, axis=-1, keepdims=True))
+    return np.clip(x, -limit, limit)
+
+
+LINE_RESOLUTION_HZ = 0.5
+"""Finest frequency resolution (Hz) of the spectra the line effects read their guesses from:
+lines 1 Hz apart stay apart, and a record longer than 2 s averages segments instead of
+resolving speed wander into separate bins."""
+
+LINE_PROMINENCE_DB = 13.0
+"""A measured peak is a narrow line when it stands this far above the measurement's local
+median. A bin of noise does so rarely (e^(-20 ln 2), about 1e-6, in a one-segment
+periodogram, more with the median's own scatter): in 40 records of 2 s of white noise at
+12 kHz, two false lines turned up, each 30 dB below the RMS."""
+
+LINE_ABSENT_DB = 10.0
+"""A measured line is one the twin lacks when it stands this far above the twin's PSD
+within the line's tolerance (:func:`_tolerance_hz` with 1 %: a twin's defect lines may sit
+that far from the measured ones and are still the twin's)."""
+
+_LOBE_BINS = 2  # a Hann window's main lobe spans +-2 bins: a line's power lies within them, between bins or not
+_BACKGROUND_HZ = 5.0  # half-width of the median that gives a spectrum's floor under a line
+
+
+LOOSENESS_HARMONICS = 10
+"""Default number of shaft harmonics of ``looseness`` (with as many half orders below them)."""
+
+LOOSENESS_DECAY_DB_PER_ORDER = 1.0
+"""Default fall of ``looseness``'s comb per shaft order, in dB."""
+
+SUPPLY_HARMONICS = 3
+"""Default number of lines of ``line_frequency`` at even multiples of the supply frequency."""
+
+MAINS_HZ = (50.0, 60.0)
+"""Supply frequencies of the world's grids."""
+
+
+def _line_spectra(measured: np.ndarray, twin: np.ndarray, fs: float,
+                  shaft_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frequencies (Hz), Hann-windowed Welch PSDs (2, m) of measured and twin, and their floors (2, m).
+
+    The floor is a running median, narrower than half the shaft rate so that a comb of
+    half-order lines cannot lift it.
+    """
+    fs, shaft_hz = _positive("fs", fs), _positive("shaft_hz", shaft_hz)
+    signals = [np.asarray(x, dtype=np.float64).ravel() for x in (measured, twin)]
+    nperseg = int(min(signals[0].size, signals[1].size, round(fs / LINE_RESOLUTION_HZ)))
+    if nperseg < 64:
+        raise BearingTwinError(f"initial_guess: {nperseg} samples are too few to read lines from")
+    (freqs_hz, measured_psd), (_, twin_psd) = (sps.welch(x, fs, window="hann", nperseg=nperseg) for x in signals)
+    psd = np.stack([measured_psd, twin_psd])
+    half_width = int(round(min(_BACKGROUND_HZ, shaft_hz / 4) / freqs_hz[1]))
+    # At least 3 lobes wide, so a line's own lobe is less than half the median's window.
+    return freqs_hz, psd, median_filter(psd, size=(1, 2 * max(half_width, 3 * _LOBE_BINS) + 1), mode="nearest")
+
+
+def _tolerance_hz(centres_hz: np.ndarray, df: float, relative: float = 0.005) -> np.ndarray:
+    """How far from a nominal line its peak may lie: a bin, plus 0.5 % for an inexact speed."""
+    return df + relative * np.abs(centres_hz)
+
+
+def _window_argmax(freqs_hz: np.ndarray, values: np.ndarray, centres_hz, half_widths_hz) -> np.ndarray:
+    """Per centre, the bin of the largest of ``values`` within ``half_widths_hz`` (at least the nearest bin)."""
+    centres_hz = np.clip(np.atleast_1d(np.asarray(centres_hz, dtype=np.float64)), 0.0, freqs_hz[-1])
+    bins = []
+    for centre, half_width in zip(centres_hz, np.broadcast_to(half_widths_hz, centres_hz.shape)):
+        near = np.flatnonzero(np.abs(freqs_hz - centre) <= max(half_width, freqs_hz[1] / 2))
+        bins.append(near[np.argmax(values[near])])
+    return np.array(bins, dtype=int)
+
+
+def _added_power(psd: np.ndarray, floor: np.ndarray, bins: np.ndarray, df: float) -> np.ndarray:
+    """Mean-square of the line the measurement has beyond the twin's at each bin (units^2; may be < 0).
+
+    A line's power is its main lobe's minus the floor under it, in each spectrum; with
+    random phases, powers add, so the difference is what an effect must add to the twin.
+    """
+    lobe = np.clip(bins[:, None] + np.arange(-_LOBE_BINS, _LOBE_BINS + 1), 0, psd.shape[-1] - 1)
+    line = (psd[:, lobe].sum(axis=-1) - (2 * _LOBE_BINS + 1) * floor[:, bins]) * df
+    return line[0] - line[1]
+
+
+def _relative_db(power: np.ndarray, reference_power: float, floor_db: float) -> np.ndarray:
+    """``power`` in dB re ``reference_power``, no lower than ``floor_db`` (a line that is not there)."""
+    ratio = np.maximum(power, 0.0) / max(reference_power, np.finfo(float).tiny)
+    return np.maximum(10 * np.log10(np.maximum(ratio, np.finfo(float).tiny)), floor_db)
+
+
+def _added_line_levels_db(measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float, centres_hz,
+                         floor_db: float, tolerances_hz=None) -> tuple[np.ndarray, np.ndarray]:
+    """Levels (dB re the twin's RMS) and frequencies (Hz) of the lines a measurement adds to its twin.
+
+    For each nominal line in ``centres_hz`` the peak is sought within ``tolerances_hz`` (default:
+    a bin plus 0.5 % of the frequency), where the measured PSD exceeds the twin's most; its
+    level is the measured line's power above the local floor minus the twin's there, over the
+    twin's mean square, and no lower than ``floor_db``. ``twin`` is the gain-matched twin, so
+    a level is the one an effect appended to the twin must give its line.
+    """
+    freqs_hz, psd, floor = _line_spectra(measured, twin, fs, shaft_hz)
+    centres_hz = np.atleast_1d(np.asarray(centres_hz, dtype=np.float64))
+    if tolerances_hz is None:
+        tolerances_hz = _tolerance_hz(centres_hz, freqs_hz[1])
+    bins = _window_argmax(freqs_hz, psd[0] - psd[1], centres_hz, tolerances_hz)  # where the measurement adds most
+    power = _added_power(psd, floor, bins, freqs_hz[1])
+    reference = float(np.mean(np.asarray(twin, dtype=np.float64) ** 2))
+    refined = [float(peak_near(freqs_hz, psd[0], freqs_hz[b], freqs_hz[1] / 2)[0]) for b in bins]
+    return _relative_db(power, reference, floor_db), np.array(refined)
+
+
+def _explained_elsewhere(freqs_hz: np.ndarray, shaft_hz: float, df: float) -> np.ndarray:
+    """Which frequencies lie on a line of ``looseness`` (half orders of the shaft) or of ``line_frequency``."""
+    centres = np.concatenate([np.arange(1, 2 * LOOSENESS_HARMONICS + 1) * shaft_hz / 2,
+                              np.outer(np.arange(1, 2 * SUPPLY_HARMONICS + 1), MAINS_HZ).ravel()])
+    return np.any(np.abs(freqs_hz[:, None] - centres) <= _tolerance_hz(centres, df), axis=1)
 
 
 def _fluctuated_angle(angle_rad: np.ndarray, factor: np.ndarray) -> np.ndarray:
@@ -146,11 +279,34 @@ class Resonance(Effect):
     search_space = {"natural_frequency_hz": (300.0, 5000.0, True), "damping_ratio": (0.01, 0.3, True)}
 
     def __init__(self, natural_frequency_hz: float, damping_ratio: float):
-        self.natural_frequency_hz = _positive("resonance.natural_frequency_hz", natural_frequency_hz)
-        self.damping_ratio = _positive("resonance.damping_ratio", damping_ratio)
+        self.natural_frequency_hz = _positive(f"{self.name}.natural_frequency_hz", natural_frequency_hz)
+        self.damping_ratio = _positive(f"{self.name}.damping_ratio", damping_ratio)
 
-    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator) -> np.ndarray:
-        return base_excitation_filter(signal, fs, self.natural_frequency_hz, self.damping_ratio)
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
+        return base_excitation_filter(signal, fs, self.natural_frequency_hz, self.damping_ratio, self.name)
+
+
+@register_effect
+class SecondResonance(Resonance):
+    """A second mode of the transmission path, in series with ``resonance``'s (same filter).
+
+    Housing and mount each have a mode, and a bolted sensor sees both: the path's
+    transmissibility is the product of two base-excitation filters. Offered alone, the
+    ranking could not tell this mode from the first (``resonance`` explains a lone mode
+    equally well), so it ``requires`` ``resonance`` to be in the twin already.
+
+    Args:
+        natural_frequency_hz: the second mode's natural frequency (0.3-6 kHz; below or above
+            the first).
+        damping_ratio: its damping ratio zeta (0.01-0.1).
+
+    Signature: a second band of raised energy (peak gain ~1/(2 zeta)) where the twin with one
+    resonance is short of energy; impacts ring at two frequencies.
+    """
+
+    name = "second_resonance"
+    requires = ("resonance",)
+    signature = "a second band of raised energy around its natural frequency"
 
 
 @register_effect
@@ -287,37 +443,331 @@ class Noise(Effect):
         self.snr_db, self.spectral_slope = float(snr_db), float(spectral_slope)
         self.reference_rms = None if reference_rms is None else _positive("noise.reference_rms", reference_rms)
 
-    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator) -> np.ndarray:
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         return add_noise(signal, fs, self.snr_db, self.spectral_slope, rng, self.reference_rms)
 
 
+def _finite(field: str, value: float) -> float:
+    if not np.isfinite(value):
+        raise BearingTwinError(f"{field} must be a finite number, got {value}")
+    return float(value)
+
+
+def _at_most_zero(field: str, value: float, why: str) -> float:
+    if not _finite(field, value) <= 0:
+        raise BearingTwinError(f"{field} must be at most 0 dB ({why}), got {value}")
+    return float(value)
+
+
+def _whole(field: str, value: int) -> int:
+    if isinstance(value, bool) or int(value) != value or value < 1:
+        raise BearingTwinError(f"{field} must be a positive integer, got {value}")
+    return int(value)
+
+
+class LineEffect(Effect):
+    """An effect that adds narrow lines to the sensor signal; subclasses say where and how strong.
+
+    Sensor-only: a machine force at a low frequency (shaft orders, supply multiples) reaches
+    the sensor through the housing beside the bearing's response, far below the path's
+    resonances, so it adds to the signal as it is and the twin never re-simulates for it.
+    The lines sit at the nominal shaft rate: a speed fluctuation (``modify_kinematics``)
+    modulates the bearing's lines, not these.
+    """
+
+    def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        """Frequencies (Hz) and levels (dB re the signal's RMS) of the lines at shaft rate ``shaft_hz``."""
+        raise NotImplementedError
+
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
+        return add_lines(signal, fs, *self.lines(_positive("shaft_hz", shaft_hz)), rng)
+
+
 @register_effect
-class Tones(Effect):
-    """Discrete lines from the motor and the shaft: supply-frequency harmonics, unbalance, misalignment.
+class Tones(LineEffect):
+    """Narrow lines from elsewhere: neighbouring machines, gear mesh, rotor-bar pass, a drive's carrier.
+
+    A set of independent lines, each with its own frequency and level: the lines a
+    measurement shows that none of the machine effects (``unbalance``, ``misalignment``,
+    ``looseness``: shaft orders; ``line_frequency``: supply multiples) accounts for.
+    ``initial_guess`` reads them off the measured spectrum; the calibration then refines one
+    common ``level_offset_db``, so the parameters stay a plain dict and the search one-dimensional.
 
     Args:
-        frequency_hz: fundamental of the line family (supply frequency or twice it for the
-            magnetic pull, e.g. 60 or 120 Hz; shaft rate for unbalance).
-        level_db: fundamental's amplitude relative to the bearing signal's RMS, in dB.
-        n_harmonics: lines at 1..n_harmonics times the fundamental, amplitude 1/k (fixed, not fitted).
+        frequencies_hz: the lines' frequencies in Hz (any number, possibly none).
+        levels_db: each line's RMS relative to the bearing signal's RMS, in dB (-40 to +20).
+        level_offset_db: added to every level, in dB (what the ranking calibrates; 0 as read).
 
-    Signature: narrow lines at low frequency in the PSD, unrelated to the defect frequency.
+    Signature: narrow lines in the PSD at frequencies unrelated to the shaft rate, the supply
+    and the defect frequencies.
     """
 
     name = "tones"
-    signature = "low-frequency band energy in discrete lines"
-    search_space = {"frequency_hz": (10.0, 400.0, True), "level_db": (-20.0, 30.0, False)}
+    signature = "narrow lines unrelated to shaft, supply and defect"
+    search_space = {"level_offset_db": (-10.0, 10.0, False)}
+    max_lines = 5
+    """At most this many lines are read off a measurement, the strongest."""
+    max_frequency_hz = 2000.0
+    """Lines are read off a measurement below this frequency only. Machines' lines (supply,
+    shaft, gear mesh, rotor-bar pass, neighbours) lie below it; above, in the structural
+    resonance band, a bearing record's narrow lines are the defect's own impact comb (the
+    harmonics of BPFO under the resonance: seen on CWRU records 105 and 130 at 2.4-3.6 kHz),
+    which the bearing model, not a set of tones, has to explain."""
 
-    def __init__(self, frequency_hz: float, level_db: float, n_harmonics: int = 3):
-        self.frequency_hz = _positive("tones.frequency_hz", frequency_hz)
-        if not np.isfinite(level_db):
-            raise BearingTwinError(f"tones.level_db must be finite, got {level_db}")
-        if int(n_harmonics) != n_harmonics or n_harmonics < 1:
-            raise BearingTwinError(f"tones.n_harmonics must be a positive integer, got {n_harmonics}")
-        self.level_db, self.n_harmonics = float(level_db), int(n_harmonics)
+    def __init__(self, frequencies_hz: list[float], levels_db: list[float], level_offset_db: float = 0.0):
+        frequencies_hz, levels_db = list(frequencies_hz), list(levels_db)
+        if len(frequencies_hz) != len(levels_db):
+            raise BearingTwinError(f"tones.levels_db must give one level per line of tones.frequencies_hz, "
+                                   f"got {len(levels_db)} levels for {len(frequencies_hz)} lines")
+        self.frequencies_hz = [_positive("tones.frequencies_hz", f) for f in frequencies_hz]
+        self.levels_db = [_finite("tones.levels_db", level) for level in levels_db]
+        self.level_offset_db = _finite("tones.level_offset_db", level_offset_db)
 
-    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator) -> np.ndarray:
-        return add_tones(signal, fs, self.frequency_hz, self.level_db, self.n_harmonics, rng)
+    def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        return np.array(self.frequencies_hz), np.array(self.levels_db) + self.level_offset_db
+
+    @classmethod
+    def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict:
+        """The strongest narrow lines the measurement has and the twin lacks, off the other effects' lines.
+
+        A line is a local maximum of the measured PSD standing :data:`LINE_PROMINENCE_DB` above
+        the measurement's local floor and :data:`LINE_ABSENT_DB` above the twin's PSD near
+        it, below :attr:`max_frequency_hz`, and not within the tolerance of a half order of
+        the shaft (up to :data:`LOOSENESS_HARMONICS`) or of a multiple of 50 or 60 Hz (up to
+        twice :data:`SUPPLY_HARMONICS`). Frequencies are refined between bins; levels are the
+        power the measurement adds there, relative to the twin's. No line: empty lists.
+        """
+        freqs_hz, psd, floor = _line_spectra(measured, twin, fs, shaft_hz)
+        df = freqs_hz[1]
+        peaks, _ = sps.find_peaks(psd[0], distance=2 * _LOBE_BINS + 2)  # a strong line's side lobes are no lines
+        peaks = peaks[(psd[0, peaks] > 10 ** (LINE_PROMINENCE_DB / 10) * floor[0, peaks])
+                      & (freqs_hz[peaks] < cls.max_frequency_hz) & ~_explained_elsewhere(freqs_hz[peaks], shaft_hz, df)]
+        twin_bins = _window_argmax(freqs_hz, psd[1], freqs_hz[peaks], _tolerance_hz(freqs_hz[peaks], df, 0.01))
+        peaks = peaks[psd[0, peaks] > 10 ** (LINE_ABSENT_DB / 10) * psd[1, twin_bins]]
+        added = _added_power(psd, floor, peaks, df)
+        strongest = np.argsort(-added)[: cls.max_lines]
+        strongest = np.sort(strongest[added[strongest] > 0])
+        reference = float(np.mean(np.asarray(twin, dtype=np.float64) ** 2))
+        levels = _relative_db(added[strongest], reference, -np.inf)
+        return {"frequencies_hz": [float(peak_near(freqs_hz, psd[0], freqs_hz[b], df / 2)[0]) for b in peaks[strongest]],
+                "levels_db": [float(level) for level in levels], "level_offset_db": 0.0}
+
+
+@register_effect
+class Unbalance(LineEffect):
+    """Rotor unbalance: a rotating force m e omega^2 at the shaft rate.
+
+    A mass m at eccentricity e on a shaft turning at omega pulls on the bearings with a force
+    of constant magnitude rotating with the shaft; a radial accelerometer sees its projection,
+    a sinusoid at the shaft rate. (The bearing model's own ``eccentricity_m`` puts it through
+    the dynamics; as a line in the sensor path it costs the twin no simulation.)
+
+    Args:
+        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-40 to +20; an
+            acceleration sensor weighs the low shaft rate down, so a few dB below the bearing's
+            broadband level is typical of a well-balanced motor).
+
+    Signature: one line at exactly the shaft rate, nothing at its harmonics.
+    """
+
+    name = "unbalance"
+    signature = "a line at the shaft rate (1x) only"
+    search_space = {"level_db": (-40.0, 20.0, False)}
+
+    def __init__(self, level_db: float):
+        self.level_db = _finite("unbalance.level_db", level_db)
+
+    def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        return np.array([shaft_hz]), np.array([self.level_db])
+
+    @classmethod
+    def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict:
+        """The level of the line the measurement adds at the shaft rate."""
+        (level,), _ = _added_line_levels_db(measured, twin, fs, shaft_hz, [shaft_hz], cls.search_space["level_db"][0])
+        return {"level_db": float(level)}
+
+
+@register_effect
+class Misalignment(LineEffect):
+    """Shaft misalignment at a coupling: a force at twice the shaft rate, with 1x and 3x beside it.
+
+    An angular or parallel offset between two coupled shafts bends the coupling twice per
+    revolution, so the bearings feel a reaction force whose strongest component is at 2x the
+    shaft rate; the coupling's asymmetry adds 1x (parallel offset) and 3x.
+
+    Args:
+        level_db: the 2x line's RMS relative to the bearing signal's RMS, in dB (-40 to +20).
+        one_x_db: the 1x line relative to the 2x line, in dB (-30 to 0: 2x dominates, or it
+            would be unbalance).
+        three_x_db: the 3x line relative to the 2x line, in dB (fixed, not fitted; -30 to 0).
+
+    Signature: a 2x shaft line stronger than the 1x, with a weaker 3x.
+    """
+
+    name = "misalignment"
+    signature = "a 2x shaft line above the 1x, a weaker 3x"
+    search_space = {"level_db": (-40.0, 20.0, False), "one_x_db": (-30.0, 0.0, False)}
+
+    def __init__(self, level_db: float, one_x_db: float = -6.0, three_x_db: float = -10.0):
+        self.level_db = _finite("misalignment.level_db", level_db)
+        self.one_x_db = _at_most_zero("misalignment.one_x_db", one_x_db, "the 2x line dominates")
+        self.three_x_db = _at_most_zero("misalignment.three_x_db", three_x_db, "the 2x line dominates")
+
+    def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        return shaft_hz * np.arange(1.0, 4.0), self.level_db + np.array([self.one_x_db, 0.0, self.three_x_db])
+
+    @classmethod
+    def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict:
+        """The 2x level, and the 1x and 3x relative to it, that the measurement adds at those orders."""
+        floor_db, relative_floor_db = cls.search_space["level_db"][0], cls.search_space["one_x_db"][0]
+        (one, two, three), _ = _added_line_levels_db(measured, twin, fs, shaft_hz, shaft_hz * np.arange(1.0, 4.0),
+                                                     floor_db)
+        return {"level_db": float(two), "one_x_db": float(np.clip(one - two, relative_floor_db, 0.0)),
+                "three_x_db": float(np.clip(three - two, relative_floor_db, 0.0))}
+
+
+@register_effect
+class Looseness(LineEffect):
+    """Mechanical looseness: a part that rattles at the shaft rate (loose foot, bearing loose in its seat).
+
+    The loose part follows the shaft's excitation only while in contact and lifts off for
+    the rest of the revolution, so its response is a truncated, impacting waveform: rich in
+    shaft harmonics, and, because the rattle repeats only every other revolution at the
+    threshold of lift-off, in half orders (0.5x, 1.5x, 2.5x ...). Rendered directly as that
+    spectrum's lines, so the comb's level and its half-order content are separate parameters.
+
+    Args:
+        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-40 to +20).
+        half_order_db: half-order lines relative to the integer-order comb at their order, in
+            dB (-30 to 0).
+        n_harmonics: lines at 1x ... n_harmonics x and the half orders below them (fixed, not
+            fitted; 10 is typical of a loose machine's spectrum).
+        decay_db_per_order: the comb falls this much per shaft order, in dB (fixed, not
+            fitted; 0-3: a rattle's impacts keep the harmonics strong).
+
+    Signature: a long comb of shaft harmonics with half-order lines between them.
+    """
+
+    name = "looseness"
+    signature = "a comb of shaft harmonics with half orders (0.5x, 1.5x ...)"
+    search_space = {"level_db": (-40.0, 20.0, False), "half_order_db": (-30.0, 0.0, False)}
+
+    def __init__(self, level_db: float, half_order_db: float = -10.0, n_harmonics: int = LOOSENESS_HARMONICS,
+                 decay_db_per_order: float = LOOSENESS_DECAY_DB_PER_ORDER):
+        self.level_db = _finite("looseness.level_db", level_db)
+        self.half_order_db = _finite("looseness.half_order_db", half_order_db)
+        self.n_harmonics = _whole("looseness.n_harmonics", n_harmonics)
+        if not _finite("looseness.decay_db_per_order", decay_db_per_order) >= 0:
+            raise BearingTwinError(f"looseness.decay_db_per_order must be non-negative, got {decay_db_per_order}")
+        self.decay_db_per_order = float(decay_db_per_order)
+
+    @staticmethod
+    def _comb(n_harmonics: int, decay_db_per_order: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Shaft orders 0.5, 1, ..., n, whether each is a half order, and the comb's dB re its 1x there."""
+        orders = np.arange(1, 2 * n_harmonics + 1) / 2
+        return orders, orders % 1 != 0, -decay_db_per_order * np.maximum(orders - 1, 0.0)
+
+    def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        orders, half, comb_db = self._comb(self.n_harmonics, self.decay_db_per_order)
+        return shaft_hz * orders, self.level_db + comb_db + np.where(half, self.half_order_db, 0.0)
+
+    @classmethod
+    def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict:
+        """The comb's 1x level and the half orders' level relative to it, as medians over the lines.
+
+        Each line's level is referred back to the 1x (through the default comb) and the
+        median taken, so that one strong line of another effect (unbalance's 1x,
+        misalignment's 2x) does not set the comb.
+        """
+        floor_db, relative_floor_db = cls.search_space["level_db"][0], cls.search_space["half_order_db"][0]
+        orders, half, comb_db = cls._comb(LOOSENESS_HARMONICS, LOOSENESS_DECAY_DB_PER_ORDER)
+        levels, _ = _added_line_levels_db(measured, twin, fs, shaft_hz, shaft_hz * orders, floor_db)
+        at_one_x = levels - comb_db
+        level = float(np.median(at_one_x[~half]))
+        return {"level_db": level,
+                "half_order_db": float(np.clip(np.median(at_one_x[half]) - level, relative_floor_db, 0.0))}
+
+
+@register_effect
+class LineFrequency(LineEffect):
+    """Electrical lines of an induction motor: magnetic pull at twice the supply frequency.
+
+    The stator field pulls on the rotor twice per supply cycle, strongest where the air gap
+    is smallest (an eccentric rotor, a soft foot), so the frame vibrates at 2 f_s and, as
+    the pull is not sinusoidal, at 4 f_s, 6 f_s ...; an unbalanced supply or pickup in the
+    sensor cable adds f_s itself.
+
+    Args:
+        supply_hz: supply frequency f_s in Hz: 50 or 60 from the grid, anything from a drive.
+            Fitted continuously in [45, 65]: a variable-frequency drive is not tied to the
+            grid's values, and the guess read off the spectrum is already within a bin.
+        level_db: the 2 f_s line's RMS relative to the bearing signal's RMS, in dB (-40 to +20).
+        fundamental_db: the f_s line relative to the 2 f_s line, in dB (fixed, not fitted;
+            -40 to 0).
+        n_harmonics: lines at 2 k f_s for k = 1..n_harmonics, amplitude 1/k (fixed, not fitted).
+
+    Signature: a line at twice the supply frequency, the largest of a family at its
+    multiples, with a weaker one at the supply frequency.
+    """
+
+    name = "line_frequency"
+    signature = "a line at twice the supply frequency, its harmonics, a weaker 1x supply"
+    search_space = {"supply_hz": (45.0, 65.0, False), "level_db": (-40.0, 20.0, False)}
+
+    def __init__(self, supply_hz: float, level_db: float, fundamental_db: float = -10.0,
+                 n_harmonics: int = SUPPLY_HARMONICS):
+        self.supply_hz = _positive("line_frequency.supply_hz", supply_hz)
+        self.level_db = _finite("line_frequency.level_db", level_db)
+        self.fundamental_db = _at_most_zero("line_frequency.fundamental_db", fundamental_db,
+                                            "the line at twice the supply frequency dominates")
+        self.n_harmonics = _whole("line_frequency.n_harmonics", n_harmonics)
+
+    def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        k = np.arange(1, self.n_harmonics + 1)
+        return (self.supply_hz * np.concatenate([[1.0], 2.0 * k]),
+                self.level_db + np.concatenate([[self.fundamental_db], -20 * np.log10(k)]))
+
+    @classmethod
+    def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict:
+        """The supply from the strongest added line in twice the search range, its level and the f_s line's."""
+        low, high, _ = cls.search_space["supply_hz"]
+        floor_db = cls.search_space["level_db"][0]
+        # The 2 f_s line is sought over twice the supply range: centre low + high, half-width high - low.
+        (level,), (twice_supply_hz,) = _added_line_levels_db(measured, twin, fs, shaft_hz, [low + high],
+                                                             floor_db, tolerances_hz=[high - low])
+        supply_hz = twice_supply_hz / 2
+        (fundamental,), _ = _added_line_levels_db(measured, twin, fs, shaft_hz, [supply_hz], floor_db)
+        return {"supply_hz": float(supply_hz), "level_db": float(level),
+                "fundamental_db": float(np.clip(fundamental - level, floor_db, 0.0))}
+
+
+@register_effect
+class Clipping(Effect):
+    """Sensor saturation: the recorded signal is the true one limited to the sensor's range.
+
+    An accelerometer's amplifier or the acquisition's converter stops at its full-scale
+    range. Modelled as a hard limit, not a soft one (tanh): a converter's full scale is
+    exact and an IEPE amplifier stays linear almost to its rail, which is what saturated
+    records show, flat tops. The range is given relative to the RMS of the signal reaching
+    the sensor, because the twin's absolute scale is the fitted sensor gain.
+
+    Args:
+        clip_level: the range as a multiple of the signal's RMS (1-10; impacts of a defect
+            reach 4-10 times the RMS, so a clip level of a few RMS cuts them).
+
+    Signature: flat-topped peaks; lower kurtosis and crest factor; the clipped impacts'
+    energy spreads to odd harmonics and a broadband floor.
+    """
+
+    name = "clipping"
+    signature = "flat-topped peaks, lower kurtosis and crest factor"
+    search_space = {"clip_level": (1.0, 10.0, True)}
+
+    def __init__(self, clip_level: float):
+        self.clip_level = _positive("clipping.clip_level", clip_level)
+
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
+        return clip_at_rms(signal, self.clip_level)
 
 
 @register_effect

@@ -7,13 +7,25 @@ three stages of a simulation, each a no-op unless overridden:
    damping, clearance, loads), e.g. a lubricant film in series with the contacts;
 2. ``modify_kinematics(kinematics, rng) -> kinematics``: the sampled angle series the
    solvers read (:class:`Kinematics`), e.g. random ball slip, shaft-speed fluctuation;
-3. ``modify_signal(signal, fs, rng) -> signal``: the sensor path, applied to the 1-D
-   sensor acceleration (m/s^2) after the bearing, e.g. a transmission resonance, noise.
+3. ``modify_signal(signal, fs, rng, shaft_hz) -> signal``: the sensor path, applied to the
+   1-D sensor acceleration (m/s^2) after the bearing, e.g. a transmission resonance, noise,
+   lines at multiples of the shaft rate ``shaft_hz`` (the nominal ``rpm / 60``, in Hz).
 
 Effects run in configuration order at every stage. Each registers under its ``name``
 with :func:`register_effect`; ``conf/effects/<name>.yaml`` nests the constructor
 arguments under ``<name>:``, and :func:`build_effects` turns the composed ``effects``
 mapping into instances. The core model knows no effect by name.
+
+Two optional class-level hooks serve the ranking of :mod:`bearingtwin.twin.rank`, not
+the simulation:
+
+- ``requires``: names of effects that must already be in the twin before this one is
+  offered as a candidate. A second structural mode, say, is told apart from the first
+  only once the first is in the twin; offered alone, ``resonance`` explains it as well.
+- ``initial_guess(measured, twin, fs, shaft_hz)``: constructor parameters read off the
+  data, to be the first trial of the effect's calibration. An effect whose signature is a
+  few narrow lines needs it: a line's frequency is a needle that a search over a box of
+  frequencies does not find in a few trials, while the measured spectrum shows it.
 """
 
 from __future__ import annotations
@@ -35,9 +47,37 @@ _REGISTRY: dict[str, type["Effect"]] = {}
 
 
 class Effect:
-    """Base class: override any of the three stages; the rest leave the simulation unchanged."""
+    """Base class: override any of the three stages; the rest leave the simulation unchanged.
+
+    An effect that overrides only ``modify_signal`` is *sensor-only*: it commutes with the
+    solver, so the twin re-runs it on a cached simulation (a filter, not a simulation).
+
+    Class attributes:
+        name: the registry and config name.
+        requires: effects the ranking needs in the twin before it offers this one (see the
+            module docstring); a ranking notion, not checked when effects are built, so a
+            simulation may use the effect alone.
+    """
 
     name: ClassVar[str] = ""
+    requires: ClassVar[tuple[str, ...]] = ()
+
+    @classmethod
+    def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:
+        """Constructor parameters estimated from a measurement, or None to start from the config.
+
+        Args:
+            measured: the measured sensor signal (any unit).
+            twin: the current twin's signal at the same ``fs`` (Hz), scaled by the sensor gain
+                that matches it to ``measured``, without this effect.
+            fs: sampling rate in Hz; shaft_hz: shaft rate in Hz (``rpm / 60``).
+
+        Returns:
+            A JSON-serialisable subset of the constructor's parameters (plain floats and lists);
+            the others keep their configured values. Levels in dB are relative to the RMS of
+            ``twin``, which is the signal the effect acts on when the ranking appends it.
+        """
+        return None
 
     def modify_parameters(self, params: DynamicParameters) -> DynamicParameters:
         return params
@@ -45,7 +85,8 @@ class Effect:
     def modify_kinematics(self, kinematics: Kinematics, rng: np.random.Generator) -> Kinematics:
         return kinematics
 
-    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator) -> np.ndarray:
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
+        """The sensor signal sampled at ``fs`` (Hz) with a shaft turning at ``shaft_hz`` (Hz)."""
         return signal
 
 

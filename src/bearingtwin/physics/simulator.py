@@ -106,7 +106,7 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
 
     signal = channels[CHANNELS.index(simulator_cfg["sensor"])].copy()
     for effect in effects:
-        signal = effect.modify_signal(signal, fs, rng)
+        signal = effect.modify_signal(signal, fs, rng, rpm / 60.0)
     recording = Recording(signal=signal, fs=fs, rpm=rpm, fault=fault, source=f"simulated:{bearing_cfg.get('name', '')}",
                           channel=simulator_cfg["sensor"], unit="m/s^2", meta=meta)
     return recording, channels

@@ -109,5 +109,5 @@ class TwinModel:
         signal = self._cache[1]
         rng = np.random.default_rng(np.random.SeedSequence([self.seed, FAULTS.index(self.fault), 1]))
         for effect in instances[split:]:
-            signal = effect.modify_signal(signal, self.fs, rng)
+            signal = effect.modify_signal(signal, self.fs, rng, float(self.config.simulator.rpm) / 60.0)
         return signal
