@@ -574,3 +574,14 @@ def test_guesses_are_gain_free_and_build_their_effect():
         build_effects({name: {**_yaml(name)[name], **guess}})
     assert Effect.initial_guess(measured, twin, FS, SHAFT_HZ) is None
     assert lib.Resonance.initial_guess(measured, twin, FS, SHAFT_HZ) is None
+
+
+def test_resonance_guess_finds_a_hidden_mode_and_its_width():
+    rng = np.random.default_rng(3)
+    twin = rng.standard_normal(int(2 * FS))
+    measured = lib.base_excitation_filter(twin, FS, 2400.0, 0.05)
+    guess = lib.Resonance.initial_guess(3.0 * measured, twin, FS, 29.95)  # any gain
+    assert abs(guess["natural_frequency_hz"] - 2400.0) <= 50.0  # one 50 Hz bin
+    assert 0.03 <= guess["damping_ratio"] <= 0.08
+    assert lib.Resonance.initial_guess(2.0 * twin, twin, FS, 29.95) is None  # a gain is no mode
+    assert lib.SecondResonance.initial_guess.__func__ is lib.Resonance.initial_guess.__func__

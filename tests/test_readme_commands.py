@@ -50,8 +50,9 @@ TRAIN_SMOKE = {
     "features.progress": "false",
     "trainer.max_epochs": "2",
 }
-TWIN_SMOKE = ["twin.duration=0.5", "compare.envelope_segment_s=0.25", "calibration.n_trials_base=3",
-              "calibration.n_trials_effect=3", "calibration.n_trials_refine=3", "ranking.max_effects=1"]
+TWIN_SMOKE = ["twin.duration=0.5", "compare.envelope_segment_s=0.25", "compare.lines_segment_s=0.25",
+              "calibration.n_trials_base=3", "calibration.n_trials_effect=3", "calibration.n_trials_refine=3",
+              "calibration.n_polish=3", "calibration.n_polish_effect=2", "ranking.max_effects=1"]
 
 NOT_RUN = {
     "pip install": "installs the package: the suite runs on the installed package",

@@ -13,8 +13,11 @@ from mlflow import MlflowClient
 from bearingtwin.config import CONF_DIR
 from bearingtwin.twin.model import TwinModel
 
-FAST = ["twin.duration=1.0", "compare.envelope_segment_s=0.25", "calibration.n_trials_base=6",
-        "calibration.n_trials_effect=8", "calibration.n_trials_refine=8", "ranking.max_effects=2"]
+FAST = ["twin.duration=1.0", "compare.envelope_segment_s=0.25", "compare.lines_segment_s=0.25",
+        "calibration.n_trials_base=8", "calibration.n_trials_effect=6", "calibration.n_trials_refine=6",
+        "calibration.n_polish=10", "calibration.n_polish_effect=6", "ranking.max_effects=2",
+        "operating_point.radial_load_n=0.0", "operating_point.clearance_um=5.0",
+        "measured.check_fs=false"]  # a twin-made record shows no shaft line to check the rate by
 
 
 def run_cli(*overrides, env=None, cwd=None):
@@ -24,9 +27,11 @@ def run_cli(*overrides, env=None, cwd=None):
 
 @pytest.fixture(scope="module")
 def measurement(tmp_path_factory):
-    """1 s of an outer-race twin seen through a 2.4 kHz mount resonance, in g, as a bare .npy."""
+    """2 s of an outer-race twin (sensor on the housing, vertical) seen through a 2.4 kHz mount
+    resonance, in g, as a bare .npy."""
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("simulate", overrides=["simulator.fs=12000", "simulator.rpm=1797", "simulator.duration=1.0"])
+        cfg = compose("simulate", overrides=["simulator.fs=12000", "simulator.rpm=1797", "simulator.duration=2.0",
+                                             "simulator.sensor=outer_y"])
     twin = TwinModel("outer", cfg.bearing, cfg.simulator, seed=11)
     signal = twin.signal({"simulator.defect.depth_mm": 0.004},
                          {"resonance": {"natural_frequency_hz": 2400.0, "damping_ratio": 0.07}})
@@ -41,20 +46,23 @@ def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path
     result = run_cli(f"measured.path={measurement}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
                      f"out={out}", "candidates=[resonance,slip,noise]", *FAST, env={"MLFLOW_TRACKING_URI": uri})
     assert result.returncode == 0, result.stderr[-2000:]
-    assert "`resonance`" in result.stdout
+    assert "Effects that were missing, in order: resonance" in result.stdout
     report = json.loads((out / "twin_report.json").read_text())
     assert isinstance(report["baseline_error"], float) and isinstance(report["final_error"], float)
+    assert report["verdict"] == "effects missing" and report["added"][0] == "resonance"
     assert [entry["effect"] for entry in report["ranking"]][0] == "resonance"
-    assert {"effect", "error", "params"} <= set(report["ranking"][0])
-    errors = [entry["error"] for entry in report["ranking"]]
-    assert errors == sorted(errors)
+    assert {"effect", "error", "params", "evidence", "intervals"} <= set(report["ranking"][0])
+    evidence = [entry["evidence"] for entry in report["ranking"]]
+    assert evidence == sorted(evidence, reverse=True) and evidence[0] > 0
+    assert report["operating_point"]["radial_load_n"] == {"value": 0.0, "unit": "N", "held": True}
+    assert report["operating_point"]["sensor"]["race"] == "outer"
     assert report["steps"][0]["effects"] == [] and report["steps"][1]["effects"] == ["resonance"]
     assert report["steps"][0]["error"] == report["baseline_error"]
     assert report["final_error"] == report["steps"][-1]["error"] < report["baseline_error"]
     assert 1000 < report["ranking"][0]["params"]["natural_frequency_hz"] < 4000
     assert "resonance" in report["summary"]
     pngs = sorted(p.name for p in out.glob("*.png"))
-    assert "error_steps.png" in pngs and "baseline_envelope.png" in pngs and "final_psd.png" in pngs
+    assert {"error_steps.png", "baseline_envelope.png", "final_psd.png", "final_lines.png"} <= set(pngs)
 
     client = MlflowClient(tracking_uri=uri)
     (run,) = client.search_runs([client.get_experiment_by_name("bearingtwin-twin").experiment_id])
@@ -63,6 +71,7 @@ def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path
     assert [m.value for m in sorted(history, key=lambda m: m.step)] == [s["error"] for s in report["steps"]]
     artifacts = {a.path for a in client.list_artifacts(run.info.run_id)}
     assert "twin_report.json" in artifacts and "error_steps.png" in artifacts
+    assert run.data.tags["verdict"] == "effects missing" and "op_sensor" not in run.data.metrics
 
 
 def test_fixed_effects_stay_in_every_step(measurement, tmp_path):

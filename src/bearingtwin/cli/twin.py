@@ -22,13 +22,16 @@ from bearingtwin.twin.report import run_twin
 
 
 def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str | None) -> str:
-    """The effects found, in order, and how much of the discrepancy they closed."""
+    """The verdict, the effects found in order, and how much of the discrepancy they closed."""
     found = ", ".join(added.effect for added in fit.added)
     drop = fit.baseline_error - fit.final_error
     share = f" ({100 * drop / fit.baseline_error:.0f} % less)" if fit.baseline_error > 0 else ""
+    unexplained = ", ".join(left["view"] for left in fit.unexplained)
     lines = {
-        "effects found": found or f"none closes ranking.min_explained={cfg.ranking.min_explained} of the gap",
-        "discrepancy": f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}",
+        "verdict": fit.verdict + (f" (unexplained in the {unexplained} view)" if unexplained else ""),
+        "effects found": found or "none pays for its parameters on the held-out half",
+        "discrepancy": f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}, "
+                       f"the measurement's own {fit.floor_error:.2f} dB",
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
     title = f"bearingtwin-twin: {Path(str(cfg.measured.path)).name}"

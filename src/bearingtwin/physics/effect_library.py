@@ -285,6 +285,35 @@ class Resonance(Effect):
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         return base_excitation_filter(signal, fs, self.natural_frequency_hz, self.damping_ratio, self.name)
 
+    @classmethod
+    def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:
+        """The mode where the measurement's PSD stands highest over the twin's, and its width.
+
+        A mode in the path multiplies the twin's spectrum by its transmissibility, so the ratio
+        of the two PSDs peaks at the natural frequency; its half-power width is 2 zeta f_n. The
+        ratio is smoothed over 5 bins (50 Hz each) so one noisy bin does not win. None when no
+        band stands 3 dB above the ratio's median.
+        """
+        low, high, _ = cls.search_space["natural_frequency_hz"]
+        nperseg = int(fs // 50)
+        freqs_hz, measured_psd = sps.welch(np.asarray(measured, dtype=np.float64), fs=fs, nperseg=nperseg)
+        _, twin_psd = sps.welch(np.asarray(twin, dtype=np.float64), fs=fs, nperseg=nperseg)
+        ratio = measured_psd / np.maximum(twin_psd, np.finfo(float).tiny)
+        ratio = np.convolve(ratio, np.ones(5) / 5, mode="same")
+        band = (freqs_hz >= low) & (freqs_hz <= min(high, 0.45 * fs))
+        if not band.any():
+            return None
+        excess = ratio[band] / np.median(ratio[band])
+        peak = int(np.argmax(excess))
+        if excess[peak] < 2.0:
+            return None
+        above = np.flatnonzero(excess >= 1.0 + (excess[peak] - 1.0) / 2)  # half the excess power
+        width_hz = max(float(np.ptp(freqs_hz[band][above])), fs / nperseg)
+        natural_hz = float(freqs_hz[band][peak])
+        zeta_low, zeta_high, _ = cls.search_space["damping_ratio"]
+        return {"natural_frequency_hz": natural_hz,
+                "damping_ratio": float(np.clip(width_hz / (2 * natural_hz), zeta_low, zeta_high))}
+
 
 @register_effect
 class SecondResonance(Resonance):

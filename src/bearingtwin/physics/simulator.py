@@ -42,8 +42,28 @@ def _check_settings(simulator_cfg: Mapping) -> None:
         raise BearingTwinError(f"simulator.solver={simulator_cfg['solver']!r}: choose one of {', '.join(solvers.SOLVERS)}")
     if simulator_cfg["sensor"] not in CHANNELS:
         raise BearingTwinError(f"simulator.sensor={simulator_cfg['sensor']!r}: choose one of {', '.join(CHANNELS)}")
+    angle = simulator_cfg.get("sensor_angle_deg")
+    if angle is not None and (isinstance(angle, bool) or not isinstance(angle, (int, float)) or not math.isfinite(angle)):
+        raise BearingTwinError(f"simulator.sensor_angle_deg must be null or a finite angle in degrees, got {angle!r}")
     if not simulator_cfg["settle_decades"] > 0:
         raise BearingTwinError(f"simulator.settle_decades must be positive, got {simulator_cfg['settle_decades']}")
+
+
+def sensor_signal(channels: np.ndarray, sensor: str, sensor_angle_deg: float | None = None) -> np.ndarray:
+    """The acceleration an accelerometer on ``sensor``'s race reads, in m/s^2.
+
+    ``channels`` is the (..., 4, n) array of race accelerations in :data:`CHANNELS` order. With
+    ``sensor_angle_deg`` null the sensor reads the axis ``sensor`` names; otherwise it sits on
+    the race ``sensor`` names (``inner_*`` or ``outer_*``) pointing at that angle from the
+    horizontal x axis towards y (90 = vertical, the direction gravity and a belt load act in):
+    it reads the projection cos(a) x + sin(a) y.
+    """
+    if sensor_angle_deg is None:
+        return channels[..., CHANNELS.index(sensor), :].copy()
+    race = sensor.split("_")[0]
+    angle = math.radians(sensor_angle_deg)
+    return (math.cos(angle) * channels[..., CHANNELS.index(f"{race}_x"), :]
+            + math.sin(angle) * channels[..., CHANNELS.index(f"{race}_y"), :])
 
 
 def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg: Mapping | None = None,
@@ -104,7 +124,7 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
                                        rtol=settings["rtol"], atol=settings["atol"],
                                        max_step_s=crossing / settings["steps_per_defect"])
 
-    signal = channels[CHANNELS.index(simulator_cfg["sensor"])].copy()
+    signal = sensor_signal(channels, simulator_cfg["sensor"], simulator_cfg.get("sensor_angle_deg"))
     for effect in effects:
         signal = effect.modify_signal(signal, fs, rng, rpm / 60.0)
     recording = Recording(signal=signal, fs=fs, rpm=rpm, fault=fault, source=f"simulated:{bearing_cfg.get('name', '')}",

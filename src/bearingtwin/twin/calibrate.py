@@ -26,11 +26,12 @@ Bounds = tuple[float, float, bool]
 
 @dataclass
 class Fit:
-    """The best parameters found, the discrepancy they give, and every trial's value in order."""
+    """The best parameters found, the objective they give, and every trial's parameters and value in order."""
 
     params: dict[str, float]
     error: float
     trial_errors: list[float]
+    trial_params: list[dict[str, float]]
 
 
 def parse_space(space, where: str) -> dict[str, Bounds]:
@@ -49,17 +50,22 @@ def parse_space(space, where: str) -> dict[str, Bounds]:
 
 
 def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bounds], n_trials: int, seed: int,
-             start: dict[str, float] | None = None) -> Fit:
-    """Seeded TPE search for the parameters in ``space`` that minimise ``objective``.
+             start: dict[str, float] | None = None, n_polish: int = 0) -> Fit:
+    """Seeded TPE search for the parameters in ``space`` that minimise ``objective``, then a local polish.
 
     ``start`` (e.g. the config's nominal values) is evaluated first, so a calibration is
     never worse than not calibrating. A trial whose parameters the model rejects
     (:class:`BearingTwinError`, e.g. a resonance above Nyquist) counts as failed.
     An empty space evaluates ``objective({})`` once.
+
+    TPE finds the right basin but, with a few dozen trials, not its bottom; the objective is
+    deterministic (common random numbers), so ``n_polish`` further evaluations of a bounded
+    Nelder-Mead search (scipy) from the best trial, in coordinates scaled to the box (log
+    where the bound says so), walk down to it. Every evaluation is kept as a trial.
     """
     if not space:
         error = float(objective({}))
-        return Fit({}, error, [error])
+        return Fit({}, error, [error], [{}])
     if n_trials < 1:
         raise BearingTwinError(f"calibration.n_trials must be at least 1, got {n_trials}")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -69,16 +75,102 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
         study.enqueue_trial({k: min(max(float(v), space[k][0]), space[k][1])
                              for k, v in start.items() if k in space and v is not None})
 
+    scored = run_plain(objective)
+
     def run(trial: optuna.Trial) -> float:
-        params = {name: trial.suggest_float(name, low, high, log=log) for name, (low, high, log) in space.items()}
-        try:
-            value = float(objective(params))
-        except BearingTwinError:
-            return math.inf
-        return value if math.isfinite(value) else math.inf
+        return scored({name: trial.suggest_float(name, low, high, log=log) for name, (low, high, log) in space.items()})
 
     study.optimize(run, n_trials=n_trials)
     values = [t.value for t in study.trials]
     if not np.isfinite(study.best_value):
         raise BearingTwinError("calibration: every trial was rejected by the model; check the search space")
-    return Fit(dict(study.best_params), float(study.best_value), values)
+    params = [dict(t.params) for t in study.trials]
+    # Two starts: the best trial and the best one far from it (another basin, e.g. a load-clearance trade-off).
+    order = [i for i in np.argsort(values) if np.isfinite(values[i])]
+    starts = [params[order[0]]]
+    far = [i for i in order[1:] if _distance(space, params[i], starts[0]) > 0.25]
+    if far:
+        starts.append(params[far[0]])
+    for start_params in starts if n_polish > 0 else []:
+        _polish(scored, space, start_params, n_polish // len(starts), values, params)
+    best = int(np.argmin(values))
+    return Fit(params[best], float(values[best]), values, params)
+
+
+def run_plain(objective: Callable[[dict[str, float]], float]) -> Callable[[dict[str, float]], float]:
+    """``objective`` with a rejected or non-finite evaluation scored as +inf, as a failed trial is."""
+    def run(params: dict[str, float]) -> float:
+        try:
+            value = float(objective(params))
+        except BearingTwinError:
+            return math.inf
+        return value if math.isfinite(value) else math.inf
+    return run
+
+
+SLICE_STEPS = (0.01, 0.03, 0.1, 0.3, 1.0)
+"""Distances (unit-box coordinates) at which an interval's edge is looked for, nearest first."""
+
+
+def slice_interval(objective: Callable[[dict[str, float]], float], space: dict[str, Bounds], best: dict[str, float],
+                   best_value: float, name: str, tolerance: float) -> tuple[float, float]:
+    """The range of ``name`` over which ``objective`` stays within ``tolerance`` of ``best_value``,
+    the other parameters held at ``best`` (a slice of the likelihood, narrower than a profile
+    when parameters trade off). Walks out from the best in both directions at :data:`SLICE_STEPS`
+    and interpolates linearly to the crossing; the box's edge bounds it.
+    """
+    scored = run_plain(objective)
+    centre = _to_unit(space[name], best[name])
+    edges = []
+    for direction in (-1.0, 1.0):
+        inside_u, inside_value = centre, best_value
+        edge = 0.0 if direction < 0 else 1.0
+        for step in SLICE_STEPS:
+            u = min(max(centre + direction * step, 0.0), 1.0)
+            value = scored({**best, name: _from_unit(space[name], u)})
+            if value > best_value + tolerance:
+                share = (best_value + tolerance - inside_value) / (value - inside_value) if value > inside_value else 0.0
+                edge = inside_u + share * (u - inside_u)
+                break
+            inside_u, inside_value = u, value
+            if u in (0.0, 1.0):
+                break
+        edges.append(_from_unit(space[name], edge))
+    return min(edges), max(edges)
+
+
+def _from_unit(bounds: Bounds, u: float) -> float:
+    low, high, log = bounds
+    u = min(max(float(u), 0.0), 1.0)
+    return low * (high / low) ** u if log else low + u * (high - low)
+
+
+def _distance(space: dict[str, Bounds], a: dict[str, float], b: dict[str, float]) -> float:
+    """Largest coordinate difference of two points in unit-box coordinates."""
+    return max(abs(_to_unit(space[n], a[n]) - _to_unit(space[n], b[n])) for n in space)
+
+
+def _to_unit(bounds: Bounds, value: float) -> float:
+    low, high, log = bounds
+    return math.log(value / low) / math.log(high / low) if log else (value - low) / (high - low)
+
+
+def _polish(run, space: dict[str, Bounds], start: dict[str, float], n_evaluations: int,
+            values: list[float], params: list[dict[str, float]]) -> None:
+    """Bounded Nelder-Mead from ``start`` in unit-box coordinates; appends every evaluation."""
+    from scipy.optimize import minimize as scipy_minimize
+
+    names = list(space)
+
+    def scored(u):
+        trial = {name: _from_unit(space[name], x) for name, x in zip(names, u)}
+        value = run(trial)
+        values.append(value)
+        params.append(trial)
+        return value
+
+    x0 = np.array([_to_unit(space[name], start[name]) for name in names])
+    simplex = np.vstack([x0] + [x0 + np.where(np.arange(len(names)) == i, 0.1 if x0[i] < 0.9 else -0.1, 0.0)
+                                for i in range(len(names))])
+    scipy_minimize(scored, x0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(names),
+                   options={"maxfev": n_evaluations, "initial_simplex": simplex, "xatol": 1e-3, "fatol": 1e-3})

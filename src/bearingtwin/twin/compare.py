@@ -10,8 +10,16 @@ is an RMS of dB differences, hence scale-free and exactly 0 when the twin is the
 measurement times any gain; the overall discrepancy is the weighted mean of the views,
 and each view's share of it says where the twin fails.
 
+Another rig's transfer path differs from the twin's smoothly across the spectrum; the views
+are built so such a difference does not outvote the specific signatures that tell effects
+apart: the psd view removes a smooth trend in log frequency along with the gain
+(``psd_detrend_order``), and the lines view looks only at narrow lines.
+
 Views:
-    psd: Welch power per log-spaced frequency band -- where in frequency the energy disagrees.
+    psd: Welch power per log-spaced frequency band, gain and smooth trend removed -- where in
+        frequency energy is concentrated differently (resonances, a noise floor).
+    lines: prominence of narrow lines above the local spectrum level at low frequency --
+        shaft harmonics, half orders, supply lines, tones.
     envelope: segment-averaged envelope spectrum relative to its median, bin by bin up to
         past the last harmonic -- the paper's Figure 10 as a number.
     harmonics: prominence of the defect frequency's harmonics and sidebands above the
@@ -36,7 +44,7 @@ from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.envelope import envelope_spectrum, peak_near
 
-VIEWS = ("psd", "envelope", "harmonics", "statistics")
+VIEWS = ("psd", "lines", "envelope", "harmonics", "statistics")
 
 # dB per decade of ratio: power-like features take 10 log10, amplitude-like 20 log10.
 _FEATURE_DB_PER_DECADE = {"variance": 10.0, "kurtosis": 10.0}
@@ -62,6 +70,14 @@ class CompareSettings:
         envelope_dynamic_range_db: envelope-spectrum levels are floored this far below the
             spectrum's highest line, so the leakage floor of a perfectly periodic twin (60 dB
             and more down) and a slightly jittered one do not count as different.
+        psd_detrend_order: order of the polynomial in log frequency removed from the band-level
+            difference (0: the gain only; 1: also a tilt, a transfer path rising or falling
+            across the spectrum).
+        lines_segment_s: segment length of the averaged periodogram the lines view reads
+            (resolution 1 / segment: half orders of a 30 Hz shaft need 0.5 s or longer).
+        lines_max_hz: highest frequency the lines view examines.
+        line_threshold_db: a bin counts as a line when it stands this far above the running
+            median of its neighbourhood (the averaged periodogram's own scatter stays below).
         n_harmonics: harmonics of the defect frequency examined.
         smooth_hz: moving-average width of the dB envelope spectrum in the envelope view.
         stats_window_s: window length for the time-domain statistics.
@@ -75,6 +91,10 @@ class CompareSettings:
     envelope_segment_s: float = 0.5
     envelope_highpass_hz: float = 500.0
     envelope_dynamic_range_db: float = 40.0
+    psd_detrend_order: int = 1
+    lines_segment_s: float = 0.5
+    lines_max_hz: float = 1000.0
+    line_threshold_db: float = 8.0
     n_harmonics: int = 5
     smooth_hz: float = 10.0
     stats_window_s: float = 0.1
@@ -106,6 +126,8 @@ class Profile:
     psd_freqs_hz: np.ndarray
     psd: np.ndarray
     band_db: np.ndarray
+    lines_freqs_hz: np.ndarray
+    line_prominence_db: np.ndarray
     env_freqs_hz: np.ndarray
     env_amplitude: np.ndarray
     env_db: np.ndarray
@@ -116,12 +138,14 @@ class Profile:
 
 @dataclass
 class ViewResult:
-    """One view's error (dB RMS), its share of the overall discrepancy, and what it saw."""
+    """One view's error (dB RMS over ``n_points`` compared values), its share of the overall
+    discrepancy, and what it saw."""
 
     name: str
     error_db: float
     share: float
     finding: str
+    n_points: int
 
 
 @dataclass
@@ -148,7 +172,8 @@ class Comparison:
         return {
             "discrepancy_db": self.discrepancy_db,
             "gain": self.gain,
-            "views": {name: {"error_db": view.error_db, "share": view.share, "finding": view.finding}
+            "views": {name: {"error_db": view.error_db, "share": view.share, "finding": view.finding,
+                             "n_points": view.n_points}
                       for name, view in self.views.items()},
             "summary": self.summary,
         }
@@ -240,8 +265,15 @@ class Comparator:
                 f"{self.fs / self.nperseg:.1f} Hz resolution; raise band_min_hz or welch_segment_s"
             )
         self.stats_window = int(round(s.stats_window_s * self.fs))
+        self.lines_nperseg = int(round(s.lines_segment_s * self.fs))
+        lines_freqs = np.fft.rfftfreq(self.lines_nperseg, 1.0 / self.fs)
+        self.lines_bins = (lines_freqs >= 0.25 * self.rpm / 60.0) & (lines_freqs <= min(s.lines_max_hz, self.fs / 2))
+        self.band_centres_log = np.log10(np.sqrt(self.band_edges_hz[:-1] * self.band_edges_hz[1:]))
+        if not 0 <= s.psd_detrend_order < s.n_bands - 1:
+            raise BearingTwinError(f"compare.psd_detrend_order must lie in [0, {s.n_bands - 2}], got {s.psd_detrend_order}")
         self.line_hz = np.concatenate([harmonics, self.sidebands_hz])
-        self.measured = self.profile(measured.signal)
+        self.measured_signal = np.asarray(measured.signal, dtype=np.float64)
+        self.measured = self.profile(self.measured_signal)
 
     def _tolerance_hz(self, centre_hz: float) -> float:
         """Search half-width for a line: enough for rpm uncertainty and slip, never reaching a sideband."""
@@ -251,14 +283,17 @@ class Comparator:
         """The statistics every view compares, for one signal at the measurement's fs."""
         x = np.asarray(x, dtype=np.float64)
         s = self.settings
-        if x.size < max(self.segment, self.nperseg, self.stats_window):
+        if x.size < max(self.segment, self.nperseg, self.stats_window, self.lines_nperseg):
             raise BearingTwinError(
                 f"a signal of {x.size / self.fs:.3f} s is shorter than one comparison segment "
-                f"(compare.envelope_segment_s={s.envelope_segment_s}, welch_segment_s={s.welch_segment_s})"
+                f"(compare.envelope_segment_s={s.envelope_segment_s}, welch_segment_s={s.welch_segment_s}, "
+                f"lines_segment_s={s.lines_segment_s})"
             )
         psd_freqs, psd = sps.welch(x, fs=self.fs, nperseg=self.nperseg)
         band_power = np.bincount(self.band_of_bin[self.in_bands], weights=psd[self.in_bands], minlength=s.n_bands)
         band_db = _db(band_power / band_power.max(), s.dynamic_range_db) + 10 * np.log10(band_power.max())
+        lines_freqs, lines_psd = sps.welch(x, fs=self.fs, nperseg=self.lines_nperseg)
+        prominence = line_prominence_db(lines_psd, s.line_threshold_db)[self.lines_bins]
         n_segments = max(1, 2 * x.size // self.segment - 1)
         segments, _ = cut_windows(sps.sosfiltfilt(self.highpass, x), self.segment, n_segments)
         env_freqs, env_amp = envelope_spectrum(segments, self.fs, window="hann")
@@ -272,7 +307,7 @@ class Comparator:
         widths = rms_widths_hz(env_freqs, env_amp, self.harmonics_hz, self.width_reach_hz, floor)
         n_windows = max(1, x.size // self.stats_window)
         windows, _ = cut_windows(x, self.stats_window, n_windows)
-        return Profile(psd_freqs, psd, band_db, env_freqs, env_amp, env_db, line_db, widths, windows)
+        return Profile(psd_freqs, psd, band_db, lines_freqs[self.lines_bins], prominence, env_freqs, env_amp, env_db, line_db, widths, windows)
 
     def __call__(self, twin: Recording | np.ndarray) -> Comparison:
         """Compare a twin signal (same fs as the measurement) with the measurement."""
@@ -287,13 +322,18 @@ class Comparator:
         m, s = self.measured, self.settings
         residual = m.band_db - twin.band_db
         gain_db = float(residual.mean())
-        residual = residual - gain_db
+        # The centred log frequencies make the fitted polynomial's mean the gain itself.
+        centred = self.band_centres_log - self.band_centres_log.mean()
+        residual = residual - np.polyval(np.polyfit(centred, residual, s.psd_detrend_order), centred)
         worst = int(np.argmax(np.abs(residual)))
         lo, hi = self.band_edges_hz[worst], self.band_edges_hz[worst + 1]
-        psd_finding = (
-            f"energy between {_hz(lo)} and {_hz(hi)} is {abs(residual[worst]):.0f} dB "
-            f"{'above' if residual[worst] > 0 else 'below'} the twin"
-        )
+        if abs(residual[worst]) < 0.5:
+            psd_finding = "band levels agree within 0.5 dB after gain and tilt"
+        else:
+            psd_finding = (f"energy between {_hz(lo)} and {_hz(hi)} is {abs(residual[worst]):.1f} dB "
+                           f"{'above' if residual[worst] > 0 else 'below'} the twin's")
+
+        lines_error, lines_finding, n_line_bins = self._compare_lines(m, twin)
 
         smooth = max(1, int(round(s.smooth_hz / self.env_df)))
         kernel = np.ones(smooth) / smooth
@@ -308,14 +348,15 @@ class Comparator:
         k = len(self.harmonics_hz)
         mean_ratio = float(np.exp(np.mean(np.log(width_ratio))))
         prominence = float(np.mean(line_diff[:k]))
-        harmonic_finding = (
-            f"{self.reference_name} harmonics are {_times(mean_ratio)} "
-            f"{'wider' if mean_ratio >= 1 else 'narrower'} and {abs(prominence):.0f} dB "
-            f"{'more' if prominence >= 0 else 'less'} prominent in the measurement"
-        )
+        width_words = ("as wide as the twin's" if abs(mean_ratio - 1) < 0.1
+                       else f"{_times(mean_ratio)} as wide as the twin's")
+        prominence_words = ("equally prominent" if abs(prominence) < 0.5 else
+                            f"{abs(prominence):.1f} dB {'more' if prominence >= 0 else 'less'} prominent")
+        harmonic_finding = f"in the measurement {self.reference_name} harmonics are {width_words} and {prominence_words}"
         if self.sidebands_hz.size:
             sideband = float(np.mean(line_diff[k:]))
-            harmonic_finding += f", sidebands {abs(sideband):.0f} dB {'stronger' if sideband >= 0 else 'weaker'}"
+            harmonic_finding += ("; sidebands as strong" if abs(sideband) < 0.5 else
+                                 f"; sidebands {abs(sideband):.1f} dB {'stronger' if sideband >= 0 else 'weaker'}")
 
         gain = 10 ** (gain_db / 20.0)
         features_m = np.median(time_domain_features(m.windows), axis=0)
@@ -331,20 +372,64 @@ class Comparator:
         stat_error = float(np.sqrt(np.mean(stat_db**2)))
         worst_stat = int(np.argmax(np.abs(stat_db)))
         ratio = 10 ** (stat_db[worst_stat] / _FEATURE_DB_PER_DECADE.get(stat_names[worst_stat], 20.0))
-        stat_finding = f"the {stat_names[worst_stat].replace('_', ' ')} is {_times(ratio)} the twin's"
+        stat_finding = (f"after the gain, the measurement's {stat_names[worst_stat].replace('_', ' ')} is "
+                        f"{_times(ratio)} the twin's" if abs(ratio - 1) >= 0.05
+                        else "after the gain, the time-domain statistics agree within 5 %")
 
-        errors = {"psd": float(np.sqrt(np.mean(residual**2))), "envelope": env_error,
+        errors = {"psd": float(np.sqrt(np.mean(residual**2))), "lines": lines_error, "envelope": env_error,
                   "harmonics": harmonic_error, "statistics": stat_error}
-        findings = {"psd": psd_finding, "envelope": env_finding, "harmonics": harmonic_finding,
-                    "statistics": stat_finding}
+        findings = {"psd": psd_finding, "lines": lines_finding, "envelope": env_finding,
+                    "harmonics": harmonic_finding, "statistics": stat_finding}
+        n_points = {"psd": s.n_bands, "lines": n_line_bins, "envelope": max(1, len(env_diff) // smooth),
+                    "harmonics": len(line_diff) + len(width_db), "statistics": len(stat_db)}
         weighted = {v: s.weights[v] * errors[v] for v in VIEWS}
         total_weight = sum(s.weights.values())
         discrepancy = sum(weighted.values()) / total_weight
         views = {
-            v: ViewResult(v, errors[v], weighted[v] / sum(weighted.values()) if discrepancy > 0 else 0.0, findings[v])
+            v: ViewResult(v, errors[v], weighted[v] / sum(weighted.values()) if discrepancy > 0 else 0.0, findings[v],
+                          n_points[v])
             for v in VIEWS
         }
         return Comparison(float(discrepancy), gain, views, m, twin, self)
+
+
+    def _compare_lines(self, m: Profile, twin: Profile) -> tuple[float, str, int]:
+        """Root of the summed squared line-excess differences, per line bin of the measurement.
+
+        Bins where neither signal has a line are equal (0) by construction; dividing by the
+        measurement's own number of line bins (fixed, whatever the twin) keeps the error
+        continuous as a twin's line rises through the threshold, and makes a few lines weigh
+        the same in a wide band as in a narrow one.
+        """
+        diff = m.line_prominence_db - twin.line_prominence_db
+        n_lines = max(int(np.count_nonzero(m.line_prominence_db)), 1)
+        if not np.any(diff):
+            return 0.0, "the narrow lines agree", n_lines
+        worst = int(np.argmax(np.abs(diff)))
+        freq = m.lines_freqs_hz[worst]
+        finding = (f"a line at {freq:.0f} Hz (shaft order {freq / (self.rpm / 60.0):.2f}) stands {abs(diff[worst]):.0f} dB "
+                   f"{'higher in the measurement' if diff[worst] > 0 else 'higher in the twin'}")
+        return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines
+
+    @property
+    def lines_freqs_max(self) -> float:
+        return min(self.settings.lines_max_hz, self.fs / 2)
+
+
+def line_prominence_db(psd: np.ndarray, threshold_db: float, neighbourhood_bins: int = 21) -> np.ndarray:
+    """How far each bin of a power spectrum stands above ``threshold_db`` over the median of its
+    neighbourhood, in dB (0 where it does not).
+
+    A line is a narrow excess, and the averaged periodogram's scatter (a few dB) must not count
+    as one; measuring the excess over the threshold rather than cutting at it keeps the value
+    continuous as a line grows. Along the last axis.
+    """
+    from scipy.ndimage import median_filter
+
+    psd = np.maximum(np.asarray(psd, dtype=np.float64), np.finfo(float).tiny)
+    level = median_filter(psd, size=neighbourhood_bins, axes=(-1,), mode="nearest")
+    prominence = 10 * np.log10(psd / level)
+    return np.maximum(prominence - threshold_db, 0.0)
 
 
 def _hz(f: float) -> str:
@@ -352,7 +437,8 @@ def _hz(f: float) -> str:
 
 
 def _times(ratio: float) -> str:
-    return f"{ratio:.2g}x" if ratio >= 1 else f"1/{1 / ratio:.2g}x"
+    """A ratio as an engineer writes it: "2.3 times", "0.45 times"."""
+    return f"{ratio:.2g} times"
 
 
 def plot_comparison(comparison: Comparison, out_dir: str | Path, prefix: str = "compare") -> list[Path]:
@@ -386,6 +472,17 @@ def plot_comparison(comparison: Comparison, out_dir: str | Path, prefix: str = "
     ax.set(xlabel="frequency (Hz)", ylabel="PSD (unit^2/Hz)")
     ax.legend(fontsize=8)
     save(fig, "psd")
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.plot(m.lines_freqs_hz, m.line_prominence_db, lw=0.8, label="measurement")
+    ax.plot(t.lines_freqs_hz, t.line_prominence_db, lw=0.8, label="twin")
+    shaft_hz = c.rpm / 60.0
+    for order in np.arange(0.5, m.lines_freqs_hz[-1] / shaft_hz, 0.5):
+        ax.axvline(order * shaft_hz, color="0.85" if order % 1 else "0.6", lw=0.5)
+    ax.set(xlabel="frequency (Hz); grey: shaft orders and half orders",
+           ylabel=f"line height over {c.settings.line_threshold_db:g} dB above the local level (dB)")
+    ax.legend(fontsize=8)
+    save(fig, "lines")
 
     for view in ("envelope", "harmonics"):
         fig, ax = plt.subplots(figsize=(8, 4))

@@ -2,10 +2,11 @@
 
 Calibration evaluates the simulator hundreds of times with small changes: base
 parameters addressed by dotted config keys (``simulator.defect.depth_mm``,
-``bearing.inner_damping_ns_per_m``) and an ordered set of effects. Effects that act on
-the sensor path only commute with the solver, so the solved signal is cached and
-only their ``modify_signal`` is re-run when nothing before them changed -- a
-resonance or noise candidate then costs a filter, not a simulation.
+``bearing.inner_damping_ns_per_m``) and an ordered set of effects. The four race
+accelerations of the last simulation are cached: where the sensor sits
+(``simulator.sensor``, ``simulator.sensor_angle_deg``) and the effects that act on the
+sensor path only do not change them, so moving the sensor or trying a resonance or
+noise candidate costs a projection and a filter, not a simulation.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import Effect, build_effects, registered_effects
 from bearingtwin.physics.geometry import FAULTS, check_fault
-from bearingtwin.physics.simulator import simulate
+from bearingtwin.physics.simulator import sensor_signal, simulate
 
 
 def effect_defaults(name: str) -> dict:
@@ -48,6 +49,8 @@ def effect_search_space(name: str) -> dict[str, tuple[float, float, bool]]:
 
 
 _MISSING = object()
+SENSOR_KEYS = ("simulator.sensor", "simulator.sensor_angle_deg")
+"""Base parameters that select what the sensor reads of a simulation, not what is simulated."""
 
 
 def _sensor_only(effect: Effect) -> bool:
@@ -77,6 +80,10 @@ class TwinModel:
         self._cache: tuple[str, np.ndarray] | None = None
         self.n_simulations = 0
 
+    def fresh(self) -> "TwinModel":
+        """The same twin with an empty cache, for another thread (a cache is not shared)."""
+        return TwinModel(self.fault, self.config.bearing, self.config.simulator, self.seed)
+
     def value(self, key: str):
         """The configured value of a dotted ``bearing.*`` / ``simulator.*`` key (a base parameter)."""
         value = OmegaConf.select(self.config, key, default=_MISSING)
@@ -84,15 +91,14 @@ class TwinModel:
             raise BearingTwinError(f"calibration.base.{key}: no such bearing.* or simulator.* config key")
         return value
 
-    def _configured(self, base: Mapping[str, float]):
+    def _configured(self, base: Mapping):
         cfg = copy.deepcopy(self.config)
         for key, value in base.items():
             self.value(key)
-            OmegaConf.update(cfg, key, float(value), merge=False)
+            OmegaConf.update(cfg, key, value if key in SENSOR_KEYS else float(value), merge=False)
         return cfg
 
-    def signal(self, base: Mapping[str, float] | None = None,
-               effects: Mapping[str, Mapping] | None = None) -> np.ndarray:
+    def signal(self, base: Mapping | None = None, effects: Mapping[str, Mapping] | None = None) -> np.ndarray:
         """The sensor signal (m/s^2) with base parameters ``base`` and ``effects`` in order."""
         base, effects = dict(base or {}), dict(effects or {})
         instances = build_effects(effects)
@@ -100,14 +106,20 @@ class TwinModel:
         while split > 0 and _sensor_only(instances[split - 1]):
             split -= 1
         head = dict(list(effects.items())[:split])
-        key = json.dumps([sorted(base.items()), head], sort_keys=True, default=float)
+        simulated = {k: v for k, v in base.items() if k not in SENSOR_KEYS}
+        key = json.dumps([sorted(simulated.items()), head], sort_keys=True, default=float)
         if self._cache is None or self._cache[0] != key:
-            cfg = self._configured(base)
-            recording, _ = simulate(self.fault, cfg.bearing, cfg.simulator, head)
+            cfg = self._configured(simulated)
+            _, channels = simulate(self.fault, cfg.bearing, cfg.simulator, head)
             self.n_simulations += 1
-            self._cache = (key, recording.signal)
-        signal = self._cache[1]
+            self._cache = (key, channels)
+        sensor = {"simulator.sensor": self.value("simulator.sensor"),
+                  "simulator.sensor_angle_deg": OmegaConf.select(self.config, "simulator.sensor_angle_deg"),
+                  **{k: v for k, v in base.items() if k in SENSOR_KEYS}}
+        signal = sensor_signal(self._cache[1], sensor["simulator.sensor"], sensor["simulator.sensor_angle_deg"])
+        # Every effect's sensor path runs here, on the projected channel, with one seeded stream.
         rng = np.random.default_rng(np.random.SeedSequence([self.seed, FAULTS.index(self.fault), 1]))
-        for effect in instances[split:]:
-            signal = effect.modify_signal(signal, self.fs, rng, float(self.config.simulator.rpm) / 60.0)
+        shaft_hz = float(self.config.simulator.rpm) / 60.0
+        for effect in instances:
+            signal = effect.modify_signal(signal, self.fs, rng, shaft_hz)
         return signal

@@ -1,49 +1,160 @@
-"""Which missing effect explains the gap between twin and measurement: greedy forward selection.
+"""Which base parameters differ and which effects are missing: calibrate, rank, select, and say what is left.
 
-The bare twin is calibrated first (its base parameters; the gain is closed form). Then
-every candidate effect is added to it in turn, its own parameters calibrated, and
-ranked by the discrepancy left; the share of the gap it closes is its explanation.
-The best one is kept and the remaining candidates are tried again on top of it, until
-the next effect would explain less than ``min_explained`` of what is left. An effect
-that explains a large share with physically plausible parameters, and whose view of
-largest improvement matches its documented signature, is the named missing effect.
+The measurement is cut in two parts: every calibration fits on the first, every decision
+is taken on the second, held-out part, so an effect that only fits the first part's
+random detail is not added. The two parts compared with each other give the
+measurement's own repeatability per view, the floor no twin can go below.
+
+1. **Operating point.** The bare twin's base parameters (sensor race and direction, radial
+   load, clearance, defect size; :mod:`bearingtwin.twin.operating_point`) are fitted
+   first, the sensor gain in closed form.
+2. **Effects.** Every candidate is added in turn, its parameters fitted (from the data's own
+   estimate when the effect class offers ``initial_guess``), and ranked. The best is kept
+   if it pays for its parameters on the held-out part: a Bayesian information criterion on
+   the views' errors, each view's residual variance being the twin's misfit plus the
+   measurement's repeatability. The operating point and every kept effect are then
+   re-fitted together, and the remaining candidates tried on top, until none pays.
+3. **What is left.** A view whose error stays more than twice the measurement's own is
+   reported with where it disagrees and which kinds of physics leave such a mark, whether
+   or not a library effect was added: a discrepancy no candidate explains is named, never
+   pinned on the nearest library effect.
+
+Every fitted value comes with an interval (where the deviance, the other parameters held,
+stays within the 95 % chi-square bound of the best), every ranking with its margin over the
+runner-up.
 """
 
 from __future__ import annotations
 
+import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
+import numpy as np
+
+from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
-from bearingtwin.twin.calibrate import Bounds, minimize
-from bearingtwin.twin.compare import Comparator, Comparison
+from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.twin.calibrate import minimize, slice_interval
+from bearingtwin.twin.compare import VIEWS, Comparator, Comparison, CompareSettings
 from bearingtwin.twin.model import TwinModel, effect_defaults, effect_search_space
+from bearingtwin.twin.operating_point import BASE_PARAMETERS, OperatingPoint, describe_sensor
+
+CHI2_95_ONE_DOF = 3.841
+"""Deviance above the best that bounds a 95 % interval of one parameter (Wilks)."""
+CLEAR_MARGIN = 2.0
+"""An information-criterion margin below this is "not worth more than a bare mention" (Kass & Raftery 1995)."""
+VIEW_FLOOR_DB = 0.3
+"""Least repeatability assumed of any view: a part-to-part error of 0 would make any change look significant."""
+
+WHAT_LEAVES_IT = {
+    "psd": "a structural resonance, a broadband source (rub, flow, cavitation) or a noise floor in that band",
+    "lines": "a periodic force at that frequency: another machine element (gear mesh, blade or vane pass), "
+             "an electrical line, or a shaft-order source",
+    "envelope": "a modulation or impact process at a rate other than the bearing's (a second defect, a gear, "
+                "a rub once per revolution)",
+    "harmonics": "a different defect geometry or impact rhythm (defect size, slip, load-zone modulation)",
+    "statistics": "non-stationary events: spikes, dropouts, bursts or saturation of the sensor",
+}
+
+
+def _view_errors(comparison: Comparison) -> dict[str, float]:
+    return {v: comparison.views[v].error_db for v in VIEWS}
+
+
+@dataclass
+class Judge:
+    """Scores twins against a measurement: fits on one part, decides on the held-out part.
+
+    ``deviance`` is -2 log-likelihood (up to a constant) of the views' errors under Gaussian
+    residuals whose variance per view is the twin's misfit plus the measurement's own
+    repeatability (``floors_db``, the part-to-part error): n sum_v w_v ln(e_v^2 + f_v^2).
+    Every view counts as ``points_per_view`` independent values: the values within a view
+    (neighbouring bins, a line's leakage, harmonics of one process) are correlated, and no
+    view may outvote the others by its resolution. The calibration's optimum does not depend
+    on it; the information criterion's threshold does, so it is chosen on measurements of the
+    independent test rig (results/identifiability.md), not on the twin's own.
+    """
+
+    fit_part: Comparator
+    check_part: Comparator
+    floors_db: dict[str, float]
+    weights: dict[str, float]
+    held_out: bool
+    points_per_view: float = 1.0
+
+    @classmethod
+    def for_measurement(cls, measured: Recording, geometry: BearingGeometry, settings: CompareSettings,
+                        points_per_view: float = 1.0) -> "Judge":
+        """Cut ``measured`` in two halves when each is long enough for every view, else use it whole for both."""
+        half = measured.signal.size // 2
+        try:
+            first = Comparator(Recording(measured.signal[:half], measured.fs, measured.rpm, measured.fault,
+                                         source=measured.source, unit=measured.unit), geometry, settings)
+            second = Comparator(Recording(measured.signal[half:2 * half], measured.fs, measured.rpm, measured.fault,
+                                          source=measured.source, unit=measured.unit), geometry, settings)
+        except BearingTwinError:
+            whole = Comparator(measured, geometry, settings)
+            return cls(whole, whole, {v: VIEW_FLOOR_DB for v in VIEWS}, dict(settings.weights), False,
+                       points_per_view)
+        repeat = _view_errors(first.compare_profiles(second.measured))
+        floors = {v: max(repeat[v], VIEW_FLOOR_DB) for v in VIEWS}
+        return cls(first, second, floors, dict(settings.weights), True, points_per_view)
+
+    @property
+    def penalty_per_parameter(self) -> float:
+        """BIC: ln of the number of compared values."""
+        return math.log(self.points_per_view * sum(self.weights.values()))
+
+    def deviance(self, comparison: Comparison) -> float:
+        errors = _view_errors(comparison)
+        return float(self.points_per_view * sum(self.weights[v] * math.log(errors[v] ** 2 + self.floors_db[v] ** 2)
+                                                for v in VIEWS))
+
+    def unexplained(self, comparison: Comparison) -> list[dict]:
+        """Views whose error is more than twice the measurement's own repeatability, worst first."""
+        left = []
+        for v in VIEWS:
+            result = comparison.views[v]
+            if self.weights[v] > 0 and result.error_db > 2 * self.floors_db[v] and result.error_db > 1.0:
+                left.append({"view": v, "error_db": result.error_db, "floor_db": self.floors_db[v],
+                             "where": result.finding, "what_leaves_it": WHAT_LEAVES_IT[v]})
+        return sorted(left, key=lambda u: -u["error_db"] / u["floor_db"])
 
 
 @dataclass
 class EffectFit:
-    """One candidate effect calibrated on top of the current twin."""
+    """One candidate effect fitted on top of the current twin, judged on the held-out part."""
 
     effect: str
     params: dict
-    error: float
-    explained: float
-    evidence: str
+    error: float              # discrepancy on the held-out part with the effect, dB
+    explained: float          # share of the held-out discrepancy it closes
+    evidence: float           # information-criterion gain on the held-out part (> 0: it pays for its parameters)
+    drop_per_point: float     # deviance drop on the held-out part per compared value, before the penalty
+    n_parameters: int
+    signature: str
     comparison: Comparison = field(repr=False)
+    intervals: dict = field(default_factory=dict)
 
     def sentence(self) -> str:
-        values = ", ".join(f"{k}={v:.3g}" for k, v in self.params.items() if isinstance(v, float))
-        return f"`{self.effect}` ({values}) explains {100 * self.explained:.0f}% of the discrepancy; {self.evidence}"
+        values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) for k, v in self.params.items()
+                           if isinstance(v, float))
+        return (f"{self.effect} ({values}) closes {100 * self.explained:.0f} % of the discrepancy; "
+                f"{self.signature}")
 
     def as_dict(self) -> dict:
         return {"effect": self.effect, "error": self.error, "params": self.params, "explained": self.explained,
-                "evidence": self.evidence}
+                "evidence": self.evidence, "drop_per_point": self.drop_per_point, "n_parameters": self.n_parameters,
+                "signature": self.signature,
+                "intervals": {k: list(v) for k, v in self.intervals.items()}}
 
 
 @dataclass
 class Step:
-    """The twin after a step of the forward selection."""
+    """The twin after a step of the selection: its effects, base parameters and held-out discrepancy."""
 
     effects: dict
     error: float
@@ -52,166 +163,368 @@ class Step:
 
     def as_dict(self) -> dict:
         return {"effects": list(self.effects), "error": self.error, "params": self.effects,
-                "base_params": self.base_params}
+                "base_params": self.base_params, "views": _view_errors(self.comparison)}
 
 
 @dataclass
 class TwinFit:
     """Outcome of calibrating and ranking: what the report and the CLI write."""
 
-    base_params: dict
+    operating_point: dict      # name -> {value, interval, unit, held}
+    base_params: dict          # dotted config keys of the final twin (what data=twin_to_real reads)
+    gain: float
     baseline_error: float
     ranking: list[EffectFit]
     steps: list[Step]
     added: list[EffectFit]
+    unexplained: list[dict]
+    floor_error: float
+    held_out: bool
 
     @property
     def final_error(self) -> float:
         return self.steps[-1].error
 
     @property
+    def margin(self) -> float | None:
+        """Information-criterion lead of the first-ranked candidate over the runner-up."""
+        return self.ranking[0].evidence - self.ranking[1].evidence if len(self.ranking) > 1 else None
+
+    @property
+    def verdict(self) -> str:
+        if self.added:
+            return "effects missing"
+        return "unexplained discrepancy" if self.unexplained else "no effect needed"
+
+    @property
     def summary(self) -> str:
-        if not self.added:
-            best = self.ranking[0].sentence() if self.ranking else "no candidates"
-            return (f"no candidate effect explains enough of the discrepancy {self.baseline_error:.2f} dB "
-                    f"(best: {best}); the twin still differs: {self.steps[-1].comparison.summary}")
-        named = "; then ".join(fit.sentence() for fit in self.added)
-        return (f"missing: {named}. Discrepancy {self.baseline_error:.2f} -> {self.final_error:.2f} dB; "
-                f"remaining {self.steps[-1].comparison.summary}")
+        lines = ["Base parameters that differed: " + _operating_point_words(self.operating_point, self.gain) + "."]
+        if self.added:
+            found = "; then ".join(fit.sentence() for fit in self.added)
+            lines.append(f"Effects that were missing, in order: {found}. "
+                         f"Discrepancy {self.baseline_error:.2f} -> {self.final_error:.2f} dB on the held-out part "
+                         f"(the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB).")
+            if self.margin is not None and self.margin < CLEAR_MARGIN:
+                runner = self.ranking[1].effect
+                lines.append(f"Uncertain: {self.ranking[0].effect} leads {runner} by only {self.margin:.1f} "
+                             "information-criterion units.")
+        else:
+            best = self.ranking[0] if self.ranking else None
+            why = (f"the best candidate, {best.effect}, does not pay for its parameters on the held-out part"
+                   if best else "there were no candidates")
+            lines.append(f"No effect needed: {why}. Discrepancy {self.baseline_error:.2f} dB "
+                         f"(the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB).")
+        for left in self.unexplained:
+            lines.append(f"Not explained by the library: the {left['view']} view ({left['error_db']:.1f} dB, "
+                         f"{left['error_db'] / left['floor_db']:.0f} times the measurement's own): {left['where']}. "
+                         f"Such a mark is left by {left['what_leaves_it']}.")
+        return "\n".join(lines)
 
     def as_dict(self) -> dict:
         return {
+            "verdict": self.verdict,
+            "operating_point": self.operating_point,
+            "gain": self.gain,
             "baseline_error": self.baseline_error,
+            "floor_error": self.floor_error,
+            "held_out": self.held_out,
             "base_params": self.base_params,
             "ranking": [fit.as_dict() for fit in self.ranking],
+            "margin": self.margin,
             "steps": [step.as_dict() for step in self.steps],
+            "added": [fit.effect for fit in self.added],
+            "unexplained": self.unexplained,
             "final_error": self.final_error,
             "summary": self.summary,
         }
 
 
-def _evidence(effect: str, before: Comparison, after: Comparison) -> str:
-    """The view that improved most, in the words of the effect's documented signature."""
-    drops = {v: before.views[v].error_db - after.views[v].error_db for v in before.views}
-    view = max(drops, key=drops.get)
-    (instance,) = build_effects({effect: effect_defaults(effect)})
-    signature = getattr(instance, "signature", "")
-    return (f"signature: {signature}; the {view} view improves most "
-            f"({before.views[view].error_db:.1f} -> {after.views[view].error_db:.1f} dB)")
+_UNITS = {"_hz": "Hz", "_db": "dB", "_n": "N", "_um": "um", "_mm": "mm", "_deg": "deg", "_ns_per_m": "N s/m"}
+
+
+def _number(value: float) -> str:
+    """Three significant digits, in positional notation where an engineer would write it so."""
+    if value != 0 and not 1e-3 <= abs(value) < 1e5:
+        return f"{value:.3g}"
+    return f"{float(f'{value:.3g}'):,.10g}".replace(",", "")
+
+
+def _value(value: float, interval, unit: str = "") -> str:
+    unit = f" {unit}" if unit else ""
+    if interval is None or np.isclose(interval[0], interval[1], rtol=1e-6):
+        return f"{_number(value)}{unit}"
+    return f"{_number(value)}{unit} ({_number(interval[0])}-{_number(interval[1])})"
+
+
+def _parameter_words(name: str, value: float, interval=None) -> str:
+    """"natural frequency 2260 Hz (2100-2400)" for ``natural_frequency_hz``."""
+    for suffix, unit in sorted(_UNITS.items(), key=lambda item: -len(item[0])):
+        if name.endswith(suffix):
+            return f"{name[:-len(suffix)].replace('_', ' ')} {_value(value, interval, unit)}"
+    return f"{name.replace('_', ' ')} {_value(value, interval)}"
+
+
+def _operating_point_words(operating: Mapping, gain: float) -> str:
+    parts = []
+    for name, entry in operating.items():
+        if entry.get("held"):
+            continue
+        if name == "sensor":
+            interval = entry.get("interval")
+            within = (f" (within {interval[0]:.0f}-{interval[1]:.0f} deg)"
+                      if interval and interval[0] != interval[1] else "")
+            other = [r for r in entry["races_within_bound"] if r != entry["race"]]
+            parts.append(f"sensor on the {entry['value']}{within}"
+                         + (f", the {other[0]} race fits almost as well" if other else ""))
+        else:
+            label = BASE_PARAMETERS[name].description if name in BASE_PARAMETERS else name
+            parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}")
+    parts.append(f"sensor gain {_number(gain)} (measurement unit per m/s^2)")
+    return ", ".join(parts)
 
 
 class EffectRanker:
-    """Calibrate the twin to a measurement and rank candidate effects by the gap they close.
+    """Calibrate the twin's operating point to a measurement, then find the effects it misses.
 
     Args:
         candidates: effect names to try (each needs a class with a ``search_space`` and a
-            ``conf/effects/<name>.yaml``).
+            ``conf/effects/<name>.yaml``); one that ``requires`` others is offered once they are in.
         fixed_effects: effects known to be present, name -> parameters, always in the twin.
-        base_space: base parameters to calibrate, dotted config key -> (low, high, log).
-        n_trials_base, n_trials_effect: Optuna trials for the base twin and per candidate.
-        n_trials_refine: trials re-fitting the base parameters jointly with each added effect.
-        min_explained: stop adding effects when the best explains less than this share of
-            the remaining discrepancy.
+        operating_point: what of the operating point is held and what fitted.
+        n_trials_base: Optuna trials for the operating point.
+        n_trials_effect: trials per candidate and round.
+        n_trials_refine: trials re-fitting the operating point and every kept effect together.
+        n_polish: local (Nelder-Mead) evaluations after the operating-point search and each re-fit.
+        n_polish_effect: the same after each candidate's search (a screen: the one kept is re-fitted).
         max_effects: at most this many effects are added.
+        points_per_view: independent values each view counts as in the information criterion (:class:`Judge`).
+        n_jobs: threads screening the candidates of a round (each with its own twin; same result for any number).
         seed: seeds every Optuna sampler (each search gets its own derived seed).
     """
 
     def __init__(self, candidates: Sequence[str], fixed_effects: Mapping[str, Mapping] | None = None,
-                 base_space: Mapping[str, Bounds] | None = None, n_trials_base: int = 12,
-                 n_trials_effect: int = 16, n_trials_refine: int = 16, min_explained: float = 0.2,
-                 max_effects: int = 3, seed: int = 0):
+                 operating_point: OperatingPoint | None = None, n_trials_base: int = 16,
+                 n_trials_effect: int = 10, n_trials_refine: int = 16, n_polish: int = 30, n_polish_effect: int = 10,
+                 max_effects: int = 3, points_per_view: float = 1.0, n_jobs: int = 1, seed: int = 0):
         self.candidates = list(candidates)
         self.fixed_effects = {k: dict(v or {}) for k, v in dict(fixed_effects or {}).items()}
-        self.base_space = dict(base_space or {})
+        self.operating_point = operating_point or OperatingPoint()
         self.n_trials_base = n_trials_base
         self.n_trials_effect = n_trials_effect
         self.n_trials_refine = n_trials_refine
-        self.min_explained = min_explained
+        self.n_polish = n_polish
+        self.n_polish_effect = n_polish_effect
+        self.points_per_view = points_per_view
+        self.n_jobs = n_jobs
         self.max_effects = max_effects
         self.seed = seed
 
-    def fit(self, twin: TwinModel, comparator: Comparator) -> "EffectRanker":
+    def fit(self, twin: TwinModel, measured: Recording, geometry: BearingGeometry,
+            settings: CompareSettings | None = None) -> "EffectRanker":
         """Calibrate, rank and select; the outcome is in ``fit_`` (a :class:`TwinFit`)."""
-        if not 0.0 <= self.min_explained < 1.0:
-            raise BearingTwinError(f"ranking.min_explained must lie in [0, 1), got {self.min_explained}")
         overlap = set(self.candidates) & set(self.fixed_effects)
         if overlap:
             raise BearingTwinError(f"candidates: {sorted(overlap)[0]} is already among the fixed effects")
+        if self.max_effects < 0:
+            raise BearingTwinError(f"ranking.max_effects must be non-negative, got {self.max_effects}")
         spaces = {name: effect_search_space(name) for name in self.candidates}
-        defaults = {name: effect_defaults(name) for name in self.candidates}
+        judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view)
+        op = self.operating_point
+        for key in op.extra:
+            twin.value(key)  # an unknown extra key is named before any simulation
 
-        def error(base: Mapping, effects: Mapping) -> Comparison:
-            return comparator(twin.signal(base, effects))
+        # 1. The operating point: the sensor on its grid inside every trial (no simulation), the rest by TPE.
+        sensor_search: dict[tuple, tuple[dict, list]] = {}
 
-        start = {key: twin.value(key) for key in self.base_space}
-        base_fit = minimize(lambda p: error(p, self.fixed_effects).discrepancy_db, self.base_space,
-                            self.n_trials_base, self.seed, start=start)
-        base = base_fit.params
+        def base_deviance(values: Mapping) -> float:
+            scored = []
+            for sensor in op.sensor_options():
+                signal = twin.signal(op.to_base(values, sensor), self.fixed_effects)
+                scored.append((judge.deviance(judge.fit_part(signal)), sensor))
+            best = min(scored, key=lambda s: s[0])
+            sensor_search[_key(values)] = (best[1], scored)
+            return best[0]
+
+        def compare(base: Mapping, effects: Mapping, part: Comparator) -> Comparison:
+            return part(twin.signal(base, effects))
+
+        base_fit = minimize(base_deviance, op.space, self.n_trials_base, self.seed, start=op.start(twin.value),
+                            n_polish=self.n_polish)
+        sensor, scored = sensor_search[_key(base_fit.params)]
+        base_values = dict(base_fit.params)
         current_effects = dict(self.fixed_effects)
-        current = error(base, current_effects)
+        base = op.to_base(base_values, sensor)
+        current = compare(base, current_effects, judge.check_part)
         steps = [Step(dict(current_effects), current.discrepancy_db, current, dict(base))]
+
+        # 2. Effects, greedily, each judged on the held-out part.
         ranking: list[EffectFit] = []
         added: list[EffectFit] = []
         remaining = list(self.candidates)
         round_index = 0
         while remaining and len(added) < self.max_effects:
-            fits = []
-            for index, name in enumerate(remaining):
-                fitted = self._calibrate_effect(name, spaces[name], defaults[name], base, current_effects, error,
-                                                seed=self.seed + 1000 * (round_index + 1) + index)
-                fits.append(self._fit_record(name, fitted, current))
-            fits.sort(key=lambda fit: fit.error)
+            offered = [name for name in remaining if set(_requires(name)) <= set(current_effects)]
+            seeds = [self.seed + 1000 * (round_index + 1) + index for index in range(len(offered))]
+            with ThreadPoolExecutor(max_workers=self.n_jobs) as pool:  # the solver and numpy release the GIL
+                fits = list(pool.map(lambda name, seed: self._fit_candidate(
+                    name, spaces[name], base, current_effects, current, judge, twin.fresh(), seed=seed), offered, seeds))
+            if not fits:
+                break
+            fits.sort(key=lambda fit: -fit.evidence)
             if round_index == 0:
                 ranking = fits
             best = fits[0]
-            if best.explained < self.min_explained:
+            if best.evidence <= 0:
                 break
-            base, best = self._refine(best, base, current_effects, current, error,
-                                      seed=self.seed + 1000 * (round_index + 1) + 999)
+            base_values, sensor, effects, _, scored = self._refit(
+                best, base_values, sensor, current_effects, judge, twin, seed=self.seed + 1000 * (round_index + 1) + 999)
+            base = op.to_base(base_values, sensor)
+            before = current
+            current = compare(base, effects, judge.check_part)
+            best.comparison, best.error, best.params = current, current.discrepancy_db, effects[best.effect]
+            best.explained = _explained(before, current)
             added.append(best)
-            current_effects[best.effect] = best.params
-            current = best.comparison
+            current_effects = effects
             steps.append(Step(dict(current_effects), current.discrepancy_db, current, dict(base)))
             remaining.remove(best.effect)
             round_index += 1
-        self.fit_ = TwinFit(base, steps[0].error, ranking, steps, added)
+
+        # Intervals: each fitted value's slice of the final deviance on the first part.
+        def final_deviance(values, effects):
+            return judge.deviance(judge.fit_part(twin.signal(op.to_base(values, sensor), effects)))
+
+        best_deviance = final_deviance(base_values, current_effects)
+        for fit in added:
+            space = effect_search_space(fit.effect)
+
+            def with_params(params, name=fit.effect):
+                return final_deviance(base_values, {**current_effects, name: {**current_effects[name], **params}})
+
+            fit.intervals = {k: slice_interval(with_params, space, {k2: fit.params[k2] for k2 in space}, best_deviance,
+                                               k, CHI2_95_ONE_DOF) for k in space}
+        intervals = {name: slice_interval(lambda p: final_deviance({**base_values, **p}, current_effects), op.space,
+                                          base_values, best_deviance, name, CHI2_95_ONE_DOF) for name in op.space}
+        operating = self._operating_point_report(base_values, sensor, scored, intervals)
+        floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
+        self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
+                            judge.unexplained(current), floor, judge.held_out)
         return self
 
-    def _refine(self, best: EffectFit, base, current_effects, current, error, seed):
-        """Re-fit the base parameters together with the chosen effect's.
+    def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, seed) -> EffectFit:
+        """Fit one candidate on the first part (starting from the data's own estimate when the effect
+        offers one) and judge it on the held-out part."""
+        nominal = {**effect_defaults(name), **(_initial_guess(name, judge, twin, base, current_effects) or {})}
 
-        The base twin was calibrated without the effect, so it absorbed part of it (a
-        deeper defect standing in for a resonance); once the effect is in, both move.
-        """
-        if not self.base_space or self.n_trials_refine < 1:
-            return base, best
-        effect_space = effect_search_space(best.effect)
-        space = {**{f"base:{k}": v for k, v in self.base_space.items()},
-                 **{f"effect:{k}": v for k, v in effect_space.items()}}
-
-        def split(params):
-            new_base = {k[5:]: v for k, v in params.items() if k.startswith("base:")}
-            effect = {**best.params, **{k[7:]: v for k, v in params.items() if k.startswith("effect:")}}
-            return new_base, {**current_effects, best.effect: effect}
-
-        start = {**{f"base:{k}": v for k, v in base.items()},
-                 **{f"effect:{k}": v for k, v in best.params.items() if k in effect_space}}
-        fit = minimize(lambda p: error(*split(p)).discrepancy_db, space, self.n_trials_refine, seed, start=start)
-        new_base, effects = split(fit.params)
-        return new_base, self._fit_record(best.effect, (effects[best.effect], error(new_base, effects)), current)
-
-    def _calibrate_effect(self, name, space, nominal, base, current_effects, error, seed):
         def with_effect(params):
             return {**current_effects, name: {**nominal, **params}}
 
-        fit = minimize(lambda p: error(base, with_effect(p)).discrepancy_db, space, self.n_trials_effect, seed,
-                       start={k: nominal[k] for k in space if k in nominal})
+        fit = minimize(lambda p: judge.deviance(judge.fit_part(twin.signal(base, with_effect(p)))), space,
+                       self.n_trials_effect, seed, start={k: nominal[k] for k in space if k in nominal},
+                       n_polish=self.n_polish_effect)
         params = with_effect(fit.params)[name]
-        return params, error(base, with_effect(fit.params))
+        checked = judge.check_part(twin.signal(base, with_effect(fit.params)))
+        drop = (judge.deviance(current) - judge.deviance(checked)) / judge.points_per_view
+        evidence = judge.points_per_view * drop - len(space) * judge.penalty_per_parameter
+        return EffectFit(name, params, checked.discrepancy_db, _explained(current, checked), evidence, drop,
+                         len(space), _signature(name), checked)
 
-    def _fit_record(self, name, fitted, current: Comparison) -> EffectFit:
-        params, comparison = fitted
-        explained = (current.discrepancy_db - comparison.discrepancy_db) / current.discrepancy_db \
-            if current.discrepancy_db > 0 else 0.0
-        return EffectFit(name, params, comparison.discrepancy_db, explained, _evidence(name, current, comparison),
-                         comparison)
+    def _refit(self, best: EffectFit, base_values, sensor, current_effects, judge: Judge, twin, seed):
+        """Re-fit the operating point together with every kept effect and the new one.
+
+        The operating point was fitted without the effect, so it absorbed part of it (a deeper
+        defect standing in for a resonance); once the effect is in, all of them move.
+        """
+        op = self.operating_point
+        effects = {**current_effects, best.effect: best.params}
+        fitted = [name for name in effects if name not in self.fixed_effects]
+        space = {f"base:{k}": v for k, v in op.space.items()}
+        for name in fitted:
+            space.update({f"effect:{name}:{k}": v for k, v in effect_search_space(name).items()})
+        if op.angle_fitted:
+            space["sensor:angle"] = (0.0, 180.0, False)
+        start = {**{f"base:{k}": v for k, v in base_values.items()},
+                 **{f"effect:{name}:{k}": effects[name][k] for name in fitted
+                    for k in effect_search_space(name) if k in effects[name]},
+                 **({"sensor:angle": sensor["simulator.sensor_angle_deg"]} if op.angle_fitted else {})}
+
+        def split(params):
+            values = {k[5:]: v for k, v in params.items() if k.startswith("base:")}
+            new_sensor = dict(sensor)
+            if "sensor:angle" in params:
+                new_sensor["simulator.sensor_angle_deg"] = params["sensor:angle"]
+            new_effects = {name: dict(effects[name]) for name in effects}
+            for key, value in params.items():
+                if key.startswith("effect:"):
+                    _, name, parameter = key.split(":", 2)
+                    new_effects[name][parameter] = value
+            return values, new_sensor, new_effects
+
+        def deviance(params):
+            values, new_sensor, new_effects = split(params)
+            return judge.deviance(judge.fit_part(twin.signal(op.to_base(values, new_sensor), new_effects)))
+
+        fit = minimize(deviance, space, self.n_trials_refine, seed, start=start, n_polish=self.n_polish)
+        values, new_sensor, new_effects = split(fit.params)
+        # The sensor was placed without the effect; with it in, another race or direction may fit better.
+        scored = [(judge.deviance(judge.fit_part(twin.signal(op.to_base(values, option), new_effects))), option)
+                  for option in op.sensor_options()]
+        score, option = min(scored, key=lambda s: s[0])
+        if score < fit.error:
+            new_sensor = option
+        scored.append((min(score, fit.error), new_sensor))  # the placement chosen, with its deviance
+        return values, new_sensor, new_effects, fit, scored
+
+    def _operating_point_report(self, base_values, sensor, scored, intervals: Mapping) -> dict:
+        """Each parameter held or fitted with its interval; the sensor's race and direction from the
+        latest grid of placements (those within the 95 % bound of the best)."""
+        op = self.operating_point
+        report = {}
+        for name, value in op.known.items():
+            report[name] = {"value": value, "unit": BASE_PARAMETERS[name].unit, "held": True}
+        for name in op.free:
+            report[name] = {"value": base_values[name], "unit": BASE_PARAMETERS[name].unit, "held": False,
+                            "interval": list(intervals[name])}
+        for name in op.extra:
+            report[name] = {"value": base_values[name], "unit": "", "held": False, "interval": list(intervals[name])}
+        best = min(score for score, _ in scored)
+        near = [s for score, s in scored if score <= best + CHI2_95_ONE_DOF]
+        races = sorted({s["simulator.sensor"].split("_")[0] for s in near})
+        angles = [s["simulator.sensor_angle_deg"] for s in near if s["simulator.sensor"] == sensor["simulator.sensor"]]
+        interval = [min(angles), max(angles)] if op.angle_fitted else None
+        report["sensor"] = {"value": describe_sensor(sensor), "race": sensor["simulator.sensor"].split("_")[0],
+                            "angle_deg": sensor["simulator.sensor_angle_deg"],
+                            "held": len(op.races) == 1 and not op.angle_fitted,
+                            "races_within_bound": races, "interval": interval}
+        return report
+
+
+def _key(values: Mapping) -> tuple:
+    return tuple(sorted((k, float(v)) for k, v in values.items()))
+
+
+def _explained(before: Comparison, after: Comparison) -> float:
+    return (before.discrepancy_db - after.discrepancy_db) / before.discrepancy_db if before.discrepancy_db > 0 else 0.0
+
+
+def _effect_class(name: str):
+    (instance,) = build_effects({name: effect_defaults(name)})
+    return type(instance)
+
+
+def _requires(name: str) -> tuple[str, ...]:
+    return tuple(getattr(_effect_class(name), "requires", ()))
+
+
+def _signature(name: str) -> str:
+    return f"signature: {getattr(_effect_class(name), 'signature', '')}"
+
+
+def _initial_guess(name, judge: Judge, twin: TwinModel, base, current_effects) -> dict | None:
+    """The effect's own estimate from the measurement against the current twin, gain-matched, if it offers one."""
+    guess = getattr(_effect_class(name), "initial_guess", None)
+    if guess is None:
+        return None
+    signal = twin.signal(base, current_effects)
+    gain = judge.fit_part(signal).gain
+    measured = judge.fit_part.measured_signal
+    return guess(measured, gain * signal[:measured.size], judge.fit_part.fs, judge.fit_part.rpm / 60.0)

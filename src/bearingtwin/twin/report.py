@@ -20,9 +20,9 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
-from bearingtwin.twin.calibrate import parse_space
-from bearingtwin.twin.compare import Comparator, CompareSettings, plot_comparison
+from bearingtwin.twin.compare import CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel
+from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit
 
 REPORT_NAME = "twin_report.json"
@@ -54,17 +54,24 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     return recording
 
 
-def build_ranker(cfg: DictConfig) -> EffectRanker:
-    """The effect ranker the ``calibration`` / ``ranking`` / ``candidates`` / ``effects`` config describes."""
+def build_ranker(cfg: DictConfig, fault: str) -> EffectRanker:
+    """The effect ranker the ``operating_point`` / ``calibration`` / ``ranking`` / ``candidates`` /
+    ``effects`` config describes, for a measurement of bearing state ``fault``."""
+    operating = OperatingPoint.from_config(
+        OmegaConf.to_container(cfg.operating_point, resolve=True), OmegaConf.to_container(cfg.calibration.ranges),
+        OmegaConf.to_container(cfg.calibration.base), fault, float(cfg.calibration.sensor_angle_step_deg))
     return EffectRanker(
         candidates=list(cfg.candidates),
         fixed_effects=OmegaConf.to_container(cfg.effects, resolve=True),
-        base_space=parse_space(cfg.calibration.base, "calibration.base"),
+        operating_point=operating,
         n_trials_base=int(cfg.calibration.n_trials_base),
         n_trials_effect=int(cfg.calibration.n_trials_effect),
         n_trials_refine=int(cfg.calibration.n_trials_refine),
-        min_explained=float(cfg.ranking.min_explained),
+        n_polish=int(cfg.calibration.n_polish),
+        n_polish_effect=int(cfg.calibration.n_polish_effect),
         max_effects=int(cfg.ranking.max_effects),
+        points_per_view=float(cfg.ranking.points_per_view),
+        n_jobs=int(cfg.ranking.n_jobs),
         seed=int(cfg.seed),
     )
 
@@ -141,9 +148,14 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
     metrics += [Metric(f"view_{v}_db", r.error_db, now, i) for i, s in enumerate(fit.steps)
                 for v, r in s.comparison.views.items()]
     metrics += [Metric(f"explained_{f.effect}", f.explained, now, 0) for f in fit.ranking]
+    metrics += [Metric(f"evidence_{f.effect}", f.evidence, now, 0) for f in fit.ranking]
+    metrics += [Metric(f"op_{name}", entry["value"], now, 0) for name, entry in fit.operating_point.items()
+                if isinstance(entry.get("value"), float)]
+    metrics += [Metric("gain", fit.gain, now, 0), Metric("floor_error", fit.floor_error, now, 0)]
     metrics += [Metric("baseline_error", fit.baseline_error, now, 0), Metric("final_error", fit.final_error, now, 0)]
     client.log_batch(run_id, metrics=metrics)
     client.set_tag(run_id, "summary", fit.summary[:5000])
+    client.set_tag(run_id, "verdict", fit.verdict)
     for path in files:
         client.log_artifact(run_id, str(path))
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
@@ -156,9 +168,8 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = load_measurement(cfg.measured, geometry)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
-    comparator = Comparator(measured, geometry, settings)
     twin = twin_for(measured, cfg)
-    ranker = build_ranker(cfg).fit(twin, comparator)
+    ranker = build_ranker(cfg, measured.fault).fit(twin, measured, geometry, settings)
     files = write_report(ranker.fit_, Path(str(cfg.out)).expanduser(), bool(cfg.figures))
     run_id = log_to_mlflow(cfg, measured, ranker.fit_, files) if cfg.tracking.enabled else None
     return ranker.fit_, files, run_id

@@ -33,7 +33,7 @@ def substeps_per_sample(fs_hz: float, highest_mode_hz: float, crossing_time_s: f
     return max(1, math.ceil(1.0 / (fs_hz * step_s) - 1e-9))  # 2.0000000000000004 is 2 steps
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
 def derivative(state, ball_angles, depths, shaft_angle, shaft_speed, p, out):
     """d(state)/dt into ``out``; ``p`` is ``DynamicParameters.as_array()``."""
     inner_mass, outer_mass = p[0], p[1]
@@ -70,14 +70,14 @@ def derivative(state, ball_angles, depths, shaft_angle, shaft_speed, p, out):
     out[7] = (force_y - outer_mass * gravity - outer_damping * state[7] - outer_stiffness * state[3]) / outer_mass
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
 def _evaluate(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, out):
     shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, shaft, speed, cage, spin, offsets, angles)
     defect_depths(defect, angles, shaft_angle, spin_angle, depths)
     derivative(state, angles, depths, shaft_angle, shaft_speed, p, out)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
 def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, defect, p, accelerations):
     """Integrate from sample ``first_sample`` over ``n_samples`` samples, in place on ``state``;
     the acceleration at each sample's start goes to ``accelerations[:, i]``."""

@@ -1,0 +1,162 @@
+"""The operating point every rig has: where the sensor sits, the load, the clearance, the defect's size.
+
+A measurement comes from a rig whose sensor position, radial load, internal clearance and
+defect size the user may know only roughly. These are not *effects* (physics the twin
+lacks) but *base parameters* the twin has and must be set to before any effect can be
+judged: a twin with the sensor on the wrong race or the load zone of the wrong width
+differs from the measurement in ways that effects such as ``load_zone`` or ``noise``
+would otherwise be blamed for. Known values are held; unknown ones are fitted. The sensor
+gain is fitted in closed form by the comparison.
+
+The sensor is categorical (which race) and continuous (its direction in the x-y plane);
+moving it costs no simulation (:class:`bearingtwin.twin.model.TwinModel` caches the four
+race accelerations), so the calibration searches it on a grid inside every trial.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.simulator import CHANNELS
+from bearingtwin.twin.calibrate import Bounds, parse_space
+
+
+@dataclass(frozen=True)
+class BaseParameter:
+    """A named operating-point parameter and the config key it sets (config value = ``scale`` x value)."""
+
+    key: str
+    scale: float
+    unit: str
+    description: str
+
+
+BASE_PARAMETERS = {
+    "radial_load_n": BaseParameter("simulator.load_y_n", -1.0, "N", "radial load (downward)"),
+    "clearance_um": BaseParameter("bearing.clearance_mm", 1e-3, "um", "radial internal clearance"),
+    "defect_depth_mm": BaseParameter("simulator.defect.depth_mm", 1.0, "mm", "defect depth"),
+    "defect_width_mm": BaseParameter("simulator.defect.width_mm", 1.0, "mm", "defect width"),
+}
+"""Continuous operating-point parameters, by the name a user gives in ``operating_point.<name>``."""
+
+RACES = ("inner", "outer")
+SENSOR_NAMES = (*CHANNELS, *RACES)
+_DEFECT_PARAMETERS = ("defect_depth_mm", "defect_width_mm")
+
+
+@dataclass
+class OperatingPoint:
+    """What is held and what is fitted of the rig's operating point.
+
+    Args:
+        known: parameter name -> value held (names of :data:`BASE_PARAMETERS`).
+        free: parameter name -> search bounds (low, high, log) for those fitted.
+        races: races the sensor may sit on (one when known).
+        sensor_angle_deg: the sensor's direction when known (0 = x, 90 = y, vertical), else None.
+        angle_step_deg: grid step of the direction search when the direction is fitted.
+        extra: further dotted ``bearing.*`` / ``simulator.*`` keys fitted as they are (advanced).
+    """
+
+    known: dict = field(default_factory=dict)
+    free: dict = field(default_factory=dict)
+    races: tuple = RACES
+    sensor_angle_deg: float | None = None
+    angle_step_deg: float = 15.0
+    extra: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_config(cls, operating_cfg: Mapping, ranges: Mapping, extra_base: Mapping | None,
+                    fault: str, angle_step_deg: float = 15.0) -> "OperatingPoint":
+        """From ``operating_point`` (null = fit) and ``calibration.ranges``; a healthy bearing has no defect to size."""
+        operating = dict(operating_cfg or {})
+        unknown = set(operating) - set(BASE_PARAMETERS) - {"sensor", "sensor_angle_deg"}
+        if unknown:
+            raise BearingTwinError(f"operating_point.{sorted(unknown)[0]} is not an operating-point parameter; "
+                                   f"known: sensor, sensor_angle_deg, {', '.join(BASE_PARAMETERS)}")
+        bounds = parse_space(ranges, "calibration.ranges")
+        known, free = {}, {}
+        for name in BASE_PARAMETERS:
+            if fault == "normal" and name in _DEFECT_PARAMETERS:
+                continue
+            value = operating.get(name)
+            if value is None:
+                if name not in bounds:
+                    raise BearingTwinError(f"calibration.ranges.{name} is needed to fit operating_point.{name}")
+                free[name] = bounds[name]
+            else:
+                known[name] = _finite(value, f"operating_point.{name}")
+        sensor = operating.get("sensor")
+        angle = operating.get("sensor_angle_deg")
+        if sensor is not None and sensor not in SENSOR_NAMES:
+            raise BearingTwinError(f"operating_point.sensor={sensor!r}: choose one of {', '.join(SENSOR_NAMES)} or null")
+        if angle is not None:
+            angle = _finite(angle, "operating_point.sensor_angle_deg")
+            if sensor in CHANNELS:
+                raise BearingTwinError(f"operating_point.sensor_angle_deg: sensor={sensor} already names the direction; "
+                                       "give the race (inner or outer) with an angle")
+        if sensor in CHANNELS:
+            races, angle = (sensor.split("_")[0],), 0.0 if sensor.endswith("_x") else 90.0
+        else:
+            races = (sensor,) if sensor else RACES
+        if not 0 < angle_step_deg <= 90:
+            raise BearingTwinError(f"calibration.sensor_angle_step_deg must lie in (0, 90], got {angle_step_deg}")
+        return cls(known, free, races, angle, float(angle_step_deg), parse_space(extra_base, "calibration.base"))
+
+    @property
+    def space(self) -> dict[str, Bounds]:
+        """Everything the calibration searches by Optuna (the sensor is searched on its grid)."""
+        return {**self.free, **self.extra}
+
+    def sensor_options(self) -> list[dict]:
+        """Sensor placements a calibration trial tries: the known one, or every race x direction on the grid.
+
+        Directions a and a + 180 read the same signal but for its sign, which no comparison
+        view sees, so the grid spans [0, 180).
+        """
+        angles = ([self.sensor_angle_deg] if self.sensor_angle_deg is not None
+                  else list(np.arange(0.0, 180.0, self.angle_step_deg)))
+        return [{"simulator.sensor": f"{race}_x", "simulator.sensor_angle_deg": float(a)}
+                for race in self.races for a in angles]
+
+    @property
+    def angle_fitted(self) -> bool:
+        return self.sensor_angle_deg is None
+
+    def to_base(self, values: Mapping[str, float], sensor: Mapping | None = None) -> dict:
+        """The dotted config keys the twin takes: held values, ``values`` of the fitted ones, the sensor."""
+        base = {}
+        for name, value in {**self.known, **values}.items():
+            parameter = BASE_PARAMETERS.get(name)
+            base[parameter.key if parameter else name] = parameter.scale * value if parameter else value
+        return {**base, **dict(sensor or {})}
+
+    def start(self, twin_value) -> dict[str, float]:
+        """The config's values of the fitted parameters, the first trial (clipped into the bounds)."""
+        start = {}
+        for name in self.space:
+            parameter = BASE_PARAMETERS.get(name)
+            value = twin_value(parameter.key if parameter else name)
+            if value is not None:
+                start[name] = float(value) / parameter.scale if parameter else float(value)
+        return start
+
+
+def describe_sensor(sensor: Mapping) -> str:
+    """"outer race, 90 deg (vertical)" for a sensor placement."""
+    race = str(sensor["simulator.sensor"]).split("_")[0]
+    angle = sensor.get("simulator.sensor_angle_deg")
+    if angle is None:
+        return str(sensor["simulator.sensor"])
+    named = {0.0: "horizontal", 90.0: "vertical"}.get(round(float(angle), 6))
+    return f"{race} race, {named}" if named else f"{race} race, {angle:.0f} deg from horizontal"
+
+
+def _finite(value, field_name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise BearingTwinError(f"{field_name} must be a finite number or null, got {value!r}")
+    return float(value)
