@@ -61,7 +61,13 @@ from omegaconf.errors import OmegaConfBaseException
 from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.tracking.lifecycle import SWEEP_PID_ENV, owner_tags, reap_dead_runs, register_open_run
+from bearingtwin.tracking.lifecycle import (
+    SWEEP_PID_ENV,
+    owner_tags,
+    reap_dead_runs,
+    register_open_run,
+    start_ray_keeping_signals,
+)
 from bearingtwin.tracking.provenance import installed_versions
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
@@ -553,6 +559,8 @@ class SweepParentRun(Callback):
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
         exit_on_user_error(require_files)(jobs)
+        if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
+            start_ray_keeping_signals(config.hydra.launcher.ray.init)  # before any run is open: Ray may not start
         client, experiment_id = open_store(config.tracking)
         reap_dead_runs(client, experiment_id)
         name = str(config.hydra.runtime.choices.get("sweep") or "cli")
