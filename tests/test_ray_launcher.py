@@ -113,7 +113,12 @@ def test_ray_jobs_give_the_basic_launchers_results(sweeps):
     for digest, run in ray.items():
         expected = {k: v for k, v in basic[digest].data.metrics.items() if k not in TIMING_METRICS}
         got = {k: v for k, v in run.data.metrics.items() if k not in TIMING_METRICS}
-        assert got == expected, run.info.run_name
+        assert set(got) == set(expected), run.info.run_name
+        # The network's losses are float sums whose order depends on torch's thread count (two in the basic
+        # launcher's process, one in a one-CPU Ray task): equal to float32 precision. Everything else exactly.
+        for key, value in got.items():
+            assert value == (pytest.approx(expected[key], rel=1e-6) if key.endswith("_loss") else expected[key]), \
+                f"{run.info.run_name}: {key}"
         assert run.data.tags["dataset_key"] == basic[digest].data.tags["dataset_key"]
 
 
