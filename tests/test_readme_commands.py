@@ -63,6 +63,13 @@ NOT_RUN = {
     "pip-compile": "refreshes the lock (pip-tools is not installed by the project)",
     "sed -i": "part of refreshing the lock",
     "python scripts/": "studies over full-size sweeps (their pieces are tested on their own)",
+    "mlflow server": "starts a team's tracking server (tests/test_tracking_server.py runs one and logs to it)",
+    "export ": "points the commands after it at that server",
+    "ray ": "starts or stops a Ray cluster (tests/test_ray_launcher.py starts one)",
+    "bearingtwin-train -m +sweep=table4 launcher=ray": "a sweep on Ray (tests/test_ray_launcher.py runs one)",
+    "bearingtwin-train -m +sweep=table4 launcher=submitit_slurm": "needs a SLURM cluster (tests/test_submitit_launcher.py "
+                                                                  "checks the submission it makes)",
+    "bearingtwin-train -m classifier=svm seed=0,1 launcher=submitit_local": "tests/test_submitit_launcher.py runs it",
 }
 SHELL_COMMANDS = ("printf ", "mkdir ")  # file set-up steps of an example, run as written by bash
 SUMMARY_TITLES = {"simulate": "== bearingtwin-simulate ==", "twin": "== bearingtwin-twin:", "train": "== bearingtwin-train:",

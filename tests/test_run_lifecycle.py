@@ -16,7 +16,7 @@ import pytest
 from mlflow import MlflowClient
 from omegaconf import OmegaConf
 
-from bearingtwin.tracking.lifecycle import owner_tags
+from bearingtwin.tracking.lifecycle import owner_tags, register_open_run, stop_cleanly
 from bearingtwin.tracking.mlflow_logging import open_store, train_tracked
 
 from test_tracking import CHOICES, fake_train, make_cfg
@@ -160,3 +160,28 @@ def test_a_relaunch_marks_runs_of_dead_processes_killed(tmp_path):
     assert status[living.info.run_id] == "RUNNING" and status[foreign.info.run_id] == "RUNNING"
     assert sorted(status.values()) == ["FINISHED", "KILLED", "RUNNING", "RUNNING"]
     assert os.getpid() != int(finished.stdout)
+
+
+def test_a_signal_a_library_reraises_as_its_own_keyboard_interrupt_still_kills_with_its_status(tmp_path, capsys):
+    # Ray's ray.get, interrupted by the signal handler's exception, raises a KeyboardInterrupt of its own:
+    # the runs are still KILLED and the status is still the signal's (143 for SIGTERM, not Ctrl-C's 130).
+    client, experiment_id = open_store(make_cfg(tmp_path).tracking)
+    run_id = client.create_run(experiment_id).info.run_id
+
+    def waits_like_ray():
+        register_open_run(client, run_id)
+        try:
+            signal.raise_signal(signal.SIGTERM)
+        except KeyboardInterrupt:
+            raise KeyboardInterrupt from None
+
+    handlers = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with pytest.raises(SystemExit) as stopped:
+            stop_cleanly(waits_like_ray)()
+    finally:  # the test process gets its own handlers back
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)
+    assert stopped.value.code == 128 + signal.SIGTERM
+    assert client.get_run(run_id).info.status == "KILLED"
+    assert "interrupted by SIGTERM" in capsys.readouterr().err

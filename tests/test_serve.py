@@ -10,20 +10,16 @@ for window. Runs on ../shared/data/cwru (or $BEARINGTWIN_DATA/cwru).
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
-import signal
-import socket
-import subprocess
 import sys
-import time
 import urllib.error
 import urllib.request
 from pathlib import Path
 
 import numpy as np
 import pytest
+from processes import LOOPBACK, SMOKE, child_env, free_loopback_port, start, stop, wait_done, wait_until_answers
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, load_diagnosis_model
@@ -37,81 +33,14 @@ needs_record = pytest.mark.skipif(not RECORD.is_file(), reason=f"CWRU record {RE
 
 MODEL_NAME = "served"
 MODEL_ALIAS = "champion"
-# Smallest runs that still go through every stage (twin data, SABO-VMD, classifier, model logging,
-# registry). The proposed CNN-BiLSTM and the SVM: two classifier files (network.pt, svm.skops).
+# Smallest runs (SMOKE) of the proposed CNN-BiLSTM and the SVM: two classifier files (network.pt, svm.skops).
 # Models whose features need rpm (features=envelope_orders) only train on data=twin_to_real, too slow here.
-SMOKE = ["data.samples_per_class=12", "data.duration=1.0", "search.population=3", "search.iterations=1",
-         "search.windows=2", "features.progress=false"]
 CASES = {"cnn_bilstm": ["trainer.max_epochs=2"], "svm": ["classifier=svm"]}
 
 CHILD_TIMEOUT_S = 300  # a training or diagnose command; ~10 s each on 2 idle cores
 SERVER_START_TIMEOUT_S = 120  # import + model load of a served model takes ~15 s on 2 idle cores
 REQUEST_TIMEOUT_S = 60
 PROBABILITY_TOLERANCE = 1e-6
-# Straight to the loopback server: an http_proxy in the environment must not intercept it.
-LOOPBACK = urllib.request.build_opener(urllib.request.ProxyHandler({}))
-
-
-def free_loopback_port() -> int:
-    """A port the kernel just handed out on 127.0.0.1 (released again for the server to bind)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
-def child_env(store_uri: str, cache: Path) -> dict:
-    env = dict(os.environ, MLFLOW_TRACKING_URI=store_uri, BEARINGTWIN_CACHE=str(cache),
-               MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR="false")
-    # `mlflow models serve` execs `uvicorn` by name: it must be this interpreter's, not another on PATH.
-    env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
-    return env
-
-
-def start(args: list[str], env: dict, cwd: Path, log: Path) -> subprocess.Popen:
-    """A child in its own process group (so the server's uvicorn worker is ended with it), output in ``log``."""
-    with open(log, "wb") as handle:
-        return subprocess.Popen(args, env=env, cwd=cwd, stdout=handle, stderr=subprocess.STDOUT, start_new_session=True)
-
-
-def stop(process: subprocess.Popen) -> None:
-    """End ``process`` and every process of its group: TERM, then KILL if it lingers."""
-    for sig, grace_s in ((signal.SIGTERM, 10), (signal.SIGKILL, 10)):
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(process.pid, sig)
-        try:
-            process.wait(timeout=grace_s)
-            break
-        except subprocess.TimeoutExpired:
-            continue
-    # The group may outlive its leader (uvicorn under mlflow's shell): make sure nothing of it is left.
-    with contextlib.suppress(ProcessLookupError):
-        os.killpg(process.pid, signal.SIGKILL)
-
-
-def wait_done(process: subprocess.Popen, log: Path, what: str, timeout_s: float) -> None:
-    try:
-        process.wait(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        pytest.fail(f"{what} did not finish in {timeout_s} s:\n{tail(log)}")
-    assert process.returncode == 0, f"{what} exited {process.returncode}:\n{tail(log)}"
-
-
-def tail(log: Path, lines: int = 30) -> str:
-    return "\n".join(log.read_text(errors="replace").splitlines()[-lines:])
-
-
-def wait_until_serving(url: str, server: subprocess.Popen, log: Path, timeout_s: float) -> None:
-    """Poll ``/ping`` until it answers 200; fail early if the server died, and after ``timeout_s``."""
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if server.poll() is not None:
-            pytest.fail(f"mlflow models serve exited {server.returncode} before serving:\n{tail(log)}")
-        with contextlib.suppress(OSError):
-            with LOOPBACK.open(f"{url}/ping", timeout=2) as answer:
-                if answer.status == 200:
-                    return
-        time.sleep(0.25)
-    pytest.fail(f"mlflow models serve did not answer /ping within {timeout_s} s:\n{tail(log)}")
 
 
 def post_json(url: str, payload: dict) -> tuple[int, dict]:
@@ -175,7 +104,8 @@ def served(tmp_path_factory):
         for case, info in cases.items():
             wait_done(*info["diagnose"], what=f"bearingtwin-diagnose ({case})", timeout_s=CHILD_TIMEOUT_S)
             info["diagnosis"] = json.loads((info["folder"] / "diagnosis" / RECORD.stem / "diagnosis.json").read_text())
-            wait_until_serving(info["url"], info["server"], info["server_log"], SERVER_START_TIMEOUT_S)
+            wait_until_answers(f"{info['url']}/ping", info["server"], info["server_log"], "mlflow models serve",
+                               SERVER_START_TIMEOUT_S)
         yield cases
     finally:
         for process in processes:

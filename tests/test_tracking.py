@@ -17,12 +17,14 @@ from bearingtwin.models.experiment import ExperimentResult
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking.mlflow_logging import (
     SweepInfo,
+    artifact_location,
     config_hash,
     find_sweep_parent,
     flatten,
     format_sweep_summary,
     open_store,
     stored_config,
+    sweep_folder,
     sweep_outcomes,
     train_tracked,
 )
@@ -67,6 +69,22 @@ def test_store_puts_artifacts_beside_the_sqlite_database(tmp_path):
     location = client.get_experiment(experiment_id).artifact_location
     assert location == (tmp_path / "artifacts" / "test").as_uri()
     assert open_store(make_cfg(tmp_path).tracking)[1] == experiment_id  # found, not created twice
+
+
+def test_an_artifact_root_uri_is_kept_and_only_a_local_folder_becomes_a_file_uri(tmp_path):
+    assert artifact_location("s3://bucket/mlflow/", "test") == "s3://bucket/mlflow/test"
+    assert artifact_location("mlflow-artifacts:/team", "test") == "mlflow-artifacts:/team/test"
+    assert artifact_location(str(tmp_path / "artifacts"), "test") == (tmp_path / "artifacts" / "test").as_uri()
+    assert artifact_location(None, "test") is None  # a server's own store
+
+
+def test_the_sweep_folder_is_taken_from_where_the_sweep_started_not_the_asking_process(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a worker's working directory, elsewhere
+    started = tmp_path / "driver"
+    relative = OmegaConf.create({"runtime": {"cwd": str(started)}, "sweep": {"dir": "multirun/x"}})
+    assert sweep_folder(relative) == str(started / "multirun" / "x")
+    absolute = OmegaConf.create({"runtime": {"cwd": str(started)}, "sweep": {"dir": str(tmp_path / "sweeps")}})
+    assert sweep_folder(absolute) == str(tmp_path / "sweeps")
 
 
 def test_config_hash_ignores_where_and_how_but_not_what(tmp_path):

@@ -38,9 +38,11 @@ SWEEP_PID_ENV = "BEARINGTWIN_SWEEP_PID"
 """Set by the sweep's process for its workers, which inherit it: the process they live for."""
 
 
-class Interrupted(BaseException):
-    """SIGINT or SIGTERM arrived. A BaseException, like KeyboardInterrupt, so that no
-    ``except Exception`` on the way up mistakes it for a failed computation."""
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived. A KeyboardInterrupt, so that no ``except Exception`` on the
+    way up mistakes it for a failed computation, and so that a library waiting outside Python
+    stops waiting as it does on Ctrl-C: Ray's ``ray.get`` turns a KeyboardInterrupt raised by a
+    signal handler into its own, which is why the signal is also remembered (``_received``)."""
 
     def __init__(self, signum: int):
         super().__init__(signal.Signals(signum).name)
@@ -56,6 +58,7 @@ class OpenRun:
 
 
 _open_runs: list[OpenRun] = []
+_received: list[int] = []  # the signals that arrived, for a KeyboardInterrupt a library raised in their place
 
 
 def owner_tags() -> dict[str, str]:
@@ -95,7 +98,24 @@ def close_open_runs(status: str) -> list[str]:
 
 
 def _raise_interrupted(signum, frame):
+    _received.append(signum)
     raise Interrupted(signum)
+
+
+def handle_signals() -> None:
+    """SIGINT and SIGTERM raise :class:`Interrupted` in the main thread (see :func:`stop_cleanly`)."""
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, _raise_interrupted)
+
+
+def start_ray_keeping_signals(init_cfg) -> None:
+    """Start or join Ray for a sweep's Ray launcher (its ``ray.init`` settings), then handle the
+    signals again: ``ray.init`` replaces SIGTERM's handler with an immediate exit, which would leave
+    the sweep's runs FAILED instead of KILLED. The launcher then finds Ray running and uses it."""
+    from hydra_plugins.hydra_ray_launcher._launcher_util import start_ray  # the launcher's own start, not a copy
+
+    start_ray(init_cfg)
+    handle_signals()
 
 
 def stop_cleanly(entry_point: Callable) -> Callable:
@@ -107,12 +127,11 @@ def stop_cleanly(entry_point: Callable) -> Callable:
 
     @functools.wraps(entry_point)
     def wrapped(*args, **kwargs):
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(signum, _raise_interrupted)
+        handle_signals()
         try:
             return entry_point(*args, **kwargs)
-        except (Interrupted, KeyboardInterrupt) as stop:
-            signum = stop.signum if isinstance(stop, Interrupted) else signal.SIGINT
+        except KeyboardInterrupt as stop:
+            signum = stop.signum if isinstance(stop, Interrupted) else (_received or [signal.SIGINT])[-1]
             # A second signal while closing the runs must not leave half of them open.
             signal.signal(signal.SIGINT, signal.SIG_IGN)
             signal.signal(signal.SIGTERM, signal.SIG_IGN)

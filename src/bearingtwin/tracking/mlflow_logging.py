@@ -48,6 +48,7 @@ import traceback
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
+from urllib.parse import urlparse
 
 import numpy as np
 from hydra.experimental.callback import Callback
@@ -60,7 +61,13 @@ from omegaconf.errors import OmegaConfBaseException
 from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.tracking.lifecycle import SWEEP_PID_ENV, owner_tags, reap_dead_runs, register_open_run
+from bearingtwin.tracking.lifecycle import (
+    SWEEP_PID_ENV,
+    owner_tags,
+    reap_dead_runs,
+    register_open_run,
+    start_ray_keeping_signals,
+)
 from bearingtwin.tracking.provenance import installed_versions
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
@@ -105,8 +112,7 @@ def open_store(tracking_cfg: DictConfig) -> tuple[MlflowClient, str]:
         experiment = client.get_experiment_by_name(name)  # creates the schema of a new database
         if experiment is not None:
             return client, experiment.experiment_id
-        artifact_root = tracking_cfg.get("artifact_root") or _sqlite_path(uri, "artifacts")
-        location = None if artifact_root is None else (Path(artifact_root).resolve() / name).as_uri()
+        location = artifact_location(tracking_cfg.get("artifact_root") or _sqlite_path(uri, "artifacts"), name)
         try:
             return client, client.create_experiment(name, artifact_location=location)
         except MlflowException:
@@ -115,6 +121,21 @@ def open_store(tracking_cfg: DictConfig) -> tuple[MlflowClient, str]:
             if experiment is None:
                 raise
             return client, experiment.experiment_id
+
+
+def artifact_location(root: str | None, experiment: str) -> str | None:
+    """Where a new experiment's artifacts go: ``<root>/<experiment>``; None leaves it to the store
+    (a tracking server's own artifact store, ``mlflow-artifacts:/``).
+
+    ``root`` is a URI (``s3://bucket/path``, ``mlflow-artifacts:/path``, ``file:///...``), kept as it is,
+    or a folder on this machine, made absolute: only a local folder becomes a ``file://`` URI.
+    """
+    if root is None:
+        return None
+    root = str(root)
+    if urlparse(root).scheme:
+        return f"{root.rstrip('/')}/{experiment}"
+    return (Path(root).expanduser().resolve() / experiment).as_uri()
 
 
 def _sqlite_path(uri: str, sibling: str | None = None) -> str | None:
@@ -538,10 +559,12 @@ class SweepParentRun(Callback):
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
         exit_on_user_error(require_files)(jobs)
+        if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
+            start_ray_keeping_signals(config.hydra.launcher.ray.init)  # before any run is open: Ray may not start
         client, experiment_id = open_store(config.tracking)
         reap_dead_runs(client, experiment_id)
         name = str(config.hydra.runtime.choices.get("sweep") or "cli")
-        sweep_dir = str(Path(config.hydra.sweep.dir).resolve())
+        sweep_dir = sweep_folder(config.hydra)
         run = client.create_run(
             experiment_id,
             run_name=f"sweep {name} {Path(sweep_dir).name}",
@@ -552,7 +575,7 @@ class SweepParentRun(Callback):
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         client, experiment_id = open_store(config.tracking)
-        sweep_dir = str(Path(config.hydra.sweep.dir).resolve())
+        sweep_dir = sweep_folder(config.hydra)
         parent = find_sweep_parent(client, experiment_id, sweep_dir)
         if parent is None:
             return
@@ -566,6 +589,14 @@ class SweepParentRun(Callback):
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
         if n_failed:
             sys.exit(1)
+
+
+def sweep_folder(hydra_cfg) -> str:
+    """The sweep's folder (``hydra.sweep.dir``) as an absolute path, the same in the sweep's process and
+    in every job's: a relative one is taken from where the sweep was started (``hydra.runtime.cwd``, which
+    travels in each job's config), never from the asking process's own working directory, which on a Ray
+    worker or a Slurm node may be another. It names the sweep's parent run, so both sides must agree."""
+    return str((Path(str(hydra_cfg.runtime.cwd)) / str(hydra_cfg.sweep.dir)).resolve())
 
 
 def sweep_info(hydra_cfg) -> SweepInfo | None:
@@ -583,6 +614,6 @@ def sweep_info(hydra_cfg) -> SweepInfo | None:
     )
     return SweepInfo(
         name=str(hydra_cfg.runtime.choices.get("sweep") or "cli"),
-        sweep_dir=str(Path(hydra_cfg.sweep.dir).resolve()),
+        sweep_dir=sweep_folder(hydra_cfg),
         varied=varied,
     )

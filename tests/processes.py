@@ -1,0 +1,89 @@
+"""Child processes and loopback servers that end-to-end tests start, wait for and always stop.
+
+Shared by the tests that serve a model (test_serve.py), run against a tracking server
+(test_tracking_server.py) and sweep on other launchers (test_ray_launcher.py, test_submitit_launcher.py).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+# Smallest training that still goes through every stage (twin data, SABO-VMD, classifier, model logging).
+SMOKE = ["data.samples_per_class=12", "data.duration=1.0", "search.population=3", "search.iterations=1",
+         "search.windows=2", "features.progress=false"]
+
+# Straight to the loopback server: an http_proxy in the environment must not intercept it.
+LOOPBACK = urllib.request.build_opener(urllib.request.ProxyHandler({}))
+
+
+def free_loopback_port() -> int:
+    """A port the kernel just handed out on 127.0.0.1 (released again for the server to bind)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def child_env(store_uri: str, cache: Path, **extra: str) -> dict:
+    """This environment with its own MLflow store and cache, and this interpreter's scripts first on PATH
+    (``mlflow models serve`` execs ``uvicorn`` by name: it must be this interpreter's, not another's)."""
+    env = dict(os.environ, MLFLOW_TRACKING_URI=store_uri, BEARINGTWIN_CACHE=str(cache),
+               MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR="false", **extra)
+    env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
+    return env
+
+
+def start(args: list[str], env: dict, cwd: Path, log: Path) -> subprocess.Popen:
+    """A child in its own process group (so a server's workers are ended with it), output in ``log``."""
+    with open(log, "wb") as handle:
+        return subprocess.Popen(args, env=env, cwd=cwd, stdout=handle, stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def stop(process: subprocess.Popen) -> None:
+    """End ``process`` and every process of its group: TERM, then KILL if it lingers."""
+    for sig, grace_s in ((signal.SIGTERM, 10), (signal.SIGKILL, 10)):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, sig)
+        try:
+            process.wait(timeout=grace_s)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    # The group may outlive its leader (uvicorn under mlflow's shell): make sure nothing of it is left.
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(process.pid, signal.SIGKILL)
+
+
+def wait_done(process: subprocess.Popen, log: Path, what: str, timeout_s: float, returncode: int = 0) -> None:
+    try:
+        process.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"{what} did not finish in {timeout_s} s:\n{tail(log)}")
+    assert process.returncode == returncode, f"{what} exited {process.returncode}:\n{tail(log)}"
+
+
+def tail(log: Path, lines: int = 30) -> str:
+    return "\n".join(log.read_text(errors="replace").splitlines()[-lines:])
+
+
+def wait_until_answers(url: str, server: subprocess.Popen, log: Path, what: str, timeout_s: float) -> None:
+    """Poll ``url`` until it answers 200; fail early if the server died, and after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if server.poll() is not None:
+            pytest.fail(f"{what} exited {server.returncode} before answering:\n{tail(log)}")
+        with contextlib.suppress(OSError):
+            with LOOPBACK.open(url, timeout=2) as answer:
+                if answer.status == 200:
+                    return
+        time.sleep(0.25)
+    pytest.fail(f"{what} did not answer {url} within {timeout_s} s:\n{tail(log)}")

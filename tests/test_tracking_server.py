@@ -1,0 +1,157 @@
+"""A team's MLflow tracking server: everything bearingtwin logs and reads goes to it over HTTP.
+
+A real ``mlflow server`` runs as a team's would: a SQL database for runs and the registry (SQLite
+here, PostgreSQL in production: README, "Team and cluster") and an artifact store it serves itself
+(``--artifacts-destination``), on a loopback port, stopped at the end. The clients are given only
+``MLFLOW_TRACKING_URI=http://127.0.0.1:<port>``, the one setting a user changes, and a working
+directory of their own: a 2-job multirun (joblib launcher) registering its models, a twin run, a
+diagnosis with a registered model, and reports reading runs and artifacts back. Nothing may be
+written beside the clients (no local store), every artifact must be in the server's store.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mlflow import MlflowClient
+from processes import SMOKE, child_env, free_loopback_port, start, stop, wait_done, wait_until_answers
+
+MODEL = "team-model"
+SWEEP = ["seed=0", "classifier=svm,cnn_bilstm", "trainer.max_epochs=2", "launcher=joblib", f"register={MODEL}", *SMOKE]
+TWIN_SMOKE = ["twin.duration=0.5", "compare.envelope_segment_s=0.25", "calibration.n_trials_base=3",
+              "calibration.n_trials_effect=3", "calibration.n_trials_refine=3", "ranking.max_effects=1"]
+SERVER_START_TIMEOUT_S = 120
+CHILD_TIMEOUT_S = 600
+
+
+def cli(name: str, *args: str) -> list[str]:
+    return [sys.executable, "-m", f"bearingtwin.cli.{name}", *args]
+
+
+@pytest.fixture(scope="module")
+def team(tmp_path_factory):
+    """The server's URI and folder, the clients' folder and environment, and each command's log."""
+    root = tmp_path_factory.mktemp("team")
+    server_dir, work = root / "server", root / "client"
+    server_dir.mkdir()
+    work.mkdir()
+    uri = f"http://127.0.0.1:{free_loopback_port()}"
+    env = child_env(uri, root / "cache")
+    logs = {}
+
+    def run(log: str, command: list[str], cwd: Path = work, **extra_env: str) -> subprocess.Popen:
+        logs[log] = root / f"{log}.log"
+        child = start(command, {**env, **extra_env}, cwd, logs[log])
+        children.append(child)
+        return child
+
+    children = []
+    try:
+        # The server's own job runner (GenAI evaluation, trace archival) serves nothing here: off, to spare the cores.
+        server = run("server", [sys.executable, "-m", "mlflow", "server", "--backend-store-uri",
+                                f"sqlite:///{server_dir / 'db.sqlite'}", "--artifacts-destination", str(server_dir / "artifacts"),
+                                "--host", "127.0.0.1", "--port", uri.rsplit(":", 1)[1], "--workers", "1"],
+                     cwd=server_dir, MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")
+        simulate = run("simulate", cli("simulate", "fault=outer", "simulator.fs=12000", "simulator.duration=2.0",
+                                       f"out={work / 'outer.npz'}"))
+        wait_until_answers(f"{uri}/health", server, logs["server"], "mlflow server", SERVER_START_TIMEOUT_S)
+        sweep = run("sweep", cli("train", "-m", *SWEEP, f"hydra.sweep.dir={work / 'multirun'}"))
+        wait_done(simulate, logs["simulate"], "bearingtwin-simulate", CHILD_TIMEOUT_S)
+        twin = run("twin", cli("twin", f"measured.path={work / 'outer.npz'}", f"out={work / 'twin'}", *TWIN_SMOKE))
+        wait_done(sweep, logs["sweep"], "bearingtwin-train -m (joblib)", CHILD_TIMEOUT_S)
+        diagnose = run("diagnose", cli("diagnose", f"path={work / 'outer.npz'}", f"model=models:/{MODEL}/1",
+                                       f"out={work / 'diagnosis'}", "figures=false"))
+        wait_done(twin, logs["twin"], "bearingtwin-twin", CHILD_TIMEOUT_S)
+        wait_done(diagnose, logs["diagnose"], "bearingtwin-diagnose", CHILD_TIMEOUT_S)
+        yield uri, server_dir, work, env, logs
+    finally:
+        for child in children:
+            stop(child)
+
+
+def experiment_runs(client: MlflowClient, name: str, kind: str) -> list:
+    experiment = client.get_experiment_by_name(name)
+    assert experiment is not None, f"no experiment {name} on the server"
+    return client.search_runs([experiment.experiment_id], f"tags.`bt.kind` = '{kind}'")
+
+
+def test_every_sweep_job_finished_on_the_server_with_its_results(team, tmp_path):
+    uri, _, _, _, logs = team
+    assert "2 jobs, 2 finished, 0 failed, 0 skipped" in logs["sweep"].read_text()
+    client = MlflowClient(uri)
+    (parent,) = experiment_runs(client, "bearingtwin", "sweep")
+    assert parent.info.status == "FINISHED"
+    runs = experiment_runs(client, "bearingtwin", "train")
+    assert sorted(run.data.tags["classifier"] for run in runs) == ["cnn_bilstm", "svm"]
+    for run in runs:
+        assert run.info.status == "FINISHED" and run.data.tags["mlflow.parentRunId"] == parent.info.run_id
+        assert {"accuracy", "f1_normal", "f1_outer", "n_test"} <= set(run.data.metrics)
+        artifacts = {artifact.path for artifact in client.list_artifacts(run.info.run_id)}
+        assert {"config.yaml", "confusion_matrix.csv", "confusion_matrix.png", "per_class.csv"} <= artifacts
+        csv = Path(client.download_artifacts(run.info.run_id, "confusion_matrix.csv", str(tmp_path)))
+        confusion = np.array([row.split(",")[1:] for row in csv.read_text().splitlines()[1:]], dtype=int)
+        assert run.data.metrics["accuracy"] == pytest.approx(np.trace(confusion) / confusion.sum())
+        (model,) = client.search_logged_models([run.info.experiment_id], filter_string=f"source_run_id = '{run.info.run_id}'")
+        assert (model.name, str(model.status)) == ("model", "READY")
+
+
+def test_both_models_are_registered_on_the_server(team):
+    uri, _, _, _, _ = team
+    client = MlflowClient(uri)
+    versions = client.search_model_versions(f"name = '{MODEL}'")
+    runs = {run.info.run_id: run for run in experiment_runs(client, "bearingtwin", "train")}
+    assert sorted(int(version.version) for version in versions) == [1, 2]
+    assert {version.run_id for version in versions} == set(runs)
+    for version in versions:
+        assert runs[version.run_id].data.tags["registered_model"] == f"{MODEL}/{version.version}"
+
+
+def test_twin_and_diagnose_runs_logged_there_too(team, tmp_path):
+    uri, _, work, _, logs = team
+    client = MlflowClient(uri)
+    (twin,) = experiment_runs(client, "bearingtwin-twin", "twin")
+    assert twin.info.status == "FINISHED" and "final_error" in twin.data.metrics
+    assert "twin_report.json" in {artifact.path for artifact in client.list_artifacts(twin.info.run_id)}
+    (diagnosis,) = experiment_runs(client, "bearingtwin-diagnose", "diagnose")
+    assert diagnosis.info.status == "FINISHED" and diagnosis.data.params["model"] == f"models:/{MODEL}/1"
+    logged = Path(client.download_artifacts(diagnosis.info.run_id, "outer/diagnosis.json", str(tmp_path)))
+    assert logged.read_text() == (work / "diagnosis" / "outer" / "diagnosis.json").read_text()
+    for name in ("twin", "diagnose"):  # the closing summary points at the server
+        assert f"(open {uri})" in logs[name].read_text()
+
+
+def test_reports_read_runs_and_artifacts_from_the_server(team):
+    uri, _, work, env, _ = team
+    client = MlflowClient(uri)
+    svm = next(run for run in experiment_runs(client, "bearingtwin", "train") if run.data.tags["classifier"] == "svm")
+    # seeds reads the runs; repeat reads a run's config.yaml artifact and trains it again. Side by side.
+    reports = {name: start(cli("report", name, *settings, f"out={work / name}.md"), env, work, work.parent / f"{name}.log")
+               for name, settings in (("seeds", []), ("repeat", [f"run_id={svm.info.run_id}"]))}
+    try:
+        for name, report in reports.items():
+            wait_done(report, work.parent / f"{name}.log", f"bearingtwin-report {name}", CHILD_TIMEOUT_S)
+    finally:
+        for report in reports.values():
+            stop(report)
+    seeds, repeat = ((work.parent / f"{name}.log").read_text() for name in reports)
+    assert "sabo_vmd_pemie+svm" in seeds and f"0: {100 * svm.data.metrics['accuracy']:.2f}" in seeds
+    assert "every metric matches" in repeat
+    assert {run.data.tags["report"] for run in experiment_runs(client, "bearingtwin", "report")} == {"seeds", "repeat"}
+
+
+def test_artifacts_live_in_the_servers_store_and_nothing_beside_the_clients(team):
+    uri, server_dir, work, _, _ = team
+    client = MlflowClient(uri)
+    for name in ("bearingtwin", "bearingtwin-twin", "bearingtwin-diagnose"):
+        location = client.get_experiment_by_name(name).artifact_location
+        assert location.startswith("mlflow-artifacts:"), f"{name}: {location}"  # the server's, no client path
+    stored = {path.name for path in (server_dir / "artifacts").rglob("*") if path.is_file()}
+    assert {"confusion_matrix.csv", "twin_report.json", "diagnosis.json", "MLmodel"} <= stored
+    written = {path.name for path in work.iterdir()}  # what the commands were told to write, and no more
+    assert {"outer.npz", "multirun", "twin", "diagnosis"} <= written <= {"outer.npz", "multirun", "twin", "diagnosis",
+                                                                      "seeds.md", "repeat.md"}
+    assert not list(work.rglob("*.db")) and not list(work.rglob("mlruns")) and not list(work.rglob("mlartifacts"))
