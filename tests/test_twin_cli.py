@@ -20,6 +20,10 @@ FAST = ["twin.duration=1.0", "compare.envelope_segment_s=0.25", "compare.lines_s
         "measured.check_fs=false"]  # a twin-made record shows no shaft line to check the rate by
 
 
+# What the measurement's own reference record would have fixed: where the sensor sits, the defect's size.
+KNOWN = ["operating_point.sensor=outer_y", "operating_point.defect_depth_mm=0.004", "operating_point.defect_width_mm=0.533"]
+
+
 def run_cli(*overrides, env=None, cwd=None):
     return subprocess.run([sys.executable, "-m", "bearingtwin.cli.twin", *overrides], capture_output=True, text=True,
                           env={**os.environ, **(env or {})}, timeout=300, cwd=cwd)
@@ -44,7 +48,7 @@ def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
     out = tmp_path / "report"
     result = run_cli(f"measured.path={measurement}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
-                     f"out={out}", "candidates=[resonance,slip,noise]", *FAST, env={"MLFLOW_TRACKING_URI": uri})
+                     f"out={out}", "candidates=[resonance,slip,noise]", *FAST, *KNOWN, env={"MLFLOW_TRACKING_URI": uri})
     assert result.returncode == 0, result.stderr[-2000:]
     assert "Effects that were missing, in order: resonance" in result.stdout
     report = json.loads((out / "twin_report.json").read_text())
