@@ -26,12 +26,11 @@ Bounds = tuple[float, float, bool]
 
 @dataclass
 class Fit:
-    """The best parameters found, the objective they give, and every trial's parameters and value in order."""
+    """The best parameters found, the objective they give, and every trial's value in order."""
 
     params: dict[str, float]
     error: float
     trial_errors: list[float]
-    trial_params: list[dict[str, float]]
 
 
 def parse_space(space, where: str) -> dict[str, Bounds]:
@@ -65,7 +64,7 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
     """
     if not space:
         error = float(objective({}))
-        return Fit({}, error, [error], [{}])
+        return Fit({}, error, [error])
     if n_trials < 1:
         raise BearingTwinError(f"calibration.n_trials must be at least 1, got {n_trials}")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -94,7 +93,7 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
     for start_params in starts if n_polish > 0 else []:
         _polish(scored, space, start_params, n_polish // len(starts), values, params)
     best = int(np.argmin(values))
-    return Fit(params[best], float(values[best]), values, params)
+    return Fit(params[best], float(values[best]), values)
 
 
 def run_plain(objective: Callable[[dict[str, float]], float]) -> Callable[[dict[str, float]], float]:

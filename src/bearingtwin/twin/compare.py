@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy import signal as sps
+from scipy.ndimage import median_filter
 
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.windows import cut_windows
@@ -411,10 +412,6 @@ class Comparator:
                    f"{'higher in the measurement' if diff[worst] > 0 else 'higher in the twin'}")
         return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines
 
-    @property
-    def lines_freqs_max(self) -> float:
-        return min(self.settings.lines_max_hz, self.fs / 2)
-
 
 def line_prominence_db(psd: np.ndarray, threshold_db: float, neighbourhood_bins: int = 21) -> np.ndarray:
     """How far each bin of a power spectrum stands above ``threshold_db`` over the median of its
@@ -424,8 +421,6 @@ def line_prominence_db(psd: np.ndarray, threshold_db: float, neighbourhood_bins:
     as one; measuring the excess over the threshold rather than cutting at it keeps the value
     continuous as a line grows. Along the last axis.
     """
-    from scipy.ndimage import median_filter
-
     psd = np.maximum(np.asarray(psd, dtype=np.float64), np.finfo(float).tiny)
     level = median_filter(psd, size=neighbourhood_bins, axes=(-1,), mode="nearest")
     prominence = 10 * np.log10(psd / level)
