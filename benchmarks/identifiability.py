@@ -224,15 +224,17 @@ def run_case(case: dict, overrides: list[str], reference: dict) -> dict:
         "added": added, "verdict": fit.verdict, "seconds": seconds, "reference_seconds": reference["seconds"],
         "reference_base": reference["base"],
         "ranking": [(f.effect, f.drop_per_point, f.n_parameters, f.evidence) for f in fit.ranking],
+        "rounds": [[(c["effect"], c["evidence"]) for c in candidates] for candidates in fit.rounds],
         "margin": fit.margin, "baseline_error": fit.baseline_error, "final_error": fit.final_error,
         "floor_error": fit.floor_error, "unexplained": [u["view"] for u in fit.unexplained],
         "steps": [s.error for s in fit.steps],
+        "step_views": [s.as_dict()["views"] for s in fit.steps],
         "fitted_load_n": fit.operating_point.get("radial_load_n", {}).get("value"),
         "fitted_sensor": [sensor["race"], sensor["angle_deg"], sensor["interval"]],
     }
 
 
-MODE = {"second_resonance": "resonance"}
+MODE = {"second_resonance": "resonance", "structural_mode": "resonance"}
 """An extra structural mode is one finding, under either name."""
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -30,7 +31,8 @@ from bearingtwin.config import REPO_ROOT
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.tracking.tables import markdown_table
 
-DATA = REPO_ROOT.parent / "shared" / "data" / "cwru"
+# The same folder the configs read: paths.data_root = $BEARINGTWIN_DATA or ../shared/data.
+DATA = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 RECORDS = [
     "normal_0_97",
     *[f"12k_Drive_End_{state}_{load}_{record}" for state, first in (("IR007", 105), ("B007", 118), ("OR007@6", 130))
@@ -93,8 +95,9 @@ def summarize(args) -> None:
         final = report["steps"][-1]["params"]
         angles.append(op["sensor"]["angle_deg"])
         gains.append(report["gain"])
-        if "resonance" in final:
-            resonances.append(final["resonance"]["natural_frequency_hz"])
+        for mode in ("resonance", "structural_mode"):  # the transfer path's mode, in series or beside
+            if mode in final:
+                resonances.append(final[mode]["natural_frequency_hz"])
         if "noise" in final:
             noise.append(noise_rms_g(final["noise"]["snr_db"], _measured_rms_g(stem)))
         effects = ", ".join(report["added"]) or "none"
@@ -108,7 +111,7 @@ def summarize(args) -> None:
                             "discrepancy dB (record's own)", "unexplained views"], rows)
     agreement = "\n".join([
         f"- sensor direction: {_spread(angles, 'deg')}",
-        f"- transfer-path resonance (where `resonance` was added): {_spread(resonances, 'Hz')}",
+        f"- transfer-path mode (where `resonance` or `structural_mode` was added): {_spread(resonances, 'Hz')}",
         f"- noise floor (where `noise` was added): {_spread(noise, 'g RMS')}",
         f"- sensor gain: {_spread(gains, 'g per m/s^2')} (it also carries the fault's severity, "
         "which differs between records)",

@@ -99,6 +99,39 @@ def test_statistics_view_sees_lost_impulsiveness():
     assert result.summary.startswith(f"discrepancy {result.discrepancy_db:.2f} dB")
 
 
+def test_statistics_view_is_blind_to_the_level_that_the_psd_view_judges():
+    """Hum in a band where the twin is nearly silent moves the band-level gain by dB while the RMS
+    ratio barely moves; the statistics view must not count that level misfit a second time."""
+    twin = impacts("outer", 2.0, seed=0)
+    hum = sps.sosfiltfilt(sps.butter(4, [55, 70], "bandpass", fs=FS, output="sos"),
+                          np.random.default_rng(4).standard_normal(twin.size))
+    meas = twin + 0.01 * twin.std() * hum / hum.std()  # -40 dB of power: the RMS moves by 0.0004 dB
+    comparator = Comparator(measured(meas), GEOMETRY)
+    result = comparator(twin)
+    assert abs(20 * np.log10(result.gain)) > 1.5
+    assert result.views["psd"].error_db > 3.0
+    assert result.views["statistics"].error_db < 0.5
+    assert comparator(7.0 * twin).views["statistics"].error_db == pytest.approx(result.views["statistics"].error_db)
+
+
+def test_lines_view_leaves_the_defects_own_lines_to_the_envelope_views():
+    """Sharp defect-rate lines in the twin and smeared ones in the measurement are the harmonics
+    view's finding; a shaft-order line the measurement adds is the lines view's."""
+    rate = GEOMETRY.bpfo_hz(RPM)
+    t = np.arange(int(2 * FS)) / FS
+    train = np.cos(2 * np.pi * rate * np.outer(t, np.arange(1, int(FS / 2 / rate)))).sum(axis=1)
+    sharp = base_excitation_filter(train, FS, 3000.0, 0.05)  # a perfectly periodic twin
+    sharp = sharp + 1e-3 * sharp.std() * np.random.default_rng(2).standard_normal(t.size)
+    smeared = impacts("outer", 2.0, seed=1, jitter=0.05)
+    result = Comparator(measured(smeared), GEOMETRY)(sharp)
+    assert result.views["lines"].error_db == pytest.approx(0.0)
+    assert "times as wide as the twin's" in result.views["harmonics"].finding
+    one_x = 0.5 * smeared.std() * np.sqrt(2) * np.sin(2 * np.pi * RPM / 60.0 * t)
+    with_unbalance = Comparator(measured(smeared + one_x), GEOMETRY)(sharp)
+    assert with_unbalance.views["lines"].error_db > 10.0
+    assert "shaft order 1.00" in with_unbalance.views["lines"].finding
+
+
 def test_sampling_rate_too_low_for_the_harmonics_is_named():
     x = impacts("inner", 2.0, seed=0)
     with pytest.raises(BearingTwinError, match="measured.fs=1000 Hz is too low"):

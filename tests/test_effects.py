@@ -20,9 +20,10 @@ from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.kinematics import rigid_kinematics
 
 LIBRARY = ("resonance", "slip", "speed_fluctuation", "noise", "tones", "lubrication", "load_zone", "preload",
-           "spin_slip", "unbalance", "misalignment", "looseness", "line_frequency", "clipping", "second_resonance")
+           "spin_slip", "unbalance", "misalignment", "looseness", "line_frequency", "clipping", "second_resonance",
+           "structural_mode")
 SENSOR_ONLY = ("resonance", "noise", "tones", "unbalance", "misalignment", "looseness", "line_frequency", "clipping",
-               "second_resonance")
+               "second_resonance", "structural_mode")
 FS = 12000.0
 SHAFT_HZ = 1797.0 / 60
 GEOMETRY = BearingGeometry(52.0, 25.0, 7.94, 39.0, 9)
@@ -449,6 +450,28 @@ def test_second_resonance_adds_a_band_around_its_frequency_and_needs_the_first()
     np.testing.assert_allclose(two, lib.base_excitation_filter(one, FS, 1200.0, 0.05))  # the same filter
 
 
+def test_a_structural_mode_raises_its_band_and_leaves_the_rest_of_the_spectrum():
+    """Beside the direct path (unlike ``resonance``, a mount in series): the power ratio is
+    (1 + g)^2 at the natural frequency, 1 an octave and more away; the guess reads f_n, zeta, g."""
+    x = np.random.default_rng(0).standard_normal(48000)
+    mode = lib.StructuralMode(natural_frequency_hz=2000.0, damping_ratio=0.03, level_db=20.0)
+    y = mode.modify_signal(x, FS, None, SHAFT_HZ)
+    freqs, psd = sps.welch(np.stack([x, y]), FS, nperseg=1200)
+    ratio_db = 10 * np.log10(psd[1] / psd[0])
+    at = np.argmin(np.abs(freqs - 2000.0))
+    assert ratio_db[at] == pytest.approx(20 * np.log10(11.0), abs=1.5)
+    far = (freqs < 1000.0) | ((freqs > 4000.0) & (freqs < 0.45 * FS))
+    assert np.all(np.abs(ratio_db[far]) < 1.0)
+    series = lib.Resonance(natural_frequency_hz=2000.0, damping_ratio=0.03).modify_signal(x, FS, None, SHAFT_HZ)
+    _, series_psd = sps.welch(series, FS, nperseg=1200)
+    assert 10 * np.log10(series_psd[freqs > 4000.0] / psd[0, freqs > 4000.0]).mean() < -6.0  # the mount rolls off
+    guess = lib.StructuralMode.initial_guess(y, x, FS, SHAFT_HZ)
+    assert guess["natural_frequency_hz"] == pytest.approx(2000.0, rel=0.05)
+    assert 0.015 <= guess["damping_ratio"] <= 0.06  # within a factor 2: the ratio is smoothed over 250 Hz
+    assert guess["level_db"] == pytest.approx(20.0, abs=6.0)  # a start for the search: smoothing lowers the peak
+    assert lib.StructuralMode.initial_guess(x, x, FS, SHAFT_HZ) is None  # nothing raised: no mode to read
+
+
 def test_line_effects_are_deterministic_under_a_seeded_rng():
     x = np.random.default_rng(1).standard_normal(12000)
     for name in ("tones", "unbalance", "misalignment", "looseness", "line_frequency", "noise"):
@@ -557,6 +580,15 @@ def test_line_frequency_guess_finds_the_supply(supply_hz):
     guess = lib.LineFrequency.initial_guess(measured, twin, FS, SHAFT_HZ)
     assert guess["supply_hz"] == pytest.approx(supply_hz, abs=0.5)
     assert guess["level_db"] == pytest.approx(-3.0, abs=2.0) and guess["fundamental_db"] == pytest.approx(-10.0, abs=2.0)
+
+
+def test_line_frequency_guess_of_an_absent_supply_line_makes_it_weakest():
+    """No supply line to read: the 2 f_s level sits at the search range's floor and the f_s line
+    is as weak as its ratio goes (two floors read as equal lines would say 0 dB)."""
+    twin = _bearing_like(0)
+    guess = lib.LineFrequency.initial_guess(twin, twin, FS, SHAFT_HZ)  # the measurement adds nothing
+    assert guess["level_db"] == lib.LineFrequency.search_space["level_db"][0]
+    assert guess["fundamental_db"] == lib.FUNDAMENTAL_FLOOR_DB
 
 
 def test_guesses_are_gain_free_and_build_their_effect():

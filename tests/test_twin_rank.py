@@ -107,21 +107,23 @@ def test_calibration_recovers_a_known_sensor_direction_and_load(cfg):
     assert fit.added == []
 
 
-def test_the_independent_rigs_sensor_direction_is_recovered():
-    """The rig's housing is stiffer vertically and its load acts vertically: a vertical sensor reads the
-    outer-race strikes, a horizontal one their cross-coupled remainder. The twin, told only the race,
-    places the direction on the correct side of 45 deg in both."""
+def test_the_independent_rigs_sensor_direction_is_reported_as_uncertain():
+    """On the rig a vertical sensor reads the outer-race strikes through a housing mode at 1.7 kHz,
+    a horizontal one their cross-coupled remainder through one at 1.1 kHz; the twin's x and y
+    differ by its own dynamics instead. Nothing in the five views ties the two formulations'
+    directions together, so the report must not claim one: the direction's interval spans at
+    least half of the possible directions, whichever the rig's."""
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         rig_cfg = compose("simulate", overrides=[f"simulator.fs={FS}", f"simulator.rpm={RPM}",
                                                  "simulator.duration=1.0", "bearing=cwru_6205"])
-    found = {}
     for angle in (0.0, 90.0):
         signal = simulate_rig("outer", RigOperatingPoint(rpm=RPM, fs=FS, duration_s=SECONDS, radial_load_n=1000.0,
                                                          sensor_angle_deg=angle, unit="g"),
                               seed=3, setup=RigSetup(residual_1x_db=None))
         fit = rank(rig_cfg, Recording(signal, FS, RPM, "outer", unit="g"), [], op=operating_point(sensor="outer"))
-        found[angle] = abs(90.0 - fit.operating_point["sensor"]["angle_deg"])  # distance from vertical
-    assert found[90.0] < 45.0 < found[0.0], found
+        sensor = fit.operating_point["sensor"]
+        assert sensor["interval"][1] - sensor["interval"][0] >= 90.0, sensor
+        assert "within" in fit.summary and f"{sensor['interval'][0]:.0f}-{sensor['interval'][1]:.0f} deg" in fit.summary
 
 
 def test_a_hidden_pair_is_found_in_order_and_each_closes_its_part(cfg):

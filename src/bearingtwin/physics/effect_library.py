@@ -71,6 +71,29 @@ def base_excitation_filter(x: np.ndarray, fs: float, natural_frequency_hz: float
     return sps.lfilter(num / den[0], den / den[0], np.asarray(x, dtype=np.float64), axis=-1)
 
 
+def mode_band_pass(x: np.ndarray, fs: float, natural_frequency_hz: float, damping_ratio: float,
+                   effect: str = "structural_mode") -> np.ndarray:
+    """The response of one structural mode to ``x``, normalised to unit gain at its natural frequency.
+
+    The band-pass 2 zeta wn s / (s^2 + 2 zeta wn s + wn^2): unity at ``natural_frequency_hz``,
+    half-power width 2 zeta f_n, falling at 20 dB/decade on both sides; bilinear transform
+    prewarped at the natural frequency, as :func:`base_excitation_filter`. Along the last axis.
+    """
+    fs = _positive("fs", fs)
+    natural_frequency_hz = _positive(f"{effect}.natural_frequency_hz", natural_frequency_hz)
+    damping_ratio = _positive(f"{effect}.damping_ratio", damping_ratio)
+    if natural_frequency_hz >= fs / 2:
+        raise BearingTwinError(
+            f"{effect}.natural_frequency_hz={natural_frequency_hz} must lie below the Nyquist frequency {fs / 2} Hz"
+        )
+    wn = 2 * math.pi * natural_frequency_hz
+    k = wn / math.tan(wn / (2 * fs))
+    b1, a1, a0 = 2 * damping_ratio * wn, 2 * damping_ratio * wn, wn**2
+    num = np.array([b1 * k, 0.0, -b1 * k])
+    den = np.array([k**2 + a1 * k + a0, 2 * a0 - 2 * k**2, k**2 - a1 * k + a0])
+    return sps.lfilter(num / den[0], den / den[0], np.asarray(x, dtype=np.float64), axis=-1)
+
+
 def coloured_noise(shape: tuple[int, ...], fs: float, spectral_slope: float, rng: np.random.Generator) -> np.ndarray:
     """Zero-mean Gaussian noise of unit variance whose power density falls as f^-spectral_slope.
 
@@ -172,6 +195,9 @@ LOOSENESS_DECAY_DB_PER_ORDER = 1.0
 SUPPLY_HARMONICS = 3
 """Default number of lines of ``line_frequency`` at even multiples of the supply frequency."""
 
+FUNDAMENTAL_FLOOR_DB = -40.0
+"""Weakest f_s line ``line_frequency`` guesses, relative to its 2 f_s line, in dB."""
+
 MAINS_HZ = (50.0, 60.0)
 """Supply frequencies of the world's grids."""
 
@@ -261,6 +287,34 @@ def _fluctuated_angle(angle_rad: np.ndarray, factor: np.ndarray) -> np.ndarray:
     return angle_rad[0] + np.concatenate([[0.0], np.cumsum(steps)])
 
 
+def _psd_ratio_peak(measured: np.ndarray, twin: np.ndarray, fs: float,
+                    search_space: dict) -> tuple[float, float, float] | None:
+    """Where the measurement's PSD stands highest over the twin's: frequency (Hz), damping ratio
+    from the half-power width (2 zeta f_n), and the ratio's peak over its median.
+
+    The ratio is smoothed over 5 bins (50 Hz each) so one noisy bin does not win; frequency and
+    damping are kept within ``search_space``. None when no band stands 3 dB above the median.
+    """
+    low, high, _ = search_space["natural_frequency_hz"]
+    nperseg = int(fs // 50)
+    freqs_hz, measured_psd = sps.welch(np.asarray(measured, dtype=np.float64), fs=fs, nperseg=nperseg)
+    _, twin_psd = sps.welch(np.asarray(twin, dtype=np.float64), fs=fs, nperseg=nperseg)
+    ratio = measured_psd / np.maximum(twin_psd, np.finfo(float).tiny)
+    ratio = np.convolve(ratio, np.ones(5) / 5, mode="same")
+    band = (freqs_hz >= low) & (freqs_hz <= min(high, 0.45 * fs))
+    if not band.any():
+        return None
+    excess = ratio[band] / np.median(ratio[band])
+    peak = int(np.argmax(excess))
+    if excess[peak] < 2.0:
+        return None
+    above = np.flatnonzero(excess >= 1.0 + (excess[peak] - 1.0) / 2)  # half the excess power
+    width_hz = max(float(np.ptp(freqs_hz[band][above])), fs / nperseg)
+    natural_hz = float(freqs_hz[band][peak])
+    zeta_low, zeta_high, _ = search_space["damping_ratio"]
+    return natural_hz, float(np.clip(width_hz / (2 * natural_hz), zeta_low, zeta_high)), float(excess[peak])
+
+
 @register_effect
 class Resonance(Effect):
     """Transmission path from the bearing to the sensor: a mount or housing mode.
@@ -290,29 +344,10 @@ class Resonance(Effect):
         """The mode where the measurement's PSD stands highest over the twin's, and its width.
 
         A mode in the path multiplies the twin's spectrum by its transmissibility, so the ratio
-        of the two PSDs peaks at the natural frequency; its half-power width is 2 zeta f_n. The
-        ratio is smoothed over 5 bins (50 Hz each) so one noisy bin does not win. None when no
-        band stands 3 dB above the ratio's median.
+        of the two PSDs peaks at the natural frequency; its half-power width is 2 zeta f_n.
         """
-        low, high, _ = cls.search_space["natural_frequency_hz"]
-        nperseg = int(fs // 50)
-        freqs_hz, measured_psd = sps.welch(np.asarray(measured, dtype=np.float64), fs=fs, nperseg=nperseg)
-        _, twin_psd = sps.welch(np.asarray(twin, dtype=np.float64), fs=fs, nperseg=nperseg)
-        ratio = measured_psd / np.maximum(twin_psd, np.finfo(float).tiny)
-        ratio = np.convolve(ratio, np.ones(5) / 5, mode="same")
-        band = (freqs_hz >= low) & (freqs_hz <= min(high, 0.45 * fs))
-        if not band.any():
-            return None
-        excess = ratio[band] / np.median(ratio[band])
-        peak = int(np.argmax(excess))
-        if excess[peak] < 2.0:
-            return None
-        above = np.flatnonzero(excess >= 1.0 + (excess[peak] - 1.0) / 2)  # half the excess power
-        width_hz = max(float(np.ptp(freqs_hz[band][above])), fs / nperseg)
-        natural_hz = float(freqs_hz[band][peak])
-        zeta_low, zeta_high, _ = cls.search_space["damping_ratio"]
-        return {"natural_frequency_hz": natural_hz,
-                "damping_ratio": float(np.clip(width_hz / (2 * natural_hz), zeta_low, zeta_high))}
+        peak = _psd_ratio_peak(measured, twin, fs, cls.search_space)
+        return None if peak is None else {"natural_frequency_hz": peak[0], "damping_ratio": peak[1]}
 
 
 @register_effect
@@ -336,6 +371,55 @@ class SecondResonance(Resonance):
     name = "second_resonance"
     requires = ("resonance",)
     signature = "a second band of raised energy around its natural frequency"
+
+
+@register_effect
+class StructuralMode(Effect):
+    """A mode of the housing or frame that the bearing's forces excite beside the direct path.
+
+    A sensor reads the sum of the structure's modal responses, so a mode the twin lacks adds
+    its own response to the signal: ``y = x + g B(x)``, with ``B`` a second-order band-pass of
+    unit gain at the natural frequency and half-power width ``2 zeta f_n``. Unlike
+    ``resonance`` (a mount in series, which also rolls the spectrum off above it), the rest of
+    the spectrum stays as it is.
+
+    Args:
+        natural_frequency_hz: the mode's natural frequency (housings and frames: 0.3-5 kHz).
+        damping_ratio: its damping ratio zeta.
+        level_db: ``g`` in dB, the mode's peak response relative to the direct path's at the
+            natural frequency.
+
+    Signature: a band of raised energy around the natural frequency, the rest of the spectrum
+    unchanged; impacts ring at it.
+    """
+
+    name = "structural_mode"
+    signature = "a raised band around the natural frequency, the rest of the spectrum unchanged"
+    search_space = {"natural_frequency_hz": (300.0, 5000.0, True), "damping_ratio": (0.01, 0.3, True),
+                    "level_db": (-10.0, 40.0, False)}
+
+    def __init__(self, natural_frequency_hz: float, damping_ratio: float, level_db: float):
+        self.natural_frequency_hz = _positive(f"{self.name}.natural_frequency_hz", natural_frequency_hz)
+        self.damping_ratio = _positive(f"{self.name}.damping_ratio", damping_ratio)
+        self.level_db = _finite(f"{self.name}.level_db", level_db)
+
+    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
+        mode = mode_band_pass(signal, fs, self.natural_frequency_hz, self.damping_ratio, self.name)
+        return signal + 10 ** (self.level_db / 20.0) * mode
+
+    @classmethod
+    def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:
+        """The band where the measurement's PSD stands highest over the twin's, its width and height.
+
+        With the mode added, the power ratio at the natural frequency is (1 + g)^2.
+        """
+        peak = _psd_ratio_peak(measured, twin, fs, cls.search_space)
+        if peak is None:
+            return None
+        natural_hz, zeta, excess = peak
+        low, high, _ = cls.search_space["level_db"]
+        level_db = 20 * math.log10(max(math.sqrt(excess) - 1.0, 10 ** (low / 20)))
+        return {"natural_frequency_hz": natural_hz, "damping_ratio": zeta, "level_db": float(min(level_db, high))}
 
 
 @register_effect
@@ -592,7 +676,7 @@ class Unbalance(LineEffect):
     the dynamics; as a line in the sensor path it costs the twin no simulation.)
 
     Args:
-        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-40 to +20; an
+        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-60 to +20; an
             acceleration sensor weighs the low shaft rate down, so a few dB below the bearing's
             broadband level is typical of a well-balanced motor).
 
@@ -601,7 +685,7 @@ class Unbalance(LineEffect):
 
     name = "unbalance"
     signature = "a line at the shaft rate (1x) only"
-    search_space = {"level_db": (-40.0, 20.0, False)}
+    search_space = {"level_db": (-60.0, 20.0, False)}
 
     def __init__(self, level_db: float):
         self.level_db = _finite("unbalance.level_db", level_db)
@@ -625,7 +709,7 @@ class Misalignment(LineEffect):
     shaft rate; the coupling's asymmetry adds 1x (parallel offset) and 3x.
 
     Args:
-        level_db: the 2x line's RMS relative to the bearing signal's RMS, in dB (-40 to +20).
+        level_db: the 2x line's RMS relative to the bearing signal's RMS, in dB (-60 to +20).
         one_x_db: the 1x line relative to the 2x line, in dB (-30 to 0: 2x dominates, or it
             would be unbalance).
         three_x_db: the 3x line relative to the 2x line, in dB (fixed, not fitted; -30 to 0).
@@ -635,7 +719,7 @@ class Misalignment(LineEffect):
 
     name = "misalignment"
     signature = "a 2x shaft line above the 1x, a weaker 3x"
-    search_space = {"level_db": (-40.0, 20.0, False), "one_x_db": (-30.0, 0.0, False)}
+    search_space = {"level_db": (-60.0, 20.0, False), "one_x_db": (-30.0, 0.0, False)}
 
     def __init__(self, level_db: float, one_x_db: float = -6.0, three_x_db: float = -10.0):
         self.level_db = _finite("misalignment.level_db", level_db)
@@ -666,7 +750,7 @@ class Looseness(LineEffect):
     spectrum's lines, so the comb's level and its half-order content are separate parameters.
 
     Args:
-        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-40 to +20).
+        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-60 to +20).
         half_order_db: half-order lines relative to the integer-order comb at their order, in
             dB (-30 to 0).
         n_harmonics: lines at 1x ... n_harmonics x and the half orders below them (fixed, not
@@ -679,7 +763,7 @@ class Looseness(LineEffect):
 
     name = "looseness"
     signature = "a comb of shaft harmonics with half orders (0.5x, 1.5x ...)"
-    search_space = {"level_db": (-40.0, 20.0, False), "half_order_db": (-30.0, 0.0, False)}
+    search_space = {"level_db": (-60.0, 20.0, False), "half_order_db": (-30.0, 0.0, False)}
 
     def __init__(self, level_db: float, half_order_db: float = -10.0, n_harmonics: int = LOOSENESS_HARMONICS,
                  decay_db_per_order: float = LOOSENESS_DECAY_DB_PER_ORDER):
@@ -730,7 +814,7 @@ class LineFrequency(LineEffect):
         supply_hz: supply frequency f_s in Hz: 50 or 60 from the grid, anything from a drive.
             Fitted continuously in [45, 65]: a variable-frequency drive is not tied to the
             grid's values, and the guess read off the spectrum is already within a bin.
-        level_db: the 2 f_s line's RMS relative to the bearing signal's RMS, in dB (-40 to +20).
+        level_db: the 2 f_s line's RMS relative to the bearing signal's RMS, in dB (-60 to +20).
         fundamental_db: the f_s line relative to the 2 f_s line, in dB (fixed, not fitted;
             -40 to 0).
         n_harmonics: lines at 2 k f_s for k = 1..n_harmonics, amplitude 1/k (fixed, not fitted).
@@ -741,7 +825,7 @@ class LineFrequency(LineEffect):
 
     name = "line_frequency"
     signature = "a line at twice the supply frequency, its harmonics, a weaker 1x supply"
-    search_space = {"supply_hz": (45.0, 65.0, False), "level_db": (-40.0, 20.0, False)}
+    search_space = {"supply_hz": (45.0, 65.0, False), "level_db": (-60.0, 20.0, False)}
 
     def __init__(self, supply_hz: float, level_db: float, fundamental_db: float = -10.0,
                  n_harmonics: int = SUPPLY_HARMONICS):
@@ -766,8 +850,10 @@ class LineFrequency(LineEffect):
                                                              floor_db, tolerances_hz=[high - low])
         supply_hz = twice_supply_hz / 2
         (fundamental,), _ = _added_line_levels_db(measured, twin, fs, shaft_hz, [supply_hz], floor_db)
+        # No f_s line read (its level at the floor): as weak as the ratio goes, not floor minus floor = 0 dB.
+        ratio = fundamental - level if fundamental > floor_db else FUNDAMENTAL_FLOOR_DB
         return {"supply_hz": float(supply_hz), "level_db": float(level),
-                "fundamental_db": float(np.clip(fundamental - level, floor_db, 0.0))}
+                "fundamental_db": float(np.clip(ratio, FUNDAMENTAL_FLOOR_DB, 0.0))}
 
 
 @register_effect

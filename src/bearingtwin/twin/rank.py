@@ -180,6 +180,7 @@ class TwinFit:
     unexplained: list[dict]
     floor_error: float
     held_out: bool
+    rounds: list[list[dict]] = field(default_factory=list)  # every round's candidates: effect, evidence, error
 
     @property
     def final_error(self) -> float:
@@ -230,6 +231,7 @@ class TwinFit:
             "held_out": self.held_out,
             "base_params": self.base_params,
             "ranking": [fit.as_dict() for fit in self.ranking],
+            "rounds": self.rounds,
             "margin": self.margin,
             "steps": [step.as_dict() for step in self.steps],
             "added": [fit.effect for fit in self.added],
@@ -359,18 +361,22 @@ class EffectRanker:
 
         # 2. Effects, greedily, each judged on the held-out part.
         ranking: list[EffectFit] = []
+        rounds: list[list[dict]] = []
         added: list[EffectFit] = []
         remaining = list(self.candidates)
         round_index = 0
         while remaining and len(added) < self.max_effects:
             offered = [name for name in remaining if set(_requires(name)) <= set(current_effects)]
             seeds = [self.seed + 1000 * (round_index + 1) + index for index in range(len(offered))]
+            matched = _gain_matched(judge, twin.signal(base, current_effects))
             with ThreadPoolExecutor(max_workers=self.n_jobs) as pool:  # the solver and numpy release the GIL
                 fits = list(pool.map(lambda name, seed: self._fit_candidate(
-                    name, spaces[name], base, current_effects, current, judge, twin.fresh(), seed=seed), offered, seeds))
+                    name, spaces[name], base, current_effects, current, judge, twin.fresh(), matched, seed=seed),
+                    offered, seeds))
             if not fits:
                 break
             fits.sort(key=lambda fit: -fit.evidence)
+            rounds.append([{"effect": fit.effect, "evidence": fit.evidence, "error": fit.error} for fit in fits])
             if round_index == 0:
                 ranking = fits
             best = fits[0]
@@ -407,13 +413,14 @@ class EffectRanker:
         operating = self._operating_point_report(base_values, sensor, scored, intervals)
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
-                            judge.unexplained(current), floor, judge.held_out)
+                            judge.unexplained(current), floor, judge.held_out, rounds)
         return self
 
-    def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, seed) -> EffectFit:
+    def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, matched,
+                       seed) -> EffectFit:
         """Fit one candidate on the first part (starting from the data's own estimate when the effect
-        offers one) and judge it on the held-out part."""
-        nominal = {**effect_defaults(name), **(_initial_guess(name, judge, twin, base, current_effects) or {})}
+        offers one, read against ``matched``: the current twin, gain-matched) and judge it on the held-out part."""
+        nominal = {**effect_defaults(name), **(_initial_guess(name, judge, matched) or {})}
 
         def with_effect(params):
             return {**current_effects, name: {**nominal, **params}}
@@ -519,12 +526,14 @@ def _signature(name: str) -> str:
     return f"signature: {getattr(_effect_class(name), 'signature', '')}"
 
 
-def _initial_guess(name, judge: Judge, twin: TwinModel, base, current_effects) -> dict | None:
-    """The effect's own estimate from the measurement against the current twin, gain-matched, if it offers one."""
+def _gain_matched(judge: Judge, signal: np.ndarray) -> np.ndarray:
+    """The twin's signal scaled by the gain that matches it to the first part of the measurement."""
+    return judge.fit_part(signal).gain * signal[:judge.fit_part.measured_signal.size]
+
+
+def _initial_guess(name, judge: Judge, matched: np.ndarray) -> dict | None:
+    """The effect's own estimate from the measurement against the gain-matched current twin, if it offers one."""
     guess = getattr(_effect_class(name), "initial_guess", None)
     if guess is None:
         return None
-    signal = twin.signal(base, current_effects)
-    gain = judge.fit_part(signal).gain
-    measured = judge.fit_part.measured_signal
-    return guess(measured, gain * signal[:measured.size], judge.fit_part.fs, judge.fit_part.rpm / 60.0)
+    return guess(judge.fit_part.measured_signal, matched, judge.fit_part.fs, judge.fit_part.rpm / 60.0)
