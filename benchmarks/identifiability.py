@@ -29,8 +29,8 @@ found whether it is added as ``resonance`` or, when the reference already needed
     python benchmarks/identifiability.py --split dev --jobs 2    # the development cases (seed 1)
     python benchmarks/identifiability.py --split test --jobs 2   # the benchmark: writes results/identifiability.{md,json}
 
-The development split exists to choose the ranking's free constant (``ranking.points_per_view``)
-on rig measurements; its cases use other seeds, parameter values and conditions than the test
+The development split exists to choose the ranking's free constants (``ranking.points_per_view``,
+``ranking.view_floor_db``) on rig measurements; its cases use other seeds, parameter values and conditions than the test
 split, whose numbers are the result.
 """
 
@@ -224,7 +224,7 @@ def run_case(case: dict, overrides: list[str], reference: dict) -> dict:
         "added": added, "verdict": fit.verdict, "seconds": seconds, "reference_seconds": reference["seconds"],
         "reference_base": reference["base"],
         "ranking": [(f.effect, f.drop_per_point, f.n_parameters, f.evidence) for f in fit.ranking],
-        "rounds": [[(c["effect"], c["evidence"]) for c in candidates] for candidates in fit.rounds],
+        "rounds": fit.rounds, "repeatability_db": fit.repeatability_db,
         "margin": fit.margin, "baseline_error": fit.baseline_error, "final_error": fit.final_error,
         "floor_error": fit.floor_error, "unexplained": [u["view"] for u in fit.unexplained],
         "steps": [s.error for s in fit.steps],
@@ -258,13 +258,26 @@ def score(result: dict) -> dict:
 
 
 POINTS_GRID = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
+VIEW_FLOOR_GRID = (0.3, 0.5, 1.0, 2.0)
 
 
-def first_round_right(result: dict, points_per_view: float) -> bool:
-    """Whether the first round's decision would be right with ``points_per_view`` (the evidence of a
-    candidate is points x its deviance drop per point - its parameters x ln(5 points))."""
-    evidence = [(points_per_view * drop - k * np.log(5 * points_per_view), name)
-                for name, drop, k, _ in result["ranking"]]
+def first_round_evidence(result: dict, points_per_view: float, view_floor_db: float) -> list[tuple[float, str]]:
+    """Each first-round candidate's evidence as the judge would give it with these constants: points x
+    the drop of sum_v ln(e_v^2 + f_v^2) from the twin before the round, f_v = max(repeatability,
+    floor), minus its parameters x ln(5 points) (every view weighing 1, the configured default)."""
+    floors = {v: max(r, view_floor_db) for v, r in result["repeatability_db"].items()}
+
+    def deviance(views):
+        return sum(np.log(views[v] ** 2 + floors[v] ** 2) for v in floors)
+
+    before = deviance(result["step_views"][0])
+    return [(points_per_view * (before - deviance(c["views"])) - c["n_parameters"] * np.log(5 * points_per_view),
+             c["effect"]) for c in (result["rounds"][0] if result["rounds"] else [])]
+
+
+def first_round_right(result: dict, points_per_view: float, view_floor_db: float) -> bool:
+    """Whether the first round's decision would be right with these constants."""
+    evidence = first_round_evidence(result, points_per_view, view_floor_db)
     best, name = max(evidence) if evidence else (-1.0, None)
     first = MODE.get(name, name) if best > 0 else None
     hidden = [MODE.get(h, h) for h in result["hidden"]]
@@ -273,15 +286,18 @@ def first_round_right(result: dict, points_per_view: float) -> bool:
     return first is None
 
 
-def choose_points_per_view(results: list[dict]) -> tuple[float, list[list[str]]]:
-    """The value whose first-round decisions are right most often, each case kind weighing the same."""
+def choose_decision_constants(results: list[dict]) -> tuple[tuple[float, float], list[list[str]]]:
+    """The (points_per_view, view_floor_db) whose first-round decisions are right most often, each case
+    kind weighing the same; ties go to fewer points, then to the lower floor."""
     kinds = sorted({r["kind"] for r in results})
-    rows, best = [], (-1.0, None)
-    for points in POINTS_GRID:
-        rates = [np.mean([first_round_right(r, points) for r in results if r["kind"] == kind]) for kind in kinds]
-        rows.append([f"{points:g}", *[f"{rate:.0%}" for rate in rates], f"{np.mean(rates):.0%}"])
-        best = max(best, (float(np.mean(rates)), -points))
-    return -best[1], [["points_per_view", *kinds, "mean"], *rows]
+    rows, best = [], (-1.0, 0.0, 0.0)
+    for floor in VIEW_FLOOR_GRID:
+        for points in POINTS_GRID:
+            rates = [np.mean([first_round_right(r, points, floor) for r in results if r["kind"] == kind])
+                     for kind in kinds]
+            rows.append([f"{points:g}", f"{floor:g}", *[f"{rate:.0%}" for rate in rates], f"{np.mean(rates):.0%}"])
+            best = max(best, (float(np.mean(rates)), -points, -floor))
+    return (-best[1], -best[2]), [["points_per_view", "view_floor_db", *kinds, "mean"], *rows]
 
 
 def summarize(results: list[dict]) -> dict:
@@ -306,6 +322,29 @@ def confusion(results: list[dict], source: str) -> str:
     counts = Counter((r["hidden"][0], (r["added"] or ["none"])[0]) for r in singles)
     rows = [[name] + [str(counts[(name, c)] or "") for c in columns] for name in names]
     return markdown_table(["hidden \\ added first", *columns], rows)
+
+
+def plot_rates(table: dict, goals: dict, path: Path) -> None:
+    """Share of cases right per kind, twin -> twin beside twin -> rig, with the goals marked."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kinds = list(goals)
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    for offset, (source, label) in zip((-0.2, 0.2), (("twin", "twin -> twin (self-test)"),
+                                                    ("rig", "twin -> independent rig"))):
+        rates = [table.get(source, {}).get(k, {}) for k in kinds]
+        heights = [100 * e["right"] / e["n"] if e else np.nan for e in rates]
+        ax.bar(np.arange(len(kinds)) + offset, heights, width=0.4, label=label)
+    for index, kind in enumerate(kinds):
+        ax.hlines(100 * goals[kind], index - 0.4, index + 0.4, colors="k", linestyles="--", lw=1)
+    ax.set_xticks(range(len(kinds)), [k.replace("_", " ") for k in kinds])
+    ax.set(ylabel="cases right (%)", ylim=(0, 105), title="dashed: goal")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, frameon=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 def write_results(results: list[dict], out: Path, command: str, wall_s: float) -> None:
@@ -341,6 +380,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
         "`twin` measurements come from the twin itself (a self-test); `rig` measurements from the independent "
         "test rig, which shares no code with the twin.", "",
         markdown_table(["case kind", "goal", "twin -> twin (self-test)", "twin -> independent rig"], rows), "",
+        "![cases right per kind against the goals](identifiability.png)", "",
         f"Regenerate ({wall_s / 60:.0f} min on {machine}):", "", "```bash", command, "```", "",
         "## Hidden single effects: what was added first", "",
         "### Twin -> independent rig", "", confusion(results, "rig"), "",
@@ -351,7 +391,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
         "defect, and an operating point the ranking is not told "
         f"({'; '.join(', '.join(f'{k} {v:g}' for k, v in o.items()) for o in OPERATING['test'])}). "
         "Hidden parameters differ from every configured default and from the development split's, on which "
-        "`ranking.points_per_view` was chosen (`--split dev`).", "",
+        "`ranking.points_per_view` and `ranking.view_floor_db` were chosen (`--split dev`).", "",
         f"Speed: median compare-calibrate-rank {np.median(times):.0f} s per case "
         f"({', '.join(f'{fs / 1000:g} kHz {t:.0f} s' for fs, t in by_fs.items())}), {len(results[0]['ranking'])} "
         "candidates, one process per case.", "",
@@ -360,6 +400,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
                         "unexplained views"], misses) if misses else "None.", "",
     ]
     out.mkdir(parents=True, exist_ok=True)
+    plot_rates(table, goals, out / "identifiability.png")
     (out / "identifiability.md").write_text("\n".join(text))
     (out / "identifiability.json").write_text(json.dumps(results, indent=1, default=float))
     print(out / "identifiability.md")
@@ -396,9 +437,10 @@ def main() -> int:
     if args.split == "dev":
         Path(args.out).mkdir(parents=True, exist_ok=True)
         Path(args.out, "identifiability_dev.json").write_text(json.dumps(results, indent=1, default=float))
-        chosen, rows = choose_points_per_view(results)
+        (points, floor), rows = choose_decision_constants(results)
         print(markdown_table(rows[0], rows[1:]))
-        print(f"ranking.points_per_view={chosen:g} decides the first round right most often (ties: the smaller)")
+        print(f"ranking.points_per_view={points:g} ranking.view_floor_db={floor:g} decide the first round right "
+              "most often (ties: fewer points, then the lower floor)")
         return 0
     command = "python benchmarks/identifiability.py " + " ".join(sys.argv[1:])
     write_results(results, Path(args.out), command.strip(), wall)

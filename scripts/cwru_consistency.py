@@ -85,11 +85,27 @@ def _spread(values: list[float], unit: str) -> str:
             f"({len(values)} records, coefficient of variation {values.std() / abs(values.mean()):.0%})")
 
 
+def _axial_spread(angles_deg: list[float]) -> str:
+    """Mean and spread of directions, where a and a + 180 deg are one direction (doubled-angle
+    circular statistics: the mean resultant length R of exp(2i a) gives a spread sqrt(-2 ln R) / 2)."""
+    doubled = np.exp(2j * np.deg2rad(np.asarray(angles_deg, dtype=float)))
+    resultant = np.mean(doubled)
+    mean_deg = np.rad2deg(np.angle(resultant)) / 2 % 180
+    spread_deg = np.rad2deg(np.sqrt(-2 * np.log(max(abs(resultant), 1e-12))) / 2)
+    return (f"mean {mean_deg:.0f} deg from horizontal, circular spread {spread_deg:.0f} deg "
+            f"({len(angles_deg)} records; a and a + 180 deg are one direction)")
+
+
 def summarize(args) -> None:
     work, rows = Path(args.work), []
     angles, resonances, noise, gains = [], [], [], []
     for stem in RECORDS:
-        report = json.loads((work / stem.replace("@", "_") / "twin_report.json").read_text())
+        path = work / stem.replace("@", "_") / "twin_report.json"
+        if not path.exists():
+            print(f"cwru_consistency: {path} is missing; run `python scripts/cwru_consistency.py run` first",
+                  file=sys.stderr)
+            sys.exit(2)
+        report = json.loads(path.read_text())
         name = parse_cwru_name(f"{stem}.mat")
         op = report["operating_point"]
         final = report["steps"][-1]["params"]
@@ -110,7 +126,7 @@ def summarize(args) -> None:
                             "radial load N", "clearance um", "gain (g per m/s^2)",
                             "discrepancy dB (record's own)", "unexplained views"], rows)
     agreement = "\n".join([
-        f"- sensor direction: {_spread(angles, 'deg')}",
+        f"- sensor direction: {_axial_spread(angles)}; the accelerometer sits at 12 o'clock, i.e. 90 deg",
         f"- transfer-path mode (where `resonance` or `structural_mode` was added): {_spread(resonances, 'Hz')}",
         f"- noise floor (where `noise` was added): {_spread(noise, 'g RMS')}",
         f"- sensor gain: {_spread(gains, 'g per m/s^2')} (it also carries the fault's severity, "
@@ -120,7 +136,7 @@ def summarize(args) -> None:
         "# The twin against the 13 CWRU records: what each needs, and whether they agree\n\n"
         "One accelerometer (drive end, 12 o'clock on the housing) on one rig: what belongs to the rig should "
         "agree across loads and fault types.\n\n" + agreement + "\n\n" + table + "\n\n"
-        "Regenerate (about 10 minutes on 2 cores):\n\n```bash\npython scripts/cwru_consistency.py run --jobs 2\n"
+        "Regenerate (about 5 minutes on 2 cores):\n\n```bash\npython scripts/cwru_consistency.py run --jobs 2\n"
         "python scripts/cwru_consistency.py summarize\n```\n\n"
         "Each record: `bearingtwin-twin measured.path=<record> " + " ".join(COMMON[:3]) + "` with the defaults "
         "otherwise (`conf/twin.yaml`). The discrepancy is on the record's held-out half; in brackets the record's "

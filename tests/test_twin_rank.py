@@ -173,6 +173,10 @@ def test_the_judge_counts_parameters_against_the_held_out_half(cfg):
     assert judge.penalty_per_parameter == pytest.approx(math.log(4.0 * 5))
     # The measurement's own halves differ only by the noise floor's realization: small floors.
     assert all(0.3 <= f < 3.0 for f in judge.floors_db.values()), judge.floors_db
+    # No view is trusted beyond the floor: the scale-free statistics barely move from half to half.
+    raised = Judge.for_measurement(measured, BearingGeometry.from_config(cfg.bearing), SETTINGS, view_floor_db=2.0)
+    assert raised.repeatability_db == judge.repeatability_db
+    assert raised.floors_db == {v: max(r, 2.0) for v, r in judge.repeatability_db.items()}
     short = Recording(measured.signal[: int(0.4 * FS)], FS, RPM, "outer")  # halves shorter than a segment
     assert not Judge.for_measurement(short, BearingGeometry.from_config(cfg.bearing), SETTINGS).held_out
 
@@ -209,5 +213,7 @@ def test_bad_candidates_and_keys_are_named(cfg):
     with pytest.raises(BearingTwinError, match="calibration.base.simulator.defect.deep"):
         op = OperatingPoint.from_config({}, RANGES, {"simulator.defect.deep": [0.1, 1.0]}, "outer")
         rank(cfg, measured, [], op=op)
+    with pytest.raises(BearingTwinError, match="ranking.view_floor_db must be a positive number"):
+        EffectRanker([], view_floor_db=0.0).fit(None, measured, BearingGeometry.from_config(cfg.bearing))
     with pytest.raises(BearingTwinError, match="candidates: noise is already among the fixed effects"):
         rank(cfg, measured, ["noise"], fixed={"noise": {"snr_db": 20.0, "spectral_slope": 0.0}})

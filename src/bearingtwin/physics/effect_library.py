@@ -51,24 +51,9 @@ def base_excitation_filter(x: np.ndarray, fs: float, natural_frequency_hz: float
     The mount is a single-degree-of-freedom oscillator excited at its base, so its
     transmissibility is (2 zeta wn s + wn^2) / (s^2 + 2 zeta wn s + wn^2): unity far below
     ``natural_frequency_hz``, a peak of about 1 / (2 zeta) at it, -20 dB/decade above.
-    The bilinear transform is prewarped at the natural frequency so the peak stays at
-    the right place for any sampling rate ``fs`` (Hz). Filters along the last axis; errors
-    name the parameters as those of ``effect``.
+    Filters along the last axis; errors name the parameters as those of ``effect``.
     """
-    fs = _positive("fs", fs)
-    natural_frequency_hz = _positive(f"{effect}.natural_frequency_hz", natural_frequency_hz)
-    damping_ratio = _positive(f"{effect}.damping_ratio", damping_ratio)
-    if natural_frequency_hz >= fs / 2:
-        raise BearingTwinError(
-            f"{effect}.natural_frequency_hz={natural_frequency_hz} must lie below the Nyquist frequency {fs / 2} Hz"
-        )
-    wn = 2 * math.pi * natural_frequency_hz
-    k = wn / math.tan(wn / (2 * fs))
-    b1, b0 = 2 * damping_ratio * wn, wn**2
-    a1, a0 = 2 * damping_ratio * wn, wn**2
-    num = np.array([b1 * k + b0, 2 * b0, b0 - b1 * k])
-    den = np.array([k**2 + a1 * k + a0, 2 * a0 - 2 * k**2, k**2 - a1 * k + a0])
-    return sps.lfilter(num / den[0], den / den[0], np.asarray(x, dtype=np.float64), axis=-1)
+    return _second_order_filter(x, fs, natural_frequency_hz, damping_ratio, effect, base_excitation=True)
 
 
 def mode_band_pass(x: np.ndarray, fs: float, natural_frequency_hz: float, damping_ratio: float,
@@ -76,9 +61,16 @@ def mode_band_pass(x: np.ndarray, fs: float, natural_frequency_hz: float, dampin
     """The response of one structural mode to ``x``, normalised to unit gain at its natural frequency.
 
     The band-pass 2 zeta wn s / (s^2 + 2 zeta wn s + wn^2): unity at ``natural_frequency_hz``,
-    half-power width 2 zeta f_n, falling at 20 dB/decade on both sides; bilinear transform
-    prewarped at the natural frequency, as :func:`base_excitation_filter`. Along the last axis.
+    half-power width 2 zeta f_n, falling at 20 dB/decade on both sides. Along the last axis.
     """
+    return _second_order_filter(x, fs, natural_frequency_hz, damping_ratio, effect, base_excitation=False)
+
+
+def _second_order_filter(x: np.ndarray, fs: float, natural_frequency_hz: float, damping_ratio: float, effect: str,
+                         base_excitation: bool) -> np.ndarray:
+    """(2 zeta wn s + [wn^2 if base_excitation]) / (s^2 + 2 zeta wn s + wn^2), digitised by the bilinear
+    transform prewarped at the natural frequency, so the peak stays at the right place for any
+    sampling rate ``fs`` (Hz)."""
     fs = _positive("fs", fs)
     natural_frequency_hz = _positive(f"{effect}.natural_frequency_hz", natural_frequency_hz)
     damping_ratio = _positive(f"{effect}.damping_ratio", damping_ratio)
@@ -88,8 +80,9 @@ def mode_band_pass(x: np.ndarray, fs: float, natural_frequency_hz: float, dampin
         )
     wn = 2 * math.pi * natural_frequency_hz
     k = wn / math.tan(wn / (2 * fs))
-    b1, a1, a0 = 2 * damping_ratio * wn, 2 * damping_ratio * wn, wn**2
-    num = np.array([b1 * k, 0.0, -b1 * k])
+    b1, b0 = 2 * damping_ratio * wn, (wn**2 if base_excitation else 0.0)
+    a1, a0 = 2 * damping_ratio * wn, wn**2
+    num = np.array([b1 * k + b0, 2 * b0, b0 - b1 * k])
     den = np.array([k**2 + a1 * k + a0, 2 * a0 - 2 * k**2, k**2 - a1 * k + a0])
     return sps.lfilter(num / den[0], den / den[0], np.asarray(x, dtype=np.float64), axis=-1)
 

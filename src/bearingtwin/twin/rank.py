@@ -46,8 +46,6 @@ CHI2_95_ONE_DOF = 3.841
 """Deviance above the best that bounds a 95 % interval of one parameter (Wilks)."""
 CLEAR_MARGIN = 2.0
 """An information-criterion margin below this is "not worth more than a bare mention" (Kass & Raftery 1995)."""
-VIEW_FLOOR_DB = 0.3
-"""Least repeatability assumed of any view: a part-to-part error of 0 would make any change look significant."""
 
 WHAT_LEAVES_IT = {
     "psd": "a structural resonance, a broadband source (rub, flow, cavitation) or a noise floor in that band",
@@ -80,14 +78,22 @@ class Judge:
 
     fit_part: Comparator
     check_part: Comparator
-    floors_db: dict[str, float]
+    repeatability_db: dict[str, float]  # the part-to-part error of each view
     weights: dict[str, float]
     held_out: bool
     points_per_view: float = 1.0
+    view_floor_db: float = 0.3
+
+    @property
+    def floors_db(self) -> dict[str, float]:
+        """Each view's repeatability, never below ``view_floor_db``: a part-to-part error near 0 (a
+        view whose numbers barely move, such as the scale-free statistics) would make matching it
+        by any knob worth more than the twin's model form can promise."""
+        return {v: max(self.repeatability_db[v], self.view_floor_db) for v in VIEWS}
 
     @classmethod
     def for_measurement(cls, measured: Recording, geometry: BearingGeometry, settings: CompareSettings,
-                        points_per_view: float = 1.0) -> "Judge":
+                        points_per_view: float = 1.0, view_floor_db: float = 0.3) -> "Judge":
         """Cut ``measured`` in two halves when each is long enough for every view, else use it whole for both."""
         half = measured.signal.size // 2
         try:
@@ -97,11 +103,10 @@ class Judge:
                                           source=measured.source, unit=measured.unit), geometry, settings)
         except BearingTwinError:
             whole = Comparator(measured, geometry, settings)
-            return cls(whole, whole, {v: VIEW_FLOOR_DB for v in VIEWS}, dict(settings.weights), False,
-                       points_per_view)
+            return cls(whole, whole, {v: 0.0 for v in VIEWS}, dict(settings.weights), False, points_per_view,
+                       view_floor_db)
         repeat = _view_errors(first.compare_profiles(second.measured))
-        floors = {v: max(repeat[v], VIEW_FLOOR_DB) for v in VIEWS}
-        return cls(first, second, floors, dict(settings.weights), True, points_per_view)
+        return cls(first, second, repeat, dict(settings.weights), True, points_per_view, view_floor_db)
 
     @property
     def penalty_per_parameter(self) -> float:
@@ -109,17 +114,17 @@ class Judge:
         return math.log(self.points_per_view * sum(self.weights.values()))
 
     def deviance(self, comparison: Comparison) -> float:
-        errors = _view_errors(comparison)
-        return float(self.points_per_view * sum(self.weights[v] * math.log(errors[v] ** 2 + self.floors_db[v] ** 2)
+        errors, floors = _view_errors(comparison), self.floors_db
+        return float(self.points_per_view * sum(self.weights[v] * math.log(errors[v] ** 2 + floors[v] ** 2)
                                                 for v in VIEWS))
 
     def unexplained(self, comparison: Comparison) -> list[dict]:
         """Views whose error is more than twice the measurement's own repeatability, worst first."""
-        left = []
+        left, floors = [], self.floors_db
         for v in VIEWS:
             result = comparison.views[v]
-            if self.weights[v] > 0 and result.error_db > 2 * self.floors_db[v] and result.error_db > 1.0:
-                left.append({"view": v, "error_db": result.error_db, "floor_db": self.floors_db[v],
+            if self.weights[v] > 0 and result.error_db > 2 * floors[v] and result.error_db > 1.0:
+                left.append({"view": v, "error_db": result.error_db, "floor_db": floors[v],
                              "where": result.finding, "what_leaves_it": WHAT_LEAVES_IT[v]})
         return sorted(left, key=lambda u: -u["error_db"] / u["floor_db"])
 
@@ -180,7 +185,8 @@ class TwinFit:
     unexplained: list[dict]
     floor_error: float
     held_out: bool
-    rounds: list[list[dict]] = field(default_factory=list)  # every round's candidates: effect, evidence, error
+    rounds: list[list[dict]] = field(default_factory=list)  # every round's candidates: effect, evidence, views
+    repeatability_db: dict = field(default_factory=dict)    # each view's part-to-part error
 
     @property
     def final_error(self) -> float:
@@ -232,6 +238,7 @@ class TwinFit:
             "base_params": self.base_params,
             "ranking": [fit.as_dict() for fit in self.ranking],
             "rounds": self.rounds,
+            "repeatability_db": self.repeatability_db,
             "margin": self.margin,
             "steps": [step.as_dict() for step in self.steps],
             "added": [fit.effect for fit in self.added],
@@ -300,6 +307,7 @@ class EffectRanker:
         n_polish_effect: the same after each candidate's search (a screen: the one kept is re-fitted).
         max_effects: at most this many effects are added.
         points_per_view: independent values each view counts as in the information criterion (:class:`Judge`).
+        view_floor_db: least repeatability assumed of any view, dB (:attr:`Judge.floors_db`).
         n_jobs: threads screening the candidates of a round (each with its own twin; same result for any number).
         seed: seeds every Optuna sampler (each search gets its own derived seed).
     """
@@ -307,7 +315,8 @@ class EffectRanker:
     def __init__(self, candidates: Sequence[str], fixed_effects: Mapping[str, Mapping] | None = None,
                  operating_point: OperatingPoint | None = None, n_trials_base: int = 16,
                  n_trials_effect: int = 10, n_trials_refine: int = 16, n_polish: int = 30, n_polish_effect: int = 10,
-                 max_effects: int = 3, points_per_view: float = 1.0, n_jobs: int = 1, seed: int = 0):
+                 max_effects: int = 3, points_per_view: float = 1.0, view_floor_db: float = 0.3, n_jobs: int = 1,
+                 seed: int = 0):
         self.candidates = list(candidates)
         self.fixed_effects = {k: dict(v or {}) for k, v in dict(fixed_effects or {}).items()}
         self.operating_point = operating_point or OperatingPoint()
@@ -317,6 +326,7 @@ class EffectRanker:
         self.n_polish = n_polish
         self.n_polish_effect = n_polish_effect
         self.points_per_view = points_per_view
+        self.view_floor_db = view_floor_db
         self.n_jobs = n_jobs
         self.max_effects = max_effects
         self.seed = seed
@@ -329,8 +339,11 @@ class EffectRanker:
             raise BearingTwinError(f"candidates: {sorted(overlap)[0]} is already among the fixed effects")
         if self.max_effects < 0:
             raise BearingTwinError(f"ranking.max_effects must be non-negative, got {self.max_effects}")
+        if not self.view_floor_db > 0:
+            raise BearingTwinError(f"ranking.view_floor_db must be a positive number of dB, got {self.view_floor_db}")
         spaces = {name: effect_search_space(name) for name in self.candidates}
-        judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view)
+        judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view,
+                                      self.view_floor_db)
         op = self.operating_point
         for key in op.extra:
             twin.value(key)  # an unknown extra key is named before any simulation
@@ -376,7 +389,8 @@ class EffectRanker:
             if not fits:
                 break
             fits.sort(key=lambda fit: -fit.evidence)
-            rounds.append([{"effect": fit.effect, "evidence": fit.evidence, "error": fit.error} for fit in fits])
+            rounds.append([{"effect": fit.effect, "evidence": fit.evidence, "error": fit.error,
+                            "n_parameters": fit.n_parameters, "views": _view_errors(fit.comparison)} for fit in fits])
             if round_index == 0:
                 ranking = fits
             best = fits[0]
@@ -413,7 +427,7 @@ class EffectRanker:
         operating = self._operating_point_report(base_values, sensor, scored, intervals)
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
-                            judge.unexplained(current), floor, judge.held_out, rounds)
+                            judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db))
         return self
 
     def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, matched,

@@ -71,6 +71,7 @@ def build_ranker(cfg: DictConfig, fault: str) -> EffectRanker:
         n_polish_effect=int(cfg.calibration.n_polish_effect),
         max_effects=int(cfg.ranking.max_effects),
         points_per_view=float(cfg.ranking.points_per_view),
+        view_floor_db=float(cfg.ranking.view_floor_db),
         n_jobs=int(cfg.ranking.n_jobs),
         seed=int(cfg.seed),
     )
