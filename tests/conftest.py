@@ -3,12 +3,41 @@
 Caches and the default MLflow store are redirected to a per-session temporary
 folder through the same environment variables a user would set, so the code paths
 under test are the real ones.
+
+One OpenMP / BLAS thread per process (torch's network, numpy's linear algebra), in this process
+and in every command a test starts: two workers on two cores, each often with two children,
+already fill the machine, and threads spinning for a busy core slow an LSTM's many small steps
+several times over (the README's smoke raw CNN-BiLSTM run: 64 s beside the other commands, 18 s
+on one thread). Numbers do not depend on it beyond the float32 rounding of the network's losses;
+``OMP_NUM_THREADS`` set by the caller is kept.
+
+Temporary folders (pytest's ``tmp_path``, this session's caches and store, and those of every
+command a test starts) are in memory, on ``/dev/shm``, where the machine has one with room (a
+session writes tens of MB) and ``TMPDIR`` is not set: they are real files and SQLite databases all
+the same, but a fresh MLflow store's schema (about 330 statements, each committed to disk) takes
+about 1 s there against 5-6 s on this machine's disk, and the suite makes dozens of stores.
 """
 
+import atexit
 import os
+import shutil
 import tempfile
 
+
+def _memory_folder(path: str = "/dev/shm", room_bytes: int = 2 * 2**30) -> bool:
+    if not (os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK)):
+        return False
+    stats = os.statvfs(path)
+    return stats.f_bavail * stats.f_frsize >= room_bytes
+
+
+if "TMPDIR" not in os.environ and _memory_folder():
+    os.environ["TMPDIR"] = "/dev/shm"
+    tempfile.tempdir = None  # gettempdir() reads TMPDIR again
+
 _session_dir = tempfile.mkdtemp(prefix="bearingtwin-tests-")
+atexit.register(shutil.rmtree, _session_dir, ignore_errors=True)  # in memory: leave nothing behind
 os.environ.setdefault("MPLBACKEND", "Agg")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ["BEARINGTWIN_CACHE"] = os.path.join(_session_dir, "cache")
 os.environ["MLFLOW_TRACKING_URI"] = "sqlite:///" + os.path.join(_session_dir, "mlflow.db")

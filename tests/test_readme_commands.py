@@ -6,7 +6,8 @@ one wrote (a simulated record, a sweep's runs); a command the guide repeats from
 is not run twice. Commands run two at a time, each after the earlier ones it depends on (those
 naming the same file or folder; for a report, all of them). Only size is changed: where a
 command trains or calibrates, smoke settings are appended (for the keys its composed config
-has), and a sweep runs one job of its grid (every swept key pinned to its first value).
+has), and a sweep runs one job of its grid (every swept key pinned to its first value); a
+diagnosis and a twin draw no figures (tests/test_diagnose.py and tests/test_twin_cli.py check them).
 Paths are the documents' own with two substitutions: ``/tmp/`` becomes the test's folder and
 ``../shared/data`` the data root (``paths.data_root``). A command that needs data which is
 not present is skipped, naming it. Commands that are not bearingtwin's (install, the test
@@ -193,7 +194,7 @@ def test_every_documented_command_runs_as_written(tmp_path):
             added, needs = train_additions(args)
             args += added
         elif name == "twin":
-            args += TWIN_SMOKE
+            args += [*TWIN_SMOKE, "figures=false"]  # eleven PNGs a run; the figures are tested in tests/test_twin_cli.py
         elif name == "diagnose":
             args.append("figures=false")  # the figures are tested in tests/test_diagnose.py
         elif name == "report":

@@ -1,6 +1,7 @@
 """bearingtwin-report on the store of a real smoke sweep: our figures beside the paper's."""
 
 import shutil
+import sqlite3
 import subprocess
 import sys
 
@@ -13,12 +14,23 @@ from bearingtwin.tracking.provenance import recorded_sizes
 from bearingtwin.tracking import paper
 from bearingtwin.tracking.reports import mean_std
 
-from test_sweep_e2e import smoke_sweep_store
+from test_sweep_e2e import session_folder, smoke_sweep_store
 
 
 @pytest.fixture(scope="session")
 def uri(tmp_path_factory):
-    return smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")[0]
+    return smoke_sweep_store(session_folder(tmp_path_factory))[0]
+
+
+def copy_store(uri, path) -> str:
+    """A consistent copy of the SQLite store at ``uri`` (the sweep's tests may be writing to it meanwhile)."""
+    source, copy = sqlite3.connect(uri.removeprefix("sqlite:///")), sqlite3.connect(path)
+    try:
+        source.backup(copy)
+    finally:
+        source.close()
+        copy.close()
+    return f"sqlite:///{path}"
 
 
 def report(name, *settings):
@@ -105,8 +117,7 @@ def test_seeds_and_vmd_params_reports(uri, tmp_path):
 def test_a_later_run_with_other_vmd_params_does_not_displace_the_tables_runs(uri, tmp_path):
     (proposed,) = finished(uri, paper.PROPOSED)
     (raw,) = finished(uri, "raw+cnn_bilstm")
-    copy = f"sqlite:///{tmp_path}/copy.db"
-    shutil.copy(uri.removeprefix("sqlite:///"), tmp_path / "copy.db")
+    copy = copy_store(uri, tmp_path / "copy.db")
     client = MlflowClient(copy)
     tags = {"bt.kind": "train", "method": paper.PROPOSED, "seed": proposed.data.tags["seed"]}
     later = client.create_run(proposed.info.experiment_id, tags=tags).info.run_id  # newer than every smoke run
@@ -122,18 +133,21 @@ def test_a_later_run_with_other_vmd_params_does_not_displace_the_tables_runs(uri
     assert f"| {100 * raw.data.metrics['accuracy']:.2f} ± 0.00 | 1 |" in leaky.stdout  # raw features have no VMD parameters
 
 
-def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path):
+def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, capsys):
     (run,) = finished(uri, "sabo_vmd_pemie+svm")
     same = report("repeat", f"uri={uri}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat.md")
     assert same.returncode == 0, same.stderr
     assert "every metric matches" in same.stdout and "| NO |" not in same.stdout
-    database = uri.removeprefix("sqlite:///")
-    shutil.copy(database, tmp_path / "copy.db")
-    tampered = f"sqlite:///{tmp_path}/copy.db"
+    tampered = copy_store(uri, tmp_path / "copy.db")
     MlflowClient(tampered).log_metric(run.info.run_id, "accuracy", run.data.metrics["accuracy"] - 0.1)
-    differs = report("repeat", f"uri={tampered}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat2.md")
-    assert differs.returncode == 1 and "MISMATCH" in differs.stdout
-    assert "| accuracy |" in differs.stdout and "| NO |" in differs.stdout
+    # The command's exit status and table, in this process (the command itself ran above): the run trained again.
+    try:
+        code = main(["repeat", f"uri={tampered}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat2.md"])
+    except SystemExit as stop:
+        code = stop.code
+    differs = capsys.readouterr().out
+    assert code == 1 and "MISMATCH" in differs
+    assert "| accuracy |" in differs and "| NO |" in differs
 
 
 def test_bad_requests_exit_2_naming_the_problem(uri, capsys):

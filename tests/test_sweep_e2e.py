@@ -3,9 +3,14 @@
 ``seed=0,-1``: every seed-0 job must finish, every seed -1 job must fail (bad seed) and be
 logged FAILED while the sweep goes on, which then exits 1 with a summary naming them. The SABO methods and the raw method run as two
 invocations of the same sweep: the second checks a sequential (basic launcher) sweep too.
+
+The sweep is made once per test session: tests/test_report.py reads the same store, from whichever
+worker runs it (the first to need it makes it, under a lock; the other waits and reuses it).
 """
 
+import fcntl
 import functools
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -35,20 +40,33 @@ def run_sabo_sweep(base: Path) -> subprocess.CompletedProcess:
 def smoke_sweep_store(base: Path) -> tuple[str, str]:
     """Run the smoke sweep once per session into ``base``; returns the tracking URI and the
     SABO sweep's standard output (its summary)."""
-    base.mkdir(parents=True, exist_ok=True)
-    sabo = run_sabo_sweep(base)
-    assert sabo.returncode == 1, sabo.stderr[-3000:]  # some jobs failed: the exit status says so
-    raw = subprocess.run(
-        sweep_command(base, "+method=raw_cnn_bilstm", "seed=0", f"hydra.sweep.dir={base}/multirun_raw"),
-        cwd=base, capture_output=True, text=True, timeout=900,
-    )
-    assert raw.returncode == 0, raw.stderr[-3000:]
-    return f"sqlite:///{base}/mlflow.db", sabo.stdout
+    summary = base / "sabo_sweep.stdout"
+    with open(f"{base}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # another worker may be making it: wait for it
+        if not summary.exists():
+            if base.exists():
+                pytest.fail(f"the smoke sweep in {base} failed earlier in this session (see that test's error)")
+            base.mkdir(parents=True)
+            sabo = run_sabo_sweep(base)
+            assert sabo.returncode == 1, sabo.stderr[-3000:]  # some jobs failed: the exit status says so
+            raw = subprocess.run(
+                sweep_command(base, "+method=raw_cnn_bilstm", "seed=0", f"hydra.sweep.dir={base}/multirun_raw"),
+                cwd=base, capture_output=True, text=True, timeout=900,
+            )
+            assert raw.returncode == 0, raw.stderr[-3000:]
+            summary.write_text(sabo.stdout)
+    return f"sqlite:///{base}/mlflow.db", summary.read_text()
+
+
+def session_folder(tmp_path_factory) -> Path:
+    """The smoke sweep's folder: in the session's base temporary folder, which every xdist worker shares."""
+    base = tmp_path_factory.getbasetemp()
+    return (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "smoke_sweep"
 
 
 @pytest.fixture(scope="session")
 def sweep_output(tmp_path_factory):
-    return smoke_sweep_store(tmp_path_factory.getbasetemp() / "smoke_sweep")
+    return smoke_sweep_store(session_folder(tmp_path_factory))
 
 
 @pytest.fixture(scope="session")
@@ -110,7 +128,7 @@ def test_the_sweep_ends_with_a_summary_of_every_job(store, sweep_output):
 def test_relaunching_the_sweep_skips_finished_jobs(store, tmp_path_factory):
     client, experiment_id = store
     before = {r.info.run_id: r.info.status for r in training_runs(client, experiment_id)}
-    done = run_sabo_sweep(tmp_path_factory.getbasetemp() / "smoke_sweep")
+    done = run_sabo_sweep(session_folder(tmp_path_factory))
     assert done.returncode == 1, done.stderr[-3000:]
     assert "6 jobs, 0 finished, 3 failed, 3 skipped (already finished)" in done.stdout
     after = {r.info.run_id: r.info.status for r in training_runs(client, experiment_id)}

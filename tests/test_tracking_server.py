@@ -61,7 +61,8 @@ def team(tmp_path_factory):
         wait_until_answers(f"{uri}/health", server, logs["server"], "mlflow server", SERVER_START_TIMEOUT_S)
         sweep = run("sweep", cli("train", "-m", *SWEEP, f"hydra.sweep.dir={work / 'multirun'}"))
         wait_done(simulate, logs["simulate"], "bearingtwin-simulate", CHILD_TIMEOUT_S)
-        twin = run("twin", cli("twin", f"measured.path={work / 'outer.npz'}", f"out={work / 'twin'}", *TWIN_SMOKE))
+        twin = run("twin", cli("twin", f"measured.path={work / 'outer.npz'}", f"out={work / 'twin'}", *TWIN_SMOKE,
+                               "figures=false"))  # the figures are tested in tests/test_twin_cli.py
         wait_done(sweep, logs["sweep"], "bearingtwin-train -m (joblib)", CHILD_TIMEOUT_S)
         diagnose = run("diagnose", cli("diagnose", f"path={work / 'outer.npz'}", f"model=models:/{MODEL}/1",
                                        f"out={work / 'diagnosis'}", "figures=false"))

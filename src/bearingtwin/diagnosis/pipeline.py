@@ -167,16 +167,17 @@ def _extractor_from_state(state: dict):
 # The classifiers' modules are imported where they are needed: the network's pulls in Lightning,
 # which a diagnosis with an SVM model (or a model server starting up) need not wait for.
 def _save_classifier(classifier, folder: Path) -> dict:
-    from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
     from bearingtwin.models.svm import SvmClassifier
 
-    if isinstance(classifier, CnnBiLstmClassifier):
-        return {"kind": "cnn_bilstm", **classifier.save(folder / "network.pt")}
-    if isinstance(classifier, SvmClassifier):
+    if isinstance(classifier, SvmClassifier):  # before the network's module is imported: an SVM run need not
         import skops.io
 
         skops.io.dump(classifier, folder / "svm.skops")
         return {"kind": "svm", "file": "svm.skops"}
+    from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
+
+    if isinstance(classifier, CnnBiLstmClassifier):
+        return {"kind": "cnn_bilstm", **classifier.save(folder / "network.pt")}
     raise BearingTwinError(f"cannot save a {type(classifier).__name__} as a diagnosis model")
 
 

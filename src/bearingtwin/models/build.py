@@ -5,10 +5,10 @@ from __future__ import annotations
 from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 from bearingtwin.models.svm import SvmClassifier
 
-CLASSIFIERS = {"cnn_bilstm": CnnBiLstmClassifier, "svm": SvmClassifier}
+# The network's module (torch, Lightning: seconds to import) is imported only when a network is built.
+CLASSIFIERS = ("cnn_bilstm", "svm")
 
 
 def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: int, root_dir: str | None = None):
@@ -22,6 +22,8 @@ def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: 
     if name not in CLASSIFIERS:
         raise BearingTwinError(f"classifier.name={name!r} is not a classifier; choose one of {', '.join(CLASSIFIERS)}")
     if name == "cnn_bilstm":
+        from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
+
         trainer = OmegaConf.to_container(trainer_cfg, resolve=True)
         return CnnBiLstmClassifier(**params, **trainer, random_state=seed, root_dir=root_dir)
     svm = SvmClassifier(**params, random_state=seed)

@@ -6,13 +6,14 @@ repeat`` and the tests run exactly the same code from a composed config.
 
 from __future__ import annotations
 
+import os
+import random
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import lightning as L
 import numpy as np
-import torch
 from omegaconf import DictConfig
 from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 
@@ -23,7 +24,6 @@ from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.cache import cache_path, extract_features
 from bearingtwin.models.build import build_classifier
-from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 
 # Metrics that measure this machine, not the model: excluded when runs are compared for equality.
 TIMING_METRICS = ("inference_ms_per_sample",)
@@ -93,8 +93,10 @@ def inference_ms_per_sample(classifier, X: np.ndarray, n_samples: int = 32) -> f
     and on a busy machine two threads contending for cores measured 220-290 ms against
     1.1 ms on one thread for the same network.
     """
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
+    torch = sys.modules.get("torch")  # loaded by the network; an SVM run never imports it
+    threads = torch.get_num_threads() if torch else None
+    if torch:
+        torch.set_num_threads(1)
     try:
         times = []
         for row in X[:n_samples]:
@@ -102,8 +104,23 @@ def inference_ms_per_sample(classifier, X: np.ndarray, n_samples: int = 32) -> f
             classifier.predict(row[None, :])
             times.append(time.perf_counter() - start)
     finally:
-        torch.set_num_threads(threads)
+        if torch:
+            torch.set_num_threads(threads)
     return 1e3 * float(np.median(times))
+
+
+def seed_everything(seed: int) -> None:
+    """``lightning.seed_everything(seed, workers=True)`` without importing Lightning: Python's and NumPy's
+    generators, torch's if torch is loaded, and the environment variables Lightning reads. The network
+    seeds all of them again when it is fitted (models/cnn_bilstm.py). Lightning and torch are imported
+    only by a run that trains the network: an SVM run, a sweep's driver and a refused command start
+    seconds sooner."""
+    os.environ["PL_GLOBAL_SEED"] = str(seed)
+    random.seed(seed)
+    np.random.seed(seed)
+    if "torch" in sys.modules:
+        sys.modules["torch"].manual_seed(seed)
+    os.environ["PL_SEED_WORKERS"] = "1"
 
 
 def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentResult:
@@ -121,7 +138,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     seed = cfg.seed
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
-    L.seed_everything(seed, workers=True, verbose=False)
+    seed_everything(seed)
     classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)  # bad settings fail first
     dataset = build_dataset(cfg)
     if dataset.fixed_split is not None:
@@ -139,7 +156,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         )
     features, vmd_params, extractor = extract_features(cfg.features, dataset, train, cfg.paths.cache_dir)
     y = dataset.labels
-    if isinstance(classifier, CnnBiLstmClassifier):
+    if cfg.classifier.name == "cnn_bilstm":  # the network records validation curves
         classifier.fit(features[train], y[train], eval_set=(features[test], y[test]))
     else:
         classifier.fit(features[train], y[train])

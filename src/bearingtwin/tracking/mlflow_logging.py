@@ -396,7 +396,11 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         parent = find_sweep_parent(client, experiment_id, sweep.sweep_dir)
         if parent is not None:
             tags["mlflow.parentRunId"] = parent.info.run_id
-    run = client.create_run(experiment_id, run_name=run_name(cfg, method, sweep), tags={"bt.kind": "train", **owner_tags()})
+    # A child of its sweep from its first instant: a sweep interrupted before the other tags are logged
+    # still finds the run among its RUNNING children and marks it KILLED (its worker is killed, not told).
+    child_of = {key: tags[key] for key in ("mlflow.parentRunId",) if key in tags}
+    run = client.create_run(experiment_id, run_name=run_name(cfg, method, sweep),
+                            tags={"bt.kind": "train", **owner_tags(), **child_of})
     run_id = run.info.run_id
     register_open_run(client, run_id)
     try:
