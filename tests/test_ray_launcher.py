@@ -60,9 +60,10 @@ def sweeps(tmp_path_factory):
     ray_temp = Path(tempfile.mkdtemp(prefix="bt-ray-"))
     # The cluster's own environment points elsewhere (where nothing may appear): only the sweep's
     # configuration can lead its workers to the store, cache and data the sweep was started with.
+    # No drain on SIGTERM: a node serving nothing would wait out Ray's 30 s (the teardown's 10 s grace, then SIGKILL).
     cluster_env = dict(os.environ, MLFLOW_TRACKING_URI=f"sqlite:///{cluster_dir / 'wrong.db'}",
                        BEARINGTWIN_CACHE=str(cluster_dir / "wrong-cache"), BEARINGTWIN_DATA=str(cluster_dir / "wrong-data"),
-                       **RAY_LOCAL)
+                       RAY_GRACEFUL_SHUTDOWN_DRAIN_TIMEOUT_S="0", **RAY_LOCAL)
     cluster_log = root / "cluster.log"
     cluster = start([str(Path(sys.executable).parent / "ray"), "start", "--head", "--block", "--port", str(port),
                      "--num-cpus", "2", "--include-dashboard", "false", "--disable-usage-stats", "--temp-dir", str(ray_temp),
@@ -114,8 +115,8 @@ def test_ray_jobs_give_the_basic_launchers_results(sweeps):
         expected = {k: v for k, v in basic[digest].data.metrics.items() if k not in TIMING_METRICS}
         got = {k: v for k, v in run.data.metrics.items() if k not in TIMING_METRICS}
         assert set(got) == set(expected), run.info.run_name
-        # The network's losses are float sums whose order depends on torch's thread count (two in the basic
-        # launcher's process, one in a one-CPU Ray task): equal to float32 precision. Everything else exactly.
+        # The network's losses are float sums whose order depends on torch's thread count (OMP_NUM_THREADS in the
+        # basic launcher's process, one in a one-CPU Ray task): equal to float32 precision. Everything else exactly.
         for key, value in got.items():
             assert value == (pytest.approx(expected[key], rel=1e-6) if key.endswith("_loss") else expected[key]), \
                 f"{run.info.run_name}: {key}"
