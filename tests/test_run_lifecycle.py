@@ -162,6 +162,35 @@ def test_a_relaunch_marks_runs_of_dead_processes_killed(tmp_path):
     assert os.getpid() != int(finished.stdout)
 
 
+def test_a_signal_whose_exception_a_c_callback_swallowed_still_kills(tmp_path, capsys):
+    # Raised inside a C callback (numba's compiler calls back into Python), the handler's exception is
+    # printed and dropped and the command goes on to its end: it must still stop, KILLED, with 130.
+    from bearingtwin.tracking import lifecycle
+
+    client, experiment_id = open_store(make_cfg(tmp_path).tracking)
+    run_id = client.create_run(experiment_id).info.run_id
+
+    def swallows_the_signal():
+        register_open_run(client, run_id)
+        try:
+            signal.raise_signal(signal.SIGINT)
+        except KeyboardInterrupt:
+            pass  # what a C callback does with it
+        return "done"
+
+    handlers = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with pytest.raises(SystemExit) as stopped:
+            stop_cleanly(swallows_the_signal)()
+    finally:  # the test process gets its own handlers back, and forgets the signal
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)
+        lifecycle._received.clear()
+    assert stopped.value.code == 128 + signal.SIGINT
+    assert client.get_run(run_id).info.status == "KILLED"
+    assert "interrupted by SIGINT" in capsys.readouterr().err
+
+
 def test_a_signal_a_library_reraises_as_its_own_keyboard_interrupt_still_kills_with_its_status(tmp_path, capsys):
     # Ray's ray.get, interrupted by the signal handler's exception, raises a KeyboardInterrupt of its own:
     # the runs are still KILLED and the status is still the signal's (143 for SIGTERM, not Ctrl-C's 130).

@@ -102,6 +102,14 @@ def _raise_interrupted(signum, frame):
     raise Interrupted(signum)
 
 
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` if a signal came and its exception was lost: raised inside a C
+    callback (numba's compiler calls back into Python), it is printed and dropped, and the work
+    would go on to finish a run the user stopped."""
+    if _received:
+        raise Interrupted(_received[-1])
+
+
 def handle_signals() -> None:
     """SIGINT and SIGTERM raise :class:`Interrupted` in the main thread (see :func:`stop_cleanly`)."""
     for signum in (signal.SIGINT, signal.SIGTERM):
@@ -129,9 +137,12 @@ def stop_cleanly(entry_point: Callable) -> Callable:
     def wrapped(*args, **kwargs):
         handle_signals()
         try:
-            return entry_point(*args, **kwargs)
+            result = entry_point(*args, **kwargs)
+            raise_if_interrupted()
+            return result
         except KeyboardInterrupt as stop:
             signum = stop.signum if isinstance(stop, Interrupted) else (_received or [signal.SIGINT])[-1]
+            _received.clear()  # handled: a process that goes on (a test's) starts afresh
             # A second signal while closing the runs must not leave half of them open.
             signal.signal(signal.SIGINT, signal.SIG_IGN)
             signal.signal(signal.SIGTERM, signal.SIG_IGN)

@@ -64,6 +64,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import (
     SWEEP_PID_ENV,
     owner_tags,
+    raise_if_interrupted,
     reap_dead_runs,
     register_open_run,
     start_ray_keeping_signals,
@@ -418,6 +419,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
             raise
         log.error("run %s FAILED: %s: %s (the sweep goes on)", run_id, type(error).__name__, error)
         return None
+    raise_if_interrupted()  # a signal whose exception a C callback swallowed still stops the run: KILLED
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
     return TrackedRun(run_id, result.metrics, model=model)
 
