@@ -30,8 +30,8 @@ found whether it is added as ``resonance`` or, when the reference already needed
     python benchmarks/identifiability.py --split test --jobs 2   # the benchmark: writes results/identifiability.{md,json}
 
 The development split exists to choose the ranking's free constants (``ranking.points_per_view``,
-``ranking.view_floor_db``) on rig measurements; its cases use other seeds, parameter values and conditions than the test
-split, whose numbers are the result.
+``ranking.view_floor_db``) on rig measurements; its cases use other seeds, parameter values and
+conditions than the test split, whose numbers are the result.
 """
 
 from __future__ import annotations
@@ -56,6 +56,7 @@ from bearingtwin.testrig import RigOperatingPoint, RigSetup, simulate_rig
 from bearingtwin.tracking.tables import markdown_table
 from bearingtwin.twin.compare import CompareSettings
 from bearingtwin.twin.model import TwinModel
+from bearingtwin.twin.rank import deviance, penalty_per_parameter, view_floors
 from bearingtwin.twin.report import build_ranker, twin_for
 
 G = 9.80665
@@ -262,16 +263,14 @@ VIEW_FLOOR_GRID = (0.3, 0.5, 1.0, 2.0)
 
 
 def first_round_evidence(result: dict, points_per_view: float, view_floor_db: float) -> list[tuple[float, str]]:
-    """Each first-round candidate's evidence as the judge would give it with these constants: points x
-    the drop of sum_v ln(e_v^2 + f_v^2) from the twin before the round, f_v = max(repeatability,
-    floor), minus its parameters x ln(5 points) (every view weighing 1, the configured default)."""
-    floors = {v: max(r, view_floor_db) for v, r in result["repeatability_db"].items()}
-
-    def deviance(views):
-        return sum(np.log(views[v] ** 2 + floors[v] ** 2) for v in floors)
-
-    before = deviance(result["step_views"][0])
-    return [(points_per_view * (before - deviance(c["views"])) - c["n_parameters"] * np.log(5 * points_per_view),
+    """Each first-round candidate's evidence as the judge would give it with these constants (the
+    judge's own deviance and penalty, the views weighted as configured by default): the deviance's
+    drop from the twin before the round minus the candidate's parameters times the penalty."""
+    floors = view_floors(result["repeatability_db"], view_floor_db)
+    weights = CompareSettings().weights
+    before = deviance(result["step_views"][0], floors, weights, points_per_view)
+    penalty = penalty_per_parameter(points_per_view, weights)
+    return [(before - deviance(c["views"], floors, weights, points_per_view) - c["n_parameters"] * penalty,
              c["effect"]) for c in (result["rounds"][0] if result["rounds"] else [])]
 
 

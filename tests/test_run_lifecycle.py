@@ -162,6 +162,19 @@ def test_a_relaunch_marks_runs_of_dead_processes_killed(tmp_path):
     assert os.getpid() != int(finished.stdout)
 
 
+def exit_status_under_stop_cleanly(entry_point) -> int:
+    """The exit status ``stop_cleanly(entry_point)()`` ends with; the test process gets its own signal
+    handlers back."""
+    handlers = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with pytest.raises(SystemExit) as stopped:
+            stop_cleanly(entry_point)()
+    finally:
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)
+    return stopped.value.code
+
+
 def test_a_signal_whose_exception_a_c_callback_swallowed_still_kills(tmp_path, capsys):
     # Raised inside a C callback (numba's compiler calls back into Python), the handler's exception is
     # printed and dropped and the command goes on to its end: it must still stop, KILLED, with 130.
@@ -178,15 +191,8 @@ def test_a_signal_whose_exception_a_c_callback_swallowed_still_kills(tmp_path, c
             pass  # what a C callback does with it
         return "done"
 
-    handlers = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        with pytest.raises(SystemExit) as stopped:
-            stop_cleanly(swallows_the_signal)()
-    finally:  # the test process gets its own handlers back, and forgets the signal
-        for signum, handler in handlers.items():
-            signal.signal(signum, handler)
-        lifecycle._received.clear()
-    assert stopped.value.code == 128 + signal.SIGINT
+    assert exit_status_under_stop_cleanly(swallows_the_signal) == 128 + signal.SIGINT
+    assert not lifecycle._received  # handled: the process goes on afresh
     assert client.get_run(run_id).info.status == "KILLED"
     assert "interrupted by SIGINT" in capsys.readouterr().err
 
@@ -204,13 +210,6 @@ def test_a_signal_a_library_reraises_as_its_own_keyboard_interrupt_still_kills_w
         except KeyboardInterrupt:
             raise KeyboardInterrupt from None
 
-    handlers = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        with pytest.raises(SystemExit) as stopped:
-            stop_cleanly(waits_like_ray)()
-    finally:  # the test process gets its own handlers back
-        for signum, handler in handlers.items():
-            signal.signal(signum, handler)
-    assert stopped.value.code == 128 + signal.SIGTERM
+    assert exit_status_under_stop_cleanly(waits_like_ray) == 128 + signal.SIGTERM
     assert client.get_run(run_id).info.status == "KILLED"
     assert "interrupted by SIGTERM" in capsys.readouterr().err

@@ -353,7 +353,8 @@ class Comparator:
             psd_finding = (f"energy between {_hz(lo)} and {_hz(hi)} is {abs(residual[worst]):.1f} dB "
                            f"{'above' if residual[worst] > 0 else 'below'} the twin's")
 
-        lines_error, lines_finding, n_line_bins = self._compare_lines(m, twin, 10 ** (gain_db / 20.0))
+        gain = 10 ** (gain_db / 20.0)
+        lines_error, lines_finding, n_line_bins = self._compare_lines(m, twin, gain)
 
         smooth = max(1, int(round(s.smooth_hz / self.env_df)))
         kernel = np.ones(smooth) / smooth
@@ -378,7 +379,6 @@ class Comparator:
             harmonic_finding += ("; sidebands as strong" if abs(sideband) < 0.5 else
                                  f"; sidebands {abs(sideband):.1f} dB {'stronger' if sideband >= 0 else 'weaker'}")
 
-        gain = 10 ** (gain_db / 20.0)
         features_m = np.median(time_domain_features(m.windows), axis=0)
         features_t = np.median(time_domain_features(twin.windows), axis=0)
         stat_db, stat_names = [], []

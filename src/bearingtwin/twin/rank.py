@@ -62,6 +62,24 @@ def _view_errors(comparison: Comparison) -> dict[str, float]:
     return {v: comparison.views[v].error_db for v in VIEWS}
 
 
+def view_floors(repeatability_db: Mapping[str, float], view_floor_db: float) -> dict[str, float]:
+    """Each view's repeatability, never below ``view_floor_db``: a part-to-part error near 0 (a view
+    whose numbers barely move, such as the scale-free statistics) would make matching it by any knob
+    worth more than the twin's model form can promise."""
+    return {v: max(repeatability_db[v], view_floor_db) for v in VIEWS}
+
+
+def deviance(errors_db: Mapping[str, float], floors_db: Mapping[str, float], weights: Mapping[str, float],
+             points_per_view: float) -> float:
+    """-2 log-likelihood (up to a constant) of the views' errors: n sum_v w_v ln(e_v^2 + f_v^2) (:class:`Judge`)."""
+    return float(points_per_view * sum(weights[v] * math.log(errors_db[v] ** 2 + floors_db[v] ** 2) for v in VIEWS))
+
+
+def penalty_per_parameter(points_per_view: float, weights: Mapping[str, float]) -> float:
+    """BIC: ln of the number of compared values."""
+    return math.log(points_per_view * sum(weights.values()))
+
+
 @dataclass
 class Judge:
     """Scores twins against a measurement: fits on one part, decides on the held-out part.
@@ -86,10 +104,8 @@ class Judge:
 
     @property
     def floors_db(self) -> dict[str, float]:
-        """Each view's repeatability, never below ``view_floor_db``: a part-to-part error near 0 (a
-        view whose numbers barely move, such as the scale-free statistics) would make matching it
-        by any knob worth more than the twin's model form can promise."""
-        return {v: max(self.repeatability_db[v], self.view_floor_db) for v in VIEWS}
+        """Each view's repeatability, never below ``view_floor_db`` (:func:`view_floors`)."""
+        return view_floors(self.repeatability_db, self.view_floor_db)
 
     @classmethod
     def for_measurement(cls, measured: Recording, geometry: BearingGeometry, settings: CompareSettings,
@@ -110,13 +126,10 @@ class Judge:
 
     @property
     def penalty_per_parameter(self) -> float:
-        """BIC: ln of the number of compared values."""
-        return math.log(self.points_per_view * sum(self.weights.values()))
+        return penalty_per_parameter(self.points_per_view, self.weights)
 
     def deviance(self, comparison: Comparison) -> float:
-        errors, floors = _view_errors(comparison), self.floors_db
-        return float(self.points_per_view * sum(self.weights[v] * math.log(errors[v] ** 2 + floors[v] ** 2)
-                                                for v in VIEWS))
+        return deviance(_view_errors(comparison), self.floors_db, self.weights, self.points_per_view)
 
     def unexplained(self, comparison: Comparison) -> list[dict]:
         """Views whose error is more than twice the measurement's own repeatability, worst first."""
