@@ -72,9 +72,10 @@ def test_prewhitening_flattens_the_spectrum_and_keeps_the_impact_rate():
     assert amplitude[np.argmin(np.abs(freqs - 107.3))] > 5 * np.median(amplitude[(freqs > 20) & (freqs < 1000)])
 
 
-def test_the_sim2real_experiment_composes_the_protocol():
+def test_the_sim2real_experiments_compose_their_protocols():
     with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
-        cfg = compose("train", overrides=["+experiment=sim2real", "seed=3"])
+        cfg = compose("train", overrides=["+experiment=sim2real_v1", "seed=3"])
+        v2 = compose("train", overrides=["+experiment=sim2real_v2", "seed=3"])
     assert (cfg.data.source, cfg.bearing.name, cfg.features.name, cfg.classifier.name) == (
         "twin_to_real", "cwru_6205", "envelope_prominence", "svm")
     assert (cfg.classifier.kernel, cfg.features.prewhiten, cfg.data.calibration.step) == ("linear", "cepstral", 3)
@@ -82,3 +83,10 @@ def test_the_sim2real_experiment_composes_the_protocol():
     assert list(cfg.data.twin.variants.spin_slip.jitter) == [0.01, 0.1, 0.4]
     assert list(cfg.data.test.loads) == [1, 2, 3] and (cfg.register, cfg.register_alias) == ("sim2real", "champion")
     assert cfg.simulator.seed == 3  # the seed is also the twin's
+    # Version 2 is version 1 with longer windows, none overlapping, and the 0.028 in size added.
+    assert (v2.data.window_length, v2.data.twin.windows_per_record, v2.data.test.windows_per_record) == (4096, 10, 25)
+    assert v2.data.twin.windows_per_record * v2.data.window_length <= v2.data.twin.duration * v2.data.fs
+    assert list(v2.data.twin.randomize["defect.width_mm"]) == [0.178, 0.356, 0.533, 0.711]
+    changed = {"window_length", "twin", "test"}
+    assert {k: v for k, v in v2.data.items() if k not in changed} == {k: v for k, v in cfg.data.items() if k not in changed}
+    assert (v2.features, v2.classifier, v2.register) == (cfg.features, cfg.classifier, cfg.register)

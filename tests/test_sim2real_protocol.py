@@ -5,14 +5,15 @@ import pytest
 from mlflow import MlflowClient
 
 from bearingtwin.config import REPO_ROOT
-from bearingtwin.tracking.sim2real_protocol import headline_markdown, plot_headline, protocol_headline
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.sim2real_protocol import headline_markdown, plot_headline, protocol_headline, protocol_versions
 
 CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
 TEST_RECORDS = {"12k_Drive_End_IR007_1_106": 0.75, "12k_Drive_End_OR007@6_1_131": 1.0}
 
 
-def log_protocol_run(client, experiment_id, seed, accuracy, false_alarm_record):
-    run = client.create_run(experiment_id, tags={"bt.kind": "train", "experiment": "sim2real"})
+def log_protocol_run(client, experiment_id, seed, accuracy, false_alarm_record, protocol="sim2real_v1"):
+    run = client.create_run(experiment_id, tags={"bt.kind": "train", "experiment": protocol})
     run_id = run.info.run_id
     for key, value in {"seed": seed, "data.bearing": "cwru_6205", "data.calibration.healthy.record": false_alarm_record}.items():
         client.log_param(run_id, key, value)
@@ -26,17 +27,40 @@ def log_protocol_run(client, experiment_id, seed, accuracy, false_alarm_record):
 
 
 @pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
-def test_the_headline_reads_every_seed_and_computes_the_physics_of_the_false_alarm_record(tmp_path):
+def test_the_headline_reads_every_seed_of_every_version_and_computes_the_physics_of_the_false_alarm_record(tmp_path):
     client = MlflowClient(f"sqlite:///{tmp_path}/mlflow.db")
     experiment_id = client.create_experiment("protocol", artifact_location=(tmp_path / "artifacts").as_uri())
     # An outer-race record in the false-alarm role: the physics must be computed on it, and say so.
     for seed, accuracy in ((0, 0.8), (1, 0.9)):
         log_protocol_run(client, experiment_id, seed, accuracy, "12k_Drive_End_OR007@6_0_130")
-    result = protocol_headline(client, experiment_id, "sim2real", CWRU)
-    assert result.seeds == [0, 1] and result.accuracy == [0.8, 0.9]
+    log_protocol_run(client, experiment_id, 0, 0.95, "12k_Drive_End_OR007@6_0_130", protocol="sim2real_v2")
+    result = protocol_headline(client, experiment_id, "sim2real_v1", CWRU)
+    assert result.seeds == [0, 1] and result.accuracy == [0.8, 0.9]  # the other version's run is not among them
     assert result.physics["12k_Drive_End_IR007_1_106"] == "inner" and result.physics["12k_Drive_End_OR007@6_1_131"] == "outer"
     assert result.physics["12k_Drive_End_OR007@6_0_130"] == "outer" and not result.physics_calls_healthy_record_healthy
-    table = headline_markdown(result, "v1")
-    assert "| 85.0 ± 5.0 |" in table  # mean ± std over the seeds, as every results table gives them
-    assert "(record 12k_Drive_End_OR007@6_0_130: not healthy)" in table and "| 12k_Drive_End_IR007_1_106 | inner | 75.0 ± 0.0 | inner |" in table
-    assert plot_headline(result, tmp_path / "headline.png").stat().st_size > 10_000
+    newer = protocol_headline(client, experiment_id, "sim2real_v2", CWRU)
+    assert newer.seeds == [0] and newer.accuracy == [0.95]
+    table = headline_markdown({"v1 (day 1)": result, "v2 (day 2)": newer})
+    assert "| v1 (day 1) (`+experiment=sim2real_v1`, seeds 0, 1) | 85.0 ± 5.0 |" in table  # mean ± std over the seeds
+    assert "| v2 (day 2) (`+experiment=sim2real_v2`, seeds 0) | 95.0 ± 0.0 |" in table
+    assert "(record 12k_Drive_End_OR007@6_0_130: not healthy)" in table
+    assert "| record | true state | v1 windows right % | v2 windows right % | physics says |" in table
+    assert "| 12k_Drive_End_IR007_1_106 | inner | 75.0 ± 0.0 | 75.0 ± 0.0 | inner |" in table
+    assert plot_headline({"v1": result, "v2": newer}, tmp_path / "headline.png").stat().st_size > 10_000
+
+
+def test_every_protocol_version_is_a_dated_file_and_sim2real_selects_the_newest(tmp_path):
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.config import CONF_DIR
+
+    versions = protocol_versions()
+    assert list(versions)[:2] == ["sim2real_v1", "sim2real_v2"] and versions["sim2real_v1"] == "v1 (2026-11-23)"
+    with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
+        current = compose("train", overrides=["+experiment=sim2real"])
+        newest = compose("train", overrides=[f"+experiment={list(versions)[-1]}"])
+    assert current == newest and current.protocol == list(versions)[-1]  # the runs' tag, whichever name selected it
+    (tmp_path / "experiment").mkdir()
+    (tmp_path / "experiment" / "sim2real_v1.yaml").write_text("# a protocol without its version and date\n")
+    with pytest.raises(BearingTwinError, match="sim2real_v1.yaml: a protocol version opens with"):
+        protocol_versions(tmp_path)

@@ -387,7 +387,9 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "method": method,
         "features": choices.get("features", ""),
         "classifier": choices.get("classifier", ""),
-        "experiment": choices.get("experiment") or "",  # +experiment=<name>: a protocol's runs
+        # +experiment=<name>: a protocol's runs; a versioned protocol names itself (``protocol: sim2real_v2``),
+        # so its runs are found whichever name selected it (+experiment=sim2real selects the newest)
+        "experiment": cfg.get("protocol") or choices.get("experiment") or "",
         "seed": str(cfg.seed),
         "git_commit": _git_commit(),
         **_versions(),

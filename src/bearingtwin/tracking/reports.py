@@ -543,20 +543,25 @@ def write_sim2real_protocol(source: ReportInput) -> str:
 
 
 def _sim2real_protocol(source: ReportInput) -> str:
-    """The result of the pre-registered protocol in the store (``+experiment=sim2real``: version 1),
-    beside the physics baseline, with its figure; "" when it has not run."""
-    from bearingtwin.tracking.sim2real_protocol import headline_markdown, plot_headline, protocol_headline, protocol_runs
+    """The result of every pre-registered protocol version in the store (``conf/experiment/sim2real_v<N>.yaml``),
+    beside the physics baseline, with its figure; "" when none has run."""
+    from bearingtwin.tracking.sim2real_protocol import (headline_markdown, plot_headline, protocol_headline,
+                                                        protocol_runs, protocol_versions)
 
-    try:
-        source.used_runs.extend(protocol_runs(source.client, source.experiment_id, "sim2real"))
-    except BearingTwinError:
-        return ""
     paths = OmegaConf.create({"paths": OmegaConf.load(Path(CONF_DIR) / "paths" / "default.yaml")})
     data_root = Path(source.settings.get("data_root") or f"{paths.paths.data_root}/cwru")
-    result = protocol_headline(source.client, source.experiment_id, "sim2real", data_root)
-    figure = plot_headline(result, results_path(source.settings, "sim2real.md").with_name("sim2real_protocol.png"))
-    return (headline_markdown(result, "v1 (2026-11-23)")
-            + f"\n![protocol v1 against the physics baseline, per fault type]({figure.name})\n\n")
+    results = {}
+    for name, version in protocol_versions().items():
+        try:
+            source.used_runs.extend(protocol_runs(source.client, source.experiment_id, name))
+        except BearingTwinError:  # this version has not run in this store
+            continue
+        results[version] = protocol_headline(source.client, source.experiment_id, name, data_root)
+    if not results:
+        return ""
+    figure = plot_headline(results, results_path(source.settings, "sim2real.md").with_name("sim2real_protocol.png"))
+    return (headline_markdown(results)
+            + f"\n![every protocol version against the physics baseline, per fault type]({figure.name})\n\n")
 
 
 def _plot_sim2real(rows: list[dict], path: Path) -> Path | None:

@@ -1,7 +1,8 @@
 """The result of a pre-registered sim2real protocol: its runs' scores beside the physics baseline.
 
-A protocol is a config in ``conf/experiment/`` (``sim2real.yaml`` is version 1), stated in words in
-``results/sim2real_protocol.md`` before its runs. Its runs carry the tag ``experiment=<name>``;
+Each version of the protocol is a dated config, ``conf/experiment/sim2real_v<N>.yaml``, stated in
+words in ``results/sim2real_protocol.md`` before its runs and never edited afterwards;
+``+experiment=sim2real`` selects the newest. A version's runs carry the tag ``experiment=<name>``;
 :func:`protocol_headline` reads every FINISHED one (one per seed) and sets them beside the
 physics baseline on the same test records: the envelope analysis of
 :func:`bearingtwin.diagnosis.evidence.physics_evidence`, no learning, per record.
@@ -10,6 +11,7 @@ physics baseline on the same test records: the envelope analysis of
 from __future__ import annotations
 
 import csv
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from mlflow import MlflowClient
 
-from bearingtwin.config import bearing_config
+from bearingtwin.config import CONF_DIR, bearing_config
 from bearingtwin.data.cwru import load_cwru, parse_cwru_name
 from bearingtwin.diagnosis.evidence import physics_evidence
 from bearingtwin.errors import BearingTwinError
@@ -26,6 +28,18 @@ from bearingtwin.tracking.reports import mean_std
 from bearingtwin.tracking.tables import markdown_table
 
 FAULT_CLASSES = ("inner", "ball", "outer")
+
+
+def protocol_versions(conf_dir: str | Path = CONF_DIR) -> dict[str, str]:
+    """Every version of the sim2real protocol, oldest first: config name -> its label, "v2 (2026-11-23)",
+    read from the header each version's file opens with ("# Protocol v2 (2026-11-23) of ...")."""
+    versions = {}
+    for path in sorted(Path(conf_dir, "experiment").glob("sim2real_v*.yaml"), key=lambda p: int(p.stem.rpartition("v")[2])):
+        stated = re.search(r"Protocol (v\d+) \((\d{4}-\d{2}-\d{2})\)", path.read_text())
+        if stated is None:
+            raise BearingTwinError(f"{path}: a protocol version opens with '# Protocol v<N> (<date>)'")
+        versions[path.stem] = f"{stated[1]} ({stated[2]})"
+    return versions
 
 
 @dataclass
@@ -110,37 +124,45 @@ def _pm(values) -> str:
     return f"{mean:.1f} ± {std:.1f}"
 
 
-def headline_markdown(result: ProtocolResult, version: str) -> str:
-    """One table: the protocol's test accuracy, per fault type, false alarms, beside the physics baseline."""
+def headline_markdown(results: dict[str, ProtocolResult]) -> str:
+    """One table: each version's test accuracy, per fault type and false alarms, beside the physics
+    baseline; then every test record, one column per version. ``results``: label -> result, oldest first."""
     rows = [[f"{version} (`+experiment={result.experiment}`, seeds {', '.join(map(str, result.seeds))})",
              _pm(result.accuracy), *(_pm(result.recall[state]) for state in FAULT_CLASSES),
-             _pm(result.healthy_called_healthy)]]
-    physics_records = [result.physics[r] == result.truth[r] for r in result.per_record]
+             _pm(result.healthy_called_healthy)] for version, result in results.items()]
+    newest = list(results.values())[-1]
+    physics_records = [newest.physics[r] == newest.truth[r] for r in newest.per_record]
     rows.append(["physics baseline (envelope analysis, no learning; records, not windows)",
                  f"{100 * np.mean(physics_records):.1f} ({sum(physics_records)}/{len(physics_records)} records)",
-                 *(f"{100 * result.physics_recall(state):.0f}" for state in FAULT_CLASSES),
-                 f"(record {result.healthy_record}: {'healthy' if result.physics_calls_healthy_record_healthy else 'not healthy'})"])
+                 *(f"{100 * newest.physics_recall(state):.0f}" for state in FAULT_CLASSES),
+                 f"(record {newest.healthy_record}: {'healthy' if newest.physics_calls_healthy_record_healthy else 'not healthy'})"])
     table = markdown_table(["", "test windows right %", "inner %", "ball %", "outer %",
-                            f"{result.healthy_record} windows called healthy %"], rows)
-    record_rows = [[record, result.truth[record], _pm(result.per_record[record]), result.physics[record]]
-                   for record in sorted(result.per_record, key=lambda r: (FAULT_CLASSES.index(result.truth[r]), r))]
+                            f"{newest.healthy_record} windows called healthy %"], rows)
+    records = sorted(newest.per_record, key=lambda r: (FAULT_CLASSES.index(newest.truth[r]), r))
+    record_rows = [[record, newest.truth[record],
+                    *(_pm(result.per_record[record]) if record in result.per_record else "-" for result in results.values()),
+                    newest.physics[record]] for record in records]
+    versions = [version.split(" ")[0] for version in results]
     return table + "\nPer test record (windows right, mean ± std over seeds; the physics baseline's state for the whole record):\n\n" + \
-        markdown_table(["record", "true state", "windows right %", "physics says"], record_rows)
+        markdown_table(["record", "true state", *(f"{v} windows right %" for v in versions), "physics says"], record_rows)
 
 
-def plot_headline(result: ProtocolResult, path: Path) -> Path:
-    """Per fault type: the protocol's window recall (mean and spread over seeds) beside the physics baseline."""
+def plot_headline(results: dict[str, ProtocolResult], path: Path) -> Path:
+    """Per fault type: each version's window recall (mean and spread over seeds) beside the physics baseline."""
     from matplotlib.figure import Figure
 
-    figure = Figure(figsize=(7, 3.6))
+    figure = Figure(figsize=(7.5, 3.8))
     axes = figure.subplots()
     x = np.arange(len(FAULT_CLASSES) + 1)
-    model = [mean_std(result.recall[s])[0] for s in FAULT_CLASSES] + [mean_std(result.healthy_called_healthy)[0]]
-    spread = [mean_std(result.recall[s])[1] for s in FAULT_CLASSES] + [mean_std(result.healthy_called_healthy)[1]]
-    physics = [result.physics_recall(s) for s in FAULT_CLASSES] + [float(result.physics_calls_healthy_record_healthy)]
-    axes.bar(x - 0.2, 100 * np.asarray(model), 0.4, yerr=100 * np.asarray(spread), label=f"twin-trained ({result.experiment})")
-    axes.bar(x + 0.2, 100 * np.asarray(physics), 0.4, label="physics baseline (records)")
-    axes.set_xticks(x, [*FAULT_CLASSES, f"healthy {result.healthy_record}\n(calibration)"])
+    width = 0.8 / (len(results) + 1)
+    for index, (version, result) in enumerate(results.items()):
+        values = [result.recall[s] for s in FAULT_CLASSES] + [result.healthy_called_healthy]
+        axes.bar(x + (index - len(results) / 2) * width, [100 * mean_std(v)[0] for v in values], width,
+                 yerr=[100 * mean_std(v)[1] for v in values], label=f"twin-trained, {version}")
+    newest = list(results.values())[-1]
+    physics = [newest.physics_recall(s) for s in FAULT_CLASSES] + [float(newest.physics_calls_healthy_record_healthy)]
+    axes.bar(x + len(results) / 2 * width, 100 * np.asarray(physics), width, label="physics baseline (records)")
+    axes.set_xticks(x, [*FAULT_CLASSES, f"healthy {newest.healthy_record}\n(calibration)"])
     axes.set(ylabel="right (%)", ylim=(0, 105), title="Real CWRU records at 1-3 hp, twin-trained classifier vs envelope analysis")
     axes.axhline(90, color="grey", lw=0.7, ls=":")
     axes.legend(loc="lower left", fontsize=8)
