@@ -16,6 +16,14 @@ command a test starts) are in memory, on ``/dev/shm``, where the machine has one
 session writes tens of MB) and ``TMPDIR`` is not set: they are real files and SQLite databases all
 the same, but a fresh MLflow store's schema (about 330 statements, each committed to disk) takes
 about 1 s there against 5-6 s on this machine's disk, and the suite makes dozens of stores.
+
+Every temporary file is inside this session's folder, removed when the session ends: ``TMPDIR``
+then points into it, for this process and every command a test starts. Libraries leave their own
+behind (MLflow's model logging, about 380 KB a model, never removed), which in ``/dev/shm`` would
+hold memory until the machine restarts. pytest's ``tmp_path`` folders are there too, so they go
+with the session instead of the last three being kept (``--basetemp=<dir>`` keeps a session's).
+Each xdist worker imports this file in its own process, so has its own session folder, inside
+the controller's, and the controller removes all of it when it ends.
 """
 
 import atexit
@@ -37,6 +45,9 @@ if "TMPDIR" not in os.environ and _memory_folder():
 
 _session_dir = tempfile.mkdtemp(prefix="bearingtwin-tests-")
 atexit.register(shutil.rmtree, _session_dir, ignore_errors=True)  # in memory: leave nothing behind
+os.environ["TMPDIR"] = os.path.join(_session_dir, "tmp")
+os.mkdir(os.environ["TMPDIR"])
+tempfile.tempdir = None  # gettempdir() reads TMPDIR again; pytest's tmp_path asks it on first use
 os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ["BEARINGTWIN_CACHE"] = os.path.join(_session_dir, "cache")

@@ -52,6 +52,32 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     assert not (tmp_path / "mlflow.db").exists() and not list(tmp_path.glob("*.npz"))
 
 
+@pytest.mark.parametrize("module, overrides, named", [
+    ("train", ["classifier=does_not_exist"], ["classifier=does_not_exist", "cnn_bilstm, svm"]),
+    ("train", ["not_a_key=3"], ["not_a_key", "not a setting"]),
+    ("train", ["-m", "classifier=svm,does_not_exist"], ["classifier=does_not_exist"]),  # a sweep job's, before any starts
+    ("train", ["-m", "seed=0,1", "trainer.not_a_key=3"], ["trainer.not_a_key", "not a setting"]),
+    ("twin", ["measured.path=x.npy", "bearing=nope"], ["bearing=nope", "cwru_6205"]),
+    ("twin", ["measured.path=x.npy", "measured.not_a_key=1"], ["measured.not_a_key", "not a setting"]),
+    ("simulate", ["simulator.rpm=[1797"], ["simulator.rpm=[1797"]),
+    ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
+])
+def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, module, overrides, named):
+    """Hydra alone would print the options and its search path over many lines, and exit 1."""
+    sweep_dir = [f"hydra.sweep.dir={tmp_path}/multirun"] if "-m" in overrides else []
+    done = command(module, *overrides, *sweep_dir, cwd=tmp_path)
+    assert_one_line_exit_2(done, *named)
+    assert len(done.stderr.splitlines()) == 1, done.stderr
+    assert list(tmp_path.iterdir()) == []  # stopped before any output folder, store or run
+
+
+def test_hydra_flags_still_work_with_the_overrides_checked_first(tmp_path):
+    shown = command("twin", "--cfg", "job", "measured.path=x.npy", "bearing=er16k", cwd=tmp_path)
+    assert shown.returncode == 0 and "path: x.npy" in shown.stdout, shown.stderr
+    helped = command("train", "--help", cwd=tmp_path)
+    assert helped.returncode == 0 and "classifier: cnn_bilstm, svm" in helped.stdout, helped.stderr
+
+
 def test_an_unknown_report_setting_is_refused(capsys):
     with pytest.raises(SystemExit) as stop:
         report_main(["table4", "+unknown.key=1"])

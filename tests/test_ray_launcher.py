@@ -55,9 +55,10 @@ def sweeps(tmp_path_factory):
     for folder in (cluster_dir, basic_dir, ray_dir):
         folder.mkdir()
     port = free_loopback_port()
-    # Its own temporary folder (short: Ray's socket paths must fit in 107 bytes), so that it leaves no
-    # "current cluster" behind for a later ray.init on this machine to join.
-    ray_temp = Path(tempfile.mkdtemp(prefix="bt-ray-"))
+    # Its own temporary folder, so that it leaves no "current cluster" behind for a later ray.init on this
+    # machine to join; in /tmp, Ray's own default root, since Ray's socket paths must fit in 107 bytes and
+    # TMPDIR (inside the test session's folder, tests/conftest.py) may be too deep for them.
+    ray_temp = Path(tempfile.mkdtemp(prefix="bt-ray-", dir="/tmp"))
     # The cluster's own environment points elsewhere (where nothing may appear): only the sweep's
     # configuration can lead its workers to the store, cache and data the sweep was started with.
     # No drain on SIGTERM: a node serving nothing would wait out Ray's 30 s (the teardown's 10 s grace, then SIGKILL).

@@ -7,8 +7,10 @@ import sys
 from pathlib import Path
 from typing import Callable
 
+import hydra
+from hydra.errors import ConfigCompositionException, MissingConfigException, OverrideParseException
 from omegaconf import DictConfig, OmegaConf
-from omegaconf.errors import MissingMandatoryValue, OmegaConfBaseException
+from omegaconf.errors import ConfigAttributeError, ConfigKeyError, MissingMandatoryValue, OmegaConfBaseException
 
 from bearingtwin.errors import BearingTwinError
 
@@ -19,11 +21,17 @@ CONF_DIR = str(REPO_ROOT / "conf")
 OmegaConf.register_new_resolver("bt_repo", lambda: str(REPO_ROOT), replace=True)
 
 
+COMPOSITION_ERRORS = (ConfigCompositionException, OverrideParseException)
+"""What Hydra raises for overrides it cannot compose into a config (MissingConfigException is one)."""
+
+
 def exit_on_user_error(task: Callable) -> Callable:
-    """Turn a :class:`BearingTwinError` into a one-line message on stderr and exit status 2.
+    """Turn a :class:`BearingTwinError`, or a config Hydra cannot compose from the user's overrides,
+    into a one-line message on stderr and exit status 2.
 
     Wraps the body of a single-run entry point (apply it *inside* ``@hydra.main`` so
-    Hydra has composed the config). Programming errors keep their tracebacks.
+    Hydra has composed the config), or a step that composes configs itself (a sweep's jobs).
+    Programming errors keep their tracebacks.
     """
 
     @functools.wraps(task)
@@ -37,8 +45,89 @@ def exit_on_user_error(task: Callable) -> Callable:
             key = getattr(error, "full_key", "") or "a mandatory value"
             print(f"error: {key} is missing; give {key}=<value>", file=sys.stderr)
             sys.exit(2)
+        except COMPOSITION_ERRORS as error:
+            print(f"error: {composition_error_line(error)}", file=sys.stderr)
+            sys.exit(2)
 
     return wrapped
+
+
+def composition_error_line(error: ConfigCompositionException | OverrideParseException) -> str:
+    """Hydra's message for a config it could not compose, on one line naming the group or key at fault.
+
+    Hydra's own message runs over several lines (the options, then its whole config search path)
+    and its command exits 1, like a crash; the common mistakes get a line of their own.
+    """
+    cause = error.__cause__ if isinstance(error.__cause__, OmegaConfBaseException) else None
+    if isinstance(error, MissingConfigException) and error.options and "/" in (error.missing_cfg_file or ""):
+        group, option = error.missing_cfg_file.rsplit("/", 1)
+        return f"{group}={option}: no such {group} config; choose one of {', '.join(error.options)}"
+    if isinstance(cause, (ConfigAttributeError, ConfigKeyError)) and getattr(cause, "full_key", None):
+        return f"{cause.full_key}: not a setting (no config declares it); check its spelling (--cfg job lists the settings)"
+    if isinstance(error, OverrideParseException):
+        return f"{error.override}: not an override Hydra can read ({str(error).splitlines()[0]})"
+    lines = []
+    for line in str(error).splitlines():
+        if line.startswith("Config search path:"):  # the rest is the path, one folder a line
+            break
+        if line.strip():
+            lines.append(line.strip().rstrip("."))
+    if cause is not None:
+        lines.append(str(cause).splitlines()[0])
+    return "; ".join(lines) or type(error).__name__
+
+
+def hydra_command(config_name: str) -> Callable:
+    """``@hydra.main`` on ``conf/<config_name>.yaml``, with the overrides checked first.
+
+    Hydra reports an override it cannot compose (an unknown config group option, a key no config
+    declares, an unreadable value) over several lines and exits 1, from inside ``hydra.main``
+    where an entry point cannot catch it. So the command line is composed here first, as Hydra
+    is about to compose it, and such a mistake ends the command with one line and exit status 2.
+    Everything else (``--help``, ``--cfg``, ``-m``, the task's own errors) is Hydra's as before.
+    """
+
+    def decorate(task: Callable) -> Callable:
+        hydra_main = hydra.main(version_base="1.3", config_path=CONF_DIR, config_name=config_name)(task)
+
+        @functools.wraps(task)
+        def command(cfg_passthrough: DictConfig | None = None):
+            if cfg_passthrough is None:  # run as a command: the overrides are on the command line
+                exit_on_user_error(refuse_uncomposable_overrides)(config_name, sys.argv[1:])
+            return hydra_main(cfg_passthrough)
+
+        return command
+
+    return decorate
+
+
+def refuse_uncomposable_overrides(config_name: str, argv: list[str]) -> None:
+    """Compose the config ``argv`` asks for, in the mode Hydra will run it, raising Hydra's composition error.
+
+    Left to Hydra: its help and information flags, which compose nothing or report their own
+    way, and another config folder (``--config-path``, ``--config-dir``), which this check would
+    not see. An error that is not about composition is left for Hydra to report when it composes.
+    """
+    from hydra import initialize_config_dir
+    from hydra._internal.utils import get_args_parser  # Hydra's own parser: the same reading of argv
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.types import RunMode
+
+    args = get_args_parser().parse_args(argv)
+    if args.help or args.hydra_help or args.info or args.shell_completion or args.experimental_rerun \
+            or args.config_path or args.config_dir:
+        return
+    name = args.config_name or config_name
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        app = GlobalHydra.instance().hydra
+        try:
+            # As Hydra's _run_hydra: -m, or else the config's hydra.mode; --cfg shows a run's config.
+            mode = RunMode.MULTIRUN if args.multirun else (None if args.cfg else app.get_mode(name, args.overrides))
+            app.compose_config(name, list(args.overrides), run_mode=mode or RunMode.RUN)
+        except COMPOSITION_ERRORS:
+            raise
+        except Exception:  # not a composition error: Hydra meets it again when it composes, and reports it
+            return
 
 
 def compose_config(config_name: str | None = None, overrides=()) -> DictConfig:

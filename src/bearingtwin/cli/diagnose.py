@@ -14,17 +14,16 @@ import os
 import sys
 from collections import Counter
 
-import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary, percent
-from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.diagnosis.run import DiagnosisRun, diagnose_paths
 from bearingtwin.tracking.lifecycle import stop_cleanly
 
 
-@hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="diagnose")
+@hydra_command("diagnose")
 @exit_on_user_error
 def diagnose(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())

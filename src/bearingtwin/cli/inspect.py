@@ -13,19 +13,18 @@ from __future__ import annotations
 
 import json
 
-import hydra
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.data.files import read_raw, resolve_fs
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_sampling_rate
 
 
-@hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="inspect")
+@hydra_command("inspect")
 @exit_on_user_error
 def main(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())

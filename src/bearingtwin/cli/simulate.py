@@ -7,13 +7,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import hydra
 from hydra.core.hydra_config import HydraConfig
 import numpy as np
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary
-from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate
 
@@ -53,7 +52,7 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
     return paths
 
 
-@hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="simulate")
+@hydra_command("simulate")
 @exit_on_user_error
 def main(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())

@@ -23,12 +23,11 @@ import logging
 import os
 import sys
 
-import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary, percent
-from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.experiment import run_experiment
@@ -63,7 +62,7 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out)
 
 
-@hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="train")
+@hydra_command("train")
 def train(cfg: DictConfig) -> float | None:
     hydra_cfg = HydraConfig.get()
     sweep = sweep_info(hydra_cfg)

@@ -10,12 +10,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary
-from bearingtwin.config import CONF_DIR, exit_on_user_error, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.twin.rank import TwinFit
 from bearingtwin.twin.report import run_twin
@@ -38,7 +37,7 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
     return closing_summary(title, lines, run_id, str(cfg.tracking.uri) if run_id else None, str(files[0].parent.resolve()))
 
 
-@hydra.main(version_base="1.3", config_path=CONF_DIR, config_name="twin")
+@hydra_command("twin")
 @exit_on_user_error
 def twin(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())

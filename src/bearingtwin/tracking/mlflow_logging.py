@@ -549,7 +549,7 @@ class SweepParentRun(Callback):
     """Hydra callback: one parent MLflow run per multirun, closed with the children's outcome.
 
     Created before any job starts (so parallel jobs also find an initialised store), and
-    only once every job's overrides name declared keys and its data files are present:
+    only once every job's overrides compose into a config, name declared keys, and its data files are present:
     otherwise the sweep exits with status 2 naming them and logs nothing. At the end it prints a summary and ends
     FINISHED when every job finished or was skipped; otherwise FAILED, and the command
     exits 1. (Exiting, not raising: Hydra turns a callback's exception into a warning.)
@@ -563,7 +563,7 @@ class SweepParentRun(Callback):
             sys.exit(1)
 
     def _open_parent(self, config: DictConfig) -> None:
-        jobs = list(sweep_job_configs(config))
+        jobs = exit_on_user_error(lambda: list(sweep_job_configs(config)))()  # composed here: the generator raises as it runs
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
         exit_on_user_error(require_files)(jobs)
