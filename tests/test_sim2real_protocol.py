@@ -6,7 +6,8 @@ from mlflow import MlflowClient
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.tracking.sim2real_protocol import headline_markdown, plot_headline, protocol_headline, protocol_versions
+from bearingtwin.tracking.sim2real_protocol import (headline_markdown, plot_headline, protocol_headline, protocol_runs,
+                                                    protocol_versions)
 
 CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
 TEST_RECORDS = {"12k_Drive_End_IR007_1_106": 0.75, "12k_Drive_End_OR007@6_1_131": 1.0}
@@ -64,3 +65,32 @@ def test_every_protocol_version_is_a_dated_file_and_sim2real_selects_the_newest(
     (tmp_path / "experiment" / "sim2real_v1.yaml").write_text("# a protocol without its version and date\n")
     with pytest.raises(BearingTwinError, match="sim2real_v1.yaml: a protocol version opens with"):
         protocol_versions(tmp_path)
+
+
+@pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
+def test_the_report_writes_the_protocols_block_and_keeps_the_exploratory_tables_without_exploratory_runs(tmp_path):
+    from bearingtwin.tracking.reports import GENERATED, PROTOCOL_MARKER, run_report
+
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    client = MlflowClient(uri)
+    experiment_id = client.create_experiment("bearingtwin", artifact_location=(tmp_path / "artifacts").as_uri())
+    log_protocol_run(client, experiment_id, 0, 0.8, "normal_0_97")
+    out = tmp_path / "sim2real.md"
+    out.write_text(f"# title\n\n{PROTOCOL_MARKER}\nold result\n{PROTOCOL_MARKER}\n\nprose\n\n{GENERATED}\n"
+                   f"exploratory tables of earlier sweeps\n{GENERATED}\n")
+    run_report("sim2real", {"uri": uri, "experiment": "bearingtwin", "out": str(out), "data_root": str(CWRU)})
+    text = out.read_text()
+    assert "old result" not in text and "| v1 (2026-11-23) (`+experiment=sim2real_v1`, seeds 0) | 80.0 ± 0.0 |" in text
+    assert "exploratory tables of earlier sweeps" in text and "prose" in text
+
+
+def test_a_run_at_other_sizes_than_its_protocols_is_refused(tmp_path):
+    client = MlflowClient(f"sqlite:///{tmp_path}/mlflow.db")
+    experiment_id = client.create_experiment("protocol", artifact_location=(tmp_path / "artifacts").as_uri())
+    run = client.create_run(experiment_id, tags={"bt.kind": "train", "experiment": "sim2real_v2"})
+    client.log_param(run.info.run_id, "seed", 0)
+    client.log_param(run.info.run_id, "data.twin.windows_per_record", 2)  # a smoke run of the protocol's config
+    client.set_terminated(run.info.run_id, "FINISHED")
+    with pytest.raises(BearingTwinError, match="data.twin.windows_per_record=2, the protocol 10"):
+        protocol_runs(client, experiment_id, "sim2real_v2")
+    assert protocol_runs(client, experiment_id, "sim2real_v1") == []

@@ -28,13 +28,15 @@ from bearingtwin.tracking.reports import mean_std
 from bearingtwin.tracking.tables import markdown_table
 
 FAULT_CLASSES = ("inner", "ball", "outer")
+PROTOCOL_PREFIX = "sim2real_v"
+"""Config names (and run tags) of the protocol's versions: ``conf/experiment/sim2real_v<N>.yaml``."""
 
 
 def protocol_versions(conf_dir: str | Path = CONF_DIR) -> dict[str, str]:
     """Every version of the sim2real protocol, oldest first: config name -> its label, "v2 (2026-11-23)",
     read from the header each version's file opens with ("# Protocol v2 (2026-11-23) of ...")."""
     versions = {}
-    for path in sorted(Path(conf_dir, "experiment").glob("sim2real_v*.yaml"), key=lambda p: int(p.stem.rpartition("v")[2])):
+    for path in sorted(Path(conf_dir, "experiment").glob(f"{PROTOCOL_PREFIX}*.yaml"), key=lambda p: int(p.stem.rpartition("v")[2])):
         stated = re.search(r"Protocol (v\d+) \((\d{4}-\d{2}-\d{2})\)", path.read_text())
         if stated is None:
             raise BearingTwinError(f"{path}: a protocol version opens with '# Protocol v<N> (<date>)'")
@@ -65,15 +67,31 @@ class ProtocolResult:
         return self.physics[self.healthy_record] == "normal"
 
 
+def is_protocol_run(run) -> bool:
+    """Whether ``run`` belongs to a version of the pre-registered protocol (reported apart from exploratory runs)."""
+    return run.data.tags.get("experiment", "").startswith(PROTOCOL_PREFIX)
+
+
 def protocol_runs(client: MlflowClient, experiment_id: str, name: str) -> list:
+    """The newest FINISHED run of every seed of protocol version ``name`` (none: []), after checking that
+    each ran at the protocol's sizes (a smaller run of the same config is a smoke test, not the result)."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.config import compose_config
+    from bearingtwin.tracking.provenance import SIZE_KEYS
+
     runs = find_runs(client, experiment_id, f"tags.experiment = '{name}' and tags.`bt.kind` = 'train' "
                                             "and attributes.status = 'FINISHED'")
     by_seed = {}
     for run in sorted(runs, key=lambda run: run.info.start_time):  # a re-run seed: its newest run
         by_seed[int(run.data.params["seed"])] = run
-    if not by_seed:
-        raise BearingTwinError(f"no FINISHED run of +experiment={name} in the store; run bearingtwin-train "
-                               f"-m +experiment={name} seed=0,1,2,3,4 first")
+    protocol = compose_config("train", [f"+experiment={name}"])
+    for run in by_seed.values():
+        for key in SIZE_KEYS:
+            fixed, logged = OmegaConf.select(protocol, key, default=None), run.data.params.get(key)
+            if fixed is not None and logged is not None and float(logged) != float(fixed):
+                raise BearingTwinError(f"run {run.info.run_id} of +experiment={name} has {key}={logged}, the protocol "
+                                       f"{fixed}: not a run of the protocol; run it again as the protocol states")
     return [by_seed[seed] for seed in sorted(by_seed)]
 
 
@@ -95,6 +113,9 @@ def physics_baseline(records: list[Path], bearing: str, channel: str = "DE") -> 
 
 def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_root: Path) -> ProtocolResult:
     runs = protocol_runs(client, experiment_id, name)
+    if not runs:
+        raise BearingTwinError(f"no FINISHED run of +experiment={name} in the store; run bearingtwin-train "
+                               f"-m +experiment={name} seed=0,1,2,3,4 first")
     per_record = {}
     for run in runs:
         for record, accuracy in _per_record(client, run.info.run_id).items():

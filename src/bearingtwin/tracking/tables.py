@@ -23,6 +23,14 @@ def csv_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
     return buffer.getvalue()
 
 
+def generated_text(path: Path, marker: str) -> str | None:
+    """The text between the two ``marker`` lines of ``path``, or None when it has no such block."""
+    text = path.read_text() if path.exists() else ""
+    if text.count(marker) < 2:
+        return None
+    return text.split(marker)[1].strip()
+
+
 def write_generated(path: Path, generated: str, marker: str) -> None:
     """Write ``generated`` to ``path``, keeping hand-written text around it.
 
