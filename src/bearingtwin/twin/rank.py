@@ -13,7 +13,9 @@ measurement's own repeatability per view, the floor no twin can go below.
    if it pays for its parameters on the held-out part: a Bayesian information criterion on
    the views' errors, each view's residual variance being the twin's misfit plus the
    measurement's repeatability. The operating point and every kept effect are then
-   re-fitted together, and the remaining candidates tried on top, until none pays.
+   re-fitted together, and the remaining candidates tried on top, each with the kept effects
+   free again beside it (they were fitted without it and took up part of its signature),
+   until none pays.
 3. **What is left.** A view whose error stays more than twice the measurement's own is
    reported with where it disagrees and which kinds of physics leave such a mark, whether
    or not a library effect was added: a discrepancy no candidate explains is named, never
@@ -156,6 +158,7 @@ class EffectFit:
     signature: str
     comparison: Comparison = field(repr=False)
     intervals: dict = field(default_factory=dict)
+    kept_params: dict = field(default_factory=dict, repr=False)  # the kept effects as re-fitted with this one
 
     def sentence(self) -> str:
         values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) for k, v in self.params.items()
@@ -446,21 +449,37 @@ class EffectRanker:
     def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, matched,
                        seed) -> EffectFit:
         """Fit one candidate on the first part (starting from the data's own estimate when the effect
-        offers one, read against ``matched``: the current twin, gain-matched) and judge it on the held-out part."""
+        offers one, read against ``matched``: the current twin, gain-matched) and judge it on the held-out part.
+
+        The effects already kept are fitted again with it: they were fitted without the candidate, so
+        they took up part of its signature (a noise floor lowering the kurtosis a misalignment line
+        also lowers), and held there they would make the missing effect look redundant. Only the
+        candidate's parameters are new, so only they are paid for.
+        """
         nominal = {**effect_defaults(name), **(_initial_guess(name, judge, matched) or {})}
+        kept = [other for other in current_effects if other not in self.fixed_effects]
+        joint = {f"{name}:{k}": bounds for k, bounds in space.items()}
+        for other in kept:
+            joint.update({f"{other}:{k}": bounds for k, bounds in effect_search_space(other).items()})
+        start = {**{f"{name}:{k}": nominal[k] for k in space if k in nominal},
+                 **{f"{other}:{k}": current_effects[other][k] for other in kept
+                    for k in effect_search_space(other) if k in current_effects[other]}}
 
         def with_effect(params):
-            return {**current_effects, name: {**nominal, **params}}
+            effects = {**{other: dict(values) for other, values in current_effects.items()}, name: dict(nominal)}
+            for key, value in params.items():
+                effect, parameter = key.split(":", 1)
+                effects[effect][parameter] = value
+            return effects
 
-        fit = minimize(lambda p: judge.deviance(judge.fit_part(twin.signal(base, with_effect(p)))), space,
-                       self.n_trials_effect, seed, start={k: nominal[k] for k in space if k in nominal},
-                       n_polish=self.n_polish_effect)
-        params = with_effect(fit.params)[name]
-        checked = judge.check_part(twin.signal(base, with_effect(fit.params)))
+        fit = minimize(lambda p: judge.deviance(judge.fit_part(twin.signal(base, with_effect(p)))), joint,
+                       self.n_trials_effect, seed, start=start, n_polish=self.n_polish_effect)
+        effects = with_effect(fit.params)
+        checked = judge.check_part(twin.signal(base, effects))
         drop = (judge.deviance(current) - judge.deviance(checked)) / judge.points_per_view
         evidence = judge.points_per_view * drop - len(space) * judge.penalty_per_parameter
-        return EffectFit(name, params, checked.discrepancy_db, _explained(current, checked), evidence, drop,
-                         len(space), _signature(name), checked)
+        return EffectFit(name, effects[name], checked.discrepancy_db, _explained(current, checked), evidence, drop,
+                         len(space), _signature(name), checked, kept_params={other: effects[other] for other in kept})
 
     def _refit(self, best: EffectFit, base_values, sensor, current_effects, judge: Judge, twin, seed):
         """Re-fit the operating point together with every kept effect and the new one.
@@ -469,7 +488,7 @@ class EffectRanker:
         defect standing in for a resonance); once the effect is in, all of them move.
         """
         op = self.operating_point
-        effects = {**current_effects, best.effect: best.params}
+        effects = {**current_effects, **best.kept_params, best.effect: best.params}
         fitted = [name for name in effects if name not in self.fixed_effects]
         space = {f"base:{k}": v for k, v in op.space.items()}
         for name in fitted:
