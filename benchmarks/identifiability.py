@@ -370,7 +370,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
                ", ".join(r["added"]) or "none", ", ".join(f"{n} {e:.1f}" for n, _, _, e in r["ranking"][:3]),
                ", ".join(r["unexplained"]) or "—"]
               for r in results if not score(r)["right"]]
-    machine = f"{platform.machine()}, {os.cpu_count()} cores (shared), Python {platform.python_version()}"
+    machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
     text = [
         "# Identifiability: does the ranking name the missing physics?", "",
         "Effects hidden in a measurement, named (or not) by `bearingtwin-twin`'s compare-calibrate-rank with its "

@@ -21,7 +21,7 @@ from bearingtwin.physics.simulator import sensor_signal
 from bearingtwin.testrig import RigOperatingPoint, RigSetup, simulate_rig
 from bearingtwin.twin.calibrate import minimize, parse_space, slice_interval
 from bearingtwin.twin.compare import CompareSettings
-from bearingtwin.twin.model import TwinModel
+from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, Judge
 
@@ -136,6 +136,30 @@ def test_a_hidden_pair_is_found_in_order_and_each_closes_its_part(cfg):
     assert errors == sorted(errors, reverse=True) and errors[-1] <= 0.5 * errors[0]
     assert all(f.evidence > 0 for f in fit.added)
     assert "Effects that were missing, in order" in fit.summary
+
+
+def test_a_later_round_screens_each_candidate_with_the_kept_effects_free(cfg, monkeypatch):
+    """The kept effect was fitted without the candidate and may stand in for it, so the screen searches
+    both; only the candidate's parameters are paid for."""
+    import bearingtwin.twin.rank as rank_module
+
+    searched = []
+
+    def recording_minimize(objective, space, *args, **kwargs):
+        searched.append(sorted(space))
+        return minimize(objective, space, *args, **kwargs)
+
+    monkeypatch.setattr(rank_module, "minimize", recording_minimize)
+    hidden = {"unbalance": {"level_db": 6.0}, "resonance": {"natural_frequency_hz": 2200.0, "damping_ratio": 0.04}}
+    fit = rank(cfg, twin_measurement(cfg, "outer", hidden), ["unbalance", "resonance"], op=known_operating_point(),
+               fixed=FLOOR)
+    first = fit.added[0].effect
+    (second_round,) = fit.rounds[1]  # the one candidate left, screened on top of the first
+    other = second_round["effect"]
+    screens = [space for space in searched if space and not any(k.startswith(("base:", "effect:")) for k in space)]
+    expected = sorted([f"{other}:{k}" for k in effect_search_space(other)] + [f"{first}:{k}" for k in effect_search_space(first)])
+    assert screens[-1] == expected  # the candidate and the kept effect; the fixed noise floor stays as given
+    assert second_round["n_parameters"] == len(effect_search_space(other))  # the kept effect's were paid for already
 
 
 def test_a_measurement_that_lacks_nothing_gets_no_effect(cfg):
