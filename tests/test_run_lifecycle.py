@@ -213,3 +213,40 @@ def test_a_signal_a_library_reraises_as_its_own_keyboard_interrupt_still_kills_w
     assert exit_status_under_stop_cleanly(waits_like_ray) == 128 + signal.SIGTERM
     assert client.get_run(run_id).info.status == "KILLED"
     assert "interrupted by SIGTERM" in capsys.readouterr().err
+
+
+def test_a_signal_lost_in_a_callback_prints_no_traceback_and_still_stops_the_command(capsys):
+    """A signal landing in a weakref callback (SQLAlchemy has them) raises where Python cannot propagate:
+    no traceback on stderr, and the command still stops when it checks; other lost errors are reported."""
+    import gc
+    import weakref
+
+    from bearingtwin.tracking import lifecycle
+
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    saved_hook = sys.unraisablehook
+    try:
+        lifecycle.handle_signals()
+
+        class Thing:
+            pass
+
+        def lose(exception):
+            thing = Thing()
+            keep = weakref.ref(thing, lambda _: (_ for _ in ()).throw(exception))  # raises inside the callback
+            del thing
+            gc.collect()
+            return keep
+
+        lifecycle._received.append(signal.SIGINT)  # as the handler records it before raising
+        lose(lifecycle.Interrupted(signal.SIGINT))
+        lose(ValueError("an ordinary lost error"))
+        err = capsys.readouterr().err
+        assert "Interrupted" not in err and "ValueError: an ordinary lost error" in err
+        with pytest.raises(lifecycle.Interrupted):
+            lifecycle.raise_if_interrupted()
+    finally:
+        lifecycle._received.clear()
+        sys.unraisablehook = saved_hook
+        for s, handler in saved.items():
+            signal.signal(s, handler)
