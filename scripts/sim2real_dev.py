@@ -31,13 +31,16 @@ DEV_RECORDS = "*_0_*.mat"  # 105 inner, 118 ball (development), 97 healthy (fals
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
-    parser.add_argument("--data", default=str(REPO_ROOT.parent / "shared" / "data" / "cwru"), help="folder of CWRU .mat files")
+    parser.add_argument("--data", default=os.path.join(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data"), "cwru"),
+                        help="folder of the CWRU .mat files (default: $BEARINGTWIN_DATA/cwru, as training reads them)")
     parser.add_argument("--work", default=None, help="folder for the store, logs and diagnoses (default: a temporary one)")
     parser.add_argument("overrides", nargs="+", help="bearingtwin-train overrides of the candidate (after --)")
     args = parser.parse_args()
     work = Path(args.work or tempfile.mkdtemp(prefix="sim2real-dev-"))
     work.mkdir(parents=True, exist_ok=True)
-    env = {**os.environ, "MLFLOW_TRACKING_URI": f"sqlite:///{work / 'mlflow.db'}"}
+    # Training reads the records through paths.data_root: the same folder as the diagnosis.
+    env = {**os.environ, "MLFLOW_TRACKING_URI": f"sqlite:///{work / 'mlflow.db'}",
+           "BEARINGTWIN_DATA": str(Path(args.data).resolve().parent)}
     rows = []
     for seed in args.seeds:
         train = ["bearingtwin-train", *args.overrides, f"seed={seed}", "register=dev", f"register_alias=seed{seed}"]
@@ -48,9 +51,10 @@ def main() -> int:
         out = work / f"diagnosis_seed{seed}"
         diagnose = ["bearingtwin-diagnose", f'path="{Path(args.data) / DEV_RECORDS}"', f"model=models:/dev@seed{seed}",
                     f"out={out}", "figures=false"]
-        if subprocess.run(diagnose, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=work).returncode:
-            print(f"diagnosis failed for seed {seed}", file=sys.stderr)
-            return 1
+        with open(work / f"diagnose_seed{seed}.log", "w") as log:
+            if subprocess.run(diagnose, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=work).returncode:
+                print(f"diagnosis failed for seed {seed}: {work / f'diagnose_seed{seed}.log'}", file=sys.stderr)
+                return 1
         for path in sorted(out.glob("*/diagnosis.json")):
             found = json.loads(path.read_text())
             right = sum(window["state"] == found["true_state"] for window in found["windows"]) / len(found["windows"])

@@ -215,9 +215,10 @@ def test_a_signal_a_library_reraises_as_its_own_keyboard_interrupt_still_kills_w
     assert "interrupted by SIGTERM" in capsys.readouterr().err
 
 
-def test_a_signal_lost_in_a_callback_prints_no_traceback_and_still_stops_the_command(capsys):
+def test_a_signal_lost_in_a_callback_prints_no_traceback_and_still_stops_the_command():
     """A signal landing in a weakref callback (SQLAlchemy has them) raises where Python cannot propagate:
-    no traceback on stderr, and the command still stops when it checks; other lost errors are reported."""
+    it is not reported, and the command still stops when it checks; other lost errors go to the hook
+    that was installed before."""
     import gc
     import weakref
 
@@ -225,8 +226,11 @@ def test_a_signal_lost_in_a_callback_prints_no_traceback_and_still_stops_the_com
 
     saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
     saved_hook = sys.unraisablehook
+    reported = []
     try:
+        sys.unraisablehook = lambda unraisable: reported.append(type(unraisable.exc_value).__name__)
         lifecycle.handle_signals()
+        lifecycle.handle_signals()  # installed once, not wrapped twice
 
         class Thing:
             pass
@@ -241,8 +245,7 @@ def test_a_signal_lost_in_a_callback_prints_no_traceback_and_still_stops_the_com
         lifecycle._received.append(signal.SIGINT)  # as the handler records it before raising
         lose(lifecycle.Interrupted(signal.SIGINT))
         lose(ValueError("an ordinary lost error"))
-        err = capsys.readouterr().err
-        assert "Interrupted" not in err and "ValueError: an ordinary lost error" in err
+        assert reported == ["ValueError"]
         with pytest.raises(lifecycle.Interrupted):
             lifecycle.raise_if_interrupted()
     finally:

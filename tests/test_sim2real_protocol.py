@@ -7,7 +7,7 @@ from mlflow import MlflowClient
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.sim2real_protocol import (headline_markdown, plot_headline, protocol_headline, protocol_runs,
-                                                    protocol_versions)
+                                                    protocol_version, protocol_versions)
 
 CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
 TEST_RECORDS = {"12k_Drive_End_IR007_1_106": 0.75, "12k_Drive_End_OR007@6_1_131": 1.0}
@@ -31,20 +31,19 @@ def log_protocol_run(client, experiment_id, seed, accuracy, false_alarm_record, 
 def test_the_headline_reads_every_seed_of_every_version_and_computes_the_physics_of_the_false_alarm_record(tmp_path):
     client = MlflowClient(f"sqlite:///{tmp_path}/mlflow.db")
     experiment_id = client.create_experiment("protocol", artifact_location=(tmp_path / "artifacts").as_uri())
-    # An outer-race record in the false-alarm role: the physics must be computed on it, and say so.
     for seed, accuracy in ((0, 0.8), (1, 0.9)):
-        log_protocol_run(client, experiment_id, seed, accuracy, "12k_Drive_End_OR007@6_0_130")
-    log_protocol_run(client, experiment_id, 0, 0.95, "12k_Drive_End_OR007@6_0_130", protocol="sim2real_v2")
+        log_protocol_run(client, experiment_id, seed, accuracy, "normal_0_97")
+    log_protocol_run(client, experiment_id, 0, 0.95, "normal_0_97", protocol="sim2real_v2")
     result = protocol_headline(client, experiment_id, "sim2real_v1", CWRU)
     assert result.seeds == [0, 1] and result.accuracy == [0.8, 0.9]  # the other version's run is not among them
     assert result.physics["12k_Drive_End_IR007_1_106"] == "inner" and result.physics["12k_Drive_End_OR007@6_1_131"] == "outer"
-    assert result.physics["12k_Drive_End_OR007@6_0_130"] == "outer" and not result.physics_calls_healthy_record_healthy
+    assert result.physics["normal_0_97"] == "normal" and result.physics_calls_healthy_record_healthy
     newer = protocol_headline(client, experiment_id, "sim2real_v2", CWRU)
     assert newer.seeds == [0] and newer.accuracy == [0.95]
     table = headline_markdown({"v1 (day 1)": result, "v2 (day 2)": newer})
     assert "| v1 (day 1) (`+experiment=sim2real_v1`, seeds 0, 1) | 85.0 ± 5.0 |" in table  # mean ± std over the seeds
     assert "| v2 (day 2) (`+experiment=sim2real_v2`, seeds 0) | 95.0 ± 0.0 |" in table
-    assert "(record 12k_Drive_End_OR007@6_0_130: not healthy)" in table
+    assert "(record normal_0_97: healthy)" in table
     assert "| record | true state | v1 windows right % | v2 windows right % | physics says |" in table
     assert "| 12k_Drive_End_IR007_1_106 | inner | 75.0 ± 0.0 | 75.0 ± 0.0 | inner |" in table
     assert plot_headline({"v1": result, "v2": newer}, tmp_path / "headline.png").stat().st_size > 10_000
@@ -84,13 +83,29 @@ def test_the_report_writes_the_protocols_block_and_keeps_the_exploratory_tables_
     assert "exploratory tables of earlier sweeps" in text and "prose" in text
 
 
-def test_a_run_at_other_sizes_than_its_protocols_is_refused(tmp_path):
+def test_a_run_that_departs_from_its_protocol_is_left_out_with_a_warning(tmp_path, caplog):
+    from bearingtwin.config import compose_config
+    from bearingtwin.tracking.mlflow_logging import flatten, loggable_config
+
     client = MlflowClient(f"sqlite:///{tmp_path}/mlflow.db")
     experiment_id = client.create_experiment("protocol", artifact_location=(tmp_path / "artifacts").as_uri())
-    run = client.create_run(experiment_id, tags={"bt.kind": "train", "experiment": "sim2real_v2"})
-    client.log_param(run.info.run_id, "seed", 0)
-    client.log_param(run.info.run_id, "data.twin.windows_per_record", 2)  # a smoke run of the protocol's config
-    client.set_terminated(run.info.run_id, "FINISHED")
-    with pytest.raises(BearingTwinError, match="data.twin.windows_per_record=2, the protocol 10"):
-        protocol_runs(client, experiment_id, "sim2real_v2")
+
+    def log_run(tag, seed, **changed):
+        params = flatten(loggable_config(compose_config("train", ["+experiment=sim2real_v2", f"seed={seed}", *(
+            f"{k}={v}" for k, v in changed.items())])))
+        run = client.create_run(experiment_id, tags={"bt.kind": "train", "experiment": tag})
+        for key, value in params.items():
+            client.log_param(run.info.run_id, key, value)
+        client.set_terminated(run.info.run_id, "FINISHED")
+        return run.info.run_id
+
+    log_run("sim2real_v2", 0, **{"data.window_length": 2048})  # v2's name on v1's window: not v2
+    log_run("sim2real_v2", 1, **{"data.twin.windows_per_record": 2, "trainer.progress_bar": False})  # a smoke run
+    kept = log_run("sim2real_v2", 2, **{"trainer.progress_bar": False})  # a display setting does not count
+    with caplog.at_level("WARNING"):
+        runs = protocol_runs(client, experiment_id, "sim2real_v2")
+    assert [run.info.run_id for run in runs] == [kept]
+    assert "data.window_length=2048 (the protocol: 4096)" in caplog.text
+    assert "data.twin.windows_per_record=2 (the protocol: 10)" in caplog.text
     assert protocol_runs(client, experiment_id, "sim2real_v1") == []
+    assert protocol_version("sim2real") == "sim2real_v1" and protocol_version("sim2real_variants") is None

@@ -110,20 +110,26 @@ def raise_if_interrupted() -> None:
         raise Interrupted(_received[-1])
 
 
-def _quiet_lost_interrupt(unraisable) -> None:
-    """``sys.unraisablehook``: an :class:`Interrupted` raised where Python cannot propagate it (a weakref
+def _quiet_lost_interrupt(report_others: Callable) -> Callable:
+    """A ``sys.unraisablehook``: an :class:`Interrupted` raised where Python cannot propagate it (a weakref
     or garbage-collection callback, such as SQLAlchemy's) is not printed as a traceback; the signal is
-    remembered and :func:`raise_if_interrupted` stops the command. Everything else is reported as usual."""
-    if isinstance(unraisable.exc_value, Interrupted):
-        return
-    sys.__unraisablehook__(unraisable)
+    remembered and :func:`raise_if_interrupted` stops the command. Everything else goes to ``report_others``
+    (the hook installed before)."""
+
+    def hook(unraisable) -> None:
+        if not isinstance(unraisable.exc_value, Interrupted):
+            report_others(unraisable)
+
+    hook.quiets_lost_interrupts = True
+    return hook
 
 
 def handle_signals() -> None:
     """SIGINT and SIGTERM raise :class:`Interrupted` in the main thread (see :func:`stop_cleanly`)."""
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _raise_interrupted)
-    sys.unraisablehook = _quiet_lost_interrupt
+    if not getattr(sys.unraisablehook, "quiets_lost_interrupts", False):  # once, around whatever hook was there
+        sys.unraisablehook = _quiet_lost_interrupt(sys.unraisablehook)
 
 
 def start_ray_keeping_signals(init_cfg) -> None:

@@ -75,7 +75,7 @@ from bearingtwin.tracking.tables import csv_table, markdown_table
 log = logging.getLogger(__name__)
 
 # Settings that say where things are or how they are logged or shown, not what is computed.
-UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar")
+UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar", "features.progress")
 PACKAGES = ("bearingtwin", "numpy", "scipy", "torch", "lightning", "scikit-learn", "mlflow", "optuna", "hydra-core")
 CONFIG_ARTIFACT = "config.yaml"
 MAX_BATCH = 100  # MLflow's limit on params / tags per log_batch call

@@ -435,7 +435,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
             if not is_protocol_run(run)]  # the protocol's runs have a block of their own
     source.used_runs[:] = [run for run in source.used_runs if not is_protocol_run(run)]
     if not runs:
-        raise _missing("data.source=twin_to_real", source)
+        return []
     groups: dict[tuple, list] = {}
     for run in runs:
         groups.setdefault((method(run), *twin(run)), []).append(run)
@@ -497,12 +497,11 @@ def sim2real(source: ReportInput) -> Report:
     import json
 
     protocol, written = write_sim2real_protocol(source)  # its own block, at the top of the file when it has one
-    try:
-        rows = _sim2real_rows(source)
-    except BearingTwinError:
+    rows = _sim2real_rows(source)
+    if not rows:
         kept = generated_text(results_path(source.settings, "sim2real.md"), GENERATED)
         if not (written and kept is not None):
-            raise
+            raise _missing("data.source=twin_to_real", source)
         print("sim2real: no exploratory twin-to-real runs in the store; the protocol's block is rewritten, "
               "the exploratory tables are left as they are", file=sys.stderr)
         return Report(kept)
