@@ -458,19 +458,11 @@ class EffectRanker:
         """
         nominal = {**effect_defaults(name), **(_initial_guess(name, judge, matched) or {})}
         kept = [other for other in current_effects if other not in self.fixed_effects]
-        joint = {f"{name}:{k}": bounds for k, bounds in space.items()}
-        for other in kept:
-            joint.update({f"{other}:{k}": bounds for k, bounds in effect_search_space(other).items()})
-        start = {**{f"{name}:{k}": nominal[k] for k in space if k in nominal},
-                 **{f"{other}:{k}": current_effects[other][k] for other in kept
-                    for k in effect_search_space(other) if k in current_effects[other]}}
+        trial_effects = {**current_effects, name: nominal}
+        joint, start = _effects_space(trial_effects, [name, *kept])
 
         def with_effect(params):
-            effects = {**{other: dict(values) for other, values in current_effects.items()}, name: dict(nominal)}
-            for key, value in params.items():
-                effect, parameter = key.split(":", 1)
-                effects[effect][parameter] = value
-            return effects
+            return _with_effect_params(trial_effects, params)
 
         fit = minimize(lambda p: judge.deviance(judge.fit_part(twin.signal(base, with_effect(p)))), joint,
                        self.n_trials_effect, seed, start=start, n_polish=self.n_polish_effect)
@@ -490,14 +482,11 @@ class EffectRanker:
         op = self.operating_point
         effects = {**current_effects, **best.kept_params, best.effect: best.params}
         fitted = [name for name in effects if name not in self.fixed_effects]
-        space = {f"base:{k}": v for k, v in op.space.items()}
-        for name in fitted:
-            space.update({f"effect:{name}:{k}": v for k, v in effect_search_space(name).items()})
+        effects_space, effects_start = _effects_space(effects, fitted, prefix="effect:")
+        space = {**{f"base:{k}": v for k, v in op.space.items()}, **effects_space}
         if op.angle_fitted:
             space["sensor:angle"] = (0.0, 180.0, False)
-        start = {**{f"base:{k}": v for k, v in base_values.items()},
-                 **{f"effect:{name}:{k}": effects[name][k] for name in fitted
-                    for k in effect_search_space(name) if k in effects[name]},
+        start = {**{f"base:{k}": v for k, v in base_values.items()}, **effects_start,
                  **({"sensor:angle": sensor["simulator.sensor_angle_deg"]} if op.angle_fitted else {})}
 
         def split(params):
@@ -505,12 +494,7 @@ class EffectRanker:
             new_sensor = dict(sensor)
             if "sensor:angle" in params:
                 new_sensor["simulator.sensor_angle_deg"] = params["sensor:angle"]
-            new_effects = {name: dict(effects[name]) for name in effects}
-            for key, value in params.items():
-                if key.startswith("effect:"):
-                    _, name, parameter = key.split(":", 2)
-                    new_effects[name][parameter] = value
-            return values, new_sensor, new_effects
+            return values, new_sensor, _with_effect_params(effects, params, prefix="effect:")
 
         def deviance(params):
             values, new_sensor, new_effects = split(params)
@@ -553,6 +537,28 @@ class EffectRanker:
 
 def _key(values: Mapping) -> tuple:
     return tuple(sorted((k, float(v)) for k, v in values.items()))
+
+
+def _effects_space(effects: Mapping, names: Sequence[str], prefix: str = "") -> tuple[dict, dict]:
+    """The search space of the named effects' parameters, keyed ``<prefix><effect>:<parameter>``, and its
+    start: their values in ``effects``."""
+    space, start = {}, {}
+    for name in names:
+        for parameter, bounds in effect_search_space(name).items():
+            space[f"{prefix}{name}:{parameter}"] = bounds
+            if parameter in effects[name]:
+                start[f"{prefix}{name}:{parameter}"] = effects[name][parameter]
+    return space, start
+
+
+def _with_effect_params(effects: Mapping, params: Mapping, prefix: str = "") -> dict:
+    """Copies of ``effects`` with the values of ``params`` keyed as :func:`_effects_space` keys them set."""
+    updated = {name: dict(values) for name, values in effects.items()}
+    for key, value in params.items():
+        if key.startswith(prefix):
+            name, parameter = key[len(prefix):].split(":", 1)
+            updated[name][parameter] = value
+    return updated
 
 
 def _explained(before: Comparison, after: Comparison) -> float:
