@@ -557,17 +557,14 @@ def write_sim2real_protocol(source: ReportInput) -> tuple[str, bool]:
 def _sim2real_protocol(source: ReportInput) -> str:
     """The result of every pre-registered protocol version in the store (``conf/experiment/sim2real_v<N>.yaml``),
     beside the physics baseline, with its figure; "" when none has run."""
-    from bearingtwin.tracking.sim2real_protocol import (headline_markdown, plot_headline, protocol_headline,
-                                                        protocol_runs, protocol_versions)
+    from bearingtwin.tracking.sim2real_protocol import headline_markdown, plot_headline, protocol_headline, protocol_versions
 
     paths = OmegaConf.create({"paths": OmegaConf.load(Path(CONF_DIR) / "paths" / "default.yaml")})
     data_root = Path(source.settings.get("data_root") or f"{paths.paths.data_root}/cwru")
-    results = {}
-    for name, version in protocol_versions().items():
-        # The protocol fixes its own sizes: its runs are checked against it, not against the defaults.
-        if not protocol_runs(source.client, source.experiment_id, name):
-            continue  # this version has not run in this store
-        results[version] = protocol_headline(source.client, source.experiment_id, name, data_root)
+    # Each version fixes its own sizes: its runs are checked against it (protocol_runs), not against the defaults.
+    headlines = {version: protocol_headline(source.client, source.experiment_id, name, data_root)
+                 for name, version in protocol_versions().items()}
+    results = {version: result for version, result in headlines.items() if result is not None}  # versions that ran
     if not results:
         return ""
     figure = plot_headline(results, results_path(source.settings, "sim2real.md").with_name("sim2real_protocol.png"))
