@@ -94,6 +94,12 @@ def test_a_key_added_into_a_free_form_map_is_accepted():
     refuse_unknown_keys(train_hydra_node("data=cwru", "+data.fs_by_record.97=48000"))
     refuse_unknown_keys(train_hydra_node("data=twin_to_real", "bearing=cwru_6205", "+data.twin.variants.spin_slip.jitter=[0.1]"))
     refuse_unknown_keys(train_hydra_node("+method=raw_cnn_bilstm", "++seed=3"))  # a group, and a declared key
+    # An experiment fills data.twin.variants in (spin_slip); the map stays free-form beside it.
+    refuse_unknown_keys(train_hydra_node("+experiment=sim2real", "+data.twin.variants.preload.interference_um=[null,20.0]"))
+    with pytest.raises(BearingTwinError, match=r"data.twin.variant.preload.interference_um is not a setting of train"):
+        refuse_unknown_keys(train_hydra_node("+experiment=sim2real", "+data.twin.variant.preload.interference_um=[20.0]"))
+    with pytest.raises(BearingTwinError, match=r"data.twin.duraton is not a setting of train"):
+        refuse_unknown_keys(train_hydra_node("+experiment=sim2real", "+data.twin.duraton=2.0"))
     with pytest.raises(BearingTwinError, match=r"\+data.fs_by_record.97=48000: data.fs_by_record.97 is not a setting of train"):
         refuse_unknown_keys(train_hydra_node("+data.fs_by_record.97=48000"))  # simulated data has no such map
 

@@ -175,10 +175,13 @@ def refuse_unknown_keys(hydra_cfg) -> None:
     """Raise naming a ``+key=value`` override that adds a key no config declares.
 
     Hydra lets ``+`` add any key, so ``+simulator.foo=1`` would be carried along unused. A
-    key may be added only into a free-form map, one the configs declare empty (``{}``, e.g.
-    ``data.fs_by_record``, ``data.twin.variants``); ``+group=option`` selects a config group
-    and is always allowed. ``hydra_cfg`` is a run's (or a sweep job's) ``hydra`` node; the
-    config is composed again without the added keys to see what the configs declare.
+    key may be added only into a free-form map, one a config group declares empty (``{}``, e.g.
+    ``data.fs_by_record``, ``data.twin.variants``), also when an experiment has filled it in
+    (``+experiment=sim2real`` spans ``data.twin.variants.spin_slip``; ``+data.twin.variants.preload...``
+    adds beside it); ``+group=option`` selects a config group and is always allowed. ``hydra_cfg``
+    is a run's (or a sweep job's) ``hydra`` node; the config is composed again without the added
+    keys to see what the configs declare, and with the groups' choices alone (no experiment, no
+    value) to see which maps they declare empty.
     """
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
@@ -189,16 +192,20 @@ def refuse_unknown_keys(hydra_cfg) -> None:
     if not added:
         return
     declared = compose_config(config_name, [o.input_line for o in overrides if o not in added])
+    added_groups = {o.key_or_group for o in overrides if o.is_add() and o.key_or_group in groups}
+    chosen = [f"{group}={choice}" for group, choice in hydra_cfg.runtime.choices.items()
+              if not group.startswith("hydra") and group not in added_groups and isinstance(choice, str)]
+    groups_alone = compose_config(config_name, chosen)
     for override in added:
         key = override.key_or_group
         if OmegaConf.select(declared, key, default=None) is not None:
             continue  # ``++key=`` on a declared key
-        node, parts = declared, key.split(".")
-        for part in parts[:-1]:
-            if not isinstance(node, DictConfig) or part not in node:
-                break
-            node = node[part]
-        if not (isinstance(node, DictConfig) and len(node) == 0):
+        # The deepest existing map the key would go into: free-form if empty as composed, or as the groups declare it.
+        parts = key.split(".")
+        depth = next((i for i in range(len(parts) - 1, 0, -1)
+                      if isinstance(OmegaConf.select(declared, ".".join(parts[:i]), default=None), DictConfig)), 0)
+        maps = [OmegaConf.select(cfg, ".".join(parts[:depth]), default=None) if depth else cfg for cfg in (declared, groups_alone)]
+        if not any(isinstance(node, DictConfig) and len(node) == 0 for node in maps):
             raise BearingTwinError(
                 f"{override.input_line}: {key} is not a setting of {config_name} (no config declares it); "
                 "check its spelling, or set a declared key without '+'"
