@@ -11,12 +11,15 @@ from bearingtwin.tracking.sim2real_protocol import (headline_markdown, plot_head
 
 CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
 TEST_RECORDS = {"12k_Drive_End_IR007_1_106": 0.75, "12k_Drive_End_OR007@6_1_131": 1.0}
+PROTOCOL_WINDOWS = {"sim2real_v1": {"data.window_length": 2048, "data.test.windows_per_record": 50},
+                    "sim2real_v2": {"data.window_length": 4096, "data.test.windows_per_record": 25}}
 
 
 def log_protocol_run(client, experiment_id, seed, accuracy, false_alarm_record, protocol="sim2real_v1"):
     run = client.create_run(experiment_id, tags={"bt.kind": "train", "experiment": protocol})
     run_id = run.info.run_id
-    for key, value in {"seed": seed, "data.bearing": "cwru_6205", "data.calibration.healthy.record": false_alarm_record}.items():
+    for key, value in {"seed": seed, "data.bearing": "cwru_6205", "data.calibration.healthy.record": false_alarm_record,
+                       **PROTOCOL_WINDOWS[protocol], "data.calibration.validation_windows_per_record": 50}.items():
         client.log_param(run_id, key, value)
     metrics = {"accuracy": accuracy, "recall_inner": 0.75, "recall_ball": 0.5, "recall_outer": 1.0,
                "calibration_recall_normal": 0.9 + seed / 100}
@@ -44,8 +47,14 @@ def test_the_headline_reads_every_seed_of_every_version_and_computes_the_physics
     assert "| v1 (day 1) (`+experiment=sim2real_v1`, seeds 0, 1) | 85.0 ± 5.0 |" in table  # mean ± std over the seeds
     assert "| v2 (day 2) (`+experiment=sim2real_v2`, seeds 0) | 95.0 ± 0.0 |" in table
     assert "(record normal_0_97: healthy)" in table
-    assert "| record | true state | v1 windows right % | v2 windows right % | physics says |" in table
-    assert "| 12k_Drive_End_IR007_1_106 | inner | 75.0 ± 0.0 | 75.0 ± 0.0 | inner |" in table
+    # The physics read on the very windows the classifier was scored on: every inner- and outer-race
+    # window of these records shows its defect's lines (measured 25 of 25 each); record 97's windows
+    # are mostly called healthy.
+    assert result.physics_windows["12k_Drive_End_IR007_1_106"] == 1.0 and result.physics_window_recall("outer") == 1.0
+    assert 0.5 < result.physics_windows["normal_0_97"] < 1.0
+    assert "| physics baseline on the windows of v2 (4096 points; envelope analysis, no learning) | 100.0 |" in table
+    assert "| record | true state | v1 windows right % | v2 windows right % | physics windows right % | physics says |" in table
+    assert "| 12k_Drive_End_IR007_1_106 | inner | 75.0 ± 0.0 | 75.0 ± 0.0 | 100 | inner |" in table
     assert plot_headline({"v1": result, "v2": newer}, tmp_path / "headline.png").stat().st_size > 10_000
 
 
