@@ -240,7 +240,9 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
 
     ``variants`` maps effect -> parameter -> list of values, like the effects config it
     overrides (``{spin_slip: {jitter: [0.05, 0.2]}}``); an effect the twin lacks is added
-    with its other parameters at their defaults.
+    with its other parameters at their defaults. A null value leaves the effect out of the
+    combinations that take it (``{preload: {interference_um: [null, 20.0]}}``: the twin as
+    calibrated, and preloaded), so whether an effect is present at all can be spanned too.
     """
     axes = []
     for effect, parameters in (variants or {}).items():
@@ -257,7 +259,11 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
         varied = {name: dict(params) for name, params in effects.items()}
         for (effect, parameter, _), value in zip(axes, values):
             varied.setdefault(effect, {})[parameter] = value
-        label = ",".join(f"{e}.{p}={v:g}" if isinstance(v, float) else f"{e}.{p}={v}" for (e, p, _), v in zip(axes, values))
+        for effect, parameter, _ in axes:
+            if effect in varied and varied[effect].get(parameter, "") is None:
+                del varied[effect]
+        label = ",".join(f"{e}.{p}={v:g}" if isinstance(v, float) else f"{e}=absent" if v is None else f"{e}.{p}={v}"
+                         for (e, p, _), v in zip(axes, values))
         try:  # every combination is checked before the first simulation starts
             build_effects(varied)
         except BearingTwinError as error:
