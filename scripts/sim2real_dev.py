@@ -9,7 +9,9 @@ the ball (118) at 0 hp, are where a candidate change can be judged without looki
 record; record 97's windows show false alarms. For each seed the candidate is trained (its output,
 which scores the test records, is written to the work folder, not printed), registered in a
 temporary MLflow store and applied by ``bearingtwin-diagnose`` to the 0 hp records; the windows
-it gets right are printed per record. Twin simulations are cached in ``BEARINGTWIN_CACHE`` as for
+it gets right are printed per record, and beside them the windows right when a window starts every
+``--hop`` samples (overlapping windows: several times as many readings of the same record, so a
+difference between candidates is less the luck of where the windows fall). Twin simulations are cached in ``BEARINGTWIN_CACHE`` as for
 any training run, so candidates that share a twin simulate it once.
 """
 
@@ -23,6 +25,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from bearingtwin.config import REPO_ROOT
 
 DEV_RECORDS = "*_0_*.mat"  # 105 inner, 118 ball (development), 97 healthy (false alarms), 130 outer (calibration)
@@ -34,6 +38,7 @@ def main() -> int:
     parser.add_argument("--data", default=os.path.join(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data"), "cwru"),
                         help="folder of the CWRU .mat files (default: $BEARINGTWIN_DATA/cwru, as training reads them)")
     parser.add_argument("--work", default=None, help="folder for the store, logs and diagnoses (default: a temporary one)")
+    parser.add_argument("--hop", type=int, default=1024, help="samples between the starts of the dense reading's windows")
     parser.add_argument("overrides", nargs="+", help="bearingtwin-train overrides of the candidate (after --)")
     args = parser.parse_args()
     work = Path(args.work or tempfile.mkdtemp(prefix="sim2real-dev-"))
@@ -55,16 +60,34 @@ def main() -> int:
             if subprocess.run(diagnose, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=work).returncode:
                 print(f"diagnosis failed for seed {seed}: {work / f'diagnose_seed{seed}.log'}", file=sys.stderr)
                 return 1
+        dense = dense_reading(f"models:/dev@seed{seed}", env["MLFLOW_TRACKING_URI"], Path(args.data), args.hop)
         for path in sorted(out.glob("*/diagnosis.json")):
             found = json.loads(path.read_text())
             right = sum(window["state"] == found["true_state"] for window in found["windows"]) / len(found["windows"])
-            rows.append((seed, found["record"], found["true_state"], found["verdict"], right, len(found["windows"])))
+            rows.append((seed, found["record"], found["true_state"], found["verdict"], right, len(found["windows"]),
+                         *dense[Path(found["record"]).stem]))
     print(f"candidate: {' '.join(args.overrides)}")
-    print("seed  record                          true    verdict  windows right")
-    for seed, record, true, verdict, right, n in rows:
-        print(f"{seed:>4}  {record:<30}  {true:<6}  {verdict:<7}  {100 * right:5.1f} % of {n}")
+    print(f"seed  record                          true    verdict  windows right      every {args.hop} samples")
+    for seed, record, true, verdict, right, n, dense_right, dense_n in rows:
+        print(f"{seed:>4}  {record:<30}  {true:<6}  {verdict:<7}  {100 * right:5.1f} % of {n:<4}  {100 * dense_right:5.1f} % of {dense_n}")
     print(f"work folder: {work}")
     return 0
+
+
+def dense_reading(model_uri: str, tracking_uri: str, data: Path, hop: int) -> dict[str, tuple[float, int]]:
+    """Record stem -> (share of windows right, windows) with a window starting every ``hop`` samples,
+    the model's own pipeline applied as a diagnosis applies it."""
+    from bearingtwin.data.cwru import load_cwru, parse_cwru_name
+    from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+
+    _, pipeline = load_diagnosis_model(model_uri, tracking_uri)
+    shares = {}
+    for path in sorted(data.glob(DEV_RECORDS)):
+        recording = load_cwru(path, channel="DE")
+        starts = np.arange(0, recording.signal.size - pipeline.window_length + 1, hop)
+        states, _ = pipeline.predict(recording.signal[starts[:, None] + np.arange(pipeline.window_length)], recording.rpm)
+        shares[path.stem] = (float(np.mean(states == parse_cwru_name(path.name).fault)), len(starts))
+    return shares
 
 
 if __name__ == "__main__":
