@@ -41,6 +41,8 @@ def main() -> int:
     parser.add_argument("--hop", type=int, default=1024, help="samples between the starts of the dense reading's windows")
     parser.add_argument("overrides", nargs="+", help="bearingtwin-train overrides of the candidate (after --)")
     args = parser.parse_args()
+    if args.hop < 1:
+        parser.error(f"--hop must be a positive number of samples, got {args.hop}")
     work = Path(args.work or tempfile.mkdtemp(prefix="sim2real-dev-"))
     work.mkdir(parents=True, exist_ok=True)
     # Training reads the records through paths.data_root: the same folder as the diagnosis.
@@ -77,16 +79,17 @@ def main() -> int:
 def dense_reading(model_uri: str, tracking_uri: str, data: Path, hop: int) -> dict[str, tuple[float, int]]:
     """Record stem -> (share of windows right, windows) with a window starting every ``hop`` samples,
     the model's own pipeline applied as a diagnosis applies it."""
-    from bearingtwin.data.cwru import load_cwru, parse_cwru_name
     from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+    from bearingtwin.diagnosis.record import read_record
 
     _, pipeline = load_diagnosis_model(model_uri, tracking_uri)
     shares = {}
     for path in sorted(data.glob(DEV_RECORDS)):
-        recording = load_cwru(path, channel="DE")
-        starts = np.arange(0, recording.signal.size - pipeline.window_length + 1, hop)
-        states, _ = pipeline.predict(recording.signal[starts[:, None] + np.arange(pipeline.window_length)], recording.rpm)
-        shares[path.stem] = (float(np.mean(states == parse_cwru_name(path.name).fault)), len(starts))
+        prepared = read_record(path, pipeline)
+        signal = prepared.recording.signal
+        starts = np.arange(0, signal.size - pipeline.window_length + 1, hop)
+        states, _ = pipeline.predict(signal[starts[:, None] + np.arange(pipeline.window_length)], prepared.recording.rpm)
+        shares[path.stem] = (float(np.mean(states == prepared.true_state)), len(starts))
     return shares
 
 

@@ -96,6 +96,7 @@ def test_a_key_added_into_a_free_form_map_is_accepted():
     refuse_unknown_keys(train_hydra_node("+method=raw_cnn_bilstm", "++seed=3"))  # a group, and a declared key
     # An experiment fills data.twin.variants in (spin_slip); the map stays free-form beside it.
     refuse_unknown_keys(train_hydra_node("+experiment=sim2real", "+data.twin.variants.preload.interference_um=[null,20.0]"))
+    refuse_unknown_keys(train_hydra_node("+experiment=sim2real", "+data.twin.variants.spin_slip.mean=[0.1]"))  # beside jitter
     with pytest.raises(BearingTwinError, match=r"data.twin.variant.preload.interference_um is not a setting of train"):
         refuse_unknown_keys(train_hydra_node("+experiment=sim2real", "+data.twin.variant.preload.interference_um=[20.0]"))
     with pytest.raises(BearingTwinError, match=r"data.twin.duraton is not a setting of train"):

@@ -338,36 +338,39 @@ def test_variants_simulate_every_state_at_every_value_and_the_value_reaches_the_
     ("data.calibration.validation_windows_per_record=-1", r"data\.calibration\.validation_windows_per_record"),
     ("+data.twin.variants.spinslip.jitter=[0.1]", r"data\.twin\.variants \(spinslip\.jitter=0\.1\): .*unknown effect"),
     ("+data.twin.variants.spin_slip.jitter=[0.1,-0.1]", r"data\.twin\.variants \(spin_slip\.jitter=-0\.1\): .*positive"),
+    ("+data.twin.variants.noise.snr_db=[null,10.0]", r"data\.twin\.variants\.noise: a null leaves the effect out, so it can be "
+                                                      r"the only varied parameter of noise \(got snr_db, spectral_slope\)"),
 ])
 def test_bad_variants_and_validation_settings_name_their_field(report_path, tmp_path, variants, message):
-    cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", f"paths.cache_dir={tmp_path}", variants])
+    extra = ["+data.twin.variants.noise.spectral_slope=[0.0]"] if "noise" in variants else []
+    cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", f"paths.cache_dir={tmp_path}", variants, *extra])
     with pytest.raises(BearingTwinError, match=message):
         build_dataset(cfg)
 
 
 def test_a_null_variant_leaves_the_effect_out_and_a_preload_removes_the_inner_race_sidebands(report_path, tmp_path):
-    """data.twin.variants {preload: {interference_um: [null, 30]}}: the twin as it is, and preloaded. A
+    """data.twin.variants {preload: {interference_um: [null, 20]}} (protocol v3): the twin as it is, and preloaded. A
     preloaded bearing loads every ball all the way round, so an inner-race spall strikes as hard at
     every shaft angle: its shaft-order sidebands around BPFI sink while the BPFI series stays."""
     from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 
     overrides = SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=0", "data.twin.duration=1.0",
                          "data.twin.windows_per_record=4", "data.window_length=4096", f"paths.cache_dir={tmp_path}",
-                         "+data.twin.variants.preload.interference_um=[null,30.0]"]
+                         "+data.twin.variants.preload.interference_um=[null,20.0]"]
     varied = build_dataset(compose_train(overrides))
     twin = [r for r in varied.records if r.startswith(f"{TWIN_PREFIX}inner@")]
     labels = [r[r.index("[") + 1:-1] for r in twin]
-    assert labels == ["preload=absent"] * (len(twin) // 2) + ["preload.interference_um=30"] * (len(twin) // 2)
+    assert labels == ["preload=absent"] * (len(twin) // 2) + ["preload.interference_um=20"] * (len(twin) // 2)
     extractor = EnvelopeOrderFeatures(bearing=dict(compose_train(overrides).bearing), line_measure="prominence",
                                       prewhiten="cepstral")
     lines = {}
-    for label in ("preload=absent", "preload.interference_um=30"):
+    for label in ("preload=absent", "preload.interference_um=20"):
         ids = [i for i, r in enumerate(varied.records) if r.startswith(f"{TWIN_PREFIX}inner@") and r.endswith(f"[{label}]")]
         rows = np.isin(varied.record_ids, ids)
         features = extractor.fit_transform(varied.windows[rows], fs_hz=varied.fs, rpm=varied.window_rpms[rows])
         mean = dict(zip(extractor.feature_names_, features.mean(axis=0)))
         lines[label] = {"bpfi": np.mean([mean[f"{h}xbpfi"] for h in (1, 3)]),
                         "sidebands": np.mean([mean[f"{h}xbpfi{side}"] for h in (1, 3) for side in ("-1x", "+1x")])}
-    free, preloaded = lines["preload=absent"], lines["preload.interference_um=30"]
+    free, preloaded = lines["preload=absent"], lines["preload.interference_um=20"]
     assert preloaded["sidebands"] < free["sidebands"] - 0.3, lines  # measured 0.92 -> -0.01 (log10)
     assert preloaded["bpfi"] > 0.5 and free["bpfi"] > 0.5, lines

@@ -192,7 +192,7 @@ def refuse_unknown_keys(hydra_cfg) -> None:
     if not added:
         return
     declared = compose_config(config_name, [o.input_line for o in overrides if o not in added])
-    added_groups = {o.key_or_group for o in overrides if o.is_add() and o.key_or_group in groups}
+    added_groups = {o.key_or_group for o in overrides if (o.is_add() or o.is_force_add()) and o.key_or_group in groups}
     chosen = [f"{group}={choice}" for group, choice in hydra_cfg.runtime.choices.items()
               if not group.startswith("hydra") and group not in added_groups and isinstance(choice, str)]
     groups_alone = compose_config(config_name, chosen)
@@ -200,11 +200,10 @@ def refuse_unknown_keys(hydra_cfg) -> None:
         key = override.key_or_group
         if OmegaConf.select(declared, key, default=None) is not None:
             continue  # ``++key=`` on a declared key
-        # The deepest existing map the key would go into: free-form if empty as composed, or as the groups declare it.
+        # Free-form: some map on the key's path is empty as composed, or as the groups alone declare it.
         parts = key.split(".")
-        depth = next((i for i in range(len(parts) - 1, 0, -1)
-                      if isinstance(OmegaConf.select(declared, ".".join(parts[:i]), default=None), DictConfig)), 0)
-        maps = [OmegaConf.select(cfg, ".".join(parts[:depth]), default=None) if depth else cfg for cfg in (declared, groups_alone)]
+        maps = [cfg if i == 0 else OmegaConf.select(cfg, ".".join(parts[:i]), default=None)
+                for i in range(len(parts)) for cfg in (declared, groups_alone)]
         if not any(isinstance(node, DictConfig) and len(node) == 0 for node in maps):
             raise BearingTwinError(
                 f"{override.input_line}: {key} is not a setting of {config_name} (no config declares it); "

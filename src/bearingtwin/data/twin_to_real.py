@@ -242,7 +242,10 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
     overrides (``{spin_slip: {jitter: [0.05, 0.2]}}``); an effect the twin lacks is added
     with its other parameters at their defaults. A null value leaves the effect out of the
     combinations that take it (``{preload: {interference_um: [null, 20.0]}}``: the twin as
-    calibrated, and preloaded), so whether an effect is present at all can be spanned too.
+    calibrated, and preloaded), so whether an effect is present at all can be spanned too; it
+    is refused for an effect with more than one varied parameter (the effect absent would be
+    simulated once per value of the other), and a parameter that takes null as a value (noise's
+    ``reference_rms``) is set in the effect's own config, not varied.
     """
     axes = []
     for effect, parameters in (variants or {}).items():
@@ -252,6 +255,9 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
             if not isinstance(values, (list, tuple)) or not values:
                 raise BearingTwinError(f"data.twin.variants.{effect}.{parameter}: need a non-empty list of values, got {values!r}")
             axes.append((effect, parameter, list(values)))
+        if len(parameters) > 1 and any(None in values for values in parameters.values()):
+            raise BearingTwinError(f"data.twin.variants.{effect}: a null leaves the effect out, so it can be the "
+                                   f"only varied parameter of {effect} (got {', '.join(parameters)})")
     if not axes:
         return [("", dict(effects))]
     combinations = []

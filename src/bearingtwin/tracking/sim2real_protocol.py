@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from mlflow import MlflowClient
 
-from bearingtwin.config import CONF_DIR, bearing_config
+from bearingtwin.config import CONF_DIR, bearing_config, compose_config
 from bearingtwin.data.cwru import load_cwru, parse_cwru_name
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.diagnosis.evidence import physics_evidence
@@ -64,6 +64,7 @@ class ProtocolResult:
     physics: dict[str, str]  # test records and the healthy record -> the state its envelope spectrum points to
     physics_windows: dict[str, float]  # the same records -> share of their scored windows the physics calls right
     window_length: int  # points per window the version scores
+    windows_per_record: dict[str, int]  # the same records -> windows scored
     truth: dict[str, str]  # test record -> its state
     healthy_record: str  # the healthy calibration record, scored apart for false alarms
 
@@ -105,7 +106,6 @@ def departure_from_protocol(run, name: str) -> str | None:
     """The first setting ``run`` logged otherwise than protocol ``name`` fixes it, or None. Display settings
     (:data:`~bearingtwin.tracking.mlflow_logging.UNHASHED_KEYS`) do not count, nor locations (values with a
     path separator: the data folder, the calibration reports), which differ between machines."""
-    from bearingtwin.config import compose_config
     from bearingtwin.tracking.mlflow_logging import UNHASHED_KEYS, flatten, loggable_config
 
     seed = run.data.params.get("seed", "0")
@@ -181,10 +181,11 @@ def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_
     if missing:
         raise BearingTwinError(f"the physics baseline reads the test records themselves: {', '.join(missing)} missing")
     bearing = runs[0].data.params.get("data.bearing", "cwru_6205")
-    params = runs[0].data.params
-    window_length = int(params["data.window_length"])
-    windows = {path: int(params["data.test.windows_per_record"]) for path in paths[:-1]}
-    windows[paths[-1]] = int(params["data.calibration.validation_windows_per_record"])
+    # The windows as the protocol cuts them (its runs logged the same: protocol_runs leaves out any other).
+    data = compose_config("train", [f"+experiment={name}"]).data
+    window_length = int(data.window_length)
+    windows = {path: int(data.test.windows_per_record) for path in paths if path.stem != healthy_record}
+    windows[data_root / f"{healthy_record}.mat"] = int(data.calibration.validation_windows_per_record)
     return ProtocolResult(
         experiment=name,
         seeds=[int(run.data.params["seed"]) for run in runs],
@@ -195,6 +196,7 @@ def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_
         physics=physics_baseline(paths, bearing),
         physics_windows=physics_window_baseline(windows, window_length, bearing),
         window_length=window_length,
+        windows_per_record={path.stem: n for path, n in windows.items()},
         truth={record: parse_cwru_name(f"{record}.mat").fault for record in per_record},
         healthy_record=healthy_record,
     )
@@ -215,7 +217,7 @@ def headline_markdown(results: dict[str, ProtocolResult]) -> str:
     newest = list(results.values())[-1]
     scored_alike = {}  # versions scored on the same windows share one physics row
     for version, result in results.items():
-        key = (result.window_length, tuple(sorted(result.physics_windows.items())))
+        key = (result.window_length, tuple(sorted(result.windows_per_record.items())))
         scored_alike.setdefault(key, ([], result))[0].append(version.split(" ")[0])
     for versions, result in scored_alike.values():
         rows.append([f"physics baseline on the windows of {', '.join(versions)} ({result.window_length} points; "
