@@ -246,7 +246,7 @@ def plot_headline(results: dict[str, ProtocolResult], path: Path) -> Path:
     """Per fault type: each version's window recall (mean and spread over seeds) beside the physics baseline."""
     from matplotlib.figure import Figure
 
-    figure = Figure(figsize=(7.5, 3.8))
+    figure = Figure(figsize=(7.5, 4.4))
     axes = figure.subplots()
     x = np.arange(len(FAULT_CLASSES) + 1)
     width = 0.8 / (len(results) + 1)
@@ -261,7 +261,7 @@ def plot_headline(results: dict[str, ProtocolResult], path: Path) -> Path:
     axes.set_xticks(x, [*FAULT_CLASSES, f"healthy {newest.healthy_record}\n(calibration)"])
     axes.set(ylabel="right (%)", ylim=(0, 105), title="Real CWRU records at 1-3 hp, twin-trained classifier vs envelope analysis")
     axes.axhline(90, color="grey", lw=0.7, ls=":")
-    axes.legend(loc="lower left", fontsize=8)
+    axes.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=8, frameon=False)  # clear of the bars
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     return path
