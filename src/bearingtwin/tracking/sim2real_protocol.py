@@ -142,28 +142,20 @@ def _per_record(client: MlflowClient, run_id: str) -> dict[str, float]:
         return {Path(row["record"]).stem: float(row["accuracy"]) for row in csv.DictReader(open(path))}
 
 
-def physics_baseline(records: list[Path], bearing: str, channel: str = "DE") -> dict[str, str]:
-    """Each CWRU record's physics evidence state (whole record, the diagnose defaults)."""
+def physics_baseline(windows_per_record: dict[Path, int], window_length: int, bearing: str,
+                     channel: str = "DE") -> tuple[dict[str, str], dict[str, float]]:
+    """Each CWRU record's physics evidence state (whole record, the diagnose defaults), and the share of
+    its windows whose evidence names the record's state, the windows cut as training cuts its test and
+    validation windows (:func:`cut_windows`). Each record is read once for both."""
     geometry = bearing_config(bearing)
-    states = {}
-    for path in records:
-        recording = load_cwru(path, channel=channel)
-        states[path.stem] = physics_evidence(recording.signal, recording.fs, recording.rpm, geometry).evidence_state
-    return states
-
-
-def physics_window_baseline(windows_per_record: dict[Path, int], window_length: int, bearing: str,
-                            channel: str = "DE") -> dict[str, float]:
-    """Per CWRU record, the share of its windows whose physics evidence names the record's state; the
-    windows are cut as training cuts its test and validation windows (:func:`cut_windows`)."""
-    geometry = bearing_config(bearing)
-    shares = {}
+    states, shares = {}, {}
     for path, n_windows in windows_per_record.items():
         recording = load_cwru(path, channel=channel)
+        states[path.stem] = physics_evidence(recording.signal, recording.fs, recording.rpm, geometry).evidence_state
         windows, _ = cut_windows(recording.signal, window_length, n_windows)
-        states = [physics_evidence(window, recording.fs, recording.rpm, geometry).evidence_state for window in windows]
-        shares[path.stem] = float(np.mean(np.asarray(states) == parse_cwru_name(path.name).fault))
-    return shares
+        window_states = [physics_evidence(window, recording.fs, recording.rpm, geometry).evidence_state for window in windows]
+        shares[path.stem] = float(np.mean(np.asarray(window_states) == parse_cwru_name(path.name).fault))
+    return states, shares
 
 
 def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_root: Path) -> ProtocolResult | None:
@@ -186,6 +178,7 @@ def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_
     window_length = int(data.window_length)
     windows = {path: int(data.test.windows_per_record) for path in paths if path.stem != healthy_record}
     windows[data_root / f"{healthy_record}.mat"] = int(data.calibration.validation_windows_per_record)
+    physics, physics_windows = physics_baseline(windows, window_length, bearing)
     return ProtocolResult(
         experiment=name,
         seeds=[int(run.data.params["seed"]) for run in runs],
@@ -193,8 +186,8 @@ def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_
         recall={state: [run.data.metrics[f"recall_{state}"] for run in runs] for state in FAULT_CLASSES},
         healthy_called_healthy=[run.data.metrics["calibration_recall_normal"] for run in runs],
         per_record=per_record,
-        physics=physics_baseline(paths, bearing),
-        physics_windows=physics_window_baseline(windows, window_length, bearing),
+        physics=physics,
+        physics_windows=physics_windows,
         window_length=window_length,
         windows_per_record={path.stem: n for path, n in windows.items()},
         truth={record: parse_cwru_name(f"{record}.mat").fault for record in per_record},
