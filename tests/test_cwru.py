@@ -139,3 +139,43 @@ def test_shaft_line_of_a_synthetic_record():
     assert not doubled.matches and doubled.implied_fs_hz == pytest.approx(fs, rel=0.01)
     with pytest.raises(BearingTwinError, match="too short"):
         check_sampling_rate(signal[:1000], fs, rpm)
+
+
+def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_path):
+    """The 0.028 in records keep their samples under another number (3001.mat holds X056_DE_time),
+    drive end only, and record no speed: the name's motor load gives the Data Center's nominal speed."""
+    import scipy.io
+
+    samples = np.random.default_rng(0).standard_normal((24000, 1))
+    path = tmp_path / "12k_Drive_End_IR028_2_3003.mat"
+    scipy.io.savemat(path, {"X058_DE_time": samples})
+    recording = load_recording(path)
+    assert (recording.rpm, recording.fault, recording.channel) == (1750.0, "inner", "DE")
+    assert recording.meta["record"] == 3003 and recording.meta["fault_size_in"] == 0.028
+    np.testing.assert_array_equal(recording.signal, samples[:, 0])
+    assert any("X058_*" in note for note in recording.meta["notes"])
+    assert any("1750 rpm" in note and "2 hp" in note for note in recording.meta["notes"])
+    given = load_recording(path, rpm=1747.0)  # a measured speed replaces the nominal one, no contradiction
+    assert given.rpm == 1747.0 and not any("rpm" in note for note in given.meta["notes"])
+    scipy.io.savemat(tmp_path / "3003.mat", {"X058_DE_time": samples})  # the Data Center's own name: no load
+    assert load_recording(tmp_path / "3003.mat").rpm is None
+    with pytest.raises(BearingTwinError, match="3003.mat: no X<nnn>RPM variable and no motor load in the name"):
+        load_cwru(tmp_path / "3003.mat")
+
+
+def test_a_file_holding_two_records_gives_the_one_its_name_names(tmp_path):
+    """The Data Center's 99.mat holds X098_* beside its own X099_*."""
+    import scipy.io
+
+    rng = np.random.default_rng(1)
+    own, other = rng.standard_normal((3000, 1)), rng.standard_normal((5000, 1))
+    variables = {"X098_DE_time": other, "X098RPM": 1772.0, "X099_DE_time": own, "X099_FE_time": own, "X099RPM": 1750.0}
+    for name in ("normal_2_99.mat", "99.mat"):
+        scipy.io.savemat(tmp_path / name, variables)
+        recording = load_recording(tmp_path / name)
+        assert recording.rpm == 1750.0 and recording.meta["record"] == 99
+        np.testing.assert_array_equal(recording.signal, own[:, 0])
+        assert recording.meta["notes"] == ["X098_* in the same file left out: the name gives record 99"]
+    scipy.io.savemat(tmp_path / "baseline.mat", variables)
+    with pytest.raises(BearingTwinError, match=r"baseline.mat: holds the variables of records \[98, 99\] and its name does not say"):
+        load_recording(tmp_path / "baseline.mat")

@@ -239,22 +239,30 @@ def test_bad_models_fail_in_one_line(registered, tmp_path):
 
 
 @needs_cwru
-def test_a_cwru_record_at_48_khz_is_read_at_the_rate_its_shaft_line_implies(registered, tmp_path):
+def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data_center_wrote_them(registered, tmp_path):
     import scipy.io
     import scipy.signal
 
     base, uri = registered
     stored = scipy.io.loadmat(CWRU / "normal_0_97.mat")
     at_48k = scipy.signal.resample_poly(stored["X097_DE_time"][:, 0], 4, 1)  # 97 as if recorded at 48 kHz
-    record = tmp_path / "normal_1_98.mat"  # a healthy baseline name: it states no rate, 12 kHz is declared
+    folder = tmp_path / "records"
+    folder.mkdir()
+    record = folder / "normal_1_98.mat"  # a healthy baseline name: it states no rate, 12 kHz is declared
     scipy.io.savemat(record, {"X098_DE_time": at_48k[:, None], "X098_FE_time": at_48k[:, None], "X098RPM": stored["X097RPM"]})
-    done = run("diagnose", f"path={record}", "model=models:/diag@champion", f"out={tmp_path}/out", "tracking.enabled=false",
+    # Record 105 (0 hp) packaged as the Data Center packages its 0.028 in records: another number, no speed.
+    inner = scipy.io.loadmat(CWRU / "12k_Drive_End_IR007_0_105.mat")
+    scipy.io.savemat(folder / "12k_Drive_End_IR028_0_3001.mat", {"X056_DE_time": inner["X105_DE_time"]})
+    done = run("diagnose", f"path={folder}", "model=models:/diag@champion", f"out={tmp_path}/out", "tracking.enabled=false",
                cwd=tmp_path, uri=uri)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "stands where it belongs at 48000 Hz" in done.stdout and "read at 48000 Hz" in done.stdout
     assert "48000 Hz -> 12000 Hz" in done.stdout
     result = json.loads((tmp_path / "out" / "normal_1_98" / "diagnosis.json").read_text())
     assert result["original_fs"] == 48000.0 and len(result["windows"]) == stored["X097_DE_time"].size // 2048
+    repackaged = json.loads((tmp_path / "out" / "12k_Drive_End_IR028_0_3001" / "diagnosis.json").read_text())
+    assert repackaged["rpm"] == 1797.0 and repackaged["true_state"] == "inner" and repackaged["original_fs"] == 12000.0
+    assert any("nominal speed at 0 hp" in note for note in repackaged["notes"]) and "nominal speed at 0 hp" in done.stdout
 
 
 def test_an_alias_without_a_name_fails_before_any_work(tmp_path):

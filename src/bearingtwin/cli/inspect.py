@@ -46,7 +46,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     raw = read_raw(path)
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
-    rpm = rpm if rpm is not None else raw.rpm
+    rpm_origin = "option" if rpm is not None else ("file" if raw.rpm is not None else (raw.nominal_rpm_from or None))
+    rpm = next((value for value in (rpm, raw.rpm, raw.nominal_rpm) if value is not None), None)
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
     summary = {
@@ -56,6 +57,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "fs_hz": fs_hz,
         "fs_origin": "option" if fs is not None else (raw.fs_origin or None),
         "rpm": rpm,
+        "rpm_origin": rpm_origin,
         "fault": raw.fault,
         "unit": raw.unit or None,
         "n_samples": n_samples,

@@ -32,6 +32,9 @@ DECLARED_FS_HZ = 12000.0
 
 STATES = {"normal": "normal", "IR": "inner", "B": "ball", "OR": "outer"}
 
+NOMINAL_RPM_BY_LOAD_HP = {0: 1797.0, 1: 1772.0, 2: 1750.0, 3: 1730.0}
+"""Motor speed by motor load in the Data Center's tables: the speed of a file that records none."""
+
 _VARIABLE = re.compile(r"^X(\d+)_(DE|FE|BA)_time$")
 _NAME = re.compile(
     r"^(?:(?P<rate>\d+k)_(?P<end>Drive|Fan)_End_(?P<state>IR|B|OR)(?P<size>\d{3})(?:@(?P<position>\d+))?"
@@ -73,26 +76,51 @@ def is_cwru_mat(variables: dict) -> bool:
     return any(_VARIABLE.match(name) for name in variables)
 
 
-def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
-    """The DE / FE / BA channels and measured speed of a loaded CWRU .mat file."""
-    path = Path(path)
-    channels, records = {}, set()
-    for name, value in variables.items():
-        match = _VARIABLE.match(name)
-        if match:
-            records.add(int(match[1]))
-            channels[match[2]] = np.asarray(value, dtype=np.float64).reshape(-1)
-    if len(records) != 1:
-        raise BearingTwinError(f"{path}: holds variables of records {sorted(records)}; expected one record per file")
-    record = records.pop()
+def record_in_name(path: str | Path) -> int | None:
+    """The record number a CWRU file's name gives: the project's long form (``..._0_130.mat``) or
+    the Data Center's own (``130.mat``); None for any other name."""
     name = parse_cwru_name(path)
-    if name is not None and name.record != record:
-        raise BearingTwinError(f"{path}: the file name says record {name.record} but its variables are X{record:03d}_*")
+    if name is not None:
+        return name.record
+    stem = Path(path).stem
+    return int(stem) if stem.isdigit() else None
+
+
+def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
+    """The DE / FE / BA channels and measured speed of a loaded CWRU .mat file.
+
+    The Data Center's files are not all packaged alike, and what a reader does about each is said in
+    the record's ``meta["notes"]``: the 0.028 in records keep their samples under another number
+    (``3001.mat`` holds ``X056_DE_time``) and state no speed, so the speed is the Data Center's
+    nominal one for the motor load the name gives; some files hold a second record's variables
+    (``99.mat`` holds ``X098_*`` too), and the one the name gives is read.
+    """
+    path = Path(path)
+    by_record: dict[int, dict[str, np.ndarray]] = {}
+    for variable, value in variables.items():
+        match = _VARIABLE.match(variable)
+        if match:
+            by_record.setdefault(int(match[1]), {})[match[2]] = np.asarray(value, dtype=np.float64).reshape(-1)
+    named, notes = record_in_name(path), []
+    if len(by_record) == 1:
+        record = next(iter(by_record))
+        if named is not None and named != record:
+            notes.append(f"its variables are X{record:03d}_*, not the name's record {named} (as the Data Center packaged it)")
+    elif named in by_record:
+        record = named
+        others = ", ".join(f"X{other:03d}_*" for other in sorted(by_record) if other != named)
+        notes.append(f"{others} in the same file left out: the name gives record {named}")
+    else:
+        raise BearingTwinError(f"{path}: holds the variables of records {sorted(by_record)} and its name does not say "
+                               "which is its own (name it <record>.mat)")
     rpm_names = [n for n in variables if re.fullmatch(rf"X0*{record}RPM", n)]
     rpm = float(np.asarray(variables[rpm_names[0]]).reshape(-1)[0]) if rpm_names else None
-    meta = {"record": record}
+    name = parse_cwru_name(path)
+    nominal_rpm = None if name is None or rpm is not None else NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp)
+    meta = {"record": record if named is None else named, "notes": notes}
     if name is not None:
         meta.update(load_hp=name.load_hp, fault_size_in=name.fault_size_in, position=name.position)
+    channels = by_record[record]
     return RawRecord(
         str(path),
         "cwru-mat",
@@ -100,6 +128,8 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         fs=DECLARED_FS_HZ if name is None or name.rate_hz is None else name.rate_hz,
         fs_origin="declared",  # a convention of the data set (the name's 12k / 48k at best), checked, not measured
         rpm=rpm,
+        nominal_rpm=nominal_rpm,
+        nominal_rpm_from=f"the Data Center's nominal speed at {name.load_hp} hp (no X{record:03d}RPM variable)" if nominal_rpm else "",
         fault=None if name is None else name.fault,
         unit="g",
         meta=meta,
@@ -139,7 +169,9 @@ def load_cwru(
         raise BearingTwinError(f"{path}: not a CWRU record (no X<nnn>_DE_time / _FE_time / _BA_time variables)")
     recording = recording_from_raw(raw, channel=channel, fs=fs)
     if recording.rpm is None:
-        raise BearingTwinError(f"{path}: no X<nnn>RPM variable, so the speed is unknown")
+        raise BearingTwinError(f"{path}: no X<nnn>RPM variable and no motor load in the name, so the speed is unknown")
+    for note in recording.meta["notes"]:
+        log.warning("%s: %s", path, note)
     defect_hz = None if bearing is None else bearing.defect_frequencies(recording.rpm)
     checks = {
         name: check_sampling_rate(values, recording.fs, recording.rpm, defect_hz=defect_hz, tolerance=tolerance,

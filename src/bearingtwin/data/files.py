@@ -52,6 +52,8 @@ class RawRecord:
             a ``declared`` rate is a convention about the data set, not a measurement, so a
             user's value replaces it instead of contradicting it.
         rpm: shaft speed the file declares (None when unknown).
+        nominal_rpm: the speed the data set's tables give for the file's operating condition, used
+            when neither the file nor the user states one; ``nominal_rpm_from`` says where it is from.
         fault: bearing state the file or its name declares (None when unknown).
         unit: physical unit of the channels, when known.
         meta: anything else read from the file or its name.
@@ -64,6 +66,8 @@ class RawRecord:
     fs: float | None = None
     fs_origin: str = ""
     rpm: float | None = None
+    nominal_rpm: float | None = None
+    nominal_rpm_from: str = ""
     fault: str | None = None
     unit: str = ""
     meta: dict = field(default_factory=dict)
@@ -147,15 +151,20 @@ def recording_from_raw(
     # a given rate replaces a merely declared one, or fills in a missing one.
     fs_origin = raw.fs_origin if fs is None or (raw.fs is not None and raw.fs_origin != "declared") else "config"
     name, signal = raw.channel(channel, channel_key)
+    rpm = _resolve_fact(raw, "rpm", raw.rpm, rpm)
+    notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
+    if rpm is None and raw.nominal_rpm is not None:
+        rpm = raw.nominal_rpm
+        notes.append(f"speed {rpm:g} rpm: {raw.nominal_rpm_from}")
     return Recording(
         signal=signal,
         fs=resolve_fs(raw, fs),
-        rpm=_resolve_fact(raw, "rpm", raw.rpm, rpm),
+        rpm=rpm,
         fault=_resolve_fact(raw, "fault", raw.fault, fault),
         source=raw.path,
         channel=name,
         unit=raw.unit,
-        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin),
+        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, notes=notes),
     )
 
 

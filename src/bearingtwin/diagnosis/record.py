@@ -56,9 +56,10 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     """
     raw = read_raw(path)
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm)
-    notes = []
+    notes = list(recording.meta["notes"])
     if recording.rpm is not None:
-        recording, notes = _checked_rate(recording, pipeline.bearing, declared_only=fs is None and raw.fs_origin == "declared")
+        recording, rate_notes = _checked_rate(recording, pipeline.bearing, declared_only=fs is None and raw.fs_origin == "declared")
+        notes += rate_notes
     if true_state is not None:
         true_state = check_fault(true_state)
     else:  # what the file's name (CWRU) or content states
