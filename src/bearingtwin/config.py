@@ -83,7 +83,9 @@ def hydra_command(config_name: str) -> Callable:
     Hydra reports an override it cannot compose (an unknown config group option, a key no config
     declares, an unreadable value) over several lines and exits 1, from inside ``hydra.main``
     where an entry point cannot catch it. So the command line is composed here first, as Hydra
-    is about to compose it, and such a mistake ends the command with one line and exit status 2.
+    is about to compose it, and such a mistake ends the command with one line and exit status 2;
+    so does a single run's ``+key`` no config declares (:func:`refuse_unknown_keys`), before Hydra
+    starts the run's callbacks (MLflow's) and the task imports its libraries.
     Everything else (``--help``, ``--cfg``, ``-m``, the task's own errors) is Hydra's as before.
     """
 
@@ -93,7 +95,7 @@ def hydra_command(config_name: str) -> Callable:
         @functools.wraps(task)
         def command(cfg_passthrough: DictConfig | None = None):
             if cfg_passthrough is None:  # run as a command: the overrides are on the command line
-                exit_on_user_error(refuse_uncomposable_overrides)(config_name, sys.argv[1:])
+                exit_on_user_error(refuse_bad_overrides)(config_name, sys.argv[1:])
             return hydra_main(cfg_passthrough)
 
         return command
@@ -101,8 +103,9 @@ def hydra_command(config_name: str) -> Callable:
     return decorate
 
 
-def refuse_uncomposable_overrides(config_name: str, argv: list[str]) -> None:
-    """Compose the config ``argv`` asks for, in the mode Hydra will run it, raising Hydra's composition error.
+def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
+    """Compose the config ``argv`` asks for, in the mode Hydra will run it, raising Hydra's composition error
+    (and, for a single run, the :class:`BearingTwinError` of a ``+key`` no config declares).
 
     Left to Hydra: its help and information flags, which compose nothing or report their own
     way, and another config folder (``--config-path``, ``--config-dir``), which this check would
@@ -123,11 +126,13 @@ def refuse_uncomposable_overrides(config_name: str, argv: list[str]) -> None:
         try:
             # As Hydra's _run_hydra: -m, or else the config's hydra.mode; --cfg shows a run's config.
             mode = RunMode.MULTIRUN if args.multirun else (None if args.cfg else app.get_mode(name, args.overrides))
-            app.compose_config(name, list(args.overrides), run_mode=mode or RunMode.RUN)
+            cfg = app.compose_config(name, list(args.overrides), run_mode=mode or RunMode.RUN)
         except COMPOSITION_ERRORS:
             raise
         except Exception:  # not a composition error: Hydra meets it again when it composes, and reports it
             return
+        if mode != RunMode.MULTIRUN:  # a sweep's jobs are checked by SweepParentRun, each with its own values
+            refuse_unknown_keys(cfg.hydra)
 
 
 def compose_config(config_name: str | None = None, overrides=()) -> DictConfig:

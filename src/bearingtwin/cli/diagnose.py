@@ -13,20 +13,25 @@ from __future__ import annotations
 import os
 import sys
 from collections import Counter
+from typing import TYPE_CHECKING
 
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
-from bearingtwin.diagnosis.run import DiagnosisRun, diagnose_paths
 from bearingtwin.tracking.lifecycle import stop_cleanly
+
+if TYPE_CHECKING:
+    from bearingtwin.diagnosis.run import DiagnosisRun
 
 
 @hydra_command("diagnose")
 @exit_on_user_error
 def diagnose(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
+    from bearingtwin.diagnosis.run import diagnose_paths  # MLflow and the models once the input is accepted
+
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")  # one bar: over the files
     run = diagnose_paths(cfg)
     print(closing_summary(f"bearingtwin-diagnose: {cfg.path} with {cfg.model}", diagnosis_lines(run), run.run_id,

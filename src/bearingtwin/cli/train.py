@@ -24,15 +24,14 @@ import os
 import sys
 
 from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.models.experiment import run_experiment
 from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
-from bearingtwin.tracking.mlflow_logging import TrackedRun, method_name, run_name, sweep_info, train_tracked
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +46,7 @@ def show_progress_bar(setting, in_sweep: bool) -> bool:
     return not in_sweep and sys.stderr.isatty() and not os.environ.get("CI")
 
 
-def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str) -> str:
+def training_summary(name: str, tracked, tracking_uri: str, out: str) -> str:
     """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one)."""
     metrics = tracked.metrics
     lines = {"accuracy": percent(metrics["accuracy"])}
@@ -65,13 +64,19 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
 @hydra_command("train")
 def train(cfg: DictConfig) -> float | None:
     hydra_cfg = HydraConfig.get()
-    sweep = sweep_info(hydra_cfg)
-    cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(cfg.trainer.get("progress_bar", "auto"), sweep is not None)
-    choices = dict(hydra_cfg.runtime.choices)
-    output_dir = hydra_cfg.runtime.output_dir
-    if sweep is None:  # a sweep checks every job's before the first starts (SweepParentRun)
+    in_sweep = hydra_cfg.mode == RunMode.MULTIRUN
+    cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(cfg.trainer.get("progress_bar", "auto"), in_sweep)
+    if not in_sweep:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
         exit_on_user_error(require_files)([cfg])
+    # MLflow, scikit-learn and the models once the input is accepted: a refusal takes a second, not several.
+    from bearingtwin.models.experiment import run_experiment
+    from bearingtwin.tracking.mlflow_logging import method_name, run_name, sweep_info, train_tracked
+
+    sweep = sweep_info(hydra_cfg)
+    choices = dict(hydra_cfg.runtime.choices)
+    output_dir = hydra_cfg.runtime.output_dir
+    if sweep is None:
         tracked = exit_on_user_error(train_tracked)(cfg, choices, None, output_dir, run_experiment)
     else:
         watch_sweep_process()

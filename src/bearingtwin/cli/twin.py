@@ -9,6 +9,7 @@ PNG figures beside it; logs them to MLflow unless tracking.enabled=false.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
@@ -16,8 +17,9 @@ from omegaconf import DictConfig
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.tracking.lifecycle import stop_cleanly
-from bearingtwin.twin.rank import TwinFit
-from bearingtwin.twin.report import run_twin
+
+if TYPE_CHECKING:
+    from bearingtwin.twin.rank import TwinFit
 
 
 def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str | None) -> str:
@@ -41,6 +43,8 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
 @exit_on_user_error
 def twin(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
+    from bearingtwin.twin.report import run_twin  # MLflow and the simulator once the input is accepted
+
     fit, files, run_id = run_twin(cfg)
     print(fit.summary)
     print(twin_summary(cfg, fit, files, run_id))

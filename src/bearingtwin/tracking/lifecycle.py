@@ -25,11 +25,10 @@ import sys
 import threading
 import time
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-from mlflow import MlflowClient
-from mlflow.entities import RunStatus
-from mlflow.exceptions import MlflowException
+if TYPE_CHECKING:  # MLflow is imported where a run is closed: a command refusing its input need not load it
+    from mlflow import MlflowClient
 
 log = logging.getLogger(__name__)
 
@@ -77,6 +76,10 @@ def close_open_runs(status: str) -> list[str]:
     Returns ``"<label> <run id>"`` for each run closed; a store that cannot be reached is
     logged and skipped, so one dead connection does not keep the others open.
     """
+    if not _open_runs:  # a command that ended before opening a run (a refused input) need not load MLflow
+        return []
+    from mlflow.exceptions import MlflowException
+
     closed = []
     for run in reversed(_open_runs):
         try:
@@ -162,12 +165,12 @@ def stop_cleanly(entry_point: Callable) -> Callable:
             # A second signal while closing the runs must not leave half of them open.
             signal.signal(signal.SIGINT, signal.SIG_IGN)
             signal.signal(signal.SIGTERM, signal.SIG_IGN)
-            closed = close_open_runs(RunStatus.to_string(RunStatus.KILLED))
+            closed = close_open_runs("KILLED")
             what = f"marked KILLED: {', '.join(closed)}" if closed else "no run was open"
             print(f"interrupted by {signal.Signals(signum).name}; {what}", file=sys.stderr)
             sys.exit(128 + signum)
         except BaseException:
-            close_open_runs(RunStatus.to_string(RunStatus.FAILED))
+            close_open_runs("FAILED")
             raise
 
     return wrapped
@@ -197,7 +200,7 @@ def reap_dead_runs(client: MlflowClient, experiment_id: str) -> list[str]:
     for run in running:
         pid = run.data.tags.get(PID_TAG, "")
         if pid.isdigit() and not _process_alive(int(pid)):
-            client.set_terminated(run.info.run_id, RunStatus.to_string(RunStatus.KILLED))
+            client.set_terminated(run.info.run_id, "KILLED")
             client.set_tag(run.info.run_id, "bt.killed", f"process {pid} on {host} ended without closing the run")
             reaped.append(run.info.run_id)
     if reaped:
@@ -225,7 +228,7 @@ def watch_sweep_process(poll_s: float = 1.0) -> None:
     def watch():
         while os.getppid() == int(sweep_pid):
             time.sleep(poll_s)
-        close_open_runs(RunStatus.to_string(RunStatus.KILLED))
+        close_open_runs("KILLED")
         os._exit(128 + signal.SIGTERM)
 
     threading.Thread(target=watch, name="bearingtwin-sweep-watch", daemon=True).start()
