@@ -33,7 +33,7 @@ needs_record = pytest.mark.skipif(not RECORD.is_file(), reason=f"CWRU record {RE
 
 MODEL_NAME = "served"
 MODEL_ALIAS = "champion"
-# Smallest runs (SMOKE) of the proposed CNN-BiLSTM and the SVM: two classifier files (network.pt, svm.skops).
+# Smallest runs (SMOKE) of the proposed CNN-BiLSTM and the SVM: two classifier files (network.pt, svm.json + svm.npz).
 # Models whose features need rpm (features=envelope_orders) only train on data=twin_to_real, too slow here.
 CASES = {"cnn_bilstm": ["trainer.max_epochs=2"], "svm": ["classifier=svm"]}
 

@@ -24,7 +24,7 @@ from bearingtwin.tracking.provenance import installed_versions
 
 ARTIFACT_PATH = "model"
 STATE_COLUMN = "state"
-RUNTIME_PACKAGES = ("bearingtwin", "numpy", "scipy", "pandas", "scikit-learn", "skops", "torch", "lightning", "mlflow")
+RUNTIME_PACKAGES = ("bearingtwin", "numpy", "scipy", "pandas", "scikit-learn", "torch", "lightning", "mlflow")
 
 
 class DiagnosisModel(PythonModel):

@@ -12,7 +12,8 @@ It is saved as plain, inspectable files, nothing from the training data or the c
   and its hash;
 - ``network.pt`` (CNN-BiLSTM): the network's ``state_dict``, loadable on a CPU without a
   Lightning Trainer, beside the feature scaler's statistics in ``pipeline.json``;
-- ``svm.skops`` (SVM): the fitted scikit-learn objects in skops' format.
+- ``svm.json`` and ``svm.npz`` (SVM): the fitted scikit-learn objects' state, structure and
+  arrays (:mod:`bearingtwin.models.persistence`).
 """
 
 from __future__ import annotations
@@ -170,10 +171,9 @@ def _save_classifier(classifier, folder: Path) -> dict:
     from bearingtwin.models.svm import SvmClassifier
 
     if isinstance(classifier, SvmClassifier):  # before the network's module is imported: an SVM run need not
-        import skops.io
+        from bearingtwin.models.persistence import save_estimator
 
-        skops.io.dump(classifier, folder / "svm.skops")
-        return {"kind": "svm", "file": "svm.skops"}
+        return {"kind": "svm", "files": save_estimator(classifier, folder / "svm")}
     from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 
     if isinstance(classifier, CnnBiLstmClassifier):
@@ -186,11 +186,9 @@ def _load_classifier(state: dict, folder: Path):
         from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 
         return CnnBiLstmClassifier.load(folder / "network.pt", state)
-    import skops.io
+    if "files" not in state:  # an earlier version's svm.skops
+        raise BearingTwinError(f"{folder}: the SVM was saved in skops' format by an earlier version of bearingtwin; "
+                               "train the model again to diagnose with it")
+    from bearingtwin.models.persistence import load_estimator
 
-    path = folder / state["file"]
-    # skops trusts only what it knows; ours and scikit-learn's private calibration helpers are added by name, nothing else.
-    trusted = [name for name in skops.io.get_untrusted_types(file=path)
-               if name == "bearingtwin.models.svm.SvmClassifier" or name.startswith("sklearn.")]
-    return skops.io.load(path, trusted=trusted)
-
+    return load_estimator(folder / "svm")
