@@ -52,3 +52,15 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ["BEARINGTWIN_CACHE"] = os.path.join(_session_dir, "cache")
 os.environ["MLFLOW_TRACKING_URI"] = "sqlite:///" + os.path.join(_session_dir, "mlflow.db")
+
+
+# The longest files first (longest processing time first): with ``--dist loadfile`` a file is one unit of
+# work, handed out in collection order, and a long file collected last (the README's commands, alphabetically
+# near the end) would run alone on one worker while the other sat idle.
+LONGEST_FIRST = ("test_readme_commands.py", "test_report.py", "test_diagnose.py", "test_twin_to_real.py",
+                 "test_tracking_server.py", "test_ray_launcher.py", "test_serve.py")
+
+
+def pytest_collection_modifyitems(items):
+    rank = {name: position for position, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: each file's own order is kept

@@ -13,6 +13,10 @@ Paths are the documents' own with two substitutions: ``/tmp/`` becomes the test'
 not present is skipped, naming it. Commands that are not bearingtwin's (install, the test
 suite itself, a server) are listed in ``NOT_RUN`` with the reason; any other command fails
 the test, so a new kind of example cannot go unchecked.
+
+By default the README's commands run, and the guide's are checked as their commands check their
+input before any work (each composes, every key and config group exists, a report takes its
+settings): a renamed setting fails here in seconds. ``-m slow`` runs the guide's commands too.
 """
 
 from __future__ import annotations
@@ -169,9 +173,34 @@ def related(first: list[Path], second: list[Path], workdir: Path) -> bool:
     return any(near(a, b) for a in first for b in second)
 
 
-def test_every_documented_command_runs_as_written(tmp_path):
-    documented = [(document, command) for document in DOCUMENTS for command in document_commands(document)]
-    assert {document for document, command in documented if command.startswith("bearingtwin-train")} == set(DOCUMENTS)
+def test_every_guide_command_is_accepted_as_written():
+    """What each command checks before it works: the config its overrides compose, no key that no config
+    declares, a report's name and settings."""
+    from bearingtwin.config import refuse_bad_overrides
+    from bearingtwin.tracking.reports import check_report_settings
+
+    checked = []
+    for written in document_commands("docs/guide.md"):
+        if any(written.startswith(prefix) for prefix in NOT_RUN) or written.startswith(SHELL_COMMANDS):
+            continue
+        name, *args = shlex.split(written)
+        assert name.startswith("bearingtwin-"), f"docs/guide.md: {written!r} is neither bearingtwin's nor in NOT_RUN"
+        name = name.removeprefix("bearingtwin-")
+        if name == "report":
+            check_report_settings(args[0], dict(arg.split("=", 1) for arg in args[1:]))
+        else:
+            refuse_bad_overrides(name, args)
+        checked.append(written)
+    assert len(checked) >= 10, checked
+
+
+@pytest.mark.parametrize("documents", [
+    pytest.param(DOCUMENTS[:1], id="readme"),
+    pytest.param(DOCUMENTS, id="readme_and_guide", marks=pytest.mark.slow),
+])
+def test_every_documented_command_runs_as_written(tmp_path, documents):
+    documented = [(document, command) for document in documents for command in document_commands(document)]
+    assert {document for document, command in documented if command.startswith("bearingtwin-train")} == set(documents)
     root = data_root()
     uri = f"sqlite:///{tmp_path}/mlflow.db"
     env = {**os.environ, "MLFLOW_TRACKING_URI": uri}

@@ -370,16 +370,22 @@ def default_sizes() -> dict[str, float]:
     return defaults
 
 
-def run_report(name: str, settings: dict[str, str]) -> Report:
-    """Build report ``name`` from the store, write it to ``out`` (default ``results/<name>.md``) and log it."""
+def check_report_settings(name: str, settings: dict[str, str]) -> None:
+    """Raise naming an unknown report, a setting it does not take, or a ``force`` that is not true or false."""
     if name not in REPORTS:
         raise BearingTwinError(f"unknown report {name!r}; choose one of {', '.join(sorted(REPORTS))}")
-    function, keys = REPORTS[name]
+    keys = REPORTS[name][1]
     unknown = set(settings) - set(COMMON_KEYS) - set(keys)
     if unknown:
         raise BearingTwinError(f"{name} does not take {', '.join(sorted(unknown))}; it takes {', '.join(COMMON_KEYS + keys)}")
     if settings.get("force", "false") not in ("true", "false"):
         raise BearingTwinError(f"force={settings['force']!r}: give force=true or force=false")
+
+
+def run_report(name: str, settings: dict[str, str]) -> Report:
+    """Build report ``name`` from the store, write it to ``out`` (default ``results/<name>.md``) and log it."""
+    check_report_settings(name, settings)
+    function, _ = REPORTS[name]
     tracking = default_tracking()
     settings = {"uri": tracking["uri"], "experiment": tracking["experiment"], **settings}
     client, experiment_id = open_store(OmegaConf.create({**tracking, "uri": settings["uri"], "experiment": settings["experiment"]}))
