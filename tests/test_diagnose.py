@@ -3,6 +3,7 @@ evidence, and ``bearingtwin-diagnose`` end to end on real CWRU records and gener
 
 import csv
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -263,6 +264,14 @@ def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data
     repackaged = json.loads((tmp_path / "out" / "12k_Drive_End_IR028_0_3001" / "diagnosis.json").read_text())
     assert repackaged["rpm"] == 1797.0 and repackaged["true_state"] == "inner" and repackaged["original_fs"] == 12000.0
     assert any("nominal speed at 0 hp" in note for note in repackaged["notes"]) and "nominal speed at 0 hp" in done.stdout
+    # Scored against the names, beside the envelope analysis alone on the same records, by defect size.
+    assert repackaged["fault_size_in"] == 0.028 and repackaged["physics_correct"]  # record 105's clear BPFI series
+    rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
+    assert rows["12k_Drive_End_IR028_0_3001"]["fault_size_in"] == "0.028" and rows["normal_1_98"]["fault_size_in"] == ""
+    assert {row["physics_correct"] for row in rows.values()} <= {"True", "False"}
+    assert "physics alone right: " in done.stdout
+    by_size = re.search(r"records right by fault size \(model, physics\): normal [01]/1, [01]/1; 0.028 in [01]/1, 1/1", done.stdout)
+    assert by_size is not None, done.stdout
 
 
 def test_an_alias_without_a_name_fails_before_any_work(tmp_path):

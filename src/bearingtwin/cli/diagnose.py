@@ -51,12 +51,30 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     if run.scores:
         lines["records right"] = f"{percent(run.scores['accuracy_records'])} of {run.scores['n_scored']} with a known state"
         lines["windows right"] = percent(run.scores["accuracy_windows"])
+    if "accuracy_records_physics" in run.scores:
+        lines["physics alone right"] = f"{percent(run.scores['accuracy_records_physics'])} of the same records"
+    by_size = records_right_by_size(diagnosed)
+    if by_size:
+        lines["records right by fault size (model, physics)"] = by_size
     disagreements = [row["record"] for row in diagnosed if row.get("agree") is False]
     if disagreements:
         lines["model and physics disagree on"] = ", ".join(disagreements)
     if run.failures:
         lines["could not be diagnosed"] = ", ".join(run.failures)
     return lines
+
+
+def records_right_by_size(rows: list[dict]) -> str:
+    """``normal 1/1, 1/1; 0.007 in 4/4, 3/4; 0.014 in ...`` when the names give defect sizes ("" when none does);
+    a record without one is grouped under its true state."""
+    if not any("fault_size_in" in row for row in rows):
+        return ""
+    groups: dict[str, list[dict]] = {}
+    for row in sorted((row for row in rows if "correct" in row), key=lambda row: row.get("fault_size_in", 0.0)):
+        groups.setdefault(f"{row['fault_size_in']:.3f} in" if "fault_size_in" in row else row["true_state"], []).append(row)
+    return "; ".join(f"{name} {sum(row['correct'] for row in group)}/{len(group)}, "
+                     f"{sum(row.get('physics_correct', False) for row in group)}/{len(group)}"
+                     for name, group in groups.items())
 
 
 main = stop_cleanly(diagnose)  # a signal marks the MLflow run KILLED, never left RUNNING

@@ -166,10 +166,14 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "original_fs": prepared.original_fs,
         "notes": prepared.notes,
     }
+    if recording.meta.get("fault_size_in") is not None:  # a CWRU name's defect size, to score by size
+        result["fault_size_in"] = recording.meta["fault_size_in"]
     if prepared.true_state is not None:
         result["true_state"] = prepared.true_state
         result["correct"] = bool(verdict == prepared.true_state)
         result["windows_correct"] = int(np.sum(states == prepared.true_state))
+        if evidence is not None:
+            result["physics_correct"] = bool(evidence.evidence_state == prepared.true_state)
     return result, evidence
 
 

@@ -25,7 +25,7 @@ from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diag
 from bearingtwin.errors import BearingTwinError
 
 SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree")
-TRUTH_COLUMNS = ("true_state", "correct")
+TRUTH_COLUMNS = ("true_state", "correct", "physics_correct")
 
 
 @dataclass
@@ -95,8 +95,10 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
             progress.write(f"{result['record']}: {note}")
         progress.write(one_line(result))
         row = {name: result[name] for name in SUMMARY_COLUMNS}
+        if "fault_size_in" in result:
+            row["fault_size_in"] = result["fault_size_in"]
         if "true_state" in result:
-            row.update(true_state=result["true_state"], correct=result["correct"])
+            row.update({name: result[name] for name in TRUTH_COLUMNS if name in result})
             windows_total += len(result["windows"])
             windows_correct += result["windows_correct"]
         run.rows.append(row)
@@ -104,6 +106,9 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     if scored:
         run.scores = {"accuracy_records": sum(row["correct"] for row in scored) / len(scored),
                       "accuracy_windows": windows_correct / windows_total, "n_scored": len(scored)}
+    with_physics = [row for row in scored if "physics_correct" in row]
+    if with_physics:  # the envelope analysis alone, on the same records: what the model must beat
+        run.scores["accuracy_records_physics"] = sum(row["physics_correct"] for row in with_physics) / len(with_physics)
     if len(records) > 1 or run.failures:
         run.files.append(write_summary(run.rows, out / "summary.csv"))
     if cfg.tracking.enabled:
@@ -113,6 +118,8 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
 
 def write_summary(rows: list[dict], path: Path) -> Path:
     columns = list(SUMMARY_COLUMNS)
+    if any("fault_size_in" in row for row in rows):
+        columns.append("fault_size_in")
     if any("true_state" in row for row in rows):
         columns += TRUTH_COLUMNS
     if any("error" in row for row in rows):
