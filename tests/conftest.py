@@ -55,8 +55,9 @@ os.environ["MLFLOW_TRACKING_URI"] = "sqlite:///" + os.path.join(_session_dir, "m
 
 
 # The longest files first (longest processing time first): with ``--dist loadfile`` a file is one unit of
-# work, handed out in collection order, and a long file collected last (the README's commands, alphabetically
-# near the end) would run alone on one worker while the other sat idle.
+# work, handed out in collection order (``--no-loadscope-reorder`` in pyproject.toml: xdist would otherwise put
+# the files with most tests first), and a long file handed out last (the README's commands: two tests) would
+# run alone on one worker while the other sat idle.
 LONGEST_FIRST = ("test_readme_commands.py", "test_report.py", "test_diagnose.py", "test_twin_to_real.py",
                  "test_tracking_server.py", "test_ray_launcher.py", "test_serve.py")
 

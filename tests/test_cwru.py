@@ -177,5 +177,8 @@ def test_a_file_holding_two_records_gives_the_one_its_name_names(tmp_path):
         np.testing.assert_array_equal(recording.signal, own[:, 0])
         assert recording.meta["notes"] == ["X098_* in the same file left out: the name gives record 99"]
     scipy.io.savemat(tmp_path / "baseline.mat", variables)
-    with pytest.raises(BearingTwinError, match=r"baseline.mat: holds the variables of records \[98, 99\] and its name does not say"):
+    with pytest.raises(BearingTwinError, match=r"baseline.mat: holds the variables of records \[98, 99\] and its name names none"):
         load_recording(tmp_path / "baseline.mat")
+    scipy.io.savemat(tmp_path / "normal_0_97.mat", variables)
+    with pytest.raises(BearingTwinError, match=r"normal_0_97.mat: .* its name names record 97, which is not among them"):
+        load_recording(tmp_path / "normal_0_97.mat")

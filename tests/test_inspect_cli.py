@@ -73,3 +73,17 @@ def test_runs_as_a_module_with_hydra_overrides_and_a_help_text():
     assert done.returncode == 2 and "no_data_line.xls: no line reading 'Data'" in done.stderr
     usage = subprocess.run([sys.executable, "-m", "bearingtwin.cli.inspect", "--help"], capture_output=True, text=True)
     assert usage.returncode == 0 and "Usage: bearingtwin-inspect path=<file> [bearing=<name>]" in usage.stdout
+
+
+def test_a_cwru_file_without_a_speed_reports_the_nominal_one_and_where_it_is_from(capsys, monkeypatch, tmp_path):
+    import scipy.io
+
+    path = tmp_path / "12k_Drive_End_B028_1_3006.mat"  # the Data Center's packaging: X049_DE_time, no RPM
+    scipy.io.savemat(path, {"X049_DE_time": np.random.default_rng(0).standard_normal((12000, 1))})
+    code, out, _ = run(capsys, monkeypatch, f"path={path}")
+    summary = json.loads(out)
+    assert code == 0 and (summary["rpm"], summary["rpm_origin"], summary["fault"]) == (1772.0, "nominal", "ball")
+    assert any("X049_*" in note for note in summary["meta"]["notes"])
+    assert summary["meta"]["notes"][-1] == "speed 1772 rpm: the Data Center's nominal speed at 1 hp (no X049RPM variable)"
+    code, out, _ = run(capsys, monkeypatch, f"path={path}", "rpm=1770")
+    assert (json.loads(out)["rpm"], json.loads(out)["rpm_origin"]) == (1770, "option")

@@ -15,8 +15,9 @@ suite itself, a server) are listed in ``NOT_RUN`` with the reason; any other com
 the test, so a new kind of example cannot go unchecked.
 
 By default the README's commands run, and the guide's are checked as their commands check their
-input before any work (each composes, every key and config group exists, a report takes its
-settings): a renamed setting fails here in seconds. ``-m slow`` runs the guide's commands too.
+input before any work (each composes, every config group exists, a single run's keys are declared,
+a report takes its settings): a renamed setting fails here in seconds. ``-m slow`` runs the guide's
+commands too.
 """
 
 from __future__ import annotations
@@ -175,7 +176,8 @@ def related(first: list[Path], second: list[Path], workdir: Path) -> bool:
 
 def test_every_guide_command_is_accepted_as_written():
     """What each command checks before it works: the config its overrides compose, no key that no config
-    declares, a report's name and settings."""
+    declares (for a sweep, its jobs' keys are checked when it starts: composition only here), a report's
+    name and settings."""
     from bearingtwin.config import refuse_bad_overrides
     from bearingtwin.tracking.reports import check_report_settings
 

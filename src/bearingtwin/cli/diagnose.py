@@ -52,7 +52,8 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["records right"] = f"{percent(run.scores['accuracy_records'])} of {run.scores['n_scored']} with a known state"
         lines["windows right"] = percent(run.scores["accuracy_windows"])
     if "accuracy_records_physics" in run.scores:
-        lines["physics alone right"] = f"{percent(run.scores['accuracy_records_physics'])} of the same records"
+        lines["physics alone right"] = (f"{percent(run.scores['accuracy_records_physics'])} of the "
+                                        f"{run.scores['n_scored_physics']} with physics evidence")
     by_size = records_right_by_size(diagnosed)
     if by_size:
         lines["records right by fault size (model, physics)"] = by_size
@@ -65,15 +66,18 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
 
 
 def records_right_by_size(rows: list[dict]) -> str:
-    """``normal 1/1, 1/1; 0.007 in 4/4, 3/4; 0.014 in ...`` when the names give defect sizes ("" when none does);
-    a record without one is grouped under its true state."""
+    """``normal 1/1, 1/1; 0.007 in 4/4, 3/4; 0.014 in ...`` (model, then physics evidence where there is some)
+    when the names give defect sizes ("" when none does); a record without one is grouped under its true state."""
     if not any("fault_size_in" in row for row in rows):
         return ""
     groups: dict[str, list[dict]] = {}
     for row in sorted((row for row in rows if "correct" in row), key=lambda row: row.get("fault_size_in", 0.0)):
         groups.setdefault(f"{row['fault_size_in']:.3f} in" if "fault_size_in" in row else row["true_state"], []).append(row)
-    return "; ".join(f"{name} {sum(row['correct'] for row in group)}/{len(group)}, "
-                     f"{sum(row.get('physics_correct', False) for row in group)}/{len(group)}"
+    def physics(group: list[dict]) -> str:
+        judged = [row["physics_correct"] for row in group if "physics_correct" in row]
+        return f"{sum(judged)}/{len(judged)}" if judged else "no evidence"
+
+    return "; ".join(f"{name} {sum(row['correct'] for row in group)}/{len(group)}, {physics(group)}"
                      for name, group in groups.items())
 
 

@@ -46,8 +46,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     raw = read_raw(path)
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
-    rpm_origin = "option" if rpm is not None else ("file" if raw.rpm is not None else (raw.nominal_rpm_from or None))
-    rpm = next((value for value in (rpm, raw.rpm, raw.nominal_rpm) if value is not None), None)
+    rpm_origin = next((origin for origin, value in (("option", rpm), ("file", raw.rpm), ("nominal", raw.nominal_rpm))
+                       if value is not None), None)
+    rpm = {"option": rpm, "file": raw.rpm, "nominal": raw.nominal_rpm, None: None}[rpm_origin]
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
     summary = {
@@ -57,7 +58,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "fs_hz": fs_hz,
         "fs_origin": "option" if fs is not None else (raw.fs_origin or None),
         "rpm": rpm,
-        "rpm_origin": rpm_origin,
+        "rpm_origin": rpm_origin,  # option, file or nominal (the data set's speed for the file's condition)
         "fault": raw.fault,
         "unit": raw.unit or None,
         "n_samples": n_samples,
@@ -66,6 +67,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "inf_count": {name: int(np.count_nonzero(np.isinf(raw.channels[name]))) for name in names},
         "meta": {key: value for key, value in raw.meta.items() if key != "header"},
     }
+    if rpm_origin == "nominal":
+        summary["meta"]["notes"] = [*raw.meta.get("notes", []), f"speed {rpm:g} rpm: {raw.nominal_rpm_from}"]
     if rpm is not None and fs_hz is not None:
         signal = raw.channels[names[0]]
         defect_hz = None if bearing is None else bearing.defect_frequencies(rpm)

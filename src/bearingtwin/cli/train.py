@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 import os
 import sys
+from typing import TYPE_CHECKING
 
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
@@ -32,6 +33,9 @@ from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
+
+if TYPE_CHECKING:
+    from bearingtwin.tracking.mlflow_logging import TrackedRun
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +50,7 @@ def show_progress_bar(setting, in_sweep: bool) -> bool:
     return not in_sweep and sys.stderr.isatty() and not os.environ.get("CI")
 
 
-def training_summary(name: str, tracked, tracking_uri: str, out: str) -> str:
+def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str) -> str:
     """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one)."""
     metrics = tracked.metrics
     lines = {"accuracy": percent(metrics["accuracy"])}

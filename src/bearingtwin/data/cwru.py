@@ -105,14 +105,16 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     if len(by_record) == 1:
         record = next(iter(by_record))
         if named is not None and named != record:
-            notes.append(f"its variables are X{record:03d}_*, not the name's record {named} (as the Data Center packaged it)")
+            notes.append(f"its variables are X{record:03d}_* while the name says record {named}; read as the name's "
+                         "record (the Data Center's 0.028 in files are packaged so)")
     elif named in by_record:
         record = named
         others = ", ".join(f"X{other:03d}_*" for other in sorted(by_record) if other != named)
         notes.append(f"{others} in the same file left out: the name gives record {named}")
     else:
-        raise BearingTwinError(f"{path}: holds the variables of records {sorted(by_record)} and its name does not say "
-                               "which is its own (name it <record>.mat)")
+        which = "names none of them" if named is None else f"names record {named}, which is not among them"
+        raise BearingTwinError(f"{path}: holds the variables of records {sorted(by_record)} and its name {which} "
+                               "(name it <record>.mat)")
     rpm_names = [n for n in variables if re.fullmatch(rf"X0*{record}RPM", n)]
     rpm = float(np.asarray(variables[rpm_names[0]]).reshape(-1)[0]) if rpm_names else None
     name = parse_cwru_name(path)

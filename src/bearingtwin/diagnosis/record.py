@@ -9,7 +9,8 @@ voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 
 ``record``, ``model_uri``, ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
 ``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
-and, when known, ``true_state`` and ``correct``.
+``notes``, ``fault_size_in`` where the file's name gives it and, when the truth is known,
+``true_state``, ``correct`` and ``physics_correct`` (the evidence alone).
 """
 
 from __future__ import annotations

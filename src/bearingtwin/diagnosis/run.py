@@ -109,6 +109,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     with_physics = [row for row in scored if "physics_correct" in row]
     if with_physics:  # the envelope analysis alone, on the same records: what the model must beat
         run.scores["accuracy_records_physics"] = sum(row["physics_correct"] for row in with_physics) / len(with_physics)
+        run.scores["n_scored_physics"] = len(with_physics)
     if len(records) > 1 or run.failures:
         run.files.append(write_summary(run.rows, out / "summary.csv"))
     if cfg.tracking.enabled:

@@ -58,6 +58,8 @@ def load_estimator(path_stem: str | Path):
 
 
 def _encode(value, arrays: dict):
+    if isinstance(value, np.generic):  # before float: np.float64 is one, and is read back as itself
+        return {"scalar": value.dtype.str, "value": value.item()}
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
     if isinstance(value, np.ndarray):
@@ -66,8 +68,6 @@ def _encode(value, arrays: dict):
         key = f"a{len(arrays)}"
         arrays[key] = value
         return {"array": key}
-    if isinstance(value, np.generic):
-        return {"scalar": value.dtype.str, "value": value.item()}
     if isinstance(value, (list, tuple)):
         return {"tuple" if isinstance(value, tuple) else "list": [_encode(item, arrays) for item in value]}
     if isinstance(value, dict):

@@ -8,6 +8,7 @@ simulator to its operating point, rank the candidate effects, write
 from __future__ import annotations
 
 import json
+import logging
 import math
 import time
 from pathlib import Path
@@ -25,6 +26,8 @@ from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit
 
+log = logging.getLogger(__name__)
+
 REPORT_NAME = "twin_report.json"
 
 
@@ -38,6 +41,8 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     for name in ("rpm", "fault"):
         if getattr(recording, name) is None:
             raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
+    for note in recording.meta.get("notes", []):  # e.g. a nominal speed the twin will run at
+        log.warning("%s: %s", measured_cfg.path, note)
     if measured_cfg.get("check_fs", True):
         # A rate given here or only declared by a data set's convention is refused when the record contradicts
         # it; one the file records itself is kept, the doubt logged.
