@@ -73,6 +73,7 @@ def records_right_by_size(rows: list[dict]) -> str:
     groups: dict[str, list[dict]] = {}
     for row in sorted((row for row in rows if "correct" in row), key=lambda row: row.get("fault_size_in", 0.0)):
         groups.setdefault(f"{row['fault_size_in']:.3f} in" if "fault_size_in" in row else row["true_state"], []).append(row)
+
     def physics(group: list[dict]) -> str:
         judged = [row["physics_correct"] for row in group if "physics_correct" in row]
         return f"{sum(judged)}/{len(judged)}" if judged else "no evidence"

@@ -46,9 +46,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     raw = read_raw(path)
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
-    rpm_origin = next((origin for origin, value in (("option", rpm), ("file", raw.rpm), ("nominal", raw.nominal_rpm))
-                       if value is not None), None)
-    rpm = {"option": rpm, "file": raw.rpm, "nominal": raw.nominal_rpm, None: None}[rpm_origin]
+    rpm, rpm_origin = next(((value, origin) for origin, value in (("option", rpm), ("file", raw.rpm), ("nominal", raw.nominal_rpm))
+                            if value is not None), (None, None))
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
     summary = {
@@ -68,7 +67,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "meta": {key: value for key, value in raw.meta.items() if key != "header"},
     }
     if rpm_origin == "nominal":
-        summary["meta"]["notes"] = [*raw.meta.get("notes", []), f"speed {rpm:g} rpm: {raw.nominal_rpm_from}"]
+        summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
     if rpm is not None and fs_hz is not None:
         signal = raw.channels[names[0]]
         defect_hz = None if bearing is None else bearing.defect_frequencies(rpm)

@@ -76,16 +76,6 @@ def is_cwru_mat(variables: dict) -> bool:
     return any(_VARIABLE.match(name) for name in variables)
 
 
-def record_in_name(path: str | Path) -> int | None:
-    """The record number a CWRU file's name gives: the project's long form (``..._0_130.mat``) or
-    the Data Center's own (``130.mat``); None for any other name."""
-    name = parse_cwru_name(path)
-    if name is not None:
-        return name.record
-    stem = Path(path).stem
-    return int(stem) if stem.isdigit() else None
-
-
 def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     """The DE / FE / BA channels and measured speed of a loaded CWRU .mat file.
 
@@ -101,7 +91,10 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         match = _VARIABLE.match(variable)
         if match:
             by_record.setdefault(int(match[1]), {})[match[2]] = np.asarray(value, dtype=np.float64).reshape(-1)
-    named, notes = record_in_name(path), []
+    # The record the name gives: the long form's (``..._0_130.mat``) or the Data Center's own (``130.mat``).
+    name = parse_cwru_name(path)
+    named = name.record if name is not None else (int(path.stem) if path.stem.isdigit() else None)
+    notes = []
     if len(by_record) == 1:
         record = next(iter(by_record))
         if named is not None and named != record:
@@ -117,7 +110,6 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
                                "(name it <record>.mat)")
     rpm_names = [n for n in variables if re.fullmatch(rf"X0*{record}RPM", n)]
     rpm = float(np.asarray(variables[rpm_names[0]]).reshape(-1)[0]) if rpm_names else None
-    name = parse_cwru_name(path)
     nominal_rpm = None if name is None or rpm is not None else NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp)
     meta = {"record": record if named is None else named, "notes": notes}
     if name is not None:
@@ -131,7 +123,8 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         fs_origin="declared",  # a convention of the data set (the name's 12k / 48k at best), checked, not measured
         rpm=rpm,
         nominal_rpm=nominal_rpm,
-        nominal_rpm_from=f"the Data Center's nominal speed at {name.load_hp} hp (no X{record:03d}RPM variable)" if nominal_rpm else "",
+        nominal_rpm_note=f"speed {nominal_rpm:g} rpm: the Data Center's nominal speed at {name.load_hp} hp "
+                         f"(no X{record:03d}RPM variable)" if nominal_rpm else "",
         fault=None if name is None else name.fault,
         unit="g",
         meta=meta,

@@ -53,7 +53,7 @@ class RawRecord:
             user's value replaces it instead of contradicting it.
         rpm: shaft speed the file declares (None when unknown).
         nominal_rpm: the speed the data set's tables give for the file's operating condition, used
-            when neither the file nor the user states one; ``nominal_rpm_from`` says where it is from.
+            when neither the file nor the user states one; ``nominal_rpm_note`` says so, and where it is from.
         fault: bearing state the file or its name declares (None when unknown).
         unit: physical unit of the channels, when known.
         meta: anything else read from the file or its name.
@@ -67,7 +67,7 @@ class RawRecord:
     fs_origin: str = ""
     rpm: float | None = None
     nominal_rpm: float | None = None
-    nominal_rpm_from: str = ""
+    nominal_rpm_note: str = ""
     fault: str | None = None
     unit: str = ""
     meta: dict = field(default_factory=dict)
@@ -155,7 +155,7 @@ def recording_from_raw(
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     if rpm is None and raw.nominal_rpm is not None:
         rpm = raw.nominal_rpm
-        notes.append(f"speed {rpm:g} rpm: {raw.nominal_rpm_from}")
+        notes.append(raw.nominal_rpm_note)
     return Recording(
         signal=signal,
         fs=resolve_fs(raw, fs),
