@@ -1,17 +1,23 @@
 """Child processes and loopback servers that end-to-end tests start, wait for and always stop.
 
-Shared by the tests that serve a model (test_serve.py), run against a tracking server
+``run_module`` runs ``python -m <module>`` as :func:`subprocess.run` would, forked from a server that
+has the heavy libraries imported already (tests/forkserver.py). Shared by the tests that serve a model (test_serve.py), run against a tracking server
 (test_tracking_server.py) and sweep on other launchers (test_ray_launcher.py, test_submitit_launcher.py).
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import json
 import os
+import select
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
+import threading
 import time
 import urllib.request
 from pathlib import Path
@@ -87,3 +93,83 @@ def wait_until_answers(url: str, server: subprocess.Popen, log: Path, what: str,
                     return
         time.sleep(0.25)
     pytest.fail(f"{what} did not answer {url} within {timeout_s} s:\n{tail(log)}")
+
+
+FORKSERVER = Path(__file__).with_name("forkserver.py")
+
+
+class _ForkServer:
+    """One ``tests/forkserver.py`` process: runs one command at a time."""
+
+    def __init__(self):
+        self.process = subprocess.Popen([sys.executable, str(FORKSERVER)], stdin=subprocess.PIPE,
+                                        stdout=subprocess.PIPE, text=True, bufsize=1)
+        self.read(timeout_s=300)  # {"ready": true}: the libraries are imported
+
+    def read(self, timeout_s: float | None) -> dict:
+        ready, _, _ = select.select([self.process.stdout], [], [], timeout_s)
+        if not ready:
+            raise TimeoutError
+        line = self.process.stdout.readline()
+        if not line:
+            raise RuntimeError(f"the fork server exited {self.process.wait()}")
+        return json.loads(line)
+
+    def run(self, module: str, args: list[str], cwd, env: dict, timeout_s: float) -> subprocess.CompletedProcess:
+        with tempfile.TemporaryDirectory() as folder:
+            out, err = Path(folder, "stdout"), Path(folder, "stderr")
+            request = {"module": module, "args": [str(a) for a in args], "cwd": str(cwd or os.getcwd()),
+                       "env": dict(env), "stdout": str(out), "stderr": str(err)}
+            self.process.stdin.write(json.dumps(request) + "\n")
+            self.process.stdin.flush()
+            pid = self.read(timeout_s=60)["pid"]
+            try:
+                returncode = self.read(timeout_s)["returncode"]
+            except TimeoutError:
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+                self.read(timeout_s=60)
+                raise subprocess.TimeoutExpired([module, *args], timeout_s, out.read_text(), err.read_text())
+            return subprocess.CompletedProcess([sys.executable, "-m", module, *args], returncode,
+                                               out.read_text(errors="replace"), err.read_text(errors="replace"))
+
+    def close(self) -> None:
+        with contextlib.suppress(OSError):
+            self.process.stdin.close()
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self.process.wait(timeout=10)
+            return
+        self.process.kill()
+
+
+_idle: list[_ForkServer] = []
+_all: list[_ForkServer] = []
+_lock = threading.Lock()
+
+
+@atexit.register
+def _close_fork_servers() -> None:
+    for server in _all:
+        server.close()
+
+
+def run_module(module: str, *args: str, cwd=None, env: dict | None = None,
+               timeout: float = 600) -> subprocess.CompletedProcess:
+    """``subprocess.run([sys.executable, "-m", module, *args], cwd=cwd, env=env, capture_output=True, text=True,
+    timeout=timeout)``, the process forked from a fork server (one per command running at once)."""
+    with _lock:
+        server = _idle.pop() if _idle else None
+    if server is None:
+        server = _ForkServer()
+        with _lock:
+            _all.append(server)
+    try:
+        done = server.run(module, list(args), cwd, os.environ if env is None else env, timeout)
+    except BaseException:
+        server.close()
+        with _lock:
+            _all.remove(server)
+        raise
+    with _lock:
+        _idle.append(server)
+    return done

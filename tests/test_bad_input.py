@@ -7,12 +7,12 @@ entry point turns a BearingTwinError into that line and status 2 the same way.
 
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
+from processes import run_module
 
 from bearingtwin.cli.report import main as report_main
 from bearingtwin.config import CONF_DIR, REPO_ROOT, compose_config, load_bearing, refuse_unknown_keys
@@ -27,8 +27,7 @@ RECORD_130 = CWRU / "12k_Drive_End_OR007@6_0_130.mat"
 
 
 def command(module: str, *overrides: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", f"bearingtwin.cli.{module}", *overrides], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
+    return run_module(f"bearingtwin.cli.{module}", *overrides, cwd=cwd, timeout=300)
 
 
 def assert_one_line_exit_2(done: subprocess.CompletedProcess, *named: str) -> None:

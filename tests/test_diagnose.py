@@ -5,12 +5,12 @@ import csv
 import json
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from mlflow import MlflowClient
+from processes import run_module
 
 from bearingtwin.config import REPO_ROOT, bearing_config
 from bearingtwin.data.recording import Recording
@@ -149,8 +149,7 @@ def test_windows_tile_the_record_without_overlap():
 
 def run(module: str, *args: str, cwd: Path, uri: str) -> subprocess.CompletedProcess:
     env = {**__import__("os").environ, "MLFLOW_TRACKING_URI": uri}
-    return subprocess.run([sys.executable, "-m", f"bearingtwin.cli.{module}", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=600)
+    return run_module(f"bearingtwin.cli.{module}", *args, cwd=cwd, env=env, timeout=600)
 
 
 @pytest.fixture(scope="module")

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mlflow import MlflowClient
-from processes import SMOKE, child_env, free_loopback_port, start, stop, tail, wait_done
+from processes import SMOKE, child_env, free_loopback_port, run_module, start, stop, tail
 
 from bearingtwin.models.experiment import TIMING_METRICS
 
@@ -43,8 +43,7 @@ RAY_LOCAL = {"RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0", "RAY_AUTH_MODE": "disable
 
 
 def sweep(folder: Path, *args: str, env: dict) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bearingtwin.cli.train", "-m", *SWEEP, *args], cwd=folder, env=env,
-                          capture_output=True, text=True, timeout=SWEEP_TIMEOUT_S)
+    return run_module("bearingtwin.cli.train", "-m", *SWEEP, *args, cwd=folder, env=env, timeout=SWEEP_TIMEOUT_S)
 
 
 @pytest.fixture(scope="module")

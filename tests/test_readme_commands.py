@@ -27,7 +27,6 @@ import glob
 import re
 import shlex
 import subprocess
-import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -35,6 +34,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
 from omegaconf import OmegaConf
+from processes import run_module
 
 from bearingtwin.config import CONF_DIR, REPO_ROOT
 
@@ -242,8 +242,7 @@ def test_every_documented_command_runs_as_written(tmp_path, documents):
             return None
         if any("<id>" in arg for arg in args):  # run_id=<id>: a run logged by an earlier command
             args = [arg.replace("<id>", newest_finished_training_run(uri)) for arg in args]
-        done = subprocess.run([sys.executable, "-m", f"bearingtwin.cli.{name}", *args], cwd=tmp_path, env=env,
-                              capture_output=True, text=True, timeout=900)
+        done = run_module(f"bearingtwin.cli.{name}", *args, cwd=tmp_path, env=env, timeout=900)
         title = SUMMARY_TITLES.get(name) if "-m" not in args else None
         problem = "" if done.returncode == 0 else f"exit {done.returncode}"
         if not problem and title is not None:

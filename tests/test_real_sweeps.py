@@ -20,6 +20,7 @@ from mlflow import MlflowClient
 from omegaconf import OmegaConf
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "fixtures"))
+from processes import run_module
 
 import make_hust_fixtures  # noqa: E402
 
@@ -48,11 +49,8 @@ SMOKE = [
 
 
 def train_sweep(base: Path, *args: str) -> subprocess.CompletedProcess:
-    command = [
-        sys.executable, "-m", "bearingtwin.cli.train", "-m", "+sweep=hust", *args,
-        f"tracking.uri=sqlite:///{base}/mlflow.db", f"paths.cache_dir={base}/cache", f"hydra.sweep.dir={base}/multirun",
-    ]
-    return subprocess.run(command, cwd=base, capture_output=True, text=True, timeout=900)
+    return run_module("bearingtwin.cli.train", "-m", "+sweep=hust", *args, f"tracking.uri=sqlite:///{base}/mlflow.db",
+                      f"paths.cache_dir={base}/cache", f"hydra.sweep.dir={base}/multirun", cwd=base, timeout=900)
 
 
 def stored_runs(uri: str) -> list:
@@ -101,11 +99,9 @@ def test_hust_sweep_on_absent_files_exits_2_and_logs_nothing(tmp_path):
 
 
 def test_cwru_sweep_on_an_absent_folder_exits_2_and_logs_nothing(tmp_path):
-    command = [
-        sys.executable, "-m", "bearingtwin.cli.train", "-m", "data=cwru", "seed=0,1",
-        f"data.root={tmp_path}/nonexistent", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun",
-    ]
-    done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    done = run_module("bearingtwin.cli.train", "-m", "data=cwru", "seed=0,1", f"data.root={tmp_path}/nonexistent",
+                      f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun",
+                      cwd=tmp_path, timeout=300)
     assert done.returncode == 2, done.stderr[-2000:]
     assert done.stderr.strip().startswith("error: ") and len(done.stderr.strip().splitlines()) == 1
     assert f"{tmp_path}/nonexistent" in done.stderr and "Launching" not in done.stdout

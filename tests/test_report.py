@@ -2,11 +2,10 @@
 
 import shutil
 import sqlite3
-import subprocess
-import sys
 
 import pytest
 from mlflow import MlflowClient
+from processes import run_module
 
 from bearingtwin.cli.report import main
 from bearingtwin.config import REPO_ROOT
@@ -34,9 +33,7 @@ def copy_store(uri, path) -> str:
 
 
 def report(name, *settings):
-    return subprocess.run(
-        [sys.executable, "-m", "bearingtwin.cli.report", name, *settings], capture_output=True, text=True, timeout=600
-    )
+    return run_module("bearingtwin.cli.report", name, *settings, timeout=600)
 
 
 def finished(uri, method):

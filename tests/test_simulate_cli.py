@@ -1,17 +1,14 @@
 """bearingtwin-simulate run as a user runs it: a subprocess with Hydra overrides."""
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
+from processes import run_module
 
 from bearingtwin.physics.geometry import BearingGeometry
 
 
 def run(tmp_path, *overrides):
-    return subprocess.run([sys.executable, "-m", "bearingtwin.cli.simulate", *overrides], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=300)
+    return run_module("bearingtwin.cli.simulate", *overrides, cwd=tmp_path, timeout=300)
 
 
 def test_writes_npz_and_plots(tmp_path):

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 from mlflow import MlflowClient
-from processes import SMOKE, child_env
+from processes import SMOKE, child_env, run_module
 
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("hydra_plugins.hydra_submitit_launcher") is None,
                                 reason='the slurm extra is not installed (pip install -c requirements.lock -e ".[slurm]")')
@@ -31,9 +31,8 @@ STAND_INS = {
 
 
 def sweep(folder: Path, env: dict, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bearingtwin.cli.train", "-m", *SWEEP, *args,
-                           f"hydra.sweep.dir={folder / 'multirun'}"], cwd=folder, env=env, capture_output=True, text=True,
-                          timeout=TIMEOUT_S)
+    return run_module("bearingtwin.cli.train", "-m", *SWEEP, *args, f"hydra.sweep.dir={folder / 'multirun'}", cwd=folder,
+                      env=env, timeout=TIMEOUT_S)
 
 
 def test_a_slurm_sweep_submits_one_array_task_per_job_with_the_sweeps_store_and_cache(tmp_path):

@@ -12,28 +12,25 @@ import fcntl
 import functools
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from mlflow import MlflowClient
+from processes import run_module
 
 SABO_METHODS = "+method=sabo_pemie_cnn_bilstm,sabo_minen_cnn_bilstm,sabo_pemie_svm"
 DATA = ["data.samples_per_class=12", "data.duration=1.0", "trainer.max_epochs=2"]
 SEARCH = ["search.population=3", "search.iterations=1", "search.windows=2", "features.progress=false"]
 
 
-def sweep_command(base: Path, *args: str) -> list[str]:
-    return [
-        sys.executable, "-m", "bearingtwin.cli.train", "-m", "+sweep=table4", *args, *DATA,
-        f"tracking.uri=sqlite:///{base}/mlflow.db", f"paths.cache_dir={base}/cache",
-    ]
+def sweep(base: Path, *args: str) -> subprocess.CompletedProcess:
+    return run_module("bearingtwin.cli.train", "-m", "+sweep=table4", *args, *DATA,
+                      f"tracking.uri=sqlite:///{base}/mlflow.db", f"paths.cache_dir={base}/cache", cwd=base, timeout=900)
 
 
 def run_sabo_sweep(base: Path) -> subprocess.CompletedProcess:
-    command = sweep_command(base, SABO_METHODS, "seed=0,-1", "launcher=joblib", *SEARCH, f"hydra.sweep.dir={base}/multirun")
-    return subprocess.run(command, cwd=base, capture_output=True, text=True, timeout=900)
+    return sweep(base, SABO_METHODS, "seed=0,-1", "launcher=joblib", *SEARCH, f"hydra.sweep.dir={base}/multirun")
 
 
 @functools.lru_cache(maxsize=None)
@@ -49,10 +46,7 @@ def smoke_sweep_store(base: Path) -> tuple[str, str]:
             base.mkdir(parents=True)
             sabo = run_sabo_sweep(base)
             assert sabo.returncode == 1, sabo.stderr[-3000:]  # some jobs failed: the exit status says so
-            raw = subprocess.run(
-                sweep_command(base, "+method=raw_cnn_bilstm", "seed=0", f"hydra.sweep.dir={base}/multirun_raw"),
-                cwd=base, capture_output=True, text=True, timeout=900,
-            )
+            raw = sweep(base, "+method=raw_cnn_bilstm", "seed=0", f"hydra.sweep.dir={base}/multirun_raw")
             assert raw.returncode == 0, raw.stderr[-3000:]
             summary.write_text(sabo.stdout)
     return f"sqlite:///{base}/mlflow.db", summary.read_text()

@@ -1,13 +1,12 @@
 """The training entry point: config composition, whole-pipeline determinism, bad input."""
 
 import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
+from processes import run_module
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.models.experiment import TIMING_METRICS, run_experiment
@@ -55,9 +54,7 @@ def test_same_seed_same_numbers_other_seed_other_split(tmp_path):
 
 
 def run_cli(args, cwd):
-    return subprocess.run(
-        [sys.executable, "-m", "bearingtwin.cli.train", *args], cwd=cwd, capture_output=True, text=True, timeout=600
-    )
+    return run_module("bearingtwin.cli.train", *args, cwd=cwd, timeout=600)
 
 
 def test_bad_value_exits_2_naming_the_field_and_the_run_is_failed(tmp_path):

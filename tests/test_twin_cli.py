@@ -2,13 +2,12 @@
 
 import json
 import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
+from processes import run_module
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.twin.model import TwinModel
@@ -25,8 +24,7 @@ KNOWN = ["operating_point.sensor=outer_y", "operating_point.defect_depth_mm=0.00
 
 
 def run_cli(*overrides, env=None, cwd=None):
-    return subprocess.run([sys.executable, "-m", "bearingtwin.cli.twin", *overrides], capture_output=True, text=True,
-                          env={**os.environ, **(env or {})}, timeout=300, cwd=cwd)
+    return run_module("bearingtwin.cli.twin", *overrides, env={**os.environ, **(env or {})}, timeout=300, cwd=cwd)
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,6 @@ a small ``twin_report.json`` in the format ``bearingtwin-twin`` writes (bare ste
 """
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +13,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
 from omegaconf import OmegaConf
+from processes import run_module
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.data.build import build_dataset
@@ -112,13 +111,12 @@ def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
     for name, extra in (("step0", ["data.calibration.step=0"]), ("step1", ["data.calibration.step=1"]),
                         ("hand", ["data.calibration.step=1", "effects=[preload]"]),
                         ("variants", ["data.calibration.step=1", "+data.twin.variants.spin_slip.jitter=[0.01,0.4]"])):
-        done = subprocess.run(
-            [sys.executable, "-m", "bearingtwin.cli.train", "classifier=svm", "features=envelope_orders",
-             *(o for o in SMALL if not o.startswith("features.")), *extra,
-             f"data.calibration.report={report_path}", "data=twin_to_real",
-             "bearing=cwru_6205", f"tracking.uri={uri}", f"paths.cache_dir={tmp_path}/cache",
-             f"hydra.run.dir={tmp_path}/{name}"],
-            cwd=tmp_path, capture_output=True, text=True, timeout=600)
+        done = run_module(
+            "bearingtwin.cli.train", "classifier=svm", "features=envelope_orders",
+            *(o for o in SMALL if not o.startswith("features.")), *extra,
+            f"data.calibration.report={report_path}", "data=twin_to_real",
+            "bearing=cwru_6205", f"tracking.uri={uri}", f"paths.cache_dir={tmp_path}/cache",
+            f"hydra.run.dir={tmp_path}/{name}", cwd=tmp_path, timeout=600)
         assert done.returncode == 0, done.stderr[-3000:]
     client = MlflowClient(uri)
     runs = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
