@@ -182,3 +182,32 @@ def test_a_file_holding_two_records_gives_the_one_its_name_names(tmp_path):
     scipy.io.savemat(tmp_path / "normal_0_97.mat", variables)
     with pytest.raises(BearingTwinError, match=r"normal_0_97.mat: .* its name names record 97, which is not among them"):
         load_recording(tmp_path / "normal_0_97.mat")
+
+
+def test_the_fan_end_bearing_has_the_data_centers_defect_frequencies():
+    """SKF 6203-2RS JEM: the Data Center publishes BPFI 4.9469, BPFO 3.0530, cage 0.3817 and rolling element
+    3.9874 x shaft (its rolling-element rate is twice the ball spin: a spall strikes both races per spin)."""
+    orders = load_bearing("cwru_6203").defect_frequencies(60.0)  # 1 rev/s: Hz are multiples of the shaft rate
+    orders["2bsf"] = 2 * orders["bsf"]
+    published = {"bpfi": 4.9469, "bpfo": 3.0530, "ftf": 0.3817, "2bsf": 3.9874}
+    assert {key: orders[key] for key in published} == pytest.approx(published, abs=2e-3)
+    drive_end = load_bearing("cwru_6205").defect_frequencies(60.0)
+    assert (drive_end["bpfo"], drive_end["bpfi"]) == pytest.approx((BPFO_ORDER, BPFI_ORDER), abs=2e-3)
+
+
+def test_a_fan_end_fault_record_is_read_from_the_fan_end_accelerometer(tmp_path):
+    """The name's Fan_End puts the fault in the SKF 6203: its own accelerometer (FE) is read, the bearing named."""
+    import scipy.io
+
+    rng = np.random.default_rng(2)
+    drive, fan = rng.standard_normal((6000, 1)), rng.standard_normal((6000, 1))
+    path = tmp_path / "12k_Fan_End_OR014@3_1_298.mat"
+    scipy.io.savemat(path, {"X298_DE_time": drive, "X298_FE_time": fan, "X298RPM": 1772.0})
+    name = parse_cwru_name(path)
+    assert (name.end, name.bearing, name.fault, name.fault_size_in, name.position) == ("fan", "cwru_6203", "outer", 0.014, "3")
+    recording = load_recording(path)
+    assert recording.channel == "FE" and recording.meta["bearing"] == "cwru_6203"
+    np.testing.assert_array_equal(recording.signal, fan[:, 0])
+    assert any("fan-end bearing (SKF 6203" in note for note in recording.meta["notes"])
+    np.testing.assert_array_equal(load_recording(path, channel="DE").signal, drive[:, 0])
+    assert parse_cwru_name("12k_Drive_End_IR007_0_105.mat").bearing == "cwru_6205"

@@ -16,7 +16,7 @@ from bearingtwin.config import REPO_ROOT, bearing_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import physics_evidence
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
-from bearingtwin.diagnosis.record import record_windows, resample_to
+from bearingtwin.diagnosis.record import read_record, record_windows, resample_to
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import SaboVmdFeatures
@@ -115,6 +115,36 @@ def test_evidence_names_the_fault_whose_harmonic_series_stands_out():
         assert by_kurtogram.evidence_state == state, by_kurtogram.band_hz
     healthy = physics_evidence(fault_signal(None), FS, RPM, BEARING)
     assert healthy.evidence_state == "normal" and max(healthy.prominence_db.values()) < healthy.threshold_db
+
+
+def test_a_fan_end_record_is_read_for_the_physics_at_its_own_bearings_defect_lines(tmp_path):
+    """A CWRU fan-end fault sits in the SKF 6203 (BPFO 3.053 x shaft), a drive-end model's bearing is the 6205
+    (3.585): the evidence reads the record's own bearing, which finds the fault, and says the model does not."""
+    import scipy.io
+
+    rpm = 1772.0
+    fan_end = bearing_config("cwru_6203")
+    rate = BearingGeometry.from_config(fan_end).defect_frequencies(rpm)["bpfo"]
+    t = np.arange(int(4 * FS)) / FS
+    shaft = sum(0.1 / k * np.sin(2 * np.pi * k * rpm / 60 * t) for k in (1, 2, 3))  # what the rate is checked by
+    fan = (fault_signal(rate) + shaft)[:, None]
+    path = tmp_path / "12k_Fan_End_OR014@3_1_298.mat"
+    scipy.io.savemat(path, {"X298_DE_time": (fault_signal(None, seed=1) + shaft)[:, None], "X298_FE_time": fan,
+                            "X298RPM": rpm})
+    X, y = class_windows(n_per_class=6)
+    envelope = EnvelopeOrderFeatures(bearing=BEARING, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
+    pipeline = DiagnosisPipeline(envelope, SvmClassifier().fit(envelope.transform(X, fs_hz=FS, rpm=RPM), y), 2048, FS,
+                                 bearing=BEARING)
+    prepared = read_record(path, pipeline)
+    assert prepared.recording.channel == "FE" and prepared.bearing == fan_end and prepared.true_state == "outer"
+    assert any("the record's bearing is cwru_6203, the model was trained on cwru_6205" in note
+               and "BPFO 3.053" in note and "BPFO 3.585" in note for note in prepared.notes), prepared.notes
+    signal = prepared.recording.signal
+    assert physics_evidence(signal, FS, rpm, prepared.bearing).evidence_state == "outer"
+    assert physics_evidence(signal, FS, rpm, BEARING).evidence_state != "outer"  # the drive end's lines miss it
+    drive_end = tmp_path / "12k_Drive_End_OR014@3_1_198.mat"
+    scipy.io.savemat(drive_end, {"X198_DE_time": fan, "X198RPM": rpm})
+    assert read_record(drive_end, pipeline).bearing == BEARING and not read_record(drive_end, pipeline).notes
 
 
 def test_evidence_does_not_depend_on_the_sensors_gain():

@@ -35,6 +35,11 @@ STATES = {"normal": "normal", "IR": "inner", "B": "ball", "OR": "outer"}
 NOMINAL_RPM_BY_LOAD_HP = {0: 1797.0, 1: 1772.0, 2: 1750.0, 3: 1730.0}
 """Motor speed by motor load in the Data Center's tables: the speed of a file that records none."""
 
+BEARING_BY_END = {"drive": "cwru_6205", "fan": "cwru_6203"}
+"""The rig's two bearings: the drive end's SKF 6205 and the fan end's SKF 6203."""
+CHANNEL_BY_END = {"drive": "DE", "fan": "FE"}
+"""The accelerometer on each bearing's housing."""
+
 _VARIABLE = re.compile(r"^X(\d+)_(DE|FE|BA)_time$")
 _NAME = re.compile(
     r"^(?:(?P<rate>\d+k)_(?P<end>Drive|Fan)_End_(?P<state>IR|B|OR)(?P<size>\d{3})(?:@(?P<position>\d+))?"
@@ -52,6 +57,12 @@ class CwruName:
     fault_size_in: float | None = None  # defect diameter in inches (0.007 for "007")
     position: str | None = None  # outer-race defect position in o'clock ("6"), None elsewhere
     rate_hz: float | None = None  # sampling rate the name states ("48k_..." -> 48000), None when it states none
+    end: str | None = None  # the faulty bearing: "drive" (SKF 6205) or "fan" (SKF 6203); None for the healthy records
+
+    @property
+    def bearing(self) -> str | None:
+        """The bearing config (``conf/bearing/<name>.yaml``) of the faulty bearing, when the name says which."""
+        return BEARING_BY_END.get(self.end)
 
 
 def parse_cwru_name(path: str | Path) -> CwruName | None:
@@ -68,6 +79,7 @@ def parse_cwru_name(path: str | Path) -> CwruName | None:
         fault_size_in=int(match["size"]) / 1000.0,
         position=match["position"],
         rate_hz=1000.0 * int(match["rate"][:-1]),
+        end=match["end"].lower(),
     )
 
 
@@ -114,6 +126,10 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     meta = {"record": record if named is None else named, "notes": notes}
     if name is not None:
         meta.update(load_hp=name.load_hp, fault_size_in=name.fault_size_in, position=name.position)
+    if name is not None and name.end == "fan":
+        meta["bearing"] = name.bearing
+        notes.append("the fault is in the fan-end bearing (SKF 6203, conf/bearing/cwru_6203.yaml): read from its "
+                     "accelerometer, FE (channel=DE reads the drive end's)")
     channels = by_record[record]
     return RawRecord(
         str(path),
@@ -128,7 +144,8 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         fault=None if name is None else name.fault,
         unit="g",
         meta=meta,
-        default_channel="DE",  # the drive-end accelerometer: the channel the data set is known by
+        # The faulty bearing's own accelerometer; the drive end's for the healthy records, the one the data set is known by.
+        default_channel=CHANNEL_BY_END[name.end] if name is not None and name.end else "DE",
     )
 
 

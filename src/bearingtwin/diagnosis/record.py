@@ -46,6 +46,7 @@ class PreparedRecord:
     true_state: str | None
     original_fs: float
     notes: list[str] = field(default_factory=list)
+    bearing: dict = field(default_factory=dict)  # the bearing the physics evidence reads defect lines of
 
 
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
@@ -58,8 +59,10 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     raw = read_raw(path)
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm)
     notes = list(recording.meta["notes"])
+    bearing, bearing_note = _record_bearing(recording.meta.get("bearing"), pipeline.bearing)
+    notes += bearing_note
     if recording.rpm is not None:
-        recording, rate_notes = _checked_rate(recording, pipeline.bearing, declared_only=fs is None and raw.fs_origin == "declared")
+        recording, rate_notes = _checked_rate(recording, bearing, declared_only=fs is None and raw.fs_origin == "declared")
         notes += rate_notes
     if true_state is not None:
         true_state = check_fault(true_state)
@@ -77,7 +80,26 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         )
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; give rpm=<rev/min>")
-    return PreparedRecord(recording, true_state, original_fs, notes)
+    return PreparedRecord(recording, true_state, original_fs, notes, bearing)
+
+
+def _record_bearing(named: str | None, model_bearing: dict) -> tuple[dict, list[str]]:
+    """The bearing whose defect lines the physics reads: the one the file names (a CWRU fan-end record's
+    SKF 6203) if the model was trained on another, else the model's; and a note when they differ.
+
+    The model's own features stay those of the bearing it was trained on: its verdict on another
+    bearing's record is read with defect lines where that bearing has none, and the note says so.
+    """
+    if named is None or not model_bearing or model_bearing.get("name") == named:
+        return model_bearing, []
+    from bearingtwin.config import bearing_config
+
+    bearing = bearing_config(named)
+    orders = {name: BearingGeometry.from_config(config).defect_frequencies(60.0)
+              for name, config in ((named, bearing), (model_bearing.get("name", "the model's"), model_bearing))}
+    words = ", ".join(f"{name} BPFO {order['bpfo']:.3f}, BPFI {order['bpfi']:.3f} x shaft" for name, order in orders.items())
+    return bearing, [f"the record's bearing is {named}, the model was trained on {model_bearing.get('name', 'another')} "
+                     f"({words}): the physics evidence reads {named}'s defect lines, the model reads its own bearing's"]
 
 
 def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> tuple[Recording, list[str]]:
@@ -105,7 +127,7 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> t
         return recording, doubt
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between
     # lines (a machine's half orders) may leave the higher rate's verdict ambiguous, never contradicted.
-    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and check(rate).matches]
+    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and _matches(check, rate)]
     if not higher:
         if declared.verdict == "contradicted":
             raise BearingTwinError(f"{recording.source}: {describe_mismatch(declared)}; give the record's rate with fs=<Hz>")
@@ -113,6 +135,15 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> t
     rate = max(higher)
     note = f"the shaft line stands where it belongs at {rate:g} Hz, not only at the declared {recording.fs:g} Hz: read at {rate:g} Hz"
     return dataclasses.replace(recording, fs=rate), [note]
+
+
+def _matches(check, rate: float) -> bool:
+    """Whether the shaft series stands where it belongs at ``rate``; a record too short to tell at that
+    rate (fewer seconds at a higher rate) does not."""
+    try:
+        return check(rate).matches
+    except BearingTwinError:
+        return False
 
 
 def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]:
@@ -144,8 +175,8 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     counts = {name: int(np.sum(states == name)) for name in names}
     verdict = max(names, key=lambda name: (counts[name], probabilities[:, names.index(name)].mean()))
     evidence = None
-    if recording.rpm is not None and pipeline.bearing:
-        evidence = physics_evidence(recording.signal, recording.fs, recording.rpm, pipeline.bearing, **evidence_settings)
+    if recording.rpm is not None and prepared.bearing:
+        evidence = physics_evidence(recording.signal, recording.fs, recording.rpm, prepared.bearing, **evidence_settings)
     result = {
         "record": Path(str(recording.source)).stem,
         "model_uri": model_uri,
