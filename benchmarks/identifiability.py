@@ -30,7 +30,7 @@ found whether it is added as ``resonance`` or, when the reference already needed
     python benchmarks/identifiability.py --split test --jobs 2   # the benchmark: writes results/identifiability.{md,json}
 
 The development split exists to choose the ranking's free constants (``ranking.points_per_view``,
-``ranking.view_floor_db``) on rig measurements; its cases use other seeds, parameter values and
+``ranking.view_floor_db``, ``ranking.min_signature_gain``) on rig measurements; its cases use other seeds, parameter values and
 conditions than the test split, whose numbers are the result.
 """
 
@@ -56,7 +56,7 @@ from bearingtwin.testrig import RigOperatingPoint, RigSetup, simulate_rig
 from bearingtwin.tracking.tables import markdown_table
 from bearingtwin.twin.compare import CompareSettings
 from bearingtwin.twin.model import TwinModel
-from bearingtwin.twin.rank import deviance, penalty_per_parameter, view_floors
+from bearingtwin.twin.rank import deviance, penalty_per_parameter, signature_gain, signature_views, view_floors
 from bearingtwin.twin.report import build_ranker, twin_for
 
 G = 9.80665
@@ -174,6 +174,13 @@ def measurement(case: dict, cfg) -> Recording:
                      unit=case["unit"])
 
 
+def ranking_settings(overrides: list[str]) -> dict:
+    """The ``ranking`` block ``bearingtwin-twin`` composes with ``overrides``."""
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("twin", overrides=["measured.path=unused", *overrides])
+    return OmegaConf.to_container(cfg.ranking, resolve=True)
+
+
 def rank(case: dict, overrides: list[str], reference: dict | None = None):
     """``bearingtwin-twin``'s ranking of the case's record; with ``reference``, its effects fixed and sensor held."""
     held = []
@@ -260,43 +267,61 @@ def score(result: dict) -> dict:
 
 POINTS_GRID = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
 VIEW_FLOOR_GRID = (0.3, 0.5, 1.0, 2.0)
+SIGNATURE_GAIN_GRID = (0.0, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0, 3.0)
 
 
-def first_round_evidence(result: dict, points_per_view: float, view_floor_db: float) -> list[tuple[float, str]]:
-    """Each first-round candidate's evidence as the judge would give it with these constants (the
-    judge's own deviance and penalty, the views weighted as configured by default): the deviance's
-    drop from the twin before the round minus the candidate's parameters times the penalty."""
+def first_round_evidence(result: dict, points_per_view: float, view_floor_db: float) -> list[tuple[float, float, str]]:
+    """Each first-round candidate's evidence and signature gain as the judge would give them with these
+    constants (the judge's own deviance and penalty, the views weighted as configured by default): the
+    deviance's drop from the twin before the round minus the candidate's parameters times the penalty,
+    and the drop within the views its signature shows in."""
     floors = view_floors(result["repeatability_db"], view_floor_db)
     weights = CompareSettings().weights
     before = deviance(result["step_views"][0], floors, weights, points_per_view)
     penalty = penalty_per_parameter(points_per_view, weights)
     return [(before - deviance(c["views"], floors, weights, points_per_view) - c["n_parameters"] * penalty,
+             signature_gain(result["step_views"][0], c["views"], floors, weights, points_per_view,
+                            signature_views(c["effect"])),
              c["effect"]) for c in (result["rounds"][0] if result["rounds"] else [])]
 
 
-def first_round_right(result: dict, points_per_view: float, view_floor_db: float) -> bool:
-    """Whether the first round's decision would be right with these constants."""
+def first_round_right(result: dict, points_per_view: float, view_floor_db: float, min_signature_gain: float) -> bool:
+    """Whether the first round's decision would be right with these constants: the candidate with the
+    most evidence, if it pays and gains ``min_signature_gain`` in its signature's views, else none."""
     evidence = first_round_evidence(result, points_per_view, view_floor_db)
-    best, name = max(evidence) if evidence else (-1.0, None)
-    first = MODE.get(name, name) if best > 0 else None
+    best, gain, name = max(evidence) if evidence else (-1.0, 0.0, None)
+    first = MODE.get(name, name) if best > 0 and gain >= min_signature_gain else None
     hidden = [MODE.get(h, h) for h in result["hidden"]]
     if result["kind"] in ("single", "pair"):
         return first in hidden
     return first is None
 
 
-def choose_decision_constants(results: list[dict]) -> tuple[tuple[float, float], list[list[str]]]:
+def choose_decision_constants(results: list[dict], min_signature_gain: float) -> tuple[tuple[float, float], list[list[str]]]:
     """The (points_per_view, view_floor_db) whose first-round decisions are right most often, each case
     kind weighing the same; ties go to fewer points, then to the lower floor."""
     kinds = sorted({r["kind"] for r in results})
     rows, best = [], (-1.0, 0.0, 0.0)
     for floor in VIEW_FLOOR_GRID:
         for points in POINTS_GRID:
-            rates = [np.mean([first_round_right(r, points, floor) for r in results if r["kind"] == kind])
-                     for kind in kinds]
+            rates = [np.mean([first_round_right(r, points, floor, min_signature_gain) for r in results
+                              if r["kind"] == kind]) for kind in kinds]
             rows.append([f"{points:g}", f"{floor:g}", *[f"{rate:.0%}" for rate in rates], f"{np.mean(rates):.0%}"])
             best = max(best, (float(np.mean(rates)), -points, -floor))
     return (-best[1], -best[2]), [["points_per_view", "view_floor_db", *kinds, "mean"], *rows]
+
+
+def choose_signature_gain(results: list[dict], points_per_view: float, view_floor_db: float):
+    """The ``ranking.min_signature_gain`` of :data:`SIGNATURE_GAIN_GRID` whose first-round decisions are
+    right most often at the configured constants, each case kind weighing the same; ties go to the lower."""
+    kinds = sorted({r["kind"] for r in results})
+    rows, best = [], (-1.0, 0.0)
+    for gain in SIGNATURE_GAIN_GRID:
+        rates = [np.mean([first_round_right(r, points_per_view, view_floor_db, gain) for r in results
+                          if r["kind"] == kind]) for kind in kinds]
+        rows.append([f"{gain:g}", *[f"{rate:.0%}" for rate in rates], f"{np.mean(rates):.0%}"])
+        best = max(best, (float(np.mean(rates)), -gain))
+    return -best[1], [["min_signature_gain", *kinds, "mean"], *rows]
 
 
 def summarize(results: list[dict]) -> dict:
@@ -390,7 +415,8 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
         "defect, and an operating point the ranking is not told "
         f"({'; '.join(', '.join(f'{k} {v:g}' for k, v in o.items()) for o in OPERATING['test'])}). "
         "Hidden parameters differ from every configured default and from the development split's, on which "
-        "`ranking.points_per_view` and `ranking.view_floor_db` were chosen (`--split dev`).", "",
+        "`ranking.points_per_view`, `ranking.view_floor_db` and `ranking.min_signature_gain` were chosen "
+        "(`--split dev`).", "",
         f"Speed: median compare-calibrate-rank {np.median(times):.0f} s per case "
         f"({', '.join(f'{fs / 1000:g} kHz {t:.0f} s' for fs, t in by_fs.items())}), {len(results[0]['ranking'])} "
         "candidates, one process per case.", "",
@@ -436,10 +462,17 @@ def main() -> int:
     if args.split == "dev":
         Path(args.out).mkdir(parents=True, exist_ok=True)
         Path(args.out, "identifiability_dev.json").write_text(json.dumps(results, indent=1, default=float))
-        (points, floor), rows = choose_decision_constants(results)
+        ranking = ranking_settings(args.overrides)
+        gain, rows = choose_signature_gain(results, ranking["points_per_view"], ranking["view_floor_db"])
+        print(markdown_table(rows[0], rows[1:]))
+        print(f"ranking.min_signature_gain={gain:g} decides the first round right most often at "
+              f"ranking.points_per_view={ranking['points_per_view']:g} ranking.view_floor_db={ranking['view_floor_db']:g}"
+              " (ties: the lower gain)")
+        (points, floor), rows = choose_decision_constants(results, ranking["min_signature_gain"])
         print(markdown_table(rows[0], rows[1:]))
         print(f"ranking.points_per_view={points:g} ranking.view_floor_db={floor:g} decide the first round right "
-              "most often (ties: fewer points, then the lower floor)")
+              f"most often at ranking.min_signature_gain={ranking['min_signature_gain']:g} (ties: fewer points, "
+              "then the lower floor)")
         return 0
     command = "python benchmarks/identifiability.py " + " ".join(sys.argv[1:])
     write_results(results, Path(args.out), command.strip(), wall)

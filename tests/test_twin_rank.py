@@ -23,7 +23,7 @@ from bearingtwin.twin.calibrate import minimize, parse_space, slice_interval
 from bearingtwin.twin.compare import CompareSettings
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
-from bearingtwin.twin.rank import EffectRanker, Judge
+from bearingtwin.twin.rank import EffectRanker, Judge, deviance, signature_gain, signature_views
 
 FS, RPM, SECONDS, G = 12000.0, 1797.0, 2.0, 9.80665
 SETTINGS = CompareSettings(envelope_segment_s=0.25, lines_segment_s=0.25)
@@ -190,6 +190,27 @@ def test_an_effect_outside_the_library_is_named_where_it_is_not_pinned_on_the_li
     assert "gear mesh" in lines["what_leaves_it"]
 
 
+def test_an_effect_is_claimed_only_where_its_signature_shows(cfg, monkeypatch):
+    """A hidden mount resonance pays through the band levels, its signature's view. Told that its
+    signature were in the lines view instead, where a 2.2 kHz mode leaves nothing, the same fit is
+    not claimed: the report says which effect would have paid and that its own views did not move."""
+    from bearingtwin.physics.effect_library import Resonance
+
+    measured = twin_measurement(cfg, "outer", {"resonance": {"natural_frequency_hz": 2200.0, "damping_ratio": 0.04}})
+    claimed = rank(cfg, measured, ["resonance"], op=known_operating_point(), fixed=FLOOR)
+    assert [f.effect for f in claimed.added] == ["resonance"] and claimed.unclaimed is None, claimed.summary
+    assert claimed.added[0].signature_gain >= claimed.min_signature_gain == 1.0
+
+    monkeypatch.setattr(Resonance, "signature_views", ("lines",))
+    refused = rank(cfg, measured, ["resonance"], op=known_operating_point(), fixed=FLOOR)
+    assert refused.added == [] and refused.unclaimed.effect == "resonance", refused.summary
+    assert refused.unclaimed.evidence > 0 and refused.unclaimed.signature_gain < 1.0
+    assert refused.verdict == "unexplained discrepancy"
+    assert "No library effect claimed: resonance would pay for its parameters, but its signature's views (lines)" \
+        in refused.summary
+    assert refused.as_dict()["unclaimed"]["effect"] == "resonance"
+
+
 def test_the_judge_counts_parameters_against_the_held_out_half(cfg):
     measured = twin_measurement(cfg, "outer")
     judge = Judge.for_measurement(measured, BearingGeometry.from_config(cfg.bearing), SETTINGS, points_per_view=4.0)
@@ -203,6 +224,17 @@ def test_the_judge_counts_parameters_against_the_held_out_half(cfg):
     assert raised.floors_db == {v: max(r, 2.0) for v, r in judge.repeatability_db.items()}
     short = Recording(measured.signal[: int(0.4 * FS)], FS, RPM, "outer")  # halves shorter than a segment
     assert not Judge.for_measurement(short, BearingGeometry.from_config(cfg.bearing), SETTINGS).held_out
+
+
+def test_a_signatures_gain_is_the_deviance_drop_in_its_own_views_alone():
+    before = {"psd": 10.0, "lines": 40.0, "envelope": 2.0, "harmonics": 3.0, "statistics": 5.0}
+    after = {**before, "statistics": 0.5}  # only the kurtosis and crest factor came closer
+    floors, weights = dict.fromkeys(before, 0.5), dict.fromkeys(before, 1.0)
+    total = deviance(before, floors, weights, 1.0) - deviance(after, floors, weights, 1.0)
+    assert total == pytest.approx(math.log((25 + 0.25) / (0.25 + 0.25)))
+    assert signature_gain(before, after, floors, weights, 1.0, signature_views("clipping")) == pytest.approx(total)
+    assert signature_gain(before, after, floors, weights, 1.0, signature_views("tones")) == 0.0  # lines unmoved
+    assert signature_views("tones") == ("lines",) and signature_views("resonance") == ("psd",)
 
 
 def test_summary_reads_as_an_engineer_writes(cfg):

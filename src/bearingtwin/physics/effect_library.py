@@ -323,6 +323,7 @@ class Resonance(Effect):
 
     name = "resonance"
     signature = "band energy around the natural frequency"
+    signature_views = ("psd",)
     search_space = {"natural_frequency_hz": (300.0, 5000.0, True), "damping_ratio": (0.01, 0.3, True)}
 
     def __init__(self, natural_frequency_hz: float, damping_ratio: float):
@@ -364,6 +365,7 @@ class SecondResonance(Resonance):
     name = "second_resonance"
     requires = ("resonance",)
     signature = "a second band of raised energy around its natural frequency"
+    signature_views = ("psd",)
 
 
 @register_effect
@@ -388,6 +390,7 @@ class StructuralMode(Effect):
 
     name = "structural_mode"
     signature = "a raised band around the natural frequency, the rest of the spectrum unchanged"
+    signature_views = ("psd",)
     search_space = {"natural_frequency_hz": (300.0, 5000.0, True), "damping_ratio": (0.01, 0.3, True),
                     "level_db": (-10.0, 40.0, False)}
 
@@ -432,6 +435,7 @@ class Slip(Effect):
 
     name = "slip"
     signature = "envelope harmonics sink into a raised random floor"
+    signature_views = ("envelope", "harmonics")
     search_space = {"jitter": (0.002, 0.08, True)}
 
     def __init__(self, jitter: float):
@@ -468,6 +472,7 @@ class SpinSlip(Effect):
 
     name = "spin_slip"
     signature = "2 x BSF envelope lines smear, cage-rate modulation stays"
+    signature_views = ("envelope", "harmonics")
     search_space = {"jitter": (0.005, 0.5, True)}
 
     def __init__(self, jitter: float):
@@ -500,6 +505,7 @@ class SpeedFluctuation(Effect):
 
     name = "speed_fluctuation"
     signature = "sidebands and smearing growing with harmonic order"
+    signature_views = ("envelope", "harmonics", "lines")
     search_space = {"depth": (0.002, 0.08, True), "frequency_hz": (0.5, 30.0, True)}
 
     def __init__(self, depth: float, frequency_hz: float):
@@ -539,6 +545,7 @@ class Noise(Effect):
 
     name = "noise"
     signature = "raised floor in quiet bands, lower kurtosis"
+    signature_views = ("psd", "statistics")
     search_space = {"snr_db": (-10.0, 30.0, False), "spectral_slope": (0.0, 2.0, False)}
 
     def __init__(self, snr_db: float, spectral_slope: float, reference_rms: float | None = None):
@@ -610,6 +617,7 @@ class Tones(LineEffect):
 
     name = "tones"
     signature = "narrow lines unrelated to shaft, supply and defect"
+    signature_views = ("lines",)
     search_space = {"level_offset_db": (-10.0, 10.0, False)}
     max_lines = 5
     """At most this many lines are read off a measurement, the strongest."""
@@ -678,6 +686,7 @@ class Unbalance(LineEffect):
 
     name = "unbalance"
     signature = "a line at the shaft rate (1x) only"
+    signature_views = ("lines",)
     search_space = {"level_db": (-60.0, 20.0, False)}
 
     def __init__(self, level_db: float):
@@ -712,6 +721,7 @@ class Misalignment(LineEffect):
 
     name = "misalignment"
     signature = "a 2x shaft line above the 1x, a weaker 3x"
+    signature_views = ("lines",)
     search_space = {"level_db": (-60.0, 20.0, False), "one_x_db": (-30.0, 0.0, False)}
 
     def __init__(self, level_db: float, one_x_db: float = -6.0, three_x_db: float = -10.0):
@@ -756,6 +766,7 @@ class Looseness(LineEffect):
 
     name = "looseness"
     signature = "a comb of shaft harmonics with half orders (0.5x, 1.5x ...)"
+    signature_views = ("lines",)
     search_space = {"level_db": (-60.0, 20.0, False), "half_order_db": (-30.0, 0.0, False)}
 
     def __init__(self, level_db: float, half_order_db: float = -10.0, n_harmonics: int = LOOSENESS_HARMONICS,
@@ -818,6 +829,7 @@ class LineFrequency(LineEffect):
 
     name = "line_frequency"
     signature = "a line at twice the supply frequency, its harmonics, a weaker 1x supply"
+    signature_views = ("lines",)
     search_space = {"supply_hz": (45.0, 65.0, False), "level_db": (-60.0, 20.0, False)}
 
     def __init__(self, supply_hz: float, level_db: float, fundamental_db: float = -10.0,
@@ -869,6 +881,7 @@ class Clipping(Effect):
 
     name = "clipping"
     signature = "flat-topped peaks, lower kurtosis and crest factor"
+    signature_views = ("statistics",)
     search_space = {"clip_level": (1.0, 10.0, True)}
 
     def __init__(self, clip_level: float):
@@ -895,6 +908,7 @@ class LoadZone(Effect):
 
     name = "load_zone"
     signature = "modulation sidebands and shifted race modes"
+    signature_views = ("envelope", "harmonics", "psd")
     search_space = {"radial_load_n": (10.0, 5000.0, True), "clearance_um": (0.5, 40.0, True)}
 
     def __init__(self, radial_load_n: float, clearance_um: float):
@@ -929,6 +943,7 @@ class Preload(Effect):
 
     name = "preload"
     signature = "modulation sidebands shrink, defect lines dominate the envelope"
+    signature_views = ("envelope", "harmonics")
     search_space = {"interference_um": (1.0, 60.0, True)}
 
     def __init__(self, interference_um: float):
@@ -957,6 +972,7 @@ class Lubrication(Effect):
 
     name = "lubrication"
     signature = "weaker, lower contact-mode bands; impacts stand out more"
+    signature_views = ("psd", "statistics")
     search_space = {"stiffness_ratio": (0.3, 1.0, False), "damping_ns_per_m": (1.0, 5000.0, True)}
 
     def __init__(self, stiffness_ratio: float, damping_ns_per_m: float):

@@ -16,7 +16,7 @@ with :func:`register_effect`; ``conf/effects/<name>.yaml`` nests the constructor
 arguments under ``<name>:``, and :func:`build_effects` turns the composed ``effects``
 mapping into instances. The core model knows no effect by name.
 
-Two optional class-level hooks serve the ranking of :mod:`bearingtwin.twin.rank`, not
+Three optional class-level hooks serve the ranking of :mod:`bearingtwin.twin.rank`, not
 the simulation:
 
 - ``requires``: names of effects that must already be in the twin before this one is
@@ -26,6 +26,10 @@ the simulation:
   data, to be the first trial of the effect's calibration. An effect whose signature is a
   few narrow lines needs it: a line's frequency is a needle that a search over a box of
   frequencies does not find in a few trials, while the measured spectrum shows it.
+- ``signature_views``: the comparison views (:data:`bearingtwin.twin.compare.VIEWS`) in
+  which the effect leaves its mark. The ranking claims the effect only if the twin gets closer
+  to the measurement there, not merely somewhere: a noise floor or a set of tones lowers the
+  kurtosis any added energy lowers, and that alone is no sign of them. Empty: every view.
 """
 
 from __future__ import annotations
@@ -57,10 +61,12 @@ class Effect:
         requires: effects the ranking needs in the twin before it offers this one (see the
             module docstring); a ranking notion, not checked when effects are built, so a
             simulation may use the effect alone.
+        signature_views: the comparison views its signature shows in (module docstring).
     """
 
     name: ClassVar[str] = ""
     requires: ClassVar[tuple[str, ...]] = ()
+    signature_views: ClassVar[tuple[str, ...]] = ()
 
     @classmethod
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:

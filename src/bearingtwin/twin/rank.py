@@ -12,7 +12,10 @@ measurement's own repeatability per view, the floor no twin can go below.
    estimate when the effect class offers ``initial_guess``), and ranked. The best is kept
    if it pays for its parameters on the held-out part: a Bayesian information criterion on
    the views' errors, each view's residual variance being the twin's misfit plus the
-   measurement's repeatability. The operating point and every kept effect are then
+   measurement's repeatability. And it is claimed only if it also brings the twin closer in
+   the views its signature shows in (``signature_views`` of its class): an effect that pays
+   only elsewhere (tones lowering the kurtosis any added energy lowers, while the lines view
+   stays as it was) explains something it does not name, and the ranking stops there. The operating point and every kept effect are then
    re-fitted together, and the remaining candidates tried on top, each with the kept effects
    free again beside it (they were fitted without it and took up part of its signature),
    until none pays.
@@ -71,10 +74,24 @@ def view_floors(repeatability_db: Mapping[str, float], view_floor_db: float) -> 
     return {v: max(repeatability_db[v], view_floor_db) for v in VIEWS}
 
 
+def view_deviances(errors_db: Mapping[str, float], floors_db: Mapping[str, float], weights: Mapping[str, float],
+                   points_per_view: float) -> dict[str, float]:
+    """Each view's term of the deviance: n w_v ln(e_v^2 + f_v^2)."""
+    return {v: points_per_view * weights[v] * math.log(errors_db[v] ** 2 + floors_db[v] ** 2) for v in VIEWS}
+
+
 def deviance(errors_db: Mapping[str, float], floors_db: Mapping[str, float], weights: Mapping[str, float],
              points_per_view: float) -> float:
     """-2 log-likelihood (up to a constant) of the views' errors: n sum_v w_v ln(e_v^2 + f_v^2) (:class:`Judge`)."""
-    return float(points_per_view * sum(weights[v] * math.log(errors_db[v] ** 2 + floors_db[v] ** 2) for v in VIEWS))
+    return float(sum(view_deviances(errors_db, floors_db, weights, points_per_view).values()))
+
+
+def signature_gain(before_db: Mapping[str, float], after_db: Mapping[str, float], floors_db: Mapping[str, float],
+                   weights: Mapping[str, float], points_per_view: float, views: Sequence[str]) -> float:
+    """The deviance drop from the views' errors ``before_db`` to ``after_db`` within ``views`` alone."""
+    before = view_deviances(before_db, floors_db, weights, points_per_view)
+    after = view_deviances(after_db, floors_db, weights, points_per_view)
+    return float(sum(before[v] - after[v] for v in views))
 
 
 def penalty_per_parameter(points_per_view: float, weights: Mapping[str, float]) -> float:
@@ -133,6 +150,11 @@ class Judge:
     def deviance(self, comparison: Comparison) -> float:
         return deviance(_view_errors(comparison), self.floors_db, self.weights, self.points_per_view)
 
+    def signature_gain(self, before: Comparison, after: Comparison, views: Sequence[str]) -> float:
+        """The deviance drop from ``before`` to ``after`` within ``views`` (:func:`signature_gain`)."""
+        return signature_gain(_view_errors(before), _view_errors(after), self.floors_db, self.weights,
+                              self.points_per_view, views)
+
     def unexplained(self, comparison: Comparison) -> list[dict]:
         """Views whose error is more than twice the measurement's own repeatability, worst first."""
         left, floors = [], self.floors_db
@@ -157,6 +179,7 @@ class EffectFit:
     n_parameters: int
     signature: str
     comparison: Comparison = field(repr=False)
+    signature_gain: float = 0.0  # the deviance drop on the held-out part within the views its signature shows in
     intervals: dict = field(default_factory=dict)
     kept_params: dict = field(default_factory=dict, repr=False)  # the kept effects as re-fitted with this one
 
@@ -169,7 +192,8 @@ class EffectFit:
     def as_dict(self) -> dict:
         return {"effect": self.effect, "error": self.error, "params": self.params, "explained": self.explained,
                 "evidence": self.evidence, "drop_per_point": self.drop_per_point, "n_parameters": self.n_parameters,
-                "signature": self.signature,
+                "signature": self.signature, "signature_views": list(signature_views(self.effect)),
+                "signature_gain": self.signature_gain,
                 "intervals": {k: list(v) for k, v in self.intervals.items()}}
 
 
@@ -203,6 +227,8 @@ class TwinFit:
     held_out: bool
     rounds: list[list[dict]] = field(default_factory=list)  # every round's candidates: effect, evidence, views
     repeatability_db: dict = field(default_factory=dict)    # each view's part-to-part error
+    unclaimed: EffectFit | None = None  # the candidate that paid, but not in its own signature's views
+    min_signature_gain: float = 0.0
 
     @property
     def final_error(self) -> float:
@@ -217,7 +243,7 @@ class TwinFit:
     def verdict(self) -> str:
         if self.added:
             return "effects missing"
-        return "unexplained discrepancy" if self.unexplained else "no effect needed"
+        return "unexplained discrepancy" if self.unexplained or self.unclaimed is not None else "no effect needed"
 
     @property
     def summary(self) -> str:
@@ -231,6 +257,11 @@ class TwinFit:
                 runner = self.ranking[1].effect
                 lines.append(f"Uncertain: {self.ranking[0].effect} leads {runner} by only {self.margin:.1f} "
                              "information-criterion units.")
+            if self.unclaimed is not None:
+                lines.append(f"Not claimed: {self._unclaimed_words()}.")
+        elif self.unclaimed is not None:
+            lines.append(f"No library effect claimed: {self._unclaimed_words()}. Discrepancy {self.baseline_error:.2f} dB "
+                         f"(the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB).")
         else:
             best = self.ranking[0] if self.ranking else None
             why = (f"the best candidate, {best.effect}, does not pay for its parameters on the held-out part"
@@ -242,6 +273,13 @@ class TwinFit:
                          f"{left['error_db'] / left['floor_db']:.0f} times the measurement's own): {left['where']}. "
                          f"Such a mark is left by {left['what_leaves_it']}.")
         return "\n".join(lines)
+
+    def _unclaimed_words(self) -> str:
+        fit = self.unclaimed
+        views = " and ".join(signature_views(fit.effect))
+        return (f"{fit.effect} would pay for its parameters, but its signature's views ({views}) come only "
+                f"{fit.signature_gain:.1f} deviance units closer (it needs {self.min_signature_gain:g}): "
+                "what it would close lies elsewhere")
 
     def as_dict(self) -> dict:
         return {
@@ -259,6 +297,7 @@ class TwinFit:
             "steps": [step.as_dict() for step in self.steps],
             "added": [fit.effect for fit in self.added],
             "unexplained": self.unexplained,
+            "unclaimed": None if self.unclaimed is None else self.unclaimed.as_dict(),
             "final_error": self.final_error,
             "summary": self.summary,
         }
@@ -324,6 +363,8 @@ class EffectRanker:
         max_effects: at most this many effects are added.
         points_per_view: independent values each view counts as in the information criterion (:class:`Judge`).
         view_floor_db: least repeatability assumed of any view, dB (:attr:`Judge.floors_db`).
+        min_signature_gain: deviance drop an effect must bring within its signature's views to be claimed
+            (module docstring; 0: the information criterion alone decides).
         n_jobs: threads screening the candidates of a round (each with its own twin; same result for any number).
         seed: seeds every Optuna sampler (each search gets its own derived seed).
     """
@@ -331,8 +372,8 @@ class EffectRanker:
     def __init__(self, candidates: Sequence[str], fixed_effects: Mapping[str, Mapping] | None = None,
                  operating_point: OperatingPoint | None = None, n_trials_base: int = 16,
                  n_trials_effect: int = 10, n_trials_refine: int = 16, n_polish: int = 30, n_polish_effect: int = 10,
-                 max_effects: int = 3, points_per_view: float = 1.0, view_floor_db: float = 0.3, n_jobs: int = 1,
-                 seed: int = 0):
+                 max_effects: int = 3, points_per_view: float = 1.0, view_floor_db: float = 0.3,
+                 min_signature_gain: float = 1.0, n_jobs: int = 1, seed: int = 0):
         self.candidates = list(candidates)
         self.fixed_effects = {k: dict(v or {}) for k, v in dict(fixed_effects or {}).items()}
         self.operating_point = operating_point or OperatingPoint()
@@ -343,6 +384,7 @@ class EffectRanker:
         self.n_polish_effect = n_polish_effect
         self.points_per_view = points_per_view
         self.view_floor_db = view_floor_db
+        self.min_signature_gain = min_signature_gain
         self.n_jobs = n_jobs
         self.max_effects = max_effects
         self.seed = seed
@@ -357,6 +399,8 @@ class EffectRanker:
             raise BearingTwinError(f"ranking.max_effects must be non-negative, got {self.max_effects}")
         if not self.view_floor_db > 0:
             raise BearingTwinError(f"ranking.view_floor_db must be a positive number of dB, got {self.view_floor_db}")
+        if not self.min_signature_gain >= 0:
+            raise BearingTwinError(f"ranking.min_signature_gain must be non-negative, got {self.min_signature_gain}")
         spaces = {name: effect_search_space(name) for name in self.candidates}
         judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view,
                                       self.view_floor_db)
@@ -392,6 +436,7 @@ class EffectRanker:
         ranking: list[EffectFit] = []
         rounds: list[list[dict]] = []
         added: list[EffectFit] = []
+        unclaimed = None
         remaining = list(self.candidates)
         round_index = 0
         while remaining and len(added) < self.max_effects:
@@ -406,11 +451,15 @@ class EffectRanker:
                 break
             fits.sort(key=lambda fit: -fit.evidence)
             rounds.append([{"effect": fit.effect, "evidence": fit.evidence, "error": fit.error,
-                            "n_parameters": fit.n_parameters, "views": _view_errors(fit.comparison)} for fit in fits])
+                            "n_parameters": fit.n_parameters, "signature_gain": fit.signature_gain,
+                            "views": _view_errors(fit.comparison)} for fit in fits])
             if round_index == 0:
                 ranking = fits
             best = fits[0]
             if best.evidence <= 0:
+                break
+            if best.signature_gain < self.min_signature_gain:  # it pays, but not where its own mark would be
+                unclaimed = best
                 break
             base_values, sensor, effects, _, scored = self._refit(
                 best, base_values, sensor, current_effects, judge, twin, seed=self.seed + 1000 * (round_index + 1) + 999)
@@ -443,7 +492,8 @@ class EffectRanker:
         operating = self._operating_point_report(base_values, sensor, scored, intervals)
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
-                            judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db))
+                            judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
+                            unclaimed, self.min_signature_gain)
         return self
 
     def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, matched,
@@ -471,7 +521,9 @@ class EffectRanker:
         drop = (judge.deviance(current) - judge.deviance(checked)) / judge.points_per_view
         evidence = judge.points_per_view * drop - len(space) * judge.penalty_per_parameter
         return EffectFit(name, effects[name], checked.discrepancy_db, _explained(current, checked), evidence, drop,
-                         len(space), _signature(name), checked, kept_params={other: effects[other] for other in kept})
+                         len(space), _signature(name), checked,
+                         judge.signature_gain(current, checked, signature_views(name)),
+                         kept_params={other: effects[other] for other in kept})
 
     def _refit(self, best: EffectFit, base_values, sensor, current_effects, judge: Judge, twin, seed):
         """Re-fit the operating point together with every kept effect and the new one.
@@ -572,6 +624,11 @@ def _effect_class(name: str):
 
 def _requires(name: str) -> tuple[str, ...]:
     return tuple(getattr(_effect_class(name), "requires", ()))
+
+
+def signature_views(name: str) -> tuple[str, ...]:
+    """The views the effect's signature shows in (every view if its class does not say)."""
+    return tuple(getattr(_effect_class(name), "signature_views", ())) or VIEWS
 
 
 def _signature(name: str) -> str:

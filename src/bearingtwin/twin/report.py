@@ -77,6 +77,7 @@ def build_ranker(cfg: DictConfig, fault: str) -> EffectRanker:
         max_effects=int(cfg.ranking.max_effects),
         points_per_view=float(cfg.ranking.points_per_view),
         view_floor_db=float(cfg.ranking.view_floor_db),
+        min_signature_gain=float(cfg.ranking.min_signature_gain),
         n_jobs=int(cfg.ranking.n_jobs),
         seed=int(cfg.seed),
     )
