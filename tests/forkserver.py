@@ -19,8 +19,10 @@ its stdin.
 Libraries read some settings at import (OpenMP threads, matplotlib's backend); the server is
 started with the tests' own environment, which every command shares, and a child re-reads the
 temporary folder, which does differ. What a fork cannot show, a module that forgot an import some
-other module happened to make, is left to the commands the tests still start afresh (the tracking
-server's, the served model's, the interrupted runs').
+other module happened to make, a warning printed while the libraries import (printed once, by
+this process), settings read at interpreter start (``PYTHONHASHSEED``, OpenMP's), is left to the
+commands the tests still start afresh (the tracking server's, the served model's, the interrupted
+runs').
 """
 
 import atexit
@@ -58,11 +60,9 @@ def answer(message: dict) -> None:
 
 
 def become(request: dict) -> None:
-    """In the child: the request's folder, environment and files, then the module as ``python -m`` runs it."""
-    os.chdir(request["cwd"])
-    os.environ.clear()
-    os.environ.update(request["env"])
-    tempfile.tempdir = None  # gettempdir() reads TMPDIR again
+    """In the child: the request's files, folder and environment, then the module as ``python -m`` runs it.
+
+    The output files first, so that anything going wrong from here on is the command's own stderr."""
     stdin = os.open(os.devnull, os.O_RDONLY)
     os.dup2(stdin, 0)
     for fd, path in ((1, request["stdout"]), (2, request["stderr"])):
@@ -70,6 +70,10 @@ def become(request: dict) -> None:
         os.dup2(handle, fd)
         os.close(handle)
     os.close(stdin)
+    os.chdir(request["cwd"])
+    os.environ.clear()
+    os.environ.update(request["env"])
+    tempfile.tempdir = None  # gettempdir() reads TMPDIR again
     sys.argv = [request["module"], *request["args"]]
     sys.path[0] = os.getcwd()
     runpy.run_module(request["module"], run_name="__main__", alter_sys=True)
@@ -86,9 +90,10 @@ def exit_code(exit_: SystemExit) -> int:
 def end(code: int) -> None:
     """Leave the child as the interpreter's exit would, up to the module teardown.
 
-    Threads are joined and atexit handlers run (MLflow ends its runs there), the streams flushed;
-    then ``os._exit``: tearing down the modules of torch, Lightning and MLflow takes about 4 s here
-    and changes nothing a command leaves behind."""
+    Threads are joined and atexit handlers run (MLflow ends its runs there), the standard streams
+    flushed; then ``os._exit``: tearing down the modules of torch, Lightning and MLflow takes about
+    4 s here. Skipped with it: flushing a file object a command left open, which no command here
+    does (each writes in a ``with`` block)."""
     threading._shutdown()  # what Py_FinalizeEx does first: wait for the non-daemon threads
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):

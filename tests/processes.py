@@ -102,17 +102,25 @@ class _ForkServer:
     """One ``tests/forkserver.py`` process: runs one command at a time."""
 
     def __init__(self):
+        # Unbuffered bytes: a reply must wait in this object's buffer, never in a file object's read-ahead
+        # where select() cannot see it.
         self.process = subprocess.Popen([sys.executable, str(FORKSERVER)], stdin=subprocess.PIPE,
-                                        stdout=subprocess.PIPE, text=True, bufsize=1)
+                                        stdout=subprocess.PIPE, bufsize=0)
+        self.received = b""
         self.read(timeout_s=300)  # {"ready": true}: the libraries are imported
 
-    def read(self, timeout_s: float | None) -> dict:
-        ready, _, _ = select.select([self.process.stdout], [], [], timeout_s)
-        if not ready:
-            raise TimeoutError
-        line = self.process.stdout.readline()
-        if not line:
-            raise RuntimeError(f"the fork server exited {self.process.wait()}")
+    def read(self, timeout_s: float) -> dict:
+        """The server's next reply; TimeoutError if none comes within ``timeout_s``."""
+        deadline = time.monotonic() + timeout_s
+        while b"\n" not in self.received:
+            ready, _, _ = select.select([self.process.stdout], [], [], max(0.0, deadline - time.monotonic()))
+            if not ready:
+                raise TimeoutError
+            chunk = os.read(self.process.stdout.fileno(), 65536)
+            if not chunk:
+                raise RuntimeError(f"the fork server exited {self.process.wait()}")
+            self.received += chunk
+        line, self.received = self.received.split(b"\n", 1)
         return json.loads(line)
 
     def run(self, module: str, args: list[str], cwd, env: dict, timeout_s: float) -> subprocess.CompletedProcess:
@@ -120,26 +128,32 @@ class _ForkServer:
             out, err = Path(folder, "stdout"), Path(folder, "stderr")
             request = {"module": module, "args": [str(a) for a in args], "cwd": str(cwd or os.getcwd()),
                        "env": dict(env), "stdout": str(out), "stderr": str(err)}
-            self.process.stdin.write(json.dumps(request) + "\n")
+            self.process.stdin.write(json.dumps(request).encode() + b"\n")
             self.process.stdin.flush()
             pid = self.read(timeout_s=60)["pid"]
             try:
                 returncode = self.read(timeout_s)["returncode"]
-            except TimeoutError:
+            except BaseException as error:  # a timeout, or the test interrupted: the command ends with it
                 with contextlib.suppress(ProcessLookupError):
-                    os.kill(pid, signal.SIGKILL)
-                self.read(timeout_s=60)
-                raise subprocess.TimeoutExpired([module, *args], timeout_s, out.read_text(), err.read_text())
+                    os.kill(pid, signal.SIGKILL)  # not reaped yet: the server answers once it has reaped it
+                with contextlib.suppress(Exception):
+                    self.read(timeout_s=60)
+                if isinstance(error, TimeoutError):
+                    raise subprocess.TimeoutExpired([module, *args], timeout_s, out.read_text(errors="replace"),
+                                                    err.read_text(errors="replace")) from None
+                raise
             return subprocess.CompletedProcess([sys.executable, "-m", module, *args], returncode,
                                                out.read_text(errors="replace"), err.read_text(errors="replace"))
 
     def close(self) -> None:
         with contextlib.suppress(OSError):
             self.process.stdin.close()
-        with contextlib.suppress(subprocess.TimeoutExpired):
+        try:
             self.process.wait(timeout=10)
-            return
-        self.process.kill()
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        self.process.stdout.close()
 
 
 _idle: list[_ForkServer] = []

@@ -20,7 +20,7 @@ from mlflow import MlflowClient
 from omegaconf import OmegaConf
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "fixtures"))
-from processes import run_module
+from processes import run_module  # noqa: E402
 
 import make_hust_fixtures  # noqa: E402
 

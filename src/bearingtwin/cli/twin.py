@@ -30,7 +30,8 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
     unexplained = ", ".join(left["view"] for left in fit.unexplained)
     lines = {
         "verdict": fit.verdict + (f" (unexplained in the {unexplained} view)" if unexplained else ""),
-        "effects found": found or "none pays for its parameters on the held-out half",
+        "effects found": found or (f"none claimed ({fit.unclaimed.effect} paid only outside its signature's views)"
+                                   if fit.unclaimed is not None else "none pays for its parameters on the held-out half"),
         "discrepancy": f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}, "
                        f"the measurement's own {fit.floor_error:.2f} dB",
         "written": f"{files[0].name} and {len(files) - 1} figures",

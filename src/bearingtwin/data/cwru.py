@@ -128,8 +128,8 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         meta.update(load_hp=name.load_hp, fault_size_in=name.fault_size_in, position=name.position)
     if name is not None and name.end == "fan":
         meta["bearing"] = name.bearing
-        notes.append("the fault is in the fan-end bearing (SKF 6203, conf/bearing/cwru_6203.yaml): read from its "
-                     "accelerometer, FE (channel=DE reads the drive end's)")
+        notes.append("the fault is in the fan-end bearing (SKF 6203, conf/bearing/cwru_6203.yaml), whose own "
+                     "accelerometer, FE, is read unless a channel is named")
     channels = by_record[record]
     return RawRecord(
         str(path),

@@ -28,8 +28,8 @@ the simulation:
   frequencies does not find in a few trials, while the measured spectrum shows it.
 - ``signature_views``: the comparison views (:data:`bearingtwin.twin.compare.VIEWS`) in
   which the effect leaves its mark. The ranking claims the effect only if the twin gets closer
-  to the measurement there, not merely somewhere: a noise floor or a set of tones lowers the
-  kurtosis any added energy lowers, and that alone is no sign of them. Empty: every view.
+  to the measurement there, not merely somewhere: a set of tones lowers the kurtosis any added
+  energy lowers, and that alone is no sign of tones (their lines are). Empty: every view.
 """
 
 from __future__ import annotations

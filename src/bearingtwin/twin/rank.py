@@ -15,7 +15,9 @@ measurement's own repeatability per view, the floor no twin can go below.
    measurement's repeatability. And it is claimed only if it also brings the twin closer in
    the views its signature shows in (``signature_views`` of its class): an effect that pays
    only elsewhere (tones lowering the kurtosis any added energy lowers, while the lines view
-   stays as it was) explains something it does not name, and the ranking stops there. The operating point and every kept effect are then
+   stays as it was) explains something it does not name, and the ranking stops there: the
+   discrepancy the most evidence points at is not a library effect's, so a runner-up that
+   explains less of it is not offered in its place. The operating point and every kept effect are then
    re-fitted together, and the remaining candidates tried on top, each with the kept effects
    free again beside it (they were fitted without it and took up part of its signature),
    until none pays.
@@ -468,6 +470,7 @@ class EffectRanker:
             current = compare(base, effects, judge.check_part)
             best.comparison, best.error, best.params = current, current.discrepancy_db, effects[best.effect]
             best.explained = _explained(before, current)
+            best.signature_gain = judge.signature_gain(before, current, signature_views(best.effect))
             added.append(best)
             current_effects = effects
             steps.append(Step(dict(current_effects), current.discrepancy_db, current, dict(base)))

@@ -156,6 +156,7 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
                 for v, r in s.comparison.views.items()]
     metrics += [Metric(f"explained_{f.effect}", f.explained, now, 0) for f in fit.ranking]
     metrics += [Metric(f"evidence_{f.effect}", f.evidence, now, 0) for f in fit.ranking]
+    metrics += [Metric(f"signature_gain_{f.effect}", f.signature_gain, now, 0) for f in fit.ranking]
     metrics += [Metric(f"op_{name}", entry["value"], now, 0) for name, entry in fit.operating_point.items()
                 if isinstance(entry.get("value"), float)]
     metrics += [Metric("gain", fit.gain, now, 0), Metric("floor_error", fit.floor_error, now, 0)]
@@ -163,6 +164,8 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
     client.log_batch(run_id, metrics=metrics)
     client.set_tag(run_id, "summary", fit.summary[:5000])
     client.set_tag(run_id, "verdict", fit.verdict)
+    if fit.unclaimed is not None:
+        client.set_tag(run_id, "unclaimed", fit.unclaimed.effect)
     for path in files:
         client.log_artifact(run_id, str(path))
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
@@ -174,6 +177,10 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     run id (None when tracking is disabled)."""
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = load_measurement(cfg.measured, geometry)
+    named = measured.meta.get("bearing")  # the bearing a file names (a CWRU fan-end record's SKF 6203)
+    if named is not None and named != cfg.bearing.get("name"):
+        log.warning("%s: the record's bearing is %s, the twin's %s: give bearing=%s for its defect frequencies",
+                    cfg.measured.path, named, cfg.bearing.get("name"), named)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault).fit(twin, measured, geometry, settings)
