@@ -392,7 +392,9 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
     times = [r["seconds"] for r in results]
     by_fs = {fs: np.median([r["seconds"] for r in results if r["fs"] == fs]) for fs in sorted({r["fs"] for r in results})}
     misses = [[r["source"], r["kind"], r["fault"], ", ".join(r["hidden"]) or "none", f"{r['fs']:g}", r["unit"],
-               ", ".join(r["added"]) or "none", ", ".join(f"{n} {e:.1f}" for n, _, _, e in r["ranking"][:3]),
+               ", ".join(r["added"]) or "none",
+               ", ".join(f"{c['effect']} {c['evidence']:.1f} ({c['signature_gain']:.1f})" for c in r["rounds"][0][:3])
+               if r["rounds"] else "—",
                ", ".join(r["unexplained"]) or "—"]
               for r in results if not score(r)["right"]]
     machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
@@ -400,7 +402,8 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
         "# Identifiability: does the ranking name the missing physics?", "",
         "Effects hidden in a measurement, named (or not) by `bearingtwin-twin`'s compare-calibrate-rank with its "
         "defaults: the operating point fitted (sensor race and direction, load, clearance, defect size, gain), "
-        "then every library effect a candidate, added only when it pays for its parameters on the held-out half. "
+        "then every library effect a candidate, added only when it pays for its parameters on the held-out half "
+        "and brings the twin closer in the views its own signature shows in. "
         "`twin` measurements come from the twin itself (a self-test); `rig` measurements from the independent "
         "test rig, which shares no code with the twin.", "",
         markdown_table(["case kind", "goal", "twin -> twin (self-test)", "twin -> independent rig"], rows), "",
@@ -421,7 +424,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
         f"({', '.join(f'{fs / 1000:g} kHz {t:.0f} s' for fs, t in by_fs.items())}), {len(results[0]['ranking'])} "
         "candidates, one process per case.", "",
         "## Misses", "",
-        markdown_table(["source", "kind", "fault", "hidden", "fs", "unit", "added", "first-round evidence",
+        markdown_table(["source", "kind", "fault", "hidden", "fs", "unit", "added", "first-round evidence (signature gain)",
                         "unexplained views"], misses) if misses else "None.", "",
     ]
     out.mkdir(parents=True, exist_ok=True)
