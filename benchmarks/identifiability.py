@@ -297,6 +297,13 @@ def first_round_right(result: dict, points_per_view: float, view_floor_db: float
     return first is None
 
 
+def first_round_rates(results: list[dict], kinds: list[str], points_per_view: float, view_floor_db: float,
+                      min_signature_gain: float) -> list[float]:
+    """Per case kind, the share of cases whose first-round decision would be right with these constants."""
+    return [float(np.mean([first_round_right(r, points_per_view, view_floor_db, min_signature_gain)
+                           for r in results if r["kind"] == kind])) for kind in kinds]
+
+
 def choose_decision_constants(results: list[dict], min_signature_gain: float) -> tuple[tuple[float, float], list[list[str]]]:
     """The (points_per_view, view_floor_db) whose first-round decisions are right most often, each case
     kind weighing the same; ties go to fewer points, then to the lower floor."""
@@ -304,8 +311,7 @@ def choose_decision_constants(results: list[dict], min_signature_gain: float) ->
     rows, best = [], (-1.0, 0.0, 0.0)
     for floor in VIEW_FLOOR_GRID:
         for points in POINTS_GRID:
-            rates = [np.mean([first_round_right(r, points, floor, min_signature_gain) for r in results
-                              if r["kind"] == kind]) for kind in kinds]
+            rates = first_round_rates(results, kinds, points, floor, min_signature_gain)
             rows.append([f"{points:g}", f"{floor:g}", *[f"{rate:.0%}" for rate in rates], f"{np.mean(rates):.0%}"])
             best = max(best, (float(np.mean(rates)), -points, -floor))
     return (-best[1], -best[2]), [["points_per_view", "view_floor_db", *kinds, "mean"], *rows]
@@ -317,8 +323,7 @@ def choose_signature_gain(results: list[dict], points_per_view: float, view_floo
     kinds = sorted({r["kind"] for r in results})
     rows, best = [], (-1.0, 0.0)
     for gain in SIGNATURE_GAIN_GRID:
-        rates = [np.mean([first_round_right(r, points_per_view, view_floor_db, gain) for r in results
-                          if r["kind"] == kind]) for kind in kinds]
+        rates = first_round_rates(results, kinds, points_per_view, view_floor_db, gain)
         rows.append([f"{gain:g}", *[f"{rate:.0%}" for rate in rates], f"{np.mean(rates):.0%}"])
         best = max(best, (float(np.mean(rates)), -gain))
     return -best[1], [["min_signature_gain", *kinds, "mean"], *rows]
