@@ -50,7 +50,12 @@ os.mkdir(os.environ["TMPDIR"])
 tempfile.tempdir = None  # gettempdir() reads TMPDIR again; pytest's tmp_path asks it on first use
 os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ["BEARINGTWIN_CACHE"] = os.path.join(_session_dir, "cache")
+# One simulation and feature cache for the whole session, its xdist workers included (they inherit the
+# controller's environment): entries are keyed by their content and written whole (src/bearingtwin/storage.py),
+# so a worker reads the smoke data another simulated. Tests of the cache itself, and end-to-end tests that
+# check what a command wrote to its cache, name a cache of their own.
+os.environ.setdefault("BEARINGTWIN_TEST_SESSION", _session_dir)
+os.environ["BEARINGTWIN_CACHE"] = os.path.join(os.environ["BEARINGTWIN_TEST_SESSION"], "cache")
 os.environ["MLFLOW_TRACKING_URI"] = "sqlite:///" + os.path.join(_session_dir, "mlflow.db")
 
 

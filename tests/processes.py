@@ -39,11 +39,13 @@ def free_loopback_port() -> int:
         return probe.getsockname()[1]
 
 
-def child_env(store_uri: str, cache: Path, **extra: str) -> dict:
-    """This environment with its own MLflow store and cache, and this interpreter's scripts first on PATH
-    (``mlflow models serve`` execs ``uvicorn`` by name: it must be this interpreter's, not another's)."""
-    env = dict(os.environ, MLFLOW_TRACKING_URI=store_uri, BEARINGTWIN_CACHE=str(cache),
-               MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR="false", **extra)
+def child_env(store_uri: str, cache: Path | None = None, **extra: str) -> dict:
+    """This environment with its own MLflow store, and this interpreter's scripts first on PATH (``mlflow
+    models serve`` execs ``uvicorn`` by name: it must be this interpreter's, not another's). The cache is
+    the session's shared one (tests/conftest.py) unless the test checks what its commands cache: ``cache``."""
+    env = dict(os.environ, MLFLOW_TRACKING_URI=store_uri, MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR="false", **extra)
+    if cache is not None:
+        env["BEARINGTWIN_CACHE"] = str(cache)
     env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
     return env
 
@@ -75,6 +77,12 @@ def wait_done(process: subprocess.Popen, log: Path, what: str, timeout_s: float,
     except subprocess.TimeoutExpired:
         pytest.fail(f"{what} did not finish in {timeout_s} s:\n{tail(log)}")
     assert process.returncode == returncode, f"{what} exited {process.returncode}:\n{tail(log)}"
+
+
+def assert_done(done: subprocess.CompletedProcess, what: str, returncode: int = 0, lines: int = 30) -> None:
+    """A finished command (``run_module``) exited ``returncode``; else fail with the end of its output."""
+    output = "\n".join((done.stdout + done.stderr).splitlines()[-lines:])
+    assert done.returncode == returncode, f"{what} exited {done.returncode}:\n{output}"
 
 
 def tail(log: Path, lines: int = 30) -> str:

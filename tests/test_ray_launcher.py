@@ -73,7 +73,7 @@ def sweeps(tmp_path_factory):
                     cluster_env, cluster_dir, cluster_log)
     try:
         runs = {}
-        basic_env = child_env(f"sqlite:///{basic_dir / 'mlflow.db'}", basic_dir / "cache")
+        basic_env = child_env(f"sqlite:///{basic_dir / 'mlflow.db'}")  # the session's cache: its entries are the reference
         runs["basic"] = (basic_env, sweep(basic_dir, f"hydra.sweep.dir={basic_dir / 'multirun'}", env=basic_env))
         deadline = time.monotonic() + CLUSTER_START_TIMEOUT_S
         while "Ray runtime started" not in cluster_log.read_text(errors="replace"):

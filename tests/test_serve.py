@@ -15,11 +15,13 @@ import os
 import sys
 import urllib.error
 import urllib.request
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pytest
-from processes import LOOPBACK, SMOKE, child_env, free_loopback_port, start, stop, wait_done, wait_until_answers
+from processes import (LOOPBACK, SMOKE, assert_done, child_env, free_loopback_port, run_module, start, stop,
+                       wait_until_answers)
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, load_diagnosis_model
@@ -63,24 +65,24 @@ def served(tmp_path_factory):
     pipeline and RECORD's windows as diagnose cuts them.
 
     The two trainings run side by side (separate stores, no SQLite contention), then both servers
-    start while ``bearingtwin-diagnose`` runs: on 2 cores this halves the wall time.
+    start while ``bearingtwin-diagnose`` runs: on 2 cores this halves the wall time. The commands are
+    forked from pre-imported servers (``run_module``); the model servers are started fresh, as a user would.
     """
     root = tmp_path_factory.mktemp("serve")
     cases = {}
     processes = []
+    pool = ThreadPoolExecutor(max_workers=len(CASES))
     try:
         for case, overrides in CASES.items():
             folder = root / case
             folder.mkdir()
             store_uri = f"sqlite:///{folder / 'mlflow.db'}"
-            env = child_env(store_uri, folder / "cache")
-            log = folder / "train.log"
-            train = start([sys.executable, "-m", "bearingtwin.cli.train", *SMOKE, *overrides,
-                           f"register={MODEL_NAME}", f"register_alias={MODEL_ALIAS}"], env, folder, log)
-            processes.append(train)
-            cases[case] = {"folder": folder, "store_uri": store_uri, "env": env, "train": (train, log)}
+            env = child_env(store_uri)
+            train = pool.submit(run_module, "bearingtwin.cli.train", *SMOKE, *overrides, f"register={MODEL_NAME}",
+                                f"register_alias={MODEL_ALIAS}", cwd=folder, env=env, timeout=CHILD_TIMEOUT_S)
+            cases[case] = {"folder": folder, "store_uri": store_uri, "env": env, "train": train}
         for case, info in cases.items():
-            wait_done(*info["train"], what=f"bearingtwin-train ({case})", timeout_s=CHILD_TIMEOUT_S)
+            assert_done(info["train"].result(), f"bearingtwin-train ({case})")
 
         model_uri = f"models:/{MODEL_NAME}@{MODEL_ALIAS}"
         for case, info in cases.items():
@@ -91,23 +93,21 @@ def served(tmp_path_factory):
                                     "--env-manager", "local", "-h", "127.0.0.1", "-p", str(port)],
                                    info["env"], info["folder"], info["server_log"])
             processes.append(info["server"])
-            log = info["folder"] / "diagnose.log"
-            diagnose = start([sys.executable, "-m", "bearingtwin.cli.diagnose", f"path={RECORD}", f"model={model_uri}",
-                              f"out={info['folder'] / 'diagnosis'}", "figures=false", "tracking.enabled=false"],
-                             info["env"], info["folder"], log)
-            processes.append(diagnose)
-            info["diagnose"] = (diagnose, log)
+            info["diagnose"] = pool.submit(run_module, "bearingtwin.cli.diagnose", f"path={RECORD}", f"model={model_uri}",
+                                           f"out={info['folder'] / 'diagnosis'}", "figures=false", "tracking.enabled=false",
+                                           cwd=info["folder"], env=info["env"], timeout=CHILD_TIMEOUT_S)
         for info in cases.values():  # meanwhile, the windows as diagnose prepares them, from the registered model
             _, info["pipeline"] = load_diagnosis_model(model_uri, info["store_uri"])
             info["prepared"] = read_record(RECORD, info["pipeline"])  # DE channel, resampled to the model's rate
             info["windows"], info["starts"] = record_windows(info["prepared"].recording.signal, info["pipeline"].window_length)
         for case, info in cases.items():
-            wait_done(*info["diagnose"], what=f"bearingtwin-diagnose ({case})", timeout_s=CHILD_TIMEOUT_S)
+            assert_done(info["diagnose"].result(), f"bearingtwin-diagnose ({case})")
             info["diagnosis"] = json.loads((info["folder"] / "diagnosis" / RECORD.stem / "diagnosis.json").read_text())
             wait_until_answers(f"{info['url']}/ping", info["server"], info["server_log"], "mlflow models serve",
                                SERVER_START_TIMEOUT_S)
         yield cases
     finally:
+        pool.shutdown(cancel_futures=True)
         for process in processes:
             stop(process)
 

@@ -58,7 +58,7 @@ def test_a_slurm_sweep_submits_one_array_task_per_job_with_the_sweeps_store_and_
 
 
 def test_a_local_submitit_sweep_runs_both_jobs(tmp_path):
-    env = child_env(f"sqlite:///{tmp_path / 'mlflow.db'}", tmp_path / "cache")
+    env = child_env(f"sqlite:///{tmp_path / 'mlflow.db'}")
     done = sweep(tmp_path, env, "launcher=submitit_local")
     assert done.returncode == 0, done.stderr[-3000:]
     assert "2 jobs, 2 finished, 0 failed, 0 skipped" in done.stdout

@@ -26,7 +26,7 @@ SEARCH = ["search.population=3", "search.iterations=1", "search.windows=2", "fea
 
 def sweep(base: Path, *args: str) -> subprocess.CompletedProcess:
     return run_module("bearingtwin.cli.train", "-m", "+sweep=table4", *args, *DATA,
-                      f"tracking.uri=sqlite:///{base}/mlflow.db", f"paths.cache_dir={base}/cache", cwd=base, timeout=900)
+                      f"tracking.uri=sqlite:///{base}/mlflow.db", cwd=base, timeout=900)  # the session's cache
 
 
 def run_sabo_sweep(base: Path) -> subprocess.CompletedProcess:

@@ -11,14 +11,14 @@ written beside the clients (no local store), every artifact must be in the serve
 
 from __future__ import annotations
 
-import subprocess
 import sys
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pytest
 from mlflow import MlflowClient
-from processes import SMOKE, child_env, free_loopback_port, start, stop, wait_done, wait_until_answers
+from processes import SMOKE, assert_done, child_env, free_loopback_port, run_module, start, stop, wait_until_answers
 
 MODEL = "team-model"
 SWEEP = ["seed=0", "classifier=svm,cnn_bilstm", "trainer.max_epochs=2", "launcher=joblib", f"register={MODEL}", *SMOKE]
@@ -26,10 +26,6 @@ TWIN_SMOKE = ["twin.duration=0.5", "compare.envelope_segment_s=0.25", "calibrati
               "calibration.n_trials_effect=3", "calibration.n_trials_refine=3", "ranking.max_effects=1"]
 SERVER_START_TIMEOUT_S = 120
 CHILD_TIMEOUT_S = 600
-
-
-def cli(name: str, *args: str) -> list[str]:
-    return [sys.executable, "-m", f"bearingtwin.cli.{name}", *args]
 
 
 @pytest.fixture(scope="module")
@@ -40,38 +36,42 @@ def team(tmp_path_factory):
     server_dir.mkdir()
     work.mkdir()
     uri = f"http://127.0.0.1:{free_loopback_port()}"
-    env = child_env(uri, root / "cache")
+    env = child_env(uri)
     logs = {}
+    pool = ThreadPoolExecutor(max_workers=3)
 
-    def run(log: str, command: list[str], cwd: Path = work, **extra_env: str) -> subprocess.Popen:
+    def run(log: str, name: str, *args: str) -> Future:
+        """A bearingtwin command in the background; its output goes to ``logs[log]`` when it ends."""
+        def command() -> None:
+            done = run_module(f"bearingtwin.cli.{name}", *args, cwd=work, env=env, timeout=CHILD_TIMEOUT_S)
+            logs[log].write_text(done.stdout + done.stderr)
+            assert_done(done, f"bearingtwin-{name} ({log})")
         logs[log] = root / f"{log}.log"
-        child = start(command, {**env, **extra_env}, cwd, logs[log])
-        children.append(child)
-        return child
+        return pool.submit(command)
 
-    children = []
+    server_log = logs["server"] = root / "server.log"
+    # The server's own job runner (GenAI evaluation, trace archival) serves nothing here: off, to spare the cores.
+    server = start([sys.executable, "-m", "mlflow", "server", "--backend-store-uri", f"sqlite:///{server_dir / 'db.sqlite'}",
+                    "--artifacts-destination", str(server_dir / "artifacts"), "--host", "127.0.0.1",
+                    "--port", uri.rsplit(":", 1)[1], "--workers", "1"],
+                   {**env, "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false"}, server_dir, server_log)
     try:
-        # The server's own job runner (GenAI evaluation, trace archival) serves nothing here: off, to spare the cores.
-        server = run("server", [sys.executable, "-m", "mlflow", "server", "--backend-store-uri",
-                                f"sqlite:///{server_dir / 'db.sqlite'}", "--artifacts-destination", str(server_dir / "artifacts"),
-                                "--host", "127.0.0.1", "--port", uri.rsplit(":", 1)[1], "--workers", "1"],
-                     cwd=server_dir, MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")
-        simulate = run("simulate", cli("simulate", "fault=outer", "simulator.fs=12000", "simulator.duration=2.0",
-                                       f"out={work / 'outer.npz'}"))
-        wait_until_answers(f"{uri}/health", server, logs["server"], "mlflow server", SERVER_START_TIMEOUT_S)
-        sweep = run("sweep", cli("train", "-m", *SWEEP, f"hydra.sweep.dir={work / 'multirun'}"))
-        wait_done(simulate, logs["simulate"], "bearingtwin-simulate", CHILD_TIMEOUT_S)
-        twin = run("twin", cli("twin", f"measured.path={work / 'outer.npz'}", f"out={work / 'twin'}", *TWIN_SMOKE,
-                               "figures=false"))  # the figures are tested in tests/test_twin_cli.py
-        wait_done(sweep, logs["sweep"], "bearingtwin-train -m (joblib)", CHILD_TIMEOUT_S)
-        diagnose = run("diagnose", cli("diagnose", f"path={work / 'outer.npz'}", f"model=models:/{MODEL}/1",
-                                       f"out={work / 'diagnosis'}", "figures=false"))
-        wait_done(twin, logs["twin"], "bearingtwin-twin", CHILD_TIMEOUT_S)
-        wait_done(diagnose, logs["diagnose"], "bearingtwin-diagnose", CHILD_TIMEOUT_S)
+        simulate = run("simulate", "simulate", "fault=outer", "simulator.fs=12000", "simulator.duration=2.0",
+                       f"out={work / 'outer.npz'}")
+        wait_until_answers(f"{uri}/health", server, server_log, "mlflow server", SERVER_START_TIMEOUT_S)
+        sweep = run("sweep", "train", "-m", *SWEEP, f"hydra.sweep.dir={work / 'multirun'}")
+        simulate.result()
+        twin = run("twin", "twin", f"measured.path={work / 'outer.npz'}", f"out={work / 'twin'}", *TWIN_SMOKE,
+                   "figures=false")  # the figures are tested in tests/test_twin_cli.py
+        sweep.result()
+        diagnose = run("diagnose", "diagnose", f"path={work / 'outer.npz'}", f"model=models:/{MODEL}/1",
+                       f"out={work / 'diagnosis'}", "figures=false")
+        twin.result()
+        diagnose.result()
         yield uri, server_dir, work, env, logs
     finally:
-        for child in children:
-            stop(child)
+        pool.shutdown(cancel_futures=True)
+        stop(server)
 
 
 def experiment_runs(client: MlflowClient, name: str, kind: str) -> list:
@@ -130,15 +130,13 @@ def test_reports_read_runs_and_artifacts_from_the_server(team):
     client = MlflowClient(uri)
     svm = next(run for run in experiment_runs(client, "bearingtwin", "train") if run.data.tags["classifier"] == "svm")
     # seeds reads the runs; repeat reads a run's config.yaml artifact and trains it again. Side by side.
-    reports = {name: start(cli("report", name, *settings, f"out={work / name}.md"), env, work, work.parent / f"{name}.log")
-               for name, settings in (("seeds", []), ("repeat", [f"run_id={svm.info.run_id}"]))}
-    try:
-        for name, report in reports.items():
-            wait_done(report, work.parent / f"{name}.log", f"bearingtwin-report {name}", CHILD_TIMEOUT_S)
-    finally:
-        for report in reports.values():
-            stop(report)
-    seeds, repeat = ((work.parent / f"{name}.log").read_text() for name in reports)
+    settings = {"seeds": [], "repeat": [f"run_id={svm.info.run_id}"]}
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        reports = {name: pool.submit(run_module, "bearingtwin.cli.report", name, *args, f"out={work / name}.md",
+                                     cwd=work, env=env, timeout=CHILD_TIMEOUT_S) for name, args in settings.items()}
+    for name, report in reports.items():
+        assert_done(report.result(), f"bearingtwin-report {name}")
+    seeds, repeat = (reports[name].result().stdout + reports[name].result().stderr for name in settings)
     assert "sabo_vmd_pemie+svm" in seeds and f"0: {100 * svm.data.metrics['accuracy']:.2f}" in seeds
     assert "every metric matches" in repeat
     assert {run.data.tags["report"] for run in experiment_runs(client, "bearingtwin", "report")} == {"seeds", "repeat"}
