@@ -163,3 +163,12 @@ def test_the_twin_refuses_a_sampling_rate_the_record_contradicts(fs):
         load_measurement(cfg.measured, load_bearing("cwru_6205"))
     load_measurement(twin_config(f"measured.path={RECORD_130}", f"measured.fs={fs}", "measured.channel=DE",
                                  "measured.check_fs=false").measured)  # the user can overrule the check
+
+
+@pytest.mark.skipif(not RECORD_130.is_file(), reason=f"CWRU record 130 not found in {CWRU}")
+def test_the_twin_reads_a_channel_at_its_files_rate_where_another_channel_shows_the_shaft():
+    """Record 118's fan-end channel shows a stronger series than the shaft's, and faint ball lines: the drive
+    end's channel in the same file witnesses the 12 kHz its name declares."""
+    cfg = twin_config(f"measured.path={CWRU / '12k_Drive_End_B007_0_118.mat'}", "measured.channel=FE", "bearing=cwru_6205")
+    recording = load_measurement(cfg.measured, load_bearing("cwru_6205"))
+    assert (recording.channel, recording.fs) == ("FE", 12000)

@@ -112,6 +112,23 @@ def test_record_97_declared_at_48_khz_is_contradicted():
 
 
 @needs_data
+@pytest.mark.parametrize("record", ["12k_Drive_End_IR007_0_105.mat", "12k_Drive_End_OR007@6_1_131.mat"])
+def test_a_defect_line_at_its_frequency_witnesses_the_rate_where_the_shaft_series_is_weak(record):
+    """The fan-end channel of a drive-end fault record shows a stronger series than the shaft's (40-58 Hz):
+    the envelope's defect line at its own frequency (and not at a half, third or quarter of it) keeps the
+    true 12 kHz; at twice or four times the rate nothing stands where it belongs, and the rate is contradicted."""
+    recording = load_cwru(CWRU / record, channel="FE", check_fs=False)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    alone = check_sampling_rate(recording.signal, 12000, recording.rpm)
+    assert alone.verdict == "contradicted" and not alone.matches  # the shaft series alone does not tell
+    check = check_sampling_rate(recording.signal, 12000, recording.rpm, defect_hz=defect_hz)
+    assert check.verdict == "consistent" and check.implied_fs_hz == 12000
+    assert f"the envelope line of {'bpfi' if 'IR' in record else 'bpfo'} stands at its frequency" in check.reason
+    for wrong in (24000, 48000):
+        assert check_sampling_rate(recording.signal, wrong, recording.rpm, defect_hz=defect_hz).verdict == "contradicted"
+
+
+@needs_data
 def test_a_wrong_rate_implies_the_true_one():
     recording = load_cwru(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
     check = check_sampling_rate(recording.signal, 11000.0, recording.rpm)

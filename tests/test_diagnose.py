@@ -117,6 +117,14 @@ def test_evidence_names_the_fault_whose_harmonic_series_stands_out():
     assert healthy.evidence_state == "normal" and max(healthy.prominence_db.values()) < healthy.threshold_db
 
 
+def envelope_pipeline() -> DiagnosisPipeline:
+    """A small envelope-order SVM pipeline on synthetic windows at ``FS``, for the drive end's bearing."""
+    X, y = class_windows(n_per_class=6)
+    envelope = EnvelopeOrderFeatures(bearing=BEARING, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
+    return DiagnosisPipeline(envelope, SvmClassifier().fit(envelope.transform(X, fs_hz=FS, rpm=RPM), y), 2048, FS,
+                             bearing=BEARING)
+
+
 def test_a_fan_end_record_is_read_for_the_physics_at_its_own_bearings_defect_lines(tmp_path):
     """A CWRU fan-end fault sits in the SKF 6203 (BPFO 3.053 x shaft), a drive-end model's bearing is the 6205
     (3.585): the evidence reads the record's own bearing, which finds the fault, and says the model does not."""
@@ -131,10 +139,7 @@ def test_a_fan_end_record_is_read_for_the_physics_at_its_own_bearings_defect_lin
     path = tmp_path / "12k_Fan_End_OR014@3_1_298.mat"
     scipy.io.savemat(path, {"X298_DE_time": (fault_signal(None, seed=1) + shaft)[:, None], "X298_FE_time": fan,
                             "X298RPM": rpm})
-    X, y = class_windows(n_per_class=6)
-    envelope = EnvelopeOrderFeatures(bearing=BEARING, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
-    pipeline = DiagnosisPipeline(envelope, SvmClassifier().fit(envelope.transform(X, fs_hz=FS, rpm=RPM), y), 2048, FS,
-                                 bearing=BEARING)
+    pipeline = envelope_pipeline()
     prepared = read_record(path, pipeline)
     assert prepared.recording.channel == "FE" and prepared.bearing == fan_end and prepared.true_state == "outer"
     assert any("the record's bearing is cwru_6203, the model was trained on cwru_6205" in note
@@ -145,6 +150,29 @@ def test_a_fan_end_record_is_read_for_the_physics_at_its_own_bearings_defect_lin
     drive_end = tmp_path / "12k_Drive_End_OR014@3_1_198.mat"
     scipy.io.savemat(drive_end, {"X198_DE_time": fan, "X198RPM": rpm})
     assert read_record(drive_end, pipeline).bearing == BEARING and not read_record(drive_end, pipeline).notes
+
+
+@needs_cwru
+def test_a_channel_that_shows_the_shaft_weakly_is_read_at_its_files_rate(tmp_path):
+    """The fan-end channel of drive-end records shows the shaft series too weakly beside a stronger series
+    (53.7 Hz in ball record 118), so on its own the 12 kHz the file's name declares is contradicted. Every
+    channel of a file is a witness of its one rate: with the drive end's channel beside it, record 118's FE
+    channel is read. Alone, an inner-race record's FE channel is confirmed by its BPFI envelope line; the
+    ball record's faint ball lines confirm nothing, and it is refused."""
+    import scipy.io
+
+    pipeline = envelope_pipeline()
+    assert read_record(CWRU / "12k_Drive_End_B007_0_118.mat", pipeline, channel="FE").recording.channel == "FE"
+    for number, name, accepted in ((118, "12k_Drive_End_B007_0_118.mat", False), (105, "12k_Drive_End_IR007_0_105.mat", True)):
+        stored = scipy.io.loadmat(CWRU / name)
+        alone = tmp_path / name
+        scipy.io.savemat(alone, {f"X{number:03d}_FE_time": stored[f"X{number:03d}_FE_time"],
+                                 f"X{number:03d}RPM": stored[f"X{number:03d}RPM"]})
+        if accepted:
+            assert read_record(alone, pipeline).recording.channel == "FE"
+        else:
+            with pytest.raises(BearingTwinError, match=r"B007_0_118.mat: fs = 12000 Hz contradicts the shaft speed"):
+                read_record(alone, pipeline)
 
 
 def test_evidence_does_not_depend_on_the_sensors_gain():

@@ -22,7 +22,7 @@ from bearingtwin.data.files import RawRecord, read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.signal.sampling_rate import check_sampling_rate, describe_mismatch
+from bearingtwin.signal.sampling_rate import check_channels, describe_mismatch
 
 log = logging.getLogger(__name__)
 
@@ -185,20 +185,14 @@ def load_cwru(
     for note in recording.meta["notes"]:
         log.warning("%s: %s", path, note)
     defect_hz = None if bearing is None else bearing.defect_frequencies(recording.rpm)
-    checks = {
-        name: check_sampling_rate(values, recording.fs, recording.rpm, defect_hz=defect_hz, tolerance=tolerance,
-                                  prominence=prominence)
-        for name, values in raw.channels.items()
-        if np.all(np.isfinite(values))
-    }
-    ranked = sorted(checks, key=lambda name: ("consistent", "ambiguous", "contradicted").index(checks[name].verdict))
-    witness = ranked[0]
-    recording.meta["shaft_line"] = dict(checks[witness].as_dict(), channel=witness)
-    if check_fs and checks[witness].verdict == "contradicted":
+    witness, check = check_channels(raw.channels, recording.fs, recording.rpm, defect_hz=defect_hz,
+                                    tolerance=tolerance, prominence=prominence)
+    recording.meta["shaft_line"] = dict(check.as_dict(), channel=witness)
+    if check_fs and check.verdict == "contradicted":
         raise BearingTwinError(
-            f"{path}: {describe_mismatch(checks[witness])} (channel {witness}); declare the record's rate "
+            f"{path}: {describe_mismatch(check)} (channel {witness}); declare the record's rate "
             f"(+data.fs_by_record.{recording.meta['record']}=<Hz>) or set data.check_fs=false"
         )
-    if check_fs and checks[witness].verdict == "ambiguous":
-        log.warning("%s: %s (channel %s)", path, describe_mismatch(checks[witness]), witness)
+    if check_fs and check.verdict == "ambiguous":
+        log.warning("%s: %s (channel %s)", path, describe_mismatch(check), witness)
     return recording

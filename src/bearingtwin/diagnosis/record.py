@@ -32,7 +32,7 @@ from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
-from bearingtwin.signal.sampling_rate import check_sampling_rate, describe_mismatch
+from bearingtwin.signal.sampling_rate import check_channels, describe_mismatch
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -62,7 +62,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     bearing, bearing_note = _record_bearing(recording.meta.get("bearing"), pipeline.bearing)
     notes += bearing_note
     if recording.rpm is not None:
-        recording, rate_notes = _checked_rate(recording, bearing, declared_only=fs is None and raw.fs_origin == "declared")
+        recording, rate_notes = _checked_rate(recording, bearing, declared_only=fs is None and raw.fs_origin == "declared",
+                                              channels=raw.channels)
         notes += rate_notes
     if true_state is not None:
         true_state = check_fault(true_state)
@@ -102,9 +103,12 @@ def _record_bearing(named: str | None, model_bearing: dict) -> tuple[dict, list[
                      f"({words}): the physics evidence reads {named}'s defect lines, the model reads its own bearing's"]
 
 
-def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> tuple[Recording, list[str]]:
+def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
+                  channels: dict[str, np.ndarray]) -> tuple[Recording, list[str]]:
     """The recording after the sampling-rate check (shaft series, and the bearing's defect lines as a
-    second witness), and what the check said.
+    second witness), and what the check said. Every channel of the file is a witness
+    (:func:`check_channels`): a fan-end accelerometer may show the shaft series too weakly, the
+    drive end's beside it does not.
 
     A rate the file states is kept (a doubt is reported). A rate only declared by the data set's
     convention (a CWRU file's) is tried against the data set's rates, and the highest rate under which
@@ -115,8 +119,10 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool) -> t
     """
     defect_hz = BearingGeometry.from_config(bearing).defect_frequencies(recording.rpm) if bearing else None
 
+    witnesses = {name: values for name, values in channels.items() if values.size == recording.signal.size}
+
     def check(rate: float):
-        return check_sampling_rate(recording.signal, rate, recording.rpm, defect_hz=defect_hz)
+        return check_channels(witnesses or {"signal": recording.signal}, rate, recording.rpm, defect_hz=defect_hz)[1]
 
     try:
         declared = check(recording.fs)

@@ -17,6 +17,7 @@ under the right one. Without a decisive witness the verdict is ``ambiguous``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass
 from typing import Mapping
@@ -134,15 +135,17 @@ def check_sampling_rate(
     strong = np.flatnonzero(score >= prominence)
     if strong.size == 0:
         at_expected = float(score[np.argmin(np.abs(np.log(grid / expected)))])
-        return ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
-                              f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f})")
+        check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
+                               f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f})")
+        return _second_look(check, signal, defect_hz, prominence)
     nearest = strong[np.argmin(np.abs(np.log(grid[strong] / expected)))]
     observed = float(grid[nearest])
     common = dict(fs_hz=fs, rpm=rpm, expected_hz=expected, observed_hz=observed, score=float(score[nearest]))
     if abs(observed / expected - 1.0) > tolerance:
-        return ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False, verdict="contradicted",
-                              reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
-                                     f"implying fs = {fs * expected / observed:.0f} Hz")
+        check = ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False, verdict="contradicted",
+                               reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
+                                      f"implying fs = {fs * expected / observed:.0f} Hz")
+        return _second_look(check, signal, defect_hz, prominence)
 
     # The same series' in-between lines, n * expected / k for n not a multiple of k.
     in_between = {}
@@ -164,15 +167,62 @@ def check_sampling_rate(
                           reason=suspicion + why)
 
 
-def _defect_witness(signal, fs, defect_hz: Mapping[str, float], k: int, prominence: float) -> tuple[str, float | None, str]:
-    """Envelope lines of the defect frequencies at f (right rate) against f / k (rate too low by k)."""
+def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> tuple[str, ShaftLineCheck]:
+    """:func:`check_sampling_rate` on every channel of one record, ``options`` passed on: the channels
+    share the record's rate, so each is a witness, and the one with the most favourable verdict
+    (consistent, then ambiguous, then contradicted; the first of equals) decides. Returns its
+    name and its check; channels with non-finite samples are not witnesses."""
+    checks = {name: check_sampling_rate(values, fs, rpm, **options)
+              for name, values in channels.items() if np.all(np.isfinite(values))}
+    if not checks:
+        raise BearingTwinError("the sampling-rate check needs a channel with finite samples")
+    witness = min(checks, key=lambda name: ("consistent", "ambiguous", "contradicted").index(checks[name].verdict))
+    return witness, checks[witness]
+
+
+def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
+                 prominence: float) -> ShaftLineCheck:
+    """A contradiction stands unless a defect line stands where the declared rate puts it.
+
+    An accelerometer far from the shaft (a fan-end channel, a housing) may show the shaft series
+    too weakly beside stronger lines of other machine elements, and a machine may have no
+    unbalance to show. A defect line in the envelope at its own frequency, and at none of its
+    half, third or quarter (where a rate too low by that factor would put it), is then the witness
+    that the declared rate is the record's (``consistent``)."""
+    witness = _defect_line_at_its_frequency(signal, check.fs_hz, defect_hz, prominence) if defect_hz else None
+    if witness is None:
+        return check
+    return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent",
+                               reason=f"{check.reason}; but the envelope line of {witness} stands at its frequency")
+
+
+def _defect_line_at_its_frequency(signal, fs, defect_hz: Mapping[str, float], prominence: float,
+                                  max_fraction: int = 4) -> str | None:
+    """The first defect frequency whose envelope line stands at it (``prominence``) and at none of its
+    whole fractions 1/2 .. 1/``max_fraction`` (None if none does)."""
+    lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2}
+    if not lines:
+        return None
+    frequencies = np.array(list(lines.values()))
+    ratio, resolution = _envelope_prominence(signal, fs, frequencies.max() * 1.1)
+    at_f = _peak(ratio, resolution, frequencies, 0.005)
+    at_fractions = np.max([_peak(ratio, resolution, frequencies / k, 0.005) for k in range(2, max_fraction + 1)], axis=0)
+    standing = [name for name, a, b in zip(lines, at_f, at_fractions) if a >= prominence and b < prominence]
+    return standing[0] if standing else None
+
+
+def _envelope_prominence(signal: np.ndarray, fs: float, top_hz: float) -> tuple[np.ndarray, float]:
     from bearingtwin.signal.envelope import envelope
 
+    return _prominence_spectrum(envelope(signal), fs, top_hz, background_hz=5.0)
+
+
+def _defect_witness(signal, fs, defect_hz: Mapping[str, float], k: int, prominence: float) -> tuple[str, float | None, str]:
+    """Envelope lines of the defect frequencies at f (right rate) against f / k (rate too low by k)."""
     lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2}
     if not lines:
         return "ambiguous", None, "no defect frequency below the Nyquist frequency to decide"
-    top = max(lines.values()) * 1.1
-    ratio, resolution = _prominence_spectrum(envelope(signal), fs, top, background_hz=5.0)
+    ratio, resolution = _envelope_prominence(signal, fs, max(lines.values()) * 1.1)
     at_f = _peak(ratio, resolution, np.array(list(lines.values())), 0.005)
     at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) / k, 0.005)
     wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
@@ -192,17 +242,20 @@ def describe_mismatch(check: ShaftLineCheck) -> str:
 
 
 def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: str,
-                           defect_hz: Mapping[str, float] | None = None, refuse: bool = True) -> ShaftLineCheck | None:
+                           defect_hz: Mapping[str, float] | None = None, refuse: bool = True,
+                           channels: Mapping[str, np.ndarray] | None = None) -> ShaftLineCheck | None:
     """The check as a command applies it: a contradicted rate raises naming ``source`` and the
     setting to correct (``fs_key``); an ambiguous one is logged; a record too short to check is
     logged as unchecked (None). ``refuse=False`` only logs a contradiction: for a rate the file
     itself records (a header, a time column), which a record without a visible shaft line (a
-    simulation, a machine without unbalance) cannot contradict."""
+    simulation, a machine without unbalance) cannot contradict. ``channels``: the file's channels
+    of ``signal``'s length, each a witness of the one rate (:func:`check_channels`)."""
     import logging
 
     log = logging.getLogger(__name__)
+    witnesses = {name: values for name, values in (channels or {}).items() if np.shape(values) == np.shape(signal)}
     try:
-        check = check_sampling_rate(signal, fs, rpm, defect_hz=defect_hz)
+        check = check_channels(witnesses or {"signal": signal}, fs, rpm, defect_hz=defect_hz)[1]
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None

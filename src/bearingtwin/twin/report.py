@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from bearingtwin.data.files import load_recording
+from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
@@ -36,8 +36,9 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     its sampling rate checked against its shaft speed (``bearing``'s defect lines as a second witness)."""
     if OmegaConf.is_missing(measured_cfg, "path"):
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .mat, .wav or .xls)")
-    recording = load_recording(measured_cfg.path, channel=measured_cfg.channel, fs=measured_cfg.fs,
-                               rpm=measured_cfg.rpm, fault=measured_cfg.fault, channel_key="measured.channel")
+    raw = read_raw(measured_cfg.path)
+    recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=measured_cfg.fs, rpm=measured_cfg.rpm,
+                                   fault=measured_cfg.fault, channel_key="measured.channel")
     for name in ("rpm", "fault"):
         if getattr(recording, name) is None:
             raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
@@ -48,7 +49,7 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
         # it; one the file records itself is kept, the doubt logged.
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
                                defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
-                               refuse=recording.meta.get("fs_origin") in ("config", "declared"))
+                               refuse=recording.meta.get("fs_origin") in ("config", "declared"), channels=raw.channels)
     with np.errstate(over="ignore"):
         fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
     if not np.isfinite(fourth_moment):
