@@ -54,7 +54,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 # controller's environment): entries are keyed by their content and written whole (src/bearingtwin/storage.py),
 # so a worker reads the smoke data another simulated. Tests of the cache itself, and end-to-end tests that
 # check what a command wrote to its cache, name a cache of their own.
-os.environ.setdefault("BEARINGTWIN_TEST_SESSION", _session_dir)
+if "PYTEST_XDIST_WORKER" not in os.environ:  # the controller, or a run without workers: this session's own
+    os.environ["BEARINGTWIN_TEST_SESSION"] = _session_dir
 os.environ["BEARINGTWIN_CACHE"] = os.path.join(os.environ["BEARINGTWIN_TEST_SESSION"], "cache")
 os.environ["MLFLOW_TRACKING_URI"] = "sqlite:///" + os.path.join(_session_dir, "mlflow.db")
 

@@ -139,6 +139,8 @@ class _ForkServer:
             self.process.stdin.write(json.dumps(request).encode() + b"\n")
             self.process.stdin.flush()
             pid = self.read(timeout_s=60)["pid"]
+            with _lock:
+                _running.add(pid)
             try:
                 returncode = self.read(timeout_s)["returncode"]
             except BaseException as error:  # a timeout, or the test interrupted: the command ends with it
@@ -150,6 +152,9 @@ class _ForkServer:
                     raise subprocess.TimeoutExpired([module, *args], timeout_s, out.read_text(errors="replace"),
                                                     err.read_text(errors="replace")) from None
                 raise
+            finally:
+                with _lock:
+                    _running.discard(pid)
             return subprocess.CompletedProcess([sys.executable, "-m", module, *args], returncode,
                                                out.read_text(errors="replace"), err.read_text(errors="replace"))
 
@@ -166,7 +171,18 @@ class _ForkServer:
 
 _idle: list[_ForkServer] = []
 _all: list[_ForkServer] = []
+_running: set[int] = set()  # pids of the commands running now, in any thread
 _lock = threading.Lock()
+
+
+def kill_running_commands() -> None:
+    """End every command ``run_module`` is running, in whichever thread: a fixture that fails or is
+    interrupted while its commands run in a thread pool ends them before it waits for the pool."""
+    with _lock:
+        pids = list(_running)
+    for pid in pids:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
 
 
 @atexit.register

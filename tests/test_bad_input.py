@@ -165,7 +165,7 @@ def test_the_twin_refuses_a_sampling_rate_the_record_contradicts(fs):
                                  "measured.check_fs=false").measured)  # the user can overrule the check
 
 
-@pytest.mark.skipif(not RECORD_130.is_file(), reason=f"CWRU record 130 not found in {CWRU}")
+@pytest.mark.skipif(not (CWRU / "12k_Drive_End_B007_0_118.mat").is_file(), reason=f"CWRU record 118 not found in {CWRU}")
 def test_the_twin_reads_a_channel_at_its_files_rate_where_another_channel_shows_the_shaft():
     """Record 118's fan-end channel shows a stronger series than the shaft's, and faint ball lines: the drive
     end's channel in the same file witnesses the 12 kHz its name declares."""

@@ -13,7 +13,7 @@ from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import load_recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
-from bearingtwin.signal.sampling_rate import check_sampling_rate
+from bearingtwin.signal.sampling_rate import ShaftLineCheck, check_sampling_rate, decisive_channel
 
 CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 needs_data = pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason=f"CWRU files not found in {CWRU}")
@@ -123,9 +123,27 @@ def test_a_defect_line_at_its_frequency_witnesses_the_rate_where_the_shaft_serie
     assert alone.verdict == "contradicted" and not alone.matches  # the shaft series alone does not tell
     check = check_sampling_rate(recording.signal, 12000, recording.rpm, defect_hz=defect_hz)
     assert check.verdict == "consistent" and check.implied_fs_hz == 12000
-    assert f"the envelope line of {'bpfi' if 'IR' in record else 'bpfo'} stands at its frequency" in check.reason
+    assert f"the envelope lines of {'bpfi' if 'IR' in record else 'bpfo'} and its second harmonic" in check.reason
     for wrong in (24000, 48000):
         assert check_sampling_rate(recording.signal, wrong, recording.rpm, defect_hz=defect_hz).verdict == "contradicted"
+    # The fan-end bearing's ball spin frequency is 1.994 x shaft: at twice the rate the shaft's own line
+    # stands there, and is no witness.
+    fan_end = load_bearing("cwru_6203").defect_frequencies(recording.rpm)
+    assert check_sampling_rate(recording.signal, 24000, recording.rpm, defect_hz=fan_end).verdict == "contradicted"
+
+
+def test_a_channel_showing_the_rate_too_low_overrules_one_that_seems_consistent():
+    """A channel's other lines can pass for the shaft series at a fraction of the true rate; a defect line
+    at 1/k of its frequency in another channel overrules it, and lines between the shaft harmonics leave the
+    record ambiguous unless a defect line showed them to be real subharmonics."""
+    def check(verdict, fraction=None):
+        return ShaftLineCheck(6000.0, 1797.0, 29.95, 29.95, None, 30.0, True, verdict, fraction)
+
+    assert decisive_channel({"FE": check("consistent"), "DE": check("contradicted", 2)}) == "DE"
+    assert decisive_channel({"FE": check("consistent"), "DE": check("ambiguous", 2)}) == "DE"
+    assert decisive_channel({"FE": check("consistent"), "DE": check("ambiguous", 2), "BA": check("consistent", 2)}) == "FE"
+    assert decisive_channel({"FE": check("contradicted"), "DE": check("consistent")}) == "DE"
+    assert decisive_channel({"FE": check("contradicted"), "DE": check("ambiguous")}) == "DE"
 
 
 @needs_data

@@ -162,7 +162,9 @@ def test_a_channel_that_shows_the_shaft_weakly_is_read_at_its_files_rate(tmp_pat
     import scipy.io
 
     pipeline = envelope_pipeline()
-    assert read_record(CWRU / "12k_Drive_End_B007_0_118.mat", pipeline, channel="FE").recording.channel == "FE"
+    fan_end = read_record(CWRU / "12k_Drive_End_B007_0_118.mat", pipeline, channel="FE")
+    assert fan_end.recording.channel == "FE" and fan_end.original_fs == 12000
+    assert not any("sampling rate" in note for note in fan_end.notes), fan_end.notes
     for number, name, accepted in ((118, "12k_Drive_End_B007_0_118.mat", False), (105, "12k_Drive_End_IR007_0_105.mat", True)):
         stored = scipy.io.loadmat(CWRU / name)
         alone = tmp_path / name

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from processes import (LOOPBACK, SMOKE, assert_done, child_env, free_loopback_port, run_module, start, stop,
-                       wait_until_answers)
+from processes import (LOOPBACK, SMOKE, assert_done, child_env, free_loopback_port, kill_running_commands, run_module,
+                       start, stop, wait_until_answers)
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, load_diagnosis_model
@@ -107,6 +107,7 @@ def served(tmp_path_factory):
                                SERVER_START_TIMEOUT_S)
         yield cases
     finally:
+        kill_running_commands()  # none when all went well; after a failure, the others need not finish
         pool.shutdown(cancel_futures=True)
         for process in processes:
             stop(process)

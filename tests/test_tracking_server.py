@@ -11,6 +11,7 @@ written beside the clients (no local store), every artifact must be in the serve
 
 from __future__ import annotations
 
+import subprocess
 import sys
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
@@ -18,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mlflow import MlflowClient
-from processes import SMOKE, assert_done, child_env, free_loopback_port, run_module, start, stop, wait_until_answers
+from processes import (SMOKE, assert_done, child_env, free_loopback_port, kill_running_commands, run_module, start, stop,
+                       tail, wait_until_answers)
 
 MODEL = "team-model"
 SWEEP = ["seed=0", "classifier=svm,cnn_bilstm", "trainer.max_epochs=2", "launcher=joblib", f"register={MODEL}", *SMOKE]
@@ -43,7 +45,12 @@ def team(tmp_path_factory):
     def run(log: str, name: str, *args: str) -> Future:
         """A bearingtwin command in the background; its output goes to ``logs[log]`` when it ends."""
         def command() -> None:
-            done = run_module(f"bearingtwin.cli.{name}", *args, cwd=work, env=env, timeout=CHILD_TIMEOUT_S)
+            try:
+                done = run_module(f"bearingtwin.cli.{name}", *args, cwd=work, env=env, timeout=CHILD_TIMEOUT_S)
+            except subprocess.TimeoutExpired as timeout:  # its output so far, for the failure message
+                logs[log].write_text(f"{timeout.output or ''}{timeout.stderr or ''}")
+                raise AssertionError(f"bearingtwin-{name} ({log}) did not finish in {CHILD_TIMEOUT_S} s:\n"
+                                     f"{tail(logs[log])}") from None
             logs[log].write_text(done.stdout + done.stderr)
             assert_done(done, f"bearingtwin-{name} ({log})")
         logs[log] = root / f"{log}.log"
@@ -70,6 +77,7 @@ def team(tmp_path_factory):
         diagnose.result()
         yield uri, server_dir, work, env, logs
     finally:
+        kill_running_commands()  # none when all went well; after a failure, the others need not finish
         pool.shutdown(cancel_futures=True)
         stop(server)
 

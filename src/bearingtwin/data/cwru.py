@@ -22,7 +22,7 @@ from bearingtwin.data.files import RawRecord, read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.signal.sampling_rate import check_channels, describe_mismatch
+from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch
 
 log = logging.getLogger(__name__)
 
@@ -185,8 +185,10 @@ def load_cwru(
     for note in recording.meta["notes"]:
         log.warning("%s: %s", path, note)
     defect_hz = None if bearing is None else bearing.defect_frequencies(recording.rpm)
-    witness, check = check_channels(raw.channels, recording.fs, recording.rpm, defect_hz=defect_hz,
-                                    tolerance=tolerance, prominence=prominence)
+    checks = check_channels(raw.channels, recording.fs, recording.rpm, defect_hz=defect_hz, tolerance=tolerance,
+                            prominence=prominence)
+    witness = decisive_channel(checks)
+    check = checks[witness]
     recording.meta["shaft_line"] = dict(check.as_dict(), channel=witness)
     if check_fs and check.verdict == "contradicted":
         raise BearingTwinError(

@@ -32,7 +32,7 @@ from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
-from bearingtwin.signal.sampling_rate import check_channels, describe_mismatch
+from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -121,8 +121,12 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
 
     witnesses = {name: values for name, values in channels.items() if values.size == recording.signal.size}
 
+    def checks(rate: float):
+        return check_channels(witnesses or {"signal": recording.signal}, rate, recording.rpm, defect_hz=defect_hz)
+
     def check(rate: float):
-        return check_channels(witnesses or {"signal": recording.signal}, rate, recording.rpm, defect_hz=defect_hz)[1]
+        at_rate = checks(rate)
+        return at_rate[decisive_channel(at_rate)]
 
     try:
         declared = check(recording.fs)
@@ -133,7 +137,7 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
         return recording, doubt
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between
     # lines (a machine's half orders) may leave the higher rate's verdict ambiguous, never contradicted.
-    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and _matches(check, rate)]
+    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and _matches(checks, rate)]
     if not higher:
         if declared.verdict == "contradicted":
             raise BearingTwinError(f"{recording.source}: {describe_mismatch(declared)}; give the record's rate with fs=<Hz>")
@@ -143,11 +147,11 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     return dataclasses.replace(recording, fs=rate), [note]
 
 
-def _matches(check, rate: float) -> bool:
-    """Whether the shaft series stands where it belongs at ``rate``; a record too short to tell at that
-    rate (fewer seconds at a higher rate) does not."""
+def _matches(checks, rate: float) -> bool:
+    """Whether the shaft series stands where it belongs at ``rate`` in a channel of the file; a record too
+    short to tell at that rate (fewer seconds at a higher rate) does not."""
     try:
-        return check(rate).matches
+        return any(check.matches for check in checks(rate).values())
     except BearingTwinError:
         return False
 

@@ -28,6 +28,7 @@ from scipy.ndimage import median_filter
 from bearingtwin.errors import BearingTwinError
 
 VERDICTS = ("consistent", "contradicted", "ambiguous")
+VERDICTS_BY_FAVOUR = ("consistent", "ambiguous", "contradicted")
 
 
 @dataclass(frozen=True)
@@ -167,46 +168,75 @@ def check_sampling_rate(
                           reason=suspicion + why)
 
 
-def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> tuple[str, ShaftLineCheck]:
-    """:func:`check_sampling_rate` on every channel of one record, ``options`` passed on: the channels
-    share the record's rate, so each is a witness, and the one with the most favourable verdict
-    (consistent, then ambiguous, then contradicted; the first of equals) decides. Returns its
-    name and its check; channels with non-finite samples are not witnesses."""
+def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> dict[str, ShaftLineCheck]:
+    """:func:`check_sampling_rate` on every channel of one record with finite samples, ``options`` passed
+    on: the channels share the record's rate, so each is a witness (:func:`decisive_channel`)."""
     checks = {name: check_sampling_rate(values, fs, rpm, **options)
               for name, values in channels.items() if np.all(np.isfinite(values))}
     if not checks:
         raise BearingTwinError("the sampling-rate check needs a channel with finite samples")
-    witness = min(checks, key=lambda name: ("consistent", "ambiguous", "contradicted").index(checks[name].verdict))
-    return witness, checks[witness]
+    return checks
+
+
+def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
+    """The channel whose check stands for the record: the most favourable verdict (consistent, then
+    ambiguous, then contradicted; the first of equals), unless another channel holds evidence that the
+    rate is too low by a whole factor. A channel's other lines can pass for a shaft series at a fraction
+    of the true rate (a fan-end channel's 58 Hz series read at half of 12 kHz), so a defect line standing
+    at 1/k of its frequency (a contradiction with a ``fraction``) overrules every other channel, and lines
+    between the shaft harmonics (an ambiguous ``fraction``) leave the record ambiguous unless a channel's
+    defect line showed them to be real subharmonics (a consistent ``fraction``)."""
+    names = list(checks)
+    too_low = [name for name in names if checks[name].fraction and checks[name].verdict == "contradicted"]
+    if too_low:
+        return too_low[0]
+    best = min(names, key=lambda name: VERDICTS_BY_FAVOUR.index(checks[name].verdict))
+    doubts = [name for name in names if checks[name].fraction and checks[name].verdict == "ambiguous"]
+    settled = any(checks[name].fraction and checks[name].verdict == "consistent" for name in names)
+    if checks[best].verdict == "consistent" and doubts and not settled:
+        return doubts[0]
+    return best
 
 
 def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
                  prominence: float) -> ShaftLineCheck:
-    """A contradiction stands unless a defect line stands where the declared rate puts it.
+    """A contradiction stands unless a defect series stands where the declared rate puts it.
 
     An accelerometer far from the shaft (a fan-end channel, a housing) may show the shaft series
     too weakly beside stronger lines of other machine elements, and a machine may have no
-    unbalance to show. A defect line in the envelope at its own frequency, and at none of its
-    half, third or quarter (where a rate too low by that factor would put it), is then the witness
-    that the declared rate is the record's (``consistent``)."""
-    witness = _defect_line_at_its_frequency(signal, check.fs_hz, defect_hz, prominence) if defect_hz else None
+    unbalance to show. A defect line and its second harmonic in the envelope at their own
+    frequencies, at none of their half, third or quarter (where a rate too low by that factor would
+    put them), and away from the shaft's harmonics and their fractions (where a wrong rate puts the
+    shaft's own lines), are then the witness that the declared rate is the record's: ``consistent``,
+    with ``matches`` still false (the shaft series does not stand where it belongs)."""
+    witness = _defect_series_at_its_frequency(signal, check.fs_hz, check.expected_hz, defect_hz, prominence) \
+        if defect_hz else None
     if witness is None:
         return check
     return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent",
-                               reason=f"{check.reason}; but the envelope line of {witness} stands at its frequency")
+                               reason=f"{check.reason}; but the envelope lines of {witness} and its second harmonic "
+                                      f"stand at their frequencies")
 
 
-def _defect_line_at_its_frequency(signal, fs, defect_hz: Mapping[str, float], prominence: float,
-                                  max_fraction: int = 4) -> str | None:
-    """The first defect frequency whose envelope line stands at it (``prominence``) and at none of its
-    whole fractions 1/2 .. 1/``max_fraction`` (None if none does)."""
-    lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2}
+def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], prominence: float,
+                                    max_fraction: int = 4, window: float = 0.005) -> str | None:
+    """The first defect frequency f whose envelope lines stand at f and 2 f (``prominence``) and at none of
+    f / k, k = 2 .. ``max_fraction``; frequencies within two search windows of a shaft harmonic's fraction
+    m / k (k up to ``max_fraction``) are not witnesses, since under a wrong rate the shaft's lines land
+    there (the SKF 6203's ball spin frequency is 1.994 x shaft). None if no frequency qualifies."""
+    fractions = np.array([m / k for k in range(1, max_fraction + 1) for m in range(1, 12 * k)])
+
+    def apart_from_shaft(hz: float) -> bool:
+        return bool(np.min(np.abs(hz / shaft_hz - fractions) / (hz / shaft_hz)) > 2 * window)
+
+    lines = {name: float(hz) for name, hz in defect_hz.items()
+             if name != "shaft" and hz and 2.2 * hz < fs / 2 and apart_from_shaft(float(hz))}
     if not lines:
         return None
     frequencies = np.array(list(lines.values()))
-    ratio, resolution = _envelope_prominence(signal, fs, frequencies.max() * 1.1)
-    at_f = _peak(ratio, resolution, frequencies, 0.005)
-    at_fractions = np.max([_peak(ratio, resolution, frequencies / k, 0.005) for k in range(2, max_fraction + 1)], axis=0)
+    ratio, resolution = _envelope_prominence(signal, fs, 2.2 * frequencies.max())
+    at_f = np.minimum(_peak(ratio, resolution, frequencies, window), _peak(ratio, resolution, 2 * frequencies, window))
+    at_fractions = np.max([_peak(ratio, resolution, frequencies / k, window) for k in range(2, max_fraction + 1)], axis=0)
     standing = [name for name, a, b in zip(lines, at_f, at_fractions) if a >= prominence and b < prominence]
     return standing[0] if standing else None
 
@@ -255,7 +285,8 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     log = logging.getLogger(__name__)
     witnesses = {name: values for name, values in (channels or {}).items() if np.shape(values) == np.shape(signal)}
     try:
-        check = check_channels(witnesses or {"signal": signal}, fs, rpm, defect_hz=defect_hz)[1]
+        checks = check_channels(witnesses or {"signal": signal}, fs, rpm, defect_hz=defect_hz)
+        check = checks[decisive_channel(checks)]
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
