@@ -65,7 +65,7 @@ os.environ["MLFLOW_TRACKING_URI"] = "sqlite:///" + os.path.join(_session_dir, "m
 # the files with most tests first), and a long file handed out last (the README's commands: two tests) would
 # run alone on one worker while the other sat idle.
 LONGEST_FIRST = ("test_readme_commands.py", "test_report.py", "test_diagnose.py", "test_twin_to_real.py",
-                 "test_tracking_server.py", "test_ray_launcher.py", "test_serve.py")
+                 "test_tracking_server.py", "test_serve.py")
 
 
 def pytest_collection_modifyitems(items):

@@ -26,10 +26,15 @@ from processes import SMOKE, child_env, free_loopback_port, run_module, start, s
 
 from bearingtwin.models.experiment import TIMING_METRICS
 
-pytestmark = pytest.mark.skipif(
-    importlib.util.find_spec("ray") is None or importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is None,
-    reason='the ray extra is not installed (pip install -c requirements.lock -e ".[ray]")',
-)
+# In the slow tier (python -m pytest -m slow): a Ray cluster's start and its workers' imports take about a
+# minute and a half of the suite's two cores, which the default run's ten minutes cannot spare.
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(
+        importlib.util.find_spec("ray") is None or importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is None,
+        reason='the ray extra is not installed (pip install -c requirements.lock -e ".[ray]")',
+    ),
+]
 
 # One seed x two classifiers: the two jobs run at once on the two Ray workers and need the same
 # simulated records and the same features, missing together.
