@@ -71,14 +71,6 @@ def stop(process: subprocess.Popen) -> None:
         os.killpg(process.pid, signal.SIGKILL)
 
 
-def wait_done(process: subprocess.Popen, log: Path, what: str, timeout_s: float, returncode: int = 0) -> None:
-    try:
-        process.wait(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        pytest.fail(f"{what} did not finish in {timeout_s} s:\n{tail(log)}")
-    assert process.returncode == returncode, f"{what} exited {process.returncode}:\n{tail(log)}"
-
-
 def assert_done(done: subprocess.CompletedProcess, what: str, returncode: int = 0, lines: int = 30) -> None:
     """A finished command (``run_module``) exited ``returncode``; else fail with the end of its output."""
     output = "\n".join((done.stdout + done.stderr).splitlines()[-lines:])

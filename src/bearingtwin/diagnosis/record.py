@@ -32,7 +32,7 @@ from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
-from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch
+from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -119,10 +119,10 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     """
     defect_hz = BearingGeometry.from_config(bearing).defect_frequencies(recording.rpm) if bearing else None
 
-    witnesses = {name: values for name, values in channels.items() if values.size == recording.signal.size}
+    witnesses = rate_witnesses(recording.signal, channels)
 
     def checks(rate: float):
-        return check_channels(witnesses or {"signal": recording.signal}, rate, recording.rpm, defect_hz=defect_hz)
+        return check_channels(witnesses, rate, recording.rpm, defect_hz=defect_hz)
 
     def check(rate: float):
         at_rate = checks(rate)

@@ -178,6 +178,13 @@ def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **
     return checks
 
 
+def rate_witnesses(signal: np.ndarray, channels: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray]:
+    """The channels of ``signal``'s file that witness its one rate (those of its length), or ``signal``
+    alone when the file gives no other."""
+    same_length = {name: values for name, values in (channels or {}).items() if np.shape(values) == np.shape(signal)}
+    return same_length or {"signal": signal}
+
+
 def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     """The channel whose check stands for the record: the most favourable verdict (consistent, then
     ambiguous, then contradicted; the first of equals), unless another channel holds evidence that the
@@ -283,9 +290,8 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     import logging
 
     log = logging.getLogger(__name__)
-    witnesses = {name: values for name, values in (channels or {}).items() if np.shape(values) == np.shape(signal)}
     try:
-        checks = check_channels(witnesses or {"signal": signal}, fs, rpm, defect_hz=defect_hz)
+        checks = check_channels(rate_witnesses(signal, channels), fs, rpm, defect_hz=defect_hz)
         check = checks[decisive_channel(checks)]
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
