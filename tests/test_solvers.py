@@ -8,7 +8,10 @@ from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.physics.simulator import simulate, simulate_many
-from bearingtwin.physics.solvers.fast import substeps_per_sample
+from bearingtwin.physics.defects import build_defect, defect_depths
+from bearingtwin.physics.dynamics import DynamicParameters, static_equilibrium
+from bearingtwin.physics.kinematics import rigid_kinematics, sample_kinematics
+from bearingtwin.physics.solvers.fast import derivative, integrate, substeps_per_sample
 from bearingtwin.signal.envelope import envelope_spectrum, peak_near
 
 BEARING = OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml")
@@ -27,6 +30,48 @@ def test_substeps_resolve_both_the_contact_mode_and_the_defect_crossing():
     assert substeps_per_sample(10_000, 500.0, 0.3e-3, 20, 6) == 2  # crossing: 0.3 ms / 6 = 50 us per step
     assert substeps_per_sample(10_000, 5000.0, 0.3e-3, 20, 6) == 10  # a stiff contact: 1 / (5 kHz x 20)
     assert substeps_per_sample(100_000, 500.0, 0.3e-3, 20, 6) == 1
+
+
+def _textbook_rk4(state, kinematics, defect, p, n_samples, substeps):
+    """Classical RK4 with every stage's kinematics, defect depths and trigonometry evaluated afresh."""
+    fs = kinematics.fs_hz
+    arrays = (kinematics.shaft_angle_rad, kinematics.shaft_speed_rad_s, kinematics.cage_angle_rad,
+              kinematics.ball_spin_angle_rad, np.ascontiguousarray(kinematics.ball_offset_rad))
+    angles, depths = np.empty(kinematics.n_balls), np.empty(kinematics.n_balls)
+
+    def rate(t, y):
+        shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, *arrays, angles)
+        defect_depths(defect, angles, shaft_angle, spin_angle, depths)
+        out = np.empty(8)
+        derivative(y, angles, depths, shaft_angle, shaft_speed, p, out)
+        return out
+
+    dt, accelerations = 1.0 / (fs * substeps), np.empty((4, n_samples))
+    for sample in range(n_samples):
+        for step in range(substeps):
+            t = sample / fs + step * dt
+            k1 = rate(t, state)
+            if step == 0:
+                accelerations[:, sample] = k1[4:]
+            k2 = rate(t + 0.5 * dt, state + 0.5 * dt * k1)
+            k3 = rate(t + 0.5 * dt, state + 0.5 * dt * k2)
+            k4 = rate(t + dt, state + dt * k3)
+            state = state + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return accelerations
+
+
+@pytest.mark.parametrize("fault, substeps", [("outer", 3), ("inner", 1), ("ball", 2)])
+def test_fast_solver_sharing_stage_geometry_is_textbook_rk4_to_the_bit(fault, substeps):
+    """The compiled stepper evaluates the geometry three times a step, not four; nothing else may change."""
+    params = DynamicParameters.from_config(BEARING, SIMULATOR)
+    rest = 2.0 * np.pi * np.arange(GEOMETRY.n_balls) / GEOMETRY.n_balls
+    state = static_equilibrium(params, rest)
+    kinematics = rigid_kinematics(GEOMETRY, 1797.0, 20_000.0, 401, 0.0)
+    defect = build_defect(fault, GEOMETRY, SIMULATOR.defect, -np.pi / 2).as_array()
+    fast = integrate(params, kinematics, defect, state, 0, 400, substeps)
+    textbook = _textbook_rk4(np.array(state, dtype=float), kinematics, defect, params.as_array(), 400, substeps)
+    assert np.abs(fast).max() > 0
+    np.testing.assert_array_equal(fast, textbook)
 
 
 @pytest.fixture(scope="module")

@@ -36,6 +36,17 @@ def substeps_per_sample(fs_hz: float, highest_mode_hz: float, crossing_time_s: f
 @njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
 def derivative(state, ball_angles, depths, shaft_angle, shaft_speed, p, out):
     """d(state)/dt into ``out``; ``p`` is ``DynamicParameters.as_array()``."""
+    cosines = np.empty(ball_angles.size)
+    sines = np.empty(ball_angles.size)
+    for j in range(ball_angles.size):
+        cosines[j] = math.cos(ball_angles[j])
+        sines[j] = math.sin(ball_angles[j])
+    _derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out)
+
+
+@njit(cache=True, nogil=True)
+def _derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out):
+    """:func:`derivative` with the balls' direction cosines and sines given."""
     inner_mass, outer_mass = p[0], p[1]
     inner_damping, outer_damping = p[2], p[3]
     inner_stiffness, outer_stiffness = p[4], p[5]
@@ -48,9 +59,9 @@ def derivative(state, ball_angles, depths, shaft_angle, shaft_speed, p, out):
     relative_vy = state[5] - state[7]
     force_x = 0.0
     force_y = 0.0
-    for j in range(ball_angles.size):
-        c = math.cos(ball_angles[j])
-        s = math.sin(ball_angles[j])
+    for j in range(cosines.size):
+        c = cosines[j]
+        s = sines[j]
         deflection = relative_x * c + relative_y * s - clearance - depths[j]
         if deflection > 0.0:
             load = contact_stiffness * deflection * math.sqrt(deflection)
@@ -70,44 +81,68 @@ def derivative(state, ball_angles, depths, shaft_angle, shaft_speed, p, out):
     out[7] = (force_y - outer_mass * gravity - outer_damping * state[7] - outer_stiffness * state[3]) / outer_mass
 
 
-@njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
-def _evaluate(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, out):
+@njit(cache=True, nogil=True)
+def _geometry(t, fs, shaft, speed, cage, spin, offsets, defect, angles, depths, cosines, sines):
+    """Everything at time ``t`` that does not depend on the state: the balls' angles, their cosines
+    and sines, the defect depths under them; returns (shaft angle, shaft speed)."""
     shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, shaft, speed, cage, spin, offsets, angles)
     defect_depths(defect, angles, shaft_angle, spin_angle, depths)
-    derivative(state, angles, depths, shaft_angle, shaft_speed, p, out)
+    for j in range(angles.size):
+        cosines[j] = math.cos(angles[j])
+        sines[j] = math.sin(angles[j])
+    return shaft_angle, shaft_speed
 
 
 @njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
 def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, defect, p, accelerations):
     """Integrate from sample ``first_sample`` over ``n_samples`` samples, in place on ``state``;
-    the acceleration at each sample's start goes to ``accelerations[:, i]``."""
+    the acceleration at each sample's start goes to ``accelerations[:, i]``.
+
+    The geometry (:func:`_geometry`: interpolation, defect profile, a cosine and a sine per ball)
+    costs more than the contact forces, and an RK4 step asks for it at three times, not four:
+    the two midpoint stages share one, and the end of a step is the next step's start whenever
+    the two times are the same number (a time computed both ways may differ in its last bit, and
+    then it is computed again, so the result is the same to the bit as evaluating every stage).
+    """
     n_balls = offsets.shape[1]
     angles = np.empty(n_balls)
     depths = np.empty(n_balls)
+    cosines = np.empty(n_balls)
+    sines = np.empty(n_balls)
     k1 = np.empty(8)
     k2 = np.empty(8)
     k3 = np.empty(8)
     k4 = np.empty(8)
     trial = np.empty(8)
     dt = 1.0 / (fs * substeps)
+    ready_at = -1.0  # the time the geometry arrays hold: none yet
+    shaft_angle = 0.0
+    shaft_speed = 0.0
     for i in range(n_samples):
         sample = first_sample + i
-        _evaluate(sample / fs, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k1)
-        for dof in range(4):
-            accelerations[dof, i] = k1[4 + dof]
         for step in range(substeps):
             t = sample / fs + step * dt
-            if step > 0:
-                _evaluate(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k1)
+            if t != ready_at:
+                shaft_angle, shaft_speed = _geometry(t, fs, shaft, speed, cage, spin, offsets, defect, angles, depths,
+                                                     cosines, sines)
+            _derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k1)
+            if step == 0:
+                for dof in range(4):
+                    accelerations[dof, i] = k1[4 + dof]
             for m in range(8):
                 trial[m] = state[m] + 0.5 * dt * k1[m]
-            _evaluate(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k2)
+            shaft_angle, shaft_speed = _geometry(t + 0.5 * dt, fs, shaft, speed, cage, spin, offsets, defect, angles,
+                                                 depths, cosines, sines)
+            _derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k2)
             for m in range(8):
                 trial[m] = state[m] + 0.5 * dt * k2[m]
-            _evaluate(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k3)
+            _derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k3)
             for m in range(8):
                 trial[m] = state[m] + dt * k3[m]
-            _evaluate(t + dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k4)
+            ready_at = t + dt
+            shaft_angle, shaft_speed = _geometry(ready_at, fs, shaft, speed, cage, spin, offsets, defect, angles,
+                                                 depths, cosines, sines)
+            _derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k4)
             for m in range(8):
                 state[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
 
