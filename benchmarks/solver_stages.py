@@ -30,14 +30,14 @@ from bearingtwin.physics.kinematics import sample_kinematics
 from bearingtwin.physics.solvers import fast
 
 
-@njit(cache=True, nogil=True)
+@njit(nogil=True)  # not cached: nothing written beside the script
 def _stage(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, out):
     shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, shaft, speed, cage, spin, offsets, angles)
     defect_depths(defect, angles, shaft_angle, spin_angle, depths)
     fast.derivative(state, angles, depths, shaft_angle, shaft_speed, p, out)
 
 
-@njit(cache=True, nogil=True)
+@njit(nogil=True)
 def _every_stage(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, defect, p,
                  accelerations):
     """The stepper before stage sharing: kinematics, depths and trigonometry at each of the four stages."""
