@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -141,6 +142,11 @@ class Profile:
     line_db: np.ndarray
     widths_hz: np.ndarray
     windows: np.ndarray
+
+    @cached_property
+    def statistics(self) -> np.ndarray:
+        """The time-domain features' medians over the windows (a measurement's, once for every twin)."""
+        return np.median(time_domain_features(self.windows), axis=0)
 
 
 @dataclass
@@ -271,8 +277,12 @@ class Comparator:
                 f"compare.band_min_hz={s.band_min_hz}: the band {lo:.0f}-{hi:.0f} Hz holds no Welch bin at "
                 f"{self.fs / self.nperseg:.1f} Hz resolution; raise band_min_hz or welch_segment_s"
             )
+        # Windows made once: hundreds of twins are profiled against one measurement.
+        self.psd_window = sps.get_window("hann", self.nperseg)
+        self.envelope_window = sps.get_window("hann", self.segment)
         self.stats_window = int(round(s.stats_window_s * self.fs))
         self.lines_nperseg = int(round(s.lines_segment_s * self.fs))
+        self.lines_window = sps.get_window("blackmanharris", self.lines_nperseg)
         lines_freqs = np.fft.rfftfreq(self.lines_nperseg, 1.0 / self.fs)
         self.lines_bins = (lines_freqs >= 0.25 * self.rpm / 60.0) & (lines_freqs <= min(s.lines_max_hz, self.fs / 2))
         if self.fault != "normal":
@@ -305,17 +315,17 @@ class Comparator:
                 f"(compare.envelope_segment_s={s.envelope_segment_s}, welch_segment_s={s.welch_segment_s}, "
                 f"lines_segment_s={s.lines_segment_s})"
             )
-        psd_freqs, psd = sps.welch(x, fs=self.fs, nperseg=self.nperseg)
+        psd_freqs, psd = sps.welch(x, fs=self.fs, window=self.psd_window, nperseg=self.nperseg)
         band_power = np.bincount(self.band_of_bin[self.in_bands], weights=psd[self.in_bands], minlength=s.n_bands)
         band_db = _db(band_power / band_power.max(), s.dynamic_range_db) + 10 * np.log10(band_power.max())
         # Blackman-Harris leaks less than 92 dB beyond 4 bins, and the spectrum is floored at the
         # dynamic range, so a strong line of a noiseless twin has no skirt of "lines" beside it.
-        lines_freqs, lines_psd = sps.welch(x, fs=self.fs, window="blackmanharris", nperseg=self.lines_nperseg)
+        lines_freqs, lines_psd = sps.welch(x, fs=self.fs, window=self.lines_window, nperseg=self.lines_nperseg)
         lines_psd = np.maximum(lines_psd, lines_psd.max() * 10 ** (-s.dynamic_range_db / 10.0))
         lines_level = local_level(lines_psd)
         n_segments = max(1, 2 * x.size // self.segment - 1)
         segments, _ = cut_windows(sps.sosfiltfilt(self.highpass, x), self.segment, n_segments)
-        env_freqs, env_amp = envelope_spectrum(segments, self.fs, window="hann")
+        env_freqs, env_amp = envelope_spectrum(segments, self.fs, window=self.envelope_window)
         env_amp = env_amp.mean(axis=0)
         in_range = (env_freqs >= 0.5 * min(self.reference_hz, self.rpm / 60.0)) & (env_freqs <= self.env_max_hz)
         lowest = env_amp[in_range].max() * 10 ** (-s.envelope_dynamic_range_db / 20.0)
@@ -379,10 +389,8 @@ class Comparator:
             harmonic_finding += ("; sidebands as strong" if abs(sideband) < 0.5 else
                                  f"; sidebands {abs(sideband):.1f} dB {'stronger' if sideband >= 0 else 'weaker'}")
 
-        features_m = np.median(time_domain_features(m.windows), axis=0)
-        features_t = np.median(time_domain_features(twin.windows), axis=0)
         stat_db, stat_names = [], []
-        for name, fm, ft in zip(FEATURE_NAMES, features_m, features_t):
+        for name, fm, ft in zip(FEATURE_NAMES, m.statistics, twin.statistics):
             if name not in STATISTICS_FEATURES:
                 continue
             per_decade = _FEATURE_DB_PER_DECADE.get(name, 20.0)
