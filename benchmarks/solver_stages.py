@@ -3,9 +3,10 @@
     python benchmarks/solver_stages.py [--seconds 1] [--repeats 5]
 
 The compiled stepper (:func:`bearingtwin.physics.solvers.fast._advance`) evaluates the
-geometry (kinematic interpolation, defect depths, a cosine and a sine per ball) three times
-per RK4 step instead of four. The reference it replaced, re-created here, evaluates it at every
-stage. Both integrate the same simulations (the identifiability benchmark's sampling rates,
+geometry (kinematic interpolation, defect depths, a cosine and a sine per ball) at most three
+times per RK4 step instead of four (the midpoint stages share it, and a step's end is the next
+step's start when the two times are the same number). The reference it replaced, re-created
+here with the same force routine, evaluates it at every stage. Both integrate the same simulations (the identifiability benchmark's sampling rates,
 the CWRU bearing, 1 s each after the start-up transient) in one process, alternating, and must
 agree to the bit. Prints a markdown block for benchmarks/RESULTS.md ("Fast solver: stages").
 """
@@ -13,6 +14,7 @@ agree to the bit. Prints a markdown block for benchmarks/RESULTS.md ("Fast solve
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import platform
 import statistics
@@ -31,10 +33,14 @@ from bearingtwin.physics.solvers import fast
 
 
 @njit(nogil=True)  # not cached: nothing written beside the script
-def _stage(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, out):
+def _stage(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines, sines, out):
+    """One stage as before: kinematics, depths and each ball's cosine and sine at ``t``, then the forces."""
     shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, shaft, speed, cage, spin, offsets, angles)
     defect_depths(defect, angles, shaft_angle, spin_angle, depths)
-    fast.derivative(state, angles, depths, shaft_angle, shaft_speed, p, out)
+    for j in range(angles.size):
+        cosines[j] = math.cos(angles[j])
+        sines[j] = math.sin(angles[j])
+    fast._derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out)
 
 
 @njit(nogil=True)
@@ -42,26 +48,28 @@ def _every_stage(state, first_sample, n_samples, substeps, fs, shaft, speed, cag
                  accelerations):
     """The stepper before stage sharing: kinematics, depths and trigonometry at each of the four stages."""
     n_balls = offsets.shape[1]
-    angles, depths = np.empty(n_balls), np.empty(n_balls)
+    angles, depths, cosines, sines = np.empty(n_balls), np.empty(n_balls), np.empty(n_balls), np.empty(n_balls)
     k1, k2, k3, k4, trial = np.empty(8), np.empty(8), np.empty(8), np.empty(8), np.empty(8)
     dt = 1.0 / (fs * substeps)
     for i in range(n_samples):
         sample = first_sample + i
         for step in range(substeps):
             t = sample / fs + step * dt
-            _stage(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k1)
+            _stage(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines, sines, k1)
             if step == 0:
                 for dof in range(4):
                     accelerations[dof, i] = k1[4 + dof]
             for m in range(8):
                 trial[m] = state[m] + 0.5 * dt * k1[m]
-            _stage(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k2)
+            _stage(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines,
+                   sines, k2)
             for m in range(8):
                 trial[m] = state[m] + 0.5 * dt * k2[m]
-            _stage(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k3)
+            _stage(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines,
+                   sines, k3)
             for m in range(8):
                 trial[m] = state[m] + dt * k3[m]
-            _stage(t + dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, k4)
+            _stage(t + dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines, sines, k4)
             for m in range(8):
                 state[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
 

@@ -12,6 +12,7 @@ import re
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.data.recording import Recording
@@ -269,6 +270,11 @@ def test_bad_candidates_and_keys_are_named(cfg):
     with pytest.raises(BearingTwinError, match="calibration.base.simulator.defect.deep"):
         op = OperatingPoint.from_config({}, RANGES, {"simulator.defect.deep": [0.1, 1.0]}, "outer")
         rank(cfg, measured, [], op=op)
+    with pytest.raises(BearingTwinError, match="calibration.base.simulator.defect.depth_mm.0: no such"):
+        op = OperatingPoint.from_config({}, RANGES, {"simulator.defect.depth_mm.0": [0.1, 1.0]}, "outer")
+        rank(cfg, measured, [], op=op)
+    with pytest.raises(BearingTwinError, match=r"^simulator.defect.depth_mm: Missing mandatory value"):
+        TwinModel("outer", cfg.bearing, {**OmegaConf.to_container(cfg.simulator), "defect": {"depth_mm": "???"}}, 0)
     with pytest.raises(BearingTwinError, match="ranking.view_floor_db must be a positive number"):
         EffectRanker([], view_floor_db=0.0).fit(None, measured, BearingGeometry.from_config(cfg.bearing))
     with pytest.raises(BearingTwinError, match="candidates: noise is already among the fixed effects"):

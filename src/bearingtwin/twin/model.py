@@ -19,7 +19,7 @@ from typing import Mapping
 import numpy as np
 from omegaconf import OmegaConf
 
-from bearingtwin.config import CONF_DIR
+from bearingtwin.config import CONF_DIR, plain_config
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import Effect, build_effects, registered_effects
 from bearingtwin.physics.geometry import FAULTS, check_fault
@@ -48,7 +48,6 @@ def effect_search_space(name: str) -> dict[str, tuple[float, float, bool]]:
     return dict(space)
 
 
-_MISSING = object()
 SENSOR_KEYS = ("simulator.sensor", "simulator.sensor_angle_deg")
 """Base parameters that select what the sensor reads of a simulation, not what is simulated."""
 
@@ -75,7 +74,8 @@ class TwinModel:
             "simulator": OmegaConf.to_container(OmegaConf.create(dict(simulator_cfg)), resolve=True),
         })
         self.config.simulator.seed = int(seed)
-        self._plain = OmegaConf.to_container(self.config)
+        # Plain dicts for the simulations (a missing value is named here, before any is run).
+        self._plain = {name: plain_config(self.config[name], name) for name in ("bearing", "simulator")}
         self.seed = int(seed)
         self.fs = float(self.config.simulator.fs)
         self._cache: tuple[str, np.ndarray] | None = None
@@ -87,10 +87,13 @@ class TwinModel:
 
     def value(self, key: str):
         """The configured value of a dotted ``bearing.*`` / ``simulator.*`` key (a base parameter)."""
-        value = OmegaConf.select(self.config, key, default=_MISSING)
-        if value is _MISSING:
-            raise BearingTwinError(f"calibration.base.{key}: no such bearing.* or simulator.* config key")
-        return value
+        node = self._plain
+        for part in key.split("."):
+            if not isinstance(node, dict) or part not in node:
+                raise BearingTwinError(f"calibration.base.{key}: no such bearing.* or simulator.* config key "
+                                       "(a key names a value inside nested mappings, no list index)")
+            node = node[part]
+        return node
 
     def _configured(self, base: Mapping) -> dict:
         """Plain copies of the bearing and simulator configs with ``base`` set (a copy of plain dicts
