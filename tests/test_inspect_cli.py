@@ -2,6 +2,7 @@
 the file and problem otherwise, and the bearing's defect frequencies from conf/bearing."""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from bearingtwin.cli.inspect import main
+from bearingtwin.config import REPO_ROOT
 
 HUST = Path(__file__).parent / "fixtures" / "hust"
 
@@ -87,3 +89,21 @@ def test_a_cwru_file_without_a_speed_reports_the_nominal_one_and_where_it_is_fro
     assert summary["meta"]["notes"][-1] == "speed 1772 rpm: the Data Center's nominal speed at 1 hp (no X049RPM variable)"
     code, out, _ = run(capsys, monkeypatch, f"path={path}", "rpm=1770")
     assert (json.loads(out)["rpm"], json.loads(out)["rpm_origin"]) == (1770, "option")
+
+
+CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+
+
+@pytest.mark.skipif(not (CWRU / "12k_Drive_End_B007_0_118.mat").is_file(), reason=f"CWRU record 118 not in {CWRU}")
+def test_every_channel_of_a_file_witnesses_its_rate_as_the_commands_read_it(capsys, monkeypatch):
+    """Record 118's fan-end channel alone shows a 53.7 Hz series and would contradict the 12 kHz its name
+    declares; its drive-end and accelerometer-base channels show the shaft series and confirm it, as
+    bearingtwin-diagnose and the twin decide. Twice the rate is contradicted on every channel."""
+    record = f"path={CWRU / '12k_Drive_End_B007_0_118.mat'}"
+    code, out, _ = run(capsys, monkeypatch, record, "channel=FE", "bearing=cwru_6205")
+    check = json.loads(out)["shaft_line_check"]
+    assert code == 0 and check["verdict"] == "consistent" and check["channel"] != "FE"
+    assert check["channels"]["FE"] == "contradicted" and set(check["channels"]) == {"DE", "FE", "BA"}
+    code, out, _ = run(capsys, monkeypatch, record, "channel=FE", "fs=24000", "bearing=cwru_6205")
+    check = json.loads(out)["shaft_line_check"]
+    assert code == 0 and set(check["channels"].values()) == {"contradicted"}

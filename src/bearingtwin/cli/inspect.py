@@ -5,7 +5,9 @@ rather than judging it, so a file with NaNs is described, not refused; a file th
 be read at all (missing, empty, truncated, non-numeric) exits 2 naming the file and the
 problem. With ``bearing=<name>`` the bearing's defect frequencies are added, in Hz when the
 speed is known and always as orders (multiples of the shaft speed). Whenever the rate and
-the speed are known, the sampling-rate check against the shaft line is reported too.
+the speed are known, the sampling-rate check against the shaft line is reported too, with
+every channel of the file a witness of its one rate (the channel that decides, and each
+channel's verdict), as the commands that read the file apply it.
 Settings are Hydra overrides, as for every command (``bearingtwin-inspect --help``).
 """
 
@@ -21,7 +23,7 @@ from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown
 from bearingtwin.data.files import read_raw, resolve_fs
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.signal.sampling_rate import check_sampling_rate
+from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
 
 
 @hydra_command("inspect")
@@ -69,11 +71,14 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     if rpm_origin == "nominal":
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
     if rpm is not None and fs_hz is not None:
+        # Every channel of the file's length witnesses its one rate, as bearingtwin-diagnose and the twin read it.
         signal = raw.channels[names[0]]
         defect_hz = None if bearing is None else bearing.defect_frequencies(rpm)
         try:
-            check = check_sampling_rate(signal, fs_hz, rpm, defect_hz=defect_hz)
-            summary["shaft_line_check"] = dict(check.as_dict(), channel=names[0])
+            checks = check_channels(rate_witnesses(signal, raw.channels), fs_hz, rpm, defect_hz=defect_hz)
+            decisive = decisive_channel(checks)
+            summary["shaft_line_check"] = dict(checks[decisive].as_dict(), channel=decisive,
+                                               channels={name: check.verdict for name, check in checks.items()})
         except BearingTwinError as error:  # NaNs, or a record too short to resolve the shaft line
             summary["shaft_line_check"] = {"channel": names[0], "verdict": "not checked", "reason": str(error)}
     if bearing is not None:
