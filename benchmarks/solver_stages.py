@@ -14,7 +14,6 @@ agree to the bit. Prints a markdown block for benchmarks/RESULTS.md ("Fast solve
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import platform
 import statistics
@@ -27,20 +26,15 @@ from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.physics import simulator
-from bearingtwin.physics.defects import defect_depths
-from bearingtwin.physics.kinematics import sample_kinematics
 from bearingtwin.physics.solvers import fast
 
 
 @njit(nogil=True)  # not cached: nothing written beside the script
 def _stage(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines, sines, out):
-    """One stage as before: kinematics, depths and each ball's cosine and sine at ``t``, then the forces."""
-    shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, shaft, speed, cage, spin, offsets, angles)
-    defect_depths(defect, angles, shaft_angle, spin_angle, depths)
-    for j in range(angles.size):
-        cosines[j] = math.cos(angles[j])
-        sines[j] = math.sin(angles[j])
-    fast._derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out)
+    """One stage as before: the geometry at ``t`` afresh, then the forces."""
+    shaft_angle, shaft_speed = fast._geometry(t, fs, shaft, speed, cage, spin, offsets, defect, angles, depths,
+                                              cosines, sines)
+    fast.derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out)
 
 
 @njit(nogil=True)

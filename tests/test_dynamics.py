@@ -113,7 +113,7 @@ def test_numba_kernel_and_python_rhs_give_the_same_derivative():
         depths = rng.uniform(0, 5e-6, 9) * (rng.random(9) < 0.3)
         shaft_angle, shaft_speed = rng.uniform(0, 100), rng.uniform(50, 300)
         expected = state_derivative(state, angles, depths, shaft_angle, shaft_speed, p)
-        derivative(state, angles, depths, shaft_angle, shaft_speed, p.as_array(), out)
+        derivative(state, np.cos(angles), np.sin(angles), depths, shaft_angle, shaft_speed, p.as_array(), out)
         np.testing.assert_allclose(out, expected, rtol=1e-12, atol=1e-9)
         n_in_contact += np.any(contact_force(state, angles, depths, p) != 0)
     assert n_in_contact > 40  # the states exercise the Hertz contacts, not only the springs

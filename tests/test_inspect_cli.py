@@ -14,6 +14,7 @@ from bearingtwin.cli.inspect import main
 from bearingtwin.config import REPO_ROOT
 
 HUST = Path(__file__).parent / "fixtures" / "hust"
+CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 
 
 def run(capsys, monkeypatch, *overrides):
@@ -90,8 +91,6 @@ def test_a_cwru_file_without_a_speed_reports_the_nominal_one_and_where_it_is_fro
     code, out, _ = run(capsys, monkeypatch, f"path={path}", "rpm=1770")
     assert (json.loads(out)["rpm"], json.loads(out)["rpm_origin"]) == (1770, "option")
 
-
-CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 
 
 @pytest.mark.skipif(not (CWRU / "12k_Drive_End_B007_0_118.mat").is_file(), reason=f"CWRU record 118 not in {CWRU}")

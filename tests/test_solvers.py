@@ -8,10 +8,10 @@ from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.physics.simulator import simulate, simulate_many
-from bearingtwin.physics.defects import build_defect, defect_depths
+from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.dynamics import DynamicParameters, static_equilibrium
-from bearingtwin.physics.kinematics import rigid_kinematics, sample_kinematics
-from bearingtwin.physics.solvers.fast import derivative, integrate, substeps_per_sample
+from bearingtwin.physics.kinematics import rigid_kinematics
+from bearingtwin.physics.solvers.fast import _geometry, derivative, integrate, substeps_per_sample
 from bearingtwin.signal.envelope import envelope_spectrum, peak_near
 
 BEARING = OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml")
@@ -33,17 +33,16 @@ def test_substeps_resolve_both_the_contact_mode_and_the_defect_crossing():
 
 
 def _textbook_rk4(state, kinematics, defect, p, n_samples, substeps):
-    """Classical RK4 with every stage's kinematics, defect depths and trigonometry evaluated afresh."""
+    """Classical RK4 with every stage's geometry (kinematics, defect depths, trigonometry) evaluated afresh."""
     fs = kinematics.fs_hz
     arrays = (kinematics.shaft_angle_rad, kinematics.shaft_speed_rad_s, kinematics.cage_angle_rad,
               kinematics.ball_spin_angle_rad, np.ascontiguousarray(kinematics.ball_offset_rad))
-    angles, depths = np.empty(kinematics.n_balls), np.empty(kinematics.n_balls)
+    angles, depths, cosines, sines = (np.empty(kinematics.n_balls) for _ in range(4))
 
     def rate(t, y):
-        shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, *arrays, angles)
-        defect_depths(defect, angles, shaft_angle, spin_angle, depths)
+        shaft_angle, shaft_speed = _geometry(t, fs, *arrays, defect, angles, depths, cosines, sines)
         out = np.empty(8)
-        derivative(y, angles, depths, shaft_angle, shaft_speed, p, out)
+        derivative(y, cosines, sines, depths, shaft_angle, shaft_speed, p, out)
         return out
 
     dt, accelerations = 1.0 / (fs * substeps), np.empty((4, n_samples))

@@ -69,25 +69,25 @@ class TwinModel:
 
     def __init__(self, fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, seed: int):
         self.fault = check_fault(fault)
-        self.config = OmegaConf.create({
+        config = OmegaConf.create({
             "bearing": OmegaConf.to_container(OmegaConf.create(dict(bearing_cfg)), resolve=True),
             "simulator": OmegaConf.to_container(OmegaConf.create(dict(simulator_cfg)), resolve=True),
         })
-        self.config.simulator.seed = int(seed)
-        # Plain dicts for the simulations (a missing value is named here, before any is run).
-        self._plain = {name: plain_config(self.config[name], name) for name in ("bearing", "simulator")}
+        config.simulator.seed = int(seed)
+        # Plain dicts, cheap to copy for each simulation; a missing value is named here, before any is run.
+        self.config = {name: plain_config(config[name], name) for name in ("bearing", "simulator")}
         self.seed = int(seed)
-        self.fs = float(self.config.simulator.fs)
+        self.fs = float(self.config["simulator"]["fs"])
         self._cache: tuple[str, np.ndarray] | None = None
         self.n_simulations = 0
 
     def fresh(self) -> "TwinModel":
         """The same twin with an empty cache, for another thread (a cache is not shared)."""
-        return TwinModel(self.fault, self.config.bearing, self.config.simulator, self.seed)
+        return TwinModel(self.fault, self.config["bearing"], self.config["simulator"], self.seed)
 
     def value(self, key: str):
         """The configured value of a dotted ``bearing.*`` / ``simulator.*`` key (a base parameter)."""
-        node = self._plain
+        node = self.config
         for part in key.split("."):
             if not isinstance(node, dict) or part not in node:
                 raise BearingTwinError(f"calibration.base.{key}: no such bearing.* or simulator.* config key "
@@ -98,7 +98,7 @@ class TwinModel:
     def _configured(self, base: Mapping) -> dict:
         """Plain copies of the bearing and simulator configs with ``base`` set (a copy of plain dicts
         costs a hundredth of an OmegaConf deep copy, and the ranking makes hundreds)."""
-        cfg = {"bearing": copy.deepcopy(self._plain["bearing"]), "simulator": copy.deepcopy(self._plain["simulator"])}
+        cfg = copy.deepcopy(self.config)
         for key, value in base.items():
             self.value(key)
             *parents, leaf = key.split(".")
@@ -124,12 +124,12 @@ class TwinModel:
             self.n_simulations += 1
             self._cache = (key, channels)
         sensor = {"simulator.sensor": self.value("simulator.sensor"),
-                  "simulator.sensor_angle_deg": OmegaConf.select(self.config, "simulator.sensor_angle_deg"),
+                  "simulator.sensor_angle_deg": self.config["simulator"].get("sensor_angle_deg"),
                   **{k: v for k, v in base.items() if k in SENSOR_KEYS}}
         signal = sensor_signal(self._cache[1], sensor["simulator.sensor"], sensor["simulator.sensor_angle_deg"])
         # Every effect's sensor path runs here, on the projected channel, with one seeded stream.
         rng = np.random.default_rng(np.random.SeedSequence([self.seed, FAULTS.index(self.fault), 1]))
-        shaft_hz = float(self.config.simulator.rpm) / 60.0
+        shaft_hz = float(self.config["simulator"]["rpm"]) / 60.0
         for effect in instances:
             signal = effect.modify_signal(signal, self.fs, rng, shaft_hz)
         return signal

@@ -9,8 +9,9 @@ of error-control overhead. The step is 1 / (fs x substeps), substeps chosen by
 on a step. Accuracy is checked against the adaptive reference solver in the tests.
 
 :func:`derivative` re-implements :func:`bearingtwin.physics.dynamics.state_derivative`
-in scalar loops (tested equal at random states); the kinematics and defect depths use
-the same compiled functions as the reference solver.
+in scalar loops (tested equal at random states), from the balls' direction cosines and sines
+that :func:`_geometry` computes with the kinematics and defect depths, through the same
+compiled functions as the reference solver.
 """
 
 from __future__ import annotations
@@ -34,19 +35,9 @@ def substeps_per_sample(fs_hz: float, highest_mode_hz: float, crossing_time_s: f
 
 
 @njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
-def derivative(state, ball_angles, depths, shaft_angle, shaft_speed, p, out):
-    """d(state)/dt into ``out``; ``p`` is ``DynamicParameters.as_array()``."""
-    cosines = np.empty(ball_angles.size)
-    sines = np.empty(ball_angles.size)
-    for j in range(ball_angles.size):
-        cosines[j] = math.cos(ball_angles[j])
-        sines[j] = math.sin(ball_angles[j])
-    _derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out)
-
-
-@njit(cache=True, nogil=True)
-def _derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out):
-    """:func:`derivative` with the balls' direction cosines and sines given."""
+def derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out):
+    """d(state)/dt into ``out``, given each ball's direction cosine and sine (:func:`_geometry`);
+    ``p`` is ``DynamicParameters.as_array()``."""
     inner_mass, outer_mass = p[0], p[1]
     inner_damping, outer_damping = p[2], p[3]
     inner_stiffness, outer_stiffness = p[4], p[5]
@@ -125,7 +116,7 @@ def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, s
             if t != ready_at:
                 shaft_angle, shaft_speed = _geometry(t, fs, shaft, speed, cage, spin, offsets, defect, angles, depths,
                                                      cosines, sines)
-            _derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k1)
+            derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k1)
             if step == 0:
                 for dof in range(4):
                     accelerations[dof, i] = k1[4 + dof]
@@ -133,16 +124,16 @@ def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, s
                 trial[m] = state[m] + 0.5 * dt * k1[m]
             shaft_angle, shaft_speed = _geometry(t + 0.5 * dt, fs, shaft, speed, cage, spin, offsets, defect, angles,
                                                  depths, cosines, sines)
-            _derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k2)
+            derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k2)
             for m in range(8):
                 trial[m] = state[m] + 0.5 * dt * k2[m]
-            _derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k3)
+            derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k3)
             for m in range(8):
                 trial[m] = state[m] + dt * k3[m]
             ready_at = t + dt
             shaft_angle, shaft_speed = _geometry(ready_at, fs, shaft, speed, cage, spin, offsets, defect, angles,
                                                  depths, cosines, sines)
-            _derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k4)
+            derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k4)
             for m in range(8):
                 state[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
 
