@@ -176,6 +176,22 @@ def test_shaft_line_of_a_synthetic_record():
         check_sampling_rate(signal[:1000], fs, rpm)
 
 
+def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_contradicted():
+    """No shaft series near the expected line and none anywhere within 25 times of it (a machine without
+    unbalance, a simulation): nothing contradicts the declared rate. A series 7 times too high does."""
+    fs, rpm = 12000.0, 1800.0
+    t = np.arange(int(10 * fs)) / fs
+    rng = np.random.default_rng(1)
+    noise = rng.standard_normal(t.size)
+    alone = check_sampling_rate(noise + 0.02 * np.sin(2 * np.pi * 30.0 * t), fs, rpm)  # one weak line, no series
+    assert alone.verdict == "ambiguous" and alone.observed_hz is None and alone.implied_fs_hz is None
+    assert "nothing to check the rate against" in alone.reason
+    series = sum(np.sin(2 * np.pi * k * 210.0 * t) / k for k in range(1, 8))  # 7 x the expected 30 Hz
+    far = check_sampling_rate(noise + series, fs, rpm)
+    assert far.verdict == "contradicted" and far.observed_hz == pytest.approx(210.0, rel=0.005)
+    assert far.implied_fs_hz == pytest.approx(fs / 7, rel=0.005)
+
+
 def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_path):
     """The 0.028 in records keep their samples under another number (3001.mat holds X056_DE_time),
     drive end only, and record no speed: the name's motor load gives the Data Center's nominal speed."""

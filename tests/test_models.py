@@ -174,3 +174,52 @@ def test_the_epoch_progress_bar_goes_to_stderr_only_when_asked_for(capfd):
     assert "Epoch 1" in shown.err and "Epoch" not in shown.out  # stdout is kept for a command's summary
     CnnBiLstmClassifier(max_epochs=2, batch_size=16, progress_bar="auto").fit(X, y)  # unresolved auto: silent
     assert "Epoch" not in capfd.readouterr().err
+
+
+def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out():
+    """Band power that separates the twin's classes but not the calibration records' (another rig's path
+    and background) is dropped, with the extractor's feature; band power that holds on them is kept."""
+    from types import SimpleNamespace
+
+    from bearingtwin.config import bearing_config
+    from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
+    from bearingtwin.models.experiment import choose_band_power
+    from bearingtwin.models.svm import SvmClassifier
+
+    rng = np.random.default_rng(0)
+    fs, rpm, n_train, n_val = 12000.0, 1797.0, 200, 40
+    windows = rng.standard_normal((n_train + n_val, 4096))
+    extractor = EnvelopeOrderFeatures(bearing=bearing_config("cwru_6205"), line_measure="prominence").fit(
+        windows[:1], fs_hz=fs, rpm=rpm)
+    n_lines = len(extractor.feature_names_) - 1
+    labels = np.tile([0, 1], (n_train + n_val) // 2)
+    lines = 0.8 * labels[:, None] * (np.arange(n_lines) == 0) + rng.normal(0.0, 0.3, (labels.size, n_lines))
+    train, validation = np.arange(n_train), np.arange(n_train, n_train + n_val)
+    dataset = SimpleNamespace(validation=validation, labels=labels, windows=windows, fs=fs,
+                              window_rpms=np.full(labels.size, rpm))
+
+    def fit(model, X):
+        return model.fit(X[train], labels[train])
+
+    extractors = {}
+    for shifted, kept in ((True, False), (False, True)):
+        # In training the band power tells the classes apart at a glance; on the calibration windows of
+        # another path it reads the same for both classes (shifted) or as in training.
+        band_power = np.where(labels == 1, 0.0, -2.0) + rng.normal(0.0, 0.05, labels.size)
+        band_power[validation] = -2.0 if shifted else band_power[validation]
+        features = np.column_stack([lines, band_power])
+        with_it = fit(SvmClassifier(kernel="linear"), features)
+        classifier, chosen, chosen_extractor, scores = choose_band_power(
+            with_it, features, extractor, dataset, train, fit, lambda: SvmClassifier(kernel="linear"))
+        assert scores["band_power_kept"] == float(kept)
+        assert (scores["band_power_calibration_accuracy"] >= scores["lines_only_calibration_accuracy"]) == kept
+        assert chosen.shape[1] == n_lines + kept and chosen_extractor.band_power == kept
+        assert len(chosen_extractor.feature_names_) == chosen.shape[1]
+        assert (classifier is with_it) == kept
+        assert chosen_extractor.transform(windows[:2], fs_hz=fs, rpm=rpm).shape == (2, chosen.shape[1])
+        extractors[kept] = chosen_extractor
+    with pytest.raises(BearingTwinError, match="band_power_by_calibration: the features have no band power"):
+        choose_band_power(with_it, lines, extractors[False], dataset, train, fit, lambda: SvmClassifier(kernel="linear"))
+    with pytest.raises(BearingTwinError, match="no calibration windows to choose on"):
+        choose_band_power(with_it, features, extractor, SimpleNamespace(**{**vars(dataset), "validation": []}),
+                          train, fit, lambda: SvmClassifier(kernel="linear"))

@@ -18,7 +18,8 @@ from processes import run_module
 from bearingtwin.config import CONF_DIR
 from bearingtwin.data.build import build_dataset
 from bearingtwin.data.cwru import load_cwru
-from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol, healthy_twin_rms, merged_calibration
+from bearingtwin.data.twin_to_real import (TWIN_PREFIX, check_protocol, healthy_twin_rms, merged_calibration,
+                                          with_base_params)
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking.reports import run_report
@@ -98,6 +99,18 @@ def test_testing_at_the_calibration_load_is_refused():
         check_protocol(dict(cfg.data))
 
 
+def test_a_reports_sensor_direction_is_a_base_parameter_even_where_the_config_leaves_it_null():
+    """Today's bearingtwin-twin reports the sensor it fitted (simulator.sensor, simulator.sensor_angle_deg),
+    and the simulator config holds sensor_angle_deg as null: set, not refused; a key no config has is."""
+    simulator = {"sensor": "outer_y", "sensor_angle_deg": None, "defect": {"width_mm": 0.5}}
+    fitted = {"simulator.sensor": "outer_x", "simulator.sensor_angle_deg": 90.0, "simulator.defect.width_mm": 0.2}
+    bearing, twin = with_base_params({"name": "cwru_6205"}, simulator, fitted, "twin_report.json")
+    assert twin == {"sensor": "outer_x", "sensor_angle_deg": 90.0, "defect": {"width_mm": 0.2}}
+    assert simulator["sensor_angle_deg"] is None and bearing == {"name": "cwru_6205"}  # copies
+    with pytest.raises(BearingTwinError, match="twin_report.json: base parameter simulator.sensor_gain is no bearing"):
+        with_base_params({}, simulator, {"simulator.sensor_gain": 2.0}, "twin_report.json")
+
+
 def test_step_beyond_the_report_names_the_field(report_path, tmp_path):
     cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=2",
                                  f"paths.cache_dir={tmp_path}"])
@@ -108,7 +121,7 @@ def test_step_beyond_the_report_names_the_field(report_path, tmp_path):
 def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
     uri = f"sqlite:///{tmp_path}/mlflow.db"
     # The calibrated steps 0 and 1, then step 1 with an effect set by hand (outside the protocol).
-    for name, extra in (("step0", ["data.calibration.step=0"]), ("step1", ["data.calibration.step=1"]),
+    for name, extra in (("step0", ["data.calibration.step=0"]), ("step1", ["data.calibration.step=1", "band_power_by_calibration=true"]),
                         ("hand", ["data.calibration.step=1", "effects=[preload]"]),
                         ("variants", ["data.calibration.step=1", "+data.twin.variants.spin_slip.jitter=[0.01,0.4]"])):
         done = run_module(
@@ -129,6 +142,10 @@ def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
             ("12k_Drive_End_IR007_1_106.mat", "inner", "3"), ("12k_Drive_End_B007_1_119.mat", "ball", "3"),
             ("12k_Drive_End_OR007@6_1_131.mat", "outer", "3")]
         assert np.mean([float(row["accuracy"]) for row in per_record]) == pytest.approx(run.data.metrics["accuracy"], abs=1e-4)
+    (chosen,) = [r.data.metrics for r in runs if r.data.params.get("band_power_by_calibration") == "True"]
+    assert chosen["band_power_kept"] == float(chosen["band_power_calibration_accuracy"] >= chosen["lines_only_calibration_accuracy"])
+    assert chosen["calibration_accuracy"] == chosen["band_power_calibration_accuracy" if chosen["band_power_kept"]
+                                                   else "lines_only_calibration_accuracy"]
     for run in runs:  # the calibration records, scored apart: 2 healthy + 2 outer-race windows
         val = {k: v for k, v in run.data.metrics.items() if k.startswith("calibration_")}
         assert set(val) == {"calibration_accuracy", "calibration_recall_normal", "calibration_recall_outer"}

@@ -35,6 +35,7 @@ from typing import Mapping
 
 import numpy as np
 from omegaconf import OmegaConf
+from tqdm.auto import tqdm
 
 from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
@@ -159,8 +160,9 @@ def with_base_params(bearing_cfg: Mapping, simulator_cfg: Mapping, base_params: 
                      report: str | Path) -> tuple[dict, dict]:
     """Copies of the bearing and simulator configs with a report's fitted base parameters set."""
     twin_cfg = OmegaConf.create({"bearing": dict(bearing_cfg), "simulator": dict(simulator_cfg)})
+    absent = object()  # a key set to null (simulator.sensor_angle_deg) is a key all the same
     for key, value in base_params.items():
-        if OmegaConf.select(twin_cfg, key, default=None) is None:
+        if OmegaConf.select(twin_cfg, key, default=absent) is absent:
             raise BearingTwinError(f"{report}: base parameter {key} is no bearing.* / simulator.* key")
         OmegaConf.update(twin_cfg, key, value, merge=False)
     return OmegaConf.to_container(twin_cfg.bearing), OmegaConf.to_container(twin_cfg.simulator)
@@ -342,7 +344,9 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                 for effect_label, varied in effect_variants(effects, cfg["twin"].get("variants"))
                 for setting_label, setting in simulator_settings(simulator, cfg["twin"].get("randomize"))]
     signals, twin_keys, sources = [], [], []
-    for index, (label, varied, setting) in enumerate(variants):
+    # Simulating every variant takes minutes (seconds each); cached ones are read in a blink.
+    for index, (label, varied, setting) in enumerate(tqdm(variants, desc="twin variants", unit="variant",
+                                                          disable=len(variants) < 2)):
         variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,
                                             variant=index if len(variants) > 1 else None)
         signals.extend(variant_signals)

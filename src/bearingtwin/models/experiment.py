@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 from omegaconf import DictConfig
+from sklearn.base import clone
 from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 
 from bearingtwin.config import bearing_config, plain_config
@@ -23,6 +24,7 @@ from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.cache import cache_path, extract_features
+from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.models.build import build_classifier
 
 # Metrics that measure this machine, not the model: excluded when runs are compared for equality.
@@ -156,12 +158,21 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         )
     features, vmd_params, extractor = extract_features(cfg.features, dataset, train, cfg.paths.cache_dir)
     y = dataset.labels
-    if cfg.classifier.name == "cnn_bilstm":  # the network records validation curves
-        classifier.fit(features[train], y[train], eval_set=(features[test], y[test]))
-    else:
-        classifier.fit(features[train], y[train])
+
+    def fit(model, X: np.ndarray):
+        if cfg.classifier.name == "cnn_bilstm":  # the network records validation curves
+            return model.fit(X[train], y[train], eval_set=(X[test], y[test]))
+        return model.fit(X[train], y[train])
+
+    fit(classifier, features)
+    choice = {}
+    if cfg.get("band_power_by_calibration"):
+        classifier, features, extractor, choice = choose_band_power(
+            classifier, features, extractor, dataset, train, fit,
+            lambda: build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir))
     predicted = classifier.predict(features[test])
     scores, confusion = classification_scores(y[test], predicted, dataset.class_names)
+    scores.update(choice)
     if len(dataset.validation):  # accuracy, and recall of the classes present (the others would read 0)
         y_val = y[dataset.validation]
         validation, _ = classification_scores(y_val, classifier.predict(features[dataset.validation]), dataset.class_names)
@@ -191,6 +202,38 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
             config=plain_config(cfg),
         ),
     )
+
+
+def choose_band_power(classifier, features: np.ndarray, extractor, dataset, train: np.ndarray, fit, new_classifier):
+    """The classifier, features and extractor with the band-power feature, or without it if that scores
+    better on the calibration records' windows (``dataset.validation``; ties keep it), and the scores.
+
+    ``classifier`` is fitted on ``features``, whose last column is the band power; ``fit(model, X)``
+    fits another on ``X``'s training rows. The scores: ``band_power_calibration_accuracy``,
+    ``lines_only_calibration_accuracy`` and ``band_power_kept`` (1 or 0).
+    """
+    if not (isinstance(extractor, EnvelopeOrderFeatures) and extractor.band_power):
+        raise BearingTwinError("band_power_by_calibration: the features have no band power to keep or drop "
+                               "(features=envelope_prominence or envelope_orders with features.band_power=true)")
+    validation = dataset.validation
+    if not len(validation):
+        raise BearingTwinError("band_power_by_calibration: no calibration windows to choose on; set "
+                               "data=twin_to_real with data.calibration.validation_windows_per_record > 0")
+    lines = features[:, :-1]
+    without = fit(new_classifier(), lines)
+    y_val = dataset.labels[validation]
+    accuracy = {"with": float(np.mean(classifier.predict(features[validation]) == y_val)),
+                "without": float(np.mean(without.predict(lines[validation]) == y_val))}
+    scores = {"band_power_calibration_accuracy": accuracy["with"],
+              "lines_only_calibration_accuracy": accuracy["without"],
+              "band_power_kept": float(accuracy["with"] >= accuracy["without"])}
+    if scores["band_power_kept"]:
+        return classifier, features, extractor, scores
+    # The extractor learns nothing from the windows (its band in Hz and its feature names): refit on one.
+    first = train[:1]
+    lines_only = clone(extractor).set_params(band_power=False).fit(
+        dataset.windows[first], fs_hz=dataset.fs, rpm=dataset.window_rpms[first])
+    return without, lines, lines_only, scores
 
 
 def data_bearing(cfg: DictConfig) -> dict:

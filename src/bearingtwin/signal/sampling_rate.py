@@ -104,7 +104,10 @@ def check_sampling_rate(
     expected frequency is taken as the shaft's: far from it, the rate is contradicted. Near
     it, the in-between lines of every whole-number fraction k (2 .. ``max_fraction``) are
     scored too, and ``defect_hz`` (the bearing's defect frequencies at ``rpm``, any subset)
-    decides whether strong ones mean a rate of ``fs * k``.
+    decides whether strong ones mean a rate of ``fs * k``. With no strong series within
+    ``search_factor``, one up to ``search_factor**2`` away contradicts the rate; none at all
+    leaves it ``ambiguous`` (nothing to check it against); in both cases the defect lines may
+    still witness it.
 
     Args:
         signal: 1-D record (whole record: the resolution fs / n must resolve the harmonics).
@@ -128,18 +131,45 @@ def check_sampling_rate(
             f"the record is too short to check its sampling rate: {signal.size} samples give {resolution:.3g} Hz "
             f"resolution, too coarse to place a {expected:.3g} Hz shaft line within {tolerance:.0%}"
         )
-    ratio, resolution = _prominence_spectrum(signal, fs, n_harmonics * expected * search_factor * 1.1, background_hz)
+    # The search reaches search_factor^2 on either side only to tell "no series anywhere" from "a series
+    # too far away"; the shaft's series is looked for within search_factor.
+    wide = search_factor**2
+    top_hz = min(n_harmonics * expected * wide * 1.1, fs / 2.0)
+    ratio, resolution = _prominence_spectrum(signal, fs, top_hz, background_hz)
     n_grid = int(math.ceil(2 * math.log(search_factor) / harmonic_tolerance)) + 1
     grid = expected * np.geomspace(1 / search_factor, search_factor, n_grid)
+    grid_step = grid[1] / grid[0]  # the same geometric steps on to search_factor^2 either side
+    steps = grid_step ** np.arange(1, int(math.ceil(math.log(search_factor) / math.log(grid_step))) + 1)
+    beyond = np.concatenate([grid[0] / steps[::-1], grid[-1] * steps])
+    beyond = beyond[(n_harmonics * beyond * (1 + harmonic_tolerance) < top_hz) & (beyond > 2 * resolution)]
     harmonics = np.arange(1, n_harmonics + 1)
-    score = np.median(_peak(ratio, resolution, np.outer(harmonics, grid), harmonic_tolerance), axis=0)
-    strong = np.flatnonzero(score >= prominence)
-    if strong.size == 0:
-        at_expected = float(score[np.argmin(np.abs(np.log(grid / expected)))])
-        check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
-                               f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f})")
+
+    def scores(fundamentals_hz: np.ndarray) -> np.ndarray:
+        return np.median(_peak(ratio, resolution, np.outer(harmonics, fundamentals_hz), harmonic_tolerance), axis=0)
+
+    score = scores(grid)
+    at_expected = float(score[np.argmin(np.abs(np.log(grid / expected)))])
+    near = np.flatnonzero(score >= prominence)
+
+    if near.size == 0:
+        beyond_score = scores(beyond) if beyond.size else np.zeros(0)
+        strong = np.flatnonzero(beyond_score >= prominence)
+        if strong.size == 0:
+            # Nothing anywhere contradicts the declared rate, and nothing confirms it: a machine without
+            # unbalance, a simulation, a channel far from the shaft.
+            check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "ambiguous", None,
+                                   f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
+                                   f"{at_expected:.1f}) nor anywhere from {expected / wide:.2f} to {expected * wide:.0f} "
+                                   "Hz: nothing to check the rate against")
+            return _second_look(check, signal, defect_hz, prominence)
+        farther = strong[np.argmin(np.abs(np.log(beyond[strong] / expected)))]
+        observed = float(beyond[farther])
+        check = ShaftLineCheck(fs, rpm, expected, observed, fs * expected / observed, float(beyond_score[farther]),
+                               False, "contradicted", None,
+                               f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f}); "
+                               f"the nearest strong one is at {observed:.2f} Hz, implying fs = {fs * expected / observed:.0f} Hz")
         return _second_look(check, signal, defect_hz, prominence)
-    nearest = strong[np.argmin(np.abs(np.log(grid[strong] / expected)))]
+    nearest = near[np.argmin(np.abs(np.log(grid[near] / expected)))]
     observed = float(grid[nearest])
     common = dict(fs_hz=fs, rpm=rpm, expected_hz=expected, observed_hz=observed, score=float(score[nearest]))
     if abs(observed / expected - 1.0) > tolerance:
