@@ -6,23 +6,24 @@ benchmark writes a set of records of the independent test rig (:mod:`bearingtwin
 impulse train through a housing-and-sensor path, no code shared with the twin) in exactly the
 CWRU format and naming (MATLAB 5 ``X<nnn>_DE_time`` in g, ``X<nnn>RPM``, ``12k_Drive_End_IR014_2_<nnn>.mat``),
 at the CWRU bearing (SKF 6205), speeds (0-3 hp) and sizes (0.007-0.028 in; EDM depth 0.011 in,
-0.05 in for 0.028 in) and three outer-race positions, and scores two models on them with
+0.05 in for 0.028 in) and three outer-race positions, and scores models on them with
 ``bearingtwin-diagnose``, beside the physics baseline (envelope analysis, no learning):
 
 * ``cwru``: the registered ``+experiment=sim2real`` model (``models:/sim2real@champion``, trained
   on the twin calibrated on CWRU records 97 and 130), unchanged: a model carried to a rig it was
   not calibrated on;
-* ``rig``: the same protocol run on this rig, as a user with the rig would run it: the twin
-  calibrated by today's ``bearingtwin-twin`` on the rig's 0 hp healthy and outer-race (6 o'clock)
-  records (every effect found kept), then ``bearingtwin-train +experiment=sim2real`` with those
-  records and reports, and its model tested on every other record.
+* one per protocol version of ``--protocols`` (default versions 3 and 4), run on this rig as a user
+  with the rig would run it: the twin calibrated by today's ``bearingtwin-twin`` on the rig's 0 hp
+  healthy and outer-race (6 o'clock) records (every effect found kept), then
+  ``bearingtwin-train +experiment=<version>`` with those records and reports, and its model tested
+  on every other record.
 
 The rig's load zone follows its radial load and clearance (a spall outside it is not struck), so
 its outer-race positions are 6 o'clock (the load zone's centre), 5 and 4 o'clock (30 and 60
 degrees from it), not CWRU's 3 and 12 o'clock, which the rig would not strike at all. Everything
 here is exploratory: no protocol choice is made from it.
 
-    python benchmarks/sim2real_rig.py --out /tmp/sim2real_rig    # records, calibration, training, scoring (~25 min)
+    python benchmarks/sim2real_rig.py --out /tmp/sim2real_rig    # records, calibration, training, scoring (~25 min, 2 cores)
     python benchmarks/sim2real_rig.py --out /tmp/sim2real_rig --results results   # also writes results/sim2real_rig.md
 
 Each step is skipped when its output exists in ``--out``, so a finished step is not repeated.
@@ -36,6 +37,7 @@ import json
 import os
 import platform
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -47,7 +49,7 @@ import scipy.io
 
 from bearingtwin.data.cwru import NOMINAL_RPM_BY_LOAD_HP, parse_cwru_name
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig
-from bearingtwin.tracking.tables import markdown_table
+from bearingtwin.tracking.tables import markdown_table, write_generated
 
 SIZES_IN = (0.007, 0.014, 0.021, 0.028)
 EDM_DEPTH_IN = {0.007: 0.011, 0.014: 0.011, 0.021: 0.011, 0.028: 0.050}
@@ -57,6 +59,10 @@ OUTER_POSITIONS = {6: 0.0, 5: 30.0, 4: 60.0}
 CALIBRATION = ("normal_0", "12k_Drive_End_OR007@6_0")
 """The protocol's calibration records: healthy and outer race (6 o'clock) at 0 hp, as CWRU's 97 and 130."""
 FIRST_RECORD = 9001
+RIG_RUN_METRICS = ("accuracy", "calibration_accuracy", "band_power_kept", "band_power_calibration_accuracy",
+                   "lines_only_calibration_accuracy")
+"""What each protocol's run on the rig scored: its own test windows (1-3 hp, 0.007 in), its calibration
+records, and (version 4) the band-power choice."""
 MM_PER_IN = 25.4
 
 
@@ -89,6 +95,7 @@ def rig_records(folder: Path, seed: int) -> list[Path]:
 
 
 def record_named(folder: Path, prefix: str) -> Path:
+    """The one record of ``folder`` whose name starts with ``<prefix>_`` (a state and load)."""
     (path,) = [p for p in folder.glob(f"{prefix}_*.mat")]
     return path
 
@@ -120,23 +127,28 @@ def calibrate(out: Path, records: Path) -> dict[str, Path]:
     return reports
 
 
-def train(out: Path, records: Path, reports: dict[str, Path]) -> str:
-    """The protocol (``+experiment=sim2real``) on the rig's calibration records; the trained model's URI."""
-    uri_file = out / "rig_model_uri.txt"
-    if uri_file.is_file():
-        return uri_file.read_text().strip()
-    healthy, fault = (record_named(records, prefix).stem for prefix in CALIBRATION)
-    steps = {prefix: len(json.loads(report.read_text())["steps"]) - 1 for prefix, report in reports.items()}
-    text = run(["bearingtwin-train", "+experiment=sim2real", f"data.root={records}",
-                f'data.calibration.records=[{healthy},"{fault}"]', f'data.calibration.record="{fault}"',
-                f'data.calibration.report="{reports[CALIBRATION[1]]}"', f"data.calibration.step={steps[CALIBRATION[1]]}",
-                f"data.calibration.healthy.record={healthy}", f'data.calibration.healthy.report="{reports[CALIBRATION[0]]}"',
-                f"data.calibration.healthy.step={steps[CALIBRATION[0]]}", "register=null", "register_alias=null",
-                f"tracking.uri=sqlite:///{out / 'mlflow.db'}", f"paths.cache_dir={out / 'cache'}",
-                f"hydra.run.dir={out / 'train'}"], out / "train.log")
-    uri = re.search(r"model: (runs:/\S+)", text)[1]
-    uri_file.write_text(uri)
-    return uri
+def train(out: Path, records: Path, reports: dict[str, Path], protocol: str) -> tuple[str, dict]:
+    """A protocol version (``+experiment=<protocol>``) on the rig's calibration records: its model's URI and
+    the run's metrics."""
+    done = out / f"rig_model_{protocol}.json"
+    if not done.is_file():
+        healthy, fault = (record_named(records, prefix).stem for prefix in CALIBRATION)
+        steps = {prefix: len(json.loads(report.read_text())["steps"]) - 1 for prefix, report in reports.items()}
+        text = run(["bearingtwin-train", f"+experiment={protocol}", f"data.root={records}",
+                    f'data.calibration.records=[{healthy},"{fault}"]', f'data.calibration.record="{fault}"',
+                    f'data.calibration.report="{reports[CALIBRATION[1]]}"', f"data.calibration.step={steps[CALIBRATION[1]]}",
+                    f"data.calibration.healthy.record={healthy}",
+                    f'data.calibration.healthy.report="{reports[CALIBRATION[0]]}"',
+                    f"data.calibration.healthy.step={steps[CALIBRATION[0]]}", "register=null", "register_alias=null",
+                    f"tracking.uri=sqlite:///{out / 'mlflow.db'}", f"paths.cache_dir={out / 'cache'}",
+                    f"hydra.run.dir={out / ('train_' + protocol)}"], out / f"train_{protocol}.log")
+        uri = re.search(r"model: (runs:/\S+)", text)[1]
+        from mlflow import MlflowClient
+
+        metrics = MlflowClient(f"sqlite:///{out / 'mlflow.db'}").get_run(uri.split("/")[1]).data.metrics
+        done.write_text(json.dumps({"uri": uri, "metrics": metrics}, indent=1))
+    saved = json.loads(done.read_text())
+    return saved["uri"], saved["metrics"]
 
 
 def diagnose(out: Path, records: Path, name: str, model: str, tracking_uri: str, log_run: bool) -> list[dict]:
@@ -197,6 +209,8 @@ def main() -> None:
                         help="the model trained on CWRU (bearingtwin-train +experiment=sim2real); 'none' to skip")
     parser.add_argument("--cwru-tracking-uri", default=os.environ.get("MLFLOW_TRACKING_URI", "sqlite:///mlruns/mlflow.db"),
                         help="the store that holds --cwru-model")
+    parser.add_argument("--protocols", default="sim2real_v3,sim2real_v4",
+                        help="protocol versions (conf/experiment/<name>.yaml) to run on the rig, comma-separated")
     parser.add_argument("--results", default=None, help="folder to write sim2real_rig.md into (e.g. results)")
     args = parser.parse_args()
     out = Path(args.out).expanduser().resolve()
@@ -205,11 +219,15 @@ def main() -> None:
     paths = rig_records(records, args.seed)
     print(f"{len(paths)} rig records in {records}")
     reports = calibrate(out, records)
-    rig_model = train(out, records, reports)
-    scored = {}
+    scored, rig_runs = {}, {}
     if args.cwru_model != "none":
-        scored["CWRU-calibrated model"] = diagnose(out, records, "cwru", args.cwru_model, args.cwru_tracking_uri, False)
-    scored["rig-calibrated model"] = diagnose(out, records, "rig", rig_model, f"sqlite:///{out / 'mlflow.db'}", True)
+        scored[f"CWRU-calibrated {args.cwru_model}"] = diagnose(out, records, "cwru", args.cwru_model,
+                                                                 args.cwru_tracking_uri, False)
+    for protocol in args.protocols.split(","):
+        uri, metrics = train(out, records, reports, protocol)
+        rig_runs[protocol] = {"uri": uri, **{key: metrics.get(key) for key in RIG_RUN_METRICS}}
+        scored[f"rig-calibrated {protocol}"] = diagnose(out, records, f"rig_{protocol}", uri,
+                                                        f"sqlite:///{out / 'mlflow.db'}", True)
     calibration = {record_named(records, prefix).stem for prefix in CALIBRATION}
     columns, rows, summary = score_table(scored, calibration)
     table = markdown_table(["state", "size", "outer-race position", *[f"{c}: records right" for c in columns]], rows)
@@ -217,30 +235,81 @@ def main() -> None:
     for name, failed in summary["failed"].items():
         print(f"{name}: not diagnosed: {', '.join(failed)}")
     (out / "summary.json").write_text(json.dumps({"columns": columns, "rows": rows, **summary,
-                                                  "rig_model": rig_model, "cwru_model": args.cwru_model}, indent=1))
+                                                  "rig_runs": rig_runs, "cwru_model": args.cwru_model}, indent=1))
+    figure = plot_records_right(rows, columns, out / "sim2real_rig.png")
     if args.results:
-        path = Path(args.results) / "sim2real_rig.md"
-        path.write_text(results_markdown(table, summary, rig_model, args, time.time() - started))
-        print(f"wrote {path}")
+        results = Path(args.results)
+        results.mkdir(parents=True, exist_ok=True)
+        figure = Path(shutil.copy(figure, results / figure.name))
+        path = results / "sim2real_rig.md"
+        generated = results_markdown(table, summary, rig_runs, figure, args)
+        if not path.exists():
+            path.write_text(f"# Sim2real on another rig: other fault sizes and outer-race positions (exploratory)\n\n"
+                            f"{MARKER}\n{MARKER}\n")
+        write_generated(path, generated, MARKER)
+        print(f"wrote {path} and {figure}")
     print(f"done in {time.time() - started:.0f} s; everything in {out}")
 
 
-def results_markdown(table: str, summary: dict, rig_model: str, args, seconds: float) -> str:
+MARKER = "<!-- generated by benchmarks/sim2real_rig.py: text between these lines is rewritten -->"
+
+
+def results_markdown(table: str, summary: dict, rig_runs: dict, figure: Path, args) -> str:
+    """The generated block of results/sim2real_rig.md: the table, the figure, each rig run's own scores, the command."""
     failed = "".join(f"\n\nNot diagnosed ({name}): {', '.join(records)}." for name, records in summary["failed"].items())
+
+    def percent(value) -> str:
+        return "-" if value is None else f"{100 * value:.1f} %"
+
+    runs = markdown_table(
+        ["protocol on the rig", "its test windows right (0.007 in, 1-3 hp)", "calibration windows right",
+         "band power kept", "calibration windows right with / without band power"],
+        [[protocol, percent(run["accuracy"]), percent(run["calibration_accuracy"]),
+          "-" if run["band_power_kept"] is None else ("yes" if run["band_power_kept"] else "no"),
+          "-" if run["band_power_calibration_accuracy"] is None else
+          f"{percent(run['band_power_calibration_accuracy'])} / {percent(run['lines_only_calibration_accuracy'])}"]
+         for protocol, run in rig_runs.items()])
     return (
-        "# Sim2real on another rig: other fault sizes and outer-race positions (exploratory)\n\n"
-        "<!-- generated by benchmarks/sim2real_rig.py -->\n\n"
-        "Records right (majority of a record's windows) on the independent test rig's records in CWRU format, "
-        "the calibration records (healthy and outer race at 0 hp) left out; `bearingtwin-diagnose`'s own scoring.\n\n"
-        f"{table}{failed}\n\n"
+        "Records right (the majority of a record's non-overlapping windows, `bearingtwin-diagnose`'s own scoring) "
+        "on the independent test rig's records in CWRU format; the rig's two calibration records (healthy and outer "
+        "race at 0 hp) left out.\n\n"
+        f"{table}{failed}\n\n![records right by state and size]({figure.name})\n\n"
+        f"Each protocol's run on the rig, as `bearingtwin-train` scored it:\n\n{runs}\n"
         "```bash\n"
         "bearingtwin-train +experiment=sim2real          # the CWRU-calibrated model, models:/sim2real@champion\n"
         f"python benchmarks/sim2real_rig.py --out /tmp/sim2real_rig --seed {args.seed} --results results\n"
         "```\n\n"
-        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-        f"{seconds / 60:.0f} min from an empty --out.\n\n"
-        "<!-- generated by benchmarks/sim2real_rig.py -->\n"
+        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}."
     )
+
+
+def plot_records_right(rows: list[list[str]], columns: list[str], path: Path) -> Path:
+    """Grouped bars: share of records right per state and size (positions pooled), one bar per model."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pooled: dict[tuple[str, str], list[list[int]]] = {}
+    for row in rows[:-1]:
+        key = (row[0], row[1])
+        counts = [list(map(int, cell.split("/"))) for cell in row[3:]]
+        pooled[key] = [[a + c[0], b + c[1]] for (a, b), c in zip(pooled.get(key, [[0, 0]] * len(counts)), counts)]
+    labels = [state if size == "-" else f"{state}\n{size}" for state, size in pooled]
+    figure, axes = plt.subplots(figsize=(11, 4.6))
+    width = 0.8 / len(columns)
+    for i, column in enumerate(columns):
+        shares = [100 * counts[i][0] / counts[i][1] for counts in pooled.values()]
+        axes.bar(np.arange(len(pooled)) + (i - (len(columns) - 1) / 2) * width, shares, width, label=column)
+    axes.set_xticks(np.arange(len(pooled)), labels, fontsize=8)
+    axes.set_ylabel("records right %")
+    axes.set_ylim(0, 105)
+    axes.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=len(columns), frameon=False)
+    axes.set_title("independent test rig, CWRU format: records right by state and fault size")
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path
 
 
 if __name__ == "__main__":

@@ -131,6 +131,7 @@ def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
             "bearing=cwru_6205", f"tracking.uri={uri}", f"paths.cache_dir={tmp_path}/cache",
             f"hydra.run.dir={tmp_path}/{name}", cwd=tmp_path, timeout=600)
         assert done.returncode == 0, done.stderr[-3000:]
+        assert ("band power: " in done.stdout) == ("band_power_by_calibration=true" in extra)
     client = MlflowClient(uri)
     runs = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
     assert {r.info.status for r in runs} == {"FINISHED"} and {r.data.metrics["n_test"] for r in runs} == {9.0}

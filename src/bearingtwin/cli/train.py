@@ -58,6 +58,10 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     lines["F1 per class"] = ", ".join(f"{state} {value:.3f}" for state, value in f1.items())
     if "calibration_accuracy" in metrics:
         lines["calibration accuracy"] = percent(metrics["calibration_accuracy"])
+    if "band_power_kept" in metrics:  # band_power_by_calibration
+        lines["band power"] = (f"{'kept' if metrics['band_power_kept'] else 'dropped'} (calibration windows right "
+                               f"{percent(metrics['band_power_calibration_accuracy'])} with it, "
+                               f"{percent(metrics['lines_only_calibration_accuracy'])} without)")
     if tracked.model:
         lines["model"] = tracked.model
     if tracked.skipped:
