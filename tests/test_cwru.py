@@ -190,6 +190,13 @@ def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_co
     far = check_sampling_rate(noise + series, fs, rpm)
     assert far.verdict == "contradicted" and far.observed_hz == pytest.approx(210.0, rel=0.005)
     assert far.implied_fs_hz == pytest.approx(fs / 7, rel=0.005)
+    # A rate so low that its spectrum cannot hold the search (12 kHz samples declared at 600 Hz) shows
+    # nothing, and that is no excuse: contradicted, as before.
+    shaft = sum(np.sin(2 * np.pi * k * 30.0 * t) / k for k in range(1, 8))
+    assert check_sampling_rate(noise + shaft, 600.0, rpm).verdict == "contradicted"
+    # A channel that shows no series at all does not outvote one that contradicts the rate.
+    silent = check_sampling_rate(noise, fs, rpm)
+    assert decisive_channel({"FE": silent, "DE": far}) == "DE" and decisive_channel({"FE": silent}) == "FE"
 
 
 def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_path):

@@ -223,3 +223,18 @@ def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out():
     with pytest.raises(BearingTwinError, match="no calibration windows to choose on"):
         choose_band_power(with_it, features, extractor, SimpleNamespace(**{**vars(dataset), "validation": []}),
                           train, fit, lambda: SvmClassifier(kernel="linear"))
+
+
+def test_a_band_power_choice_with_nothing_to_choose_is_refused_before_any_data_is_built(monkeypatch):
+    from bearingtwin.config import compose_config
+    from bearingtwin.models import experiment
+
+    def no_data(cfg):
+        raise AssertionError("the data were built before the settings were checked")
+
+    monkeypatch.setattr(experiment, "build_dataset", no_data)
+    for overrides, message in ((["classifier=svm", "features=envelope_prominence"], "no calibration windows to choose on"),
+                               (["classifier=svm", "data=twin_to_real", "bearing=cwru_6205"], "features have no band power")):
+        cfg = compose_config("train", [*overrides, "band_power_by_calibration=true"])
+        with pytest.raises(BearingTwinError, match=f"band_power_by_calibration: .*{message}"):
+            experiment.run_experiment(cfg)

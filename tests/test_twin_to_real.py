@@ -100,7 +100,7 @@ def test_testing_at_the_calibration_load_is_refused():
 
 
 def test_a_reports_sensor_direction_is_a_base_parameter_even_where_the_config_leaves_it_null():
-    """Today's bearingtwin-twin reports the sensor it fitted (simulator.sensor, simulator.sensor_angle_deg),
+    """bearingtwin-twin reports the sensor it fitted (simulator.sensor, simulator.sensor_angle_deg),
     and the simulator config holds sensor_angle_deg as null: set, not refused; a key no config has is."""
     simulator = {"sensor": "outer_y", "sensor_angle_deg": None, "defect": {"width_mm": 0.5}}
     fitted = {"simulator.sensor": "outer_x", "simulator.sensor_angle_deg": 90.0, "simulator.defect.width_mm": 0.2}

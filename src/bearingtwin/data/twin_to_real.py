@@ -344,9 +344,10 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                 for effect_label, varied in effect_variants(effects, cfg["twin"].get("variants"))
                 for setting_label, setting in simulator_settings(simulator, cfg["twin"].get("randomize"))]
     signals, twin_keys, sources = [], [], []
-    # Simulating every variant takes minutes (seconds each); cached ones are read in a blink.
+    # Simulating every variant takes minutes (seconds each); cached ones are read in a blink. Shown in a
+    # terminal only (disable=None), not in CI or a log.
     for index, (label, varied, setting) in enumerate(tqdm(variants, desc="twin variants", unit="variant",
-                                                          disable=len(variants) < 2)):
+                                                          disable=True if len(variants) < 2 else None)):
         variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,
                                             variant=index if len(variants) > 1 else None)
         signals.extend(variant_signals)

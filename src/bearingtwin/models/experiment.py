@@ -142,6 +142,8 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
     seed_everything(seed)
     classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)  # bad settings fail first
+    if cfg.get("band_power_by_calibration"):
+        check_band_power_choice(cfg)
     dataset = build_dataset(cfg)
     if dataset.fixed_split is not None:
         train, test = dataset.fixed_split
@@ -202,6 +204,16 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
             config=plain_config(cfg),
         ),
     )
+
+
+def check_band_power_choice(cfg: DictConfig) -> None:
+    """Refuse ``band_power_by_calibration`` where it has nothing to choose, before any data is built."""
+    if cfg.features.get("kind") != "envelope_orders" or not cfg.features.get("band_power"):
+        raise BearingTwinError("band_power_by_calibration: the features have no band power to keep or drop "
+                               "(features=envelope_prominence or envelope_orders with features.band_power=true)")
+    if cfg.data.get("source") != "twin_to_real" or not cfg.data.calibration.get("validation_windows_per_record"):
+        raise BearingTwinError("band_power_by_calibration: no calibration windows to choose on; set "
+                               "data=twin_to_real with data.calibration.validation_windows_per_record > 0")
 
 
 def choose_band_power(classifier, features: np.ndarray, extractor, dataset, train: np.ndarray, fit, new_classifier):

@@ -124,6 +124,8 @@ def check_sampling_rate(
         raise BearingTwinError("the sampling-rate check needs a 1-D, finite signal")
     if not (fs > 0 and rpm > 0 and math.isfinite(fs) and math.isfinite(rpm)):
         raise BearingTwinError(f"the sampling-rate check needs positive, finite fs and rpm (got fs={fs}, rpm={rpm})")
+    if not search_factor > 1.0:
+        raise BearingTwinError(f"search_factor must exceed 1, got {search_factor}")
     expected = rpm / 60.0
     resolution = fs / signal.size
     if resolution > tolerance * expected:
@@ -154,13 +156,19 @@ def check_sampling_rate(
     if near.size == 0:
         beyond_score = scores(beyond) if beyond.size else np.zeros(0)
         strong = np.flatnonzero(beyond_score >= prominence)
-        if strong.size == 0:
+        searched_all = n_harmonics * expected * wide * (1 + harmonic_tolerance) < fs / 2.0 and expected / wide > 2 * resolution
+        if strong.size == 0 and searched_all:
             # Nothing anywhere contradicts the declared rate, and nothing confirms it: a machine without
             # unbalance, a simulation, a channel far from the shaft.
             check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "ambiguous", None,
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}) nor anywhere from {expected / wide:.2f} to {expected * wide:.0f} "
                                    "Hz: nothing to check the rate against")
+            return _second_look(check, signal, defect_hz, prominence)
+        if strong.size == 0:  # the declared rate cannot even hold the search (Nyquist below it): far too low
+            check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
+                                   f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
+                                   f"{at_expected:.1f}), and at fs = {fs:g} Hz the spectrum ends at {fs / 2:g} Hz")
             return _second_look(check, signal, defect_hz, prominence)
         farther = strong[np.argmin(np.abs(np.log(beyond[strong] / expected)))]
         observed = float(beyond[farther])
@@ -217,7 +225,7 @@ def rate_witnesses(signal: np.ndarray, channels: Mapping[str, np.ndarray] | None
 
 def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     """The channel whose check stands for the record: the most favourable verdict (consistent, then
-    ambiguous, then contradicted; the first of equals), unless another channel holds evidence that the
+    ambiguous, then contradicted, then a channel showing no series at all; the first of equals), unless another channel holds evidence that the
     rate is too low by a whole factor. A channel's other lines can pass for a shaft series at a fraction
     of the true rate (a fan-end channel's 58 Hz series read at half of 12 kHz), so a defect line standing
     at 1/k of its frequency (a contradiction with a ``fraction``) overrules every other channel, and lines
@@ -227,7 +235,13 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     too_low = [name for name in names if checks[name].fraction and checks[name].verdict == "contradicted"]
     if too_low:
         return too_low[0]
-    best = min(names, key=lambda name: VERDICTS_BY_FAVOUR.index(checks[name].verdict))
+
+    def favour(name: str) -> int:  # a channel with no series at all (noise) says nothing: after a contradiction
+        check = checks[name]
+        no_evidence = check.verdict == "ambiguous" and check.observed_hz is None and check.fraction is None
+        return len(VERDICTS_BY_FAVOUR) if no_evidence else VERDICTS_BY_FAVOUR.index(check.verdict)
+
+    best = min(names, key=favour)
     doubts = [name for name in names if checks[name].fraction and checks[name].verdict == "ambiguous"]
     settled = any(checks[name].fraction and checks[name].verdict == "consistent" for name in names)
     if checks[best].verdict == "consistent" and doubts and not settled:
