@@ -51,7 +51,7 @@ import scipy.io
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.data.cwru import NOMINAL_RPM_BY_LOAD_HP, parse_cwru_name
-from bearingtwin.testrig import RigOperatingPoint, simulate_rig
+from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 from bearingtwin.tracking.tables import markdown_table, write_generated
 
 SIZES_IN = (0.007, 0.014, 0.021, 0.028)
@@ -197,15 +197,14 @@ def score_table(scored: dict[str, list[dict]], calibration: set[str]) -> tuple[l
             if row["record"] in calibration:
                 continue
             key = group(row["record"])
+            counts[key][name][1] += 1
             if row.get("error"):
                 failed[name].append(row["record"])
-                counts[key][name][1] += 1
-                continue
-            counts[key][name][0] += row["correct"] == "True"
-            counts[key][name][1] += 1
+            else:
+                counts[key][name][0] += row["correct"] == "True"
     columns = [*scored, "physics"]
     rows, totals = [], {column: [0, 0] for column in columns}
-    for key in sorted(counts, key=lambda k: (["normal", "inner", "ball", "outer"].index(k[0]), k[1], k[2])):
+    for key in sorted(counts, key=lambda k: (FAULTS.index(k[0]), k[1], k[2])):
         cells = []
         for column in columns:
             right, n = counts[key][column]

@@ -206,14 +206,18 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     )
 
 
+NO_BAND_POWER = ("band_power_by_calibration: the features have no band power to keep or drop "
+                 "(features=envelope_prominence or envelope_orders with features.band_power=true)")
+NO_CALIBRATION_WINDOWS = ("band_power_by_calibration: no calibration windows to choose on; set "
+                          "data=twin_to_real with data.calibration.validation_windows_per_record > 0")
+
+
 def check_band_power_choice(cfg: DictConfig) -> None:
     """Refuse ``band_power_by_calibration`` where it has nothing to choose, before any data is built."""
     if cfg.features.get("kind") != "envelope_orders" or not cfg.features.get("band_power"):
-        raise BearingTwinError("band_power_by_calibration: the features have no band power to keep or drop "
-                               "(features=envelope_prominence or envelope_orders with features.band_power=true)")
+        raise BearingTwinError(NO_BAND_POWER)
     if cfg.data.get("source") != "twin_to_real" or not cfg.data.calibration.get("validation_windows_per_record"):
-        raise BearingTwinError("band_power_by_calibration: no calibration windows to choose on; set "
-                               "data=twin_to_real with data.calibration.validation_windows_per_record > 0")
+        raise BearingTwinError(NO_CALIBRATION_WINDOWS)
 
 
 def choose_band_power(classifier, features: np.ndarray, extractor, dataset, train: np.ndarray, fit, new_classifier):
@@ -225,12 +229,10 @@ def choose_band_power(classifier, features: np.ndarray, extractor, dataset, trai
     ``lines_only_calibration_accuracy`` and ``band_power_kept`` (1 or 0).
     """
     if not (isinstance(extractor, EnvelopeOrderFeatures) and extractor.band_power):
-        raise BearingTwinError("band_power_by_calibration: the features have no band power to keep or drop "
-                               "(features=envelope_prominence or envelope_orders with features.band_power=true)")
+        raise BearingTwinError(NO_BAND_POWER)
     validation = dataset.validation
     if not len(validation):
-        raise BearingTwinError("band_power_by_calibration: no calibration windows to choose on; set "
-                               "data=twin_to_real with data.calibration.validation_windows_per_record > 0")
+        raise BearingTwinError(NO_CALIBRATION_WINDOWS)
     lines = features[:, :-1]
     without = fit(new_classifier(), lines)
     y_val = dataset.labels[validation]

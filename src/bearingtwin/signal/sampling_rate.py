@@ -143,7 +143,8 @@ def check_sampling_rate(
     grid_step = grid[1] / grid[0]  # the same geometric steps on to search_factor^2 either side
     steps = grid_step ** np.arange(1, int(math.ceil(math.log(search_factor) / math.log(grid_step))) + 1)
     beyond = np.concatenate([grid[0] / steps[::-1], grid[-1] * steps])
-    beyond = beyond[(n_harmonics * beyond * (1 + harmonic_tolerance) < top_hz) & (beyond > 2 * resolution)]
+    searchable = (n_harmonics * beyond * (1 + harmonic_tolerance) < top_hz) & (beyond > 2 * resolution)
+    searched_all, beyond = bool(searchable.all()), beyond[searchable]  # all: Nyquist and resolution left it whole
     harmonics = np.arange(1, n_harmonics + 1)
 
     def scores(fundamentals_hz: np.ndarray) -> np.ndarray:
@@ -156,7 +157,6 @@ def check_sampling_rate(
     if near.size == 0:
         beyond_score = scores(beyond) if beyond.size else np.zeros(0)
         strong = np.flatnonzero(beyond_score >= prominence)
-        searched_all = n_harmonics * expected * wide * (1 + harmonic_tolerance) < fs / 2.0 and expected / wide > 2 * resolution
         if strong.size == 0 and searched_all:
             # Nothing anywhere contradicts the declared rate, and nothing confirms it: a machine without
             # unbalance, a simulation, a channel far from the shaft.
@@ -225,8 +225,8 @@ def rate_witnesses(signal: np.ndarray, channels: Mapping[str, np.ndarray] | None
 
 def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     """The channel whose check stands for the record: the most favourable verdict (consistent, then
-    ambiguous, then contradicted, then a channel showing no series at all; the first of equals), unless another channel holds evidence that the
-    rate is too low by a whole factor. A channel's other lines can pass for a shaft series at a fraction
+    ambiguous, then contradicted, then a channel showing no series at all; the first of equals),
+    unless another channel holds evidence that the rate is too low by a whole factor. A channel's other lines can pass for a shaft series at a fraction
     of the true rate (a fan-end channel's 58 Hz series read at half of 12 kHz), so a defect line standing
     at 1/k of its frequency (a contradiction with a ``fraction``) overrules every other channel, and lines
     between the shaft harmonics (an ambiguous ``fraction``) leave the record ambiguous unless a channel's
