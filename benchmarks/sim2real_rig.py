@@ -45,6 +45,7 @@ import sys
 import time
 from collections import defaultdict
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 import scipy.io
@@ -69,9 +70,21 @@ records, and (version 4) the band-power choice."""
 MM_PER_IN = 25.4
 
 
+def refuse(message: str) -> NoReturn:
+    """Stop on bad input: one line on stderr, exit code 2 (as the bearingtwin commands do)."""
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
 def rig_records(folder: Path, seed: int) -> list[Path]:
     """Write the rig's records in CWRU format: healthy and every fault, size and position at 0-3 hp."""
     folder.mkdir(parents=True, exist_ok=True)
+    # Records already in the folder are reused, so they must come from the same --seed.
+    stamp = folder / "seed.txt"
+    written = stamp.read_text().strip() if stamp.is_file() else ("unknown" if any(folder.glob("*.mat")) else None)
+    if written is not None and written != str(seed):
+        refuse(f"--out: {folder} holds rig records of --seed {written}, not {seed}; give another --out for another seed")
+    stamp.write_text(f"{seed}\n")
     rng = np.random.default_rng(seed)
     plan = [("normal", "normal", None, 0.0)]
     for size in SIZES_IN:
@@ -104,8 +117,8 @@ def require_model(model: str, tracking_uri: str) -> None:
     try:
         load_diagnosis_model(model, tracking_uri)
     except Exception as error:  # MLflow raises several kinds for a missing model or store
-        sys.exit(f"--cwru-model: {str(error).splitlines()[0]}; run bearingtwin-train +experiment=sim2real first, "
-                 "or pass --cwru-model none")
+        refuse(f"--cwru-model: {str(error).splitlines()[0]}; run bearingtwin-train +experiment=sim2real first, "
+               "or pass --cwru-model none")
 
 
 def record_named(folder: Path, prefix: str) -> Path:

@@ -111,13 +111,13 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
             "highest_mode_hz": highest_mode_hz, "defect_depth_m": defect.depth_m, "solver": simulator_cfg["solver"]}
     if simulator_cfg["solver"] == "fast":
         settings = simulator_cfg["fast"]
-        substeps = fast.substeps_per_sample(fs, highest_mode_hz, crossing, settings["steps_per_period"],
-                                            settings["steps_per_defect"])
-        meta["substeps"] = substeps
+        resolution = (fs, highest_mode_hz, crossing, settings["steps_per_period"], settings["steps_per_defect"])
+        substeps, per_step = fast.substeps_per_sample(*resolution), fast.samples_per_step(*resolution)
+        meta["substeps"], meta["samples_per_step"] = substeps, per_step
         with tqdm(total=n_transient + n_samples, unit="sample", unit_scale=True, desc=f"simulate {fault}",
                   disable=not progress, leave=False) as bar:
             channels = fast.integrate(params, kinematics, defect.as_array(), initial_state, n_transient, n_samples,
-                                      substeps, progress=bar)
+                                      substeps, progress=bar, per_step=per_step)
     else:
         settings = simulator_cfg["reference"]
         channels = reference.integrate(params, kinematics, defect.as_array(), initial_state, n_transient, n_samples,
