@@ -176,9 +176,11 @@ def test_the_epoch_progress_bar_goes_to_stderr_only_when_asked_for(capfd):
     assert "Epoch" not in capfd.readouterr().err
 
 
-def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out():
+@pytest.mark.parametrize("classifier_name", ["svm", "cnn_bilstm"])
+def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out(classifier_name):
     """Band power that separates the twin's classes but not the calibration records' (another rig's path
-    and background) is dropped, with the extractor's feature; band power that holds on them is kept."""
+    and background) is dropped, with the extractor's feature; band power that holds on them is kept.
+    Either classifier: the network is built afresh for the lines-only features, one input shorter."""
     from types import SimpleNamespace
 
     from bearingtwin.config import bearing_config
@@ -201,6 +203,11 @@ def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out():
     def fit(model, X):
         return model.fit(X[train], labels[train])
 
+    def new_classifier():
+        if classifier_name == "svm":
+            return SvmClassifier(kernel="linear")
+        return CnnBiLstmClassifier(max_epochs=15, batch_size=32, random_state=0)
+
     extractors = {}
     for shifted, kept in ((True, False), (False, True)):
         # In training the band power tells the classes apart at a glance; on the calibration windows of
@@ -208,9 +215,9 @@ def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out():
         band_power = np.where(labels == 1, 0.0, -2.0) + rng.normal(0.0, 0.05, labels.size)
         band_power[validation] = -2.0 if shifted else band_power[validation]
         features = np.column_stack([lines, band_power])
-        with_it = fit(SvmClassifier(kernel="linear"), features)
+        with_it = fit(new_classifier(), features)
         classifier, chosen, chosen_extractor, scores = choose_band_power(
-            with_it, features, extractor, dataset, train, fit, lambda: SvmClassifier(kernel="linear"))
+            with_it, features, extractor, dataset, train, fit, new_classifier)
         assert scores["band_power_kept"] == float(kept)
         assert (scores["band_power_calibration_accuracy"] >= scores["lines_only_calibration_accuracy"]) == kept
         assert chosen.shape[1] == n_lines + kept and chosen_extractor.band_power == kept
@@ -219,10 +226,10 @@ def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out():
         assert chosen_extractor.transform(windows[:2], fs_hz=fs, rpm=rpm).shape == (2, chosen.shape[1])
         extractors[kept] = chosen_extractor
     with pytest.raises(BearingTwinError, match="band_power_by_calibration: the features have no band power"):
-        choose_band_power(with_it, lines, extractors[False], dataset, train, fit, lambda: SvmClassifier(kernel="linear"))
+        choose_band_power(with_it, lines, extractors[False], dataset, train, fit, new_classifier)
     with pytest.raises(BearingTwinError, match="no calibration windows to choose on"):
         choose_band_power(with_it, features, extractor, SimpleNamespace(**{**vars(dataset), "validation": []}),
-                          train, fit, lambda: SvmClassifier(kernel="linear"))
+                          train, fit, new_classifier)
 
 
 def test_a_band_power_choice_with_nothing_to_choose_is_refused_before_any_data_is_built(monkeypatch):
