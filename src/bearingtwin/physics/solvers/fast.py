@@ -96,6 +96,39 @@ def _geometry(t, fs, shaft, speed, cage, spin, offsets, defect, angles, depths, 
     return shaft_angle, shaft_speed
 
 
+@njit(cache=True, nogil=True)
+def _ball_arrays(n_balls):
+    """Scratch arrays of the per-ball geometry: angles, defect depths, cosines, sines."""
+    return np.empty(n_balls), np.empty(n_balls), np.empty(n_balls), np.empty(n_balls)
+
+
+@njit(cache=True, nogil=True)
+def _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin, offsets, defect, p,
+              mid_angles, mid_depths, mid_cosines, mid_sines, end_angles, end_depths, end_cosines, end_sines):
+    """One classical RK4 step from ``t`` over ``dt``, in place on ``state``, given its first stage ``k1``.
+
+    The midpoint's geometry goes to the ``mid_*`` arrays and the end's to the ``end_*`` arrays
+    (the same arrays when the midpoint's is not needed afterwards); returns the shaft angle and
+    speed at the midpoint and at the end.
+    """
+    for m in range(8):
+        trial[m] = state[m] + 0.5 * dt * k1[m]
+    mid_angle, mid_speed = _geometry(t + 0.5 * dt, fs, shaft, speed, cage, spin, offsets, defect, mid_angles,
+                                     mid_depths, mid_cosines, mid_sines)
+    derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k2)
+    for m in range(8):
+        trial[m] = state[m] + 0.5 * dt * k2[m]
+    derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k3)
+    for m in range(8):
+        trial[m] = state[m] + dt * k3[m]
+    end_angle, end_speed = _geometry(t + dt, fs, shaft, speed, cage, spin, offsets, defect, end_angles, end_depths,
+                                     end_cosines, end_sines)
+    derivative(trial, end_cosines, end_sines, end_depths, end_angle, end_speed, p, k4)
+    for m in range(8):
+        state[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
+    return mid_angle, mid_speed, end_angle, end_speed
+
+
 @njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
 def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, defect, p, accelerations):
     """Integrate from sample ``first_sample`` over ``n_samples`` samples, in place on ``state``;
@@ -108,10 +141,7 @@ def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, s
     then it is computed again, so the result is the same to the bit as evaluating every stage).
     """
     n_balls = offsets.shape[1]
-    angles = np.empty(n_balls)
-    depths = np.empty(n_balls)
-    cosines = np.empty(n_balls)
-    sines = np.empty(n_balls)
+    angles, depths, cosines, sines = _ball_arrays(n_balls)
     k1 = np.empty(8)
     k2 = np.empty(8)
     k3 = np.empty(8)
@@ -132,22 +162,10 @@ def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, s
             if step == 0:
                 for dof in range(4):
                     accelerations[dof, i] = k1[4 + dof]
-            for m in range(8):
-                trial[m] = state[m] + 0.5 * dt * k1[m]
-            shaft_angle, shaft_speed = _geometry(t + 0.5 * dt, fs, shaft, speed, cage, spin, offsets, defect, angles,
-                                                 depths, cosines, sines)
-            derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k2)
-            for m in range(8):
-                trial[m] = state[m] + 0.5 * dt * k2[m]
-            derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k3)
-            for m in range(8):
-                trial[m] = state[m] + dt * k3[m]
             ready_at = t + dt
-            shaft_angle, shaft_speed = _geometry(ready_at, fs, shaft, speed, cage, spin, offsets, defect, angles,
-                                                 depths, cosines, sines)
-            derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k4)
-            for m in range(8):
-                state[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
+            _, _, shaft_angle, shaft_speed = _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin,
+                                                       offsets, defect, p, angles, depths, cosines, sines,
+                                                       angles, depths, cosines, sines)
 
 
 @njit(cache=True, nogil=True)
@@ -163,14 +181,8 @@ def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, s
     step cost two geometry evaluations and five derivatives instead of four and eight.
     """
     n_balls = offsets.shape[1]
-    angles = np.empty(n_balls)
-    depths = np.empty(n_balls)
-    cosines = np.empty(n_balls)
-    sines = np.empty(n_balls)
-    mid_angles = np.empty(n_balls)
-    mid_depths = np.empty(n_balls)
-    mid_cosines = np.empty(n_balls)
-    mid_sines = np.empty(n_balls)
+    angles, depths, cosines, sines = _ball_arrays(n_balls)
+    mid_angles, mid_depths, mid_cosines, mid_sines = _ball_arrays(n_balls)  # the midpoint's, kept for inside samples
     k1 = np.empty(8)
     k2 = np.empty(8)
     k3 = np.empty(8)
@@ -191,20 +203,9 @@ def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, s
             accelerations[dof, i] = k1[4 + dof]
         for m in range(8):
             start[m] = state[m]
-            trial[m] = state[m] + 0.5 * dt * k1[m]
-        mid_angle, mid_speed = _geometry(t + 0.5 * dt, fs, shaft, speed, cage, spin, offsets, defect, mid_angles,
-                                         mid_depths, mid_cosines, mid_sines)
-        derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k2)
-        for m in range(8):
-            trial[m] = state[m] + 0.5 * dt * k2[m]
-        derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k3)
-        for m in range(8):
-            trial[m] = state[m] + dt * k3[m]
-        shaft_angle, shaft_speed = _geometry(t + dt, fs, shaft, speed, cage, spin, offsets, defect, angles, depths,
-                                             cosines, sines)
-        derivative(trial, cosines, sines, depths, shaft_angle, shaft_speed, p, k4)
-        for m in range(8):
-            state[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
+        mid_angle, mid_speed, shaft_angle, shaft_speed = _rk4_step(
+            state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin, offsets, defect, p,
+            mid_angles, mid_depths, mid_cosines, mid_sines, angles, depths, cosines, sines)
         derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k_end)
         for inside in range(1, count):
             theta = inside / count
