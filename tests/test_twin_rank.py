@@ -163,6 +163,23 @@ def test_a_later_round_screens_each_candidate_with_the_kept_effects_free(cfg, mo
     assert second_round["n_parameters"] == len(effect_search_space(other))  # the kept effect's were paid for already
 
 
+def test_later_rounds_weigh_the_views_by_their_own_points_and_fit_the_same(cfg):
+    """``later_points_per_view`` changes how the second round's candidates are scored, never how they are
+    fitted: the same screens, their evidence and signature gain read at the other number of points."""
+    hidden = {"unbalance": {"level_db": 6.0}, "resonance": {"natural_frequency_hz": 2200.0, "damping_ratio": 0.04}}
+    measured = twin_measurement(cfg, "outer", hidden)
+    same = rank(cfg, measured, ["unbalance", "resonance"], op=known_operating_point(), fixed=FLOOR)
+    six = rank(cfg, measured, ["unbalance", "resonance"], op=known_operating_point(), fixed=FLOOR, later_points_per_view=6.0)
+    assert six.rounds[0] == same.rounds[0]  # the first round is scored as before
+    (before,), (after,) = same.rounds[1], six.rounds[1]
+    assert after["views"] == before["views"] and after["error"] == before["error"]  # the same fit
+    n = before["n_parameters"]
+    drop = before["evidence"] + n * math.log(5.0)  # one point per view: 5 values, ln 5 per parameter
+    assert after["evidence"] == pytest.approx(6.0 * drop - n * math.log(30.0))
+    assert after["signature_gain"] == pytest.approx(6.0 * before["signature_gain"])
+    with pytest.raises(BearingTwinError, match="ranking.later_points_per_view must be a positive number or null"):
+        EffectRanker([], later_points_per_view=0.0).fit(None, measured, BearingGeometry.from_config(cfg.bearing))
+
 def test_a_measurement_that_lacks_nothing_gets_no_effect(cfg):
     fit = rank(cfg, twin_measurement(cfg, "inner"), ["resonance", "unbalance", "slip", "tones"],
                op=known_operating_point("inner"), fixed=FLOOR)

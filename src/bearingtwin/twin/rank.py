@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -368,6 +368,8 @@ class EffectRanker:
         min_signature_gain: deviance drop an effect must bring within its signature's views to be claimed
             (module docstring; 0: the information criterion alone decides).
         n_jobs: threads screening the candidates of a round (each with its own twin; same result for any number).
+        later_points_per_view: ``points_per_view`` of the information criterion and the signature rule from the
+            second round on (None: the same); the fits do not depend on it.
         seed: seeds every Optuna sampler (each search gets its own derived seed).
     """
 
@@ -375,7 +377,8 @@ class EffectRanker:
                  operating_point: OperatingPoint | None = None, n_trials_base: int = 16,
                  n_trials_effect: int = 10, n_trials_refine: int = 16, n_polish: int = 30, n_polish_effect: int = 10,
                  max_effects: int = 3, points_per_view: float = 1.0, view_floor_db: float = 0.3,
-                 min_signature_gain: float = 1.0, n_jobs: int = 1, seed: int = 0):
+                 min_signature_gain: float = 1.0, n_jobs: int = 1, later_points_per_view: float | None = None,
+                 seed: int = 0):
         self.candidates = list(candidates)
         self.fixed_effects = {k: dict(v or {}) for k, v in dict(fixed_effects or {}).items()}
         self.operating_point = operating_point or OperatingPoint()
@@ -389,6 +392,7 @@ class EffectRanker:
         self.min_signature_gain = min_signature_gain
         self.n_jobs = n_jobs
         self.max_effects = max_effects
+        self.later_points_per_view = later_points_per_view
         self.seed = seed
 
     def fit(self, twin: TwinModel, measured: Recording, geometry: BearingGeometry,
@@ -403,9 +407,14 @@ class EffectRanker:
             raise BearingTwinError(f"ranking.view_floor_db must be a positive number of dB, got {self.view_floor_db}")
         if not self.min_signature_gain >= 0:
             raise BearingTwinError(f"ranking.min_signature_gain must be non-negative, got {self.min_signature_gain}")
+        if self.later_points_per_view is not None and not self.later_points_per_view > 0:
+            raise BearingTwinError(
+                f"ranking.later_points_per_view must be a positive number or null, got {self.later_points_per_view}")
         spaces = {name: effect_search_space(name) for name in self.candidates}
         judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view,
                                       self.view_floor_db)
+        # Later rounds may weigh the views otherwise: they judge what is left once an effect is in.
+        later = judge if self.later_points_per_view is None else replace(judge, points_per_view=self.later_points_per_view)
         op = self.operating_point
         for key in op.extra:
             twin.value(key)  # an unknown extra key is named before any simulation
@@ -445,10 +454,11 @@ class EffectRanker:
             offered = [name for name in remaining if set(_requires(name)) <= set(current_effects)]
             seeds = [self.seed + 1000 * (round_index + 1) + index for index in range(len(offered))]
             matched = _gain_matched(judge, twin.signal(base, current_effects))
+            scorer = judge if round_index == 0 else later
             with ThreadPoolExecutor(max_workers=self.n_jobs) as pool:  # the solver and numpy release the GIL
                 fits = list(pool.map(lambda name, seed: self._fit_candidate(
-                    name, spaces[name], base, current_effects, current, judge, twin.fresh(), matched, seed=seed),
-                    offered, seeds))
+                    name, spaces[name], base, current_effects, current, judge, twin.fresh(), matched, seed=seed,
+                    scorer=scorer), offered, seeds))
             if not fits:
                 break
             fits.sort(key=lambda fit: -fit.evidence)
@@ -470,7 +480,7 @@ class EffectRanker:
             current = compare(base, effects, judge.check_part)
             best.comparison, best.error, best.params = current, current.discrepancy_db, effects[best.effect]
             best.explained = _explained(before, current)
-            best.signature_gain = judge.signature_gain(before, current, signature_views(best.effect))
+            best.signature_gain = scorer.signature_gain(before, current, signature_views(best.effect))
             added.append(best)
             current_effects = effects
             steps.append(Step(dict(current_effects), current.discrepancy_db, current, dict(base)))
@@ -500,9 +510,10 @@ class EffectRanker:
         return self
 
     def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, matched,
-                       seed) -> EffectFit:
+                       seed, scorer: Judge) -> EffectFit:
         """Fit one candidate on the first part (starting from the data's own estimate when the effect
-        offers one, read against ``matched``: the current twin, gain-matched) and judge it on the held-out part.
+        offers one, read against ``matched``: the current twin, gain-matched) and judge it on the held-out
+        part, its evidence and signature gain by ``scorer`` (``judge`` with the round's points per view).
 
         The effects already kept are fitted again with it: they were fitted without the candidate, so
         they took up part of its signature (a noise floor lowering the kurtosis a misalignment line
@@ -521,11 +532,11 @@ class EffectRanker:
                        self.n_trials_effect, seed, start=start, n_polish=self.n_polish_effect)
         effects = with_effect(fit.params)
         checked = judge.check_part(twin.signal(base, effects))
-        drop = (judge.deviance(current) - judge.deviance(checked)) / judge.points_per_view
-        evidence = judge.points_per_view * drop - len(space) * judge.penalty_per_parameter
+        drop = (scorer.deviance(current) - scorer.deviance(checked)) / scorer.points_per_view
+        evidence = scorer.points_per_view * drop - len(space) * scorer.penalty_per_parameter
         return EffectFit(name, effects[name], checked.discrepancy_db, _explained(current, checked), evidence, drop,
                          len(space), _signature(name), checked,
-                         judge.signature_gain(current, checked, signature_views(name)),
+                         scorer.signature_gain(current, checked, signature_views(name)),
                          kept_params={other: effects[other] for other in kept})
 
     def _refit(self, best: EffectFit, base_values, sensor, current_effects, judge: Judge, twin, seed):

@@ -79,6 +79,8 @@ def build_ranker(cfg: DictConfig, fault: str) -> EffectRanker:
         points_per_view=float(cfg.ranking.points_per_view),
         view_floor_db=float(cfg.ranking.view_floor_db),
         min_signature_gain=float(cfg.ranking.min_signature_gain),
+        later_points_per_view=None if cfg.ranking.later_points_per_view is None
+        else float(cfg.ranking.later_points_per_view),
         n_jobs=int(cfg.ranking.n_jobs),
         seed=int(cfg.seed),
     )
