@@ -29,20 +29,24 @@ from bearingtwin.physics.dynamics import DynamicParameters
 from bearingtwin.physics.kinematics import Kinematics, sample_kinematics
 
 
+def _longest_step_s(highest_mode_hz: float, crossing_time_s: float, steps_per_period: int,
+                    steps_per_defect: int) -> float:
+    """The longest RK4 step (s) that is at most 1/``steps_per_period`` of the fastest contact mode's
+    period and 1/``steps_per_defect`` of a defect crossing."""
+    return min(1.0 / (highest_mode_hz * steps_per_period), crossing_time_s / steps_per_defect)
+
+
 def substeps_per_sample(fs_hz: float, highest_mode_hz: float, crossing_time_s: float, steps_per_period: int,
                         steps_per_defect: int) -> int:
-    """RK4 steps per output sample so that a step is at most 1/``steps_per_period`` of the
-    fastest contact mode's period and 1/``steps_per_defect`` of a defect crossing."""
-    step_s = min(1.0 / (highest_mode_hz * steps_per_period), crossing_time_s / steps_per_defect)
+    """RK4 steps per output sample so that no step is longer than :func:`_longest_step_s`."""
+    step_s = _longest_step_s(highest_mode_hz, crossing_time_s, steps_per_period, steps_per_defect)
     return max(1, math.ceil(1.0 / (fs_hz * step_s) - 1e-9))  # 2.0000000000000004 is 2 steps
 
 
 def samples_per_step(fs_hz: float, highest_mode_hz: float, crossing_time_s: float, steps_per_period: int,
                      steps_per_defect: int) -> int:
-    """Output samples per RK4 step when the sampling is finer than the step :func:`substeps_per_sample`
-    allows (at most 1/``steps_per_period`` of the fastest contact mode's period and
-    1/``steps_per_defect`` of a defect crossing); 1 otherwise."""
-    step_s = min(1.0 / (highest_mode_hz * steps_per_period), crossing_time_s / steps_per_defect)
+    """Output samples per RK4 step when the sampling is finer than :func:`_longest_step_s` asks; 1 otherwise."""
+    step_s = _longest_step_s(highest_mode_hz, crossing_time_s, steps_per_period, steps_per_defect)
     return max(1, math.floor(fs_hz * step_s + 1e-9))
 
 
