@@ -46,6 +46,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.envelope import envelope_spectrum, peak_near
+from bearingtwin.signal.welch import WelchPSD
 
 VIEWS = ("psd", "lines", "envelope", "harmonics", "statistics")
 
@@ -278,12 +279,12 @@ class Comparator:
                 f"{self.fs / self.nperseg:.1f} Hz resolution; raise band_min_hz or welch_segment_s"
             )
         # Windows made once: hundreds of twins are profiled against one measurement.
-        self.psd_window = sps.get_window("hann", self.nperseg)
+        self.psd_welch = WelchPSD(self.fs, sps.get_window("hann", self.nperseg))
         self.envelope_window = sps.get_window("hann", self.segment)
         self.stats_window = int(round(s.stats_window_s * self.fs))
         self.lines_nperseg = int(round(s.lines_segment_s * self.fs))
-        self.lines_window = sps.get_window("blackmanharris", self.lines_nperseg)
-        lines_freqs = np.fft.rfftfreq(self.lines_nperseg, 1.0 / self.fs)
+        self.lines_welch = WelchPSD(self.fs, sps.get_window("blackmanharris", self.lines_nperseg))
+        lines_freqs = self.lines_welch.freqs_hz
         self.lines_bins = (lines_freqs >= 0.25 * self.rpm / 60.0) & (lines_freqs <= min(s.lines_max_hz, self.fs / 2))
         if self.fault != "normal":
             # A defect's own lines (its rate's harmonics and their sidebands) are the envelope and
@@ -315,12 +316,12 @@ class Comparator:
                 f"(compare.envelope_segment_s={s.envelope_segment_s}, welch_segment_s={s.welch_segment_s}, "
                 f"lines_segment_s={s.lines_segment_s})"
             )
-        psd_freqs, psd = sps.welch(x, fs=self.fs, window=self.psd_window, nperseg=self.nperseg)
+        psd_freqs, psd = self.psd_welch(x)
         band_power = np.bincount(self.band_of_bin[self.in_bands], weights=psd[self.in_bands], minlength=s.n_bands)
         band_db = _db(band_power / band_power.max(), s.dynamic_range_db) + 10 * np.log10(band_power.max())
         # Blackman-Harris leaks less than 92 dB beyond 4 bins, and the spectrum is floored at the
         # dynamic range, so a strong line of a noiseless twin has no skirt of "lines" beside it.
-        lines_freqs, lines_psd = sps.welch(x, fs=self.fs, window=self.lines_window, nperseg=self.lines_nperseg)
+        lines_freqs, lines_psd = self.lines_welch(x)
         lines_psd = np.maximum(lines_psd, lines_psd.max() * 10 ** (-s.dynamic_range_db / 10.0))
         lines_level = local_level(lines_psd)
         n_segments = max(1, 2 * x.size // self.segment - 1)
