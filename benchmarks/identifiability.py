@@ -14,8 +14,8 @@ same rig at the same operating point, with nothing hidden, is held against the t
 effects found there are the rig's own (its transfer path, its noise floor) and the operating
 point fitted there (sensor race and direction, load, clearance, defect size) is the rig's.
 Then the case's record, with its hidden effects, is held against the twin with those effects
-fixed and that operating point held (the gain is always fitted): what differs now is what was
-hidden. Case kinds: one hidden effect, a pair, none
+fixed and that operating point held (the gain is always fitted), as ``bearingtwin-twin
+reference=<the reference's twin_report.json>`` holds them: what differs now is what was hidden. Case kinds: one hidden effect, a pair, none
 (null), and one the library lacks (rig only). The conditions cycle through speeds, sampling rates
 (12, 25.6, 48 kHz) and units (m/s^2, g). Each ranking is the CLI's defaults (every library
 effect a candidate) on a 2 s record.
@@ -58,6 +58,7 @@ from bearingtwin.tracking.tables import markdown_table
 from bearingtwin.twin.compare import CompareSettings
 from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.rank import deviance, penalty_per_parameter, signature_gain, signature_views, view_floors
+from bearingtwin.twin.reference import hold_reference
 from bearingtwin.twin.report import build_ranker, twin_for
 
 G = 9.80665
@@ -183,22 +184,17 @@ def ranking_settings(overrides: list[str]) -> dict:
 
 
 def rank(case: dict, overrides: list[str], reference: dict | None = None):
-    """``bearingtwin-twin``'s ranking of the case's record; with ``reference``, its effects fixed and sensor held."""
-    held = []
-    if reference:
-        held = [f"operating_point.sensor={reference['race']}",
-                f"operating_point.sensor_angle_deg={reference['angle_deg']}",
-                *[f"operating_point.{name}={value!r}" for name, value in reference["base"].items()]]
+    """``bearingtwin-twin``'s ranking of the case's record; with ``reference`` (a reference's twin report),
+    what that found held, as ``bearingtwin-twin reference=<its twin_report.json>`` holds it."""
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", "tracking.enabled=false",
-                                         f"seed={case['seed'] % 1000}", *held, *overrides])
+                                         f"seed={case['seed'] % 1000}", *overrides])
+    if reference:
+        cfg = hold_reference(cfg, reference, case["fault"])
     measured = measurement(case, cfg)
     geometry = BearingGeometry.from_config(cfg.bearing)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     ranker = build_ranker(cfg, case["fault"])
-    if reference:
-        ranker.fixed_effects = dict(reference["effects"])
-        ranker.candidates = [name for name in ranker.candidates if name not in reference["effects"]]
     start = time.perf_counter()
     fit = ranker.fit(twin_for(measured, cfg), measured, geometry, settings).fit_
     return fit, time.perf_counter() - start
@@ -215,23 +211,21 @@ def reference_of(case: dict) -> dict:
 
 
 def run_reference(case: dict, overrides: list[str]) -> dict:
+    """The reference record's twin report (what ``bearingtwin-twin`` writes of it) and its time."""
     fit, seconds = rank(reference_of(case), overrides)
-    sensor = fit.operating_point["sensor"]
-    base = {name: float(entry["value"]) for name, entry in fit.operating_point.items()
-            if name != "sensor" and not entry["held"]}
-    return {"effects": {f.effect: f.params for f in fit.added}, "race": sensor["race"],
-            "angle_deg": float(sensor["angle_deg"]), "base": base, "seconds": seconds}
+    return {"measured": {"fault": case["fault"]}, **fit.as_dict(), "seconds": seconds}
 
 
 def run_case(case: dict, overrides: list[str], reference: dict) -> dict:
     fit, seconds = rank(case, overrides, reference)
     added = [f.effect for f in fit.added]
     sensor = fit.operating_point["sensor"]
+    held = reference["operating_point"]
     return {
-        **case, "reference_effects": list(reference["effects"]), "reference_sensor": [reference["race"],
-                                                                                       reference["angle_deg"]],
+        **case, "reference_effects": list(reference["steps"][-1]["params"]),
+        "reference_sensor": [held["sensor"]["race"], held["sensor"]["angle_deg"]],
         "added": added, "verdict": fit.verdict, "seconds": seconds, "reference_seconds": reference["seconds"],
-        "reference_base": reference["base"],
+        "reference_base": {name: entry["value"] for name, entry in held.items() if name != "sensor"},
         "ranking": [(f.effect, f.drop_per_point, f.n_parameters, f.evidence) for f in fit.ranking],
         "rounds": fit.rounds, "repeatability_db": fit.repeatability_db,
         "margin": fit.margin, "baseline_error": fit.baseline_error, "final_error": fit.final_error,

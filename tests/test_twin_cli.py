@@ -114,3 +114,54 @@ def test_no_measurement_given_is_named():
 
     with pytest.raises(BearingTwinError, match=r"^measured.path is missing: give measured.path=<file>"):
         load_measurement(OmegaConf.create({"path": "???", "channel": None, "fs": None, "rpm": None, "fault": None}))
+
+
+def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one_names_what_changed(
+        measurement, tmp_path):
+    """A baseline of the rig (its 2.4 kHz mount resonance, the defect's depth fitted), then a record of
+    the same rig in which an unbalance line appeared: with ``reference=`` the defect depth and the sensor
+    direction are the baseline's, held, the resonance stays in the twin at the baseline's values and is
+    no candidate, and the unbalance is what is added."""
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["simulator.fs=12000", "simulator.rpm=1797", "simulator.duration=2.0",
+                                             "simulator.sensor=outer_y"])
+    changed = TwinModel("outer", cfg.bearing, cfg.simulator, seed=12).signal(
+        {"simulator.defect.depth_mm": 0.004}, {"resonance": {"natural_frequency_hz": 2400.0, "damping_ratio": 0.07},
+                                               "unbalance": {"level_db": 0.0}})
+    np.save(tmp_path / "changed.npy", changed / 9.81)
+    common = ["measured.fs=12000", "measured.rpm=1797", "measured.fault=outer", "tracking.enabled=false",
+              "figures=false", *FAST, "operating_point.sensor=outer", "operating_point.defect_width_mm=0.533"]
+    baseline = run_cli(f"measured.path={measurement}", f"out={tmp_path / 'baseline'}", "candidates=[resonance]", *common)
+    assert baseline.returncode == 0, baseline.stderr[-2000:]
+    first = json.loads((tmp_path / "baseline" / "twin_report.json").read_text())
+    assert first["added"] == ["resonance"] and first["measured"]["fault"] == "outer"
+    assert first["operating_point"]["defect_depth_mm"]["held"] is False
+
+    result = run_cli(f"measured.path={tmp_path / 'changed.npy'}", f"out={tmp_path / 'changed'}",
+                     "candidates=[resonance,unbalance]", f"reference={tmp_path / 'baseline' / 'twin_report.json'}", *common)
+    assert result.returncode == 0, result.stderr[-2000:]
+    report = json.loads((tmp_path / "changed" / "twin_report.json").read_text())
+    held = report["operating_point"]
+    assert held["defect_depth_mm"] == {"value": first["operating_point"]["defect_depth_mm"]["value"], "unit": "mm",
+                                       "held": True}
+    assert held["sensor"]["angle_deg"] == first["operating_point"]["sensor"]["angle_deg"] and held["sensor"]["held"]
+    assert [entry["effect"] for entry in report["ranking"]] == ["unbalance"]  # the resonance is no candidate
+    assert report["added"] == ["unbalance"]
+    assert report["steps"][0]["params"]["resonance"] == first["steps"][-1]["params"]["resonance"]
+    assert report["measured"]["reference"] == str(tmp_path / "baseline" / "twin_report.json")
+    assert f"reference: {tmp_path / 'baseline' / 'twin_report.json'} (its operating point held; effects kept in the " \
+           "twin: resonance)" in result.stdout
+
+
+@pytest.mark.parametrize("content, message", [
+    (None, "no such file"), ("not json", "not a JSON file"), ('{"verdict": "no effect needed"}', "not a twin_report.json")])
+def test_a_bad_reference_is_one_line_and_exit_2(measurement, tmp_path, content, message):
+    reference = tmp_path / "twin_report.json"
+    if content is not None:
+        reference.write_text(content)
+    result = run_cli(f"measured.path={measurement}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
+                     f"reference={reference}", f"out={tmp_path / 'r'}", "tracking.enabled=false", *FAST)
+    assert result.returncode == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert f"reference={reference}" in line and message in line
+    assert not (tmp_path / "r").exists()

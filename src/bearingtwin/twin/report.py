@@ -25,6 +25,7 @@ from bearingtwin.twin.compare import CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit
+from bearingtwin.twin.reference import hold_reference, read_reference
 
 log = logging.getLogger(__name__)
 
@@ -96,10 +97,11 @@ def twin_for(measured: Recording, cfg: DictConfig) -> TwinModel:
     return TwinModel(measured.fault, OmegaConf.to_container(cfg.bearing, resolve=True), simulator_cfg, int(cfg.seed))
 
 
-def write_report(fit: TwinFit, out_dir: Path, figures: bool) -> list[Path]:
-    """``twin_report.json`` and, with ``figures``, the comparison views before and after and the error curve."""
+def write_report(fit: TwinFit, out_dir: Path, figures: bool, measured: dict | None = None) -> list[Path]:
+    """``twin_report.json`` (with ``measured``: what was measured, for a later run that takes this one as its
+    reference) and, with ``figures``, the comparison views before and after and the error curve."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    report = fit.as_dict()
+    report = {"measured": measured or {}, **fit.as_dict()}
     report["baseline_comparison"] = fit.steps[0].comparison.as_dict()
     report["final_comparison"] = fit.steps[-1].comparison.as_dict()
     path = out_dir / REPORT_NAME
@@ -184,9 +186,13 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     if named is not None and named != cfg.bearing.get("name"):
         log.warning("%s: the record's bearing is %s, the twin's %s: give bearing=%s for its defect frequencies",
                     cfg.measured.path, named, cfg.bearing.get("name"), named)
+    if cfg.get("reference") is not None:  # an earlier record of this rig: what it found is held
+        cfg = hold_reference(cfg, read_reference(cfg.reference), measured.fault, source=f"reference={cfg.reference}")
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault).fit(twin, measured, geometry, settings)
-    files = write_report(ranker.fit_, Path(str(cfg.out)).expanduser(), bool(cfg.figures))
+    about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
+             "unit": measured.unit, "bearing": cfg.bearing.get("name"), "reference": cfg.get("reference")}
+    files = write_report(ranker.fit_, Path(str(cfg.out)).expanduser(), bool(cfg.figures), about)
     run_id = log_to_mlflow(cfg, measured, ranker.fit_, files) if cfg.tracking.enabled else None
     return ranker.fit_, files, run_id

@@ -1,0 +1,56 @@
+"""What a reference record's twin report holds in a new run's config (bearingtwin.twin.reference)."""
+
+import pytest
+from hydra import compose, initialize_config_dir
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.twin.reference import hold_reference
+
+
+def twin_config(*overrides):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose("twin", overrides=["measured.path=unused", "bearing=cwru_6205", *overrides])
+
+
+def report(fault="outer", race="outer", effects=None):
+    fitted = {"interval": [0.0, 1.0], "held": False}
+    return {"measured": {"fault": fault, "bearing": "cwru_6205"},
+            "operating_point": {"radial_load_n": {"value": 650.0, "unit": "N", **fitted},
+                                "clearance_um": {"value": 9.0, "unit": "um", "held": True},
+                                "defect_depth_mm": {"value": 0.05, "unit": "mm", **fitted},
+                                "defect_width_mm": {"value": 0.4, "unit": "mm", **fitted},
+                                "bearing.outer_damping_ns_per_m": {"value": 1234.0, "unit": "", **fitted},
+                                "sensor": {"value": "outer race, 60 deg", "race": race, "angle_deg": 60.0}},
+            "steps": [{"params": {}}, {"params": effects if effects is not None else
+                                       {"resonance": {"natural_frequency_hz": 2500.0, "damping_ratio": 0.05}}}]}
+
+
+def test_what_the_config_leaves_to_fit_takes_the_references_value_and_what_it_gives_stays():
+    cfg = twin_config("operating_point.clearance_um=4.0", "effects=[noise]",
+                      "+calibration.base={bearing.outer_damping_ns_per_m: [100.0, 5000.0, log]}")
+    held = hold_reference(cfg, report(), "outer")
+    assert held.operating_point.radial_load_n == 650.0 and held.operating_point.clearance_um == 4.0
+    assert (held.operating_point.defect_depth_mm, held.operating_point.defect_width_mm) == (0.05, 0.4)
+    assert (held.operating_point.sensor, held.operating_point.sensor_angle_deg) == ("outer", 60.0)
+    assert held.bearing.outer_damping_ns_per_m == 1234.0 and "bearing.outer_damping_ns_per_m" not in held.calibration.base
+    assert list(held.effects) == ["resonance", "noise"]  # the reference's first, the config's own after
+    assert held.effects.resonance.natural_frequency_hz == 2500.0
+    assert "resonance" not in held.candidates and "noise" not in held.candidates and "slip" in held.candidates
+    assert cfg.operating_point.radial_load_n is None and list(cfg.effects) == ["noise"]  # the given config untouched
+
+
+def test_a_reference_of_another_bearing_state_gives_no_defect_size():
+    held = hold_reference(twin_config(), report(fault="normal"), "inner")
+    assert held.operating_point.defect_depth_mm is None and held.operating_point.radial_load_n == 650.0
+
+
+def test_a_sensor_the_config_places_elsewhere_or_another_bearing_is_refused():
+    with pytest.raises(BearingTwinError, match=r"^reference: its sensor was on the inner race, operating_point.sensor=outer"):
+        hold_reference(twin_config(), report(race="inner"), "outer")
+    held = hold_reference(twin_config("operating_point.sensor=outer_y"), report(), "outer")
+    assert held.operating_point.sensor == "outer_y" and held.operating_point.sensor_angle_deg is None
+    other = report()
+    other["measured"]["bearing"] = "cwru_6203"
+    with pytest.raises(BearingTwinError, match="bearing cwru_6203, this one of cwru_6205"):
+        hold_reference(twin_config(), other, "outer")
