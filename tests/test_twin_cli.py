@@ -149,8 +149,8 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
     assert report["added"] == ["unbalance"]
     assert report["steps"][0]["params"]["resonance"] == first["steps"][-1]["params"]["resonance"]
     assert report["measured"]["reference"] == str(tmp_path / "baseline" / "twin_report.json")
-    assert f"reference: {tmp_path / 'baseline' / 'twin_report.json'} (its operating point held; effects kept in the " \
-           "twin: resonance)" in result.stdout
+    assert (f"reference: {tmp_path / 'baseline' / 'twin_report.json'} (its operating point held where this run gives "
+            "none; its effects kept: resonance)") in result.stdout
 
 
 @pytest.mark.parametrize("content, message", [

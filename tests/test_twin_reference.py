@@ -36,7 +36,7 @@ def test_what_the_config_leaves_to_fit_takes_the_references_value_and_what_it_gi
     assert held.bearing.outer_damping_ns_per_m == 1234.0 and "bearing.outer_damping_ns_per_m" not in held.calibration.base
     assert list(held.effects) == ["resonance", "noise"]  # the reference's first, the config's own after
     assert held.effects.resonance.natural_frequency_hz == 2500.0
-    assert "resonance" not in held.candidates and "noise" not in held.candidates and "slip" in held.candidates
+    assert "resonance" not in held.candidates and "slip" in held.candidates
     assert cfg.operating_point.radial_load_n is None and list(cfg.effects) == ["noise"]  # the given config untouched
 
 
@@ -54,3 +54,43 @@ def test_a_sensor_the_config_places_elsewhere_or_another_bearing_is_refused():
     other["measured"]["bearing"] = "cwru_6203"
     with pytest.raises(BearingTwinError, match="bearing cwru_6203, this one of cwru_6205"):
         hold_reference(twin_config(), other, "outer")
+
+
+def test_a_channel_on_the_other_race_and_an_effect_given_twice_are_refused():
+    with pytest.raises(BearingTwinError, match=r"operating_point.sensor=inner_y says the inner"):
+        hold_reference(twin_config("operating_point.sensor=inner_y"), report(), "outer")
+    with pytest.raises(BearingTwinError, match=r"^effects.resonance: the reference already keeps resonance"):
+        hold_reference(twin_config("effects=[resonance]"), report(), "outer")
+
+
+def test_the_configs_own_effects_stay_candidates_only_as_the_config_says():
+    """Only the reference's effects leave the candidates; the config's own are handled as without a reference."""
+    held = hold_reference(twin_config("effects=[noise]", "candidates=[resonance,slip]"), report(), "outer")
+    assert list(held.candidates) == ["slip"] and list(held.effects) == ["resonance", "noise"]
+
+
+def test_a_report_that_does_not_say_its_bearing_state_gives_no_defect_size():
+    unsaid = report()
+    del unsaid["measured"]
+    held = hold_reference(twin_config(), unsaid, "outer")
+    assert held.operating_point.defect_depth_mm is None and held.operating_point.radial_load_n == 650.0
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda r: r["operating_point"]["sensor"].pop("race"), "operating_point.sensor gives no race"),
+    (lambda r: r["operating_point"]["radial_load_n"].update(value="heavy"), "operating_point.radial_load_n has no numeric value"),
+    (lambda r: r["steps"][-1].update(params=["resonance"]), "steps\\[-1\\].params is not the final twin's effects"),
+])
+def test_a_report_missing_what_a_reference_gives_is_named(tmp_path, change, message):
+    import json
+
+    from bearingtwin.twin.reference import read_reference
+
+    broken = report()
+    change(broken)
+    path = tmp_path / "twin_report.json"
+    path.write_text(json.dumps(broken))
+    with pytest.raises(BearingTwinError, match=f"^reference={path}: {message}"):
+        read_reference(path)
+    path.write_text(json.dumps(report()))
+    assert read_reference(path)["operating_point"]["radial_load_n"]["value"] == 650.0

@@ -37,8 +37,9 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
     if cfg.get("reference") is not None:
-        kept = ", ".join(fit.steps[0].effects) or "none"
-        lines = {"reference": f"{cfg.reference} (its operating point held; effects kept in the twin: {kept})", **lines}
+        kept = ", ".join(name for name in fit.steps[0].effects if name not in cfg.effects) or "none"
+        lines = {"reference": f"{cfg.reference} (its operating point held where this run gives none; its effects "
+                              f"kept: {kept})", **lines}
     title = f"bearingtwin-twin: {Path(str(cfg.measured.path)).name}"
     return closing_summary(title, lines, run_id, str(cfg.tracking.uri) if run_id else None, str(files[0].parent.resolve()))
 

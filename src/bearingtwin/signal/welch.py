@@ -6,7 +6,8 @@ at 48 kHz that set-up costs more than the transform itself. The twin's calibrati
 hundreds of twin signals against one measurement, so :class:`WelchPSD` builds the transform
 once and then does what ``scipy.signal.welch`` does with it (``scipy.signal.csd`` with the
 defaults: half-overlapping segments, the mean removed from each, one-sided density, mean over
-segments), to the bit.
+segments): to the bit where ``scipy.signal.welch`` itself runs on ``ShortTimeFFT`` (the locked
+SciPy does; tests/test_welch.py checks it).
 """
 
 from __future__ import annotations

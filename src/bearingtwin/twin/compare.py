@@ -266,8 +266,10 @@ class Comparator:
             )
         self.highpass = sps.butter(4, s.envelope_highpass_hz, "highpass", fs=self.fs, output="sos")
         self.nperseg = int(round(s.welch_segment_s * self.fs))
+        # Windows and transforms made once: hundreds of twins are profiled against one measurement.
+        self.psd_welch = WelchPSD(self.fs, sps.get_window("hann", self.nperseg))
         self.band_edges_hz = np.geomspace(s.band_min_hz, self.fs / 2, s.n_bands + 1)
-        psd_freqs = np.fft.rfftfreq(self.nperseg, 1.0 / self.fs)
+        psd_freqs = self.psd_welch.freqs_hz
         self.band_of_bin = np.searchsorted(self.band_edges_hz, psd_freqs, side="right") - 1
         self.band_of_bin[psd_freqs >= self.fs / 2] = s.n_bands - 1
         self.in_bands = self.band_of_bin >= 0
@@ -278,8 +280,6 @@ class Comparator:
                 f"compare.band_min_hz={s.band_min_hz}: the band {lo:.0f}-{hi:.0f} Hz holds no Welch bin at "
                 f"{self.fs / self.nperseg:.1f} Hz resolution; raise band_min_hz or welch_segment_s"
             )
-        # Windows made once: hundreds of twins are profiled against one measurement.
-        self.psd_welch = WelchPSD(self.fs, sps.get_window("hann", self.nperseg))
         self.envelope_window = sps.get_window("hann", self.segment)
         self.stats_window = int(round(s.stats_window_s * self.fs))
         self.lines_nperseg = int(round(s.lines_segment_s * self.fs))

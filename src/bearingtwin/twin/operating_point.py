@@ -46,7 +46,8 @@ BASE_PARAMETERS = {
 
 RACES = ("inner", "outer")
 SENSOR_NAMES = (*CHANNELS, *RACES)
-_DEFECT_PARAMETERS = ("defect_depth_mm", "defect_width_mm")
+DEFECT_PARAMETERS = ("defect_depth_mm", "defect_width_mm")
+"""The operating-point parameters a healthy bearing has none of."""
 
 
 @dataclass
@@ -81,7 +82,7 @@ class OperatingPoint:
         bounds = parse_space(ranges, "calibration.ranges")
         known, free = {}, {}
         for name in BASE_PARAMETERS:
-            if fault == "normal" and name in _DEFECT_PARAMETERS:
+            if fault == "normal" and name in DEFECT_PARAMETERS:
                 continue
             value = operating.get(name)
             if value is None:

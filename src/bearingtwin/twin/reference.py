@@ -7,39 +7,53 @@ twin against a baseline record (``bearingtwin-twin ... out=baseline``) and then 
 one with ``reference=baseline/twin_report.json``: the reference's operating point is held
 wherever the new run would otherwise fit it, and its effects are kept in the twin, no longer
 candidates. A defect's size is held only from a reference of the same bearing state (a
-healthy reference has none).
+healthy reference has none; a report that does not say its state gives none either).
 """
 
 from __future__ import annotations
 
 import copy
 import json
+import math
 from pathlib import Path
 from typing import Mapping
 
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.twin.operating_point import BASE_PARAMETERS
-
-_DEFECT_PARAMETERS = ("defect_depth_mm", "defect_width_mm")
+from bearingtwin.physics.simulator import CHANNELS
+from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, RACES
 
 
 def read_reference(path) -> dict:
-    """The ``twin_report.json`` at ``path``, checked to hold what a reference gives."""
+    """The ``twin_report.json`` at ``path``, checked to hold what a reference gives: an operating point
+    of numbers with the sensor's race and direction, and the final twin's effects."""
     path = Path(str(path)).expanduser()
+    where = f"reference={path}"
     if not path.is_file():
-        raise BearingTwinError(f"reference={path}: no such file (give the twin_report.json of an earlier bearingtwin-twin run)")
+        raise BearingTwinError(f"{where}: no such file (give the twin_report.json of an earlier bearingtwin-twin run)")
     try:
         report = json.loads(path.read_text())
+    except OSError as error:
+        raise BearingTwinError(f"{where}: cannot be read ({error.strerror})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise BearingTwinError(f"reference={path}: not a JSON file ({error})") from None
+        raise BearingTwinError(f"{where}: not a JSON file ({error})") from None
     if not isinstance(report, dict) or not isinstance(report.get("operating_point"), dict) or not report.get("steps"):
-        raise BearingTwinError(f"reference={path}: not a twin_report.json (it has no operating_point and steps)")
-    sensor = report["operating_point"].get("sensor")
-    if not isinstance(sensor, dict) or not {"race", "angle_deg"} <= set(sensor):
-        raise BearingTwinError(f"reference={path}: operating_point.sensor gives no race and angle_deg")
+        raise BearingTwinError(f"{where}: not a twin_report.json (it has no operating_point and steps)")
+    for name, entry in report["operating_point"].items():
+        if name == "sensor":
+            if not (isinstance(entry, dict) and entry.get("race") in RACES and _is_number(entry.get("angle_deg"))):
+                raise BearingTwinError(f"{where}: operating_point.sensor gives no race (inner or outer) and angle_deg")
+        elif not (isinstance(entry, dict) and _is_number(entry.get("value"))):
+            raise BearingTwinError(f"{where}: operating_point.{name} has no numeric value")
+    effects = report["steps"][-1].get("params") if isinstance(report["steps"][-1], dict) else None
+    if not isinstance(effects, dict) or not all(isinstance(params, dict) for params in effects.values()):
+        raise BearingTwinError(f"{where}: steps[-1].params is not the final twin's effects (name -> parameters)")
     return report
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "reference") -> DictConfig:
@@ -52,33 +66,38 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
     in ``effects``, the config's own after them, and leave ``candidates``.
     """
     held = copy.deepcopy(cfg)
+    OmegaConf.set_readonly(held, False)
     operating = report["operating_point"]
     measured = report.get("measured") or {}
     if measured.get("bearing") and cfg.bearing.get("name") and measured["bearing"] != cfg.bearing.name:
         raise BearingTwinError(f"{source}: its record is of bearing {measured['bearing']}, this one of {cfg.bearing.name}; "
                                "a reference must come from the same rig")
-    same_state = measured.get("fault") in (None, fault)
+    effects = dict(report["steps"][-1]["params"])
+    clash = sorted(set(effects) & set(cfg.effects))
+    if clash:
+        raise BearingTwinError(f"effects.{clash[0]}: the reference already keeps {clash[0]} at its fitted values; "
+                               "leave it out of effects=")
     with open_dict(held):
         for name, entry in operating.items():
             if name == "sensor":
                 continue
             if name in BASE_PARAMETERS:
-                if name in _DEFECT_PARAMETERS and (not same_state or fault == "normal"):
+                if name in DEFECT_PARAMETERS and (measured.get("fault") != fault or fault == "normal"):
                     continue
                 if held.operating_point.get(name) is None:
                     held.operating_point[name] = float(entry["value"])
             elif name in held.calibration.base:  # a further key the reference fitted: held at its value
                 OmegaConf.update(held, name, float(entry["value"]), force_add=False)
                 del held.calibration.base[name]
-        sensor, race, angle = held.operating_point.get("sensor"), operating["sensor"]["race"], operating["sensor"]["angle_deg"]
-        if sensor is None or sensor == race:
+        sensor, race = held.operating_point.get("sensor"), operating["sensor"]["race"]
+        given_race = sensor.split("_")[0] if sensor in CHANNELS else sensor
+        if given_race not in (None, race):
+            raise BearingTwinError(f"{source}: its sensor was on the {race} race, operating_point.sensor={sensor} says "
+                                   f"the {given_race}; give operating_point.sensor={race} or another reference")
+        if sensor not in CHANNELS:  # a channel names its direction itself
             held.operating_point.sensor = race
             if held.operating_point.get("sensor_angle_deg") is None:
-                held.operating_point.sensor_angle_deg = float(angle)
-        elif sensor in ("inner", "outer"):
-            raise BearingTwinError(f"{source}: its sensor was on the {race} race, operating_point.sensor={sensor} says "
-                                   f"the {sensor}; give operating_point.sensor={race} or another reference")
-        effects = dict(report["steps"][-1].get("params") or {})
+                held.operating_point.sensor_angle_deg = float(operating["sensor"]["angle_deg"])
         held.effects = {**effects, **OmegaConf.to_container(held.effects, resolve=True)}
-        held.candidates = [name for name in held.candidates if name not in held.effects]
+        held.candidates = [name for name in held.candidates if name not in effects]
     return held
