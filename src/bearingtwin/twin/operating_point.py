@@ -157,7 +157,12 @@ def describe_sensor(sensor: Mapping) -> str:
     return f"{race} race, {named}" if named else f"{race} race, {angle:.0f} deg from horizontal"
 
 
+def is_finite_number(value) -> bool:
+    """Whether ``value`` is a finite int or float (not a bool): what an operating-point value may be."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
 def _finite(value, field_name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_finite_number(value):
         raise BearingTwinError(f"{field_name} must be a finite number or null, got {value!r}")
     return float(value)

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import copy
 import json
-import math
 from pathlib import Path
 from typing import Mapping
 
@@ -22,7 +21,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.simulator import CHANNELS
-from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, RACES
+from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, RACES, is_finite_number
 
 
 def read_reference(path) -> dict:
@@ -42,18 +41,14 @@ def read_reference(path) -> dict:
         raise BearingTwinError(f"{where}: not a twin_report.json (it has no operating_point and steps)")
     for name, entry in report["operating_point"].items():
         if name == "sensor":
-            if not (isinstance(entry, dict) and entry.get("race") in RACES and _is_number(entry.get("angle_deg"))):
+            if not (isinstance(entry, dict) and entry.get("race") in RACES and is_finite_number(entry.get("angle_deg"))):
                 raise BearingTwinError(f"{where}: operating_point.sensor gives no race (inner or outer) and angle_deg")
-        elif not (isinstance(entry, dict) and _is_number(entry.get("value"))):
+        elif not (isinstance(entry, dict) and is_finite_number(entry.get("value"))):
             raise BearingTwinError(f"{where}: operating_point.{name} has no numeric value")
     effects = report["steps"][-1].get("params") if isinstance(report["steps"][-1], dict) else None
     if not isinstance(effects, dict) or not all(isinstance(params, dict) for params in effects.values()):
         raise BearingTwinError(f"{where}: steps[-1].params is not the final twin's effects (name -> parameters)")
     return report
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "reference") -> DictConfig:
@@ -82,7 +77,7 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
             if name == "sensor":
                 continue
             if name in BASE_PARAMETERS:
-                if name in DEFECT_PARAMETERS and (measured.get("fault") != fault or fault == "normal"):
+                if name in DEFECT_PARAMETERS and measured.get("fault") != fault:  # (a healthy report has none)
                     continue
                 if held.operating_point.get(name) is None:
                     held.operating_point[name] = float(entry["value"])
