@@ -88,7 +88,8 @@ def dense_reading(model_uri: str, tracking_uri: str, data: Path, hop: int) -> di
         prepared = read_record(path, pipeline)
         signal = prepared.recording.signal
         starts = np.arange(0, signal.size - pipeline.window_length + 1, hop)
-        states, _ = pipeline.predict(signal[starts[:, None] + np.arange(pipeline.window_length)], prepared.recording.rpm)
+        states, _ = pipeline.predict(signal[starts[:, None] + np.arange(pipeline.window_length)], prepared.recording.rpm,
+                                     prepared.bearing)
         shares[path.stem] = (float(np.mean(states == prepared.true_state)), len(starts))
     return shares
 

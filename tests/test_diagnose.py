@@ -5,6 +5,7 @@ import csv
 import json
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ from processes import run_module
 from bearingtwin.config import REPO_ROOT, bearing_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import physics_evidence
+from bearingtwin.diagnosis.mlflow_model import DiagnosisModel
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.diagnosis.record import read_record, record_windows, resample_to
 from bearingtwin.errors import BearingTwinError
@@ -125,9 +127,10 @@ def envelope_pipeline() -> DiagnosisPipeline:
                              bearing=BEARING)
 
 
-def test_a_fan_end_record_is_read_for_the_physics_at_its_own_bearings_defect_lines(tmp_path):
+def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path):
     """A CWRU fan-end fault sits in the SKF 6203 (BPFO 3.053 x shaft), a drive-end model's bearing is the 6205
-    (3.585): the evidence reads the record's own bearing, which finds the fault, and says the model does not."""
+    (3.585): the evidence and the model's defect-order features read the record's own bearing, which finds
+    the fault; read at the model's bearing's orders, neither does."""
     import scipy.io
 
     rpm = 1772.0
@@ -143,13 +146,49 @@ def test_a_fan_end_record_is_read_for_the_physics_at_its_own_bearings_defect_lin
     prepared = read_record(path, pipeline)
     assert prepared.recording.channel == "FE" and prepared.bearing == fan_end and prepared.true_state == "outer"
     assert any("the record's bearing is cwru_6203, the model was trained on cwru_6205" in note
-               and "BPFO 3.053" in note and "BPFO 3.585" in note for note in prepared.notes), prepared.notes
+               and "BPFO 3.053" in note and "BPFO 3.585" in note and "the model's features read" in note
+               for note in prepared.notes), prepared.notes
     signal = prepared.recording.signal
     assert physics_evidence(signal, FS, rpm, prepared.bearing).evidence_state == "outer"
     assert physics_evidence(signal, FS, rpm, BEARING).evidence_state != "outer"  # the drive end's lines miss it
+    windows, _ = record_windows(signal, pipeline.window_length)
+    outer_lines = [pipeline.extractor.feature_names_.index(f"{h}xbpfo") for h in (1, 2, 3)]
+    at_its_own = pipeline.features(windows, rpm, prepared.bearing)[:, outer_lines]  # log10 line / floor
+    at_the_models = pipeline.features(windows, rpm)[:, outer_lines]
+    assert np.median(at_its_own) > 1.0 > np.median(np.abs(at_the_models)), (at_its_own, at_the_models)
+    at_its_own, _ = pipeline.predict(windows, rpm, prepared.bearing)
+    at_the_models, _ = pipeline.predict(windows, rpm)
+    assert np.mean(at_its_own == "outer") > 0.9
+    # The same through the MLflow model's face, the bearing named as a served model is asked for it.
+    model = DiagnosisModel()
+    model.pipeline = pipeline
+    served = model.predict(None, windows, {"rpm": rpm, "bearing": "cwru_6203"})
+    np.testing.assert_array_equal(served["state"].to_numpy(), at_its_own)
+    np.testing.assert_array_equal(model.predict(None, windows, {"rpm": rpm, "bearing": "cwru_6205"})["state"], at_the_models)
+    with pytest.raises(BearingTwinError, match="bearing='cwru_9999'"):
+        model.predict(None, windows, {"rpm": rpm, "bearing": "cwru_9999"})
+    # A bearing given wins over the file's name, and says so.
+    given = read_record(path, pipeline, bearing="cwru_6205")
+    assert given.bearing == BEARING and any("bearing=cwru_6205 given, where the file names cwru_6203" in n for n in given.notes)
     drive_end = tmp_path / "12k_Drive_End_OR014@3_1_198.mat"
     scipy.io.savemat(drive_end, {"X198_DE_time": fan, "X198RPM": rpm})
     assert read_record(drive_end, pipeline).bearing == BEARING and not read_record(drive_end, pipeline).notes
+
+
+def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
+    """A HUST file records the rig's ER-16K bearing, whatever bearing the model was trained on: the evidence
+    on an inner-race export (2 s in the fixtures' format) reads the ER-16K's lines and finds the fault there."""
+    sys.path.insert(0, str(Path(__file__).parent / "fixtures"))
+    import make_hust_fixtures as hust
+
+    monkeypatch.setattr(hust, "N_ROWS", int(2 * hust.FS_HZ))
+    hust.write("0.5X_I_65Hz.xls", hust.header_lines(hust.N_ROWS) + ["Data"] + hust.rows(hust.synthetic_axes("inner", 1)),
+               tmp_path)
+    prepared = read_record(tmp_path / "0.5X_I_65Hz.xls", envelope_pipeline(), channel="X")
+    recording = prepared.recording
+    assert prepared.bearing == bearing_config("er16k") and recording.rpm == 3900.0
+    assert any("the record's bearing is er16k" in note for note in prepared.notes), prepared.notes
+    assert physics_evidence(recording.signal, recording.fs, recording.rpm, prepared.bearing).evidence_state == "inner"
 
 
 @needs_cwru
@@ -234,7 +273,8 @@ def test_training_registers_its_model_with_signature_and_alias(registered):
     mlflow.set_tracking_uri(uri)
     model = mlflow.pyfunc.load_model(f"runs:/{version.run_id}/model")
     signature = model.metadata.get_input_schema().inputs[0]
-    assert signature.shape == (-1, 2048) and model.metadata.get_params_schema().to_dict()[0]["name"] == "rpm"
+    params = {param["name"]: param["default"] for param in model.metadata.get_params_schema().to_dict()}
+    assert signature.shape == (-1, 2048) and params == {"rpm": 0.0, "bearing": "paper"}  # the recorded bearing: the model's
     answer = model.predict(np.random.default_rng(0).standard_normal((3, 2048)))
     assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer"] and len(answer) == 3
     np.testing.assert_allclose(answer[["normal", "inner", "ball", "outer"]].sum(axis=1), 1.0)
@@ -285,6 +325,22 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert "records right: " in done.stdout and "of 2 with a known state" in done.stdout and "error: short.npz" in done.stderr
 
 
+def test_the_recorded_bearing_is_given_on_the_command_line(registered, tmp_path):
+    """A recording of a fan-end (SKF 6203) outer race, in a file that names no bearing: with bearing=cwru_6203
+    the evidence reads that bearing's lines and the model is asked with it (a parameter its signature declares)."""
+    base, uri = registered
+    rate = BearingGeometry.from_config(bearing_config("cwru_6203")).defect_frequencies(RPM)["bpfo"]
+    np.savez(tmp_path / "fan.npz", signal=fault_signal(rate, seconds=3), fs=FS, rpm=RPM)
+    done = run("diagnose", f"path={tmp_path / 'fan.npz'}", "model=models:/diag/1", "bearing=cwru_6203",
+               f"out={tmp_path}/out", "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-2000:]
+    result = json.loads((tmp_path / "out" / "fan" / "diagnosis.json").read_text())
+    assert result["evidence_state"] == "outer" and result["evidence"]["prominence_db"]["outer"] > 10
+    assert any("the record's bearing is cwru_6203, the model was trained on paper" in note
+               and "do not depend on the bearing" in note for note in result["notes"]), result["notes"]
+    assert "Unrecognized params" not in done.stderr + done.stdout
+
+
 def test_bad_models_fail_in_one_line(registered, tmp_path):
     base, uri = registered
     record = tmp_path / "r.npz"
@@ -296,6 +352,9 @@ def test_bad_models_fail_in_one_line(registered, tmp_path):
     assert per_class.returncode == 2 and "vmd_params=per_class" in per_class.stderr and "Traceback" not in per_class.stderr
     missing = run("diagnose", f"path={tmp_path}/absent.mat", "model=models:/diag/1", cwd=tmp_path, uri=uri)
     assert missing.returncode == 2 and "absent.mat" in missing.stderr
+    bearing = run("diagnose", f"path={record}", "model=models:/diag/1", "bearing=skf_0000", cwd=tmp_path, uri=uri)
+    assert bearing.returncode == 2 and "bearing=skf_0000: no such bearing config; choose one of cwru_6203" in bearing.stderr
+    assert len(bearing.stderr.strip().splitlines()) == 1 and not (tmp_path / "diagnosis").exists()
 
 
 @needs_cwru

@@ -3,7 +3,7 @@
 Everything is real: smoke-size models are trained and registered by ``bearingtwin-train``
 into temporary SQLite stores, ``mlflow models serve -m models:/<name>@<alias> --env-manager
 local`` serves them on loopback ports, and windows of a CWRU record are posted to
-``/invocations`` in the documented form ``{"inputs": [[...], ...], "params": {"rpm": ...}}``.
+``/invocations`` in the documented form ``{"inputs": [[...], ...], "params": {"rpm": ...}}`` (``"bearing"`` too).
 The answers must be ``bearingtwin-diagnose``'s ``diagnosis.json`` for the same record, window
 for window. Runs on ../shared/data/cwru (or $BEARINGTWIN_DATA/cwru).
 """
@@ -144,3 +144,17 @@ def test_served_model_refuses_a_wrong_window_length(served):
     status, answer = post_json(f"{info['url']}/invocations", {"inputs": short, "params": {"rpm": 1797.0}})
     assert 400 <= status < 600, answer
     assert str(pipeline.window_length) in json.dumps(answer)  # the answer says which shape was expected
+
+
+@needs_record
+def test_served_model_takes_the_recorded_bearing_and_refuses_an_unknown_one(served):
+    """``bearing`` is a parameter of the served signature; the paper's time-domain features do not depend on it,
+    so another bearing's answer is the same, and a name with no conf/bearing file is refused, named."""
+    info = next(iter(served.values()))
+    windows = info["windows"][:3].tolist()
+    rpm = info["prepared"].recording.rpm
+    _, plain = post_json(f"{info['url']}/invocations", {"inputs": windows, "params": {"rpm": rpm}})
+    status, other = post_json(f"{info['url']}/invocations", {"inputs": windows, "params": {"rpm": rpm, "bearing": "cwru_6203"}})
+    assert status == 200 and other == plain, other
+    status, answer = post_json(f"{info['url']}/invocations", {"inputs": windows, "params": {"rpm": rpm, "bearing": "skf_0000"}})
+    assert 400 <= status < 600 and "skf_0000" in json.dumps(answer), answer

@@ -27,6 +27,8 @@ COLUMNS = ("time", "speed", "X", "Y", "Z")
 CHANNELS = COLUMNS[2:]
 STATES = {"H": "normal", "I": "inner", "B": "ball", "O": "outer", "C": None}
 """File-name state letter -> bearing state; C (inner + outer combined) has no single FAULTS label."""
+BEARING = "er16k"
+"""The rig's bearing (``conf/bearing/er16k.yaml``), which every HUST file records."""
 
 HEADER_LINE_LIMIT = 200
 """The ``Data`` line must appear within this many lines; the reported header has about 21."""
@@ -81,7 +83,7 @@ def read_hust_raw(path: str | Path) -> RawRecord:
         )
     name = parse_hust_name(path)
     channels = dict(zip(COLUMNS[1:], table[:, 1:].T))
-    meta = {"header": header, "data_line": data_line + 1}
+    meta = {"header": header, "data_line": data_line + 1, "bearing": BEARING}
     if name is not None:
         meta.update(state=name.state, severity=name.severity, condition=name.condition)
     fs, fs_origin = _sampling_rate(path, header, table[:, 0])

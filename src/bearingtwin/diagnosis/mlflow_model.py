@@ -3,9 +3,11 @@
 ``mlflow.pyfunc.load_model("runs:/<run_id>/model").predict(windows, params={"rpm": 1797})``
 takes raw windows (n, window_length) at the model's sampling rate and returns one row per
 window: ``state`` and one probability column per class. ``rpm`` (rev/min; 0 = not given) is
-needed by models whose features are read on the shaft-order axis. The same model is served by
+needed by models whose features are read on the shaft-order axis; ``bearing`` (a
+``conf/bearing/<name>.yaml``; default the model's own) is the recorded bearing, whose defect
+orders those features are read at. The same model is served by
 ``mlflow models serve -m models:/<name>@<alias> --env-manager local`` and queried with
-``{"inputs": [[...], ...], "params": {"rpm": 1797}}``.
+``{"inputs": [[...], ...], "params": {"rpm": 1797, "bearing": "cwru_6203"}}``.
 """
 
 from __future__ import annotations
@@ -36,7 +38,17 @@ class DiagnosisModel(PythonModel):
 
     def predict(self, context, model_input: np.ndarray, params: dict | None = None) -> pd.DataFrame:
         rpm = float((params or {}).get("rpm") or 0.0)
-        return predictions_frame(self.pipeline, np.asarray(model_input, dtype=np.float64), rpm if rpm > 0 else None)
+        return predictions_frame(self.pipeline, np.asarray(model_input, dtype=np.float64), rpm if rpm > 0 else None,
+                                 recorded_bearing(self.pipeline, (params or {}).get("bearing")))
+
+
+def recorded_bearing(pipeline: DiagnosisPipeline, name: str | None) -> dict | None:
+    """The config of the bearing named ``name`` (None: the model's own, for an empty or absent name)."""
+    if not name or name == (pipeline.bearing or {}).get("name"):
+        return None
+    from bearingtwin.config import bearing_config
+
+    return bearing_config(str(name))
 
 
 def use_one_thread_per_library() -> None:
@@ -53,9 +65,10 @@ def use_one_thread_per_library() -> None:
         sys.modules["torch"].set_num_threads(1)
 
 
-def predictions_frame(pipeline: DiagnosisPipeline, windows: np.ndarray, rpm: float | None) -> pd.DataFrame:
+def predictions_frame(pipeline: DiagnosisPipeline, windows: np.ndarray, rpm: float | None,
+                      bearing: dict | None = None) -> pd.DataFrame:
     """``state`` and one probability column per class, one row per window."""
-    states, probabilities = pipeline.predict(windows, rpm)
+    states, probabilities = pipeline.predict(windows, rpm, bearing)
     frame = pd.DataFrame(probabilities, columns=pipeline.class_names)
     frame.insert(0, STATE_COLUMN, states)
     return frame
@@ -71,7 +84,7 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
     """Log ``pipeline`` as the run's MLflow model ``model``; returns MLflow's ``ModelInfo``.
 
     The signature is a float64 tensor (n, window_length) in, the prediction frame out, and
-    ``rpm`` as a parameter. A model that cannot diagnose (``vmd_params=per_class``) is logged
+    ``rpm`` and ``bearing`` (the model's own by default) as parameters. A model that cannot diagnose (``vmd_params=per_class``) is logged
     all the same, with a signature built without predicting, and refuses at prediction time.
     """
     import mlflow
@@ -86,7 +99,8 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
     except BearingTwinError:
         output = pd.DataFrame({STATE_COLUMN: ["normal"] * len(windows), **{n: np.zeros(len(windows)) for n in pipeline.class_names}})
         can_diagnose = False
-    signature = infer_signature(windows, output, params={"rpm": float(example_rpm or 0.0)})
+    params = {"rpm": float(example_rpm or 0.0), "bearing": str((pipeline.bearing or {}).get("name", ""))}
+    signature = infer_signature(windows, output, params=params)
     with tempfile.TemporaryDirectory() as folder:
         pipeline.save(Path(folder) / "pipeline")
         return Model.log(
@@ -97,7 +111,7 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
             python_model=str(Path(__file__).with_name("pyfunc_model.py")),
             artifacts={"pipeline": str(Path(folder) / "pipeline")},
             signature=signature,
-            input_example=(windows, {"rpm": float(example_rpm or 0.0)}) if can_diagnose else None,
+            input_example=(windows, params) if can_diagnose else None,
             pip_requirements=_requirements(),
             metadata={"window_length": pipeline.window_length, "fs_hz": pipeline.fs_hz,
                       "class_names": pipeline.class_names, "config_hash": pipeline.config_hash,
@@ -116,6 +130,12 @@ def register_model(tracking_uri: str, model_uri: str, name: str, alias: str | No
     if alias:
         MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri).set_registered_model_alias(name, alias, version)
     return str(version)
+
+
+def model_params(model) -> set[str]:
+    """The names of the parameters a loaded pyfunc model's signature declares."""
+    schema = model.metadata.get_params_schema()
+    return set() if schema is None else {spec.name for spec in schema.params}
 
 
 def load_diagnosis_model(model_uri: str, tracking_uri: str):

@@ -18,6 +18,7 @@ It is saved as plain, inspectable files, nothing from the training data or the c
 
 from __future__ import annotations
 
+import copy
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -76,8 +77,13 @@ class DiagnosisPipeline:
                 "label's VMD parameters, so it cannot diagnose an unlabeled window (retrain with features.vmd_params=global)"
             )
 
-    def features(self, windows, rpm=None) -> np.ndarray:
-        """The classifier's input for raw ``windows`` (n, window_length) at ``fs_hz``; ``rpm`` per window or one."""
+    def features(self, windows, rpm=None, bearing: dict | None = None) -> np.ndarray:
+        """The classifier's input for raw ``windows`` (n, window_length) at ``fs_hz``; ``rpm`` per window or one.
+
+        ``bearing`` is the config of the bearing the windows were recorded on (None: the model's own).
+        Features read at defect orders are read at that bearing's: an outer-race line is where the
+        recorded bearing's outer race puts it, whatever bearing the model was trained on.
+        """
         self.check_can_diagnose()
         windows = np.asarray(windows, dtype=np.float64)
         if windows.ndim != 2 or windows.shape[1] != self.window_length:
@@ -86,16 +92,19 @@ class DiagnosisPipeline:
         if self.needs_rpm:
             if rpm is None:
                 raise BearingTwinError("rpm: this model's features are read on the shaft-order axis; give the shaft speed")
-            return self.extractor.transform(windows, fs_hz=self.fs_hz, rpm=rpm)
+            extractor = self.extractor
+            if bearing and bearing != self.bearing:
+                extractor = copy.copy(extractor).set_params(bearing=bearing)
+            return extractor.transform(windows, fs_hz=self.fs_hz, rpm=rpm)
         return self.extractor.transform(windows)
 
-    def predict_proba(self, windows, rpm=None) -> np.ndarray:
+    def predict_proba(self, windows, rpm=None, bearing: dict | None = None) -> np.ndarray:
         """(n, n_classes) probabilities, columns in :attr:`class_names` order."""
-        return self.classifier.predict_proba(self.features(windows, rpm))
+        return self.classifier.predict_proba(self.features(windows, rpm, bearing))
 
-    def predict(self, windows, rpm=None) -> tuple[np.ndarray, np.ndarray]:
+    def predict(self, windows, rpm=None, bearing: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Each window's state name (as the trained classifier predicts it) and the probabilities."""
-        labels, probabilities = self.classifier.predict_with_proba(self.features(windows, rpm))
+        labels, probabilities = self.classifier.predict_with_proba(self.features(windows, rpm, bearing))
         return np.array([FAULTS[int(label)] for label in labels]), probabilities
 
     # ------------------------------------------------------------ files

@@ -28,7 +28,7 @@ from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
-from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN
+from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
@@ -50,19 +50,24 @@ class PreparedRecord:
 
 
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
-                true_state: str | None = None) -> PreparedRecord:
+                true_state: str | None = None, bearing: str | None = None) -> PreparedRecord:
     """Read one file, check it against the model and bring it to the model's sampling rate.
 
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs`` and ``rpm`` fill in what the
-    file does not state. The rate is checked against the shaft line (:func:`_checked_rate`).
+    file does not state; ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
+    own (a CWRU fan-end or HUST file names it) or else the model's when not given. The rate is
+    checked against the shaft line (:func:`_checked_rate`).
     """
     raw = read_raw(path)
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm)
     notes = list(recording.meta["notes"])
-    bearing, bearing_note = _record_bearing(recording.meta.get("bearing"), pipeline.bearing)
+    named = recording.meta.get("bearing")
+    if bearing is not None and named is not None and bearing != named:
+        notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
+    record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
     if recording.rpm is not None:
-        recording, rate_notes = _checked_rate(recording, bearing, declared_only=fs is None and raw.fs_origin == "declared",
+        recording, rate_notes = _checked_rate(recording, record_bearing, declared_only=fs is None and raw.fs_origin == "declared",
                                               channels=raw.channels)
         notes += rate_notes
     if true_state is not None:
@@ -81,26 +86,31 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         )
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; give rpm=<rev/min>")
-    return PreparedRecord(recording, true_state, original_fs, notes, bearing)
+    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing)
 
 
-def _record_bearing(named: str | None, model_bearing: dict) -> tuple[dict, list[str]]:
-    """The bearing whose defect lines the physics reads: the one the file names (a CWRU fan-end record's
-    SKF 6203) if the model was trained on another, else the model's; and a note when they differ.
+def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dict, list[str]]:
+    """The recorded bearing's config (``named``, else the model's) and a note when it is not the model's.
 
-    The model's own features stay those of the bearing it was trained on: its verdict on another
-    bearing's record is read with defect lines where that bearing has none, and the note says so.
+    The physics evidence reads that bearing's defect lines, and so do the model's features where they
+    are read at defect orders (:meth:`DiagnosisPipeline.features`): an outer-race line means the same
+    on any bearing, only its order differs.
     """
-    if named is None or not model_bearing or model_bearing.get("name") == named:
+    model_bearing = pipeline.bearing or {}
+    if named is None or model_bearing.get("name") == named:
         return model_bearing, []
     from bearingtwin.config import bearing_config
 
     bearing = bearing_config(named)
+    if not model_bearing:
+        return bearing, []
     orders = {name: BearingGeometry.from_config(config).defect_frequencies(60.0)
               for name, config in ((named, bearing), (model_bearing.get("name", "the model's"), model_bearing))}
     words = ", ".join(f"{name} BPFO {order['bpfo']:.3f}, BPFI {order['bpfi']:.3f} x shaft" for name, order in orders.items())
+    read = ("the physics evidence and the model's features read its defect lines" if pipeline.needs_rpm
+            else "the physics evidence reads its defect lines (the model's features do not depend on the bearing)")
     return bearing, [f"the record's bearing is {named}, the model was trained on {model_bearing.get('name', 'another')} "
-                     f"({words}): the physics evidence reads {named}'s defect lines, the model reads its own bearing's"]
+                     f"({words}): {read}"]
 
 
 def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
@@ -178,7 +188,15 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     """The ``diagnosis.json`` content of one record, and the physics evidence behind it."""
     recording = prepared.recording
     windows, starts = record_windows(recording.signal, pipeline.window_length)
-    frame = model.predict(windows, params={"rpm": float(recording.rpm or 0.0)})
+    params = {"rpm": float(recording.rpm or 0.0)}
+    notes = list(prepared.notes)
+    if prepared.bearing and prepared.bearing != pipeline.bearing:
+        if "bearing" in model_params(model):
+            params["bearing"] = prepared.bearing.get("name", "")
+        elif pipeline.needs_rpm:
+            notes.append("not so for this model's features: it was logged before models took the recorded bearing, so "
+                         "they read its own bearing's defect lines; train it again to read the record's")
+    frame = model.predict(windows, params=params)
     names = pipeline.class_names
     states = frame[STATE_COLUMN].to_numpy()
     probabilities = frame[names].to_numpy()
@@ -206,7 +224,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "source": str(recording.source),
         "channel": recording.channel,
         "original_fs": prepared.original_fs,
-        "notes": prepared.notes,
+        "notes": notes,
     }
     if recording.meta.get("fault_size_in") is not None:  # a CWRU name's defect size, to score by size
         result["fault_size_in"] = recording.meta["fault_size_in"]

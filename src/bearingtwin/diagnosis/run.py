@@ -69,6 +69,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     labels_path = None if cfg.labels is None else Path(str(cfg.labels)).expanduser()
     labels = read_labels(labels_path)
     records = find_records(str(cfg.path), labels_path)
+    bearing = None if cfg.get("bearing") is None else str(cfg.bearing.name)  # bearing=<name> chose a conf/bearing file
     model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
     pipeline.check_can_diagnose()
     out = Path(str(cfg.out)).expanduser()
@@ -78,7 +79,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     progress = tqdm(records, desc="diagnose", unit="file", disable=len(records) < 2)
     for path in progress:
         try:
-            prepared = read_record(path, pipeline, cfg.channel, cfg.fs, cfg.rpm, labels.get(path.stem))
+            prepared = read_record(path, pipeline, cfg.channel, cfg.fs, cfg.rpm, labels.get(path.stem), bearing)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
         except BearingTwinError as error:
             run.failures[path.name] = str(error)
