@@ -3,9 +3,9 @@ evidence, and ``bearingtwin-diagnose`` end to end on real CWRU records and gener
 
 import csv
 import json
+import os
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,9 +16,9 @@ from processes import run_module
 from bearingtwin.config import REPO_ROOT, bearing_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import physics_evidence
-from bearingtwin.diagnosis.mlflow_model import DiagnosisModel
+from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
-from bearingtwin.diagnosis.record import read_record, record_windows, resample_to
+from bearingtwin.diagnosis.record import diagnose_recording, read_record, record_windows, resample_to
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import SaboVmdFeatures
@@ -127,7 +127,7 @@ def envelope_pipeline() -> DiagnosisPipeline:
                              bearing=BEARING)
 
 
-def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path):
+def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, monkeypatch):
     """A CWRU fan-end fault sits in the SKF 6203 (BPFO 3.053 x shaft), a drive-end model's bearing is the 6205
     (3.585): the evidence and the model's defect-order features read the record's own bearing, which finds
     the fault; read at the model's bearing's orders, neither does."""
@@ -146,8 +146,7 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path):
     prepared = read_record(path, pipeline)
     assert prepared.recording.channel == "FE" and prepared.bearing == fan_end and prepared.true_state == "outer"
     assert any("the record's bearing is cwru_6203, the model was trained on cwru_6205" in note
-               and "BPFO 3.053" in note and "BPFO 3.585" in note and "the model's features read" in note
-               for note in prepared.notes), prepared.notes
+               and "BPFO 3.053" in note and "BPFO 3.585" in note for note in prepared.notes), prepared.notes
     signal = prepared.recording.signal
     assert physics_evidence(signal, FS, rpm, prepared.bearing).evidence_state == "outer"
     assert physics_evidence(signal, FS, rpm, BEARING).evidence_state != "outer"  # the drive end's lines miss it
@@ -159,14 +158,31 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path):
     at_its_own, _ = pipeline.predict(windows, rpm, prepared.bearing)
     at_the_models, _ = pipeline.predict(windows, rpm)
     assert np.mean(at_its_own == "outer") > 0.9
-    # The same through the MLflow model's face, the bearing named as a served model is asked for it.
-    model = DiagnosisModel()
-    model.pipeline = pipeline
-    served = model.predict(None, windows, {"rpm": rpm, "bearing": "cwru_6203"})
+    # The same through the logged MLflow model, whose signature takes the bearing as a parameter (the model's
+    # own by default), as bearingtwin-diagnose and a model server ask it.
+    import mlflow.tracking._model_registry.utils as registry_uri
+    import mlflow.tracking._tracking_service.utils as tracking_uri
+
+    # Logging and loading set MLflow's process-wide store URIs (and their environment variables): restored
+    # after this test, for the others in this process.
+    monkeypatch.setattr(tracking_uri, "_tracking_uri", tracking_uri._tracking_uri)
+    monkeypatch.setattr(registry_uri, "_registry_uri", registry_uri._registry_uri)
+    for variable in ("MLFLOW_TRACKING_URI", "MLFLOW_REGISTRY_URI"):
+        monkeypatch.setitem(os.environ, variable, os.environ.get(variable, ""))
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    client = MlflowClient(uri)
+    run_id = client.create_run(client.create_experiment("fan_end")).info.run_id
+    info = log_diagnosis_model(uri, client.get_run(run_id).info.experiment_id, run_id, pipeline, windows, rpm)
+    model, loaded = load_diagnosis_model(info.model_uri, uri)
+    assert model_params(model) == {"rpm", "bearing"}
+    served = model.predict(windows, params={"rpm": rpm, "bearing": "cwru_6203"})
     np.testing.assert_array_equal(served["state"].to_numpy(), at_its_own)
-    np.testing.assert_array_equal(model.predict(None, windows, {"rpm": rpm, "bearing": "cwru_6205"})["state"], at_the_models)
-    with pytest.raises(BearingTwinError, match="bearing='cwru_9999'"):
-        model.predict(None, windows, {"rpm": rpm, "bearing": "cwru_9999"})
+    np.testing.assert_array_equal(model.predict(windows, params={"rpm": rpm})["state"].to_numpy(), at_the_models)
+    with pytest.raises(BearingTwinError, match="bearing=cwru_9999: no such bearing config"):
+        model.predict(windows, params={"rpm": rpm, "bearing": "cwru_9999"})
+    result, _ = diagnose_recording(prepared, model, loaded, info.model_uri, {})
+    assert result["verdict"] == "outer" and result["evidence_state"] == "outer"
+    assert "the model's features read cwru_6203's defect lines too" in result["notes"], result["notes"]
     # A bearing given wins over the file's name, and says so.
     given = read_record(path, pipeline, bearing="cwru_6205")
     assert given.bearing == BEARING and any("bearing=cwru_6205 given, where the file names cwru_6203" in n for n in given.notes)
@@ -178,7 +194,7 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path):
 def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
     """A HUST file records the rig's ER-16K bearing, whatever bearing the model was trained on: the evidence
     on an inner-race export (2 s in the fixtures' format) reads the ER-16K's lines and finds the fault there."""
-    sys.path.insert(0, str(Path(__file__).parent / "fixtures"))
+    monkeypatch.syspath_prepend(str(Path(__file__).parent / "fixtures"))
     import make_hust_fixtures as hust
 
     monkeypatch.setattr(hust, "N_ROWS", int(2 * hust.FS_HZ))
@@ -336,8 +352,8 @@ def test_the_recorded_bearing_is_given_on_the_command_line(registered, tmp_path)
     assert done.returncode == 0, done.stderr[-2000:]
     result = json.loads((tmp_path / "out" / "fan" / "diagnosis.json").read_text())
     assert result["evidence_state"] == "outer" and result["evidence"]["prominence_db"]["outer"] > 10
-    assert any("the record's bearing is cwru_6203, the model was trained on paper" in note
-               and "do not depend on the bearing" in note for note in result["notes"]), result["notes"]
+    assert any("the record's bearing is cwru_6203, the model was trained on paper" in note for note in result["notes"])
+    assert "the model's features do not depend on the bearing" in result["notes"], result["notes"]
     assert "Unrecognized params" not in done.stderr + done.stdout
 
 
@@ -403,3 +419,9 @@ def test_unknown_keys_are_refused(tmp_path):
     done = run("diagnose", "path=x.npz", "model=runs:/x/model", "+evidence.threshold=3", cwd=tmp_path,
                uri=f"sqlite:///{tmp_path}/mlflow.db")
     assert done.returncode == 2 and "evidence.threshold" in done.stderr and "Traceback" not in done.stderr
+    # A bearing is asked for by its conf/bearing name, so a value changed on top of the file is refused, not dropped.
+    changed = run("diagnose", "path=x.npz", "model=runs:/x/model", "bearing=cwru_6203", "bearing.n_balls=7", cwd=tmp_path,
+                  uri=f"sqlite:///{tmp_path}/mlflow.db")
+    assert changed.returncode == 2 and changed.stderr.startswith("error: bearing.*: bearingtwin-diagnose reads "
+                                                                 "conf/bearing/cwru_6203.yaml as written"), changed.stderr
+    assert len(changed.stderr.strip().splitlines()) == 1

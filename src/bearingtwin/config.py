@@ -147,15 +147,14 @@ def compose_config(config_name: str | None = None, overrides=()) -> DictConfig:
 
 
 def bearing_config(name: str, key: str = "bearing") -> dict:
-    """``conf/bearing/<name>.yaml`` composed as Hydra would (its defaults chain applied), as a dict;
-    an unknown name raises naming ``key``, the setting it came from."""
-    from hydra.errors import MissingConfigException
-
-    try:
-        cfg = compose_config(overrides=[f"+bearing={name}"])
-    except MissingConfigException:
-        raise BearingTwinError(f"{key}={name!r}: no such bearing config in {CONF_DIR}/bearing") from None
-    return OmegaConf.to_container(cfg.bearing, resolve=True)
+    """``conf/bearing/<name>.yaml`` composed as Hydra would (its defaults chain applied), as a dict named ``name``;
+    a name that is not one of those files raises naming ``key``, the setting it came from, before
+    Hydra parses it (a name may come from a served model's request)."""
+    choices = sorted(path.stem for path in Path(CONF_DIR, "bearing").glob("*.yaml"))
+    if name not in choices:
+        raise BearingTwinError(f"{key}={name}: no such bearing config; choose one of {', '.join(choices)}")
+    config = OmegaConf.to_container(compose_config(overrides=[f"+bearing={name}"]).bearing, resolve=True)
+    return {**config, "name": name}  # a file that names none inherits its defaults' name; a bearing is its file
 
 
 def load_bearing(name: str, key: str = "bearing"):

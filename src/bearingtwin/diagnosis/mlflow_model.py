@@ -12,8 +12,10 @@ orders those features are read at. The same model is served by
 
 from __future__ import annotations
 
+import functools
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -46,9 +48,18 @@ def recorded_bearing(pipeline: DiagnosisPipeline, name: str | None) -> dict | No
     """The config of the bearing named ``name`` (None: the model's own, for an empty or absent name)."""
     if not name or name == (pipeline.bearing or {}).get("name"):
         return None
+    with _BEARINGS_LOCK:  # a model server answers requests in threads; Hydra's composition is process-wide
+        return _bearing_config(str(name))
+
+
+_BEARINGS_LOCK = threading.Lock()
+
+
+@functools.lru_cache(maxsize=None)
+def _bearing_config(name: str) -> dict:
     from bearingtwin.config import bearing_config
 
-    return bearing_config(str(name))
+    return bearing_config(name)
 
 
 def use_one_thread_per_library() -> None:

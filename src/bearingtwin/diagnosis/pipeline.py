@@ -93,7 +93,7 @@ class DiagnosisPipeline:
             if rpm is None:
                 raise BearingTwinError("rpm: this model's features are read on the shaft-order axis; give the shaft speed")
             extractor = self.extractor
-            if bearing and bearing != self.bearing:
+            if bearing and bearing != extractor.bearing:
                 extractor = copy.copy(extractor).set_params(bearing=bearing)
             return extractor.transform(windows, fs_hz=self.fs_hz, rpm=rpm)
         return self.extractor.transform(windows)

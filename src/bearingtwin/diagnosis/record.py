@@ -93,8 +93,8 @@ def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dic
     """The recorded bearing's config (``named``, else the model's) and a note when it is not the model's.
 
     The physics evidence reads that bearing's defect lines, and so do the model's features where they
-    are read at defect orders (:meth:`DiagnosisPipeline.features`): an outer-race line means the same
-    on any bearing, only its order differs.
+    are read at defect orders (:meth:`DiagnosisPipeline.features`, :func:`diagnose_recording`): an
+    outer-race line means the same on any bearing, only its order differs.
     """
     model_bearing = pipeline.bearing or {}
     if named is None or model_bearing.get("name") == named:
@@ -107,10 +107,8 @@ def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dic
     orders = {name: BearingGeometry.from_config(config).defect_frequencies(60.0)
               for name, config in ((named, bearing), (model_bearing.get("name", "the model's"), model_bearing))}
     words = ", ".join(f"{name} BPFO {order['bpfo']:.3f}, BPFI {order['bpfi']:.3f} x shaft" for name, order in orders.items())
-    read = ("the physics evidence and the model's features read its defect lines" if pipeline.needs_rpm
-            else "the physics evidence reads its defect lines (the model's features do not depend on the bearing)")
     return bearing, [f"the record's bearing is {named}, the model was trained on {model_bearing.get('name', 'another')} "
-                     f"({words}): {read}"]
+                     f"({words}): the physics evidence reads {named}'s defect lines"]
 
 
 def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
@@ -191,11 +189,14 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     params = {"rpm": float(recording.rpm or 0.0)}
     notes = list(prepared.notes)
     if prepared.bearing and prepared.bearing != pipeline.bearing:
-        if "bearing" in model_params(model):
-            params["bearing"] = prepared.bearing.get("name", "")
-        elif pipeline.needs_rpm:
-            notes.append("not so for this model's features: it was logged before models took the recorded bearing, so "
-                         "they read its own bearing's defect lines; train it again to read the record's")
+        if not pipeline.needs_rpm:
+            notes.append("the model's features do not depend on the bearing")
+        elif "bearing" in model_params(model):
+            params["bearing"] = prepared.bearing["name"]
+            notes.append(f"the model's features read {prepared.bearing['name']}'s defect lines too")
+        else:
+            notes.append("the model's features read its own bearing's defect lines: it was logged before models took "
+                         "the recorded bearing; train it again to read the record's")
     frame = model.predict(windows, params=params)
     names = pipeline.class_names
     states = frame[STATE_COLUMN].to_numpy()

@@ -18,6 +18,7 @@ from pathlib import Path
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
+from bearingtwin.config import bearing_config
 from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
@@ -63,13 +64,27 @@ def read_labels(path: Path | None) -> dict[str, str]:
     return {} if path is None else {Path(record).stem: state for _, record, state, _, _ in labels_table(path)}
 
 
+def chosen_bearing(cfg: DictConfig) -> str | None:
+    """The ``conf/bearing`` file ``bearing=<name>`` chose (None when none was), read as it is written: a
+    model is asked for a bearing by name, so ``bearing.*`` overrides on top of it are refused."""
+    if cfg.get("bearing") is None:
+        return None
+    from hydra.core.hydra_config import HydraConfig
+
+    name = HydraConfig.get().runtime.choices["bearing"]
+    if {**OmegaConf.to_container(cfg.bearing, resolve=True), "name": name} != bearing_config(name):
+        raise BearingTwinError(f"bearing.*: bearingtwin-diagnose reads conf/bearing/{name}.yaml as written (a model is "
+                               "asked for a bearing by its name); describe another bearing in a conf/bearing file of its own")
+    return name
+
+
 def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     """Diagnose every record ``cfg.path`` names with ``cfg.model``; write and log the results."""
     tracking_uri = str(cfg.tracking.uri)
     labels_path = None if cfg.labels is None else Path(str(cfg.labels)).expanduser()
     labels = read_labels(labels_path)
+    bearing = chosen_bearing(cfg)
     records = find_records(str(cfg.path), labels_path)
-    bearing = None if cfg.get("bearing") is None else str(cfg.bearing.name)  # bearing=<name> chose a conf/bearing file
     model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
     pipeline.check_can_diagnose()
     out = Path(str(cfg.out)).expanduser()
@@ -146,7 +161,8 @@ def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int) -> str:
                                    tags={"bt.kind": "diagnose", "model_uri": str(cfg.model), **owner_tags()})
     run_id = mlflow_run.info.run_id
     register_open_run(client, run_id)
-    params = {"model": cfg.model, "path": cfg.path, "labels": cfg.labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm}
+    params = {"model": cfg.model, "path": cfg.path, "labels": cfg.labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
+              "bearing": chosen_bearing(cfg)}
     client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])
     now = int(time.time() * 1000)
     metrics = {"n_records": n_records, "n_failed": len(run.failures), **run.scores}
