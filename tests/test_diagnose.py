@@ -357,6 +357,28 @@ def test_the_recorded_bearing_is_given_on_the_command_line(registered, tmp_path)
     assert "Unrecognized params" not in done.stderr + done.stdout
 
 
+def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered, tmp_path):
+    """Recordings that state neither speed nor rate (.npy), at two speeds, and the folder's labels.csv giving them,
+    as training reads such a folder: each file is read at its row's rate and speed (the physics evidence finds its
+    outer-race lines there) and scored against its row's state, with no labels= or rpm= on the command line."""
+    base, uri = registered
+    folder = tmp_path / "pumps"
+    folder.mkdir()
+    rows = {"slow": (1500.0, 12000.0), "fast": (1797.0, 24000.0)}
+    for name, (rpm, fs) in rows.items():
+        bpfo = BearingGeometry.from_config(bearing_config("paper")).defect_frequencies(rpm)["bpfo"]
+        np.save(folder / f"{name}.npy", fault_signal(bpfo, seconds=3, fs=fs))
+    (folder / "labels.csv").write_text("record,state,rpm,fs\n" + "".join(f"{n}.npy,outer,{r},{f}\n" for n, (r, f) in rows.items()))
+    done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/out", "figures=false",
+               "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-2000:]
+    for name, (rpm, fs) in rows.items():
+        result = json.loads((tmp_path / "out" / name / "diagnosis.json").read_text())
+        assert (result["rpm"], result["original_fs"], result["true_state"]) == (rpm, fs, "outer")
+        assert result["evidence_state"] == "outer", result["evidence"]
+    assert "of 2 with a known state" in done.stdout
+
+
 def test_bad_models_fail_in_one_line(registered, tmp_path):
     base, uri = registered
     record = tmp_path / "r.npz"

@@ -2,8 +2,10 @@
 
 Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; for several records
 ``<out>/summary.csv`` (one row per record; ``true_state, correct`` when the truth is known from
-CWRU file names, the files themselves or ``labels=<csv with record,state>``). A record that
-cannot be diagnosed is reported in ``summary.csv`` with its error and the others go on.
+CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or a folder's own
+``labels.csv``, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
+not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed is reported
+in ``summary.csv`` with its error and the others go on.
 """
 
 from __future__ import annotations
@@ -59,9 +61,17 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     return found
 
 
-def read_labels(path: Path | None) -> dict[str, str]:
-    """``record -> state`` from a labels table (``record,state[,rpm,fs]``; record: file name or stem)."""
-    return {} if path is None else {Path(record).stem: state for _, record, state, _, _ in labels_table(path)}
+def read_labels(path: Path | None) -> dict[str, tuple[str, float | None, float | None]]:
+    """``record -> (state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or stem)."""
+    return {} if path is None else {Path(record).stem: (state, rpm, fs) for _, record, state, rpm, fs in labels_table(path)}
+
+
+def labels_path(cfg: DictConfig) -> Path | None:
+    """The labels table: ``labels=<csv>``, else a folder's own ``labels.csv`` (as training reads one), else none."""
+    if cfg.labels is not None:
+        return Path(str(cfg.labels)).expanduser()
+    own = Path(str(cfg.path)).expanduser() / DEFAULT_LABELS
+    return own if own.is_file() else None
 
 
 def chosen_bearing(cfg: DictConfig) -> str | None:
@@ -81,10 +91,10 @@ def chosen_bearing(cfg: DictConfig) -> str | None:
 def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     """Diagnose every record ``cfg.path`` names with ``cfg.model``; write and log the results."""
     tracking_uri = str(cfg.tracking.uri)
-    labels_path = None if cfg.labels is None else Path(str(cfg.labels)).expanduser()
-    labels = read_labels(labels_path)
+    table = labels_path(cfg)
+    labels = read_labels(table)
     bearing = chosen_bearing(cfg)
-    records = find_records(str(cfg.path), labels_path)
+    records = find_records(str(cfg.path), table)
     model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
     pipeline.check_can_diagnose()
     out = Path(str(cfg.out)).expanduser()
@@ -94,7 +104,9 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     progress = tqdm(records, desc="diagnose", unit="file", disable=len(records) < 2)
     for path in progress:
         try:
-            prepared = read_record(path, pipeline, cfg.channel, cfg.fs, cfg.rpm, labels.get(path.stem), bearing)
+            state, rpm, fs = labels.get(path.stem, (None, None, None))  # a row's values before the command's
+            prepared = read_record(path, pipeline, cfg.channel, cfg.fs if fs is None else fs, cfg.rpm if rpm is None else rpm,
+                                   state, bearing)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
         except BearingTwinError as error:
             run.failures[path.name] = str(error)
@@ -161,7 +173,7 @@ def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int) -> str:
                                    tags={"bt.kind": "diagnose", "model_uri": str(cfg.model), **owner_tags()})
     run_id = mlflow_run.info.run_id
     register_open_run(client, run_id)
-    params = {"model": cfg.model, "path": cfg.path, "labels": cfg.labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
+    params = {"model": cfg.model, "path": cfg.path, "labels": labels_path(cfg), "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
               "bearing": chosen_bearing(cfg)}
     client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])
     now = int(time.time() * 1000)
