@@ -245,3 +245,26 @@ def test_a_band_power_choice_with_nothing_to_choose_is_refused_before_any_data_i
         cfg = compose_config("train", [*overrides, "band_power_by_calibration=true"])
         with pytest.raises(BearingTwinError, match=f"band_power_by_calibration: .*{message}"):
             experiment.run_experiment(cfg)
+
+
+@pytest.mark.parametrize("data, bearing", [("cwru", "cwru_6205"), ("hust", "er16k")])
+def test_defect_order_features_of_another_bearing_than_the_datas_are_refused_before_any_data_is_built(monkeypatch, data,
+                                                                                                      bearing):
+    """Features read at the twin's default bearing's orders on records of another bearing would read lines where
+    the recorded bearing has none; given the data's bearing, the same run goes on to build its data."""
+    from bearingtwin.config import compose_config
+    from bearingtwin.models import experiment
+
+    class Built(Exception):
+        pass
+
+    def built(cfg):
+        raise Built
+
+    monkeypatch.setattr(experiment, "build_dataset", built)
+    cfg = compose_config("train", [f"data={data}", "features=envelope_orders", "classifier=svm"])
+    with pytest.raises(BearingTwinError, match=f"features.bearing is paper, .* is {bearing}: add bearing={bearing}"):
+        experiment.run_experiment(cfg)
+    with pytest.raises(Built):
+        experiment.run_experiment(compose_config("train", [f"data={data}", "features=envelope_orders", "classifier=svm",
+                                                           f"bearing={bearing}"]))

@@ -144,6 +144,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)  # bad settings fail first
     if cfg.get("band_power_by_calibration"):
         check_band_power_choice(cfg)
+    check_feature_bearing(cfg)
     dataset = build_dataset(cfg)
     if dataset.fixed_split is not None:
         train, test = dataset.fixed_split
@@ -248,6 +249,17 @@ def choose_band_power(classifier, features: np.ndarray, extractor, dataset, trai
     lines_only = clone(extractor).set_params(band_power=False).fit(
         dataset.windows[first], fs_hz=dataset.fs, rpm=dataset.window_rpms[first])
     return without, lines, lines_only, scores
+
+
+def check_feature_bearing(cfg: DictConfig) -> None:
+    """Refuse features read at one bearing's defect orders on data of another (``data=cwru
+    features=envelope_orders`` with the twin's default ``bearing=paper``), before any work."""
+    features = cfg.features.get("bearing")
+    data = cfg.data.get("bearing")
+    if features is None or data is None or features.get("name") == data:
+        return
+    raise BearingTwinError(f"features.bearing is {features.get('name')}, the data's bearing (data.bearing) is {data}: "
+                           f"add bearing={data}, so the features read the defect orders of the bearing recorded")
 
 
 def data_bearing(cfg: DictConfig) -> dict:
