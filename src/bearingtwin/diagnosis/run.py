@@ -141,7 +141,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     if len(records) > 1 or run.failures:
         run.files.append(write_summary(run.rows, out / "summary.csv"))
     if cfg.tracking.enabled:
-        run.run_id = log_diagnosis(cfg, run, len(records))
+        run.run_id = log_diagnosis(cfg, run, len(records), table, bearing)
     return run
 
 
@@ -161,8 +161,9 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     return path
 
 
-def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int) -> str:
-    """One MLflow run in ``tracking.experiment``: the model and path as params, scores, the JSONs and figures."""
+def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int, labels: Path | None, bearing: str | None) -> str:
+    """One MLflow run in ``tracking.experiment``: the model and path as params (with the labels table and the
+    bearing the run read), scores, the JSONs and figures."""
     from mlflow.entities import Metric, Param, RunStatus
 
     from bearingtwin.tracking.lifecycle import owner_tags, register_open_run
@@ -173,8 +174,8 @@ def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int) -> str:
                                    tags={"bt.kind": "diagnose", "model_uri": str(cfg.model), **owner_tags()})
     run_id = mlflow_run.info.run_id
     register_open_run(client, run_id)
-    params = {"model": cfg.model, "path": cfg.path, "labels": labels_path(cfg), "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
-              "bearing": chosen_bearing(cfg)}
+    params = {"model": cfg.model, "path": cfg.path, "labels": labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
+              "bearing": bearing}
     client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])
     now = int(time.time() * 1000)
     metrics = {"n_records": n_records, "n_failed": len(run.failures), **run.scores}
