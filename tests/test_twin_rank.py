@@ -108,6 +108,28 @@ def test_calibration_recovers_a_known_sensor_direction_and_load(cfg):
     assert fit.added == []
 
 
+def test_a_further_key_held_reaches_the_twin_and_the_report_as_held(cfg):
+    """A key a reference fitted through ``calibration.base`` is held in ``calibration.base_held``: the twin
+    is simulated with it, the report lists it as held (a later run holding this report reads it there),
+    and a key both held and fitted is refused."""
+    measured = twin_measurement(cfg, "outer")
+    key = "bearing.outer_damping_ns_per_m"
+    errors = {}
+    for damping in (300.0, 30000.0):
+        op = OperatingPoint.from_config({"sensor": "outer_y", "radial_load_n": 1500.0, "clearance_um": 5.0,
+                                         "defect_depth_mm": 0.004, "defect_width_mm": 0.533}, RANGES, {}, "outer",
+                                        extra_held={key: damping})
+        fit = rank(cfg, measured, [], op=op, fixed=FLOOR, n_trials_base=1, n_polish=0)
+        assert fit.operating_point[key] == {"value": damping, "unit": "", "held": True}
+        assert fit.base_params[key] == damping
+        errors[damping] = fit.baseline_error
+    assert errors[300.0] != pytest.approx(errors[30000.0], abs=0.05)  # the twin was simulated with it
+    with pytest.raises(BearingTwinError, match=rf"^calibration.base.{key}: also held in calibration.base_held"):
+        OperatingPoint.from_config({}, RANGES, {key: [100.0, 5000.0]}, "outer", extra_held={key: 1234.0})
+    with pytest.raises(BearingTwinError, match=rf"^calibration.base_held.{key} must be a finite number"):
+        OperatingPoint.from_config({}, RANGES, {}, "outer", extra_held={key: "stiff"})
+
+
 def test_the_independent_rigs_sensor_direction_is_reported_as_uncertain():
     """On the rig a vertical sensor reads the outer-race strikes through a housing mode at 1.7 kHz,
     a horizontal one their cross-coupled remainder through one at 1.1 kHz; the twin's x and y

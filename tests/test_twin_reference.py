@@ -33,7 +33,8 @@ def test_what_the_config_leaves_to_fit_takes_the_references_value_and_what_it_gi
     assert held.operating_point.radial_load_n == 650.0 and held.operating_point.clearance_um == 4.0
     assert (held.operating_point.defect_depth_mm, held.operating_point.defect_width_mm) == (0.05, 0.4)
     assert (held.operating_point.sensor, held.operating_point.sensor_angle_deg) == ("outer", 60.0)
-    assert held.bearing.outer_damping_ns_per_m == 1234.0 and "bearing.outer_damping_ns_per_m" not in held.calibration.base
+    assert held.calibration.base_held["bearing.outer_damping_ns_per_m"] == 1234.0
+    assert "bearing.outer_damping_ns_per_m" not in held.calibration.base
     assert list(held.effects) == ["resonance", "noise"]  # the reference's first, the config's own after
     assert held.effects.resonance.natural_frequency_hz == 2500.0
     assert "resonance" not in held.candidates and "slip" in held.candidates

@@ -61,6 +61,7 @@ class OperatingPoint:
         sensor_angle_deg: the sensor's direction when known (0 = x, 90 = y, vertical), else None.
         angle_step_deg: grid step of the direction search when the direction is fitted.
         extra: further dotted ``bearing.*`` / ``simulator.*`` keys fitted as they are (advanced).
+        extra_known: further dotted keys held at a value (those a reference fitted: ``calibration.base_held``).
     """
 
     known: dict = field(default_factory=dict)
@@ -69,11 +70,13 @@ class OperatingPoint:
     sensor_angle_deg: float | None = None
     angle_step_deg: float = 15.0
     extra: dict = field(default_factory=dict)
+    extra_known: dict = field(default_factory=dict)
 
     @classmethod
     def from_config(cls, operating_cfg: Mapping, ranges: Mapping, extra_base: Mapping | None,
-                    fault: str, angle_step_deg: float = 15.0) -> "OperatingPoint":
-        """From ``operating_point`` (null = fit) and ``calibration.ranges``; a healthy bearing has no defect to size."""
+                    fault: str, angle_step_deg: float = 15.0, extra_held: Mapping | None = None) -> "OperatingPoint":
+        """From ``operating_point`` (null = fit), ``calibration.ranges``, ``calibration.base`` (further keys to fit)
+        and ``calibration.base_held`` (further keys held); a healthy bearing has no defect to size."""
         operating = dict(operating_cfg or {})
         unknown = set(operating) - set(BASE_PARAMETERS) - {"sensor", "sensor_angle_deg"}
         if unknown:
@@ -106,7 +109,12 @@ class OperatingPoint:
             races = (sensor,) if sensor else RACES
         if not 0 < angle_step_deg <= 90:
             raise BearingTwinError(f"calibration.sensor_angle_step_deg must lie in (0, 90], got {angle_step_deg}")
-        return cls(known, free, races, angle, float(angle_step_deg), parse_space(extra_base, "calibration.base"))
+        extra = parse_space(extra_base, "calibration.base")
+        extra_known = {key: _finite(value, f"calibration.base_held.{key}") for key, value in dict(extra_held or {}).items()}
+        both = sorted(set(extra) & set(extra_known))
+        if both:
+            raise BearingTwinError(f"calibration.base.{both[0]}: also held in calibration.base_held; fit it or hold it")
+        return cls(known, free, races, angle, float(angle_step_deg), extra, extra_known)
 
     @property
     def space(self) -> dict[str, Bounds]:
@@ -130,7 +138,7 @@ class OperatingPoint:
 
     def to_base(self, values: Mapping[str, float], sensor: Mapping | None = None) -> dict:
         """The dotted config keys the twin takes: held values, ``values`` of the fitted ones, the sensor."""
-        base = {}
+        base = dict(self.extra_known)
         for name, value in {**self.known, **values}.items():
             parameter = BASE_PARAMETERS.get(name)
             base[parameter.key if parameter else name] = parameter.scale * value if parameter else value

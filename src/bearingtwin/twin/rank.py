@@ -416,7 +416,7 @@ class EffectRanker:
         # Later rounds may weigh the views otherwise: they judge what is left once an effect is in.
         later = judge if self.later_points_per_view is None else replace(judge, points_per_view=self.later_points_per_view)
         op = self.operating_point
-        for key in op.extra:
+        for key in (*op.extra, *op.extra_known):
             twin.value(key)  # an unknown extra key is named before any simulation
 
         # 1. The operating point: the sensor on its grid inside every trial (no simulation), the rest by TPE.
@@ -587,6 +587,8 @@ class EffectRanker:
         for name in op.free:
             report[name] = {"value": base_values[name], "unit": BASE_PARAMETERS[name].unit, "held": False,
                             "interval": list(intervals[name])}
+        for name, value in op.extra_known.items():
+            report[name] = {"value": value, "unit": "", "held": True}
         for name in op.extra:
             report[name] = {"value": base_values[name], "unit": "", "held": False, "interval": list(intervals[name])}
         best = min(score for score, _ in scored)

@@ -56,8 +56,8 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
 
     Every operating-point value the config leaves to be fitted (null) takes the reference's; the
     sensor takes the reference's race and direction unless the config names a direction itself;
-    further fitted keys (``calibration.base``) are set to the reference's values and no longer
-    fitted. The reference's effects (its final twin's, with their fitted parameters) come first
+    further keys the config would fit (``calibration.base``) are held at the reference's values
+    (``calibration.base_held``), so this run's report lists them as held, as a later run reads them. The reference's effects (its final twin's, with their fitted parameters) come first
     in ``effects``, the config's own after them, and leave ``candidates``.
     """
     held = copy.deepcopy(cfg)
@@ -82,7 +82,7 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
                 if held.operating_point.get(name) is None:
                     held.operating_point[name] = float(entry["value"])
             elif name in held.calibration.base:  # a further key the reference fitted: held at its value
-                OmegaConf.update(held, name, float(entry["value"]), force_add=False)
+                held.calibration.base_held[name] = float(entry["value"])
                 del held.calibration.base[name]
         sensor, race = held.operating_point.get("sensor"), operating["sensor"]["race"]
         given_race = sensor.split("_")[0] if sensor in CHANNELS else sensor

@@ -66,7 +66,8 @@ def build_ranker(cfg: DictConfig, fault: str) -> EffectRanker:
     ``effects`` config describes, for a measurement of bearing state ``fault``."""
     operating = OperatingPoint.from_config(
         OmegaConf.to_container(cfg.operating_point, resolve=True), OmegaConf.to_container(cfg.calibration.ranges),
-        OmegaConf.to_container(cfg.calibration.base), fault, float(cfg.calibration.sensor_angle_step_deg))
+        OmegaConf.to_container(cfg.calibration.base), fault, float(cfg.calibration.sensor_angle_step_deg),
+        OmegaConf.to_container(cfg.calibration.base_held))
     return EffectRanker(
         candidates=list(cfg.candidates),
         fixed_effects=OmegaConf.to_container(cfg.effects, resolve=True),
