@@ -17,9 +17,12 @@ from processes import run_module
 from bearingtwin.cli.report import main as report_main
 from bearingtwin.config import CONF_DIR, REPO_ROOT, compose_config, load_bearing, refuse_unknown_keys
 from bearingtwin.data.files import read_raw
+from bearingtwin.data.recording import Recording
 from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.experiment import run_experiment
+from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.twin.compare import Comparator
 from bearingtwin.twin.report import load_measurement, twin_for
 
 CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
@@ -144,6 +147,16 @@ def test_measurement_files_that_are_not_measurements(tmp_path):
     cfg = twin_config(f"measured.path={channels}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer")
     with pytest.raises(BearingTwinError, match=r"two.npy: holds channels 0, 1; choose one with measured.channel=<name>"):
         load_measurement(cfg.measured)
+    flat = tmp_path / "flat.npy"
+    np.save(flat, np.zeros(24000))
+    cfg = twin_config(f"measured.path={flat}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer")
+    with pytest.raises(BearingTwinError, match=r"flat.npy: every sample is 0: no vibration to compare"):
+        load_measurement(cfg.measured)
+    short = tmp_path / "short.npy"
+    np.save(short, np.sin(np.arange(1000)))
+    recording = Recording(np.load(short), 12000.0, 1797.0, "outer", source=str(short))
+    with pytest.raises(BearingTwinError, match=rf"^{short}: a signal of 0.083 s is shorter than one comparison segment"):
+        Comparator(recording, BearingGeometry.from_config(twin_config().bearing))
 
 
 def test_a_twin_of_no_duration(tmp_path):

@@ -328,17 +328,48 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     np.savez(folder / "pump_b.npz", signal=fault_signal(None, seconds=3, seed=5), fs=48000.0, rpm=RPM)  # resampled
     np.savez(folder / "short.npz", signal=np.ones(100), fs=FS)
     np.savez(folder / "nan.npz", signal=np.full(30000, np.nan), fs=FS)
-    (folder / "labels.csv").write_text("record,state\npump_a,outer\npump_b.npz,normal\n")
+    (folder / "cut.wav").write_bytes(b"RIFF\x24\x00\x00\x00WAVEjunk" * 3)  # a reader's own exception, not ours
+    np.savez(folder / "told.npz", signal=fault_signal(None, seconds=3), fs=FS, fault="inner")
+    # Excel's byte-order mark; a row for a file the folder does not hold
+    (folder / "labels.csv").write_text("record,state\npump_a,outer\npump_b.npz,normal\ntold,outer\ngone.npz,ball\n",
+                                       encoding="utf-8-sig")
     done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"labels={folder}/labels.csv",
                f"out={tmp_path}/out", "rpm=1797", cwd=tmp_path, uri=uri)
     assert done.returncode == 2  # some records failed, the others were diagnosed
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
-    assert set(rows) == {"pump_a", "pump_b", "short", "nan"}
+    assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told"}
     assert "shorter than one window" in rows["short"]["error"] and "NaN" in rows["nan"]["error"]
+    assert "cut.wav: not a readable .wav file" in rows["cut"]["error"] and "Traceback" not in done.stderr
+    assert "told.npz: labelled outer, but the file states fault=inner" in rows["told"]["error"]
+    assert "rows for gone, which" in done.stdout
     assert rows["pump_a"]["true_state"] == "outer" and rows["pump_a"]["evidence_state"] == "outer"
     assert rows["pump_b"]["true_state"] == "normal" and rows["pump_b"]["correct"] in ("True", "False")
     assert "resampled 48000 Hz -> 12000 Hz" in done.stdout
     assert "records right: " in done.stdout and "of 2 with a known state" in done.stdout and "error: short.npz" in done.stderr
+
+
+def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_before_any_work(registered, tmp_path):
+    """A record is named by its stem (its output folder, its summary row, its labels row): two files of one
+    stem would overwrite each other. A labels table naming a record twice, and ``out=`` naming a file, are
+    refused too, each in one line, with nothing written."""
+    base, uri = registered
+    folder = tmp_path / "twice"
+    folder.mkdir()
+    np.savez(folder / "rec.npz", signal=fault_signal(None, seconds=1), fs=FS, rpm=RPM)
+    np.save(folder / "rec.npy", fault_signal(None, seconds=1))
+    clash = run("diagnose", f"path={folder}", "model=models:/diag/1", cwd=tmp_path, uri=uri)
+    assert clash.returncode == 2 and "rec.npy, rec.npz share the record name rec" in clash.stderr
+    (folder / "rec.npy").unlink()
+    (folder / "labels.csv").write_text("record,state\nrec.npz,outer\nrec,inner\n")
+    twice = run("diagnose", f"path={folder}", "model=models:/diag/1", cwd=tmp_path, uri=uri)
+    assert twice.returncode == 2 and "labels.csv line 3: record 'rec' is labelled again (line 2)" in twice.stderr
+    (folder / "labels.csv").unlink()
+    into_file = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={folder / 'rec.npz'}", cwd=tmp_path,
+                    uri=uri)
+    assert into_file.returncode == 2 and "rec.npz is a file, not a folder" in into_file.stderr
+    for done in (clash, twice, into_file):
+        assert len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert not (tmp_path / "diagnosis").exists()
 
 
 def test_the_recorded_bearing_is_given_on_the_command_line(registered, tmp_path):
@@ -369,6 +400,12 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
         bpfo = BearingGeometry.from_config(bearing_config("paper")).defect_frequencies(rpm)["bpfo"]
         np.save(folder / f"{name}.npy", fault_signal(bpfo, seconds=3, fs=fs))
     (folder / "labels.csv").write_text("record,state,rpm,fs\n" + "".join(f"{n}.npy,outer,{r},{f}\n" for n, (r, f) in rows.items()))
+    np.save(folder / "unlabelled.npy", fault_signal(None, seconds=3))
+    unlabelled = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/first", "figures=false",
+                     "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert unlabelled.returncode == 2 and (f"unlabelled.npy: the file does not state its sampling rate; give fs=<Hz> "
+                                           f"(or a row in {folder / 'labels.csv'}, which has none for it)") in unlabelled.stderr
+    (folder / "unlabelled.npy").unlink()
     done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/out", "figures=false",
                "tracking.enabled=false", cwd=tmp_path, uri=uri)
     assert done.returncode == 0, done.stderr[-2000:]

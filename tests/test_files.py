@@ -77,7 +77,12 @@ def test_generic_mat_and_wav(tmp_path, signal):
     scipy.io.wavfile.write(wav, int(FS), np.stack([pcm, -pcm], axis=1))
     raw = read_raw(wav)
     assert raw.fs == FS and raw.fs_origin == "header" and list(raw.channels) == ["0", "1"]
-    np.testing.assert_array_equal(load_recording(wav, channel="1").signal, -pcm)
+    # PCM counts at the recorder's full scale, and said so
+    np.testing.assert_array_equal(load_recording(wav, channel="1").signal, -pcm / 32768.0)
+    assert "16-bit integer samples scaled to the recorder's full scale (1.0)" in raw.meta["notes"][0]
+    unsigned = tmp_path / "u8.wav"
+    scipy.io.wavfile.write(unsigned, int(FS), np.array([128, 255, 0, 192], dtype=np.uint8))
+    np.testing.assert_array_equal(read_raw(unsigned).channels["0"], [0.0, 127 / 128, -1.0, 0.5])
     with pytest.raises(BearingTwinError, match="rec.wav: fs=12000 Hz contradicts the file's 8000 Hz"):
         load_recording(wav, channel="0", fs=12000)
 
@@ -102,3 +107,60 @@ def test_bad_inputs_are_named(tmp_path, signal):
     corrupt.write_bytes(b"not a zip archive")
     with pytest.raises(BearingTwinError, match="corrupt.npz: not a readable .npz"):
         read_raw(corrupt)
+
+
+def test_a_file_its_reader_cannot_parse_is_named_whatever_the_reader_raised(tmp_path):
+    """scipy, numpy and zipfile raise their own types on a corrupt file (UnboundLocalError, MatReadError,
+    BadZipFile): each is one error naming the file."""
+    (tmp_path / "text.npy").write_text("1.0\n2.0\n")
+    with pytest.raises(BearingTwinError, match=r"text.npy: not a NumPy .npy file \(it does not start with the .npy header\)"):
+        read_raw(tmp_path / "text.npy")
+    for name, content in [("header_only.wav", b"RIFF\x24\x00\x00\x00WAVEjunkjunk"),
+                          ("text.mat", b"this is not MATLAB"), ("cut.npz", b"PK\x03\x04" + b"x" * 64)]:
+        (tmp_path / name).write_bytes(content)
+        with pytest.raises(BearingTwinError, match=rf"^{tmp_path / name}: not a readable \.{name.split('.')[1]} file"):
+            read_raw(tmp_path / name)
+
+
+def test_numbers_with_units_or_out_of_range_are_refused_naming_the_field(tmp_path, signal):
+    path = tmp_path / "rec.npz"
+    np.savez(path, signal=signal, fs=np.array("8 kHz"))
+    with pytest.raises(BearingTwinError, match=r"rec.npz: fs='8 kHz' must be a positive number of Hz \(a plain number"):
+        read_raw(path)
+    np.savez(path, signal=signal, rpm=0.0)
+    with pytest.raises(BearingTwinError, match=r"rec.npz: rpm=0.0 must be a positive number of rev/min"):
+        read_raw(path)
+    np.save(tmp_path / "rec.npy", signal)
+    for given, field in [({"fs": "12k"}, "fs='12k'"), ({"fs": float("inf")}, "fs=inf"), ({"fs": FS, "rpm": "abc"}, "rpm='abc'")]:
+        with pytest.raises(BearingTwinError, match=f"{field} must be a positive number"):
+            load_recording(tmp_path / "rec.npy", **given)
+
+
+def test_samples_by_channels_arrays_are_read_along_their_long_axis(tmp_path, signal):
+    """A column per channel (MATLAB, a spreadsheet) as well as a row per channel: a record holds more samples than channels."""
+    np.save(tmp_path / "columns.npy", np.stack([signal, -signal, 2 * signal], axis=1))
+    raw = read_raw(tmp_path / "columns.npy")
+    assert list(raw.channels) == ["0", "1", "2"]
+    np.testing.assert_array_equal(raw.channels["2"], 2 * signal)
+    scipy.io.savemat(tmp_path / "columns.mat", {"data": np.stack([signal, -signal], axis=1), "fs": FS})
+    assert {name: values.size for name, values in read_raw(tmp_path / "columns.mat").channels.items()} == {
+        "data[0]": signal.size, "data[1]": signal.size}
+
+
+def test_csv_time_columns_in_seconds_or_milliseconds_gaps_and_a_byte_order_mark(tmp_path, signal):
+    t = np.arange(signal.size) / FS
+    def write(name, header, time, values=signal, encoding="utf-8"):
+        lines = [header] + [f"{float(a)!r},{float(b)!r}" for a, b in zip(time, values)]
+        (tmp_path / name).write_text("\n".join(lines) + "\n", encoding=encoding)
+        return tmp_path / name
+    assert read_raw(write("ms.csv", "time_ms,acc", 1000 * t)).fs == pytest.approx(FS)
+    assert list(read_raw(write("bom.csv", "time,acc", t, encoding="utf-8-sig")).channels) == ["acc"]
+    with pytest.raises(BearingTwinError, match=r"stamps.csv: the time column gives 8 samples per second.*head it time_ms"):
+        read_raw(write("stamps.csv", "time,acc", 1000 * t))
+    (tmp_path / "comma.csv").write_text("0,0324\n-1,5\n0,0117\n")
+    with pytest.raises(BearingTwinError, match=r"comma.csv: its first row '0,0324' reads as numbers written with decimal commas"):
+        read_raw(tmp_path / "comma.csv")
+    keep = np.r_[0:1000, 1200:signal.size]
+    with pytest.raises(BearingTwinError, match=r"gap.csv: the time column steps 0.025125 s at data row 1001, not its usual "
+                                               r"0.000125 s: rows missing"):
+        read_raw(write("gap.csv", "time,acc", t[keep], signal[keep]))

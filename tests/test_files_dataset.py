@@ -76,7 +76,7 @@ def test_a_file_name_pattern_labels_instead_of_a_table(tmp_path):
     (lambda root: (root / "labels.csv").write_text("record,state\nz.npy,normal\n"), "labels.csv line 2: record 'z.npy' is not a file"),
     (lambda root: (root / "labels.csv").write_text("file,state\na.npy,normal\n"), "labels.csv: no column record"),
     (lambda root: ((root / "labels.csv").write_text("record,state,fs\nc.npy,outer,8000\n"), (root / "c.npy").write_bytes(b"x")),
-     "c.npy: not a readable .npy file"),
+     "c.npy: not a NumPy .npy file"),
     (lambda root: (root / "labels.csv").write_text("record,state,fs\na.npy,normal,8000\nc.npy,outer,16000\n"),
      "different sampling rates (a.npy: 8000 Hz, c.npy: 16000 Hz)"),
     (lambda root: None, "a.npy: the file does not state its sampling rate"),

@@ -54,6 +54,25 @@ def test_fs_is_the_headers_sampling_rate_checked_against_the_time_column(tmp_pat
     assert without.fs_origin == "time column" and without.fs == pytest.approx(25600, rel=1e-4)
 
 
+def test_columns_are_read_by_the_name_the_legend_gives(tmp_path):
+    """An export whose Legend lists the channels in another order is read by name; a Legend naming other
+    channels is refused, naming the file."""
+    text = (HUST / "0.5X_O_65Hz.xls").read_text(encoding="latin-1")
+    lines = text.splitlines()
+    start = lines.index("Data") + 1
+    moved = ["\t".join([cells[0], cells[3], cells[4], cells[1], cells[2]])  # time, Y, Z, speed, X
+             for cells in (line.split("\t") for line in lines[start:])]
+    header = [line.replace("Legend\tSpeed\tX\tY\tZ", "Legend\tY\tZ\tSpeed\tX") for line in lines[:start]]
+    (tmp_path / "0.5X_O_65Hz.xls").write_text("\n".join(header + moved) + "\n", encoding="latin-1")
+    original, reordered = read_raw(HUST / "0.5X_O_65Hz.xls"), read_raw(tmp_path / "0.5X_O_65Hz.xls")
+    for channel in ("speed", "X", "Y", "Z"):
+        np.testing.assert_array_equal(reordered.channels[channel], original.channels[channel])
+    (tmp_path / "0.5X_O_65Hz.xls").write_text(text.replace("Legend\tSpeed\tX\tY\tZ", "Legend\tA\tB\tC\tD"),
+                                              encoding="latin-1")
+    with pytest.raises(BearingTwinError, match=r"0.5X_O_65Hz.xls: the header's Legend reads 'A\\tB\\tC\\tD'"):
+        read_raw(tmp_path / "0.5X_O_65Hz.xls")
+
+
 @pytest.mark.parametrize("stem,defect", [("0.5X_I", "bpfi"), ("0.5X_O", "bpfo")])
 def test_impacts_repeat_at_the_er16k_defect_frequency(stem, defect):
     recording = load_hust(HUST / f"{stem}_65Hz.xls", channel="X")

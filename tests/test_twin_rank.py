@@ -130,6 +130,15 @@ def test_a_further_key_held_reaches_the_twin_and_the_report_as_held(cfg):
         OperatingPoint.from_config({}, RANGES, {}, "outer", extra_held={key: "stiff"})
 
 
+@pytest.mark.parametrize("name, value, words", [("radial_load_n", -100.0, "non-negative (radial load (downward), N)"),
+                                                ("clearance_um", -3.0, "non-negative (radial internal clearance, um)"),
+                                                ("defect_width_mm", 0.0, "positive (defect width, mm)")])
+def test_a_held_operating_point_value_out_of_its_physical_range_is_named(name, value, words):
+    with pytest.raises(BearingTwinError, match=re.escape(f"operating_point.{name}={value} must be {words}")):
+        OperatingPoint.from_config({name: value}, RANGES, {}, "outer")
+    assert OperatingPoint.from_config({"clearance_um": 0.0}, RANGES, {}, "outer").known == {"clearance_um": 0.0}
+
+
 def test_the_independent_rigs_sensor_direction_is_reported_as_uncertain():
     """On the rig a vertical sensor reads the outer-race strikes through a housing mode at 1.7 kHz,
     a horizontal one their cross-coupled remainder through one at 1.1 kHz; the twin's x and y

@@ -52,6 +52,18 @@ def exit_on_user_error(task: Callable) -> Callable:
     return wrapped
 
 
+def output_folder(path, key: str = "out") -> Path:
+    """``path`` as a folder to write into, refused in one line when it or a folder above it is a file:
+    checked before any work, so a typo in ``out=`` costs nothing."""
+    path = Path(str(path)).expanduser()
+    for part in (path, *path.parents):
+        if part.exists():
+            if not part.is_dir():
+                raise BearingTwinError(f"{key}={path}: {part} is a file, not a folder")
+            break
+    return path
+
+
 def composition_error_line(error: ConfigCompositionException | OverrideParseException) -> str:
     """Hydra's message for a config it could not compose, on one line naming the group or key at fault.
 

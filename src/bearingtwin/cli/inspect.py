@@ -14,13 +14,15 @@ Settings are Hydra overrides, as for every command (``bearingtwin-inspect --help
 from __future__ import annotations
 
 import json
+import os
+import sys
 
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
-from bearingtwin.data.files import read_raw, resolve_fs
+from bearingtwin.data.files import positive_number, read_raw, resolve_fs
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
@@ -39,13 +41,18 @@ def main(cfg: DictConfig) -> None:
         rpm=cfg.rpm,
         channel=cfg.channel,
     )
-    print(json.dumps(summary, indent=2))
+    try:
+        print(json.dumps(summary, indent=2), flush=True)
+    except BrokenPipeError:  # the reader (`| head`) stopped reading; the Python docs' way out, without a traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        sys.exit(1)
 
 
 def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | None = None,
               fs: float | None = None, rpm: float | None = None, channel=None) -> dict:
     """The inspect report of one file as a JSON-ready dict."""
     raw = read_raw(path)
+    rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min")
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
     rpm, rpm_origin = next(((value, origin) for origin, value in (("option", rpm), ("file", raw.rpm), ("nominal", raw.nominal_rpm))

@@ -12,7 +12,7 @@ import numpy as np
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary
-from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate
 
@@ -56,8 +56,9 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
 @exit_on_user_error
 def main(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
-    recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)
     out = Path(cfg.out).expanduser()
+    output_folder(out.parent)
+    recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)
     out.parent.mkdir(parents=True, exist_ok=True)
     np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
              rpm=recording.rpm, fault=recording.fault, sensor=recording.channel)

@@ -7,12 +7,14 @@ sampling rate and speed given by the user with those the file declares, and buil
 validated :class:`~bearingtwin.data.recording.Recording`, so a learning pipeline never
 sees a NaN, a guessed sampling rate or a silently chosen channel.
 
-Formats (chosen by extension): ``.npy`` (1-D, or 2-D as channels x samples), ``.npz``
+Formats (chosen by extension): ``.npy`` (1-D, or 2-D: the longer axis is time), ``.npz``
 (arrays are channels; scalars ``fs`` / ``rpm`` and a string ``fault`` are facts, as written
 by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` (columns are channels, optional header row, a
-``time`` / ``time_s`` column gives the sampling rate), ``.mat`` (CWRU files by their
+``time`` / ``time_s`` column, or ``time_ms`` in milliseconds, gives the sampling rate), ``.mat`` (CWRU files by their
 variable names, otherwise numeric variables are channels and scalars ``fs`` / ``rpm`` are
-facts), ``.wav`` (rate from the header) and ``.xls`` (HUST text exports).
+facts), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
+and ``.xls`` (HUST text exports). A file a reader cannot parse (corrupt, truncated, another
+format under the extension) is refused naming the file, whatever the reading library raised.
 
 Channel: when none is asked for, the file's only channel, or the one its format designates
 (CWRU: the drive-end ``DE`` accelerometer; ``.npz``: ``signal``); otherwise the user must choose.
@@ -21,6 +23,9 @@ Channel: when none is asked for, the file's only channel, or the one its format 
 from __future__ import annotations
 
 import csv
+import math
+import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -36,7 +41,10 @@ FS_RELATIVE_TOLERANCE = 0.01
 """A user's sampling rate may differ this much from one measured in the file (a time column
 printed with a few decimals) before it counts as a contradiction."""
 
-TIME_COLUMN_NAMES = ("time", "time_s", "t")
+TIME_COLUMN_NAMES = {"time": 1.0, "time_s": 1.0, "t": 1.0, "time_ms": 1e-3, "t_ms": 1e-3}
+"""Column names read as time stamps, and their unit in seconds."""
+LOWEST_FS_HZ = 200.0
+"""A time column giving a slower rate than this is not a vibration record's (rather, stamps in milliseconds)."""
 
 
 @dataclass
@@ -108,16 +116,21 @@ def read_raw(path: str | Path) -> RawRecord:
         raise BearingTwinError(f"{path}: no such file")
     if path.stat().st_size == 0:
         raise BearingTwinError(f"{path}: the file is empty")
-    if suffix == ".xls":
-        from bearingtwin.data.hust import read_hust_raw
+    try:
+        if suffix == ".xls":
+            from bearingtwin.data.hust import read_hust_raw
 
-        return read_hust_raw(path)
-    if suffix == ".mat":
-        from bearingtwin.data.cwru import is_cwru_mat, read_cwru_raw
+            return read_hust_raw(path)
+        if suffix == ".mat":
+            from bearingtwin.data.cwru import is_cwru_mat, read_cwru_raw
 
-        variables = _load_mat(path)
-        return read_cwru_raw(path, variables) if is_cwru_mat(variables) else _read_generic_mat(path, variables)
-    return {".npy": _read_npy, ".npz": _read_npz, ".csv": _read_csv, ".wav": _read_wav}[suffix](path)
+            variables = _load_mat(path)
+            return read_cwru_raw(path, variables) if is_cwru_mat(variables) else _read_generic_mat(path, variables)
+        return {".npy": _read_npy, ".npz": _read_npz, ".csv": _read_csv, ".wav": _read_wav}[suffix](path)
+    except BearingTwinError:
+        raise
+    except Exception as error:  # a corrupt file makes scipy, numpy and zipfile raise any type (BadZipFile, MatReadError, ...)
+        raise BearingTwinError(f"{path}: not a readable {suffix} file ({type(error).__name__}: {error})") from None
 
 
 def load_recording(
@@ -151,7 +164,7 @@ def recording_from_raw(
     # a given rate replaces a merely declared one, or fills in a missing one.
     fs_origin = raw.fs_origin if fs is None or (raw.fs is not None and raw.fs_origin != "declared") else "config"
     name, signal = raw.channel(channel, channel_key)
-    rpm = _resolve_fact(raw, "rpm", raw.rpm, rpm)
+    rpm = _resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, "rpm", "rev/min"))
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     if rpm is None and raw.nominal_rpm is not None:
         rpm = raw.nominal_rpm
@@ -174,14 +187,23 @@ def resolve_fs(raw: RawRecord, fs: float | None) -> float:
         if raw.fs is None:
             raise BearingTwinError(f"{raw.path}: the file does not state its sampling rate; give fs=<Hz>")
         return float(raw.fs)
-    fs = float(fs)
-    if not fs > 0:
-        raise BearingTwinError(f"fs must be a positive sampling rate in Hz, got {fs}")
+    fs = positive_number(fs, "fs", "Hz")
     if raw.fs is not None and raw.fs_origin != "declared" and abs(fs / raw.fs - 1.0) > FS_RELATIVE_TOLERANCE:
         raise BearingTwinError(
             f"{raw.path}: fs={fs:g} Hz contradicts the file's {raw.fs:g} Hz (from its {raw.fs_origin})"
         )
     return fs
+
+
+def positive_number(value, name: str, unit: str, where: str = "") -> float:
+    """``value`` as a finite positive float; anything else (``12k``, ``0``, ``inf``) raises naming ``name``."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not (math.isfinite(number) and number > 0):
+        raise BearingTwinError(f"{where}{name}={value!r} must be a positive number of {unit} (a plain number, no unit)")
+    return number
 
 
 def _resolve_fact(raw: RawRecord, name: str, from_file, from_user):
@@ -205,7 +227,17 @@ def fs_from_time_column(time_s: np.ndarray, source: str) -> float:
     if np.any(steps <= 0):
         row = int(np.argmax(steps <= 0)) + 1
         raise BearingTwinError(f"{source}: the time column does not increase at data row {row + 1}")
-    return float((time_s.size - 1) / (time_s[-1] - time_s[0]))
+    typical = float(np.median(steps))
+    uneven = np.abs(steps - typical) > 0.5 * typical  # rounded stamps jitter by far less; a gap is whole steps
+    if np.any(uneven):
+        row = int(np.argmax(uneven)) + 1
+        raise BearingTwinError(f"{source}: the time column steps {steps[row - 1]:.6g} s at data row {row + 1}, not "
+                               f"its usual {typical:.6g} s: rows missing or merged, so no single sampling rate")
+    fs = float((time_s.size - 1) / (time_s[-1] - time_s[0]))
+    if fs < LOWEST_FS_HZ:
+        raise BearingTwinError(f"{source}: the time column gives {fs:g} samples per second, too slow for a vibration "
+                               "record: if it counts milliseconds, head it time_ms")
+    return fs
 
 
 def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -219,10 +251,12 @@ def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.n
         if array.ndim == 1:
             channels[name] = array.astype(np.float64)
         elif array.ndim == 2:
-            for row, values in enumerate(array):
+            # A record holds more samples than channels: samples x channels (a MATLAB or spreadsheet column per
+            # channel) as well as channels x samples.
+            for row, values in enumerate(array if array.shape[0] <= array.shape[1] else array.T):
                 channels[f"{name}[{row}]" if name else str(row)] = values.astype(np.float64)
         else:
-            raise BearingTwinError(f"{path}: array {name!r} has shape {array.shape}; expected 1-D or (channels, samples)")
+            raise BearingTwinError(f"{path}: array {name!r} has shape {array.shape}; expected 1-D or 2-D (channels and samples)")
     if not channels:
         raise BearingTwinError(f"{path}: holds no signal array")
     return channels
@@ -236,6 +270,9 @@ def _scalar(path: Path, name: str, value) -> float:
 
 
 def _read_npy(path: Path) -> RawRecord:
+    with open(path, "rb") as handle:
+        if handle.read(6) != b"\x93NUMPY":  # numpy would take any other file for a pickle
+            raise BearingTwinError(f"{path}: not a NumPy .npy file (it does not start with the .npy header)")
     try:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as error:
@@ -261,6 +298,8 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
     lowered = {name.lower(): value for name, value in facts.items()}
     fs = lowered.get("fs", lowered.get("fs_hz"))
     rpm = lowered.get("rpm")
+    fs = None if fs is None else positive_number(fs, "fs", "Hz", f"{path}: ")
+    rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min", f"{path}: ")
     fault = lowered.get("fault")
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{path}: fault {fault!r} is not a bearing state ({', '.join(FAULTS)})")
@@ -306,18 +345,27 @@ def _read_generic_mat(path: Path, variables: dict) -> RawRecord:
 def _read_wav(path: Path) -> RawRecord:
     import scipy.io.wavfile
 
-    try:
-        fs, data = scipy.io.wavfile.read(path)
-    except (ValueError, OSError, EOFError) as error:
-        raise BearingTwinError(f"{path}: not a readable .wav file ({error})") from None
+    with warnings.catch_warnings(record=True) as caught:  # a truncated file is read in part, with a warning
+        warnings.simplefilter("always")
+        try:
+            fs, data = scipy.io.wavfile.read(path)
+        except (ValueError, OSError, EOFError) as error:
+            raise BearingTwinError(f"{path}: not a readable .wav file ({error})") from None
+    notes = [f"reading it: {warning.message}" for warning in caught]
+    if np.issubdtype(data.dtype, np.integer):  # PCM counts; the unsigned 8-bit format is offset by half its range
+        bits = 8 * data.dtype.itemsize
+        offset = 2.0 ** (bits - 1) if np.issubdtype(data.dtype, np.unsignedinteger) else 0.0
+        data = (data.astype(np.float64) - offset) / 2.0 ** (bits - 1)
+        notes.append(f"{bits}-bit integer samples scaled to the recorder's full scale (1.0); the physical unit is unknown")
     channels = {"0": data} if data.ndim == 1 else {"": data.T}
-    return RawRecord(str(path), "wav", _float_channels(path, channels), fs=float(fs), fs_origin="header")
+    return RawRecord(str(path), "wav", _float_channels(path, channels), fs=float(fs), fs_origin="header",
+                     meta={"notes": notes})
 
 
 def _read_csv(path: Path) -> RawRecord:
     """Comma-separated columns, optionally under one header row of names."""
     try:
-        with open(path, newline="") as handle:
+        with open(path, newline="", encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark
             first = next((line for line in handle if line.strip()), "")
     except UnicodeDecodeError:
         raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)") from None
@@ -325,9 +373,14 @@ def _read_csv(path: Path) -> RawRecord:
     if not header:
         raise BearingTwinError(f"{path}: the file holds no rows")
     has_header = not all(_is_number(cell) for cell in header)
+    if not has_header and len(header) > 1 and all(re.fullmatch(r"-?\d+", cell) for cell in header) and any(
+            re.fullmatch(r"0\d+", cell) for cell in header[1:]):  # "0,0324": a decimal comma split one number in two
+        raise BearingTwinError(f"{path}: its first row {first.strip()!r} reads as numbers written with decimal commas; "
+                               "save the file with decimal points (commas separate the columns)")
     names = header if has_header else [str(i) for i in range(len(header))]
     try:
-        values = np.loadtxt(path, delimiter=",", skiprows=1 if has_header else 0, ndmin=2, dtype=np.float64)
+        values = np.loadtxt(path, delimiter=",", skiprows=1 if has_header else 0, ndmin=2, dtype=np.float64,
+                            encoding="utf-8-sig")
     except (ValueError, UnicodeDecodeError) as error:
         raise BearingTwinError(f"{path}: {error}") from None
     if values.shape[0] == 0:
@@ -336,7 +389,8 @@ def _read_csv(path: Path) -> RawRecord:
         raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}")
     columns = dict(zip(names, values.T))
     time_name = next((name for name in names if name.lower() in TIME_COLUMN_NAMES), None)
-    fs = fs_from_time_column(columns.pop(time_name), str(path)) if time_name is not None else None
+    fs = (fs_from_time_column(TIME_COLUMN_NAMES[time_name.lower()] * columns.pop(time_name), str(path))
+          if time_name is not None else None)
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "")
 
 

@@ -2,7 +2,8 @@
 
 The files are named ``.xls`` but are tab-separated text exported by the rig's software:
 a header block (``Title:``, ``DAQ Settings:``, ``Total Data Rows``, ``Legend`` ...), a line
-reading ``Data``, then rows of time (s), speed (not meaningful), X, Y, Z acceleration.
+reading ``Data``, then rows of time (s), speed (not meaningful), X, Y, Z acceleration, in the
+order the ``Legend`` line names them.
 This layout was reported by users of the data and not checked against a real file here,
 so the reader finds the ``Data`` line instead of counting header lines, checks the row
 count against the header when it states one, and names the file and line on any
@@ -82,7 +83,7 @@ def read_hust_raw(path: str | Path) -> RawRecord:
             f"{table.shape[0]}; the file is truncated or not a single export"
         )
     name = parse_hust_name(path)
-    channels = dict(zip(COLUMNS[1:], table[:, 1:].T))
+    channels = dict(zip(_column_order(path, header), table[:, 1:].T))
     meta = {"header": header, "data_line": data_line + 1, "bearing": BEARING}
     if name is not None:
         meta.update(state=name.state, severity=name.severity, condition=name.condition)
@@ -104,6 +105,20 @@ def load_hust(path: str | Path, channel: str = "X", fs: float | None = None) -> 
     if channel not in CHANNELS:
         raise BearingTwinError(f"channel={channel!r} is not a HUST accelerometer axis; choose one of {', '.join(CHANNELS)}")
     return load_recording(path, channel=channel, fs=fs)
+
+
+def _column_order(path: Path, header: dict[str, str]) -> list[str]:
+    """The names of the columns after time, in the order the header's ``Legend`` gives (speed, X, Y, Z when
+    it gives none): an export with its channels in another order is read by name, not by position."""
+    legend = header.get("Legend")
+    if legend is None:
+        return list(COLUMNS[1:])
+    by_lower = {column.lower(): column for column in COLUMNS[1:]}
+    names = [by_lower.get(cell.strip().lower()) for cell in legend.split("\t") if cell.strip()]
+    if sorted(filter(None, names)) != sorted(COLUMNS[1:]) or len(names) != len(COLUMNS) - 1:
+        raise BearingTwinError(f"{path}: the header's Legend reads {legend!r}; expected Speed, X, Y and Z (any order), "
+                               "the columns after time")
+    return names
 
 
 def _read_header(path: Path) -> tuple[dict[str, str], int]:

@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import csv
+import math
 import re
 
 import numpy as np
@@ -164,17 +165,22 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
     """``(where, record, state, rpm, fs)`` per row of a labels table (columns ``record,state[,rpm,fs]``);
     ``where`` is the file and line, for messages. A bad header, state or number raises naming its line."""
     try:
-        with open(table, newline="") as handle:
+        with open(table, newline="", encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark
             reader = csv.DictReader(handle)
             columns = [name.strip() for name in reader.fieldnames or []]
             missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
             if missing:
                 raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
-            rows = []
+            rows, seen = [], {}
             for line, row in enumerate(reader, start=2):
                 row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
                 where = f"{table} line {line}"
-                rows.append((where, row["record"], _state(row["state"], where), _number(row.get("rpm"), "rpm", where),
+                record = row["record"]
+                if Path(record).stem in seen:
+                    raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record).stem]}); "
+                                           "one row per record")
+                seen[Path(record).stem] = line
+                rows.append((where, record, _state(row["state"], where), _number(row.get("rpm"), "rpm", where),
                              _number(row.get("fs"), "fs", where)))
     except (OSError, UnicodeDecodeError) as error:
         raise BearingTwinError(f"{table}: cannot read it ({error})") from None
@@ -219,9 +225,12 @@ def _number(value: str | None, name: str, where: str) -> float | None:
     if not value:
         return None
     try:
-        return float(value)
+        number = float(value)
     except ValueError:
         raise BearingTwinError(f"{where}: {name} {value!r} is not a number") from None
+    if not (math.isfinite(number) and number > 0):
+        raise BearingTwinError(f"{where}: {name} {value!r} must be a positive number")
+    return number
 
 
 def windows_from_recordings(

@@ -66,15 +66,21 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
-    if recording.rpm is not None:
+    if recording.rpm is None:
+        notes.append("the file states no shaft speed: no physics evidence and no rate check (give rpm=<rev/min>)")
+    else:
         recording, rate_notes = _checked_rate(recording, record_bearing, declared_only=fs is None and raw.fs_origin == "declared",
                                               channels=raw.channels)
         notes += rate_notes
-    if true_state is not None:
-        true_state = check_fault(true_state)
-    else:  # what the file's name (CWRU) or content states
-        name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
+    name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
+    if true_state is None:  # what the file's name (CWRU) or content states
         true_state = name.fault if name is not None else recording.fault
+    else:
+        true_state = check_fault(true_state)
+        if name is not None and name.fault != true_state:  # a CWRU name speaks of one bearing, a label maybe of another
+            notes.append(f"labelled {true_state} where the file name says {name.fault}: scored as {true_state}")
+        elif recording.fault not in (None, true_state):
+            raise BearingTwinError(f"{recording.source}: labelled {true_state}, but the file states fault={recording.fault}")
     original_fs = recording.fs
     if not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9):
         recording, note = resample_to(recording, pipeline.fs_hz)

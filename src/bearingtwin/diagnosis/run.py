@@ -5,7 +5,7 @@ Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; for sev
 CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or a folder's own
 ``labels.csv``, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
 not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed is reported
-in ``summary.csv`` with its error and the others go on.
+in ``summary.csv`` with its error and the others go on; the command then exits 2.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import glob
 import json
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,7 +21,7 @@ from pathlib import Path
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
-from bearingtwin.config import bearing_config
+from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
@@ -29,6 +30,8 @@ from bearingtwin.errors import BearingTwinError
 
 SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree")
 TRUTH_COLUMNS = ("true_state", "correct", "physics_correct")
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -57,7 +60,16 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     labels = {labels_path.resolve()} if labels_path is not None else set()
     found = [p for p in found if p.resolve() not in labels and p.name != DEFAULT_LABELS]
     if not found:
-        raise BearingTwinError(f"path={path}: holds no recording ({', '.join(FORMATS)})")
+        inside = " (subfolders are not searched: point at one, or use a glob)" if candidate.is_dir() and any(
+            child.is_dir() for child in candidate.iterdir()) else ""
+        raise BearingTwinError(f"path={path}: holds no recording ({', '.join(FORMATS)}){inside}")
+    by_stem: dict[str, list[str]] = {}
+    for file in found:
+        by_stem.setdefault(file.stem, []).append(file.name)
+    clash = next((names for names in by_stem.values() if len(names) > 1), None)
+    if clash:  # a record is named by its stem: its output folder, its summary row and its labels row
+        raise BearingTwinError(f"path={path}: {', '.join(clash)} share the record name {Path(clash[0]).stem}; "
+                               "rename one or point at one file")
     return found
 
 
@@ -91,27 +103,35 @@ def chosen_bearing(cfg: DictConfig) -> str | None:
 def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     """Diagnose every record ``cfg.path`` names with ``cfg.model``; write and log the results."""
     tracking_uri = str(cfg.tracking.uri)
+    out = output_folder(cfg.out)
     table = labels_path(cfg)
     labels = read_labels(table)
     bearing = chosen_bearing(cfg)
     records = find_records(str(cfg.path), table)
     model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
     pipeline.check_can_diagnose()
-    out = Path(str(cfg.out)).expanduser()
     settings = OmegaConf.to_container(cfg.evidence, resolve=True)
     run = DiagnosisRun(out=out)
     windows_total = windows_correct = 0
     progress = tqdm(records, desc="diagnose", unit="file", disable=len(records) < 2)
+    unlisted = sorted(set(labels) - {path.stem for path in records})
+    if unlisted:
+        progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
     for path in progress:
         try:
             state, rpm, fs = labels.get(path.stem, (None, None, None))  # a row's values before the command's
             prepared = read_record(path, pipeline, cfg.channel, cfg.fs if fs is None else fs, cfg.rpm if rpm is None else rpm,
                                    state, bearing)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
-        except BearingTwinError as error:
-            run.failures[path.name] = str(error)
-            run.rows.append({"record": path.stem, "error": str(error)})
-            progress.write(f"{path.stem}: FAILED - {error}")
+        except Exception as error:  # one record's failure, expected or not, must not lose the others'
+            message = str(error) if isinstance(error, BearingTwinError) else f"{type(error).__name__}: {error}"
+            if table is not None and path.stem not in labels and ("give fs=" in message or "give rpm=" in message):
+                message += f" (or a row in {table}, which has none for it)"  # what a row's rpm and fs would give
+            if not isinstance(error, BearingTwinError):
+                log.exception("%s: unexpected failure", path)
+            run.failures[path.name] = message
+            run.rows.append({"record": path.stem, "error": message})
+            progress.write(f"{path.stem}: FAILED - {message}")
             continue
         folder = out / result["record"]
         folder.mkdir(parents=True, exist_ok=True)

@@ -300,7 +300,10 @@ class Comparator:
             raise BearingTwinError(f"compare.psd_detrend_order must lie in [0, {s.n_bands - 2}], got {s.psd_detrend_order}")
         self.line_hz = np.concatenate([harmonics, self.sidebands_hz])
         self.measured_signal = np.asarray(measured.signal, dtype=np.float64)
-        self.measured = self.profile(self.measured_signal)
+        try:
+            self.measured = self.profile(self.measured_signal)
+        except BearingTwinError as error:
+            raise BearingTwinError(f"{measured.source}: {error}") from None
 
     def _tolerance_hz(self, centre_hz: float) -> float:
         """Search half-width for a line: enough for rpm uncertainty and slip, never reaching a sideband."""

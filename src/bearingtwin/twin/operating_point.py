@@ -94,6 +94,11 @@ class OperatingPoint:
                 free[name] = bounds[name]
             else:
                 known[name] = _finite(value, f"operating_point.{name}")
+                may_be_zero = name in ("radial_load_n", "clearance_um")  # an unloaded rig, a bearing without play
+                if not (known[name] >= 0 if may_be_zero else known[name] > 0):
+                    sign = "non-negative" if may_be_zero else "positive"
+                    raise BearingTwinError(f"operating_point.{name}={value} must be {sign} "
+                                           f"({BASE_PARAMETERS[name].description}, {BASE_PARAMETERS[name].unit})")
         sensor = operating.get("sensor")
         angle = operating.get("sensor_angle_deg")
         if sensor is not None and sensor not in SENSOR_NAMES:

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from bearingtwin.config import output_folder
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -51,6 +52,8 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
                                defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
                                refuse=recording.meta.get("fs_origin") in ("config", "declared"), channels=raw.channels)
+    if np.ptp(recording.signal) == 0:
+        raise BearingTwinError(f"{measured_cfg.path}: every sample is {recording.signal[0]:g}: no vibration to compare")
     with np.errstate(over="ignore"):
         fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
     if not np.isfinite(fourth_moment):
@@ -181,6 +184,7 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
 def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     """Everything ``bearingtwin-twin`` does; returns the fit, the files written and the MLflow
     run id (None when tracking is disabled)."""
+    out = output_folder(cfg.out)
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = load_measurement(cfg.measured, geometry)
     named = measured.meta.get("bearing")  # the bearing a file names (a CWRU fan-end record's SKF 6203)
@@ -194,6 +198,6 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     ranker = build_ranker(cfg, measured.fault).fit(twin, measured, geometry, settings)
     about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
              "unit": measured.unit, "bearing": cfg.bearing.get("name"), "reference": cfg.get("reference")}
-    files = write_report(ranker.fit_, Path(str(cfg.out)).expanduser(), bool(cfg.figures), about)
+    files = write_report(ranker.fit_, out, bool(cfg.figures), about)
     run_id = log_to_mlflow(cfg, measured, ranker.fit_, files) if cfg.tracking.enabled else None
     return ranker.fit_, files, run_id
