@@ -112,6 +112,17 @@ def test_record_97_declared_at_48_khz_is_contradicted():
 
 
 @needs_data
+def test_a_defect_frequency_on_a_shaft_harmonic_is_no_witness_of_the_rate():
+    """Record 97's fan-end channel read for the SKF 6203: its shaft series stands between its harmonics too,
+    and the 6203's BSF (1.994 x shaft) has its half on the shaft line, so that line said nothing about the
+    ball and still 'stood at half its frequency', refusing 12 kHz. Such a frequency witnesses nothing."""
+    recording = load_cwru(CWRU / "normal_0_97.mat", channel="FE", check_fs=False)
+    defect_hz = load_bearing("cwru_6203").defect_frequencies(recording.rpm)
+    check = check_sampling_rate(recording.signal, 12000, recording.rpm, defect_hz=defect_hz)
+    assert check.verdict != "contradicted", check.reason
+
+
+@needs_data
 @pytest.mark.parametrize("record", ["12k_Drive_End_IR007_0_105.mat", "12k_Drive_End_OR007@6_1_131.mat"])
 def test_a_defect_line_at_its_frequency_witnesses_the_rate_where_the_shaft_series_is_weak(record):
     """The fan-end channel of a drive-end fault record shows a stronger series than the shaft's (40-58 Hz):

@@ -119,6 +119,29 @@ def test_evidence_names_the_fault_whose_harmonic_series_stands_out():
     assert healthy.evidence_state == "normal" and max(healthy.prominence_db.values()) < healthy.threshold_db
 
 
+def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence():
+    """On the CWRU fan end's SKF 6203, 2 x BSF is 3.988 shaft orders: a machine's 4 x shaft line (impacts once
+    a quarter turn, as a four-bladed fan or a twice-line-frequency electrical line at 1797 rpm gives) is not
+    a ball fault's. The ball series is said to be unreadable there and never named; the races' series,
+    whose lines lie outside their search bands' reach of the shaft's, are read as before."""
+    fan_end = bearing_config("cwru_6203")
+    shaft_hz = RPM / 60.0
+    four_per_turn = physics_evidence(fault_signal(4 * shaft_hz), FS, RPM, fan_end)
+    assert four_per_turn.evidence_state != "ball" and "ball" not in four_per_turn.prominence_db
+    assert "2 x BSF series lies on shaft harmonics (3.988 shaft orders" in four_per_turn.unreadable["ball"]
+    rates = BearingGeometry.from_config(fan_end).defect_frequencies(RPM)
+    assert physics_evidence(fault_signal(rates["bpfo"]), FS, RPM, fan_end).evidence_state == "outer"
+    assert physics_evidence(fault_signal(rates["bpfi"]), FS, RPM, fan_end).evidence_state == "inner"
+    assert physics_evidence(fault_signal(4 * shaft_hz), FS, RPM, BEARING).unreadable == {}  # the drive end's reads all
+
+
+def test_features_that_read_shaft_orders_on_the_recorded_bearing_but_not_the_models_are_named():
+    pipeline = envelope_pipeline()
+    on_shaft = pipeline.bands_on_shaft_harmonics(bearing_config("cwru_6203"))
+    assert {"1xbsf2", "1xbpfo", "1xbpfi"} <= set(on_shaft) and "3xbsf2" not in on_shaft  # 14.14 orders on the 6205 too
+    assert pipeline.bands_on_shaft_harmonics(BEARING) == []
+
+
 def envelope_pipeline() -> DiagnosisPipeline:
     """A small envelope-order SVM pipeline on synthetic windows at ``FS``, for the drive end's bearing."""
     X, y = class_windows(n_per_class=6)

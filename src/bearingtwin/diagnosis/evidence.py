@@ -44,6 +44,9 @@ class PhysicsEvidence:
         prominence_db: state -> mean prominence (dB over the local floor) of its first harmonics.
         evidence_state: the state whose lines stand highest; ``normal`` when none reaches ``threshold_db``.
         lines_hz: state -> the harmonic frequencies read, Hz.
+        unreadable: state -> why its series cannot be read on this bearing at this resolution (each
+            of its harmonics on a shaft harmonic, which every machine's envelope carries): such a
+            state has no prominence and is never the evidence's.
         band_hz: the band-pass the envelope was taken from, Hz.
         threshold_db: the prominence a series needs to count.
         freqs_hz, spectrum: the squared-envelope spectrum (for figures; not serialized by :meth:`as_dict`).
@@ -56,6 +59,7 @@ class PhysicsEvidence:
     threshold_db: float
     freqs_hz: np.ndarray
     spectrum: np.ndarray
+    unreadable: dict[str, str]
 
     def as_dict(self) -> dict:
         result = asdict(self)
@@ -143,26 +147,39 @@ def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: s
     resolution = freqs_hz[1] - freqs_hz[0]
     shaft_hz = frequencies["shaft"]
     all_lines = {state: [h * rates[rate] for h in range(1, harmonics + 1)] for state, rate in STATE_RATES.items()}
-    prominence, lines = {}, {}
+    prominence, lines, unreadable = {}, {}, {}
     for state, candidates in all_lines.items():
         others = [line for other, series in all_lines.items() if other != state for line in series]
+        half_widths = [max(tolerance * line, resolution) for line in candidates]
         # A harmonic that coincides with a shaft harmonic or another state's line cannot tell the
         # states apart (on the CWRU 6205, 3 x BPFO lies 0.7 % from 2 x BPFI, 3 x 2BSF 1 % from 14 x
-        # shaft): the series is read at the unambiguous harmonics, the fundamental at least.
-        lines[state] = [line for h, line in enumerate(candidates) if h == 0 or not _ambiguous(
-            line, others, shaft_hz, 2.0 * max(tolerance * line, resolution))]
+        # shaft): the series is read at the unambiguous harmonics, and at the fundamental unless a
+        # shaft harmonic lies inside its search band (another state's line is there only when that
+        # fault is; a shaft harmonic always is: on the CWRU fan end's 6203, 2 x BSF is 3.99 orders).
+        lines[state] = [line for h, (line, half) in enumerate(zip(candidates, half_widths))
+                        if (h == 0 and not _near_shaft_harmonic(line, shaft_hz, half))
+                        or not _ambiguous(line, others, shaft_hz, 2.0 * half)]
+        if not lines[state]:
+            unreadable[state] = (f"its {STATE_RATES[state].upper().replace('BSF2', '2 x BSF')} series lies on shaft "
+                                 f"harmonics ({candidates[0] / shaft_hz:.3f} shaft orders, within "
+                                 f"{half_widths[0]:.1f} Hz of {round(candidates[0] / shaft_hz)} x shaft, and its harmonics too)")
+            continue
         # Flanks half a shaft order wide: inside them no other line of the same fault
         # (an inner-race fault's shaft sidebands sit a whole order away).
         values = [line_prominence_db(freqs_hz, power, line, max(tolerance * line, resolution),
                                      max(0.5 * shaft_hz, 3 * resolution)) for line in lines[state]]
         prominence[state] = float(np.mean(values))
-    strongest = max(prominence, key=prominence.get)
-    state = strongest if prominence[strongest] >= threshold_db else "normal"
-    return PhysicsEvidence(prominence, state, lines, band_hz, float(threshold_db), freqs_hz, power)
+    strongest = max(prominence, key=prominence.get, default=None)
+    state = strongest if strongest is not None and prominence[strongest] >= threshold_db else "normal"
+    lines = {name: series for name, series in lines.items() if series}
+    return PhysicsEvidence(prominence, state, lines, band_hz, float(threshold_db), freqs_hz, power, unreadable)
+
+
+def _near_shaft_harmonic(line_hz: float, shaft_hz: float, separation_hz: float) -> bool:
+    return abs(line_hz - round(line_hz / shaft_hz) * shaft_hz) < separation_hz
 
 
 def _ambiguous(line_hz: float, other_lines_hz: list[float], shaft_hz: float, separation_hz: float) -> bool:
     """Whether a line lies within ``separation_hz`` of a shaft harmonic or of another state's line."""
-    nearest_shaft_harmonic = round(line_hz / shaft_hz) * shaft_hz
-    return abs(line_hz - nearest_shaft_harmonic) < separation_hz or any(
+    return _near_shaft_harmonic(line_hz, shaft_hz, separation_hz) or any(
         abs(line_hz - other) < separation_hz for other in other_lines_hz)

@@ -98,6 +98,16 @@ class DiagnosisPipeline:
             return extractor.transform(windows, fs_hz=self.fs_hz, rpm=rpm)
         return self.extractor.transform(windows)
 
+    def bands_on_shaft_harmonics(self, bearing: dict) -> list[str]:
+        """The features that read a shaft harmonic at ``bearing``'s defect orders but not at the model's own
+        (:meth:`EnvelopeOrderFeatures.bands_on_shaft_harmonics`): where the model may take the shaft's lines
+        for a defect's. None for features that do not read defect orders."""
+        if not self.needs_rpm:
+            return []
+        own = set(self.extractor.bands_on_shaft_harmonics())
+        recorded = copy.copy(self.extractor).set_params(bearing=bearing).bands_on_shaft_harmonics()
+        return [name for name in recorded if name not in own]
+
     def predict_proba(self, windows, rpm=None, bearing: dict | None = None) -> np.ndarray:
         """(n, n_classes) probabilities, columns in :attr:`class_names` order."""
         return self.classifier.predict_proba(self.features(windows, rpm, bearing))

@@ -200,6 +200,12 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         elif "bearing" in model_params(model):
             params["bearing"] = prepared.bearing["name"]
             notes.append(f"the model's features read {prepared.bearing['name']}'s defect lines too")
+            on_shaft = pipeline.bands_on_shaft_harmonics(prepared.bearing)
+            if on_shaft:
+                notes.append(f"on {prepared.bearing['name']} the bands of {', '.join(on_shaft)} hold whole shaft orders, "
+                             "where on the model's own bearing they do not: the model may take the shaft's lines for "
+                             "those defects' (hold its verdict against the physics evidence, which reads them apart "
+                             "at 1 Hz where it can)")
         else:
             notes.append("the model's features read its own bearing's defect lines: it was logged before models took "
                          "the recorded bearing; train it again to read the record's")
@@ -212,6 +218,8 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     evidence = None
     if recording.rpm is not None and prepared.bearing:
         evidence = physics_evidence(recording.signal, recording.fs, recording.rpm, prepared.bearing, **evidence_settings)
+        notes += [f"the physics cannot read {state} on {prepared.bearing.get('name', 'this bearing')}: {why}"
+                  for state, why in evidence.unreadable.items()]
     result = {
         "record": Path(str(recording.source)).stem,
         "model_uri": model_uri,
@@ -249,8 +257,8 @@ def one_line(result: dict) -> str:
     line = f"{result['record']}: {result['verdict']} ({result['share']:.0%} of {len(result['windows'])} windows, p {result['mean_probability']:.2f})"
     if result["evidence_state"] is not None:
         prominence = result["evidence"]["prominence_db"]
-        top = max(prominence, key=prominence.get)
-        line += f"; physics: {result['evidence_state']} ({top} lines {prominence[top]:+.1f} dB)"
+        top = max(prominence, key=prominence.get, default=None)
+        line += f"; physics: {result['evidence_state']}" + (f" ({top} lines {prominence[top]:+.1f} dB)" if top else "")
         if not result["agree"]:
             line += " - DISAGREES with the model"
     if "true_state" in result:

@@ -136,6 +136,14 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"features.floor_width_orders must be positive, got {self.floor_width_orders!r}")
         return BearingGeometry.from_config(self.bearing)
 
+    def bands_on_shaft_harmonics(self) -> list[str]:
+        """The line features whose band (centre +- ``half_width_orders``) holds a whole shaft order: every
+        machine's envelope carries shaft harmonics, so on such a bearing those features read the shaft's
+        lines as well as the defect's (the SKF 6203's 2 x BSF is 3.988 orders, its BPFO 3.053)."""
+        half_width = float(self.half_width_orders)
+        return [name for name, centre in band_centres(self.check_params(), self.harmonics).items()
+                if round(centre) >= 1 and abs(centre - round(centre)) <= half_width]
+
     def fit(self, X, y=None, *, fs_hz: float, rpm) -> "EnvelopeOrderFeatures":
         """Nothing is learned from the windows: fixes the band in Hz and the feature names."""
         geometry = self.check_params()

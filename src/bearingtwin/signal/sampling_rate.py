@@ -199,7 +199,7 @@ def check_sampling_rate(
                  f"(prominence {in_between[fraction]:.0f})")
     verdict, implied, why = "ambiguous", None, "no defect frequency was given to decide"
     if defect_hz:
-        verdict, implied, why = _defect_witness(signal, fs, defect_hz, fraction, prominence)
+        verdict, implied, why = _defect_witness(signal, fs, expected, defect_hz, fraction, prominence)
     if verdict == "ambiguous":
         why = f": fs may be {fs * fraction:g} Hz ({fraction} times the declared); {why}"
     return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
@@ -275,13 +275,8 @@ def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapp
     f / k, k = 2 .. ``max_fraction``; frequencies within two search windows of a shaft harmonic's fraction
     m / k (k up to ``max_fraction``) are not witnesses, since under a wrong rate the shaft's lines land
     there (the SKF 6203's ball spin frequency is 1.994 x shaft). None if no frequency qualifies."""
-    fractions = np.array([m / k for k in range(1, max_fraction + 1) for m in range(1, 12 * k)])
-
-    def apart_from_shaft(hz: float) -> bool:
-        return bool(np.min(np.abs(hz / shaft_hz - fractions) / (hz / shaft_hz)) > 2 * window)
-
     lines = {name: float(hz) for name, hz in defect_hz.items()
-             if name != "shaft" and hz and 2.2 * hz < fs / 2 and apart_from_shaft(float(hz))}
+             if name != "shaft" and hz and 2.2 * hz < fs / 2 and _apart_from_shaft(float(hz), shaft_hz, max_fraction, window)}
     if not lines:
         return None
     frequencies = np.array(list(lines.values()))
@@ -292,17 +287,28 @@ def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapp
     return standing[0] if standing else None
 
 
+def _apart_from_shaft(hz: float, shaft_hz: float, max_fraction: int, window: float) -> bool:
+    """Whether ``hz`` lies more than two search windows from every shaft harmonic's fraction m / k
+    (k up to ``max_fraction``), where the shaft's own lines stand, under the right rate or a wrong one."""
+    fractions = np.array([m / k for k in range(1, max_fraction + 1) for m in range(1, 12 * k)])
+    return bool(np.min(np.abs(hz / shaft_hz - fractions) / (hz / shaft_hz)) > 2 * window)
+
+
 def _envelope_prominence(signal: np.ndarray, fs: float, top_hz: float) -> tuple[np.ndarray, float]:
     from bearingtwin.signal.envelope import envelope
 
     return _prominence_spectrum(envelope(signal), fs, top_hz, background_hz=5.0)
 
 
-def _defect_witness(signal, fs, defect_hz: Mapping[str, float], k: int, prominence: float) -> tuple[str, float | None, str]:
-    """Envelope lines of the defect frequencies at f (right rate) against f / k (rate too low by k)."""
-    lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2}
+def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], k: int,
+                    prominence: float) -> tuple[str, float | None, str]:
+    """Envelope lines of the defect frequencies at f (right rate) against f / k (rate too low by k); a
+    frequency with f or f / k on a shaft harmonic is no witness, since the shaft's line stands there
+    whatever the rate (the SKF 6203's BSF is 1.994 x shaft, its half 0.997 x)."""
+    lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2
+             and _apart_from_shaft(float(hz), shaft_hz, 1, 0.005) and _apart_from_shaft(float(hz) / k, shaft_hz, 1, 0.005)}
     if not lines:
-        return "ambiguous", None, "no defect frequency below the Nyquist frequency to decide"
+        return "ambiguous", None, "no defect frequency away from the shaft's lines below the Nyquist frequency to decide"
     ratio, resolution = _envelope_prominence(signal, fs, max(lines.values()) * 1.1)
     at_f = _peak(ratio, resolution, np.array(list(lines.values())), 0.005)
     at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) / k, 0.005)
