@@ -390,7 +390,9 @@ def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_befor
     into_file = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={folder / 'rec.npz'}", cwd=tmp_path,
                     uri=uri)
     assert into_file.returncode == 2 and "rec.npz is a file, not a folder" in into_file.stderr
-    for done in (clash, twice, into_file):
+    maybe = run("diagnose", f"path={folder}", "model=models:/diag/1", "figures=maybe", cwd=tmp_path, uri=uri)
+    assert maybe.returncode == 2 and "figures=maybe: give figures=true or figures=false" in maybe.stderr
+    for done in (clash, twice, into_file, maybe):
         assert len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert not (tmp_path / "diagnosis").exists()
 

@@ -49,6 +49,9 @@ def test_fs_is_the_headers_sampling_rate_checked_against_the_time_column(tmp_pat
     (tmp_path / "H_65Hz.xls").write_text(text.replace("Sampling Rate\t25600", "Sampling Rate\t51200"), encoding="latin-1")
     with pytest.raises(BearingTwinError, match=r"H_65Hz.xls: the header's Sampling Rate 51200 Hz contradicts the time column's 25600"):
         read_raw(tmp_path / "H_65Hz.xls")
+    (tmp_path / "H_65Hz.xls").write_text(text.replace("Sampling Rate\t25600", "Sampling Rate\t25600,0"), encoding="latin-1")
+    with pytest.raises(BearingTwinError, match=r"Sampling Rate '25600,0' \(read as 256000 Hz, a comma taken for a thousands"):
+        read_raw(tmp_path / "H_65Hz.xls")
     (tmp_path / "H_65Hz.xls").write_text(text.replace("Sampling Rate\t25600\n", ""), encoding="latin-1")
     without = read_raw(tmp_path / "H_65Hz.xls")
     assert without.fs_origin == "time column" and without.fs == pytest.approx(25600, rel=1e-4)

@@ -12,7 +12,7 @@ import numpy as np
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary
-from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys, true_or_false
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate
 
@@ -58,12 +58,13 @@ def main(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
     out = Path(cfg.out).expanduser()
     output_folder(out.parent)
+    plot = true_or_false(cfg.plot, "plot")
     recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)
     out.parent.mkdir(parents=True, exist_ok=True)
     np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
              rpm=recording.rpm, fault=recording.fault, sensor=recording.channel)
     written = [out]
-    if cfg.plot:
+    if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
                          BearingGeometry.from_config(cfg.bearing))
     facts = {

@@ -155,17 +155,19 @@ def _sampling_rate(path: Path, header: dict[str, str], time_s: np.ndarray) -> tu
     approximates it (25599.9997 Hz over a whole file).
     """
     from_time = fs_from_time_column(time_s, str(path))
-    text = header.get("Sampling Rate", "").replace(",", "").split("\t")[0].strip()
+    written = header.get("Sampling Rate", "").split("\t")[0].strip()
+    text = written.replace(",", "")  # a thousands separator: 25,600
     if not text:
         return from_time, "time column"
     try:
         stated = float(text)
     except ValueError:
-        raise BearingTwinError(f"{path}: the header's Sampling Rate {text!r} is not a number") from None
+        raise BearingTwinError(f"{path}: the header's Sampling Rate {written!r} is not a number") from None
     if not (np.isfinite(stated) and stated > 0) or abs(from_time / stated - 1.0) > FS_RELATIVE_TOLERANCE:
-        raise BearingTwinError(
-            f"{path}: the header's Sampling Rate {text} Hz contradicts the time column's {from_time:.6g} Hz"
-        )
+        raise BearingTwinError(f"{path}: the header's Sampling Rate {written!r} (read as {stated:g} Hz, a comma "
+                               f"taken for a thousands separator) contradicts the time column's {from_time:.6g} Hz"
+                               if "," in written else
+                               f"{path}: the header's Sampling Rate {written} Hz contradicts the time column's {from_time:.6g} Hz")
     return stated, "header"
 
 

@@ -21,7 +21,7 @@ from pathlib import Path
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
-from bearingtwin.config import bearing_config, output_folder
+from bearingtwin.config import bearing_config, output_folder, true_or_false
 from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
@@ -104,6 +104,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     """Diagnose every record ``cfg.path`` names with ``cfg.model``; write and log the results."""
     tracking_uri = str(cfg.tracking.uri)
     out = output_folder(cfg.out)
+    figures = true_or_false(cfg.figures, "figures")
     table = labels_path(cfg)
     labels = read_labels(table)
     bearing = chosen_bearing(cfg)
@@ -137,7 +138,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
         run.files.append(folder / "diagnosis.json")
-        if cfg.figures:
+        if figures:
             run.files.append(plot_diagnosis(result, evidence, pipeline.class_names, folder / "diagnosis.png"))
         for note in result["notes"]:
             progress.write(f"{result['record']}: {note}")

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from bearingtwin.config import output_folder
+from bearingtwin.config import output_folder, true_or_false
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -185,6 +185,7 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     """Everything ``bearingtwin-twin`` does; returns the fit, the files written and the MLflow
     run id (None when tracking is disabled)."""
     out = output_folder(cfg.out)
+    figures = true_or_false(cfg.figures, "figures")
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = load_measurement(cfg.measured, geometry)
     named = measured.meta.get("bearing")  # the bearing a file names (a CWRU fan-end record's SKF 6203)
@@ -198,6 +199,6 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     ranker = build_ranker(cfg, measured.fault).fit(twin, measured, geometry, settings)
     about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
              "unit": measured.unit, "bearing": cfg.bearing.get("name"), "reference": cfg.get("reference")}
-    files = write_report(ranker.fit_, out, bool(cfg.figures), about)
+    files = write_report(ranker.fit_, out, figures, about)
     run_id = log_to_mlflow(cfg, measured, ranker.fit_, files) if cfg.tracking.enabled else None
     return ranker.fit_, files, run_id
