@@ -115,6 +115,10 @@ def test_a_file_its_reader_cannot_parse_is_named_whatever_the_reader_raised(tmp_
     (tmp_path / "text.npy").write_text("1.0\n2.0\n")
     with pytest.raises(BearingTwinError, match=r"text.npy: not a NumPy .npy file \(it does not start with the .npy header\)"):
         read_raw(tmp_path / "text.npy")
+    scipy.io.savemat(tmp_path / "struct.mat", {"rec": {"a": np.arange(5.0), "b": "x"}, "sig": np.ones(100)})
+    with pytest.raises(BearingTwinError, match=r"struct.mat: rec must be a single number, got array\(") as raised:
+        read_raw(tmp_path / "struct.mat")
+    assert "\n" not in str(raised.value)  # a MATLAB struct's repr, on one line
     for name, content in [("header_only.wav", b"RIFF\x24\x00\x00\x00WAVEjunkjunk"),
                           ("text.mat", b"this is not MATLAB"), ("cut.npz", b"PK\x03\x04" + b"x" * 64)]:
         (tmp_path / name).write_bytes(content)

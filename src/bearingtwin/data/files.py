@@ -266,7 +266,8 @@ def _scalar(path: Path, name: str, value) -> float:
     try:
         return float(np.asarray(value).reshape(()))
     except (TypeError, ValueError):
-        raise BearingTwinError(f"{path}: {name} must be a single number, got {value!r}") from None
+        shown = " ".join(repr(value).split())  # a MATLAB struct's repr runs over many lines
+        raise BearingTwinError(f"{path}: {name} must be a single number, got {shown[:120]}") from None
 
 
 def _read_npy(path: Path) -> RawRecord:
