@@ -18,7 +18,7 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import physics_evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
-from bearingtwin.diagnosis.record import diagnose_recording, read_record, record_windows, resample_to
+from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record, record_windows, resample_to
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import SaboVmdFeatures
@@ -119,7 +119,7 @@ def test_evidence_names_the_fault_whose_harmonic_series_stands_out():
     assert healthy.evidence_state == "normal" and max(healthy.prominence_db.values()) < healthy.threshold_db
 
 
-def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence():
+def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence(tmp_path):
     """On the CWRU fan end's SKF 6203, 2 x BSF is 3.988 shaft orders: a machine's 4 x shaft line (impacts once
     a quarter turn, as a four-bladed fan or a twice-line-frequency electrical line at 1797 rpm gives) is not
     a ball fault's. The ball series is said to be unreadable there and never named; the races' series,
@@ -128,11 +128,20 @@ def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence():
     shaft_hz = RPM / 60.0
     four_per_turn = physics_evidence(fault_signal(4 * shaft_hz), FS, RPM, fan_end)
     assert four_per_turn.evidence_state != "ball" and "ball" not in four_per_turn.prominence_db
-    assert "2 x BSF series lies on shaft harmonics (3.988 shaft orders" in four_per_turn.unreadable["ball"]
+    assert "2 x BSF fundamental, 3.988 shaft orders, has 4 x shaft within its search band" in four_per_turn.unreadable["ball"]
     rates = BearingGeometry.from_config(fan_end).defect_frequencies(RPM)
     assert physics_evidence(fault_signal(rates["bpfo"]), FS, RPM, fan_end).evidence_state == "outer"
     assert physics_evidence(fault_signal(rates["bpfi"]), FS, RPM, fan_end).evidence_state == "inner"
     assert physics_evidence(fault_signal(4 * shaft_hz), FS, RPM, BEARING).unreadable == {}  # the drive end's reads all
+    # At 100 rpm every series of the 6205 lies within a 1 Hz bin of a shaft harmonic: no answer, and none scored.
+    slow = physics_evidence(fault_signal(None, seconds=2), FS, 100.0, BEARING)
+    assert slow.evidence_state is None and set(slow.unreadable) == {"inner", "ball", "outer"} and slow.lines_hz == {}
+    assert "has 5 x shaft within its search band (+-1.0 Hz: 1 Hz bins)" in slow.unreadable["inner"]
+    windows = [{"start_s": 0.0, "state": "outer", "probabilities": {"normal": 0.1, "outer": 0.9}}]
+    result = {"record": "slow", "verdict": "outer", "share": 1.0, "mean_probability": 0.9, "windows": windows,
+              "evidence_state": None, "evidence": slow.as_dict()}
+    assert plot_diagnosis(result, slow, ["normal", "outer"], tmp_path / "slow.png").stat().st_size > 1000
+    assert one_line(result) == "slow: outer (100% of 1 windows, p 0.90)"
 
 
 def test_features_that_read_shaft_orders_on_the_recorded_bearing_but_not_the_models_are_named():
@@ -385,7 +394,8 @@ def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_befor
     (folder / "rec.npy").unlink()
     (folder / "labels.csv").write_text("record,state\nrec.npz,outer\nrec,inner\n")
     twice = run("diagnose", f"path={folder}", "model=models:/diag/1", cwd=tmp_path, uri=uri)
-    assert twice.returncode == 2 and "labels.csv line 3: record 'rec' is labelled again (line 2)" in twice.stderr
+    assert twice.returncode == 2 and "labels.csv line 3: record 'rec' is labelled again (" in twice.stderr
+    assert "labels.csv line 2 names rec too)" in twice.stderr
     (folder / "labels.csv").unlink()
     into_file = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={folder / 'rec.npz'}", cwd=tmp_path,
                     uri=uri)

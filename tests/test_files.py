@@ -79,7 +79,7 @@ def test_generic_mat_and_wav(tmp_path, signal):
     assert raw.fs == FS and raw.fs_origin == "header" and list(raw.channels) == ["0", "1"]
     # PCM counts at the recorder's full scale, and said so
     np.testing.assert_array_equal(load_recording(wav, channel="1").signal, -pcm / 32768.0)
-    assert "16-bit integer samples scaled to the recorder's full scale (1.0)" in raw.meta["notes"][0]
+    assert "integer samples (int16, as scipy reads them) scaled to the recorder's full scale (1.0)" in raw.meta["notes"][0]
     unsigned = tmp_path / "u8.wav"
     scipy.io.wavfile.write(unsigned, int(FS), np.array([128, 255, 0, 192], dtype=np.uint8))
     np.testing.assert_array_equal(read_raw(unsigned).channels["0"], [0.0, 127 / 128, -1.0, 0.5])
@@ -146,6 +146,9 @@ def test_samples_by_channels_arrays_are_read_along_their_long_axis(tmp_path, sig
     raw = read_raw(tmp_path / "columns.npy")
     assert list(raw.channels) == ["0", "1", "2"]
     np.testing.assert_array_equal(raw.channels["2"], 2 * signal)
+    np.save(tmp_path / "square.npy", np.ones((3, 3)))
+    with pytest.raises(BearingTwinError, match=r"square.npy: array '' has shape \(3, 3\), so which axis is time is not clear"):
+        read_raw(tmp_path / "square.npy")
     scipy.io.savemat(tmp_path / "columns.mat", {"data": np.stack([signal, -signal], axis=1), "fs": FS})
     assert {name: values.size for name, values in read_raw(tmp_path / "columns.mat").channels.items()} == {
         "data[0]": signal.size, "data[1]": signal.size}
@@ -164,6 +167,8 @@ def test_csv_time_columns_in_seconds_or_milliseconds_gaps_and_a_byte_order_mark(
     (tmp_path / "comma.csv").write_text("0,0324\n-1,5\n0,0117\n")
     with pytest.raises(BearingTwinError, match=r"comma.csv: its first row '0,0324' reads as numbers written with decimal commas"):
         read_raw(tmp_path / "comma.csv")
+    rounded = np.round(np.arange(96000) / 48000.0, 5)  # 48 kHz stamps printed to five decimals: steps 2e-5 or 3e-5 s
+    np.testing.assert_allclose(read_raw(write("rounded.csv", "time,acc", rounded, np.ones(96000))).fs, 48000.0, rtol=1e-4)
     keep = np.r_[0:1000, 1200:signal.size]
     with pytest.raises(BearingTwinError, match=r"gap.csv: the time column steps 0.025125 s at data row 1001, not its usual "
                                                r"0.000125 s: rows missing"):

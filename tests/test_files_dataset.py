@@ -94,3 +94,20 @@ def test_no_folder_given_is_named_in_one_line():
     with pytest.raises(BearingTwinError, match=r"^data.root: Missing mandatory value") as error:
         build_dataset(cfg)
     assert "\n" not in str(error.value)
+
+
+def test_a_labels_table_names_each_file_once(tmp_path):
+    """Training reads files by their path in the folder: one stem in two subfolders is two records, the same
+    path twice is refused naming both lines; a spreadsheet's byte-order mark and a non-positive rate are handled."""
+    from bearingtwin.data.real import labels_table
+
+    table = tmp_path / "labels.csv"
+    table.write_text("record,state\nhealthy/run1.npy,normal\nouter/run1.npy,outer\n", encoding="utf-8-sig")
+    assert [(record, state) for _, record, state, _, _ in labels_table(table)] == [
+        ("healthy/run1.npy", "normal"), ("outer/run1.npy", "outer")]
+    table.write_text("record,state\nrun1.npy,normal\n./run1.npy,outer\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 3: record './run1.npy' is labelled again \(line 2\)"):
+        labels_table(table)
+    table.write_text("record,state,fs\nrun1.npy,normal,0\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs '0' must be a positive number"):
+        labels_table(table)

@@ -58,8 +58,8 @@ def test_fs_is_the_headers_sampling_rate_checked_against_the_time_column(tmp_pat
 
 
 def test_columns_are_read_by_the_name_the_legend_gives(tmp_path):
-    """An export whose Legend lists the channels in another order is read by name; a Legend naming other
-    channels is refused, naming the file."""
+    """An export whose Legend lists the channels in another order is read by name; one whose Legend names
+    other channels is read by position, with a note saying so."""
     text = (HUST / "0.5X_O_65Hz.xls").read_text(encoding="latin-1")
     lines = text.splitlines()
     start = lines.index("Data") + 1
@@ -72,8 +72,10 @@ def test_columns_are_read_by_the_name_the_legend_gives(tmp_path):
         np.testing.assert_array_equal(reordered.channels[channel], original.channels[channel])
     (tmp_path / "0.5X_O_65Hz.xls").write_text(text.replace("Legend\tSpeed\tX\tY\tZ", "Legend\tA\tB\tC\tD"),
                                               encoding="latin-1")
-    with pytest.raises(BearingTwinError, match=r"0.5X_O_65Hz.xls: the header's Legend reads 'A\\tB\\tC\\tD'"):
-        read_raw(tmp_path / "0.5X_O_65Hz.xls")
+    positional = read_raw(tmp_path / "0.5X_O_65Hz.xls")
+    np.testing.assert_array_equal(positional.channels["X"], original.channels["X"])
+    assert positional.meta["notes"] == ["the header's Legend reads 'A B C D', not Speed, X, Y and Z: the columns after "
+                                        "time are read by position as speed, X, Y, Z"]
 
 
 @pytest.mark.parametrize("stem,defect", [("0.5X_I", "bpfi"), ("0.5X_O", "bpfo")])

@@ -128,6 +128,12 @@ def test_a_further_key_held_reaches_the_twin_and_the_report_as_held(cfg):
         OperatingPoint.from_config({}, RANGES, {key: [100.0, 5000.0]}, "outer", extra_held={key: 1234.0})
     with pytest.raises(BearingTwinError, match=rf"^calibration.base_held.{key} must be a finite number"):
         OperatingPoint.from_config({}, RANGES, {}, "outer", extra_held={key: "stiff"})
+    with pytest.raises(BearingTwinError, match=r"^calibration.base_held.simulator.load_y_n: the operating point's "
+                                               r"radial_load_n sets it; give operating_point.radial_load_n instead"):
+        OperatingPoint.from_config({}, RANGES, {}, "outer", extra_held={"simulator.load_y_n": -500.0})
+    unknown = OperatingPoint.from_config({"sensor": "outer_y"}, RANGES, {}, "outer", extra_held={"bearing.stiffness": 1.0})
+    with pytest.raises(BearingTwinError, match=r"^calibration.base_held.bearing.stiffness: no such bearing"):
+        rank(cfg, measured, [], op=unknown)
 
 
 @pytest.mark.parametrize("name, value, words", [("radial_load_n", -100.0, "non-negative (radial load (downward), N)"),

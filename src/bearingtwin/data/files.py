@@ -130,7 +130,8 @@ def read_raw(path: str | Path) -> RawRecord:
     except BearingTwinError:
         raise
     except Exception as error:  # a corrupt file makes scipy, numpy and zipfile raise any type (BadZipFile, MatReadError, ...)
-        raise BearingTwinError(f"{path}: not a readable {suffix} file ({type(error).__name__}: {error})") from None
+        said = " ".join(str(error).split())
+        raise BearingTwinError(f"{path}: not a readable {suffix} file ({type(error).__name__}: {said})") from None
 
 
 def load_recording(
@@ -214,7 +215,7 @@ def _resolve_fact(raw: RawRecord, name: str, from_file, from_user):
     return from_user
 
 
-def fs_from_time_column(time_s: np.ndarray, source: str) -> float:
+def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -> float:
     """Sampling rate in Hz from a time column: samples per second over the whole span.
 
     The span rather than one step is used because exported time stamps are rounded to a
@@ -228,15 +229,21 @@ def fs_from_time_column(time_s: np.ndarray, source: str) -> float:
         row = int(np.argmax(steps <= 0)) + 1
         raise BearingTwinError(f"{source}: the time column does not increase at data row {row + 1}")
     typical = float(np.median(steps))
-    uneven = np.abs(steps - typical) > 0.5 * typical  # rounded stamps jitter by far less; a gap is whole steps
+    # Stamps printed to a few decimals make the steps take two or three values a printed unit apart (2e-5 and
+    # 3e-5 s at 48 kHz and five decimals): that unit is allowed beside a step, a missing row is not.
+    near = np.unique(steps[(steps > 0.5 * typical) & (steps < 2.0 * typical)])
+    spacing = np.diff(near)
+    unit = float(spacing[spacing > 1e-3 * typical].min()) if np.any(spacing > 1e-3 * typical) else 0.0
+    uneven = (steps > 1.5 * typical + unit) | (steps < 0.5 * typical - unit)
     if np.any(uneven):
         row = int(np.argmax(uneven)) + 1
-        raise BearingTwinError(f"{source}: the time column steps {steps[row - 1]:.6g} s at data row {row + 1}, not "
+        raise BearingTwinError(f"{source}: the {column} column steps {steps[row - 1]:.6g} s at data row {row + 1}, not "
                                f"its usual {typical:.6g} s: rows missing or merged, so no single sampling rate")
     fs = float((time_s.size - 1) / (time_s[-1] - time_s[0]))
     if fs < LOWEST_FS_HZ:
-        raise BearingTwinError(f"{source}: the time column gives {fs:g} samples per second, too slow for a vibration "
-                               "record: if it counts milliseconds, head it time_ms")
+        hint = ": if it counts milliseconds, head it time_ms" if column.lower() in ("time", "time_s", "t") else ""
+        raise BearingTwinError(f"{source}: the {column} column gives {fs:g} samples per second, too slow for a "
+                               f"vibration record{hint}")
     return fs
 
 
@@ -251,9 +258,12 @@ def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.n
         if array.ndim == 1:
             channels[name] = array.astype(np.float64)
         elif array.ndim == 2:
+            if array.shape[0] == array.shape[1]:
+                raise BearingTwinError(f"{path}: array {name!r} has shape {array.shape}, so which axis is time is not "
+                                       "clear; store it as channels x samples or samples x channels")
             # A record holds more samples than channels: samples x channels (a MATLAB or spreadsheet column per
             # channel) as well as channels x samples.
-            for row, values in enumerate(array if array.shape[0] <= array.shape[1] else array.T):
+            for row, values in enumerate(array if array.shape[0] < array.shape[1] else array.T):
                 channels[f"{name}[{row}]" if name else str(row)] = values.astype(np.float64)
         else:
             raise BearingTwinError(f"{path}: array {name!r} has shape {array.shape}; expected 1-D or 2-D (channels and samples)")
@@ -354,10 +364,11 @@ def _read_wav(path: Path) -> RawRecord:
             raise BearingTwinError(f"{path}: not a readable .wav file ({error})") from None
     notes = [f"reading it: {warning.message}" for warning in caught]
     if np.issubdtype(data.dtype, np.integer):  # PCM counts; the unsigned 8-bit format is offset by half its range
-        bits = 8 * data.dtype.itemsize
+        stored, bits = data.dtype.name, 8 * data.dtype.itemsize
         offset = 2.0 ** (bits - 1) if np.issubdtype(data.dtype, np.unsignedinteger) else 0.0
         data = (data.astype(np.float64) - offset) / 2.0 ** (bits - 1)
-        notes.append(f"{bits}-bit integer samples scaled to the recorder's full scale (1.0); the physical unit is unknown")
+        notes.append(f"integer samples ({stored}, as scipy reads them) scaled to the recorder's full scale "
+                     "(1.0); the physical unit is unknown")
     channels = {"0": data} if data.ndim == 1 else {"": data.T}
     return RawRecord(str(path), "wav", _float_channels(path, channels), fs=float(fs), fs_origin="header",
                      meta={"notes": notes})
@@ -390,7 +401,7 @@ def _read_csv(path: Path) -> RawRecord:
         raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}")
     columns = dict(zip(names, values.T))
     time_name = next((name for name in names if name.lower() in TIME_COLUMN_NAMES), None)
-    fs = (fs_from_time_column(TIME_COLUMN_NAMES[time_name.lower()] * columns.pop(time_name), str(path))
+    fs = (fs_from_time_column(TIME_COLUMN_NAMES[time_name.lower()] * columns.pop(time_name), str(path), time_name)
           if time_name is not None else None)
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "")
 

@@ -83,8 +83,9 @@ def read_hust_raw(path: str | Path) -> RawRecord:
             f"{table.shape[0]}; the file is truncated or not a single export"
         )
     name = parse_hust_name(path)
-    channels = dict(zip(_column_order(path, header), table[:, 1:].T))
-    meta = {"header": header, "data_line": data_line + 1, "bearing": BEARING}
+    names, notes = _column_order(header)
+    channels = dict(zip(names, table[:, 1:].T))
+    meta = {"header": header, "data_line": data_line + 1, "bearing": BEARING, "notes": notes}
     if name is not None:
         meta.update(state=name.state, severity=name.severity, condition=name.condition)
     fs, fs_origin = _sampling_rate(path, header, table[:, 0])
@@ -107,18 +108,20 @@ def load_hust(path: str | Path, channel: str = "X", fs: float | None = None) -> 
     return load_recording(path, channel=channel, fs=fs)
 
 
-def _column_order(path: Path, header: dict[str, str]) -> list[str]:
-    """The names of the columns after time, in the order the header's ``Legend`` gives (speed, X, Y, Z when
-    it gives none): an export with its channels in another order is read by name, not by position."""
+def _column_order(header: dict[str, str]) -> tuple[list[str], list[str]]:
+    """The names of the columns after time, in the order the header's ``Legend`` gives, and a note when it
+    gives none that names them: an export with its channels in another order is read by name; one whose
+    Legend names other channels (the layout was reported, not checked) by position, and said so."""
     legend = header.get("Legend")
     if legend is None:
-        return list(COLUMNS[1:])
+        return list(COLUMNS[1:]), []
     by_lower = {column.lower(): column for column in COLUMNS[1:]}
-    names = [by_lower.get(cell.strip().lower()) for cell in legend.split("\t") if cell.strip()]
-    if sorted(filter(None, names)) != sorted(COLUMNS[1:]) or len(names) != len(COLUMNS) - 1:
-        raise BearingTwinError(f"{path}: the header's Legend reads {legend!r}; expected Speed, X, Y and Z (any order), "
-                               "the columns after time")
-    return names
+    cells = [cell.strip() for cell in legend.split("\t") if cell.strip()]
+    names = [by_lower.get(cell.lower()) for cell in cells if cell.lower() not in ("time", "t")]
+    if sorted(filter(None, names)) == sorted(COLUMNS[1:]) and len(names) == len(COLUMNS) - 1:
+        return names, []
+    return list(COLUMNS[1:]), [f"the header's Legend reads {' '.join(cells)!r}, not Speed, X, Y and Z: the columns "
+                               f"after time are read by position as {', '.join(COLUMNS[1:])}"]
 
 
 def _read_header(path: Path) -> tuple[dict[str, str], int]:

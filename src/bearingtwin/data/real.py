@@ -176,10 +176,10 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
                 row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
                 where = f"{table} line {line}"
                 record = row["record"]
-                if Path(record).stem in seen:
-                    raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record).stem]}); "
+                if Path(record) in seen:
+                    raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record)]}); "
                                            "one row per record")
-                seen[Path(record).stem] = line
+                seen[Path(record)] = line
                 rows.append((where, record, _state(row["state"], where), _number(row.get("rpm"), "rpm", where),
                              _number(row.get("fs"), "fs", where)))
     except (OSError, UnicodeDecodeError) as error:

@@ -42,7 +42,8 @@ class PhysicsEvidence:
 
     Attributes:
         prominence_db: state -> mean prominence (dB over the local floor) of its first harmonics.
-        evidence_state: the state whose lines stand highest; ``normal`` when none reaches ``threshold_db``.
+        evidence_state: the state whose lines stand highest; ``normal`` when none reaches ``threshold_db``;
+            None when no state's series can be read (see ``unreadable``): the physics has no answer.
         lines_hz: state -> the harmonic frequencies read, Hz.
         unreadable: state -> why its series cannot be read on this bearing at this resolution (each
             of its harmonics on a shaft harmonic, which every machine's envelope carries): such a
@@ -53,7 +54,7 @@ class PhysicsEvidence:
     """
 
     prominence_db: dict[str, float]
-    evidence_state: str
+    evidence_state: str | None
     lines_hz: dict[str, list[float]]
     band_hz: tuple[float, float]
     threshold_db: float
@@ -160,9 +161,12 @@ def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: s
                         if (h == 0 and not _near_shaft_harmonic(line, shaft_hz, half))
                         or not _ambiguous(line, others, shaft_hz, 2.0 * half)]
         if not lines[state]:
-            unreadable[state] = (f"its {STATE_RATES[state].upper().replace('BSF2', '2 x BSF')} series lies on shaft "
-                                 f"harmonics ({candidates[0] / shaft_hz:.3f} shaft orders, within "
-                                 f"{half_widths[0]:.1f} Hz of {round(candidates[0] / shaft_hz)} x shaft, and its harmonics too)")
+            order = candidates[0] / shaft_hz
+            reach = (f"its search band (+-{half_widths[0]:.1f} Hz: {resolution:.2g} Hz bins)" if half_widths[0] == resolution
+                     else f"its search band (+-{half_widths[0]:.1f} Hz)")
+            unreadable[state] = (f"its {STATE_RATES[state].upper().replace('BSF2', '2 x BSF')} fundamental, "
+                                 f"{order:.3f} shaft orders, has {round(order)} x shaft within {reach}, and its other "
+                                 "harmonics lie on shaft harmonics or on another state's lines")
             continue
         # Flanks half a shaft order wide: inside them no other line of the same fault
         # (an inner-race fault's shaft sidebands sit a whole order away).
@@ -170,7 +174,7 @@ def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: s
                                      max(0.5 * shaft_hz, 3 * resolution)) for line in lines[state]]
         prominence[state] = float(np.mean(values))
     strongest = max(prominence, key=prominence.get, default=None)
-    state = strongest if strongest is not None and prominence[strongest] >= threshold_db else "normal"
+    state = None if strongest is None else strongest if prominence[strongest] >= threshold_db else "normal"
     lines = {name: series for name, series in lines.items() if series}
     return PhysicsEvidence(prominence, state, lines, band_hz, float(threshold_db), freqs_hz, power, unreadable)
 

@@ -235,7 +235,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         ],
         "evidence": None if evidence is None else evidence.as_dict(),
         "evidence_state": None if evidence is None else evidence.evidence_state,
-        "agree": None if evidence is None else bool(evidence.evidence_state == verdict),
+        "agree": None if evidence is None or evidence.evidence_state is None else bool(evidence.evidence_state == verdict),
         "source": str(recording.source),
         "channel": recording.channel,
         "original_fs": prepared.original_fs,
@@ -247,7 +247,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         result["true_state"] = prepared.true_state
         result["correct"] = bool(verdict == prepared.true_state)
         result["windows_correct"] = int(np.sum(states == prepared.true_state))
-        if evidence is not None:
+        if evidence is not None and evidence.evidence_state is not None:  # an answer the physics gave
             result["physics_correct"] = bool(evidence.evidence_state == prepared.true_state)
     return result, evidence
 
@@ -278,8 +278,9 @@ def plot_diagnosis(result: dict, evidence: PhysicsEvidence | None, class_names: 
     top.set(xlabel="window start (s)", ylabel="class probability", ylim=(-0.02, 1.02),
             title=f"{result['record']}: {result['verdict']} ({result['share']:.0%} of windows)")
     top.legend(loc="upper right", ncol=len(class_names))
-    if evidence is None:
-        bottom.text(0.5, 0.5, "no shaft speed: physics evidence not computed", ha="center", va="center")
+    if evidence is None or not evidence.lines_hz:
+        bottom.text(0.5, 0.5, "no shaft speed: physics evidence not computed" if evidence is None else
+                    "no defect series can be read apart from the shaft's lines", ha="center", va="center")
         bottom.set_axis_off()
     else:
         top_line = max(max(lines) for lines in evidence.lines_hz.values())

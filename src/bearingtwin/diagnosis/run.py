@@ -74,8 +74,17 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
 
 
 def read_labels(path: Path | None) -> dict[str, tuple[str, float | None, float | None]]:
-    """``record -> (state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or stem)."""
-    return {} if path is None else {Path(record).stem: (state, rpm, fs) for _, record, state, rpm, fs in labels_table(path)}
+    """``record -> (state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or stem).
+
+    Records are named by their stem here (an output folder, a summary row), so two rows of one stem are refused."""
+    labels, lines = {}, {}
+    for where, record, state, rpm, fs in labels_table(path) if path is not None else []:
+        stem = Path(record).stem
+        if stem in labels:
+            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); "
+                                   "one row per record")
+        labels[stem], lines[stem] = (state, rpm, fs), where
+    return labels
 
 
 def labels_path(cfg: DictConfig) -> Path | None:
@@ -116,7 +125,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     windows_total = windows_correct = 0
     progress = tqdm(records, desc="diagnose", unit="file", disable=len(records) < 2)
     unlisted = sorted(set(labels) - {path.stem for path in records})
-    if unlisted:
+    if unlisted and not Path(str(cfg.path)).expanduser().is_file():  # a table of a folder, not of the one file given
         progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
     for path in progress:
         try:
@@ -124,6 +133,12 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
             prepared = read_record(path, pipeline, cfg.channel, cfg.fs if fs is None else fs, cfg.rpm if rpm is None else rpm,
                                    state, bearing)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
+            folder = out / result["record"]
+            folder.mkdir(parents=True, exist_ok=True)
+            (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
+            written = [folder / "diagnosis.json"]
+            if figures:
+                written.append(plot_diagnosis(result, evidence, pipeline.class_names, folder / "diagnosis.png"))
         except Exception as error:  # one record's failure, expected or not, must not lose the others'
             message = str(error) if isinstance(error, BearingTwinError) else f"{type(error).__name__}: {error}"
             if table is not None and path.stem not in labels and ("give fs=" in message or "give rpm=" in message):
@@ -134,12 +149,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
             run.rows.append({"record": path.stem, "error": message})
             progress.write(f"{path.stem}: FAILED - {message}")
             continue
-        folder = out / result["record"]
-        folder.mkdir(parents=True, exist_ok=True)
-        (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
-        run.files.append(folder / "diagnosis.json")
-        if figures:
-            run.files.append(plot_diagnosis(result, evidence, pipeline.class_names, folder / "diagnosis.png"))
+        run.files += written
         for note in result["notes"]:
             progress.write(f"{result['record']}: {note}")
         progress.write(one_line(result))

@@ -290,7 +290,8 @@ def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapp
 def _apart_from_shaft(hz: float, shaft_hz: float, max_fraction: int, window: float) -> bool:
     """Whether ``hz`` lies more than two search windows from every shaft harmonic's fraction m / k
     (k up to ``max_fraction``), where the shaft's own lines stand, under the right rate or a wrong one."""
-    fractions = np.array([m / k for k in range(1, max_fraction + 1) for m in range(1, 12 * k)])
+    top = max(12, int(hz / shaft_hz) + 2)  # every shaft order up to past ``hz``
+    fractions = np.array([m / k for k in range(1, max_fraction + 1) for m in range(1, top * k)])
     return bool(np.min(np.abs(hz / shaft_hz - fractions) / (hz / shaft_hz)) > 2 * window)
 
 

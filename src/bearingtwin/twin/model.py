@@ -85,12 +85,13 @@ class TwinModel:
         """The same twin with an empty cache, for another thread (a cache is not shared)."""
         return TwinModel(self.fault, self.config["bearing"], self.config["simulator"], self.seed)
 
-    def value(self, key: str):
-        """The configured value of a dotted ``bearing.*`` / ``simulator.*`` key (a base parameter)."""
+    def value(self, key: str, group: str = "calibration.base"):
+        """The configured value of a dotted ``bearing.*`` / ``simulator.*`` key (a base parameter); errors name
+        the key as an entry of ``group``, the setting it came from."""
         node = self.config
         for part in key.split("."):
             if not isinstance(node, dict) or part not in node:
-                raise BearingTwinError(f"calibration.base.{key}: no such bearing.* or simulator.* config key "
+                raise BearingTwinError(f"{group}.{key}: no such bearing.* or simulator.* config key "
                                        "(a key names a value inside nested mappings, no list index)")
             node = node[part]
         return node

@@ -119,6 +119,13 @@ class OperatingPoint:
         both = sorted(set(extra) & set(extra_known))
         if both:
             raise BearingTwinError(f"calibration.base.{both[0]}: also held in calibration.base_held; fit it or hold it")
+        own = {parameter.key: name for name, parameter in BASE_PARAMETERS.items()}
+        for group, keys in (("calibration.base", extra), ("calibration.base_held", extra_known)):
+            taken = sorted(key for key in keys if key in own or key in ("simulator.sensor", "simulator.sensor_angle_deg"))
+            if taken:
+                name = own.get(taken[0], "sensor")
+                raise BearingTwinError(f"{group}.{taken[0]}: the operating point's {name} sets it; give "
+                                       f"operating_point.{name} instead")
         return cls(known, free, races, angle, float(angle_step_deg), extra, extra_known)
 
     @property

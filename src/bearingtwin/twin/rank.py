@@ -416,8 +416,9 @@ class EffectRanker:
         # Later rounds may weigh the views otherwise: they judge what is left once an effect is in.
         later = judge if self.later_points_per_view is None else replace(judge, points_per_view=self.later_points_per_view)
         op = self.operating_point
-        for key in (*op.extra, *op.extra_known):
-            twin.value(key)  # an unknown extra key is named before any simulation
+        for group, keys in (("calibration.base", op.extra), ("calibration.base_held", op.extra_known)):
+            for key in keys:
+                twin.value(key, group)  # an unknown extra key is named before any simulation
 
         # 1. The operating point: the sensor on its grid inside every trial (no simulation), the rest by TPE.
         sensor_search: dict[tuple, tuple[dict, list]] = {}
