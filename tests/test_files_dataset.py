@@ -55,6 +55,17 @@ def test_labels_table_gives_each_file_its_state_and_the_split_keeps_records_apar
         assert ends.max() <= dataset.starts[test][of_record[test]].min()
     # The key follows the content and labelling, not where the folder lives.
     assert build_dataset(files_cfg(folder)).key == dataset.key
+    import shutil
+
+    moved = folder.parent / "moved"
+    shutil.copytree(folder, moved)
+    assert build_dataset(files_cfg(moved)).key == dataset.key
+    np.save(moved / "c.npy", tone("normal", seed=2))  # written over: same name, same size, other data
+    assert (moved / "c.npy").stat().st_size == (folder / "c.npy").stat().st_size
+    assert build_dataset(files_cfg(moved)).key != dataset.key
+    (folder / "labels.csv").write_text("record,state,rpm\na.npy,normal,1797\nb.npy,normal,1797\nc.npy,outer,1750\n"
+                                       "d.csv,inner,1797\n")
+    assert build_dataset(files_cfg(folder)).key != dataset.key  # a row's speed
     (folder / "labels.csv").write_text("record,state\na.npy,normal\nb.npy,ball\nc.npy,outer\nd.csv,inner\n")
     assert build_dataset(files_cfg(folder)).key != dataset.key
 
@@ -107,6 +118,9 @@ def test_a_labels_table_names_each_file_once(tmp_path):
         ("healthy/run1.npy", "normal"), ("outer/run1.npy", "outer")]
     table.write_text("record,state\nrun1.npy,normal\n./run1.npy,outer\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv line 3: record './run1.npy' is labelled again \(line 2\)"):
+        labels_table(table)
+    table.write_text("record,state,RPM\nrun1.npy,normal,1500\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv: column 'RPM' is not one of record, state, rpm, fs \(lower case\)"):
         labels_table(table)
     table.write_text("record,state,fs\nrun1.npy,normal,0\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs '0' must be a positive number"):

@@ -219,5 +219,14 @@ def test_cwru_report_measures_leakage_as_random_minus_block(tmp_path, capsys):
 def test_reports_without_runs_say_what_is_missing(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         report_main(["hust", f"uri=sqlite:///{tmp_path}/empty.db", f"out={tmp_path}/x.md"])
+    assert exit_.value.code == 2  # a typo in uri= would otherwise create an empty store and say it has no runs
+    assert f"no such store ({tmp_path}/empty.db does not exist)" in capsys.readouterr().err
+    from omegaconf import OmegaConf
+
+    from bearingtwin.tracking.mlflow_logging import open_store
+
+    open_store(OmegaConf.create({"uri": f"sqlite:///{tmp_path}/empty.db", "experiment": "bearingtwin"}))
+    with pytest.raises(SystemExit) as exit_:
+        report_main(["hust", f"uri=sqlite:///{tmp_path}/empty.db", f"out={tmp_path}/x.md"])
     assert exit_.value.code == 2
     assert "data.source=hust" in capsys.readouterr().err

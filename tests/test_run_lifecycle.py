@@ -253,3 +253,41 @@ def test_a_signal_lost_in_a_callback_prints_no_traceback_and_still_stops_the_com
         sys.unraisablehook = saved_hook
         for s, handler in saved.items():
             signal.signal(s, handler)
+
+
+def test_a_signal_during_a_lightning_fit_still_kills_with_its_status(tmp_path, capsys, monkeypatch):
+    """Lightning's Trainer catches the interrupt, ignores SIGINT from then on and calls exit(1): a sweep's
+    job stopped while its network trained was left FAILED with status 1. Under ``signals_kept`` (how
+    training fits) the exit is the interrupt again: KILLED, 143, and the handlers are ours afterwards."""
+    import numpy as np
+
+    from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier, CnnBiLstmModule
+    from bearingtwin.tracking import lifecycle
+
+    client, experiment_id = open_store(make_cfg(tmp_path).tracking)
+    run_id = client.create_run(experiment_id).info.run_id
+    epoch_end = CnnBiLstmModule.on_train_epoch_end
+
+    def signalled_at_the_second_epoch(module):
+        epoch_end(module)
+        if module.current_epoch == 1:
+            signal.raise_signal(signal.SIGTERM)
+
+    monkeypatch.setattr(CnnBiLstmModule, "on_train_epoch_end", signalled_at_the_second_epoch)
+
+    def trains():
+        register_open_run(client, run_id)
+        X, y = np.random.default_rng(0).standard_normal((24, 9)), np.repeat([0, 1, 2], 8)
+        with lifecycle.signals_kept():
+            CnnBiLstmClassifier(max_epochs=50).fit(X, y)
+        return "finished"
+
+    handlers = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    lifecycle.handle_signals()
+    try:
+        assert exit_status_under_stop_cleanly(trains) == 128 + signal.SIGTERM
+    finally:
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)
+    assert client.get_run(run_id).info.status == "KILLED"
+    assert "interrupted by SIGTERM" in capsys.readouterr().err

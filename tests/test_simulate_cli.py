@@ -41,3 +41,9 @@ def test_bad_input_exits_non_zero_naming_the_field(tmp_path, override, field):
     assert result.returncode == 2
     assert result.stderr.startswith("error: ") and field in result.stderr
     assert not (tmp_path / "x.npz").exists()
+
+
+def test_an_output_that_is_not_an_npz_archive_is_refused_before_simulating(tmp_path):
+    """numpy would write out.txt.npz and the summary would point at out.txt."""
+    result = run(tmp_path, f"out={tmp_path / 'out.txt'}", "simulator.duration=0.1")
+    assert result.returncode == 2 and "give out=<name>.npz" in result.stderr and not list(tmp_path.glob("out.txt*"))

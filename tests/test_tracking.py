@@ -207,3 +207,19 @@ def test_a_sweep_summary_says_what_became_of_every_job(tmp_path):
     assert summary[0] == f"sweep cli (run {parent.info.run_id}): 4 jobs, 1 finished, 2 failed, 1 skipped (already finished)"
     assert summary[1:] == ["  FAILED: seed=2: BearingTwinError: data.samples_per_class must be positive, got -3",
                            "  NOT RUN: seed=3: the job ended before its MLflow run was created (see its log)"]
+
+
+def test_a_store_that_cannot_serve_is_named_before_any_work(tmp_path):
+    """MLflow would retry a silent server for minutes, stop on its retired file store with a traceback, and
+    create an empty database where a command only reads: each is one line naming tracking.uri."""
+    from bearingtwin.tracking.mlflow_logging import check_store
+
+    with pytest.raises(BearingTwinError, match=r"^tracking.uri=file:///x: MLflow 3 keeps runs in a database"):
+        check_store("file:///x")
+    with pytest.raises(BearingTwinError, match=r"^tracking.uri=http://127.0.0.1:9: no tracking server answers there"):
+        check_store("http://127.0.0.1:9")
+    missing = f"sqlite:///{tmp_path}/none/mlflow.db"
+    with pytest.raises(BearingTwinError, match=r"no such store \(.*none/mlflow.db does not exist\)"):
+        check_store(missing, must_exist=True)
+    check_store(missing)  # a command that writes creates it
+    assert not (tmp_path / "none").exists()

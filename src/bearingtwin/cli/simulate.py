@@ -13,6 +13,7 @@ from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys, true_or_false
+from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate
 
@@ -57,6 +58,8 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
 def main(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
     out = Path(cfg.out).expanduser()
+    if out.suffix != ".npz":  # numpy would write <out>.npz and leave <out> for the user to look for
+        raise BearingTwinError(f"out={cfg.out}: bearingtwin-simulate writes an .npz archive; give out=<name>.npz")
     output_folder(out.parent)
     plot = true_or_false(cfg.plot, "plot")
     recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)

@@ -16,6 +16,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import csv
+import hashlib
+import logging
 import math
 import re
 
@@ -106,6 +108,8 @@ def hust_paths(data_cfg) -> dict[str, Path]:
     return {fault: root / hust_file_name(stems[fault], _get(cfg, "condition")) for fault in _classes(list(stems), allowed=FAULTS)}
 
 
+log = logging.getLogger(__name__)
+
 LABEL_COLUMNS = ("record", "state", "rpm", "fs")
 """Columns of a labels table: ``record`` (file name in ``data.root``) and ``state`` are required."""
 DEFAULT_LABELS = "labels.csv"
@@ -132,7 +136,7 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
                        rpm=rpm if rpm is not None else cfg.get("rpm"), fs=fs if fs is not None else cfg.get("fs"))
         for path, state, rpm, fs in rows
     ]
-    labelling = [(path.name, state) for path, state, _, _ in rows]
+    labelling = [(path.name, state, rpm, fs) for path, state, rpm, fs in rows]
     dataset = windows_from_recordings(
         recordings, int(_get(cfg, "window_length")), int(_get(cfg, "windows_per_record")),
         dataset_key([path for path, *_ in rows], {**cfg, "labels": labelling, "pattern": None}),
@@ -158,6 +162,9 @@ def _rows_from_labels(root: Path, cfg: dict) -> list[tuple[Path, str, float | No
         rows.append((path, state, rpm, fs))
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
+    unlisted = sorted(set(recordings_in(root)) - {path for path, *_ in rows} - {table})
+    if unlisted:
+        log.warning("%s: %s not labelled in %s, left out", root, ", ".join(path.name for path in unlisted), table.name)
     return rows
 
 
@@ -171,6 +178,10 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
             missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
             if missing:
                 raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
+            unknown = [name for name in columns if name not in LABEL_COLUMNS]
+            if unknown:  # an "RPM" column would be passed over, and the files read at another speed
+                raise BearingTwinError(f"{table}: column {unknown[0]!r} is not one of {', '.join(LABEL_COLUMNS)} "
+                                       "(lower case)")
             rows, seen = [], {}
             for line, row in enumerate(reader, start=2):
                 row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
@@ -269,12 +280,24 @@ def windows_from_recordings(
 
 
 def dataset_key(paths: list[Path], cfg: dict) -> str:
-    """Hash of the files' names and sizes and of the config fields that shape the windows."""
+    """Hash of the files' names and contents and of the config fields that shape the windows.
+
+    Contents, not sizes or paths: recordings of one length in another folder, or a file written
+    over, are other data (a size alone let their cached features be reused); the same files
+    copied elsewhere are the same data."""
     content = {
-        "files": [(Path(path).name, Path(path).stat().st_size) for path in paths],
+        "files": [(Path(path).name, _file_digest(Path(path))) for path in paths],
         "config": {name: value for name, value in cfg.items() if name not in KEY_IGNORES},
     }
     return content_key(content)
+
+
+def _file_digest(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def _find_cwru_file(root: Path, stems: dict, fault: str, load: int) -> Path:

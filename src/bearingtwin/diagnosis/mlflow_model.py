@@ -155,6 +155,9 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
     import mlflow
     from mlflow.exceptions import MlflowException
 
+    from bearingtwin.tracking.mlflow_logging import check_store
+
+    check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
     mlflow.set_tracking_uri(tracking_uri)
     mlflow.set_registry_uri(tracking_uri)
     try:

@@ -26,6 +26,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.cache import cache_path, extract_features
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.models.build import build_classifier
+from bearingtwin.tracking.lifecycle import signals_kept
 
 # Metrics that measure this machine, not the model: excluded when runs are compared for equality.
 TIMING_METRICS = ("inference_ms_per_sample",)
@@ -163,9 +164,10 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     y = dataset.labels
 
     def fit(model, X: np.ndarray):
-        if cfg.classifier.name == "cnn_bilstm":  # the network records validation curves
-            return model.fit(X[train], y[train], eval_set=(X[test], y[test]))
-        return model.fit(X[train], y[train])
+        with signals_kept():  # Lightning turns an interrupt into exit(1)
+            if cfg.classifier.name == "cnn_bilstm":  # the network records validation curves
+                return model.fit(X[train], y[train], eval_set=(X[test], y[test]))
+            return model.fit(X[train], y[train])
 
     fit(classifier, features)
     choice = {}

@@ -16,6 +16,7 @@ Three ways a run can be left open, three remedies:
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import os
@@ -111,6 +112,22 @@ def raise_if_interrupted() -> None:
     would go on to finish a run the user stopped."""
     if _received:
         raise Interrupted(_received[-1])
+
+
+@contextlib.contextmanager
+def signals_kept():
+    """Around a library that takes the signals over: Lightning's ``Trainer.fit`` catches an interrupt, ignores
+    SIGINT from then on and calls ``exit(1)``, which would leave the runs FAILED, not KILLED. Here that exit is
+    the interrupt it was, and the handlers installed before (:func:`handle_signals`) are installed again."""
+    ours = signal.getsignal(signal.SIGINT) is _raise_interrupted
+    try:
+        yield
+    except SystemExit:
+        raise_if_interrupted()
+        raise
+    finally:
+        if ours and threading.current_thread() is threading.main_thread():
+            handle_signals()
 
 
 def _quiet_lost_interrupt(report_others: Callable) -> Callable:

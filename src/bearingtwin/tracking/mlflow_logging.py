@@ -104,10 +104,15 @@ class TrackedRun:
 # ---------------------------------------------------------------- store
 
 
-def open_store(tracking_cfg: DictConfig) -> tuple[MlflowClient, str]:
-    """A client on ``tracking.uri`` and the id of ``tracking.experiment`` (created if new)."""
+def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[MlflowClient, str]:
+    """A client on ``tracking.uri`` and the id of ``tracking.experiment`` (created if new).
+
+    A store that cannot serve is refused in one line before any work: a tracking server that does not
+    answer (MLflow would retry for minutes), MLflow 3's retired file store, and with ``must_exist`` (a
+    command that only reads) a SQLite file that is not there, which would otherwise be created empty."""
     uri = str(tracking_cfg.uri)
     name = str(tracking_cfg.experiment)
+    check_store(uri, must_exist)
     with _sqlite_init_lock(uri):
         client = MlflowClient(tracking_uri=uri)
         experiment = client.get_experiment_by_name(name)  # creates the schema of a new database
@@ -122,6 +127,25 @@ def open_store(tracking_cfg: DictConfig) -> tuple[MlflowClient, str]:
             if experiment is None:
                 raise
             return client, experiment.experiment_id
+
+
+def check_store(uri: str, must_exist: bool = False) -> None:
+    """Refuse, in one line naming ``tracking.uri``, a store that cannot serve (see :func:`open_store`)."""
+    scheme = urlparse(uri).scheme
+    if scheme in ("", "file"):
+        raise BearingTwinError(f"tracking.uri={uri}: MLflow 3 keeps runs in a database or behind a server, not in a "
+                               "folder; give sqlite:///<folder>/mlflow.db or http://<server>")
+    if scheme in ("http", "https"):
+        import urllib.error
+        import urllib.request
+
+        try:  # the server's own liveness route, once, with a short timeout
+            urllib.request.urlopen(f"{uri.rstrip('/')}/health", timeout=10).close()
+        except (urllib.error.URLError, OSError) as error:
+            reason = " ".join(str(getattr(error, "reason", error)).split())
+            raise BearingTwinError(f"tracking.uri={uri}: no tracking server answers there ({reason})") from None
+    if must_exist and scheme == "sqlite" and not Path(_sqlite_path(uri)).is_file():
+        raise BearingTwinError(f"tracking.uri={uri}: no such store ({_sqlite_path(uri)} does not exist)")
 
 
 def artifact_location(root: str | None, experiment: str) -> str | None:
@@ -569,7 +593,7 @@ class SweepParentRun(Callback):
         exit_on_user_error(require_files)(jobs)
         if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
             start_ray_keeping_signals(config.hydra.launcher.ray.init)  # before any run is open: Ray may not start
-        client, experiment_id = open_store(config.tracking)
+        client, experiment_id = exit_on_user_error(open_store)(config.tracking)
         reap_dead_runs(client, experiment_id)
         name = str(config.hydra.runtime.choices.get("sweep") or "cli")
         sweep_dir = sweep_folder(config.hydra)

@@ -388,7 +388,8 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
     function, _ = REPORTS[name]
     tracking = default_tracking()
     settings = {"uri": tracking["uri"], "experiment": tracking["experiment"], **settings}
-    client, experiment_id = open_store(OmegaConf.create({**tracking, "uri": settings["uri"], "experiment": settings["experiment"]}))
+    client, experiment_id = open_store(OmegaConf.create({**tracking, "uri": settings["uri"], "experiment": settings["experiment"]}),
+                                       must_exist=True)
     source = ReportInput(client, experiment_id, settings)
     report = function(source)
     stem = name if name != "repeat" else f"repeat_{settings['run_id']}"
