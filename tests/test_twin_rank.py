@@ -145,6 +145,12 @@ def test_a_held_operating_point_value_out_of_its_physical_range_is_named(name, v
     assert OperatingPoint.from_config({"clearance_um": 0.0}, RANGES, {}, "outer").known == {"clearance_um": 0.0}
 
 
+def test_a_held_sensor_direction_is_read_modulo_half_a_turn():
+    assert OperatingPoint.from_config({"sensor": "outer", "sensor_angle_deg": -90.0}, RANGES, {}, "outer").sensor_angle_deg == 90.0
+    with pytest.raises(BearingTwinError, match=r"operating_point.sensor_angle_deg=720: give a direction in degrees"):
+        OperatingPoint.from_config({"sensor": "outer", "sensor_angle_deg": 720.0}, RANGES, {}, "outer")
+
+
 def test_the_independent_rigs_sensor_direction_is_reported_as_uncertain():
     """On the rig a vertical sensor reads the outer-race strikes through a housing mode at 1.7 kHz,
     a horizontal one their cross-coupled remainder through one at 1.1 kHz; the twin's x and y
@@ -331,5 +337,8 @@ def test_bad_candidates_and_keys_are_named(cfg):
         TwinModel("outer", cfg.bearing, {**OmegaConf.to_container(cfg.simulator), "defect": {"depth_mm": "???"}}, 0)
     with pytest.raises(BearingTwinError, match="ranking.view_floor_db must be a positive number"):
         EffectRanker([], view_floor_db=0.0).fit(None, measured, BearingGeometry.from_config(cfg.bearing))
+    with pytest.raises(BearingTwinError, match=r"^calibration: every trial was rejected by the model: effects.noise: "
+                                               r"bad parameters .*unexpected keyword argument 'colour'"):
+        rank(cfg, measured, [], fixed={"noise": {"snr_db": 40.0, "colour": "pink"}}, n_trials_base=2, n_polish=0)
     with pytest.raises(BearingTwinError, match="candidates: noise is already among the fixed effects"):
         rank(cfg, measured, ["noise"], fixed={"noise": {"snr_db": 20.0, "spectral_slope": 0.0}})

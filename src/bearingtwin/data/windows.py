@@ -26,7 +26,8 @@ def window_starts(n_samples: int, window_length: int, n_windows: int) -> np.ndar
     when it is long. The first window starts at 0 and the last ends at the record's end.
     """
     if window_length < 1 or n_windows < 1:
-        raise BearingTwinError(f"window_length and n_windows must be positive (got {window_length}, {n_windows})")
+        raise BearingTwinError(f"data.window_length and the windows per record (data.windows_per_record or "
+                               f"data.samples_per_class) must be positive (got {window_length}, {n_windows})")
     if n_samples < window_length:
         raise BearingTwinError(
             f"the record has {n_samples} samples, shorter than one window of {window_length}"

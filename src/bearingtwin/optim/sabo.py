@@ -117,7 +117,7 @@ class SaboSampler(BaseSampler):
 
     def __init__(self, search_space: dict[str, BaseDistribution], population: int = 15, seed: int | None = 0) -> None:
         if int(population) < 2:
-            raise BearingTwinError(f"population must be at least 2 agents, got {population}")
+            raise BearingTwinError(f"search.population must be at least 2 agents, got {population}")
         self._search_space = dict(search_space)
         self._dimensions = _dimensions(self._search_space)
         self._population = int(population)

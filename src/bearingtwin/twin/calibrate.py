@@ -82,7 +82,8 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
     study.optimize(run, n_trials=n_trials)
     values = [t.value for t in study.trials]
     if not np.isfinite(study.best_value):
-        raise BearingTwinError("calibration: every trial was rejected by the model; check the search space")
+        why = f": {scored.first_rejection}" if scored.first_rejection else "; check the search space"
+        raise BearingTwinError(f"calibration: every trial was rejected by the model{why}")
     params = [dict(t.params) for t in study.trials]
     # Two starts: the best trial and the best one far from it (another basin, e.g. a load-clearance trade-off).
     order = [i for i in np.argsort(values) if np.isfinite(values[i])]
@@ -97,13 +98,17 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
 
 
 def run_plain(objective: Callable[[dict[str, float]], float]) -> Callable[[dict[str, float]], float]:
-    """``objective`` with a rejected or non-finite evaluation scored as +inf, as a failed trial is."""
+    """``objective`` with a rejected or non-finite evaluation scored as +inf, as a failed trial is; the
+    first rejection's reason is kept (``run.first_rejection``), to say why when every trial was rejected."""
     def run(params: dict[str, float]) -> float:
         try:
             value = float(objective(params))
-        except BearingTwinError:
+        except BearingTwinError as error:
+            if run.first_rejection is None:
+                run.first_rejection = str(error)
             return math.inf
         return value if math.isfinite(value) else math.inf
+    run.first_rejection = None
     return run
 
 

@@ -105,6 +105,10 @@ class OperatingPoint:
             raise BearingTwinError(f"operating_point.sensor={sensor!r}: choose one of {', '.join(SENSOR_NAMES)} or null")
         if angle is not None:
             angle = _finite(angle, "operating_point.sensor_angle_deg")
+            if not -360.0 <= angle <= 360.0:
+                raise BearingTwinError(f"operating_point.sensor_angle_deg={angle:g}: give a direction in degrees from "
+                                       "horizontal, between -360 and 360")
+            angle %= 180.0  # directions a and a + 180 read the same signal but for its sign
             if sensor in CHANNELS:
                 raise BearingTwinError(f"operating_point.sensor_angle_deg: sensor={sensor} already names the direction; "
                                        "give the race (inner or outer) with an angle")
