@@ -71,3 +71,33 @@ LONGEST_FIRST = ("test_readme_commands.py", "test_report.py", "test_diagnose.py"
 def pytest_collection_modifyitems(items):
     rank = {name: position for position, name in enumerate(LONGEST_FIRST)}
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: each file's own order is kept
+
+
+# Nothing a test does may write into the checkout, whose generated folders git ignores (an MLflow store's
+# default artifact root is ./mlruns, the checkout when the suite runs there): the files under them are
+# listed before the session and after it, and any new one fails the session, named.
+_REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+_GENERATED = ("mlruns", ".cache", "outputs", "multirun")
+
+
+def _generated_files() -> set[str]:
+    found = set()
+    for folder in _GENERATED:
+        for root, _, files in os.walk(os.path.join(_REPO, folder)):
+            found.update(os.path.relpath(os.path.join(root, name), _REPO) for name in files)
+    return found
+
+
+_BEFORE = _generated_files() if "PYTEST_XDIST_WORKER" not in os.environ else None
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if _BEFORE is None:  # a worker: the controller looks once all of them are done
+        return
+    written = sorted(_generated_files() - _BEFORE)
+    if written:
+        shown = ", ".join(written[:5]) + (f" and {len(written) - 5} more" if len(written) > 5 else "")
+        writer = session.config.get_terminal_writer()
+        writer.line()
+        writer.line(f"tests wrote into the checkout: {shown}", red=True)
+        session.exitstatus = 1

@@ -203,7 +203,8 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
         monkeypatch.setitem(os.environ, variable, os.environ.get(variable, ""))
     uri = f"sqlite:///{tmp_path}/mlflow.db"
     client = MlflowClient(uri)
-    run_id = client.create_run(client.create_experiment("fan_end")).info.run_id
+    # An artifact location of its own: MLflow's default is ./mlruns, the checkout when the suite runs there.
+    run_id = client.create_run(client.create_experiment("fan_end", (tmp_path / "artifacts").as_uri())).info.run_id
     info = log_diagnosis_model(uri, client.get_run(run_id).info.experiment_id, run_id, pipeline, windows, rpm)
     model, loaded = load_diagnosis_model(info.model_uri, uri)
     assert model_params(model) == {"rpm", "bearing"}
