@@ -80,11 +80,15 @@ _REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 _GENERATED = ("mlruns", ".cache", "outputs", "multirun")
 
 
-def _generated_files() -> set[str]:
+def _generated_files() -> set[tuple[str, int, int]]:
+    """Each file under the generated folders with its size and modification time: a file written over counts."""
     found = set()
     for folder in _GENERATED:
         for root, _, files in os.walk(os.path.join(_REPO, folder)):
-            found.update(os.path.relpath(os.path.join(root, name), _REPO) for name in files)
+            for name in files:
+                path = os.path.join(root, name)
+                stat = os.stat(path)
+                found.add((os.path.relpath(path, _REPO), stat.st_size, stat.st_mtime_ns))
     return found
 
 
@@ -94,10 +98,11 @@ _BEFORE = _generated_files() if "PYTEST_XDIST_WORKER" not in os.environ else Non
 def pytest_sessionfinish(session, exitstatus):
     if _BEFORE is None:  # a worker: the controller looks once all of them are done
         return
-    written = sorted(_generated_files() - _BEFORE)
+    written = sorted({path for path, *_ in _generated_files() - _BEFORE})
     if written:
         shown = ", ".join(written[:5]) + (f" and {len(written) - 5} more" if len(written) > 5 else "")
         writer = session.config.get_terminal_writer()
         writer.line()
         writer.line(f"tests wrote into the checkout: {shown}", red=True)
-        session.exitstatus = 1
+        if session.exitstatus == 0:  # an interrupted or failing session keeps its own status
+            session.exitstatus = 1

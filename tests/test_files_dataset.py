@@ -119,6 +119,8 @@ def test_a_labels_table_names_each_file_once(tmp_path):
     table.write_text("record,state\nrun1.npy,normal\n./run1.npy,outer\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv line 3: record './run1.npy' is labelled again \(line 2\)"):
         labels_table(table)
+    table.write_text("record,state,\nrun1.npy,normal,\n")  # a spreadsheet's trailing comma
+    assert [state for _, _, state, _, _ in labels_table(table)] == ["normal"]
     table.write_text("record,state,RPM\nrun1.npy,normal,1500\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv: column 'RPM' is not one of record, state, rpm, fs \(lower case\)"):
         labels_table(table)

@@ -223,3 +223,28 @@ def test_a_store_that_cannot_serve_is_named_before_any_work(tmp_path):
         check_store(missing, must_exist=True)
     check_store(missing)  # a command that writes creates it
     assert not (tmp_path / "none").exists()
+    check_store("databricks")  # MLflow's own name for a Databricks workspace
+    check_store("sqlite://", must_exist=True)  # in memory
+
+
+def test_a_server_that_answers_at_all_is_left_to_mlflow():
+    """A login a proxy asks for, or a route it does not forward, is an answer: only silence is refused."""
+    import http.server
+    import threading
+
+    from bearingtwin.tracking.mlflow_logging import check_store
+
+    class AsksForLogin(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):
+            self.send_response(401)
+            self.end_headers()
+
+        def log_message(self, *args):
+            pass
+
+    server = http.server.HTTPServer(("127.0.0.1", 0), AsksForLogin)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        check_store(f"http://127.0.0.1:{server.server_port}/mlflow")
+    finally:
+        server.shutdown()

@@ -145,8 +145,8 @@ def test_a_held_operating_point_value_out_of_its_physical_range_is_named(name, v
     assert OperatingPoint.from_config({"clearance_um": 0.0}, RANGES, {}, "outer").known == {"clearance_um": 0.0}
 
 
-def test_a_held_sensor_direction_is_read_modulo_half_a_turn():
-    assert OperatingPoint.from_config({"sensor": "outer", "sensor_angle_deg": -90.0}, RANGES, {}, "outer").sensor_angle_deg == 90.0
+def test_a_held_sensor_direction_beyond_a_turn_is_refused():
+    assert OperatingPoint.from_config({"sensor": "outer", "sensor_angle_deg": -90.0}, RANGES, {}, "outer").sensor_angle_deg == -90.0
     with pytest.raises(BearingTwinError, match=r"operating_point.sensor_angle_deg=720: give a direction in degrees"):
         OperatingPoint.from_config({"sensor": "outer", "sensor_angle_deg": 720.0}, RANGES, {}, "outer")
 

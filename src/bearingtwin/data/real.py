@@ -178,7 +178,7 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
             missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
             if missing:
                 raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
-            unknown = [name for name in columns if name not in LABEL_COLUMNS]
+            unknown = [name for name in columns if name and name not in LABEL_COLUMNS]  # (a trailing comma: no name)
             if unknown:  # an "RPM" column would be passed over, and the files read at another speed
                 raise BearingTwinError(f"{table}: column {unknown[0]!r} is not one of {', '.join(LABEL_COLUMNS)} "
                                        "(lower case)")

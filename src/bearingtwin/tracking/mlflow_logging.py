@@ -37,6 +37,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import fcntl
+import functools
 import hashlib
 import logging
 import os
@@ -132,20 +133,40 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
 def check_store(uri: str, must_exist: bool = False) -> None:
     """Refuse, in one line naming ``tracking.uri``, a store that cannot serve (see :func:`open_store`)."""
     scheme = urlparse(uri).scheme
-    if scheme in ("", "file"):
+    if (scheme == "file" or (not scheme and uri != "databricks")) and os.environ.get("MLFLOW_ALLOW_FILE_STORE") != "true":
         raise BearingTwinError(f"tracking.uri={uri}: MLflow 3 keeps runs in a database or behind a server, not in a "
                                "folder; give sqlite:///<folder>/mlflow.db or http://<server>")
     if scheme in ("http", "https"):
-        import urllib.error
-        import urllib.request
+        _server_answers(uri)
+    path = _sqlite_path(uri)
+    if must_exist and path is not None and not Path(path).is_file():
+        raise BearingTwinError(f"tracking.uri={uri}: no such store ({path} does not exist)")
 
-        try:  # the server's own liveness route, once, with a short timeout
-            urllib.request.urlopen(f"{uri.rstrip('/')}/health", timeout=10).close()
-        except (urllib.error.URLError, OSError) as error:
-            reason = " ".join(str(getattr(error, "reason", error)).split())
-            raise BearingTwinError(f"tracking.uri={uri}: no tracking server answers there ({reason})") from None
-    if must_exist and scheme == "sqlite" and not Path(_sqlite_path(uri)).is_file():
-        raise BearingTwinError(f"tracking.uri={uri}: no such store ({_sqlite_path(uri)} does not exist)")
+
+@functools.lru_cache(maxsize=None)
+def _server_answers(uri: str) -> None:
+    """Ask the server's liveness route once per process; only silence is refused. Any HTTP reply (a login
+    a proxy asks for, a route it does not forward) or a certificate MLflow's own TLS settings may accept
+    leaves the rest to MLflow's client."""
+    import http.client
+    import ssl
+    import urllib.error
+    import urllib.request
+
+    parts = urlparse(uri)
+    try:
+        urllib.request.urlopen(parts._replace(path=parts.path.rstrip("/") + "/health", query="").geturl(),
+                               timeout=10).close()
+    except urllib.error.HTTPError:
+        return
+    except urllib.error.URLError as error:
+        if isinstance(error.reason, ssl.SSLError):
+            return
+        raise BearingTwinError(f"tracking.uri={uri}: no tracking server answers there "
+                               f"({' '.join(str(error.reason).split())})") from None
+    except (OSError, http.client.HTTPException, ValueError) as error:
+        raise BearingTwinError(f"tracking.uri={uri}: no tracking server answers there "
+                               f"({type(error).__name__}: {' '.join(str(error).split())})") from None
 
 
 def artifact_location(root: str | None, experiment: str) -> str | None:
@@ -167,7 +188,7 @@ def _sqlite_path(uri: str, sibling: str | None = None) -> str | None:
     """The database file of a ``sqlite:///`` URI (or ``sibling`` in its folder); None for other stores."""
     if not uri.startswith("sqlite:///"):
         return None
-    path = Path(uri.removeprefix("sqlite:///"))
+    path = Path(uri.removeprefix("sqlite:///").split("?")[0])  # a query (?timeout=30) is the driver's
     return str(path if sibling is None else path.parent / sibling)
 
 
@@ -606,7 +627,7 @@ class SweepParentRun(Callback):
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
-        client, experiment_id = open_store(config.tracking)
+        client, experiment_id = exit_on_user_error(open_store)(config.tracking)
         sweep_dir = sweep_folder(config.hydra)
         parent = find_sweep_parent(client, experiment_id, sweep_dir)
         if parent is None:

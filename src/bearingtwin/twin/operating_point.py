@@ -108,7 +108,6 @@ class OperatingPoint:
             if not -360.0 <= angle <= 360.0:
                 raise BearingTwinError(f"operating_point.sensor_angle_deg={angle:g}: give a direction in degrees from "
                                        "horizontal, between -360 and 360")
-            angle %= 180.0  # directions a and a + 180 read the same signal but for its sign
             if sensor in CHANNELS:
                 raise BearingTwinError(f"operating_point.sensor_angle_deg: sensor={sensor} already names the direction; "
                                        "give the race (inner or outer) with an angle")

@@ -17,7 +17,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.config import output_folder, true_or_false
-from bearingtwin.data.cwru import BEARING_BY_END
+from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -190,8 +190,9 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = load_measurement(cfg.measured, geometry)
     named = measured.meta.get("bearing")  # the bearing a file names (a CWRU fan-end record's SKF 6203)
-    if named is None and measured.meta.get("format") == "cwru-mat":
-        named = BEARING_BY_END["drive"]  # a drive-end or healthy CWRU record: the data set's SKF 6205
+    cwru_name = parse_cwru_name(str(cfg.measured.path)) if measured.meta.get("format") == "cwru-mat" else None
+    if named is None and cwru_name is not None and cwru_name.end == "drive":
+        named = BEARING_BY_END["drive"]  # a drive-end fault record by its long name: the data set's SKF 6205
     if named is not None and named != cfg.bearing.get("name"):
         log.warning("%s: the record's bearing is %s, the twin's %s: give bearing=%s for its defect frequencies",
                     cfg.measured.path, named, cfg.bearing.get("name"), named)
