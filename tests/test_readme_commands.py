@@ -208,7 +208,7 @@ def test_every_documented_command_runs_as_written(tmp_path, documents):
     env = {**os.environ, "MLFLOW_TRACKING_URI": uri}
     before = checkout_state()
     # Each command once, in order, as (document, as written, module, arguments); skips and shell steps apart.
-    runs, skipped, seen = [], [], set()
+    runs, skipped, seen, unregistered = [], [], set(), set()
     for document, written in documented:
         if any(written.startswith(prefix) for prefix in NOT_RUN) or written in seen:
             continue
@@ -232,6 +232,11 @@ def test_every_documented_command_runs_as_written(tmp_path, documents):
             args.append(f"out={tmp_path}/results/{args[0]}.md")  # never the checkout's results/
         if needs is not None and not present(needs):
             skipped.append(f"{written} (needs {needs}, not present)")
+            unregistered.update(arg.split("=", 1)[1] for arg in args if arg.startswith("register="))
+            continue
+        model = next((arg.split("=", 1)[1] for arg in args if arg.startswith("model=models:/")), "")
+        if model.removeprefix("models:/").split("/")[0].split("@")[0] in unregistered:
+            skipped.append(f"{written} (needs {model}, registered by a command skipped above)")
             continue
         runs.append((document, written, name, args))
 
