@@ -241,7 +241,7 @@ def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -
                                f"its usual {typical:.6g} s: rows missing or merged, so no single sampling rate")
     fs = float((time_s.size - 1) / (time_s[-1] - time_s[0]))
     if fs < LOWEST_FS_HZ:
-        hint = ": if it counts milliseconds, head it time_ms" if column.lower() in ("time", "time_s", "t") else ""
+        hint = ": if it counts milliseconds, head it time_ms" if TIME_COLUMN_NAMES.get(column.lower()) == 1.0 else ""
         raise BearingTwinError(f"{source}: the {column} column gives {fs:g} samples per second, too slow for a "
                                f"vibration record{hint}")
     return fs

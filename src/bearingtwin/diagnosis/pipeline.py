@@ -92,11 +92,14 @@ class DiagnosisPipeline:
         if self.needs_rpm:
             if rpm is None:
                 raise BearingTwinError("rpm: this model's features are read on the shaft-order axis; give the shaft speed")
-            extractor = self.extractor
-            if bearing and bearing != extractor.bearing:
-                extractor = copy.copy(extractor).set_params(bearing=bearing)
-            return extractor.transform(windows, fs_hz=self.fs_hz, rpm=rpm)
+            return self._extractor_at(bearing).transform(windows, fs_hz=self.fs_hz, rpm=rpm)
         return self.extractor.transform(windows)
+
+    def _extractor_at(self, bearing: dict | None):
+        """The defect-order extractor reading ``bearing``'s orders (the model's own for None or the same bearing)."""
+        if bearing and bearing != self.extractor.bearing:
+            return copy.copy(self.extractor).set_params(bearing=bearing)
+        return self.extractor
 
     def bands_on_shaft_harmonics(self, bearing: dict) -> list[str]:
         """The features that read a shaft harmonic at ``bearing``'s defect orders but not at the model's own
@@ -105,8 +108,7 @@ class DiagnosisPipeline:
         if not self.needs_rpm:
             return []
         own = set(self.extractor.bands_on_shaft_harmonics())
-        recorded = copy.copy(self.extractor).set_params(bearing=bearing).bands_on_shaft_harmonics()
-        return [name for name in recorded if name not in own]
+        return [name for name in self._extractor_at(bearing).bands_on_shaft_harmonics() if name not in own]
 
     def predict_proba(self, windows, rpm=None, bearing: dict | None = None) -> np.ndarray:
         """(n, n_classes) probabilities, columns in :attr:`class_names` order."""

@@ -57,8 +57,9 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
     Every operating-point value the config leaves to be fitted (null) takes the reference's; the
     sensor takes the reference's race and direction unless the config names a direction itself;
     further keys the config would fit (``calibration.base``) are held at the reference's values
-    (``calibration.base_held``), so this run's report lists them as held, as a later run reads them. The reference's effects (its final twin's, with their fitted parameters) come first
-    in ``effects``, the config's own after them, and leave ``candidates``.
+    (``calibration.base_held``), so this run's report lists them as held, as a later run reads them.
+    The reference's effects (its final twin's, with their fitted parameters) come first in
+    ``effects``, the config's own after them, and leave ``candidates``.
     """
     held = copy.deepcopy(cfg)
     OmegaConf.set_readonly(held, False)
