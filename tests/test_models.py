@@ -167,6 +167,19 @@ def test_scores_reproduce_the_form_of_table3():
     assert scores["accuracy"] == pytest.approx(59 / 60)
 
 
+def test_a_class_without_test_windows_is_given_no_recall_or_f1():
+    """Fault records only (sim2real's test): the healthy class has no recall or F1 to report; a
+    window called healthy still costs it precision, and a fault never called keeps its 0."""
+    y_true = np.array([1, 1, 2, 2, 3, 3])
+    y_pred = np.array([1, 0, 2, 2, 2, 2])
+    scores, _ = classification_scores(y_true, y_pred, FAULTS)
+    assert "recall_normal" not in scores and "f1_normal" not in scores
+    assert scores["precision_normal"] == 0.0  # one window called healthy, wrongly
+    assert scores["recall_inner"] == 0.5 and scores["f1_outer"] == 0.0 and scores["precision_outer"] == 0.0
+    never_called, _ = classification_scores(y_true, y_true, FAULTS)
+    assert not any(key.endswith("_normal") for key in never_called)
+
+
 def test_the_epoch_progress_bar_goes_to_stderr_only_when_asked_for(capfd):
     X, y = four_blobs(8)
     CnnBiLstmClassifier(max_epochs=2, batch_size=16, progress_bar=True).fit(X, y, eval_set=(X, y))

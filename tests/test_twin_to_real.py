@@ -143,6 +143,11 @@ def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
             ("12k_Drive_End_IR007_1_106.mat", "inner", "3"), ("12k_Drive_End_B007_1_119.mat", "ball", "3"),
             ("12k_Drive_End_OR007@6_1_131.mat", "outer", "3")]
         assert np.mean([float(row["accuracy"]) for row in per_record]) == pytest.approx(run.data.metrics["accuracy"], abs=1e-4)
+        # No healthy test window: no recall or F1 for it (a 0 would read as a class the model fails).
+        assert "recall_normal" not in run.data.metrics and "f1_normal" not in run.data.metrics
+        with open(client.download_artifacts(run.info.run_id, "per_class.csv", str(tmp_path))) as handle:
+            (normal,) = [row for row in csv.DictReader(handle) if row["class"] == "normal"]
+        assert normal["recall"] == normal["f1"] == "—"
     (chosen,) = [r.data.metrics for r in runs if r.data.params.get("band_power_by_calibration") == "True"]
     assert chosen["band_power_kept"] == float(chosen["band_power_calibration_accuracy"] >= chosen["lines_only_calibration_accuracy"])
     assert chosen["calibration_accuracy"] == chosen["band_power_calibration_accuracy" if chosen["band_power_kept"]

@@ -76,15 +76,21 @@ def per_record_accuracy(dataset, test: np.ndarray, predicted: np.ndarray) -> lis
 def classification_scores(y_true, y_pred, class_names) -> tuple[dict[str, float], np.ndarray]:
     """Accuracy, per-class precision / recall / F1 and the confusion matrix over all ``class_names``.
 
-    A class never predicted gets precision 0 (not NaN) so means over seeds stay defined.
+    A class with test windows that is never predicted gets precision 0 (not NaN) so means over
+    seeds stay defined. A class with no test windows (the healthy class of a test on fault records
+    only) has no recall or F1, and is given none: a 0 there would read as a class the model fails;
+    its precision is kept when the model called some window so (0: every such call was wrong).
     """
     labels = np.arange(len(class_names))
-    precision, recall, f1, _ = precision_recall_fscore_support(y_true, y_pred, labels=labels, zero_division=0)
+    precision, recall, f1, support = precision_recall_fscore_support(y_true, y_pred, labels=labels, zero_division=0)
+    called = np.bincount(np.asarray(y_pred, dtype=int), minlength=len(class_names))
     scores = {"accuracy": float(np.mean(np.asarray(y_true) == np.asarray(y_pred)))}
-    for name, p, r, f in zip(class_names, precision, recall, f1):
-        scores[f"precision_{name}"] = float(p)
-        scores[f"recall_{name}"] = float(r)
-        scores[f"f1_{name}"] = float(f)
+    for label, name in enumerate(class_names):
+        if support[label] or called[label]:
+            scores[f"precision_{name}"] = float(precision[label])
+        if support[label]:
+            scores[f"recall_{name}"] = float(recall[label])
+            scores[f"f1_{name}"] = float(f1[label])
     return scores, confusion_matrix(y_true, y_pred, labels=labels)
 
 
@@ -178,11 +184,11 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     predicted = classifier.predict(features[test])
     scores, confusion = classification_scores(y[test], predicted, dataset.class_names)
     scores.update(choice)
-    if len(dataset.validation):  # accuracy, and recall of the classes present (the others would read 0)
+    if len(dataset.validation):  # accuracy, and recall of the classes present
         y_val = y[dataset.validation]
         validation, _ = classification_scores(y_val, classifier.predict(features[dataset.validation]), dataset.class_names)
-        present = ["accuracy", *(f"recall_{dataset.class_names[c]}" for c in np.unique(y_val))]
-        scores.update({f"calibration_{name}": validation[name] for name in present})
+        scores.update({f"calibration_{name}": value for name, value in validation.items()
+                       if name == "accuracy" or name.startswith("recall_")})
     scores["inference_ms_per_sample"] = inference_ms_per_sample(classifier, features[test])
     return ExperimentResult(
         metrics=scores,

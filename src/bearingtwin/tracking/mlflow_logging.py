@@ -375,7 +375,9 @@ def _write_confusion(folder: Path, confusion: np.ndarray, class_names) -> None:
 
 def _write_per_class(folder: Path, metrics: dict, class_names) -> None:
     header = ["class", "precision", "recall", "f1"]
-    rows = [[name, *(f"{metrics[f'{m}_{name}']:.3f}" for m in ("precision", "recall", "f1"))] for name in class_names]
+    # "—": a class with no test windows has no recall or F1 (and no precision when never called)
+    rows = [[name, *(f"{metrics[key]:.3f}" if key in metrics else "—"
+                     for key in (f"{m}_{name}" for m in ("precision", "recall", "f1")))] for name in class_names]
     (folder / "per_class.csv").write_text(csv_table(header, rows))
     (folder / "per_class.md").write_text(markdown_table(header, rows) + f"\naccuracy: {metrics['accuracy']:.4f}\n")
 
