@@ -125,5 +125,5 @@ def test_a_labels_table_names_each_file_once(tmp_path):
     with pytest.raises(BearingTwinError, match=r"labels.csv: column 'RPM' is not one of record, state, rpm, fs \(lower case\)"):
         labels_table(table)
     table.write_text("record,state,fs\nrun1.npy,normal,0\n")
-    with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs '0' must be a positive number"):
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs='0' must be a positive number of Hz"):
         labels_table(table)

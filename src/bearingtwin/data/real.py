@@ -18,7 +18,6 @@ from pathlib import Path
 import csv
 import hashlib
 import logging
-import math
 import re
 
 import numpy as np
@@ -26,7 +25,7 @@ import numpy as np
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.files import FORMATS, load_recording
+from bearingtwin.data.files import FORMATS, load_recording, positive_number
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import SPLITS, cut_windows
@@ -191,8 +190,8 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
                     raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record)]}); "
                                            "one row per record")
                 seen[Path(record)] = line
-                rows.append((where, record, _state(row["state"], where), _number(row.get("rpm"), "rpm", where),
-                             _number(row.get("fs"), "fs", where)))
+                rows.append((where, record, _state(row["state"], where), _optional_number(row.get("rpm"), "rpm", "rev/min", where),
+                             _optional_number(row.get("fs"), "fs", "Hz", where)))
     except (OSError, UnicodeDecodeError) as error:
         raise BearingTwinError(f"{table}: cannot read it ({error})") from None
     return rows
@@ -232,16 +231,9 @@ def _state(value: str, where: str) -> str:
     return value
 
 
-def _number(value: str | None, name: str, where: str) -> float | None:
-    if not value:
-        return None
-    try:
-        number = float(value)
-    except ValueError:
-        raise BearingTwinError(f"{where}: {name} {value!r} is not a number") from None
-    if not (math.isfinite(number) and number > 0):
-        raise BearingTwinError(f"{where}: {name} {value!r} must be a positive number")
-    return number
+def _optional_number(value: str | None, name: str, unit: str, where: str) -> float | None:
+    """A labels row's rpm or fs: None where the cell is empty, else a positive number (:func:`positive_number`)."""
+    return positive_number(value, name, unit, f"{where}: ") if value else None
 
 
 def windows_from_recordings(
@@ -293,11 +285,8 @@ def dataset_key(paths: list[Path], cfg: dict) -> str:
 
 
 def _file_digest(path: Path) -> str:
-    digest = hashlib.sha256()
     with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
+        return hashlib.file_digest(handle, "sha256").hexdigest()
 
 
 def _find_cwru_file(root: Path, stems: dict, fault: str, load: int) -> Path:
