@@ -59,3 +59,8 @@ def test_bad_data_config_names_the_field(tmp_path):
         build_simulated_dataset(OmegaConf.merge(DATA, {"window_length": 0}), BEARING, SIMULATOR, {}, tmp_path)
     with pytest.raises(BearingTwinError, match="data.source"):
         build_simulated_dataset(OmegaConf.merge(DATA, {"source": "cwru"}), BEARING, SIMULATOR, {}, tmp_path)
+    # The operating point is named as the user set it (data.*), not as the simulator key it replaces.
+    for name, value in (("duration", -1.0), ("fs", "abc"), ("rpm", True)):
+        with pytest.raises(BearingTwinError, match=rf"^data\.{name}=.* must be a positive number"):
+            build_simulated_dataset(OmegaConf.merge(DATA, {name: value}), BEARING, SIMULATOR, {}, tmp_path)
+    assert not any(tmp_path.iterdir())  # refused before any simulation was cached

@@ -199,7 +199,7 @@ def resolve_fs(raw: RawRecord, fs: float | None) -> float:
 def positive_number(value, name: str, unit: str, where: str = "") -> float:
     """``value`` as a finite positive float; anything else (``12k``, ``0``, ``inf``) raises naming ``name``."""
     try:
-        number = float(value)
+        number = math.nan if isinstance(value, bool) else float(value)  # a YAML true is no rate
     except (TypeError, ValueError):
         number = math.nan
     if not (math.isfinite(number) and number > 0):

@@ -19,6 +19,7 @@ from typing import Mapping
 import numpy as np
 
 from bearingtwin.config import plain_config
+from bearingtwin.data.files import positive_number
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
@@ -68,6 +69,8 @@ def build_simulated_dataset(data_cfg: Mapping, bearing_cfg: Mapping, simulator_c
     for name in ("samples_per_class", "window_length"):
         if not (isinstance(data_cfg[name], int) and data_cfg[name] > 0):
             raise BearingTwinError(f"data.{name} must be a positive integer, got {data_cfg[name]!r}")
+    for name, unit in (("rpm", "rev/min"), ("fs", "Hz"), ("duration", "seconds")):  # named as the user set them
+        positive_number(data_cfg[name], f"data.{name}", unit)
     signals, records = _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir)
     windows, starts, labels, record_ids = [], [], [], []
     for label, signal in enumerate(signals):
