@@ -63,6 +63,8 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("twin", ["measured.path=x.npy", "measured.not_a_key=1"], ["measured.not_a_key", "not a setting"]),
     ("simulate", ["simulator.rpm=[1797"], ["simulator.rpm=[1797"]),
     ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
+    ("inspect", ["path=x.npy", "bearing=null"], ["bearing=null: a config group takes one of its options", "er16k"]),
+    ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, svm"]),  # Hydra's own ValueError, a traceback
 ])
 def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, module, overrides, named):
     """Hydra alone would print the options and its search path over many lines, and exit 1."""

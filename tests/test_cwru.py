@@ -280,3 +280,10 @@ def test_a_fan_end_fault_record_is_read_from_the_fan_end_accelerometer(tmp_path)
     assert any("fan-end bearing (SKF 6203" in note for note in recording.meta["notes"])
     np.testing.assert_array_equal(load_recording(path, channel="DE").signal, drive[:, 0])
     assert parse_cwru_name("12k_Drive_End_IR007_0_105.mat").bearing == "cwru_6205"
+
+
+def test_a_rate_of_a_few_hz_is_contradicted_not_a_memory_error():
+    """At fs = 1 Hz a 5 Hz background median spans millions of bins; it is held to the spectrum's length."""
+    signal = np.random.default_rng(0).normal(size=120_000)
+    check = check_sampling_rate(signal, 1.0, 1797.0)
+    assert check.verdict == "contradicted" and "the spectrum ends at 0.5 Hz" in check.reason

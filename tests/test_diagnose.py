@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mlflow import MlflowClient
+from mlflow.exceptions import MlflowException
 from processes import run_module
 
 from bearingtwin.config import REPO_ROOT, bearing_config
@@ -213,6 +214,21 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
     np.testing.assert_array_equal(model.predict(windows, params={"rpm": rpm})["state"].to_numpy(), at_the_models)
     with pytest.raises(BearingTwinError, match="bearing=cwru_9999: no such bearing config"):
         model.predict(windows, params={"rpm": rpm, "bearing": "cwru_9999"})
+    # No speed unless one is given: the signature's default is 0 (not the example's), and the model needs one.
+    (rpm_spec,) = [spec for spec in model.metadata.get_params_schema().params if spec.name == "rpm"]
+    assert rpm_spec.default == 0.0
+    for params in ({}, {"rpm": 0.0}):
+        with pytest.raises(MlflowException, match="rpm: this model's features are read on the shaft-order axis"):
+            model.predict(windows, params=params)
+    with pytest.raises(BearingTwinError, match=r"^rpm=-5.0 must be a positive number of rev/min"):
+        model.predict(windows, params={"rpm": -5.0})
+    broken = windows.copy()
+    broken[1, 7] = np.nan
+    with pytest.raises(BearingTwinError, match=r"^windows 1 \(of \d+, counted from 0\) hold NaN or infinite values"):
+        model.predict(broken, params={"rpm": rpm})
+    with pytest.raises(BearingTwinError, match=r"^windows 0, 1, 2, 3, 4, \.\.\. \(counted from 0\): features not finite, "
+                                                r"values up to .*e\+1\d\d overflow them"):
+        model.predict(windows * 1e160, params={"rpm": rpm})  # this model reads windows as they are (no z-score)
     result, _ = diagnose_recording(prepared, model, loaded, info.model_uri, {})
     assert result["verdict"] == "outer" and result["evidence_state"] == "outer"
     assert "the model's features read cwru_6203's defect lines too" in result["notes"], result["notes"]
@@ -503,10 +519,17 @@ def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data
     assert by_size is not None, done.stdout
 
 
-def test_an_alias_without_a_name_fails_before_any_work(tmp_path):
-    done = run("train", *SMOKE, "register_alias=champion", f"paths.cache_dir={tmp_path}/cache", cwd=tmp_path,
+@pytest.mark.parametrize("overrides, message", [
+    (["register_alias=champion"], "register_alias=champion needs register=<model name>"),
+    (["register=a/b"], "register=a/b: Invalid model name 'a/b'. Names cannot contain '/' or ':'."),
+    (["register=ok", "register_alias=latest"], "register_alias=latest: 'latest' alias name (case insensitive) is reserved."),
+    (["register=ok", "register_alias=v3"], "register_alias=v3: Version alias name 'v3' is reserved."),
+])
+def test_a_registration_mlflow_would_refuse_fails_before_any_work(tmp_path, overrides, message):
+    """MLflow's registry checks the names only when the model is registered, after the training."""
+    done = run("train", *SMOKE, *overrides, f"paths.cache_dir={tmp_path}/cache", cwd=tmp_path,
                uri=f"sqlite:///{tmp_path}/mlflow.db")
-    assert done.returncode == 2 and "register_alias=champion needs register=<model name>" in done.stderr
+    assert done.returncode == 2 and message in done.stderr and "Traceback" not in done.stderr, done.stderr
     assert not (tmp_path / "cache").exists()  # nothing was simulated
 
 

@@ -175,6 +175,10 @@ def test_configs_build_the_paper_settings_and_unknown_values_fail():
         build_feature_extractor({"name": "x", "kind": "sabo_vmd", "popsize": 3})
     with pytest.raises(Exception, match="popsize"):  # struct mode: a typo on the command line fails
         compose_features("sabo_vmd_pemie", "features.popsize=3")
+    with pytest.raises(BearingTwinError, match="^features.seed must be a non-negative integer, got 'abc'$"):
+        build_feature_extractor(compose_features("sabo_vmd_pemie", "features.seed=abc"))  # was numpy's TypeError
+    with pytest.raises(BearingTwinError, match="^search.windows must be a positive integer, got 0$"):
+        build_feature_extractor(compose_features("sabo_vmd_pemie", "search.windows=0"))
 
 
 def small_cfg(**changes):

@@ -1,10 +1,13 @@
 """Defect frequencies of the paper's bearing (section 4.1) and geometry from the bearing configs."""
 
 import math
+import sys
 
+import numpy as np
 import pytest
 from omegaconf import OmegaConf
 
+from bearingtwin.cli.inspect import main as inspect_main
 from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
@@ -56,3 +59,38 @@ def test_config_errors_name_the_field():
         BearingGeometry.from_config({k: v for k, v in cfg.items() if k != "ball_diameter_mm"})
     with pytest.raises(BearingTwinError, match="bearing.pitch_diameter_mm"):
         BearingGeometry.from_config(OmegaConf.merge(cfg, {"pitch_diameter_mm": 60.0}))
+
+
+@pytest.mark.parametrize("angle", [90.0, 180.0, -400.0, -0.5, float("nan"), "steep"])
+def test_a_contact_angle_outside_0_to_90_degrees_is_refused_naming_it(angle):
+    """At 90 degrees cos(alpha) = 0 and BPFI = BPFO; a NaN said 'contact radii must be positive'."""
+    cfg = OmegaConf.merge(OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml"), {"contact_angle_deg": angle})
+    with pytest.raises(BearingTwinError, match=r"^bearing\.contact_angle_deg must ") as error:
+        BearingGeometry.from_config(cfg)
+    assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("angle", [0.0, 15.0, 40.0, 89.9])
+def test_a_radial_or_angular_contact_angle_is_accepted(angle):
+    geometry = BearingGeometry(52.0, 25.0, 7.94, 39.0, 9, contact_angle_deg=angle)
+    assert geometry.bpfi_hz(1797) > geometry.bpfo_hz(1797)
+
+
+@pytest.mark.parametrize("name, value", [("ball_diameter_mm", "big"), ("clearance_mm", float("nan")),
+                                         ("outer_diameter_mm", float("inf")), ("n_balls", True)])
+def test_a_geometry_value_that_is_no_finite_number_is_refused_naming_it(name, value):
+    cfg = OmegaConf.merge(OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml"), {name: value})
+    with pytest.raises(BearingTwinError, match=rf"^bearing\.{name} must be a finite number"):
+        BearingGeometry.from_config(cfg)
+
+
+def test_bearingtwin_inspect_refuses_the_contact_angle_through_the_geometry(capsys, monkeypatch, tmp_path):
+    """Every user of BearingGeometry gets the check; bearingtwin-inspect reads the bearing through it."""
+    np.save(tmp_path / "x.npy", np.zeros(1000))
+    monkeypatch.setattr(sys, "argv", ["bearingtwin-inspect", f"path={tmp_path / 'x.npy'}", "fs=10000", "rpm=1797",
+                                      "bearing=paper", "bearing.contact_angle_deg=90"])
+    with pytest.raises(SystemExit) as stop:
+        inspect_main()
+    out, err = capsys.readouterr()
+    assert stop.value.code == 2 and out == ""
+    assert err.startswith("error: bearing.contact_angle_deg must lie in [0, 90)") and len(err.splitlines()) == 1

@@ -66,6 +66,8 @@ def test_npy_with_options_and_unknown_bearing(capsys, monkeypatch, tmp_path):
     assert summary["shaft_line_check"]["verdict"] == "not checked"  # 0.5 s cannot resolve a 30 Hz series
     code, _, err = run(capsys, monkeypatch, f"path={path}", "+fs_hz=1000")
     assert code == 2 and "fs_hz is not a setting of inspect" in err
+    code, _, err = run(capsys, monkeypatch, f"path=[{path},{path}]")  # was a TypeError traceback
+    assert code == 2 and "give one file (inspect reads one at a time)" in err and "Traceback" not in err
 
 
 def test_runs_as_a_module_with_hydra_overrides_and_a_help_text():

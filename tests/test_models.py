@@ -125,7 +125,7 @@ def test_bad_training_input_names_the_problem():
     X[0, 0] = np.nan
     with pytest.raises(BearingTwinError, match="NaN"):
         CnnBiLstmClassifier(max_epochs=1).fit(X, y)
-    with pytest.raises(BearingTwinError, match="classifier.max_epochs"):
+    with pytest.raises(BearingTwinError, match="trainer.max_epochs"):
         CnnBiLstmClassifier(max_epochs=0).fit(*four_blobs(4))
 
 
@@ -150,6 +150,23 @@ def test_build_from_the_config_files():
     assert (svm.C, svm.kernel, svm.gamma, svm.random_state) == (1.0, "rbf", "scale", 7)
     with pytest.raises(BearingTwinError, match="classifier.name='forest'"):
         build_classifier(OmegaConf.create({"name": "forest"}), trainer, seed=0)
+
+
+@pytest.mark.parametrize("group, key, value, message", [
+    ("svm", "C", "abc", "classifier.C must be a positive number, got 'abc'"),
+    ("cnn_bilstm", "dropout", "abc", "classifier.dropout must be a number in [0, 1), got 'abc'"),
+    ("cnn_bilstm", "n_filters", 0, "classifier.n_filters must be a positive integer, got 0"),
+    ("cnn_bilstm", "learning_rate", 0.0, "classifier.learning_rate must be a positive number, got 0.0"),
+    ("trainer", "max_epochs", "abc", "trainer.max_epochs must be a positive integer, got 'abc'"),
+])
+def test_a_setting_of_the_wrong_kind_is_named_when_the_classifier_is_built(group, key, value, message):
+    """A text where a number belongs failed inside fit (after the features) with a TypeError."""
+    trainer = OmegaConf.load(Path(CONF_DIR) / "trainer" / "default.yaml")
+    classifier = OmegaConf.load(Path(CONF_DIR) / "classifier" / f"{'cnn_bilstm' if group == 'trainer' else group}.yaml")
+    OmegaConf.update(trainer if group == "trainer" else classifier, key, value)
+    with pytest.raises(BearingTwinError) as error:
+        build_classifier(classifier, trainer, seed=0)
+    assert str(error.value) == message
 
 
 def test_scores_reproduce_the_form_of_table3():

@@ -31,7 +31,8 @@ from bearingtwin.errors import BearingTwinError  # noqa: E402
 from bearingtwin.physics.geometry import FAULTS  # noqa: E402
 from bearingtwin.tracking import paper  # noqa: E402
 from bearingtwin.tracking.mlflow_logging import open_store  # noqa: E402
-from bearingtwin.tracking.tables import csv_table  # noqa: E402
+from bearingtwin.tracking.reports import GENERATED  # noqa: E402
+from bearingtwin.tracking.tables import csv_table, generated_text  # noqa: E402
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "hust"
 HUST_STEMS = ("H", "0.5X_I", "0.5X_B", "0.5X_O")
@@ -147,7 +148,7 @@ def test_hust_report_sets_the_papers_figure_beside_each_speed(hust_store, capsys
     uri, base = hust_store
     out = base / "hust.md"
     assert report_main(["hust", f"uri={uri}", f"out={out}"]) == 0
-    markdown = out.read_text()
+    markdown = generated_text(out, GENERATED)  # the file holds the report between its two marker lines
     assert markdown in capsys.readouterr().out
     runs = {(r.data.params["data.condition"], r.data.params["data.split"]): r
             for r in stored_runs(uri) if r.data.tags.get("bt.kind") == "train"}
@@ -199,7 +200,7 @@ def test_cwru_report_measures_leakage_as_random_minus_block(tmp_path, capsys):
     log_cwru_run(client, experiment_id, 2, three, "block", 1, perfect3)
     out = tmp_path / "cwru.md"
     assert report_main(["cwru", f"uri={uri}", f"out={out}"]) == 0
-    markdown = out.read_text()
+    markdown = generated_text(out, GENERATED)
     assert "no published figure" in markdown and "paper %" not in markdown
     rows = table_rows(markdown, "")
     zero = next(r for r in rows if r[:2] == ["0 hp", "random"])

@@ -11,7 +11,8 @@ from bearingtwin.cli.report import main
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.tracking.provenance import recorded_sizes
 from bearingtwin.tracking import paper
-from bearingtwin.tracking.reports import mean_std
+from bearingtwin.tracking.reports import GENERATED, mean_std
+from bearingtwin.tracking.tables import generated_text
 
 from test_sweep_e2e import session_folder, smoke_sweep_store
 
@@ -57,7 +58,20 @@ def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
         ours = 100 * run.data.metrics["accuracy"]
         assert f"| {ours:.2f} ± 0.00 | 1 | {published:.2f} | {ours - published:+.2f} |" in lines[method]
     written = (tmp_path / "table4.md").read_text()
-    assert written == done.stdout.rstrip("\n") + "\n"
+    assert generated_text(tmp_path / "table4.md", GENERATED) == done.stdout.strip()  # between the markers
+    # A file that is not a generated report is not written over (nor a folder, nor a place that cannot be).
+    notes = tmp_path / "notes.md"
+    notes.write_text("# My notes\nkept\n")
+    for out, message in ((notes, "holds text that is not a generated report"), (tmp_path, "is a folder"),
+                         ("/dev/null/table4.md", "cannot be written")):
+        refused = report("table4", f"uri={uri}", f"out={out}")
+        assert refused.returncode == 2 and message in refused.stderr and "Traceback" not in refused.stderr, refused.stderr
+    assert notes.read_text() == "# My notes\nkept\n"
+    misspelled = report("table4", f"uri={uri}", "experiment=bearingtwni", f"out={tmp_path}/t.md")
+    assert misspelled.returncode == 2 and "experiment=bearingtwni: no such experiment" in misspelled.stderr, misspelled.stderr
+    assert MlflowClient(uri).get_experiment_by_name("bearingtwni") is None  # not left behind
+    mixed = report("cwru", f"uri={uri}", "source=all", f"out={tmp_path}/c.md")  # simulated runs in a CWRU table
+    assert mixed.returncode == 2 and "source=all: this report reads data.source=cwru runs only" in mixed.stderr, mixed.stderr
     assert recorded_sizes(written) == {"data.duration": [1.0], "data.samples_per_class": [12.0], "search.iterations": [1.0],
                                        "search.population": [3.0], "search.windows": [2.0], "trainer.max_epochs": [2.0]}
     client = MlflowClient(uri)
@@ -157,6 +171,9 @@ def test_bad_requests_exit_2_naming_the_problem(uri, capsys):
     with pytest.raises(SystemExit):
         main(["repeat", f"uri={uri}", "run_id=0123"])
     assert "run_id=0123" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_info:  # pasted into MLflow's filter, a quote broke it with a traceback
+        main(["table4", f"uri={uri}", "sweep_dir=/tmp/a'b"])
+    assert exit_info.value.code == 2 and "sweep_dir=/tmp/a'b: a quote cannot be matched" in capsys.readouterr().err
 
 
 def test_the_twin_chosen_without_the_test_records_is_the_best_validated_then_the_simplest():

@@ -30,16 +30,28 @@ def test_writes_npz_and_plots(tmp_path):
     assert (tmp_path / "runs" / "run_envelope.png").stat().st_size > 10_000
 
 
-@pytest.mark.parametrize("override, field", [
-    ("fault=cracked", "fault"),
-    ("simulator.rpm=-5", "simulator.rpm"),
-    ("simulator.fs=600", "simulator.fs"),
-    ("simulator.defect.depth_mm=-0.1", "simulator.defect.depth_mm"),
+@pytest.mark.parametrize("overrides, field", [
+    (["fault=cracked"], "fault"),
+    (["simulator.rpm=-5"], "simulator.rpm"),
+    (["simulator.fs=600"], "simulator.fs"),
+    (["simulator.defect.depth_mm=-0.1"], "simulator.defect.depth_mm"),
+    # Found by probing: a record still labelled faulty with the defect nowhere (exit 0) ...
+    (["fault=outer", "simulator.defect.outer_angle_deg=nan"], "simulator.defect.outer_angle_deg"),
+    (["bearing.contact_angle_deg=90"], "bearing.contact_angle_deg"),  # BPFI = BPFO
+    (["fault=inner", "simulator.rpm=200000", "simulator.fs=2000", "simulator.duration=0.2"], "simulator.fs"),
+    # ... a numpy allocation error, tracebacks ...
+    (["simulator.duration=1e9"], "simulator.duration"),
+    (["simulator.fast.steps_per_period=0"], "simulator.fast.steps_per_period"),
+    (["simulator.seed=abc"], "simulator.seed"),
+    # ... and messages naming no field, after simulating or over two lines.
+    (["simulator.duration=1e-5"], "simulator.duration"),
+    (["simulator.load_y_n=inf"], "simulator.load_y_n"),
 ])
-def test_bad_input_exits_non_zero_naming_the_field(tmp_path, override, field):
-    result = run(tmp_path, override, f"out={tmp_path / 'x.npz'}")
-    assert result.returncode == 2
+def test_bad_input_exits_non_zero_naming_the_field(tmp_path, overrides, field):
+    result = run(tmp_path, *overrides, f"out={tmp_path / 'x.npz'}")
+    assert result.returncode == 2, result.stderr[-2000:]
     assert result.stderr.startswith("error: ") and field in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr[-2000:]  # one line, no traceback
     assert not (tmp_path / "x.npz").exists()
 
 

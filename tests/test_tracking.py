@@ -225,6 +225,23 @@ def test_a_store_that_cannot_serve_is_named_before_any_work(tmp_path):
     assert not (tmp_path / "none").exists()
     check_store("databricks")  # MLflow's own name for a Databricks workspace
     check_store("sqlite://", must_exist=True)  # in memory
+    # A file that is not an MLflow store is named before MLflow writes its tables into it.
+    import sqlite3
+
+    own = tmp_path / "own.db"
+    with sqlite3.connect(own) as database:
+        database.execute("create table measurements (x)")
+    with pytest.raises(BearingTwinError, match=r"own.db is an SQLite database but not an MLflow store \(its tables: measurements\)"):
+        check_store(f"sqlite:///{own}")
+    with sqlite3.connect(own) as database:
+        assert [row[0] for row in database.execute("select name from sqlite_master")] == ["measurements"]
+    (tmp_path / "notes.db").write_text("not a database\n")
+    with pytest.raises(BearingTwinError, match=r"notes.db is not an SQLite database"):
+        check_store(f"sqlite:///{tmp_path}/notes.db")
+    (tmp_path / "empty.db").touch()
+    check_store(f"sqlite:///{tmp_path}/empty.db")  # a command that writes makes it a store
+    with pytest.raises(BearingTwinError, match=r"empty.db is empty, not an MLflow store"):
+        check_store(f"sqlite:///{tmp_path}/empty.db", must_exist=True)
 
 
 def test_a_server_that_answers_at_all_is_left_to_mlflow():

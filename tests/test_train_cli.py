@@ -60,7 +60,7 @@ def run_cli(args, cwd):
 def test_bad_value_exits_2_naming_the_field_and_the_run_is_failed(tmp_path):
     done = run_cli(["classifier=svm", "classifier.C=-1", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"], tmp_path)
     assert done.returncode == 2, done.stderr
-    assert "classifier.C must be positive" in done.stderr and "Traceback" not in done.stderr
+    assert "classifier.C must be a positive number" in done.stderr and "Traceback" not in done.stderr
     client = MlflowClient(f"sqlite:///{tmp_path}/mlflow.db")
     (run,) = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
     assert run.info.status == "FAILED" and "classifier.C" in run.data.tags["error"]

@@ -111,3 +111,17 @@ def test_subset_keeps_records_and_key():
     )
     part = data.subset(np.array([1, 3]))
     assert len(part) == 2 and part.labels.tolist() == [1, 3] and part.key == "k" and part.records == data.records
+
+
+def test_zscore_of_values_that_overflow_their_squares_is_the_same_shape():
+    """A window near 1e160 (a record in a unit far too small) overflows the sum of squares; it is
+    normalised to the shape of the same window at a sane scale, and the other rows are untouched."""
+    from bearingtwin.data.windows import normalize_windows
+
+    windows = np.random.default_rng(0).normal(size=(3, 256))
+    scaled = windows.copy()
+    scaled[1] *= 1e160
+    with np.errstate(all="raise"):  # no overflow reaches the caller either
+        normalized = normalize_windows(scaled)
+    np.testing.assert_array_equal(normalized[[0, 2]], normalize_windows(windows)[[0, 2]])
+    np.testing.assert_allclose(normalized[1], normalize_windows(windows)[1], atol=1e-12)

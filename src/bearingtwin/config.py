@@ -148,6 +148,14 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
             cfg = app.compose_config(name, list(args.overrides), run_mode=mode or RunMode.RUN)
         except COMPOSITION_ERRORS:
             raise
+        except ValueError as error:  # Hydra's own check of a group override, raised as a plain ValueError
+            groups = [key.lstrip("+~") for key, _, value in (o.partition("=") for o in args.overrides)
+                      if value == "null" and Path(CONF_DIR, key.lstrip("+~")).is_dir()]
+            if not groups:
+                return
+            options = sorted(path.stem for path in Path(CONF_DIR, groups[0]).glob("*.yaml"))
+            raise BearingTwinError(f"{groups[0]}=null: a config group takes one of its options ({', '.join(options)}); "
+                                   "leave it out for its default") from error
         except Exception:  # not a composition error: Hydra meets it again when it composes, and reports it
             return
         if mode != RunMode.MULTIRUN:  # a sweep's jobs are checked by SweepParentRun, each with its own values

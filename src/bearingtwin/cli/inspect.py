@@ -21,8 +21,9 @@ import numpy as np
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
+from bearingtwin.checks import positive_number
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
-from bearingtwin.data.files import positive_number, read_raw, resolve_fs
+from bearingtwin.data.files import read_raw, resolve_fs
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
@@ -32,6 +33,8 @@ from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, r
 @exit_on_user_error
 def main(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
+    if cfg.path is not None and not isinstance(cfg.path, (str, int, float)):
+        raise BearingTwinError(f"path={cfg.path}: give one file (inspect reads one at a time)")
     bearing = cfg.get("bearing")
     summary = summarize(
         cfg.path,

@@ -23,7 +23,6 @@ Channel: when none is asked for, the file's only channel, or the one its format 
 from __future__ import annotations
 
 import csv
-import math
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -31,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bearingtwin.checks import positive_number
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
@@ -196,15 +196,6 @@ def resolve_fs(raw: RawRecord, fs: float | None) -> float:
     return fs
 
 
-def positive_number(value, name: str, unit: str, where: str = "") -> float:
-    """``value`` as a finite positive float; anything else (``12k``, ``0``, ``inf``) raises naming ``name``."""
-    try:
-        number = math.nan if isinstance(value, bool) else float(value)  # a YAML true is no rate
-    except (TypeError, ValueError):
-        number = math.nan
-    if not (math.isfinite(number) and number > 0):
-        raise BearingTwinError(f"{where}{name}={value!r} must be a positive number of {unit} (a plain number, no unit)")
-    return number
 
 
 def _resolve_fact(raw: RawRecord, name: str, from_file, from_user):

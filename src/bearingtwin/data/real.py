@@ -22,10 +22,11 @@ import re
 
 import numpy as np
 
+from bearingtwin.checks import positive_number
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.files import FORMATS, load_recording, positive_number
+from bearingtwin.data.files import FORMATS, load_recording
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import SPLITS, cut_windows

@@ -18,8 +18,8 @@ from typing import Mapping
 
 import numpy as np
 
+from bearingtwin.checks import positive_number
 from bearingtwin.config import plain_config
-from bearingtwin.data.files import positive_number
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError

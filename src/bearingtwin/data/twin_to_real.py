@@ -37,6 +37,7 @@ import numpy as np
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
+from bearingtwin.checks import whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.recording import Recording, WindowedDataset
@@ -204,7 +205,7 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     signals = []
     for fault in faults:
         for index, rpm in enumerate(rpms):
-            entropy = [int(simulator_cfg["seed"]), *([] if variant is None else [variant]), FAULTS.index(fault), index]
+            entropy = [whole_number("simulator.seed", simulator_cfg["seed"], minimum=0), *([] if variant is None else [variant]), FAULTS.index(fault), index]
             seed = int(np.random.SeedSequence(entropy).generate_state(1)[0])
             recording, _ = simulate(fault, bearing_cfg, {**simulator_cfg, "rpm": float(rpm), "seed": seed}, effects)
             signals.append(recording.signal)

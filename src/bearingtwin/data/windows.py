@@ -65,7 +65,13 @@ def normalize_windows(windows: np.ndarray, method: str = "zscore") -> np.ndarray
     windows = np.asarray(windows, dtype=np.float64)
     if method == "none":
         return windows
-    std = windows.std(axis=-1, keepdims=True)
+    with np.errstate(over="ignore"):
+        std = windows.std(axis=-1, keepdims=True)
+    overflowed = ~np.isfinite(std)  # values near 1e154 and above overflow the sum of squares: scale those first
+    if np.any(overflowed):
+        peak = np.max(np.abs(windows), axis=-1, keepdims=True)
+        windows = np.divide(windows, peak, out=windows.copy(), where=overflowed & (peak > 0))
+        std = windows.std(axis=-1, keepdims=True)
     if np.any(std == 0):
         raise BearingTwinError("a window is constant, so it has no scale to normalize")
     return (windows - windows.mean(axis=-1, keepdims=True)) / std

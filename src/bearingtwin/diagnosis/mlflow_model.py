@@ -20,8 +20,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from mlflow.exceptions import MlflowException
+from mlflow.protos.databricks_pb2 import INVALID_PARAMETER_VALUE
 from mlflow.pyfunc import PythonModel
 
+from bearingtwin.checks import positive_number
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.provenance import installed_versions
@@ -29,6 +32,15 @@ from bearingtwin.tracking.provenance import installed_versions
 ARTIFACT_PATH = "model"
 STATE_COLUMN = "state"
 RUNTIME_PACKAGES = ("bearingtwin", "numpy", "scipy", "pandas", "scikit-learn", "torch", "lightning", "mlflow")
+
+
+class ModelInputError(MlflowException, BearingTwinError):
+    """Input a model cannot diagnose: a :class:`BearingTwinError` for bearingtwin's own callers, and an
+    MLflow error of the request for a model server, which answers any other exception with a generic
+    "unexpected error" and leaves the reason in the stack trace."""
+
+    def __init__(self, message: str):
+        super().__init__(message, error_code=INVALID_PARAMETER_VALUE)
 
 
 class DiagnosisModel(PythonModel):
@@ -39,9 +51,14 @@ class DiagnosisModel(PythonModel):
         use_one_thread_per_library()
 
     def predict(self, context, model_input: np.ndarray, params: dict | None = None) -> pd.DataFrame:
-        rpm = float((params or {}).get("rpm") or 0.0)
-        return predictions_frame(self.pipeline, np.asarray(model_input, dtype=np.float64), rpm if rpm > 0 else None,
-                                 recorded_bearing(self.pipeline, (params or {}).get("bearing")))
+        params = params or {}
+        try:
+            rpm = params.get("rpm") or None  # 0, the signature's default: not given
+            return predictions_frame(self.pipeline, np.asarray(model_input, dtype=np.float64),
+                                     None if rpm is None else positive_number(rpm, "rpm", "rev/min"),
+                                     recorded_bearing(self.pipeline, params.get("bearing")))
+        except BearingTwinError as error:
+            raise ModelInputError(str(error)) from error
 
 
 def recorded_bearing(pipeline: DiagnosisPipeline, name: str | None) -> dict | None:
@@ -111,7 +128,9 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
         output = pd.DataFrame({STATE_COLUMN: ["normal"] * len(windows), **{n: np.zeros(len(windows)) for n in pipeline.class_names}})
         can_diagnose = False
     params = {"rpm": float(example_rpm or 0.0), "bearing": str((pipeline.bearing or {}).get("name", ""))}
-    signature = infer_signature(windows, output, params=params)
+    # The signature's defaults are what a request without them gets: no speed (0), the model's own bearing.
+    # The example's speed as the default would read any window at that speed, unasked.
+    signature = infer_signature(windows, output, params={**params, "rpm": 0.0})
     with tempfile.TemporaryDirectory() as folder:
         pipeline.save(Path(folder) / "pipeline")
         return Model.log(

@@ -88,12 +88,23 @@ class DiagnosisPipeline:
         windows = np.asarray(windows, dtype=np.float64)
         if windows.ndim != 2 or windows.shape[1] != self.window_length:
             raise BearingTwinError(f"windows must have shape (n, {self.window_length}), got {windows.shape}")
+        unreadable = np.flatnonzero(~np.isfinite(windows).all(axis=1))
+        if unreadable.size:
+            listed = ", ".join(map(str, unreadable[:5])) + (", ..." if unreadable.size > 5 else "")
+            raise BearingTwinError(f"windows {listed} (of {len(windows)}, counted from 0) hold NaN or infinite values")
         windows = normalize_windows(windows, self.window_normalization)
         if self.needs_rpm:
             if rpm is None:
                 raise BearingTwinError("rpm: this model's features are read on the shaft-order axis; give the shaft speed")
-            return self._extractor_at(bearing).transform(windows, fs_hz=self.fs_hz, rpm=rpm)
-        return self.extractor.transform(windows)
+            features = self._extractor_at(bearing).transform(windows, fs_hz=self.fs_hz, rpm=rpm)
+        else:
+            features = self.extractor.transform(windows)
+        overflowed = np.flatnonzero(~np.isfinite(features).all(axis=1))
+        if overflowed.size:  # values so large that powers of them overflow (1e154 and above)
+            raise BearingTwinError(f"windows {', '.join(map(str, overflowed[:5]))}{', ...' if overflowed.size > 5 else ''} "
+                                   f"(counted from 0): features not finite, values up to {np.max(np.abs(windows)):.3g} "
+                                   "overflow them; give the record in a unit that keeps its values within 1e150")
+        return features
 
     def _extractor_at(self, bearing: dict | None):
         """The defect-order extractor reading ``bearing``'s orders (the model's own for None or the same bearing)."""

@@ -23,6 +23,7 @@ from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, TransformerMixin
 from tqdm.auto import tqdm
 
+from bearingtwin.checks import whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.fitness import FITNESS, optimal_mode, resolve_fitness
@@ -116,8 +117,8 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
         for name, allowed in choices.items():
             if getattr(self, name) not in allowed:
                 raise BearingTwinError(f"{name}={getattr(self, name)!r} is not known; choose one of {', '.join(allowed)}")
-        if int(self.search_windows) < 1:
-            raise BearingTwinError(f"search_windows must be at least 1, got {self.search_windows}")
+        whole_number("search.windows", self.search_windows)  # features.search_windows is ${search.windows}
+        whole_number("features.seed", self.seed, minimum=0)  # numpy's SeedSequence takes no negative seed
         resolve_fitness(self.fitness, **dict(self.fitness_params or {}))
 
     def fit(self, X, y=None) -> "SaboVmdFeatures":

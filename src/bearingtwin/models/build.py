@@ -25,7 +25,9 @@ def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: 
         from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 
         trainer = OmegaConf.to_container(trainer_cfg, resolve=True)
-        return CnnBiLstmClassifier(**params, **trainer, random_state=seed, root_dir=root_dir)
+        network = CnnBiLstmClassifier(**params, **trainer, random_state=seed, root_dir=root_dir)
+        network.check_params()  # bad settings fail before any data is built
+        return network
     svm = SvmClassifier(**params, random_state=seed)
     svm.check_params()  # bad settings fail before any data is built
     return svm

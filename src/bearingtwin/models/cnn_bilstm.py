@@ -47,6 +47,7 @@ from sklearn.preprocessing import StandardScaler
 from torch import nn
 from torch.utils.data import DataLoader, TensorDataset
 
+from bearingtwin.checks import finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
 
 LSTM_OUTPUTS = ("last", "flatten")
@@ -66,15 +67,11 @@ class CnnBiLstmShape:
     lstm_output: str = "last"
 
     def __post_init__(self) -> None:
-        for name in ("input_length", "n_classes", "n_filters", "kernel_size", "pool_size", "hidden_units"):
-            if int(getattr(self, name)) < 1:
-                raise BearingTwinError(f"classifier.{name} must be a positive integer, got {getattr(self, name)}")
-        if self.n_classes < 2:
+        whole_number("the network's input length", self.input_length)
+        if whole_number("the number of classes", self.n_classes) < 2:
             raise BearingTwinError(f"the training labels hold {self.n_classes} class; a classifier needs at least 2")
-        if not 0.0 <= self.dropout < 1.0:
-            raise BearingTwinError(f"classifier.dropout must lie in [0, 1), got {self.dropout}")
-        if self.lstm_output not in LSTM_OUTPUTS:
-            raise BearingTwinError(f"classifier.lstm_output={self.lstm_output!r}; choose one of {', '.join(LSTM_OUTPUTS)}")
+        check_layer_settings(self.n_filters, self.kernel_size, self.pool_size, self.hidden_units, self.dropout,
+                             self.lstm_output)
         if self.sequence_length < 1:
             raise BearingTwinError(
                 f"an input of {self.input_length} points is too short for classifier.kernel_size="
@@ -85,6 +82,17 @@ class CnnBiLstmShape:
     def sequence_length(self) -> int:
         """Time steps the BiLSTM sees: after a 'valid' convolution and non-overlapping pooling."""
         return (self.input_length - self.kernel_size + 1) // self.pool_size
+
+
+def check_layer_settings(n_filters, kernel_size, pool_size, hidden_units, dropout, lstm_output) -> None:
+    """Raise naming the first ``classifier.*`` layer setting with an impossible value (a text, a zero)."""
+    for name, value in (("n_filters", n_filters), ("kernel_size", kernel_size), ("pool_size", pool_size),
+                        ("hidden_units", hidden_units)):
+        whole_number(f"classifier.{name}", value)
+    if not 0.0 <= finite_number("classifier.dropout", dropout, "a number in [0, 1)") < 1.0:
+        raise BearingTwinError(f"classifier.dropout must lie in [0, 1), got {dropout}")
+    if lstm_output not in LSTM_OUTPUTS:
+        raise BearingTwinError(f"classifier.lstm_output={lstm_output!r}; choose one of {', '.join(LSTM_OUTPUTS)}")
 
 
 class CnnBiLstmModule(L.LightningModule):
@@ -226,11 +234,22 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         self.random_state = random_state
         self.root_dir = root_dir
 
+    def check_params(self) -> None:
+        """Raise naming the first setting with an impossible value; :func:`build_classifier` calls it before
+        any data is built, :meth:`fit` again."""
+        check_layer_settings(self.n_filters, self.kernel_size, self.pool_size, self.hidden_units, self.dropout,
+                             self.lstm_output)
+        whole_number("classifier.batch_size", self.batch_size)
+        whole_number("trainer.max_epochs", self.max_epochs)
+        if not finite_number("classifier.learning_rate", self.learning_rate, "a positive number") > 0:
+            raise BearingTwinError(f"classifier.learning_rate must be a positive number, got {self.learning_rate!r}")
+        for key, value in (("classifier.l2_factor", self.l2_factor), ("trainer.gradient_clip_val", self.gradient_clip_val)):
+            if value is not None and not finite_number(key, value, "a non-negative number") >= 0:
+                raise BearingTwinError(f"{key} must be a non-negative number, got {value!r}")
+
     def fit(self, X, y, eval_set: tuple | None = None) -> "CnnBiLstmClassifier":
         X, y = _check_xy(X, y)
-        for name in ("batch_size", "max_epochs"):
-            if int(getattr(self, name)) < 1:
-                raise BearingTwinError(f"classifier.{name} must be a positive integer, got {getattr(self, name)}")
+        self.check_params()
         L.seed_everything(self.random_state, workers=True, verbose=False)
         self.classes_, y_index = np.unique(y, return_inverse=True)
         shape = CnnBiLstmShape(

@@ -25,6 +25,7 @@ from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.cache import cache_path, extract_features
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
+from bearingtwin.features.extractor import build_feature_extractor
 from bearingtwin.models.build import build_classifier
 from bearingtwin.tracking.lifecycle import signals_kept
 
@@ -149,6 +150,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
     seed_everything(seed)
     classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)  # bad settings fail first
+    build_feature_extractor(cfg.features)  # so do the features' (the cached extraction builds its own)
     if cfg.get("band_power_by_calibration"):
         check_band_power_choice(cfg)
     check_feature_bearing(cfg)

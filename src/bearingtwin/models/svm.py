@@ -20,6 +20,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
 
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 
 KERNELS = ("linear", "poly", "rbf", "sigmoid")
@@ -28,11 +29,11 @@ CALIBRATION_FOLDS = 5
 
 def make_svm(C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", random_state: int = 0) -> Pipeline:
     """A StandardScaler + SVC pipeline; ``random_state`` only matters for SVC's tie breaking."""
-    if not C > 0:
-        raise BearingTwinError(f"classifier.C must be positive, got {C}")
+    if not (is_finite_number(C) and C > 0):
+        raise BearingTwinError(f"classifier.C must be a positive number, got {C!r}")
     if kernel not in KERNELS:
         raise BearingTwinError(f"classifier.kernel={kernel!r}; choose one of {', '.join(KERNELS)}")
-    if not (gamma in ("scale", "auto") or (isinstance(gamma, (int, float)) and gamma > 0)):
+    if not (gamma in ("scale", "auto") or (is_finite_number(gamma) and gamma > 0)):
         raise BearingTwinError(f"classifier.gamma must be 'scale', 'auto' or a positive number, got {gamma!r}")
     return Pipeline([("scale", StandardScaler()), ("svc", SVC(C=C, kernel=kernel, gamma=gamma, random_state=random_state))])
 

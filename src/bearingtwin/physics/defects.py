@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from bearingtwin.checks import finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 
@@ -95,21 +96,28 @@ def build_defect(fault: str, geometry: BearingGeometry, defect_cfg, load_zone_an
         )
     if not depth_m >= 0:
         raise BearingTwinError(f"simulator.defect.depth_mm must not be negative, got {defect_cfg['depth_mm']}")
-    ball_index = int(defect_cfg["ball_index"])
-    if not 0 <= ball_index < geometry.n_balls:
+    ball_index = whole_number("simulator.defect.ball_index", defect_cfg["ball_index"], minimum=0)
+    if not ball_index < geometry.n_balls:
         raise BearingTwinError(f"simulator.defect.ball_index must lie in 0..{geometry.n_balls - 1}, got {ball_index}")
+    # Every fault's angle, not only this one's: the data set simulates all four from one config. A NaN
+    # angle would put the defect nowhere and give a near-silent record still labelled faulty.
+    outer_angle = defect_cfg["outer_angle_deg"]  # null: the centre of the load zone
+    if outer_angle is not None:
+        outer_angle = math.radians(finite_number("simulator.defect.outer_angle_deg", outer_angle,
+                                                 "null or a finite angle in degrees"))
+    inner_angle, ball_angle = (
+        math.radians(finite_number(f"simulator.defect.{name}", defect_cfg[name], "a finite angle in degrees"))
+        for name in ("inner_angle_deg", "ball_angle_deg"))
     ball_radius, inner_radius, outer_radius = geometry.ball_radius_m, geometry.inner_race_radius_m, geometry.outer_race_radius_m
     inner_depth = min(depth_m, max_drop_m(ball_radius, width_m, inner_radius, convex_race=True))
     outer_depth = min(depth_m, max_drop_m(ball_radius, width_m, outer_radius, convex_race=False))
     if fault == "outer":
-        outer_angle = defect_cfg["outer_angle_deg"]
-        angle = load_zone_angle_rad if outer_angle is None else math.radians(outer_angle)
+        angle = load_zone_angle_rad if outer_angle is None else outer_angle
         return Defect(fault, width_m / 2.0 / outer_radius, outer_depth, angle)
     if fault == "inner":
-        return Defect(fault, width_m / 2.0 / inner_radius, inner_depth, math.radians(defect_cfg["inner_angle_deg"]))
+        return Defect(fault, width_m / 2.0 / inner_radius, inner_depth, inner_angle)
     if fault == "ball":
-        return Defect(fault, width_m / 2.0 / ball_radius, outer_depth, math.radians(defect_cfg["ball_angle_deg"]),
-                      ball_index, inner_depth)
+        return Defect(fault, width_m / 2.0 / ball_radius, outer_depth, ball_angle, ball_index, inner_depth)
     return Defect(fault, 0.0, 0.0, 0.0)
 
 

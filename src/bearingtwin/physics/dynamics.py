@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.optimize
 
+from bearingtwin.checks import finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.contact import bearing_contact_stiffness
 from bearingtwin.physics.geometry import BearingGeometry
@@ -83,8 +84,10 @@ class DynamicParameters:
                                                 bearing_cfg["groove_radius_factor"])
         elif not contact > 0:
             raise BearingTwinError(f"bearing.contact_stiffness_n_per_m1_5 must be positive or null, got {contact}")
-        if not simulator_cfg["eccentricity_mm"] >= 0:
+        if not finite_number("simulator.eccentricity_mm", simulator_cfg["eccentricity_mm"]) >= 0:
             raise BearingTwinError(f"simulator.eccentricity_mm must not be negative, got {simulator_cfg['eccentricity_mm']}")
+        for name in ("load_x_n", "load_y_n", "gravity_m_per_s2"):  # a NaN leaves the static equilibrium unsolvable
+            finite_number(f"simulator.{name}", simulator_cfg[name])
         return cls(
             inner_mass_kg=float(bearing_cfg["inner_mass_kg"]),
             outer_mass_kg=float(bearing_cfg["outer_mass_kg"]),

@@ -31,6 +31,7 @@ import numpy as np
 from scipy import signal as sps
 from scipy.ndimage import median_filter
 
+from bearingtwin.checks import finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.dynamics import DynamicParameters
 from bearingtwin.physics.effects import Effect, register_effect
@@ -397,7 +398,7 @@ class StructuralMode(Effect):
     def __init__(self, natural_frequency_hz: float, damping_ratio: float, level_db: float):
         self.natural_frequency_hz = _positive(f"{self.name}.natural_frequency_hz", natural_frequency_hz)
         self.damping_ratio = _positive(f"{self.name}.damping_ratio", damping_ratio)
-        self.level_db = _finite(f"{self.name}.level_db", level_db)
+        self.level_db = finite_number(f"{self.name}.level_db", level_db)
 
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         mode = mode_band_pass(signal, fs, self.natural_frequency_hz, self.damping_ratio, self.name)
@@ -560,22 +561,10 @@ class Noise(Effect):
         return add_noise(signal, fs, self.snr_db, self.spectral_slope, rng, self.reference_rms)
 
 
-def _finite(field: str, value: float) -> float:
-    if not np.isfinite(value):
-        raise BearingTwinError(f"{field} must be a finite number, got {value}")
-    return float(value)
-
-
 def _at_most_zero(field: str, value: float, why: str) -> float:
-    if not _finite(field, value) <= 0:
+    if not finite_number(field, value) <= 0:
         raise BearingTwinError(f"{field} must be at most 0 dB ({why}), got {value}")
     return float(value)
-
-
-def _whole(field: str, value: int) -> int:
-    if isinstance(value, bool) or int(value) != value or value < 1:
-        raise BearingTwinError(f"{field} must be a positive integer, got {value}")
-    return int(value)
 
 
 class LineEffect(Effect):
@@ -634,8 +623,8 @@ class Tones(LineEffect):
             raise BearingTwinError(f"tones.levels_db must give one level per line of tones.frequencies_hz, "
                                    f"got {len(levels_db)} levels for {len(frequencies_hz)} lines")
         self.frequencies_hz = [_positive("tones.frequencies_hz", f) for f in frequencies_hz]
-        self.levels_db = [_finite("tones.levels_db", level) for level in levels_db]
-        self.level_offset_db = _finite("tones.level_offset_db", level_offset_db)
+        self.levels_db = [finite_number("tones.levels_db", level) for level in levels_db]
+        self.level_offset_db = finite_number("tones.level_offset_db", level_offset_db)
 
     def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
         return np.array(self.frequencies_hz), np.array(self.levels_db) + self.level_offset_db
@@ -690,7 +679,7 @@ class Unbalance(LineEffect):
     search_space = {"level_db": (-60.0, 20.0, False)}
 
     def __init__(self, level_db: float):
-        self.level_db = _finite("unbalance.level_db", level_db)
+        self.level_db = finite_number("unbalance.level_db", level_db)
 
     def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
         return np.array([shaft_hz]), np.array([self.level_db])
@@ -725,7 +714,7 @@ class Misalignment(LineEffect):
     search_space = {"level_db": (-60.0, 20.0, False), "one_x_db": (-30.0, 0.0, False)}
 
     def __init__(self, level_db: float, one_x_db: float = -6.0, three_x_db: float = -10.0):
-        self.level_db = _finite("misalignment.level_db", level_db)
+        self.level_db = finite_number("misalignment.level_db", level_db)
         self.one_x_db = _at_most_zero("misalignment.one_x_db", one_x_db, "the 2x line dominates")
         self.three_x_db = _at_most_zero("misalignment.three_x_db", three_x_db, "the 2x line dominates")
 
@@ -771,10 +760,10 @@ class Looseness(LineEffect):
 
     def __init__(self, level_db: float, half_order_db: float = -10.0, n_harmonics: int = LOOSENESS_HARMONICS,
                  decay_db_per_order: float = LOOSENESS_DECAY_DB_PER_ORDER):
-        self.level_db = _finite("looseness.level_db", level_db)
-        self.half_order_db = _finite("looseness.half_order_db", half_order_db)
-        self.n_harmonics = _whole("looseness.n_harmonics", n_harmonics)
-        if not _finite("looseness.decay_db_per_order", decay_db_per_order) >= 0:
+        self.level_db = finite_number("looseness.level_db", level_db)
+        self.half_order_db = finite_number("looseness.half_order_db", half_order_db)
+        self.n_harmonics = whole_number("looseness.n_harmonics", n_harmonics)
+        if not finite_number("looseness.decay_db_per_order", decay_db_per_order) >= 0:
             raise BearingTwinError(f"looseness.decay_db_per_order must be non-negative, got {decay_db_per_order}")
         self.decay_db_per_order = float(decay_db_per_order)
 
@@ -835,10 +824,10 @@ class LineFrequency(LineEffect):
     def __init__(self, supply_hz: float, level_db: float, fundamental_db: float = -10.0,
                  n_harmonics: int = SUPPLY_HARMONICS):
         self.supply_hz = _positive("line_frequency.supply_hz", supply_hz)
-        self.level_db = _finite("line_frequency.level_db", level_db)
+        self.level_db = finite_number("line_frequency.level_db", level_db)
         self.fundamental_db = _at_most_zero("line_frequency.fundamental_db", fundamental_db,
                                             "the line at twice the supply frequency dominates")
-        self.n_harmonics = _whole("line_frequency.n_harmonics", n_harmonics)
+        self.n_harmonics = whole_number("line_frequency.n_harmonics", n_harmonics)
 
     def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
         k = np.arange(1, self.n_harmonics + 1)

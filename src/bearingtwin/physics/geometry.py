@@ -21,11 +21,16 @@ import math
 from dataclasses import dataclass, fields
 from typing import Mapping
 
+from bearingtwin.checks import finite_number
 from bearingtwin.errors import BearingTwinError
 
 FAULTS = ("normal", "inner", "ball", "outer")
 """Bearing states in the order of the paper's labels 1-4 (Table 5): Normal, Inner race,
 Rolling element, Outer race. Integer class labels in this project are indices into it."""
+
+
+FAULT_FREQUENCY = {"normal": None, "inner": "bpfi", "ball": "bsf", "outer": "bpfo"}
+"""The key in :meth:`BearingGeometry.defect_frequencies` of each state's fundamental defect frequency."""
 
 
 def check_fault(fault: str) -> str:
@@ -55,11 +60,18 @@ class BearingGeometry:
     clearance_mm: float = 0.0
 
     def __post_init__(self) -> None:
+        for field in fields(self):  # a string or a NaN would fail the comparisons below with a traceback, or pass them
+            finite_number(f"bearing.{field.name}", getattr(self, field.name))
         for name in ("outer_diameter_mm", "inner_diameter_mm", "ball_diameter_mm", "pitch_diameter_mm"):
             if not getattr(self, name) > 0:
                 raise BearingTwinError(f"bearing.{name} must be positive, got {getattr(self, name)}")
         if self.n_balls < 1 or int(self.n_balls) != self.n_balls:
             raise BearingTwinError(f"bearing.n_balls must be a positive integer, got {self.n_balls}")
+        # The ball's load line leans by alpha from the radial plane; at 90 degrees it is a thrust
+        # bearing, where cos(alpha) = 0 makes BPFI = BPFO and the radial model of this project void.
+        if not 0.0 <= self.contact_angle_deg < 90.0:
+            raise BearingTwinError(f"bearing.contact_angle_deg must lie in [0, 90) degrees for a radial or "
+                                   f"angular-contact ball bearing, got {self.contact_angle_deg!r}")
         if self.clearance_mm < 0:
             raise BearingTwinError(f"bearing.clearance_mm must not be negative, got {self.clearance_mm}")
         if not self.inner_diameter_mm < self.pitch_diameter_mm < self.outer_diameter_mm:
@@ -131,5 +143,5 @@ class BearingGeometry:
 
     def fault_frequency_hz(self, fault: str, rpm: float) -> float | None:
         """The defect frequency a fault shows in the envelope spectrum (None for a healthy bearing)."""
-        key = {"normal": None, "inner": "bpfi", "ball": "bsf", "outer": "bpfo"}[check_fault(fault)]
+        key = FAULT_FREQUENCY[check_fault(fault)]
         return None if key is None else self.defect_frequencies(rpm)[key]

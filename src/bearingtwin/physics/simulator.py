@@ -12,20 +12,22 @@ accelerations of the inner and outer race in x and y. The sensor channel
 from __future__ import annotations
 
 import math
-from typing import Mapping, Sequence
+import os
+from typing import Mapping, NamedTuple, Sequence
 
 import joblib
 import numpy as np
 from tqdm.auto import tqdm
 
+from bearingtwin.checks import finite_number, is_finite_number, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics import solvers
-from bearingtwin.physics.defects import build_defect, crossing_time_s
+from bearingtwin.physics.defects import Defect, build_defect, crossing_time_s
 from bearingtwin.physics.dynamics import DynamicParameters, linear_modes, static_equilibrium
-from bearingtwin.physics.effects import build_effects
-from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
+from bearingtwin.physics.effects import Effect, build_effects
+from bearingtwin.physics.geometry import FAULT_FREQUENCY, FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.kinematics import rigid_kinematics
 from bearingtwin.physics.solvers import fast, reference
 
@@ -33,20 +35,161 @@ CHANNELS = ("inner_x", "inner_y", "outer_x", "outer_y")
 """Rows of the (4, n) acceleration array, and the values ``simulator.sensor`` accepts."""
 
 
+MIN_SAMPLES = 2
+"""Fewest samples a simulated record may have: one sample has no spectrum (the envelope that
+``bearingtwin-simulate plot=true`` draws needs two), and none is no record."""
+
+# Peak memory of one simulation, measured with tracemalloc (the peak traced while simulate() ran,
+# after a first call had compiled the numba code) on the paper bearing at 10 kHz and 1 s (10.8k
+# samples with the start-up transient), per sample of the kinematic grid (transient + record):
+# fast solver, no effects: 146 B with 9 balls, 234 B with 20 (8 B per ball: the (n, Nb) ball-offset
+# series); with the effects that rewrite the kinematics, slip the costliest (it alone, or with
+# spin_slip and speed_fluctuation, or all sixteen effects in conf/effects, peak the same): 352 B
+# with 9 balls, 707 B with 20, i.e. 61 + 32 Nb. The reference solver adds 521-535 B per recorded
+# sample (solve_ivp's states and a derivative array per sample), measured over 0.1 s and 0.3 s.
+# Rounded up to the factors below, the worst case for any effects (2.5 x the peak without them);
+# the arrays the command keeps afterwards (40 B per sample) and its envelope plot stay below this.
+# tests/test_simulator_input.py checks the estimate still bounds the traced peak.
+_BYTES_PER_GRID_SAMPLE = 72
+_BYTES_PER_GRID_SAMPLE_AND_BALL = 32
+_BYTES_PER_REFERENCE_SAMPLE = 544
+
+
+def _record_samples(simulator_cfg: Mapping) -> int:
+    """Samples in the kept record: ``simulator.duration`` x ``simulator.fs`` (positive, finite numbers)."""
+    samples = simulator_cfg["duration"] * simulator_cfg["fs"]
+    if not math.isfinite(samples):  # 1e200 s at 1e200 Hz: no integer, and no memory either
+        raise BearingTwinError(f"simulator.fs={simulator_cfg['fs']:g} Hz x simulator.duration="
+                               f"{simulator_cfg['duration']:g} s is more samples than any memory holds")
+    return round(samples)
+
+
 def _check_settings(simulator_cfg: Mapping) -> None:
-    for name in ("rpm", "fs", "duration"):
+    for name in ("rpm", "fs", "duration", "settle_decades"):
         value = simulator_cfg[name]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        if not (is_finite_number(value) and value > 0):
             raise BearingTwinError(f"simulator.{name} must be a positive, finite number, got {value!r}")
+    n_samples = _record_samples(simulator_cfg)
+    if n_samples < MIN_SAMPLES:
+        duration, fs = simulator_cfg["duration"], simulator_cfg["fs"]
+        raise BearingTwinError(
+            f"simulator.duration={duration:g} s at simulator.fs={fs:g} Hz gives {n_samples} sample"
+            f"{'' if n_samples == 1 else 's'}; a record "
+            f"needs at least {MIN_SAMPLES}: make simulator.duration at least {MIN_SAMPLES / fs:g} s"
+        )
     if simulator_cfg["solver"] not in solvers.SOLVERS:
         raise BearingTwinError(f"simulator.solver={simulator_cfg['solver']!r}: choose one of {', '.join(solvers.SOLVERS)}")
+    if simulator_cfg["solver"] == "fast":
+        for name in ("steps_per_period", "steps_per_defect"):
+            whole_number(f"simulator.fast.{name}", simulator_cfg["fast"][name])
+    else:
+        whole_number("simulator.reference.steps_per_defect", simulator_cfg["reference"]["steps_per_defect"])
     if simulator_cfg["sensor"] not in CHANNELS:
         raise BearingTwinError(f"simulator.sensor={simulator_cfg['sensor']!r}: choose one of {', '.join(CHANNELS)}")
     angle = simulator_cfg.get("sensor_angle_deg")
-    if angle is not None and (isinstance(angle, bool) or not isinstance(angle, (int, float)) or not math.isfinite(angle)):
-        raise BearingTwinError(f"simulator.sensor_angle_deg must be null or a finite angle in degrees, got {angle!r}")
-    if not simulator_cfg["settle_decades"] > 0:
-        raise BearingTwinError(f"simulator.settle_decades must be positive, got {simulator_cfg['settle_decades']}")
+    if angle is not None:
+        finite_number("simulator.sensor_angle_deg", angle, "null or a finite angle in degrees")
+    finite_number("simulator.initial_cage_angle_deg", simulator_cfg["initial_cage_angle_deg"],
+                  "a finite angle in degrees")
+    whole_number("simulator.seed", simulator_cfg["seed"], minimum=0)  # numpy's SeedSequence takes no negative seed
+
+
+def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs: float) -> None:
+    """Refuse a sampling rate whose Nyquist frequency does not clear the fault's defect frequency."""
+    frequency = geometry.fault_frequency_hz(fault, rpm)
+    if frequency is not None and frequency >= fs / 2.0:
+        raise BearingTwinError(
+            f"simulator.fs={fs:g} Hz cannot show the {fault} fault: its defect frequency "
+            f"{FAULT_FREQUENCY[fault].upper()} {frequency:.1f} Hz at {rpm:g} rpm is at or above "
+            f"fs/2 = {fs / 2.0:g} Hz; raise simulator.fs above {2.0 * frequency:.0f} Hz or lower the speed"
+        )
+
+
+def _physical_memory_bytes() -> int | None:
+    """The machine's physical memory, or None where the system does not say."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _memory_bytes(solver: str, n_transient: int, n_samples: int, n_balls: int) -> int:
+    """Estimated peak memory of one simulation in bytes (the factors' comment says how they were measured)."""
+    n_grid = n_transient + n_samples + 1
+    need = n_grid * (_BYTES_PER_GRID_SAMPLE + _BYTES_PER_GRID_SAMPLE_AND_BALL * n_balls)
+    return need + (n_samples * _BYTES_PER_REFERENCE_SAMPLE if solver == "reference" else 0)
+
+
+def _check_memory(simulator_cfg: Mapping, n_transient: int, n_samples: int, n_balls: int,
+                  concurrent: int = 1) -> None:
+    """Refuse a simulation whose arrays (``concurrent`` of them at once) would need over half the memory."""
+    need = concurrent * _memory_bytes(simulator_cfg["solver"], n_transient, n_samples, n_balls)
+    memory = _physical_memory_bytes()
+    if memory is not None and need > memory / 2:
+        fs, n_grid = float(simulator_cfg["fs"]), n_transient + n_samples + 1
+        at_once = f" for {concurrent} simulations at once" if concurrent > 1 else ""
+        raise BearingTwinError(
+            f"simulator.fs={fs:g} Hz x simulator.duration={simulator_cfg['duration']:g} s is {n_samples:,} samples "
+            f"({n_grid:,} with the {n_transient / fs:.3g} s start-up transient), about {need / 1e9:.3g} GB of "
+            f"memory{at_once}, more than half of this machine's {memory / 1e9:.3g} GB: lower simulator.fs or "
+            f"simulator.duration"
+        )
+
+
+class _Plan(NamedTuple):
+    """What :func:`simulate` settles before the heavy work: every check has passed once it exists."""
+
+    rpm: float
+    fs: float
+    geometry: BearingGeometry
+    effects: list[Effect]
+    params: DynamicParameters
+    initial_cage_angle: float
+    initial_state: np.ndarray
+    highest_mode_hz: float
+    n_transient: int
+    n_samples: int
+    defect: Defect
+    crossing_s: float
+
+
+def _plan(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg: Mapping | None,
+          concurrent: int = 1) -> _Plan:
+    """Check the settings and solve the cheap parts (equilibrium, linear modes, defect) of one simulation.
+
+    ``concurrent``: simulations that will run at once, for the memory check.
+    """
+    check_fault(fault)
+    _check_settings(simulator_cfg)
+    rpm, fs = float(simulator_cfg["rpm"]), float(simulator_cfg["fs"])
+    geometry = BearingGeometry.from_config(bearing_cfg)
+    _check_resolves_fault(fault, geometry, rpm, fs)
+    effects = build_effects(effects_cfg)
+
+    params = DynamicParameters.from_config(bearing_cfg, simulator_cfg)
+    for effect in effects:
+        params = effect.modify_parameters(params)
+
+    initial_cage_angle = math.radians(simulator_cfg["initial_cage_angle_deg"])
+    resting_angles = initial_cage_angle + 2.0 * math.pi * np.arange(geometry.n_balls) / geometry.n_balls
+    initial_state = static_equilibrium(params, resting_angles)
+    highest_mode_hz, slowest_decay = linear_modes(params, initial_state, resting_angles)
+    if fs <= 2.0 * highest_mode_hz:
+        raise BearingTwinError(
+            f"simulator.fs={fs:g} Hz cannot resolve the contact dynamics: the bearing's highest "
+            f"natural frequency is {highest_mode_hz:.0f} Hz, so fs must exceed {2.0 * highest_mode_hz:.0f} Hz"
+        )
+    # Effects that move the balls at t = 0 start slightly off equilibrium; the transient absorbs it.
+    n_transient = math.ceil(simulator_cfg["settle_decades"] * math.log(10.0) / slowest_decay * fs)
+    n_samples = _record_samples(simulator_cfg)
+    _check_memory(simulator_cfg, n_transient, n_samples, geometry.n_balls, concurrent)
+
+    load_zone_angle = math.atan2(initial_state[1] - initial_state[3], initial_state[0] - initial_state[2])
+    defect_cfg = simulator_cfg["defect"]
+    defect = build_defect(fault, geometry, defect_cfg, load_zone_angle)
+    crossing = crossing_time_s(geometry, rpm, defect_cfg["width_mm"])
+    return _Plan(rpm, fs, geometry, effects, params, initial_cage_angle, initial_state, highest_mode_hz, n_transient,
+                 n_samples, defect, crossing)
 
 
 def sensor_signal(channels: np.ndarray, sensor: str, sensor_angle_deg: float | None = None) -> np.ndarray:
@@ -74,38 +217,15 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
         recording: the sensor channel in m/s^2 after the effects' sensor path.
         channels: (4, n) accelerations in m/s^2 of the races, rows in :data:`CHANNELS` order.
     """
-    check_fault(fault)
     bearing_cfg, simulator_cfg = plain_config(bearing_cfg), plain_config(simulator_cfg)
-    _check_settings(simulator_cfg)
-    rpm, fs = float(simulator_cfg["rpm"]), float(simulator_cfg["fs"])
-    geometry = BearingGeometry.from_config(bearing_cfg)
-    effects = build_effects(effects_cfg)
+    plan = _plan(fault, bearing_cfg, simulator_cfg, effects_cfg)
+    rpm, fs, params, defect, crossing = plan.rpm, plan.fs, plan.params, plan.defect, plan.crossing_s
+    highest_mode_hz, n_transient, n_samples = plan.highest_mode_hz, plan.n_transient, plan.n_samples
     rng = np.random.default_rng(np.random.SeedSequence([int(simulator_cfg["seed"]), FAULTS.index(fault)]))
 
-    params = DynamicParameters.from_config(bearing_cfg, simulator_cfg)
-    for effect in effects:
-        params = effect.modify_parameters(params)
-
-    initial_cage_angle = math.radians(simulator_cfg["initial_cage_angle_deg"])
-    resting_angles = initial_cage_angle + 2.0 * math.pi * np.arange(geometry.n_balls) / geometry.n_balls
-    initial_state = static_equilibrium(params, resting_angles)
-    highest_mode_hz, slowest_decay = linear_modes(params, initial_state, resting_angles)
-    if fs <= 2.0 * highest_mode_hz:
-        raise BearingTwinError(
-            f"simulator.fs={fs:g} Hz cannot resolve the contact dynamics: the bearing's highest "
-            f"natural frequency is {highest_mode_hz:.0f} Hz, so fs must exceed {2.0 * highest_mode_hz:.0f} Hz"
-        )
-    # Effects that move the balls at t = 0 start slightly off equilibrium; the transient absorbs it.
-    n_transient = math.ceil(simulator_cfg["settle_decades"] * math.log(10.0) / slowest_decay * fs)
-    n_samples = round(simulator_cfg["duration"] * fs)
-    kinematics = rigid_kinematics(geometry, rpm, fs, n_transient + n_samples + 1, initial_cage_angle)
-    for effect in effects:
+    kinematics = rigid_kinematics(plan.geometry, rpm, fs, n_transient + n_samples + 1, plan.initial_cage_angle)
+    for effect in plan.effects:
         kinematics = effect.modify_kinematics(kinematics, rng)
-
-    load_zone_angle = math.atan2(initial_state[1] - initial_state[3], initial_state[0] - initial_state[2])
-    defect_cfg = simulator_cfg["defect"]
-    defect = build_defect(fault, geometry, defect_cfg, load_zone_angle)
-    crossing = crossing_time_s(geometry, rpm, defect_cfg["width_mm"])
 
     meta = {"transient_s": n_transient / fs, "contact_stiffness_n_per_m1_5": params.contact_stiffness_n_per_m1_5,
             "highest_mode_hz": highest_mode_hz, "defect_depth_m": defect.depth_m, "solver": simulator_cfg["solver"]}
@@ -116,16 +236,16 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
         meta["substeps"], meta["samples_per_step"] = substeps, per_step
         with tqdm(total=n_transient + n_samples, unit="sample", unit_scale=True, desc=f"simulate {fault}",
                   disable=not progress, leave=False) as bar:
-            channels = fast.integrate(params, kinematics, defect.as_array(), initial_state, n_transient, n_samples,
+            channels = fast.integrate(params, kinematics, defect.as_array(), plan.initial_state, n_transient, n_samples,
                                       substeps, progress=bar, per_step=per_step)
     else:
         settings = simulator_cfg["reference"]
-        channels = reference.integrate(params, kinematics, defect.as_array(), initial_state, n_transient, n_samples,
+        channels = reference.integrate(params, kinematics, defect.as_array(), plan.initial_state, n_transient, n_samples,
                                        rtol=settings["rtol"], atol=settings["atol"],
                                        max_step_s=crossing / settings["steps_per_defect"])
 
     signal = sensor_signal(channels, simulator_cfg["sensor"], simulator_cfg.get("sensor_angle_deg"))
-    for effect in effects:
+    for effect in plan.effects:
         signal = effect.modify_signal(signal, fs, rng, rpm / 60.0)
     recording = Recording(signal=signal, fs=fs, rpm=rpm, fault=fault, source=f"simulated:{bearing_cfg.get('name', '')}",
                           channel=simulator_cfg["sensor"], unit="m/s^2", meta=meta)
@@ -136,8 +256,9 @@ def simulate_many(faults: Sequence[str], bearing_cfg: Mapping, simulator_cfg: Ma
                   effects_cfg: Mapping | None = None, n_jobs: int = 1) -> list[tuple[Recording, np.ndarray]]:
     """:func:`simulate` for several bearing states, in parallel processes when ``n_jobs`` > 1."""
     bearing_cfg, simulator_cfg, effects_cfg = plain_config(bearing_cfg), plain_config(simulator_cfg), plain_config(effects_cfg)
-    for fault in faults:
-        check_fault(fault)
+    concurrent = max(1, min(len(faults), joblib.effective_n_jobs(n_jobs)))
+    for fault in faults:  # every state's checks before any simulation starts: the cheap parts, run again in the jobs
+        _plan(fault, bearing_cfg, simulator_cfg, effects_cfg, concurrent)
     return joblib.Parallel(n_jobs=n_jobs)(
         joblib.delayed(simulate)(fault, bearing_cfg, simulator_cfg, effects_cfg) for fault in faults
     )

@@ -68,7 +68,9 @@ def _prominence_spectrum(signal: np.ndarray, fs: float, top_hz: float, backgroun
     resolution = fs / signal.size
     spectrum = np.abs(np.fft.rfft((signal - signal.mean()) * np.hanning(signal.size)))
     spectrum = spectrum[: min(spectrum.size, int(math.ceil(top_hz / resolution)) + 2)]
-    background = median_filter(spectrum, size=2 * int(round(background_hz / resolution / 2)) + 1, mode="nearest")
+    # At most the spectrum's own length: at a rate of a few Hz the background's width spans millions of bins.
+    half_width_bins = min(int(round(background_hz / resolution / 2)), spectrum.size // 2)
+    background = median_filter(spectrum, size=2 * half_width_bins + 1, mode="nearest")
     return spectrum / np.maximum(background, np.finfo(float).tiny), resolution
 
 

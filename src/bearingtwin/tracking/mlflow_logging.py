@@ -110,7 +110,8 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
 
     A store that cannot serve is refused in one line before any work: a tracking server that does not
     answer (MLflow would retry for minutes), MLflow 3's retired file store, and with ``must_exist`` (a
-    command that only reads) a SQLite file that is not there, which would otherwise be created empty."""
+    command that only reads) a SQLite file or an experiment that is not there, which would otherwise be
+    created empty."""
     uri = str(tracking_cfg.uri)
     name = str(tracking_cfg.experiment)
     check_store(uri, must_exist)
@@ -119,6 +120,9 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
         experiment = client.get_experiment_by_name(name)  # creates the schema of a new database
         if experiment is not None:
             return client, experiment.experiment_id
+        if must_exist:  # a reader would only find no runs, and leave a misspelled experiment behind
+            names = sorted(e.name for e in client.search_experiments())
+            raise BearingTwinError(f"experiment={name}: no such experiment in {uri} (it holds: {', '.join(names) or 'none'})")
         location = artifact_location(tracking_cfg.get("artifact_root") or _sqlite_path(uri, "artifacts"), name)
         try:
             return client, client.create_experiment(name, artifact_location=location)
@@ -141,6 +145,25 @@ def check_store(uri: str, must_exist: bool = False) -> None:
     path = _sqlite_path(uri)
     if must_exist and path is not None and not Path(path).is_file():
         raise BearingTwinError(f"tracking.uri={uri}: no such store ({path} does not exist)")
+    if path is not None and Path(path).is_file():
+        _check_sqlite_store(uri, Path(path), must_exist)
+
+
+def _check_sqlite_store(uri: str, path: Path, must_exist: bool) -> None:
+    """Refuse a file that is not an MLflow store before MLflow writes its tables into it (a user's own
+    database, a text file); an empty file becomes a new store, unless a store must already be there."""
+    import sqlite3
+
+    try:
+        with contextlib.closing(sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)) as database:
+            tables = {row[0] for row in database.execute("select name from sqlite_master where type = 'table'")}
+    except sqlite3.DatabaseError as error:
+        raise BearingTwinError(f"tracking.uri={uri}: {path} is not an SQLite database ({error})") from None
+    if tables and "experiments" not in tables:
+        raise BearingTwinError(f"tracking.uri={uri}: {path} is an SQLite database but not an MLflow store "
+                               f"(its tables: {', '.join(sorted(tables)[:5])}); give another file")
+    if not tables and must_exist:
+        raise BearingTwinError(f"tracking.uri={uri}: {path} is empty, not an MLflow store")
 
 
 @functools.lru_cache(maxsize=None)
@@ -475,9 +498,21 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
 
 def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
     """``register`` and ``register_alias``, checked before any work is done."""
+    # MLflow's own rules for the names (a name without '/' or ':'; an alias of letters, digits, '_' and '-',
+    # neither 'latest' nor v<number>), read here so a bad one is refused before training, not after it.
+    from mlflow.utils.validation import (_validate_model_alias_name, _validate_model_alias_name_reserved,
+                                         _validate_model_name)
+
     name, alias = cfg.get("register"), cfg.get("register_alias")
     if alias and not name:
         raise BearingTwinError(f"register_alias={alias} needs register=<model name> (or register_alias=null)")
+    for key, value, rules in (("register", name, (_validate_model_name,)),
+                              ("register_alias", alias, (_validate_model_alias_name, _validate_model_alias_name_reserved))):
+        try:
+            for rule in rules if value is not None else ():
+                rule(str(value))
+        except MlflowException as error:
+            raise BearingTwinError(f"{key}={value}: {' '.join(error.message.split())}") from None
     return name, alias
 
 

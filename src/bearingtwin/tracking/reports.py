@@ -36,7 +36,7 @@ from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
 from bearingtwin.tracking.mlflow_logging import find_runs, open_store, stored_config
 from bearingtwin.tracking.provenance import SIZE_KEYS, check_replacement, run_sizes, size_record
-from bearingtwin.tracking.tables import generated_text, markdown_table, write_generated
+from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
 # uri / experiment: the store; out: the markdown file (default results/<name>.md in the working
 # directory); sweep_dir: only runs of that Hydra sweep dir; source: only runs on that
@@ -231,6 +231,15 @@ def _top_confusions(confusion: np.ndarray, limit: int = 3) -> str:
     return ", ".join(f"{true}→{predicted} {count}" for count, true, predicted in off[:limit]) or "none"
 
 
+def _on_data_source(source: ReportInput, data_source: str) -> ReportInput:
+    """``source`` reading the runs of ``data_source``, the only ones a report about that data can read
+    (``source=all`` would put simulated runs in a CWRU table)."""
+    given = source.settings.get("source", data_source)
+    if given != data_source:
+        raise BearingTwinError(f"source={given}: this report reads data.source={data_source} runs only; leave source= out")
+    return ReportInput(source.client, source.experiment_id, {**source.settings, "source": data_source}, source.used_runs)
+
+
 def _real_data_report(source: ReportInput, data_source: str, condition: str, unit: str, paper_figures: dict | None) -> str:
     """Accuracy and per-class recall per (method, ``data.<condition>``, split), and random − block.
 
@@ -238,7 +247,7 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
     share samples with training windows; the block split does not. Their difference in
     accuracy is therefore a measurement of that leakage.
     """
-    source = ReportInput(source.client, source.experiment_id, {"source": data_source, **source.settings}, source.used_runs)
+    source = _on_data_source(source, data_source)
     wanted = f"params.`data.{condition}` = '{source.settings[condition]}'" if condition in source.settings else ""
 
     def group(run) -> tuple[str, str]:
@@ -380,11 +389,17 @@ def check_report_settings(name: str, settings: dict[str, str]) -> None:
         raise BearingTwinError(f"{name} does not take {', '.join(sorted(unknown))}; it takes {', '.join(COMMON_KEYS + keys)}")
     if settings.get("force", "false") not in ("true", "false"):
         raise BearingTwinError(f"force={settings['force']!r}: give force=true or force=false")
+    for key, value in settings.items():  # the other settings are matched in MLflow's search, between quotes
+        if key not in ("uri", "out", "force") and ("'" in value or '"' in value):
+            raise BearingTwinError(f"{key}={value}: a quote cannot be matched in MLflow's run search; leave it out")
 
 
 def run_report(name: str, settings: dict[str, str]) -> Report:
     """Build report ``name`` from the store, write it to ``out`` (default ``results/<name>.md``) and log it."""
     check_report_settings(name, settings)
+    stem = name if name != "repeat" else f"repeat_{settings.get('run_id')}"
+    out = results_path(settings, f"{stem}.md")
+    check_generated_target(out, GENERATED)  # before any work
     function, _ = REPORTS[name]
     tracking = default_tracking()
     settings = {"uri": tracking["uri"], "experiment": tracking["experiment"], **settings}
@@ -392,8 +407,6 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
                                        must_exist=True)
     source = ReportInput(client, experiment_id, settings)
     report = function(source)
-    stem = name if name != "repeat" else f"repeat_{settings['run_id']}"
-    out = results_path(settings, f"{stem}.md")
     sizes = run_sizes(source.used_runs)
     check_replacement(out, sizes, default_sizes(), force=settings.get("force") == "true")
     if sizes:  # printed too: what is on screen is what the file holds
@@ -412,7 +425,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
 
     from bearingtwin.data.twin_to_real import merged_calibration, test_files
 
-    source = ReportInput(source.client, source.experiment_id, {"source": "twin_to_real", **source.settings}, source.used_runs)
+    source = _on_data_source(source, "twin_to_real")
     keys = ("report", "step", "healthy.record", "healthy.report", "healthy.step")
     variants_prefix = "data.twin.variants."
 

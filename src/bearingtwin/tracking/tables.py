@@ -7,6 +7,8 @@ import io
 from pathlib import Path
 from typing import Sequence
 
+from bearingtwin.errors import BearingTwinError
+
 
 def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
     """A GitHub-flavoured markdown table; floats are printed as given (format them first)."""
@@ -31,19 +33,30 @@ def generated_text(path: Path, marker: str) -> str | None:
     return text.split(marker)[1].strip()
 
 
-def write_generated(path: Path, generated: str, marker: str) -> None:
-    """Write ``generated`` to ``path``, keeping hand-written text around it.
+def check_generated_target(path: Path, marker: str) -> str:
+    """The text of ``path`` (empty for a new file) if a generated block may be written into it
+    (:func:`write_generated`); a folder, or a file without two ``marker`` lines, is refused, named."""
+    if path.is_dir():
+        raise BearingTwinError(f"out={path} is a folder; give the file to write (e.g. {path / 'report.md'})")
+    text = path.read_text() if path.is_file() else ""
+    if text.strip() and text.count(marker) < 2:
+        raise BearingTwinError(f"out={path}: holds text that is not a generated report (no two lines {marker!r}); "
+                               "give another out=<file>, or put those two lines where the report should go")
+    return text
 
-    If the file holds two ``marker`` lines, only the text between them is replaced, so the
-    prose a person wrote above and below a table survives regenerating it; otherwise the
-    whole file becomes ``generated``.
+
+def write_generated(path: Path, generated: str, marker: str) -> None:
+    """Write ``generated`` between two ``marker`` lines of ``path``, keeping hand-written text around it.
+
+    The prose a person wrote above and below a table survives regenerating it. A new (or empty)
+    file gets the markers with the text; an existing file without two of them is refused, named:
+    it holds something else, which writing over would lose.
     """
-    text = path.read_text() if path.exists() else ""
-    if text.count(marker) >= 2:
-        before, _, rest = text.partition(marker)
-        _, _, after = rest.partition(marker)
-        text = f"{before}{marker}\n\n{generated.strip()}\n\n{marker}{after}"
-    else:
-        text = generated
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
+    text = check_generated_target(path, marker)
+    before, _, rest = text.partition(marker)
+    _, _, after = rest.partition(marker)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(f"{before}{marker}\n\n{generated.strip()}\n\n{marker}{after or chr(10)}")
+    except OSError as error:
+        raise BearingTwinError(f"out={path}: cannot be written ({error.strerror or error})") from None

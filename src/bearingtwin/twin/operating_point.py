@@ -15,12 +15,12 @@ race accelerations), so the calibration searches it on a grid inside every trial
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
 
+from bearingtwin.checks import finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.simulator import CHANNELS
 from bearingtwin.twin.calibrate import Bounds, parse_space
@@ -93,7 +93,7 @@ class OperatingPoint:
                     raise BearingTwinError(f"calibration.ranges.{name} is needed to fit operating_point.{name}")
                 free[name] = bounds[name]
             else:
-                known[name] = _finite(value, f"operating_point.{name}")
+                known[name] = finite_number(f"operating_point.{name}", value, "a finite number or null")
                 may_be_zero = name in ("radial_load_n", "clearance_um")  # an unloaded rig, a bearing without play
                 if not (known[name] >= 0 if may_be_zero else known[name] > 0):
                     sign = "non-negative" if may_be_zero else "positive"
@@ -104,7 +104,7 @@ class OperatingPoint:
         if sensor is not None and sensor not in SENSOR_NAMES:
             raise BearingTwinError(f"operating_point.sensor={sensor!r}: choose one of {', '.join(SENSOR_NAMES)} or null")
         if angle is not None:
-            angle = _finite(angle, "operating_point.sensor_angle_deg")
+            angle = finite_number("operating_point.sensor_angle_deg", angle, "a finite number or null")
             if not -360.0 <= angle <= 360.0:
                 raise BearingTwinError(f"operating_point.sensor_angle_deg={angle:g}: give a direction in degrees from "
                                        "horizontal, between -360 and 360")
@@ -118,7 +118,8 @@ class OperatingPoint:
         if not 0 < angle_step_deg <= 90:
             raise BearingTwinError(f"calibration.sensor_angle_step_deg must lie in (0, 90], got {angle_step_deg}")
         extra = parse_space(extra_base, "calibration.base")
-        extra_known = {key: _finite(value, f"calibration.base_held.{key}") for key, value in dict(extra_held or {}).items()}
+        extra_known = {key: finite_number(f"calibration.base_held.{key}", value, "a finite number or null")
+                       for key, value in dict(extra_held or {}).items()}
         both = sorted(set(extra) & set(extra_known))
         if both:
             raise BearingTwinError(f"calibration.base.{both[0]}: also held in calibration.base_held; fit it or hold it")
@@ -178,14 +179,3 @@ def describe_sensor(sensor: Mapping) -> str:
         return str(sensor["simulator.sensor"])
     named = {0.0: "horizontal", 90.0: "vertical"}.get(round(float(angle), 6))
     return f"{race} race, {named}" if named else f"{race} race, {angle:.0f} deg from horizontal"
-
-
-def is_finite_number(value) -> bool:
-    """Whether ``value`` is a finite int or float (not a bool): what an operating-point value may be."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def _finite(value, field_name: str) -> float:
-    if not is_finite_number(value):
-        raise BearingTwinError(f"{field_name} must be a finite number or null, got {value!r}")
-    return float(value)

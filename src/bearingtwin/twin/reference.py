@@ -19,9 +19,10 @@ from typing import Mapping
 
 from omegaconf import DictConfig, OmegaConf, open_dict
 
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.simulator import CHANNELS
-from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, RACES, is_finite_number
+from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, RACES
 
 
 def read_reference(path) -> dict:

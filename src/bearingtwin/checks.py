@@ -1,0 +1,46 @@
+"""Checks of single values a user sets (config keys, command-line options, fields of a file); each
+raises :class:`BearingTwinError` naming the field.
+
+A YAML ``true`` is no number here (Python counts it as the integer 1); only :func:`positive_number`
+reads a number's text (``fs=12000`` on a command line, a cell of a CSV file).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+from bearingtwin.errors import BearingTwinError
+
+
+def is_finite_number(value) -> bool:
+    """Whether ``value`` is a finite real number (int, float or numpy scalar), not a bool or a string."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def finite_number(field: str, value, what: str = "a finite number") -> float:
+    """``value`` as a float if it is a finite number, else raise ``<field> must be <what>, got <value>``."""
+    if not is_finite_number(value):
+        raise BearingTwinError(f"{field} must be {what}, got {value!r}")
+    return float(value)
+
+
+def whole_number(field: str, value, minimum: int = 1) -> int:
+    """``value`` as an int if it is a whole number (``3`` or ``3.0``) of at least ``minimum`` (1: positive,
+    0: non-negative)."""
+    if not (is_finite_number(value) and int(value) == value and value >= minimum):
+        kind = {1: "a positive integer", 0: "a non-negative integer"}.get(minimum, f"an integer of at least {minimum}")
+        raise BearingTwinError(f"{field} must be {kind}, got {value!r}")
+    return int(value)
+
+
+def positive_number(value, name: str, unit: str, where: str = "") -> float:
+    """``value`` (a number, or its text from a command line or a file) as a finite positive float;
+    anything else (``12k``, ``0``, ``inf``, ``true``) raises naming ``name`` and its ``unit``."""
+    try:
+        number = math.nan if isinstance(value, bool) else float(value)  # a YAML true is no rate
+    except (TypeError, ValueError):
+        number = math.nan
+    if not (math.isfinite(number) and number > 0):
+        raise BearingTwinError(f"{where}{name}={value!r} must be a positive number of {unit} (a plain number, no unit)")
+    return number
