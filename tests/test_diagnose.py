@@ -543,3 +543,39 @@ def test_unknown_keys_are_refused(tmp_path):
     assert changed.returncode == 2 and changed.stderr.startswith("error: bearing.*: bearingtwin-diagnose reads "
                                                                  "conf/bearing/cwru_6203.yaml as written"), changed.stderr
     assert len(changed.stderr.strip().splitlines()) == 1
+
+
+def test_an_interrupted_folder_is_killed_in_mlflow_and_summarised_as_far_as_it_went(registered, tmp_path):
+    """The run is open while the records are diagnosed, so a Ctrl-C marks it KILLED; summary.csv lists the
+    records this run diagnosed, not an earlier run's beside them."""
+    import signal
+    import sys
+    import time
+
+    base, uri = registered
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
+    for index in range(60):
+        np.savez(folder / f"r{index:02d}.npz", signal=fault_signal(rates["bpfo"], seconds=3, seed=index), fs=FS, rpm=RPM)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.csv").write_text("record,verdict\nan_earlier_run,normal\n")
+    process = subprocess.Popen([sys.executable, "-m", "bearingtwin.cli.diagnose", f"path={folder}", "model=models:/diag/1",
+                                f"out={out}", "figures=false"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, env={**os.environ, "MLFLOW_TRACKING_URI": uri})
+    deadline = time.monotonic() + 180
+    while len(list(out.glob("r*/diagnosis.json"))) < 2:
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()[1][-2000:]
+        time.sleep(0.2)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err[-2000:]
+    assert "marked KILLED: run" in err.strip().splitlines()[-1] and "Traceback" not in err, err[-2000:]
+    client = MlflowClient(uri)
+    (run,) = client.search_runs([client.get_experiment_by_name("bearingtwin-diagnose").experiment_id],
+                                "tags.`bt.kind` = 'diagnose'", order_by=["attributes.start_time DESC"], max_results=1)
+    assert run.info.status == "KILLED" and run.data.params["path"] == str(folder)
+    rows = [row["record"] for row in csv.DictReader(open(out / "summary.csv"))]
+    assert rows and "an_earlier_run" not in rows and len(rows) < 60
+    assert set(rows) <= {path.parent.name for path in out.glob("r*/diagnosis.json")}

@@ -30,7 +30,7 @@ def start_training(base: Path, *args: str) -> subprocess.Popen:
     return subprocess.Popen(command, cwd=base, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
-def runs(base: Path) -> list:
+def runs(base: Path, experiment: str = "bearingtwin") -> list:
     # Plain SQL until the process under test has created the schema: an MLflow client opening
     # a half-made database would try to create it too.
     try:
@@ -40,21 +40,22 @@ def runs(base: Path) -> list:
     except sqlite3.Error:
         return []
     client = MlflowClient(f"sqlite:///{base}/mlflow.db")
-    experiment = client.get_experiment_by_name("bearingtwin")
-    return [] if experiment is None else client.search_runs([experiment.experiment_id])
+    found = client.get_experiment_by_name(experiment)
+    return [] if found is None else client.search_runs([found.experiment_id])
 
 
-def wait_for_running(base: Path, process: subprocess.Popen, n_train: int, timeout_s: float = 120) -> list:
-    """Poll the store until ``n_train`` training runs are RUNNING."""
+def wait_for_running(base: Path, process: subprocess.Popen, n_runs: int, timeout_s: float = 120, kind: str = "train",
+                     experiment: str = "bearingtwin") -> list:
+    """Poll the store until ``n_runs`` runs of ``kind`` (the ``bt.kind`` tag) are RUNNING."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         assert process.poll() is None, process.communicate()[1][-2000:]
-        running = [r for r in runs(base) if r.info.status == "RUNNING" and r.data.tags.get("bt.kind") == "train"]
-        if len(running) >= n_train:
+        running = [r for r in runs(base, experiment) if r.info.status == "RUNNING" and r.data.tags.get("bt.kind") == kind]
+        if len(running) >= n_runs:
             return running
         time.sleep(0.3)
     process.kill()
-    raise AssertionError("no training run started in time")
+    raise AssertionError(f"no {kind} run started in time")
 
 
 def child_pids(pid: int) -> set[int]:
@@ -90,6 +91,28 @@ def test_a_signalled_run_is_killed_with_one_line_and_128_plus_signal(tmp_path, s
     assert err.strip().splitlines()[-1] == f"interrupted by {signal.Signals(signum).name}; marked KILLED: run {run.info.run_id}"
     assert "Traceback" not in err
     assert [r.info.status for r in runs(tmp_path)] == ["KILLED"]
+
+
+def test_a_twin_run_is_open_during_its_calibration_and_an_interrupt_kills_it(tmp_path):
+    """bearingtwin-twin opens its MLflow run before the calibration (so a store that cannot serve is named
+    before any work, and an interrupt has a run to mark), not after it."""
+    import numpy as np
+
+    np.save(tmp_path / "measured.npy", np.random.default_rng(0).normal(size=24000))
+    command = [sys.executable, "-m", "bearingtwin.cli.twin", f"measured.path={tmp_path}/measured.npy",
+               "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer", "measured.check_fs=false",
+               "twin.duration=0.5", "calibration.n_trials_base=5000", "figures=false", f"out={tmp_path}/report",
+               f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"]
+    process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    (run,) = wait_for_running(tmp_path, process, 1, kind="twin", experiment="bearingtwin-twin")
+    time.sleep(1.0)  # into the calibration's trials
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err[-2000:]
+    assert err.strip().splitlines()[-1] == f"interrupted by SIGINT; marked KILLED: run {run.info.run_id}"
+    assert "Traceback" not in err, err[-3000:]
+    assert [r.info.status for r in runs(tmp_path, "bearingtwin-twin")] == ["KILLED"]
+    assert not (tmp_path / "report" / "twin_report.json").exists()
 
 
 def test_a_terminated_sweep_kills_its_runs_and_its_workers(tmp_path):

@@ -3,7 +3,8 @@
 import pytest
 
 from bearingtwin.cli.summary import closing_summary, open_command
-from bearingtwin.cli.train import show_progress_bar, training_summary
+from bearingtwin.checks import show_progress_bar
+from bearingtwin.cli.train import training_summary
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.mlflow_logging import TrackedRun
 

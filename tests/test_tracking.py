@@ -5,6 +5,7 @@ tracking alone, against a real SQLite MLflow store in a temporary folder.
 """
 
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -185,14 +186,44 @@ def test_concurrent_writers_on_one_sqlite_store_lose_no_run(tmp_path):
     assert sorted(int(r.data.tags["seed"]) for r in runs) == sorted(100 * w + i for w in range(4) for i in range(3))
 
 
+def test_jobs_are_told_apart_by_their_number_and_found_in_any_experiment(tmp_path):
+    """Two jobs whose configs hash alike (they differ in trainer.progress_bar, which a run's result does not
+    depend on) each have their own outcome; a job logging to another experiment (a swept
+    tracking.experiment) is still the sweep's child, counted, and closed when the sweep is stopped."""
+    from bearingtwin.tracking.lifecycle import _open_runs, close_open_runs, register_open_run
+
+    sweep = SweepInfo("cli", str(tmp_path / "multirun"))
+    client, experiment_id = open_store(make_cfg(tmp_path).tracking)
+    parent = client.create_run(experiment_id, tags={"bt.kind": "sweep", "sweep_dir": sweep.sweep_dir})
+    assert train_tracked(make_cfg(tmp_path, seed=0), CHOICES, replace(sweep, job=0), None, failing_train) is None
+    train_tracked(make_cfg(tmp_path, seed=0), CHOICES, replace(sweep, job=1), None, fake_train)  # the same hash
+    elsewhere = make_cfg(tmp_path, seed=5)
+    elsewhere.tracking.experiment = "other"
+    train_tracked(elsewhere, CHOICES, replace(sweep, job=2), None, failing_train)
+
+    def job(seed, progress):
+        cfg = make_cfg(tmp_path, seed=seed)
+        cfg.hydra = {"overrides": {"task": [f"seed={seed}", f"trainer.progress_bar={progress}"]}}
+        return cfg
+
+    outcomes = sweep_outcomes(client, experiment_id, parent.info.run_id, [job(0, "maybe"), job(0, "false"), job(5, "false")])
+    assert [o.status for o in outcomes] == ["FAILED", "FINISHED", "FAILED"], outcomes
+    other = client.get_experiment_by_name("other").experiment_id
+    running = client.create_run(other, tags={"mlflow.parentRunId": parent.info.run_id})
+    _open_runs.clear()
+    register_open_run(client, parent.info.run_id, label="sweep", with_children=True)
+    assert f"run {running.info.run_id}" in close_open_runs("KILLED")
+    assert client.get_run(running.info.run_id).info.status == "KILLED"
+
+
 def test_a_sweep_summary_says_what_became_of_every_job(tmp_path):
     sweep = SweepInfo("cli", str(tmp_path / "multirun"))
     client, experiment_id = open_store(make_cfg(tmp_path).tracking)
     parent = client.create_run(experiment_id, tags={"bt.kind": "sweep", "sweep_dir": sweep.sweep_dir})
     train_tracked(make_cfg(tmp_path, seed=1), CHOICES, None, None, fake_train)  # finished before the sweep
-    train_tracked(make_cfg(tmp_path, seed=0), CHOICES, sweep, None, fake_train)
-    train_tracked(make_cfg(tmp_path, seed=2), CHOICES, sweep, None, failing_train)
-    assert find_sweep_parent(client, experiment_id, sweep.sweep_dir).info.run_id == parent.info.run_id
+    train_tracked(make_cfg(tmp_path, seed=0), CHOICES, replace(sweep, job=0), None, fake_train)
+    train_tracked(make_cfg(tmp_path, seed=2), CHOICES, replace(sweep, job=2), None, failing_train)
+    assert find_sweep_parent(client, sweep.sweep_dir).info.run_id == parent.info.run_id
 
     def job(seed):  # a job's composed config as Hydra's sweeper makes it
         cfg = make_cfg(tmp_path, seed=seed)

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
+import sys
 
 from bearingtwin.errors import BearingTwinError
 
@@ -44,3 +46,13 @@ def positive_number(value, name: str, unit: str, where: str = "") -> float:
     if not (math.isfinite(number) and number > 0):
         raise BearingTwinError(f"{where}{name}={value!r} must be a positive number of {unit} (a plain number, no unit)")
     return number
+
+
+def show_progress_bar(setting, in_sweep: bool) -> bool:
+    """``trainer.progress_bar``: ``auto`` shows Lightning's epoch bar only where someone watches one
+    run (a terminal, not a sweep, whose parallel jobs would interleave bars, nor CI)."""
+    if isinstance(setting, bool):
+        return setting
+    if setting != "auto":
+        raise BearingTwinError(f"trainer.progress_bar must be auto, true or false, got {setting!r}")
+    return not in_sweep and sys.stderr.isatty() and not os.environ.get("CI")

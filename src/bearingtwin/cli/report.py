@@ -32,6 +32,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {error}", file=sys.stderr)
         sys.exit(2)
     print(report.markdown)
+    print(f"written: {report.written} (MLflow run {report.run_id})", file=sys.stderr)  # stdout is the report itself
     if not report.ok:
         sys.exit(1)
     return 0

@@ -20,34 +20,22 @@ finished; 1 when a sweep job failed (after all jobs ran, with a summary); 2 for 
 from __future__ import annotations
 
 import logging
-import os
-import sys
 from typing import TYPE_CHECKING
 
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig
 
+from bearingtwin.checks import show_progress_bar
 from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.data.build import require_files
-from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
 
 if TYPE_CHECKING:
     from bearingtwin.tracking.mlflow_logging import TrackedRun
 
 log = logging.getLogger(__name__)
-
-
-def show_progress_bar(setting, in_sweep: bool) -> bool:
-    """``trainer.progress_bar``: ``auto`` shows Lightning's epoch bar only where someone watches one
-    run (a terminal, not a sweep, whose parallel jobs would interleave bars, nor CI)."""
-    if isinstance(setting, bool):
-        return setting
-    if setting != "auto":
-        raise BearingTwinError(f"trainer.progress_bar must be auto, true or false, got {setting!r}")
-    return not in_sweep and sys.stderr.isatty() and not os.environ.get("CI")
 
 
 def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str) -> str:
@@ -73,7 +61,11 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
 def train(cfg: DictConfig) -> float | None:
     hydra_cfg = HydraConfig.get()
     in_sweep = hydra_cfg.mode == RunMode.MULTIRUN
-    cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(cfg.trainer.get("progress_bar", "auto"), in_sweep)
+    setting = cfg.trainer.get("progress_bar", "auto")
+    if not in_sweep:
+        cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(setting, in_sweep)
+    elif setting in (True, False, "auto"):  # a bad value fails its own job, in its run (build_classifier)
+        cfg.trainer.progress_bar = show_progress_bar(setting, in_sweep)
     if not in_sweep:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
         exit_on_user_error(require_files)([cfg])

@@ -17,6 +17,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
@@ -27,6 +28,9 @@ from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
+
+if TYPE_CHECKING:
+    from mlflow import MlflowClient
 
 SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree")
 TRUTH_COLUMNS = ("true_state", "correct", "physics_correct")
@@ -121,7 +125,22 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
     pipeline.check_can_diagnose()
     settings = OmegaConf.to_container(cfg.evidence, resolve=True)
+    tracked = open_diagnosis_run(cfg, table, bearing) if cfg.tracking.enabled else None
     run = DiagnosisRun(out=out)
+    try:
+        diagnose_records(run, records, cfg, model, pipeline, settings, labels, table, bearing, figures)
+    finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
+        if len(records) > 1 or run.failures:
+            run.files.append(write_summary(run.rows, out / "summary.csv"))
+    if tracked:
+        run.run_id = log_diagnosis(*tracked, run, len(records))
+    return run
+
+
+def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, model, pipeline, settings: dict,
+                     labels: dict, table: Path | None, bearing: str | None, figures: bool) -> None:
+    """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores)."""
+    out = run.out
     windows_total = windows_correct = 0
     progress = tqdm(records, desc="diagnose", unit="file", disable=len(records) < 2)
     unlisted = sorted(set(labels) - {path.stem for path in records})
@@ -169,11 +188,6 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     if with_physics:  # the envelope analysis alone, on the same records: what the model must beat
         run.scores["accuracy_records_physics"] = sum(row["physics_correct"] for row in with_physics) / len(with_physics)
         run.scores["n_scored_physics"] = len(with_physics)
-    if len(records) > 1 or run.failures:
-        run.files.append(write_summary(run.rows, out / "summary.csv"))
-    if cfg.tracking.enabled:
-        run.run_id = log_diagnosis(cfg, run, len(records), table, bearing)
-    return run
 
 
 def write_summary(rows: list[dict], path: Path) -> Path:
@@ -192,10 +206,10 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     return path
 
 
-def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int, labels: Path | None, bearing: str | None) -> str:
-    """One MLflow run in ``tracking.experiment``: the model and path as params (with the labels table and the
-    bearing the run read), scores, the JSONs and figures."""
-    from mlflow.entities import Metric, Param, RunStatus
+def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None) -> tuple[MlflowClient, str]:
+    """The command's MLflow run in ``tracking.experiment``, opened before the first record with the model and
+    path as params (and the labels table and the bearing the run reads): an interrupt marks it KILLED."""
+    from mlflow.entities import Param
 
     from bearingtwin.tracking.lifecycle import owner_tags, register_open_run
     from bearingtwin.tracking.mlflow_logging import open_store
@@ -208,6 +222,13 @@ def log_diagnosis(cfg: DictConfig, run: DiagnosisRun, n_records: int, labels: Pa
     params = {"model": cfg.model, "path": cfg.path, "labels": labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
               "bearing": bearing}
     client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])
+    return client, run_id
+
+
+def log_diagnosis(client: MlflowClient, run_id: str, run: DiagnosisRun, n_records: int) -> str:
+    """The run's scores, JSONs and figures; FAILED when a record could not be diagnosed, else FINISHED."""
+    from mlflow.entities import Metric, RunStatus
+
     now = int(time.time() * 1000)
     metrics = {"n_records": n_records, "n_failed": len(run.failures), **run.scores}
     client.log_batch(run_id, metrics=[Metric(key, float(value), now, 0) for key, value in metrics.items()])

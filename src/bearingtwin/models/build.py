@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from omegaconf import DictConfig, OmegaConf
 
+from bearingtwin.checks import show_progress_bar
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.svm import SvmClassifier
 
@@ -17,6 +18,7 @@ def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: 
     ``trainer_cfg`` (epochs, gradient clipping, accelerator) applies to the network only;
     ``seed`` is the run's seed; ``root_dir`` is where Lightning may write (the Hydra run dir).
     """
+    show_progress_bar(trainer_cfg.get("progress_bar", False), in_sweep=True)  # a bad value fails here, in a sweep's job
     params = OmegaConf.to_container(classifier_cfg, resolve=True)
     name = params.pop("name", None)
     if name not in CLASSIFIERS:

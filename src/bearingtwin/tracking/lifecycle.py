@@ -84,9 +84,9 @@ def close_open_runs(status: str) -> list[str]:
     closed = []
     for run in reversed(_open_runs):
         try:
-            if run.with_children:
+            if run.with_children:  # in any experiment of the store: a sweep may vary tracking.experiment
                 children = run.client.search_runs(
-                    [run.client.get_run(run.run_id).info.experiment_id],
+                    [experiment.experiment_id for experiment in run.client.search_experiments()],
                     f"tags.`mlflow.parentRunId` = '{run.run_id}' and attributes.status = 'RUNNING'",
                 )
                 for child in children:

@@ -89,6 +89,7 @@ class SweepInfo:
     name: str
     sweep_dir: str
     varied: tuple[str, ...] = ()
+    job: int = 0  # Hydra's job number: which of the sweep's jobs, even where two jobs' configs hash alike
 
 
 @dataclass(frozen=True)
@@ -308,12 +309,12 @@ def _versions() -> dict[str, str]:
 # ---------------------------------------------------------------- finding runs
 
 
-def find_runs(client: MlflowClient, experiment_id: str, filter_string: str, max_results: int = 10000) -> list:
-    """All runs matching an MLflow filter, newest first, across result pages."""
+def find_runs(client: MlflowClient, experiment_id: str | list[str], filter_string: str, max_results: int = 10000) -> list:
+    """All runs matching an MLflow filter in one experiment (or a list of them), newest first, across result pages."""
     runs, token = [], None
     while True:
         page = client.search_runs(
-            [experiment_id], filter_string, max_results=min(max_results, 1000), order_by=["attributes.start_time DESC"], page_token=token
+            [experiment_id] if isinstance(experiment_id, str) else experiment_id, filter_string, max_results=min(max_results, 1000), order_by=["attributes.start_time DESC"], page_token=token
         )
         runs.extend(page)
         token = page.token
@@ -332,9 +333,16 @@ def find_finished_run(client: MlflowClient, experiment_id: str, digest: str):
     return runs[0] if runs else None
 
 
-def find_sweep_parent(client: MlflowClient, experiment_id: str, sweep_dir: str):
-    runs = find_runs(client, experiment_id, f"tags.`bt.kind` = 'sweep' and tags.sweep_dir = '{sweep_dir}'", max_results=1)
+def find_sweep_parent(client: MlflowClient, sweep_dir: str):
+    """The sweep's parent run, in whichever experiment of the store (a sweep may vary tracking.experiment)."""
+    runs = find_runs(client, all_experiment_ids(client), f"tags.`bt.kind` = 'sweep' and tags.sweep_dir = '{sweep_dir}'",
+                     max_results=1)
     return runs[0] if runs else None
+
+
+def all_experiment_ids(client: MlflowClient) -> list[str]:
+    """Every experiment of the store: a sweep's jobs may log to other experiments than its parent's."""
+    return [experiment.experiment_id for experiment in client.search_experiments()]
 
 
 # ---------------------------------------------------------------- logging a run
@@ -465,8 +473,8 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         **_versions(),
     }
     if sweep is not None:
-        tags.update(sweep=sweep.name, sweep_dir=sweep.sweep_dir, sweep_varied=" ".join(sweep.varied))
-        parent = find_sweep_parent(client, experiment_id, sweep.sweep_dir)
+        tags.update(sweep=sweep.name, sweep_dir=sweep.sweep_dir, sweep_varied=" ".join(sweep.varied), sweep_job=str(sweep.job))
+        parent = find_sweep_parent(client, sweep.sweep_dir)
         if parent is not None:
             tags["mlflow.parentRunId"] = parent.info.run_id
     # A child of its sweep from its first instant: a sweep interrupted before the other tags are logged
@@ -575,21 +583,22 @@ class JobOutcome:
 
 
 def sweep_outcomes(client: MlflowClient, experiment_id: str, parent_run_id: str, jobs: list[DictConfig]) -> list[JobOutcome]:
-    """Each job's outcome, by matching its config hash to the parent's child runs."""
+    """Each job's outcome: the parent's child run of its job number (in any experiment of the store), else an
+    earlier FINISHED run of its config hash (skipped)."""
     children = {}
-    for child in find_runs(client, experiment_id, f"tags.`mlflow.parentRunId` = '{parent_run_id}'"):
-        children.setdefault(child.data.tags.get("config_hash"), child)  # newest first
+    for child in find_runs(client, all_experiment_ids(client), f"tags.`mlflow.parentRunId` = '{parent_run_id}'"):
+        children.setdefault(child.data.tags.get("sweep_job"), child)  # newest first
     # Overrides every job shares (store, sizes) say nothing about which job it was.
     shared = set.intersection(*(set(job.hydra.overrides.task) for job in jobs)) if len(jobs) > 1 else set()
     outcomes = []
-    for job in jobs:
+    for number, job in enumerate(jobs):  # in Hydra's order, which numbers the jobs
         overrides = " ".join(o for o in job.hydra.overrides.task if o not in shared)
         try:
             digest = config_hash(_task_config(job))
         except OmegaConfBaseException as error:  # the job failed on the same config before logging anything
             outcomes.append(JobOutcome(overrides, "NOT RUN", f"{type(error).__name__}: {error}"))
             continue
-        child = children.get(digest)
+        child = children.get(str(number))
         if child is not None:
             reason = child.data.tags.get("error") or child.data.tags.get("bt.killed") or ""
             if child.info.status == "KILLED" and not reason:
@@ -666,7 +675,7 @@ class SweepParentRun(Callback):
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         client, experiment_id = exit_on_user_error(open_store)(config.tracking)
         sweep_dir = sweep_folder(config.hydra)
-        parent = find_sweep_parent(client, experiment_id, sweep_dir)
+        parent = find_sweep_parent(client, sweep_dir)
         if parent is None:
             return
         parent_id = parent.info.run_id
@@ -676,6 +685,7 @@ class SweepParentRun(Callback):
                            ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
             client.set_tag(parent_id, tag, str(count))
         client.set_terminated(parent_id, "FAILED" if n_failed else "FINISHED")
+        print(f"sweep outputs: {sweep_dir} (runs: mlflow ui --backend-store-uri {config.tracking.uri})", flush=True)
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
         if n_failed:
             sys.exit(1)
@@ -706,4 +716,5 @@ def sweep_info(hydra_cfg) -> SweepInfo | None:
         name=str(hydra_cfg.runtime.choices.get("sweep") or "cli"),
         sweep_dir=sweep_folder(hydra_cfg),
         varied=varied,
+        job=int(hydra_cfg.job.num),
     )

@@ -76,10 +76,12 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
 
     scored = run_plain(objective)
 
-    def run(trial: optuna.Trial) -> float:
-        return scored({name: trial.suggest_float(name, low, high, log=log) for name, (low, high, log) in space.items()})
-
-    study.optimize(run, n_trials=n_trials)
+    # Ask and tell, not study.optimize: an interrupt inside a trial goes straight to the command, which
+    # reports it once, where optimize would log it as a failed trial with its traceback first.
+    for _ in range(n_trials):
+        trial = study.ask()
+        study.tell(trial, scored({name: trial.suggest_float(name, low, high, log=log)
+                                  for name, (low, high, log) in space.items()}))
     values = [t.value for t in study.trials]
     if not np.isfinite(study.best_value):
         why = f": {scored.first_rejection}" if scored.first_rejection else "; check the search space"

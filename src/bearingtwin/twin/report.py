@@ -12,6 +12,7 @@ import logging
 import math
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
@@ -28,6 +29,9 @@ from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit
 from bearingtwin.twin.reference import hold_reference, read_reference
+
+if TYPE_CHECKING:
+    from mlflow import MlflowClient
 
 log = logging.getLogger(__name__)
 
@@ -144,9 +148,11 @@ def plot_steps(fit: TwinFit, out_dir: Path) -> list[Path]:
     return [path]
 
 
-def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: list[Path]) -> str:
-    """One MLflow run: config, discrepancy per step and per view, the ranking, the report and figures."""
-    from mlflow.entities import Metric, Param, RunStatus
+def open_twin_run(cfg: DictConfig, measured: Recording) -> tuple[MlflowClient, str]:
+    """The command's MLflow run, opened before the calibration with its config: an interrupt marks it
+    KILLED and a failure FAILED (:func:`bearingtwin.tracking.lifecycle.stop_cleanly`), and a store
+    that cannot serve is named before any work."""
+    from mlflow.entities import Param
 
     from bearingtwin.tracking.lifecycle import owner_tags, reap_dead_runs, register_open_run
     from bearingtwin.tracking.mlflow_logging import flatten, loggable_config, open_store
@@ -160,6 +166,13 @@ def log_to_mlflow(cfg: DictConfig, measured: Recording, fit: TwinFit, files: lis
     params = [Param(k[:250], str(v)[:6000]) for k, v in flatten(loggable_config(cfg)).items()]
     for first in range(0, len(params), 100):  # MLflow takes at most 100 params per batch
         client.log_batch(run_id, params=params[first:first + 100])
+    return client, run_id
+
+
+def log_to_mlflow(client: MlflowClient, run_id: str, fit: TwinFit, files: list[Path]) -> str:
+    """The run's results: discrepancy per step and per view, the ranking, the report and figures; FINISHED."""
+    from mlflow.entities import Metric, RunStatus
+
     now = int(time.time() * 1000)
     metrics = [Metric("discrepancy_db", s.error, now, i) for i, s in enumerate(fit.steps)]
     metrics += [Metric(f"view_{v}_db", r.error_db, now, i) for i, s in enumerate(fit.steps)
@@ -200,9 +213,11 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
         cfg = hold_reference(cfg, read_reference(cfg.reference), measured.fault, source=f"reference={cfg.reference}")
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     twin = twin_for(measured, cfg)
-    ranker = build_ranker(cfg, measured.fault).fit(twin, measured, geometry, settings)
+    ranker = build_ranker(cfg, measured.fault)
+    tracked = open_twin_run(cfg, measured) if cfg.tracking.enabled else None
+    ranker.fit(twin, measured, geometry, settings)
     about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
              "unit": measured.unit, "bearing": cfg.bearing.get("name"), "reference": cfg.get("reference")}
     files = write_report(ranker.fit_, out, figures, about)
-    run_id = log_to_mlflow(cfg, measured, ranker.fit_, files) if cfg.tracking.enabled else None
+    run_id = log_to_mlflow(*tracked, ranker.fit_, files) if tracked else None
     return ranker.fit_, files, run_id
