@@ -106,6 +106,11 @@ def test_failing_jobs_are_failed_and_grouped_under_the_sweep(store):
     assert (parent.data.tags["n_finished"], parent.data.tags["n_failed"]) == ("3", "3")
     children = [r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id]
     assert len(children) == 6 and {r.data.tags["sweep_dir"] for r in children} == {parent.data.tags["sweep_dir"]}
+    # The runs the sweep stands for, what a report of it reads: its three finished jobs.
+    from bearingtwin.tracking.mlflow_logging import sweep_run_ids
+
+    assert set(sweep_run_ids(client, parent.data.tags["sweep_dir"])) == {r.info.run_id for r in children
+                                                                          if r.info.status == "FINISHED"}
 
 
 def test_the_sweep_ends_with_a_summary_of_every_job(store, sweep_output):

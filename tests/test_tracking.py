@@ -216,6 +216,23 @@ def test_jobs_are_told_apart_by_their_number_and_found_in_any_experiment(tmp_pat
     assert client.get_run(running.info.run_id).info.status == "KILLED"
 
 
+def test_a_report_of_a_sweep_reads_the_runs_it_skipped_too(tmp_path):
+    """A sweep skips a job another sweep had finished; that run carries the other sweep's sweep_dir, so the
+    report of this sweep finds it through the list of runs the sweep recorded at its end."""
+    from bearingtwin.tracking.mlflow_logging import SWEEP_RUNS_ARTIFACT
+    from bearingtwin.tracking.reports import ReportInput
+
+    client, experiment_id = open_store(make_cfg(tmp_path).tracking)
+    earlier = train_tracked(make_cfg(tmp_path, seed=1), CHOICES, SweepInfo("cli", str(tmp_path / "a")), None, fake_train)
+    sweep = SweepInfo("cli", str(tmp_path / "b"))
+    parent = client.create_run(experiment_id, tags={"bt.kind": "sweep", "sweep_dir": sweep.sweep_dir})
+    own = train_tracked(make_cfg(tmp_path, seed=0), CHOICES, replace(sweep, job=0), None, fake_train)
+    source = ReportInput(client, experiment_id, {"sweep_dir": sweep.sweep_dir, "source": "all"})
+    assert [run.info.run_id for run in source.training_runs()] == [own.run_id]  # no record yet: its own runs
+    client.log_dict(parent.info.run_id, [own.run_id, earlier.run_id], SWEEP_RUNS_ARTIFACT)
+    assert {run.info.run_id for run in source.training_runs()} == {own.run_id, earlier.run_id}
+
+
 def test_a_sweep_summary_says_what_became_of_every_job(tmp_path):
     sweep = SweepInfo("cli", str(tmp_path / "multirun"))
     client, experiment_id = open_store(make_cfg(tmp_path).tracking)

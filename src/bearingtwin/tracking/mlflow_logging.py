@@ -39,6 +39,7 @@ import copy
 import fcntl
 import functools
 import hashlib
+import json
 import logging
 import os
 import subprocess
@@ -79,6 +80,7 @@ log = logging.getLogger(__name__)
 UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar", "features.progress")
 PACKAGES = ("bearingtwin", "numpy", "scipy", "torch", "lightning", "scikit-learn", "mlflow", "optuna", "hydra-core")
 CONFIG_ARTIFACT = "config.yaml"
+SWEEP_RUNS_ARTIFACT = "sweep_runs.json"
 MAX_BATCH = 100  # MLflow's limit on params / tags per log_batch call
 
 
@@ -340,6 +342,19 @@ def find_sweep_parent(client: MlflowClient, sweep_dir: str):
     return runs[0] if runs else None
 
 
+def sweep_run_ids(client: MlflowClient, sweep_dir: str) -> list[str]:
+    """The runs a finished sweep stands for (its jobs' and those it skipped), from its parent runs' record;
+    empty for a sweep that recorded none (one still running, or stopped)."""
+    ids = []
+    for parent in find_runs(client, all_experiment_ids(client), f"tags.`bt.kind` = 'sweep' and tags.sweep_dir = '{sweep_dir}'"):
+        with tempfile.TemporaryDirectory() as folder:
+            try:
+                ids += json.loads(Path(client.download_artifacts(parent.info.run_id, SWEEP_RUNS_ARTIFACT, folder)).read_text())
+            except (MlflowException, OSError):
+                continue
+    return list(dict.fromkeys(ids))
+
+
 def all_experiment_ids(client: MlflowClient) -> list[str]:
     """Every experiment of the store: a sweep's jobs may log to other experiments than its parent's."""
     return [experiment.experiment_id for experiment in client.search_experiments()]
@@ -580,6 +595,7 @@ class JobOutcome:
     overrides: str
     status: str
     reason: str = ""
+    run_id: str | None = None  # the job's run, or for a skipped job the earlier FINISHED run it stands for
 
 
 def sweep_outcomes(client: MlflowClient, experiment_id: str, parent_run_id: str, jobs: list[DictConfig]) -> list[JobOutcome]:
@@ -603,9 +619,10 @@ def sweep_outcomes(client: MlflowClient, experiment_id: str, parent_run_id: str,
             reason = child.data.tags.get("error") or child.data.tags.get("bt.killed") or ""
             if child.info.status == "KILLED" and not reason:
                 reason = "interrupted"
-            outcomes.append(JobOutcome(overrides, child.info.status, reason.splitlines()[0] if reason else ""))
-        elif find_finished_run(client, experiment_id, digest) is not None:
-            outcomes.append(JobOutcome(overrides, "SKIPPED"))
+            outcomes.append(JobOutcome(overrides, child.info.status, reason.splitlines()[0] if reason else "",
+                                       child.info.run_id))
+        elif (earlier := find_finished_run(client, experiment_id, digest)) is not None:
+            outcomes.append(JobOutcome(overrides, "SKIPPED", run_id=earlier.info.run_id))
         else:
             outcomes.append(JobOutcome(overrides, "NOT RUN", "the job ended before its MLflow run was created (see its log)"))
     return outcomes
@@ -684,6 +701,9 @@ class SweepParentRun(Callback):
         for tag, count in (("n_finished", sum(o.status == "FINISHED" for o in outcomes)), ("n_failed", n_failed),
                            ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
             client.set_tag(parent_id, tag, str(count))
+        # The runs the sweep stands for, those it skipped included (they carry another sweep's sweep_dir):
+        # what `bearingtwin-report sweep_dir=<this sweep>` reads.
+        client.log_dict(parent_id, [o.run_id for o in outcomes if o.status in ("FINISHED", "SKIPPED")], SWEEP_RUNS_ARTIFACT)
         client.set_terminated(parent_id, "FAILED" if n_failed else "FINISHED")
         print(f"sweep outputs: {sweep_dir} (runs: mlflow ui --backend-store-uri {config.tracking.uri})", flush=True)
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
