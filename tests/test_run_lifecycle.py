@@ -10,6 +10,7 @@ import sqlite3
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -314,3 +315,25 @@ def test_a_signal_during_a_lightning_fit_still_kills_with_its_status(tmp_path, c
             signal.signal(signum, handler)
     assert client.get_run(run_id).info.status == "KILLED"
     assert "interrupted by SIGTERM" in capsys.readouterr().err
+
+
+def test_a_calibration_in_a_worker_thread_stops_at_its_next_evaluation_after_a_signal(monkeypatch):
+    """A signal raises in the main thread only; the candidate fits of bearingtwin-twin's screening run in
+    threads and would go through their whole trial budgets before the command could exit."""
+    from bearingtwin.tracking import lifecycle
+    from bearingtwin.twin.calibrate import minimize
+
+    evaluations = []
+
+    def objective(params):
+        evaluations.append(params)
+        if len(evaluations) == 3:
+            lifecycle._received.append(signal.SIGINT)  # as the handler records it, raising in the main thread
+        return params["x"] ** 2
+
+    monkeypatch.setattr(lifecycle, "_received", [])
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        future = pool.submit(minimize, objective, {"x": (-1.0, 1.0, False)}, 500, 0)
+        with pytest.raises(lifecycle.Interrupted):
+            future.result(timeout=60)
+    assert len(evaluations) == 3

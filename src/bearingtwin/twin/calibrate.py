@@ -19,6 +19,7 @@ import numpy as np
 import optuna
 
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.lifecycle import raise_if_interrupted
 
 Bounds = tuple[float, float, bool]
 """(low, high, log-scale) of one parameter."""
@@ -103,6 +104,9 @@ def run_plain(objective: Callable[[dict[str, float]], float]) -> Callable[[dict[
     """``objective`` with a rejected or non-finite evaluation scored as +inf, as a failed trial is; the
     first rejection's reason is kept (``run.first_rejection``), to say why when every trial was rejected."""
     def run(params: dict[str, float]) -> float:
+        # A signal raises in the main thread only; the candidates screened in worker threads stop here, at
+        # their next evaluation, so an interrupted command does not wait for their whole budgets.
+        raise_if_interrupted()
         try:
             value = float(objective(params))
         except BearingTwinError as error:
