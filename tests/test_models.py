@@ -160,6 +160,7 @@ def test_build_from_the_config_files():
     ("trainer", "max_epochs", "abc", "trainer.max_epochs must be a positive integer, got 'abc'"),
     # A sweep's job resolves only a valid progress_bar: a bad one fails that job here, in its run, not the sweep.
     ("trainer", "progress_bar", "maybe", "trainer.progress_bar must be auto, true or false, got 'maybe'"),
+    ("trainer", "progress_bar", 1, "trainer.progress_bar must be auto, true or false, got 1"),  # 1 == True, no bool
 ])
 def test_a_setting_of_the_wrong_kind_is_named_when_the_classifier_is_built(group, key, value, message):
     """A text where a number belongs failed inside fit (after the features) with a TypeError."""

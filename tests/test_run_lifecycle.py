@@ -337,3 +337,5 @@ def test_a_calibration_in_a_worker_thread_stops_at_its_next_evaluation_after_a_s
         with pytest.raises(lifecycle.Interrupted):
             future.result(timeout=60)
     assert len(evaluations) == 3
+    # A signal an earlier command of this process took (a notebook's caught Ctrl-C) does not stop the next one.
+    assert stop_cleanly(lambda: minimize(lambda params: params["x"] ** 2, {"x": (-1.0, 1.0, False)}, 5, 0))().error >= 0

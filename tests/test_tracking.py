@@ -206,7 +206,7 @@ def test_jobs_are_told_apart_by_their_number_and_found_in_any_experiment(tmp_pat
         cfg.hydra = {"overrides": {"task": [f"seed={seed}", f"trainer.progress_bar={progress}"]}}
         return cfg
 
-    outcomes = sweep_outcomes(client, experiment_id, parent.info.run_id, [job(0, "maybe"), job(0, "false"), job(5, "false")])
+    outcomes = sweep_outcomes(client, parent.info.run_id, [job(0, "maybe"), job(0, "false"), job(5, "false")])
     assert [o.status for o in outcomes] == ["FAILED", "FINISHED", "FAILED"], outcomes
     other = client.get_experiment_by_name("other").experiment_id
     running = client.create_run(other, tags={"mlflow.parentRunId": parent.info.run_id})
@@ -247,7 +247,7 @@ def test_a_sweep_summary_says_what_became_of_every_job(tmp_path):
         cfg.hydra = {"overrides": {"task": [f"seed={seed}", "data.samples_per_class=10"]}}
         return cfg
 
-    outcomes = sweep_outcomes(client, experiment_id, parent.info.run_id, [job(0), job(1), job(2), job(3)])
+    outcomes = sweep_outcomes(client, parent.info.run_id, [job(0), job(1), job(2), job(3)])
     assert [(o.overrides, o.status) for o in outcomes] == [
         ("seed=0", "FINISHED"), ("seed=1", "SKIPPED"), ("seed=2", "FAILED"), ("seed=3", "NOT RUN")]
     assert outcomes[2].reason == "BearingTwinError: data.samples_per_class must be positive, got -3"
@@ -290,6 +290,17 @@ def test_a_store_that_cannot_serve_is_named_before_any_work(tmp_path):
     check_store(f"sqlite:///{tmp_path}/empty.db")  # a command that writes makes it a store
     with pytest.raises(BearingTwinError, match=r"empty.db is empty, not an MLflow store"):
         check_store(f"sqlite:///{tmp_path}/empty.db", must_exist=True)
+    # A store a read-only look cannot read now (locked; a crashed writer's journal to roll back) is left to MLflow.
+    real_connect = sqlite3.connect
+
+    def locked(*args, **kwargs):
+        raise sqlite3.OperationalError("database is locked")
+
+    sqlite3.connect = locked
+    try:
+        check_store(f"sqlite:///{own}")
+    finally:
+        sqlite3.connect = real_connect
 
 
 def test_a_server_that_answers_at_all_is_left_to_mlflow():

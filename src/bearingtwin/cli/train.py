@@ -64,7 +64,7 @@ def train(cfg: DictConfig) -> float | None:
     setting = cfg.trainer.get("progress_bar", "auto")
     if not in_sweep:
         cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(setting, in_sweep)
-    elif setting in (True, False, "auto"):  # a bad value fails its own job, in its run (build_classifier)
+    elif isinstance(setting, bool) or setting == "auto":  # a bad value (1 too) fails its own job, in its run
         cfg.trainer.progress_bar = show_progress_bar(setting, in_sweep)
     if not in_sweep:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)

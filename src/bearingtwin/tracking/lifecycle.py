@@ -171,6 +171,7 @@ def stop_cleanly(entry_point: Callable) -> Callable:
 
     @functools.wraps(entry_point)
     def wrapped(*args, **kwargs):
+        _received.clear()  # a signal an earlier command in this process (a notebook's) took is not this one's
         handle_signals()
         try:
             result = entry_point(*args, **kwargs)
@@ -187,6 +188,7 @@ def stop_cleanly(entry_point: Callable) -> Callable:
             print(f"interrupted by {signal.Signals(signum).name}; {what}", file=sys.stderr)
             sys.exit(128 + signum)
         except BaseException:
+            _received.clear()
             close_open_runs("FAILED")
             raise
 

@@ -161,7 +161,9 @@ def _check_sqlite_store(uri: str, path: Path, must_exist: bool) -> None:
         with contextlib.closing(sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)) as database:
             tables = {row[0] for row in database.execute("select name from sqlite_master where type = 'table'")}
     except sqlite3.DatabaseError as error:
-        raise BearingTwinError(f"tracking.uri={uri}: {path} is not an SQLite database ({error})") from None
+        if getattr(error, "sqlite_errorname", "") == "SQLITE_NOTADB":
+            raise BearingTwinError(f"tracking.uri={uri}: {path} is not an SQLite database ({error})") from None
+        return  # locked, or a crashed writer's journal a read-only look cannot roll back: MLflow's own connection can
     if tables and "experiments" not in tables:
         raise BearingTwinError(f"tracking.uri={uri}: {path} is an SQLite database but not an MLflow store "
                                f"(its tables: {', '.join(sorted(tables)[:5])}); give another file")
@@ -494,7 +496,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
             tags["mlflow.parentRunId"] = parent.info.run_id
     # A child of its sweep from its first instant: a sweep interrupted before the other tags are logged
     # still finds the run among its RUNNING children and marks it KILLED (its worker is killed, not told).
-    child_of = {key: tags[key] for key in ("mlflow.parentRunId",) if key in tags}
+    child_of = {key: tags[key] for key in ("mlflow.parentRunId", "sweep_job") if key in tags}
     run = client.create_run(experiment_id, run_name=run_name(cfg, method, sweep),
                             tags={"bt.kind": "train", **owner_tags(), **child_of})
     run_id = run.info.run_id
@@ -523,16 +525,20 @@ def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
     """``register`` and ``register_alias``, checked before any work is done."""
     # MLflow's own rules for the names (a name without '/' or ':'; an alias of letters, digits, '_' and '-',
     # neither 'latest' nor v<number>), read here so a bad one is refused before training, not after it.
-    from mlflow.utils.validation import (_validate_model_alias_name, _validate_model_alias_name_reserved,
-                                         _validate_model_name)
+    try:
+        from mlflow.utils.validation import (_validate_model_alias_name, _validate_model_alias_name_reserved,
+                                             _validate_model_name)
+        rules_of = {"register": (_validate_model_name,),
+                    "register_alias": (_validate_model_alias_name, _validate_model_alias_name_reserved)}
+    except ImportError:  # private helpers of MLflow: without them, its registry says so after the training
+        rules_of = {}
 
     name, alias = cfg.get("register"), cfg.get("register_alias")
     if alias and not name:
         raise BearingTwinError(f"register_alias={alias} needs register=<model name> (or register_alias=null)")
-    for key, value, rules in (("register", name, (_validate_model_name,)),
-                              ("register_alias", alias, (_validate_model_alias_name, _validate_model_alias_name_reserved))):
+    for key, value in (("register", name), ("register_alias", alias)):
         try:
-            for rule in rules if value is not None else ():
+            for rule in rules_of.get(key, ()) if value is not None else ():
                 rule(str(value))
         except MlflowException as error:
             raise BearingTwinError(f"{key}={value}: {' '.join(error.message.split())}") from None
@@ -598,7 +604,7 @@ class JobOutcome:
     run_id: str | None = None  # the job's run, or for a skipped job the earlier FINISHED run it stands for
 
 
-def sweep_outcomes(client: MlflowClient, experiment_id: str, parent_run_id: str, jobs: list[DictConfig]) -> list[JobOutcome]:
+def sweep_outcomes(client: MlflowClient, parent_run_id: str, jobs: list[DictConfig]) -> list[JobOutcome]:
     """Each job's outcome: the parent's child run of its job number (in any experiment of the store), else an
     earlier FINISHED run of its config hash (skipped)."""
     children = {}
@@ -621,11 +627,17 @@ def sweep_outcomes(client: MlflowClient, experiment_id: str, parent_run_id: str,
                 reason = "interrupted"
             outcomes.append(JobOutcome(overrides, child.info.status, reason.splitlines()[0] if reason else "",
                                        child.info.run_id))
-        elif (earlier := find_finished_run(client, experiment_id, digest)) is not None:
+        elif (earlier := _finished_in_own_experiment(client, job, digest)) is not None:
             outcomes.append(JobOutcome(overrides, "SKIPPED", run_id=earlier.info.run_id))
         else:
             outcomes.append(JobOutcome(overrides, "NOT RUN", "the job ended before its MLflow run was created (see its log)"))
     return outcomes
+
+
+def _finished_in_own_experiment(client: MlflowClient, job: DictConfig, digest: str):
+    """The FINISHED run a job skipped for, looked up where the job logs (a sweep may vary tracking.experiment)."""
+    experiment = client.get_experiment_by_name(str(job.tracking.experiment))
+    return None if experiment is None else find_finished_run(client, experiment.experiment_id, digest)
 
 
 def _task_config(job: DictConfig) -> DictConfig:
@@ -690,13 +702,13 @@ class SweepParentRun(Callback):
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
-        client, experiment_id = exit_on_user_error(open_store)(config.tracking)
+        client, _ = exit_on_user_error(open_store)(config.tracking)
         sweep_dir = sweep_folder(config.hydra)
         parent = find_sweep_parent(client, sweep_dir)
         if parent is None:
             return
         parent_id = parent.info.run_id
-        outcomes = sweep_outcomes(client, experiment_id, parent_id, list(sweep_job_configs(config)))
+        outcomes = sweep_outcomes(client, parent_id, list(sweep_job_configs(config)))
         n_failed = sum(o.status not in ("FINISHED", "SKIPPED") for o in outcomes)
         for tag, count in (("n_finished", sum(o.status == "FINISHED" for o in outcomes)), ("n_failed", n_failed),
                            ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):

@@ -400,7 +400,7 @@ def check_report_settings(name: str, settings: dict[str, str]) -> None:
     if settings.get("force", "false") not in ("true", "false"):
         raise BearingTwinError(f"force={settings['force']!r}: give force=true or force=false")
     for key, value in settings.items():  # the other settings are matched in MLflow's search, between quotes
-        if key not in ("uri", "out", "force") and ("'" in value or '"' in value):
+        if key not in ("uri", "out", "force", "data_root") and ("'" in value or '"' in value):
             raise BearingTwinError(f"{key}={value}: a quote cannot be matched in MLflow's run search; leave it out")
 
 
@@ -527,6 +527,7 @@ def sim2real(source: ReportInput) -> Report:
     """
     import json
 
+    source = _on_data_source(source, "twin_to_real")  # a contrary source= refused before any file is written
     protocol, written = write_sim2real_protocol(source)  # its own block, at the top of the file when it has one
     rows = _sim2real_rows(source)
     if not rows:

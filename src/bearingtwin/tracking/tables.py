@@ -41,7 +41,8 @@ def check_generated_target(path: Path, marker: str) -> str:
     text = path.read_text() if path.is_file() else ""
     if text.strip() and text.count(marker) < 2:
         raise BearingTwinError(f"out={path}: holds text that is not a generated report (no two lines {marker!r}); "
-                               "give another out=<file>, or put those two lines where the report should go")
+                               "give another out=<file>, or put those two lines where the report should go (a "
+                               "report an earlier bearingtwin wrote has none: put them around it)")
     return text
 
 
