@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import logging
+import math
 import re
 import tempfile
 from dataclasses import dataclass
@@ -69,12 +70,15 @@ class ProtocolResult:
     healthy_record: str  # the healthy calibration record, scored apart for false alarms
 
     def physics_recall(self, state: str) -> float:
+        """Share of the state's test records the physics calls right (NaN when the test holds none)."""
         records = [r for r, t in self.truth.items() if t == state]
-        return float(np.mean([self.physics[r] == state for r in records]))
+        return float(np.mean([self.physics[r] == state for r in records])) if records else math.nan
 
     def physics_window_recall(self, state: str) -> float:
-        """Share of the state's test windows the physics calls right (every record has as many windows)."""
-        return float(np.mean([self.physics_windows[r] for r, t in self.truth.items() if t == state]))
+        """Share of the state's test windows the physics calls right (every record has as many windows;
+        NaN when the test holds none of the state's records)."""
+        shares = [self.physics_windows[r] for r, t in self.truth.items() if t == state]
+        return float(np.mean(shares)) if shares else math.nan
 
     @property
     def physics_window_accuracy(self) -> float:
@@ -201,6 +205,11 @@ def _pm(values) -> str:
     return f"{mean:.1f} ± {std:.1f}"
 
 
+def _percent(share: float, digits: int) -> str:
+    """A share as a percentage, or "—" where there is none (no test record of that state)."""
+    return "—" if math.isnan(share) else f"{100 * share:.{digits}f}"
+
+
 def headline_markdown(results: dict[str, ProtocolResult]) -> str:
     """One table: each version's test accuracy, per fault type and false alarms, beside the physics
     baseline; then every test record, one column per version. ``results``: label -> result, oldest first."""
@@ -216,12 +225,12 @@ def headline_markdown(results: dict[str, ProtocolResult]) -> str:
         rows.append([f"physics baseline on the windows of {', '.join(versions)} ({result.window_length} points; "
                      "envelope analysis, no learning)",
                      f"{100 * result.physics_window_accuracy:.1f}",
-                     *(f"{100 * result.physics_window_recall(state):.1f}" for state in FAULT_CLASSES),
+                     *(_percent(result.physics_window_recall(state), 1) for state in FAULT_CLASSES),
                      f"{100 * result.physics_windows[result.healthy_record]:.1f}"])
     physics_records = [newest.physics[r] == newest.truth[r] for r in newest.per_record]
     rows.append(["physics baseline on the whole records (envelope analysis, no learning)",
                  f"{100 * np.mean(physics_records):.1f} ({sum(physics_records)}/{len(physics_records)} records)",
-                 *(f"{100 * newest.physics_recall(state):.0f}" for state in FAULT_CLASSES),
+                 *(_percent(newest.physics_recall(state), 0) for state in FAULT_CLASSES),
                  f"(record {newest.healthy_record}: {'healthy' if newest.physics_calls_healthy_record_healthy else 'not healthy'})"])
     table = markdown_table(["", "test windows right %", "inner %", "ball %", "outer %",
                             f"{newest.healthy_record} windows called healthy %"], rows)
