@@ -48,6 +48,13 @@ def positive_number(value, name: str, unit: str, where: str = "") -> float:
     return number
 
 
+def true_or_false(value, key: str) -> bool:
+    """A switch given on the command line: ``true`` or ``false`` (YAML's booleans), anything else refused."""
+    if not isinstance(value, bool):
+        raise BearingTwinError(f"{key}={value}: give {key}=true or {key}=false")
+    return value
+
+
 def show_progress_bar(setting, in_sweep: bool) -> bool:
     """``trainer.progress_bar``: ``auto`` shows Lightning's epoch bar only where someone watches one
     run (a terminal, not a sweep, whose parallel jobs would interleave bars, nor CI)."""

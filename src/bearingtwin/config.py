@@ -52,13 +52,6 @@ def exit_on_user_error(task: Callable) -> Callable:
     return wrapped
 
 
-def true_or_false(value, key: str) -> bool:
-    """A switch given on the command line: ``true`` or ``false`` (YAML's booleans), anything else refused."""
-    if not isinstance(value, bool):
-        raise BearingTwinError(f"{key}={value}: give {key}=true or {key}=false")
-    return value
-
-
 def output_folder(path, key: str = "out") -> Path:
     """``path`` as a folder to write into, refused in one line when it or a folder above it is a file:
     checked before any work, so a typo in ``out=`` costs nothing."""

@@ -12,7 +12,8 @@ import numpy as np
 from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary
-from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys, true_or_false
+from bearingtwin.checks import true_or_false
+from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate

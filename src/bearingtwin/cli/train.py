@@ -19,6 +19,7 @@ finished; 1 when a sweep job failed (after all jobs ran, with a summary); 2 for 
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from typing import TYPE_CHECKING
 
@@ -30,6 +31,7 @@ from bearingtwin.checks import show_progress_bar
 from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.data.build import require_files
+from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
 
 if TYPE_CHECKING:
@@ -64,8 +66,9 @@ def train(cfg: DictConfig) -> float | None:
     setting = cfg.trainer.get("progress_bar", "auto")
     if not in_sweep:
         cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(setting, in_sweep)
-    elif isinstance(setting, bool) or setting == "auto":  # a bad value (1 too) fails its own job, in its run
-        cfg.trainer.progress_bar = show_progress_bar(setting, in_sweep)
+    else:  # a bad value is left for build_classifier, which fails this job alone, in its run
+        with contextlib.suppress(BearingTwinError):
+            cfg.trainer.progress_bar = show_progress_bar(setting, in_sweep)
     if not in_sweep:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
         exit_on_user_error(require_files)([cfg])

@@ -90,8 +90,8 @@ class DiagnosisPipeline:
             raise BearingTwinError(f"windows must have shape (n, {self.window_length}), got {windows.shape}")
         unreadable = np.flatnonzero(~np.isfinite(windows).all(axis=1))
         if unreadable.size:
-            listed = ", ".join(map(str, unreadable[:5])) + (", ..." if unreadable.size > 5 else "")
-            raise BearingTwinError(f"windows {listed} (of {len(windows)}, counted from 0) hold NaN or infinite values")
+            raise BearingTwinError(f"windows {_listed(unreadable)} (of {len(windows)}, counted from 0) hold NaN or "
+                                   "infinite values")
         windows = normalize_windows(windows, self.window_normalization)
         if self.needs_rpm:
             if rpm is None:
@@ -101,7 +101,7 @@ class DiagnosisPipeline:
             features = self.extractor.transform(windows)
         overflowed = np.flatnonzero(~np.isfinite(features).all(axis=1))
         if overflowed.size:  # values so large that powers of them overflow (1e154 and above)
-            raise BearingTwinError(f"windows {', '.join(map(str, overflowed[:5]))}{', ...' if overflowed.size > 5 else ''} "
+            raise BearingTwinError(f"windows {_listed(overflowed)} "
                                    f"(counted from 0): features not finite, values up to {np.max(np.abs(windows)):.3g} "
                                    "overflow them; give the record in a unit that keeps its values within 1e150")
         return features
@@ -224,3 +224,8 @@ def _load_classifier(state: dict, folder: Path):
     from bearingtwin.models.persistence import load_estimator
 
     return load_estimator(folder / "svm")
+
+
+def _listed(indices: np.ndarray, shown: int = 5) -> str:
+    """The first ``shown`` window indices, and "..." for the rest."""
+    return ", ".join(map(str, indices[:shown])) + (", ..." if indices.size > shown else "")

@@ -22,7 +22,8 @@ from typing import TYPE_CHECKING
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
-from bearingtwin.config import bearing_config, output_folder, true_or_false
+from bearingtwin.checks import true_or_false
+from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model

@@ -81,12 +81,14 @@ def close_open_runs(status: str) -> list[str]:
         return []
     from mlflow.exceptions import MlflowException
 
+    from bearingtwin.tracking.mlflow_logging import all_experiment_ids  # it imports this module
+
     closed = []
     for run in reversed(_open_runs):
         try:
             if run.with_children:  # in any experiment of the store: a sweep may vary tracking.experiment
                 children = run.client.search_runs(
-                    [experiment.experiment_id for experiment in run.client.search_experiments()],
+                    all_experiment_ids(run.client),
                     f"tags.`mlflow.parentRunId` = '{run.run_id}' and attributes.status = 'RUNNING'",
                 )
                 for child in children:

@@ -337,10 +337,16 @@ def find_finished_run(client: MlflowClient, experiment_id: str, digest: str):
     return runs[0] if runs else None
 
 
+def sweep_parents(client: MlflowClient, sweep_dir: str, max_results: int = 10000) -> list:
+    """The parent runs of the sweeps launched in ``sweep_dir``, newest first, in whichever experiment of the
+    store (a sweep may vary tracking.experiment; a relaunched sweep has a parent per launch)."""
+    return find_runs(client, all_experiment_ids(client), f"tags.`bt.kind` = 'sweep' and tags.sweep_dir = '{sweep_dir}'",
+                     max_results=max_results)
+
+
 def find_sweep_parent(client: MlflowClient, sweep_dir: str):
-    """The sweep's parent run, in whichever experiment of the store (a sweep may vary tracking.experiment)."""
-    runs = find_runs(client, all_experiment_ids(client), f"tags.`bt.kind` = 'sweep' and tags.sweep_dir = '{sweep_dir}'",
-                     max_results=1)
+    """The newest parent run of the sweep launched in ``sweep_dir``, or None."""
+    runs = sweep_parents(client, sweep_dir, max_results=1)
     return runs[0] if runs else None
 
 
@@ -348,7 +354,7 @@ def sweep_run_ids(client: MlflowClient, sweep_dir: str) -> list[str]:
     """The runs a finished sweep stands for (its jobs' and those it skipped), from its parent runs' record;
     empty for a sweep that recorded none (one still running, or stopped)."""
     ids = []
-    for parent in find_runs(client, all_experiment_ids(client), f"tags.`bt.kind` = 'sweep' and tags.sweep_dir = '{sweep_dir}'"):
+    for parent in sweep_parents(client, sweep_dir):
         with tempfile.TemporaryDirectory() as folder:
             try:
                 ids += json.loads(Path(client.download_artifacts(parent.info.run_id, SWEEP_RUNS_ARTIFACT, folder)).read_text())

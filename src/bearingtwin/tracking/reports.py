@@ -436,7 +436,6 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
 
     from bearingtwin.data.twin_to_real import merged_calibration, test_files
 
-    source = _on_data_source(source, "twin_to_real")
     keys = ("report", "step", "healthy.record", "healthy.report", "healthy.step")
     variants_prefix = "data.twin.variants."
 

@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from bearingtwin.config import output_folder, true_or_false
+from bearingtwin.checks import true_or_false
+from bearingtwin.config import output_folder
 from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
