@@ -134,6 +134,63 @@ def test_a_terminated_sweep_kills_its_runs_and_its_workers(tmp_path):
     assert not any(alive(pid) for pid in workers), "a joblib worker outlived its sweep"
 
 
+def wait_for_job_run(base: Path, process: subprocess.Popen, job: int, not_these: set[str] = frozenset(),
+                     timeout_s: float = 120):
+    """The RUNNING run of sweep job ``job`` that is none of ``not_these`` (an earlier attempt's)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        assert process.poll() is None, process.communicate()[1][-2000:]
+        for run in runs(base):
+            if (run.info.status == "RUNNING" and run.data.tags.get("sweep_job") == str(job)
+                    and run.info.run_id not in not_these):
+                return run
+        time.sleep(0.3)
+    process.kill()
+    raise AssertionError(f"no run of job {job} started in time")
+
+
+def test_a_sweep_job_whose_worker_is_killed_fails_alone_and_the_others_finish(tmp_path):
+    """The OS's out-of-memory killer sends SIGKILL, which no code in the job survives: joblib's pool breaks, and
+    Hydra's joblib launcher would end the sweep there. Killed in the pool, then again when run alone, the job is
+    FAILED with the exit code; the job its pool's death stopped runs again and finishes, as does the third."""
+    process = start_training(tmp_path, "-m", "seed=0,1,2", "launcher=joblib", f"hydra.sweep.dir={tmp_path}/multirun")
+    first = wait_for_job_run(tmp_path, process, 0)
+    os.kill(int(first.data.tags["bt.pid"]), signal.SIGKILL)
+    second = wait_for_job_run(tmp_path, process, 0, {first.info.run_id})
+    assert int(second.data.tags["bt.pid"]) != int(first.data.tags["bt.pid"])
+    os.kill(int(second.data.tags["bt.pid"]), signal.SIGKILL)
+    out, err = process.communicate(timeout=300)
+    assert process.returncode == 1, err[-2000:]
+    assert "Traceback" not in err
+    assert "3 jobs, 2 finished, 1 failed, 0 skipped" in out
+    assert "FAILED: seed=0: its process was killed (exit code SIGKILL(-9)" in out
+    by_job = {}
+    for run in runs(tmp_path):  # newest first
+        by_job.setdefault(run.data.tags.get("sweep_job", run.data.tags["bt.kind"]), []).append(run)
+    assert [r.info.status for r in by_job["0"]] == ["FAILED", "KILLED"]
+    assert "SIGKILL" in by_job["0"][0].data.tags["error"]
+    for job in ("1", "2"):  # a run its pool's death stopped (KILLED) may precede the FINISHED one
+        assert by_job[job][0].info.status == "FINISHED" and {r.info.status for r in by_job[job][1:]} <= {"KILLED"}
+    assert [r.info.status for r in by_job["sweep"]] == ["FAILED"]
+
+
+def test_an_interrupt_while_jobs_run_alone_kills_their_runs_at_once(tmp_path):
+    """After a worker's death each job runs in a process of its own; a SIGTERM then stops them all, not after
+    the running jobs finish."""
+    process = start_training(tmp_path, "-m", "seed=0,1,2", "launcher=joblib", f"hydra.sweep.dir={tmp_path}/multirun")
+    first = wait_for_job_run(tmp_path, process, 0)
+    os.kill(int(first.data.tags["bt.pid"]), signal.SIGKILL)
+    again = wait_for_job_run(tmp_path, process, 0, {first.info.run_id})
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 143, err[-2000:]
+    assert {r.info.status for r in runs(tmp_path)} == {"KILLED"}
+    deadline = time.monotonic() + 10
+    while alive(int(again.data.tags["bt.pid"])) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not alive(int(again.data.tags["bt.pid"])), "a job's own process outlived its sweep"
+
+
 # A sweep process (SIGKILLed below) and its worker, which opens a run and watches the sweep as a
 # joblib worker of bearingtwin-train does; a stand-in for a whole sweep, to keep the test fast.
 SWEEP = """

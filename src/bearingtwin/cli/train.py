@@ -1,8 +1,8 @@
 """``bearingtwin-train``: train a classifier on a dataset's features and log the run to MLflow.
 
 Single run: ``bearingtwin-train classifier=svm seed=3``. Sweep: ``bearingtwin-train -m
-+sweep=table4`` (add ``hydra/launcher=joblib`` or ``launcher=joblib`` to run jobs in
-parallel). A failing job in a sweep is logged FAILED and the sweep goes on.
++sweep=table4`` (add ``launcher=joblib`` to run jobs in parallel). A failing job in a sweep is
+logged FAILED and the sweep goes on, also one whose joblib worker the OS kills.
 
 Data files a config names are checked before any MLflow run is opened: a single run checks
 its own here, a sweep checks every job's in :class:`SweepParentRun`. Absent files end the
