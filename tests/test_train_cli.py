@@ -74,3 +74,25 @@ def test_unknown_key_is_refused(tmp_path):
         "error: +unknown.key=1: unknown.key is not a setting of train (no config declares it); "
         "check its spelling, or set a declared key without '+'"]
     assert not (tmp_path / "mlflow.db").exists()
+
+
+def test_a_sweep_lives_in_the_store_its_jobs_log_to_and_only_one(tmp_path):
+    """The store a sweep file's params set is the jobs' and so the parent run's (the sweep's own config lacks it,
+    and MLflow sets MLFLOW_TRACKING_URI as a job logs its model); jobs over several stores are refused, before any
+    job runs: one parent run cannot stand in all of them."""
+    (tmp_path / "conf" / "sweep").mkdir(parents=True)
+    (tmp_path / "conf" / "sweep" / "mine.yaml").write_text(
+        f"# @package _global_\nhydra:\n  sweeper:\n    params:\n      tracking.uri: sqlite:///{tmp_path}/own.db\n")
+    quick = ["classifier=svm", "features=raw", "data.samples_per_class=12", "data.duration=1.0",
+             f"paths.cache_dir={tmp_path}/cache", f"hydra.sweep.dir={tmp_path}/multirun"]
+    done = run_cli(["-m", "--config-dir", str(tmp_path / "conf"), "+sweep=mine", *quick], tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert f"runs: mlflow ui --backend-store-uri sqlite:///{tmp_path}/own.db" in done.stdout
+    client = MlflowClient(f"sqlite:///{tmp_path}/own.db")
+    runs = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
+    assert sorted((r.data.tags["bt.kind"], r.info.status) for r in runs) == [("sweep", "FINISHED"), ("train", "FINISHED")]
+    several = run_cli(["-m", f"tracking.uri=sqlite:///{tmp_path}/a.db,sqlite:///{tmp_path}/b.db", *quick], tmp_path)
+    assert several.returncode == 2 and several.stderr.strip().splitlines() == [
+        f"error: tracking.uri differs between the sweep's jobs (sqlite:///{tmp_path}/a.db, sqlite:///{tmp_path}/b.db): "
+        "a sweep logs to one store, where its parent run is; run one sweep per store"]
+    assert not list(tmp_path.glob("[ab].db"))

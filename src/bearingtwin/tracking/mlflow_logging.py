@@ -693,9 +693,10 @@ class SweepParentRun(Callback):
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
         exit_on_user_error(require_files)(jobs)
+        self._tracking = exit_on_user_error(sweep_tracking)(config, jobs)
         if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
             start_ray_keeping_signals(config.hydra.launcher.ray.init)  # before any run is open: Ray may not start
-        client, experiment_id = exit_on_user_error(open_store)(config.tracking)
+        client, experiment_id = exit_on_user_error(open_store)(self._tracking)
         reap_dead_runs(client, experiment_id)
         name = str(config.hydra.runtime.choices.get("sweep") or "cli")
         sweep_dir = sweep_folder(config.hydra)
@@ -708,13 +709,17 @@ class SweepParentRun(Callback):
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
-        client, _ = exit_on_user_error(open_store)(config.tracking)
+        jobs = list(sweep_job_configs(config))
+        # The store resolved at the start: a job may have changed what the config's interpolations read since
+        # (MLflow sets MLFLOW_TRACKING_URI as a job logs its model).
+        tracking = getattr(self, "_tracking", None) or sweep_tracking(config, jobs)
+        client, _ = exit_on_user_error(open_store)(tracking)
         sweep_dir = sweep_folder(config.hydra)
         parent = find_sweep_parent(client, sweep_dir)
         if parent is None:
             return
         parent_id = parent.info.run_id
-        outcomes = sweep_outcomes(client, parent_id, list(sweep_job_configs(config)))
+        outcomes = sweep_outcomes(client, parent_id, jobs)
         n_failed = sum(o.status not in ("FINISHED", "SKIPPED") for o in outcomes)
         for tag, count in (("n_finished", sum(o.status == "FINISHED" for o in outcomes)), ("n_failed", n_failed),
                            ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
@@ -723,10 +728,25 @@ class SweepParentRun(Callback):
         # what `bearingtwin-report sweep_dir=<this sweep>` reads.
         client.log_dict(parent_id, [o.run_id for o in outcomes if o.status in ("FINISHED", "SKIPPED")], SWEEP_RUNS_ARTIFACT)
         client.set_terminated(parent_id, "FAILED" if n_failed else "FINISHED")
-        print(f"sweep outputs: {sweep_dir} (runs: mlflow ui --backend-store-uri {config.tracking.uri})", flush=True)
+        print(f"sweep outputs: {sweep_dir} (runs: mlflow ui --backend-store-uri {tracking.uri})", flush=True)
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
         if n_failed:
             sys.exit(1)
+
+
+def sweep_tracking(config: DictConfig, jobs: list[DictConfig]) -> DictConfig:
+    """The sweep's ``tracking`` settings with its jobs' store, resolved: the store its parent run belongs in.
+
+    The jobs' store, not the sweep's own config's, which lacks a store a sweep file's params set; and
+    resolved once, as the interpolations read the environment, which a job may change. Jobs logging to
+    several stores are refused: one parent run cannot stand in all of them.
+    """
+    uris = sorted({str(job.tracking.uri) for job in jobs} or {str(config.tracking.uri)})
+    if len(uris) > 1:
+        raise BearingTwinError(f"tracking.uri differs between the sweep's jobs ({', '.join(uris)}): a sweep logs to "
+                               "one store, where its parent run is; run one sweep per store")
+    tracking = OmegaConf.to_container(config.tracking, resolve=True)
+    return OmegaConf.create({**tracking, "uri": uris[0]})
 
 
 def sweep_folder(hydra_cfg) -> str:

@@ -122,11 +122,12 @@ def _exit_codes(error: Exception) -> str:
 
 def _sweep_runs(config):
     """The store's client and the sweep's parent run, or (None, None) when there is none to mark."""
-    from bearingtwin.tracking.mlflow_logging import find_sweep_parent, open_store, sweep_folder
+    from bearingtwin.tracking.mlflow_logging import (find_sweep_parent, open_store, sweep_folder, sweep_job_configs,
+                                                     sweep_tracking)
 
     if "tracking" not in config:
         return None, None
-    client, _ = open_store(config.tracking)
+    client, _ = open_store(sweep_tracking(config, list(sweep_job_configs(config))))
     return client, find_sweep_parent(client, sweep_folder(config.hydra))
 
 
