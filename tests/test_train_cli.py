@@ -96,3 +96,14 @@ def test_a_sweep_lives_in_the_store_its_jobs_log_to_and_only_one(tmp_path):
         f"error: tracking.uri differs between the sweep's jobs (sqlite:///{tmp_path}/a.db, sqlite:///{tmp_path}/b.db): "
         "a sweep logs to one store, where its parent run is; run one sweep per store"]
     assert not list(tmp_path.glob("[ab].db"))
+
+
+def test_a_shuffled_sweep_names_each_job_by_its_own_overrides(tmp_path):
+    """Hydra's shuffle() orders the jobs at random; the summary still names the failing job by its overrides."""
+    done = run_cli(["-m", "classifier=svm", "features=raw", "data.samples_per_class=12", "data.duration=1.0",
+                    "classifier.C=shuffle(1,2,-1,3,-2,4)", f"paths.cache_dir={tmp_path}/cache",
+                    f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun"], tmp_path)
+    assert done.returncode == 1, done.stderr[-2000:]
+    failed = [line.split(": ")[1] for line in done.stdout.splitlines() if line.startswith("  FAILED: ")]
+    assert sorted(failed) == ["classifier.C=-1", "classifier.C=-2"], done.stdout[-2000:]  # another order: right by chance 1 in 15
+    assert "6 jobs, 4 finished, 2 failed" in done.stdout

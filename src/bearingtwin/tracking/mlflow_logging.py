@@ -42,6 +42,7 @@ import hashlib
 import json
 import logging
 import os
+import random
 import subprocess
 import sys
 import tempfile
@@ -682,14 +683,28 @@ class SweepParentRun(Callback):
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        # Hydra's shuffle() draws from Python's global random state, and the sweeper expands its jobs after this
+        # callback: expanded from the state it will start from, the jobs here and at the end are Hydra's, in its order.
+        self._random_state = random.getstate()
         try:
             self._open_parent(config)
         except Exception as error:  # Hydra would warn and run the jobs unparented, then exit 0
             print(f"error: the sweep could not start: {type(error).__name__}: {error}", file=sys.stderr)
             sys.exit(1)
+        finally:
+            random.setstate(self._random_state)
+
+    def _jobs(self, config: DictConfig) -> list[DictConfig]:
+        """The sweep's jobs, composed, in the order Hydra numbers them (also under ``shuffle()``)."""
+        now = random.getstate()
+        random.setstate(self._random_state)
+        try:
+            return list(sweep_job_configs(config))
+        finally:
+            random.setstate(now)
 
     def _open_parent(self, config: DictConfig) -> None:
-        jobs = exit_on_user_error(lambda: list(sweep_job_configs(config)))()  # composed here: the generator raises as it runs
+        jobs = exit_on_user_error(self._jobs)(config)
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
         exit_on_user_error(require_files)(jobs)
@@ -709,10 +724,10 @@ class SweepParentRun(Callback):
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
-        jobs = list(sweep_job_configs(config))
+        jobs = self._jobs(config)
         # The store resolved at the start: a job may have changed what the config's interpolations read since
         # (MLflow sets MLFLOW_TRACKING_URI as a job logs its model).
-        tracking = getattr(self, "_tracking", None) or sweep_tracking(config, jobs)
+        tracking = self._tracking
         client, _ = exit_on_user_error(open_store)(tracking)
         sweep_dir = sweep_folder(config.hydra)
         parent = find_sweep_parent(client, sweep_dir)
