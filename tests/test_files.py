@@ -115,10 +115,9 @@ def test_a_file_its_reader_cannot_parse_is_named_whatever_the_reader_raised(tmp_
     (tmp_path / "text.npy").write_text("1.0\n2.0\n")
     with pytest.raises(BearingTwinError, match=r"text.npy: not a NumPy .npy file \(it does not start with the .npy header\)"):
         read_raw(tmp_path / "text.npy")
-    scipy.io.savemat(tmp_path / "struct.mat", {"rec": {"a": np.arange(5.0), "b": "x"}, "sig": np.ones(100)})
-    with pytest.raises(BearingTwinError, match=r"struct.mat: rec must be a single number, got array\(") as raised:
-        read_raw(tmp_path / "struct.mat")
-    assert "\n" not in str(raised.value)  # a MATLAB struct's repr, on one line
+    np.savez(tmp_path / "complex.npz", sig=np.ones(100), fs=np.array(1 + 2j))
+    with pytest.raises(BearingTwinError, match=r"complex.npz: fs must be a single number, got array\(1\.\+2\.j\)"):
+        read_raw(tmp_path / "complex.npz")
     for name, content in [("header_only.wav", b"RIFF\x24\x00\x00\x00WAVEjunkjunk"),
                           ("text.mat", b"this is not MATLAB"), ("cut.npz", b"PK\x03\x04" + b"x" * 64)]:
         (tmp_path / name).write_bytes(content)
@@ -173,3 +172,67 @@ def test_csv_time_columns_in_seconds_or_milliseconds_gaps_and_a_byte_order_mark(
     with pytest.raises(BearingTwinError, match=r"gap.csv: the time column steps 0.025125 s at data row 1001, not its usual "
                                                r"0.000125 s: rows missing"):
         read_raw(write("gap.csv", "time,acc", t[keep], signal[keep]))
+
+
+def test_csv_as_spreadsheets_and_loggers_write_it(tmp_path, signal):
+    """Semicolons with decimal commas, tabs, spaces, quoted cells, a trailing separator, comment and blank lines
+    before the header, a time column headed with its unit: each read to the same samples and rate."""
+    t = np.arange(signal.size) / FS
+    rows = list(zip(t, signal))
+    files = {
+        "semicolons.csv": "Time (s);acc\n" + "".join(f"{a:.6f};{b:.6f}\n".replace(".", ",") for a, b in rows),
+        "tabs.csv": "t [ms]\tacc\n" + "".join(f"{1000 * a:.3f}\t{b:.6f}\n" for a, b in rows),
+        "spaces.csv": "time_ms acc\n" + "".join(f"{1000 * a:.3f} {b:.6f}\n" for a, b in rows),
+        "quoted.csv": '"time","acc"\n' + "".join(f'"{a:.6f}","{b:.6f}"\n' for a, b in rows),
+        "trailing.csv": "time,acc,\n" + "".join(f"{a:.6f},{b:.6f},\n" for a, b in rows),
+        "preamble.csv": "\n# logger 2.1, channel 3\n\ntime,acc\n" + "".join(f"{a:.6f},{b:.6f}\n" for a, b in rows),
+    }
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+        raw = read_raw(tmp_path / name)
+        assert list(raw.channels) == ["acc"] and raw.fs == FS, name
+        np.testing.assert_allclose(raw.channels["acc"], signal, atol=1e-6, err_msg=name)
+    (tmp_path / "late.csv").write_text("\n# a note\ntime,acc\n0,1\n\n0.000125,2\n0.00025,x\n")
+    with pytest.raises(BearingTwinError, match=r"late.csv: could not convert string 'x' to float64 on line 7, column 2"):
+        read_raw(tmp_path / "late.csv")
+
+
+def test_csv_without_a_header_is_read_along_its_longer_axis_and_repeated_names_are_told_apart(tmp_path, signal):
+    (tmp_path / "row.csv").write_text(",".join(f"{v:.6f}" for v in signal) + "\n")  # MATLAB's csvwrite of a 1 x N vector
+    raw = read_raw(tmp_path / "row.csv")
+    assert list(raw.channels) == ["0"] and raw.channels["0"].size == signal.size
+    (tmp_path / "rows.csv").write_text("".join(",".join(f"{v:.6f}" for v in row) + "\n" for row in (signal, -signal)))
+    raw = read_raw(tmp_path / "rows.csv")
+    assert list(raw.channels) == ["0", "1"]
+    np.testing.assert_allclose(raw.channels["1"], -signal, atol=1e-6)
+    (tmp_path / "twice.csv").write_text("acc,acc,temp\n" + "".join(f"{v:.6f},{-v:.6f},20\n" for v in signal))
+    raw = read_raw(tmp_path / "twice.csv")
+    assert list(raw.channels) == ["acc", "acc.1", "temp"] and "more than one column is headed 'acc'" in raw.meta["notes"][0]
+    np.testing.assert_allclose(raw.channels["acc"], signal, atol=1e-6)  # the first, left to right
+    np.testing.assert_allclose(raw.channels["acc.1"], -signal, atol=1e-6)
+
+
+@pytest.mark.parametrize("fs, decimals, rows", [(12000, 5, 24000), (25600, 5, 30000), (48000, 5, 50000), (10240.5, 12, 20000)])
+def test_a_time_column_rounded_on_export_gives_the_rate_it_was_stamped_at(tmp_path, fs, decimals, rows):
+    """Stamps printed to five decimals span 11999.98 samples per second at 12 kHz: the rounding of the span's two
+    ends allows 12000, the rate the logger ran at. A rate that is no whole number of Hz stays as the stamps give it."""
+    t = 3.5 + np.arange(rows) / fs  # a logger's clock need not start at 0
+    (tmp_path / "stamped.csv").write_text("time,acc\n" + "".join(f"{a:.{decimals}f},{i % 7}\n" for i, a in enumerate(t)))
+    measured = read_raw(tmp_path / "stamped.csv").fs
+    if float(fs).is_integer():
+        assert measured == fs != (rows - 1) / (round(t[-1], decimals) - round(t[0], decimals))  # not the span's
+    else:
+        assert measured == pytest.approx(fs, rel=1e-9)
+
+
+def test_mat_structs_and_cells_and_the_simulators_sensor_names(tmp_path, signal):
+    scipy.io.savemat(tmp_path / "struct.mat", {"rec": {"data": signal, "fs": FS, "rpm": 1797.0}})
+    raw = read_raw(tmp_path / "struct.mat")
+    assert list(raw.channels) == ["rec.data"] and (raw.fs, raw.rpm) == (FS, 1797.0)
+    scipy.io.savemat(tmp_path / "notes.mat", {"vib": signal, "fs": FS, "info": {"operator": "bob"},
+                                              "labels": np.array(["x axis", "y axis"], dtype=object)})
+    raw = read_raw(tmp_path / "notes.mat")
+    assert list(raw.channels) == ["vib"] and raw.meta == {"info.operator": "bob", "labels": ["x axis", "y axis"]}
+    np.savez(tmp_path / "sim.npz", signal=signal, channels=np.stack([signal, -signal]), channel_names=np.array(["inner_x", "outer_y"]),
+             fs=FS, rpm=1797.0, fault="outer")
+    np.testing.assert_array_equal(load_recording(tmp_path / "sim.npz", channel="outer_y").signal, -signal)

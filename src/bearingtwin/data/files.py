@@ -9,10 +9,11 @@ sees a NaN, a guessed sampling rate or a silently chosen channel.
 
 Formats (chosen by extension): ``.npy`` (1-D, or 2-D: the longer axis is time), ``.npz``
 (arrays are channels; scalars ``fs`` / ``rpm`` and a string ``fault`` are facts, as written
-by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` (columns are channels, optional header row, a
-``time`` / ``time_s`` column, or ``time_ms`` in milliseconds, gives the sampling rate), ``.mat`` (CWRU files by their
-variable names, otherwise numeric variables are channels and scalars ``fs`` / ``rpm`` are
-facts), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
+by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` (columns are channels,
+separated by commas, semicolons, tabs or spaces, optional header row; a ``time`` / ``time_s`` / ``Time (s)`` column,
+or ``time_ms`` / ``t [ms]`` in milliseconds, gives the sampling rate), ``.mat`` (CWRU files by their
+variable names, otherwise numeric variables, and a struct's numeric fields, are channels and scalars ``fs`` / ``rpm``
+are facts), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
 and ``.xls`` (HUST text exports). A file a reader cannot parse (corrupt, truncated, another
 format under the extension) is refused naming the file, whatever the reading library raised.
 
@@ -23,6 +24,7 @@ Channel: when none is asked for, the file's only channel, or the one its format 
 from __future__ import annotations
 
 import csv
+import io
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -41,8 +43,8 @@ FS_RELATIVE_TOLERANCE = 0.01
 """A user's sampling rate may differ this much from one measured in the file (a time column
 printed with a few decimals) before it counts as a contradiction."""
 
-TIME_COLUMN_NAMES = {"time": 1.0, "time_s": 1.0, "t": 1.0, "time_ms": 1e-3, "t_ms": 1e-3}
-"""Column names read as time stamps, and their unit in seconds."""
+_TIME_COLUMN = re.compile(r"(?:t|time)\s*(?:_(?P<suffix>s|ms)|[(\[]\s*(?P<bracketed>s|ms)\s*[)\]])?", re.IGNORECASE)
+"""Column names read as time stamps: ``time``, ``t``, ``time_s``, ``time_ms``, ``Time (s)``, ``t [ms]``, ..."""
 LOWEST_FS_HZ = 200.0
 """A time column giving a slower rate than this is not a vibration record's (rather, stamps in milliseconds)."""
 
@@ -206,11 +208,22 @@ def _resolve_fact(raw: RawRecord, name: str, from_file, from_user):
     return from_user
 
 
+def time_column_seconds(name: str) -> float | None:
+    """The unit in seconds of a column of time stamps called ``name`` (1e-3 for ``time_ms``), None for another column."""
+    match = _TIME_COLUMN.fullmatch(name.strip())
+    if match is None:
+        return None
+    return 1e-3 if (match["suffix"] or match["bracketed"] or "").lower() == "ms" else 1.0
+
+
 def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -> float:
     """Sampling rate in Hz from a time column: samples per second over the whole span.
 
     The span rather than one step is used because exported time stamps are rounded to a
-    few decimals, which makes single steps jitter by percent while the span stays exact.
+    few decimals, which makes single steps jitter by percent while the span stays exact up to
+    the rounding of its two ends. A whole number of Hz within that rounding is the rate: a
+    12 kHz record stamped to five decimals spans 11999.98 samples per second, and it is read
+    at 12000 Hz, as a file's stated rate would be (another rate would need resampling).
     """
     time_s = np.asarray(time_s, dtype=np.float64)
     if time_s.size < 2 or not np.all(np.isfinite(time_s)):
@@ -230,12 +243,26 @@ def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -
         row = int(np.argmax(uneven)) + 1
         raise BearingTwinError(f"{source}: the {column} column steps {steps[row - 1]:.6g} s at data row {row + 1}, not "
                                f"its usual {typical:.6g} s: rows missing or merged, so no single sampling rate")
-    fs = float((time_s.size - 1) / (time_s[-1] - time_s[0]))
+    span_s = float(time_s[-1] - time_s[0])
+    fs = (time_s.size - 1) / span_s
+    # Either end rounded by half the printed unit; float arithmetic's own error where the stamps carry full precision.
+    if abs(fs - round(fs)) <= fs * (_printed_unit_s(time_s) / span_s + 1e-9):
+        fs = float(round(fs))
     if fs < LOWEST_FS_HZ:
-        hint = ": if it counts milliseconds, head it time_ms" if TIME_COLUMN_NAMES.get(column.lower()) == 1.0 else ""
+        hint = ": if it counts milliseconds, head it time_ms" if time_column_seconds(column) == 1.0 else ""
         raise BearingTwinError(f"{source}: the {column} column gives {fs:g} samples per second, too slow for a "
                                f"vibration record{hint}")
     return fs
+
+
+def _printed_unit_s(time_s: np.ndarray) -> float:
+    """The unit the stamps were printed in (1e-5 s for five decimals), 0 when they carry full precision."""
+    ends = np.concatenate([time_s[:1000], time_s[-1000:]])
+    for decimals in range(10):
+        scaled = ends * 10.0**decimals
+        if np.all(np.abs(scaled - np.round(scaled)) <= 1e-3 + 8 * np.finfo(float).eps * np.abs(scaled)):
+            return 10.0**-decimals
+    return 0.0
 
 
 def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -247,7 +274,7 @@ def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.n
             raise BearingTwinError(f"{path}: array {name!r} is not real numeric (dtype {array.dtype})")
         array = np.squeeze(array)
         if array.ndim == 1:
-            channels[name] = array.astype(np.float64)
+            channels[name or "0"] = array.astype(np.float64)
         elif array.ndim == 2:
             if array.shape[0] == array.shape[1]:
                 raise BearingTwinError(f"{path}: array {name!r} has shape {array.shape}, so which axis is time is not "
@@ -263,8 +290,10 @@ def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.n
     return channels
 
 
-def _scalar(path: Path, name: str, value) -> float:
+def _scalar(path: Path, name: str, value) -> float | bool:
     try:
+        if np.asarray(value).dtype == bool:  # a logical is no number: kept so that a rate given as true is refused
+            return bool(np.asarray(value).reshape(()))
         return float(np.asarray(value).reshape(()))
     except (TypeError, ValueError):
         shown = " ".join(repr(value).split())  # a MATLAB struct's repr runs over many lines
@@ -283,12 +312,26 @@ def _read_npy(path: Path) -> RawRecord:
 
 
 def _split_facts(path: Path, items: dict[str, np.ndarray]) -> tuple[dict, dict]:
-    """Separate size-1 entries and strings (facts about the record) from the signal arrays."""
+    """Separate size-1 entries and strings (facts about the record) from the signal arrays.
+
+    A MATLAB struct's fields count as entries of their own, named ``<struct>.<field>``; a cell
+    array's contents are facts, as text.
+    """
     facts, arrays = {}, {}
     for name, value in items.items():
         value = np.asarray(value)
-        if value.dtype.kind in "USO":
-            facts[name] = str(value.reshape(-1)[0]) if value.size == 1 else value.tolist()
+        if value.dtype.names and value.size == 1:  # a struct (scipy: a record array of one element)
+            fields = {f"{name}.{field}": value[field].reshape(-1)[0] for field in value.dtype.names}
+            more_facts, more_arrays = _split_facts(path, fields)
+            facts.update(more_facts)
+            arrays.update(more_arrays)
+        elif value.dtype.names:
+            facts[name] = f"a MATLAB struct array of shape {value.shape}, not read"
+        elif value.dtype.kind == "O":  # a cell array
+            texts = [" ".join(str(np.squeeze(item)).split()) for item in value.reshape(-1)]
+            facts[name] = texts[0] if len(texts) == 1 else texts
+        elif value.dtype.kind in "US":
+            facts[name] = str(value.reshape(-1)[0]) if value.size == 1 else value.reshape(-1).tolist()
         elif value.size == 1:
             facts[name] = _scalar(path, name, value)
         else:
@@ -296,27 +339,45 @@ def _split_facts(path: Path, items: dict[str, np.ndarray]) -> tuple[dict, dict]:
     return facts, arrays
 
 
+_FACTS = {"fs": ("fs", "fs_hz"), "rpm": ("rpm",), "fault": ("fault",), "unit": ("unit",)}
+"""Each fact a file may state, and the names it may go by (in any case; also as a struct's field)."""
+
+
 def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawRecord:
-    lowered = {name.lower(): value for name, value in facts.items()}
-    fs = lowered.get("fs", lowered.get("fs_hz"))
-    rpm = lowered.get("rpm")
-    fs = None if fs is None else positive_number(fs, "fs", "Hz", f"{path}: ")
-    rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min", f"{path}: ")
-    fault = lowered.get("fault")
+    found = {fact: _named_fact(facts, names) for fact, names in _FACTS.items()}
+    fs = None if found["fs"] is None else positive_number(found["fs"][1], found["fs"][0], "Hz", f"{path}: ")
+    rpm = None if found["rpm"] is None else positive_number(found["rpm"][1], found["rpm"][0], "rev/min", f"{path}: ")
+    fault = None if found["fault"] is None else found["fault"][1]
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{path}: fault {fault!r} is not a bearing state ({', '.join(FAULTS)})")
+    used = {entry[0] for entry in found.values() if entry is not None}
+    channels = _float_channels(path, arrays)
+    names = facts.get("channel_names")  # bearingtwin-simulate's: the sensors, rows of `channels`
+    if isinstance(names, list) and [f"channels[{i}]" for i in range(len(names))] == [c for c in channels if c.startswith("channels[")]:
+        channels = {names[int(c[9:-1])] if c.startswith("channels[") else c: values for c, values in channels.items()}
+        used.add("channel_names")
     return RawRecord(
         str(path),
         fmt,
-        _float_channels(path, arrays),
+        channels,
         fs=fs,
         fs_origin="file" if fs is not None else "",
         rpm=rpm,
         fault=fault,
-        unit=str(lowered.get("unit", "")),
-        meta={k: v for k, v in facts.items() if k.lower() not in ("fs", "fs_hz", "rpm", "fault", "unit")},
+        unit="" if found["unit"] is None else str(found["unit"][1]),
+        meta={k: v for k, v in facts.items() if k not in used},
         default_channel="signal" if fmt == "npz" else None,
     )
+
+
+def _named_fact(facts: dict, names: tuple[str, ...]) -> tuple[str, object] | None:
+    """The entry (its name, its value) stating a fact: by one of ``names`` in any case, else as the one struct
+    field of that name (``info.fs``)."""
+    for key, value in facts.items():
+        if key.lower() in names:
+            return key, value
+    fields = [(key, value) for key, value in facts.items() if key.rsplit(".", 1)[-1].lower() in names]
+    return fields[0] if len(fields) == 1 else None
 
 
 def _read_npz(path: Path) -> RawRecord:
@@ -366,35 +427,80 @@ def _read_wav(path: Path) -> RawRecord:
 
 
 def _read_csv(path: Path) -> RawRecord:
-    """Comma-separated columns, optionally under one header row of names."""
+    """Columns of numbers, optionally under one header row of names.
+
+    What spreadsheets and data loggers write: columns separated by commas, semicolons, tabs or
+    spaces; with any but commas a decimal comma (``0,0324;-1,5``); quoted cells; a byte-order mark;
+    blank or ``#`` comment lines before the header; a trailing separator. Without a header the
+    longer axis is time, as in the other formats (one row of numbers is one channel); repeated
+    column names are told apart as ``acc``, ``acc.1``.
+    """
     try:
-        with open(path, newline="", encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark
-            first = next((line for line in handle if line.strip()), "")
+        lines = path.read_text(encoding="utf-8-sig").splitlines()
     except UnicodeDecodeError:
         raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)") from None
-    header = [cell.strip() for cell in next(csv.reader([first]))] if first else []
-    if not header:
+    first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
+    if first is None:
         raise BearingTwinError(f"{path}: the file holds no rows")
-    has_header = not all(_is_number(cell) for cell in header)
-    if not has_header and len(header) > 1 and all(re.fullmatch(r"-?\d+", cell) for cell in header) and any(
-            re.fullmatch(r"0\d+", cell) for cell in header[1:]):  # "0,0324": a decimal comma split one number in two
-        raise BearingTwinError(f"{path}: its first row {first.strip()!r} reads as numbers written with decimal commas; "
-                               "save the file with decimal points (commas separate the columns)")
-    names = header if has_header else [str(i) for i in range(len(header))]
+    delimiter = next((d for d in ("\t", ";", ",") if d in lines[first]),
+                     None if len(lines[first].split()) > 1 else ",")  # None: columns apart by spaces
+    cells = (lines[first].split() if delimiter is None else
+             [cell.strip() for cell in next(csv.reader([lines[first]], delimiter=delimiter))])
+    trailing = len(cells) > 1 and cells[-1] == ""  # a separator closing every row, as spreadsheets may write
+    cells = cells[:-1] if trailing else cells
+    has_header = not all(_is_number(cell.replace(",", ".") if delimiter != "," else cell) for cell in cells)
+    if delimiter == "," and not has_header and len(cells) > 1 and all(re.fullmatch(r"-?\d+", c) for c in cells) and any(
+            re.fullmatch(r"0\d+", cell) for cell in cells[1:]):  # "0,0324": a decimal comma split one number in two
+        raise BearingTwinError(f"{path}: its first row {lines[first].strip()!r} reads as numbers written with decimal "
+                               "commas; save the file with decimal points, or separate the columns with semicolons")
+    body_start = first + 1 if has_header else first
+    body = "\n".join(lines[body_start:])
+    if delimiter != ",":
+        body = body.replace(",", ".")  # a decimal comma: the columns are separated otherwise
     try:
-        values = np.loadtxt(path, delimiter=",", skiprows=1 if has_header else 0, ndmin=2, dtype=np.float64,
-                            encoding="utf-8-sig")
-    except (ValueError, UnicodeDecodeError) as error:
-        raise BearingTwinError(f"{path}: {error}") from None
+        values = np.loadtxt(io.StringIO(body), delimiter=delimiter, quotechar='"' if delimiter else None, ndmin=2, dtype=np.float64,
+                            usecols=range(len(cells)) if trailing else None)
+    except ValueError as error:
+        raise BearingTwinError(f"{path}: {_on_file_line(str(error), lines, body_start)}") from None
     if values.shape[0] == 0:
         raise BearingTwinError(f"{path}: the file holds a header but no data rows")
-    if values.shape[1] != len(names):
-        raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}")
+    if not has_header:
+        return RawRecord(str(path), "csv", _float_channels(path, {"": values}))
+    if values.shape[1] != len(cells):
+        raise BearingTwinError(f"{path}: the header names {len(cells)} columns but the rows have {values.shape[1]}")
+    names, notes = _distinct_names(cells)
     columns = dict(zip(names, values.T))
-    time_name = next((name for name in names if name.lower() in TIME_COLUMN_NAMES), None)
-    fs = (fs_from_time_column(TIME_COLUMN_NAMES[time_name.lower()] * columns.pop(time_name), str(path), time_name)
+    time_name = next((name for name in names if time_column_seconds(name) is not None), None)
+    fs = (fs_from_time_column(time_column_seconds(time_name) * columns.pop(time_name), str(path), time_name)
           if time_name is not None else None)
-    return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "")
+    return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "",
+                     meta={"notes": notes} if notes else {})
+
+
+def _distinct_names(names: list[str]) -> tuple[list[str], list[str]]:
+    """Column names made distinct as pandas makes them (``acc``, ``acc.1``), and a note for each repeated one."""
+    seen: dict[str, int] = {}
+    distinct, notes = [], []
+    for name in names:
+        count = seen.get(name, 0)
+        seen[name] = count + 1
+        distinct.append(name if count == 0 else f"{name}.{count}")
+        if count == 1:
+            notes.append(f"more than one column is headed {name!r}: read as {name!r}, {name + '.1'!r}, ... from left to right")
+    return distinct, notes
+
+
+def _on_file_line(message: str, lines: list[str], body_start: int) -> str:
+    """numpy's "at row R, column C" (R counting data rows from 0) as the file's own line number."""
+    found = re.search(r"at row (\d+), column (\d+)", message)
+    if found is None:
+        return message
+    data_lines = [i for i in range(body_start, len(lines))
+                  if lines[i].strip() and not lines[i].lstrip().startswith("#")]
+    row = int(found[1])
+    if row >= len(data_lines):
+        return message
+    return message[:found.start()] + f"on line {data_lines[row] + 1}, column {found[2]}" + message[found.end():]
 
 
 def _is_number(text: str) -> bool:
