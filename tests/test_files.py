@@ -236,3 +236,45 @@ def test_mat_structs_and_cells_and_the_simulators_sensor_names(tmp_path, signal)
     np.savez(tmp_path / "sim.npz", signal=signal, channels=np.stack([signal, -signal]), channel_names=np.array(["inner_x", "outer_y"]),
              fs=FS, rpm=1797.0, fault="outer")
     np.testing.assert_array_equal(load_recording(tmp_path / "sim.npz", channel="outer_y").signal, -signal)
+
+
+def write_mat73(path, variables: dict) -> None:
+    """A MATLAB 7.3 file laid out as MATLAB writes one: HDF5 after a 512-byte header naming the format, arrays
+    transposed, text as UTF-16 codes, a struct as a group, a cell array as references into '#refs#', each dataset
+    tagged with its MATLAB class."""
+    import h5py
+
+    with h5py.File(path, "w", userblock_size=512) as file:
+        def put(group, name, value):
+            if isinstance(value, dict):
+                struct = group.create_group(name)
+                struct.attrs["MATLAB_class"] = np.bytes_("struct")
+                for field, item in value.items():
+                    put(struct, field, item)
+                return
+            if isinstance(value, str):
+                data, kind = np.array([[ord(c) for c in value]], dtype=np.uint16).T, "char"
+            elif isinstance(value, list):  # a cell array of text
+                refs = file.require_group("#refs#")
+                for i, item in enumerate(value):
+                    put(refs, f"{name}{i}", item)
+                data, kind = np.array([[refs[f"{name}{i}"].ref for i in range(len(value))]], dtype=h5py.ref_dtype).T, "cell"
+            else:
+                data, kind = np.atleast_2d(np.asarray(value, dtype=np.float64)), "double"
+            group.create_dataset(name, data=data.T).attrs["MATLAB_class"] = np.bytes_(kind)
+        for name, value in variables.items():
+            put(file, name, value)
+    with open(path, "r+b") as handle:
+        handle.write(b"MATLAB 7.3 MAT-file, Platform: GLNXA64, HDF5 schema 1.00 .".ljust(116) + bytes(8) + b"\x00\x02IM")
+
+
+def test_a_matlab_7_3_file_is_read_as_the_older_formats_are(tmp_path, signal):
+    """MATLAB saves large records (and any with -v7.3) as HDF5, which scipy does not read."""
+    write_mat73(tmp_path / "big.mat", {"vib": signal[:, None], "fs": FS, "info": {"operator": "bob", "rpm": 1797.0},
+                                       "labels": ["x axis", "y axis"]})
+    raw = read_raw(tmp_path / "big.mat")
+    assert list(raw.channels) == ["vib"] and (raw.fs, raw.rpm) == (FS, 1797.0)
+    np.testing.assert_array_equal(raw.channels["vib"], signal)
+    assert raw.meta == {"info.operator": "bob", "labels": ["x axis", "y axis"]}
+    write_mat73(tmp_path / "columns.mat", {"data": np.stack([signal, -signal], axis=1), "fs": FS})
+    np.testing.assert_array_equal(read_raw(tmp_path / "columns.mat").channels["data[1]"], -signal)  # MATLAB's N x 2

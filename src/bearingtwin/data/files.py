@@ -13,7 +13,7 @@ by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), 
 separated by commas, semicolons, tabs or spaces, optional header row; a ``time`` / ``time_s`` / ``Time (s)`` column,
 or ``time_ms`` / ``t [ms]`` in milliseconds, gives the sampling rate), ``.mat`` (CWRU files by their
 variable names, otherwise numeric variables, and a struct's numeric fields, are channels and scalars ``fs`` / ``rpm``
-are facts), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
+are facts; MATLAB 7.3 files too), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
 and ``.xls`` (HUST text exports). A file a reader cannot parse (corrupt, truncated, another
 format under the extension) is refused naming the file, whatever the reading library raised.
 
@@ -394,10 +394,47 @@ def _load_mat(path: Path) -> dict:
     import scipy.io
 
     try:
+        if scipy.io.matlab.matfile_version(path)[0] == 2:  # MATLAB 7.3 (save -v7.3, and any file over 2 GB): HDF5
+            return _load_mat_hdf5(path)
         variables = scipy.io.loadmat(path)
     except (ValueError, OSError, TypeError, NotImplementedError) as error:
         raise BearingTwinError(f"{path}: not a readable MATLAB file ({error})") from None
     return {name: value for name, value in variables.items() if not name.startswith("__")}
+
+
+def _load_mat_hdf5(path: Path) -> dict:
+    """The variables of a MATLAB 7.3 file, as :func:`scipy.io.loadmat` gives those of older ones (scipy reads
+    no 7.3 file; h5py reads their HDF5, and MATLAB's own conventions are undone here): arrays in MATLAB's
+    shape (HDF5 stores them transposed), text decoded from its UTF-16 codes, a struct's fields as
+    ``<struct>.<field>``, a cell array's contents as text."""
+    import h5py
+
+    def value(item):
+        kind = item.attrs.get("MATLAB_class", b"").decode()
+        data = item[()]
+        if kind == "char":
+            return np.array("".join(map(chr, data.T.reshape(-1))))
+        if kind == "cell":
+            return np.array([" ".join(str(np.squeeze(value(item.file[ref]))).split()) for ref in data.T.reshape(-1)],
+                            dtype=object)
+        if item.attrs.get("MATLAB_empty", 0):
+            return np.zeros((0,))
+        return np.asarray(data).T.astype(bool) if kind == "logical" else np.asarray(data).T
+
+    variables = {}
+
+    def collect(prefix: str, group) -> None:
+        for name, item in group.items():
+            if name.startswith("#"):  # MATLAB's store of the objects cells refer to
+                continue
+            if isinstance(item, h5py.Group):
+                collect(f"{prefix}{name}.", item)
+            else:
+                variables[prefix + name] = value(item)
+
+    with h5py.File(path, "r") as file:
+        collect("", file)
+    return variables
 
 
 def _read_generic_mat(path: Path, variables: dict) -> RawRecord:
