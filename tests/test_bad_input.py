@@ -152,7 +152,7 @@ def test_measurement_files_that_are_not_measurements(tmp_path):
     flat = tmp_path / "flat.npy"
     np.save(flat, np.zeros(24000))
     cfg = twin_config(f"measured.path={flat}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer")
-    with pytest.raises(BearingTwinError, match=r"flat.npy: every sample is 0: no vibration to compare"):
+    with pytest.raises(BearingTwinError, match=r"flat.npy: every sample is 0: no vibration recorded"):
         load_measurement(cfg.measured)
     short = tmp_path / "short.npy"
     np.save(short, np.sin(np.arange(1000)))

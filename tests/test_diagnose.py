@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 from mlflow import MlflowClient
 from mlflow.exceptions import MlflowException
+from omegaconf import OmegaConf
 from processes import run_module
 
-from bearingtwin.config import REPO_ROOT, bearing_config
+from bearingtwin.config import REPO_ROOT, bearing_config, compose_config
 from bearingtwin.data.recording import Recording
-from bearingtwin.diagnosis.evidence import physics_evidence
+from bearingtwin.diagnosis.evidence import check_segment, evidence_settings, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record, record_windows, resample_to
@@ -288,6 +289,44 @@ def test_evidence_does_not_depend_on_the_sensors_gain():
     assert in_g == pytest.approx(in_ms2, abs=1e-9)
 
 
+DEFAULT_EVIDENCE = {"band": "fixed", "band_nyquist": [0.25, 0.9], "harmonics": 3, "segment_s": 1.0, "tolerance": 0.01,
+                    "threshold_db": 6.0}
+
+
+def test_the_evidence_settings_of_the_config_are_accepted_as_written():
+    written = OmegaConf.to_container(compose_config("diagnose", ["path=x.npz", "model=runs:/x/model"]).evidence)
+    assert evidence_settings(written) == written == DEFAULT_EVIDENCE
+    check_segment(1.0, FS)
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("threshold_db", "abc", "evidence.threshold_db must be a non-negative number of dB, got 'abc'"),
+    ("threshold_db", -3, "evidence.threshold_db must be a non-negative number of dB"),
+    ("tolerance", "abc", "evidence.tolerance must be a relative half width above 0 and below 0.5, got 'abc'"),
+    ("tolerance", -1, "evidence.tolerance must be a relative half width above 0 and below 0.5, got -1"),
+    ("tolerance", 0.5, "evidence.tolerance must be a relative half width above 0 and below 0.5"),
+    ("band_nyquist", "abc", "evidence.band_nyquist must be [low, high], fractions of the Nyquist rate"),
+    ("band_nyquist", [0.9, 0.25], "evidence.band_nyquist must be [low, high]"),
+    ("band_nyquist", [0.25, 1.0], "evidence.band_nyquist must be [low, high]"),
+    ("segment_s", 0, "evidence.segment_s=0 must be a positive number of seconds"),
+    ("segment_s", "abc", "evidence.segment_s='abc' must be a positive number of seconds"),
+    ("harmonics", 2.5, "evidence.harmonics must be a positive integer, got 2.5"),
+    ("band", "widest", "evidence.band='widest': choose one of fixed, kurtogram"),
+])
+def test_a_bad_evidence_setting_is_named_with_what_it_must_be(key, value, message):
+    with pytest.raises(BearingTwinError) as refused:
+        evidence_settings({**DEFAULT_EVIDENCE, key: value})
+    assert str(refused.value).startswith(message), refused.value
+
+
+def test_a_welch_segment_too_short_for_the_models_rate_is_refused():
+    """Below 16 samples the spectrum would silently take a longer segment than the one asked for."""
+    check_segment(16 / FS, FS)
+    with pytest.raises(BearingTwinError, match=r"^evidence.segment_s=0.001 holds 12 samples at the model's 12000 Hz; "
+                                               r"give at least 0.00133 s \(16 samples\)"):
+        check_segment(0.001, FS)
+
+
 # ---------------------------------------------------------------- records
 
 
@@ -375,7 +414,7 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
     np.savez(folder / "pump_a.npz", signal=fault_signal(rates["bpfo"], seconds=3), fs=FS, rpm=RPM)
     np.savez(folder / "pump_b.npz", signal=fault_signal(None, seconds=3, seed=5), fs=48000.0, rpm=RPM)  # resampled
-    np.savez(folder / "short.npz", signal=np.ones(100), fs=FS)
+    np.savez(folder / "short.npz", signal=fault_signal(None, seconds=100 / FS), fs=FS)
     np.savez(folder / "nan.npz", signal=np.full(30000, np.nan), fs=FS)
     (folder / "cut.wav").write_bytes(b"RIFF\x24\x00\x00\x00WAVEjunk" * 3)  # a reader's own exception, not ours
     np.savez(folder / "told.npz", signal=fault_signal(None, seconds=3), fs=FS, fault="inner")
@@ -394,7 +433,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert rows["pump_a"]["true_state"] == "outer" and rows["pump_a"]["evidence_state"] == "outer"
     assert rows["pump_b"]["true_state"] == "normal" and rows["pump_b"]["correct"] in ("True", "False")
     assert "resampled 48000 Hz -> 12000 Hz" in done.stdout
-    assert "records right: " in done.stdout and "of 2 with a known state" in done.stdout and "error: short.npz" in done.stderr
+    assert "records right: " in done.stdout and "of 2 with a known state" in done.stdout
+    assert f"error: {folder / 'short.npz'}: 100 samples" in done.stderr
 
 
 def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_before_any_work(registered, tmp_path):
@@ -422,6 +462,43 @@ def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_befor
     for done in (clash, twice, into_file, maybe):
         assert len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert not (tmp_path / "diagnosis").exists()
+
+
+def test_a_dead_sensor_fails_its_file_alone_and_each_failure_names_its_file_once(registered, tmp_path):
+    """A record whose every sample is the same has no vibration to diagnose (as bearingtwin-twin refuses it);
+    the other records are still diagnosed. A reader's message names its file already: the error line names it once."""
+    base, uri = registered
+    folder = tmp_path / "f"
+    folder.mkdir()
+    np.savez(folder / "dead.npz", signal=np.full(30000, 0.5), fs=FS, rpm=RPM)
+    np.savez(folder / "live.npz", signal=fault_signal(None, seconds=3), fs=FS, rpm=RPM)
+    (folder / "two.csv").write_text("time,a,b\n" + "".join(f"{i / FS},{i % 3},{i % 5}\n" for i in range(3000)))
+    done = run("diagnose", "path=f/*", "model=models:/diag/1", "out=out", "figures=false", "tracking.enabled=false",
+               cwd=tmp_path, uri=uri)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert [line for line in done.stderr.splitlines() if line.startswith("error: ")] == [
+        "error: f/dead.npz: every sample is 0.5: no vibration recorded",
+        "error: f/two.csv: holds channels a, b; choose one with channel=<name>",
+    ]
+    assert (tmp_path / "out" / "live" / "diagnosis.json").is_file() and "records diagnosed: 1 of 3" in done.stdout
+
+
+@pytest.mark.parametrize("overrides, message", [
+    (["evidence.tolerance=abc"], "error: evidence.tolerance must be a relative half width above 0 and below 0.5, got 'abc'"),
+    (["evidence.segment_s=0"], "error: evidence.segment_s=0 must be a positive number of seconds"),
+    (["path="], "error: path is empty: give path=<file | folder | glob>"),
+    (["path=recordings/*.npz"], "error: path=recordings/*.npz: the pattern matches no file"),
+    (["tracking.enabled=maybe"], "error: tracking.enabled=maybe: give tracking.enabled=true or tracking.enabled=false"),
+])
+def test_bad_settings_and_paths_are_refused_in_one_line_before_any_file_is_read(tmp_path, overrides, message):
+    """Checked before the model is loaded and before any file is read (so the model here is bogus): a bad evidence
+    setting would otherwise fail every record alike, and path= would diagnose the working directory."""
+    np.savez(tmp_path / "r.npz", signal=fault_signal(None, seconds=1), fs=FS, rpm=RPM)
+    given = [] if any(override.startswith("path=") for override in overrides) else ["path=r.npz"]
+    done = run("diagnose", *given, "model=runs:/x/model", *overrides, cwd=tmp_path, uri=f"sqlite:///{tmp_path}/mlflow.db")
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and lines[0].startswith(message), done.stderr
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["r.npz"]  # no store, no output
 
 
 def test_the_recorded_bearing_is_given_on_the_command_line(registered, tmp_path):

@@ -139,6 +139,25 @@ def test_unknown_axis_and_contradicting_fs_are_refused():
         load_hust(HUST / "H_65Hz.xls", fs=48000)
 
 
+def test_a_byte_order_mark_and_a_data_line_with_a_colon_are_read(tmp_path):
+    """A file an editor saved again as UTF-8 may start with a byte-order mark, before the header or before a
+    'Data' line with no header above it; 'Data:' is written as the header's other keys are."""
+    text = (HUST / "H_65Hz.xls").read_bytes()
+    original = read_raw(HUST / "H_65Hz.xls")
+    variants = {
+        "bom_header": b"\xef\xbb\xbf" + text,
+        "bom_data": b"\xef\xbb\xbf" + text[text.index(b"Data\n"):],
+        "colon": text.replace(b"\nData\n", b"\nData:\n"),
+    }
+    for name, content in variants.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "H_65Hz.xls").write_bytes(content)
+        raw = read_raw(tmp_path / name / "H_65Hz.xls")
+        np.testing.assert_array_equal(raw.channels["X"], original.channels["X"])
+        assert raw.fs == pytest.approx(25600, rel=1e-4)
+    assert read_raw(tmp_path / "bom_header" / "H_65Hz.xls").meta["header"] == original.meta["header"]  # "Title", not "\xef\xbb\xbfTitle"
+
+
 def test_binary_workbook_is_named(tmp_path):
     path = tmp_path / "H_65Hz.xls"
     path.write_bytes(b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + bytes(512))

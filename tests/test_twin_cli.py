@@ -106,6 +106,14 @@ def test_bad_input_exits_nonzero_naming_the_problem(measurement, tmp_path, overr
     assert not (tmp_path / "r" / "twin_report.json").exists()
 
 
+@pytest.mark.parametrize("switch", ["measured.check_fs", "tracking.enabled"])
+def test_a_switch_that_is_neither_true_nor_false_is_refused_before_the_file_is_read(tmp_path, switch):
+    result = run_cli(f"measured.path={tmp_path / 'absent.npy'}", f"{switch}=maybe", f"out={tmp_path / 'r'}", cwd=tmp_path)
+    assert result.returncode == 2 and "absent.npy" not in result.stderr  # refused before the file is looked for
+    assert result.stderr.strip() == f"error: {switch}=maybe: give {switch}=true or {switch}=false"
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_no_measurement_given_is_named():
     from omegaconf import OmegaConf
 

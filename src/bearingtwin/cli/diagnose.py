@@ -37,8 +37,8 @@ def diagnose(cfg: DictConfig) -> None:
     print(closing_summary(f"bearingtwin-diagnose: {cfg.path} with {cfg.model}", diagnosis_lines(run), run.run_id,
                           str(cfg.tracking.uri) if run.run_id else None, str(run.out)))
     if run.failures:
-        for name, reason in run.failures.items():
-            print(f"error: {name}: {reason}", file=sys.stderr)
+        for reason in run.failures.values():  # each names its file
+            print(f"error: {reason}", file=sys.stderr)
         sys.exit(2)
 
 

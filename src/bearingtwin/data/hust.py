@@ -2,7 +2,7 @@
 
 The files are named ``.xls`` but are tab-separated text exported by the rig's software:
 a header block (``Title:``, ``DAQ Settings:``, ``Total Data Rows``, ``Legend`` ...), a line
-reading ``Data``, then rows of time (s), speed (not meaningful), X, Y, Z acceleration, in the
+reading ``Data`` (or ``Data:``), then rows of time (s), speed (not meaningful), X, Y, Z acceleration, in the
 order the ``Legend`` line names them.
 This layout was reported by users of the data and not checked against a real file here,
 so the reader finds the ``Data`` line instead of counting header lines, checks the row
@@ -33,6 +33,10 @@ BEARING = "er16k"
 
 HEADER_LINE_LIMIT = 200
 """The ``Data`` line must appear within this many lines; the reported header has about 21."""
+DATA_MARKERS = ("Data", "Data:")
+"""The line that ends the header: ``Data`` as reported, ``Data:`` as the header's other keys are written."""
+UTF8_BOM = "\ufeff".encode("utf-8").decode("latin-1")
+"""A UTF-8 byte-order mark as the latin-1 reading sees it: a file saved again by an editor may start with one."""
 
 _NAME = re.compile(r"^(?P<prefix>0\.5X_)?(?P<state>[HIOBC])_(?P<condition>\d+(?:\.\d+)?Hz|VS_[\d_]+Hz)$")
 
@@ -136,8 +140,8 @@ def _read_header(path: Path) -> tuple[dict[str, str], int]:
     header: dict[str, str] = {}
     with open(path, encoding="latin-1") as handle:
         for index, line in enumerate(handle):
-            text = line.strip()
-            if text == "Data":
+            text = line.removeprefix(UTF8_BOM).strip()
+            if text in DATA_MARKERS:
                 return header, index
             if index >= HEADER_LINE_LIMIT:
                 break
@@ -145,8 +149,8 @@ def _read_header(path: Path) -> tuple[dict[str, str], int]:
             if key:
                 header[key.strip()] = value.strip(" \t:")
     raise BearingTwinError(
-        f"{path}: no line reading 'Data' within the first {HEADER_LINE_LIMIT} lines; expected a HUST text "
-        "export (header block, a 'Data' line, then rows of time, speed, X, Y, Z)"
+        f"{path}: no line reading 'Data' (or 'Data:') within the first {HEADER_LINE_LIMIT} lines; expected a HUST "
+        "text export (header block, a 'Data' line, then rows of time, speed, X, Y, Z)"
     )
 
 

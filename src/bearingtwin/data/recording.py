@@ -59,6 +59,12 @@ class Recording:
         if self.fault is not None:
             check_fault(self.fault)
 
+    def require_vibration(self) -> None:
+        """Refuse a record whose every sample is the same (a dead sensor, a disconnected channel): it has
+        no vibration to compare or diagnose: every spectrum of it is zero, and any verdict on it would be made up."""
+        if np.ptp(self.signal) == 0:
+            raise BearingTwinError(f"{self.source}: every sample is {self.signal[0]:g}: no vibration recorded")
+
     @property
     def duration(self) -> float:
         """Length in seconds."""

@@ -28,12 +28,16 @@ import numpy as np
 import scipy.fft
 import scipy.signal
 
+from bearingtwin.checks import is_finite_number, positive_number, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.kurtogram import kurtogram
 
 STATE_RATES = {"inner": "bpfi", "ball": "bsf2", "outer": "bpfo"}
 """Fault state -> the repetition rate its impacts leave in the envelope."""
+BANDS = ("fixed", "kurtogram")
+MIN_SEGMENT_SAMPLES = 16
+"""Fewest samples of a Welch segment: a shorter ``segment_s`` would be lengthened to this, not read as asked."""
 
 
 @dataclass
@@ -92,7 +96,7 @@ def squared_envelope_spectrum(signal, fs_hz: float, band_hz: tuple[float, float]
     # A record's length is often a slow FFT size (CWRU 131: 43 x 2847): pad the Hilbert transform's FFT.
     n = signal.shape[-1]
     squared_envelope = np.abs(scipy.signal.hilbert(in_band, N=scipy.fft.next_fast_len(n), axis=-1)[..., :n]) ** 2
-    nperseg = min(signal.shape[-1], max(16, int(round(segment_s * fs_hz))))
+    nperseg = min(signal.shape[-1], max(MIN_SEGMENT_SAMPLES, int(round(segment_s * fs_hz))))
     return scipy.signal.welch(squared_envelope, fs=fs_hz, nperseg=nperseg, detrend="constant", axis=-1)
 
 
@@ -108,13 +112,43 @@ def line_prominence_db(freqs_hz: np.ndarray, power: np.ndarray, line_hz: float, 
     return float(10.0 * np.log10(max(power[in_line].max(), 1e-300) / max(floor, 1e-300)))
 
 
-BANDS = ("fixed", "kurtogram")
+def evidence_settings(settings: dict) -> dict:
+    """The ``evidence`` settings of ``conf/diagnose.yaml`` checked once, before any record is read (a bad
+    value would otherwise fail every record alike): the keyword arguments of :func:`physics_evidence`."""
+    band, edges, tolerance, threshold_db = (settings[key] for key in ("band", "band_nyquist", "tolerance", "threshold_db"))
+    if band not in BANDS:
+        raise BearingTwinError(f"evidence.band={band!r}: choose one of {', '.join(BANDS)}")
+    # The band-pass needs both edges inside (0, Nyquist), in order.
+    if not (isinstance(edges, (list, tuple)) and len(edges) == 2 and all(map(is_finite_number, edges))
+            and 0 < edges[0] < edges[1] < 1):
+        raise BearingTwinError(f"evidence.band_nyquist must be [low, high], fractions of the Nyquist rate with "
+                               f"0 < low < high < 1, got {edges!r}")
+    # A search band half a line wide or wider would reach from half the line to 1.5 times it, over its neighbours.
+    if not (is_finite_number(tolerance) and 0 < tolerance < 0.5):
+        raise BearingTwinError(f"evidence.tolerance must be a relative half width above 0 and below 0.5, got {tolerance!r}")
+    # Prominence is over the local floor: a series below it (a negative threshold) is no evidence of anything.
+    if not (is_finite_number(threshold_db) and threshold_db >= 0):
+        raise BearingTwinError(f"evidence.threshold_db must be a non-negative number of dB, got {threshold_db!r}")
+    return {"band": band, "band_nyquist": [float(edge) for edge in edges],
+            "harmonics": whole_number("evidence.harmonics", settings["harmonics"]),
+            "segment_s": positive_number(settings["segment_s"], "evidence.segment_s", "seconds"),
+            "tolerance": float(tolerance), "threshold_db": float(threshold_db)}
+
+
+def check_segment(segment_s: float, fs_hz: float) -> None:
+    """Refuse a Welch segment of fewer than :data:`MIN_SEGMENT_SAMPLES` at the rate records are read at."""
+    if segment_s * fs_hz < MIN_SEGMENT_SAMPLES:
+        raise BearingTwinError(f"evidence.segment_s={segment_s:g} holds {segment_s * fs_hz:.3g} samples at the model's "
+                               f"{fs_hz:g} Hz; give at least {MIN_SEGMENT_SAMPLES / fs_hz:.3g} s "
+                               f"({MIN_SEGMENT_SAMPLES} samples)")
 
 
 def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: str = "fixed", band_nyquist=(0.25, 0.9),
                      harmonics: int = 3, segment_s: float = 1.0, tolerance: float = 0.01,
                      threshold_db: float = 6.0) -> PhysicsEvidence:
     """The envelope spectrum of one record read at each fault state's defect-frequency harmonics.
+
+    The settings are taken as given: :func:`evidence_settings` checks a user's.
 
     Args:
         signal: 1-D record, any unit.
@@ -130,10 +164,6 @@ def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: s
     """
     if not (np.isfinite(rpm) and rpm > 0):
         raise BearingTwinError(f"rpm must be a positive shaft speed, got {rpm}")
-    if not (isinstance(harmonics, int) and harmonics > 0):
-        raise BearingTwinError(f"evidence.harmonics must be a positive integer, got {harmonics!r}")
-    if band not in BANDS:
-        raise BearingTwinError(f"evidence.band={band!r}: choose one of {', '.join(BANDS)}")
     frequencies = BearingGeometry.from_config(bearing).defect_frequencies(rpm)
     if band == "kurtogram":
         # Above the shaft harmonics and electrical lines, and wide enough to carry the fastest

@@ -60,6 +60,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     """
     raw = read_raw(path)
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm)
+    recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     notes = list(recording.meta["notes"])
     named = recording.meta.get("bearing")
     if bearing is not None and named is not None and bearing != named:

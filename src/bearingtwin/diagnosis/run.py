@@ -26,6 +26,7 @@ from bearingtwin.checks import true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
+from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
@@ -53,13 +54,18 @@ class DiagnosisRun:
 
 def find_records(path: str, labels_path: Path | None) -> list[Path]:
     """The recordings ``path`` names: one file, every readable file of a folder, or a glob."""
+    if not path.strip():  # Path("") is the working directory, which the user did not name
+        raise BearingTwinError("path is empty: give path=<file | folder | glob>")
     candidate = Path(path).expanduser()
+    is_glob = not candidate.exists() and glob.has_magic(path)
     if candidate.is_dir():
         found = recordings_in(candidate)
     elif candidate.is_file():
         return [candidate]
-    elif glob.has_magic(path):
+    elif is_glob:
         found = sorted(Path(p) for p in glob.glob(str(candidate)) if Path(p).is_file())
+        if not found:
+            raise BearingTwinError(f"path={path}: the pattern matches no file")
     else:
         raise BearingTwinError(f"path={path}: no such file or folder")
     labels = {labels_path.resolve()} if labels_path is not None else set()
@@ -67,7 +73,8 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     if not found:
         inside = " (subfolders are not searched: point at one, or use a glob)" if candidate.is_dir() and any(
             child.is_dir() for child in candidate.iterdir()) else ""
-        raise BearingTwinError(f"path={path}: holds no recording ({', '.join(FORMATS)}){inside}")
+        holds = "matches" if is_glob else "holds"  # a glob that matched only the labels table
+        raise BearingTwinError(f"path={path}: {holds} no recording ({', '.join(FORMATS)}){inside}")
     by_stem: dict[str, list[str]] = {}
     for file in found:
         by_stem.setdefault(file.stem, []).append(file.name)
@@ -119,14 +126,16 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     tracking_uri = str(cfg.tracking.uri)
     out = output_folder(cfg.out)
     figures = true_or_false(cfg.figures, "figures")
-    table = labels_path(cfg)
-    labels = read_labels(table)
+    tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
+    settings = evidence_settings(OmegaConf.to_container(cfg.evidence, resolve=True))
     bearing = chosen_bearing(cfg)
-    records = find_records(str(cfg.path), table)
+    table = labels_path(cfg)
+    records = find_records(str(cfg.path), table)  # before the table: an empty path= would have ./labels.csv read
+    labels = read_labels(table)
     model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
     pipeline.check_can_diagnose()
-    settings = OmegaConf.to_container(cfg.evidence, resolve=True)
-    tracked = open_diagnosis_run(cfg, table, bearing) if cfg.tracking.enabled else None
+    check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
+    tracked = open_diagnosis_run(cfg, table, bearing) if tracking else None
     run = DiagnosisRun(out=out)
     try:
         diagnose_records(run, records, cfg, model, pipeline, settings, labels, table, bearing, figures)
@@ -161,6 +170,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                 written.append(plot_diagnosis(result, evidence, pipeline.class_names, folder / "diagnosis.png"))
         except Exception as error:  # one record's failure, expected or not, must not lose the others'
             message = str(error) if isinstance(error, BearingTwinError) else f"{type(error).__name__}: {error}"
+            if not message.startswith(f"{path}: "):  # a reader's message names the file already; name it once
+                message = f"{path}: {message}"
             if table is not None and path.stem not in labels and ("give fs=" in message or "give rpm=" in message):
                 message += f" (or a row in {table}, which has none for it)"  # what a row's rpm and fs would give
             if not isinstance(error, BearingTwinError):

@@ -44,22 +44,22 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     its sampling rate checked against its shaft speed (``bearing``'s defect lines as a second witness)."""
     if OmegaConf.is_missing(measured_cfg, "path"):
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .mat, .wav or .xls)")
+    check_fs = true_or_false(measured_cfg.check_fs, "measured.check_fs")
     raw = read_raw(measured_cfg.path)
     recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=measured_cfg.fs, rpm=measured_cfg.rpm,
                                    fault=measured_cfg.fault, channel_key="measured.channel")
+    recording.require_vibration()  # before the rate check, which a flat record cannot answer
     for name in ("rpm", "fault"):
         if getattr(recording, name) is None:
             raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
     for note in recording.meta.get("notes", []):  # e.g. a nominal speed the twin will run at
         log.warning("%s: %s", measured_cfg.path, note)
-    if measured_cfg.get("check_fs", True):
+    if check_fs:
         # A rate given here or only declared by a data set's convention is refused when the record contradicts
         # it; one the file records itself is kept, the doubt logged.
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
                                defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
                                refuse=recording.meta.get("fs_origin") in ("config", "declared"), channels=raw.channels)
-    if np.ptp(recording.signal) == 0:
-        raise BearingTwinError(f"{measured_cfg.path}: every sample is {recording.signal[0]:g}: no vibration to compare")
     with np.errstate(over="ignore"):
         fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
     if not np.isfinite(fourth_moment):
@@ -201,6 +201,7 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     run id (None when tracking is disabled)."""
     out = output_folder(cfg.out)
     figures = true_or_false(cfg.figures, "figures")
+    tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = load_measurement(cfg.measured, geometry)
     named = measured.meta.get("bearing")  # the bearing a file names (a CWRU fan-end record's SKF 6203)
@@ -215,7 +216,7 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault)
-    tracked = open_twin_run(cfg, measured) if cfg.tracking.enabled else None
+    tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
     about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
              "unit": measured.unit, "bearing": cfg.bearing.get("name"), "reference": cfg.get("reference")}
