@@ -62,7 +62,7 @@ def test_csv_header_time_column_and_channel_by_name_or_index(tmp_path, signal):
 def test_csv_non_numeric_cell_is_named(tmp_path):
     path = tmp_path / "bad.csv"
     path.write_text("a,b\n1,2\n3,abc\n")
-    with pytest.raises(BearingTwinError, match="bad.csv: could not convert string 'abc'"):
+    with pytest.raises(BearingTwinError, match="bad.csv: line 3, column 2: 'abc' is not a number"):
         read_raw(path)
 
 
@@ -193,7 +193,7 @@ def test_csv_as_spreadsheets_and_loggers_write_it(tmp_path, signal):
         assert list(raw.channels) == ["acc"] and raw.fs == FS, name
         np.testing.assert_allclose(raw.channels["acc"], signal, atol=1e-6, err_msg=name)
     (tmp_path / "late.csv").write_text("\n# a note\ntime,acc\n0,1\n\n0.000125,2\n0.00025,x\n")
-    with pytest.raises(BearingTwinError, match=r"late.csv: could not convert string 'x' to float64 on line 7, column 2"):
+    with pytest.raises(BearingTwinError, match=r"late.csv: line 7, column 2: 'x' is not a number"):
         read_raw(tmp_path / "late.csv")
 
 
@@ -210,16 +210,24 @@ def test_csv_without_a_header_is_read_along_its_longer_axis_and_repeated_names_a
     assert list(raw.channels) == ["acc", "acc.1", "temp"] and "more than one column is headed 'acc'" in raw.meta["notes"][0]
     np.testing.assert_allclose(raw.channels["acc"], signal, atol=1e-6)  # the first, left to right
     np.testing.assert_allclose(raw.channels["acc.1"], -signal, atol=1e-6)
+    (tmp_path / "thrice.csv").write_text("acc,acc,acc.1\n" + "".join(f"{v:.6f},{2 * v:.6f},{3 * v:.6f}\n" for v in signal))
+    raw = read_raw(tmp_path / "thrice.csv")
+    assert list(raw.channels) == ["acc", "acc.2", "acc.1"]  # no column lost to a name another has
+    np.testing.assert_allclose(raw.channels["acc.1"], 3 * signal, atol=1e-6)
 
 
-@pytest.mark.parametrize("fs, decimals, rows", [(12000, 5, 24000), (25600, 5, 30000), (48000, 5, 50000), (10240.5, 12, 20000)])
+@pytest.mark.parametrize("fs, decimals, rows", [(12000, 5, 24000), (25600, 5, 30000), (48000, 5, 50000), (10240.5, 12, 20000),
+                                                (12000, 5, 300)])
 def test_a_time_column_rounded_on_export_gives_the_rate_it_was_stamped_at(tmp_path, fs, decimals, rows):
     """Stamps printed to five decimals span 11999.98 samples per second at 12 kHz: the rounding of the span's two
-    ends allows 12000, the rate the logger ran at. A rate that is no whole number of Hz stays as the stamps give it."""
+    ends allows 12000, the rate the logger ran at. A rate that is no whole number of Hz stays as the stamps give it,
+    and so does one whose rounding allows several."""
     t = 3.5 + np.arange(rows) / fs  # a logger's clock need not start at 0
     (tmp_path / "stamped.csv").write_text("time,acc\n" + "".join(f"{a:.{decimals}f},{i % 7}\n" for i, a in enumerate(t)))
     measured = read_raw(tmp_path / "stamped.csv").fs
-    if float(fs).is_integer():
+    if rows == 300:  # 25 ms: the rounding allows 12000 +- 14 Hz, and no one whole number is the rate
+        assert measured == (rows - 1) / (round(t[-1], decimals) - round(t[0], decimals))
+    elif float(fs).is_integer():
         assert measured == fs != (rows - 1) / (round(t[-1], decimals) - round(t[0], decimals))  # not the span's
     else:
         assert measured == pytest.approx(fs, rel=1e-9)
@@ -233,6 +241,11 @@ def test_mat_structs_and_cells_and_the_simulators_sensor_names(tmp_path, signal)
                                               "labels": np.array(["x axis", "y axis"], dtype=object)})
     raw = read_raw(tmp_path / "notes.mat")
     assert list(raw.channels) == ["vib"] and raw.meta == {"info.operator": "bob", "labels": ["x axis", "y axis"]}
+    scipy.io.savemat(tmp_path / "free.mat", {"vib": signal, "info": {"fault": "inner race, 0.007 in", "comment": [],
+                                                                     "fs": FS}})
+    raw = read_raw(tmp_path / "free.mat")  # a field's free text is no bearing state, an empty one nothing to read
+    assert (list(raw.channels), raw.fault, raw.fs) == (["vib"], None, FS)
+    assert raw.meta == {"info.fault": "inner race, 0.007 in", "info.comment": "empty"}
     np.savez(tmp_path / "sim.npz", signal=signal, channels=np.stack([signal, -signal]), channel_names=np.array(["inner_x", "outer_y"]),
              fs=FS, rpm=1797.0, fault="outer")
     np.testing.assert_array_equal(load_recording(tmp_path / "sim.npz", channel="outer_y").signal, -signal)
@@ -278,3 +291,35 @@ def test_a_matlab_7_3_file_is_read_as_the_older_formats_are(tmp_path, signal):
     assert raw.meta == {"info.operator": "bob", "labels": ["x axis", "y axis"]}
     write_mat73(tmp_path / "columns.mat", {"data": np.stack([signal, -signal], axis=1), "fs": FS})
     np.testing.assert_array_equal(read_raw(tmp_path / "columns.mat").channels["data[1]"], -signal)  # MATLAB's N x 2
+
+
+def test_csv_layouts_that_used_to_read_still_do(tmp_path, signal):
+    """numpy.savetxt's header (a comment line), a single column under a name with spaces, text in a cp1252 header."""
+    t = np.arange(signal.size) / FS
+    np.savetxt(tmp_path / "savetxt.csv", np.column_stack([t, signal]), delimiter=",", header="time,acc", fmt="%.9f")
+    raw = read_raw(tmp_path / "savetxt.csv")
+    assert list(raw.channels) == ["acc"] and raw.fs == FS
+    (tmp_path / "one.csv").write_text("Acc (g)\n" + "".join(f"{v:.6f}\n" for v in signal))
+    assert list(read_raw(tmp_path / "one.csv").channels) == ["Acc (g)"]
+    (tmp_path / "excel.csv").write_bytes(("Zeit;a in m/s²\n" + "".join(f"{a:.6f};{b:.6f}\n".replace(".", ",")
+                                                                      for a, b in zip(t, signal))).encode("cp1252"))
+    raw = read_raw(tmp_path / "excel.csv")
+    assert list(raw.channels) == ["Zeit", "a in m/s²"]
+    np.testing.assert_allclose(raw.channels["a in m/s²"], signal, atol=1e-6)
+
+
+@pytest.mark.parametrize("text, refusal", [
+    ("a;b\n1,234;0.5\n2,345;0.7\n", r"its numbers \('0.5' and '1,234'\) use more than one decimal mark"),
+    ("a;b\n1.234;0,5\n987;0,9\n", r"its numbers \('1.234' and '0,5'\) use more than one decimal mark"),
+    ("a\tb\n1,234,5\t0\n", r"its numbers \('1,234,5'\) use more than one decimal mark, or a thousands separator"),
+    ("a;b\n" + "0,5;1,5\n" * 300 + "1.234;0,5\n", r"line 302: '1.234' is written with '.' where the rows above use ','"),
+    ("0.1,0.2,\n0.3,0.4,0.5\n", r"line 2 has 3 columns where the rows above have 2"),
+    ("time,acc,\n0,0.1,5\n0.1,0.2,6\n", r"the header names 2 columns but the rows have 3"),
+    ("a\tb\n1\t2\nhello, world\t3\n", r"line 3, column 1: 'hello, world' is not a number"),
+])
+def test_csv_numbers_that_cannot_be_read_one_way_are_refused_not_misread(tmp_path, text, refusal):
+    """A thousands separator beside a decimal mark would read 1,234 as 1.234 (or 1.234 as 1.234 where the file means
+    1234); a value past a closing separator would be dropped. Each is refused, naming the cell or line."""
+    (tmp_path / "t.csv").write_text(text)
+    with pytest.raises(BearingTwinError, match=refusal):
+        read_raw(tmp_path / "t.csv")

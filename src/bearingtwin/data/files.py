@@ -23,8 +23,7 @@ Channel: when none is asked for, the file's only channel, or the one its format 
 
 from __future__ import annotations
 
-import csv
-import io
+import math
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -32,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bearingtwin.checks import positive_number
+from bearingtwin.checks import is_finite_number, positive_number
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
@@ -246,7 +245,9 @@ def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -
     span_s = float(time_s[-1] - time_s[0])
     fs = (time_s.size - 1) / span_s
     # Either end rounded by half the printed unit; float arithmetic's own error where the stamps carry full precision.
-    if abs(fs - round(fs)) <= fs * (_printed_unit_s(time_s) / span_s + 1e-9):
+    # Only a whole number alone within that is the rate: a short record's rounding may allow several.
+    allowed = fs * (_printed_unit_s(time_s) / span_s + 1e-9)
+    if abs(fs - round(fs)) <= allowed and math.floor(fs + allowed) - math.ceil(fs - allowed) == 0:
         fs = float(round(fs))
     if fs < LOWEST_FS_HZ:
         hint = ": if it counts milliseconds, head it time_ms" if time_column_seconds(column) == 1.0 else ""
@@ -320,7 +321,9 @@ def _split_facts(path: Path, items: dict[str, np.ndarray]) -> tuple[dict, dict]:
     facts, arrays = {}, {}
     for name, value in items.items():
         value = np.asarray(value)
-        if value.dtype.names and value.size == 1:  # a struct (scipy: a record array of one element)
+        if value.size == 0:  # MATLAB's [] or {}: nothing to read (a struct's unset field, a placeholder)
+            facts[name] = "empty"
+        elif value.dtype.names and value.size == 1:  # a struct (scipy: a record array of one element)
             fields = {f"{name}.{field}": value[field].reshape(-1)[0] for field in value.dtype.names}
             more_facts, more_arrays = _split_facts(path, fields)
             facts.update(more_facts)
@@ -344,7 +347,7 @@ _FACTS = {"fs": ("fs", "fs_hz"), "rpm": ("rpm",), "fault": ("fault",), "unit": (
 
 
 def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawRecord:
-    found = {fact: _named_fact(facts, names) for fact, names in _FACTS.items()}
+    found = {fact: _named_fact(facts, names, fact) for fact, names in _FACTS.items()}
     fs = None if found["fs"] is None else positive_number(found["fs"][1], found["fs"][0], "Hz", f"{path}: ")
     rpm = None if found["rpm"] is None else positive_number(found["rpm"][1], found["rpm"][0], "rev/min", f"{path}: ")
     fault = None if found["fault"] is None else found["fault"][1]
@@ -370,14 +373,21 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
     )
 
 
-def _named_fact(facts: dict, names: tuple[str, ...]) -> tuple[str, object] | None:
+def _named_fact(facts: dict, names: tuple[str, ...], fact: str) -> tuple[str, object] | None:
     """The entry (its name, its value) stating a fact: by one of ``names`` in any case, else as the one struct
-    field of that name (``info.fs``)."""
+    field of that name (``info.fs``) whose value can state it (a field ``info.fault`` may hold free text)."""
     for key, value in facts.items():
         if key.lower() in names:
             return key, value
-    fields = [(key, value) for key, value in facts.items() if key.rsplit(".", 1)[-1].lower() in names]
+    fields = [(key, value) for key, value in facts.items()
+              if key.rsplit(".", 1)[-1].lower() in names and _can_state(fact, value)]
     return fields[0] if len(fields) == 1 else None
+
+
+def _can_state(fact: str, value) -> bool:
+    if fact in ("fs", "rpm"):
+        return is_finite_number(value) and value > 0
+    return value in FAULTS if fact == "fault" else isinstance(value, str)
 
 
 def _read_npz(path: Path) -> RawRecord:
@@ -419,6 +429,8 @@ def _load_mat_hdf5(path: Path) -> dict:
                             dtype=object)
         if item.attrs.get("MATLAB_empty", 0):
             return np.zeros((0,))
+        if data.dtype.names == ("real", "imag"):  # MATLAB's complex numbers, which no channel may be
+            data = data["real"] + 1j * data["imag"]
         return np.asarray(data).T.astype(bool) if kind == "logical" else np.asarray(data).T
 
     variables = {}
@@ -464,85 +476,16 @@ def _read_wav(path: Path) -> RawRecord:
 
 
 def _read_csv(path: Path) -> RawRecord:
-    """Columns of numbers, optionally under one header row of names.
+    """Columns of numbers (:func:`~bearingtwin.data.csv_file.read_csv_table`), optionally under a header row of
+    names. Without a header the longer axis is time, as in the other formats (one row of numbers is one channel)."""
+    from bearingtwin.data.csv_file import read_csv_table
 
-    What spreadsheets and data loggers write: columns separated by commas, semicolons, tabs or
-    spaces; with any but commas a decimal comma (``0,0324;-1,5``); quoted cells; a byte-order mark;
-    blank or ``#`` comment lines before the header; a trailing separator. Without a header the
-    longer axis is time, as in the other formats (one row of numbers is one channel); repeated
-    column names are told apart as ``acc``, ``acc.1``.
-    """
-    try:
-        lines = path.read_text(encoding="utf-8-sig").splitlines()
-    except UnicodeDecodeError:
-        raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)") from None
-    first = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
-    if first is None:
-        raise BearingTwinError(f"{path}: the file holds no rows")
-    delimiter = next((d for d in ("\t", ";", ",") if d in lines[first]),
-                     None if len(lines[first].split()) > 1 else ",")  # None: columns apart by spaces
-    cells = (lines[first].split() if delimiter is None else
-             [cell.strip() for cell in next(csv.reader([lines[first]], delimiter=delimiter))])
-    trailing = len(cells) > 1 and cells[-1] == ""  # a separator closing every row, as spreadsheets may write
-    cells = cells[:-1] if trailing else cells
-    has_header = not all(_is_number(cell.replace(",", ".") if delimiter != "," else cell) for cell in cells)
-    if delimiter == "," and not has_header and len(cells) > 1 and all(re.fullmatch(r"-?\d+", c) for c in cells) and any(
-            re.fullmatch(r"0\d+", cell) for cell in cells[1:]):  # "0,0324": a decimal comma split one number in two
-        raise BearingTwinError(f"{path}: its first row {lines[first].strip()!r} reads as numbers written with decimal "
-                               "commas; save the file with decimal points, or separate the columns with semicolons")
-    body_start = first + 1 if has_header else first
-    body = "\n".join(lines[body_start:])
-    if delimiter != ",":
-        body = body.replace(",", ".")  # a decimal comma: the columns are separated otherwise
-    try:
-        values = np.loadtxt(io.StringIO(body), delimiter=delimiter, quotechar='"' if delimiter else None, ndmin=2, dtype=np.float64,
-                            usecols=range(len(cells)) if trailing else None)
-    except ValueError as error:
-        raise BearingTwinError(f"{path}: {_on_file_line(str(error), lines, body_start)}") from None
-    if values.shape[0] == 0:
-        raise BearingTwinError(f"{path}: the file holds a header but no data rows")
-    if not has_header:
-        return RawRecord(str(path), "csv", _float_channels(path, {"": values}))
-    if values.shape[1] != len(cells):
-        raise BearingTwinError(f"{path}: the header names {len(cells)} columns but the rows have {values.shape[1]}")
-    names, notes = _distinct_names(cells)
-    columns = dict(zip(names, values.T))
-    time_name = next((name for name in names if time_column_seconds(name) is not None), None)
+    table = read_csv_table(path)
+    if table.names is None:
+        return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}))
+    columns = dict(zip(table.names, table.values.T))
+    time_name = next((name for name in table.names if time_column_seconds(name) is not None), None)
     fs = (fs_from_time_column(time_column_seconds(time_name) * columns.pop(time_name), str(path), time_name)
           if time_name is not None else None)
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "",
-                     meta={"notes": notes} if notes else {})
-
-
-def _distinct_names(names: list[str]) -> tuple[list[str], list[str]]:
-    """Column names made distinct as pandas makes them (``acc``, ``acc.1``), and a note for each repeated one."""
-    seen: dict[str, int] = {}
-    distinct, notes = [], []
-    for name in names:
-        count = seen.get(name, 0)
-        seen[name] = count + 1
-        distinct.append(name if count == 0 else f"{name}.{count}")
-        if count == 1:
-            notes.append(f"more than one column is headed {name!r}: read as {name!r}, {name + '.1'!r}, ... from left to right")
-    return distinct, notes
-
-
-def _on_file_line(message: str, lines: list[str], body_start: int) -> str:
-    """numpy's "at row R, column C" (R counting data rows from 0) as the file's own line number."""
-    found = re.search(r"at row (\d+), column (\d+)", message)
-    if found is None:
-        return message
-    data_lines = [i for i in range(body_start, len(lines))
-                  if lines[i].strip() and not lines[i].lstrip().startswith("#")]
-    row = int(found[1])
-    if row >= len(data_lines):
-        return message
-    return message[:found.start()] + f"on line {data_lines[row] + 1}, column {found[2]}" + message[found.end():]
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+                     meta={"notes": table.notes} if table.notes else {})

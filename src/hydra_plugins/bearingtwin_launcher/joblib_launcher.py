@@ -57,13 +57,15 @@ class SurvivingJoblibLauncher(JoblibLauncher):
             left = [idx for idx in range(len(job_overrides)) if idx not in returns]
             log.warning("a worker process died (%s): the runs it stopped are marked KILLED, and the %d job(s) "
                         "that had not returned run again, each in a process of its own", _exit_codes(error), len(left))
-            _mark_dead_workers_runs(self.config)
+            store = _SweepStore(self.config)
+            store.mark_dead_workers_runs()
             returns.update(self._run_each_alone([(idx, initial_job_idx + idx, job_overrides[idx]) for idx in left],
-                                                arguments, _pool_size(settings.get("n_jobs"))))
+                                                arguments, _pool_size(settings.get("n_jobs")), store))
+            store.mark_dead_workers_runs()  # a worker the pool stopped may have outlived the first look
         return [returns[idx] for idx in range(len(job_overrides))]
 
-    def _run_each_alone(self, jobs: list[tuple[int, int, Sequence[str]]], arguments: tuple,
-                        n_jobs: int) -> dict[int, JobReturn]:
+    def _run_each_alone(self, jobs: list[tuple[int, int, Sequence[str]]], arguments: tuple, n_jobs: int,
+                        store: "_SweepStore") -> dict[int, JobReturn]:
         """Each job (its place in the batch, its number, its overrides) in a process of its own, ``n_jobs`` at
         a time. A job whose process dies has its run marked FAILED; an interrupt stops every process at once."""
         from concurrent.futures import FIRST_COMPLETED, wait
@@ -82,25 +84,27 @@ class SurvivingJoblibLauncher(JoblibLauncher):
                 for future in done:
                     idx, job_num, overrides, executor = running.pop(future)
                     executor.shutdown(wait=True)
-                    returns[idx] = self._job_return(future, job_num, overrides)
+                    returns[idx] = _job_return(future, job_num, overrides, store)
         finally:  # an interrupt: the jobs' runs are then marked KILLED by the sweep's process (stop_cleanly)
             for *_, executor in running.values():
                 executor.shutdown(wait=False, kill_workers=True)
         return returns
 
-    def _job_return(self, future, job_num: int, overrides: Sequence[str]) -> JobReturn:
-        from joblib.externals.loky.process_executor import TerminatedWorkerError
 
-        try:
-            return future.result()
-        except TerminatedWorkerError as error:
-            reason = (f"its process was killed ({_exit_codes(error)}; the OS does so when memory runs out), "
-                      "running alone after a worker of the shared pool had died")
-            log.error("job %d: %s", job_num, reason)
-            _mark_job_failed(self.config, job_num, reason)
-            # Completed for Hydra, as a job that fails inside its task returns: the sweep goes on, and its
-            # summary reads the job's outcome from MLflow.
-            return JobReturn(overrides=list(overrides), status=JobStatus.COMPLETED, _return_value=None)
+def _job_return(future, job_num: int, overrides: Sequence[str], store: "_SweepStore") -> JobReturn:
+    """A job's return from its own process; if that process died, a return like that of a job failing in its task."""
+    from joblib.externals.loky.process_executor import TerminatedWorkerError
+
+    try:
+        return future.result()
+    except TerminatedWorkerError as error:
+        reason = (f"its process was killed ({_exit_codes(error)}; the OS does so when memory runs out), "
+                  "running alone after a worker of the shared pool had died")
+        log.error("job %d: %s", job_num, reason)
+        store.mark_job_failed(job_num, reason)
+        # Completed for Hydra, as a job that fails inside its task returns: the sweep goes on, and its
+        # summary reads the job's outcome from MLflow.
+        return JobReturn(overrides=list(overrides), status=JobStatus.COMPLETED, _return_value=None)
 
 
 def _numbered(idx: int, job_num: int, overrides: Sequence[str], *arguments) -> tuple[int, JobReturn]:
@@ -120,38 +124,48 @@ def _exit_codes(error: Exception) -> str:
     return f"exit code {found[1]}" if found else str(error).splitlines()[0]
 
 
-def _sweep_runs(config):
-    """The store's client and the sweep's parent run, or (None, None) when there is none to mark."""
-    from bearingtwin.tracking.mlflow_logging import (find_sweep_parent, open_store, sweep_folder, sweep_job_configs,
-                                                     sweep_tracking)
+class _SweepStore:
+    """The sweep's MLflow store and parent run, found once when first needed. Marking runs there is bookkeeping:
+    if the store fails it, a warning says so and the sweep goes on (its summary reads the store again)."""
 
-    if "tracking" not in config:
-        return None, None
-    client, _ = open_store(sweep_tracking(config, list(sweep_job_configs(config))))
-    return client, find_sweep_parent(client, sweep_folder(config.hydra))
+    def __init__(self, config):
+        self.config = config
+        self._found = None
 
+    def _client_and_parent(self):
+        from bearingtwin.tracking.mlflow_logging import (find_sweep_parent, open_store, sweep_folder,
+                                                         sweep_job_configs, sweep_tracking)
 
-def _mark_dead_workers_runs(config) -> None:
-    """Runs left RUNNING by the workers the pool lost, KILLED: their jobs run again, in new runs."""
-    from bearingtwin.tracking.lifecycle import reap_dead_runs
-    from bearingtwin.tracking.mlflow_logging import all_experiment_ids
+        if self._found is None:
+            client, _ = open_store(sweep_tracking(self.config, list(sweep_job_configs(self.config))))
+            self._found = client, find_sweep_parent(client, sweep_folder(self.config.hydra))
+        return self._found
 
-    client, _ = _sweep_runs(config)
-    if client is not None:
-        for experiment_id in all_experiment_ids(client):
-            reap_dead_runs(client, experiment_id)
+    def mark_dead_workers_runs(self) -> None:
+        """Runs left RUNNING by the workers the pool lost, KILLED: their jobs run again, in new runs."""
+        from bearingtwin.tracking.lifecycle import reap_dead_runs
+        from bearingtwin.tracking.mlflow_logging import all_experiment_ids
 
+        try:
+            client, _ = self._client_and_parent()
+            for experiment_id in all_experiment_ids(client):
+                reap_dead_runs(client, experiment_id)
+        except Exception as error:  # the store's bookkeeping, not the jobs
+            log.warning("could not mark the lost workers' runs KILLED: %s: %s", type(error).__name__, error)
 
-def _mark_job_failed(config, job_num: int, reason: str) -> None:
-    """The job's run (the sweep's child of its job number), FAILED with ``reason``; none if it had not begun one."""
-    from bearingtwin.tracking.mlflow_logging import all_experiment_ids, find_runs
+    def mark_job_failed(self, job_num: int, reason: str) -> None:
+        """The job's run (the sweep's child of its job number), FAILED with ``reason``; none if it had begun none."""
+        from bearingtwin.tracking.mlflow_logging import all_experiment_ids, find_runs
 
-    client, parent = _sweep_runs(config)
-    if parent is None:
-        return
-    children = find_runs(client, all_experiment_ids(client),
-                         f"tags.`mlflow.parentRunId` = '{parent.info.run_id}' and tags.sweep_job = '{job_num}'")
-    for run in children[:1]:  # the newest: the run of this second attempt
-        if run.info.status in ("RUNNING", "KILLED"):
-            client.set_tag(run.info.run_id, "error", reason)
-            client.set_terminated(run.info.run_id, "FAILED")
+        try:
+            client, parent = self._client_and_parent()
+            if parent is None:
+                return
+            children = find_runs(client, all_experiment_ids(client),
+                                 f"tags.`mlflow.parentRunId` = '{parent.info.run_id}' and tags.sweep_job = '{job_num}'")
+            for run in children[:1]:  # the newest: the run of this second attempt
+                if run.info.status in ("RUNNING", "KILLED"):
+                    client.set_tag(run.info.run_id, "error", reason)
+                    client.set_terminated(run.info.run_id, "FAILED")
+        except Exception as error:
+            log.warning("could not mark job %d's run FAILED: %s: %s", job_num, type(error).__name__, error)

@@ -1,0 +1,220 @@
+"""A table of numbers from a text file, as spreadsheets and data loggers write it.
+
+numpy's ``loadtxt`` reads the numbers, streaming; what it cannot decide alone is decided here,
+once per file, from its first rows: the encoding, the column separator (comma, semicolon, tab
+or spaces), the decimal mark, whether the first row (or the comment line ``numpy.savetxt``
+writes above the data) names the columns, and whether every row ends with a separator. pandas'
+``read_csv`` sniffs too, but guesses where this module refuses: a number whose decimal mark the
+file contradicts (``1,234`` beside ``0.5``: a thousands separator) is refused naming its line,
+never read a thousand times too small.
+"""
+
+from __future__ import annotations
+
+import codecs
+import csv
+import itertools
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from bearingtwin.errors import BearingTwinError
+
+SAMPLE_LINES = 200
+"""Lines read to decide the layout: enough for a header, comment lines and a sample of the numbers."""
+_NUMBER_LIKE = re.compile(r"[+-]?(?:\d[\d.,]*|[.,]\d+)(?:[eE][+-]?\d+)?")
+"""A cell that is a number under some decimal mark and grouping: the cells that tell the mark."""
+
+
+@dataclass
+class CsvTable:
+    """The numbers of a file (rows x columns), the names its header gives (None without one), and notes."""
+
+    values: np.ndarray
+    names: list[str] | None
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    encoding: str
+    delimiter: str | None  # None: columns apart by spaces
+    decimal: str
+    body_start: int  # index of the first line after the header (of the first line, without one)
+    trailing: bool  # every row ends with the separator
+
+
+class _BadLine(Exception):
+    def __init__(self, number: int, message: str):
+        super().__init__(f"line {number}: {message}")
+
+
+def read_csv_table(path: Path) -> CsvTable:
+    """The table in ``path``; a file that is no such table is refused naming the file and, where one is
+    to blame, its line."""
+    encoding = _encoding(path)
+    try:
+        with open(path, encoding=encoding) as handle:
+            head = list(itertools.islice(handle, SAMPLE_LINES))
+    except UnicodeDecodeError:
+        raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)") from None
+    layout, names, notes = _layout(path, head, encoding)
+    try:
+        with open(path, encoding=encoding) as handle:
+            values = np.loadtxt(_body_lines(handle, layout), delimiter=layout.delimiter, ndmin=2, dtype=np.float64,
+                                quotechar='"' if layout.delimiter else None)
+    except _BadLine as error:
+        raise BearingTwinError(f"{path}: {error}") from None
+    except UnicodeDecodeError:
+        raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)") from None
+    except ValueError as error:
+        raise BearingTwinError(f"{path}: {_on_its_line(path, str(error), layout)}") from None
+    if values.shape[0] == 0:
+        raise BearingTwinError(f"{path}: the file holds a header but no data rows")
+    if names is not None and values.shape[1] != len(names):
+        raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}")
+    return CsvTable(values, names, notes)
+
+
+def _encoding(path: Path) -> str:
+    """UTF-8 (a byte-order mark allowed), else Windows' western code page (a German Excel's ``m/s²``)."""
+    with open(path, "rb") as handle:
+        start = handle.read(65536)
+    if b"\x00" in start:
+        raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)")
+    try:
+        codecs.getincrementaldecoder("utf-8")().decode(start, final=False)  # a character cut at the end is no error
+    except UnicodeDecodeError:
+        return "cp1252"
+    return "utf-8-sig"
+
+
+def _content(lines: list[str]) -> list[int]:
+    """Indices of the lines that hold something: not blank, not a ``#`` comment."""
+    return [i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")]
+
+
+def _delimiter(line: str) -> str | None:
+    """The separator of a data row: a tab, a semicolon or a comma if it has one, else spaces between several
+    numbers (None), else it is the only column (a comma, which it lacks)."""
+    return next((d for d in ("\t", ";", ",") if d in line), None if len(line.split()) > 1 else ",")
+
+
+def _cells(line: str, delimiter: str | None) -> list[str]:
+    if delimiter is None:
+        return line.split()
+    return [cell.strip() for cell in next(csv.reader([line.strip("\r\n")], delimiter=delimiter))]
+
+
+def _is_number(text: str, decimal: str = ".") -> bool:
+    try:
+        float(text.replace(",", ".") if decimal == "," else text)
+    except ValueError:
+        return False
+    return True
+
+
+def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[str] | None, list[str]]:
+    content = _content(head)
+    if not content:
+        raise BearingTwinError(f"{path}: the file holds no rows")
+    first = content[0]
+    # The separator as a data row shows it: a header's names may hold spaces ("Acc (g)").
+    delimiter = _delimiter(head[content[1]] if len(content) > 1 else head[first])
+    cells = _cells(head[first], delimiter)
+    trailing = delimiter is not None and len(cells) > 1 and cells[-1] == ""
+    cells = cells[:-1] if trailing else cells
+    decimal = _decimal_mark(path, [cell for i in content for cell in _cells(head[i], delimiter)], delimiter)
+    names, notes, body_start = None, [], first
+    if not all(_is_number(cell, decimal) for cell in cells):
+        names, body_start = cells, first + 1
+    elif first > 0 and head[first - 1].lstrip().startswith("#"):  # numpy.savetxt writes its header so: "# time,acc"
+        above = _cells(head[first - 1].lstrip()[1:], delimiter)
+        above = above[:-1] if trailing and above and above[-1] == "" else above
+        if len(above) == len(cells) and not all(_is_number(cell, decimal) for cell in above):
+            names = above
+            notes.append("column names read from the comment line above the numbers, as numpy.savetxt writes them")
+    if names is None and delimiter == "," and len(cells) > 1 and all(re.fullmatch(r"-?\d+", c) for c in cells) and any(
+            re.fullmatch(r"0\d+", cell) for cell in cells[1:]):  # "0,0324": a decimal comma split one number in two
+        raise BearingTwinError(f"{path}: its first row {head[first].strip()!r} reads as numbers written with decimal "
+                               "commas; save the file with decimal points, or separate the columns with semicolons")
+    if names is not None:
+        names, repeated = _distinct(names)
+        notes += repeated
+    layout = _Layout(encoding, delimiter, decimal, body_start, trailing)
+    return layout, names, notes
+
+
+def _decimal_mark(path: Path, cells: list[str], delimiter: str | None) -> str:
+    """``,`` when the file's numbers are written with decimal commas, else ``.``; a file whose numbers use both
+    marks (one of them a thousands separator) is refused: which is which cannot be told."""
+    if delimiter == ",":
+        return "."
+    numbers = [cell for cell in cells if _NUMBER_LIKE.fullmatch(cell)]
+    with_point = next((cell for cell in numbers if "." in cell), None)
+    with_comma = next((cell for cell in numbers if "," in cell), None)
+    grouped = next((cell for cell in numbers if cell.count(",") > 1 or cell.count(".") > 1), None)
+    if grouped is not None or (with_point is not None and with_comma is not None):
+        shown = grouped if grouped is not None else f"{with_point}' and '{with_comma}"
+        raise BearingTwinError(f"{path}: its numbers ('{shown}') use more than one decimal mark, or a thousands "
+                               "separator; save it with one decimal mark and no thousands separators")
+    return "," if with_comma is not None else "."
+
+
+def _body_lines(handle, layout: _Layout) -> Iterator[str]:
+    """The lines after the header, each as loadtxt reads it: a closing separator dropped, a decimal comma made
+    a point. A line whose numbers contradict the decimal mark the first rows showed is refused."""
+    foreign = "." if layout.decimal == "," else ","
+    for number, line in enumerate(itertools.islice(handle, layout.body_start, None), start=layout.body_start + 1):
+        if layout.trailing:
+            line = line.rstrip().removesuffix(layout.delimiter)
+        if layout.delimiter != "," and foreign in line and not line.lstrip().startswith("#"):  # rare: then cell by cell
+            cell = next((c for c in _cells(line, layout.delimiter) if foreign in c and _NUMBER_LIKE.fullmatch(c)), None)
+            if cell is not None:
+                raise _BadLine(number, f"{cell!r} is written with '{foreign}' where the rows above use "
+                                       f"'{layout.decimal}' as the decimal mark (a thousands separator?)")
+        yield line.replace(",", ".") if layout.decimal == "," else line
+
+
+def _on_its_line(path: Path, message: str, layout: _Layout) -> str:
+    """numpy's message with the file's own line number and cell for its data row (counted without blank and
+    comment lines; from 0 in a conversion error, from 1 where the column count changes)."""
+    converting = re.search(r"could not convert string .* at row (\d+), column (\d+)", message)
+    changing = re.search(r"the number of columns changed from (\d+) to (\d+) at row (\d+)", message)
+    if converting is None and changing is None:
+        return message
+    row = int(converting[1]) if converting else int(changing[3]) - 1
+    with open(path, encoding=layout.encoding) as handle:
+        data_lines = ((number, line) for number, line in enumerate(handle, start=1)
+                      if number > layout.body_start and line.strip() and not line.lstrip().startswith("#"))
+        found = next(itertools.islice(data_lines, row, None), None)
+    if found is None:
+        return message
+    number, line = found
+    if changing:
+        return f"line {number} has {changing[2]} columns where the rows above have {changing[1]}"
+    column = int(converting[2])
+    cells = _cells(line, layout.delimiter)
+    cell = cells[column - 1] if column <= len(cells) else ""
+    return f"line {number}, column {column}: {cell!r} is not a number"
+
+
+def _distinct(names: list[str]) -> tuple[list[str], list[str]]:
+    """Column names made distinct as pandas makes them (``acc``, ``acc.1``, skipping a name another column
+    has), and a note for each repeated one."""
+    used: set[str] = set()
+    distinct = []
+    for name in names:
+        candidate, count = name, 0
+        while candidate in used or (count and candidate in names):
+            count += 1
+            candidate = f"{name}.{count}"
+        used.add(candidate)
+        distinct.append(candidate)
+    notes = [f"more than one column is headed {name!r}: read as "
+             f"{', '.join(repr(d) for d, n in zip(distinct, names) if n == name)}, from left to right"
+             for name in dict.fromkeys(names) if names.count(name) > 1]
+    return distinct, notes
