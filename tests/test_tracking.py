@@ -324,3 +324,21 @@ def test_a_server_that_answers_at_all_is_left_to_mlflow():
         check_store(f"http://127.0.0.1:{server.server_port}/mlflow")
     finally:
         server.shutdown()
+
+
+def test_a_run_on_files_is_its_config_and_its_files(tmp_path):
+    """Recordings added to a folder, a labels table corrected: another run, though the config reads the same
+    (a resumed sweep skipped such a job and reported the earlier data's accuracy). Simulated data is its config."""
+    (tmp_path / "a.npy").write_bytes(b"one")
+    (tmp_path / "labels.csv").write_text("record,state\na.npy,normal\n")
+    files = OmegaConf.create({"seed": 0, "data": {"source": "files", "root": str(tmp_path), "labels": None}})
+    before = config_hash(files)
+    assert config_hash(files) == before
+    (tmp_path / "b.npy").write_bytes(b"two")
+    added = config_hash(files)
+    (tmp_path / "labels.csv").write_text("record,state\na.npy,outer\n")
+    assert len({before, added, config_hash(files)}) == 3
+    simulated = OmegaConf.create({"seed": 0, "data": {"source": "simulated", "root": str(tmp_path)}})
+    unchanged = config_hash(simulated)
+    (tmp_path / "b.npy").write_bytes(b"three")
+    assert config_hash(simulated) == unchanged

@@ -9,10 +9,13 @@ simulates and measures together selects the matching group itself (``bearing=cwr
 
 from __future__ import annotations
 
+import functools
+import hashlib
 from pathlib import Path
 from typing import Iterable
 
 from omegaconf import DictConfig
+from omegaconf.errors import MissingMandatoryValue
 
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
@@ -85,6 +88,53 @@ def _twin_to_real_files(cfg: DictConfig) -> list[Path]:
 # starts. The HUST names are fixed, so absent files are listed; CWRU records are found by
 # pattern, so their finders raise naming the folder or class with no record.
 REQUIRED_FILES = {"hust": _hust_files, "cwru": _cwru_files, "twin_to_real": _twin_to_real_files}
+
+
+def _files_files(cfg: DictConfig) -> list[Path]:
+    """What a ``data=files`` run may read: every recording in ``data.root`` and the labels table (the rows'
+    own checks come when the data is built)."""
+    from bearingtwin.data.real import DEFAULT_LABELS, recordings_in
+
+    root = Path(str(cfg.data.get("root"))).expanduser()
+    if not root.is_dir():
+        return []
+    table = Path(str(cfg.data.get("labels") or root / DEFAULT_LABELS)).expanduser()
+    return sorted(set(recordings_in(root)) | ({table} if table.is_file() else set()))
+
+
+INPUT_FILES = {**REQUIRED_FILES, "files": _files_files}
+"""Every data source that reads files, and the files a config's run reads (:func:`input_digest`)."""
+
+
+def input_digest(cfg: DictConfig) -> str:
+    """Hash of the names and contents of the files a config's data is read from; empty for simulated data.
+
+    A run is what its config *and* its files make it: new recordings in a folder, a labels table
+    corrected, a record written over are another run, though the config reads the same."""
+    try:
+        paths = INPUT_FILES.get(cfg.data.get("source"), lambda _: [])(cfg)
+    except (BearingTwinError, MissingMandatoryValue):  # no data to be found: the run fails on it, saying why
+        return ""
+    present = [path for path in paths if path.is_file()]
+    if not present:
+        return ""
+    digest = hashlib.sha256()
+    for path in sorted(present, key=lambda p: p.name):
+        digest.update(f"{path.name}\0{file_digest(path)}\0".encode())
+    return digest.hexdigest()
+
+
+@functools.lru_cache(maxsize=4096)
+def _cached_digest(path: Path, size: int, modified_ns: int) -> str:
+    with open(path, "rb") as handle:
+        return hashlib.file_digest(handle, "sha256").hexdigest()
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file's contents, computed once per process for a file unchanged since (a sweep's jobs share
+    their files)."""
+    stat = Path(path).stat()
+    return _cached_digest(Path(path).resolve(), stat.st_size, stat.st_mtime_ns)
 
 
 def require_files(cfgs: Iterable[DictConfig]) -> None:

@@ -22,8 +22,8 @@ and is named ``<features>+<classifier> <data source> [<vmd_params> [<optimizer>]
 seed=<n>`` (:func:`run_name`), so runs of different configurations read apart.
 
 Resuming: every run is tagged ``config_hash`` (the resolved config without paths,
-tracking, Hydra and display settings, :data:`UNHASHED_KEYS`); a sweep job whose config already
-has a FINISHED run is skipped, so re-launching an interrupted sweep only runs what is missing.
+tracking, Hydra and display settings, :data:`UNHASHED_KEYS`, and the contents of the files its
+data is read from); a sweep job whose config and files already have a FINISHED run is skipped, so re-launching an interrupted sweep only runs what is missing.
 A single run runs again, as MLflow users expect (``tracking.skip_finished=true|false`` decides
 for both).
 
@@ -247,8 +247,14 @@ def loggable_config(cfg: DictConfig) -> dict:
 
 
 def config_hash(cfg: DictConfig) -> str:
-    """Hash of what a run computes: the resolved config without the :data:`UNHASHED_KEYS` (dotted paths)."""
+    """Hash of what a run computes: the resolved config without the :data:`UNHASHED_KEYS` (dotted paths), and the
+    contents of the files its data is read from (:func:`~bearingtwin.data.build.input_digest`)."""
+    from bearingtwin.data.build import input_digest
+
     container = loggable_config(cfg)
+    files = input_digest(cfg)
+    if files:  # simulated data is its config alone: its runs' hashes stay what they were
+        container["input_files"] = files
     for key in UNHASHED_KEYS:
         *parents, leaf = key.split(".")
         node = container
