@@ -169,19 +169,22 @@ def test_hust_report_sets_the_papers_figure_beside_each_speed(hust_store, capsys
     assert {row[0] for row in table_rows((base / "hust65.md").read_text(), "")} & {"60 Hz", "70 Hz"} == set()
 
 
-def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion):
-    """A FINISHED cwru training run carrying what train_tracked logs that the report reads."""
+def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion, dataset_key="records"):
+    """A FINISHED cwru training run carrying what train_tracked logs that the report reads (a class with no test
+    windows has no recall)."""
     confusion = np.asarray(confusion)
     labels = [FAULTS.index(name) for name in classes]
     full = np.zeros((4, 4), dtype=int)
     full[np.ix_(labels, labels)] = confusion
-    run = client.create_run(experiment_id, tags={"bt.kind": "train", "method": paper.PROPOSED, "seed": str(seed)})
+    run = client.create_run(experiment_id, tags={"bt.kind": "train", "method": paper.PROPOSED, "seed": str(seed),
+                                                 "dataset_key": dataset_key})
     run_id = run.info.run_id
     for key, value in {"data.source": "cwru", "data.load": str(load), "data.split": split, "data.classes": str(list(classes))}.items():
         client.log_param(run_id, key, value)
     client.log_metric(run_id, "accuracy", np.trace(full) / full.sum())
     for index, name in enumerate(FAULTS):
-        client.log_metric(run_id, f"recall_{name}", full[index, index] / full[index].sum() if full[index].sum() else 0.0)
+        if full[index].sum():
+            client.log_metric(run_id, f"recall_{name}", full[index, index] / full[index].sum())
     client.log_text(run_id, csv_table(["true \\ predicted", *FAULTS], [[n, *row] for n, row in zip(FAULTS, full)]), "confusion_matrix.csv")
     client.set_terminated(run_id, "FINISHED")
 
@@ -215,6 +218,26 @@ def test_cwru_report_measures_leakage_as_random_minus_block(tmp_path, capsys):
     assert leak[4] == f"{100 - block_accuracies.mean():+.2f}"
     assert not any(r[0] == "0 hp" and len(r) == 5 for r in rows)  # 0 hp has no block runs
     assert markdown in capsys.readouterr().out
+
+
+def test_runs_on_other_classes_or_recordings_are_other_rows_not_seeds(tmp_path):
+    """Averaged as seeds, a three-class and a four-class run made one 'mean', and a class one of them never
+    tested (no recall) ended the report in a KeyError."""
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    client, experiment_id = open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin", "artifact_root": None}))
+    untested_ball = np.eye(4, dtype=int) * 10
+    untested_ball[2, 2] = 0  # its ball records gave no test window
+    log_cwru_run(client, experiment_id, 1, list(FAULTS), "block", 0, untested_ball)
+    log_cwru_run(client, experiment_id, 1, ["normal", "inner", "outer"], "block", 1, np.eye(3, dtype=int) * 10)
+    log_cwru_run(client, experiment_id, 1, list(FAULTS), "block", 2, np.eye(4, dtype=int) * 10, dataset_key="other")
+    out = tmp_path / "cwru.md"
+    assert report_main(["cwru", f"uri={uri}", f"out={out}"]) == 0
+    rows = table_rows(generated_text(out, GENERATED), "1 hp")
+    assert sorted((row[3], row[5]) for row in rows) == [
+        ("normal inner ball outer (dataset other)", "1"), ("normal inner ball outer (dataset records)", "1"),
+        ("normal inner outer (dataset records)", "1")]
+    untested = next(row for row in rows if row[3] == "normal inner ball outer (dataset records)")
+    assert "ball —" in untested[6]
 
 
 def test_reports_without_runs_say_what_is_missing(tmp_path, capsys):

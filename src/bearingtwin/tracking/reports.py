@@ -227,16 +227,29 @@ def _data_classes(run) -> list[str]:
     return [fault for fault in FAULTS if f"data.classes.{fault}" in params]
 
 
-def _confusion(source: ReportInput, run) -> np.ndarray:
+def _confusion(source: ReportInput, run) -> tuple[tuple[str, ...], np.ndarray]:
+    """A run's confusion matrix and the class names of its rows and columns."""
     with tempfile.TemporaryDirectory() as folder:
         path = source.client.download_artifacts(run.info.run_id, "confusion_matrix.csv", folder)
-        rows = Path(path).read_text().splitlines()[1:]
-    return np.array([row.split(",")[1:] for row in rows], dtype=int)
+        lines = Path(path).read_text().splitlines()
+    return tuple(lines[0].split(",")[1:]), np.array([row.split(",")[1:] for row in lines[1:]], dtype=int)
 
 
-def _top_confusions(confusion: np.ndarray, limit: int = 3) -> str:
+def _summed_confusion(source: ReportInput, runs: list) -> tuple[tuple[str, ...], np.ndarray]:
+    """The runs' confusion matrices summed (runs of one group share their classes)."""
+    (names, first), *others = [_confusion(source, run) for run in runs]
+    return names, first + sum((matrix for _, matrix in others), np.zeros_like(first))
+
+
+def _recall(runs: list, name: str) -> str:
+    """Mean ± std of a class's recall over the runs that scored it (a class with no test windows has none)."""
+    values = [run.data.metrics[f"recall_{name}"] for run in runs if f"recall_{name}" in run.data.metrics]
+    return _pm(values, 100.0, 1) if values else "—"
+
+
+def _top_confusions(confusion: np.ndarray, names=FAULTS, limit: int = 3) -> str:
     """The largest off-diagonal counts as ``true→predicted n``, largest first."""
-    off = [(int(confusion[i, j]), FAULTS[i], FAULTS[j]) for i, j in np.ndindex(*confusion.shape) if i != j and confusion[i, j]]
+    off = [(int(confusion[i, j]), names[i], names[j]) for i, j in np.ndindex(*confusion.shape) if i != j and confusion[i, j]]
     off.sort(key=lambda item: -item[0])
     return ", ".join(f"{true}→{predicted} {count}" for count, true, predicted in off[:limit]) or "none"
 
@@ -260,8 +273,11 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
     source = _on_data_source(source, data_source)
     wanted = f"params.`data.{condition}` = '{source.settings[condition]}'" if condition in source.settings else ""
 
-    def group(run) -> tuple[str, str]:
-        return run.data.params.get(f"data.{condition}", "?"), run.data.params.get("data.split", "?")
+    def group(run) -> tuple[str, ...]:
+        # Runs on other classes or other recordings are other experiments, not seeds of one: the dataset key
+        # hashes the files' contents, wherever they lie.
+        return (run.data.params.get(f"data.{condition}", "?"), run.data.params.get("data.split", "?"),
+                " ".join(_data_classes(run)), run.data.tags.get("dataset_key", ""))
 
     runs = source.training_runs(wanted, group_by=group, vmd_params=_vmd_params(source))
     if not runs:
@@ -270,26 +286,33 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
     groups: dict[tuple, list] = {}
     for run in runs:
         groups.setdefault((run.data.tags.get("method"), *group(run)), []).append(run)
-    order = sorted(groups, key=lambda key: (key[0], _number(key[1]) is None, _number(key[1]) or 0.0, key[1], key[2]))
+    order = sorted(groups, key=lambda key: (key[0], _number(key[1]) is None, _number(key[1]) or 0.0, *key[1:]))
+    # A cell (method, condition, split) holding runs on several class sets or recordings: each row says which.
+    several_data = len({key[:3] for key in groups}) < len(groups)
     rows, accuracy = [], {}
-    for method, value, split in order:
-        chosen = groups[(method, value, split)]
-        accuracy[(method, value, split)] = _accuracies(chosen)
-        classes = _data_classes(chosen[0])
-        recalls = ", ".join(f"{name} {_pm([r.data.metrics[f'recall_{name}'] for r in chosen], 100.0, 1)}" for name in classes)
-        confusion = sum(_confusion(source, run) for run in chosen)
-        row = [f"{value} {unit}", split, method, _pm(accuracy[(method, value, split)]), str(len(chosen)), recalls, _top_confusions(confusion)]
+    for key in order:
+        method, value, split, classes, data = key
+        chosen = groups[key]
+        accuracy[key] = _accuracies(chosen)
+        recalls = ", ".join(f"{name} {_recall(chosen, name)}" for name in classes.split())
+        names, confusion = _summed_confusion(source, chosen)
+        row = [f"{value} {unit}", split, method, _pm(accuracy[key]), str(len(chosen)), recalls,
+               _top_confusions(confusion, names)]
+        if several_data:
+            row.insert(3, f"{classes} (dataset {data[:8]})")
         if paper_figures is not None:
             published = paper_figures.get(_number(value)) if method == paper.PROPOSED else None
-            row += ["—", ""] if published is None else [f"{published:.2f}", _diff(accuracy[(method, value, split)], published)]
+            row += ["—", ""] if published is None else [f"{published:.2f}", _diff(accuracy[key], published)]
         rows.append(row)
     header = [condition, "split", "method", "accuracy % (mean ± std)", "seeds", "recall % by class", "confusions (true→predicted, summed over seeds)"]
+    if several_data:
+        header.insert(3, "classes (dataset key)")
     if paper_figures is not None:
         header += ["paper %", "ours − paper"]
     gaps = []
-    for method, value, split in order:
-        if split == "random" and (method, value, "block") in accuracy:
-            random, block = accuracy[(method, value, "random")], accuracy[(method, value, "block")]
+    for method, value, split, *data in order:
+        if split == "random" and (method, value, "block", *data) in accuracy:
+            random, block = accuracy[(method, value, "random", *data)], accuracy[(method, value, "block", *data)]
             gaps.append([f"{value} {unit}", method, _pm(random), _pm(block), f"{100 * (np.mean(random) - np.mean(block)):+.2f}"])
     text = markdown_table(header, rows)
     if gaps:
@@ -511,7 +534,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
             "seeds": sorted(int(run.data.params.get("seed", -1)) for run in chosen),
             "n_test_windows": n_test.pop(),
             "test_records": [path.name for path in test_files(OmegaConf.to_container(cfg.data, resolve=True))],
-            "confusion": sum(_confusion(source, run) for run in chosen).tolist(),
+            "confusion": _summed_confusion(source, chosen)[1].tolist(),
             "calibration_accuracy_mean": mean_metric(chosen, "calibration_accuracy"),
             "calibration_recall_normal_mean": mean_metric(chosen, "calibration_recall_normal"),
         })
