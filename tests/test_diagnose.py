@@ -656,3 +656,17 @@ def test_an_interrupted_folder_is_killed_in_mlflow_and_summarised_as_far_as_it_w
     rows = [row["record"] for row in csv.DictReader(open(out / "summary.csv"))]
     assert rows and "an_earlier_run" not in rows and len(rows) < 60
     assert set(rows) <= {path.parent.name for path in out.glob("r*/diagnosis.json")}
+
+
+def test_a_record_of_a_state_the_model_never_learned_says_so(tmp_path):
+    """A model trained without ball faults calls a ball record something else, always wrongly: the note says why."""
+    import scipy.io
+
+    rpm = 1772.0
+    t = np.arange(int(4 * FS)) / FS
+    shaft = sum(0.1 / k * np.sin(2 * np.pi * k * rpm / 60 * t) for k in (1, 2, 3))
+    path = tmp_path / "12k_Drive_End_B007_1_119.mat"
+    scipy.io.savemat(path, {"X119_DE_time": (fault_signal(None) + shaft)[:, None], "X119RPM": rpm})
+    prepared = read_record(path, envelope_pipeline())
+    assert prepared.true_state == "ball"
+    assert "true state ball, which this model cannot answer: it was trained on normal, inner, outer only" in prepared.notes

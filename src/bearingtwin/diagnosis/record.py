@@ -82,6 +82,9 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
             notes.append(f"labelled {true_state} where the file name says {name.fault}: scored as {true_state}")
         elif recording.fault not in (None, true_state):
             raise BearingTwinError(f"{recording.source}: labelled {true_state}, but the file states fault={recording.fault}")
+    if true_state is not None and true_state not in pipeline.class_names:  # the verdict can only be wrong
+        notes.append(f"true state {true_state}, which this model cannot answer: it was trained on "
+                     f"{', '.join(pipeline.class_names)} only")
     original_fs = recording.fs
     if not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9):
         recording, note = resample_to(recording, pipeline.fs_hz)
