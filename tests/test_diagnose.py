@@ -255,6 +255,13 @@ def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
     assert prepared.bearing == bearing_config("er16k") and recording.rpm == 3900.0
     assert any("the record's bearing is er16k" in note for note in prepared.notes), prepared.notes
     assert physics_evidence(recording.signal, recording.fs, recording.rpm, prepared.bearing).evidence_state == "inner"
+    # No channel asked for: the file's speed, X, Y and Z columns leave it to the model, trained on data.channel=Y.
+    trained_on_y = envelope_pipeline()
+    trained_on_y.config = {"data": {"source": "hust", "channel": "Y"}}
+    unasked = read_record(tmp_path / "0.5X_I_65Hz.xls", trained_on_y)
+    assert unasked.recording.channel == "Y" and "channel Y, the one the model was trained on" in unasked.notes[0]
+    with pytest.raises(BearingTwinError, match="holds channels speed, X, Y, Z; choose one with channel=<name>"):
+        read_record(tmp_path / "0.5X_I_65Hz.xls", envelope_pipeline())  # a model that names no channel
 
 
 @needs_cwru

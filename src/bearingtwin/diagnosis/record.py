@@ -59,9 +59,10 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     checked against the shaft line (:func:`_checked_rate`).
     """
     raw = read_raw(path)
+    channel, channel_note = _channel(raw, channel, pipeline)
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
-    notes = list(recording.meta["notes"])
+    notes = list(recording.meta["notes"]) + channel_note
     named = recording.meta.get("bearing")
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
@@ -97,6 +98,16 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; give rpm=<rev/min>")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing)
+
+
+def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:
+    """The channel to read: the one asked for, else the file's own default, else, in a file of several, the channel
+    the model was trained on when the file has one of that name (a HUST export's X axis), said in a note."""
+    trained = (pipeline.config.get("data") or {}).get("channel")
+    if channel is not None or raw.default_channel in raw.channels or len(raw.channels) == 1 \
+            or not isinstance(trained, str) or trained not in raw.channels:
+        return channel, []
+    return trained, [f"channel {trained}, the one the model was trained on (channel=<name> reads another)"]
 
 
 def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dict, list[str]]:
