@@ -157,3 +157,14 @@ def test_figures_and_numbers_are_written(tmp_path):
     assert all(p.read_bytes()[:4] == b"\x89PNG" for p in paths)
     numbers = json.loads(json.dumps(result.as_dict()))
     assert set(numbers["views"]) == set(VIEWS)
+
+
+def test_a_line_is_named_at_its_peak_not_at_the_skirt_where_the_twin_differs_most():
+    """The twin's 1x line 23 dB below the measurement's: the largest difference lies on the strong line's window
+    skirt, 4 Hz off; the finding names the line where it stands, at shaft order 1."""
+    t = np.arange(int(2 * FS)) / FS
+    one_x = np.sin(2 * np.pi * RPM / 60.0 * t)
+    measurement, twin = impacts("outer", 2.0, seed=1, jitter=0.05), impacts("outer", 2.0, seed=3, jitter=0.05)
+    amplitude = 2.0 * measurement.std()
+    result = Comparator(measured(measurement + amplitude * one_x), GEOMETRY)(twin + amplitude / 14 * one_x)
+    assert "a line at 30 Hz (shaft order 1.00) stands" in result.views["lines"].finding

@@ -455,10 +455,23 @@ class Comparator:
         if not np.any(diff):
             return 0.0, "the narrow lines agree", n_lines
         worst = int(np.argmax(np.abs(diff)))
-        freq = m.lines_freqs_hz[worst]
+        freq = m.lines_freqs_hz[_line_peak(worst, measured if diff[worst] > 0 else twin_heights, measured, twin_heights)]
         finding = (f"a line at {freq:.0f} Hz (shaft order {freq / (self.rpm / 60.0):.2f}) stands {abs(diff[worst]):.0f} dB "
                    f"{'higher in the measurement' if diff[worst] > 0 else 'higher in the twin'}")
         return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines
+
+
+def _line_peak(bin_index: int, heights: np.ndarray, *signals: np.ndarray) -> int:
+    """The bin where the line holding ``bin_index`` peaks in ``heights``: a strong line's window skirt spans several
+    bins either side, and the largest difference may fall on a skirt (a 30 Hz line named at 36 Hz). A line is the
+    run of neighbouring bins where any of ``signals`` stands out."""
+    standing = np.any([signal > 0 for signal in signals], axis=0)
+    low = high = bin_index
+    while low > 0 and standing[low - 1]:
+        low -= 1
+    while high < standing.size - 1 and standing[high + 1]:
+        high += 1
+    return low + int(np.argmax(heights[low:high + 1]))
 
 
 def local_level(psd: np.ndarray, neighbourhood_bins: int = 21) -> np.ndarray:
