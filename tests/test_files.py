@@ -87,6 +87,24 @@ def test_generic_mat_and_wav(tmp_path, signal):
         load_recording(wav, channel="0", fs=12000)
 
 
+def test_a_rate_the_file_states_exactly_must_be_given_exactly_one_measured_from_stamps_within_1_percent(tmp_path, signal):
+    """An .npz / .mat fs and a .wav header are exact: 1 % off is another rate (a model at the wrong one), float
+    rounding is not; a time column's rate, measured from rounded stamps, allows 1 %."""
+    npz, mat, wav, csv = (tmp_path / f"rec.{ext}" for ext in ("npz", "mat", "wav", "csv"))
+    np.savez(npz, signal=signal, fs=FS)
+    scipy.io.savemat(mat, {"vib": signal[:, None], "fs": FS})
+    scipy.io.wavfile.write(wav, int(FS), np.round(signal * 10000).astype(np.int16))
+    for path in (npz, mat, wav):
+        with pytest.raises(BearingTwinError, match=rf"rec.{path.suffix[1:]}: fs=8050 Hz contradicts the file's 8000 Hz"):
+            load_recording(path, fs=8050)
+        assert load_recording(path, fs=FS * (1 + 1e-12)).fs == FS * (1 + 1e-12)
+    np.savetxt(csv, np.column_stack([np.arange(signal.size) / FS, signal]), delimiter=",", header="time,acc",
+               comments="", fmt="%.9f")
+    assert load_recording(csv, fs=8050).fs == 8050
+    with pytest.raises(BearingTwinError, match=r"rec.csv: fs=8100 Hz contradicts the file's 8000 Hz \(from its time column\)"):
+        load_recording(csv, fs=8100)
+
+
 def test_bad_inputs_are_named(tmp_path, signal):
     unknown = tmp_path / "rec.parquet"
     unknown.write_text("x")

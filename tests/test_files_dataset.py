@@ -90,7 +90,9 @@ def test_a_file_name_pattern_labels_instead_of_a_table(tmp_path):
      "c.npy: not a NumPy .npy file"),
     (lambda root: (root / "labels.csv").write_text("record,state,fs\na.npy,normal,8000\nc.npy,outer,16000\n"),
      "different sampling rates (a.npy: 8000 Hz, c.npy: 16000 Hz)"),
-    (lambda root: None, "a.npy: the file does not state its sampling rate"),
+    (lambda root: None, "a.npy: the file does not state its sampling rate; give data.fs=<Hz>"),
+    (lambda root: np.save(root / "a.npy", np.stack([tone("normal"), tone("normal", seed=3)], axis=1)),
+     "a.npy: holds channels 0, 1; choose one with data.channel=<name>"),
 ])
 def test_a_bad_folder_is_refused_naming_the_file_or_field(folder, change, message):
     change(folder)
@@ -124,6 +126,87 @@ def test_a_labels_table_names_each_file_once(tmp_path):
     table.write_text("record,state,RPM\nrun1.npy,normal,1500\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv: column 'RPM' is not one of record, state, rpm, fs \(lower case\)"):
         labels_table(table)
+    table.write_text("record,state\n\nrun1.npy,normal\n\nrun2.npy,cracked\n")  # blank lines count as lines
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 5: state 'cracked'"):
+        labels_table(table)
+    table.write_text("record,state\nrun1.npy,normal\n\nrun1.npy,outer\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 4: record 'run1.npy' is labelled again \(line 2\)"):
+        labels_table(table)
     table.write_text("record,state,fs\nrun1.npy,normal,0\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs='0' must be a positive number of Hz"):
         labels_table(table)
+
+
+@pytest.mark.parametrize("setting, message", [
+    ("data.window_length=abc", "data.window_length must be a positive integer, got 'abc'"),
+    ("data.window_length=1.5", "data.window_length must be a positive integer, got 1.5"),
+    ("data.window_length=true", "data.window_length must be a positive integer, got True"),
+    ("data.window_length=512.9", "data.window_length must be a positive integer, got 512.9"),
+    ("data.windows_per_record=abc", "data.windows_per_record must be a positive integer, got 'abc'"),
+    ("data.windows_per_record=2.7", "data.windows_per_record must be a positive integer, got 2.7"),
+    ("data.train_fraction=abc", "data.train_fraction must be a number strictly between 0 and 1, got 'abc'"),
+    ("data.train_fraction=1.5", "data.train_fraction must lie strictly between 0 and 1, got 1.5"),
+    ("data.fs=abc", "data.fs='abc' must be a positive number of Hz"),
+    ("data.rpm=abc", "data.rpm='abc' must be a positive number of rev/min"),
+])
+def test_a_data_setting_of_the_wrong_kind_is_named_not_truncated(folder, setting, message):
+    with pytest.raises(BearingTwinError) as error:
+        build_dataset(files_cfg(folder, setting))
+    assert str(error.value).startswith(message)
+
+
+def test_windows_that_cannot_fit_in_memory_are_refused_before_any_is_cut(folder, monkeypatch):
+    from bearingtwin.data import windows
+
+    with pytest.raises(BearingTwinError, match=r"^data.windows_per_record=1000000000 windows of data.window_length=512 "
+                       r"samples from each of 4 records need about 3.28e\+04 GB of memory.*lower data.windows_per_record"):
+        build_dataset(files_cfg(folder, "data.windows_per_record=1e9"))
+    monkeypatch.setattr(windows, "physical_memory_bytes", lambda: 1_000_000)  # 10 x 512 x 4 windows need 0.33 MB
+    build_dataset(files_cfg(folder))
+    monkeypatch.setattr(windows, "physical_memory_bytes", lambda: 600_000)
+    with pytest.raises(BearingTwinError, match=r"this machine's 0.0006 GB"):
+        build_dataset(files_cfg(folder))
+
+
+def test_a_rate_the_file_states_exactly_is_not_replaced_by_a_labels_row(tmp_path):
+    """An .npz states 8000 Hz: 8050 Hz (within the 1 % a rounded time column is allowed) is a contradiction."""
+    root = tmp_path / "mine"
+    root.mkdir()
+    for state in ("normal", "outer"):
+        np.savez(root / f"{state}.npz", signal=tone(state), fs=FS)
+    (root / "labels.csv").write_text("record,state,fs\nnormal.npz,normal,8000\nouter.npz,outer,8050\n")
+    with pytest.raises(BearingTwinError, match=r"outer.npz: the labels row's fs=8050 Hz contradicts the file's 8000 Hz"):
+        build_dataset(files_cfg(root, "data.fs=null"))
+    (tmp_path / "states.csv").write_text("record,state\nnormal.npz,normal\nouter.npz,outer\n")
+    with pytest.raises(BearingTwinError, match=r"normal.npz: data.fs=8050 Hz contradicts the file's 8000 Hz"):
+        build_dataset(files_cfg(root, "data.fs=8050", f"data.labels={tmp_path / 'states.csv'}"))
+    assert build_dataset(files_cfg(root, "data.fs=8000", f"data.labels={tmp_path / 'states.csv'}")).fs == FS
+
+
+def test_a_state_the_split_leaves_without_test_windows_stops_the_run_naming_it(tmp_path):
+    """One state's file too short for a window after the 70 % mark: a run would score the other states only."""
+    from bearingtwin.models.experiment import run_experiment
+
+    root = tmp_path / "mine"
+    root.mkdir()
+    for state in FAULTS:
+        np.save(root / f"{state}.npy", tone(state)[:1000] if state == "ball" else tone(state))
+    (root / "labels.csv").write_text("record,state\n" + "".join(f"{state}.npy,{state}\n" for state in FAULTS))
+    cfg = files_cfg(root, "classifier=svm", f"paths.cache_dir={tmp_path / 'cache'}")
+    with pytest.raises(BearingTwinError, match=r"class ball no test windows .*its records: ball.npy \(1000 samples, "
+                       r"10 windows\)\. Give records of at least 1707 samples"):
+        run_experiment(cfg, root_dir=str(tmp_path))
+
+
+def test_a_folder_of_one_state_is_refused_before_any_feature_is_extracted(tmp_path, monkeypatch):
+    from bearingtwin.models import experiment
+
+    root = tmp_path / "mine"
+    root.mkdir()
+    for seed in range(2):
+        np.save(root / f"run{seed}.npy", tone("normal", seed=seed))
+    (root / "labels.csv").write_text("record,state\nrun0.npy,normal\nrun1.npy,normal\n")
+    monkeypatch.setattr(experiment, "extract_features", lambda *args: pytest.fail("features extracted"))
+    with pytest.raises(BearingTwinError, match=r"^the training windows are all of one bearing state \(normal\)"):
+        experiment.run_experiment(files_cfg(root, "classifier=svm", f"paths.cache_dir={tmp_path / 'cache'}"),
+                                  root_dir=str(tmp_path))

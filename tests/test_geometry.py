@@ -61,6 +61,29 @@ def test_config_errors_name_the_field():
         BearingGeometry.from_config(OmegaConf.merge(cfg, {"pitch_diameter_mm": 60.0}))
 
 
+@pytest.mark.parametrize("name", ["paper", "cwru_6205", "cwru_6203", "er16k"])
+def test_every_shipped_bearing_is_a_possible_one(name):
+    assert bearing(name).n_balls >= 3
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"n_balls": 1}, r"^bearing\.n_balls must be an integer of at least 3, got 1$"),
+    ({"n_balls": 2}, r"^bearing\.n_balls must be an integer of at least 3, got 2$"),
+    ({"n_balls": 9.5}, r"^bearing\.n_balls must be an integer of at least 3, got 9.5$"),
+    ({"n_balls": 40, "ball_diameter_mm": 9.525, "pitch_diameter_mm": 46.0, "outer_diameter_mm": 62.0,
+      "inner_diameter_mm": 30.0}, r"^bearing\.n_balls=40 balls of bearing\.ball_diameter_mm=9\.525 overlap on "
+                                  r"bearing\.pitch_diameter_mm=46: neighbouring centres lie 3\.61 mm apart"),
+    ({"ball_diameter_mm": 30.0, "pitch_diameter_mm": 46.0, "outer_diameter_mm": 62.0, "inner_diameter_mm": 30.0},
+     r"^bearing\.ball_diameter_mm=30 on bearing\.pitch_diameter_mm=46 spans 16 to 76 mm across; the balls must lie "
+     r"between the rings, bearing\.inner_diameter_mm=30 and bearing\.outer_diameter_mm=62$"),
+    ({"pitch_diameter_mm": 60.0}, r"^bearing\.ball_diameter_mm=7\.94 on bearing\.pitch_diameter_mm=60 spans"),
+])
+def test_an_impossible_bearing_is_refused_in_one_line_naming_the_fields(changes, message):
+    cfg = OmegaConf.merge(OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml"), changes)
+    with pytest.raises(BearingTwinError, match=message):
+        BearingGeometry.from_config(cfg)
+
+
 @pytest.mark.parametrize("angle", [90.0, 180.0, -400.0, -0.5, float("nan"), "steep"])
 def test_a_contact_angle_outside_0_to_90_degrees_is_refused_naming_it(angle):
     """At 90 degrees cos(alpha) = 0 and BPFI = BPFO; a NaN said 'contact radii must be positive'."""

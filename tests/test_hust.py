@@ -133,10 +133,16 @@ def test_nan_cell_is_counted_raw_and_refused_when_loaded():
 
 
 def test_unknown_axis_and_contradicting_fs_are_refused():
-    with pytest.raises(BearingTwinError, match="channel='W'.*X, Y, Z"):
+    with pytest.raises(BearingTwinError, match="^channel='W'.*X, Y, Z"):
         load_hust(HUST / "H_65Hz.xls", channel="W")
+    with pytest.raises(BearingTwinError, match="^data.channel='W'.*X, Y, Z"):
+        load_hust(HUST / "H_65Hz.xls", channel="W", channel_key="data.channel")
     with pytest.raises(BearingTwinError, match=r"H_65Hz.xls: fs=48000 Hz contradicts the file's 25600 Hz"):
         load_hust(HUST / "H_65Hz.xls", fs=48000)
+    with pytest.raises(BearingTwinError, match=r"H_65Hz.xls: data.fs=48000 Hz contradicts the file's 25600 Hz"):
+        load_hust(HUST / "H_65Hz.xls", fs=48000, fs_key="data.fs")
+    # The header's rate is checked against the time column within 1 %, and a rate given for it is too.
+    assert load_hust(HUST / "H_65Hz.xls", fs=25700).fs == 25700
 
 
 def test_a_byte_order_mark_and_a_data_line_with_a_colon_are_read(tmp_path):

@@ -12,7 +12,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.build import build_classifier
 from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier, CnnBiLstmModule, CnnBiLstmShape
 from bearingtwin.models.experiment import classification_scores
-from bearingtwin.models.svm import make_svm
+from bearingtwin.models.svm import SvmClassifier, make_svm
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
 
@@ -137,6 +137,21 @@ def test_svm_pipeline_learns_and_validates():
         make_svm(C=0.0)
     with pytest.raises(BearingTwinError, match="classifier.kernel"):
         make_svm(kernel="cubic")
+
+
+@pytest.mark.parametrize("classifier", [SvmClassifier(), CnnBiLstmClassifier(max_epochs=1)], ids=["svm", "cnn_bilstm"])
+def test_training_labels_of_one_state_are_refused_alike_by_both_classifiers(classifier):
+    X, y = four_blobs(4)
+    with pytest.raises(BearingTwinError, match=r"^the training windows are all of one bearing state \(outer\); "
+                       r"a classifier needs at least 2"):
+        classifier.fit(X[y == 3], y[y == 3])
+
+
+def test_the_svm_names_the_state_with_too_few_windows_to_calibrate():
+    X, y = four_blobs(4)
+    keep = np.r_[np.flatnonzero(y != 2), np.flatnonzero(y == 2)[:1]]
+    with pytest.raises(BearingTwinError, match=r"at least 2 training windows per class; class ball has 1"):
+        SvmClassifier().fit(X[keep], y[keep])
 
 
 def test_build_from_the_config_files():

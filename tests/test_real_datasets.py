@@ -110,3 +110,25 @@ def test_hust_missing_files_are_listed(tmp_path):
 def test_hust_record_shorter_than_a_window_is_named():
     with pytest.raises(BearingTwinError, match="H_65Hz.xls: 1280 samples, shorter than one window of 2048"):
         build_hust_dataset(data_config("hust", f"data.root={HUST}"))
+
+
+@pytest.mark.parametrize("setting, message", [
+    ("data.samples_per_class=abc", "data.samples_per_class must be a positive integer, got 'abc'"),
+    ("data.samples_per_class=2.7", "data.samples_per_class must be a positive integer, got 2.7"),
+    ("data.window_length=256.5", "data.window_length must be a positive integer, got 256.5"),
+    ("data.train_fraction=abc", "data.train_fraction must be a number strictly between 0 and 1, got 'abc'"),
+    ("data.channel=W", "data.channel='W' is not a HUST accelerometer axis"),
+])
+def test_hust_settings_of_the_wrong_kind_are_named(setting, message):
+    with pytest.raises(BearingTwinError) as error:
+        build_hust_dataset(data_config("hust", f"data.root={HUST}", "data.window_length=256", setting))
+    assert str(error.value).startswith(message)
+
+
+def test_hust_records_too_short_for_a_test_window_after_the_split_point_are_named():
+    """1280 samples, windows of 512: the last starts at 768, before the 70 % mark (896), so no class has a test
+    window; the split names the first class and its file."""
+    dataset = build_hust_dataset(data_config("hust", f"data.root={HUST}", "data.window_length=512"))
+    with pytest.raises(BearingTwinError, match=r"class normal no test windows .*H_65Hz.xls \(1280 samples, 150 windows\)"):
+        split_indices(dataset.labels, dataset.record_ids, dataset.starts, dataset.record_lengths, 512,
+                      method="block", class_names=dataset.class_names, records=dataset.records)

@@ -78,7 +78,7 @@ def test_the_data_set_path_is_refused_before_any_state_is_simulated(monkeypatch)
 
 
 def test_a_simulation_larger_than_half_the_memory_is_refused_naming_fs_and_duration(monkeypatch):
-    monkeypatch.setattr(simulator, "_physical_memory_bytes", lambda: 2_000_000)  # 1 s at 10 kHz needs ~3.9 MB
+    monkeypatch.setattr(simulator, "physical_memory_bytes", lambda: 2_000_000)  # 1 s at 10 kHz needs ~3.9 MB
     message = refused("outer", settings(duration=1.0), "simulator.fs=10000 Hz", "simulator.duration=1 s",
                       "10,000 samples", "GB of memory", "this machine's 0.002 GB")
     assert message.startswith("simulator.fs=")
@@ -93,7 +93,7 @@ def test_parallel_states_count_together_in_the_memory_check(monkeypatch):
     cfg = settings(duration=0.5)
     plan = simulator._plan("normal", BEARING, cfg, None)
     one = simulator._memory_bytes("fast", plan.n_transient, plan.n_samples, 9)
-    monkeypatch.setattr(simulator, "_physical_memory_bytes", lambda: 3 * one)  # half the memory: 1.5 simulations
+    monkeypatch.setattr(simulator, "physical_memory_bytes", lambda: 3 * one)  # half the memory: 1.5 simulations
     monkeypatch.setattr(simulator, "simulate", lambda *args, **kwargs: None)  # no processes, whatever happens
     simulate_many(["normal", "inner"], BEARING, cfg, n_jobs=1)
     with pytest.raises(BearingTwinError, match="for 2 simulations at once"):

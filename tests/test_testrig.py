@@ -76,6 +76,20 @@ def test_defect_frequencies_are_the_textbook_formulas():
     assert bearing.rolling_speed_m_s(fn) == pytest.approx(2 * math.pi * got["ftf"] * outer_contact_radius_m)
 
 
+@pytest.mark.parametrize("changes, message", [
+    ({"n_balls": 2}, "bearing.n_balls must be an integer of at least 3, got 2"),
+    ({"n_balls": 40}, "bearing.n_balls=40 balls of bearing.ball_diameter_mm=7.94 overlap on bearing.pitch_diameter_mm=39.04"),
+])
+def test_the_rig_refuses_balls_that_cannot_be_as_the_twin_does(changes, message):
+    """One check for both: the rig's bearing and the twin's refuse the same balls in the same words."""
+    with pytest.raises(BearingTwinError) as rig:
+        RigBearing(**changes)
+    with pytest.raises(BearingTwinError) as twin:
+        BearingGeometry(**{"outer_diameter_mm": 100.0, "inner_diameter_mm": 1.0, "ball_diameter_mm": 7.94,
+                           "pitch_diameter_mm": 39.04, "n_balls": 9, **changes})
+    assert str(rig.value).startswith(message) and str(twin.value) == str(rig.value)
+
+
 @pytest.mark.parametrize("contact_angle_deg", [0.0, 15.0])
 def test_defect_frequencies_agree_with_the_twins_geometry(contact_angle_deg):
     twin = BearingGeometry(52.0, 25.0, 7.94, 39.04, 9, contact_angle_deg=contact_angle_deg).defect_frequencies(RPM)

@@ -6,11 +6,14 @@ import os
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
+from joblib import cpu_count
 from mlflow import MlflowClient
 from processes import run_module
 
 from bearingtwin.config import CONF_DIR
+from bearingtwin.errors import BearingTwinError
 from bearingtwin.twin.model import TwinModel
+from bearingtwin.twin.report import build_ranker, ranker_settings
 
 FAST = ["twin.duration=1.0", "compare.envelope_segment_s=0.25", "compare.lines_segment_s=0.25",
         "calibration.n_trials_base=8", "calibration.n_trials_effect=6", "calibration.n_trials_refine=6",
@@ -78,6 +81,9 @@ def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path
 
 def test_fixed_effects_stay_in_every_step(measurement, tmp_path):
     out = tmp_path / "report"
+    out.mkdir()
+    for name in ("final_psd.png", "baseline_lines.png", "error_steps.png", "final_notes.png"):  # an earlier run's
+        (out / name).write_bytes(b"png")
     result = run_cli(f"measured.path={measurement}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
                      f"out={out}", "effects=[noise]", "effects.noise.snr_db=40", "candidates=[resonance]",
                      "tracking.enabled=false", "figures=false", *FAST, cwd=tmp_path)
@@ -85,7 +91,9 @@ def test_fixed_effects_stay_in_every_step(measurement, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]  # nothing else left in the working directory
     report = json.loads((out / "twin_report.json").read_text())
     assert all(step["effects"][0] == "noise" for step in report["steps"])
-    assert list(out.glob("*.png")) == []
+    # With figures=false no figure of the earlier run stays beside the report, and only this command's are removed.
+    assert sorted(p.name for p in out.iterdir()) == ["final_notes.png", "twin_report.json"]
+    assert result.stderr == ""  # no progress bar where no one watches
 
 
 @pytest.mark.parametrize("overrides, message", [
@@ -112,6 +120,85 @@ def test_a_switch_that_is_neither_true_nor_false_is_refused_before_the_file_is_r
     assert result.returncode == 2 and "absent.npy" not in result.stderr  # refused before the file is looked for
     assert result.stderr.strip() == f"error: {switch}=maybe: give {switch}=true or {switch}=false"
     assert list(tmp_path.iterdir()) == []
+
+
+def twin_config(*overrides):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose("twin", overrides=["measured.path=unused", *overrides])
+
+
+@pytest.mark.parametrize("overrides, message", [
+    (["calibration.n_trials_base=abc"], "calibration.n_trials_base must be a positive integer, got 'abc'"),
+    (["calibration.n_trials_base=2.7"], "calibration.n_trials_base must be a positive integer, got 2.7"),
+    (["calibration.n_trials_effect=0"], "calibration.n_trials_effect must be a positive integer, got 0"),
+    (["calibration.n_trials_refine=-1"], "calibration.n_trials_refine must be a positive integer, got -1"),
+    (["calibration.n_polish=-3"], "calibration.n_polish must be a non-negative integer, got -3"),
+    (["calibration.n_polish_effect=abc"], "calibration.n_polish_effect must be a non-negative integer, got 'abc'"),
+    (["ranking.max_effects=abc"], "ranking.max_effects must be a non-negative integer, got 'abc'"),
+    (["ranking.points_per_view=0"], "ranking.points_per_view=0 must be a positive number"),
+    (["ranking.points_per_view=-1"], "ranking.points_per_view=-1 must be a positive number"),
+    (["ranking.points_per_view=abc"], "ranking.points_per_view='abc' must be a positive number"),
+    (["ranking.view_floor_db=0"], "ranking.view_floor_db=0 must be a positive number of dB"),
+    (["ranking.min_signature_gain=-1"], "ranking.min_signature_gain must be a non-negative number, got -1"),
+    (["ranking.later_points_per_view=0"], "ranking.later_points_per_view=0 must be a positive number"),
+    (["ranking.n_jobs=0"], "ranking.n_jobs must be a positive integer, got 0 (or -1: one thread per core)"),
+    (["ranking.n_jobs=abc"], "ranking.n_jobs must be a positive integer, got 'abc'"),
+    (["seed=abc"], "seed must be a non-negative integer, got 'abc'"),
+    (["seed=-1"], "seed must be a non-negative integer, got -1"),
+    (["seed=4294967296"], "seed must be at most 2147483647, got 4294967296"),
+    (["candidates=noise"], "candidates=noise: give a list of effect names, candidates=[noise]"),
+    (["candidates=[resonanse]"], "candidates: unknown effect 'resonanse'"),
+    (["candidates=[unbalance,unbalance]"], "candidates: unbalance is named twice"),
+    (["effects=[noise]", "candidates=[noise]"], "candidates: noise is already among the fixed effects"),
+])
+def test_every_setting_of_the_ranking_is_checked_by_kind_naming_it(overrides, message):
+    with pytest.raises(BearingTwinError) as error:
+        ranker_settings(twin_config(*overrides))
+    assert str(error.value).startswith(message)
+
+
+@pytest.mark.parametrize("overrides, message", [
+    (["calibration.ranges=abc"], "calibration.ranges must map each parameter to [low, high] or [low, high, log]"),
+    (["calibration.ranges.radial_load_n=5"], "calibration.ranges.radial_load_n must be [low, high] or [low, high, log] "
+                                             "of finite numbers, got 5"),
+    (["calibration.ranges.radial_load_n=[abc,5]"], "calibration.ranges.radial_load_n must be [low, high]"),
+    (["calibration.ranges.radial_load_n=[1,inf]"], "calibration.ranges.radial_load_n must be [low, high]"),
+    (["calibration.base=abc"], "calibration.base must map each parameter"),
+    (["calibration.base_held=abc"], "calibration.base_held must map names to values, got 'abc'"),
+    (["calibration.sensor_angle_step_deg=abc"], "calibration.sensor_angle_step_deg must be a finite number"),
+    (["operating_point=abc"], "operating_point must map names to values, got 'abc'"),
+])
+def test_every_setting_of_the_operating_point_is_checked_when_the_ranker_is_built(overrides, message):
+    with pytest.raises(BearingTwinError) as error:
+        build_ranker(twin_config(*overrides), "outer")
+    assert str(error.value).startswith(message)
+
+
+def test_the_shipped_settings_pass_and_n_jobs_minus_one_is_a_thread_per_core():
+    ranker = build_ranker(twin_config("ranking.n_jobs=-1"), "outer")
+    assert ranker.n_jobs == cpu_count() and ranker.n_trials_base == 30 and ranker.later_points_per_view == 6.0
+
+
+def test_a_bad_setting_ends_the_command_before_the_file_is_read_or_a_run_is_opened(tmp_path):
+    """ranking.points_per_view=0 divided by zero after the calibration, its MLflow run left FAILED."""
+    result = run_cli(f"measured.path={tmp_path / 'absent.npy'}", "ranking.points_per_view=0", f"out={tmp_path / 'r'}",
+                     env={"MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path / 'mlflow.db'}"}, cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [
+        "error: ranking.points_per_view=0 must be a positive number of values per view (a plain number, no unit)"]
+    assert list(tmp_path.iterdir()) == []  # no store opened, no report written
+
+
+def test_an_out_folder_that_holds_the_reference_is_refused_and_the_reference_kept(tmp_path):
+    baseline = tmp_path / "baseline"
+    baseline.mkdir()
+    (baseline / "twin_report.json").write_text("the baseline")
+    result = run_cli(f"measured.path={tmp_path / 'absent.npy'}", f"reference={baseline / 'twin_report.json'}",
+                     f"out={baseline}", "tracking.enabled=false", cwd=tmp_path)
+    assert result.returncode == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert line.startswith(f"error: out={baseline} is the folder of reference={baseline / 'twin_report.json'}")
+    assert (baseline / "twin_report.json").read_text() == "the baseline"
 
 
 def test_no_measurement_given_is_named():
@@ -143,6 +230,7 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
     assert baseline.returncode == 0, baseline.stderr[-2000:]
     first = json.loads((tmp_path / "baseline" / "twin_report.json").read_text())
     assert first["added"] == ["resonance"] and first["measured"]["fault"] == "outer"
+    assert first["measured"]["geometry"]["n_balls"] == 9  # what a later run's bearing is compared with
     assert first["operating_point"]["defect_depth_mm"]["held"] is False
 
     result = run_cli(f"measured.path={tmp_path / 'changed.npy'}", f"out={tmp_path / 'changed'}",

@@ -220,8 +220,16 @@ def test_later_rounds_weigh_the_views_by_their_own_points_and_fit_the_same(cfg):
     drop = before["evidence"] + n * math.log(5.0)  # one point per view: 5 values, ln 5 per parameter
     assert after["evidence"] == pytest.approx(6.0 * drop - n * math.log(30.0))
     assert after["signature_gain"] == pytest.approx(6.0 * before["signature_gain"])
-    with pytest.raises(BearingTwinError, match="ranking.later_points_per_view must be a positive number or null"):
-        EffectRanker([], later_points_per_view=0.0).fit(None, measured, BearingGeometry.from_config(cfg.bearing))
+
+def test_the_stages_are_shown_on_stderr_only_when_asked_and_change_nothing(cfg, capsys):
+    measured = twin_measurement(cfg, "outer")
+    quiet = rank(cfg, measured, ["tones"], op=known_operating_point())
+    assert capsys.readouterr().err == ""  # a test, a benchmark: no bar
+    shown = rank(cfg, measured, ["tones"], op=known_operating_point(), progress=True)
+    err = capsys.readouterr().err
+    assert "operating point" in err and "round 1: 1 candidate" in err and "intervals" in err
+    assert shown.rounds == quiet.rounds and shown.summary == quiet.summary
+
 
 def test_a_measurement_that_lacks_nothing_gets_no_effect(cfg):
     fit = rank(cfg, twin_measurement(cfg, "inner"), ["resonance", "unbalance", "slip", "tones"],
@@ -335,10 +343,6 @@ def test_bad_candidates_and_keys_are_named(cfg):
         rank(cfg, measured, [], op=op)
     with pytest.raises(BearingTwinError, match=r"^simulator.defect.depth_mm: Missing mandatory value"):
         TwinModel("outer", cfg.bearing, {**OmegaConf.to_container(cfg.simulator), "defect": {"depth_mm": "???"}}, 0)
-    with pytest.raises(BearingTwinError, match="ranking.view_floor_db must be a positive number"):
-        EffectRanker([], view_floor_db=0.0).fit(None, measured, BearingGeometry.from_config(cfg.bearing))
     with pytest.raises(BearingTwinError, match=r"^calibration: every trial was rejected by the model: effects.noise: "
                                                r"bad parameters .*unexpected keyword argument 'colour'"):
         rank(cfg, measured, [], fixed={"noise": {"snr_db": 40.0, "colour": "pink"}}, n_trials_base=2, n_polish=0)
-    with pytest.raises(BearingTwinError, match="candidates: noise is already among the fixed effects"):
-        rank(cfg, measured, ["noise"], fixed={"noise": {"snr_db": 20.0, "spectral_slope": 0.0}})

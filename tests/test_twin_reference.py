@@ -57,6 +57,29 @@ def test_a_sensor_the_config_places_elsewhere_or_another_bearing_is_refused():
         hold_reference(twin_config(), other, "outer")
 
 
+CWRU_6205 = {"outer_diameter_mm": 52.0, "inner_diameter_mm": 25.0, "ball_diameter_mm": 7.94, "pitch_diameter_mm": 39.04,
+             "n_balls": 9, "contact_angle_deg": 0.0}
+
+
+def test_a_reference_is_of_the_same_rig_by_its_bearings_geometry_not_its_name():
+    """A name says nothing of the geometry: bearing.n_balls=12 under the same name was taken for the same rig."""
+    recorded = report()
+    recorded["measured"]["geometry"] = dict(CWRU_6205)
+    with pytest.raises(BearingTwinError, match=r"^reference: its record's bearing has n_balls=9, this one "
+                                               r"bearing.n_balls=12; a reference must come from the same rig"):
+        hold_reference(twin_config("bearing.n_balls=12"), recorded, "outer")
+    recorded["measured"]["bearing"] = "my6205"  # the same geometry under another name
+    assert hold_reference(twin_config("operating_point.clearance_um=4.0"), recorded, "outer").effects.resonance
+
+
+def test_a_report_records_the_geometry_a_reference_is_compared_by():
+    from bearingtwin.physics.geometry import BearingGeometry
+    from bearingtwin.twin.reference import rig_geometry
+
+    geometry = rig_geometry(BearingGeometry.from_config(twin_config().bearing))
+    assert geometry == CWRU_6205  # the clearance is the operating point's, held from the reference as such
+
+
 def test_a_channel_on_the_other_race_and_an_effect_given_twice_are_refused():
     with pytest.raises(BearingTwinError, match=r"operating_point.sensor=inner_y says the inner"):
         hold_reference(twin_config("operating_point.sensor=inner_y"), report(), "outer")

@@ -125,3 +125,38 @@ def test_zscore_of_values_that_overflow_their_squares_is_the_same_shape():
         normalized = normalize_windows(scaled)
     np.testing.assert_array_equal(normalized[[0, 2]], normalize_windows(windows)[[0, 2]])
     np.testing.assert_allclose(normalized[1], normalize_windows(windows)[1], atol=1e-12)
+
+
+def _one_short_record(short_length: int, windows_per_record: int = 10):
+    """Record 0 (normal, 60000 samples) and record 1 (inner, ``short_length``), windows of 2048."""
+    starts = [window_starts(60_000, 2048, windows_per_record), window_starts(short_length, 2048, windows_per_record)]
+    labels = np.repeat([0, 1], windows_per_record)
+    return labels, labels.copy(), np.concatenate(starts), np.array([60_000, short_length])
+
+
+def test_block_split_refuses_a_class_its_records_cannot_give_both_training_and_test_windows():
+    """A short record's windows all fall before (or across) the split point: scored without the class, the
+    accuracy would be the other classes'."""
+    with pytest.raises(BearingTwinError, match=r"^the block split leaves class inner no test windows at "
+                       r"data.train_fraction=0.7 .*its records: b.npy \(4000 samples, 10 windows\)\. "
+                       r"Give records of at least 6827 samples, a data.train_fraction nearer 0.5"):
+        split_indices(*_one_short_record(4000), 2048, method="block", records=["/x/a.npy", "/x/b.npy"])
+    with pytest.raises(BearingTwinError, match=r"class inner no training and no test windows.*record 1 \(2100 samples"):
+        split_indices(*_one_short_record(2100), 2048, method="block")
+    with pytest.raises(BearingTwinError, match=r"class normal no test windows.*Cut more than one window"):
+        split_indices(*_one_short_record(60_000, windows_per_record=1), 2048, method="block")
+    train, test = split_indices(*_one_short_record(6827), 2048, method="block")  # the length the message asks for
+    labels = _one_short_record(6827)[0]
+    assert set(labels[train]) == set(labels[test]) == {0, 1}
+
+
+@pytest.mark.parametrize("fraction, message", [
+    ("abc", "data.train_fraction must be a number strictly between 0 and 1, got 'abc'"),
+    (True, "data.train_fraction must be a number strictly between 0 and 1, got True"),
+    (1.5, "data.train_fraction must lie strictly between 0 and 1, got 1.5"),
+])
+def test_a_train_fraction_that_is_no_fraction_is_named(fraction, message):
+    labels, record_ids, starts, lengths = _two_records()
+    with pytest.raises(BearingTwinError) as error:
+        split_indices(labels, record_ids, starts, lengths, 2048, train_fraction=fraction)
+    assert str(error.value) == message

@@ -2,7 +2,8 @@
 raises :class:`BearingTwinError` naming the field.
 
 A YAML ``true`` is no number here (Python counts it as the integer 1); only :func:`positive_number`
-reads a number's text (``fs=12000`` on a command line, a cell of a CSV file).
+reads a number's text (``fs=12000`` on a command line, a cell of a CSV file). :func:`physical_memory_bytes`
+bounds settings whose arrays would not fit (a simulation's length, a data set's windows).
 """
 
 from __future__ import annotations
@@ -48,11 +49,33 @@ def positive_number(value, name: str, unit: str, where: str = "") -> float:
     return number
 
 
+def ball_count(n_balls, ball_diameter_mm: float, pitch_diameter_mm: float) -> int:
+    """``bearing.n_balls`` as an int: at least 3 (fewer cannot centre a shaft), and no more than fit on the pitch
+    circle: neighbouring centres lie ``pitch x sin(pi / n)`` apart, which must exceed the ball diameter (the two
+    diameters positive, finite numbers). The twin's geometry and the test rig's both check their balls here."""
+    n_balls = whole_number("bearing.n_balls", n_balls, minimum=3)
+    spacing_mm = pitch_diameter_mm * math.sin(math.pi / n_balls)
+    if not spacing_mm > ball_diameter_mm:
+        raise BearingTwinError(
+            f"bearing.n_balls={n_balls} balls of bearing.ball_diameter_mm={ball_diameter_mm:g} overlap on "
+            f"bearing.pitch_diameter_mm={pitch_diameter_mm:g}: neighbouring centres lie {spacing_mm:.3g} mm apart "
+            "(pitch x sin(180 deg / n_balls)), which must exceed the ball diameter")
+    return n_balls
+
+
 def true_or_false(value, key: str) -> bool:
     """A switch given on the command line: ``true`` or ``false`` (YAML's booleans), anything else refused."""
     if not isinstance(value, bool):
         raise BearingTwinError(f"{key}={value}: give {key}=true or {key}=false")
     return value
+
+
+def physical_memory_bytes() -> int | None:
+    """The machine's physical memory, or None where the system does not say."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return None
 
 
 def show_progress_bar(setting, in_sweep: bool) -> bool:

@@ -12,8 +12,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 from omegaconf import DictConfig
 
+from bearingtwin.checks import show_progress_bar
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.tracking.lifecycle import stop_cleanly
@@ -47,10 +49,13 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
 @hydra_command("twin")
 @exit_on_user_error
 def twin(cfg: DictConfig) -> None:
-    refuse_unknown_keys(HydraConfig.get())
+    hydra_cfg = HydraConfig.get()
+    refuse_unknown_keys(hydra_cfg)
     from bearingtwin.twin.report import run_twin  # MLflow and the simulator once the input is accepted
 
-    fit, files, run_id = run_twin(cfg)
+    # The calibration takes seconds to minutes: its stages are shown where someone watches (a terminal, one run).
+    progress = show_progress_bar("auto", in_sweep=hydra_cfg.mode == RunMode.MULTIRUN)
+    fit, files, run_id = run_twin(cfg, progress)
     print(fit.summary)
     print(twin_summary(cfg, fit, files, run_id))
 

@@ -41,6 +41,9 @@ FORMATS = (".npy", ".npz", ".csv", ".mat", ".wav", ".xls")
 FS_RELATIVE_TOLERANCE = 0.01
 """A user's sampling rate may differ this much from one measured in the file (a time column
 printed with a few decimals) before it counts as a contradiction."""
+FS_FLOAT_NOISE = 1e-9
+"""A rate the file states exactly (an ``.npz`` / ``.mat`` ``fs``, a ``.wav`` header) must be repeated
+exactly; this much relative difference is float rounding (12000 written as 12000.000000000002)."""
 
 _TIME_COLUMN = re.compile(r"(?:t|time)\s*(?:_(?P<suffix>s|ms)|[(\[]\s*(?P<bracketed>s|ms)\s*[)\]])?", re.IGNORECASE)
 """Column names read as time stamps: ``time``, ``t``, ``time_s``, ``time_ms``, ``Time (s)``, ``t [ms]``, ..."""
@@ -60,6 +63,9 @@ class RawRecord:
         fs_origin: how ``fs`` was obtained (``header``, ``time column``, ``declared``, ...);
             a ``declared`` rate is a convention about the data set, not a measurement, so a
             user's value replaces it instead of contradicting it.
+        fs_tolerance: how far (relative) a user's rate may lie from ``fs`` and still agree with it:
+            float noise where the file states its rate exactly, FS_RELATIVE_TOLERANCE where the rate
+            was measured from rounded time stamps (or checked against them, as a HUST header is).
         rpm: shaft speed the file declares (None when unknown).
         nominal_rpm: the speed the data set's tables give for the file's operating condition, used
             when neither the file nor the user states one; ``nominal_rpm_note`` says so, and where it is from.
@@ -74,6 +80,7 @@ class RawRecord:
     channels: dict[str, np.ndarray]
     fs: float | None = None
     fs_origin: str = ""
+    fs_tolerance: float = FS_FLOAT_NOISE
     rpm: float | None = None
     nominal_rpm: float | None = None
     nominal_rpm_note: str = ""
@@ -142,15 +149,16 @@ def load_recording(
     rpm: float | None = None,
     fault: str | None = None,
     channel_key: str = "channel",
+    fs_key: str = "fs",
 ) -> Recording:
     """One validated channel of a file.
 
     ``fs`` and ``rpm`` fill in what the file does not declare; where it does, a different
     value is an error rather than a silent override (a ``declared`` data-set convention is
     the exception: the user's value wins). Non-finite samples raise: nothing is dropped.
-    ``channel_key`` is the setting ``channel`` comes from, as messages name it.
+    ``channel_key`` and ``fs_key`` are the settings ``channel`` and ``fs`` come from, as messages name them.
     """
-    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key)
+    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key, fs_key)
 
 
 def recording_from_raw(
@@ -160,6 +168,7 @@ def recording_from_raw(
     rpm: float | None = None,
     fault: str | None = None,
     channel_key: str = "channel",
+    fs_key: str = "fs",
 ) -> Recording:
     """The validated Recording of one channel of an already read file (see :func:`load_recording`)."""
     # A rate the file records stays the file's when the user repeats it (resolve_fs refuses any other);
@@ -173,7 +182,7 @@ def recording_from_raw(
         notes.append(raw.nominal_rpm_note)
     return Recording(
         signal=signal,
-        fs=resolve_fs(raw, fs),
+        fs=resolve_fs(raw, fs, fs_key),
         rpm=rpm,
         fault=_resolve_fact(raw, "fault", raw.fault, fault),
         source=raw.path,
@@ -183,16 +192,17 @@ def recording_from_raw(
     )
 
 
-def resolve_fs(raw: RawRecord, fs: float | None) -> float:
-    """The sampling rate to use: the user's, checked against the file's unless the file's is only declared."""
+def resolve_fs(raw: RawRecord, fs: float | None, key: str = "fs") -> float:
+    """The sampling rate to use: the user's (given as setting ``key``), checked against the file's within
+    ``raw.fs_tolerance`` unless the file's is only declared."""
     if fs is None:
         if raw.fs is None:
-            raise BearingTwinError(f"{raw.path}: the file does not state its sampling rate; give fs=<Hz>")
+            raise BearingTwinError(f"{raw.path}: the file does not state its sampling rate; give {key}=<Hz>")
         return float(raw.fs)
-    fs = positive_number(fs, "fs", "Hz")
-    if raw.fs is not None and raw.fs_origin != "declared" and abs(fs / raw.fs - 1.0) > FS_RELATIVE_TOLERANCE:
+    fs = positive_number(fs, key, "Hz")
+    if raw.fs is not None and raw.fs_origin != "declared" and abs(fs / raw.fs - 1.0) > raw.fs_tolerance:
         raise BearingTwinError(
-            f"{raw.path}: fs={fs:g} Hz contradicts the file's {raw.fs:g} Hz (from its {raw.fs_origin})"
+            f"{raw.path}: {key}={fs:g} Hz contradicts the file's {raw.fs:g} Hz (from its {raw.fs_origin})"
         )
     return fs
 
@@ -488,4 +498,4 @@ def _read_csv(path: Path) -> RawRecord:
     fs = (fs_from_time_column(time_column_seconds(time_name) * columns.pop(time_name), str(path), time_name)
           if time_name is not None else None)
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "",
-                     meta={"notes": table.notes} if table.notes else {})
+                     fs_tolerance=FS_RELATIVE_TOLERANCE, meta={"notes": table.notes} if table.notes else {})

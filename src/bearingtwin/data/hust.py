@@ -99,17 +99,20 @@ def read_hust_raw(path: str | Path) -> RawRecord:
         channels,
         fs=fs,
         fs_origin=fs_origin,
+        fs_tolerance=FS_RELATIVE_TOLERANCE,  # the time column measures it; the header is checked against that
         rpm=None if name is None else name.rpm,
         fault=None if name is None else name.fault,
         meta=meta,
     )
 
 
-def load_hust(path: str | Path, channel: str = "X", fs: float | None = None) -> Recording:
-    """One accelerometer axis (X, Y or Z) of a HUST file, fs checked against the time column."""
+def load_hust(path: str | Path, channel: str = "X", fs: float | None = None, channel_key: str = "channel",
+              fs_key: str = "fs") -> Recording:
+    """One accelerometer axis (X, Y or Z) of a HUST file, fs checked against the time column; ``channel_key``
+    and ``fs_key`` are the settings ``channel`` and ``fs`` come from, as messages name them."""
     if channel not in CHANNELS:
-        raise BearingTwinError(f"channel={channel!r} is not a HUST accelerometer axis; choose one of {', '.join(CHANNELS)}")
-    return load_recording(path, channel=channel, fs=fs)
+        raise BearingTwinError(f"{channel_key}={channel!r} is not a HUST accelerometer axis; choose one of {', '.join(CHANNELS)}")
+    return load_recording(path, channel=channel, fs=fs, channel_key=channel_key, fs_key=fs_key)
 
 
 def _column_order(header: dict[str, str]) -> tuple[list[str], list[str]]:

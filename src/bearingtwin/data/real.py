@@ -22,14 +22,14 @@ import re
 
 import numpy as np
 
-from bearingtwin.checks import positive_number
+from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import FORMATS, load_recording
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
-from bearingtwin.data.windows import SPLITS, cut_windows
+from bearingtwin.data.windows import SPLITS, check_train_fraction, check_windows_fit, cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
@@ -44,6 +44,7 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
     """
     cfg = plain_config(data_cfg, "data config")
     _check_split(cfg)
+    window_length, samples_per_class = _whole(cfg, "window_length"), _whole(cfg, "samples_per_class")
     paths = cwru_paths(cfg, data_root)
     bearing = load_bearing(cfg["bearing"], "data.bearing") if cfg.get("bearing") else None  # the rate check's second witness
     recordings = []
@@ -59,9 +60,8 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
                 bearing=bearing,
             )
         )
-    return windows_from_recordings(
-        recordings, int(_get(cfg, "window_length")), int(_get(cfg, "samples_per_class")), dataset_key(paths, cfg)
-    )
+    return windows_from_recordings(recordings, window_length, samples_per_class, "data.samples_per_class",
+                                   dataset_key(paths, cfg))
 
 
 def cwru_paths(data_cfg, data_root: str | Path | None = None) -> list[Path]:
@@ -80,6 +80,7 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
     """Windows of the HUST files of ``data.classes`` at ``data.condition`` (the paper's Table 5 set)."""
     cfg = plain_config(data_cfg, "data config")
     _check_split(cfg)
+    window_length, samples_per_class = _whole(cfg, "window_length"), _whole(cfg, "samples_per_class")
     files = hust_paths(cfg)
     faults, paths = list(files), list(files.values())
     root, names = Path(_get(cfg, "root")), [path.name for path in paths]
@@ -89,15 +90,15 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
             f"HUST files missing in {root}: {', '.join(missing)}. This data set needs {', '.join(names)} "
             f"(from the HUST bearing data set); put them in one folder and pass data.root=<dir>"
         )
-    recordings = [load_hust(path, channel=_get(cfg, "channel"), fs=_get(cfg, "fs")) for path in paths]
+    recordings = [load_hust(path, channel=_get(cfg, "channel"), fs=_get(cfg, "fs"), channel_key="data.channel",
+                            fs_key="data.fs") for path in paths]
     for fault, recording in zip(faults, recordings):
         if recording.fault != fault:
             raise BearingTwinError(
                 f"{recording.source}: data.classes.{fault} names a file whose state is {recording.fault or 'combined'}"
             )
-    return windows_from_recordings(
-        recordings, int(_get(cfg, "window_length")), int(_get(cfg, "samples_per_class")), dataset_key(paths, cfg)
-    )
+    return windows_from_recordings(recordings, window_length, samples_per_class, "data.samples_per_class",
+                                   dataset_key(paths, cfg))
 
 
 def hust_paths(data_cfg) -> dict[str, Path]:
@@ -127,18 +128,21 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     """
     cfg = plain_config(data_cfg, "data config")
     _check_split(cfg)
+    window_length, windows_per_record = _whole(cfg, "window_length"), _whole(cfg, "windows_per_record")
+    default_rpm, default_fs = _optional_setting(cfg, "rpm", "rev/min"), _optional_setting(cfg, "fs", "Hz")
     root = Path(_get(cfg, "root")).expanduser()
     if not root.is_dir():
         raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of your recordings")
     rows = _rows_from_pattern(root, cfg) if cfg.get("pattern") else _rows_from_labels(root, cfg)
     recordings = [
         load_recording(path, channel=cfg.get("channel"), fault=state,
-                       rpm=rpm if rpm is not None else cfg.get("rpm"), fs=fs if fs is not None else cfg.get("fs"))
+                       rpm=rpm if rpm is not None else default_rpm, fs=fs if fs is not None else default_fs,
+                       channel_key="data.channel", fs_key="data.fs" if fs is None else "the labels row's fs")
         for path, state, rpm, fs in rows
     ]
     labelling = [(path.name, state, rpm, fs) for path, state, rpm, fs in rows]
     dataset = windows_from_recordings(
-        recordings, int(_get(cfg, "window_length")), int(_get(cfg, "windows_per_record")),
+        recordings, window_length, windows_per_record, "data.windows_per_record",
         dataset_key([path for path, *_ in rows], {**cfg, "labels": labelling, "pattern": None}),
     )
     if all(recording.rpm is not None for recording in recordings):
@@ -183,7 +187,8 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
                 raise BearingTwinError(f"{table}: column {unknown[0]!r} is not one of {', '.join(LABEL_COLUMNS)} "
                                        "(lower case)")
             rows, seen = [], {}
-            for line, row in enumerate(reader, start=2):
+            for row in reader:
+                line = reader.line_num  # not a count of rows: the reader skips blank lines
                 row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
                 where = f"{table} line {line}"
                 record = row["record"]
@@ -232,25 +237,33 @@ def _state(value: str, where: str) -> str:
     return value
 
 
+def _optional_setting(cfg: dict, name: str, unit: str) -> float | None:
+    """``data.<name>`` (rpm, fs): None when unset, else a positive number, checked before any file is read."""
+    return None if cfg.get(name) is None else positive_number(cfg[name], f"data.{name}", unit)
+
+
 def _optional_number(value: str | None, name: str, unit: str, where: str) -> float | None:
     """A labels row's rpm or fs: None where the cell is empty, else a positive number (:func:`positive_number`)."""
     return positive_number(value, name, unit, f"{where}: ") if value else None
 
 
 def windows_from_recordings(
-    recordings: list[Recording], window_length: int, windows_per_record: int, key: str
+    recordings: list[Recording], window_length: int, windows_per_record: int, count_key: str, key: str
 ) -> WindowedDataset:
-    """Cut the same number of windows from every recording; labels are FAULTS indices."""
+    """Cut the same number of windows from every recording; labels are FAULTS indices. ``count_key`` is the
+    setting ``windows_per_record`` comes from, as messages name it."""
     rates = {recording.fs for recording in recordings}
     if len(rates) != 1:
         listing = ", ".join(f"{Path(r.source).name}: {r.fs:g} Hz" for r in recordings)
         raise BearingTwinError(f"the records have different sampling rates ({listing}); windows would span different times")
-    windows, labels, record_ids, starts, lengths = [], [], [], [], []
-    for index, recording in enumerate(recordings):
+    for recording in recordings:
         if recording.signal.size < window_length:
             raise BearingTwinError(
                 f"{recording.source}: {recording.signal.size} samples, shorter than one window of {window_length}"
             )
+    check_windows_fit(len(recordings), window_length, windows_per_record, count_key)
+    windows, labels, record_ids, starts, lengths = [], [], [], [], []
+    for index, recording in enumerate(recordings):
         cut, first = cut_windows(recording.signal, window_length, windows_per_record)
         windows.append(cut)
         starts.append(first)
@@ -321,8 +334,15 @@ def _classes(classes, allowed) -> list[str]:
 
 
 def _check_split(cfg: dict) -> None:
+    """``data.split`` and ``data.train_fraction``, checked before any file is read."""
     if _get(cfg, "split") not in SPLITS:
         raise BearingTwinError(f"data.split={cfg['split']!r} is not a split method; choose one of {', '.join(SPLITS)}")
+    check_train_fraction(_get(cfg, "train_fraction"))
+
+
+def _whole(cfg: dict, name: str) -> int:
+    """``data.<name>`` as a positive whole number (a count of windows or samples)."""
+    return whole_number(f"data.{name}", _get(cfg, name))
 
 
 def _get(cfg: dict, name: str):

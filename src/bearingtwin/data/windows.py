@@ -11,11 +11,21 @@ boundary, so no sample is shared.
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+from typing import Sequence
+
 import numpy as np
 
+from bearingtwin.checks import finite_number, physical_memory_bytes
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import FAULTS
 
 SPLITS = ("random", "block")
+
+BYTES_PER_WINDOW_SAMPLE = 16
+"""Peak memory per sample of a data set's windows while they are cut: the float64 windows of every
+record, and their copy when they are joined into one array."""
 
 
 def window_starts(n_samples: int, window_length: int, n_windows: int) -> np.ndarray:
@@ -51,6 +61,19 @@ def cut_windows(signal: np.ndarray, window_length: int, n_windows: int) -> tuple
     return signal[starts[:, None] + np.arange(window_length)], starts
 
 
+def check_windows_fit(n_records: int, window_length: int, windows_per_record: int, count_key: str) -> None:
+    """Refuse windows that would need over half the machine's memory, before any is cut (``count_key`` is
+    the setting ``windows_per_record`` comes from, as the message names it)."""
+    need = n_records * windows_per_record * window_length * BYTES_PER_WINDOW_SAMPLE
+    memory = physical_memory_bytes()
+    if memory is not None and need > memory / 2:
+        raise BearingTwinError(
+            f"{count_key}={windows_per_record} windows of data.window_length={window_length} samples from each of "
+            f"{n_records} records need about {need / 1e9:.3g} GB of memory, more than half of this machine's "
+            f"{memory / 1e9:.3g} GB: lower {count_key} or data.window_length"
+        )
+
+
 WINDOW_NORMALIZATIONS = ("none", "zscore")
 
 
@@ -77,6 +100,14 @@ def normalize_windows(windows: np.ndarray, method: str = "zscore") -> np.ndarray
     return (windows - windows.mean(axis=-1, keepdims=True)) / std
 
 
+def check_train_fraction(value) -> float:
+    """``data.train_fraction`` as a float strictly between 0 and 1."""
+    fraction = finite_number("data.train_fraction", value, "a number strictly between 0 and 1")
+    if not 0.0 < fraction < 1.0:
+        raise BearingTwinError(f"data.train_fraction must lie strictly between 0 and 1, got {value!r}")
+    return fraction
+
+
 def split_indices(
     labels: np.ndarray,
     record_ids: np.ndarray,
@@ -86,8 +117,10 @@ def split_indices(
     method: str = "block",
     train_fraction: float = 0.7,
     seed: int = 0,
+    class_names: Sequence[str] = FAULTS,
+    records: Sequence[str] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of the training and test windows.
+    """Indices of the training and test windows; every class of ``labels`` has some of both.
 
     Args:
         labels: (n,) class of each window; ``random`` stratifies on it.
@@ -100,14 +133,15 @@ def split_indices(
             windows lying wholly in the rest; windows straddling the boundary are dropped).
         train_fraction: share of windows (random) or of each record (block) used for training.
         seed: seeds the random split.
+        class_names, records: the name of each label and the source of each record, for messages
+            (default: FAULTS, and records by their index).
 
     Returns:
         (train_index, test_index), sorted int arrays.
     """
     if method not in SPLITS:
         raise BearingTwinError(f"split={method!r} is not a split method; choose one of {', '.join(SPLITS)}")
-    if not 0.0 < train_fraction < 1.0:
-        raise BearingTwinError(f"train_fraction must lie strictly between 0 and 1, got {train_fraction}")
+    train_fraction = check_train_fraction(train_fraction)
     labels = np.asarray(labels)
     if method == "random":
         from sklearn.model_selection import train_test_split
@@ -118,15 +152,39 @@ def split_indices(
         if fewest < 2 or min(n_train, labels.size - n_train) < n_classes:
             raise BearingTwinError(
                 f"too few windows for a stratified split: {labels.size} windows ({fewest} in the smallest class) cannot "
-                f"give every one of {n_classes} classes a training and a test window at train_fraction={train_fraction}; "
-                "raise data.samples_per_class"
+                f"give every one of {n_classes} classes a training and a test window at data.train_fraction={train_fraction:g}; "
+                "raise data.samples_per_class (data.windows_per_record under data=files)"
             )
         train, test = train_test_split(index, train_size=train_fraction, stratify=labels, random_state=seed)
         return np.sort(train), np.sort(test)
-    boundary = np.floor(np.asarray(record_lengths)[np.asarray(record_ids)] * train_fraction)
+    record_ids, record_lengths = np.asarray(record_ids), np.asarray(record_lengths)
+    boundary = np.floor(record_lengths[record_ids] * train_fraction)
     ends = np.asarray(starts) + window_length
     train = np.flatnonzero(ends <= boundary)
     test = np.flatnonzero(np.asarray(starts) >= boundary)
-    if train.size == 0 or test.size == 0:
-        raise BearingTwinError("the block split left no training or no test windows; records are too short")
+    for label in np.unique(labels):
+        missing = [part for part, index in (("training", train), ("test", test)) if not np.any(labels[index] == label)]
+        if missing:  # scored without the class, a run would report the others' accuracy as the model's
+            raise BearingTwinError(_block_split_shortfall(
+                class_names[label], " and no ".join(missing), np.unique(record_ids[labels == label]), record_ids,
+                record_lengths, window_length, train_fraction, records))
     return train, test
+
+
+def _block_split_shortfall(name: str, missing: str, class_records: np.ndarray, record_ids: np.ndarray,
+                           record_lengths: np.ndarray, window_length: int, train_fraction: float,
+                           records: Sequence[str] | None) -> str:
+    """Why the block split leaves class ``name`` no ``missing`` windows, naming its records, and what would help."""
+    listing = ", ".join(f"{Path(records[i]).name if records is not None else f'record {i}'} "
+                        f"({record_lengths[i]} samples, {np.count_nonzero(record_ids == i)} windows)"
+                        for i in class_records)
+    # A record holds a window on each side of its split point from this length on (with two windows or more:
+    # the first starts at 0, the last ends at the record's end).
+    needed = math.ceil(window_length / min(train_fraction, 1.0 - train_fraction))
+    if np.all(record_lengths[class_records] >= needed):
+        advice = "Cut more than one window from each record (data.windows_per_record or data.samples_per_class)"
+    else:
+        advice = (f"Give records of at least {needed} samples, a data.train_fraction nearer 0.5 or a shorter "
+                  "data.window_length")
+    return (f"the block split leaves class {name} no {missing} windows at data.train_fraction={train_fraction:g} "
+            f"with windows of {window_length} samples; its records: {listing}. {advice}")

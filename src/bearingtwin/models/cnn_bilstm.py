@@ -49,6 +49,7 @@ from torch.utils.data import DataLoader, TensorDataset
 
 from bearingtwin.checks import finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.models.classes import training_classes
 
 LSTM_OUTPUTS = ("last", "flatten")
 
@@ -68,8 +69,7 @@ class CnnBiLstmShape:
 
     def __post_init__(self) -> None:
         whole_number("the network's input length", self.input_length)
-        if whole_number("the number of classes", self.n_classes) < 2:
-            raise BearingTwinError(f"the training labels hold {self.n_classes} class; a classifier needs at least 2")
+        whole_number("the number of classes", self.n_classes)
         check_layer_settings(self.n_filters, self.kernel_size, self.pool_size, self.hidden_units, self.dropout,
                              self.lstm_output)
         if self.sequence_length < 1:
@@ -250,6 +250,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
     def fit(self, X, y, eval_set: tuple | None = None) -> "CnnBiLstmClassifier":
         X, y = _check_xy(X, y)
         self.check_params()
+        training_classes(y)  # one state: nothing to tell apart
         L.seed_everything(self.random_state, workers=True, verbose=False)
         self.classes_, y_index = np.unique(y, return_inverse=True)
         shape = CnnBiLstmShape(

@@ -27,6 +27,7 @@ from bearingtwin.features.cache import cache_path, extract_features
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import build_feature_extractor
 from bearingtwin.models.build import build_classifier
+from bearingtwin.models.classes import training_classes
 from bearingtwin.tracking.lifecycle import signals_kept
 
 # Metrics that measure this machine, not the model: excluded when runs are compared for equality.
@@ -167,7 +168,10 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
             method=cfg.data.split,
             train_fraction=cfg.data.train_fraction,
             seed=seed,
+            class_names=dataset.class_names,
+            records=dataset.records,
         )
+    training_classes(dataset.labels[train])  # the classifier refuses one state too, but after the features' minutes
     features, vmd_params, extractor = extract_features(cfg.features, dataset, train, cfg.paths.cache_dir)
     y = dataset.labels
 

@@ -22,6 +22,7 @@ from sklearn.svm import SVC
 
 from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.models.classes import state_name, training_classes
 
 KERNELS = ("linear", "poly", "rbf", "sigmoid")
 CALIBRATION_FOLDS = 5
@@ -59,10 +60,11 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
     def fit(self, X, y) -> "SvmClassifier":
         svm = make_svm(self.C, self.kernel, self.gamma, self.random_state)
         y = np.asarray(y)
-        self.classes_, counts = np.unique(y, return_counts=True)
+        self.classes_, counts = training_classes(y)
         if counts.min() < 2:
             raise BearingTwinError(f"the SVM's probabilities are calibrated by cross-validation, which needs at least 2 "
-                                   f"training windows per class; class {self.classes_[counts.argmin()]} has {counts.min()}")
+                                   f"training windows per class; class {state_name(self.classes_[counts.argmin()])} "
+                                   f"has {counts.min()}")
         self.svm_ = svm.fit(X, y)
         folds = int(min(CALIBRATION_FOLDS, counts.min()))
         self.calibration_ = CalibratedClassifierCV(make_svm(self.C, self.kernel, self.gamma, self.random_state),

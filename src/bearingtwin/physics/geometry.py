@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass, fields
 from typing import Mapping
 
-from bearingtwin.checks import finite_number
+from bearingtwin.checks import ball_count, finite_number
 from bearingtwin.errors import BearingTwinError
 
 FAULTS = ("normal", "inner", "ball", "outer")
@@ -65,8 +65,6 @@ class BearingGeometry:
         for name in ("outer_diameter_mm", "inner_diameter_mm", "ball_diameter_mm", "pitch_diameter_mm"):
             if not getattr(self, name) > 0:
                 raise BearingTwinError(f"bearing.{name} must be positive, got {getattr(self, name)}")
-        if self.n_balls < 1 or int(self.n_balls) != self.n_balls:
-            raise BearingTwinError(f"bearing.n_balls must be a positive integer, got {self.n_balls}")
         # The ball's load line leans by alpha from the radial plane; at 90 degrees it is a thrust
         # bearing, where cos(alpha) = 0 makes BPFI = BPFO and the radial model of this project void.
         if not 0.0 <= self.contact_angle_deg < 90.0:
@@ -74,13 +72,17 @@ class BearingGeometry:
                                    f"angular-contact ball bearing, got {self.contact_angle_deg!r}")
         if self.clearance_mm < 0:
             raise BearingTwinError(f"bearing.clearance_mm must not be negative, got {self.clearance_mm}")
-        if not self.inner_diameter_mm < self.pitch_diameter_mm < self.outer_diameter_mm:
+        # The balls run between the rings: from the inner raceway (pitch - ball) to the outer (pitch + ball),
+        # both within the bore and the outer diameter.
+        inner_race_mm = self.pitch_diameter_mm - self.ball_diameter_mm
+        outer_race_mm = self.pitch_diameter_mm + self.ball_diameter_mm
+        if not self.inner_diameter_mm < inner_race_mm < outer_race_mm < self.outer_diameter_mm:
             raise BearingTwinError(
-                "bearing.pitch_diameter_mm must lie between the inner and outer diameters "
-                f"({self.inner_diameter_mm} < {self.pitch_diameter_mm} < {self.outer_diameter_mm} is false)"
-            )
-        if self.ball_diameter_mm >= self.pitch_diameter_mm:
-            raise BearingTwinError("bearing.ball_diameter_mm must be smaller than the pitch diameter")
+                f"bearing.ball_diameter_mm={self.ball_diameter_mm:g} on bearing.pitch_diameter_mm="
+                f"{self.pitch_diameter_mm:g} spans {inner_race_mm:g} to {outer_race_mm:g} mm across; the balls must "
+                f"lie between the rings, bearing.inner_diameter_mm={self.inner_diameter_mm:g} and "
+                f"bearing.outer_diameter_mm={self.outer_diameter_mm:g}")
+        ball_count(self.n_balls, self.ball_diameter_mm, self.pitch_diameter_mm)
 
     @classmethod
     def from_config(cls, bearing_cfg: Mapping) -> "BearingGeometry":

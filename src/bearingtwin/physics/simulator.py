@@ -12,14 +12,13 @@ accelerations of the inner and outer race in x and y. The sensor channel
 from __future__ import annotations
 
 import math
-import os
 from typing import Mapping, NamedTuple, Sequence
 
 import joblib
 import numpy as np
 from tqdm.auto import tqdm
 
-from bearingtwin.checks import finite_number, is_finite_number, whole_number
+from bearingtwin.checks import finite_number, is_finite_number, physical_memory_bytes, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -105,14 +104,6 @@ def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs:
         )
 
 
-def _physical_memory_bytes() -> int | None:
-    """The machine's physical memory, or None where the system does not say."""
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (AttributeError, ValueError, OSError):
-        return None
-
-
 def _memory_bytes(solver: str, n_transient: int, n_samples: int, n_balls: int) -> int:
     """Estimated peak memory of one simulation in bytes (the factors' comment says how they were measured)."""
     n_grid = n_transient + n_samples + 1
@@ -124,7 +115,7 @@ def _check_memory(simulator_cfg: Mapping, n_transient: int, n_samples: int, n_ba
                   concurrent: int = 1) -> None:
     """Refuse a simulation whose arrays (``concurrent`` of them at once) would need over half the memory."""
     need = concurrent * _memory_bytes(simulator_cfg["solver"], n_transient, n_samples, n_balls)
-    memory = _physical_memory_bytes()
+    memory = physical_memory_bytes()
     if memory is not None and need > memory / 2:
         fs, n_grid = float(simulator_cfg["fs"]), n_transient + n_samples + 1
         at_once = f" for {concurrent} simulations at once" if concurrent > 1 else ""

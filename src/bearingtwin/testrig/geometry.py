@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from bearingtwin.checks import ball_count
 from bearingtwin.errors import BearingTwinError
 
 
@@ -46,16 +47,11 @@ class RigBearing:
     load_exponent: float = 1.5
 
     def __post_init__(self) -> None:
-        if int(self.n_balls) != self.n_balls or self.n_balls < 3:
-            raise BearingTwinError(f"bearing.n_balls must be an integer of at least 3, got {self.n_balls}")
         for name in ("ball_diameter_mm", "pitch_diameter_mm", "contact_stiffness_n_per_m1_5", "load_exponent"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise BearingTwinError(f"bearing.{name} must be a positive number, got {value}")
-        if self.ball_diameter_mm >= self.pitch_diameter_mm:
-            raise BearingTwinError(
-                f"bearing.ball_diameter_mm={self.ball_diameter_mm} must be smaller than the pitch diameter "
-                f"{self.pitch_diameter_mm}")
+        ball_count(self.n_balls, self.ball_diameter_mm, self.pitch_diameter_mm)
         if not 0.0 <= self.contact_angle_deg < 90.0:
             raise BearingTwinError(f"bearing.contact_angle_deg must lie in [0, 90), got {self.contact_angle_deg}")
 

@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import optuna
 
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import raise_if_interrupted
 
@@ -36,17 +37,24 @@ class Fit:
 
 def parse_space(space, where: str) -> dict[str, Bounds]:
     """Validate ``{name: [low, high] | [low, high, "log"]}`` from a config, naming the bad entry."""
+    if not isinstance(space or {}, Mapping):
+        raise BearingTwinError(f"{where} must map each parameter to [low, high] or [low, high, log], got {space!r}")
     parsed = {}
-    for name, bounds in dict(space or {}).items():
-        bounds = list(bounds)
-        log = len(bounds) == 3 and bounds[2] == "log"
-        if len(bounds) not in (2, 3) or (len(bounds) == 3 and not log):
-            raise BearingTwinError(f"{where}.{name} must be [low, high] or [low, high, log], got {bounds}")
-        low, high = float(bounds[0]), float(bounds[1])
+    for name, bounds in (space or {}).items():
+        if not _is_bounds(bounds):
+            raise BearingTwinError(f"{where}.{name} must be [low, high] or [low, high, log] of finite numbers, "
+                                   f"got {bounds!r}")
+        low, high, log = float(bounds[0]), float(bounds[1]), len(bounds) == 3
         if not low < high or (log and low <= 0):
             raise BearingTwinError(f"{where}.{name}: need low < high (and low > 0 on a log scale), got {bounds}")
         parsed[name] = (low, high, log)
     return parsed
+
+
+def _is_bounds(bounds) -> bool:
+    """Whether ``bounds`` is ``[low, high]`` or ``[low, high, "log"]`` with finite numbers for low and high."""
+    return (isinstance(bounds, Sequence) and not isinstance(bounds, str) and len(bounds) in (2, 3)
+            and all(is_finite_number(bound) for bound in bounds[:2]) and (len(bounds) == 2 or bounds[2] == "log"))
 
 
 def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bounds], n_trials: int, seed: int,
@@ -67,7 +75,7 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
         error = float(objective({}))
         return Fit({}, error, [error])
     if n_trials < 1:
-        raise BearingTwinError(f"calibration.n_trials must be at least 1, got {n_trials}")
+        raise BearingTwinError(f"minimize: n_trials must be at least 1, got {n_trials}")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=max(3, n_trials // 3), multivariate=True)
     study = optuna.create_study(direction="minimize", sampler=sampler)

@@ -77,7 +77,7 @@ class OperatingPoint:
                     fault: str, angle_step_deg: float = 15.0, extra_held: Mapping | None = None) -> "OperatingPoint":
         """From ``operating_point`` (null = fit), ``calibration.ranges``, ``calibration.base`` (further keys to fit)
         and ``calibration.base_held`` (further keys held); a healthy bearing has no defect to size."""
-        operating = dict(operating_cfg or {})
+        operating = _mapping(operating_cfg, "operating_point")
         unknown = set(operating) - set(BASE_PARAMETERS) - {"sensor", "sensor_angle_deg"}
         if unknown:
             raise BearingTwinError(f"operating_point.{sorted(unknown)[0]} is not an operating-point parameter; "
@@ -115,11 +115,12 @@ class OperatingPoint:
             races, angle = (sensor.split("_")[0],), 0.0 if sensor.endswith("_x") else 90.0
         else:
             races = (sensor,) if sensor else RACES
+        angle_step_deg = finite_number("calibration.sensor_angle_step_deg", angle_step_deg)
         if not 0 < angle_step_deg <= 90:
             raise BearingTwinError(f"calibration.sensor_angle_step_deg must lie in (0, 90], got {angle_step_deg}")
         extra = parse_space(extra_base, "calibration.base")
         extra_known = {key: finite_number(f"calibration.base_held.{key}", value, "a finite number or null")
-                       for key, value in dict(extra_held or {}).items()}
+                       for key, value in _mapping(extra_held, "calibration.base_held").items()}
         both = sorted(set(extra) & set(extra_known))
         if both:
             raise BearingTwinError(f"calibration.base.{both[0]}: also held in calibration.base_held; fit it or hold it")
@@ -130,7 +131,7 @@ class OperatingPoint:
                 name = own.get(taken[0], "sensor")
                 raise BearingTwinError(f"{group}.{taken[0]}: the operating point's {name} sets it; give "
                                        f"operating_point.{name} instead")
-        return cls(known, free, races, angle, float(angle_step_deg), extra, extra_known)
+        return cls(known, free, races, angle, angle_step_deg, extra, extra_known)
 
     @property
     def space(self) -> dict[str, Bounds]:
@@ -169,6 +170,13 @@ class OperatingPoint:
             if value is not None:
                 start[name] = float(value) / parameter.scale if parameter else float(value)
         return start
+
+
+def _mapping(value, key: str) -> dict:
+    """``value`` (a config block; None: empty) as a dict, refused naming ``key`` when it is no mapping."""
+    if not isinstance(value or {}, Mapping):
+        raise BearingTwinError(f"{key} must map names to values, got {value!r}")
+    return dict(value or {})
 
 
 def describe_sensor(sensor: Mapping) -> str:

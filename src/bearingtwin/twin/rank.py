@@ -34,17 +34,19 @@ runner-up.
 from __future__ import annotations
 
 import math
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.twin.calibrate import minimize, slice_interval
+from bearingtwin.twin.calibrate import SLICE_STEPS, minimize, slice_interval
 from bearingtwin.twin.compare import VIEWS, Comparator, Comparison, CompareSettings
 from bearingtwin.twin.model import TwinModel, effect_defaults, effect_search_space
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, OperatingPoint, describe_sensor
@@ -349,6 +351,37 @@ def _operating_point_words(operating: Mapping, gain: float) -> str:
     return ", ".join(parts)
 
 
+class StageProgress:
+    """A bar on stderr for each of the ranking's stages (the operating point, each round's candidates, each re-fit,
+    the intervals), counting evaluations of the objective against the stage's budget; a search that converges
+    early ends its stage short of it. Disabled (no one watching: a test, a benchmark, a log file), it shows nothing."""
+
+    def __init__(self, enabled: bool):
+        self._enabled = enabled
+        self._bar = tqdm(disable=True)  # counts nothing until the first stage
+        self._lock = threading.Lock()  # the candidates of a round are fitted in threads
+
+    def __enter__(self) -> "StageProgress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._bar.close()
+
+    def stage(self, name: str, budget: int) -> None:
+        self._bar.close()
+        self._bar = tqdm(total=budget, desc=name, unit="eval", leave=False, disable=not self._enabled)
+
+    def counted(self, objective: Callable[..., float]) -> Callable[..., float]:
+        """``objective``, advancing the bar by one at each evaluation (one rejected by the model too)."""
+        def run(*args):
+            try:
+                return objective(*args)
+            finally:
+                with self._lock:
+                    self._bar.update()
+        return run
+
+
 class EffectRanker:
     """Calibrate the twin's operating point to a measurement, then find the effects it misses.
 
@@ -371,6 +404,10 @@ class EffectRanker:
         later_points_per_view: ``points_per_view`` of the information criterion and the signature rule from the
             second round on (None: the same); the fits do not depend on it.
         seed: seeds every Optuna sampler (each search gets its own derived seed).
+        progress: show the stages on stderr (:class:`StageProgress`).
+
+    The arguments are taken as given: ``bearingtwin-twin`` checks them as settings
+    (:func:`bearingtwin.twin.report.ranker_settings`) before it reads the measurement.
     """
 
     def __init__(self, candidates: Sequence[str], fixed_effects: Mapping[str, Mapping] | None = None,
@@ -378,7 +415,7 @@ class EffectRanker:
                  n_trials_effect: int = 10, n_trials_refine: int = 16, n_polish: int = 30, n_polish_effect: int = 10,
                  max_effects: int = 3, points_per_view: float = 1.0, view_floor_db: float = 0.3,
                  min_signature_gain: float = 1.0, n_jobs: int = 1, later_points_per_view: float | None = None,
-                 seed: int = 0):
+                 seed: int = 0, progress: bool = False):
         self.candidates = list(candidates)
         self.fixed_effects = {k: dict(v or {}) for k, v in dict(fixed_effects or {}).items()}
         self.operating_point = operating_point or OperatingPoint()
@@ -394,22 +431,16 @@ class EffectRanker:
         self.max_effects = max_effects
         self.later_points_per_view = later_points_per_view
         self.seed = seed
+        self.progress = progress
 
     def fit(self, twin: TwinModel, measured: Recording, geometry: BearingGeometry,
             settings: CompareSettings | None = None) -> "EffectRanker":
         """Calibrate, rank and select; the outcome is in ``fit_`` (a :class:`TwinFit`)."""
-        overlap = set(self.candidates) & set(self.fixed_effects)
-        if overlap:
-            raise BearingTwinError(f"candidates: {sorted(overlap)[0]} is already among the fixed effects")
-        if self.max_effects < 0:
-            raise BearingTwinError(f"ranking.max_effects must be non-negative, got {self.max_effects}")
-        if not self.view_floor_db > 0:
-            raise BearingTwinError(f"ranking.view_floor_db must be a positive number of dB, got {self.view_floor_db}")
-        if not self.min_signature_gain >= 0:
-            raise BearingTwinError(f"ranking.min_signature_gain must be non-negative, got {self.min_signature_gain}")
-        if self.later_points_per_view is not None and not self.later_points_per_view > 0:
-            raise BearingTwinError(
-                f"ranking.later_points_per_view must be a positive number or null, got {self.later_points_per_view}")
+        with StageProgress(self.progress) as progress:
+            return self._fit(twin, measured, geometry, settings, progress)
+
+    def _fit(self, twin: TwinModel, measured: Recording, geometry: BearingGeometry, settings: CompareSettings | None,
+             progress: StageProgress) -> "EffectRanker":
         spaces = {name: effect_search_space(name) for name in self.candidates}
         judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view,
                                       self.view_floor_db)
@@ -435,8 +466,9 @@ class EffectRanker:
         def compare(base: Mapping, effects: Mapping, part: Comparator) -> Comparison:
             return part(twin.signal(base, effects))
 
-        base_fit = minimize(base_deviance, op.space, self.n_trials_base, self.seed, start=op.start(twin.value),
-                            n_polish=self.n_polish)
+        progress.stage("operating point", self.n_trials_base + self.n_polish if op.space else 1)
+        base_fit = minimize(progress.counted(base_deviance), op.space, self.n_trials_base, self.seed,
+                            start=op.start(twin.value), n_polish=self.n_polish)
         sensor, scored = sensor_search[_key(base_fit.params)]
         base_values = dict(base_fit.params)
         current_effects = dict(self.fixed_effects)
@@ -456,10 +488,12 @@ class EffectRanker:
             seeds = [self.seed + 1000 * (round_index + 1) + index for index in range(len(offered))]
             matched = _gain_matched(judge, twin.signal(base, current_effects))
             scorer = judge if round_index == 0 else later
+            progress.stage(f"round {round_index + 1}: {len(offered)} candidate" + "s" * (len(offered) != 1),
+                           len(offered) * (self.n_trials_effect + self.n_polish_effect))
             with ThreadPoolExecutor(max_workers=self.n_jobs) as pool:  # the solver and numpy release the GIL
                 fits = list(pool.map(lambda name, seed: self._fit_candidate(
                     name, spaces[name], base, current_effects, current, judge, twin.fresh(), matched, seed=seed,
-                    scorer=scorer), offered, seeds))
+                    scorer=scorer, progress=progress), offered, seeds))
             if not fits:
                 break
             fits.sort(key=lambda fit: -fit.evidence)
@@ -474,8 +508,10 @@ class EffectRanker:
             if best.signature_gain < self.min_signature_gain:  # it pays, but not where its own mark would be
                 unclaimed = best
                 break
+            progress.stage(f"re-fit with {best.effect}", self.n_trials_refine + self.n_polish)
             base_values, sensor, effects, _, scored = self._refit(
-                best, base_values, sensor, current_effects, judge, twin, seed=self.seed + 1000 * (round_index + 1) + 999)
+                best, base_values, sensor, current_effects, judge, twin,
+                seed=self.seed + 1000 * (round_index + 1) + 999, progress=progress)
             base = op.to_base(base_values, sensor)
             before = current
             current = compare(base, effects, judge.check_part)
@@ -489,9 +525,12 @@ class EffectRanker:
             round_index += 1
 
         # Intervals: each fitted value's slice of the final deviance on the first part.
+        @progress.counted
         def final_deviance(values, effects):
             return judge.deviance(judge.fit_part(twin.signal(op.to_base(values, sensor), effects)))
 
+        n_intervals = len(op.space) + sum(len(effect_search_space(fit.effect)) for fit in added)
+        progress.stage("intervals", 1 + 2 * len(SLICE_STEPS) * n_intervals)  # at most, both ways at every step
         best_deviance = final_deviance(base_values, current_effects)
         for fit in added:
             space = effect_search_space(fit.effect)
@@ -511,7 +550,7 @@ class EffectRanker:
         return self
 
     def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, matched,
-                       seed, scorer: Judge) -> EffectFit:
+                       seed, scorer: Judge, progress: StageProgress) -> EffectFit:
         """Fit one candidate on the first part (starting from the data's own estimate when the effect
         offers one, read against ``matched``: the current twin, gain-matched) and judge it on the held-out
         part, its evidence and signature gain by ``scorer`` (``judge`` with the round's points per view).
@@ -529,8 +568,8 @@ class EffectRanker:
         def with_effect(params):
             return _with_effect_params(trial_effects, params)
 
-        fit = minimize(lambda p: judge.deviance(judge.fit_part(twin.signal(base, with_effect(p)))), joint,
-                       self.n_trials_effect, seed, start=start, n_polish=self.n_polish_effect)
+        fit = minimize(progress.counted(lambda p: judge.deviance(judge.fit_part(twin.signal(base, with_effect(p))))),
+                       joint, self.n_trials_effect, seed, start=start, n_polish=self.n_polish_effect)
         effects = with_effect(fit.params)
         checked = judge.check_part(twin.signal(base, effects))
         drop = (scorer.deviance(current) - scorer.deviance(checked)) / scorer.points_per_view
@@ -540,7 +579,8 @@ class EffectRanker:
                          scorer.signature_gain(current, checked, signature_views(name)),
                          kept_params={other: effects[other] for other in kept})
 
-    def _refit(self, best: EffectFit, base_values, sensor, current_effects, judge: Judge, twin, seed):
+    def _refit(self, best: EffectFit, base_values, sensor, current_effects, judge: Judge, twin, seed,
+               progress: StageProgress):
         """Re-fit the operating point together with every kept effect and the new one.
 
         The operating point was fitted without the effect, so it absorbed part of it (a deeper
@@ -567,7 +607,8 @@ class EffectRanker:
             values, new_sensor, new_effects = split(params)
             return judge.deviance(judge.fit_part(twin.signal(op.to_base(values, new_sensor), new_effects)))
 
-        fit = minimize(deviance, space, self.n_trials_refine, seed, start=start, n_polish=self.n_polish)
+        fit = minimize(progress.counted(deviance), space, self.n_trials_refine, seed, start=start,
+                       n_polish=self.n_polish)
         values, new_sensor, new_effects = split(fit.params)
         # The sensor was placed without the effect; with it in, another race or direction may fit better.
         scored = [(judge.deviance(judge.fit_part(twin.signal(op.to_base(values, option), new_effects))), option)

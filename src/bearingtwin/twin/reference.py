@@ -7,13 +7,16 @@ twin against a baseline record (``bearingtwin-twin ... out=baseline``) and then 
 one with ``reference=baseline/twin_report.json``: the reference's operating point is held
 wherever the new run would otherwise fit it, and its effects are kept in the twin, no longer
 candidates. A defect's size is held only from a reference of the same bearing state (a
-healthy reference has none; a report that does not say its state gives none either).
+healthy reference has none; a report that does not say its state gives none either). A reference
+of a bearing of another geometry is refused, and so is an ``out=`` folder that holds the reference.
 """
 
 from __future__ import annotations
 
 import copy
 import json
+import math
+from dataclasses import fields
 from pathlib import Path
 from typing import Mapping
 
@@ -21,6 +24,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, RACES
 
@@ -52,6 +56,37 @@ def read_reference(path) -> dict:
     return report
 
 
+def rig_geometry(geometry: BearingGeometry) -> dict:
+    """What a reference's report records of its bearing to be compared by: every geometric field but the
+    clearance, which is an operating-point parameter (``operating_point.clearance_um``) held from it like the load."""
+    return {field.name: getattr(geometry, field.name) for field in fields(geometry) if field.name != "clearance_mm"}
+
+
+def require_same_bearing(bearing_cfg, measured: Mapping, source: str) -> None:
+    """Refuse a reference whose record's bearing has another geometry than ``bearing_cfg``, naming the field: a name
+    says nothing of the geometry (``bearing.name=my6206 bearing.n_balls=12`` keeps the name). A report written
+    before it recorded the geometry is compared by the bearing's name, all it holds."""
+    recorded = measured.get("geometry")
+    if isinstance(recorded, Mapping):
+        ours = rig_geometry(BearingGeometry.from_config(bearing_cfg))
+        for name, value in recorded.items():
+            if name in ours and not (is_finite_number(value) and math.isclose(value, ours[name], rel_tol=1e-9)):
+                raise BearingTwinError(f"{source}: its record's bearing has {name}={value}, this one bearing.{name}="
+                                       f"{ours[name]}; a reference must come from the same rig")
+    elif measured.get("bearing") and bearing_cfg.get("name") and measured["bearing"] != bearing_cfg.name:
+        raise BearingTwinError(f"{source}: its record is of bearing {measured['bearing']}, this one of "
+                               f"{bearing_cfg.name}; a reference must come from the same rig")
+
+
+def refuse_reference_folder(reference, out: Path) -> None:
+    """Refuse an ``out=`` folder that holds the reference's report: this run would write its own report and
+    figures over the reference's."""
+    reference = Path(str(reference)).expanduser().resolve()
+    if reference.parent == out.expanduser().resolve():
+        raise BearingTwinError(f"out={out} is the folder of reference={reference}: this run's report and figures "
+                               "would overwrite the reference's; give this run a folder of its own")
+
+
 def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "reference") -> DictConfig:
     """A copy of the ``twin`` config with what ``report`` (a reference's twin report) found held.
 
@@ -66,9 +101,7 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
     OmegaConf.set_readonly(held, False)
     operating = report["operating_point"]
     measured = report.get("measured") or {}
-    if measured.get("bearing") and cfg.bearing.get("name") and measured["bearing"] != cfg.bearing.name:
-        raise BearingTwinError(f"{source}: its record is of bearing {measured['bearing']}, this one of {cfg.bearing.name}; "
-                               "a reference must come from the same rig")
+    require_same_bearing(cfg.bearing, measured, source)
     effects = dict(report["steps"][-1]["params"])
     clash = sorted(set(effects) & set(cfg.effects))
     if clash:

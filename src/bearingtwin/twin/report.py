@@ -12,12 +12,13 @@ import logging
 import math
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
+from joblib import cpu_count
 from omegaconf import DictConfig, OmegaConf
 
-from bearingtwin.checks import true_or_false
+from bearingtwin.checks import finite_number, is_finite_number, positive_number, true_or_false, whole_number
 from bearingtwin.config import output_folder
 from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
@@ -25,11 +26,11 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
-from bearingtwin.twin.compare import CompareSettings, plot_comparison
-from bearingtwin.twin.model import TwinModel
+from bearingtwin.twin.compare import VIEWS, CompareSettings, plot_comparison
+from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit
-from bearingtwin.twin.reference import hold_reference, read_reference
+from bearingtwin.twin.reference import hold_reference, read_reference, refuse_reference_folder, rig_geometry
 
 if TYPE_CHECKING:
     from mlflow import MlflowClient
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 REPORT_NAME = "twin_report.json"
+STEPS_FIGURE = "error_steps.png"
 
 
 def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Recording:
@@ -70,31 +72,96 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     return recording
 
 
-def build_ranker(cfg: DictConfig, fault: str) -> EffectRanker:
+MAX_SEED = 2**31 - 1
+"""Every Optuna sampler takes a seed derived from ``seed`` (plus 1000 per round), which numpy wants below 2**32:
+half that range leaves room for any number of rounds."""
+
+
+def ranker_settings(cfg: DictConfig) -> dict:
+    """The ``candidates``, ``effects``, trial budgets of ``calibration``, ``ranking`` and ``seed`` settings, each
+    checked, as :class:`EffectRanker`'s keyword arguments (all but the operating point, which needs the record's
+    bearing state): a bad one is named before the measurement is read, let alone a twin simulated."""
+    calibration, ranking = cfg.calibration, cfg.ranking
+    fixed_effects = _plain(cfg.effects) or {}
+    later = ranking.later_points_per_view
+    return {
+        "candidates": candidate_names(_plain(cfg.candidates), fixed_effects),
+        "fixed_effects": fixed_effects,
+        **{key: whole_number(f"calibration.{key}", calibration[key])
+           for key in ("n_trials_base", "n_trials_effect", "n_trials_refine")},
+        **{key: whole_number(f"calibration.{key}", calibration[key], minimum=0)  # 0: no local polish
+           for key in ("n_polish", "n_polish_effect")},
+        "max_effects": whole_number("ranking.max_effects", ranking.max_effects, minimum=0),
+        "points_per_view": positive_number(ranking.points_per_view, "ranking.points_per_view", "values per view"),
+        "view_floor_db": positive_number(ranking.view_floor_db, "ranking.view_floor_db", "dB"),
+        "min_signature_gain": non_negative_number("ranking.min_signature_gain", ranking.min_signature_gain),
+        "later_points_per_view": None if later is None else positive_number(
+            later, "ranking.later_points_per_view", "values per view, or null"),
+        "n_jobs": thread_count(ranking.n_jobs),
+        "seed": seed_value(cfg.seed),
+    }
+
+
+def candidate_names(candidates, fixed_effects: Mapping) -> list[str]:
+    """``candidates``: a list of distinct effect names the twin can calibrate, none of them a fixed effect."""
+    if isinstance(candidates, str):  # candidates=noise: Hydra reads a string, not a list of one
+        raise BearingTwinError(f"candidates={candidates}: give a list of effect names, candidates=[{candidates}]")
+    if not isinstance(candidates, list):
+        raise BearingTwinError(f"candidates must be a list of effect names, got {candidates!r}")
+    for index, name in enumerate(candidates):
+        if not isinstance(name, str):
+            raise BearingTwinError(f"candidates: {name!r} is not an effect name")
+        if name in candidates[:index]:
+            raise BearingTwinError(f"candidates: {name} is named twice")
+        if name in fixed_effects:
+            raise BearingTwinError(f"candidates: {name} is already among the fixed effects")
+        try:
+            effect_search_space(name)
+        except BearingTwinError as error:
+            raise BearingTwinError(f"candidates: {error}") from None
+    return candidates
+
+
+def non_negative_number(key: str, value) -> float:
+    """``value`` as a float if it is a finite number of at least 0."""
+    number = finite_number(key, value, "a non-negative number")
+    if number < 0:
+        raise BearingTwinError(f"{key} must be a non-negative number, got {value!r}")
+    return number
+
+
+def thread_count(n_jobs) -> int:
+    """``ranking.n_jobs``: threads, or -1 for one per core (joblib's convention, as the project's other n_jobs)."""
+    if is_finite_number(n_jobs) and n_jobs == -1:
+        return cpu_count()
+    try:
+        return whole_number("ranking.n_jobs", n_jobs)
+    except BearingTwinError as error:
+        raise BearingTwinError(f"{error} (or -1: one thread per core)") from None
+
+
+def seed_value(seed) -> int:
+    """``seed`` as an int from 0 to :data:`MAX_SEED`."""
+    seed = whole_number("seed", seed, minimum=0)
+    if seed > MAX_SEED:
+        raise BearingTwinError(f"seed must be at most {MAX_SEED}, got {seed}")
+    return seed
+
+
+def build_ranker(cfg: DictConfig, fault: str, progress: bool = False) -> EffectRanker:
     """The effect ranker the ``operating_point`` / ``calibration`` / ``ranking`` / ``candidates`` /
-    ``effects`` config describes, for a measurement of bearing state ``fault``."""
+    ``effects`` config describes, for a measurement of bearing state ``fault``; with ``progress``, it shows
+    its stages on stderr."""
+    calibration = cfg.calibration
     operating = OperatingPoint.from_config(
-        OmegaConf.to_container(cfg.operating_point, resolve=True), OmegaConf.to_container(cfg.calibration.ranges),
-        OmegaConf.to_container(cfg.calibration.base), fault, float(cfg.calibration.sensor_angle_step_deg),
-        OmegaConf.to_container(cfg.calibration.base_held))
-    return EffectRanker(
-        candidates=list(cfg.candidates),
-        fixed_effects=OmegaConf.to_container(cfg.effects, resolve=True),
-        operating_point=operating,
-        n_trials_base=int(cfg.calibration.n_trials_base),
-        n_trials_effect=int(cfg.calibration.n_trials_effect),
-        n_trials_refine=int(cfg.calibration.n_trials_refine),
-        n_polish=int(cfg.calibration.n_polish),
-        n_polish_effect=int(cfg.calibration.n_polish_effect),
-        max_effects=int(cfg.ranking.max_effects),
-        points_per_view=float(cfg.ranking.points_per_view),
-        view_floor_db=float(cfg.ranking.view_floor_db),
-        min_signature_gain=float(cfg.ranking.min_signature_gain),
-        later_points_per_view=None if cfg.ranking.later_points_per_view is None
-        else float(cfg.ranking.later_points_per_view),
-        n_jobs=int(cfg.ranking.n_jobs),
-        seed=int(cfg.seed),
-    )
+        _plain(cfg.operating_point), _plain(calibration.ranges), _plain(calibration.base), fault,
+        calibration.sensor_angle_step_deg, _plain(calibration.base_held))
+    return EffectRanker(operating_point=operating, progress=progress, **ranker_settings(cfg))
+
+
+def _plain(node):
+    """A config node as plain Python (a block the command line replaced by a value stays that value, to be named)."""
+    return OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
 
 
 def twin_for(measured: Recording, cfg: DictConfig) -> TwinModel:
@@ -111,6 +178,7 @@ def write_report(fit: TwinFit, out_dir: Path, figures: bool, measured: dict | No
     """``twin_report.json`` (with ``measured``: what was measured, for a later run that takes this one as its
     reference) and, with ``figures``, the comparison views before and after and the error curve."""
     out_dir.mkdir(parents=True, exist_ok=True)
+    remove_earlier_figures(out_dir)
     report = {"measured": measured or {}, **fit.as_dict()}
     report["baseline_comparison"] = fit.steps[0].comparison.as_dict()
     report["final_comparison"] = fit.steps[-1].comparison.as_dict()
@@ -123,6 +191,18 @@ def write_report(fit: TwinFit, out_dir: Path, figures: bool, measured: dict | No
             written += plot_comparison(fit.steps[-1].comparison, out_dir, prefix="final")
         written += plot_steps(fit, out_dir)
     return written
+
+
+def remove_earlier_figures(out_dir: Path) -> None:
+    """Remove the figures an earlier run of this command left in ``out_dir``.
+
+    Beside the new report they would pass for its own: another record's, or all of them after a run with
+    figures=false. Only the names this command writes are removed (``<baseline|final>_<view>.png``, as
+    :func:`plot_comparison` names them, and the error curve), never any other file in the folder.
+    """
+    names = [f"{prefix}_{view}.png" for prefix in ("baseline", "final") for view in VIEWS] + [STEPS_FIGURE]
+    for name in names:
+        (out_dir / name).unlink(missing_ok=True)
 
 
 def plot_steps(fit: TwinFit, out_dir: Path) -> list[Path]:
@@ -143,7 +223,7 @@ def plot_steps(fit: TwinFit, out_dir: Path) -> list[Path]:
     right.invert_yaxis()
     right.set(xlabel="share of the discrepancy explained (%)", title="each candidate alone on the calibrated twin")
     fig.tight_layout()
-    path = out_dir / "error_steps.png"
+    path = out_dir / STEPS_FIGURE
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return [path]
@@ -196,12 +276,15 @@ def log_to_mlflow(client: MlflowClient, run_id: str, fit: TwinFit, files: list[P
     return run_id
 
 
-def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
+def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None]:
     """Everything ``bearingtwin-twin`` does; returns the fit, the files written and the MLflow
-    run id (None when tracking is disabled)."""
+    run id (None when tracking is disabled). ``progress``: show the calibration's stages on stderr."""
     out = output_folder(cfg.out)
     figures = true_or_false(cfg.figures, "figures")
     tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
+    ranker_settings(cfg)  # checked before the file is read; the ranker is built once the record's state is known
+    if cfg.get("reference") is not None:
+        refuse_reference_folder(cfg.reference, out)
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = load_measurement(cfg.measured, geometry)
     named = measured.meta.get("bearing")  # the bearing a file names (a CWRU fan-end record's SKF 6203)
@@ -215,11 +298,12 @@ def run_twin(cfg: DictConfig) -> tuple[TwinFit, list[Path], str | None]:
         cfg = hold_reference(cfg, read_reference(cfg.reference), measured.fault, source=f"reference={cfg.reference}")
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     twin = twin_for(measured, cfg)
-    ranker = build_ranker(cfg, measured.fault)
+    ranker = build_ranker(cfg, measured.fault, progress)
     tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
     about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
-             "unit": measured.unit, "bearing": cfg.bearing.get("name"), "reference": cfg.get("reference")}
+             "unit": measured.unit, "bearing": cfg.bearing.get("name"), "geometry": rig_geometry(geometry),
+             "reference": cfg.get("reference")}
     files = write_report(ranker.fit_, out, figures, about)
     run_id = log_to_mlflow(*tracked, ranker.fit_, files) if tracked else None
     return ranker.fit_, files, run_id
