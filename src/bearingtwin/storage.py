@@ -9,6 +9,7 @@ recompute and rewrite it.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
@@ -68,3 +69,16 @@ def content_key(content, length: int = 16) -> str:
     sweep's jobs find one another's cached simulations and features.
     """
     return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:length]
+
+
+@functools.lru_cache(maxsize=4096)
+def _cached_digest(path: Path, size: int, modified_ns: int) -> str:
+    with open(path, "rb") as handle:
+        return hashlib.file_digest(handle, "sha256").hexdigest()
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file's contents, computed once per process for a file unchanged since (a sweep's jobs share
+    their files)."""
+    stat = Path(path).stat()
+    return _cached_digest(Path(path).resolve(), stat.st_size, stat.st_mtime_ns)

@@ -9,7 +9,6 @@ simulates and measures together selects the matching group itself (``bearing=cwr
 
 from __future__ import annotations
 
-import functools
 import hashlib
 from pathlib import Path
 from typing import Iterable
@@ -19,6 +18,7 @@ from omegaconf.errors import MissingMandatoryValue
 
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.storage import file_digest
 
 
 def _simulated(cfg: DictConfig) -> WindowedDataset:
@@ -122,19 +122,6 @@ def input_digest(cfg: DictConfig) -> str:
     for path in sorted(present, key=lambda p: p.name):
         digest.update(f"{path.name}\0{file_digest(path)}\0".encode())
     return digest.hexdigest()
-
-
-@functools.lru_cache(maxsize=4096)
-def _cached_digest(path: Path, size: int, modified_ns: int) -> str:
-    with open(path, "rb") as handle:
-        return hashlib.file_digest(handle, "sha256").hexdigest()
-
-
-def file_digest(path: Path) -> str:
-    """SHA-256 of a file's contents, computed once per process for a file unchanged since (a sweep's jobs share
-    their files)."""
-    stat = Path(path).stat()
-    return _cached_digest(Path(path).resolve(), stat.st_size, stat.st_mtime_ns)
 
 
 def require_files(cfgs: Iterable[DictConfig]) -> None:

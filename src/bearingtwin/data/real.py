@@ -16,7 +16,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import csv
-import hashlib
 import logging
 import re
 
@@ -24,7 +23,7 @@ import numpy as np
 
 from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import load_bearing, plain_config
-from bearingtwin.storage import content_key
+from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import FORMATS, load_recording
 from bearingtwin.data.hust import hust_file_name, load_hust
@@ -292,15 +291,10 @@ def dataset_key(paths: list[Path], cfg: dict) -> str:
     over, are other data (a size alone let their cached features be reused); the same files
     copied elsewhere are the same data."""
     content = {
-        "files": [(Path(path).name, _file_digest(Path(path))) for path in paths],
+        "files": [(Path(path).name, file_digest(Path(path))) for path in paths],
         "config": {name: value for name, value in cfg.items() if name not in KEY_IGNORES},
     }
     return content_key(content)
-
-
-def _file_digest(path: Path) -> str:
-    with open(path, "rb") as handle:
-        return hashlib.file_digest(handle, "sha256").hexdigest()
 
 
 def _find_cwru_file(root: Path, stems: dict, fault: str, load: int) -> Path:
