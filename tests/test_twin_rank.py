@@ -346,3 +346,32 @@ def test_bad_candidates_and_keys_are_named(cfg):
     with pytest.raises(BearingTwinError, match=r"^calibration: every trial was rejected by the model: effects.noise: "
                                                r"bad parameters .*unexpected keyword argument 'colour'"):
         rank(cfg, measured, [], fixed={"noise": {"snr_db": 40.0, "colour": "pink"}}, n_trials_base=2, n_polish=0)
+
+
+def test_words_for_intervals_ranges_and_later_effects():
+    """Negative bounds are not run together with hyphens; a value at its search range's edge, or an interval as wide
+    as the range, says so; an effect found after another closes a share of what was left."""
+    from bearingtwin.twin.rank import EffectFit, _identified, _value
+
+    assert _value(-15.0, [-21.9, -11.0], "dB") == "-15 dB (-21.9 to -11)"
+    assert _value(300.0, [200.0, 450.0], "N") == "300 N (200-450)"
+    at_edge = {"value": 0.1, "interval": [0.1, 0.124], "range": [0.1, 2.0]}
+    assert _identified(at_edge) == ", at the lower edge of the searched 0.1-2: the value may lie beyond it"
+    anywhere = {"value": 2650.0, "interval": [20.0, 5000.0], "range": [20.0, 5000.0]}
+    assert _identified(anywhere) == ", not identified: anywhere in the searched 20-5000 fits as well"
+    assert _identified({"value": 800.0, "interval": [700.0, 900.0], "range": [20.0, 5000.0]}) == ""
+    fit = EffectFit("slip", {"jitter": 0.01}, 1.0, 0.34, 3.0, 0.1, 1, "signature: smeared harmonics", comparison=None)
+    assert "closes 34 % of the discrepancy" in fit.sentence() and "closes 34 % of what was left" in fit.sentence(first=False)
+
+
+def test_a_stated_state_the_envelope_contradicts_is_questioned(cfg):
+    """An outer-race record stated healthy or inner: the twin would explain the defect's lines away with whatever
+    else it can move; the envelope's own defect series raises the doubt. Stated right, nothing is said."""
+    from bearingtwin.twin.report import fault_check
+
+    outer = twin_measurement(cfg, "outer")
+    assert fault_check(outer, cfg.bearing) is None
+    for stated in ("normal", "inner"):
+        doubt = fault_check(Recording(outer.signal, FS, RPM, stated), cfg.bearing)
+        assert doubt.startswith(f"measured.fault={stated}, but the envelope spectrum's defect series standing out is "
+                                "outer's") and doubt.endswith("check the stated bearing state"), doubt

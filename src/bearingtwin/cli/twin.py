@@ -24,20 +24,25 @@ if TYPE_CHECKING:
     from bearingtwin.twin.rank import TwinFit
 
 
-def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str | None) -> str:
-    """The verdict, the effects found in order, and how much of the discrepancy they closed."""
+def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str | None,
+                 fault_check: str | None = None) -> str:
+    """The verdict, the effects found in order, how much of the discrepancy they closed, and a doubt about the
+    stated bearing state when the measurement's envelope raises one."""
     found = ", ".join(added.effect for added in fit.added)
     drop = fit.baseline_error - fit.final_error
     share = f" ({100 * drop / fit.baseline_error:.0f} % less)" if fit.baseline_error > 0 else ""
     unexplained = ", ".join(left["view"] for left in fit.unexplained)
     lines = {
-        "verdict": fit.verdict + (f" (unexplained in the {unexplained} view)" if unexplained else ""),
+        "verdict": fit.verdict + (f" (unexplained in the {unexplained} view{'s' if len(fit.unexplained) > 1 else ''})"
+                                  if unexplained else ""),
         "effects found": found or (f"none claimed ({fit.unclaimed.effect} paid only outside its signature's views)"
                                    if fit.unclaimed is not None else "none pays for its parameters on the held-out half"),
         "discrepancy": f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}, "
                        f"the measurement's own {fit.floor_error:.2f} dB",
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
+    if fault_check:
+        lines = {"check": fault_check, **lines}
     if cfg.get("reference") is not None:
         kept = ", ".join(name for name in fit.steps[0].effects if name not in cfg.effects) or "none"
         lines = {"reference": f"{cfg.reference} (its operating point held where this run gives none; its effects "
@@ -55,9 +60,9 @@ def twin(cfg: DictConfig) -> None:
 
     # The calibration takes seconds to minutes: its stages are shown where someone watches (a terminal, one run).
     progress = show_progress_bar("auto", in_sweep=hydra_cfg.mode == RunMode.MULTIRUN)
-    fit, files, run_id = run_twin(cfg, progress)
+    fit, files, run_id, fault_check = run_twin(cfg, progress)
     print(fit.summary)
-    print(twin_summary(cfg, fit, files, run_id))
+    print(twin_summary(cfg, fit, files, run_id, fault_check))
 
 
 main = stop_cleanly(twin)  # a signal marks the MLflow run KILLED, never left RUNNING

@@ -187,11 +187,13 @@ class EffectFit:
     intervals: dict = field(default_factory=dict)
     kept_params: dict = field(default_factory=dict, repr=False)  # the kept effects as re-fitted with this one
 
-    def sentence(self) -> str:
+    def sentence(self, first: bool = True) -> str:
+        """The effect, its parameters and how much it closes: of the discrepancy (the first effect found), or of
+        what the effects before it left."""
         values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) for k, v in self.params.items()
                            if isinstance(v, float))
-        return (f"{self.effect} ({values}) closes {100 * self.explained:.0f} % of the discrepancy; "
-                f"{self.signature}")
+        of = "the discrepancy" if first else "what was left"
+        return f"{self.effect} ({values}) closes {100 * self.explained:.0f} % of {of}; {self.signature}"
 
     def as_dict(self) -> dict:
         return {"effect": self.effect, "error": self.error, "params": self.params, "explained": self.explained,
@@ -253,7 +255,7 @@ class TwinFit:
     def summary(self) -> str:
         lines = ["Base parameters that differed: " + _operating_point_words(self.operating_point, self.gain) + "."]
         if self.added:
-            found = "; then ".join(fit.sentence() for fit in self.added)
+            found = "; then ".join(fit.sentence(first=index == 0) for index, fit in enumerate(self.added))
             lines.append(f"Effects that were missing, in order: {found}. "
                          f"Discrepancy {self.baseline_error:.2f} -> {self.final_error:.2f} dB on the held-out part "
                          f"(the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB).")
@@ -281,9 +283,11 @@ class TwinFit:
     def _unclaimed_words(self) -> str:
         fit = self.unclaimed
         views = " and ".join(signature_views(fit.effect))
-        return (f"{fit.effect} would pay for its parameters, but its signature's views ({views}) come only "
-                f"{fit.signature_gain:.1f} deviance units closer (it needs {self.min_signature_gain:g}): "
-                "what it would close lies elsewhere")
+        moved = (f"come only {fit.signature_gain:.1f} deviance units closer" if fit.signature_gain >= 0.05 else
+                 "come no closer" if fit.signature_gain > -0.05 else
+                 f"move {-fit.signature_gain:.1f} deviance units farther")
+        return (f"{fit.effect} would pay for its parameters, but its signature's views ({views}) {moved} "
+                f"(it needs {self.min_signature_gain:g} closer): what it would close lies elsewhere")
 
     def as_dict(self) -> dict:
         return {
@@ -317,11 +321,31 @@ def _number(value: float) -> str:
     return f"{float(f'{value:.3g}'):,.10g}".replace(",", "")
 
 
+def _span(low: float, high: float) -> str:
+    """"20-5000", or "-21.9 to -11" where a hyphen would read as a minus sign."""
+    return f"{_number(low)} to {_number(high)}" if min(low, high) < 0 else f"{_number(low)}-{_number(high)}"
+
+
 def _value(value: float, interval, unit: str = "") -> str:
     unit = f" {unit}" if unit else ""
     if interval is None or np.isclose(interval[0], interval[1], rtol=1e-6):
         return f"{_number(value)}{unit}"
-    return f"{_number(value)}{unit} ({_number(interval[0])}-{_number(interval[1])})"
+    return f"{_number(value)}{unit} ({_span(*interval)})"
+
+
+def _identified(entry: Mapping) -> str:
+    """What a fitted base parameter's interval says against its search range: nothing when it is inside, else that
+    the value sits at an edge of the range or that any value in the range fits (then the number means little)."""
+    search, interval = entry.get("range"), entry.get("interval")
+    if not search or not interval:
+        return ""
+    low, high = search
+    if interval[0] <= low * (1 + 1e-6) and interval[1] >= high * (1 - 1e-6):
+        return f", not identified: anywhere in the searched {_span(low, high)} fits as well"
+    for edge, side in ((low, "lower"), (high, "upper")):
+        if np.isclose(entry["value"], edge, rtol=1e-3):
+            return f", at the {side} edge of the searched {_span(low, high)}: the value may lie beyond it"
+    return ""
 
 
 def _parameter_words(name: str, value: float, interval=None) -> str:
@@ -346,7 +370,8 @@ def _operating_point_words(operating: Mapping, gain: float) -> str:
                          + (f", the {other[0]} race fits almost as well" if other else ""))
         else:
             label = BASE_PARAMETERS[name].description if name in BASE_PARAMETERS else name
-            parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}")
+            parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}"
+                         + _identified(entry))
     parts.append(f"sensor gain {_number(gain)} (measurement unit per m/s^2)")
     return ", ".join(parts)
 
@@ -628,11 +653,12 @@ class EffectRanker:
             report[name] = {"value": value, "unit": BASE_PARAMETERS[name].unit, "held": True}
         for name in op.free:
             report[name] = {"value": base_values[name], "unit": BASE_PARAMETERS[name].unit, "held": False,
-                            "interval": list(intervals[name])}
+                            "interval": list(intervals[name]), "range": list(op.space[name][:2])}
         for name, value in op.extra_known.items():
             report[name] = {"value": value, "unit": "", "held": True}
         for name in op.extra:
-            report[name] = {"value": base_values[name], "unit": "", "held": False, "interval": list(intervals[name])}
+            report[name] = {"value": base_values[name], "unit": "", "held": False, "interval": list(intervals[name]),
+                            "range": list(op.space[name][:2])}
         best = min(score for score, _ in scored)
         near = [s for score, s in scored if score <= best + CHI2_95_ONE_DOF]
         races = sorted({s["simulator.sensor"].split("_")[0] for s in near})

@@ -276,9 +276,30 @@ def log_to_mlflow(client: MlflowClient, run_id: str, fit: TwinFit, files: list[P
     return run_id
 
 
-def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None]:
-    """Everything ``bearingtwin-twin`` does; returns the fit, the files written and the MLflow
-    run id (None when tracking is disabled). ``progress``: show the calibration's stages on stderr."""
+def fault_check(measured: Recording, bearing_cfg) -> str | None:
+    """A sentence when the measurement's envelope spectrum shows another bearing state's defect series standing
+    out while the stated state's does not: a twin calibrated to a wrongly stated state explains the difference
+    away with whatever else it can move. None when the envelope agrees, or says nothing either way."""
+    from bearingtwin.diagnosis.evidence import physics_evidence
+
+    try:
+        evidence = physics_evidence(measured.signal, measured.fs, measured.rpm, _plain(bearing_cfg))
+    except BearingTwinError:  # a record too short or too slow for the envelope's lines: no second opinion
+        return None
+    shown, stated = evidence.evidence_state, measured.fault
+    if shown in (None, "normal", stated) or evidence.prominence_db.get(stated, -math.inf) >= evidence.threshold_db:
+        return None
+    given = ("" if stated == "normal" else
+             f"; {stated}'s stands {evidence.prominence_db[stated]:+.1f} dB" if stated in evidence.prominence_db else
+             f"; {stated}'s cannot be read here")
+    return (f"measured.fault={stated}, but the envelope spectrum's defect series standing out is {shown}'s "
+            f"({evidence.prominence_db[shown]:+.1f} dB over its floor{given}): check the stated bearing state")
+
+
+def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None, str | None]:
+    """Everything ``bearingtwin-twin`` does; returns the fit, the files written, the MLflow run id (None when
+    tracking is disabled) and what the measurement's envelope says against its stated state (:func:`fault_check`).
+    ``progress``: show the calibration's stages on stderr."""
     out = output_folder(cfg.out)
     figures = true_or_false(cfg.figures, "figures")
     tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
@@ -301,9 +322,10 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     ranker = build_ranker(cfg, measured.fault, progress)
     tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
+    check = fault_check(measured, cfg.bearing)
     about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
              "unit": measured.unit, "bearing": cfg.bearing.get("name"), "geometry": rig_geometry(geometry),
-             "reference": cfg.get("reference")}
+             "reference": cfg.get("reference"), "fault_check": check}
     files = write_report(ranker.fit_, out, figures, about)
     run_id = log_to_mlflow(*tracked, ranker.fit_, files) if tracked else None
-    return ranker.fit_, files, run_id
+    return ranker.fit_, files, run_id, check
