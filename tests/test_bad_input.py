@@ -187,3 +187,11 @@ def test_the_twin_reads_a_channel_at_its_files_rate_where_another_channel_shows_
     cfg = twin_config(f"measured.path={CWRU / '12k_Drive_End_B007_0_118.mat'}", "measured.channel=FE", "bearing=cwru_6205")
     recording = load_measurement(cfg.measured, load_bearing("cwru_6205"))
     assert (recording.channel, recording.fs) == ("FE", 12000)
+
+
+def test_a_registry_alias_in_a_sweep_is_refused_before_any_job(tmp_path):
+    """Each job would move the alias to its own model: it would end on whichever job finished last."""
+    done = command("train", "-m", "seed=0,1", "register=diagnosis", "register_alias=champion",
+                   f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun", cwd=tmp_path)
+    assert_one_line_exit_2(done, "register_alias=champion in a sweep of 2 jobs", "register_alias=null")
+    assert not (tmp_path / "mlflow.db").exists()

@@ -714,6 +714,7 @@ class SweepParentRun(Callback):
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
         exit_on_user_error(require_files)(jobs)
+        exit_on_user_error(refuse_alias_in_sweep)(jobs)
         self._tracking = exit_on_user_error(sweep_tracking)(config, jobs)
         if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
             start_ray_keeping_signals(config.hydra.launcher.ray.init)  # before any run is open: Ray may not start
@@ -753,6 +754,18 @@ class SweepParentRun(Callback):
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
         if n_failed:
             sys.exit(1)
+
+
+def refuse_alias_in_sweep(jobs: list[DictConfig]) -> None:
+    """Refuse a registry alias given to the jobs of a sweep: each job would move it to its own model, so it would
+    end on whichever job finished last (a protocol's champion on seed 4, not seed 0)."""
+    aliased = [job for job in jobs if job.get("register_alias") is not None]
+    if len(jobs) > 1 and aliased:
+        alias = aliased[0].register_alias
+        raise BearingTwinError(
+            f"register_alias={alias} in a sweep of {len(jobs)} jobs: each job would move @{alias} to its own model, "
+            f"leaving it on whichever finished last. Run the sweep with register_alias=null (and register=null to "
+            f"register nothing), then train the chosen configuration alone with register_alias={alias}")
 
 
 def sweep_tracking(config: DictConfig, jobs: list[DictConfig]) -> DictConfig:
