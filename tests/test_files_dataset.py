@@ -123,6 +123,8 @@ def test_a_labels_table_names_each_file_once(tmp_path):
         labels_table(table)
     table.write_text("record,state,\nrun1.npy,normal,\n")  # a spreadsheet's trailing comma
     assert [state for _, _, state, _, _ in labels_table(table)] == ["normal"]
+    table.write_text("record;state;rpm;fs\nrun1.npy;normal;1797,5;12000\n")  # a decimal-comma spreadsheet's
+    assert [row[1:] for row in labels_table(table)] == [("run1.npy", "normal", 1797.5, 12000.0)]
     table.write_text("record,state,RPM\nrun1.npy,normal,1500\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv: column 'RPM' is not one of record, state, rpm, fs \(lower case\)"):
         labels_table(table)

@@ -176,7 +176,12 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
     ``where`` is the file and line, for messages. A bad header, state or number raises naming its line."""
     try:
         with open(table, newline="", encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark
-            reader = csv.DictReader(handle)
+            header = handle.readline()
+            handle.seek(0)
+            # A spreadsheet set to a decimal comma separates its columns with semicolons (the table holds no decimals
+            # beside rpm and fs, which such a spreadsheet writes with commas too).
+            semicolons = ";" in header and "," not in header
+            reader = csv.DictReader(handle, delimiter=";" if semicolons else ",")
             columns = [name.strip() for name in reader.fieldnames or []]
             missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
             if missing:
@@ -195,8 +200,11 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
                     raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record)]}); "
                                            "one row per record")
                 seen[Path(record)] = line
-                rows.append((where, record, _state(row["state"], where), _optional_number(row.get("rpm"), "rpm", "rev/min", where),
-                             _optional_number(row.get("fs"), "fs", "Hz", where)))
+                numbers = {key: (row.get(key) or "").replace(",", ".") if semicolons else row.get(key)
+                           for key in ("rpm", "fs")}
+                rows.append((where, record, _state(row["state"], where),
+                             _optional_number(numbers["rpm"], "rpm", "rev/min", where),
+                             _optional_number(numbers["fs"], "fs", "Hz", where)))
     except (OSError, UnicodeDecodeError) as error:
         raise BearingTwinError(f"{table}: cannot read it ({error})") from None
     return rows
