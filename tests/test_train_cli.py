@@ -107,3 +107,12 @@ def test_a_shuffled_sweep_names_each_job_by_its_own_overrides(tmp_path):
     failed = [line.split(": ")[1] for line in done.stdout.splitlines() if line.startswith("  FAILED: ")]
     assert sorted(failed) == ["classifier.C=-1", "classifier.C=-2"], done.stdout[-2000:]  # another order: right by chance 1 in 15
     assert "6 jobs, 4 finished, 2 failed" in done.stdout
+
+
+def test_an_effect_parameter_is_refused_before_a_run_is_opened(tmp_path):
+    """Effects are built from their parameters first: a bad one leaves no FAILED run behind (as simulate refuses it)."""
+    done = run_cli(["classifier=svm", "features=raw", "effects=[noise]", "effects.noise.snr_db=[1,2]",
+                    f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"], tmp_path)
+    assert done.returncode == 2 and done.stderr.strip().splitlines() == [
+        "error: effects.noise.snr_db must be finite, got [1, 2]"]
+    assert not (tmp_path / "mlflow.db").exists()

@@ -150,6 +150,9 @@ def twin_config(*overrides):
     (["candidates=[resonanse]"], "candidates: unknown effect 'resonanse'"),
     (["candidates=[unbalance,unbalance]"], "candidates: unbalance is named twice"),
     (["effects=[noise]", "candidates=[noise]"], "candidates: noise is already among the fixed effects"),
+    (["effects=[noise]", "effects.noise.snr_db=nan"], "effects.noise.snr_db must be finite, got nan"),
+    (["effects=[noise]", "effects.noise.snr_db=[1,2]"], "effects.noise.snr_db must be finite, got [1, 2]"),
+    (["effects=[slip]", "effects.slip.jitter=true"], "effects.slip.jitter must be a positive number, got True"),
 ])
 def test_every_setting_of_the_ranking_is_checked_by_kind_naming_it(overrides, message):
     with pytest.raises(BearingTwinError) as error:

@@ -32,6 +32,7 @@ from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.effects import build_effects
 from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
 
 if TYPE_CHECKING:
@@ -72,6 +73,7 @@ def train(cfg: DictConfig) -> float | None:
     if not in_sweep:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
         exit_on_user_error(require_files)([cfg])
+        exit_on_user_error(build_effects)(cfg.get("effects"))  # their parameters, before a run is opened
     # MLflow, scikit-learn and the models once the input is accepted: a refusal takes a second, not several.
     from bearingtwin.models.experiment import run_experiment
     from bearingtwin.tracking.mlflow_logging import method_name, run_name, sweep_info, train_tracked

@@ -31,7 +31,7 @@ import numpy as np
 from scipy import signal as sps
 from scipy.ndimage import median_filter
 
-from bearingtwin.checks import finite_number, whole_number
+from bearingtwin.checks import finite_number, is_finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.dynamics import DynamicParameters
 from bearingtwin.physics.effects import Effect, register_effect
@@ -40,7 +40,7 @@ from bearingtwin.signal.envelope import peak_near
 
 
 def _positive(field: str, value: float) -> float:
-    if not (np.isfinite(value) and value > 0):
+    if not (is_finite_number(value) and value > 0):  # not a bool, a list or text: a number
         raise BearingTwinError(f"{field} must be a positive number, got {value}")
     return float(value)
 
@@ -550,9 +550,9 @@ class Noise(Effect):
     search_space = {"snr_db": (-10.0, 30.0, False), "spectral_slope": (0.0, 2.0, False)}
 
     def __init__(self, snr_db: float, spectral_slope: float, reference_rms: float | None = None):
-        if not np.isfinite(snr_db):
+        if not is_finite_number(snr_db):
             raise BearingTwinError(f"noise.snr_db must be finite, got {snr_db}")
-        if not 0.0 <= spectral_slope <= 3.0:
+        if not (is_finite_number(spectral_slope) and 0.0 <= spectral_slope <= 3.0):
             raise BearingTwinError(f"noise.spectral_slope must lie in [0, 3], got {spectral_slope}")
         self.snr_db, self.spectral_slope = float(snr_db), float(spectral_slope)
         self.reference_rms = None if reference_rms is None else _positive("noise.reference_rms", reference_rms)
@@ -901,9 +901,9 @@ class LoadZone(Effect):
     search_space = {"radial_load_n": (10.0, 5000.0, True), "clearance_um": (0.5, 40.0, True)}
 
     def __init__(self, radial_load_n: float, clearance_um: float):
-        if not np.isfinite(radial_load_n) or radial_load_n < 0:
+        if not is_finite_number(radial_load_n) or radial_load_n < 0:
             raise BearingTwinError(f"load_zone.radial_load_n must be a non-negative number, got {radial_load_n}")
-        if not np.isfinite(clearance_um) or clearance_um < 0:
+        if not is_finite_number(clearance_um) or clearance_um < 0:
             raise BearingTwinError(f"load_zone.clearance_um must be a non-negative number, got {clearance_um}")
         self.radial_load_n, self.clearance_um = float(radial_load_n), float(clearance_um)
 

@@ -128,7 +128,10 @@ def build_effects(effects_cfg: Mapping | None) -> list[Effect]:
             raise BearingTwinError(f"effects.{name}: unknown effect; registered: {', '.join(sorted(_REGISTRY)) or 'none'}")
         try:
             effects.append(_REGISTRY[name](**(arguments or {})))
-        except TypeError as error:
+        except BearingTwinError as error:  # a constructor's own check names the parameter, in its block
+            said = str(error)
+            raise BearingTwinError(f"effects.{said}" if said.startswith(f"{name}.") else f"effects.{name}: {said}") from None
+        except (TypeError, ValueError) as error:  # a missing or unknown parameter, a list where a number belongs
             raise BearingTwinError(f"effects.{name}: bad parameters {arguments!r} ({error})") from None
     return effects
 

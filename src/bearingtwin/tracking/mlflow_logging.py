@@ -64,6 +64,7 @@ from omegaconf.errors import OmegaConfBaseException
 from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.effects import build_effects
 from bearingtwin.tracking.lifecycle import (
     SWEEP_PID_ENV,
     owner_tags,
@@ -713,6 +714,7 @@ class SweepParentRun(Callback):
         jobs = exit_on_user_error(self._jobs)(config)
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
+            exit_on_user_error(build_effects)(job.get("effects"))  # their parameters, before any job starts
         exit_on_user_error(require_files)(jobs)
         exit_on_user_error(refuse_alias_in_sweep)(jobs)
         self._tracking = exit_on_user_error(sweep_tracking)(config, jobs)

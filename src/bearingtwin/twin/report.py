@@ -24,6 +24,7 @@ from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
 from bearingtwin.twin.compare import VIEWS, CompareSettings, plot_comparison
@@ -83,6 +84,7 @@ def ranker_settings(cfg: DictConfig) -> dict:
     bearing state): a bad one is named before the measurement is read, let alone a twin simulated."""
     calibration, ranking = cfg.calibration, cfg.ranking
     fixed_effects = _plain(cfg.effects) or {}
+    build_effects(fixed_effects)  # their parameters, before the twin simulates with them
     later = ranking.later_points_per_view
     return {
         "candidates": candidate_names(_plain(cfg.candidates), fixed_effects),
