@@ -3,6 +3,7 @@
 import inspect
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -617,3 +618,15 @@ def test_resonance_guess_finds_a_hidden_mode_and_its_width():
     assert 0.03 <= guess["damping_ratio"] <= 0.08
     assert lib.Resonance.initial_guess(2.0 * twin, twin, FS, 29.95) is None  # a gain is no mode
     assert lib.SecondResonance.initial_guess.__func__ is lib.Resonance.initial_guess.__func__
+
+
+@pytest.mark.parametrize("effects, message", [
+    ({"noise": {"snr_db": -1e6, "spectral_slope": 0.0}}, "effects.noise.snr_db must lie within +-300 dB, got -1000000.0"),
+    ({"structural_mode": {"natural_frequency_hz": 2000.0, "damping_ratio": 0.05, "level_db": 1e6}},
+     "effects.structural_mode.level_db must lie within +-300 dB"),
+    ({"tones": {"frequencies_hz": [100.0], "levels_db": [1e6]}}, "effects.tones.levels_db must lie within +-300 dB"),
+])
+def test_a_level_no_float_can_hold_is_refused_when_the_effect_is_built(effects, message):
+    """1e6 dB overflowed (an OverflowError or a record of NaNs) only after the whole simulation."""
+    with pytest.raises(BearingTwinError, match=re.escape(message)):
+        build_effects(effects)

@@ -39,6 +39,19 @@ from bearingtwin.physics.kinematics import Kinematics
 from bearingtwin.signal.envelope import peak_near
 
 
+MAX_LEVEL_DB = 300.0
+"""The largest level or ratio in dB an effect takes (10^15 in amplitude): far beyond any sensor's range, and well
+inside what a float holds once raised to a power (1e6 dB overflowed, after the whole simulation)."""
+
+
+def _decibels(field: str, value) -> float:
+    """A level or ratio in dB: a finite number within +- :data:`MAX_LEVEL_DB`."""
+    level = finite_number(field, value)
+    if abs(level) > MAX_LEVEL_DB:
+        raise BearingTwinError(f"{field} must lie within +-{MAX_LEVEL_DB:g} dB, got {value!r}")
+    return level
+
+
 def _positive(field: str, value: float) -> float:
     if not (is_finite_number(value) and value > 0):  # not a bool, a list or text: a number
         raise BearingTwinError(f"{field} must be a positive number, got {value}")
@@ -398,7 +411,7 @@ class StructuralMode(Effect):
     def __init__(self, natural_frequency_hz: float, damping_ratio: float, level_db: float):
         self.natural_frequency_hz = _positive(f"{self.name}.natural_frequency_hz", natural_frequency_hz)
         self.damping_ratio = _positive(f"{self.name}.damping_ratio", damping_ratio)
-        self.level_db = finite_number(f"{self.name}.level_db", level_db)
+        self.level_db = _decibels(f"{self.name}.level_db", level_db)
 
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         mode = mode_band_pass(signal, fs, self.natural_frequency_hz, self.damping_ratio, self.name)
@@ -552,6 +565,7 @@ class Noise(Effect):
     def __init__(self, snr_db: float, spectral_slope: float, reference_rms: float | None = None):
         if not is_finite_number(snr_db):
             raise BearingTwinError(f"noise.snr_db must be finite, got {snr_db}")
+        _decibels("noise.snr_db", snr_db)
         if not (is_finite_number(spectral_slope) and 0.0 <= spectral_slope <= 3.0):
             raise BearingTwinError(f"noise.spectral_slope must lie in [0, 3], got {spectral_slope}")
         self.snr_db, self.spectral_slope = float(snr_db), float(spectral_slope)
@@ -623,8 +637,8 @@ class Tones(LineEffect):
             raise BearingTwinError(f"tones.levels_db must give one level per line of tones.frequencies_hz, "
                                    f"got {len(levels_db)} levels for {len(frequencies_hz)} lines")
         self.frequencies_hz = [_positive("tones.frequencies_hz", f) for f in frequencies_hz]
-        self.levels_db = [finite_number("tones.levels_db", level) for level in levels_db]
-        self.level_offset_db = finite_number("tones.level_offset_db", level_offset_db)
+        self.levels_db = [_decibels("tones.levels_db", level) for level in levels_db]
+        self.level_offset_db = _decibels("tones.level_offset_db", level_offset_db)
 
     def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
         return np.array(self.frequencies_hz), np.array(self.levels_db) + self.level_offset_db
@@ -679,7 +693,7 @@ class Unbalance(LineEffect):
     search_space = {"level_db": (-60.0, 20.0, False)}
 
     def __init__(self, level_db: float):
-        self.level_db = finite_number("unbalance.level_db", level_db)
+        self.level_db = _decibels("unbalance.level_db", level_db)
 
     def lines(self, shaft_hz: float) -> tuple[np.ndarray, np.ndarray]:
         return np.array([shaft_hz]), np.array([self.level_db])
@@ -714,7 +728,7 @@ class Misalignment(LineEffect):
     search_space = {"level_db": (-60.0, 20.0, False), "one_x_db": (-30.0, 0.0, False)}
 
     def __init__(self, level_db: float, one_x_db: float = -6.0, three_x_db: float = -10.0):
-        self.level_db = finite_number("misalignment.level_db", level_db)
+        self.level_db = _decibels("misalignment.level_db", level_db)
         self.one_x_db = _at_most_zero("misalignment.one_x_db", one_x_db, "the 2x line dominates")
         self.three_x_db = _at_most_zero("misalignment.three_x_db", three_x_db, "the 2x line dominates")
 
@@ -760,8 +774,8 @@ class Looseness(LineEffect):
 
     def __init__(self, level_db: float, half_order_db: float = -10.0, n_harmonics: int = LOOSENESS_HARMONICS,
                  decay_db_per_order: float = LOOSENESS_DECAY_DB_PER_ORDER):
-        self.level_db = finite_number("looseness.level_db", level_db)
-        self.half_order_db = finite_number("looseness.half_order_db", half_order_db)
+        self.level_db = _decibels("looseness.level_db", level_db)
+        self.half_order_db = _decibels("looseness.half_order_db", half_order_db)
         self.n_harmonics = whole_number("looseness.n_harmonics", n_harmonics)
         if not finite_number("looseness.decay_db_per_order", decay_db_per_order) >= 0:
             raise BearingTwinError(f"looseness.decay_db_per_order must be non-negative, got {decay_db_per_order}")
@@ -824,7 +838,7 @@ class LineFrequency(LineEffect):
     def __init__(self, supply_hz: float, level_db: float, fundamental_db: float = -10.0,
                  n_harmonics: int = SUPPLY_HARMONICS):
         self.supply_hz = _positive("line_frequency.supply_hz", supply_hz)
-        self.level_db = finite_number("line_frequency.level_db", level_db)
+        self.level_db = _decibels("line_frequency.level_db", level_db)
         self.fundamental_db = _at_most_zero("line_frequency.fundamental_db", fundamental_db,
                                             "the line at twice the supply frequency dominates")
         self.n_harmonics = whole_number("line_frequency.n_harmonics", n_harmonics)
