@@ -12,6 +12,7 @@ import math
 import numbers
 import os
 import sys
+from collections.abc import Mapping
 
 from bearingtwin.errors import BearingTwinError
 
@@ -26,6 +27,22 @@ def finite_number(field: str, value, what: str = "a finite number") -> float:
     if not is_finite_number(value):
         raise BearingTwinError(f"{field} must be {what}, got {value!r}")
     return float(value)
+
+
+def non_negative_number(field: str, value, what: str = "a non-negative number") -> float:
+    """``value`` as a float if it is a finite number of at least 0, else raise ``<field> must be <what>, got <value>``."""
+    number = finite_number(field, value, what)
+    if number < 0:
+        raise BearingTwinError(f"{field} must be {what}, got {value!r}")
+    return number
+
+
+def mapping(field: str, value, what: str = "names to values") -> dict:
+    """A config block (None: empty) as a dict; anything else (a block the command line replaced by a value) raises
+    ``<field> must map <what>, got <value>``."""
+    if not isinstance(value or {}, Mapping):
+        raise BearingTwinError(f"{field} must map {what}, got {value!r}")
+    return dict(value or {})
 
 
 def whole_number(field: str, value, minimum: int = 1) -> int:

@@ -60,7 +60,7 @@ def read_csv_table(path: Path) -> CsvTable:
         with open(path, encoding=encoding) as handle:
             head = list(itertools.islice(handle, SAMPLE_LINES))
     except UnicodeDecodeError:
-        raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)") from None
+        raise _not_text(path) from None
     layout, names, notes = _layout(path, head, encoding)
     try:
         with open(path, encoding=encoding) as handle:
@@ -69,7 +69,7 @@ def read_csv_table(path: Path) -> CsvTable:
     except _BadLine as error:
         raise BearingTwinError(f"{path}: {error}") from None
     except UnicodeDecodeError:
-        raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)") from None
+        raise _not_text(path) from None
     except ValueError as error:
         raise BearingTwinError(f"{path}: {_on_its_line(path, str(error), layout)}") from None
     if values.shape[0] == 0:
@@ -79,12 +79,16 @@ def read_csv_table(path: Path) -> CsvTable:
     return CsvTable(values, names, notes)
 
 
+def _not_text(path: Path) -> BearingTwinError:
+    return BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)")
+
+
 def _encoding(path: Path) -> str:
     """UTF-8 (a byte-order mark allowed), else Windows' western code page (a German Excel's ``m/s²``)."""
     with open(path, "rb") as handle:
         start = handle.read(65536)
     if b"\x00" in start:
-        raise BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)")
+        raise _not_text(path)
     try:
         codecs.getincrementaldecoder("utf-8")().decode(start, final=False)  # a character cut at the end is no error
     except UnicodeDecodeError:
@@ -92,9 +96,14 @@ def _encoding(path: Path) -> str:
     return "utf-8-sig"
 
 
+def _holds_data(line: str) -> bool:
+    """Whether a line holds something: it is neither blank nor a ``#`` comment (loadtxt skips both)."""
+    return bool(line.strip()) and not line.lstrip().startswith("#")
+
+
 def _content(lines: list[str]) -> list[int]:
-    """Indices of the lines that hold something: not blank, not a ``#`` comment."""
-    return [i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")]
+    """Indices of the lines that hold something (:func:`_holds_data`)."""
+    return [i for i, line in enumerate(lines) if _holds_data(line)]
 
 
 def _delimiter(line: str) -> str | None:
@@ -171,7 +180,7 @@ def _body_lines(handle, layout: _Layout) -> Iterator[str]:
     for number, line in enumerate(itertools.islice(handle, layout.body_start, None), start=layout.body_start + 1):
         if layout.trailing:
             line = line.rstrip().removesuffix(layout.delimiter)
-        if layout.delimiter != "," and foreign in line and not line.lstrip().startswith("#"):  # rare: then cell by cell
+        if layout.delimiter != "," and foreign in line and _holds_data(line):  # rare: then cell by cell
             cell = next((c for c in _cells(line, layout.delimiter) if foreign in c and _NUMBER_LIKE.fullmatch(c)), None)
             if cell is not None:
                 raise _BadLine(number, f"{cell!r} is written with '{foreign}' where the rows above use "
@@ -189,7 +198,7 @@ def _on_its_line(path: Path, message: str, layout: _Layout) -> str:
     row = int(converting[1]) if converting else int(changing[3]) - 1
     with open(path, encoding=layout.encoding) as handle:
         data_lines = ((number, line) for number, line in enumerate(handle, start=1)
-                      if number > layout.body_start and line.strip() and not line.lstrip().startswith("#"))
+                      if number > layout.body_start and _holds_data(line))
         found = next(itertools.islice(data_lines, row, None), None)
     if found is None:
         return message

@@ -257,8 +257,9 @@ def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -
     # Either end rounded by half the printed unit; float arithmetic's own error where the stamps carry full precision.
     # Only a whole number alone within that is the rate: a short record's rounding may allow several.
     allowed = fs * (_printed_unit_s(time_s) / span_s + 1e-9)
-    if abs(fs - round(fs)) <= allowed and math.floor(fs + allowed) - math.ceil(fs - allowed) == 0:
-        fs = float(round(fs))
+    whole = range(math.ceil(fs - allowed), math.floor(fs + allowed) + 1)
+    if len(whole) == 1:
+        fs = float(whole[0])
     if fs < LOWEST_FS_HZ:
         hint = ": if it counts milliseconds, head it time_ms" if time_column_seconds(column) == 1.0 else ""
         raise BearingTwinError(f"{source}: the {column} column gives {fs:g} samples per second, too slow for a "
@@ -364,15 +365,15 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{path}: fault {fault!r} is not a bearing state ({', '.join(FAULTS)})")
     used = {entry[0] for entry in found.values() if entry is not None}
-    channels = _float_channels(path, arrays)
-    names = facts.get("channel_names")  # bearingtwin-simulate's: the sensors, rows of `channels`
-    if isinstance(names, list) and [f"channels[{i}]" for i in range(len(names))] == [c for c in channels if c.startswith("channels[")]:
-        channels = {names[int(c[9:-1])] if c.startswith("channels[") else c: values for c, values in channels.items()}
+    names, table = facts.get("channel_names"), arrays.get("channels")  # bearingtwin-simulate's: a row per sensor
+    if isinstance(names, list) and np.ndim(table) == 2 and len(names) in np.shape(table):
+        rows = table if len(table) == len(names) else np.transpose(table)
+        arrays = {**{name: values for name, values in arrays.items() if name != "channels"}, **dict(zip(names, rows))}
         used.add("channel_names")
     return RawRecord(
         str(path),
         fmt,
-        channels,
+        _float_channels(path, arrays),
         fs=fs,
         fs_origin="file" if fs is not None else "",
         rpm=rpm,

@@ -28,7 +28,7 @@ import numpy as np
 import scipy.fft
 import scipy.signal
 
-from bearingtwin.checks import is_finite_number, positive_number, whole_number
+from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.kurtogram import kurtogram
@@ -126,13 +126,12 @@ def evidence_settings(settings: dict) -> dict:
     # A search band half a line wide or wider would reach from half the line to 1.5 times it, over its neighbours.
     if not (is_finite_number(tolerance) and 0 < tolerance < 0.5):
         raise BearingTwinError(f"evidence.tolerance must be a relative half width above 0 and below 0.5, got {tolerance!r}")
-    # Prominence is over the local floor: a series below it (a negative threshold) is no evidence of anything.
-    if not (is_finite_number(threshold_db) and threshold_db >= 0):
-        raise BearingTwinError(f"evidence.threshold_db must be a non-negative number of dB, got {threshold_db!r}")
     return {"band": band, "band_nyquist": [float(edge) for edge in edges],
             "harmonics": whole_number("evidence.harmonics", settings["harmonics"]),
             "segment_s": positive_number(settings["segment_s"], "evidence.segment_s", "seconds"),
-            "tolerance": float(tolerance), "threshold_db": float(threshold_db)}
+            "tolerance": float(tolerance),
+            # Prominence is over the local floor: a series below it (a negative threshold) is no evidence of anything.
+            "threshold_db": non_negative_number("evidence.threshold_db", threshold_db, "a non-negative number of dB")}
 
 
 def check_segment(segment_s: float, fs_hz: float) -> None:

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import optuna
 
-from bearingtwin.checks import is_finite_number
+from bearingtwin.checks import is_finite_number, mapping
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import raise_if_interrupted
 
@@ -37,10 +37,8 @@ class Fit:
 
 def parse_space(space, where: str) -> dict[str, Bounds]:
     """Validate ``{name: [low, high] | [low, high, "log"]}`` from a config, naming the bad entry."""
-    if not isinstance(space or {}, Mapping):
-        raise BearingTwinError(f"{where} must map each parameter to [low, high] or [low, high, log], got {space!r}")
     parsed = {}
-    for name, bounds in (space or {}).items():
+    for name, bounds in mapping(where, space, "each parameter to [low, high] or [low, high, log]").items():
         if not _is_bounds(bounds):
             raise BearingTwinError(f"{where}.{name} must be [low, high] or [low, high, log] of finite numbers, "
                                    f"got {bounds!r}")

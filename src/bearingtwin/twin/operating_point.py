@@ -20,7 +20,7 @@ from typing import Mapping
 
 import numpy as np
 
-from bearingtwin.checks import finite_number
+from bearingtwin.checks import finite_number, mapping
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.simulator import CHANNELS
 from bearingtwin.twin.calibrate import Bounds, parse_space
@@ -77,7 +77,7 @@ class OperatingPoint:
                     fault: str, angle_step_deg: float = 15.0, extra_held: Mapping | None = None) -> "OperatingPoint":
         """From ``operating_point`` (null = fit), ``calibration.ranges``, ``calibration.base`` (further keys to fit)
         and ``calibration.base_held`` (further keys held); a healthy bearing has no defect to size."""
-        operating = _mapping(operating_cfg, "operating_point")
+        operating = mapping("operating_point", operating_cfg)
         unknown = set(operating) - set(BASE_PARAMETERS) - {"sensor", "sensor_angle_deg"}
         if unknown:
             raise BearingTwinError(f"operating_point.{sorted(unknown)[0]} is not an operating-point parameter; "
@@ -120,7 +120,7 @@ class OperatingPoint:
             raise BearingTwinError(f"calibration.sensor_angle_step_deg must lie in (0, 90], got {angle_step_deg}")
         extra = parse_space(extra_base, "calibration.base")
         extra_known = {key: finite_number(f"calibration.base_held.{key}", value, "a finite number or null")
-                       for key, value in _mapping(extra_held, "calibration.base_held").items()}
+                       for key, value in mapping("calibration.base_held", extra_held).items()}
         both = sorted(set(extra) & set(extra_known))
         if both:
             raise BearingTwinError(f"calibration.base.{both[0]}: also held in calibration.base_held; fit it or hold it")
@@ -170,13 +170,6 @@ class OperatingPoint:
             if value is not None:
                 start[name] = float(value) / parameter.scale if parameter else float(value)
         return start
-
-
-def _mapping(value, key: str) -> dict:
-    """``value`` (a config block; None: empty) as a dict, refused naming ``key`` when it is no mapping."""
-    if not isinstance(value or {}, Mapping):
-        raise BearingTwinError(f"{key} must map names to values, got {value!r}")
-    return dict(value or {})
 
 
 def describe_sensor(sensor: Mapping) -> str:

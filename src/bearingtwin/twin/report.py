@@ -18,7 +18,7 @@ import numpy as np
 from joblib import cpu_count
 from omegaconf import DictConfig, OmegaConf
 
-from bearingtwin.checks import finite_number, is_finite_number, positive_number, true_or_false, whole_number
+from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
 from bearingtwin.config import output_folder
 from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
@@ -122,14 +122,6 @@ def candidate_names(candidates, fixed_effects: Mapping) -> list[str]:
         except BearingTwinError as error:
             raise BearingTwinError(f"candidates: {error}") from None
     return candidates
-
-
-def non_negative_number(key: str, value) -> float:
-    """``value`` as a float if it is a finite number of at least 0."""
-    number = finite_number(key, value, "a non-negative number")
-    if number < 0:
-        raise BearingTwinError(f"{key} must be a non-negative number, got {value!r}")
-    return number
 
 
 def thread_count(n_jobs) -> int:
