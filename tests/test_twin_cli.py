@@ -149,7 +149,6 @@ def twin_config(*overrides):
     (["candidates=noise"], "candidates=noise: give a list of effect names, candidates=[noise]"),
     (["candidates=[resonanse]"], "candidates: unknown effect 'resonanse'"),
     (["candidates=[unbalance,unbalance]"], "candidates: unbalance is named twice"),
-    (["effects=[noise]", "candidates=[noise]"], "candidates: noise is already among the fixed effects"),
     (["effects=[noise]", "effects.noise.snr_db=nan"], "effects.noise.snr_db must be finite, got nan"),
     (["effects=[noise]", "effects.noise.snr_db=[1,2]"], "effects.noise.snr_db must be finite, got [1, 2]"),
     (["effects=[slip]", "effects.slip.jitter=true"], "effects.slip.jitter must be a positive number, got True"),
@@ -158,6 +157,13 @@ def test_every_setting_of_the_ranking_is_checked_by_kind_naming_it(overrides, me
     with pytest.raises(BearingTwinError) as error:
         ranker_settings(twin_config(*overrides))
     assert str(error.value).startswith(message)
+
+
+def test_an_effect_known_to_be_present_stays_a_candidate_to_be_tried_as_changed():
+    """``effects=[noise]`` with the default candidates: noise is in the twin at its given values and among the
+    candidates (it was refused as 'already among the fixed effects', so a known effect meant editing the list)."""
+    settings = ranker_settings(twin_config("effects=[noise]"))
+    assert "noise" in settings["fixed_effects"] and "noise" in settings["candidates"]
 
 
 @pytest.mark.parametrize("overrides, message", [
@@ -218,8 +224,8 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
         measurement, tmp_path):
     """A baseline of the rig (its 2.4 kHz mount resonance, the defect's depth fitted), then a record of
     the same rig in which an unbalance line appeared: with ``reference=`` the defect depth and the sensor
-    direction are the baseline's, held, the resonance stays in the twin at the baseline's values and is
-    no candidate, and the unbalance is what is added."""
+    direction are the baseline's, held, the resonance stays in the twin at the baseline's values (tried as
+    changed, it is not: the mount is the same), and the unbalance is what is added."""
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose("simulate", overrides=["simulator.fs=12000", "simulator.rpm=1797", "simulator.duration=2.0",
                                              "simulator.sensor=outer_y"])
@@ -244,9 +250,10 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
     assert held["defect_depth_mm"] == {"value": first["operating_point"]["defect_depth_mm"]["value"], "unit": "mm",
                                        "held": True}
     assert held["sensor"]["angle_deg"] == first["operating_point"]["sensor"]["angle_deg"] and held["sensor"]["held"]
-    assert [entry["effect"] for entry in report["ranking"]] == ["unbalance"]  # the resonance is no candidate
+    assert [entry["effect"] for entry in report["ranking"]] == ["unbalance", "resonance"]
+    assert report["ranking"][1]["changed_from"] == first["steps"][-1]["params"]["resonance"]
     assert report["added"] == ["unbalance"]
-    assert report["steps"][0]["params"]["resonance"] == first["steps"][-1]["params"]["resonance"]
+    assert all(step["params"]["resonance"] == first["steps"][-1]["params"]["resonance"] for step in report["steps"])
     assert report["measured"]["reference"] == str(tmp_path / "baseline" / "twin_report.json")
     assert (f"reference: {tmp_path / 'baseline' / 'twin_report.json'} (its operating point held where this run gives "
             "none; its effects kept: resonance)") in result.stdout

@@ -182,6 +182,30 @@ def test_a_hidden_pair_is_found_in_order_and_each_closes_its_part(cfg):
     assert "Effects that were missing, in order" in fit.summary
 
 
+def test_a_fixed_effect_among_the_candidates_is_found_changed_and_held_otherwise(cfg):
+    """An unbalance a reference found at -14 dB has grown to +6 dB: named among the candidates it is fitted
+    again from the held level and reported as changed; left out of them it stays held, the line unexplained."""
+    measured = twin_measurement(cfg, "outer", {"unbalance": {"level_db": 6.0}})
+    fixed = {**FLOOR, "unbalance": {"level_db": -14.0}}
+    fit = rank(cfg, measured, ["unbalance", "tones"], op=known_operating_point(), fixed=fixed)
+    assert [f.effect for f in fit.added][:1] == ["unbalance"], fit.summary
+    (grown,) = [f for f in fit.added if f.effect == "unbalance"]
+    assert grown.changed_from == {"level_db": -14.0} and abs(grown.params["level_db"] - 6.0) < 3.0
+    assert fit.steps[-1].effects["unbalance"]["level_db"] == grown.params["level_db"]
+    assert fit.steps[-1].effects["noise"] == FLOOR["noise"]  # a fixed effect not found changed stays as given
+    assert "unbalance, changed from the held level -14 dB to level" in fit.summary
+    assert fit.summary.splitlines()[1].startswith("Effects that were missing or changed, in order")
+    assert fit.final_error <= 0.5 * fit.baseline_error
+
+    held = rank(cfg, measured, ["tones"], op=known_operating_point(), fixed=fixed)
+    assert all(f.effect != "unbalance" for f in held.added)
+    assert all(step.effects["unbalance"] == {"level_db": -14.0} for step in held.steps)
+
+    unchanged = rank(cfg, twin_measurement(cfg, "outer", {"unbalance": {"level_db": -14.0}}), ["unbalance"],
+                     op=known_operating_point(), fixed=fixed)
+    assert unchanged.added == [] and unchanged.ranking[0].evidence <= 0, unchanged.summary
+
+
 def test_a_later_round_screens_each_candidate_with_the_kept_effects_free(cfg, monkeypatch):
     """The kept effect was fitted without the candidate and may stand in for it, so the screen searches
     both; only the candidate's parameters are paid for."""

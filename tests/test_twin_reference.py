@@ -37,7 +37,7 @@ def test_what_the_config_leaves_to_fit_takes_the_references_value_and_what_it_gi
     assert "bearing.outer_damping_ns_per_m" not in held.calibration.base
     assert list(held.effects) == ["resonance", "noise"]  # the reference's first, the config's own after
     assert held.effects.resonance.natural_frequency_hz == 2500.0
-    assert "resonance" not in held.candidates and "slip" in held.candidates
+    assert list(held.candidates) == list(cfg.candidates)  # the reference's effects stay, to be tried as changed
     assert cfg.operating_point.radial_load_n is None and list(cfg.effects) == ["noise"]  # the given config untouched
 
 
@@ -87,10 +87,12 @@ def test_a_channel_on_the_other_race_and_an_effect_given_twice_are_refused():
         hold_reference(twin_config("effects=[resonance]"), report(), "outer")
 
 
-def test_the_configs_own_effects_stay_candidates_only_as_the_config_says():
-    """Only the reference's effects leave the candidates; the config's own are handled as without a reference."""
+def test_the_candidates_are_the_configs_own():
+    """The reference's effects are tried as changed where the config names them among the candidates, not else."""
     held = hold_reference(twin_config("effects=[noise]", "candidates=[resonance,slip]"), report(), "outer")
-    assert list(held.candidates) == ["slip"] and list(held.effects) == ["resonance", "noise"]
+    assert list(held.candidates) == ["resonance", "slip"] and list(held.effects) == ["resonance", "noise"]
+    held = hold_reference(twin_config("candidates=[slip]"), report(), "outer")
+    assert list(held.candidates) == ["slip"]
 
 
 def test_a_report_that_does_not_say_its_bearing_state_gives_no_defect_size():

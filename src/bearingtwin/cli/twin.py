@@ -28,7 +28,7 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
                  fault_check: str | None = None) -> str:
     """The verdict, the effects found in order, how much of the discrepancy they closed, and a doubt about the
     stated bearing state when the measurement's envelope raises one."""
-    found = ", ".join(added.effect for added in fit.added)
+    found = ", ".join(added.effect + (" (changed)" if added.changed_from is not None else "") for added in fit.added)
     drop = fit.baseline_error - fit.final_error
     share = f" ({100 * drop / fit.baseline_error:.0f} % less)" if fit.baseline_error > 0 else ""
     unexplained = ", ".join(left["view"] for left in fit.unexplained)

@@ -20,7 +20,9 @@ measurement's own repeatability per view, the floor no twin can go below.
    explains less of it is not offered in its place. The operating point and every kept effect are then
    re-fitted together, and the remaining candidates tried on top, each with the kept effects
    free again beside it (they were fitted without it and took up part of its signature),
-   until none pays.
+   until none pays. A fixed effect (one a reference record found) named among the candidates
+   is tried as changed: its parameters fitted again from the held values and paid for like a
+   new effect's, so an unbalance that has grown since the reference is named, not left over.
 3. **What is left.** A view whose error stays more than twice the measurement's own is
    reported with where it disagrees and which kinds of physics leave such a mark, whether
    or not a library effect was added: a discrepancy no candidate explains is named, never
@@ -186,20 +188,26 @@ class EffectFit:
     signature_gain: float = 0.0  # the deviance drop on the held-out part within the views its signature shows in
     intervals: dict = field(default_factory=dict)
     kept_params: dict = field(default_factory=dict, repr=False)  # the kept effects as re-fitted with this one
+    changed_from: dict | None = None  # a fixed effect's held parameters, when this fit is that effect changed
 
     def sentence(self, first: bool = True) -> str:
         """The effect, its parameters and how much it closes: of the discrepancy (the first effect found), or of
-        what the effects before it left."""
+        what the effects before it left; a fixed effect that changed, from what to what."""
         values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) for k, v in self.params.items()
                            if isinstance(v, float))
         of = "the discrepancy" if first else "what was left"
-        return f"{self.effect} ({values}) closes {100 * self.explained:.0f} % of {of}; {self.signature}"
+        if self.changed_from is None:
+            return f"{self.effect} ({values}) closes {100 * self.explained:.0f} % of {of}; {self.signature}"
+        held = ", ".join(_parameter_words(k, float(self.changed_from[k])) for k in self.params
+                         if k in effect_search_space(self.effect) and k in self.changed_from)
+        return (f"{self.effect}, changed from the held {held} to {values}, closes {100 * self.explained:.0f} % of "
+                f"{of}; {self.signature}")
 
     def as_dict(self) -> dict:
         return {"effect": self.effect, "error": self.error, "params": self.params, "explained": self.explained,
                 "evidence": self.evidence, "drop_per_point": self.drop_per_point, "n_parameters": self.n_parameters,
                 "signature": self.signature, "signature_views": list(signature_views(self.effect)),
-                "signature_gain": self.signature_gain,
+                "signature_gain": self.signature_gain, "changed_from": self.changed_from,
                 "intervals": {k: list(v) for k, v in self.intervals.items()}}
 
 
@@ -256,7 +264,8 @@ class TwinFit:
         lines = ["Base parameters that differed: " + _operating_point_words(self.operating_point, self.gain) + "."]
         if self.added:
             found = "; then ".join(fit.sentence(first=index == 0) for index, fit in enumerate(self.added))
-            lines.append(f"Effects that were missing, in order: {found}. "
+            what = "missing or changed" if any(fit.changed_from is not None for fit in self.added) else "missing"
+            lines.append(f"Effects that were {what}, in order: {found}. "
                          f"Discrepancy {self.baseline_error:.2f} -> {self.final_error:.2f} dB on the held-out part "
                          f"(the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB).")
             if self.margin is not None and self.margin < CLEAR_MARGIN:
@@ -412,8 +421,11 @@ class EffectRanker:
 
     Args:
         candidates: effect names to try (each needs a class with a ``search_space`` and a
-            ``conf/effects/<name>.yaml``); one that ``requires`` others is offered once they are in.
-        fixed_effects: effects known to be present, name -> parameters, always in the twin.
+            ``conf/effects/<name>.yaml``); one that ``requires`` others is offered once they are in. A
+            fixed effect among them is offered as changed: its parameters fitted again from the held values
+            (a reference's unbalance that has grown since), paid for as a new effect's.
+        fixed_effects: effects known to be present, name -> parameters, always in the twin, held at these
+            values unless named among the candidates and found changed.
         operating_point: what of the operating point is held and what fitted.
         n_trials_base: Optuna trials for the operating point.
         n_trials_effect: trials per candidate and round.
@@ -467,6 +479,7 @@ class EffectRanker:
     def _fit(self, twin: TwinModel, measured: Recording, geometry: BearingGeometry, settings: CompareSettings | None,
              progress: StageProgress) -> "EffectRanker":
         spaces = {name: effect_search_space(name) for name in self.candidates}
+        held = set(self.fixed_effects)  # at their given values; a fixed effect found changed is fitted from then on
         judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view,
                                       self.view_floor_db)
         # Later rounds may weigh the views otherwise: they judge what is left once an effect is in.
@@ -517,8 +530,8 @@ class EffectRanker:
                            len(offered) * (self.n_trials_effect + self.n_polish_effect))
             with ThreadPoolExecutor(max_workers=self.n_jobs) as pool:  # the solver and numpy release the GIL
                 fits = list(pool.map(lambda name, seed: self._fit_candidate(
-                    name, spaces[name], base, current_effects, current, judge, twin.fresh(), matched, seed=seed,
-                    scorer=scorer, progress=progress), offered, seeds))
+                    name, spaces[name], base, current_effects, held, current, judge, twin.fresh(), matched,
+                    seed=seed, scorer=scorer, progress=progress), offered, seeds))
             if not fits:
                 break
             fits.sort(key=lambda fit: -fit.evidence)
@@ -534,8 +547,9 @@ class EffectRanker:
                 unclaimed = best
                 break
             progress.stage(f"re-fit with {best.effect}", self.n_trials_refine + self.n_polish)
+            held.discard(best.effect)
             base_values, sensor, effects, _, scored = self._refit(
-                best, base_values, sensor, current_effects, judge, twin,
+                best, base_values, sensor, current_effects, held, judge, twin,
                 seed=self.seed + 1000 * (round_index + 1) + 999, progress=progress)
             base = op.to_base(base_values, sensor)
             before = current
@@ -574,19 +588,21 @@ class EffectRanker:
                             unclaimed, self.min_signature_gain)
         return self
 
-    def _fit_candidate(self, name, space, base, current_effects, current, judge: Judge, twin, matched,
+    def _fit_candidate(self, name, space, base, current_effects, held, current, judge: Judge, twin, matched,
                        seed, scorer: Judge, progress: StageProgress) -> EffectFit:
         """Fit one candidate on the first part (starting from the data's own estimate when the effect
-        offers one, read against ``matched``: the current twin, gain-matched) and judge it on the held-out
-        part, its evidence and signature gain by ``scorer`` (``judge`` with the round's points per view).
+        offers one, read against ``matched``: the current twin, gain-matched; a fixed effect from its held
+        values) and judge it on the held-out part, its evidence and signature gain by ``scorer`` (``judge``
+        with the round's points per view).
 
         The effects already kept are fitted again with it: they were fitted without the candidate, so
         they took up part of its signature (a noise floor lowering the kurtosis a misalignment line
         also lowers), and held there they would make the missing effect look redundant. Only the
         candidate's parameters are new, so only they are paid for.
         """
-        nominal = {**effect_defaults(name), **(_initial_guess(name, judge, matched) or {})}
-        kept = [other for other in current_effects if other not in self.fixed_effects]
+        changed_from = dict(current_effects[name]) if name in held else None
+        nominal = changed_from or {**effect_defaults(name), **(_initial_guess(name, judge, matched) or {})}
+        kept = [other for other in current_effects if other not in held and other != name]
         trial_effects = {**current_effects, name: nominal}
         joint, start = _effects_space(trial_effects, [name, *kept])
 
@@ -602,18 +618,19 @@ class EffectRanker:
         return EffectFit(name, effects[name], checked.discrepancy_db, _explained(current, checked), evidence, drop,
                          len(space), _signature(name), checked,
                          scorer.signature_gain(current, checked, signature_views(name)),
-                         kept_params={other: effects[other] for other in kept})
+                         kept_params={other: effects[other] for other in kept}, changed_from=changed_from)
 
-    def _refit(self, best: EffectFit, base_values, sensor, current_effects, judge: Judge, twin, seed,
+    def _refit(self, best: EffectFit, base_values, sensor, current_effects, held, judge: Judge, twin, seed,
                progress: StageProgress):
-        """Re-fit the operating point together with every kept effect and the new one.
+        """Re-fit the operating point together with every kept effect and the new one (the ``held`` fixed
+        effects stay as they are).
 
         The operating point was fitted without the effect, so it absorbed part of it (a deeper
         defect standing in for a resonance); once the effect is in, all of them move.
         """
         op = self.operating_point
         effects = {**current_effects, **best.kept_params, best.effect: best.params}
-        fitted = [name for name in effects if name not in self.fixed_effects]
+        fitted = [name for name in effects if name not in held]
         effects_space, effects_start = _effects_space(effects, fitted, prefix="effect:")
         space = {**{f"base:{k}": v for k, v in op.space.items()}, **effects_space}
         if op.angle_fitted:

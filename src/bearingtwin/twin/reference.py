@@ -5,8 +5,8 @@ and noise floor need, are the same from one record to the next; what a new recor
 resonance that appeared, a supply line, clipping) is the question. So a user first holds the
 twin against a baseline record (``bearingtwin-twin ... out=baseline``) and then against the new
 one with ``reference=baseline/twin_report.json``: the reference's operating point is held
-wherever the new run would otherwise fit it, and its effects are kept in the twin, no longer
-candidates. A defect's size is held only from a reference of the same bearing state (a
+wherever the new run would otherwise fit it, and its effects are kept in the twin at their fitted
+values; as candidates they are tried changed (an unbalance grown since the reference). A defect's size is held only from a reference of the same bearing state (a
 healthy reference has none; a report that does not say its state gives none either). A reference
 of a bearing of another geometry is refused, and so is an ``out=`` folder that holds the reference.
 """
@@ -95,7 +95,7 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
     further keys the config would fit (``calibration.base``) are held at the reference's values
     (``calibration.base_held``), so this run's report lists them as held, as a later run reads them.
     The reference's effects (its final twin's, with their fitted parameters) come first in
-    ``effects``, the config's own after them, and leave ``candidates``.
+    ``effects``, the config's own after them; those among ``candidates`` stay there, to be tried as changed.
     """
     held = copy.deepcopy(cfg)
     OmegaConf.set_readonly(held, False)
@@ -129,5 +129,4 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
             if held.operating_point.get("sensor_angle_deg") is None:
                 held.operating_point.sensor_angle_deg = float(operating["sensor"]["angle_deg"])
         held.effects = {**effects, **OmegaConf.to_container(held.effects, resolve=True)}
-        held.candidates = [name for name in held.candidates if name not in effects]
     return held

@@ -105,7 +105,8 @@ def ranker_settings(cfg: DictConfig) -> dict:
 
 
 def candidate_names(candidates, fixed_effects: Mapping) -> list[str]:
-    """``candidates``: a list of distinct effect names the twin can calibrate, none of them a fixed effect."""
+    """``candidates``: a list of distinct effect names the twin can calibrate (a fixed effect among them is tried as
+    changed from its given values, see :class:`EffectRanker`)."""
     if isinstance(candidates, str):  # candidates=noise: Hydra reads a string, not a list of one
         raise BearingTwinError(f"candidates={candidates}: give a list of effect names, candidates=[{candidates}]")
     if not isinstance(candidates, list):
@@ -115,8 +116,6 @@ def candidate_names(candidates, fixed_effects: Mapping) -> list[str]:
             raise BearingTwinError(f"candidates: {name!r} is not an effect name")
         if name in candidates[:index]:
             raise BearingTwinError(f"candidates: {name} is named twice")
-        if name in fixed_effects:
-            raise BearingTwinError(f"candidates: {name} is already among the fixed effects")
         try:
             effect_search_space(name)
         except BearingTwinError as error:
