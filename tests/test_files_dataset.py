@@ -123,6 +123,12 @@ def test_a_labels_table_names_each_file_once(tmp_path):
         labels_table(table)
     table.write_text("record,state,\nrun1.npy,normal,\n")  # a spreadsheet's trailing comma
     assert [state for _, _, state, _, _ in labels_table(table)] == ["normal"]
+    table.write_text("record,state\nrun1.npy,normal,\n")  # ... on the rows only
+    assert [state for _, _, state, _, _ in labels_table(table)] == ["normal"]
+    table.write_text("record,state\nrun1.npy,normal\nrun2.npy,outer,1750,12000\n")  # a speed under no column
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 3: more values than the header has columns "
+                                               r"\(record, state\); name every column in the header"):
+        labels_table(table)
     table.write_text("record;state;rpm;fs\nrun1.npy;normal;1797,5;12000\n")  # a decimal-comma spreadsheet's
     assert [row[1:] for row in labels_table(table)] == [("run1.npy", "normal", 1797.5, 12000.0)]
     table.write_text("record,state,RPM\nrun1.npy,normal,1500\n")

@@ -115,7 +115,9 @@ def train_additions(args: list[str]) -> tuple[list[str], str | None]:
         for key, values in (cfg.hydra.sweeper.params or {}).items():
             values = str(values)
             added.append(f"{key}={values if '[' in values else values.split(',')[0]}")
-    needs = None if cfg.data.source in ("simulated", "files") else str(cfg.data.root)
+    # A folder of one's own recordings (data=files, or a labels table) is made by the documents' earlier commands.
+    own = cfg.data.source in ("simulated", "files") or cfg.data.get("labels")
+    needs = None if own else str(cfg.data.root)
     return added, needs
 
 

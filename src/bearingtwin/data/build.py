@@ -80,8 +80,10 @@ def _twin_to_real_files(cfg: DictConfig) -> list[Path]:
     from bearingtwin.config import plain_config
     from bearingtwin.data.twin_to_real import check_protocol
 
-    calibration, tests = check_protocol(plain_config(cfg.data, "data config"))
-    return calibration + tests
+    data = plain_config(cfg.data, "data config")
+    calibration, tests = check_protocol(data)
+    # A rig's own records: their labels table is read too (a state corrected there is another run).
+    return calibration + tests + ([Path(str(data["labels"])).expanduser()] if data.get("labels") else [])
 
 
 # Every real-data source: the files a job will read, found from its config before any job
@@ -93,12 +95,12 @@ REQUIRED_FILES = {"hust": _hust_files, "cwru": _cwru_files, "twin_to_real": _twi
 def _files_files(cfg: DictConfig) -> list[Path]:
     """What a ``data=files`` run may read: every recording in ``data.root`` and the labels table (the rows'
     own checks come when the data is built)."""
-    from bearingtwin.data.real import DEFAULT_LABELS, recordings_in
+    from bearingtwin.data.real import labels_path, recordings_in
 
     root = Path(str(cfg.data.get("root"))).expanduser()
     if not root.is_dir():
         return []
-    table = Path(str(cfg.data.get("labels") or root / DEFAULT_LABELS)).expanduser()
+    table = labels_path(root, {"labels": cfg.data.get("labels")})
     return sorted(set(recordings_in(root)) | ({table} if table.is_file() else set()))
 
 

@@ -132,7 +132,7 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     root = Path(_get(cfg, "root")).expanduser()
     if not root.is_dir():
         raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of your recordings")
-    rows = _rows_from_pattern(root, cfg) if cfg.get("pattern") else _rows_from_labels(root, cfg)
+    rows = _rows_from_pattern(root, cfg) if cfg.get("pattern") else rows_from_labels(root, cfg)
     recordings = [
         load_recording(path, channel=cfg.get("channel"), fault=state,
                        rpm=rpm if rpm is not None else default_rpm, fs=fs if fs is not None else default_fs,
@@ -149,13 +149,15 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     return dataset
 
 
-def _rows_from_labels(root: Path, cfg: dict) -> list[tuple[Path, str, float | None, float | None]]:
-    """``(file, state, rpm, fs)`` per row of the labels table."""
-    table = Path(cfg.get("labels") or root / DEFAULT_LABELS).expanduser()
+def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>"
+                     ) -> list[tuple[Path, str, float | None, float | None]]:
+    """``(file, state, rpm, fs)`` per row of the labels table ``data.labels`` (default ``<root>/labels.csv``);
+    ``alternative`` ends the message when there is no such table."""
+    table = labels_path(root, cfg)
     if not table.is_file():
         raise BearingTwinError(
             f"data.labels: no labels file {table}; write one with columns {','.join(LABEL_COLUMNS)} "
-            "(one row per file) or give data.pattern=<regex with a (?P<state>...) group>"
+            f"(one row per file){alternative}"
         )
     rows = []
     for where, record, state, rpm, fs in labels_table(table):
@@ -169,6 +171,11 @@ def _rows_from_labels(root: Path, cfg: dict) -> list[tuple[Path, str, float | No
     if unlisted:
         log.warning("%s: %s not labelled in %s, left out", root, ", ".join(path.name for path in unlisted), table.name)
     return rows
+
+
+def labels_path(root: Path, cfg: dict) -> Path:
+    """The labels table a folder of recordings is read with: ``data.labels``, else ``<root>/labels.csv``."""
+    return Path(cfg.get("labels") or root / DEFAULT_LABELS).expanduser()
 
 
 def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None]]:
@@ -193,8 +200,12 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
             rows, seen = [], {}
             for row in reader:
                 line = reader.line_num  # not a count of rows: the reader skips blank lines
-                row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
                 where = f"{table} line {line}"
+                beyond = [value for value in row.get(None) or [] if value.strip()]  # cells past the header's columns
+                if beyond:  # a speed written under a header that names no rpm column would be passed over
+                    raise BearingTwinError(f"{where}: more values than the header has columns "
+                                           f"({', '.join(name for name in columns if name)}); name every column in the header")
+                row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
                 record = row["record"]
                 if Path(record) in seen:
                     raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record)]}); "

@@ -8,6 +8,10 @@ motor loads never used for calibration. Nothing measured enters training: the tw
 was calibrated on records of ``calibration.classes`` at ``calibration.load`` only,
 and those may not be test records, which the builder enforces on every run.
 
+Any other rig's records are read the same way from a labels table (``data.labels``: the
+``record,state[,rpm,fs]`` table ``data=files`` reads): the calibration records are named
+in ``calibration.records``, and every other labelled record is a test record.
+
 The twin speaks m/s^2, the CWRU channel g, and the twin's severity for the inner-race
 and ball faults is not calibrated at all: with ``normalize_windows`` every window is
 scaled to zero mean and unit standard deviation, so amplitude-dependent features
@@ -29,6 +33,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import os
 from pathlib import Path
 from typing import Mapping
@@ -37,9 +42,11 @@ import numpy as np
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
-from bearingtwin.checks import whole_number
+from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
+from bearingtwin.data.files import load_recording
+from bearingtwin.data.real import rows_from_labels
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
@@ -79,12 +86,42 @@ def test_files(data_cfg: Mapping) -> list[Path]:
     return found
 
 
+LabelledRecord = tuple[Path, str, float | None, float | None]
+"""A labels table's row: the file, its state, and the rpm and fs the row gives (None: the file's own)."""
+
+
+def labelled_records(data_cfg: Mapping) -> list[LabelledRecord] | None:
+    """With ``data.labels``, each row of that table (files in ``data.root``, any rig's records, read as
+    ``data=files`` reads them); None for the CWRU records, found by their names."""
+    if not data_cfg.get("labels"):
+        return None
+    root = Path(str(data_cfg["root"])).expanduser()
+    if not root.is_dir():
+        raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of the labelled records")
+    return rows_from_labels(root, data_cfg, alternative="")
+
+
+def record_named(rows: list[LabelledRecord], name: str, key: str) -> LabelledRecord:
+    """The labels row of the record ``name`` (its file name, or the name without its extension) stands for."""
+    matches = [row for row in rows if str(name) in (row[0].name, row[0].stem)]
+    if len(matches) != 1:
+        listed = ", ".join(row[0].name for row in rows)
+        raise BearingTwinError(f"{key}: {name} is {'no' if not matches else 'more than one'} record of the labels "
+                               f"table ({listed})")
+    return matches[0]
+
+
 def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
     """The calibration and test records, after checking that no record is both.
 
     A calibration record must be of a state in ``calibration.classes`` at ``calibration.load``
     (the twin may have seen only those); the test loads must exclude the calibration load.
+    With ``data.labels``, the calibration records are the ones named (of those states), and
+    every other labelled record is a test record.
     """
+    rows = labelled_records(data_cfg)
+    if rows is not None:
+        return _labelled_protocol(data_cfg, rows)
     calibration = data_cfg["calibration"]
     allowed, load = list(calibration["classes"]), calibration["load"]
     if load in list(data_cfg["test"]["loads"]):
@@ -100,14 +137,49 @@ def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
                 f"to {' or '.join(allowed)} records at {load} hp"
             )
         calibration_paths.append(cwru_file(root, stem))
-    if calibration["record"] not in calibration["records"]:
-        raise BearingTwinError(f"data.calibration.record={calibration['record']}: not among data.calibration.records "
-                               f"({', '.join(calibration['records'])})")
+    _check_calibration_record(calibration, calibration_paths, calibration_path(data_cfg, None, calibration["record"]))
     tests = test_files(data_cfg)
     shared = {p.name for p in tests} & {p.name for p in calibration_paths}
     if shared:
         raise BearingTwinError(f"data.test: {sorted(shared)[0]} is a calibration record")
     return calibration_paths, tests
+
+
+def calibration_path(data_cfg: Mapping, rows: list[LabelledRecord] | None, name: str,
+                     key: str = "data.calibration.records") -> Path:
+    """The file of the record ``name``: its labels row's (``rows``), else the CWRU record of that stem in ``data.root``."""
+    return record_named(rows, name, key)[0] if rows is not None else Path(data_cfg["root"]) / f"{name}.mat"
+
+
+def _check_calibration_record(calibration: Mapping, calibration_paths: list[Path], path: Path) -> None:
+    """``calibration.record`` (the report's record, at ``path``) must be one of the calibration records."""
+    if path not in calibration_paths:
+        raise BearingTwinError(f"data.calibration.record={calibration['record']}: not among data.calibration.records "
+                               f"({', '.join(map(str, calibration['records']))})")
+
+
+def _labelled_protocol(data_cfg: Mapping, rows: list[LabelledRecord]) -> tuple[list[Path], list[Path]]:
+    """:func:`check_protocol` for labelled records: the named calibration records, then every other row."""
+    calibration = data_cfg["calibration"]
+    allowed = list(calibration["classes"])
+    calibration_paths = []
+    for name in calibration["records"]:
+        path, state, *_ = record_named(rows, name, "data.calibration.records")
+        if state not in allowed:
+            raise BearingTwinError(f"data.calibration.records: {name} is labelled {state}; the twin may be fitted only "
+                                   f"to {' or '.join(allowed)} records")
+        calibration_paths.append(path)
+    _check_calibration_record(calibration, calibration_paths,
+                              calibration_path(data_cfg, rows, calibration["record"], "data.calibration.record"))
+    simulated = [check_fault(fault) for fault in data_cfg["twin"]["classes"]]
+    tests = [(path, state) for path, state, *_ in rows if path not in calibration_paths]
+    if not tests:
+        raise BearingTwinError("data.labels: every labelled record is a calibration record; label the records to test on too")
+    for path, state in tests:
+        if state not in simulated:
+            raise BearingTwinError(f"{path.name}: labelled {state}, a state the twin does not simulate "
+                                   f"(data.twin.classes: {', '.join(simulated)})")
+    return calibration_paths, [path for path, _ in tests]
 
 
 def calibration_step(report_path: str | Path, step: int) -> tuple[dict, dict]:
@@ -130,7 +202,7 @@ def calibration_step(report_path: str | Path, step: int) -> tuple[dict, dict]:
     return dict(chosen.get("base_params") or {}), dict(chosen.get("params") or {})
 
 
-def merged_calibration(calibration: Mapping) -> tuple[dict, dict]:
+def merged_calibration(calibration: Mapping, rows: list[LabelledRecord] | None = None) -> tuple[dict, dict]:
     """Base parameters and effects of the twin that ``data.calibration`` describes.
 
     The base parameters and the ranked effects up to ``step`` come from ``report`` (the
@@ -138,16 +210,23 @@ def merged_calibration(calibration: Mapping) -> tuple[dict, dict]:
     (``healthy.report``) are added to every bearing state, after the fault record's ones:
     they describe what the sensor sees besides the bearing (noise found on record 97) and
     apply last, on the sensor path. ``healthy: null`` or ``healthy.step: 0`` adds nothing.
+    The healthy record's state is its labels row's (``rows``), else its CWRU name's.
     """
     base_params, effects = calibration_step(calibration["report"], calibration["step"])
     healthy = calibration.get("healthy")
     if not healthy or not healthy.get("step"):
         return base_params, effects
-    if healthy["record"] not in calibration["records"]:
-        raise BearingTwinError(f"data.calibration.healthy.record={healthy['record']}: not among data.calibration.records "
-                               f"({', '.join(calibration['records'])})")
-    name = parse_cwru_name(f"{healthy['record']}.mat")
-    if name is None or name.fault != "normal":
+    key = "data.calibration.healthy.record"
+    if rows is not None:
+        path, state, *_ = record_named(rows, healthy["record"], key)
+        among = path in {record_named(rows, name, "data.calibration.records")[0] for name in calibration["records"]}
+    else:
+        state = getattr(parse_cwru_name(f"{healthy['record']}.mat"), "fault", None)
+        among = healthy["record"] in calibration["records"]
+    if not among:
+        raise BearingTwinError(f"{key}={healthy['record']}: not among data.calibration.records "
+                               f"({', '.join(map(str, calibration['records']))})")
+    if state != "normal":
         raise BearingTwinError(f"data.calibration.healthy.record={healthy['record']}: not a healthy (normal) record")
     _, healthy_effects = calibration_step(healthy["report"], healthy["step"])
     shared = sorted(set(effects) & set(healthy_effects))
@@ -309,6 +388,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         if not (isinstance(cfg[section]["windows_per_record"], int) and cfg[section]["windows_per_record"] > 0):
             raise BearingTwinError(f"data.{section}.windows_per_record must be a positive integer, "
                                    f"got {cfg[section]['windows_per_record']!r}")
+    twin_fs = positive_number(cfg["fs"], "data.fs", "Hz")
     n_validation = cfg["calibration"].get("validation_windows_per_record", 0)
     if not (isinstance(n_validation, int) and not isinstance(n_validation, bool) and n_validation >= 0):
         raise BearingTwinError(f"data.calibration.validation_windows_per_record must be an integer >= 0, got {n_validation!r}")
@@ -316,29 +396,46 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     if noise_level not in ("absolute", "relative"):
         raise BearingTwinError(f"data.calibration.healthy.noise_level={noise_level!r}: choose absolute or relative")
     calibration_paths, test_paths = check_protocol(cfg)
-    base_params, effects = merged_calibration(cfg["calibration"])
+    rows = labelled_records(cfg)
+    base_params, effects = merged_calibration(cfg["calibration"], rows)
     hand_set = plain_config(effects_cfg) or {}
     if set(hand_set) & set(effects):
         raise BearingTwinError(f"effects: {sorted(set(hand_set) & set(effects))[0]} is already in the calibrated twin "
                                "(data.calibration); set only effects the calibration did not find")
     effects = {**effects, **hand_set}  # after the calibrated ones of the same stage: preload replaces load_zone's clearance
 
+    labelled = {path: (state, rpm, fs) for path, state, rpm, fs in rows or []}
+
     def measured(path: Path) -> Recording:
-        return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
-                         check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),
-                         bearing=BearingGeometry.from_config(bearing))
+        if rows is None:
+            return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
+                             check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),
+                             bearing=BearingGeometry.from_config(bearing))
+        state, rpm, fs = labelled[path]
+        recording = load_recording(path, channel=cfg["channel"], fs=twin_fs if fs is None else fs, rpm=rpm,
+                                   fault=state, channel_key="data.channel",
+                                   fs_key="data.fs" if fs is None else "the labels row's fs")
+        if recording.rpm is None:
+            raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
+                                   "(the twin runs at each record's speed)")
+        if not math.isclose(recording.fs, twin_fs):
+            raise BearingTwinError(f"{path}: recorded at {recording.fs:g} Hz, where the twin simulates at "
+                                   f"data.fs={twin_fs:g} Hz; set data.fs={recording.fs:g}")
+        recording.require_vibration()
+        return recording
 
     tests = [measured(path) for path in test_paths]
-    calibration_records = {path.stem: measured(path) for path in calibration_paths}
+    calibration_records = {path: measured(path) for path in calibration_paths}
     # Operating points: speeds only (what a tachometer gives in service), never a test signal.
     rpms = operating_points_rpm(tests + list(calibration_records.values()))
-    simulator.update(fs=float(cfg["fs"]), duration=float(cfg["twin"]["duration"]), sensor=cfg["twin"]["sensor"])
+    simulator.update(fs=twin_fs, duration=float(cfg["twin"]["duration"]), sensor=cfg["twin"]["sensor"])
     healthy = cfg["calibration"].get("healthy") or {}
     # Only noise found on the healthy record has a healthy twin to refer to; noise found on the
     # fault record keeps the ratio it was fitted as.
     if noise_level == "absolute" and healthy.get("step") and "noise" in calibration_step(healthy["report"], healthy["step"])[1]:
         effects["noise"] = {**effects["noise"], "reference_rms": healthy_twin_rms(
-            healthy["report"], healthy["step"], calibration_records[healthy["record"]], bearing, simulator)}
+            healthy["report"], healthy["step"], calibration_records[calibration_path(cfg, rows, healthy["record"])],
+            bearing, simulator)}
     bearing, simulator = with_base_params(bearing, simulator, base_params, cfg["calibration"]["report"])
     faults = [check_fault(f) for f in cfg["twin"]["classes"]]
     variants = [(",".join(filter(None, (effect_label, setting_label))), varied, setting)
@@ -380,10 +477,12 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         record_ids=record_ids,
         starts=np.concatenate([s for _, s in cuts]),
         records=sources,
-        fs=float(cfg["fs"]),
+        fs=twin_fs,
         class_names=FAULTS,
         key=content_key({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
-                     "config": {k: v for k, v in cfg.items() if k != "root"}}),
+                         # where the files lie is no part of the data; a labelled record's state and facts are
+                         "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")},
+                         **({"labels": [(p.name, *labelled[p]) for p in test_paths]} if rows else {})}),
         record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests + validation_records],
         fixed_split=(index[:n_twin], index[n_twin:n_twin + n_test]),
         window_normalization=normalization,

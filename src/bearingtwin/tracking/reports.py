@@ -484,9 +484,12 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
 
     from bearingtwin.tracking.sim2real_protocol import is_protocol_run
 
+    def on_cwru(run) -> bool:  # another rig's labelled records (data.labels) are no CWRU row
+        return run.data.params.get("data.labels", "None") == "None"
+
     runs = [run for run in source.training_runs(group_by=lambda run: (method(run), *twin(run)))
-            if not is_protocol_run(run)]  # the protocol's runs have a block of their own
-    source.used_runs[:] = [run for run in source.used_runs if not is_protocol_run(run)]
+            if not is_protocol_run(run) and on_cwru(run)]  # the protocol's runs have a block of their own
+    source.used_runs[:] = [run for run in source.used_runs if not is_protocol_run(run) and on_cwru(run)]
     if not runs:
         return []
     groups: dict[tuple, list] = {}
@@ -555,7 +558,8 @@ def sim2real(source: ReportInput) -> Report:
     if not rows:
         kept = generated_text(results_path(source.settings, "sim2real.md"), GENERATED)
         if not (written and kept is not None):
-            raise _missing("data.source=twin_to_real", source)
+            raise _missing("data.source=twin_to_real on CWRU records (a run on another rig's labelled records, "
+                           "data.labels, is scored in its own per_record.csv)", source)
         print("sim2real: no exploratory twin-to-real runs in the store; the protocol's block is rewritten, "
               "the exploratory tables are left as they are", file=sys.stderr)
         return Report(kept)

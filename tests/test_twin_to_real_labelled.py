@@ -1,0 +1,163 @@
+"""Train on the twin, test on another rig's own records: ``data=twin_to_real`` with a labels table.
+
+The records are the independent test rig's (``bearingtwin.testrig``: no code shared with the twin),
+written as a user's logger would write them (``.npy`` arrays whose rate and speed only the labels
+table states), so nothing here needs the CWRU files. The calibration reports are small
+``twin_report.json`` files in the format ``bearingtwin-twin`` writes.
+"""
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from mlflow import MlflowClient
+from processes import run_module
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.data.build import build_dataset, input_digest
+from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.testrig import RigOperatingPoint, simulate_rig
+from bearingtwin.twin.model import effect_defaults
+
+FS = 12000.0
+# Each record: file, state, speed (rev/min). The rig's healthy and outer-race records at the first
+# speed calibrate the twin; every other record is a test record.
+RECORDS = [("healthy_a.npy", "normal", 1797.0), ("outer_a.npy", "outer", 1797.0),
+           ("inner_b.npy", "inner", 1750.0), ("ball_b.npy", "ball", 1750.0), ("outer_b.npy", "outer", 1750.0),
+           ("healthy_b.npy", "normal", 1750.0)]
+SMALL = ["data.window_length=1024", "data.twin.duration=0.5", "data.twin.windows_per_record=2",
+         "data.test.windows_per_record=3", "data.calibration.validation_windows_per_record=2",
+         "data.calibration.healthy.step=0"]
+
+
+@pytest.fixture(scope="module")
+def rig_folder(tmp_path_factory):
+    """The rig's records as .npy arrays (in g) and a labels table giving each one's state, speed and rate."""
+    folder = tmp_path_factory.mktemp("rig")
+    rows = []
+    for seed, (name, state, rpm) in enumerate(RECORDS):
+        point = RigOperatingPoint(rpm=rpm, fs=FS, duration_s=1.0, unit="g")
+        np.save(folder / name, simulate_rig(state, point, seed=seed))
+        rows.append(f"{name},{state},{rpm:g},{FS:g}")
+    (folder / "labels.csv").write_text("record,state,rpm,fs\n" + "\n".join(rows) + "\n")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def report_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("calibration") / "twin_report.json"
+    steps = [{"effects": [], "params": {}, "base_params": {"simulator.defect.depth_mm": 0.01}},
+             {"effects": ["noise"], "params": {"noise": effect_defaults("noise")},
+              "base_params": {"simulator.defect.depth_mm": 0.005}}]
+    path.write_text(json.dumps({"steps": steps}))
+    return path
+
+
+def labelled(folder: Path, report: Path, *extra: str) -> list[str]:
+    return ["data=twin_to_real", "bearing=cwru_6205", f"data.root={folder}", f"data.labels={folder / 'labels.csv'}",
+            "data.channel=null", "data.calibration.records=[healthy_a,outer_a.npy]", "data.calibration.record=outer_a.npy",
+            "data.calibration.healthy.record=healthy_a", f"data.calibration.report={report}", "data.calibration.step=1",
+            *SMALL, *extra]
+
+
+def compose_train(overrides):
+    with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
+        return compose("train", overrides=overrides)
+
+
+def test_the_named_records_calibrate_and_every_other_labelled_record_is_tested(rig_folder, report_path, tmp_path):
+    cfg = compose_train(labelled(rig_folder, report_path, f"paths.cache_dir={tmp_path}"))
+    calibration, tests = check_protocol(cfg.data)
+    assert [p.name for p in calibration] == ["healthy_a.npy", "outer_a.npy"]
+    assert [p.name for p in tests] == ["inner_b.npy", "ball_b.npy", "outer_b.npy", "healthy_b.npy"]
+    dataset = build_dataset(cfg)
+    train, test = dataset.fixed_split
+    # Training is all twin; the test and validation windows are the rig's own records, with their labels.
+    assert all(dataset.records[i].startswith(TWIN_PREFIX) for i in set(dataset.record_ids[train]))
+    assert [Path(dataset.records[i]).name for i in dict.fromkeys(dataset.record_ids[test])] == [p.name for p in tests]
+    assert [dataset.class_names[label] for label in dict.fromkeys(dataset.labels[test])] == ["inner", "ball", "outer", "normal"]
+    assert [Path(dataset.records[i]).name for i in dict.fromkeys(dataset.record_ids[dataset.validation])] == [
+        "healthy_a.npy", "outer_a.npy"]
+    # The twin runs at the labelled speeds of all six records, and each window keeps its record's speed.
+    twin_rpms = {float(r.split("@")[1].split("rpm")[0]) for r in dataset.records if r.startswith(TWIN_PREFIX)}
+    assert twin_rpms == {1797.0, 1750.0}
+    assert set(dataset.window_rpms[test]) == {1750.0}
+    # The labels table is one of the run's input files: a corrected state is another run.
+    before = input_digest(cfg)
+    table = rig_folder / "labels.csv"
+    text = table.read_text()
+    try:
+        table.write_text(text.replace("ball_b.npy,ball", "ball_b.npy,inner"))
+        assert input_digest(cfg) != before
+    finally:
+        table.write_text(text)
+
+
+@pytest.mark.parametrize(("override", "message"), [
+    ("data.calibration.records=[healthy_a,inner_b]", r"data\.calibration\.records: inner_b is labelled inner; the twin "
+                                                     r"may be fitted only to normal or outer records"),
+    ("data.calibration.records=[healthy_a,outer_z]", r"data\.calibration\.records: outer_z is no record of the labels "
+                                                     r"table \(healthy_a\.npy, outer_a\.npy"),
+    ("data.twin.classes=[normal,inner,outer]", r"ball_b\.npy: labelled ball, a state the twin does not simulate"),
+    ("data.fs=25600", r"inner_b\.npy: recorded at 12000 Hz, where the twin simulates at data\.fs=25600 Hz; set data\.fs=12000"),
+])
+def test_a_labelled_protocol_that_cannot_hold_is_refused_naming_the_field(rig_folder, report_path, tmp_path, override,
+                                                                          message):
+    with pytest.raises(BearingTwinError, match=message):
+        build_dataset(compose_train(labelled(rig_folder, report_path, f"paths.cache_dir={tmp_path}", override)))
+
+
+def test_a_record_whose_speed_nobody_states_is_refused(rig_folder, report_path, tmp_path):
+    table = tmp_path / "labels.csv"
+    table.write_text((rig_folder / "labels.csv").read_text().replace("inner_b.npy,inner,1750", "inner_b.npy,inner,"))
+    with pytest.raises(BearingTwinError, match=r"inner_b\.npy: states no shaft speed; give it in the labels table's rpm"):
+        build_dataset(compose_train(labelled(rig_folder, report_path, f"paths.cache_dir={tmp_path}", f"data.labels={table}")))
+
+
+def test_train_on_the_twin_and_score_the_rigs_records_end_to_end(rig_folder, report_path, tmp_path):
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    done = run_module("bearingtwin.cli.train", "classifier=svm", "features=envelope_prominence",
+                      *labelled(rig_folder, report_path), f"tracking.uri={uri}", f"paths.cache_dir={tmp_path}/cache",
+                      f"hydra.run.dir={tmp_path}/run", cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "calibration accuracy: " in done.stdout
+    client = MlflowClient(uri)
+    (run,) = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
+    assert run.info.status == "FINISHED" and run.data.metrics["n_test"] == 12.0
+    assert set(run.data.metrics) >= {"calibration_recall_normal", "calibration_recall_outer", "recall_normal"}
+    with open(client.download_artifacts(run.info.run_id, "per_record.csv", str(tmp_path))) as handle:
+        rows = list(csv.DictReader(handle))
+    assert [(Path(row["record"]).name, row["class"], row["windows"]) for row in rows] == [
+        ("inner_b.npy", "inner", "3"), ("ball_b.npy", "ball", "3"), ("outer_b.npy", "outer", "3"),
+        ("healthy_b.npy", "normal", "3")]
+    # Another rig's run is no row of the CWRU report: with no CWRU run in the store, the report has nothing to show.
+    report = run_module("bearingtwin.cli.report", "sim2real", f"uri={uri}", f"out={tmp_path}/sim2real.md",
+                        cwd=tmp_path, timeout=300)
+    assert report.returncode == 2 and "no FINISHED training runs of data.source=twin_to_real on CWRU records" in report.stderr, \
+        report.stderr[-2000:]
+
+
+CWRU = Path(CONF_DIR).parent.parent / "shared" / "data" / "cwru"
+
+
+@pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason="CWRU records not present")
+def test_cwru_records_read_through_a_labels_table_give_the_cwru_protocols_very_windows(report_path, tmp_path):
+    """The labels table is a second way to name the same records: listing the CWRU files with their states
+    (calibration records 97 and 130, every fault record at 1 hp a test record) builds the dataset the CWRU
+    names build, window for window."""
+    tests = ["12k_Drive_End_IR007_1_106", "12k_Drive_End_B007_1_119", "12k_Drive_End_OR007@6_1_131"]
+    states = {"normal_0_97": "normal", "12k_Drive_End_OR007@6_0_130": "outer", **dict(zip(tests, ("inner", "ball", "outer")))}
+    table = tmp_path / "labels.csv"
+    table.write_text("record,state\n" + "".join(f"{stem}.mat,{state}\n" for stem, state in states.items()))
+    common = ["data=twin_to_real", "bearing=cwru_6205", f"data.calibration.report={report_path}", "data.calibration.step=1",
+              *SMALL, "data.window_length=2048", f"paths.cache_dir={tmp_path}"]
+    by_name = build_dataset(compose_train([*common, "data.test.loads=[1]"]))
+    by_table = build_dataset(compose_train([*common, f"data.root={CWRU}", f"data.labels={table}"]))
+    assert [Path(r).name for r in by_table.records] == [Path(r).name for r in by_name.records]
+    for field in ("windows", "labels", "record_ids", "starts", "validation", "window_rpms"):
+        assert np.array_equal(getattr(by_table, field), getattr(by_name, field)), field
+    assert all(np.array_equal(a, b) for a, b in zip(by_table.fixed_split, by_name.fixed_split))
