@@ -31,6 +31,8 @@ import os
 import shutil
 import tempfile
 
+import pytest
+
 
 def _memory_folder(path: str = "/dev/shm", room_bytes: int = 2 * 2**30) -> bool:
     if not (os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK)):
@@ -106,3 +108,19 @@ def pytest_sessionfinish(session, exitstatus):
         writer.line(f"tests wrote into the checkout: {shown}", red=True)
         if session.exitstatus == 0:  # an interrupted or failing session keeps its own status
             session.exitstatus = 1
+
+
+@pytest.fixture(scope="session")
+def report_path(tmp_path_factory):
+    """A calibration report for ``data=twin_to_real`` in the format ``bearingtwin-twin`` writes: the bare twin
+    and one ``noise`` step, so no test depends on the committed CWRU study."""
+    import json
+
+    from bearingtwin.twin.model import effect_defaults
+
+    path = tmp_path_factory.mktemp("calibration") / "twin_report.json"
+    steps = [{"effects": [], "params": {}, "base_params": {"simulator.defect.depth_mm": 0.01}},
+             {"effects": ["noise"], "params": {"noise": effect_defaults("noise")},
+              "base_params": {"simulator.defect.depth_mm": 0.005}}]
+    path.write_text(json.dumps({"steps": steps}))
+    return path

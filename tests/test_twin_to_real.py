@@ -23,7 +23,6 @@ from bearingtwin.data.twin_to_real import (TWIN_PREFIX, check_protocol, healthy_
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking.reports import run_report
-from bearingtwin.twin.model import effect_defaults
 
 DATA = Path(CONF_DIR).parent.parent / "shared" / "data" / "cwru"
 pytestmark = pytest.mark.skipif(not (DATA / "normal_0_97.mat").is_file(), reason="CWRU records not present")
@@ -41,16 +40,6 @@ SMALL = [
     "data.calibration.healthy.step=0",
     "data.calibration.validation_windows_per_record=2",
 ]
-
-
-@pytest.fixture(scope="module")
-def report_path(tmp_path_factory):
-    path = tmp_path_factory.mktemp("calibration") / "twin_report.json"
-    steps = [{"effects": [], "params": {}, "base_params": {"simulator.defect.depth_mm": 0.01}},
-             {"effects": ["noise"], "params": {"noise": effect_defaults("noise")},
-              "base_params": {"simulator.defect.depth_mm": 0.005}}]
-    path.write_text(json.dumps({"steps": steps}))
-    return path
 
 
 def compose_train(overrides):

@@ -7,7 +7,6 @@ table states), so nothing here needs the CWRU files. The calibration reports are
 """
 
 import csv
-import json
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +20,6 @@ from bearingtwin.data.build import build_dataset, input_digest
 from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig
-from bearingtwin.twin.model import effect_defaults
 
 FS = 12000.0
 # Each record: file, state, speed (rev/min). The rig's healthy and outer-race records at the first
@@ -45,16 +43,6 @@ def rig_folder(tmp_path_factory):
         rows.append(f"{name},{state},{rpm:g},{FS:g}")
     (folder / "labels.csv").write_text("record,state,rpm,fs\n" + "\n".join(rows) + "\n")
     return folder
-
-
-@pytest.fixture(scope="module")
-def report_path(tmp_path_factory):
-    path = tmp_path_factory.mktemp("calibration") / "twin_report.json"
-    steps = [{"effects": [], "params": {}, "base_params": {"simulator.defect.depth_mm": 0.01}},
-             {"effects": ["noise"], "params": {"noise": effect_defaults("noise")},
-              "base_params": {"simulator.defect.depth_mm": 0.005}}]
-    path.write_text(json.dumps({"steps": steps}))
-    return path
 
 
 def labelled(folder: Path, report: Path, *extra: str) -> list[str]:
