@@ -125,6 +125,9 @@ def test_a_labels_table_names_each_file_once(tmp_path):
     assert [state for _, _, state, _, _ in labels_table(table)] == ["normal"]
     table.write_text("record,state\nrun1.npy,normal,\n")  # ... on the rows only
     assert [state for _, _, state, _, _ in labels_table(table)] == ["normal"]
+    table.write_text("record,state,,\nrun1.npy,normal,\nrun2.npy,outer,1750,\n")  # ... under a column of no name
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 3: more values than the header has columns"):
+        labels_table(table)
     table.write_text("record,state\nrun1.npy,normal\nrun2.npy,outer,1750,12000\n")  # a speed under no column
     with pytest.raises(BearingTwinError, match=r"labels.csv line 3: more values than the header has columns "
                                                r"\(record, state\); name every column in the header"):

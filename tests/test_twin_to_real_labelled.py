@@ -92,11 +92,61 @@ def test_the_named_records_calibrate_and_every_other_labelled_record_is_tested(r
                                                      r"table \(healthy_a\.npy, outer_a\.npy"),
     ("data.twin.classes=[normal,inner,outer]", r"ball_b\.npy: labelled ball, a state the twin does not simulate"),
     ("data.fs=25600", r"inner_b\.npy: recorded at 12000 Hz, where the twin simulates at data\.fs=25600 Hz; set data\.fs=12000"),
+    ("data.calibration.records=null", r"data\.calibration\.records=None: give a list of record names"),
+    ("data.calibration.records=healthy_a", r"data\.calibration\.records='healthy_a': give a list of record names"),
 ])
 def test_a_labelled_protocol_that_cannot_hold_is_refused_naming_the_field(rig_folder, report_path, tmp_path, override,
                                                                           message):
     with pytest.raises(BearingTwinError, match=message):
         build_dataset(compose_train(labelled(rig_folder, report_path, f"paths.cache_dir={tmp_path}", override)))
+
+
+def test_records_in_subfolders_are_named_by_their_path_in_the_table(tmp_path, report_path):
+    """Two rigs' runs of one name in two subfolders: the name alone is ambiguous, the table's path is not."""
+    for sub in ("rig_a", "rig_b"):
+        (tmp_path / sub).mkdir()
+        for seed, (name, state, rpm) in enumerate(RECORDS[:3]):
+            np.save(tmp_path / sub / name, simulate_rig(state, RigOperatingPoint(rpm=rpm, fs=FS, duration_s=1.0), seed=seed))
+    table = tmp_path / "labels.csv"
+    table.write_text("record,state,rpm,fs\n" + "".join(f"{sub}/{name},{state},{rpm:g},{FS:g}\n" for sub in ("rig_a", "rig_b")
+                                                       for name, state, rpm in RECORDS[:3]))
+    overrides = [*labelled(tmp_path, report_path), f"data.labels={table}"]
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.records: healthy_a is more than one record of the "
+                                               r"labels table \(rig_a/healthy_a\.npy, rig_b/healthy_a\.npy\); name it by its path"):
+        check_protocol(compose_train(overrides).data)
+    cfg = compose_train([*overrides, "data.calibration.records=[rig_a/healthy_a,rig_a/outer_a.npy]",
+                         "data.calibration.record=rig_a/outer_a", "data.calibration.healthy.record=rig_a/healthy_a.npy"])
+    calibration, tests = check_protocol(cfg.data)
+    assert [p.relative_to(tmp_path).as_posix() for p in calibration] == ["rig_a/healthy_a.npy", "rig_a/outer_a.npy"]
+    assert [p.relative_to(tmp_path).as_posix() for p in tests] == ["rig_a/inner_b.npy", "rig_b/healthy_a.npy",
+                                                                    "rig_b/outer_a.npy", "rig_b/inner_b.npy"]
+
+
+def test_the_data_key_follows_what_a_labelled_record_holds(rig_folder, report_path, tmp_path):
+    """Cached features are keyed by the data: a calibration record written over, or labelled otherwise, is other data
+    (two rigs' files of one name and length are not one dataset)."""
+    import shutil
+
+    folder = tmp_path / "rig"
+    shutil.copytree(rig_folder, folder)
+    cfg = compose_train(labelled(folder, report_path, f"paths.cache_dir={tmp_path}"))
+    before = build_dataset(cfg).key
+    original = np.load(folder / "healthy_a.npy")
+    np.save(folder / "healthy_a.npy", original[::-1].copy())  # the same length, other samples
+    assert build_dataset(cfg).key != before
+    np.save(folder / "healthy_a.npy", original)
+    assert build_dataset(cfg).key == before
+
+
+def test_another_rigs_model_is_not_registered_as_the_cwru_protocols(rig_folder, report_path):
+    from bearingtwin.tracking.mlflow_logging import check_registration
+
+    cfg = compose_train(["+experiment=sim2real", *labelled(rig_folder, report_path)])
+    with pytest.raises(BearingTwinError, match=r"register=sim2real is the CWRU protocol's model; a model of another rig's "
+                                               r"records \(data\.labels\) is registered under a name of its own"):
+        check_registration(cfg)
+    assert check_registration(compose_train(["+experiment=sim2real", *labelled(rig_folder, report_path),
+                                             "register=my_rig"])) == ("my_rig", "champion")
 
 
 def test_a_record_whose_speed_nobody_states_is_refused(rig_folder, report_path, tmp_path):

@@ -175,7 +175,7 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
 
 def labels_path(root: Path, cfg: dict) -> Path:
     """The labels table a folder of recordings is read with: ``data.labels``, else ``<root>/labels.csv``."""
-    return Path(cfg.get("labels") or root / DEFAULT_LABELS).expanduser()
+    return Path(str(cfg.get("labels") or root / DEFAULT_LABELS)).expanduser()
 
 
 def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None]]:
@@ -190,6 +190,8 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
             semicolons = ";" in header and "," not in header
             reader = csv.DictReader(handle, delimiter=";" if semicolons else ",")
             columns = [name.strip() for name in reader.fieldnames or []]
+            # Unnamed columns (a trailing separator) each keep a key of their own, so a value under any of them is seen.
+            reader.fieldnames = [name or f"unnamed {index}" for index, name in enumerate(columns)]
             missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
             if missing:
                 raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
@@ -201,11 +203,14 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
             for row in reader:
                 line = reader.line_num  # not a count of rows: the reader skips blank lines
                 where = f"{table} line {line}"
-                beyond = [value for value in row.get(None) or [] if value.strip()]  # cells past the header's columns
-                if beyond:  # a speed written under a header that names no rpm column would be passed over
+                # Cells past the header's columns, or under a column it leaves unnamed: a speed written under a
+                # header that names no rpm column would be passed over.
+                beyond = [value for value in row.pop(None, None) or [] if value.strip()]
+                beyond += [value for key, value in row.items() if key not in columns and (value or "").strip()]
+                if beyond:
                     raise BearingTwinError(f"{where}: more values than the header has columns "
                                            f"({', '.join(name for name in columns if name)}); name every column in the header")
-                row = {key.strip(): (value or "").strip() for key, value in row.items() if key}
+                row = {key: (value or "").strip() for key, value in row.items() if key in columns}
                 record = row["record"]
                 if Path(record) in seen:
                     raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record)]}); "

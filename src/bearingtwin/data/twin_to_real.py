@@ -35,8 +35,9 @@ import itertools
 import json
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 from omegaconf import OmegaConf
@@ -53,7 +54,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import simulate
-from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
+from bearingtwin.storage import content_key, file_digest, load_npz_or_heal, save_npz_atomic
 
 TWIN_PREFIX = "twin:"
 """Records whose source starts with this are simulated; every other record is a measurement file."""
@@ -86,29 +87,42 @@ def test_files(data_cfg: Mapping) -> list[Path]:
     return found
 
 
-LabelledRecord = tuple[Path, str, float | None, float | None]
-"""A labels table's row: the file, its state, and the rpm and fs the row gives (None: the file's own)."""
+@dataclass(frozen=True)
+class LabelsTable:
+    """The rows of a labels table (``data.labels``): each record's file in ``root``, its state, and the rpm
+    and fs the row gives (None: the file's own)."""
+
+    root: Path
+    rows: list[tuple[Path, str, float | None, float | None]]
+
+    def written(self, path: Path) -> str:
+        """The record as the table writes it (``sub/run.npy``)."""
+        return path.relative_to(self.root).as_posix() if path.is_relative_to(self.root) else str(path)
+
+    def named(self, name, key: str) -> tuple[Path, str, float | None, float | None]:
+        """The row of the record ``name``: its file as the table writes it (``sub/run.npy``) or its file name
+        (``run.npy``), either without the extension (``sub/run``, ``run``); ``key`` names the setting."""
+        def names(path: Path) -> set[str]:
+            written = self.written(path)
+            return {written, written.removesuffix(path.suffix), path.name, path.stem}
+
+        matches = [row for row in self.rows if str(name) in names(row[0])]
+        if len(matches) != 1:
+            listed = ", ".join(self.written(row[0]) for row in (matches or self.rows))
+            raise BearingTwinError(f"{key}: {name} is {'no' if not matches else 'more than one'} record of the labels "
+                                   f"table ({listed}){'; name it by its path in the table' if matches else ''}")
+        return matches[0]
 
 
-def labelled_records(data_cfg: Mapping) -> list[LabelledRecord] | None:
-    """With ``data.labels``, each row of that table (files in ``data.root``, any rig's records, read as
-    ``data=files`` reads them); None for the CWRU records, found by their names."""
+def labels_table_of(data_cfg: Mapping) -> LabelsTable | None:
+    """With ``data.labels``, that table's rows (files in ``data.root``, any rig's records, read as ``data=files``
+    reads them); None for the CWRU records, found by their names."""
     if not data_cfg.get("labels"):
         return None
     root = Path(str(data_cfg["root"])).expanduser()
     if not root.is_dir():
         raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of the labelled records")
-    return rows_from_labels(root, data_cfg, alternative="")
-
-
-def record_named(rows: list[LabelledRecord], name: str, key: str) -> LabelledRecord:
-    """The labels row of the record ``name`` (its file name, or the name without its extension) stands for."""
-    matches = [row for row in rows if str(name) in (row[0].name, row[0].stem)]
-    if len(matches) != 1:
-        listed = ", ".join(row[0].name for row in rows)
-        raise BearingTwinError(f"{key}: {name} is {'no' if not matches else 'more than one'} record of the labels "
-                               f"table ({listed})")
-    return matches[0]
+    return LabelsTable(root, rows_from_labels(root, data_cfg, alternative=""))
 
 
 def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
@@ -119,10 +133,15 @@ def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
     With ``data.labels``, the calibration records are the ones named (of those states), and
     every other labelled record is a test record.
     """
-    rows = labelled_records(data_cfg)
-    if rows is not None:
-        return _labelled_protocol(data_cfg, rows)
     calibration = data_cfg["calibration"]
+    records = calibration.get("records")
+    if not (isinstance(records, Sequence) and not isinstance(records, str) and records
+            and all(isinstance(name, (str, int, float)) for name in records)):
+        raise BearingTwinError(f"data.calibration.records={records!r}: give a list of record names "
+                               "(data.calibration.records=[<healthy>,<outer>])")
+    table = labels_table_of(data_cfg)
+    if table is not None:
+        return _labelled_protocol(data_cfg, table)
     allowed, load = list(calibration["classes"]), calibration["load"]
     if load in list(data_cfg["test"]["loads"]):
         raise BearingTwinError(f"data.test.loads: {load} hp is the calibration load (data.calibration.load); "
@@ -145,10 +164,10 @@ def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
     return calibration_paths, tests
 
 
-def calibration_path(data_cfg: Mapping, rows: list[LabelledRecord] | None, name: str,
+def calibration_path(data_cfg: Mapping, table: LabelsTable | None, name: str,
                      key: str = "data.calibration.records") -> Path:
-    """The file of the record ``name``: its labels row's (``rows``), else the CWRU record of that stem in ``data.root``."""
-    return record_named(rows, name, key)[0] if rows is not None else Path(data_cfg["root"]) / f"{name}.mat"
+    """The file of the record ``name``: its labels row's (``table``), else the CWRU record of that stem in ``data.root``."""
+    return table.named(name, key)[0] if table is not None else Path(data_cfg["root"]) / f"{name}.mat"
 
 
 def _check_calibration_record(calibration: Mapping, calibration_paths: list[Path], path: Path) -> None:
@@ -158,26 +177,26 @@ def _check_calibration_record(calibration: Mapping, calibration_paths: list[Path
                                f"({', '.join(map(str, calibration['records']))})")
 
 
-def _labelled_protocol(data_cfg: Mapping, rows: list[LabelledRecord]) -> tuple[list[Path], list[Path]]:
+def _labelled_protocol(data_cfg: Mapping, table: LabelsTable) -> tuple[list[Path], list[Path]]:
     """:func:`check_protocol` for labelled records: the named calibration records, then every other row."""
     calibration = data_cfg["calibration"]
     allowed = list(calibration["classes"])
     calibration_paths = []
     for name in calibration["records"]:
-        path, state, *_ = record_named(rows, name, "data.calibration.records")
+        path, state, *_ = table.named(name, "data.calibration.records")
         if state not in allowed:
             raise BearingTwinError(f"data.calibration.records: {name} is labelled {state}; the twin may be fitted only "
                                    f"to {' or '.join(allowed)} records")
         calibration_paths.append(path)
     _check_calibration_record(calibration, calibration_paths,
-                              calibration_path(data_cfg, rows, calibration["record"], "data.calibration.record"))
+                              calibration_path(data_cfg, table, calibration["record"], "data.calibration.record"))
     simulated = [check_fault(fault) for fault in data_cfg["twin"]["classes"]]
-    tests = [(path, state) for path, state, *_ in rows if path not in calibration_paths]
+    tests = [(path, state) for path, state, *_ in table.rows if path not in calibration_paths]
     if not tests:
         raise BearingTwinError("data.labels: every labelled record is a calibration record; label the records to test on too")
     for path, state in tests:
         if state not in simulated:
-            raise BearingTwinError(f"{path.name}: labelled {state}, a state the twin does not simulate "
+            raise BearingTwinError(f"{table.written(path)}: labelled {state}, a state the twin does not simulate "
                                    f"(data.twin.classes: {', '.join(simulated)})")
     return calibration_paths, [path for path, _ in tests]
 
@@ -202,7 +221,7 @@ def calibration_step(report_path: str | Path, step: int) -> tuple[dict, dict]:
     return dict(chosen.get("base_params") or {}), dict(chosen.get("params") or {})
 
 
-def merged_calibration(calibration: Mapping, rows: list[LabelledRecord] | None = None) -> tuple[dict, dict]:
+def merged_calibration(calibration: Mapping, table: LabelsTable | None = None) -> tuple[dict, dict]:
     """Base parameters and effects of the twin that ``data.calibration`` describes.
 
     The base parameters and the ranked effects up to ``step`` come from ``report`` (the
@@ -210,16 +229,16 @@ def merged_calibration(calibration: Mapping, rows: list[LabelledRecord] | None =
     (``healthy.report``) are added to every bearing state, after the fault record's ones:
     they describe what the sensor sees besides the bearing (noise found on record 97) and
     apply last, on the sensor path. ``healthy: null`` or ``healthy.step: 0`` adds nothing.
-    The healthy record's state is its labels row's (``rows``), else its CWRU name's.
+    The healthy record's state is its labels row's (``table``), else its CWRU name's.
     """
     base_params, effects = calibration_step(calibration["report"], calibration["step"])
     healthy = calibration.get("healthy")
     if not healthy or not healthy.get("step"):
         return base_params, effects
     key = "data.calibration.healthy.record"
-    if rows is not None:
-        path, state, *_ = record_named(rows, healthy["record"], key)
-        among = path in {record_named(rows, name, "data.calibration.records")[0] for name in calibration["records"]}
+    if table is not None:
+        path, state, *_ = table.named(healthy["record"], key)
+        among = path in {table.named(name, "data.calibration.records")[0] for name in calibration["records"]}
     else:
         state = getattr(parse_cwru_name(f"{healthy['record']}.mat"), "fault", None)
         among = healthy["record"] in calibration["records"]
@@ -396,18 +415,18 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     if noise_level not in ("absolute", "relative"):
         raise BearingTwinError(f"data.calibration.healthy.noise_level={noise_level!r}: choose absolute or relative")
     calibration_paths, test_paths = check_protocol(cfg)
-    rows = labelled_records(cfg)
-    base_params, effects = merged_calibration(cfg["calibration"], rows)
+    table = labels_table_of(cfg)
+    base_params, effects = merged_calibration(cfg["calibration"], table)
     hand_set = plain_config(effects_cfg) or {}
     if set(hand_set) & set(effects):
         raise BearingTwinError(f"effects: {sorted(set(hand_set) & set(effects))[0]} is already in the calibrated twin "
                                "(data.calibration); set only effects the calibration did not find")
     effects = {**effects, **hand_set}  # after the calibrated ones of the same stage: preload replaces load_zone's clearance
 
-    labelled = {path: (state, rpm, fs) for path, state, rpm, fs in rows or []}
+    labelled = {path: (state, rpm, fs) for path, state, rpm, fs in (table.rows if table else [])}
 
     def measured(path: Path) -> Recording:
-        if rows is None:
+        if table is None:
             return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
                              check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),
                              bearing=BearingGeometry.from_config(bearing))
@@ -434,7 +453,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     # fault record keeps the ratio it was fitted as.
     if noise_level == "absolute" and healthy.get("step") and "noise" in calibration_step(healthy["report"], healthy["step"])[1]:
         effects["noise"] = {**effects["noise"], "reference_rms": healthy_twin_rms(
-            healthy["report"], healthy["step"], calibration_records[calibration_path(cfg, rows, healthy["record"])],
+            healthy["report"], healthy["step"], calibration_records[calibration_path(cfg, table, healthy["record"])],
             bearing, simulator)}
     bearing, simulator = with_base_params(bearing, simulator, base_params, cfg["calibration"]["report"])
     faults = [check_fault(f) for f in cfg["twin"]["classes"]]
@@ -480,9 +499,10 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         fs=twin_fs,
         class_names=FAULTS,
         key=content_key({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
-                         # where the files lie is no part of the data; a labelled record's state and facts are
+                         # where the files lie is no part of the data; what a labelled record holds and is labelled is
                          "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")},
-                         **({"labels": [(p.name, *labelled[p]) for p in test_paths]} if rows else {})}),
+                         **({"labels": [(p.name, file_digest(p), *labelled[p]) for p in calibration_paths + test_paths]}
+                            if table else {})}),
         record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests + validation_records],
         fixed_split=(index[:n_twin], index[n_twin:n_twin + n_test]),
         window_normalization=normalization,

@@ -550,6 +550,11 @@ def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
     name, alias = cfg.get("register"), cfg.get("register_alias")
     if alias and not name:
         raise BearingTwinError(f"register_alias={alias} needs register=<model name> (or register_alias=null)")
+    from bearingtwin.tracking.sim2real_protocol import PROTOCOL_MODEL
+
+    if name == PROTOCOL_MODEL and (cfg.get("data") or {}).get("labels"):
+        raise BearingTwinError(f"register={name} is the CWRU protocol's model; a model of another rig's records "
+                               "(data.labels) is registered under a name of its own: register=<your rig>")
     for key, value in (("register", name), ("register_alias", alias)):
         try:
             for rule in rules_of.get(key, ()) if value is not None else ():

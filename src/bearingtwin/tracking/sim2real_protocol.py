@@ -37,6 +37,8 @@ log = logging.getLogger(__name__)
 FAULT_CLASSES = ("inner", "ball", "outer")
 PROTOCOL_PREFIX = "sim2real_v"
 """Config names (and run tags) of the protocol's versions: ``conf/experiment/sim2real_v<N>.yaml``."""
+PROTOCOL_MODEL = "sim2real"
+"""The registered model of the protocol on the CWRU records (``register`` in ``conf/experiment/sim2real_v1.yaml``)."""
 
 
 def protocol_versions(conf_dir: str | Path = CONF_DIR) -> dict[str, str]:
