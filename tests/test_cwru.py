@@ -167,7 +167,7 @@ def test_a_wrong_rate_implies_the_true_one():
 
 @needs_data
 def test_missing_or_unknown_channel_is_named():
-    with pytest.raises(BearingTwinError, match=r"normal_0_97.mat: no channel 'BA'; the file holds DE, FE"):
+    with pytest.raises(BearingTwinError, match=r"normal_0_97.mat: no channel 'BA'; the file holds channels DE, FE"):
         load_cwru(CWRU / "normal_0_97.mat", channel="BA")
     with pytest.raises(BearingTwinError, match="channel='XY' is not a CWRU channel"):
         load_cwru(CWRU / "normal_0_97.mat", channel="XY")

@@ -119,7 +119,7 @@ def test_bad_inputs_are_named(tmp_path, signal):
     assert np.isnan(read_raw(path).channels["0"]).sum() == 1
     with pytest.raises(BearingTwinError, match="holes.npy: 2 NaN or infinite values"):
         load_recording(path, fs=FS)
-    with pytest.raises(BearingTwinError, match=r"holes.npy: no channel 'Q'; the file holds 0"):
+    with pytest.raises(BearingTwinError, match=r"holes.npy: no channel 'Q'; the file holds channel 0 \(choose with channel=<name>, or channel=null for its only one\)"):
         load_recording(path, channel="Q", fs=FS)
     corrupt = tmp_path / "corrupt.npz"
     corrupt.write_bytes(b"not a zip archive")

@@ -103,7 +103,7 @@ def test_a_reports_sensor_direction_is_a_base_parameter_even_where_the_config_le
 def test_step_beyond_the_report_names_the_field(report_path, tmp_path):
     cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=2",
                                  f"paths.cache_dir={tmp_path}"])
-    with pytest.raises(BearingTwinError, match=r"data\.calibration\.step=2: twin_report\.json has steps 0\.\.1"):
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.step=2: \S+/twin_report\.json has steps 0\.\.1"):
         build_dataset(cfg)
 
 

@@ -7,6 +7,7 @@ table states), so nothing here needs the CWRU files. The calibration reports are
 """
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from processes import run_module
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.data.build import build_dataset, input_digest
-from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol
+from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol, merged_calibration
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig
 
@@ -93,12 +94,22 @@ def test_the_named_records_calibrate_and_every_other_labelled_record_is_tested(r
     ("data.twin.classes=[normal,inner,outer]", r"ball_b\.npy: labelled ball, a state the twin does not simulate"),
     ("data.fs=25600", r"inner_b\.npy: recorded at 12000 Hz, where the twin simulates at data\.fs=25600 Hz; set data\.fs=12000"),
     ("data.calibration.records=null", r"data\.calibration\.records=None: give a list of record names"),
+    ("data.calibration.step=5", r"data\.calibration\.step=5: \S+twin_report\.json has steps 0\.\.1 \(or all\)"),
+    ("data.calibration.healthy.step=3", r"data\.calibration\.healthy\.step=3: \S+twin_report\.json has steps 0\.\.1"),
     ("data.calibration.records=healthy_a", r"data\.calibration\.records='healthy_a': give a list of record names"),
 ])
 def test_a_labelled_protocol_that_cannot_hold_is_refused_naming_the_field(rig_folder, report_path, tmp_path, override,
                                                                           message):
     with pytest.raises(BearingTwinError, match=message):
-        build_dataset(compose_train(labelled(rig_folder, report_path, f"paths.cache_dir={tmp_path}", override)))
+        build_dataset(compose_train(labelled(rig_folder, report_path, f"paths.cache_dir={tmp_path}",
+                                             f"data.calibration.healthy.report={report_path}", override)))
+
+
+def test_step_all_keeps_every_effect_a_report_added(report_path):
+    calibration = {"report": str(report_path), "step": "all", "records": ["healthy_a", "outer_a"],
+                   "healthy": {"record": "healthy_a", "report": str(report_path), "step": 0}}
+    assert merged_calibration(calibration) == merged_calibration({**calibration, "step": 1})
+    assert list(merged_calibration(calibration)[1]) == ["noise"]
 
 
 def test_records_in_subfolders_are_named_by_their_path_in_the_table(tmp_path, report_path):
@@ -147,6 +158,60 @@ def test_another_rigs_model_is_not_registered_as_the_cwru_protocols(rig_folder, 
         check_registration(cfg)
     assert check_registration(compose_train(["+experiment=sim2real", *labelled(rig_folder, report_path),
                                              "register=my_rig"])) == ("my_rig", "champion")
+
+
+def test_a_calibration_report_of_another_record_is_refused(rig_folder, tmp_path):
+    """bearingtwin-twin writes what it held the twin against into its report: the healthy record's report given as
+    the outer-race record's (two reports swapped), or one made at another rate, is refused before any simulation."""
+    def report(name, fault, fs=FS, bearing="cwru_6205"):
+        path = tmp_path / f"{name}-{fault}-{fs:g}.json"
+        path.write_text(json.dumps({"measured": {"path": f"somewhere/{name}", "fault": fault, "fs": fs, "bearing": bearing},
+                                    "steps": [{"effects": [], "params": {}, "base_params": {}}]}))
+        return path
+
+    def build(outer_report):
+        return build_dataset(compose_train([*labelled(rig_folder, outer_report, f"paths.cache_dir={tmp_path}"),
+                                            "data.calibration.step=0"]))
+
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.report=\S+: a report of record healthy_a, where "
+                                               r"data\.calibration\.record is outer_a\.npy \(outer, cwru_6205, 12000 Hz\)"):
+        build(report("healthy_a.npy", "normal"))
+    with pytest.raises(BearingTwinError, match=r"a report of state normal, where data\.calibration\.record is outer_a\.npy"):
+        build(report("outer_a.npy", "normal"))
+    with pytest.raises(BearingTwinError, match=r"a report of rate 25600\.0, where"):
+        build(report("outer_a.npy", "outer", fs=25600.0))
+    with pytest.raises(BearingTwinError, match=r"a report of bearing paper, where"):
+        build(report("outer_a.npy", "outer", bearing="paper"))
+    assert build(report("outer_a.npy", "outer")).fixed_split[1].size == 12
+
+
+def test_a_record_read_at_a_rate_its_shaft_line_contradicts_is_refused(tmp_path, report_path):
+    """A file that states no rate, labelled without one, is read at data.fs; at 25.6 kHz read as 12 kHz, its shaft
+    series stands at less than half the shaft's rate, and the record is refused rather than read wrong."""
+    folder = tmp_path / "rig"
+    folder.mkdir()
+    rows = []
+    for seed, (name, state, rpm) in enumerate(RECORDS):
+        fs = 25600.0 if name == "inner_b.npy" else FS
+        np.save(folder / name, simulate_rig(state, RigOperatingPoint(rpm=rpm, fs=fs, duration_s=2.0), seed=seed))
+        rows.append(f"{name},{state},{rpm:g}," + ("" if name == "inner_b.npy" else f"{FS:g}"))
+    (folder / "labels.csv").write_text("record,state,rpm,fs\n" + "\n".join(rows) + "\n")
+    with pytest.raises(BearingTwinError, match=r"inner_b\.npy: read at data\.fs=12000 Hz, a rate neither the file nor its "
+                                               r"labels row states, but .*; give its rate in the labels table's fs column"):
+        build_dataset(compose_train(labelled(folder, report_path, f"paths.cache_dir={tmp_path}")))
+    # Its rate given, the record is at another rate than the rest: named, with what can be done.
+    (folder / "labels.csv").write_text((folder / "labels.csv").read_text().replace("inner_b.npy,inner,1750,",
+                                                                                 "inner_b.npy,inner,1750,25600"))
+    with pytest.raises(BearingTwinError, match=r"data\.labels: the records are at 25600 Hz \(inner_b\.npy, \.\.\.\), "
+                                               r"12000 Hz \(ball_b\.npy, \.\.\.\); the twin simulates at one rate"):
+        build_dataset(compose_train(labelled(folder, report_path, f"paths.cache_dir={tmp_path}")))
+
+
+def test_a_record_shorter_than_a_window_is_named(rig_folder, report_path, tmp_path):
+    with pytest.raises(BearingTwinError, match=r"inner_b\.npy: the record has 12000 samples, shorter than one window "
+                                               r"of 16384 \(data\.window_length\)"):
+        build_dataset(compose_train(labelled(rig_folder, report_path, f"paths.cache_dir={tmp_path}",
+                                             "data.window_length=16384", "data.twin.duration=2.0")))
 
 
 def test_a_record_whose_speed_nobody_states_is_refused(rig_folder, report_path, tmp_path):

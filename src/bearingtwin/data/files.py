@@ -109,7 +109,9 @@ class RawRecord:
             index = int(wanted)
             if 0 <= index < len(names):
                 return names[index], self.channels[names[index]]
-        raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds {', '.join(names)} (choose with {key}=<name>)")
+        only = f", or {key}=null for its only one" if len(names) == 1 else ""
+        raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds channel{'s' * (len(names) != 1)} "
+                               f"{', '.join(names)} (choose with {key}=<name>{only})")
 
 
 def read_raw(path: str | Path) -> RawRecord:

@@ -46,7 +46,7 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.files import load_recording
+from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.real import rows_from_labels
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import cut_windows, normalize_windows
@@ -54,6 +54,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import simulate
+from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
 from bearingtwin.storage import content_key, file_digest, load_npz_or_heal, save_npz_atomic
 
 TWIN_PREFIX = "twin:"
@@ -150,7 +151,10 @@ def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
     calibration_paths = []
     for stem in calibration["records"]:
         name = parse_cwru_name(f"{stem}.mat")
-        if name is None or name.fault not in allowed or name.load_hp != load:
+        if name is None:
+            raise BearingTwinError(f"data.calibration.records: {stem} is no CWRU record name; records of another rig are "
+                                   "named in a labels table (data.labels=<table of record,state[,rpm,fs]>)")
+        if name.fault not in allowed or name.load_hp != load:
             raise BearingTwinError(
                 f"data.calibration.records: {stem} is not a calibration record; the twin may be fitted only "
                 f"to {' or '.join(allowed)} records at {load} hp"
@@ -201,24 +205,61 @@ def _labelled_protocol(data_cfg: Mapping, table: LabelsTable) -> tuple[list[Path
     return calibration_paths, [path for path, _ in tests]
 
 
-def calibration_step(report_path: str | Path, step: int) -> tuple[dict, dict]:
-    """Base parameters (dotted config keys) and effects of step ``step`` of a ``twin_report.json``.
+def _read_report(report_path: str | Path, key: str) -> dict:
+    """The ``twin_report.json`` that ``<key>.report`` names."""
+    path = Path(str(report_path)).expanduser()
+    if not path.is_file():
+        raise BearingTwinError(f"{key}.report={path}: no such file; run bearingtwin-twin on {key}.record first "
+                               "(the CWRU study: scripts/cwru_twin_study.py)")
+    try:
+        report = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        report = None
+    if not (isinstance(report, dict) and isinstance(report.get("steps"), list)):
+        raise BearingTwinError(f"{path}: not a twin_report.json (no 'steps' list)")
+    return report
+
+
+def resolved_step(report_path: str | Path, step: int | str, key: str = "data.calibration") -> int:
+    """``<key>.step`` as the number of a step of ``<key>.report``: ``all`` is its last, every effect it added."""
+    steps = _read_report(report_path, key)["steps"]
+    if step == "all":
+        return len(steps) - 1
+    if not (isinstance(step, int) and not isinstance(step, bool) and 0 <= step < len(steps)):
+        raise BearingTwinError(f"{key}.step={step!r}: {Path(str(report_path)).expanduser()} has steps 0..{len(steps) - 1} "
+                               "(or all)")
+    return step
+
+
+def calibration_step(report_path: str | Path, step: int | str, key: str = "data.calibration") -> tuple[dict, dict]:
+    """Base parameters (dotted config keys) and effects of step ``step`` of a ``twin_report.json``
+    (``<key>.report``, ``<key>.step``).
 
     Step 0 is the bare twin (base parameters fitted, no effect); step k adds the first k
-    effects the forward selection chose, with the parameters fitted at that step.
+    effects the forward selection chose, with the parameters fitted at that step; ``all`` every one.
     """
-    path = Path(report_path)
-    if not path.is_file():
-        raise BearingTwinError(f"data.calibration.report={path}: no such file; run bearingtwin-twin on the "
-                               "calibration record first (scripts/cwru_twin_study.py)")
-    try:
-        steps = json.loads(path.read_text())["steps"]
-    except (json.JSONDecodeError, KeyError, TypeError):
-        raise BearingTwinError(f"{path}: not a twin_report.json (no 'steps' list)") from None
-    if not (isinstance(step, int) and 0 <= step < len(steps)):
-        raise BearingTwinError(f"data.calibration.step={step!r}: {path.name} has steps 0..{len(steps) - 1}")
-    chosen = steps[step]
+    chosen = _read_report(report_path, key)["steps"][resolved_step(report_path, step, key)]
     return dict(chosen.get("base_params") or {}), dict(chosen.get("params") or {})
+
+
+def check_report_of(report_path: str | Path, key: str, record: Path, state: str, bearing: str, fs: float) -> None:
+    """A calibration report must be of ``<key>.record``: ``bearingtwin-twin`` writes what it held the twin against
+    (file, state, bearing, rate) into its report, and a report of another record, state, bearing or rate is
+    refused (two reports swapped, or one of another rig, would calibrate the twin silently wrong). A report
+    that states none of it (written before reports did) is taken as it is."""
+    measured = _read_report(report_path, key).get("measured")
+    if not isinstance(measured, Mapping):
+        return
+    stated = {"record": Path(str(measured.get("path") or "")).stem or None, "state": measured.get("fault"),
+              "bearing": measured.get("bearing"), "rate": measured.get("fs")}
+    wanted = {"record": record.stem, "state": state, "bearing": bearing, "rate": fs}
+    for fact, value in stated.items():
+        differs = (not math.isclose(float(value), float(wanted[fact])) if fact == "rate" and value is not None
+                   else value is not None and value != wanted[fact])
+        if differs:
+            raise BearingTwinError(f"{key}.report={report_path}: a report of {fact} {value}, where {key}.record is "
+                                   f"{record.name} ({wanted['state']}, {wanted['bearing']}, {float(wanted['rate']):g} Hz): "
+                                   "give the report bearingtwin-twin wrote for that record")
 
 
 def merged_calibration(calibration: Mapping, table: LabelsTable | None = None) -> tuple[dict, dict]:
@@ -247,7 +288,7 @@ def merged_calibration(calibration: Mapping, table: LabelsTable | None = None) -
                                f"({', '.join(map(str, calibration['records']))})")
     if state != "normal":
         raise BearingTwinError(f"data.calibration.healthy.record={healthy['record']}: not a healthy (normal) record")
-    _, healthy_effects = calibration_step(healthy["report"], healthy["step"])
+    _, healthy_effects = calibration_step(healthy["report"], healthy["step"], "data.calibration.healthy")
     shared = sorted(set(effects) & set(healthy_effects))
     if shared:
         raise BearingTwinError(f"data.calibration.healthy: effect {shared[0]} was found on both calibration records; "
@@ -274,7 +315,7 @@ def healthy_twin_rms(report_path: str | Path, step: int, healthy: Recording, bea
     The healthy record's ``noise`` was fitted as a ratio to this twin's power; with it as the
     noise's ``reference_rms`` every bearing state gets the same absolute noise floor.
     """
-    base_params, effects = calibration_step(report_path, step)
+    base_params, effects = calibration_step(report_path, step, "data.calibration.healthy")
     effects.pop("noise", None)
     bearing, simulator = with_base_params(bearing_cfg, simulator_cfg, base_params, report_path)
     recording, _ = simulate("normal", bearing, {**simulator, "rpm": float(healthy.rpm)}, effects)
@@ -379,6 +420,47 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
     return combinations
 
 
+def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | None, channel, default_fs: float,
+                         geometry: BearingGeometry, tolerance: float) -> Recording:
+    """A labelled record (its labels row's ``state``, ``rpm`` and ``fs``) at the rate the row or the file states,
+    else at ``default_fs`` (``data.fs``); a rate nothing states is checked against the shaft line as a CWRU
+    record's declared one is, and refused where the shaft series contradicts it."""
+    raw = read_raw(path)
+    recording = recording_from_raw(raw, channel, fs=default_fs if fs is None else fs, rpm=rpm, fault=state,
+                                   channel_key="data.channel", fs_key="data.fs" if fs is None else "the labels row's fs")
+    if recording.rpm is None:
+        raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
+                               "(the twin runs at each record's speed)")
+    recording.require_vibration()
+    if fs is None and (raw.fs is None or raw.fs_origin == "declared"):
+        try:
+            checks = check_channels(rate_witnesses(recording.signal, raw.channels), recording.fs, recording.rpm,
+                                    defect_hz=geometry.defect_frequencies(recording.rpm), tolerance=tolerance)
+        except BearingTwinError:  # too short to resolve the shaft line: nothing to check the rate by
+            return recording
+        check = checks[decisive_channel(checks)]
+        if check.verdict == "contradicted":
+            raise BearingTwinError(f"{path}: read at data.fs={default_fs:g} Hz, a rate neither the file nor its labels "
+                                   f"row states, but {describe_mismatch(check)}; give its rate in the labels table's fs column")
+    return recording
+
+
+def _check_rates(recordings: list[Recording], twin_fs: float) -> None:
+    """Every record must be at the rate the twin simulates at (``data.fs``): one that is not is named, with the
+    rate to set when all records share one."""
+    off = [r for r in recordings if not math.isclose(r.fs, twin_fs)]
+    if not off:
+        return
+    rates = {}
+    for recording in recordings:
+        rates.setdefault(round(recording.fs, 6), Path(str(recording.source)).name)
+    if len(rates) == 1:
+        raise BearingTwinError(f"{off[0].source}: recorded at {off[0].fs:g} Hz, where the twin simulates at "
+                               f"data.fs={twin_fs:g} Hz; set data.fs={off[0].fs:g}")
+    raise BearingTwinError("data.labels: the records are at " + ", ".join(f"{rate:g} Hz ({name}, ...)" for rate, name in rates.items())
+                           + "; the twin simulates at one rate (data.fs): label only the records of one rate, or resample them to it")
+
+
 def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> WindowedDataset:
     """Twin windows (training) at the real records' operating points, real windows (test).
 
@@ -430,28 +512,27 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
             return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
                              check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),
                              bearing=BearingGeometry.from_config(bearing))
-        state, rpm, fs = labelled[path]
-        recording = load_recording(path, channel=cfg["channel"], fs=twin_fs if fs is None else fs, rpm=rpm,
-                                   fault=state, channel_key="data.channel",
-                                   fs_key="data.fs" if fs is None else "the labels row's fs")
-        if recording.rpm is None:
-            raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
-                                   "(the twin runs at each record's speed)")
-        if not math.isclose(recording.fs, twin_fs):
-            raise BearingTwinError(f"{path}: recorded at {recording.fs:g} Hz, where the twin simulates at "
-                                   f"data.fs={twin_fs:g} Hz; set data.fs={recording.fs:g}")
-        recording.require_vibration()
-        return recording
+        return read_labelled_record(path, *labelled[path], channel=cfg["channel"], default_fs=twin_fs,
+                                    geometry=BearingGeometry.from_config(bearing),
+                                    tolerance=float(cfg["fs_check_tolerance"]))
 
     tests = [measured(path) for path in test_paths]
     calibration_records = {path: measured(path) for path in calibration_paths}
+    _check_rates(tests + list(calibration_records.values()), twin_fs)
+    reports = [("data.calibration", cfg["calibration"]["record"], cfg["calibration"]["report"])]
+    healthy = cfg["calibration"].get("healthy") or {}
+    if healthy.get("step"):
+        reports.append(("data.calibration.healthy", healthy["record"], healthy["report"]))
+    for key, name, report in reports:
+        record = calibration_records[calibration_path(cfg, table, name, f"{key}.record")]
+        check_report_of(report, key, Path(str(record.source)), record.fault, cfg["bearing"], twin_fs)
     # Operating points: speeds only (what a tachometer gives in service), never a test signal.
     rpms = operating_points_rpm(tests + list(calibration_records.values()))
     simulator.update(fs=twin_fs, duration=float(cfg["twin"]["duration"]), sensor=cfg["twin"]["sensor"])
-    healthy = cfg["calibration"].get("healthy") or {}
     # Only noise found on the healthy record has a healthy twin to refer to; noise found on the
     # fault record keeps the ratio it was fitted as.
-    if noise_level == "absolute" and healthy.get("step") and "noise" in calibration_step(healthy["report"], healthy["step"])[1]:
+    if noise_level == "absolute" and healthy.get("step") and "noise" in calibration_step(
+            healthy["report"], healthy["step"], "data.calibration.healthy")[1]:
         effects["noise"] = {**effects["noise"], "reference_rms": healthy_twin_rms(
             healthy["report"], healthy["step"], calibration_records[calibration_path(cfg, table, healthy["record"])],
             bearing, simulator)}
@@ -475,9 +556,16 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     length = cfg["window_length"]
     labels = [FAULTS.index(fault) for _ in variants for fault in faults for _ in rpms]
     validation_records = list(calibration_records.values()) if n_validation else []
-    cuts = [cut_windows(signal, length, cfg["twin"]["windows_per_record"]) for signal in signals]
-    cuts += [cut_windows(r.signal, length, cfg["test"]["windows_per_record"]) for r in tests]
-    cuts += [cut_windows(r.signal, length, n_validation) for r in validation_records]
+
+    def windows_of(signal: np.ndarray, n_windows: int, source: str):
+        try:
+            return cut_windows(signal, length, n_windows)
+        except BearingTwinError as error:  # which record is too short
+            raise BearingTwinError(f"{source}: {error} (data.window_length)") from None
+
+    cuts = [windows_of(signal, cfg["twin"]["windows_per_record"], source) for signal, source in zip(signals, sources)]
+    cuts += [windows_of(r.signal, cfg["test"]["windows_per_record"], r.source) for r in tests]
+    cuts += [windows_of(r.signal, n_validation, r.source) for r in validation_records]
     labels += [r.label for r in tests + validation_records]
     sources += [str(r.source) for r in tests + validation_records]
     windows = np.concatenate([w for w, _ in cuts])

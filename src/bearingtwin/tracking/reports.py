@@ -457,7 +457,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
     summed confusions. Runs from before the healthy record's merge (no ``healthy`` params) add nothing from 97."""
     import json
 
-    from bearingtwin.data.twin_to_real import merged_calibration, test_files
+    from bearingtwin.data.twin_to_real import merged_calibration, resolved_step, test_files
 
     keys = ("report", "step", "healthy.record", "healthy.report", "healthy.step")
     variants_prefix = "data.twin.variants."
@@ -465,7 +465,11 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
     def twin(run) -> tuple[str, ...]:
         """The twin's calibration; runs from before ``healthy.noise_level`` existed had relative noise."""
         params = run.data.params
-        found = tuple(params.get(f"data.calibration.{key}", "0" if key == "healthy.step" else "") for key in keys)
+        found = [params.get(f"data.calibration.{key}", "0" if key == "healthy.step" else "") for key in keys]
+        for step, report, key in ((1, 0, "data.calibration"), (4, 3, "data.calibration.healthy")):
+            if found[step] == "all":  # every effect its report added: that report's last step
+                found[step] = str(resolved_step(found[report], "all", key))
+        found = tuple(found)
         noise_level = params.get("data.calibration.healthy.noise_level", "relative") if found[-1] != "0" else ""
         hand_set = tuple(sorted((key, value) for key, value in params.items() if key.startswith("effects.")))
         variants = tuple(sorted((key[len(variants_prefix):], value) for key, value in params.items()
