@@ -41,10 +41,11 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
-def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str) -> str:
-    """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one)."""
+def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str, records: str | None = None) -> str:
+    """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one), and
+    ``records``: which real records a twin-trained run was calibrated and tested on."""
     metrics = tracked.metrics
-    lines = {"accuracy": percent(metrics["accuracy"])}
+    lines = {**({"records": records} if records else {}), "accuracy": percent(metrics["accuracy"])}
     f1 = {key.removeprefix("f1_"): value for key, value in metrics.items() if key.startswith("f1_")}
     lines["F1 per class"] = ", ".join(f"{state} {value:.3f}" for state, value in f1.items())
     if "calibration_accuracy" in metrics:
@@ -58,6 +59,18 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     if tracked.skipped:
         lines["note"] = "an earlier run with this exact config had FINISHED, so nothing ran (tracking.skip_finished=false re-runs)"
     return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out)
+
+
+def twin_to_real_records(cfg: DictConfig) -> str | None:
+    """The real records a ``data=twin_to_real`` run calibrated its twin on and tested on; None for other data."""
+    if cfg.data.get("source") != "twin_to_real":
+        return None
+    from bearingtwin.config import plain_config
+    from bearingtwin.data.twin_to_real import check_protocol
+
+    calibration, tests = check_protocol(plain_config(cfg.data, "data config"))
+    return (f"twin calibrated on {', '.join(path.name for path in calibration)}; tested on {len(tests)} other "
+            "records (per_record.csv)")
 
 
 @hydra_command("train")
@@ -94,7 +107,7 @@ def train(cfg: DictConfig) -> float | None:
         return None
     name = run_name(cfg, method_name(choices), sweep)
     if sweep is None:
-        print(training_summary(name, tracked, str(cfg.tracking.uri), output_dir))
+        print(training_summary(name, tracked, str(cfg.tracking.uri), output_dir, twin_to_real_records(cfg)))
     else:
         print(f"{name}: accuracy {percent(tracked.metrics['accuracy'])} (MLflow run {tracked.run_id})")
     return tracked.metrics.get("accuracy")
