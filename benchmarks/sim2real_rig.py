@@ -160,13 +160,12 @@ def train(out: Path, records: Path, reports: dict[str, Path], protocol: str) -> 
     done = out / f"rig_model_{protocol}.json"
     if not done.is_file():
         healthy, fault = (record_named(records, prefix).stem for prefix in CALIBRATION)
-        steps = {prefix: len(json.loads(report.read_text())["steps"]) - 1 for prefix, report in reports.items()}
         text = run(["bearingtwin-train", f"+experiment={protocol}", f"data.root={records}",
                     f'data.calibration.records=[{healthy},"{fault}"]', f'data.calibration.record="{fault}"',
-                    f'data.calibration.report="{reports[CALIBRATION[1]]}"', f"data.calibration.step={steps[CALIBRATION[1]]}",
+                    f'data.calibration.report="{reports[CALIBRATION[1]]}"', "data.calibration.step=all",
                     f"data.calibration.healthy.record={healthy}",
                     f'data.calibration.healthy.report="{reports[CALIBRATION[0]]}"',
-                    f"data.calibration.healthy.step={steps[CALIBRATION[0]]}", "register=null", "register_alias=null",
+                    "data.calibration.healthy.step=all", "register=null", "register_alias=null",
                     f"tracking.uri=sqlite:///{out / 'mlflow.db'}", f"paths.cache_dir={out / 'cache'}",
                     f"hydra.run.dir={out / ('train_' + protocol)}"], out / f"train_{protocol}.log")
         uri = re.search(r"model: (runs:/\S+)", text)[1]

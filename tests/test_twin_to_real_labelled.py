@@ -105,11 +105,20 @@ def test_a_labelled_protocol_that_cannot_hold_is_refused_naming_the_field(rig_fo
                                              f"data.calibration.healthy.report={report_path}", override)))
 
 
-def test_step_all_keeps_every_effect_a_report_added(report_path):
+def test_step_all_keeps_every_effect_a_report_added(report_path, tmp_path):
     calibration = {"report": str(report_path), "step": "all", "records": ["healthy_a", "outer_a"],
                    "healthy": {"record": "healthy_a", "report": str(report_path), "step": 0}}
     assert merged_calibration(calibration) == merged_calibration({**calibration, "step": 1})
     assert list(merged_calibration(calibration)[1]) == ["noise"]
+    # Noise on both records: with step all it is the healthy record's (the sensor's floor); a number must choose.
+    healthy = tmp_path / "healthy.json"
+    healthy.write_text(json.dumps({"steps": [{"effects": [], "params": {}},
+                                             {"effects": ["noise"], "params": {"noise": {"snr_db": -3.0}}}]}))
+    both = {**calibration, "healthy": {"record": "normal_0_97", "report": str(healthy), "step": "all"},
+            "records": ["normal_0_97"]}
+    assert merged_calibration(both)[1] == {"noise": {"snr_db": -3.0}}
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.healthy: effect noise was found on both calibration records"):
+        merged_calibration({**both, "step": 1})
 
 
 def test_records_in_subfolders_are_named_by_their_path_in_the_table(tmp_path, report_path):

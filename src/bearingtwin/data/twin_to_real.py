@@ -270,6 +270,8 @@ def merged_calibration(calibration: Mapping, table: LabelsTable | None = None) -
     (``healthy.report``) are added to every bearing state, after the fault record's ones:
     they describe what the sensor sees besides the bearing (noise found on record 97) and
     apply last, on the sensor path. ``healthy: null`` or ``healthy.step: 0`` adds nothing.
+    An effect both reports give is refused, unless ``step`` is ``all``: then it is the healthy record's
+    (noise found on both is the sensor's floor, which the healthy record shows without a fault's signal).
     The healthy record's state is its labels row's (``table``), else its CWRU name's.
     """
     base_params, effects = calibration_step(calibration["report"], calibration["step"])
@@ -289,6 +291,8 @@ def merged_calibration(calibration: Mapping, table: LabelsTable | None = None) -
     if state != "normal":
         raise BearingTwinError(f"data.calibration.healthy.record={healthy['record']}: not a healthy (normal) record")
     _, healthy_effects = calibration_step(healthy["report"], healthy["step"], "data.calibration.healthy")
+    if calibration["step"] == "all":  # every effect of the fault record's but the sensor path's, the healthy record's
+        effects = {name: params for name, params in effects.items() if name not in healthy_effects}
     shared = sorted(set(effects) & set(healthy_effects))
     if shared:
         raise BearingTwinError(f"data.calibration.healthy: effect {shared[0]} was found on both calibration records; "
