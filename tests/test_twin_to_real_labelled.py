@@ -94,6 +94,7 @@ def test_the_named_records_calibrate_and_every_other_labelled_record_is_tested(r
     ("data.twin.classes=[normal,inner,outer]", r"ball_b\.npy: labelled ball, a state the twin does not simulate"),
     ("data.fs=25600", r"inner_b\.npy: recorded at 12000 Hz, where the twin simulates at data\.fs=25600 Hz; set data\.fs=12000"),
     ("data.calibration.records=null", r"data\.calibration\.records=None: give a list of record names"),
+    ("data.calibration.records=[healthy_a,outer_a,healthy_a]", r"data\.calibration\.records=\[.*\]: a record named twice"),
     ("data.calibration.step=5", r"data\.calibration\.step=5: \S+twin_report\.json has steps 0\.\.1 \(or all\)"),
     ("data.calibration.healthy.step=3", r"data\.calibration\.healthy\.step=3: \S+twin_report\.json has steps 0\.\.1"),
     ("data.calibration.records=healthy_a", r"data\.calibration\.records='healthy_a': give a list of record names"),
@@ -171,27 +172,30 @@ def test_another_rigs_model_is_not_registered_as_the_cwru_protocols(rig_folder, 
 
 def test_a_calibration_report_of_another_record_is_refused(rig_folder, tmp_path):
     """bearingtwin-twin writes what it held the twin against into its report: the healthy record's report given as
-    the outer-race record's (two reports swapped), or one made at another rate, is refused before any simulation."""
-    def report(name, fault, fs=FS, bearing="cwru_6205"):
-        path = tmp_path / f"{name}-{fault}-{fs:g}.json"
-        path.write_text(json.dumps({"measured": {"path": f"somewhere/{name}", "fault": fault, "fs": fs, "bearing": bearing},
-                                    "steps": [{"effects": [], "params": {}, "base_params": {}}]}))
+    the outer-race record's (two reports swapped), one made at another rate or on another bearing, is refused
+    before any simulation; a report of a copy of the record (another file name) is the record's."""
+    def report(fault, fs=FS, bearing="cwru_6205", **geometry):
+        path = tmp_path / f"{fault}-{fs:g}-{bearing}-{len(geometry)}.json"
+        measured = {"path": "elsewhere/copy_of_outer_a.npy", "fault": fault, "fs": fs, "bearing": bearing,
+                    **({"geometry": geometry} if geometry else {})}
+        path.write_text(json.dumps({"measured": measured, "steps": [{"effects": [], "params": {}, "base_params": {}}]}))
         return path
 
     def build(outer_report):
         return build_dataset(compose_train([*labelled(rig_folder, outer_report, f"paths.cache_dir={tmp_path}"),
                                             "data.calibration.step=0"]))
 
-    with pytest.raises(BearingTwinError, match=r"data\.calibration\.report=\S+: a report of record healthy_a, where "
-                                               r"data\.calibration\.record is outer_a\.npy \(outer, cwru_6205, 12000 Hz\)"):
-        build(report("healthy_a.npy", "normal"))
-    with pytest.raises(BearingTwinError, match=r"a report of state normal, where data\.calibration\.record is outer_a\.npy"):
-        build(report("outer_a.npy", "normal"))
-    with pytest.raises(BearingTwinError, match=r"a report of rate 25600\.0, where"):
-        build(report("outer_a.npy", "outer", fs=25600.0))
-    with pytest.raises(BearingTwinError, match=r"a report of bearing paper, where"):
-        build(report("outer_a.npy", "outer", bearing="paper"))
-    assert build(report("outer_a.npy", "outer")).fixed_split[1].size == 12
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.report=\S+: a report of a normal record, where "
+                                               r"data\.calibration\.record is outer; give the report bearingtwin-twin wrote"):
+        build(report("normal"))
+    with pytest.raises(BearingTwinError, match=r"a report of a record at 25600 Hz, where the twin simulates at data\.fs=12000 Hz"):
+        build(report("outer", fs=25600))
+    with pytest.raises(BearingTwinError, match=r"its record is of bearing paper, this one of cwru_6205; a calibration "
+                                               r"report must come from the same rig"):
+        build(report("outer", bearing="paper"))
+    with pytest.raises(BearingTwinError, match=r"its record's bearing has n_balls=12, this one bearing\.n_balls=9"):
+        build(report("outer", n_balls=12))
+    assert build(report("outer")).fixed_split[1].size == 12
 
 
 def test_a_record_read_at_a_rate_its_shaft_line_contradicts_is_refused(tmp_path, report_path):
@@ -213,6 +217,13 @@ def test_a_record_read_at_a_rate_its_shaft_line_contradicts_is_refused(tmp_path,
                                                                                  "inner_b.npy,inner,1750,25600"))
     with pytest.raises(BearingTwinError, match=r"data\.labels: the records are at 25600 Hz \(inner_b\.npy, \.\.\.\), "
                                                r"12000 Hz \(ball_b\.npy, \.\.\.\); the twin simulates at one rate"):
+        build_dataset(compose_train(labelled(folder, report_path, f"paths.cache_dir={tmp_path}")))
+    # The same from a file that states its rate itself, its row stating none.
+    np.savez(folder / "inner_b.npz", signal=np.load(folder / "inner_b.npy"), fs=25600.0)
+    (folder / "labels.csv").write_text((folder / "labels.csv").read_text().replace("inner_b.npy,inner,1750,25600",
+                                                                                 "inner_b.npz,inner,1750,"))
+    (folder / "inner_b.npy").unlink()
+    with pytest.raises(BearingTwinError, match=r"data\.labels: the records are at 25600 Hz \(inner_b\.npz, \.\.\.\)"):
         build_dataset(compose_train(labelled(folder, report_path, f"paths.cache_dir={tmp_path}")))
 
 

@@ -83,10 +83,12 @@ def train(cfg: DictConfig) -> float | None:
     else:  # a bad value is left for build_classifier, which fails this job alone, in its run
         with contextlib.suppress(BearingTwinError):
             cfg.trainer.progress_bar = show_progress_bar(setting, in_sweep)
+    records = None
     if not in_sweep:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
         exit_on_user_error(require_files)([cfg])
         exit_on_user_error(build_effects)(cfg.get("effects"))  # their parameters, before a run is opened
+        records = exit_on_user_error(twin_to_real_records)(cfg)  # for the closing summary, as read before the run
     # MLflow, scikit-learn and the models once the input is accepted: a refusal takes a second, not several.
     from bearingtwin.models.experiment import run_experiment
     from bearingtwin.tracking.mlflow_logging import method_name, run_name, sweep_info, train_tracked
@@ -107,7 +109,7 @@ def train(cfg: DictConfig) -> float | None:
         return None
     name = run_name(cfg, method_name(choices), sweep)
     if sweep is None:
-        print(training_summary(name, tracked, str(cfg.tracking.uri), output_dir, twin_to_real_records(cfg)))
+        print(training_summary(name, tracked, str(cfg.tracking.uri), output_dir, records))
     else:
         print(f"{name}: accuracy {percent(tracked.metrics['accuracy'])} (MLflow run {tracked.run_id})")
     return tracked.metrics.get("accuracy")

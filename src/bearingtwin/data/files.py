@@ -240,16 +240,9 @@ def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -
     if time_s.size < 2 or not np.all(np.isfinite(time_s)):
         raise BearingTwinError(f"{source}: the time column needs at least two finite values to give a sampling rate")
     steps = np.diff(time_s)
-    if np.any(steps < 0) or (np.any(steps == 0) and not _coarse(time_s)):
+    if np.any(steps <= 0):  # a stamp that goes back before one that repeats (stamps printed coarsely repeat)
         row = int(np.argmax(steps < 0) if np.any(steps < 0) else np.argmax(steps == 0)) + 1
-        raise BearingTwinError(f"{source}: the time column does not increase at data row {row + 1}")
-    if np.any(steps == 0):  # stamps printed coarser than the sampling period repeat
-        row = _off_grid_row(time_s)
-        if row is not None:
-            raise BearingTwinError(f"{source}: the {column} column, printed coarser than its sampling period, strays "
-                                   f"from an even grid at data row {row + 1}: rows missing or merged, so no single "
-                                   "sampling rate")
-        steps = np.full(steps.size, (time_s[-1] - time_s[0]) / steps.size)  # each stamp its sample's time, rounded
+        raise BearingTwinError(f"{source}: the {column} column does not increase at data row {row + 1}")
     typical = float(np.median(steps))
     # Stamps printed to a few decimals make the steps take two or three values a printed unit apart (2e-5 and
     # 3e-5 s at 48 kHz and five decimals): that unit is allowed beside a step, a missing row is not.
@@ -276,19 +269,16 @@ def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -
     return fs
 
 
-def _coarse(time_s: np.ndarray) -> bool:
-    """Whether the stamps were printed in a unit longer than the sampling period (a 12 kHz record stamped to
-    four decimals), so that some repeat; stamps exact to the period never should."""
-    span_s = float(time_s[-1] - time_s[0])
-    return span_s > 0 and _printed_unit_s(time_s) > span_s / (time_s.size - 1) * (1 + 1e-6)
-
-
-def _off_grid_row(time_s: np.ndarray) -> int | None:
-    """The first row whose stamp lies farther than its printed unit from an even grid between the first and
-    the last stamp (rows missing or merged there), None when every stamp is its sample's time rounded."""
-    grid = time_s[0] + (time_s[-1] - time_s[0]) / (time_s.size - 1) * np.arange(time_s.size)
-    off = np.abs(time_s - grid) > _printed_unit_s(time_s) * (1 + 1e-6)
-    return int(np.argmax(off)) if np.any(off) else None
+def coarse_stamps(time_s: np.ndarray) -> bool:
+    """Whether time stamps were printed in a unit longer than the sampling period (a 12 kHz record stamped to
+    four decimals), so that they repeat every few rows, never going back: they state no rate (a lost or a doubled
+    row would not show), and exact stamps never repeat."""
+    time_s = np.asarray(time_s, dtype=np.float64)
+    if time_s.size < 2 or not np.all(np.isfinite(time_s)):
+        return False
+    steps, span_s = np.diff(time_s), float(time_s[-1] - time_s[0])
+    return bool(span_s > 0 and np.any(steps == 0) and np.all(steps >= 0)
+                and _printed_unit_s(time_s) > span_s / steps.size * (1 + 1e-6))
 
 
 def _printed_unit_s(time_s: np.ndarray) -> float:
@@ -520,7 +510,13 @@ def _read_csv(path: Path) -> RawRecord:
         return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}))
     columns = dict(zip(table.names, table.values.T))
     time_name = next((name for name in table.names if time_column_seconds(name) is not None), None)
-    fs = (fs_from_time_column(time_column_seconds(time_name) * columns.pop(time_name), str(path), time_name)
-          if time_name is not None else None)
+    fs, notes = None, list(table.notes)
+    if time_name is not None:
+        time_s = time_column_seconds(time_name) * columns.pop(time_name)
+        if coarse_stamps(time_s):
+            notes.append(f"the {time_name} column's stamps repeat, printed coarser than the sampling period: the rate "
+                         "is not read from them (give it: fs)")
+        else:
+            fs = fs_from_time_column(time_s, str(path), time_name)
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "",
-                     fs_tolerance=FS_RELATIVE_TOLERANCE, meta={"notes": table.notes} if table.notes else {})
+                     fs_tolerance=FS_RELATIVE_TOLERANCE, meta={"notes": notes} if notes else {})

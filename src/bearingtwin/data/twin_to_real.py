@@ -43,7 +43,7 @@ import numpy as np
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
-from bearingtwin.checks import positive_number, whole_number
+from bearingtwin.checks import is_finite_number, positive_number, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
@@ -56,6 +56,7 @@ from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import simulate
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
 from bearingtwin.storage import content_key, file_digest, load_npz_or_heal, save_npz_atomic
+from bearingtwin.twin.reference import require_same_bearing
 
 TWIN_PREFIX = "twin:"
 """Records whose source starts with this are simulated; every other record is a measurement file."""
@@ -140,6 +141,8 @@ def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
             and all(isinstance(name, (str, int, float)) for name in records)):
         raise BearingTwinError(f"data.calibration.records={records!r}: give a list of record names "
                                "(data.calibration.records=[<healthy>,<outer>])")
+    if len(set(map(str, records))) != len(records):
+        raise BearingTwinError(f"data.calibration.records={list(records)}: a record named twice")
     table = labels_table_of(data_cfg)
     if table is not None:
         return _labelled_protocol(data_cfg, table)
@@ -222,7 +225,10 @@ def _read_report(report_path: str | Path, key: str) -> dict:
 
 def resolved_step(report_path: str | Path, step: int | str, key: str = "data.calibration") -> int:
     """``<key>.step`` as the number of a step of ``<key>.report``: ``all`` is its last, every effect it added."""
-    steps = _read_report(report_path, key)["steps"]
+    return _step_number(_read_report(report_path, key)["steps"], report_path, step, key)
+
+
+def _step_number(steps: list, report_path: str | Path, step: int | str, key: str) -> int:
     if step == "all":
         return len(steps) - 1
     if not (isinstance(step, int) and not isinstance(step, bool) and 0 <= step < len(steps)):
@@ -238,28 +244,27 @@ def calibration_step(report_path: str | Path, step: int | str, key: str = "data.
     Step 0 is the bare twin (base parameters fitted, no effect); step k adds the first k
     effects the forward selection chose, with the parameters fitted at that step; ``all`` every one.
     """
-    chosen = _read_report(report_path, key)["steps"][resolved_step(report_path, step, key)]
+    steps = _read_report(report_path, key)["steps"]
+    chosen = steps[_step_number(steps, report_path, step, key)]
     return dict(chosen.get("base_params") or {}), dict(chosen.get("params") or {})
 
 
-def check_report_of(report_path: str | Path, key: str, record: Path, state: str, bearing: str, fs: float) -> None:
-    """A calibration report must be of ``<key>.record``: ``bearingtwin-twin`` writes what it held the twin against
-    (file, state, bearing, rate) into its report, and a report of another record, state, bearing or rate is
-    refused (two reports swapped, or one of another rig, would calibrate the twin silently wrong). A report
-    that states none of it (written before reports did) is taken as it is."""
+def check_report_of(report_path: str | Path, key: str, state: str, bearing_cfg: Mapping, fs: float) -> None:
+    """A calibration report must be of a record like ``<key>.record``: ``bearingtwin-twin`` writes what it held the
+    twin against into its report, and a report of another state, bearing or rate is refused (two reports swapped,
+    or one of another rig, would calibrate the twin silently wrong). A report that states none of it (written
+    before reports did) is taken as it is."""
     measured = _read_report(report_path, key).get("measured")
     if not isinstance(measured, Mapping):
         return
-    stated = {"record": Path(str(measured.get("path") or "")).stem or None, "state": measured.get("fault"),
-              "bearing": measured.get("bearing"), "rate": measured.get("fs")}
-    wanted = {"record": record.stem, "state": state, "bearing": bearing, "rate": fs}
-    for fact, value in stated.items():
-        differs = (not math.isclose(float(value), float(wanted[fact])) if fact == "rate" and value is not None
-                   else value is not None and value != wanted[fact])
-        if differs:
-            raise BearingTwinError(f"{key}.report={report_path}: a report of {fact} {value}, where {key}.record is "
-                                   f"{record.name} ({wanted['state']}, {wanted['bearing']}, {float(wanted['rate']):g} Hz): "
-                                   "give the report bearingtwin-twin wrote for that record")
+    where = f"{key}.report={report_path}"
+    if measured.get("fault") not in (None, state):
+        raise BearingTwinError(f"{where}: a report of a {measured['fault']} record, where {key}.record is {state}; "
+                               "give the report bearingtwin-twin wrote for that record")
+    if is_finite_number(measured.get("fs")) and not math.isclose(float(measured["fs"]), fs):
+        raise BearingTwinError(f"{where}: a report of a record at {float(measured['fs']):g} Hz, where the twin "
+                               f"simulates at data.fs={fs:g} Hz")
+    require_same_bearing(OmegaConf.create(dict(bearing_cfg)), measured, where, "a calibration report")
 
 
 def merged_calibration(calibration: Mapping, table: LabelsTable | None = None) -> tuple[dict, dict]:
@@ -312,7 +317,7 @@ def with_base_params(bearing_cfg: Mapping, simulator_cfg: Mapping, base_params: 
     return OmegaConf.to_container(twin_cfg.bearing), OmegaConf.to_container(twin_cfg.simulator)
 
 
-def healthy_twin_rms(report_path: str | Path, step: int, healthy: Recording, bearing_cfg: Mapping,
+def healthy_twin_rms(report_path: str | Path, step: int | str, healthy: Recording, bearing_cfg: Mapping,
                      simulator_cfg: Mapping) -> float:
     """RMS (m/s^2) of the noise-free healthy twin of the healthy record's calibration, at its speed.
 
@@ -426,17 +431,20 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
 
 def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | None, channel, default_fs: float,
                          geometry: BearingGeometry, tolerance: float) -> Recording:
-    """A labelled record (its labels row's ``state``, ``rpm`` and ``fs``) at the rate the row or the file states,
-    else at ``default_fs`` (``data.fs``); a rate nothing states is checked against the shaft line as a CWRU
-    record's declared one is, and refused where the shaft series contradicts it."""
+    """A labelled record (its labels row's ``state``, ``rpm`` and ``fs``) at the rate the row or the file states
+    (:func:`_check_rates` judges it against ``data.fs``), else at ``default_fs`` (``data.fs``): a rate nothing
+    states is checked against the shaft line as a CWRU record's declared one is, and refused where the shaft
+    series contradicts it."""
     raw = read_raw(path)
-    recording = recording_from_raw(raw, channel, fs=default_fs if fs is None else fs, rpm=rpm, fault=state,
-                                   channel_key="data.channel", fs_key="data.fs" if fs is None else "the labels row's fs")
+    stated = raw.fs is not None and raw.fs_origin != "declared"  # a rate a data set's convention gives is no statement
+    recording = recording_from_raw(raw, channel, fs=fs if fs is not None or stated else default_fs, rpm=rpm,
+                                   fault=state, channel_key="data.channel",
+                                   fs_key="data.fs" if fs is None else "the labels row's fs")
     if recording.rpm is None:
         raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
                                "(the twin runs at each record's speed)")
     recording.require_vibration()
-    if fs is None and (raw.fs is None or raw.fs_origin == "declared"):
+    if fs is None and not stated:
         try:
             checks = check_channels(rate_witnesses(recording.signal, raw.channels), recording.fs, recording.rpm,
                                     defect_hz=geometry.defect_frequencies(recording.rpm), tolerance=tolerance)
@@ -529,7 +537,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         reports.append(("data.calibration.healthy", healthy["record"], healthy["report"]))
     for key, name, report in reports:
         record = calibration_records[calibration_path(cfg, table, name, f"{key}.record")]
-        check_report_of(report, key, Path(str(record.source)), record.fault, cfg["bearing"], twin_fs)
+        check_report_of(report, key, record.fault, bearing, twin_fs)
     # Operating points: speeds only (what a tachometer gives in service), never a test signal.
     rpms = operating_points_rpm(tests + list(calibration_records.values()))
     simulator.update(fs=twin_fs, duration=float(cfg["twin"]["duration"]), sensor=cfg["twin"]["sensor"])

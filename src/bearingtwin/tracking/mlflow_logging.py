@@ -552,7 +552,8 @@ def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
         raise BearingTwinError(f"register_alias={alias} needs register=<model name> (or register_alias=null)")
     from bearingtwin.tracking.sim2real_protocol import PROTOCOL_MODEL
 
-    if name == PROTOCOL_MODEL and (cfg.get("data") or {}).get("labels"):
+    data = cfg.get("data") or {}
+    if name == PROTOCOL_MODEL and data.get("source") == "twin_to_real" and data.get("labels"):
         raise BearingTwinError(f"register={name} is the CWRU protocol's model; a model of another rig's records "
                                "(data.labels) is registered under a name of its own: register=<your rig>")
     for key, value in (("register", name), ("register_alias", alias)):

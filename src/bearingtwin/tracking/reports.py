@@ -491,7 +491,8 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
     def on_cwru(run) -> bool:  # another rig's labelled records (data.labels) are no CWRU row
         return run.data.params.get("data.labels", "None") == "None"
 
-    runs = [run for run in source.training_runs(group_by=lambda run: (method(run), *twin(run)))
+    # A labelled run's twin is not read: its reports may lie on another machine.
+    runs = [run for run in source.training_runs(group_by=lambda run: (method(run), *twin(run)) if on_cwru(run) else ())
             if not is_protocol_run(run) and on_cwru(run)]  # the protocol's runs have a block of their own
     source.used_runs[:] = [run for run in source.used_runs if not is_protocol_run(run) and on_cwru(run)]
     if not runs:

@@ -62,7 +62,7 @@ def rig_geometry(geometry: BearingGeometry) -> dict:
     return {field.name: getattr(geometry, field.name) for field in fields(geometry) if field.name != "clearance_mm"}
 
 
-def require_same_bearing(bearing_cfg, measured: Mapping, source: str) -> None:
+def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str = "a reference") -> None:
     """Refuse a reference whose record's bearing has another geometry than ``bearing_cfg``, naming the field: a name
     says nothing of the geometry (``bearing.name=my6206 bearing.n_balls=12`` keeps the name). A report written
     before it recorded the geometry is compared by the bearing's name, all it holds."""
@@ -72,10 +72,10 @@ def require_same_bearing(bearing_cfg, measured: Mapping, source: str) -> None:
         for name, value in recorded.items():
             if name in ours and not (is_finite_number(value) and math.isclose(value, ours[name], rel_tol=1e-9)):
                 raise BearingTwinError(f"{source}: its record's bearing has {name}={value}, this one bearing.{name}="
-                                       f"{ours[name]}; a reference must come from the same rig")
+                                       f"{ours[name]}; {role} must come from the same rig")
     elif measured.get("bearing") and bearing_cfg.get("name") and measured["bearing"] != bearing_cfg.name:
         raise BearingTwinError(f"{source}: its record is of bearing {measured['bearing']}, this one of "
-                               f"{bearing_cfg.name}; a reference must come from the same rig")
+                               f"{bearing_cfg.name}; {role} must come from the same rig")
 
 
 def refuse_reference_folder(reference, out: Path) -> None:
