@@ -469,8 +469,9 @@ def _check_rates(recordings: list[Recording], twin_fs: float) -> None:
     if len(rates) == 1:
         raise BearingTwinError(f"{off[0].source}: recorded at {off[0].fs:g} Hz, where the twin simulates at "
                                f"data.fs={twin_fs:g} Hz; set data.fs={off[0].fs:g}")
-    raise BearingTwinError("data.labels: the records are at " + ", ".join(f"{rate:g} Hz ({name}, ...)" for rate, name in rates.items())
-                           + "; the twin simulates at one rate (data.fs): label only the records of one rate, or resample them to it")
+    at = ", ".join(f"{rate:g} Hz ({name}, ...)" for rate, name in rates.items())
+    raise BearingTwinError(f"data.labels: the records are at {at}; the twin simulates at one rate (data.fs): label only "
+                           "the records of one rate, or resample them to it")
 
 
 def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> WindowedDataset:
@@ -599,7 +600,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         fs=twin_fs,
         class_names=FAULTS,
         key=content_key({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
-                         # where the files lie is no part of the data; what a labelled record holds and is labelled is
+                         # the folder and the table are no part of the data (their places differ between machines);
+                         # what a labelled record holds and is labelled is
                          "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")},
                          **({"labels": [(p.name, file_digest(p), *labelled[p]) for p in calibration_paths + test_paths]}
                             if table else {})}),
