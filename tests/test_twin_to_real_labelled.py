@@ -258,6 +258,17 @@ def test_train_on_the_twin_and_score_the_rigs_records_end_to_end(rig_folder, rep
     assert [(Path(row["record"]).name, row["class"], row["windows"]) for row in rows] == [
         ("inner_b.npy", "inner", "3"), ("ball_b.npy", "ball", "3"), ("outer_b.npy", "outer", "3"),
         ("healthy_b.npy", "normal", "3")]
+    # Diagnosing the whole folder: the two records the twin was calibrated on are scored, and said to be no test.
+    diagnosed = run_module("bearingtwin.cli.diagnose", f"path={rig_folder}", f"model=runs:/{run.info.run_id}/model",
+                           f"out={tmp_path}/diagnosis", "figures=false", f"tracking.uri={uri}", cwd=tmp_path, timeout=300)
+    assert diagnosed.returncode == 0, diagnosed.stderr[-3000:]
+    assert "of 6 with a known state; " in diagnosed.stdout and " of the 4 the model's twin was not calibrated on" in diagnosed.stdout
+    for record in ("healthy_a", "outer_a"):
+        notes = json.loads((tmp_path / "diagnosis" / record / "diagnosis.json").read_text())["notes"]
+        assert "the model's twin was calibrated on this record (data.calibration.records): its verdict is no test" \
+               " of the model" in notes
+    assert not any("calibrated on this record" in note for note in
+                   json.loads((tmp_path / "diagnosis" / "inner_b" / "diagnosis.json").read_text())["notes"])
     # Another rig's run is no row of the CWRU report: with no CWRU run in the store, the report has nothing to show.
     report = run_module("bearingtwin.cli.report", "sim2real", f"uri={uri}", f"out={tmp_path}/sim2real.md",
                         cwd=tmp_path, timeout=300)

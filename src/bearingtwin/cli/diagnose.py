@@ -50,6 +50,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
              "verdicts": ", ".join(f"{state} {count}" for state, count in verdicts.most_common()) or "none"}
     if run.scores:
         lines["records right"] = f"{percent(run.scores['accuracy_records'])} of {run.scores['n_scored']} with a known state"
+        if "n_scored_tested" in run.scores:
+            lines["records right"] += (f"; {percent(run.scores['accuracy_records_tested'])} of the "
+                                       f"{run.scores['n_scored_tested']} the model's twin was not calibrated on")
         lines["windows right"] = percent(run.scores["accuracy_windows"])
     if "accuracy_records_physics" in run.scores:
         lines["physics alone right"] = (f"{percent(run.scores['accuracy_records_physics'])} of the "

@@ -156,12 +156,16 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     unlisted = sorted(set(labels) - {path.stem for path in records})
     if unlisted and not Path(str(cfg.path)).expanduser().is_file():  # a table of a folder, not of the one file given
         progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
+    calibrated = calibration_records(pipeline)
     for path in progress:
         try:
             state, rpm, fs = labels.get(path.stem, (None, None, None))  # a row's values before the command's
             prepared = read_record(path, pipeline, cfg.channel, cfg.fs if fs is None else fs, cfg.rpm if rpm is None else rpm,
                                    state, bearing)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
+            if {path.stem, path.name} & calibrated:
+                result["notes"].append("the model's twin was calibrated on this record (data.calibration.records): "
+                                       "its verdict is no test of the model")
             folder = out / result["record"]
             folder.mkdir(parents=True, exist_ok=True)
             (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
@@ -185,6 +189,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             progress.write(f"{result['record']}: {note}")
         progress.write(one_line(result))
         row = {name: result[name] for name in SUMMARY_COLUMNS}
+        row["calibrated_on"] = bool({path.stem, path.name} & calibrated)
         if "fault_size_in" in result:
             row["fault_size_in"] = result["fault_size_in"]
         if "true_state" in result:
@@ -196,10 +201,22 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if scored:
         run.scores = {"accuracy_records": sum(row["correct"] for row in scored) / len(scored),
                       "accuracy_windows": windows_correct / windows_total, "n_scored": len(scored)}
+    tested = [row for row in scored if not row["calibrated_on"]]
+    if tested and len(tested) < len(scored):  # records the model's twin was fitted to are no test of it
+        run.scores["accuracy_records_tested"] = sum(row["correct"] for row in tested) / len(tested)
+        run.scores["n_scored_tested"] = len(tested)
     with_physics = [row for row in scored if "physics_correct" in row]
     if with_physics:  # the envelope analysis alone, on the same records: what the model must beat
         run.scores["accuracy_records_physics"] = sum(row["physics_correct"] for row in with_physics) / len(with_physics)
         run.scores["n_scored_physics"] = len(with_physics)
+
+
+def calibration_records(pipeline) -> set[str]:
+    """The records (names as the training config gives them) a twin-trained model's twin was calibrated on."""
+    data = pipeline.config.get("data") or {}
+    if data.get("source") != "twin_to_real":
+        return set()
+    return {str(name) for name in (data.get("calibration") or {}).get("records") or []}
 
 
 def write_summary(rows: list[dict], path: Path) -> Path:
@@ -212,7 +229,7 @@ def write_summary(rows: list[dict], path: Path) -> Path:
         columns.append("error")
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns, restval="")
+        writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
         writer.writeheader()
         writer.writerows(rows)
     return path
