@@ -128,12 +128,17 @@ def labels_table_of(data_cfg: Mapping) -> LabelsTable | None:
 
 
 def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
+    """The calibration and test records, after checking that no record is both (:func:`protocol_records`)."""
+    return protocol_records(data_cfg, labels_table_of(data_cfg))
+
+
+def protocol_records(data_cfg: Mapping, table: LabelsTable | None) -> tuple[list[Path], list[Path]]:
     """The calibration and test records, after checking that no record is both.
 
     A calibration record must be of a state in ``calibration.classes`` at ``calibration.load``
     (the twin may have seen only those); the test loads must exclude the calibration load.
-    With ``data.labels``, the calibration records are the ones named (of those states), and
-    every other labelled record is a test record.
+    With a labels ``table`` (``data.labels``), the calibration records are the ones named (of
+    those states), and every other labelled record is a test record.
     """
     calibration = data_cfg["calibration"]
     records = calibration.get("records")
@@ -143,7 +148,6 @@ def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
                                "(data.calibration.records=[<healthy>,<outer>])")
     if len(set(map(str, records))) != len(records):
         raise BearingTwinError(f"data.calibration.records={list(records)}: a record named twice")
-    table = labels_table_of(data_cfg)
     if table is not None:
         return _labelled_protocol(data_cfg, table)
     allowed, load = list(calibration["classes"]), calibration["load"]
@@ -509,8 +513,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     noise_level = (cfg["calibration"].get("healthy") or {}).get("noise_level", "absolute")
     if noise_level not in ("absolute", "relative"):
         raise BearingTwinError(f"data.calibration.healthy.noise_level={noise_level!r}: choose absolute or relative")
-    calibration_paths, test_paths = check_protocol(cfg)
-    table = labels_table_of(cfg)
+    table = labels_table_of(cfg)  # read once: it is the records' truth for the protocol and the reading alike
+    calibration_paths, test_paths = protocol_records(cfg, table)
     base_params, effects = merged_calibration(cfg["calibration"], table)
     hand_set = plain_config(effects_cfg) or {}
     if set(hand_set) & set(effects):

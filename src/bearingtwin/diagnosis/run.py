@@ -163,7 +163,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             prepared = read_record(path, pipeline, cfg.channel, cfg.fs if fs is None else fs, cfg.rpm if rpm is None else rpm,
                                    state, bearing)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
-            if {path.stem, path.name} & calibrated:
+            calibrated_on = bool({path.stem, path.name} & calibrated)
+            if calibrated_on:
                 result["notes"].append("the model's twin was calibrated on this record (data.calibration.records): "
                                        "its verdict is no test of the model")
             folder = out / result["record"]
@@ -189,7 +190,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             progress.write(f"{result['record']}: {note}")
         progress.write(one_line(result))
         row = {name: result[name] for name in SUMMARY_COLUMNS}
-        row["calibrated_on"] = bool({path.stem, path.name} & calibrated)
+        row["calibrated_on"] = calibrated_on
         if "fault_size_in" in result:
             row["fault_size_in"] = result["fault_size_in"]
         if "true_state" in result:
