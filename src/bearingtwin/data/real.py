@@ -168,9 +168,14 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
     unlisted = sorted(set(recordings_in(root)) - {path for path, *_ in rows} - {table})
-    if unlisted:
+    if unlisted and (table, tuple(unlisted)) not in _UNLISTED_REPORTED:
+        # A command reads its table more than once (the input check, its summary, the data): said once.
+        _UNLISTED_REPORTED.add((table, tuple(unlisted)))
         log.warning("%s: %s not labelled in %s, left out", root, ", ".join(path.name for path in unlisted), table.name)
     return rows
+
+
+_UNLISTED_REPORTED: set[tuple[Path, tuple[Path, ...]]] = set()
 
 
 def labels_path(root: Path, cfg: dict) -> Path:

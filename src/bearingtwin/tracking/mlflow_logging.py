@@ -80,6 +80,9 @@ log = logging.getLogger(__name__)
 
 # Settings that say where things are or how they are logged or shown, not what is computed.
 UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar", "features.progress")
+HASHED_WHEN_SET_KEYS = ("data.labels",)
+"""Keys hashed only when not null: each came after runs were recorded, and its null default computes what its
+absence did, so those runs keep their hashes (a resumed sweep skips them)."""
 PACKAGES = ("bearingtwin", "numpy", "scipy", "torch", "lightning", "scikit-learn", "mlflow", "optuna", "hydra-core")
 CONFIG_ARTIFACT = "config.yaml"
 SWEEP_RUNS_ARTIFACT = "sweep_runs.json"
@@ -256,12 +259,12 @@ def config_hash(cfg: DictConfig) -> str:
     files = input_digest(cfg)
     if files:  # simulated data is its config alone: its runs' hashes stay what they were
         container["input_files"] = files
-    for key in UNHASHED_KEYS:
+    for key in UNHASHED_KEYS + HASHED_WHEN_SET_KEYS:
         *parents, leaf = key.split(".")
         node = container
         for parent in parents:
             node = node.get(parent) if isinstance(node, dict) else None
-        if isinstance(node, dict):
+        if isinstance(node, dict) and (key in UNHASHED_KEYS or node.get(leaf, "set") is None):
             node.pop(leaf, None)
     return hashlib.sha256(OmegaConf.to_yaml(OmegaConf.create(container)).encode()).hexdigest()[:16]
 
