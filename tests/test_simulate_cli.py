@@ -1,5 +1,7 @@
 """bearingtwin-simulate run as a user runs it: a subprocess with Hydra overrides."""
 
+import json
+
 import numpy as np
 import pytest
 from processes import run_module
@@ -59,3 +61,24 @@ def test_an_output_that_is_not_an_npz_archive_is_refused_before_simulating(tmp_p
     """numpy would write out.txt.npz and the summary would point at out.txt."""
     result = run(tmp_path, f"out={tmp_path / 'out.txt'}", "simulator.duration=0.1")
     assert result.returncode == 2 and "give out=<name>.npz" in result.stderr and not list(tmp_path.glob("out.txt*"))
+
+
+def test_the_twin_call_it_suggests_holds_the_simulations_sensor_bearing_and_load(tmp_path):
+    """Without them the twin's defaults (a housing sensor, a loaded rig) are fitted to a record they cannot match."""
+    out = tmp_path / "o.npz"
+    result = run(tmp_path, "fault=outer", "bearing=cwru_6205", "simulator.sensor=outer_y", "simulator.sensor_angle_deg=60",
+                 "simulator.load_y_n=-300", "simulator.fs=12000", "simulator.duration=1.0", f"out={out}")
+    assert result.returncode == 0, result.stderr
+    suggested = next(line for line in result.stdout.splitlines() if "next:" in line)
+    command = suggested.split("next:", 1)[1].split(" holds ")[0].split()
+    assert command[:2] == ["bearingtwin-twin", f"measured.path={out}"]
+    twin = run_module("bearingtwin.cli.twin", *command[1:], f"out={tmp_path / 'twin'}", "tracking.enabled=false",
+                      "figures=false", "twin.duration=0.5", "calibration.n_trials_base=2", "calibration.n_polish=0",
+                      "candidates=[noise]", "calibration.n_trials_effect=1", "calibration.n_polish_effect=0",
+                      "calibration.n_trials_refine=1", cwd=tmp_path, timeout=300)
+    assert twin.returncode == 0, twin.stderr
+    report = json.loads((tmp_path / "twin" / "twin_report.json").read_text())
+    held = report["operating_point"]
+    assert held["sensor"]["held"] and held["sensor"]["race"] == "outer" and held["sensor"]["angle_deg"] == 60.0
+    assert held["radial_load_n"] == {"value": 300.0, "unit": "N", "held": True}
+    assert report["measured"]["bearing"] == "cwru_6205"

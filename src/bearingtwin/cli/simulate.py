@@ -54,6 +54,24 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
     return paths
 
 
+def twin_command(out: Path, bearing: str | None, simulator: DictConfig, sensor: str) -> str:
+    """The ``bearingtwin-twin`` call for a simulated record, holding what the simulation set and no file states:
+    the bearing, the sensor's race and direction and a downward load (held by a user who knows their rig); the
+    twin's own defaults (a housing sensor, a loaded rig) would otherwise be fitted to a record they cannot match."""
+    words = [f"bearingtwin-twin measured.path={out}"]
+    if bearing and bearing != "paper":
+        words.append(f"bearing={bearing}")
+    angle = simulator.get("sensor_angle_deg")
+    if angle is None:
+        words.append(f"operating_point.sensor={sensor}")
+    else:
+        words += [f"operating_point.sensor={sensor.split('_')[0]}", f"operating_point.sensor_angle_deg={float(angle):g}"]
+    load_x, load_y = float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0)
+    if load_x == 0.0 and load_y <= 0.0:  # the twin's operating point knows a downward load only
+        words.append(f"operating_point.radial_load_n={0.0 - load_y:g}")
+    return " ".join(words)
+
+
 @hydra_command("simulate")
 @exit_on_user_error
 def main(cfg: DictConfig) -> None:
@@ -75,7 +93,8 @@ def main(cfg: DictConfig) -> None:
         "record": f"{recording.fault}, {recording.signal.size / recording.fs:g} s at {recording.fs:g} Hz, "
                   f"{recording.rpm:g} rpm, sensor {recording.channel} (m/s^2)",
         "written": ", ".join(path.name for path in written),
-        "next": f"bearingtwin-twin measured.path={out.resolve()} holds the twin against this record",
+        "next": f"{twin_command(out.resolve(), HydraConfig.get().runtime.choices.get('bearing'), cfg.simulator, recording.channel)}"
+                " holds the twin against this record",
     }
     print(closing_summary("bearingtwin-simulate", facts, out=str(out.parent.resolve())))
 
