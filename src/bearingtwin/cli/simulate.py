@@ -61,11 +61,10 @@ def twin_command(out: Path, bearing: str | None, simulator: DictConfig, sensor: 
     words = [f"bearingtwin-twin measured.path={out}"]
     if bearing and bearing != "paper":
         words.append(f"bearing={bearing}")
+    race, axis = sensor.split("_")
     angle = simulator.get("sensor_angle_deg")
-    if angle is None:
-        words.append(f"operating_point.sensor={sensor}")
-    else:
-        words += [f"operating_point.sensor={sensor.split('_')[0]}", f"operating_point.sensor_angle_deg={float(angle):g}"]
+    angle = float(angle) if angle is not None else (0.0 if axis == "x" else 90.0)
+    words += [f"operating_point.sensor={race}", f"operating_point.sensor_angle_deg={angle:g}"]
     load_x, load_y = float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0)
     if load_x == 0.0 and load_y <= 0.0:  # the twin's operating point knows a downward load only
         words.append(f"operating_point.radial_load_n={0.0 - load_y:g}")
