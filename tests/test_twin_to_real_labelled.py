@@ -234,6 +234,19 @@ def test_a_record_shorter_than_a_window_is_named(rig_folder, report_path, tmp_pa
                                              "data.window_length=16384", "data.twin.duration=2.0")))
 
 
+def test_twin_windows_beyond_half_the_memory_are_refused_before_any_simulation(rig_folder, report_path, tmp_path,
+                                                                              monkeypatch):
+    """Each distinct speed of the records is a twin record per state and variant: at 25.6 kHz, 36 records a few
+    rpm apart and 72 variants were killed for memory after half an hour of simulation."""
+    monkeypatch.setattr("bearingtwin.data.windows.physical_memory_bytes", lambda: 200_000)
+    with pytest.raises(BearingTwinError, match=r"data\.twin\.windows_per_record=2 windows of data\.window_length=1024 "
+                                               r"samples from each of 8 twin records \(4 states x 2 distinct speeds of the "
+                                               r"records, to 0\.1 rpm, x 1 variant\) need about 0\.000262 GB.*labels "
+                                               r"table's rpm column\)"):
+        build_dataset(compose_train(labelled(rig_folder, report_path, f"paths.cache_dir={tmp_path}")))
+    assert not (tmp_path / "twin_to_real").exists()  # nothing simulated
+
+
 def test_a_record_whose_speed_nobody_states_is_refused(rig_folder, report_path, tmp_path):
     table = tmp_path / "labels.csv"
     table.write_text((rig_folder / "labels.csv").read_text().replace("inner_b.npy,inner,1750", "inner_b.npy,inner,"))

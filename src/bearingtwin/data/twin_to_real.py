@@ -49,7 +49,7 @@ from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.real import rows_from_labels
 from bearingtwin.data.recording import Recording, WindowedDataset
-from bearingtwin.data.windows import cut_windows, normalize_windows
+from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
@@ -558,21 +558,14 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     variants = [(",".join(filter(None, (effect_label, setting_label))), varied, setting)
                 for effect_label, varied in effect_variants(effects, cfg["twin"].get("variants"))
                 for setting_label, setting in simulator_settings(simulator, cfg["twin"].get("randomize"))]
-    signals, twin_keys, sources = [], [], []
-    # Simulating every variant takes minutes (seconds each); cached ones are read in a blink. Shown in a
-    # terminal only (disable=None), not in CI or a log.
-    for index, (label, varied, setting) in enumerate(tqdm(variants, desc="twin variants", unit="variant",
-                                                          disable=True if len(variants) < 2 else None)):
-        variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,
-                                            variant=index if len(variants) > 1 else None)
-        signals.extend(variant_signals)
-        twin_keys.append(key)
-        sources += [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" + (f"[{label}]" if label else "") for fault in faults for rpm in rpms]
-    twin_key = twin_keys[0] if len(twin_keys) == 1 else content_key(twin_keys)
-
     length = cfg["window_length"]
-    labels = [FAULTS.index(fault) for _ in variants for fault in faults for _ in rpms]
     validation_records = list(calibration_records.values()) if n_validation else []
+    # Before minutes of simulation: every twin record is a state at a distinct measured speed in a variant.
+    check_windows_fit(len(variants) * len(faults) * len(rpms), length, cfg["twin"]["windows_per_record"],
+                      "data.twin.windows_per_record",
+                      records=f"twin records ({len(faults)} states x {len(rpms)} distinct speeds of the records, to "
+                              f"0.1 rpm, x {len(variants)} variant{'s' * (len(variants) != 1)})",
+                      remedy=", or give records of one nominal speed that speed (a labels table's rpm column)")
 
     def windows_of(signal: np.ndarray, n_windows: int, source: str):
         try:
@@ -580,7 +573,24 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         except BearingTwinError as error:  # which record is too short
             raise BearingTwinError(f"{source}: {error} (data.window_length)") from None
 
-    cuts = [windows_of(signal, cfg["twin"]["windows_per_record"], source) for signal, source in zip(signals, sources)]
+    cuts, record_lengths, twin_keys, sources = [], [], [], []
+    # Simulating every variant takes minutes (seconds each); cached ones are read in a blink. Shown in a
+    # terminal only (disable=None), not in CI or a log. A variant's records are cut at once: only their
+    # windows are kept (every variant's whole records at once outgrew a 23 GB machine at 25.6 kHz).
+    for index, (label, varied, setting) in enumerate(tqdm(variants, desc="twin variants", unit="variant",
+                                                          disable=True if len(variants) < 2 else None)):
+        variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,
+                                            variant=index if len(variants) > 1 else None)
+        twin_keys.append(key)
+        names = [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" + (f"[{label}]" if label else "") for fault in faults for rpm in rpms]
+        cuts += [windows_of(signal, cfg["twin"]["windows_per_record"], source)
+                 for signal, source in zip(variant_signals, names)]
+        record_lengths += [signal.size for signal in variant_signals]
+        sources += names
+    twin_key = twin_keys[0] if len(twin_keys) == 1 else content_key(twin_keys)
+    n_twin_records = len(cuts)
+
+    labels = [FAULTS.index(fault) for _ in variants for fault in faults for _ in rpms]
     cuts += [windows_of(r.signal, cfg["test"]["windows_per_record"], r.source) for r in tests]
     cuts += [windows_of(r.signal, n_validation, r.source) for r in validation_records]
     labels += [r.label for r in tests + validation_records]
@@ -592,8 +602,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     except BearingTwinError as error:
         raise BearingTwinError(f"data.normalize_windows: {error}") from None
     record_ids = np.concatenate([np.full(len(w), i) for i, (w, _) in enumerate(cuts)])
-    n_twin = sum(len(w) for w, _ in cuts[:len(signals)])
-    n_test = sum(len(w) for w, _ in cuts[len(signals):len(signals) + len(tests)])
+    n_twin = sum(len(w) for w, _ in cuts[:n_twin_records])
+    n_test = sum(len(w) for w, _ in cuts[n_twin_records:n_twin_records + len(tests)])
     index = np.arange(len(windows))
     return WindowedDataset(
         windows=windows,
@@ -609,7 +619,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                          "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")},
                          **({"labels": [(p.name, file_digest(p), *labelled[p]) for p in calibration_paths + test_paths]}
                             if table else {})}),
-        record_lengths=[signal.size for signal in signals] + [r.signal.size for r in tests + validation_records],
+        record_lengths=record_lengths + [r.signal.size for r in tests + validation_records],
         fixed_split=(index[:n_twin], index[n_twin:n_twin + n_test]),
         window_normalization=normalization,
         validation=index[n_twin + n_test:],

@@ -61,16 +61,18 @@ def cut_windows(signal: np.ndarray, window_length: int, n_windows: int) -> tuple
     return signal[starts[:, None] + np.arange(window_length)], starts
 
 
-def check_windows_fit(n_records: int, window_length: int, windows_per_record: int, count_key: str) -> None:
+def check_windows_fit(n_records: int, window_length: int, windows_per_record: int, count_key: str,
+                      records: str = "records", remedy: str = "") -> None:
     """Refuse windows that would need over half the machine's memory, before any is cut (``count_key`` is
-    the setting ``windows_per_record`` comes from, as the message names it)."""
+    the setting ``windows_per_record`` comes from, as the message names it; ``records`` says what the
+    records are and ``remedy`` what else lowers their number)."""
     need = n_records * windows_per_record * window_length * BYTES_PER_WINDOW_SAMPLE
     memory = physical_memory_bytes()
     if memory is not None and need > memory / 2:
         raise BearingTwinError(
             f"{count_key}={windows_per_record} windows of data.window_length={window_length} samples from each of "
-            f"{n_records} records need about {need / 1e9:.3g} GB of memory, more than half of this machine's "
-            f"{memory / 1e9:.3g} GB: lower {count_key} or data.window_length"
+            f"{n_records} {records} need about {need / 1e9:.3g} GB of memory, more than half of this machine's "
+            f"{memory / 1e9:.3g} GB: lower {count_key} or data.window_length{remedy}"
         )
 
 
