@@ -182,6 +182,7 @@ def main() -> None:
     found = {stem: _effects_found(reports[stem]) for stem in CALIBRATION}
     (out / "summary.json").write_text(json.dumps({**summary, "calibration_effects": found}, indent=1))
     if args.results:
+        Path(args.results).mkdir(parents=True, exist_ok=True)
         path = Path(args.results) / "sim2real_labelled_rig.md"
         command = f"python benchmarks/sim2real_labelled_rig.py --out {args.out} --seed {args.seed} --results {args.results}"
         block = (f"Records right (the majority of a record's windows, `bearingtwin-diagnose`'s scoring) on the rig's "

@@ -17,10 +17,11 @@ measurement's own repeatability per view, the floor no twin can go below.
    only elsewhere (tones lowering the kurtosis any added energy lowers, while the lines view
    stays as it was) explains something it does not name, and the ranking stops there: the
    discrepancy the most evidence points at is not a library effect's, so a runner-up that
-   explains less of it is not offered in its place. The operating point and every kept effect are then
-   re-fitted together, and the remaining candidates tried on top, each with the kept effects
-   free again beside it (they were fitted without it and took up part of its signature),
-   until none pays. A fixed effect (one a reference record found) named among the candidates
+   explains less of it is not offered in its place. The signature is judged after the operating point
+   and every kept effect are re-fitted together with the candidate (or on the screen, if it gains more
+   there): the operating point was fitted without it and may have taken up part of its mark. Then
+   the remaining candidates are tried on top, each with the kept effects free again beside it
+   (they were fitted without it and took up part of its signature), until none pays. A fixed effect (one a reference record found) named among the candidates
    is tried as changed: its parameters fitted again from the held values and paid for like a
    new effect's, so an unbalance that has grown since the reference is named, not left over.
 3. **What is left.** A view whose error stays more than twice the measurement's own is
@@ -543,20 +544,26 @@ class EffectRanker:
             best = fits[0]
             if best.evidence <= 0:
                 break
-            if best.signature_gain < self.min_signature_gain:  # it pays, but not where its own mark would be
+            progress.stage(f"re-fit with {best.effect}", self.n_trials_refine + self.n_polish)
+            refit_values, refit_sensor, effects, _, refit_scored = self._refit(
+                best, base_values, sensor, current_effects, held - {best.effect}, judge, twin,
+                seed=self.seed + 1000 * (round_index + 1) + 999, progress=progress)
+            refit = compare(op.to_base(refit_values, refit_sensor), effects, judge.check_part)
+            # The screen held the operating point, which was fitted without the candidate and may hold part of
+            # its mark (a shallower defect, a heavier load standing in for a noise floor): the signature is
+            # judged by the better of the screen and the re-fit with the operating point free.
+            refit_gain = scorer.signature_gain(current, refit, signature_views(best.effect))
+            if max(best.signature_gain, refit_gain) < self.min_signature_gain:  # it pays, not where its mark is
+                best.signature_gain = max(best.signature_gain, refit_gain)
                 unclaimed = best
                 break
-            progress.stage(f"re-fit with {best.effect}", self.n_trials_refine + self.n_polish)
             held.discard(best.effect)
-            base_values, sensor, effects, _, scored = self._refit(
-                best, base_values, sensor, current_effects, held, judge, twin,
-                seed=self.seed + 1000 * (round_index + 1) + 999, progress=progress)
+            base_values, sensor, scored = refit_values, refit_sensor, refit_scored
             base = op.to_base(base_values, sensor)
-            before = current
-            current = compare(base, effects, judge.check_part)
+            before, current = current, refit
             best.comparison, best.error, best.params = current, current.discrepancy_db, effects[best.effect]
             best.explained = _explained(before, current)
-            best.signature_gain = scorer.signature_gain(before, current, signature_views(best.effect))
+            best.signature_gain = refit_gain
             added.append(best)
             current_effects = effects
             steps.append(Step(dict(current_effects), current.discrepancy_db, current, dict(base)))
