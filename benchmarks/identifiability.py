@@ -375,6 +375,10 @@ def plot_rates(table: dict, goals: dict, path: Path) -> None:
     plt.close(fig)
 
 
+DISCUSSION = "## Discussion"
+"""The heading from which results/identifiability.md is written by hand (kept when the tables are regenerated)."""
+
+
 def write_results(results: list[dict], out: Path, command: str, wall_s: float) -> None:
     table = summarize(results)
     rate = {"single": "hidden single effect added first", "pair": "both effects of a pair added",
@@ -437,7 +441,11 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
     ]
     out.mkdir(parents=True, exist_ok=True)
     plot_rates(table, goals, out / "identifiability.png")
-    (out / "identifiability.md").write_text("\n".join(text))
+    path = out / "identifiability.md"
+    # The discussion is written by hand below the generated sections; a new run keeps it.
+    kept = path.read_text() if path.is_file() else ""
+    kept = kept[kept.index(DISCUSSION):] if DISCUSSION in kept else ""
+    path.write_text("\n".join(text) + (f"\n{kept}" if kept else ""))
     (out / "identifiability.json").write_text(json.dumps(results, indent=1, default=float))
     print(out / "identifiability.md")
 
