@@ -314,7 +314,8 @@ def results_markdown(table: str, summary: dict, rig_runs: dict, figure: Path, ar
     )
 
 
-def plot_records_right(rows: list[list[str]], columns: list[str], path: Path) -> Path:
+def plot_records_right(rows: list[list[str]], columns: list[str], path: Path,
+                       title: str = "independent test rig, CWRU format: records right by state and fault size") -> Path:
     """Grouped bars: share of records right per state and size (positions pooled), one bar per model."""
     import matplotlib
 
@@ -336,7 +337,7 @@ def plot_records_right(rows: list[list[str]], columns: list[str], path: Path) ->
     axes.set_ylabel("records right %")
     axes.set_ylim(0, 105)
     axes.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=len(columns), frameon=False)
-    axes.set_title("independent test rig, CWRU format: records right by state and fault size")
+    axes.set_title(title)
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)
