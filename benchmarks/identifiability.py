@@ -375,7 +375,7 @@ def plot_rates(table: dict, goals: dict, path: Path) -> None:
     plt.close(fig)
 
 
-DISCUSSION = "## Discussion"
+DISCUSSION = "\n## Discussion\n"
 """The heading from which results/identifiability.md is written by hand (kept when the tables are regenerated)."""
 
 
@@ -445,7 +445,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
     # The discussion is written by hand below the generated sections; a new run keeps it.
     kept = path.read_text() if path.is_file() else ""
     kept = kept[kept.index(DISCUSSION):] if DISCUSSION in kept else ""
-    path.write_text("\n".join(text) + (f"\n{kept}" if kept else ""))
+    path.write_text("\n".join(text) + kept)
     (out / "identifiability.json").write_text(json.dumps(results, indent=1, default=float))
     print(out / "identifiability.md")
 

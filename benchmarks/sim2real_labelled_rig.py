@@ -77,8 +77,10 @@ def write_records(folder: Path, seed: int) -> dict[str, dict]:
                                    defect_angle_deg=angle or 0.0, gain=float(10.0 ** rng.uniform(-0.3, 0.3)),
                                    unit="m/s^2")
             path = folder / f"{stem}.npy"
-            if not path.is_file():
-                np.save(path, simulate_rig(state, op, seed=seed + number, setup=RIG))
+            if not path.is_file():  # written whole or not at all: an interrupted run leaves no short record
+                partial = path.with_suffix(".partial.npy")
+                np.save(partial, simulate_rig(state, op, seed=seed + number, setup=RIG))
+                os.replace(partial, path)
             # The table gives the nominal speed, as HUST's file names do (its speed column is not meaningful).
             records[stem] = {"state": state, "grade": grade, "position": "-" if angle is None else f"{angle:g} deg",
                              "rpm": 60.0 * speed}
@@ -108,6 +110,7 @@ def train(out: Path, records: Path, reports: dict[str, Path]) -> tuple[str, str]
     """The protocol in labels mode; the registered model's URI and the training summary."""
     log = out / "train.log"
     if not log.is_file() or "model:" not in log.read_text():
+        shutil.rmtree(out / "diagnose", ignore_errors=True)  # the diagnosis of an earlier model
         healthy, fault = CALIBRATION
         run(["bearingtwin-train", "+experiment=sim2real", f"data.root={records}", f"data.labels={records / 'labels.csv'}",
              "data.channel=null", "bearing=er16k", "data.bearing=er16k", f"data.fs={FS_HZ:g}",
@@ -193,7 +196,8 @@ def main() -> None:
         command = f"python benchmarks/sim2real_labelled_rig.py --out {args.out} --seed {args.seed} --results {args.results}"
         block = (f"Records right (the majority of a record's windows, `bearingtwin-diagnose`'s scoring) on the rig's "
                  f"{len(plan) - len(CALIBRATION)} test records; the two calibration records left out.\n\n{table}\n\n"
-                 f"![records right by state and damage]({figure.name})\n\n"
+                 + (f"Not diagnosed: {', '.join(summary['failed'])}.\n\n" if summary["failed"] else "")
+                 + f"![records right by state and damage]({figure.name})\n\n"
                  f"Effects `bearingtwin-twin` found on the calibration records: "
                  + "; ".join(f"{stem}: {', '.join(effects) or 'none'}" for stem, effects in found.items())
                  + f".\n\nThe training run's summary:\n\n```text\n{training.strip()}\n```\n\n```bash\n{command}\n```\n\n"

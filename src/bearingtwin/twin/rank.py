@@ -21,9 +21,10 @@ measurement's own repeatability per view, the floor no twin can go below.
    and every kept effect are re-fitted together with the candidate (or on the screen, if it gains more
    there): the operating point was fitted without it and may have taken up part of its mark. Then
    the remaining candidates are tried on top, each with the kept effects free again beside it
-   (they were fitted without it and took up part of its signature), until none pays. A fixed effect (one a reference record found) named among the candidates
-   is tried as changed: its parameters fitted again from the held values and paid for like a
-   new effect's, so an unbalance that has grown since the reference is named, not left over.
+   (they were fitted without it and took up part of its signature), until none pays. A fixed
+   effect (one a reference record found) named among the candidates is tried as changed: its
+   parameters fitted again from the held values and paid for like a new effect's, so an
+   unbalance that has grown since the reference is named, not left over.
 3. **What is left.** A view whose error stays more than twice the measurement's own is
    reported with where it disagrees and which kinds of physics leave such a mark, whether
    or not a library effect was added: a discrepancy no candidate explains is named, never
@@ -563,7 +564,7 @@ class EffectRanker:
             before, current = current, refit
             best.comparison, best.error, best.params = current, current.discrepancy_db, effects[best.effect]
             best.explained = _explained(before, current)
-            best.signature_gain = refit_gain
+            best.signature_gain = refit_gain  # what the effect as kept (the re-fit) gains in its views
             added.append(best)
             current_effects = effects
             steps.append(Step(dict(current_effects), current.discrepancy_db, current, dict(base)))
