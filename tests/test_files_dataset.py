@@ -222,16 +222,3 @@ def test_a_folder_of_one_state_is_refused_before_any_feature_is_extracted(tmp_pa
         experiment.run_experiment(files_cfg(root, "classifier=svm", f"paths.cache_dir={tmp_path / 'cache'}"),
                                   root_dir=str(tmp_path))
 
-
-def test_a_file_the_table_leaves_out_is_named_once_however_often_the_table_is_read(folder, caplog):
-    from bearingtwin.data.real import rows_from_labels
-
-    np.save(folder / "stray.npy", tone("ball"))
-    with caplog.at_level("WARNING"):
-        for _ in range(3):  # the input check, the closing summary and the data each read it
-            assert len(rows_from_labels(folder, {})) == 4
-    assert [record.getMessage().split(": ", 1)[1] for record in caplog.records] == ["stray.npy not labelled in labels.csv, left out"]
-    np.save(folder / "later.npy", tone("ball"))  # another file left out: said again, naming both
-    with caplog.at_level("WARNING"):
-        rows_from_labels(folder, {})
-    assert "later.npy, stray.npy not labelled" in caplog.records[-1].getMessage()

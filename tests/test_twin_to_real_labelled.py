@@ -247,6 +247,24 @@ def test_twin_windows_beyond_half_the_memory_are_refused_before_any_simulation(r
     assert not (tmp_path / "twin_to_real").exists()  # nothing simulated
 
 
+def test_a_file_the_table_leaves_out_is_named_once_by_a_command_that_reads_it_thrice(rig_folder, report_path,
+                                                                                   tmp_path, caplog):
+    """bearingtwin-train reads the table to check its input, for its closing summary and to build the data: the
+    checks say nothing of a stray file, the build names it, once."""
+    import shutil
+
+    folder = tmp_path / "rig"
+    shutil.copytree(rig_folder, folder)
+    np.save(folder / "stray.npy", np.zeros(100))
+    cfg = compose_train(labelled(folder, report_path, f"paths.cache_dir={tmp_path}"))
+    with caplog.at_level("WARNING"):
+        check_protocol(cfg.data)  # the input check
+        check_protocol(cfg.data)  # the closing summary's records
+        build_dataset(cfg)
+    left_out = [r.getMessage() for r in caplog.records if "not labelled" in r.getMessage()]
+    assert [message.split(": ", 1)[1] for message in left_out] == ["stray.npy not labelled in labels.csv, left out"]
+
+
 def test_a_record_whose_speed_nobody_states_is_refused(rig_folder, report_path, tmp_path):
     table = tmp_path / "labels.csv"
     table.write_text((rig_folder / "labels.csv").read_text().replace("inner_b.npy,inner,1750", "inner_b.npy,inner,"))

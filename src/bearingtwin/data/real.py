@@ -149,10 +149,11 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     return dataset
 
 
-def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>"
-                     ) -> list[tuple[Path, str, float | None, float | None]]:
+def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>",
+                     warn_unlisted: bool = True) -> list[tuple[Path, str, float | None, float | None]]:
     """``(file, state, rpm, fs)`` per row of the labels table ``data.labels`` (default ``<root>/labels.csv``);
-    ``alternative`` ends the message when there is no such table."""
+    ``alternative`` ends the message when there is no such table; ``warn_unlisted``: say which recordings of
+    ``root`` the table leaves out (where the data is built, not in the checks before it)."""
     table = labels_path(root, cfg)
     if not table.is_file():
         raise BearingTwinError(
@@ -168,14 +169,9 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
     unlisted = sorted(set(recordings_in(root)) - {path for path, *_ in rows} - {table})
-    if unlisted and (table, tuple(unlisted)) not in _UNLISTED_REPORTED:
-        # A command reads its table more than once (the input check, its summary, the data): said once.
-        _UNLISTED_REPORTED.add((table, tuple(unlisted)))
+    if unlisted and warn_unlisted:
         log.warning("%s: %s not labelled in %s, left out", root, ", ".join(path.name for path in unlisted), table.name)
     return rows
-
-
-_UNLISTED_REPORTED: set[tuple[Path, tuple[Path, ...]]] = set()
 
 
 def labels_path(root: Path, cfg: dict) -> Path:

@@ -116,20 +116,21 @@ class LabelsTable:
         return matches[0]
 
 
-def labels_table_of(data_cfg: Mapping) -> LabelsTable | None:
+def labels_table_of(data_cfg: Mapping, warn_unlisted: bool = True) -> LabelsTable | None:
     """With ``data.labels``, that table's rows (files in ``data.root``, any rig's records, read as ``data=files``
-    reads them); None for the CWRU records, found by their names."""
+    reads them; ``warn_unlisted``: say which files it leaves out); None for the CWRU records, found by their names."""
     if not data_cfg.get("labels"):
         return None
     root = Path(str(data_cfg["root"])).expanduser()
     if not root.is_dir():
         raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of the labelled records")
-    return LabelsTable(root, rows_from_labels(root, data_cfg, alternative=""))
+    return LabelsTable(root, rows_from_labels(root, data_cfg, alternative="", warn_unlisted=warn_unlisted))
 
 
 def check_protocol(data_cfg: Mapping) -> tuple[list[Path], list[Path]]:
-    """The calibration and test records, after checking that no record is both (:func:`protocol_records`)."""
-    return protocol_records(data_cfg, labels_table_of(data_cfg))
+    """The calibration and test records, after checking that no record is both (:func:`protocol_records`).
+    A check before the run: the files a labels table leaves out are said where the data is built."""
+    return protocol_records(data_cfg, labels_table_of(data_cfg, warn_unlisted=False))
 
 
 def protocol_records(data_cfg: Mapping, table: LabelsTable | None) -> tuple[list[Path], list[Path]]:

@@ -554,8 +554,9 @@ class EffectRanker:
             # its mark (a shallower defect, a heavier load standing in for a noise floor): the signature is
             # judged by the better of the screen and the re-fit with the operating point free.
             refit_gain = scorer.signature_gain(current, refit, signature_views(best.effect))
-            if max(best.signature_gain, refit_gain) < self.min_signature_gain:  # it pays, not where its mark is
-                best.signature_gain = max(best.signature_gain, refit_gain)
+            judged_gain = max(best.signature_gain, refit_gain)
+            if judged_gain < self.min_signature_gain:  # it pays, but not where its own mark would be
+                best.signature_gain = judged_gain
                 unclaimed = best
                 break
             held.discard(best.effect)
