@@ -21,7 +21,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import sensor_signal
 from bearingtwin.testrig import RigOperatingPoint, RigSetup, simulate_rig
-from bearingtwin.twin.calibrate import minimize, parse_space, slice_interval
+from bearingtwin.twin.calibrate import interval_from_trials, minimize, parse_space, slice_interval
 from bearingtwin.twin.compare import CompareSettings
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
@@ -169,6 +169,32 @@ def test_the_independent_rigs_sensor_direction_is_reported_as_uncertain():
         sensor = fit.operating_point["sensor"]
         assert sensor["interval"][1] - sensor["interval"][0] >= 90.0, sensor
         assert "within" in fit.summary and f"{sensor['interval'][0]:.0f}-{sensor['interval'][1]:.0f} deg" in fit.summary
+
+
+def test_the_independent_rigs_load_is_recovered_where_physics_shows_it():
+    """An inner-race spall strikes hard only inside the load zone, whose extent the load sets against the
+    clearance: from the rig's inner-race records (sensor and clearance known, as after a reference) the
+    fitted load rises with the rig's and each stated interval holds the truth. An outer-race spall sits
+    still, and under a fitted gain its strikes say nothing of the load: the report must say so."""
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        rig_cfg = compose("simulate", overrides=[f"simulator.fs={FS}", f"simulator.rpm={RPM}",
+                                                 "simulator.duration=1.0", "bearing=cwru_6205"])
+
+    def fitted_load(fault, load_n):
+        signal = simulate_rig(fault, RigOperatingPoint(rpm=RPM, fs=FS, duration_s=SECONDS, radial_load_n=load_n,
+                                                       clearance_um=6.0, sensor_angle_deg=90.0, unit="g"),
+                              seed=11, setup=RigSetup(residual_1x_db=None))
+        fit = rank(rig_cfg, Recording(signal, FS, RPM, fault, unit="g"), [],
+                   op=operating_point(fault, sensor="outer_y", clearance_um=6.0), n_trials_base=16, n_polish=30)
+        return fit.operating_point["radial_load_n"], fit.summary
+
+    light, heavy = (fitted_load("inner", load) for load in (300.0, 3000.0))
+    for (load, _), truth in ((light, 300.0), (heavy, 3000.0)):
+        assert load["interval"][0] <= truth <= load["interval"][1], (truth, load)
+    assert heavy[0]["value"] > 3.0 * light[0]["value"], (light[0], heavy[0])
+    outer, summary = fitted_load("outer", 1000.0)
+    assert outer["interval"][1] / outer["interval"][0] > 50.0, outer  # most of the searched 20-5000 N
+    assert "radial load (downward)" in summary
 
 
 def test_a_hidden_pair_is_found_in_order_and_each_closes_its_part(cfg):
@@ -354,6 +380,26 @@ def test_calibration_is_deterministic_and_the_polish_walks_down():
     assert first.trial_errors[0] == pytest.approx(bowl({"a": 1.0, "b": 1.0}))  # the start comes first
     low, high = slice_interval(bowl, space, first.params, first.error, "b", 0.01)
     assert low < first.params["b"] < high and high - low == pytest.approx(0.2, abs=0.02)  # (b - 2)^2 < 0.01
+
+
+def test_an_interval_follows_a_ridge_the_trials_walked_where_a_slice_cuts_across():
+    """Where two parameters trade off (objective (a - b)^2 plus a gentle pull along a = b), the slice at the
+    best point is narrow, the profile long; the trials within the tolerance show part of that length."""
+    def ridge(p):
+        return 100.0 * (p["a"] - p["b"]) ** 2 + 0.01 * (p["a"] + p["b"] - 2.0) ** 2
+
+    space = parse_space({"a": [-5.0, 5.0], "b": [-5.0, 5.0]}, "calibration.test")
+    fit = minimize(ridge, space, n_trials=60, seed=0, n_polish=40)
+    assert len(fit.trial_params) == len(fit.trial_errors) and fit.trial_params[int(np.argmin(fit.trial_errors))] == fit.params
+    tolerance = 1.0
+    low, high = slice_interval(ridge, space, fit.params, fit.error, "a", tolerance)
+    assert high - low < 0.25  # |a - b| < 0.1 across the ridge
+    seen = interval_from_trials(fit, "a", fit.error, tolerance)
+    assert seen[1] - seen[0] > 2 * (high - low)
+    for trial, error in zip(fit.trial_params, fit.trial_errors):  # no trial outside the tolerance widened it
+        if not seen[0] <= trial["a"] <= seen[1]:
+            assert error > fit.error + tolerance
+    assert interval_from_trials(fit, "c", fit.error, tolerance) is None  # a key no trial varied
 
 
 def test_bad_candidates_and_keys_are_named(cfg):

@@ -28,11 +28,12 @@ Bounds = tuple[float, float, bool]
 
 @dataclass
 class Fit:
-    """The best parameters found, the objective they give, and every trial's value in order."""
+    """The best parameters found, the objective they give, and every trial's value and parameters in order."""
 
     params: dict[str, float]
     error: float
     trial_errors: list[float]
+    trial_params: list[dict[str, float]]
 
 
 def parse_space(space, where: str) -> dict[str, Bounds]:
@@ -71,7 +72,7 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
     """
     if not space:
         error = float(objective({}))
-        return Fit({}, error, [error])
+        return Fit({}, error, [error], [{}])
     if n_trials < 1:
         raise BearingTwinError(f"minimize: n_trials must be at least 1, got {n_trials}")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -103,7 +104,7 @@ def minimize(objective: Callable[[dict[str, float]], float], space: dict[str, Bo
     for start_params in starts if n_polish > 0 else []:
         _polish(scored, space, start_params, n_polish // len(starts), values, params)
     best = int(np.argmin(values))
-    return Fit(params[best], float(values[best]), values)
+    return Fit(params[best], float(values[best]), values, params)
 
 
 def run_plain(objective: Callable[[dict[str, float]], float]) -> Callable[[dict[str, float]], float]:
@@ -153,6 +154,20 @@ def slice_interval(objective: Callable[[dict[str, float]], float], space: dict[s
                 break
         edges.append(_from_unit(space[name], edge))
     return min(edges), max(edges)
+
+
+def interval_from_trials(fit: Fit, name: str, least: float, tolerance: float) -> tuple[float, float] | None:
+    """The range of ``name`` over the trials of ``fit`` whose objective lies within ``tolerance`` of ``least``
+    (None when no trial does or none varied ``name``).
+
+    Every other parameter took whatever value its trial had, so where parameters trade off (a heavier
+    load and a wider clearance give the same load zone) this range follows the ridge that a slice
+    (:func:`slice_interval`) cuts across: joined to the slice, it comes nearer the profile interval
+    without a single further evaluation.
+    """
+    values = [trial[name] for trial, error in zip(fit.trial_params, fit.trial_errors)
+              if name in trial and error <= least + tolerance]
+    return (min(values), max(values)) if values else None
 
 
 def _from_unit(bounds: Bounds, u: float) -> float:

@@ -50,7 +50,7 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.twin.calibrate import SLICE_STEPS, minimize, slice_interval
+from bearingtwin.twin.calibrate import SLICE_STEPS, interval_from_trials, minimize, slice_interval
 from bearingtwin.twin.compare import VIEWS, Comparator, Comparison, CompareSettings
 from bearingtwin.twin.model import TwinModel, effect_defaults, effect_search_space
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, OperatingPoint, describe_sensor
@@ -511,6 +511,9 @@ class EffectRanker:
                             start=op.start(twin.value), n_polish=self.n_polish)
         sensor, scored = sensor_search[_key(base_fit.params)]
         base_values = dict(base_fit.params)
+        # The evaluations of the last fit of the final twin (the operating point's, or the last re-fit's):
+        # the intervals follow them along ridges where parameters trade off.
+        last_fit, base_prefix = base_fit, ""
         current_effects = dict(self.fixed_effects)
         base = op.to_base(base_values, sensor)
         current = compare(base, current_effects, judge.check_part)
@@ -546,7 +549,7 @@ class EffectRanker:
             if best.evidence <= 0:
                 break
             progress.stage(f"re-fit with {best.effect}", self.n_trials_refine + self.n_polish)
-            refit_values, refit_sensor, effects, _, refit_scored = self._refit(
+            refit_values, refit_sensor, effects, refit_fit, refit_scored = self._refit(
                 best, base_values, sensor, current_effects, held - {best.effect}, judge, twin,
                 seed=self.seed + 1000 * (round_index + 1) + 999, progress=progress)
             refit = compare(op.to_base(refit_values, refit_sensor), effects, judge.check_part)
@@ -561,6 +564,7 @@ class EffectRanker:
                 break
             held.discard(best.effect)
             base_values, sensor, scored = refit_values, refit_sensor, refit_scored
+            last_fit, base_prefix = refit_fit, "base:"
             base = op.to_base(base_values, sensor)
             before, current = current, refit
             best.comparison, best.error, best.params = current, current.discrepancy_db, effects[best.effect]
@@ -572,7 +576,8 @@ class EffectRanker:
             remaining.remove(best.effect)
             round_index += 1
 
-        # Intervals: each fitted value's slice of the final deviance on the first part.
+        # Intervals: each fitted value's slice of the final deviance on the first part, widened to the values
+        # the last fit evaluated within the same tolerance.
         @progress.counted
         def final_deviance(values, effects):
             return judge.deviance(judge.fit_part(twin.signal(op.to_base(values, sensor), effects)))
@@ -580,16 +585,24 @@ class EffectRanker:
         n_intervals = len(op.space) + sum(len(effect_search_space(fit.effect)) for fit in added)
         progress.stage("intervals", 1 + 2 * len(SLICE_STEPS) * n_intervals)  # at most, both ways at every step
         best_deviance = final_deviance(base_values, current_effects)
+        least = min(best_deviance, last_fit.error)  # a sensor placement tried after the last fit may fit better
+
+        def widened(interval: tuple[float, float], trial_key: str) -> tuple[float, float]:
+            seen = interval_from_trials(last_fit, trial_key, least, CHI2_95_ONE_DOF)
+            return interval if seen is None else (min(interval[0], seen[0]), max(interval[1], seen[1]))
+
         for fit in added:
             space = effect_search_space(fit.effect)
 
             def with_params(params, name=fit.effect):
                 return final_deviance(base_values, {**current_effects, name: {**current_effects[name], **params}})
 
-            fit.intervals = {k: slice_interval(with_params, space, {k2: fit.params[k2] for k2 in space}, best_deviance,
-                                               k, CHI2_95_ONE_DOF) for k in space}
-        intervals = {name: slice_interval(lambda p: final_deviance({**base_values, **p}, current_effects), op.space,
-                                          base_values, best_deviance, name, CHI2_95_ONE_DOF) for name in op.space}
+            fit.intervals = {k: widened(slice_interval(with_params, space, {k2: fit.params[k2] for k2 in space},
+                                                       best_deviance, k, CHI2_95_ONE_DOF), f"effect:{fit.effect}:{k}")
+                             for k in space}
+        intervals = {name: widened(slice_interval(lambda p: final_deviance({**base_values, **p}, current_effects),
+                                                  op.space, base_values, best_deviance, name, CHI2_95_ONE_DOF),
+                                   base_prefix + name) for name in op.space}
         operating = self._operating_point_report(base_values, sensor, scored, intervals)
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
