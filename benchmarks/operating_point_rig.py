@@ -31,10 +31,11 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import spearmanr
 
+from bearingtwin.errors import BearingTwinError
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig
 from bearingtwin.testrig.rig import RigSetup
 from bearingtwin.tracking.tables import markdown_table, write_generated
-from sim2real_rig import run
+from sim2real_rig import refuse, run
 
 LOADS_N = (200.0, 500.0, 1000.0, 2000.0, 4000.0)
 CLEARANCE_UM = 6.0
@@ -189,7 +190,10 @@ def main() -> int:
                          summary_rows(results)))
     written = [args.out / "operating_point_rig.json"]
     if args.results:
-        written.append(write_results(results, args.results))
+        try:
+            written.append(write_results(results, args.results))
+        except BearingTwinError as error:  # an --results file that is not this benchmark's
+            refuse(str(error))
     print(f"== operating_point_rig: {len(results)} runs in {wall_s / 60:.1f} min; wrote {', '.join(map(str, written))}")
     return 0
 
