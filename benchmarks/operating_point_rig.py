@@ -12,16 +12,17 @@ loads order against the true ones, and how wide the intervals are.
 
 Fixed before its run: the loads, conditions, seeds and the scores above.
 
-    python benchmarks/operating_point_rig.py --out /tmp/operating_point                        # ~5 min, 2 cores
+    python benchmarks/operating_point_rig.py --out /tmp/operating_point                        # ~2 min, 2 cores
     python benchmarks/operating_point_rig.py --out /tmp/operating_point --results results      # also writes results/operating_point_rig.md
 
-A run whose report exists in ``--out`` is not repeated.
+A run whose report (and its timing) exists in ``--out`` is not repeated.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import sys
 import time
@@ -34,7 +35,7 @@ from scipy.stats import spearmanr
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig
 from bearingtwin.testrig.rig import RigSetup
-from bearingtwin.tracking.tables import markdown_table, write_generated
+from bearingtwin.tracking.tables import check_generated_target, markdown_table, write_generated
 from sim2real_rig import refuse, run
 
 LOADS_N = (200.0, 500.0, 1000.0, 2000.0, 4000.0)
@@ -73,8 +74,8 @@ def run_case(case: dict, out: Path) -> dict:
     record = record_of(case, out)
     folder = out / "twin" / case["mode"].replace(" ", "_") / record.stem
     report = folder / "twin_report.json"
-    timing = folder / "seconds.txt"
-    if not report.is_file():
+    timing = folder / "seconds.txt"  # written last: a run without it did not finish
+    if not timing.is_file():
         folder.mkdir(parents=True, exist_ok=True)
         start = time.perf_counter()
         run(["bearingtwin-twin", f"measured.path={record}", f"measured.fs={case['fs']:g}", f"measured.rpm={case['rpm']:g}",
@@ -141,15 +142,17 @@ def plot(results: list[dict], path: Path) -> None:
             axis.set_minor_formatter(NullFormatter())
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("fitted load and its interval (N)")
-    axes[-1].legend(fontsize=8, loc="lower right")
-    fig.tight_layout()
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def write_results(results: list[dict], folder: Path) -> Path:
+def write_results(results: list[dict], folder: Path, jobs: int) -> Path:
     path = folder / "operating_point_rig.md"
     figure = folder / "operating_point_rig.png"
+    folder.mkdir(parents=True, exist_ok=True)
     plot(results, figure)
     headers = ["spall", "clearance", "rig's load inside the stated interval", "rank correlation fitted-true (12, 25.6 kHz)",
                "median factor between fitted and true", "median interval width (high / low)", "interval spans the searched 20-5000 N"]
@@ -159,9 +162,9 @@ def write_results(results: list[dict], folder: Path) -> Path:
         f"{CLEARANCE_UM:g} um, two conditions (1750 rpm at 12 kHz in g, 1772 rpm at 25.6 kHz in m/s^2).",
         markdown_table(headers, summary_rows(results)),
         f"![fitted against true load]({figure.name})",
-        f"Regenerate (about {sum(r['seconds'] for r in results) / 2 / 60:.0f} min on {platform.machine()}, 2 cores, two runs "
-        f"at a time, Python {platform.python_version()}; a run takes {np.median([r['seconds'] for r in results]):.0f} s "
-        "in the median):",
+        f"Regenerate (about {sum(r['seconds'] for r in results) / jobs / 60:.0f} min on {platform.machine()}, "
+        f"{os.cpu_count()} cores, {jobs} run{'s' * (jobs != 1)} at a time, Python {platform.python_version()}; "
+        f"a run takes {np.median([r['seconds'] for r in results]):.0f} s in the median):",
         f"```bash\n{COMMAND}\n```",
         "Every run:",
         markdown_table(["spall", "clearance", "rate", "rig's load (N)", "fitted (N)", "interval (N)", "inside",
@@ -179,6 +182,11 @@ def main() -> int:
     parser.add_argument("--results", type=Path, help="also write operating_point_rig.md and its figure here")
     parser.add_argument("--jobs", type=int, default=2, help="bearingtwin-twin runs at a time (one thread each)")
     args = parser.parse_args()
+    if args.results:
+        try:  # a file that is not this benchmark's is refused before any run
+            check_generated_target(args.results / "operating_point_rig.md", MARKER)
+        except BearingTwinError as error:
+            refuse(str(error))
     start = time.perf_counter()
     for case in plan():
         record_of(case, args.out)
@@ -190,10 +198,7 @@ def main() -> int:
                          summary_rows(results)))
     written = [args.out / "operating_point_rig.json"]
     if args.results:
-        try:
-            written.append(write_results(results, args.results))
-        except BearingTwinError as error:  # an --results file that is not this benchmark's
-            refuse(str(error))
+        written.append(write_results(results, args.results, args.jobs))
     print(f"== operating_point_rig: {len(results)} runs in {wall_s / 60:.1f} min; wrote {', '.join(map(str, written))}")
     return 0
 

@@ -156,18 +156,21 @@ def slice_interval(objective: Callable[[dict[str, float]], float], space: dict[s
     return min(edges), max(edges)
 
 
-def interval_from_trials(fit: Fit, name: str, least: float, tolerance: float) -> tuple[float, float] | None:
-    """The range of ``name`` over the trials of ``fit`` whose objective lies within ``tolerance`` of ``least``
-    (None when no trial does or none varied ``name``).
+def interval_from_trials(fit: Fit, name: str, least: float, tolerance: float) -> tuple[float, float]:
+    """The range of ``name`` over the trials of ``fit`` whose objective lies within ``tolerance`` of ``least``.
 
     Every other parameter took whatever value its trial had, so where parameters trade off (a heavier
     load and a wider clearance give the same load zone) this range follows the ridge that a slice
     (:func:`slice_interval`) cuts across: joined to the slice, it comes nearer the profile interval
-    without a single further evaluation.
+    without a single further evaluation. ``least`` is at most ``fit.error`` (the best trial is within).
     """
+    if not any(name in trial for trial in fit.trial_params):
+        raise KeyError(f"interval_from_trials: no trial of this fit varied {name!r}")
     values = [trial[name] for trial, error in zip(fit.trial_params, fit.trial_errors)
               if name in trial and error <= least + tolerance]
-    return (min(values), max(values)) if values else None
+    if not values:
+        raise ValueError(f"interval_from_trials: no trial lies within {tolerance} of {least}")
+    return min(values), max(values)
 
 
 def _from_unit(bounds: Bounds, u: float) -> float:

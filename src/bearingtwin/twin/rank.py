@@ -30,9 +30,10 @@ measurement's own repeatability per view, the floor no twin can go below.
    or not a library effect was added: a discrepancy no candidate explains is named, never
    pinned on the nearest library effect.
 
-Every fitted value comes with an interval (where the deviance, the other parameters held,
-stays within the 95 % chi-square bound of the best), every ranking with its margin over the
-runner-up.
+Every fitted value comes with an interval (where the deviance stays within the 95 % chi-square
+bound of the best: along the value's slice, the other parameters held, and over the values the
+last fit evaluated, the other parameters wherever they were), every ranking with its margin over
+the runner-up.
 """
 
 from __future__ import annotations
@@ -585,13 +586,16 @@ class EffectRanker:
         n_intervals = len(op.space) + sum(len(effect_search_space(fit.effect)) for fit in added)
         progress.stage("intervals", 1 + 2 * len(SLICE_STEPS) * n_intervals)  # at most, both ways at every step
         best_deviance = final_deviance(base_values, current_effects)
-        least = min(best_deviance, last_fit.error)  # a sensor placement tried after the last fit may fit better
+        least = min(last_fit.error, best_deviance)  # a sensor placement tried after the last fit may fit better
 
         def widened(interval: tuple[float, float], trial_key: str) -> tuple[float, float]:
+            if last_fit.error > least + CHI2_95_ONE_DOF:  # its trials ran at a placement far worse than the final one
+                return interval
             seen = interval_from_trials(last_fit, trial_key, least, CHI2_95_ONE_DOF)
-            return interval if seen is None else (min(interval[0], seen[0]), max(interval[1], seen[1]))
+            return min(interval[0], seen[0]), max(interval[1], seen[1])
 
         for fit in added:
+            fit.params = current_effects[fit.effect]  # as the last re-fit left it, which the report states
             space = effect_search_space(fit.effect)
 
             def with_params(params, name=fit.effect):
