@@ -418,16 +418,21 @@ def test_bad_candidates_and_keys_are_named(cfg):
 
 def test_words_for_intervals_ranges_and_later_effects():
     """Negative bounds are not run together with hyphens; a value at its search range's edge, or an interval as wide
-    as the range, says so; an effect found after another closes a share of what was left."""
-    from bearingtwin.twin.rank import EffectFit, _identified, _value
+    as the range or nearly (on the range's own scale), says so; an effect found after another closes a share of
+    what was left."""
+    from bearingtwin.twin.rank import EffectFit, identification_words, _value
 
     assert _value(-15.0, [-21.9, -11.0], "dB") == "-15 dB (-21.9 to -11)"
     assert _value(300.0, [200.0, 450.0], "N") == "300 N (200-450)"
     at_edge = {"value": 0.1, "interval": [0.1, 0.124], "range": [0.1, 2.0]}
-    assert _identified(at_edge) == ", at the lower edge of the searched 0.1-2: the value may lie beyond it"
+    assert identification_words(at_edge) == ", at the lower edge of the searched 0.1-2: the value may lie beyond it"
     anywhere = {"value": 2650.0, "interval": [20.0, 5000.0], "range": [20.0, 5000.0]}
-    assert _identified(anywhere) == ", not identified: anywhere in the searched 20-5000 fits as well"
-    assert _identified({"value": 800.0, "interval": [700.0, 900.0], "range": [20.0, 5000.0]}) == ""
+    assert identification_words(anywhere) == ", not identified: anywhere in the searched 20-5000 fits as well"
+    assert identification_words({"value": 800.0, "interval": [700.0, 900.0], "range": [20.0, 5000.0]}) == ""
+    most = {"value": 166.0, "interval": [32.0, 5000.0], "range": [20.0, 5000.0], "scale": "log"}
+    assert identification_words(most) == ", hardly identified: its interval covers 91% of the searched 20-5000"
+    assert identification_words({**most, "scale": "linear"}) == ", hardly identified: its interval covers 99% of the searched 20-5000"
+    assert identification_words({**most, "interval": [38.0, 1568.0]}) == ""  # 67 % of the range on its log scale
     fit = EffectFit("slip", {"jitter": 0.01}, 1.0, 0.34, 3.0, 0.1, 1, "signature: smeared harmonics", comparison=None)
     assert "closes 34 % of the discrepancy" in fit.sentence() and "closes 34 % of what was left" in fit.sentence(first=False)
 

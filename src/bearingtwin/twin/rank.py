@@ -345,15 +345,25 @@ def _value(value: float, interval, unit: str = "") -> str:
     return f"{_number(value)}{unit} ({_span(*interval)})"
 
 
-def _identified(entry: Mapping) -> str:
+HARDLY_IDENTIFIED_SHARE = 0.9
+"""An interval covering this share of its search range (on the range's own scale) leaves the value hardly identified."""
+
+
+def identification_words(entry: Mapping) -> str:
     """What a fitted base parameter's interval says against its search range: nothing when it is inside, else that
-    the value sits at an edge of the range or that any value in the range fits (then the number means little)."""
+    the value sits at an edge of the range, or that any value (or nearly any) in the range fits: then the number
+    means little."""
     search, interval = entry.get("range"), entry.get("interval")
     if not search or not interval:
         return ""
     low, high = search
     if interval[0] <= low * (1 + 1e-6) and interval[1] >= high * (1 - 1e-6):
         return f", not identified: anywhere in the searched {_span(low, high)} fits as well"
+    scale = np.log if entry.get("scale") == "log" else (lambda x: x)
+    share = (scale(interval[1]) - scale(interval[0])) / (scale(high) - scale(low))
+    if share >= HARDLY_IDENTIFIED_SHARE:
+        # rounded down: an interval short of the whole range never reads "100 %"
+        return f", hardly identified: its interval covers {math.floor(100 * share)}% of the searched {_span(low, high)}"
     for edge, side in ((low, "lower"), (high, "upper")):
         if np.isclose(entry["value"], edge, rtol=1e-3):
             return f", at the {side} edge of the searched {_span(low, high)}: the value may lie beyond it"
@@ -383,7 +393,7 @@ def _operating_point_words(operating: Mapping, gain: float) -> str:
         else:
             label = BASE_PARAMETERS[name].description if name in BASE_PARAMETERS else name
             parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}"
-                         + _identified(entry))
+                         + identification_words(entry))
     parts.append(f"sensor gain {_number(gain)} (measurement unit per m/s^2)")
     return ", ".join(parts)
 
@@ -696,12 +706,13 @@ class EffectRanker:
             report[name] = {"value": value, "unit": BASE_PARAMETERS[name].unit, "held": True}
         for name in op.free:
             report[name] = {"value": base_values[name], "unit": BASE_PARAMETERS[name].unit, "held": False,
-                            "interval": list(intervals[name]), "range": list(op.space[name][:2])}
+                            "interval": list(intervals[name]), "range": list(op.space[name][:2]),
+                            "scale": "log" if op.space[name][2] else "linear"}
         for name, value in op.extra_known.items():
             report[name] = {"value": value, "unit": "", "held": True}
         for name in op.extra:
             report[name] = {"value": base_values[name], "unit": "", "held": False, "interval": list(intervals[name]),
-                            "range": list(op.space[name][:2])}
+                            "range": list(op.space[name][:2]), "scale": "log" if op.space[name][2] else "linear"}
         best = min(score for score, _ in scored)
         near = [s for score, s in scored if score <= best + CHI2_95_ONE_DOF]
         races = sorted({s["simulator.sensor"].split("_")[0] for s in near})
