@@ -295,11 +295,11 @@ def test_train_on_the_twin_and_score_the_rigs_records_end_to_end(rig_folder, rep
     assert diagnosed.returncode == 0, diagnosed.stderr[-3000:]
     assert "of 6 with a known state; " in diagnosed.stdout and " of the 4 the model's twin was not calibrated on" in diagnosed.stdout
     for record in ("healthy_a", "outer_a"):
-        notes = json.loads((tmp_path / "diagnosis" / record / "diagnosis.json").read_text())["notes"]
+        diagnosis = json.loads((tmp_path / "diagnosis" / record / "diagnosis.json").read_text())
         assert "the model's twin was calibrated on this record (data.calibration.records): its verdict is no test" \
-               " of the model" in notes
-    assert not any("calibrated on this record" in note for note in
-                   json.loads((tmp_path / "diagnosis" / "inner_b" / "diagnosis.json").read_text())["notes"])
+               " of the model" in diagnosis["notes"] and diagnosis["calibration_record"] is True
+    inner = json.loads((tmp_path / "diagnosis" / "inner_b" / "diagnosis.json").read_text())
+    assert not any("calibrated on this record" in note for note in inner["notes"]) and inner["calibration_record"] is False
     # Another rig's run is no row of the CWRU report: with no CWRU run in the store, the report has nothing to show.
     report = run_module("bearingtwin.cli.report", "sim2real", f"uri={uri}", f"out={tmp_path}/sim2real.md",
                         cwd=tmp_path, timeout=300)

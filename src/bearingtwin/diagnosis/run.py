@@ -164,6 +164,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                                    state, bearing)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
             calibrated_on = bool({path.stem, path.name} & calibrated)
+            result["calibration_record"] = calibrated_on
             if calibrated_on:
                 result["notes"].append("the model's twin was calibrated on this record (data.calibration.records): "
                                        "its verdict is no test of the model")
