@@ -25,6 +25,7 @@ import argparse
 import json
 import os
 import platform
+import shutil
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -41,14 +42,21 @@ COMMAND = "python benchmarks/sim2real_other_sensors.py --out /tmp/other_sensors 
 
 
 def diagnose_channel(channel: str, records: Path, out: Path, model: str, tracking_uri: str) -> list[dict]:
-    """bearingtwin-diagnose on every record holding ``channel``; each record's diagnosis.json."""
+    """bearingtwin-diagnose on every record holding ``channel``; each record's diagnosis.json.
+
+    A channel is diagnosed again unless an earlier run finished whole with the same model and records
+    (``done.json``, written last)."""
     folder = out / channel
-    if not (folder / "summary.csv").is_file():
+    done = folder / "done.json"
+    asked = {"model": model, "tracking_uri": tracking_uri, "records": str(records)}
+    if not done.is_file() or json.loads(done.read_text()) != asked:
+        shutil.rmtree(folder, ignore_errors=True)
         # Record 97 has no base-plate channel: BA is read on the fault records only.
         pattern = "12k_*.mat" if channel == "BA" else "*.mat"
         run(["bearingtwin-diagnose", f"path={records / pattern}", f"model={model}", f"channel={channel}",
              "bearing=cwru_6205", f"out={folder}", "figures=false", f"tracking.uri={tracking_uri}",
              "tracking.enabled=false"], out / f"diagnose_{channel}.log")
+        done.write_text(json.dumps(asked))
     return [json.loads(path.read_text()) for path in sorted(folder.glob("*/diagnosis.json"))]
 
 
@@ -136,8 +144,8 @@ def plot(by_channel: dict[str, list[dict]], path: Path) -> None:
     ax.set(xticks=x, ylabel="test records right", ylim=(0, 1.05),
            title="the same drive-end faults through three accelerometers")
     ax.set_xticklabels(labels, fontsize=8)
-    ax.legend(fontsize=8, loc="lower left")
-    fig.tight_layout()
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -191,7 +199,7 @@ def main() -> int:
             check_generated_target(args.results / "sim2real_other_sensors.md", MARKER)
         except BearingTwinError as error:
             refuse(str(error))
-    require_model(args.model, args.tracking_uri)
+    require_model(args.model, args.tracking_uri, option="--model", skip_hint=False)
     args.out.mkdir(parents=True, exist_ok=True)
     by_channel = {channel: diagnose_channel(channel, args.data, args.out, args.model, args.tracking_uri)
                   for channel in CHANNELS}

@@ -110,15 +110,15 @@ def rig_records(folder: Path, seed: int) -> list[Path]:
     return paths
 
 
-def require_model(model: str, tracking_uri: str) -> None:
-    """Stop before any work if ``model`` cannot be loaded from ``tracking_uri``."""
+def require_model(model: str, tracking_uri: str, option: str = "--cwru-model", skip_hint: bool = True) -> None:
+    """Stop before any work if ``model`` (given as ``option``) cannot be loaded from ``tracking_uri``."""
     from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 
     try:
         load_diagnosis_model(model, tracking_uri)
     except Exception as error:  # MLflow raises several kinds for a missing model or store
-        refuse(f"--cwru-model: {str(error).splitlines()[0]}; run bearingtwin-train +experiment=sim2real first, "
-               "or pass --cwru-model none")
+        refuse(f"{option}: {str(error).splitlines()[0]}; run bearingtwin-train +experiment=sim2real first"
+               + (f", or pass {option} none" if skip_hint else ""))
 
 
 def record_named(folder: Path, prefix: str) -> Path:

@@ -433,6 +433,11 @@ def test_words_for_intervals_ranges_and_later_effects():
     assert identification_words(most) == ", hardly identified: its interval covers 91% of the searched 20-5000"
     assert identification_words({**most, "scale": "linear"}) == ", hardly identified: its interval covers 99% of the searched 20-5000"
     assert identification_words({**most, "interval": [38.0, 1568.0]}) == ""  # 67 % of the range on its log scale
+    assert identification_words({key: most[key] for key in ("value", "interval", "range")}) == ""  # scale unknown
+    negative = {"value": -20.0, "interval": [-30.0, -10.0], "range": [-30.0, -10.0], "scale": "linear"}
+    assert identification_words(negative) == ", not identified: anywhere in the searched -30 to -10 fits as well"
+    assert identification_words({**negative, "interval": [-29.0, -10.5]}) == \
+        ", hardly identified: its interval covers 92% of the searched -30 to -10"
     fit = EffectFit("slip", {"jitter": 0.01}, 1.0, 0.34, 3.0, 0.1, 1, "signature: smeared harmonics", comparison=None)
     assert "closes 34 % of the discrepancy" in fit.sentence() and "closes 34 % of what was left" in fit.sentence(first=False)
 

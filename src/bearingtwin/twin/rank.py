@@ -357,10 +357,11 @@ def identification_words(entry: Mapping) -> str:
     if not search or not interval:
         return ""
     low, high = search
-    if interval[0] <= low * (1 + 1e-6) and interval[1] >= high * (1 - 1e-6):
+    slack = 1e-6 * (high - low)  # rounding of bounds of either sign
+    if interval[0] <= low + slack and interval[1] >= high - slack:
         return f", not identified: anywhere in the searched {_span(low, high)} fits as well"
-    scale = np.log if entry.get("scale") == "log" else (lambda x: x)
-    share = (scale(interval[1]) - scale(interval[0])) / (scale(high) - scale(low))
+    scale = {"log": np.log, "linear": lambda x: x}.get(entry.get("scale"))  # unknown in reports older than the key
+    share = (scale(interval[1]) - scale(interval[0])) / (scale(high) - scale(low)) if scale else 0.0
     if share >= HARDLY_IDENTIFIED_SHARE:
         # rounded down: an interval short of the whole range never reads "100 %"
         return f", hardly identified: its interval covers {math.floor(100 * share)}% of the searched {_span(low, high)}"
