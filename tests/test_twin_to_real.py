@@ -342,6 +342,42 @@ def test_variants_simulate_every_state_at_every_value_and_the_value_reaches_the_
     assert bsf2["0.4"] < 0.8 * bsf2["0.01"], bsf2  # measured 0.033 against 0.053
 
 
+def test_a_background_hears_every_twin_record_again_and_weakens_its_series(report_path, tmp_path):
+    """data.twin.background_snr_db: each twin record again with white background at each level, labelled as the
+    record, seeded (the same twin twice gives the same windows); the test windows and, for null, the dataset's
+    key stay what they were; the inner race's BPFI series stands lower over the floor, most at 0 dB."""
+    from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
+
+    overrides = SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=0", "data.twin.duration=1.0",
+                         "data.twin.windows_per_record=5", f"paths.cache_dir={tmp_path}"]
+    plain = build_dataset(compose_train(overrides))
+    assert plain.key == build_dataset(compose_train(overrides + ["data.twin.background_snr_db=null"])).key
+    heard = build_dataset(compose_train(overrides + ["data.twin.background_snr_db=[10.0,0.0]"]))
+    again = build_dataset(compose_train(overrides + ["data.twin.background_snr_db=[10.0,0.0]"]))
+    np.testing.assert_array_equal(heard.windows, again.windows)
+    assert heard.key != plain.key
+    plain_twin = [r for r in plain.records if r.startswith(TWIN_PREFIX)]
+    assert [r for r in heard.records if r.startswith(TWIN_PREFIX)] == plain_twin + [
+        f"{r}[background {level} dB]" for level in ("10", "0") for r in plain_twin]
+    train, test = heard.fixed_split
+    assert len(train) == 3 * len(plain.fixed_split[0])
+    np.testing.assert_array_equal(heard.windows[test], plain.windows[plain.fixed_split[1]])
+    for index, record in enumerate(heard.records[:len(plain_twin) * 3]):
+        assert set(heard.labels[heard.record_ids == index]) == {FAULTS.index(record[len(TWIN_PREFIX):].split("@")[0])}
+    extractor = EnvelopeOrderFeatures(bearing=dict(compose_train(overrides).bearing))
+    bpfi = {}
+    for suffix in ("rpm", "[background 10 dB]", "[background 0 dB]"):
+        ids = [i for i, r in enumerate(heard.records) if r.startswith(f"{TWIN_PREFIX}inner@") and r.endswith(suffix)]
+        rows = np.isin(heard.record_ids, ids)
+        features = extractor.fit_transform(heard.windows[rows], fs_hz=heard.fs, rpm=heard.window_rpms[rows])
+        bpfi[suffix] = features[:, extractor.feature_names_.index("1xbpfi")].mean()
+    assert bpfi["rpm"] > bpfi["[background 10 dB]"] > bpfi["[background 0 dB]"], bpfi
+    with pytest.raises(BearingTwinError, match=r"data\.twin\.background_snr_db must be null or a non-empty list"):
+        build_dataset(compose_train(overrides + ["data.twin.background_snr_db=[]"]))
+    with pytest.raises(BearingTwinError, match=r"data\.twin\.background_snr_db must be null or a non-empty list"):
+        build_dataset(compose_train(overrides + ["data.twin.background_snr_db=10"]))
+
+
 @pytest.mark.parametrize("variants, message", [
     ("+data.twin.variants.spin_slip.jitter=[]", r"data\.twin\.variants\.spin_slip\.jitter: need a non-empty list"),
     ("+data.twin.variants.spin_slip=0.2", r"data\.twin\.variants\.spin_slip: give parameter: \[values"),

@@ -367,6 +367,32 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     return signals, key
 
 
+def background_levels(twin_cfg: Mapping) -> list[float]:
+    """``data.twin.background_snr_db``: the levels (dB, the twin record's RMS over the background's) at which each
+    twin record is heard again with a background of other sources added; [] for null (none)."""
+    levels = twin_cfg.get("background_snr_db")
+    if levels is None:
+        return []
+    if isinstance(levels, (str, bytes)) or not isinstance(levels, Sequence) or not levels \
+            or not all(is_finite_number(level) for level in levels):
+        raise BearingTwinError(f"data.twin.background_snr_db must be null or a non-empty list of finite numbers (dB), "
+                               f"got {levels!r}")
+    return [float(level) for level in levels]
+
+
+def with_background(signal: np.ndarray, snr_db: float, seed: Sequence[int]) -> np.ndarray:
+    """``signal`` with white Gaussian background added ``snr_db`` below its RMS (seeded by ``seed``).
+
+    What the twin does not model at a sensor away from the bearing, or on another machine: the other
+    sources its path mixes in (a motor, a fan, another bearing), which raise the floor under the
+    defect's lines and weaken their harmonics most. Heard at several levels, the twin's states teach
+    a classifier that a weaker series is still the same fault.
+    """
+    rng = np.random.default_rng(np.random.SeedSequence(list(seed)))
+    rms = float(np.sqrt(np.mean(np.square(signal))))
+    return signal + rng.standard_normal(signal.size) * rms * 10.0 ** (-snr_db / 20.0)
+
+
 def simulator_settings(simulator_cfg: Mapping, randomize: Mapping | None) -> list[tuple[str, dict]]:
     """(label, simulator config) for every combination of ``twin.randomize`` values; [("", config)] without any.
 
@@ -560,12 +586,15 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                 for effect_label, varied in effect_variants(effects, cfg["twin"].get("variants"))
                 for setting_label, setting in simulator_settings(simulator, cfg["twin"].get("randomize"))]
     length = cfg["window_length"]
+    backgrounds = background_levels(cfg["twin"])
+    hearings = [None, *backgrounds]  # each twin record as simulated, then with each background
     validation_records = list(calibration_records.values()) if n_validation else []
     # Before minutes of simulation: every twin record is a state at a distinct measured speed in a variant.
-    check_windows_fit(len(variants) * len(faults) * len(rpms), length, cfg["twin"]["windows_per_record"],
+    check_windows_fit(len(variants) * len(faults) * len(rpms) * len(hearings), length, cfg["twin"]["windows_per_record"],
                       "data.twin.windows_per_record",
                       records=f"twin records ({len(faults)} states x {len(rpms)} distinct speeds of the records, to "
-                              f"0.1 rpm, x {len(variants)} variant{'s' * (len(variants) != 1)})",
+                              f"0.1 rpm, x {len(variants)} variant{'s' * (len(variants) != 1)}"
+                              + (f" x {len(hearings)} hearings (data.twin.background_snr_db)" if backgrounds else "") + ")",
                       remedy=", or give records of one nominal speed that speed (a labels table's rpm column)")
 
     def windows_of(signal: np.ndarray, n_windows: int, source: str):
@@ -574,7 +603,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         except BearingTwinError as error:  # which record is too short
             raise BearingTwinError(f"{source}: {error} (data.window_length)") from None
 
-    cuts, record_lengths, twin_keys, sources = [], [], [], []
+    cuts, record_lengths, twin_keys, sources, twin_labels, twin_rpms = [], [], [], [], [], []
+    seed = whole_number("simulator.seed", simulator["seed"], minimum=0)
     # Simulating every variant takes minutes (seconds each); cached ones are read in a blink. Shown in a
     # terminal only (disable=None), not in CI or a log. A variant's records are cut at once: only their
     # windows are kept (every variant's whole records at once outgrew a 23 GB machine at 25.6 kHz).
@@ -584,14 +614,20 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                                             variant=index if len(variants) > 1 else None)
         twin_keys.append(key)
         names = [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" + (f"[{label}]" if label else "") for fault in faults for rpm in rpms]
-        cuts += [windows_of(signal, cfg["twin"]["windows_per_record"], source)
-                 for signal, source in zip(variant_signals, names)]
-        record_lengths += [signal.size for signal in variant_signals]
-        sources += names
+        for level_index, snr_db in enumerate(hearings):
+            for record_index, (signal, name) in enumerate(zip(variant_signals, names)):
+                if snr_db is not None:
+                    signal = with_background(signal, snr_db, (seed, index, level_index, record_index))
+                    name = f"{name}[background {snr_db:g} dB]"
+                cuts.append(windows_of(signal, cfg["twin"]["windows_per_record"], name))
+                record_lengths.append(signal.size)
+                sources.append(name)
+            twin_labels += [FAULTS.index(fault) for fault in faults for _ in rpms]
+            twin_rpms += [float(rpm) for _ in faults for rpm in rpms]
     twin_key = twin_keys[0] if len(twin_keys) == 1 else content_key(twin_keys)
     n_twin_records = len(cuts)
 
-    labels = [FAULTS.index(fault) for _ in variants for fault in faults for _ in rpms]
+    labels = list(twin_labels)
     cuts += [windows_of(r.signal, cfg["test"]["windows_per_record"], r.source) for r in tests]
     cuts += [windows_of(r.signal, n_validation, r.source) for r in validation_records]
     labels += [r.label for r in tests + validation_records]
@@ -617,13 +653,15 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         key=content_key({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
                          # the folder and the table are no part of the data (their places differ between machines);
                          # what a labelled record holds and is labelled is
-                         "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")},
+                         "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")} | (
+                             # a null background is what its absence was: the key stays that of earlier runs
+                             {"twin": {k: v for k, v in cfg["twin"].items() if k != "background_snr_db"}}
+                             if cfg["twin"].get("background_snr_db") is None else {}),
                          **({"labels": [(p.name, file_digest(p), *labelled[p]) for p in calibration_paths + test_paths]}
                             if table else {})}),
         record_lengths=record_lengths + [r.signal.size for r in tests + validation_records],
         fixed_split=(index[:n_twin], index[n_twin:n_twin + n_test]),
         window_normalization=normalization,
         validation=index[n_twin + n_test:],
-        record_rpms=[float(rpm) for _ in variants for _ in faults for rpm in rpms]
-                    + [float(r.rpm) for r in tests + validation_records],
+        record_rpms=twin_rpms + [float(r.rpm) for r in tests + validation_records],
     )
