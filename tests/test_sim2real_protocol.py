@@ -1,6 +1,9 @@
 """The pre-registered protocol's headline: its runs read back from a real MLflow store, beside the
 physics baseline computed on the real test records and on the record scored for false alarms."""
 
+import re
+from pathlib import Path
+
 import pytest
 from mlflow import MlflowClient
 
@@ -58,17 +61,26 @@ def test_the_headline_reads_every_seed_of_every_version_and_computes_the_physics
     assert plot_headline({"v1": result, "v2": newer}, tmp_path / "headline.png").stat().st_size > 10_000
 
 
-def test_every_protocol_version_is_a_dated_file_and_sim2real_selects_the_newest(tmp_path):
+def test_every_protocol_version_is_a_dated_file_and_sim2real_selects_the_version_in_force(tmp_path):
+    """sim2real.yaml names one version (the newest its own rule adopted) and is that version to the key; a newer
+    version not adopted says in its section of results/sim2real_protocol.md by which rule it would have been."""
     from hydra import compose, initialize_config_dir
 
-    from bearingtwin.config import CONF_DIR
+    from bearingtwin.config import CONF_DIR, REPO_ROOT
 
     versions = protocol_versions()
     assert list(versions)[:2] == ["sim2real_v1", "sim2real_v2"] and versions["sim2real_v1"] == "v1 (2026-11-23)"
+    (in_force,) = re.findall(r"^  - (sim2real_v\d+)$", (Path(CONF_DIR) / "experiment" / "sim2real.yaml").read_text(), re.M)
+    assert in_force in versions
     with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
         current = compose("train", overrides=["+experiment=sim2real"])
-        newest = compose("train", overrides=[f"+experiment={list(versions)[-1]}"])
-    assert current == newest and current.protocol == list(versions)[-1]  # the runs' tag, whichever name selected it
+        named = compose("train", overrides=[f"+experiment={in_force}"])
+    assert current == named and current.protocol == in_force  # the runs' tag, whichever name selected it
+    protocol_text = (REPO_ROOT / "results" / "sim2real_protocol.md").read_text()
+    for later in list(versions)[list(versions).index(in_force) + 1:]:
+        number = later.rpartition("v")[2]
+        section = protocol_text[protocol_text.index(f"# Sim2real protocol, version {number} "):]
+        assert f"replaces version {int(number) - 1} as `+experiment=sim2real`" in section and "only if" in section
     (tmp_path / "experiment").mkdir()
     (tmp_path / "experiment" / "sim2real_v1.yaml").write_text("# a protocol without its version and date\n")
     with pytest.raises(BearingTwinError, match="sim2real_v1.yaml: a protocol version opens with"):

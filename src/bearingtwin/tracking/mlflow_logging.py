@@ -500,7 +500,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "features": choices.get("features", ""),
         "classifier": choices.get("classifier", ""),
         # +experiment=<name>: a protocol's runs; a versioned protocol names itself (``protocol: sim2real_v2``),
-        # so its runs are found whichever name selected it (+experiment=sim2real selects the newest)
+        # so its runs are found whichever name selected it (+experiment=sim2real selects the version in force)
         "experiment": cfg.get("protocol") or choices.get("experiment") or "",
         "seed": str(cfg.seed),
         "git_commit": _git_commit(),

@@ -2,7 +2,8 @@
 
 Each version of the protocol is a dated config, ``conf/experiment/sim2real_v<N>.yaml``, stated in
 words in ``results/sim2real_protocol.md`` before its runs and never edited afterwards;
-``+experiment=sim2real`` selects the newest. A version's runs carry the tag ``experiment=<name>``;
+``+experiment=sim2real`` selects the version in force (the newest its own rule adopted). A version's
+runs carry the tag ``experiment=<name>``;
 :func:`protocol_headline` reads every FINISHED one (one per seed) and sets them beside the
 physics baseline on the same test records: the envelope analysis of
 :func:`bearingtwin.diagnosis.evidence.physics_evidence`, no learning, read on each whole record
