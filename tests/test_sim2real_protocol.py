@@ -77,10 +77,11 @@ def test_every_protocol_version_is_a_dated_file_and_sim2real_selects_the_version
         named = compose("train", overrides=[f"+experiment={in_force}"])
     assert current == named and current.protocol == in_force  # the runs' tag, whichever name selected it
     protocol_text = (REPO_ROOT / "results" / "sim2real_protocol.md").read_text()
+    in_force_number = in_force.rpartition("v")[2]
     for later in list(versions)[list(versions).index(in_force) + 1:]:
-        number = later.rpartition("v")[2]
-        section = protocol_text[protocol_text.index(f"# Sim2real protocol, version {number} "):]
-        assert f"replaces version {int(number) - 1} as `+experiment=sim2real`" in section and "only if" in section
+        section = protocol_text[protocol_text.index(f"# Sim2real protocol, version {later.rpartition('v')[2]} "):]
+        section = section.split("\n# Sim2real protocol, version ")[0]  # that version's own section only
+        assert f"replaces version {in_force_number} as `+experiment=sim2real`" in section and "only if" in section
     (tmp_path / "experiment").mkdir()
     (tmp_path / "experiment" / "sim2real_v1.yaml").write_text("# a protocol without its version and date\n")
     with pytest.raises(BearingTwinError, match="sim2real_v1.yaml: a protocol version opens with"):

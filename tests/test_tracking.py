@@ -105,15 +105,19 @@ def test_config_hash_ignores_where_and_how_but_not_what(tmp_path):
     assert config_hash(shown) != config_hash(hidden)
 
 
-def test_an_optional_key_at_its_null_default_keeps_the_hash_runs_had_before_it_existed(tmp_path):
-    before = make_cfg(tmp_path)  # a config recorded before data.labels existed
+@pytest.mark.parametrize("key, value", [("data.labels", "labels.csv"), ("data.twin.background_snr_db", [10.0, 0.0])])
+def test_an_optional_key_at_its_null_default_keeps_the_hash_runs_had_before_it_existed(tmp_path, key, value):
+    before = make_cfg(tmp_path)  # a config recorded before the key existed
+    before.data.twin = {"duration": 4.0}
     unset = make_cfg(tmp_path)
-    unset.data.labels = None
+    unset.data.twin = {"duration": 4.0}
+    OmegaConf.update(unset, key, None, force_add=True)
     assert config_hash(unset) == config_hash(before)  # a resumed sweep skips the runs it finished
-    labelled = make_cfg(tmp_path)
-    labelled.data.labels = "labels.csv"
-    assert config_hash(labelled) != config_hash(before)
-    assert "labels" not in before.data  # the hash left the config it was given as it was
+    given = make_cfg(tmp_path)
+    given.data.twin = {"duration": 4.0}
+    OmegaConf.update(given, key, value, force_add=True)
+    assert config_hash(given) != config_hash(before)
+    assert OmegaConf.select(unset, key, default="absent") is None  # the hash left the config it was given as it was
 
 
 def test_a_run_logs_config_metrics_curves_and_tables(tmp_path):
