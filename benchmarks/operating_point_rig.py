@@ -172,9 +172,7 @@ def write_results(results: list[dict], folder: Path, jobs: int) -> Path:
         markdown_table(["spall", "clearance", "rate", "rig's load (N)", "fitted (N)", "interval (N)", "inside",
                         "clearance fitted (um)"], case_rows(results)),
     ])
-    if not path.is_file():
-        path.write_text(f"# The operating point from the independent rig: a known radial load\n\n{MARKER}\n{MARKER}\n")
-    write_generated(path, generated, MARKER)
+    write_generated(path, generated, MARKER, heading="# The operating point from the independent rig: a known radial load")
     return path
 
 

@@ -202,9 +202,7 @@ def main() -> None:
                  + "; ".join(f"{stem}: {', '.join(effects) or 'none'}" for stem, effects in found.items())
                  + f".\n\nThe training run's summary:\n\n```text\n{training.strip()}\n```\n\n```bash\n{command}\n```\n\n"
                  f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}.\n")
-        if not path.exists():
-            path.write_text(f"# Sim2real on a rig of another bearing, rate and unit (exploratory)\n\n{MARKER}\n{MARKER}\n")
-        write_generated(path, block, MARKER)
+        write_generated(path, block, MARKER, heading="# Sim2real on a rig of another bearing, rate and unit (exploratory)")
         print(f"wrote {path}")
     print(f"done in {time.time() - started:.0f} s; everything in {out}")
 

@@ -173,10 +173,8 @@ def write_results(by_channel: dict[str, list[dict]], folder: Path, model: str, f
         "at the defect orders after cepstral pre-whitening, and the band's share of a window's power, log10):",
         markdown_table(["state", "channel", *features[0]], features[1]),
     ])
-    if not path.is_file():
-        path.write_text("# The sim2real model through the CWRU rig's other accelerometers (exploratory)\n\n"
-                        f"{MARKER}\n{MARKER}\n")
-    write_generated(path, generated, MARKER)
+    write_generated(path, generated, MARKER,
+                    heading="# The sim2real model through the CWRU rig's other accelerometers (exploratory)")
     return path
 
 

@@ -273,10 +273,8 @@ def main() -> None:
         figure = Path(shutil.copy(figure, results / figure.name))
         path = results / "sim2real_rig.md"
         generated = results_markdown(table, summary, rig_runs, figure, args)
-        if not path.exists():
-            path.write_text(f"# Sim2real on another rig: other fault sizes and outer-race positions (exploratory)\n\n"
-                            f"{MARKER}\n{MARKER}\n")
-        write_generated(path, generated, MARKER)
+        write_generated(path, generated, MARKER,
+                        heading="# Sim2real on another rig: other fault sizes and outer-race positions (exploratory)")
         print(f"wrote {path} and {figure}")
     print(f"done in {time.time() - started:.0f} s; everything in {out}")
 

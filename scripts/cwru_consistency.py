@@ -30,7 +30,7 @@ from scipy.io import loadmat
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.tracking.tables import check_generated_target, markdown_table, write_generated
+from bearingtwin.tracking.tables import markdown_table, write_generated
 
 # The same folder the configs read: paths.data_root = $BEARINGTWIN_DATA or ../shared/data.
 DATA = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
@@ -149,11 +149,7 @@ def summarize(args) -> None:
     if out.exists() and not out.is_dir():
         raise BearingTwinError(f"--out={out} is a file; give the folder to write cwru_consistency.md into")
     path = out / "cwru_consistency.md"
-    check_generated_target(path, MARKER)  # a folder, or another file of that name, is refused before writing
-    if not path.is_file():
-        out.mkdir(parents=True, exist_ok=True)
-        path.write_text(f"{TITLE}\n\n{MARKER}\n{MARKER}\n")
-    write_generated(path, generated, MARKER)  # the title, introduction and discussion around it are kept
+    write_generated(path, generated, MARKER, heading=TITLE)  # the title, introduction and discussion around it are kept
     print(agreement)
     print(path)
 

@@ -43,6 +43,20 @@ def finished(uri, method):
     return client.search_runs([experiment_id], f"tags.method = '{method}' and attributes.status = 'FINISHED'")
 
 
+def test_a_generated_block_opens_a_new_file_under_its_heading_and_keeps_hand_written_text_after(tmp_path):
+    from bearingtwin.tracking.tables import write_generated
+
+    path, marker = tmp_path / "new" / "report.md", "<!-- generated -->"
+    write_generated(path, "| a |", marker, heading="# Title")
+    assert path.read_text() == f"# Title\n\n{marker}\n\n| a |\n\n{marker}\n"
+    path.write_text(path.read_text() + "\n## Discussion\n")
+    write_generated(path, "| b |", marker, heading="# Another title")  # an existing file keeps its own
+    assert path.read_text() == f"# Title\n\n{marker}\n\n| b |\n\n{marker}\n\n## Discussion\n"
+    bare = tmp_path / "bare.md"
+    write_generated(bare, "| a |", marker)
+    assert bare.read_text() == f"{marker}\n\n| a |\n\n{marker}\n"
+
+
 def test_paper_figures_are_consistent_with_their_stated_statistics():
     mean, std = mean_std(paper.SEED_ACCURACIES)
     assert (round(mean, 2), round(std, 2)) == (paper.ACCURACY_MEAN, paper.ACCURACY_STD)

@@ -46,14 +46,16 @@ def check_generated_target(path: Path, marker: str) -> str:
     return text
 
 
-def write_generated(path: Path, generated: str, marker: str) -> None:
+def write_generated(path: Path, generated: str, marker: str, heading: str = "") -> None:
     """Write ``generated`` between two ``marker`` lines of ``path``, keeping hand-written text around it.
 
     The prose a person wrote above and below a table survives regenerating it. A new (or empty)
-    file gets the markers with the text; an existing file without two of them is refused, named:
-    it holds something else, which writing over would lose.
+    file gets ``heading`` (if any), then the markers with the text; an existing file without two of
+    them is refused, named: it holds something else, which writing over would lose.
     """
     text = check_generated_target(path, marker)
+    if not text.strip() and heading:
+        text = f"{heading.strip()}\n\n{marker}\n{marker}\n"
     before, _, rest = text.partition(marker)
     _, _, after = rest.partition(marker)
     try:

@@ -137,7 +137,7 @@ def slice_interval(objective: Callable[[dict[str, float]], float], space: dict[s
     and interpolates linearly to the crossing; the box's edge bounds it.
     """
     scored = run_plain(objective)
-    centre = _to_unit(space[name], best[name])
+    centre = to_unit(space[name], best[name])
     edges = []
     for direction in (-1.0, 1.0):
         inside_u, inside_value = centre, best_value
@@ -181,10 +181,11 @@ def _from_unit(bounds: Bounds, u: float) -> float:
 
 def _distance(space: dict[str, Bounds], a: dict[str, float], b: dict[str, float]) -> float:
     """Largest coordinate difference of two points in unit-box coordinates."""
-    return max(abs(_to_unit(space[n], a[n]) - _to_unit(space[n], b[n])) for n in space)
+    return max(abs(to_unit(space[n], a[n]) - to_unit(space[n], b[n])) for n in space)
 
 
-def _to_unit(bounds: Bounds, value: float) -> float:
+def to_unit(bounds: Bounds, value: float) -> float:
+    """Where ``value`` lies in ``bounds`` on the range's own scale (log where it says so): 0 at low, 1 at high."""
     low, high, log = bounds
     return math.log(value / low) / math.log(high / low) if log else (value - low) / (high - low)
 
@@ -203,7 +204,7 @@ def _polish(run, space: dict[str, Bounds], start: dict[str, float], n_evaluation
         params.append(trial)
         return value
 
-    x0 = np.array([_to_unit(space[name], start[name]) for name in names])
+    x0 = np.array([to_unit(space[name], start[name]) for name in names])
     simplex = np.vstack([x0] + [x0 + np.where(np.arange(len(names)) == i, 0.1 if x0[i] < 0.9 else -0.1, 0.0)
                                 for i in range(len(names))])
     scipy_minimize(scored, x0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(names),

@@ -51,7 +51,7 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.twin.calibrate import SLICE_STEPS, interval_from_trials, minimize, slice_interval
+from bearingtwin.twin.calibrate import SLICE_STEPS, interval_from_trials, minimize, slice_interval, to_unit
 from bearingtwin.twin.compare import VIEWS, Comparator, Comparison, CompareSettings
 from bearingtwin.twin.model import TwinModel, effect_defaults, effect_search_space
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, OperatingPoint, describe_sensor
@@ -360,8 +360,9 @@ def identification_words(entry: Mapping) -> str:
     slack = 1e-6 * (high - low)  # rounding of bounds of either sign
     if interval[0] <= low + slack and interval[1] >= high - slack:
         return f", not identified: anywhere in the searched {_span(low, high)} fits as well"
-    scale = {"log": np.log, "linear": lambda x: x}.get(entry.get("scale"))  # unknown in reports older than the key
-    share = (scale(interval[1]) - scale(interval[0])) / (scale(high) - scale(low)) if scale else 0.0
+    bounds = (low, high, entry.get("scale") == "log")
+    # the share of the range on its own scale (unknown in reports older than the key: none claimed)
+    share = to_unit(bounds, interval[1]) - to_unit(bounds, interval[0]) if entry.get("scale") else 0.0
     if share >= HARDLY_IDENTIFIED_SHARE:
         # rounded down: an interval short of the whole range never reads "100 %"
         return f", hardly identified: its interval covers {math.floor(100 * share)}% of the searched {_span(low, high)}"
@@ -705,15 +706,17 @@ class EffectRanker:
         report = {}
         for name, value in op.known.items():
             report[name] = {"value": value, "unit": BASE_PARAMETERS[name].unit, "held": True}
+        def fitted(name: str, unit: str) -> dict:
+            low, high, log = op.space[name]
+            return {"value": base_values[name], "unit": unit, "held": False, "interval": list(intervals[name]),
+                    "range": [low, high], "scale": "log" if log else "linear"}
+
         for name in op.free:
-            report[name] = {"value": base_values[name], "unit": BASE_PARAMETERS[name].unit, "held": False,
-                            "interval": list(intervals[name]), "range": list(op.space[name][:2]),
-                            "scale": "log" if op.space[name][2] else "linear"}
+            report[name] = fitted(name, BASE_PARAMETERS[name].unit)
         for name, value in op.extra_known.items():
             report[name] = {"value": value, "unit": "", "held": True}
         for name in op.extra:
-            report[name] = {"value": base_values[name], "unit": "", "held": False, "interval": list(intervals[name]),
-                            "range": list(op.space[name][:2]), "scale": "log" if op.space[name][2] else "linear"}
+            report[name] = fitted(name, "")
         best = min(score for score, _ in scored)
         near = [s for score, s in scored if score <= best + CHI2_95_ONE_DOF]
         races = sorted({s["simulator.sensor"].split("_")[0] for s in near})
