@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
+import scipy.signal
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
@@ -393,6 +394,63 @@ def with_background(signal: np.ndarray, snr_db: float, seed: Sequence[int]) -> n
     return signal + rng.standard_normal(signal.size) * rms * 10.0 ** (-snr_db / 20.0)
 
 
+HEARING_KEYS = ("background_snr_db", "other_paths")
+"""``data.twin`` options that hear every twin record again; null (their default) leaves the dataset's key as before."""
+OTHER_PATH_KEYS = ("hearings", "modes", "natural_frequency_hz", "damping_ratio")
+
+
+def other_path_settings(twin_cfg: Mapping) -> dict | None:
+    """``data.twin.other_paths``, checked: ``hearings`` (paths per twin record), ``modes`` (per path) and the
+    [low, high] ranges of the modes' ``natural_frequency_hz`` and ``damping_ratio``; None for null (none)."""
+    settings = twin_cfg.get("other_paths")
+    if settings is None:
+        return None
+    if not isinstance(settings, Mapping) or set(settings) != set(OTHER_PATH_KEYS):
+        raise BearingTwinError(f"data.twin.other_paths must be null or give exactly {', '.join(OTHER_PATH_KEYS)}, "
+                               f"got {settings!r}")
+    checked = {name: whole_number(f"data.twin.other_paths.{name}", settings[name], minimum=1)
+               for name in ("hearings", "modes")}
+    for name, (least, most) in (("natural_frequency_hz", (0.0, math.inf)), ("damping_ratio", (0.0, 1.0))):
+        bounds = settings[name]
+        if isinstance(bounds, (str, bytes)) or not isinstance(bounds, Sequence) or len(bounds) != 2 \
+                or not all(is_finite_number(v) for v in bounds) or not least < bounds[0] <= bounds[1] < most:
+            raise BearingTwinError(f"data.twin.other_paths.{name} must be [low, high] with {least:g} < low <= high "
+                                   f"< {most:g}, got {bounds!r}")
+        checked[name] = (float(bounds[0]), float(bounds[1]))
+    return checked
+
+
+def through_other_path(signal: np.ndarray, fs_hz: float, modes: int, natural_frequency_hz: tuple[float, float],
+                       damping_ratio: tuple[float, float], seed: Sequence[int]) -> np.ndarray:
+    """``signal`` as a sensor elsewhere on the structure hears it: through ``modes`` lightly damped modes in
+    parallel, its RMS kept.
+
+    Each mode's natural frequency (Hz) and damping ratio are drawn log-uniform from their [low, high] ranges
+    and its modal weight standard normal (seeded by ``seed``); a mode is the impulse-invariant resonator
+    ``h[n] = r^n sin(n theta)`` (scipy.signal.lfilter), skipped above the Nyquist rate. What the twin's one
+    calibrated path does not show: another path's modes ring with phases of their own, which spreads each
+    impact in time even after pre-whitening has flattened the path's spectrum, so the envelope's harmonics
+    stand lower and the band holds another share of the power.
+    """
+    rng = np.random.default_rng(np.random.SeedSequence(list(seed)))
+    signal = np.asarray(signal, dtype=np.float64)
+    log_f, log_zeta = np.log(natural_frequency_hz), np.log(damping_ratio)
+    heard = np.zeros_like(signal)
+    for _ in range(modes):
+        frequency_hz, zeta = np.exp(rng.uniform(*log_f)), np.exp(rng.uniform(*log_zeta))
+        weight = rng.standard_normal()
+        if frequency_hz >= fs_hz / 2.0:
+            continue
+        omega = 2.0 * np.pi * frequency_hz / fs_hz
+        radius, theta = np.exp(-zeta * omega), omega * np.sqrt(1.0 - zeta ** 2)
+        heard += weight * scipy.signal.lfilter([0.0, radius * np.sin(theta)],
+                                               [1.0, -2.0 * radius * np.cos(theta), radius ** 2], signal)
+    rms = float(np.sqrt(np.mean(np.square(heard))))
+    if rms == 0.0:  # every mode above the Nyquist rate: nothing heard through this path
+        return signal
+    return heard * float(np.sqrt(np.mean(np.square(signal)))) / rms
+
+
 def simulator_settings(simulator_cfg: Mapping, randomize: Mapping | None) -> list[tuple[str, dict]]:
     """(label, simulator config) for every combination of ``twin.randomize`` values; [("", config)] without any.
 
@@ -587,14 +645,18 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                 for setting_label, setting in simulator_settings(simulator, cfg["twin"].get("randomize"))]
     length = cfg["window_length"]
     backgrounds = background_levels(cfg["twin"])
-    hearings = [None, *backgrounds]  # each twin record as simulated, then with each background
+    paths = other_path_settings(cfg["twin"])
+    # Each twin record as simulated, then with each background, then through each other path.
+    hearings = [None, *(("background", level) for level in backgrounds),
+                *(("path", number) for number in range(1, 1 + (paths["hearings"] if paths else 0)))]
     validation_records = list(calibration_records.values()) if n_validation else []
     # Before minutes of simulation: every twin record is a state at a distinct measured speed in a variant.
     check_windows_fit(len(variants) * len(faults) * len(rpms) * len(hearings), length, cfg["twin"]["windows_per_record"],
                       "data.twin.windows_per_record",
                       records=f"twin records ({len(faults)} states x {len(rpms)} distinct speeds of the records, to "
                               f"0.1 rpm, x {len(variants)} variant{'s' * (len(variants) != 1)}"
-                              + (f" x {len(hearings)} hearings (data.twin.background_snr_db)" if backgrounds else "") + ")",
+                              + (f" x {len(hearings)} hearings (data.twin.background_snr_db, data.twin.other_paths)"
+                                 if len(hearings) > 1 else "") + ")",
                       remedy=", or give records of one nominal speed that speed (a labels table's rpm column)")
 
     def windows_of(signal: np.ndarray, n_windows: int, source: str):
@@ -614,11 +676,16 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                                             variant=index if len(variants) > 1 else None)
         twin_keys.append(key)
         names = [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" + (f"[{label}]" if label else "") for fault in faults for rpm in rpms]
-        for level_index, snr_db in enumerate(hearings):
+        for hearing_index, hearing in enumerate(hearings):
             for record_index, (signal, name) in enumerate(zip(variant_signals, names)):
-                if snr_db is not None:
-                    signal = with_background(signal, snr_db, (seed, index, level_index, record_index))
-                    name = f"{name}[background {snr_db:g} dB]"
+                hearing_seed = (seed, index, hearing_index, record_index)
+                if hearing is not None and hearing[0] == "background":
+                    signal = with_background(signal, hearing[1], hearing_seed)
+                    name = f"{name}[background {hearing[1]:g} dB]"
+                elif hearing is not None:
+                    signal = through_other_path(signal, twin_fs, paths["modes"], paths["natural_frequency_hz"],
+                                                paths["damping_ratio"], hearing_seed)
+                    name = f"{name}[path {hearing[1]}]"
                 cuts.append(windows_of(signal, cfg["twin"]["windows_per_record"], name))
                 record_lengths.append(signal.size)
                 sources.append(name)
@@ -654,9 +721,9 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                          # the folder and the table are no part of the data (their places differ between machines);
                          # what a labelled record holds and is labelled is
                          "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")} | (
-                             # a null background is what its absence was: the key stays that of earlier runs
-                             {"twin": {k: v for k, v in cfg["twin"].items() if k != "background_snr_db"}}
-                             if cfg["twin"].get("background_snr_db") is None else {}),
+                             # a null hearing option is what its absence was: the key stays that of earlier runs
+                             {"twin": {k: v for k, v in cfg["twin"].items()
+                                       if not (k in HEARING_KEYS and v is None)}}),
                          **({"labels": [(p.name, file_digest(p), *labelled[p]) for p in calibration_paths + test_paths]}
                             if table else {})}),
         record_lengths=record_lengths + [r.signal.size for r in tests + validation_records],
