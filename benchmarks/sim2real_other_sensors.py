@@ -99,15 +99,13 @@ SHOWN_FEATURES = ("1xbpfi", "2xbpfi", "3xbpfi", "1xbpfo", "2xbpfo", "1xbsf2", "b
 """Features of the model's pipeline shown per channel (when the model has them): what it reads of a record."""
 
 
-def feature_rows(records: Path, by_channel: dict[str, list[dict]], model: str, tracking_uri: str) -> tuple[list[str], list[list[str]]]:
+def feature_rows(records: Path, by_channel: dict[str, list[dict]], pipeline) -> tuple[list[str], list[list[str]]]:
     """Median over windows and records of :data:`SHOWN_FEATURES`, per state and channel: the model's own
     pipeline (``DiagnosisPipeline.features``) on the windows ``bearingtwin-diagnose`` cut."""
     import numpy as np
 
-    from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
     from bearingtwin.diagnosis.record import read_record, record_windows
 
-    _, pipeline = load_diagnosis_model(model, tracking_uri)
     names = list(getattr(pipeline.extractor, "feature_names_", []))
     shown = [name for name in SHOWN_FEATURES if name in names]
     rows = []
@@ -121,6 +119,24 @@ def feature_rows(records: Path, by_channel: dict[str, list[dict]], model: str, t
             median = np.median(np.concatenate(values), axis=0)
             rows.append([state, channel, *(f"{v:.2f}" for v in median)])
     return shown, rows
+
+
+def weight_rows(pipeline, shown: int = 3) -> list[list[str]]:
+    """Per pair of states, the ``shown`` features a linear SVM weighs most (standardized), each with the state it
+    pulls towards; [] for a model that is not a linear SVM."""
+    import numpy as np
+
+    from bearingtwin.physics.geometry import FAULTS as STATES
+
+    if getattr(pipeline.classifier, "kernel", None) != "linear":
+        return []
+    names = pipeline.extractor.feature_names_
+    rows = []
+    for (a, b), weights in pipeline.classifier.pairwise_weights().items():
+        largest = np.argsort(-np.abs(weights))[:shown]
+        rows.append([f"{STATES[a]} / {STATES[b]}", *(f"{names[k]} {weights[k]:+.2f} ({STATES[a if weights[k] > 0 else b]})"
+                                                     for k in largest)])
+    return rows
 
 
 def plot(by_channel: dict[str, list[dict]], path: Path) -> None:
@@ -150,7 +166,8 @@ def plot(by_channel: dict[str, list[dict]], path: Path) -> None:
     plt.close(fig)
 
 
-def write_results(by_channel: dict[str, list[dict]], folder: Path, model: str, features: tuple) -> Path:
+def write_results(by_channel: dict[str, list[dict]], folder: Path, model: str, features: tuple,
+                  weights: list[list[str]]) -> Path:
     path = folder / "sim2real_other_sensors.md"
     folder.mkdir(parents=True, exist_ok=True)
     plot(by_channel, folder / "sim2real_other_sensors.png")
@@ -172,6 +189,9 @@ def write_results(by_channel: dict[str, list[dict]], folder: Path, model: str, f
         "What the model reads: median over the test records' windows of some of its features (line prominences "
         "at the defect orders after cepstral pre-whitening, and the band's share of a window's power, log10):",
         markdown_table(["state", "channel", *features[0]], features[1]),
+        *(["What the model weighs: for each pair of states the linear SVM decides between, the three features with "
+           "the largest weights on the standardized features, each with the state more of it pulls towards:",
+           markdown_table(["pair", "first", "second", "third"], weights)] if weights else []),
     ])
     write_generated(path, generated, MARKER,
                     heading="# The sim2real model through the CWRU rig's other accelerometers (exploratory)")
@@ -204,8 +224,11 @@ def main() -> int:
     print(markdown_table(["channel", "who", *FAULTS, "all"], summary_rows(by_channel)))
     written = [str(args.out)]
     if args.results:
-        features = feature_rows(args.data, by_channel, args.model, args.tracking_uri)
-        written.append(str(write_results(by_channel, args.results, args.model, features)))
+        from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+
+        _, pipeline = load_diagnosis_model(args.model, args.tracking_uri)
+        features = feature_rows(args.data, by_channel, pipeline)
+        written.append(str(write_results(by_channel, args.results, args.model, features, weight_rows(pipeline))))
     print(f"== sim2real_other_sensors: {sum(map(len, by_channel.values()))} diagnoses; wrote {', '.join(written)}")
     return 0
 

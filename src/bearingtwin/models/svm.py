@@ -81,3 +81,17 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
     def predict_with_proba(self, X) -> tuple[np.ndarray, np.ndarray]:
         """The SVM's predictions and the calibrated probabilities beside them."""
         return self.predict(X), self.predict_proba(X)
+
+    def pairwise_weights(self) -> dict[tuple[int, int], np.ndarray]:
+        """A linear SVM's weights on the standardized features, per pair of classes (one-vs-one, as it decides).
+
+        ``{(a, b): w}`` for every pair of ``classes_`` in scikit-learn's order: a window's decision for the pair
+        is ``w . z + b`` on its standardized features ``z``, positive for ``a``, so a positive weight pulls
+        towards ``a`` and the largest magnitudes are what the pair turns on. Only a linear kernel has them.
+        """
+        if not hasattr(self, "svm_"):
+            raise BearingTwinError("SvmClassifier: fit before asking for its weights")
+        if self.kernel != "linear":
+            raise BearingTwinError(f"classifier.kernel={self.kernel!r}: only a linear SVM has weights per feature")
+        pairs = [(a, b) for i, a in enumerate(self.classes_) for b in self.classes_[i + 1:]]
+        return {(int(a), int(b)): weights for (a, b), weights in zip(pairs, self.svm_.named_steps["svc"].coef_)}
