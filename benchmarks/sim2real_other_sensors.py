@@ -121,9 +121,13 @@ def feature_rows(records: Path, by_channel: dict[str, list[dict]], pipeline) -> 
     return shown, rows
 
 
-def weight_rows(pipeline, shown: int = 3) -> list[list[str]]:
-    """Per pair of states, the ``shown`` features a linear SVM weighs most (standardized), each with the state it
-    pulls towards; [] for a model that is not a linear SVM."""
+WEIGHTS_SHOWN = ("first", "second", "third")
+"""Per pair of states, the features a linear SVM weighs most that the results show, in order."""
+
+
+def weight_rows(pipeline) -> list[list[str]]:
+    """Per pair of states, the :data:`WEIGHTS_SHOWN` features a linear SVM weighs most (standardized), each with
+    the state it pulls towards; [] for a model that is not a linear SVM."""
     import numpy as np
 
     from bearingtwin.physics.geometry import FAULTS as STATES
@@ -133,7 +137,7 @@ def weight_rows(pipeline, shown: int = 3) -> list[list[str]]:
     names = pipeline.extractor.feature_names_
     rows = []
     for (a, b), weights in pipeline.classifier.pairwise_weights().items():
-        largest = np.argsort(-np.abs(weights))[:shown]
+        largest = np.argsort(-np.abs(weights))[:len(WEIGHTS_SHOWN)]
         rows.append([f"{STATES[a]} / {STATES[b]}", *(f"{names[k]} {weights[k]:+.2f} ({STATES[a if weights[k] > 0 else b]})"
                                                      for k in largest)])
     return rows
@@ -189,9 +193,9 @@ def write_results(by_channel: dict[str, list[dict]], folder: Path, model: str, f
         "What the model reads: median over the test records' windows of some of its features (line prominences "
         "at the defect orders after cepstral pre-whitening, and the band's share of a window's power, log10):",
         markdown_table(["state", "channel", *features[0]], features[1]),
-        *(["What the model weighs: for each pair of states the linear SVM decides between, the three features with "
-           "the largest weights on the standardized features, each with the state more of it pulls towards:",
-           markdown_table(["pair", "first", "second", "third"], weights)] if weights else []),
+        *([f"What the model weighs: for each pair of states the linear SVM decides between, the {len(WEIGHTS_SHOWN)} "
+           "features with the largest weights on the standardized features, each with the state more of it pulls "
+           "towards:", markdown_table(["pair", *WEIGHTS_SHOWN], weights)] if weights else []),
     ])
     write_generated(path, generated, MARKER,
                     heading="# The sim2real model through the CWRU rig's other accelerometers (exploratory)")

@@ -155,18 +155,23 @@ def test_the_svm_names_the_state_with_too_few_windows_to_calibrate():
 
 
 def test_a_linear_svm_says_which_feature_each_pair_of_states_turns_on():
-    """Three states told apart by one feature each (normal/inner by the first, inner/ball by the second, the
-    third noise): each pair's largest weight is on its feature, signed towards the first state of the pair."""
+    """States told apart by one feature per pair (normal/inner by the first, normal/ball by the second; the
+    third is noise): each pair's largest weight is on its feature, signed towards the first state of the pair
+    when more of it means that state, with three states and with two."""
     rng = np.random.default_rng(0)
     y = np.repeat([0, 1, 2], 60)
     X = rng.normal(0.0, 0.3, (180, 3))
-    X[:, 0] += np.where(y == 0, 0.0, 3.0)  # normal low, inner and ball high
-    X[:, 1] += np.where(y == 2, 3.0, 0.0)  # ball high
+    X[:, 0] += np.where(y == 1, 2.0, 0.0)  # inner: more of the first feature
+    X[:, 1] += np.where(y == 2, 6.0, 0.0)  # ball: much more of the second
     weights = SvmClassifier(kernel="linear").fit(X, y).pairwise_weights()
     assert list(weights) == [(0, 1), (0, 2), (1, 2)]
-    assert np.argmax(np.abs(weights[(0, 1)])) == 0 and weights[(0, 1)][0] < 0  # more of feature 0: not normal
-    assert np.argmax(np.abs(weights[(1, 2)])) == 1 and weights[(1, 2)][1] < 0  # more of feature 1: ball
+    assert np.argmax(np.abs(weights[(0, 1)])) == 0 and weights[(0, 1)][0] < 0  # more of feature 0: inner
+    assert np.argmax(np.abs(weights[(0, 2)])) == 1 and weights[(0, 2)][1] < 0  # more of feature 1: ball
+    assert np.argmax(np.abs(weights[(1, 2)])) == 1 and weights[(1, 2)][0] > 0  # feature 0 still pulls to inner
     assert all(abs(w[2]) < 0.5 * np.abs(w).max() for w in weights.values())  # the noise feature weighs little
+    two = y < 2
+    (pair, only), = SvmClassifier(kernel="linear").fit(X[two], y[two]).pairwise_weights().items()
+    assert pair == (0, 1) and np.argmax(np.abs(only)) == 0 and only[0] < 0  # more of feature 0: inner, as above
     with pytest.raises(BearingTwinError, match="only a linear SVM has weights"):
         SvmClassifier(kernel="rbf").fit(X, y).pairwise_weights()
 

@@ -106,7 +106,8 @@ def test_config_hash_ignores_where_and_how_but_not_what(tmp_path):
 
 
 @pytest.mark.parametrize("key, value", [("data.labels", "labels.csv"), ("data.twin.background_snr_db", [10.0, 0.0]),
-                                        ("data.twin.other_paths", {"hearings": 2, "modes": 6})])
+                                        ("data.twin.other_paths", {"hearings": 2, "modes": 6, "natural_frequency_hz": [500.0, 5500.0],
+                                                                    "damping_ratio": [0.005, 0.05]})])
 def test_an_optional_key_at_its_null_default_keeps_the_hash_runs_had_before_it_existed(tmp_path, key, value):
     before = make_cfg(tmp_path)  # a config recorded before the key existed
     before.data.twin = {"duration": 4.0}

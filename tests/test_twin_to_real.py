@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
-from omegaconf import OmegaConf
+from omegaconf import OmegaConf, open_dict
 from processes import run_module
 
 from bearingtwin.config import CONF_DIR
@@ -391,7 +391,16 @@ def test_other_paths_hear_every_twin_record_again_with_its_harmonics_spread(repo
     overrides = SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=0", "data.twin.duration=1.0",
                          "data.twin.windows_per_record=5", f"paths.cache_dir={tmp_path}"]
     plain = build_dataset(compose_train(overrides))
-    assert plain.key == build_dataset(compose_train(overrides + ["data.twin.other_paths=null"])).key
+
+    def without_paths(cfg):  # a config written before the option existed
+        with open_dict(cfg):
+            del cfg.data.twin["other_paths"]
+        return cfg
+
+    # ... builds the very dataset the option's null default builds, with a background too.
+    assert plain.key == build_dataset(without_paths(compose_train(overrides))).key
+    background = overrides + ["data.twin.background_snr_db=[10.0]"]
+    assert build_dataset(compose_train(background)).key == build_dataset(without_paths(compose_train(background))).key
     heard = build_dataset(compose_train(overrides + [f"data.twin.other_paths={PATHS}"]))
     again = build_dataset(compose_train(overrides + [f"data.twin.other_paths={PATHS}"]))
     np.testing.assert_array_equal(heard.windows, again.windows)
@@ -404,6 +413,8 @@ def test_other_paths_hear_every_twin_record_again_with_its_harmonics_spread(repo
     np.testing.assert_array_equal(heard.windows[test], plain.windows[plain.fixed_split[1]])
     for index, record in enumerate(heard.records[:len(plain_twin) * 3]):
         assert set(heard.labels[heard.record_ids == index]) == {FAULTS.index(record[len(TWIN_PREFIX):].split("@")[0])}
+    first, second = (heard.windows[heard.record_ids == heard.records.index(f"{plain_twin[0]}[path {n}]")] for n in (1, 2))
+    assert not np.allclose(first, second)  # each path its own draw
     extractor = EnvelopeOrderFeatures(bearing=dict(compose_train(overrides).bearing), line_measure="prominence",
                                       prewhiten="cepstral")
     third = {}
@@ -416,28 +427,37 @@ def test_other_paths_hear_every_twin_record_again_with_its_harmonics_spread(repo
     assert third["path"] < third["rpm"] - 0.1, third
     for bad, field in (("{hearings:2,modes:6}", r"must be null or give exactly hearings, modes"),
                        (PATHS.replace("hearings:2", "hearings:0"), r"other_paths\.hearings must be a positive integer"),
-                       (PATHS.replace("[0.005,0.05]", "[0.05,1.5]"), r"other_paths\.damping_ratio must be \[low, high\]")):
+                       (PATHS.replace("[0.005,0.05]", "[0.05,1.5]"), r"other_paths\.damping_ratio must be \[low, high\]"),
+                       (PATHS.replace("[500.0,5500.0]", "[7000.0,9000.0]"),
+                        r"other_paths\.natural_frequency_hz: low 7000 Hz is at or above the twin's Nyquist frequency")):
         with pytest.raises(BearingTwinError, match=field):
             build_dataset(compose_train(overrides + [f"data.twin.other_paths={bad}"]))
 
 
-def test_a_path_of_one_mode_rings_at_its_natural_frequency_and_decays_at_its_damping():
-    """An impulse through one mode: a decaying sine at the mode's damped frequency whose log envelope falls at
-    zeta * 2 pi f per second, the RMS of what went in kept; a mode above the Nyquist rate leaves the signal."""
+def test_a_path_of_one_mode_is_its_resonator_and_modes_above_nyquist_are_refused():
+    """An impulse through one mode: the impulse-invariant resonator r^n sin(n theta), r = exp(-zeta omega),
+    theta = omega sqrt(1 - zeta^2), up to the modal weight (the RMS of what went in is kept); ranges drawn
+    log-uniform within their bounds; a path with no mode below the Nyquist frequency is refused."""
     from bearingtwin.data.twin_to_real import through_other_path
 
     fs, f_n, zeta = 12000.0, 1000.0, 0.02
     impulse = np.zeros(6000)
     impulse[0] = 1.0
     heard = through_other_path(impulse, fs, 1, (f_n, f_n), (zeta, zeta), (0, 1))
+    omega = 2 * np.pi * f_n / fs
+    n = np.arange(impulse.size)
+    resonator = np.exp(-zeta * omega * n) * np.sin(n * omega * np.sqrt(1 - zeta ** 2))
+    scale = heard @ resonator / (resonator @ resonator)
+    np.testing.assert_allclose(heard, scale * resonator, atol=1e-12)
     assert np.sqrt(np.mean(heard ** 2)) == pytest.approx(np.sqrt(np.mean(impulse ** 2)))
+    # Three modes drawn between 500 and 5000 Hz: the spectrum's peaks lie inside, and another seed draws others.
+    heard = through_other_path(impulse, fs, 3, (500.0, 5000.0), (0.005, 0.005), (0, 2))
     spectrum = np.abs(np.fft.rfft(heard))
-    assert np.fft.rfftfreq(heard.size, 1 / fs)[np.argmax(spectrum)] == pytest.approx(f_n * np.sqrt(1 - zeta ** 2), abs=2.0)
-    t = np.arange(heard.size) / fs
-    peaks = [i for i in range(1, 3000) if abs(heard[i]) > abs(heard[i - 1]) and abs(heard[i]) >= abs(heard[i + 1])]
-    slope = np.polyfit(t[peaks], np.log(np.abs(heard[peaks])), 1)[0]
-    assert slope == pytest.approx(-zeta * 2 * np.pi * f_n, rel=0.02)
-    np.testing.assert_array_equal(through_other_path(impulse, fs, 1, (7000.0, 7000.0), (zeta, zeta), (0, 1)), impulse)
+    freqs = np.fft.rfftfreq(heard.size, 1 / fs)
+    assert 450 < freqs[np.argmax(spectrum)] < 5050
+    assert not np.allclose(heard, through_other_path(impulse, fs, 3, (500.0, 5000.0), (0.005, 0.005), (0, 3)))
+    with pytest.raises(BearingTwinError, match="no mode of this path rings below the Nyquist frequency"):
+        through_other_path(impulse, fs, 1, (7000.0, 7000.0), (zeta, zeta), (0, 1))
 
 
 @pytest.mark.parametrize("variants, message", [

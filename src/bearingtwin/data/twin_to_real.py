@@ -31,13 +31,14 @@ values, each a twin record of its own (domain randomization on a grid).
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import scipy.signal
@@ -399,9 +400,10 @@ HEARING_KEYS = ("background_snr_db", "other_paths")
 OTHER_PATH_KEYS = ("hearings", "modes", "natural_frequency_hz", "damping_ratio")
 
 
-def other_path_settings(twin_cfg: Mapping) -> dict | None:
+def other_path_settings(twin_cfg: Mapping, fs_hz: float) -> dict | None:
     """``data.twin.other_paths``, checked: ``hearings`` (paths per twin record), ``modes`` (per path) and the
-    [low, high] ranges of the modes' ``natural_frequency_hz`` and ``damping_ratio``; None for null (none)."""
+    [low, high] ranges of the modes' ``natural_frequency_hz`` (low below the Nyquist frequency of ``fs_hz``)
+    and ``damping_ratio``; None for null (none)."""
     settings = twin_cfg.get("other_paths")
     if settings is None:
         return None
@@ -417,6 +419,9 @@ def other_path_settings(twin_cfg: Mapping) -> dict | None:
             raise BearingTwinError(f"data.twin.other_paths.{name} must be [low, high] with {least:g} < low <= high "
                                    f"< {most:g}, got {bounds!r}")
         checked[name] = (float(bounds[0]), float(bounds[1]))
+    if checked["natural_frequency_hz"][0] >= fs_hz / 2.0:
+        raise BearingTwinError(f"data.twin.other_paths.natural_frequency_hz: low {checked['natural_frequency_hz'][0]:g} "
+                               f"Hz is at or above the twin's Nyquist frequency ({fs_hz / 2.0:g} Hz): no mode could ring")
     return checked
 
 
@@ -427,7 +432,8 @@ def through_other_path(signal: np.ndarray, fs_hz: float, modes: int, natural_fre
 
     Each mode's natural frequency (Hz) and damping ratio are drawn log-uniform from their [low, high] ranges
     and its modal weight standard normal (seeded by ``seed``); a mode is the impulse-invariant resonator
-    ``h[n] = r^n sin(n theta)`` (scipy.signal.lfilter), skipped above the Nyquist rate. What the twin's one
+    ``h[n] = r^n sin(n theta)`` (scipy.signal.lfilter), skipped at or above the Nyquist frequency (its draws
+    made all the same, so the others do not move). What the twin's one
     calibrated path does not show: another path's modes ring with phases of their own, which spreads each
     impact in time even after pre-whitening has flattened the path's spectrum, so the envelope's harmonics
     stand lower and the band holds another share of the power.
@@ -446,8 +452,9 @@ def through_other_path(signal: np.ndarray, fs_hz: float, modes: int, natural_fre
         heard += weight * scipy.signal.lfilter([0.0, radius * np.sin(theta)],
                                                [1.0, -2.0 * radius * np.cos(theta), radius ** 2], signal)
     rms = float(np.sqrt(np.mean(np.square(heard))))
-    if rms == 0.0:  # every mode above the Nyquist rate: nothing heard through this path
-        return signal
+    if rms == 0.0:
+        raise BearingTwinError(f"no mode of this path rings below the Nyquist frequency ({fs_hz / 2.0:g} Hz), or the "
+                               "signal is silent: nothing is heard through it")
     return heard * float(np.sqrt(np.mean(np.square(signal)))) / rms
 
 
@@ -644,18 +651,24 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                 for effect_label, varied in effect_variants(effects, cfg["twin"].get("variants"))
                 for setting_label, setting in simulator_settings(simulator, cfg["twin"].get("randomize"))]
     length = cfg["window_length"]
-    backgrounds = background_levels(cfg["twin"])
-    paths = other_path_settings(cfg["twin"])
-    # Each twin record as simulated, then with each background, then through each other path.
-    hearings = [None, *(("background", level) for level in backgrounds),
-                *(("path", number) for number in range(1, 1 + (paths["hearings"] if paths else 0)))]
+    # Each twin record as simulated, then with each background, then through each other path: (the name's
+    # suffix, what is done to the signal given a seed). A hearing's seed carries its place in this list.
+    hearings: list[tuple[str, Callable | None]] = [("", None)]
+    hearings += [(f"[background {level:g} dB]", functools.partial(with_background, snr_db=level))
+                 for level in background_levels(cfg["twin"])]
+    paths = other_path_settings(cfg["twin"], twin_fs)
+    if paths:
+        through = functools.partial(through_other_path, fs_hz=twin_fs, modes=paths["modes"],
+                                    natural_frequency_hz=paths["natural_frequency_hz"],
+                                    damping_ratio=paths["damping_ratio"])
+        hearings += [(f"[path {number}]", through) for number in range(1, paths["hearings"] + 1)]
     validation_records = list(calibration_records.values()) if n_validation else []
     # Before minutes of simulation: every twin record is a state at a distinct measured speed in a variant.
     check_windows_fit(len(variants) * len(faults) * len(rpms) * len(hearings), length, cfg["twin"]["windows_per_record"],
                       "data.twin.windows_per_record",
                       records=f"twin records ({len(faults)} states x {len(rpms)} distinct speeds of the records, to "
                               f"0.1 rpm, x {len(variants)} variant{'s' * (len(variants) != 1)}"
-                              + (f" x {len(hearings)} hearings (data.twin.background_snr_db, data.twin.other_paths)"
+                              + (f" x {len(hearings)} hearings of each (data.twin: background_snr_db, other_paths)"
                                  if len(hearings) > 1 else "") + ")",
                       remedy=", or give records of one nominal speed that speed (a labels table's rpm column)")
 
@@ -676,16 +689,11 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                                             variant=index if len(variants) > 1 else None)
         twin_keys.append(key)
         names = [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" + (f"[{label}]" if label else "") for fault in faults for rpm in rpms]
-        for hearing_index, hearing in enumerate(hearings):
+        for hearing_index, (suffix, hear) in enumerate(hearings):
             for record_index, (signal, name) in enumerate(zip(variant_signals, names)):
-                hearing_seed = (seed, index, hearing_index, record_index)
-                if hearing is not None and hearing[0] == "background":
-                    signal = with_background(signal, hearing[1], hearing_seed)
-                    name = f"{name}[background {hearing[1]:g} dB]"
-                elif hearing is not None:
-                    signal = through_other_path(signal, twin_fs, paths["modes"], paths["natural_frequency_hz"],
-                                                paths["damping_ratio"], hearing_seed)
-                    name = f"{name}[path {hearing[1]}]"
+                if hear is not None:
+                    signal = hear(signal, seed=(seed, index, hearing_index, record_index))
+                    name += suffix
                 cuts.append(windows_of(signal, cfg["twin"]["windows_per_record"], name))
                 record_lengths.append(signal.size)
                 sources.append(name)

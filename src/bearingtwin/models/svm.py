@@ -86,12 +86,16 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
         """A linear SVM's weights on the standardized features, per pair of classes (one-vs-one, as it decides).
 
         ``{(a, b): w}`` for every pair of ``classes_`` in scikit-learn's order: a window's decision for the pair
-        is ``w . z + b`` on its standardized features ``z``, positive for ``a``, so a positive weight pulls
-        towards ``a`` and the largest magnitudes are what the pair turns on. Only a linear kernel has them.
+        is ``w . z`` plus an intercept on its standardized features ``z``, positive for ``a``, so a positive weight
+        pulls towards ``a`` and the largest magnitudes are what the pair turns on. Only a linear kernel has them.
         """
         if not hasattr(self, "svm_"):
             raise BearingTwinError("SvmClassifier: fit before asking for its weights")
         if self.kernel != "linear":
             raise BearingTwinError(f"classifier.kernel={self.kernel!r}: only a linear SVM has weights per feature")
         pairs = [(a, b) for i, a in enumerate(self.classes_) for b in self.classes_[i + 1:]]
-        return {(int(a), int(b)): weights for (a, b), weights in zip(pairs, self.svm_.named_steps["svc"].coef_)}
+        coef = self.svm_.named_steps["svc"].coef_
+        # With two classes scikit-learn's one decision is positive for the second class; with more, each
+        # pair's is positive for its first (sklearn.svm.SVC.decision_function).
+        coef = -coef if len(self.classes_) == 2 else coef
+        return {(int(a), int(b)): weights for (a, b), weights in zip(pairs, coef)}
