@@ -33,6 +33,7 @@ import numpy as np
 from scipy.stats import spearmanr
 
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.storage import save_npy_atomic
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig
 from bearingtwin.testrig.rig import RigSetup
 from bearingtwin.tracking.tables import check_generated_target, markdown_table, write_generated
@@ -60,14 +61,17 @@ def plan() -> list[dict]:
 
 
 def record_of(case: dict, out: Path) -> Path:
-    """The rig's record of ``case``, written the first time it is asked for (both clearance modes read it)."""
-    record = out / "records" / f"{case['fault']}_{case['load_n']:g}N_{case['fs']:g}Hz.npy"
+    """Where the rig's record of ``case`` lies (both clearance modes read it; :func:`write_record` writes it)."""
+    return out / "records" / f"{case['fault']}_{case['load_n']:g}N_{case['fs']:g}Hz.npy"
+
+
+def write_record(case: dict, out: Path) -> None:
+    """The rig's record of ``case``, unless an earlier run wrote it; whole or not at all."""
+    record = record_of(case, out)
     if not record.is_file():
         point = RigOperatingPoint(rpm=case["rpm"], fs=case["fs"], duration_s=SECONDS, radial_load_n=case["load_n"],
                                   clearance_um=CLEARANCE_UM, sensor_angle_deg=SENSOR_ANGLE_DEG, unit=case["unit"])
-        record.parent.mkdir(parents=True, exist_ok=True)
-        np.save(record, simulate_rig(case["fault"], point, {}, seed=case["seed"], setup=RIG))
-    return record
+        save_npy_atomic(record, simulate_rig(case["fault"], point, {}, seed=case["seed"], setup=RIG))
 
 
 def run_case(case: dict, out: Path) -> dict:
@@ -190,6 +194,8 @@ def main() -> int:
     start = time.perf_counter()
     for case in plan():
         record_of(case, args.out)
+    for case in plan():  # before the jobs: the two clearance modes of a record would otherwise both simulate it
+        write_record(case, args.out)
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
         results = list(pool.map(lambda case: run_case(case, args.out), plan()))
     wall_s = time.perf_counter() - start

@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bearingtwin.storage import save_npy_atomic
 from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 from bearingtwin.testrig.geometry import RigBearing
 from bearingtwin.testrig.rig import RigSetup
@@ -78,9 +79,7 @@ def write_records(folder: Path, seed: int) -> dict[str, dict]:
                                    unit="m/s^2")
             path = folder / f"{stem}.npy"
             if not path.is_file():  # written whole or not at all: an interrupted run leaves no short record
-                partial = path.with_suffix(".partial.npy")
-                np.save(partial, simulate_rig(state, op, seed=seed + number, setup=RIG))
-                os.replace(partial, path)
+                save_npy_atomic(path, simulate_rig(state, op, seed=seed + number, setup=RIG))
             # The table gives the nominal speed, as HUST's file names do (its speed column is not meaningful).
             records[stem] = {"state": state, "grade": grade, "position": "-" if angle is None else f"{angle:g} deg",
                              "rpm": 60.0 * speed}

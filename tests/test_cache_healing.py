@@ -87,3 +87,25 @@ def test_features_cache(dataset, tmp_path, caplog, how):  # noqa: F811
     np.testing.assert_array_equal(again, first)
     assert again_table == table
     assert_healed(caplog, path)
+
+
+def test_atomic_writes_leave_the_whole_file_or_the_old_one(tmp_path):
+    """save_npz_atomic and save_npy_atomic: the file holds what was written and nothing else is left in its folder; a
+    write that fails part-way leaves the earlier file as it was and no temporary file."""
+    from bearingtwin.storage import save_npy_atomic, save_npz_atomic
+
+    array = np.arange(12.0).reshape(3, 4)
+    save_npy_atomic(tmp_path / "a.npy", array)
+    save_npz_atomic(tmp_path / "b.npz", signals=array)
+    np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), array)
+    np.testing.assert_array_equal(np.load(tmp_path / "b.npz")["signals"], array)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npz"]
+
+    class Unsaveable:  # np.save pickles objects it cannot store as arrays; this one refuses part-way
+        def __reduce__(self):
+            raise RuntimeError("disk gone")
+
+    with pytest.raises(RuntimeError, match="disk gone"):
+        save_npy_atomic(tmp_path / "a.npy", np.array([Unsaveable()], dtype=object))
+    np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), array)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npz"]

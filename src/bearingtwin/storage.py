@@ -23,10 +23,19 @@ log = logging.getLogger(__name__)
 
 
 def save_npz_atomic(path: str | Path, **arrays: np.ndarray) -> None:
-    """Write ``arrays`` to ``path`` as .npz so that no reader ever sees a partial file.
+    """Write ``arrays`` to ``path`` as .npz so that no reader ever sees a partial file (:func:`_write_atomic`)."""
+    _write_atomic(path, lambda stream: np.savez(stream, **arrays))
 
-    The data go to a temporary file in the same folder, moved into place with
-    ``os.replace`` (atomic on one file system): a parallel job finds either nothing or the
+
+def save_npy_atomic(path: str | Path, array: np.ndarray) -> None:
+    """Write ``array`` to ``path`` as .npy so that no reader ever sees a partial file (:func:`_write_atomic`)."""
+    _write_atomic(path, lambda stream: np.save(stream, array))
+
+
+def _write_atomic(path: str | Path, write) -> None:
+    """``write(stream)`` into a temporary file in ``path``'s folder, then moved into place.
+
+    ``os.replace`` is atomic on one file system: a parallel job finds either nothing or the
     whole file, and two jobs writing the same entry leave one complete copy.
     """
     path = Path(path)
@@ -34,7 +43,7 @@ def save_npz_atomic(path: str | Path, **arrays: np.ndarray) -> None:
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
     try:
         with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, **arrays)
+            write(stream)
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
