@@ -130,7 +130,7 @@ def weight_rows(pipeline) -> list[list[str]]:
     the state it pulls towards; [] for a model that is not a linear SVM."""
     import numpy as np
 
-    from bearingtwin.physics.geometry import FAULTS as STATES
+    from bearingtwin.models.classes import state_name
 
     if getattr(pipeline.classifier, "kernel", None) != "linear":
         return []
@@ -138,8 +138,8 @@ def weight_rows(pipeline) -> list[list[str]]:
     rows = []
     for (a, b), weights in pipeline.classifier.pairwise_weights().items():
         largest = np.argsort(-np.abs(weights))[:len(WEIGHTS_SHOWN)]
-        rows.append([f"{STATES[a]} / {STATES[b]}", *(f"{names[k]} {weights[k]:+.2f} ({STATES[a if weights[k] > 0 else b]})"
-                                                     for k in largest)])
+        rows.append([f"{state_name(a)} / {state_name(b)}",
+                     *(f"{names[k]} {weights[k]:+.2f} ({state_name(a if weights[k] > 0 else b)})" for k in largest)])
     return rows
 
 

@@ -64,6 +64,7 @@ def twin_command(out: Path, bearing: str | None, simulator: DictConfig, sensor: 
     race, axis = sensor.split("_")
     angle = simulator.get("sensor_angle_deg")
     angle = float(angle) if angle is not None else (0.0 if axis == "x" else 90.0)
+    # "+ 0.0" and "0.0 -" below: a zero prints as 0, never -0
     words += [f"operating_point.sensor={race}", f"operating_point.sensor_angle_deg={angle + 0.0:g}"]
     load_x, load_y = float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0)
     if load_x == 0.0 and load_y <= 0.0:  # the twin's operating point knows a downward load only: another is fitted

@@ -706,6 +706,7 @@ class EffectRanker:
         report = {}
         for name, value in op.known.items():
             report[name] = {"value": value, "unit": BASE_PARAMETERS[name].unit, "held": True}
+
         def fitted(name: str, unit: str) -> dict:
             low, high, log = op.space[name]
             return {"value": base_values[name], "unit": unit, "held": False, "interval": list(intervals[name]),
