@@ -82,6 +82,19 @@ def test_hydra_flags_still_work_with_the_overrides_checked_first(tmp_path):
     assert helped.returncode == 0 and "classifier: cnn_bilstm, svm" in helped.stdout, helped.stderr
 
 
+@pytest.mark.parametrize("module, usage, setting", [
+    ("train", "Usage: bearingtwin-train [group=option ...]", "register_alias"),
+    ("twin", "Usage: bearingtwin-twin measured.path=<file>", "operating_point.*"),
+    ("diagnose", "Usage: bearingtwin-diagnose path=<file|folder|glob> model=<model URI>", "labels"),
+    ("simulate", "Usage: bearingtwin-simulate fault=<normal|inner|ball|outer>", "simulator.*"),
+])
+def test_each_command_helps_with_its_own_usage_and_settings(tmp_path, module, usage, setting):
+    helped = command(module, "--help", cwd=tmp_path)
+    assert helped.returncode == 0 and usage in helped.stdout and setting in helped.stdout, helped.stdout[-2000:]
+    assert "powered by Hydra" not in helped.stdout and "== Config ==" in helped.stdout
+    assert list(tmp_path.iterdir()) == []  # help writes nothing
+
+
 def test_an_unknown_report_setting_is_refused(capsys):
     with pytest.raises(SystemExit) as stop:
         report_main(["table4", "+unknown.key=1"])
