@@ -143,7 +143,7 @@ def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence(tmp_path):
     result = {"record": "slow", "verdict": "outer", "share": 1.0, "mean_probability": 0.9, "windows": windows,
               "evidence_state": None, "evidence": slow.as_dict()}
     assert plot_diagnosis(result, slow, ["normal", "outer"], tmp_path / "slow.png").stat().st_size > 1000
-    assert one_line(result) == "slow: outer (100% of 1 windows, p 0.90)"
+    assert one_line(result) == "slow: outer (100% of 1 window, p 0.90)"
 
 
 def test_features_that_read_shaft_orders_on_the_recorded_bearing_but_not_the_models_are_named():
@@ -496,6 +496,8 @@ def test_a_dead_sensor_fails_its_file_alone_and_each_failure_names_its_file_once
     (["path="], "error: path is empty: give path=<file | folder | glob>"),
     (["path=recordings/*.npz"], "error: path=recordings/*.npz: the pattern matches no file"),
     (["tracking.enabled=maybe"], "error: tracking.enabled=maybe: give tracking.enabled=true or tracking.enabled=false"),
+    (["rpm=abc"], "error: rpm='abc' must be a positive number of rev/min"),  # once, not file by file
+    (["fs=0"], "error: fs=0 must be a positive number of Hz"),
 ])
 def test_bad_settings_and_paths_are_refused_in_one_line_before_any_file_is_read(tmp_path, overrides, message):
     """Checked before the model is loaded and before any file is read (so the model here is bogus): a bad evidence
@@ -677,3 +679,32 @@ def test_a_record_of_a_state_the_model_never_learned_says_so(tmp_path):
     prepared = read_record(path, envelope_pipeline())
     assert prepared.true_state == "ball"
     assert "true state ball, which this model cannot answer: it was trained on normal, inner, outer only" in prepared.notes
+
+
+@needs_cwru
+def test_a_speed_the_shaft_line_contradicts_is_named_with_what_it_would_be_and_the_verdict_put_in_doubt(registered,
+                                                                                                     tmp_path):
+    """An export of record 106 (1772 rpm) given rpm=900: the shaft line fixes only the ratio of speed and rate, so the
+    note names the speed it implies at the given rate; the record is still diagnosed, listed in the summary as one
+    whose speed or rate is wrong, and ``rate_check`` says so. Given its true speed, the check is consistent."""
+    from bearingtwin.data.cwru import load_cwru
+
+    base, uri = registered
+    (tmp_path / "recordings").mkdir()
+    np.save(tmp_path / "recordings" / "r106.npy", load_cwru(CWRU / "12k_Drive_End_IR007_1_106.mat", channel="DE",
+                                                            fs=12000.0).signal)
+    (tmp_path / "recordings" / "notes.txt").write_text("taken on the test stand")
+    done = run("diagnose", "path=recordings", "model=models:/diag@champion", "fs=12000", "rpm=900", f"out={tmp_path}/out",
+               "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads((tmp_path / "out" / "r106" / "diagnosis.json").read_text())
+    note = next(note for note in result["notes"] if note.startswith("speed and rate disagree"))
+    assert result["rate_check"] == "contradicted" and "the verdict is in doubt" in note
+    assert float(re.search(r"the shaft line says (\d+) rpm if fs = 12000 Hz is right", note).group(1)) == pytest.approx(
+        1772, rel=0.02)
+    assert "speed or rate wrong (the shaft line contradicts them): r106" in done.stdout
+    assert "left out notes.txt" in done.stdout + done.stderr  # a file of another format is named, not dropped silently
+    done = run("diagnose", "path=recordings/r106.npy", "model=models:/diag@champion", "fs=12000", "rpm=1772",
+               f"out={tmp_path}/right", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    result = json.loads((tmp_path / "right" / "r106" / "diagnosis.json").read_text())
+    assert done.returncode == 0 and result["rate_check"] == "consistent" and "speed or rate wrong" not in done.stdout

@@ -133,3 +133,13 @@ def test_prominence_sees_a_line_above_the_floor_and_none_in_noise_whatever_the_f
     below = [order * rpm / 60.0 < 300.0 for order in band_centres(geometry, 3).values()]
     assert narrow_share[below].mean() > 3 * broad_share[below].mean()  # measured 5.8x
     assert np.allclose(prominence.transform(40.0 * impacts, fs_hz=FS_HZ, rpm=rpm), lines)
+
+
+def test_a_speed_that_puts_a_line_past_the_envelope_spectrum_is_named(bearing):
+    """At 60000 rpm (a mistyped speed) the third BPFI lies past half the sampling rate: the refusal names the speed,
+    the first thing to check, not the windows."""
+    windows = np.random.default_rng(0).standard_normal((2, N))
+    prominence = EnvelopeOrderFeatures(bearing=bearing, line_measure="prominence").fit(windows, fs_hz=FS_HZ, rpm=1797.0)
+    with pytest.raises(BearingTwinError, match=r"the shaft speed \(60000 rpm\) puts its order \d+\.\d\d line beyond the "
+                                               r"envelope spectrum of a window \(6000 Hz\): check the speed"):
+        prominence.transform(windows, fs_hz=FS_HZ, rpm=60000.0)

@@ -350,7 +350,9 @@ def test_csv_layouts_that_used_to_read_still_do(tmp_path, signal):
     ("a\tb\n1,234,5\t0\n", r"its numbers \('1,234,5'\) use more than one decimal mark, or a thousands separator"),
     ("a;b\n" + "0,5;1,5\n" * 300 + "1.234;0,5\n", r"line 302: '1.234' is written with '.' where the rows above use ','"),
     ("0.1,0.2,\n0.3,0.4,0.5\n", r"line 2 has 3 columns where the rows above have 2"),
-    ("time,acc,\n0,0.1,5\n0.1,0.2,6\n", r"the header names 2 columns but the rows have 3"),
+    ("time,acc,\n0,0.1,5\n0.1,0.2,6\n", r"the header names 2 columns but the rows have 3$"),
+    ("time,acc\n0,0001,0,0324\n0,0002,0,0311\n", r"the header names 2 columns but the rows have 4 \(numbers written with "
+                                                r"decimal commas\? save the file with decimal points"),
     ("a\tb\n1\t2\nhello, world\t3\n", r"line 3, column 1: 'hello, world' is not a number"),
 ])
 def test_csv_numbers_that_cannot_be_read_one_way_are_refused_not_misread(tmp_path, text, refusal):
@@ -359,3 +361,14 @@ def test_csv_numbers_that_cannot_be_read_one_way_are_refused_not_misread(tmp_pat
     (tmp_path / "t.csv").write_text(text)
     with pytest.raises(BearingTwinError, match=refusal):
         read_raw(tmp_path / "t.csv")
+
+
+def test_a_csv_header_without_rows_is_refused_in_its_one_line_and_nothing_else(tmp_path):
+    """numpy warns of an empty input on its own; the refusal naming the file is all a user should read."""
+    import warnings
+
+    (tmp_path / "t.csv").write_text("time_s,acc_g\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a warning would fail the test before the refusal
+        with pytest.raises(BearingTwinError, match=r"t.csv: the file holds a header but no data rows"):
+            read_raw(tmp_path / "t.csv")

@@ -15,6 +15,7 @@ import codecs
 import csv
 import itertools
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -63,7 +64,8 @@ def read_csv_table(path: Path) -> CsvTable:
         raise _not_text(path) from None
     layout, names, notes = _layout(path, head, encoding)
     try:
-        with open(path, encoding=encoding) as handle:
+        with open(path, encoding=encoding) as handle, warnings.catch_warnings():
+            warnings.filterwarnings("ignore", "loadtxt: input contained no data")  # refused below, naming the file
             values = np.loadtxt(_body_lines(handle, layout), delimiter=layout.delimiter, ndmin=2, dtype=np.float64,
                                 quotechar='"' if layout.delimiter else None)
     except _BadLine as error:
@@ -75,7 +77,10 @@ def read_csv_table(path: Path) -> CsvTable:
     if values.shape[0] == 0:
         raise BearingTwinError(f"{path}: the file holds a header but no data rows")
     if names is not None and values.shape[1] != len(names):
-        raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}")
+        # Twice the columns in a comma-separated file: "0,0324" is one number with a decimal comma, split in two.
+        split = (" (numbers written with decimal commas? save the file with decimal points, or separate the columns "
+                 "with semicolons)" if layout.delimiter == "," and values.shape[1] == 2 * len(names) else "")
+        raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}{split}")
     return CsvTable(values, names, notes)
 
 

@@ -203,9 +203,8 @@ def resolve_fs(raw: RawRecord, fs: float | None, key: str = "fs") -> float:
         return float(raw.fs)
     fs = positive_number(fs, key, "Hz")
     if raw.fs is not None and raw.fs_origin != "declared" and abs(fs / raw.fs - 1.0) > raw.fs_tolerance:
-        raise BearingTwinError(
-            f"{raw.path}: {key}={fs:g} Hz contradicts the file's {raw.fs:g} Hz (from its {raw.fs_origin})"
-        )
+        origin = {"file": "stored in it", "header": "in its header"}.get(raw.fs_origin, f"from its {raw.fs_origin}")
+        raise BearingTwinError(f"{raw.path}: {key}={fs:g} Hz contradicts the file's {raw.fs:g} Hz ({origin})")
     return fs
 
 

@@ -9,7 +9,8 @@ voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 
 ``record``, ``model_uri``, ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
 ``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
-``notes``, ``fault_size_in`` where the file's name gives it and, when the truth is known,
+``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
+``contradicted`` or ``not checked``), ``notes``, ``fault_size_in`` where the file's name gives it and, when the truth is known,
 ``true_state``, ``correct`` and ``physics_correct`` (the evidence alone).
 """
 
@@ -47,6 +48,7 @@ class PreparedRecord:
     original_fs: float
     notes: list[str] = field(default_factory=list)
     bearing: dict = field(default_factory=dict)  # the bearing the physics evidence reads defect lines of
+    rate_check: str = "not checked"  # the shaft line against speed and rate: consistent, ambiguous or contradicted
 
 
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
@@ -68,11 +70,12 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
+    rate_check = "not checked"
     if recording.rpm is None:
         notes.append("the file states no shaft speed: no physics evidence and no rate check (give rpm=<rev/min>)")
     else:
-        recording, rate_notes = _checked_rate(recording, record_bearing, declared_only=fs is None and raw.fs_origin == "declared",
-                                              channels=raw.channels)
+        recording, rate_notes, rate_check = _checked_rate(recording, record_bearing, channels=raw.channels,
+                                                          declared_only=fs is None and raw.fs_origin == "declared")
         notes += rate_notes
     name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
     if true_state is None:  # what the file's name (CWRU) or content states
@@ -97,7 +100,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         )
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; give rpm=<rev/min>")
-    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing)
+    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check)
 
 
 def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:
@@ -133,9 +136,9 @@ def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dic
 
 
 def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
-                  channels: dict[str, np.ndarray]) -> tuple[Recording, list[str]]:
+                  channels: dict[str, np.ndarray]) -> tuple[Recording, list[str], str]:
     """The recording after the sampling-rate check (shaft series, and the bearing's defect lines as a
-    second witness), and what the check said. Every channel of the file is a witness
+    second witness), what the check said, and its verdict (:attr:`PreparedRecord.rate_check`). Every channel of the file is a witness
     (:func:`check_channels`): a fan-end accelerometer may show the shaft series too weakly, the
     drive end's beside it does not.
 
@@ -144,7 +147,8 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     the shaft's harmonic series stands where it belongs is the record's: read at a whole-number fraction of its
     true rate, a record puts a higher shaft harmonic onto the expected line, so a lower rate can seem
     to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz). A declared rate the check
-    contradicts, with no other rate consistent, is refused.
+    contradicts, with no other rate consistent, is refused. A stated rate and speed the shaft line
+    contradicts are kept, and the note says that one of the two is wrong: the shaft line cannot tell which.
     """
     defect_hz = BearingGeometry.from_config(bearing).defect_frequencies(recording.rpm) if bearing else None
 
@@ -160,20 +164,33 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     try:
         declared = check(recording.fs)
     except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
-        return recording, [f"sampling rate not checked ({error})"]
+        return recording, [f"sampling rate not checked ({error})"], "not checked"
     doubt = [] if declared.verdict == "consistent" else [f"sampling rate unconfirmed: {describe_mismatch(declared)}"]
     if not declared_only:
-        return recording, doubt
+        if declared.verdict == "contradicted":
+            doubt = [_speed_or_rate_wrong(declared)]
+        return recording, doubt, declared.verdict
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between
     # lines (a machine's half orders) may leave the higher rate's verdict ambiguous, never contradicted.
     higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and _matches(checks, rate)]
     if not higher:
         if declared.verdict == "contradicted":
             raise BearingTwinError(f"{recording.source}: {describe_mismatch(declared)}; give the record's rate with fs=<Hz>")
-        return recording, doubt
+        return recording, doubt, declared.verdict
     rate = max(higher)
     note = f"the shaft line stands where it belongs at {rate:g} Hz, not only at the declared {recording.fs:g} Hz: read at {rate:g} Hz"
-    return dataclasses.replace(recording, fs=rate), [note]
+    return dataclasses.replace(recording, fs=rate), [note], "consistent"
+
+
+def _speed_or_rate_wrong(check) -> str:
+    """The note on a stated speed and rate the shaft line contradicts: the line fixes only their ratio, so it names
+    what either would be if the other is right."""
+    words = f"speed and rate disagree: {describe_mismatch(check)}"
+    if check.implied_fs_hz:
+        implied_rpm = check.rpm * check.fs_hz / check.implied_fs_hz
+        words += (f"; the shaft line says {implied_rpm:.0f} rpm if fs = {check.fs_hz:g} Hz is right, or "
+                  f"fs = {check.implied_fs_hz:.0f} Hz if {check.rpm:g} rpm is")
+    return words + ". Every defect line is read where the stated values put it: the verdict is in doubt"
 
 
 def _matches(checks, rate: float) -> bool:
@@ -254,6 +271,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "source": str(recording.source),
         "channel": recording.channel,
         "original_fs": prepared.original_fs,
+        "rate_check": prepared.rate_check,
         "notes": notes,
     }
     if recording.meta.get("fault_size_in") is not None:  # a CWRU name's defect size, to score by size
@@ -269,7 +287,9 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
 
 def one_line(result: dict) -> str:
     """What a reliability engineer reads first: verdict, confidence, physics, truth."""
-    line = f"{result['record']}: {result['verdict']} ({result['share']:.0%} of {len(result['windows'])} windows, p {result['mean_probability']:.2f})"
+    n_windows = len(result["windows"])
+    line = (f"{result['record']}: {result['verdict']} ({result['share']:.0%} of {n_windows} window{'s' * (n_windows != 1)}, "
+            f"p {result['mean_probability']:.2f})")
     if result["evidence_state"] is not None:
         prominence = result["evidence"]["prominence_db"]
         top = max(prominence, key=prominence.get, default=None)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
-from bearingtwin.checks import true_or_false
+from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
@@ -34,7 +34,7 @@ from bearingtwin.errors import BearingTwinError
 if TYPE_CHECKING:
     from mlflow import MlflowClient
 
-SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree")
+SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree", "rate_check")
 TRUTH_COLUMNS = ("true_state", "correct", "physics_correct")
 
 log = logging.getLogger(__name__)
@@ -60,6 +60,10 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     is_glob = not candidate.exists() and glob.has_magic(path)
     if candidate.is_dir():
         found = recordings_in(candidate)
+        others = sorted(child.name for child in candidate.iterdir() if child.is_file() and child not in found
+                        and child.name != DEFAULT_LABELS and not child.name.startswith("."))
+        if others:  # a user's export in a format not read here must not vanish without a word
+            log.warning("%s: left out %s (not %s)", path, ", ".join(others), ", ".join(FORMATS))
     elif candidate.is_file():
         return [candidate]
     elif is_glob:
@@ -129,6 +133,9 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
     settings = evidence_settings(OmegaConf.to_container(cfg.evidence, resolve=True))
     bearing = chosen_bearing(cfg)
+    for name, unit in (("rpm", "rev/min"), ("fs", "Hz")):  # once, before any file: it applies to every one
+        if cfg[name] is not None:
+            positive_number(cfg[name], name, unit)
     table = labels_path(cfg)
     records = find_records(str(cfg.path), table)  # before the table: an empty path= would have ./labels.csv read
     labels = read_labels(table)

@@ -178,8 +178,10 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
                 continue
             flanks = ~in_line & (distance <= half_width + float(self.floor_width_orders))
             if not np.all(flanks.any(axis=1) & in_line.any(axis=1)):
-                raise BearingTwinError(f"X: order {centre:.2f} lies beyond the envelope spectrum of a window; "
-                                       "use longer windows or fewer features.harmonics")
+                fastest_hz = float(np.max(shaft_hz)) * 60.0
+                raise BearingTwinError(f"the shaft speed ({fastest_hz:g} rpm) puts its order {centre:.2f} line beyond the "
+                                       f"envelope spectrum of a window ({fs_hz / 2:g} Hz): check the speed, or give the "
+                                       "extractor longer windows or fewer features.harmonics")
             floor = np.nanmedian(np.where(flanks, power, np.nan), axis=1)
             line = np.where(in_line, power, 0.0).sum(axis=1) / in_line.sum(axis=1)
             columns.append(np.log10(np.maximum(line, 1e-300) / np.maximum(floor, 1e-300)))
