@@ -101,6 +101,9 @@ def test_fixed_effects_stay_in_every_step(measurement, tmp_path):
     (["measured.path={measured}", "measured.fs=600"], "measured.fs=600 Hz is too low"),
     (["measured.path={measured}", "measured.fs=12000", "candidates=[resonance,wobble]"], "unknown effect 'wobble'"),
     (["measured.path={measured}", "measured.fs=12000", "measured.fault=cracked"], "fault='cracked'"),
+    (["measured.path={measured}"], "measured.npy: the file does not state its sampling rate; give measured.fs=<Hz>"),
+    (["measured.path={measured}", "measured.fs=12000", "measured.rpm=abc"],
+     "measured.rpm='abc' must be a positive number of rev/min"),
 ])
 def test_bad_input_exits_nonzero_naming_the_problem(measurement, tmp_path, overrides, message):
     overrides = [o.format(missing=tmp_path / "missing.npy", measured=measurement) for o in overrides]
@@ -196,6 +199,25 @@ def test_a_bad_setting_ends_the_command_before_the_file_is_read_or_a_run_is_open
     assert result.stderr.strip().splitlines() == [
         "error: ranking.points_per_view=0 must be a positive number of values per view (a plain number, no unit)"]
     assert list(tmp_path.iterdir()) == []  # no store opened, no report written
+
+
+@pytest.mark.parametrize("case", ["a comparison setting", "a record shorter than one segment"])
+def test_views_the_record_cannot_fill_are_named_before_a_run_opens(measurement, tmp_path, case):
+    """A comparison setting or a record too short for one comparison segment is refused before the MLflow run opens,
+    so no FAILED run is left behind for a typo."""
+    if case == "a comparison setting":
+        given = [f"measured.path={measurement}", "compare.n_bands=1"]
+        message = ("compare.n_bands must be a whole number of at least 3 (the band levels lose a polynomial of order "
+                   "compare.psd_detrend_order=1), got 1")
+    else:
+        short = tmp_path / "short.npy"
+        np.save(short, np.load(measurement)[:2400])  # 0.2 s, where a lines segment is 0.5 s
+        given, message = [f"measured.path={short}"], "short.npy: a signal of 0.200 s is shorter than one comparison"
+    result = run_cli(*given, "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer", f"out={tmp_path / 'r'}",
+                     env={"MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path / 'mlflow.db'}"}, cwd=tmp_path)
+    lines = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
+    assert result.returncode == 2 and len(lines) == 1 and message in lines[0], result.stderr[-2000:]
+    assert not (tmp_path / "mlflow.db").exists() and not (tmp_path / "r").exists()  # no store opened, no report
 
 
 def test_an_out_folder_that_holds_the_reference_is_refused_and_the_reference_kept(tmp_path):

@@ -302,6 +302,29 @@ def test_an_effect_outside_the_library_is_named_where_it_is_not_pinned_on_the_li
     where_hz = float(re.search(r"a line at (\d+) Hz", lines["where"]).group(1))
     assert abs(where_hz - 29 * RPM / 60) < 2 * RPM / 60, lines  # at the mesh or its sidebands
     assert "gear mesh" in lines["what_leaves_it"]
+    # Nothing is "needed" beside a discrepancy the library cannot explain: the library has nothing that pays.
+    assert fit.summary.splitlines()[1].startswith("No library effect added: the best candidate")
+
+
+@pytest.mark.parametrize("candidates, budget, why", [
+    ([], {}, "the candidate list is empty (candidates=[])"),
+    (["tones"], {"max_effects": 0}, "ranking.max_effects=0"),
+    (["second_resonance"], {}, "each candidate needs another effect in the twin first (second_resonance needs resonance)"),
+])
+def test_a_selection_that_tried_nothing_says_why_not_that_nothing_paid(cfg, candidates, budget, why):
+    fit = rank(cfg, twin_measurement(cfg, "outer"), candidates, op=known_operating_point(), **budget)
+    assert fit.ranking == [] and fit.not_tried == why and fit.as_dict()["not_tried"] == why
+    assert fit.summary.splitlines()[1].startswith(f"No effect tried: {why}. Discrepancy "), fit.summary
+
+
+def test_a_record_too_short_to_halve_is_judged_whole_and_says_so(cfg):
+    """0.4 s: each half would be shorter than one 0.25 s segment of the envelope and lines views here, so the record is
+    fitted and judged whole, and no part-to-part discrepancy is claimed for it."""
+    whole = twin_measurement(cfg, "outer")
+    short = Recording(whole.signal[: int(0.4 * FS)], FS, RPM, "outer", unit="g")
+    fit = rank(cfg, short, ["tones"], op=known_operating_point())
+    assert not fit.held_out and "held-out" not in fit.summary, fit.summary
+    assert "the record is too short to hold out half of it" in fit.summary and "0.00 dB" not in fit.summary
 
 
 def test_an_effect_is_claimed_only_where_its_signature_shows(cfg, monkeypatch):

@@ -28,17 +28,25 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
                  fault_check: str | None = None) -> str:
     """The verdict, the effects found in order, how much of the discrepancy they closed, and a doubt about the
     stated bearing state when the measurement's envelope raises one."""
-    found = ", ".join(added.effect + (" (changed)" if added.changed_from is not None else "") for added in fit.added)
+    if fit.added:
+        found = ", ".join(added.effect + (" (changed)" if added.changed_from is not None else "") for added in fit.added)
+    elif not fit.ranking:
+        found = f"no effect tried: {fit.not_tried or 'no candidate could be offered'}"
+    elif fit.unclaimed is not None:
+        found = f"none claimed ({fit.unclaimed.effect} paid only outside its signature's views)"
+    else:
+        found = f"none pays for its parameters on the {'held-out half' if fit.held_out else 'record'}"
     drop = fit.baseline_error - fit.final_error
     share = f" ({100 * drop / fit.baseline_error:.0f} % less)" if fit.baseline_error > 0 else ""
     unexplained = ", ".join(left["view"] for left in fit.unexplained)
     lines = {
         "verdict": fit.verdict + (f" (unexplained in the {unexplained} view{'s' if len(fit.unexplained) > 1 else ''})"
                                   if unexplained else ""),
-        "effects found": found or (f"none claimed ({fit.unclaimed.effect} paid only outside its signature's views)"
-                                   if fit.unclaimed is not None else "none pays for its parameters on the held-out half"),
-        "discrepancy": f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}, "
-                       f"the measurement's own {fit.floor_error:.2f} dB",
+        "effects found": found,
+        "discrepancy": (f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}" if fit.added
+                        else f"{fit.baseline_error:.2f} dB, unchanged")
+                       + (f", the measurement's own {fit.floor_error:.2f} dB" if fit.held_out
+                          else " (too short to hold out half: its own is unknown)"),
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
     if fault_check:

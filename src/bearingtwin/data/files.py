@@ -152,15 +152,17 @@ def load_recording(
     fault: str | None = None,
     channel_key: str = "channel",
     fs_key: str = "fs",
+    rpm_key: str = "rpm",
 ) -> Recording:
     """One validated channel of a file.
 
     ``fs`` and ``rpm`` fill in what the file does not declare; where it does, a different
     value is an error rather than a silent override (a ``declared`` data-set convention is
     the exception: the user's value wins). Non-finite samples raise: nothing is dropped.
-    ``channel_key`` and ``fs_key`` are the settings ``channel`` and ``fs`` come from, as messages name them.
+    ``channel_key``, ``fs_key`` and ``rpm_key`` are the settings ``channel``, ``fs`` and ``rpm`` come from, as messages
+    name them.
     """
-    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key, fs_key)
+    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key, fs_key, rpm_key)
 
 
 def recording_from_raw(
@@ -171,13 +173,14 @@ def recording_from_raw(
     fault: str | None = None,
     channel_key: str = "channel",
     fs_key: str = "fs",
+    rpm_key: str = "rpm",
 ) -> Recording:
     """The validated Recording of one channel of an already read file (see :func:`load_recording`)."""
     # A rate the file records stays the file's when the user repeats it (resolve_fs refuses any other);
     # a given rate replaces a merely declared one, or fills in a missing one.
     fs_origin = raw.fs_origin if fs is None or (raw.fs is not None and raw.fs_origin != "declared") else "config"
     name, signal = raw.channel(channel, channel_key)
-    rpm = _resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, "rpm", "rev/min"))
+    rpm = _resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"))
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     if rpm is None and raw.nominal_rpm is not None:
         rpm = raw.nominal_rpm

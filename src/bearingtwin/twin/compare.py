@@ -268,6 +268,12 @@ class Comparator:
         self.nperseg = int(round(s.welch_segment_s * self.fs))
         # Windows and transforms made once: hundreds of twins are profiled against one measurement.
         self.psd_welch = WelchPSD(self.fs, sps.get_window("hann", self.nperseg))
+        order = s.psd_detrend_order
+        if not (isinstance(order, int) and not isinstance(order, bool) and order >= 0):
+            raise BearingTwinError(f"compare.psd_detrend_order must be a whole number of at least 0, got {order!r}")
+        if not (isinstance(s.n_bands, int) and not isinstance(s.n_bands, bool) and s.n_bands >= order + 2):
+            raise BearingTwinError(f"compare.n_bands must be a whole number of at least {order + 2} (the band levels lose a "
+                                   f"polynomial of order compare.psd_detrend_order={order}), got {s.n_bands!r}")
         self.band_edges_hz = np.geomspace(s.band_min_hz, self.fs / 2, s.n_bands + 1)
         psd_freqs = self.psd_welch.freqs_hz
         self.band_of_bin = np.searchsorted(self.band_edges_hz, psd_freqs, side="right") - 1
@@ -296,8 +302,6 @@ class Comparator:
             reach = 4 * lines_freqs[1] + 0.01 * own  # the window's main lobe, and 1 % for slip and speed
             self.lines_bins &= ~np.any(np.abs(lines_freqs[:, None] - own) <= reach, axis=1)
         self.band_centres_log = np.log10(np.sqrt(self.band_edges_hz[:-1] * self.band_edges_hz[1:]))
-        if not 0 <= s.psd_detrend_order < s.n_bands - 1:
-            raise BearingTwinError(f"compare.psd_detrend_order must lie in [0, {s.n_bands - 2}], got {s.psd_detrend_order}")
         self.line_hz = np.concatenate([harmonics, self.sidebands_hz])
         self.measured_signal = np.asarray(measured.signal, dtype=np.float64)
         try:

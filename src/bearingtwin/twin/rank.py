@@ -246,6 +246,7 @@ class TwinFit:
     repeatability_db: dict = field(default_factory=dict)    # each view's part-to-part error
     unclaimed: EffectFit | None = None  # the candidate that paid, but not in its own signature's views
     min_signature_gain: float = 0.0
+    not_tried: str = ""  # why no candidate was tried at all (an empty list, ranking.max_effects=0), else ""
 
     @property
     def final_error(self) -> float:
@@ -263,14 +264,23 @@ class TwinFit:
         return "unexplained discrepancy" if self.unexplained or self.unclaimed is not None else "no effect needed"
 
     @property
+    def own_discrepancy_words(self) -> str:
+        """The measurement's own part-to-part discrepancy, or why there is none to give."""
+        if self.held_out:
+            return f"the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB"
+        return ("the record is too short to hold out half of it: every effect was fitted and judged on the whole "
+                "record, and its own part-to-part discrepancy is unknown")
+
+    @property
     def summary(self) -> str:
+        part = "held-out part" if self.held_out else "record"
         lines = ["Base parameters that differed: " + _operating_point_words(self.operating_point, self.gain) + "."]
         if self.added:
             found = "; then ".join(fit.sentence(first=index == 0) for index, fit in enumerate(self.added))
             what = "missing or changed" if any(fit.changed_from is not None for fit in self.added) else "missing"
             lines.append(f"Effects that were {what}, in order: {found}. "
-                         f"Discrepancy {self.baseline_error:.2f} -> {self.final_error:.2f} dB on the held-out part "
-                         f"(the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB).")
+                         f"Discrepancy {self.baseline_error:.2f} -> {self.final_error:.2f} dB on the {part} "
+                         f"({self.own_discrepancy_words}).")
             if self.margin is not None and self.margin < CLEAR_MARGIN:
                 runner = self.ranking[1].effect
                 lines.append(f"Uncertain: {self.ranking[0].effect} leads {runner} by only {self.margin:.1f} "
@@ -279,16 +289,19 @@ class TwinFit:
                 lines.append(f"Not claimed: {self._unclaimed_words()}.")
         elif self.unclaimed is not None:
             lines.append(f"No library effect claimed: {self._unclaimed_words()}. Discrepancy {self.baseline_error:.2f} dB "
-                         f"(the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB).")
+                         f"({self.own_discrepancy_words}).")
+        elif not self.ranking:
+            lines.append(f"No effect tried: {self.not_tried or 'no candidate could be offered'}. Discrepancy "
+                         f"{self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
         else:
-            best = self.ranking[0] if self.ranking else None
-            why = (f"the best candidate, {best.effect}, does not pay for its parameters on the held-out part"
-                   if best else "there were no candidates")
-            lines.append(f"No effect needed: {why}. Discrepancy {self.baseline_error:.2f} dB "
-                         f"(the measurement's own part-to-part discrepancy: {self.floor_error:.2f} dB).")
+            # "Needed" only where nothing is left unexplained; otherwise the library simply has nothing that pays.
+            head = "No effect needed" if not self.unexplained else "No library effect added"
+            lines.append(f"{head}: the best candidate, {self.ranking[0].effect}, does not pay for its parameters on "
+                         f"the {part}. Discrepancy {self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
+        own = "the measurement's own" if self.held_out else "the least counted"
         for left in self.unexplained:
             lines.append(f"Not explained by the library: the {left['view']} view ({left['error_db']:.1f} dB, "
-                         f"{left['error_db'] / left['floor_db']:.0f} times the measurement's own): {left['where']}. "
+                         f"{left['error_db'] / left['floor_db']:.0f} times {own}): {left['where']}. "
                          f"Such a mark is left by {left['what_leaves_it']}.")
         return "\n".join(lines)
 
@@ -318,6 +331,7 @@ class TwinFit:
             "added": [fit.effect for fit in self.added],
             "unexplained": self.unexplained,
             "unclaimed": None if self.unclaimed is None else self.unclaimed.as_dict(),
+            "not_tried": self.not_tried,
             "final_error": self.final_error,
             "summary": self.summary,
         }
@@ -623,8 +637,20 @@ class EffectRanker:
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
-                            unclaimed, self.min_signature_gain)
+                            unclaimed, self.min_signature_gain, self._not_tried())
         return self
+
+    def _not_tried(self) -> str:
+        """Why the selection could try no candidate, in the setting's own words ("" when it could)."""
+        if not self.candidates:
+            return "the candidate list is empty (candidates=[])"
+        if self.max_effects == 0:
+            return "ranking.max_effects=0"
+        waiting = [f"{name} needs {' and '.join(_requires(name))}" for name in self.candidates
+                   if not set(_requires(name)) <= set(self.fixed_effects)]
+        if len(waiting) == len(self.candidates):
+            return f"each candidate needs another effect in the twin first ({'; '.join(waiting)})"
+        return ""
 
     def _fit_candidate(self, name, space, base, current_effects, held, current, judge: Judge, twin, matched,
                        seed, scorer: Judge, progress: StageProgress) -> EffectFit:

@@ -27,7 +27,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
-from bearingtwin.twin.compare import VIEWS, CompareSettings, plot_comparison
+from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit
@@ -50,7 +50,8 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     check_fs = true_or_false(measured_cfg.check_fs, "measured.check_fs")
     raw = read_raw(measured_cfg.path)
     recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=measured_cfg.fs, rpm=measured_cfg.rpm,
-                                   fault=measured_cfg.fault, channel_key="measured.channel")
+                                   fault=measured_cfg.fault, channel_key="measured.channel", fs_key="measured.fs",
+                                   rpm_key="measured.rpm")
     recording.require_vibration()  # before the rate check, which a flat record cannot answer
     for name in ("rpm", "fault"):
         if getattr(recording, name) is None:
@@ -313,6 +314,7 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault, progress)
+    Comparator(measured, geometry, settings)  # the views' settings and the record's length, before a run opens
     tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
     check = fault_check(measured, cfg.bearing)
