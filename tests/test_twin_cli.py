@@ -94,6 +94,22 @@ def test_fixed_effects_stay_in_every_step(measurement, tmp_path):
     # With figures=false no figure of the earlier run stays beside the report, and only this command's are removed.
     assert sorted(p.name for p in out.iterdir()) == ["final_notes.png", "twin_report.json"]
     assert result.stderr == ""  # no progress bar where no one watches
+    assert "held in the twin: noise (effects=; tried as changed where also a candidate)" in result.stdout
+
+
+def test_a_record_of_another_bearing_than_the_twins_is_named_in_the_closing_summary(measurement, tmp_path):
+    """A CWRU fan-end record names its SKF 6203; read with the twin's default bearing, the warning said at the start
+    is repeated where the user reads the outcome."""
+    import scipy.io
+
+    record = tmp_path / "12k_Fan_End_OR007@6_0_294.mat"
+    scipy.io.savemat(record, {"X294_FE_time": np.load(measurement)[:, None], "X294RPM": np.array([[1797.0]])})
+    result = run_cli(f"measured.path={record}", f"out={tmp_path / 'r'}", "candidates=[]", "tracking.enabled=false",
+                     "figures=false", *FAST, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert ("bearing: the record's bearing is cwru_6203, the twin's paper: give bearing=cwru_6203 for its defect "
+            "frequencies") in result.stdout
+    assert "effects found: no effect tried: the candidate list is empty (candidates=[])" in result.stdout
 
 
 @pytest.mark.parametrize("overrides, message", [

@@ -25,9 +25,9 @@ if TYPE_CHECKING:
 
 
 def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str | None,
-                 fault_check: str | None = None) -> str:
-    """The verdict, the effects found in order, how much of the discrepancy they closed, and a doubt about the
-    stated bearing state when the measurement's envelope raises one."""
+                 doubts: dict[str, str] | None = None) -> str:
+    """The verdict, the effects found in order, how much of the discrepancy they closed, and the doubts the run
+    raised (``bearing``: the record's is not the twin's; ``check``: the envelope questions the stated state)."""
     if fit.added:
         found = ", ".join(added.effect + (" (changed)" if added.changed_from is not None else "") for added in fit.added)
     elif not fit.ranking:
@@ -49,8 +49,9 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
                           else " (too short to hold out half: its own is unknown)"),
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
-    if fault_check:
-        lines = {"check": fault_check, **lines}
+    if cfg.effects:  # known present, in every step: the summary says so, as it says the reference's
+        lines["held in the twin"] = (", ".join(cfg.effects) + " (effects=; tried as changed where also a candidate)")
+    lines = {**(doubts or {}), **lines}
     if cfg.get("reference") is not None:
         kept = ", ".join(name for name in fit.steps[0].effects if name not in cfg.effects) or "none"
         lines = {"reference": f"{cfg.reference} (its operating point held where this run gives none; its effects "
@@ -68,9 +69,9 @@ def twin(cfg: DictConfig) -> None:
 
     # The calibration takes seconds to minutes: its stages are shown where someone watches (a terminal, one run).
     progress = show_progress_bar("auto", in_sweep=hydra_cfg.mode == RunMode.MULTIRUN)
-    fit, files, run_id, fault_check = run_twin(cfg, progress)
+    fit, files, run_id, doubts = run_twin(cfg, progress)
     print(fit.summary)
-    print(twin_summary(cfg, fit, files, run_id, fault_check))
+    print(twin_summary(cfg, fit, files, run_id, doubts))
 
 
 main = stop_cleanly(twin)  # a signal marks the MLflow run KILLED, never left RUNNING

@@ -290,9 +290,10 @@ def fault_check(measured: Recording, bearing_cfg) -> str | None:
             f"({evidence.prominence_db[shown]:+.1f} dB over its floor{given}): check the stated bearing state")
 
 
-def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None, str | None]:
+def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None, dict[str, str]]:
     """Everything ``bearingtwin-twin`` does; returns the fit, the files written, the MLflow run id (None when
-    tracking is disabled) and what the measurement's envelope says against its stated state (:func:`fault_check`).
+    tracking is disabled) and the doubts the closing summary repeats: ``bearing`` (the record names another bearing
+    than the twin's) and ``check`` (the measurement's envelope against its stated state, :func:`fault_check`).
     ``progress``: show the calibration's stages on stderr."""
     out = output_folder(cfg.out)
     figures = true_or_false(cfg.figures, "figures")
@@ -306,9 +307,11 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     cwru_name = parse_cwru_name(str(cfg.measured.path)) if measured.meta.get("format") == "cwru-mat" else None
     if named is None and cwru_name is not None and cwru_name.end == "drive":
         named = BEARING_BY_END["drive"]  # a drive-end fault record by its long name: the data set's SKF 6205
+    doubts = {}  # what the closing summary repeats, as the log said it at the start
     if named is not None and named != cfg.bearing.get("name"):
-        log.warning("%s: the record's bearing is %s, the twin's %s: give bearing=%s for its defect frequencies",
-                    cfg.measured.path, named, cfg.bearing.get("name"), named)
+        doubts["bearing"] = (f"the record's bearing is {named}, the twin's {cfg.bearing.get('name')}: give "
+                             f"bearing={named} for its defect frequencies")
+        log.warning("%s: %s", cfg.measured.path, doubts["bearing"])
     if cfg.get("reference") is not None:  # an earlier record of this rig: what it found is held
         cfg = hold_reference(cfg, read_reference(cfg.reference), measured.fault, source=f"reference={cfg.reference}")
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
@@ -323,4 +326,6 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
              "reference": cfg.get("reference"), "fault_check": check}
     files = write_report(ranker.fit_, out, figures, about)
     run_id = log_to_mlflow(*tracked, ranker.fit_, files) if tracked else None
-    return ranker.fit_, files, run_id, check
+    if check:
+        doubts["check"] = check
+    return ranker.fit_, files, run_id, doubts
