@@ -147,6 +147,15 @@ def test_bad_settings_name_the_field():
         Comparator(measured(impacts("outer", 2.0, 0)), GEOMETRY, CompareSettings(band_min_hz=1.0))
     with pytest.raises(BearingTwinError, match="shorter than one comparison segment"):
         Comparator(measured(impacts("outer", 2.0, 0)), GEOMETRY)(np.zeros(100))
+    with pytest.raises(BearingTwinError, match=r"compare.n_bands must be a positive integer, got 'abc'"):
+        CompareSettings.from_config({"n_bands": "abc"})
+    with pytest.raises(BearingTwinError, match=r"compare.n_bands=3 leaves no band level beyond the polynomial of order "
+                                               r"compare.psd_detrend_order=2: give n_bands of at least 4"):
+        CompareSettings.from_config({"n_bands": 3, "psd_detrend_order": 2})
+    with pytest.raises(BearingTwinError, match=r"compare.psd_detrend_order must be a non-negative integer, got -1"):
+        CompareSettings(psd_detrend_order=-1)
+    settings = CompareSettings.from_config({"n_bands": 12.0})  # a whole number as YAML or a shell may write it
+    assert settings.n_bands == 12 and isinstance(settings.n_bands, int)
 
 
 def test_figures_and_numbers_are_written(tmp_path):

@@ -700,7 +700,7 @@ def test_a_speed_the_shaft_line_contradicts_is_named_with_what_it_would_be_and_t
     result = json.loads((tmp_path / "out" / "r106" / "diagnosis.json").read_text())
     note = next(note for note in result["notes"] if note.startswith("speed and rate disagree"))
     assert result["rate_check"] == "contradicted" and "the verdict is in doubt" in note
-    assert float(re.search(r"the shaft line says (\d+) rpm if fs = 12000 Hz is right", note).group(1)) == pytest.approx(
+    assert float(re.search(r"at fs = 12000 Hz the shaft line says (\d+) rpm", note).group(1)) == pytest.approx(
         1772, rel=0.02)
     assert "speed or rate wrong (the shaft line contradicts them): r106" in done.stdout
     assert "left out notes.txt" in done.stdout + done.stderr  # a file of another format is named, not dropped silently
@@ -708,3 +708,23 @@ def test_a_speed_the_shaft_line_contradicts_is_named_with_what_it_would_be_and_t
                f"out={tmp_path}/right", "tracking.enabled=false", cwd=tmp_path, uri=uri)
     result = json.loads((tmp_path / "right" / "r106" / "diagnosis.json").read_text())
     assert done.returncode == 0 and result["rate_check"] == "consistent" and "speed or rate wrong" not in done.stdout
+
+
+@pytest.mark.parametrize("stated_rpm, order_step, seconds, verdict, words", [
+    (1800.0, 1.0, 10.0, "consistent", None),
+    (900.0, 1.0, 10.0, "contradicted", "at fs = 12000 Hz the shaft line says 1794 rpm"),
+    (1800.0, 0.5, 10.0, "ambiguous", "sampling rate unconfirmed"),  # half orders too: the rate may be twice
+    (1800.0, 1.0, 0.05, "not checked", "sampling rate not checked"),
+])
+def test_the_rate_check_of_a_stated_speed_and_rate_reports_its_verdict(stated_rpm, order_step, seconds, verdict, words):
+    """A shaft series at 1800 rpm (harmonics 1/k, 12 kHz) read at a stated speed: the line where it belongs, at half
+    the speed (a wrong rpm), with half orders between (a rate it cannot confirm), or in too short a record."""
+    from bearingtwin.diagnosis.record import _checked_rate
+
+    t = np.arange(int(seconds * 12000.0)) / 12000.0
+    x = sum(np.sin(2 * np.pi * k * order_step * 30.0 * t + k) / k for k in range(1, 14))
+    x = x + 0.3 * np.random.default_rng(0).standard_normal(t.size)
+    recording = Recording(x, 12000.0, stated_rpm, "normal", source="synthetic.npy")
+    kept, notes, found = _checked_rate(recording, bearing_config("cwru_6205"), declared_only=False, channels={"a": x})
+    assert found == verdict and kept.fs == 12000.0  # a stated rate is kept whatever the check says
+    assert (notes == []) if words is None else any(words in note for note in notes), notes

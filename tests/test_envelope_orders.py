@@ -143,3 +143,13 @@ def test_a_speed_that_puts_a_line_past_the_envelope_spectrum_is_named(bearing):
     with pytest.raises(BearingTwinError, match=r"the shaft speed \(60000 rpm\) puts its order \d+\.\d\d line beyond the "
                                                r"envelope spectrum of a window \(6000 Hz\): check the speed"):
         prominence.transform(windows, fs_hz=FS_HZ, rpm=60000.0)
+
+
+def test_a_speed_too_slow_for_the_windows_resolution_is_named_as_such(bearing):
+    """At 60 rpm a bin of a window spans several shaft orders: the line has no flanks to stand out of. The refusal
+    says the resolution is too coarse, not that the line lies beyond the spectrum (it lies at 4 Hz)."""
+    windows = np.random.default_rng(0).standard_normal((2, N))
+    prominence = EnvelopeOrderFeatures(bearing=bearing, line_measure="prominence").fit(windows, fs_hz=FS_HZ, rpm=1797.0)
+    with pytest.raises(BearingTwinError, match=r"at 60 rpm a window resolves \d+\.\d\d shaft orders, too coarse for the "
+                                               r"order \d+\.\d\d line and its flanks: check the speed"):
+        prominence.transform(windows, fs_hz=FS_HZ, rpm=60.0)

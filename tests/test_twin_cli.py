@@ -94,7 +94,15 @@ def test_fixed_effects_stay_in_every_step(measurement, tmp_path):
     # With figures=false no figure of the earlier run stays beside the report, and only this command's are removed.
     assert sorted(p.name for p in out.iterdir()) == ["final_notes.png", "twin_report.json"]
     assert result.stderr == ""  # no progress bar where no one watches
-    assert "held in the twin: noise (effects=; tried as changed where also a candidate)" in result.stdout
+    assert "held in the twin: noise (effects=)\n" in result.stdout  # not a candidate here: not tried as changed
+
+
+def test_a_speed_the_file_contradicts_is_named_as_the_twins_setting(measurement, tmp_path):
+    np.savez(tmp_path / "stated.npz", signal=np.load(measurement), fs=12000.0, rpm=1797.0, fault="outer")
+    result = run_cli(f"measured.path={tmp_path / 'stated.npz'}", "measured.rpm=1750", f"out={tmp_path / 'r'}",
+                     "tracking.enabled=false", *FAST, cwd=tmp_path)
+    assert result.returncode == 2 and result.stderr.strip().splitlines() == [
+        f"error: {tmp_path / 'stated.npz'}: measured.rpm=1750.0 contradicts the file's rpm=1797.0"], result.stderr
 
 
 def test_a_record_of_another_bearing_than_the_twins_is_named_in_the_closing_summary(measurement, tmp_path):
@@ -223,8 +231,8 @@ def test_views_the_record_cannot_fill_are_named_before_a_run_opens(measurement, 
     so no FAILED run is left behind for a typo."""
     if case == "a comparison setting":
         given = [f"measured.path={measurement}", "compare.n_bands=1"]
-        message = ("compare.n_bands must be a whole number of at least 3 (the band levels lose a polynomial of order "
-                   "compare.psd_detrend_order=1), got 1")
+        message = ("compare.n_bands=1 leaves no band level beyond the polynomial of order compare.psd_detrend_order=1: "
+                   "give n_bands of at least 3, or a lower order")
     else:
         short = tmp_path / "short.npy"
         np.save(short, np.load(measurement)[:2400])  # 0.2 s, where a lines segment is 0.5 s

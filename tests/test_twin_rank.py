@@ -312,8 +312,9 @@ def test_an_effect_outside_the_library_is_named_where_it_is_not_pinned_on_the_li
     (["second_resonance"], {}, "each candidate needs another effect in the twin first (second_resonance needs resonance)"),
 ])
 def test_a_selection_that_tried_nothing_says_why_not_that_nothing_paid(cfg, candidates, budget, why):
-    fit = rank(cfg, twin_measurement(cfg, "outer"), candidates, op=known_operating_point(), **budget)
+    fit = rank(cfg, twin_measurement(cfg, "outer"), candidates, op=known_operating_point(), fixed=FLOOR, **budget)
     assert fit.ranking == [] and fit.not_tried == why and fit.as_dict()["not_tried"] == why
+    assert fit.unexplained == [] and fit.verdict == "no effect tried"  # the twin and its floor made the record
     assert fit.summary.splitlines()[1].startswith(f"No effect tried: {why}. Discrepancy "), fit.summary
 
 

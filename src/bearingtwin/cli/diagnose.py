@@ -61,7 +61,7 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     if by_size:
         lines["records right by fault size (model, physics)"] = by_size
     contradicted = [row["record"] for row in diagnosed if row.get("rate_check") == "contradicted"]
-    if contradicted:  # a wrong rpm= or fs= misplaces every defect line: such a verdict is no verdict
+    if contradicted:  # a wrong speed or rate misplaces every defect line: such a verdict is in doubt (still scored)
         lines["speed or rate wrong (the shaft line contradicts them)"] = ", ".join(contradicted)
     disagreements = [row["record"] for row in diagnosed if row.get("agree") is False]
     if disagreements:

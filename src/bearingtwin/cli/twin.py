@@ -31,7 +31,7 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
     if fit.added:
         found = ", ".join(added.effect + (" (changed)" if added.changed_from is not None else "") for added in fit.added)
     elif not fit.ranking:
-        found = f"no effect tried: {fit.not_tried or 'no candidate could be offered'}"
+        found = f"no effect tried: {fit.not_tried}"
     elif fit.unclaimed is not None:
         found = f"none claimed ({fit.unclaimed.effect} paid only outside its signature's views)"
     else:
@@ -50,7 +50,9 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
     if cfg.effects:  # known present, in every step: the summary says so, as it says the reference's
-        lines["held in the twin"] = (", ".join(cfg.effects) + " (effects=; tried as changed where also a candidate)")
+        tried = [name for name in cfg.effects if name in cfg.candidates]
+        lines["held in the twin"] = ", ".join(cfg.effects) + " (effects=)" + (
+            f"; tried as changed: {', '.join(tried)}" if tried else "")
     lines = {**(doubts or {}), **lines}
     if cfg.get("reference") is not None:
         kept = ", ".join(name for name in fit.steps[0].effects if name not in cfg.effects) or "none"

@@ -26,6 +26,8 @@ from bearingtwin.errors import BearingTwinError
 
 SAMPLE_LINES = 200
 """Lines read to decide the layout: enough for a header, comment lines and a sample of the numbers."""
+DECIMAL_COMMA_REMEDY = "save the file with decimal points, or separate the columns with semicolons"
+"""What to do about numbers written with decimal commas in a comma-separated file."""
 _NUMBER_LIKE = re.compile(r"[+-]?(?:\d[\d.,]*|[.,]\d+)(?:[eE][+-]?\d+)?")
 """A cell that is a number under some decimal mark and grouping: the cells that tell the mark."""
 
@@ -78,8 +80,8 @@ def read_csv_table(path: Path) -> CsvTable:
         raise BearingTwinError(f"{path}: the file holds a header but no data rows")
     if names is not None and values.shape[1] != len(names):
         # Twice the columns in a comma-separated file: "0,0324" is one number with a decimal comma, split in two.
-        split = (" (numbers written with decimal commas? save the file with decimal points, or separate the columns "
-                 "with semicolons)" if layout.delimiter == "," and values.shape[1] == 2 * len(names) else "")
+        split = (f" (numbers written with decimal commas? {DECIMAL_COMMA_REMEDY})"
+                 if layout.delimiter == "," and values.shape[1] == 2 * len(names) else "")
         raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}{split}")
     return CsvTable(values, names, notes)
 
@@ -154,7 +156,7 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
     if names is None and delimiter == "," and len(cells) > 1 and all(re.fullmatch(r"-?\d+", c) for c in cells) and any(
             re.fullmatch(r"0\d+", cell) for cell in cells[1:]):  # "0,0324": a decimal comma split one number in two
         raise BearingTwinError(f"{path}: its first row {head[first].strip()!r} reads as numbers written with decimal "
-                               "commas; save the file with decimal points, or separate the columns with semicolons")
+                               f"commas; {DECIMAL_COMMA_REMEDY}")
     if names is not None:
         names, repeated = _distinct(names)
         notes += repeated

@@ -153,16 +153,17 @@ def load_recording(
     channel_key: str = "channel",
     fs_key: str = "fs",
     rpm_key: str = "rpm",
+    fault_key: str = "fault",
 ) -> Recording:
     """One validated channel of a file.
 
     ``fs`` and ``rpm`` fill in what the file does not declare; where it does, a different
     value is an error rather than a silent override (a ``declared`` data-set convention is
     the exception: the user's value wins). Non-finite samples raise: nothing is dropped.
-    ``channel_key``, ``fs_key`` and ``rpm_key`` are the settings ``channel``, ``fs`` and ``rpm`` come from, as messages
-    name them.
+    ``channel_key``, ``fs_key``, ``rpm_key`` and ``fault_key`` are the settings ``channel``, ``fs``, ``rpm`` and
+    ``fault`` come from, as messages name them.
     """
-    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key, fs_key, rpm_key)
+    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key, fs_key, rpm_key, fault_key)
 
 
 def recording_from_raw(
@@ -174,13 +175,14 @@ def recording_from_raw(
     channel_key: str = "channel",
     fs_key: str = "fs",
     rpm_key: str = "rpm",
+    fault_key: str = "fault",
 ) -> Recording:
     """The validated Recording of one channel of an already read file (see :func:`load_recording`)."""
     # A rate the file records stays the file's when the user repeats it (resolve_fs refuses any other);
     # a given rate replaces a merely declared one, or fills in a missing one.
     fs_origin = raw.fs_origin if fs is None or (raw.fs is not None and raw.fs_origin != "declared") else "config"
     name, signal = raw.channel(channel, channel_key)
-    rpm = _resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"))
+    rpm = _resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key)
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     if rpm is None and raw.nominal_rpm is not None:
         rpm = raw.nominal_rpm
@@ -189,7 +191,7 @@ def recording_from_raw(
         signal=signal,
         fs=resolve_fs(raw, fs, fs_key),
         rpm=rpm,
-        fault=_resolve_fact(raw, "fault", raw.fault, fault),
+        fault=_resolve_fact(raw, "fault", raw.fault, fault, fault_key),
         source=raw.path,
         channel=name,
         unit=raw.unit,
@@ -213,11 +215,13 @@ def resolve_fs(raw: RawRecord, fs: float | None, key: str = "fs") -> float:
 
 
 
-def _resolve_fact(raw: RawRecord, name: str, from_file, from_user):
+def _resolve_fact(raw: RawRecord, name: str, from_file, from_user, key: str | None = None):
+    """The user's value of a fact the file may state too (``key``: the setting it came from, as the message names
+    it; ``name`` by default); one that contradicts the file's is refused."""
     if from_user is None:
         return from_file
     if from_file is not None and from_user != from_file:
-        raise BearingTwinError(f"{raw.path}: {name}={from_user!r} contradicts the file's {name}={from_file!r}")
+        raise BearingTwinError(f"{raw.path}: {key or name}={from_user!r} contradicts the file's {name}={from_file!r}")
     return from_user
 
 

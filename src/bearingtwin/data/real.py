@@ -136,7 +136,8 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     recordings = [
         load_recording(path, channel=cfg.get("channel"), fault=state,
                        rpm=rpm if rpm is not None else default_rpm, fs=fs if fs is not None else default_fs,
-                       channel_key="data.channel", fs_key="data.fs" if fs is None else "the labels row's fs")
+                       channel_key="data.channel", fs_key="data.fs" if fs is None else "the labels row's fs",
+                       rpm_key="data.rpm" if rpm is None else "the labels row's rpm")
         for path, state, rpm, fs in rows
     ]
     labelling = [(path.name, state, rpm, fs) for path, state, rpm, fs in rows]
@@ -231,6 +232,14 @@ def recordings_in(folder: Path) -> list[Path]:
     """The files of a folder bearingtwin reads, sorted; a labels table left among them is not a recording."""
     return sorted(path for path in folder.iterdir()
                   if path.is_file() and path.suffix.lower() in FORMATS and path.name != DEFAULT_LABELS)
+
+
+def files_left_out(folder: Path) -> list[str]:
+    """The names of a folder's other files (not a recording, not the labels table, not hidden), sorted: what
+    :func:`recordings_in` passes over, for a user to be told."""
+    read = set(recordings_in(folder))
+    return sorted(path.name for path in folder.iterdir() if path.is_file() and path not in read
+                  and path.name != DEFAULT_LABELS and not path.name.startswith("."))
 
 
 def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, None]]:

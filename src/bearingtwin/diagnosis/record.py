@@ -10,8 +10,10 @@ voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 ``record``, ``model_uri``, ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
 ``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
 ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
-``contradicted`` or ``not checked``), ``notes``, ``fault_size_in`` where the file's name gives it and, when the truth is known,
-``true_state``, ``correct`` and ``physics_correct`` (the evidence alone).
+``contradicted`` or ``not checked``), ``notes``, ``fault_size_in`` where the file's name gives it
+and, when the truth is known, ``true_state``, ``correct`` and ``physics_correct`` (the evidence
+alone). Beside them: ``source``, ``channel`` and ``original_fs`` (what was read), and
+``windows_correct`` with a truth (``calibration_record`` is added by :mod:`bearingtwin.diagnosis.run`).
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ class PreparedRecord:
     original_fs: float
     notes: list[str] = field(default_factory=list)
     bearing: dict = field(default_factory=dict)  # the bearing the physics evidence reads defect lines of
-    rate_check: str = "not checked"  # the shaft line against speed and rate: consistent, ambiguous or contradicted
+    rate_check: str = "not checked"  # the shaft line against speed and rate: consistent, ambiguous, contradicted
 
 
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
@@ -179,17 +181,16 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
         return recording, doubt, declared.verdict
     rate = max(higher)
     note = f"the shaft line stands where it belongs at {rate:g} Hz, not only at the declared {recording.fs:g} Hz: read at {rate:g} Hz"
-    return dataclasses.replace(recording, fs=rate), [note], "consistent"
+    return dataclasses.replace(recording, fs=rate), [note], check(rate).verdict
 
 
 def _speed_or_rate_wrong(check) -> str:
     """The note on a stated speed and rate the shaft line contradicts: the line fixes only their ratio, so it names
     what either would be if the other is right."""
     words = f"speed and rate disagree: {describe_mismatch(check)}"
-    if check.implied_fs_hz:
+    if check.implied_fs_hz:  # the rate it implies at the stated speed is in describe_mismatch's words already
         implied_rpm = check.rpm * check.fs_hz / check.implied_fs_hz
-        words += (f"; the shaft line says {implied_rpm:.0f} rpm if fs = {check.fs_hz:g} Hz is right, or "
-                  f"fs = {check.implied_fs_hz:.0f} Hz if {check.rpm:g} rpm is")
+        words += f"; at fs = {check.fs_hz:g} Hz the shaft line says {implied_rpm:.0f} rpm"
     return words + ". Every defect line is read where the stated values put it: the verdict is in doubt"
 
 

@@ -25,7 +25,7 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
-from bearingtwin.data.real import DEFAULT_LABELS, labels_table, recordings_in
+from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, labels_table, recordings_in
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
@@ -60,8 +60,7 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     is_glob = not candidate.exists() and glob.has_magic(path)
     if candidate.is_dir():
         found = recordings_in(candidate)
-        others = sorted(child.name for child in candidate.iterdir() if child.is_file() and child not in found
-                        and child.name != DEFAULT_LABELS and not child.name.startswith("."))
+        others = files_left_out(candidate)
         if others:  # a user's export in a format not read here must not vanish without a word
             log.warning("%s: left out %s (not %s)", path, ", ".join(others), ", ".join(FORMATS))
     elif candidate.is_file():

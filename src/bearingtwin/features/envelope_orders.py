@@ -177,11 +177,17 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
                 columns.append(np.where(in_line, power, 0.0).sum(axis=1) / total)
                 continue
             flanks = ~in_line & (distance <= half_width + float(self.floor_width_orders))
-            if not np.all(flanks.any(axis=1) & in_line.any(axis=1)):
-                fastest_hz = float(np.max(shaft_hz)) * 60.0
-                raise BearingTwinError(f"the shaft speed ({fastest_hz:g} rpm) puts its order {centre:.2f} line beyond the "
-                                       f"envelope spectrum of a window ({fs_hz / 2:g} Hz): check the speed, or give the "
-                                       "extractor longer windows or fewer features.harmonics")
+            unread = ~(flanks.any(axis=1) & in_line.any(axis=1))
+            if np.any(unread):
+                rpm_unread = float(shaft_hz[np.argmax(unread)]) * 60.0  # the first window that cannot read the line
+                if centre * rpm_unread / 60.0 >= freqs_hz[-1]:
+                    raise BearingTwinError(f"the shaft speed ({rpm_unread:g} rpm) puts its order {centre:.2f} line "
+                                           f"beyond the envelope spectrum of a window ({freqs_hz[-1]:g} Hz): check the "
+                                           "speed, or give the extractor fewer features.harmonics")
+                bin_orders = (freqs_hz[1] - freqs_hz[0]) * 60.0 / rpm_unread
+                raise BearingTwinError(f"at {rpm_unread:g} rpm a window resolves {bin_orders:.2f} shaft orders, too "
+                                       f"coarse for the order {centre:.2f} line and its flanks: check the speed, or use "
+                                       "longer windows or a wider features.floor_width_orders")
             floor = np.nanmedian(np.where(flanks, power, np.nan), axis=1)
             line = np.where(in_line, power, 0.0).sum(axis=1) / in_line.sum(axis=1)
             columns.append(np.log10(np.maximum(line, 1e-300) / np.maximum(floor, 1e-300)))

@@ -40,6 +40,7 @@ import numpy as np
 from scipy import signal as sps
 from scipy.ndimage import median_filter
 
+from bearingtwin.checks import whole_number
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
@@ -107,6 +108,16 @@ class CompareSettings:
     smooth_hz: float = 10.0
     stats_window_s: float = 0.1
     weights: dict = field(default_factory=lambda: {view: 1.0 for view in VIEWS})
+
+    def __post_init__(self) -> None:
+        # The band levels lose a polynomial of psd_detrend_order: at least one value must be left beyond it.
+        order = whole_number("compare.psd_detrend_order", self.psd_detrend_order, minimum=0)
+        n_bands = whole_number("compare.n_bands", self.n_bands)
+        if n_bands < order + 2:
+            raise BearingTwinError(f"compare.n_bands={n_bands} leaves no band level beyond the polynomial of order "
+                                   f"compare.psd_detrend_order={order}: give n_bands of at least {order + 2}, or a lower order")
+        object.__setattr__(self, "psd_detrend_order", order)  # frozen: the checked whole numbers, as ints
+        object.__setattr__(self, "n_bands", n_bands)
 
     @classmethod
     def from_config(cls, cfg) -> "CompareSettings":
@@ -268,12 +279,6 @@ class Comparator:
         self.nperseg = int(round(s.welch_segment_s * self.fs))
         # Windows and transforms made once: hundreds of twins are profiled against one measurement.
         self.psd_welch = WelchPSD(self.fs, sps.get_window("hann", self.nperseg))
-        order = s.psd_detrend_order
-        if not (isinstance(order, int) and not isinstance(order, bool) and order >= 0):
-            raise BearingTwinError(f"compare.psd_detrend_order must be a whole number of at least 0, got {order!r}")
-        if not (isinstance(s.n_bands, int) and not isinstance(s.n_bands, bool) and s.n_bands >= order + 2):
-            raise BearingTwinError(f"compare.n_bands must be a whole number of at least {order + 2} (the band levels lose a "
-                                   f"polynomial of order compare.psd_detrend_order={order}), got {s.n_bands!r}")
         self.band_edges_hz = np.geomspace(s.band_min_hz, self.fs / 2, s.n_bands + 1)
         psd_freqs = self.psd_welch.freqs_hz
         self.band_of_bin = np.searchsorted(self.band_edges_hz, psd_freqs, side="right") - 1

@@ -246,7 +246,7 @@ class TwinFit:
     repeatability_db: dict = field(default_factory=dict)    # each view's part-to-part error
     unclaimed: EffectFit | None = None  # the candidate that paid, but not in its own signature's views
     min_signature_gain: float = 0.0
-    not_tried: str = ""  # why no candidate was tried at all (an empty list, ranking.max_effects=0), else ""
+    not_tried: str = ""  # why no candidate was tried (none given, ranking.max_effects=0, each needs another), else ""
 
     @property
     def final_error(self) -> float:
@@ -261,7 +261,9 @@ class TwinFit:
     def verdict(self) -> str:
         if self.added:
             return "effects missing"
-        return "unexplained discrepancy" if self.unexplained or self.unclaimed is not None else "no effect needed"
+        if self.unexplained or self.unclaimed is not None:
+            return "unexplained discrepancy"
+        return "no effect tried" if not self.ranking else "no effect needed"
 
     @property
     def own_discrepancy_words(self) -> str:
@@ -291,15 +293,15 @@ class TwinFit:
             lines.append(f"No library effect claimed: {self._unclaimed_words()}. Discrepancy {self.baseline_error:.2f} dB "
                          f"({self.own_discrepancy_words}).")
         elif not self.ranking:
-            lines.append(f"No effect tried: {self.not_tried or 'no candidate could be offered'}. Discrepancy "
+            lines.append(f"No effect tried: {self.not_tried}. Discrepancy "
                          f"{self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
         else:
             # "Needed" only where nothing is left unexplained; otherwise the library simply has nothing that pays.
             head = "No effect needed" if not self.unexplained else "No library effect added"
             lines.append(f"{head}: the best candidate, {self.ranking[0].effect}, does not pay for its parameters on "
                          f"the {part}. Discrepancy {self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
-        own = "the measurement's own" if self.held_out else "the least counted"
         for left in self.unexplained:
+            own = "the measurement's own" if self.held_out else f"the {left['floor_db']:.1f} dB counted at least"
             lines.append(f"Not explained by the library: the {left['view']} view ({left['error_db']:.1f} dB, "
                          f"{left['error_db'] / left['floor_db']:.0f} times {own}): {left['where']}. "
                          f"Such a mark is left by {left['what_leaves_it']}.")

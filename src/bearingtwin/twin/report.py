@@ -51,7 +51,7 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     raw = read_raw(measured_cfg.path)
     recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=measured_cfg.fs, rpm=measured_cfg.rpm,
                                    fault=measured_cfg.fault, channel_key="measured.channel", fs_key="measured.fs",
-                                   rpm_key="measured.rpm")
+                                   rpm_key="measured.rpm", fault_key="measured.fault")
     recording.require_vibration()  # before the rate check, which a flat record cannot answer
     for name in ("rpm", "fault"):
         if getattr(recording, name) is None:
@@ -299,6 +299,7 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     figures = true_or_false(cfg.figures, "figures")
     tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
     ranker_settings(cfg)  # checked before the file is read; the ranker is built once the record's state is known
+    settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     if cfg.get("reference") is not None:
         refuse_reference_folder(cfg.reference, out)
     geometry = BearingGeometry.from_config(cfg.bearing)
@@ -314,10 +315,9 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
         log.warning("%s: %s", cfg.measured.path, doubts["bearing"])
     if cfg.get("reference") is not None:  # an earlier record of this rig: what it found is held
         cfg = hold_reference(cfg, read_reference(cfg.reference), measured.fault, source=f"reference={cfg.reference}")
-    settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault, progress)
-    Comparator(measured, geometry, settings)  # the views' settings and the record's length, before a run opens
+    Comparator(measured, geometry, settings)  # a record too short for one comparison segment, before a run opens
     tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
     check = fault_check(measured, cfg.bearing)
