@@ -148,9 +148,10 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     convention (a CWRU file's) is tried against the data set's rates, and the highest rate under which
     the shaft's harmonic series stands where it belongs is the record's: read at a whole-number fraction of its
     true rate, a record puts a higher shaft harmonic onto the expected line, so a lower rate can seem
-    to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz). A declared rate the check
-    contradicts, with no other rate consistent, is refused. A stated rate and speed the shaft line
-    contradicts are kept, and the note says that one of the two is wrong: the shaft line cannot tell which.
+    to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz). A rate and speed the shaft
+    line contradicts, with no other rate of the data set consistent, are kept, and the note says that one
+    of the two is wrong (the line cannot tell which): a speed variable a tachometer got wrong must not cost
+    the record its diagnosis, only its certainty.
     """
     defect_hz = BearingGeometry.from_config(bearing).defect_frequencies(recording.rpm) if bearing else None
 
@@ -167,17 +168,14 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
         declared = check(recording.fs)
     except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
         return recording, [f"sampling rate not checked ({error})"], "not checked"
-    doubt = [] if declared.verdict == "consistent" else [f"sampling rate unconfirmed: {describe_mismatch(declared)}"]
+    doubt = ([] if declared.verdict == "consistent" else [_speed_or_rate_wrong(declared)]
+             if declared.verdict == "contradicted" else [f"sampling rate unconfirmed: {describe_mismatch(declared)}"])
     if not declared_only:
-        if declared.verdict == "contradicted":
-            doubt = [_speed_or_rate_wrong(declared)]
         return recording, doubt, declared.verdict
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between
     # lines (a machine's half orders) may leave the higher rate's verdict ambiguous, never contradicted.
     higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and _matches(checks, rate)]
     if not higher:
-        if declared.verdict == "contradicted":
-            raise BearingTwinError(f"{recording.source}: {describe_mismatch(declared)}; give the record's rate with fs=<Hz>")
         return recording, doubt, declared.verdict
     rate = max(higher)
     note = f"the shaft line stands where it belongs at {rate:g} Hz, not only at the declared {recording.fs:g} Hz: read at {rate:g} Hz"
