@@ -502,3 +502,18 @@ def test_a_noise_floor_the_operating_point_took_up_is_claimed_after_their_joint_
     assert report["added"] == ["noise"]
     assert 5.0 < report["ranking"][0]["params"]["snr_db"] < 20.0  # 10 dB hidden
     assert report["final_error"] < 0.5 * report["baseline_error"]
+
+
+def test_base_parameters_the_record_does_not_identify_are_said_apart_without_their_numbers():
+    """A fitted load anywhere in its searched range is no finding: its number is left out and its range said, after
+    the values the record does identify."""
+    from bearingtwin.twin.rank import _operating_point_words
+
+    operating = {
+        "radial_load_n": {"value": 895.0, "interval": [20.0, 5000.0], "range": [20.0, 5000.0], "unit": "N", "scale": "log"},
+        "defect_width_mm": {"value": 0.637, "interval": [0.395, 0.934], "range": [0.1, 2.0], "unit": "mm", "scale": "log"},
+    }
+    words = _operating_point_words(operating, 1.49)
+    assert words.startswith("defect width 0.637 mm (0.395-0.934); sensor gain 1.49"), words
+    assert words.endswith("Not identified by this record (anywhere in the searched range fits as well): radial load "
+                          "(downward) over 20-5000 N") and "895" not in words

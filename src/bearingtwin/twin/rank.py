@@ -397,7 +397,9 @@ def _parameter_words(name: str, value: float, interval=None) -> str:
 
 
 def _operating_point_words(operating: Mapping, gain: float) -> str:
-    parts = []
+    """The fitted base parameters with their intervals, then, apart, those the record does not identify (any value in
+    the searched range fits as well): their fitted numbers mean little, so only the range is said."""
+    parts, unidentified = [], []
     for name, entry in operating.items():
         if entry.get("held"):
             continue
@@ -408,12 +410,19 @@ def _operating_point_words(operating: Mapping, gain: float) -> str:
             other = [r for r in entry["races_within_bound"] if r != entry["race"]]
             parts.append(f"sensor on the {entry['value']}{within}"
                          + (f", the {other[0]} race fits almost as well" if other else ""))
+            continue
+        label = BASE_PARAMETERS[name].description if name in BASE_PARAMETERS else name
+        words = identification_words(entry)
+        if words.startswith(", not identified"):
+            unidentified.append(f"{label} over {_span(*entry['range'])} {entry.get('unit', '')}".rstrip())
         else:
-            label = BASE_PARAMETERS[name].description if name in BASE_PARAMETERS else name
-            parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}"
-                         + identification_words(entry))
+            parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}" + words)
     parts.append(f"sensor gain {_number(gain)} (measurement unit per m/s^2)")
-    return ", ".join(parts)
+    text = "; ".join(parts)
+    if unidentified:
+        text += (". Not identified by this record (anywhere in the searched range fits as well): "
+                 + ", ".join(unidentified))
+    return text
 
 
 class StageProgress:
