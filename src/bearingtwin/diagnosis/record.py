@@ -168,8 +168,12 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
         declared = check(recording.fs)
     except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
         return recording, [f"sampling rate not checked ({error})"], "not checked"
-    doubt = ([] if declared.verdict == "consistent" else [_speed_or_rate_wrong(declared)]
-             if declared.verdict == "contradicted" else [f"sampling rate unconfirmed: {describe_mismatch(declared)}"])
+    if declared.verdict == "contradicted":
+        doubt = [_speed_or_rate_wrong(declared)]
+    elif declared.verdict == "ambiguous":
+        doubt = [f"sampling rate unconfirmed: {describe_mismatch(declared)}"]
+    else:
+        doubt = []
     if not declared_only:
         return recording, doubt, declared.verdict
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between

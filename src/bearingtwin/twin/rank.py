@@ -365,6 +365,16 @@ HARDLY_IDENTIFIED_SHARE = 0.9
 """An interval covering this share of its search range (on the range's own scale) leaves the value hardly identified."""
 
 
+def not_identified(entry: Mapping) -> bool:
+    """Whether a fitted base parameter's interval spans its whole search range: any value in it fits as well."""
+    search, interval = entry.get("range"), entry.get("interval")
+    if not search or not interval:
+        return False
+    low, high = search
+    slack = 1e-6 * (high - low)  # rounding of bounds of either sign
+    return interval[0] <= low + slack and interval[1] >= high - slack
+
+
 def identification_words(entry: Mapping) -> str:
     """What a fitted base parameter's interval says against its search range: nothing when it is inside, else that
     the value sits at an edge of the range, or that any value (or nearly any) in the range fits: then the number
@@ -373,8 +383,7 @@ def identification_words(entry: Mapping) -> str:
     if not search or not interval:
         return ""
     low, high = search
-    slack = 1e-6 * (high - low)  # rounding of bounds of either sign
-    if interval[0] <= low + slack and interval[1] >= high - slack:
+    if not_identified(entry):
         return f", not identified: anywhere in the searched {_span(low, high)} fits as well"
     bounds = (low, high, entry.get("scale") == "log")
     # the share of the range on its own scale (unknown in reports older than the key: none claimed)
@@ -412,11 +421,11 @@ def _operating_point_words(operating: Mapping, gain: float) -> str:
                          + (f", the {other[0]} race fits almost as well" if other else ""))
             continue
         label = BASE_PARAMETERS[name].description if name in BASE_PARAMETERS else name
-        words = identification_words(entry)
-        if words.startswith(", not identified"):
+        if not_identified(entry):
             unidentified.append(f"{label} over {_span(*entry['range'])} {entry.get('unit', '')}".rstrip())
         else:
-            parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}" + words)
+            parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}"
+                         + identification_words(entry))
     parts.append(f"sensor gain {_number(gain)} (measurement unit per m/s^2)")
     text = "; ".join(parts)
     if unidentified:
