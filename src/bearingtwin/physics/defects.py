@@ -20,6 +20,14 @@ trajectory: it is continuous with a continuous slope at the edges, so an adaptiv
 solver needs no event handling, a fixed-step solver does not depend on where an edge
 falls inside a step, and both see the same well-defined excitation. The ball enters
 and leaves over w/2 each, taking ~0.15 ms each way at 1797 rpm.
+
+Limits of the lumped pit, which the paper shares. The drop is bounded by the curvatures in the
+rolling direction only, as for a trough across the whole track: a round pit of the same width
+(CWRU's EDM holes) in a conforming groove lets the ball drop much less, since the contact
+ellipse, wider across the groove than such a pit, bridges it. And with massless balls and a
+smooth profile a pit can only unload a ball, never strike it on re-entry: the peak acceleration
+is capped near the ball's load over the race's mass, so above a width of about 0.36 mm the
+peaks hardly grow while the RMS and the envelope lines still do.
 """
 
 from __future__ import annotations

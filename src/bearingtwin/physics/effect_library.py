@@ -438,9 +438,10 @@ class Slip(Effect):
 
     Every ball gets a random angular offset, redrawn once per ball pass (the time the cage
     takes to advance one ball spacing, 2 pi / Nb) and interpolated linearly in between, with
-    standard deviation ``jitter`` x 2 pi / Nb. Since consecutive impacts are one ball spacing
-    apart, ``jitter`` is the standard deviation of the impact times as a fraction of the
-    nominal impact spacing (Randall & Antoni: typically 0.01-0.02). Race defects only: a ball
+    standard deviation ``jitter`` x 2 pi / Nb at the draws. Since consecutive impacts are one
+    ball spacing apart, ``jitter`` is the standard deviation of the impact times as a fraction
+    of the nominal impact spacing at the draws (Randall & Antoni: typically 0.01-0.02); between
+    them the interpolation lowers it, to sqrt(2/3) = 0.82 of that on average. Race defects only: a ball
     defect's impacts follow the ball's spin, which this slip leaves unchanged.
 
     Signature: the impacts lose strict periodicity, so envelope-spectrum harmonics weaken with
@@ -896,7 +897,7 @@ class Clipping(Effect):
 
 @register_effect
 class LoadZone(Effect):
-    """Radial load on the shaft and the diametral clearance, which together set the load zone.
+    """Radial load on the shaft and the radial clearance, which together set the load zone.
 
     Args:
         radial_load_n: downward radial load on the inner race in N (belt pull, rotor weight
@@ -966,7 +967,8 @@ class Lubrication(Effect):
     Args:
         stiffness_ratio: contact stiffness with the film / dry Hertz stiffness (0.5-1).
         damping_ns_per_m: viscous damping of each loaded ball contact in N s/m, acting on the
-            rate of contact deflection (tens to thousands of N s/m for grease to oil bath).
+            races' approach speed along the contact's line (tens to thousands of N s/m for grease
+            to oil bath); a ball's drop into a pit is not damped, so its impact passes whole.
 
     Signature: the race-contact modes (a few hundred Hz in the paper's bearing) move down
     with the softer film and lose energy to its damping, while the sharp deflection rate at

@@ -49,7 +49,13 @@ def shaft_frequency_hz(rpm: float) -> float:
 
 @dataclass(frozen=True)
 class BearingGeometry:
-    """Geometry of a deep-groove ball bearing (lengths in mm, angle in degrees)."""
+    """Geometry of a deep-groove ball bearing (lengths in mm, angle in degrees).
+
+    ``contact_angle_deg`` enters the defect frequencies and the Hertz contact radii; the dynamics
+    stay radial (no axial load, no cos(alpha) projection of the contact force), which is the
+    deep-groove bearing at alpha = 0 the twin is made for. An angular-contact bearing gets its
+    defect frequencies right and its impacts only roughly.
+    """
 
     outer_diameter_mm: float
     inner_diameter_mm: float

@@ -7,6 +7,12 @@ start-up transient long enough for the slowest linearized mode to decay by
 ``simulator.settle_decades`` decades, and keep ``simulator.duration`` seconds of the
 accelerations of the inner and outer race in x and y. The sensor channel
 (``simulator.sensor``) then passes through the effects' sensor path.
+
+The accelerations are samples of the solution at ``simulator.fs``, as the paper takes them:
+what the contact dynamics put above fs/2 (the pit edges' transients) folds back below it.
+``simulator.oversample`` = q > 1 solves on a grid q times finer and brings the races'
+accelerations down to fs through an anti-aliasing filter, as an acquisition system's input
+stage does before its converter (``scipy.signal.resample_poly``).
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from typing import Mapping, NamedTuple, Sequence
 
 import joblib
 import numpy as np
+import scipy.signal
 from tqdm.auto import tqdm
 
 from bearingtwin.checks import finite_number, is_finite_number, physical_memory_bytes, whole_number
@@ -52,6 +59,12 @@ MIN_SAMPLES = 2
 _BYTES_PER_GRID_SAMPLE = 72
 _BYTES_PER_GRID_SAMPLE_AND_BALL = 32
 _BYTES_PER_REFERENCE_SAMPLE = 544
+
+ANTI_ALIAS_HALF_LENGTH = 10
+"""Output samples either side of a sample that ``scipy.signal.resample_poly``'s default
+anti-aliasing filter reaches (its half-length is 10 x the down-sampling factor in input
+samples): the oversampled solution extends this far beyond the record at both ends, so that
+no edge of the filtered array falls inside it."""
 
 
 def _record_samples(simulator_cfg: Mapping) -> int:
@@ -91,6 +104,12 @@ def _check_settings(simulator_cfg: Mapping) -> None:
     finite_number("simulator.initial_cage_angle_deg", simulator_cfg["initial_cage_angle_deg"],
                   "a finite angle in degrees")
     whole_number("simulator.seed", simulator_cfg["seed"], minimum=0)  # numpy's SeedSequence takes no negative seed
+    whole_number("simulator.oversample", oversample_factor(simulator_cfg), minimum=1)
+
+
+def oversample_factor(simulator_cfg: Mapping) -> int:
+    """``simulator.oversample``: 1 (samples of the solution at fs) for a config written before it existed."""
+    return simulator_cfg.get("oversample", 1)
 
 
 def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs: float) -> None:
@@ -114,16 +133,20 @@ def _memory_bytes(solver: str, n_transient: int, n_samples: int, n_balls: int) -
 def _check_memory(simulator_cfg: Mapping, n_transient: int, n_samples: int, n_balls: int,
                   concurrent: int = 1) -> None:
     """Refuse a simulation whose arrays (``concurrent`` of them at once) would need over half the memory."""
-    need = concurrent * _memory_bytes(simulator_cfg["solver"], n_transient, n_samples, n_balls)
+    oversample = oversample_factor(simulator_cfg)
+    grid_transient = oversample * n_transient
+    grid_samples = oversample * (n_samples + (2 * ANTI_ALIAS_HALF_LENGTH if oversample > 1 else 0))
+    need = concurrent * _memory_bytes(simulator_cfg["solver"], grid_transient, grid_samples, n_balls)
     memory = physical_memory_bytes()
     if memory is not None and need > memory / 2:
-        fs, n_grid = float(simulator_cfg["fs"]), n_transient + n_samples + 1
+        fs, n_grid = float(simulator_cfg["fs"]), grid_transient + grid_samples + 1
         at_once = f" for {concurrent} simulations at once" if concurrent > 1 else ""
+        finer = f", solved {oversample} times finer" if oversample > 1 else ""
         raise BearingTwinError(
             f"simulator.fs={fs:g} Hz x simulator.duration={simulator_cfg['duration']:g} s is {n_samples:,} samples "
-            f"({n_grid:,} with the {n_transient / fs:.3g} s start-up transient), about {need / 1e9:.3g} GB of "
-            f"memory{at_once}, more than half of this machine's {memory / 1e9:.3g} GB: lower simulator.fs or "
-            f"simulator.duration"
+            f"({n_grid:,} with the {n_transient / fs:.3g} s start-up transient{finer}), about {need / 1e9:.3g} GB of "
+            f"memory{at_once}, more than half of this machine's {memory / 1e9:.3g} GB: lower simulator.fs"
+            f"{', simulator.oversample' if oversample > 1 else ''} or simulator.duration"
         )
 
 
@@ -213,27 +236,37 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
     rpm, fs, params, defect, crossing = plan.rpm, plan.fs, plan.params, plan.defect, plan.crossing_s
     highest_mode_hz, n_transient, n_samples = plan.highest_mode_hz, plan.n_transient, plan.n_samples
     rng = np.random.default_rng(np.random.SeedSequence([int(simulator_cfg["seed"]), FAULTS.index(fault)]))
+    oversample = oversample_factor(simulator_cfg)
+    # On the solver's grid (q x fs): the record with, when oversampled, the filter's reach either side of it
+    # (before it, out of the start-up transient).
+    lead = min(ANTI_ALIAS_HALF_LENGTH, n_transient) if oversample > 1 else 0
+    tail = ANTI_ALIAS_HALF_LENGTH if oversample > 1 else 0
+    grid_fs = oversample * fs
+    first, count = oversample * (n_transient - lead), oversample * (lead + n_samples + tail)
 
-    kinematics = rigid_kinematics(plan.geometry, rpm, fs, n_transient + n_samples + 1, plan.initial_cage_angle)
+    kinematics = rigid_kinematics(plan.geometry, rpm, grid_fs, first + count + 1, plan.initial_cage_angle)
     for effect in plan.effects:
         kinematics = effect.modify_kinematics(kinematics, rng)
 
     meta = {"transient_s": n_transient / fs, "contact_stiffness_n_per_m1_5": params.contact_stiffness_n_per_m1_5,
-            "highest_mode_hz": highest_mode_hz, "defect_depth_m": defect.depth_m, "solver": simulator_cfg["solver"]}
+            "highest_mode_hz": highest_mode_hz, "defect_depth_m": defect.depth_m, "solver": simulator_cfg["solver"],
+            "oversample": oversample}
     if simulator_cfg["solver"] == "fast":
         settings = simulator_cfg["fast"]
-        resolution = (fs, highest_mode_hz, crossing, settings["steps_per_period"], settings["steps_per_defect"])
+        resolution = (grid_fs, highest_mode_hz, crossing, settings["steps_per_period"], settings["steps_per_defect"])
         substeps, per_step = fast.substeps_per_sample(*resolution), fast.samples_per_step(*resolution)
         meta["substeps"], meta["samples_per_step"] = substeps, per_step
-        with tqdm(total=n_transient + n_samples, unit="sample", unit_scale=True, desc=f"simulate {fault}",
+        with tqdm(total=first + count, unit="sample", unit_scale=True, desc=f"simulate {fault}",
                   disable=not progress, leave=False) as bar:
-            channels = fast.integrate(params, kinematics, defect.as_array(), plan.initial_state, n_transient, n_samples,
+            channels = fast.integrate(params, kinematics, defect.as_array(), plan.initial_state, first, count,
                                       substeps, progress=bar, per_step=per_step)
     else:
         settings = simulator_cfg["reference"]
-        channels = reference.integrate(params, kinematics, defect.as_array(), plan.initial_state, n_transient, n_samples,
+        channels = reference.integrate(params, kinematics, defect.as_array(), plan.initial_state, first, count,
                                        rtol=settings["rtol"], atol=settings["atol"],
                                        max_step_s=crossing / settings["steps_per_defect"])
+    if oversample > 1:
+        channels = scipy.signal.resample_poly(channels, 1, oversample, axis=-1)[:, lead:lead + n_samples]
 
     signal = sensor_signal(channels, simulator_cfg["sensor"], simulator_cfg.get("sensor_angle_deg"))
     for effect in plan.effects:
