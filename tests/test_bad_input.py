@@ -174,6 +174,30 @@ def test_measurement_files_that_are_not_measurements(tmp_path):
         Comparator(recording, BearingGeometry.from_config(twin_config().bearing))
 
 
+def test_what_a_measurement_leaves_unsaid_is_asked_for_at_once_or_read_from_a_labels_table_beside_it(tmp_path):
+    t = np.arange(4 * 12000) / 12000.0
+    path = tmp_path / "outer_a.npy"
+    np.save(path, sum(np.sin(2 * np.pi * k * 29.95 * t) / k for k in range(1, 8))
+            + np.random.default_rng(0).standard_normal(t.size))
+    with pytest.raises(BearingTwinError) as error:  # one message for all three, not one run per missing value
+        load_measurement(twin_config(f"measured.path={path}").measured)
+    assert str(error.value) == (f"{path}: the file does not state its sampling rate, speed, bearing state; give "
+                                "measured.fs=<Hz> measured.rpm=<rev/min> measured.fault=<normal|inner|ball|outer> "
+                                "(or a row for it in a labels.csv beside it: record,state,rpm,fs)")
+    with pytest.raises(BearingTwinError, match=r"^measured.fault='outr' is not a bearing state; choose one of"):
+        load_measurement(twin_config(f"measured.path={path}", "measured.fs=12000", "measured.rpm=1797",
+                                     "measured.fault=outr").measured)
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.npy,outer,1797,12000\n")
+    recording = load_measurement(twin_config(f"measured.path={path}").measured)
+    assert (recording.fault, recording.rpm, recording.fs) == ("outer", 1797.0, 12000.0)
+    given = load_measurement(twin_config(f"measured.path={path}", "measured.rpm=1800").measured)
+    assert given.rpm == 1800.0  # a setting given wins over the table
+    # A rate the shaft series contradicts is refused naming both ways out.
+    with pytest.raises(BearingTwinError, match=r"give the true rate with measured.fs=<Hz>, or measured.check_fs=false "
+                                               r"if 24000 Hz is the true one$"):
+        load_measurement(twin_config(f"measured.path={path}", "measured.fs=24000").measured)
+
+
 def test_a_twin_of_no_duration(tmp_path):
     path = tmp_path / "x.npy"
     np.save(path, np.sin(np.arange(12000)))

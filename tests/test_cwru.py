@@ -210,6 +210,26 @@ def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_co
     assert decisive_channel({"FE": silent, "DE": far}) == "DE" and decisive_channel({"FE": silent}) == "FE"
 
 
+@pytest.mark.parametrize("bpfo_order", [3.5848, 4.530])
+def test_a_defect_comb_where_the_shaft_series_should_be_does_not_contradict_the_rate(bpfo_order):
+    """A spalled race on a machine without unbalance: the spectrum's strongest series is the BPFO comb,
+    not the shaft's. At the declared rate it stands at the bearing's BPFO (the SKF 6205's 3.5848 orders, a
+    6005-like bearing's 4.530), where a rate off by a whole factor puts no shaft series: the rate stands.
+    Declared at twice the true rate, the comb stands at half of BPFO, which is no defect frequency."""
+    fs, rpm = 20000.0, 1500.0
+    t = np.arange(int(8 * fs)) / fs
+    bpfo = bpfo_order * rpm / 60.0
+    comb = sum(np.sin(2 * np.pi * k * bpfo * t) for k in range(1, 12))
+    signal = comb + np.random.default_rng(2).standard_normal(t.size)
+    defect_hz = {"shaft": rpm / 60.0, "bpfo": bpfo, "bpfi": 1.9 * bpfo, "bsf": 0.65 * bpfo, "ftf": 0.09 * bpfo}
+    alone = check_sampling_rate(signal, fs, rpm)
+    assert alone.verdict == "contradicted"
+    check = check_sampling_rate(signal, fs, rpm, defect_hz=defect_hz)
+    assert check.verdict == "consistent" and not check.matches and check.implied_fs_hz == fs, check.reason
+    assert "that series is the bearing's BPFO" in check.reason
+    assert check_sampling_rate(signal, 2 * fs, rpm, defect_hz=defect_hz).verdict == "contradicted"
+
+
 def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_path):
     """The 0.028 in records keep their samples under another number (3001.mat holds X056_DE_time),
     drive end only, and record no speed: the name's motor load gives the Data Center's nominal speed."""

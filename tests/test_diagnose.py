@@ -570,6 +570,27 @@ def test_bad_models_fail_in_one_line(registered, tmp_path):
     assert len(bearing.stderr.strip().splitlines()) == 1 and not (tmp_path / "diagnosis").exists()
 
 
+def test_a_bearing_of_the_users_own_outside_the_checkout_is_found_through_hydras_search_path(registered, tmp_path):
+    base, uri = registered
+    (tmp_path / "conf" / "bearing").mkdir(parents=True)
+    (tmp_path / "conf" / "bearing" / "my6005.yaml").write_text(
+        "defaults:\n  - paper\n  - _self_\nname: my6005\nn_balls: 11\nball_diameter_mm: 6.35\n"
+        "pitch_diameter_mm: 36.0\nouter_diameter_mm: 47.0\ninner_diameter_mm: 25.0\n")
+    record = tmp_path / "r.npz"
+    np.savez(record, signal=fault_signal(None, seconds=1), fs=FS, rpm=RPM)
+    done = run("diagnose", f"path={record}", "model=models:/diag/1", "bearing=my6005", f"out={tmp_path}/out",
+               f"hydra.searchpath=[file://{tmp_path / 'conf'}]", "figures=false", "tracking.enabled=false",
+               cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-2000:]
+    evidence = json.loads((tmp_path / "out" / "r" / "diagnosis.json").read_text())["evidence"]
+    # The physics evidence reads the user's bearing's outer-race line, BPFO = Nb / 2 (1 - d / D) x shaft.
+    assert evidence["lines_hz"]["outer"][0] == pytest.approx(11 / 2 * (1 - 6.35 / 36.0) * RPM / 60, rel=1e-6), evidence
+    unknown = run("diagnose", f"path={record}", "model=models:/diag/1", "bearing=my6005", cwd=tmp_path, uri=uri)
+    assert unknown.returncode == 2 and ("bearing=my6005: no such bearing config; choose one of cwru_6203, cwru_6205, "
+                                        "er16k, paper, or describe yours in <folder>/bearing/my6005.yaml and add "
+                                        "hydra.searchpath=[file://<folder>]") in unknown.stderr, unknown.stderr
+
+
 @needs_cwru
 def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data_center_wrote_them(registered, tmp_path):
     import scipy.io

@@ -73,7 +73,8 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
     cause = error.__cause__ if isinstance(error.__cause__, OmegaConfBaseException) else None
     if isinstance(error, MissingConfigException) and error.options and "/" in (error.missing_cfg_file or ""):
         group, option = error.missing_cfg_file.rsplit("/", 1)
-        return f"{group}={option}: no such {group} config; choose one of {', '.join(error.options)}"
+        own = own_config_hint(option) if group == "bearing" else ""
+        return f"{group}={option}: no such {group} config; choose one of {', '.join(error.options)}{own}"
     if isinstance(cause, (ConfigAttributeError, ConfigKeyError)) and getattr(cause, "full_key", None):
         return f"{cause.full_key}: not a setting (no config declares it); check its spelling (--cfg job lists the settings)"
     if isinstance(error, OverrideParseException):
@@ -170,11 +171,34 @@ def bearing_config(name: str, key: str = "bearing") -> dict:
     """``conf/bearing/<name>.yaml`` composed as Hydra would (its defaults chain applied), as a dict named ``name``;
     a name that is not one of those files raises naming ``key``, the setting it came from, before
     Hydra parses it (a name may come from a served model's request)."""
-    choices = sorted(path.stem for path in Path(CONF_DIR, "bearing").glob("*.yaml"))
+    search_path = user_search_path()
+    choices = bearing_choices(search_path)
     if name not in choices:
-        raise BearingTwinError(f"{key}={name}: no such bearing config; choose one of {', '.join(choices)}")
-    config = OmegaConf.to_container(compose_config(overrides=[f"+bearing={name}"]).bearing, resolve=True)
+        raise BearingTwinError(f"{key}={name}: no such bearing config; choose one of {', '.join(choices)}"
+                               f"{own_config_hint(name)}")
+    overrides = [f"+bearing={name}"] + ([f"hydra.searchpath=[{','.join(search_path)}]"] if search_path else [])
+    config = OmegaConf.to_container(compose_config(overrides=overrides).bearing, resolve=True)
     return {**config, "name": name}  # a file that names none inherits its defaults' name; a bearing is its file
+
+
+def own_config_hint(name: str) -> str:
+    """How a bearing of the user's own is found, for a message naming a bearing config that does not exist."""
+    return f", or describe yours in <folder>/bearing/{name}.yaml and add hydra.searchpath=[file://<folder>]"
+
+
+def user_search_path() -> list[str]:
+    """The folders a user added to the running Hydra command's config search path (``hydra.searchpath``); none
+    outside a command. A config composed inside the command (a bearing a model is asked for) is looked up there too."""
+    from hydra.core.hydra_config import HydraConfig
+
+    return list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
+
+
+def bearing_choices(search_path: list[str] = ()) -> list[str]:
+    """The ``bearing`` configs a name may choose: the project's ``conf/bearing`` files and those in the
+    ``bearing`` folder of every ``file://`` entry of ``search_path``."""
+    folders = [Path(CONF_DIR)] + [Path(entry[len("file://"):]) for entry in search_path if entry.startswith("file://")]
+    return sorted({path.stem for folder in folders for path in (folder / "bearing").glob("*.yaml")})
 
 
 def load_bearing(name: str, key: str = "bearing"):

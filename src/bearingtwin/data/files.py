@@ -182,6 +182,8 @@ def recording_from_raw(
     # a given rate replaces a merely declared one, or fills in a missing one.
     fs_origin = raw.fs_origin if fs is None or (raw.fs is not None and raw.fs_origin != "declared") else "config"
     name, signal = raw.channel(channel, channel_key)
+    if fault is not None and fault not in FAULTS:
+        raise BearingTwinError(f"{fault_key}={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
     rpm = _resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key)
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     if rpm is None and raw.nominal_rpm is not None:

@@ -228,6 +228,20 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
     return rows
 
 
+def read_labels(path: Path | None) -> dict[str, tuple[str, float | None, float | None]]:
+    """``record -> (state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or stem).
+
+    Records are named by their stem here (an output folder, a summary row), so two rows of one stem are refused."""
+    labels, lines = {}, {}
+    for where, record, state, rpm, fs in labels_table(path) if path is not None else []:
+        stem = Path(record).stem
+        if stem in labels:
+            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); "
+                                   "one row per record")
+        labels[stem], lines[stem] = (state, rpm, fs), where
+    return labels
+
+
 def recordings_in(folder: Path) -> list[Path]:
     """The files of a folder bearingtwin reads, sorted; a labels table left among them is not a recording."""
     return sorted(path for path in folder.iterdir()

@@ -25,7 +25,7 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
-from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, labels_table, recordings_in
+from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, read_labels, recordings_in
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
@@ -86,20 +86,6 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
         raise BearingTwinError(f"path={path}: {', '.join(clash)} share the record name {Path(clash[0]).stem}; "
                                "rename one or point at one file")
     return found
-
-
-def read_labels(path: Path | None) -> dict[str, tuple[str, float | None, float | None]]:
-    """``record -> (state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or stem).
-
-    Records are named by their stem here (an output folder, a summary row), so two rows of one stem are refused."""
-    labels, lines = {}, {}
-    for where, record, state, rpm, fs in labels_table(path) if path is not None else []:
-        stem = Path(record).stem
-        if stem in labels:
-            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); "
-                                   "one row per record")
-        labels[stem], lines[stem] = (state, rpm, fs), where
-    return labels
 
 
 def labels_path(cfg: DictConfig) -> Path | None:

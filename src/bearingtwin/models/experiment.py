@@ -273,7 +273,9 @@ def check_feature_bearing(cfg: DictConfig) -> None:
     if features is None or data is None or features.get("name") == data:
         return
     raise BearingTwinError(f"features.bearing is {features.get('name')}, the data's bearing (data.bearing) is {data}: "
-                           f"add bearing={data}, so the features read the defect orders of the bearing recorded")
+                           f"the features must read the defect orders of the bearing recorded: add bearing={data} if "
+                           f"the records are of {data}, data.bearing={features.get('name')} if they are of "
+                           f"{features.get('name')}")
 
 
 def data_bearing(cfg: DictConfig) -> dict:

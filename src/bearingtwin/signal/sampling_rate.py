@@ -253,17 +253,32 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
 
 def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
                  prominence: float) -> ShaftLineCheck:
-    """A contradiction stands unless a defect series stands where the declared rate puts it.
+    """A contradiction stands unless the bearing's own lines explain it at the declared rate.
 
     An accelerometer far from the shaft (a fan-end channel, a housing) may show the shaft series
     too weakly beside stronger lines of other machine elements, and a machine may have no
-    unbalance to show. A defect line and its second harmonic in the envelope at their own
-    frequencies, at none of their half, third or quarter (where a rate too low by that factor would
-    put them), and away from the shaft's harmonics and their fractions (where a wrong rate puts the
-    shaft's own lines), are then the witness that the declared rate is the record's: ``consistent``,
-    with ``matches`` still false (the shaft series does not stand where it belongs)."""
-    witness = _defect_series_at_its_frequency(signal, check.fs_hz, check.expected_hz, defect_hz, prominence) \
-        if defect_hz else None
+    unbalance to show. Two witnesses then speak for the declared rate:
+
+    - the strong series taken for the shaft's is a defect frequency's at the declared rate (a
+      spalled race's comb in the spectrum itself), and not a whole multiple or fraction of the
+      shaft line (n or 1 / n of it, n up to 8): a rate off by a whole factor n puts the shaft's own
+      series there (the SKF 6203's BSF is 1.994 x shaft), and nowhere else;
+    - a defect line and its second harmonic in the envelope at their own frequencies, at none of
+      their half, third or quarter (where a rate too low by that factor would put them), and away
+      from the shaft's harmonics and their fractions (where a wrong rate puts the shaft's own
+      lines).
+
+    Either makes the rate ``consistent``, with ``matches`` still false (the shaft series does not
+    stand where it belongs)."""
+    if not defect_hz:
+        return check
+    explained = _defect_series_named(check.observed_hz, check.expected_hz, defect_hz)
+    if explained is not None:
+        name, hz = explained
+        return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent",
+                                   reason=f"{check.reason}; but that series is the bearing's {name} ({hz:.2f} Hz at "
+                                          f"{check.rpm:g} rpm), where a rate off by a whole factor puts no shaft line")
+    witness = _defect_series_at_its_frequency(signal, check.fs_hz, check.expected_hz, defect_hz, prominence)
     if witness is None:
         return check
     return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent",
@@ -271,8 +286,33 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
                                       f"stand at their frequencies")
 
 
+_MAX_FRACTION = 4
+"""Rates too low by a whole factor up to this are the ones an envelope witness must tell apart."""
+_WINDOW = 0.005
+"""Relative half-width of the search window around a line (the series search's grid step)."""
+
+
+def _defect_series_named(observed_hz: float | None, shaft_hz: float, defect_hz: Mapping[str, float],
+                         max_factor: int = 8, tolerance: float = 2 * _WINDOW) -> tuple[str, float] | None:
+    """The defect frequency (a ball defect's comb at 2 x BSF included) within ``tolerance`` of
+    ``observed_hz``, a series' fundamental, if ``observed_hz`` is not within ``tolerance`` of n or 1 / n
+    times ``shaft_hz`` (n = 2 .. ``max_factor``: where a rate off by that whole factor puts the shaft's
+    own series); None otherwise."""
+    if observed_hz is None:
+        return None
+    factors = np.arange(2, max_factor + 1, dtype=float)
+    if np.min(np.abs(np.log(observed_hz / shaft_hz / np.concatenate([factors, 1 / factors])))) <= tolerance:
+        return None
+    candidates = {name.upper(): float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz}
+    if "BSF" in candidates:
+        candidates["2 x BSF"] = 2 * candidates["BSF"]
+    distance, name, hz = min(((abs(math.log(observed_hz / hz)), name, hz) for name, hz in candidates.items()),
+                             default=(math.inf, "", 0.0))
+    return (name, hz) if distance <= tolerance else None
+
+
 def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], prominence: float,
-                                    max_fraction: int = 4, window: float = 0.005) -> str | None:
+                                    max_fraction: int = _MAX_FRACTION, window: float = _WINDOW) -> str | None:
     """The first defect frequency f whose envelope lines stand at f and 2 f (``prominence``) and at none of
     f / k, k = 2 .. ``max_fraction``; frequencies within two search windows of a shaft harmonic's fraction
     m / k (k up to ``max_fraction``) are not witnesses, since under a wrong rate the shaft's lines land
@@ -333,13 +373,15 @@ def describe_mismatch(check: ShaftLineCheck) -> str:
 
 def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: str,
                            defect_hz: Mapping[str, float] | None = None, refuse: bool = True,
-                           channels: Mapping[str, np.ndarray] | None = None) -> ShaftLineCheck | None:
+                           channels: Mapping[str, np.ndarray] | None = None,
+                           check_key: str | None = None) -> ShaftLineCheck | None:
     """The check as a command applies it: a contradicted rate raises naming ``source`` and the
     setting to correct (``fs_key``); an ambiguous one is logged; a record too short to check is
     logged as unchecked (None). ``refuse=False`` only logs a contradiction: for a rate the file
     itself records (a header, a time column), which a record without a visible shaft line (a
     simulation, a machine without unbalance) cannot contradict. ``channels``: the file's channels
-    of ``signal``'s length, each a witness of the one rate (:func:`check_channels`)."""
+    of ``signal``'s length, each a witness of the one rate (:func:`check_channels`). ``check_key``: the
+    setting that turns the check off, named in the refusal."""
     import logging
 
     log = logging.getLogger(__name__)
@@ -350,7 +392,8 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
     if check.verdict == "contradicted" and refuse:
-        raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>")
+        off = f", or {check_key}=false if {fs:g} Hz is the true one" if check_key else ""
+        raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{off}")
     if check.verdict == "contradicted":
         log.warning("%s: %s (the rate the file records is kept)", source, describe_mismatch(check))
     if check.verdict == "ambiguous":

@@ -22,10 +22,11 @@ from bearingtwin.checks import is_finite_number, non_negative_number, positive_n
 from bearingtwin.config import output_folder
 from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
+from bearingtwin.data.real import DEFAULT_LABELS, read_labels
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
-from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel, effect_search_space
@@ -49,19 +50,34 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .mat, .wav or .xls)")
     check_fs = true_or_false(measured_cfg.check_fs, "measured.check_fs")
     raw = read_raw(measured_cfg.path)
-    recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=measured_cfg.fs, rpm=measured_cfg.rpm,
-                                   fault=measured_cfg.fault, channel_key="measured.channel", fs_key="measured.fs",
-                                   rpm_key="measured.rpm", fault_key="measured.fault")
+    # What the file leaves unsaid, a labels.csv beside it may say (as training and diagnose read one); a
+    # setting given wins.
+    path = Path(str(measured_cfg.path))
+    table = path.parent / DEFAULT_LABELS
+    labelled = read_labels(table).get(path.stem) if table.is_file() else None
+    fault, rpm, fs = (given if given is not None else from_table for given, from_table in
+                      zip((measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs), labelled or (None, None, None)))
+    if labelled is not None:
+        log.info("%s: state, speed and rate not given are read from %s", path, table)
+    unknown = [(fact, setting) for fact, setting, value, stated in (
+        ("sampling rate", "measured.fs=<Hz>", fs, raw.fs),
+        ("speed", "measured.rpm=<rev/min>", rpm, raw.rpm or raw.nominal_rpm),
+        ("bearing state", f"measured.fault=<{'|'.join(FAULTS)}>", fault, raw.fault)) if value is None and stated is None]
+    if unknown:
+        facts, settings = zip(*unknown)
+        raise BearingTwinError(f"{path}: the file does not state its {', '.join(facts)}; give {' '.join(settings)} "
+                               f"(or a row for it in a {DEFAULT_LABELS} beside it: record,state,rpm,fs)")
+    recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=fs, rpm=rpm, fault=fault,
+                                   channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
+                                   fault_key="measured.fault")
     recording.require_vibration()  # before the rate check, which a flat record cannot answer
-    for name in ("rpm", "fault"):
-        if getattr(recording, name) is None:
-            raise BearingTwinError(f"{measured_cfg.path}: the file does not state its {name}; give measured.{name}=...")
     for note in recording.meta.get("notes", []):  # e.g. a nominal speed the twin will run at
         log.warning("%s: %s", measured_cfg.path, note)
     if check_fs:
         # A rate given here or only declared by a data set's convention is refused when the record contradicts
         # it; one the file records itself is kept, the doubt logged.
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
+                               check_key="measured.check_fs",
                                defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
                                refuse=recording.meta.get("fs_origin") in ("config", "declared"), channels=raw.channels)
     with np.errstate(over="ignore"):
