@@ -132,6 +132,16 @@ def test_lines_view_leaves_the_defects_own_lines_to_the_envelope_views():
     assert "shaft order 1.00" in with_unbalance.views["lines"].finding
 
 
+def test_a_line_between_the_lines_views_bins_is_named_at_its_frequency():
+    """At 1500 rpm the shaft line, 25 Hz, falls midway between the lines view's 2 Hz bins; it is named
+    where it stands, not at the bin beside it."""
+    t = np.arange(int(4 * FS)) / FS
+    floor = np.random.default_rng(3).standard_normal(t.size)
+    line = 0.3 * np.sin(2 * np.pi * 25.0 * t)
+    result = Comparator(Recording(floor + line, FS, 1500.0, "outer", source="test.npy"), GEOMETRY)(floor)
+    assert "a line at 25 Hz (shaft order 1.00) stands" in result.views["lines"].finding
+
+
 def test_sampling_rate_too_low_for_the_harmonics_is_named():
     x = impacts("inner", 2.0, seed=0)
     with pytest.raises(BearingTwinError, match="measured.fs=1000 Hz is too low"):
