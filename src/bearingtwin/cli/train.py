@@ -56,6 +56,8 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
                                f"{percent(metrics['lines_only_calibration_accuracy'])} without)")
     if tracked.model:
         lines["model"] = tracked.model
+    if tracked.artifacts:
+        lines["artifacts"] = tracked.artifacts
     if tracked.skipped:
         lines["note"] = "an earlier run with this exact config had FINISHED, so nothing ran (tracking.skip_finished=false re-runs)"
     return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out)
@@ -70,7 +72,7 @@ def twin_to_real_records(cfg: DictConfig) -> str | None:
 
     calibration, tests = check_protocol(plain_config(cfg.data, "data config"))
     return (f"twin calibrated on {', '.join(path.name for path in calibration)}; tested on {len(tests)} other "
-            "records (per_record.csv)")
+            "records (per_record.csv among the artifacts)")
 
 
 @hydra_command("train")

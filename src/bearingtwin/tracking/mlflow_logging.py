@@ -108,6 +108,7 @@ class TrackedRun:
     metrics: dict
     skipped: bool = False
     model: str = ""
+    artifacts: str = ""  # where the run's files are (confusion matrix, per-class and per-record tables, model)
 
 
 # ---------------------------------------------------------------- store
@@ -491,7 +492,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         done = find_finished_run(client, experiment_id, digest)
         if done is not None:
             log.info("skipped: run %s already FINISHED with this config (config_hash %s)", done.info.run_id, digest)
-            return TrackedRun(done.info.run_id, dict(done.data.metrics), skipped=True)
+            return TrackedRun(done.info.run_id, dict(done.data.metrics), skipped=True, artifacts=done.info.artifact_uri)
     method = method_name(choices)
     tags = {
         "bt.kind": "train",
@@ -535,7 +536,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         return None
     raise_if_interrupted()  # a signal whose exception a C callback swallowed still stops the run: KILLED
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
-    return TrackedRun(run_id, result.metrics, model=model)
+    return TrackedRun(run_id, result.metrics, model=model, artifacts=run.info.artifact_uri)
 
 
 def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
