@@ -571,6 +571,15 @@ def test_misalignment_and_looseness_guesses_read_their_lines():
     loose = lib.Looseness(-8.0, half_order_db=-6.0).modify_signal(base, FS, np.random.default_rng(3), SHAFT_HZ)
     guess = lib.Looseness.initial_guess(loose, twin, FS, SHAFT_HZ)
     assert [guess["level_db"], guess["half_order_db"]] == pytest.approx([-8.0, -6.0], abs=2.0)
+    assert guess["decay_db_per_order"] == pytest.approx(1.0, abs=0.5)
+    # A rattle of longer impacts: a comb falling 4 dB per order, read off the lines as such.
+    steep = lib.Looseness(0.0, half_order_db=-3.0, decay_db_per_order=4.0).modify_signal(
+        base, FS, np.random.default_rng(4), SHAFT_HZ)
+    guess = lib.Looseness.initial_guess(steep, twin, FS, SHAFT_HZ)
+    assert guess["decay_db_per_order"] == pytest.approx(4.0, abs=1.0)
+    assert [guess["level_db"], guess["half_order_db"]] == pytest.approx([0.0, -3.0], abs=2.0)
+    # Misalignment's lines stand at whole orders only: no half order, so the comb keeps its default fall.
+    assert lib.Looseness.initial_guess(misaligned, twin, FS, SHAFT_HZ)["decay_db_per_order"] == 1.0
 
 
 @pytest.mark.parametrize("supply_hz", [50.0, 59.7])

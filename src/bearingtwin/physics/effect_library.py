@@ -28,6 +28,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import scipy.stats
 from scipy import signal as sps
 from scipy.ndimage import median_filter
 
@@ -198,6 +199,13 @@ LOOSENESS_HARMONICS = 10
 
 LOOSENESS_DECAY_DB_PER_ORDER = 1.0
 """Default fall of ``looseness``'s comb per shaft order, in dB."""
+
+LOOSENESS_MAX_DECAY_DB_PER_ORDER = 10.0
+"""Steepest fall of ``looseness``'s comb its initial guess reads off a measurement, in dB per order."""
+
+LOOSENESS_READ_RANGE_DB = 30.0
+"""``looseness``'s initial guess reads the comb's fall from the lines added within this many dB of the
+strongest: further down, a line's level is the measurement's floor fluctuating against the twin's."""
 
 SUPPLY_HARMONICS = 3
 """Default number of lines of ``line_frequency`` at even multiples of the supply frequency."""
@@ -794,18 +802,29 @@ class Looseness(LineEffect):
 
     @classmethod
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict:
-        """The comb's 1x level and the half orders' level relative to it, as medians over the lines.
+        """The comb's fall per order, its 1x level and the half orders' level relative to it.
 
-        Each line's level is referred back to the 1x (through the default comb) and the
-        median taken, so that one strong line of another effect (unbalance's 1x,
-        misalignment's 2x) does not set the comb.
+        How fast a rattle's comb falls depends on how short its impacts are, which differs from
+        one loose part to the next: where half-order lines stand (looseness's own mark, which no
+        unbalance or misalignment leaves; standing: added within :data:`LOOSENESS_READ_RANGE_DB` of
+        the strongest), the fall is read off those lines as their robust (Theil-Sen) slope against
+        the order, between 0 and
+        :data:`LOOSENESS_MAX_DECAY_DB_PER_ORDER`; else it stays the default. Each line's level is
+        then referred back to the 1x through that comb and the median taken, so that one strong
+        line of another effect (unbalance's 1x, misalignment's 2x) does not set the comb.
         """
         floor_db, relative_floor_db = cls.search_space["level_db"][0], cls.search_space["half_order_db"][0]
-        orders, half, comb_db = cls._comb(LOOSENESS_HARMONICS, LOOSENESS_DECAY_DB_PER_ORDER)
+        orders, half, _ = cls._comb(LOOSENESS_HARMONICS, LOOSENESS_DECAY_DB_PER_ORDER)
         levels, _ = _added_line_levels_db(measured, twin, fs, shaft_hz, shaft_hz * orders, floor_db)
+        standing = levels > max(float(levels.max()) - LOOSENESS_READ_RANGE_DB, floor_db)
+        decay = LOOSENESS_DECAY_DB_PER_ORDER
+        if np.count_nonzero(standing & half) >= 2 and np.count_nonzero(standing) >= 3:
+            slope = scipy.stats.theilslopes(levels[standing], orders[standing]).slope
+            decay = float(np.clip(-slope, 0.0, LOOSENESS_MAX_DECAY_DB_PER_ORDER))
+        _, _, comb_db = cls._comb(LOOSENESS_HARMONICS, decay)
         at_one_x = levels - comb_db
         level = float(np.median(at_one_x[~half]))
-        return {"level_db": level,
+        return {"level_db": level, "decay_db_per_order": decay,
                 "half_order_db": float(np.clip(np.median(at_one_x[half]) - level, relative_floor_db, 0.0))}
 
 
