@@ -27,6 +27,10 @@ def test_training_summary_gives_accuracy_and_f1_per_class_and_says_when_nothing_
     assert "  accuracy: 95.00 %" in text and "  F1 per class: normal 1.000, inner 0.900" in text
     assert "skip_finished" not in text
     assert "skip_finished=false" in training_summary("m", TrackedRun("r0", metrics, skipped=True), "sqlite:///s.db", "/o")
+    counted = training_summary("m", TrackedRun("r2", {**metrics, "n_train": 420.0, "n_test": 180.0},
+                                                artifacts="file:///store/artifacts/r2/artifacts"), "sqlite:///s.db", "/o")
+    assert "  windows: 420 to train on, 180 to test on\n  accuracy: 95.00 %" in counted
+    assert "  artifacts: file:///store/artifacts/r2/artifacts" in counted
 
 
 def test_the_progress_bar_shows_for_one_watched_run_only(monkeypatch):

@@ -35,7 +35,9 @@ import functools
 import itertools
 import json
 import math
+import logging
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
@@ -59,6 +61,8 @@ from bearingtwin.physics.simulator import simulate
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
 from bearingtwin.storage import content_key, file_digest, load_npz_or_heal, save_npz_atomic
 from bearingtwin.twin.reference import require_same_bearing
+
+log = logging.getLogger(__name__)
 
 TWIN_PREFIX = "twin:"
 """Records whose source starts with this are simulated; every other record is a measurement file."""
@@ -683,6 +687,10 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     # Simulating every variant takes minutes (seconds each); cached ones are read in a blink. Shown in a
     # terminal only (disable=None), not in CI or a log. A variant's records are cut at once: only their
     # windows are kept (every variant's whole records at once outgrew a 23 GB machine at 25.6 kHz).
+    # Where no bar shows (output to a file, a sweep's log), a line says what the minutes go to.
+    log.info("twin: %d variant%s x %d state%s x %d speed%s (cached ones are read, not simulated)", len(variants),
+             "s" * (len(variants) != 1), len(faults), "s" * (len(faults) != 1), len(rpms), "s" * (len(rpms) != 1))
+    started = time.perf_counter()
     for index, (label, varied, setting) in enumerate(tqdm(variants, desc="twin variants", unit="variant",
                                                           disable=True if len(variants) < 2 else None)):
         variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,
@@ -701,6 +709,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
             twin_rpms += [float(rpm) for _ in faults for rpm in rpms]
     twin_key = twin_keys[0] if len(twin_keys) == 1 else content_key(twin_keys)
     n_twin_records = len(cuts)
+    log.info("twin: %d records ready in %.0f s", n_twin_records, time.perf_counter() - started)
 
     labels = list(twin_labels)
     cuts += [windows_of(r.signal, cfg["test"]["windows_per_record"], r.source) for r in tests]
