@@ -192,6 +192,17 @@ def test_what_a_measurement_leaves_unsaid_is_asked_for_at_once_or_read_from_a_la
     assert (recording.fault, recording.rpm, recording.fs) == ("outer", 1797.0, 12000.0)
     given = load_measurement(twin_config(f"measured.path={path}", "measured.rpm=1800").measured)
     assert given.rpm == 1800.0  # a setting given wins over the table
+    # A row is the file's by its name; by its stem only where the row gives no suffix (outer_a.mat is another file).
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.mat,inner,1750,48000\nouter_a,outer,1797,12000\n")
+    assert load_measurement(twin_config(f"measured.path={path}").measured).fault == "outer"
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.mat,inner,1750,48000\n")
+    with pytest.raises(BearingTwinError, match="does not state its sampling rate, speed, bearing state"):
+        load_measurement(twin_config(f"measured.path={path}").measured)
+    # Every fact given: the table is not read (two files of one stem in it are training's concern, not this one's).
+    (tmp_path / "labels.csv").write_text("record,state\nouter_a.npy,outer\nouter_a.wav,outer\n")
+    assert load_measurement(twin_config(f"measured.path={path}", "measured.fs=12000", "measured.rpm=1797",
+                                        "measured.fault=outer").measured).fault == "outer"
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.npy,outer,1797,12000\n")
     # A rate the shaft series contradicts is refused naming both ways out.
     with pytest.raises(BearingTwinError, match=r"give the true rate with measured.fs=<Hz>, or measured.check_fs=false "
                                                r"if 24000 Hz is the true one$"):

@@ -230,6 +230,19 @@ def test_a_defect_comb_where_the_shaft_series_should_be_does_not_contradict_the_
     assert check_sampling_rate(signal, 2 * fs, rpm, defect_hz=defect_hz).verdict == "contradicted"
 
 
+@pytest.mark.parametrize("comb_order, declared_factor", [(2 * 2.357, 0.5), (2.357, 2.0)])
+def test_a_ball_defects_comb_at_a_rate_off_by_two_is_not_taken_for_the_other_ball_line(comb_order, declared_factor):
+    """BSF and 2 x BSF are one factor of two apart: under a rate off by two, a ball defect's comb at one stands
+    where the other belongs, so neither witnesses a rate (the SKF 6205's orders; a 20 kHz record)."""
+    fs, rpm = 20000.0, 1500.0
+    t = np.arange(int(8 * fs)) / fs
+    comb = sum(np.sin(2 * np.pi * k * comb_order * rpm / 60.0 * t) for k in range(1, 12))
+    signal = comb + np.random.default_rng(5).standard_normal(t.size)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(rpm)
+    check = check_sampling_rate(signal, declared_factor * fs, rpm, defect_hz=defect_hz)
+    assert check.verdict != "consistent" or "that series is the bearing's" not in check.reason, check.reason
+
+
 def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_path):
     """The 0.028 in records keep their samples under another number (3001.mat holds X056_DE_time),
     drive end only, and record no speed: the name's motor load gives the Data Center's nominal speed."""

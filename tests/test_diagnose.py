@@ -591,6 +591,19 @@ def test_a_bearing_of_the_users_own_outside_the_checkout_is_found_through_hydras
                                         "hydra.searchpath=[file://<folder>]") in unknown.stderr, unknown.stderr
 
 
+@pytest.mark.parametrize("scheme", ["file://", ""])
+def test_the_bearings_a_name_may_choose_are_those_hydra_finds_on_the_search_path(tmp_path, scheme):
+    from hydra import initialize_config_dir
+
+    from bearingtwin.config import CONF_DIR, bearing_choices
+
+    (tmp_path / "bearing").mkdir()
+    (tmp_path / "bearing" / "my6005.yaml").write_text("defaults:\n  - paper\n  - _self_\nn_balls: 11\n")
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        assert "my6005" in bearing_choices([f"hydra.searchpath=['{scheme}{tmp_path}']"])
+        assert "my6005" not in bearing_choices()
+
+
 @needs_cwru
 def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data_center_wrote_them(registered, tmp_path):
     import scipy.io

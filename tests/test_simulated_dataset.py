@@ -64,3 +64,18 @@ def test_bad_data_config_names_the_field(tmp_path):
         with pytest.raises(BearingTwinError, match=rf"^data\.{name}=.* must be a positive number"):
             build_simulated_dataset(OmegaConf.merge(DATA, {name: value}), BEARING, SIMULATOR, {}, tmp_path)
     assert not any(tmp_path.iterdir())  # refused before any simulation was cached
+
+
+def test_records_simulated_before_oversample_existed_keep_their_cache_key():
+    from omegaconf import OmegaConf
+
+    from bearingtwin.config import CONF_DIR
+    from bearingtwin.data.simulated import records_key
+
+    data = {"rpm": 1797.0, "fs": 10000.0, "duration": 1.0}
+    bearing = OmegaConf.to_container(OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml"))
+    simulator = OmegaConf.to_container(OmegaConf.load(f"{CONF_DIR}/simulator/default.yaml"))
+    before = {name: value for name, value in simulator.items() if name != "oversample"}
+    assert records_key(data, bearing, {**simulator, "oversample": None}, None) == records_key(data, bearing, before, None)
+    assert records_key(data, bearing, {**simulator, "oversample": 1}, None) == records_key(data, bearing, before, None)
+    assert records_key(data, bearing, {**simulator, "oversample": 4}, None) != records_key(data, bearing, before, None)

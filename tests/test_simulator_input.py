@@ -132,15 +132,20 @@ def test_steps_must_be_a_positive_integer(changes, field):
     assert message.startswith(f"{field} must be a positive integer")
 
 
-@pytest.mark.parametrize("oversample", [0, 2.5, "four"])
+@pytest.mark.parametrize("oversample", [0, 2.5, "four", True])
 def test_oversample_must_be_a_positive_integer(oversample):
     assert refused("outer", settings(duration=0.1, oversample=oversample), "simulator.oversample").startswith(
         "simulator.oversample must be a positive integer")
 
 
+def test_a_whole_oversample_written_as_a_float_is_that_whole_number():
+    recording, _ = simulate("outer", BEARING, settings(duration=0.05, oversample=2.0))
+    assert recording.meta["oversample"] == 2 and recording.signal.size == 500
+
+
 def test_an_oversampled_simulation_counts_its_finer_grid_in_the_memory_check(monkeypatch):
     monkeypatch.setattr(simulator, "physical_memory_bytes", lambda: 2_000_000_000)
-    simulate("outer", BEARING, settings(duration=0.1, oversample=1))  # far below the memory at fs
+    simulator._plan("outer", BEARING, settings(duration=60.0, oversample=1), None)  # within the memory at fs
     message = refused("outer", settings(duration=60.0, oversample=8), "simulator.fs", "simulator.oversample",
                       "simulator.duration")
     assert "8 times finer" in message

@@ -39,6 +39,7 @@ def make_cfg(store: Path, seed: int = 0, **tracking) -> OmegaConf:
             "seed": seed,
             "paths": {"repo": "/somewhere", "cache_dir": "/somewhere/.cache"},
             "data": {"source": "simulated", "samples_per_class": 10},
+            "simulator": {"fs": 10000.0},
             "features": {"name": "sabo_vmd_pemie", "kind": "sabo_vmd", "vmd_params": "global", "optimizer": "sabo"},
             "classifier": {"name": "cnn_bilstm", "hidden_units": 30},
             "tracking": {"uri": f"sqlite:///{store}/mlflow.db", "experiment": "test", "artifact_root": None, "skip_finished": True, **tracking},
@@ -107,7 +108,8 @@ def test_config_hash_ignores_where_and_how_but_not_what(tmp_path):
 
 @pytest.mark.parametrize("key, value", [("data.labels", "labels.csv"), ("data.twin.background_snr_db", [10.0, 0.0]),
                                         ("data.twin.other_paths", {"hearings": 2, "modes": 6, "natural_frequency_hz": [500.0, 5500.0],
-                                                                    "damping_ratio": [0.005, 0.05]})])
+                                                                    "damping_ratio": [0.005, 0.05]}),
+                                        ("simulator.oversample", 4)])
 def test_an_optional_key_at_its_null_default_keeps_the_hash_runs_had_before_it_existed(tmp_path, key, value):
     before = make_cfg(tmp_path)  # a config recorded before the key existed
     before.data.twin = {"duration": 4.0}

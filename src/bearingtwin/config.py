@@ -171,13 +171,12 @@ def bearing_config(name: str, key: str = "bearing") -> dict:
     """``conf/bearing/<name>.yaml`` composed as Hydra would (its defaults chain applied), as a dict named ``name``;
     a name that is not one of those files raises naming ``key``, the setting it came from, before
     Hydra parses it (a name may come from a served model's request)."""
-    search_path = user_search_path()
+    search_path = search_path_override()
     choices = bearing_choices(search_path)
     if name not in choices:
         raise BearingTwinError(f"{key}={name}: no such bearing config; choose one of {', '.join(choices)}"
                                f"{own_config_hint(name)}")
-    overrides = [f"+bearing={name}"] + ([f"hydra.searchpath=[{','.join(search_path)}]"] if search_path else [])
-    config = OmegaConf.to_container(compose_config(overrides=overrides).bearing, resolve=True)
+    config = OmegaConf.to_container(compose_config(overrides=[f"+bearing={name}", *search_path]).bearing, resolve=True)
     return {**config, "name": name}  # a file that names none inherits its defaults' name; a bearing is its file
 
 
@@ -186,19 +185,24 @@ def own_config_hint(name: str) -> str:
     return f", or describe yours in <folder>/bearing/{name}.yaml and add hydra.searchpath=[file://<folder>]"
 
 
-def user_search_path() -> list[str]:
-    """The folders a user added to the running Hydra command's config search path (``hydra.searchpath``); none
-    outside a command. A config composed inside the command (a bearing a model is asked for) is looked up there too."""
+def search_path_override() -> list[str]:
+    """The running Hydra command's ``hydra.searchpath`` (the folders a user added, a bearing of their own among
+    them) as an override for a config composed inside the command; none outside a command (a served model)."""
     from hydra.core.hydra_config import HydraConfig
 
-    return list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
+    folders = list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
+    quoted = ",".join("'" + folder.replace("\\", "\\\\").replace("'", "\\'") + "'" for folder in folders)
+    return [f"hydra.searchpath=[{quoted}]"] if folders else []
 
 
-def bearing_choices(search_path: list[str] = ()) -> list[str]:
-    """The ``bearing`` configs a name may choose: the project's ``conf/bearing`` files and those in the
-    ``bearing`` folder of every ``file://`` entry of ``search_path``."""
-    folders = [Path(CONF_DIR)] + [Path(entry[len("file://"):]) for entry in search_path if entry.startswith("file://")]
-    return sorted({path.stem for folder in folders for path in (folder / "bearing").glob("*.yaml")})
+def bearing_choices(overrides: list[str] = ()) -> list[str]:
+    """The ``bearing`` configs a name may choose: the project's and, inside a Hydra command, those its search
+    path adds (``overrides``: :func:`search_path_override`), as Hydra itself finds them."""
+    from hydra.core.global_hydra import GlobalHydra
+
+    if GlobalHydra.instance().is_initialized():
+        return sorted(GlobalHydra.instance().config_loader().get_group_options("bearing", overrides=list(overrides)))
+    return sorted(path.stem for path in Path(CONF_DIR, "bearing").glob("*.yaml"))
 
 
 def load_bearing(name: str, key: str = "bearing"):

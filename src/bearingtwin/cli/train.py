@@ -45,7 +45,7 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one), and
     ``records``: which real records a twin-trained run was calibrated and tested on."""
     metrics = tracked.metrics
-    lines = {**({"records": records} if records else {})}
+    lines = {"records": records} if records else {}
     if "n_train" in metrics and "n_test" in metrics:
         lines["windows"] = f"{int(metrics['n_train'])} to train on, {int(metrics['n_test'])} to test on"
     lines["accuracy"] = percent(metrics["accuracy"])

@@ -242,6 +242,22 @@ def read_labels(path: Path | None) -> dict[str, tuple[str, float | None, float |
     return labels
 
 
+def labels_row(path: Path) -> tuple[str, str, float | None, float | None] | None:
+    """``(where, state, rpm, fs)`` of the row of the ``labels.csv`` beside ``path`` that names it: by its file name,
+    else by its stem where the row gives no suffix; None when there is no such table or row."""
+    table = path.parent / DEFAULT_LABELS
+    if not table.is_file():
+        return None
+    rows = labels_table(table)
+    for where, record, state, rpm, fs in rows:
+        if record == path.name:
+            return where, state, rpm, fs
+    for where, record, state, rpm, fs in rows:
+        if not Path(record).suffix and record == path.stem:
+            return where, state, rpm, fs
+    return None
+
+
 def recordings_in(folder: Path) -> list[Path]:
     """The files of a folder bearingtwin reads, sorted; a labels table left among them is not a recording."""
     return sorted(path for path in folder.iterdir()

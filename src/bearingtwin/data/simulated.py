@@ -24,7 +24,7 @@ from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
-from bearingtwin.physics.simulator import simulate_many
+from bearingtwin.physics.simulator import records_identity, simulate_many
 from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
 
 
@@ -38,7 +38,8 @@ def simulation_config(data_cfg: Mapping, simulator_cfg: Mapping) -> dict:
 
 def records_key(data_cfg: Mapping, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg: Mapping | None) -> str:
     """Hash of everything that determines the simulated records."""
-    return content_key({"bearing": plain_config(bearing_cfg), "simulator": simulation_config(data_cfg, simulator_cfg),
+    return content_key({"bearing": plain_config(bearing_cfg),
+                        "simulator": records_identity(simulation_config(data_cfg, simulator_cfg)),
                     "effects": plain_config(effects_cfg), "faults": FAULTS})
 
 

@@ -57,7 +57,7 @@ from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_w
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
-from bearingtwin.physics.simulator import simulate
+from bearingtwin.physics.simulator import records_identity, simulate
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
 from bearingtwin.storage import content_key, file_digest, load_npz_or_heal, save_npz_atomic
 from bearingtwin.twin.reference import require_same_bearing
@@ -355,7 +355,7 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     ``simulator.seed`` (and the index of the ``twin.variants`` combination, if any), so
     two operating points or two variants do not share one noise realization.
     """
-    key = content_key({"bearing": bearing_cfg, "simulator": simulator_cfg, "effects": effects,
+    key = content_key({"bearing": bearing_cfg, "simulator": records_identity(simulator_cfg), "effects": effects,
                        "faults": list(faults), "rpms": list(rpms), "variant": variant})
     path = Path(cache_dir) / "twin_to_real" / f"records-{key}.npz"
     cached = load_npz_or_heal(path, "signals")

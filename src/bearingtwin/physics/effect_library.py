@@ -770,8 +770,9 @@ class Looseness(LineEffect):
             dB (-30 to 0).
         n_harmonics: lines at 1x ... n_harmonics x and the half orders below them (fixed, not
             fitted; 10 is typical of a loose machine's spectrum).
-        decay_db_per_order: the comb falls this much per shaft order, in dB (fixed, not
-            fitted; 0-3: a rattle's impacts keep the harmonics strong).
+        decay_db_per_order: the comb falls this much per shaft order, in dB (not fitted: the
+            initial guess reads it off the measurement, 0-10; short impacts keep the harmonics
+            strong, longer ones lose them within a few orders).
 
     Signature: a long comb of shaft harmonics with half-order lines between them.
     """
@@ -804,14 +805,14 @@ class Looseness(LineEffect):
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict:
         """The comb's fall per order, its 1x level and the half orders' level relative to it.
 
-        How fast a rattle's comb falls depends on how short its impacts are, which differs from
-        one loose part to the next: where half-order lines stand (looseness's own mark, which no
+        How fast a rattle's comb falls depends on how short its impacts are, which differs from one
+        loose part to the next. Where half-order lines stand (looseness's own mark, which no
         unbalance or misalignment leaves; standing: added within :data:`LOOSENESS_READ_RANGE_DB` of
-        the strongest), the fall is read off those lines as their robust (Theil-Sen) slope against
-        the order, between 0 and
-        :data:`LOOSENESS_MAX_DECAY_DB_PER_ORDER`; else it stays the default. Each line's level is
-        then referred back to the 1x through that comb and the median taken, so that one strong
-        line of another effect (unbalance's 1x, misalignment's 2x) does not set the comb.
+        the strongest line), the fall is the robust (Theil-Sen) slope of every standing line's level
+        against its order, between 0 and :data:`LOOSENESS_MAX_DECAY_DB_PER_ORDER`; else it stays the
+        default. Each line's level is then referred back to the 1x through that comb and the median
+        taken, so that one strong line of another effect (unbalance's 1x, misalignment's 2x) does
+        not set the comb.
         """
         floor_db, relative_floor_db = cls.search_space["level_db"][0], cls.search_space["half_order_db"][0]
         orders, half, _ = cls._comb(LOOSENESS_HARMONICS, LOOSENESS_DECAY_DB_PER_ORDER)

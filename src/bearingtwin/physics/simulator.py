@@ -1,7 +1,7 @@
 """The digital twin: bearing + simulator config (+ effects) in, vibration records out.
 
 One simulation: build the dynamic parameters (effects may change them), the rigid
-rolling kinematics on the output grid (effects may perturb them), solve the static
+rolling kinematics on the solver's grid (effects may perturb them), solve the static
 equilibrium so the bearing starts at rest under its load, integrate through a
 start-up transient long enough for the slowest linearized mode to decay by
 ``simulator.settle_decades`` decades, and keep ``simulator.duration`` seconds of the
@@ -104,12 +104,21 @@ def _check_settings(simulator_cfg: Mapping) -> None:
     finite_number("simulator.initial_cage_angle_deg", simulator_cfg["initial_cage_angle_deg"],
                   "a finite angle in degrees")
     whole_number("simulator.seed", simulator_cfg["seed"], minimum=0)  # numpy's SeedSequence takes no negative seed
-    whole_number("simulator.oversample", oversample_factor(simulator_cfg), minimum=1)
+    oversample_factor(simulator_cfg)
 
 
 def oversample_factor(simulator_cfg: Mapping) -> int:
-    """``simulator.oversample``: 1 (samples of the solution at fs) for a config written before it existed."""
-    return simulator_cfg.get("oversample", 1)
+    """``simulator.oversample`` checked as a positive whole number; null, or absent from a config written
+    before it existed, is 1 (samples of the solution at fs)."""
+    value = simulator_cfg.get("oversample")
+    return 1 if value is None else whole_number("simulator.oversample", value, minimum=1)
+
+
+def records_identity(simulator_cfg: Mapping) -> dict:
+    """The simulator config as a cache of simulated records is keyed by: ``oversample`` left out where it is 1
+    (null), which computes what its absence did, so records simulated before it existed keep their keys."""
+    return {name: value for name, value in simulator_cfg.items()
+            if not (name == "oversample" and oversample_factor(simulator_cfg) == 1)}
 
 
 def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs: float) -> None:
@@ -193,8 +202,11 @@ def _plan(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg:
             f"simulator.fs={fs:g} Hz cannot resolve the contact dynamics: the bearing's highest "
             f"natural frequency is {highest_mode_hz:.0f} Hz, so fs must exceed {2.0 * highest_mode_hz:.0f} Hz"
         )
-    # Effects that move the balls at t = 0 start slightly off equilibrium; the transient absorbs it.
+    # Effects that move the balls at t = 0 start slightly off equilibrium; the transient absorbs it. Oversampled,
+    # it also holds the anti-aliasing filter's reach before the record.
     n_transient = math.ceil(simulator_cfg["settle_decades"] * math.log(10.0) / slowest_decay * fs)
+    if oversample_factor(simulator_cfg) > 1:
+        n_transient = max(n_transient, ANTI_ALIAS_HALF_LENGTH)
     n_samples = _record_samples(simulator_cfg)
     _check_memory(simulator_cfg, n_transient, n_samples, geometry.n_balls, concurrent)
 
@@ -239,10 +251,9 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
     oversample = oversample_factor(simulator_cfg)
     # On the solver's grid (q x fs): the record with, when oversampled, the filter's reach either side of it
     # (before it, out of the start-up transient).
-    lead = min(ANTI_ALIAS_HALF_LENGTH, n_transient) if oversample > 1 else 0
-    tail = ANTI_ALIAS_HALF_LENGTH if oversample > 1 else 0
+    margin = ANTI_ALIAS_HALF_LENGTH if oversample > 1 else 0
     grid_fs = oversample * fs
-    first, count = oversample * (n_transient - lead), oversample * (lead + n_samples + tail)
+    first, count = oversample * (n_transient - margin), oversample * (n_samples + 2 * margin)
 
     kinematics = rigid_kinematics(plan.geometry, rpm, grid_fs, first + count + 1, plan.initial_cage_angle)
     for effect in plan.effects:
@@ -266,7 +277,7 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
                                        rtol=settings["rtol"], atol=settings["atol"],
                                        max_step_s=crossing / settings["steps_per_defect"])
     if oversample > 1:
-        channels = scipy.signal.resample_poly(channels, 1, oversample, axis=-1)[:, lead:lead + n_samples]
+        channels = scipy.signal.resample_poly(channels, 1, oversample, axis=-1)[:, margin:margin + n_samples]
 
     signal = sensor_signal(channels, simulator_cfg["sensor"], simulator_cfg.get("sensor_angle_deg"))
     for effect in plan.effects:

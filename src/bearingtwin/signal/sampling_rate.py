@@ -260,9 +260,10 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
     unbalance to show. Two witnesses then speak for the declared rate:
 
     - the strong series taken for the shaft's is a defect frequency's at the declared rate (a
-      spalled race's comb in the spectrum itself), and not a whole multiple or fraction of the
-      shaft line (n or 1 / n of it, n up to 8): a rate off by a whole factor n puts the shaft's own
-      series there (the SKF 6203's BSF is 1.994 x shaft), and nowhere else;
+      spalled race's comb in the spectrum itself), and no whole multiple or fraction (n or 1 / n,
+      n up to 4) of the shaft line or of another defect frequency, where a rate off by that factor
+      would put the shaft's own series (the SKF 6203's BSF is 1.994 x shaft) or another defect's
+      (BSF and 2 x BSF);
     - a defect line and its second harmonic in the envelope at their own frequencies, at none of
       their half, third or quarter (where a rate too low by that factor would put them), and away
       from the shaft's harmonics and their fractions (where a wrong rate puts the shaft's own
@@ -287,28 +288,31 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
 
 
 _MAX_FRACTION = 4
-"""Rates too low by a whole factor up to this are the ones an envelope witness must tell apart."""
+"""Rates off by a whole factor up to this are the ones a defect witness must tell apart (12 against 48 kHz)."""
 _WINDOW = 0.005
 """Relative half-width of the search window around a line (the series search's grid step)."""
 
 
 def _defect_series_named(observed_hz: float | None, shaft_hz: float, defect_hz: Mapping[str, float],
-                         max_factor: int = 8, tolerance: float = 2 * _WINDOW) -> tuple[str, float] | None:
-    """The defect frequency (a ball defect's comb at 2 x BSF included) within ``tolerance`` of
-    ``observed_hz``, a series' fundamental, if ``observed_hz`` is not within ``tolerance`` of n or 1 / n
-    times ``shaft_hz`` (n = 2 .. ``max_factor``: where a rate off by that whole factor puts the shaft's
-    own series); None otherwise."""
+                         max_factor: int = _MAX_FRACTION, tolerance: float = 2 * _WINDOW) -> tuple[str, float] | None:
+    """The defect frequency (a ball defect's comb at 2 x BSF included) within ``tolerance`` of ``observed_hz``,
+    a series' fundamental, unless a rate off by a whole factor n (2 .. ``max_factor``) would put another line
+    there: n or 1 / n times the shaft's (its own series) or another defect frequency (BSF and 2 x BSF are
+    one such pair); None otherwise."""
     if observed_hz is None:
-        return None
-    factors = np.arange(2, max_factor + 1, dtype=float)
-    if np.min(np.abs(np.log(observed_hz / shaft_hz / np.concatenate([factors, 1 / factors])))) <= tolerance:
         return None
     candidates = {name.upper(): float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz}
     if "BSF" in candidates:
         candidates["2 x BSF"] = 2 * candidates["BSF"]
     distance, name, hz = min(((abs(math.log(observed_hz / hz)), name, hz) for name, hz in candidates.items()),
                              default=(math.inf, "", 0.0))
-    return (name, hz) if distance <= tolerance else None
+    if distance > tolerance:
+        return None
+    factors = np.arange(2, max_factor + 1, dtype=float)
+    scaled = np.outer([shaft_hz, *candidates.values()], np.concatenate([factors, 1 / factors]))
+    if np.min(np.abs(np.log(observed_hz / scaled))) <= tolerance:
+        return None
+    return name, hz
 
 
 def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], prominence: float,
@@ -349,12 +353,12 @@ def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float],
     frequency with f or f / k on a shaft harmonic is no witness, since the shaft's line stands there
     whatever the rate (the SKF 6203's BSF is 1.994 x shaft, its half 0.997 x)."""
     lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2
-             and _apart_from_shaft(float(hz), shaft_hz, 1, 0.005) and _apart_from_shaft(float(hz) / k, shaft_hz, 1, 0.005)}
+             and _apart_from_shaft(float(hz), shaft_hz, 1, _WINDOW) and _apart_from_shaft(float(hz) / k, shaft_hz, 1, _WINDOW)}
     if not lines:
         return "ambiguous", None, "no defect frequency away from the shaft's lines below the Nyquist frequency to decide"
     ratio, resolution = _envelope_prominence(signal, fs, max(lines.values()) * 1.1)
-    at_f = _peak(ratio, resolution, np.array(list(lines.values())), 0.005)
-    at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) / k, 0.005)
+    at_f = _peak(ratio, resolution, np.array(list(lines.values())), _WINDOW)
+    at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) / k, _WINDOW)
     wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
     right = [name for name, a, b in zip(lines, at_f, at_fraction) if a >= prominence and b < prominence]
     if wrong and not right:

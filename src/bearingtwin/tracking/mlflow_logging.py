@@ -80,7 +80,7 @@ log = logging.getLogger(__name__)
 
 # Settings that say where things are or how they are logged or shown, not what is computed.
 UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar", "features.progress")
-HASHED_WHEN_SET_KEYS = ("data.labels", "data.twin.background_snr_db", "data.twin.other_paths")
+HASHED_WHEN_SET_KEYS = ("data.labels", "data.twin.background_snr_db", "data.twin.other_paths", "simulator.oversample")
 """Keys hashed only when not null: each came after runs were recorded, and its null default computes what its
 absence did, so those runs keep their hashes (a resumed sweep skips them)."""
 PACKAGES = ("bearingtwin", "numpy", "scipy", "torch", "lightning", "scikit-learn", "mlflow", "optuna", "hydra-core")

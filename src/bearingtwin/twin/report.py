@@ -22,7 +22,7 @@ from bearingtwin.checks import is_finite_number, non_negative_number, positive_n
 from bearingtwin.config import output_folder
 from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
-from bearingtwin.data.real import DEFAULT_LABELS, read_labels
+from bearingtwin.data.real import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
@@ -50,23 +50,26 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .mat, .wav or .xls)")
     check_fs = true_or_false(measured_cfg.check_fs, "measured.check_fs")
     raw = read_raw(measured_cfg.path)
-    # What the file leaves unsaid, a labels.csv beside it may say (as training and diagnose read one); a
-    # setting given wins.
+    # What neither the settings nor the file say, a labels.csv beside it may (as training and diagnose read one).
     path = Path(str(measured_cfg.path))
-    table = path.parent / DEFAULT_LABELS
-    labelled = read_labels(table).get(path.stem) if table.is_file() else None
-    fault, rpm, fs = (given if given is not None else from_table for given, from_table in
-                      zip((measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs), labelled or (None, None, None)))
-    if labelled is not None:
-        log.info("%s: state, speed and rate not given are read from %s", path, table)
+    given = (measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs)
+    row = labels_row(path) if None in given else None
+    fault, rpm, fs = (value if value is not None else from_table
+                      for value, from_table in zip(given, row[1:] if row else (None, None, None)))
+    if row is not None and (fault, rpm, fs) != given:
+        log.info("%s: %s read from %s", path, ", ".join(
+            f"{name}={value:g}" if isinstance(value, float) else f"{name}={value}"
+            for name, value, was in zip(("state", "rpm", "fs"), (fault, rpm, fs), given) if was is None and value is not None),
+            row[0])
     unknown = [(fact, setting) for fact, setting, value, stated in (
         ("sampling rate", "measured.fs=<Hz>", fs, raw.fs),
         ("speed", "measured.rpm=<rev/min>", rpm, raw.rpm or raw.nominal_rpm),
         ("bearing state", f"measured.fault=<{'|'.join(FAULTS)}>", fault, raw.fault)) if value is None and stated is None]
     if unknown:
         facts, settings = zip(*unknown)
+        table = f"fill them in on {row[0]}" if row else f"a row for it in a {DEFAULT_LABELS} beside it: record,state,rpm,fs"
         raise BearingTwinError(f"{path}: the file does not state its {', '.join(facts)}; give {' '.join(settings)} "
-                               f"(or a row for it in a {DEFAULT_LABELS} beside it: record,state,rpm,fs)")
+                               f"(or {table})")
     recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=fs, rpm=rpm, fault=fault,
                                    channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
                                    fault_key="measured.fault")
