@@ -107,4 +107,23 @@ def test_every_channel_of_a_file_witnesses_its_rate_as_the_commands_read_it(caps
     assert check["channels"]["FE"] == "contradicted" and set(check["channels"]) == {"DE", "FE", "BA"}
     code, out, _ = run(capsys, monkeypatch, record, "channel=FE", "fs=24000", "bearing=cwru_6205")
     check = json.loads(out)["shaft_line_check"]
-    assert code == 0 and set(check["channels"].values()) == {"contradicted"}
+    assert code == 0 and check["verdict"] == "contradicted" and check["channel"] != "FE"
+    # Read at twice its rate, the fan-end series (53.7 Hz) stands where BPFO belongs (107.3 Hz): by itself a
+    # witness of the wrong rate, outweighed by the shaft series the other channels show at twice its place.
+    assert check["channels"] == {"DE": "contradicted", "FE": "consistent", "BA": "contradicted"}
+
+
+def test_what_a_file_leaves_unsaid_is_read_from_a_labels_table_beside_it(capsys, monkeypatch, tmp_path):
+    fs, rpm = 12000.0, 1797.0
+    t = np.arange(int(4 * fs)) / fs
+    np.save(tmp_path / "outer_a.npy", sum(np.sin(2 * np.pi * k * rpm / 60 * t) / k for k in range(1, 8))
+            + np.random.default_rng(0).standard_normal(t.size))
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.npy,outer,1797,12000\n")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'outer_a.npy'}", "bearing=cwru_6205")
+    summary = json.loads(out)
+    where = f"{tmp_path / 'labels.csv'} line 2"
+    assert code == 0 and (summary["fs_hz"], summary["rpm"], summary["fault"]) == (fs, rpm, "outer")
+    assert summary["fs_origin"] == summary["rpm_origin"] == where
+    assert summary["shaft_line_check"]["verdict"] == "consistent"
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'outer_a.npy'}", "rpm=1800")
+    assert json.loads(out)["rpm_origin"] == "option"  # an option given wins over the table

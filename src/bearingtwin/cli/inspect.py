@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
@@ -24,6 +25,7 @@ from omegaconf import DictConfig
 from bearingtwin.checks import positive_number
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.data.files import read_raw, resolve_fs
+from bearingtwin.data.real import labels_row
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
@@ -57,9 +59,16 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     raw = read_raw(path)
     rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min")
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
+    # What neither the options nor the file say, a labels.csv beside it may (as training, diagnose and the twin read it).
+    row = labels_row(Path(str(path))) if None in (fs, rpm, raw.fault) else None
+    table, table_state, table_rpm, table_fs = row or (None, None, None, None)
+    fs_origin = "option" if fs is not None else raw.fs_origin or None
+    if fs is None and raw.fs is None and table_fs is not None:
+        fs, fs_origin = table_fs, table
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
-    rpm, rpm_origin = next(((value, origin) for origin, value in (("option", rpm), ("file", raw.rpm), ("nominal", raw.nominal_rpm))
-                            if value is not None), (None, None))
+    rpm, rpm_origin = next(((value, origin) for origin, value in (
+        ("option", rpm), ("file", raw.rpm), (table, table_rpm), ("nominal", raw.nominal_rpm)) if value is not None),
+        (None, None))
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
     summary = {
@@ -67,10 +76,11 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "format": raw.format,
         "channels": list(raw.channels),
         "fs_hz": fs_hz,
-        "fs_origin": "option" if fs is not None else (raw.fs_origin or None),
+        "fs_origin": fs_origin,
         "rpm": rpm,
-        "rpm_origin": rpm_origin,  # option, file or nominal (the data set's speed for the file's condition)
-        "fault": raw.fault,
+        # option, file, nominal (the data set's speed for the file's condition) or a labels.csv line beside the file
+        "rpm_origin": rpm_origin,
+        "fault": raw.fault or table_state,
         "unit": raw.unit or None,
         "n_samples": n_samples,
         "duration_s": None if fs_hz is None or isinstance(n_samples, dict) else n_samples / fs_hz,

@@ -46,6 +46,8 @@ class ShaftLineCheck:
         verdict: ``consistent``, ``contradicted`` or ``ambiguous`` (see the module docstring).
         fraction: k when the series also stands at odd multiples of expected / k (the rate may be true / k).
         reason: one sentence explaining the verdict.
+        witness: what confirmed the rate where the shaft series did not: ``series`` (the strong series is
+            a defect frequency's) or ``envelope`` (a defect line in the envelope); None otherwise.
     """
 
     fs_hz: float
@@ -58,6 +60,7 @@ class ShaftLineCheck:
     verdict: str = "consistent"
     fraction: int | None = None
     reason: str = ""
+    witness: str | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -237,6 +240,11 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     too_low = [name for name in names if checks[name].fraction and checks[name].verdict == "contradicted"]
     if too_low:
         return too_low[0]
+    # Another channel's strong series may land on a defect frequency under a wrong rate (record 118's fan-end
+    # 53.7 Hz series read at twice its 12 kHz stands on BPFO): a shaft series a whole factor from its place in
+    # one channel outweighs that coincidence in another.
+    if any(_off_by_a_whole_factor(checks[name]) for name in names):
+        names = [name for name in names if checks[name].witness != "series"]
 
     def favour(name: str) -> int:  # a channel with no series at all (noise) says nothing: after a contradiction
         check = checks[name]
@@ -249,6 +257,16 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     if checks[best].verdict == "consistent" and doubts and not settled:
         return doubts[0]
     return best
+
+
+def _off_by_a_whole_factor(check: ShaftLineCheck, max_factor: int = 8) -> bool:
+    """Whether ``check`` contradicts its rate with a series n or 1 / n times the shaft line (n = 2 .. ``max_factor``):
+    the shaft's own series under a rate off by that factor."""
+    if check.verdict != "contradicted" or check.observed_hz is None:
+        return False
+    factors = np.arange(2, max_factor + 1, dtype=float)
+    ratio = check.observed_hz / check.expected_hz
+    return bool(np.min(np.abs(np.log(ratio / np.concatenate([factors, 1 / factors])))) <= 2 * _WINDOW)
 
 
 def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
@@ -276,13 +294,13 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
     explained = _defect_series_named(check.observed_hz, check.expected_hz, defect_hz)
     if explained is not None:
         name, hz = explained
-        return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent",
+        return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="series",
                                    reason=f"{check.reason}; but that series is the bearing's {name} ({hz:.2f} Hz at "
                                           f"{check.rpm:g} rpm), where a rate off by a whole factor puts no shaft line")
     witness = _defect_series_at_its_frequency(signal, check.fs_hz, check.expected_hz, defect_hz, prominence)
     if witness is None:
         return check
-    return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent",
+    return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="envelope",
                                reason=f"{check.reason}; but the envelope lines of {witness} and its second harmonic "
                                       f"stand at their frequencies")
 
