@@ -333,7 +333,8 @@ def test_defect_order_features_of_another_bearing_than_the_datas_are_refused_bef
 
     monkeypatch.setattr(experiment, "build_dataset", built)
     cfg = compose_config("train", [f"data={data}", "features=envelope_orders", "classifier=svm"])
-    with pytest.raises(BearingTwinError, match=f"features.bearing is paper, .* is {bearing}: add bearing={bearing}"):
+    with pytest.raises(BearingTwinError, match=f"features.bearing is paper, .* is {bearing}: .* add bearing={bearing} if "
+                                               f"the records are of {bearing}, data.bearing=paper if they are of paper"):
         experiment.run_experiment(cfg)
     with pytest.raises(Built):
         experiment.run_experiment(compose_config("train", [f"data={data}", "features=envelope_orders", "classifier=svm",
