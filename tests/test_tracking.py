@@ -128,6 +128,7 @@ def test_a_run_logs_config_metrics_curves_and_tables(tmp_path):
     cfg = make_cfg(tmp_path, seed=2)
     tracked = train_tracked(cfg, CHOICES, None, None, fake_train)
     assert tracked.metrics["accuracy"] == pytest.approx(0.92) and not tracked.skipped
+    assert {"n_train", "n_test"} <= set(tracked.metrics)  # the closing summary counts the windows
     client, experiment_id = open_store(cfg.tracking)
     (run,) = client.search_runs([experiment_id])
     assert run.info.status == "FINISHED" and run.info.run_id == tracked.run_id

@@ -536,7 +536,8 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         return None
     raise_if_interrupted()  # a signal whose exception a C callback swallowed still stops the run: KILLED
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
-    return TrackedRun(run_id, result.metrics, model=model, artifacts=run.info.artifact_uri)
+    return TrackedRun(run_id, {**result.metrics, "n_train": result.n_train, "n_test": result.n_test}, model=model,
+                      artifacts=run.info.artifact_uri)
 
 
 def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
