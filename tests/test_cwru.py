@@ -197,6 +197,8 @@ def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_co
     alone = check_sampling_rate(noise + 0.02 * np.sin(2 * np.pi * 30.0 * t), fs, rpm)  # one weak line, no series
     assert alone.verdict == "ambiguous" and alone.observed_hz is None and alone.implied_fs_hz is None
     assert "nothing to check the rate against" in alone.reason
+    lone = check_sampling_rate(noise + 3.0 * np.sin(2 * np.pi * 30.0 * t), fs, rpm)  # unbalance alone, no harmonics
+    assert lone.verdict == "ambiguous" and "a lone line stands at 30.00 Hz" in lone.reason, lone.reason
     series = sum(np.sin(2 * np.pi * k * 210.0 * t) / k for k in range(1, 8))  # 7 x the expected 30 Hz
     far = check_sampling_rate(noise + series, fs, rpm)
     assert far.verdict == "contradicted" and far.observed_hz == pytest.approx(210.0, rel=0.005)

@@ -426,17 +426,20 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     (folder / "cut.wav").write_bytes(b"RIFF\x24\x00\x00\x00WAVEjunk" * 3)  # a reader's own exception, not ours
     np.savez(folder / "told.npz", signal=fault_signal(None, seconds=3), fs=FS, fault="inner")
     # Excel's byte-order mark; a row for a file the folder does not hold
-    (folder / "labels.csv").write_text("record,state\npump_a,outer\npump_b.npz,normal\ntold,outer\ngone.npz,ball\n",
-                                       encoding="utf-8-sig")
+    np.savez(folder / "other.npz", signal=fault_signal(None, seconds=3), fs=FS)
+    # A row for other.npy is not other.npz's: it names a file the folder does not hold.
+    (folder / "labels.csv").write_text("record,state\npump_a,outer\npump_b.npz,normal\ntold,outer\ngone.npz,ball\n"
+                                       "other.npy,ball\n", encoding="utf-8-sig")
     done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"labels={folder}/labels.csv",
                f"out={tmp_path}/out", "rpm=1797", cwd=tmp_path, uri=uri)
     assert done.returncode == 2  # some records failed, the others were diagnosed
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
-    assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told"}
+    assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
+    assert "true_state" not in rows["other"] or not rows["other"]["true_state"]
     assert "shorter than one window" in rows["short"]["error"] and "NaN" in rows["nan"]["error"]
     assert "cut.wav: not a readable .wav file" in rows["cut"]["error"] and "Traceback" not in done.stderr
     assert "told.npz: labelled outer, but the file states fault=inner" in rows["told"]["error"]
-    assert "rows for gone, which" in done.stdout
+    assert "rows for gone.npz, other.npy, which" in done.stdout
     assert rows["pump_a"]["true_state"] == "outer" and rows["pump_a"]["evidence_state"] == "outer"
     assert rows["pump_b"]["true_state"] == "normal" and rows["pump_b"]["correct"] in ("True", "False")
     assert "resampled 48000 Hz -> 12000 Hz" in done.stdout
@@ -582,7 +585,9 @@ def test_a_bearing_of_the_users_own_outside_the_checkout_is_found_through_hydras
                f"hydra.searchpath=[file://{tmp_path / 'conf'}]", "figures=false", "tracking.enabled=false",
                cwd=tmp_path, uri=uri)
     assert done.returncode == 0, done.stderr[-2000:]
-    evidence = json.loads((tmp_path / "out" / "r" / "diagnosis.json").read_text())["evidence"]
+    result = json.loads((tmp_path / "out" / "r" / "diagnosis.json").read_text())
+    assert result["bearing"] == "my6005" and "  bearing: my6005" in done.stdout  # whose lines were read, said
+    evidence = result["evidence"]
     # The physics evidence reads the user's bearing's outer-race line, BPFO = Nb / 2 (1 - d / D) x shaft.
     assert evidence["lines_hz"]["outer"][0] == pytest.approx(11 / 2 * (1 - 6.35 / 36.0) * RPM / 60, rel=1e-6), evidence
     unknown = run("diagnose", f"path={record}", "model=models:/diag/1", "bearing=my6005", cwd=tmp_path, uri=uri)

@@ -339,3 +339,7 @@ def test_defect_order_features_of_another_bearing_than_the_datas_are_refused_bef
     with pytest.raises(Built):
         experiment.run_experiment(compose_config("train", [f"data={data}", "features=envelope_orders", "classifier=svm",
                                                            f"bearing={bearing}"]))
+    # A data.bearing no config describes is named as such, not as a mismatch to be mended by bearing=<it>.
+    with pytest.raises(BearingTwinError, match=r"^data.bearing=my_typo: no such bearing config; choose one of"):
+        experiment.run_experiment(compose_config("train", [f"data={data}", "features=envelope_orders", "classifier=svm",
+                                                           "data.bearing=my_typo"]))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import sys
 from pathlib import Path
 from typing import Callable
@@ -109,6 +110,8 @@ def hydra_command(config_name: str) -> Callable:
         def command(cfg_passthrough: DictConfig | None = None):
             if cfg_passthrough is None:  # run as a command: the overrides are on the command line
                 exit_on_user_error(refuse_bad_overrides)(config_name, sys.argv[1:])
+            if not sys.stderr.isatty():  # MLflow's download bars, like the project's own, only in a terminal
+                os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
             return hydra_main(cfg_passthrough)
 
         return command

@@ -48,6 +48,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     verdicts = Counter(row["verdict"] for row in diagnosed)
     lines = {"records diagnosed": f"{len(diagnosed)} of {len(run.rows)}",
              "verdicts": ", ".join(f"{state} {count}" for state, count in verdicts.most_common()) or "none"}
+    bearings = sorted({row["bearing"] for row in diagnosed if row.get("bearing")})
+    if bearings:  # whose defect lines were read: bearing=, the file's own, else the model's
+        lines["bearing"] = ", ".join(bearings)
     if run.scores:
         lines["records right"] = f"{percent(run.scores['accuracy_records'])} of {run.scores['n_scored']} with a known state"
         if "n_scored_tested" in run.scores:

@@ -228,8 +228,9 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
     return rows
 
 
-def read_labels(path: Path | None) -> dict[str, tuple[str, float | None, float | None]]:
-    """``record -> (state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or stem).
+def read_labels(path: Path | None) -> dict[str, tuple[str, str, float | None, float | None]]:
+    """``stem -> (record, state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or
+    stem; :func:`names_file` says which file a row is for).
 
     Records are named by their stem here (an output folder, a summary row), so two rows of one stem are refused."""
     labels, lines = {}, {}
@@ -238,24 +239,25 @@ def read_labels(path: Path | None) -> dict[str, tuple[str, float | None, float |
         if stem in labels:
             raise BearingTwinError(f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); "
                                    "one row per record")
-        labels[stem], lines[stem] = (state, rpm, fs), where
+        labels[stem], lines[stem] = (record, state, rpm, fs), where
     return labels
 
 
+def names_file(record: str, path: Path) -> bool:
+    """Whether a labels row's ``record`` is ``path``: its file name, or its stem where the row gives no suffix
+    (a row for ``a.mat`` is not ``a.npy``'s)."""
+    name = Path(record).name
+    return name == path.name or (not Path(name).suffix and name == path.stem)
+
+
 def labels_row(path: Path) -> tuple[str, str, float | None, float | None] | None:
-    """``(where, state, rpm, fs)`` of the row of the ``labels.csv`` beside ``path`` that names it: by its file name,
-    else by its stem where the row gives no suffix; None when there is no such table or row."""
+    """``(where, state, rpm, fs)`` of the row of the ``labels.csv`` beside ``path`` that names it
+    (:func:`names_file`); None when there is no such table or row."""
     table = path.parent / DEFAULT_LABELS
     if not table.is_file():
         return None
-    rows = labels_table(table)
-    for where, record, state, rpm, fs in rows:
-        if record == path.name:
-            return where, state, rpm, fs
-    for where, record, state, rpm, fs in rows:
-        if not Path(record).suffix and record == path.stem:
-            return where, state, rpm, fs
-    return None
+    return next(((where, state, rpm, fs) for where, record, state, rpm, fs in labels_table(table)
+                 if names_file(record, path)), None)
 
 
 def recordings_in(folder: Path) -> list[Path]:

@@ -273,6 +273,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "agree": None if evidence is None or evidence.evidence_state is None else bool(evidence.evidence_state == verdict),
         "source": str(recording.source),
         "channel": recording.channel,
+        "bearing": prepared.bearing.get("name"),  # whose defect lines the physics (and defect-order features) read
         "original_fs": prepared.original_fs,
         "rate_check": prepared.rate_check,
         "notes": notes,

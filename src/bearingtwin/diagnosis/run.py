@@ -25,7 +25,7 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
-from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, read_labels, recordings_in
+from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, names_file, read_labels, recordings_in
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
@@ -34,7 +34,7 @@ from bearingtwin.errors import BearingTwinError
 if TYPE_CHECKING:
     from mlflow import MlflowClient
 
-SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree", "rate_check")
+SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree", "rate_check", "bearing")
 TRUTH_COLUMNS = ("true_state", "correct", "physics_correct")
 
 log = logging.getLogger(__name__)
@@ -144,14 +144,18 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores)."""
     out = run.out
     windows_total = windows_correct = 0
-    progress = tqdm(records, desc="diagnose", unit="file", disable=len(records) < 2)
-    unlisted = sorted(set(labels) - {path.stem for path in records})
+    # A bar over the files in a terminal only (None: tqdm's own test), not in a file the output goes to.
+    progress = tqdm(records, desc="diagnose", unit="file", disable=True if len(records) < 2 else None)
+    # A row names a file by its name, or by its stem where it gives no suffix: a row for a.npz is not a.npy's.
+    labelled = {stem: row for stem, row in labels.items()
+                if any(path.stem == stem and names_file(row[0], path) for path in records)}
+    unlisted = sorted(row[0] for stem, row in labels.items() if stem not in labelled)
     if unlisted and not Path(str(cfg.path)).expanduser().is_file():  # a table of a folder, not of the one file given
         progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
     calibrated = calibration_records(pipeline)
     for path in progress:
         try:
-            state, rpm, fs = labels.get(path.stem, (None, None, None))  # a row's values before the command's
+            _, state, rpm, fs = labelled.get(path.stem, (None, None, None, None))  # a row's values before the command's
             prepared = read_record(path, pipeline, cfg.channel, cfg.fs if fs is None else fs, cfg.rpm if rpm is None else rpm,
                                    state, bearing)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
@@ -170,7 +174,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             message = str(error) if isinstance(error, BearingTwinError) else f"{type(error).__name__}: {error}"
             if not message.startswith(f"{path}: "):  # a reader's message names the file already; name it once
                 message = f"{path}: {message}"
-            if table is not None and path.stem not in labels and ("give fs=" in message or "give rpm=" in message):
+            if table is not None and path.stem not in labelled and ("give fs=" in message or "give rpm=" in message):
                 message += f" (or a row in {table}, which has none for it)"  # what a row's rpm and fs would give
             if not isinstance(error, BearingTwinError):
                 log.exception("%s: unexpected failure", path)

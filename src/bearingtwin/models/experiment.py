@@ -272,6 +272,7 @@ def check_feature_bearing(cfg: DictConfig) -> None:
     data = cfg.data.get("bearing")
     if features is None or data is None or features.get("name") == data:
         return
+    bearing_config(data, "data.bearing")  # a name no bearing config has is named as such, not as a mismatch
     raise BearingTwinError(f"features.bearing is {features.get('name')}, the data's bearing (data.bearing) is {data}: "
                            f"the features must read the defect orders of the bearing recorded: add bearing={data} if "
                            f"the records are of {data}, data.bearing={features.get('name')} if they are of "

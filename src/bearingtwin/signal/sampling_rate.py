@@ -164,11 +164,16 @@ def check_sampling_rate(
         strong = np.flatnonzero(beyond_score >= prominence)
         if strong.size == 0 and searched_all:
             # Nothing anywhere contradicts the declared rate, and nothing confirms it: a machine without
-            # unbalance, a simulation, a channel far from the shaft.
+            # unbalance, a simulation, a channel far from the shaft. A lone line where the shaft's belongs does
+            # not confirm it either: read at half its rate, a record's 2x line stands there too.
+            lone = float(_peak(ratio, resolution, np.array([expected]), harmonic_tolerance)[0])
+            seen = (f"a lone line stands at {expected:.2f} Hz (prominence {lone:.0f}) without harmonics, which a "
+                    f"2x line read at half the rate would show as well" if lone >= prominence else
+                    "nothing to check the rate against")
             check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "ambiguous", None,
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}) nor anywhere from {expected / wide:.2f} to {expected * wide:.0f} "
-                                   "Hz: nothing to check the rate against")
+                                   f"Hz: {seen}")
             return _second_look(check, signal, defect_hz, prominence)
         if strong.size == 0:  # the declared rate cannot even hold the search (Nyquist below it): far too low
             check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
