@@ -52,6 +52,9 @@ def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path
                      f"out={out}", "candidates=[resonance,slip,noise]", *FAST, *KNOWN, env={"MLFLOW_TRACKING_URI": uri})
     assert result.returncode == 0, result.stderr[-2000:]
     assert "Effects that were missing, in order: resonance" in result.stdout
+    # What was said of the rig is repeated where the summary ends, held, not fitted.
+    assert ("  operating point held: radial load 0 N, clearance 5 um, defect depth 0.004 mm, defect width 0.533 mm, "
+            "sensor outer race, vertical") in result.stdout, result.stdout[-1500:]
     report = json.loads((out / "twin_report.json").read_text())
     assert isinstance(report["baseline_error"], float) and isinstance(report["final_error"], float)
     assert report["verdict"] == "effects missing" and report["added"][0] == "resonance"
