@@ -67,11 +67,13 @@ def test_the_twin_call_it_suggests_holds_the_simulations_sensor_bearing_and_load
     """Without them the twin's defaults (a housing sensor, a loaded rig) are fitted to a record they cannot match."""
     out = tmp_path / "o.npz"
     result = run(tmp_path, "fault=outer", "bearing=cwru_6205", "simulator.sensor=outer_y", "simulator.sensor_angle_deg=60",
-                 "simulator.load_y_n=-300", "simulator.fs=12000", "simulator.duration=1.0", f"out={out}")
+                 "simulator.load_y_n=-300", "simulator.fs=12000", "simulator.duration=1.0", "simulator.oversample=2",
+                 f"out={out}")
     assert result.returncode == 0, result.stderr
     suggested = next(line for line in result.stdout.splitlines() if "next:" in line)
     command = suggested.split("next:", 1)[1].split(" holds ")[0].split()
     assert command[:2] == ["bearingtwin-twin", f"measured.path={out}"]
+    assert "simulator.oversample=2" in command  # the twin heard as the record was made
     twin = run_module("bearingtwin.cli.twin", *command[1:], f"out={tmp_path / 'twin'}", "tracking.enabled=false",
                       "figures=false", "twin.duration=0.5", "calibration.n_trials_base=2", "calibration.n_polish=0",
                       "candidates=[noise]", "calibration.n_trials_effect=1", "calibration.n_polish_effect=0",

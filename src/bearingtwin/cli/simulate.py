@@ -69,6 +69,8 @@ def twin_command(out: Path, bearing: str | None, simulator: DictConfig, sensor: 
     load_x, load_y = float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0)
     if load_x == 0.0 and load_y <= 0.0:  # the twin's operating point knows a downward load only: another is fitted
         words.append(f"operating_point.radial_load_n={0.0 - load_y:g}")
+    if simulator.get("oversample") not in (None, 1):  # the twin heard as the record was: anti-aliased alike
+        words.append(f"simulator.oversample={simulator.oversample}")
     return " ".join(words)
 
 
