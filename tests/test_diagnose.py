@@ -435,6 +435,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert done.returncode == 2  # some records failed, the others were diagnosed
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
     assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
+    header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
+    assert header[-1] == "bearing" and rows["pump_a"]["bearing"] and not rows["short"]["bearing"]
     assert "true_state" not in rows["other"] or not rows["other"]["true_state"]
     assert "shorter than one window" in rows["short"]["error"] and "NaN" in rows["nan"]["error"]
     assert "cut.wav: not a readable .wav file" in rows["cut"]["error"] and "Traceback" not in done.stderr

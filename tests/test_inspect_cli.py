@@ -99,7 +99,8 @@ def test_a_cwru_file_without_a_speed_reports_the_nominal_one_and_where_it_is_fro
 def test_every_channel_of_a_file_witnesses_its_rate_as_the_commands_read_it(capsys, monkeypatch):
     """Record 118's fan-end channel alone shows a 53.7 Hz series and would contradict the 12 kHz its name
     declares; its drive-end and accelerometer-base channels show the shaft series and confirm it, as
-    bearingtwin-diagnose and the twin decide. Twice the rate is contradicted on every channel."""
+    bearingtwin-diagnose and the twin decide. Twice the rate is contradicted: the drive-end and base channels show the
+    shaft series at twice its place, which outweighs the fan-end series landing on BPFO by chance."""
     record = f"path={CWRU / '12k_Drive_End_B007_0_118.mat'}"
     code, out, _ = run(capsys, monkeypatch, record, "channel=FE", "bearing=cwru_6205")
     check = json.loads(out)["shaft_line_check"]
@@ -127,3 +128,25 @@ def test_what_a_file_leaves_unsaid_is_read_from_a_labels_table_beside_it(capsys,
     assert summary["shaft_line_check"]["verdict"] == "consistent"
     code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'outer_a.npy'}", "rpm=1800")
     assert json.loads(out)["rpm_origin"] == "option"  # an option given wins over the table
+
+
+def test_a_labels_row_is_read_as_the_twin_reads_it(capsys, monkeypatch, tmp_path):
+    """A row for a file in a subfolder is not the file beside the table of that name; a row's rate replaces one
+    a CWRU file merely declares; a row's speed or state the file contradicts is refused, naming the line."""
+    np.save(tmp_path / "x.npy", np.random.default_rng(0).standard_normal(24000))
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nrig_a/x.npy,outer,1797,12000\n")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'x.npy'}")
+    assert code == 0 and json.loads(out)["fs_hz"] is None and json.loads(out)["fault"] is None
+    if not (CWRU / "12k_Drive_End_OR007@6_0_130.mat").is_file():
+        pytest.skip(f"CWRU files not found in {CWRU}")
+    import shutil
+
+    shutil.copy(CWRU / "12k_Drive_End_OR007@6_0_130.mat", tmp_path / "130.mat")
+    (tmp_path / "labels.csv").write_text("record,state,fs\n130.mat,outer,48000\n")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / '130.mat'}")
+    summary = json.loads(out)
+    assert code == 0 and summary["fs_hz"] == 48000.0 and summary["fs_origin"] == f"{tmp_path / 'labels.csv'} line 2"
+    assert summary["shaft_line_check"]["verdict"] == "contradicted"  # 130 is a 12 kHz record: the check says so
+    (tmp_path / "labels.csv").write_text("record,state,rpm\n130.mat,inner,1797\n")
+    code, _, err = run(capsys, monkeypatch, f"path={tmp_path / '130.mat'}")
+    assert code == 2 and "labels.csv line 2: rpm=1797.0 contradicts the file's rpm=" in err

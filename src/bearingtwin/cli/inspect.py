@@ -24,7 +24,7 @@ from omegaconf import DictConfig
 
 from bearingtwin.checks import positive_number
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
-from bearingtwin.data.files import read_raw, resolve_fs
+from bearingtwin.data.files import read_raw, resolve_fact, resolve_fs
 from bearingtwin.data.real import labels_row
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
@@ -59,16 +59,22 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     raw = read_raw(path)
     rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min")
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
-    # What neither the options nor the file say, a labels.csv beside it may (as training, diagnose and the twin read it).
-    row = labels_row(Path(str(path))) if None in (fs, rpm, raw.fault) else None
+    # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
+    # replaces one the file merely declares, a speed or state there must agree with the file's.
+    row = labels_row(Path(str(path))) if fs is None or rpm is None else None
     table, table_state, table_rpm, table_fs = row or (None, None, None, None)
     fs_origin = "option" if fs is not None else raw.fs_origin or None
-    if fs is None and raw.fs is None and table_fs is not None:
+    if fs is None and table_fs is not None and (raw.fs is None or raw.fs_origin == "declared"):
         fs, fs_origin = table_fs, table
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
-    rpm, rpm_origin = next(((value, origin) for origin, value in (
-        ("option", rpm), ("file", raw.rpm), (table, table_rpm), ("nominal", raw.nominal_rpm)) if value is not None),
-        (None, None))
+    rpm_origin = "option" if rpm is not None else None
+    if rpm is None and raw.rpm is not None:
+        rpm, rpm_origin = resolve_fact(raw, "rpm", raw.rpm, table_rpm, f"{table}: rpm"), "file"
+    elif rpm is None and table_rpm is not None:
+        rpm, rpm_origin = table_rpm, table
+    elif rpm is None and raw.nominal_rpm is not None:
+        rpm, rpm_origin = raw.nominal_rpm, "nominal"
+    fault = resolve_fact(raw, "fault", raw.fault, table_state, f"{table}: state")
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
     summary = {
@@ -80,7 +86,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "rpm": rpm,
         # option, file, nominal (the data set's speed for the file's condition) or a labels.csv line beside the file
         "rpm_origin": rpm_origin,
-        "fault": raw.fault or table_state,
+        "fault": fault,
         "unit": raw.unit or None,
         "n_samples": n_samples,
         "duration_s": None if fs_hz is None or isinstance(n_samples, dict) else n_samples / fs_hz,

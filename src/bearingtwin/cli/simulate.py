@@ -16,7 +16,7 @@ from bearingtwin.checks import true_or_false
 from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.physics.simulator import CHANNELS, simulate
+from bearingtwin.physics.simulator import CHANNELS, oversample_factor, simulate
 
 
 def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geometry: BearingGeometry) -> list[Path]:
@@ -56,8 +56,9 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
 
 def twin_command(out: Path, bearing: str | None, simulator: DictConfig, sensor: str) -> str:
     """The ``bearingtwin-twin`` call for a simulated record, holding what the simulation set and no file states:
-    the bearing, the sensor's race and direction and a downward load (held by a user who knows their rig); the
-    twin's own defaults (a housing sensor, a loaded rig) would otherwise be fitted to a record they cannot match."""
+    the bearing, the sensor's race and direction and a downward load (held by a user who knows their rig), and the
+    oversampling it was made with; the twin's own defaults (a housing sensor, a loaded rig) would otherwise be
+    fitted to a record they cannot match."""
     words = [f"bearingtwin-twin measured.path={out}"]
     if bearing and bearing != "paper":
         words.append(f"bearing={bearing}")
@@ -69,8 +70,8 @@ def twin_command(out: Path, bearing: str | None, simulator: DictConfig, sensor: 
     load_x, load_y = float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0)
     if load_x == 0.0 and load_y <= 0.0:  # the twin's operating point knows a downward load only: another is fitted
         words.append(f"operating_point.radial_load_n={0.0 - load_y:g}")
-    if simulator.get("oversample") not in (None, 1):  # the twin heard as the record was: anti-aliased alike
-        words.append(f"simulator.oversample={simulator.oversample}")
+    if oversample_factor(simulator) > 1:  # the twin heard as the record was: anti-aliased alike
+        words.append(f"simulator.oversample={oversample_factor(simulator)}")
     return " ".join(words)
 
 

@@ -50,9 +50,10 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
     held = [f"{name} {entry['value']}" if isinstance(entry["value"], str)  # the sensor: "outer race, vertical"
-            else f"{name.removesuffix('_' + entry['unit'].lower()).replace('_', ' ')} {entry['value']:.4g} {entry['unit']}"
+            else f"{name.removesuffix('_' + entry['unit'].lower()).replace('_', ' ')} {entry['value']:.4g} "
+                 f"{entry['unit']}".rstrip()
             for name, entry in fit.operating_point.items() if entry.get("held")]
-    if held:  # what the user said of the rig, held rather than fitted
+    if held:  # given with operating_point.*, or held from a reference's report
         lines["operating point held"] = ", ".join(held)
     if cfg.effects:  # known present, in every step: the summary says so, as it says the reference's
         tried = [name for name in cfg.effects if name in cfg.candidates]

@@ -184,7 +184,7 @@ def recording_from_raw(
     name, signal = raw.channel(channel, channel_key)
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{fault_key}={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
-    rpm = _resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key)
+    rpm = resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key)
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     if rpm is None and raw.nominal_rpm is not None:
         rpm = raw.nominal_rpm
@@ -193,7 +193,7 @@ def recording_from_raw(
         signal=signal,
         fs=resolve_fs(raw, fs, fs_key),
         rpm=rpm,
-        fault=_resolve_fact(raw, "fault", raw.fault, fault, fault_key),
+        fault=resolve_fact(raw, "fault", raw.fault, fault, fault_key),
         source=raw.path,
         channel=name,
         unit=raw.unit,
@@ -217,7 +217,7 @@ def resolve_fs(raw: RawRecord, fs: float | None, key: str = "fs") -> float:
 
 
 
-def _resolve_fact(raw: RawRecord, name: str, from_file, from_user, key: str | None = None):
+def resolve_fact(raw: RawRecord, name: str, from_file, from_user, key: str | None = None):
     """The user's value of a fact the file may state too (``key``: the setting it came from, as the message names
     it; ``name`` by default); one that contradicts the file's is refused."""
     if from_user is None:

@@ -13,7 +13,7 @@ The split is not made here: ``data.windows.split_indices`` takes the dataset's `
 
 from __future__ import annotations
 
-from pathlib import Path
+from pathlib import Path, PurePath
 
 import csv
 import logging
@@ -235,7 +235,8 @@ def read_labels(path: Path | None) -> dict[str, tuple[str, str, float | None, fl
     Records are named by their stem here (an output folder, a summary row), so two rows of one stem are refused."""
     labels, lines = {}, {}
     for where, record, state, rpm, fs in labels_table(path) if path is not None else []:
-        stem = Path(record).stem
+        name = PurePath(record).name
+        stem = PurePath(name).stem if PurePath(name).suffix.lower() in FORMATS else name  # run.2024 is run.2024's
         if stem in labels:
             raise BearingTwinError(f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); "
                                    "one row per record")
@@ -244,10 +245,13 @@ def read_labels(path: Path | None) -> dict[str, tuple[str, str, float | None, fl
 
 
 def names_file(record: str, path: Path) -> bool:
-    """Whether a labels row's ``record`` is ``path``: its file name, or its stem where the row gives no suffix
-    (a row for ``a.mat`` is not ``a.npy``'s)."""
-    name = Path(record).name
-    return name == path.name or (not Path(name).suffix and name == path.stem)
+    """Whether a labels row's ``record`` is ``path``, a file beside the table: its file name, or its stem where
+    the row gives no recording's suffix (a row for ``a.mat`` is not ``a.npy``'s; ``run.2024`` is ``run.2024.npy``'s).
+    A row with a folder (``rig_a/x.npy``) names a file in that folder, not one beside the table."""
+    row = PurePath(record)
+    if row.parent != PurePath("."):
+        return False
+    return row.name == path.name or (row.suffix.lower() not in FORMATS and row.name == path.stem)
 
 
 def labels_row(path: Path) -> tuple[str, str, float | None, float | None] | None:

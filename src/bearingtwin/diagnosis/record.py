@@ -12,7 +12,8 @@ voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
 ``contradicted`` or ``not checked``), ``notes``, ``fault_size_in`` where the file's name gives it
 and, when the truth is known, ``true_state``, ``correct`` and ``physics_correct`` (the evidence
-alone). Beside them: ``source``, ``channel`` and ``original_fs`` (what was read), and
+alone). Beside them: ``source``, ``channel``, ``bearing`` (whose defect lines were read) and ``original_fs``
+(what was read), and
 ``windows_correct`` with a truth (``calibration_record`` is added by :mod:`bearingtwin.diagnosis.run`).
 """
 

@@ -34,7 +34,7 @@ from bearingtwin.errors import BearingTwinError
 if TYPE_CHECKING:
     from mlflow import MlflowClient
 
-SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree", "rate_check", "bearing")
+SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree", "rate_check")
 TRUTH_COLUMNS = ("true_state", "correct", "physics_correct")
 
 log = logging.getLogger(__name__)
@@ -147,8 +147,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     # A bar over the files in a terminal only (None: tqdm's own test), not in a file the output goes to.
     progress = tqdm(records, desc="diagnose", unit="file", disable=True if len(records) < 2 else None)
     # A row names a file by its name, or by its stem where it gives no suffix: a row for a.npz is not a.npy's.
-    labelled = {stem: row for stem, row in labels.items()
-                if any(path.stem == stem and names_file(row[0], path) for path in records)}
+    by_stem = {path.stem: path for path in records}  # one file per stem (find_records)
+    labelled = {stem: row for stem, row in labels.items() if stem in by_stem and names_file(row[0], by_stem[stem])}
     unlisted = sorted(row[0] for stem, row in labels.items() if stem not in labelled)
     if unlisted and not Path(str(cfg.path)).expanduser().is_file():  # a table of a folder, not of the one file given
         progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
@@ -194,6 +194,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             row.update({name: result[name] for name in TRUTH_COLUMNS if name in result})
             windows_total += len(result["windows"])
             windows_correct += result["windows_correct"]
+        row["bearing"] = result["bearing"]
         run.rows.append(row)
     scored = [row for row in run.rows if "correct" in row]
     if scored:
@@ -225,6 +226,7 @@ def write_summary(rows: list[dict], path: Path) -> Path:
         columns += TRUTH_COLUMNS
     if any("error" in row for row in rows):
         columns.append("error")
+    columns.append("bearing")  # last: the columns before it keep the places they had before it existed
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only

@@ -240,7 +240,9 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     of the true rate (a fan-end channel's 58 Hz series read at half of 12 kHz), so a defect line standing
     at 1/k of its frequency (a contradiction with a ``fraction``) overrules every other channel, and lines
     between the shaft harmonics (an ambiguous ``fraction``) leave the record ambiguous unless a channel's
-    defect line showed them to be real subharmonics (a consistent ``fraction``)."""
+    defect line showed them to be real subharmonics (a consistent ``fraction``). A channel confirmed only by a
+    series at a defect frequency (``witness`` ``series``) does not count where another channel's shaft series
+    stands a whole factor from its place: a wrong rate can put any series on a defect line by chance."""
     names = list(checks)
     too_low = [name for name in names if checks[name].fraction and checks[name].verdict == "contradicted"]
     if too_low:
@@ -249,7 +251,7 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     # 53.7 Hz series read at twice its 12 kHz stands on BPFO): a shaft series a whole factor from its place in
     # one channel outweighs that coincidence in another.
     if any(_off_by_a_whole_factor(checks[name]) for name in names):
-        names = [name for name in names if checks[name].witness != "series"]
+        names = [name for name in names if checks[name].witness != "series"] or names
 
     def favour(name: str) -> int:  # a channel with no series at all (noise) says nothing: after a contradiction
         check = checks[name]
