@@ -157,6 +157,19 @@ def test_a_channel_showing_the_rate_too_low_overrules_one_that_seems_consistent(
     assert decisive_channel({"FE": check("contradicted"), "DE": check("ambiguous")}) == "DE"
 
 
+def test_a_series_at_a_defect_frequency_is_outweighed_by_a_shaft_series_a_whole_factor_from_its_place():
+    """A channel confirmed only by a series that stands on a defect frequency loses to another channel whose shaft
+    series stands at twice its place (a wrong rate puts some series on a defect line by chance); against a
+    contradiction at no whole factor, or alone, it stands."""
+    def check(verdict, observed, witness=None):
+        return ShaftLineCheck(24000.0, 1796.0, 29.93, observed, None, 30.0, False, verdict, None, witness=witness)
+
+    by_series = check("consistent", 107.61, witness="series")
+    assert decisive_channel({"FE": by_series, "DE": check("contradicted", 59.86)}) == "DE"
+    assert decisive_channel({"FE": by_series, "DE": check("contradicted", 41.3)}) == "FE"
+    assert decisive_channel({"FE": by_series}) == "FE"
+
+
 @needs_data
 def test_a_wrong_rate_implies_the_true_one():
     recording = load_cwru(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
