@@ -117,8 +117,8 @@ def oversample_factor(simulator_cfg: Mapping) -> int:
 def records_identity(simulator_cfg: Mapping) -> dict:
     """The simulator config as a cache of simulated records is keyed by: ``oversample`` left out where it is 1
     (null), which computes what its absence did, so records simulated before it existed keep their keys."""
-    return {name: value for name, value in simulator_cfg.items()
-            if not (name == "oversample" and oversample_factor(simulator_cfg) == 1)}
+    unset = oversample_factor(simulator_cfg) == 1
+    return {name: value for name, value in simulator_cfg.items() if not (name == "oversample" and unset)}
 
 
 def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs: float) -> None:
@@ -174,6 +174,7 @@ class _Plan(NamedTuple):
     n_samples: int
     defect: Defect
     crossing_s: float
+    oversample: int  # the solver's grid is this many times finer than fs
 
 
 def _plan(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg: Mapping | None,
@@ -205,7 +206,8 @@ def _plan(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg:
     # Effects that move the balls at t = 0 start slightly off equilibrium; the transient absorbs it. Oversampled,
     # it also holds the anti-aliasing filter's reach before the record.
     n_transient = math.ceil(simulator_cfg["settle_decades"] * math.log(10.0) / slowest_decay * fs)
-    if oversample_factor(simulator_cfg) > 1:
+    oversample = oversample_factor(simulator_cfg)
+    if oversample > 1:
         n_transient = max(n_transient, ANTI_ALIAS_HALF_LENGTH)
     n_samples = _record_samples(simulator_cfg)
     _check_memory(simulator_cfg, n_transient, n_samples, geometry.n_balls, concurrent)
@@ -215,7 +217,7 @@ def _plan(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg:
     defect = build_defect(fault, geometry, defect_cfg, load_zone_angle)
     crossing = crossing_time_s(geometry, rpm, defect_cfg["width_mm"])
     return _Plan(rpm, fs, geometry, effects, params, initial_cage_angle, initial_state, highest_mode_hz, n_transient,
-                 n_samples, defect, crossing)
+                 n_samples, defect, crossing, oversample)
 
 
 def sensor_signal(channels: np.ndarray, sensor: str, sensor_angle_deg: float | None = None) -> np.ndarray:
@@ -248,7 +250,7 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
     rpm, fs, params, defect, crossing = plan.rpm, plan.fs, plan.params, plan.defect, plan.crossing_s
     highest_mode_hz, n_transient, n_samples = plan.highest_mode_hz, plan.n_transient, plan.n_samples
     rng = np.random.default_rng(np.random.SeedSequence([int(simulator_cfg["seed"]), FAULTS.index(fault)]))
-    oversample = oversample_factor(simulator_cfg)
+    oversample = plan.oversample
     # On the solver's grid (q x fs): the record with, when oversampled, the filter's reach either side of it
     # (before it, out of the start-up transient).
     margin = ANTI_ALIAS_HALF_LENGTH if oversample > 1 else 0

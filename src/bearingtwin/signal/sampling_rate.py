@@ -269,11 +269,8 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
 def _off_by_a_whole_factor(check: ShaftLineCheck, max_factor: int = 8) -> bool:
     """Whether ``check`` contradicts its rate with a series n or 1 / n times the shaft line (n = 2 .. ``max_factor``):
     the shaft's own series under a rate off by that factor."""
-    if check.verdict != "contradicted" or check.observed_hz is None:
-        return False
-    factors = np.arange(2, max_factor + 1, dtype=float)
-    ratio = check.observed_hz / check.expected_hz
-    return bool(np.min(np.abs(np.log(ratio / np.concatenate([factors, 1 / factors])))) <= 2 * _WINDOW)
+    return (check.verdict == "contradicted" and check.observed_hz is not None
+            and _a_whole_factor_from(check.observed_hz, [check.expected_hz], max_factor, 2 * _WINDOW))
 
 
 def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
@@ -331,13 +328,17 @@ def _defect_series_named(observed_hz: float | None, shaft_hz: float, defect_hz: 
         candidates["2 x BSF"] = 2 * candidates["BSF"]
     distance, name, hz = min(((abs(math.log(observed_hz / hz)), name, hz) for name, hz in candidates.items()),
                              default=(math.inf, "", 0.0))
-    if distance > tolerance:
-        return None
-    factors = np.arange(2, max_factor + 1, dtype=float)
-    scaled = np.outer([shaft_hz, *candidates.values()], np.concatenate([factors, 1 / factors]))
-    if np.min(np.abs(np.log(observed_hz / scaled))) <= tolerance:
+    if distance > tolerance or _a_whole_factor_from(observed_hz, [shaft_hz, *candidates.values()], max_factor, tolerance):
         return None
     return name, hz
+
+
+def _a_whole_factor_from(hz: float, lines_hz, max_factor: int, tolerance: float) -> bool:
+    """Whether ``hz`` lies within ``tolerance`` (relative) of n or 1 / n times one of ``lines_hz``, n = 2 ..
+    ``max_factor``: where a rate off by that whole factor puts those lines."""
+    factors = np.arange(2, max_factor + 1, dtype=float)
+    scaled = np.outer(lines_hz, np.concatenate([factors, 1 / factors]))
+    return bool(np.min(np.abs(np.log(hz / scaled))) <= tolerance)
 
 
 def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], prominence: float,
