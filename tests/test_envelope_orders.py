@@ -98,6 +98,11 @@ def test_the_config_builds_the_extractor_and_bad_settings_name_their_field(beari
     assert isinstance(extractor, EnvelopeOrderFeatures) and extractor.bearing["n_balls"] == 9
     with pytest.raises(BearingTwinError, match=r"features\.band_nyquist"):
         build_feature_extractor({**dict(cfg.features), "band_nyquist": [0.5, 0.2]})
+    for band in ([0.25], 0.5, ["a", 0.5]):  # one value, a bare number, a word: named, not unpacked in a traceback
+        with pytest.raises(BearingTwinError, match=r"^features\.band_nyquist=.*need two numbers"):
+            build_feature_extractor({**dict(cfg.features), "band_nyquist": band})
+    with pytest.raises(BearingTwinError, match=r"^features\.half_width_orders must be positive, got 'wide'$"):
+        build_feature_extractor({**dict(cfg.features), "half_width_orders": "wide"})
     with pytest.raises(BearingTwinError, match=r"features\.line_measure='height': choose one of share, prominence"):
         build_feature_extractor({**dict(cfg.features), "line_measure": "height"})
     with pytest.raises(BearingTwinError, match=r"features\.floor_width_orders must be positive"):

@@ -179,6 +179,16 @@ def test_configs_build_the_paper_settings_and_unknown_values_fail():
         build_feature_extractor(compose_features("sabo_vmd_pemie", "features.seed=abc"))  # was numpy's TypeError
     with pytest.raises(BearingTwinError, match="^search.windows must be a positive integer, got 0$"):
         build_feature_extractor(compose_features("sabo_vmd_pemie", "search.windows=0"))
+    # Settings the search would trip over minutes later, after the data is built, are named when the extractor is.
+    with pytest.raises(BearingTwinError, match=r"^features.k_range must be two whole numbers 2 <= low < high, got \[1, 3\]$"):
+        build_feature_extractor(compose_features("sabo_vmd_pemie", "features.k_range=[1,3]"))
+    with pytest.raises(BearingTwinError, match=r"^features.alpha_range must be two numbers"):
+        build_feature_extractor(compose_features("sabo_vmd_pemie", "features.alpha_range=[3000,100]"))
+    with pytest.raises(BearingTwinError, match="^features.population must be a positive integer, got 'abc'$"):
+        build_feature_extractor(compose_features("sabo_vmd_pemie", "search.population=abc"))
+    with pytest.raises(BearingTwinError, match="^features.vmd_options.tolerance is not an option of VMD; known: dc, init"):
+        build_feature_extractor({**OmegaConf.to_container(compose_features("sabo_vmd_pemie"), resolve=True),
+                                 "vmd_options": {"tolerance": 1e-7}})
 
 
 def small_cfg(**changes):

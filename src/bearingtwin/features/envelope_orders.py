@@ -34,10 +34,13 @@ diagnostician reads an envelope spectrum: a line or no line, whatever the floor'
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import scipy.signal
 from sklearn.base import BaseEstimator, TransformerMixin
 
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal import cepstral_prewhiten, envelope_spectrum
@@ -117,14 +120,15 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         """The bearing's geometry, after checking every parameter (errors name the parameter)."""
         if not self.bearing:
             raise BearingTwinError("features.bearing: envelope-order features need the bearing geometry (bearing: ${bearing})")
-        low, high = (float(v) for v in self.band_nyquist)
-        if not 0.0 < low < high < 1.0:
-            raise BearingTwinError(f"features.band_nyquist={list(self.band_nyquist)}: need 0 < low < high < 1 (fractions of Nyquist)")
+        band = list(self.band_nyquist) if isinstance(self.band_nyquist, Sequence) and not isinstance(
+            self.band_nyquist, str) else [self.band_nyquist]
+        if not (len(band) == 2 and all(is_finite_number(v) for v in band) and 0.0 < band[0] < band[1] < 1.0):
+            raise BearingTwinError(f"features.band_nyquist={band}: need two numbers 0 < low < high < 1 (fractions of Nyquist)")
         if not (isinstance(self.filter_order, int) and self.filter_order > 0):
             raise BearingTwinError(f"features.filter_order must be a positive integer, got {self.filter_order!r}")
         if not (isinstance(self.harmonics, int) and self.harmonics > 0):
             raise BearingTwinError(f"features.harmonics must be a positive integer, got {self.harmonics!r}")
-        if not float(self.half_width_orders) > 0:
+        if not (is_finite_number(self.half_width_orders) and self.half_width_orders > 0):
             raise BearingTwinError(f"features.half_width_orders must be positive, got {self.half_width_orders!r}")
         if not isinstance(self.band_power, bool):
             raise BearingTwinError(f"features.band_power must be true or false, got {self.band_power!r}")
@@ -132,7 +136,7 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"features.line_measure={self.line_measure!r}: choose one of {', '.join(LINE_MEASURES)}")
         if self.prewhiten not in PREWHITENING:
             raise BearingTwinError(f"features.prewhiten={self.prewhiten!r}: choose one of {', '.join(PREWHITENING)}")
-        if not (np.isfinite(float(self.floor_width_orders)) and float(self.floor_width_orders) > 0):
+        if not (is_finite_number(self.floor_width_orders) and self.floor_width_orders > 0):
             raise BearingTwinError(f"features.floor_width_orders must be positive, got {self.floor_width_orders!r}")
         return BearingGeometry.from_config(self.bearing)
 

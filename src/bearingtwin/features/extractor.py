@@ -18,6 +18,8 @@ with minimum envelope entropy, describe it by the nine time-domain features. Whe
 
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, TransformerMixin
@@ -28,10 +30,12 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.fitness import FITNESS, optimal_mode, resolve_fitness
 from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
-from bearingtwin.optim.search import OPTIMIZERS, search_vmd_params
+from bearingtwin.optim.search import OPTIMIZERS, search_vmd_params, vmd_search_space
 from bearingtwin.signal import vmd
 
 VMD_PARAMS = ("global", "per_class", "per_sample")
+# What ``vmd_options`` may set: vmd's keywords but the ones the extractor sets itself.
+VMD_OPTIONS = frozenset(inspect.signature(vmd).parameters) - {"x", "k", "alpha", "seed", "return_n_iter"}
 EXTRACTION_CHUNK = 256  # windows per VMD call: bounds memory at chunk * k * n * 8 bytes
 
 
@@ -119,6 +123,16 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
                 raise BearingTwinError(f"{name}={getattr(self, name)!r} is not known; choose one of {', '.join(allowed)}")
         whole_number("search.windows", self.search_windows)  # features.search_windows is ${search.windows}
         whole_number("features.seed", self.seed, minimum=0)  # numpy's SeedSequence takes no negative seed
+        whole_number("features.population", self.population)
+        whole_number("features.iterations", self.iterations)
+        try:
+            vmd_search_space(self.k_range, self.alpha_range)
+        except BearingTwinError as error:
+            raise BearingTwinError(f"features.{error}") from None
+        unknown = sorted(set(self.vmd_options or {}) - VMD_OPTIONS)
+        if unknown:
+            raise BearingTwinError(f"features.vmd_options.{unknown[0]} is not an option of VMD; "
+                                   f"known: {', '.join(sorted(VMD_OPTIONS))}")
         resolve_fitness(self.fitness, **dict(self.fitness_params or {}))
 
     def fit(self, X, y=None) -> "SaboVmdFeatures":

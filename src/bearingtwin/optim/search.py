@@ -14,6 +14,7 @@ import numpy as np
 import optuna
 from optuna.distributions import BaseDistribution, FloatDistribution, IntDistribution
 
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.optim.sabo import SaboSampler
 
@@ -95,18 +96,19 @@ class SearchResult:
 
 
 def vmd_search_space(k_range: Sequence[int], alpha_range: Sequence[float]) -> dict[str, BaseDistribution]:
-    """k as an integer and alpha as a float, within the inclusive ranges (paper: [3, 10], [100, 3000])."""
-    k_low, k_high = (int(v) for v in _pair("k_range", k_range))
-    alpha_low, alpha_high = (float(v) for v in _pair("alpha_range", alpha_range))
-    if not 1 <= k_low < k_high:
-        raise BearingTwinError(f"k_range must satisfy 1 <= low < high, got {list(k_range)}")
-    if not 0 < alpha_low < alpha_high:
-        raise BearingTwinError(f"alpha_range must satisfy 0 < low < high, got {list(alpha_range)}")
-    return {"k": IntDistribution(k_low, k_high), "alpha": FloatDistribution(alpha_low, alpha_high)}
+    """k as an integer and alpha as a float, within the inclusive ranges (paper: [3, 10], [100, 3000]).
+    Every fitness compares modes with one another, so k starts at 2."""
+    k_low, k_high = _pair("k_range", k_range)
+    if not (all(is_finite_number(k) and int(k) == k for k in (k_low, k_high)) and 2 <= k_low < k_high):
+        raise BearingTwinError(f"k_range must be two whole numbers 2 <= low < high, got {list(_pair('k_range', k_range))}")
+    alpha_low, alpha_high = _pair("alpha_range", alpha_range)
+    if not (is_finite_number(alpha_low) and is_finite_number(alpha_high) and 0 < alpha_low < alpha_high):
+        raise BearingTwinError(f"alpha_range must be two numbers 0 < low < high, got {list(_pair('alpha_range', alpha_range))}")
+    return {"k": IntDistribution(int(k_low), int(k_high)), "alpha": FloatDistribution(float(alpha_low), float(alpha_high))}
 
 
 def _pair(name: str, values: Sequence) -> tuple:
-    values = tuple(values)
+    values = tuple(values) if isinstance(values, Sequence) and not isinstance(values, str) else (values,)
     if len(values) != 2:
         raise BearingTwinError(f"{name} must hold two values [low, high], got {list(values)}")
     return values
