@@ -343,3 +343,11 @@ def test_defect_order_features_of_another_bearing_than_the_datas_are_refused_bef
     with pytest.raises(BearingTwinError, match=r"^data.bearing=my_typo: no such bearing config; choose one of"):
         experiment.run_experiment(compose_config("train", [f"data={data}", "features=envelope_orders", "classifier=svm",
                                                            "data.bearing=my_typo"]))
+
+
+def test_a_validation_label_the_network_was_not_trained_on_is_named():
+    """searchsorted would score a label between two trained ones as a neighbour, silently."""
+    X, y = four_blobs(8)
+    keep = y != 2
+    with pytest.raises(BearingTwinError, match=r"^eval_set holds label\(s\) \[2\] that y does not"):
+        CnnBiLstmClassifier(max_epochs=1, batch_size=16).fit(X[keep], y[keep], eval_set=(X, y))

@@ -222,3 +222,17 @@ def test_the_sim2real_figure_draws_validated_twins_with_the_healthy_records_nois
     assert drawn == path and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
     other = tmp_path / "none.png"  # session-2 runs (no calibration check) and twins without 97's noise: nothing to draw
     assert _plot_sim2real([row(0, validated=False), row(1, healthy_step=0)], other) is None and not other.exists()
+
+
+def test_table3_says_a_class_without_test_windows_has_no_scores():
+    """A CWRU run at a load without a healthy record scores no healthy class: a dash, not a KeyError."""
+    from types import SimpleNamespace
+
+    from bearingtwin.tracking.reports import table3
+
+    metrics = {f"{metric}_{name}": 0.9 for name in paper.TABLE3 if name != "normal" for metric in ("precision", "recall", "f1")}
+    run = SimpleNamespace(data=SimpleNamespace(metrics={**metrics, "accuracy": 0.9}))
+    source = SimpleNamespace(settings={}, training_runs=lambda *args, **kwargs: [run])
+    text = table3(source).markdown
+    assert "| normal | recall | — | 0.933 | — |" in text
+    assert "| inner | recall | 0.900 ± 0.000 |" in text

@@ -102,6 +102,10 @@ def test_config_hash_ignores_where_and_how_but_not_what(tmp_path):
     hidden = make_cfg(tmp_path)
     hidden.trainer = {"max_epochs": 2, "progress_bar": False}
     assert config_hash(shown) == config_hash(hidden)  # how a run is shown is not what it computes
+    one, two = make_cfg(tmp_path), make_cfg(tmp_path)
+    OmegaConf.update(one, "features.n_jobs", 1, force_add=True)
+    OmegaConf.update(two, "features.n_jobs", 2, force_add=True)
+    assert config_hash(one) == config_hash(two)  # nor how many workers extract its features
     hidden.trainer.max_epochs = 3
     assert config_hash(shown) != config_hash(hidden)
 

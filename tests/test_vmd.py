@@ -102,6 +102,12 @@ def test_random_init_is_seeded():
     # between one cycle per signal and Nyquist and is sorted
     _, start = vmd(x, 4, 1000.0, init="random", seed=3, max_iter=2)
     assert np.all(np.diff(start) > 0) and 1 / 512 <= start[0] and start[-1] < 0.5
+    # A window decomposes alike alone and third in a batch (a diagnosis reads one, training a chunk).
+    batch = np.stack([tones_signal(512) * scale for scale in (0.5, 2.0)] + [x])
+    modes, omega = vmd(batch, 4, 1000.0, init="random", seed=3, max_iter=50)
+    alone_modes, alone_omega = vmd(x, 4, 1000.0, init="random", seed=3, max_iter=50)
+    np.testing.assert_allclose(modes[2], alone_modes, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(omega[2], alone_omega, rtol=1e-12)
 
 
 def test_relative_tolerance_is_scale_free_and_absolute_is_not():

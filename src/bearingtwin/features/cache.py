@@ -21,13 +21,13 @@ import numpy as np
 
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.features import NOT_AFFECTING_NUMBERS
 from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
 from bearingtwin.features.extractor import EnvelopeOrderFeatures, RawFeatures, build_feature_extractor
 
 log = logging.getLogger(__name__)
 
 CACHE_FORMAT = 1  # bump when the stored layout or the extraction's numbers change
-_NOT_AFFECTING_NUMBERS = ("n_jobs", "progress")
 
 
 def _config_dict(features_cfg) -> dict:
@@ -54,7 +54,7 @@ def cache_path(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -
     material = {
         "format": CACHE_FORMAT,
         "dataset": _dataset_key(dataset),
-        "features": {key: value for key, value in cfg.items() if key not in _NOT_AFFECTING_NUMBERS},
+        "features": {key: value for key, value in cfg.items() if key not in NOT_AFFECTING_NUMBERS},
         "train": hashlib.sha256(np.sort(np.asarray(train_index, dtype=np.int64)).tobytes()).hexdigest()
         if uses_training_set
         else None,

@@ -46,9 +46,9 @@ from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal import cepstral_prewhiten, envelope_spectrum
 
 DEFECT_RATES = ("bpfi", "bpfo", "bsf2", "ftf")
+"""Repetition rates read from the envelope: bsf2 = 2 x BSF, since a spall on a ball strikes both races per spin."""
 LINE_MEASURES = ("share", "prominence")
 PREWHITENING = ("none", "cepstral")
-"""Repetition rates read from the envelope: bsf2 = 2 x BSF, since a spall on a ball strikes both races per spin."""
 
 
 def defect_orders(geometry: BearingGeometry) -> dict[str, float]:

@@ -267,6 +267,10 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         val = None
         if eval_set is not None:
             X_val, y_val = _check_xy(*eval_set)
+            unseen = np.setdiff1d(y_val, self.classes_)
+            if unseen.size:  # searchsorted would score them as a neighbouring class
+                raise BearingTwinError(f"eval_set holds label(s) {unseen.tolist()} that y does not: the network "
+                                       "learns only the classes it is trained on")
             val = (self.scaler_.transform(X_val), np.searchsorted(self.classes_, y_val))
         data = SequenceDataModule(
             self.scaler_.transform(X), y_index, *(val or (None, None)), batch_size=self.batch_size, seed=self.random_state

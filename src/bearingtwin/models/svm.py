@@ -29,7 +29,9 @@ CALIBRATION_FOLDS = 5
 
 
 def make_svm(C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", random_state: int = 0) -> Pipeline:
-    """A StandardScaler + SVC pipeline; ``random_state`` only matters for SVC's tie breaking."""
+    """A StandardScaler + SVC pipeline. ``random_state`` is handed to SVC, which draws from it only for
+    ``probability=True`` (never set here: probabilities come from a calibration of its own), so the fit is
+    deterministic whatever the seed."""
     if not (is_finite_number(C) and C > 0):
         raise BearingTwinError(f"classifier.C must be a positive number, got {C!r}")
     if kernel not in KERNELS:

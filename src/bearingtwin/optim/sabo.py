@@ -72,11 +72,9 @@ class _Dimension:
         """The parameter value evaluated for a continuous position (rounded for integers and steps)."""
         low, high = self.distribution.low, self.distribution.high
         raw = math.exp(position) if self.is_log else position
-        step = self.distribution.step
+        step = self.distribution.step  # an IntDistribution's is always a whole number (1 unless given)
         if step is not None:
             raw = low + round((raw - low) / step) * step
-        elif isinstance(self.distribution, IntDistribution):
-            raw = round(raw)
         raw = min(max(raw, low), high)
         return int(raw) if isinstance(self.distribution, IntDistribution) else float(raw)
 

@@ -3,7 +3,7 @@
 Each effect is a small class with one or two physically meaningful parameters and
 acts at the stage of the twin where the physics happens (see
 :mod:`bearingtwin.physics.effects`): the sensor path (``resonance``,
-``second_resonance``, ``noise``, ``clipping`` and the line effects ``tones``,
+``second_resonance``, ``structural_mode``, ``noise``, ``clipping`` and the line effects ``tones``,
 ``unbalance``, ``misalignment``, ``looseness``, ``line_frequency``), the kinematics the
 solver reads (``slip``, ``spin_slip``, ``speed_fluctuation``) or the dynamic parameters
 (``lubrication``, ``load_zone``, ``preload``). The sensor-path physics is also exposed as

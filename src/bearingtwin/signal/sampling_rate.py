@@ -8,8 +8,8 @@ inspect, and any caller with a signal, a rate and a speed) looks for that series
 A rate that is a whole-number fraction of the true one (``true / k``: 6000 Hz declared
 for a 12 kHz record) is the hard case: every k-th line of the true series lands on the
 expected series, which therefore still "matches". What gives it away is the rest of the
-true series, which then falls *between* the expected harmonics, at odd multiples of
-``rpm / 60 / k``. Such in-between lines can also be real (subharmonics of a loose or
+true series, which then falls *between* the expected harmonics, at the multiples of
+``rpm / 60 / k`` that are not multiples of ``rpm / 60``. Such in-between lines can also be real (subharmonics of a loose or
 rubbing machine), so a second witness decides when the caller knows the bearing's defect
 frequencies: their envelope lines appear at ``f / k`` under the wrong rate and at ``f``
 under the right one. Without a decisive witness the verdict is ``ambiguous``.
@@ -44,7 +44,8 @@ class ShaftLineCheck:
             ``observed_hz`` (at ``expected_hz`` if nothing was observed).
         matches: ``observed_hz`` lies within the tolerance of ``expected_hz``.
         verdict: ``consistent``, ``contradicted`` or ``ambiguous`` (see the module docstring).
-        fraction: k when the series also stands at odd multiples of expected / k (the rate may be true / k).
+        fraction: k when the series also stands at n x expected / k for n not a multiple of k (between its
+            harmonics: the rate may be true / k).
         reason: one sentence explaining the verdict.
         witness: what confirmed the rate where the shaft series did not: ``series`` (the strong series is
             a defect frequency's) or ``envelope`` (a defect line in the envelope); None otherwise.
@@ -205,7 +206,7 @@ def check_sampling_rate(
     if in_between[fraction] < prominence:
         return ShaftLineCheck(**common, implied_fs_hz=fs, matches=True, verdict="consistent",
                               reason=f"the shaft series stands at {observed:.2f} Hz and nowhere between its harmonics")
-    suspicion = (f"the shaft series also stands between its harmonics, at odd multiples of {expected / fraction:.2f} Hz "
+    suspicion = (f"the shaft series also stands between its harmonics, at multiples of {expected / fraction:.2f} Hz "
                  f"(prominence {in_between[fraction]:.0f})")
     verdict, implied, why = "ambiguous", None, "no defect frequency was given to decide"
     if defect_hz:

@@ -125,10 +125,11 @@ def _initial_omega(init: str, ks: np.ndarray, k_max: int, n: int, dc: bool, seed
         for row, k in zip(omega, ks):
             row[:k] = 0.5 / k * np.arange(k)
     elif init == "random":
-        # log-uniform between one cycle per signal and Nyquist, sorted (vmdpy's rule, seeded)
-        rng = np.random.default_rng(seed)
+        # log-uniform between one cycle per signal and Nyquist, sorted (vmdpy's rule, seeded); every signal
+        # draws afresh from the seed, so its decomposition does not hang on its place in a batch
         for row, k in zip(omega, ks):
-            row[:k] = np.sort(np.exp(np.log(1.0 / n) + (np.log(0.5) - np.log(1.0 / n)) * rng.random(k)))
+            draws = np.random.default_rng(seed).random(k)
+            row[:k] = np.sort(np.exp(np.log(1.0 / n) + (np.log(0.5) - np.log(1.0 / n)) * draws))
     elif init != "zero":
         raise BearingTwinError(f"init must be one of {INITS} (got {init!r})")
     if dc:
@@ -226,8 +227,8 @@ def vmd(
         init: starting centre frequencies: ``"zero"`` (all at 0), ``"linear"`` (i * 0.5 / k),
             ``"random"`` (log-uniform, from ``seed``) - vmdpy's init 0, 1, 2.
         max_iter: iteration limit counted as vmdpy's ``Niter``: at most ``max_iter - 1`` updates.
-        seed: seed for ``init="random"`` (int or numpy SeedSequence-compatible); a batch draws
-            its signals' frequencies in order from one generator.
+        seed: seed for ``init="random"`` (int or numpy SeedSequence-compatible); every signal of a
+            batch draws its frequencies from it afresh, as it would alone.
         dc: hold the first mode at 0 Hz.
         tol_mode: ``"absolute"`` (vmdpy's rule: sum over modes of ||delta u_hat||^2 / (2n) < tol,
             which scales with the signal's power and length) or ``"relative"``

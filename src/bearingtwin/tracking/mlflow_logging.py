@@ -64,6 +64,7 @@ from omegaconf.errors import OmegaConfBaseException
 from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.features import NOT_AFFECTING_NUMBERS
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.tracking.lifecycle import (
     SWEEP_PID_ENV,
@@ -79,7 +80,8 @@ from bearingtwin.tracking.tables import csv_table, markdown_table
 log = logging.getLogger(__name__)
 
 # Settings that say where things are or how they are logged or shown, not what is computed.
-UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar", "features.progress")
+UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar",
+                 *(f"features.{key}" for key in NOT_AFFECTING_NUMBERS))
 HASHED_WHEN_SET_KEYS = ("data.labels", "data.twin.background_snr_db", "data.twin.other_paths", "simulator.oversample")
 """Keys hashed only when not null: each came after runs were recorded, and its null default computes what its
 absence did, so those runs keep their hashes (a resumed sweep skips them)."""
