@@ -182,8 +182,17 @@ def test_csv_time_columns_in_seconds_or_milliseconds_gaps_and_a_byte_order_mark(
     with pytest.raises(BearingTwinError, match=r"stamps.csv: the time column gives 8 samples per second.*head it time_ms"):
         read_raw(write("stamps.csv", "time,acc", 1000 * t))
     (tmp_path / "comma.csv").write_text("0,0324\n-1,5\n0,0117\n")
-    with pytest.raises(BearingTwinError, match=r"comma.csv: its first row '0,0324' reads as numbers written with decimal commas"):
+    with pytest.raises(BearingTwinError, match=r"comma.csv: its row '0,0324' reads as numbers written with decimal commas"):
         read_raw(tmp_path / "comma.csv")
+    # A German spreadsheet's one column whose first rows show no leading zero: a later row or a "-0" gives it away.
+    (tmp_path / "later.csv").write_text("0,3456\n0,8216\n1,3304\n0,0417\n")
+    with pytest.raises(BearingTwinError, match=r"later.csv: its row '0,0417' reads as numbers written with decimal"):
+        read_raw(tmp_path / "later.csv")
+    (tmp_path / "sign.csv").write_text("0,3456\n-0,8216\n1,3304\n")
+    with pytest.raises(BearingTwinError, match=r"sign.csv: its row '-0,8216' reads as numbers written with decimal"):
+        read_raw(tmp_path / "sign.csv")
+    (tmp_path / "counts.csv").write_text("0,3456\n1,8216\n2,3304\n")  # integers: a sample index and ADC counts
+    assert read_raw(tmp_path / "counts.csv").channels["1"].tolist() == [3456.0, 8216.0, 3304.0]
     rounded = np.round(np.arange(96000) / 48000.0, 5)  # 48 kHz stamps printed to five decimals: steps 2e-5 or 3e-5 s
     np.testing.assert_allclose(read_raw(write("rounded.csv", "time,acc", rounded, np.ones(96000))).fs, 48000.0, rtol=1e-4)
     keep = np.r_[0:1000, 1200:signal.size]

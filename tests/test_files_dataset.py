@@ -222,3 +222,17 @@ def test_a_folder_of_one_state_is_refused_before_any_feature_is_extracted(tmp_pa
         experiment.run_experiment(files_cfg(root, "classifier=svm", f"paths.cache_dir={tmp_path / 'cache'}"),
                                   root_dir=str(tmp_path))
 
+
+
+def test_a_recording_in_a_subfolder_that_a_labels_row_names_is_part_of_the_runs_hash(folder):
+    """A run is its config and its files: a labelled recording written over in a subfolder is another run."""
+    from bearingtwin.data.build import input_digest
+
+    (folder / "sub").mkdir()
+    np.save(folder / "sub" / "e.npy", tone("outer", seed=3))
+    with open(folder / "labels.csv", "a") as table:
+        table.write("sub/e.npy,outer,1797\n")
+    cfg = files_cfg(folder)
+    before = input_digest(cfg)
+    np.save(folder / "sub" / "e.npy", tone("outer", seed=4))  # same name and size, other data
+    assert input_digest(cfg) != before

@@ -502,3 +502,24 @@ def test_a_null_variant_leaves_the_effect_out_and_a_preload_removes_the_inner_ra
     free, preloaded = lines["preload=absent"], lines["preload.interference_um=20"]
     assert preloaded["sidebands"] < free["sidebands"] - 0.3, lines  # measured 0.92 -> -0.01 (log10)
     assert preloaded["bpfi"] > 0.5 and free["bpfi"] > 0.5, lines
+
+
+def test_the_datasets_key_follows_what_the_calibration_and_test_records_hold(report_path, tmp_path):
+    """The key names the feature cache and groups seeds in reports: a calibration record written over (its
+    windows are scored, its healthy level sets the twin's noise) is other data, wherever the folder lies."""
+    import shutil
+
+    import scipy.io
+
+    root = tmp_path / "cwru"
+    root.mkdir()
+    for path in DATA.glob("*.mat"):
+        shutil.copy(path, root / path.name)
+    overrides = SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=0",
+                         f"paths.cache_dir={tmp_path / 'cache'}"]
+    before = build_dataset(compose_train(overrides + [f"data.root={root}"])).key
+    assert build_dataset(compose_train(overrides + [f"data.root={DATA}"])).key == before
+    record = scipy.io.loadmat(root / "normal_0_97.mat")
+    record["X097_DE_time"] = record["X097_DE_time"] * 1.001
+    scipy.io.savemat(root / "normal_0_97.mat", {k: v for k, v in record.items() if not k.startswith("__")})
+    assert build_dataset(compose_train(overrides + [f"data.root={root}"])).key != before

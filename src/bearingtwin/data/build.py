@@ -93,15 +93,22 @@ REQUIRED_FILES = {"hust": _hust_files, "cwru": _cwru_files, "twin_to_real": _twi
 
 
 def _files_files(cfg: DictConfig) -> list[Path]:
-    """What a ``data=files`` run may read: every recording in ``data.root`` and the labels table (the rows'
-    own checks come when the data is built)."""
-    from bearingtwin.data.real import labels_path, recordings_in
+    """What a ``data=files`` run may read: every recording in ``data.root``, the labels table and the files its
+    rows name (in a subfolder too; the rows' own checks come when the data is built)."""
+    from bearingtwin.data.real import labels_path, recordings_in, rows_from_labels
 
     root = Path(str(cfg.data.get("root"))).expanduser()
     if not root.is_dir():
         return []
-    table = labels_path(root, {"labels": cfg.data.get("labels")})
-    return sorted(set(recordings_in(root)) | ({table} if table.is_file() else set()))
+    settings = {"labels": cfg.data.get("labels")}
+    table = labels_path(root, settings)
+    rows = set()
+    if table.is_file():
+        try:
+            rows = {path for path, *_ in rows_from_labels(root, settings, warn_unlisted=False)}
+        except BearingTwinError:  # a table the run cannot read: it fails on it, saying why
+            rows = set()
+    return sorted(set(recordings_in(root)) | rows | ({table} if table.is_file() else set()))
 
 
 INPUT_FILES = {**REQUIRED_FILES, "files": _files_files}

@@ -153,15 +153,30 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
         if len(above) == len(cells) and not all(_is_number(cell, decimal) for cell in above):
             names = above
             notes.append("column names read from the comment line above the numbers, as numpy.savetxt writes them")
-    if names is None and delimiter == "," and len(cells) > 1 and all(re.fullmatch(r"-?\d+", c) for c in cells) and any(
-            re.fullmatch(r"0\d+", cell) for cell in cells[1:]):  # "0,0324": a decimal comma split one number in two
-        raise BearingTwinError(f"{path}: its first row {head[first].strip()!r} reads as numbers written with decimal "
-                               f"commas; {DECIMAL_COMMA_REMEDY}")
+    if names is None and delimiter == ",":
+        split = _split_by_decimal_comma([_cells(head[i], delimiter) for i in content])
+        if split is not None:
+            raise BearingTwinError(f"{path}: its row {split!r} reads as numbers written with decimal commas; "
+                                   f"{DECIMAL_COMMA_REMEDY}")
     if names is not None:
         names, repeated = _distinct(names)
         notes += repeated
     layout = _Layout(encoding, delimiter, decimal, body_start, trailing)
     return layout, names, notes
+
+
+def _split_by_decimal_comma(rows: list[list[str]]) -> str | None:
+    """The first row that shows whole numbers to be halves of decimal-comma numbers, else None.
+
+    Written with decimal commas and read as comma-separated, one column of numbers becomes two of
+    integers: "0,3456" -> 0 and 3456. No integer column is written "0324" (a fraction's leading zero)
+    or "-0" (the sign of a number between -1 and 0), and some row of the sample shows one of them.
+    """
+    for row in rows:
+        if len(row) > 1 and all(re.fullmatch(r"-?\d+", cell) for cell in row) and (
+                any(re.fullmatch(r"0\d+", cell) for cell in row[1:]) or row[0] == "-0"):
+            return ",".join(row)
+    return None
 
 
 def _decimal_mark(path: Path, cells: list[str], delimiter: str | None) -> str:

@@ -734,7 +734,10 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         records=sources,
         fs=twin_fs,
         class_names=FAULTS,
-        key=content_key({"twin": twin_key, "tests": [(p.name, p.stat().st_size) for p in test_paths],
+        # What the test and calibration records hold (names and contents), wherever they lie: a record written over
+        # with another of the same size is other data.
+        key=content_key({"twin": twin_key, "tests": [(p.name, file_digest(p)) for p in test_paths],
+                         "calibration": [(p.name, file_digest(p)) for p in calibration_paths],
                          # the folder and the table are no part of the data (their places differ between machines);
                          # what a labelled record holds and is labelled is
                          "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")} | (
