@@ -557,6 +557,15 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
         assert (result["rpm"], result["original_fs"], result["true_state"]) == (rpm, fs, "outer")
         assert result["evidence_state"] == "outer", result["evidence"]
     assert "of 2 with a known state" in done.stdout
+    # A row's rate that the file contradicts is named as the row's, not as an fs= the command never got.
+    np.savez(folder / "stated.npz", signal=fault_signal(None, seconds=3), fs=12000.0, rpm=1500.0)
+    with open(folder / "labels.csv", "a") as table:
+        table.write("stated.npz,outer,1500,48000\n")
+    contradicted = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/stated",
+                       "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert contradicted.returncode != 0 and "could not be diagnosed: stated.npz" in contradicted.stdout
+    assert ("labels.csv (its row for stated.npz): fs=48000 Hz contradicts the file's 12000 Hz"
+            in contradicted.stdout + contradicted.stderr), contradicted.stderr
 
 
 def test_bad_models_fail_in_one_line(registered, tmp_path):
@@ -793,3 +802,16 @@ def test_the_rate_check_of_a_stated_speed_and_rate_reports_its_verdict(stated_rp
     kept, notes, found = _checked_rate(recording, bearing_config("cwru_6205"), declared_only=False, channels={"a": x})
     assert found == verdict and kept.fs == 12000.0  # a stated rate is kept whatever the check says
     assert (notes == []) if words is None else any(words in note for note in notes), notes
+
+
+def test_a_record_in_a_subfolder_is_known_by_the_path_a_training_table_names_it_by(tmp_path):
+    """data.calibration.records may name a record in a subfolder by its path from the table (rig_a/healthy_a):
+    diagnose must know it as a calibration record, not score it as a test of the model."""
+    from bearingtwin.diagnosis.run import _names_of
+
+    (tmp_path / "rig_a").mkdir()
+    record = tmp_path / "rig_a" / "healthy_a.npy"
+    table = tmp_path / "labels.csv"
+    assert _names_of(record, table) == {"healthy_a", "healthy_a.npy", "rig_a/healthy_a", "rig_a/healthy_a.npy"}
+    assert _names_of(record, None) == {"healthy_a", "healthy_a.npy"}
+    assert _names_of(tmp_path / "elsewhere.npy", tmp_path / "rig_a" / "labels.csv") == {"elsewhere", "elsewhere.npy"}

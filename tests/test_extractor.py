@@ -5,6 +5,7 @@ one repetition rate per class (a stand-in for the simulated dataset, which keeps
 Searches use a small population and few iterations; the code path is the real one.
 """
 
+import dataclasses
 import json
 import os
 
@@ -210,8 +211,7 @@ def test_cache_reuses_an_extraction_and_keys_on_config_dataset_and_split(dataset
     np.testing.assert_array_equal(extract_features({**cfg, "n_jobs": 2}, dataset, train, tmp_path)[0], marker)
     assert cache_path({**cfg, "seed": 1}, dataset, train, tmp_path) != path
     assert cache_path(cfg, dataset, train[1:], tmp_path) != path
-    other = dataset.subset(np.arange(len(dataset)))
-    other.key = "synthetic-v2"
+    other = dataclasses.replace(dataset, key="synthetic-v2")
     assert cache_path(cfg, other, train, tmp_path) != path
     per_sample = {**cfg, "vmd_params": "per_sample"}
     assert cache_path(per_sample, dataset, train, tmp_path) == cache_path(per_sample, dataset, train[1:], tmp_path)

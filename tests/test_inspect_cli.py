@@ -137,6 +137,14 @@ def test_a_labels_row_is_read_as_the_twin_reads_it(capsys, monkeypatch, tmp_path
     (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nrig_a/x.npy,outer,1797,12000\n")
     code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'x.npy'}")
     assert code == 0 and json.loads(out)["fs_hz"] is None and json.loads(out)["fault"] is None
+    # A rate the file stores is the file's: a row that says another is refused, as training and diagnose refuse it.
+    np.savez(tmp_path / "r.npz", signal=np.random.default_rng(0).standard_normal(24000), fs=12000.0)
+    (tmp_path / "labels.csv").write_text("record,state,fs\nr.npz,outer,48000\n")
+    code, _, err = run(capsys, monkeypatch, f"path={tmp_path / 'r.npz'}")
+    assert code == 2 and "labels.csv line 2: fs=48000 Hz contradicts the file's 12000 Hz (stored in it)" in err
+    (tmp_path / "labels.csv").write_text("record,state,fs\nr.npz,outer,12000\n")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'r.npz'}")
+    assert code == 0 and (json.loads(out)["fs_hz"], json.loads(out)["fs_origin"]) == (12000.0, "file")
     if not (CWRU / "12k_Drive_End_OR007@6_0_130.mat").is_file():
         pytest.skip(f"CWRU files not found in {CWRU}")
     import shutil

@@ -57,6 +57,9 @@ def test_second_build_reads_the_cache_and_configs_key_it(tmp_path, monkeypatch):
 def test_bad_data_config_names_the_field(tmp_path):
     with pytest.raises(BearingTwinError, match="data.window_length"):
         build_simulated_dataset(OmegaConf.merge(DATA, {"window_length": 0}), BEARING, SIMULATOR, {}, tmp_path)
+    for name in ("window_length", "samples_per_class"):  # a YAML true is no count
+        with pytest.raises(BearingTwinError, match=rf"^data\.{name} must be a positive integer, got True$"):
+            build_simulated_dataset(OmegaConf.merge(DATA, {name: True}), BEARING, SIMULATOR, {}, tmp_path)
     with pytest.raises(BearingTwinError, match="data.source"):
         build_simulated_dataset(OmegaConf.merge(DATA, {"source": "cwru"}), BEARING, SIMULATOR, {}, tmp_path)
     # The operating point is named as the user set it (data.*), not as the simulator key it replaces.

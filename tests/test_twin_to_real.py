@@ -523,3 +523,21 @@ def test_the_datasets_key_follows_what_the_calibration_and_test_records_hold(rep
     record["X097_DE_time"] = record["X097_DE_time"] * 1.001
     scipy.io.savemat(root / "normal_0_97.mat", {k: v for k, v in record.items() if not k.startswith("__")})
     assert build_dataset(compose_train(overrides + [f"data.root={root}"])).key != before
+
+
+def test_a_records_rate_the_shaft_line_contradicts_names_this_data_sources_remedies(report_path, tmp_path):
+    """data=twin_to_real has no data.fs_by_record (data=cwru's remedy): it names a labels table's fs column."""
+    cfg = compose_train(SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=0", "data.fs=48000",
+                                 f"paths.cache_dir={tmp_path}"])
+    with pytest.raises(BearingTwinError, match=r"contradicts the shaft speed.*; give its rate in a labels table "
+                                               r"\(data.labels=<csv> with an fs column\) or set data.check_fs=false$"):
+        build_dataset(cfg)
+
+
+@pytest.mark.parametrize("setting", ["data.window_length=true", "data.twin.windows_per_record=true",
+                                     "data.test.windows_per_record=2.5"])
+def test_counts_of_the_wrong_kind_are_named(setting, report_path, tmp_path):
+    key = setting.split("=")[0]
+    with pytest.raises(BearingTwinError, match=rf"^{key} must be a positive integer, got"):
+        build_dataset(compose_train(SMALL + [f"data.calibration.report={report_path}", setting,
+                                             f"paths.cache_dir={tmp_path}"]))

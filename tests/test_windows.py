@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from bearingtwin.data.recording import Recording, WindowedDataset
+from bearingtwin.data.recording import Recording
 from bearingtwin.data.windows import cut_windows, split_indices, window_starts
 from bearingtwin.errors import BearingTwinError
 
@@ -97,20 +97,6 @@ def test_recording_validates_its_fields(kwargs, message):
     args = {"signal": np.ones(10), "fs": 1000.0, **kwargs}
     with pytest.raises(BearingTwinError, match=message):
         Recording(**args)
-
-
-def test_subset_keeps_records_and_key():
-    data = WindowedDataset(
-        windows=np.zeros((4, 8)),
-        labels=np.array([0, 1, 2, 3]),
-        record_ids=np.arange(4),
-        starts=np.zeros(4, int),
-        records=["a", "b", "c", "d"],
-        fs=1000.0,
-        key="k",
-    )
-    part = data.subset(np.array([1, 3]))
-    assert len(part) == 2 and part.labels.tolist() == [1, 3] and part.key == "k" and part.records == data.records
 
 
 def test_zscore_of_values_that_overflow_their_squares_is_the_same_shape():

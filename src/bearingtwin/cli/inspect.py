@@ -64,8 +64,11 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     row = labels_row(Path(str(path))) if fs is None or rpm is None else None
     table, table_state, table_rpm, table_fs = row or (None, None, None, None)
     fs_origin = "option" if fs is not None else raw.fs_origin or None
-    if fs is None and table_fs is not None and (raw.fs is None or raw.fs_origin == "declared"):
-        fs, fs_origin = table_fs, table
+    if fs is None and table_fs is not None:
+        if raw.fs is None or raw.fs_origin == "declared":
+            fs, fs_origin = table_fs, table
+        else:  # a rate the file stores must agree with the row's, as training and diagnose require
+            resolve_fs(raw, table_fs, f"{table}: fs")
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
     rpm_origin = "option" if rpm is not None else None
     if rpm is None and raw.rpm is not None:

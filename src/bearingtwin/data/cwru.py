@@ -163,6 +163,7 @@ def load_cwru(
     tolerance: float = 0.02,
     prominence: float = 20.0,
     bearing: BearingGeometry | None = None,
+    remedy: str | None = None,
 ) -> Recording:
     """One channel of a CWRU record, its declared sampling rate checked against the shaft line.
 
@@ -171,8 +172,8 @@ def load_cwru(
     series confirms it in any of them (the fan-end channel of the fault records shows it only
     weakly). ``bearing`` (the record's bearing) adds its defect lines as a second witness,
     which tells a rate too low by a whole factor from real subharmonics. With ``check_fs`` a
-    rate no channel supports raises, naming the rate the evidence implies; one the evidence
-    cannot decide is logged and kept.
+    rate no channel supports raises, naming the rate the evidence implies and what to do (``remedy``: the
+    caller's settings; by default ``data=cwru``'s); one the evidence cannot decide is logged and kept.
     """
     if channel not in CHANNELS:
         raise BearingTwinError(f"channel={channel!r} is not a CWRU channel; choose one of {', '.join(CHANNELS)}")
@@ -191,10 +192,9 @@ def load_cwru(
     check = checks[witness]
     recording.meta["shaft_line"] = dict(check.as_dict(), channel=witness)
     if check_fs and check.verdict == "contradicted":
-        raise BearingTwinError(
-            f"{path}: {describe_mismatch(check)} (channel {witness}); declare the record's rate "
-            f"(+data.fs_by_record.{recording.meta['record']}=<Hz>) or set data.check_fs=false"
-        )
+        remedy = remedy or (f"declare the record's rate (+data.fs_by_record.{recording.meta['record']}=<Hz>) "
+                            "or set data.check_fs=false")
+        raise BearingTwinError(f"{path}: {describe_mismatch(check)} (channel {witness}); {remedy}")
     if check_fs and check.verdict == "ambiguous":
         log.warning("%s: %s (channel %s)", path, describe_mismatch(check), witness)
     return recording

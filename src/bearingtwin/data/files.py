@@ -215,8 +215,6 @@ def resolve_fs(raw: RawRecord, fs: float | None, key: str = "fs") -> float:
     return fs
 
 
-
-
 def resolve_fact(raw: RawRecord, name: str, from_file, from_user, key: str | None = None):
     """The user's value of a fact the file may state too (``key``: the setting it came from, as the message names
     it; ``name`` by default); one that contradicts the file's is refused."""

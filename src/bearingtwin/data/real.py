@@ -141,13 +141,10 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
         for path, state, rpm, fs in rows
     ]
     labelling = [(path.name, state, rpm, fs) for path, state, rpm, fs in rows]
-    dataset = windows_from_recordings(
+    return windows_from_recordings(
         recordings, window_length, windows_per_record, "data.windows_per_record",
         dataset_key([path for path, *_ in rows], {**cfg, "labels": labelling, "pattern": None}),
     )
-    if all(recording.rpm is not None for recording in recordings):
-        dataset.record_rpms = [recording.rpm for recording in recordings]  # for shaft-order features
-    return dataset
 
 
 def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>",

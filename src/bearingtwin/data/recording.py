@@ -129,18 +129,3 @@ class WindowedDataset:
         """(n_windows,) shaft speed in rev/min of each window's record, or None when unknown."""
         return None if self.record_rpms is None else np.asarray(self.record_rpms, dtype=np.float64)[self.record_ids]
 
-    def subset(self, index: np.ndarray) -> "WindowedDataset":
-        """The windows at ``index`` (records and keys kept)."""
-        return WindowedDataset(
-            windows=self.windows[index],
-            labels=self.labels[index],
-            record_ids=self.record_ids[index],
-            starts=self.starts[index],
-            records=self.records,
-            fs=self.fs,
-            class_names=self.class_names,
-            key=self.key,
-            record_lengths=self.record_lengths,
-            record_rpms=self.record_rpms,
-            window_normalization=self.window_normalization,
-        )

@@ -18,7 +18,7 @@ from typing import Mapping
 
 import numpy as np
 
-from bearingtwin.checks import positive_number
+from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.data.windows import cut_windows
@@ -67,9 +67,8 @@ def build_simulated_dataset(data_cfg: Mapping, bearing_cfg: Mapping, simulator_c
     data_cfg = plain_config(data_cfg)
     if data_cfg.get("source", "simulated") != "simulated":
         raise BearingTwinError(f"data.source={data_cfg['source']!r}: build_simulated_dataset needs 'simulated'")
-    for name in ("samples_per_class", "window_length"):
-        if not (isinstance(data_cfg[name], int) and data_cfg[name] > 0):
-            raise BearingTwinError(f"data.{name} must be a positive integer, got {data_cfg[name]!r}")
+    for name in ("samples_per_class", "window_length"):  # a YAML true is no count
+        data_cfg[name] = whole_number(f"data.{name}", data_cfg[name])
     for name, unit in (("rpm", "rev/min"), ("fs", "Hz"), ("duration", "seconds")):  # named as the user set them
         positive_number(data_cfg[name], f"data.{name}", unit)
     signals, records = _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir)

@@ -595,13 +595,10 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     if bearing.get("name") != cfg["bearing"]:
         raise BearingTwinError(f"data=twin_to_real simulates the {cfg['bearing']} bearing of the records: add "
                                f"bearing={cfg['bearing']} (got bearing.name={bearing.get('name')!r})")
-    for name in ("window_length",):
-        if not (isinstance(cfg[name], int) and cfg[name] > 0):
-            raise BearingTwinError(f"data.{name} must be a positive integer, got {cfg[name]!r}")
+    cfg["window_length"] = whole_number("data.window_length", cfg["window_length"])  # a YAML true is no count
     for section in ("twin", "test"):
-        if not (isinstance(cfg[section]["windows_per_record"], int) and cfg[section]["windows_per_record"] > 0):
-            raise BearingTwinError(f"data.{section}.windows_per_record must be a positive integer, "
-                                   f"got {cfg[section]['windows_per_record']!r}")
+        cfg[section]["windows_per_record"] = whole_number(f"data.{section}.windows_per_record",
+                                                          cfg[section]["windows_per_record"])
     twin_fs = positive_number(cfg["fs"], "data.fs", "Hz")
     n_validation = cfg["calibration"].get("validation_windows_per_record", 0)
     if not (isinstance(n_validation, int) and not isinstance(n_validation, bool) and n_validation >= 0):
@@ -623,6 +620,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     def measured(path: Path) -> Recording:
         if table is None:
             return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
+                             remedy="give its rate in a labels table (data.labels=<csv> with an fs column) or set "
+                                    "data.check_fs=false",
                              check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),
                              bearing=BearingGeometry.from_config(bearing))
         return read_labelled_record(path, *labelled[path], channel=cfg["channel"], default_fs=twin_fs,

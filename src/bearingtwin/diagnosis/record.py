@@ -55,17 +55,19 @@ class PreparedRecord:
 
 
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
-                true_state: str | None = None, bearing: str | None = None) -> PreparedRecord:
+                true_state: str | None = None, bearing: str | None = None, fs_key: str = "fs",
+                rpm_key: str = "rpm") -> PreparedRecord:
     """Read one file, check it against the model and bring it to the model's sampling rate.
 
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs`` and ``rpm`` fill in what the
-    file does not state; ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
+    file does not state and must agree with what it does (``fs_key`` and ``rpm_key`` name where they
+    came from in a message); ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
     own (a CWRU fan-end or HUST file names it) or else the model's when not given. The rate is
     checked against the shaft line (:func:`_checked_rate`).
     """
     raw = read_raw(path)
     channel, channel_note = _channel(raw, channel, pipeline)
-    recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm)
+    recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     notes = list(recording.meta["notes"]) + channel_note
     named = recording.meta.get("bearing")

@@ -156,10 +156,12 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     for path in progress:
         try:
             _, state, rpm, fs = labelled.get(path.stem, (None, None, None, None))  # a row's values before the command's
+            row = f"{table.name if table else 'labels'} (its row for {path.name}): "
             prepared = read_record(path, pipeline, cfg.channel, cfg.fs if fs is None else fs, cfg.rpm if rpm is None else rpm,
-                                   state, bearing)
+                                   state, bearing, fs_key="fs" if fs is None else row + "fs",
+                                   rpm_key="rpm" if rpm is None else row + "rpm")
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
-            calibrated_on = bool({path.stem, path.name} & calibrated)
+            calibrated_on = bool(_names_of(path, table) & calibrated)
             result["calibration_record"] = calibrated_on
             if calibrated_on:
                 result["notes"].append("the model's twin was calibrated on this record (data.calibration.records): "
@@ -208,6 +210,16 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if with_physics:  # the envelope analysis alone, on the same records: what the model must beat
         run.scores["accuracy_records_physics"] = sum(row["physics_correct"] for row in with_physics) / len(with_physics)
         run.scores["n_scored_physics"] = len(with_physics)
+
+
+def _names_of(path: Path, table: Path | None) -> set[str]:
+    """The names a training config may give a record by: its file name or stem, or, under a labels table's
+    folder, its path from there (``rig_a/healthy_a``: a record in a subfolder), with or without its suffix."""
+    names = {path.stem, path.name}
+    if table is not None and path.resolve().is_relative_to(table.resolve().parent):
+        relative = path.resolve().relative_to(table.resolve().parent)
+        names |= {relative.as_posix(), relative.with_suffix("").as_posix()}
+    return names
 
 
 def calibration_records(pipeline) -> set[str]:
