@@ -216,6 +216,13 @@ def test_a_twin_of_no_duration(tmp_path):
                       "twin.duration=0")
     with pytest.raises(BearingTwinError, match="twin.duration must be a positive, finite number of seconds, got 0"):
         twin_for(load_measurement(cfg.measured), cfg)
+    # Too short for a comparison: named as the twin's duration before the calibration's budget runs, not as a
+    # comparison setting after every trial was refused.
+    short = twin_config(f"measured.path={path}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
+                        "twin.duration=0.3")
+    with pytest.raises(BearingTwinError, match=r"^twin.duration=0.3 s is shorter than one comparison segment "
+                                               r"\(compare.envelope_segment_s=0.5 s\): give twin.duration of at least 0.5 s$"):
+        twin_for(load_measurement(short.measured), short)
 
 
 @pytest.mark.skipif(not RECORD_130.is_file(), reason=f"CWRU record 130 not found in {CWRU}")

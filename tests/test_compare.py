@@ -166,6 +166,25 @@ def test_bad_settings_name_the_field():
         CompareSettings(psd_detrend_order=-1)
     settings = CompareSettings.from_config({"n_bands": 12.0})  # a whole number as YAML or a shell may write it
     assert settings.n_bands == 12 and isinstance(settings.n_bands, int)
+    # Every setting is named where it is read, not met later as a division by zero or a NaN.
+    for name, value in [("stats_window_s", 0), ("welch_segment_s", -0.1), ("envelope_segment_s", "abc"),
+                        ("lines_segment_s", 0), ("band_min_hz", True), ("line_threshold_db", float("inf"))]:
+        with pytest.raises(BearingTwinError, match=rf"^compare\.{name}={value!r} must be a positive number of"):
+            CompareSettings.from_config({name: value})
+    with pytest.raises(BearingTwinError, match=r"^compare.n_harmonics must be a positive integer, got 0$"):
+        CompareSettings.from_config({"n_harmonics": 0})
+    with pytest.raises(BearingTwinError, match=r"^compare.weights.psd must be a non-negative number, got 'abc'$"):
+        CompareSettings.from_config({"weights": {"psd": "abc"}})
+    with pytest.raises(BearingTwinError, match=r"^compare.weights must not all be zero$"):
+        CompareSettings.from_config({"weights": {view: 0 for view in VIEWS}})
+
+
+def test_view_weights_are_relative():
+    """Weights say how the views weigh against each other: scaled alike, they compare and rank alike."""
+    small = CompareSettings.from_config({"weights": {view: 0.2 for view in VIEWS}})
+    assert small.weights == CompareSettings().weights == {view: 1.0 for view in VIEWS}
+    only_two = CompareSettings.from_config({"weights": {"psd": 3.0, "lines": 1.0}})  # the views left out weigh nothing
+    assert only_two.weights == {"psd": 3.75, "lines": 1.25, "envelope": 0.0, "harmonics": 0.0, "statistics": 0.0}
 
 
 def test_figures_and_numbers_are_written(tmp_path):

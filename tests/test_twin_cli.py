@@ -171,6 +171,9 @@ def twin_config(*overrides):
     (["ranking.view_floor_db=0"], "ranking.view_floor_db=0 must be a positive number of dB"),
     (["ranking.min_signature_gain=-1"], "ranking.min_signature_gain must be a non-negative number, got -1"),
     (["ranking.later_points_per_view=0"], "ranking.later_points_per_view=0 must be a positive number"),
+    (["ranking.points_per_view=0.1"], "ranking.points_per_view=0.1: the 5 views would count as 0.5 values in all, "
+                                       "and a parameter would cost nothing; give more than 0.2"),
+    (["ranking.later_points_per_view=0.2"], "ranking.later_points_per_view=0.2: the 5 views would count as 1 value in all"),
     (["ranking.n_jobs=0"], "ranking.n_jobs must be a positive integer, got 0 (or -1: one thread per core)"),
     (["ranking.n_jobs=abc"], "ranking.n_jobs must be a positive integer, got 'abc'"),
     (["seed=abc"], "seed must be a non-negative integer, got 'abc'"),

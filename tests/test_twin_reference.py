@@ -106,6 +106,9 @@ def test_a_report_that_does_not_say_its_bearing_state_gives_no_defect_size():
     (lambda r: r["operating_point"]["sensor"].pop("race"), "operating_point.sensor gives no race"),
     (lambda r: r["operating_point"]["radial_load_n"].update(value="heavy"), "operating_point.radial_load_n has no numeric value"),
     (lambda r: r["steps"][-1].update(params=["resonance"]), "steps\\[-1\\].params is not the final twin's effects"),
+    (lambda r: r["operating_point"].pop("sensor"), "operating_point gives no sensor"),
+    (lambda r: r.update(steps={"0": {"params": {}}}), "not a twin_report.json"),
+    (lambda r: r.update(measured="outer"), "measured is not a mapping"),
 ])
 def test_a_report_missing_what_a_reference_gives_is_named(tmp_path, change, message):
     import json

@@ -113,6 +113,14 @@ def registered_effects() -> tuple[str, ...]:
     return tuple(sorted(_REGISTRY))
 
 
+def effect_class(name: str) -> type[Effect]:
+    """The class registered as ``name`` (its ``search_space``, ``signature_views``, ``requires``, ...)."""
+    _load_library()
+    if name not in _REGISTRY:
+        raise BearingTwinError(f"unknown effect {name!r}; registered: {', '.join(sorted(_REGISTRY)) or 'none'}")
+    return _REGISTRY[name]
+
+
 def build_effects(effects_cfg: Mapping | None) -> list[Effect]:
     """Instances of the configured effects, in order; ``effects_cfg`` maps name -> constructor args."""
     if not effects_cfg:

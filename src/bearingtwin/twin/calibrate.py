@@ -1,12 +1,14 @@
 """Fitting the twin's free parameters to a measurement by minimising the discrepancy.
 
-Both the bare twin (defect depth, damping: dotted simulator-config keys) and each
-candidate effect (its class's ``search_space``) are calibrated the same way: a seeded
-Optuna TPE search over a box, the objective being the overall discrepancy of
-:mod:`bearingtwin.twin.compare`. The sensor gain never enters the search: the
-comparison fits it in closed form. Trial counts are modest because every trial is a
-simulation; the twin keeps its random seed fixed across trials (common random
-numbers), so the search sees the parameters' effect and not a new realization.
+Both the operating point (load, clearance, defect size and further dotted config keys:
+:mod:`bearingtwin.twin.operating_point`) and each candidate effect (its class's
+``search_space``) are calibrated the same way: a seeded Optuna TPE search over a box, then a
+local polish, the objective being the views' deviance (:class:`bearingtwin.twin.rank.Judge`).
+The sensor gain never enters the search: the comparison fits it in closed form. Trial counts
+are modest because a trial that changes the dynamics is a simulation (a sensor moved, or an
+effect acting on the sensor's signal only, reuses the cached one: :mod:`bearingtwin.twin.model`);
+the twin keeps its random seed fixed across trials (common random numbers), so the search sees
+the parameters' effect and not a new realization.
 """
 
 from __future__ import annotations

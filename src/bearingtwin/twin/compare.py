@@ -24,7 +24,7 @@ Views:
     envelope: segment-averaged envelope spectrum relative to its median, bin by bin up to
         past the last harmonic -- the paper's Figure 10 as a number.
     harmonics: prominence of the defect frequency's harmonics and sidebands above the
-        envelope floor, and their half-power widths -- sharp lines versus smeared ones.
+        envelope floor, and their widths (twice the RMS spread of their power) -- sharp lines versus smeared ones.
     statistics: medians over windows of the scale-free time-domain features (kurtosis and
         the crest, shape, impulse and margin factors) -- impulsiveness, saturation, bursts.
 """
@@ -40,7 +40,7 @@ import numpy as np
 from scipy import signal as sps
 from scipy.ndimage import median_filter
 
-from bearingtwin.checks import whole_number
+from bearingtwin.checks import is_finite_number, positive_number, whole_number
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
@@ -90,7 +90,7 @@ class CompareSettings:
         n_harmonics: harmonics of the defect frequency examined.
         smooth_hz: moving-average width of the dB envelope spectrum in the envelope view.
         stats_window_s: window length for the time-domain statistics.
-        weights: weight of each view in the overall discrepancy.
+        weights: weight of each view in the overall discrepancy, relative (scaled to a mean of 1 over the views).
     """
 
     welch_segment_s: float = 0.1
@@ -110,14 +110,22 @@ class CompareSettings:
     weights: dict = field(default_factory=lambda: {view: 1.0 for view in VIEWS})
 
     def __post_init__(self) -> None:
+        # Frozen: the checked values are set as the numbers they were read as (ints, floats).
+        for name, unit in _POSITIVE_SETTINGS.items():
+            object.__setattr__(self, name, positive_number(getattr(self, name), f"compare.{name}", unit))
+        if not (is_finite_number(self.smooth_hz) and self.smooth_hz >= 0):
+            raise BearingTwinError(f"compare.smooth_hz must be a non-negative number of Hz (0: no smoothing), "
+                                   f"got {self.smooth_hz!r}")
+        object.__setattr__(self, "n_harmonics", whole_number("compare.n_harmonics", self.n_harmonics))
         # The band levels lose a polynomial of psd_detrend_order: at least one value must be left beyond it.
         order = whole_number("compare.psd_detrend_order", self.psd_detrend_order, minimum=0)
         n_bands = whole_number("compare.n_bands", self.n_bands)
         if n_bands < order + 2:
             raise BearingTwinError(f"compare.n_bands={n_bands} leaves no band level beyond the polynomial of order "
                                    f"compare.psd_detrend_order={order}: give n_bands of at least {order + 2}, or a lower order")
-        object.__setattr__(self, "psd_detrend_order", order)  # frozen: the checked whole numbers, as ints
+        object.__setattr__(self, "psd_detrend_order", order)
         object.__setattr__(self, "n_bands", n_bands)
+        object.__setattr__(self, "weights", _checked_weights(self.weights))
 
     @classmethod
     def from_config(cls, cfg) -> "CompareSettings":
@@ -127,14 +135,9 @@ class CompareSettings:
         unknown = set(values) - known
         if unknown:
             raise BearingTwinError(f"compare.{sorted(unknown)[0]} is not a comparison setting; known: {sorted(known)}")
-        if "weights" in values:
+        if "weights" in values:  # a view left out weighs nothing
             weights = dict(values["weights"])
-            bad = set(weights) - set(VIEWS)
-            if bad:
-                raise BearingTwinError(f"compare.weights.{sorted(bad)[0]} is not a view; views: {', '.join(VIEWS)}")
-            if any(not w >= 0 for w in weights.values()) or not sum(weights.values()) > 0:
-                raise BearingTwinError("compare.weights must be non-negative and not all zero")
-            values["weights"] = {view: float(weights.get(view, 0.0)) for view in VIEWS}
+            values["weights"] = {**{view: 0.0 for view in VIEWS}, **weights}
         return cls(**values)
 
 
@@ -202,6 +205,31 @@ class Comparison:
                       for name, view in self.views.items()},
             "summary": self.summary,
         }
+
+
+_POSITIVE_SETTINGS = {"welch_segment_s": "seconds", "band_min_hz": "Hz", "dynamic_range_db": "dB",
+                      "envelope_segment_s": "seconds", "envelope_highpass_hz": "Hz", "envelope_dynamic_range_db": "dB",
+                      "lines_segment_s": "seconds", "lines_max_hz": "Hz", "line_threshold_db": "dB",
+                      "stats_window_s": "seconds"}
+
+
+def _checked_weights(weights) -> dict[str, float]:
+    """``compare.weights`` checked, one per view, scaled to a mean of 1: they say how the views weigh against each
+    other; how many values the views count as in the ranking's criterion is ``ranking.points_per_view``'s to say."""
+    weights = dict(weights)
+    bad = set(weights) - set(VIEWS)
+    if bad:
+        raise BearingTwinError(f"compare.weights.{sorted(bad)[0]} is not a view; views: {', '.join(VIEWS)}")
+    for view, weight in weights.items():
+        if not (is_finite_number(weight) and weight >= 0):
+            raise BearingTwinError(f"compare.weights.{view} must be a non-negative number, got {weight!r}")
+    missing = [view for view in VIEWS if view not in weights]
+    if missing:
+        raise BearingTwinError(f"compare.weights.{missing[0]} is missing: give every view a weight (0: left out)")
+    total = sum(weights.values())
+    if not total > 0:
+        raise BearingTwinError("compare.weights must not all be zero")
+    return {view: len(VIEWS) * float(weights[view]) / total for view in VIEWS}
 
 
 def _db(power_ratio: np.ndarray, dynamic_range_db: float) -> np.ndarray:

@@ -21,7 +21,7 @@ from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR, plain_config
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effects import Effect, build_effects, registered_effects
+from bearingtwin.physics.effects import Effect, build_effects, effect_class, registered_effects
 from bearingtwin.physics.geometry import FAULTS, check_fault
 from bearingtwin.physics.simulator import sensor_signal, simulate
 
@@ -41,8 +41,7 @@ def effect_defaults(name: str) -> dict:
 
 def effect_search_space(name: str) -> dict[str, tuple[float, float, bool]]:
     """The box each of the effect's fitted parameters is searched in (its class's ``search_space``)."""
-    (effect,) = build_effects({name: effect_defaults(name)})
-    space = getattr(effect, "search_space", None)
+    space = getattr(effect_class(name), "search_space", None)
     if not space:
         raise BearingTwinError(f"effect {name!r} declares no search_space, so it cannot be calibrated")
     return dict(space)
@@ -106,7 +105,7 @@ class TwinModel:
             node = cfg
             for part in parents:
                 node = node[part]
-            node[leaf] = value if key in SENSOR_KEYS else float(value)
+            node[leaf] = float(value)  # the sensor keys select what is read of a simulation: never set here
         return cfg
 
     def signal(self, base: Mapping | None = None, effects: Mapping[str, Mapping] | None = None) -> np.ndarray:

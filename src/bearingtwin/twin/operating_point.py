@@ -68,13 +68,13 @@ class OperatingPoint:
     free: dict = field(default_factory=dict)
     races: tuple = RACES
     sensor_angle_deg: float | None = None
-    angle_step_deg: float = 15.0
+    angle_step_deg: float = 30.0
     extra: dict = field(default_factory=dict)
     extra_known: dict = field(default_factory=dict)
 
     @classmethod
     def from_config(cls, operating_cfg: Mapping, ranges: Mapping, extra_base: Mapping | None,
-                    fault: str, angle_step_deg: float = 15.0, extra_held: Mapping | None = None) -> "OperatingPoint":
+                    fault: str, angle_step_deg: float = 30.0, extra_held: Mapping | None = None) -> "OperatingPoint":
         """From ``operating_point`` (null = fit), ``calibration.ranges``, ``calibration.base`` (further keys to fit)
         and ``calibration.base_held`` (further keys held); a healthy bearing has no defect to size."""
         operating = mapping("operating_point", operating_cfg)

@@ -49,7 +49,7 @@ from tqdm.auto import tqdm
 
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effects import build_effects
+from bearingtwin.physics.effects import effect_class
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.twin.calibrate import SLICE_STEPS, interval_from_trials, minimize, slice_interval, to_unit
 from bearingtwin.twin.compare import VIEWS, Comparator, Comparison, CompareSettings
@@ -128,7 +128,7 @@ class Judge:
     weights: dict[str, float]
     held_out: bool
     points_per_view: float = 1.0
-    view_floor_db: float = 0.3
+    view_floor_db: float = 0.5
 
     @property
     def floors_db(self) -> dict[str, float]:
@@ -137,7 +137,7 @@ class Judge:
 
     @classmethod
     def for_measurement(cls, measured: Recording, geometry: BearingGeometry, settings: CompareSettings,
-                        points_per_view: float = 1.0, view_floor_db: float = 0.3) -> "Judge":
+                        points_per_view: float = 1.0, view_floor_db: float = 0.5) -> "Judge":
         """Cut ``measured`` in two halves when each is long enough for every view, else use it whole for both."""
         half = measured.signal.size // 2
         try:
@@ -184,7 +184,7 @@ class EffectFit:
     error: float              # discrepancy on the held-out part with the effect, dB
     explained: float          # share of the held-out discrepancy it closes
     evidence: float           # information-criterion gain on the held-out part (> 0: it pays for its parameters)
-    drop_per_point: float     # deviance drop on the held-out part per compared value, before the penalty
+    drop_per_point: float     # deviance drop on the held-out part per value a view counts as (points_per_view), before the penalty
     n_parameters: int
     signature: str
     comparison: Comparison = field(repr=False)
@@ -331,6 +331,8 @@ class TwinFit:
             "margin": self.margin,
             "steps": [step.as_dict() for step in self.steps],
             "added": [fit.effect for fit in self.added],
+            # each as kept: the re-fit's parameters and intervals, what it gains in its views (the ranking: the screen's)
+            "added_effects": [fit.as_dict() for fit in self.added],
             "unexplained": self.unexplained,
             "unclaimed": None if self.unclaimed is None else self.unclaimed.as_dict(),
             "not_tried": self.not_tried,
@@ -414,7 +416,7 @@ def _operating_point_words(operating: Mapping, gain: float) -> str:
             continue
         if name == "sensor":
             interval = entry.get("interval")
-            within = (f" (within {interval[0]:.0f}-{interval[1]:.0f} deg)"
+            within = (f" (within {interval[0]:.0f} to {interval[1]:.0f} deg)"
                       if interval and interval[0] != interval[1] else "")
             other = [r for r in entry["races_within_bound"] if r != entry["race"]]
             parts.append(f"sensor on the {entry['value']}{within}"
@@ -497,10 +499,10 @@ class EffectRanker:
     """
 
     def __init__(self, candidates: Sequence[str], fixed_effects: Mapping[str, Mapping] | None = None,
-                 operating_point: OperatingPoint | None = None, n_trials_base: int = 16,
+                 operating_point: OperatingPoint | None = None, n_trials_base: int = 30,
                  n_trials_effect: int = 10, n_trials_refine: int = 16, n_polish: int = 30, n_polish_effect: int = 10,
-                 max_effects: int = 3, points_per_view: float = 1.0, view_floor_db: float = 0.3,
-                 min_signature_gain: float = 1.0, n_jobs: int = 1, later_points_per_view: float | None = None,
+                 max_effects: int = 3, points_per_view: float = 1.0, view_floor_db: float = 0.5,
+                 min_signature_gain: float = 1.0, n_jobs: int = 1, later_points_per_view: float | None = 6.0,
                  seed: int = 0, progress: bool = False):
         self.candidates = list(candidates)
         self.fixed_effects = {k: dict(v or {}) for k, v in dict(fixed_effects or {}).items()}
@@ -606,18 +608,16 @@ class EffectRanker:
             refit_gain = scorer.signature_gain(current, refit, signature_views(best.effect))
             judged_gain = max(best.signature_gain, refit_gain)
             if judged_gain < self.min_signature_gain:  # it pays, but not where its own mark would be
-                best.signature_gain = judged_gain
-                unclaimed = best
+                unclaimed = replace(best, signature_gain=judged_gain)  # the ranking keeps what the screen saw
                 break
             held.discard(best.effect)
             base_values, sensor, scored = refit_values, refit_sensor, refit_scored
             last_fit, base_prefix = refit_fit, "base:"
             base = op.to_base(base_values, sensor)
             before, current = current, refit
-            best.comparison, best.error, best.params = current, current.discrepancy_db, effects[best.effect]
-            best.explained = _explained(before, current)
-            best.signature_gain = refit_gain  # what the effect as kept (the re-fit) gains in its views
-            added.append(best)
+            # The effect as kept (the re-fit): what it gains in its views, its parameters; the ranking keeps the screen's.
+            added.append(replace(best, comparison=current, error=current.discrepancy_db, params=effects[best.effect],
+                                 explained=_explained(before, current), signature_gain=refit_gain))
             current_effects = effects
             steps.append(Step(dict(current_effects), current.discrepancy_db, current, dict(base)))
             remaining.remove(best.effect)
@@ -717,16 +717,17 @@ class EffectRanker:
         fitted = [name for name in effects if name not in held]
         effects_space, effects_start = _effects_space(effects, fitted, prefix="effect:")
         space = {**{f"base:{k}": v for k, v in op.space.items()}, **effects_space}
-        if op.angle_fitted:
-            space["sensor:angle"] = (0.0, 180.0, False)
+        angle = sensor["simulator.sensor_angle_deg"]
+        if op.angle_fitted:  # a direction: half a turn either side of the one placed reaches every other
+            space["sensor:angle"] = (angle - 90.0, angle + 90.0, False)
         start = {**{f"base:{k}": v for k, v in base_values.items()}, **effects_start,
-                 **({"sensor:angle": sensor["simulator.sensor_angle_deg"]} if op.angle_fitted else {})}
+                 **({"sensor:angle": angle} if op.angle_fitted else {})}
 
         def split(params):
             values = {k[5:]: v for k, v in params.items() if k.startswith("base:")}
             new_sensor = dict(sensor)
             if "sensor:angle" in params:
-                new_sensor["simulator.sensor_angle_deg"] = params["sensor:angle"]
+                new_sensor["simulator.sensor_angle_deg"] = float(params["sensor:angle"] % 180.0)
             return values, new_sensor, _with_effect_params(effects, params, prefix="effect:")
 
         def deviance(params):
@@ -767,8 +768,12 @@ class EffectRanker:
         best = min(score for score, _ in scored)
         near = [s for score, s in scored if score <= best + CHI2_95_ONE_DOF]
         races = sorted({s["simulator.sensor"].split("_")[0] for s in near})
-        angles = [s["simulator.sensor_angle_deg"] for s in near if s["simulator.sensor"] == sensor["simulator.sensor"]]
-        interval = [min(angles), max(angles)] if op.angle_fitted else None
+        chosen = sensor["simulator.sensor_angle_deg"]
+        # Directions, not angles: 170 deg lies 10 deg from 0 deg, so the interval is read as offsets from the chosen
+        # direction (within half a turn) and may run below 0 (-30 to 30: either side of horizontal).
+        offsets = [(s["simulator.sensor_angle_deg"] - chosen + 90.0) % 180.0 - 90.0
+                   for s in near if s["simulator.sensor"] == sensor["simulator.sensor"]]
+        interval = [chosen + min(offsets), chosen + max(offsets)] if op.angle_fitted else None
         report["sensor"] = {"value": describe_sensor(sensor), "race": sensor["simulator.sensor"].split("_")[0],
                             "angle_deg": sensor["simulator.sensor_angle_deg"],
                             "held": len(op.races) == 1 and not op.angle_fitted,
@@ -806,22 +811,17 @@ def _explained(before: Comparison, after: Comparison) -> float:
     return (before.discrepancy_db - after.discrepancy_db) / before.discrepancy_db if before.discrepancy_db > 0 else 0.0
 
 
-def _effect_class(name: str):
-    (instance,) = build_effects({name: effect_defaults(name)})
-    return type(instance)
-
-
 def _requires(name: str) -> tuple[str, ...]:
-    return tuple(getattr(_effect_class(name), "requires", ()))
+    return tuple(getattr(effect_class(name), "requires", ()))
 
 
 def signature_views(name: str) -> tuple[str, ...]:
     """The views the effect's signature shows in (every view if its class does not say)."""
-    return tuple(getattr(_effect_class(name), "signature_views", ())) or VIEWS
+    return tuple(getattr(effect_class(name), "signature_views", ())) or VIEWS
 
 
 def _signature(name: str) -> str:
-    return f"signature: {getattr(_effect_class(name), 'signature', '')}"
+    return f"signature: {getattr(effect_class(name), 'signature', '')}"
 
 
 def _gain_matched(judge: Judge, signal: np.ndarray) -> np.ndarray:
@@ -831,7 +831,7 @@ def _gain_matched(judge: Judge, signal: np.ndarray) -> np.ndarray:
 
 def _initial_guess(name, judge: Judge, matched: np.ndarray) -> dict | None:
     """The effect's own estimate from the measurement against the gain-matched current twin, if it offers one."""
-    guess = getattr(_effect_class(name), "initial_guess", None)
+    guess = getattr(effect_class(name), "initial_guess", None)
     if guess is None:
         return None
     return guess(judge.fit_part.measured_signal, matched, judge.fit_part.fs, judge.fit_part.rpm / 60.0)

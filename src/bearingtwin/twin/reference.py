@@ -42,8 +42,13 @@ def read_reference(path) -> dict:
         raise BearingTwinError(f"{where}: cannot be read ({error.strerror})") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as error:
         raise BearingTwinError(f"{where}: not a JSON file ({error})") from None
-    if not isinstance(report, dict) or not isinstance(report.get("operating_point"), dict) or not report.get("steps"):
+    if not isinstance(report, dict) or not isinstance(report.get("operating_point"), dict) or not (
+            isinstance(report.get("steps"), list) and report["steps"]):
         raise BearingTwinError(f"{where}: not a twin_report.json (it has no operating_point and steps)")
+    if "sensor" not in report["operating_point"]:
+        raise BearingTwinError(f"{where}: operating_point gives no sensor (its race and angle_deg)")
+    if not isinstance(report.get("measured", {}), dict):
+        raise BearingTwinError(f"{where}: measured is not a mapping (the record's fault, bearing and geometry)")
     for name, entry in report["operating_point"].items():
         if name == "sensor":
             if not (isinstance(entry, dict) and entry.get("race") in RACES and is_finite_number(entry.get("angle_deg"))):

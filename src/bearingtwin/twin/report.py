@@ -114,14 +114,27 @@ def ranker_settings(cfg: DictConfig) -> dict:
         **{key: whole_number(f"calibration.{key}", calibration[key], minimum=0)  # 0: no local polish
            for key in ("n_polish", "n_polish_effect")},
         "max_effects": whole_number("ranking.max_effects", ranking.max_effects, minimum=0),
-        "points_per_view": positive_number(ranking.points_per_view, "ranking.points_per_view", "values per view"),
+        "points_per_view": values_per_view("ranking.points_per_view", ranking.points_per_view, "values per view"),
         "view_floor_db": positive_number(ranking.view_floor_db, "ranking.view_floor_db", "dB"),
         "min_signature_gain": non_negative_number("ranking.min_signature_gain", ranking.min_signature_gain),
-        "later_points_per_view": None if later is None else positive_number(
-            later, "ranking.later_points_per_view", "values per view, or null"),
+        "later_points_per_view": None if later is None else values_per_view(
+            "ranking.later_points_per_view", later, "values per view, or null"),
         "n_jobs": thread_count(ranking.n_jobs),
         "seed": seed_value(cfg.seed),
     }
+
+
+def values_per_view(key: str, value, unit: str) -> float:
+    """How many values each view counts as: positive, and enough that the views count as more than one value in
+    all, so that a parameter's price (ln of that count, :func:`~bearingtwin.twin.rank.penalty_per_parameter`) is
+    a price."""
+    points = positive_number(value, key, unit)
+    if not points * len(VIEWS) > 1:
+        count = points * len(VIEWS)
+        raise BearingTwinError(f"{key}={value!r}: the {len(VIEWS)} views would count as {count:g} value"
+                               f"{'s' * (count != 1)} in all, and a parameter would cost nothing; give more than "
+                               f"{1 / len(VIEWS):g}")
+    return points
 
 
 def candidate_names(candidates, fixed_effects: Mapping) -> list[str]:
@@ -182,6 +195,14 @@ def twin_for(measured: Recording, cfg: DictConfig) -> TwinModel:
     duration = cfg.twin.duration
     if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration) and duration > 0):
         raise BearingTwinError(f"twin.duration must be a positive, finite number of seconds, got {duration!r}")
+    settings = CompareSettings.from_config(_plain(cfg.compare))
+    segments = {name: getattr(settings, name) for name in
+                ("welch_segment_s", "envelope_segment_s", "lines_segment_s", "stats_window_s")}
+    longest = max(segments, key=segments.get)
+    if duration < segments[longest]:  # every trial would be refused, after the whole budget had run
+        raise BearingTwinError(f"twin.duration={duration:g} s is shorter than one comparison segment "
+                               f"(compare.{longest}={segments[longest]:g} s): give twin.duration of at least "
+                               f"{segments[longest]:g} s")
     simulator_cfg = OmegaConf.to_container(cfg.simulator, resolve=True)
     simulator_cfg.update(rpm=float(measured.rpm), fs=float(measured.fs), duration=float(duration))
     return TwinModel(measured.fault, OmegaConf.to_container(cfg.bearing, resolve=True), simulator_cfg, int(cfg.seed))
