@@ -146,3 +146,12 @@ def test_a_train_fraction_that_is_no_fraction_is_named(fraction, message):
     with pytest.raises(BearingTwinError) as error:
         split_indices(labels, record_ids, starts, lengths, 2048, train_fraction=fraction)
     assert str(error.value) == message
+
+
+def test_a_constant_window_is_named_by_its_place():
+    from bearingtwin.data.windows import normalize_windows
+
+    windows = np.random.default_rng(0).standard_normal((5, 64))
+    windows[3] = 0.25  # a dropout held at one value
+    with pytest.raises(BearingTwinError, match=r"^window 4 of 5 is constant \(a dropout"):
+        normalize_windows(windows)

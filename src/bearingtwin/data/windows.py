@@ -97,8 +97,10 @@ def normalize_windows(windows: np.ndarray, method: str = "zscore") -> np.ndarray
         peak = np.max(np.abs(windows), axis=-1, keepdims=True)
         windows = np.divide(windows, peak, out=windows.copy(), where=overflowed & (peak > 0))
         std = windows.std(axis=-1, keepdims=True)
-    if np.any(std == 0):
-        raise BearingTwinError("a window is constant, so it has no scale to normalize")
+    constant = np.flatnonzero(std.reshape(-1) == 0)
+    if constant.size:
+        raise BearingTwinError(f"window {constant[0] + 1} of {std.size} is constant (a dropout, or a stretch held at one "
+                               "value), so it has no scale to normalize")
     return (windows - windows.mean(axis=-1, keepdims=True)) / std
 
 
