@@ -40,11 +40,16 @@ def only_file(folder):
     return path
 
 
-def assert_healed(caplog, path):
+def assert_healed(caplog, path, rebuild, expected):
+    """One warning naming the damaged entry, no temporary file left, and the entry rewritten whole: read back by
+    ``rebuild`` with no warning, it gives ``expected``."""
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert len(warnings) == 1 and str(path) in warnings[0] and "unreadable" in warnings[0]
-    np.load(path)  # rewritten whole
     assert [p.name for p in path.parent.iterdir()] == [path.name]  # no temporary file left
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        np.testing.assert_array_equal(rebuild(), expected)
+    assert not [r for r in caplog.records if r.levelno == logging.WARNING]
 
 
 HOW = ["truncated", "empty", "bit-flipped"]
@@ -58,7 +63,8 @@ def test_simulated_dataset_cache(tmp_path, caplog, how):
     with caplog.at_level(logging.WARNING):
         again = build_simulated_dataset(DATA, BEARING, SIMULATOR, {}, tmp_path)
     np.testing.assert_array_equal(again.windows, first.windows)
-    assert_healed(caplog, path)
+    assert_healed(caplog, path, lambda: build_simulated_dataset(DATA, BEARING, SIMULATOR, {}, tmp_path).windows,
+                  first.windows)
 
 
 @pytest.mark.parametrize("how", HOW)
@@ -72,7 +78,7 @@ def test_twin_to_real_cache(tmp_path, caplog, how):
         again, same_key = twin_signals(["outer"], [1797.0], bearing, simulator, {}, tmp_path)
     np.testing.assert_array_equal(again, first)
     assert same_key == key
-    assert_healed(caplog, path)
+    assert_healed(caplog, path, lambda: twin_signals(["outer"], [1797.0], bearing, simulator, {}, tmp_path)[0], first)
 
 
 @pytest.mark.parametrize("how", HOW)
@@ -86,7 +92,7 @@ def test_features_cache(dataset, tmp_path, caplog, how):  # noqa: F811
         again, again_table, _ = extract_features(cfg, dataset, train, tmp_path)
     np.testing.assert_array_equal(again, first)
     assert again_table == table
-    assert_healed(caplog, path)
+    assert_healed(caplog, path, lambda: extract_features(cfg, dataset, train, tmp_path)[0], first)
 
 
 def test_atomic_writes_leave_the_whole_file_or_the_old_one(tmp_path):

@@ -4,7 +4,6 @@ import inspect
 import json
 import math
 import re
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -133,7 +132,8 @@ def test_speed_fluctuation_modulates_speed_and_keeps_rolling_ratios():
     # The mean speed is kept: after whole modulation periods the shaft is where it would have been.
     period = int(FS / 4.0)
     drift = varied.shaft_angle_rad[10 * period] - kinematics.shaft_angle_rad[10 * period]
-    assert abs(drift) < 0.03 * 2 * np.pi * 1797 / 60 / (2 * np.pi * 4.0) * 2
+    excursion = np.max(np.abs(varied.shaft_angle_rad - kinematics.shaft_angle_rad))
+    assert excursion > 0.1 and abs(drift) < 1e-6 * excursion  # it swings ahead and behind, and comes back
 
 
 def _params():
@@ -146,14 +146,18 @@ def _params():
 def test_load_zone_narrows_with_clearance_and_widens_with_load():
     angles = 2 * np.pi * np.arange(9) / 9 - np.pi / 2
 
-    def loaded_balls(load_n, clearance_um):
+    def load_zone(load_n, clearance_um):
+        """The balls in contact, and the load zone's half angle (rad): where the races' approach exceeds the
+        clearance, arccos(clearance / largest approach)."""
         params = lib.LoadZone(radial_load_n=load_n, clearance_um=clearance_um).modify_parameters(_params())
         state = static_equilibrium(params, angles)
         deflection = (state[0] - state[2]) * np.cos(angles) + (state[1] - state[3]) * np.sin(angles)
-        return int(np.sum(deflection > params.clearance_m))
+        return int(np.sum(deflection > params.clearance_m)), float(np.arccos(params.clearance_m / deflection.max()))
 
-    assert loaded_balls(2000.0, 1.0) > loaded_balls(2000.0, 30.0)
-    assert loaded_balls(5000.0, 10.0) >= loaded_balls(100.0, 10.0)
+    assert load_zone(2000.0, 1.0)[0] > load_zone(2000.0, 30.0)[0]
+    assert load_zone(2000.0, 1.0)[1] > load_zone(2000.0, 30.0)[1]
+    assert load_zone(5000.0, 10.0)[0] >= load_zone(100.0, 10.0)[0]
+    assert load_zone(5000.0, 10.0)[1] > load_zone(100.0, 10.0)[1]  # the same clearance, a deeper approach
     with pytest.raises(BearingTwinError, match="load_zone.clearance_um"):
         lib.LoadZone(radial_load_n=100.0, clearance_um=-1.0)
 
@@ -165,7 +169,9 @@ def test_lubrication_softens_and_damps_the_contacts():
     angles = 2 * np.pi * np.arange(9) / 9 - np.pi / 2
     dry_state = static_equilibrium(params, angles)
     _, dry_decay = linear_modes(params, dry_state, angles)
-    _, wet_decay = linear_modes(replace(params, contact_damping_ns_per_m=2000.0), dry_state, angles)
+    assert lubricated.contact_damping_ns_per_m == pytest.approx(params.contact_damping_ns_per_m + 2000.0)
+    only_damped = lib.Lubrication(stiffness_ratio=1.0, damping_ns_per_m=2000.0).modify_parameters(params)
+    _, wet_decay = linear_modes(only_damped, dry_state, angles)
     assert wet_decay > dry_decay  # the film damps the slowest mode faster
     with pytest.raises(BearingTwinError, match="lubrication.stiffness_ratio"):
         lib.Lubrication(stiffness_ratio=1.5, damping_ns_per_m=10.0)

@@ -14,7 +14,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
-from bearingtwin.config import CONF_DIR
+from bearingtwin.config import COMPOSITION_ERRORS, CONF_DIR
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.cache import cache_path, extract_features
@@ -174,7 +174,7 @@ def test_configs_build_the_paper_settings_and_unknown_values_fail():
         build_feature_extractor({"name": "x", "kind": "wavelet"})
     with pytest.raises(BearingTwinError, match=r"unknown key\(s\) \['popsize'\]"):
         build_feature_extractor({"name": "x", "kind": "sabo_vmd", "popsize": 3})
-    with pytest.raises(Exception, match="popsize"):  # struct mode: a typo on the command line fails
+    with pytest.raises(COMPOSITION_ERRORS, match="popsize"):  # struct mode: a typo on the command line fails
         compose_features("sabo_vmd_pemie", "features.popsize=3")
     with pytest.raises(BearingTwinError, match="^features.seed must be a non-negative integer, got 'abc'$"):
         build_feature_extractor(compose_features("sabo_vmd_pemie", "features.seed=abc"))  # was numpy's TypeError

@@ -63,7 +63,14 @@ def test_config_errors_name_the_field():
 
 @pytest.mark.parametrize("name", ["paper", "cwru_6205", "cwru_6203", "er16k"])
 def test_every_shipped_bearing_is_a_possible_one(name):
-    assert bearing(name).n_balls >= 3
+    """Its geometry passes every check (the balls fit on the pitch circle), and its defect rates keep the rolling
+    identities: a ball passes each race point n times per cage turn relative to it, so BPFO + BPFI = n x shaft and
+    BPFO = n x FTF."""
+    geometry = bearing(name)
+    rates = geometry.defect_frequencies(60.0)  # one revolution per second: the rates are orders
+    assert rates["bpfo"] + rates["bpfi"] == pytest.approx(geometry.n_balls, rel=1e-12)
+    assert rates["bpfo"] == pytest.approx(geometry.n_balls * rates["ftf"], rel=1e-12)
+    assert 0 < rates["ftf"] < 0.5 < rates["bsf"]
 
 
 @pytest.mark.parametrize("changes, message", [

@@ -91,9 +91,12 @@ def test_learns_separable_features_and_records_curves():
 
 
 def test_standardization_uses_training_statistics_only():
+    """A validation set on another scale leaves the scaler what the training windows make it."""
     X, y = four_blobs(20)
-    classifier = CnnBiLstmClassifier(max_epochs=1, random_state=0).fit(X * 1000.0 + 50.0, y)
-    np.testing.assert_allclose(classifier.scaler_.mean_, (X * 1000.0 + 50.0).mean(axis=0))
+    train = X * 1000.0 + 50.0
+    classifier = CnnBiLstmClassifier(max_epochs=1, random_state=0).fit(train, y, eval_set=(X * -300.0 + 7.0, y))
+    np.testing.assert_allclose(classifier.scaler_.mean_, train.mean(axis=0))
+    np.testing.assert_allclose(classifier.scaler_.scale_, train.std(axis=0))
 
 
 def test_same_seed_same_model_other_seed_other_model():
@@ -114,7 +117,10 @@ def test_raw_windows_train_as_long_sequences():
     windows = np.sin(2 * np.pi * (labels[:, None] + 1) * 8 * t / 256) + 0.1 * rng.normal(size=(16, 256))
     classifier = CnnBiLstmClassifier(max_epochs=2, random_state=0).fit(windows, labels)
     assert classifier.module_.shape.sequence_length == (256 - 5) // 2
-    assert set(classifier.predict(windows)) <= set(labels)
+    probabilities = classifier.predict_proba(windows)
+    assert probabilities.shape == (16, 4)
+    np.testing.assert_allclose(probabilities.sum(axis=1), 1.0, rtol=1e-6)
+    np.testing.assert_array_equal(classifier.predict(windows), classifier.classes_[probabilities.argmax(axis=1)])
     assert len(classifier.history_) == 2 and "val_loss" not in classifier.history_[0]
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 
-from bearingtwin.config import CONF_DIR, REPO_ROOT
+from bearingtwin.config import COMPOSITION_ERRORS, CONF_DIR, REPO_ROOT
 from bearingtwin.data.real import build_cwru_dataset, build_hust_dataset
 from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
@@ -79,7 +79,7 @@ def test_cwru_contradicted_rate_and_bad_config_are_refused():
 
 
 def test_cwru_config_is_struct():
-    with pytest.raises(Exception, match="unknown_key"):
+    with pytest.raises(COMPOSITION_ERRORS, match="unknown_key"):
         data_config("cwru", "data.unknown_key=1")
 
 

@@ -133,10 +133,14 @@ def test_table3_per_class_beside_the_paper(uri, tmp_path):
 
 
 def test_seeds_and_vmd_params_reports(uri, tmp_path):
+    (run,) = finished(uri, paper.PROPOSED)
+    ours = 100 * run.data.metrics["accuracy"]
     seeds = report("seeds", f"uri={uri}", f"out={tmp_path}/seeds.md")
-    assert seeds.returncode == 0 and "98.33, 98.88, 98.88, 97.78, 98.33" in seeds.stdout
+    assert seeds.returncode == 0, seeds.stderr
+    assert (f"| {paper.PROPOSED} | {run.data.tags['seed']}: {ours:.2f} | {ours:.2f} ± 0.00 | "
+            "98.33, 98.88, 98.88, 97.78, 98.33 |") in seeds.stdout, seeds.stdout
     scopes = report("vmd_params", f"uri={uri}", f"out={tmp_path}/vmd.md")
-    assert scopes.returncode == 0 and "| global |" in scopes.stdout
+    assert scopes.returncode == 0 and f"| global | {ours:.2f} ± 0.00 | 1 | — |" in scopes.stdout, scopes.stdout
 
 
 def test_a_later_run_with_other_vmd_params_does_not_displace_the_tables_runs(uri, tmp_path):

@@ -9,6 +9,7 @@ status 2 and the one line on stderr: tests/test_simulate_cli.py.)
 
 import tracemalloc
 
+import numpy as np
 import pytest
 from omegaconf import OmegaConf
 
@@ -45,9 +46,14 @@ def test_a_defect_angle_must_be_a_finite_number_for_every_fault(name, fault, val
 
 
 def test_any_finite_defect_angle_is_an_angle():
+    """-450 deg is 270 deg: the same record, not a near-silent one, and not the record of a defect at 0 deg."""
     for fault, name in (("outer", "outer_angle_deg"), ("inner", "inner_angle_deg"), ("ball", "ball_angle_deg")):
-        recording, _ = simulate(fault, BEARING, settings(duration=0.05, defect={name: -450.0}))
-        assert recording.signal.size == 500
+        wound, _ = simulate(fault, BEARING, settings(duration=0.05, defect={name: -450.0}))
+        plain, _ = simulate(fault, BEARING, settings(duration=0.05, defect={name: 270.0}))
+        zero, _ = simulate(fault, BEARING, settings(duration=0.05, defect={name: 0.0}))
+        assert wound.signal.size == 500
+        np.testing.assert_allclose(wound.signal, plain.signal, rtol=1e-6, atol=1e-9 * np.abs(plain.signal).max())
+        assert not np.allclose(wound.signal, zero.signal, rtol=1e-3), fault
 
 
 @pytest.mark.parametrize("fault, rpm, frequency", [("inner", 200_000.0, "BPFI"), ("outer", 30_000.0, "BPFO"),

@@ -1,14 +1,12 @@
 """The training entry point: config composition, whole-pipeline determinism, bad input."""
 
-import os
-
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR
+from bearingtwin.config import CONF_DIR, REPO_ROOT
 from bearingtwin.models.experiment import TIMING_METRICS, run_experiment
 
 # Small enough for a test, but every stage real: twin simulation, SABO-VMD, CNN-BiLSTM.
@@ -28,10 +26,13 @@ def compose_train(overrides):
         return compose("train", overrides=overrides)
 
 
-def test_defaults_compose_to_the_papers_method():
+def test_defaults_compose_to_the_papers_method(monkeypatch):
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)  # the suite sets one; the default is the embedded store
     cfg = compose_train([])
     assert (cfg.data.source, cfg.features.name, cfg.classifier.name) == ("simulated", "sabo_vmd_pemie", "cnn_bilstm")
-    assert cfg.tracking.uri.endswith("mlruns/mlflow.db") or cfg.tracking.uri == os.environ.get("MLFLOW_TRACKING_URI")
+    assert cfg.tracking.uri == f"sqlite:///{REPO_ROOT}/mlruns/mlflow.db"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", "http://tracking.example:5000")
+    assert compose_train([]).tracking.uri == "http://tracking.example:5000"
     svm = compose_train(["+method=sabo_pemie_svm"])
     assert (svm.features.name, svm.classifier.name) == ("sabo_vmd_pemie", "svm")
     assert compose_train(["+method=raw_cnn_bilstm"]).features.kind == "raw"

@@ -173,6 +173,7 @@ def test_train_end_to_end_and_the_sim2real_report(report_path, tmp_path):
         assert np.sum(row["confusion"]) == 9
         (run,) = [r for r in runs if r.data.params["data.calibration.step"] == str(run_step)]
         assert row["accuracy_mean"] == pytest.approx(run.data.metrics["accuracy"])
+        assert row["calibration_accuracy_mean"] == pytest.approx(run.data.metrics["calibration_accuracy"])
     assert "twin + noise" in report.markdown
 
 
