@@ -568,6 +568,9 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
     assert contradicted.returncode != 0 and "could not be diagnosed: stated.npz" in contradicted.stdout
     assert ("labels.csv (its row for stated.npz): fs=48000 Hz contradicts the file's 12000 Hz"
             in contradicted.stdout + contradicted.stderr), contradicted.stderr
+    alone = run("diagnose", f"path={folder / 'stated.npz'}", "model=models:/diag/1", f"out={tmp_path}/alone",
+                "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)  # the table beside one file is read
+    assert alone.returncode == 2 and "labels.csv (its row for stated.npz): fs=48000 Hz" in alone.stderr, alone.stderr
 
 
 def test_bad_models_fail_in_one_line(registered, tmp_path):

@@ -89,11 +89,13 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
 
 
 def labels_path(cfg: DictConfig) -> Path | None:
-    """The labels table: ``labels=<csv>``, else a folder's own ``labels.csv`` (as training reads one), else none."""
+    """The labels table: ``labels=<csv>``, else a folder's own ``labels.csv`` (as training reads one) or the one
+    beside a single file (as the twin reads it), else none."""
     if cfg.labels is not None:
         return Path(str(cfg.labels)).expanduser()
-    own = Path(str(cfg.path)).expanduser() / DEFAULT_LABELS
-    return own if own.is_file() else None
+    path = Path(str(cfg.path)).expanduser()
+    own = path / DEFAULT_LABELS if path.is_dir() else path.parent / DEFAULT_LABELS if path.is_file() else None
+    return own if own is not None and own.is_file() else None
 
 
 def chosen_bearing(cfg: DictConfig) -> str | None:
