@@ -542,3 +542,17 @@ def test_counts_of_the_wrong_kind_are_named(setting, report_path, tmp_path):
     with pytest.raises(BearingTwinError, match=rf"^{key} must be a positive integer, got"):
         build_dataset(compose_train(SMALL + [f"data.calibration.report={report_path}", setting,
                                              f"paths.cache_dir={tmp_path}"]))
+
+
+def test_variants_simulated_in_parallel_give_the_windows_one_process_gives(report_path, tmp_path):
+    """data.twin.n_jobs: the variants' records simulated by two processes are the records one process simulates
+    (each record's seed is its own), and the dataset's key does not depend on it; a bad value is named."""
+    overrides = SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=1",
+                         "+data.twin.variants.spin_slip.jitter=[0.01,0.2,0.4]"]
+    one = build_dataset(compose_train(overrides + ["data.twin.n_jobs=1", f"paths.cache_dir={tmp_path / 'one'}"]))
+    two = build_dataset(compose_train(overrides + ["data.twin.n_jobs=2", f"paths.cache_dir={tmp_path / 'two'}"]))
+    np.testing.assert_array_equal(one.windows, two.windows)
+    assert one.key == two.key and one.records == two.records
+    assert len(list((tmp_path / "two" / "twin_to_real").glob("records-*.npz"))) == 3
+    with pytest.raises(BearingTwinError, match=r"^data.twin.n_jobs must be a positive integer, got 0"):
+        build_dataset(compose_train(overrides + ["data.twin.n_jobs=0", f"paths.cache_dir={tmp_path / 'bad'}"]))

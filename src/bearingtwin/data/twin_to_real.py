@@ -42,6 +42,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
+import joblib
 import numpy as np
 import scipy.signal
 from omegaconf import OmegaConf
@@ -355,9 +356,7 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     ``simulator.seed`` (and the index of the ``twin.variants`` combination, if any), so
     two operating points or two variants do not share one noise realization.
     """
-    key = content_key({"bearing": bearing_cfg, "simulator": records_identity(simulator_cfg), "effects": effects,
-                       "faults": list(faults), "rpms": list(rpms), "variant": variant})
-    path = Path(cache_dir) / "twin_to_real" / f"records-{key}.npz"
+    path, key = _records_path(faults, rpms, bearing_cfg, simulator_cfg, effects, cache_dir, variant)
     cached = load_npz_or_heal(path, "signals")
     if cached is not None:
         return cached["signals"], key
@@ -371,6 +370,54 @@ def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, eff
     signals = np.stack(signals)
     save_npz_atomic(path, signals=signals)
     return signals, key
+
+
+def _records_path(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, effects: Mapping,
+                  cache_dir: str | os.PathLike, variant: int | None) -> tuple[Path, str]:
+    """Where :func:`twin_signals` caches these records, and their key (what they are simulated from)."""
+    key = content_key({"bearing": bearing_cfg, "simulator": records_identity(simulator_cfg), "effects": effects,
+                       "faults": list(faults), "rpms": list(rpms), "variant": variant})
+    return Path(cache_dir) / "twin_to_real" / f"records-{key}.npz", key
+
+
+def simulation_jobs(value) -> int:
+    """``data.twin.n_jobs``: processes simulating the variants; ``auto`` is every core, or one inside a Hydra
+    multirun (whose launcher runs jobs side by side already); -1 is every core."""
+    if value == "auto":
+        from hydra.core.hydra_config import HydraConfig
+        from hydra.types import RunMode
+
+        return 1 if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN else -1
+    if value == -1:
+        return -1
+    try:
+        return whole_number("data.twin.n_jobs", value)
+    except BearingTwinError as error:
+        raise BearingTwinError(f"{error} (or auto: every core, one inside a multirun; -1: every core)") from None
+
+
+def simulate_variants(faults, rpms, bearing_cfg: Mapping, variants: Sequence[tuple[Mapping, Mapping]],
+                      cache_dir: str | os.PathLike, n_jobs: int) -> None:
+    """Simulate and cache every variant's records (``(simulator settings, effects)`` each, numbered as
+    :func:`twin_signals` numbers them) not in the cache yet, ``n_jobs`` processes at a time. Each record's seed
+    is its own (the seed, the variant, the state, the speed), so the numbers do not depend on ``n_jobs``; the
+    workers return nothing but write the cache the caller then reads, one variant at a time."""
+    numbered = [(index if len(variants) > 1 else None, setting, effects)
+                for index, (setting, effects) in enumerate(variants)]
+    missing = [(variant, setting, effects) for variant, setting, effects in numbered
+               if not _records_path(faults, rpms, bearing_cfg, setting, effects, cache_dir, variant)[0].is_file()]
+    if joblib.effective_n_jobs(n_jobs) < 2 or len(missing) < 2:
+        return  # simulated one by one where they are read
+    results = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(
+        joblib.delayed(_simulated_key)(faults, rpms, bearing_cfg, setting, effects, cache_dir, variant)
+        for variant, setting, effects in missing)
+    for _ in tqdm(results, total=len(missing), desc="twin variants", unit="variant", disable=None):
+        pass
+
+
+def _simulated_key(faults, rpms, bearing_cfg, simulator_cfg, effects, cache_dir, variant) -> str:
+    """A worker's part of :func:`simulate_variants`: the records simulated and cached, their key returned."""
+    return twin_signals(faults, rpms, bearing_cfg, simulator_cfg, effects, cache_dir, variant)[1]
 
 
 def background_levels(twin_cfg: Mapping) -> list[float]:
@@ -690,6 +737,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     log.info("twin: %d variant%s x %d state%s x %d speed%s (cached ones are read, not simulated)", len(variants),
              "s" * (len(variants) != 1), len(faults), "s" * (len(faults) != 1), len(rpms), "s" * (len(rpms) != 1))
     started = time.perf_counter()
+    simulate_variants(faults, rpms, bearing, [(setting, varied) for _, varied, setting in variants], cache_dir,
+                      simulation_jobs(cfg["twin"].get("n_jobs", 1)))
     for index, (label, varied, setting) in enumerate(tqdm(variants, desc="twin variants", unit="variant",
                                                           disable=True if len(variants) < 2 else None)):
         variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,
@@ -742,7 +791,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                          "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")} | (
                              # a null hearing option is what its absence was: the key stays that of earlier runs
                              {"twin": {k: v for k, v in cfg["twin"].items()
-                                       if not (k in HEARING_KEYS and v is None)}}),
+                                       if not (k in HEARING_KEYS and v is None) and k != "n_jobs"}}),
                          **({"labels": [(p.name, file_digest(p), *labelled[p]) for p in calibration_paths + test_paths]}
                             if table else {})}),
         record_lengths=record_lengths + [r.signal.size for r in tests + validation_records],

@@ -80,7 +80,7 @@ from bearingtwin.tracking.tables import csv_table, markdown_table
 log = logging.getLogger(__name__)
 
 # Settings that say where things are or how they are logged or shown, not what is computed.
-UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar",
+UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar", "data.twin.n_jobs",
                  *(f"features.{key}" for key in NOT_AFFECTING_NUMBERS))
 HASHED_WHEN_SET_KEYS = ("data.labels", "data.twin.background_snr_db", "data.twin.other_paths", "simulator.oversample")
 """Keys hashed only when not null: each came after runs were recorded, and its null default computes what its
