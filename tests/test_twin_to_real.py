@@ -556,3 +556,22 @@ def test_variants_simulated_in_parallel_give_the_windows_one_process_gives(repor
     assert len(list((tmp_path / "two" / "twin_to_real").glob("records-*.npz"))) == 3
     with pytest.raises(BearingTwinError, match=r"^data.twin.n_jobs must be a positive integer, got 0"):
         build_dataset(compose_train(overrides + ["data.twin.n_jobs=0", f"paths.cache_dir={tmp_path / 'bad'}"]))
+
+
+@pytest.mark.parametrize("mode, launcher, jobs", [
+    (None, None, -1),  # a single run, or a library call outside Hydra: every core
+    ("MULTIRUN", "hydra._internal.core_plugins.basic_launcher.BasicLauncher", -1),  # jobs one after another
+    ("MULTIRUN", "hydra_plugins.bearingtwin_launcher.joblib_launcher.SurvivingJoblibLauncher", 1),  # side by side
+])
+def test_auto_simulation_jobs_take_every_core_unless_sweep_jobs_run_side_by_side(monkeypatch, mode, launcher, jobs):
+    from types import SimpleNamespace
+
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    from bearingtwin.data.twin_to_real import simulation_jobs
+
+    monkeypatch.setattr(HydraConfig, "initialized", staticmethod(lambda: mode is not None))
+    monkeypatch.setattr(HydraConfig, "get", staticmethod(
+        lambda: SimpleNamespace(mode=getattr(RunMode, mode or "RUN"), launcher={"_target_": launcher})))
+    assert simulation_jobs("auto") == jobs and simulation_jobs(3) == 3 and simulation_jobs(-1) == -1

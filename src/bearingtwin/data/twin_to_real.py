@@ -381,19 +381,24 @@ def _records_path(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, ef
 
 
 def simulation_jobs(value) -> int:
-    """``data.twin.n_jobs``: processes simulating the variants; ``auto`` is every core, or one inside a Hydra
-    multirun (whose launcher runs jobs side by side already); -1 is every core."""
+    """``data.twin.n_jobs``: processes simulating the variants; ``auto`` is every core, or one in a Hydra multirun
+    whose launcher runs its jobs side by side (joblib, Ray, submitit: each job has a core of its own; Hydra's basic
+    launcher runs them one after another, so each takes every core); -1 is every core."""
     if value == "auto":
         from hydra.core.hydra_config import HydraConfig
         from hydra.types import RunMode
 
-        return 1 if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN else -1
+        if not HydraConfig.initialized() or HydraConfig.get().mode != RunMode.MULTIRUN:
+            return -1
+        launcher = str(HydraConfig.get().launcher.get("_target_", ""))
+        return -1 if launcher.endswith(".BasicLauncher") else 1
     if value == -1:
         return -1
     try:
         return whole_number("data.twin.n_jobs", value)
     except BearingTwinError as error:
-        raise BearingTwinError(f"{error} (or auto: every core, one inside a multirun; -1: every core)") from None
+        raise BearingTwinError(f"{error} (or auto: every core, one per job of a sweep run side by side; -1: every "
+                               "core)") from None
 
 
 def simulate_variants(faults, rpms, bearing_cfg: Mapping, variants: Sequence[tuple[Mapping, Mapping]],
