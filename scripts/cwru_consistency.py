@@ -1,6 +1,6 @@
 """Base parameters and effects fitted on each CWRU record, and whether the records agree.
 
-    python scripts/cwru_consistency.py run [--work DIR] [--jobs 2]    # bearingtwin-twin on the 13 records
+    python scripts/cwru_consistency.py run [--work DIR] [--jobs 2] [--resume]   # bearingtwin-twin on the 13 records
     python scripts/cwru_consistency.py summarize [--work DIR] [--out results]   # <out>/cwru_consistency.md
 
 All 13 records come from one drive-end accelerometer on one rig, so whatever belongs to the
@@ -9,8 +9,9 @@ resonance, the noise floor in g -- should come out the same on every record, wha
 and the fault. That needs no ground truth: the spread across records is the check. Every record
 is held against the twin with ``bearingtwin-twin``'s defaults (sensor on the housing, direction,
 load, clearance and defect size fitted; every library effect a candidate). Reports go to
-``--work`` (default: a folder under the system's temporary directory), the summary to
-``<out>/cwru_consistency.md``.
+``--work`` (default: a folder under the system's temporary directory; every record is run again,
+over the reports there, unless ``--resume`` keeps those an interrupted run finished), the summary
+to ``<out>/cwru_consistency.md``.
 """
 
 from __future__ import annotations
@@ -55,7 +56,10 @@ def command(stem: str, work: Path) -> list[str]:
 
 def run(args) -> None:
     work = Path(args.work)
-    todo = [stem for stem in RECORDS if not (work / stem.replace("@", "_") / "twin_report.json").exists()]
+    done = [stem for stem in RECORDS if (work / stem.replace("@", "_") / "twin_report.json").exists()]
+    todo = [stem for stem in RECORDS if not (args.resume and stem in done)]
+    if args.resume and done:
+        print(f"{len(done)} of {len(RECORDS)} records have a report in {work} already: kept (--resume)", flush=True)
 
     def one(stem):
         result = subprocess.run(command(stem, work), capture_output=True, text=True)
@@ -159,6 +163,7 @@ if __name__ == "__main__":
     parser.add_argument("step", choices=("run", "summarize"))
     parser.add_argument("--work", default=str(DEFAULT_WORK))
     parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--resume", action="store_true", help="run: keep the reports --work holds already")
     parser.add_argument("--out", default="results")
     args = parser.parse_args()
     try:

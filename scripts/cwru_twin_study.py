@@ -1,6 +1,6 @@
 """The twin against the CWRU records: Figure 10 and the per-record study (issue 7).
 
-    python scripts/cwru_twin_study.py run [--out DIR]       # today's bearingtwin-twin per record (./cwru_twin_study)
+    python scripts/cwru_twin_study.py run [--out DIR] [--resume]  # today's bearingtwin-twin per record (./cwru_twin_study)
     python scripts/cwru_twin_study.py summarize [--study DIR] [--out FILE]  # the tables (results/cwru_twin_study[.md])
     python scripts/cwru_twin_study.py figure10 [--out FILE] # the twin as configured, record 130 (results/figure10.png)
 
@@ -17,8 +17,8 @@ that table from them, identically.
 ``run`` reproduces the study with today's ``bearingtwin-twin`` and its defaults, whose ranker adds
 an effect only when it pays for its parameters on a held-out half (an information criterion), so
 its reports differ from the committed ones. It writes into ``--out`` (default: ./cwru_twin_study
-in the working directory), never into the committed folder, and skips records whose report is
-there already; each twin run is logged to MLflow as ``bearingtwin-twin`` logs it. It has no
+in the working directory), never into the committed folder, and runs every record again unless
+``--resume`` keeps the reports an interrupted run finished there; each twin run is logged to MLflow as ``bearingtwin-twin`` logs it. It has no
 separate calibration job: with no threshold left to lower, that job would be record 130's own
 command, whose steps ``summarize`` shows as the calibration (``data.calibration.report=`` can point
 a sim2real run at it, outside the pre-registered protocol).
@@ -87,7 +87,8 @@ def run(args) -> None:
                "set BEARINGTWIN_DATA to the folder holding cwru/")
     for stem in RECORDS:
         folder = record_dir(out, stem)
-        if (folder / "twin_report.json").exists():
+        if args.resume and (folder / "twin_report.json").exists():
+            print(f"{folder}: kept (--resume)", flush=True)
             continue
         command = [sys.executable, "-m", "bearingtwin.cli.twin", f"measured.path={DATA / stem}.mat", *COMMON,
                    "operating_point.sensor=outer_y", f"out={folder}"]
@@ -169,6 +170,7 @@ def main() -> None:
     step = steps.add_parser("run", help="bearingtwin-twin (today's) on every record")
     step.add_argument("--out", type=Path, default=Path("cwru_twin_study"),
                       help="folder of the reports, one subfolder per record (default: ./cwru_twin_study)")
+    step.add_argument("--resume", action="store_true", help="keep the reports the folder holds already")
     step.set_defaults(action=run)
     step = steps.add_parser("summarize", help="the tables of a study's reports")
     step.add_argument("--study", type=Path, default=COMMITTED_STUDY,

@@ -569,8 +569,16 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
     assert ("labels.csv (its row for stated.npz): fs=48000 Hz contradicts the file's 12000 Hz"
             in contradicted.stdout + contradicted.stderr), contradicted.stderr
     alone = run("diagnose", f"path={folder / 'stated.npz'}", "model=models:/diag/1", f"out={tmp_path}/alone",
-                "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)  # the table beside one file is read
+                "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)  # its row beside one file is read
     assert alone.returncode == 2 and "labels.csv (its row for stated.npz): fs=48000 Hz" in alone.stderr, alone.stderr
+    # For one file the command's own value comes first (the row fills in only what it leaves out), and another
+    # file's rows, even two of one stem in subfolders (a data=files table may hold them), are not its concern.
+    with open(folder / "labels.csv", "a") as table:
+        table.write("rig_a/x.npz,outer,1500,12000\nrig_b/x.npz,inner,1500,12000\n")
+    told = run("diagnose", f"path={folder / 'stated.npz'}", "model=models:/diag/1", "fs=12000", f"out={tmp_path}/told",
+               "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert told.returncode == 0, told.stderr[-2000:]
+    assert json.loads((tmp_path / "told" / "stated" / "diagnosis.json").read_text())["true_state"] == "outer"
 
 
 def test_bad_models_fail_in_one_line(registered, tmp_path):

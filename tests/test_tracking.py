@@ -102,10 +102,13 @@ def test_config_hash_ignores_where_and_how_but_not_what(tmp_path):
     hidden = make_cfg(tmp_path)
     hidden.trainer = {"max_epochs": 2, "progress_bar": False}
     assert config_hash(shown) == config_hash(hidden)  # how a run is shown is not what it computes
-    one, two = make_cfg(tmp_path), make_cfg(tmp_path)
-    OmegaConf.update(one, "features.n_jobs", 1, force_add=True)
-    OmegaConf.update(two, "features.n_jobs", 2, force_add=True)
-    assert config_hash(one) == config_hash(two)  # nor how many workers extract its features
+    # Nor how many workers extract its features or simulate its data: hashed at the 1 that runs recorded before
+    # had, so a run recorded with 1 is the run a sweep resumed with 2 finds.
+    recorded, resumed = make_cfg(tmp_path), make_cfg(tmp_path)
+    for key in ("features.n_jobs", "data.n_jobs"):
+        OmegaConf.update(recorded, key, 1, force_add=True)
+        OmegaConf.update(resumed, key, 2, force_add=True)
+    assert config_hash(recorded) == config_hash(resumed)
     hidden.trainer.max_epochs = 3
     assert config_hash(shown) != config_hash(hidden)
 

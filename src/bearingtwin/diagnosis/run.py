@@ -25,7 +25,7 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
-from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, names_file, read_labels, recordings_in
+from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, labels_row, names_file, read_labels, recordings_in
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
@@ -89,13 +89,26 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
 
 
 def labels_path(cfg: DictConfig) -> Path | None:
-    """The labels table: ``labels=<csv>``, else a folder's own ``labels.csv`` (as training reads one) or the one
-    beside a single file (as the twin reads it), else none."""
+    """The labels table: ``labels=<csv>``, else a folder's own ``labels.csv`` (as training reads one), else none
+    (a single file's row in the table beside it is :func:`row_beside`'s)."""
     if cfg.labels is not None:
         return Path(str(cfg.labels)).expanduser()
+    own = Path(str(cfg.path)).expanduser() / DEFAULT_LABELS
+    return own if own.is_file() else None
+
+
+def row_beside(cfg: DictConfig) -> tuple[Path | None, dict]:
+    """For one file given without ``labels=``: the ``labels.csv`` beside it and its row (``stem -> (record, state,
+    rpm, fs)``), read as the twin and inspect read it (:func:`~bearingtwin.data.real.labels_row`: that row alone);
+    ``(None, {})`` when there is none."""
     path = Path(str(cfg.path)).expanduser()
-    own = path / DEFAULT_LABELS if path.is_dir() else path.parent / DEFAULT_LABELS if path.is_file() else None
-    return own if own is not None and own.is_file() else None
+    if cfg.labels is not None or not path.is_file():
+        return None, {}
+    row = labels_row(path)
+    if row is None:
+        return None, {}
+    _, state, rpm, fs = row
+    return path.parent / DEFAULT_LABELS, {path.stem: (path.name, state, rpm, fs)}
 
 
 def chosen_bearing(cfg: DictConfig) -> str | None:
@@ -126,6 +139,9 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     table = labels_path(cfg)
     records = find_records(str(cfg.path), table)  # before the table: an empty path= would have ./labels.csv read
     labels = read_labels(table)
+    beside, row = row_beside(cfg)
+    if beside is not None:  # one file: its row fills in what the command leaves out, as the twin's does
+        table, labels = beside, row
     model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
     pipeline.check_can_diagnose()
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
@@ -155,13 +171,15 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if unlisted and not Path(str(cfg.path)).expanduser().is_file():  # a table of a folder, not of the one file given
         progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
     calibrated = calibration_records(pipeline)
+    single = Path(str(cfg.path)).expanduser().is_file()
     for path in progress:
         try:
-            _, state, rpm, fs = labelled.get(path.stem, (None, None, None, None))  # a row's values before the command's
+            _, state, row_rpm, row_fs = labelled.get(path.stem, (None, None, None, None))
+            fs, fs_from_row = _fact(cfg.fs, row_fs, command_first=single)
+            rpm, rpm_from_row = _fact(cfg.rpm, row_rpm, command_first=single)
             row = f"{table.name if table else 'labels'} (its row for {path.name}): "
-            prepared = read_record(path, pipeline, cfg.channel, cfg.fs if fs is None else fs, cfg.rpm if rpm is None else rpm,
-                                   state, bearing, fs_key="fs" if fs is None else row + "fs",
-                                   rpm_key="rpm" if rpm is None else row + "rpm")
+            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing,
+                                   fs_key=row + "fs" if fs_from_row else "fs", rpm_key=row + "rpm" if rpm_from_row else "rpm")
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
             calibrated_on = bool(_names_of(path, table) & calibrated)
             result["calibration_record"] = calibrated_on
@@ -212,6 +230,14 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if with_physics:  # the envelope analysis alone, on the same records: what the model must beat
         run.scores["accuracy_records_physics"] = sum(row["physics_correct"] for row in with_physics) / len(with_physics)
         run.scores["n_scored_physics"] = len(with_physics)
+
+
+def _fact(command, row, command_first: bool):
+    """A file's speed or rate, and whether its labels row gave it: the row comes first where the command's value is
+    every file's of a folder, the command's where it names the one file given."""
+    if command_first and command is not None or row is None:
+        return command, False
+    return row, True
 
 
 def _names_of(path: Path, table: Path | None) -> set[str]:

@@ -64,7 +64,6 @@ from omegaconf.errors import OmegaConfBaseException
 from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.features import NOT_AFFECTING_NUMBERS
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.tracking.lifecycle import (
     SWEEP_PID_ENV,
@@ -80,8 +79,11 @@ from bearingtwin.tracking.tables import csv_table, markdown_table
 log = logging.getLogger(__name__)
 
 # Settings that say where things are or how they are logged or shown, not what is computed.
-UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar", "data.twin.n_jobs",
-                 *(f"features.{key}" for key in NOT_AFFECTING_NUMBERS))
+UNHASHED_KEYS = ("paths", "tracking", "hydra", "trainer.progress_bar", "features.progress", "data.twin.n_jobs")
+PINNED_KEYS = {"features.n_jobs": 1, "data.n_jobs": 1}
+"""Settings that say how many processes compute, not what (as the feature cache's key knows,
+:data:`bearingtwin.features.NOT_AFFECTING_NUMBERS`): hashed at 1 whatever they are set to, the value runs recorded
+before this rule had, so those runs keep their hashes and a sweep resumed with more processes skips them."""
 HASHED_WHEN_SET_KEYS = ("data.labels", "data.twin.background_snr_db", "data.twin.other_paths", "simulator.oversample")
 """Keys hashed only when not null: each came after runs were recorded, and its null default computes what its
 absence did, so those runs keep their hashes (a resumed sweep skips them)."""
@@ -262,12 +264,14 @@ def config_hash(cfg: DictConfig) -> str:
     files = input_digest(cfg)
     if files:  # simulated data is its config alone: its runs' hashes stay what they were
         container["input_files"] = files
-    for key in UNHASHED_KEYS + HASHED_WHEN_SET_KEYS:
+    for key in UNHASHED_KEYS + HASHED_WHEN_SET_KEYS + tuple(PINNED_KEYS):
         *parents, leaf = key.split(".")
         node = container
         for parent in parents:
             node = node.get(parent) if isinstance(node, dict) else None
-        if isinstance(node, dict) and (key in UNHASHED_KEYS or node.get(leaf, "set") is None):
+        if isinstance(node, dict) and key in PINNED_KEYS and leaf in node:
+            node[leaf] = PINNED_KEYS[key]
+        elif isinstance(node, dict) and (key in UNHASHED_KEYS or node.get(leaf, "set") is None):
             node.pop(leaf, None)
     return hashlib.sha256(OmegaConf.to_yaml(OmegaConf.create(container)).encode()).hexdigest()[:16]
 
