@@ -188,6 +188,9 @@ def test_csv_time_columns_in_seconds_or_milliseconds_gaps_and_a_byte_order_mark(
     (tmp_path / "later.csv").write_text("0,3456\n0,8216\n1,3304\n0,0417\n")
     with pytest.raises(BearingTwinError, match=r"later.csv: its row '0,0417' reads as numbers written with decimal"):
         read_raw(tmp_path / "later.csv")
+    (tmp_path / "closed.csv").write_text("0,3456,\n0,8216,\n1,0304,\n")  # each row closed by a separator
+    with pytest.raises(BearingTwinError, match=r"closed.csv: its row '1,0304' reads as numbers written with decimal"):
+        read_raw(tmp_path / "closed.csv")
     (tmp_path / "sign.csv").write_text("0,3456\n-0,8216\n1,3304\n")
     with pytest.raises(BearingTwinError, match=r"sign.csv: its row '-0,8216' reads as numbers written with decimal"):
         read_raw(tmp_path / "sign.csv")

@@ -544,13 +544,18 @@ def test_counts_of_the_wrong_kind_are_named(setting, report_path, tmp_path):
                                              f"paths.cache_dir={tmp_path}"]))
 
 
-def test_variants_simulated_in_parallel_give_the_windows_one_process_gives(report_path, tmp_path):
+def test_variants_simulated_in_parallel_give_the_windows_one_process_gives(report_path, tmp_path, monkeypatch):
     """data.twin.n_jobs: the variants' records simulated by two processes are the records one process simulates
     (each record's seed is its own), and the dataset's key does not depend on it; a bad value is named."""
+    import joblib
+
     overrides = SMALL + [f"data.calibration.report={report_path}", "data.calibration.step=1",
                          "+data.twin.variants.spin_slip.jitter=[0.01,0.2,0.4]"]
     one = build_dataset(compose_train(overrides + ["data.twin.n_jobs=1", f"paths.cache_dir={tmp_path / 'one'}"]))
+    pools, parallel = [], joblib.Parallel
+    monkeypatch.setattr(joblib, "Parallel", lambda *args, **kwargs: pools.append(kwargs) or parallel(*args, **kwargs))
     two = build_dataset(compose_train(overrides + ["data.twin.n_jobs=2", f"paths.cache_dir={tmp_path / 'two'}"]))
+    assert [pool["n_jobs"] for pool in pools] == [2]  # the three variants were simulated by a pool of two
     np.testing.assert_array_equal(one.windows, two.windows)
     assert one.key == two.key and one.records == two.records
     assert len(list((tmp_path / "two" / "twin_to_real").glob("records-*.npz"))) == 3
@@ -575,3 +580,10 @@ def test_auto_simulation_jobs_take_every_core_unless_sweep_jobs_run_side_by_side
     monkeypatch.setattr(HydraConfig, "get", staticmethod(
         lambda: SimpleNamespace(mode=getattr(RunMode, mode or "RUN"), launcher={"_target_": launcher})))
     assert simulation_jobs("auto") == jobs and simulation_jobs(3) == 3 and simulation_jobs(-1) == -1
+
+
+def test_a_test_state_the_twin_does_not_simulate_is_named_before_anything_is_read(report_path, tmp_path):
+    with pytest.raises(BearingTwinError, match=r"^data.test.classes: ball is a state the twin does not simulate "
+                                               r"\(data.twin.classes: normal, inner, outer\)$"):
+        build_dataset(compose_train(SMALL + [f"data.calibration.report={report_path}", "data.twin.classes=[normal,inner,outer]",
+                                             f"paths.cache_dir={tmp_path}"]))

@@ -173,6 +173,7 @@ def _split_by_decimal_comma(rows: list[list[str]]) -> str | None:
     or "-0" (the sign of a number between -1 and 0), and some row of the sample shows one of them.
     """
     for row in rows:
+        row = row[:-1] if row and row[-1] == "" else row  # a separator closing the row
         if len(row) > 1 and all(re.fullmatch(r"-?\d+", cell) for cell in row) and (
                 any(re.fullmatch(r"0\d+", cell) for cell in row[1:]) or row[0] == "-0"):
             return ",".join(row)

@@ -176,6 +176,11 @@ def protocol_records(data_cfg: Mapping, table: LabelsTable | None) -> tuple[list
             )
         calibration_paths.append(cwru_file(root, stem))
     _check_calibration_record(calibration, calibration_paths, calibration_path(data_cfg, None, calibration["record"]))
+    simulated = [check_fault(fault) for fault in data_cfg["twin"]["classes"]]
+    unsimulated = [check_fault(state) for state in data_cfg["test"]["classes"] if check_fault(state) not in simulated]
+    if unsimulated:  # a classifier cannot name a state it never saw
+        raise BearingTwinError(f"data.test.classes: {unsimulated[0]} is a state the twin does not simulate "
+                               f"(data.twin.classes: {', '.join(simulated)})")
     tests = test_files(data_cfg)
     shared = {p.name for p in tests} & {p.name for p in calibration_paths}
     if shared:
@@ -416,7 +421,7 @@ def simulate_variants(faults, rpms, bearing_cfg: Mapping, variants: Sequence[tup
     results = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(
         joblib.delayed(_simulated_key)(faults, rpms, bearing_cfg, setting, effects, cache_dir, variant)
         for variant, setting, effects in missing)
-    for _ in tqdm(results, total=len(missing), desc="twin variants", unit="variant", disable=None):
+    for _ in tqdm(results, total=len(missing), desc="simulating twin variants", unit="variant", disable=None):
         pass
 
 
@@ -648,6 +653,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         raise BearingTwinError(f"data=twin_to_real simulates the {cfg['bearing']} bearing of the records: add "
                                f"bearing={cfg['bearing']} (got bearing.name={bearing.get('name')!r})")
     cfg["window_length"] = whole_number("data.window_length", cfg["window_length"])  # a YAML true is no count
+    n_jobs = simulation_jobs(cfg["twin"].get("n_jobs", 1))
     for section in ("twin", "test"):
         cfg[section]["windows_per_record"] = whole_number(f"data.{section}.windows_per_record",
                                                           cfg[section]["windows_per_record"])
@@ -742,8 +748,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     log.info("twin: %d variant%s x %d state%s x %d speed%s (cached ones are read, not simulated)", len(variants),
              "s" * (len(variants) != 1), len(faults), "s" * (len(faults) != 1), len(rpms), "s" * (len(rpms) != 1))
     started = time.perf_counter()
-    simulate_variants(faults, rpms, bearing, [(setting, varied) for _, varied, setting in variants], cache_dir,
-                      simulation_jobs(cfg["twin"].get("n_jobs", 1)))
+    simulate_variants(faults, rpms, bearing, [(setting, varied) for _, varied, setting in variants], cache_dir, n_jobs)
     for index, (label, varied, setting) in enumerate(tqdm(variants, desc="twin variants", unit="variant",
                                                           disable=True if len(variants) < 2 else None)):
         variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,

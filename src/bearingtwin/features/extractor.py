@@ -123,8 +123,8 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
                 raise BearingTwinError(f"{name}={getattr(self, name)!r} is not known; choose one of {', '.join(allowed)}")
         whole_number("search.windows", self.search_windows)  # features.search_windows is ${search.windows}
         whole_number("features.seed", self.seed, minimum=0)  # numpy's SeedSequence takes no negative seed
-        whole_number("features.population", self.population)
-        whole_number("features.iterations", self.iterations)
+        whole_number("search.population", self.population)  # features.population is ${search.population}
+        whole_number("search.iterations", self.iterations)
         try:
             vmd_search_space(self.k_range, self.alpha_range)
         except BearingTwinError as error:

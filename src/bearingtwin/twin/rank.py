@@ -770,7 +770,8 @@ class EffectRanker:
         races = sorted({s["simulator.sensor"].split("_")[0] for s in near})
         chosen = sensor["simulator.sensor_angle_deg"]
         # Directions, not angles: 170 deg lies 10 deg from 0 deg, so the interval is read as offsets from the chosen
-        # direction (within half a turn) and may run below 0 (-30 to 30: either side of horizontal).
+        # direction (within half a turn) and may run below 0 or past 180 (-30 to 30, 150 to 210: either side of
+        # horizontal).
         offsets = [(s["simulator.sensor_angle_deg"] - chosen + 90.0) % 180.0 - 90.0
                    for s in near if s["simulator.sensor"] == sensor["simulator.sensor"]]
         interval = [chosen + min(offsets), chosen + max(offsets)] if op.angle_fitted else None
