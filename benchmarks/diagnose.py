@@ -13,7 +13,7 @@ Without ``--model`` it trains its own model into a temporary MLflow store first
 the training size). With ``--model models:/<name>@<alias>`` it uses ``MLFLOW_TRACKING_URI``.
 
 Usage:
-    python benchmarks/diagnose.py [--repeats 7] [--record PATH] [--profile]
+    python benchmarks/diagnose.py [--repeats 15] [--record PATH] [--profile]
     MLFLOW_TRACKING_URI=sqlite:///... python benchmarks/diagnose.py --model models:/bearing@champion
 """
 

@@ -42,6 +42,7 @@ import json
 import os
 import platform
 import sys
+import tempfile
 import time
 from collections import Counter
 from pathlib import Path
@@ -434,7 +435,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
         "(`--split dev`).", "",
         f"Speed: median compare-calibrate-rank {np.median(times):.0f} s per case "
         f"({', '.join(f'{fs / 1000:g} kHz {t:.0f} s' for fs, t in by_fs.items())}), {len(results[0]['ranking'])} "
-        "candidates, one process per case.", "",
+        "candidates offered in the first round, one process per case.", "",
         "## Misses", "",
         markdown_table(["source", "kind", "fault", "hidden", "fs", "unit", "added", "first-round evidence (signature gain)",
                         "unexplained views"], misses) if misses else "None.", "",
@@ -455,11 +456,22 @@ def main() -> int:
     parser.add_argument("--split", choices=("dev", "test"), default="test")
     parser.add_argument("--sources", default="twin,rig")
     parser.add_argument("--jobs", type=int, default=1)
-    parser.add_argument("--out", default="results", help="folder for identifiability.{md,json} (test split)")
+    parser.add_argument("--out", default=None,
+                        help="folder for identifiability.{md,json,png} (default: results for the whole test split, "
+                             "else a folder under the system's temporary directory)")
     parser.add_argument("--faults", default="outer,inner", help="defect types of the cases")
     parser.add_argument("--limit", type=int, default=None, help="run only the first N cases (a quick look)")
     parser.add_argument("overrides", nargs="*", help="bearingtwin-twin overrides, e.g. ranking.points_per_view=3")
     args = parser.parse_args()
+    # The committed results are the whole test split's at the defaults: a part of it, another split or other
+    # settings are written elsewhere, and never over them.
+    whole = (args.split == "test" and args.sources == "twin,rig" and args.faults == "outer,inner"
+             and args.limit is None and all(o.startswith("ranking.n_jobs=") for o in args.overrides))
+    if args.out is None:
+        args.out = "results" if whole else str(Path(tempfile.gettempdir()) / f"bearingtwin-identifiability-{args.split}")
+    elif not whole and Path(args.out).resolve() == (Path(__file__).resolve().parents[1] / "results"):
+        parser.error(f"--out {args.out}: the committed results are the whole test split's at the defaults; "
+                     "write a part, another split or other settings elsewhere")
     import joblib
     from tqdm.auto import tqdm
 
@@ -481,6 +493,7 @@ def main() -> int:
     if args.split == "dev":
         Path(args.out).mkdir(parents=True, exist_ok=True)
         Path(args.out, "identifiability_dev.json").write_text(json.dumps(results, indent=1, default=float))
+        print(f"written: {Path(args.out, 'identifiability_dev.json')}")
         ranking = ranking_settings(args.overrides)
         gain, rows = choose_signature_gain(results, ranking["points_per_view"], ranking["view_floor_db"])
         print(markdown_table(rows[0], rows[1:]))

@@ -39,6 +39,7 @@ import json
 import os
 import platform
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -52,6 +53,7 @@ import scipy.io
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.data.cwru import NOMINAL_RPM_BY_LOAD_HP, parse_cwru_name
+from bearingtwin.diagnosis.mlflow_model import model_identity
 from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 from bearingtwin.tracking.tables import markdown_table, write_generated
 
@@ -158,7 +160,10 @@ def train(out: Path, records: Path, reports: dict[str, Path], protocol: str) -> 
     """A protocol version (``+experiment=<protocol>``) on the rig's calibration records: its model's URI and
     the run's metrics."""
     done = out / f"rig_model_{protocol}.json"
-    if not done.is_file():
+    if done.is_file():
+        print(f"{protocol}: the model trained on this rig in {out} earlier is kept ({done}; delete it to train again)",
+              flush=True)
+    else:
         healthy, fault = (record_named(records, prefix).stem for prefix in CALIBRATION)
         text = run(["bearingtwin-train", f"+experiment={protocol}", f"data.root={records}",
                     f'data.calibration.records=[{healthy},"{fault}"]', f'data.calibration.record="{fault}"',
@@ -181,9 +186,15 @@ def diagnose(out: Path, records: Path, name: str, model: str, tracking_uri: str,
     """bearingtwin-diagnose on every record; the rows of its summary.csv. ``log_run``: also as an MLflow run
     in ``tracking_uri`` (not into a store this benchmark does not own)."""
     folder = out / f"diagnose_{name}"
-    if not (folder / "summary.csv").is_file():
+    done = folder / "done.json"
+    asked = {"model": model, "identity": model_identity(model, tracking_uri), "records": str(records)}
+    if done.is_file() and json.loads(done.read_text()) == asked:
+        print(f"{name}: the diagnoses in {folder} are of this model and these records: kept", flush=True)
+    else:  # another model behind the same URI (an alias moved), or none finished: diagnosed again
+        shutil.rmtree(folder, ignore_errors=True)
         run(["bearingtwin-diagnose", f"path={records}", f"model={model}", f"out={folder}", "figures=false",
              f"tracking.uri={tracking_uri}", f"tracking.enabled={str(log_run).lower()}"], out / f"diagnose_{name}.log")
+        done.write_text(json.dumps(asked))
     with open(folder / "summary.csv") as handle:
         return list(csv.DictReader(handle))
 
@@ -305,8 +316,7 @@ def results_markdown(table: str, summary: dict, rig_runs: dict, figure: Path, ar
         f"Each protocol's run on the rig, as `bearingtwin-train` scored it:\n\n{runs}\n"
         "```bash\n"
         "bearingtwin-train +experiment=sim2real          # the CWRU-calibrated model, models:/sim2real@champion\n"
-        f"python benchmarks/sim2real_rig.py --out /tmp/sim2real_rig --seed {args.seed} --cwru-model {args.cwru_model} "
-        f"--protocols {args.protocols} --results {args.results}\n"
+        f"{' '.join(['python', f'benchmarks/{Path(sys.argv[0]).name}', *map(shlex.quote, sys.argv[1:])])}\n"
         "```\n\n"
         f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}."
     )

@@ -19,9 +19,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
+import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -62,16 +65,32 @@ def run(args) -> None:
         print(f"{len(done)} of {len(RECORDS)} records have a report in {work} already: kept (--resume)", flush=True)
 
     def one(stem):
+        shutil.rmtree(work / stem.replace("@", "_"), ignore_errors=True)  # a failed run leaves no earlier report
         result = subprocess.run(command(stem, work), capture_output=True, text=True)
         print(f"{stem}: exit {result.returncode}", flush=True)
         if result.returncode:
             print(result.stderr[-2000:], file=sys.stderr)
         return result.returncode
 
+    start = time.perf_counter()
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
         codes = list(pool.map(one, todo))
+    if not args.resume:  # the time of the whole run, for summarize to state beside the machine
+        work.mkdir(parents=True, exist_ok=True)
+        (work / "run.json").write_text(json.dumps({
+            "seconds": time.perf_counter() - start, "jobs": args.jobs,
+            "machine": f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"}))
     if any(codes):
         sys.exit(1)
+
+
+def _run_words(work: Path) -> str:
+    """How long the run that made these reports took, and on what, as its ``run.json`` says."""
+    path = work / "run.json"
+    if not path.is_file():
+        return "the time of the run is not recorded: it was resumed"
+    run = json.loads(path.read_text())
+    return f"{run['seconds'] / 60:.1f} min with --jobs {run['jobs']} on {run['machine']}"
 
 
 def _measured_rms_g(stem: str) -> float:
@@ -143,7 +162,7 @@ def summarize(args) -> None:
     ])
     generated = (
         agreement + "\n\n" + table + "\n\n"
-        "Regenerate (about 2 minutes on 2 cores):\n\n```bash\npython scripts/cwru_consistency.py run --jobs 2\n"
+        f"Regenerate ({_run_words(work)}):\n\n```bash\npython scripts/cwru_consistency.py run --jobs 2\n"
         "python scripts/cwru_consistency.py summarize\n```\n\n"
         "Each record: `bearingtwin-twin measured.path=<record> " + " ".join(COMMON[:3]) + "` with the defaults "
         "otherwise (`conf/twin.yaml`). The discrepancy is on the record's held-out half; in brackets the record's "

@@ -168,6 +168,21 @@ def model_params(model) -> set[str]:
     return set() if schema is None else {spec.name for spec in schema.params}
 
 
+def model_identity(model_uri: str, tracking_uri: str) -> str:
+    """What ``model_uri`` names now, as ``<run id>/<model uuid>``: an alias moves to another model, so work kept for
+    an earlier one is told from work for this one by it, not by the URI."""
+    import mlflow
+    from mlflow.exceptions import MlflowException
+
+    mlflow.set_tracking_uri(tracking_uri)
+    mlflow.set_registry_uri(tracking_uri)
+    try:
+        info = mlflow.models.get_model_info(model_uri)
+    except (MlflowException, OSError) as error:
+        raise BearingTwinError(f"model={model_uri}: not found in {tracking_uri} ({str(error).strip().splitlines()[0]})") from None
+    return f"{info.run_id}/{info.model_uuid}"
+
+
 def load_diagnosis_model(model_uri: str, tracking_uri: str):
     """The pyfunc model at ``model_uri`` (``models:/name@alias``, ``models:/name/version``, ``runs:/id/model``)
     and its pipeline; an unknown URI is a :class:`BearingTwinError` naming it."""
