@@ -250,3 +250,11 @@ def test_a_registry_alias_in_a_sweep_is_refused_before_any_job(tmp_path):
                    f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun", cwd=tmp_path)
     assert_one_line_exit_2(done, "register_alias=champion in a sweep of 2 jobs", "register_alias=null")
     assert not (tmp_path / "mlflow.db").exists()
+
+
+def test_a_bad_model_name_in_a_sweep_is_refused_before_any_job(tmp_path):
+    """As a single run refuses it: one line naming register=, exit 2, no parent run opened."""
+    done = command("train", "-m", "seed=0,1", "register=bad/name", "register_alias=null",
+                   f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun", cwd=tmp_path)
+    assert_one_line_exit_2(done, "register=bad/name")
+    assert not (tmp_path / "mlflow.db").exists()

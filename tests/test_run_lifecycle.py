@@ -396,3 +396,19 @@ def test_a_calibration_in_a_worker_thread_stops_at_its_next_evaluation_after_a_s
     # A signal an earlier command of this process took (a notebook's caught Ctrl-C) does not stop the next one.
     assert len(stop_cleanly(lambda: minimize(lambda params: params["x"] ** 2, {"x": (-1.0, 1.0, False)}, 5, 0))()
                .trial_errors) == 5
+
+
+def test_a_store_that_refuses_artifacts_fails_the_sweep_and_leaves_nothing_running(tmp_path):
+    """Every artifact refused (an artifact root no store can write): each job's run is FAILED, not left RUNNING,
+    and the sweep's parent too, with exit code 1 and one line saying why, not a warning Hydra swallows."""
+    done = subprocess.run([sys.executable, "-m", "bearingtwin.cli.train", "-m", "seed=0,1", "classifier=svm",
+                           "features=raw", "data.duration=2", "data.samples_per_class=8",
+                           "tracking.experiment=refusing", "tracking.artifact_root=nosuch://nowhere",
+                           f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"paths.cache_dir={tmp_path}/cache"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 1, done.stderr[-2000:]
+    statuses = {run.data.tags.get("bt.kind"): [] for run in runs(tmp_path, "refusing")}
+    for run in runs(tmp_path, "refusing"):
+        statuses[run.data.tags.get("bt.kind")].append(run.info.status)
+    assert statuses.get("train") == ["FAILED", "FAILED"] and statuses.get("sweep") == ["FAILED"], statuses
+    assert "UserWarning" not in done.stderr

@@ -369,3 +369,15 @@ def test_a_run_on_files_is_its_config_and_its_files(tmp_path):
     unchanged = config_hash(simulated)
     (tmp_path / "b.npy").write_bytes(b"three")
     assert config_hash(simulated) == unchanged
+
+
+def test_a_deleted_experiment_is_named_with_the_ways_out(tmp_path):
+    from bearingtwin.errors import BearingTwinError
+    from bearingtwin.tracking.mlflow_logging import open_store
+
+    cfg = make_cfg(tmp_path)
+    client, experiment_id = open_store(cfg.tracking)
+    client.delete_experiment(experiment_id)
+    with pytest.raises(BearingTwinError, match=rf"^tracking.experiment=test: deleted in .*mlflow experiments restore "
+                                               rf"--experiment-id {experiment_id}\), remove it for good \(mlflow gc\)"):
+        open_store(cfg.tracking)

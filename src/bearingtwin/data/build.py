@@ -86,6 +86,14 @@ def _twin_to_real_files(cfg: DictConfig) -> list[Path]:
     return calibration + tests + ([Path(str(data["labels"])).expanduser()] if data.get("labels") else [])
 
 
+def _twin_to_real_inputs(cfg: DictConfig) -> list[Path]:
+    """The records and table a twin-to-real run reads, and the calibration reports that make its twin: a report
+    fitted again is another run. (A missing report is named by its own setting where it is read.)"""
+    calibration = cfg.data.calibration
+    reports = [calibration.get("report"), (calibration.get("healthy") or {}).get("report")]
+    return _twin_to_real_files(cfg) + [Path(str(report)).expanduser() for report in reports if report]
+
+
 # Every real-data source: the files a job will read, found from its config before any job
 # starts. The HUST names are fixed, so absent files are listed; CWRU records are found by
 # pattern, so their finders raise naming the folder or class with no record.
@@ -111,7 +119,7 @@ def _files_files(cfg: DictConfig) -> list[Path]:
     return sorted(set(recordings_in(root)) | rows | ({table} if table.is_file() else set()))
 
 
-INPUT_FILES = {**REQUIRED_FILES, "files": _files_files}
+INPUT_FILES = {**REQUIRED_FILES, "twin_to_real": _twin_to_real_inputs, "files": _files_files}
 """Every data source that reads files, and the files a config's run reads (:func:`input_digest`)."""
 
 

@@ -131,6 +131,10 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
     with _sqlite_init_lock(uri):
         client = MlflowClient(tracking_uri=uri)
         experiment = client.get_experiment_by_name(name)  # creates the schema of a new database
+        if experiment is not None and experiment.lifecycle_stage == "deleted":  # MLflow refuses runs in it
+            raise BearingTwinError(f"tracking.experiment={name}: deleted in {uri}; restore it (mlflow experiments "
+                                   f"restore --experiment-id {experiment.experiment_id}), remove it for good (mlflow "
+                                   "gc), or name another experiment")
         if experiment is not None:
             return client, experiment.experiment_id
         if must_exist:  # a reader would only find no runs, and leave a misspelled experiment behind
@@ -533,9 +537,11 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         log_result(client, run_id, result)
         model = log_model(cfg, experiment_id, run_id, result, digest)
     except Exception as error:
-        client.set_tag(run_id, "error", f"{type(error).__name__}: {error}"[:8000])
-        client.log_text(run_id, traceback.format_exc(), "error.txt")
+        # FAILED first: an artifact store that refuses the error's text must not leave the run RUNNING.
         client.set_terminated(run_id, RunStatus.to_string(RunStatus.FAILED))
+        with contextlib.suppress(MlflowException, OSError):
+            client.set_tag(run_id, "error", f"{type(error).__name__}: {error}"[:8000])
+            client.log_text(run_id, traceback.format_exc(), "error.txt")
         if sweep is None:
             raise
         log.error("run %s FAILED: %s: %s (the sweep goes on)", run_id, type(error).__name__, error)
@@ -732,6 +738,7 @@ class SweepParentRun(Callback):
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
             exit_on_user_error(build_effects)(job.get("effects"))  # their parameters, before any job starts
+            exit_on_user_error(check_registration)(job)  # a bad model name, before a parent run is opened
         exit_on_user_error(require_files)(jobs)
         exit_on_user_error(refuse_alias_in_sweep)(jobs)
         self._tracking = exit_on_user_error(sweep_tracking)(config, jobs)
@@ -760,15 +767,26 @@ class SweepParentRun(Callback):
         if parent is None:
             return
         parent_id = parent.info.run_id
-        outcomes = sweep_outcomes(client, parent_id, jobs)
-        n_failed = sum(o.status not in ("FINISHED", "SKIPPED") for o in outcomes)
-        for tag, count in (("n_finished", sum(o.status == "FINISHED" for o in outcomes)), ("n_failed", n_failed),
-                           ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
-            client.set_tag(parent_id, tag, str(count))
-        # The runs the sweep stands for, those it skipped included (they carry another sweep's sweep_dir):
-        # what `bearingtwin-report sweep_dir=<this sweep>` reads.
-        client.log_dict(parent_id, [o.run_id for o in outcomes if o.status in ("FINISHED", "SKIPPED")], SWEEP_RUNS_ARTIFACT)
-        client.set_terminated(parent_id, "FAILED" if n_failed else "FINISHED")
+        # Hydra turns an exception raised here into a warning and exits 0: whatever fails while the sweep's
+        # outcome is recorded, the parent is closed and the exit code says the sweep did not end well.
+        try:
+            outcomes = sweep_outcomes(client, parent_id, jobs)
+            n_failed = sum(o.status not in ("FINISHED", "SKIPPED") for o in outcomes)
+            client.set_terminated(parent_id, "FAILED" if n_failed else "FINISHED")
+            for tag, count in (("n_finished", sum(o.status == "FINISHED" for o in outcomes)), ("n_failed", n_failed),
+                               ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
+                client.set_tag(parent_id, tag, str(count))
+            # The runs the sweep stands for, those it skipped included (they carry another sweep's sweep_dir):
+            # what `bearingtwin-report sweep_dir=<this sweep>` reads.
+            client.log_dict(parent_id, [o.run_id for o in outcomes if o.status in ("FINISHED", "SKIPPED")],
+                            SWEEP_RUNS_ARTIFACT)
+        except Exception as error:  # any failure of the store: said in one line, never a warning
+            with contextlib.suppress(Exception):
+                client.set_terminated(parent_id, "FAILED")
+            print(f"error: the sweep's outcome could not be recorded in {tracking.uri} ({type(error).__name__}: "
+                  f"{str(error).strip().splitlines()[0] if str(error).strip() else ''}); sweep run {parent_id} marked "
+                  "FAILED", file=sys.stderr, flush=True)
+            sys.exit(1)
         print(f"sweep outputs: {sweep_dir} (runs: mlflow ui --backend-store-uri {tracking.uri})", flush=True)
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
         if n_failed:

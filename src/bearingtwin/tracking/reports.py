@@ -21,6 +21,7 @@ convention that reproduces the paper's 98.44 +- 0.41 % from its five accuracies.
 from __future__ import annotations
 
 import ast
+import shutil
 import sys
 import tempfile
 from dataclasses import dataclass, field
@@ -440,13 +441,26 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
     settings = {"uri": tracking["uri"], "experiment": tracking["experiment"], **settings}
     client, experiment_id = open_store(OmegaConf.create({**tracking, "uri": settings["uri"], "experiment": settings["experiment"]}),
                                        must_exist=True)
-    source = ReportInput(client, experiment_id, settings)
-    report = function(source)
-    sizes = run_sizes(source.used_runs)
-    check_replacement(out, sizes, default_sizes(), force=settings.get("force") == "true")
-    if sizes:  # printed too: what is on screen is what the file holds
-        report.markdown = report.markdown.rstrip() + "\n\n" + size_record(sizes) + "\n"
-    write_generated(out, report.markdown, GENERATED)
+    # Everything a report writes (sim2real: its protocol block, JSON and figures) goes to a staging folder first,
+    # holding a copy of the file it rewrites, and replaces the results only once the size check has passed: a
+    # smoke sweep's report refused for smaller runs leaves the committed files as they were.
+    with tempfile.TemporaryDirectory(prefix="bearingtwin-report-") as staging:
+        staged = Path(staging) / out.name
+        if out.is_file():
+            shutil.copy2(out, staged)
+        source = ReportInput(client, experiment_id, {**settings, "out": str(staged)})
+        report = function(source)
+        sizes = run_sizes(source.used_runs)
+        check_replacement(out, sizes, default_sizes(), force=settings.get("force") == "true")
+        if sizes:  # printed too: what is on screen is what the file holds
+            report.markdown = report.markdown.rstrip() + "\n\n" + size_record(sizes) + "\n"
+        write_generated(staged, report.markdown, GENERATED)
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            for written in Path(staging).iterdir():
+                shutil.move(str(written), out.parent / written.name)
+        except OSError as error:
+            raise BearingTwinError(f"out={out}: cannot be written ({error.strerror or error})") from None
     run = client.create_run(experiment_id, run_name=f"report {stem}", tags={"bt.kind": "report", "report": name})
     client.log_text(run.info.run_id, report.markdown, f"{stem}.md")
     client.set_terminated(run.info.run_id, "FINISHED" if report.ok else "FAILED")
