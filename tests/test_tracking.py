@@ -381,3 +381,25 @@ def test_a_deleted_experiment_is_named_with_the_ways_out(tmp_path):
     with pytest.raises(BearingTwinError, match=rf"^tracking.experiment=test: deleted in .*mlflow experiments restore "
                                                rf"--experiment-id {experiment_id}\), remove it for good \(mlflow gc\)"):
         open_store(cfg.tracking)
+
+
+def test_a_command_line_sweeps_varied_keys_name_its_runs_apart(monkeypatch):
+    """`-m seed=0,1 data.samples_per_class=12,24`: no sweep file says what varies, so the parent finds the keys
+    whose values differ between its jobs and each job's run name carries them."""
+    from bearingtwin.tracking.mlflow_logging import SWEEP_VARIED_ENV, run_name, sweep_info, varied_keys
+
+    jobs = [OmegaConf.create({"hydra": {"overrides": {"task": [f"seed={seed}", f"data.samples_per_class={n}",
+                                                              "classifier=svm"]}}})
+            for seed in (0, 1) for n in (12, 24)]
+    assert varied_keys(jobs) == ["data.samples_per_class", "seed"]
+    monkeypatch.setenv(SWEEP_VARIED_ENV, " ".join(varied_keys(jobs)))
+    hydra_cfg = OmegaConf.create({"mode": "MULTIRUN", "sweeper": {"params": None}, "runtime": {"choices": {}, "cwd": "/tmp"},
+                                  "overrides": {"task": ["seed=1", "data.samples_per_class=24", "classifier=svm"]},
+                                  "job": {"num": 3}, "sweep": {"dir": "/tmp/sweep"}, "run": {"dir": "."}})
+    from hydra.types import RunMode
+
+    hydra_cfg.mode = RunMode.MULTIRUN
+    info = sweep_info(hydra_cfg)
+    assert info.varied == ("data.samples_per_class=24",)
+    cfg = OmegaConf.create({"seed": 1, "data": {"source": "simulated"}, "features": {"kind": "raw"}})
+    assert run_name(cfg, "raw+svm", info) == "raw+svm simulated data.samples_per_class=24 seed=1"

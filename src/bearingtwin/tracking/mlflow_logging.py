@@ -755,6 +755,7 @@ class SweepParentRun(Callback):
         )
         register_open_run(client, run.info.run_id, label="sweep", with_children=True)
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
+        os.environ[SWEEP_VARIED_ENV] = " ".join(varied_keys(jobs))  # so are the keys that tell its jobs apart
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         jobs = self._jobs(config)
@@ -828,14 +829,31 @@ def sweep_folder(hydra_cfg) -> str:
     return str((Path(str(hydra_cfg.runtime.cwd)) / str(hydra_cfg.sweep.dir)).resolve())
 
 
+SWEEP_VARIED_ENV = "BEARINGTWIN_SWEEP_VARIED"
+"""The override keys whose values differ between a sweep's jobs, as its parent found them (for the jobs' run names)."""
+
+
+def varied_keys(jobs: list[DictConfig]) -> list[str]:
+    """The override keys whose values differ between ``jobs`` (``seed=0,1 data.samples_per_class=12,24``: both)."""
+    values: dict[str, set[str]] = {}
+    for job in jobs:
+        for override in job.hydra.overrides.task:
+            key, _, value = override.lstrip("+~").partition("=")
+            values.setdefault(key, set()).add(value)
+    return sorted(key for key, seen in values.items() if len(seen) > 1 or
+                  any(key not in {o.lstrip("+~").partition("=")[0] for o in job.hydra.overrides.task} for job in jobs))
+
+
 def sweep_info(hydra_cfg) -> SweepInfo | None:
     """The job's place in a multirun (None for a single run), from Hydra's runtime config."""
     from hydra.types import RunMode
 
     if hydra_cfg.mode != RunMode.MULTIRUN:
         return None
-    # The sweep file's params are the varied keys (a job sees its own values only).
+    # The sweep file's params are the varied keys, and those a command line's sweep varies (a job sees its own
+    # values only: the sweep's parent says which keys differ between its jobs, SWEEP_VARIED_ENV).
     swept = {key.lstrip("+~") for key in (hydra_cfg.sweeper.get("params") or {})}
+    swept |= set(os.environ.get(SWEEP_VARIED_ENV, "").split())
     varied = tuple(
         o.lstrip("+~")
         for o in hydra_cfg.overrides.task
