@@ -381,6 +381,10 @@ def test_training_registers_its_model_with_signature_and_alias(registered):
     version = client.get_model_version_by_alias("diag", "champion")
     run = client.get_run(version.run_id)
     assert run.data.tags["registered_model"] == f"diag/{version.version}"
+    # What a later identical config, skipped, names as its model: this run's, as this run named it.
+    from bearingtwin.tracking.mlflow_logging import earlier_model
+
+    assert earlier_model(client, version.run_id) == f"runs:/{version.run_id}/model = models:/diag/{version.version}"
     mlflow.set_tracking_uri(uri)
     model = mlflow.pyfunc.load_model(f"runs:/{version.run_id}/model")
     signature = model.metadata.get_input_schema().inputs[0]

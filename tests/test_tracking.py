@@ -180,6 +180,7 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path):
     done = train_tracked(cfg, CHOICES, None, None, fake_train)  # the failed run does not count as done
     again = train_tracked(cfg, CHOICES, None, None, failing_train)  # would fail if it ran
     assert again.skipped and again.run_id == done.run_id and again.metrics["accuracy"] == pytest.approx(0.9)
+    assert again.model == done.model == ""  # the fake training logs no model, and the skipped run names none
     client, experiment_id = open_store(cfg.tracking)
     assert sorted(r.info.status for r in client.search_runs([experiment_id])) == ["FAILED", "FINISHED"]
     train_tracked(make_cfg(tmp_path, skip_finished=False), CHOICES, None, None, fake_train)

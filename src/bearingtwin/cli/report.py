@@ -2,7 +2,8 @@
 
 Names: table3, table4, vmd_params, seeds, repeat (``run_id=<id>``), and any report
 registered in :mod:`bearingtwin.tracking.reports`. Common settings: ``uri=``,
-``experiment=``, ``out=``, ``sweep_dir=``, ``source=`` (default simulated; ``all``).
+``experiment=``, ``out=``, ``sweep_dir=``, ``source=`` (default simulated; ``all``), ``force=true`` (replace
+a file of results from larger runs).
 Exit status: 0, 1 when ``repeat`` finds a metric that differs, 2 for bad input.
 """
 

@@ -297,6 +297,16 @@ def method_name(choices: dict) -> str:
     return f"{choices.get('features', '?')}+{choices.get('classifier', '?')}"
 
 
+def earlier_model(client: MlflowClient, run_id: str) -> str:
+    """The model a finished run logged, as :func:`log_model` names it (``runs:/<id>/model``, and its registered
+    version where the run was registered), or "" when it logged none."""
+    run = client.get_run(run_id)
+    if not (run.outputs and run.outputs.model_outputs):
+        return ""
+    registered = run.data.tags.get("registered_model")
+    return f"runs:/{run_id}/model" + (f" = models:/{registered}" if registered else "")
+
+
 def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
     """``<method> <data source> [<vmd_params> [<optimizer>]] [varied overrides] seed=<n>``: what sets
     runs apart at a glance (the VMD settings only where the features search VMD parameters; the
@@ -502,7 +512,8 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         done = find_finished_run(client, experiment_id, digest)
         if done is not None:
             log.info("skipped: run %s already FINISHED with this config (config_hash %s)", done.info.run_id, digest)
-            return TrackedRun(done.info.run_id, dict(done.data.metrics), skipped=True, artifacts=done.info.artifact_uri)
+            return TrackedRun(done.info.run_id, dict(done.data.metrics), skipped=True, artifacts=done.info.artifact_uri,
+                              model=earlier_model(client, done.info.run_id))
     method = method_name(choices)
     tags = {
         "bt.kind": "train",
