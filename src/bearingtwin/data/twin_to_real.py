@@ -412,7 +412,7 @@ def simulate_variants(faults, rpms, bearing_cfg: Mapping, variants: Sequence[tup
     :func:`twin_signals` numbers them) not in the cache yet, ``n_jobs`` processes at a time. Each record's seed
     is its own (the seed, the variant, the state, the speed), so the numbers do not depend on ``n_jobs``; the
     workers return nothing but write the cache the caller then reads, one variant at a time."""
-    numbered = [(index if len(variants) > 1 else None, setting, effects)
+    numbered = [(variant_number(index, len(variants)), setting, effects)
                 for index, (setting, effects) in enumerate(variants)]
     missing = [(variant, setting, effects) for variant, setting, effects in numbered
                if not _records_path(faults, rpms, bearing_cfg, setting, effects, cache_dir, variant)[0].is_file()]
@@ -423,6 +423,12 @@ def simulate_variants(faults, rpms, bearing_cfg: Mapping, variants: Sequence[tup
         for variant, setting, effects in missing)
     for _ in tqdm(results, total=len(missing), desc="simulating twin variants", unit="variant", disable=None):
         pass
+
+
+def variant_number(index: int, n_variants: int) -> int | None:
+    """The number a variant's records are seeded and cached by: its index, none when it is the only one (so a
+    twin without variants keeps the records it had before variants existed)."""
+    return index if n_variants > 1 else None
 
 
 def _simulated_key(faults, rpms, bearing_cfg, simulator_cfg, effects, cache_dir, variant) -> str:
@@ -752,7 +758,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     for index, (label, varied, setting) in enumerate(tqdm(variants, desc="twin variants", unit="variant",
                                                           disable=True if len(variants) < 2 else None)):
         variant_signals, key = twin_signals(faults, rpms, bearing, setting, varied, cache_dir,
-                                            variant=index if len(variants) > 1 else None)
+                                            variant=variant_number(index, len(variants)))
         twin_keys.append(key)
         names = [f"{TWIN_PREFIX}{fault}@{rpm:g}rpm" + (f"[{label}]" if label else "") for fault in faults for rpm in rpms]
         for hearing_index, (suffix, hear) in enumerate(hearings):
@@ -784,6 +790,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     n_twin = sum(len(w) for w, _ in cuts[:n_twin_records])
     n_test = sum(len(w) for w, _ in cuts[n_twin_records:n_twin_records + len(tests)])
     index = np.arange(len(windows))
+    digests = {path: file_digest(path) for path in calibration_paths + test_paths}  # each file read once
     return WindowedDataset(
         windows=windows,
         labels=np.concatenate([np.full(len(w), label) for (w, _), label in zip(cuts, labels)]),
@@ -794,15 +801,15 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
         class_names=FAULTS,
         # What the test and calibration records hold (names and contents), wherever they lie: a record written over
         # with another of the same size is other data.
-        key=content_key({"twin": twin_key, "tests": [(p.name, file_digest(p)) for p in test_paths],
-                         "calibration": [(p.name, file_digest(p)) for p in calibration_paths],
+        key=content_key({"twin": twin_key, "tests": [(p.name, digests[p]) for p in test_paths],
+                         "calibration": [(p.name, digests[p]) for p in calibration_paths],
                          # the folder and the table are no part of the data (their places differ between machines);
                          # what a labelled record holds and is labelled is
                          "config": {k: v for k, v in cfg.items() if k not in ("root", "labels")} | (
                              # a null hearing option is what its absence was: the key stays that of earlier runs
                              {"twin": {k: v for k, v in cfg["twin"].items()
                                        if not (k in HEARING_KEYS and v is None) and k != "n_jobs"}}),
-                         **({"labels": [(p.name, file_digest(p), *labelled[p]) for p in calibration_paths + test_paths]}
+                         **({"labels": [(p.name, digests[p], *labelled[p]) for p in calibration_paths + test_paths]}
                             if table else {})}),
         record_lengths=record_lengths + [r.signal.size for r in tests + validation_records],
         fixed_split=(index[:n_twin], index[n_twin:n_twin + n_test]),

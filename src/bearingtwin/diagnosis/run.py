@@ -177,9 +177,10 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             _, state, row_rpm, row_fs = labelled.get(path.stem, (None, None, None, None))
             fs, fs_from_row = _fact(cfg.fs, row_fs, command_first=single)
             rpm, rpm_from_row = _fact(cfg.rpm, row_rpm, command_first=single)
-            row = f"{table.name if table else 'labels'} (its row for {path.name}): "
+            its_row = f"{table.name if table else 'labels'} (its row for {path.name}): "
             prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing,
-                                   fs_key=row + "fs" if fs_from_row else "fs", rpm_key=row + "rpm" if rpm_from_row else "rpm")
+                                   fs_key=its_row + "fs" if fs_from_row else "fs",
+                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm")
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
             calibrated_on = bool(_names_of(path, table) & calibrated)
             result["calibration_record"] = calibrated_on
@@ -235,7 +236,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
 def _fact(command, row, command_first: bool):
     """A file's speed or rate, and whether its labels row gave it: the row comes first where the command's value is
     every file's of a folder, the command's where it names the one file given."""
-    if command_first and command is not None or row is None:
+    if (command_first and command is not None) or row is None:
         return command, False
     return row, True
 

@@ -100,10 +100,10 @@ def vmd_search_space(k_range: Sequence[int], alpha_range: Sequence[float]) -> di
     Every fitness compares modes with one another, so k starts at 2."""
     k_low, k_high = _pair("k_range", k_range)
     if not (all(is_finite_number(k) and int(k) == k for k in (k_low, k_high)) and 2 <= k_low < k_high):
-        raise BearingTwinError(f"k_range must be two whole numbers 2 <= low < high, got {list(_pair('k_range', k_range))}")
+        raise BearingTwinError(f"k_range must be two whole numbers 2 <= low < high, got {[k_low, k_high]}")
     alpha_low, alpha_high = _pair("alpha_range", alpha_range)
     if not (is_finite_number(alpha_low) and is_finite_number(alpha_high) and 0 < alpha_low < alpha_high):
-        raise BearingTwinError(f"alpha_range must be two numbers 0 < low < high, got {list(_pair('alpha_range', alpha_range))}")
+        raise BearingTwinError(f"alpha_range must be two numbers 0 < low < high, got {[alpha_low, alpha_high]}")
     return {"k": IntDistribution(int(k_low), int(k_high)), "alpha": FloatDistribution(float(alpha_low), float(alpha_high))}
 
 

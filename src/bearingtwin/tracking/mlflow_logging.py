@@ -846,13 +846,10 @@ SWEEP_VARIED_ENV = "BEARINGTWIN_SWEEP_VARIED"
 
 def varied_keys(jobs: list[DictConfig]) -> list[str]:
     """The override keys whose values differ between ``jobs`` (``seed=0,1 data.samples_per_class=12,24``: both)."""
-    values: dict[str, set[str]] = {}
-    for job in jobs:
-        for override in job.hydra.overrides.task:
-            key, _, value = override.lstrip("+~").partition("=")
-            values.setdefault(key, set()).add(value)
-    return sorted(key for key, seen in values.items() if len(seen) > 1 or
-                  any(key not in {o.lstrip("+~").partition("=")[0] for o in job.hydra.overrides.task} for job in jobs))
+    # Each job's overrides as key -> value; a key one job leaves out differs from the jobs that give it.
+    per_job = [dict(o.lstrip("+~").partition("=")[::2] for o in job.hydra.overrides.task) for job in jobs]
+    keys = set().union(*per_job)
+    return sorted(key for key in keys if len({overrides.get(key) for overrides in per_job}) > 1)
 
 
 def sweep_info(hydra_cfg) -> SweepInfo | None:

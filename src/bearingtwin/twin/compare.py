@@ -127,6 +127,13 @@ class CompareSettings:
         object.__setattr__(self, "n_bands", n_bands)
         object.__setattr__(self, "weights", _checked_weights(self.weights))
 
+    @property
+    def segments_s(self) -> dict[str, float]:
+        """The settings that cut a signal into segments, in seconds: a signal shorter than the longest is compared
+        by no view."""
+        return {name: getattr(self, name) for name in
+                ("welch_segment_s", "envelope_segment_s", "lines_segment_s", "stats_window_s")}
+
     @classmethod
     def from_config(cls, cfg) -> "CompareSettings":
         """Settings from a mapping (the ``compare`` config block); unknown keys are an error."""

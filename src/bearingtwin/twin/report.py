@@ -195,9 +195,7 @@ def twin_for(measured: Recording, cfg: DictConfig) -> TwinModel:
     duration = cfg.twin.duration
     if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration) and duration > 0):
         raise BearingTwinError(f"twin.duration must be a positive, finite number of seconds, got {duration!r}")
-    settings = CompareSettings.from_config(_plain(cfg.compare))
-    segments = {name: getattr(settings, name) for name in
-                ("welch_segment_s", "envelope_segment_s", "lines_segment_s", "stats_window_s")}
+    segments = CompareSettings.from_config(_plain(cfg.compare)).segments_s
     longest = max(segments, key=segments.get)
     if duration < segments[longest]:  # every trial would be refused, after the whole budget had run
         raise BearingTwinError(f"twin.duration={duration:g} s is shorter than one comparison segment "
