@@ -30,6 +30,11 @@ found whether it is added as ``resonance`` or, when the reference already needed
     python benchmarks/identifiability.py --split dev --jobs 2    # the development cases (seed 1)
     python benchmarks/identifiability.py --split test --jobs 2   # the benchmark: writes results/identifiability.{md,json}
 
+Another rig's records go through the same protocol and scores: ``--records <cases.csv>`` lists each
+record with its reference record (same rig and operating point, nothing hidden), its case kind and
+what was hidden (:func:`cases_from_manifest`); ``--export <folder>`` writes a split's cases in that
+form, as a template and to check that a record read from a file is judged as the one made in memory.
+
 The development split exists to choose the ranking's free constants (``ranking.points_per_view``,
 ``ranking.view_floor_db``, ``ranking.min_signature_gain``) on rig measurements; its cases use other seeds, parameter values and
 conditions than the test split, whose numbers are the result.
@@ -38,6 +43,7 @@ conditions than the test split, whose numbers are the result.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import os
 import platform
@@ -53,14 +59,15 @@ from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.data.recording import Recording
+from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.testrig import RigOperatingPoint, RigSetup, simulate_rig
 from bearingtwin.tracking.tables import markdown_table
-from bearingtwin.twin.compare import CompareSettings
+from bearingtwin.twin.compare import Comparator, CompareSettings
 from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.rank import deviance, penalty_per_parameter, signature_gain, signature_views, view_floors
 from bearingtwin.twin.reference import hold_reference
-from bearingtwin.twin.report import build_ranker, twin_for
+from bearingtwin.twin.report import MAX_SEED, build_ranker, load_measurement, twin_for
 
 G = 9.80665
 SECONDS = 2.0
@@ -140,6 +147,121 @@ def cases(split: str, sources: list[str]) -> list[dict]:
     return listed
 
 
+KINDS = {"single": (1, 1), "pair": (2, 2), "null": (0, 0), "out_of_library": (1, None)}
+"""Each case kind and how many hidden names it takes (least, most; None: any number)."""
+MANIFEST_COLUMNS = ("record", "reference", "kind", "hidden")
+MEASURED_COLUMNS = ("fs", "rpm", "fault", "channel")
+"""Optional manifest columns: what a record's file does not state (``measured.*`` of ``bearingtwin-twin``)."""
+SEED_COLUMNS = ("seed", "reference_seed")
+"""Optional manifest columns: ``bearingtwin-twin``'s ``seed=`` for the record's run and its reference's (default 0)."""
+
+
+def library_effects() -> set[str]:
+    """The names of the twin's library effects (conf/effects/*.yaml)."""
+    return {path.stem for path in (Path(CONF_DIR) / "effects").glob("*.yaml")}
+
+
+def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
+    """The cases a manifest (CSV) lists, each record and its reference read and checked as ``bearingtwin-twin``
+    reads ``measured.path`` with the twin config ``cfg`` (its bearing and comparison settings), before any runs.
+
+    Columns: ``record`` and ``reference`` (files, relative to the manifest's folder; the reference is a record of
+    the same rig at the same operating point with nothing hidden), ``kind`` (single, pair, null, out_of_library)
+    and ``hidden`` (the hidden effects' names joined by ``+``: library names for single and pair, any name for
+    out_of_library, empty for null); optional ``fs``, ``rpm``, ``fault``, ``channel`` for what a file does not
+    state, shared by the record and its reference, and ``seed``, ``reference_seed`` (``bearingtwin-twin``'s
+    ``seed=`` of each run; 0 when not given). A record's unit does not matter: the twin's gain is fitted.
+    """
+    try:
+        with manifest.open(newline="") as handle:
+            rows = list(csv.DictReader(handle))
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        raise BearingTwinError(f"{manifest}: not a readable CSV manifest ({error})") from None
+    missing = [column for column in MANIFEST_COLUMNS if not rows or column not in rows[0]]
+    if missing:
+        raise BearingTwinError(f"{manifest}: " + ("lists no case" if not rows else
+                               f"has no column {', '.join(missing)} (columns: {', '.join(MANIFEST_COLUMNS)})"))
+    library = library_effects()
+    bearing = BearingGeometry.from_config(cfg.bearing)
+    settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
+    listed = []
+    for line, row in enumerate(rows, start=2):
+        where = f"{manifest}, line {line}"
+        kind = (row["kind"] or "").strip()
+        if kind not in KINDS:
+            raise BearingTwinError(f"{where}: kind {kind!r} is not one of {', '.join(KINDS)}")
+        hidden = [name.strip() for name in (row["hidden"] or "").split("+") if name.strip()]
+        least, most = KINDS[kind]
+        if len(hidden) < least or (most is not None and len(hidden) > most):
+            raise BearingTwinError(f"{where}: a {kind} case hides {least if least == most else f'at least {least}'} "
+                                   f"effect(s), joined by '+'; hidden is {row['hidden']!r}")
+        unknown = [name for name in hidden if kind != "out_of_library" and name not in library]
+        if unknown:
+            raise BearingTwinError(f"{where}: hidden {', '.join(unknown)} is not a library effect "
+                                   f"({', '.join(sorted(library))}); a case the library lacks is out_of_library")
+        given = {column: (row.get(column) or "").strip() or None for column in MEASURED_COLUMNS + SEED_COLUMNS}
+        seeds = {}
+        for column in SEED_COLUMNS:
+            seeds[column] = int(given[column] or 0) if (given[column] or "0").isdigit() else None
+            if seeds[column] is None or seeds[column] > MAX_SEED:
+                raise BearingTwinError(f"{where}: {column} {given[column]!r} is not a seed (0 to {MAX_SEED})")
+        measured = {}
+        for role in ("record", "reference"):
+            path = (row[role] or "").strip()
+            if not path:
+                raise BearingTwinError(f"{where}: no {role} file")
+            path = manifest.parent / path
+            if not path.is_file():
+                raise BearingTwinError(f"{where}: {role} {path} does not exist")
+            try:
+                read = {"path": str(path), "channel": given["channel"], "check_fs": True,
+                        **{fact: None if given[fact] is None else float(given[fact]) if fact in ("fs", "rpm")
+                           else given[fact] for fact in ("fs", "rpm", "fault")}}
+                recording = load_measurement(OmegaConf.create(read), bearing)
+                Comparator(recording, bearing, settings)  # too short or too slow a rate for the comparison: now
+            except (BearingTwinError, ValueError) as error:  # ValueError: a number column that holds no number
+                raise BearingTwinError(f"{where}: {role} {path.name}: {error}") from None
+            measured[role] = (read, recording)
+        (read, record), (reference_read, reference) = measured["record"], measured["reference"]
+        if (reference.fault, reference.fs) != (record.fault, record.fs):
+            raise BearingTwinError(f"{where}: the reference is {reference.fault} at {reference.fs:g} Hz, the record "
+                                   f"{record.fault} at {record.fs:g} Hz: a reference is the same rig, state and rate")
+        listed.append({"split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
+                       "rpm": record.rpm, "fs": record.fs, "unit": record.unit or "unit not stated",
+                       "operating": {}, "seed": seeds["seed"], "reference_seed": seeds["reference_seed"],
+                       "measured": read, "reference_measured": reference_read})
+    return listed
+
+
+def export_cases(todo: list[dict], folder: Path) -> Path:
+    """Write ``todo``'s records and their references as .npz files (signal, fs, rpm, fault, unit) and a
+    ``cases.csv`` manifest that :func:`cases_from_manifest` reads: the form another rig's records take."""
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused"])
+    folder.mkdir(parents=True, exist_ok=True)
+    references, rows = {}, []
+    for index, case in enumerate(todo):
+        key = _reference_key(case)
+        if key not in references:  # a split's cases of one key share the first one's reference, as in a run
+            references[key] = f"reference_{len(references):02d}.npz", twin_seed(reference_of(case))
+            _save(measurement(reference_of(case), cfg), folder / references[key][0])
+        name = f"{index:03d}_{case['source']}_{case['kind']}_{case['fault']}_{'+'.join(case['hidden']) or 'none'}.npz"
+        _save(measurement(case, cfg), folder / name)
+        rows.append({"record": name, "reference": references[key][0], "kind": case["kind"],
+                     "hidden": "+".join(case["hidden"]), "seed": twin_seed(case), "reference_seed": references[key][1]})
+    manifest = folder / "cases.csv"
+    with manifest.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=MANIFEST_COLUMNS + SEED_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+    return manifest
+
+
+def _save(recording: Recording, path: Path) -> None:
+    np.savez(path, signal=recording.signal, fs=recording.fs, rpm=recording.rpm, fault=recording.fault,
+             unit=recording.unit)
+
+
 def _effect_params(case: dict) -> dict:
     split, column = case["split"], 0 if case["source"] == "twin" else 1
     effects = {name: (OUT_OF_LIBRARY_PARAMS[split][name] if case["kind"] == "out_of_library"
@@ -153,7 +275,9 @@ def _effect_params(case: dict) -> dict:
 
 
 def measurement(case: dict, cfg) -> Recording:
-    """The hidden-effect record of ``case``, ``SECONDS`` long, in its unit."""
+    """The hidden-effect record of ``case``, ``SECONDS`` long, in its unit (a listed record: read from its file)."""
+    if "measured" in case:
+        return load_measurement(OmegaConf.create(case["measured"]), BearingGeometry.from_config(cfg.bearing))
     op = case["operating"]
     effects = _effect_params(case)
     if case["source"] == "rig":
@@ -189,7 +313,7 @@ def rank(case: dict, overrides: list[str], reference: dict | None = None):
     what that found held, as ``bearingtwin-twin reference=<its twin_report.json>`` holds it."""
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", "tracking.enabled=false",
-                                         f"seed={case['seed'] % 1000}", *overrides])
+                                         f"seed={twin_seed(case)}", *overrides])
     if reference:
         cfg = hold_reference(cfg, reference, case["fault"])
     measured = measurement(case, cfg)
@@ -201,13 +325,25 @@ def rank(case: dict, overrides: list[str], reference: dict | None = None):
     return fit, time.perf_counter() - start
 
 
+def twin_seed(case: dict) -> int:
+    """``bearingtwin-twin``'s ``seed=`` for the case's run (a split's case seeds its measurement with the rest)."""
+    return case["seed"] if "measured" in case else case["seed"] % 1000
+
+
 def _reference_key(case: dict) -> tuple:
+    if "measured" in case:
+        return (case["source"], case["reference_measured"]["path"], case["reference_measured"]["channel"],
+                case["reference_seed"])
     return (case["source"], case["fault"], case["rpm"], case["fs"], case["unit"],
             tuple(sorted(case["operating"].items())))
 
 
 def reference_of(case: dict) -> dict:
-    """The case's reference: same rig, operating point and conditions, nothing hidden, another realization."""
+    """The case's reference: same rig, operating point and conditions, nothing hidden, another realization
+    (a listed record's: the reference record the manifest names)."""
+    if "measured" in case:
+        return {**case, "kind": "reference", "hidden": [], "measured": case["reference_measured"],
+                "seed": case["reference_seed"]}
     return {**case, "kind": "reference", "hidden": [], "seed": case["seed"] + 500}
 
 
@@ -353,19 +489,24 @@ def confusion(results: list[dict], source: str) -> str:
     return markdown_table(["hidden \\ added first", *columns], rows)
 
 
-def plot_rates(table: dict, goals: dict, path: Path) -> None:
-    """Share of cases right per kind, twin -> twin beside twin -> rig, with the goals marked."""
+SOURCES = {"twin": "twin -> twin (self-test)", "rig": "twin -> independent rig", "records": "twin -> listed records"}
+"""Each source of measurements and its column's heading."""
+
+
+def plot_rates(table: dict, goals: dict, path: Path, sources: list[str]) -> None:
+    """Share of cases right per kind, one bar per source (twin -> twin beside twin -> rig), with the goals marked."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     kinds = list(goals)
     fig, ax = plt.subplots(figsize=(7, 3.6))
-    for offset, (source, label) in zip((-0.2, 0.2), (("twin", "twin -> twin (self-test)"),
-                                                    ("rig", "twin -> independent rig"))):
+    width = 0.8 / len(sources)
+    for number, source in enumerate(sources):
         rates = [table.get(source, {}).get(k, {}) for k in kinds]
         heights = [100 * e["right"] / e["n"] if e else np.nan for e in rates]
-        ax.bar(np.arange(len(kinds)) + offset, heights, width=0.4, label=label)
+        ax.bar(np.arange(len(kinds)) + (number - (len(sources) - 1) / 2) * width, heights, width=width,
+               label=SOURCES[source])
     for index, kind in enumerate(kinds):
         ax.hlines(100 * goals[kind], index - 0.4, index + 0.4, colors="k", linestyles="--", lw=1)
     ax.set_xticks(range(len(kinds)), [k.replace("_", " ") for k in kinds])
@@ -380,8 +521,11 @@ DISCUSSION = "\n## Discussion\n"
 """The heading from which results/identifiability.md is written by hand (kept when the tables are regenerated)."""
 
 
-def write_results(results: list[dict], out: Path, command: str, wall_s: float) -> None:
+def write_results(results: list[dict], out: Path, command: str, wall_s: float, manifest: Path | None = None) -> None:
+    """identifiability.{md,json,png} in ``out``: the goals' table per source, the confusion of single effects, how the
+    cases were made (``manifest``: the listed records'), the misses; a discussion already below the tables is kept."""
     table = summarize(results)
+    sources = [source for source in SOURCES if source in table]
     rate = {"single": "hidden single effect added first", "pair": "both effects of a pair added",
             "null": "nothing added on a null case", "out_of_library": "no library effect claimed (out of library)"}
     goals = {"single": 0.9, "pair": 0.8, "null": 0.9, "out_of_library": 0.8}
@@ -392,12 +536,12 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
     rows = []
     for label, kind, key in counted:
         row = [label, f"{goals[kind]:.0%}"]
-        for source in ("twin", "rig"):
+        for source in sources:
             entry = table.get(source, {}).get(kind)
             row.append(f"{entry[key]}/{entry['n']} ({entry[key] / entry['n']:.0%})" if entry else "—")
         rows.append(row)
     halved = []
-    for source in ("twin", "rig"):
+    for source in sources:
         found = sum(e["found"] for k, e in table.get(source, {}).items())
         ok = sum(e["halved"] for k, e in table.get(source, {}).items())
         halved.append(f"{ok}/{found}" if found else "—")
@@ -411,28 +555,37 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
                ", ".join(r["unexplained"]) or "—"]
               for r in results if not score(r)["right"]]
     machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
+    described = {"twin": "`twin` measurements come from the twin itself (a self-test)",
+                 "rig": "`rig` measurements from the independent test rig, which shares no code with the twin",
+                 "records": f"`records` are the files `{manifest}` lists, each with its reference record"}
+    if manifest is None:
+        made = [
+            f"Each case is a {SECONDS:g} s record at one of the conditions (rpm, fs, unit) "
+            f"{', '.join(f'({r:g}, {f:g} Hz, {u})' for r, f, u in CONDITIONS['test'])}, an outer- or inner-race "
+            "defect, and an operating point the ranking is not told "
+            f"({'; '.join(', '.join(f'{k} {v:g}' for k, v in o.items()) for o in OPERATING['test'])}). "
+            "Hidden parameters differ from every configured default and from the development split's, on which "
+            "`ranking.points_per_view`, `ranking.view_floor_db` and `ranking.min_signature_gain` were chosen "
+            "(`--split dev`)."]
+    else:
+        made = [f"Each case is a record `{manifest}` lists, held against the twin after its reference record (the "
+                "same rig and operating point, nothing hidden), as `bearingtwin-twin reference=` holds one; the "
+                "operating point fitted there is held, the gain fitted again. "
+                f"Conditions: {'; '.join(sorted({'{:g} Hz, {}'.format(r['fs'], r['unit']) for r in results}))}."]
     text = [
         "# Identifiability: does the ranking name the missing physics?", "",
         "Effects hidden in a measurement, named (or not) by `bearingtwin-twin`'s compare-calibrate-rank with its "
         "defaults: the operating point fitted (sensor race and direction, load, clearance, defect size, gain), "
         "then every library effect a candidate, added only when it pays for its parameters on the held-out half "
         "and brings the twin closer in the views its own signature shows in. "
-        "`twin` measurements come from the twin itself (a self-test); `rig` measurements from the independent "
-        "test rig, which shares no code with the twin.", "",
-        markdown_table(["case kind", "goal", "twin -> twin (self-test)", "twin -> independent rig"], rows), "",
+        + "; ".join(described[source] for source in sources) + ".", "",
+        markdown_table(["case kind", "goal", *(SOURCES[source] for source in sources)], rows), "",
         "![cases right per kind against the goals](identifiability.png)", "",
         f"Regenerate ({wall_s / 60:.0f} min on {machine}):", "", "```bash", command, "```", "",
         "## Hidden single effects: what was added first", "",
-        "### Twin -> independent rig", "", confusion(results, "rig"), "",
-        "### Twin -> twin (self-test)", "", confusion(results, "twin"), "",
-        "## How the cases were made", "",
-        f"Each case is a {SECONDS:g} s record at one of the conditions (rpm, fs, unit) "
-        f"{', '.join(f'({r:g}, {f:g} Hz, {u})' for r, f, u in CONDITIONS['test'])}, an outer- or inner-race "
-        "defect, and an operating point the ranking is not told "
-        f"({'; '.join(', '.join(f'{k} {v:g}' for k, v in o.items()) for o in OPERATING['test'])}). "
-        "Hidden parameters differ from every configured default and from the development split's, on which "
-        "`ranking.points_per_view`, `ranking.view_floor_db` and `ranking.min_signature_gain` were chosen "
-        "(`--split dev`).", "",
+        *(line for source in sorted(sources, key=["rig", "records", "twin"].index)
+          for line in (f"### {SOURCES[source][0].upper()}{SOURCES[source][1:]}", "", confusion(results, source), "")),
+        "## How the cases were made", "", *made, "",
         f"Speed: median compare-calibrate-rank {np.median(times):.0f} s per case "
         f"({', '.join(f'{fs / 1000:g} kHz {t:.0f} s' for fs, t in by_fs.items())}), {len(results[0]['ranking'])} "
         "candidates offered in the first round, one process per case.", "",
@@ -441,12 +594,12 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float) -
                         "unexplained views"], misses) if misses else "None.", "",
     ]
     out.mkdir(parents=True, exist_ok=True)
-    plot_rates(table, goals, out / "identifiability.png")
+    plot_rates(table, goals, out / "identifiability.png", sources)
     path = out / "identifiability.md"
     # The discussion is written by hand below the generated sections; a new run keeps it.
     kept = path.read_text() if path.is_file() else ""
     kept = kept[kept.index(DISCUSSION):] if DISCUSSION in kept else ""
-    path.write_text("\n".join(text) + kept)
+    path.write_text("\n".join(text).rstrip("\n") + "\n" + kept)
     (out / "identifiability.json").write_text(json.dumps(results, indent=1, default=float))
     print(out / "identifiability.md")
 
@@ -455,28 +608,54 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--split", choices=("dev", "test"), default="test")
     parser.add_argument("--sources", default="twin,rig")
+    parser.add_argument("--records", type=Path, default=None,
+                        help="a CSV manifest of another rig's records (record, reference, kind, hidden): its cases "
+                             "instead of a split's")
+    parser.add_argument("--export", type=Path, default=None,
+                        help="write the selected cases and their references as .npz files and a cases.csv manifest "
+                             "in this folder, and stop")
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", default=None,
                         help="folder for identifiability.{md,json,png} (default: results for the whole test split, "
                              "else a folder under the system's temporary directory)")
-    parser.add_argument("--faults", default="outer,inner", help="defect types of the cases")
+    parser.add_argument("--faults", default=None,
+                        help="defect types of the cases (default: outer,inner of a split, every listed record)")
     parser.add_argument("--limit", type=int, default=None, help="run only the first N cases (a quick look)")
     parser.add_argument("overrides", nargs="*", help="bearingtwin-twin overrides, e.g. ranking.points_per_view=3")
     args = parser.parse_args()
     # The committed results are the whole test split's at the defaults: a part of it, another split or other
     # settings are written elsewhere, and never over them.
-    whole = (args.split == "test" and args.sources == "twin,rig" and args.faults == "outer,inner"
-             and args.limit is None and all(o.startswith("ranking.n_jobs=") for o in args.overrides))
+    whole = (args.records is None and args.split == "test" and args.sources == "twin,rig"
+             and args.faults in (None, "outer,inner") and args.limit is None
+             and all(o.startswith("ranking.n_jobs=") for o in args.overrides))
+    name = "records" if args.records is not None else args.split
     if args.out is None:
-        args.out = "results" if whole else str(Path(tempfile.gettempdir()) / f"bearingtwin-identifiability-{args.split}")
+        args.out = "results" if whole else str(Path(tempfile.gettempdir()) / f"bearingtwin-identifiability-{name}")
     elif not whole and Path(args.out).resolve() == (Path(__file__).resolve().parents[1] / "results"):
         parser.error(f"--out {args.out}: the committed results are the whole test split's at the defaults; "
-                     "write a part, another split or other settings elsewhere")
+                     "write a part, another split, another rig's records or other settings elsewhere")
     import joblib
     from tqdm.auto import tqdm
 
-    todo = [case for case in cases(args.split, args.sources.split(",")) if case["fault"] in args.faults.split(",")]
-    todo = todo[: args.limit]
+    try:
+        if args.records is not None:
+            with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+                cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", *args.overrides])
+            todo = cases_from_manifest(args.records, cfg)
+        else:
+            todo = cases(args.split, args.sources.split(","))
+        faults = args.faults.split(",") if args.faults else FAULTS if args.records is None else None
+        todo = [case for case in todo if faults is None or case["fault"] in faults][: args.limit]
+        if not todo:
+            raise BearingTwinError(f"no case left of {args.records or f'the {args.split} split'} with --faults "
+                                   f"{args.faults} --limit {args.limit}")
+        if args.export is not None:
+            manifest = export_cases(todo, args.export)
+            print(f"{len(todo)} cases and their references written; manifest: {manifest}")
+            return 0
+    except BearingTwinError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
     start = time.perf_counter()
     keys = list(dict.fromkeys(_reference_key(case) for case in todo))
     first_of = {key: next(case for case in todo if _reference_key(case) == key) for key in keys}
@@ -490,7 +669,7 @@ def main() -> int:
     table = summarize(results)
     for source, kinds in table.items():
         print(source, {k: f"{e['right']}/{e['n']}, halved {e['halved']}/{e['found']}" for k, e in kinds.items()})
-    if args.split == "dev":
+    if args.split == "dev" and args.records is None:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         Path(args.out, "identifiability_dev.json").write_text(json.dumps(results, indent=1, default=float))
         print(f"written: {Path(args.out, 'identifiability_dev.json')}")
@@ -507,7 +686,7 @@ def main() -> int:
               "then the lower floor)")
         return 0
     command = "python benchmarks/identifiability.py " + " ".join(sys.argv[1:])
-    write_results(results, Path(args.out), command.strip(), wall)
+    write_results(results, Path(args.out), command.strip(), wall, args.records)
     return 0
 
 

@@ -69,6 +69,8 @@ NOT_RUN = {
     "pip-compile": "refreshes the lock (pip-tools is not installed by the project)",
     "sed -i": "part of refreshing the lock",
     "python scripts/": "studies over full-size sweeps (their pieces are tested on their own)",
+    "python benchmarks/identifiability.py --records": "a benchmark over another rig's records "
+                                                      "(tests/test_identifiability_records.py runs one on exported cases)",
     "mlflow server": "starts a team's tracking server (tests/test_tracking_server.py runs one and logs to it)",
     "export ": "points the commands after it at that server",
     "ray ": "starts or stops a Ray cluster (tests/test_ray_launcher.py starts one)",
