@@ -55,7 +55,9 @@ from pathlib import Path
 
 import numpy as np
 from hydra import compose, initialize_config_dir
+from hydra.errors import HydraException
 from omegaconf import OmegaConf
+from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.data.recording import Recording
@@ -161,71 +163,100 @@ def library_effects() -> set[str]:
     return {path.stem for path in (Path(CONF_DIR) / "effects").glob("*.yaml")}
 
 
-def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
-    """The cases a manifest (CSV) lists, each record and its reference read and checked as ``bearingtwin-twin``
-    reads ``measured.path`` with the twin config ``cfg`` (its bearing and comparison settings), before any runs.
-
-    Columns: ``record`` and ``reference`` (files, relative to the manifest's folder; the reference is a record of
-    the same rig at the same operating point with nothing hidden), ``kind`` (single, pair, null, out_of_library)
-    and ``hidden`` (the hidden effects' names joined by ``+``: library names for single and pair, any name for
-    out_of_library, empty for null); optional ``fs``, ``rpm``, ``fault``, ``channel`` for what a file does not
-    state, shared by the record and its reference, and ``seed``, ``reference_seed`` (``bearingtwin-twin``'s
-    ``seed=`` of each run; 0 when not given). A record's unit does not matter: the twin's gain is fitted.
-    """
+def read_manifest(manifest: Path) -> list[tuple[int, dict]]:
+    """A manifest's rows, each with the line it ends on, its column names stripped (a spreadsheet's
+    "CSV UTF-8" byte-order mark and spaces after the commas are read as nothing)."""
     try:
-        with manifest.open(newline="") as handle:
-            rows = list(csv.DictReader(handle))
+        with manifest.open(newline="", encoding="utf-8-sig") as handle:
+            reader = csv.DictReader(handle, skipinitialspace=True)
+            header = [name.strip() for name in reader.fieldnames or []]
+            reader.fieldnames = header
+            rows = [(reader.line_num, row) for row in reader]
     except (OSError, UnicodeDecodeError, csv.Error) as error:
         raise BearingTwinError(f"{manifest}: not a readable CSV manifest ({error})") from None
-    missing = [column for column in MANIFEST_COLUMNS if not rows or column not in rows[0]]
+    missing = [column for column in MANIFEST_COLUMNS if column not in header]
     if missing:
-        raise BearingTwinError(f"{manifest}: " + ("lists no case" if not rows else
-                               f"has no column {', '.join(missing)} (columns: {', '.join(MANIFEST_COLUMNS)})"))
+        separator = " (columns are separated by commas)" if ";" in ",".join(header) else ""
+        raise BearingTwinError(f"{manifest}: has no column {', '.join(missing)}; its header reads "
+                               f"{','.join(header) or 'nothing'}{separator}; columns: {', '.join(MANIFEST_COLUMNS)}")
+    if not rows:
+        raise BearingTwinError(f"{manifest}: lists no case")
+    return rows
+
+
+def hidden_names(row: dict, kind: str, library: set[str], where: str) -> list[str]:
+    """The effects a row hides, checked against its kind: library effects for single and pair (a pair of two),
+    none for null, effects the library lacks for out of library."""
+    hidden = [name.strip() for name in (row["hidden"] or "").split("+") if name.strip()]
+    least, most = KINDS[kind]
+    if len(hidden) < least or (most is not None and len(hidden) > most) or len(set(hidden)) < len(hidden):
+        count = "no effect" if most == 0 else f"{least} different effects" if least == most else "at least one effect"
+        raise BearingTwinError(f"{where}: a case of kind {kind} hides {count}, joined by '+'; hidden is {row['hidden']!r}")
+    if kind == "out_of_library":
+        claimed = [name for name in hidden if name in library]
+        if claimed:
+            raise BearingTwinError(f"{where}: hidden {', '.join(claimed)} is a library effect: a case hiding it is "
+                                   "single or pair, not out_of_library")
+    else:
+        unknown = [name for name in hidden if name not in library]
+        if unknown:
+            raise BearingTwinError(f"{where}: hidden {', '.join(unknown)} is not a library effect "
+                                   f"({', '.join(sorted(library))}); a case the library lacks is out_of_library")
+    return hidden
+
+
+def row_seed(row: dict, column: str, where: str) -> int:
+    """A seed column's value (0 when empty), a whole number from 0 to ``MAX_SEED``."""
+    text = (row.get(column) or "").strip() or "0"
+    if not (text.isascii() and text.isdigit()) or int(text) > MAX_SEED:
+        raise BearingTwinError(f"{where}: {column} {text!r} is not a seed (a whole number from 0 to {MAX_SEED})")
+    return int(text)
+
+
+def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
+    """The cases a manifest (CSV) lists, each record and its reference read and checked as ``bearingtwin-twin``
+    reads ``measured.path`` with the twin config ``cfg`` (its ``measured.*`` settings, bearing and comparison
+    settings), before any runs.
+
+    Columns: ``record`` and ``reference`` (files, relative to the manifest's folder; the reference is what
+    ``bearingtwin-twin reference=`` takes, here a record of the same rig at the same operating point with nothing
+    hidden), ``kind``
+    (single, pair, null, out_of_library) and ``hidden`` (the hidden effects' names joined by ``+``: library names
+    for single and pair, names the library lacks for out_of_library, empty for null); optional ``fs``, ``rpm``,
+    ``fault``, ``channel`` for what the files do not state (as ``measured.*``, for the record and its reference),
+    and ``seed``, ``reference_seed`` (``bearingtwin-twin``'s ``seed=`` of each run; 0 when not given). A record's
+    unit does not matter: the twin's gain is fitted.
+    """
     library = library_effects()
     bearing = BearingGeometry.from_config(cfg.bearing)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     listed = []
-    for line, row in enumerate(rows, start=2):
+    for line, row in read_manifest(manifest):
         where = f"{manifest}, line {line}"
         kind = (row["kind"] or "").strip()
         if kind not in KINDS:
             raise BearingTwinError(f"{where}: kind {kind!r} is not one of {', '.join(KINDS)}")
-        hidden = [name.strip() for name in (row["hidden"] or "").split("+") if name.strip()]
-        least, most = KINDS[kind]
-        if len(hidden) < least or (most is not None and len(hidden) > most):
-            raise BearingTwinError(f"{where}: a {kind} case hides {least if least == most else f'at least {least}'} "
-                                   f"effect(s), joined by '+'; hidden is {row['hidden']!r}")
-        unknown = [name for name in hidden if kind != "out_of_library" and name not in library]
-        if unknown:
-            raise BearingTwinError(f"{where}: hidden {', '.join(unknown)} is not a library effect "
-                                   f"({', '.join(sorted(library))}); a case the library lacks is out_of_library")
-        given = {column: (row.get(column) or "").strip() or None for column in MEASURED_COLUMNS + SEED_COLUMNS}
-        seeds = {}
-        for column in SEED_COLUMNS:
-            seeds[column] = int(given[column] or 0) if (given[column] or "0").isdigit() else None
-            if seeds[column] is None or seeds[column] > MAX_SEED:
-                raise BearingTwinError(f"{where}: {column} {given[column]!r} is not a seed (0 to {MAX_SEED})")
+        hidden = hidden_names(row, kind, library, where)
+        seeds = {column: row_seed(row, column, where) for column in SEED_COLUMNS}
+        given = {column: (row.get(column) or "").strip() or None for column in MEASURED_COLUMNS}
         measured = {}
         for role in ("record", "reference"):
-            path = (row[role] or "").strip()
-            if not path:
-                raise BearingTwinError(f"{where}: no {role} file")
-            path = manifest.parent / path
-            if not path.is_file():
-                raise BearingTwinError(f"{where}: {role} {path} does not exist")
+            path = manifest.parent / (row[role] or "").strip()
+            if not (row[role] or "").strip() or not path.is_file():
+                raise BearingTwinError(f"{where}: {role} {path if (row[role] or '').strip() else 'not given'} "
+                                       f"{'is not a file' if path.exists() else 'does not exist'}")
             try:
-                read = {"path": str(path), "channel": given["channel"], "check_fs": True,
-                        **{fact: None if given[fact] is None else float(given[fact]) if fact in ("fs", "rpm")
-                           else given[fact] for fact in ("fs", "rpm", "fault")}}
+                read = {**OmegaConf.to_container(cfg.measured, resolve=True), "path": str(path),
+                        **{fact: float(value) if fact in ("fs", "rpm") else value
+                           for fact, value in given.items() if value is not None}}
                 recording = load_measurement(OmegaConf.create(read), bearing)
-                Comparator(recording, bearing, settings)  # too short or too slow a rate for the comparison: now
-            except (BearingTwinError, ValueError) as error:  # ValueError: a number column that holds no number
-                raise BearingTwinError(f"{where}: {role} {path.name}: {error}") from None
-            measured[role] = (read, recording)
-        (read, record), (reference_read, reference) = measured["record"], measured["reference"]
-        if (reference.fault, reference.fs) != (record.fault, record.fs):
-            raise BearingTwinError(f"{where}: the reference is {reference.fault} at {reference.fs:g} Hz, the record "
-                                   f"{record.fault} at {record.fs:g} Hz: a reference is the same rig, state and rate")
+                Comparator(recording, bearing, settings)  # too short, or too slow a rate, for the comparison: now
+            except ValueError as error:  # a number column that holds no number
+                raise BearingTwinError(f"{where}: {error}") from None
+            except BearingTwinError as error:
+                raise BearingTwinError(f"{where}: {error}" if str(path) in str(error) else f"{where}: {path}: {error}") from None
+            measured[role] = read, recording
+        (read, record), (reference_read, _) = measured["record"], measured["reference"]
         listed.append({"split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
                        "rpm": record.rpm, "fs": record.fs, "unit": record.unit or "unit not stated",
                        "operating": {}, "seed": seeds["seed"], "reference_seed": seeds["reference_seed"],
@@ -238,7 +269,10 @@ def export_cases(todo: list[dict], folder: Path) -> Path:
     ``cases.csv`` manifest that :func:`cases_from_manifest` reads: the form another rig's records take."""
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused"])
-    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise BearingTwinError(f"--export {folder}: cannot make that folder ({error.strerror})") from None
     references, rows = {}, []
     for index, case in enumerate(todo):
         key = _reference_key(case)
@@ -332,8 +366,7 @@ def twin_seed(case: dict) -> int:
 
 def _reference_key(case: dict) -> tuple:
     if "measured" in case:
-        return (case["source"], case["reference_measured"]["path"], case["reference_measured"]["channel"],
-                case["reference_seed"])
+        return case["source"], tuple(sorted(case["reference_measured"].items())), case["reference_seed"]
     return (case["source"], case["fault"], case["rpm"], case["fs"], case["unit"],
             tuple(sorted(case["operating"].items())))
 
@@ -638,17 +671,20 @@ def main() -> int:
     from tqdm.auto import tqdm
 
     try:
-        if args.records is not None:
+        try:  # the overrides every run composes, checked once before any
             with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
                 cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", *args.overrides])
+        except (HydraException, OmegaConfBaseException) as error:
+            raise BearingTwinError(f"overrides {' '.join(args.overrides)}: {str(error).splitlines()[0]}") from None
+        if args.records is not None:
             todo = cases_from_manifest(args.records, cfg)
         else:
             todo = cases(args.split, args.sources.split(","))
         faults = args.faults.split(",") if args.faults else FAULTS if args.records is None else None
         todo = [case for case in todo if faults is None or case["fault"] in faults][: args.limit]
         if not todo:
-            raise BearingTwinError(f"no case left of {args.records or f'the {args.split} split'} with --faults "
-                                   f"{args.faults} --limit {args.limit}")
+            raise BearingTwinError(f"no case of {args.records or f'the {args.split} split'} is left by --faults "
+                                   f"{args.faults or 'outer,inner'}" + (f" --limit {args.limit}" if args.limit is not None else ""))
         if args.export is not None:
             manifest = export_cases(todo, args.export)
             print(f"{len(todo)} cases and their references written; manifest: {manifest}")

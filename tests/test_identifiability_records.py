@@ -6,6 +6,7 @@ results/identifiability.md.
 
 import csv
 import importlib.util
+import io
 import json
 import subprocess
 import sys
@@ -14,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
@@ -75,54 +77,94 @@ def test_exported_records_are_judged_as_the_split_judges_its_cases(exported, tmp
     assert not list(tmp_path.glob("results*"))  # nothing written where it was run
 
 
-def test_a_different_seed_is_a_different_run(module, exported, twin_cfg, tmp_path):
-    """The seed columns reach the twin: the round trip above depends on them."""
+def test_the_seed_columns_reach_the_runs(module, exported, twin_cfg):
+    """A split's seeds travel in the manifest; edited, the record's run and its reference's take the new ones."""
     listed = module.cases_from_manifest(exported, twin_cfg)
     assert [case["seed"] for case in listed] == [0, 1] and {case["reference_seed"] for case in listed} == {500}
     assert module.twin_seed(module.reference_of(listed[0])) == 500
+    edited = module.cases_from_manifest(rewrite(exported, seed="7", reference_seed="3"), twin_cfg)[0]
+    assert module.twin_seed(edited) == 7 and module.twin_seed(module.reference_of(edited)) == 3
+    # Another reference seed is another reference run, even for the same file.
+    assert module._reference_key(edited) != module._reference_key(listed[0])
     signal = module.measurement(listed[0], twin_cfg).signal
     assert np.array_equal(signal, np.load(exported.parent / listed[0]["measured"]["path"])["signal"])
 
 
-def rewrite(manifest: Path, tmp_path: Path, **changes) -> Path:
-    """A copy of ``manifest`` beside its records with the first row's columns changed (None: column removed)."""
+def rewrite(manifest: Path, *extra_rows: dict, blank_lines: int = 0, text_before: str = "", **changes) -> Path:
+    """A copy of ``manifest`` beside its records with the first row's columns changed (None: column removed),
+    ``blank_lines`` empty lines after the header and ``extra_rows`` appended."""
     with manifest.open() as handle:
         rows = list(csv.DictReader(handle))
     rows[0].update({k: v for k, v in changes.items() if v is not None})
     columns = [c for c in rows[0] if changes.get(c, "") is not None]
+    lines = io.StringIO()
+    writer = csv.DictWriter(lines, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
+    writer.writeheader()
+    lines.write("\n" * blank_lines)
+    writer.writerows([*rows, *extra_rows])
     path = manifest.parent / f"edited_{len(list(manifest.parent.glob('edited_*')))}.csv"
-    with path.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
+    path.write_text(text_before + lines.getvalue(), encoding="utf-8")
     return path
 
 
 @pytest.mark.parametrize(("changes", "message"), [
-    ({"hidden": None}, r"has no column hidden"),
+    ({"hidden": None}, r"has no column hidden; its header reads record,reference,kind,seed,reference_seed"),
     ({"kind": "triple"}, r"line 2: kind 'triple' is not one of single, pair, null, out_of_library"),
-    ({"kind": "pair"}, r"line 2: a pair case hides 2 effect\(s\)"),
+    ({"kind": "pair"}, r"line 2: a case of kind pair hides 2 different effects"),
+    ({"kind": "pair", "hidden": "slip+slip"}, r"line 2: a case of kind pair hides 2 different effects"),
     ({"hidden": "gear_mesh"}, r"line 2: hidden gear_mesh is not a library effect .*out_of_library"),
+    ({"kind": "out_of_library", "hidden": "unbalance"}, r"line 2: hidden unbalance is a library effect"),
     ({"record": "missing.npz"}, r"line 2: record .*missing.npz does not exist"),
-    ({"fs": "twelve"}, r"line 2: record 000_rig_single_outer_resonance.npz: could not convert"),
-    ({"fault": "inner"}, r"line 2: record 000_rig_single_outer_resonance.npz: .*fault"),
+    ({"record": "."}, r"line 2: record .* is not a file"),
+    ({"fs": "twelve"}, r"line 2: could not convert string to float: 'twelve'"),
+    ({"fault": "inner"}, r"line 2: .*000_rig_single_outer_resonance.npz: .*fault"),
     ({"seed": "-3"}, r"line 2: seed '-3' is not a seed"),
+    ({"reference_seed": "\u00b2"}, r"line 2: reference_seed '\u00b2' is not a seed"),
 ])
-def test_a_bad_manifest_is_refused_naming_its_line(module, exported, twin_cfg, tmp_path, changes, message):
+def test_a_bad_manifest_is_refused_naming_its_line(module, exported, twin_cfg, changes, message):
     with pytest.raises(BearingTwinError, match=message):
-        module.cases_from_manifest(rewrite(exported, tmp_path, **changes), twin_cfg)
+        module.cases_from_manifest(rewrite(exported, **changes), twin_cfg)
 
 
-def test_a_reference_of_another_rate_is_refused(module, exported, twin_cfg):
-    record = np.load(exported.parent / "reference_00.npz")
-    np.savez(exported.parent / "reference_25k.npz", **{**record, "fs": 25600.0})
-    path = rewrite(exported, exported.parent, reference="reference_25k.npz", fs=None)
-    with pytest.raises(BearingTwinError, match=r"line 2: the reference is outer at 25600 Hz, the record outer at 12000"):
+def test_the_line_named_is_the_files_own(module, exported, twin_cfg):
+    """Blank lines count, as a text editor counts them."""
+    path = rewrite(exported, {"record": "000_rig_single_outer_resonance.npz", "reference": "reference_00.npz",
+                              "kind": "null", "hidden": "slip"}, blank_lines=2)
+    with pytest.raises(BearingTwinError, match=r"line 6: a case of kind null hides no effect"):
         module.cases_from_manifest(path, twin_cfg)
 
 
-def test_the_command_refuses_a_bad_manifest_in_one_line(exported, tmp_path):
-    done = benchmark("--records", str(rewrite(exported, tmp_path, kind="triple")), cwd=tmp_path)
+def test_a_spreadsheets_csv_is_read(module, exported, twin_cfg):
+    """Excel's "CSV UTF-8" starts with a byte-order mark; spaces after the commas are no part of a name."""
+    path = rewrite(exported, text_before="\ufeff")
+    path.write_text(path.read_text(encoding="utf-8").replace(",", ", "), encoding="utf-8")
+    assert [case["hidden"] for case in module.cases_from_manifest(path, twin_cfg)] == [["resonance"], ["slip"]]
+
+
+def test_records_are_checked_as_the_twin_checks_them(module, exported, twin_cfg):
+    """Before any run: a record shorter than the comparison's segments, and a rate its shaft line contradicts."""
+    record = np.load(exported.parent / "000_rig_single_outer_resonance.npz")
+    np.save(exported.parent / "short.npy", record["signal"][:1200])
+    with pytest.raises(BearingTwinError, match=r"line 2: .*short.npy: .*shorter than one comparison segment"):
+        module.cases_from_manifest(rewrite(exported, record="short.npy", fs="12000", rpm="1797", fault="outer"),
+                                   twin_cfg)
+    # Files that state no rate: the row's is checked, for the record and its reference.
+    np.save(exported.parent / "bare.npy", record["signal"])
+    np.save(exported.parent / "bare_reference.npy", np.load(exported.parent / "reference_00.npz")["signal"])
+    halved = rewrite(exported, record="bare.npy", reference="bare_reference.npy", fs="6000", rpm="1797", fault="outer")
+    with pytest.raises(BearingTwinError, match=r"line 2: .*bare.npy.*measured.fs"):
+        module.cases_from_manifest(halved, twin_cfg)
+    unchecked = OmegaConf.merge(twin_cfg, {"measured": {"check_fs": False}})  # measured.check_fs=false: every row
+    assert module.cases_from_manifest(halved, unchecked)[0]["fs"] == 6000.0
+
+
+def test_the_command_refuses_bad_input_in_one_line(exported, tmp_path):
+    done = benchmark("--records", str(rewrite(exported, kind="triple")), cwd=tmp_path)
     assert done.returncode == 2
     assert done.stderr.strip().count("\n") == 0 and "kind 'triple'" in done.stderr
+    (tmp_path / "taken").write_text("a file, not a folder")
+    done = benchmark(*SELECTION, "--export", str(tmp_path / "taken"), cwd=tmp_path)
+    assert done.returncode == 2 and "--export" in done.stderr and "Traceback" not in done.stderr
+    done = benchmark("--records", str(exported), "bearing=no_such_bearing", cwd=tmp_path)
+    assert done.returncode == 2 and "no_such_bearing" in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "results").exists()
