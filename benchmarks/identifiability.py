@@ -69,7 +69,7 @@ from bearingtwin.twin.compare import Comparator, CompareSettings
 from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.rank import deviance, penalty_per_parameter, signature_gain, signature_views, view_floors
 from bearingtwin.twin.reference import hold_reference
-from bearingtwin.twin.report import MAX_SEED, build_ranker, load_measurement, twin_for
+from bearingtwin.twin.report import MAX_SEED, build_ranker, load_measurement, seed_value, twin_for
 
 G = 9.80665
 SECONDS = 2.0
@@ -185,12 +185,13 @@ def read_manifest(manifest: Path) -> list[tuple[int, dict]]:
 
 
 def hidden_names(row: dict, kind: str, library: set[str], where: str) -> list[str]:
-    """The effects a row hides, checked against its kind: library effects for single and pair (a pair of two),
-    none for null, effects the library lacks for out of library."""
+    """The effects a row hides, checked against its kind: library effects for single (one) and pair (two
+    different ones), none for null, effects the library lacks for out of library."""
     hidden = [name.strip() for name in (row["hidden"] or "").split("+") if name.strip()]
     least, most = KINDS[kind]
     if len(hidden) < least or (most is not None and len(hidden) > most) or len(set(hidden)) < len(hidden):
-        count = "no effect" if most == 0 else f"{least} different effects" if least == most else "at least one effect"
+        count = {"single": "one effect", "pair": "two different effects", "null": "no effect",
+                 "out_of_library": "at least one effect"}[kind]
         raise BearingTwinError(f"{where}: a case of kind {kind} hides {count}, joined by '+'; hidden is {row['hidden']!r}")
     if kind == "out_of_library":
         claimed = [name for name in hidden if name in library]
@@ -206,11 +207,47 @@ def hidden_names(row: dict, kind: str, library: set[str], where: str) -> list[st
 
 
 def row_seed(row: dict, column: str, where: str) -> int:
-    """A seed column's value (0 when empty), a whole number from 0 to ``MAX_SEED``."""
+    """A seed column's value, 0 when empty (:func:`seed_value`'s range)."""
     text = (row.get(column) or "").strip() or "0"
-    if not (text.isascii() and text.isdigit()) or int(text) > MAX_SEED:
-        raise BearingTwinError(f"{where}: {column} {text!r} is not a seed (a whole number from 0 to {MAX_SEED})")
-    return int(text)
+    try:
+        return seed_value(int(text))
+    except (ValueError, BearingTwinError):
+        raise BearingTwinError(f"{where}: {column} {text!r} is not a seed (a whole number from 0 to {MAX_SEED})") from None
+
+
+def row_settings(row: dict, cfg, where: str) -> dict:
+    """``measured.*`` for a row's files: the command line's, with what the row's optional columns state."""
+    settings = OmegaConf.to_container(cfg.measured, resolve=True)
+    for column in MEASURED_COLUMNS:
+        text = (row.get(column) or "").strip()
+        if text and column in ("fs", "rpm"):
+            try:
+                settings[column] = float(text)
+            except ValueError:
+                raise BearingTwinError(f"{where}: {column} {text!r} is not a number") from None
+        elif text:
+            settings[column] = text
+    return settings
+
+
+def read_listed(manifest: Path, row: dict, role: str, settings: dict, cfg, where: str) -> tuple[dict, Recording]:
+    """The ``measured.*`` settings that read a row's ``role`` file (record or reference) and the recording they read,
+    checked as ``bearingtwin-twin`` checks ``measured.path``."""
+    name = (row[role] or "").strip()
+    if not name:
+        raise BearingTwinError(f"{where}: the {role} column is empty")
+    path = manifest.parent / name
+    if not path.is_file():
+        raise BearingTwinError(f"{where}: {role} {path} {'is not a file' if path.exists() else 'does not exist'}")
+    settings = {**settings, "path": str(path)}
+    bearing = BearingGeometry.from_config(cfg.bearing)
+    try:
+        recording = load_measurement(OmegaConf.create(settings), bearing)
+        # Built only to refuse, before any run starts, a record too short or sampled too slowly to compare.
+        Comparator(recording, bearing, CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True)))
+    except BearingTwinError as error:
+        raise BearingTwinError(f"{where}: {error}" if str(path) in str(error) else f"{where}: {path}: {error}") from None
+    return settings, recording
 
 
 def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
@@ -220,16 +257,13 @@ def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
 
     Columns: ``record`` and ``reference`` (files, relative to the manifest's folder; the reference is what
     ``bearingtwin-twin reference=`` takes, here a record of the same rig at the same operating point with nothing
-    hidden), ``kind``
-    (single, pair, null, out_of_library) and ``hidden`` (the hidden effects' names joined by ``+``: library names
-    for single and pair, names the library lacks for out_of_library, empty for null); optional ``fs``, ``rpm``,
-    ``fault``, ``channel`` for what the files do not state (as ``measured.*``, for the record and its reference),
-    and ``seed``, ``reference_seed`` (``bearingtwin-twin``'s ``seed=`` of each run; 0 when not given). A record's
-    unit does not matter: the twin's gain is fitted.
+    hidden), ``kind`` (single, pair, null, out_of_library) and ``hidden`` (the hidden effects' names joined by
+    ``+``: library names for single and pair, names the library lacks for out_of_library, empty for null);
+    optional ``fs``, ``rpm``, ``fault``, ``channel`` for what the files do not state (as ``measured.*``, for the
+    record and its reference), and ``seed``, ``reference_seed`` (``bearingtwin-twin``'s ``seed=`` of each run; 0
+    when not given). A record's unit does not matter: the twin's gain is fitted.
     """
     library = library_effects()
-    bearing = BearingGeometry.from_config(cfg.bearing)
-    settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     listed = []
     for line, row in read_manifest(manifest):
         where = f"{manifest}, line {line}"
@@ -238,51 +272,36 @@ def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
             raise BearingTwinError(f"{where}: kind {kind!r} is not one of {', '.join(KINDS)}")
         hidden = hidden_names(row, kind, library, where)
         seeds = {column: row_seed(row, column, where) for column in SEED_COLUMNS}
-        given = {column: (row.get(column) or "").strip() or None for column in MEASURED_COLUMNS}
-        measured = {}
-        for role in ("record", "reference"):
-            path = manifest.parent / (row[role] or "").strip()
-            if not (row[role] or "").strip() or not path.is_file():
-                raise BearingTwinError(f"{where}: {role} {path if (row[role] or '').strip() else 'not given'} "
-                                       f"{'is not a file' if path.exists() else 'does not exist'}")
-            try:
-                read = {**OmegaConf.to_container(cfg.measured, resolve=True), "path": str(path),
-                        **{fact: float(value) if fact in ("fs", "rpm") else value
-                           for fact, value in given.items() if value is not None}}
-                recording = load_measurement(OmegaConf.create(read), bearing)
-                Comparator(recording, bearing, settings)  # too short, or too slow a rate, for the comparison: now
-            except ValueError as error:  # a number column that holds no number
-                raise BearingTwinError(f"{where}: {error}") from None
-            except BearingTwinError as error:
-                raise BearingTwinError(f"{where}: {error}" if str(path) in str(error) else f"{where}: {path}: {error}") from None
-            measured[role] = read, recording
-        (read, record), (reference_read, _) = measured["record"], measured["reference"]
+        settings = row_settings(row, cfg, where)
+        record_settings, record = read_listed(manifest, row, "record", settings, cfg, where)
+        reference_settings, reference = read_listed(manifest, row, "reference", settings, cfg, where)
         listed.append({"split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
                        "rpm": record.rpm, "fs": record.fs, "unit": record.unit or "unit not stated",
-                       "operating": {}, "seed": seeds["seed"], "reference_seed": seeds["reference_seed"],
-                       "measured": read, "reference_measured": reference_read})
+                       "operating": {}, "seed": seeds["seed"], "measured": record_settings,
+                       "reference": {"seed": seeds["reference_seed"], "measured": reference_settings,
+                                     "fault": reference.fault, "rpm": reference.rpm, "fs": reference.fs}})
     return listed
 
 
-def export_cases(todo: list[dict], folder: Path) -> Path:
+def export_cases(todo: list[dict], folder: Path, cfg) -> Path:
     """Write ``todo``'s records and their references as .npz files (signal, fs, rpm, fault, unit) and a
-    ``cases.csv`` manifest that :func:`cases_from_manifest` reads: the form another rig's records take."""
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused"])
+    ``cases.csv`` manifest that :func:`cases_from_manifest` reads: the form another rig's records take.
+    ``cfg``: the twin config the runs compose (the self-test's measurements are simulated with it)."""
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise BearingTwinError(f"--export {folder}: cannot make that folder ({error.strerror})") from None
-    references, rows = {}, []
+    reference_files, reference_seeds, rows = {}, {}, []
     for index, case in enumerate(todo):
         key = _reference_key(case)
-        if key not in references:  # a split's cases of one key share the first one's reference, as in a run
-            references[key] = f"reference_{len(references):02d}.npz", twin_seed(reference_of(case))
-            _save(measurement(reference_of(case), cfg), folder / references[key][0])
+        if key not in reference_files:  # a split's cases of one key share the first one's reference, as in a run
+            reference_files[key] = f"reference_{len(reference_files):02d}.npz"
+            reference_seeds[key] = twin_seed(reference_of(case))
+            _save(measurement(reference_of(case), cfg), folder / reference_files[key])
         name = f"{index:03d}_{case['source']}_{case['kind']}_{case['fault']}_{'+'.join(case['hidden']) or 'none'}.npz"
         _save(measurement(case, cfg), folder / name)
-        rows.append({"record": name, "reference": references[key][0], "kind": case["kind"],
-                     "hidden": "+".join(case["hidden"]), "seed": twin_seed(case), "reference_seed": references[key][1]})
+        rows.append({"record": name, "reference": reference_files[key], "kind": case["kind"],
+                     "hidden": "+".join(case["hidden"]), "seed": twin_seed(case), "reference_seed": reference_seeds[key]})
     manifest = folder / "cases.csv"
     with manifest.open("w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=MANIFEST_COLUMNS + SEED_COLUMNS)
@@ -335,19 +354,23 @@ def measurement(case: dict, cfg) -> Recording:
                      unit=case["unit"])
 
 
+def twin_config(*overrides: str):
+    """``bearingtwin-twin``'s config as every case's run composes it: the CWRU drive-end bearing, no tracking, then
+    ``overrides`` (the measured record is read by the benchmark, not by ``measured.path``)."""
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", "tracking.enabled=false",
+                                          *overrides])
+
+
 def ranking_settings(overrides: list[str]) -> dict:
     """The ``ranking`` block ``bearingtwin-twin`` composes with ``overrides``."""
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("twin", overrides=["measured.path=unused", *overrides])
-    return OmegaConf.to_container(cfg.ranking, resolve=True)
+    return OmegaConf.to_container(twin_config(*overrides).ranking, resolve=True)
 
 
 def rank(case: dict, overrides: list[str], reference: dict | None = None):
     """``bearingtwin-twin``'s ranking of the case's record; with ``reference`` (a reference's twin report),
     what that found held, as ``bearingtwin-twin reference=<its twin_report.json>`` holds it."""
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", "tracking.enabled=false",
-                                         f"seed={twin_seed(case)}", *overrides])
+    cfg = twin_config(f"seed={twin_seed(case)}", *overrides)
     if reference:
         cfg = hold_reference(cfg, reference, case["fault"])
     measured = measurement(case, cfg)
@@ -366,7 +389,7 @@ def twin_seed(case: dict) -> int:
 
 def _reference_key(case: dict) -> tuple:
     if "measured" in case:
-        return case["source"], tuple(sorted(case["reference_measured"].items())), case["reference_seed"]
+        return case["source"], tuple(sorted(case["reference"]["measured"].items())), case["reference"]["seed"]
     return (case["source"], case["fault"], case["rpm"], case["fs"], case["unit"],
             tuple(sorted(case["operating"].items())))
 
@@ -374,9 +397,8 @@ def _reference_key(case: dict) -> tuple:
 def reference_of(case: dict) -> dict:
     """The case's reference: same rig, operating point and conditions, nothing hidden, another realization
     (a listed record's: the reference record the manifest names)."""
-    if "measured" in case:
-        return {**case, "kind": "reference", "hidden": [], "measured": case["reference_measured"],
-                "seed": case["reference_seed"]}
+    if "measured" in case:  # the listed reference file, with its own facts
+        return {**case, **case["reference"], "kind": "reference", "hidden": []}
     return {**case, "kind": "reference", "hidden": [], "seed": case["seed"] + 500}
 
 
@@ -589,7 +611,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
               for r in results if not score(r)["right"]]
     machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
     described = {"twin": "`twin` measurements come from the twin itself (a self-test)",
-                 "rig": "`rig` measurements from the independent test rig, which shares no code with the twin",
+                 "rig": "`rig` measurements come from the independent test rig, which shares no code with the twin",
                  "records": f"`records` are the files `{manifest}` lists, each with its reference record"}
     if manifest is None:
         made = [
@@ -672,8 +694,7 @@ def main() -> int:
 
     try:
         try:  # the overrides every run composes, checked once before any
-            with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-                cfg = compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", *args.overrides])
+            cfg = twin_config(*args.overrides)
         except (HydraException, OmegaConfBaseException) as error:
             raise BearingTwinError(f"overrides {' '.join(args.overrides)}: {str(error).splitlines()[0]}") from None
         if args.records is not None:
@@ -686,7 +707,7 @@ def main() -> int:
             raise BearingTwinError(f"no case of {args.records or f'the {args.split} split'} is left by --faults "
                                    f"{args.faults or 'outer,inner'}" + (f" --limit {args.limit}" if args.limit is not None else ""))
         if args.export is not None:
-            manifest = export_cases(todo, args.export)
+            manifest = export_cases(todo, args.export, cfg)
             print(f"{len(todo)} cases and their references written; manifest: {manifest}")
             return 0
     except BearingTwinError as error:
