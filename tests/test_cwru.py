@@ -13,7 +13,7 @@ from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import load_recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
-from bearingtwin.signal.sampling_rate import ShaftLineCheck, check_sampling_rate, decisive_channel
+from bearingtwin.signal.sampling_rate import ShaftLineCheck, check_sampling_rate, decisive_channel, require_plausible_rate
 
 CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 needs_data = pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason=f"CWRU files not found in {CWRU}")
@@ -223,6 +223,25 @@ def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_co
     # A channel that shows no series at all does not outvote one that contradicts the rate.
     silent = check_sampling_rate(noise, fs, rpm)
     assert decisive_channel({"FE": silent, "DE": far}) == "DE" and decisive_channel({"FE": silent}) == "FE"
+
+
+def test_a_motors_supply_lines_do_not_contradict_the_rate():
+    """A motor's pull at twice the supply (100 Hz and its harmonics on a 50 Hz grid) where no shaft series
+    stands: those lines stand there at any rate, so the rate is left unconfirmed, not refused (a 48 kHz record
+    at 1730 rpm was refused as 13.9 kHz). A shaft series that a rate off by a whole factor moves onto a supply
+    multiple (a 30 Hz shaft's read at four times the rate: 120 Hz, twice 60 Hz) still contradicts it."""
+    fs, rpm = 48000.0, 1730.0
+    t = np.arange(int(4 * fs)) / fs
+    noise = np.random.default_rng(3).standard_normal(t.size)
+    supply = sum(3.0 * np.sin(2 * np.pi * k * 100.0 * t) / k for k in range(1, 7))
+    check = check_sampling_rate(noise + supply, fs, rpm)
+    assert check.verdict == "ambiguous" and check.implied_fs_hz is None, check.reason
+    assert "Hz is 2 x the 50 Hz supply" in check.reason
+    # As a command applies it to a rate the user gave (refused when contradicted): kept, the doubt logged.
+    assert require_plausible_rate(noise + supply, fs, rpm, "record.csv", "measured.fs").verdict == "ambiguous"
+    shaft_read_fast = sum(3.0 * np.sin(2 * np.pi * k * 120.0 * t) / k for k in range(1, 7))
+    wrong = check_sampling_rate(noise + shaft_read_fast, fs, 1800.0)
+    assert wrong.verdict == "contradicted" and wrong.implied_fs_hz == pytest.approx(fs / 4, rel=0.005)
 
 
 @pytest.mark.parametrize("bpfo_order", [3.5848, 4.530])

@@ -38,6 +38,7 @@ from bearingtwin.physics.dynamics import DynamicParameters
 from bearingtwin.physics.effects import Effect, register_effect
 from bearingtwin.physics.kinematics import Kinematics
 from bearingtwin.signal.envelope import peak_near
+from bearingtwin.signal.sampling_rate import MAINS_HZ
 
 
 MAX_LEVEL_DB = 300.0
@@ -212,9 +213,6 @@ SUPPLY_HARMONICS = 3
 
 FUNDAMENTAL_FLOOR_DB = -40.0
 """Weakest f_s line ``line_frequency`` guesses, relative to its 2 f_s line, in dB."""
-
-MAINS_HZ = (50.0, 60.0)
-"""Supply frequencies of the world's grids."""
 
 
 def _line_spectra(measured: np.ndarray, twin: np.ndarray, fs: float,

@@ -293,27 +293,50 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
       lines).
 
     Either makes the rate ``consistent``, with ``matches`` still false (the shaft series does not
-    stand where it belongs)."""
-    if not defect_hz:
-        return check
-    explained = _defect_series_named(check.observed_hz, check.expected_hz, defect_hz)
-    if explained is not None:
-        name, hz = explained
-        return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="series",
-                                   reason=f"{check.reason}; but that series is the bearing's {name} ({hz:.2f} Hz at "
-                                          f"{check.rpm:g} rpm), where a rate off by a whole factor puts no shaft line")
-    witness = _defect_series_at_its_frequency(signal, check.fs_hz, check.expected_hz, defect_hz, prominence)
-    if witness is None:
-        return check
-    return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="envelope",
-                               reason=f"{check.reason}; but the envelope lines of {witness} and its second harmonic "
-                                      f"stand at their frequencies")
+    stand where it belongs). Without either, a series at a multiple of a grid's supply frequency
+    (the motor's 2 x supply lines, strong on many machines) and at no whole multiple or fraction of
+    the shaft line makes it ``ambiguous``: supply lines stand there whatever the rate, so they neither
+    contradict nor confirm it."""
+    if defect_hz:
+        explained = _defect_series_named(check.observed_hz, check.expected_hz, defect_hz)
+        if explained is not None:
+            name, hz = explained
+            return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="series",
+                                       reason=f"{check.reason}; but that series is the bearing's {name} ({hz:.2f} Hz "
+                                              f"at {check.rpm:g} rpm), where a rate off by a whole factor puts no shaft line")
+        witness = _defect_series_at_its_frequency(signal, check.fs_hz, check.expected_hz, defect_hz, prominence)
+        if witness is not None:
+            return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="envelope",
+                                       reason=f"{check.reason}; but the envelope lines of {witness} and its second "
+                                              f"harmonic stand at their frequencies")
+    supply = _supply_multiple(check.observed_hz)
+    if check.verdict == "contradicted" and supply is not None and not _off_by_a_whole_factor(check):
+        order, mains = supply
+        return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous",
+                                   reason=f"{check.reason}; but {check.observed_hz:.2f} Hz is {order} x the {mains:g} Hz "
+                                          "supply, whose lines stand there at any rate, and no whole multiple or "
+                                          "fraction of the shaft line: nothing left to check the rate against")
+    return check
 
 
 _MAX_FRACTION = 4
 """Rates off by a whole factor up to this are the ones a defect witness must tell apart (12 against 48 kHz)."""
 _WINDOW = 0.005
 """Relative half-width of the search window around a line (the series search's grid step)."""
+
+MAINS_HZ = (50.0, 60.0)
+"""Supply frequencies of the world's grids."""
+
+
+def _supply_multiple(hz: float | None, max_order: int = 2, tolerance: float = 2 * _WINDOW) -> tuple[int, float] | None:
+    """(n, supply) when ``hz`` lies within ``tolerance`` (relative) of n x a grid's supply frequency, n = 1 ..
+    ``max_order``: the fundamentals of the series a motor's supply leaves (its own line, and its magnetic pull at
+    twice it); None otherwise. Higher multiples are no series' fundamental and would cover more of the spectrum
+    where a shaft series under a wrong rate may stand."""
+    if hz is None:
+        return None
+    distance, order, mains = min((abs(math.log(hz / (n * f))), n, f) for n in range(1, max_order + 1) for f in MAINS_HZ)
+    return (order, mains) if distance <= tolerance else None
 
 
 def _defect_series_named(observed_hz: float | None, shaft_hz: float, defect_hz: Mapping[str, float],
