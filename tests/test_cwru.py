@@ -13,7 +13,8 @@ from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import load_recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
-from bearingtwin.signal.sampling_rate import ShaftLineCheck, check_sampling_rate, decisive_channel, require_plausible_rate
+from bearingtwin.signal.sampling_rate import (ShaftLineCheck, check_channels, check_sampling_rate, decisive_channel,
+                                              require_plausible_rate)
 
 CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 needs_data = pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason=f"CWRU files not found in {CWRU}")
@@ -242,6 +243,32 @@ def test_a_motors_supply_lines_do_not_contradict_the_rate():
     shaft_read_fast = sum(3.0 * np.sin(2 * np.pi * k * 120.0 * t) / k for k in range(1, 7))
     wrong = check_sampling_rate(noise + shaft_read_fast, fs, 1800.0)
     assert wrong.verdict == "contradicted" and wrong.implied_fs_hz == pytest.approx(fs / 4, rel=0.005)
+    # Only the supply and twice it are a supply series' fundamentals: 150 Hz (3 x 50) and 104 Hz are not.
+    for other_hz in (150.0, 104.0):
+        series = sum(3.0 * np.sin(2 * np.pi * k * other_hz * t) / k for k in range(1, 7))
+        assert check_sampling_rate(noise + series, fs, rpm).verdict == "contradicted", other_hz
+    # A bearing whose BPFO falls on the supply's pull (an SKF 6205 at 1673 rpm: 99.96 Hz) does not make the
+    # supply's series a witness of the rate: it is left unconfirmed.
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(1673.0)
+    assert defect_hz["bpfo"] == pytest.approx(100.0, rel=0.001)
+    assert check_sampling_rate(noise + supply, fs, 1673.0, defect_hz=defect_hz).verdict == "ambiguous"
+
+
+def test_a_channel_showing_only_the_supply_does_not_outvote_one_that_contradicts_the_rate():
+    """A 12.8 kHz record declared at 25.6 kHz: the drive end's shaft series stands at twice its place
+    (contradicted), the fan end shows only 50 Hz supply lines, which read as 100 Hz (the supply's pull, so
+    ambiguous on their own). The contradiction decides, and a rate the user gave is refused."""
+    true_fs, rpm = 12800.0, 1730.0
+    t = np.arange(int(4 * true_fs)) / true_fs
+    rng = np.random.default_rng(4)
+    drive_end = sum(np.sin(2 * np.pi * k * rpm / 60 * t) / k for k in range(1, 8)) + rng.standard_normal(t.size)
+    fan_end = sum(3.0 * np.sin(2 * np.pi * k * 50.0 * t) / k for k in range(1, 7)) + rng.standard_normal(t.size)
+    checks = check_channels({"DE": drive_end, "FE": fan_end}, 2 * true_fs, rpm)
+    assert checks["FE"].verdict == "ambiguous" and checks["FE"].witness == "supply"
+    assert checks["DE"].verdict == "contradicted" and decisive_channel(checks) == "DE"
+    with pytest.raises(BearingTwinError, match=r"record.csv: fs = 25600 Hz contradicts"):
+        require_plausible_rate(drive_end, 2 * true_fs, rpm, "record.csv", "measured.fs",
+                               channels={"DE": drive_end, "FE": fan_end})
 
 
 @pytest.mark.parametrize("bpfo_order", [3.5848, 4.530])

@@ -12,7 +12,9 @@ true series, which then falls *between* the expected harmonics, at the multiples
 ``rpm / 60 / k`` that are not multiples of ``rpm / 60``. Such in-between lines can also be real (subharmonics of a loose or
 rubbing machine), so a second witness decides when the caller knows the bearing's defect
 frequencies: their envelope lines appear at ``f / k`` under the wrong rate and at ``f``
-under the right one. Without a decisive witness the verdict is ``ambiguous``.
+under the right one. Without a decisive witness the verdict is ``ambiguous``. So it is where the
+only strong series near the shaft's place is the supply's (a motor's 50/60 Hz line or its pull at
+twice it): those lines say nothing of the shaft line.
 """
 
 from __future__ import annotations
@@ -48,7 +50,8 @@ class ShaftLineCheck:
             harmonics: the rate may be true / k).
         reason: one sentence explaining the verdict.
         witness: what confirmed the rate where the shaft series did not: ``series`` (the strong series is
-            a defect frequency's) or ``envelope`` (a defect line in the envelope); None otherwise.
+            a defect frequency's) or ``envelope`` (a defect line in the envelope); ``supply`` where the strong
+            series is the supply's, which leaves the rate ``ambiguous``; None otherwise.
     """
 
     fs_hz: float
@@ -107,7 +110,8 @@ def check_sampling_rate(
     search_factor`` the first ``n_harmonics`` harmonics are scored by their prominence over
     the local median spectrum (``background_hz`` wide); a series' score is the median, so
     most harmonics must stand out. The strong series (score >= ``prominence``) nearest the
-    expected frequency is taken as the shaft's: far from it, the rate is contradicted. Near
+    expected frequency is taken as the shaft's: far from it, the rate is contradicted, unless the bearing's
+    defect lines or the supply explain that series (:func:`_second_look`). Near
     it, the in-between lines of every whole-number fraction k (2 .. ``max_fraction``) are
     scored too, and ``defect_hz`` (the bearing's defect frequencies at ``rpm``, any subset)
     decides whether strong ones mean a rate of ``fs * k``. With no strong series within
@@ -236,7 +240,8 @@ def rate_witnesses(signal: np.ndarray, channels: Mapping[str, np.ndarray] | None
 
 def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     """The channel whose check stands for the record: the most favourable verdict (consistent, then
-    ambiguous, then contradicted, then a channel showing no series at all; the first of equals),
+    ambiguous, then contradicted, then a channel showing no series at all or only the supply's; the first of
+    equals),
     unless another channel holds evidence that the rate is too low by a whole factor. A channel's other lines can pass for a shaft series at a fraction
     of the true rate (a fan-end channel's 58 Hz series read at half of 12 kHz), so a defect line standing
     at 1/k of its frequency (a contradiction with a ``fraction``) overrules every other channel, and lines
@@ -254,9 +259,10 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     if any(_off_by_a_whole_factor(checks[name]) for name in names):
         names = [name for name in names if checks[name].witness != "series"] or names
 
-    def favour(name: str) -> int:  # a channel with no series at all (noise) says nothing: after a contradiction
-        check = checks[name]
-        no_evidence = check.verdict == "ambiguous" and check.observed_hz is None and check.fraction is None
+    def favour(name: str) -> int:  # a channel with no series at all (noise), or only the supply's, says nothing:
+        check = checks[name]          # after a contradiction
+        no_evidence = check.verdict == "ambiguous" and ((check.observed_hz is None and check.fraction is None)
+                                                         or check.witness == "supply")
         return len(VERDICTS_BY_FAVOUR) if no_evidence else VERDICTS_BY_FAVOUR.index(check.verdict)
 
     best = min(names, key=favour)
@@ -276,7 +282,8 @@ def _off_by_a_whole_factor(check: ShaftLineCheck, max_factor: int = 8) -> bool:
 
 def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
                  prominence: float) -> ShaftLineCheck:
-    """A contradiction stands unless the bearing's own lines explain it at the declared rate.
+    """A contradiction stands unless the bearing's own lines explain it at the declared rate, or the
+    supply's leave it undecided.
 
     An accelerometer far from the shaft (a fan-end channel, a housing) may show the shaft series
     too weakly beside stronger lines of other machine elements, and a machine may have no
@@ -293,10 +300,13 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
       lines).
 
     Either makes the rate ``consistent``, with ``matches`` still false (the shaft series does not
-    stand where it belongs). Without either, a series at a multiple of a grid's supply frequency
-    (the motor's 2 x supply lines, strong on many machines) and at no whole multiple or fraction of
-    the shaft line makes it ``ambiguous``: supply lines stand there whatever the rate, so they neither
-    contradict nor confirm it."""
+    stand where it belongs). Without either, a series whose fundamental is a grid's supply frequency
+    or twice it (a motor's magnetic pull, strong on many machines) and no whole multiple or fraction
+    of the shaft line makes it ``ambiguous`` (``witness`` ``supply``): those lines stand there whatever
+    the shaft speed, so they do not place the shaft line. A truly wrong rate can put a shaft series
+    there by chance (about 2 % of wrong pairs of common rates and speeds by a factor that is no whole
+    number): it is then logged, not refused, and another channel's contradiction still decides
+    (:func:`decisive_channel`)."""
     if defect_hz:
         explained = _defect_series_named(check.observed_hz, check.expected_hz, defect_hz)
         if explained is not None:
@@ -312,10 +322,10 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
     supply = _supply_multiple(check.observed_hz)
     if check.verdict == "contradicted" and supply is not None and not _off_by_a_whole_factor(check):
         order, mains = supply
-        return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous",
+        return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous", witness="supply",
                                    reason=f"{check.reason}; but {check.observed_hz:.2f} Hz is {order} x the {mains:g} Hz "
-                                          "supply, whose lines stand there at any rate, and no whole multiple or "
-                                          "fraction of the shaft line: nothing left to check the rate against")
+                                          "supply, whose lines stand there whatever the shaft speed, and no whole "
+                                          "multiple or fraction of the shaft line: the rate is not confirmed")
     return check
 
 
@@ -352,7 +362,8 @@ def _defect_series_named(observed_hz: float | None, shaft_hz: float, defect_hz: 
         candidates["2 x BSF"] = 2 * candidates["BSF"]
     distance, name, hz = min(((abs(math.log(observed_hz / hz)), name, hz) for name, hz in candidates.items()),
                              default=(math.inf, "", 0.0))
-    if distance > tolerance or _a_whole_factor_from(observed_hz, [shaft_hz, *candidates.values()], max_factor, tolerance):
+    if (distance > tolerance or _a_whole_factor_from(observed_hz, [shaft_hz, *candidates.values()], max_factor, tolerance)
+            or _supply_multiple(observed_hz) is not None):  # the supply's series explains it as well
         return None
     return name, hz
 
@@ -370,9 +381,11 @@ def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapp
     """The first defect frequency f whose envelope lines stand at f and 2 f (``prominence``) and at none of
     f / k, k = 2 .. ``max_fraction``; frequencies within two search windows of a shaft harmonic's fraction
     m / k (k up to ``max_fraction``) are not witnesses, since under a wrong rate the shaft's lines land
-    there (the SKF 6203's ball spin frequency is 1.994 x shaft). None if no frequency qualifies."""
+    there (the SKF 6203's ball spin frequency is 1.994 x shaft), nor those on the supply or twice it, where the
+    supply's lines beat. None if no frequency qualifies."""
     lines = {name: float(hz) for name, hz in defect_hz.items()
-             if name != "shaft" and hz and 2.2 * hz < fs / 2 and _apart_from_shaft(float(hz), shaft_hz, max_fraction, window)}
+             if name != "shaft" and hz and 2.2 * hz < fs / 2 and _apart_from_shaft(float(hz), shaft_hz, max_fraction, window)
+             and _supply_multiple(float(hz)) is None}  # the supply's lines beat at their spacing in the envelope
     if not lines:
         return None
     frequencies = np.array(list(lines.values()))
