@@ -230,9 +230,11 @@ def row_settings(row: dict, cfg, where: str) -> dict:
     return settings
 
 
-def read_listed(manifest: Path, row: dict, role: str, settings: dict, cfg, where: str) -> tuple[dict, Recording]:
+def read_listed(manifest: Path, row: dict, role: str, settings: dict, bearing: BearingGeometry,
+                compare: CompareSettings, where: str) -> tuple[dict, Recording]:
     """The ``measured.*`` settings that read a row's ``role`` file (record or reference) and the recording they read,
-    checked as ``bearingtwin-twin`` checks ``measured.path``."""
+    checked as ``bearingtwin-twin`` checks ``measured.path`` (its rate against ``bearing``'s lines, its length against
+    ``compare``'s segments)."""
     name = (row[role] or "").strip()
     if not name:
         raise BearingTwinError(f"{where}: the {role} column is empty")
@@ -240,11 +242,10 @@ def read_listed(manifest: Path, row: dict, role: str, settings: dict, cfg, where
     if not path.is_file():
         raise BearingTwinError(f"{where}: {role} {path} {'is not a file' if path.exists() else 'does not exist'}")
     settings = {**settings, "path": str(path)}
-    bearing = BearingGeometry.from_config(cfg.bearing)
     try:
         recording = load_measurement(OmegaConf.create(settings), bearing)
         # Built only to refuse, before any run starts, a record too short or sampled too slowly to compare.
-        Comparator(recording, bearing, CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True)))
+        Comparator(recording, bearing, compare)
     except BearingTwinError as error:
         raise BearingTwinError(f"{where}: {error}" if str(path) in str(error) else f"{where}: {path}: {error}") from None
     return settings, recording
@@ -264,6 +265,8 @@ def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
     when not given). A record's unit does not matter: the twin's gain is fitted.
     """
     library = library_effects()
+    bearing = BearingGeometry.from_config(cfg.bearing)
+    compare = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     listed = []
     for line, row in read_manifest(manifest):
         where = f"{manifest}, line {line}"
@@ -273,8 +276,8 @@ def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
         hidden = hidden_names(row, kind, library, where)
         seeds = {column: row_seed(row, column, where) for column in SEED_COLUMNS}
         settings = row_settings(row, cfg, where)
-        record_settings, record = read_listed(manifest, row, "record", settings, cfg, where)
-        reference_settings, reference = read_listed(manifest, row, "reference", settings, cfg, where)
+        record_settings, record = read_listed(manifest, row, "record", settings, bearing, compare, where)
+        reference_settings, reference = read_listed(manifest, row, "reference", settings, bearing, compare, where)
         listed.append({"split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
                        "rpm": record.rpm, "fs": record.fs, "unit": record.unit or "unit not stated",
                        "operating": {}, "seed": seeds["seed"], "measured": record_settings,
@@ -360,11 +363,6 @@ def twin_config(*overrides: str):
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         return compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", "tracking.enabled=false",
                                           *overrides])
-
-
-def ranking_settings(overrides: list[str]) -> dict:
-    """The ``ranking`` block ``bearingtwin-twin`` composes with ``overrides``."""
-    return OmegaConf.to_container(twin_config(*overrides).ranking, resolve=True)
 
 
 def rank(case: dict, overrides: list[str], reference: dict | None = None):
@@ -705,7 +703,7 @@ def main() -> int:
         todo = [case for case in todo if faults is None or case["fault"] in faults][: args.limit]
         if not todo:
             raise BearingTwinError(f"no case of {args.records or f'the {args.split} split'} is left by --faults "
-                                   f"{args.faults or 'outer,inner'}" + (f" --limit {args.limit}" if args.limit is not None else ""))
+                                   f"{args.faults or ('outer,inner' if args.records is None else 'all')}" + (f" --limit {args.limit}" if args.limit is not None else ""))
         if args.export is not None:
             manifest = export_cases(todo, args.export, cfg)
             print(f"{len(todo)} cases and their references written; manifest: {manifest}")
@@ -730,7 +728,7 @@ def main() -> int:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         Path(args.out, "identifiability_dev.json").write_text(json.dumps(results, indent=1, default=float))
         print(f"written: {Path(args.out, 'identifiability_dev.json')}")
-        ranking = ranking_settings(args.overrides)
+        ranking = OmegaConf.to_container(cfg.ranking, resolve=True)
         gain, rows = choose_signature_gain(results, ranking["points_per_view"], ranking["view_floor_db"])
         print(markdown_table(rows[0], rows[1:]))
         print(f"ranking.min_signature_gain={gain:g} decides the first round right most often at "

@@ -177,7 +177,7 @@ def protocol_records(data_cfg: Mapping, table: LabelsTable | None) -> tuple[list
         calibration_paths.append(cwru_file(root, stem))
     _check_calibration_record(calibration, calibration_paths, calibration_path(data_cfg, None, calibration["record"]))
     simulated = [check_fault(fault) for fault in data_cfg["twin"]["classes"]]
-    unsimulated = [check_fault(state) for state in data_cfg["test"]["classes"] if check_fault(state) not in simulated]
+    unsimulated = [state for state in map(check_fault, data_cfg["test"]["classes"]) if state not in simulated]
     if unsimulated:  # a classifier cannot name a state it never saw
         raise BearingTwinError(f"data.test.classes: {unsimulated[0]} is a state the twin does not simulate "
                                f"(data.twin.classes: {', '.join(simulated)})")
