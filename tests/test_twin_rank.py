@@ -68,10 +68,10 @@ def known_operating_point(fault="outer"):
 def rank(cfg, measured, candidates, op=None, fixed=None, **budget):
     # Small budgets; the floor and one point per view in every round are what these cases were set up with.
     settings = dict(n_trials_base=10, n_trials_effect=6, n_trials_refine=6, n_polish=12, n_polish_effect=6,
-                    view_floor_db=0.3, later_points_per_view=None)
+                    view_floor_db=0.3, later_points_per_view=None, seed=0)
     settings.update(budget)
     ranker = EffectRanker(candidates, fixed_effects=fixed, operating_point=op or operating_point(measured.fault),
-                          seed=0, **settings)
+                          **settings)
     twin = TwinModel(measured.fault, cfg.bearing, cfg.simulator, seed=0)
     return ranker.fit(twin, measured, BearingGeometry.from_config(cfg.bearing), SETTINGS).fit_
 
@@ -537,3 +537,29 @@ def test_the_sensor_directions_interval_is_read_on_the_half_turn():
                   for score, angle in ((0.0, 0.0), (1.0, 30.0), (1.0, 150.0), (50.0, 90.0))]
     report = ranker._operating_point_report({}, placements[0][1], placements, {})
     assert report["sensor"]["interval"] == [-30.0, 30.0] and report["sensor"]["angle_deg"] == 0.0
+
+
+def test_a_candidate_is_screened_alike_whatever_others_are_offered_beside_it(cfg, monkeypatch):
+    """Narrowing ``candidates=[...]`` does not change a candidate's first-round screen: its search is seeded by
+    the run's seed, the round and its name, not by its place in the list."""
+    import bearingtwin.twin.rank as rank_module
+
+    seeds = []
+
+    def recording_minimize(objective, space, n_trials, seed, *args, **kwargs):
+        seeds.append((tuple(sorted(space)), seed))
+        return minimize(objective, space, n_trials, seed, *args, **kwargs)
+
+    monkeypatch.setattr(rank_module, "minimize", recording_minimize)
+    measured = twin_measurement(cfg, "outer", {"noise": {"snr_db": 6.0, "spectral_slope": 1.0}})
+
+    def noise_screen_seeds(candidates, seed=0):
+        seeds.clear()
+        fit = rank(cfg, measured, candidates, op=known_operating_point(), max_effects=1, seed=seed)
+        return fit, {s for space, s in seeds if space == ("noise:snr_db", "noise:spectral_slope")}
+
+    alone, (seed_alone,) = noise_screen_seeds(["noise"])
+    among, seeds_among = noise_screen_seeds(["tones", "slip", "noise"])
+    assert seed_alone in seeds_among  # its first-round screen (the re-fit after it searches the base too)
+    assert alone.rounds[0][0] in among.rounds[0]
+    assert noise_screen_seeds(["noise"], seed=1)[1] != {seed_alone}  # the run's seed still reaches it

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 import threading
+import zlib
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Callable, Mapping, Sequence
@@ -491,7 +492,8 @@ class EffectRanker:
         n_jobs: threads screening the candidates of a round (each with its own twin; same result for any number).
         later_points_per_view: ``points_per_view`` of the information criterion and the signature rule from the
             second round on (None: the same); the fits do not depend on it.
-        seed: seeds every Optuna sampler (each search gets its own derived seed).
+        seed: seeds every Optuna sampler (each search gets its own derived seed; a candidate's screen from the
+            round and its name, so the candidates offered beside it do not change it).
         progress: show the stages on stderr (:class:`StageProgress`).
 
     The arguments are taken as given: ``bearingtwin-twin`` checks them as settings
@@ -577,7 +579,7 @@ class EffectRanker:
         round_index = 0
         while remaining and len(added) < self.max_effects:
             offered = [name for name in remaining if set(_requires(name)) <= set(current_effects)]
-            seeds = [self.seed + 1000 * (round_index + 1) + index for index in range(len(offered))]
+            seeds = [_screen_seed(self.seed, round_index, name) for name in offered]
             matched = _gain_matched(judge, twin.signal(base, current_effects))
             scorer = judge if round_index == 0 else later
             progress.stage(f"round {round_index + 1}: {len(offered)} candidate" + "s" * (len(offered) != 1),
@@ -780,6 +782,12 @@ class EffectRanker:
                             "held": len(op.races) == 1 and not op.angle_fitted,
                             "races_within_bound": races, "interval": interval}
         return report
+
+
+def _screen_seed(seed: int, round_index: int, name: str) -> int:
+    """The seed of a candidate's screen in a round: from the run's seed, the round and the effect's name, so a
+    candidate is screened alike whatever others are offered beside it (``candidates=[...]`` narrowed or not)."""
+    return int(np.random.SeedSequence([seed, round_index, zlib.crc32(name.encode())]).generate_state(1)[0])
 
 
 def _key(values: Mapping) -> tuple:
