@@ -660,7 +660,8 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--split", choices=("dev", "test"), default="test")
-    parser.add_argument("--sources", default="twin,rig")
+    parser.add_argument("--sources", default="twin,rig",
+                        help="measurement sources: twin (self-test), rig (the independent rig); conditions, operating points and seeds are dealt in the listed order, so one source alone draws its own (--split test --sources rig is not the rig half of the committed results; --export the split and run its rig rows with --records for that)")
     parser.add_argument("--records", type=Path, default=None,
                         help="a CSV manifest of another rig's records (record, reference, kind, hidden): its cases "
                              "instead of a split's")
