@@ -109,6 +109,8 @@ def _spread(values: list[float], unit: str) -> str:
     if not values:
         return "not found on any record"
     values = np.asarray(values)
+    if len(values) == 1:  # one record: no spread to speak of
+        return f"{values[0]:.3g} {unit}, on one record only"
     return (f"median {np.median(values):.3g} {unit}, range {values.min():.3g}-{values.max():.3g} "
             f"({len(values)} records, coefficient of variation {values.std() / abs(values.mean()):.0%})")
 

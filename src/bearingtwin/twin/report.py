@@ -94,8 +94,9 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
 
 
 MAX_SEED = 2**31 - 1
-"""Every Optuna sampler takes a seed derived from ``seed`` (plus 1000 per round), which numpy wants below 2**32:
-half that range leaves room for any number of rounds."""
+"""Every Optuna sampler takes a seed derived from ``seed``, which numpy wants below 2**32: the operating point's
+``seed`` itself, each re-fit's ``seed`` plus 1000 per round (half that range leaves room for any number of rounds),
+each candidate's screen a 32-bit draw from ``seed``, its round and its name."""
 
 
 def ranker_settings(cfg: DictConfig) -> dict:
