@@ -336,13 +336,16 @@ def with_base_params(bearing_cfg: Mapping, simulator_cfg: Mapping, base_params: 
 
 def healthy_twin_rms(report_path: str | Path, step: int | str, healthy: Recording, bearing_cfg: Mapping,
                      simulator_cfg: Mapping) -> float:
-    """RMS (m/s^2) of the noise-free healthy twin of the healthy record's calibration, at its speed.
+    """RMS (m/s^2) of the healthy twin of the healthy record's calibration as its ``noise`` met it, at its speed.
 
-    The healthy record's ``noise`` was fitted as a ratio to this twin's power; with it as the
-    noise's ``reference_rms`` every bearing state gets the same absolute noise floor.
+    The healthy record's ``noise`` was fitted as a ratio to the power of the twin it acted on: the
+    effects found before it, not those found after (a resonance found after the noise filters the
+    floor, and would count its gain twice); with this as the noise's ``reference_rms`` every bearing
+    state gets the same absolute noise floor.
     """
     base_params, effects = calibration_step(report_path, step, "data.calibration.healthy")
-    effects.pop("noise", None)
+    if "noise" in effects:
+        effects = dict(list(effects.items())[:list(effects).index("noise")])
     bearing, simulator = with_base_params(bearing_cfg, simulator_cfg, base_params, report_path)
     recording, _ = simulate("normal", bearing, {**simulator, "rpm": float(healthy.rpm)}, effects)
     return float(recording.signal.std())
