@@ -303,18 +303,22 @@ def test_absolute_noise_level_gives_every_twin_state_the_healthy_twins_noise_flo
               "defect": {**simulator["defect"], "depth_mm": 0.03}}
     reference_rms = float(simulate("normal", bearing, fitted)[0].signal.std())
     assert healthy_twin_rms(white_noise_report_path, 1, healthy, bearing, simulator) == pytest.approx(reference_rms, rel=1e-9)
-    # An effect found after the noise (a resonance filtering the floor) is not part of the power the noise refers to;
-    # one found before it is.
-    resonance = {"natural_frequency_hz": 2200.0, "damping_ratio": 0.04}
-    for order, expected in ((["noise", "resonance"], reference_rms),
-                            (["resonance", "noise"], float(simulate("normal", bearing, fitted, {"resonance": resonance})[0].signal.std()))):
+    # A sensor-path effect found after the noise (a resonance filtering the floor) is not part of the power the noise
+    # refers to; one found before it is, and so is an effect acting before the sensor path wherever it was found.
+    found = {"resonance": {"natural_frequency_hz": 2200.0, "damping_ratio": 0.04},
+             "lubrication": {"stiffness_ratio": 0.5, "damping_ns_per_m": 3000.0}}
+    with_resonance = float(simulate("normal", bearing, fitted, {"resonance": found["resonance"]})[0].signal.std())
+    lubricated = float(simulate("normal", bearing, fitted, {"lubrication": found["lubrication"]})[0].signal.std())
+    assert with_resonance > 1.02 * reference_rms and abs(lubricated / reference_rms - 1) > 0.01  # each moves the power
+    for order, expected in ((["noise", "resonance"], reference_rms), (["resonance", "noise"], with_resonance),
+                            (["noise", "lubrication"], lubricated)):
         steps = json.loads(white_noise_report_path.read_text())["steps"]
-        steps.append({"effects": order, "params": {name: {**steps[1]["params"], "resonance": resonance}[name] for name in order},
+        params = {**steps[1]["params"], **found}
+        steps.append({"effects": order, "params": {name: params[name] for name in order},
                       "base_params": steps[1]["base_params"]})
         ordered = tmp_path / f"{'_'.join(order)}.json"
         ordered.write_text(json.dumps({"steps": steps}))
         assert healthy_twin_rms(ordered, "all", healthy, bearing, simulator) == pytest.approx(expected, rel=1e-9), order
-    assert expected > 1.02 * reference_rms  # the resonance does raise the power (by 3.6 %): the order decides
     # The unbalance matters: the healthy twin of the fault record's base parameters is quieter.
     assert float(simulate("normal", bearing, {**simulator, "rpm": healthy.rpm})[0].signal.std()) < 0.9 * reference_rms
     noise_rms = reference_rms * 10 ** (3.0 / 20)

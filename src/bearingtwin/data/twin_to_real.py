@@ -56,7 +56,7 @@ from bearingtwin.data.real import rows_from_labels
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effects import build_effects
+from bearingtwin.physics.effects import build_effects, effect_class, sensor_only
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import records_identity, simulate
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
@@ -338,14 +338,17 @@ def healthy_twin_rms(report_path: str | Path, step: int | str, healthy: Recordin
                      simulator_cfg: Mapping) -> float:
     """RMS (m/s^2) of the healthy twin of the healthy record's calibration as its ``noise`` met it, at its speed.
 
-    The healthy record's ``noise`` was fitted as a ratio to the power of the twin it acted on: the
-    effects found before it, not those found after (a resonance found after the noise filters the
-    floor, and would count its gain twice); with this as the noise's ``reference_rms`` every bearing
-    state gets the same absolute noise floor.
+    The healthy record's ``noise`` was fitted as a ratio to the power of the twin it acted on: every
+    effect acting before the sensor path (slip, a load zone), and the sensor-path effects found before
+    it, not those found after (a resonance found after the noise filters the floor, and would count
+    its gain twice); with this as the noise's ``reference_rms`` every bearing state gets the same
+    absolute noise floor.
     """
     base_params, effects = calibration_step(report_path, step, "data.calibration.healthy")
-    if "noise" in effects:
-        effects = dict(list(effects.items())[:list(effects).index("noise")])
+    names = list(effects)
+    after = names[names.index("noise") + 1:] if "noise" in effects else []
+    effects = {name: params for name, params in effects.items()
+               if name != "noise" and not (name in after and sensor_only(effect_class(name)))}
     bearing, simulator = with_base_params(bearing_cfg, simulator_cfg, base_params, report_path)
     recording, _ = simulate("normal", bearing, {**simulator, "rpm": float(healthy.rpm)}, effects)
     return float(recording.signal.std())

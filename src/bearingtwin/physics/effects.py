@@ -96,6 +96,13 @@ class Effect:
         return signal
 
 
+def sensor_only(effect: "Effect | type[Effect]") -> bool:
+    """Whether an effect (instance or class) acts on the sensor path alone: it overrides neither
+    ``modify_parameters`` nor ``modify_kinematics``, so it runs after the solver whatever its place in the list."""
+    cls = effect if isinstance(effect, type) else type(effect)
+    return cls.modify_parameters is Effect.modify_parameters and cls.modify_kinematics is Effect.modify_kinematics
+
+
 def register_effect(cls: type[Effect]) -> type[Effect]:
     """Class decorator: make ``cls`` available under ``cls.name`` in the ``effects`` config."""
     if not (isinstance(cls, type) and issubclass(cls, Effect)) or not cls.name:

@@ -21,7 +21,7 @@ from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR, plain_config
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effects import Effect, build_effects, effect_class, registered_effects
+from bearingtwin.physics.effects import build_effects, effect_class, registered_effects, sensor_only
 from bearingtwin.physics.geometry import FAULTS, check_fault
 from bearingtwin.physics.simulator import sensor_signal, simulate
 
@@ -49,11 +49,6 @@ def effect_search_space(name: str) -> dict[str, tuple[float, float, bool]]:
 
 SENSOR_KEYS = ("simulator.sensor", "simulator.sensor_angle_deg")
 """Base parameters that select what the sensor reads of a simulation, not what is simulated."""
-
-
-def _sensor_only(effect: Effect) -> bool:
-    cls = type(effect)
-    return cls.modify_parameters is Effect.modify_parameters and cls.modify_kinematics is Effect.modify_kinematics
 
 
 class TwinModel:
@@ -113,7 +108,7 @@ class TwinModel:
         base, effects = dict(base or {}), dict(effects or {})
         instances = build_effects(effects)
         split = len(instances)
-        while split > 0 and _sensor_only(instances[split - 1]):
+        while split > 0 and sensor_only(instances[split - 1]):
             split -= 1
         head = dict(list(effects.items())[:split])
         simulated = {k: v for k, v in base.items() if k not in SENSOR_KEYS}
