@@ -661,7 +661,10 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--split", choices=("dev", "test"), default="test")
     parser.add_argument("--sources", default="twin,rig",
-                        help="measurement sources: twin (self-test), rig (the independent rig); conditions, operating points and seeds are dealt in the listed order, so one source alone draws its own (--split test --sources rig is not the rig half of the committed results; --export the split and run its rig rows with --records for that)")
+                        help="measurement sources: twin (self-test), rig (the independent rig); conditions, operating "
+                             "points and seeds are dealt in the listed order, so one source alone draws its own "
+                             "(--split test --sources rig is not the rig half of the committed results; --export the "
+                             "split and run its rig rows with --records for that)")
     parser.add_argument("--records", type=Path, default=None,
                         help="a CSV manifest of another rig's records (record, reference, kind, hidden): its cases "
                              "instead of a split's")
@@ -703,8 +706,10 @@ def main() -> int:
         faults = args.faults.split(",") if args.faults else FAULTS if args.records is None else None
         todo = [case for case in todo if faults is None or case["fault"] in faults][: args.limit]
         if not todo:
-            raise BearingTwinError(f"no case of {args.records or f'the {args.split} split'} is left by --faults "
-                                   f"{args.faults or ('outer,inner' if args.records is None else 'all')}" + (f" --limit {args.limit}" if args.limit is not None else ""))
+            selection = f"--faults {args.faults or ('outer,inner' if args.records is None else 'all')}"
+            if args.limit is not None:
+                selection += f" --limit {args.limit}"
+            raise BearingTwinError(f"no case of {args.records or f'the {args.split} split'} is left by {selection}")
         if args.export is not None:
             manifest = export_cases(todo, args.export, cfg)
             print(f"{len(todo)} cases and their references written; manifest: {manifest}")
