@@ -172,6 +172,18 @@ def test_measurement_files_that_are_not_measurements(tmp_path):
     recording = Recording(np.load(short), 12000.0, 1797.0, "outer", source=str(short))
     with pytest.raises(BearingTwinError, match=rf"^{short}: a signal of 0.083 s is shorter than one comparison segment"):
         Comparator(recording, BearingGeometry.from_config(twin_config().bearing))
+    # A dropout as long as a statistics window (0.1 s) would spoil the comparison, and is refused with its place;
+    # a few samples held (a clipped peak, a coarse converter) are not.
+    rng = np.random.default_rng(0)
+    dropout = rng.normal(size=24000)
+    dropout[6000:8400] = dropout[6000]
+    recording = Recording(dropout, 12000.0, 1797.0, "outer", source="dropout.npy")
+    geometry = BearingGeometry.from_config(twin_config().bearing)
+    with pytest.raises(BearingTwinError, match=r"^dropout.npy: samples from 0.5 s to 0.7 s are all .*0.1 s statistics"):
+        Comparator(recording, geometry)
+    dropout[6000:8400] = rng.normal(size=2400)
+    dropout[6000:6024] = 0.0
+    Comparator(Recording(dropout, 12000.0, 1797.0, "outer", source="dropout.npy"), geometry)
 
 
 def test_what_a_measurement_leaves_unsaid_is_asked_for_at_once_or_read_from_a_labels_table_beside_it(tmp_path):

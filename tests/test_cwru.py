@@ -95,6 +95,46 @@ def test_a_whole_fraction_of_the_true_rate_is_not_taken_for_it(record, declared,
 
 
 @needs_data
+@pytest.mark.parametrize("record, declared", [
+    ("12k_Drive_End_IR007_1_106.mat", 5850),
+    ("12k_Drive_End_IR007_3_108.mat", 5760),
+    ("12k_Drive_End_IR007_3_108.mat", 6240),
+    ("12k_Drive_End_OR007@6_3_133.mat", 5760),
+    ("12k_Drive_End_OR007@6_3_133.mat", 4080),
+])
+def test_a_rate_near_a_whole_fraction_of_the_true_one_is_refused_naming_the_true_one(record, declared):
+    """A rate a few per cent from half (or a third) of the true one puts the supply's 60 Hz series, or the
+    shaft's own 2x series, within the match's tolerance of the shaft's place. The shaft's own series then
+    stands between that series' harmonics, a motor's slip from where half the rate would put it, and the
+    envelope's defect line stands where that rate puts it: the rate is refused with the true one named,
+    directly or through the rate the nearest series implies."""
+    recording = load_cwru(CWRU / record, check_fs=False)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    check = check_sampling_rate(recording.signal, declared, recording.rpm, defect_hz=defect_hz)
+    assert check.verdict == "contradicted", check.reason
+    assert check.implied_fs_hz == pytest.approx(12000, rel=0.005), check.reason
+    alone = check_sampling_rate(recording.signal, declared, recording.rpm)  # no defect line to decide
+    assert alone.verdict != "consistent", alone.reason
+
+
+@needs_data
+def test_a_record_read_at_about_half_its_rate_names_its_true_rate():
+    """A 2 s CWRU record resampled to 25.6 kHz and declared at 12 kHz (a user's recorder set otherwise):
+    the nearest strong series implies 12.3 kHz, at which the shaft's series would stand between the
+    harmonics of the supply's; the defect lines name the true 25.6 kHz."""
+    import scipy.signal
+
+    recording = load_cwru(CWRU / "12k_Drive_End_IR007_3_108.mat", check_fs=False)
+    at_25k6 = scipy.signal.resample_poly(recording.signal, 32, 15)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    assert check_sampling_rate(at_25k6, 25600, recording.rpm, defect_hz=defect_hz).verdict == "consistent"
+    check = check_sampling_rate(at_25k6, 12000, recording.rpm, defect_hz=defect_hz)
+    assert check.verdict == "contradicted"
+    assert check.implied_fs_hz == pytest.approx(25600, rel=0.005), check.reason
+    assert "the true rate is 256" in check.reason
+
+
+@needs_data
 def test_training_on_cwru_at_half_the_rate_is_refused():
     from bearingtwin.config import compose_config
     from bearingtwin.data.real import build_cwru_dataset

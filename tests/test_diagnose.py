@@ -346,6 +346,13 @@ def test_resampling_keeps_the_frequencies_and_says_what_it_did():
     spectrum = np.abs(np.fft.rfft(resampled.signal * np.hanning(resampled.signal.size)))
     peak_hz = np.fft.rfftfreq(resampled.signal.size, 1 / 12000.0)[spectrum.argmax()]
     assert peak_hz == pytest.approx(157.0, abs=0.5)
+    assert "nothing" not in note  # read at a lower rate, the record loses only what the model cannot see
+    upsampled, note = resample_to(resampled, 24000.0)
+    assert upsampled.fs == 24000.0 and note.endswith("; the record holds nothing between its Nyquist frequency, "
+                                                     "6000 Hz, and the model's, 12000 Hz")
+    spectrum = np.abs(np.fft.rfft(upsampled.signal))
+    above = np.fft.rfftfreq(upsampled.signal.size, 1 / 24000.0) > 6100.0
+    assert spectrum[above].max() < 1e-3 * spectrum.max()  # and indeed it holds nothing there
 
 
 def test_windows_tile_the_record_without_overlap():
@@ -452,7 +459,7 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
         assert row["correct"] == str(row["verdict"] == row["true_state"]), row
     assert "resampled 48000 Hz -> 12000 Hz" in done.stdout
     assert "records right: " in done.stdout and "of 2 with a known state" in done.stdout
-    assert f"error: {folder / 'short.npz'}: 100 samples" in done.stderr
+    assert f"error: {folder / 'short.npz'}: 0.008 s, shorter than one window of the model's (" in done.stderr
 
 
 def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_before_any_work(registered, tmp_path):
@@ -563,6 +570,19 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
         assert (result["rpm"], result["original_fs"], result["true_state"]) == (rpm, fs, "outer")
         assert result["evidence_state"] == "outer", result["evidence"]
     assert "of 2 with a known state" in done.stdout
+    # A glob's files read the table of the folder they share, as the folder's own files do; a glob across folders
+    # with tables of their own is refused, naming them.
+    globbed = run("diagnose", f'path="{folder}/*.npy"', "model=models:/diag/1", f"out={tmp_path}/globbed",
+                  "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert globbed.returncode == 0, globbed.stderr[-2000:]
+    assert json.loads((tmp_path / "globbed" / "fast" / "diagnosis.json").read_text())["original_fs"] == 24000.0
+    (tmp_path / "more").mkdir()
+    np.save(tmp_path / "more" / "x.npy", fault_signal(None, seconds=3))
+    (tmp_path / "more" / "labels.csv").write_text("record,state,rpm,fs\nx.npy,outer,1500,12000\n")
+    across = run("diagnose", f'path="{tmp_path}/*/*.npy"', "model=models:/diag/1", f"out={tmp_path}/across",
+                 "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert across.returncode == 2 and "matches files in 2 folders" in across.stderr, across.stderr[-2000:]
+    assert str(folder / "labels.csv") in across.stderr and "give labels=<csv>" in across.stderr
     # A row's rate that the file contradicts is named as the row's, not as an fs= the command never got.
     np.savez(folder / "stated.npz", signal=fault_signal(None, seconds=3), fs=12000.0, rpm=1500.0)
     with open(folder / "labels.csv", "a") as table:

@@ -164,7 +164,7 @@ def test_samples_by_channels_arrays_are_read_along_their_long_axis(tmp_path, sig
     assert list(raw.channels) == ["0", "1", "2"]
     np.testing.assert_array_equal(raw.channels["2"], 2 * signal)
     np.save(tmp_path / "square.npy", np.ones((3, 3)))
-    with pytest.raises(BearingTwinError, match=r"square.npy: array '' has shape \(3, 3\), so which axis is time is not clear"):
+    with pytest.raises(BearingTwinError, match=r"square.npy: its array has shape \(3, 3\), so which axis is time is not clear"):
         read_raw(tmp_path / "square.npy")
     scipy.io.savemat(tmp_path / "columns.mat", {"data": np.stack([signal, -signal], axis=1), "fs": FS})
     assert {name: values.size for name, values in read_raw(tmp_path / "columns.mat").channels.items()} == {

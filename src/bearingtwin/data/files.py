@@ -302,21 +302,22 @@ def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.n
     channels: dict[str, np.ndarray] = {}
     for name, array in arrays.items():
         array = np.asarray(array)
+        which = f"array {name!r}" if name else "its array"  # a .npy's one array has no name
         if not (np.issubdtype(array.dtype, np.number) or array.dtype == bool) or np.iscomplexobj(array):
-            raise BearingTwinError(f"{path}: array {name!r} is not real numeric (dtype {array.dtype})")
+            raise BearingTwinError(f"{path}: {which} is not real numeric (dtype {array.dtype})")
         array = np.squeeze(array)
         if array.ndim == 1:
             channels[name or "0"] = array.astype(np.float64)
         elif array.ndim == 2:
             if array.shape[0] == array.shape[1]:
-                raise BearingTwinError(f"{path}: array {name!r} has shape {array.shape}, so which axis is time is not "
+                raise BearingTwinError(f"{path}: {which} has shape {array.shape}, so which axis is time is not "
                                        "clear; store it as channels x samples or samples x channels")
             # A record holds more samples than channels: samples x channels (a MATLAB or spreadsheet column per
             # channel) as well as channels x samples.
             for row, values in enumerate(array if array.shape[0] < array.shape[1] else array.T):
                 channels[f"{name}[{row}]" if name else str(row)] = values.astype(np.float64)
         else:
-            raise BearingTwinError(f"{path}: array {name!r} has shape {array.shape}; expected 1-D or 2-D (channels and samples)")
+            raise BearingTwinError(f"{path}: {which} has shape {array.shape}; expected 1-D or 2-D (channels and samples)")
     if not channels:
         raise BearingTwinError(f"{path}: holds no signal array")
     return channels

@@ -17,6 +17,18 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, check_fault
 
 
+def longest_held_stretch(signal: np.ndarray) -> tuple[int, int]:
+    """Start index and length (samples) of the longest run of equal consecutive samples of a 1-D signal."""
+    signal = np.asarray(signal)
+    if signal.size < 2:
+        return 0, signal.size
+    # Run boundaries: where a sample differs from the one before it.
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(signal) != 0) + 1])
+    lengths = np.diff(np.concatenate([starts, [signal.size]]))
+    longest = int(np.argmax(lengths))
+    return int(starts[longest]), int(lengths[longest])
+
+
 @dataclass
 class Recording:
     """A single-channel vibration record.
@@ -64,6 +76,17 @@ class Recording:
         no vibration to compare or diagnose: every spectrum of it is zero, and any verdict on it would be made up."""
         if np.ptp(self.signal) == 0:
             raise BearingTwinError(f"{self.source}: every sample is {self.signal[0]:g}: no vibration recorded")
+
+    def require_no_held_stretch(self, seconds: float, why: str) -> None:
+        """Refuse a record holding one value for ``seconds`` or longer (a dropout, a sensor saturated or
+        disconnected for a while): ``why`` says what such a stretch would spoil. Shorter runs (a quiet signal
+        on a coarse converter, a clipped peak) are left alone."""
+        start, length = longest_held_stretch(self.signal)
+        if length > 1 and length >= seconds * self.fs:
+            raise BearingTwinError(
+                f"{self.source}: samples from {start / self.fs:.3g} s to {(start + length) / self.fs:.3g} s are all "
+                f"{self.signal[start]:g} (a dropout, or a stretch held at one value), which would spoil {why}; "
+                "cut it out of the record or choose another stretch")
 
     @property
     def duration(self) -> float:

@@ -100,8 +100,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         notes.append(note)
     if recording.signal.size < pipeline.window_length:
         raise BearingTwinError(
-            f"{recording.source}: {recording.signal.size} samples at {recording.fs:g} Hz "
-            f"({recording.duration:.3f} s), shorter than one window of {pipeline.window_length} samples"
+            f"{recording.source}: {recording.duration:.3f} s, shorter than one window of the model's "
+            f"({pipeline.window_length} samples at {pipeline.fs_hz:g} Hz, {pipeline.window_length / pipeline.fs_hz:.3f} s)"
         )
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; give rpm=<rev/min>")
@@ -215,7 +215,11 @@ def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]
         raise BearingTwinError(f"{recording.source}: cannot resample {recording.fs:g} Hz to the model's "
                                f"{target_fs:g} Hz by a ratio of small integers")
     signal = scipy.signal.resample_poly(recording.signal, ratio.numerator, ratio.denominator)
-    return dataclasses.replace(recording, signal=signal, fs=target_fs), f"resampled {recording.fs:g} Hz -> {target_fs:g} Hz (resample_poly, up {ratio.numerator}, down {ratio.denominator})"
+    note = f"resampled {recording.fs:g} Hz -> {target_fs:g} Hz (resample_poly, up {ratio.numerator}, down {ratio.denominator})"
+    if target_fs > recording.fs:  # the model's features span a band the record never held
+        note += (f"; the record holds nothing between its Nyquist frequency, {recording.fs / 2:g} Hz, and the "
+                 f"model's, {target_fs / 2:g} Hz")
+    return dataclasses.replace(recording, signal=signal, fs=target_fs), note
 
 
 def record_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray]:

@@ -2,8 +2,8 @@
 
 Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; for several records
 ``<out>/summary.csv`` (one row per record; ``true_state, correct`` when the truth is known from
-CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or a folder's own
-``labels.csv``, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
+CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or the own
+``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
 not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed is reported
 in ``summary.csv`` with its error and the others go on; the command then exits 2.
 """
@@ -88,13 +88,27 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     return found
 
 
-def labels_path(cfg: DictConfig) -> Path | None:
-    """The labels table: ``labels=<csv>``, else a folder's own ``labels.csv`` (as training reads one), else none
-    (a single file's row in the table beside it is :func:`row_beside`'s)."""
+def given_labels(cfg: DictConfig) -> Path | None:
+    """The table ``labels=<csv>`` names, if any."""
+    return None if cfg.labels is None else Path(str(cfg.labels)).expanduser()
+
+
+def labels_path(cfg: DictConfig, records: list[Path]) -> Path | None:
+    """The labels table: ``labels=<csv>``, else the ``labels.csv`` of the folder the records lie in (the folder
+    ``path=`` names, as training reads one, or the one folder a glob's files share), else none (a single file's
+    row in the table beside it is :func:`row_beside`'s). A glob across folders with tables of their own is
+    refused: their rows name records by stem, which one table cannot hold apart."""
     if cfg.labels is not None:
-        return Path(str(cfg.labels)).expanduser()
-    own = Path(str(cfg.path)).expanduser() / DEFAULT_LABELS
-    return own if own.is_file() else None
+        return given_labels(cfg)
+    if Path(str(cfg.path)).expanduser().is_file():
+        return None
+    folders = sorted({record.parent for record in records})
+    tables = [folder / DEFAULT_LABELS for folder in folders if (folder / DEFAULT_LABELS).is_file()]
+    if len(folders) > 1 and tables:
+        raise BearingTwinError(f"path={cfg.path}: matches files in {len(folders)} folders, and "
+                               f"{', '.join(str(table) for table in tables)} label some of them; give labels=<csv> "
+                               "or diagnose one folder at a time")
+    return tables[0] if tables else None
 
 
 def row_beside(cfg: DictConfig) -> tuple[Path | None, dict]:
@@ -136,8 +150,8 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     for name, unit in (("rpm", "rev/min"), ("fs", "Hz")):  # once, before any file: it applies to every one
         if cfg[name] is not None:
             positive_number(cfg[name], name, unit)
-    table = labels_path(cfg)
-    records = find_records(str(cfg.path), table)  # before the table: an empty path= would have ./labels.csv read
+    records = find_records(str(cfg.path), given_labels(cfg))  # first: an empty path= would have ./labels.csv read
+    table = labels_path(cfg, records)
     labels = read_labels(table)
     beside, row = row_beside(cfg)
     if beside is not None:  # one file: its row fills in what the command leaves out, as the twin's does
@@ -177,7 +191,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             _, state, row_rpm, row_fs = labelled.get(path.stem, (None, None, None, None))
             fs, fs_from_row = _fact(cfg.fs, row_fs, command_first=single)
             rpm, rpm_from_row = _fact(cfg.rpm, row_rpm, command_first=single)
-            its_row = f"{table.name if table else 'labels'} (its row for {path.name}): "
+            its_row = f"{table if table else 'labels'} (its row for {path.name}): "
             prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing,
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
                                    rpm_key=its_row + "rpm" if rpm_from_row else "rpm")

@@ -46,8 +46,8 @@ class ShaftLineCheck:
             ``observed_hz`` (at ``expected_hz`` if nothing was observed).
         matches: ``observed_hz`` lies within the tolerance of ``expected_hz``.
         verdict: ``consistent``, ``contradicted`` or ``ambiguous`` (see the module docstring).
-        fraction: k when the series also stands at n x expected / k for n not a multiple of k (between its
-            harmonics: the rate may be true / k).
+        fraction: k when a series also stands at n x g for n not a multiple of k, g within ``slip`` of
+            observed / k (between its harmonics: the declared rate may be near true / k).
         reason: one sentence explaining the verdict.
         witness: what confirmed the rate where the shaft series did not: ``series`` (the strong series is
             a defect frequency's) or ``envelope`` (a defect line in the envelope); ``supply`` where the strong
@@ -90,6 +90,19 @@ def _peak(ratio: np.ndarray, resolution: float, frequencies_hz: np.ndarray, rela
     return np.array([ratio[a:b].max() for a, b in zip(low.ravel(), high.ravel())]).reshape(frequencies_hz.shape)
 
 
+def _refined_fundamental(ratio: np.ndarray, resolution: float, multiples: np.ndarray, fundamental_hz: float,
+                         relative_width: float) -> float:
+    """The fundamental of a series from where its lines stand: the median over ``multiples`` n of (the
+    frequency of the largest prominence within ``relative_width`` of n x ``fundamental_hz``) / n. Finer than
+    the trial grid it was found on, which is as coarse as a line's search window."""
+    centres = multiples * fundamental_hz
+    half_width = np.maximum(centres * relative_width, resolution)
+    low = np.clip(np.floor((centres - half_width) / resolution).astype(int), 0, ratio.size - 1)
+    high = np.clip(np.ceil((centres + half_width) / resolution).astype(int) + 1, low + 1, ratio.size)
+    peaks_hz = np.array([(a + np.argmax(ratio[a:b])) * resolution for a, b in zip(low, high)])
+    return float(np.median(peaks_hz / multiples))
+
+
 def check_sampling_rate(
     signal: np.ndarray,
     fs: float,
@@ -103,6 +116,7 @@ def check_sampling_rate(
     search_factor: float = 5.0,
     background_hz: float = 5.0,
     max_fraction: int = 8,
+    slip: float = 0.05,
 ) -> ShaftLineCheck:
     """Check the declared sampling rate ``fs`` (Hz) of a record against its shaft speed ``rpm``.
 
@@ -114,10 +128,15 @@ def check_sampling_rate(
     defect lines or the supply explain that series (:func:`_second_look`). Near
     it, the in-between lines of every whole-number fraction k (2 .. ``max_fraction``) are
     scored too, and ``defect_hz`` (the bearing's defect frequencies at ``rpm``, any subset)
-    decides whether strong ones mean a rate of ``fs * k``. With no strong series within
+    decides whether strong ones mean a rate near ``fs * k`` (they are sought within ``slip`` of
+    observed / k: a rate near true / k puts the shaft's own series there, and the series nearest the
+    shaft's place may be a motor's supply line, a slip above twice the shaft's). With no strong series within
     ``search_factor``, one up to ``search_factor**2`` away contradicts the rate; none at all
     leaves it ``ambiguous`` (nothing to check it against); in both cases the defect lines may
-    still witness it.
+    still witness it. A contradiction's implied rate is checked in turn: where the shaft series would stand
+    between its harmonics at it (the series nearest the shaft's place was a supply or 2x line under a rate
+    near true / k), the rate its in-between lines imply is named beside it, and replaces it when the
+    defect lines confirm it.
 
     Args:
         signal: 1-D record (whole record: the resolution fs / n must resolve the harmonics).
@@ -128,7 +147,43 @@ def check_sampling_rate(
         tolerance: relative distance between observed and expected that still matches.
         prominence: how many times above the local median spectrum a series or line must stand.
         harmonic_tolerance: relative width of the search window around each harmonic.
+        slip: how far below twice the supply frequency a motor's shaft may turn (relative): the in-between
+            series is sought within it of observed / k, since the series taken for the shaft's may be the
+            supply's.
     """
+    options = dict(defect_hz=defect_hz, tolerance=tolerance, prominence=prominence, n_harmonics=n_harmonics,
+                   harmonic_tolerance=harmonic_tolerance, search_factor=search_factor, background_hz=background_hz,
+                   max_fraction=max_fraction, slip=slip)
+    check = _check_once(signal, fs, rpm, **options)
+    if check.verdict != "contradicted" or check.fraction or not check.implied_fs_hz:
+        return check
+    try:
+        again = _check_once(signal, check.implied_fs_hz, rpm, **options)
+    except BearingTwinError:  # the implied rate cannot be checked (too short a record at it): it stands as read
+        return check
+    if not again.fraction or again.verdict == "consistent":
+        return check
+    reason = f"{check.reason}; at {check.implied_fs_hz:.0f} Hz, {again.reason}"
+    implied = again.implied_fs_hz if again.verdict == "contradicted" else check.implied_fs_hz
+    return dataclasses.replace(check, implied_fs_hz=implied, reason=reason)
+
+
+def _check_once(
+    signal: np.ndarray,
+    fs: float,
+    rpm: float,
+    *,
+    defect_hz: Mapping[str, float] | None = None,
+    tolerance: float = 0.02,
+    prominence: float = 20.0,
+    n_harmonics: int = 5,
+    harmonic_tolerance: float = 0.005,
+    search_factor: float = 5.0,
+    background_hz: float = 5.0,
+    max_fraction: int = 8,
+    slip: float = 0.05,
+) -> ShaftLineCheck:
+    """One pass of :func:`check_sampling_rate` at the declared rate ``fs``."""
     signal = np.asarray(signal, dtype=np.float64)
     if signal.ndim != 1 or not np.all(np.isfinite(signal)):
         raise BearingTwinError("the sampling-rate check needs a 1-D, finite signal")
@@ -201,22 +256,38 @@ def check_sampling_rate(
                                       f"implying fs = {fs * expected / observed:.0f} Hz")
         return _second_look(check, signal, defect_hz, prominence)
 
-    # The same series' in-between lines, n * expected / k for n not a multiple of k.
-    in_between = {}
+    # The same series' in-between lines: n x g for n not a multiple of k, g within ``slip`` of observed / k. The
+    # series taken for the shaft's may be another one that a rate near true / k puts near the shaft's place (a
+    # motor's supply line, a slip above twice the shaft's), the shaft's own series then a slip from observed / k.
+    in_between, fundamentals = {}, {}
+    n_steps = int(math.ceil(math.log((1 + slip) / (1 - slip)) / harmonic_tolerance)) + 1
     for k in range(2, max_fraction + 1):
         n = np.array([m for m in range(1, n_harmonics * k) if m % k][: 2 * n_harmonics])
-        in_between[k] = float(np.median(_peak(ratio, resolution, n * expected / k, harmonic_tolerance)))
+        trial = observed / k * np.geomspace(1 - slip, 1 + slip, n_steps)
+        trial_scores = np.median(_peak(ratio, resolution, np.outer(n, trial), harmonic_tolerance), axis=0)
+        # A line's window is wider than the trial step: of the equal best, the fundamental nearest observed / k.
+        tied = np.flatnonzero(trial_scores >= trial_scores.max())
+        best = int(tied[np.argmin(np.abs(np.log(trial[tied] * k / observed)))])
+        in_between[k] = float(trial_scores[best])
+        fundamentals[k] = _refined_fundamental(ratio, resolution, n, float(trial[best]), harmonic_tolerance)
     fraction = max(in_between, key=in_between.get)
     if in_between[fraction] < prominence:
         return ShaftLineCheck(**common, implied_fs_hz=fs, matches=True, verdict="consistent",
                               reason=f"the shaft series stands at {observed:.2f} Hz and nowhere between its harmonics")
-    suspicion = (f"the shaft series also stands between its harmonics, at multiples of {expected / fraction:.2f} Hz "
+    below = fundamentals[fraction]
+    suspicion = (f"the shaft series also stands between its harmonics, at multiples of {below:.2f} Hz "
                  f"(prominence {in_between[fraction]:.0f})")
+    # Were those lines the shaft's own, the true rate would put them at rpm / 60: a whole multiple of the declared
+    # one when they stand at expected / k (within a search window), else the rate their fundamental implies.
+    whole = abs(math.log(below * fraction / expected)) <= harmonic_tolerance
+    rate_if_shaft = fs * fraction if whole else fs * expected / below
     verdict, implied, why = "ambiguous", None, "no defect frequency was given to decide"
     if defect_hz:
-        verdict, implied, why = _defect_witness(signal, fs, expected, defect_hz, fraction, prominence)
+        verdict, implied, why = _defect_witness(signal, fs, expected, defect_hz, fraction, below / expected,
+                                                rate_if_shaft, prominence)
     if verdict == "ambiguous":
-        why = f": fs may be {fs * fraction:g} Hz ({fraction} times the declared); {why}"
+        times = f"{fraction}" if whole else f"{rate_if_shaft / fs:.3g}"
+        why = f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz); {why}"
     return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
                           reason=suspicion + why)
 
@@ -410,23 +481,25 @@ def _envelope_prominence(signal: np.ndarray, fs: float, top_hz: float) -> tuple[
     return _prominence_spectrum(envelope(signal), fs, top_hz, background_hz=5.0)
 
 
-def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], k: int,
-                    prominence: float) -> tuple[str, float | None, str]:
-    """Envelope lines of the defect frequencies at f (right rate) against f / k (rate too low by k); a
-    frequency with f or f / k on a shaft harmonic is no witness, since the shaft's line stands there
-    whatever the rate (the SKF 6203's BSF is 1.994 x shaft, its half 0.997 x)."""
+def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], k: int, scale: float,
+                    rate_if_shaft: float, prominence: float) -> tuple[str, float | None, str]:
+    """Envelope lines of the defect frequencies at f (right rate) against f x ``scale`` (about 1 / k: where a
+    rate too low by that factor, ``rate_if_shaft``, puts them); a frequency with f or f / k on a shaft harmonic
+    is no witness, since the shaft's line stands there whatever the rate (the SKF 6203's BSF is 1.994 x shaft,
+    its half 0.997 x)."""
     lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2
              and _apart_from_shaft(float(hz), shaft_hz, 1, _WINDOW) and _apart_from_shaft(float(hz) / k, shaft_hz, 1, _WINDOW)}
     if not lines:
         return "ambiguous", None, "no defect frequency away from the shaft's lines below the Nyquist frequency to decide"
     ratio, resolution = _envelope_prominence(signal, fs, max(lines.values()) * 1.1)
     at_f = _peak(ratio, resolution, np.array(list(lines.values())), _WINDOW)
-    at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) / k, _WINDOW)
+    at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) * scale, _WINDOW)
     wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
     right = [name for name, a, b in zip(lines, at_f, at_fraction) if a >= prominence and b < prominence]
     if wrong and not right:
-        return "contradicted", fs * k, (f", and the envelope line of {wrong[0]} stands at 1/{k} of its frequency: "
-                                        f"the true rate is {fs * k:g} Hz")
+        fraction = f"1/{k}" if math.isclose(scale * k, 1.0, rel_tol=_WINDOW) else f"{scale:.3g} times"
+        return "contradicted", rate_if_shaft, (f", and the envelope line of {wrong[0]} stands at {fraction} its "
+                                               f"frequency: the true rate is {rate_if_shaft:.0f} Hz")
     if right and not wrong:
         return "consistent", fs, f", but the envelope line of {right[0]} stands at its frequency: real subharmonics"
     return "ambiguous", None, "the defect lines do not decide"

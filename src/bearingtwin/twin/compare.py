@@ -328,6 +328,7 @@ class Comparator:
             )
         self.envelope_window = sps.get_window("hann", self.segment)
         self.stats_window = int(round(s.stats_window_s * self.fs))
+        measured.require_no_held_stretch(s.stats_window_s, f"the comparison's {s.stats_window_s:g} s statistics windows")
         self.lines_nperseg = int(round(s.lines_segment_s * self.fs))
         self.lines_welch = WelchPSD(self.fs, sps.get_window("blackmanharris", self.lines_nperseg))
         lines_freqs = self.lines_welch.freqs_hz
