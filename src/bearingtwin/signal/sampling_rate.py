@@ -81,12 +81,19 @@ def _prominence_spectrum(signal: np.ndarray, fs: float, top_hz: float, backgroun
     return spectrum / np.maximum(background, np.finfo(float).tiny), resolution
 
 
+def _search_bins(frequencies_hz: np.ndarray, resolution: float, relative_width: float,
+                 n_bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """First and past-the-last bin of the window within ``relative_width`` (at least one bin) of each frequency."""
+    half_width = np.maximum(frequencies_hz * relative_width, resolution)
+    low = np.clip(np.floor((frequencies_hz - half_width) / resolution).astype(int), 0, n_bins - 1)
+    high = np.clip(np.ceil((frequencies_hz + half_width) / resolution).astype(int) + 1, low + 1, n_bins)
+    return low, high
+
+
 def _peak(ratio: np.ndarray, resolution: float, frequencies_hz: np.ndarray, relative_width: float) -> np.ndarray:
     """The largest prominence within ``relative_width`` (at least one bin) of each frequency."""
     frequencies_hz = np.asarray(frequencies_hz, dtype=float)
-    half_width = np.maximum(frequencies_hz * relative_width, resolution)
-    low = np.clip(np.floor((frequencies_hz - half_width) / resolution).astype(int), 0, ratio.size - 1)
-    high = np.clip(np.ceil((frequencies_hz + half_width) / resolution).astype(int) + 1, low + 1, ratio.size)
+    low, high = _search_bins(frequencies_hz, resolution, relative_width, ratio.size)
     return np.array([ratio[a:b].max() for a, b in zip(low.ravel(), high.ravel())]).reshape(frequencies_hz.shape)
 
 
@@ -95,10 +102,7 @@ def _refined_fundamental(ratio: np.ndarray, resolution: float, multiples: np.nda
     """The fundamental of a series from where its lines stand: the median over ``multiples`` n of (the
     frequency of the largest prominence within ``relative_width`` of n x ``fundamental_hz``) / n. Finer than
     the trial grid it was found on, which is as coarse as a line's search window."""
-    centres = multiples * fundamental_hz
-    half_width = np.maximum(centres * relative_width, resolution)
-    low = np.clip(np.floor((centres - half_width) / resolution).astype(int), 0, ratio.size - 1)
-    high = np.clip(np.ceil((centres + half_width) / resolution).astype(int) + 1, low + 1, ratio.size)
+    low, high = _search_bins(multiples * fundamental_hz, resolution, relative_width, ratio.size)
     peaks_hz = np.array([(a + np.argmax(ratio[a:b])) * resolution for a, b in zip(low, high)])
     return float(np.median(peaks_hz / multiples))
 
@@ -117,6 +121,7 @@ def check_sampling_rate(
     background_hz: float = 5.0,
     max_fraction: int = 8,
     slip: float = 0.05,
+    follow_implied: bool = True,
 ) -> ShaftLineCheck:
     """Check the declared sampling rate ``fs`` (Hz) of a record against its shaft speed ``rpm``.
 
@@ -150,40 +155,9 @@ def check_sampling_rate(
         slip: how far below twice the supply frequency a motor's shaft may turn (relative): the in-between
             series is sought within it of observed / k, since the series taken for the shaft's may be the
             supply's.
+        follow_implied: check a contradiction's implied rate in turn (False: the rate the nearest series
+            implies, as read).
     """
-    options = dict(defect_hz=defect_hz, tolerance=tolerance, prominence=prominence, n_harmonics=n_harmonics,
-                   harmonic_tolerance=harmonic_tolerance, search_factor=search_factor, background_hz=background_hz,
-                   max_fraction=max_fraction, slip=slip)
-    check = _check_once(signal, fs, rpm, **options)
-    if check.verdict != "contradicted" or check.fraction or not check.implied_fs_hz:
-        return check
-    try:
-        again = _check_once(signal, check.implied_fs_hz, rpm, **options)
-    except BearingTwinError:  # the implied rate cannot be checked (too short a record at it): it stands as read
-        return check
-    if not again.fraction or again.verdict == "consistent":
-        return check
-    reason = f"{check.reason}; at {check.implied_fs_hz:.0f} Hz, {again.reason}"
-    implied = again.implied_fs_hz if again.verdict == "contradicted" else check.implied_fs_hz
-    return dataclasses.replace(check, implied_fs_hz=implied, reason=reason)
-
-
-def _check_once(
-    signal: np.ndarray,
-    fs: float,
-    rpm: float,
-    *,
-    defect_hz: Mapping[str, float] | None = None,
-    tolerance: float = 0.02,
-    prominence: float = 20.0,
-    n_harmonics: int = 5,
-    harmonic_tolerance: float = 0.005,
-    search_factor: float = 5.0,
-    background_hz: float = 5.0,
-    max_fraction: int = 8,
-    slip: float = 0.05,
-) -> ShaftLineCheck:
-    """One pass of :func:`check_sampling_rate` at the declared rate ``fs``."""
     signal = np.asarray(signal, dtype=np.float64)
     if signal.ndim != 1 or not np.all(np.isfinite(signal)):
         raise BearingTwinError("the sampling-rate check needs a 1-D, finite signal")
@@ -198,6 +172,13 @@ def _check_once(
             f"the record is too short to check its sampling rate: {signal.size} samples give {resolution:.3g} Hz "
             f"resolution, too coarse to place a {expected:.3g} Hz shaft line within {tolerance:.0%}"
         )
+    options = dict(defect_hz=defect_hz, tolerance=tolerance, prominence=prominence, n_harmonics=n_harmonics,
+                   harmonic_tolerance=harmonic_tolerance, search_factor=search_factor, background_hz=background_hz,
+                   max_fraction=max_fraction, slip=slip)
+
+    def concluded(check: ShaftLineCheck) -> ShaftLineCheck:
+        return _implied_rate_checked(check, signal, options) if follow_implied else check
+
     # The search reaches search_factor^2 on either side only to tell "no series anywhere" from "a series
     # too far away"; the shaft's series is looked for within search_factor.
     wide = search_factor**2
@@ -234,19 +215,19 @@ def _check_once(
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}) nor anywhere from {expected / wide:.2f} to {expected * wide:.0f} "
                                    f"Hz: {seen}")
-            return _second_look(check, signal, defect_hz, prominence)
+            return concluded(_second_look(check, signal, defect_hz, prominence))
         if strong.size == 0:  # the declared rate cannot even hold the search (Nyquist below it): far too low
             check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}), and at fs = {fs:g} Hz the spectrum ends at {fs / 2:g} Hz")
-            return _second_look(check, signal, defect_hz, prominence)
+            return concluded(_second_look(check, signal, defect_hz, prominence))
         farther = strong[np.argmin(np.abs(np.log(beyond[strong] / expected)))]
         observed = float(beyond[farther])
         check = ShaftLineCheck(fs, rpm, expected, observed, fs * expected / observed, float(beyond_score[farther]),
                                False, "contradicted", None,
                                f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f}); "
                                f"the nearest strong one is at {observed:.2f} Hz, implying fs = {fs * expected / observed:.0f} Hz")
-        return _second_look(check, signal, defect_hz, prominence)
+        return concluded(_second_look(check, signal, defect_hz, prominence))
     nearest = near[np.argmin(np.abs(np.log(grid[near] / expected)))]
     observed = float(grid[nearest])
     common = dict(fs_hz=fs, rpm=rpm, expected_hz=expected, observed_hz=observed, score=float(score[nearest]))
@@ -254,7 +235,7 @@ def _check_once(
         check = ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False, verdict="contradicted",
                                reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
                                       f"implying fs = {fs * expected / observed:.0f} Hz")
-        return _second_look(check, signal, defect_hz, prominence)
+        return concluded(_second_look(check, signal, defect_hz, prominence))
 
     # The same series' in-between lines: n x g for n not a multiple of k, g within ``slip`` of observed / k. The
     # series taken for the shaft's may be another one that a rate near true / k puts near the shaft's place (a
@@ -290,6 +271,23 @@ def _check_once(
         why = f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz); {why}"
     return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
                           reason=suspicion + why)
+
+
+def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Mapping) -> ShaftLineCheck:
+    """A contradiction whose implied rate is checked in turn: where the shaft series would stand between its
+    harmonics at that rate, the rate those in-between lines imply is named beside it, and replaces it when the
+    defect lines confirm it."""
+    if check.verdict != "contradicted" or check.fraction or not check.implied_fs_hz:
+        return check
+    try:
+        again = check_sampling_rate(signal, check.implied_fs_hz, check.rpm, **options, follow_implied=False)
+    except BearingTwinError:  # the implied rate cannot be checked (too short a record at it): it stands as read
+        return check
+    if not again.fraction or again.verdict == "consistent":
+        return check
+    reason = f"{check.reason}; at {check.implied_fs_hz:.0f} Hz, {again.reason}"
+    implied = again.implied_fs_hz if again.verdict == "contradicted" else check.implied_fs_hz
+    return dataclasses.replace(check, implied_fs_hz=implied, reason=reason)
 
 
 def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> dict[str, ShaftLineCheck]:
