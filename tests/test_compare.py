@@ -66,6 +66,18 @@ def test_psd_view_names_the_band_where_energy_is_added():
     low, high = (float(part.split()[0]) * (1000 if "kHz" in part else 1)
                  for part in finding.removeprefix("energy between ").split(" is ")[0].split(" and "))
     assert low <= 1300 and 1700 <= high
+    assert result.views["psd"].what_leaves_it is None  # energy added: the view's own words (a resonance, a source)
+
+
+def test_psd_view_takes_an_empty_top_band_for_the_measurement_chains_low_pass():
+    """A record whose chain cuts it off below the Nyquist frequency (a converter's anti-aliasing, a sensor's
+    bandwidth, a record resampled from a lower rate) is quieter in the top band than a twin that is not: the
+    view says what takes energy away there, not what adds it."""
+    twin = impacts("outer", 2.0, seed=0, noise=0.05)
+    meas = sps.sosfiltfilt(sps.butter(10, 3500, fs=FS, output="sos"), twin)
+    psd = Comparator(measured(meas), GEOMETRY)(twin).views["psd"]
+    assert psd.finding.endswith("below the twin's") and "6 kHz" in psd.finding, psd.finding
+    assert "a low-pass in the measurement chain" in psd.what_leaves_it
 
 
 def test_harmonics_view_sees_smeared_lines_as_wider():

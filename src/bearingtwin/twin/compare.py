@@ -181,6 +181,7 @@ class ViewResult:
     share: float
     finding: str
     n_points: int
+    what_leaves_it: str | None = None  # the physics that leaves what it saw, where the view can tell (None: the view's own)
 
 
 @dataclass
@@ -406,11 +407,17 @@ class Comparator:
         residual = residual - np.polyval(np.polyfit(centred, residual, s.psd_detrend_order), centred)
         worst = int(np.argmax(np.abs(residual)))
         lo, hi = self.band_edges_hz[worst], self.band_edges_hz[worst + 1]
+        psd_cause = None
         if abs(residual[worst]) < 0.5:
             psd_finding = "band levels agree within 0.5 dB after gain and tilt"
         else:
             psd_finding = (f"energy between {_hz(lo)} and {_hz(hi)} is {abs(residual[worst]):.1f} dB "
                            f"{'above' if residual[worst] > 0 else 'below'} the twin's")
+            if residual[worst] < 0:  # the measurement quieter: what takes energy away, not what adds it
+                psd_cause = "a quieter path in that band (more damping, or a mode the twin has and the structure lacks)"
+                if worst == residual.size - 1:  # the top band: what every acquisition chain does there
+                    psd_cause += (" or, at the top of the spectrum, a low-pass in the measurement chain (the sensor's or "
+                                  "the converter's bandwidth, or a record resampled from a lower rate)")
 
         gain = 10 ** (gain_db / 20.0)
         lines_error, lines_finding, n_line_bins = self._compare_lines(m, twin, gain)
@@ -464,7 +471,7 @@ class Comparator:
         discrepancy = sum(weighted.values()) / total_weight
         views = {
             v: ViewResult(v, errors[v], weighted[v] / sum(weighted.values()) if discrepancy > 0 else 0.0, findings[v],
-                          n_points[v])
+                          n_points[v], psd_cause if v == "psd" else None)
             for v in VIEWS
         }
         return Comparison(float(discrepancy), gain, views, m, twin, self)

@@ -172,7 +172,7 @@ class Judge:
             result = comparison.views[v]
             if self.weights[v] > 0 and result.error_db > 2 * floors[v] and result.error_db > 1.0:
                 left.append({"view": v, "error_db": result.error_db, "floor_db": floors[v],
-                             "where": result.finding, "what_leaves_it": WHAT_LEAVES_IT[v]})
+                             "where": result.finding, "what_leaves_it": result.what_leaves_it or WHAT_LEAVES_IT[v]})
         return sorted(left, key=lambda u: -u["error_db"] / u["floor_db"])
 
 
