@@ -100,23 +100,15 @@ def inference_ms_per_sample(classifier, X: np.ndarray, n_samples: int = 32) -> f
     """Median wall time in ms to classify one sample on its own (batch of one), as a deployed
     diagnosis would; the median over ``n_samples`` samples resists scheduler hiccups.
 
-    Timed on one torch thread: for a batch of one, extra threads only add synchronisation,
-    and on a busy machine two threads contending for cores measured 220-290 ms against
-    1.1 ms on one thread for the same network.
+    The network predicts on one torch thread (:func:`~bearingtwin.models.cnn_bilstm.one_torch_thread`): for a
+    batch of one, extra threads only add synchronisation, and on a busy machine two threads contending for
+    cores measured 220-290 ms against 1.1 ms on one thread for the same network.
     """
-    torch = sys.modules.get("torch")  # loaded by the network; an SVM run never imports it
-    threads = torch.get_num_threads() if torch else None
-    if torch:
-        torch.set_num_threads(1)
-    try:
-        times = []
-        for row in X[:n_samples]:
-            start = time.perf_counter()
-            classifier.predict(row[None, :])
-            times.append(time.perf_counter() - start)
-    finally:
-        if torch:
-            torch.set_num_threads(threads)
+    times = []
+    for row in X[:n_samples]:
+        start = time.perf_counter()
+        classifier.predict(row[None, :])
+        times.append(time.perf_counter() - start)
     return 1e3 * float(np.median(times))
 
 
