@@ -106,6 +106,17 @@ def test_atomic_writes_leave_the_whole_file_or_the_old_one(tmp_path):
     np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), array)
     np.testing.assert_array_equal(np.load(tmp_path / "b.npz")["signals"], array)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npz"]
+    # A team's shared cache: an entry gets the mode any new file gets under the umask, not a temporary file's 0600.
+    import os
+    import stat
+
+    mask = os.umask(0o022)
+    try:
+        save_npz_atomic(tmp_path / "shared.npz", signals=array)
+    finally:
+        os.umask(mask)
+    assert stat.S_IMODE((tmp_path / "shared.npz").stat().st_mode) == 0o644
+    (tmp_path / "shared.npz").unlink()
 
     class Unsaveable:  # np.save pickles objects it cannot store as arrays; this one refuses part-way
         def __reduce__(self):

@@ -44,10 +44,20 @@ def _write_atomic(path: str | Path, write) -> None:
     try:
         with os.fdopen(handle, "wb") as stream:
             write(stream)
+        # mkstemp makes the file private (0600); the entry gets the mode any new file would (the umask's), so a
+        # team's shared cache is readable by the team.
+        os.chmod(temporary, 0o666 & ~_umask())
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
+
+
+def _umask() -> int:
+    """The process's file-mode creation mask (reading it means setting it: set back at once)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def load_npz_or_heal(path: str | Path, *names: str) -> dict[str, np.ndarray] | None:
