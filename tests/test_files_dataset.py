@@ -236,3 +236,27 @@ def test_a_recording_in_a_subfolder_that_a_labels_row_names_is_part_of_the_runs_
     before = input_digest(cfg)
     np.save(folder / "sub" / "e.npy", tone("outer", seed=4))  # same name and size, other data
     assert input_digest(cfg) != before
+
+
+def test_a_rate_a_labels_row_or_data_fs_gives_is_checked_against_the_shaft_line(tmp_path):
+    """Recordings whose shaft (1797 rpm) shows its harmonic series, sampled at 12 kHz and labelled 8 kHz: read at
+    8 kHz the series stands 1.5 times too high, so the rate is refused naming the file and where it came from;
+    ``data.check_fs=false`` reads them as told, and the true rate passes."""
+    root = tmp_path / "mine"
+    root.mkdir()
+    fs, shaft_hz = 12000.0, 1797.0 / 60.0
+    t = np.arange(int(4 * fs)) / fs
+    rng = np.random.default_rng(0)
+    for state in ("normal", "outer"):
+        series = sum(np.sin(2 * np.pi * k * shaft_hz * t + k) / k for k in range(1, 7))
+        np.save(root / f"{state}.npy", series + 0.05 * rng.standard_normal(t.size))
+    (root / "labels.csv").write_text("record,state,rpm,fs\nnormal.npy,normal,1797,8000\nouter.npy,outer,1797,8000\n")
+    with pytest.raises(BearingTwinError, match=r"normal.npy: fs = 8000 Hz contradicts the shaft speed.*fs may be "
+                                               r"120\d\d Hz .*; give the true rate with the labels row's fs=<Hz>, or "
+                                               r"data.check_fs=false"):
+        build_dataset(files_cfg(root, "data.fs=null"))
+    assert build_dataset(files_cfg(root, "data.fs=null", "data.check_fs=false")).fs == 8000.0
+    (root / "labels.csv").write_text("record,state,rpm\nnormal.npy,normal,1797\nouter.npy,outer,1797\n")
+    with pytest.raises(BearingTwinError, match=r"normal.npy: fs = 8000 Hz contradicts .* with data.fs=<Hz>"):
+        build_dataset(files_cfg(root, "data.fs=8000"))
+    assert build_dataset(files_cfg(root, "data.fs=12000")).fs == fs

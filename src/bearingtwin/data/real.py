@@ -30,7 +30,8 @@ from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import SPLITS, check_train_fraction, check_windows_fit, cut_windows
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.geometry import FAULTS
+from bearingtwin.physics.geometry import FAULTS, BearingGeometry
+from bearingtwin.signal.sampling_rate import require_plausible_rate
 
 KEY_IGNORES = ("root", "split", "train_fraction")
 """Config fields that do not change the windows: moving the data or re-splitting keeps the key."""
@@ -140,11 +141,25 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
                        rpm_key="data.rpm" if rpm is None else "the labels row's rpm")
         for path, state, rpm, fs in rows
     ]
+    if bool(_get(cfg, "check_fs")):
+        for recording, (_, _, _, row_fs) in zip(recordings, rows):
+            check_stated_rate(recording, "data.fs" if row_fs is None else "the labels row's fs", "data.check_fs")
     labelling = [(path.name, state, rpm, fs) for path, state, rpm, fs in rows]
     return windows_from_recordings(
         recordings, window_length, windows_per_record, "data.windows_per_record",
         dataset_key([path for path, *_ in rows], {**cfg, "labels": labelling, "pattern": None}),
     )
+
+
+def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing: BearingGeometry | None = None) -> None:
+    """The rate a setting or a labels row gave a record, checked against its shaft line as a CWRU record's declared
+    one is: refused where the shaft series contradicts it (``fs_key`` named as its source); one the file itself
+    records (a time column, a header, an .npz's fs) only logged; unchecked without a speed."""
+    if recording.rpm is None:
+        return
+    require_plausible_rate(recording.signal, recording.fs, recording.rpm, recording.source, fs_key,
+                           defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
+                           refuse=recording.meta.get("fs_origin") in ("config", "declared"), check_key=check_key)
 
 
 def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>",

@@ -49,6 +49,7 @@ class ShaftLineCheck:
         fraction: k when a series also stands at n x g for n not a multiple of k, g within ``slip`` of
             observed / k (between its harmonics: the declared rate may be near true / k).
         reason: one sentence explaining the verdict.
+        fraction_rate_hz: with a ``fraction``, the rate at which its in-between lines would be the shaft's series.
         witness: what confirmed the rate where the shaft series did not: ``series`` (the strong series is
             a defect frequency's) or ``envelope`` (a defect line in the envelope); ``supply`` where the strong
             series is the supply's, which leaves the rate ``ambiguous``; None otherwise.
@@ -65,6 +66,7 @@ class ShaftLineCheck:
     fraction: int | None = None
     reason: str = ""
     witness: str | None = None
+    fraction_rate_hz: float | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -270,13 +272,14 @@ def check_sampling_rate(
         times = f"{fraction}" if whole else f"{rate_if_shaft / fs:.3g}"
         why = f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz); {why}"
     return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
-                          reason=suspicion + why)
+                          reason=suspicion + why, fraction_rate_hz=rate_if_shaft)
 
 
 def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Mapping) -> ShaftLineCheck:
     """A contradiction whose implied rate is checked in turn: where the shaft series would stand between its
-    harmonics at that rate, the rate those in-between lines imply is named beside it, and replaces it when the
-    defect lines confirm it."""
+    harmonics at that rate, the rate at which those in-between lines are the shaft's series replaces it, said so
+    (a record's 1x line is far more common than lines at half orders, and the defect lines, where given,
+    confirm it or leave it in doubt)."""
     if check.verdict != "contradicted" or check.fraction or not check.implied_fs_hz:
         return check
     try:
@@ -286,8 +289,7 @@ def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Ma
     if not again.fraction or again.verdict == "consistent":
         return check
     reason = f"{check.reason}; at {check.implied_fs_hz:.0f} Hz, {again.reason}"
-    implied = again.implied_fs_hz if again.verdict == "contradicted" else check.implied_fs_hz
-    return dataclasses.replace(check, implied_fs_hz=implied, reason=reason)
+    return dataclasses.replace(check, implied_fs_hz=again.implied_fs_hz or again.fraction_rate_hz, reason=reason)
 
 
 def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> dict[str, ShaftLineCheck]:
