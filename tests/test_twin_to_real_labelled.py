@@ -212,6 +212,14 @@ def test_a_record_read_at_a_rate_its_shaft_line_contradicts_is_refused(tmp_path,
     with pytest.raises(BearingTwinError, match=r"inner_b\.npy: read at data\.fs=12000 Hz, a rate neither the file nor its "
                                                r"labels row states, but .*; give its rate in the labels table's fs column"):
         build_dataset(compose_train(labelled(folder, report_path, f"paths.cache_dir={tmp_path}")))
+    # A wrong rate its row gives is refused alike, named as the row's.
+    (folder / "labels.csv").write_text((folder / "labels.csv").read_text().replace("inner_b.npy,inner,1750,",
+                                                                                 "inner_b.npy,inner,1750,12000"))
+    with pytest.raises(BearingTwinError, match=r"inner_b\.npy: read at its labels row's fs=12000 Hz, but fs = 12000 Hz "
+                                               r"contradicts the shaft speed"):
+        build_dataset(compose_train(labelled(folder, report_path, f"paths.cache_dir={tmp_path}")))
+    (folder / "labels.csv").write_text((folder / "labels.csv").read_text().replace("inner_b.npy,inner,1750,12000",
+                                                                                 "inner_b.npy,inner,1750,"))
     # Its rate given, the record is at another rate than the rest: named, with what can be done.
     (folder / "labels.csv").write_text((folder / "labels.csv").read_text().replace("inner_b.npy,inner,1750,",
                                                                                  "inner_b.npy,inner,1750,25600"))

@@ -601,8 +601,8 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
 def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | None, channel, default_fs: float,
                          geometry: BearingGeometry, tolerance: float) -> Recording:
     """A labelled record (its labels row's ``state``, ``rpm`` and ``fs``) at the rate the row or the file states
-    (:func:`_check_rates` judges it against ``data.fs``), else at ``default_fs`` (``data.fs``): a rate nothing
-    states is checked against the shaft line as a CWRU record's declared one is, and refused where the shaft
+    (:func:`_check_rates` judges it against ``data.fs``), else at ``default_fs`` (``data.fs``): a rate the file does
+    not record is checked against the shaft line as a CWRU record's declared one is, and refused where the shaft
     series contradicts it."""
     raw = read_raw(path)
     stated = raw.fs is not None and raw.fs_origin != "declared"  # a rate a data set's convention gives is no statement
@@ -613,7 +613,7 @@ def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | 
         raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
                                "(the twin runs at each record's speed)")
     recording.require_vibration()
-    if fs is None and not stated:
+    if not stated:  # a rate the labels row or data.fs gives, not the file: the shaft line is its witness
         try:
             checks = check_channels(rate_witnesses(recording.signal, raw.channels), recording.fs, recording.rpm,
                                     defect_hz=geometry.defect_frequencies(recording.rpm), tolerance=tolerance)
@@ -621,8 +621,10 @@ def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | 
             return recording
         check = checks[decisive_channel(checks)]
         if check.verdict == "contradicted":
-            raise BearingTwinError(f"{path}: read at data.fs={default_fs:g} Hz, a rate neither the file nor its labels "
-                                   f"row states, but {describe_mismatch(check)}; give its rate in the labels table's fs column")
+            read_at = (f"read at data.fs={default_fs:g} Hz, a rate neither the file nor its labels row states" if fs is None
+                       else f"read at its labels row's fs={fs:g} Hz")
+            raise BearingTwinError(f"{path}: {read_at}, but {describe_mismatch(check)}; give its rate in the labels "
+                                   "table's fs column")
     return recording
 
 
