@@ -162,6 +162,29 @@ def test_a_later_run_with_other_vmd_params_does_not_displace_the_tables_runs(uri
     assert f"| {100 * raw.data.metrics['accuracy']:.2f} ± 0.00 | 1 |" in leaky.stdout  # raw features have no VMD parameters
 
 
+def test_a_smoke_run_is_not_averaged_with_full_size_runs_of_its_method(uri, tmp_path):
+    """A store holding a full-size run of a method (another seed, ten times the data) beside the smoke sweep's:
+    the table is the full-size run's alone, and the smoke run is named as left out, in the file as on screen."""
+    from mlflow.entities import Param
+
+    (proposed,) = finished(uri, paper.PROPOSED)
+    copy = copy_store(uri, tmp_path / "copy.db")
+    client = MlflowClient(copy)
+    duration = float(proposed.data.params["data.duration"])
+    full = client.create_run(proposed.info.experiment_id,
+                             tags={"bt.kind": "train", "method": paper.PROPOSED, "seed": "8"}).info.run_id
+    client.log_batch(full, params=[Param(key, str(10 * duration) if key == "data.duration" else value)
+                                   for key, value in proposed.data.params.items()])
+    client.log_metric(full, "accuracy", 0.5)
+    client.set_terminated(full, "FINISHED")
+    done = report("table4", f"uri={copy}", f"out={tmp_path}/table4.md")
+    assert done.returncode == 0, done.stderr
+    assert f"| {paper.PROPOSED} | 50.00 ± 0.00 | 1 |" in done.stdout
+    left_out = (f"Left out, smaller than the other runs of their method (a smoke run is not averaged with full-size "
+                f"ones): {paper.PROPOSED} seed {proposed.data.tags['seed']} (data.duration={duration:g}")
+    assert left_out in done.stdout and left_out in (tmp_path / "table4.md").read_text()
+
+
 def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, capsys):
     (run,) = finished(uri, "sabo_vmd_pemie+svm")
     same = report("repeat", f"uri={uri}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat.md")

@@ -60,6 +60,23 @@ def run_sizes(runs) -> dict[str, list[float]]:
     return {key: sorted(values) for key, values in sizes.items() if values}
 
 
+def run_size(run) -> tuple[float, ...]:
+    """A run's size settings in :data:`SIZE_KEYS` order (one not logged, or not used: 0), to order runs by."""
+    searched = run.data.params.get("features.kind") == "sabo_vmd"
+    size = []
+    for key in SIZE_KEYS:
+        try:
+            size.append(0.0 if key.startswith("search.") and not searched else float(run.data.params.get(key)))
+        except (TypeError, ValueError):
+            size.append(0.0)
+    return tuple(size)
+
+
+def size_words(run) -> str:
+    """A run's size settings as a reader would give them (``data.duration=2, trainer.max_epochs=3``)."""
+    return ", ".join(f"{key}={_fmt(value)}" for key, value in zip(SIZE_KEYS, run_size(run)) if value)
+
+
 def size_record(sizes: dict[str, list[float]]) -> str:
     """The line a generated block carries (an HTML comment: invisible in rendered markdown)."""
     return f"<!-- settings of the runs behind these numbers: {json.dumps(sizes, sort_keys=True)} -->"

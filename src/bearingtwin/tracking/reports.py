@@ -36,7 +36,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
 from bearingtwin.tracking.mlflow_logging import find_runs, open_store, stored_config, sweep_run_ids
-from bearingtwin.tracking.provenance import SIZE_KEYS, check_replacement, run_sizes, size_record
+from bearingtwin.tracking.provenance import SIZE_KEYS, check_replacement, run_size, run_sizes, size_record, size_words
 from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
 # uri / experiment: the store; out: the markdown file (default results/<name>.md in the working
@@ -62,6 +62,7 @@ class ReportInput:
     experiment_id: str
     settings: dict[str, str]
     used_runs: list = field(default_factory=list)  # every run a table was computed from, for its size record
+    left_out: list = field(default_factory=list)  # runs passed over for larger runs of their method, in words
 
     def training_runs(self, extra_filter: str = "", group_by: Callable = lambda run: (), vmd_params: str | None = None) -> list:
         """FINISHED training runs, newest per (method, seed, ``group_by(run)``).
@@ -92,8 +93,19 @@ class ReportInput:
             if vmd_params is not None and run.data.params.get("features.vmd_params", vmd_params) != vmd_params:
                 continue
             newest.setdefault((run.data.tags.get("method"), run.data.tags.get("seed"), *group_by(run)), run)
-        self.used_runs.extend(newest.values())
-        return list(newest.values())
+        # Numbers of smaller runs (a smoke test) are not averaged with a method's full-size ones: each method keeps
+        # its largest runs, and the others are named in the report.
+        largest: dict[tuple, tuple[float, ...]] = {}
+        for (method, _, *group), run in newest.items():
+            largest[(method, *group)] = max(largest.get((method, *group), ()), run_size(run))
+        kept = []
+        for (method, seed, *group), run in newest.items():
+            if run_size(run) == largest[(method, *group)]:
+                kept.append(run)
+            else:
+                self.left_out.append(f"{method} seed {seed} ({size_words(run)})")
+        self.used_runs.extend(kept)
+        return kept
 
 
 Reporter = Callable[[ReportInput], Report]
@@ -452,6 +464,9 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
         report = function(source)
         sizes = run_sizes(source.used_runs)
         check_replacement(out, sizes, default_sizes(), force=settings.get("force") == "true")
+        if source.left_out:
+            report.markdown = (report.markdown.rstrip() + "\n\nLeft out, smaller than the other runs of their method "
+                               f"(a smoke run is not averaged with full-size ones): {'; '.join(source.left_out)}.\n")
         if sizes:  # printed too: what is on screen is what the file holds
             report.markdown = report.markdown.rstrip() + "\n\n" + size_record(sizes) + "\n"
         write_generated(staged, report.markdown, GENERATED)
