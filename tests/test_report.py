@@ -202,7 +202,7 @@ def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, 
     assert "| accuracy |" in differs and "| NO |" in differs
 
 
-def test_bad_requests_exit_2_naming_the_problem(uri, capsys):
+def test_bad_requests_exit_2_naming_the_problem(uri, capsys, tmp_path):
     with pytest.raises(SystemExit) as exit_info:
         main(["table5", f"uri={uri}"])
     assert exit_info.value.code == 2 and "unknown report 'table5'" in capsys.readouterr().err
@@ -215,6 +215,13 @@ def test_bad_requests_exit_2_naming_the_problem(uri, capsys):
     with pytest.raises(SystemExit) as exit_info:  # pasted into MLflow's filter, a quote broke it with a traceback
         main(["table4", f"uri={uri}", "sweep_dir=/tmp/a'b"])
     assert exit_info.value.code == 2 and "sweep_dir=/tmp/a'b: a quote cannot be matched" in capsys.readouterr().err
+    (proposed,) = finished(uri, paper.PROPOSED)  # a run an interrupt stopped has no results to repeat
+    copy = copy_store(uri, tmp_path / "copy.db")
+    killed = MlflowClient(copy).create_run(proposed.info.experiment_id, tags={"bt.kind": "train"}).info.run_id
+    MlflowClient(copy).set_terminated(killed, "KILLED")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["repeat", f"uri={copy}", f"run_id={killed}", f"out={tmp_path}/repeat.md"])
+    assert exit_info.value.code == 2 and f"run_id={killed}: the run is KILLED, not FINISHED" in capsys.readouterr().err
 
 
 def test_the_twin_chosen_without_the_test_records_is_the_best_validated_then_the_simplest():

@@ -4,7 +4,7 @@ Names: table3, table4, vmd_params, seeds, repeat (``run_id=<id>``), and any repo
 registered in :mod:`bearingtwin.tracking.reports`. Common settings: ``uri=``,
 ``experiment=``, ``out=``, ``sweep_dir=``, ``source=`` (default simulated; ``all``), ``force=true`` (replace
 a file of results from larger runs).
-Exit status: 0, 1 when ``repeat`` finds a metric that differs, 2 for bad input.
+Exit status: 0, 1 when ``repeat`` finds a metric that differs, 2 for bad input, 130 / 143 when interrupted.
 """
 
 from __future__ import annotations
@@ -14,10 +14,11 @@ import os
 import sys
 
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.tracking.reports import REPORTS, run_report
 
 
-def main(argv: list[str] | None = None) -> int:
+def report(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="bearingtwin-report", description=__doc__.splitlines()[0])
     parser.add_argument("name", help=f"report: {', '.join(sorted(REPORTS))}")
     parser.add_argument("settings", nargs="*", metavar="key=value")
@@ -37,6 +38,9 @@ def main(argv: list[str] | None = None) -> int:
     if not report.ok:
         sys.exit(1)
     return 0
+
+
+main = stop_cleanly(report)  # an interrupt (a repeat trains for minutes) says so and exits 130, as training does
 
 
 if __name__ == "__main__":

@@ -381,9 +381,13 @@ def repeat(source: ReportInput) -> Report:
     if not run_id:
         raise BearingTwinError("repeat needs run_id=<MLflow run id>")
     try:
-        logged = source.client.get_run(run_id).data.metrics
+        run = source.client.get_run(run_id)
     except Exception as error:
         raise BearingTwinError(f"run_id={run_id}: no such run in {source.settings.get('uri')} ({error})") from error
+    if run.info.status != "FINISHED":  # a KILLED or FAILED run has no complete metrics to compare with
+        raise BearingTwinError(f"run_id={run_id}: the run is {run.info.status}, not FINISHED: it logged no complete "
+                               "results to repeat")
+    logged = run.data.metrics
     cfg = stored_config(source.client, run_id)
     with tempfile.TemporaryDirectory() as scratch:
         repeated = run_experiment(cfg, root_dir=scratch).metrics
