@@ -270,3 +270,15 @@ def test_a_bad_model_name_in_a_sweep_is_refused_before_any_job(tmp_path):
                    f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun", cwd=tmp_path)
     assert_one_line_exit_2(done, "register=bad/name")
     assert not (tmp_path / "mlflow.db").exists()
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, where no file can be made")
+def test_an_output_folder_nothing_can_be_written_in_is_refused_before_any_work(tmp_path):
+    from bearingtwin.config import output_folder
+
+    with pytest.raises(BearingTwinError, match=r"^out=/proc/nope/deeper: nothing can be written in /proc \("):
+        output_folder("/proc/nope/deeper")
+    assert output_folder(tmp_path / "new" / "deeper") == tmp_path / "new" / "deeper"
+    assert not (tmp_path / "new").exists()  # checked, not made: a refused run leaves nothing behind
+    done = run_module("bearingtwin.cli.simulate", "simulator.duration=0.2", "out=/proc/nope/x.npz", cwd=tmp_path)
+    assert done.returncode == 2 and "out=/proc/nope: nothing can be written in /proc" in done.stderr, done.stderr

@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import os
 import sys
+import tempfile
 from pathlib import Path
 from typing import Callable
 
@@ -61,6 +62,11 @@ def output_folder(path, key: str = "out") -> Path:
         if part.exists():
             if not part.is_dir():
                 raise BearingTwinError(f"{key}={path}: {part} is a file, not a folder")
+            try:  # the nearest folder that exists must take new files (a read-only or pseudo file system does not)
+                with tempfile.TemporaryFile(dir=part):
+                    pass
+            except OSError as error:
+                raise BearingTwinError(f"{key}={path}: nothing can be written in {part} ({error.strerror})") from None
             break
     return path
 
