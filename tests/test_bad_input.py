@@ -65,6 +65,9 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
     ("inspect", ["path=x.npy", "bearing=null"], ["bearing=null: a config group takes one of its options", "er16k"]),
     ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, svm"]),  # Hydra's own ValueError, a traceback
+    # Hydra merges a list of a group's options into one config: a TypeError deep in the classifier, and a run left
+    ("train", ["classifier=[svm,cnn_bilstm]"], ["classifier=[svm,cnn_bilstm]: choose one classifier", "-m classifier=a,b"]),
+    ("train", ["--cfg", "job", "-m", "+sweep=table4"], ["-m and --cfg job go one at a time"]),  # Hydra's ValueError
 ])
 def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, module, overrides, named):
     """Hydra alone would print the options and its search path over many lines, and exit 1."""
@@ -73,6 +76,21 @@ def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, modul
     assert_one_line_exit_2(done, *named)
     assert len(done.stderr.splitlines()) == 1, done.stderr
     assert list(tmp_path.iterdir()) == []  # stopped before any output folder, store or run
+
+
+def test_a_sweeps_config_in_one_run_says_its_parameters_are_not_swept(tmp_path):
+    shown = command("train", "+sweep=table4", "--cfg", "job", cwd=tmp_path)  # showing the config: no warning
+    assert shown.returncode == 0 and "warning" not in shown.stderr, shown.stderr
+    from bearingtwin.config import refuse_bad_overrides
+
+    import contextlib
+    import io
+
+    said = io.StringIO()
+    with contextlib.redirect_stderr(said):
+        refuse_bad_overrides("train", ["+sweep=table4", "seed=3"])
+    assert said.getvalue().startswith("warning: one run, not a sweep: +method, seed take their values from the command "
+                                      "line or the defaults"), said.getvalue()
 
 
 def test_hydra_flags_still_work_with_the_overrides_checked_first(tmp_path):

@@ -143,6 +143,9 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
             or args.config_path or args.config_dir:
         return
     name = args.config_name or config_name
+    if args.multirun and args.cfg:  # Hydra's own refusal is a ValueError with a traceback
+        raise BearingTwinError(f"-m and --cfg {args.cfg} go one at a time: --cfg shows one run's config (without -m; "
+                               "a sweep's own settings: --cfg hydra)")
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         app = GlobalHydra.instance().hydra
         try:
@@ -162,6 +165,11 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         except Exception:  # not a composition error: Hydra meets it again when it composes, and reports it
             return
         if mode != RunMode.MULTIRUN:  # a sweep's jobs are checked by SweepParentRun, each with its own values
+            swept = dict(cfg.hydra.sweeper.get("params") or {})
+            if swept and not args.cfg:  # one run of a sweep's settings: its swept parameters would pass without a word
+                print(f"warning: one run, not a sweep: {', '.join(swept)} take their values from the command line or "
+                      f"the defaults, not the sweep's ({', '.join(map(str, swept.values()))}); add -m to sweep them",
+                      file=sys.stderr)
             refuse_unknown_keys(cfg.hydra)
 
 
@@ -232,6 +240,10 @@ def plain_config(cfg, name: str = "config") -> dict:
     return dict(cfg or {})
 
 
+MULTI_OPTION_GROUPS = {"effects"}
+"""Config groups that take a list of options (``effects=[noise,tones]``); every other takes one."""
+
+
 def refuse_unknown_keys(hydra_cfg) -> None:
     """Raise naming a ``+key=value`` override that adds a key no config declares.
 
@@ -249,6 +261,12 @@ def refuse_unknown_keys(hydra_cfg) -> None:
     config_name = hydra_cfg.job.config_name
     overrides = OverridesParser.create().parse_overrides(list(hydra_cfg.overrides.task))
     groups = set(hydra_cfg.runtime.choices)
+    for override in overrides:  # Hydra merges a list of a group's options into one config, half of each
+        is_group = override.key_or_group in groups or (Path(CONF_DIR) / override.key_or_group).is_dir()
+        if is_group and override.key_or_group not in MULTI_OPTION_GROUPS and isinstance(override.value(), list):
+            group = override.key_or_group
+            raise BearingTwinError(f"{group}={override.get_value_element_as_str()}: choose one {group} (a list merges "
+                                   f"their settings into one config); to run each, sweep them: -m {group}=a,b")
     added = [o for o in overrides if (o.is_add() or o.is_force_add()) and o.key_or_group not in groups]
     if not added:
         return
