@@ -68,9 +68,22 @@ def test_the_defect_frequency_check_is_at_or_above_nyquist_and_a_healthy_bearing
     geometry = BearingGeometry.from_config(BEARING)
     bpfi = geometry.bpfi_hz(1797.0)
     with pytest.raises(BearingTwinError, match="simulator.fs"):
-        simulator._check_resolves_fault("inner", geometry, 1797.0, 2.0 * bpfi)
-    simulator._check_resolves_fault("inner", geometry, 1797.0, 2.0 * bpfi * 1.001)
-    simulator._check_resolves_fault("normal", geometry, 1797.0, 10.0)
+        simulator._check_resolves_fault("inner", geometry, 1797.0, 2.0 * bpfi, 1.0)
+    simulator._check_resolves_fault("inner", geometry, 1797.0, 2.0 * bpfi * 1.001, 1.0)
+    simulator._check_resolves_fault("normal", geometry, 1797.0, 10.0, 1.0)
+
+
+def test_a_fault_the_record_never_strikes_is_refused():
+    """At 1 rpm an outer-race defect is struck once every 17 s: a 0.5 s record of it is a healthy bearing's
+    labelled faulty, and so is a pit of no depth at any speed."""
+    message = refused("outer", settings(rpm=1.0, duration=0.5), "simulator.rpm=1", "BPFO", "simulator.duration=0.5")
+    assert message.endswith("raise the speed, or the duration to at least 16.7 s"), message
+    geometry = BearingGeometry.from_config(BEARING)
+    bpfo = geometry.fault_frequency_hz("outer", 1797.0)
+    simulator._check_resolves_fault("outer", geometry, 1797.0, 10000.0, 1.01 / bpfo)  # struck once: a fault to see
+    simulator._check_resolves_fault("normal", geometry, 1.0, 10000.0, 0.5)  # no defect, nothing to strike
+    for fault in ("inner", "ball", "outer"):
+        refused(fault, settings(duration=0.2, defect={"depth_mm": 0.0}), "simulator.defect.depth_mm must be positive")
 
 
 def test_the_data_set_path_is_refused_before_any_state_is_simulated(monkeypatch):
@@ -168,7 +181,7 @@ def test_a_record_of_fewer_than_two_samples_is_refused_up_front(duration, sample
     message = refused("outer", settings(duration=duration), "simulator.duration", "simulator.fs=10000",
                       f"gives {samples} sample", "at least 0.0002 s")
     assert message.startswith("simulator.duration=")
-    recording, _ = simulate("outer", BEARING, settings(duration=2e-4))
+    recording, _ = simulate("normal", BEARING, settings(duration=2e-4))
     assert recording.signal.size == 2
 
 

@@ -102,8 +102,9 @@ def build_defect(fault: str, geometry: BearingGeometry, defect_cfg, load_zone_an
             f"simulator.defect.width_mm must be positive and below the ball diameter "
             f"{geometry.ball_diameter_mm} mm, got {defect_cfg['width_mm']}"
         )
-    if not depth_m >= 0:
-        raise BearingTwinError(f"simulator.defect.depth_mm must not be negative, got {defect_cfg['depth_mm']}")
+    if not depth_m > 0:  # a pit of no depth sheds no load: the record would be a healthy bearing's, labelled a fault
+        raise BearingTwinError(f"simulator.defect.depth_mm must be positive, got {defect_cfg['depth_mm']} (a healthy "
+                               "bearing is fault=normal)")
     ball_index = whole_number("simulator.defect.ball_index", defect_cfg["ball_index"], minimum=0)
     if not ball_index < geometry.n_balls:
         raise BearingTwinError(f"simulator.defect.ball_index must lie in 0..{geometry.n_balls - 1}, got {ball_index}")

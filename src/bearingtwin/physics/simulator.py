@@ -121,9 +121,16 @@ def records_identity(simulator_cfg: Mapping) -> dict:
     return {name: value for name, value in simulator_cfg.items() if not (name == "oversample" and unset)}
 
 
-def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs: float) -> None:
-    """Refuse a sampling rate whose Nyquist frequency does not clear the fault's defect frequency."""
+def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs: float, duration_s: float) -> None:
+    """Refuse a sampling rate whose Nyquist frequency does not clear the fault's defect frequency, and a
+    speed and duration in which the defect is not struck once (the record would be a healthy bearing's)."""
     frequency = geometry.fault_frequency_hz(fault, rpm)
+    if frequency is not None and frequency * duration_s < 1.0:
+        raise BearingTwinError(
+            f"simulator.rpm={rpm:g}: the {fault} defect ({FAULT_FREQUENCY[fault].upper()} {frequency:.3g} Hz) is struck "
+            f"{frequency * duration_s:.2g} times in simulator.duration={duration_s:g} s, so the record would show no "
+            f"fault; raise the speed, or the duration to at least {1.0 / frequency:.3g} s"
+        )
     if frequency is not None and frequency >= fs / 2.0:
         raise BearingTwinError(
             f"simulator.fs={fs:g} Hz cannot show the {fault} fault: its defect frequency "
@@ -187,7 +194,7 @@ def _plan(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg:
     _check_settings(simulator_cfg)
     rpm, fs = float(simulator_cfg["rpm"]), float(simulator_cfg["fs"])
     geometry = BearingGeometry.from_config(bearing_cfg)
-    _check_resolves_fault(fault, geometry, rpm, fs)
+    _check_resolves_fault(fault, geometry, rpm, fs, float(simulator_cfg["duration"]))
     effects = build_effects(effects_cfg)
 
     params = DynamicParameters.from_config(bearing_cfg, simulator_cfg)
