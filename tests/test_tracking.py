@@ -404,3 +404,18 @@ def test_a_command_line_sweeps_varied_keys_name_its_runs_apart(monkeypatch):
     assert info.varied == ("data.samples_per_class=24",)
     cfg = OmegaConf.create({"seed": 1, "data": {"source": "simulated"}, "features": {"kind": "raw"}})
     assert run_name(cfg, "raw+svm", info) == "raw+svm simulated data.samples_per_class=24 seed=1"
+
+
+def test_a_database_whose_driver_is_missing_is_named_with_what_to_install():
+    """SQLAlchemy imports a database's driver when MLflow first opens the store: a traceback at the first run."""
+    import importlib.util
+
+    from bearingtwin.tracking.mlflow_logging import check_store
+
+    if importlib.util.find_spec("MySQLdb") is None:
+        with pytest.raises(BearingTwinError, match=r"^tracking.uri=mysql://x@127.0.0.1:1/db: its database driver, "
+                                                   r"MySQLdb, is not installed$"):
+            check_store("mysql://x@127.0.0.1:1/db")
+    if importlib.util.find_spec("psycopg") is None:
+        with pytest.raises(BearingTwinError, match=r"psycopg, is not installed \(PostgreSQL: the postgres extra"):
+            check_store("postgresql+psycopg://x@127.0.0.1:1/db")

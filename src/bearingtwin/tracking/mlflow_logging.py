@@ -159,11 +159,28 @@ def check_store(uri: str, must_exist: bool = False) -> None:
                                "folder; give sqlite:///<folder>/mlflow.db or http://<server>")
     if scheme in ("http", "https"):
         _server_answers(uri)
+    if scheme and scheme not in ("http", "https", "sqlite", "file", "databricks"):
+        _driver_installed(uri)
     path = _sqlite_path(uri)
     if must_exist and path is not None and not Path(path).is_file():
         raise BearingTwinError(f"tracking.uri={uri}: no such store ({path} does not exist)")
     if path is not None and Path(path).is_file():
         _check_sqlite_store(uri, Path(path), must_exist)
+
+
+def _driver_installed(uri: str) -> None:
+    """Refuse a database URI whose driver is not installed (SQLAlchemy imports it when the engine is made,
+    connecting to nothing): MLflow would fail with a traceback at the first run."""
+    import sqlalchemy
+
+    try:
+        sqlalchemy.create_engine(uri)
+    except ModuleNotFoundError as error:
+        hint = (" (PostgreSQL: the postgres extra, pip install -c requirements.lock -e \".[postgres]\", installs psycopg 3;"
+                " name it in the URI: postgresql+psycopg://...)" if urlparse(uri).scheme.startswith("postgres") else "")
+        raise BearingTwinError(f"tracking.uri={uri}: its database driver, {error.name}, is not installed{hint}") from None
+    except Exception:  # anything else about the URI is the server's and MLflow's to report, as before
+        return
 
 
 def _check_sqlite_store(uri: str, path: Path, must_exist: bool) -> None:
