@@ -430,7 +430,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     folder = tmp_path / "recordings"
     folder.mkdir()
     rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
-    np.savez(folder / "pump_a.npz", signal=fault_signal(rates["bpfo"], seconds=3), fs=FS, rpm=RPM)
+    # It names a bearing no config here describes (a user's own, simulated with hydra.searchpath): read as the model's.
+    np.savez(folder / "pump_a.npz", signal=fault_signal(rates["bpfo"], seconds=3), fs=FS, rpm=RPM, bearing="rig_b_6206")
     np.savez(folder / "pump_b.npz", signal=fault_signal(None, seconds=3, seed=5), fs=48000.0, rpm=RPM)  # resampled
     np.savez(folder / "short.npz", signal=fault_signal(None, seconds=100 / FS), fs=FS)
     np.savez(folder / "nan.npz", signal=np.full(30000, np.nan), fs=FS)
@@ -454,6 +455,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert "told.npz: labelled outer, but the file states fault=inner" in rows["told"]["error"]
     assert "rows for gone.npz, other.npy, which" in done.stdout
     assert rows["pump_a"]["true_state"] == "outer" and rows["pump_a"]["evidence_state"] == "outer"
+    notes = json.loads((tmp_path / "out" / "pump_a" / "diagnosis.json").read_text())["notes"]
+    assert any(note.startswith("the file names bearing rig_b_6206, which no conf/bearing config here") for note in notes)
     assert rows["pump_b"]["true_state"] == "normal"
     for row in (rows["pump_a"], rows["pump_b"]):  # right means the verdict is the row's state
         assert row["correct"] == str(row["verdict"] == row["true_state"]), row

@@ -22,7 +22,14 @@ def test_writes_npz_and_plots(tmp_path):
         assert run_file["channels"].shape == (4, 10000)
         np.testing.assert_array_equal(run_file["signal"], run_file["channels"][0])  # default sensor inner_x
         assert float(run_file["fs"]) == 10000 and float(run_file["rpm"]) == 1797
+        assert str(run_file["unit"]) == "m/s^2" and str(run_file["bearing"]) == "cwru_6205"
         signal = run_file["signal"]
+    # What the file says of itself is what a reader reports: its unit, and its bearing, whose defect lines then
+    # witness the rate with no bearing= given (bearingtwin-inspect).
+    from bearingtwin.cli.inspect import summarize
+
+    summary = summarize(out)
+    assert summary["unit"] == "m/s^2" and summary["bearing"] == "cwru_6205" and "defect_frequencies_hz" in summary
     # the inner-race defect repeats at the CWRU bearing's BPFI (1 s: 1 Hz bins)
     envelope = np.abs(np.fft.rfft(np.abs(signal) - np.abs(signal).mean()))
     bpfi = BearingGeometry(52, 25, 7.94, 39.04, 9).bpfi_hz(1797)

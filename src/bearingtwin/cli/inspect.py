@@ -23,7 +23,7 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.checks import positive_number
-from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
+from bearingtwin.config import bearing_choices, exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys
 from bearingtwin.data.files import read_raw, resolve_fact, resolve_fs
 from bearingtwin.data.real import labels_row
 from bearingtwin.errors import BearingTwinError
@@ -58,6 +58,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     """The inspect report of one file as a JSON-ready dict."""
     raw = read_raw(path)
     rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min")
+    named = raw.meta.get("bearing")  # the file names its bearing (bearingtwin-simulate's, CWRU's fan end)
+    if bearing is None and named and str(named) in bearing_choices():
+        bearing, bearing_name = load_bearing(str(named)), str(named)
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
     # replaces one the file merely declares, a speed or state there must agree with the file's.

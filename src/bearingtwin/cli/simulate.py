@@ -86,8 +86,11 @@ def main(cfg: DictConfig) -> None:
     plot = true_or_false(cfg.plot, "plot")
     recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)
     out.parent.mkdir(parents=True, exist_ok=True)
+    # The facts a reader needs beside the samples: rate, speed, state, unit and the bearing (its defect lines
+    # witness the rate: bearingtwin-inspect and the twin read it).
     np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
-             rpm=recording.rpm, fault=recording.fault, sensor=recording.channel)
+             rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
+             bearing=HydraConfig.get().runtime.choices.get("bearing"))
     written = [out]
     if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
