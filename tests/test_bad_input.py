@@ -68,6 +68,7 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     # Hydra merges a list of a group's options into one config: a TypeError deep in the classifier, and a run left
     ("train", ["classifier=[svm,cnn_bilstm]"], ["classifier=[svm,cnn_bilstm]: choose one classifier", "-m classifier=a,b"]),
     ("train", ["--cfg", "job", "-m", "+sweep=table4"], ["-m and --cfg job go one at a time"]),  # Hydra's ValueError
+    ("train", ["effects=[gear]"], ["effects=gear: no such effects config", "tones"]),  # Hydra lists no options for it
 ])
 def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, module, overrides, named):
     """Hydra alone would print the options and its search path over many lines, and exit 1."""

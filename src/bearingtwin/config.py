@@ -78,10 +78,13 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
     and its command exits 1, like a crash; the common mistakes get a line of their own.
     """
     cause = error.__cause__ if isinstance(error.__cause__, OmegaConfBaseException) else None
-    if isinstance(error, MissingConfigException) and error.options and "/" in (error.missing_cfg_file or ""):
+    if isinstance(error, MissingConfigException) and "/" in (error.missing_cfg_file or ""):
         group, option = error.missing_cfg_file.rsplit("/", 1)
-        own = own_config_hint(option) if group == "bearing" else ""
-        return f"{group}={option}: no such {group} config; choose one of {', '.join(error.options)}{own}"
+        # Hydra lists the options for a group's one choice, not for an item of a list (effects=[gear]).
+        options = error.options or sorted(path.stem for path in Path(CONF_DIR, group).glob("*.yaml"))
+        if options:
+            own = own_config_hint(option) if group == "bearing" else ""
+            return f"{group}={option}: no such {group} config; choose one of {', '.join(options)}{own}"
     if isinstance(cause, (ConfigAttributeError, ConfigKeyError)) and getattr(cause, "full_key", None):
         return f"{cause.full_key}: not a setting (no config declares it); check its spelling (--cfg job lists the settings)"
     if isinstance(error, OverrideParseException):
