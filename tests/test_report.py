@@ -209,6 +209,10 @@ def test_bad_requests_exit_2_naming_the_problem(uri, capsys, tmp_path):
     with pytest.raises(SystemExit):
         main(["table4", f"uri={uri}", "colour=blue"])
     assert "table4 does not take colour" in capsys.readouterr().err
+    for setting, allowed in (("vmd_params=bogus", "global, per_class, per_sample"), ("source=bogus", "simulated, cwru")):
+        with pytest.raises(SystemExit) as exit_info:  # it would find no runs, and say "run the sweep first"
+            main(["table4", f"uri={uri}", setting])
+        assert exit_info.value.code == 2 and f"{setting}: choose one of {allowed}" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["repeat", f"uri={uri}", "run_id=0123"])
     assert "run_id=0123" in capsys.readouterr().err

@@ -441,6 +441,13 @@ def check_report_settings(name: str, settings: dict[str, str]) -> None:
         raise BearingTwinError(f"{name} does not take {', '.join(sorted(unknown))}; it takes {', '.join(COMMON_KEYS + keys)}")
     if settings.get("force", "false") not in ("true", "false"):
         raise BearingTwinError(f"force={settings['force']!r}: give force=true or force=false")
+    # A value no run can carry would only find no runs ("run the sweep first"): named instead.
+    from bearingtwin.data.build import SOURCES
+    from bearingtwin.features.extractor import VMD_PARAMS
+
+    for key, allowed in (("vmd_params", VMD_PARAMS), ("source", (*SOURCES, "all"))):
+        if key in settings and settings[key] not in allowed:
+            raise BearingTwinError(f"{key}={settings[key]}: choose one of {', '.join(allowed)}")
     for key, value in settings.items():  # the other settings are matched in MLflow's search, between quotes
         if key not in ("uri", "out", "force", "data_root") and ("'" in value or '"' in value):
             raise BearingTwinError(f"{key}={value}: a quote cannot be matched in MLflow's run search; leave it out")
