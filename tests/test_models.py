@@ -378,3 +378,14 @@ def test_a_validation_label_the_network_was_not_trained_on_is_named():
     keep = y != 2
     with pytest.raises(BearingTwinError, match=r"^eval_set holds label\(s\) \[2\] that y does not"):
         CnnBiLstmClassifier(max_epochs=1, batch_size=16).fit(X[keep], y[keep], eval_set=(X, y))
+
+
+def test_a_fit_prints_no_warning_of_lightnings_own_use_of_torch():
+    """Lightning 2.6 calls a torch API that torch 2.13 deprecates (LeafSpec) at every fit: noise a user cannot act on."""
+    import warnings
+
+    X, y = four_blobs(4)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        CnnBiLstmClassifier(max_epochs=1, random_state=0).fit(X, y)
+    assert not [w for w in caught if "LeafSpec" in str(w.message)], [str(w.message) for w in caught]

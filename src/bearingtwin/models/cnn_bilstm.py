@@ -35,6 +35,7 @@ import contextlib
 import logging
 import sys
 import tempfile
+import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -371,12 +372,16 @@ def one_torch_thread():
 
 @contextlib.contextmanager
 def _quiet_lightning():
-    """Silence Lightning's per-fit banners (device summary, tips, 'max_epochs reached'): a sweep fits hundreds."""
+    """Silence Lightning's per-fit banners (device summary, tips, 'max_epochs reached'): a sweep fits hundreds;
+    and Lightning 2.6's own use of a torch API that torch 2.13 deprecates (``LeafSpec``), printed at every fit
+    and nothing a user can act on."""
     lightning_log = logging.getLogger("lightning.pytorch")
     level = lightning_log.level
     lightning_log.setLevel(logging.WARNING)
     try:
-        yield
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=r".*isinstance\(treespec, LeafSpec\)` is deprecated")
+            yield
     finally:
         lightning_log.setLevel(level)
 
