@@ -1,0 +1,60 @@
+"""How the sampling-rate check judges wrong rates: every CWRU record, declared at rates it was not sampled at.
+
+Each of the 13 CWRU records is checked (``check_sampling_rate``, the drive-end channel, the SKF 6205's defect
+frequencies as the second witness) at its true 12 kHz and at four wrong rates near a whole fraction of it
+(0.4875, 0.48, 0.52 and 0.34 of 12 kHz); the same record resampled to 25.6 kHz is checked there and at 12 kHz,
+0.48, 0.52 and 0.34 times 25.6 kHz. A wrong rate the check calls ``consistent`` is one it lets through silently;
+``contradicted`` refuses it (and names a rate, right when within 1 % of the true one); ``ambiguous`` logs a doubt.
+
+    python benchmarks/rate_check.py            # a table per verdict on stdout (about 30 s)
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from collections import Counter
+from pathlib import Path
+
+import scipy.signal
+
+from bearingtwin.config import REPO_ROOT, load_bearing
+from bearingtwin.data.cwru import load_cwru
+from bearingtwin.signal.sampling_rate import check_sampling_rate
+
+WRONG_FACTORS = {12000.0: (5850 / 12000, 0.48, 0.52, 0.34), 25600.0: (12000 / 25600, 0.48, 0.52, 0.34)}
+"""Declared / true rate of the wrong rates tried, per true rate: near half (a supply or 2x line then sits
+near the shaft's place) and near a third."""
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", default=os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data"),
+                        help="the folder holding cwru/ (default: ../shared/data)")
+    args = parser.parse_args()
+    records = sorted((Path(args.data) / "cwru").glob("*.mat"))
+    if not records:
+        raise SystemExit(f"no CWRU records in {Path(args.data) / 'cwru'}")
+    bearing = load_bearing("cwru_6205")
+    right_rate, wrong = Counter(), Counter()
+    for path in records:
+        recording = load_cwru(path, check_fs=False)
+        defect_hz = bearing.defect_frequencies(recording.rpm)
+        for true_fs in WRONG_FACTORS:
+            signal = (recording.signal if true_fs == 12000.0
+                      else scipy.signal.resample_poly(recording.signal, 32, 15))  # 12 kHz -> 25.6 kHz
+            right_rate[check_sampling_rate(signal, true_fs, recording.rpm, defect_hz=defect_hz).verdict] += 1
+            for factor in WRONG_FACTORS[true_fs]:
+                check = check_sampling_rate(signal, true_fs * factor, recording.rpm, defect_hz=defect_hz)
+                named = check.implied_fs_hz is not None and abs(check.implied_fs_hz / true_fs - 1.0) <= 0.01
+                wrong[check.verdict + (" naming the true rate" if check.verdict == "contradicted" and named else "")] += 1
+    print(f"{len(records)} CWRU records, at their true rate and resampled to 25.6 kHz:\n")
+    print("| declared rate | verdict | cases |\n|---|---|---|")
+    for verdict, count in sorted(right_rate.items()):
+        print(f"| the true one | {verdict} | {count} |")
+    for verdict, count in sorted(wrong.items()):
+        print(f"| a wrong one | {verdict} | {count} |")
+
+
+if __name__ == "__main__":
+    main()
