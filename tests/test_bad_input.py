@@ -89,9 +89,9 @@ def test_a_sweeps_config_in_one_run_says_its_parameters_are_not_swept(tmp_path):
 
     said = io.StringIO()
     with contextlib.redirect_stderr(said):
-        refuse_bad_overrides("train", ["+sweep=table4", "seed=3"])
-    assert said.getvalue().startswith("warning: one run, not a sweep: +method, seed take their values from the command "
-                                      "line or the defaults"), said.getvalue()
+        refuse_bad_overrides("train", ["+sweep=table4", "seed=3"])  # the seed given: only the method is not swept
+    assert said.getvalue().startswith("warning: one run, not a sweep: method take their defaults, not the sweep's "
+                                      "values (method: sabo_pemie_cnn_bilstm,"), said.getvalue()
 
 
 def test_hydra_flags_still_work_with_the_overrides_checked_first(tmp_path):

@@ -240,7 +240,7 @@ def test_a_recording_in_a_subfolder_that_a_labels_row_names_is_part_of_the_runs_
 
 def test_a_rate_a_labels_row_or_data_fs_gives_is_checked_against_the_shaft_line(tmp_path):
     """Recordings whose shaft (1797 rpm) shows its harmonic series, sampled at 12 kHz and labelled 8 kHz: read at
-    8 kHz the series stands 1.5 times too high, so the rate is refused naming the file and where it came from;
+    8 kHz the series stands at two thirds of its place, so the rate is refused naming the file and where it came from;
     ``data.check_fs=false`` reads them as told, and the true rate passes."""
     root = tmp_path / "mine"
     root.mkdir()
@@ -260,3 +260,28 @@ def test_a_rate_a_labels_row_or_data_fs_gives_is_checked_against_the_shaft_line(
     with pytest.raises(BearingTwinError, match=r"normal.npy: fs = 8000 Hz contradicts .* with data.fs=<Hz>"):
         build_dataset(files_cfg(root, "data.fs=8000"))
     assert build_dataset(files_cfg(root, "data.fs=12000")).fs == fs
+
+
+def test_a_fault_records_defect_comb_does_not_get_its_right_rate_refused(tmp_path, caplog):
+    """An outer-race record at its true 12 kHz whose strongest series is its BPFO comb (107 Hz at 1797 rpm on
+    the SKF 6205), with no shaft line: the shaft-series search alone takes the comb for the shaft's series and
+    implies 3.4 kHz. Without data.bearing that is only logged for a fault record; with it, the comb is the
+    bearing's BPFO and the rate stands."""
+    from bearingtwin.config import load_bearing
+
+    root = tmp_path / "mine"
+    root.mkdir()
+    fs = 12000.0
+    bpfo = load_bearing("cwru_6205").defect_frequencies(1797.0)["bpfo"]
+    comb = np.zeros(int(4 * fs))
+    comb[(np.arange(0, 4, 1 / bpfo) * fs).astype(int)] = 1.0
+    np.save(root / "outer.npy", comb + 0.01 * np.random.default_rng(0).standard_normal(comb.size))
+    np.save(root / "normal.npy", 0.01 * np.random.default_rng(1).standard_normal(comb.size))
+    (root / "labels.csv").write_text("record,state,rpm,fs\nouter.npy,outer,1797,12000\nnormal.npy,normal,1797,12000\n")
+    with caplog.at_level("WARNING"):
+        assert build_dataset(files_cfg(root, "data.fs=null")).fs == fs
+    assert "outer.npy: fs = 12000 Hz contradicts the shaft speed" in caplog.text  # logged, not refused
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        assert build_dataset(files_cfg(root, "data.fs=null", "data.bearing=cwru_6205")).fs == fs
+    assert "outer.npy: fs = 12000 Hz contradicts" not in caplog.text

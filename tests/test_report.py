@@ -177,6 +177,12 @@ def test_a_smoke_run_is_not_averaged_with_full_size_runs_of_its_method(uri, tmp_
                                    for key, value in proposed.data.params.items()])
     client.log_metric(full, "accuracy", 0.5)
     client.set_terminated(full, "FINISHED")
+    # A newer smoke run of the full-size run's seed does not hide it.
+    newer = client.create_run(proposed.info.experiment_id,
+                              tags={"bt.kind": "train", "method": paper.PROPOSED, "seed": "8"}).info.run_id
+    client.log_batch(newer, params=[Param(key, value) for key, value in proposed.data.params.items()])
+    client.log_metric(newer, "accuracy", 0.25)
+    client.set_terminated(newer, "FINISHED")
     done = report("table4", f"uri={copy}", f"out={tmp_path}/table4.md")
     assert done.returncode == 0, done.stderr
     assert f"| {paper.PROPOSED} | 50.00 ± 0.00 | 1 |" in done.stdout

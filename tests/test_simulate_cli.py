@@ -24,8 +24,8 @@ def test_writes_npz_and_plots(tmp_path):
         assert float(run_file["fs"]) == 10000 and float(run_file["rpm"]) == 1797
         assert str(run_file["unit"]) == "m/s^2" and str(run_file["bearing"]) == "cwru_6205"
         signal = run_file["signal"]
-    # What the file says of itself is what a reader reports: its unit, and its bearing, whose defect lines then
-    # witness the rate with no bearing= given (bearingtwin-inspect).
+    # What the file says of itself is what a reader reports: its unit, and its bearing, whose defect frequencies
+    # bearingtwin-inspect then reads with no bearing= given.
     from bearingtwin.cli.inspect import summarize
 
     summary = summarize(out)

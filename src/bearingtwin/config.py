@@ -168,10 +168,12 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         except Exception:  # not a composition error: Hydra meets it again when it composes, and reports it
             return
         if mode != RunMode.MULTIRUN:  # a sweep's jobs are checked by SweepParentRun, each with its own values
-            swept = dict(cfg.hydra.sweeper.get("params") or {})
+            given = {o.partition("=")[0].lstrip("+~") for o in args.overrides}
+            swept = {key.lstrip("+~"): values for key, values in (cfg.hydra.sweeper.get("params") or {}).items()
+                     if key.lstrip("+~") not in given}
             if swept and not args.cfg:  # one run of a sweep's settings: its swept parameters would pass without a word
-                print(f"warning: one run, not a sweep: {', '.join(swept)} take their values from the command line or "
-                      f"the defaults, not the sweep's ({', '.join(map(str, swept.values()))}); add -m to sweep them",
+                print(f"warning: one run, not a sweep: {', '.join(swept)} take their defaults, not the sweep's values "
+                      f"({'; '.join(f'{key}: {values}' for key, values in swept.items())}); add -m to sweep them",
                       file=sys.stderr)
             refuse_unknown_keys(cfg.hydra)
 

@@ -46,18 +46,22 @@ def _write_atomic(path: str | Path, write) -> None:
             write(stream)
         # mkstemp makes the file private (0600); the entry gets the mode any new file would (the umask's), so a
         # team's shared cache is readable by the team.
-        os.chmod(temporary, 0o666 & ~_umask())
+        os.chmod(temporary, 0o666 & ~_UMASK)
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
 
 
-def _umask() -> int:
-    """The process's file-mode creation mask (reading it means setting it: set back at once)."""
+def _read_umask() -> int:
+    """The process's file-mode creation mask (reading it means setting it: set back at once; done once, at
+    import, before any thread of the process writes a file)."""
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+_UMASK = _read_umask()
 
 
 def load_npz_or_heal(path: str | Path, *names: str) -> dict[str, np.ndarray] | None:

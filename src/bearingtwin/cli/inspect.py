@@ -23,7 +23,8 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.checks import positive_number
-from bearingtwin.config import bearing_choices, exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys
+from bearingtwin.config import (bearing_choices, exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
+                                search_path_override)
 from bearingtwin.data.files import read_raw, resolve_fact, resolve_fs
 from bearingtwin.data.real import labels_row
 from bearingtwin.errors import BearingTwinError
@@ -59,8 +60,13 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     raw = read_raw(path)
     rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min")
     named = raw.meta.get("bearing")  # the file names its bearing (bearingtwin-simulate's, CWRU's fan end)
-    if bearing is None and named and str(named) in bearing_choices():
-        bearing, bearing_name = load_bearing(str(named)), str(named)
+    unknown_bearing = None
+    if bearing is None and named:
+        if str(named) in bearing_choices(search_path_override()):
+            bearing, bearing_name = load_bearing(str(named)), str(named)
+        else:
+            unknown_bearing = (f"the file names bearing {named}, which no conf/bearing config here describes: its defect "
+                               "lines are not read (give bearing=<name>, with hydra.searchpath for one of your own)")
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
     # replaces one the file merely declares, a speed or state there must agree with the file's.
@@ -102,6 +108,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     }
     if rpm_origin == "nominal":
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
+    if unknown_bearing:
+        summary["meta"]["notes"] = [*summary["meta"].get("notes", []), unknown_bearing]
     if rpm is not None and fs_hz is not None:
         # Every channel of the file's length witnesses its one rate, as bearingtwin-diagnose and the twin read it.
         signal = raw.channels[names[0]]

@@ -18,7 +18,7 @@ from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.tracking.reports import REPORTS, run_report
 
 
-def report(argv: list[str] | None = None) -> int:
+def report_command(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="bearingtwin-report", description=__doc__.splitlines()[0])
     parser.add_argument("name", help=f"report: {', '.join(sorted(REPORTS))}")
     parser.add_argument("settings", nargs="*", metavar="key=value")
@@ -40,7 +40,7 @@ def report(argv: list[str] | None = None) -> int:
     return 0
 
 
-main = stop_cleanly(report)  # an interrupt (a repeat trains for minutes) says so and exits 130, as training does
+main = stop_cleanly(report_command)  # an interrupt (a repeat trains for minutes) says so and exits 130, as training does
 
 
 if __name__ == "__main__":

@@ -599,11 +599,11 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
 
 
 def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | None, channel, default_fs: float,
-                         geometry: BearingGeometry, tolerance: float) -> Recording:
+                         geometry: BearingGeometry, tolerance: float, check_fs: bool = True) -> Recording:
     """A labelled record (its labels row's ``state``, ``rpm`` and ``fs``) at the rate the row or the file states
     (:func:`_check_rates` judges it against ``data.fs``), else at ``default_fs`` (``data.fs``): a rate the file does
     not record is checked against the shaft line as a CWRU record's declared one is, and refused where the shaft
-    series contradicts it."""
+    series contradicts it (``check_fs=False``: not checked)."""
     raw = read_raw(path)
     stated = raw.fs is not None and raw.fs_origin != "declared"  # a rate a data set's convention gives is no statement
     recording = recording_from_raw(raw, channel, fs=fs if fs is not None or stated else default_fs, rpm=rpm,
@@ -613,7 +613,7 @@ def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | 
         raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
                                "(the twin runs at each record's speed)")
     recording.require_vibration()
-    if not stated:  # a rate the labels row or data.fs gives, not the file: the shaft line is its witness
+    if check_fs and not stated:  # a rate the labels row or data.fs gives, not the file: the shaft line is its witness
         try:
             checks = check_channels(rate_witnesses(recording.signal, raw.channels), recording.fs, recording.rpm,
                                     defect_hz=geometry.defect_frequencies(recording.rpm), tolerance=tolerance)
@@ -624,7 +624,7 @@ def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | 
             read_at = (f"read at data.fs={default_fs:g} Hz, a rate neither the file nor its labels row states" if fs is None
                        else f"read at its labels row's fs={fs:g} Hz")
             raise BearingTwinError(f"{path}: {read_at}, but {describe_mismatch(check)}; give its rate in the labels "
-                                   "table's fs column")
+                                   f"table's fs column, or data.check_fs=false if {recording.fs:g} Hz is the true one")
     return recording
 
 
@@ -698,7 +698,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                              bearing=BearingGeometry.from_config(bearing))
         return read_labelled_record(path, *labelled[path], channel=cfg["channel"], default_fs=twin_fs,
                                     geometry=BearingGeometry.from_config(bearing),
-                                    tolerance=float(cfg["fs_check_tolerance"]))
+                                    tolerance=float(cfg["fs_check_tolerance"]), check_fs=bool(cfg["check_fs"]))
 
     tests = [measured(path) for path in test_paths]
     calibration_records = {path: measured(path) for path in calibration_paths}

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import scipy.signal
 
-from bearingtwin.config import bearing_choices
+from bearingtwin.config import bearing_choices, search_path_override
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
@@ -74,7 +74,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     named = recording.meta.get("bearing")
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
-    if bearing is None and named is not None and named not in bearing_choices():
+    if bearing is None and named is not None and named not in bearing_choices(search_path_override()):
         notes.append(f"the file names bearing {named}, which no conf/bearing config here describes: read as the "
                      f"model's (give bearing=<name>, with hydra.searchpath for one of your own)")
         named = None

@@ -2,7 +2,7 @@
 
 Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; for several records
 ``<out>/summary.csv`` (one row per record; ``true_state, correct`` when the truth is known from
-CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or the own
+CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or the
 ``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
 not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed is reported
 in ``summary.csv`` with its error and the others go on; the command then exits 2.
@@ -106,8 +106,8 @@ def labels_path(cfg: DictConfig, records: list[Path]) -> Path | None:
     tables = [folder / DEFAULT_LABELS for folder in folders if (folder / DEFAULT_LABELS).is_file()]
     if len(folders) > 1 and tables:
         raise BearingTwinError(f"path={cfg.path}: matches files in {len(folders)} folders, and "
-                               f"{', '.join(str(table) for table in tables)} label some of them; give labels=<csv> "
-                               "or diagnose one folder at a time")
+                               f"{', '.join(str(table) for table in tables)} label{'s' if len(tables) == 1 else ''} "
+                               "some of them; give labels=<csv> or diagnose one folder at a time")
     return tables[0] if tables else None
 
 

@@ -125,11 +125,12 @@ def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs:
     """Refuse a sampling rate whose Nyquist frequency does not clear the fault's defect frequency, and a
     speed and duration in which the defect is not struck once (the record would be a healthy bearing's)."""
     frequency = geometry.fault_frequency_hz(fault, rpm)
-    if frequency is not None and frequency * duration_s < 1.0:
+    strikes_hz = None if frequency is None else frequency * (2.0 if fault == "ball" else 1.0)  # a ball meets both races
+    if strikes_hz is not None and strikes_hz * duration_s < 1.0:
         raise BearingTwinError(
             f"simulator.rpm={rpm:g}: the {fault} defect ({FAULT_FREQUENCY[fault].upper()} {frequency:.3g} Hz) is struck "
-            f"{frequency * duration_s:.2g} times in simulator.duration={duration_s:g} s, so the record would show no "
-            f"fault; raise the speed, or the duration to at least {1.0 / frequency:.3g} s"
+            f"{strikes_hz * duration_s:.2g} times in simulator.duration={duration_s:g} s, so the record would show no "
+            f"fault; raise the speed, or the duration to at least {1.0 / strikes_hz:.3g} s"
         )
     if frequency is not None and frequency >= fs / 2.0:
         raise BearingTwinError(

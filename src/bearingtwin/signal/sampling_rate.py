@@ -49,10 +49,10 @@ class ShaftLineCheck:
         fraction: k when a series also stands at n x g for n not a multiple of k, g within ``slip`` of
             observed / k (between its harmonics: the declared rate may be near true / k).
         reason: one sentence explaining the verdict.
-        fraction_rate_hz: with a ``fraction``, the rate at which its in-between lines would be the shaft's series.
         witness: what confirmed the rate where the shaft series did not: ``series`` (the strong series is
             a defect frequency's) or ``envelope`` (a defect line in the envelope); ``supply`` where the strong
             series is the supply's, which leaves the rate ``ambiguous``; None otherwise.
+        fraction_rate_hz: with a ``fraction``, the rate at which its in-between lines would be the shaft's series.
     """
 
     fs_hz: float
@@ -142,8 +142,8 @@ def check_sampling_rate(
     leaves it ``ambiguous`` (nothing to check it against); in both cases the defect lines may
     still witness it. A contradiction's implied rate is checked in turn: where the shaft series would stand
     between its harmonics at it (the series nearest the shaft's place was a supply or 2x line under a rate
-    near true / k), the rate its in-between lines imply is named beside it, and replaces it when the
-    defect lines confirm it.
+    near true / k), the rate at which those in-between lines are the shaft's series is named and replaces
+    it (``follow_implied``).
 
     Args:
         signal: 1-D record (whole record: the resolution fs / n must resolve the harmonics).
@@ -488,7 +488,7 @@ def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float],
     is no witness, since the shaft's line stands there whatever the rate (the SKF 6203's BSF is 1.994 x shaft,
     its half 0.997 x)."""
     lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2
-             and _apart_from_shaft(float(hz), shaft_hz, 1, _WINDOW) and _apart_from_shaft(float(hz) / k, shaft_hz, 1, _WINDOW)}
+             and _apart_from_shaft(float(hz), shaft_hz, 1, _WINDOW) and _apart_from_shaft(float(hz) * scale, shaft_hz, 1, _WINDOW)}
     if not lines:
         return "ambiguous", None, "no defect frequency away from the shaft's lines below the Nyquist frequency to decide"
     ratio, resolution = _envelope_prominence(signal, fs, max(lines.values()) * 1.1)

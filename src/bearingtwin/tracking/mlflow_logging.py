@@ -175,10 +175,10 @@ def _driver_installed(uri: str) -> None:
 
     try:
         sqlalchemy.create_engine(uri)
-    except ModuleNotFoundError as error:
+    except ImportError as error:  # a missing module, or a module missing its system library (unixODBC)
         hint = (" (PostgreSQL: the postgres extra, pip install -c requirements.lock -e \".[postgres]\", installs psycopg 3;"
                 " name it in the URI: postgresql+psycopg://...)" if urlparse(uri).scheme.startswith("postgres") else "")
-        raise BearingTwinError(f"tracking.uri={uri}: its database driver, {error.name}, is not installed{hint}") from None
+        raise BearingTwinError(f"tracking.uri={uri}: its database driver, {error.name or error}, is not installed{hint}") from None
     except Exception:  # anything else about the URI is the server's and MLflow's to report, as before
         return
 

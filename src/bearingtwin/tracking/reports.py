@@ -21,6 +21,7 @@ convention that reproduces the paper's 98.44 +- 0.41 % from its five accuracies.
 from __future__ import annotations
 
 import ast
+import dataclasses
 import shutil
 import sys
 import tempfile
@@ -89,10 +90,12 @@ class ReportInput:
         else:
             found = find_runs(self.client, self.experiment_id, " and ".join(clauses))
         newest = {}
-        for run in found:  # newest first
+        for run in found:  # newest first: of a seed's runs the largest, the newest of those
             if vmd_params is not None and run.data.params.get("features.vmd_params", vmd_params) != vmd_params:
                 continue
-            newest.setdefault((run.data.tags.get("method"), run.data.tags.get("seed"), *group_by(run)), run)
+            key = (run.data.tags.get("method"), run.data.tags.get("seed"), *group_by(run))
+            if key not in newest or run_size(run) > run_size(newest[key]):
+                newest[key] = run
         # Numbers of smaller runs (a smoke test) are not averaged with a method's full-size ones: each method keeps
         # its largest runs, and the others are named in the report.
         largest: dict[tuple, tuple[float, ...]] = {}
@@ -275,7 +278,7 @@ def _on_data_source(source: ReportInput, data_source: str) -> ReportInput:
     given = source.settings.get("source", data_source)
     if given != data_source:
         raise BearingTwinError(f"source={given}: this report reads data.source={data_source} runs only; leave source= out")
-    return ReportInput(source.client, source.experiment_id, {**source.settings, "source": data_source}, source.used_runs)
+    return dataclasses.replace(source, settings={**source.settings, "source": data_source})  # the same used and left-out lists
 
 
 def _real_data_report(source: ReportInput, data_source: str, condition: str, unit: str, paper_figures: dict | None) -> str:
