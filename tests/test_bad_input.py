@@ -69,6 +69,8 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("train", ["classifier=[svm,cnn_bilstm]"], ["classifier=[svm,cnn_bilstm]: choose one classifier", "-m classifier=a,b"]),
     ("train", ["--cfg", "job", "-m", "+sweep=table4"], ["-m and --cfg job go one at a time"]),  # Hydra's ValueError
     ("train", ["effects=[gear]"], ["effects=gear: no such effects config", "tones"]),  # Hydra lists no options for it
+    ("train", ["seed=${foo}"], ["seed=${foo}: Interpolation key 'foo' not found"]),  # OmegaConf's traceback
+    ("twin", ["measured.path=x.npy", "seed=${foo}"], ["seed=${foo}: Interpolation key 'foo' not found"]),
 ])
 def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, module, overrides, named):
     """Hydra alone would print the options and its search path over many lines, and exit 1."""

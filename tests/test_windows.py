@@ -71,7 +71,7 @@ def test_random_split_is_stratified_and_seeded():
 
 def test_unknown_split_names_the_choices():
     labels, record_ids, starts, lengths = _two_records()
-    with pytest.raises(BearingTwinError, match="random, block"):
+    with pytest.raises(BearingTwinError, match="^data.split=.kfold. is not a split method; choose one of random, block"):
         split_indices(labels, record_ids, starts, lengths, 2048, method="kfold")
 
 

@@ -12,7 +12,8 @@ from typing import Callable
 import hydra
 from hydra.errors import ConfigCompositionException, MissingConfigException, OverrideParseException
 from omegaconf import DictConfig, OmegaConf
-from omegaconf.errors import ConfigAttributeError, ConfigKeyError, MissingMandatoryValue, OmegaConfBaseException
+from omegaconf.errors import (ConfigAttributeError, ConfigKeyError, InterpolationResolutionError, MissingMandatoryValue,
+                              OmegaConfBaseException)
 
 from bearingtwin.errors import BearingTwinError
 
@@ -49,6 +50,11 @@ def exit_on_user_error(task: Callable) -> Callable:
             sys.exit(2)
         except COMPOSITION_ERRORS as error:
             print(f"error: {composition_error_line(error)}", file=sys.stderr)
+            sys.exit(2)
+        except InterpolationResolutionError as error:  # seed=${foo}: a value naming a key no config has
+            where = next((arg for arg in sys.argv[1:] if "${" in arg), None) or getattr(error, "full_key", "") or "a setting"
+            print(f"error: {where}: {str(error).splitlines()[0]} (an interpolation ${{...}} names another setting)",
+                  file=sys.stderr)
             sys.exit(2)
 
     return wrapped

@@ -144,7 +144,7 @@ def split_indices(
         (train_index, test_index), sorted int arrays.
     """
     if method not in SPLITS:
-        raise BearingTwinError(f"split={method!r} is not a split method; choose one of {', '.join(SPLITS)}")
+        raise BearingTwinError(f"data.split={method!r} is not a split method; choose one of {', '.join(SPLITS)}")
     train_fraction = check_train_fraction(train_fraction)
     labels = np.asarray(labels)
     if method == "random":

@@ -117,10 +117,12 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
 
     def check_params(self) -> None:
         """Raise :class:`BearingTwinError` naming the first parameter with an impossible value."""
-        choices = {"fitness": tuple(FITNESS), "vmd_params": VMD_PARAMS, "optimizer": OPTIMIZERS}
-        for name, allowed in choices.items():
+        # Named as the command line sets them (the optimizer is a top-level setting the features read).
+        choices = {"fitness": ("features.fitness", tuple(FITNESS)), "vmd_params": ("features.vmd_params", VMD_PARAMS),
+                   "optimizer": ("optimizer", OPTIMIZERS)}
+        for name, (key, allowed) in choices.items():
             if getattr(self, name) not in allowed:
-                raise BearingTwinError(f"{name}={getattr(self, name)!r} is not known; choose one of {', '.join(allowed)}")
+                raise BearingTwinError(f"{key}={getattr(self, name)!r} is not known; choose one of {', '.join(allowed)}")
         whole_number("search.windows", self.search_windows)  # features.search_windows is ${search.windows}
         whole_number("features.seed", self.seed, minimum=0)  # numpy's SeedSequence takes no negative seed
         whole_number("search.population", self.population)  # features.population is ${search.population}
