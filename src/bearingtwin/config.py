@@ -173,6 +173,13 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                                    "leave it out for its default") from error
         except Exception:  # not a composition error: Hydra meets it again when it composes, and reports it
             return
+        if cfg.get("data", {}).get("source") == "simulated":  # the data set's operating point is the simulator's
+            for override in args.overrides:
+                key = override.lstrip("+~").partition("=")[0]
+                if key in ("simulator.rpm", "simulator.fs", "simulator.duration"):
+                    name = key.split(".")[1]
+                    raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
+                                           f"({cfg.data[name]}); give data.{name}=<value>")
         if mode != RunMode.MULTIRUN:  # a sweep's jobs are checked by SweepParentRun, each with its own values
             given = {o.partition("=")[0].lstrip("+~") for o in args.overrides}
             swept = {key.lstrip("+~"): values for key, values in (cfg.hydra.sweeper.get("params") or {}).items()
