@@ -115,6 +115,10 @@ def test_each_command_helps_with_its_own_usage_and_settings(tmp_path, module, us
     assert helped.returncode == 0 and usage in helped.stdout and setting in helped.stdout, helped.stdout[-2000:]
     assert "powered by Hydra" not in helped.stdout and "== Config ==" in helped.stdout
     assert list(tmp_path.iterdir()) == []  # help writes nothing
+    if module == "simulate":  # it composes no classifier, data, sweep ...: its help lists no groups it refuses
+        assert "classifier:" not in helped.stdout and "sweep:" not in helped.stdout
+    if module == "train":  # the groups no default selects take a +
+        assert "+experiment=sim2real, -m +sweep=table4" in helped.stdout
 
 
 def test_an_unknown_report_setting_is_refused(capsys):
