@@ -174,10 +174,11 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         except Exception:  # not a composition error: Hydra meets it again when it composes, and reports it
             return
         if cfg.get("data", {}).get("source") == "simulated":  # the data set's operating point is the simulator's
+            from bearingtwin.data.simulated import DATA_SET_OPERATING_POINT
+
             for override in args.overrides:
-                key = override.lstrip("+~").partition("=")[0]
-                if key in ("simulator.rpm", "simulator.fs", "simulator.duration"):
-                    name = key.split(".")[1]
+                group, _, name = override.lstrip("+~").partition("=")[0].partition(".")
+                if group == "simulator" and name in DATA_SET_OPERATING_POINT:
                     raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
                                            f"({cfg.data[name]}); give data.{name}=<value>")
         if mode != RunMode.MULTIRUN:  # a sweep's jobs are checked by SweepParentRun, each with its own values
@@ -238,6 +239,15 @@ def bearing_choices(overrides: list[str] = ()) -> list[str]:
     if GlobalHydra.instance().is_initialized():
         return sorted(GlobalHydra.instance().config_loader().get_group_options("bearing", overrides=list(overrides)))
     return sorted(path.stem for path in Path(CONF_DIR, "bearing").glob("*.yaml"))
+
+
+def unknown_bearing_note(named: str, consequence: str) -> str | None:
+    """A note when ``named``, the bearing a file names, is no bearing config this command finds (its search path
+    included), saying ``consequence``; None when it is one."""
+    if str(named) in bearing_choices(search_path_override()):
+        return None
+    return (f"the file names bearing {named}, which no conf/bearing config here describes: {consequence} (give "
+            "bearing=<name>, with hydra.searchpath for one of your own)")
 
 
 def load_bearing(name: str, key: str = "bearing"):

@@ -23,8 +23,8 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from bearingtwin.checks import positive_number
-from bearingtwin.config import (bearing_choices, exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
-                                search_path_override)
+from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
+                                unknown_bearing_note)
 from bearingtwin.data.files import read_raw, resolve_fact, resolve_fs
 from bearingtwin.data.real import labels_row
 from bearingtwin.errors import BearingTwinError
@@ -62,11 +62,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     named = raw.meta.get("bearing")  # the file names its bearing (bearingtwin-simulate's, CWRU's fan end)
     unknown_bearing = None
     if bearing is None and named:
-        if str(named) in bearing_choices(search_path_override()):
+        unknown_bearing = unknown_bearing_note(named, "its defect lines are not read")
+        if unknown_bearing is None:
             bearing, bearing_name = load_bearing(str(named)), str(named)
-        else:
-            unknown_bearing = (f"the file names bearing {named}, which no conf/bearing config here describes: its defect "
-                               "lines are not read (give bearing=<name>, with hydra.searchpath for one of your own)")
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
     # replaces one the file merely declares, a speed or state there must agree with the file's.

@@ -28,10 +28,14 @@ from bearingtwin.physics.simulator import records_identity, simulate_many
 from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
 
 
+DATA_SET_OPERATING_POINT = ("rpm", "fs", "duration")
+"""The simulator settings the data set's own (``data.rpm`` ...) replace."""
+
+
 def simulation_config(data_cfg: Mapping, simulator_cfg: Mapping) -> dict:
     """The simulator config with the dataset's operating point (rpm, fs, duration) applied."""
     simulator = plain_config(simulator_cfg)
-    for name in ("rpm", "fs", "duration"):
+    for name in DATA_SET_OPERATING_POINT:
         simulator[name] = data_cfg[name]
     return simulator
 

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import scipy.signal
 
-from bearingtwin.config import bearing_choices, search_path_override
+from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
@@ -74,9 +74,9 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     named = recording.meta.get("bearing")
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
-    if bearing is None and named is not None and named not in bearing_choices(search_path_override()):
-        notes.append(f"the file names bearing {named}, which no conf/bearing config here describes: read as the "
-                     f"model's (give bearing=<name>, with hydra.searchpath for one of your own)")
+    unknown = None if bearing is not None or named is None else unknown_bearing_note(named, "read as the model's")
+    if unknown:
+        notes.append(unknown)
         named = None
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note

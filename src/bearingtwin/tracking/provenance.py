@@ -44,32 +44,33 @@ SIZE_KEYS = (
 _RECORD = re.compile(r"<!-- settings of the runs behind these numbers: (\{.*?\}) -->")
 
 
+def used_sizes(run) -> dict[str, float]:
+    """The size settings a run logged and used (search.* only where SABO-VMD searched: other features ignore it)."""
+    searched = run.data.params.get("features.kind") == "sabo_vmd"
+    sizes = {}
+    for key in SIZE_KEYS:
+        if key.startswith("search.") and not searched:
+            continue
+        try:
+            sizes[key] = float(run.data.params.get(key))
+        except (TypeError, ValueError):
+            continue  # not logged by this kind of run (or None)
+    return sizes
+
+
 def run_sizes(runs) -> dict[str, list[float]]:
     """Each size setting the runs logged and used, with its distinct values (ascending)."""
     sizes: dict[str, set[float]] = {}
     for run in runs:
-        searched = run.data.params.get("features.kind") == "sabo_vmd"  # other features ignore search.*
-        for key in SIZE_KEYS:
-            if key.startswith("search.") and not searched:
-                continue
-            value = run.data.params.get(key)
-            try:
-                sizes.setdefault(key, set()).add(float(value))
-            except (TypeError, ValueError):
-                continue  # not logged by this kind of run (or None)
-    return {key: sorted(values) for key, values in sizes.items() if values}
+        for key, value in used_sizes(run).items():
+            sizes.setdefault(key, set()).add(value)
+    return {key: sorted(values) for key, values in sizes.items()}
 
 
 def run_size(run) -> tuple[float, ...]:
     """A run's size settings in :data:`SIZE_KEYS` order (one not logged, or not used: 0), to order runs by."""
-    searched = run.data.params.get("features.kind") == "sabo_vmd"
-    size = []
-    for key in SIZE_KEYS:
-        try:
-            size.append(0.0 if key.startswith("search.") and not searched else float(run.data.params.get(key)))
-        except (TypeError, ValueError):
-            size.append(0.0)
-    return tuple(size)
+    used = used_sizes(run)
+    return tuple(used.get(key, 0.0) for key in SIZE_KEYS)
 
 
 def size_words(run) -> str:
