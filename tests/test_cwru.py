@@ -266,6 +266,17 @@ def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_co
     assert decisive_channel({"FE": silent, "DE": far}) == "DE" and decisive_channel({"FE": silent}) == "FE"
 
 
+def test_a_short_record_without_a_shaft_series_is_not_contradicted_for_its_length():
+    """A 2 s record at 1500 rpm resolves no fundamental below 1 Hz, a 25th of the shaft's: the search reaches less
+    far below the shaft's place. That is the record's length, not its rate (the Nyquist frequency is far above
+    the search), so a record with no shaft series leaves the rate unconfirmed, as a longer one does."""
+    fs, rpm = 12000.0, 1500.0
+    noise = np.random.default_rng(3).standard_normal(int(2 * fs))
+    check = check_sampling_rate(noise, fs, rpm)
+    assert check.verdict == "ambiguous" and "nothing to check the rate against" in check.reason, check.reason
+    assert "spectrum ends" not in check.reason
+
+
 def test_a_motors_supply_lines_do_not_contradict_the_rate():
     """A motor's pull at twice the supply (100 Hz and its harmonics on a 50 Hz grid) where no shaft series
     stands: those lines stand there at any rate, so the rate is left unconfirmed, not refused (a 48 kHz record

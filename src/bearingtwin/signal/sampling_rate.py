@@ -191,8 +191,10 @@ def check_sampling_rate(
     grid_step = grid[1] / grid[0]  # the same geometric steps on to search_factor^2 either side
     steps = grid_step ** np.arange(1, int(math.ceil(math.log(search_factor) / math.log(grid_step))) + 1)
     beyond = np.concatenate([grid[0] / steps[::-1], grid[-1] * steps])
-    searchable = (n_harmonics * beyond * (1 + harmonic_tolerance) < top_hz) & (beyond > 2 * resolution)
-    searched_all, beyond = bool(searchable.all()), beyond[searchable]  # all: Nyquist and resolution left it whole
+    below_nyquist = n_harmonics * beyond * (1 + harmonic_tolerance) < top_hz
+    # Only the Nyquist frequency's cut says something of the rate; a record too short to resolve the lowest
+    # trial fundamentals (a few seconds at most) merely searches less far below the shaft's place.
+    searched_all, beyond = bool(below_nyquist.all()), beyond[below_nyquist & (beyond > 2 * resolution)]
     harmonics = np.arange(1, n_harmonics + 1)
 
     def scores(fundamentals_hz: np.ndarray) -> np.ndarray:
