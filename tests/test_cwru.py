@@ -33,6 +33,44 @@ def test_names_give_state_load_and_record():
     assert parse_cwru_name("bearing.mat") is None
 
 
+def test_the_data_centers_numbers_and_labels_name_state_size_position_and_load():
+    """The Data Center names its download files by record number (its catalogue says what each holds; there is no
+    157) and mirrors name them by its label of the condition: both give state, size, outer-race position and load.
+    A number gives the 12 kHz drive end; a label gives no record, rate or end."""
+    number = parse_cwru_name("258.mat")
+    assert (number.fault, number.fault_size_in, number.position, number.load_hp, number.record) == ("outer", 0.021, "12", 0, 258)
+    assert (number.rate_hz, number.end, number.bearing) == (12000.0, "drive", "cwru_6205")
+    assert (parse_cwru_name("158.mat").position, parse_cwru_name("158.mat").load_hp) == ("12", 1)
+    assert parse_cwru_name("157.mat") is None and parse_cwru_name("278.mat") is None  # no such 12 kHz drive-end record
+    assert (parse_cwru_name("97.mat").fault, parse_cwru_name("97.mat").rate_hz) == ("normal", None)  # its rate in doubt
+    label = parse_cwru_name("OR021@3_2.mat")
+    assert (label.fault, label.fault_size_in, label.position, label.load_hp) == ("outer", 0.021, "3", 2)
+    assert (label.record, label.rate_hz, label.end) == (None, None, None)
+    assert (parse_cwru_name("Normal_3.mat").fault, parse_cwru_name("b028_1.MAT").fault_size_in) == ("normal", 0.028)
+
+
+def test_a_labels_record_is_read_from_its_variables_with_the_names_load(tmp_path):
+    """A label names no record: the file's own variables are read, its load gives the nominal speed where the file
+    states none, and a note says that the rate and the bearing's end are the defaults, checked. A measured speed of
+    another load than the name's is noted."""
+    import scipy.io
+
+    samples = np.random.default_rng(4).standard_normal((24000, 1))
+    scipy.io.savemat(tmp_path / "B028_1.mat", {"X053_DE_time": samples})
+    recording = load_recording(tmp_path / "B028_1.mat")
+    assert (recording.rpm, recording.fault, recording.meta["record"], recording.meta["fault_size_in"]) == (1772.0, "ball", 53, 0.028)
+    assert any("states no rate and no bearing end" in note for note in recording.meta["notes"])
+    scipy.io.savemat(tmp_path / "IR021_2.mat", {"X211_DE_time": samples, "X211RPM": 1797.0})
+    mislabelled = load_recording(tmp_path / "IR021_2.mat")
+    assert mislabelled.rpm == 1797.0
+    assert any("1797 rpm, is not the Data Center's 1750 rpm for the 2 hp" in note for note in mislabelled.meta["notes"])
+    scipy.io.savemat(tmp_path / "IR021_3.mat", {"X212_DE_time": samples, "X212RPM": 1725.0})  # 3 hp's measured speed
+    assert not any("is not the Data Center's" in note for note in load_recording(tmp_path / "IR021_3.mat").meta["notes"])
+    scipy.io.savemat(tmp_path / "278.mat", {"X278_DE_time": samples, "X278RPM": 1797.0})
+    assert any("not in the Data Center's 12 kHz drive-end catalogue" in note
+               for note in load_recording(tmp_path / "278.mat").meta["notes"])
+
+
 def test_declared_rate_per_record():
     assert declared_fs_hz(97, 12000, {97: 48000}) == 48000
     assert declared_fs_hz(105, 12000, {"97": 48000}) == 12000
@@ -371,10 +409,13 @@ def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_p
     assert any("1750 rpm" in note and "2 hp" in note for note in recording.meta["notes"])
     given = load_recording(path, rpm=1747.0)  # a measured speed replaces the nominal one, no contradiction
     assert given.rpm == 1747.0 and not any("rpm" in note for note in given.meta["notes"])
-    scipy.io.savemat(tmp_path / "3003.mat", {"X058_DE_time": samples})  # the Data Center's own name: no load
-    assert load_recording(tmp_path / "3003.mat").rpm is None
-    with pytest.raises(BearingTwinError, match="3003.mat: no X<nnn>RPM variable and no motor load in the name"):
-        load_cwru(tmp_path / "3003.mat")
+    scipy.io.savemat(tmp_path / "3003.mat", {"X058_DE_time": samples})  # the Data Center's own name: its catalogue's
+    numbered = load_recording(tmp_path / "3003.mat")
+    assert (numbered.rpm, numbered.fault, numbered.meta["fault_size_in"], numbered.meta["load_hp"]) == (1750.0, "inner", 0.028, 2)
+    scipy.io.savemat(tmp_path / "3009.mat", {"X058_DE_time": samples})  # a number the catalogue does not hold: no load
+    assert load_recording(tmp_path / "3009.mat").rpm is None
+    with pytest.raises(BearingTwinError, match="3009.mat: no X<nnn>RPM variable and no motor load in the name"):
+        load_cwru(tmp_path / "3009.mat")
 
 
 def test_a_file_holding_two_records_gives_the_one_its_name_names(tmp_path):

@@ -448,7 +448,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
     assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
     header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
-    assert header[-1] == "bearing" and rows["pump_a"]["bearing"] and not rows["short"]["bearing"]
+    assert header[-2:] == ["bearing", "original_fs"] and rows["pump_a"]["bearing"] and not rows["short"]["bearing"]
+    assert float(rows["pump_a"]["original_fs"]) > 0 and not rows["short"]["original_fs"]
     assert "true_state" not in rows["other"] or not rows["other"]["true_state"]
     assert "shorter than one window" in rows["short"]["error"] and "NaN" in rows["nan"]["error"]
     assert "cut.wav: not a readable .wav file" in rows["cut"]["error"] and "Traceback" not in done.stderr
@@ -565,9 +566,21 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
     assert unlabelled.returncode == 2 and (f"unlabelled.npy: the file does not state its sampling rate; give fs=<Hz> "
                                            f"(or a row in {folder / 'labels.csv'}, which has none for it)") in unlabelled.stderr
     (folder / "unlabelled.npy").unlink()
+    bare = tmp_path / "elsewhere" / "bare"  # without a table, the message names the one a user may write
+    bare.mkdir(parents=True)
+    for name in ("a", "b"):
+        np.save(bare / f"{name}.npy", fault_signal(None, seconds=3))
+    unlabelled = run("diagnose", f"path={bare}", "model=models:/diag/1", f"out={tmp_path}/out", "figures=false",
+                     "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert unlabelled.returncode == 2
+    assert ("a.npy: the file does not state its sampling rate; give fs=<Hz> (every file's), or this file's "
+            "in a labels.csv beside it (columns record,state,rpm,fs)") in unlabelled.stderr, unlabelled.stderr[-2000:]
+    (tmp_path / "out" / "earlier").mkdir(parents=True)
+    (tmp_path / "out" / "earlier" / "diagnosis.json").write_text("{}")
     done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/out", "figures=false",
                "tracking.enabled=false", cwd=tmp_path, uri=uri)
     assert done.returncode == 0, done.stderr[-2000:]
+    assert "holds 1 record folder of an earlier run beside this run's (earlier)" in done.stdout + done.stderr, done.stdout
     for name, (rpm, fs) in rows.items():
         result = json.loads((tmp_path / "out" / name / "diagnosis.json").read_text())
         assert (result["rpm"], result["original_fs"], result["true_state"]) == (rpm, fs, "outer")
@@ -675,6 +688,10 @@ def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data
     # Record 105 (0 hp) packaged as the Data Center packages its 0.028 in records: another number, no speed.
     inner = scipy.io.loadmat(CWRU / "12k_Drive_End_IR007_0_105.mat")
     scipy.io.savemat(folder / "12k_Drive_End_IR028_0_3001.mat", {"X056_DE_time": inner["X105_DE_time"]})
+    # The Data Center's own file name (a number its catalogue lists) and a mirror's (its label of the condition).
+    scipy.io.savemat(folder / "3003.mat", {"X058_DE_time": scipy.io.loadmat(CWRU / "12k_Drive_End_IR007_2_107.mat")["X107_DE_time"]})
+    outer = scipy.io.loadmat(CWRU / "12k_Drive_End_OR007@6_2_132.mat")
+    scipy.io.savemat(folder / "OR021@3_2.mat", {"X248_DE_time": outer["X132_DE_time"], "X248RPM": outer["X132RPM"]})
     done = run("diagnose", f"path={folder}", "model=models:/diag@champion", f"out={tmp_path}/out", "tracking.enabled=false",
                cwd=tmp_path, uri=uri)
     assert done.returncode == 0, done.stderr[-2000:]
@@ -689,10 +706,16 @@ def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data
     assert repackaged["fault_size_in"] == 0.028 and repackaged["physics_correct"]  # record 105's clear BPFI series
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
     assert rows["12k_Drive_End_IR028_0_3001"]["fault_size_in"] == "0.028" and rows["normal_1_98"]["fault_size_in"] == ""
+    condition = ("true_state", "fault_size_in", "position", "load_hp", "original_fs")
+    assert tuple(rows["3003"][key] for key in condition) == ("inner", "0.028", "", "2", "12000.0")
+    assert tuple(rows["OR021@3_2"][key] for key in condition) == ("outer", "0.021", "3", "2", "12000.0")
+    assert json.loads((tmp_path / "out" / "3003" / "diagnosis.json").read_text())["rpm"] == 1750.0  # 2 hp's nominal
+    assert "states no rate and no bearing end" in done.stdout  # the label's
     for row in rows.values():  # the physics is right where its evidence names the record's state
         assert row["physics_correct"] == str(row["evidence_state"] == row["true_state"]), row
-    assert re.search(r"physics alone right: [\d.]+ % of the 2 with physics evidence", done.stdout), done.stdout
-    by_size = re.search(r"records right by fault size \(model, physics\): normal [01]/1, [01]/1; 0.028 in [01]/1, 1/1", done.stdout)
+    assert re.search(r"physics alone right: [\d.]+ % of the 4 with physics evidence", done.stdout), done.stdout
+    by_size = re.search(r"records right by fault size \(model, physics\): normal [01]/1, [01]/1; 0.021 in [01]/1, [01]/1; "
+                        r"0.028 in [012]/2, [12]/2", done.stdout)
     assert by_size is not None, done.stdout
 
 

@@ -29,6 +29,11 @@ def test_npz_as_the_simulator_writes_it(tmp_path, signal):
         load_recording(path, channel="signal", fs=9000)
     with pytest.raises(BearingTwinError, match=r"sim.npz: rpm=1000.0 contradicts the file's rpm=1797.0"):
         load_recording(path, channel="signal", rpm=1000.0)
+    # A speed within 1 % of the file's measured one is the same speed: the file's is read, and said so.
+    close = load_recording(path, channel="signal", rpm=1790.0)
+    assert close.rpm == 1797.0 and "rpm=1790 given; the file's measured 1797 rpm read" in close.meta["notes"]
+    with pytest.raises(BearingTwinError, match=r"rpm=1770.0 contradicts the file's rpm=1797.0 \(more than 1% apart\)"):
+        load_recording(path, channel="signal", rpm=1770.0)
     np.testing.assert_array_equal(load_recording(path).signal, signal)  # `signal` is the .npz default channel
     two = tmp_path / "two.npz"
     np.savez(two, left=signal, right=2 * signal, fs=FS)

@@ -80,8 +80,11 @@ def records_right_by_size(rows: list[dict]) -> str:
     if not any("fault_size_in" in row for row in rows):
         return ""
     groups: dict[str, list[dict]] = {}
-    for row in sorted((row for row in rows if "correct" in row), key=lambda row: row.get("fault_size_in", 0.0)):
-        groups.setdefault(f"{row['fault_size_in']:.3f} in" if "fault_size_in" in row else row["true_state"], []).append(row)
+    scored = [row for row in rows if "correct" in row]
+    several = len({row.get("bearing") for row in scored}) > 1  # a size of another bearing is another fault
+    for row in sorted(scored, key=lambda row: (row.get("fault_size_in", 0.0), str(row.get("bearing")))):
+        name = f"{row['fault_size_in']:.3f} in" if "fault_size_in" in row else row["true_state"]
+        groups.setdefault(f"{name} ({row.get('bearing')})" if several else name, []).append(row)
 
     def physics(group: list[dict]) -> str:
         judged = [row["physics_correct"] for row in group if "physics_correct" in row]

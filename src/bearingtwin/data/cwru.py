@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import logging
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +45,31 @@ _NAME = re.compile(
     r"^(?:(?P<rate>\d+k)_(?P<end>Drive|Fan)_End_(?P<state>IR|B|OR)(?P<size>\d{3})(?:@(?P<position>\d+))?"
     r"|(?P<normal>normal))_(?P<load>\d)_(?P<record>\d+)$"
 )
+_CONDITION = re.compile(r"^(?:(?P<state>IR|B|OR)(?P<size>\d{3})(?:@(?P<position>\d+))?|(?P<normal>normal))_(?P<load>\d)$",
+                        re.IGNORECASE)
+"""The Data Center's own label of a record (``IR014_1``, ``OR021@12_0``, ``Normal_0``), which mirrors name files by."""
+
+DATA_CENTER_12K_DRIVE_END = {
+    97: "Normal_0", 98: "Normal_1", 99: "Normal_2", 100: "Normal_3",
+    105: "IR007_0", 106: "IR007_1", 107: "IR007_2", 108: "IR007_3",
+    169: "IR014_0", 170: "IR014_1", 171: "IR014_2", 172: "IR014_3",
+    209: "IR021_0", 210: "IR021_1", 211: "IR021_2", 212: "IR021_3",
+    3001: "IR028_0", 3002: "IR028_1", 3003: "IR028_2", 3004: "IR028_3",
+    118: "B007_0", 119: "B007_1", 120: "B007_2", 121: "B007_3",
+    185: "B014_0", 186: "B014_1", 187: "B014_2", 188: "B014_3",
+    222: "B021_0", 223: "B021_1", 224: "B021_2", 225: "B021_3",
+    3005: "B028_0", 3006: "B028_1", 3007: "B028_2", 3008: "B028_3",
+    130: "OR007@6_0", 131: "OR007@6_1", 132: "OR007@6_2", 133: "OR007@6_3",
+    144: "OR007@3_0", 145: "OR007@3_1", 146: "OR007@3_2", 147: "OR007@3_3",
+    156: "OR007@12_0", 158: "OR007@12_1", 159: "OR007@12_2", 160: "OR007@12_3",
+    197: "OR014@6_0", 198: "OR014@6_1", 199: "OR014@6_2", 200: "OR014@6_3",
+    234: "OR021@6_0", 235: "OR021@6_1", 236: "OR021@6_2", 237: "OR021@6_3",
+    246: "OR021@3_0", 247: "OR021@3_1", 248: "OR021@3_2", 249: "OR021@3_3",
+    258: "OR021@12_0", 259: "OR021@12_1", 260: "OR021@12_2", 261: "OR021@12_3",
+}
+"""The Data Center's catalogue of its 12 kHz drive-end fault records and the normal baseline: record number ->
+label. Its download files are named by the number alone (``170.mat``); the catalogue says what each holds (there
+is no record 157). Its 48 kHz drive-end and fan-end records have numbers of their own, not listed here."""
 
 
 @dataclass(frozen=True)
@@ -53,11 +78,12 @@ class CwruName:
 
     fault: str
     load_hp: int
-    record: int
+    record: int | None  # None for a label, which names no record (mirrors file 12 and 48 kHz records under one label)
     fault_size_in: float | None = None  # defect diameter in inches (0.007 for "007")
     position: str | None = None  # outer-race defect position in o'clock ("6"), None elsewhere
     rate_hz: float | None = None  # sampling rate the name states ("48k_..." -> 48000), None when it states none
-    end: str | None = None  # the faulty bearing: "drive" (SKF 6205) or "fan" (SKF 6203); None for the healthy records
+    end: str | None = None  # the faulty bearing: "drive" (SKF 6205) or "fan" (SKF 6203); None when the name does not say
+    form: str = "long"  # "long" (12k_Drive_End_IR007_0_105), "number" (105, the catalogue's) or "label" (IR007_0)
 
     @property
     def bearing(self) -> str | None:
@@ -66,8 +92,22 @@ class CwruName:
 
 
 def parse_cwru_name(path: str | Path) -> CwruName | None:
-    """The state, motor load and record number in a CWRU file name (None for another form)."""
-    match = _NAME.match(Path(path).stem)
+    """The state, motor load and record number in a CWRU file name (None for another form).
+
+    Three forms are read: the long one (``12k_Drive_End_IR014_1_170.mat``), the Data Center's record number
+    (``170.mat``, as its catalogue lists it: :data:`DATA_CENTER_12K_DRIVE_END`) and its label of the record's
+    condition (``IR014_1.mat``, ``Normal_0.mat``), which states neither the record, the rate nor the bearing's end.
+    """
+    stem = Path(path).stem
+    if stem.isdigit() and int(stem) in DATA_CENTER_12K_DRIVE_END:
+        label = _parse_condition(DATA_CENTER_12K_DRIVE_END[int(stem)])
+        faulty = label.fault != "normal"
+        return replace(label, record=int(stem), form="number", rate_hz=DECLARED_FS_HZ if faulty else None,
+                       end="drive" if faulty else None)
+    label = _parse_condition(stem)
+    if label is not None:
+        return label
+    match = _NAME.match(stem)
     if match is None:
         return None
     if match["normal"]:
@@ -81,6 +121,17 @@ def parse_cwru_name(path: str | Path) -> CwruName | None:
         rate_hz=1000.0 * int(match["rate"][:-1]),
         end=match["end"].lower(),
     )
+
+
+def _parse_condition(stem: str) -> CwruName | None:
+    """A Data Center label (``OR021@12_0``) as a name: state, size, position and load; no record, rate or end."""
+    match = _CONDITION.match(stem)
+    if match is None:
+        return None
+    if match["normal"]:
+        return CwruName(fault="normal", load_hp=int(match["load"]), record=None, form="label")
+    return CwruName(fault=STATES[match["state"].upper()], load_hp=int(match["load"]), record=None,
+                    fault_size_in=int(match["size"]) / 1000.0, position=match["position"], form="label")
 
 
 def is_cwru_mat(variables: dict) -> bool:
@@ -123,6 +174,7 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     rpm_names = [n for n in variables if re.fullmatch(rf"X0*{record}RPM", n)]
     rpm = float(np.asarray(variables[rpm_names[0]]).reshape(-1)[0]) if rpm_names else None
     nominal_rpm = None if name is None or rpm is not None else NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp)
+    notes += _name_notes(path, name, rpm)
     meta = {"record": record if named is None else named, "notes": notes}
     if name is not None:
         meta.update(load_hp=name.load_hp, fault_size_in=name.fault_size_in, position=name.position)
@@ -149,10 +201,34 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     )
 
 
-def declared_fs_hz(record: int, default_hz: float, by_record: dict | None = None) -> float:
-    """The sampling rate declared for ``record``: a per-record entry if any, else the default."""
+SPEED_AGREEMENT = 0.01
+"""How far (relative) a file's measured speed may lie from the Data Center's nominal one for the load its name gives
+before a note says so: the loads' nominal speeds lie 1.0-1.4 % apart, a record's measured one within 0.3 % of its own."""
+
+
+def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[str]:
+    """What a reader should know of a name: what a label or an uncatalogued number leaves unsaid, and a measured
+    speed that belongs to another load than the name's."""
+    notes = []
+    if name is None and path.stem.isdigit():
+        notes.append(f"record {path.stem} is not in the Data Center's 12 kHz drive-end catalogue: read as a drive-end "
+                     "record declared at 12 kHz, the rate checked (channel=FE bearing=cwru_6203 for a fan-end record)")
+    elif name is not None and name.form == "label" and name.fault != "normal":
+        notes.append(f"the name {path.stem} (the Data Center's label) states no rate and no bearing end: read as a "
+                     "drive-end record declared at 12 kHz, the rate checked (channel=FE bearing=cwru_6203 for a "
+                     "fan-end record)")
+    nominal = NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp) if name is not None else None
+    if nominal is not None and rpm is not None and abs(rpm / nominal - 1.0) > SPEED_AGREEMENT:
+        notes.append(f"its measured speed, {rpm:g} rpm, is not the Data Center's {nominal:g} rpm for the "
+                     f"{name.load_hp} hp its name gives: read at the measured speed")
+    return notes
+
+
+def declared_fs_hz(record: int | None, default_hz: float, by_record: dict | None = None) -> float:
+    """The sampling rate declared for ``record``: a per-record entry if any, else the default (a record a name
+    does not number, a Data Center label's, has the default)."""
     by_record = {int(key): float(value) for key, value in (by_record or {}).items()}
-    return by_record.get(int(record), float(default_hz))
+    return float(default_hz) if record is None else by_record.get(int(record), float(default_hz))
 
 
 def load_cwru(

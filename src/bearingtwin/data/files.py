@@ -184,8 +184,8 @@ def recording_from_raw(
     name, signal = raw.channel(channel, channel_key)
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{fault_key}={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
-    rpm = resolve_fact(raw, "rpm", raw.rpm, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key)
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
+    rpm = _resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
     if rpm is None and raw.nominal_rpm is not None:
         rpm = raw.nominal_rpm
         notes.append(raw.nominal_rpm_note)
@@ -223,6 +223,24 @@ def resolve_fact(raw: RawRecord, name: str, from_file, from_user, key: str | Non
     if from_file is not None and from_user != from_file:
         raise BearingTwinError(f"{raw.path}: {key or name}={from_user!r} contradicts the file's {name}={from_file!r}")
     return from_user
+
+
+SPEED_TOLERANCE = 0.01
+"""How far (relative) a given speed may lie from the one a file measured and still be the same: a motor's speed
+drifts by a few rpm within a record and between its readings; a load step moves it by more than 1 %."""
+
+
+def _resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str]) -> float | None:
+    """The shaft speed: the file's measured one where it has one and a given ``rpm`` (setting ``key``) agrees with it
+    within :data:`SPEED_TOLERANCE` (said in ``notes`` when they differ), else the given one; a given speed the
+    file's contradicts is refused."""
+    if rpm is None or raw.rpm is None or rpm == raw.rpm:
+        return raw.rpm if rpm is None else rpm
+    if abs(rpm / raw.rpm - 1.0) > SPEED_TOLERANCE:
+        raise BearingTwinError(f"{raw.path}: {key}={rpm!r} contradicts the file's rpm={raw.rpm!r} "
+                               f"(more than {SPEED_TOLERANCE:.0%} apart)")
+    notes.append(f"{key}={rpm:g} given; the file's measured {raw.rpm:g} rpm read")
+    return float(raw.rpm)
 
 
 def time_column_seconds(name: str) -> float | None:

@@ -10,8 +10,8 @@ voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 ``record``, ``model_uri``, ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
 ``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
 ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
-``contradicted`` or ``not checked``), ``notes``, ``fault_size_in`` where the file's name gives it
-and, when the truth is known, ``true_state``, ``correct`` and ``physics_correct`` (the evidence
+``contradicted`` or ``not checked``), ``notes``, ``fault_size_in``, ``position`` and ``load_hp`` where the
+file's name gives them and, when the truth is known, ``true_state``, ``correct`` and ``physics_correct`` (the evidence
 alone). Beside them: ``source``, ``channel``, ``bearing`` (whose defect lines were read) and ``original_fs``
 (what was read), and
 ``windows_correct`` with a truth (``calibration_record`` is added by :mod:`bearingtwin.diagnosis.run`).
@@ -54,6 +54,10 @@ class PreparedRecord:
     bearing: dict = field(default_factory=dict)  # the bearing the physics evidence reads defect lines of
     rate_check: str = "not checked"  # the shaft line against speed and rate: consistent, ambiguous, contradicted
 
+
+CONDITION_KEYS = ("fault_size_in", "position", "load_hp")
+"""What a CWRU name states of a record's condition (defect size in inches, outer-race position in o'clock, motor
+load in hp), copied into its diagnosis where known."""
 
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
                 true_state: str | None = None, bearing: str | None = None, fs_key: str = "fs",
@@ -290,8 +294,9 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "rate_check": prepared.rate_check,
         "notes": notes,
     }
-    if recording.meta.get("fault_size_in") is not None:  # a CWRU name's defect size, to score by size
-        result["fault_size_in"] = recording.meta["fault_size_in"]
+    for key in CONDITION_KEYS:  # what a CWRU name says of the record's condition, to score by it
+        if recording.meta.get(key) is not None:
+            result[key] = recording.meta[key]
     if prepared.true_state is not None:
         result["true_state"] = prepared.true_state
         result["correct"] = bool(verdict == prepared.true_state)

@@ -28,7 +28,7 @@ from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, labels_row, names_file, read_labels, recordings_in
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
-from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record
+from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
 
 if TYPE_CHECKING:
@@ -161,11 +161,16 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
     tracked = open_diagnosis_run(cfg, table, bearing) if tracking else None
     run = DiagnosisRun(out=out)
+    earlier = {path.parent.name for path in out.glob("*/diagnosis.json")}
     try:
         diagnose_records(run, records, cfg, model, pipeline, settings, labels, table, bearing, figures)
     finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
         if len(records) > 1 or run.failures:
             run.files.append(write_summary(run.rows, out / "summary.csv"))
+    left = sorted(earlier - {path.stem for path in records})
+    if left:  # not deleted (they are a user's results), but not to be read as this run's either
+        log.warning("out=%s holds %d record folder%s of an earlier run beside this run's (%s); summary.csv lists this "
+                    "run's only", out, len(left), "s" if len(left) > 1 else "", ", ".join(left[:5]) + (", ..." if len(left) > 5 else ""))
     if tracked:
         run.run_id = log_diagnosis(*tracked, run, len(records))
     return run
@@ -211,8 +216,10 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             message = str(error) if isinstance(error, BearingTwinError) else f"{type(error).__name__}: {error}"
             if not message.startswith(f"{path}: "):  # a reader's message names the file already; name it once
                 message = f"{path}: {message}"
-            if table is not None and path.stem not in labelled and ("give fs=" in message or "give rpm=" in message):
-                message += f" (or a row in {table}, which has none for it)"  # what a row's rpm and fs would give
+            if path.stem not in labelled and ("give fs=" in message or "give rpm=" in message):
+                # What a row's rpm and fs would give: the command's value is every file's, a row is one file's.
+                message += (f" (or a row in {table}, which has none for it)" if table is not None else
+                            f" (every file's), or this file's in a {DEFAULT_LABELS} beside it (columns record,state,rpm,fs)")
             if not isinstance(error, BearingTwinError):
                 log.exception("%s: unexpected failure", path)
             run.failures[path.name] = message
@@ -225,13 +232,12 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         progress.write(one_line(result))
         row = {name: result[name] for name in SUMMARY_COLUMNS}
         row["calibrated_on"] = calibrated_on
-        if "fault_size_in" in result:
-            row["fault_size_in"] = result["fault_size_in"]
+        row.update({key: result[key] for key in CONDITION_KEYS if key in result})
         if "true_state" in result:
             row.update({name: result[name] for name in TRUTH_COLUMNS if name in result})
             windows_total += len(result["windows"])
             windows_correct += result["windows_correct"]
-        row["bearing"] = result["bearing"]
+        row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
         run.rows.append(row)
     scored = [row for row in run.rows if "correct" in row]
     if scored:
@@ -281,7 +287,9 @@ def write_summary(rows: list[dict], path: Path) -> Path:
         columns += TRUTH_COLUMNS
     if any("error" in row for row in rows):
         columns.append("error")
-    columns.append("bearing")  # last: the columns before it keep the places they had before it existed
+    columns.append("bearing")  # the columns before it keep the places they had before it and those after existed
+    columns += [key for key in ("load_hp", "position") if any(key in row for row in rows)]
+    columns.append("original_fs")  # the rate the file was read at (Hz), before any resampling to the model's
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
