@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from processes import run_module
 
 from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.twin.compare import VIEWS
 from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.report import build_ranker, ranker_settings
 
@@ -309,6 +311,49 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
     assert report["measured"]["reference"] == str(tmp_path / "baseline" / "twin_report.json")
     assert (f"reference: {tmp_path / 'baseline' / 'twin_report.json'} (its operating point held where this run gives "
             "none; its effects kept: resonance)") in result.stdout
+    # The two records compared directly, no twin between them: the new line is what changed most (the line's power
+    # moves the band levels and the statistics too).
+    assert report["since_reference"][0]["view"] == "lines", report["since_reference"]
+    line = re.search(r"a line at (\d+) Hz \(shaft order [\d.]+\) stands \d+ dB higher in the measurement",
+                     report["since_reference"][0]["where"])
+    assert line and abs(float(line.group(1)) - 1797 / 60) <= 4.0  # the shaft's line, at the 4 Hz lines resolution here
+    assert f"since the reference record: lines: {line.group(0)}" in result.stdout
+
+    # Another record of the unchanged rig: nothing changed since the reference, so whatever the twin still misses is
+    # the rig's own, and no effect is needed.
+    again = TwinModel("outer", cfg.bearing, cfg.simulator, seed=13).signal(
+        {"simulator.defect.depth_mm": 0.004}, {"resonance": {"natural_frequency_hz": 2400.0, "damping_ratio": 0.07}})
+    np.save(tmp_path / "again.npy", again / 9.81)
+    null = run_cli(f"measured.path={tmp_path / 'again.npy'}", f"out={tmp_path / 'again'}",
+                   "candidates=[resonance,unbalance]", f"reference={tmp_path / 'baseline' / 'twin_report.json'}", *common)
+    assert null.returncode == 0, null.stderr[-2000:]
+    unchanged = json.loads((tmp_path / "again" / "twin_report.json").read_text())
+    assert unchanged["since_reference"] == [] and unchanged["added"] == []
+    assert unchanged["verdict"] == "no effect needed" and "verdict: no effect needed\n" in null.stdout
+    assert "nothing changed beyond the measurement's own part-to-part scatter" in unchanged["summary"]
+
+
+def test_a_reference_record_that_cannot_be_compared_says_why(measurement, tmp_path):
+    """The reference's record is read again from the path its report names: gone, or taken at another rate or
+    speed, it is not compared, and the report says why."""
+    from types import SimpleNamespace
+
+    from bearingtwin.config import load_bearing
+    from bearingtwin.data.recording import Recording
+    from bearingtwin.twin.compare import CompareSettings
+    from bearingtwin.twin.report import compare_with_reference
+
+    measured = Recording(np.load(measurement), 12000.0, 1797.0, "outer", source=str(measurement))
+    about = {"path": str(measurement), "fs": 12000.0, "rpm": 1797.0}
+    for change, words in [({"path": str(tmp_path / "gone.npy")}, f"its record {tmp_path / 'gone.npy'} is not there"),
+                          ({"fs": 25600.0}, "taken at 25600.0 Hz, this one at 12000 Hz"),
+                          ({"rpm": 1750.0}, "taken at 1750.0 rpm, this one at 1797 rpm")]:
+        fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
+        compare_with_reference(fit, measured, {"measured": {**about, **change}}, load_bearing("paper"), CompareSettings(), 0.5)
+        assert fit.since_reference is None and words in fit.reference_note, fit.reference_note
+    fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
+    compare_with_reference(fit, measured, {"measured": about}, load_bearing("paper"), CompareSettings(), 0.5)
+    assert fit.since_reference == [] and fit.reference_note == ""  # the record against itself: nothing changed
 
 
 @pytest.mark.parametrize("content, message", [

@@ -38,9 +38,10 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
         found = f"none pays for its parameters on the {'held-out half' if fit.held_out else 'record'}"
     drop = fit.baseline_error - fit.final_error
     share = f" ({100 * drop / fit.baseline_error:.0f} % less)" if fit.baseline_error > 0 else ""
-    unexplained = ", ".join(left["view"] for left in fit.unexplained)
+    new = fit.new_unexplained  # less the views the rig showed as they are in a reference record
+    unexplained = ", ".join(left["view"] for left in new)
     lines = {
-        "verdict": fit.verdict + (f" (unexplained in the {unexplained} view{'s' if len(fit.unexplained) > 1 else ''})"
+        "verdict": fit.verdict + (f" (unexplained in the {unexplained} view{'s' if len(new) > 1 else ''})"
                                   if unexplained else ""),
         "effects found": found,
         "discrepancy": (f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}" if fit.added
@@ -49,12 +50,22 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
                           else " (too short to hold out half: its own is unknown)"),
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
+    # A value held from a reference that its own record did not identify is a number that means little: said so.
+    from bearingtwin.twin.rank import not_identified
+    from bearingtwin.twin.reference import read_reference
+
+    earlier = read_reference(cfg.reference)["operating_point"] if cfg.get("reference") is not None else {}
     held = [f"{name} {entry['value']}" if isinstance(entry["value"], str)  # the sensor: "outer race, vertical"
             else f"{name.removesuffix('_' + entry['unit'].lower()).replace('_', ' ')} {entry['value']:.4g} "
                  f"{entry['unit']}".rstrip()
+                 + (" (not identified by the reference record)" if isinstance(earlier.get(name), dict)
+                    and not_identified(earlier[name]) and entry["value"] == earlier[name].get("value") else "")
             for name, entry in fit.operating_point.items() if entry.get("held")]
     if held:  # given with operating_point.*, or held from a reference's report
         lines["operating point held"] = ", ".join(held)
+    if fit.since_reference is not None:
+        lines["since the reference record"] = ("; ".join(f"{entry['view']}: {entry['where']}" for entry in fit.since_reference)
+                                               or "nothing changed beyond the measurement's own scatter")
     if cfg.effects:  # known present, in every step: the summary says so, as it says the reference's
         tried = [name for name in cfg.effects if name in cfg.candidates]
         lines["held in the twin"] = ", ".join(cfg.effects) + " (effects=)" + (

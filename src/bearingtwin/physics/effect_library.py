@@ -608,11 +608,14 @@ class LineEffect(Effect):
 
 @register_effect
 class Tones(LineEffect):
-    """Narrow lines from elsewhere: neighbouring machines, gear mesh, rotor-bar pass, a drive's carrier.
+    """Narrow lines from elsewhere: neighbouring machines, rotor-bar pass, a drive's carrier.
 
     A set of independent lines, each with its own frequency and level: the lines a
     measurement shows that none of the machine effects (``unbalance``, ``misalignment``,
-    ``looseness``: shaft orders; ``line_frequency``: supply multiples) accounts for.
+    ``looseness``: shaft orders; ``line_frequency``: supply multiples) accounts for. A gear on
+    the shaft is not such a set: its mesh lines stand at whole shaft orders with shaft-rate
+    sidebands, a modulation these independent lines do not make; the library has no gear mesh
+    (the guide's "Adding an effect" writes one).
     ``initial_guess`` reads them off the measured spectrum; the calibration then refines one
     common ``level_offset_db``, so the parameters stay a plain dict and the search one-dimensional.
 

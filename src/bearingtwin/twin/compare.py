@@ -389,16 +389,17 @@ class Comparator:
         return Profile(psd_freqs, psd, band_db, lines_freqs[self.lines_bins], lines_psd[self.lines_bins],
                        lines_level[self.lines_bins], env_freqs, env_amp, env_db, line_db, widths, windows)
 
-    def __call__(self, twin: Recording | np.ndarray) -> Comparison:
-        """Compare a twin signal (same fs as the measurement) with the measurement."""
+    def __call__(self, twin: Recording | np.ndarray, other: str = "the twin") -> Comparison:
+        """Compare a twin signal (same fs as the measurement) with the measurement; ``other`` names it in the
+        findings (another record of the rig compares the same way: "the reference record")."""
         if isinstance(twin, Recording):
             if not math.isclose(twin.fs, self.fs):
                 raise BearingTwinError(f"{twin.source}: twin fs={twin.fs} differs from the measurement's {self.fs}")
             twin = twin.signal
-        return self.compare_profiles(self.profile(twin))
+        return self.compare_profiles(self.profile(twin), other)
 
-    def compare_profiles(self, twin: Profile) -> Comparison:
-        """The views' errors between the measurement and an already profiled twin."""
+    def compare_profiles(self, twin: Profile, other: str = "the twin") -> Comparison:
+        """The views' errors between the measurement and an already profiled twin (``other`` in the findings)."""
         m, s = self.measured, self.settings
         residual = m.band_db - twin.band_db
         gain_db = float(residual.mean())
@@ -412,7 +413,7 @@ class Comparator:
             psd_finding = "band levels agree within 0.5 dB after gain and tilt"
         else:
             psd_finding = (f"energy between {_hz(lo)} and {_hz(hi)} is {abs(residual[worst]):.1f} dB "
-                           f"{'above' if residual[worst] > 0 else 'below'} the twin's")
+                           f"{'above' if residual[worst] > 0 else 'below'} {other}'s")
             if residual[worst] < 0:  # the measurement quieter: what takes energy away, not what adds it
                 psd_cause = "a quieter path in that band (more damping, or a mode the twin has and the structure lacks)"
                 if worst == residual.size - 1:  # the top band: what every acquisition chain does there
@@ -420,7 +421,7 @@ class Comparator:
                                   "the converter's bandwidth, or a record resampled from a lower rate)")
 
         gain = 10 ** (gain_db / 20.0)
-        lines_error, lines_finding, n_line_bins = self._compare_lines(m, twin, gain)
+        lines_error, lines_finding, n_line_bins = self._compare_lines(m, twin, gain, other)
 
         smooth = max(1, int(round(s.smooth_hz / self.env_df)))
         kernel = np.ones(smooth) / smooth
@@ -435,8 +436,8 @@ class Comparator:
         k = len(self.harmonics_hz)
         mean_ratio = float(np.exp(np.mean(np.log(width_ratio))))
         prominence = float(np.mean(line_diff[:k]))
-        width_words = ("as wide as the twin's" if abs(mean_ratio - 1) < 0.1
-                       else f"{_times(mean_ratio)} as wide as the twin's")
+        width_words = (f"as wide as {other}'s" if abs(mean_ratio - 1) < 0.1
+                       else f"{_times(mean_ratio)} as wide as {other}'s")
         prominence_words = ("equally prominent" if abs(prominence) < 0.5 else
                             f"{abs(prominence):.1f} dB {'more' if prominence >= 0 else 'less'} prominent")
         harmonic_finding = f"in the measurement {self.reference_name} harmonics are {width_words} and {prominence_words}"
@@ -457,7 +458,7 @@ class Comparator:
         worst_stat = int(np.argmax(np.abs(stat_db)))
         ratio = 10 ** (stat_db[worst_stat] / _FEATURE_DB_PER_DECADE.get(stat_names[worst_stat], 20.0))
         stat_finding = (f"the measurement's {stat_names[worst_stat].replace('_', ' ')} is "
-                        f"{_times(ratio)} the twin's" if abs(ratio - 1) >= 0.05
+                        f"{_times(ratio)} {other}'s" if abs(ratio - 1) >= 0.05
                         else "kurtosis and the crest, shape, impulse and margin factors agree within 5 %")
 
         errors = {"psd": float(np.sqrt(np.mean(residual**2))), "lines": lines_error, "envelope": env_error,
@@ -493,7 +494,7 @@ class Comparator:
         over_measured = 10 * np.log10(gain**2 * twin.lines_psd / m.lines_level)
         return measured, np.maximum(np.minimum(own, over_measured) - threshold, 0.0)
 
-    def _compare_lines(self, m: Profile, twin: Profile, gain: float) -> tuple[float, str, int]:
+    def _compare_lines(self, m: Profile, twin: Profile, gain: float, other: str = "the twin") -> tuple[float, str, int]:
         """Root of the summed squared line-height differences, per line bin of the measurement.
 
         Bins where neither signal has a line are equal (0) by construction; dividing by the
@@ -512,7 +513,7 @@ class Comparator:
         freq, _ = peak_near(m.lines_freqs_hz, (m if diff[worst] > 0 else twin).lines_psd,
                             m.lines_freqs_hz[peak], m.lines_freqs_hz[1] - m.lines_freqs_hz[0])
         finding = (f"a line at {freq:.0f} Hz (shaft order {freq / (self.rpm / 60.0):.2f}) stands {abs(diff[worst]):.0f} dB "
-                   f"{'higher in the measurement' if diff[worst] > 0 else 'higher in the twin'}")
+                   f"{'higher in the measurement' if diff[worst] > 0 else 'higher in ' + other}")
         return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines
 
 

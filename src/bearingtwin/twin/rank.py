@@ -167,13 +167,19 @@ class Judge:
 
     def unexplained(self, comparison: Comparison) -> list[dict]:
         """Views whose error is more than twice the measurement's own repeatability, worst first."""
-        left, floors = [], self.floors_db
-        for v in VIEWS:
-            result = comparison.views[v]
-            if self.weights[v] > 0 and result.error_db > 2 * floors[v] and result.error_db > 1.0:
-                left.append({"view": v, "error_db": result.error_db, "floor_db": floors[v],
-                             "where": result.finding, "what_leaves_it": result.what_leaves_it or WHAT_LEAVES_IT[v]})
-        return sorted(left, key=lambda u: -u["error_db"] / u["floor_db"])
+        return views_beyond_floor(comparison, self.floors_db, self.weights)
+
+
+def views_beyond_floor(comparison: Comparison, floors_db: Mapping[str, float], weights: Mapping[str, float]) -> list[dict]:
+    """The views of ``comparison`` whose error exceeds twice their floor (the measurement's own part-to-part
+    error) and 1 dB, worst first relative to the floor: each with its error, floor, finding and what leaves such a mark."""
+    left = []
+    for v in VIEWS:
+        result = comparison.views[v]
+        if weights[v] > 0 and result.error_db > 2 * floors_db[v] and result.error_db > 1.0:
+            left.append({"view": v, "error_db": result.error_db, "floor_db": floors_db[v],
+                         "where": result.finding, "what_leaves_it": result.what_leaves_it or WHAT_LEAVES_IT[v]})
+    return sorted(left, key=lambda u: -u["error_db"] / u["floor_db"])
 
 
 @dataclass
@@ -248,6 +254,10 @@ class TwinFit:
     unclaimed: EffectFit | None = None  # the candidate that paid, but not in its own signature's views
     min_signature_gain: float = 0.0
     not_tried: str = ""  # why no candidate was tried (none given, ranking.max_effects=0, each needs another), else ""
+    # The views in which this measurement differs from a reference record of the rig (measurement against
+    # measurement, no twin: :func:`views_beyond_floor`); None when no reference record was compared, and why.
+    since_reference: list[dict] | None = None
+    reference_note: str = ""
 
     @property
     def final_error(self) -> float:
@@ -259,10 +269,19 @@ class TwinFit:
         return self.ranking[0].evidence - self.ranking[1].evidence if len(self.ranking) > 1 else None
 
     @property
+    def new_unexplained(self) -> list[dict]:
+        """The unexplained views, less those in which nothing changed since a reference record: there the twin
+        misses what the rig showed before too (its own path or floor), not something new."""
+        if self.since_reference is None:
+            return self.unexplained
+        changed = {entry["view"] for entry in self.since_reference}
+        return [left for left in self.unexplained if left["view"] in changed]
+
+    @property
     def verdict(self) -> str:
         if self.added:
             return "effects missing"
-        if self.unexplained or self.unclaimed is not None:
+        if self.new_unexplained or self.unclaimed is not None:
             return "unexplained discrepancy"
         return "no effect tried" if not self.ranking else "no effect needed"
 
@@ -297,16 +316,30 @@ class TwinFit:
             lines.append(f"No effect tried: {self.not_tried}. Discrepancy "
                          f"{self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
         else:
-            # "Needed" only where nothing is left unexplained; otherwise the library simply has nothing that pays.
-            head = "No effect needed" if not self.unexplained else "No library effect added"
+            # "Needed" only where nothing new is left unexplained; otherwise the library simply has nothing that pays.
+            head = "No effect needed" if not self.new_unexplained else "No library effect added"
             lines.append(f"{head}: the best candidate, {self.ranking[0].effect}, does not pay for its parameters on "
                          f"the {part}. Discrepancy {self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
+        lines += self._reference_lines()
+        new = self.new_unexplained
         for left in self.unexplained:
             own = "the measurement's own" if self.held_out else f"the {left['floor_db']:.1f} dB counted at least"
-            lines.append(f"Not explained by the library: the {left['view']} view ({left['error_db']:.1f} dB, "
+            since = "" if left in new else ", unchanged since the reference record (the rig's own, not new)"
+            lines.append(f"Not explained by the library{since}: the {left['view']} view ({left['error_db']:.1f} dB, "
                          f"{left['error_db'] / left['floor_db']:.0f} times {own}): {left['where']}. "
                          f"Such a mark is left by {left['what_leaves_it']}.")
         return "\n".join(lines)
+
+    def _reference_lines(self) -> list[str]:
+        """What changed since the reference record, measured against it directly (or why it was not)."""
+        if self.since_reference is None:
+            return [self.reference_note] if self.reference_note else []
+        if not self.since_reference:
+            return ["Since the reference record (this measurement against it, no twin): nothing changed beyond the "
+                    "measurement's own part-to-part scatter."]
+        changes = "; ".join(f"the {entry['view']} view ({entry['error_db']:.1f} dB, {entry['error_db'] / entry['floor_db']:.0f} "
+                            f"times the measurement's own): {entry['where']}" for entry in self.since_reference)
+        return [f"Changed since the reference record (this measurement against it, no twin): {changes}."]
 
     def _unclaimed_words(self) -> str:
         fit = self.unclaimed
@@ -337,6 +370,8 @@ class TwinFit:
             "unexplained": self.unexplained,
             "unclaimed": None if self.unclaimed is None else self.unclaimed.as_dict(),
             "not_tried": self.not_tried,
+            "since_reference": self.since_reference,
+            "reference_note": self.reference_note,
             "final_error": self.final_error,
             "summary": self.summary,
         }

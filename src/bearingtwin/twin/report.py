@@ -31,7 +31,7 @@ from bearingtwin.signal.sampling_rate import require_plausible_rate
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
-from bearingtwin.twin.rank import EffectRanker, TwinFit
+from bearingtwin.twin.rank import EffectRanker, TwinFit, view_floors, views_beyond_floor
 from bearingtwin.twin.reference import hold_reference, read_reference, refuse_reference_folder, rig_geometry
 
 if TYPE_CHECKING:
@@ -329,6 +329,36 @@ def fault_check(measured: Recording, bearing_cfg) -> str | None:
             f"({evidence.prominence_db[shown]:+.1f} dB over its floor{given}): check the stated bearing state")
 
 
+REFERENCE_SPEED_TOLERANCE = 0.01
+"""How far (relative) a reference record's speed may lie from this one's to be compared line by line: the views
+read the defect's harmonics at this record's speed, and 1 % moves the tenth harmonic by a tenth of a line spacing."""
+
+
+def compare_with_reference(fit: TwinFit, measured: Recording, reference: Mapping, geometry: BearingGeometry,
+                           settings: CompareSettings, view_floor_db: float) -> None:
+    """Set ``fit.since_reference``: the views in which ``measured`` differs from the reference's own record (read
+    again from the path its report names), beyond the measurement's part-to-part scatter. No twin stands between
+    the two, so whatever the twin cannot reproduce of the rig (its path, its floor) is the same in both and drops
+    out; what is left is what changed. Where the record cannot be read, or was taken at another rate or speed,
+    ``fit.reference_note`` says why no comparison was made."""
+    about = reference.get("measured") or {}
+    path = about.get("path")
+    try:
+        if not path or not Path(path).is_file():
+            raise BearingTwinError(f"its record {path or '(not named in the report)'} is not there")
+        if not (is_finite_number(about.get("fs")) and math.isclose(float(about["fs"]), measured.fs, rel_tol=1e-9)):
+            raise BearingTwinError(f"its record was taken at {about.get('fs')} Hz, this one at {measured.fs:g} Hz")
+        if not (is_finite_number(about.get("rpm")) and abs(float(about["rpm"]) / measured.rpm - 1.0) <= REFERENCE_SPEED_TOLERANCE):
+            raise BearingTwinError(f"its record was taken at {about.get('rpm')} rpm, this one at {measured.rpm:g} rpm")
+        earlier = recording_from_raw(read_raw(path), channel=about.get("channel"), fs=float(about["fs"]))
+        comparison = Comparator(measured, geometry, settings)(earlier.signal, other="the reference record")
+    except BearingTwinError as error:
+        fit.reference_note = f"Not compared with the reference record: {error}."
+        return
+    fit.since_reference = views_beyond_floor(comparison, view_floors(fit.repeatability_db, view_floor_db),
+                                             settings.weights)
+
+
 def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None, dict[str, str]]:
     """Everything ``bearingtwin-twin`` does; returns the fit, the files written, the MLflow run id (None when
     tracking is disabled) and the doubts the closing summary repeats: ``bearing`` (the record names another bearing
@@ -352,17 +382,20 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
         doubts["bearing"] = (f"the record's bearing is {named}, the twin's {cfg.bearing.get('name')}: give "
                              f"bearing={named} for its defect frequencies")
         log.warning("%s: %s", cfg.measured.path, doubts["bearing"])
-    if cfg.get("reference") is not None:  # an earlier record of this rig: what it found is held
-        cfg = hold_reference(cfg, read_reference(cfg.reference), measured.fault, source=f"reference={cfg.reference}")
+    reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
+    if reference is not None:  # an earlier record of this rig: what it found is held
+        cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault, progress)
     Comparator(measured, geometry, settings)  # a record too short for one comparison segment, before a run opens
     tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
+    if reference is not None:
+        compare_with_reference(ranker.fit_, measured, reference, geometry, settings, ranker.view_floor_db)
     check = fault_check(measured, cfg.bearing)
     about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
-             "unit": measured.unit, "bearing": cfg.bearing.get("name"), "geometry": rig_geometry(geometry),
-             "reference": cfg.get("reference"), "fault_check": check}
+             "unit": measured.unit, "channel": measured.channel, "bearing": cfg.bearing.get("name"),
+             "geometry": rig_geometry(geometry), "reference": cfg.get("reference"), "fault_check": check}
     files = write_report(ranker.fit_, out, figures, about)
     run_id = log_to_mlflow(*tracked, ranker.fit_, files) if tracked else None
     if check:
