@@ -136,12 +136,37 @@ def test_lines_view_leaves_the_defects_own_lines_to_the_envelope_views():
     sharp = sharp + 1e-3 * sharp.std() * np.random.default_rng(2).standard_normal(t.size)
     smeared = impacts("outer", 2.0, seed=1, jitter=0.05)
     result = Comparator(measured(smeared), GEOMETRY)(sharp)
-    assert result.views["lines"].error_db == pytest.approx(0.0)
+    # No defect-rate line is compared (a bin of the jittered train's own scatter may stand a dB over the threshold).
+    assert result.views["lines"].error_db < 1.0
+    assert not any(f"at {k * rate:.0f} Hz" in result.views["lines"].finding for k in range(1, 10))
     assert "times as wide as the twin's" in result.views["harmonics"].finding
     one_x = 0.5 * smeared.std() * np.sqrt(2) * np.sin(2 * np.pi * RPM / 60.0 * t)
     with_unbalance = Comparator(measured(smeared + one_x), GEOMETRY)(sharp)
     assert with_unbalance.views["lines"].error_db > 10.0
     assert "shaft order 1.00" in with_unbalance.views["lines"].finding
+
+
+def test_a_line_of_a_dense_comb_stands_as_high_as_a_lone_one():
+    """Looseness rattles at every half order of the shaft: a comb whose lines' skirts fill more than half of each
+    neighbourhood the local level is taken over. The level is a low percentile of that neighbourhood, so the
+    comb's 1x line stands within a few dB of where the same line alone would; the neighbourhood's median sat on
+    the skirts and read it 10 dB or more lower."""
+    t = np.arange(int(4 * FS)) / FS
+    floor = np.random.default_rng(5).standard_normal(t.size)
+    shaft_hz = RPM / 60.0
+    lone = floor + 0.5 * np.sin(2 * np.pi * shaft_hz * t)
+    comb = lone + sum(0.5 * np.sin(2 * np.pi * k / 2 * shaft_hz * t + k) for k in range(1, 30) if k != 2)
+
+    def height_at_1x(x: np.ndarray, settings: CompareSettings) -> float:
+        comparator = Comparator(measured(x, "normal"), GEOMETRY, settings)
+        profile = comparator.measured
+        at = np.argmin(np.abs(profile.lines_freqs_hz - shaft_hz))
+        return float(np.max(comparator.line_heights_db(profile, profile, 1.0)[0][at - 2:at + 3]))
+
+    default, median = CompareSettings(), CompareSettings(line_level_percentile=50.0, line_level_bins=21)
+    assert height_at_1x(lone, default) > 10.0
+    assert abs(height_at_1x(comb, default) - height_at_1x(lone, default)) < 4.0
+    assert height_at_1x(comb, median) < height_at_1x(lone, median) - 10.0
 
 
 def test_a_line_between_the_lines_views_bins_is_named_at_its_frequency():

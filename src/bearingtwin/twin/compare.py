@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy import signal as sps
-from scipy.ndimage import median_filter
+from scipy.ndimage import median_filter, percentile_filter
 
 from bearingtwin.checks import is_finite_number, positive_number, whole_number
 from bearingtwin.data.recording import Recording
@@ -85,8 +85,13 @@ class CompareSettings:
         lines_segment_s: segment length of the averaged periodogram the lines view reads
             (resolution 1 / segment: half orders of a 30 Hz shaft need 0.5 s or longer).
         lines_max_hz: highest frequency the lines view examines.
-        line_threshold_db: a bin counts as a line when it stands this far above the running
-            median of its neighbourhood (the averaged periodogram's own scatter stays below).
+        line_threshold_db: a bin counts as a line when it stands this far above the local level
+            of its neighbourhood (the averaged periodogram's own scatter stays below).
+        line_level_percentile: the local level is this percentile of the neighbourhood's bins (50:
+            the median). Low, so that a dense comb of lines (looseness: half orders and many
+            harmonics), whose skirts fill more than half of a neighbourhood, does not lift the level
+            it is measured from (the median reads a 37 dB line of such a comb as 20 dB).
+        line_level_bins: the neighbourhood's width in bins (odd).
         n_harmonics: harmonics of the defect frequency examined.
         smooth_hz: moving-average width of the dB envelope spectrum in the envelope view.
         stats_window_s: window length for the time-domain statistics.
@@ -104,6 +109,8 @@ class CompareSettings:
     lines_segment_s: float = 0.5
     lines_max_hz: float = 1000.0
     line_threshold_db: float = 8.0
+    line_level_percentile: float = 20.0
+    line_level_bins: int = 41
     n_harmonics: int = 5
     smooth_hz: float = 10.0
     stats_window_s: float = 0.1
@@ -117,6 +124,12 @@ class CompareSettings:
             raise BearingTwinError(f"compare.smooth_hz must be a non-negative number of Hz (0: no smoothing), "
                                    f"got {self.smooth_hz!r}")
         object.__setattr__(self, "n_harmonics", whole_number("compare.n_harmonics", self.n_harmonics))
+        if not (is_finite_number(self.line_level_percentile) and 0 < self.line_level_percentile <= 100):
+            raise BearingTwinError(f"compare.line_level_percentile must lie in (0, 100], got {self.line_level_percentile!r}")
+        bins = whole_number("compare.line_level_bins", self.line_level_bins, minimum=3)
+        if bins % 2 == 0:
+            raise BearingTwinError(f"compare.line_level_bins must be odd (a bin in the middle of its neighbourhood), got {bins}")
+        object.__setattr__(self, "line_level_bins", bins)
         # The band levels lose a polynomial of psd_detrend_order: at least one value must be left beyond it.
         order = whole_number("compare.psd_detrend_order", self.psd_detrend_order, minimum=0)
         n_bands = whole_number("compare.n_bands", self.n_bands)
@@ -157,7 +170,7 @@ class Profile:
     band_db: np.ndarray
     lines_freqs_hz: np.ndarray
     lines_psd: np.ndarray       # averaged periodogram at the lines view's bins
-    lines_level: np.ndarray     # its local level there (running median): what a line stands out of
+    lines_level: np.ndarray     # its local level there (a low running percentile): what a line stands out of
     env_freqs_hz: np.ndarray
     env_amplitude: np.ndarray
     env_db: np.ndarray
@@ -372,7 +385,7 @@ class Comparator:
         # dynamic range, so a strong line of a noiseless twin has no skirt of "lines" beside it.
         lines_freqs, lines_psd = self.lines_welch(x)
         lines_psd = np.maximum(lines_psd, lines_psd.max() * 10 ** (-s.dynamic_range_db / 10.0))
-        lines_level = local_level(lines_psd)
+        lines_level = local_level(lines_psd, s.line_level_bins, s.line_level_percentile)
         n_segments = max(1, 2 * x.size // self.segment - 1)
         segments, _ = cut_windows(sps.sosfiltfilt(self.highpass, x), self.segment, n_segments)
         env_freqs, env_amp = envelope_spectrum(segments, self.fs, window=self.envelope_window)
@@ -530,11 +543,13 @@ def _line_peak(bin_index: int, heights: np.ndarray, *signals: np.ndarray) -> int
     return low + int(np.argmax(heights[low:high + 1]))
 
 
-def local_level(psd: np.ndarray, neighbourhood_bins: int = 21) -> np.ndarray:
-    """The level a narrow line stands out of: the median of each bin's neighbourhood of a power
-    spectrum (a line occupies a few of its bins, so it does not lift it). Along the last axis."""
+def local_level(psd: np.ndarray, neighbourhood_bins: int = 21, percentile: float = 50.0) -> np.ndarray:
+    """The level a narrow line stands out of: a percentile (50: the median) of each bin's neighbourhood of a
+    power spectrum (a line occupies a few of its bins, so it does not lift it). Along the last axis."""
     psd = np.maximum(np.asarray(psd, dtype=np.float64), np.finfo(float).tiny)
-    return median_filter(psd, size=neighbourhood_bins, axes=(-1,), mode="nearest")
+    if percentile == 50.0:
+        return median_filter(psd, size=neighbourhood_bins, axes=(-1,), mode="nearest")
+    return percentile_filter(psd, percentile, size=neighbourhood_bins, axes=(-1,), mode="nearest")
 
 
 def _hz(f: float) -> str:
