@@ -136,8 +136,9 @@ def test_lines_view_leaves_the_defects_own_lines_to_the_envelope_views():
     sharp = sharp + 1e-3 * sharp.std() * np.random.default_rng(2).standard_normal(t.size)
     smeared = impacts("outer", 2.0, seed=1, jitter=0.05)
     result = Comparator(measured(smeared), GEOMETRY)(sharp)
-    # No defect-rate line is compared (a bin of the jittered train's own scatter may stand a dB over the threshold).
-    assert result.views["lines"].error_db < 1.0
+    # No defect-rate line is compared. Below 80 Hz this noiseless train's spectrum rises 20 dB, and over the low
+    # percentile of a neighbourhood that steep its upper bins stand a few dB over the threshold (compare.py).
+    assert result.views["lines"].error_db < 4.0
     assert not any(f"at {k * rate:.0f} Hz" in result.views["lines"].finding for k in range(1, 10))
     assert "times as wide as the twin's" in result.views["harmonics"].finding
     one_x = 0.5 * smeared.std() * np.sqrt(2) * np.sin(2 * np.pi * RPM / 60.0 * t)
@@ -167,6 +168,16 @@ def test_a_line_of_a_dense_comb_stands_as_high_as_a_lone_one():
     assert height_at_1x(lone, default) > 10.0
     assert abs(height_at_1x(comb, default) - height_at_1x(lone, default)) < 4.0
     assert height_at_1x(comb, median) < height_at_1x(lone, median) - 10.0
+
+
+def test_the_lowest_lines_are_measured_over_the_noise_not_over_the_dip_at_0_hz():
+    """Below the lines view's lowest bin (a quarter of the shaft rate) the removed mean and the window's leakage leave
+    a dip towards 0 Hz; the level the lowest lines stand over is taken above it, so noise there is no line."""
+    for seed in range(4):
+        noise = np.random.default_rng(seed).standard_normal(int(2 * FS))
+        comparator = Comparator(measured(noise, "normal"), GEOMETRY)
+        heights, _ = comparator.line_heights_db(comparator.measured, comparator.measured, 1.0)
+        assert not heights[comparator.measured.lines_freqs_hz < 40.0].any(), seed
 
 
 def test_a_line_between_the_lines_views_bins_is_named_at_its_frequency():

@@ -331,6 +331,9 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
     assert unchanged["since_reference"] == [] and unchanged["added"] == []
     assert unchanged["verdict"] == "no effect needed" and "verdict: no effect needed\n" in null.stdout
     assert "nothing changed beyond the measurement's own part-to-part scatter" in unchanged["summary"]
+    # What the twin still misses there is said to be the rig's own, view by view.
+    assert unchanged["summary"].count("Not explained by the library, unchanged since the reference record") == len(
+        unchanged["unexplained"])
 
 
 def test_a_reference_record_that_cannot_be_compared_says_why(measurement, tmp_path):
@@ -343,17 +346,47 @@ def test_a_reference_record_that_cannot_be_compared_says_why(measurement, tmp_pa
     from bearingtwin.twin.compare import CompareSettings
     from bearingtwin.twin.report import compare_with_reference
 
-    measured = Recording(np.load(measurement), 12000.0, 1797.0, "outer", source=str(measurement))
-    about = {"path": str(measurement), "fs": 12000.0, "rpm": 1797.0}
+    from bearingtwin.storage import file_digest
+
+    measured = Recording(np.load(measurement), 12000.0, 1797.0, "outer", source=str(measurement), channel="0")
+    earlier = tmp_path / "earlier.npy"  # the same samples in another file: a record of the unchanged rig
+    np.save(earlier, np.load(measurement))
+    np.savez(tmp_path / "two.npz", a=np.load(measurement), b=np.load(measurement))
+    about = {"path": str(earlier), "fs": 12000.0, "rpm": 1797.0, "channel": "0"}
     for change, words in [({"path": str(tmp_path / "gone.npy")}, f"its record {tmp_path / 'gone.npy'} is not there"),
+                          ({"path": str(measurement)}, "it is this record itself"),
+                          ({"file": {"path": str(earlier), "sha256": "0" * 64}}, "has changed since the reference was made"),
+                          ({"path": str(tmp_path / "two.npz"), "channel": None}, "does not say which of its record's channels"),
+                          ({"path": str(tmp_path / "two.npz"), "channel": "b"}, "read on channel b, this one on 0"),
                           ({"fs": 25600.0}, "taken at 25600.0 Hz, this one at 12000 Hz"),
                           ({"rpm": 1750.0}, "taken at 1750.0 rpm, this one at 1797 rpm")]:
         fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
-        compare_with_reference(fit, measured, {"measured": {**about, **change}}, load_bearing("paper"), CompareSettings(), 0.5)
+        given = {key: value for key, value in {**about, **change}.items() if value is not None}
+        compare_with_reference(fit, measured, {"measured": given}, load_bearing("paper"), CompareSettings(), 0.5)
         assert fit.since_reference is None and words in fit.reference_note, fit.reference_note
     fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
-    compare_with_reference(fit, measured, {"measured": about}, load_bearing("paper"), CompareSettings(), 0.5)
-    assert fit.since_reference == [] and fit.reference_note == ""  # the record against itself: nothing changed
+    stored = {"file": {"path": str(earlier), "sha256": file_digest(earlier)}}  # as a report written now records it
+    compare_with_reference(fit, measured, {"measured": {**about, "path": "earlier.npy", **stored}},
+                           load_bearing("paper"), CompareSettings(), 0.5)
+    assert fit.since_reference == [] and fit.reference_note == ""  # found by its resolved path, and unchanged
+
+
+def test_a_value_held_from_a_reference_that_did_not_identify_it_is_marked():
+    """Only values the reference filled in (left to fit here) and that its own record did not identify."""
+    from bearingtwin.twin.report import mark_unidentified_by_reference
+
+    operating = {"radial_load_n": {"value": 1163.0, "unit": "N", "held": True},
+                 "clearance_um": {"value": 5.0, "unit": "um", "held": True},
+                 "defect_depth_mm": {"value": 0.2, "unit": "mm", "held": True},
+                 "defect_width_mm": {"value": 0.3, "unit": "mm", "held": False, "interval": [0.2, 0.4]}}
+    earlier = {name: {"value": entry["value"], "interval": [20.0, 5000.0], "range": [20.0, 5000.0]}
+               for name, entry in operating.items()}
+    earlier["defect_depth_mm"]["interval"] = [0.1, 0.3]  # identified there
+    mark_unidentified_by_reference(operating, earlier, taken={"radial_load_n", "defect_depth_mm", "defect_width_mm"})
+    assert operating["radial_load_n"]["identified_by_reference"] is False
+    assert "identified_by_reference" not in operating["clearance_um"]  # the user gave it
+    assert "identified_by_reference" not in operating["defect_depth_mm"]  # the reference identified it
+    assert "identified_by_reference" not in operating["defect_width_mm"]  # fitted here, not held
 
 
 @pytest.mark.parametrize("content, message", [

@@ -76,7 +76,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
 
 def records_right_by_size(rows: list[dict]) -> str:
     """``normal 1/1, 1/1; 0.007 in 4/4, 3/4; 0.014 in ...`` (model, then physics evidence where there is some)
-    when the names give defect sizes ("" when none does); a record without one is grouped under its true state."""
+    when the names give defect sizes ("" when none does); a record without one is grouped under its true state.
+    Where the records are of several bearings, each group names its bearing (a size of another bearing is
+    another fault: ``0.007 in (cwru_6203)``)."""
     if not any("fault_size_in" in row for row in rows):
         return ""
     groups: dict[str, list[dict]] = {}

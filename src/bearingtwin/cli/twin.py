@@ -51,21 +51,19 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
     # A value held from a reference that its own record did not identify is a number that means little: said so.
-    from bearingtwin.twin.rank import not_identified
-    from bearingtwin.twin.reference import read_reference
-
-    earlier = read_reference(cfg.reference)["operating_point"] if cfg.get("reference") is not None else {}
     held = [f"{name} {entry['value']}" if isinstance(entry["value"], str)  # the sensor: "outer race, vertical"
             else f"{name.removesuffix('_' + entry['unit'].lower()).replace('_', ' ')} {entry['value']:.4g} "
                  f"{entry['unit']}".rstrip()
-                 + (" (not identified by the reference record)" if isinstance(earlier.get(name), dict)
-                    and not_identified(earlier[name]) and entry["value"] == earlier[name].get("value") else "")
+                 + (" (not identified by the reference record)" if entry.get("identified_by_reference") is False else "")
             for name, entry in fit.operating_point.items() if entry.get("held")]
     if held:  # given with operating_point.*, or held from a reference's report
         lines["operating point held"] = ", ".join(held)
     if fit.since_reference is not None:
         lines["since the reference record"] = ("; ".join(f"{entry['view']}: {entry['where']}" for entry in fit.since_reference)
                                                or "nothing changed beyond the measurement's own scatter")
+    elif fit.reference_note:
+        lines["since the reference record"] = "not compared: " + fit.reference_note.removeprefix(
+            "Not compared with the reference record: ").rstrip(".")
     if cfg.effects:  # known present, in every step: the summary says so, as it says the reference's
         tried = [name for name in cfg.effects if name in cfg.candidates]
         lines["held in the twin"] = ", ".join(cfg.effects) + " (effects=)" + (

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bearingtwin.data.files import RawRecord, read_raw, recording_from_raw
+from bearingtwin.data.files import RawRecord, read_raw, recording_from_raw, same_speed
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
@@ -201,24 +201,18 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     )
 
 
-SPEED_AGREEMENT = 0.01
-"""How far (relative) a file's measured speed may lie from the Data Center's nominal one for the load its name gives
-before a note says so: the loads' nominal speeds lie 1.0-1.4 % apart, a record's measured one within 0.3 % of its own."""
-
-
 def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[str]:
     """What a reader should know of a name: what a label or an uncatalogued number leaves unsaid, and a measured
     speed that belongs to another load than the name's."""
     notes = []
+    read_as = ("read as a drive-end record declared at 12 kHz, the rate checked (channel=FE bearing=cwru_6203 for a "
+               "fan-end record)")
     if name is None and path.stem.isdigit():
-        notes.append(f"record {path.stem} is not in the Data Center's 12 kHz drive-end catalogue: read as a drive-end "
-                     "record declared at 12 kHz, the rate checked (channel=FE bearing=cwru_6203 for a fan-end record)")
+        notes.append(f"record {path.stem} is not in the Data Center's 12 kHz drive-end catalogue: {read_as}")
     elif name is not None and name.form == "label" and name.fault != "normal":
-        notes.append(f"the name {path.stem} (the Data Center's label) states no rate and no bearing end: read as a "
-                     "drive-end record declared at 12 kHz, the rate checked (channel=FE bearing=cwru_6203 for a "
-                     "fan-end record)")
+        notes.append(f"the name {path.stem} (the Data Center's label) states no rate and no bearing end: {read_as}")
     nominal = NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp) if name is not None else None
-    if nominal is not None and rpm is not None and abs(rpm / nominal - 1.0) > SPEED_AGREEMENT:
+    if nominal is not None and rpm is not None and not same_speed(rpm, nominal):
         notes.append(f"its measured speed, {rpm:g} rpm, is not the Data Center's {nominal:g} rpm for the "
                      f"{name.load_hp} hp its name gives: read at the measured speed")
     return notes

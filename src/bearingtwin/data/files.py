@@ -226,8 +226,14 @@ def resolve_fact(raw: RawRecord, name: str, from_file, from_user, key: str | Non
 
 
 SPEED_TOLERANCE = 0.01
-"""How far (relative) a given speed may lie from the one a file measured and still be the same: a motor's speed
-drifts by a few rpm within a record and between its readings; a load step moves it by more than 1 %."""
+"""How far (relative) two speeds of one machine may lie apart and still be the same: a motor's speed drifts by a
+few rpm within a record and between its readings, while a load step moves it by more than 1 % (the CWRU motor's
+nominal speeds lie 1.0-1.4 % apart), and 1 % moves a defect's tenth harmonic by a tenth of its spacing."""
+
+
+def same_speed(a_rpm: float, b_rpm: float) -> bool:
+    """Whether two shaft speeds are the same within :data:`SPEED_TOLERANCE` (relative to the second)."""
+    return abs(a_rpm / b_rpm - 1.0) <= SPEED_TOLERANCE
 
 
 def _resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str]) -> float | None:
@@ -236,7 +242,7 @@ def _resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str]
     file's contradicts is refused."""
     if rpm is None or raw.rpm is None or rpm == raw.rpm:
         return raw.rpm if rpm is None else rpm
-    if abs(rpm / raw.rpm - 1.0) > SPEED_TOLERANCE:
+    if not same_speed(rpm, raw.rpm):
         raise BearingTwinError(f"{raw.path}: {key}={rpm!r} contradicts the file's rpm={raw.rpm!r} "
                                f"(more than {SPEED_TOLERANCE:.0%} apart)")
     notes.append(f"{key}={rpm:g} given; the file's measured {raw.rpm:g} rpm read")

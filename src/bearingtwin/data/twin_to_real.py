@@ -73,7 +73,8 @@ def cwru_file(root: Path, stem: str) -> Path:
     """``<root>/<stem>.mat``, which must exist and carry a CWRU name (state, load, record)."""
     path = root / f"{stem}.mat"
     if parse_cwru_name(path) is None:
-        raise BearingTwinError(f"{path.name}: not a CWRU record name (<state><size>_<load>_<record> or normal_<load>_<record>)")
+        raise BearingTwinError(f"{path.name}: not a CWRU record name (12k_Drive_End_<state><size>_<load>_<record>, "
+                               "normal_<load>_<record>, the Data Center's record number or its label <state><size>_<load>)")
     if not path.is_file():
         raise BearingTwinError(f"{path}: no such CWRU record; point data.root at the folder of .mat files")
     return path

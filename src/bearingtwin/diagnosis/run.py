@@ -167,7 +167,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
         if len(records) > 1 or run.failures:
             run.files.append(write_summary(run.rows, out / "summary.csv"))
-    left = sorted(earlier - {path.stem for path in records})
+    left = sorted(earlier - {row["record"] for row in run.rows if "error" not in row})  # a failed record's old one too
     if left:  # not deleted (they are a user's results), but not to be read as this run's either
         log.warning("out=%s holds %d record folder%s of an earlier run beside this run's (%s); summary.csv lists this "
                     "run's only", out, len(left), "s" if len(left) > 1 else "", ", ".join(left[:5]) + (", ..." if len(left) > 5 else ""))
@@ -219,7 +219,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             if path.stem not in labelled and ("give fs=" in message or "give rpm=" in message):
                 # What a row's rpm and fs would give: the command's value is every file's, a row is one file's.
                 message += (f" (or a row in {table}, which has none for it)" if table is not None else
-                            f" (every file's), or this file's in a {DEFAULT_LABELS} beside it (columns record,state,rpm,fs)")
+                            f" (every file's), or this file's in a {DEFAULT_LABELS} beside it (columns record,state,rpm,fs)"
+                            if not single else f" (or a row in a {DEFAULT_LABELS} beside it: record,state,rpm,fs)")
             if not isinstance(error, BearingTwinError):
                 log.exception("%s: unexpected failure", path)
             run.failures[path.name] = message

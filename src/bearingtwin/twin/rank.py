@@ -335,8 +335,10 @@ class TwinFit:
         if self.since_reference is None:
             return [self.reference_note] if self.reference_note else []
         if not self.since_reference:
+            also = (f" What was added ({', '.join(fit.effect for fit in self.added)}) was then in the reference record "
+                    "too, where it was not found." if self.added else "")
             return ["Since the reference record (this measurement against it, no twin): nothing changed beyond the "
-                    "measurement's own part-to-part scatter."]
+                    f"measurement's own part-to-part scatter.{also}"]
         changes = "; ".join(f"the {entry['view']} view ({entry['error_db']:.1f} dB, {entry['error_db'] / entry['floor_db']:.0f} "
                             f"times the measurement's own): {entry['where']}" for entry in self.since_reference)
         return [f"Changed since the reference record (this measurement against it, no twin): {changes}."]

@@ -21,17 +21,18 @@ from omegaconf import DictConfig, OmegaConf
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
 from bearingtwin.config import output_folder
 from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
-from bearingtwin.data.files import read_raw, recording_from_raw
+from bearingtwin.data.files import read_raw, recording_from_raw, same_speed
 from bearingtwin.data.real import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
+from bearingtwin.storage import file_digest
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
-from bearingtwin.twin.rank import EffectRanker, TwinFit, view_floors, views_beyond_floor
+from bearingtwin.twin.rank import EffectRanker, TwinFit, not_identified, view_floors, views_beyond_floor
 from bearingtwin.twin.reference import hold_reference, read_reference, refuse_reference_folder, rig_geometry
 
 if TYPE_CHECKING:
@@ -329,11 +330,6 @@ def fault_check(measured: Recording, bearing_cfg) -> str | None:
             f"({evidence.prominence_db[shown]:+.1f} dB over its floor{given}): check the stated bearing state")
 
 
-REFERENCE_SPEED_TOLERANCE = 0.01
-"""How far (relative) a reference record's speed may lie from this one's to be compared line by line: the views
-read the defect's harmonics at this record's speed, and 1 % moves the tenth harmonic by a tenth of a line spacing."""
-
-
 def compare_with_reference(fit: TwinFit, measured: Recording, reference: Mapping, geometry: BearingGeometry,
                            settings: CompareSettings, view_floor_db: float) -> None:
     """Set ``fit.since_reference``: the views in which ``measured`` differs from the reference's own record (read
@@ -342,21 +338,42 @@ def compare_with_reference(fit: TwinFit, measured: Recording, reference: Mapping
     out; what is left is what changed. Where the record cannot be read, or was taken at another rate or speed,
     ``fit.reference_note`` says why no comparison was made."""
     about = reference.get("measured") or {}
-    path = about.get("path")
+    stored = about.get("file") if isinstance(about.get("file"), Mapping) else {}
+    path = stored.get("path") or about.get("path")  # the resolved path; a report without it names it as typed
     try:
         if not path or not Path(path).is_file():
             raise BearingTwinError(f"its record {path or '(not named in the report)'} is not there")
+        if Path(path).resolve() == Path(measured.source).resolve():
+            raise BearingTwinError("it is this record itself")
+        if stored.get("sha256") and file_digest(Path(path)) != stored["sha256"]:
+            raise BearingTwinError(f"its record {path} has changed since the reference was made")
         if not (is_finite_number(about.get("fs")) and math.isclose(float(about["fs"]), measured.fs, rel_tol=1e-9)):
             raise BearingTwinError(f"its record was taken at {about.get('fs')} Hz, this one at {measured.fs:g} Hz")
-        if not (is_finite_number(about.get("rpm")) and abs(float(about["rpm"]) / measured.rpm - 1.0) <= REFERENCE_SPEED_TOLERANCE):
+        if not (is_finite_number(about.get("rpm")) and same_speed(float(about["rpm"]), measured.rpm)):
             raise BearingTwinError(f"its record was taken at {about.get('rpm')} rpm, this one at {measured.rpm:g} rpm")
-        earlier = recording_from_raw(read_raw(path), channel=about.get("channel"), fs=float(about["fs"]))
+        raw = read_raw(path)
+        if "channel" not in about and len(raw.channels) > 1:
+            raise BearingTwinError(f"its report does not say which of its record's channels ({', '.join(map(str, raw.channels))}) "
+                                   "was read")
+        earlier = recording_from_raw(raw, channel=about.get("channel"), fs=float(about["fs"]),
+                                     channel_key="the reference report's measured.channel")
+        if str(earlier.channel) != str(measured.channel):
+            raise BearingTwinError(f"its record was read on channel {earlier.channel}, this one on {measured.channel}")
         comparison = Comparator(measured, geometry, settings)(earlier.signal, other="the reference record")
     except BearingTwinError as error:
         fit.reference_note = f"Not compared with the reference record: {error}."
         return
     fit.since_reference = views_beyond_floor(comparison, view_floors(fit.repeatability_db, view_floor_db),
                                              settings.weights)
+
+
+def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set[str]) -> None:
+    """Mark the held values (``identified_by_reference: false``) that came from a reference whose own record did
+    not identify them (any value in its searched range fitted as well): numbers that mean little. ``taken``: the
+    names this run's config left to fit, which the reference filled in (a value a user gives is not marked)."""
+    for name, entry in operating.items():
+        if entry.get("held") and name in taken and isinstance(earlier.get(name), Mapping) and not_identified(earlier[name]):
+            entry["identified_by_reference"] = False
 
 
 def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None, dict[str, str]]:
@@ -376,13 +393,14 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     named = measured.meta.get("bearing")  # the bearing a file names (a CWRU fan-end record's SKF 6203)
     cwru_name = parse_cwru_name(str(cfg.measured.path)) if measured.meta.get("format") == "cwru-mat" else None
     if named is None and cwru_name is not None and cwru_name.end == "drive":
-        named = BEARING_BY_END["drive"]  # a drive-end fault record by its long name: the data set's SKF 6205
+        named = BEARING_BY_END["drive"]  # a drive-end fault record by its name (long, or a catalogued number): the SKF 6205
     doubts = {}  # what the closing summary repeats, as the log said it at the start
     if named is not None and named != cfg.bearing.get("name"):
         doubts["bearing"] = (f"the record's bearing is {named}, the twin's {cfg.bearing.get('name')}: give "
                              f"bearing={named} for its defect frequencies")
         log.warning("%s: %s", cfg.measured.path, doubts["bearing"])
     reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
+    to_fit = {name for name, value in cfg.operating_point.items() if value is None}
     if reference is not None:  # an earlier record of this rig: what it found is held
         cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
     twin = twin_for(measured, cfg)
@@ -392,10 +410,13 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     ranker.fit(twin, measured, geometry, settings)
     if reference is not None:
         compare_with_reference(ranker.fit_, measured, reference, geometry, settings, ranker.view_floor_db)
+        mark_unidentified_by_reference(ranker.fit_.operating_point, reference["operating_point"], to_fit)
     check = fault_check(measured, cfg.bearing)
-    about = {"path": str(cfg.measured.path), "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm,
-             "unit": measured.unit, "channel": measured.channel, "bearing": cfg.bearing.get("name"),
-             "geometry": rig_geometry(geometry), "reference": cfg.get("reference"), "fault_check": check}
+    record = Path(str(cfg.measured.path)).expanduser().resolve()  # a later run may start in another folder
+    about = {"path": str(cfg.measured.path), "file": {"path": str(record), "sha256": file_digest(record)},
+             "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm, "unit": measured.unit,
+             "channel": measured.channel, "bearing": cfg.bearing.get("name"), "geometry": rig_geometry(geometry),
+             "reference": cfg.get("reference"), "fault_check": check}
     files = write_report(ranker.fit_, out, figures, about)
     run_id = log_to_mlflow(*tracked, ranker.fit_, files) if tracked else None
     if check:
