@@ -382,8 +382,12 @@ def test_a_value_held_from_a_reference_that_did_not_identify_it_is_marked():
     earlier = {name: {"value": entry["value"], "interval": [20.0, 5000.0], "range": [20.0, 5000.0]}
                for name, entry in operating.items()}
     earlier["defect_depth_mm"]["interval"] = [0.1, 0.3]  # identified there
-    mark_unidentified_by_reference(operating, earlier, taken={"radial_load_n", "defect_depth_mm", "defect_width_mm"})
+    operating["bearing.pitch_diameter_mm"] = {"value": 39.0, "unit": "mm", "held": True}  # held there from its own reference
+    earlier["bearing.pitch_diameter_mm"] = {"value": 39.0, "held": True, "identified_by_reference": False}
+    mark_unidentified_by_reference(operating, earlier, taken={"radial_load_n", "defect_depth_mm", "defect_width_mm",
+                                                              "bearing.pitch_diameter_mm"})
     assert operating["radial_load_n"]["identified_by_reference"] is False
+    assert operating["bearing.pitch_diameter_mm"]["identified_by_reference"] is False  # along a chain of references
     assert "identified_by_reference" not in operating["clearance_um"]  # the user gave it
     assert "identified_by_reference" not in operating["defect_depth_mm"]  # the reference identified it
     assert "identified_by_reference" not in operating["defect_width_mm"]  # fitted here, not held

@@ -343,10 +343,10 @@ def compare_with_reference(fit: TwinFit, measured: Recording, reference: Mapping
     try:
         if not path or not Path(path).is_file():
             raise BearingTwinError(f"its record {path or '(not named in the report)'} is not there")
-        if Path(path).resolve() == Path(measured.source).resolve():
-            raise BearingTwinError("it is this record itself")
         if stored.get("sha256") and file_digest(Path(path)) != stored["sha256"]:
             raise BearingTwinError(f"its record {path} has changed since the reference was made")
+        if Path(path).resolve() == Path(measured.source).resolve():
+            raise BearingTwinError("it is this record itself")
         if not (is_finite_number(about.get("fs")) and math.isclose(float(about["fs"]), measured.fs, rel_tol=1e-9)):
             raise BearingTwinError(f"its record was taken at {about.get('fs')} Hz, this one at {measured.fs:g} Hz")
         if not (is_finite_number(about.get("rpm")) and same_speed(float(about["rpm"]), measured.rpm)):
@@ -372,7 +372,9 @@ def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set
     not identify them (any value in its searched range fitted as well): numbers that mean little. ``taken``: the
     names this run's config left to fit, which the reference filled in (a value a user gives is not marked)."""
     for name, entry in operating.items():
-        if entry.get("held") and name in taken and isinstance(earlier.get(name), Mapping) and not_identified(earlier[name]):
+        before = earlier.get(name)
+        if entry.get("held") and name in taken and isinstance(before, Mapping) and (
+                not_identified(before) or before.get("identified_by_reference") is False):  # or held unidentified there
             entry["identified_by_reference"] = False
 
 
@@ -400,7 +402,7 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
                              f"bearing={named} for its defect frequencies")
         log.warning("%s: %s", cfg.measured.path, doubts["bearing"])
     reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
-    to_fit = {name for name, value in cfg.operating_point.items() if value is None}
+    to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
         cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
     twin = twin_for(measured, cfg)
