@@ -343,12 +343,12 @@ def test_a_reference_record_that_cannot_be_compared_says_why(measurement, tmp_pa
 
     from bearingtwin.config import load_bearing
     from bearingtwin.data.recording import Recording
-    from bearingtwin.twin.compare import CompareSettings
+    from bearingtwin.storage import file_digest
+    from bearingtwin.twin.compare import Comparator, CompareSettings
     from bearingtwin.twin.report import compare_with_reference
 
-    from bearingtwin.storage import file_digest
-
     measured = Recording(np.load(measurement), 12000.0, 1797.0, "outer", source=str(measurement), channel="0")
+    comparator = Comparator(measured, load_bearing("paper"), CompareSettings())
     earlier = tmp_path / "earlier.npy"  # the same samples in another file: a record of the unchanged rig
     np.save(earlier, np.load(measurement))
     np.savez(tmp_path / "two.npz", a=np.load(measurement), b=np.load(measurement))
@@ -362,12 +362,11 @@ def test_a_reference_record_that_cannot_be_compared_says_why(measurement, tmp_pa
                           ({"rpm": 1750.0}, "taken at 1750.0 rpm, this one at 1797 rpm")]:
         fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
         given = {key: value for key, value in {**about, **change}.items() if value is not None}
-        compare_with_reference(fit, measured, {"measured": given}, load_bearing("paper"), CompareSettings(), 0.5)
+        compare_with_reference(fit, comparator, measured, {"measured": given}, 0.5)
         assert fit.since_reference is None and words in fit.reference_note, fit.reference_note
     fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
     stored = {"file": {"path": str(earlier), "sha256": file_digest(earlier)}}  # as a report written now records it
-    compare_with_reference(fit, measured, {"measured": {**about, "path": "earlier.npy", **stored}},
-                           load_bearing("paper"), CompareSettings(), 0.5)
+    compare_with_reference(fit, comparator, measured, {"measured": {**about, "path": "earlier.npy", **stored}}, 0.5)
     assert fit.since_reference == [] and fit.reference_note == ""  # found by its resolved path, and unchanged
 
 

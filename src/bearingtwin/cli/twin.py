@@ -62,8 +62,7 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
         lines["since the reference record"] = ("; ".join(f"{entry['view']}: {entry['where']}" for entry in fit.since_reference)
                                                or "nothing changed beyond the measurement's own scatter")
     elif fit.reference_note:
-        lines["since the reference record"] = "not compared: " + fit.reference_note.removeprefix(
-            "Not compared with the reference record: ").rstrip(".")
+        lines["since the reference record"] = f"not compared: {fit.reference_note}"
     if cfg.effects:  # known present, in every step: the summary says so, as it says the reference's
         tried = [name for name in cfg.effects if name in cfg.candidates]
         lines["held in the twin"] = ", ".join(cfg.effects) + " (effects=)" + (

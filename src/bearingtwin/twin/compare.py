@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy import signal as sps
-from scipy.ndimage import median_filter, percentile_filter
+from scipy.ndimage import percentile_filter
 
 from bearingtwin.checks import is_finite_number, positive_number, whole_number
 from bearingtwin.data.recording import Recording
@@ -557,8 +557,6 @@ def local_level(psd: np.ndarray, neighbourhood_bins: int = 21, percentile: float
     """The level a narrow line stands out of: a percentile (50: the median) of each bin's neighbourhood of a
     power spectrum (a line occupies a few of its bins, so it does not lift it). Along the last axis."""
     psd = np.maximum(np.asarray(psd, dtype=np.float64), np.finfo(float).tiny)
-    if percentile == 50.0:
-        return median_filter(psd, size=neighbourhood_bins, axes=(-1,), mode="nearest")
     return percentile_filter(psd, percentile, size=neighbourhood_bins, axes=(-1,), mode="nearest")
 
 

@@ -257,7 +257,7 @@ class TwinFit:
     # The views in which this measurement differs from a reference record of the rig (measurement against
     # measurement, no twin: :func:`views_beyond_floor`); None when no reference record was compared, and why.
     since_reference: list[dict] | None = None
-    reference_note: str = ""
+    reference_note: str = ""  # why a reference record was not compared ("it is this record itself"), else ""
 
     @property
     def final_error(self) -> float:
@@ -333,7 +333,7 @@ class TwinFit:
     def _reference_lines(self) -> list[str]:
         """What changed since the reference record, measured against it directly (or why it was not)."""
         if self.since_reference is None:
-            return [self.reference_note] if self.reference_note else []
+            return [f"Not compared with the reference record: {self.reference_note}."] if self.reference_note else []
         if not self.since_reference:
             also = (f" What was added ({', '.join(fit.effect for fit in self.added)}) was then in the reference record "
                     "too, where it was not found." if self.added else "")

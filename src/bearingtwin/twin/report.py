@@ -330,9 +330,10 @@ def fault_check(measured: Recording, bearing_cfg) -> str | None:
             f"({evidence.prominence_db[shown]:+.1f} dB over its floor{given}): check the stated bearing state")
 
 
-def compare_with_reference(fit: TwinFit, measured: Recording, reference: Mapping, geometry: BearingGeometry,
-                           settings: CompareSettings, view_floor_db: float) -> None:
-    """Set ``fit.since_reference``: the views in which ``measured`` differs from the reference's own record (read
+def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recording, reference: Mapping,
+                           view_floor_db: float) -> None:
+    """Set ``fit.since_reference``: the views in which ``measured`` (``comparator``'s measurement) differs from the
+    reference's own record (read
     again from the path its report names), beyond the measurement's part-to-part scatter. No twin stands between
     the two, so whatever the twin cannot reproduce of the rig (its path, its floor) is the same in both and drops
     out; what is left is what changed. Where the record cannot be read, or was taken at another rate or speed,
@@ -359,12 +360,12 @@ def compare_with_reference(fit: TwinFit, measured: Recording, reference: Mapping
                                      channel_key="the reference report's measured.channel")
         if str(earlier.channel) != str(measured.channel):
             raise BearingTwinError(f"its record was read on channel {earlier.channel}, this one on {measured.channel}")
-        comparison = Comparator(measured, geometry, settings)(earlier.signal, other="the reference record")
+        comparison = comparator(earlier.signal, other="the reference record")
     except BearingTwinError as error:
-        fit.reference_note = f"Not compared with the reference record: {error}."
+        fit.reference_note = str(error)
         return
     fit.since_reference = views_beyond_floor(comparison, view_floors(fit.repeatability_db, view_floor_db),
-                                             settings.weights)
+                                             comparator.settings.weights)
 
 
 def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set[str]) -> None:
@@ -407,11 +408,11 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
         cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault, progress)
-    Comparator(measured, geometry, settings)  # a record too short for one comparison segment, before a run opens
+    comparator = Comparator(measured, geometry, settings)  # a record too short for one comparison segment, before a run opens
     tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
     if reference is not None:
-        compare_with_reference(ranker.fit_, measured, reference, geometry, settings, ranker.view_floor_db)
+        compare_with_reference(ranker.fit_, comparator, measured, reference, ranker.view_floor_db)
         mark_unidentified_by_reference(ranker.fit_.operating_point, reference["operating_point"], to_fit)
     check = fault_check(measured, cfg.bearing)
     record = Path(str(cfg.measured.path)).expanduser().resolve()  # a later run may start in another folder
