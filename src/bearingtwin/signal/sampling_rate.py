@@ -272,7 +272,10 @@ def check_sampling_rate(
                                                 rate_if_shaft, prominence)
     if verdict == "ambiguous":
         times = f"{fraction}" if whole else f"{rate_if_shaft / fs:.3g}"
-        why = f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz); {why}"
+        # Lines between the shaft orders are also a machine's own mark (a loose foot or a rub: half orders), which no
+        # rate explains: the check cannot tell the two apart without a defect line, so it names both.
+        why = (f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz), or the machine makes lines between its "
+               f"shaft orders (looseness and rubs make half orders); {why}")
     return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
                           reason=suspicion + why, fraction_rate_hz=rate_if_shaft)
 
