@@ -19,6 +19,7 @@ numbers are what one run gives (exploratory: one rig, one seed).
 
     python benchmarks/sim2real_labelled_rig.py --out /tmp/labelled_rig                    # ~7 min from an empty --out, 2 cores
     python benchmarks/sim2real_labelled_rig.py --out /tmp/labelled_rig --results results  # also writes results/sim2real_labelled_rig.md
+    python benchmarks/sim2real_labelled_rig.py --out /tmp/labelled_rig_v7 --protocol sim2real_v7  # another protocol version
 
 Each step is skipped when its output exists in ``--out``.
 """
@@ -105,13 +106,13 @@ def calibrate(out: Path, records: Path, plan: dict[str, dict]) -> dict[str, Path
     return reports
 
 
-def train(out: Path, records: Path, reports: dict[str, Path]) -> tuple[str, str]:
-    """The protocol in labels mode; the registered model's URI and the training summary."""
+def train(out: Path, records: Path, reports: dict[str, Path], protocol: str) -> tuple[str, str]:
+    """The protocol (``+experiment=<protocol>``) in labels mode; the registered model's URI and the training summary."""
     log = out / "train.log"
     if not log.is_file() or "model:" not in log.read_text():
         shutil.rmtree(out / "diagnose", ignore_errors=True)  # the diagnosis of an earlier model
         healthy, fault = CALIBRATION
-        run(["bearingtwin-train", "+experiment=sim2real", f"data.root={records}", f"data.labels={records / 'labels.csv'}",
+        run(["bearingtwin-train", f"+experiment={protocol}", f"data.root={records}", f"data.labels={records / 'labels.csv'}",
              "data.channel=null", "bearing=er16k", "data.bearing=er16k", f"data.fs={FS_HZ:g}",
              f'data.calibration.records=[{healthy},"{fault}"]', f'data.calibration.record="{fault}"',
              f'data.calibration.report="{reports[fault]}"', "data.calibration.step=all",
@@ -165,26 +166,30 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="working folder: records, calibration, training, diagnosis")
     parser.add_argument("--seed", type=int, default=2026, help="the rig's operating points and records")
+    parser.add_argument("--protocol", default="sim2real",
+                        help="the protocol version trained (+experiment=<it>): sim2real, the one in force, or sim2real_v<N>")
     parser.add_argument("--results", default=None, help="folder to write sim2real_labelled_rig.md into (e.g. results)")
     args = parser.parse_args()
     out = Path(args.out).expanduser().resolve()
     records = out / "records"
-    if (out / "seed.txt").is_file() and (out / "seed.txt").read_text().strip() != str(args.seed):
-        refuse(f"--out: {out} holds the records of another --seed; give another --out")
+    for option, value in (("seed", str(args.seed)), ("protocol", args.protocol)):
+        if (out / f"{option}.txt").is_file() and (out / f"{option}.txt").read_text().strip() != value:
+            refuse(f"--out: {out} holds the run of another --{option}; give another --out")
     out.mkdir(parents=True, exist_ok=True)
     (out / "seed.txt").write_text(f"{args.seed}\n")
+    (out / "protocol.txt").write_text(f"{args.protocol}\n")
     started = time.time()
     plan = write_records(records, args.seed)
     print(f"{len(plan)} rig records in {records}")
     reports = calibrate(out, records, plan)
-    model, training = train(out, records, reports)
+    model, training = train(out, records, reports, args.protocol)
     rows = diagnose(out, records, model)
     table, table_rows, summary = score_table(rows, plan)
     print(table)
     if summary["failed"]:
         print(f"not diagnosed: {', '.join(summary['failed'])}")
     found = {stem: _effects_found(reports[stem]) for stem in CALIBRATION}
-    (out / "summary.json").write_text(json.dumps({**summary, "calibration_effects": found}, indent=1))
+    (out / "summary.json").write_text(json.dumps({**summary, "protocol": args.protocol, "calibration_effects": found}, indent=1))
     figure = plot_records_right(table_rows, ["model (twin-trained)", "physics (envelope analysis)"],
                                 out / "sim2real_labelled_rig.png",
                                 title="ER-16K rig at 25.6 kHz, read through a labels table: records right by state and damage")
@@ -192,7 +197,8 @@ def main() -> None:
         Path(args.results).mkdir(parents=True, exist_ok=True)
         figure = Path(shutil.copy(figure, Path(args.results) / figure.name))
         path = Path(args.results) / "sim2real_labelled_rig.md"
-        command = f"python benchmarks/sim2real_labelled_rig.py --out {args.out} --seed {args.seed} --results {args.results}"
+        protocol = "" if args.protocol == "sim2real" else f" --protocol {args.protocol}"
+        command = f"python benchmarks/sim2real_labelled_rig.py --out {args.out} --seed {args.seed}{protocol} --results {args.results}"
         block = (f"Records right (the majority of a record's windows, `bearingtwin-diagnose`'s scoring) on the rig's "
                  f"{len(plan) - len(CALIBRATION)} test records; the two calibration records left out.\n\n{table}\n\n"
                  + (f"Not diagnosed: {', '.join(summary['failed'])}.\n\n" if summary["failed"] else "")

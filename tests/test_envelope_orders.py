@@ -109,6 +109,9 @@ def test_the_config_builds_the_extractor_and_bad_settings_name_their_field(beari
         build_feature_extractor({**dict(cfg.features), "floor_width_orders": 0})
     with pytest.raises(BearingTwinError, match=r"features\.band_power must be true or false"):
         build_feature_extractor({**dict(cfg.features), "band_power": "yes"})
+    for rates in ([], ["bpfo", "cage"], ["bpfo", "bpfo"], 3):
+        with pytest.raises(BearingTwinError, match=r"^features\.rates=.*: give one or more of bpfi, bpfo, bsf2, ftf, each once"):
+            build_feature_extractor({**dict(cfg.features), "rates": rates})
     with pytest.raises(BearingTwinError, match=r"features: unknown key\(s\) \['bandwidth'\]"):
         build_feature_extractor({**dict(cfg.features), "bandwidth": 3})
     with pytest.raises(BearingTwinError, match=r"rpm: .*shaft speed"):
@@ -158,3 +161,23 @@ def test_a_speed_too_slow_for_the_windows_resolution_is_named_as_such(bearing):
     with pytest.raises(BearingTwinError, match=r"at 60 rpm a window resolves \d+\.\d\d shaft orders, too coarse for the "
                                                r"order \d+\.\d\d line and its flanks: check the speed"):
         prominence.transform(windows, fs_hz=FS_HZ, rpm=60.0)
+
+
+def test_a_subset_of_rates_reads_those_columns_alone_and_the_same_values(bearing):
+    """``rates`` leaves out whole repetition rates (their harmonics and sidebands); the columns kept are the full
+    set's, to the bit, in the full set's order whatever order the rates are given in. An extractor pickled before
+    ``rates`` existed (a registered model) reads every rate."""
+    rng = np.random.default_rng(3)
+    windows = np.stack([ringing_impacts(defect_orders(BearingGeometry.from_config(bearing))["bpfo"] * 1797.0 / 60.0, rng)
+                        for _ in range(2)])
+    full = EnvelopeOrderFeatures(bearing=bearing, line_measure="prominence")
+    every = full.fit_transform(windows, fs_hz=FS_HZ, rpm=1797.0)
+    some = EnvelopeOrderFeatures(bearing=bearing, line_measure="prominence", rates=["bsf2", "bpfo"])
+    part = some.fit_transform(windows, fs_hz=FS_HZ, rpm=1797.0)
+    assert some.feature_names_ == ["1xbpfo", "2xbpfo", "3xbpfo", "1xbsf2", "2xbsf2", "3xbsf2", "band_power_log10"]
+    assert np.array_equal(part, every[:, [full.feature_names_.index(name) for name in some.feature_names_]])
+    old = full.__getstate__()
+    del old["rates"]
+    loaded = EnvelopeOrderFeatures.__new__(EnvelopeOrderFeatures)
+    loaded.__setstate__(old)
+    assert np.array_equal(loaded.transform(windows, fs_hz=FS_HZ, rpm=1797.0), every)

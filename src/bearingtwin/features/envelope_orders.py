@@ -57,12 +57,13 @@ def defect_orders(geometry: BearingGeometry) -> dict[str, float]:
     return {"bpfi": per_shaft["bpfi"], "bpfo": per_shaft["bpfo"], "bsf2": 2.0 * per_shaft["bsf"], "ftf": per_shaft["ftf"]}
 
 
-def band_centres(geometry: BearingGeometry, harmonics: int) -> dict[str, float]:
-    """Feature name -> centre order: harmonics 1..h of each rate, and the +-1 shaft-order sidebands
-    of the inner-race harmonics (an inner-race defect turns with the shaft through the load zone)."""
+def band_centres(geometry: BearingGeometry, harmonics: int, rates: Sequence[str] = DEFECT_RATES) -> dict[str, float]:
+    """Feature name -> centre order: harmonics 1..h of each of ``rates`` (in :data:`DEFECT_RATES`' order), and
+    the +-1 shaft-order sidebands of the inner-race harmonics (an inner-race defect turns with the shaft
+    through the load zone)."""
     orders = defect_orders(geometry)
     centres = {}
-    for rate in DEFECT_RATES:
+    for rate in (rate for rate in DEFECT_RATES if rate in rates):
         for h in range(1, harmonics + 1):
             centres[f"{h}x{rate}"] = h * orders[rate]
             if rate == "bpfi":
@@ -83,6 +84,8 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         band_nyquist: (low, high) band-pass edges as fractions of the Nyquist rate.
         filter_order: Butterworth order of the band-pass (applied forward and backward: no phase shift).
         harmonics: harmonics of each defect rate.
+        rates: the repetition rates read (any of :data:`DEFECT_RATES`, all by default); their columns keep
+            that order whatever the order given.
         half_width_orders: half width of each band in shaft orders; widened to at least one
             envelope-spectrum bin so a band never falls between bins.
         band_power: add ``band_power_log10``, log10 of the share of the window's power (about
@@ -105,16 +108,21 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
     def __init__(self, bearing: dict | None = None, band_nyquist: tuple[float, float] = (0.25, 0.9),
                  filter_order: int = 4, harmonics: int = 3, half_width_orders: float = 0.15,
                  band_power: bool = True, line_measure: str = "share", floor_width_orders: float = 1.0,
-                 prewhiten: str = "none") -> None:
+                 prewhiten: str = "none", rates: Sequence[str] = DEFECT_RATES) -> None:
         self.bearing = bearing
         self.band_nyquist = band_nyquist
         self.filter_order = filter_order
         self.harmonics = harmonics
+        self.rates = rates
         self.half_width_orders = half_width_orders
         self.band_power = band_power
         self.line_measure = line_measure
         self.floor_width_orders = floor_width_orders
         self.prewhiten = prewhiten
+
+    def __setstate__(self, state: dict) -> None:
+        # A model registered before ``rates`` existed read every rate: it keeps doing so when loaded.
+        super().__setstate__({"rates": DEFECT_RATES, **state})
 
     def check_params(self) -> BearingGeometry:
         """The bearing's geometry, after checking every parameter (errors name the parameter)."""
@@ -128,6 +136,9 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"features.filter_order must be a positive integer, got {self.filter_order!r}")
         if not (isinstance(self.harmonics, int) and self.harmonics > 0):
             raise BearingTwinError(f"features.harmonics must be a positive integer, got {self.harmonics!r}")
+        rates = [self.rates] if isinstance(self.rates, str) else list(self.rates) if isinstance(self.rates, Sequence) else None
+        if not rates or any(rate not in DEFECT_RATES for rate in rates) or len(set(rates)) < len(rates):
+            raise BearingTwinError(f"features.rates={self.rates!r}: give one or more of {', '.join(DEFECT_RATES)}, each once")
         if not (is_finite_number(self.half_width_orders) and self.half_width_orders > 0):
             raise BearingTwinError(f"features.half_width_orders must be positive, got {self.half_width_orders!r}")
         if not isinstance(self.band_power, bool):
@@ -145,7 +156,7 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         machine's envelope carries shaft harmonics, so on such a bearing those features read the shaft's
         lines as well as the defect's (the SKF 6203's 2 x BSF is 3.988 orders, its BPFO 3.053)."""
         half_width = float(self.half_width_orders)
-        return [name for name, centre in band_centres(self.check_params(), self.harmonics).items()
+        return [name for name, centre in band_centres(self.check_params(), self.harmonics, self.rates).items()
                 if round(centre) >= 1 and abs(centre - round(centre)) <= half_width]
 
     def fit(self, X, y=None, *, fs_hz: float, rpm) -> "EnvelopeOrderFeatures":
@@ -153,7 +164,8 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         geometry = self.check_params()
         X, _ = self._check(X, fs_hz, rpm)
         self.band_hz_ = tuple(float(v) * fs_hz / 2.0 for v in self.band_nyquist)
-        self.feature_names_ = list(band_centres(geometry, self.harmonics)) + (["band_power_log10"] if self.band_power else [])
+        self.feature_names_ = (list(band_centres(geometry, self.harmonics, self.rates))
+                               + (["band_power_log10"] if self.band_power else []))
         return self
 
     def transform(self, X, y=None, *, fs_hz: float, rpm) -> np.ndarray:
@@ -174,7 +186,7 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         if np.any(total == 0):
             raise BearingTwinError("X: a window has no envelope power in the band-pass, so its power cannot be shared out")
         columns = []
-        for centre in band_centres(self.check_params(), self.harmonics).values():
+        for centre in band_centres(self.check_params(), self.harmonics, self.rates).values():
             distance = np.abs(orders - centre)
             in_line = distance <= half_width
             if self.line_measure == "share":
