@@ -6,7 +6,12 @@ frequencies as the second witness) at its true 12 kHz and at four wrong rates ne
 0.48, 0.52 and 0.34 times 25.6 kHz. A wrong rate the check calls ``consistent`` is one it lets through silently;
 ``contradicted`` refuses it (and names a rate, right when within 1 % of the true one); ``ambiguous`` logs a doubt.
 
-    python benchmarks/rate_check.py            # a table per verdict on stdout (about 30 s)
+Every CWRU record shows its shaft's harmonic series. A machine with one 1x line and nothing else is the other
+common case: the independent test rig (``bearingtwin.testrig``: impulse trains through its own path, a residual
+unbalance its only shaft line), the CWRU bearing at 12 kHz, each state at three speeds (4 s records), declared at
+its true rate and at 1.25, 0.8, 0.5 and 2 times it (a rate typed for another rig's, or a whole factor off).
+
+    python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about a minute)
 """
 
 from __future__ import annotations
@@ -21,10 +26,33 @@ import scipy.signal
 from bearingtwin.config import REPO_ROOT, load_bearing
 from bearingtwin.data.cwru import load_cwru
 from bearingtwin.signal.sampling_rate import check_sampling_rate
+from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 
 WRONG_FACTORS = {12000.0: (5850 / 12000, 0.48, 0.52, 0.34), 25600.0: (12000 / 25600, 0.48, 0.52, 0.34)}
 """Declared / true rate of the wrong rates tried, per true rate: near half (a supply or 2x line then sits
 near the shaft's place) and near a third."""
+RIG_FACTORS = (1.25, 0.8, 0.5, 2.0)
+"""Declared / true rate of the wrong rates tried on the test rig's records."""
+RIG_SPEEDS_RPM = (1797.0, 1750.0, 1730.0)
+
+
+def tally(checks, true_fs: float, right_rate: Counter, wrong: Counter) -> None:
+    """Count each check's verdict: ``checks`` yields (declared rate, check)."""
+    for declared, check in checks:
+        if declared == true_fs:
+            right_rate[check.verdict] += 1
+            continue
+        named = check.implied_fs_hz is not None and abs(check.implied_fs_hz / true_fs - 1.0) <= 0.01
+        wrong[check.verdict + (" naming the true rate" if check.verdict == "contradicted" and named else "")] += 1
+
+
+def print_table(title: str, right_rate: Counter, wrong: Counter) -> None:
+    print(f"{title}\n\n| declared rate | verdict | cases |\n|---|---|---|")
+    for verdict, count in sorted(right_rate.items()):
+        print(f"| the true one | {verdict} | {count} |")
+    for verdict, count in sorted(wrong.items()):
+        print(f"| a wrong one | {verdict} | {count} |")
+    print()
 
 
 def main() -> None:
@@ -43,18 +71,20 @@ def main() -> None:
         for true_fs in WRONG_FACTORS:
             signal = (recording.signal if true_fs == 12000.0
                       else scipy.signal.resample_poly(recording.signal, 32, 15))  # 12 kHz -> 25.6 kHz
-            right_rate[check_sampling_rate(signal, true_fs, recording.rpm, defect_hz=defect_hz).verdict] += 1
-            for factor in WRONG_FACTORS[true_fs]:
-                check = check_sampling_rate(signal, true_fs * factor, recording.rpm, defect_hz=defect_hz)
-                named = check.implied_fs_hz is not None and abs(check.implied_fs_hz / true_fs - 1.0) <= 0.01
-                wrong[check.verdict + (" naming the true rate" if check.verdict == "contradicted" and named else "")] += 1
-    print(f"{len(records)} CWRU records, at their true rate and resampled to 25.6 kHz:\n")
-    print("| declared rate | verdict | cases |\n|---|---|---|")
-    for verdict, count in sorted(right_rate.items()):
-        print(f"| the true one | {verdict} | {count} |")
-    for verdict, count in sorted(wrong.items()):
-        print(f"| a wrong one | {verdict} | {count} |")
-
+            tally(((fs, check_sampling_rate(signal, fs, recording.rpm, defect_hz=defect_hz))
+                   for fs in (true_fs, *(true_fs * factor for factor in WRONG_FACTORS[true_fs]))), true_fs, right_rate, wrong)
+    print_table(f"{len(records)} CWRU records, at their true rate and resampled to 25.6 kHz:", right_rate, wrong)
+    rig_right, rig_wrong, states = Counter(), Counter(), Counter()
+    for number, (fault, rpm) in enumerate((fault, rpm) for fault in FAULTS for rpm in RIG_SPEEDS_RPM):
+        signal = simulate_rig(fault, RigOperatingPoint(rpm=rpm, fs=12000.0, duration_s=4.0), seed=number)
+        defect_hz = bearing.defect_frequencies(rpm)
+        checks = [(fs, check_sampling_rate(signal, fs, rpm, defect_hz=defect_hz))
+                  for fs in (12000.0, *(12000.0 * factor for factor in RIG_FACTORS))]
+        tally(checks, 12000.0, rig_right, rig_wrong)
+        states.update(f"{fault}: {check.verdict}" for fs, check in checks if fs != 12000.0)
+    print_table(f"{len(FAULTS) * len(RIG_SPEEDS_RPM)} records of the independent test rig (one 1x line), 12 kHz:",
+                rig_right, rig_wrong)
+    print("wrong rates by state: " + ", ".join(f"{key} {count}" for key, count in sorted(states.items())))
 
 if __name__ == "__main__":
     main()

@@ -3,6 +3,7 @@
 Runs on the real files in ../shared/data/cwru (or $BEARINGTWIN_DATA/cwru)."""
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import load_recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
+from bearingtwin.testrig import RigOperatingPoint, simulate_rig
 from bearingtwin.signal.sampling_rate import (ShaftLineCheck, check_channels, check_sampling_rate, decisive_channel,
                                               require_plausible_rate)
 
@@ -278,6 +280,24 @@ def test_shaft_line_of_a_synthetic_record():
     assert not doubled.matches and doubled.implied_fs_hz == pytest.approx(fs, rel=0.01)
     with pytest.raises(BearingTwinError, match="too short"):
         check_sampling_rate(signal[:1000], fs, rpm)
+
+
+@pytest.mark.parametrize("rpm,seed", [(1750.0, 7), (1730.0, 8)])
+def test_a_defect_comb_and_the_shaft_line_both_off_by_one_factor_refuse_the_rate_and_name_the_true_one(rpm, seed):
+    """The independent test rig's ball records (impacts through its own path; a residual unbalance its only shaft
+    line) read at 0.8 times their rate: no shaft series settles it, but the envelope's 2 x BSF comb and the shaft's
+    line both stand 0.8 times their places, and the record read at the rate they imply is confirmed there:
+    refused, naming the true rate. At the true rate it passes; a healthy record, with no comb, is left in doubt."""
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(rpm)
+    op = RigOperatingPoint(rpm=rpm, fs=12000.0, duration_s=4.0)
+    signal = simulate_rig("ball", op, seed=seed)
+    misread = check_sampling_rate(signal, 9600.0, rpm, defect_hz=defect_hz)
+    assert misread.verdict == "contradicted" and misread.witness == "comb", misread.reason
+    assert misread.implied_fs_hz == pytest.approx(12000.0, rel=0.01), misread.reason
+    assert re.search(r"the envelope's 2 x bsf comb stands at 0\.(79|80)\d* times its frequency", misread.reason)
+    assert check_sampling_rate(signal, 12000.0, rpm, defect_hz=defect_hz).verdict == "consistent"
+    healthy = check_sampling_rate(simulate_rig("normal", op, seed=seed), 9600.0, rpm, defect_hz=defect_hz)
+    assert healthy.verdict == "ambiguous" and healthy.implied_fs_hz is None, healthy.reason
 
 
 def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_contradicted():

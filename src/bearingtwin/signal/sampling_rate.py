@@ -14,7 +14,9 @@ rubbing machine), so a second witness decides when the caller knows the bearing'
 frequencies: their envelope lines appear at ``f / k`` under the wrong rate and at ``f``
 under the right one. Without a decisive witness the verdict is ``ambiguous``. So it is where the
 only strong series near the shaft's place is the supply's (a motor's 50/60 Hz line or its pull at
-twice it): those lines say nothing of the shaft line.
+twice it): those lines say nothing of the shaft line. A machine whose only shaft line is 1x (no
+series at all) is checked by its bearing instead: a defect's comb in the envelope and that line,
+both standing the same factor from their places, name the true rate.
 """
 
 from __future__ import annotations
@@ -22,11 +24,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import asdict, dataclass
-from typing import Mapping
+from typing import Callable, Mapping
 
 import numpy as np
+import scipy.signal
 from scipy.ndimage import median_filter
 
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 
 VERDICTS = ("consistent", "contradicted", "ambiguous")
@@ -179,7 +183,20 @@ def check_sampling_rate(
                    max_fraction=max_fraction, slip=slip)
 
     def concluded(check: ShaftLineCheck) -> ShaftLineCheck:
-        return _implied_rate_checked(check, signal, options) if follow_implied else check
+        if not follow_implied:
+            return check
+        check = _implied_rate_checked(check, signal, options)
+        if check.verdict != "ambiguous" or not defect_hz:  # a contradiction made stands, with the rate it implies
+            return check
+
+        def verdict_at(rate: float) -> str | None:
+            try:
+                return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False).verdict
+            except BearingTwinError:  # too short to check at that rate
+                return None
+
+        return _defect_comb_elsewhere(check, signal, defect_hz, ratio, resolution, prominence, search_factor,
+                                      harmonic_tolerance, tolerance, lambda rate: verdict_at(rate) == "consistent")
 
     # The search reaches search_factor^2 on either side only to tell "no series anywhere" from "a series
     # too far away"; the shaft's series is looked for within search_factor.
@@ -470,6 +487,85 @@ def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapp
     at_fractions = np.max([_peak(ratio, resolution, frequencies / k, window) for k in range(2, max_fraction + 1)], axis=0)
     standing = [name for name, a, b in zip(lines, at_f, at_fractions) if a >= prominence and b < prominence]
     return standing[0] if standing else None
+
+
+def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float],
+                           ratio: np.ndarray, resolution: float, prominence: float, search_factor: float,
+                           window: float, tolerance: float, confirmed: Callable[[float], bool]) -> ShaftLineCheck:
+    """An ``ambiguous`` check (no series settled the rate), and an envelope holding a defect's comb at ``s`` times
+    its frequency: under a rate off by ``declared / true = s`` every line stands ``s`` times its place. Where the
+    shaft's line stands ``s`` times its place too, and not at its place (``ratio``, ``resolution``: the record's
+    prominence spectrum; under a rate too low by a whole factor its harmonic may), and the record checked at the
+    rate they imply is ``confirmed`` there (``consistent``), the two agree and contradict the rate (``witness``
+    ``comb``). Otherwise a comb standing where it belongs (within ``tolerance``: a speed given a little off)
+    leaves the check as it is, and a comb standing only elsewhere leaves it ``ambiguous``, naming the rate it
+    implies. A contradiction made by a series is left to stand with the rate it implies: a healthy record's dense
+    shaft lines can put a comb anywhere."""
+    combs, belongs = _defect_combs(signal, check.fs_hz, defect_hz, prominence, search_factor, window, tolerance)
+
+    def words(name: str, scale: float) -> str:
+        return (f"the envelope's {name} comb stands at {scale:.3g} times its frequency "
+                f"({scale * _defect_hz_of(defect_hz, name):.1f} Hz, its second harmonic too)")
+
+    def line(hz: float) -> bool:
+        return float(_peak(ratio, resolution, np.array([hz]), window)[0]) >= prominence
+
+    for name, scale in combs:  # two combs may read the same lines (BPFO x 1.25, 2 x BSF x 0.94): the shaft decides
+        # Under a rate too low by a whole factor k the shaft's k-th harmonic stands at its place.
+        whole = any(abs(math.log(scale * k)) <= tolerance for k in range(2, _MAX_FRACTION + 1))
+        if (whole or not line(check.expected_hz)) and line(scale * check.expected_hz) and confirmed(check.fs_hz / scale):
+            return dataclasses.replace(
+                check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb",
+                reason=f"{check.reason}; but {words(name, scale)}, and a line stands at {scale * check.expected_hz:.2f} "
+                       f"Hz, as many times the shaft's place: the true rate is {check.fs_hz / scale:.0f} Hz")
+    if belongs or not combs:
+        return check
+    name, scale = combs[0]
+    return dataclasses.replace(check, reason=f"{check.reason}; {words(name, scale)}, and no defect's comb stands where "
+                                             f"it belongs: fs may be {check.fs_hz / scale:.0f} Hz")
+
+
+_COMB_RATES = ("bpfi", "bpfo", "2 x bsf")
+"""The combs sought where a wrong rate would put them: a race's, and a ball's, whose spall strikes both races per
+spin (its comb stands at twice BSF, so BSF itself, at half of it, would read as a rate off by two)."""
+
+
+def _defect_hz_of(defect_hz: Mapping[str, float], name: str) -> float:
+    """The frequency (Hz) of one of :data:`_COMB_RATES` from ``defect_hz`` (keys ``bpfi``, ``bpfo``, ``bsf``)."""
+    return 2.0 * float(defect_hz["bsf"]) if name == "2 x bsf" else float(defect_hz[name])
+
+
+def _defect_combs(signal: np.ndarray, fs: float, defect_hz: Mapping[str, float], prominence: float,
+                  search_factor: float, window: float, tolerance: float) -> tuple[list[tuple[str, float]], bool]:
+    """The defect combs (a line and its second harmonic in the envelope, each ``prominence`` over the floor)
+    standing at ``s`` times their frequency, ``s`` within ``search_factor`` either way but not within ``tolerance``
+    of 1 nor of a whole multiple of it (a comb's own harmonics): (name, s), the most prominent first, every
+    scale where one stands out (a comb's harmonics stand out too, at multiples of its own scale); and whether a
+    comb stands at its own frequency and at no whole fraction of it (1/2 .. 1/4: its lines at the frequency
+    would then be that lower comb's harmonics, under a rate too low by that factor)."""
+    combs = {name: _defect_hz_of(defect_hz, name) for name in _COMB_RATES
+             if is_finite_number(defect_hz.get(name.split()[-1])) and defect_hz[name.split()[-1]] > 0}
+    if not combs:
+        return [], False
+    top = min(2.2 * max(combs.values()) * search_factor, 0.45 * fs)
+    ratio, resolution = _envelope_prominence(signal, fs, top)
+    scales = np.geomspace(1 / search_factor, search_factor, int(math.ceil(2 * math.log(search_factor) / window)) + 1)
+
+    def near(scale: np.ndarray, factor: float) -> np.ndarray:
+        return np.abs(np.log(scale * factor)) <= tolerance
+
+    found, belongs = [], False
+    for name, hz in combs.items():
+        scored = scales[2.2 * scales * hz < top]
+        score = np.minimum(_peak(ratio, resolution, scored * hz, window), _peak(ratio, resolution, 2 * scored * hz, window))
+        standing = score >= prominence
+        fractions = np.any([near(scored, k) for k in range(2, _MAX_FRACTION + 1)], axis=0)
+        harmonics = np.any([near(scored, 1 / k) for k in range(2, _MAX_FRACTION + 1)], axis=0)
+        belongs |= bool(np.any(standing & near(scored, 1.0)) and not np.any(standing & fractions))
+        elsewhere = np.where(standing & ~near(scored, 1.0) & ~harmonics, score, 0.0)
+        peaks, _ = scipy.signal.find_peaks(np.concatenate([[0.0], elsewhere, [0.0]]))  # each comb once, at its best scale
+        found += [(float(elsewhere[peak - 1]), name, float(scored[peak - 1])) for peak in peaks]
+    return [(name, scale) for _, name, scale in sorted(found, reverse=True)], belongs
 
 
 def _apart_from_shaft(hz: float, shaft_hz: float, max_fraction: int, window: float) -> bool:
