@@ -282,8 +282,10 @@ def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out(class
 
     from bearingtwin.config import bearing_config
     from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
-    from bearingtwin.models.experiment import choose_band_power
+    from bearingtwin.models.experiment import FEATURE_GROUPS, choose_feature_group
     from bearingtwin.models.svm import SvmClassifier
+
+    BAND_POWER = FEATURE_GROUPS[0]
 
     rng = np.random.default_rng(0)
     fs, rpm, n_train, n_val = 12000.0, 1797.0, 200, 40
@@ -313,8 +315,8 @@ def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out(class
         band_power[validation] = -2.0 if shifted else band_power[validation]
         features = np.column_stack([lines, band_power])
         with_it = fit(new_classifier(), features)
-        classifier, chosen, chosen_extractor, scores = choose_band_power(
-            with_it, features, extractor, dataset, train, fit, new_classifier)
+        classifier, chosen, chosen_extractor, scores = choose_feature_group(
+            BAND_POWER, with_it, features, extractor, dataset, train, fit, new_classifier)
         assert scores["band_power_kept"] == float(kept)
         assert (scores["band_power_calibration_accuracy"] >= scores["lines_only_calibration_accuracy"]) == kept
         assert chosen.shape[1] == n_lines + kept and chosen_extractor.band_power == kept
@@ -323,10 +325,53 @@ def test_band_power_is_kept_only_where_the_calibration_windows_bear_it_out(class
         assert chosen_extractor.transform(windows[:2], fs_hz=fs, rpm=rpm).shape == (2, chosen.shape[1])
         extractors[kept] = chosen_extractor
     with pytest.raises(BearingTwinError, match="band_power_by_calibration: the features have no band power"):
-        choose_band_power(with_it, lines, extractors[False], dataset, train, fit, new_classifier)
+        choose_feature_group(BAND_POWER, with_it, lines, extractors[False], dataset, train, fit, new_classifier)
     with pytest.raises(BearingTwinError, match="no calibration windows to choose on"):
-        choose_band_power(with_it, features, extractor, SimpleNamespace(**{**vars(dataset), "validation": []}),
+        choose_feature_group(BAND_POWER, with_it, features, extractor, SimpleNamespace(**{**vars(dataset), "validation": []}),
                           train, fit, new_classifier)
+
+
+def test_cage_rate_lines_that_do_not_hold_on_the_calibration_records_are_dropped_with_the_extractors_rate():
+    """Cage-rate (FTF) lines that tell the twin's classes apart but not the calibration records' (a path that hears
+    a defect carried round otherwise) are dropped: the classifier refitted without them, the extractor reading
+    the other rates only; lines that hold are kept. Chosen after the band power, on what that choice left."""
+    from types import SimpleNamespace
+
+    from bearingtwin.config import bearing_config
+    from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
+    from bearingtwin.models.experiment import FEATURE_GROUPS, choose_feature_group
+    from bearingtwin.models.svm import SvmClassifier
+
+    cage_lines = FEATURE_GROUPS[1]
+    rng = np.random.default_rng(1)
+    fs, rpm, n_train, n_val = 12000.0, 1797.0, 200, 40
+    windows = rng.standard_normal((n_train + n_val, 4096))
+    extractor = EnvelopeOrderFeatures(bearing=bearing_config("cwru_6205"), line_measure="prominence",
+                                      band_power=False).fit(windows[:1], fs_hz=fs, rpm=rpm)
+    cage = np.array([name.endswith("xftf") for name in extractor.feature_names_])
+    labels = np.tile([0, 1], (n_train + n_val) // 2)
+    train, validation = np.arange(n_train), np.arange(n_train, n_train + n_val)
+    dataset = SimpleNamespace(validation=validation, labels=labels, windows=windows, fs=fs,
+                              window_rpms=np.full(labels.size, rpm))
+
+    def fit(model, X):
+        return model.fit(X[train], labels[train])
+
+    for shifted, kept in ((True, False), (False, True)):
+        features = 0.6 * labels[:, None] * (np.arange(cage.size) == 0) + rng.normal(0.0, 0.3, (labels.size, cage.size))
+        features[:, cage] = np.where(labels == 1, 1.0, 0.0)[:, None] + rng.normal(0.0, 0.05, (labels.size, cage.sum()))
+        if shifted:  # on the calibration windows the cage lines read the other way round
+            features[np.ix_(validation, cage)] = 1.0 - features[np.ix_(validation, cage)]
+        with_them = fit(SvmClassifier(kernel="linear"), features)
+        classifier, chosen, chosen_extractor, scores = choose_feature_group(
+            cage_lines, with_them, features, extractor, dataset, train, fit, lambda: SvmClassifier(kernel="linear"))
+        assert scores["cage_lines_kept"] == float(kept), scores
+        assert chosen.shape[1] == cage.size - (0 if kept else cage.sum())
+        assert ("ftf" in chosen_extractor.rates) == kept and (classifier is with_them) == kept
+        assert chosen_extractor.transform(windows[:2], fs_hz=fs, rpm=rpm).shape == (2, chosen.shape[1])
+    with pytest.raises(BearingTwinError, match=r"cage_lines_by_calibration: the features have no cage-rate lines"):
+        choose_feature_group(cage_lines, with_them, chosen, chosen_extractor.set_params(rates=["bpfo", "bsf2"]),
+                             dataset, train, fit, lambda: SvmClassifier(kernel="linear"))
 
 
 def test_a_band_power_choice_with_nothing_to_choose_is_refused_before_any_data_is_built(monkeypatch):
@@ -337,11 +382,12 @@ def test_a_band_power_choice_with_nothing_to_choose_is_refused_before_any_data_i
         raise AssertionError("the data were built before the settings were checked")
 
     monkeypatch.setattr(experiment, "build_dataset", no_data)
-    for overrides, message in ((["classifier=svm", "features=envelope_prominence"], "no calibration windows to choose on"),
-                               (["classifier=svm", "data=twin_to_real", "bearing=cwru_6205"], "features have no band power")):
-        cfg = compose_config("train", [*overrides, "band_power_by_calibration=true"])
-        with pytest.raises(BearingTwinError, match=f"band_power_by_calibration: .*{message}"):
-            experiment.run_experiment(cfg)
+    for key, words in (("band_power_by_calibration", "band power"), ("cage_lines_by_calibration", "cage-rate lines")):
+        for overrides, message in ((["classifier=svm", "features=envelope_prominence"], "no calibration windows to choose on"),
+                                   (["classifier=svm", "data=twin_to_real", "bearing=cwru_6205"], f"features have no {words}")):
+            cfg = compose_config("train", [*overrides, f"{key}=true"])
+            with pytest.raises(BearingTwinError, match=f"{key}: .*{message}"):
+                experiment.run_experiment(cfg)
 
 
 @pytest.mark.parametrize("data, bearing", [("cwru", "cwru_6205"), ("hust", "er16k")])

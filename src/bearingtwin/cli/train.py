@@ -53,10 +53,13 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     lines["F1 per class"] = ", ".join(f"{state} {value:.3f}" for state, value in f1.items())
     if "calibration_accuracy" in metrics:
         lines["calibration accuracy"] = percent(metrics["calibration_accuracy"])
-    if "band_power_kept" in metrics:  # band_power_by_calibration
-        lines["band power"] = (f"{'kept' if metrics['band_power_kept'] else 'dropped'} (calibration windows right "
-                               f"{percent(metrics['band_power_calibration_accuracy'])} with it, "
-                               f"{percent(metrics['lines_only_calibration_accuracy'])} without)")
+    from bearingtwin.models.experiment import FEATURE_GROUPS
+
+    for group in FEATURE_GROUPS:  # chosen by the calibration records (band_power_by_calibration, ...)
+        if group.kept_metric in metrics:
+            lines[group.words] = (f"{'kept' if metrics[group.kept_metric] else 'dropped'} (calibration windows right "
+                                  f"{percent(metrics[group.with_metric])} with {group.pronoun}, "
+                                  f"{percent(metrics[group.without_metric])} without)")
     if tracked.model:
         lines["model"] = tracked.model
     if tracked.artifacts:

@@ -10,6 +10,7 @@ import os
 import random
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -144,8 +145,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     seed_everything(seed)
     classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)  # bad settings fail first
     build_feature_extractor(cfg.features)  # so do the features' (the cached extraction builds its own)
-    if cfg.get("band_power_by_calibration"):
-        check_band_power_choice(cfg)
+    groups = chosen_feature_groups(cfg)
     check_feature_bearing(cfg)
     dataset = build_dataset(cfg)
     if dataset.fixed_split is not None:
@@ -175,10 +175,11 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
 
     fit(classifier, features)
     choice = {}
-    if cfg.get("band_power_by_calibration"):
-        classifier, features, extractor, choice = choose_band_power(
-            classifier, features, extractor, dataset, train, fit,
+    for group in groups:
+        classifier, features, extractor, scores = choose_feature_group(
+            group, classifier, features, extractor, dataset, train, fit,
             lambda: build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir))
+        choice.update(scores)
     predicted = classifier.predict(features[test])
     scores, confusion = classification_scores(y[test], predicted, dataset.class_names)
     scores.update(choice)
@@ -213,48 +214,81 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     )
 
 
-NO_BAND_POWER = ("band_power_by_calibration: the features have no band power to keep or drop "
-                 "(features=envelope_prominence or envelope_orders with features.band_power=true)")
-NO_CALIBRATION_WINDOWS = ("band_power_by_calibration: no calibration windows to choose on; set "
-                          "data=twin_to_real with data.calibration.validation_windows_per_record > 0")
+@dataclass(frozen=True)
+class FeatureGroup:
+    """Envelope-order features a twin-trained protocol keeps only where the calibration records bear them out:
+    the config key that asks for the choice, the columns (by feature name), the extractor's settings without
+    them, what the extractor must have for there to be a choice, and the run's metric names."""
+
+    key: str
+    words: str
+    pronoun: str
+    columns: Callable[[str], bool]
+    dropped: Callable[[EnvelopeOrderFeatures], dict]
+    present: Callable[[EnvelopeOrderFeatures], bool]
+    needs: str
+    kept_metric: str
+    with_metric: str
+    without_metric: str
 
 
-def check_band_power_choice(cfg: DictConfig) -> None:
-    """Refuse ``band_power_by_calibration`` where it has nothing to choose, before any data is built."""
-    if cfg.features.get("kind") != "envelope_orders" or not cfg.features.get("band_power"):
-        raise BearingTwinError(NO_BAND_POWER)
-    if cfg.data.get("source") != "twin_to_real" or not cfg.data.calibration.get("validation_windows_per_record"):
-        raise BearingTwinError(NO_CALIBRATION_WINDOWS)
+FEATURE_GROUPS = (
+    FeatureGroup("band_power_by_calibration", "band power", "it", lambda name: name == "band_power_log10",
+                 lambda extractor: {"band_power": False}, lambda extractor: extractor.band_power,
+                 "features=envelope_prominence or envelope_orders with features.band_power=true",
+                 "band_power_kept", "band_power_calibration_accuracy", "lines_only_calibration_accuracy"),
+    FeatureGroup("cage_lines_by_calibration", "cage-rate lines", "them", lambda name: name.endswith("xftf"),
+                 lambda extractor: {"rates": [rate for rate in extractor.rates if rate != "ftf"]},
+                 lambda extractor: "ftf" in extractor.rates and len(extractor.rates) > 1,
+                 "features=envelope_prominence or envelope_orders with ftf among features.rates, beside another rate",
+                 "cage_lines_kept", "cage_lines_calibration_accuracy", "without_cage_lines_calibration_accuracy"),
+)
+"""In the order they are chosen: each choice is made on the features the ones before it left."""
 
 
-def choose_band_power(classifier, features: np.ndarray, extractor, dataset, train: np.ndarray, fit, new_classifier):
-    """The classifier, features and extractor with the band-power feature, or without it if that scores
-    better on the calibration records' windows (``dataset.validation``; ties keep it), and the scores.
+def chosen_feature_groups(cfg: DictConfig) -> list[FeatureGroup]:
+    """The groups the config asks to choose by the calibration records; each refused where it has nothing to
+    choose, before any data is built."""
+    groups = [group for group in FEATURE_GROUPS if cfg.get(group.key)]
+    features = build_feature_extractor(cfg.features) if groups else None
+    for group in groups:
+        if not (isinstance(features, EnvelopeOrderFeatures) and group.present(features)):
+            raise BearingTwinError(f"{group.key}: the features have no {group.words} to keep or drop ({group.needs})")
+        if cfg.data.get("source") != "twin_to_real" or not cfg.data.calibration.get("validation_windows_per_record"):
+            raise BearingTwinError(f"{group.key}: no calibration windows to choose on; set data=twin_to_real with "
+                                   "data.calibration.validation_windows_per_record > 0")
+    return groups
 
-    ``classifier`` is fitted on ``features``, whose last column is the band power; ``fit(model, X)``
-    fits another on ``X``'s training rows. The scores: ``band_power_calibration_accuracy``,
-    ``lines_only_calibration_accuracy`` and ``band_power_kept`` (1 or 0).
+
+def choose_feature_group(group: FeatureGroup, classifier, features: np.ndarray, extractor, dataset, train: np.ndarray,
+                         fit, new_classifier):
+    """The classifier, features and extractor with ``group``'s columns, or without them if that scores better on
+    the calibration records' windows (``dataset.validation``; ties keep them), and the scores (``group``'s
+    metrics: both accuracies and whether the group was kept, 1 or 0).
+
+    ``classifier`` is fitted on ``features`` (``extractor``'s columns); ``fit(model, X)`` fits another on ``X``'s
+    training rows.
     """
-    if not (isinstance(extractor, EnvelopeOrderFeatures) and extractor.band_power):
-        raise BearingTwinError(NO_BAND_POWER)
+    if not (isinstance(extractor, EnvelopeOrderFeatures) and group.present(extractor)):
+        raise BearingTwinError(f"{group.key}: the features have no {group.words} to keep or drop ({group.needs})")
     validation = dataset.validation
     if not len(validation):
-        raise BearingTwinError(NO_CALIBRATION_WINDOWS)
-    lines = features[:, :-1]
-    without = fit(new_classifier(), lines)
+        raise BearingTwinError(f"{group.key}: no calibration windows to choose on; set data=twin_to_real with "
+                               "data.calibration.validation_windows_per_record > 0")
+    rest = np.array([not group.columns(name) for name in extractor.feature_names_])
+    without = fit(new_classifier(), features[:, rest])
     y_val = dataset.labels[validation]
     accuracy = {"with": float(np.mean(classifier.predict(features[validation]) == y_val)),
-                "without": float(np.mean(without.predict(lines[validation]) == y_val))}
-    scores = {"band_power_calibration_accuracy": accuracy["with"],
-              "lines_only_calibration_accuracy": accuracy["without"],
-              "band_power_kept": float(accuracy["with"] >= accuracy["without"])}
-    if scores["band_power_kept"]:
+                "without": float(np.mean(without.predict(features[validation][:, rest]) == y_val))}
+    scores = {group.with_metric: accuracy["with"], group.without_metric: accuracy["without"],
+              group.kept_metric: float(accuracy["with"] >= accuracy["without"])}
+    if scores[group.kept_metric]:
         return classifier, features, extractor, scores
     # The extractor learns nothing from the windows (its band in Hz and its feature names): refit on one.
     first = train[:1]
-    lines_only = clone(extractor).set_params(band_power=False).fit(
+    reduced = clone(extractor).set_params(**group.dropped(extractor)).fit(
         dataset.windows[first], fs_hz=dataset.fs, rpm=dataset.window_rpms[first])
-    return without, lines, lines_only, scores
+    return without, features[:, rest], reduced, scores
 
 
 def check_feature_bearing(cfg: DictConfig) -> None:
