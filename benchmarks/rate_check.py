@@ -11,7 +11,7 @@ common case: the independent test rig (``bearingtwin.testrig``: impulse trains t
 unbalance its only shaft line), the CWRU bearing at 12 kHz, each state at three speeds (4 s records), declared at
 its true rate and at 1.25, 0.8, 0.5 and 2 times it (a rate typed for another rig's, or a whole factor off).
 
-    python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about a minute)
+    python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about 25 s)
 """
 
 from __future__ import annotations

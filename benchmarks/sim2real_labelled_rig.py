@@ -172,6 +172,10 @@ def main() -> None:
     args = parser.parse_args()
     out = Path(args.out).expanduser().resolve()
     records = out / "records"
+    if args.results and args.protocol != "sim2real":
+        refuse("--results writes the page of the protocol in force: drop --protocol, or --results")
+    if (out / "train.log").is_file() and not (out / "protocol.txt").is_file():
+        (out / "protocol.txt").write_text("sim2real\n")  # trained before --protocol existed: by the one in force
     for option, value in (("seed", str(args.seed)), ("protocol", args.protocol)):
         if (out / f"{option}.txt").is_file() and (out / f"{option}.txt").read_text().strip() != value:
             refuse(f"--out: {out} holds the run of another --{option}; give another --out")
@@ -197,8 +201,7 @@ def main() -> None:
         Path(args.results).mkdir(parents=True, exist_ok=True)
         figure = Path(shutil.copy(figure, Path(args.results) / figure.name))
         path = Path(args.results) / "sim2real_labelled_rig.md"
-        protocol = "" if args.protocol == "sim2real" else f" --protocol {args.protocol}"
-        command = f"python benchmarks/sim2real_labelled_rig.py --out {args.out} --seed {args.seed}{protocol} --results {args.results}"
+        command = f"python benchmarks/sim2real_labelled_rig.py --out {args.out} --seed {args.seed} --results {args.results}"
         block = (f"Records right (the majority of a record's windows, `bearingtwin-diagnose`'s scoring) on the rig's "
                  f"{len(plan) - len(CALIBRATION)} test records; the two calibration records left out.\n\n{table}\n\n"
                  + (f"Not diagnosed: {', '.join(summary['failed'])}.\n\n" if summary["failed"] else "")

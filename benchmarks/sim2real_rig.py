@@ -66,9 +66,11 @@ CALIBRATION = ("normal_0", "12k_Drive_End_OR007@6_0")
 """The protocol's calibration records: healthy and outer race (6 o'clock) at 0 hp, as CWRU's 97 and 130."""
 FIRST_RECORD = 9001
 RIG_RUN_METRICS = ("accuracy", "calibration_accuracy", "band_power_kept", "band_power_calibration_accuracy",
-                   "lines_only_calibration_accuracy")
+                   "lines_only_calibration_accuracy", "cage_lines_kept", "cage_lines_calibration_accuracy",
+                   "without_cage_lines_calibration_accuracy")
 """What each protocol's run on the rig scored: its own test windows (1-3 hp, 0.007 in), its calibration
-records, and (version 4) the band-power choice."""
+records, and the choices its calibration records made (version 4: the band power; version 8: the cage-rate
+lines too)."""
 MM_PER_IN = 25.4
 
 
@@ -300,13 +302,18 @@ def results_markdown(table: str, summary: dict, rig_runs: dict, figure: Path, ar
     def percent(value) -> str:
         return "-" if value is None else f"{100 * value:.1f} %"
 
+    def choice(run: dict, kept: str, with_it: str, without: str) -> list[str]:
+        if run.get(kept) is None:
+            return ["-", "-"]
+        return ["yes" if run[kept] else "no", f"{percent(run[with_it])} / {percent(run[without])}"]
+
     runs = markdown_table(
         ["protocol on the rig", "its test windows right (0.007 in, 1-3 hp)", "calibration windows right",
-         "band power kept", "calibration windows right with / without band power"],
+         "band power kept", "calibration windows right with / without band power", "cage-rate lines kept",
+         "calibration windows right with / without them"],
         [[protocol, percent(run["accuracy"]), percent(run["calibration_accuracy"]),
-          "-" if run["band_power_kept"] is None else ("yes" if run["band_power_kept"] else "no"),
-          "-" if run["band_power_calibration_accuracy"] is None else
-          f"{percent(run['band_power_calibration_accuracy'])} / {percent(run['lines_only_calibration_accuracy'])}"]
+          *choice(run, "band_power_kept", "band_power_calibration_accuracy", "lines_only_calibration_accuracy"),
+          *choice(run, "cage_lines_kept", "cage_lines_calibration_accuracy", "without_cage_lines_calibration_accuracy")]
          for protocol, run in rig_runs.items()])
     return (
         "Records right (the majority of a record's non-overlapping windows, `bearingtwin-diagnose`'s own scoring) "

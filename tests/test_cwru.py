@@ -294,10 +294,23 @@ def test_a_defect_comb_and_the_shaft_line_both_off_by_one_factor_refuse_the_rate
     misread = check_sampling_rate(signal, 9600.0, rpm, defect_hz=defect_hz)
     assert misread.verdict == "contradicted" and misread.witness == "comb", misread.reason
     assert misread.implied_fs_hz == pytest.approx(12000.0, rel=0.01), misread.reason
-    assert re.search(r"the envelope's 2 x bsf comb stands at 0\.(79|80)\d* times its frequency", misread.reason)
+    assert re.search(r"the envelope's 2 x BSF comb stands at 0\.(79|80)\d* times its frequency", misread.reason)
     assert check_sampling_rate(signal, 12000.0, rpm, defect_hz=defect_hz).verdict == "consistent"
     healthy = check_sampling_rate(simulate_rig("normal", op, seed=seed), 9600.0, rpm, defect_hz=defect_hz)
     assert healthy.verdict == "ambiguous" and healthy.implied_fs_hz is None, healthy.reason
+
+
+def test_a_motors_pull_in_the_envelope_and_another_line_do_not_refuse_a_right_rate():
+    """Noise modulated at twice a 60 Hz supply (a motor's magnetic pull) puts a comb in the envelope at 120 and
+    240 Hz, which a defect comb a factor off its place could read as; with another element's line standing that
+    same factor off the shaft's place the two would agree. Lines the declared rate explains as the supply's are no
+    comb elsewhere: the right rate is left in doubt, not refused."""
+    fs, rpm = 12000.0, 1797.0
+    rng = np.random.default_rng(0)
+    t = np.arange(int(8 * fs)) / fs
+    signal = rng.standard_normal(t.size) * (1 + 0.8 * np.sin(2 * np.pi * 120.0 * t)) + 2.0 * np.sin(2 * np.pi * 33.4 * t)
+    check = check_sampling_rate(signal, fs, rpm, defect_hz=load_bearing("cwru_6205").defect_frequencies(rpm))
+    assert check.verdict == "ambiguous" and check.implied_fs_hz is None and "comb" not in check.reason, check.reason
 
 
 def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_contradicted():

@@ -136,9 +136,7 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"features.filter_order must be a positive integer, got {self.filter_order!r}")
         if not (isinstance(self.harmonics, int) and self.harmonics > 0):
             raise BearingTwinError(f"features.harmonics must be a positive integer, got {self.harmonics!r}")
-        rates = [self.rates] if isinstance(self.rates, str) else list(self.rates) if isinstance(self.rates, Sequence) else None
-        if not rates or any(rate not in DEFECT_RATES for rate in rates) or len(set(rates)) < len(rates):
-            raise BearingTwinError(f"features.rates={self.rates!r}: give one or more of {', '.join(DEFECT_RATES)}, each once")
+        self.rate_names()
         if not (is_finite_number(self.half_width_orders) and self.half_width_orders > 0):
             raise BearingTwinError(f"features.half_width_orders must be positive, got {self.half_width_orders!r}")
         if not isinstance(self.band_power, bool):
@@ -151,12 +149,19 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"features.floor_width_orders must be positive, got {self.floor_width_orders!r}")
         return BearingGeometry.from_config(self.bearing)
 
+    def rate_names(self) -> tuple[str, ...]:
+        """``rates`` as a tuple of names, checked (a single name is one rate, not its letters)."""
+        rates = (self.rates,) if isinstance(self.rates, str) else tuple(self.rates) if isinstance(self.rates, Sequence) else ()
+        if not rates or any(rate not in DEFECT_RATES for rate in rates) or len(set(rates)) < len(rates):
+            raise BearingTwinError(f"features.rates={self.rates!r}: give one or more of {', '.join(DEFECT_RATES)}, each once")
+        return rates
+
     def bands_on_shaft_harmonics(self) -> list[str]:
         """The line features whose band (centre +- ``half_width_orders``) holds a whole shaft order: every
         machine's envelope carries shaft harmonics, so on such a bearing those features read the shaft's
         lines as well as the defect's (the SKF 6203's 2 x BSF is 3.988 orders, its BPFO 3.053)."""
         half_width = float(self.half_width_orders)
-        return [name for name, centre in band_centres(self.check_params(), self.harmonics, self.rates).items()
+        return [name for name, centre in band_centres(self.check_params(), self.harmonics, self.rate_names()).items()
                 if round(centre) >= 1 and abs(centre - round(centre)) <= half_width]
 
     def fit(self, X, y=None, *, fs_hz: float, rpm) -> "EnvelopeOrderFeatures":
@@ -164,7 +169,7 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         geometry = self.check_params()
         X, _ = self._check(X, fs_hz, rpm)
         self.band_hz_ = tuple(float(v) * fs_hz / 2.0 for v in self.band_nyquist)
-        self.feature_names_ = (list(band_centres(geometry, self.harmonics, self.rates))
+        self.feature_names_ = (list(band_centres(geometry, self.harmonics, self.rate_names()))
                                + (["band_power_log10"] if self.band_power else []))
         return self
 
@@ -186,7 +191,7 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
         if np.any(total == 0):
             raise BearingTwinError("X: a window has no envelope power in the band-pass, so its power cannot be shared out")
         columns = []
-        for centre in band_centres(self.check_params(), self.harmonics, self.rates).values():
+        for centre in band_centres(self.check_params(), self.harmonics, self.rate_names()).values():
             distance = np.abs(orders - centre)
             in_line = distance <= half_width
             if self.line_measure == "share":

@@ -144,8 +144,8 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
     seed_everything(seed)
     classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)  # bad settings fail first
-    build_feature_extractor(cfg.features)  # so do the features' (the cached extraction builds its own)
-    groups = chosen_feature_groups(cfg)
+    groups = chosen_feature_groups(cfg, build_feature_extractor(cfg.features))  # so do the features' (the cached
+    # extraction builds its own), and a choice among them with nothing to choose
     check_feature_bearing(cfg)
     dataset = build_dataset(cfg)
     if dataset.fixed_split is not None:
@@ -217,13 +217,13 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
 @dataclass(frozen=True)
 class FeatureGroup:
     """Envelope-order features a twin-trained protocol keeps only where the calibration records bear them out:
-    the config key that asks for the choice, the columns (by feature name), the extractor's settings without
-    them, what the extractor must have for there to be a choice, and the run's metric names."""
+    the config key that asks for the choice, the extractor's settings without them (their columns are those
+    the extractor so set no longer gives), what the extractor must have for there to be a choice, and the
+    run's metric names."""
 
     key: str
     words: str
     pronoun: str
-    columns: Callable[[str], bool]
     dropped: Callable[[EnvelopeOrderFeatures], dict]
     present: Callable[[EnvelopeOrderFeatures], bool]
     needs: str
@@ -231,32 +231,36 @@ class FeatureGroup:
     with_metric: str
     without_metric: str
 
+    def check(self, extractor, dataset_validation: int | None = None) -> None:
+        """Refuse a choice with nothing to choose: no such features, or (given their count) no calibration windows."""
+        if not (isinstance(extractor, EnvelopeOrderFeatures) and self.present(extractor)):
+            raise BearingTwinError(f"{self.key}: the features have no {self.words} to keep or drop ({self.needs})")
+        if dataset_validation == 0:
+            raise BearingTwinError(f"{self.key}: no calibration windows to choose on; set data=twin_to_real with "
+                                   "data.calibration.validation_windows_per_record > 0")
+
 
 FEATURE_GROUPS = (
-    FeatureGroup("band_power_by_calibration", "band power", "it", lambda name: name == "band_power_log10",
-                 lambda extractor: {"band_power": False}, lambda extractor: extractor.band_power,
+    FeatureGroup("band_power_by_calibration", "band power", "it", lambda extractor: {"band_power": False},
+                 lambda extractor: extractor.band_power,
                  "features=envelope_prominence or envelope_orders with features.band_power=true",
                  "band_power_kept", "band_power_calibration_accuracy", "lines_only_calibration_accuracy"),
-    FeatureGroup("cage_lines_by_calibration", "cage-rate lines", "them", lambda name: name.endswith("xftf"),
-                 lambda extractor: {"rates": [rate for rate in extractor.rates if rate != "ftf"]},
-                 lambda extractor: "ftf" in extractor.rates and len(extractor.rates) > 1,
+    FeatureGroup("cage_lines_by_calibration", "cage-rate lines", "them",
+                 lambda extractor: {"rates": [rate for rate in extractor.rate_names() if rate != "ftf"]},
+                 lambda extractor: "ftf" in extractor.rate_names() and len(extractor.rate_names()) > 1,
                  "features=envelope_prominence or envelope_orders with ftf among features.rates, beside another rate",
                  "cage_lines_kept", "cage_lines_calibration_accuracy", "without_cage_lines_calibration_accuracy"),
 )
 """In the order they are chosen: each choice is made on the features the ones before it left."""
 
 
-def chosen_feature_groups(cfg: DictConfig) -> list[FeatureGroup]:
-    """The groups the config asks to choose by the calibration records; each refused where it has nothing to
-    choose, before any data is built."""
+def chosen_feature_groups(cfg: DictConfig, extractor) -> list[FeatureGroup]:
+    """The groups the config asks to choose by the calibration records, ``extractor`` the features' (as built
+    from ``cfg.features``); each refused where it has nothing to choose, before any data is built."""
     groups = [group for group in FEATURE_GROUPS if cfg.get(group.key)]
-    features = build_feature_extractor(cfg.features) if groups else None
+    calibrated = cfg.data.get("source") == "twin_to_real" and cfg.data.calibration.get("validation_windows_per_record")
     for group in groups:
-        if not (isinstance(features, EnvelopeOrderFeatures) and group.present(features)):
-            raise BearingTwinError(f"{group.key}: the features have no {group.words} to keep or drop ({group.needs})")
-        if cfg.data.get("source") != "twin_to_real" or not cfg.data.calibration.get("validation_windows_per_record"):
-            raise BearingTwinError(f"{group.key}: no calibration windows to choose on; set data=twin_to_real with "
-                                   "data.calibration.validation_windows_per_record > 0")
+        group.check(extractor, None if calibrated else 0)
     return groups
 
 
@@ -269,13 +273,13 @@ def choose_feature_group(group: FeatureGroup, classifier, features: np.ndarray, 
     ``classifier`` is fitted on ``features`` (``extractor``'s columns); ``fit(model, X)`` fits another on ``X``'s
     training rows.
     """
-    if not (isinstance(extractor, EnvelopeOrderFeatures) and group.present(extractor)):
-        raise BearingTwinError(f"{group.key}: the features have no {group.words} to keep or drop ({group.needs})")
+    group.check(extractor, len(dataset.validation))
     validation = dataset.validation
-    if not len(validation):
-        raise BearingTwinError(f"{group.key}: no calibration windows to choose on; set data=twin_to_real with "
-                               "data.calibration.validation_windows_per_record > 0")
-    rest = np.array([not group.columns(name) for name in extractor.feature_names_])
+    # The extractor learns nothing from the windows (its band in Hz and its feature names): fitted on one.
+    first = train[:1]
+    reduced = clone(extractor).set_params(**group.dropped(extractor)).fit(
+        dataset.windows[first], fs_hz=dataset.fs, rpm=dataset.window_rpms[first])
+    rest = np.array([name in reduced.feature_names_ for name in extractor.feature_names_])
     without = fit(new_classifier(), features[:, rest])
     y_val = dataset.labels[validation]
     accuracy = {"with": float(np.mean(classifier.predict(features[validation]) == y_val)),
@@ -284,10 +288,6 @@ def choose_feature_group(group: FeatureGroup, classifier, features: np.ndarray, 
               group.kept_metric: float(accuracy["with"] >= accuracy["without"])}
     if scores[group.kept_metric]:
         return classifier, features, extractor, scores
-    # The extractor learns nothing from the windows (its band in Hz and its feature names): refit on one.
-    first = train[:1]
-    reduced = clone(extractor).set_params(**group.dropped(extractor)).fit(
-        dataset.windows[first], fs_hz=dataset.fs, rpm=dataset.window_rpms[first])
     return without, features[:, rest], reduced, scores
 
 

@@ -289,10 +289,11 @@ def check_sampling_rate(
                                                 rate_if_shaft, prominence)
     if verdict == "ambiguous":
         times = f"{fraction}" if whole else f"{rate_if_shaft / fs:.3g}"
-        # Lines between the shaft orders are also a machine's own mark (a loose foot or a rub: half orders), which no
-        # rate explains: the check cannot tell the two apart without a defect line, so it names both.
-        why = (f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz), or the machine makes lines between its "
-               f"shaft orders (looseness and rubs make half orders); {why}")
+        # Half orders are also a machine's own mark (a loose foot, a rub), which no rate explains: the check cannot
+        # tell the two apart without a defect line, so it names both.
+        machine = (", or the machine makes lines between its shaft orders (looseness and rubs make half orders)"
+                   if whole and fraction == 2 else "")
+        why = f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz){machine}; {why}"
     return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
                           reason=suspicion + why, fraction_rate_hz=rate_if_shaft)
 
@@ -450,15 +451,23 @@ def _defect_series_named(observed_hz: float | None, shaft_hz: float, defect_hz: 
     one such pair); None otherwise."""
     if observed_hz is None:
         return None
-    candidates = {name.upper(): float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz}
-    if "BSF" in candidates:
-        candidates["2 x BSF"] = 2 * candidates["BSF"]
+    candidates = named_defect_hz(defect_hz)
     distance, name, hz = min(((abs(math.log(observed_hz / hz)), name, hz) for name, hz in candidates.items()),
                              default=(math.inf, "", 0.0))
     if (distance > tolerance or _a_whole_factor_from(observed_hz, [shaft_hz, *candidates.values()], max_factor, tolerance)
             or _supply_multiple(observed_hz) is not None):  # the supply's series explains it as well
         return None
     return name, hz
+
+
+def named_defect_hz(defect_hz: Mapping[str, float]) -> dict[str, float]:
+    """``defect_hz``'s finite, positive defect frequencies by their names in messages (BPFI, BPFO, BSF, FTF), and a
+    ball defect's comb at 2 x BSF (its spall strikes both races per spin)."""
+    named = {name.upper(): float(hz) for name, hz in defect_hz.items()
+             if name != "shaft" and is_finite_number(hz) and hz > 0}
+    if "BSF" in named:
+        named["2 x BSF"] = 2 * named["BSF"]
+    return named
 
 
 def _a_whole_factor_from(hz: float, lines_hz, max_factor: int, tolerance: float) -> bool:
@@ -496,16 +505,17 @@ def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz:
     its frequency: under a rate off by ``declared / true = s`` every line stands ``s`` times its place. Where the
     shaft's line stands ``s`` times its place too, and not at its place (``ratio``, ``resolution``: the record's
     prominence spectrum; under a rate too low by a whole factor its harmonic may), and the record checked at the
-    rate they imply is ``confirmed`` there (``consistent``), the two agree and contradict the rate (``witness``
-    ``comb``). Otherwise a comb standing where it belongs (within ``tolerance``: a speed given a little off)
-    leaves the check as it is, and a comb standing only elsewhere leaves it ``ambiguous``, naming the rate it
-    implies. A contradiction made by a series is left to stand with the rate it implies: a healthy record's dense
-    shaft lines can put a comb anywhere."""
-    combs, belongs = _defect_combs(signal, check.fs_hz, defect_hz, prominence, search_factor, window, tolerance)
+    rate they imply is ``confirmed`` there (``consistent``: its own shaft line or defect lines, this comb among
+    them, hold there), the two agree and contradict the rate (``witness`` ``comb``). Otherwise a comb standing
+    where it belongs (within ``tolerance``: a speed given a little off) leaves the check as it is, and a comb
+    standing only elsewhere leaves it ``ambiguous``, naming the rate it implies. A contradiction made by a series
+    is left to stand with the rate it implies: a healthy record's dense shaft lines can put a comb anywhere."""
+    combs, belongs = _defect_combs(signal, check.fs_hz, check.expected_hz, defect_hz, prominence, search_factor,
+                                   window, tolerance)
 
     def words(name: str, scale: float) -> str:
         return (f"the envelope's {name} comb stands at {scale:.3g} times its frequency "
-                f"({scale * _defect_hz_of(defect_hz, name):.1f} Hz, its second harmonic too)")
+                f"({scale * named_defect_hz(defect_hz)[name]:.1f} Hz, its second harmonic too)")
 
     def line(hz: float) -> bool:
         return float(_peak(ratio, resolution, np.array([hz]), window)[0]) >= prominence
@@ -513,11 +523,13 @@ def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz:
     for name, scale in combs:  # two combs may read the same lines (BPFO x 1.25, 2 x BSF x 0.94): the shaft decides
         # Under a rate too low by a whole factor k the shaft's k-th harmonic stands at its place.
         whole = any(abs(math.log(scale * k)) <= tolerance for k in range(2, _MAX_FRACTION + 1))
-        if (whole or not line(check.expected_hz)) and line(scale * check.expected_hz) and confirmed(check.fs_hz / scale):
+        shaft_hz = scale * check.expected_hz
+        if ((whole or not line(check.expected_hz)) and _supply_multiple(shaft_hz) is None and line(shaft_hz)
+                and confirmed(check.fs_hz / scale)):
             return dataclasses.replace(
                 check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb",
-                reason=f"{check.reason}; but {words(name, scale)}, and a line stands at {scale * check.expected_hz:.2f} "
-                       f"Hz, as many times the shaft's place: the true rate is {check.fs_hz / scale:.0f} Hz")
+                reason=f"{check.reason}; but {words(name, scale)}, and a line stands at {shaft_hz:.2f} Hz, as many "
+                       f"times the shaft's place: the true rate is {check.fs_hz / scale:.0f} Hz")
     if belongs or not combs:
         return check
     name, scale = combs[0]
@@ -525,26 +537,21 @@ def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz:
                                              f"it belongs: fs may be {check.fs_hz / scale:.0f} Hz")
 
 
-_COMB_RATES = ("bpfi", "bpfo", "2 x bsf")
+_COMB_NAMES = ("BPFI", "BPFO", "2 x BSF")
 """The combs sought where a wrong rate would put them: a race's, and a ball's, whose spall strikes both races per
 spin (its comb stands at twice BSF, so BSF itself, at half of it, would read as a rate off by two)."""
 
 
-def _defect_hz_of(defect_hz: Mapping[str, float], name: str) -> float:
-    """The frequency (Hz) of one of :data:`_COMB_RATES` from ``defect_hz`` (keys ``bpfi``, ``bpfo``, ``bsf``)."""
-    return 2.0 * float(defect_hz["bsf"]) if name == "2 x bsf" else float(defect_hz[name])
-
-
-def _defect_combs(signal: np.ndarray, fs: float, defect_hz: Mapping[str, float], prominence: float,
+def _defect_combs(signal: np.ndarray, fs: float, shaft_hz: float, defect_hz: Mapping[str, float], prominence: float,
                   search_factor: float, window: float, tolerance: float) -> tuple[list[tuple[str, float]], bool]:
     """The defect combs (a line and its second harmonic in the envelope, each ``prominence`` over the floor)
-    standing at ``s`` times their frequency, ``s`` within ``search_factor`` either way but not within ``tolerance``
-    of 1 nor of a whole multiple of it (a comb's own harmonics): (name, s), the most prominent first, every
-    scale where one stands out (a comb's harmonics stand out too, at multiples of its own scale); and whether a
-    comb stands at its own frequency and at no whole fraction of it (1/2 .. 1/4: its lines at the frequency
-    would then be that lower comb's harmonics, under a rate too low by that factor)."""
-    combs = {name: _defect_hz_of(defect_hz, name) for name in _COMB_RATES
-             if is_finite_number(defect_hz.get(name.split()[-1])) and defect_hz[name.split()[-1]] > 0}
+    standing at ``s`` times their frequency, ``s`` within ``search_factor`` either way: (name, s), the most
+    prominent first, every scale where one stands out; and whether a comb stands at its own frequency (within
+    ``tolerance``) and at no whole fraction of it (1/2 .. 1/4: its lines there would then be that lower comb's
+    harmonics, under a rate too low by that factor). Not counted elsewhere: a comb's own harmonics (``s`` near a
+    whole number), and lines that the declared rate explains otherwise: within two search windows of a whole
+    shaft order (``shaft_hz``: the shaft's modulation) or of the supply or twice it (a motor's pull)."""
+    combs = {name: hz for name, hz in named_defect_hz(defect_hz).items() if name in _COMB_NAMES}
     if not combs:
         return [], False
     top = min(2.2 * max(combs.values()) * search_factor, 0.45 * fs)
@@ -554,15 +561,20 @@ def _defect_combs(signal: np.ndarray, fs: float, defect_hz: Mapping[str, float],
     def near(scale: np.ndarray, factor: float) -> np.ndarray:
         return np.abs(np.log(scale * factor)) <= tolerance
 
+    def explained(hz: np.ndarray) -> np.ndarray:
+        orders = hz / shaft_hz
+        on_shaft = np.abs(np.log(orders / np.maximum(np.round(orders), 1.0))) <= 2 * window
+        return on_shaft | np.array([_supply_multiple(float(f)) is not None for f in hz])
+
     found, belongs = [], False
     for name, hz in combs.items():
         scored = scales[2.2 * scales * hz < top]
         score = np.minimum(_peak(ratio, resolution, scored * hz, window), _peak(ratio, resolution, 2 * scored * hz, window))
         standing = score >= prominence
         fractions = np.any([near(scored, k) for k in range(2, _MAX_FRACTION + 1)], axis=0)
-        harmonics = np.any([near(scored, 1 / k) for k in range(2, _MAX_FRACTION + 1)], axis=0)
+        harmonics = np.any([near(scored, 1 / k) for k in range(2, int(math.ceil(search_factor)) + 1)], axis=0)
         belongs |= bool(np.any(standing & near(scored, 1.0)) and not np.any(standing & fractions))
-        elsewhere = np.where(standing & ~near(scored, 1.0) & ~harmonics, score, 0.0)
+        elsewhere = np.where(standing & ~near(scored, 1.0) & ~harmonics & ~explained(scored * hz), score, 0.0)
         peaks, _ = scipy.signal.find_peaks(np.concatenate([[0.0], elsewhere, [0.0]]))  # each comb once, at its best scale
         found += [(float(elsewhere[peak - 1]), name, float(scored[peak - 1])) for peak in peaks]
     return [(name, scale) for _, name, scale in sorted(found, reverse=True)], belongs
