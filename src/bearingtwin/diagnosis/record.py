@@ -86,7 +86,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     notes += bearing_note
     rate_check = "not checked"
     if recording.rpm is None:
-        notes.append("the file states no shaft speed: no physics evidence and no rate check (give rpm=<rev/min>)")
+        notes.append("the file states no shaft speed: no physics evidence and no rate check (give rpm=<rev/min>, or "
+                     "the file's speed in the rpm column of a labels.csv beside it)")
     else:
         recording, rate_notes, rate_check = _checked_rate(recording, record_bearing, channels=raw.channels,
                                                           declared_only=fs is None and raw.fs_origin == "declared")
@@ -113,7 +114,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
             f"({pipeline.window_length} samples at {pipeline.fs_hz:g} Hz, {pipeline.window_length / pipeline.fs_hz:.3f} s)"
         )
     if pipeline.needs_rpm and recording.rpm is None:
-        raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; give rpm=<rev/min>")
+        raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; "
+                               "give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv beside it")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check)
 
 
