@@ -254,3 +254,20 @@ def test_a_line_is_named_at_its_peak_not_at_the_skirt_where_the_twin_differs_mos
     amplitude = 2.0 * measurement.std()
     result = Comparator(measured(measurement + amplitude * one_x), GEOMETRY)(twin + amplitude / 14 * one_x)
     assert "a line at 30 Hz (shaft order 1.00) stands" in result.views["lines"].finding
+
+
+@pytest.mark.parametrize("order,words", [(1.0, "unbalance"), (2.0, "misalignment"), (0.5, "half orders"),
+                                         (5.3, None)])
+def test_a_line_the_measurement_adds_is_traced_to_what_its_place_tells(order, words):
+    """A line the measurement adds on the shaft's first orders is put to the sources that make lines there (1x:
+    unbalance; 2x: misalignment; a half order: looseness or a rub); elsewhere the lines view's general answer
+    stands (what_leaves_it None)."""
+    twin = impacts("outer", 2.0, seed=1)
+    t = np.arange(twin.size) / FS
+    line = 0.2 * np.std(twin) * np.sqrt(2) * np.sin(2 * np.pi * order * RPM / 60.0 * t)
+    lines = Comparator(measured(twin + line), GEOMETRY)(twin).views["lines"]
+    assert f"shaft order {order:.2f}" in lines.finding, lines.finding
+    if words is None:
+        assert lines.what_leaves_it is None
+    else:
+        assert words in lines.what_leaves_it, lines.what_leaves_it

@@ -47,6 +47,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.envelope import envelope_spectrum, peak_near
+from bearingtwin.signal.sampling_rate import MAINS_HZ
 from bearingtwin.signal.welch import WelchPSD
 
 VIEWS = ("psd", "lines", "envelope", "harmonics", "statistics")
@@ -444,7 +445,7 @@ class Comparator:
                                   "the converter's bandwidth, or a record resampled from a lower rate)")
 
         gain = 10 ** (gain_db / 20.0)
-        lines_error, lines_finding, n_line_bins = self._compare_lines(m, twin, gain, other)
+        lines_error, lines_finding, n_line_bins, lines_cause = self._compare_lines(m, twin, gain, other)
 
         smooth = max(1, int(round(s.smooth_hz / self.env_df)))
         kernel = np.ones(smooth) / smooth
@@ -495,7 +496,7 @@ class Comparator:
         discrepancy = sum(weighted.values()) / total_weight
         views = {
             v: ViewResult(v, errors[v], weighted[v] / sum(weighted.values()) if discrepancy > 0 else 0.0, findings[v],
-                          n_points[v], psd_cause if v == "psd" else None)
+                          n_points[v], {"psd": psd_cause, "lines": lines_cause}.get(v))
             for v in VIEWS
         }
         return Comparison(float(discrepancy), gain, views, m, twin, self)
@@ -517,8 +518,10 @@ class Comparator:
         over_measured = 10 * np.log10(gain**2 * twin.lines_psd / m.lines_level)
         return measured, np.maximum(np.minimum(own, over_measured) - threshold, 0.0)
 
-    def _compare_lines(self, m: Profile, twin: Profile, gain: float, other: str = "the twin") -> tuple[float, str, int]:
-        """Root of the summed squared line-height differences, per line bin of the measurement.
+    def _compare_lines(self, m: Profile, twin: Profile, gain: float,
+                       other: str = "the twin") -> tuple[float, str, int, str | None]:
+        """Root of the summed squared line-height differences, per line bin of the measurement; the finding; the
+        number of line bins; what leaves the worst line where its frequency tells (:func:`line_source`).
 
         Bins where neither signal has a line are equal (0) by construction; dividing by the
         measurement's own number of line bins (fixed, whatever the twin) keeps the error
@@ -529,7 +532,7 @@ class Comparator:
         diff = measured - twin_heights
         n_lines = max(int(np.count_nonzero(measured)), 1)
         if not np.any(diff):
-            return 0.0, "the narrow lines agree", n_lines
+            return 0.0, "the narrow lines agree", n_lines, None
         worst = int(np.argmax(np.abs(diff)))
         peak = _line_peak(worst, measured if diff[worst] > 0 else twin_heights, measured, twin_heights)
         # Between bins (2 Hz apart at the default 0.5 s segments): a 25 Hz shaft line is named at 25 Hz, not 26.
@@ -537,7 +540,31 @@ class Comparator:
                             m.lines_freqs_hz[peak], m.lines_freqs_hz[1] - m.lines_freqs_hz[0])
         finding = (f"a line at {freq:.0f} Hz (shaft order {freq / (self.rpm / 60.0):.2f}) stands {abs(diff[worst]):.0f} dB "
                    f"{'higher in the measurement' if diff[worst] > 0 else 'higher in ' + other}")
-        return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines
+        cause = line_source(freq, self.rpm / 60.0, m.lines_freqs_hz[1] - m.lines_freqs_hz[0]) if diff[worst] > 0 else None
+        return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines, cause
+
+
+def line_source(freq_hz: float, shaft_hz: float, resolution_hz: float) -> str | None:
+    """What leaves a line the measurement adds at ``freq_hz``, where its place tells: on one of the shaft's first
+    orders or half orders (``shaft_hz``: the shaft rate; up to 3x, where such a line is most likely the shaft's),
+    or on one of a supply's first four multiples; None elsewhere (the lines view's general answer stands). On
+    means within a bin (``resolution_hz``) plus 0.5 % of the frequency, as the library's line effects read."""
+    def on(target_hz: float) -> bool:
+        return abs(freq_hz - target_hz) <= resolution_hz + 0.005 * target_hz
+
+    half = round(2 * freq_hz / shaft_hz) / 2
+    shaft = 0.5 <= half <= 3 and on(half * shaft_hz)
+    words = None
+    if shaft:
+        words = {1.0: "a force once per revolution: unbalance, a bent shaft, or a misalignment's 1x",
+                 2.0: "a force twice per revolution: misalignment, or looseness",
+                 3.0: "a force three times per revolution: misalignment, or looseness"}.get(
+            half, "a machine that makes half orders: looseness or a rub")
+    supply = next((f for f in MAINS_HZ for n in range(1, 5) if on(n * f)), None)
+    if supply is not None:
+        electrical = f"an electrical line at a multiple of a {supply:.0f} Hz supply (a motor's magnetic pull)"
+        return f"{words}, or {electrical}" if words else electrical
+    return words
 
 
 def _line_peak(bin_index: int, heights: np.ndarray, *signals: np.ndarray) -> int:
