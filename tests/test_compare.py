@@ -271,3 +271,17 @@ def test_a_line_the_measurement_adds_is_traced_to_what_its_place_tells(order, wo
         assert lines.what_leaves_it is None
     else:
         assert words in lines.what_leaves_it, lines.what_leaves_it
+    lacking = Comparator(measured(twin), GEOMETRY)(twin + line).views["lines"]  # the twin's line, the machine without
+    assert "higher in the twin" in lacking.finding and "the twin makes and the machine does not" in lacking.what_leaves_it
+
+
+def test_a_line_on_a_supply_multiple_names_the_supply_and_a_coarse_spectrum_names_nothing():
+    """120 Hz at a 30 Hz shaft: the 4th order, and twice a 60 Hz supply (a motor's pull); 60 Hz there is both the
+    2nd order and the supply, too close to tell apart; with bins a quarter of the shaft rate wide, nothing."""
+    from bearingtwin.twin.compare import line_source
+
+    assert line_source(120.0, 30.0, 0.5) == "an electrical line at 2 x a 60 Hz supply (a motor's magnetic pull)"
+    both = line_source(60.0, 29.95, 0.5)
+    assert both.startswith("a force twice per revolution") and "too close here to tell apart" in both
+    assert line_source(150.0, 30.0, 0.5).startswith("an electrical line at 3 x a 50 Hz supply (pickup")
+    assert line_source(8.0, 10.0, 2.0) is None and line_source(10.0, 10.0, 2.5) is None

@@ -264,7 +264,6 @@ def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
         read_record(tmp_path / "0.5X_I_65Hz.xls", envelope_pipeline())  # a model that names no channel
 
 
-@needs_cwru
 def test_a_file_without_a_speed_is_refused_by_a_model_that_needs_one_naming_both_ways_to_give_it(tmp_path):
     """An envelope-order model reads shaft orders, so a plain array with no speed is refused, naming ``rpm=`` (one
     speed for every file) and the labels table's rpm column (each file its own)."""
@@ -276,6 +275,7 @@ def test_a_file_without_a_speed_is_refused_by_a_model_that_needs_one_naming_both
         read_record(path, envelope_pipeline(), fs=FS)
 
 
+@needs_cwru
 def test_a_channel_that_shows_the_shaft_weakly_is_read_at_its_files_rate(tmp_path):
     """The fan-end channel of drive-end records shows the shaft series too weakly beside a stronger series
     (53.7 Hz in ball record 118), so on its own the 12 kHz the file's name declares is contradicted. Every

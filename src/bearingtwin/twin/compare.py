@@ -540,31 +540,43 @@ class Comparator:
                             m.lines_freqs_hz[peak], m.lines_freqs_hz[1] - m.lines_freqs_hz[0])
         finding = (f"a line at {freq:.0f} Hz (shaft order {freq / (self.rpm / 60.0):.2f}) stands {abs(diff[worst]):.0f} dB "
                    f"{'higher in the measurement' if diff[worst] > 0 else 'higher in ' + other}")
-        cause = line_source(freq, self.rpm / 60.0, m.lines_freqs_hz[1] - m.lines_freqs_hz[0]) if diff[worst] > 0 else None
+        cause = (line_source(freq, self.rpm / 60.0, m.lines_freqs_hz[1] - m.lines_freqs_hz[0]) if diff[worst] > 0
+                 else TWIN_LINE_TOO_STRONG)
         return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines, cause
 
 
 def line_source(freq_hz: float, shaft_hz: float, resolution_hz: float) -> str | None:
     """What leaves a line the measurement adds at ``freq_hz``, where its place tells: on one of the shaft's first
     orders or half orders (``shaft_hz``: the shaft rate; up to 3x, where such a line is most likely the shaft's),
-    or on one of a supply's first four multiples; None elsewhere (the lines view's general answer stands). On
-    means within a bin (``resolution_hz``) plus 0.5 % of the frequency, as the library's line effects read."""
+    or on one of a supply's first four multiples; None elsewhere (the lines view's general answer stands), and
+    where the spectrum's bins (``resolution_hz``) are too coarse to tell a shaft order from the next half order.
+    On means within half a bin plus 0.5 % of the frequency (the line's frequency is read between bins)."""
+    if resolution_hz >= shaft_hz / 4:
+        return None
+
     def on(target_hz: float) -> bool:
-        return abs(freq_hz - target_hz) <= resolution_hz + 0.005 * target_hz
+        return abs(freq_hz - target_hz) <= resolution_hz / 2 + 0.005 * target_hz
 
     half = round(2 * freq_hz / shaft_hz) / 2
-    shaft = 0.5 <= half <= 3 and on(half * shaft_hz)
     words = None
-    if shaft:
+    if 0.5 <= half <= 3 and on(half * shaft_hz):
         words = {1.0: "a force once per revolution: unbalance, a bent shaft, or a misalignment's 1x",
                  2.0: "a force twice per revolution: misalignment, or looseness",
                  3.0: "a force three times per revolution: misalignment, or looseness"}.get(
             half, "a machine that makes half orders: looseness or a rub")
-    supply = next((f for f in MAINS_HZ for n in range(1, 5) if on(n * f)), None)
+    supply = next(((n, f) for f in MAINS_HZ for n in range(1, 5) if on(n * f)), None)
     if supply is not None:
-        electrical = f"an electrical line at a multiple of a {supply:.0f} Hz supply (a motor's magnetic pull)"
-        return f"{words}, or {electrical}" if words else electrical
+        n, mains = supply
+        electrical = (f"an electrical line at {n} x a {mains:.0f} Hz supply "
+                      + ("(a motor's magnetic pull)" if n == 2 else "(pickup from the supply or the drive)"))
+        return f"{words}, or {electrical} (the two lie too close here to tell apart)" if words else electrical
     return words
+
+
+TWIN_LINE_TOO_STRONG = ("a line the twin makes and the machine does not, or not as strongly: an effect of the "
+                        "twin's at that frequency set too strong, or a line of the twin's own bearing model that the "
+                        "machine's noise and roughness bury")
+"""What leaves a line that stands higher in the twin than in the measurement."""
 
 
 def _line_peak(bin_index: int, heights: np.ndarray, *signals: np.ndarray) -> int:
