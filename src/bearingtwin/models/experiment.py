@@ -231,11 +231,11 @@ class FeatureGroup:
     with_metric: str
     without_metric: str
 
-    def check(self, extractor, dataset_validation: int | None = None) -> None:
-        """Refuse a choice with nothing to choose: no such features, or (given their count) no calibration windows."""
+    def check(self, extractor, calibration_windows: bool) -> None:
+        """Refuse a choice with nothing to choose: no such features, or no calibration windows."""
         if not (isinstance(extractor, EnvelopeOrderFeatures) and self.present(extractor)):
             raise BearingTwinError(f"{self.key}: the features have no {self.words} to keep or drop ({self.needs})")
-        if dataset_validation == 0:
+        if not calibration_windows:
             raise BearingTwinError(f"{self.key}: no calibration windows to choose on; set data=twin_to_real with "
                                    "data.calibration.validation_windows_per_record > 0")
 
@@ -258,9 +258,9 @@ def chosen_feature_groups(cfg: DictConfig, extractor) -> list[FeatureGroup]:
     """The groups the config asks to choose by the calibration records, ``extractor`` the features' (as built
     from ``cfg.features``); each refused where it has nothing to choose, before any data is built."""
     groups = [group for group in FEATURE_GROUPS if cfg.get(group.key)]
-    calibrated = cfg.data.get("source") == "twin_to_real" and cfg.data.calibration.get("validation_windows_per_record")
+    calibrated = cfg.data.get("source") == "twin_to_real" and bool(cfg.data.calibration.get("validation_windows_per_record"))
     for group in groups:
-        group.check(extractor, None if calibrated else 0)
+        group.check(extractor, calibrated)
     return groups
 
 
@@ -273,7 +273,7 @@ def choose_feature_group(group: FeatureGroup, classifier, features: np.ndarray, 
     ``classifier`` is fitted on ``features`` (``extractor``'s columns); ``fit(model, X)`` fits another on ``X``'s
     training rows.
     """
-    group.check(extractor, len(dataset.validation))
+    group.check(extractor, len(dataset.validation) > 0)
     validation = dataset.validation
     # The extractor learns nothing from the windows (its band in Hz and its feature names): fitted on one.
     first = train[:1]

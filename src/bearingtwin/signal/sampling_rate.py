@@ -492,7 +492,7 @@ def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapp
         return None
     frequencies = np.array(list(lines.values()))
     ratio, resolution = _envelope_prominence(signal, fs, 2.2 * frequencies.max())
-    at_f = np.minimum(_peak(ratio, resolution, frequencies, window), _peak(ratio, resolution, 2 * frequencies, window))
+    at_f = _comb_prominence(ratio, resolution, frequencies, window)
     at_fractions = np.max([_peak(ratio, resolution, frequencies / k, window) for k in range(2, max_fraction + 1)], axis=0)
     standing = [name for name, a, b in zip(lines, at_f, at_fractions) if a >= prominence and b < prominence]
     return standing[0] if standing else None
@@ -520,11 +520,12 @@ def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz:
     def line(hz: float) -> bool:
         return float(_peak(ratio, resolution, np.array([hz]), window)[0]) >= prominence
 
+    at_its_place = line(check.expected_hz)
     for name, scale in combs:  # two combs may read the same lines (BPFO x 1.25, 2 x BSF x 0.94): the shaft decides
         # Under a rate too low by a whole factor k the shaft's k-th harmonic stands at its place.
         whole = any(abs(math.log(scale * k)) <= tolerance for k in range(2, _MAX_FRACTION + 1))
         shaft_hz = scale * check.expected_hz
-        if ((whole or not line(check.expected_hz)) and _supply_multiple(shaft_hz) is None and line(shaft_hz)
+        if ((whole or not at_its_place) and _supply_multiple(shaft_hz) is None and line(shaft_hz)
                 and confirmed(check.fs_hz / scale)):
             return dataclasses.replace(
                 check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb",
@@ -569,7 +570,7 @@ def _defect_combs(signal: np.ndarray, fs: float, shaft_hz: float, defect_hz: Map
     found, belongs = [], False
     for name, hz in combs.items():
         scored = scales[2.2 * scales * hz < top]
-        score = np.minimum(_peak(ratio, resolution, scored * hz, window), _peak(ratio, resolution, 2 * scored * hz, window))
+        score = _comb_prominence(ratio, resolution, scored * hz, window)
         standing = score >= prominence
         fractions = np.any([near(scored, k) for k in range(2, _MAX_FRACTION + 1)], axis=0)
         harmonics = np.any([near(scored, 1 / k) for k in range(2, int(math.ceil(search_factor)) + 1)], axis=0)
@@ -578,6 +579,12 @@ def _defect_combs(signal: np.ndarray, fs: float, shaft_hz: float, defect_hz: Map
         peaks, _ = scipy.signal.find_peaks(np.concatenate([[0.0], elsewhere, [0.0]]))  # each comb once, at its best scale
         found += [(float(elsewhere[peak - 1]), name, float(scored[peak - 1])) for peak in peaks]
     return [(name, scale) for _, name, scale in sorted(found, reverse=True)], belongs
+
+
+def _comb_prominence(ratio: np.ndarray, resolution: float, frequencies_hz: np.ndarray, window: float) -> np.ndarray:
+    """How far a comb at each of ``frequencies_hz`` stands out of an envelope's prominence spectrum (``ratio``,
+    ``resolution``): the lesser of its line's and its second harmonic's prominence."""
+    return np.minimum(_peak(ratio, resolution, frequencies_hz, window), _peak(ratio, resolution, 2 * frequencies_hz, window))
 
 
 def _apart_from_shaft(hz: float, shaft_hz: float, max_fraction: int, window: float) -> bool:

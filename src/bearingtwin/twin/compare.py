@@ -536,12 +536,11 @@ class Comparator:
         worst = int(np.argmax(np.abs(diff)))
         peak = _line_peak(worst, measured if diff[worst] > 0 else twin_heights, measured, twin_heights)
         # Between bins (2 Hz apart at the default 0.5 s segments): a 25 Hz shaft line is named at 25 Hz, not 26.
-        freq, _ = peak_near(m.lines_freqs_hz, (m if diff[worst] > 0 else twin).lines_psd,
-                            m.lines_freqs_hz[peak], m.lines_freqs_hz[1] - m.lines_freqs_hz[0])
+        df = m.lines_freqs_hz[1] - m.lines_freqs_hz[0]
+        freq, _ = peak_near(m.lines_freqs_hz, (m if diff[worst] > 0 else twin).lines_psd, m.lines_freqs_hz[peak], df)
         finding = (f"a line at {freq:.0f} Hz (shaft order {freq / (self.rpm / 60.0):.2f}) stands {abs(diff[worst]):.0f} dB "
                    f"{'higher in the measurement' if diff[worst] > 0 else 'higher in ' + other}")
-        cause = (line_source(freq, self.rpm / 60.0, m.lines_freqs_hz[1] - m.lines_freqs_hz[0]) if diff[worst] > 0
-                 else TWIN_LINE_TOO_STRONG)
+        cause = line_source(freq, self.rpm / 60.0, df) if diff[worst] > 0 else TWIN_LINE_TOO_STRONG
         return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines, cause
 
 
