@@ -240,6 +240,13 @@ def test_what_a_measurement_leaves_unsaid_is_asked_for_at_once_or_read_from_a_la
     (tmp_path / "labels.csv").write_text("record,state\nouter_a.npy,outer\nouter_a.wav,outer\n")
     assert load_measurement(twin_config(f"measured.path={path}", "measured.fs=12000", "measured.rpm=1797",
                                         "measured.fault=outer").measured).fault == "outer"
+    # Another file's bad row is that file's concern; this file's own is refused naming its line and field.
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.npy,outer,1797,12000\nb.npy,outter,1797,12000\n"
+                                         "c.npy,normal,-1797,12000\n")
+    assert load_measurement(twin_config(f"measured.path={path}").measured).rpm == 1797.0
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.npy,outer,1797,12k\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs='12k' must be a positive number of Hz"):
+        load_measurement(twin_config(f"measured.path={path}").measured)
     (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.npy,outer,1797,12000\n")
     # A rate the shaft series contradicts is refused naming both ways out.
     with pytest.raises(BearingTwinError, match=r"give the true rate with measured.fs=<Hz>, or measured.check_fs=false "

@@ -632,6 +632,59 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
     assert json.loads((tmp_path / "told" / "stated" / "diagnosis.json").read_text())["true_state"] == "outer"
 
 
+def test_a_bad_labels_row_fails_its_file_alone_and_tables_of_notes_are_left_out(registered, tmp_path):
+    """A folder's labels.csv with a state typo, a speed that is no number and a negative rate: those three files
+    fail, each naming the table, its line and the field, the good one is diagnosed and scored, and the command exits
+    2. Diagnosed alone, the good file reads its own row. Notes, a results table and a copy of the labels table beside
+    the recordings are left out, each named with why: neither diagnosed nor failures, while an unlabelled recording
+    (a CSV of numbers) is diagnosed."""
+    base, uri = registered
+    folder = tmp_path / "rig"
+    folder.mkdir()
+    bpfo = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)["bpfo"]
+    for seed, name in enumerate(("good", "typo", "speed", "rate")):
+        np.save(folder / f"{name}.npy", fault_signal(bpfo, seconds=3, seed=seed))
+    table = folder / "labels.csv"
+    table.write_text("record,state,rpm,fs\ngood.npy,outer,1797,12000\ntypo.npy,outter,1797,12000\n"
+                     "speed.npy,outer,fast,12000\nrate.npy,outer,1797,-12000\nlogged.csv,outer,1797,12000\n")
+    (folder / "logged.csv").write_text("acc,status\n0.1,ok\n0.2,ok\n")  # labelled: a recording, its reader says why not
+    (folder / "notes.csv").write_text("date,operator,comment\n2024-01-02,ann,new sensor\n")
+    (folder / "results.csv").write_text("record,verdict,share\ngood,outer,0.9\n")
+    (folder / "states.csv").write_text("record,state\ngood.npy,outer\n")
+    common = ("model=models:/diag/1", "figures=false", "tracking.enabled=false", "rpm=1797", "fs=12000")
+    done = run("diagnose", f"path={folder}", f"out={tmp_path}/out", *common, cwd=tmp_path, uri=uri)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr[-2000:]
+    rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
+    assert set(rows) == {"good", "typo", "speed", "rate", "logged"} and not rows["good"]["error"]
+    assert rows["good"]["true_state"] == "outer" and "records diagnosed: 1 of 5" in done.stdout
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error: ")]
+    assert errors[0].startswith(f"error: {folder / 'logged.csv'}: ") and rows["logged"]["error"]
+    assert errors[1:] == [
+        f"error: {folder / 'rate.npy'}: {table} line 5: fs='-12000' must be a positive number of Hz (a plain number, "
+        "no unit)",
+        f"error: {folder / 'speed.npy'}: {table} line 4: rpm='fast' must be a positive number of rev/min (a plain "
+        "number, no unit)",
+        f"error: {folder / 'typo.npy'}: {table} line 3: state 'outter' is not a bearing state; choose one of normal, "
+        "inner, ball, outer",
+    ]
+    said = done.stdout + done.stderr
+    assert f"{folder}: left out notes.csv (its column 'date' holds text ('2024-01-02'), not samples)" in said
+    assert f"{folder}: left out results.csv (its column 'record' holds text ('good'), not samples)" in said
+    assert f"{folder}: left out states.csv (a labels table, columns record,state, not a recording)" in said
+    alone = run("diagnose", f"path={folder / 'good.npy'}", f"out={tmp_path}/alone", *common, cwd=tmp_path, uri=uri)
+    assert alone.returncode == 0, alone.stderr[-2000:]
+    assert json.loads((tmp_path / "alone" / "good" / "diagnosis.json").read_text())["true_state"] == "outer"
+    assert "good.npy: read its row of" in alone.stdout + alone.stderr  # and the bad rows named, in one line
+    table.write_text("record,state\ngood.npy,outer\ntypo.npy,outer\nspeed.npy,outer\nrate.npy,outer\n")
+    (folder / "logged.csv").unlink()
+    np.savetxt(folder / "unknown.csv", fault_signal(None, seconds=3))  # a recording no row labels
+    mended = run("diagnose", f'path="{folder}/*.csv"', f"out={tmp_path}/mended", *common, cwd=tmp_path, uri=uri)
+    assert mended.returncode == 0, mended.stderr[-2000:]
+    assert json.loads((tmp_path / "mended" / "unknown" / "diagnosis.json").read_text())["verdict"]
+    assert f"left out {folder / 'notes.csv'} (its column 'date' holds text" in mended.stdout + mended.stderr
+    assert not (tmp_path / "mended" / "notes").exists()
+
+
 def test_bad_models_fail_in_one_line(registered, tmp_path):
     base, uri = registered
     record = tmp_path / "r.npz"

@@ -85,6 +85,11 @@ def test_a_file_name_pattern_labels_instead_of_a_table(tmp_path):
     (lambda root: (root / "labels.csv").unlink(), "data.labels: no labels file"),
     (lambda root: (root / "labels.csv").write_text("record,state\na.npy,cracked\n"), "labels.csv line 2: state 'cracked' is not a bearing state"),
     (lambda root: (root / "labels.csv").write_text("record,state\nz.npy,normal\n"), "labels.csv line 2: record 'z.npy' is not a file"),
+    # A training set built without the record a row fails to label would be a wrong result: refused, not skipped.
+    (lambda root: (root / "labels.csv").write_text("record,state,rpm\na.npy,normal,1797\nc.npy,outer,fast\n"),
+     "labels.csv line 3: rpm='fast' must be a positive number of rev/min"),
+    (lambda root: (root / "labels.csv").write_text("record,state,fs\na.npy,normal,8000\nc.npy,outer,-8000\n"),
+     "labels.csv line 3: fs='-8000' must be a positive number of Hz"),
     (lambda root: (root / "labels.csv").write_text("file,state\na.npy,normal\n"), "labels.csv: no column record"),
     (lambda root: ((root / "labels.csv").write_text("record,state,fs\nc.npy,outer,8000\n"), (root / "c.npy").write_bytes(b"x")),
      "c.npy: not a NumPy .npy file"),
@@ -146,6 +151,75 @@ def test_a_labels_table_names_each_file_once(tmp_path):
     table.write_text("record,state,fs\nrun1.npy,normal,0\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs='0' must be a positive number of Hz"):
         labels_table(table)
+
+
+def test_a_bad_row_is_its_records_concern_for_a_reader_of_some_rows_and_every_readers_for_training(tmp_path):
+    """Read row by row, a table's good rows are read and each bad row is given with its record and the message that
+    names its line and field; read whole (training), its first bad row refuses it. A bad header is every row's."""
+    from bearingtwin.data.real import labels_table, labels_table_with_bad_rows
+
+    table = tmp_path / "labels.csv"
+    table.write_text("record,state,rpm,fs\ngood.npy,outer,1797,12000\nrpm.npy,normal,fast,12000\n"
+                     "state.npy,outter,1797,12000\nfs.npy,normal,1797,-5\ngood.npy,inner,1797,12000\n"
+                     "wide.npy,normal,1797,12000,3\n")
+    rows, bad_rows = labels_table_with_bad_rows(table)
+    assert [row[1:] for row in rows] == [("good.npy", "outer", 1797.0, 12000.0)]
+    assert [record for record, _ in bad_rows] == ["rpm.npy", "state.npy", "fs.npy", "good.npy", "wide.npy"]
+    messages = [message for _, message in bad_rows]
+    assert all(message.startswith(f"{table} line {line}: ") for message, line in zip(messages, range(3, 8)))
+    assert messages[0] == f"{table} line 3: rpm='fast' must be a positive number of rev/min (a plain number, no unit)"
+    assert "state 'outter' is not a bearing state" in messages[1] and "fs='-5' must be a positive number" in messages[2]
+    assert "record 'good.npy' is labelled again (line 2)" in messages[3] and "more values than the header" in messages[4]
+    with pytest.raises(BearingTwinError) as error:
+        labels_table(table)
+    assert str(error.value) == messages[0]
+    table.write_text("record,status\ngood.npy,outer\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv: no column state"):
+        labels_table_with_bad_rows(table)
+
+
+def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, caplog):
+    """Notes, a results table and a labels table under another name beside the recordings are left out, each named
+    with why; a CSV of numbers is a recording, labelled or not, and so is one with a time column beside a text column
+    (its reader then names the text). Labelled by file name, a run is built from the recordings alone."""
+    from bearingtwin.data.real import recordings_in, recordings_and_others
+
+    for state in ("normal", "ball"):
+        np.save(tmp_path / f"{state}_run1.npy", tone(state))
+    np.savetxt(tmp_path / "outer_run2.csv", tone("outer"))
+    (tmp_path / "notes.csv").write_text("date,operator,comment\n2024-01-02,ann,\"new sensor, glued\"\n")
+    (tmp_path / "results.csv").write_text("record,verdict,share\nnormal_run1,normal,0.9\n")
+    (tmp_path / "states.csv").write_text("record,state\nnormal_run1.npy,normal\n")
+    (tmp_path / "logger.csv").write_text("time,acc,status\n0,0.1,ok\n0.001,0.2,ok\n")
+    (tmp_path / "readme.txt").write_text("rig B")
+    recordings, others = recordings_and_others(tmp_path)
+    assert [path.name for path in recordings] == ["ball_run1.npy", "logger.csv", "normal_run1.npy", "outer_run2.csv"]
+    assert recordings_in(tmp_path) == recordings
+    assert others == {"notes.csv": "its column 'date' holds text ('2024-01-02'), not samples",
+                      "readme.txt": "not .npy, .npz, .csv, .mat, .wav, .xls",
+                      "results.csv": "its column 'record' holds text ('normal_run1'), not samples",
+                      "states.csv": "a labels table, columns record,state, not a recording"}
+    (tmp_path / "logger.csv").unlink()
+    with caplog.at_level("WARNING"):
+        dataset = build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
+    assert sorted(name.rsplit("/", 1)[-1] for name in dataset.records) == ["ball_run1.npy", "normal_run1.npy",
+                                                                            "outer_run2.csv"]
+    assert f"{tmp_path}: left out notes.csv (its column 'date' holds text ('2024-01-02'), not samples)" in caplog.text
+    # A hidden file is no recording, whatever its suffix (macOS leaves ._<name> beside every file it copies).
+    (tmp_path / "._normal_run1.npy").write_bytes(b"\x00\x05\x16\x07")
+    assert "._normal_run1.npy" not in [path.name for path in recordings_and_others(tmp_path)[0]]
+    # A file the pattern names a recording is one: left out, the run would be short of it.
+    (tmp_path / "outer_run3.csv").write_text("acc,status\n0.1,ok\n0.2,ok\n")
+    with pytest.raises(BearingTwinError, match=r"outer_run3.csv: data.pattern='\^\(\?P<state>\[a-z\]\+\)_' names it a "
+                                               r"recording, but it is none \(its column 'status' holds text"):
+        build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
+    # Labelled by a table, the tables of notes beside it are named too.
+    (tmp_path / "outer_run3.csv").unlink()
+    (tmp_path / "labels.csv").write_text("record,state\nnormal_run1.npy,normal\nball_run1.npy,ball\nouter_run2.csv,outer\n")
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        build_dataset(files_cfg(tmp_path))
+    assert f"{tmp_path}: left out notes.csv (its column 'date' holds text ('2024-01-02'), not samples)" in caplog.text
 
 
 @pytest.mark.parametrize("setting, message", [

@@ -130,6 +130,25 @@ def test_what_a_file_leaves_unsaid_is_read_from_a_labels_table_beside_it(capsys,
     assert json.loads(out)["rpm_origin"] == "option"  # an option given wins over the table
 
 
+def test_a_bad_row_of_another_file_is_passed_over_and_named_and_the_files_own_refuses_it(capsys, caplog, monkeypatch,
+                                                                                          tmp_path):
+    """One file's inspection reads that file's row: a typo in another's state or a speed that is no number is that
+    file's concern (a one-line warning names it), while a bad row of the file inspected exits 2 naming its line."""
+    for name in ("good", "typo"):
+        np.save(tmp_path / f"{name}.npy", np.random.default_rng(0).standard_normal(24000))
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\ngood.npy,outer,1797,12000\ntypo.npy,outter,1797,12000\n"
+                                         "gone.npy,normal,fast,12000\n")
+    with caplog.at_level("WARNING"):
+        code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'good.npy'}")
+    summary = json.loads(out)
+    assert code == 0 and (summary["fs_hz"], summary["rpm"], summary["fault"]) == (12000.0, 1797.0, "outer")
+    warned = [message for message in caplog.messages if "passed over rows of other files" in message]
+    assert len(warned) == 1 and "\n" not in warned[0]
+    assert "labels.csv line 3: state 'outter'" in warned[0] and "labels.csv line 4: rpm='fast'" in warned[0]
+    code, _, err = run(capsys, monkeypatch, f"path={tmp_path / 'typo.npy'}")
+    assert code == 2 and f"error: {tmp_path / 'labels.csv'} line 3: state 'outter' is not a bearing state" in err
+
+
 def test_a_labels_row_is_read_as_the_twin_reads_it(capsys, monkeypatch, tmp_path):
     """A row for a file in a subfolder is not the file beside the table of that name; a row's rate replaces one
     a CWRU file merely declares; a row's speed or state the file contradicts is refused, naming the line."""

@@ -18,7 +18,7 @@ import re
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, NamedTuple
 
 import numpy as np
 
@@ -58,15 +58,9 @@ class _BadLine(Exception):
 def read_csv_table(path: Path) -> CsvTable:
     """The table in ``path``; a file that is no such table is refused naming the file and, where one is
     to blame, its line."""
-    encoding = _encoding(path)
+    _, layout, names, notes = _head_and_layout(path)
     try:
-        with open(path, encoding=encoding) as handle:
-            head = list(itertools.islice(handle, SAMPLE_LINES))
-    except UnicodeDecodeError:
-        raise _not_text(path) from None
-    layout, names, notes = _layout(path, head, encoding)
-    try:
-        with open(path, encoding=encoding) as handle, warnings.catch_warnings():
+        with open(path, encoding=layout.encoding) as handle, warnings.catch_warnings():
             warnings.filterwarnings("ignore", "loadtxt: input contained no data")  # refused below, naming the file
             values = np.loadtxt(_body_lines(handle, layout), delimiter=layout.delimiter, ndmin=2, dtype=np.float64,
                                 quotechar='"' if layout.delimiter else None)
@@ -84,6 +78,45 @@ def read_csv_table(path: Path) -> CsvTable:
                  if layout.delimiter == "," and values.shape[1] == 2 * len(names) else "")
         raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}{split}")
     return CsvTable(values, names, notes)
+
+
+class TextColumn(NamedTuple):
+    """A column of a table that holds text, not numbers, among the names its header gives."""
+
+    names: list[str]
+    name: str
+    cell: str  # its first cell, to show
+
+
+def text_column(path: Path) -> TextColumn | None:
+    """The first column whose every cell in the file's first rows is text (a table of names or notes: a list of
+    records, a log, a results table), else None: every column holds numbers, or the file is no table whose layout
+    can be told (:func:`read_csv_table` then says why). A stray word among numbers is no text column: it is a
+    damaged record, which the reader names by its line."""
+    try:
+        head, layout, names, _ = _head_and_layout(path)
+    except BearingTwinError:
+        return None
+    if names is None:  # the first row is numbers, so no column is text throughout
+        return None
+    rows = [_cells(head[index], layout.delimiter) for index in _content(head) if index >= layout.body_start]
+    for column, name in enumerate(names):
+        cells = [row[column] for row in rows if column < len(row) and row[column]]
+        if cells and not any(_is_number(cell, layout.decimal) for cell in cells):
+            return TextColumn(names, name, cells[0])
+    return None
+
+
+def _head_and_layout(path: Path) -> tuple[list[str], _Layout, list[str] | None, list[str]]:
+    """The file's first lines, the layout they show, the names its header gives and notes (:func:`_layout`);
+    a file that is no text is refused."""
+    encoding = _encoding(path)
+    try:
+        with open(path, encoding=encoding) as handle:
+            head = list(itertools.islice(handle, SAMPLE_LINES))
+    except UnicodeDecodeError:
+        raise _not_text(path) from None
+    return (head, *_layout(path, head, encoding))
 
 
 def _not_text(path: Path) -> BearingTwinError:

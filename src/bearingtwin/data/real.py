@@ -25,7 +25,8 @@ from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.files import FORMATS, load_recording
+from bearingtwin.data.csv_file import text_column
+from bearingtwin.data.files import FORMATS, load_recording, time_column_seconds
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
 from bearingtwin.data.windows import SPLITS, check_train_fraction, check_windows_fit, cut_windows
@@ -187,9 +188,13 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
         rows.append((path, state, rpm, fs))
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
-    unlisted = sorted(set(recordings_in(root)) - {path for path, *_ in rows} - {table})
-    if unlisted and warn_unlisted:
-        log.warning("%s: %s not labelled in %s, left out", root, ", ".join(path.name for path in unlisted), table.name)
+    recordings, others = recordings_and_others(root)
+    unlisted = sorted(set(recordings) - {path for path, *_ in rows} - {table})
+    if warn_unlisted:
+        if unlisted:
+            log.warning("%s: %s not labelled in %s, left out", root, ", ".join(path.name for path in unlisted), table.name)
+        warn_left_out(root, {name: reason for name, reason in others.items()
+                             if root / name not in {path for path, *_ in rows} and root / name != table})
     return rows
 
 
@@ -198,9 +203,23 @@ def labels_path(root: Path, cfg: dict) -> Path:
     return Path(str(cfg.get("labels") or root / DEFAULT_LABELS)).expanduser()
 
 
-def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None]]:
+def labels_table(table: Path) -> list[tuple[str, str, str, float | None, float | None]]:
     """``(where, record, state, rpm, fs)`` per row of a labels table (columns ``record,state[,rpm,fs]``);
-    ``where`` is the file and line, for messages. A bad header, state or number raises naming its line."""
+    ``where`` is the file and line, for messages. A bad header raises, and so does a bad row (naming its line and
+    field): what reads every row, a training set, would otherwise be built without that record."""
+    rows, bad_rows = labels_table_with_bad_rows(table)
+    if bad_rows:
+        raise BearingTwinError(bad_rows[0][1])
+    return rows
+
+
+def labels_table_with_bad_rows(table: Path) -> tuple[list[tuple[str, str, str, float | None, float | None]],
+                                                     list[tuple[str, str]]]:
+    """The rows of a labels table that read, as :func:`labels_table` gives them, and ``(record, message)`` for
+    each that does not (more values than the header has columns, a record labelled again, a state that is no
+    bearing state, an rpm or fs that is no positive number), in the table's order: a bad row is its record's
+    concern alone where a command reads one file's row, or each file of a folder its own. A table that cannot be
+    read, or whose header is wrong, raises: none of its rows can be read."""
     try:
         with open(table, newline="", encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark
             header = handle.readline()
@@ -219,7 +238,7 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
             if unknown:  # an "RPM" column would be passed over, and the files read at another speed
                 raise BearingTwinError(f"{table}: column {unknown[0]!r} is not one of {', '.join(LABEL_COLUMNS)} "
                                        "(lower case)")
-            rows, seen = [], {}
+            rows, bad_rows, seen = [], [], {}
             for row in reader:
                 line = reader.line_num  # not a count of rows: the reader skips blank lines
                 where = f"{table} line {line}"
@@ -227,39 +246,54 @@ def labels_table(table: Path) -> list[tuple[str, str, float | None, float | None
                 # header that names no rpm column would be passed over.
                 beyond = [value for value in row.pop(None, None) or [] if value.strip()]
                 beyond += [value for key, value in row.items() if key not in columns and (value or "").strip()]
-                if beyond:
-                    raise BearingTwinError(f"{where}: more values than the header has columns "
-                                           f"({', '.join(name for name in columns if name)}); name every column in the header")
                 row = {key: (value or "").strip() for key, value in row.items() if key in columns}
                 record = row["record"]
-                if Path(record) in seen:
-                    raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record)]}); "
-                                           "one row per record")
-                seen[Path(record)] = line
-                numbers = {key: (row.get(key) or "").replace(",", ".") if semicolons else row.get(key)
-                           for key in ("rpm", "fs")}
-                rows.append((where, record, _state(row["state"], where),
-                             _optional_number(numbers["rpm"], "rpm", "rev/min", where),
-                             _optional_number(numbers["fs"], "fs", "Hz", where)))
+                try:
+                    if Path(record) in seen:
+                        raise BearingTwinError(f"{where}: record {record!r} is labelled again (line {seen[Path(record)]}); "
+                                               "one row per record")
+                    seen[Path(record)] = line  # a row that does not read still names its record
+                    if beyond:
+                        raise BearingTwinError(f"{where}: more values than the header has columns "
+                                               f"({', '.join(name for name in columns if name)}); name every column in the header")
+                    numbers = {key: (row.get(key) or "").replace(",", ".") if semicolons else row.get(key)
+                               for key in ("rpm", "fs")}
+                    rows.append((where, record, _state(row["state"], where),
+                                 _optional_number(numbers["rpm"], "rpm", "rev/min", where),
+                                 _optional_number(numbers["fs"], "fs", "Hz", where)))
+                except BearingTwinError as error:
+                    bad_rows.append((record, str(error)))
     except (OSError, UnicodeDecodeError) as error:
         raise BearingTwinError(f"{table}: cannot read it ({error})") from None
-    return rows
+    return rows, bad_rows
 
 
-def read_labels(path: Path | None) -> dict[str, tuple[str, str, float | None, float | None]]:
+def read_labels(path: Path | None) -> tuple[dict[str, tuple[str, str, float | None, float | None]],
+                                             dict[str, list[tuple[str, str]]]]:
     """``stem -> (record, state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or
-    stem; :func:`names_file` says which file a row is for).
+    stem; :func:`names_file` says which file a row is for), and ``stem -> [(record, message), ...]``, the rows of
+    that stem that do not read (:func:`labels_table_with_bad_rows`): their records' errors, not the others'.
 
     Records are named by their stem here (an output folder, a summary row), so two rows of one stem are refused."""
+    rows, bad_rows = labels_table_with_bad_rows(path) if path is not None else ([], [])
     labels, lines = {}, {}
-    for where, record, state, rpm, fs in labels_table(path) if path is not None else []:
-        name = PurePath(record).name
-        stem = PurePath(name).stem if PurePath(name).suffix.lower() in FORMATS else name  # run.2024 is run.2024's
+    for where, record, state, rpm, fs in rows:
+        stem = _record_stem(record)
         if stem in labels:
             raise BearingTwinError(f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); "
                                    "one row per record")
         labels[stem], lines[stem] = (record, state, rpm, fs), where
-    return labels
+    refused: dict[str, list[tuple[str, str]]] = {}
+    for record, message in bad_rows:  # a.npz's and a.npy's rows share the stem a: each kept, for its own file
+        refused.setdefault(_record_stem(record), []).append((record, message))
+    return labels, refused
+
+
+def _record_stem(record: str) -> str:
+    """The record name a labels row's ``record`` gives: its file name's stem (``a.npz``: ``a``), or the name itself
+    where it has no recording's suffix (``run.2024``: ``run.2024``)."""
+    name = PurePath(record).name
+    return PurePath(name).stem if PurePath(name).suffix.lower() in FORMATS else name
 
 
 def names_file(record: str, path: Path) -> bool:
@@ -274,26 +308,73 @@ def names_file(record: str, path: Path) -> bool:
 
 def labels_row(path: Path) -> tuple[str, str, float | None, float | None] | None:
     """``(where, state, rpm, fs)`` of the row of the ``labels.csv`` beside ``path`` that names it
-    (:func:`names_file`); None when there is no such table or row."""
+    (:func:`names_file`); None when there is no such table or row. Its row alone is read: a bad row of
+    another file is that file's concern, named in a warning, while a bad row of this one raises."""
     table = path.parent / DEFAULT_LABELS
     if not table.is_file():
         return None
-    return next(((where, state, rpm, fs) for where, record, state, rpm, fs in labels_table(table)
-                 if names_file(record, path)), None)
+    rows, bad_rows = labels_table_with_bad_rows(table)
+    its_own = [message for record, message in bad_rows if names_file(record, path)]
+    if its_own:
+        raise BearingTwinError(its_own[0])
+    own = next(((where, state, rpm, fs) for where, record, state, rpm, fs in rows if names_file(record, path)), None)
+    if bad_rows:
+        shown = "; ".join(message for _, message in bad_rows[:3]) + (
+            f"; and {len(bad_rows) - 3} more" if len(bad_rows) > 3 else "")
+        log.warning("%s: %s; passed over rows of other files that do not read: %s", path.name,
+                    f"read its row of {table}" if own else f"{table} has no row for it", shown)
+    return own
 
 
 def recordings_in(folder: Path) -> list[Path]:
-    """The files of a folder bearingtwin reads, sorted; a labels table left among them is not a recording."""
-    return sorted(path for path in folder.iterdir()
-                  if path.is_file() and path.suffix.lower() in FORMATS and path.name != DEFAULT_LABELS)
+    """The files of a folder bearingtwin reads as recordings, sorted (:func:`recordings_and_others`)."""
+    return recordings_and_others(folder)[0]
 
 
-def files_left_out(folder: Path) -> list[str]:
-    """The names of a folder's other files (not a recording, not the labels table, not hidden), sorted: what
-    :func:`recordings_in` passes over, for a user to be told."""
-    read = set(recordings_in(folder))
-    return sorted(path.name for path in folder.iterdir() if path.is_file() and path not in read
-                  and path.name != DEFAULT_LABELS and not path.name.startswith("."))
+def recordings_and_others(folder: Path) -> tuple[list[Path], dict[str, str]]:
+    """A folder's recordings, sorted by name, and why each of its other files is none (``name -> reason``): a format
+    bearingtwin does not read, or a CSV table of something else (:func:`why_not_a_recording`). The labels table and
+    hidden files (a name starting with '.') are neither."""
+    recordings, others = [], {}
+    for path in sorted(folder.iterdir()):
+        if not path.is_file() or path.name == DEFAULT_LABELS or path.name.startswith("."):  # ._x.npy: macOS metadata
+            continue
+        if path.suffix.lower() not in FORMATS:
+            others[path.name] = f"not {', '.join(FORMATS)}"
+            continue
+        reason = why_not_a_recording(path)
+        if reason is None:
+            recordings.append(path)
+        else:
+            others[path.name] = reason
+    return recordings, others
+
+
+def why_not_a_recording(path: Path) -> str | None:
+    """Why a file is a table of something other than samples (a labels table under another name, or a column of
+    text: a log's notes, a results table's verdicts), so is passed over as no recording; None for a file that
+    may be one (any other format, a table of numbers, one the reader will refuse naming why). A table with a
+    time column is a recording whatever else it holds: its text column is then an error the reader names."""
+    if path.suffix.lower() != ".csv":
+        return None
+    text = text_column(path)
+    if text is None:
+        return None
+    if set(LABEL_COLUMNS[:2]) <= set(text.names):
+        return f"a labels table, columns {','.join(LABEL_COLUMNS[:2])}, not a recording"
+    if any(time_column_seconds(name) is not None for name in text.names):
+        return None
+    return f"its column {text.name!r} holds text ({text.cell!r}), not samples"
+
+
+def warn_left_out(where: str | Path, others: dict[str, str]) -> None:
+    """Name the files :func:`recordings_and_others` passes over, one line per reason: a user's export in a format not read
+    here, or a table of notes beside the recordings, must not vanish without a word."""
+    by_reason: dict[str, list[str]] = {}
+    for name, reason in others.items():
+        by_reason.setdefault(reason, []).append(name)
+    for reason, names in by_reason.items():
+        log.warning("%s: left out %s (%s)", where, ", ".join(names), reason)
 
 
 def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, None]]:
@@ -306,7 +387,12 @@ def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, Non
         raise BearingTwinError(f"data.pattern={cfg['pattern']!r} is not a regular expression ({error})") from None
     if "state" not in pattern.groupindex:
         raise BearingTwinError(f"data.pattern={cfg['pattern']!r} has no (?P<state>...) group naming the bearing state")
-    paths = recordings_in(root)
+    paths, others = recordings_and_others(root)
+    for name, reason in others.items():  # a training set silently short of a record would be a wrong result
+        if pattern.search(name):
+            raise BearingTwinError(f"{root / name}: data.pattern={cfg['pattern']!r} names it a recording, but it is "
+                                   f"none ({reason}); mend it or move it out of data.root")
+    warn_left_out(root, others)
     if not paths:
         raise BearingTwinError(f"data.root={root} holds no file bearingtwin reads ({', '.join(FORMATS)})")
     rows = []

@@ -4,9 +4,9 @@ Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; for sev
 ``<out>/summary.csv`` (one row per record; ``true_state, correct`` when the truth is known from
 CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or the
 ``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
-not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed is reported
-in ``summary.csv`` with its error and the others go on; the command then exits 2.
-"""
+not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed, its labels row not
+reading among the reasons, is reported in ``summary.csv`` with its error and the others go on; the command then
+exits 2. A folder's or glob's tables that hold no signal are left out, and named."""
 
 from __future__ import annotations
 
@@ -25,7 +25,8 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
-from bearingtwin.data.real import DEFAULT_LABELS, files_left_out, labels_row, names_file, read_labels, recordings_in
+from bearingtwin.data.real import (DEFAULT_LABELS, labels_row, labels_table_with_bad_rows, names_file, read_labels,
+                                   recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
@@ -53,26 +54,39 @@ class DiagnosisRun:
 
 
 def find_records(path: str, labels_path: Path | None) -> list[Path]:
-    """The recordings ``path`` names: one file, every readable file of a folder, or a glob."""
+    """The recordings ``path`` names: one file, every readable file of a folder, or a glob; a table that holds
+    no signal (notes, results, a labels table under another name) is left out of a folder or glob, and named."""
     if not path.strip():  # Path("") is the working directory, which the user did not name
         raise BearingTwinError("path is empty: give path=<file | folder | glob>")
     candidate = Path(path).expanduser()
     is_glob = not candidate.exists() and glob.has_magic(path)
+    labels = {labels_path.resolve()} if labels_path is not None else set()
+
+    def is_labels(file: Path) -> bool:  # read as the labels, not as a recording nor left out as a table of notes
+        return file.resolve() in labels or file.name == DEFAULT_LABELS
+
     if candidate.is_dir():
-        found = recordings_in(candidate)
-        others = files_left_out(candidate)
-        if others:  # a user's export in a format not read here must not vanish without a word
-            log.warning("%s: left out %s (not %s)", path, ", ".join(others), ", ".join(FORMATS))
+        found, by_name = recordings_and_others(candidate)
+        others = {candidate / name: reason for name, reason in by_name.items()}
+        folder = candidate
     elif candidate.is_file():
-        return [candidate]
+        return [candidate]  # named on its own: read as a recording, its reader naming what it is not
     elif is_glob:
-        found = sorted(Path(p) for p in glob.glob(str(candidate)) if Path(p).is_file())
-        if not found:
+        matched = sorted(Path(p) for p in glob.glob(str(candidate)) if Path(p).is_file())
+        if not matched:
             raise BearingTwinError(f"path={path}: the pattern matches no file")
+        reasons = {p: why_not_a_recording(p) for p in matched}
+        found = [p for p, reason in reasons.items() if reason is None]
+        others = {p: reason for p, reason in reasons.items() if reason is not None}
+        folder = matched[0].parent
     else:
         raise BearingTwinError(f"path={path}: no such file or folder")
-    labels = {labels_path.resolve()} if labels_path is not None else set()
-    found = [p for p in found if p.resolve() not in labels and p.name != DEFAULT_LABELS]
+    # A file a labels row names is a recording, whatever it holds: its reader says what is wrong with it.
+    named = _records_named(labels_path or folder / DEFAULT_LABELS)
+    found = sorted(found + [file for file in others if any(names_file(record, file) for record in named)])
+    others = {file: reason for file, reason in others.items() if file not in found and not is_labels(file)}
+    warn_left_out(path, {(file.name if candidate.is_dir() else str(file)): reason for file, reason in others.items()})
+    found = [p for p in found if not is_labels(p)]
     if not found:
         inside = " (subfolders are not searched: point at one, or use a glob)" if candidate.is_dir() and any(
             child.is_dir() for child in candidate.iterdir()) else ""
@@ -86,6 +100,16 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
         raise BearingTwinError(f"path={path}: {', '.join(clash)} share the record name {Path(clash[0]).stem}; "
                                "rename one or point at one file")
     return found
+
+
+def _records_named(table: Path) -> list[str]:
+    """The record of every row of a labels table, whether the row reads or not; none where there is no table or
+    it cannot be read (the labels are read, and refused, after the records are found)."""
+    try:
+        rows, bad_rows = labels_table_with_bad_rows(table) if table.is_file() else ([], [])
+    except BearingTwinError:
+        return []
+    return [record for _, record, *_ in rows] + [record for record, _ in bad_rows]
 
 
 def given_labels(cfg: DictConfig) -> Path | None:
@@ -152,7 +176,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
             positive_number(cfg[name], name, unit)
     records = find_records(str(cfg.path), given_labels(cfg))  # first: an empty path= would have ./labels.csv read
     table = labels_path(cfg, records)
-    labels = read_labels(table)
+    labels, bad_rows = read_labels(table)
     beside, row = row_beside(cfg)
     if beside is not None:  # one file: its row fills in what the command leaves out, as the twin's does
         table, labels = beside, row
@@ -163,7 +187,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     run = DiagnosisRun(out=out)
     earlier = {path.parent.name for path in out.glob("*/diagnosis.json")}
     try:
-        diagnose_records(run, records, cfg, model, pipeline, settings, labels, table, bearing, figures)
+        diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures)
     finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
         if len(records) > 1 or run.failures:
             run.files.append(write_summary(run.rows, out / "summary.csv"))
@@ -177,22 +201,26 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
 
 
 def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, model, pipeline, settings: dict,
-                     labels: dict, table: Path | None, bearing: str | None, figures: bool) -> None:
-    """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores)."""
+                     labels: dict, bad_rows: dict, table: Path | None, bearing: str | None, figures: bool) -> None:
+    """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores); a record whose labels
+    row does not read (``bad_rows``, :func:`~bearingtwin.data.real.read_labels`) fails with its row's error."""
     out = run.out
     windows_total = windows_correct = 0
     # A bar over the files in a terminal only (None: tqdm's own test), not in a file the output goes to.
     progress = tqdm(records, desc="diagnose", unit="file", disable=True if len(records) < 2 else None)
-    # A row names a file by its name, or by its stem where it gives no suffix: a row for a.npz is not a.npy's.
-    by_stem = {path.stem: path for path in records}  # one file per stem (find_records)
-    labelled = {stem: row for stem, row in labels.items() if stem in by_stem and names_file(row[0], by_stem[stem])}
-    unlisted = sorted(row[0] for stem, row in labels.items() if stem not in labelled)
+    labelled = _rows_of(records, labels)
+    refused = {path.stem: message for path in records for record, message in bad_rows.get(path.stem, [])
+               if names_file(record, path)}
+    unlisted = sorted([row[0] for stem, row in labels.items() if stem not in labelled]
+                      + [record for stem, rows in bad_rows.items() for record, _ in rows if stem not in refused])
     if unlisted and not Path(str(cfg.path)).expanduser().is_file():  # a table of a folder, not of the one file given
         progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
     calibrated = calibration_records(pipeline)
     single = Path(str(cfg.path)).expanduser().is_file()
     for path in progress:
         try:
+            if path.stem in refused:
+                raise BearingTwinError(refused[path.stem])
             _, state, row_rpm, row_fs = labelled.get(path.stem, (None, None, None, None))
             fs, fs_from_row = _fact(cfg.fs, row_fs, command_first=single)
             rpm, rpm_from_row = _fact(cfg.rpm, row_rpm, command_first=single)
@@ -252,6 +280,13 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if with_physics:  # the envelope analysis alone, on the same records: what the model must beat
         run.scores["accuracy_records_physics"] = sum(row["physics_correct"] for row in with_physics) / len(with_physics)
         run.scores["n_scored_physics"] = len(with_physics)
+
+
+def _rows_of(records: list[Path], rows: dict[str, tuple]) -> dict[str, tuple]:
+    """The rows (``stem -> (record, ...)``) that name one of ``records``: by its file name, or by its stem where the
+    row gives no suffix (a row for a.npz is not a.npy's). One file per stem (:func:`find_records`)."""
+    by_stem = {path.stem: path for path in records}
+    return {stem: row for stem, row in rows.items() if stem in by_stem and names_file(row[0], by_stem[stem])}
 
 
 def _fact(command, row, command_first: bool):
