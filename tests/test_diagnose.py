@@ -479,8 +479,9 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
 
 def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_before_any_work(registered, tmp_path):
     """A record is named by its stem (its output folder, its summary row, its labels row): two files of one
-    stem would overwrite each other. A labels table naming a record twice, and ``out=`` naming a file, are
-    refused too, each in one line, with nothing written."""
+    stem would overwrite each other. ``out=`` naming a file is refused too, in one line, with nothing written; a
+    labels table naming a record twice labels neither row's file, which fails naming both lines while the folder's
+    other files are diagnosed."""
     base, uri = registered
     folder = tmp_path / "twice"
     folder.mkdir()
@@ -490,10 +491,15 @@ def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_befor
     assert clash.returncode == 2 and "rec.npy, rec.npz share the record name rec" in clash.stderr
     (folder / "rec.npy").unlink()
     (folder / "labels.csv").write_text("record,state\nrec.npz,outer\nrec,inner\n")
-    twice = run("diagnose", f"path={folder}", "model=models:/diag/1", cwd=tmp_path, uri=uri)
-    assert twice.returncode == 2 and "labels.csv line 3: record 'rec' is labelled again (" in twice.stderr
+    np.save(folder / "other.npy", fault_signal(None, seconds=1))
+    twice = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/twice_out", f"rpm={RPM}", f"fs={FS}",
+                cwd=tmp_path, uri=uri)
+    assert twice.returncode == 2 and f"error: {folder / 'rec.npz'}: {folder / 'labels.csv'} line 3: record 'rec' is " \
+        "labelled again (" in twice.stderr, twice.stderr[-2000:]
     assert "labels.csv line 2 names rec too)" in twice.stderr
+    assert (tmp_path / "twice_out" / "other" / "diagnosis.json").is_file()  # the other file is diagnosed
     (folder / "labels.csv").unlink()
+    (folder / "other.npy").unlink()
     into_file = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={folder / 'rec.npz'}", cwd=tmp_path,
                     uri=uri)
     assert into_file.returncode == 2 and "rec.npz is a file, not a folder" in into_file.stderr
@@ -675,6 +681,10 @@ def test_a_bad_labels_row_fails_its_file_alone_and_tables_of_notes_are_left_out(
     assert alone.returncode == 0, alone.stderr[-2000:]
     assert json.loads((tmp_path / "alone" / "good" / "diagnosis.json").read_text())["true_state"] == "outer"
     assert "good.npy: read its row of" in alone.stdout + alone.stderr  # and the bad rows named, in one line
+    given = run("diagnose", f"path={folder / 'good.npy'}", f"labels={table}", f"out={tmp_path}/given", *common,
+                cwd=tmp_path, uri=uri)
+    assert given.returncode == 0, given.stderr[-2000:]
+    assert f"{table}: passed over rows of other files that do not read: {table} line 3: state 'outter'" in given.stdout
     table.write_text("record,state\ngood.npy,outer\ntypo.npy,outer\nspeed.npy,outer\nrate.npy,outer\n")
     (folder / "logged.csv").unlink()
     np.savetxt(folder / "unknown.csv", fault_signal(None, seconds=3))  # a recording no row labels

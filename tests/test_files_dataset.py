@@ -205,6 +205,12 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     assert sorted(name.rsplit("/", 1)[-1] for name in dataset.records) == ["ball_run1.npy", "normal_run1.npy",
                                                                             "outer_run2.csv"]
     assert f"{tmp_path}: left out notes.csv (its column 'date' holds text ('2024-01-02'), not samples)" in caplog.text
+    # A logger's clock time is named as what it may be.
+    (tmp_path / "logger.csv").write_text("Timestamp,acc\n2024-01-02 10:00:00.001,0.1\n2024-01-02 10:00:00.002,0.2\n")
+    assert recordings_and_others(tmp_path)[1]["logger.csv"] == (
+        "its column 'Timestamp' holds text ('2024-01-02 10:00:00.001'), not samples; if it is the samples' time, give "
+        "it in seconds under a header time_s (or time_ms)")
+    (tmp_path / "logger.csv").unlink()
     # A hidden file is no recording, whatever its suffix (macOS leaves ._<name> beside every file it copies).
     (tmp_path / "._normal_run1.npy").write_bytes(b"\x00\x05\x16\x07")
     assert "._normal_run1.npy" not in [path.name for path in recordings_and_others(tmp_path)[0]]
@@ -359,3 +365,10 @@ def test_a_fault_records_defect_comb_does_not_get_its_right_rate_refused(tmp_pat
     with caplog.at_level("WARNING"):
         assert build_dataset(files_cfg(root, "data.fs=null", "data.bearing=cwru_6205")).fs == fs
     assert "outer.npy: fs = 12000 Hz contradicts" not in caplog.text
+
+
+def test_many_bad_rows_are_named_by_the_first_three_and_a_count():
+    from bearingtwin.data.real import first_messages
+
+    assert first_messages(["a", "b"]) == "a; b"
+    assert first_messages(["a", "b", "c", "d", "e"]) == "a; b; c; and 2 more"

@@ -274,14 +274,17 @@ def read_labels(path: Path | None) -> tuple[dict[str, tuple[str, str, float | No
     stem; :func:`names_file` says which file a row is for), and ``stem -> [(record, message), ...]``, the rows of
     that stem that do not read (:func:`labels_table_with_bad_rows`): their records' errors, not the others'.
 
-    Records are named by their stem here (an output folder, a summary row), so two rows of one stem are refused."""
+    Records are named by their stem here (an output folder, a summary row), so two rows of one stem (``rec.npz`` and
+    ``rec``) label neither: both are that stem's bad rows."""
     rows, bad_rows = labels_table_with_bad_rows(path) if path is not None else ([], [])
     labels, lines = {}, {}
     for where, record, state, rpm, fs in rows:
         stem = _record_stem(record)
-        if stem in labels:
-            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); "
-                                   "one row per record")
+        if stem in lines:
+            message = f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); one row per record"
+            bad_rows += [(labels.pop(stem)[0], message)] if stem in labels else []
+            bad_rows.append((record, message))
+            continue
         labels[stem], lines[stem] = (record, state, rpm, fs), where
     refused: dict[str, list[tuple[str, str]]] = {}
     for record, message in bad_rows:  # a.npz's and a.npy's rows share the stem a: each kept, for its own file
@@ -319,11 +322,17 @@ def labels_row(path: Path) -> tuple[str, str, float | None, float | None] | None
         raise BearingTwinError(its_own[0])
     own = next(((where, state, rpm, fs) for where, record, state, rpm, fs in rows if names_file(record, path)), None)
     if bad_rows:
-        shown = "; ".join(message for _, message in bad_rows[:3]) + (
-            f"; and {len(bad_rows) - 3} more" if len(bad_rows) > 3 else "")
         log.warning("%s: %s; passed over rows of other files that do not read: %s", path.name,
-                    f"read its row of {table}" if own else f"{table} has no row for it", shown)
+                    f"read its row of {table}" if own else f"{table} has no row for it",
+                    first_messages([message for _, message in bad_rows]))
     return own
+
+
+def first_messages(messages: list[str], shown: int = 3) -> str:
+    """The first ``shown`` of ``messages`` joined in one line, and how many more there are: a table of many bad
+    rows is named, not printed whole."""
+    more = len(messages) - shown
+    return "; ".join(messages[:shown]) + (f"; and {more} more" if more > 0 else "")
 
 
 def recordings_in(folder: Path) -> list[Path]:
@@ -364,7 +373,9 @@ def why_not_a_recording(path: Path) -> str | None:
         return f"a labels table, columns {','.join(LABEL_COLUMNS[:2])}, not a recording"
     if any(time_column_seconds(name) is not None for name in text.names):
         return None
-    return f"its column {text.name!r} holds text ({text.cell!r}), not samples"
+    hint = ("; if it is the samples' time, give it in seconds under a header time_s (or time_ms)"
+            if re.search(r"time|stamp", text.name, re.IGNORECASE) else "")  # a logger's clock time
+    return f"its column {text.name!r} holds text ({text.cell!r}), not samples{hint}"
 
 
 def warn_left_out(where: str | Path, others: dict[str, str]) -> None:

@@ -25,8 +25,8 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
-from bearingtwin.data.real import (DEFAULT_LABELS, labels_row, labels_table_with_bad_rows, names_file, read_labels,
-                                   recordings_and_others, warn_left_out, why_not_a_recording)
+from bearingtwin.data.real import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
+                                   read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
@@ -213,10 +213,13 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                if names_file(record, path)}
     unlisted = sorted([row[0] for stem, row in labels.items() if stem not in labelled]
                       + [record for stem, rows in bad_rows.items() for record, _ in rows if stem not in refused])
-    if unlisted and not Path(str(cfg.path)).expanduser().is_file():  # a table of a folder, not of the one file given
-        progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
-    calibrated = calibration_records(pipeline)
     single = Path(str(cfg.path)).expanduser().is_file()
+    if unlisted and not single:  # a table of a folder, not of the one file given
+        progress.write(f"{table}: rows for {', '.join(unlisted)}, which {cfg.path} does not hold, left out")
+    passed_over = [message for stem, rows in bad_rows.items() for _, message in rows if stem not in refused]
+    if passed_over and single:  # as inspect and the twin say it of the table beside a file
+        progress.write(f"{table}: passed over rows of other files that do not read: {first_messages(passed_over)}")
+    calibrated = calibration_records(pipeline)
     for path in progress:
         try:
             if path.stem in refused:
