@@ -43,7 +43,13 @@ def test_the_data_centers_numbers_and_labels_name_state_size_position_and_load()
     assert (number.fault, number.fault_size_in, number.position, number.load_hp, number.record) == ("outer", 0.021, "12", 0, 258)
     assert (number.rate_hz, number.end, number.bearing) == (12000.0, "drive", "cwru_6205")
     assert (parse_cwru_name("158.mat").position, parse_cwru_name("158.mat").load_hp) == ("12", 1)
-    assert parse_cwru_name("157.mat") is None and parse_cwru_name("278.mat") is None  # no such 12 kHz drive-end record
+    assert parse_cwru_name("157.mat") is None and parse_cwru_name("216.mat") is None  # numbers the Data Center skips
+    # Its 48 kHz drive-end and 12 kHz fan-end records are numbered too: the number gives the rate and the bearing.
+    fast = parse_cwru_name("217.mat")
+    assert (fast.fault, fast.fault_size_in, fast.load_hp, fast.rate_hz, fast.end) == ("inner", 0.021, 3, 48000.0, "drive")
+    fan = parse_cwru_name("309.mat")
+    assert (fan.fault, fan.fault_size_in, fan.position, fan.load_hp) == ("outer", 0.014, "3", 1)
+    assert (fan.rate_hz, fan.end, fan.bearing) == (12000.0, "fan", "cwru_6203")
     assert (parse_cwru_name("97.mat").fault, parse_cwru_name("97.mat").rate_hz) == ("normal", None)  # its rate in doubt
     label = parse_cwru_name("OR021@3_2.mat")
     assert (label.fault, label.fault_size_in, label.position, label.load_hp) == ("outer", 0.021, "3", 2)
@@ -68,9 +74,27 @@ def test_a_labels_record_is_read_from_its_variables_with_the_names_load(tmp_path
     assert any("1797 rpm, is not the Data Center's 1750 rpm for the 2 hp" in note for note in mislabelled.meta["notes"])
     scipy.io.savemat(tmp_path / "IR021_3.mat", {"X212_DE_time": samples, "X212RPM": 1725.0})  # 3 hp's measured speed
     assert not any("is not the Data Center's" in note for note in load_recording(tmp_path / "IR021_3.mat").meta["notes"])
-    scipy.io.savemat(tmp_path / "278.mat", {"X278_DE_time": samples, "X278RPM": 1797.0})
-    assert any("not in the Data Center's 12 kHz drive-end catalogue" in note
-               for note in load_recording(tmp_path / "278.mat").meta["notes"])
+    scipy.io.savemat(tmp_path / "400.mat", {"X400_DE_time": samples, "X400RPM": 1797.0})
+    assert any("record 400 is not in the Data Center's catalogue: read as a drive-end record declared at 12 kHz" in note
+               for note in load_recording(tmp_path / "400.mat").meta["notes"])
+
+
+@needs_data
+def test_a_48_khz_record_named_by_its_number_is_read_at_48_khz(tmp_path):
+    """The Data Center's 48 kHz drive-end files are named by number as its 12 kHz ones are (``110.mat``: the inner
+    race's 0.007 in spall at 1 hp): read at 48 kHz, the rate its shaft line bears out. Stand-in: record 106, the same
+    condition at 12 kHz, resampled to 48 kHz."""
+    import scipy.io
+    from scipy.signal import resample_poly
+
+    twelve = load_cwru(CWRU / "12k_Drive_End_IR007_1_106.mat")
+    scipy.io.savemat(tmp_path / "110.mat", {"X110_DE_time": resample_poly(twelve.signal, 4, 1)[:, None],
+                                            "X110RPM": twelve.rpm})
+    recording = load_cwru(tmp_path / "110.mat")
+    assert (recording.fs, recording.fault, recording.meta["fault_size_in"], recording.meta["load_hp"]) == (
+        48000.0, "inner", 0.007, 1)
+    assert load_recording(tmp_path / "110.mat").fs == 48000.0
+    assert recording.meta["shaft_line"]["matches"]
 
 
 def test_declared_rate_per_record():

@@ -69,7 +69,44 @@ DATA_CENTER_12K_DRIVE_END = {
 }
 """The Data Center's catalogue of its 12 kHz drive-end fault records and the normal baseline: record number ->
 label. Its download files are named by the number alone (``170.mat``); the catalogue says what each holds (there
-is no record 157). Its 48 kHz drive-end and fan-end records have numbers of their own, not listed here."""
+is no record 157)."""
+DATA_CENTER_48K_DRIVE_END = {
+    109: "IR007_0", 110: "IR007_1", 111: "IR007_2", 112: "IR007_3",
+    174: "IR014_0", 175: "IR014_1", 176: "IR014_2", 177: "IR014_3",
+    213: "IR021_0", 214: "IR021_1", 215: "IR021_2", 217: "IR021_3",
+    122: "B007_0", 123: "B007_1", 124: "B007_2", 125: "B007_3",
+    189: "B014_0", 190: "B014_1", 191: "B014_2", 192: "B014_3",
+    226: "B021_0", 227: "B021_1", 228: "B021_2", 229: "B021_3",
+    135: "OR007@6_0", 136: "OR007@6_1", 137: "OR007@6_2", 138: "OR007@6_3",
+    148: "OR007@3_0", 149: "OR007@3_1", 150: "OR007@3_2", 151: "OR007@3_3",
+    161: "OR007@12_0", 162: "OR007@12_1", 163: "OR007@12_2", 164: "OR007@12_3",
+    201: "OR014@6_0", 202: "OR014@6_1", 203: "OR014@6_2", 204: "OR014@6_3",
+    238: "OR021@6_0", 239: "OR021@6_1", 240: "OR021@6_2", 241: "OR021@6_3",
+    250: "OR021@3_0", 251: "OR021@3_1", 252: "OR021@3_2", 253: "OR021@3_3",
+    262: "OR021@12_0", 263: "OR021@12_1", 264: "OR021@12_2", 265: "OR021@12_3",
+}
+"""The Data Center's catalogue of its 48 kHz drive-end fault records (no record 216)."""
+DATA_CENTER_12K_FAN_END = {
+    278: "IR007_0", 279: "IR007_1", 280: "IR007_2", 281: "IR007_3",
+    274: "IR014_0", 275: "IR014_1", 276: "IR014_2", 277: "IR014_3",
+    270: "IR021_0", 271: "IR021_1", 272: "IR021_2", 273: "IR021_3",
+    282: "B007_0", 283: "B007_1", 284: "B007_2", 285: "B007_3",
+    286: "B014_0", 287: "B014_1", 288: "B014_2", 289: "B014_3",
+    290: "B021_0", 291: "B021_1", 292: "B021_2", 293: "B021_3",
+    294: "OR007@6_0", 295: "OR007@6_1", 296: "OR007@6_2", 297: "OR007@6_3",
+    298: "OR007@3_0", 299: "OR007@3_1", 300: "OR007@3_2", 301: "OR007@3_3",
+    302: "OR007@12_0", 305: "OR007@12_1", 306: "OR007@12_2", 307: "OR007@12_3",
+    313: "OR014@6_0", 310: "OR014@3_0", 309: "OR014@3_1", 311: "OR014@3_2", 312: "OR014@3_3",
+    315: "OR021@6_0", 316: "OR021@3_1", 317: "OR021@3_2", 318: "OR021@3_3",
+}
+"""The Data Center's catalogue of its 12 kHz fan-end fault records: the fault in the fan-end bearing (SKF 6203)."""
+DATA_CENTER_CATALOGUE = {
+    **{number: (label, DECLARED_FS_HZ, "drive") for number, label in DATA_CENTER_12K_DRIVE_END.items()},
+    **{number: (label, 48000.0, "drive") for number, label in DATA_CENTER_48K_DRIVE_END.items()},
+    **{number: (label, DECLARED_FS_HZ, "fan") for number, label in DATA_CENTER_12K_FAN_END.items()},
+}
+"""Every record number the Data Center names its download files by -> (label, sampling rate in Hz, faulty bearing's
+end). The normal baseline's rate is in doubt (some state 48 kHz for record 97): it is declared and checked."""
 
 
 @dataclass(frozen=True)
@@ -95,15 +132,17 @@ def parse_cwru_name(path: str | Path) -> CwruName | None:
     """The state, motor load and record number in a CWRU file name (None for another form).
 
     Three forms are read: the long one (``12k_Drive_End_IR014_1_170.mat``), the Data Center's record number
-    (``170.mat``, as its catalogue lists it: :data:`DATA_CENTER_12K_DRIVE_END`) and its label of the record's
+    (``170.mat``, as its catalogue lists it: :data:`DATA_CENTER_CATALOGUE`, which gives the rate and the bearing's
+    end too) and its label of the record's
     condition (``IR014_1.mat``, ``Normal_0.mat``), which states neither the record, the rate nor the bearing's end.
     """
     stem = Path(path).stem
-    if stem.isdigit() and int(stem) in DATA_CENTER_12K_DRIVE_END:
-        label = _parse_condition(DATA_CENTER_12K_DRIVE_END[int(stem)])
+    if stem.isdigit() and int(stem) in DATA_CENTER_CATALOGUE:
+        text, rate_hz, end = DATA_CENTER_CATALOGUE[int(stem)]
+        label = _parse_condition(text)
         faulty = label.fault != "normal"
-        return replace(label, record=int(stem), form="number", rate_hz=DECLARED_FS_HZ if faulty else None,
-                       end="drive" if faulty else None)
+        return replace(label, record=int(stem), form="number", rate_hz=rate_hz if faulty else None,
+                       end=end if faulty else None)
     label = _parse_condition(stem)
     if label is not None:
         return label
@@ -208,7 +247,7 @@ def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[st
     read_as = ("read as a drive-end record declared at 12 kHz, the rate checked (channel=FE bearing=cwru_6203 for a "
                "fan-end record)")
     if name is None and path.stem.isdigit():
-        notes.append(f"record {path.stem} is not in the Data Center's 12 kHz drive-end catalogue: {read_as}")
+        notes.append(f"record {path.stem} is not in the Data Center's catalogue: {read_as}")
     elif name is not None and name.form == "label" and name.fault != "normal":
         notes.append(f"the name {path.stem} (the Data Center's label) states no rate and no bearing end: {read_as}")
     nominal = NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp) if name is not None else None
