@@ -254,3 +254,37 @@ def test_reports_without_runs_say_what_is_missing(tmp_path, capsys):
         report_main(["hust", f"uri=sqlite:///{tmp_path}/empty.db", f"out={tmp_path}/x.md"])
     assert exit_.value.code == 2
     assert "data.source=hust" in capsys.readouterr().err
+
+
+def test_a_run_at_other_settings_is_a_row_of_its_own_not_a_seed_that_displaces_the_tables():
+    """An ablation run (the SVM at classifier.C=0.001) logged after a method's sweep neither replaces the sweep's
+    runs of its seed nor averages with them: Table 4 and the seeds list give it a row named by what differs. A
+    param a run's code did not log yet is no difference, and neither are the seed, the store or the size."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        uri = f"sqlite:///{scratch}/mlflow.db"
+        client, experiment_id = open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin", "artifact_root": None}))
+
+        def log(seed, accuracy, **params):
+            run = client.create_run(experiment_id, tags={"bt.kind": "train", "method": "sabo_vmd_pemie+svm",
+                                                         "seed": str(seed)})
+            logged = {"data.source": "simulated", "features.vmd_params": "global", "classifier.C": "1.0",
+                      "seed": str(seed), "tracking.uri": uri, "data.duration": "30.0", **params}
+            for key, value in logged.items():
+                client.log_param(run.info.run_id, key, value)
+            client.log_metric(run.info.run_id, "accuracy", accuracy)
+            client.set_terminated(run.info.run_id, "FINISHED")
+
+        log(0, 0.90, **{"features.rates": "all"})
+        log(1, 0.92)  # logged before features.rates existed: the same setting
+        log(0, 0.20, **{"classifier.C": "0.001"})
+        out = Path(scratch) / "table4.md"
+        assert report_main(["table4", f"uri={uri}", f"out={out}"]) == 0
+        rows = {row[0]: row for row in table_rows(generated_text(out, GENERATED), "SABO-VMD-SVM")}
+        assert rows["SABO-VMD-SVM (PE-MIE) (classifier.C=1.0)"][2:4] == ["91.00 ± 1.00", "2"]
+        assert rows["SABO-VMD-SVM (PE-MIE) (classifier.C=0.001)"][2:4] == ["20.00 ± 0.00", "1"]
+        assert report_main(["seeds", f"uri={uri}", f"out={out}"]) == 0
+        listed = {row[0]: row[1] for row in table_rows(generated_text(out, GENERATED), "sabo_vmd_pemie+svm")}
+        assert listed == {"sabo_vmd_pemie+svm (classifier.C=1.0)": "0: 90.00, 1: 92.00",
+                          "sabo_vmd_pemie+svm (classifier.C=0.001)": "0: 20.00"}

@@ -276,7 +276,7 @@ def test_table3_says_a_class_without_test_windows_has_no_scores():
 
     metrics = {f"{metric}_{name}": 0.9 for name in paper.TABLE3 if name != "normal" for metric in ("precision", "recall", "f1")}
     run = SimpleNamespace(data=SimpleNamespace(metrics={**metrics, "accuracy": 0.9}))
-    source = SimpleNamespace(settings={}, training_runs=lambda *args, **kwargs: [run])
+    source = SimpleNamespace(settings={}, training_runs=lambda *args, **kwargs: [run], setting=lambda run: "")
     text = table3(source).markdown
     assert "| normal | recall | — | 0.933 | — |" in text
     assert "| inner | recall | 0.900 ± 0.000 |" in text

@@ -36,7 +36,8 @@ from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
-from bearingtwin.tracking.mlflow_logging import find_runs, open_store, stored_config, sweep_run_ids
+from bearingtwin.tracking.mlflow_logging import (PINNED_KEYS, UNHASHED_KEYS, find_runs, open_store, stored_config,
+                                                  sweep_run_ids)
 from bearingtwin.tracking.provenance import SIZE_KEYS, check_replacement, run_size, run_sizes, size_record, size_words
 from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
@@ -64,6 +65,12 @@ class ReportInput:
     settings: dict[str, str]
     used_runs: list = field(default_factory=list)  # every run a table was computed from, for its size record
     left_out: list = field(default_factory=list)  # runs passed over for larger runs of their method, in words
+    setting_labels: dict = field(default_factory=dict)  # run id -> the settings its method's other runs differ in
+
+    def setting(self, run) -> str:
+        """What sets ``run`` apart from its method's runs of another setting (``classifier.C=0.001``); "" where all
+        of them share one (:func:`setting_params`): a table gives each setting a row of its own."""
+        return self.setting_labels.get(run.info.run_id, "")
 
     def training_runs(self, extra_filter: str = "", group_by: Callable = lambda run: (), vmd_params: str | None = None) -> list:
         """FINISHED training runs, newest per (method, seed, ``group_by(run)``).
@@ -89,11 +96,24 @@ class ReportInput:
             found.sort(key=lambda run: -run.info.start_time)
         else:
             found = find_runs(self.client, self.experiment_id, " and ".join(clauses))
+        found = [run for run in found  # newest first
+                 if vmd_params is None or run.data.params.get("features.vmd_params", vmd_params) == vmd_params]
+        # A run of its method at other settings (an ablation's classifier.C) is another row, not another seed.
+        setting = {}
+        for cell_runs in _by_key(found, lambda run: (run.data.tags.get("method"), *group_by(run))).values():
+            shared: list[dict] = []  # each setting's params, as its first run gave them
+            for run in cell_runs:
+                params = setting_params(run)
+                index = next((i for i, other in enumerate(shared) if _same_setting(params, other)), len(shared))
+                shared += [params] if index == len(shared) else []
+                setting[run.info.run_id] = index
+            labels = _setting_labels(shared)
+            for run in cell_runs:
+                if labels[setting[run.info.run_id]]:
+                    self.setting_labels[run.info.run_id] = labels[setting[run.info.run_id]]
         newest = {}
-        for run in found:  # newest first: of a seed's runs the largest, the newest of those
-            if vmd_params is not None and run.data.params.get("features.vmd_params", vmd_params) != vmd_params:
-                continue
-            key = (run.data.tags.get("method"), run.data.tags.get("seed"), *group_by(run))
+        for run in found:  # of a seed's runs the largest, the newest of those
+            key = (run.data.tags.get("method"), run.data.tags.get("seed"), *group_by(run), setting[run.info.run_id])
             if key not in newest or run_size(run) > run_size(newest[key]):
                 newest[key] = run
         # Numbers of smaller runs (a smoke test) are not averaged with a method's full-size ones: each method keeps
@@ -109,6 +129,47 @@ class ReportInput:
                 self.left_out.append(f"{method} seed {seed} ({size_words(run)})")
         self.used_runs.extend(kept)
         return kept
+
+
+SETTING_FREE_KEYS = ("seed", "register", "register_alias", "data.root", "data.labels", *UNHASHED_KEYS, *SIZE_KEYS,
+                     *PINNED_KEYS)
+"""Logged params that do not make another setting of a method: the seed, where a run was registered or read its
+files from (its data's contents are the dataset key's), how it was tracked, how much it computed (a smoke run is
+a smaller run of the same setting: :func:`~bearingtwin.tracking.provenance.run_size`) and with how many processes."""
+
+
+def setting_params(run) -> dict[str, str]:
+    """The params that make a run's setting: all it logged but :data:`SETTING_FREE_KEYS` (and their sub-keys) and
+    those left unset (None)."""
+    return {key: value for key, value in run.data.params.items() if value != "None" and not any(
+        key == free or key.startswith(free + ".") for free in SETTING_FREE_KEYS)}
+
+
+def _same_setting(params: dict[str, str], other: dict[str, str]) -> bool:
+    """Whether two runs share a setting: every param both logged is the same (a param one run's code did not have
+    yet, its default then, is no difference)."""
+    return all(other[key] == value for key, value in params.items() if key in other)
+
+
+def _setting_labels(settings: list[dict[str, str]]) -> list[str]:
+    """Each setting's params that differ among ``settings`` (``k=v, ...``), in key order; one setting needs none."""
+    if len(settings) < 2:
+        return [""] * len(settings)
+    differing = sorted({key for params in settings for key in params
+                        if len({other.get(key) for other in settings if key in other}) > 1})
+    return [", ".join(f"{key}={params[key]}" for key in differing if key in params) for params in settings]
+
+
+def _named(name: str, label: str) -> str:
+    """A row's name, with the settings that set it apart from its method's other rows (:meth:`ReportInput.setting`)."""
+    return f"{name} ({label})" if label else name
+
+
+def _by_key(runs: list, key: Callable) -> dict:
+    grouped: dict[tuple, list] = {}
+    for run in runs:
+        grouped.setdefault(key(run), []).append(run)
+    return grouped
 
 
 Reporter = Callable[[ReportInput], Report]
@@ -160,9 +221,15 @@ def _vmd_params(source: ReportInput) -> str:
 @register("table3", keys=("vmd_params",))
 def table3(source: ReportInput) -> Report:
     """Table 3: per-class precision / recall / F1 of the proposed method over seeds, and accuracy."""
-    runs = source.training_runs(f"tags.method = '{paper.PROPOSED}'", vmd_params=_vmd_params(source))
-    if not runs:
+    found = source.training_runs(f"tags.method = '{paper.PROPOSED}'", vmd_params=_vmd_params(source))
+    if not found:
         raise _missing(f"{paper.PROPOSED} with features.vmd_params={_vmd_params(source)}", source)
+    return Report("\n".join(_table3(runs, label, _vmd_params(source))
+                             for label, runs in _by_key(found, source.setting).items()))
+
+
+def _table3(runs: list, label: str, vmd_params: str) -> str:
+    """Table 3 of one setting's runs (``label``: what sets it apart from the method's other settings, if any)."""
     rows = []
     for name, published in paper.TABLE3.items():
         for metric in ("precision", "recall", "f1"):
@@ -173,8 +240,8 @@ def table3(source: ReportInput) -> Report:
     accuracy = _accuracies(runs)
     rows.append(["all", "accuracy %", _pm(accuracy), f"{paper.ACCURACY_MEAN:.2f} ± {paper.ACCURACY_STD:.2f}", _diff(accuracy, paper.ACCURACY_MEAN)])
     header = ["class", "metric", f"ours (mean ± std, {len(runs)} seeds)", "paper", "ours − paper"]
-    title = f"## Table 3: {paper.TABLE4_NAMES[paper.PROPOSED]}, per class (features.vmd_params={_vmd_params(source)})"
-    return Report(title + "\n\n" + markdown_table(header, rows))
+    title = f"## Table 3: {_named(paper.TABLE4_NAMES[paper.PROPOSED], label)}, per class (features.vmd_params={vmd_params})"
+    return title + "\n\n" + markdown_table(header, rows)
 
 
 @register("table4", keys=("vmd_params",))
@@ -184,10 +251,13 @@ def table4(source: ReportInput) -> Report:
     rows = []
     for method, published in paper.TABLE4.items():
         runs = source.training_runs(f"tags.method = '{method}'", vmd_params=_vmd_params(source))
-        accuracy = _accuracies(runs)
-        latency = [run.data.metrics["inference_ms_per_sample"] for run in runs if "inference_ms_per_sample" in run.data.metrics]
-        ours = [_pm(accuracy), str(len(accuracy)), _diff(accuracy, published)] if accuracy else ["not run", "0", ""]
-        rows.append([paper.TABLE4_NAMES[method], method, ours[0], ours[1], f"{published:.2f}", ours[2], _pm(latency, 1.0) if latency else ""])
+        for label, chosen in (_by_key(runs, source.setting) or {"": []}).items():
+            accuracy = _accuracies(chosen)
+            latency = [run.data.metrics["inference_ms_per_sample"] for run in chosen
+                       if "inference_ms_per_sample" in run.data.metrics]
+            ours = [_pm(accuracy), str(len(accuracy)), _diff(accuracy, published)] if accuracy else ["not run", "0", ""]
+            rows.append([_named(paper.TABLE4_NAMES[method], label), method, ours[0], ours[1], f"{published:.2f}", ours[2],
+                         _pm(latency, 1.0) if latency else ""])
     if all(row[3] == "0" for row in rows):
         raise _missing("any Table 4 method", source)
     header = ["method", "config", "ours accuracy % (mean ± std)", "seeds", "paper %", "ours − paper", "inference ms / sample (CPU)"]
@@ -206,11 +276,11 @@ def vmd_params(source: ReportInput) -> Report:
     if not runs:
         raise _missing(paper.PROPOSED, source)
     rows = []
-    for value in sorted({scope(run)[0] for run in runs}):
-        accuracy = _accuracies(run for run in runs if scope(run)[0] == value)
+    for (value, label), chosen in sorted(_by_key(runs, lambda run: (scope(run)[0], source.setting(run))).items()):
+        accuracy = _accuracies(chosen)
         published = paper.ACCURACY_MEAN if value == "per_class" else None  # the paper's protocol is per class
         rows.append([
-            value,
+            _named(value, label),
             _pm(accuracy),
             str(len(accuracy)),
             "—" if published is None else f"{published:.2f} ± {paper.ACCURACY_STD:.2f}",
@@ -228,10 +298,11 @@ def seeds(source: ReportInput) -> Report:
         raise _missing("any method", source)
     rows = []
     for method in sorted({run.data.tags.get("method") for run in runs}):
-        chosen = sorted((r for r in runs if r.data.tags.get("method") == method), key=lambda r: int(r.data.tags["seed"]))
-        listed = ", ".join(f"{r.data.tags['seed']}: {100 * r.data.metrics['accuracy']:.2f}" for r in chosen)
-        published = ", ".join(f"{a:.2f}" for a in paper.SEED_ACCURACIES) if method == paper.PROPOSED else "—"
-        rows.append([method, listed, _pm(_accuracies(chosen)), published])
+        ordered = sorted((r for r in runs if r.data.tags.get("method") == method), key=lambda r: int(r.data.tags["seed"]))
+        for label, chosen in _by_key(ordered, source.setting).items():
+            listed = ", ".join(f"{r.data.tags['seed']}: {100 * r.data.metrics['accuracy']:.2f}" for r in chosen)
+            published = ", ".join(f"{a:.2f}" for a in paper.SEED_ACCURACIES) if method == paper.PROPOSED else "—"
+            rows.append([_named(method, label), listed, _pm(_accuracies(chosen)), published])
     header = ["method", "ours: seed: accuracy %", "ours mean ± std", "paper (five seeds)"]
     return Report(f"## Accuracy by seed (SABO-VMD features.vmd_params={_vmd_params(source)})\n\n" + markdown_table(header, rows))
 
@@ -303,18 +374,18 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
         raise _missing(f"data.source={data_source}{at} with features.vmd_params={_vmd_params(source)}", source)
     groups: dict[tuple, list] = {}
     for run in runs:
-        groups.setdefault((run.data.tags.get("method"), *group(run)), []).append(run)
+        groups.setdefault((run.data.tags.get("method"), *group(run), source.setting(run)), []).append(run)
     order = sorted(groups, key=lambda key: (key[0], _number(key[1]) is None, _number(key[1]) or 0.0, *key[1:]))
     # A cell (method, condition, split) holding runs on several class sets or recordings: each row says which.
-    several_data = len({key[:3] for key in groups}) < len(groups)
+    several_data = len({key[:3] for key in groups}) < len({key[:5] for key in groups})
     rows, accuracy = [], {}
     for key in order:
-        method, value, split, classes, data = key
+        method, value, split, classes, data, label = key
         chosen = groups[key]
         accuracy[key] = _accuracies(chosen)
         recalls = ", ".join(f"{name} {_recall(chosen, name)}" for name in classes.split())
         names, confusion = _summed_confusion(source, chosen)
-        row = [f"{value} {unit}", split, method, _pm(accuracy[key]), str(len(chosen)), recalls,
+        row = [f"{value} {unit}", split, _named(method, label), _pm(accuracy[key]), str(len(chosen)), recalls,
                _top_confusions(confusion, names)]
         if several_data:
             row.insert(3, f"{classes} (dataset {data[:8]})")
@@ -331,7 +402,8 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
     for method, value, split, *data in order:
         if split == "random" and (method, value, "block", *data) in accuracy:
             random, block = accuracy[(method, value, "random", *data)], accuracy[(method, value, "block", *data)]
-            gaps.append([f"{value} {unit}", method, _pm(random), _pm(block), f"{100 * (np.mean(random) - np.mean(block)):+.2f}"])
+            gaps.append([f"{value} {unit}", _named(method, data[-1]), _pm(random), _pm(block),
+                         f"{100 * (np.mean(random) - np.mean(block)):+.2f}"])
     text = markdown_table(header, rows)
     if gaps:
         text += "\n### Leakage: random − block split\n\n" + markdown_table(
