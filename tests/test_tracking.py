@@ -421,3 +421,29 @@ def test_a_database_whose_driver_is_missing_is_named_with_what_to_install(monkey
         check_store("postgresql+psycopg://x@127.0.0.1:1/db")
     monkeypatch.setattr(sqlalchemy, "create_engine", lambda *args, **kwargs: None)  # installed: nothing to say
     check_store("postgresql+psycopg://x@127.0.0.1:1/db")
+
+
+def test_a_server_that_answers_but_not_as_mlflow_is_named_in_one_line(tmp_path):
+    """Another service on the port (here a plain file server) answers every MLflow request with a page of HTML:
+    opening the store, and loading a model from it, each say so in one line, the page left out."""
+    import http.server
+    import threading
+
+    from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+    from bearingtwin.tracking.mlflow_logging import open_store
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), http.server.SimpleHTTPRequestHandler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    uri = f"http://127.0.0.1:{server.server_address[1]}"
+    try:
+        with pytest.raises(BearingTwinError) as opened:
+            open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin", "artifact_root": None}))
+        with pytest.raises(BearingTwinError) as loaded:
+            load_diagnosis_model("models:/diag@champion", uri)
+    finally:
+        server.shutdown()
+    assert str(opened.value) == (f"tracking.uri={uri}: the server there does not answer as an MLflow tracking server "
+                                 "(API request to endpoint /api/2.0/mlflow/experiments/get-by-name failed with error "
+                                 "code 404 != 200)")
+    assert str(loaded.value).startswith(f"model=models:/diag@champion: cannot load it from {uri} (API request")
+    assert "<" not in str(loaded.value) and "\n" not in str(loaded.value)

@@ -189,7 +189,7 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
     import mlflow
     from mlflow.exceptions import MlflowException
 
-    from bearingtwin.tracking.mlflow_logging import check_store
+    from bearingtwin.tracking.mlflow_logging import check_store, mlflow_reason
 
     check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
     mlflow.set_tracking_uri(tracking_uri)
@@ -197,8 +197,7 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
     try:
         model = mlflow.pyfunc.load_model(model_uri)
     except (MlflowException, OSError) as error:
-        first_line = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({first_line})") from None
+        raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})") from None
     python_model = model.unwrap_python_model()
     if not isinstance(python_model, DiagnosisModel):
         raise BearingTwinError(f"model={model_uri}: not a bearingtwin diagnosis model ({type(python_model).__name__})")

@@ -130,7 +130,14 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
     check_store(uri, must_exist)
     with _sqlite_init_lock(uri):
         client = MlflowClient(tracking_uri=uri)
-        experiment = client.get_experiment_by_name(name)  # creates the schema of a new database
+        try:
+            experiment = client.get_experiment_by_name(name)  # creates the schema of a new database
+        except MlflowException as error:
+            if urlparse(uri).scheme not in ("http", "https"):
+                raise
+            # A server that answers, but not as MLflow's: another service on the port, a proxy's error page.
+            raise BearingTwinError(f"tracking.uri={uri}: the server there does not answer as an MLflow tracking "
+                                   f"server ({mlflow_reason(error)})") from None
         if experiment is not None and experiment.lifecycle_stage == "deleted":  # MLflow refuses runs in it
             raise BearingTwinError(f"tracking.experiment={name}: deleted in {uri}; restore it (mlflow experiments "
                                    f"restore --experiment-id {experiment.experiment_id}), remove it for good (mlflow "
@@ -149,6 +156,12 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
             if experiment is None:
                 raise
             return client, experiment.experiment_id
+
+
+def mlflow_reason(error: Exception) -> str:
+    """An MLflow client error in one line: a server's reply body (often a page of HTML) left out."""
+    text = " ".join(str(error).split("Response body:")[0].split()).rstrip(".")
+    return text or type(error).__name__
 
 
 def check_store(uri: str, must_exist: bool = False) -> None:
