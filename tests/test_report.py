@@ -280,3 +280,12 @@ def test_table3_says_a_class_without_test_windows_has_no_scores():
     text = table3(source).markdown
     assert "| normal | recall | — | 0.933 | — |" in text
     assert "| inner | recall | 0.900 ± 0.000 |" in text
+
+
+def test_help_lists_the_settings_each_report_takes(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--help"])
+    assert exit_.value.code == 0
+    said = " ".join(capsys.readouterr().out.split())
+    assert "Every report takes uri=, experiment=, out=, sweep_dir=, source=, force=" in said
+    assert "repeat: run_id" in said and "table4: vmd_params" in said

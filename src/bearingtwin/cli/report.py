@@ -15,11 +15,17 @@ import sys
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly
-from bearingtwin.tracking.reports import REPORTS, run_report
+from bearingtwin.tracking.reports import COMMON_KEYS, REPORTS, run_report
 
 
 def report_command(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="bearingtwin-report", description=__doc__.splitlines()[0])
+    takes = "; ".join(f"{name}: {', '.join(keys)}" for name, (_, keys) in sorted(REPORTS.items()) if keys)
+    parser = argparse.ArgumentParser(
+        prog="bearingtwin-report", description=__doc__.splitlines()[0],
+        epilog=f"Every report takes {', '.join(f'{key}=' for key in COMMON_KEYS)} (uri: the MLflow store, default "
+               "MLFLOW_TRACKING_URI or mlruns/mlflow.db; out: the markdown file, default results/<name>.md; sweep_dir: "
+               "that sweep's runs only; source: data.source, default simulated, or all; force=true: replace results "
+               f"of larger runs). Further settings by report: {takes}.")
     parser.add_argument("name", help=f"report: {', '.join(sorted(REPORTS))}")
     parser.add_argument("settings", nargs="*", metavar="key=value")
     args = parser.parse_args(argv)
