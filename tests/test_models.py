@@ -1,5 +1,6 @@
 """The classifiers: the paper's CNN-BiLSTM (shape, optimizer, learning, determinism) and the SVM."""
 
+import platform
 from pathlib import Path
 
 import numpy as np
@@ -435,3 +436,42 @@ def test_a_fit_prints_no_warning_of_lightnings_own_use_of_torch():
         warnings.simplefilter("always")
         CnnBiLstmClassifier(max_epochs=1, random_state=0).fit(X, y)
     assert not [w for w in caught if "LeafSpec" in str(w.message)], [str(w.message) for w in caught]
+
+
+_FIT_IN_A_FRESH_PROCESS = """
+import json, sys
+import numpy as np
+import bearingtwin
+import torch
+from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
+rng = np.random.default_rng(0)
+y = np.repeat(np.arange(4), 16)
+X = np.sin(2 * np.pi * (y[:, None] + 1) * 4 * np.arange(256) / 256) + rng.normal(size=(64, 256))
+probabilities = CnnBiLstmClassifier(max_epochs=2, batch_size=16, random_state=0).fit(X, y).predict_proba(X)
+print(json.dumps({"capability": torch.backends.cpu.get_cpu_capability(), "probabilities": probabilities.tolist()}))
+"""
+
+
+@pytest.mark.skipif(platform.machine().lower() not in ("x86_64", "amd64"), reason="the pinned kernels are x86's")
+def test_the_same_seed_gives_the_same_model_whatever_instruction_sets_the_machine_offers():
+    """Importing bearingtwin pins torch's and MKL's CPU kernels before they load: a process that MKL treats as an
+    AVX2-only machine trains the same model as one that may use every instruction set here. A kernel choice the
+    environment makes itself is kept."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from bearingtwin import PINNED_CPU_KERNELS
+
+    unpinned = {name: value for name, value in os.environ.items() if name not in PINNED_CPU_KERNELS}
+
+    def fit(**env):
+        done = subprocess.run([sys.executable, "-c", _FIT_IN_A_FRESH_PROCESS], capture_output=True, text=True,
+                              env={**unpinned, **env}, timeout=600, check=True)
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    here, avx2_only = fit(), fit(MKL_ENABLE_INSTRUCTIONS="AVX2")
+    assert here["capability"] == avx2_only["capability"] == "DEFAULT"
+    assert here["probabilities"] == avx2_only["probabilities"]
+    assert fit(ATEN_CPU_CAPABILITY="avx2")["capability"] == "AVX2"
