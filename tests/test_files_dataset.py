@@ -205,12 +205,12 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     assert sorted(name.rsplit("/", 1)[-1] for name in dataset.records) == ["ball_run1.npy", "normal_run1.npy",
                                                                             "outer_run2.csv"]
     assert f"{tmp_path}: left out notes.csv (its column 'date' holds text ('2024-01-02'), not samples)" in caplog.text
-    # A logger's clock time is named as what it may be.
+    # A logger's clock time is a recording's column: kept, for its reader to name the cell it cannot read.
     (tmp_path / "logger.csv").write_text("Timestamp,acc\n2024-01-02 10:00:00.001,0.1\n2024-01-02 10:00:00.002,0.2\n")
-    assert recordings_and_others(tmp_path)[1]["logger.csv"] == (
-        "its column 'Timestamp' holds text ('2024-01-02 10:00:00.001'), not samples; if it is the samples' time, give "
-        "it in seconds under a header time_s (or time_ms)")
+    assert tmp_path / "logger.csv" in recordings_and_others(tmp_path)[0]
     (tmp_path / "logger.csv").unlink()
+    # A picture the pattern would name is no recording it misses.
+    (tmp_path / "outer_spectrum.png").write_bytes(b"\x89PNG")
     # A hidden file is no recording, whatever its suffix (macOS leaves ._<name> beside every file it copies).
     (tmp_path / "._normal_run1.npy").write_bytes(b"\x00\x05\x16\x07")
     assert "._normal_run1.npy" not in [path.name for path in recordings_and_others(tmp_path)[0]]
@@ -219,8 +219,9 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     with pytest.raises(BearingTwinError, match=r"outer_run3.csv: data.pattern='\^\(\?P<state>\[a-z\]\+\)_' names it a "
                                                r"recording, but it is none \(its column 'status' holds text"):
         build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
-    # Labelled by a table, the tables of notes beside it are named too.
     (tmp_path / "outer_run3.csv").unlink()
+    assert len(build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'")).records) == 3  # the .png passed
+    # Labelled by a table, the tables of notes beside it are named too.
     (tmp_path / "labels.csv").write_text("record,state\nnormal_run1.npy,normal\nball_run1.npy,ball\nouter_run2.csv,outer\n")
     caplog.clear()
     with caplog.at_level("WARNING"):
@@ -372,3 +373,14 @@ def test_many_bad_rows_are_named_by_the_first_three_and_a_count():
 
     assert first_messages(["a", "b"]) == "a; b"
     assert first_messages(["a", "b", "c", "d", "e"]) == "a; b; c; and 2 more"
+
+
+def test_a_file_two_rows_name_is_refused_by_a_reader_of_its_row(tmp_path):
+    """rec.npy and rec both name rec.npy: a command on that file does not take the first row silently."""
+    from bearingtwin.data.real import labels_row
+
+    np.save(tmp_path / "rec.npy", np.zeros(8))
+    (tmp_path / "labels.csv").write_text("record,state\nrec.npy,outer\nrec,inner\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 3: names rec.npy again \(.*labels.csv line 2 names it "
+                                               r"too\); one row per record"):
+        labels_row(tmp_path / "rec.npy")

@@ -270,21 +270,27 @@ def test_a_run_at_other_settings_is_a_row_of_its_own_not_a_seed_that_displaces_t
             run = client.create_run(experiment_id, tags={"bt.kind": "train", "method": "sabo_vmd_pemie+svm",
                                                          "seed": str(seed)})
             logged = {"data.source": "simulated", "features.vmd_params": "global", "classifier.C": "1.0",
-                      "seed": str(seed), "tracking.uri": uri, "data.duration": "30.0", **params}
+                      "seed": str(seed), "tracking.uri": uri, "data.duration": "30.0", "data.fs": "10000.0", **params}
             for key, value in logged.items():
                 client.log_param(run.info.run_id, key, value)
             client.log_metric(run.info.run_id, "accuracy", accuracy)
             client.set_terminated(run.info.run_id, "FINISHED")
 
-        log(0, 0.90, **{"features.rates": "all"})
-        log(1, 0.92)  # logged before features.rates existed: the same setting
+        log(0, 0.90, **{"features.rates": "all", "features.population": "15", "simulator.seed": "0"})
+        log(1, 0.92, **{"simulator.seed": "1"})  # logged before features.rates existed: the same setting
         log(0, 0.20, **{"classifier.C": "0.001"})
+        # A smoke run of the sweep's setting (the features copy the search's size) is a smaller run, left out.
+        log(2, 0.50, **{"data.duration": "2.0", "features.population": "4"})
+        # Another rate is another setting, as another C is.
+        log(3, 0.70, **{"data.fs": "8000.0"})
         out = Path(scratch) / "table4.md"
         assert report_main(["table4", f"uri={uri}", f"out={out}"]) == 0
-        rows = {row[0]: row for row in table_rows(generated_text(out, GENERATED), "SABO-VMD-SVM")}
-        assert rows["SABO-VMD-SVM (PE-MIE) (classifier.C=1.0)"][2:4] == ["91.00 ± 1.00", "2"]
-        assert rows["SABO-VMD-SVM (PE-MIE) (classifier.C=0.001)"][2:4] == ["20.00 ± 0.00", "1"]
+        rows = {row[0]: row[2:4] for row in table_rows(generated_text(out, GENERATED), "SABO-VMD-SVM")}
+        assert rows == {"SABO-VMD-SVM (PE-MIE) (classifier.C=1.0, data.fs=10000.0)": ["91.00 ± 1.00", "2"],
+                        "SABO-VMD-SVM (PE-MIE) (classifier.C=0.001, data.fs=10000.0)": ["20.00 ± 0.00", "1"],
+                        "SABO-VMD-SVM (PE-MIE) (classifier.C=1.0, data.fs=8000.0)": ["70.00 ± 0.00", "1"]}
         assert report_main(["seeds", f"uri={uri}", f"out={out}"]) == 0
         listed = {row[0]: row[1] for row in table_rows(generated_text(out, GENERATED), "sabo_vmd_pemie+svm")}
-        assert listed == {"sabo_vmd_pemie+svm (classifier.C=1.0)": "0: 90.00, 1: 92.00",
-                          "sabo_vmd_pemie+svm (classifier.C=0.001)": "0: 20.00"}
+        assert listed == {"sabo_vmd_pemie+svm (classifier.C=1.0, data.fs=10000.0)": "0: 90.00, 1: 92.00",
+                          "sabo_vmd_pemie+svm (classifier.C=0.001, data.fs=10000.0)": "0: 20.00",
+                          "sabo_vmd_pemie+svm (classifier.C=1.0, data.fs=8000.0)": "3: 70.00"}

@@ -447,3 +447,36 @@ def test_a_server_that_answers_but_not_as_mlflow_is_named_in_one_line(tmp_path):
                                  "code 404 != 200)")
     assert str(loaded.value).startswith(f"model=models:/diag@champion: cannot load it from {uri} (API request")
     assert "<" not in str(loaded.value) and "\n" not in str(loaded.value)
+
+
+def test_a_tracking_server_that_refuses_says_so_in_its_own_words():
+    """An MLflow server that asks for a login (403 with MLflow's JSON error) is no 'other service': its refusal is
+    passed on in one line."""
+    import http.server
+    import json
+    import threading
+
+    from bearingtwin.tracking.mlflow_logging import open_store
+
+    class Refusing(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):
+            body = json.dumps({"error_code": "PERMISSION_DENIED", "message": "Permission denied"}).encode()
+            self.send_response(403)
+            self.send_header("Content-Type", "application/json")
+            self.send_header("Content-Length", str(len(body)))
+            self.end_headers()
+            self.wfile.write(body)
+
+        def log_message(self, *args):
+            pass
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Refusing)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    uri = f"http://127.0.0.1:{server.server_address[1]}"
+    try:
+        with pytest.raises(BearingTwinError) as opened:
+            open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin", "artifact_root": None}))
+    finally:
+        server.shutdown()
+    assert str(opened.value).startswith(f"tracking.uri={uri}: the tracking server refused (")
+    assert "Permission denied" in str(opened.value) and "\n" not in str(opened.value)

@@ -320,7 +320,10 @@ def labels_row(path: Path) -> tuple[str, str, float | None, float | None] | None
     its_own = [message for record, message in bad_rows if names_file(record, path)]
     if its_own:
         raise BearingTwinError(its_own[0])
-    own = next(((where, state, rpm, fs) for where, record, state, rpm, fs in rows if names_file(record, path)), None)
+    naming = [(where, state, rpm, fs) for where, record, state, rpm, fs in rows if names_file(record, path)]
+    if len(naming) > 1:  # rec.npy and rec both name rec.npy
+        raise BearingTwinError(f"{naming[1][0]}: names {path.name} again ({naming[0][0]} names it too); one row per record")
+    own = naming[0] if naming else None
     if bad_rows:
         log.warning("%s: %s; passed over rows of other files that do not read: %s", path.name,
                     f"read its row of {table}" if own else f"{table} has no row for it",
@@ -373,9 +376,9 @@ def why_not_a_recording(path: Path) -> str | None:
         return f"a labels table, columns {','.join(LABEL_COLUMNS[:2])}, not a recording"
     if any(time_column_seconds(name) is not None for name in text.names):
         return None
-    hint = ("; if it is the samples' time, give it in seconds under a header time_s (or time_ms)"
-            if re.search(r"time|stamp", text.name, re.IGNORECASE) else "")  # a logger's clock time
-    return f"its column {text.name!r} holds text ({text.cell!r}), not samples{hint}"
+    if re.search(r"time|stamp", text.name, re.IGNORECASE):  # a logger's clock: a recording, its reader names the column
+        return None
+    return f"its column {text.name!r} holds text ({text.cell!r}), not samples"
 
 
 def warn_left_out(where: str | Path, others: dict[str, str]) -> None:
@@ -400,7 +403,7 @@ def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, Non
         raise BearingTwinError(f"data.pattern={cfg['pattern']!r} has no (?P<state>...) group naming the bearing state")
     paths, others = recordings_and_others(root)
     for name, reason in others.items():  # a training set silently short of a record would be a wrong result
-        if pattern.search(name):
+        if pattern.search(name) and Path(name).suffix.lower() in FORMATS:  # a table of notes, not a picture
             raise BearingTwinError(f"{root / name}: data.pattern={cfg['pattern']!r} names it a recording, but it is "
                                    f"none ({reason}); mend it or move it out of data.root")
     warn_left_out(root, others)

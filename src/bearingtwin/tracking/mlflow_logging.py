@@ -135,9 +135,12 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
         except MlflowException as error:
             if urlparse(uri).scheme not in ("http", "https"):
                 raise
-            # A server that answers, but not as MLflow's: another service on the port, a proxy's error page.
-            raise BearingTwinError(f"tracking.uri={uri}: the server there does not answer as an MLflow tracking "
-                                   f"server ({mlflow_reason(error)})") from None
+            # A reply of HTML: another service on the port, a proxy's page. Else MLflow's own refusal (a login it
+            # asks for, a store it cannot read), said as it says it.
+            body = str(error).split("Response body:", 1)[1].strip(" '\"") if "Response body:" in str(error) else ""
+            what = ("the server there does not answer as an MLflow tracking server" if body.startswith("<")
+                    else "the tracking server refused")
+            raise BearingTwinError(f"tracking.uri={uri}: {what} ({mlflow_reason(error)})") from None
         if experiment is not None and experiment.lifecycle_stage == "deleted":  # MLflow refuses runs in it
             raise BearingTwinError(f"tracking.experiment={name}: deleted in {uri}; restore it (mlflow experiments "
                                    f"restore --experiment-id {experiment.experiment_id}), remove it for good (mlflow "

@@ -36,8 +36,8 @@ from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
-from bearingtwin.tracking.mlflow_logging import (PINNED_KEYS, UNHASHED_KEYS, find_runs, open_store, stored_config,
-                                                  sweep_run_ids)
+from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KEYS, UNHASHED_KEYS, find_runs, open_store,
+                                                  stored_config, sweep_run_ids)
 from bearingtwin.tracking.provenance import SIZE_KEYS, check_replacement, run_size, run_sizes, size_record, size_words
 from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
@@ -99,18 +99,23 @@ class ReportInput:
         found = [run for run in found  # newest first
                  if vmd_params is None or run.data.params.get("features.vmd_params", vmd_params) == vmd_params]
         # A run of its method at other settings (an ablation's classifier.C) is another row, not another seed.
-        setting = {}
-        for cell_runs in _by_key(found, lambda run: (run.data.tags.get("method"), *group_by(run))).values():
-            shared: list[dict] = []  # each setting's params, as its first run gave them
+        setting, differing = {}, {}
+        for (method, *_), cell_runs in _by_key(found, lambda run: (run.data.tags.get("method"), *group_by(run))).items():
+            shared: list[dict] = []  # each setting's params, every key one of its runs logged
             for run in cell_runs:
                 params = setting_params(run)
                 index = next((i for i, other in enumerate(shared) if _same_setting(params, other)), len(shared))
-                shared += [params] if index == len(shared) else []
+                if index == len(shared):
+                    shared.append({})
+                shared[index] = {**params, **shared[index]}  # a key its first run lacked is its from now on
                 setting[run.info.run_id] = index
-            labels = _setting_labels(shared)
-            for run in cell_runs:
-                if labels[setting[run.info.run_id]]:
-                    self.setting_labels[run.info.run_id] = labels[setting[run.info.run_id]]
+            differing.setdefault(method, set()).update(_differing_keys(shared))
+        # Labelled alike in every cell of the method (each split, each load), so that rows of one setting pair up.
+        for run in found:
+            keys = sorted(differing[run.data.tags.get("method")])
+            params = setting_params(run)
+            if keys:
+                self.setting_labels[run.info.run_id] = ", ".join(f"{key}={params[key]}" for key in keys if key in params)
         newest = {}
         for run in found:  # of a seed's runs the largest, the newest of those
             key = (run.data.tags.get("method"), run.data.tags.get("seed"), *group_by(run), setting[run.info.run_id])
@@ -131,18 +136,21 @@ class ReportInput:
         return kept
 
 
-SETTING_FREE_KEYS = ("seed", "register", "register_alias", "data.root", "data.labels", *UNHASHED_KEYS, *SIZE_KEYS,
-                     *PINNED_KEYS)
-"""Logged params that do not make another setting of a method: the seed, where a run was registered or read its
-files from (its data's contents are the dataset key's), how it was tracked, how much it computed (a smoke run is
-a smaller run of the same setting: :func:`~bearingtwin.tracking.provenance.run_size`) and with how many processes."""
+SETTING_FREE_KEYS = ("register", "register_alias", "data.root", "data.labels", *UNHASHED_KEYS, *SIZE_KEYS, *PINNED_KEYS,
+                     "features.population", "features.iterations", "features.search_windows")
+"""Logged params that do not make another setting of a method: where a run was registered or read its files from
+(its data's contents are the dataset key's), how it was tracked, how much it computed (a smoke run is a smaller run
+of the same setting: :func:`~bearingtwin.tracking.provenance.run_size`; the SABO-VMD features copy the search's
+size) and with how many processes. Nor does a seed (``seed``, ``simulator.seed``: any key whose last part is seed)."""
 
 
 def setting_params(run) -> dict[str, str]:
-    """The params that make a run's setting: all it logged but :data:`SETTING_FREE_KEYS` (and their sub-keys) and
-    those left unset (None)."""
-    return {key: value for key, value in run.data.params.items() if value != "None" and not any(
-        key == free or key.startswith(free + ".") for free in SETTING_FREE_KEYS)}
+    """The params that make a run's setting: all it logged but :data:`SETTING_FREE_KEYS` (and their sub-keys), the
+    seeds, and the keys hashed only when set (:data:`HASHED_WHEN_SET_KEYS`) left unset: their null is what their
+    absence computed, while another key's null is a setting of its own."""
+    return {key: value for key, value in run.data.params.items()
+            if key.rsplit(".", 1)[-1] != "seed" and not (value == "None" and key in HASHED_WHEN_SET_KEYS)
+            and not any(key == free or key.startswith(free + ".") for free in SETTING_FREE_KEYS)}
 
 
 def _same_setting(params: dict[str, str], other: dict[str, str]) -> bool:
@@ -151,13 +159,10 @@ def _same_setting(params: dict[str, str], other: dict[str, str]) -> bool:
     return all(other[key] == value for key, value in params.items() if key in other)
 
 
-def _setting_labels(settings: list[dict[str, str]]) -> list[str]:
-    """Each setting's params that differ among ``settings`` (``k=v, ...``), in key order; one setting needs none."""
-    if len(settings) < 2:
-        return [""] * len(settings)
-    differing = sorted({key for params in settings for key in params
-                        if len({other.get(key) for other in settings if key in other}) > 1})
-    return [", ".join(f"{key}={params[key]}" for key in differing if key in params) for params in settings]
+def _differing_keys(settings: list[dict[str, str]]) -> set[str]:
+    """The params whose values differ among ``settings`` (none for one setting)."""
+    return {key for params in settings for key in params
+            if len({other.get(key) for other in settings if key in other}) > 1}
 
 
 def _named(name: str, label: str) -> str:
