@@ -4,6 +4,7 @@ The training step is injected (``train_tracked(..., train=...)``) so these tests
 tracking alone, against a real SQLite MLflow store in a temporary folder.
 """
 
+import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -13,6 +14,7 @@ import pytest
 from mlflow import MlflowClient
 from omegaconf import OmegaConf
 
+from bearingtwin import PINNED_CPU_KERNELS
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.experiment import ExperimentResult
 from bearingtwin.physics.geometry import FAULTS
@@ -145,6 +147,7 @@ def test_a_run_logs_config_metrics_curves_and_tables(tmp_path):
     assert tags["config_hash"] == config_hash(cfg) and tags["dataset_key"] == "data-key"
     assert tags["method"] == "sabo_vmd_pemie+cnn_bilstm" and tags["version.torch"].startswith("2.")
     assert tags["git_commit"]
+    assert tags["cpu_kernels"] == ", ".join(f"{name}={os.environ.get(name, 'the machine')}" for name in PINNED_CPU_KERNELS)
     assert run.data.metrics["recall_normal"] == pytest.approx(0.9)
     curve = client.get_metric_history(run.info.run_id, "train_loss")
     assert sorted((m.step, m.value) for m in curve) == [(0, 1.0), (1, 0.5), (2, pytest.approx(1 / 3))]

@@ -17,6 +17,12 @@ import platform
 PINNED_CPU_KERNELS = {"ATEN_CPU_CAPABILITY": "default", "MKL_CBWR": "COMPATIBLE", "DNNL_MAX_CPU_ISA": "SSE41"}
 
 
+def cpu_kernels() -> str:
+    """The kernel settings this process runs with (``ATEN_CPU_CAPABILITY=default, ...``), as a run records them: a
+    value the environment set before bearingtwin did is what was used."""
+    return ", ".join(f"{name}={os.environ.get(name, 'the machine')}" for name in PINNED_CPU_KERNELS)
+
+
 def _pin_cpu_kernels() -> None:
     if platform.machine().lower() in ("x86_64", "amd64"):  # the variables name x86 instruction sets
         for name, value in PINNED_CPU_KERNELS.items():

@@ -63,6 +63,7 @@ from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
 from bearingtwin.data.build import require_files
+from bearingtwin import cpu_kernels
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.tracking.lifecycle import (
@@ -559,6 +560,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "experiment": cfg.get("protocol") or choices.get("experiment") or "",
         "seed": str(cfg.seed),
         "git_commit": _git_commit(),
+        "cpu_kernels": cpu_kernels(),  # the network's figures are the same wherever these are (bearingtwin/__init__)
         **_versions(),
     }
     if sweep is not None:
