@@ -70,7 +70,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--epochs", type=int, default=10)
     args = parser.parse_args()
-    if platform.machine().lower() not in ("x86_64", "amd64"):
+    from bearingtwin import PINS_CPU_KERNELS
+
+    if not PINS_CPU_KERNELS:
         sys.exit("the pinned kernels are x86's: nothing to compare on this machine")
     settings = {"pinned": dict(os.environ), "native": native_environment()}
     runs: dict[str, list[dict]] = {name: [] for name in settings}

@@ -1,6 +1,5 @@
 """The classifiers: the paper's CNN-BiLSTM (shape, optimizer, learning, determinism) and the SVM."""
 
-import platform
 from pathlib import Path
 
 import numpy as np
@@ -8,6 +7,7 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
+from bearingtwin import PINS_CPU_KERNELS
 from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.build import build_classifier
@@ -452,7 +452,7 @@ print(json.dumps({"capability": torch.backends.cpu.get_cpu_capability(), "probab
 """
 
 
-@pytest.mark.skipif(platform.machine().lower() not in ("x86_64", "amd64"), reason="the pinned kernels are x86's")
+@pytest.mark.skipif(not PINS_CPU_KERNELS, reason="the pinned kernels are x86's")
 def test_the_same_seed_gives_the_same_model_whatever_instruction_sets_the_machine_offers():
     """Importing bearingtwin pins torch's and MKL's CPU kernels before they load: a process that MKL treats as an
     AVX2-only machine trains the same model as one that may use every instruction set here. A kernel choice the

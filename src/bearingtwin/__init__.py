@@ -15,6 +15,8 @@ import os
 import platform
 
 PINNED_CPU_KERNELS = {"ATEN_CPU_CAPABILITY": "default", "MKL_CBWR": "COMPATIBLE", "DNNL_MAX_CPU_ISA": "SSE41"}
+PINS_CPU_KERNELS = platform.machine().lower() in ("x86_64", "amd64")
+"""Whether this machine's kernels are pinned: the variables name x86 instruction sets."""
 
 
 def cpu_kernels() -> str:
@@ -24,7 +26,7 @@ def cpu_kernels() -> str:
 
 
 def _pin_cpu_kernels() -> None:
-    if platform.machine().lower() in ("x86_64", "amd64"):  # the variables name x86 instruction sets
+    if PINS_CPU_KERNELS:
         for name, value in PINNED_CPU_KERNELS.items():
             os.environ.setdefault(name, value)
 

@@ -100,10 +100,11 @@ class ReportInput:
                  if vmd_params is None or run.data.params.get("features.vmd_params", vmd_params) == vmd_params]
         # A run of its method at other settings (an ablation's classifier.C) is another row, not another seed.
         setting, differing = {}, {}
+        params_of = {run.info.run_id: setting_params(run) for run in found}
         for (method, *_), cell_runs in _by_key(found, lambda run: (run.data.tags.get("method"), *group_by(run))).items():
             shared: list[dict] = []  # each setting's params, every key one of its runs logged
             for run in cell_runs:
-                params = setting_params(run)
+                params = params_of[run.info.run_id]
                 index = next((i for i, other in enumerate(shared) if _same_setting(params, other)), len(shared))
                 if index == len(shared):
                     shared.append({})
@@ -113,7 +114,7 @@ class ReportInput:
         # Labelled alike in every cell of the method (each split, each load), so that rows of one setting pair up.
         for run in found:
             keys = sorted(differing[run.data.tags.get("method")])
-            params = setting_params(run)
+            params = params_of[run.info.run_id]
             if keys:
                 self.setting_labels[run.info.run_id] = ", ".join(f"{key}={params[key]}" for key in keys if key in params)
         newest = {}
