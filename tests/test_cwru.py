@@ -97,9 +97,35 @@ def test_a_48_khz_record_named_by_its_number_is_read_at_48_khz(tmp_path):
     assert recording.meta["shaft_line"]["matches"]
 
 
-def test_declared_rate_per_record():
-    assert declared_fs_hz(97, 12000, {97: 48000}) == 48000
-    assert declared_fs_hz(105, 12000, {"97": 48000}) == 12000
+def test_declared_rate_per_record_then_the_name_then_the_default():
+    assert declared_fs_hz("normal_0_97.mat", 12000, {97: 48000}) == 48000
+    assert declared_fs_hz("12k_Drive_End_IR007_0_105.mat", 12000, {"97": 48000}) == 12000
+    # A name that states its rate is read at it whatever data.fs says; data.fs_by_record still overrides it.
+    assert declared_fs_hz("48k_Drive_End_IR007_0_109.mat", 12000) == 48000
+    assert declared_fs_hz("110.mat", 12000) == 48000 and declared_fs_hz("110.mat", 12000, {110: 12000}) == 12000
+    assert declared_fs_hz("IR007_0.mat", 25600) == 25600  # a Data Center label states no rate
+
+
+@needs_data
+def test_training_on_48k_records_reads_them_at_the_rate_their_names_state(tmp_path):
+    """data=cwru with files of the 48 kHz drive-end set: data.fs (12 kHz) is the rate of names that state none."""
+    import scipy.io
+    from scipy.signal import resample_poly
+
+    from bearingtwin.config import compose_config
+    from bearingtwin.data.real import build_cwru_dataset
+
+    for source in ("12k_Drive_End_IR007_1_106", "12k_Drive_End_OR007@6_1_131"):
+        twelve = load_cwru(CWRU / f"{source}.mat")
+        record = int(source.rpartition("_")[2])
+        name = source.replace("12k", "48k")
+        scipy.io.savemat(tmp_path / f"{name}.mat", {f"X{record}_DE_time": resample_poly(twelve.signal, 4, 1)[:, None],
+                                                    f"X{record}RPM": twelve.rpm})
+    cfg = compose_config("train", ["data=cwru", f"data.root={tmp_path}", "data.load=1", "data.classes=[inner,outer]",
+                                   "data.files.inner=48k_Drive_End_IR007", "data.files.outer=48k_Drive_End_OR007@6",
+                                   "data.samples_per_class=4"])
+    dataset = build_cwru_dataset(cfg.data)
+    assert dataset.fs == 48000.0 and dataset.windows.shape == (8, 2048)
 
 
 def strongest_envelope_line_hz(recording, low_hz=10.0, high_hz=400.0):
@@ -203,7 +229,8 @@ def test_training_on_cwru_at_half_the_rate_is_refused():
     from bearingtwin.config import compose_config
     from bearingtwin.data.real import build_cwru_dataset
 
-    cfg = compose_config("train", ["data=cwru", "data.fs=6000", f"data.root={CWRU}"])
+    # The fault records' names state 12 kHz, which data.fs does not override: data.fs_by_record does.
+    cfg = compose_config("train", ["data=cwru", "+data.fs_by_record.105=6000", f"data.root={CWRU}"])
     with pytest.raises(BearingTwinError, match="fs = 6000 Hz contradicts"):
         build_cwru_dataset(cfg.data)
 

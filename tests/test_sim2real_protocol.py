@@ -9,8 +9,10 @@ from mlflow import MlflowClient
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.tracking.sim2real_protocol import (headline_markdown, plot_headline, protocol_headline, protocol_runs,
-                                                    protocol_version, protocol_versions)
+from bearingtwin.tracking.sim2real_protocol import (headline_markdown, per_record_markdown, plot_headline,
+                                                    protocol_headline, protocol_runs,
+                                                    protocol_version, protocol_versions,
+                                                    version_in_force)
 
 CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
 TEST_RECORDS = {"12k_Drive_End_IR007_1_106": 0.75, "12k_Drive_End_OR007@6_1_131": 1.0}
@@ -46,9 +48,10 @@ def test_the_headline_reads_every_seed_of_every_version_and_computes_the_physics
     assert result.physics["normal_0_97"] == "normal" and result.physics_calls_healthy_record_healthy
     newer = protocol_headline(client, experiment_id, "sim2real_v2", CWRU)
     assert newer.seeds == [0] and newer.accuracy == [0.95]
-    table = headline_markdown({"v1 (day 1)": result, "v2 (day 2)": newer})
-    assert "| v1 (day 1) (`+experiment=sim2real_v1`, seeds 0, 1) | 85.0 ± 5.0 |" in table  # mean ± std over the seeds
-    assert "| v2 (day 2) (`+experiment=sim2real_v2`, seeds 0) | 95.0 ± 0.0 |" in table
+    both = {"v1 (day 1)": result, "v2 (day 2)": newer}
+    table = headline_markdown(both, in_force="sim2real_v1") + per_record_markdown(both)
+    assert "| **v1 (day 1), in force** (`+experiment=sim2real_v1`, seeds 0, 1) | 85.0 ± 5.0 |" in table  # mean ± std over seeds
+    assert "| v2 (day 2) (`+experiment=sim2real_v2`, seeds 0) | 95.0 ± 0.0 |" in table  # newer, but not adopted
     assert "(record normal_0_97: healthy)" in table
     # The physics read on the very windows the classifier was scored on: every inner- and outer-race
     # window of these records shows its defect's lines (measured 25 of 25 each); record 97's windows
@@ -71,7 +74,7 @@ def test_every_protocol_version_is_a_dated_file_and_sim2real_selects_the_version
     versions = protocol_versions()
     assert list(versions)[:2] == ["sim2real_v1", "sim2real_v2"] and versions["sim2real_v1"] == "v1 (2026-11-23)"
     (in_force,) = re.findall(r"^  - (sim2real_v\d+)$", (Path(CONF_DIR) / "experiment" / "sim2real.yaml").read_text(), re.M)
-    assert in_force in versions
+    assert in_force in versions and version_in_force() == in_force  # the report's reading of the same file
     with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):
         current = compose("train", overrides=["+experiment=sim2real"])
         named = compose("train", overrides=[f"+experiment={in_force}"])

@@ -257,11 +257,16 @@ def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[st
     return notes
 
 
-def declared_fs_hz(record: int | None, default_hz: float, by_record: dict | None = None) -> float:
-    """The sampling rate declared for ``record``: a per-record entry if any, else the default (a record a name
-    does not number, a Data Center label's, has the default)."""
+def declared_fs_hz(path: str | Path, default_hz: float, by_record: dict | None = None) -> float:
+    """The sampling rate declared for the record at ``path``: its entry in ``by_record`` (record number -> Hz,
+    ``data.fs_by_record``) if any, else the rate its name states (``48k_Drive_End_...``, or the Data Center's
+    catalogue for a number-named file such as ``110.mat``), else ``default_hz`` (``data.fs``; the healthy records'
+    names and the Data Center's labels state no rate)."""
+    name = parse_cwru_name(path)
     by_record = {int(key): float(value) for key, value in (by_record or {}).items()}
-    return float(default_hz) if record is None else by_record.get(int(record), float(default_hz))
+    if name is not None and name.record is not None and name.record in by_record:
+        return by_record[name.record]
+    return float(default_hz) if name is None or name.rate_hz is None else float(name.rate_hz)
 
 
 def load_cwru(

@@ -50,12 +50,11 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
     bearing = load_bearing(cfg["bearing"], "data.bearing") if cfg.get("bearing") else None  # the rate check's second witness
     recordings = []
     for path in paths:
-        record = parse_cwru_name(path).record
         recordings.append(
             load_cwru(
                 path,
                 channel=_get(cfg, "channel"),
-                fs=declared_fs_hz(record, _get(cfg, "fs"), cfg.get("fs_by_record")),
+                fs=declared_fs_hz(path, _get(cfg, "fs"), cfg.get("fs_by_record")),
                 check_fs=bool(_get(cfg, "check_fs")),
                 tolerance=float(_get(cfg, "fs_check_tolerance")),
                 bearing=bearing,

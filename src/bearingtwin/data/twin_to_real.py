@@ -692,7 +692,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
 
     def measured(path: Path) -> Recording:
         if table is None:
-            return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(parse_cwru_name(path).record, cfg["fs"]),
+            return load_cwru(path, channel=cfg["channel"], fs=declared_fs_hz(path, cfg["fs"]),
                              remedy="give its rate in a labels table (data.labels=<csv> with an fs column) or set "
                                     "data.check_fs=false",
                              check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),

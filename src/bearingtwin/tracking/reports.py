@@ -743,7 +743,8 @@ def write_sim2real_protocol(source: ReportInput) -> tuple[str, bool]:
 def _sim2real_protocol(source: ReportInput) -> str:
     """The result of every pre-registered protocol version in the store (``conf/experiment/sim2real_v<N>.yaml``),
     beside the physics baseline, with its figure; "" when none has run."""
-    from bearingtwin.tracking.sim2real_protocol import headline_markdown, plot_headline, protocol_headline, protocol_versions
+    from bearingtwin.tracking.sim2real_protocol import (headline_markdown, per_record_markdown, plot_headline,
+                                                        protocol_headline, protocol_versions, version_in_force)
 
     paths = OmegaConf.create({"paths": OmegaConf.load(Path(CONF_DIR) / "paths" / "default.yaml")})
     data_root = Path(source.settings.get("data_root") or f"{paths.paths.data_root}/cwru")
@@ -753,9 +754,11 @@ def _sim2real_protocol(source: ReportInput) -> str:
     results = {version: result for version, result in headlines.items() if result is not None}  # versions that ran
     if not results:
         return ""
-    figure = plot_headline(results, results_path(source.settings, "sim2real.md").with_name("sim2real_protocol.png"))
-    return (headline_markdown(results)
-            + f"\n![every protocol version against the physics baseline, per fault type]({figure.name})\n\n")
+    in_force = version_in_force()
+    figure = plot_headline(results, results_path(source.settings, "sim2real.md").with_name("sim2real_protocol.png"), in_force)
+    return (headline_markdown(results, in_force)
+            + f"\n![every protocol version against the physics baseline, per fault type]({figure.name})\n\n"
+            + per_record_markdown(results) + "\n")
 
 
 def _plot_sim2real(rows: list[dict], path: Path) -> Path | None:

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 from mlflow import MlflowClient
+from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR, bearing_config, compose_config
 from bearingtwin.data.cwru import load_cwru, parse_cwru_name
@@ -53,6 +54,14 @@ def protocol_versions(conf_dir: str | Path = CONF_DIR) -> dict[str, str]:
             raise BearingTwinError(f"{path}: a protocol version opens with '# Protocol v<N> (<date>)'")
         versions[path.stem] = f"{stated[1]} ({stated[2]})"
     return versions
+
+
+def version_in_force(conf_dir: str | Path = CONF_DIR) -> str | None:
+    """The version ``+experiment=sim2real`` selects (its config name, ``sim2real_v8``), read from the defaults
+    list of ``conf/experiment/sim2real.yaml``; None when that file names no version."""
+    path = Path(conf_dir, "experiment", "sim2real.yaml")
+    defaults = OmegaConf.load(path).get("defaults", []) if path.exists() else []
+    return next((entry for entry in defaults if isinstance(entry, str) and protocol_version(entry)), None)
 
 
 @dataclass
@@ -213,10 +222,17 @@ def _percent(share: float, digits: int) -> str:
     return "—" if math.isnan(share) else f"{100 * share:.{digits}f}"
 
 
-def headline_markdown(results: dict[str, ProtocolResult]) -> str:
-    """One table: each version's test accuracy, per fault type and false alarms, beside the physics
-    baseline; then every test record, one column per version. ``results``: label -> result, oldest first."""
-    rows = [[f"{version} (`+experiment={result.experiment}`, seeds {', '.join(map(str, result.seeds))})",
+def _version_label(version: str, result: ProtocolResult, in_force: str | None) -> str:
+    """"v8 (2026-11-28)", in bold and said to be in force when ``+experiment=sim2real`` selects it."""
+    return f"**{version}, in force**" if result.experiment == in_force else version
+
+
+def headline_markdown(results: dict[str, ProtocolResult], in_force: str | None = None) -> str:
+    """The headline table: each version's test accuracy, per fault type and false alarms, beside the physics
+    baseline. ``results``: label -> result, oldest first; ``in_force``: the config name of the version
+    ``+experiment=sim2real`` selects, marked as such."""
+    rows = [[f"{_version_label(version, result, in_force)} (`+experiment={result.experiment}`, "
+             f"seeds {', '.join(map(str, result.seeds))})",
              _pm(result.accuracy), *(_pm(result.recall[state]) for state in FAULT_CLASSES),
              _pm(result.healthy_called_healthy)] for version, result in results.items()]
     newest = list(results.values())[-1]
@@ -235,20 +251,26 @@ def headline_markdown(results: dict[str, ProtocolResult]) -> str:
                  f"{100 * np.mean(physics_records):.1f} ({sum(physics_records)}/{len(physics_records)} records)",
                  *(_percent(newest.physics_recall(state), 0) for state in FAULT_CLASSES),
                  f"(record {newest.healthy_record}: {'healthy' if newest.physics_calls_healthy_record_healthy else 'not healthy'})"])
-    table = markdown_table(["", "test windows right %", "inner %", "ball %", "outer %",
-                            f"{newest.healthy_record} windows called healthy %"], rows)
+    return markdown_table(["", "test windows right %", "inner %", "ball %", "outer %",
+                           f"{newest.healthy_record} windows called healthy %"], rows)
+
+
+def per_record_markdown(results: dict[str, ProtocolResult]) -> str:
+    """Every test record, one column of windows right per version, beside the physics baseline."""
+    newest = list(results.values())[-1]
     records = sorted(newest.per_record, key=lambda r: (FAULT_CLASSES.index(newest.truth[r]), r))
     record_rows = [[record, newest.truth[record],
                     *(_pm(result.per_record[record]) if record in result.per_record else "-" for result in results.values()),
                     f"{100 * newest.physics_windows[record]:.0f}", newest.physics[record]] for record in records]
     versions = [version.split(" ")[0] for version in results]
-    return table + ("\nPer test record (windows right, mean ± std over seeds; the physics baseline on the newest "
-                    "version's windows and on the whole record):\n\n") + markdown_table(
+    return ("Per test record (windows right, mean ± std over seeds; the physics baseline on the newest "
+            "version's windows and on the whole record):\n\n") + markdown_table(
         ["record", "true state", *(f"{v} windows right %" for v in versions), "physics windows right %", "physics says"], record_rows)
 
 
-def plot_headline(results: dict[str, ProtocolResult], path: Path) -> Path:
-    """Per fault type: each version's window recall (mean and spread over seeds) beside the physics baseline."""
+def plot_headline(results: dict[str, ProtocolResult], path: Path, in_force: str | None = None) -> Path:
+    """Per fault type: each version's window recall (mean and spread over seeds) beside the physics baseline;
+    the version in force (``in_force``, a config name) is named so in the legend."""
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(7.5, 4.4))
@@ -258,7 +280,7 @@ def plot_headline(results: dict[str, ProtocolResult], path: Path) -> Path:
     for index, (version, result) in enumerate(results.items()):
         values = [result.recall[s] for s in FAULT_CLASSES] + [result.healthy_called_healthy]
         axes.bar(x + (index - len(results) / 2) * width, [100 * mean_std(v)[0] for v in values], width,
-                 yerr=[100 * mean_std(v)[1] for v in values], label=f"twin-trained, {version}")
+                 yerr=[100 * mean_std(v)[1] for v in values], label=f"twin-trained, {version}" + (", in force" if result.experiment == in_force else ""))
     newest = list(results.values())[-1]
     physics = [newest.physics_window_recall(s) for s in FAULT_CLASSES] + [newest.physics_windows[newest.healthy_record]]
     axes.bar(x + len(results) / 2 * width, 100 * np.asarray(physics), width,
