@@ -98,8 +98,11 @@ def train(cfg: DictConfig) -> float | None:
         exit_on_user_error(build_effects)(cfg.get("effects"))  # their parameters, before a run is opened
         records = exit_on_user_error(twin_to_real_records)(cfg)  # for the closing summary, as read before the run
     # MLflow, scikit-learn and the models once the input is accepted: a refusal takes a second, not several.
-    from bearingtwin.models.experiment import run_experiment
+    from bearingtwin.models.experiment import checked_settings, run_experiment
     from bearingtwin.tracking.mlflow_logging import method_name, run_name, sweep_info, train_tracked
+
+    if not in_sweep:  # a bad classifier or features value is refused before a run is opened for it
+        exit_on_user_error(checked_settings)(cfg)
 
     sweep = sweep_info(hydra_cfg)
     choices = dict(hydra_cfg.runtime.choices)

@@ -127,6 +127,22 @@ def seed_everything(seed: int) -> None:
     os.environ["PL_SEED_WORKERS"] = "1"
 
 
+def checked_settings(cfg: DictConfig, root_dir: str | None = None) -> tuple[object, list[FeatureGroup]]:
+    """The seeded, unfitted classifier and the feature groups ``cfg`` describes, every setting of the seed, the
+    classifier and the features checked before any data is built: a bad value raises, naming its key.
+    ``root_dir`` is where Lightning may write."""
+    seed = cfg.seed
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
+    seed_everything(seed)
+    classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)
+    # The cached extraction builds its own extractor; this one checks the features' settings, and a choice among
+    # feature groups with nothing to choose.
+    groups = chosen_feature_groups(cfg, build_feature_extractor(cfg.features))
+    check_feature_bearing(cfg)
+    return classifier, groups
+
+
 def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentResult:
     """Train and score the classifier the composed config describes.
 
@@ -140,13 +156,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     ``root_dir`` is where Lightning may write (the Hydra run dir).
     """
     seed = cfg.seed
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
-    seed_everything(seed)
-    classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)  # bad settings fail first
-    groups = chosen_feature_groups(cfg, build_feature_extractor(cfg.features))  # so do the features' (the cached
-    # extraction builds its own), and a choice among them with nothing to choose
-    check_feature_bearing(cfg)
+    classifier, groups = checked_settings(cfg, root_dir)
     dataset = build_dataset(cfg)
     if dataset.fixed_split is not None:
         train, test = dataset.fixed_split
