@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
@@ -28,6 +29,17 @@ TWIN_SMOKE = ["twin.duration=0.5", "compare.envelope_segment_s=0.25", "calibrati
               "calibration.n_trials_effect=3", "calibration.n_trials_refine=3", "ranking.max_effects=1"]
 SERVER_START_TIMEOUT_S = 120
 CHILD_TIMEOUT_S = 600
+
+
+def start_server(server_dir: Path, uri: str, env: dict, log: Path) -> subprocess.Popen:
+    """A team's ``mlflow server`` on ``uri`` (runs in SQLite, artifacts served from ``server_dir``), once it answers."""
+    # The server's own job runner (GenAI evaluation, trace archival) serves nothing here: off, to spare the cores.
+    server = start([sys.executable, "-m", "mlflow", "server", "--backend-store-uri", f"sqlite:///{server_dir / 'db.sqlite'}",
+                    "--artifacts-destination", str(server_dir / "artifacts"), "--host", "127.0.0.1",
+                    "--port", uri.rsplit(":", 1)[1], "--workers", "1"],
+                   {**env, "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false"}, server_dir, log)
+    wait_until_answers(f"{uri}/health", server, log, "mlflow server", SERVER_START_TIMEOUT_S)
+    return server
 
 
 @pytest.fixture(scope="module")
@@ -56,16 +68,11 @@ def team(tmp_path_factory):
         logs[log] = root / f"{log}.log"
         return pool.submit(command)
 
-    server_log = logs["server"] = root / "server.log"
-    # The server's own job runner (GenAI evaluation, trace archival) serves nothing here: off, to spare the cores.
-    server = start([sys.executable, "-m", "mlflow", "server", "--backend-store-uri", f"sqlite:///{server_dir / 'db.sqlite'}",
-                    "--artifacts-destination", str(server_dir / "artifacts"), "--host", "127.0.0.1",
-                    "--port", uri.rsplit(":", 1)[1], "--workers", "1"],
-                   {**env, "MLFLOW_SERVER_ENABLE_JOB_EXECUTION": "false"}, server_dir, server_log)
+    logs["server"] = root / "server.log"
+    server = start_server(server_dir, uri, env, logs["server"])
     try:
         simulate = run("simulate", "simulate", "fault=outer", "simulator.fs=12000", "simulator.duration=2.0",
                        f"out={work / 'outer.npz'}")
-        wait_until_answers(f"{uri}/health", server, server_log, "mlflow server", SERVER_START_TIMEOUT_S)
         sweep = run("sweep", "train", "-m", *SWEEP, f"hydra.sweep.dir={work / 'multirun'}")
         simulate.result()
         twin = run("twin", "twin", f"measured.path={work / 'outer.npz'}", f"out={work / 'twin'}", *TWIN_SMOKE,
@@ -162,3 +169,44 @@ def test_artifacts_live_in_the_servers_store_and_nothing_beside_the_clients(team
     assert {"outer.npz", "multirun", "twin", "diagnosis"} <= written <= {"outer.npz", "multirun", "twin", "diagnosis",
                                                                       "seeds.md", "repeat.md"}
     assert not list(work.rglob("*.db")) and not list(work.rglob("mlruns")) and not list(work.rglob("mlartifacts"))
+
+
+
+
+def test_a_server_that_dies_mid_run_ends_the_training_in_one_line_and_its_run_is_killed_when_it_is_back(tmp_path):
+    """The server goes away while a training runs: the command stops with one line naming the run (MLflow's own
+    retries, two tried here, not the four minutes of its defaults per request), and the next training that finds
+    the server again marks the orphaned run KILLED."""
+    server_dir, work = tmp_path / "server", tmp_path / "client"
+    server_dir.mkdir()
+    work.mkdir()
+    uri = f"http://127.0.0.1:{free_loopback_port()}"
+    env = child_env(uri, MLFLOW_HTTP_REQUEST_MAX_RETRIES="2")
+    server = start_server(server_dir, uri, env, tmp_path / "server.log")
+    pool = ThreadPoolExecutor(max_workers=1)
+    try:
+        # Long enough to be caught running: the network trains for many epochs on the smoke data set.
+        training = pool.submit(run_module, "bearingtwin.cli.train", *SMOKE, "classifier=cnn_bilstm",
+                               "trainer.max_epochs=400", cwd=work, env=env, timeout=CHILD_TIMEOUT_S)
+        client = MlflowClient(uri)
+        deadline = time.monotonic() + 300
+        running = []
+        while not running and time.monotonic() < deadline and not training.done():
+            time.sleep(0.5)
+            experiment = client.get_experiment_by_name("bearingtwin")
+            running = [] if experiment is None else client.search_runs([experiment.experiment_id], "attributes.status = 'RUNNING'")
+        assert running, "the training never showed a RUNNING run"
+        stop(server)
+        done = training.result()
+        assert done.returncode == 2, done.stdout[-2000:] + done.stderr[-2000:]
+        (line,) = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+        assert f"the tracking server stopped answering during run {running[0].info.run_id}" in line
+        assert "Traceback" not in done.stderr
+        server = start_server(server_dir, uri, env, tmp_path / "server_again.log")
+        again = run_module("bearingtwin.cli.train", *SMOKE, "classifier=svm", cwd=work, env=env, timeout=CHILD_TIMEOUT_S)
+        assert_done(again, "bearingtwin-train after the server came back")
+        assert client.get_run(running[0].info.run_id).info.status == "KILLED"
+    finally:
+        kill_running_commands()
+        pool.shutdown(cancel_futures=True)
+        stop(server)

@@ -71,6 +71,11 @@ def register_open_run(client: MlflowClient, run_id: str, label: str = "run", wit
     _open_runs.append(OpenRun(client, run_id, label, with_children))
 
 
+def forget_open_run(run_id: str) -> None:
+    """Stop closing ``run_id`` for this process: its store can no longer be reached (a tracking server gone)."""
+    _open_runs[:] = [run for run in _open_runs if run.run_id != run_id]
+
+
 def close_open_runs(status: str) -> list[str]:
     """Mark every registered run still RUNNING (and, for a sweep, its RUNNING children) ``status``.
 
