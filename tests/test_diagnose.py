@@ -2,11 +2,13 @@
 evidence, and ``bearingtwin-diagnose`` end to end on real CWRU records and generated files."""
 
 import csv
+import dataclasses
 import json
 import os
 import re
 import subprocess
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -81,6 +83,54 @@ def test_saved_pipelines_predict_exactly_as_the_fitted_ones(tmp_path):
         cnn_pipeline.predict(X)
     with pytest.raises(BearingTwinError, match=r"shape \(n, 2048\)"):
         svm_pipeline.predict(X[:, :1000])
+
+
+def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_and_an_unseen_level_is_named(tmp_path):
+    """Units (standard gravity between g and m/s^2) and levels travel with the saved pipeline: a record stated in
+    g is converted to the model's m/s^2 and then diagnosed exactly as the same vibration in m/s^2; one stated in
+    a unit that is no acceleration's is read as it is, and said so; windows a thousand times the training ones'
+    level are named, as a unit or gain the model never saw, while the training windows themselves are not."""
+    from bearingtwin.diagnosis.record import in_model_unit
+    from bearingtwin.models.experiment import training_window_level
+
+    X, y = class_windows()
+    vmd = SaboVmdFeatures(population=3, iterations=1, search_windows=2, vmd_options={"max_iter": 60}, progress=False)
+    level = training_window_level(SimpleNamespace(windows=X, window_normalization="none"), np.arange(len(X)))
+    fitted = DiagnosisPipeline(vmd.fit(X, y), SvmClassifier().fit(vmd.transform(X), y), 2048, FS, bearing=BEARING,
+                               unit="m/s^2", window_level=level)
+    pipeline = DiagnosisPipeline.load(fitted.save(tmp_path / "model"))
+    assert pipeline.unit == "m/s^2" and pipeline.window_level == pytest.approx(level)
+    signal = X[16:20].ravel()  # four inner-race windows, in m/s^2
+    in_g = Recording(signal / 9.80665, FS, unit="G")  # a logger's spelling of g
+    converted, notes = in_model_unit(in_g, pipeline)
+    assert notes == ["converted from g to m/s^2, the unit the model was trained in (x 9.80665)"]
+    np.testing.assert_allclose(converted.signal, signal, rtol=1e-12)
+    np.testing.assert_allclose(pipeline.predict_proba(converted.signal.reshape(4, 2048)),
+                               pipeline.predict_proba(X[16:20]), atol=1e-9)
+    as_is, notes = in_model_unit(Recording(signal, FS, unit="V"), pipeline)
+    assert as_is.signal is signal and notes == ["the record is in V, the model was trained on windows in m/s^2: read as it is"]
+    assert in_model_unit(Recording(signal, FS), pipeline)[1] == []  # a record that states no unit: nothing to do
+    assert pipeline.level_note(X) is None
+    assert "lies outside ten times the range of the model's training windows" in pipeline.level_note(1000 * X)
+    normalizing = dataclasses.replace(pipeline, window_normalization="zscore", window_level=None)
+    assert normalizing.level_note(1000 * X) is None and in_model_unit(in_g, normalizing)[1] == []
+
+
+def test_windows_of_records_in_g_and_in_m_s2_are_brought_to_one_unit():
+    from bearingtwin.data.real import windows_from_recordings
+
+    signal = fault_signal(None, seconds=1.0)
+    in_g = Recording(signal / 9.80665, FS, fault="normal", unit="g", source="a.npz")
+    in_si = Recording(signal, FS, fault="inner", unit="m/s^2", source="b.npz")
+    dataset = windows_from_recordings([in_g, in_si], 2048, 2, "data.windows_per_record", "key")
+    assert dataset.unit == "m/s^2"
+    np.testing.assert_allclose(dataset.windows[:2], dataset.windows[2:], rtol=1e-12)  # the same vibration
+    both_g = windows_from_recordings([in_g, dataclasses.replace(in_si, signal=signal / 9.80665, unit="g")], 2048, 2,
+                                     "data.windows_per_record", "key")
+    assert both_g.unit == "g" and np.allclose(both_g.windows[0], signal[:2048] / 9.80665)
+    unstated = windows_from_recordings([in_g, dataclasses.replace(in_si, unit="")], 2048, 2, "data.windows_per_record",
+                                       "key")
+    assert unstated.unit == ""
 
 
 def test_a_per_class_pipeline_refuses_to_diagnose(tmp_path):
@@ -428,6 +478,8 @@ def test_diagnose_a_cwru_record_by_registry_alias(registered, tmp_path):
     states = [w["state"] for w in result["windows"]]
     assert result["share"] == pytest.approx(states.count(result["verdict"]) / len(states))
     assert result["evidence_state"] == "outer" and result["evidence"]["prominence_db"]["outer"] > 20  # a clear BPFO series
+    # The model learnt the twin's m/s^2; the record is in g: read as the same vibration in the model's unit.
+    assert "converted from g to m/s^2, the unit the model was trained in (x 9.80665)" in result["notes"]
     assert result["agree"] == (result["verdict"] == "outer")
     assert (tmp_path / "out" / record.stem / "diagnosis.png").stat().st_size > 10_000
     assert record.stem in done.stdout and "mlflow ui --backend-store-uri" in done.stdout

@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path, PurePath
 
 import csv
+import dataclasses
 import logging
 import re
 
@@ -29,6 +30,7 @@ from bearingtwin.data.csv_file import text_column
 from bearingtwin.data.files import FORMATS, load_recording, time_column_seconds
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset
+from bearingtwin.data.units import acceleration_unit, convert_acceleration
 from bearingtwin.data.windows import SPLITS, check_train_fraction, check_windows_fit, cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
@@ -448,6 +450,7 @@ def windows_from_recordings(
                 f"{recording.source}: {recording.signal.size} samples, shorter than one window of {window_length}"
             )
     check_windows_fit(len(recordings), window_length, windows_per_record, count_key)
+    recordings, unit = in_one_unit(recordings)
     windows, labels, record_ids, starts, lengths = [], [], [], [], []
     for index, recording in enumerate(recordings):
         cut, first = cut_windows(recording.signal, window_length, windows_per_record)
@@ -468,7 +471,21 @@ def windows_from_recordings(
         record_lengths=lengths,
         # Shaft speeds when every record states one (CWRU): features on the shaft-order axis need them.
         record_rpms=None if any(r.rpm is None for r in recordings) else [float(r.rpm) for r in recordings],
+        unit=unit,
     )
+
+
+def in_one_unit(recordings: list[Recording]) -> tuple[list[Recording], str]:
+    """The recordings in one unit, and its name: the one they share ("" when they state none or differ in a unit
+    that is not an acceleration's); m/s^2 when they state different acceleration units (g and m/s^2)."""
+    units = {acceleration_unit(recording.unit) for recording in recordings}
+    if None in units:
+        stated = {recording.unit for recording in recordings}
+        return recordings, stated.pop() if len(stated) == 1 else ""
+    if len(units) == 1:
+        return recordings, units.pop()
+    return [dataclasses.replace(recording, signal=convert_acceleration(recording.signal, recording.unit, "m/s^2"),
+                                unit="m/s^2") for recording in recordings], "m/s^2"
 
 
 def dataset_key(paths: list[Path], cfg: dict) -> str:

@@ -122,6 +122,8 @@ class WindowedDataset:
             (``calibration_*`` metrics) and never trained on; empty when the source has none.
         window_normalization: what was done to every window after cutting (``none`` or ``zscore``,
             :func:`bearingtwin.data.windows.normalize_windows`); a diagnosis repeats it.
+        unit: physical unit of the windows (``m/s^2``, ``g``); "" when the records do not state one. A
+            diagnosis brings a record stated in another acceleration unit to it.
     """
 
     windows: np.ndarray
@@ -137,6 +139,7 @@ class WindowedDataset:
     record_rpms: list[float] | None = None
     validation: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     window_normalization: str = "none"
+    unit: str = ""
 
     def __post_init__(self) -> None:
         n = len(self.windows)

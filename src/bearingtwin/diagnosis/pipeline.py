@@ -32,6 +32,8 @@ from bearingtwin.features.extractor import EXTRACTORS
 from bearingtwin.physics.geometry import FAULTS
 
 FORMAT = 1  # bump when the saved layout changes
+LEVEL_FACTOR = 10.0
+"""How far outside the training windows' levels a record may lie before a diagnosis says so."""
 PIPELINE_FILE = "pipeline.json"
 
 
@@ -48,6 +50,9 @@ class DiagnosisPipeline:
         window_normalization: ``none`` or ``zscore`` (:func:`normalize_windows`).
         bearing: the bearing config of the data (geometry: defect frequencies).
         config: the resolved training config; ``config_hash`` its hash.
+        unit: the unit of the training windows (``m/s^2``, ``g``; "" when the data did not state one).
+        window_level: the 5th and 95th percentiles of the training windows' standard deviation, in ``unit``:
+            the levels the classifier has seen; None when the windows are normalized (any level is alike).
     """
 
     extractor: object
@@ -58,6 +63,8 @@ class DiagnosisPipeline:
     bearing: dict = field(default_factory=dict)
     config: dict = field(default_factory=dict)
     config_hash: str = ""
+    unit: str = ""
+    window_level: tuple[float, float] | None = None
 
     @property
     def class_names(self) -> list[str]:
@@ -106,6 +113,21 @@ class DiagnosisPipeline:
                                    "overflow them; give the record in a unit that keeps its values within 1e150")
         return features
 
+    def level_note(self, windows: np.ndarray) -> str | None:
+        """What to say when raw ``windows`` (n, window_length) stand a decade or more above or below the levels the
+        model was trained on (:attr:`window_level`): a unit or gain the model did not see, which every
+        amplitude-dependent feature reads as another state. None when they do not, or the model normalizes."""
+        if self.window_level is None:
+            return None
+        level = float(np.median(np.std(windows, axis=1)))
+        low, high = self.window_level
+        if low / LEVEL_FACTOR <= level <= high * LEVEL_FACTOR:
+            return None
+        unit = f" {self.unit}" if self.unit else ""
+        return (f"the record's level (median window standard deviation {level:.3g}{unit}) lies outside ten times the "
+                f"range of the model's training windows ({low:.3g}-{high:.3g}{unit}): check the record's unit and "
+                "gain; the model reads amplitudes as it learnt them")
+
     def _extractor_at(self, bearing: dict | None):
         """The defect-order extractor reading ``bearing``'s orders (the model's own for None or the same bearing)."""
         if bearing and bearing != self.extractor.bearing:
@@ -145,6 +167,8 @@ class DiagnosisPipeline:
             "bearing": self.bearing,
             "config_hash": self.config_hash,
             "config": self.config,
+            "unit": self.unit,
+            "window_level": None if self.window_level is None else [float(v) for v in self.window_level],
             "extractor": _extractor_state(self.extractor),
             "classifier": _save_classifier(self.classifier, folder),
         }
@@ -169,6 +193,8 @@ class DiagnosisPipeline:
             bearing=meta["bearing"],
             config=meta["config"],
             config_hash=meta["config_hash"],
+            unit=meta.get("unit", ""),  # models saved before these were recorded: unit and levels unknown
+            window_level=None if meta.get("window_level") is None else tuple(meta["window_level"]),
         )
 
 

@@ -32,6 +32,7 @@ from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
+from bearingtwin.data.units import METRES_PER_S2, acceleration_unit, convert_acceleration
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
@@ -108,6 +109,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     if not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9):
         recording, note = resample_to(recording, pipeline.fs_hz)
         notes.append(note)
+    recording, unit_notes = in_model_unit(recording, pipeline)
+    notes += unit_notes
     if recording.signal.size < pipeline.window_length:
         raise BearingTwinError(
             f"{recording.source}: {recording.duration:.3f} s, shorter than one window of the model's "
@@ -219,6 +222,24 @@ def _matches(checks, rate: float) -> bool:
         return False
 
 
+def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Recording, list[str]]:
+    """The recording in the unit the model was trained in, where both state acceleration units (g, m/s^2), and
+    what was done or could not be; as it is when the model normalizes its windows (any unit is alike to it)."""
+    if pipeline.window_normalization != "none" or not (recording.unit and pipeline.unit):
+        return recording, []
+    units = acceleration_unit(recording.unit), acceleration_unit(pipeline.unit)
+    if None in units:
+        if recording.unit == pipeline.unit:
+            return recording, []
+        return recording, [f"the record is in {recording.unit}, the model was trained on windows in {pipeline.unit}: "
+                           "read as it is"]
+    if units[0] == units[1]:
+        return recording, []
+    converted = dataclasses.replace(recording, signal=convert_acceleration(recording.signal, *units), unit=units[1])
+    return converted, [f"converted from {units[0]} to {units[1]}, the unit the model was trained in "
+                       f"(x {METRES_PER_S2[units[0]] / METRES_PER_S2[units[1]]:.6g})"]
+
+
 def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]:
     """The recording at ``target_fs`` by polyphase resampling (``scipy.signal.resample_poly``), and a note."""
     ratio = Fraction(target_fs / recording.fs).limit_denominator(MAX_RESAMPLE_DENOMINATOR)
@@ -247,6 +268,9 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     windows, starts = record_windows(recording.signal, pipeline.window_length)
     params = {"rpm": float(recording.rpm or 0.0)}
     notes = list(prepared.notes)
+    level = pipeline.level_note(windows)
+    if level:
+        notes.append(level)
     if prepared.bearing and prepared.bearing != pipeline.bearing:
         if not pipeline.needs_rpm:
             notes.append("the model's features do not depend on the bearing")

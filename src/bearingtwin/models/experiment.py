@@ -220,8 +220,18 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
             window_normalization=dataset.window_normalization,
             bearing=data_bearing(cfg),
             config=plain_config(cfg),
+            unit=dataset.unit,
+            window_level=training_window_level(dataset, train),
         ),
     )
+
+
+def training_window_level(dataset, train: np.ndarray) -> tuple[float, float] | None:
+    """The 5th and 95th percentiles of the training windows' standard deviation (None for normalized windows)."""
+    if dataset.window_normalization != "none":
+        return None
+    low, high = np.percentile(np.std(dataset.windows[train], axis=1), [5, 95])
+    return float(low), float(high)
 
 
 @dataclass(frozen=True)
