@@ -99,11 +99,12 @@ def test_a_48_khz_record_named_by_its_number_is_read_at_48_khz(tmp_path):
 
 def test_declared_rate_per_record_then_the_name_then_the_default():
     assert declared_fs_hz("normal_0_97.mat", 12000, {97: 48000}) == 48000
-    assert declared_fs_hz("12k_Drive_End_IR007_0_105.mat", 12000, {"97": 48000}) == 12000
+    assert declared_fs_hz("12k_Drive_End_IR007_0_105.mat", 48000, {"97": 48000}) == 12000  # the name's, not data.fs
     # A name that states its rate is read at it whatever data.fs says; data.fs_by_record still overrides it.
     assert declared_fs_hz("48k_Drive_End_IR007_0_109.mat", 12000) == 48000
     assert declared_fs_hz("110.mat", 12000) == 48000 and declared_fs_hz("110.mat", 12000, {110: 12000}) == 12000
     assert declared_fs_hz("IR007_0.mat", 25600) == 25600  # a Data Center label states no rate
+    assert declared_fs_hz("400.mat", 12000, {400: 48000}) == 48000  # a number the catalogue lacks: still its record
 
 
 @needs_data

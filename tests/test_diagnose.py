@@ -111,7 +111,7 @@ def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_
     assert as_is.signal is signal and notes == ["the record is in V, the model was trained on windows in m/s^2: read as it is"]
     assert in_model_unit(Recording(signal, FS), pipeline)[1] == []  # a record that states no unit: nothing to do
     assert pipeline.level_note(X) is None
-    assert "lies outside ten times the range of the model's training windows" in pipeline.level_note(1000 * X)
+    assert "lies more than 10 times above the 5-95 % range of the model's training windows" in pipeline.level_note(1000 * X)
     normalizing = dataclasses.replace(pipeline, window_normalization="zscore", window_level=None)
     assert normalizing.level_note(1000 * X) is None and in_model_unit(in_g, normalizing)[1] == []
 

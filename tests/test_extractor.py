@@ -185,8 +185,11 @@ def test_configs_build_the_paper_settings_and_unknown_values_fail():
         build_feature_extractor(compose_features("sabo_vmd_pemie", "features.k_range=[1,3]"))
     with pytest.raises(BearingTwinError, match=r"^features.alpha_range must be two numbers"):
         build_feature_extractor(compose_features("sabo_vmd_pemie", "features.alpha_range=[3000,100]"))
-    with pytest.raises(BearingTwinError, match="^search.population must be a positive integer, got 'abc'$"):
+    with pytest.raises(BearingTwinError, match="^search.population must be an integer of at least 2, got 'abc'$"):
         build_feature_extractor(compose_features("sabo_vmd_pemie", "search.population=abc"))
+    with pytest.raises(BearingTwinError, match="^search.population must be an integer of at least 2, got 1$"):
+        build_feature_extractor(compose_features("sabo_vmd_pemie", "search.population=1"))  # SABO's agents need another
+    assert build_feature_extractor(compose_features("sabo_vmd_pemie", "optimizer=tpe", "search.population=1")).population == 1
     with pytest.raises(BearingTwinError, match="^features.vmd_options.tolerance is not an option of VMD; known: dc, init"):
         build_feature_extractor({**OmegaConf.to_container(compose_features("sabo_vmd_pemie"), resolve=True),
                                  "vmd_options": {"tolerance": 1e-7}})

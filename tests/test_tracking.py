@@ -488,14 +488,15 @@ def test_a_tracking_server_that_refuses_says_so_in_its_own_words():
 
 
 def test_a_tracking_servers_requests_give_up_in_half_a_minute_unless_the_environment_says_otherwise(monkeypatch):
-    """MLflow's own settings, read as MLflow reads them: 5 tries waiting 1, 2, 4, 8, 16 s (its defaults: 7 tries
-    from 2 s, about 4 min per request); a user's own values are kept."""
+    """MLflow's own settings, read as MLflow reads them: 5 retries at a backoff factor of 1 (waits of up to 2, 4, 8,
+    16 s; its defaults: 7 at 2, about 4 min per refused request); a user's own values are kept."""
     from mlflow.environment_variables import MLFLOW_HTTP_REQUEST_BACKOFF_FACTOR, MLFLOW_HTTP_REQUEST_MAX_RETRIES
 
     from bearingtwin.tracking.mlflow_logging import bound_http_retries
 
-    monkeypatch.delenv("MLFLOW_HTTP_REQUEST_MAX_RETRIES", raising=False)
-    monkeypatch.delenv("MLFLOW_HTTP_REQUEST_BACKOFF_FACTOR", raising=False)
+    for name in ("MLFLOW_HTTP_REQUEST_MAX_RETRIES", "MLFLOW_HTTP_REQUEST_BACKOFF_FACTOR"):
+        monkeypatch.setenv(name, "")  # recorded, so that what bound_http_retries sets is undone after the test
+        monkeypatch.delenv(name)
     assert (MLFLOW_HTTP_REQUEST_MAX_RETRIES.get(), MLFLOW_HTTP_REQUEST_BACKOFF_FACTOR.get()) == (7, 2)
     bound_http_retries()
     assert (MLFLOW_HTTP_REQUEST_MAX_RETRIES.get(), MLFLOW_HTTP_REQUEST_BACKOFF_FACTOR.get()) == (5, 1)

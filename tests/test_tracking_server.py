@@ -171,8 +171,6 @@ def test_artifacts_live_in_the_servers_store_and_nothing_beside_the_clients(team
     assert not list(work.rglob("*.db")) and not list(work.rglob("mlruns")) and not list(work.rglob("mlartifacts"))
 
 
-
-
 def test_a_server_that_dies_mid_run_ends_the_training_in_one_line_and_its_run_is_killed_when_it_is_back(tmp_path):
     """The server goes away while a training runs: the command stops with one line naming the run (MLflow's own
     retries, two tried here, not the four minutes of its defaults per request), and the next training that finds

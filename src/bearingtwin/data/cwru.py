@@ -263,9 +263,11 @@ def declared_fs_hz(path: str | Path, default_hz: float, by_record: dict | None =
     catalogue for a number-named file such as ``110.mat``), else ``default_hz`` (``data.fs``; the healthy records'
     names and the Data Center's labels state no rate)."""
     name = parse_cwru_name(path)
+    stem = Path(path).stem
+    record = name.record if name is not None else (int(stem) if stem.isdigit() else None)  # as read_cwru_raw reads it
     by_record = {int(key): float(value) for key, value in (by_record or {}).items()}
-    if name is not None and name.record is not None and name.record in by_record:
-        return by_record[name.record]
+    if record in by_record:
+        return by_record[record]
     return float(default_hz) if name is None or name.rate_hz is None else float(name.rate_hz)
 
 

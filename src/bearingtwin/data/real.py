@@ -450,7 +450,9 @@ def windows_from_recordings(
                 f"{recording.source}: {recording.signal.size} samples, shorter than one window of {window_length}"
             )
     check_windows_fit(len(recordings), window_length, windows_per_record, count_key)
-    recordings, unit = in_one_unit(recordings)
+    converted, unit = in_one_unit(recordings)
+    if converted is not recordings:  # other windows than the files' own numbers: another key (and feature cache)
+        recordings, key = converted, content_key({"records": key, "unit": unit})
     windows, labels, record_ids, starts, lengths = [], [], [], [], []
     for index, recording in enumerate(recordings):
         cut, first = cut_windows(recording.signal, window_length, windows_per_record)

@@ -629,9 +629,9 @@ def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | 
     return recording
 
 
-def _check_rates(recordings: list[Recording], twin_fs: float) -> None:
+def _check_rates(recordings: list[Recording], twin_fs: float, labelled: bool) -> None:
     """Every record must be at the rate the twin simulates at (``data.fs``): one that is not is named, with the
-    rate to set when all records share one."""
+    rate to set when all records share one; ``labelled``: the records come from a labels table."""
     off = [r for r in recordings if not math.isclose(r.fs, twin_fs)]
     if not off:
         return
@@ -642,8 +642,11 @@ def _check_rates(recordings: list[Recording], twin_fs: float) -> None:
         raise BearingTwinError(f"{off[0].source}: recorded at {off[0].fs:g} Hz, where the twin simulates at "
                                f"data.fs={twin_fs:g} Hz; set data.fs={off[0].fs:g}")
     at = ", ".join(f"{rate:g} Hz ({name}, ...)" for rate, name in rates.items())
-    raise BearingTwinError(f"data.labels: the records are at {at}; the twin simulates at one rate (data.fs): label only "
-                           "the records of one rate, or resample them to it")
+    if labelled:
+        raise BearingTwinError(f"data.labels: the records are at {at}; the twin simulates at one rate (data.fs): label "
+                               "only the records of one rate, or resample them to it")
+    raise BearingTwinError(f"the records are at {at}; the twin simulates at one rate (data.fs): choose records of one "
+                           "rate (data.files, data.calibration.records: all 12k_... or all 48k_...)")
 
 
 def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> WindowedDataset:
@@ -703,7 +706,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
 
     tests = [measured(path) for path in test_paths]
     calibration_records = {path: measured(path) for path in calibration_paths}
-    _check_rates(tests + list(calibration_records.values()), twin_fs)
+    _check_rates(tests + list(calibration_records.values()), twin_fs, labelled=table is not None)
     reports = [("data.calibration", cfg["calibration"]["record"], cfg["calibration"]["report"])]
     healthy = cfg["calibration"].get("healthy") or {}
     if healthy.get("step"):

@@ -145,7 +145,7 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
             pip_requirements=_requirements(),
             metadata={"window_length": pipeline.window_length, "fs_hz": pipeline.fs_hz,
                       "class_names": pipeline.class_names, "config_hash": pipeline.config_hash,
-                      "can_diagnose": can_diagnose},
+                      "can_diagnose": can_diagnose, "unit": pipeline.unit},
         )
 
 

@@ -124,9 +124,10 @@ class DiagnosisPipeline:
         if low / LEVEL_FACTOR <= level <= high * LEVEL_FACTOR:
             return None
         unit = f" {self.unit}" if self.unit else ""
-        return (f"the record's level (median window standard deviation {level:.3g}{unit}) lies outside ten times the "
-                f"range of the model's training windows ({low:.3g}-{high:.3g}{unit}): check the record's unit and "
-                "gain; the model reads amplitudes as it learnt them")
+        side = "above" if level > high else "below"
+        return (f"the record's level (median window standard deviation {level:.3g}{unit}) lies more than "
+                f"{LEVEL_FACTOR:g} times {side} the 5-95 % range of the model's training windows ({low:.3g}-{high:.3g}"
+                f"{unit}): check the record's unit and gain; the model reads amplitudes as it learnt them")
 
     def _extractor_at(self, bearing: dict | None):
         """The defect-order extractor reading ``bearing``'s orders (the model's own for None or the same bearing)."""

@@ -125,7 +125,8 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
                 raise BearingTwinError(f"{key}={getattr(self, name)!r} is not known; choose one of {', '.join(allowed)}")
         whole_number("search.windows", self.search_windows)  # features.search_windows is ${search.windows}
         whole_number("features.seed", self.seed, minimum=0)  # numpy's SeedSequence takes no negative seed
-        whole_number("search.population", self.population)  # features.population is ${search.population}
+        # features.population is ${search.population}; SABO's agents learn from one another: it needs two (optim/sabo.py)
+        whole_number("search.population", self.population, minimum=2 if self.optimizer == "sabo" else 1)
         whole_number("search.iterations", self.iterations)
         try:
             vmd_search_space(self.k_range, self.alpha_range)

@@ -252,12 +252,15 @@ def server_silence(uri: str) -> str | None:
 
 
 def bound_http_retries() -> None:
-    """Let a request to a tracking server that went away fail in about half a minute, not four.
+    """Let a request to a tracking server that went away (its connections refused) fail in about half a minute,
+    not four.
 
-    MLflow retries a request 7 times, waiting 2 s doubling up to 2 min between tries (about 4 min), and every
+    MLflow retries a request 7 times at a backoff factor of 2 (waits doubling up to 2 min: about 4 min), and every
     later request of the command waits as long again: with the server gone mid-run a training hung for 13
-    minutes before its traceback. 5 tries waiting 1 s doubling (31 s) still ride out a server's restart.
-    A value the environment sets is kept."""
+    minutes before its traceback. 5 retries at a factor of 1 (about 30 s) still ride out a server's restart. A
+    host that stops answering at all still costs MLflow's request timeout per try
+    (``MLFLOW_HTTP_REQUEST_TIMEOUT``, 120 s), left as it is for large artifact uploads. A value the environment
+    sets is kept."""
     os.environ.setdefault("MLFLOW_HTTP_REQUEST_MAX_RETRIES", "5")
     os.environ.setdefault("MLFLOW_HTTP_REQUEST_BACKOFF_FACTOR", "1")
 
