@@ -178,7 +178,7 @@ def test_a_failing_run_is_failed_with_its_error(tmp_path):
     assert "error.txt" in {a.path for a in client.list_artifacts(in_sweep.info.run_id)}
 
 
-def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path):
+def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog):
     cfg = make_cfg(tmp_path)
     with pytest.raises(BearingTwinError):
         train_tracked(cfg, CHOICES, None, None, failing_train)
@@ -188,6 +188,11 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path):
     assert again.model == done.model == ""  # the fake training logs no model, and the skipped run names none
     client, experiment_id = open_store(cfg.tracking)
     assert sorted(r.info.status for r in client.search_runs([experiment_id])) == ["FAILED", "FINISHED"]
+    # A run another version of the code finished is skipped too, and the log says by which code and how to run it again.
+    client.set_tag(done.run_id, "git_commit", "0123456789abcdef")
+    with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
+        assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped
+    assert "by the code at 0123456789ab (this code: " in caplog.text and "tracking.skip_finished=false" in caplog.text
     train_tracked(make_cfg(tmp_path, skip_finished=False), CHOICES, None, None, fake_train)
     assert len(client.search_runs([experiment_id])) == 3
 

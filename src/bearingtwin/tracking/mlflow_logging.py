@@ -565,7 +565,11 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     if skips_finished(cfg.tracking, sweep):
         done = find_finished_run(client, experiment_id, digest)
         if done is not None:
-            log.info("skipped: run %s already FINISHED with this config (config_hash %s)", done.info.run_id, digest)
+            then, now = done.data.tags.get("git_commit", "unknown"), _git_commit()
+            other_code = (f", by the code at {then[:12]} (this code: {now[:12]}; tracking.skip_finished=false runs it "
+                          "again)") if then != now else ""
+            log.info("skipped: run %s already FINISHED with this config (config_hash %s)%s", done.info.run_id, digest,
+                     other_code)
             return TrackedRun(done.info.run_id, dict(done.data.metrics), skipped=True, artifacts=done.info.artifact_uri,
                               model=earlier_model(client, done.info.run_id))
     method = method_name(choices)
