@@ -29,6 +29,7 @@ found whether it is added as ``resonance`` or, when the reference already needed
 
     python benchmarks/identifiability.py --split dev --jobs 2    # the development cases (seed 1)
     python benchmarks/identifiability.py --split test --jobs 2   # the benchmark: writes results/identifiability.{md,json}
+    python benchmarks/identifiability.py --split dev --sources rig --fs 48000 --jobs 2   # the same cases at 48 kHz
 
 Another rig's records go through the same protocol and scores: ``--records <cases.csv>`` lists each
 record with its reference record (same rig and operating point, nothing hidden), its case kind and
@@ -129,8 +130,9 @@ FAULTS = ("outer", "inner")
 SEED = {"dev": 1, "test": 2}
 
 
-def cases(split: str, sources: list[str]) -> list[dict]:
-    """Every case of a split, each with its source, kind, hidden effects, fault and conditions."""
+def cases(split: str, sources: list[str], fs_hz: float | None = None) -> list[dict]:
+    """Every case of a split, each with its source, kind, hidden effects, fault and conditions; ``fs_hz``: every
+    case at this sampling rate instead of its condition's (the same cases and seeds otherwise)."""
     listed = []
     for source in sources:
         kinds = [("single", (name,)) for name in HIDDEN[split] if name != "second_resonance"]
@@ -142,6 +144,7 @@ def cases(split: str, sources: list[str]) -> list[dict]:
             for kind, names in kinds:
                 index = len(listed)
                 rpm, fs, unit = CONDITIONS[split][index % len(CONDITIONS[split])]
+                fs = fs if fs_hz is None else fs_hz
                 operating = OPERATING[split][index % len(OPERATING[split])]
                 listed.append({"split": split, "source": source, "kind": kind, "hidden": list(names), "fault": fault,
                                "rpm": rpm, "fs": fs, "unit": unit, "operating": operating,
@@ -678,13 +681,18 @@ def main() -> int:
     parser.add_argument("--faults", default=None,
                         help="defect types of the cases (default: outer,inner of a split, every listed record)")
     parser.add_argument("--limit", type=int, default=None, help="run only the first N cases (a quick look)")
+    parser.add_argument("--fs", type=float, default=None,
+                        help="every case of the split at this sampling rate, Hz (the same cases and seeds otherwise: "
+                             "how the rate alone moves the decisions)")
     parser.add_argument("overrides", nargs="*", help="bearingtwin-twin overrides, e.g. ranking.points_per_view=3")
     args = parser.parse_args()
     # The committed results are the whole test split's at the defaults: a part of it, another split or other
     # settings are written elsewhere, and never over them.
     whole = (args.records is None and args.split == "test" and args.sources == "twin,rig"
-             and args.faults in (None, "outer,inner") and args.limit is None
+             and args.faults in (None, "outer,inner") and args.limit is None and args.fs is None
              and all(o.startswith("ranking.n_jobs=") for o in args.overrides))
+    if args.fs is not None and (args.records is not None or not args.fs > 0):
+        parser.error(f"--fs {args.fs:g}: a positive rate for a split's cases (a manifest's records have their own)")
     name = "records" if args.records is not None else args.split
     if args.out is None:
         args.out = "results" if whole else str(Path(tempfile.gettempdir()) / f"bearingtwin-identifiability-{name}")
@@ -702,7 +710,7 @@ def main() -> int:
         if args.records is not None:
             todo = cases_from_manifest(args.records, cfg)
         else:
-            todo = cases(args.split, args.sources.split(","))
+            todo = cases(args.split, args.sources.split(","), args.fs)
         faults = args.faults.split(",") if args.faults else FAULTS if args.records is None else None
         todo = [case for case in todo if faults is None or case["fault"] in faults][: args.limit]
         if not todo:

@@ -187,3 +187,14 @@ def test_the_command_refuses_bad_input_in_one_line(exported, tmp_path):
     assert done.returncode == 2 and "--export" in done.stderr and "Traceback" not in done.stderr
     done = benchmark("--records", str(exported), "bearing=no_such_bearing", cwd=tmp_path)
     assert done.returncode == 2 and "no_such_bearing" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_split_at_another_rate_is_the_same_cases_at_that_rate(module, tmp_path):
+    """``--fs``: how the rate alone moves the decisions (results/identifiability.md), so every case keeps its hidden
+    effects, fault, conditions and seed, and only its rate changes; a manifest's records keep theirs."""
+    as_split = module.cases("dev", ["rig"])
+    at_48k = module.cases("dev", ["rig"], 48000.0)
+    assert {case["fs"] for case in at_48k} == {48000.0} and {case["fs"] for case in as_split} == {12000.0}
+    assert [{**case, "fs": None} for case in at_48k] == [{**case, "fs": None} for case in as_split]
+    refused = benchmark("--records", str(tmp_path / "cases.csv"), "--fs", "48000", cwd=tmp_path)
+    assert refused.returncode == 2 and "--fs 48000: a positive rate for a split's cases" in refused.stderr
