@@ -193,9 +193,8 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         match = _VARIABLE.match(variable)
         if match:
             by_record.setdefault(int(match[1]), {})[match[2]] = np.asarray(value, dtype=np.float64).reshape(-1)
-    # The record the name gives: the long form's (``..._0_130.mat``) or the Data Center's own (``130.mat``).
     name = parse_cwru_name(path)
-    named = name.record if name is not None else (int(path.stem) if path.stem.isdigit() else None)
+    named = named_record(path)
     notes = []
     if len(by_record) == 1:
         record = next(iter(by_record))
@@ -257,17 +256,24 @@ def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[st
     return notes
 
 
+def named_record(path: str | Path) -> int | None:
+    """The record a file's name gives: the long form's (``..._0_130.mat``) or the Data Center's own number
+    (``130.mat``, in its catalogue or not); None for a name that gives none (a Data Center label's)."""
+    name = parse_cwru_name(path)
+    stem = Path(path).stem
+    return name.record if name is not None else (int(stem) if stem.isdigit() else None)
+
+
 def declared_fs_hz(path: str | Path, default_hz: float, by_record: dict | None = None) -> float:
     """The sampling rate declared for the record at ``path``: its entry in ``by_record`` (record number -> Hz,
     ``data.fs_by_record``) if any, else the rate its name states (``48k_Drive_End_...``, or the Data Center's
     catalogue for a number-named file such as ``110.mat``), else ``default_hz`` (``data.fs``; the healthy records'
     names and the Data Center's labels state no rate)."""
-    name = parse_cwru_name(path)
-    stem = Path(path).stem
-    record = name.record if name is not None else (int(stem) if stem.isdigit() else None)  # as read_cwru_raw reads it
     by_record = {int(key): float(value) for key, value in (by_record or {}).items()}
+    record = named_record(path)
     if record in by_record:
         return by_record[record]
+    name = parse_cwru_name(path)
     return float(default_hz) if name is None or name.rate_hz is None else float(name.rate_hz)
 
 

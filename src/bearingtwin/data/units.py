@@ -25,11 +25,16 @@ def acceleration_unit(unit: str) -> str | None:
     return _SPELLINGS.get(" ".join(str(unit).split()).lower())
 
 
-def convert_acceleration(signal: np.ndarray, from_unit: str, to_unit: str) -> np.ndarray:
-    """``signal`` in ``from_unit`` expressed in ``to_unit`` (both acceleration units :func:`acceleration_unit`
-    reads); along any axis."""
+def acceleration_factor(from_unit: str, to_unit: str) -> float:
+    """What a value in ``from_unit`` is multiplied by to express it in ``to_unit`` (both acceleration units
+    :func:`acceleration_unit` reads)."""
     units = [acceleration_unit(unit) for unit in (from_unit, to_unit)]
     if None in units:
         unknown = from_unit if units[0] is None else to_unit
         raise BearingTwinError(f"{unknown!r} is not an acceleration unit; give one of {', '.join(METRES_PER_S2)}")
-    return np.asarray(signal, dtype=np.float64) * (METRES_PER_S2[units[0]] / METRES_PER_S2[units[1]])
+    return METRES_PER_S2[units[0]] / METRES_PER_S2[units[1]]
+
+
+def convert_acceleration(signal: np.ndarray, from_unit: str, to_unit: str) -> np.ndarray:
+    """``signal`` in ``from_unit`` expressed in ``to_unit`` (:func:`acceleration_factor`); along any axis."""
+    return np.asarray(signal, dtype=np.float64) * acceleration_factor(from_unit, to_unit)

@@ -32,7 +32,7 @@ from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import METRES_PER_S2, acceleration_unit, convert_acceleration
+from bearingtwin.data.units import acceleration_factor, acceleration_unit, convert_acceleration
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
@@ -237,7 +237,7 @@ def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Re
         return recording, []
     converted = dataclasses.replace(recording, signal=convert_acceleration(recording.signal, *units), unit=units[1])
     return converted, [f"converted from {units[0]} to {units[1]}, the unit the model was trained in "
-                       f"(x {METRES_PER_S2[units[0]] / METRES_PER_S2[units[1]]:.6g})"]
+                       f"(x {acceleration_factor(*units):.6g})"]
 
 
 def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]:
