@@ -530,8 +530,9 @@ def test_tones_guess_finds_three_hidden_lines_and_leaves_the_other_effects_lines
     twin, base = _bearing_like(0), _bearing_like(1)  # two realizations: the twin is not the measurement
     frequencies_hz, levels_db = [137.3, 263.7, 611.1], [-6.0, -10.0, -14.0]
     hidden = lib.Tones(frequencies_hz, levels_db).modify_signal(base, FS, np.random.default_rng(3), SHAFT_HZ)
-    # Lines the other effects explain: unbalance (1x), looseness (2.5x), the 2 x 60 Hz magnetic pull.
-    hidden = lib.add_lines(hidden, FS, [SHAFT_HZ, 2.5 * SHAFT_HZ, 120.0], [-6.0, -10.0, -6.0], np.random.default_rng(4))
+    # Lines the other effects explain: unbalance (1x), looseness (a series of half orders), the 2 x 60 Hz pull.
+    hidden = lib.add_lines(hidden, FS, [SHAFT_HZ, 120.0], [-6.0, -6.0], np.random.default_rng(4))
+    hidden = lib.Looseness(-10.0, half_order_db=-3.0).modify_signal(hidden, FS, np.random.default_rng(6), SHAFT_HZ)
     guess = lib.Tones.initial_guess(hidden, twin, FS, SHAFT_HZ)
     assert json.loads(json.dumps(guess)) == guess  # a plain dict: it goes into a report as it is
     bin_hz = lib.LINE_RESOLUTION_HZ
@@ -542,6 +543,21 @@ def test_tones_guess_finds_three_hidden_lines_and_leaves_the_other_effects_lines
     assert lib.Tones.initial_guess(base, twin, FS, SHAFT_HZ)["frequencies_hz"] == []  # nothing hidden: no lines
     (effect,) = build_effects({"tones": guess})
     assert effect.frequencies_hz == guess["frequencies_hz"]
+
+
+def test_a_lone_shaft_order_is_a_tone_but_an_order_in_a_rattles_series_is_not():
+    """A fan's blade pass stands at a whole shaft order (here 7x) with no comb around it: no machine effect
+    makes such a line, so ``tones`` takes it; the same order inside looseness's series is looseness's."""
+    twin, base = _bearing_like(0), _bearing_like(1)
+    blade_pass = lib.add_lines(base, FS, [7 * SHAFT_HZ], [-6.0], np.random.default_rng(4))
+    guess = lib.Tones.initial_guess(blade_pass, twin, FS, SHAFT_HZ)
+    np.testing.assert_allclose(guess["frequencies_hz"], [7 * SHAFT_HZ], atol=lib.LINE_RESOLUTION_HZ)
+    rattle = lib.Looseness(-10.0, half_order_db=-3.0).modify_signal(base, FS, np.random.default_rng(4), SHAFT_HZ)
+    assert lib.Tones.initial_guess(rattle, twin, FS, SHAFT_HZ)["frequencies_hz"] == []
+    # A lone 1x, 2x or 3x line is unbalance's or misalignment's, series or not.
+    for order in (1, 2, 3):
+        lone = lib.add_lines(base, FS, [order * SHAFT_HZ], [-6.0], np.random.default_rng(4))
+        assert lib.Tones.initial_guess(lone, twin, FS, SHAFT_HZ)["frequencies_hz"] == []
 
 
 def test_tones_guess_closes_the_gap_the_lines_open():

@@ -208,6 +208,11 @@ LOOSENESS_READ_RANGE_DB = 30.0
 """``looseness``'s initial guess reads the comb's fall from the lines added within this many dB of the
 strongest: further down, a line's level is the measurement's floor fluctuating against the twin's."""
 
+LOOSENESS_SERIES_LINES = 2
+"""A line at a shaft half order above 3x (or at 0.5x, 1.5x, 2.5x) is left to ``looseness`` only when at least
+this many other such orders carry lines the twin lacks: a rattle raises a series, while a lone order is a
+source of its own (a fan's blade pass, a pump's vane pass, a coupling's jaws) that ``tones`` may take."""
+
 SUPPLY_HARMONICS = 3
 """Default number of lines of ``line_frequency`` at even multiples of the supply frequency."""
 
@@ -287,11 +292,23 @@ def _added_line_levels_db(measured: np.ndarray, twin: np.ndarray, fs: float, sha
     return _relative_db(power, reference, floor_db), np.array(refined)
 
 
+def _near(freqs_hz: np.ndarray, centres_hz: np.ndarray, df: float) -> np.ndarray:
+    """(lines, centres): whether each frequency lies within a centre's tolerance (:func:`_tolerance_hz`)."""
+    return np.abs(freqs_hz[:, None] - centres_hz) <= _tolerance_hz(centres_hz, df)
+
+
 def _explained_elsewhere(freqs_hz: np.ndarray, shaft_hz: float, df: float) -> np.ndarray:
-    """Which frequencies lie on a line of ``looseness`` (half orders of the shaft) or of ``line_frequency``."""
-    centres = np.concatenate([np.arange(1, 2 * LOOSENESS_HARMONICS + 1) * shaft_hz / 2,
-                              np.outer(np.arange(1, 2 * SUPPLY_HARMONICS + 1), MAINS_HZ).ravel()])
-    return np.any(np.abs(freqs_hz[:, None] - centres) <= _tolerance_hz(centres, df), axis=1)
+    """Which of the lines at ``freqs_hz`` (every line the measurement adds to the twin) the machine effects
+    explain: multiples of the supply (``line_frequency``), shaft orders 1x-3x (``unbalance``,
+    ``misalignment``), and the other half orders up to ``LOOSENESS_HARMONICS`` when they form a series
+    (``looseness``, :data:`LOOSENESS_SERIES_LINES`)."""
+    supply = np.outer(np.arange(1, 2 * SUPPLY_HARMONICS + 1), MAINS_HZ).ravel()
+    orders = np.arange(1, 2 * LOOSENESS_HARMONICS + 1) / 2
+    machine = np.isin(orders, (1.0, 2.0, 3.0))
+    on_order = _near(freqs_hz, orders * shaft_hz, df)
+    rattle = on_order[:, ~machine].any(axis=1)
+    in_series = np.count_nonzero(on_order[:, ~machine].any(axis=0)) > LOOSENESS_SERIES_LINES  # itself and others
+    return _near(freqs_hz, supply, df).any(axis=1) | on_order[:, machine].any(axis=1) | (rattle & in_series)
 
 
 def _fluctuated_angle(angle_rad: np.ndarray, factor: np.ndarray) -> np.ndarray:
@@ -659,18 +676,20 @@ class Tones(LineEffect):
 
         A line is a local maximum of the measured PSD standing :data:`LINE_PROMINENCE_DB` above
         the measurement's local floor and :data:`LINE_ABSENT_DB` above the twin's PSD near
-        it, below :attr:`max_frequency_hz`, and not within the tolerance of a half order of
-        the shaft (up to :data:`LOOSENESS_HARMONICS`) or of a multiple of 50 or 60 Hz (up to
-        twice :data:`SUPPLY_HARMONICS`). Frequencies are refined between bins; levels are the
+        it, below :attr:`max_frequency_hz`, and none the machine effects explain: within the
+        tolerance of a multiple of 50 or 60 Hz (up to twice :data:`SUPPLY_HARMONICS`), of the shaft's
+        1x-3x, or of another half order up to :data:`LOOSENESS_HARMONICS` when such orders form a
+        series (:func:`_explained_elsewhere`). Frequencies are refined between bins; levels are the
         power the measurement adds there, relative to the twin's. No line: empty lists.
         """
         freqs_hz, psd, floor = _line_spectra(measured, twin, fs, shaft_hz)
         df = freqs_hz[1]
         peaks, _ = sps.find_peaks(psd[0], distance=2 * _LOBE_BINS + 2)  # a strong line's side lobes are no lines
         peaks = peaks[(psd[0, peaks] > 10 ** (LINE_PROMINENCE_DB / 10) * floor[0, peaks])
-                      & (freqs_hz[peaks] < cls.max_frequency_hz) & ~_explained_elsewhere(freqs_hz[peaks], shaft_hz, df)]
+                      & (freqs_hz[peaks] < cls.max_frequency_hz)]
         twin_bins = _window_argmax(freqs_hz, psd[1], freqs_hz[peaks], _tolerance_hz(freqs_hz[peaks], df, 0.01))
         peaks = peaks[psd[0, peaks] > 10 ** (LINE_ABSENT_DB / 10) * psd[1, twin_bins]]
+        peaks = peaks[~_explained_elsewhere(freqs_hz[peaks], shaft_hz, df)]
         added = _added_power(psd, floor, peaks, df)
         strongest = np.argsort(-added)[: cls.max_lines]
         strongest = np.sort(strongest[added[strongest] > 0])
