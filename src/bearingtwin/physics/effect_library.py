@@ -625,11 +625,12 @@ class LineEffect(Effect):
 
 @register_effect
 class Tones(LineEffect):
-    """Narrow lines from elsewhere: neighbouring machines, rotor-bar pass, a drive's carrier.
+    """Narrow lines from elsewhere: neighbouring machines, rotor-bar pass, a drive's carrier, a fan's blade pass.
 
     A set of independent lines, each with its own frequency and level: the lines a
-    measurement shows that none of the machine effects (``unbalance``, ``misalignment``,
-    ``looseness``: shaft orders; ``line_frequency``: supply multiples) accounts for. A gear on
+    measurement shows that none of the machine effects (``unbalance``, ``misalignment``: 1x-3x;
+    ``looseness``: a series of shaft orders and half orders; ``line_frequency``: supply multiples)
+    accounts for, a lone higher shaft order (a blade or vane pass) among them. A gear on
     the shaft is not such a set: its mesh lines stand at whole shaft orders with shaft-rate
     sidebands, a modulation these independent lines do not make; the library has no gear mesh
     (the guide's "Adding an effect" writes one).
