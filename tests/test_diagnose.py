@@ -291,6 +291,22 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
     assert read_record(drive_end, pipeline).bearing == BEARING and not read_record(drive_end, pipeline).notes
 
 
+def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_path):
+    """Neither makes a record unreadable, both spoil what a diagnosis reads: the notes say so and where."""
+    import scipy.io
+
+    rate = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)["bpfo"]
+    x = fault_signal(rate)
+    limit = 1.5 * np.sqrt(np.mean(x**2))
+    x = np.clip(x, -limit, limit)
+    x[int(2.0 * FS):int(2.25 * FS)] = 0.0
+    path = tmp_path / "12k_Drive_End_OR007@6_0_130.mat"
+    scipy.io.savemat(path, {"X130_DE_time": x[:, None], "X130RPM": RPM})
+    notes = read_record(path, envelope_pipeline()).notes
+    assert any("% of the samples sit at the record's extremes" in note and "clipped" in note for note in notes), notes
+    assert any(note.startswith("samples from 2 s to 2.25 s are all 0 (a dropout") for note in notes), notes
+
+
 def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
     """A HUST file records the rig's ER-16K bearing, whatever bearing the model was trained on: the evidence
     on an inner-race export (2 s in the fixtures' format) reads the ER-16K's lines and finds the fault there."""

@@ -357,7 +357,8 @@ def test_csv_layouts_that_used_to_read_still_do(tmp_path, signal):
     (tmp_path / "excel.csv").write_bytes(("Zeit;a in m/s²\n" + "".join(f"{a:.6f};{b:.6f}\n".replace(".", ",")
                                                                       for a, b in zip(t, signal))).encode("cp1252"))
     raw = read_raw(tmp_path / "excel.csv")
-    assert list(raw.channels) == ["Zeit", "a in m/s²"]
+    assert list(raw.channels) == ["a in m/s²"] and raw.fs == pytest.approx(FS, rel=1e-6)  # Zeit: the time stamps
+    assert raw.channel_units == {"a in m/s²": "m/s^2"}
     np.testing.assert_allclose(raw.channels["a in m/s²"], signal, atol=1e-6)
 
 
@@ -389,3 +390,59 @@ def test_a_csv_header_without_rows_is_refused_in_its_one_line_and_nothing_else(t
         warnings.simplefilter("error")  # a warning would fail the test before the refusal
         with pytest.raises(BearingTwinError, match=r"t.csv: the file holds a header but no data rows"):
             read_raw(tmp_path / "t.csv")
+
+
+@pytest.mark.parametrize("header, seconds", [("Time (sec)", 1.0), ("Time [sec]", 1.0), ("time/s", 1.0), ("Time_sec", 1.0),
+                                             ("Timestamp", 1.0), ("Zeit [s]", 1.0), ("time in ms", 1e-3),
+                                             ("t (msec)", 1e-3)])
+def test_time_columns_under_the_names_loggers_give_them(tmp_path, signal, header, seconds):
+    """A time column a reader does not know would be offered as a channel, and a diagnosis of it reads a ramp."""
+    t = np.arange(signal.size) / FS / seconds
+    (tmp_path / "log.csv").write_text(f"{header},acc\n" + "".join(f"{a:.9f},{b:.6f}\n" for a, b in zip(t, signal)))
+    raw = read_raw(tmp_path / "log.csv")
+    assert list(raw.channels) == ["acc"] and raw.fs == pytest.approx(FS, rel=1e-6) and raw.fs_origin == "time column"
+    assert f"sampling rate 8000 Hz from the time stamps of {header}" in raw.meta["notes"]
+
+
+def test_a_loggers_lines_above_the_header_are_notes_not_data(tmp_path, signal):
+    t = np.arange(signal.size) / FS
+    (tmp_path / "logger.csv").write_text(
+        "Device: ACC-3\nSample rate: 8000 Hz\nStart: 2026-11-29 08:00\n\nTime (s),Acceleration (g)\n"
+        + "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(t, signal)))
+    recording = load_recording(tmp_path / "logger.csv")
+    np.testing.assert_allclose(recording.signal, signal, atol=1e-6)
+    assert recording.fs == pytest.approx(FS) and recording.unit == "g"
+    assert recording.meta["notes"][0] == ("the 3 lines above the header read as notes, not data (Device: ACC-3; "
+                                          "Sample rate: 8000 Hz; Start: 2026-11-29 08:00)")
+    # A damaged row among the numbers is no preamble: it is refused by its line, nothing above it dropped.
+    (tmp_path / "damaged.csv").write_text("time,acc\n0,0.1\n0.001,0.2\nsensor lost\n0.003,0.3\n0.004,0.1\n")
+    with pytest.raises(BearingTwinError, match=r"damaged.csv: line 4 has 1 columns where the rows above have 2"):
+        read_raw(tmp_path / "damaged.csv")
+
+
+def test_units_a_header_states_and_a_rate_under_other_names(tmp_path, signal):
+    import scipy.io
+
+    (tmp_path / "si.csv").write_text("acceleration (m/s^2);tacho [V]\n" + "".join(f"{v:.6f};1\n" for v in signal))
+    assert load_recording(tmp_path / "si.csv", channel=0, fs=FS).unit == "m/s^2"
+    assert load_recording(tmp_path / "si.csv", channel="tacho [V]", fs=FS).unit == "V"
+    assert load_recording(tmp_path / "si.csv", channel=0, fs=FS).meta["notes"] == []
+    for name in ("SampleRate", "sampling_rate", "Fs", "sample rate"):
+        scipy.io.savemat(tmp_path / "rate.mat", {"data": signal, name: FS})
+        assert read_raw(tmp_path / "rate.mat").fs == FS, name
+    # A time vector beside the signal gives the rate and is no channel.
+    scipy.io.savemat(tmp_path / "tx.mat", {"t": np.arange(signal.size) / FS, "x": signal})
+    raw = read_raw(tmp_path / "tx.mat")
+    assert list(raw.channels) == ["x"] and raw.fs == pytest.approx(FS) and raw.fs_origin == "time column"
+    np.save(tmp_path / "counts.npy", np.round(1000 * signal).astype(np.int16))
+    assert "integer samples (int16)" in read_raw(tmp_path / "counts.npy").meta["notes"][0]
+
+
+def test_time_stamps_read_as_the_channel_are_refused(tmp_path, signal):
+    """The stamps of a time column its reader took for a channel rise at every sample: no vibration does."""
+    t = np.arange(signal.size) / FS
+    np.savetxt(tmp_path / "plain.csv", np.column_stack([t, signal]), delimiter=",")
+    with pytest.raises(BearingTwinError, match=r"plain.csv: channel 0 rises at every sample, from 0 to 0.511875: time "
+                                               r"stamps or sample numbers, not a vibration"):
+        load_recording(tmp_path / "plain.csv", channel=0, fs=FS).require_vibration()
+    load_recording(tmp_path / "plain.csv", channel=1, fs=FS).require_vibration()

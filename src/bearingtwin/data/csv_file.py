@@ -166,10 +166,33 @@ def _is_number(text: str, decimal: str = ".") -> bool:
     return True
 
 
+def _numbers_row(line: str) -> bool:
+    """Whether a line is a row of numbers under some decimal mark (a closing separator allowed)."""
+    cells = _cells(line, _delimiter(line))
+    cells = cells[:-1] if len(cells) > 1 and cells[-1] == "" else cells
+    return bool(cells) and all(_NUMBER_LIKE.fullmatch(cell) for cell in cells)
+
+
+def _preamble(head: list[str], content: list[int]) -> list[int]:
+    """The lines a data logger writes above the header (``Device: ...``, ``Sample rate: 12000 Hz``): every line
+    above a header whose names are as many as the numbers of the rows below it, when the header is not the first
+    line and no line above it is a row of numbers (a damaged row among the numbers is no preamble: it is refused
+    by its line)."""
+    start = next((k for k in range(len(content)) if all(_numbers_row(head[i]) for i in content[k:])), len(content))
+    if start < 2 or start == len(content) or any(_numbers_row(head[i]) for i in content[:start]):
+        return []
+    delimiter = _delimiter(head[content[start]])
+    counts = [len(cells[:-1] if len(cells) > 1 and cells[-1] == "" else cells)
+              for cells in (_cells(head[i], delimiter) for i in content[start - 1:start + 1])]
+    return content[:start - 1] if counts[0] == counts[1] else []
+
+
 def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[str] | None, list[str]]:
     content = _content(head)
     if not content:
         raise BearingTwinError(f"{path}: the file holds no rows")
+    preamble = _preamble(head, content)
+    content = content[len(preamble):]
     first = content[0]
     # The separator as a data row shows it: a header's names may hold spaces ("Acc (g)").
     delimiter = _delimiter(head[content[1]] if len(content) > 1 else head[first])
@@ -178,6 +201,10 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
     cells = cells[:-1] if trailing else cells
     decimal = _decimal_mark(path, [cell for i in content for cell in _cells(head[i], delimiter)], delimiter)
     names, notes, body_start = None, [], first
+    if preamble:
+        shown = "; ".join(head[i].strip() for i in preamble[:3]) + ("; ..." if len(preamble) > 3 else "")
+        notes.append(f"the {len(preamble)} line{'s' * (len(preamble) > 1)} above the header read as notes, not data "
+                     f"({shown})")
     if not all(_is_number(cell, decimal) for cell in cells):
         names, body_start = cells, first + 1
     elif first > 0 and head[first - 1].lstrip().startswith("#"):  # numpy.savetxt writes its header so: "# time,acc"

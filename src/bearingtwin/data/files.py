@@ -10,10 +10,12 @@ sees a NaN, a guessed sampling rate or a silently chosen channel.
 Formats (chosen by extension): ``.npy`` (1-D, or 2-D: the longer axis is time), ``.npz``
 (arrays are channels; scalars ``fs`` / ``rpm`` and a string ``fault`` are facts, as written
 by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` (columns are channels,
-separated by commas, semicolons, tabs or spaces, optional header row; a ``time`` / ``time_s`` / ``Time (s)`` column,
-or ``time_ms`` / ``t [ms]`` in milliseconds, gives the sampling rate), ``.mat`` (CWRU files by their
-variable names, otherwise numeric variables, and a struct's numeric fields, are channels and scalars ``fs`` / ``rpm``
-are facts; MATLAB 7.3 files too), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
+separated by commas, semicolons, tabs or spaces, optional header row, which may state a column's unit, ``acc (g)``,
+and above which a logger's lines are notes; a ``time`` / ``time_s`` / ``Time (s)`` / ``Zeit [s]`` column, or
+``time_ms`` / ``t [ms]`` in milliseconds, gives the sampling rate: :data:`_TIME_COLUMN`), ``.mat`` (CWRU files by
+their variable names, otherwise numeric variables, and a struct's numeric fields, are channels, a time vector gives
+the rate as a time column does, and scalars ``fs`` / ``SampleRate`` / ``rpm`` are facts: :data:`_FACTS`; MATLAB 7.3
+files too), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
 and ``.xls`` (HUST text exports). A file a reader cannot parse (corrupt, truncated, another
 format under the extension) is refused naming the file, whatever the reading library raised.
 
@@ -33,6 +35,7 @@ import numpy as np
 
 from bearingtwin.checks import is_finite_number, positive_number
 from bearingtwin.data.recording import Recording
+from bearingtwin.data.units import acceleration_unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
@@ -45,8 +48,15 @@ FS_FLOAT_NOISE = 1e-9
 """A rate the file states exactly (an ``.npz`` / ``.mat`` ``fs``, a ``.wav`` header) must be repeated
 exactly; this much relative difference is float rounding (12000 written as 12000.000000000002)."""
 
-_TIME_COLUMN = re.compile(r"(?:t|time)\s*(?:_(?P<suffix>s|ms)|[(\[]\s*(?P<bracketed>s|ms)\s*[)\]])?", re.IGNORECASE)
-"""Column names read as time stamps: ``time``, ``t``, ``time_s``, ``time_ms``, ``Time (s)``, ``t [ms]``, ..."""
+_TIME_UNIT = r"s|secs?|seconds?|ms|msecs?|milliseconds?"
+_TIME_COLUMN = re.compile(
+    rf"(?:t|time|timestamp|time stamp|zeit|temps|tiempo)\s*(?:[_/]\s*(?P<suffix>{_TIME_UNIT})"
+    rf"|[(\[]\s*(?P<bracketed>{_TIME_UNIT})\s*[)\]]|\s+in\s+(?P<worded>{_TIME_UNIT}))?", re.IGNORECASE)
+"""Column (or variable) names read as time stamps: ``time``, ``t``, ``time_s``, ``time_ms``, ``Time (s)``,
+``t [ms]``, ``Time [sec]``, ``time/s``, ``Timestamp``, ``Zeit [s]``, ``time in ms``, ..."""
+_UNIT_IN_NAME = re.compile(r".*?(?:[(\[]\s*(?P<unit>[^()\[\]]+?)\s*[)\]]|\s+in\s+(?P<worded>\S+))\s*")
+"""A channel name that states its unit at its end, in brackets or after "in": ``acceleration (m/s^2)``, ``DE [g]``,
+``a in m/s²``."""
 LOWEST_FS_HZ = 200.0
 """A time column giving a slower rate than this is not a vibration record's (rather, stamps in milliseconds)."""
 
@@ -73,6 +83,7 @@ class RawRecord:
         unit: physical unit of the channels, when known.
         meta: anything else read from the file or its name.
         default_channel: the channel used when none is asked for, if the format designates one.
+        channel_units: a channel's own unit where its name states one (a CSV header's ``acc (g)``), over ``unit``.
     """
 
     path: str
@@ -88,6 +99,7 @@ class RawRecord:
     unit: str = ""
     meta: dict = field(default_factory=dict)
     default_channel: str | None = None
+    channel_units: dict[str, str] = field(default_factory=dict)
 
     def channel(self, name: str | int | None, key: str = "channel") -> tuple[str, np.ndarray]:
         """The channel called ``name`` (or at position ``name``); when ``name`` is None, the
@@ -196,7 +208,7 @@ def recording_from_raw(
         fault=resolve_fact(raw, "fault", raw.fault, fault, fault_key),
         source=raw.path,
         channel=name,
-        unit=raw.unit,
+        unit=raw.channel_units.get(name, raw.unit),
         meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, notes=notes),
     )
 
@@ -254,7 +266,40 @@ def time_column_seconds(name: str) -> float | None:
     match = _TIME_COLUMN.fullmatch(name.strip())
     if match is None:
         return None
-    return 1e-3 if (match["suffix"] or match["bracketed"] or "").lower() == "ms" else 1.0
+    return 1e-3 if (match["suffix"] or match["bracketed"] or match["worded"] or "").lower().startswith("m") else 1.0
+
+
+def unit_in_name(name: str) -> str:
+    """The unit a channel's name states at its end, in brackets (``acc (m/s2)`` -> ``m/s^2``, ``U [V]`` -> ``V``) or
+    after "in" (an acceleration unit: ``a in m/s²``), acceleration units in their canonical spelling; "" when it
+    states none."""
+    match = _UNIT_IN_NAME.fullmatch(name)
+    if match is None:
+        return ""
+    if match["worded"]:  # "a in m/s²"; "speed in rig 2" states no unit
+        return acceleration_unit(match["worded"]) or ""
+    return acceleration_unit(match["unit"]) or match["unit"]
+
+
+def _time_stamps(path: Path, columns: dict[str, np.ndarray], notes: list[str],
+                 fs: float | None = None) -> tuple[dict[str, np.ndarray], float | None]:
+    """The channels without a column (or variable) of time stamps, and the rate those stamps give: ``fs`` when the
+    file states one already, None when the stamps are printed too coarsely to give one (said in ``notes``)."""
+    time_name = next((name for name in columns
+                      if np.squeeze(columns[name]).ndim == 1 and time_column_seconds(name) is not None), None)
+    if time_name is None:
+        return columns, fs
+    columns = dict(columns)
+    time_s = time_column_seconds(time_name) * np.squeeze(np.asarray(columns.pop(time_name), dtype=np.float64))
+    if fs is not None:
+        return columns, fs
+    if coarse_stamps(time_s):
+        notes.append(f"the {time_name} column's stamps repeat, printed coarser than the sampling period: the rate "
+                     "is not read from them (give it: fs)")
+        return columns, None
+    fs = fs_from_time_column(time_s, str(path), time_name)
+    notes.append(f"sampling rate {fs:.6g} Hz from the time stamps of {time_name}")
+    return columns, fs
 
 
 def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -> float:
@@ -365,7 +410,10 @@ def _read_npy(path: Path) -> RawRecord:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as error:
         raise BearingTwinError(f"{path}: not a readable .npy file ({error})") from None
-    return RawRecord(str(path), "npy", _float_channels(path, {"": array} if array.ndim == 2 else {"0": array}))
+    notes = ([f"integer samples ({array.dtype.name}): converter counts, read as they are; the physical unit is unknown"]
+             if np.issubdtype(array.dtype, np.integer) else [])
+    return RawRecord(str(path), "npy", _float_channels(path, {"": array} if array.ndim == 2 else {"0": array}),
+                     meta={"notes": notes} if notes else {})
 
 
 def _split_facts(path: Path, items: dict[str, np.ndarray]) -> tuple[dict, dict]:
@@ -398,13 +446,27 @@ def _split_facts(path: Path, items: dict[str, np.ndarray]) -> tuple[dict, dict]:
     return facts, arrays
 
 
-_FACTS = {"fs": ("fs", "fs_hz"), "rpm": ("rpm",), "fault": ("fault",), "unit": ("unit",)}
-"""Each fact a file may state, and the names it may go by (in any case; also as a struct's field)."""
+_FACTS = {"fs": ("fs", "fshz", "samplerate", "sampleratehz", "samplingrate", "samplingratehz", "samplingfrequency",
+                  "samplefrequency", "sr"),
+          "rpm": ("rpm", "speedrpm", "shaftrpm"), "fault": ("fault",), "unit": ("unit", "units")}
+"""Each fact a file may state, and the names it may go by (in any case, with or without ``_``, ``-`` or spaces:
+``SampleRate``, ``sampling_rate``; also as a struct's field)."""
+
+
+def _fact_name(name: str) -> str:
+    """A variable's name as :data:`_FACTS` lists it: lower case, without separators."""
+    return re.sub(r"[\s_\-]", "", name).lower()
 
 
 def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawRecord:
     found = {fact: _named_fact(facts, names, fact) for fact, names in _FACTS.items()}
     fs = None if found["fs"] is None else positive_number(found["fs"][1], found["fs"][0], "Hz", f"{path}: ")
+    notes = []
+    arrays, fs_from_stamps = _time_stamps(path, arrays, notes, fs)
+    if fs is None and fs_from_stamps is not None:
+        fs, fs_origin = fs_from_stamps, "time column"
+    else:
+        fs_origin = "file" if fs is not None else ""
     rpm = None if found["rpm"] is None else positive_number(found["rpm"][1], found["rpm"][0], "rev/min", f"{path}: ")
     fault = None if found["fault"] is None else found["fault"][1]
     if fault is not None and fault not in FAULTS:
@@ -420,11 +482,12 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
         fmt,
         _float_channels(path, arrays),
         fs=fs,
-        fs_origin="file" if fs is not None else "",
+        fs_origin=fs_origin,
+        fs_tolerance=FS_RELATIVE_TOLERANCE if fs_origin == "time column" else FS_FLOAT_NOISE,
         rpm=rpm,
         fault=fault,
         unit="" if found["unit"] is None else str(found["unit"][1]),
-        meta={k: v for k, v in facts.items() if k not in used},
+        meta={**{k: v for k, v in facts.items() if k not in used}, **({"notes": notes} if notes else {})},
         default_channel="signal" if fmt == "npz" else None,
     )
 
@@ -433,10 +496,10 @@ def _named_fact(facts: dict, names: tuple[str, ...], fact: str) -> tuple[str, ob
     """The entry (its name, its value) stating a fact: by one of ``names`` in any case, else as the one struct
     field of that name (``info.fs``) whose value can state it (a field ``info.fault`` may hold free text)."""
     for key, value in facts.items():
-        if key.lower() in names:
+        if _fact_name(key) in names:
             return key, value
     fields = [(key, value) for key, value in facts.items()
-              if key.rsplit(".", 1)[-1].lower() in names and _can_state(fact, value)]
+              if _fact_name(key.rsplit(".", 1)[-1]) in names and _can_state(fact, value)]
     return fields[0] if len(fields) == 1 else None
 
 
@@ -533,21 +596,15 @@ def _read_wav(path: Path) -> RawRecord:
 
 def _read_csv(path: Path) -> RawRecord:
     """Columns of numbers (:func:`~bearingtwin.data.csv_file.read_csv_table`), optionally under a header row of
-    names. Without a header the longer axis is time, as in the other formats (one row of numbers is one channel)."""
+    names, which may state each column's unit in brackets (``acc (g)``). Without a header the longer axis is time,
+    as in the other formats (one row of numbers is one channel)."""
     from bearingtwin.data.csv_file import read_csv_table
 
     table = read_csv_table(path)
     if table.names is None:
         return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}))
-    columns = dict(zip(table.names, table.values.T))
-    time_name = next((name for name in table.names if time_column_seconds(name) is not None), None)
-    fs, notes = None, list(table.notes)
-    if time_name is not None:
-        time_s = time_column_seconds(time_name) * columns.pop(time_name)
-        if coarse_stamps(time_s):
-            notes.append(f"the {time_name} column's stamps repeat, printed coarser than the sampling period: the rate "
-                         "is not read from them (give it: fs)")
-        else:
-            fs = fs_from_time_column(time_s, str(path), time_name)
+    notes = list(table.notes)
+    columns, fs = _time_stamps(path, dict(zip(table.names, table.values.T)), notes)
+    units = {name: unit for name in columns if (unit := unit_in_name(name))}
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "",
-                     fs_tolerance=FS_RELATIVE_TOLERANCE, meta={"notes": notes} if notes else {})
+                     fs_tolerance=FS_RELATIVE_TOLERANCE, meta={"notes": notes} if notes else {}, channel_units=units)

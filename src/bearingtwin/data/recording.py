@@ -17,6 +17,16 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, check_fault
 
 
+CLIPPED_SHARE = 1e-3
+"""A record with at least this share of its samples exactly at its largest or smallest value was clipped: a
+signal that is not piles up a handful there at most, even on a coarse converter."""
+CLIPPED_SAMPLES = 10
+"""... and at least this many samples (a short record's few equal peaks are no saturation)."""
+DROPOUT_NOTE_S = 0.005
+"""A stretch held at one value this long or longer is named (5 ms: 60 samples at 12 kHz, far longer than a
+clipped peak's flat top)."""
+
+
 def longest_held_stretch(signal: np.ndarray) -> tuple[int, int]:
     """Start index and length (samples) of the longest run of equal consecutive samples of a 1-D signal."""
     signal = np.asarray(signal)
@@ -72,10 +82,35 @@ class Recording:
             check_fault(self.fault)
 
     def require_vibration(self) -> None:
-        """Refuse a record whose every sample is the same (a dead sensor, a disconnected channel): it has
-        no vibration to compare or diagnose: every spectrum of it is zero, and any verdict on it would be made up."""
+        """Refuse a record whose every sample is the same (a dead sensor, a disconnected channel), or that rises
+        or falls at every sample (a column of time stamps or sample numbers read as the channel): it has no
+        vibration to compare or diagnose, and any verdict on it would be made up."""
         if np.ptp(self.signal) == 0:
             raise BearingTwinError(f"{self.source}: every sample is {self.signal[0]:g}: no vibration recorded")
+        steps = np.diff(self.signal)
+        if steps.size >= 2 and (np.all(steps > 0) or np.all(steps < 0)):
+            raise BearingTwinError(
+                f"{self.source}: channel {self.channel or '?'} {'rises' if steps[0] > 0 else 'falls'} at every sample, "
+                f"from {self.signal[0]:g} to {self.signal[-1]:g}: time stamps or sample numbers, not a vibration; "
+                "choose the vibration's channel (channel=<name or index>)")
+
+    def quality_notes(self, shortest_dropout_s: float = DROPOUT_NOTE_S) -> list[str]:
+        """What in the record may spoil a reading of it without making it unreadable: samples piled up at its
+        extremes (the sensor or the converter clipped, flattening the impacts; :data:`CLIPPED_SHARE`) and a
+        stretch held at one value for ``shortest_dropout_s`` or longer (a dropout), each named with where it is."""
+        notes = []
+        x = self.signal
+        at_extremes = int(np.count_nonzero(x == x.max()) + np.count_nonzero(x == x.min()))
+        if at_extremes >= CLIPPED_SAMPLES and at_extremes >= CLIPPED_SHARE * x.size:
+            notes.append(f"{100 * at_extremes / x.size:.2g} % of the samples sit at the record's extremes "
+                         f"({x.min():g} and {x.max():g}): the sensor or the converter clipped (saturated), which "
+                         "flattens the impacts a diagnosis reads; a verdict on it may be off")
+        start, length = longest_held_stretch(x)
+        if length > 1 and length >= shortest_dropout_s * self.fs:
+            notes.append(f"samples from {start / self.fs:.3g} s to {(start + length) / self.fs:.3g} s are all "
+                         f"{x[start]:g} (a dropout, or a stretch held at one value): the windows over it read "
+                         "no vibration")
+        return notes
 
     def require_no_held_stretch(self, seconds: float, why: str) -> None:
         """Refuse a record holding one value for ``seconds`` or longer (a dropout, a sensor saturated or

@@ -75,7 +75,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     channel, channel_note = _channel(raw, channel, pipeline)
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
-    notes = list(recording.meta["notes"]) + channel_note
+    notes = list(recording.meta["notes"]) + channel_note + recording.quality_notes()
     named = recording.meta.get("bearing")
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")

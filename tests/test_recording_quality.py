@@ -1,0 +1,48 @@
+"""What in a record may spoil a reading of it without making it unreadable: clipping and dropouts, named."""
+
+import numpy as np
+import pytest
+
+from bearingtwin.data.recording import Recording
+
+FS = 12000.0
+
+
+def impacts(seconds=3.0, seed=0):
+    """A bearing-like record: impacts ringing at 3 kHz, 107 per second, under noise."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * FS)) / FS
+    x = 0.2 * rng.standard_normal(t.size)
+    for start in np.arange(0.0, seconds, 1 / 107.0):
+        after = t >= start
+        x[after] += 4.0 * np.exp(-(t[after] - start) * 800) * np.sin(2 * np.pi * 3000 * (t[after] - start))
+    return x
+
+
+def test_a_clean_record_even_on_a_coarse_converter_draws_no_note():
+    x = impacts()
+    assert Recording(x, FS).quality_notes() == []
+    coarse = np.round(x / np.ptp(x) * 2**8) / 2**8  # an 8-bit converter: its codes repeat, its extremes barely
+    assert Recording(coarse, FS).quality_notes() == []
+
+
+def test_a_clipped_record_is_named_with_its_extremes():
+    x = impacts()
+    limit = 2.0 * np.sqrt(np.mean(x**2))
+    (note,) = Recording(np.clip(x, -limit, limit), FS).quality_notes()
+    share = 100 * np.mean(np.abs(x) >= limit)
+    assert note.startswith(f"{share:.2g} % of the samples sit at the record's extremes ({-limit:g} and {limit:g}): "
+                           "the sensor or the converter clipped")
+
+
+@pytest.mark.parametrize("seconds, named", [(0.3, True), (0.004, False)])
+def test_a_dropout_is_named_with_where_it_is(seconds, named):
+    x = impacts()
+    start = int(1.0 * FS)
+    x[start:start + int(seconds * FS)] = 0.0
+    notes = Recording(x, FS).quality_notes()
+    if named:
+        assert notes == [f"samples from 1 s to {1 + seconds:.3g} s are all 0 (a dropout, or a stretch held at one "
+                         "value): the windows over it read no vibration"]
+    else:  # shorter than 5 ms: a quiet moment or a clipped peak's flat top
+        assert notes == []
