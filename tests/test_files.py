@@ -427,6 +427,11 @@ def test_units_a_header_states_and_a_rate_under_other_names(tmp_path, signal):
     assert load_recording(tmp_path / "si.csv", channel=0, fs=FS).unit == "m/s^2"
     assert load_recording(tmp_path / "si.csv", channel="tacho [V]", fs=FS).unit == "V"
     assert load_recording(tmp_path / "si.csv", channel=0, fs=FS).meta["notes"] == []
+    # A name with spaces or brackets is typed quoted on a command line (bare, Hydra cannot parse it): shown so.
+    with pytest.raises(BearingTwinError, match=r"choose one with channel=<name>; quote a name like 'acceleration "
+                                               r"\(m/s\^2\)' in single quotes inside double: "
+                                               r"channel=\"'acceleration \(m/s\^2\)'\"$"):
+        load_recording(tmp_path / "si.csv", fs=FS)
     for name in ("SampleRate", "sampling_rate", "Fs", "sample rate"):
         scipy.io.savemat(tmp_path / "rate.mat", {"data": signal, name: FS})
         assert read_raw(tmp_path / "rate.mat").fs == FS, name

@@ -177,3 +177,16 @@ def test_a_labels_row_is_read_as_the_twin_reads_it(capsys, monkeypatch, tmp_path
     (tmp_path / "labels.csv").write_text("record,state,rpm\n130.mat,inner,1797\n")
     code, _, err = run(capsys, monkeypatch, f"path={tmp_path / '130.mat'}")
     assert code == 2 and "labels.csv line 2: rpm=1797.0 contradicts the file's rpm=" in err
+
+
+def test_the_units_a_header_states_are_reported_per_channel_where_they_differ(capsys, monkeypatch, tmp_path):
+    path = tmp_path / "logger.csv"
+    rows = "".join(f"{i / 1000:.3f},{np.sin(i):.6f},{np.cos(3 * i):.6f}\n" for i in range(600))
+    path.write_text("Device: ACC-3\nOperator: bob\nTime [sec],acc (g),tacho [V]\n" + rows)
+    code, out, _ = run(capsys, monkeypatch, f"path={path}")
+    summary = json.loads(out)
+    assert code == 0 and summary["channels"] == ["acc (g)", "tacho [V]"] and summary["fs_hz"] == pytest.approx(1000)
+    assert summary["unit"] == {"acc (g)": "g", "tacho [V]": "V"}
+    assert summary["meta"]["notes"][0].startswith("the 2 lines above the header read as notes, not data")
+    code, out, _ = run(capsys, monkeypatch, f"path={path}", "channel='acc (g)'")
+    assert code == 0 and json.loads(out)["unit"] == "g"

@@ -87,6 +87,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     fault = resolve_fact(raw, "fault", raw.fault, table_state, f"{table}: state")
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
+    units = {name: raw.channel_units.get(name, raw.unit) for name in names}  # one, or each channel's where they differ
+    unit = (next(iter(units.values()), "") or None) if len(set(units.values())) <= 1 else units
     summary = {
         "file": raw.path,
         "format": raw.format,
@@ -97,7 +99,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         # option, file, nominal (the data set's speed for the file's condition) or a labels.csv line beside the file
         "rpm_origin": rpm_origin,
         "fault": fault,
-        "unit": raw.unit or None,
+        "unit": unit,
         "n_samples": n_samples,
         "duration_s": None if fs_hz is None or isinstance(n_samples, dict) else n_samples / fs_hz,
         "nan_count": {name: int(np.count_nonzero(np.isnan(raw.channels[name]))) for name in names},

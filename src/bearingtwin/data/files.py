@@ -112,7 +112,8 @@ class RawRecord:
             if self.default_channel in self.channels:
                 return self.default_channel, self.channels[self.default_channel]
             if len(names) != 1:
-                raise BearingTwinError(f"{self.path}: holds channels {', '.join(names)}; choose one with {key}=<name>")
+                raise BearingTwinError(f"{self.path}: holds channels {', '.join(names)}; choose one with {key}=<name>"
+                                       f"{_quoting_hint(key, names)}")
             return names[0], self.channels[names[0]]
         wanted = str(name)
         if wanted in self.channels:
@@ -123,7 +124,14 @@ class RawRecord:
                 return names[index], self.channels[names[index]]
         only = f", or {key}=null for its only one" if len(names) == 1 else ""
         raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds channel{'s' * (len(names) != 1)} "
-                               f"{', '.join(names)} (choose with {key}=<name>{only})")
+                               f"{', '.join(names)} (choose with {key}=<name>{only}){_quoting_hint(key, names)}")
+
+
+def _quoting_hint(key: str, names: list[str]) -> str:
+    """How to type the first of ``names`` that a command line cannot take bare (spaces, brackets, commas: Hydra
+    reads ``channel=DE (g)`` as a syntax error), "" when each can be typed as it is."""
+    awkward = next((name for name in names if not re.fullmatch(r"[\w.\-/]+", name)), None)
+    return "" if awkward is None else f"; quote a name like {awkward!r} in single quotes inside double: {key}=\"'{awkward}'\""
 
 
 def read_raw(path: str | Path) -> RawRecord:
