@@ -1021,3 +1021,18 @@ def test_a_record_in_a_subfolder_is_known_by_the_path_a_training_table_names_it_
     assert _names_of(record, table) == {"healthy_a", "healthy_a.npy", "rig_a/healthy_a", "rig_a/healthy_a.npy"}
     assert _names_of(record, None) == {"healthy_a", "healthy_a.npy"}
     assert _names_of(tmp_path / "elsewhere.npy", tmp_path / "rig_a" / "labels.csv") == {"elsewhere", "elsewhere.npy"}
+
+
+def test_the_closing_summary_names_records_read_below_the_models_rate():
+    """An upsampled record has nothing where the model reads above its own Nyquist frequency: its verdict is in
+    doubt, and the summary says which records those are, as it names a contradicted rate."""
+    from bearingtwin.cli.diagnose import diagnosis_lines
+    from bearingtwin.diagnosis.run import DiagnosisRun
+
+    rows = [{"record": "logger_5k", "verdict": "ball", "fs": 12000.0, "original_fs": 5000.0},
+            {"record": "cwru_48k", "verdict": "inner", "fs": 12000.0, "original_fs": 48000.0},
+            {"record": "cwru_12k", "verdict": "inner", "fs": 12000.0, "original_fs": 12000.0}]
+    lines = diagnosis_lines(DiagnosisRun(rows=rows))
+    assert lines["recorded below the model's rate (no content above their Nyquist)"] == "logger_5k"
+    assert "recorded below the model's rate (no content above their Nyquist)" not in diagnosis_lines(
+        DiagnosisRun(rows=rows[1:]))

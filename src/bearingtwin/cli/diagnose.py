@@ -66,6 +66,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     contradicted = [row["record"] for row in diagnosed if row.get("rate_check") == "contradicted"]
     if contradicted:  # a wrong speed or rate misplaces every defect line: such a verdict is in doubt (still scored)
         lines["speed or rate wrong (the shaft line contradicts them)"] = ", ".join(contradicted)
+    narrower = [row["record"] for row in diagnosed if row.get("original_fs") and row["original_fs"] < row["fs"]]
+    if narrower:  # upsampled: the model reads a band these records never held, so their verdicts are in doubt
+        lines["recorded below the model's rate (no content above their Nyquist)"] = ", ".join(narrower)
     disagreements = [row["record"] for row in diagnosed if row.get("agree") is False]
     if disagreements:
         lines["model and physics disagree on"] = ", ".join(disagreements)
