@@ -229,16 +229,17 @@ def labels_table_with_bad_rows(table: Path) -> tuple[list[tuple[str, str, str, f
             # beside rpm and fs, which such a spreadsheet writes with commas too).
             semicolons = ";" in header and "," not in header
             reader = csv.DictReader(handle, delimiter=";" if semicolons else ",")
-            columns = [name.strip() for name in reader.fieldnames or []]
+            # Record,State,RPM,Fs as a spreadsheet capitalizes them: the same columns.
+            columns = [name.strip().lower() if name.strip().lower() in LABEL_COLUMNS else name.strip()
+                       for name in reader.fieldnames or []]
             # Unnamed columns (a trailing separator) each keep a key of their own, so a value under any of them is seen.
             reader.fieldnames = [name or f"unnamed {index}" for index, name in enumerate(columns)]
             missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
             if missing:
                 raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
             unknown = [name for name in columns if name and name not in LABEL_COLUMNS]  # (a trailing comma: no name)
-            if unknown:  # an "RPM" column would be passed over, and the files read at another speed
-                raise BearingTwinError(f"{table}: column {unknown[0]!r} is not one of {', '.join(LABEL_COLUMNS)} "
-                                       "(lower case)")
+            if unknown:  # a "speed" column would be passed over, and the files read at another speed
+                raise BearingTwinError(f"{table}: column {unknown[0]!r} is not one of {', '.join(LABEL_COLUMNS)}")
             rows, bad_rows, seen = [], [], {}
             for row in reader:
                 line = reader.line_num  # not a count of rows: the reader skips blank lines
