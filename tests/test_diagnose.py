@@ -305,6 +305,13 @@ def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_pat
     notes = read_record(path, envelope_pipeline()).notes
     assert any("% of the samples sit at the record's extremes" in note and "clipped" in note for note in notes), notes
     assert any(note.startswith("samples from 2 s to 2.25 s are all 0 (a dropout") for note in notes), notes
+    # A dropout that holds a whole window of the model's is refused, saying where it is in seconds.
+    x[int(2.0 * FS):int(3.0 * FS)] = 0.0
+    scipy.io.savemat(path, {"X130_DE_time": x[:, None], "X130RPM": RPM})
+    pipeline = envelope_pipeline()
+    with pytest.raises(BearingTwinError, match=r"130.mat: the model's window from 2.\d+ s to 2.\d+ s holds one value "
+                                               r"throughout \(a dropout"):
+        diagnose_recording(read_record(path, pipeline), None, pipeline, "models:/unused", {})
 
 
 def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
