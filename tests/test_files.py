@@ -372,6 +372,8 @@ def test_csv_layouts_that_used_to_read_still_do(tmp_path, signal):
     ("time,acc\n0,0001,0,0324\n0,0002,0,0311\n", r"the header names 2 columns but the rows have 4 \(numbers written with "
                                                 r"decimal commas\? save the file with decimal points"),
     ("a\tb\n1\t2\nhello, world\t3\n", r"line 3, column 1: 'hello, world' is not a number"),
+    ('time,acc\n"0,000","0,1"\n"0,001","0,2"\n', r"line 2, column 1: '0,000' is not a number \(a number written with a "
+                                                r"decimal comma\? save the file with decimal points"),
 ])
 def test_csv_numbers_that_cannot_be_read_one_way_are_refused_not_misread(tmp_path, text, refusal):
     """A thousands separator beside a decimal mark would read 1,234 as 1.234 (or 1.234 as 1.234 where the file means

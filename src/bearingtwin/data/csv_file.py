@@ -291,7 +291,9 @@ def _on_its_line(path: Path, message: str, layout: _Layout) -> str:
     column = int(converting[2])
     cells = _cells(line, layout.delimiter)
     cell = cells[column - 1] if column <= len(cells) else ""
-    return f"line {number}, column {column}: {cell!r} is not a number"
+    comma = (f" (a number written with a decimal comma? {DECIMAL_COMMA_REMEDY})"
+             if layout.delimiter == "," and re.fullmatch(r"[+-]?\d*,\d+", cell) else "")
+    return f"line {number}, column {column}: {cell!r} is not a number{comma}"
 
 
 def _distinct(names: list[str]) -> tuple[list[str], list[str]]:
