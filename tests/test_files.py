@@ -420,6 +420,10 @@ def test_a_loggers_lines_above_the_header_are_notes_not_data(tmp_path, signal):
     (tmp_path / "damaged.csv").write_text("time,acc\n0,0.1\n0.001,0.2\nsensor lost\n0.003,0.3\n0.004,0.1\n")
     with pytest.raises(BearingTwinError, match=r"damaged.csv: line 4 has 1 columns where the rows above have 2"):
         read_raw(tmp_path / "damaged.csv")
+    # Nor is a header row of names above a row of units: the names would be lost to the units.
+    (tmp_path / "units.csv").write_text("Time,Acc\ns,g\n0,0.1\n0.001,0.2\n")
+    with pytest.raises(BearingTwinError, match=r"units.csv: line 2, column 1: 's' is not a number"):
+        read_raw(tmp_path / "units.csv")
 
 
 def test_units_a_header_states_and_a_rate_under_other_names(tmp_path, signal):

@@ -176,15 +176,16 @@ def _numbers_row(line: str) -> bool:
 def _preamble(head: list[str], content: list[int]) -> list[int]:
     """The lines a data logger writes above the header (``Device: ...``, ``Sample rate: 12000 Hz``): every line
     above a header whose names are as many as the numbers of the rows below it, when the header is not the first
-    line and no line above it is a row of numbers (a damaged row among the numbers is no preamble: it is refused
-    by its line)."""
+    line and no line above it is a row of numbers or has as many cells as they do (a damaged row among the
+    numbers, a second header row of units: those are refused by their line, as without a preamble)."""
     start = next((k for k in range(len(content)) if all(_numbers_row(head[i]) for i in content[k:])), len(content))
     if start < 2 or start == len(content) or any(_numbers_row(head[i]) for i in content[:start]):
         return []
     delimiter = _delimiter(head[content[start]])
     counts = [len(cells[:-1] if len(cells) > 1 and cells[-1] == "" else cells)
-              for cells in (_cells(head[i], delimiter) for i in content[start - 1:start + 1])]
-    return content[:start - 1] if counts[0] == counts[1] else []
+              for cells in (_cells(head[i], delimiter) for i in content[:start + 1])]
+    *above, header, numbers = counts
+    return content[:start - 1] if header == numbers and numbers not in above else []
 
 
 def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[str] | None, list[str]]:
