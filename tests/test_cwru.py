@@ -181,7 +181,7 @@ def test_a_whole_fraction_of_the_true_rate_is_not_taken_for_it(record, declared,
     assert check.matches and check.fraction == 12000 // declared and check.verdict == verdict
     if verdict == "contradicted":
         assert check.implied_fs_hz == 12000
-        with pytest.raises(BearingTwinError, match=rf"{record}: fs = {declared} Hz contradicts .* in place at a rate of 12000 Hz"):
+        with pytest.raises(BearingTwinError, match=rf"{record}: fs = {declared} Hz contradicts .* belongs? at a rate of 12000 Hz"):
             load_cwru(CWRU / record, fs=declared, bearing=load_bearing("cwru_6205"))
 
 
@@ -222,7 +222,7 @@ def test_a_record_read_at_about_half_its_rate_names_its_true_rate():
     check = check_sampling_rate(at_25k6, 12000, recording.rpm, defect_hz=defect_hz)
     assert check.verdict == "contradicted"
     assert check.implied_fs_hz == pytest.approx(25600, rel=0.005), check.reason
-    assert "in place at a rate of 256" in check.reason
+    assert "belong" in check.reason and "at a rate of 256" in check.reason
 
 
 @needs_data

@@ -6,7 +6,8 @@ import pytest
 import scipy.io
 import scipy.io.wavfile
 
-from bearingtwin.data.files import load_recording, read_raw
+from bearingtwin.data.files import load_recording, read_raw, unit_in_name
+from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 
 FS = 8000.0
@@ -276,7 +277,7 @@ def test_stamps_printed_coarser_than_the_sampling_period_state_no_rate(tmp_path)
     lines = [f"{a:.4f},{i % 7}\n" for i, a in enumerate(t)]
     (tmp_path / "coarse.csv").write_text("Time (s),acc\n" + "".join(lines))
     raw = read_raw(tmp_path / "coarse.csv")
-    assert raw.fs is None and "the Time (s) column's stamps repeat, printed coarser than the sampling period" in raw.meta["notes"][0]
+    assert raw.fs is None and "the Time (s) stamps repeat, printed coarser than the sampling period" in raw.meta["notes"][0]
     assert load_recording(tmp_path / "coarse.csv", fs=12000).fs == 12000
     with pytest.raises(BearingTwinError, match=r"coarse.csv.*(rate|fs)"):
         load_recording(tmp_path / "coarse.csv")
@@ -403,7 +404,7 @@ def test_time_columns_under_the_names_loggers_give_them(tmp_path, signal, header
     (tmp_path / "log.csv").write_text(f"{header},acc\n" + "".join(f"{a:.9f},{b:.6f}\n" for a, b in zip(t, signal)))
     raw = read_raw(tmp_path / "log.csv")
     assert list(raw.channels) == ["acc"] and raw.fs == pytest.approx(FS, rel=1e-6) and raw.fs_origin == "time column"
-    assert f"sampling rate 8000 Hz from the time stamps of {header}" in raw.meta["notes"]
+    assert f"sampling rate 8000 Hz from the time stamps {header}" in raw.meta["notes"]
 
 
 def test_a_loggers_lines_above_the_header_are_notes_not_data(tmp_path, signal):
@@ -442,18 +443,36 @@ def test_units_a_header_states_and_a_rate_under_other_names(tmp_path, signal):
         scipy.io.savemat(tmp_path / "rate.mat", {"data": signal, name: FS})
         assert read_raw(tmp_path / "rate.mat").fs == FS, name
     # A time vector beside the signal gives the rate and is no channel.
-    scipy.io.savemat(tmp_path / "tx.mat", {"t": np.arange(signal.size) / FS, "x": signal})
+    t = np.arange(signal.size) / FS
+    scipy.io.savemat(tmp_path / "tx.mat", {"t": t, "x": signal})
     raw = read_raw(tmp_path / "tx.mat")
     assert list(raw.channels) == ["x"] and raw.fs == pytest.approx(FS) and raw.fs_origin == "time column"
+    np.savez(tmp_path / "stamped.npz", signal=signal, time_s=t, fs=FS)  # ... agreeing with a rate the file states
+    assert list(read_raw(tmp_path / "stamped.npz").channels) == ["signal"]
+    np.savez(tmp_path / "clash.npz", signal=signal, t=t, fs=2 * FS)
+    with pytest.raises(BearingTwinError, match=r"clash.npz: its sampling rate, 16000 Hz, contradicts its time stamps t, "
+                                               r"8000 Hz"):
+        read_raw(tmp_path / "clash.npz")
+    # A variable called T that does not rise (a temperature), or a short one, is a channel, not time stamps.
+    np.savez(tmp_path / "temperature.npz", signal=signal, T=20 + 0.01 * signal, fs=FS)
+    assert list(read_raw(tmp_path / "temperature.npz").channels) == ["signal", "T"]
+    np.savez(tmp_path / "short.npz", signal=signal, t=t[:100])
+    assert list(read_raw(tmp_path / "short.npz").channels) == ["signal", "t"]
+    # Bracketed text that is no unit states none; a repeated header's column keeps its unit.
+    assert (unit_in_name("ch1 (left)"), unit_in_name("chan[0]"), unit_in_name("acc (g).1")) == ("", "", "g")
     np.save(tmp_path / "counts.npy", np.round(1000 * signal).astype(np.int16))
     assert "integer samples (int16)" in read_raw(tmp_path / "counts.npy").meta["notes"][0]
 
 
 def test_time_stamps_read_as_the_channel_are_refused(tmp_path, signal):
-    """The stamps of a time column its reader took for a channel rise at every sample: no vibration does."""
+    """The stamps of a time column its reader took for a channel only rise, and a coarse counter only steps up: no
+    vibration does."""
     t = np.arange(signal.size) / FS
     np.savetxt(tmp_path / "plain.csv", np.column_stack([t, signal]), delimiter=",")
-    with pytest.raises(BearingTwinError, match=r"plain.csv: channel 0 rises at every sample, from 0 to 0.511875: time "
+    with pytest.raises(BearingTwinError, match=r"plain.csv: channel 0 rises throughout, from 0 to 0.511875: time "
                                                r"stamps or sample numbers, not a vibration"):
         load_recording(tmp_path / "plain.csv", channel=0, fs=FS).require_vibration()
     load_recording(tmp_path / "plain.csv", channel=1, fs=FS).require_vibration()
+    counter = Recording(np.floor(np.arange(signal.size) / 8.0), FS, source="counter")  # steps up every 8 samples
+    with pytest.raises(BearingTwinError, match=r"counter: channel \? rises throughout"):
+        counter.require_vibration()

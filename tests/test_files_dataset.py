@@ -178,6 +178,9 @@ def test_a_bad_row_is_its_records_concern_for_a_reader_of_some_rows_and_every_re
         labels_table_with_bad_rows(table)
     table.write_text("Record,State,RPM,Fs\ngood.npy,outer,1797,12000\n")  # as a spreadsheet capitalizes them
     assert [row[1:] for row in labels_table_with_bad_rows(table)[0]] == [("good.npy", "outer", 1797.0, 12000.0)]
+    table.write_text("record,state,rpm,RPM\ngood.npy,outer,1797,1750\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv: the header names column rpm more than once \(in any case\)"):
+        labels_table_with_bad_rows(table)
 
 
 def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, caplog):

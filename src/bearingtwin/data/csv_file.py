@@ -166,10 +166,15 @@ def _is_number(text: str, decimal: str = ".") -> bool:
     return True
 
 
+def _row_cells(line: str, delimiter: str | None) -> list[str]:
+    """A row's cells without the empty one a closing separator leaves."""
+    cells = _cells(line, delimiter)
+    return cells[:-1] if len(cells) > 1 and cells[-1] == "" else cells
+
+
 def _numbers_row(line: str) -> bool:
     """Whether a line is a row of numbers under some decimal mark (a closing separator allowed)."""
-    cells = _cells(line, _delimiter(line))
-    cells = cells[:-1] if len(cells) > 1 and cells[-1] == "" else cells
+    cells = _row_cells(line, _delimiter(line))
     return bool(cells) and all(_NUMBER_LIKE.fullmatch(cell) for cell in cells)
 
 
@@ -178,13 +183,12 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     above a header whose names are as many as the numbers of the rows below it, when the header is not the first
     line and no line above it is a row of numbers or has as many cells as they do (a damaged row among the
     numbers, a second header row of units: those are refused by their line, as without a preamble)."""
-    start = next((k for k in range(len(content)) if all(_numbers_row(head[i]) for i in content[k:])), len(content))
-    if start < 2 or start == len(content) or any(_numbers_row(head[i]) for i in content[:start]):
+    numbers_rows = [_numbers_row(head[i]) for i in content]
+    start = max((k + 1 for k, numbers in enumerate(numbers_rows) if not numbers), default=0)  # after the last text
+    if start < 2 or start == len(content) or any(numbers_rows[:start]):
         return []
     delimiter = _delimiter(head[content[start]])
-    counts = [len(cells[:-1] if len(cells) > 1 and cells[-1] == "" else cells)
-              for cells in (_cells(head[i], delimiter) for i in content[:start + 1])]
-    *above, header, numbers = counts
+    *above, header, numbers = [len(_row_cells(head[i], delimiter)) for i in content[:start + 1]]
     return content[:start - 1] if header == numbers and numbers not in above else []
 
 

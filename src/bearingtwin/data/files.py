@@ -13,9 +13,9 @@ by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), 
 separated by commas, semicolons, tabs or spaces, optional header row, which may state a column's unit, ``acc (g)``,
 and above which a logger's lines are notes; a ``time`` / ``time_s`` / ``Time (s)`` / ``Zeit [s]`` column, or
 ``time_ms`` / ``t [ms]`` in milliseconds, gives the sampling rate: :data:`_TIME_COLUMN`), ``.mat`` (CWRU files by
-their variable names, otherwise numeric variables, and a struct's numeric fields, are channels, a time vector gives
-the rate as a time column does, and scalars ``fs`` / ``SampleRate`` / ``rpm`` are facts: :data:`_FACTS`; MATLAB 7.3
-files too), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
+their variable names, otherwise numeric variables, and a struct's numeric fields, are channels, a rising time vector
+as long as them gives the rate as a time column does (in an ``.npz`` too), and scalars ``fs`` / ``SampleRate`` /
+``rpm`` are facts: :data:`_FACTS`; MATLAB 7.3 files too), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
 and ``.xls`` (HUST text exports). A file a reader cannot parse (corrupt, truncated, another
 format under the extension) is refused naming the file, whatever the reading library raised.
 
@@ -50,13 +50,16 @@ exactly; this much relative difference is float rounding (12000 written as 12000
 
 _TIME_UNIT = r"s|secs?|seconds?|ms|msecs?|milliseconds?"
 _TIME_COLUMN = re.compile(
-    rf"(?:t|time|timestamp|time stamp|zeit|temps|tiempo)\s*(?:[_/]\s*(?P<suffix>{_TIME_UNIT})"
+    rf"(?:t|time|timestamp|time stamp|zeit|tiempo)\s*(?:[_/]\s*(?P<suffix>{_TIME_UNIT})"
     rf"|[(\[]\s*(?P<bracketed>{_TIME_UNIT})\s*[)\]]|\s+in\s+(?P<worded>{_TIME_UNIT}))?", re.IGNORECASE)
 """Column (or variable) names read as time stamps: ``time``, ``t``, ``time_s``, ``time_ms``, ``Time (s)``,
 ``t [ms]``, ``Time [sec]``, ``time/s``, ``Timestamp``, ``Zeit [s]``, ``time in ms``, ..."""
 _UNIT_IN_NAME = re.compile(r".*?(?:[(\[]\s*(?P<unit>[^()\[\]]+?)\s*[)\]]|\s+in\s+(?P<worded>\S+))\s*")
 """A channel name that states its unit at its end, in brackets or after "in": ``acceleration (m/s^2)``, ``DE [g]``,
 ``a in m/s²``."""
+_OTHER_UNITS = {"v", "mv", "mg", "mm/s", "m/s", "in/s", "ips", "um", "µm", "μm", "mil", "pa", "n", "a", "rpm", "hz"}
+"""Units besides acceleration's a channel's brackets may state (volts, velocity, displacement, ...): bracketed text
+that is none of them or of :func:`~bearingtwin.data.units.acceleration_unit`'s (``ch1 (left)``) states no unit."""
 LOWEST_FS_HZ = 200.0
 """A time column giving a slower rate than this is not a vibration record's (rather, stamps in milliseconds)."""
 
@@ -271,7 +274,7 @@ def _resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str]
 
 def time_column_seconds(name: str) -> float | None:
     """The unit in seconds of a column of time stamps called ``name`` (1e-3 for ``time_ms``), None for another column."""
-    match = _TIME_COLUMN.fullmatch(name.strip())
+    match = _TIME_COLUMN.fullmatch(name.strip().rsplit(".", 1)[-1])  # a struct's field: info.time
     if match is None:
         return None
     return 1e-3 if (match["suffix"] or match["bracketed"] or match["worded"] or "").lower().startswith("m") else 1.0
@@ -281,33 +284,47 @@ def unit_in_name(name: str) -> str:
     """The unit a channel's name states at its end, in brackets (``acc (m/s2)`` -> ``m/s^2``, ``U [V]`` -> ``V``) or
     after "in" (an acceleration unit: ``a in m/s²``), acceleration units in their canonical spelling; "" when it
     states none."""
-    match = _UNIT_IN_NAME.fullmatch(name)
+    match = _UNIT_IN_NAME.fullmatch(re.sub(r"\.\d+$", "", name))  # a repeated header's "acc (g).1" too
     if match is None:
         return ""
     if match["worded"]:  # "a in m/s²"; "speed in rig 2" states no unit
         return acceleration_unit(match["worded"]) or ""
-    return acceleration_unit(match["unit"]) or match["unit"]
+    unit = match["unit"]
+    return acceleration_unit(unit) or (unit if unit.lower() in _OTHER_UNITS else "")  # "ch1 (left)" states none
 
 
-def _time_stamps(path: Path, columns: dict[str, np.ndarray], notes: list[str],
-                 fs: float | None = None) -> tuple[dict[str, np.ndarray], float | None]:
-    """The channels without a column (or variable) of time stamps, and the rate those stamps give: ``fs`` when the
-    file states one already, None when the stamps are printed too coarsely to give one (said in ``notes``)."""
-    time_name = next((name for name in columns
-                      if np.squeeze(columns[name]).ndim == 1 and time_column_seconds(name) is not None), None)
+def _time_stamps(path: Path, columns: dict[str, np.ndarray], notes: list[str], fs: float | None = None,
+                 variables: bool = False) -> tuple[dict[str, np.ndarray], float | None]:
+    """The channels without a column of time stamps, and the rate those stamps give (said in ``notes``): ``fs``
+    when the file states one already (the stamps must agree with it), None when they are printed too coarsely to
+    give one. ``variables``: the columns are a .mat's or .npz's variables, where a name alone (``T``, a
+    temperature) does not make time stamps: only a vector as long as the other channels that rises does."""
+    def stamps(name: str) -> bool:
+        if time_column_seconds(name) is None or np.squeeze(columns[name]).ndim != 1:
+            return False
+        if not variables:
+            return True
+        vector = np.squeeze(columns[name])
+        others = {np.size(values) for key, values in columns.items() if key != name}
+        return vector.size > 1 and (not others or vector.size in others) and bool(np.all(np.diff(vector) > 0))
+
+    time_name = next((name for name in columns if stamps(name)), None)
     if time_name is None:
         return columns, fs
     columns = dict(columns)
     time_s = time_column_seconds(time_name) * np.squeeze(np.asarray(columns.pop(time_name), dtype=np.float64))
-    if fs is not None:
-        return columns, fs
     if coarse_stamps(time_s):
-        notes.append(f"the {time_name} column's stamps repeat, printed coarser than the sampling period: the rate "
-                     "is not read from them (give it: fs)")
-        return columns, None
-    fs = fs_from_time_column(time_s, str(path), time_name)
-    notes.append(f"sampling rate {fs:.6g} Hz from the time stamps of {time_name}")
-    return columns, fs
+        notes.append(f"the {time_name} stamps repeat, printed coarser than the sampling period: the rate is not read "
+                     "from them" + ("" if fs is not None else " (give it: fs)"))
+        return columns, fs
+    measured = fs_from_time_column(time_s, str(path), time_name)
+    if fs is not None:
+        if abs(measured / fs - 1.0) > FS_RELATIVE_TOLERANCE:
+            raise BearingTwinError(f"{path}: its sampling rate, {fs:g} Hz, contradicts its time stamps {time_name}, "
+                                   f"{measured:.6g} Hz")
+        return columns, fs
+    notes.append(f"sampling rate {measured:.6g} Hz from the time stamps {time_name}")
+    return columns, measured
 
 
 def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -> float:
@@ -470,7 +487,7 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
     found = {fact: _named_fact(facts, names, fact) for fact, names in _FACTS.items()}
     fs = None if found["fs"] is None else positive_number(found["fs"][1], found["fs"][0], "Hz", f"{path}: ")
     notes = []
-    arrays, fs_from_stamps = _time_stamps(path, arrays, notes, fs)
+    arrays, fs_from_stamps = _time_stamps(path, arrays, notes, fs, variables=True)
     if fs is None and fs_from_stamps is not None:
         fs, fs_origin = fs_from_stamps, "time column"
     else:

@@ -232,6 +232,9 @@ def labels_table_with_bad_rows(table: Path) -> tuple[list[tuple[str, str, str, f
             # Record,State,RPM,Fs as a spreadsheet capitalizes them: the same columns.
             columns = [name.strip().lower() if name.strip().lower() in LABEL_COLUMNS else name.strip()
                        for name in reader.fieldnames or []]
+            twice = next((name for name in LABEL_COLUMNS if columns.count(name) > 1), None)
+            if twice:  # rpm and RPM: one would be read, the other passed over
+                raise BearingTwinError(f"{table}: the header names column {twice} more than once (in any case)")
             # Unnamed columns (a trailing separator) each keep a key of their own, so a value under any of them is seen.
             reader.fieldnames = [name or f"unnamed {index}" for index, name in enumerate(columns)]
             missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
@@ -374,7 +377,7 @@ def why_not_a_recording(path: Path) -> str | None:
     text = text_column(path)
     if text is None:
         return None
-    if set(LABEL_COLUMNS[:2]) <= set(text.names):
+    if set(LABEL_COLUMNS[:2]) <= {name.strip().lower() for name in text.names}:  # in any case, as read
         return f"a labels table, columns {','.join(LABEL_COLUMNS[:2])}, not a recording"
     if any(time_column_seconds(name) is not None for name in text.names):
         return None

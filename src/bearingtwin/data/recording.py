@@ -18,13 +18,21 @@ from bearingtwin.physics.geometry import FAULTS, check_fault
 
 
 CLIPPED_SHARE = 1e-3
-"""A record with at least this share of its samples exactly at its largest or smallest value was clipped: a
-signal that is not piles up a handful there at most, even on a coarse converter."""
+"""A record with at least this share of its samples on flat tops at its largest or smallest value (two or more
+samples in a row there) was clipped: a signal that is not reaches its extremes in single samples (a sine whose
+period is a whole number of samples too), or in a handful of short flat tops on a coarse converter."""
 CLIPPED_SAMPLES = 10
 """... and at least this many samples (a short record's few equal peaks are no saturation)."""
 DROPOUT_NOTE_S = 0.005
 """A stretch held at one value this long or longer is named (5 ms: 60 samples at 12 kHz, far longer than a
 clipped peak's flat top)."""
+
+
+def flat_top(at_level: np.ndarray) -> np.ndarray:
+    """Of the samples ``at_level`` (a boolean mask), those with a neighbour at the level too: the flat tops."""
+    before = np.concatenate([[False], at_level[:-1]])
+    after = np.concatenate([at_level[1:], [False]])
+    return at_level & (before | after)
 
 
 def longest_held_stretch(signal: np.ndarray) -> tuple[int, int]:
@@ -82,25 +90,25 @@ class Recording:
             check_fault(self.fault)
 
     def require_vibration(self) -> None:
-        """Refuse a record whose every sample is the same (a dead sensor, a disconnected channel), or that rises
-        or falls at every sample (a column of time stamps or sample numbers read as the channel): it has no
+        """Refuse a record whose every sample is the same (a dead sensor, a disconnected channel), or that only
+        rises or only falls (a column of time stamps or sample numbers read as the channel): it has no
         vibration to compare or diagnose, and any verdict on it would be made up."""
         if np.ptp(self.signal) == 0:
             raise BearingTwinError(f"{self.source}: every sample is {self.signal[0]:g}: no vibration recorded")
         steps = np.diff(self.signal)
-        if steps.size >= 2 and (np.all(steps > 0) or np.all(steps < 0)):
+        if steps.size >= 2 and (np.all(steps >= 0) or np.all(steps <= 0)):  # not flat: ptp > 0 above
             raise BearingTwinError(
-                f"{self.source}: channel {self.channel or '?'} {'rises' if steps[0] > 0 else 'falls'} at every sample, "
+                f"{self.source}: channel {self.channel or '?'} {'rises' if steps.sum() > 0 else 'falls'} throughout, "
                 f"from {self.signal[0]:g} to {self.signal[-1]:g}: time stamps or sample numbers, not a vibration; "
                 "choose the vibration's channel (channel=<name or index>)")
 
     def quality_notes(self, shortest_dropout_s: float = DROPOUT_NOTE_S) -> list[str]:
         """What in the record may spoil a reading of it without making it unreadable: samples piled up at its
-        extremes (the sensor or the converter clipped, flattening the impacts; :data:`CLIPPED_SHARE`) and a
+        extremes in flat tops (the sensor or the converter clipped, flattening the impacts; :data:`CLIPPED_SHARE`) and a
         stretch held at one value for ``shortest_dropout_s`` or longer (a dropout), each named with where it is."""
         notes = []
         x = self.signal
-        at_extremes = int(np.count_nonzero(x == x.max()) + np.count_nonzero(x == x.min()))
+        at_extremes = int(sum(np.count_nonzero(flat_top(x == extreme)) for extreme in (x.max(), x.min())))
         if at_extremes >= CLIPPED_SAMPLES and at_extremes >= CLIPPED_SHARE * x.size:
             notes.append(f"{100 * at_extremes / x.size:.2g} % of the samples sit at the record's extremes "
                          f"({x.min():g} and {x.max():g}): the sensor or the converter clipped (saturated), which "

@@ -266,13 +266,8 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     """The ``diagnosis.json`` content of one record, and the physics evidence behind it."""
     recording = prepared.recording
     windows, starts = record_windows(recording.signal, pipeline.window_length)
-    dead = np.flatnonzero(np.ptp(windows, axis=1) == 0)
-    if dead.size:  # said in seconds, where the features would only say which window
-        start_s = starts[dead[0]] / recording.fs
-        raise BearingTwinError(
-            f"{recording.source}: the model's window from {start_s:.3g} s to "
-            f"{start_s + pipeline.window_length / recording.fs:.3g} s holds one value throughout (a dropout, or a "
-            "stretch held at one value): no vibration to read there; cut it out of the record or diagnose another stretch")
+    if np.any(np.ptp(windows, axis=1) == 0):  # said in seconds, where the features would only say which window
+        recording.require_no_held_stretch(pipeline.window_length / recording.fs, "a whole window of the model's")
     params = {"rpm": float(recording.rpm or 0.0)}
     notes = list(prepared.notes)
     level = pipeline.level_note(windows)

@@ -270,6 +270,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             windows_total += len(result["windows"])
             windows_correct += result["windows_correct"]
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
+        row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         run.rows.append(row)
     scored = [row for row in run.rows if "correct" in row]
     if scored:

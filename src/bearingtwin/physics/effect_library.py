@@ -630,7 +630,8 @@ class Tones(LineEffect):
     A set of independent lines, each with its own frequency and level: the lines a
     measurement shows that none of the machine effects (``unbalance``, ``misalignment``: 1x-3x;
     ``looseness``: a series of shaft orders and half orders; ``line_frequency``: supply multiples)
-    accounts for, a lone higher shaft order (a blade or vane pass) among them. A gear on
+    accounts for, a lone shaft order or half order other than 1x-3x (a blade or vane pass) among
+    them. A gear on
     the shaft is not such a set: its mesh lines stand at whole shaft orders with shaft-rate
     sidebands, a modulation these independent lines do not make; the library has no gear mesh
     (the guide's "Adding an effect" writes one).

@@ -530,7 +530,7 @@ def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz:
             return dataclasses.replace(
                 check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb",
                 reason=f"{check.reason}; but {words(name, scale)}, and a line stands at {shaft_hz:.2f} Hz, as many "
-                       f"times the shaft's place: both stand in place at a rate of {check.fs_hz / scale:.0f} Hz")
+                       f"times the shaft's place: both fall where they belong at a rate of {check.fs_hz / scale:.0f} Hz")
     if belongs or not combs:
         return check
     name, scale = combs[0]
@@ -619,7 +619,7 @@ def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float],
     if wrong and not right:
         fraction = f"1/{k}" if math.isclose(scale * k, 1.0, rel_tol=_WINDOW) else f"{scale:.3g} times"
         return "contradicted", rate_if_shaft, (f", and the envelope line of {wrong[0]} stands at {fraction} its "
-                                               f"frequency: it stands in place at a rate of {rate_if_shaft:.0f} Hz")
+                                               f"frequency: it falls where it belongs at a rate of {rate_if_shaft:.0f} Hz")
     if right and not wrong:
         return "consistent", fs, f", but the envelope line of {right[0]} stands at its frequency: real subharmonics"
     return "ambiguous", None, "the defect lines do not decide"
