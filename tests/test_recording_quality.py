@@ -33,10 +33,9 @@ def test_a_clipped_record_is_named_with_its_extremes():
     x = impacts()
     limit = 2.0 * np.sqrt(np.mean(x**2))
     (note,) = Recording(np.clip(x, -limit, limit), FS).quality_notes()
-    share, rest = note.split(" % of the samples sit at the record's extremes ", 1)
-    # Counted on flat tops: not every sample beyond the limit lies on one (a lone sample clipped is no flat top).
-    assert 1.0 < float(share) <= 100 * np.mean(np.abs(x) >= limit)
-    assert rest.startswith(f"({-limit:g} and {limit:g}): the sensor or the converter clipped")
+    share = 100 * np.mean(np.abs(x) >= limit)  # the ringing is too fast for flat tops: the limit piles samples up
+    assert note.startswith(f"{share:.2g} % of the samples sit at the record's extremes ({-limit:g} and {limit:g}): "
+                           "the sensor or the converter clipped")
 
 
 @pytest.mark.parametrize("seconds, named", [(0.3, True), (0.004, False)])

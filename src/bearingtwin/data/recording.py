@@ -18,9 +18,10 @@ from bearingtwin.physics.geometry import FAULTS, check_fault
 
 
 CLIPPED_SHARE = 1e-3
-"""A record with at least this share of its samples on flat tops at its largest or smallest value (two or more
-samples in a row there) was clipped: a signal that is not reaches its extremes in single samples (a sine whose
-period is a whole number of samples too), or in a handful of short flat tops on a coarse converter."""
+"""A record with at least this share of its samples piled up at its largest or smallest value (:func:`piled_at`)
+was clipped: a signal that is not reaches its extremes in a handful of samples, fewer than lie just below them."""
+CLIP_BAND = 0.02
+"""Share of a record's range just below an extreme that a clipped record leaves nearly empty."""
 CLIPPED_SAMPLES = 10
 """... and at least this many samples (a short record's few equal peaks are no saturation)."""
 DROPOUT_NOTE_S = 0.005
@@ -28,11 +29,14 @@ DROPOUT_NOTE_S = 0.005
 clipped peak's flat top)."""
 
 
-def flat_top(at_level: np.ndarray) -> np.ndarray:
-    """Of the samples ``at_level`` (a boolean mask), those with a neighbour at the level too: the flat tops."""
-    before = np.concatenate([[False], at_level[:-1]])
-    after = np.concatenate([at_level[1:], [False]])
-    return at_level & (before | after)
+def piled_at(x: np.ndarray, top: float, bottom: float) -> int:
+    """How many samples of ``x`` sit exactly at ``top`` when more do than in the :data:`CLIP_BAND` of the range
+    (``top`` - ``bottom``) just below it, else 0. A limit piles samples up at one value over an empty band below
+    it, even where the clipped ringing is too fast to leave flat tops (3 kHz at 12 kHz); a signal's own peaks,
+    a sine's that repeat each period too, are outnumbered by the samples just below them."""
+    at = int(np.count_nonzero(x == top))
+    below = int(np.count_nonzero((x < top) & (x >= top - CLIP_BAND * (top - bottom))))
+    return at if at > below else 0
 
 
 def longest_held_stretch(signal: np.ndarray) -> tuple[int, int]:
@@ -104,11 +108,11 @@ class Recording:
 
     def quality_notes(self, shortest_dropout_s: float = DROPOUT_NOTE_S) -> list[str]:
         """What in the record may spoil a reading of it without making it unreadable: samples piled up at its
-        extremes in flat tops (the sensor or the converter clipped, flattening the impacts; :data:`CLIPPED_SHARE`) and a
+        extremes (the sensor or the converter clipped, flattening the impacts; :data:`CLIPPED_SHARE`) and a
         stretch held at one value for ``shortest_dropout_s`` or longer (a dropout), each named with where it is."""
         notes = []
         x = self.signal
-        at_extremes = int(sum(np.count_nonzero(flat_top(x == extreme)) for extreme in (x.max(), x.min())))
+        at_extremes = piled_at(x, x.max(), x.min()) + piled_at(-x, -x.min(), -x.max())
         if at_extremes >= CLIPPED_SAMPLES and at_extremes >= CLIPPED_SHARE * x.size:
             notes.append(f"{100 * at_extremes / x.size:.2g} % of the samples sit at the record's extremes "
                          f"({x.min():g} and {x.max():g}): the sensor or the converter clipped (saturated), which "
