@@ -189,4 +189,19 @@ def test_the_units_a_header_states_are_reported_per_channel_where_they_differ(ca
     assert summary["unit"] == {"acc (g)": "g", "tacho [V]": "V"}
     assert summary["meta"]["notes"][0].startswith("the 2 lines above the header read as notes, not data")
     code, out, _ = run(capsys, monkeypatch, f"path={path}", "channel='acc (g)'")
-    assert code == 0 and json.loads(out)["unit"] == "g"
+    assert code == 0 and json.loads(out)["unit"] == "g" and json.loads(out)["quality"] == {}
+
+
+def test_clipping_and_a_dropout_are_named_per_channel(capsys, monkeypatch, tmp_path):
+    t = np.arange(24000) / 12000.0
+    x = np.sin(2 * np.pi * 157.0 * t) + 0.3 * np.random.default_rng(0).standard_normal(t.size)
+    clipped, held = np.clip(x, -0.8, 0.8), x.copy()
+    held[12000:13200] = 0.0
+    path = tmp_path / "two.npz"
+    np.savez(path, clipped=clipped, held=held, fs=12000.0)
+    code, out, _ = run(capsys, monkeypatch, f"path={path}")
+    quality = json.loads(out)["quality"]
+    assert code == 0 and set(quality) == {"clipped", "held"}
+    assert "sit at the record's extremes (-0.8 and 0.8): the sensor or the converter clipped" in quality["clipped"][0]
+    assert quality["held"] == ["samples from 1 s to 1.1 s are all 0 (a dropout, or a stretch held at one value): the "
+                               "windows over it read no vibration"]

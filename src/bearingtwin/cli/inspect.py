@@ -7,7 +7,8 @@ problem. With ``bearing=<name>`` the bearing's defect frequencies are added, in 
 speed is known and always as orders (multiples of the shaft speed). Whenever the rate and
 the speed are known, the sampling-rate check against the shaft line is reported too, with
 every channel of the file a witness of its one rate (the channel that decides, and each
-channel's verdict), as the commands that read the file apply it.
+channel's verdict), as the commands that read the file apply it. Whenever the rate is known,
+``quality`` names per channel what a diagnosis notes of it: clipping and dropouts, with where they are.
 Settings are Hydra overrides, as for every command (``bearingtwin-inspect --help``).
 """
 
@@ -27,6 +28,7 @@ from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing,
                                 unknown_bearing_note)
 from bearingtwin.data.files import read_raw, resolve_fact, resolve_fs
 from bearingtwin.data.real import labels_row
+from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
@@ -110,6 +112,10 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
     if unknown_bearing:
         summary["meta"]["notes"] = [*summary["meta"].get("notes", []), unknown_bearing]
+    if fs_hz is not None:  # clipping and dropouts, as a diagnosis names them (a channel holding NaNs: its count says)
+        quality = {name: Recording(raw.channels[name], fs_hz, source=raw.path).quality_notes() for name in names
+                   if raw.channels[name].size and np.all(np.isfinite(raw.channels[name]))}
+        summary["quality"] = {name: notes for name, notes in quality.items() if notes}
     if rpm is not None and fs_hz is not None:
         # Every channel of the file's length witnesses its one rate, as bearingtwin-diagnose and the twin read it.
         signal = raw.channels[names[0]]
