@@ -5,6 +5,7 @@ subprocess; where only the message does, the function behind it is called, since
 entry point turns a BearingTwinError into that line and status 2 the same way.
 """
 
+import logging
 import os
 import subprocess
 from pathlib import Path
@@ -171,7 +172,7 @@ def twin_config(*overrides):
     return compose_config("twin", list(overrides))
 
 
-def test_measurement_files_that_are_not_measurements(tmp_path):
+def test_measurement_files_that_are_not_measurements(tmp_path, caplog):
     binary = tmp_path / "binary.csv"
     binary.write_bytes(bytes(range(256)) * 4)
     with pytest.raises(BearingTwinError, match="binary.csv: not a text file"):
@@ -188,6 +189,14 @@ def test_measurement_files_that_are_not_measurements(tmp_path):
     cfg = twin_config(f"measured.path={channels}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer")
     with pytest.raises(BearingTwinError, match=r"two.npy: holds channels 0, 1; choose one with measured.channel=<name>"):
         load_measurement(cfg.measured)
+    clipped = tmp_path / "clipped.npy"  # read, and its clipping said: the library's `clipping` may explain it
+    x = np.sin(2 * np.pi * 157.0 * np.arange(24000) / 12000.0) + 0.3 * np.random.default_rng(0).standard_normal(24000)
+    np.save(clipped, np.clip(x, -0.8, 0.8))
+    cfg = twin_config(f"measured.path={clipped}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer",
+                      "measured.check_fs=false")
+    with caplog.at_level(logging.WARNING):
+        load_measurement(cfg.measured)
+    assert "the sensor or the converter clipped" in caplog.text
     flat = tmp_path / "flat.npy"
     np.save(flat, np.zeros(24000))
     cfg = twin_config(f"measured.path={flat}", "measured.fs=12000", "measured.rpm=1797", "measured.fault=outer")

@@ -75,7 +75,8 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
                                    channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
                                    fault_key="measured.fault")
     recording.require_vibration()  # before the rate check, which a flat record cannot answer
-    for note in recording.meta.get("notes", []):  # e.g. a nominal speed the twin will run at
+    # e.g. a nominal speed the twin will run at; a clipping (which the library's `clipping` may then explain)
+    for note in [*recording.meta.get("notes", []), *recording.quality_notes()]:
         log.warning("%s: %s", measured_cfg.path, note)
     if check_fs:
         # A rate given here or only declared by a data set's convention is refused when the record contradicts
