@@ -42,6 +42,7 @@ def test_hust_file_with_er16k_defect_frequencies(capsys, monkeypatch):
 def test_nan_cell_is_reported_not_refused(capsys, monkeypatch):
     code, out, _ = run(capsys, monkeypatch, f"path={HUST / 'damaged' / 'nan_cell.xls'}")
     assert code == 0 and json.loads(out)["nan_count"] == {"speed": 0, "X": 0, "Y": 0, "Z": 1}
+    assert json.loads(out)["quality"]["Z"] == ["not checked: 1 NaN or infinite samples"]
 
 
 @pytest.mark.parametrize(
@@ -202,6 +203,6 @@ def test_clipping_and_a_dropout_are_named_per_channel(capsys, monkeypatch, tmp_p
     code, out, _ = run(capsys, monkeypatch, f"path={path}")
     quality = json.loads(out)["quality"]
     assert code == 0 and set(quality) == {"clipped", "held"}
-    assert "sit at the record's extremes (-0.8 and 0.8): the sensor or the converter clipped" in quality["clipped"][0]
+    assert "pile up at its maximum, 0.8 and its minimum, -0.8: the sensor or the converter clipped" in quality["clipped"][0]
     assert quality["held"] == ["samples from 1 s to 1.1 s are all 0 (a dropout, or a stretch held at one value): the "
                                "windows over it read no vibration"]

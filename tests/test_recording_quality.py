@@ -33,9 +33,23 @@ def test_a_clipped_record_is_named_with_its_extremes():
     x = impacts()
     limit = 2.0 * np.sqrt(np.mean(x**2))
     (note,) = Recording(np.clip(x, -limit, limit), FS).quality_notes()
-    share = 100 * np.mean(np.abs(x) >= limit)  # the ringing is too fast for flat tops: the limit piles samples up
-    assert note.startswith(f"{share:.2g} % of the samples sit at the record's extremes ({-limit:g} and {limit:g}): "
-                           "the sensor or the converter clipped")
+    share, rest = note.split(" % of the samples pile up at ", 1)
+    # The ringing is too fast for flat tops: the limit piles samples up (with the few just below it, within the edge).
+    assert float(share) == pytest.approx(100 * np.mean(np.abs(x) >= limit), abs=0.2)
+    assert rest.startswith(f"its maximum, {limit:g} and its minimum, {-limit:g}: the sensor or the converter clipped")
+    # One side alone; and an amplifier's limit reaching a 16-bit converter with a code of noise, not one value.
+    (note,) = Recording(np.clip(x, -10 * limit, limit), FS).quality_notes()
+    assert f"pile up at its maximum, {limit:g}: the sensor" in note
+    lsb = 20.0 / 2**16 * np.ptp(x) / 10  # a +-10 V range, the signal spanning half of it
+    noisy = np.round((np.clip(x, -limit, limit) + lsb * np.random.default_rng(1).standard_normal(x.size)) / lsb) * lsb
+    assert "the sensor or the converter clipped" in Recording(noisy, FS).quality_notes()[0]
+
+
+def test_a_flat_or_two_level_channel_is_no_clipping():
+    """A dead channel is said to be one; a tacho's two levels pile up at both ends by design, not by a limit."""
+    assert Recording(np.zeros(1000), FS).quality_notes() == ["every sample is 0: no vibration recorded"]
+    tacho = 5.0 * ((np.arange(int(FS)) / FS * 30.0) % 1.0 < 0.1)
+    assert not any("clipped" in note for note in Recording(tacho, FS).quality_notes())
 
 
 @pytest.mark.parametrize("seconds, named", [(0.3, True), (0.004, False)])

@@ -8,7 +8,8 @@ speed is known and always as orders (multiples of the shaft speed). Whenever the
 the speed are known, the sampling-rate check against the shaft line is reported too, with
 every channel of the file a witness of its one rate (the channel that decides, and each
 channel's verdict), as the commands that read the file apply it. Whenever the rate is known,
-``quality`` names per channel what a diagnosis notes of it: clipping and dropouts, with where they are.
+``quality`` names per channel clipping and dropouts, with where they are (a diagnosis and the twin note them
+for the channel they read, and refuse a dead one), or why a channel was not checked.
 Settings are Hydra overrides, as for every command (``bearingtwin-inspect --help``).
 """
 
@@ -112,9 +113,11 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
     if unknown_bearing:
         summary["meta"]["notes"] = [*summary["meta"].get("notes", []), unknown_bearing]
-    if fs_hz is not None:  # clipping and dropouts, as a diagnosis names them (a channel holding NaNs: its count says)
-        quality = {name: Recording(raw.channels[name], fs_hz, source=raw.path).quality_notes() for name in names
-                   if raw.channels[name].size and np.all(np.isfinite(raw.channels[name]))}
+    if fs_hz is not None:  # clipping, dropouts and dead channels, as a diagnosis or the twin names them
+        quality = {name: Recording(raw.channels[name], fs_hz, source=raw.path).quality_notes()
+                   if np.all(np.isfinite(raw.channels[name])) else
+                   [f"not checked: {np.count_nonzero(~np.isfinite(raw.channels[name]))} NaN or infinite samples"]
+                   for name in names if raw.channels[name].size}
         summary["quality"] = {name: notes for name, notes in quality.items() if notes}
     if rpm is not None and fs_hz is not None:
         # Every channel of the file's length witnesses its one rate, as bearingtwin-diagnose and the twin read it.

@@ -20,8 +20,11 @@ from bearingtwin.physics.geometry import FAULTS, check_fault
 CLIPPED_SHARE = 1e-3
 """A record with at least this share of its samples piled up at its largest or smallest value (:func:`piled_at`)
 was clipped: a signal that is not reaches its extremes in a handful of samples, fewer than lie just below them."""
+CLIP_EDGE = 0.0025
+"""Share of a record's range at an extreme counted as at it: a limit in the sensor's amplifier reaches the
+converter with its noise (a few codes) and any AC coupling's drift, not as one exact value."""
 CLIP_BAND = 0.02
-"""Share of a record's range just below an extreme that a clipped record leaves nearly empty."""
+"""Share of a record's range below that edge that a clipped record leaves nearly empty."""
 CLIPPED_SAMPLES = 10
 """... and at least this many samples (a short record's few equal peaks are no saturation)."""
 DROPOUT_NOTE_S = 0.005
@@ -30,12 +33,15 @@ clipped peak's flat top)."""
 
 
 def piled_at(x: np.ndarray, top: float, bottom: float) -> int:
-    """How many samples of ``x`` sit exactly at ``top`` when more do than in the :data:`CLIP_BAND` of the range
-    (``top`` - ``bottom``) just below it, else 0. A limit piles samples up at one value over an empty band below
-    it, even where the clipped ringing is too fast to leave flat tops (3 kHz at 12 kHz); a signal's own peaks,
-    a sine's that repeat each period too, are outnumbered by the samples just below them."""
-    at = int(np.count_nonzero(x == top))
-    below = int(np.count_nonzero((x < top) & (x >= top - CLIP_BAND * (top - bottom))))
+    """How many samples of ``x`` lie within :data:`CLIP_EDGE` of the range (``top`` - ``bottom``) of ``top`` when
+    more do than in the :data:`CLIP_BAND` just below that edge, else 0. A hard limit piles samples up at one level
+    over an empty band below it, even where the clipped ringing is too fast to leave flat tops (3 kHz at 12 kHz);
+    a signal's own peaks, a sine's that repeat each period too, are outnumbered by the samples just below them.
+    Soft saturation (a gradual compression) and a limit smoothed by a low-pass after it leave no such pile: they
+    are not named. Falsely named: a noise-free tone quantized to a few codes, a half-wave rectified signal."""
+    edge = top - CLIP_EDGE * (top - bottom)
+    at = int(np.count_nonzero(x >= edge))
+    below = int(np.count_nonzero((x < edge) & (x >= edge - CLIP_BAND * (top - bottom))))
     return at if at > below else 0
 
 
@@ -110,13 +116,21 @@ class Recording:
         """What in the record may spoil a reading of it without making it unreadable: samples piled up at its
         extremes (the sensor or the converter clipped, flattening the impacts; :data:`CLIPPED_SHARE`) and a
         stretch held at one value for ``shortest_dropout_s`` or longer (a dropout), each named with where it is."""
-        notes = []
         x = self.signal
-        at_extremes = piled_at(x, x.max(), x.min()) + piled_at(-x, -x.min(), -x.max())
-        if at_extremes >= CLIPPED_SAMPLES and at_extremes >= CLIPPED_SHARE * x.size:
-            notes.append(f"{100 * at_extremes / x.size:.2g} % of the samples sit at the record's extremes "
-                         f"({x.min():g} and {x.max():g}): the sensor or the converter clipped (saturated), which "
-                         "flattens the impacts a diagnosis reads; a verdict on it may be off")
+        if np.ptp(x) == 0:
+            return [f"every sample is {x[0]:g}: no vibration recorded"]
+        notes = []
+        # Fewer levels than the band below an extreme can tell apart (a two-level tacho pulse): no reading of clipping.
+        piles = ([] if np.unique(x).size < 1 / CLIP_BAND else
+                 [(name, level, piled_at(sign * x, sign * level, sign * other)) for name, level, other, sign in
+                  (("maximum", x.max(), x.min(), 1.0), ("minimum", x.min(), x.max(), -1.0))])
+        piles = [(name, level, count) for name, level, count in piles  # a side clipped on its own (one-sided too)
+                 if count >= CLIPPED_SAMPLES and count >= CLIPPED_SHARE * x.size]
+        at_extremes = sum(count for _, _, count in piles)
+        if piles:
+            where = " and ".join(f"its {name}, {level:g}" for name, level, _ in piles)
+            notes.append(f"{100 * at_extremes / x.size:.3g} % of the samples pile up at {where}: the sensor or the "
+                         "converter clipped (saturated), which flattens the impacts; what is read from them may be off")
         start, length = longest_held_stretch(x)
         if length > 1 and length >= shortest_dropout_s * self.fs:
             notes.append(f"samples from {start / self.fs:.3g} s to {(start + length) / self.fs:.3g} s are all "
