@@ -103,8 +103,9 @@ class Recording:
         """Refuse a record whose every sample is the same (a dead sensor, a disconnected channel), or that only
         rises or only falls (a column of time stamps or sample numbers read as the channel): it has no
         vibration to compare or diagnose, and any verdict on it would be made up."""
-        if np.ptp(self.signal) == 0:
-            raise BearingTwinError(f"{self.source}: every sample is {self.signal[0]:g}: no vibration recorded")
+        flat = self._flat()
+        if flat:
+            raise BearingTwinError(f"{self.source}: {flat}")
         steps = np.diff(self.signal)
         if steps.size >= 2 and (np.all(steps >= 0) or np.all(steps <= 0)):  # not flat: ptp > 0 above
             raise BearingTwinError(
@@ -117,8 +118,9 @@ class Recording:
         extremes (the sensor or the converter clipped, flattening the impacts; :data:`CLIPPED_SHARE`) and a
         stretch held at one value for ``shortest_dropout_s`` or longer (a dropout), each named with where it is."""
         x = self.signal
-        if np.ptp(x) == 0:
-            return [f"every sample is {x[0]:g}: no vibration recorded"]
+        flat = self._flat()
+        if flat:
+            return [flat]
         notes = []
         # Fewer levels than the band below an extreme can tell apart (a two-level tacho pulse): no reading of clipping.
         piles = ([] if np.unique(x).size < 1 / CLIP_BAND else
@@ -131,23 +133,32 @@ class Recording:
             where = " and ".join(f"its {name}, {level:g}" for name, level, _ in piles)
             notes.append(f"{100 * at_extremes / x.size:.3g} % of the samples pile up at {where}: the sensor or the "
                          "converter clipped (saturated), which flattens the impacts; what is read from them may be off")
-        start, length = longest_held_stretch(x)
-        if length > 1 and length >= shortest_dropout_s * self.fs:
-            notes.append(f"samples from {start / self.fs:.3g} s to {(start + length) / self.fs:.3g} s are all "
-                         f"{x[start]:g} (a dropout, or a stretch held at one value): the windows over it read "
-                         "no vibration")
+        held = self._held_stretch(shortest_dropout_s)
+        if held:
+            notes.append(f"{held}: the windows over it read no vibration")
         return notes
+
+    def _flat(self) -> str | None:
+        """What a record of one value is ("every sample is 0: no vibration recorded"), None for any other."""
+        return f"every sample is {self.signal[0]:g}: no vibration recorded" if np.ptp(self.signal) == 0 else None
+
+    def _held_stretch(self, seconds: float) -> str | None:
+        """Where the record holds one value for ``seconds`` or longer ("samples from 1 s to 1.3 s are all 0 (a
+        dropout, ...)"), None where it holds none so long."""
+        start, length = longest_held_stretch(self.signal)
+        if length > 1 and length >= seconds * self.fs:
+            return (f"samples from {start / self.fs:.3g} s to {(start + length) / self.fs:.3g} s are all "
+                    f"{self.signal[start]:g} (a dropout, or a stretch held at one value)")
+        return None
 
     def require_no_held_stretch(self, seconds: float, why: str) -> None:
         """Refuse a record holding one value for ``seconds`` or longer (a dropout, a sensor saturated or
         disconnected for a while): ``why`` says what such a stretch would spoil. Shorter runs (a quiet signal
         on a coarse converter, a clipped peak) are left alone."""
-        start, length = longest_held_stretch(self.signal)
-        if length > 1 and length >= seconds * self.fs:
-            raise BearingTwinError(
-                f"{self.source}: samples from {start / self.fs:.3g} s to {(start + length) / self.fs:.3g} s are all "
-                f"{self.signal[start]:g} (a dropout, or a stretch held at one value), which would spoil {why}; "
-                "cut it out of the record or choose another stretch")
+        held = self._held_stretch(seconds)
+        if held:
+            raise BearingTwinError(f"{self.source}: {held}, which would spoil {why}; cut it out of the record or "
+                                   "choose another stretch")
 
     @property
     def duration(self) -> float:
