@@ -66,6 +66,16 @@ class PhysicsEvidence:
     spectrum: np.ndarray
     unreadable: dict[str, str]
 
+    def decisive_state(self, threshold_db: float, margin_db: float) -> str | None:
+        """The fault state whose series leaves no doubt: at least ``threshold_db`` over its floor and at least
+        ``margin_db`` above every other state's series; None when no series does."""
+        ranked = sorted(self.prominence_db.items(), key=lambda item: item[1], reverse=True)
+        if not ranked or ranked[0][1] < threshold_db:
+            return None
+        if len(ranked) > 1 and ranked[0][1] - ranked[1][1] < margin_db:
+            return None
+        return ranked[0][0]
+
     def as_dict(self) -> dict:
         result = asdict(self)
         for name in ("freqs_hz", "spectrum"):
@@ -216,3 +226,37 @@ def _ambiguous(line_hz: float, other_lines_hz: list[float], shaft_hz: float, sep
     """Whether a line lies within ``separation_hz`` of a shaft harmonic or of another state's line."""
     return _near_shaft_harmonic(line_hz, shaft_hz, separation_hz) or any(
         abs(line_hz - other) < separation_hz for other in other_lines_hz)
+
+
+@dataclass(frozen=True)
+class PhysicsFirst:
+    """Let the envelope spectrum decide a window where it leaves no doubt, the classifier elsewhere.
+
+    A classifier learns how a fault's lines stand against the rest of one path's content; through
+    another path (another accelerometer, another rig) the same series may stand as high while the
+    rest differs, and the classifier may then send it to a class that has no series of its own. No
+    diagnostician overrules a series standing ``threshold_db`` over its floor and ``margin_db`` above
+    every other state's: such a window is called by :func:`physics_evidence` (its defaults, the
+    physics baseline's reading), and the classifier decides the rest: ball faults, faint or masked
+    faults, healthy bearings (results/sim2real_protocol.md, version 9).
+    """
+
+    threshold_db: float = 20.0
+    margin_db: float = 10.0
+
+    def __post_init__(self):
+        for name in ("threshold_db", "margin_db"):
+            non_negative_number(f"physics_first.{name}", getattr(self, name), "a non-negative number of dB")
+
+    def states(self, windows, fs_hz: float, rpm, bearing: dict) -> list[str | None]:
+        """Each window's decisive fault state (:meth:`PhysicsEvidence.decisive_state`), None where there is none.
+
+        Args:
+            windows: (n, samples) raw windows, any unit; fs_hz: their sampling rate.
+            rpm: shaft speed, rev/min, one for all windows or one per window.
+            bearing: the config of the bearing the windows were recorded on.
+        """
+        windows = np.asarray(windows, dtype=np.float64)
+        rpms = np.broadcast_to(np.asarray(rpm, dtype=np.float64), (len(windows),))
+        return [physics_evidence(window, fs_hz, float(speed), bearing).decisive_state(self.threshold_db, self.margin_db)
+                for window, speed in zip(windows, rpms)]

@@ -31,6 +31,8 @@ from bearingtwin.tracking.provenance import installed_versions
 
 ARTIFACT_PATH = "model"
 STATE_COLUMN = "state"
+DECIDED_BY_COLUMN = "decided_by"
+"""``physics`` or ``classifier`` per window, in the frame of a model whose physics may decide a window."""
 RUNTIME_PACKAGES = ("bearingtwin", "numpy", "scipy", "pandas", "scikit-learn", "torch", "lightning", "mlflow")
 
 
@@ -95,10 +97,13 @@ def use_one_thread_per_library() -> None:
 
 def predictions_frame(pipeline: DiagnosisPipeline, windows: np.ndarray, rpm: float | None,
                       bearing: dict | None = None) -> pd.DataFrame:
-    """``state`` and one probability column per class, one row per window."""
-    states, probabilities = pipeline.predict(windows, rpm, bearing)
+    """``state`` and one probability column per class (the classifier's), one row per window; and who decided
+    each window (``decided_by``) when the model lets the physics decide some (``physics_first``)."""
+    states, probabilities, by_physics = pipeline.decide(windows, rpm, bearing)
     frame = pd.DataFrame(probabilities, columns=pipeline.class_names)
     frame.insert(0, STATE_COLUMN, states)
+    if pipeline.physics_first is not None:
+        frame[DECIDED_BY_COLUMN] = np.where(by_physics, "physics", "classifier")
     return frame
 
 

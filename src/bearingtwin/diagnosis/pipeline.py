@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import copy
 import json
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from bearingtwin.data.windows import normalize_windows
+from bearingtwin.diagnosis.evidence import PhysicsFirst
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import EXTRACTORS
@@ -53,6 +54,8 @@ class DiagnosisPipeline:
         unit: the unit of the training windows (``m/s^2``, ``g``; "" when the data did not state one).
         window_level: the 5th and 95th percentiles of the training windows' standard deviation, in ``unit``:
             the levels the classifier has seen; None when the windows are normalized (any level is alike).
+        physics_first: where the envelope spectrum leaves no doubt, it decides the window instead of the
+            classifier (:class:`PhysicsFirst`); None: the classifier decides every window.
     """
 
     extractor: object
@@ -65,6 +68,7 @@ class DiagnosisPipeline:
     config_hash: str = ""
     unit: str = ""
     window_level: tuple[float, float] | None = None
+    physics_first: PhysicsFirst | None = None
 
     @property
     def class_names(self) -> list[str]:
@@ -73,8 +77,9 @@ class DiagnosisPipeline:
 
     @property
     def needs_rpm(self) -> bool:
-        """Whether the features read the spectrum on the shaft-order axis (the shaft speed is required)."""
-        return isinstance(self.extractor, EnvelopeOrderFeatures)
+        """Whether the features, or the physics that may decide a window, read the spectrum at the shaft's
+        orders (the shaft speed is required)."""
+        return isinstance(self.extractor, EnvelopeOrderFeatures) or self.physics_first is not None
 
     def check_can_diagnose(self) -> None:
         """Refuse a model whose features need the true label of the window they describe."""
@@ -149,9 +154,31 @@ class DiagnosisPipeline:
         return self.classifier.predict_proba(self.features(windows, rpm, bearing))
 
     def predict(self, windows, rpm=None, bearing: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Each window's state name (as the trained classifier predicts it) and the probabilities."""
+        """Each window's state name and the classifier's probabilities (:meth:`decide`)."""
+        states, probabilities, _ = self.decide(windows, rpm, bearing)
+        return states, probabilities
+
+    def decide(self, windows, rpm=None, bearing: dict | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each window's state name, the classifier's probabilities, and whether the physics decided the window
+        (:attr:`physics_first`) rather than the classifier."""
         labels, probabilities = self.classifier.predict_with_proba(self.features(windows, rpm, bearing))
-        return np.array([FAULTS[int(label)] for label in labels]), probabilities
+        labels, by_physics = self.overrule(labels, windows, rpm, bearing)
+        return np.array([FAULTS[int(label)] for label in labels]), probabilities, by_physics
+
+    def overrule(self, labels: np.ndarray, windows, rpm, bearing: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The classifier's ``labels`` (:data:`FAULTS` indices) of raw ``windows``, each window where the envelope
+        spectrum leaves no doubt (:attr:`physics_first`) set to the physics' state, and the mask of those windows.
+        The physics names only states the classifier knows."""
+        labels = np.array(labels, copy=True)
+        by_physics = np.zeros(len(labels), dtype=bool)
+        if self.physics_first is None:
+            return labels, by_physics
+        known = {FAULTS[int(label)] for label in self.classifier.classes_}
+        states = self.physics_first.states(windows, self.fs_hz, rpm, bearing or self.bearing)
+        for index, state in enumerate(states):
+            if state in known:
+                labels[index], by_physics[index] = FAULTS.index(state), True
+        return labels, by_physics
 
     # ------------------------------------------------------------ files
 
@@ -170,6 +197,7 @@ class DiagnosisPipeline:
             "config": self.config,
             "unit": self.unit,
             "window_level": None if self.window_level is None else [float(v) for v in self.window_level],
+            "physics_first": None if self.physics_first is None else asdict(self.physics_first),
             "extractor": _extractor_state(self.extractor),
             "classifier": _save_classifier(self.classifier, folder),
         }
@@ -196,6 +224,7 @@ class DiagnosisPipeline:
             config_hash=meta["config_hash"],
             unit=meta.get("unit", ""),  # models saved before these were recorded: unit and levels unknown
             window_level=None if meta.get("window_level") is None else tuple(meta["window_level"]),
+            physics_first=None if meta.get("physics_first") is None else PhysicsFirst(**meta["physics_first"]),
         )
 
 

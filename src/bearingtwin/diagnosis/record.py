@@ -34,7 +34,7 @@ from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import acceleration_factor, acceleration_unit, convert_acceleration
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
-from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, model_params
+from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
@@ -294,6 +294,9 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     probabilities = frame[names].to_numpy()
     counts = {name: int(np.sum(states == name)) for name in names}
     verdict = max(names, key=lambda name: (counts[name], probabilities[:, names.index(name)].mean()))
+    deciders = frame[DECIDED_BY_COLUMN].to_numpy() if DECIDED_BY_COLUMN in frame else None
+    if deciders is not None:
+        notes.append(physics_first_note(pipeline, deciders))
     evidence = None
     if recording.rpm is not None and prepared.bearing:
         evidence = physics_evidence(recording.signal, recording.fs, recording.rpm, prepared.bearing, **evidence_settings)
@@ -309,8 +312,9 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "mean_probability": float(probabilities[:, names.index(verdict)].mean()),
         "windows": [
             {"start_s": float(start / recording.fs), "state": str(state),
-             "probabilities": {name: float(p) for name, p in zip(names, row)}}
-            for start, state, row in zip(starts, states, probabilities)
+             "probabilities": {name: float(p) for name, p in zip(names, row)},
+             **({} if deciders is None else {"decided_by": str(deciders[index])})}
+            for index, (start, state, row) in enumerate(zip(starts, states, probabilities))
         ],
         "evidence": None if evidence is None else evidence.as_dict(),
         "evidence_state": None if evidence is None else evidence.evidence_state,
@@ -332,6 +336,15 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         if evidence is not None and evidence.evidence_state is not None:  # an answer the physics gave
             result["physics_correct"] = bool(evidence.evidence_state == prepared.true_state)
     return result, evidence
+
+
+def physics_first_note(pipeline: DiagnosisPipeline, deciders: np.ndarray) -> str:
+    """How many windows the envelope spectrum decided (the model's ``physics_first``), and why it may."""
+    decided = int(np.sum(deciders == "physics"))
+    gate = pipeline.physics_first
+    return (f"{decided} of {len(deciders)} windows decided by the envelope spectrum, where one defect series stood "
+            f"{gate.threshold_db:g} dB or more over its floor and {gate.margin_db:g} dB above the others; the classifier "
+            "decided the rest (their probabilities are the classifier's throughout)")
 
 
 def one_line(result: dict) -> str:

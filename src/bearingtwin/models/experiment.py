@@ -21,8 +21,9 @@ from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 
 from bearingtwin.config import bearing_config, plain_config
 from bearingtwin.data.build import build_dataset
-from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.data.windows import split_indices
+from bearingtwin.diagnosis.evidence import PhysicsFirst
+from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.cache import cache_path, extract_features
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
@@ -140,7 +141,21 @@ def checked_settings(cfg: DictConfig, root_dir: str | None = None) -> tuple[obje
     # feature groups with nothing to choose.
     groups = chosen_feature_groups(cfg, build_feature_extractor(cfg.features))
     check_feature_bearing(cfg)
+    physics_first_from(cfg)
     return classifier, groups
+
+
+def physics_first_from(cfg: DictConfig) -> PhysicsFirst | None:
+    """The ``physics_first`` setting as the pipeline carries it (None: the classifier decides every window)."""
+    settings = cfg.get("physics_first")
+    if settings is None:
+        return None
+    if not isinstance(settings, DictConfig):
+        raise BearingTwinError(f"physics_first must be null or {{threshold_db: <dB>, margin_db: <dB>}}, got {settings!r}")
+    unknown = sorted(set(settings) - {"threshold_db", "margin_db"})
+    if unknown:
+        raise BearingTwinError(f"physics_first.{unknown[0]} is not a setting; physics_first takes threshold_db and margin_db")
+    return PhysicsFirst(**settings)
 
 
 def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentResult:
@@ -158,6 +173,8 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     seed = cfg.seed
     classifier, groups = checked_settings(cfg, root_dir)
     dataset = build_dataset(cfg)
+    if cfg.get("physics_first") is not None and dataset.window_rpms is None:  # before the features' minutes
+        raise BearingTwinError("physics_first reads each window at its shaft speed; this data states none")
     if dataset.fixed_split is not None:
         train, test = dataset.fixed_split
     else:
@@ -190,12 +207,33 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
             group, classifier, features, extractor, dataset, train, fit,
             lambda: build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir))
         choice.update(scores)
-    predicted = classifier.predict(features[test])
+    pipeline = DiagnosisPipeline(
+        extractor=extractor,
+        classifier=classifier,
+        window_length=dataset.windows.shape[1],
+        fs_hz=dataset.fs,
+        window_normalization=dataset.window_normalization,
+        bearing=data_bearing(cfg),
+        config=plain_config(cfg),
+        unit=dataset.unit,
+        window_level=training_window_level(dataset, train),
+        physics_first=physics_first_from(cfg),
+    )
+
+    def decided(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The model's labels of windows ``rows`` as a diagnosis decides them, and which the physics decided."""
+        labels = classifier.predict(features[rows])
+        rpms = None if dataset.window_rpms is None else dataset.window_rpms[rows]
+        return pipeline.overrule(labels, dataset.windows[rows], rpms)
+
+    predicted, by_physics = decided(test)
     scores, confusion = classification_scores(y[test], predicted, dataset.class_names)
     scores.update(choice)
+    if pipeline.physics_first is not None:
+        scores["physics_decided"] = float(np.mean(by_physics))
     if len(dataset.validation):  # accuracy, and recall of the classes present
         y_val = y[dataset.validation]
-        validation, _ = classification_scores(y_val, classifier.predict(features[dataset.validation]), dataset.class_names)
+        validation, _ = classification_scores(y_val, decided(dataset.validation)[0], dataset.class_names)
         scores.update({f"calibration_{name}": value for name, value in validation.items()
                        if name == "accuracy" or name.startswith("recall_")})
     scores["inference_ms_per_sample"] = inference_ms_per_sample(classifier, features[test])
@@ -212,17 +250,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         per_record=per_record_accuracy(dataset, test, predicted),
         example_windows=dataset.windows[test[:2]],
         example_rpm=None if dataset.window_rpms is None else float(dataset.window_rpms[test[0]]),
-        pipeline=DiagnosisPipeline(
-            extractor=extractor,
-            classifier=classifier,
-            window_length=dataset.windows.shape[1],
-            fs_hz=dataset.fs,
-            window_normalization=dataset.window_normalization,
-            bearing=data_bearing(cfg),
-            config=plain_config(cfg),
-            unit=dataset.unit,
-            window_level=training_window_level(dataset, train),
-        ),
+        pipeline=pipeline,
     )
 
 

@@ -86,7 +86,8 @@ PINNED_KEYS = {"features.n_jobs": 1, "data.n_jobs": 1}
 """Settings that say how many processes compute, not what (as the feature cache's key knows,
 :data:`bearingtwin.features.NOT_AFFECTING_NUMBERS`): hashed at 1 whatever they are set to, the value runs recorded
 before this rule had, so those runs keep their hashes and a sweep resumed with more processes skips them."""
-HASHED_WHEN_SET_KEYS = ("data.labels", "data.twin.background_snr_db", "data.twin.other_paths", "simulator.oversample")
+HASHED_WHEN_SET_KEYS = ("data.labels", "data.twin.background_snr_db", "data.twin.other_paths", "simulator.oversample",
+                        "physics_first")
 """Keys hashed only when not null: each came after runs were recorded, and its null default computes what its
 absence did, so those runs keep their hashes (a resumed sweep skips them)."""
 PACKAGES = ("bearingtwin", "numpy", "scipy", "torch", "lightning", "scikit-learn", "mlflow", "optuna", "hydra-core")

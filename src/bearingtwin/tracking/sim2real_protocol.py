@@ -114,7 +114,8 @@ def is_protocol_run(run) -> bool:
     return protocol_version(run.data.tags.get("experiment", "")) is not None
 
 
-RESULT_GROUPS = ("bearing.", "simulator.", "effects.", "data.", "features.", "classifier.", "model.", "trainer.")
+RESULT_GROUPS = ("bearing.", "simulator.", "effects.", "data.", "features.", "classifier.", "model.", "trainer.",
+                 "physics_first")
 """Config groups that decide a run's numbers: a protocol run must have logged them as the protocol fixes them."""
 
 
