@@ -19,8 +19,8 @@ from processes import run_module
 
 from bearingtwin.config import REPO_ROOT, bearing_config, compose_config
 from bearingtwin.data.recording import Recording
-from bearingtwin.diagnosis.evidence import check_segment, evidence_settings, physics_evidence
-from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params
+from bearingtwin.diagnosis.evidence import PhysicsFirst, check_segment, evidence_settings, physics_evidence
+from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params, predictions_frame
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record, record_windows, resample_to
 from bearingtwin.errors import BearingTwinError
@@ -169,6 +169,59 @@ def test_evidence_names_the_fault_whose_harmonic_series_stands_out():
         assert by_kurtogram.evidence_state == state, by_kurtogram.band_hz
     healthy = physics_evidence(fault_signal(None), FS, RPM, BEARING)
     assert healthy.evidence_state == "normal" and max(healthy.prominence_db.values()) < healthy.threshold_db
+
+
+def test_the_physics_decides_a_window_only_where_one_series_leaves_no_doubt():
+    """20 dB over the floor and 10 dB above every other series: a clear outer-race train is decided, noise,
+    a faint train (counted by the baseline's 6 dB, short of 20) and two faults' trains at once are not."""
+    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
+    gate = PhysicsFirst(threshold_db=20.0, margin_db=10.0)
+    clear = fault_signal(rates["bpfo"], seconds=1.0)
+    faint = 0.04 * (fault_signal(rates["bpfo"], seconds=1.0) - fault_signal(None, seconds=1.0)) + fault_signal(None, 1.0, seed=3)
+    both = fault_signal(rates["bpfo"], seconds=1.0) + fault_signal(rates["bpfi"], seconds=1.0, seed=1)
+    evidence = {name: physics_evidence(window, FS, RPM, BEARING)
+                for name, window in (("clear", clear), ("faint", faint), ("both", both))}
+    assert evidence["faint"].evidence_state == "outer" and evidence["faint"].prominence_db["outer"] < 20.0
+    assert min(evidence["both"].prominence_db["outer"], evidence["both"].prominence_db["inner"]) > 20.0
+    windows = np.stack([clear, fault_signal(None, seconds=1.0), faint, both])
+    assert gate.states(windows, FS, RPM, BEARING) == ["outer", None, None, None]
+    assert gate.states(windows[:1], FS, [RPM], BEARING) == ["outer"]  # a speed per window
+    # The margin is measured to the runner-up: the same series beside a lower one is decided.
+    lone = dataclasses.replace(evidence["both"], prominence_db={"inner": 31.0, "ball": 2.0, "outer": 20.5})
+    assert lone.decisive_state(20.0, 10.0) == "inner" and lone.decisive_state(20.0, 11.0) is None
+    assert lone.decisive_state(32.0, 0.0) is None
+    with pytest.raises(BearingTwinError, match="physics_first.margin_db must be a non-negative number of dB"):
+        PhysicsFirst(margin_db=-1.0)
+
+
+def test_a_pipeline_that_puts_physics_first_overrules_its_classifier_only_where_the_physics_decides(tmp_path):
+    """A classifier that learnt an outer-race train as inner (as one path's lines may teach it another's) is
+    overruled on clear outer-race windows, not on noise; a state the classifier never learnt is never named;
+    the rule is saved with the model, and a model's frame says who decided each window."""
+    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
+    X, y = class_windows(n_per_class=6)
+    crossed = np.where(y == 3, 1, np.where(y == 1, 3, y))  # inner and outer learnt the wrong way round
+    envelope = EnvelopeOrderFeatures(bearing=BEARING, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
+    classifier = SvmClassifier().fit(envelope.transform(X, fs_hz=FS, rpm=RPM), crossed)
+    plain = DiagnosisPipeline(envelope, classifier, 2048, FS, bearing=BEARING)
+    gated = dataclasses.replace(plain, physics_first=PhysicsFirst())
+    outer = fault_signal(rates["bpfo"], seconds=4 * 2048 / FS, seed=7).reshape(4, 2048)
+    noise = fault_signal(None, seconds=2 * 2048 / FS, seed=8).reshape(2, 2048)
+    ball = fault_signal(2 * rates["bsf"], seconds=2 * 2048 / FS, seed=9).reshape(2, 2048)
+    windows = np.concatenate([outer, noise, ball])
+    assert list(plain.predict(windows, RPM)[0][:4]) == ["inner"] * 4
+    states, probabilities, by_physics = gated.decide(windows, RPM)
+    assert list(states[:4]) == ["outer"] * 4 and by_physics[:4].all()
+    assert list(states[4:]) == list(plain.predict(windows, RPM)[0][4:]) and not by_physics[4:].any()  # ball: unknown
+    np.testing.assert_array_equal(probabilities, plain.predict_proba(windows, RPM))  # the classifier's, throughout
+    loaded = DiagnosisPipeline.load(gated.save(tmp_path / "gated"))
+    assert loaded.physics_first == PhysicsFirst() and DiagnosisPipeline.load(plain.save(tmp_path / "plain")).physics_first is None
+    frame = predictions_frame(loaded, windows, RPM)
+    assert list(frame["decided_by"]) == ["physics"] * 4 + ["classifier"] * 4
+    assert "decided_by" not in predictions_frame(plain, windows, RPM)
+    assert gated.needs_rpm and not DiagnosisPipeline(SaboVmdFeatures(), classifier, 2048, FS).needs_rpm
+    with pytest.raises(BearingTwinError, match="rpm"):
+        gated.predict(windows)
 
 
 def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence(tmp_path):
@@ -508,6 +561,37 @@ def test_diagnose_a_cwru_record_by_registry_alias(registered, tmp_path):
     assert record.stem in done.stdout and "mlflow ui --backend-store-uri" in done.stdout
     logged = MlflowClient(uri).search_runs([MlflowClient(uri).get_experiment_by_name("bearingtwin-diagnose").experiment_id])
     assert logged[0].info.status == "FINISHED" and logged[0].data.params["model"] == "models:/diag@champion"
+
+
+@needs_cwru
+def test_a_model_that_puts_physics_first_is_scored_and_diagnoses_as_it_decides(tmp_path):
+    """Trained on real CWRU records with physics_first, the run scores its windows as a diagnosis decides them
+    (physics_decided: the share the physics took), the model carries the rule, and a diagnosis of an inner-race
+    record says how many of its windows the envelope spectrum decided and marks each window."""
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    done = run("train", "data=cwru", "bearing=cwru_6205", "data.samples_per_class=8", "data.window_length=4096",
+               "features=envelope_prominence",
+               "classifier=svm", "physics_first={threshold_db:20,margin_db:10}", f"paths.cache_dir={tmp_path}/cache",
+               f"hydra.run.dir={tmp_path}/run", cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-3000:]
+    client = MlflowClient(uri)
+    (trained,) = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
+    # In 4096-point windows the 0 hp inner- and outer-race records' BPFI and BPFO series stand 20-36 dB over their
+    # floors (results/sim2real_protocol.md, version 9), the ball and healthy records' series do not: of the four
+    # states' test windows, at most half, the races', are the physics'.
+    assert 0.35 <= trained.data.metrics["physics_decided"] <= 0.5, trained.data.metrics
+    assert trained.data.params["physics_first.threshold_db"] == "20"
+    assert (f"physics first: {100 * trained.data.metrics['physics_decided']:.2f} % of the test windows decided by the "
+            "envelope spectrum") in done.stdout
+    record = CWRU / "12k_Drive_End_IR007_1_106.mat"
+    done = run("diagnose", f"path={record}", f"model=runs:/{trained.info.run_id}/model", f"out={tmp_path}/out",
+               "figures=false", cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads((tmp_path / "out" / record.stem / "diagnosis.json").read_text())
+    deciders = [window["decided_by"] for window in result["windows"]]
+    assert result["verdict"] == "inner" and deciders.count("physics") >= len(deciders) // 2, deciders
+    assert (f"{deciders.count('physics')} of {len(deciders)} windows decided by the envelope spectrum, where one defect "
+            "series stood 20 dB or more over its floor and 10 dB above the others") in " ".join(result["notes"])
 
 
 @needs_cwru

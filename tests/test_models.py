@@ -419,6 +419,36 @@ def test_defect_order_features_of_another_bearing_than_the_datas_are_refused_bef
                                                            "data.bearing=my_typo"]))
 
 
+def test_physics_first_settings_are_checked_before_any_data_and_data_without_speeds_before_any_features(monkeypatch):
+    """A malformed physics_first is named before the data are built; data that state no shaft speed (the twin's
+    own simulated windows) are refused right after, before the features' minutes."""
+    from bearingtwin.config import compose_config
+    from bearingtwin.data.recording import WindowedDataset
+    from bearingtwin.models import experiment
+
+    def no_data(cfg):
+        raise AssertionError("the data were built before the settings were checked")
+
+    monkeypatch.setattr(experiment, "build_dataset", no_data)
+    for override, message in (("physics_first=20", r"physics_first must be null or \{threshold_db"),
+                              ("physics_first={threshold_db:20,margin:10}", "physics_first.margin is not a setting"),
+                              ("physics_first={threshold_db:-3}", "physics_first.threshold_db must be a non-negative")):
+        cfg = compose_config("train", ["classifier=svm", "features=envelope_prominence", override])
+        with pytest.raises(BearingTwinError, match=message):
+            experiment.run_experiment(cfg)
+
+    def no_speeds(cfg):
+        return WindowedDataset(windows=np.zeros((2, 2048)), labels=np.array([0, 1]), record_ids=np.array([0, 1]),
+                               starts=np.zeros(2, dtype=int), records=["a", "b"], fs=12000.0, class_names=["normal", "inner"],
+                               key="none")
+
+    monkeypatch.setattr(experiment, "build_dataset", no_speeds)
+    monkeypatch.setattr(experiment, "extract_features", lambda *args: pytest.fail("features extracted"))
+    cfg = compose_config("train", ["classifier=svm", "physics_first={threshold_db:20,margin_db:10}"])
+    with pytest.raises(BearingTwinError, match="physics_first reads each window at its shaft speed; this data states none"):
+        experiment.run_experiment(cfg)
+
+
 def test_a_validation_label_the_network_was_not_trained_on_is_named():
     """searchsorted would score a label between two trained ones as a neighbour, silently."""
     X, y = four_blobs(8)

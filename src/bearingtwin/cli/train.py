@@ -60,6 +60,9 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
             lines[group.words] = (f"{'kept' if metrics[group.kept_metric] else 'dropped'} (calibration windows right "
                                   f"{percent(metrics[group.with_metric])} with {group.pronoun}, "
                                   f"{percent(metrics[group.without_metric])} without)")
+    if "physics_decided" in metrics:
+        lines["physics first"] = (f"{percent(metrics['physics_decided'])} of the test windows decided by the envelope "
+                                  "spectrum (physics_first), the rest by the classifier")
     if tracked.model:
         lines["model"] = tracked.model
     if tracked.artifacts:
