@@ -63,3 +63,17 @@ def test_a_dropout_is_named_with_where_it_is(seconds, named):
                          "value): the windows over it read no vibration"]
     else:  # shorter than 5 ms: a quiet moment or a clipped peak's flat top
         assert notes == []
+
+
+def test_records_read_for_training_warn_of_their_clipping_naming_the_file(caplog):
+    """A training run reads real records as a diagnosis does: a clipped one is named in the log, a clean one not."""
+    from bearingtwin.data.real import windows_from_recordings
+
+    x = impacts()
+    limit = 2.0 * np.sqrt(np.mean(x**2))
+    recordings = [Recording(x, FS, fault="inner", source="rig/clean.npy"),
+                  Recording(np.clip(impacts(seed=1), -limit, limit), FS, fault="outer", source="rig/clipped.npy")]
+    with caplog.at_level("WARNING", logger="bearingtwin.data.recording"):
+        windows_from_recordings(recordings, 2048, 4, "data.samples_per_class", "key")
+    warned = [record.getMessage() for record in caplog.records]
+    assert len(warned) == 1 and warned[0].startswith("clipped.npy: ") and "the sensor or the converter clipped" in warned[0]

@@ -29,7 +29,7 @@ from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.csv_file import text_column
 from bearingtwin.data.files import FORMATS, load_recording, time_column_seconds
 from bearingtwin.data.hust import hust_file_name, load_hust
-from bearingtwin.data.recording import Recording, WindowedDataset
+from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
 from bearingtwin.data.windows import SPLITS, check_train_fraction, check_windows_fit, cut_windows
 from bearingtwin.errors import BearingTwinError
@@ -454,6 +454,7 @@ def windows_from_recordings(
                 f"{recording.source}: {recording.signal.size} samples, shorter than one window of {window_length}"
             )
     check_windows_fit(len(recordings), window_length, windows_per_record, count_key)
+    warn_of_quality(recordings)
     converted, unit = in_one_unit(recordings)
     if converted is not recordings:  # other windows than the files' own numbers: another key (and feature cache)
         recordings, key = converted, content_key({"records": key, "unit": unit})

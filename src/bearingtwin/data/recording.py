@@ -9,12 +9,17 @@ can keep windows of one record apart.
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, check_fault
+
+log = logging.getLogger(__name__)
 
 
 CLIPPED_SHARE = 1e-3
@@ -227,3 +232,10 @@ class WindowedDataset:
         """(n_windows,) shaft speed in rev/min of each window's record, or None when unknown."""
         return None if self.record_rpms is None else np.asarray(self.record_rpms, dtype=np.float64)[self.record_ids]
 
+
+def warn_of_quality(recordings: Iterable[Recording]) -> None:
+    """Log each recording's :meth:`Recording.quality_notes` as a warning naming its file: a training run reads its
+    real records as a diagnosis does, and a clipped record or a dropout in one must not pass unnoticed there either."""
+    for recording in recordings:
+        for note in recording.quality_notes():
+            log.warning("%s: %s", Path(str(recording.source)).name, note)

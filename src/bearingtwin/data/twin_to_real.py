@@ -53,7 +53,7 @@ from bearingtwin.config import plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.real import rows_from_labels
-from bearingtwin.data.recording import Recording, WindowedDataset
+from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects, effect_class, sensor_only
@@ -707,6 +707,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     tests = [measured(path) for path in test_paths]
     calibration_records = {path: measured(path) for path in calibration_paths}
     _check_rates(tests + list(calibration_records.values()), twin_fs, labelled=table is not None)
+    warn_of_quality(tests + list(calibration_records.values()))
     reports = [("data.calibration", cfg["calibration"]["record"], cfg["calibration"]["report"])]
     healthy = cfg["calibration"].get("healthy") or {}
     if healthy.get("step"):
