@@ -216,12 +216,22 @@ def test_a_pipeline_that_puts_physics_first_overrules_its_classifier_only_where_
     np.testing.assert_array_equal(probabilities, plain.predict_proba(windows, RPM))  # the classifier's, throughout
     loaded = DiagnosisPipeline.load(gated.save(tmp_path / "gated"))
     assert loaded.physics_first == PhysicsFirst() and DiagnosisPipeline.load(plain.save(tmp_path / "plain")).physics_first is None
+    # An earlier version refuses a model whose rule it would not apply; a plain model keeps the layout it reads.
+    assert [json.loads((tmp_path / name / "pipeline.json").read_text())["format"] for name in ("gated", "plain")] == [2, 1]
     frame = predictions_frame(loaded, windows, RPM)
     assert list(frame["decided_by"]) == ["physics"] * 4 + ["classifier"] * 4
     assert "decided_by" not in predictions_frame(plain, windows, RPM)
-    assert gated.needs_rpm and not DiagnosisPipeline(SaboVmdFeatures(), classifier, 2048, FS).needs_rpm
-    with pytest.raises(BearingTwinError, match="rpm"):
-        gated.predict(windows)
+    # Features that read no defect orders need no speed, but the physics does; it reads the windows raw.
+    vmd = SaboVmdFeatures(population=3, iterations=1, search_windows=2, vmd_options={"max_iter": 60}, progress=False)
+    vmd_classifier = SvmClassifier().fit(vmd.fit(X, crossed).transform(X), crossed)
+    vmd_plain = DiagnosisPipeline(vmd, vmd_classifier, 2048, FS, window_normalization="zscore", bearing=BEARING)
+    vmd_gated = dataclasses.replace(vmd_plain, physics_first=PhysicsFirst())
+    assert not vmd_plain.needs_rpm and vmd_gated.needs_rpm and not vmd_gated.reads_defect_orders
+    assert list(vmd_gated.predict(outer, RPM)[0]) == ["outer"] * 4
+    assert vmd_gated.bands_on_shaft_harmonics(bearing_config("cwru_6203")) == []
+    with pytest.raises(BearingTwinError, match="rpm: this model's physics_first reads a window's defect lines at the "
+                                               "shaft's speed; give the shaft speed"):
+        vmd_gated.predict(windows)
 
 
 def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence(tmp_path):
@@ -592,6 +602,8 @@ def test_a_model_that_puts_physics_first_is_scored_and_diagnoses_as_it_decides(t
     assert result["verdict"] == "inner" and deciders.count("physics") >= len(deciders) // 2, deciders
     assert (f"{deciders.count('physics')} of {len(deciders)} windows decided by the envelope spectrum, where one defect "
             "series stood 20 dB or more over its floor and 10 dB above the others") in " ".join(result["notes"])
+    assert (f"inner (100% of {len(deciders)} windows, {deciders.count('physics')} decided by the envelope spectrum; "
+            "classifier p ") in one_line(result)
 
 
 @needs_cwru

@@ -432,7 +432,8 @@ def test_physics_first_settings_are_checked_before_any_data_and_data_without_spe
     monkeypatch.setattr(experiment, "build_dataset", no_data)
     for override, message in (("physics_first=20", r"physics_first must be null or \{threshold_db"),
                               ("physics_first={threshold_db:20,margin:10}", "physics_first.margin is not a setting"),
-                              ("physics_first={threshold_db:-3}", "physics_first.threshold_db must be a non-negative")):
+                              ("physics_first={threshold_db:25}", "physics_first.margin_db is missing; give both"),
+                              ("physics_first={threshold_db:-3,margin_db:10}", "physics_first.threshold_db must be a non-negative")):
         cfg = compose_config("train", ["classifier=svm", "features=envelope_prominence", override])
         with pytest.raises(BearingTwinError, match=message):
             experiment.run_experiment(cfg)

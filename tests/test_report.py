@@ -289,3 +289,20 @@ def test_help_lists_the_settings_each_report_takes(capsys):
     said = " ".join(capsys.readouterr().out.split())
     assert "Every report takes uri=, experiment=, out=, sweep_dir=, source=, force=" in said
     assert "repeat: run_id" in said and "table4: vmd_params" in said
+
+
+def test_a_run_that_let_the_physics_decide_is_another_setting_than_one_that_did_not():
+    """physics_first is logged as one null key when unset and as its settings when set: the two must not pass for
+    one setting (averaged together, or one taken for the other's seed), while a run from before the key is plain."""
+    from types import SimpleNamespace
+
+    from bearingtwin.tracking.reports import _same_setting, setting_params
+
+    def run(**params):
+        return SimpleNamespace(data=SimpleNamespace(params={"classifier.kernel": "linear", "seed": "0", **params}))
+
+    before, plain = setting_params(run()), setting_params(run(physics_first="None"))
+    gated = setting_params(run(**{"physics_first.threshold_db": "20.0", "physics_first.margin_db": "10.0"}))
+    assert _same_setting(before, plain) and _same_setting(plain, before)
+    assert not _same_setting(gated, plain) and not _same_setting(before, gated)
+    assert gated["physics_first"] == "margin_db=10.0,threshold_db=20.0"

@@ -62,6 +62,13 @@ def test_the_headline_reads_every_seed_of_every_version_and_computes_the_physics
     assert "| record | true state | v1 windows right % | v2 windows right % | physics windows right % | physics says |" in table
     assert "| 12k_Drive_End_IR007_1_106 | inner | 75.0 ± 0.0 | 75.0 ± 0.0 | 100 | inner |" in table
     assert plot_headline({"v1": result, "v2": newer}, tmp_path / "headline.png").stat().st_size > 10_000
+    assert "physics decided" not in table  # no version lets the physics decide: no column for it
+    # A version that lets the physics decide windows (physics_first) says how many, in a column of its own.
+    newer.physics_decided = [0.6, 0.7]
+    decided = headline_markdown(both, in_force="sim2real_v1")
+    assert decided.splitlines()[0].endswith("| normal_0_97 windows called healthy % | test windows the physics decided % |")
+    assert "| 95.0 ± 0.0 | 75.0 ± 0.0 | 50.0 ± 0.0 | 100.0 ± 0.0 | 90.0 ± 0.0 | 65.0 ± 5.0 |" in decided
+    assert "| 100.0 ± 0.0 | 90.5 ± 0.5 | — |" in decided
 
 
 def test_every_protocol_version_is_a_dated_file_and_sim2real_selects_the_version_in_force(tmp_path):
@@ -134,3 +141,37 @@ def test_a_run_that_departs_from_its_protocol_is_left_out_with_a_warning(tmp_pat
     assert "data.twin.windows_per_record=2 (the protocol: 10)" in caplog.text
     assert protocol_runs(client, experiment_id, "sim2real_v1") == []
     assert protocol_version("sim2real") == "sim2real_v1" and protocol_version("sim2real_variants") is None
+
+
+def test_a_run_with_another_physics_first_rule_than_its_versions_is_left_out(tmp_path, caplog):
+    """physics_first is logged as one key when unset and as its settings when set: a v8-tagged run that applied the
+    rule, a v9-tagged one that did not, or one with another threshold is not the version's; the same rule written as
+    20 or 20.0 is, and so is a run from before the key was logged."""
+    from bearingtwin.config import compose_config
+    from bearingtwin.tracking.mlflow_logging import flatten, loggable_config
+
+    client = MlflowClient(f"sqlite:///{tmp_path}/mlflow.db")
+    experiment_id = client.create_experiment("protocol", artifact_location=(tmp_path / "artifacts").as_uri())
+
+    def log_run(tag, seed, rule, drop_rule=False):
+        params = flatten(loggable_config(compose_config("train", [f"+experiment={tag}", f"seed={seed}",
+                                                                  f"physics_first={rule}"])))
+        run = client.create_run(experiment_id, tags={"bt.kind": "train", "experiment": tag})
+        for key, value in params.items():
+            if not (drop_rule and key.startswith("physics_first")):
+                client.log_param(run.info.run_id, key, value)
+        client.set_terminated(run.info.run_id, "FINISHED")
+        return run.info.run_id
+
+    log_run("sim2real_v8", 0, "{threshold_db:20,margin_db:10}")
+    old = log_run("sim2real_v8", 1, "null", drop_rule=True)
+    v8 = log_run("sim2real_v8", 2, "null")
+    log_run("sim2real_v9", 0, "null")
+    log_run("sim2real_v9", 1, "{threshold_db:15,margin_db:10}")
+    v9 = log_run("sim2real_v9", 2, "{threshold_db:20,margin_db:10}")
+    with caplog.at_level("WARNING"):
+        assert [run.info.run_id for run in protocol_runs(client, experiment_id, "sim2real_v8")] == [old, v8]
+        assert [run.info.run_id for run in protocol_runs(client, experiment_id, "sim2real_v9")] == [v9]
+    assert "physics_first={'threshold_db': 20.0, 'margin_db': 10.0} (the protocol: None)" in caplog.text
+    assert "physics_first=None (the protocol: {'threshold_db': 20.0, 'margin_db': 10.0})" in caplog.text
+    assert "physics_first={'threshold_db': 15.0, 'margin_db': 10.0} (the protocol:" in caplog.text

@@ -68,7 +68,8 @@ class PhysicsEvidence:
 
     def decisive_state(self, threshold_db: float, margin_db: float) -> str | None:
         """The fault state whose series leaves no doubt: at least ``threshold_db`` over its floor and at least
-        ``margin_db`` above every other state's series; None when no series does."""
+        ``margin_db`` above every other readable state's series (:attr:`unreadable` ones have none); None when
+        no series does."""
         ranked = sorted(self.prominence_db.items(), key=lambda item: item[1], reverse=True)
         if not ranked or ranked[0][1] < threshold_db:
             return None

@@ -2,10 +2,11 @@
 
 ``mlflow.pyfunc.load_model("runs:/<run_id>/model").predict(windows, params={"rpm": 1797})``
 takes raw windows (n, window_length) at the model's sampling rate and returns one row per
-window: ``state`` and one probability column per class. ``rpm`` (rev/min; 0 = not given) is
-needed by models whose features are read on the shaft-order axis; ``bearing`` (a
-``conf/bearing/<name>.yaml``; default the model's own) is the recorded bearing, whose defect
-orders those features are read at. The same model is served by
+window: ``state`` and one probability column per class (the classifier's), and ``decided_by``
+(``physics`` or ``classifier``) for a model whose physics may decide a window (``physics_first``).
+``rpm`` (rev/min; 0 = not given) is needed by models whose features are read on the shaft-order
+axis and by ``physics_first`` models; ``bearing`` (a ``conf/bearing/<name>.yaml``; default the
+model's own) is the recorded bearing, whose defect orders those features and that physics read. The same model is served by
 ``mlflow models serve -m models:/<name>@<alias> --env-manager local`` and queried with
 ``{"inputs": [[...], ...], "params": {"rpm": 1797, "bearing": "cwru_6203"}}``.
 """

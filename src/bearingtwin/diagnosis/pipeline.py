@@ -32,7 +32,11 @@ from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import EXTRACTORS
 from bearingtwin.physics.geometry import FAULTS
 
-FORMAT = 1  # bump when the saved layout changes
+FORMAT = 2  # bump when the saved layout changes
+PLAIN_FORMAT = 1
+"""The format a pipeline without ``physics_first`` is still saved in: the layout before that key, which an
+earlier version reads as it always did; one with the key is saved as :data:`FORMAT`, which an earlier version
+refuses rather than diagnose without the rule its scores were made with."""
 LEVEL_FACTOR = 10.0
 """How far outside the training windows' levels a record may lie before a diagnosis says so."""
 PIPELINE_FILE = "pipeline.json"
@@ -76,10 +80,16 @@ class DiagnosisPipeline:
         return [FAULTS[int(label)] for label in self.classifier.classes_]
 
     @property
+    def reads_defect_orders(self) -> bool:
+        """Whether the features read the envelope spectrum at the bearing's defect orders (the shaft speed and
+        the recorded bearing matter to them)."""
+        return isinstance(self.extractor, EnvelopeOrderFeatures)
+
+    @property
     def needs_rpm(self) -> bool:
-        """Whether the features, or the physics that may decide a window, read the spectrum at the shaft's
-        orders (the shaft speed is required)."""
-        return isinstance(self.extractor, EnvelopeOrderFeatures) or self.physics_first is not None
+        """Whether a diagnosis needs the shaft speed: for the features (:attr:`reads_defect_orders`) or for the
+        physics that may decide a window (:attr:`physics_first`)."""
+        return self.reads_defect_orders or self.physics_first is not None
 
     def check_can_diagnose(self) -> None:
         """Refuse a model whose features need the true label of the window they describe."""
@@ -104,10 +114,12 @@ class DiagnosisPipeline:
         if unreadable.size:
             raise BearingTwinError(f"windows {_listed(unreadable)} (of {len(windows)}, counted from 0) hold NaN or "
                                    "infinite values")
+        if self.needs_rpm and rpm is None:
+            reason = ("this model's features are read on the shaft-order axis" if self.reads_defect_orders else
+                      "this model's physics_first reads a window's defect lines at the shaft's speed")
+            raise BearingTwinError(f"rpm: {reason}; give the shaft speed")
         windows = normalize_windows(windows, self.window_normalization)
-        if self.needs_rpm:
-            if rpm is None:
-                raise BearingTwinError("rpm: this model's features are read on the shaft-order axis; give the shaft speed")
+        if self.reads_defect_orders:
             features = self._extractor_at(bearing).transform(windows, fs_hz=self.fs_hz, rpm=rpm)
         else:
             features = self.extractor.transform(windows)
@@ -144,7 +156,7 @@ class DiagnosisPipeline:
         """The features that read a shaft harmonic at ``bearing``'s defect orders but not at the model's own
         (:meth:`EnvelopeOrderFeatures.bands_on_shaft_harmonics`): where the model may take the shaft's lines
         for a defect's. None for features that do not read defect orders."""
-        if not self.needs_rpm:
+        if not self.reads_defect_orders:
             return []
         own = set(self.extractor.bands_on_shaft_harmonics())
         return [name for name in self._extractor_at(bearing).bands_on_shaft_harmonics() if name not in own]
@@ -187,7 +199,7 @@ class DiagnosisPipeline:
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         meta = {
-            "format": FORMAT,
+            "format": PLAIN_FORMAT if self.physics_first is None else FORMAT,
             "window_length": int(self.window_length),
             "fs_hz": float(self.fs_hz),
             "window_normalization": self.window_normalization,
@@ -211,8 +223,9 @@ class DiagnosisPipeline:
             meta = json.loads((folder / PIPELINE_FILE).read_text())
         except (OSError, ValueError) as error:
             raise BearingTwinError(f"{folder}: not a saved diagnosis pipeline ({error})") from None
-        if meta.get("format") != FORMAT:
-            raise BearingTwinError(f"{folder}: pipeline format {meta.get('format')}, this version reads {FORMAT}")
+        if meta.get("format") not in (PLAIN_FORMAT, FORMAT):
+            raise BearingTwinError(f"{folder}: pipeline format {meta.get('format')}, this version reads {PLAIN_FORMAT} "
+                                   f"and {FORMAT}")
         return cls(
             extractor=_extractor_from_state(meta["extractor"]),
             classifier=_load_classifier(meta["classifier"], folder),

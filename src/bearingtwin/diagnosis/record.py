@@ -278,7 +278,8 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
             notes.append("the model's features do not depend on the bearing")
         elif "bearing" in model_params(model):
             params["bearing"] = prepared.bearing["name"]
-            notes.append(f"the model's features read {prepared.bearing['name']}'s defect lines too")
+            reader = "the model's features" if pipeline.reads_defect_orders else "the physics that may decide a window"
+            notes.append(f"{reader} read {prepared.bearing['name']}'s defect lines too")
             on_shaft = pipeline.bands_on_shaft_harmonics(prepared.bearing)
             if on_shaft:
                 notes.append(f"on {prepared.bearing['name']} the bands of {', '.join(on_shaft)} hold whole shaft orders, "
@@ -350,8 +351,12 @@ def physics_first_note(pipeline: DiagnosisPipeline, deciders: np.ndarray) -> str
 def one_line(result: dict) -> str:
     """What a reliability engineer reads first: verdict, confidence, physics, truth."""
     n_windows = len(result["windows"])
+    by_physics = sum(window.get("decided_by") == "physics" for window in result["windows"])
+    # The probability is the classifier's: beside windows the physics decided, said to be.
+    probability = (f"{by_physics} decided by the envelope spectrum; classifier p {result['mean_probability']:.2f}"
+                   if by_physics else f"p {result['mean_probability']:.2f}")
     line = (f"{result['record']}: {result['verdict']} ({result['share']:.0%} of {n_windows} window{'s' * (n_windows != 1)}, "
-            f"p {result['mean_probability']:.2f})")
+            f"{probability})")
     if result["evidence_state"] is not None:
         prominence = result["evidence"]["prominence_db"]
         top = max(prominence, key=prominence.get, default=None)

@@ -155,6 +155,9 @@ def physics_first_from(cfg: DictConfig) -> PhysicsFirst | None:
     unknown = sorted(set(settings) - {"threshold_db", "margin_db"})
     if unknown:
         raise BearingTwinError(f"physics_first.{unknown[0]} is not a setting; physics_first takes threshold_db and margin_db")
+    missing = sorted({"threshold_db", "margin_db"} - set(settings))
+    if missing:  # both written out, so that a run logs (and hashes) the rule it applied
+        raise BearingTwinError(f"physics_first.{missing[0]} is missing; give both threshold_db and margin_db")
     return PhysicsFirst(**settings)
 
 

@@ -148,10 +148,16 @@ size) and with how many processes. Nor does a seed (``seed``, ``simulator.seed``
 def setting_params(run) -> dict[str, str]:
     """The params that make a run's setting: all it logged but :data:`SETTING_FREE_KEYS` (and their sub-keys), the
     seeds, and the keys hashed only when set (:data:`HASHED_WHEN_SET_KEYS`) left unset: their null is what their
-    absence computed, while another key's null is a setting of its own."""
-    return {key: value for key, value in run.data.params.items()
-            if key.rsplit(".", 1)[-1] != "seed" and not (value == "None" and key in HASHED_WHEN_SET_KEYS)
-            and not any(key == free or key.startswith(free + ".") for free in SETTING_FREE_KEYS)}
+    absence computed, while another key's null is a setting of its own. The ``physics_first`` rule is one param,
+    ``None`` for a run that did not apply it (or came before it): logged as its settings, a run that did would
+    otherwise share no key with one that did not, and pass for its setting."""
+    params = {key: value for key, value in run.data.params.items()
+              if key.rsplit(".", 1)[-1] != "seed" and not (value == "None" and key in HASHED_WHEN_SET_KEYS)
+              and not key.startswith("physics_first.")
+              and not any(key == free or key.startswith(free + ".") for free in SETTING_FREE_KEYS)}
+    rule = sorted(f"{key.partition('.')[2]}={value}" for key, value in run.data.params.items()
+                  if key.startswith("physics_first."))
+    return {**params, "physics_first": ",".join(rule) or "None"}
 
 
 def _same_setting(params: dict[str, str], other: dict[str, str]) -> bool:
@@ -607,7 +613,8 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
             features, _, classifier = name.partition("+")
             name = f"{features}+band_power+{classifier}"
         kernel = params.get("classifier.kernel", "rbf")
-        return name + ("" if kernel == "rbf" else f" ({kernel})")
+        physics_first = any(key.startswith("physics_first.") for key in params)
+        return name + ("" if kernel == "rbf" else f" ({kernel})") + (" (physics first)" if physics_first else "")
 
     from bearingtwin.tracking.sim2real_protocol import is_protocol_run
 

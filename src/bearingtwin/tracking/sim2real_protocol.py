@@ -80,6 +80,7 @@ class ProtocolResult:
     windows_per_record: dict[str, int]  # the same records -> windows scored
     truth: dict[str, str]  # test record -> its state
     healthy_record: str  # the healthy calibration record, scored apart for false alarms
+    physics_decided: list[float] | None = None  # share of test windows the physics decided (physics_first), per seed
 
     def physics_recall(self, state: str) -> float:
         """Share of the state's test records the physics calls right (NaN when the test holds none)."""
@@ -114,8 +115,7 @@ def is_protocol_run(run) -> bool:
     return protocol_version(run.data.tags.get("experiment", "")) is not None
 
 
-RESULT_GROUPS = ("bearing.", "simulator.", "effects.", "data.", "features.", "classifier.", "model.", "trainer.",
-                 "physics_first")
+RESULT_GROUPS = ("bearing.", "simulator.", "effects.", "data.", "features.", "classifier.", "model.", "trainer.")
 """Config groups that decide a run's numbers: a protocol run must have logged them as the protocol fixes them."""
 
 
@@ -127,6 +127,9 @@ def departure_from_protocol(run, name: str) -> str | None:
 
     seed = run.data.params.get("seed", "0")
     fixed = flatten(loggable_config(compose_config("train", [f"+experiment={name}", f"seed={seed}"])))
+    applied = _physics_first_rule(run.data.params)
+    if applied != "not logged" and applied != _physics_first_rule(fixed):  # runs from before the key: not logged
+        return f"physics_first={applied} (the protocol: {_physics_first_rule(fixed)})"
     for key, value in fixed.items():
         logged = run.data.params.get(key)
         if key.startswith(UNHASHED_KEYS):
@@ -134,6 +137,15 @@ def departure_from_protocol(run, name: str) -> str | None:
         if key.startswith(RESULT_GROUPS) and logged is not None and logged != value and "/" not in value:
             return f"{key}={logged} (the protocol: {value})"
     return None
+
+
+def _physics_first_rule(params: dict) -> dict | None | str:
+    """The ``physics_first`` rule flattened ``params`` hold: None (no rule, logged as ``physics_first=None``), its
+    settings as numbers (logged as ``physics_first.<setting>``, ``20`` and ``20.0`` alike), or "not logged"."""
+    settings = {key.partition(".")[2]: float(value) for key, value in params.items() if key.startswith("physics_first.")}
+    if settings:
+        return settings
+    return None if params.get("physics_first") == "None" else "not logged"
 
 
 def protocol_runs(client: MlflowClient, experiment_id: str, name: str) -> list:
@@ -209,6 +221,8 @@ def protocol_headline(client: MlflowClient, experiment_id: str, name: str, data_
         windows_per_record={path.stem: n for path, n in windows.items()},
         truth={record: parse_cwru_name(f"{record}.mat").fault for record in per_record},
         healthy_record=healthy_record,
+        physics_decided=([run.data.metrics["physics_decided"] for run in runs]
+                         if all("physics_decided" in run.data.metrics for run in runs) else None),
     )
 
 
@@ -236,6 +250,11 @@ def headline_markdown(results: dict[str, ProtocolResult], in_force: str | None =
              f"seeds {', '.join(map(str, result.seeds))})",
              _pm(result.accuracy), *(_pm(result.recall[state]) for state in FAULT_CLASSES),
              _pm(result.healthy_called_healthy)] for version, result in results.items()]
+    # Where a version lets the physics decide windows (physics_first), how many it decided: its own column.
+    decided = any(result.physics_decided is not None for result in results.values())
+    if decided:
+        for row, result in zip(rows, results.values()):
+            row.append("—" if result.physics_decided is None else _pm(result.physics_decided))
     newest = list(results.values())[-1]
     scored_alike = {}  # versions scored on the same windows share one physics row
     for version, result in results.items():
@@ -252,8 +271,11 @@ def headline_markdown(results: dict[str, ProtocolResult], in_force: str | None =
                  f"{100 * np.mean(physics_records):.1f} ({sum(physics_records)}/{len(physics_records)} records)",
                  *(_percent(newest.physics_recall(state), 0) for state in FAULT_CLASSES),
                  f"(record {newest.healthy_record}: {'healthy' if newest.physics_calls_healthy_record_healthy else 'not healthy'})"])
-    return markdown_table(["", "test windows right %", "inner %", "ball %", "outer %",
-                           f"{newest.healthy_record} windows called healthy %"], rows)
+    header = ["", "test windows right %", "inner %", "ball %", "outer %", f"{newest.healthy_record} windows called healthy %"]
+    if decided:
+        header.append("test windows the physics decided %")
+        rows = [row + [""] * (len(header) - len(row)) for row in rows]
+    return markdown_table(header, rows)
 
 
 def per_record_markdown(results: dict[str, ProtocolResult]) -> str:
