@@ -57,7 +57,7 @@ def protocol_versions(conf_dir: str | Path = CONF_DIR) -> dict[str, str]:
 
 
 def version_in_force(conf_dir: str | Path = CONF_DIR) -> str | None:
-    """The version ``+experiment=sim2real`` selects (its config name, ``sim2real_v8``), read from the defaults
+    """The version ``+experiment=sim2real`` selects (its config name, ``sim2real_v9``), read from the defaults
     list of ``conf/experiment/sim2real.yaml``; None when that file names no version."""
     path = Path(conf_dir, "experiment", "sim2real.yaml")
     defaults = OmegaConf.load(path).get("defaults", []) if path.exists() else []
