@@ -559,3 +559,24 @@ def test_a_rate_of_a_few_hz_is_contradicted_not_a_memory_error():
     signal = np.random.default_rng(0).normal(size=120_000)
     check = check_sampling_rate(signal, 1.0, 1797.0)
     assert check.verdict == "contradicted" and "the spectrum ends at 0.5 Hz" in check.reason
+
+
+def test_the_transforms_of_a_channel_are_computed_once_per_record_and_change_no_verdict(monkeypatch):
+    """Every rate a record's check tries reads the same channels: within shared_transforms each channel's spectrum
+    and envelope are computed once, the verdicts are those computed afresh, and nothing is kept afterwards."""
+    from bearingtwin.signal import sampling_rate
+
+    rng = np.random.default_rng(5)
+    t = np.arange(int(10 * 12000)) / 12000
+    channels = {"DE": np.sin(2 * np.pi * 29.95 * t) + 0.3 * rng.standard_normal(t.size),
+                "FE": 0.5 * np.sin(2 * np.pi * 59.9 * t) + 0.3 * rng.standard_normal(t.size)}
+    spectra = []
+    compute = sampling_rate._magnitude_spectrum
+    monkeypatch.setattr(sampling_rate, "_magnitude_spectrum", lambda x: spectra.append(x.size) or compute(x))
+    afresh = [check_channels(channels, rate, 1797.0) for rate in (12000.0, 24000.0, 48000.0)]
+    computed_afresh = len(spectra)
+    spectra.clear()
+    with sampling_rate.shared_transforms():
+        shared = [check_channels(channels, rate, 1797.0) for rate in (12000.0, 24000.0, 48000.0)]
+    assert shared == afresh and len(spectra) == 2 < computed_afresh  # one per channel, however many rates
+    assert sampling_rate._SHARED.get() is None

@@ -38,7 +38,8 @@ from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, 
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
-from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
+from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
+                                               shared_transforms)
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -154,6 +155,7 @@ def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dic
                      f"({words}): the physics evidence reads {named}'s defect lines"]
 
 
+@shared_transforms()  # every rate tried reads the same channels
 def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
                   channels: dict[str, np.ndarray]) -> tuple[Recording, list[str], str]:
     """The recording after the sampling-rate check (shaft series, and the bearing's defect lines as a

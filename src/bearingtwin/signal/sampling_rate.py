@@ -21,12 +21,16 @@ both standing the same factor from their places, name the true rate.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
+import hashlib
 import math
 from dataclasses import asdict, dataclass
 from typing import Callable, Mapping
 
 import numpy as np
+import scipy.fft
 import scipy.signal
 from scipy.ndimage import median_filter
 
@@ -76,10 +80,44 @@ class ShaftLineCheck:
         return asdict(self)
 
 
+_SHARED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("bearingtwin_shared_transforms", default=None)
+
+
+@contextlib.contextmanager
+def shared_transforms():
+    """Within it, each channel's spectrum and envelope are computed once however many rates are tried on it
+    (a record's check tries several on every channel of its file, and no rate changes them; a 10 s CWRU
+    record's length is a slow FFT size); forgotten on leaving, so memory holds one record's at most. Nested
+    uses share the outermost's."""
+    token = _SHARED.set(_SHARED.get() if _SHARED.get() is not None else {})
+    try:
+        yield
+    finally:
+        _SHARED.reset(token)
+
+
+def _once(kind: str, samples: np.ndarray, compute: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """``compute(samples)``, or the result for the same content within :func:`shared_transforms` (read-only)."""
+    shared = _SHARED.get()
+    if shared is None:
+        return compute(samples)
+    key = (kind, samples.shape, hashlib.blake2b(np.ascontiguousarray(samples).tobytes(), digest_size=16).digest())
+    if key not in shared:
+        shared[key] = compute(samples)
+        shared[key].flags.writeable = False
+    return shared[key]
+
+
+def _magnitude_spectrum(x: np.ndarray) -> np.ndarray:
+    """|rfft| of the mean-removed, Hann-windowed samples. scipy's FFT plans a slow length (a 10 s CWRU record:
+    2 x 41 x 1493 samples) twice as fast as numpy's, to the same values."""
+    return np.abs(scipy.fft.rfft((x - x.mean()) * np.hanning(x.size)))
+
+
 def _prominence_spectrum(signal: np.ndarray, fs: float, top_hz: float, background_hz: float) -> tuple[np.ndarray, float]:
     """Spectrum / local median spectrum up to ``top_hz``, and the bin width in Hz."""
     resolution = fs / signal.size
-    spectrum = np.abs(np.fft.rfft((signal - signal.mean()) * np.hanning(signal.size)))
+    spectrum = _once("spectrum", np.asarray(signal, dtype=np.float64), _magnitude_spectrum)
     spectrum = spectrum[: min(spectrum.size, int(math.ceil(top_hz / resolution)) + 2)]
     # At most the spectrum's own length: at a rate of a few Hz the background's width spans millions of bins.
     half_width_bins = min(int(round(background_hz / resolution / 2)), spectrum.size // 2)
@@ -100,7 +138,10 @@ def _peak(ratio: np.ndarray, resolution: float, frequencies_hz: np.ndarray, rela
     """The largest prominence within ``relative_width`` (at least one bin) of each frequency."""
     frequencies_hz = np.asarray(frequencies_hz, dtype=float)
     low, high = _search_bins(frequencies_hz, resolution, relative_width, ratio.size)
-    return np.array([ratio[a:b].max() for a, b in zip(low.ravel(), high.ravel())]).reshape(frequencies_hz.shape)
+    # Each window's maximum in one pass (a trial grid holds tens of thousands of windows): reduceat over the
+    # interleaved bounds takes ratio[low:high] at even places; a -inf past the end lets high reach ratio.size.
+    bounds = np.column_stack([low.ravel(), high.ravel()]).ravel()
+    return np.maximum.reduceat(np.append(ratio, -np.inf), bounds)[::2].reshape(frequencies_hz.shape)
 
 
 def _refined_fundamental(ratio: np.ndarray, resolution: float, multiples: np.ndarray, fundamental_hz: float,
@@ -113,6 +154,7 @@ def _refined_fundamental(ratio: np.ndarray, resolution: float, multiples: np.nda
     return float(np.median(peaks_hz / multiples))
 
 
+@shared_transforms()  # the implied rates it tries, and its second looks, read the same channel
 def check_sampling_rate(
     signal: np.ndarray,
     fs: float,
@@ -598,7 +640,8 @@ def _apart_from_shaft(hz: float, shaft_hz: float, max_fraction: int, window: flo
 def _envelope_prominence(signal: np.ndarray, fs: float, top_hz: float) -> tuple[np.ndarray, float]:
     from bearingtwin.signal.envelope import envelope
 
-    return _prominence_spectrum(envelope(signal), fs, top_hz, background_hz=5.0)
+    return _prominence_spectrum(_once("envelope", np.asarray(signal, dtype=np.float64), envelope), fs, top_hz,
+                                background_hz=5.0)
 
 
 def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], k: int, scale: float,
