@@ -194,14 +194,13 @@ def run(model_uri: str, tracking_uri: str, args) -> None:
 def profile_split(profile: pstats.Stats, calls: int) -> dict[str, float]:
     """Seconds per diagnosis of each stage, from the cumulative times of the functions that do it."""
     at = {name: cumulative_s(profile, *where) / calls for name, where in PROFILED.items()}
-    # physics_evidence runs inside the physics-first rule (per window) too: the record's own is the rest.
     return {
         "read file + shaft-line check": at["read"],
         "VMD features (normalise, VMD, mode choice, 9 features)": at["features"],
         "network (predict + predict_proba)": at["classify"] - at["features"] - at["physics first"],
-        "physics first (each window's evidence, physics_first models)": at["physics first"],
-        "physics evidence": at["evidence"] - at["physics first"],
-        "pyfunc wrapper, windows, result": at["diagnose"] - at["classify"] - (at["evidence"] - at["physics first"]),
+        "physics first (the windows' envelope spectra, physics_first models)": at["physics first"],
+        "physics evidence (the record's)": at["evidence"],
+        "pyfunc wrapper, windows, result": at["diagnose"] - at["classify"] - at["evidence"],
         "total": at["total"],
     }
 

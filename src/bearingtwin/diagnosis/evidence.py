@@ -22,6 +22,7 @@ for any rig, not tuned to a data set: the band is the one the envelope-order fea
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -184,6 +185,13 @@ def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: s
     else:
         band_hz = tuple(float(v) * fs_hz / 2.0 for v in band_nyquist)
     freqs_hz, power = squared_envelope_spectrum(signal, fs_hz, band_hz, segment_s)
+    return read_envelope_spectrum(freqs_hz, power, frequencies, band_hz, harmonics, tolerance, threshold_db)
+
+
+def read_envelope_spectrum(freqs_hz: np.ndarray, power: np.ndarray, frequencies: dict, band_hz: tuple[float, float],
+                           harmonics: int, tolerance: float, threshold_db: float) -> PhysicsEvidence:
+    """:func:`physics_evidence`'s reading of one squared-envelope spectrum (``freqs_hz``, ``power``) at the defect
+    ``frequencies`` (Hz, :meth:`BearingGeometry.defect_frequencies`) of the record it came from."""
     rates = {"bpfi": frequencies["bpfi"], "bpfo": frequencies["bpfo"], "bsf2": 2.0 * frequencies["bsf"]}
     resolution = freqs_hz[1] - freqs_hz[0]
     shaft_hz = frequencies["shaft"]
@@ -259,5 +267,15 @@ class PhysicsFirst:
         """
         windows = np.asarray(windows, dtype=np.float64)
         rpms = np.broadcast_to(np.asarray(rpm, dtype=np.float64), (len(windows),))
-        return [physics_evidence(window, fs_hz, float(speed), bearing).decisive_state(self.threshold_db, self.margin_db)
-                for window, speed in zip(windows, rpms)]
+        if not np.all((rpms > 0) & np.isfinite(rpms)):
+            raise BearingTwinError(f"rpm must be a positive shaft speed, got {rpm}")
+        # physics_evidence's reading with its defaults, the windows' spectra in one batch (the same numbers as
+        # window by window: every transform runs along the last axis).
+        defaults = {name: parameter.default for name, parameter in inspect.signature(physics_evidence).parameters.items()
+                    if parameter.kind is inspect.Parameter.KEYWORD_ONLY}
+        band_hz = tuple(float(v) * fs_hz / 2.0 for v in defaults["band_nyquist"])
+        freqs_hz, power = squared_envelope_spectrum(windows, fs_hz, band_hz, defaults["segment_s"])
+        geometry = BearingGeometry.from_config(bearing)
+        return [read_envelope_spectrum(freqs_hz, row, geometry.defect_frequencies(float(speed)), band_hz,
+                                       defaults["harmonics"], defaults["tolerance"], defaults["threshold_db"])
+                .decisive_state(self.threshold_db, self.margin_db) for row, speed in zip(power, rpms)]
