@@ -194,10 +194,12 @@ def run(model_uri: str, tracking_uri: str, args) -> None:
 def profile_split(profile: pstats.Stats, calls: int) -> dict[str, float]:
     """Seconds per diagnosis of each stage, from the cumulative times of the functions that do it."""
     at = {name: cumulative_s(profile, *where) / calls for name, where in PROFILED.items()}
+    # decide = features + classifier + overrule; physics_evidence runs for the record alone (overrule reads the
+    # windows' spectra in one batch, without it).
     return {
         "read file + shaft-line check": at["read"],
         "VMD features (normalise, VMD, mode choice, 9 features)": at["features"],
-        "network (predict + predict_proba)": at["classify"] - at["features"] - at["physics first"],
+        "network (states and probabilities)": at["classify"] - at["features"] - at["physics first"],
         "physics first (the windows' envelope spectra, physics_first models)": at["physics first"],
         "physics evidence (the record's)": at["evidence"],
         "pyfunc wrapper, windows, result": at["diagnose"] - at["classify"] - at["evidence"],

@@ -563,20 +563,47 @@ def test_a_rate_of_a_few_hz_is_contradicted_not_a_memory_error():
 
 def test_the_transforms_of_a_channel_are_computed_once_per_record_and_change_no_verdict(monkeypatch):
     """Every rate a record's check tries reads the same channels: within shared_transforms each channel's spectrum
-    and envelope are computed once, the verdicts are those computed afresh, and nothing is kept afterwards."""
+    and envelope are computed once (the envelope read for the defect lines' second look), the verdicts (here one
+    consistent, two contradicted) are those computed with nothing shared, and nothing is kept afterwards."""
+    import importlib
+
     from bearingtwin.signal import sampling_rate
 
+    envelope_module = importlib.import_module("bearingtwin.signal.envelope")  # the package's `envelope` is the function
+
+    rpm, fs = 1797.0, 12000.0
+    shaft_hz, bpfo_hz = rpm / 60.0, 3.5848 * rpm / 60.0
     rng = np.random.default_rng(5)
-    t = np.arange(int(10 * 12000)) / 12000
-    channels = {"DE": np.sin(2 * np.pi * 29.95 * t) + 0.3 * rng.standard_normal(t.size),
-                "FE": 0.5 * np.sin(2 * np.pi * 59.9 * t) + 0.3 * rng.standard_normal(t.size)}
-    spectra = []
-    compute = sampling_rate._magnitude_spectrum
-    monkeypatch.setattr(sampling_rate, "_magnitude_spectrum", lambda x: spectra.append(x.size) or compute(x))
-    afresh = [check_channels(channels, rate, 1797.0) for rate in (12000.0, 24000.0, 48000.0)]
-    computed_afresh = len(spectra)
-    spectra.clear()
+    t = np.arange(int(10 * fs)) / fs
+    impacts = np.zeros(t.size)
+    impacts[(np.arange(0, 10, 1 / bpfo_hz) * fs).astype(int)] = 1.0
+    ring = np.exp(-900 * t[:300]) * np.sin(2 * np.pi * 3000 * t[:300])
+    shaft = sum(np.sin(2 * np.pi * n * shaft_hz * t) / n for n in range(1, 6))
+    channels = {"DE": shaft + 3 * np.convolve(impacts, ring)[: t.size] + 0.2 * rng.standard_normal(t.size),
+                "FE": 0.5 * shaft + 0.3 * rng.standard_normal(t.size)}
+    options = {"defect_hz": {"shaft": shaft_hz, "bpfo": bpfo_hz}}
+    rates = (fs, 24000.0, 48000.0)
+    counted = {"spectrum": 0, "envelope": 0}
+    spectrum, envelope = sampling_rate._magnitude_spectrum, envelope_module.envelope
+
+    def count(kind, compute):
+        def counting(x):
+            counted[kind] += 1
+            return compute(x)
+        return counting
+
+    monkeypatch.setattr(sampling_rate, "_magnitude_spectrum", count("spectrum", spectrum))
+    monkeypatch.setattr(envelope_module, "envelope", count("envelope", envelope))
+    with monkeypatch.context() as unshared:
+        unshared.setattr(sampling_rate, "_once", lambda kind, samples, compute: compute(samples))
+        afresh = [check_channels(channels, rate, rpm, **options) for rate in rates]
+    computed_afresh = dict(counted)
+    counted.update(spectrum=0, envelope=0)
     with sampling_rate.shared_transforms():
-        shared = [check_channels(channels, rate, 1797.0) for rate in (12000.0, 24000.0, 48000.0)]
-    assert shared == afresh and len(spectra) == 2 < computed_afresh  # one per channel, however many rates
+        shared = [check_channels(channels, rate, rpm, **options) for rate in rates]
+    assert [check["DE"].verdict for check in afresh] == ["consistent", "contradicted", "contradicted"]
+    assert shared == afresh
+    # One spectrum per channel and per envelope, one envelope per channel read for its defect lines, at most.
+    assert counted["spectrum"] <= 4 and counted["envelope"] <= 2
+    assert computed_afresh["spectrum"] > 2 * counted["spectrum"] and computed_afresh["envelope"] > counted["envelope"]
     assert sampling_rate._SHARED.get() is None

@@ -185,7 +185,12 @@ def test_the_physics_decides_a_window_only_where_one_series_leaves_no_doubt():
     assert min(evidence["both"].prominence_db["outer"], evidence["both"].prominence_db["inner"]) > 20.0
     windows = np.stack([clear, fault_signal(None, seconds=1.0), faint, both])
     assert gate.states(windows, FS, RPM, BEARING) == ["outer", None, None, None]
-    assert gate.states(windows[:1], FS, [RPM], BEARING) == ["outer"]  # a speed per window
+    # A speed per window, the windows read in one batch as physics_evidence reads each alone.
+    speeds = [RPM, 1730.0, RPM, 1750.0]
+    assert gate.states(windows, FS, speeds, BEARING) == [
+        physics_evidence(window, FS, speed, BEARING).decisive_state(20.0, 10.0) for window, speed in zip(windows, speeds)]
+    with pytest.raises(BearingTwinError, match="rpm must be a positive shaft speed, got 0 for window 2"):
+        gate.states(windows, FS, [RPM, RPM, 0.0, RPM], BEARING)
     # The margin is measured to the runner-up: the same series beside a lower one is decided.
     lone = dataclasses.replace(evidence["both"], prominence_db={"inner": 31.0, "ball": 2.0, "outer": 20.5})
     assert lone.decisive_state(20.0, 10.0) == "inner" and lone.decisive_state(20.0, 11.0) is None

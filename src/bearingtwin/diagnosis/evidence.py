@@ -22,7 +22,6 @@ for any rig, not tuned to a data set: the band is the one the envelope-order fea
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -154,9 +153,23 @@ def check_segment(segment_s: float, fs_hz: float) -> None:
                                f"({MIN_SEGMENT_SAMPLES} samples)")
 
 
-def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: str = "fixed", band_nyquist=(0.25, 0.9),
-                     harmonics: int = 3, segment_s: float = 1.0, tolerance: float = 0.01,
-                     threshold_db: float = 6.0) -> PhysicsEvidence:
+BAND_NYQUIST = (0.25, 0.9)
+HARMONICS = 3
+SEGMENT_S = 1.0
+TOLERANCE = 0.01
+THRESHOLD_DB = 6.0
+"""The baseline's fixed settings (module docstring): :func:`physics_evidence`'s defaults, and what
+:class:`PhysicsFirst` reads every window with."""
+
+
+def fixed_band_hz(fs_hz: float, band_nyquist=BAND_NYQUIST) -> tuple[float, float]:
+    """The band-pass edges, Hz, of ``band_nyquist`` (fractions of the Nyquist rate) at ``fs_hz``."""
+    return tuple(float(v) * fs_hz / 2.0 for v in band_nyquist)
+
+
+def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: str = "fixed",
+                     band_nyquist=BAND_NYQUIST, harmonics: int = HARMONICS, segment_s: float = SEGMENT_S,
+                     tolerance: float = TOLERANCE, threshold_db: float = THRESHOLD_DB) -> PhysicsEvidence:
     """The envelope spectrum of one record read at each fault state's defect-frequency harmonics.
 
     The settings are taken as given: :func:`evidence_settings` checks a user's.
@@ -183,12 +196,13 @@ def physics_evidence(signal, fs_hz: float, rpm: float, bearing: dict, *, band: s
         levels = [n for n in (16, 32, 64, 128, 256) if fs_hz / n >= 2.0 * widest_rate] or [16]
         band_hz = kurtogram(np.asarray(signal, dtype=np.float64), fs_hz, nperseg=levels, min_hz=0.05 * fs_hz).band_hz
     else:
-        band_hz = tuple(float(v) * fs_hz / 2.0 for v in band_nyquist)
+        band_hz = fixed_band_hz(fs_hz, band_nyquist)
     freqs_hz, power = squared_envelope_spectrum(signal, fs_hz, band_hz, segment_s)
-    return read_envelope_spectrum(freqs_hz, power, frequencies, band_hz, harmonics, tolerance, threshold_db)
+    return read_envelope_spectrum(freqs_hz, power, frequencies, band_hz=band_hz, harmonics=harmonics,
+                                  tolerance=tolerance, threshold_db=threshold_db)
 
 
-def read_envelope_spectrum(freqs_hz: np.ndarray, power: np.ndarray, frequencies: dict, band_hz: tuple[float, float],
+def read_envelope_spectrum(freqs_hz: np.ndarray, power: np.ndarray, frequencies: dict, *, band_hz: tuple[float, float],
                            harmonics: int, tolerance: float, threshold_db: float) -> PhysicsEvidence:
     """:func:`physics_evidence`'s reading of one squared-envelope spectrum (``freqs_hz``, ``power``) at the defect
     ``frequencies`` (Hz, :meth:`BearingGeometry.defect_frequencies`) of the record it came from."""
@@ -266,16 +280,21 @@ class PhysicsFirst:
             bearing: the config of the bearing the windows were recorded on.
         """
         windows = np.asarray(windows, dtype=np.float64)
-        rpms = np.broadcast_to(np.asarray(rpm, dtype=np.float64), (len(windows),))
-        if not np.all((rpms > 0) & np.isfinite(rpms)):
-            raise BearingTwinError(f"rpm must be a positive shaft speed, got {rpm}")
-        # physics_evidence's reading with its defaults, the windows' spectra in one batch (the same numbers as
-        # window by window: every transform runs along the last axis).
-        defaults = {name: parameter.default for name, parameter in inspect.signature(physics_evidence).parameters.items()
-                    if parameter.kind is inspect.Parameter.KEYWORD_ONLY}
-        band_hz = tuple(float(v) * fs_hz / 2.0 for v in defaults["band_nyquist"])
-        freqs_hz, power = squared_envelope_spectrum(windows, fs_hz, band_hz, defaults["segment_s"])
+        if windows.ndim != 2:
+            raise BearingTwinError(f"windows must have shape (n, samples), got {windows.shape}")
+        rpms = np.asarray(rpm, dtype=np.float64).reshape(-1)
+        if rpms.size not in (1, len(windows)):
+            raise BearingTwinError(f"rpm: one shaft speed, or one per window ({len(windows)}), got {rpms.size}")
+        bad = np.flatnonzero(~(np.isfinite(rpms) & (rpms > 0)))
+        if bad.size:
+            raise BearingTwinError(f"rpm must be a positive shaft speed, got {rpms[bad[0]]:g}"
+                                   + (f" for window {bad[0]}" if rpms.size > 1 else ""))
+        # physics_evidence's reading with the baseline's settings, the windows' spectra in one batch (the same
+        # numbers as window by window: every transform runs along the last axis).
+        band_hz = fixed_band_hz(fs_hz)
+        freqs_hz, power = squared_envelope_spectrum(windows, fs_hz, band_hz, SEGMENT_S)
         geometry = BearingGeometry.from_config(bearing)
-        return [read_envelope_spectrum(freqs_hz, row, geometry.defect_frequencies(float(speed)), band_hz,
-                                       defaults["harmonics"], defaults["tolerance"], defaults["threshold_db"])
-                .decisive_state(self.threshold_db, self.margin_db) for row, speed in zip(power, rpms)]
+        return [read_envelope_spectrum(freqs_hz, row, geometry.defect_frequencies(float(speed)), band_hz=band_hz,
+                                       harmonics=HARMONICS, tolerance=TOLERANCE, threshold_db=THRESHOLD_DB)
+                .decisive_state(self.threshold_db, self.margin_db)
+                for row, speed in zip(power, np.broadcast_to(rpms, (len(windows),)))]
