@@ -607,3 +607,9 @@ def test_the_transforms_of_a_channel_are_computed_once_per_record_and_change_no_
     assert counted["spectrum"] <= 4 and counted["envelope"] <= 2
     assert computed_afresh["spectrum"] > 2 * counted["spectrum"] and computed_afresh["envelope"] > counted["envelope"]
     assert sampling_rate._SHARED.get() is None
+    # Past its memory cap it keeps nothing more and computes again, to the same verdicts.
+    monkeypatch.setattr(sampling_rate, "SHARED_BYTES", 0)
+    counted.update(spectrum=0, envelope=0)
+    with sampling_rate.shared_transforms():
+        assert [check_channels(channels, rate, rpm, **options) for rate in rates] == afresh
+    assert counted == computed_afresh

@@ -83,12 +83,16 @@ class ShaftLineCheck:
 _SHARED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("bearingtwin_shared_transforms", default=None)
 
 
+SHARED_BYTES = 256 * 2**20
+"""The most :func:`shared_transforms` keeps (a 10 s CWRU record's three channels: 6 MB)."""
+
+
 @contextlib.contextmanager
 def shared_transforms():
     """Within it, each channel's spectrum and envelope are computed once however many rates are tried on it
     (a record's check tries several on every channel of its file, and no rate changes them; a 10 s CWRU
-    record's length is a slow FFT size); forgotten on leaving, so memory holds one record's at most. Nested
-    uses share the outermost's."""
+    record's length is a slow FFT size); forgotten on leaving, and never more than :data:`SHARED_BYTES` of them
+    (a file of many long channels computes the rest each time, as without it). Nested uses share the outermost's."""
     token = _SHARED.set(_SHARED.get() if _SHARED.get() is not None else {})
     try:
         yield
@@ -102,10 +106,13 @@ def _once(kind: str, samples: np.ndarray, compute: Callable[[np.ndarray], np.nda
     if shared is None:
         return compute(samples)
     key = (kind, samples.shape, hashlib.blake2b(np.ascontiguousarray(samples).tobytes(), digest_size=16).digest())
-    if key not in shared:
-        shared[key] = compute(samples)
-        shared[key].flags.writeable = False
-    return shared[key]
+    if key in shared:
+        return shared[key]
+    result = compute(samples)
+    if sum(kept.nbytes for kept in shared.values()) + result.nbytes <= SHARED_BYTES:
+        result.flags.writeable = False
+        shared[key] = result
+    return result
 
 
 def _magnitude_spectrum(x: np.ndarray) -> np.ndarray:
