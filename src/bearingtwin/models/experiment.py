@@ -175,8 +175,9 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     """
     seed = cfg.seed
     classifier, groups = checked_settings(cfg, root_dir)
+    physics_first = physics_first_from(cfg)
     dataset = build_dataset(cfg)
-    if cfg.get("physics_first") is not None and dataset.window_rpms is None:  # before the features' minutes
+    if physics_first is not None and dataset.window_rpms is None:  # before the features' minutes
         raise BearingTwinError("physics_first reads each window at its shaft speed; this data states none")
     if dataset.fixed_split is not None:
         train, test = dataset.fixed_split
@@ -220,7 +221,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         config=plain_config(cfg),
         unit=dataset.unit,
         window_level=training_window_level(dataset, train),
-        physics_first=physics_first_from(cfg),
+        physics_first=physics_first,
     )
 
     def decided(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -232,7 +233,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     predicted, by_physics = decided(test)
     scores, confusion = classification_scores(y[test], predicted, dataset.class_names)
     scores.update(choice)
-    if pipeline.physics_first is not None:
+    if physics_first is not None:
         scores["physics_decided"] = float(np.mean(by_physics))
     if len(dataset.validation):  # accuracy, and recall of the classes present
         y_val = y[dataset.validation]

@@ -347,6 +347,14 @@ def flatten(container: dict, prefix: str = "") -> dict[str, str]:
     return flat
 
 
+def physics_first_rule(params: dict) -> dict[str, float] | None:
+    """The ``physics_first`` rule a run's flattened params hold: its settings as numbers (logged as
+    ``physics_first.<setting>``, ``20`` and ``20.0`` alike), None where it applied none (``physics_first=None``, or
+    a run from before the key, whose absence computed the same)."""
+    return {key.partition(".")[2]: float(value) for key, value in params.items()
+            if key.startswith("physics_first.")} or None
+
+
 def method_name(choices: dict) -> str:
     """``<features>+<classifier>``: the name Table 4 rows and run names use."""
     return f"{choices.get('features', '?')}+{choices.get('classifier', '?')}"

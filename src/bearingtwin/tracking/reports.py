@@ -37,7 +37,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
 from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KEYS, UNHASHED_KEYS, find_runs, open_store,
-                                                  stored_config, sweep_run_ids)
+                                                  physics_first_rule, stored_config, sweep_run_ids)
 from bearingtwin.tracking.provenance import SIZE_KEYS, check_replacement, run_size, run_sizes, size_record, size_words
 from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
@@ -155,9 +155,9 @@ def setting_params(run) -> dict[str, str]:
               if key.rsplit(".", 1)[-1] != "seed" and not (value == "None" and key in HASHED_WHEN_SET_KEYS)
               and not key.startswith("physics_first.")
               and not any(key == free or key.startswith(free + ".") for free in SETTING_FREE_KEYS)}
-    rule = sorted(f"{key.partition('.')[2]}={value}" for key, value in run.data.params.items()
-                  if key.startswith("physics_first."))
-    return {**params, "physics_first": ",".join(rule) or "None"}
+    rule = physics_first_rule(run.data.params)
+    return {**params, "physics_first": "None" if rule is None else ",".join(f"{key}={value}"
+                                                                             for key, value in sorted(rule.items()))}
 
 
 def _same_setting(params: dict[str, str], other: dict[str, str]) -> bool:
@@ -613,7 +613,7 @@ def _sim2real_rows(source: ReportInput) -> list[dict]:
             features, _, classifier = name.partition("+")
             name = f"{features}+band_power+{classifier}"
         kernel = params.get("classifier.kernel", "rbf")
-        physics_first = any(key.startswith("physics_first.") for key in params)
+        physics_first = physics_first_rule(params) is not None
         return name + ("" if kernel == "rbf" else f" ({kernel})") + (" (physics first)" if physics_first else "")
 
     from bearingtwin.tracking.sim2real_protocol import is_protocol_run

@@ -123,13 +123,13 @@ def departure_from_protocol(run, name: str) -> str | None:
     """The first setting ``run`` logged otherwise than protocol ``name`` fixes it, or None. Display settings
     (:data:`~bearingtwin.tracking.mlflow_logging.UNHASHED_KEYS`) do not count, nor locations (values with a
     path separator: the data folder, the calibration reports), which differ between machines."""
-    from bearingtwin.tracking.mlflow_logging import UNHASHED_KEYS, flatten, loggable_config
+    from bearingtwin.tracking.mlflow_logging import UNHASHED_KEYS, flatten, loggable_config, physics_first_rule
 
     seed = run.data.params.get("seed", "0")
     fixed = flatten(loggable_config(compose_config("train", [f"+experiment={name}", f"seed={seed}"])))
-    applied = _physics_first_rule(run.data.params)
-    if applied != "not logged" and applied != _physics_first_rule(fixed):  # runs from before the key: not logged
-        return f"physics_first={applied} (the protocol: {_physics_first_rule(fixed)})"
+    applied, protocol = physics_first_rule(run.data.params), physics_first_rule(fixed)
+    if applied != protocol:  # a dict-valued key: its flattened params are not the protocol's keys when it is null
+        return f"physics_first={applied} (the protocol: {protocol})"
     for key, value in fixed.items():
         logged = run.data.params.get(key)
         if key.startswith(UNHASHED_KEYS):
@@ -137,15 +137,6 @@ def departure_from_protocol(run, name: str) -> str | None:
         if key.startswith(RESULT_GROUPS) and logged is not None and logged != value and "/" not in value:
             return f"{key}={logged} (the protocol: {value})"
     return None
-
-
-def _physics_first_rule(params: dict) -> dict | None | str:
-    """The ``physics_first`` rule flattened ``params`` hold: None (no rule, logged as ``physics_first=None``), its
-    settings as numbers (logged as ``physics_first.<setting>``, ``20`` and ``20.0`` alike), or "not logged"."""
-    settings = {key.partition(".")[2]: float(value) for key, value in params.items() if key.startswith("physics_first.")}
-    if settings:
-        return settings
-    return None if params.get("physics_first") == "None" else "not logged"
 
 
 def protocol_runs(client: MlflowClient, experiment_id: str, name: str) -> list:
