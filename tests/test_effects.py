@@ -56,6 +56,27 @@ def test_composed_effects_keep_their_order():
     assert [e.name for e in build_effects(cfg.effects)] == ["tones", "resonance"]
 
 
+def test_clipping_acts_last_wherever_it_is_listed():
+    """A saturation clips what reaches the recorder: a shaft line listed after it is clipped too."""
+    listed = {"clipping": {"clip_level": 2.0}, "unbalance": {"level_db": 6.0}, "tones": {"frequencies_hz": [137.0],
+                                                                                        "levels_db": [-6.0]}}
+    assert [e.name for e in build_effects(listed)] == ["unbalance", "tones", "clipping"]
+    rng = np.random.default_rng(0)
+    impulsive = rng.standard_normal(24000) * 0.2
+    impulsive[::400] += 8.0
+
+    def recorded(effects):
+        signal, stream = impulsive, np.random.default_rng(1)
+        for effect in build_effects(effects):
+            signal = effect.modify_signal(signal, FS, stream, SHAFT_HZ)
+        return signal
+
+    clipped = recorded(listed)
+    np.testing.assert_array_equal(clipped, recorded({k: listed[k] for k in ("unbalance", "tones", "clipping")}))
+    before = recorded({k: v for k, v in listed.items() if k != "clipping"})
+    assert np.abs(clipped).max() == pytest.approx(2.0 * np.sqrt(np.mean(before**2)))
+
+
 @pytest.mark.parametrize("natural_frequency_hz, damping_ratio", [(3000.0, 0.05), (1200.0, 0.1)])
 def test_resonance_peaks_at_its_natural_frequency_with_gain_one_over_two_zeta(natural_frequency_hz, damping_ratio):
     impulse = np.zeros(2**16)

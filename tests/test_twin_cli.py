@@ -173,6 +173,7 @@ def twin_config(*overrides):
     (["ranking.view_floor_db=0"], "ranking.view_floor_db=0 must be a positive number of dB"),
     (["ranking.min_signature_gain=-1"], "ranking.min_signature_gain must be a non-negative number, got -1"),
     (["ranking.later_points_per_view=0"], "ranking.later_points_per_view=0 must be a positive number"),
+    (["ranking.pair_candidates=-1"], "ranking.pair_candidates must be a non-negative integer, got -1"),
     (["ranking.points_per_view=0.1"], "ranking.points_per_view=0.1: the 5 views would count as 0.5 values in all, "
                                        "and a parameter would cost nothing; give more than 0.2"),
     (["ranking.later_points_per_view=0.2"], "ranking.later_points_per_view=0.2: the 5 views would count as 1 value in all"),

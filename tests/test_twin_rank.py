@@ -371,6 +371,25 @@ def test_the_judge_counts_parameters_against_the_held_out_half(cfg):
     assert not Judge.for_measurement(short, BearingGeometry.from_config(cfg.bearing), SETTINGS).held_out
 
 
+def test_a_pair_that_hides_each_others_mark_is_claimed_together(cfg):
+    """Self-test (the twin's own measurement): a 1x line clipped by the sensor. Alone, the line matches one
+    of the lines the clipping makes of it and the clipping has no line to clip, so neither the line's candidate nor
+    any other shows its signature; fitted as a pair, both do."""
+    measured = twin_measurement(cfg, "outer", {"unbalance": {"level_db": -1.0}, "clipping": {"clip_level": 2.2}})
+    candidates = ["unbalance", "clipping", "noise", "tones"]
+    alone = rank(cfg, measured, candidates, op=known_operating_point(), fixed=FLOOR, pair_candidates=0)
+    assert alone.added == [] and alone.unclaimed is not None
+
+    paired = rank(cfg, measured, candidates, op=known_operating_point(), fixed=FLOOR, pair_candidates=3)
+    clipping, unbalance = paired.added
+    assert (clipping.effect, unbalance.effect) == ("clipping", "unbalance")
+    assert clipping.claimed_beside is None and unbalance.claimed_beside == "clipping"
+    assert "its signature shows only beside clipping" in paired.summary
+    assert clipping.params["clip_level"] == pytest.approx(2.2, abs=0.3)
+    assert paired.final_error < alone.final_error / 4
+    assert paired.as_dict()["added_effects"][1]["claimed_beside"] == "clipping"
+
+
 def test_a_signatures_gain_is_the_deviance_drop_in_its_own_views_alone():
     before = {"psd": 10.0, "lines": 40.0, "envelope": 2.0, "harmonics": 3.0, "statistics": 5.0}
     after = {**before, "statistics": 0.5}  # only the kurtosis and crest factor came closer

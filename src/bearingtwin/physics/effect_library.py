@@ -923,9 +923,13 @@ class Clipping(Effect):
 
     Signature: flat-topped peaks; lower kurtosis and crest factor; the clipped impacts'
     energy spreads to odd harmonics and a broadband floor.
+
+    It clips what reaches the recorder, so it runs after every other effect wherever it is
+    listed (``records_last``): a shaft line added after it would stand unclipped.
     """
 
     name = "clipping"
+    records_last = True
     signature = "flat-topped peaks, lower kurtosis and crest factor"
     signature_views = ("statistics",)
     search_space = {"clip_level": (1.0, 10.0, True)}

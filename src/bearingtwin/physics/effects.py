@@ -11,7 +11,9 @@ three stages of a simulation, each a no-op unless overridden:
    1-D sensor acceleration (m/s^2) after the bearing, e.g. a transmission resonance, noise,
    lines at multiples of the shaft rate ``shaft_hz`` (the nominal ``rpm / 60``, in Hz).
 
-Effects run in configuration order at every stage. Each registers under its ``name``
+Effects run in configuration order at every stage, except one that acts on the signal as
+recorded (``records_last``: a converter's range): it runs after all others, wherever it is
+listed, as a saturation clips whatever reaches the recorder. Each registers under its ``name``
 with :func:`register_effect`; ``conf/effects/<name>.yaml`` nests the constructor
 arguments under ``<name>:``, and :func:`build_effects` turns the composed ``effects``
 mapping into instances. The core model knows no effect by name.
@@ -62,11 +64,14 @@ class Effect:
             module docstring); a ranking notion, not checked when effects are built, so a
             simulation may use the effect alone.
         signature_views: the comparison views its signature shows in (module docstring).
+        records_last: the effect acts on the signal as recorded, so it runs after every other
+            effect (:func:`in_signal_order`).
     """
 
     name: ClassVar[str] = ""
     requires: ClassVar[tuple[str, ...]] = ()
     signature_views: ClassVar[tuple[str, ...]] = ()
+    records_last: ClassVar[bool] = False
 
     @classmethod
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:
@@ -128,17 +133,29 @@ def effect_class(name: str) -> type[Effect]:
     return _REGISTRY[name]
 
 
+def in_signal_order(effects_cfg: Mapping) -> dict:
+    """The configured effects (name -> constructor args) in the order they act: as listed, those that act on
+    the signal as recorded (``records_last``) moved to the end. An unknown name is left in place for
+    :func:`build_effects` to name."""
+    _load_library()
+
+    def records_last(name) -> bool:
+        return name in _REGISTRY and _REGISTRY[name].records_last
+
+    return dict(sorted(effects_cfg.items(), key=lambda item: records_last(item[0])))  # a stable sort
+
+
 def build_effects(effects_cfg: Mapping | None) -> list[Effect]:
-    """Instances of the configured effects, in order; ``effects_cfg`` maps name -> constructor args."""
+    """Instances of the configured effects, in the order they act (:func:`in_signal_order`); ``effects_cfg``
+    maps name -> constructor args."""
     if not effects_cfg:
         return []
     if isinstance(effects_cfg, DictConfig):
         effects_cfg = OmegaConf.to_container(effects_cfg, resolve=True)
     if not isinstance(effects_cfg, Mapping):
         raise BearingTwinError(f"effects must map effect names to their parameters, got {effects_cfg!r}")
-    _load_library()
     effects = []
-    for name, arguments in effects_cfg.items():
+    for name, arguments in in_signal_order(effects_cfg).items():
         if name not in _REGISTRY:
             raise BearingTwinError(f"effects.{name}: unknown effect; registered: {', '.join(sorted(_REGISTRY)) or 'none'}")
         try:

@@ -21,7 +21,7 @@ from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR, plain_config
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effects import build_effects, effect_class, registered_effects, sensor_only
+from bearingtwin.physics.effects import build_effects, effect_class, in_signal_order, registered_effects, sensor_only
 from bearingtwin.physics.geometry import FAULTS, check_fault
 from bearingtwin.physics.simulator import sensor_signal, simulate
 
@@ -104,8 +104,8 @@ class TwinModel:
         return cfg
 
     def signal(self, base: Mapping | None = None, effects: Mapping[str, Mapping] | None = None) -> np.ndarray:
-        """The sensor signal (m/s^2) with base parameters ``base`` and ``effects`` in order."""
-        base, effects = dict(base or {}), dict(effects or {})
+        """The sensor signal (m/s^2) with base parameters ``base`` and ``effects`` in the order they act."""
+        base, effects = dict(base or {}), in_signal_order(dict(effects or {}))
         instances = build_effects(effects)
         split = len(instances)
         while split > 0 and sensor_only(instances[split - 1]):

@@ -17,7 +17,12 @@ measurement's own repeatability per view, the floor no twin can go below.
    only elsewhere (tones lowering the kurtosis any added energy lowers, while the lines view
    stays as it was) explains something it does not name, and the ranking stops there: the
    discrepancy the most evidence points at is not a library effect's, so a runner-up that
-   explains less of it is not offered in its place. The signature is judged after the operating point
+   explains less of it is not offered in its place, with one exception: a pair. Two effects
+   may each hide the other's mark (a shaft line whose harmonics a saturation makes: the line
+   alone matches one of them, and the clipping alone has no line to clip; together they match
+   all). So the candidates of most evidence are also fitted two by two, and a pair is claimed
+   if each of its effects pays beyond the other alone and shows its signature beside it. The
+   signature is judged after the operating point
    and every kept effect are re-fitted together with the candidate (or on the screen, if it gains more
    there): the operating point was fitted without it and may have taken up part of its mark. Then
    the remaining candidates are tried on top, each with the kept effects free again beside it
@@ -38,6 +43,7 @@ the runner-up.
 
 from __future__ import annotations
 
+import itertools
 import math
 import threading
 import zlib
@@ -199,6 +205,7 @@ class EffectFit:
     intervals: dict = field(default_factory=dict)
     kept_params: dict = field(default_factory=dict, repr=False)  # the kept effects as re-fitted with this one
     changed_from: dict | None = None  # a fixed effect's held parameters, when this fit is that effect changed
+    claimed_beside: str | None = None  # the effect whose presence lets this one's signature show (a pair), else None
 
     def sentence(self, first: bool = True) -> str:
         """The effect, its parameters and how much it closes: of the discrepancy (the first effect found), or of
@@ -206,18 +213,20 @@ class EffectFit:
         values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) for k, v in self.params.items()
                            if isinstance(v, float))
         of = "the discrepancy" if first else "what was left"
+        beside = "" if self.claimed_beside is None else f" (its signature shows only beside {self.claimed_beside})"
         if self.changed_from is None:
-            return f"{self.effect} ({values}) closes {100 * self.explained:.0f} % of {of}; {self.signature}"
+            return f"{self.effect} ({values}) closes {100 * self.explained:.0f} % of {of}{beside}; {self.signature}"
         held = ", ".join(_parameter_words(k, float(self.changed_from[k])) for k in self.params
                          if k in effect_search_space(self.effect) and k in self.changed_from)
         return (f"{self.effect}, changed from the held {held} to {values}, closes {100 * self.explained:.0f} % of "
-                f"{of}; {self.signature}")
+                f"{of}{beside}; {self.signature}")
 
     def as_dict(self) -> dict:
         return {"effect": self.effect, "error": self.error, "params": self.params, "explained": self.explained,
                 "evidence": self.evidence, "drop_per_point": self.drop_per_point, "n_parameters": self.n_parameters,
                 "signature": self.signature, "signature_views": list(signature_views(self.effect)),
                 "signature_gain": self.signature_gain, "changed_from": self.changed_from,
+                "claimed_beside": self.claimed_beside,
                 "intervals": {k: list(v) for k, v in self.intervals.items()}}
 
 
@@ -526,6 +535,9 @@ class EffectRanker:
         view_floor_db: least repeatability assumed of any view, dB (:attr:`Judge.floors_db`).
         min_signature_gain: deviance drop an effect must bring within its signature's views to be claimed
             (module docstring; 0: the information criterion alone decides).
+        pair_candidates: when the best candidate falls short of its signature, the candidates of most evidence
+            that pay, this many, are fitted two by two, and a pair that shows both signatures is claimed
+            (module docstring; 0 or 1: no pairs).
         n_jobs: threads screening the candidates of a round (each with its own twin; same result for any number).
         later_points_per_view: ``points_per_view`` of the information criterion and the signature rule from the
             second round on (None: the same); the fits do not depend on it.
@@ -541,8 +553,8 @@ class EffectRanker:
                  operating_point: OperatingPoint | None = None, n_trials_base: int = 30,
                  n_trials_effect: int = 10, n_trials_refine: int = 16, n_polish: int = 30, n_polish_effect: int = 10,
                  max_effects: int = 3, points_per_view: float = 1.0, view_floor_db: float = 0.5,
-                 min_signature_gain: float = 1.0, n_jobs: int = 1, later_points_per_view: float | None = 6.0,
-                 seed: int = 0, progress: bool = False):
+                 min_signature_gain: float = 1.0, pair_candidates: int = 3, n_jobs: int = 1,
+                 later_points_per_view: float | None = 6.0, seed: int = 0, progress: bool = False):
         self.candidates = list(candidates)
         self.fixed_effects = {k: dict(v or {}) for k, v in dict(fixed_effects or {}).items()}
         self.operating_point = operating_point or OperatingPoint()
@@ -554,6 +566,7 @@ class EffectRanker:
         self.points_per_view = points_per_view
         self.view_floor_db = view_floor_db
         self.min_signature_gain = min_signature_gain
+        self.pair_candidates = pair_candidates
         self.n_jobs = n_jobs
         self.max_effects = max_effects
         self.later_points_per_view = later_points_per_view
@@ -614,6 +627,35 @@ class EffectRanker:
         unclaimed = None
         remaining = list(self.candidates)
         round_index = 0
+
+        def refitted(fit: EffectFit, scorer: Judge, attempt: int = 0):
+            """The operating point and every kept effect re-fitted with ``fit`` in (``attempt``: which re-fit of
+            the round, for its seed), and its signature's gain there over the twin before it, by ``scorer``."""
+            progress.stage(f"re-fit with {fit.effect}", self.n_trials_refine + self.n_polish)
+            refit_values, refit_sensor, effects, refit_fit, refit_scored = self._refit(
+                fit, base_values, sensor, current_effects, held - {fit.effect}, judge, twin,
+                seed=self.seed + 1000 * (round_index + 1) + 999 + attempt, progress=progress)
+            refit = compare(op.to_base(refit_values, refit_sensor), effects, judge.check_part)
+            gain = scorer.signature_gain(current, refit, signature_views(fit.effect))
+            return (refit_values, refit_sensor, effects, refit_fit, refit_scored, refit), gain
+
+        def keep(fit: EffectFit, refit_result, gain: float) -> None:
+            nonlocal base_values, sensor, scored, last_fit, base_prefix, base, current, current_effects
+            refit_values, refit_sensor, effects, refit_fit, refit_scored, refit = refit_result
+            held.discard(fit.effect)
+            base_values, sensor, scored = refit_values, refit_sensor, refit_scored
+            last_fit, base_prefix = refit_fit, "base:"
+            base = op.to_base(base_values, sensor)
+            before, current = current, refit
+            # The effect as kept (the re-fit): what it gains in its views, its parameters; the ranking keeps
+            # the screen's.
+            added.append(replace(fit, comparison=current, error=current.discrepancy_db,
+                                 params=effects[fit.effect], explained=_explained(before, current),
+                                 signature_gain=gain))
+            current_effects = effects
+            steps.append(Step(dict(current_effects), current.discrepancy_db, current, dict(base)))
+            remaining.remove(fit.effect)
+
         while remaining and len(added) < self.max_effects:
             offered = [name for name in remaining if set(_requires(name)) <= set(current_effects)]
             seeds = [_screen_seed(self.seed, round_index, name) for name in offered]
@@ -636,30 +678,23 @@ class EffectRanker:
             best = fits[0]
             if best.evidence <= 0:
                 break
-            progress.stage(f"re-fit with {best.effect}", self.n_trials_refine + self.n_polish)
-            refit_values, refit_sensor, effects, refit_fit, refit_scored = self._refit(
-                best, base_values, sensor, current_effects, held - {best.effect}, judge, twin,
-                seed=self.seed + 1000 * (round_index + 1) + 999, progress=progress)
-            refit = compare(op.to_base(refit_values, refit_sensor), effects, judge.check_part)
+
+            refit_result, refit_gain = refitted(best, scorer)
             # The screen held the operating point, which was fitted without the candidate and may hold part of
             # its mark (a shallower defect, a heavier load standing in for a noise floor): the signature is
             # judged by the better of the screen and the re-fit with the operating point free.
-            refit_gain = scorer.signature_gain(current, refit, signature_views(best.effect))
             judged_gain = max(best.signature_gain, refit_gain)
-            if judged_gain < self.min_signature_gain:  # it pays, but not where its own mark would be
-                unclaimed = replace(best, signature_gain=judged_gain)  # the ranking keeps what the screen saw
-                break
-            held.discard(best.effect)
-            base_values, sensor, scored = refit_values, refit_sensor, refit_scored
-            last_fit, base_prefix = refit_fit, "base:"
-            base = op.to_base(base_values, sensor)
-            before, current = current, refit
-            # The effect as kept (the re-fit): what it gains in its views, its parameters; the ranking keeps the screen's.
-            added.append(replace(best, comparison=current, error=current.discrepancy_db, params=effects[best.effect],
-                                 explained=_explained(before, current), signature_gain=refit_gain))
-            current_effects = effects
-            steps.append(Step(dict(current_effects), current.discrepancy_db, current, dict(base)))
-            remaining.remove(best.effect)
+            if judged_gain >= self.min_signature_gain:
+                keep(best, refit_result, refit_gain)
+            else:  # it pays, but not where its own mark would be: unless a runner-up lets the mark show
+                pair = (self._pair(fits, base, current_effects, held, judge, twin, round_index, scorer, progress)
+                        if len(added) + 2 <= self.max_effects else None)
+                if pair is None:
+                    unclaimed = replace(best, signature_gain=judged_gain)  # the ranking keeps what the screen saw
+                    break
+                for attempt, fit in enumerate(pair):
+                    refit_result, refit_gain = refitted(fit, scorer, attempt)
+                    keep(fit, refit_result, refit_gain)
             round_index += 1
 
         # Intervals: each fitted value's slice of the final deviance on the first part, widened to the values
@@ -742,6 +777,50 @@ class EffectRanker:
                          len(space), _signature(name), checked,
                          scorer.signature_gain(current, checked, signature_views(name)),
                          kept_params={other: effects[other] for other in kept}, changed_from=changed_from)
+
+    def _pair(self, fits: Sequence[EffectFit], base, current_effects, held, judge: Judge, twin, round_index: int,
+              scorer: Judge, progress: StageProgress) -> tuple[EffectFit, EffectFit] | None:
+        """The pair of the round's candidates that shows both signatures, in the order to claim them, or None.
+
+        The ``pair_candidates`` candidates of most evidence that pay (``fits``, most evidence first) are fitted
+        two by two (the kept effects free beside them, as in a screen). A pair qualifies if each of its effects
+        pays for its parameters beyond the other's screen and brings its own signature's views
+        ``min_signature_gain`` closer than that screen; of those, the one closest to the measurement is taken.
+        The effect that shows its signature alone is claimed first; the other comes with ``claimed_beside``,
+        fitted as in the pair.
+        """
+        paying = [fit for fit in fits if fit.evidence > 0][:self.pair_candidates]
+        qualified = []
+        for first, second in itertools.combinations(paying, 2):
+            names = (first.effect, second.effect)
+            kept = [other for other in current_effects if other not in held and other not in names]
+            trial_effects = {**current_effects, **first.kept_params, first.effect: first.params,
+                             second.effect: second.params}
+            joint, start = _effects_space(trial_effects, [*names, *kept])
+            progress.stage(f"pair {' + '.join(names)}", self.n_trials_effect + self.n_polish_effect)
+            fit = minimize(progress.counted(lambda p: judge.deviance(judge.fit_part(twin.signal(
+                base, _with_effect_params(trial_effects, p))))), joint, self.n_trials_effect,
+                _screen_seed(self.seed, round_index, "+".join(names)), start=start, n_polish=self.n_polish_effect)
+            effects = _with_effect_params(trial_effects, fit.params)
+            checked = judge.check_part(twin.signal(base, effects))
+            beside = {}
+            for one, other in ((first, second), (second, first)):
+                drop = (scorer.deviance(other.comparison) - scorer.deviance(checked)) / scorer.points_per_view
+                beside[one.effect] = replace(
+                    one, params=effects[one.effect], error=checked.discrepancy_db, drop_per_point=drop,
+                    explained=_explained(other.comparison, checked), comparison=checked,
+                    evidence=scorer.points_per_view * drop - one.n_parameters * scorer.penalty_per_parameter,
+                    signature_gain=scorer.signature_gain(other.comparison, checked, signature_views(one.effect)),
+                    kept_params={name: effects[name] for name in (*kept, other.effect)}, claimed_beside=other.effect)
+            if all(fit.evidence > 0 and fit.signature_gain >= self.min_signature_gain for fit in beside.values()):
+                qualified.append((scorer.deviance(checked), first, second, beside))
+        if not qualified:
+            return None
+        _, first, second, beside = min(qualified, key=lambda entry: entry[0])
+        # The one that shows its signature alone goes first, as its own screen; the other follows beside it.
+        lead, follower = sorted((first, second), key=lambda fit: fit.signature_gain < self.min_signature_gain)
+        return replace(lead, claimed_beside=None if lead.signature_gain >= self.min_signature_gain
+                       else follower.effect), beside[follower.effect]
 
     def _refit(self, best: EffectFit, base_values, sensor, current_effects, held, judge: Judge, twin, seed,
                progress: StageProgress):

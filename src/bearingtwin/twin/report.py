@@ -120,6 +120,7 @@ def ranker_settings(cfg: DictConfig) -> dict:
         "points_per_view": values_per_view("ranking.points_per_view", ranking.points_per_view, "values per view"),
         "view_floor_db": positive_number(ranking.view_floor_db, "ranking.view_floor_db", "dB"),
         "min_signature_gain": non_negative_number("ranking.min_signature_gain", ranking.min_signature_gain),
+        "pair_candidates": whole_number("ranking.pair_candidates", ranking.pair_candidates, minimum=0),
         "later_points_per_view": None if later is None else values_per_view(
             "ranking.later_points_per_view", later, "values per view, or null"),
         "n_jobs": thread_count(ranking.n_jobs),
