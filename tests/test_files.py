@@ -65,6 +65,28 @@ def test_csv_header_time_column_and_channel_by_name_or_index(tmp_path, signal):
     assert list(read_raw(headerless).channels) == ["0", "1"]
 
 
+def test_text_tables_saved_as_txt_or_tsv_read_as_a_csv_does(tmp_path, signal):
+    """A data logger's export under .txt (tab-separated, a header with the time) or .tsv, and a headerless
+    whitespace table of four accelerometers (as some run-to-failure rigs write them) under .txt."""
+    t = np.arange(signal.size) / FS
+    logged = tmp_path / "run.txt"
+    np.savetxt(logged, np.column_stack([t, signal]), delimiter="\t", header="Time (s)\tacc (g)", comments="",
+               fmt="%.9f")
+    recording = load_recording(logged)
+    assert recording.fs == pytest.approx(FS, rel=1e-6) and recording.unit == "g"
+    np.testing.assert_allclose(recording.signal, signal, atol=1e-9)
+    tabbed = tmp_path / "run.tsv"
+    np.savetxt(tabbed, np.column_stack([signal, -signal]), delimiter="\t", header="x\ty", comments="")
+    np.testing.assert_allclose(load_recording(tabbed, channel="y", fs=FS).signal, -signal, atol=1e-9)
+    bearings = tmp_path / "2003.10.22.12.06.24.txt"
+    np.savetxt(bearings, np.column_stack([signal, 2 * signal, 3 * signal, 4 * signal]), fmt="%.6f")
+    assert list(read_raw(bearings).channels) == ["0", "1", "2", "3"]
+    np.testing.assert_allclose(load_recording(bearings, channel=2, fs=FS).signal, 3 * signal, atol=1e-5)
+    (tmp_path / "notes.txt").write_text("Rig B, sensor on the housing.\n")
+    with pytest.raises(BearingTwinError, match=r"notes.txt"):
+        load_recording(tmp_path / "notes.txt", fs=FS)
+
+
 def test_csv_non_numeric_cell_is_named(tmp_path):
     path = tmp_path / "bad.csv"
     path.write_text("a,b\n1,2\n3,abc\n")

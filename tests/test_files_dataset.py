@@ -197,18 +197,22 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     (tmp_path / "states.csv").write_text("record,state\nnormal_run1.npy,normal\n")
     (tmp_path / "logger.csv").write_text("time,acc,status\n0,0.1,ok\n0.001,0.2,ok\n")
     (tmp_path / "readme.txt").write_text("rig B")
+    (tmp_path / "mounting.jpg").write_bytes(b"\xff\xd8\xff")
+    np.savetxt(tmp_path / "inner_run3.txt", tone("inner"), delimiter="\t")  # a logger's text export is a recording
     recordings, others = recordings_and_others(tmp_path)
-    assert [path.name for path in recordings] == ["ball_run1.npy", "logger.csv", "normal_run1.npy", "outer_run2.csv"]
+    assert [path.name for path in recordings] == ["ball_run1.npy", "inner_run3.txt", "logger.csv", "normal_run1.npy",
+                                                  "outer_run2.csv"]
     assert recordings_in(tmp_path) == recordings
-    assert others == {"notes.csv": "its column 'date' holds text ('2024-01-02'), not samples",
-                      "readme.txt": "not .npy, .npz, .csv, .mat, .wav, .xls",
+    assert others == {"mounting.jpg": "not .npy, .npz, .csv, .txt, .tsv, .mat, .wav, .xls",
+                      "notes.csv": "its column 'date' holds text ('2024-01-02'), not samples",
+                      "readme.txt": "no rows of numbers (a note), not samples",
                       "results.csv": "its column 'record' holds text ('normal_run1'), not samples",
                       "states.csv": "a labels table, columns record,state, not a recording"}
     (tmp_path / "logger.csv").unlink()
     with caplog.at_level("WARNING"):
         dataset = build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
-    assert sorted(name.rsplit("/", 1)[-1] for name in dataset.records) == ["ball_run1.npy", "normal_run1.npy",
-                                                                            "outer_run2.csv"]
+    assert sorted(name.rsplit("/", 1)[-1] for name in dataset.records) == ["ball_run1.npy", "inner_run3.txt",
+                                                                            "normal_run1.npy", "outer_run2.csv"]
     assert f"{tmp_path}: left out notes.csv (its column 'date' holds text ('2024-01-02'), not samples)" in caplog.text
     # A logger's clock time is a recording's column: kept, for its reader to name the cell it cannot read.
     (tmp_path / "logger.csv").write_text("Timestamp,acc\n2024-01-02 10:00:00.001,0.1\n2024-01-02 10:00:00.002,0.2\n")
@@ -225,7 +229,7 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
                                                r"recording, but it is none \(its column 'status' holds text"):
         build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'"))
     (tmp_path / "outer_run3.csv").unlink()
-    assert len(build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'")).records) == 3  # the .png passed
+    assert len(build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'")).records) == 4  # the .png passed
     # Labelled by a table, the tables of notes beside it are named too.
     (tmp_path / "labels.csv").write_text("record,state\nnormal_run1.npy,normal\nball_run1.npy,ball\nouter_run2.csv,outer\n")
     caplog.clear()

@@ -107,6 +107,16 @@ def text_column(path: Path) -> TextColumn | None:
     return None
 
 
+def holds_numbers(path: Path) -> bool:
+    """Whether the file's first lines hold a row of numbers under whatever header it has (a ``.txt`` beside
+    the recordings may be a note: ``rig B, sensor on the housing``)."""
+    try:
+        head, layout, _, _ = _head_and_layout(path)
+    except BearingTwinError:
+        return False
+    return any(_numbers_row(head[index]) for index in _content(head) if index >= layout.body_start)
+
+
 def _head_and_layout(path: Path) -> tuple[list[str], _Layout, list[str] | None, list[str]]:
     """The file's first lines, the layout they show, the names its header gives and notes (:func:`_layout`);
     a file that is no text is refused."""

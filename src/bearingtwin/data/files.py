@@ -9,7 +9,8 @@ sees a NaN, a guessed sampling rate or a silently chosen channel.
 
 Formats (chosen by extension): ``.npy`` (1-D, or 2-D: the longer axis is time), ``.npz``
 (arrays are channels; scalars ``fs`` / ``rpm`` and a string ``fault`` are facts, as written
-by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` (columns are channels,
+by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` / ``.txt`` / ``.tsv``
+(a text table, as spreadsheets and data loggers export it: columns are channels,
 separated by commas, semicolons, tabs or spaces, optional header row, which may state a column's unit, ``acc (g)``,
 and above which a logger's lines are notes; a ``time`` / ``time_s`` / ``Time (s)`` / ``Zeit [s]`` column, or
 ``time_ms`` / ``t [ms]`` in milliseconds, gives the sampling rate: :data:`_TIME_COLUMN`), ``.mat`` (CWRU files by
@@ -39,7 +40,9 @@ from bearingtwin.data.units import acceleration_unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
-FORMATS = (".npy", ".npz", ".csv", ".mat", ".wav", ".xls")
+TEXT_TABLES = (".csv", ".txt", ".tsv")
+"""Text tables of numbers: a spreadsheet's or data logger's export, whatever it separates its columns with."""
+FORMATS = (".npy", ".npz", *TEXT_TABLES, ".mat", ".wav", ".xls")
 
 FS_RELATIVE_TOLERANCE = 0.01
 """A user's sampling rate may differ this much from one measured in the file (a time column
@@ -159,7 +162,9 @@ def read_raw(path: str | Path) -> RawRecord:
 
             variables = _load_mat(path)
             return read_cwru_raw(path, variables) if is_cwru_mat(variables) else _read_generic_mat(path, variables)
-        return {".npy": _read_npy, ".npz": _read_npz, ".csv": _read_csv, ".wav": _read_wav}[suffix](path)
+        if suffix in TEXT_TABLES:
+            return _read_csv(path)
+        return {".npy": _read_npy, ".npz": _read_npz, ".wav": _read_wav}[suffix](path)
     except BearingTwinError:
         raise
     except Exception as error:  # a corrupt file makes scipy, numpy and zipfile raise any type (BadZipFile, MatReadError, ...)

@@ -26,8 +26,8 @@ from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.csv_file import text_column
-from bearingtwin.data.files import FORMATS, load_recording, time_column_seconds
+from bearingtwin.data.csv_file import holds_numbers, text_column
+from bearingtwin.data.files import FORMATS, TEXT_TABLES, load_recording, time_column_seconds
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
@@ -372,8 +372,10 @@ def why_not_a_recording(path: Path) -> str | None:
     text: a log's notes, a results table's verdicts), so is passed over as no recording; None for a file that
     may be one (any other format, a table of numbers, one the reader will refuse naming why). A table with a
     time column is a recording whatever else it holds: its text column is then an error the reader names."""
-    if path.suffix.lower() != ".csv":
+    if path.suffix.lower() not in TEXT_TABLES:
         return None
+    if path.suffix.lower() != ".csv" and not holds_numbers(path):  # a .csv is meant as a table: its reader says why not
+        return "no rows of numbers (a note), not samples"
     text = text_column(path)
     if text is None:
         return None
