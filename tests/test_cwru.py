@@ -599,12 +599,17 @@ def test_the_transforms_of_a_channel_are_computed_once_per_record_and_change_no_
         afresh = [check_channels(channels, rate, rpm, **options) for rate in rates]
     computed_afresh = dict(counted)
     counted.update(spectrum=0, envelope=0)
+    hashed = []
+    blake2b = sampling_rate.hashlib.blake2b
+    monkeypatch.setattr(sampling_rate.hashlib, "blake2b", lambda data, **kw: hashed.append(len(data)) or blake2b(data, **kw))
     with sampling_rate.shared_transforms():
         shared = [check_channels(channels, rate, rpm, **options) for rate in rates]
     assert [check["DE"].verdict for check in afresh] == ["consistent", "contradicted", "contradicted"]
     assert shared == afresh
-    # One spectrum per channel and per envelope, one envelope per channel read for its defect lines, at most.
+    # One spectrum per channel and per envelope, one envelope per channel read for its defect lines, at most;
+    # and each array's content hashed once, however many rates look it up.
     assert counted["spectrum"] <= 4 and counted["envelope"] <= 2
+    assert 0 < len(hashed) <= 4
     assert computed_afresh["spectrum"] > 2 * counted["spectrum"] and computed_afresh["envelope"] > counted["envelope"]
     assert sampling_rate._SHARED.get() is None
     # Past its memory cap it keeps nothing more and computes again, to the same verdicts.

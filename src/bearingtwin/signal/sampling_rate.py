@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import dataclasses
+import functools
 import hashlib
 import math
 from dataclasses import asdict, dataclass
@@ -80,7 +81,24 @@ class ShaftLineCheck:
         return asdict(self)
 
 
-_SHARED: contextvars.ContextVar[dict | None] = contextvars.ContextVar("bearingtwin_shared_transforms", default=None)
+@dataclass
+class _Shared:
+    """What :func:`shared_transforms` keeps: transforms by kind and content, and each array's content digest
+    (the array kept beside it, so that its id is not another's while the scope lasts), within :data:`SHARED_BYTES`."""
+
+    results: dict = dataclasses.field(default_factory=dict)
+    digests: dict = dataclasses.field(default_factory=dict)
+    nbytes: int = 0
+
+    def keeps(self, array: np.ndarray) -> bool:
+        """Whether ``array`` fits in what is left, counted against it if so."""
+        if self.nbytes + array.nbytes > SHARED_BYTES:
+            return False
+        self.nbytes += array.nbytes
+        return True
+
+
+_SHARED: contextvars.ContextVar[_Shared | None] = contextvars.ContextVar("bearingtwin_shared_transforms", default=None)
 
 
 SHARED_BYTES = 256 * 2**20
@@ -93,7 +111,7 @@ def shared_transforms():
     (a record's check tries several on every channel of its file, and no rate changes them; a 10 s CWRU
     record's length is a slow FFT size); forgotten on leaving, and never more than :data:`SHARED_BYTES` of them
     (a file of many long channels computes the rest each time, as without it). Nested uses share the outermost's."""
-    token = _SHARED.set(_SHARED.get() if _SHARED.get() is not None else {})
+    token = _SHARED.set(_SHARED.get() or _Shared())
     try:
         yield
     finally:
@@ -105,20 +123,40 @@ def _once(kind: str, samples: np.ndarray, compute: Callable[[np.ndarray], np.nda
     shared = _SHARED.get()
     if shared is None:
         return compute(samples)
-    key = (kind, samples.shape, hashlib.blake2b(np.ascontiguousarray(samples).tobytes(), digest_size=16).digest())
-    if key in shared:
-        return shared[key]
+    key = (kind, samples.shape, _digest(shared, samples))
+    if key in shared.results:
+        return shared.results[key]
     result = compute(samples)
-    if sum(kept.nbytes for kept in shared.values()) + result.nbytes <= SHARED_BYTES:
+    if shared.keeps(result):
         result.flags.writeable = False
-        shared[key] = result
+        shared.results[key] = result
     return result
+
+
+def _digest(shared: _Shared, samples: np.ndarray) -> bytes:
+    """The content's digest, computed once per array within :func:`shared_transforms`: a check hands the same
+    channels and envelopes to every rate it tries, and hashing a 10 s channel costs a millisecond."""
+    seen = shared.digests.get(id(samples))
+    if seen is not None and seen[0] is samples:
+        return seen[1]
+    digest = hashlib.blake2b(np.ascontiguousarray(samples).tobytes(), digest_size=16).digest()
+    if shared.keeps(samples):
+        shared.digests[id(samples)] = (samples, digest)
+    return digest
+
+
+@functools.lru_cache(maxsize=4)
+def _hann(size: int) -> np.ndarray:
+    """The Hann window of ``size`` samples, read-only (a record's channels and envelopes share their length)."""
+    window = np.hanning(size)
+    window.flags.writeable = False
+    return window
 
 
 def _magnitude_spectrum(x: np.ndarray) -> np.ndarray:
     """|rfft| of the mean-removed, Hann-windowed samples. scipy's FFT plans a slow length (a 10 s CWRU record:
     2 x 41 x 1493 samples) twice as fast as numpy's, to the same values."""
-    return np.abs(scipy.fft.rfft((x - x.mean()) * np.hanning(x.size)))
+    return np.abs(scipy.fft.rfft((x - x.mean()) * _hann(x.size)))
 
 
 def _prominence_spectrum(signal: np.ndarray, fs: float, top_hz: float, background_hz: float) -> tuple[np.ndarray, float]:
