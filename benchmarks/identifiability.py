@@ -420,7 +420,7 @@ def run_case(case: dict, overrides: list[str], reference: dict) -> dict:
         "added": added, "verdict": fit.verdict, "seconds": seconds, "reference_seconds": reference["seconds"],
         "reference_base": {name: entry["value"] for name, entry in held.items() if name != "sensor"},
         "ranking": [(f.effect, f.drop_per_point, f.n_parameters, f.evidence) for f in fit.ranking],
-        "rounds": fit.rounds, "repeatability_db": fit.repeatability_db,
+        "rounds": fit.rounds, "pairs": fit.pairs, "repeatability_db": fit.repeatability_db,
         "margin": fit.margin, "baseline_error": fit.baseline_error, "final_error": fit.final_error,
         "floor_error": fit.floor_error, "unexplained": [u["view"] for u in fit.unexplained],
         "steps": [s.error for s in fit.steps],
@@ -477,7 +477,10 @@ def first_round_evidence(result: dict, points_per_view: float, view_floor_db: fl
 
 def first_round_right(result: dict, points_per_view: float, view_floor_db: float, min_signature_gain: float) -> bool:
     """Whether the first round's decision would be right with these constants: the candidate with the
-    most evidence, if it pays and gains ``min_signature_gain`` in its signature's views, else none."""
+    most evidence, if it pays and gains ``min_signature_gain`` in its signature's views, else none. A pair the
+    ranking may claim where that candidate falls short (``ranking.pair_candidates``) is fitted anew, so it is not
+    replayed here: the replay reads the ranking as it was before pairs (the pairs tried are in each case's
+    ``pairs``)."""
     evidence = first_round_evidence(result, points_per_view, view_floor_db)
     best, gain, name = max(evidence) if evidence else (-1.0, 0.0, None)
     first = MODE.get(name, name) if best > 0 and gain >= min_signature_gain else None
@@ -633,7 +636,8 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
         "Effects hidden in a measurement, named (or not) by `bearingtwin-twin`'s compare-calibrate-rank with its "
         "defaults: the operating point fitted (sensor race and direction, load, clearance, defect size, gain), "
         "then every library effect a candidate, added only when it pays for its parameters on the held-out half "
-        "and brings the twin closer in the views its own signature shows in. "
+        "and brings the twin closer in the views its own signature shows in (or, where two hide each other's "
+        "mark, beside the other of a pair). "
         + "; ".join(described[source] for source in sources) + ".", "",
         markdown_table(["case kind", "goal", *(SOURCES[source] for source in sources)], rows), "",
         "![cases right per kind against the goals](identifiability.png)", "",

@@ -83,8 +83,11 @@ def test_text_tables_saved_as_txt_or_tsv_read_as_a_csv_does(tmp_path, signal):
     assert list(read_raw(bearings).channels) == ["0", "1", "2", "3"]
     np.testing.assert_allclose(load_recording(bearings, channel=2, fs=FS).signal, 3 * signal, atol=1e-5)
     (tmp_path / "notes.txt").write_text("Rig B, sensor on the housing.\n")
-    with pytest.raises(BearingTwinError, match=r"notes.txt"):
+    with pytest.raises(BearingTwinError, match=r"notes.txt: the file holds a header but no data rows"):
         load_recording(tmp_path / "notes.txt", fs=FS)
+    (tmp_path / "export.tsv").write_bytes("a\tb\n1\t2\n".encode("utf-16"))
+    with pytest.raises(BearingTwinError, match=r"export.tsv: not a text file, so no table of numbers \(.csv, .txt, .tsv\)"):
+        load_recording(tmp_path / "export.tsv", fs=FS)
 
 
 def test_csv_non_numeric_cell_is_named(tmp_path):

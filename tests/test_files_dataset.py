@@ -223,6 +223,12 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     # A hidden file is no recording, whatever its suffix (macOS leaves ._<name> beside every file it copies).
     (tmp_path / "._normal_run1.npy").write_bytes(b"\x00\x05\x16\x07")
     assert "._normal_run1.npy" not in [path.name for path in recordings_and_others(tmp_path)[0]]
+    # A note in words is passed over even where the pattern names it; a table of text under .tsv is named as a .csv is.
+    (tmp_path / "inner_notes.txt").write_text("Rig B: the inner-race runs, sensor on the housing.\n")
+    (tmp_path / "scores.tsv").write_text("record\tscore\nnormal_run1\t0.9\n")
+    assert recordings_and_others(tmp_path)[1]["scores.tsv"] == "its column 'record' holds text ('normal_run1'), not samples"
+    assert len(build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'")).records) == 4
+    (tmp_path / "inner_notes.txt").unlink()
     # A file the pattern names a recording is one: left out, the run would be short of it.
     (tmp_path / "outer_run3.csv").write_text("acc,status\n0.1,ok\n0.2,ok\n")
     with pytest.raises(BearingTwinError, match=r"outer_run3.csv: data.pattern='\^\(\?P<state>\[a-z\]\+\)_' names it a "

@@ -82,3 +82,24 @@ def test_records_simulated_before_oversample_existed_keep_their_cache_key():
     assert records_key(data, bearing, {**simulator, "oversample": None}, None) == records_key(data, bearing, before, None)
     assert records_key(data, bearing, {**simulator, "oversample": 1}, None) == records_key(data, bearing, before, None)
     assert records_key(data, bearing, {**simulator, "oversample": 4}, None) != records_key(data, bearing, before, None)
+
+
+def test_effects_that_act_in_another_order_are_other_records():
+    """A resonance filters a noise floor added before it, not one added after: the cache tells the two apart.
+    Clipping acts last wherever it is listed, so its place in the list does not."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.config import CONF_DIR
+    from bearingtwin.data.simulated import records_key
+
+    data = {"rpm": 1797.0, "fs": 10000.0, "duration": 1.0}
+    bearing = OmegaConf.to_container(OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml"))
+    simulator = OmegaConf.to_container(OmegaConf.load(f"{CONF_DIR}/simulator/default.yaml"))
+    noise, resonance = {"snr_db": 10.0, "spectral_slope": 0.0}, {"natural_frequency_hz": 3000.0, "damping_ratio": 0.05}
+    unbalance, clipping = {"level_db": 0.0}, {"clip_level": 3.0}
+
+    def key(effects):
+        return records_key(data, bearing, simulator, effects)
+
+    assert key({"noise": noise, "resonance": resonance}) != key({"resonance": resonance, "noise": noise})
+    assert key({"clipping": clipping, "unbalance": unbalance}) == key({"unbalance": unbalance, "clipping": clipping})

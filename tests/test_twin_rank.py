@@ -388,6 +388,12 @@ def test_a_pair_that_hides_each_others_mark_is_claimed_together(cfg):
     assert clipping.params["clip_level"] == pytest.approx(2.2, abs=0.3)
     assert paired.final_error < alone.final_error / 4
     assert paired.as_dict()["added_effects"][1]["claimed_beside"] == "clipping"
+    # Every pair tried is recorded; the best candidate the pair was claimed over is named as not claimed, and no
+    # margin of its over the runner-up is reported as if it had been found.
+    tried = {tuple(entry["effects"]): entry["qualified"] for entry in paired.pairs}
+    assert tried[("clipping", "unbalance")] and len(tried) == 3
+    assert paired.ranking[0].effect == "tones" and paired.unclaimed.effect == "tones"  # the lines as tones, alone
+    assert "Not claimed: tones would pay" in paired.summary and "Uncertain: tones" not in paired.summary
 
 
 def test_a_signatures_gain_is_the_deviance_drop_in_its_own_views_alone():

@@ -107,14 +107,15 @@ def text_column(path: Path) -> TextColumn | None:
     return None
 
 
-def holds_numbers(path: Path) -> bool:
-    """Whether the file's first lines hold a row of numbers under whatever header it has (a ``.txt`` beside
-    the recordings may be a note: ``rig B, sensor on the housing``)."""
+def is_a_note(path: Path) -> bool:
+    """Whether the file is text whose first lines hold no row of numbers under whatever header it has (a ``.txt``
+    beside the recordings: ``rig B, sensor on the housing``). A file whose layout cannot be told is no note:
+    :func:`read_csv_table` names what is wrong with it."""
     try:
         head, layout, _, _ = _head_and_layout(path)
     except BearingTwinError:
         return False
-    return any(_numbers_row(head[index]) for index in _content(head) if index >= layout.body_start)
+    return not any(_numbers_row(head[index]) for index in _content(head) if index >= layout.body_start)
 
 
 def _head_and_layout(path: Path) -> tuple[list[str], _Layout, list[str] | None, list[str]]:
@@ -130,7 +131,7 @@ def _head_and_layout(path: Path) -> tuple[list[str], _Layout, list[str] | None, 
 
 
 def _not_text(path: Path) -> BearingTwinError:
-    return BearingTwinError(f"{path}: not a text file, so not a CSV (comma-separated numbers)")
+    return BearingTwinError(f"{path}: not a text file, so no table of numbers (.csv, .txt, .tsv)")
 
 
 def _encoding(path: Path) -> str:

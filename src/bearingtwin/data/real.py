@@ -26,7 +26,7 @@ from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.csv_file import holds_numbers, text_column
+from bearingtwin.data.csv_file import is_a_note, text_column
 from bearingtwin.data.files import FORMATS, TEXT_TABLES, load_recording, time_column_seconds
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
@@ -350,7 +350,7 @@ def recordings_in(folder: Path) -> list[Path]:
 
 def recordings_and_others(folder: Path) -> tuple[list[Path], dict[str, str]]:
     """A folder's recordings, sorted by name, and why each of its other files is none (``name -> reason``): a format
-    bearingtwin does not read, or a CSV table of something else (:func:`why_not_a_recording`). The labels table and
+    bearingtwin does not read, or a text table of something else or a note (:func:`why_not_a_recording`). The labels table and
     hidden files (a name starting with '.') are neither."""
     recordings, others = [], {}
     for path in sorted(folder.iterdir()):
@@ -367,18 +367,22 @@ def recordings_and_others(folder: Path) -> tuple[list[Path], dict[str, str]]:
     return recordings, others
 
 
+NOTE = "no rows of numbers (a note), not samples"
+"""Why a text file beside the recordings that holds no numbers is none: passed over even where a pattern names it."""
+
+
 def why_not_a_recording(path: Path) -> str | None:
     """Why a file is a table of something other than samples (a labels table under another name, or a column of
-    text: a log's notes, a results table's verdicts), so is passed over as no recording; None for a file that
+    text: a log's notes, a results table's verdicts) or a note in words (a ``.txt`` with no row of numbers), so is
+    passed over as no recording; None for a file that
     may be one (any other format, a table of numbers, one the reader will refuse naming why). A table with a
     time column is a recording whatever else it holds: its text column is then an error the reader names."""
     if path.suffix.lower() not in TEXT_TABLES:
         return None
-    if path.suffix.lower() != ".csv" and not holds_numbers(path):  # a .csv is meant as a table: its reader says why not
-        return "no rows of numbers (a note), not samples"
     text = text_column(path)
     if text is None:
-        return None
+        # A .txt may be prose; a .csv is meant as a table, and its reader says why it is none.
+        return NOTE if path.suffix.lower() != ".csv" and is_a_note(path) else None
     if set(LABEL_COLUMNS[:2]) <= {name.strip().lower() for name in text.names}:  # in any case, as read
         return f"a labels table, columns {','.join(LABEL_COLUMNS[:2])}, not a recording"
     if any(time_column_seconds(name) is not None for name in text.names):
@@ -410,7 +414,8 @@ def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, Non
         raise BearingTwinError(f"data.pattern={cfg['pattern']!r} has no (?P<state>...) group naming the bearing state")
     paths, others = recordings_and_others(root)
     for name, reason in others.items():  # a training set silently short of a record would be a wrong result
-        if pattern.search(name) and Path(name).suffix.lower() in FORMATS:  # a table of notes, not a picture
+        # A table of notes, not a picture or a note in words (rig_notes.txt).
+        if pattern.search(name) and Path(name).suffix.lower() in FORMATS and reason != NOTE:
             raise BearingTwinError(f"{root / name}: data.pattern={cfg['pattern']!r} names it a recording, but it is "
                                    f"none ({reason}); mend it or move it out of data.root")
     warn_left_out(root, others)

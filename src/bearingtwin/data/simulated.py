@@ -23,6 +23,7 @@ from bearingtwin.config import plain_config
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.effects import order_identity
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.physics.simulator import records_identity, simulate_many
 from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
@@ -42,9 +43,10 @@ def simulation_config(data_cfg: Mapping, simulator_cfg: Mapping) -> dict:
 
 def records_key(data_cfg: Mapping, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg: Mapping | None) -> str:
     """Hash of everything that determines the simulated records."""
+    effects = plain_config(effects_cfg)
     return content_key({"bearing": plain_config(bearing_cfg),
                         "simulator": records_identity(simulation_config(data_cfg, simulator_cfg)),
-                    "effects": plain_config(effects_cfg), "faults": FAULTS})
+                        "effects": effects, **order_identity(effects), "faults": FAULTS})
 
 
 def _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> tuple[np.ndarray, str]:

@@ -56,7 +56,7 @@ from bearingtwin.data.real import rows_from_labels
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effects import build_effects, effect_class, in_signal_order, sensor_only
+from bearingtwin.physics.effects import build_effects, effect_class, in_signal_order, order_identity, sensor_only
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import records_identity, simulate
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
@@ -388,7 +388,7 @@ def _records_path(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, ef
                   cache_dir: str | os.PathLike, variant: int | None) -> tuple[Path, str]:
     """Where :func:`twin_signals` caches these records, and their key (what they are simulated from)."""
     key = content_key({"bearing": bearing_cfg, "simulator": records_identity(simulator_cfg), "effects": effects,
-                       "faults": list(faults), "rpms": list(rpms), "variant": variant})
+                       **order_identity(effects), "faults": list(faults), "rpms": list(rpms), "variant": variant})
     return Path(cache_dir) / "twin_to_real" / f"records-{key}.npz", key
 
 

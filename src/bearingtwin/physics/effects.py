@@ -145,6 +145,14 @@ def in_signal_order(effects_cfg: Mapping) -> dict:
     return dict(sorted(effects_cfg.items(), key=lambda item: records_last(item[0])))  # a stable sort
 
 
+def order_identity(effects_cfg: Mapping | None) -> dict:
+    """What a cache key of simulations needs beside the effects mapping, which a content hash reads in any order:
+    the order they act in (:func:`in_signal_order`), where there are several (one effect alone, or none, keeps
+    the key it had before the order counted)."""
+    effects = dict(effects_cfg or {})
+    return {"effect_order": list(in_signal_order(effects))} if len(effects) > 1 else {}
+
+
 def build_effects(effects_cfg: Mapping | None) -> list[Effect]:
     """Instances of the configured effects, in the order they act (:func:`in_signal_order`); ``effects_cfg``
     maps name -> constructor args."""

@@ -263,6 +263,7 @@ class TwinFit:
     unclaimed: EffectFit | None = None  # the candidate that paid, but not in its own signature's views
     min_signature_gain: float = 0.0
     not_tried: str = ""  # why no candidate was tried (none given, ranking.max_effects=0, each needs another), else ""
+    pairs: list[dict] = field(default_factory=list)  # every pair tried where the best fell short (EffectRanker._pair)
     # The views in which this measurement differs from a reference record of the rig (measurement against
     # measurement, no twin: :func:`views_beyond_floor`); None when no reference record was compared, and why.
     since_reference: list[dict] | None = None
@@ -312,7 +313,7 @@ class TwinFit:
             lines.append(f"Effects that were {what}, in order: {found}. "
                          f"Discrepancy {self.baseline_error:.2f} -> {self.final_error:.2f} dB on the {part} "
                          f"({self.own_discrepancy_words}).")
-            if self.margin is not None and self.margin < CLEAR_MARGIN:
+            if self.margin is not None and self.margin < CLEAR_MARGIN and self.added[0].effect == self.ranking[0].effect:
                 runner = self.ranking[1].effect
                 lines.append(f"Uncertain: {self.ranking[0].effect} leads {runner} by only {self.margin:.1f} "
                              "information-criterion units.")
@@ -372,6 +373,7 @@ class TwinFit:
             "base_params": self.base_params,
             "ranking": [fit.as_dict() for fit in self.ranking],
             "rounds": self.rounds,
+            "pairs": self.pairs,
             "repeatability_db": self.repeatability_db,
             "margin": self.margin,
             "steps": [step.as_dict() for step in self.steps],
@@ -624,6 +626,7 @@ class EffectRanker:
         ranking: list[EffectFit] = []
         rounds: list[list[dict]] = []
         added: list[EffectFit] = []
+        pairs: list[dict] = []
         unclaimed = None
         remaining = list(self.candidates)
         round_index = 0
@@ -686,14 +689,20 @@ class EffectRanker:
             judged_gain = max(best.signature_gain, refit_gain)
             if judged_gain >= self.min_signature_gain:
                 keep(best, refit_result, refit_gain)
-            else:  # it pays, but not where its own mark would be: unless a runner-up lets the mark show
-                pair = (self._pair(fits, base, current_effects, held, judge, twin, round_index, scorer, progress)
-                        if len(added) + 2 <= self.max_effects else None)
+            else:  # it pays, but not where its own mark would be: unless two candidates hide each other's mark
+                pair = None
+                if len(added) + 2 <= self.max_effects:
+                    pair, tried = self._pair(fits, base, current_effects, held, judge, twin, round_index, scorer,
+                                             progress)
+                    pairs += tried
+                if pair is None or best.effect not in (fit.effect for fit in pair):
+                    # The ranking keeps what the screen saw; a pair claimed without it says why it was passed over.
+                    unclaimed = replace(best, signature_gain=judged_gain)
                 if pair is None:
-                    unclaimed = replace(best, signature_gain=judged_gain)  # the ranking keeps what the screen saw
                     break
                 for attempt, fit in enumerate(pair):
-                    refit_result, refit_gain = refitted(fit, scorer, attempt)
+                    if attempt or fit.effect != best.effect:  # the best first: its re-fit is the one above
+                        refit_result, refit_gain = refitted(fit, scorer, attempt)
                     keep(fit, refit_result, refit_gain)
             round_index += 1
 
@@ -731,7 +740,7 @@ class EffectRanker:
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
-                            unclaimed, self.min_signature_gain, self._not_tried())
+                            unclaimed, self.min_signature_gain, self._not_tried(), pairs)
         return self
 
     def _not_tried(self) -> str:
@@ -779,23 +788,26 @@ class EffectRanker:
                          kept_params={other: effects[other] for other in kept}, changed_from=changed_from)
 
     def _pair(self, fits: Sequence[EffectFit], base, current_effects, held, judge: Judge, twin, round_index: int,
-              scorer: Judge, progress: StageProgress) -> tuple[EffectFit, EffectFit] | None:
-        """The pair of the round's candidates that shows both signatures, in the order to claim them, or None.
+              scorer: Judge, progress: StageProgress) -> tuple[tuple[EffectFit, EffectFit] | None, list[dict]]:
+        """The pair of the round's candidates that shows both signatures, in the order to claim them, or None;
+        and every pair tried (its effects, each one's evidence and signature gain beside the other, qualified).
 
         The ``pair_candidates`` candidates of most evidence that pay (``fits``, most evidence first) are fitted
-        two by two (the kept effects free beside them, as in a screen). A pair qualifies if each of its effects
-        pays for its parameters beyond the other's screen and brings its own signature's views
-        ``min_signature_gain`` closer than that screen; of those, the one closest to the measurement is taken.
-        The effect that shows its signature alone is claimed first; the other comes with ``claimed_beside``,
-        fitted as in the pair.
+        two by two (the kept effects free beside them, as in a screen), each pair in the order it would be
+        kept: the effect that shows its signature alone on its screen first, else the one of more evidence. A
+        pair qualifies if each of its effects pays for its parameters beyond the other's screen and brings its
+        own signature's views ``min_signature_gain`` closer than that screen; of those, the one closest to the
+        measurement is taken. The second comes with ``claimed_beside``, fitted as in the pair; so does the first
+        where it did not show its signature alone.
         """
         paying = [fit for fit in fits if fit.evidence > 0][:self.pair_candidates]
-        qualified = []
-        for first, second in itertools.combinations(paying, 2):
-            names = (first.effect, second.effect)
+        qualified, tried = [], []
+        for pair in itertools.combinations(paying, 2):
+            lead, follower = sorted(pair, key=lambda fit: fit.signature_gain < self.min_signature_gain)
+            names = (lead.effect, follower.effect)
             kept = [other for other in current_effects if other not in held and other not in names]
-            trial_effects = {**current_effects, **first.kept_params, first.effect: first.params,
-                             second.effect: second.params}
+            trial_effects = {**current_effects, **lead.kept_params, lead.effect: lead.params,
+                             follower.effect: follower.params}
             joint, start = _effects_space(trial_effects, [*names, *kept])
             progress.stage(f"pair {' + '.join(names)}", self.n_trials_effect + self.n_polish_effect)
             fit = minimize(progress.counted(lambda p: judge.deviance(judge.fit_part(twin.signal(
@@ -804,23 +816,26 @@ class EffectRanker:
             effects = _with_effect_params(trial_effects, fit.params)
             checked = judge.check_part(twin.signal(base, effects))
             beside = {}
-            for one, other in ((first, second), (second, first)):
+            for one, other in ((lead, follower), (follower, lead)):
                 drop = (scorer.deviance(other.comparison) - scorer.deviance(checked)) / scorer.points_per_view
                 beside[one.effect] = replace(
                     one, params=effects[one.effect], error=checked.discrepancy_db, drop_per_point=drop,
                     explained=_explained(other.comparison, checked), comparison=checked,
                     evidence=scorer.points_per_view * drop - one.n_parameters * scorer.penalty_per_parameter,
                     signature_gain=scorer.signature_gain(other.comparison, checked, signature_views(one.effect)),
-                    kept_params={name: effects[name] for name in (*kept, other.effect)}, claimed_beside=other.effect)
-            if all(fit.evidence > 0 and fit.signature_gain >= self.min_signature_gain for fit in beside.values()):
-                qualified.append((scorer.deviance(checked), first, second, beside))
+                    kept_params={name: effects[name] for name in kept}, claimed_beside=other.effect)
+            shows = all(fit.evidence > 0 and fit.signature_gain >= self.min_signature_gain for fit in beside.values())
+            tried.append({"round": round_index, "effects": list(names), "error": checked.discrepancy_db,
+                          "evidence": {name: fit.evidence for name, fit in beside.items()},
+                          "signature_gain": {name: fit.signature_gain for name, fit in beside.items()},
+                          "qualified": shows})
+            if shows:
+                qualified.append((scorer.deviance(checked), lead, follower, beside))
         if not qualified:
-            return None
-        _, first, second, beside = min(qualified, key=lambda entry: entry[0])
-        # The one that shows its signature alone goes first, as its own screen; the other follows beside it.
-        lead, follower = sorted((first, second), key=lambda fit: fit.signature_gain < self.min_signature_gain)
-        return replace(lead, claimed_beside=None if lead.signature_gain >= self.min_signature_gain
-                       else follower.effect), beside[follower.effect]
+            return None, tried
+        _, lead, follower, beside = min(qualified, key=lambda entry: entry[0])
+        alone = lead.signature_gain >= self.min_signature_gain
+        return (replace(lead, claimed_beside=None if alone else follower.effect), beside[follower.effect]), tried
 
     def _refit(self, best: EffectFit, base_values, sensor, current_effects, held, judge: Judge, twin, seed,
                progress: StageProgress):

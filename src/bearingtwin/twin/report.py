@@ -48,7 +48,7 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     """The measured record the config points at, with fs, rpm and bearing state all known, and
     its sampling rate checked against its shaft speed (``bearing``'s defect lines as a second witness)."""
     if OmegaConf.is_missing(measured_cfg, "path"):
-        raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .mat, .wav or .xls)")
+        raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .txt, .tsv, .mat, .wav or .xls)")
     check_fs = true_or_false(measured_cfg.check_fs, "measured.check_fs")
     raw = read_raw(measured_cfg.path)
     # What neither the settings nor the file say, a labels.csv beside it may (as training and diagnose read one).
