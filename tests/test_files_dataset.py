@@ -205,7 +205,7 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     assert recordings_in(tmp_path) == recordings
     assert others == {"mounting.jpg": "not .npy, .npz, .csv, .txt, .tsv, .mat, .wav, .xls",
                       "notes.csv": "its column 'date' holds text ('2024-01-02'), not samples",
-                      "readme.txt": "no rows of numbers (a note), not samples",
+                      "readme.txt": "no row of numbers (notes, or a table of text), not samples",
                       "results.csv": "its column 'record' holds text ('normal_run1'), not samples",
                       "states.csv": "a labels table, columns record,state, not a recording"}
     (tmp_path / "logger.csv").unlink()
@@ -223,12 +223,21 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     # A hidden file is no recording, whatever its suffix (macOS leaves ._<name> beside every file it copies).
     (tmp_path / "._normal_run1.npy").write_bytes(b"\x00\x05\x16\x07")
     assert "._normal_run1.npy" not in [path.name for path in recordings_and_others(tmp_path)[0]]
-    # A note in words is passed over even where the pattern names it; a table of text under .tsv is named as a .csv is.
-    (tmp_path / "inner_notes.txt").write_text("Rig B: the inner-race runs, sensor on the housing.\n")
-    (tmp_path / "scores.tsv").write_text("record\tscore\nnormal_run1\t0.9\n")
-    assert recordings_and_others(tmp_path)[1]["scores.tsv"] == "its column 'record' holds text ('normal_run1'), not samples"
+    # Notes in words, a table of text and an empty file under .txt or .tsv are passed over even where the pattern
+    # names them; a table of numbers under .tsv is a recording.
+    (tmp_path / "inner_notes.txt").write_text("Rig B: the inner-race runs, sensor on the housing.\nTimes: 10 s each.\n")
+    (tmp_path / "outer_scores.tsv").write_text("record\tscore\nnormal_run1\t0.9\n")
+    (tmp_path / "ball_todo.txt").write_text("")
+    others = recordings_and_others(tmp_path)[1]
+    assert {others[name] for name in ("inner_notes.txt", "outer_scores.tsv", "ball_todo.txt")} == {
+        "no row of numbers (notes, or a table of text), not samples"}
     assert len(build_dataset(files_cfg(tmp_path, "data.pattern='^(?P<state>[a-z]+)_'")).records) == 4
-    (tmp_path / "inner_notes.txt").unlink()
+    for name in ("inner_notes.txt", "outer_scores.tsv", "ball_todo.txt"):
+        (tmp_path / name).unlink()
+    # A logger's clock under .txt is a recording as under .csv, for its reader to name the cell it cannot read.
+    (tmp_path / "logger.txt").write_text("Timestamp\tacc\n2024-01-02 10:00:00.001\t0.1\n")
+    assert tmp_path / "logger.txt" in recordings_and_others(tmp_path)[0]
+    (tmp_path / "logger.txt").unlink()
     # A file the pattern names a recording is one: left out, the run would be short of it.
     (tmp_path / "outer_run3.csv").write_text("acc,status\n0.1,ok\n0.2,ok\n")
     with pytest.raises(BearingTwinError, match=r"outer_run3.csv: data.pattern='\^\(\?P<state>\[a-z\]\+\)_' names it a "

@@ -108,14 +108,16 @@ def text_column(path: Path) -> TextColumn | None:
 
 
 def is_a_note(path: Path) -> bool:
-    """Whether the file is text whose first lines hold no row of numbers under whatever header it has (a ``.txt``
-    beside the recordings: ``rig B, sensor on the housing``). A file whose layout cannot be told is no note:
-    :func:`read_csv_table` names what is wrong with it."""
+    """Whether the file is text whose first lines hold no row of numbers (a ``.txt`` beside the recordings:
+    ``rig B, sensor on the housing``; an empty one). A file that is no text is no note: :func:`read_csv_table`
+    names what is wrong with it."""
     try:
-        head, layout, _, _ = _head_and_layout(path)
-    except BearingTwinError:
+        encoding = _encoding(path)
+        with open(path, encoding=encoding) as handle:
+            head = list(itertools.islice(handle, SAMPLE_LINES))
+    except (BearingTwinError, UnicodeDecodeError):
         return False
-    return not any(_numbers_row(head[index]) for index in _content(head) if index >= layout.body_start)
+    return not any(_numbers_row(line) for line in head if _holds_data(line))
 
 
 def _head_and_layout(path: Path) -> tuple[list[str], _Layout, list[str] | None, list[str]]:

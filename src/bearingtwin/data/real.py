@@ -367,29 +367,32 @@ def recordings_and_others(folder: Path) -> tuple[list[Path], dict[str, str]]:
     return recordings, others
 
 
-NOTE = "no rows of numbers (a note), not samples"
-"""Why a text file beside the recordings that holds no numbers is none: passed over even where a pattern names it."""
+NOTE = "no row of numbers (notes, or a table of text), not samples"
+"""Why a .txt or .tsv beside the recordings that holds no row of numbers is none: passed over even where a pattern
+names it (``inner_notes.txt``)."""
 
 
 def why_not_a_recording(path: Path) -> str | None:
     """Why a file is a table of something other than samples (a labels table under another name, or a column of
-    text: a log's notes, a results table's verdicts) or a note in words (a ``.txt`` with no row of numbers), so is
-    passed over as no recording; None for a file that
+    text: a log's notes, a results table's verdicts), so is passed over as no recording; None for a file that
     may be one (any other format, a table of numbers, one the reader will refuse naming why). A table with a
-    time column is a recording whatever else it holds: its text column is then an error the reader names."""
-    if path.suffix.lower() not in TEXT_TABLES:
+    time column is a recording whatever else it holds: its text column is then an error the reader names. A
+    ``.txt`` or ``.tsv`` with no row of numbers (notes in words, a table of text, an empty file) is :data:`NOTE`;
+    a ``.csv`` is meant as a table, so one without numbers is left to its reader to say why."""
+    suffix = path.suffix.lower()
+    if suffix not in TEXT_TABLES:
         return None
+    note = suffix != ".csv" and is_a_note(path)
     text = text_column(path)
     if text is None:
-        # A .txt may be prose; a .csv is meant as a table, and its reader says why it is none.
-        return NOTE if path.suffix.lower() != ".csv" and is_a_note(path) else None
+        return NOTE if note else None
     if set(LABEL_COLUMNS[:2]) <= {name.strip().lower() for name in text.names}:  # in any case, as read
         return f"a labels table, columns {','.join(LABEL_COLUMNS[:2])}, not a recording"
     if any(time_column_seconds(name) is not None for name in text.names):
         return None
     if re.search(r"time|stamp", text.name, re.IGNORECASE):  # a logger's clock: a recording, its reader names the column
         return None
-    return f"its column {text.name!r} holds text ({text.cell!r}), not samples"
+    return NOTE if note else f"its column {text.name!r} holds text ({text.cell!r}), not samples"
 
 
 def warn_left_out(where: str | Path, others: dict[str, str]) -> None:

@@ -17,7 +17,8 @@ measurement's own repeatability per view, the floor no twin can go below.
    only elsewhere (tones lowering the kurtosis any added energy lowers, while the lines view
    stays as it was) explains something it does not name, and the ranking stops there: the
    discrepancy the most evidence points at is not a library effect's, so a runner-up that
-   explains less of it is not offered in its place, with one exception: a pair. Two effects
+   explains less of it is not offered in its place, with one exception: a pair (the best, not
+   claimed, is then reported as such beside it). Two effects
    may each hide the other's mark (a shaft line whose harmonics a saturation makes: the line
    alone matches one of them, and the clipping alone has no line to clip; together they match
    all). So the candidates of most evidence are also fitted two by two, and a pair is claimed
@@ -643,8 +644,10 @@ class EffectRanker:
             return (refit_values, refit_sensor, effects, refit_fit, refit_scored, refit), gain
 
         def keep(fit: EffectFit, refit_result, gain: float) -> None:
-            nonlocal base_values, sensor, scored, last_fit, base_prefix, base, current, current_effects
+            nonlocal base_values, sensor, scored, last_fit, base_prefix, base, current, current_effects, unclaimed
             refit_values, refit_sensor, effects, refit_fit, refit_scored, refit = refit_result
+            if unclaimed is not None and unclaimed.effect == fit.effect:  # passed over by a pair, claimed since
+                unclaimed = None
             held.discard(fit.effect)
             base_values, sensor, scored = refit_values, refit_sensor, refit_scored
             last_fit, base_prefix = refit_fit, "base:"
@@ -700,10 +703,12 @@ class EffectRanker:
                     unclaimed = replace(best, signature_gain=judged_gain)
                 if pair is None:
                     break
-                for attempt, fit in enumerate(pair):
-                    if attempt or fit.effect != best.effect:  # the best first: its re-fit is the one above
-                        refit_result, refit_gain = refitted(fit, scorer, attempt)
-                    keep(fit, refit_result, refit_gain)
+                lead, follower = pair
+                if lead.effect != best.effect:  # the best leading: its re-fit is the one above
+                    refit_result, refit_gain = refitted(lead, scorer)
+                keep(lead, refit_result, refit_gain)
+                # The second from the first's re-fit (the operating point and the kept effects as it left them).
+                keep(follower, *refitted(replace(follower, kept_params={}), scorer, attempt=1))
             round_index += 1
 
         # Intervals: each fitted value's slice of the final deviance on the first part, widened to the values
@@ -797,8 +802,9 @@ class EffectRanker:
         kept: the effect that shows its signature alone on its screen first, else the one of more evidence. A
         pair qualifies if each of its effects pays for its parameters beyond the other's screen and brings its
         own signature's views ``min_signature_gain`` closer than that screen; of those, the one closest to the
-        measurement is taken. The second comes with ``claimed_beside``, fitted as in the pair; so does the first
-        where it did not show its signature alone.
+        measurement is taken. The first is returned as its screen, the second as fitted in the pair, with
+        ``claimed_beside`` naming the first; the first names the second only where it did not show its
+        signature alone.
         """
         paying = [fit for fit in fits if fit.evidence > 0][:self.pair_candidates]
         qualified, tried = [], []
