@@ -22,7 +22,8 @@ measurement's own repeatability per view, the floor no twin can go below.
    may each hide the other's mark (a shaft line whose harmonics a saturation makes: the line
    alone matches one of them, and the clipping alone has no line to clip; together they match
    all). So the candidates of most evidence are also fitted two by two, and a pair is claimed
-   if each of its effects pays beyond the other alone and shows its signature beside it. The
+   if each of its effects pays beyond the other alone and the one that did not show its
+   signature alone shows it beside the other (both do, where neither did alone). The
    signature is judged after the operating point
    and every kept effect are re-fitted together with the candidate (or on the screen, if it gains more
    there): the operating point was fitted without it and may have taken up part of its mark. Then
@@ -800,9 +801,9 @@ class EffectRanker:
         The ``pair_candidates`` candidates of most evidence that pay (``fits``, most evidence first) are fitted
         two by two (the kept effects free beside them, as in a screen), each pair in the order it would be
         kept: the effect that shows its signature alone on its screen first, else the one of more evidence. A
-        pair qualifies if each of its effects pays for its parameters beyond the other's screen and brings its
-        own signature's views ``min_signature_gain`` closer than that screen; of those, the one closest to the
-        measurement is taken. The first is returned as its screen, the second as fitted in the pair, with
+        pair qualifies if each of its effects pays for its parameters beyond the other's screen, and the second
+        (the first too, unless it showed its signature alone) brings its own signature's views
+        ``min_signature_gain`` closer than that screen; of those, the one closest to the measurement is taken. The first is returned as its screen, the second as fitted in the pair, with
         ``claimed_beside`` naming the first; the first names the second only where it did not show its
         signature alone.
         """
@@ -830,7 +831,11 @@ class EffectRanker:
                     evidence=scorer.points_per_view * drop - one.n_parameters * scorer.penalty_per_parameter,
                     signature_gain=scorer.signature_gain(other.comparison, checked, signature_views(one.effect)),
                     kept_params={name: effects[name] for name in kept}, claimed_beside=other.effect)
-            shows = all(fit.evidence > 0 and fit.signature_gain >= self.min_signature_gain for fit in beside.values())
+            # The first, if it showed its signature alone, has passed the rule a single effect passes: beside the
+            # second it need only pay (a strong 1x line alone lowers the kurtosis a saturation lowers too).
+            first, second, least = beside[lead.effect], beside[follower.effect], self.min_signature_gain
+            shows = (first.evidence > 0 and second.evidence > 0 and second.signature_gain >= least
+                     and (lead.signature_gain >= least or first.signature_gain >= least))
             tried.append({"round": round_index, "effects": list(names), "error": checked.discrepancy_db,
                           "evidence": {name: fit.evidence for name, fit in beside.items()},
                           "signature_gain": {name: fit.signature_gain for name, fit in beside.items()},
