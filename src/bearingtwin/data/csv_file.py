@@ -112,10 +112,8 @@ def is_a_note(path: Path) -> bool:
     ``rig B, sensor on the housing``; an empty one). A file that is no text is no note: :func:`read_csv_table`
     names what is wrong with it."""
     try:
-        encoding = _encoding(path)
-        with open(path, encoding=encoding) as handle:
-            head = list(itertools.islice(handle, SAMPLE_LINES))
-    except (BearingTwinError, UnicodeDecodeError):
+        head, _ = _head(path)
+    except BearingTwinError:
         return False
     return not any(_numbers_row(line) for line in head if _holds_data(line))
 
@@ -123,13 +121,18 @@ def is_a_note(path: Path) -> bool:
 def _head_and_layout(path: Path) -> tuple[list[str], _Layout, list[str] | None, list[str]]:
     """The file's first lines, the layout they show, the names its header gives and notes (:func:`_layout`);
     a file that is no text is refused."""
+    head, encoding = _head(path)
+    return (head, *_layout(path, head, encoding))
+
+
+def _head(path: Path) -> tuple[list[str], str]:
+    """The file's first :data:`SAMPLE_LINES` lines and its encoding; a file that is no text is refused."""
     encoding = _encoding(path)
     try:
         with open(path, encoding=encoding) as handle:
-            head = list(itertools.islice(handle, SAMPLE_LINES))
+            return list(itertools.islice(handle, SAMPLE_LINES)), encoding
     except UnicodeDecodeError:
         raise _not_text(path) from None
-    return (head, *_layout(path, head, encoding))
 
 
 def _not_text(path: Path) -> BearingTwinError:
