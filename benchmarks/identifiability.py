@@ -373,7 +373,7 @@ def rank(case: dict, overrides: list[str], reference: dict | None = None):
     what that found held, as ``bearingtwin-twin reference=<its twin_report.json>`` holds it."""
     cfg = twin_config(f"seed={twin_seed(case)}", *overrides)
     if reference:
-        cfg = hold_reference(cfg, reference, case["fault"], fs=case["fs"])
+        cfg = hold_reference(cfg, reference, case["fault"])
     measured = measurement(case, cfg)
     geometry = BearingGeometry.from_config(cfg.bearing)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))

@@ -101,12 +101,6 @@ class CompareSettings:
         smooth_hz: moving-average width of the dB envelope spectrum in the envelope view.
         stats_window_s: window length for the time-domain statistics.
         weights: weight of each view in the overall discrepancy, relative (scaled to a mean of 1 over the views).
-        band_offset_db: what the twin is known to miss in each PSD band, dB (``n_bands`` values, one per band of
-            :func:`band_edges_hz`; null: nothing known). The psd view compares the measurement with the twin's
-            band levels raised by it, and it takes nothing from the gain or the tilt (both are removed from it
-            first). ``reference=`` fills it from the reference record's final comparison: the rig's path as the
-            twin's form cannot follow it, the same from one record to the next, so that a new record's
-            difference in the bands is what changed (``reference_path``).
     """
 
     welch_segment_s: float = 0.1
@@ -126,7 +120,6 @@ class CompareSettings:
     smooth_hz: float = 10.0
     stats_window_s: float = 0.1
     weights: dict = field(default_factory=lambda: {view: 1.0 for view in VIEWS})
-    band_offset_db: tuple | None = None
 
     def __post_init__(self) -> None:
         # Frozen: the checked values are set as the numbers they were read as (ints, floats).
@@ -151,13 +144,6 @@ class CompareSettings:
         object.__setattr__(self, "psd_detrend_order", order)
         object.__setattr__(self, "n_bands", n_bands)
         object.__setattr__(self, "weights", _checked_weights(self.weights))
-        if self.band_offset_db is not None:
-            offset = self.band_offset_db
-            if isinstance(offset, (str, bytes)) or not hasattr(offset, "__len__") or len(offset) != n_bands or not all(
-                    is_finite_number(value) for value in offset):
-                raise BearingTwinError(f"compare.band_offset_db must be {n_bands} finite numbers of dB (one per band, "
-                                       f"compare.n_bands={n_bands}) or null, got {offset!r}")
-            object.__setattr__(self, "band_offset_db", tuple(float(value) for value in offset))
 
     @property
     def segments_s(self) -> dict[str, float]:
@@ -226,8 +212,6 @@ class Comparison:
     measured: Profile
     twin: Profile
     context: "Comparator"
-    band_residual_db: np.ndarray | None = field(default=None, repr=False)  # measurement - twin per band, gain and tilt
-    # removed, compare.band_offset_db not subtracted: what a later record's comparison holds as known (reference_path)
 
     @property
     def summary(self) -> str:
@@ -253,18 +237,6 @@ _POSITIVE_SETTINGS = {"welch_segment_s": "seconds", "band_min_hz": "Hz", "dynami
                       "envelope_segment_s": "seconds", "envelope_highpass_hz": "Hz", "envelope_dynamic_range_db": "dB",
                       "lines_segment_s": "seconds", "lines_max_hz": "Hz", "line_threshold_db": "dB",
                       "stats_window_s": "seconds"}
-
-
-def band_edges_hz(fs: float, settings: CompareSettings) -> np.ndarray:
-    """Edges of the psd view's bands, Hz: ``n_bands`` log-spaced from ``band_min_hz`` to fs / 2."""
-    return np.geomspace(settings.band_min_hz, fs / 2, settings.n_bands + 1)
-
-
-def detrended(residual_db: np.ndarray, log_centres: np.ndarray, order: int) -> np.ndarray:
-    """``residual_db`` less its least-squares polynomial of ``order`` in the centred log frequency (order 0: its mean,
-    the gain)."""
-    centred = log_centres - log_centres.mean()
-    return residual_db - np.polyval(np.polyfit(centred, residual_db, order), centred)
 
 
 def _checked_weights(weights) -> dict[str, float]:
@@ -361,8 +333,7 @@ class Comparator:
         self.nperseg = int(round(s.welch_segment_s * self.fs))
         # Windows and transforms made once: hundreds of twins are profiled against one measurement.
         self.psd_welch = WelchPSD(self.fs, sps.get_window("hann", self.nperseg))
-        self.band_edges_hz = band_edges_hz(self.fs, s)
-        self.band_offset_db = np.zeros(s.n_bands)
+        self.band_edges_hz = np.geomspace(s.band_min_hz, self.fs / 2, s.n_bands + 1)
         psd_freqs = self.psd_welch.freqs_hz
         self.band_of_bin = np.searchsorted(self.band_edges_hz, psd_freqs, side="right") - 1
         self.band_of_bin[psd_freqs >= self.fs / 2] = s.n_bands - 1
@@ -392,8 +363,6 @@ class Comparator:
             reach = 4 * lines_freqs[1] + 0.01 * own  # the window's main lobe, and 1 % for slip and speed
             self.lines_bins &= ~np.any(np.abs(lines_freqs[:, None] - own) <= reach, axis=1)
         self.band_centres_log = np.log10(np.sqrt(self.band_edges_hz[:-1] * self.band_edges_hz[1:]))
-        if s.band_offset_db is not None:  # a known shortfall in the bands' shape, not in the gain or the tilt
-            self.band_offset_db = detrended(np.array(s.band_offset_db), self.band_centres_log, s.psd_detrend_order)
         self.line_hz = np.concatenate([harmonics, self.sidebands_hz])
         self.measured_signal = np.asarray(measured.signal, dtype=np.float64)
         try:
@@ -453,27 +422,14 @@ class Comparator:
             twin = twin.signal
         return self.compare_profiles(self.profile(twin), other)
 
-    def with_band_offset(self, signal: np.ndarray) -> np.ndarray:
-        """``signal`` with each PSD band's level raised by ``compare.band_offset_db`` (gain steps at the band edges,
-        below the lowest band its offset): a twin as the psd view holds it against the measurement, for the effects
-        that read a band's position off the two spectra (:func:`bearingtwin.physics.effect_library.Resonance.initial_guess`)."""
-        if self.settings.band_offset_db is None:
-            return signal
-        spectrum = np.fft.rfft(signal)
-        freqs_hz = np.fft.rfftfreq(signal.size, 1.0 / self.fs)
-        band = np.clip(np.searchsorted(self.band_edges_hz, freqs_hz, side="right") - 1, 0, self.band_offset_db.size - 1)
-        return np.fft.irfft(spectrum * 10 ** (self.band_offset_db[band] / 20.0), n=signal.size)
-
-    def compare_profiles(self, twin: Profile, other: str = "the twin", of_twin: bool = True) -> Comparison:
-        """The views' errors between the measurement and an already profiled twin (``other`` in the findings);
-        ``of_twin=False``: ``twin`` is another measurement, which misses nothing of the rig's path
-        (``compare.band_offset_db`` is not added to it)."""
+    def compare_profiles(self, twin: Profile, other: str = "the twin") -> Comparison:
+        """The views' errors between the measurement and an already profiled twin (``other`` in the findings)."""
         m, s = self.measured, self.settings
         residual = m.band_db - twin.band_db
         gain_db = float(residual.mean())
-        band_residual = detrended(residual, self.band_centres_log, s.psd_detrend_order)
-        offset_held = of_twin and s.band_offset_db is not None
-        residual = band_residual - self.band_offset_db if offset_held else band_residual
+        # The centred log frequencies make the fitted polynomial's mean the gain itself.
+        centred = self.band_centres_log - self.band_centres_log.mean()
+        residual = residual - np.polyval(np.polyfit(centred, residual, s.psd_detrend_order), centred)
         worst = int(np.argmax(np.abs(residual)))
         lo, hi = self.band_edges_hz[worst], self.band_edges_hz[worst + 1]
         psd_cause = None
@@ -481,8 +437,7 @@ class Comparator:
             psd_finding = "band levels agree within 0.5 dB after gain and tilt"
         else:
             psd_finding = (f"energy between {_hz(lo)} and {_hz(hi)} is {abs(residual[worst]):.1f} dB "
-                           f"{'above' if residual[worst] > 0 else 'below'} {other}'s"
-                           + (" raised by compare.band_offset_db" if offset_held else ""))
+                           f"{'above' if residual[worst] > 0 else 'below'} {other}'s")
             if residual[worst] < 0:  # the measurement quieter: what takes energy away, not what adds it
                 psd_cause = "a quieter path in that band (more damping, or a mode the twin has and the structure lacks)"
                 if worst == residual.size - 1:  # the top band: what every acquisition chain does there
@@ -544,7 +499,7 @@ class Comparator:
                           n_points[v], {"psd": psd_cause, "lines": lines_cause}.get(v))
             for v in VIEWS
         }
-        return Comparison(float(discrepancy), gain, views, m, twin, self, band_residual)
+        return Comparison(float(discrepancy), gain, views, m, twin, self)
 
 
     def line_heights_db(self, m: Profile, twin: Profile, gain: float) -> tuple[np.ndarray, np.ndarray]:

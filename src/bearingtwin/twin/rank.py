@@ -158,7 +158,7 @@ class Judge:
             whole = Comparator(measured, geometry, settings)
             return cls(whole, whole, {v: 0.0 for v in VIEWS}, dict(settings.weights), False, points_per_view,
                        view_floor_db)
-        repeat = _view_errors(first.compare_profiles(second.measured, of_twin=False))
+        repeat = _view_errors(first.compare_profiles(second.measured))
         return cls(first, second, repeat, dict(settings.weights), True, points_per_view, view_floor_db)
 
     @property
@@ -276,17 +276,6 @@ class TwinFit:
         return self.steps[-1].error
 
     @property
-    def psd_bands(self) -> dict:
-        """The final twin's psd view on the held-out part: band edges (Hz), the measurement less the twin per band
-        (dB, gain and tilt removed) and the offset it was held beside (``compare.band_offset_db``, None): a later
-        record's run holds the residual as the rig's known path (``reference_path``)."""
-        comparison = self.steps[-1].comparison
-        offset = comparison.context.settings.band_offset_db
-        return {"edges_hz": comparison.context.band_edges_hz.tolist(),
-                "residual_db": comparison.band_residual_db.tolist(),
-                "offset_db": None if offset is None else list(offset)}
-
-    @property
     def margin(self) -> float | None:
         """Information-criterion lead of the first-ranked candidate over the runner-up."""
         return self.ranking[0].evidence - self.ranking[1].evidence if len(self.ranking) > 1 else None
@@ -398,7 +387,6 @@ class TwinFit:
             "not_tried": self.not_tried,
             "since_reference": self.since_reference,
             "reference_note": self.reference_note,
-            "psd_bands": self.psd_bands,
             "final_error": self.final_error,
             "summary": self.summary,
         }
@@ -755,8 +743,7 @@ class EffectRanker:
                                                   op.space, base_values, best_deviance, name, CHI2_95_ONE_DOF),
                                    base_prefix + name) for name in op.space}
         operating = self._operating_point_report(base_values, sensor, scored, intervals)
-        floor = (judge.fit_part.compare_profiles(judge.check_part.measured, of_twin=False).discrepancy_db
-                 if judge.held_out else 0.0)
+        floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
                             unclaimed, self.min_signature_gain, self._not_tried(), pairs)
@@ -998,6 +985,4 @@ def _initial_guess(name, judge: Judge, matched: np.ndarray) -> dict | None:
     guess = getattr(effect_class(name), "initial_guess", None)
     if guess is None:
         return None
-    if "psd" in signature_views(name):  # the bands as the psd view holds them: beside a known path offset
-        matched = judge.fit_part.with_band_offset(matched)
     return guess(judge.fit_part.measured_signal, matched, judge.fit_part.fs, judge.fit_part.rpm / 60.0)

@@ -15,23 +15,18 @@ from __future__ import annotations
 
 import copy
 import json
-import logging
 import math
 from dataclasses import fields
 from pathlib import Path
 from typing import Mapping
 
-import numpy as np
 from omegaconf import DictConfig, OmegaConf, open_dict
 
-from bearingtwin.checks import is_finite_number, true_or_false
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS
-from bearingtwin.twin.compare import CompareSettings, band_edges_hz
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, RACES
-
-log = logging.getLogger(__name__)
 
 
 def read_reference(path) -> dict:
@@ -97,36 +92,7 @@ def refuse_reference_folder(reference, out: Path) -> None:
                                "would overwrite the reference's; give this run a folder of its own")
 
 
-def reference_band_offset(cfg: DictConfig, report: Mapping, fs: float | None, source: str) -> list[float] | None:
-    """The reference's band residual (``psd_bands.residual_db`` of its report: the measurement less its final twin
-    per PSD band, gain and tilt removed), to be held as ``compare.band_offset_db``; None where the config gives an
-    offset itself or ``reference_path`` is off, where the report has none (written before it recorded one), and
-    where its bands are not this run's (another rate, or other compare settings), which the log says."""
-    bands = report.get("psd_bands")
-    if not true_or_false(cfg.get("reference_path", False), "reference_path") or cfg.compare.get("band_offset_db") is not None:
-        return None
-    if bands is None:
-        log.warning("%s: the report records no PSD band residual (written by an earlier version); the rig's path is "
-                    "not held (reference_path)", source)
-        return None
-    edges, residual = bands.get("edges_hz"), bands.get("residual_db")
-    if not (_numbers(edges) and _numbers(residual) and len(residual) == len(edges) - 1):
-        raise BearingTwinError(f"{source}: psd_bands must hold edges_hz and residual_db, one fewer residual than edges, "
-                               "all numbers")
-    ours = None if fs is None else band_edges_hz(fs, CompareSettings.from_config(OmegaConf.to_container(cfg.compare)))
-    if ours is None or len(ours) != len(edges) or not np.allclose(ours, edges, rtol=1e-9):
-        log.warning("%s: its PSD bands (%d from %.0f to %.0f Hz) are not this record's; the rig's path is not held "
-                    "(reference_path)", source, len(edges) - 1, edges[0], edges[-1])
-        return None
-    return [float(value) for value in residual]
-
-
-def _numbers(values) -> bool:
-    return isinstance(values, list) and len(values) > 1 and all(is_finite_number(value) for value in values)
-
-
-def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "reference",
-                   fs: float | None = None) -> DictConfig:
+def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "reference") -> DictConfig:
     """A copy of the ``twin`` config with what ``report`` (a reference's twin report) found held.
 
     Every operating-point value the config leaves to be fitted (null) takes the reference's; the
@@ -135,8 +101,6 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
     (``calibration.base_held``), so this run's report lists them as held, as a later run reads them.
     The reference's effects (its final twin's, with their fitted parameters) come first in
     ``effects``, the config's own after them; those among ``candidates`` stay there, to be tried as changed.
-    With ``reference_path`` and this record's rate ``fs``, the band levels the reference's final twin missed
-    become ``compare.band_offset_db`` (:func:`reference_band_offset`).
     """
     held = copy.deepcopy(cfg)
     OmegaConf.set_readonly(held, False)
@@ -170,7 +134,4 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
             if held.operating_point.get("sensor_angle_deg") is None:
                 held.operating_point.sensor_angle_deg = float(operating["sensor"]["angle_deg"])
         held.effects = {**effects, **OmegaConf.to_container(held.effects, resolve=True)}
-        offset = reference_band_offset(cfg, report, fs, source)
-        if offset is not None:
-            held.compare.band_offset_db = offset
     return held

@@ -362,8 +362,7 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
                                      channel_key="the reference report's measured.channel")
         if str(earlier.channel) != str(measured.channel):
             raise BearingTwinError(f"its record was read on channel {earlier.channel}, this one on {measured.channel}")
-        comparison = comparator.compare_profiles(comparator.profile(earlier.signal), "the reference record",
-                                                 of_twin=False)
+        comparison = comparator(earlier.signal, other="the reference record")
     except BearingTwinError as error:
         fit.reference_note = str(error)
         return
@@ -408,7 +407,7 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
     to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
-        cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}", fs=measured.fs)
+        cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault, progress)
     comparator = Comparator(measured, geometry, settings)  # a record too short for one comparison segment, before a run opens
