@@ -24,7 +24,6 @@ Every class documents the signature it leaves in a measurement, which is what
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import replace
 
@@ -940,78 +939,6 @@ class Clipping(Effect):
 
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         return clip_at_rms(signal, self.clip_level)
-
-
-PATH_RESOLUTION_HZ = 10.0
-"""Frequency resolution of :func:`path_filter`'s FIR (its length is fs / this): the lowest comparison band
-(50-75 Hz) is several bins wide."""
-
-
-def path_gain_db(freqs_hz: np.ndarray, centres_hz, gains_db) -> np.ndarray:
-    """A path's gain at ``freqs_hz``, dB: ``gains_db`` at ``centres_hz``, linear in log frequency between them,
-    held beyond them."""
-    log_centres = np.log10(np.asarray(centres_hz, dtype=np.float64))
-    return np.interp(np.log10(np.maximum(freqs_hz, centres_hz[0])), log_centres, np.asarray(gains_db, dtype=np.float64))
-
-
-@functools.lru_cache(maxsize=16)
-def _minimum_phase_path(fs: float, centres_hz: tuple, gains_db: tuple) -> np.ndarray:
-    """A causal, minimum-phase FIR with :func:`path_gain_db`'s magnitude (scipy: a linear-phase design of the
-    squared magnitude, ``minimum_phase`` halving it in dB)."""
-    n_taps = 2 * int(round(fs / PATH_RESOLUTION_HZ / 2)) + 1
-    freqs_hz = np.linspace(0.0, fs / 2, 2049)
-    power = 10 ** (path_gain_db(freqs_hz, centres_hz, gains_db) / 10.0)
-    taps = sps.minimum_phase(sps.firwin2(n_taps, freqs_hz, power, fs=fs), method="homomorphic")
-    taps.flags.writeable = False
-    return taps
-
-
-def path_filter(x: np.ndarray, fs: float, centres_hz, gains_db) -> np.ndarray:
-    """``x`` through a causal (minimum-phase) path whose gain is ``gains_db`` at ``centres_hz`` (dB, linear in log
-    frequency between them, held beyond them). Along the last axis; the output keeps ``x``'s length."""
-    taps = _minimum_phase_path(float(fs), tuple(map(float, centres_hz)), tuple(map(float, gains_db)))
-    x = np.asarray(x, dtype=np.float64)
-    return sps.oaconvolve(x, taps.reshape((1,) * (x.ndim - 1) + (-1,)), axes=-1)[..., :x.shape[-1]]
-
-
-@register_effect
-class ReferencePath(Effect):
-    """The rig's structural path where the twin's form cannot follow it, as a reference record of the rig showed.
-
-    A twin and a rig differ in how the bearing's vibration reaches the sensor (housing, mounts, the sensor's
-    base), by a shape no gain and no library mode make. Read off a reference record of the same rig (the band
-    levels of the record over its final twin's: ``psd_bands`` in its ``twin_report.json``) and held in every
-    later run of the rig (``reference=`` with ``reference_path=true``), the twin's bearing vibration passes
-    through that difference before anything else acts on it (``acts_first``): what later effects add at the
-    sensor (noise, lines, a clipping) does not, as on the rig. Causal and minimum-phase, as a structure's
-    path is, so impacts ring after they strike, not before.
-
-    Args:
-        centres_hz: frequencies at which the gain is given, Hz, rising.
-        gains_db: the path's gain there relative to the twin's, dB (linear in log frequency between them, held
-            beyond them); its mean is the sensor gain's business and is taken off.
-
-    Not a candidate: it is held from a reference, never searched.
-    """
-
-    name = "reference_path"
-    acts_first = True
-    signature = "band levels shaped as the rig's path"
-    signature_views = ("psd",)
-    search_space: dict = {}
-
-    def __init__(self, centres_hz: list, gains_db: list):
-        centres, gains = np.asarray(centres_hz, dtype=np.float64), np.asarray(gains_db, dtype=np.float64)
-        if centres.ndim != 1 or centres.size < 2 or not np.all(np.isfinite(centres)) or not (
-                np.all(centres > 0) and np.all(np.diff(centres) > 0)):
-            raise BearingTwinError(f"reference_path.centres_hz must be two or more rising positive frequencies, got {centres_hz!r}")
-        if gains.shape != centres.shape or not np.all(np.isfinite(gains)):
-            raise BearingTwinError(f"reference_path.gains_db must be {centres.size} finite numbers of dB, one per "
-                                   f"centre, got {gains_db!r}")
-        self.centres_hz, self.gains_db = centres.tolist(), (gains - gains.mean()).tolist()
-
-    def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
-        return path_filter(signal, fs, self.centres_hz, self.gains_db)
 
 
 @register_effect

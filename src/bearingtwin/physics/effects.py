@@ -13,11 +13,10 @@ three stages of a simulation, each a no-op unless overridden:
 
 Effects run in configuration order at every stage, except one that acts on the signal as
 recorded (``records_last``: a converter's range): it runs after all others, wherever it is
-listed, as a saturation clips whatever reaches the recorder; one that shapes the bearing's own
-vibration on its way out of the structure (``acts_first``: a rig's path) runs before all
-others. Each registers under its ``name`` with :func:`register_effect`;
-``conf/effects/<name>.yaml`` nests the constructor arguments under ``<name>:``, and
-:func:`build_effects` turns the composed ``effects`` mapping into instances. The core model knows no effect by name.
+listed, as a saturation clips whatever reaches the recorder. Each registers under its ``name``
+with :func:`register_effect`; ``conf/effects/<name>.yaml`` nests the constructor
+arguments under ``<name>:``, and :func:`build_effects` turns the composed ``effects``
+mapping into instances. The core model knows no effect by name.
 
 Three optional class-level hooks serve the ranking of :mod:`bearingtwin.twin.rank`, not
 the simulation:
@@ -67,16 +66,12 @@ class Effect:
         signature_views: the comparison views its signature shows in (module docstring).
         records_last: the effect acts on the signal as recorded, so it runs after every other
             effect (:func:`in_signal_order`).
-        acts_first: the effect acts on the bearing's own vibration as it leaves the structure,
-            so it runs before every other effect (:func:`in_signal_order`): what others add at the
-            sensor does not pass through it.
     """
 
     name: ClassVar[str] = ""
     requires: ClassVar[tuple[str, ...]] = ()
     signature_views: ClassVar[tuple[str, ...]] = ()
     records_last: ClassVar[bool] = False
-    acts_first: ClassVar[bool] = False
 
     @classmethod
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:
@@ -140,16 +135,14 @@ def effect_class(name: str) -> type[Effect]:
 
 def in_signal_order(effects_cfg: Mapping) -> dict:
     """The configured effects (name -> constructor args) in the order they act: as listed, those that act on
-    the bearing's vibration before it reaches the sensor (``acts_first``) moved to the front, those that act on
-    the signal as recorded (``records_last``) to the end. An unknown name is left in place for
+    the signal as recorded (``records_last``) moved to the end. An unknown name is left in place for
     :func:`build_effects` to name."""
     _load_library()
 
-    def stage(name) -> int:
-        known = _REGISTRY.get(name)
-        return 1 if known is None else 0 if known.acts_first else 2 if known.records_last else 1
+    def records_last(name) -> bool:
+        return name in _REGISTRY and _REGISTRY[name].records_last
 
-    return dict(sorted(effects_cfg.items(), key=lambda item: stage(item[0])))  # a stable sort
+    return dict(sorted(effects_cfg.items(), key=lambda item: records_last(item[0])))  # a stable sort
 
 
 def order_identity(effects_cfg: Mapping | None) -> dict:

@@ -58,7 +58,6 @@ from tqdm.auto import tqdm
 
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effect_library import path_gain_db
 from bearingtwin.physics.effects import effect_class
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.twin.calibrate import SLICE_STEPS, interval_from_trials, minimize, slice_interval, to_unit
@@ -68,9 +67,6 @@ from bearingtwin.twin.operating_point import BASE_PARAMETERS, OperatingPoint, de
 
 CHI2_95_ONE_DOF = 3.841
 """Deviance above the best that bounds a 95 % interval of one parameter (Wilks)."""
-MAX_PATH_DB = 30.0
-"""The most a rig's path is read to differ from the twin's in a band, dB: beyond, the twin has next to nothing
-there to shape (a numerically silent band), and the difference is a source the twin lacks, not a path."""
 CLEAR_MARGIN = 2.0
 """An information-criterion margin below this is "not worth more than a bare mention" (Kass & Raftery 1995)."""
 
@@ -280,22 +276,6 @@ class TwinFit:
         return self.steps[-1].error
 
     @property
-    def reference_path(self) -> dict:
-        """The rig's path where the final twin misses it, band by band on the held-out part, as the parameters of
-        ``reference_path`` (:class:`bearingtwin.physics.effect_library.ReferencePath`): the measurement's band
-        levels over the twin's at the bands' centres, mean taken off, a path held from a reference before
-        included. A later record's run of the rig holds it (``reference_path=true``)."""
-        comparison = self.steps[-1].comparison
-        edges = comparison.context.band_edges_hz
-        centres = np.sqrt(edges[:-1] * edges[1:])
-        gains = comparison.measured.band_db - comparison.twin.band_db
-        held = self.steps[-1].effects.get("reference_path")
-        if held is not None:
-            gains = gains + path_gain_db(centres, held["centres_hz"], held["gains_db"])
-        gains = np.clip(gains - gains.mean(), -MAX_PATH_DB, MAX_PATH_DB)
-        return {"centres_hz": centres.tolist(), "gains_db": (gains - gains.mean()).tolist()}
-
-    @property
     def margin(self) -> float | None:
         """Information-criterion lead of the first-ranked candidate over the runner-up."""
         return self.ranking[0].evidence - self.ranking[1].evidence if len(self.ranking) > 1 else None
@@ -407,7 +387,6 @@ class TwinFit:
             "not_tried": self.not_tried,
             "since_reference": self.since_reference,
             "reference_note": self.reference_note,
-            "reference_path": self.reference_path,
             "final_error": self.final_error,
             "summary": self.summary,
         }

@@ -22,7 +22,7 @@ from typing import Mapping
 
 from omegaconf import DictConfig, OmegaConf, open_dict
 
-from bearingtwin.checks import is_finite_number, true_or_false
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS
@@ -101,8 +101,6 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
     (``calibration.base_held``), so this run's report lists them as held, as a later run reads them.
     The reference's effects (its final twin's, with their fitted parameters) come first in
     ``effects``, the config's own after them; those among ``candidates`` stay there, to be tried as changed.
-    With ``reference_path``, the rig's path where the reference's final twin missed it (its report's
-    ``reference_path``) is held as the effect of that name, acting first.
     """
     held = copy.deepcopy(cfg)
     OmegaConf.set_readonly(held, False)
@@ -136,16 +134,4 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
             if held.operating_point.get("sensor_angle_deg") is None:
                 held.operating_point.sensor_angle_deg = float(operating["sensor"]["angle_deg"])
         held.effects = {**effects, **OmegaConf.to_container(held.effects, resolve=True)}
-        path = report.get("reference_path")
-        if true_or_false(cfg.get("reference_path", False), "reference_path") and "reference_path" not in effects:
-            if not (isinstance(path, Mapping) and _numbers(path.get("centres_hz")) and _numbers(path.get("gains_db"))):
-                raise BearingTwinError(f"{source}: reference_path=true, but the report gives no reference_path "
-                                       "(centres_hz and gains_db, numbers): write the reference again, or give "
-                                       "reference_path=false")
-            held.effects = {"reference_path": {"centres_hz": list(path["centres_hz"]),
-                                               "gains_db": list(path["gains_db"])}, **held.effects}
     return held
-
-
-def _numbers(values) -> bool:
-    return isinstance(values, list) and len(values) > 1 and all(is_finite_number(value) for value in values)
