@@ -448,6 +448,52 @@ def test_a_loggers_lines_above_the_header_are_notes_not_data(tmp_path, signal):
                                           "Sample rate: 8000 Hz; Start: 2026-11-29 08:00)")
 
 
+@pytest.mark.parametrize("gap", ["\n", ""])
+def test_a_loggers_notes_above_a_single_column_are_notes_too(tmp_path, signal, gap):
+    """A logger exporting one channel and no time column writes notes above a header of one name: every note has
+    one cell as the rows do, so the notes are told by their form (``label: value``) or by the blank line below
+    them; a line of one name above a row of units is still a second header row, refused by its line."""
+    notes = "Device: VibLogger 3000\nSerial: A1234\nSample rate: 8000 Hz\nStart: 2024-03-01 10:00:00\n"
+    (tmp_path / "logger.txt").write_text(notes + gap + "acc (g)\n" + "".join(f"{v:.6f}\n" for v in signal))
+    recording = load_recording(tmp_path / "logger.txt", fs=FS)
+    np.testing.assert_allclose(recording.signal, signal, atol=1e-6)
+    assert recording.unit == "g" and recording.channel == "acc (g)"
+    assert recording.meta["notes"][0].startswith("the 4 lines above the header read as notes, not data (Device: "
+                                                 "VibLogger 3000; Serial: A1234; Sample rate: 8000 Hz; ...)")
+    # The rate the logger notes is the record's own: no fs= needed, and another one given is a contradiction.
+    read = load_recording(tmp_path / "logger.txt")
+    assert read.fs == FS and read.meta["fs_origin"] == "header"
+    assert "sampling rate 8000 Hz from the note 'Sample rate: 8000 Hz' above the header" in read.meta["notes"]
+    with pytest.raises(BearingTwinError, match="logger.txt"):
+        load_recording(tmp_path / "logger.txt", fs=12000.0)
+    (tmp_path / "units.txt").write_text("Acceleration\ng\n" + "".join(f"{v:.6f}\n" for v in signal))
+    with pytest.raises(BearingTwinError, match=r"line 2, column 1: 'g' is not a number"):
+        read_raw(tmp_path / "units.txt")
+
+
+@pytest.mark.parametrize("note, rate", [("Sampling frequency = 25.6 kHz", 25600.0), ("fs: 48000", 48000.0),
+                                        ("Sample rate (Hz): 12000", 12000.0), ("SAMPLE_RATE=8000 S/s", 8000.0)])
+def test_a_rate_a_loggers_note_states(tmp_path, note, rate):
+    (tmp_path / "log.csv").write_text(f"Logger: X\n{note}\n\nacc\n" + "0.1\n-0.2\n" * 50)
+    raw = read_raw(tmp_path / "log.csv")
+    assert raw.fs == rate and raw.fs_origin == "header"
+
+
+def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):
+    """Printed to a few decimals the time stamps only approximate the rate the note states exactly: within 1 % the
+    note's is kept, beyond it the two contradict each other and the file is refused naming both."""
+    t = np.arange(signal.size) / FS
+    table = "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(t, signal))
+    (tmp_path / "agree.csv").write_text(f"Sample rate: {FS:g} Hz\n\ntime_s,acc_g\n" + table)
+    raw = read_raw(tmp_path / "agree.csv")
+    assert raw.fs == FS and raw.fs_origin == "header" and list(raw.channels) == ["acc_g"]
+    assert raw.meta["notes"][-1] == f"sampling rate {FS:g} Hz from the note 'Sample rate: {FS:g} Hz' above the header (the time stamps agree)"
+    (tmp_path / "contradict.csv").write_text("Sample rate: 12000 Hz\n\ntime_s,acc_g\n" + table)
+    with pytest.raises(BearingTwinError, match=r"contradict.csv: the note 'Sample rate: 12000 Hz' above the header "
+                                               r"contradicts the time stamps' 8000 Hz"):
+        read_raw(tmp_path / "contradict.csv")
+
+
 def test_units_a_header_states_and_a_rate_under_other_names(tmp_path, signal):
     import scipy.io
 

@@ -39,6 +39,7 @@ class CsvTable:
     values: np.ndarray
     names: list[str] | None
     notes: list[str] = field(default_factory=list)
+    preamble: list[str] = field(default_factory=list)  # a logger's lines above the header, as written
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,7 @@ class _Layout:
     decimal: str
     body_start: int  # index of the first line after the header (of the first line, without one)
     trailing: bool  # every row ends with the separator
+    preamble: tuple[str, ...] = ()  # a logger's lines above the header (:func:`_preamble`), stripped
 
 
 class _BadLine(Exception):
@@ -77,7 +79,7 @@ def read_csv_table(path: Path) -> CsvTable:
         split = (f" (numbers written with decimal commas? {DECIMAL_COMMA_REMEDY})"
                  if layout.delimiter == "," and values.shape[1] == 2 * len(names) else "")
         raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}{split}")
-    return CsvTable(values, names, notes)
+    return CsvTable(values, names, notes, list(layout.preamble))
 
 
 class TextColumn(NamedTuple):
@@ -194,18 +196,29 @@ def _numbers_row(line: str) -> bool:
     return bool(cells) and all(_NUMBER_LIKE.fullmatch(cell) for cell in cells)
 
 
+_NOTE_LINE = re.compile(r"\s*[^\d\s:=][^:=]*[:=]\s*\S")
+"""A logger's note: a label, then ``:`` or ``=``, then its value (``Sample rate: 12000 Hz``, ``Serial = A1234``)."""
+
+
 def _preamble(head: list[str], content: list[int]) -> list[int]:
     """The lines a data logger writes above the header (``Device: ...``, ``Sample rate: 12000 Hz``): every line
     above a header whose names are as many as the numbers of the rows below it, when the header is not the first
-    line and no line above it is a row of numbers or has as many cells as they do (a damaged row among the
-    numbers, a second header row of units: those are refused by their line, as without a preamble)."""
+    line, no line above it is a row of numbers (a damaged row among the numbers is refused by its line), and none
+    has as many cells as the numbers unless the lines above read as notes: each ``label: value``, or set apart
+    from the header by a blank line. A line of as many cells just above the header is a second header row (names
+    above units), refused by its line as without a preamble; in a table of one column every line has one cell,
+    so there only the notes' form or the blank line tells them apart."""
     numbers_rows = [_numbers_row(head[i]) for i in content]
     start = max((k + 1 for k, numbers in enumerate(numbers_rows) if not numbers), default=0)  # after the last text
     if start < 2 or start == len(content) or any(numbers_rows[:start]):
         return []
     delimiter = _delimiter(head[content[start]])
     *above, header, numbers = [len(_row_cells(head[i], delimiter)) for i in content[:start + 1]]
-    return content[:start - 1] if header == numbers and numbers not in above else []
+    notes = content[:start - 1]
+    if header != numbers:
+        return []
+    apart = content[start - 1] - content[start - 2] > 1  # a blank line between the last note and the header
+    return notes if numbers not in above or apart or all(_NOTE_LINE.match(head[i]) for i in notes) else []
 
 
 def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[str] | None, list[str]]:
@@ -242,7 +255,7 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
     if names is not None:
         names, repeated = _distinct(names)
         notes += repeated
-    layout = _Layout(encoding, delimiter, decimal, body_start, trailing)
+    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, tuple(head[i].strip() for i in preamble))
     return layout, names, notes
 
 

@@ -12,8 +12,9 @@ Formats (chosen by extension): ``.npy`` (1-D, or 2-D: the longer axis is time), 
 by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` / ``.txt`` / ``.tsv``
 (a text table, as spreadsheets and data loggers export it: columns are channels,
 separated by commas, semicolons, tabs or spaces, optional header row, which may state a column's unit, ``acc (g)``,
-and above which a logger's lines are notes; a ``time`` / ``time_s`` / ``Time (s)`` / ``Zeit [s]`` column, or
-``time_ms`` / ``t [ms]`` in milliseconds, gives the sampling rate: :data:`_TIME_COLUMN`), ``.mat`` (CWRU files by
+and above which a logger's lines are notes, one of which may state the rate, ``Sample rate: 12000 Hz``:
+:data:`_RATE_NOTE`; a ``time`` / ``time_s`` / ``Time (s)`` / ``Zeit [s]`` column, or ``time_ms`` / ``t [ms]`` in
+milliseconds, gives the sampling rate too: :data:`_TIME_COLUMN`), ``.mat`` (CWRU files by
 their variable names, otherwise numeric variables, and a struct's numeric fields, are channels, a rising time vector
 as long as them gives the rate as a time column does (in an ``.npz`` too), and scalars ``fs`` / ``SampleRate`` /
 ``rpm`` are facts: :data:`_FACTS`; MATLAB 7.3 files too), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
@@ -636,5 +637,38 @@ def _read_csv(path: Path) -> RawRecord:
     notes = list(table.notes)
     columns, fs = _time_stamps(path, dict(zip(table.names, table.values.T)), notes)
     units = {name: unit for name in columns if (unit := unit_in_name(name))}
-    return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin="time column" if fs else "",
-                     fs_tolerance=FS_RELATIVE_TOLERANCE, meta={"notes": notes} if notes else {}, channel_units=units)
+    stated = rate_in_notes(path, table.preamble)
+    if stated is not None:  # exact where the stamps are printed to a few decimals; they must agree
+        line, noted = stated
+        if fs is not None and abs(fs / noted - 1.0) > FS_RELATIVE_TOLERANCE:
+            raise BearingTwinError(f"{path}: the note {line!r} above the header contradicts the time stamps' "
+                                   f"{fs:.6g} Hz")
+        agreed = " (the time stamps agree)" if fs is not None else ""
+        notes = [note for note in notes if not (agreed and note.startswith("sampling rate ")
+                                                and " from the time stamps " in note)]
+        fs = noted
+        notes.append(f"sampling rate {noted:g} Hz from the note {line!r} above the header{agreed}")
+    origin = "header" if stated is not None else "time column" if fs else ""
+    return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin=origin,
+                     fs_tolerance=FS_FLOAT_NOISE if stated is not None else FS_RELATIVE_TOLERANCE,
+                     meta={"notes": notes} if notes else {}, channel_units=units)
+
+
+_RATE_NOTE = re.compile(r"\s*(?:sampl(?:e|ing)[ _-]*(?:rate|frequency|freq)|fs)\s*(?:\([^)]*\))?\s*[:=]\s*"
+                        r"(?P<value>[+-]?\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|s/s|sps|samples/s)?\b",
+                        re.IGNORECASE)
+"""A logger's note stating its rate: ``Sample rate: 12000 Hz``, ``Sampling frequency = 25.6 kHz``, ``fs: 48000``."""
+
+
+def rate_in_notes(path: Path, lines: list[str]) -> tuple[str, float] | None:
+    """The first of a logger's notes (its lines above the header) that states the sampling rate, and the rate in Hz
+    (no unit: Hz); None when none does. A stated rate that is no positive number is refused, naming the line."""
+    for line in lines:
+        match = _RATE_NOTE.match(line)
+        if match is None:
+            continue
+        rate = float(match["value"]) * (1000.0 if (match["unit"] or "").lower() == "khz" else 1.0)
+        if not (math.isfinite(rate) and rate > 0):
+            raise BearingTwinError(f"{path}: the note {line!r} above the header states no positive sampling rate")
+        return line, rate
+    return None
