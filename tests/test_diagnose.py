@@ -1098,6 +1098,29 @@ def test_a_speed_the_shaft_line_contradicts_is_named_with_what_it_would_be_and_t
     assert done.returncode == 0 and result["rate_check"] == "consistent" and "speed or rate wrong" not in done.stdout
 
 
+@needs_cwru
+@pytest.mark.parametrize("rpm, nearest_rpm", [(900.0, 1772.0), (17720.0, None)])
+def test_a_speed_that_contradicts_a_rate_the_file_states_is_named_as_the_suspect(tmp_path, rpm, nearest_rpm):
+    """Record 106 (1772 rpm) written with its time stamps: the rate is the file's own, so a contradicting speed is
+    what the note names; the nearest series' reading is offered as the speed only if that series is the shaft's
+    (given 10 times the speed, the series near the line it expects is the shaft's 10th harmonic's neighbour, not
+    the shaft's)."""
+    from bearingtwin.data.cwru import load_cwru
+
+    signal = load_cwru(CWRU / "12k_Drive_End_IR007_1_106.mat", channel="DE", fs=12000.0).signal[:60000]
+    t = np.arange(signal.size) / 12000.0
+    (tmp_path / "r106.csv").write_text("time_s,acc_g\n" + "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(t, signal)))
+    prepared = read_record(tmp_path / "r106.csv", envelope_pipeline(), rpm=rpm)
+    assert prepared.rate_check == "contradicted"
+    (note,) = [note for note in prepared.notes if note.startswith("the speed contradicts the record")]
+    assert (f"at {rpm:g} rpm the shaft line belongs at {rpm / 60:.2f} Hz, and no harmonic series stands there at "
+            "the rate the file's time stamps give (12000 Hz): check the speed given") in note
+    assert "fs may be" not in note and "the verdict is in doubt" in note
+    if nearest_rpm:
+        said = float(re.search(r"would put it at (\d+) rpm if it is the shaft's", note).group(1))
+        assert said == pytest.approx(nearest_rpm, rel=0.02)
+
+
 @pytest.mark.parametrize("stated_rpm, order_step, seconds, verdict, words", [
     (1800.0, 1.0, 10.0, "consistent", None),
     (900.0, 1.0, 10.0, "contradicted", "at fs = 12000 Hz the shaft line says 1794 rpm"),

@@ -188,7 +188,7 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
         return recording, [f"sampling rate not checked ({error})"], "not checked"
     if declared.verdict == "contradicted":
-        doubt = [_speed_or_rate_wrong(declared)]
+        doubt = [_speed_or_rate_wrong(declared, recording.meta.get("fs_origin"))]
     elif declared.verdict == "ambiguous":
         doubt = [f"sampling rate unconfirmed: {describe_mismatch(declared)}"]
     else:
@@ -205,9 +205,22 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     return dataclasses.replace(recording, fs=rate), [note], check(rate).verdict
 
 
-def _speed_or_rate_wrong(check) -> str:
+RATE_THE_FILE_STATES = {"header": "the file's header states", "time column": "the file's time stamps give",
+                        "file": "the file states"}
+"""Where a file's own rate comes from (``fs_origin``), in words: a rate so stated is no suspect when a speed contradicts it."""
+
+
+def _speed_or_rate_wrong(check, fs_origin: str | None = None) -> str:
     """The note on a stated speed and rate the shaft line contradicts: the line fixes only their ratio, so it names
-    what either would be if the other is right."""
+    what either would be if the other is right; where the file states its rate itself (``fs_origin``), the speed
+    is what is wrong, and the series the check found near the speed's line is no reading of the true speed."""
+    if fs_origin in RATE_THE_FILE_STATES:
+        nearest = (f"; the nearest strong harmonic series, at {check.observed_hz:.2f} Hz, would put it at "
+                   f"{60 * check.observed_hz:.0f} rpm if it is the shaft's" if check.observed_hz else "")
+        return (f"the speed contradicts the record: at {check.rpm:g} rpm the shaft line belongs at "
+                f"{check.expected_hz:.2f} Hz, and no harmonic series stands there at the rate "
+                f"{RATE_THE_FILE_STATES[fs_origin]} ({check.fs_hz:g} Hz): check the speed given{nearest}. "
+                "Every defect line is read where the stated values put it: the verdict is in doubt")
     words = f"speed and rate disagree: {describe_mismatch(check)}"
     if check.implied_fs_hz:  # the rate it implies at the stated speed is in describe_mismatch's words already
         implied_rpm = check.rpm * check.fs_hz / check.implied_fs_hz
