@@ -477,6 +477,8 @@ def test_a_rate_a_loggers_note_states(tmp_path, note, rate):
     (tmp_path / "log.csv").write_text(f"Logger: X\n{note}\n\nacc\n" + "0.1\n-0.2\n" * 50)
     raw = read_raw(tmp_path / "log.csv")
     assert raw.fs == rate and raw.fs_origin == "header"
+    (tmp_path / "full_scale.csv").write_text("Sensor: ACC-3\nFS: 50 g\n\nacc\n" + "0.1\n-0.2\n" * 50)
+    assert read_raw(tmp_path / "full_scale.csv").fs is None  # a sensor's full scale is no rate
 
 
 def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):

@@ -655,16 +655,17 @@ def _read_csv(path: Path) -> RawRecord:
 
 
 _RATE_NOTE = re.compile(r"\s*(?:sampl(?:e|ing)[ _-]*(?:rate|frequency|freq)|fs)\s*(?:\([^)]*\))?\s*[:=]\s*"
-                        r"(?P<value>[+-]?\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|s/s|sps|samples/s)?\b",
+                        r"(?P<value>[+-]?\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|s/s|sps|samples/s)?\s*(?:$|[,;(])",
                         re.IGNORECASE)
-"""A logger's note stating its rate: ``Sample rate: 12000 Hz``, ``Sampling frequency = 25.6 kHz``, ``fs: 48000``."""
+"""A logger's note stating its rate: ``Sample rate: 12000 Hz``, ``Sampling frequency = 25.6 kHz``, ``fs: 48000``; the
+number, in Hz or kHz, ends the note or a part of it (``FS: 50 g``, a sensor's full scale, states no rate)."""
 
 
 def rate_in_notes(path: Path, lines: list[str]) -> tuple[str, float] | None:
     """The first of a logger's notes (its lines above the header) that states the sampling rate, and the rate in Hz
     (no unit: Hz); None when none does. A stated rate that is no positive number is refused, naming the line."""
     for line in lines:
-        match = _RATE_NOTE.match(line)
+        match = _RATE_NOTE.match(line.strip())
         if match is None:
             continue
         rate = float(match["value"]) * (1000.0 if (match["unit"] or "").lower() == "khz" else 1.0)
