@@ -65,6 +65,7 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.testrig import RigOperatingPoint, RigSetup, simulate_rig
+from bearingtwin.testrig.rig import FAULTS as RIG_FAULTS
 from bearingtwin.tracking.tables import markdown_table
 from bearingtwin.twin.compare import Comparator, CompareSettings
 from bearingtwin.twin.model import TwinModel
@@ -130,17 +131,19 @@ FAULTS = ("outer", "inner")
 SEED = {"dev": 1, "test": 2}
 
 
-def cases(split: str, sources: list[str], fs_hz: float | None = None) -> list[dict]:
+def cases(split: str, sources: list[str], fs_hz: float | None = None, other_faults: tuple[str, ...] = ()) -> list[dict]:
     """Every case of a split, each with its source, kind, hidden effects, fault and conditions; ``fs_hz``: every
-    case at this sampling rate instead of its condition's (the same cases and seeds otherwise)."""
+    case at this sampling rate instead of its condition's (the same cases and seeds otherwise); ``other_faults``:
+    the same kinds of case on bearings of other states too (``normal``: a healthy bearing, on which a machine's
+    own effects are what a user most often meets), dealt after the split's own, whose seeds stay theirs."""
     listed = []
-    for source in sources:
+    for faults, source in [(faults, source) for faults in (FAULTS, other_faults) for source in sources]:
         kinds = [("single", (name,)) for name in HIDDEN[split] if name != "second_resonance"]
         kinds += [("pair", pair) for pair in PAIRS[split]]
         kinds += [("null", ())]
         if source == "rig":
             kinds += [("out_of_library", (name,)) for name in OUT_OF_LIBRARY_PARAMS[split]]
-        for fault in FAULTS:
+        for fault in faults:
             for kind, names in kinds:
                 index = len(listed)
                 rpm, fs, unit = CONDITIONS[split][index % len(CONDITIONS[split])]
@@ -683,7 +686,8 @@ def main() -> int:
                         help="folder for identifiability.{md,json,png} (default: results for the whole test split, "
                              "else a folder under the system's temporary directory)")
     parser.add_argument("--faults", default=None,
-                        help="defect types of the cases (default: outer,inner of a split, every listed record)")
+                        help="bearing states of the cases (default: outer,inner of a split, every listed record); "
+                             "normal or ball: the split's kinds of case on such bearings too, after its own")
     parser.add_argument("--limit", type=int, default=None, help="run only the first N cases (a quick look)")
     parser.add_argument("--fs", type=float, default=None,
                         help="every case of the split at this sampling rate, Hz (the same cases and seeds otherwise: "
@@ -713,9 +717,13 @@ def main() -> int:
             raise BearingTwinError(f"overrides {' '.join(args.overrides)}: {str(error).splitlines()[0]}") from None
         if args.records is not None:
             todo = cases_from_manifest(args.records, cfg)
-        else:
-            todo = cases(args.split, args.sources.split(","), args.fs)
         faults = args.faults.split(",") if args.faults else FAULTS if args.records is None else None
+        if args.records is None:
+            unknown = sorted(set(faults) - set(RIG_FAULTS))
+            if unknown:
+                raise BearingTwinError(f"--faults {args.faults}: {unknown[0]} is no bearing state; choose from "
+                                       f"{', '.join(RIG_FAULTS)}")
+            todo = cases(args.split, args.sources.split(","), args.fs, tuple(f for f in faults if f not in FAULTS))
         todo = [case for case in todo if faults is None or case["fault"] in faults][: args.limit]
         if not todo:
             selection = f"--faults {args.faults or ('outer,inner' if args.records is None else 'all')}"
