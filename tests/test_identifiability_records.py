@@ -198,3 +198,19 @@ def test_a_split_at_another_rate_is_the_same_cases_at_that_rate(module, tmp_path
     assert [{**case, "fs": None} for case in at_48k] == [{**case, "fs": None} for case in as_split]
     refused = benchmark("--records", str(tmp_path / "cases.csv"), "--fs", "48000", cwd=tmp_path)
     assert refused.returncode == 2 and "--fs 48000: a positive rate for a split's cases" in refused.stderr
+
+
+def test_cases_on_bearings_of_another_state_come_after_the_splits_own_whose_seeds_stay(module, tmp_path):
+    """--faults normal: the split's kinds of case on a healthy bearing, dealt after its own outer- and inner-race
+    cases, which keep the seeds they had (the committed results stay reproducible); a state no bearing has is
+    refused naming it."""
+    own = module.cases("dev", ["rig"])
+    more = module.cases("dev", ["rig"], other_faults=("normal",))
+    assert more[:len(own)] == own
+    healthy = more[len(own):]
+    assert {case["fault"] for case in healthy} == {"normal"} and len(healthy) == len(own) // 2
+    assert [case["kind"] for case in healthy] == [case["kind"] for case in own if case["fault"] == "outer"]
+    assert len({case["seed"] for case in more}) == len(more)
+    done = benchmark("--split", "dev", "--faults", "cracked", cwd=tmp_path)
+    assert done.returncode == 2 and "--faults cracked: cracked is no bearing state; choose from normal, inner, ball, " \
+                                   "outer" in done.stderr
