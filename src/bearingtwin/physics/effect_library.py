@@ -41,10 +41,6 @@ from bearingtwin.signal.envelope import peak_near
 from bearingtwin.signal.sampling_rate import MAINS_HZ
 
 
-LINE_LEVEL_RANGE_DB = (-60.0, 60.0, False)
-"""Search range of a machine line's level (``unbalance``, ``misalignment``, ``looseness``, ``line_frequency``), dB
-re the RMS of the twin's signal it joins. Up to +60 dB: a healthy bearing's own vibration is small, and a
-machine's 1x or supply line may stand tens of dB above it (on the test rig's healthy records, 40-50 dB)."""
 MAX_LEVEL_DB = 300.0
 """The largest level or ratio in dB an effect takes (10^15 in amplitude): far beyond any sensor's range, and well
 inside what a float holds once raised to a power (1e6 dB overflowed, after the whole simulation)."""
@@ -715,10 +711,9 @@ class Unbalance(LineEffect):
     the dynamics; as a line in the sensor path it costs the twin no simulation.)
 
     Args:
-        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-60 to +60; an
-            acceleration sensor weighs the low shaft rate down, so a few dB below a faulty bearing's
-            broadband level is typical of a well-balanced motor, while a healthy bearing's own
-            vibration may lie tens of dB below a 1x line).
+        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-60 to +20; an
+            acceleration sensor weighs the low shaft rate down, so a few dB below the bearing's
+            broadband level is typical of a well-balanced motor).
 
     Signature: one line at exactly the shaft rate, nothing at its harmonics.
     """
@@ -726,7 +721,7 @@ class Unbalance(LineEffect):
     name = "unbalance"
     signature = "a line at the shaft rate (1x) only"
     signature_views = ("lines",)
-    search_space = {"level_db": LINE_LEVEL_RANGE_DB}
+    search_space = {"level_db": (-60.0, 20.0, False)}
 
     def __init__(self, level_db: float):
         self.level_db = _decibels("unbalance.level_db", level_db)
@@ -750,7 +745,7 @@ class Misalignment(LineEffect):
     shaft rate; the coupling's asymmetry adds 1x (parallel offset) and 3x.
 
     Args:
-        level_db: the 2x line's RMS relative to the bearing signal's RMS, in dB (-60 to +60).
+        level_db: the 2x line's RMS relative to the bearing signal's RMS, in dB (-60 to +20).
         one_x_db: the 1x line relative to the 2x line, in dB (-30 to 0: 2x dominates, or it
             would be unbalance).
         three_x_db: the 3x line relative to the 2x line, in dB (fixed, not fitted; -30 to 0).
@@ -761,7 +756,7 @@ class Misalignment(LineEffect):
     name = "misalignment"
     signature = "a 2x shaft line above the 1x, a weaker 3x"
     signature_views = ("lines",)
-    search_space = {"level_db": LINE_LEVEL_RANGE_DB, "one_x_db": (-30.0, 0.0, False)}
+    search_space = {"level_db": (-60.0, 20.0, False), "one_x_db": (-30.0, 0.0, False)}
 
     def __init__(self, level_db: float, one_x_db: float = -6.0, three_x_db: float = -10.0):
         self.level_db = _decibels("misalignment.level_db", level_db)
@@ -792,7 +787,7 @@ class Looseness(LineEffect):
     spectrum's lines, so the comb's level and its half-order content are separate parameters.
 
     Args:
-        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-60 to +60).
+        level_db: the 1x line's RMS relative to the bearing signal's RMS, in dB (-60 to +20).
         half_order_db: half-order lines relative to the integer-order comb at their order, in
             dB (-30 to 0).
         n_harmonics: lines at 1x ... n_harmonics x and the half orders below them (fixed, not
@@ -807,7 +802,7 @@ class Looseness(LineEffect):
     name = "looseness"
     signature = "a comb of shaft harmonics with half orders (0.5x, 1.5x ...)"
     signature_views = ("lines",)
-    search_space = {"level_db": LINE_LEVEL_RANGE_DB, "half_order_db": (-30.0, 0.0, False)}
+    search_space = {"level_db": (-60.0, 20.0, False), "half_order_db": (-30.0, 0.0, False)}
 
     def __init__(self, level_db: float, half_order_db: float = -10.0, n_harmonics: int = LOOSENESS_HARMONICS,
                  decay_db_per_order: float = LOOSENESS_DECAY_DB_PER_ORDER):
@@ -869,7 +864,7 @@ class LineFrequency(LineEffect):
         supply_hz: supply frequency f_s in Hz: 50 or 60 from the grid, anything from a drive.
             Fitted continuously in [45, 65]: a variable-frequency drive is not tied to the
             grid's values, and the guess read off the spectrum is already within a bin.
-        level_db: the 2 f_s line's RMS relative to the bearing signal's RMS, in dB (-60 to +60).
+        level_db: the 2 f_s line's RMS relative to the bearing signal's RMS, in dB (-60 to +20).
         fundamental_db: the f_s line relative to the 2 f_s line, in dB (fixed, not fitted;
             -40 to 0).
         n_harmonics: lines at 2 k f_s for k = 1..n_harmonics, amplitude 1/k (fixed, not fitted).
@@ -881,7 +876,7 @@ class LineFrequency(LineEffect):
     name = "line_frequency"
     signature = "a line at twice the supply frequency, its harmonics, a weaker 1x supply"
     signature_views = ("lines",)
-    search_space = {"supply_hz": (45.0, 65.0, False), "level_db": LINE_LEVEL_RANGE_DB}
+    search_space = {"supply_hz": (45.0, 65.0, False), "level_db": (-60.0, 20.0, False)}
 
     def __init__(self, supply_hz: float, level_db: float, fundamental_db: float = -10.0,
                  n_harmonics: int = SUPPLY_HARMONICS):
