@@ -30,6 +30,7 @@ found whether it is added as ``resonance`` or, when the reference already needed
     python benchmarks/identifiability.py --split dev --jobs 2    # the development cases (seed 1)
     python benchmarks/identifiability.py --split test --jobs 2   # the benchmark: writes results/identifiability.{md,json}
     python benchmarks/identifiability.py --split dev --sources rig --fs 48000 --jobs 2   # the same cases at 48 kHz
+    python benchmarks/identifiability.py --split dev --sources rig --faults normal --jobs 2   # on healthy bearings
 
 Another rig's records go through the same protocol and scores: ``--records <cases.csv>`` lists each
 record with its reference record (same rig and operating point, nothing hidden), its case kind and
