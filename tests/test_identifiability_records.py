@@ -204,13 +204,14 @@ def test_cases_on_bearings_of_another_state_come_after_the_splits_own_whose_seed
     """--faults normal: the split's kinds of case on a healthy bearing, dealt after its own outer- and inner-race
     cases, which keep the seeds they had (the committed results stay reproducible); a state no bearing has is
     refused naming it."""
-    own = module.cases("dev", ["rig"])
-    more = module.cases("dev", ["rig"], other_faults=("normal",))
-    assert more[:len(own)] == own
-    healthy = more[len(own):]
-    assert {case["fault"] for case in healthy} == {"normal"} and len(healthy) == len(own) // 2
-    assert [case["kind"] for case in healthy] == [case["kind"] for case in own if case["fault"] == "outer"]
-    assert len({case["seed"] for case in more}) == len(more)
+    for split, sources in [("dev", ["rig"]), ("test", ["twin", "rig"])]:
+        own = module.cases(split, sources)
+        more = module.cases(split, sources, other_faults=("normal",))
+        assert more[:len(own)] == own
+        healthy = more[len(own):]
+        assert {case["fault"] for case in healthy} == {"normal"} and len(healthy) == len(own) // 2
+        assert [case["kind"] for case in healthy] == [case["kind"] for case in own if case["fault"] == "outer"]
+        assert len({case["seed"] for case in more}) == len(more)
     done = benchmark("--split", "dev", "--faults", "cracked", cwd=tmp_path)
     assert done.returncode == 2 and "--faults cracked: cracked is no bearing state; choose from normal, inner, ball, " \
                                    "outer" in done.stderr

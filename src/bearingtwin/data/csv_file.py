@@ -39,7 +39,7 @@ class CsvTable:
     values: np.ndarray
     names: list[str] | None
     notes: list[str] = field(default_factory=list)
-    preamble: list[str] = field(default_factory=list)  # a logger's lines above the header, as written
+    preamble: list[str] = field(default_factory=list)  # a logger's lines above the header, stripped
 
 
 @dataclass(frozen=True)
@@ -204,10 +204,9 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     """The lines a data logger writes above the header (``Device: ...``, ``Sample rate: 12000 Hz``): every line
     above a header whose names are as many as the numbers of the rows below it, when the header is not the first
     line, no line above it is a row of numbers (a damaged row among the numbers is refused by its line), and none
-    has as many cells as the numbers unless the lines above read as notes: each ``label: value``, or set apart
-    from the header by a blank line. A line of as many cells just above the header is a second header row (names
-    above units), refused by its line as without a preamble; in a table of one column every line has one cell,
-    so there only the notes' form or the blank line tells them apart."""
+    has as many cells as the numbers unless every line above reads as a note, ``label: value``. A line of as many
+    cells above the header is otherwise a second header row (names above units), refused by its line as without a
+    preamble; in a table of one column every line has one cell, so there only the notes' form tells them apart."""
     numbers_rows = [_numbers_row(head[i]) for i in content]
     start = max((k + 1 for k, numbers in enumerate(numbers_rows) if not numbers), default=0)  # after the last text
     if start < 2 or start == len(content) or any(numbers_rows[:start]):
@@ -217,8 +216,7 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     notes = content[:start - 1]
     if header != numbers:
         return []
-    apart = content[start - 1] - content[start - 2] > 1  # a blank line between the last note and the header
-    return notes if numbers not in above or apart or all(_NOTE_LINE.match(head[i]) for i in notes) else []
+    return notes if numbers not in above or all(_NOTE_LINE.match(head[i]) for i in notes) else []
 
 
 def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[str] | None, list[str]]:

@@ -635,30 +635,27 @@ def _read_csv(path: Path) -> RawRecord:
     if table.names is None:
         return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}))
     notes = list(table.notes)
-    columns, fs = _time_stamps(path, dict(zip(table.names, table.values.T)), notes)
-    units = {name: unit for name in columns if (unit := unit_in_name(name))}
     stated = rate_in_notes(path, table.preamble)
-    if stated is not None:  # exact where the stamps are printed to a few decimals; they must agree
-        line, noted = stated
-        if fs is not None and abs(fs / noted - 1.0) > FS_RELATIVE_TOLERANCE:
-            raise BearingTwinError(f"{path}: the note {line!r} above the header contradicts the time stamps' "
-                                   f"{fs:.6g} Hz")
-        agreed = " (the time stamps agree)" if fs is not None else ""
-        notes = [note for note in notes if not (agreed and note.startswith("sampling rate ")
-                                                and " from the time stamps " in note)]
-        fs = noted
-        notes.append(f"sampling rate {noted:g} Hz from the note {line!r} above the header{agreed}")
-    origin = "header" if stated is not None else "time column" if fs else ""
+    if stated is not None:  # exact, where time stamps are printed to a few decimals: they must agree with it
+        notes.append(f"sampling rate {stated[1]:g} Hz from the note {stated[0]!r} above the header")
+    noted = None if stated is None else stated[1]
+    columns, fs = _time_stamps(path, dict(zip(table.names, table.values.T)), notes, fs=noted)
+    units = {name: unit for name in columns if (unit := unit_in_name(name))}
+    origin = "header" if noted is not None else "time column" if fs else ""
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin=origin,
-                     fs_tolerance=FS_FLOAT_NOISE if stated is not None else FS_RELATIVE_TOLERANCE,
+                     fs_tolerance=FS_FLOAT_NOISE if noted is not None else FS_RELATIVE_TOLERANCE,
                      meta={"notes": notes} if notes else {}, channel_units=units)
 
 
-_RATE_NOTE = re.compile(r"\s*(?:sampl(?:e|ing)[ _-]*(?:rate|frequency|freq)|fs)\s*(?:\([^)]*\))?\s*[:=]\s*"
-                        r"(?P<value>[+-]?\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|s/s|sps|samples/s)?\s*(?:$|[,;(])",
-                        re.IGNORECASE)
-"""A logger's note stating its rate: ``Sample rate: 12000 Hz``, ``Sampling frequency = 25.6 kHz``, ``fs: 48000``; the
-number, in Hz or kHz, ends the note or a part of it (``FS: 50 g``, a sensor's full scale, states no rate)."""
+_RATE_NOTE = re.compile(
+    r"(?:sampl(?:e|ing)[ _-]*(?:rate|frequency|freq)\s*(?:\([^)]*\)|\[[^\]]*\])?\s*[:=]\s*"
+    r"(?P<value>\d+(?:\.\d+)?(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|s/s|sps|samples/s)?"
+    r"|fs\s*[:=]\s*(?P<fs_value>\d+(?:\.\d+)?(?:[eE][+-]?\d+)?)\s*(?P<fs_unit>k?hz|s/s|sps|samples/s))"
+    r"\s*(?:$|[;(]|,(?!\d))", re.IGNORECASE)
+"""A logger's note stating its rate: ``Sample rate: 12000 Hz``, ``Sampling frequency [Hz] = 25.6 kHz``, ``fs: 48000
+Hz``; the number (Hz unless kHz) ends the note or a part of it. A bare ``fs`` needs its unit (``FS: 10``, a sensor's
+full scale, states no rate), and a number with a thousands separator (``12,800 Hz``, ``12.000,0 Hz``) is read as no
+rate rather than misread: the user gives it (``fs=``)."""
 
 
 def rate_in_notes(path: Path, lines: list[str]) -> tuple[str, float] | None:
@@ -668,7 +665,8 @@ def rate_in_notes(path: Path, lines: list[str]) -> tuple[str, float] | None:
         match = _RATE_NOTE.match(line.strip())
         if match is None:
             continue
-        rate = float(match["value"]) * (1000.0 if (match["unit"] or "").lower() == "khz" else 1.0)
+        value, unit = (match["value"], match["unit"]) if match["value"] else (match["fs_value"], match["fs_unit"])
+        rate = float(value) * (1000.0 if (unit or "").lower() == "khz" else 1.0)
         if not (math.isfinite(rate) and rate > 0):
             raise BearingTwinError(f"{path}: the note {line!r} above the header states no positive sampling rate")
         return line, rate

@@ -205,7 +205,7 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     return dataclasses.replace(recording, fs=rate), [note], check(rate).verdict
 
 
-RATE_THE_FILE_STATES = {"header": "the file's header states", "time column": "the file's time stamps give",
+RATE_THE_FILE_STATES = {"header": "the file states", "time column": "the file's time stamps give",
                         "file": "the file states"}
 """Where a file's own rate comes from (``fs_origin``), in words: a rate so stated is no suspect when a speed contradicts it."""
 
@@ -218,7 +218,7 @@ def _speed_or_rate_wrong(check, fs_origin: str | None = None) -> str:
         nearest = (f"; the nearest strong harmonic series, at {check.observed_hz:.2f} Hz, would put it at "
                    f"{60 * check.observed_hz:.0f} rpm if it is the shaft's" if check.observed_hz else "")
         return (f"the speed contradicts the record: at {check.rpm:g} rpm the shaft line belongs at "
-                f"{check.expected_hz:.2f} Hz, and no harmonic series stands there at the rate "
+                f"{check.expected_hz:.2f} Hz, and the shaft's series does not stand where that puts it at the rate "
                 f"{RATE_THE_FILE_STATES[fs_origin]} ({check.fs_hz:g} Hz): check the speed given{nearest}. "
                 "Every defect line is read where the stated values put it: the verdict is in doubt")
     words = f"speed and rate disagree: {describe_mismatch(check)}"
