@@ -358,21 +358,14 @@ class Comparator:
         # BPFO's harmonics, whatever the bearing's state). In the raw spectrum their sharpness and height
         # hang on slip the bare twin lacks and on its contact model, and counting them here too would let
         # the bearing's own model form outvote the lines other machine elements leave.
-        def near(centres_hz: np.ndarray, reach_bins: float) -> np.ndarray:  # the window's main lobe, 1 % for slip and speed
-            reach = reach_bins * lines_freqs[1] + 0.01 * centres_hz
-            return np.any(np.abs(lines_freqs[:, None] - centres_hz) <= reach, axis=1)
-
-        ball_pass = near(rates["bpfo"] * np.arange(1, int(s.lines_max_hz // rates["bpfo"]) + 2), 4)
-        # ... but not a line a machine effect owns (the supply's multiples, the shaft's 1x-3x: line_frequency,
-        # unbalance, misalignment), whose peak stays counted where a ball-pass harmonic's skirt reaches it.
-        machine = np.concatenate([rates["shaft"] * np.arange(1, 4),
-                                  *[mains * np.arange(1, int(s.lines_max_hz // mains) + 1) for mains in MAINS_HZ]])
-        excluded = ball_pass & ~near(machine, 1)
+        ball_pass = rates["bpfo"] * np.arange(1, int(s.lines_max_hz // rates["bpfo"]) + 2)
+        own = [ball_pass]
         if self.fault != "normal":
             orders = self.reference_hz * np.arange(1, int(s.lines_max_hz // self.reference_hz) + 2)
-            excluded |= near(np.concatenate([orders, orders - sideband_hz, orders + sideband_hz])
-                             if sideband_hz else orders, 4)
-        self.lines_bins &= ~excluded
+            own += [orders, orders - sideband_hz, orders + sideband_hz] if sideband_hz else [orders]
+        own = np.concatenate(own)
+        reach = 4 * lines_freqs[1] + 0.01 * own  # the window's main lobe, and 1 % for slip and speed
+        self.lines_bins &= ~np.any(np.abs(lines_freqs[:, None] - own) <= reach, axis=1)
         self.band_centres_log = np.log10(np.sqrt(self.band_edges_hz[:-1] * self.band_edges_hz[1:]))
         self.line_hz = np.concatenate([harmonics, self.sidebands_hz])
         self.measured_signal = np.asarray(measured.signal, dtype=np.float64)
