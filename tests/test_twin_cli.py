@@ -352,13 +352,14 @@ def test_a_reference_record_that_cannot_be_compared_says_why(measurement, tmp_pa
     comparator = Comparator(measured, load_bearing("paper"), CompareSettings())
     earlier = tmp_path / "earlier.npy"  # the same samples in another file: a record of the unchanged rig
     np.save(earlier, np.load(measurement))
-    np.savez(tmp_path / "two.npz", a=np.load(measurement), b=np.load(measurement))
+    np.savez(tmp_path / "two.npz", **{"0": np.load(measurement), "b": np.load(measurement)})
     about = {"path": str(earlier), "fs": 12000.0, "rpm": 1797.0, "channel": "0"}
     for change, words in [({"path": str(tmp_path / "gone.npy")}, f"its record {tmp_path / 'gone.npy'} is not there"),
                           ({"path": str(measurement)}, "it is this record itself"),
                           ({"file": {"path": str(earlier), "sha256": "0" * 64}}, "has changed since the reference was made"),
                           ({"path": str(tmp_path / "two.npz"), "channel": None}, "does not say which of its record's channels"),
-                          ({"path": str(tmp_path / "two.npz"), "channel": "b"}, "read on channel b, this one on 0"),
+                          ({"path": str(tmp_path / "two.npz"), "channel": "b"},
+                           "read on channel b, this one on 0, which its file holds too: another sensor"),
                           ({"fs": 25600.0}, "taken at 25600.0 Hz, this one at 12000 Hz"),
                           ({"rpm": 1750.0}, "taken at 1750.0 rpm, this one at 1797 rpm")]:
         fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
@@ -369,6 +370,12 @@ def test_a_reference_record_that_cannot_be_compared_says_why(measurement, tmp_pa
     stored = {"file": {"path": str(earlier), "sha256": file_digest(earlier)}}  # as a report written now records it
     compare_with_reference(fit, comparator, measured, {"measured": {**about, "path": "earlier.npy", **stored}}, 0.5)
     assert fit.since_reference == [] and fit.reference_note == ""  # found by its resolved path, and unchanged
+    # Another format names its channel otherwise (a .mat's DE, an export's signal): still this rig's sensor.
+    np.savez(tmp_path / "export.npz", DE=np.load(measurement))
+    fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
+    compare_with_reference(fit, comparator, measured, {"measured": {**about, "path": str(tmp_path / "export.npz"),
+                                                                    "channel": "DE"}}, 0.5)
+    assert fit.since_reference == [] and fit.reference_note == ""
 
 
 def test_a_value_held_from_a_reference_that_did_not_identify_it_is_marked():

@@ -338,8 +338,8 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
     reference's own record (read
     again from the path its report names), beyond the measurement's part-to-part scatter. No twin stands between
     the two, so whatever the twin cannot reproduce of the rig (its path, its floor) is the same in both and drops
-    out; what is left is what changed. Where the record cannot be read, or was taken at another rate or speed,
-    ``fit.reference_note`` says why no comparison was made."""
+    out; what is left is what changed. Where the record cannot be read, was taken at another rate or speed, or on
+    another sensor of its file, ``fit.reference_note`` says why no comparison was made."""
     about = reference.get("measured") or {}
     stored = about.get("file") if isinstance(about.get("file"), Mapping) else {}
     path = stored.get("path") or about.get("path")  # the resolved path; a report without it names it as typed
@@ -360,8 +360,11 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
                                    "was read")
         earlier = recording_from_raw(raw, channel=about.get("channel"), fs=float(about["fs"]),
                                      channel_key="the reference report's measured.channel")
-        if str(earlier.channel) != str(measured.channel):
-            raise BearingTwinError(f"its record was read on channel {earlier.channel}, this one on {measured.channel}")
+        # Channel names differ between formats (a .mat's DE, an export's `signal`): only a file that holds this
+        # record's channel too, and was read on another, says the reference is another sensor's.
+        if str(earlier.channel) != str(measured.channel) and str(measured.channel) in map(str, raw.channels):
+            raise BearingTwinError(f"its record was read on channel {earlier.channel}, this one on {measured.channel}, "
+                                   "which its file holds too: another sensor")
         comparison = comparator(earlier.signal, other="the reference record")
     except BearingTwinError as error:
         fit.reference_note = str(error)
