@@ -504,6 +504,16 @@ def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):
         read_raw(tmp_path / "contradict.csv")
 
 
+@pytest.mark.parametrize("name, unit", [("acc_g", "g"), ("Accel_G", "g"), ("a_m/s2", "m/s^2"), ("acc_x", ""),
+                                        ("ch_1", ""), ("acc (g)", "g"), ("acc_g.1", "g")])
+def test_an_acceleration_unit_after_an_underscore(name, unit):
+    """Loggers and scripts name a column ``acc_g`` as often as ``acc (g)``; only an acceleration unit counts there,
+    so ``acc_x`` (a direction) and ``ch_1`` state none."""
+    from bearingtwin.data.files import unit_in_name
+
+    assert unit_in_name(name) == unit
+
+
 def test_units_a_header_states_and_a_rate_under_other_names(tmp_path, signal):
     import scipy.io
 

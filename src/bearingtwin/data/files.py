@@ -287,12 +287,14 @@ def time_column_seconds(name: str) -> float | None:
 
 
 def unit_in_name(name: str) -> str:
-    """The unit a channel's name states at its end, in brackets (``acc (m/s2)`` -> ``m/s^2``, ``U [V]`` -> ``V``) or
-    after "in" (an acceleration unit: ``a in m/s²``), acceleration units in their canonical spelling; "" when it
-    states none."""
-    match = _UNIT_IN_NAME.fullmatch(re.sub(r"\.\d+$", "", name))  # a repeated header's "acc (g).1" too
+    """The unit a channel's name states at its end, in brackets (``acc (m/s2)`` -> ``m/s^2``, ``U [V]`` -> ``V``),
+    after "in" (an acceleration unit: ``a in m/s²``) or after an underscore (an acceleration unit: ``acc_g``,
+    ``a_m/s2``), acceleration units in their canonical spelling; "" when it states none."""
+    name = re.sub(r"\.\d+$", "", name)  # a repeated header's "acc (g).1" too
+    match = _UNIT_IN_NAME.fullmatch(name)
     if match is None:
-        return ""
+        suffix = name.rsplit("_", 1)[1] if "_" in name else ""  # "acc_g"; "ch_1" or "acc_x" states none
+        return acceleration_unit(suffix) or ""
     if match["worded"]:  # "a in m/s²"; "speed in rig 2" states no unit
         return acceleration_unit(match["worded"]) or ""
     unit = match["unit"]
