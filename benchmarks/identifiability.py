@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import json
 import os
 import platform
@@ -138,7 +139,7 @@ def cases(split: str, sources: list[str], fs_hz: float | None = None, other_faul
     the same kinds of case on bearings of other states too (``normal``: a healthy bearing, on which a machine's
     own effects are what a user most often meets), dealt after the split's own, whose seeds stay theirs."""
     listed = []
-    for faults, source in [(faults, source) for faults in (FAULTS, other_faults) for source in sources]:
+    for faults, source in itertools.product((FAULTS, other_faults), sources):
         kinds = [("single", (name,)) for name in HIDDEN[split] if name != "second_resonance"]
         kinds += [("pair", pair) for pair in PAIRS[split]]
         kinds += [("null", ())]

@@ -637,10 +637,9 @@ def _read_csv(path: Path) -> RawRecord:
     if table.names is None:
         return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}))
     notes = list(table.notes)
-    stated = rate_in_notes(path, table.preamble)
-    if stated is not None:  # exact, where time stamps are printed to a few decimals: they must agree with it
-        notes.append(f"sampling rate {stated[1]:g} Hz from the note {stated[0]!r} above the header")
-    noted = None if stated is None else stated[1]
+    line, noted = rate_in_notes(path, table.preamble) or (None, None)
+    if noted is not None:  # exact, where time stamps are printed to a few decimals: they must agree with it
+        notes.append(f"sampling rate {noted:g} Hz from the note {line!r} above the header")
     columns, fs = _time_stamps(path, dict(zip(table.names, table.values.T)), notes, fs=noted)
     units = {name: unit for name in columns if (unit := unit_in_name(name))}
     origin = "header" if noted is not None else "time column" if fs else ""
