@@ -286,16 +286,19 @@ def test_a_measurement_that_lacks_nothing_gets_no_effect(cfg):
     assert fit.summary.splitlines()[1].startswith("No effect needed")
 
 
-def test_an_effect_outside_the_library_is_named_where_it_is_not_pinned_on_the_library(cfg):
-    """A gear mesh (29 teeth: a line at 29x shaft with shaft-rate sidebands) hidden in a twin record:
-    the line candidates either explain it as lines (tones) or nothing is added, and the lines view
-    says where the discrepancy is."""
-    measured = twin_measurement(cfg, "outer")
+def with_gear_mesh(measured: Recording) -> Recording:
+    """``measured`` with a gear mesh's mark (29 teeth: a line at 29x shaft with shaft-rate sidebands) added."""
     t = np.arange(measured.signal.size) / FS
     shaft = RPM / 60.0
     mesh = (1 + 0.4 * np.cos(2 * np.pi * shaft * t)) * np.cos(2 * np.pi * 29 * shaft * t)
     rms = np.sqrt(np.mean(measured.signal**2))
-    measured = Recording(measured.signal + 2 * rms * mesh, FS, RPM, "outer", unit="g")
+    return Recording(measured.signal + 2 * rms * mesh, FS, RPM, "outer", unit="g")
+
+
+def test_an_effect_outside_the_library_is_named_where_it_is_not_pinned_on_the_library(cfg):
+    """A gear mesh hidden in a twin record: the line candidates either explain it as lines (tones) or nothing
+    is added, and the lines view says where the discrepancy is."""
+    measured = with_gear_mesh(twin_measurement(cfg, "outer"))
     fit = rank(cfg, measured, ["resonance", "unbalance", "misalignment", "looseness"],
                op=known_operating_point(), fixed=FLOOR)
     assert fit.added == [], fit.summary
@@ -318,6 +321,15 @@ def test_a_selection_that_tried_nothing_says_why_not_that_nothing_paid(cfg, cand
     assert fit.ranking == [] and fit.not_tried == why and fit.as_dict()["not_tried"] == why
     assert fit.unexplained == [] and fit.verdict == "no effect tried"  # the twin and its floor made the record
     assert fit.summary.splitlines()[1].startswith(f"No effect tried: {why}. Discrepancy "), fit.summary
+
+
+def test_a_discrepancy_no_candidate_was_offered_for_is_not_called_unexplained_by_the_library(cfg):
+    """With candidates=[] the library was never asked: the verdict says so, and the summary still names where the
+    twin misses (the gear mesh's lines), not blaming the library."""
+    fit = rank(cfg, with_gear_mesh(twin_measurement(cfg, "outer")), [], op=known_operating_point(), fixed=FLOOR)
+    assert fit.verdict == "no effect tried" and fit.as_dict()["verdict"] == "no effect tried"
+    assert "lines" in [left["view"] for left in fit.unexplained], fit.unexplained
+    assert "Not explained by the twin: the lines view" in fit.summary
 
 
 def test_a_record_too_short_to_halve_is_judged_whole_and_says_so(cfg):

@@ -45,7 +45,7 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
                                   if unexplained else ""),
         "effects found": found,
         "discrepancy": (f"{fit.baseline_error:.2f} -> {fit.final_error:.2f} dB{share}" if fit.added
-                        else f"{fit.baseline_error:.2f} dB, unchanged")
+                        else f"{fit.baseline_error:.2f} dB, no effect added")
                        + (f", the measurement's own {fit.floor_error:.2f} dB" if fit.held_out
                           else " (too short to hold out half: its own is unknown)"),
         "written": f"{files[0].name} and {len(files) - 1} figures",

@@ -293,9 +293,9 @@ class TwinFit:
     def verdict(self) -> str:
         if self.added:
             return "effects missing"
-        if self.new_unexplained or self.unclaimed is not None:
-            return "unexplained discrepancy"
-        return "no effect tried" if not self.ranking else "no effect needed"
+        if not self.ranking:  # what is left unexplained was never offered a candidate: the summary names its views
+            return "no effect tried"
+        return "unexplained discrepancy" if self.new_unexplained or self.unclaimed is not None else "no effect needed"
 
     @property
     def own_discrepancy_words(self) -> str:
@@ -337,7 +337,7 @@ class TwinFit:
         for left in self.unexplained:
             own = "the measurement's own" if self.held_out else f"the {left['floor_db']:.1f} dB counted at least"
             since = "" if left in new else ", unchanged since the reference record (the rig's own, not new)"
-            lines.append(f"Not explained by the library{since}: the {left['view']} view ({left['error_db']:.1f} dB, "
+            lines.append(f"Not explained by {'the library' if self.ranking else 'the twin'}{since}: the {left['view']} view ({left['error_db']:.1f} dB, "
                          f"{left['error_db'] / left['floor_db']:.0f} times {own}): {left['where']}. "
                          f"Such a mark is left by {left['what_leaves_it']}.")
         return "\n".join(lines)
