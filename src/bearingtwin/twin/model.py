@@ -39,35 +39,12 @@ def effect_defaults(name: str) -> dict:
     return dict(content[name] or {})
 
 
-BOUND_MARGIN = 0.125
-"""How far past a value a bound it stretches is moved, as a share of the box's width on its own scale (10 dB of a
-line level's 80)."""
-
-
-def effect_search_space(name: str, holding: Mapping | None = None) -> dict[str, tuple[float, float, bool]]:
-    """The box each of the effect's fitted parameters is searched in (its class's ``search_space``).
-
-    A value in ``holding`` (the data's own estimate, a held value) that lies beyond a bound moves that bound
-    :data:`BOUND_MARGIN` of the width past it: the box is meant for typical values, and a machine line on a
-    healthy bearing stands 40-65 dB over the twin's signal, far above a line level's +20 dB, so the estimate
-    read off the spectrum is searched around rather than clipped to the edge.
-    """
+def effect_search_space(name: str) -> dict[str, tuple[float, float, bool]]:
+    """The box each of the effect's fitted parameters is searched in (its class's ``search_space``)."""
     space = getattr(effect_class(name), "search_space", None)
     if not space:
         raise BearingTwinError(f"effect {name!r} declares no search_space, so it cannot be calibrated")
-    space = dict(space)
-    for parameter, (low, high, log) in space.items():
-        value = (holding or {}).get(parameter)
-        if not isinstance(value, (int, float)) or (log and value <= 0) or low <= value <= high:
-            continue
-        if log:
-            margin = (high / low) ** BOUND_MARGIN
-            low, high = min(low, value / margin), max(high, value * margin)
-        else:
-            margin = BOUND_MARGIN * (high - low)
-            low, high = min(low, value - margin), max(high, value + margin)
-        space[parameter] = (float(low), float(high), log)
-    return space
+    return dict(space)
 
 
 SENSOR_KEYS = ("simulator.sensor", "simulator.sensor_angle_deg")

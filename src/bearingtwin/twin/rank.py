@@ -731,7 +731,7 @@ class EffectRanker:
 
         for fit in added:
             fit.params = current_effects[fit.effect]  # as the last re-fit left it, which the report states
-            space = effect_search_space(fit.effect, fit.params)
+            space = effect_search_space(fit.effect)
 
             def with_params(params, name=fit.effect):
                 return final_deviance(base_values, {**current_effects, name: {**current_effects[name], **params}})
@@ -937,11 +937,11 @@ def _key(values: Mapping) -> tuple:
 
 
 def _effects_space(effects: Mapping, names: Sequence[str], prefix: str = "") -> tuple[dict, dict]:
-    """The search space of the named effects' parameters, keyed ``<prefix><effect>:<parameter>``, stretched to hold
-    their values in ``effects`` (:func:`effect_search_space`), and its start: those values."""
+    """The search space of the named effects' parameters, keyed ``<prefix><effect>:<parameter>``, and its
+    start: their values in ``effects``."""
     space, start = {}, {}
     for name in names:
-        for parameter, bounds in effect_search_space(name, effects[name]).items():
+        for parameter, bounds in effect_search_space(name).items():
             space[f"{prefix}{name}:{parameter}"] = bounds
             if parameter in effects[name]:
                 start[f"{prefix}{name}:{parameter}"] = effects[name][parameter]
