@@ -750,8 +750,12 @@ def main() -> int:
         total=len(todo), desc="cases"))
     wall = time.perf_counter() - start
     table = summarize(results)
-    for source, kinds in table.items():
-        print(source, {k: f"{e['right']}/{e['n']}, halved {e['halved']}/{e['found']}" for k, e in kinds.items()})
+    states = list(dict.fromkeys(r["fault"] for r in results))
+    for label, subset in [("", results)] + ([(f" {state}", [r for r in results if r["fault"] == state])
+                                             for state in states] if len(states) > 1 else []):
+        for source, kinds in summarize(subset).items():
+            print(source + label, {k: f"{e['right']}/{e['n']}, halved {e['halved']}/{e['found']}"
+                                   for k, e in kinds.items()})
     if args.split == "dev" and args.records is None:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         Path(args.out, "identifiability_dev.json").write_text(json.dumps(results, indent=1, default=float))
