@@ -511,19 +511,16 @@ class Comparator:
         does not): measurement and twin (at ``gain``).
 
         Both are measured over the *measurement's* local level, so two rigs whose broadband
-        floors differ agree on a line of one power. The twin's line is its power beyond
-        what its own floor reaches (``line_threshold_db`` over its local level: the scatter of a
-        broadband bin stays below), set on the measurement's floor: a twin floor higher than the
-        rig's near a line (a noise model's low-frequency rise) neither buries the twin's line nor,
-        where there is none, makes one; a twin with almost no floor has its lines as they are.
-        Where the two floors agree this is the twin's own height. Measuring the excess over the
-        threshold rather than cutting at it keeps the value continuous as a line grows.
+        floors differ (a twin has almost none) agree on a line of one size; a bin counts as a
+        line of the twin only where it also stands out of the twin's own local level. Measuring
+        the excess over the threshold rather than cutting at it keeps the value continuous as a
+        line grows.
         """
         threshold = self.settings.line_threshold_db
-        step = 10 ** (threshold / 10.0)
         measured = np.maximum(10 * np.log10(m.lines_psd / m.lines_level) - threshold, 0.0)
-        beyond_own_floor = gain**2 * np.maximum(twin.lines_psd - step * twin.lines_level, 0.0)
-        return measured, 10 * np.log10(1.0 + beyond_own_floor / (step * m.lines_level))
+        own = 10 * np.log10(twin.lines_psd / twin.lines_level)
+        over_measured = 10 * np.log10(gain**2 * twin.lines_psd / m.lines_level)
+        return measured, np.maximum(np.minimum(own, over_measured) - threshold, 0.0)
 
     def _compare_lines(self, m: Profile, twin: Profile, gain: float,
                        other: str = "the twin") -> tuple[float, str, int, str | None]:
