@@ -96,7 +96,7 @@ def test_resonance_above_nyquist_is_named():
         lib.Resonance(natural_frequency_hz=3000.0, damping_ratio=-1.0)
 
 
-@pytest.mark.parametrize("snr_db, slope", [(10.0, 0.0), (0.0, 1.0), (3.0, -2.0)])
+@pytest.mark.parametrize("snr_db, slope", [(10.0, 0.0), (0.0, 1.0)])
 def test_noise_has_the_requested_snr_and_spectral_slope(snr_db, slope):
     rng = np.random.default_rng(0)
     clean = np.sin(2 * np.pi * 50 * np.arange(2**16) / FS)

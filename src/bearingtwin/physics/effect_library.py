@@ -107,8 +107,8 @@ def coloured_noise(shape: tuple[int, ...], fs: float, spectral_slope: float, rng
     """Zero-mean Gaussian noise of unit variance whose power density falls as f^-spectral_slope.
 
     ``spectral_slope`` 0 is white (electronic sensor noise), 1 is pink (background
-    machinery, flow), negative rises with frequency; the last axis is time sampled at ``fs`` Hz.
-    The lowest bin takes the level of the first non-zero frequency so a steep slope cannot blow up at DC.
+    machinery, flow); the last axis is time sampled at ``fs`` Hz. The lowest bin takes the
+    level of the first non-zero frequency so a steep slope cannot blow up at DC.
     """
     n = shape[-1]
     spectrum = np.fft.rfft(rng.standard_normal(shape), axis=-1)
@@ -570,9 +570,7 @@ class Noise(Effect):
 
     Args:
         snr_db: ratio of the bearing signal's power to the noise power, in dB.
-        spectral_slope: exponent of the noise PSD ~ f^-slope (0 white, 1 pink, 2 brown; negative: a floor
-            rising with frequency, a broadband force read through a path that passes high frequencies, as
-            white velocity noise read as acceleration rises at f^2, slope -2). Fitted in [-2, 2].
+        spectral_slope: exponent of the noise PSD ~ f^-slope (0 white, 1 pink, 2 brown).
         reference_rms: the signal RMS (m/s^2) that ``snr_db`` refers to; null = each simulated
             signal's own. Fitted on one record, the noise is a property of the sensor and the
             machine, not of the bearing's state: ``data=twin_to_real`` sets this to the healthy
@@ -586,14 +584,14 @@ class Noise(Effect):
     name = "noise"
     signature = "raised floor in quiet bands, lower kurtosis"
     signature_views = ("psd", "statistics")
-    search_space = {"snr_db": (-10.0, 30.0, False), "spectral_slope": (-2.0, 2.0, False)}
+    search_space = {"snr_db": (-10.0, 30.0, False), "spectral_slope": (0.0, 2.0, False)}
 
     def __init__(self, snr_db: float, spectral_slope: float, reference_rms: float | None = None):
         if not is_finite_number(snr_db):
             raise BearingTwinError(f"noise.snr_db must be finite, got {snr_db}")
         _decibels("noise.snr_db", snr_db)
-        if not (is_finite_number(spectral_slope) and -3.0 <= spectral_slope <= 3.0):
-            raise BearingTwinError(f"noise.spectral_slope must lie in [-3, 3], got {spectral_slope}")
+        if not (is_finite_number(spectral_slope) and 0.0 <= spectral_slope <= 3.0):
+            raise BearingTwinError(f"noise.spectral_slope must lie in [0, 3], got {spectral_slope}")
         self.snr_db, self.spectral_slope = float(snr_db), float(spectral_slope)
         self.reference_rms = None if reference_rms is None else _positive("noise.reference_rms", reference_rms)
 
