@@ -569,7 +569,8 @@ class Noise(Effect):
     """Sensor and background noise: electronics (white) and machinery or flow (falling with frequency).
 
     Args:
-        snr_db: ratio of the bearing signal's power to the noise power, in dB.
+        snr_db: ratio of the bearing signal's power to the noise power, in dB (searched in [-10, 50]: from a
+            floor above the bearing's signal to a good accelerometer's, 40-50 dB below a faulty bearing's).
         spectral_slope: exponent of the noise PSD ~ f^-slope (0 white, 1 pink, 2 brown).
         reference_rms: the signal RMS (m/s^2) that ``snr_db`` refers to; null = each simulated
             signal's own. Fitted on one record, the noise is a property of the sensor and the
@@ -584,7 +585,7 @@ class Noise(Effect):
     name = "noise"
     signature = "raised floor in quiet bands, lower kurtosis"
     signature_views = ("psd", "statistics")
-    search_space = {"snr_db": (-10.0, 30.0, False), "spectral_slope": (0.0, 2.0, False)}
+    search_space = {"snr_db": (-10.0, 50.0, False), "spectral_slope": (0.0, 2.0, False)}
 
     def __init__(self, snr_db: float, spectral_slope: float, reference_rms: float | None = None):
         if not is_finite_number(snr_db):
