@@ -523,6 +523,17 @@ def test_a_stated_state_the_envelope_contradicts_is_questioned(cfg):
                                 "outer's") and doubt.endswith("check the stated bearing state"), doubt
 
 
+def test_a_sensor_floor_40_db_below_the_bearing_is_found_where_it_lies(cfg):
+    """The measurement's white floor lies 40 dB below the bearing's signal, as a good accelerometer's does below a
+    faulty bearing's: noise is searched that far (to 50 dB), so it is claimed at about its level and the interval
+    holds it, not pinned at the edge of a box ending 10 dB too high."""
+    fit = rank(cfg, twin_measurement(cfg, "outer"), ["noise"], op=known_operating_point())
+    assert [added.effect for added in fit.added] == ["noise"], fit.summary
+    (noise,) = fit.added
+    low, high = noise.intervals["snr_db"]
+    assert 33.0 < noise.params["snr_db"] < 47.0 and low <= 40.0 <= high, (noise.params, noise.intervals)
+
+
 def test_a_noise_floor_the_operating_point_took_up_is_claimed_after_their_joint_refit(tmp_path):
     """bearingtwin-simulate's defaults (an unloaded bearing read on the inner race) with a 10 dB noise floor:
     fitted without the noise, the defect comes out shallower to match the kurtosis the noise lowers, so the
