@@ -751,9 +751,9 @@ def main() -> int:
     wall = time.perf_counter() - start
     table = summarize(results)
     states = list(dict.fromkeys(r["fault"] for r in results))
-    for label, subset in [("", results)] + ([(f" {state}", [r for r in results if r["fault"] == state])
-                                             for state in states] if len(states) > 1 else []):
-        for source, kinds in summarize(subset).items():
+    for label, subset_table in [("", table)] + ([(f" {state}", summarize([r for r in results if r["fault"] == state]))
+                                                 for state in states] if len(states) > 1 else []):
+        for source, kinds in subset_table.items():
             print(source + label, {k: f"{e['right']}/{e['n']}, halved {e['halved']}/{e['found']}"
                                    for k, e in kinds.items()})
     if args.split == "dev" and args.records is None:
