@@ -543,6 +543,12 @@ def summarize(results: list[dict]) -> dict:
     return table
 
 
+def print_counts(table: dict, label: str = "") -> None:
+    """One line per source of a :func:`summarize` table: each kind's cases right and errors halved."""
+    for source, kinds in table.items():
+        print(source + label, {k: f"{e['right']}/{e['n']}, halved {e['halved']}/{e['found']}" for k, e in kinds.items()})
+
+
 def confusion(results: list[dict], source: str) -> str:
     """Single-effect cases: hidden effect (rows) against the first effect added (columns)."""
     singles = [r for r in results if r["source"] == source and r["kind"] == "single"]
@@ -750,12 +756,10 @@ def main() -> int:
         total=len(todo), desc="cases"))
     wall = time.perf_counter() - start
     table = summarize(results)
+    print_counts(table)
     states = list(dict.fromkeys(r["fault"] for r in results))
-    for label, subset_table in [("", table)] + ([(f" {state}", summarize([r for r in results if r["fault"] == state]))
-                                                 for state in states] if len(states) > 1 else []):
-        for source, kinds in subset_table.items():
-            print(source + label, {k: f"{e['right']}/{e['n']}, halved {e['halved']}/{e['found']}"
-                                   for k, e in kinds.items()})
+    for state in states if len(states) > 1 else []:  # each bearing state's own counts beside the whole
+        print_counts(summarize([r for r in results if r["fault"] == state]), f" {state}")
     if args.split == "dev" and args.records is None:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         Path(args.out, "identifiability_dev.json").write_text(json.dumps(results, indent=1, default=float))

@@ -334,10 +334,11 @@ class TwinFit:
                          f"the {part}. Discrepancy {self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
         lines += self._reference_lines()
         new = self.new_unexplained
+        by = "the library" if self.ranking else "the twin"  # with nothing tried, the library was not asked
         for left in self.unexplained:
             own = "the measurement's own" if self.held_out else f"the {left['floor_db']:.1f} dB counted at least"
             since = "" if left in new else ", unchanged since the reference record (the rig's own, not new)"
-            lines.append(f"Not explained by {'the library' if self.ranking else 'the twin'}{since}: the {left['view']} view ({left['error_db']:.1f} dB, "
+            lines.append(f"Not explained by {by}{since}: the {left['view']} view ({left['error_db']:.1f} dB, "
                          f"{left['error_db'] / left['floor_db']:.0f} times {own}): {left['where']}. "
                          f"Such a mark is left by {left['what_leaves_it']}.")
         return "\n".join(lines)
