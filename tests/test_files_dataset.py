@@ -5,11 +5,14 @@ import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 
-from bearingtwin.config import CONF_DIR
+from bearingtwin.config import CONF_DIR, REPO_ROOT
 from bearingtwin.data.build import build_dataset
+from bearingtwin.data.cwru import load_cwru
 from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
+
+CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
 
 FS = 8000.0
 TONES_HZ = {"normal": 150.0, "inner": 410.0, "ball": 730.0, "outer": 1210.0}
@@ -365,6 +368,26 @@ def test_a_rate_a_labels_row_or_data_fs_gives_is_checked_against_the_shaft_line(
     with pytest.raises(BearingTwinError, match=r"normal.npy: fs = 8000 Hz contradicts .* with data.fs=<Hz>"):
         build_dataset(files_cfg(root, "data.fs=8000"))
     assert build_dataset(files_cfg(root, "data.fs=12000")).fs == fs
+
+
+@pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
+@pytest.mark.parametrize("given", ["row", "setting"])
+def test_a_speed_ten_times_too_high_is_refused_naming_the_speeds_setting_too(tmp_path, given):
+    """A CWRU outer-race record at its true 12 kHz, labelled with a speed a digit too long: every defect
+    frequency then falls on a harmonic of its true one, which confirmed the rate before. Its BPFO comb stands at
+    a tenth of the frequency expected, so the rate is refused, and the message names the speed's setting as the
+    other suspect."""
+    root = tmp_path / "mine"
+    root.mkdir()
+    recording = load_cwru(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
+    np.save(root / "outer.npy", recording.signal)
+    rpm, key = 10 * recording.rpm, ("the labels row's rpm" if given == "row" else "data.rpm")
+    (root / "labels.csv").write_text(f"record,state,rpm,fs\nouter.npy,outer,{rpm if given == 'row' else ''},12000\n")
+    overrides = ["data.fs=null", "data.bearing=cwru_6205", *([f"data.rpm={rpm}"] if given == "setting" else [])]
+    with pytest.raises(BearingTwinError, match=rf"outer.npy: fs = 12000 Hz contradicts the shaft speed: at {rpm:g} rpm"
+                                               rf".*give the true rate with the labels row's fs=<Hz> \(or the true "
+                                               rf"speed with {key}=<rev/min>\)"):
+        build_dataset(files_cfg(root, *overrides))
 
 
 def test_a_fault_records_defect_comb_does_not_get_its_right_rate_refused(tmp_path, caplog):

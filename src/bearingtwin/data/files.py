@@ -215,8 +215,10 @@ def recording_from_raw(
         raise BearingTwinError(f"{fault_key}={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     rpm = _resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
+    # Where the speed comes from: a refusal of the rate names the speed's setting too where one gave it.
+    rpm_origin = "file" if raw.rpm is not None else "config" if rpm is not None else None
     if rpm is None and raw.nominal_rpm is not None:
-        rpm = raw.nominal_rpm
+        rpm, rpm_origin = raw.nominal_rpm, "nominal"
         notes.append(raw.nominal_rpm_note)
     return Recording(
         signal=signal,
@@ -226,7 +228,7 @@ def recording_from_raw(
         source=raw.path,
         channel=name,
         unit=raw.channel_units.get(name, raw.unit),
-        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, notes=notes),
+        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes),
     )
 
 

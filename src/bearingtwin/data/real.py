@@ -145,8 +145,9 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     ]
     if bool(_get(cfg, "check_fs")):
         bearing = load_bearing(cfg["bearing"], "data.bearing") if cfg.get("bearing") else None
-        for recording, (_, _, _, row_fs) in zip(recordings, rows):
-            check_stated_rate(recording, "data.fs" if row_fs is None else "the labels row's fs", "data.check_fs", bearing)
+        for recording, (_, _, row_rpm, row_fs) in zip(recordings, rows):
+            check_stated_rate(recording, "data.fs" if row_fs is None else "the labels row's fs", "data.check_fs", bearing,
+                              rpm_key="data.rpm" if row_rpm is None else "the labels row's rpm")
     labelling = [(path.name, state, rpm, fs) for path, state, rpm, fs in rows]
     # What only checks the records (check_fs, the bearing whose lines witness a rate) leaves the windows alone.
     windowed = {key: value for key, value in cfg.items() if key not in ("check_fs", "bearing")}
@@ -156,9 +157,11 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     )
 
 
-def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing: BearingGeometry | None = None) -> None:
+def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing: BearingGeometry | None = None,
+                      rpm_key: str | None = None) -> None:
     """The rate a setting or a labels row gave a record, checked against its shaft line as a CWRU record's declared
-    one is: refused where the shaft series contradicts it (``fs_key`` named as its source); one the file itself
+    one is: refused where the shaft series contradicts it (``fs_key`` named as its source, and ``rpm_key`` where
+    that setting gave the speed, not the file); one the file itself
     records (a time column, a header, an .npz's fs) only logged; unchecked without a speed. Without the
     record's ``bearing`` a fault record's contradiction is only logged: its defect comb can stand where the
     shaft series is looked for, and only the bearing's defect lines tell the two apart."""
@@ -167,7 +170,8 @@ def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing
     given = recording.meta.get("fs_origin") in ("config", "declared")
     require_plausible_rate(recording.signal, recording.fs, recording.rpm, recording.source, fs_key,
                            defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
-                           refuse=given and (bearing is not None or recording.fault == "normal"), check_key=check_key)
+                           refuse=given and (bearing is not None or recording.fault == "normal"), check_key=check_key,
+                           rpm_key=rpm_key if recording.meta.get("rpm_origin") == "config" else None)
 
 
 def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>",

@@ -212,7 +212,7 @@ def check_sampling_rate(
     harmonic_tolerance: float = 0.005,
     search_factor: float = 5.0,
     background_hz: float = 5.0,
-    max_fraction: int = 8,
+    max_fraction: int = 10,
     slip: float = 0.05,
     follow_implied: bool = True,
 ) -> ShaftLineCheck:
@@ -373,7 +373,7 @@ def check_sampling_rate(
     verdict, implied, why = "ambiguous", None, "no defect frequency was given to decide"
     if defect_hz:
         verdict, implied, why = _defect_witness(signal, fs, expected, defect_hz, fraction, below / expected,
-                                                rate_if_shaft, prominence)
+                                                rate_if_shaft, prominence, max_fraction)
     if verdict == "ambiguous":
         times = f"{fraction}" if whole else f"{rate_if_shaft / fs:.3g}"
         # Half orders are also a machine's own mark (a loose foot, a rub), which no rate explains: the check cannot
@@ -690,11 +690,17 @@ def _envelope_prominence(signal: np.ndarray, fs: float, top_hz: float) -> tuple[
 
 
 def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], k: int, scale: float,
-                    rate_if_shaft: float, prominence: float) -> tuple[str, float | None, str]:
+                    rate_if_shaft: float, prominence: float, max_fraction: int) -> tuple[str, float | None, str]:
     """Envelope lines of the defect frequencies at f (right rate) against f x ``scale`` (about 1 / k: where a
     rate too low by that factor, ``rate_if_shaft``, puts them); a frequency with f or f / k on a shaft harmonic
     is no witness, since the shaft's line stands there whatever the rate (the SKF 6203's BSF is 1.994 x shaft,
-    its half 0.997 x)."""
+    its half 0.997 x).
+
+    A line at f also stands where a speed m times lower than the declared one (a rate m times too low, m = 2 ..
+    ``max_fraction``) puts the defect's m-th harmonic: a speed typed with a digit too many puts every defect
+    frequency on a harmonic of its true one. Such a line witnesses nothing, and the comb below it (its first lines
+    j x f / m, none on a shaft harmonic or another defect frequency) standing higher than f contradicts the rate,
+    whatever the in-between shaft lines suggested for k."""
     lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2
              and _apart_from_shaft(float(hz), shaft_hz, 1, _WINDOW) and _apart_from_shaft(float(hz) * scale, shaft_hz, 1, _WINDOW)}
     if not lines:
@@ -702,15 +708,43 @@ def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float],
     ratio, resolution = _envelope_prominence(signal, fs, max(lines.values()) * 1.1)
     at_f = _peak(ratio, resolution, np.array(list(lines.values())), _WINDOW)
     at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) * scale, _WINDOW)
+    below = {name: _comb_below(ratio, resolution, hz, shaft_hz, defect_hz, max_fraction) for name, hz in lines.items()}
     wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
-    right = [name for name, a, b in zip(lines, at_f, at_fraction) if a >= prominence and b < prominence]
+    right = [name for name, a, b in zip(lines, at_f, at_fraction)
+             if a >= prominence and b < prominence and below[name][1] < prominence]
     if wrong and not right:
         fraction = f"1/{k}" if math.isclose(scale * k, 1.0, rel_tol=_WINDOW) else f"{scale:.3g} times"
         return "contradicted", rate_if_shaft, (f", and the envelope line of {wrong[0]} stands at {fraction} its "
                                                f"frequency: it falls where it belongs at a rate of {rate_if_shaft:.0f} Hz")
+    harmonic = [(name, m, a) for (name, (m, a)), at in zip(below.items(), at_f) if a >= prominence and a > at]
+    if harmonic and not right:
+        name, m, _ = max(harmonic, key=lambda item: item[2])
+        return "contradicted", fs * m, (f", and the envelope lines of {name} stand at multiples of 1/{m} its frequency: "
+                                        f"they fall where they belong at a rate of {fs * m:.0f} Hz, or a speed of "
+                                        f"{60 * shaft_hz / m:.0f} rpm")
     if right and not wrong:
         return "consistent", fs, f", but the envelope line of {right[0]} stands at its frequency: real subharmonics"
     return "ambiguous", None, "the defect lines do not decide"
+
+
+def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float, defect_hz: Mapping[str, float],
+                max_fraction: int) -> tuple[int, float]:
+    """``(m, prominence)`` of the strongest comb j x ``hz`` / m (m = 2 .. ``max_fraction``, j = 1 .. min(m - 1, 3),
+    its median prominence) that would make a line at ``hz`` its m-th harmonic; a comb whose fundamental lies on a
+    shaft harmonic or within two windows of another defect frequency is passed over (the outer race's BPFO is Z x
+    FTF: a cage line is no speed m times lower). ``(0, 0.0)`` when none is left."""
+    others = [float(value) for value in defect_hz.values() if value and not math.isclose(float(value), hz)]
+    best = (0, 0.0)
+    for m in range(2, max_fraction + 1):
+        fundamental = hz / m
+        if not _apart_from_shaft(fundamental, shaft_hz, 1, _WINDOW) or any(
+                abs(fundamental / other - 1.0) <= 2 * _WINDOW for other in others):
+            continue
+        comb = fundamental * np.arange(1, min(m - 1, 3) + 1)
+        score = float(np.median(_peak(ratio, resolution, comb, _WINDOW)))
+        if score > best[1]:
+            best = (m, score)
+    return best
 
 
 def describe_mismatch(check: ShaftLineCheck) -> str:
@@ -722,9 +756,10 @@ def describe_mismatch(check: ShaftLineCheck) -> str:
 def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: str,
                            defect_hz: Mapping[str, float] | None = None, refuse: bool = True,
                            channels: Mapping[str, np.ndarray] | None = None,
-                           check_key: str | None = None) -> ShaftLineCheck | None:
+                           check_key: str | None = None, rpm_key: str | None = None) -> ShaftLineCheck | None:
     """The check as a command applies it: a contradicted rate raises naming ``source`` and the
-    setting to correct (``fs_key``); an ambiguous one is logged; a record too short to check is
+    setting to correct (``fs_key``, and ``rpm_key`` where the speed was given, not read from the file: a
+    speed off by a whole factor contradicts a rate as a rate off by it does); an ambiguous one is logged; a record too short to check is
     logged as unchecked (None). ``refuse=False`` only logs a contradiction: for a rate the file
     itself records (a header, a time column), which a record without a visible shaft line (a
     simulation, a machine without unbalance) cannot contradict. ``channels``: the file's channels
@@ -741,7 +776,8 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
         return None
     if check.verdict == "contradicted" and refuse:
         off = f", or {check_key}=false if {fs:g} Hz is the true one" if check_key else ""
-        raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{off}")
+        speed = f" (or the true speed with {rpm_key}=<rev/min>)" if rpm_key else ""
+        raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{speed}{off}")
     if check.verdict == "contradicted":
         log.warning("%s: %s (the rate the file records is kept)", source, describe_mismatch(check))
     if check.verdict == "ambiguous":
