@@ -257,8 +257,9 @@ def test_what_a_measurement_leaves_unsaid_is_asked_for_at_once_or_read_from_a_la
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs='12k' must be a positive number of Hz"):
         load_measurement(twin_config(f"measured.path={path}").measured)
     (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nouter_a.npy,outer,1797,12000\n")
-    # A rate the shaft series contradicts is refused naming both ways out.
-    with pytest.raises(BearingTwinError, match=r"give the true rate with measured.fs=<Hz>, or measured.check_fs=false "
+    # A rate the shaft series contradicts is refused naming the ways out (the speed the row gave may be the wrong one).
+    with pytest.raises(BearingTwinError, match=r"give the true rate with measured.fs=<Hz> \(or the true speed with "
+                                               r"measured.rpm=<rev/min>\), or measured.check_fs=false "
                                                r"if 24000 Hz is the true one$"):
         load_measurement(twin_config(f"measured.path={path}", "measured.fs=24000").measured)
 

@@ -11,8 +11,9 @@ from joblib import cpu_count
 from mlflow import MlflowClient
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR
+from bearingtwin.config import CONF_DIR, load_bearing
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.twin.compare import VIEWS
 from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.report import build_ranker, ranker_settings
@@ -110,23 +111,84 @@ def test_a_speed_the_file_contradicts_is_named_as_the_twins_setting(measurement,
         f"error: {tmp_path / 'stated.npz'}: measured.rpm=1750.0 contradicts the file's rpm=1797.0 (more than 1% apart)"], result.stderr
 
 
-def test_a_record_of_another_bearing_than_the_twins_is_named_in_the_closing_summary(measurement, tmp_path):
-    """A CWRU fan-end record names its SKF 6203; read with the twin's default bearing, the warning said at the start
-    is repeated where the user reads the outcome."""
+def cwru_record(folder, name, samples):
+    """``samples`` as a CWRU Data Center file of that ``name`` (its record number in the variables' names too)."""
     import scipy.io
 
-    record = tmp_path / "12k_Fan_End_OR007@6_0_294.mat"
-    scipy.io.savemat(record, {"X294_FE_time": np.load(measurement)[:, None], "X294RPM": np.array([[1797.0]])})
+    record = folder / name
+    number, end = name.removesuffix(".mat").split("_")[-1], "FE" if "_Fan_End_" in name else "DE"
+    scipy.io.savemat(record, {f"X{number}_{end}_time": samples[:, None], f"X{number}RPM": np.array([[1797.0]])})
+    return record
+
+
+@pytest.mark.parametrize("name, bearing, bpfo", [
+    ("12k_Drive_End_OR007@6_0_130.mat", "cwru_6205", 3.5848),  # the drive end's SKF 6205, known by the record's name
+    ("12k_Fan_End_OR007@6_0_294.mat", "cwru_6203", 3.0530),  # the fan end's SKF 6203, which the file names
+    ("normal_0_97.mat", "cwru_6205", 3.5848),  # no faulty end: the bearing under the accelerometer read (DE)
+])
+def test_a_record_that_names_its_bearing_is_read_with_it_when_no_bearing_is_given(measurement, tmp_path, name,
+                                                                                   bearing, bpfo):
+    """Without bearing= the twin's default (the paper's bearing) gave a CWRU record another bearing's defect
+    frequencies, with a warning only: the record's own is read, and the log, the report and the closing summary
+    say which."""
+    record = cwru_record(tmp_path, name, np.load(measurement))
     result = run_cli(f"measured.path={record}", f"out={tmp_path / 'r'}", "candidates=[]", "tracking.enabled=false",
                      "figures=false", *FAST, cwd=tmp_path)
     assert result.returncode == 0, result.stderr[-2000:]
-    assert ("bearing: the record's bearing is cwru_6203, the twin's paper: give bearing=cwru_6203 for its defect "
-            "frequencies") in result.stdout
+    geometry = load_bearing(bearing)
+    orders = f"BPFO {geometry.bpfo_hz(60.0):.3f}, BPFI {geometry.bpfi_hz(60.0):.3f} x shaft"
+    assert (f"{record}: the record's bearing is {bearing} and no bearing= was given: the twin reads it ({orders}), "
+            "not paper's") in result.stdout, result.stdout[-3000:]
+    assert f"  bearing: {bearing}, the record's own (no bearing= given; {orders})\n" in result.stdout
+    assert "give bearing=" not in result.stdout  # no doubt left of a bearing it did not use
+    report = json.loads((tmp_path / "r" / "twin_report.json").read_text())
+    assert report["measured"]["bearing"] == bearing
+    used = BearingGeometry(**report["measured"]["geometry"])  # the geometry the comparison read the lines of
+    assert used.bpfo_hz(60.0) == pytest.approx(bpfo, abs=5e-4) and used.bpfi_hz(60.0) == geometry.bpfi_hz(60.0)
     assert "effects found: no effect tried: the candidate list is empty (candidates=[])" in result.stdout
-    # The twin (of another bearing) leaves views unexplained, but the library was not asked: no "unexplained
-    # discrepancy" verdict.
+    # The library was not asked: no "unexplained discrepancy" verdict, whatever views the twin leaves unexplained.
     assert "Not explained by the twin: " in result.stdout and "verdict: no effect tried" in result.stdout
     assert re.search(r"discrepancy: \d+\.\d\d dB, no effect added, the measurement's own", result.stdout), result.stdout
+
+
+@pytest.mark.parametrize("given", ["cwru_6203", "paper"])  # paper: the default's name, but given
+def test_a_bearing_given_that_is_not_the_records_is_refused_before_a_run_opens(measurement, tmp_path, given):
+    """A drive-end record run with another bearing= was calibrated to that bearing's defect frequencies, a warning
+    aside: it is refused in one line naming the file, both bearings and the fix, before the MLflow store is opened
+    (no run left RUNNING or FAILED) or the out= folder is made."""
+    record = cwru_record(tmp_path, "12k_Drive_End_OR007@6_0_130.mat", np.load(measurement))
+    result = run_cli(f"measured.path={record}", f"bearing={given}", f"out={tmp_path / 'r'}", "candidates=[]", *FAST,
+                     env={"MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path / 'mlflow.db'}"}, cwd=tmp_path)
+    assert result.returncode == 2, result.stderr[-2000:]
+    orders = {name: f"BPFO {load_bearing(name).bpfo_hz(60.0):.3f}, BPFI {load_bearing(name).bpfi_hz(60.0):.3f} x shaft"
+              for name in ("cwru_6205", given)}
+    assert result.stderr.strip().splitlines() == [
+        f"error: {record}: the record's bearing is cwru_6205 ({orders['cwru_6205']}), the one given is {given} "
+        f"({orders[given]}): give bearing=cwru_6205 for the record's defect frequencies"], result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == [record.name]  # no store, no report folder
+
+
+def test_which_bearing_counts_as_given_and_which_the_record_replaces(measurement, tmp_path):
+    """Outside a Hydra run no override can be read: the default's name alone counts as no bearing given. A bearing
+    given under another name but of the record's geometry (one of your own) is kept."""
+    from omegaconf import open_dict
+
+    from bearingtwin.data.files import read_raw, recording_from_raw
+    from bearingtwin.twin.report import bearing_chosen, record_bearing
+
+    assert not bearing_chosen(twin_config()) and not bearing_chosen(twin_config("bearing=paper"))
+    assert bearing_chosen(twin_config("bearing=cwru_6203"))
+    record = cwru_record(tmp_path, "12k_Drive_End_OR007@6_0_130.mat", np.load(measurement))
+    measured = recording_from_raw(read_raw(record))
+    adopted, line = record_bearing(twin_config(f"measured.path={record}"), measured)
+    assert adopted.bearing.name == "cwru_6205" and BearingGeometry.from_config(adopted.bearing) == load_bearing("cwru_6205")
+    assert line.startswith("cwru_6205, the record's own (no bearing= given; BPFO 3.585")
+    own = twin_config(f"measured.path={record}", "bearing=cwru_6205")
+    with open_dict(own):
+        own.bearing.name = "my6205"
+    assert record_bearing(own, measured) == (own, None)
+    with pytest.raises(BearingTwinError, match=r"the one given is cwru_6203 \(BPFO 3\.053.*give bearing=cwru_6205"):
+        record_bearing(twin_config(f"measured.path={record}", "bearing=cwru_6203"), measured)
 
 
 @pytest.mark.parametrize("overrides, message", [

@@ -231,6 +231,20 @@ def search_path_override() -> list[str]:
     return [f"hydra.searchpath=[{quoted}]"] if folders else []
 
 
+def given_on_command_line(key: str) -> bool | None:
+    """Whether the running Hydra command's overrides (``hydra.overrides.task``: a sweep job's own included) name
+    ``key``, as a config group or a value (``bearing=cwru_6203``, ``+bearing=...``, ``~bearing``), or a key under
+    it (``bearing.n_balls=8``); None outside a Hydra run (a config composed by a test or a script), where nothing
+    tells a value given from a default."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    if not HydraConfig.initialized():
+        return None
+    overrides = OverridesParser.create().parse_overrides(list(HydraConfig.get().overrides.task))
+    return any(o.key_or_group == key or o.key_or_group.startswith(f"{key}.") for o in overrides)
+
+
 def bearing_choices(overrides: list[str] = ()) -> list[str]:
     """The ``bearing`` configs a name may choose: the project's and, inside a Hydra command, those its search
     path adds (``overrides``: :func:`search_path_override`), as Hydra itself finds them."""

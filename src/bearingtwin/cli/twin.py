@@ -25,9 +25,10 @@ if TYPE_CHECKING:
 
 
 def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str | None,
-                 doubts: dict[str, str] | None = None) -> str:
-    """The verdict, the effects found in order, how much of the discrepancy they closed, and the doubts the run
-    raised (``bearing``: the record's is not the twin's; ``check``: the envelope questions the stated state)."""
+                 notes: dict[str, str] | None = None) -> str:
+    """The verdict, the effects found in order, how much of the discrepancy they closed, and what the run said of
+    the record at its start (``bearing``: the record's own, read as no bearing= was given, or one no config
+    describes; ``check``: the envelope questions the stated state)."""
     if fit.added:
         found = ", ".join(added.effect + (" (changed)" if added.changed_from is not None else "") for added in fit.added)
     elif not fit.ranking:
@@ -67,7 +68,7 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
         tried = [name for name in cfg.effects if name in cfg.candidates]
         lines["held in the twin"] = ", ".join(cfg.effects) + " (effects=)" + (
             f"; tried as changed: {', '.join(tried)}" if tried else "")
-    lines = {**(doubts or {}), **lines}
+    lines = {**(notes or {}), **lines}
     if cfg.get("reference") is not None:
         kept = ", ".join(name for name in fit.steps[0].effects if name not in cfg.effects) or "none"
         lines = {"reference": f"{cfg.reference} (its operating point held where this run gives none; its effects "
@@ -85,9 +86,9 @@ def twin(cfg: DictConfig) -> None:
 
     # The calibration takes seconds to minutes: its stages are shown where someone watches (a terminal, one run).
     progress = show_progress_bar("auto", in_sweep=hydra_cfg.mode == RunMode.MULTIRUN)
-    fit, files, run_id, doubts = run_twin(cfg, progress)
+    fit, files, run_id, notes = run_twin(cfg, progress)
     print(fit.summary)
-    print(twin_summary(cfg, fit, files, run_id, doubts))
+    print(twin_summary(cfg, fit, files, run_id, notes))
 
 
 main = stop_cleanly(twin)  # a signal marks the MLflow run KILLED, never left RUNNING

@@ -7,6 +7,7 @@ simulator to its operating point, rank the candidate effects, write
 
 from __future__ import annotations
 
+import copy
 import json
 import logging
 import math
@@ -16,11 +17,11 @@ from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 from joblib import cpu_count
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
-from bearingtwin.config import output_folder
-from bearingtwin.data.cwru import BEARING_BY_END, parse_cwru_name
+from bearingtwin.config import bearing_config, given_on_command_line, output_folder, unknown_bearing_note
+from bearingtwin.data.cwru import BEARING_BY_END, CHANNEL_BY_END, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw, same_speed
 from bearingtwin.data.real import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
@@ -47,9 +48,17 @@ STEPS_FIGURE = "error_steps.png"
 def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Recording:
     """The measured record the config points at, with fs, rpm and bearing state all known, and
     its sampling rate checked against its shaft speed (``bearing``'s defect lines as a second witness)."""
+    recording, channels = read_measurement(measured_cfg)
+    return check_measurement(measured_cfg, recording, channels, bearing)
+
+
+def read_measurement(measured_cfg) -> tuple[Recording, dict]:
+    """The first half of :func:`load_measurement`: the record read, with fs, rpm and bearing state all known, and
+    every channel of its file (the rate check's witnesses); its rate is not checked yet, so that the bearing it
+    names (:func:`record_bearing`) can be settled first, whose defect lines are the check's second witness."""
     if OmegaConf.is_missing(measured_cfg, "path"):
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .txt, .tsv, .mat, .wav or .xls)")
-    check_fs = true_or_false(measured_cfg.check_fs, "measured.check_fs")
+    true_or_false(measured_cfg.check_fs, "measured.check_fs")  # before the file is read
     raw = read_raw(measured_cfg.path)
     # What neither the settings nor the file say, a labels.csv beside it may (as training and diagnose read one).
     path = Path(str(measured_cfg.path))
@@ -78,13 +87,22 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     # e.g. a nominal speed the twin will run at; a clipping (which the library's `clipping` may then explain)
     for note in [*recording.meta.get("notes", []), *recording.quality_notes()]:
         log.warning("%s: %s", measured_cfg.path, note)
-    if check_fs:
+    return recording, raw.channels
+
+
+def check_measurement(measured_cfg, recording: Recording, channels: dict,
+                      bearing: BearingGeometry | None = None) -> Recording:
+    """The second half of :func:`load_measurement`: ``recording``'s sampling rate checked against its shaft speed
+    (``bearing``'s defect lines as a second witness, every one of its file's ``channels`` a witness) unless
+    ``measured.check_fs=false``, and its samples against the comparison's statistics."""
+    if true_or_false(measured_cfg.check_fs, "measured.check_fs"):
         # A rate given here or only declared by a data set's convention is refused when the record contradicts
         # it; one the file records itself is kept, the doubt logged.
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
                                check_key="measured.check_fs",
+                               rpm_key="measured.rpm" if recording.meta.get("rpm_origin") == "config" else None,
                                defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
-                               refuse=recording.meta.get("fs_origin") in ("config", "declared"), channels=raw.channels)
+                               refuse=recording.meta.get("fs_origin") in ("config", "declared"), channels=channels)
     with np.errstate(over="ignore"):
         fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
     if not np.isfinite(fourth_moment):
@@ -93,6 +111,87 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
             "statistics; check the file's unit and scale"
         )
     return recording
+
+
+DEFAULT_BEARING = "paper"
+"""The bearing ``conf/twin.yaml`` composes when none is chosen: a record that names its own replaces it
+(:func:`record_bearing`)."""
+
+
+def named_bearing(measured: Recording, path) -> str | None:
+    """The bearing config a record names: its file's (a CWRU fan-end record's SKF 6203, a HUST file's ER-16K,
+    ``bearingtwin-simulate``'s), else a CWRU drive-end fault record's SKF 6205 by its name (long, or a catalogued
+    number), else, for a CWRU record whose name gives no faulty end (a healthy one), the bearing under the
+    accelerometer read (DE: the SKF 6205, FE: the SKF 6203); None for a record that names none."""
+    named = measured.meta.get("bearing")
+    if named is None and measured.meta.get("format") == "cwru-mat":
+        cwru_name = parse_cwru_name(str(path))
+        end = cwru_name.end if cwru_name is not None and cwru_name.end is not None else next(
+            (end for end, channel in CHANNEL_BY_END.items() if channel == measured.channel), None)
+        named = BEARING_BY_END.get(end)
+    return None if named is None else str(named)
+
+
+def bearing_chosen(cfg: DictConfig) -> bool:
+    """Whether the twin's bearing was chosen rather than left at :data:`DEFAULT_BEARING`.
+
+    It was left there when it is named ``paper`` and no command-line override names ``bearing`` or a
+    ``bearing.<key>`` (so an explicit ``bearing=paper`` is a choice, and so is ``bearing.n_balls=8``). Outside a
+    Hydra run (a config composed by a test or a script) no override can be read: the name alone decides, so
+    ``paper`` counts as the default there.
+    """
+    return cfg.bearing.get("name") != DEFAULT_BEARING or bool(given_on_command_line("bearing"))
+
+
+def defect_orders(geometry: BearingGeometry) -> str:
+    """A bearing's outer- and inner-race defect orders, as a message names them."""
+    orders = geometry.defect_frequencies(60.0)  # in Hz at one revolution a second: orders of the shaft
+    return f"BPFO {orders['bpfo']:.3f}, BPFI {orders['bpfi']:.3f} x shaft"
+
+
+def same_geometry(one: BearingGeometry, other: BearingGeometry) -> bool:
+    """Whether two bearings agree in every field a reference's bearing is compared by
+    (:func:`~bearingtwin.twin.reference.rig_geometry`: all but the clearance, an operating-point parameter)."""
+    ours, theirs = rig_geometry(one), rig_geometry(other)
+    return all(math.isclose(value, theirs[name], rel_tol=1e-9) for name, value in ours.items())
+
+
+def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, str | None]:
+    """The ``twin`` config with the bearing the record was made on, and the line the closing summary gives it
+    (None when there is nothing to say: the record names no bearing, or the one chosen).
+
+    A record that names its bearing (:func:`named_bearing`) is read with it: when no bearing was chosen
+    (:func:`bearing_chosen`), that bearing's config replaces the default's (a line says so); a bearing chosen that
+    is neither the record's by name nor of its geometry (the fields a reference's bearing is compared by,
+    :func:`~bearingtwin.twin.reference.rig_geometry`) is refused, naming both, before a run opens or anything is
+    written: the twin would be calibrated to another bearing's defect frequencies. A bearing the record names that
+    no ``conf/bearing`` config describes cannot be read: the twin's stays, and the doubt is logged and returned.
+    """
+    path, ours = cfg.measured.path, cfg.bearing.get("name")
+    named = named_bearing(measured, path)
+    if named is None or named == ours:
+        return cfg, None
+    chosen = bearing_chosen(cfg)
+    unknown = unknown_bearing_note(named, f"the twin reads {ours}'s defect frequencies"
+                                   + (", unchecked against it" if chosen else ""))
+    if unknown is not None:
+        log.warning("%s: %s", path, unknown)
+        return cfg, unknown
+    own = bearing_config(named, f"{path}: its bearing")
+    record, given = BearingGeometry.from_config(own), BearingGeometry.from_config(cfg.bearing)
+    if chosen:
+        if same_geometry(given, record):  # a bearing of your own under another name, say
+            return cfg, None
+        raise BearingTwinError(f"{path}: the record's bearing is {named} ({defect_orders(record)}), the one given is "
+                               f"{ours} ({defect_orders(given)}): give bearing={named} for the record's defect "
+                               "frequencies")
+    adopted = copy.deepcopy(cfg)
+    OmegaConf.set_readonly(adopted, False)
+    with open_dict(adopted):
+        adopted.bearing = own
+    log.info("%s: the record's bearing is %s and no bearing= was given: the twin reads it (%s), not %s's",
+             path, named, defect_orders(record), ours)
+    return adopted, f"{named}, the record's own (no bearing= given; {defect_orders(record)})"
 
 
 MAX_SEED = 2**31 - 1
@@ -386,8 +485,9 @@ def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set
 
 def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None, dict[str, str]]:
     """Everything ``bearingtwin-twin`` does; returns the fit, the files written, the MLflow run id (None when
-    tracking is disabled) and the doubts the closing summary repeats: ``bearing`` (the record names another bearing
-    than the twin's) and ``check`` (the measurement's envelope against its stated state, :func:`fault_check`).
+    tracking is disabled) and what the closing summary repeats of what was logged: ``bearing`` (the record's own,
+    read because no bearing was given, or one it names that no config describes, :func:`record_bearing`) and
+    ``check`` (the measurement's envelope against its stated state, :func:`fault_check`).
     ``progress``: show the calibration's stages on stderr."""
     out = output_folder(cfg.out)
     figures = true_or_false(cfg.figures, "figures")
@@ -396,17 +496,14 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
     if cfg.get("reference") is not None:
         refuse_reference_folder(cfg.reference, out)
+    BearingGeometry.from_config(cfg.bearing)  # a bad bearing.* value is named before the file is read
+    measured, channels = read_measurement(cfg.measured)
+    # The record's own bearing replaces the default one, and another chosen is refused, before its defect lines
+    # witness the rate, the MLflow run opens (with the config: the bearing used) or anything is written.
+    cfg, bearing_line = record_bearing(cfg, measured)
     geometry = BearingGeometry.from_config(cfg.bearing)
-    measured = load_measurement(cfg.measured, geometry)
-    named = measured.meta.get("bearing")  # the bearing a file names (a CWRU fan-end record's SKF 6203)
-    cwru_name = parse_cwru_name(str(cfg.measured.path)) if measured.meta.get("format") == "cwru-mat" else None
-    if named is None and cwru_name is not None and cwru_name.end == "drive":
-        named = BEARING_BY_END["drive"]  # a drive-end fault record by its name (long, or a catalogued number): the SKF 6205
-    doubts = {}  # what the closing summary repeats, as the log said it at the start
-    if named is not None and named != cfg.bearing.get("name"):
-        doubts["bearing"] = (f"the record's bearing is {named}, the twin's {cfg.bearing.get('name')}: give "
-                             f"bearing={named} for its defect frequencies")
-        log.warning("%s: %s", cfg.measured.path, doubts["bearing"])
+    measured = check_measurement(cfg.measured, measured, channels, geometry)
+    notes = {} if bearing_line is None else {"bearing": bearing_line}  # what the closing summary repeats, as logged
     reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
     to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
@@ -428,5 +525,5 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     files = write_report(ranker.fit_, out, figures, about)
     run_id = log_to_mlflow(*tracked, ranker.fit_, files) if tracked else None
     if check:
-        doubts["check"] = check
-    return ranker.fit_, files, run_id, doubts
+        notes["check"] = check
+    return ranker.fit_, files, run_id, notes
