@@ -167,6 +167,41 @@ def test_svm_pipeline_learns_and_validates():
         make_svm(kernel="cubic")
 
 
+def test_an_svm_fit_that_stalls_with_shrinking_is_fitted_again_without_it(caplog):
+    """libsvm's shrinking heuristic can cycle without end (a calibration fold of 11520 twin windows ran past 24
+    minutes); stopped at MAX_ITER, that fit is done again without shrinking, and a fit that converges is kept
+    as it is. Other warnings are not swallowed."""
+    import warnings
+
+    from sklearn.exceptions import ConvergenceWarning
+
+    from bearingtwin.models.svm import MAX_ITER, converged
+
+    calls = []
+
+    def stalls_with_shrinking(shrinking):
+        calls.append(shrinking)
+        if shrinking:
+            warnings.warn(f"Solver terminated early (max_iter={MAX_ITER})", ConvergenceWarning)
+        return f"fitted, shrinking={shrinking}"
+
+    with caplog.at_level("INFO", logger="bearingtwin.models.svm"):
+        assert converged(stalls_with_shrinking) == "fitted, shrinking=False" and calls == [True, False]
+    assert "stalled with shrinking" in caplog.text
+
+    def converges_with_a_note(shrinking):
+        calls.append(shrinking)
+        warnings.warn("something else", UserWarning)
+        return shrinking
+
+    calls.clear()
+    with pytest.warns(UserWarning, match="something else"):
+        assert converged(converges_with_a_note) is True and calls == [True]
+    X, y = four_blobs(40)
+    svc = SvmClassifier().fit(X, y).svm_.named_steps["svc"]
+    assert svc.shrinking and svc.max_iter == MAX_ITER and svc.fit_status_ == 0
+
+
 @pytest.mark.parametrize("classifier", [SvmClassifier(), CnnBiLstmClassifier(max_epochs=1)], ids=["svm", "cnn_bilstm"])
 def test_training_labels_of_one_state_are_refused_alike_by_both_classifiers(classifier):
     X, y = four_blobs(4)

@@ -13,9 +13,14 @@ of two classes the most probable class can then differ from the predicted one.
 
 from __future__ import annotations
 
+import logging
+import warnings
+from typing import Callable, TypeVar
+
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.calibration import CalibratedClassifierCV
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import SVC
@@ -24,21 +29,46 @@ from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.classes import state_name, training_classes
 
+log = logging.getLogger(__name__)
+
 KERNELS = ("linear", "poly", "rbf", "sigmoid")
 CALIBRATION_FOLDS = 5
+MAX_ITER = 1_000_000
+"""libsvm's iterations before it gives up (its own default never does): ten times what the project's largest fits
+need; one that gets there has stalled (:func:`converged`)."""
+
+Fitted = TypeVar("Fitted")
 
 
-def make_svm(C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", random_state: int = 0) -> Pipeline:
+def make_svm(C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", random_state: int = 0,
+             shrinking: bool = True) -> Pipeline:
     """A StandardScaler + SVC pipeline. ``random_state`` is handed to SVC, which draws from it only for
     ``probability=True`` (never set here: probabilities come from a calibration of its own), so the fit is
-    deterministic whatever the seed."""
+    deterministic whatever the seed. ``shrinking``: libsvm's shrinking heuristic (see :func:`converged`)."""
     if not (is_finite_number(C) and C > 0):
         raise BearingTwinError(f"classifier.C must be a positive number, got {C!r}")
     if kernel not in KERNELS:
         raise BearingTwinError(f"classifier.kernel={kernel!r}; choose one of {', '.join(KERNELS)}")
     if not (gamma in ("scale", "auto") or (is_finite_number(gamma) and gamma > 0)):
         raise BearingTwinError(f"classifier.gamma must be 'scale', 'auto' or a positive number, got {gamma!r}")
-    return Pipeline([("scale", StandardScaler()), ("svc", SVC(C=C, kernel=kernel, gamma=gamma, random_state=random_state))])
+    return Pipeline([("scale", StandardScaler()), ("svc", SVC(C=C, kernel=kernel, gamma=gamma, random_state=random_state,
+                                                             shrinking=shrinking, max_iter=MAX_ITER))])
+
+
+def converged(fit: Callable[[bool], Fitted]) -> Fitted:
+    """``fit(True)`` (libsvm with its shrinking heuristic), or ``fit(False)`` where that stopped at :data:`MAX_ITER`.
+
+    Shrinking can cycle without end on some problems and row orders (scikit-learn issue #30353): one fold of a
+    calibration's cross-validation, a linear SVM of 11520 twin windows, ran for over 24 minutes with its objective
+    frozen, where the same problem converges in a second without shrinking. A fit that converges is the same as
+    before; one that stalled is fitted again without the heuristic, which solves the same problem."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        try:
+            return fit(True)
+        except ConvergenceWarning:
+            log.info("the SVM's solver stalled with shrinking after %d iterations; fitted again without it", MAX_ITER)
+    return fit(False)
 
 
 class SvmClassifier(ClassifierMixin, BaseEstimator):
@@ -60,17 +90,19 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
         make_svm(self.C, self.kernel, self.gamma, self.random_state)
 
     def fit(self, X, y) -> "SvmClassifier":
-        svm = make_svm(self.C, self.kernel, self.gamma, self.random_state)
+        make_svm(self.C, self.kernel, self.gamma, self.random_state)  # a bad parameter named before anything is fitted
         y = np.asarray(y)
         self.classes_, counts = training_classes(y)
         if counts.min() < 2:
             raise BearingTwinError(f"the SVM's probabilities are calibrated by cross-validation, which needs at least 2 "
                                    f"training windows per class; class {state_name(self.classes_[counts.argmin()])} "
                                    f"has {counts.min()}")
-        self.svm_ = svm.fit(X, y)
         folds = int(min(CALIBRATION_FOLDS, counts.min()))
-        self.calibration_ = CalibratedClassifierCV(make_svm(self.C, self.kernel, self.gamma, self.random_state),
-                                                   method="sigmoid", cv=folds, ensemble=False).fit(X, y)
+        self.svm_ = converged(lambda shrinking: make_svm(self.C, self.kernel, self.gamma, self.random_state,
+                                                         shrinking).fit(X, y))
+        self.calibration_ = converged(lambda shrinking: CalibratedClassifierCV(
+            make_svm(self.C, self.kernel, self.gamma, self.random_state, shrinking), method="sigmoid", cv=folds,
+            ensemble=False).fit(X, y))
         return self
 
     def predict(self, X) -> np.ndarray:
