@@ -69,10 +69,10 @@ from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.testrig import RigOperatingPoint, RigSetup, simulate_rig
 from bearingtwin.testrig.rig import FAULTS as RIG_FAULTS
 from bearingtwin.tracking.tables import markdown_table
-from bearingtwin.twin.compare import Comparator, CompareSettings, psd_band_edges_hz
+from bearingtwin.twin.compare import Comparator, CompareSettings
 from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.rank import deviance, penalty_per_parameter, signature_gain, signature_views, view_floors
-from bearingtwin.twin.reference import hold_reference, rig_residual
+from bearingtwin.twin.reference import hold_reference
 from bearingtwin.twin.report import MAX_SEED, build_ranker, load_measurement, seed_value, twin_for
 
 G = 9.80665
@@ -382,11 +382,9 @@ def rank(case: dict, overrides: list[str], reference: dict | None = None):
     measured = measurement(case, cfg)
     geometry = BearingGeometry.from_config(cfg.bearing)
     settings = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
-    residual = (rig_residual(reference, case["fault"], psd_band_edges_hz(settings, measured.fs))[0]
-                if reference and cfg.reference_residual else None)
     ranker = build_ranker(cfg, case["fault"])
     start = time.perf_counter()
-    fit = ranker.fit(twin_for(measured, cfg), measured, geometry, settings, residual).fit_
+    fit = ranker.fit(twin_for(measured, cfg), measured, geometry, settings).fit_
     return fit, time.perf_counter() - start
 
 

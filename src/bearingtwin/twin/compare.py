@@ -212,7 +212,6 @@ class Comparison:
     measured: Profile
     twin: Profile
     context: "Comparator"
-    psd_residual_db: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per band, gain and trend removed
 
     @property
     def summary(self) -> str:
@@ -232,12 +231,6 @@ class Comparison:
                       for name, view in self.views.items()},
             "summary": self.summary,
         }
-
-    @property
-    def psd_residual(self) -> dict:
-        """The psd view's residual per band (dB, measurement over the other, gain and trend removed) and the bands'
-        edges (Hz): what a later record of the rig takes for the rig's own (:attr:`Comparator.rig_residual_db`)."""
-        return {"bands_hz": self.context.band_edges_hz.tolist(), "residual_db": self.psd_residual_db.tolist()}
 
 
 _POSITIVE_SETTINGS = {"welch_segment_s": "seconds", "band_min_hz": "Hz", "dynamic_range_db": "dB",
@@ -292,11 +285,6 @@ def rms_widths_hz(freqs_hz: np.ndarray, amplitude: np.ndarray, centres_hz: np.nd
     return widths
 
 
-def psd_band_edges_hz(settings: CompareSettings, fs: float) -> np.ndarray:
-    """The psd view's band edges (Hz): ``n_bands`` log-spaced from ``band_min_hz`` to the Nyquist frequency."""
-    return np.geomspace(settings.band_min_hz, fs / 2, settings.n_bands + 1)
-
-
 class Comparator:
     """A measurement prepared once, against which any number of twins are compared.
 
@@ -345,11 +333,7 @@ class Comparator:
         self.nperseg = int(round(s.welch_segment_s * self.fs))
         # Windows and transforms made once: hundreds of twins are profiled against one measurement.
         self.psd_welch = WelchPSD(self.fs, sps.get_window("hann", self.nperseg))
-        self.band_edges_hz = psd_band_edges_hz(s, self.fs)
-        # What the twin left unexplained in the psd view on a reference record of this rig, per band: the rig's own
-        # difference from the twin (its transfer path, its sensor's floor), which no effect missing from this record
-        # leaves; subtracted from every twin's residual (:meth:`compare_profiles`). Zero without a reference.
-        self.rig_residual_db = np.zeros(s.n_bands)
+        self.band_edges_hz = np.geomspace(s.band_min_hz, self.fs / 2, s.n_bands + 1)
         psd_freqs = self.psd_welch.freqs_hz
         self.band_of_bin = np.searchsorted(self.band_edges_hz, psd_freqs, side="right") - 1
         self.band_of_bin[psd_freqs >= self.fs / 2] = s.n_bands - 1
@@ -433,21 +417,19 @@ class Comparator:
         return Profile(psd_freqs, psd, band_db, lines_freqs[self.lines_bins], lines_psd[self.lines_bins],
                        lines_level[self.lines_bins], env_freqs, env_amp, env_db, line_db, widths, windows)
 
-    def __call__(self, twin: Recording | np.ndarray, other: str = "the twin", of_twin: bool = True) -> Comparison:
+    def __call__(self, twin: Recording | np.ndarray, other: str = "the twin") -> Comparison:
         """Compare a twin signal (same fs as the measurement) with the measurement; ``other`` names it in the
-        findings (another record of the rig compares the same way: "the reference record", ``of_twin=False``)."""
+        findings (another record of the rig compares the same way: "the reference record")."""
         if isinstance(twin, Recording):
             if not math.isclose(twin.fs, self.fs):
                 raise BearingTwinError(f"{twin.source}: twin fs={twin.fs} differs from the measurement's {self.fs}")
             twin = twin.signal
-        return self.compare_profiles(self.profile(twin), other, of_twin)
+        return self.compare_profiles(self.profile(twin), other)
 
-    def compare_profiles(self, twin: Profile, other: str = "the twin", of_twin: bool = True) -> Comparison:
-        """The views' errors between the measurement and an already profiled twin (``other`` in the findings);
-        ``of_twin=False``: another record of the rig (a part of this one, a reference record), from which the rig's
-        own residual (:attr:`rig_residual_db`) is not taken."""
+    def compare_profiles(self, twin: Profile, other: str = "the twin") -> Comparison:
+        """The views' errors between the measurement and an already profiled twin (``other`` in the findings)."""
         m, s = self.measured, self.settings
-        residual = m.band_db - twin.band_db - (self.rig_residual_db if of_twin else 0.0)
+        residual = m.band_db - twin.band_db
         gain_db = float(residual.mean())
         # The centred log frequencies make the fitted polynomial's mean the gain itself.
         centred = self.band_centres_log - self.band_centres_log.mean()
@@ -460,8 +442,6 @@ class Comparator:
         else:
             psd_finding = (f"energy between {_hz(lo)} and {_hz(hi)} is {abs(residual[worst]):.1f} dB "
                            f"{'above' if residual[worst] > 0 else 'below'} {other}'s")
-            if of_twin and self.rig_residual_db.any():
-                psd_finding += " beyond the reference record's own difference"
             if residual[worst] < 0:  # the measurement quieter: what takes energy away, not what adds it
                 psd_cause = "a quieter path in that band (more damping, or a mode the twin has and the structure lacks)"
                 if worst == residual.size - 1:  # the top band: what every acquisition chain does there
@@ -523,7 +503,7 @@ class Comparator:
                           n_points[v], {"psd": psd_cause, "lines": lines_cause}.get(v))
             for v in VIEWS
         }
-        return Comparison(float(discrepancy), gain, views, m, twin, self, residual)
+        return Comparison(float(discrepancy), gain, views, m, twin, self)
 
 
     def line_heights_db(self, m: Profile, twin: Profile, gain: float) -> tuple[np.ndarray, np.ndarray]:

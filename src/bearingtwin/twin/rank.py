@@ -146,11 +146,8 @@ class Judge:
 
     @classmethod
     def for_measurement(cls, measured: Recording, geometry: BearingGeometry, settings: CompareSettings,
-                        points_per_view: float = 1.0, view_floor_db: float = 0.5,
-                        rig_residual_db: np.ndarray | None = None) -> "Judge":
-        """Cut ``measured`` in two halves when each is long enough for every view, else use it whole for both;
-        ``rig_residual_db``: the rig's own psd residual per band (:attr:`Comparator.rig_residual_db`), from a
-        reference record."""
+                        points_per_view: float = 1.0, view_floor_db: float = 0.5) -> "Judge":
+        """Cut ``measured`` in two halves when each is long enough for every view, else use it whole for both."""
         half = measured.signal.size // 2
         try:
             first = Comparator(Recording(measured.signal[:half], measured.fs, measured.rpm, measured.fault,
@@ -159,13 +156,9 @@ class Judge:
                                           source=measured.source, unit=measured.unit), geometry, settings)
         except BearingTwinError:
             whole = Comparator(measured, geometry, settings)
-            if rig_residual_db is not None:
-                whole.rig_residual_db = np.asarray(rig_residual_db, dtype=float)
             return cls(whole, whole, {v: 0.0 for v in VIEWS}, dict(settings.weights), False, points_per_view,
                        view_floor_db)
-        if rig_residual_db is not None:
-            first.rig_residual_db = second.rig_residual_db = np.asarray(rig_residual_db, dtype=float)
-        repeat = _view_errors(first.compare_profiles(second.measured, of_twin=False))
+        repeat = _view_errors(first.compare_profiles(second.measured))
         return cls(first, second, repeat, dict(settings.weights), True, points_per_view, view_floor_db)
 
     @property
@@ -397,8 +390,6 @@ class TwinFit:
             "reference_note": self.reference_note,
             "final_error": self.final_error,
             "summary": self.summary,
-            # what a later record of the rig holds for the rig's own (reference=): the final twin's psd residual
-            "psd_residual": self.steps[-1].comparison.psd_residual,
         }
 
 
@@ -588,19 +579,17 @@ class EffectRanker:
         self.progress = progress
 
     def fit(self, twin: TwinModel, measured: Recording, geometry: BearingGeometry,
-            settings: CompareSettings | None = None, rig_residual_db: np.ndarray | None = None) -> "EffectRanker":
-        """Calibrate, rank and select; the outcome is in ``fit_`` (a :class:`TwinFit`). ``rig_residual_db``: what
-        the twin left in the psd view of a reference record of the rig, per band
-        (:func:`~bearingtwin.twin.reference.rig_residual`), taken for the rig's own."""
+            settings: CompareSettings | None = None) -> "EffectRanker":
+        """Calibrate, rank and select; the outcome is in ``fit_`` (a :class:`TwinFit`)."""
         with StageProgress(self.progress) as progress:
-            return self._fit(twin, measured, geometry, settings, rig_residual_db, progress)
+            return self._fit(twin, measured, geometry, settings, progress)
 
     def _fit(self, twin: TwinModel, measured: Recording, geometry: BearingGeometry, settings: CompareSettings | None,
-             rig_residual_db: np.ndarray | None, progress: StageProgress) -> "EffectRanker":
+             progress: StageProgress) -> "EffectRanker":
         spaces = {name: effect_search_space(name) for name in self.candidates}
         held = set(self.fixed_effects)  # at their given values; a fixed effect found changed is fitted from then on
         judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view,
-                                      self.view_floor_db, rig_residual_db)
+                                      self.view_floor_db)
         # Later rounds may weigh the views otherwise: they judge what is left once an effect is in.
         later = judge if self.later_points_per_view is None else replace(judge, points_per_view=self.later_points_per_view)
         op = self.operating_point
@@ -755,8 +744,7 @@ class EffectRanker:
                                                   op.space, base_values, best_deviance, name, CHI2_95_ONE_DOF),
                                    base_prefix + name) for name in op.space}
         operating = self._operating_point_report(base_values, sensor, scored, intervals)
-        floor = (judge.fit_part.compare_profiles(judge.check_part.measured, of_twin=False).discrepancy_db
-                 if judge.held_out else 0.0)
+        floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
                             unclaimed, self.min_signature_gain, self._not_tried(), pairs)

@@ -20,7 +20,6 @@ from dataclasses import fields
 from pathlib import Path
 from typing import Mapping
 
-import numpy as np
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number
@@ -82,31 +81,6 @@ def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str 
     elif measured.get("bearing") and bearing_cfg.get("name") and measured["bearing"] != bearing_cfg.name:
         raise BearingTwinError(f"{source}: its record is of bearing {measured['bearing']}, this one of "
                                f"{bearing_cfg.name}; {role} must come from the same rig")
-
-
-def rig_residual(report: Mapping, fault: str, band_edges_hz: np.ndarray) -> tuple[np.ndarray | None, str]:
-    """What the twin left in the psd view of the reference record, per band (``report["psd_residual"]``), for a
-    record of ``fault`` compared in bands ``band_edges_hz``; and a line saying what was taken, or why nothing was.
-
-    On a reference record the twin, its operating point and its effects fitted, still differs from the rig where
-    its form does (another transfer path, a sensor floor no effect pays for on its own record): that difference is
-    the rig's, and it stands in every record of the rig. Left in, it outweighs the marks of what a later record adds
-    (a low band 30 dB off drowns a mode's few dB elsewhere). It is taken only from a reference of the same bearing
-    state, compared in the same bands (the same sampling rate and ``compare.*`` bands): the impacts of another state
-    leave another residual."""
-    entry = report.get("psd_residual")
-    if not isinstance(entry, Mapping):
-        return None, "the reference's report holds no psd residual"
-    if (report.get("measured") or {}).get("fault") != fault:
-        return None, "the reference record is of another bearing state"
-    bands, residual = np.asarray(entry.get("bands_hz", []), float), np.asarray(entry.get("residual_db", []), float)
-    if bands.shape != np.shape(band_edges_hz) or not np.allclose(bands, band_edges_hz, rtol=1e-6):
-        return None, "the reference was compared in other psd bands (another sampling rate or compare.band_min_hz)"
-    if residual.size != bands.size - 1 or not np.all(np.isfinite(residual)):
-        return None, "the reference's psd residual is not one finite value per band"
-    worst = int(np.argmax(np.abs(residual)))
-    return residual, (f"the reference record's psd residual taken for the rig's own (up to {residual[worst]:+.1f} dB, "
-                      f"{band_edges_hz[worst]:.0f}-{band_edges_hz[worst + 1]:.0f} Hz)")
 
 
 def refuse_reference_folder(reference, out: Path) -> None:

@@ -34,8 +34,7 @@ from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_co
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit, not_identified, view_floors, views_beyond_floor
-from bearingtwin.twin.reference import (hold_reference, read_reference, refuse_reference_folder, rig_geometry,
-                                        rig_residual)
+from bearingtwin.twin.reference import hold_reference, read_reference, refuse_reference_folder, rig_geometry
 
 if TYPE_CHECKING:
     from mlflow import MlflowClient
@@ -465,7 +464,7 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
         if str(earlier.channel) != str(measured.channel) and str(measured.channel) in map(str, raw.channels):
             raise BearingTwinError(f"its record was read on channel {earlier.channel}, this one on {measured.channel}, "
                                    "which its file holds too: another sensor")
-        comparison = comparator(earlier.signal, other="the reference record", of_twin=False)
+        comparison = comparator(earlier.signal, other="the reference record")
     except BearingTwinError as error:
         fit.reference_note = str(error)
         return
@@ -512,12 +511,8 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault, progress)
     comparator = Comparator(measured, geometry, settings)  # a record too short for one comparison segment, before a run opens
-    residual = None
-    if reference is not None and true_or_false(cfg.reference_residual, "reference_residual"):
-        residual, notes["psd residual"] = rig_residual(reference, measured.fault, comparator.band_edges_hz)
-        log.info("%s: %s", cfg.reference, notes["psd residual"])
     tracked = open_twin_run(cfg, measured) if tracking else None
-    ranker.fit(twin, measured, geometry, settings, residual)
+    ranker.fit(twin, measured, geometry, settings)
     if reference is not None:
         compare_with_reference(ranker.fit_, comparator, measured, reference, ranker.view_floor_db)
         mark_unidentified_by_reference(ranker.fit_.operating_point, reference["operating_point"], to_fit)
