@@ -260,7 +260,7 @@ def test_what_a_measurement_leaves_unsaid_is_asked_for_at_once_or_read_from_a_la
     # A rate the shaft series contradicts is refused naming the ways out (the speed the row gave may be the wrong one).
     with pytest.raises(BearingTwinError, match=r"give the true rate with measured.fs=<Hz> \(or the true speed with "
                                                r"measured.rpm=<rev/min>\), or measured.check_fs=false "
-                                               r"if 24000 Hz is the true one$"):
+                                               r"if both 24000 Hz and 1797 rpm are true$"):
         load_measurement(twin_config(f"measured.path={path}", "measured.fs=24000").measured)
 
 

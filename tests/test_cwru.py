@@ -171,15 +171,16 @@ def test_every_record_matches_its_declared_12_khz(path):
 def test_a_speed_a_whole_factor_too_high_is_not_confirmed_by_a_harmonic_of_its_defect_line(path, factor):
     """A speed typed a whole factor too high (ten times: a digit too many) puts every defect frequency on a
     harmonic of its true one, and the true shaft series' lines between those of the series expected: a fault
-    record's defect line at the wrong frequency is then no witness for the rate, and the outer race's comb, which
-    stands at 1 / factor of it, contradicts it."""
+    record's defect line at the wrong frequency is then no witness for the rate, and a race's comb, which stands
+    at 1 / factor of it, contradicts it; a speed the refusal names is the true one."""
     recording = load_cwru(path)
     rpm = recording.rpm * factor
     check = check_sampling_rate(recording.signal, recording.fs, rpm,
                                 defect_hz=load_bearing("cwru_6205").defect_frequencies(rpm))
-    assert check.verdict != "consistent", check.reason
-    if recording.fault == "outer" and factor == 10:
-        assert check.verdict == "contradicted", check.reason
+    # A race's comb stands out in the envelope; a ball's (records 118-121) often does not, and may leave it in doubt.
+    assert check.verdict == "contradicted" if recording.fault in ("inner", "outer") else check.verdict != "consistent"
+    speed = re.search(r"a speed of (\d+) rpm", check.reason)
+    assert speed is None or float(speed.group(1)) == pytest.approx(recording.rpm, rel=0.01), check.reason
 
 
 @needs_data

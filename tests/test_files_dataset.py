@@ -360,8 +360,9 @@ def test_a_rate_a_labels_row_or_data_fs_gives_is_checked_against_the_shaft_line(
         np.save(root / f"{state}.npy", series + 0.05 * rng.standard_normal(t.size))
     (root / "labels.csv").write_text("record,state,rpm,fs\nnormal.npy,normal,1797,8000\nouter.npy,outer,1797,8000\n")
     with pytest.raises(BearingTwinError, match=r"normal.npy: fs = 8000 Hz contradicts the shaft speed.*fs may be "
-                                               r"120\d\d Hz .*; give the true rate with the labels row's fs=<Hz>, or "
-                                               r"data.check_fs=false"):
+                                               r"120\d\d Hz .*; give the true rate with the labels row's fs=<Hz> \(or the true "
+                                               r"speed with the labels row's rpm=<rev/min>\), or data.check_fs=false "
+                                               r"if both 8000 Hz and 1797 rpm are true"):
         build_dataset(files_cfg(root, "data.fs=null"))
     assert build_dataset(files_cfg(root, "data.fs=null", "data.check_fs=false")).fs == 8000.0
     (root / "labels.csv").write_text("record,state,rpm\nnormal.npy,normal,1797\nouter.npy,outer,1797\n")

@@ -202,6 +202,21 @@ def test_an_svm_fit_that_stalls_with_shrinking_is_fitted_again_without_it(caplog
     assert svc.shrinking and svc.max_iter == MAX_ITER and svc.fit_status_ == 0
 
 
+def test_an_svm_stopped_at_its_iteration_cap_is_fitted_to_convergence_without_shrinking(monkeypatch):
+    """Every fit of the classifier (the one that predicts, and the calibration's folds) stopped at the cap is done
+    again without shrinking and without a cap, and converges to the same decisions."""
+    import bearingtwin.models.svm as svm
+
+    X, y = four_blobs(40)
+    converged_first = SvmClassifier(kernel="linear").fit(X, y)
+    monkeypatch.setattr(svm, "MAX_ITER", 3)
+    refitted = SvmClassifier(kernel="linear").fit(X, y)
+    for pipeline in (refitted.svm_, refitted.calibration_.calibrated_classifiers_[0].estimator):
+        svc = pipeline.named_steps["svc"]
+        assert not svc.shrinking and svc.max_iter == -1 and svc.fit_status_ == 0
+    assert np.array_equal(refitted.predict(X), converged_first.predict(X))
+
+
 @pytest.mark.parametrize("classifier", [SvmClassifier(), CnnBiLstmClassifier(max_epochs=1)], ids=["svm", "cnn_bilstm"])
 def test_training_labels_of_one_state_are_refused_alike_by_both_classifiers(classifier):
     X, y = four_blobs(4)

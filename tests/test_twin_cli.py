@@ -189,6 +189,19 @@ def test_which_bearing_counts_as_given_and_which_the_record_replaces(measurement
     assert record_bearing(own, measured) == (own, None)
     with pytest.raises(BearingTwinError, match=r"the one given is cwru_6203 \(BPFO 3\.053.*give bearing=cwru_6205"):
         record_bearing(twin_config(f"measured.path={record}", "bearing=cwru_6203"), measured)
+    # A fault record named by the Data Center's label names no end: which bearing is faulty is the user's to say,
+    # on either channel; a healthy one's bearing is the one under the accelerometer read.
+    import scipy.io
+
+    samples = np.load(measurement)[:, None]
+    label = tmp_path / "IR007_0.mat"
+    scipy.io.savemat(label, {"X105_DE_time": samples, "X105_FE_time": samples, "X105RPM": np.array([[1797.0]])})
+    for channel in ("DE", "FE"):
+        for given in ("cwru_6205", "cwru_6203"):
+            cfg = twin_config(f"measured.path={label}", f"bearing={given}")
+            assert record_bearing(cfg, recording_from_raw(read_raw(label), channel=channel)) == (cfg, None)
+    healthy = recording_from_raw(read_raw(cwru_record(tmp_path, "normal_0_97.mat", np.load(measurement))), channel="DE")
+    assert record_bearing(twin_config(f"measured.path={tmp_path / 'normal_0_97.mat'}"), healthy)[0].bearing.name == "cwru_6205"
 
 
 @pytest.mark.parametrize("overrides, message", [

@@ -171,7 +171,7 @@ def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing
     require_plausible_rate(recording.signal, recording.fs, recording.rpm, recording.source, fs_key,
                            defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
                            refuse=given and (bearing is not None or recording.fault == "normal"), check_key=check_key,
-                           rpm_key=rpm_key if recording.meta.get("rpm_origin") == "config" else None)
+                           rpm_key=rpm_key if recording.meta.get("rpm_origin") in ("config", "nominal") else None)
 
 
 def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>",

@@ -44,7 +44,8 @@ def make_svm(C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", 
              shrinking: bool = True) -> Pipeline:
     """A StandardScaler + SVC pipeline. ``random_state`` is handed to SVC, which draws from it only for
     ``probability=True`` (never set here: probabilities come from a calibration of its own), so the fit is
-    deterministic whatever the seed. ``shrinking``: libsvm's shrinking heuristic (see :func:`converged`)."""
+    deterministic whatever the seed. ``shrinking``: libsvm's shrinking heuristic, stopped at :data:`MAX_ITER`
+    (:func:`converged`); without it libsvm runs to convergence."""
     if not (is_finite_number(C) and C > 0):
         raise BearingTwinError(f"classifier.C must be a positive number, got {C!r}")
     if kernel not in KERNELS:
@@ -52,7 +53,8 @@ def make_svm(C: float = 1.0, kernel: str = "rbf", gamma: str | float = "scale", 
     if not (gamma in ("scale", "auto") or (is_finite_number(gamma) and gamma > 0)):
         raise BearingTwinError(f"classifier.gamma must be 'scale', 'auto' or a positive number, got {gamma!r}")
     return Pipeline([("scale", StandardScaler()), ("svc", SVC(C=C, kernel=kernel, gamma=gamma, random_state=random_state,
-                                                             shrinking=shrinking, max_iter=MAX_ITER))])
+                                                             shrinking=shrinking,
+                                                             max_iter=MAX_ITER if shrinking else -1))])
 
 
 def converged(fit: Callable[[bool], Fitted]) -> Fitted:
@@ -61,9 +63,10 @@ def converged(fit: Callable[[bool], Fitted]) -> Fitted:
     Shrinking can cycle without end on some problems and row orders (scikit-learn issue #30353): one fold of a
     calibration's cross-validation, a linear SVM of 11520 twin windows, ran for over 24 minutes with its objective
     frozen, where the same problem converges in a second without shrinking. A fit that converges is the same as
-    before; one that stalled is fitted again without the heuristic, which solves the same problem."""
+    before; one that stalled is fitted again without the heuristic, which solves the same problem. (The warning
+    filter is process-wide: no SVM is fitted in a thread of this process.)"""
     with warnings.catch_warnings():
-        warnings.simplefilter("error", ConvergenceWarning)
+        warnings.filterwarnings("error", message="Solver terminated early", category=ConvergenceWarning)
         try:
             return fit(True)
         except ConvergenceWarning:

@@ -323,19 +323,19 @@ def check_sampling_rate(
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}) nor anywhere from {expected / wide:.2f} to {expected * wide:.0f} "
                                    f"Hz: {seen}")
-            return concluded(_second_look(check, signal, defect_hz, prominence))
+            return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction))
         if strong.size == 0:  # the declared rate cannot even hold the search (Nyquist below it): far too low
             check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}), and at fs = {fs:g} Hz the spectrum ends at {fs / 2:g} Hz")
-            return concluded(_second_look(check, signal, defect_hz, prominence))
+            return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction))
         farther = strong[np.argmin(np.abs(np.log(beyond[strong] / expected)))]
         observed = float(beyond[farther])
         check = ShaftLineCheck(fs, rpm, expected, observed, fs * expected / observed, float(beyond_score[farther]),
                                False, "contradicted", None,
                                f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f}); "
                                f"the nearest strong one is at {observed:.2f} Hz, implying fs = {fs * expected / observed:.0f} Hz")
-        return concluded(_second_look(check, signal, defect_hz, prominence))
+        return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction))
     nearest = near[np.argmin(np.abs(np.log(grid[near] / expected)))]
     observed = float(grid[nearest])
     common = dict(fs_hz=fs, rpm=rpm, expected_hz=expected, observed_hz=observed, score=float(score[nearest]))
@@ -343,7 +343,7 @@ def check_sampling_rate(
         check = ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False, verdict="contradicted",
                                reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
                                       f"implying fs = {fs * expected / observed:.0f} Hz")
-        return concluded(_second_look(check, signal, defect_hz, prominence))
+        return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction))
 
     # The same series' in-between lines: n x g for n not a multiple of k, g within ``slip`` of observed / k. The
     # series taken for the shaft's may be another one that a rate near true / k puts near the shaft's place (a
@@ -462,7 +462,7 @@ def _off_by_a_whole_factor(check: ShaftLineCheck, max_factor: int = 8) -> bool:
 
 
 def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
-                 prominence: float) -> ShaftLineCheck:
+                 prominence: float, max_fraction: int) -> ShaftLineCheck:
     """A contradiction stands unless the bearing's own lines explain it at the declared rate, or the
     supply's leave it undecided.
 
@@ -495,7 +495,8 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
             return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="series",
                                        reason=f"{check.reason}; but that series is the bearing's {name} ({hz:.2f} Hz "
                                               f"at {check.rpm:g} rpm), where a rate off by a whole factor puts no shaft line")
-        witness = _defect_series_at_its_frequency(signal, check.fs_hz, check.expected_hz, defect_hz, prominence)
+        witness = _defect_series_at_its_frequency(signal, check.fs_hz, check.expected_hz, defect_hz, prominence,
+                                                  max_speed_factor=max_fraction)
         if witness is not None:
             return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="envelope",
                                        reason=f"{check.reason}; but the envelope lines of {witness} and its second "
@@ -566,12 +567,14 @@ def _a_whole_factor_from(hz: float, lines_hz, max_factor: int, tolerance: float)
 
 
 def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float], prominence: float,
-                                    max_fraction: int = _MAX_FRACTION, window: float = _WINDOW) -> str | None:
-    """The first defect frequency f whose envelope lines stand at f and 2 f (``prominence``) and at none of
-    f / k, k = 2 .. ``max_fraction``; frequencies within two search windows of a shaft harmonic's fraction
-    m / k (k up to ``max_fraction``) are not witnesses, since under a wrong rate the shaft's lines land
-    there (the SKF 6203's ball spin frequency is 1.994 x shaft), nor those on the supply or twice it, where the
-    supply's lines beat. None if no frequency qualifies."""
+                                    max_fraction: int = _MAX_FRACTION, window: float = _WINDOW,
+                                    max_speed_factor: int = _MAX_FRACTION) -> str | None:
+    """The first defect frequency f whose envelope lines stand at f and 2 f (``prominence``), at none of
+    f / k, k = 2 .. ``max_fraction``, and with no comb below them (:func:`_comb_below`, m up to
+    ``max_speed_factor``: lines of a speed that many times lower than declared); frequencies within two search
+    windows of a shaft harmonic's fraction m / k (k up to ``max_fraction``) are not witnesses, since under a wrong
+    rate the shaft's lines land there (the SKF 6203's ball spin frequency is 1.994 x shaft), nor those on the
+    supply or twice it, where the supply's lines beat. None if no frequency qualifies."""
     lines = {name: float(hz) for name, hz in defect_hz.items()
              if name != "shaft" and hz and 2.2 * hz < fs / 2 and _apart_from_shaft(float(hz), shaft_hz, max_fraction, window)
              and _supply_multiple(float(hz)) is None}  # the supply's lines beat at their spacing in the envelope
@@ -581,7 +584,8 @@ def _defect_series_at_its_frequency(signal, fs, shaft_hz: float, defect_hz: Mapp
     ratio, resolution = _envelope_prominence(signal, fs, 2.2 * frequencies.max())
     at_f = _comb_prominence(ratio, resolution, frequencies, window)
     at_fractions = np.max([_peak(ratio, resolution, frequencies / k, window) for k in range(2, max_fraction + 1)], axis=0)
-    standing = [name for name, a, b in zip(lines, at_f, at_fractions) if a >= prominence and b < prominence]
+    standing = [name for name, a, b in zip(lines, at_f, at_fractions) if a >= prominence and b < prominence
+                and _comb_below(ratio, resolution, lines[name], shaft_hz, defect_hz, max_speed_factor, prominence) is None]
     return standing[0] if standing else None
 
 
@@ -698,53 +702,65 @@ def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float],
 
     A line at f also stands where a speed m times lower than the declared one (a rate m times too low, m = 2 ..
     ``max_fraction``) puts the defect's m-th harmonic: a speed typed with a digit too many puts every defect
-    frequency on a harmonic of its true one. Such a line witnesses nothing, and the comb below it (its first lines
-    j x f / m, none on a shaft harmonic or another defect frequency) standing higher than f contradicts the rate,
-    whatever the in-between shaft lines suggested for k."""
+    frequency on a harmonic of its true one. Such a line witnesses nothing where the comb below it stands
+    (:func:`_comb_below`), and that comb standing higher than f contradicts the rate, whatever the in-between shaft
+    lines suggested for k."""
     lines = {name: float(hz) for name, hz in defect_hz.items() if name != "shaft" and hz and hz * 1.1 < fs / 2
              and _apart_from_shaft(float(hz), shaft_hz, 1, _WINDOW) and _apart_from_shaft(float(hz) * scale, shaft_hz, 1, _WINDOW)}
     if not lines:
         return "ambiguous", None, "no defect frequency away from the shaft's lines below the Nyquist frequency to decide"
-    ratio, resolution = _envelope_prominence(signal, fs, max(lines.values()) * 1.1)
-    at_f = _peak(ratio, resolution, np.array(list(lines.values())), _WINDOW)
-    at_fraction = _peak(ratio, resolution, np.array(list(lines.values())) * scale, _WINDOW)
-    below = {name: _comb_below(ratio, resolution, hz, shaft_hz, defect_hz, max_fraction) for name, hz in lines.items()}
+    frequencies = np.array(list(lines.values()))
+    ratio, resolution = _envelope_prominence(signal, fs, min(2.2 * frequencies.max(), fs / 2))
+    at_f = _peak(ratio, resolution, frequencies, _WINDOW)
+    at_fraction = _peak(ratio, resolution, frequencies * scale, _WINDOW)
+    # A witness for the rate stands with its second harmonic where that is below the Nyquist frequency: a lone line
+    # at f may be any of a fault's many envelope lines (an outer race's BPFO harmonics and their sidebands).
+    at_f_and_2f = np.where(2.2 * frequencies < fs / 2, _comb_prominence(ratio, resolution, frequencies, _WINDOW), at_f)
+    below = {name: _comb_below(ratio, resolution, hz, shaft_hz, defect_hz, max_fraction, prominence)
+             for name, hz in lines.items()}
     wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
-    right = [name for name, a, b in zip(lines, at_f, at_fraction)
-             if a >= prominence and b < prominence and below[name][1] < prominence]
+    right = [name for name, a, b in zip(lines, at_f_and_2f, at_fraction) if a >= prominence and b < prominence
+             and not below[name]]
     if wrong and not right:
         fraction = f"1/{k}" if math.isclose(scale * k, 1.0, rel_tol=_WINDOW) else f"{scale:.3g} times"
         return "contradicted", rate_if_shaft, (f", and the envelope line of {wrong[0]} stands at {fraction} its "
                                                f"frequency: it falls where it belongs at a rate of {rate_if_shaft:.0f} Hz")
-    harmonic = [(name, m, a) for (name, (m, a)), at in zip(below.items(), at_f) if a >= prominence and a > at]
+    harmonic = [(name, *below[name]) for name in lines if below[name]]
     if harmonic and not right:
         name, m, _ = max(harmonic, key=lambda item: item[2])
-        return "contradicted", fs * m, (f", and the envelope lines of {name} stand at multiples of 1/{m} its frequency: "
-                                        f"they fall where they belong at a rate of {fs * m:.0f} Hz, or a speed of "
-                                        f"{60 * shaft_hz / m:.0f} rpm")
+        if m == k and math.isclose(scale * k, 1.0, rel_tol=_WINDOW):  # the shaft's in-between lines say the same
+            return "contradicted", fs * m, (f", and the envelope lines of {name} stand at multiples of 1/{m} its "
+                                            f"frequency: they fall where they belong at a rate of {fs * m:.0f} Hz, or a "
+                                            f"speed of {60 * shaft_hz / m:.0f} rpm")
+        # Under a speed M times too high the combs at M's divisors stand too, and a dense envelope may lend a comb
+        # more: without the shaft's agreement the factor is not named.
+        return "contradicted", None, (f", and the envelope lines of {name} stand at a whole fraction of its frequency, "
+                                      "as the harmonics of a line a speed a whole factor lower puts there")
     if right and not wrong:
         return "consistent", fs, f", but the envelope line of {right[0]} stands at its frequency: real subharmonics"
     return "ambiguous", None, "the defect lines do not decide"
 
 
 def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float, defect_hz: Mapping[str, float],
-                max_fraction: int) -> tuple[int, float]:
-    """``(m, prominence)`` of the strongest comb j x ``hz`` / m (m = 2 .. ``max_fraction``, j = 1 .. min(m - 1, 3),
-    its median prominence) that would make a line at ``hz`` its m-th harmonic; a comb whose fundamental lies on a
-    shaft harmonic or within two windows of another defect frequency is passed over (the outer race's BPFO is Z x
-    FTF: a cage line is no speed m times lower). ``(0, 0.0)`` when none is left."""
+                max_fraction: int, prominence: float) -> tuple[int, float] | None:
+    """``(m, prominence)`` of the comb below a line at ``hz`` that makes it the m-th harmonic of a line at ``hz`` / m
+    (a speed m times lower than the one ``hz`` was computed at), for the largest m (2 .. ``max_fraction``) whose
+    comb stands (its median ``prominence``; under a speed M times too high the combs at M's divisors stand too);
+    None where none does. A comb is its first three lines j x ``hz`` / m with j no multiple of m (a multiple
+    would be ``hz``'s own harmonics); one whose fundamental lies on a shaft harmonic, within two windows of
+    another defect frequency (the outer race's BPFO is Z x FTF: a cage line is no speed m times lower) or below
+    three bins of the spectrum (the envelope's slope towards 0 Hz) is passed over."""
     others = [float(value) for value in defect_hz.values() if value and not math.isclose(float(value), hz)]
-    best = (0, 0.0)
-    for m in range(2, max_fraction + 1):
+    for m in range(max_fraction, 1, -1):
         fundamental = hz / m
-        if not _apart_from_shaft(fundamental, shaft_hz, 1, _WINDOW) or any(
+        if fundamental < 3 * resolution or not _apart_from_shaft(fundamental, shaft_hz, 1, _WINDOW) or any(
                 abs(fundamental / other - 1.0) <= 2 * _WINDOW for other in others):
             continue
-        comb = fundamental * np.arange(1, min(m - 1, 3) + 1)
-        score = float(np.median(_peak(ratio, resolution, comb, _WINDOW)))
-        if score > best[1]:
-            best = (m, score)
-    return best
+        multiples = [j for j in range(1, 2 * m) if j % m][:3]
+        score = float(np.median(_peak(ratio, resolution, fundamental * np.array(multiples), _WINDOW)))
+        if score >= prominence:
+            return m, score
+    return None
 
 
 def describe_mismatch(check: ShaftLineCheck) -> str:
@@ -775,7 +791,8 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
     if check.verdict == "contradicted" and refuse:
-        off = f", or {check_key}=false if {fs:g} Hz is the true one" if check_key else ""
+        truth = f"both {fs:g} Hz and {rpm:g} rpm are true" if rpm_key else f"{fs:g} Hz is the true one"
+        off = f", or {check_key}=false if {truth}" if check_key else ""
         speed = f" (or the true speed with {rpm_key}=<rev/min>)" if rpm_key else ""
         raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{speed}{off}")
     if check.verdict == "contradicted":

@@ -100,7 +100,7 @@ def check_measurement(measured_cfg, recording: Recording, channels: dict,
         # it; one the file records itself is kept, the doubt logged.
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
                                check_key="measured.check_fs",
-                               rpm_key="measured.rpm" if recording.meta.get("rpm_origin") == "config" else None,
+                               rpm_key="measured.rpm" if recording.meta.get("rpm_origin") in ("config", "nominal") else None,
                                defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
                                refuse=recording.meta.get("fs_origin") in ("config", "declared"), channels=channels)
     with np.errstate(over="ignore"):
@@ -121,14 +121,17 @@ DEFAULT_BEARING = "paper"
 def named_bearing(measured: Recording, path) -> str | None:
     """The bearing config a record names: its file's (a CWRU fan-end record's SKF 6203, a HUST file's ER-16K,
     ``bearingtwin-simulate``'s), else a CWRU drive-end fault record's SKF 6205 by its name (long, or a catalogued
-    number), else, for a CWRU record whose name gives no faulty end (a healthy one), the bearing under the
-    accelerometer read (DE: the SKF 6205, FE: the SKF 6203); None for a record that names none."""
+    number), else, for a healthy CWRU record (no faulty bearing), the bearing under the accelerometer read (DE: the
+    SKF 6205, FE: the SKF 6203); None for a record that names none (a fault record whose name gives no end, as the
+    Data Center's labels do: the faulty bearing is the user's to say)."""
     named = measured.meta.get("bearing")
     if named is None and measured.meta.get("format") == "cwru-mat":
         cwru_name = parse_cwru_name(str(path))
-        end = cwru_name.end if cwru_name is not None and cwru_name.end is not None else next(
-            (end for end, channel in CHANNEL_BY_END.items() if channel == measured.channel), None)
-        named = BEARING_BY_END.get(end)
+        if cwru_name is not None and cwru_name.end is not None:
+            named = cwru_name.bearing
+        elif measured.fault == "normal":
+            named = BEARING_BY_END.get(next((end for end, channel in CHANNEL_BY_END.items()
+                                             if channel == measured.channel), None))
     return None if named is None else str(named)
 
 
