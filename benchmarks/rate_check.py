@@ -11,6 +11,9 @@ common case: the independent test rig (``bearingtwin.testrig``: impulse trains t
 unbalance its only shaft line), the CWRU bearing at 12 kHz, each state at three speeds (4 s records), declared at
 its true rate and at 1.25, 0.8, 0.5 and 2 times it (a rate typed for another rig's, or a whole factor off).
 
+A speed given wrong is the same question from the other side: each CWRU record at its true 12 kHz with its
+speed given 2, 3, 5 and 10 times too high (a digit too many), the defect frequencies at that speed.
+
     python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about 25 s)
 """
 
@@ -34,6 +37,8 @@ near the shaft's place) and near a third."""
 RIG_FACTORS = (1.25, 0.8, 0.5, 2.0)
 """Declared / true rate of the wrong rates tried on the test rig's records."""
 RIG_SPEEDS_RPM = (1797.0, 1750.0, 1730.0)
+SPEED_FACTORS = (2, 3, 5, 10)
+"""Given / true speed of the wrong speeds tried on the CWRU records."""
 
 
 def tally(checks, true_fs: float, right_rate: Counter, wrong: Counter) -> None:
@@ -85,6 +90,22 @@ def main() -> None:
     print_table(f"{len(FAULTS) * len(RIG_SPEEDS_RPM)} records of the independent test rig (one 1x line), 12 kHz:",
                 rig_right, rig_wrong)
     print("wrong rates by state: " + ", ".join(f"{key} {count}" for key, count in sorted(states.items())))
+    speeds = Counter()
+    for path in records:
+        recording = load_cwru(path, check_fs=False)
+        for factor in SPEED_FACTORS:
+            rpm = recording.rpm * factor
+            check = check_sampling_rate(recording.signal, 12000.0, rpm, defect_hz=bearing.defect_frequencies(rpm))
+            # A rate m times too high at the given speed is that speed m times too high at the true rate.
+            named = check.implied_fs_hz is not None and abs(rpm * 12000.0 / check.implied_fs_hz / recording.rpm - 1) <= 0.01
+            state = "healthy" if recording.fault == "normal" else recording.fault
+            speeds[f"{state}: {check.verdict}" + (" naming the true speed" if check.verdict == "contradicted" and named
+                                                  else "")] += 1
+    print(f"\n{len(records)} CWRU records at 12 kHz, the speed given {', '.join(map(str, SPEED_FACTORS))} times too high:"
+          "\n\n| state | verdict | cases |\n|---|---|---|")
+    for key, count in sorted(speeds.items()):
+        state, verdict = key.split(": ")
+        print(f"| {state} | {verdict} | {count} |")
 
 if __name__ == "__main__":
     main()
