@@ -83,8 +83,9 @@ def refuse(message: str) -> NoReturn:
 def rig_records(folder: Path, seed: int) -> list[Path]:
     """Write the rig's records in CWRU format: healthy and every fault, size and position at 0-3 hp."""
     folder.mkdir(parents=True, exist_ok=True)
-    # Records already in the folder are reused, so they must come from the same --seed.
-    stamp = folder / "seed.txt"
+    # Records already in the folder are reused, so they must come from the same --seed. The stamp is hidden: the
+    # folder is diagnosed whole, and a file of one number beside the records is no recording.
+    stamp = folder / ".seed"
     written = stamp.read_text().strip() if stamp.is_file() else ("unknown" if any(folder.glob("*.mat")) else None)
     if written is not None and written != str(seed):
         refuse(f"--out: {folder} holds rig records of --seed {written}, not {seed}; give another --out for another seed")
