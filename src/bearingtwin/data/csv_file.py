@@ -120,6 +120,17 @@ def is_a_note(path: Path) -> bool:
     return not any(_numbers_row(line) for line in head if _holds_data(line))
 
 
+def holds_one_value(path: Path) -> bool:
+    """Whether the text file holds a single number and nothing else (``seed.txt``, ``rate.txt``: a setting or a
+    stamp beside the recordings, never samples). A file that is no text holds none."""
+    try:
+        head, _ = _head(path)
+    except BearingTwinError:
+        return False
+    lines = [line for line in head if _holds_data(line)]
+    return len(lines) == 1 and _numbers_row(lines[0]) and len(_row_cells(lines[0], _delimiter(lines[0]))) == 1
+
+
 def _head_and_layout(path: Path) -> tuple[list[str], _Layout, list[str] | None, list[str]]:
     """The file's first lines, the layout they show, the names its header gives and notes (:func:`_layout`);
     a file that is no text is refused."""

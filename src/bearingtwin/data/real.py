@@ -26,7 +26,7 @@ from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.csv_file import is_a_note, text_column
+from bearingtwin.data.csv_file import holds_one_value, is_a_note, text_column
 from bearingtwin.data.files import FORMATS, TEXT_TABLES, load_recording, time_column_seconds
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
@@ -372,6 +372,8 @@ def recordings_and_others(folder: Path) -> tuple[list[Path], dict[str, str]]:
 
 
 NOTE = "no row of numbers (notes, or a table of text), not samples"
+ONE_VALUE = "one number (a setting or a stamp), not samples"
+"""Why a text file beside the recordings that holds a single number is none (``seed.txt``, ``rate.txt``)."""
 """Why a .txt or .tsv beside the recordings that holds no row of numbers is none: passed over even where a pattern
 names it (``inner_notes.txt``)."""
 
@@ -382,10 +384,13 @@ def why_not_a_recording(path: Path) -> str | None:
     may be one (any other format, a table of numbers, one the reader will refuse naming why). A table with a
     time column is a recording whatever else it holds: its text column is then an error the reader names. A
     ``.txt`` or ``.tsv`` with no row of numbers (notes in words, a table of text, an empty file) is :data:`NOTE`;
+    any text table holding a single number is :data:`ONE_VALUE`;
     a ``.csv`` is meant as a table, so one without numbers is left to its reader to say why."""
     suffix = path.suffix.lower()
     if suffix not in TEXT_TABLES:
         return None
+    if holds_one_value(path):
+        return ONE_VALUE
     note = suffix != ".csv" and is_a_note(path)
     text = text_column(path)
     if text is None:
