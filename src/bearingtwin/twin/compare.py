@@ -353,17 +353,19 @@ class Comparator:
         lines_freqs = self.lines_welch.freqs_hz
         self.lines_bins = (lines_freqs >= 0.25 * self.rpm / 60.0) & (lines_freqs <= min(s.lines_max_hz, self.fs / 2))
         self.lines_first_bin = int(np.argmax(lines_freqs >= 0.25 * self.rpm / 60.0))
-        # The bearing's own lines are the envelope and harmonics views' business: a defect's (its rate's
+        # A faulty bearing's own lines are the envelope and harmonics views' business: its defect's (its rate's
         # harmonics and their sidebands), and the balls' passing through the load zone (varying compliance:
-        # BPFO's harmonics, whatever the bearing's state). In the raw spectrum their sharpness and height
-        # hang on slip the bare twin lacks and on its contact model, and counting them here too would let
-        # the bearing's own model form outvote the lines other machine elements leave.
-        ball_pass = rates["bpfo"] * np.arange(1, int(s.lines_max_hz // rates["bpfo"]) + 2)
-        own = [ball_pass]
+        # BPFO's harmonics). In the raw spectrum their sharpness and height hang on slip the bare twin lacks and
+        # on its contact model, and counting them here too would let the bearing's own model form outvote the
+        # lines other machine elements leave. A healthy bearing's ball-pass lines stay: they are the bare twin's
+        # largest lines, which a real bearing's roughness and noise bury, and a twin that keeps them is no
+        # healthy bearing of the rig (a classifier trained on it calls faults healthy).
+        own = []
         if self.fault != "normal":
+            ball_pass = rates["bpfo"] * np.arange(1, int(s.lines_max_hz // rates["bpfo"]) + 2)
             orders = self.reference_hz * np.arange(1, int(s.lines_max_hz // self.reference_hz) + 2)
-            own += [orders, orders - sideband_hz, orders + sideband_hz] if sideband_hz else [orders]
-        own = np.concatenate(own)
+            own = [ball_pass, *([orders, orders - sideband_hz, orders + sideband_hz] if sideband_hz else [orders])]
+        own = np.concatenate(own) if own else np.empty(0)
         reach = 4 * lines_freqs[1] + 0.01 * own  # the window's main lobe, and 1 % for slip and speed
         self.lines_bins &= ~np.any(np.abs(lines_freqs[:, None] - own) <= reach, axis=1)
         self.band_centres_log = np.log10(np.sqrt(self.band_edges_hz[:-1] * self.band_edges_hz[1:]))
