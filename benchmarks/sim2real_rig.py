@@ -85,7 +85,9 @@ def rig_records(folder: Path, seed: int) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     # Records already in the folder are reused, so they must come from the same --seed. The stamp is hidden: the
     # folder is diagnosed whole, and a file of one number beside the records is no recording.
-    stamp = folder / ".seed"
+    stamp, earlier = folder / ".seed", folder / "seed.txt"  # (seed.txt: the stamp's earlier name)
+    if earlier.is_file() and not stamp.is_file():
+        earlier.rename(stamp)
     written = stamp.read_text().strip() if stamp.is_file() else ("unknown" if any(folder.glob("*.mat")) else None)
     if written is not None and written != str(seed):
         refuse(f"--out: {folder} holds rig records of --seed {written}, not {seed}; give another --out for another seed")

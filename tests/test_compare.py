@@ -147,7 +147,8 @@ def test_lines_view_leaves_the_defects_own_lines_to_the_envelope_views():
     assert "shaft order 1.00" in with_unbalance.views["lines"].finding
 
 
-def test_lines_view_leaves_a_faulty_bearings_ball_passing_to_the_envelope_views_and_sees_a_healthy_ones():
+@pytest.mark.parametrize("fault", ["inner", "normal"])
+def test_lines_view_leaves_a_faulty_bearings_ball_passing_to_the_envelope_views_and_sees_a_healthy_ones(fault):
     """The balls passing through the load zone (varying compliance) leave lines at BPFO's harmonics in any
     bearing. Beside an inner-race defect how high they stand hangs on the contact model, so a twin that rings
     there and a measurement that does not differ in no machine element's line, and a line off those harmonics
@@ -155,22 +156,20 @@ def test_lines_view_leaves_a_faulty_bearings_ball_passing_to_the_envelope_views_
     and noise bury: a twin keeping them over a measurement without them differs in the lines view, by them."""
     t = np.arange(int(2 * FS)) / FS
     rng = np.random.default_rng(4)
-    for fault in ("inner", "normal"):
-        measurement = (impacts(fault, 2.0, seed=5, noise=0.05) if fault != "normal"
-                       else 0.05 * rng.standard_normal(t.size))
-        level = 0.3 * measurement.std()  # lines far above the floor, but little of the power (the gain stays)
-        ball_pass = level * sum(np.cos(2 * np.pi * k * GEOMETRY.bpfo_hz(RPM) * t) / k for k in (1, 2, 3))
-        comparator = Comparator(Recording(measurement, FS, RPM, fault, source="test.npy"), GEOMETRY)
-        lines = comparator(measurement + ball_pass).views["lines"]
-        named = [k for k in (1, 2, 3) if f"at {k * GEOMETRY.bpfo_hz(RPM):.0f} Hz" in lines.finding]
-        if fault == "normal":
-            assert lines.error_db > 10.0 and named, lines.finding
-        else:
-            # Only what the lines' power moves with them: the fitted gain, by which the inner race's shaft-rate
-            # lines (its load zone's) then compare a little off.
-            assert lines.error_db < 3.0 and not named, lines.finding
-        tone = level * np.cos(2 * np.pi * 247.0 * t)  # no bearing frequency
-        assert comparator(measurement + tone).views["lines"].error_db > 10.0
+    measurement = impacts(fault, 2.0, seed=5, noise=0.05) if fault != "normal" else 0.05 * rng.standard_normal(t.size)
+    level = 0.3 * measurement.std()  # lines far above the floor, but little of the power (the gain stays)
+    ball_pass = level * sum(np.cos(2 * np.pi * k * GEOMETRY.bpfo_hz(RPM) * t) / k for k in (1, 2, 3))
+    comparator = Comparator(Recording(measurement, FS, RPM, fault, source="test.npy"), GEOMETRY)
+    lines = comparator(measurement + ball_pass).views["lines"]
+    named = [k for k in (1, 2, 3) if f"at {k * GEOMETRY.bpfo_hz(RPM):.0f} Hz" in lines.finding]
+    if fault == "normal":
+        assert lines.error_db > 10.0 and named, lines.finding
+    else:
+        # Only what the lines' power moves with them: the fitted gain, by which the inner race's shaft-rate
+        # lines (its load zone's) then compare a little off.
+        assert lines.error_db < 3.0 and not named, lines.finding
+    tone = level * np.cos(2 * np.pi * 247.0 * t)  # no bearing frequency
+    assert comparator(measurement + tone).views["lines"].error_db > 10.0
 
 
 def test_a_line_of_a_dense_comb_stands_as_high_as_a_lone_one():

@@ -121,13 +121,18 @@ def is_a_note(path: Path) -> bool:
 
 
 def holds_one_value(path: Path) -> bool:
-    """Whether the text file holds a single number and nothing else (``seed.txt``, ``rate.txt``: a setting or a
-    stamp beside the recordings, never samples). A file that is no text holds none."""
+    """Whether the text file holds a single number (``seed.txt``, ``rate.txt``: a setting or a stamp beside the
+    recordings, never samples), under at most one name (``fs`` above ``12000``), blank and ``#`` comment lines
+    aside. A file that is no text holds none, nor one longer than the lines read to tell."""
     try:
         head, _ = _head(path)
     except BearingTwinError:
         return False
+    if len(head) >= SAMPLE_LINES:  # more lines than were read: what follows may be samples
+        return False
     lines = [line for line in head if _holds_data(line)]
+    if len(lines) == 2 and len(_row_cells(lines[0], _delimiter(lines[0]))) == 1 and not _numbers_row(lines[0]):
+        lines = lines[1:]  # a name above the number
     return len(lines) == 1 and _numbers_row(lines[0]) and len(_row_cells(lines[0], _delimiter(lines[0]))) == 1
 
 

@@ -372,10 +372,11 @@ def recordings_and_others(folder: Path) -> tuple[list[Path], dict[str, str]]:
 
 
 NOTE = "no row of numbers (notes, or a table of text), not samples"
-ONE_VALUE = "one number (a setting or a stamp), not samples"
-"""Why a text file beside the recordings that holds a single number is none (``seed.txt``, ``rate.txt``)."""
 """Why a .txt or .tsv beside the recordings that holds no row of numbers is none: passed over even where a pattern
 names it (``inner_notes.txt``)."""
+ONE_VALUE = "one number (a setting or a stamp), not samples"
+"""Why a text file beside the recordings that holds a single number is none (``seed.txt``, ``rate.txt``): passed
+over even where a pattern names it (``inner_rate.csv``)."""
 
 
 def why_not_a_recording(path: Path) -> str | None:
@@ -427,7 +428,7 @@ def _rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, Non
     paths, others = recordings_and_others(root)
     for name, reason in others.items():  # a training set silently short of a record would be a wrong result
         # A table of notes, not a picture or a note in words (rig_notes.txt).
-        if pattern.search(name) and Path(name).suffix.lower() in FORMATS and reason != NOTE:
+        if pattern.search(name) and Path(name).suffix.lower() in FORMATS and reason not in (NOTE, ONE_VALUE):
             raise BearingTwinError(f"{root / name}: data.pattern={cfg['pattern']!r} names it a recording, but it is "
                                    f"none ({reason}); mend it or move it out of data.root")
     warn_left_out(root, others)

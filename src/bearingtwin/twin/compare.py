@@ -19,8 +19,8 @@ Views:
     psd: Welch power per log-spaced frequency band, gain and smooth trend removed -- where in
         frequency energy is concentrated differently (resonances, a noise floor).
     lines: prominence of narrow lines above the local spectrum level at low frequency --
-        shaft harmonics, half orders, supply lines, tones; the defect's own lines (and their
-        sidebands) are left to the envelope and harmonics views.
+        shaft harmonics, half orders, supply lines, tones; a faulty bearing's own lines (its defect's
+        and their sidebands, and its balls' passing) are left to the envelope and harmonics views.
     envelope: segment-averaged envelope spectrum relative to its median, bin by bin up to
         past the last harmonic -- the paper's Figure 10 as a number.
     harmonics: prominence of the defect frequency's harmonics and sidebands above the
@@ -357,15 +357,17 @@ class Comparator:
         # harmonics and their sidebands), and the balls' passing through the load zone (varying compliance:
         # BPFO's harmonics). In the raw spectrum their sharpness and height hang on slip the bare twin lacks and
         # on its contact model, and counting them here too would let the bearing's own model form outvote the
-        # lines other machine elements leave. A healthy bearing's ball-pass lines stay: they are the bare twin's
-        # largest lines, which a real bearing's roughness and noise bury, and a twin that keeps them is no
-        # healthy bearing of the rig (a classifier trained on it calls faults healthy).
-        own = []
-        if self.fault != "normal":
+        # lines other machine elements leave. A healthy bearing's ball-pass lines are counted: a real one's
+        # roughness and noise bury them, and only where the lines view sees them standing in the bare twin can a
+        # noise floor pay on a healthy record; a twin keeping them is no healthy bearing of the rig, and a
+        # classifier trained on it calls faults healthy (results/identifiability.md, results/sim2real.md).
+        if self.fault == "normal":
+            own = np.empty(0)
+        else:
             ball_pass = rates["bpfo"] * np.arange(1, int(s.lines_max_hz // rates["bpfo"]) + 2)
             orders = self.reference_hz * np.arange(1, int(s.lines_max_hz // self.reference_hz) + 2)
-            own = [ball_pass, *([orders, orders - sideband_hz, orders + sideband_hz] if sideband_hz else [orders])]
-        own = np.concatenate(own) if own else np.empty(0)
+            defect = [orders, orders - sideband_hz, orders + sideband_hz] if sideband_hz else [orders]
+            own = np.concatenate([ball_pass, *defect])
         reach = 4 * lines_freqs[1] + 0.01 * own  # the window's main lobe, and 1 % for slip and speed
         self.lines_bins &= ~np.any(np.abs(lines_freqs[:, None] - own) <= reach, axis=1)
         self.band_centres_log = np.log10(np.sqrt(self.band_edges_hz[:-1] * self.band_edges_hz[1:]))
