@@ -51,6 +51,19 @@ def tally(checks, true_fs: float, right_rate: Counter, wrong: Counter) -> None:
         wrong[check.verdict + (" naming the true rate" if check.verdict == "contradicted" and named else "")] += 1
 
 
+def tally_speeds(recording, bearing, speeds: Counter) -> None:
+    """Count the verdicts on a 12 kHz CWRU ``recording`` with its speed given :data:`SPEED_FACTORS` times too high,
+    by bearing state."""
+    for factor in SPEED_FACTORS:
+        rpm = recording.rpm * factor
+        check = check_sampling_rate(recording.signal, 12000.0, rpm, defect_hz=bearing.defect_frequencies(rpm))
+        # A rate m times too high at the given speed is that speed m times too high at the true rate.
+        named = check.implied_fs_hz is not None and abs(rpm * 12000.0 / check.implied_fs_hz / recording.rpm - 1) <= 0.01
+        state = "healthy" if recording.fault == "normal" else recording.fault
+        speeds[f"{state}: {check.verdict}" + (" naming the true speed" if check.verdict == "contradicted" and named
+                                              else "")] += 1
+
+
 def print_table(title: str, right_rate: Counter, wrong: Counter) -> None:
     print(f"{title}\n\n| declared rate | verdict | cases |\n|---|---|---|")
     for verdict, count in sorted(right_rate.items()):
@@ -69,9 +82,10 @@ def main() -> None:
     if not records:
         raise SystemExit(f"no CWRU records in {Path(args.data) / 'cwru'}")
     bearing = load_bearing("cwru_6205")
-    right_rate, wrong = Counter(), Counter()
+    right_rate, wrong, speeds = Counter(), Counter(), Counter()
     for path in records:
         recording = load_cwru(path, check_fs=False)
+        tally_speeds(recording, bearing, speeds)
         defect_hz = bearing.defect_frequencies(recording.rpm)
         for true_fs in WRONG_FACTORS:
             signal = (recording.signal if true_fs == 12000.0
@@ -90,17 +104,6 @@ def main() -> None:
     print_table(f"{len(FAULTS) * len(RIG_SPEEDS_RPM)} records of the independent test rig (one 1x line), 12 kHz:",
                 rig_right, rig_wrong)
     print("wrong rates by state: " + ", ".join(f"{key} {count}" for key, count in sorted(states.items())))
-    speeds = Counter()
-    for path in records:
-        recording = load_cwru(path, check_fs=False)
-        for factor in SPEED_FACTORS:
-            rpm = recording.rpm * factor
-            check = check_sampling_rate(recording.signal, 12000.0, rpm, defect_hz=bearing.defect_frequencies(rpm))
-            # A rate m times too high at the given speed is that speed m times too high at the true rate.
-            named = check.implied_fs_hz is not None and abs(rpm * 12000.0 / check.implied_fs_hz / recording.rpm - 1) <= 0.01
-            state = "healthy" if recording.fault == "normal" else recording.fault
-            speeds[f"{state}: {check.verdict}" + (" naming the true speed" if check.verdict == "contradicted" and named
-                                                  else "")] += 1
     print(f"\n{len(records)} CWRU records at 12 kHz, the speed given {', '.join(map(str, SPEED_FACTORS))} times too high:"
           "\n\n| state | verdict | cases |\n|---|---|---|")
     for key, count in sorted(speeds.items()):

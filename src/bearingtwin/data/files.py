@@ -232,6 +232,12 @@ def recording_from_raw(
     )
 
 
+def speed_setting(recording: Recording, key: str) -> str | None:
+    """``key``, the setting that gave ``recording`` its speed, where a setting did (or the speed is a data set's
+    nominal one, which a setting replaces); None where the file measured it: a refused rate names it too."""
+    return key if recording.meta.get("rpm_origin") in ("config", "nominal") else None
+
+
 def resolve_fs(raw: RawRecord, fs: float | None, key: str = "fs") -> float:
     """The sampling rate to use: the user's (given as setting ``key``), checked against the file's within
     ``raw.fs_tolerance`` unless the file's is only declared."""

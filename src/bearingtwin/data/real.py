@@ -27,7 +27,7 @@ from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.csv_file import holds_one_value, is_a_note, text_column
-from bearingtwin.data.files import FORMATS, TEXT_TABLES, load_recording, time_column_seconds
+from bearingtwin.data.files import FORMATS, TEXT_TABLES, load_recording, speed_setting, time_column_seconds
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
@@ -171,7 +171,7 @@ def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing
     require_plausible_rate(recording.signal, recording.fs, recording.rpm, recording.source, fs_key,
                            defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
                            refuse=given and (bearing is not None or recording.fault == "normal"), check_key=check_key,
-                           rpm_key=rpm_key if recording.meta.get("rpm_origin") in ("config", "nominal") else None)
+                           rpm_key=speed_setting(recording, rpm_key) if rpm_key else None)
 
 
 def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>",

@@ -148,9 +148,8 @@ def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dic
     bearing = bearing_config(named)
     if not model_bearing:
         return bearing, []
-    orders = {name: BearingGeometry.from_config(config).defect_frequencies(60.0)
-              for name, config in ((named, bearing), (model_bearing.get("name", "the model's"), model_bearing))}
-    words = ", ".join(f"{name} BPFO {order['bpfo']:.3f}, BPFI {order['bpfi']:.3f} x shaft" for name, order in orders.items())
+    words = ", ".join(f"{name} {BearingGeometry.from_config(config).describe_orders()}"
+                      for name, config in ((named, bearing), (model_bearing.get("name", "the model's"), model_bearing)))
     return bearing, [f"the record's bearing is {named}, the model was trained on {model_bearing.get('name', 'another')} "
                      f"({words}): the physics evidence reads {named}'s defect lines"]
 

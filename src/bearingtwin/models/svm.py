@@ -93,7 +93,7 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
         make_svm(self.C, self.kernel, self.gamma, self.random_state)
 
     def fit(self, X, y) -> "SvmClassifier":
-        make_svm(self.C, self.kernel, self.gamma, self.random_state)  # a bad parameter named before anything is fitted
+        self.check_params()  # a bad parameter named before anything is fitted
         y = np.asarray(y)
         self.classes_, counts = training_classes(y)
         if counts.min() < 2:

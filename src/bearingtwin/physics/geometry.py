@@ -149,6 +149,11 @@ class BearingGeometry:
             "ftf": self.ftf_hz(rpm),
         }
 
+    def describe_orders(self) -> str:
+        """The outer- and inner-race defect frequencies as orders of the shaft, as messages name a bearing by them."""
+        orders = self.defect_frequencies(60.0)  # in Hz at one revolution a second: orders of the shaft
+        return f"BPFO {orders['bpfo']:.3f}, BPFI {orders['bpfi']:.3f} x shaft"
+
     def fault_frequency_hz(self, fault: str, rpm: float) -> float | None:
         """The defect frequency a fault shows in the envelope spectrum (None for a healthy bearing)."""
         key = FAULT_FREQUENCY[check_fault(fault)]

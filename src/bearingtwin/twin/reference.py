@@ -67,6 +67,14 @@ def rig_geometry(geometry: BearingGeometry) -> dict:
     return {field.name: getattr(geometry, field.name) for field in fields(geometry) if field.name != "clearance_mm"}
 
 
+def geometry_difference(recorded: Mapping, ours: Mapping) -> str | None:
+    """The first field of :func:`rig_geometry` ``ours`` that ``recorded`` (a report's, or another bearing's
+    :func:`rig_geometry`) gives otherwise; None where every field it gives agrees."""
+    return next((name for name, value in recorded.items()
+                 if name in ours and not (is_finite_number(value) and math.isclose(value, ours[name], rel_tol=1e-9))),
+                None)
+
+
 def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str = "a reference") -> None:
     """Refuse a reference whose record's bearing has another geometry than ``bearing_cfg``, naming the field: a name
     says nothing of the geometry (``bearing.name=my6206 bearing.n_balls=12`` keeps the name). A report written
@@ -74,10 +82,10 @@ def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str 
     recorded = measured.get("geometry")
     if isinstance(recorded, Mapping):
         ours = rig_geometry(BearingGeometry.from_config(bearing_cfg))
-        for name, value in recorded.items():
-            if name in ours and not (is_finite_number(value) and math.isclose(value, ours[name], rel_tol=1e-9)):
-                raise BearingTwinError(f"{source}: its record's bearing has {name}={value}, this one bearing.{name}="
-                                       f"{ours[name]}; {role} must come from the same rig")
+        name = geometry_difference(recorded, ours)
+        if name is not None:
+            raise BearingTwinError(f"{source}: its record's bearing has {name}={recorded[name]}, this one "
+                                   f"bearing.{name}={ours[name]}; {role} must come from the same rig")
     elif measured.get("bearing") and bearing_cfg.get("name") and measured["bearing"] != bearing_cfg.name:
         raise BearingTwinError(f"{source}: its record is of bearing {measured['bearing']}, this one of "
                                f"{bearing_cfg.name}; {role} must come from the same rig")

@@ -22,7 +22,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
 from bearingtwin.config import bearing_config, given_on_command_line, output_folder, unknown_bearing_note
 from bearingtwin.data.cwru import BEARING_BY_END, CHANNEL_BY_END, parse_cwru_name
-from bearingtwin.data.files import read_raw, recording_from_raw, same_speed
+from bearingtwin.data.files import read_raw, recording_from_raw, same_speed, speed_setting
 from bearingtwin.data.real import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -34,7 +34,8 @@ from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_co
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit, not_identified, view_floors, views_beyond_floor
-from bearingtwin.twin.reference import hold_reference, read_reference, refuse_reference_folder, rig_geometry
+from bearingtwin.twin.reference import (geometry_difference, hold_reference, read_reference, refuse_reference_folder,
+                                        rig_geometry)
 
 if TYPE_CHECKING:
     from mlflow import MlflowClient
@@ -100,7 +101,7 @@ def check_measurement(measured_cfg, recording: Recording, channels: dict,
         # it; one the file records itself is kept, the doubt logged.
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
                                check_key="measured.check_fs",
-                               rpm_key="measured.rpm" if recording.meta.get("rpm_origin") in ("config", "nominal") else None,
+                               rpm_key=speed_setting(recording, "measured.rpm"),
                                defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
                                refuse=recording.meta.get("fs_origin") in ("config", "declared"), channels=channels)
     with np.errstate(over="ignore"):
@@ -130,8 +131,7 @@ def named_bearing(measured: Recording, path) -> str | None:
         if cwru_name is not None and cwru_name.end is not None:
             named = cwru_name.bearing
         elif measured.fault == "normal":
-            named = BEARING_BY_END.get(next((end for end, channel in CHANNEL_BY_END.items()
-                                             if channel == measured.channel), None))
+            named = BEARING_BY_END.get({channel: end for end, channel in CHANNEL_BY_END.items()}.get(measured.channel))
     return None if named is None else str(named)
 
 
@@ -146,19 +146,6 @@ def bearing_chosen(cfg: DictConfig) -> bool:
     return cfg.bearing.get("name") != DEFAULT_BEARING or bool(given_on_command_line("bearing"))
 
 
-def defect_orders(geometry: BearingGeometry) -> str:
-    """A bearing's outer- and inner-race defect orders, as a message names them."""
-    orders = geometry.defect_frequencies(60.0)  # in Hz at one revolution a second: orders of the shaft
-    return f"BPFO {orders['bpfo']:.3f}, BPFI {orders['bpfi']:.3f} x shaft"
-
-
-def same_geometry(one: BearingGeometry, other: BearingGeometry) -> bool:
-    """Whether two bearings agree in every field a reference's bearing is compared by
-    (:func:`~bearingtwin.twin.reference.rig_geometry`: all but the clearance, an operating-point parameter)."""
-    ours, theirs = rig_geometry(one), rig_geometry(other)
-    return all(math.isclose(value, theirs[name], rel_tol=1e-9) for name, value in ours.items())
-
-
 def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, str | None]:
     """The ``twin`` config with the bearing the record was made on, and the line the closing summary gives it
     (None when there is nothing to say: the record names no bearing, or the one chosen).
@@ -166,7 +153,7 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
     A record that names its bearing (:func:`named_bearing`) is read with it: when no bearing was chosen
     (:func:`bearing_chosen`), that bearing's config replaces the default's (a line says so); a bearing chosen that
     is neither the record's by name nor of its geometry (the fields a reference's bearing is compared by,
-    :func:`~bearingtwin.twin.reference.rig_geometry`) is refused, naming both, before a run opens or anything is
+    :func:`~bearingtwin.twin.reference.geometry_difference`) is refused, naming both, before a run opens or anything is
     written: the twin would be calibrated to another bearing's defect frequencies. A bearing the record names that
     no ``conf/bearing`` config describes cannot be read: the twin's stays, and the doubt is logged and returned.
     """
@@ -183,18 +170,18 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
     own = bearing_config(named, f"{path}: its bearing")
     record, given = BearingGeometry.from_config(own), BearingGeometry.from_config(cfg.bearing)
     if chosen:
-        if same_geometry(given, record):  # a bearing of your own under another name, say
+        if geometry_difference(rig_geometry(given), rig_geometry(record)) is None:  # your own under another name
             return cfg, None
-        raise BearingTwinError(f"{path}: the record's bearing is {named} ({defect_orders(record)}), the one given is "
-                               f"{ours} ({defect_orders(given)}): give bearing={named} for the record's defect "
+        raise BearingTwinError(f"{path}: the record's bearing is {named} ({record.describe_orders()}), the one given is "
+                               f"{ours} ({given.describe_orders()}): give bearing={named} for the record's defect "
                                "frequencies")
     adopted = copy.deepcopy(cfg)
     OmegaConf.set_readonly(adopted, False)
     with open_dict(adopted):
         adopted.bearing = own
     log.info("%s: the record's bearing is %s and no bearing= was given: the twin reads it (%s), not %s's",
-             path, named, defect_orders(record), ours)
-    return adopted, f"{named}, the record's own (no bearing= given; {defect_orders(record)})"
+             path, named, record.describe_orders(), ours)
+    return adopted, f"{named}, the record's own (no bearing= given; {record.describe_orders()})"
 
 
 MAX_SEED = 2**31 - 1
