@@ -74,8 +74,7 @@ def test_a_step_spans_several_samples_or_a_sample_several_steps_not_both():
 def _textbook_rk4(state, kinematics, defect, p, n_samples, substeps):
     """Classical RK4 with every stage's geometry (kinematics, defect depths, trigonometry) evaluated afresh."""
     fs = kinematics.fs_hz
-    arrays = (kinematics.shaft_angle_rad, kinematics.shaft_speed_rad_s, kinematics.cage_angle_rad,
-              kinematics.ball_spin_angle_rad, np.ascontiguousarray(kinematics.ball_offset_rad))
+    arrays = kinematics.solver_arrays()
     angles, depths, cosines, sines = (np.empty(kinematics.n_balls) for _ in range(4))
 
     def rate(t, y):

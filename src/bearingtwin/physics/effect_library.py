@@ -565,6 +565,49 @@ class SpeedFluctuation(Effect):
 
 
 @register_effect
+class Roughness(Effect):
+    """Rough, wavy surfaces: every ball's contacts roll over a random height, and the bearing vibrates with it.
+
+    The bare twin's races and balls are ideally smooth, so a healthy bearing vibrates only with the varying
+    compliance of its turning ball set (lines at the ball-pass rate). A real bearing also rolls over the
+    roughness and waviness of its surfaces and the varying thickness of its lubricant film. Each ball's
+    compression loses a random height, independent from ball to ball (a ball's contact track wanders over
+    its own surface as its spin axis moves), white up to ``bandwidth_hz`` (the contact ellipse averages
+    shorter wavelengths away). The height acts on the races through the Hertz contacts, so the vibration
+    it makes is shaped by the bearing's own dynamics: a floor that rises with frequency up to the contact
+    modes (acceleration from a force grows as f^2 below the support's resonance), where a sensor's white
+    floor lies flat, and only loaded balls pass it on, which modulates it at the ball-pass rate.
+
+    Args:
+        rms_um: RMS of each contact's height in the band 0 - ``bandwidth_hz`` (um); a ground race's
+            roughness is 0.05-0.2 um, waviness and film variation add to it.
+        bandwidth_hz: highest frequency of the height seen in time (Hz). A grid too coarse to carry it
+            keeps the same spectral level over the band it can (the RMS is a level, not a total).
+
+    Signature: a broadband floor shaped by the bearing's contact modes, lower kurtosis, a raised
+    envelope floor; no lines.
+    """
+
+    name = "roughness"
+    signature = "broadband floor rising towards the contact modes, lower kurtosis"
+    signature_views = ("psd", "statistics")
+    search_space = {"rms_um": (0.001, 10.0, True)}
+
+    def __init__(self, rms_um: float, bandwidth_hz: float = 10000.0):
+        self.rms_um = _positive("roughness.rms_um", rms_um)
+        self.bandwidth_hz = _positive("roughness.bandwidth_hz", bandwidth_hz)
+
+    def modify_kinematics(self, kinematics: Kinematics, rng: np.random.Generator) -> Kinematics:
+        fs = kinematics.fs_hz
+        band_hz = min(self.bandwidth_hz, 0.45 * fs)
+        # White at the grid's rate with the band's spectral level (rms^2 / bandwidth), then low-passed to the band.
+        white = rng.standard_normal((kinematics.n_samples, kinematics.n_balls)) * math.sqrt(0.5 * fs / self.bandwidth_hz)
+        height = sps.sosfiltfilt(sps.butter(4, band_hz, fs=fs, output="sos"), white, axis=0) * self.rms_um * 1e-6
+        earlier = kinematics.contact_roughness_m
+        return replace(kinematics, contact_roughness_m=height if earlier is None else earlier + height)
+
+
+@register_effect
 class Noise(Effect):
     """Sensor and background noise: electronics (white) and machinery or flow (falling with frequency).
 

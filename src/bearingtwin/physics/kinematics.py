@@ -1,4 +1,4 @@
-"""The angle time series the solvers read: shaft, cage, ball spin and per-ball offsets.
+"""The series the solvers read: shaft, cage and ball spin angles, per-ball offsets and contact roughness.
 
 The paper writes the ball positions as theta_j = 2 pi (j - 1) / Nb + omega_c t + theta_0,
 i.e. perfect rolling at constant speed. The solvers do not compute omega t
@@ -31,6 +31,8 @@ class Kinematics:
         cage_angle_rad: (n,) angle of ball 0 (cage angle plus theta_0); ball j sits 2 pi j / Nb ahead.
         ball_spin_angle_rad: (n,) spin of the balls relative to the cage, carries a ball defect.
         ball_offset_rad: (n, Nb) extra angle of each ball (slip, cage clearance); zero for rigid rolling.
+        contact_roughness_m: (n, Nb) height of the surfaces each ball's contacts roll over (m), taken off the
+            ball's compression as a defect's depth is; None for ideally smooth surfaces.
     """
 
     fs_hz: float
@@ -39,15 +41,20 @@ class Kinematics:
     cage_angle_rad: np.ndarray
     ball_spin_angle_rad: np.ndarray
     ball_offset_rad: np.ndarray
+    contact_roughness_m: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.shaft_angle_rad)
-        for name in ("shaft_speed_rad_s", "cage_angle_rad", "ball_spin_angle_rad", "ball_offset_rad"):
+        per_ball = ("ball_offset_rad",) + (("contact_roughness_m",) if self.contact_roughness_m is not None else ())
+        for name in ("shaft_speed_rad_s", "cage_angle_rad", "ball_spin_angle_rad") + per_ball:
             array = getattr(self, name)
             if len(array) != n or not np.all(np.isfinite(array)):
                 raise BearingTwinError(f"kinematics.{name} must hold {n} finite samples (got shape {np.shape(array)})")
         if np.ndim(self.ball_offset_rad) != 2:
             raise BearingTwinError(f"kinematics.ball_offset_rad must have shape (n, n_balls), got {np.shape(self.ball_offset_rad)}")
+        if self.contact_roughness_m is not None and np.shape(self.contact_roughness_m) != np.shape(self.ball_offset_rad):
+            raise BearingTwinError(f"kinematics.contact_roughness_m must have shape {np.shape(self.ball_offset_rad)}, "
+                                   f"got {np.shape(self.contact_roughness_m)}")
 
     @property
     def n_balls(self) -> int:
@@ -56,6 +63,14 @@ class Kinematics:
     @property
     def n_samples(self) -> int:
         return len(self.shaft_angle_rad)
+
+    def solver_arrays(self) -> tuple[np.ndarray, ...]:
+        """The series as the compiled solvers read them, in :func:`sample_kinematics`'s and :func:`add_roughness`'s
+        order: shaft, speed, cage, spin, offsets, roughness (no rows where the surfaces are smooth)."""
+        roughness = (np.zeros((0, self.n_balls)) if self.contact_roughness_m is None else self.contact_roughness_m)
+        return tuple(np.ascontiguousarray(a, dtype=np.float64) for a in (
+            self.shaft_angle_rad, self.shaft_speed_rad_s, self.cage_angle_rad, self.ball_spin_angle_rad,
+            self.ball_offset_rad, roughness))
 
 
 def rigid_kinematics(geometry: BearingGeometry, rpm: float, fs_hz: float, n_samples: int,
@@ -93,3 +108,16 @@ def sample_kinematics(t_s, fs_hz, shaft, speed, cage, spin, offsets, ball_angles
         speed[k] + frac * (speed[k + 1] - speed[k]),
         spin[k] + frac * (spin[k + 1] - spin[k]),
     )
+
+
+@njit(cache=True)
+def add_roughness(t_s, fs_hz, roughness, depths_out):
+    """Add each ball's contact roughness at time ``t_s`` (linear interpolation) to ``depths_out`` (m); nothing
+    where ``roughness`` has no rows (smooth surfaces). Shared by both solvers."""
+    if roughness.shape[0] == 0:
+        return
+    position = t_s * fs_hz
+    k = min(int(position), roughness.shape[0] - 2)
+    frac = position - k
+    for j in range(depths_out.size):
+        depths_out[j] += roughness[k, j] + frac * (roughness[k + 1, j] - roughness[k, j])

@@ -26,7 +26,7 @@ from numba import njit
 
 from bearingtwin.physics.defects import defect_depths
 from bearingtwin.physics.dynamics import DynamicParameters
-from bearingtwin.physics.kinematics import Kinematics, sample_kinematics
+from bearingtwin.physics.kinematics import Kinematics, add_roughness, sample_kinematics
 
 
 def _longest_step_s(highest_mode_hz: float, crossing_time_s: float, steps_per_period: int,
@@ -89,11 +89,12 @@ def derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out):
 
 
 @njit(cache=True, nogil=True)
-def _geometry(t, fs, shaft, speed, cage, spin, offsets, defect, angles, depths, cosines, sines):
+def _geometry(t, fs, shaft, speed, cage, spin, offsets, roughness, defect, angles, depths, cosines, sines):
     """Everything at time ``t`` that does not depend on the state: the balls' angles, their cosines
-    and sines, the defect depths under them; returns (shaft angle, shaft speed)."""
+    and sines, the defect depths and roughness under them; returns (shaft angle, shaft speed)."""
     shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, shaft, speed, cage, spin, offsets, angles)
     defect_depths(defect, angles, shaft_angle, spin_angle, depths)
+    add_roughness(t, fs, roughness, depths)
     for j in range(angles.size):
         cosines[j] = math.cos(angles[j])
         sines[j] = math.sin(angles[j])
@@ -107,7 +108,7 @@ def _ball_arrays(n_balls):
 
 
 @njit(cache=True, nogil=True)
-def _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin, offsets, defect, p,
+def _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin, offsets, roughness, defect, p,
               mid_angles, mid_depths, mid_cosines, mid_sines, end_angles, end_depths, end_cosines, end_sines):
     """One classical RK4 step from ``t`` over ``dt``, in place on ``state``, given its first stage ``k1``.
 
@@ -117,7 +118,7 @@ def _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin,
     """
     for m in range(8):
         trial[m] = state[m] + 0.5 * dt * k1[m]
-    mid_angle, mid_speed = _geometry(t + 0.5 * dt, fs, shaft, speed, cage, spin, offsets, defect, mid_angles,
+    mid_angle, mid_speed = _geometry(t + 0.5 * dt, fs, shaft, speed, cage, spin, offsets, roughness, defect, mid_angles,
                                      mid_depths, mid_cosines, mid_sines)
     derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k2)
     for m in range(8):
@@ -125,7 +126,7 @@ def _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin,
     derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k3)
     for m in range(8):
         trial[m] = state[m] + dt * k3[m]
-    end_angle, end_speed = _geometry(t + dt, fs, shaft, speed, cage, spin, offsets, defect, end_angles, end_depths,
+    end_angle, end_speed = _geometry(t + dt, fs, shaft, speed, cage, spin, offsets, roughness, defect, end_angles, end_depths,
                                      end_cosines, end_sines)
     derivative(trial, end_cosines, end_sines, end_depths, end_angle, end_speed, p, k4)
     for m in range(8):
@@ -134,7 +135,7 @@ def _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin,
 
 
 @njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
-def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, defect, p, accelerations):
+def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, roughness, defect, p, accelerations):
     """Integrate from sample ``first_sample`` over ``n_samples`` samples, in place on ``state``;
     the acceleration at each sample's start goes to ``accelerations[:, i]``.
 
@@ -160,7 +161,7 @@ def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, s
         for step in range(substeps):
             t = sample / fs + step * dt
             if t != ready_at:
-                shaft_angle, shaft_speed = _geometry(t, fs, shaft, speed, cage, spin, offsets, defect, angles, depths,
+                shaft_angle, shaft_speed = _geometry(t, fs, shaft, speed, cage, spin, offsets, roughness, defect, angles, depths,
                                                      cosines, sines)
             derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k1)
             if step == 0:
@@ -168,12 +169,12 @@ def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, s
                     accelerations[dof, i] = k1[4 + dof]
             ready_at = t + dt
             _, _, shaft_angle, shaft_speed = _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin,
-                                                       offsets, defect, p, angles, depths, cosines, sines,
+                                                       offsets, roughness, defect, p, angles, depths, cosines, sines,
                                                        angles, depths, cosines, sines)
 
 
 @njit(cache=True, nogil=True)
-def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, speed, cage, spin, offsets, defect, p,
+def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, speed, cage, spin, offsets, roughness, defect, p,
                           accelerations):
     """:func:`_advance` with one RK4 step over ``per_step`` samples (fewer at the end of the stretch).
 
@@ -195,7 +196,7 @@ def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, s
     k_inside = np.empty(8)
     trial = np.empty(8)
     start = np.empty(8)
-    shaft_angle, shaft_speed = _geometry(first_sample / fs, fs, shaft, speed, cage, spin, offsets, defect, angles,
+    shaft_angle, shaft_speed = _geometry(first_sample / fs, fs, shaft, speed, cage, spin, offsets, roughness, defect, angles,
                                          depths, cosines, sines)
     derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k1)
     i = 0
@@ -208,7 +209,7 @@ def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, s
         for m in range(8):
             start[m] = state[m]
         mid_angle, mid_speed, shaft_angle, shaft_speed = _rk4_step(
-            state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin, offsets, defect, p,
+            state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin, offsets, roughness, defect, p,
             mid_angles, mid_depths, mid_cosines, mid_sines, angles, depths, cosines, sines)
         derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k_end)
         for inside in range(1, count):
@@ -222,7 +223,7 @@ def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, s
             if 2 * inside == count:
                 derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k_inside)
             else:
-                inside_angle, inside_speed = _geometry(t + theta * dt, fs, shaft, speed, cage, spin, offsets, defect,
+                inside_angle, inside_speed = _geometry(t + theta * dt, fs, shaft, speed, cage, spin, offsets, roughness, defect,
                                                        angles, depths, cosines, sines)
                 derivative(trial, cosines, sines, depths, inside_angle, inside_speed, p, k_inside)
             for dof in range(4):
@@ -247,9 +248,7 @@ def integrate(params: DynamicParameters, kinematics: Kinematics, defect: np.ndar
     if substeps > 1 and per_step > 1:
         raise ValueError("a step spans several samples or a sample several steps, not both")
     state = np.array(initial_state, dtype=np.float64)
-    arrays = (kinematics.shaft_angle_rad, kinematics.shaft_speed_rad_s, kinematics.cage_angle_rad,
-              kinematics.ball_spin_angle_rad, np.ascontiguousarray(kinematics.ball_offset_rad))
-    arrays = tuple(np.asarray(a, dtype=np.float64) for a in arrays)
+    arrays = kinematics.solver_arrays()
     p = params.as_array()
     total = first_sample + n_samples
     accelerations = np.empty((4, total))

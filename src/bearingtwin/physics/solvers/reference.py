@@ -16,7 +16,7 @@ import scipy.integrate
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.defects import defect_depths
 from bearingtwin.physics.dynamics import DynamicParameters, state_derivative
-from bearingtwin.physics.kinematics import Kinematics, sample_kinematics
+from bearingtwin.physics.kinematics import Kinematics, add_roughness, sample_kinematics
 
 
 def integrate(params: DynamicParameters, kinematics: Kinematics, defect: np.ndarray, initial_state: np.ndarray,
@@ -26,15 +26,14 @@ def integrate(params: DynamicParameters, kinematics: Kinematics, defect: np.ndar
     if first_sample + n_samples >= kinematics.n_samples:
         raise ValueError("the kinematic grid must extend one sample beyond the last output sample")
     fs = kinematics.fs_hz
-    arrays = tuple(np.asarray(a, dtype=np.float64) for a in (
-        kinematics.shaft_angle_rad, kinematics.shaft_speed_rad_s, kinematics.cage_angle_rad,
-        kinematics.ball_spin_angle_rad, np.ascontiguousarray(kinematics.ball_offset_rad)))
+    *angle_series, roughness = kinematics.solver_arrays()
     angles = np.empty(kinematics.n_balls)
     depths = np.empty(kinematics.n_balls)
 
     def rhs(t, state):
-        shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, *arrays, angles)
+        shaft_angle, shaft_speed, spin_angle = sample_kinematics(t, fs, *angle_series, angles)
         defect_depths(defect, angles, shaft_angle, spin_angle, depths)
+        add_roughness(t, fs, roughness, depths)
         return state_derivative(state, angles, depths, shaft_angle, shaft_speed, params)
 
     times = (first_sample + np.arange(n_samples)) / fs
