@@ -21,7 +21,7 @@ from bearingtwin.physics.kinematics import rigid_kinematics
 
 LIBRARY = ("resonance", "slip", "speed_fluctuation", "noise", "tones", "lubrication", "load_zone", "preload",
            "spin_slip", "unbalance", "misalignment", "looseness", "line_frequency", "clipping", "second_resonance",
-           "structural_mode")
+           "structural_mode", "roughness")
 SENSOR_ONLY = ("resonance", "noise", "tones", "unbalance", "misalignment", "looseness", "line_frequency", "clipping",
                "second_resonance", "structural_mode")
 FS = 12000.0
@@ -228,6 +228,72 @@ def test_lubricated_contacts_damp_the_impacts_in_both_solvers():
     modes = (freqs > 0.4 * highest_mode_hz) & (freqs < 1.2 * highest_mode_hz)
     dry_energy, film_energy = psd[:, modes].sum(axis=1)
     assert film_energy < 0.7 * dry_energy
+
+
+def _healthy_twin(effects, fs=12000, seed=0):
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.physics.simulator import simulate
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=[f"simulator.fs={fs}", "simulator.duration=1.0", "simulator.sensor=outer_y",
+                                             "simulator.load_y_n=-500", f"simulator.seed={seed}"])
+    return simulate("normal", cfg.bearing, cfg.simulator, effects)[0].signal
+
+
+def _band_level_db(x, fs, low_hz, high_hz):
+    """Median PSD level (dB re 1 (m/s^2)^2/Hz) over a band: lines between the bins do not move it."""
+    freqs, psd = sps.welch(x, fs, nperseg=int(fs / 10))
+    return 10 * np.log10(np.median(psd[(freqs >= low_hz) & (freqs <= high_hz)]))
+
+
+def test_roughness_makes_a_floor_shaped_by_the_bearings_dynamics_growing_with_its_height():
+    """A random height at the contacts drives the races through the Hertz springs: the floor it makes rises with
+    frequency towards the contact modes (acceleration from a force grows as f^2 below the support's resonance),
+    where a sensor's white floor lies flat, and its power grows as the height's square (small heights: linear)."""
+    smooth = _healthy_twin({})
+    rough, rougher = (_healthy_twin({"roughness": {"rms_um": rms}}) for rms in (0.05, 0.1))
+    for band in ((1500, 2500), (3000, 5000)):  # between the bare twin's ball-pass harmonics, high up
+        assert _band_level_db(rough, FS, *band) > _band_level_db(smooth, FS, *band) + 30
+        assert _band_level_db(rougher, FS, *band) - _band_level_db(rough, FS, *band) == pytest.approx(6.0, abs=1.0)
+    assert _band_level_db(rough, FS, 800, 1200) > _band_level_db(rough, FS, 40, 90) + 30  # below the first ball pass
+    white = lib.add_noise(smooth, FS, -10.0, 0.0, np.random.default_rng(0))
+    assert abs(_band_level_db(white, FS, 800, 1200) - _band_level_db(white, FS, 40, 90)) < 1.5
+
+
+def test_roughness_keeps_its_spectral_level_whatever_the_rate_and_follows_the_seed():
+    """The height's level is set per hertz of its band, so a finer grid adds higher frequencies, not power in
+    the bands both rates see; independent draws per ball and seed."""
+    effects = {"roughness": {"rms_um": 0.05}}
+    at_12k, at_24k = _healthy_twin(effects, fs=12000), _healthy_twin(effects, fs=24000)
+    assert _band_level_db(at_24k, 24000, 1500, 4000) == pytest.approx(_band_level_db(at_12k, FS, 1500, 4000), abs=1.5)
+    kinematics = rigid_kinematics(GEOMETRY, 1797.0, 48000.0, 48000)  # a grid that carries the whole 10 kHz band
+    (effect,) = build_effects(effects)
+    first, again, other = (effect.modify_kinematics(kinematics, np.random.default_rng(seed)).contact_roughness_m
+                           for seed in (3, 3, 4))
+    np.testing.assert_array_equal(first, again)
+    assert np.std(first) == pytest.approx(0.05e-6, rel=0.05) and not np.array_equal(first, other)
+    coarse = effect.modify_kinematics(rigid_kinematics(GEOMETRY, 1797.0, FS, 24000), np.random.default_rng(3))
+    assert np.std(coarse.contact_roughness_m) == pytest.approx(0.05e-6 * math.sqrt(0.45 * FS / 10000), rel=0.05)
+    assert abs(np.corrcoef(first[:, 0], first[:, 1])[0, 1]) < 0.05  # ball by ball independent
+    with pytest.raises(BearingTwinError, match="roughness.rms_um"):
+        lib.Roughness(rms_um=0.0)
+
+
+def test_rough_contacts_agree_in_both_solvers():
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.physics.simulator import simulate
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["simulator.fs=12000", "simulator.duration=0.1"])
+    rough = {"roughness": {"rms_um": 0.1}}
+    fast, _ = simulate("outer", cfg.bearing, cfg.simulator, rough)
+    cfg.simulator.solver = "reference"
+    reference, _ = simulate("outer", cfg.bearing, cfg.simulator, rough)
+    smooth, _ = simulate("outer", cfg.bearing, cfg.simulator)
+    assert np.corrcoef(fast.signal, reference.signal)[0, 1] > 0.99
+    assert np.corrcoef(smooth.signal, reference.signal)[0, 1] < 0.95  # the roughness is in both, not lost
 
 
 def test_noise_with_a_reference_rms_has_the_same_absolute_level_whatever_the_signal():

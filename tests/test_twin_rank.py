@@ -315,6 +315,8 @@ def test_an_effect_outside_the_library_is_named_where_it_is_not_pinned_on_the_li
     ([], {}, "the candidate list is empty (candidates=[])"),
     (["tones"], {"max_effects": 0}, "ranking.max_effects=0"),
     (["second_resonance"], {}, "each candidate needs another effect in the twin first (second_resonance needs resonance)"),
+    (["roughness", "second_resonance"], {}, "no candidate can be told on this record (roughness is told on a normal "
+                                            "bearing's record only; second_resonance needs resonance)"),
 ])
 def test_a_selection_that_tried_nothing_says_why_not_that_nothing_paid(cfg, candidates, budget, why):
     fit = rank(cfg, twin_measurement(cfg, "outer"), candidates, op=known_operating_point(), fixed=FLOOR, **budget)
@@ -612,3 +614,16 @@ def test_a_candidate_is_screened_alike_whatever_others_are_offered_beside_it(cfg
     assert seed_alone in seeds_among  # its first-round screen (the re-fit after it searches the base too)
     assert alone.rounds[0][0] in among.rounds[0]
     assert noise_screen_seeds(["noise"], seed=1)[1] != {seed_alone}  # the run's seed still reaches it
+
+
+@pytest.mark.parametrize("hidden", ["roughness", "noise"])
+def test_a_healthy_bearings_rough_surfaces_are_told_from_a_sensors_floor(cfg, hidden):
+    """Both raise a broadband floor over a healthy bearing's ball-pass lines; roughness through the bearing's own
+    contacts, shaped by its modes, a sensor's floor white: each hidden alone is claimed, not the other."""
+    effects = {"roughness": {"rms_um": 0.2}} if hidden == "roughness" else {"noise": {"snr_db": -5.0, "spectral_slope": 0.0}}
+    fit = rank(cfg, twin_measurement(cfg, "normal", effects), ["roughness", "noise"], op=known_operating_point("normal"))
+    assert [added.effect for added in fit.added][:1] == [hidden], fit.summary
+    if hidden == "roughness":
+        (roughness,) = [added for added in fit.added if added.effect == "roughness"]
+        low, high = roughness.intervals["rms_um"]
+        assert low <= 0.2 <= high and high / low < 30, roughness.intervals  # the box spans a factor of 10000

@@ -586,9 +586,17 @@ class Roughness(Effect):
 
     Signature: a broadband floor shaped by the bearing's contact modes, lower kurtosis, a raised
     envelope floor; no lines.
+
+    Offered by the ranking on a healthy bearing's record only (``bearing_states``). A defect's impacts
+    ring the same contact modes far louder, and what a floor under them brings the twin closer in is
+    chiefly the lines view, where any floor buries the bare twin's own lines, so there it is not told
+    from a sensor's floor (on the test rig's development split a hidden white floor on an inner-race record
+    was taken for roughness). A healthy record of the same machine tells it, and a twin calibrated on one
+    keeps it for every state (``data=twin_to_real``, a ``reference=``).
     """
 
     name = "roughness"
+    bearing_states = ("normal",)
     signature = "broadband floor rising towards the contact modes, lower kurtosis"
     signature_views = ("psd", "statistics")
     search_space = {"rms_um": (0.001, 10.0, True)}

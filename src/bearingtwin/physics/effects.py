@@ -18,12 +18,15 @@ with :func:`register_effect`; ``conf/effects/<name>.yaml`` nests the constructor
 arguments under ``<name>:``, and :func:`build_effects` turns the composed ``effects``
 mapping into instances. The core model knows no effect by name.
 
-Three optional class-level hooks serve the ranking of :mod:`bearingtwin.twin.rank`, not
+Four optional class-level hooks serve the ranking of :mod:`bearingtwin.twin.rank`, not
 the simulation:
 
 - ``requires``: names of effects that must already be in the twin before this one is
   offered as a candidate. A second structural mode, say, is told apart from the first
   only once the first is in the twin; offered alone, ``resonance`` explains it as well.
+- ``bearing_states``: the bearing states whose records can tell the effect, where not every
+  state's can (empty: every state). It is offered as a candidate on those records only; a
+  twin given it as known (``effects=``, a reference's) keeps it on any record.
 - ``initial_guess(measured, twin, fs, shaft_hz)``: constructor parameters read off the
   data, to be the first trial of the effect's calibration. An effect whose signature is a
   few narrow lines needs it: a line's frequency is a needle that a search over a box of
@@ -63,6 +66,8 @@ class Effect:
         requires: effects the ranking needs in the twin before it offers this one (see the
             module docstring); a ranking notion, not checked when effects are built, so a
             simulation may use the effect alone.
+        bearing_states: the states whose records the ranking offers it on (empty: every state);
+            a ranking notion too.
         signature_views: the comparison views its signature shows in (module docstring).
         records_last: the effect acts on the signal as recorded, so it runs after every other
             effect (:func:`in_signal_order`).
@@ -70,6 +75,7 @@ class Effect:
 
     name: ClassVar[str] = ""
     requires: ClassVar[tuple[str, ...]] = ()
+    bearing_states: ClassVar[tuple[str, ...]] = ()
     signature_views: ClassVar[tuple[str, ...]] = ()
     records_last: ClassVar[bool] = False
 

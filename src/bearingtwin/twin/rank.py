@@ -631,7 +631,7 @@ class EffectRanker:
         added: list[EffectFit] = []
         pairs: list[dict] = []
         unclaimed = None
-        remaining = list(self.candidates)
+        remaining = [name for name in self.candidates if _offered_on(name, twin.fault)]
         round_index = 0
 
         def refitted(fit: EffectFit, scorer: Judge, attempt: int = 0):
@@ -747,19 +747,24 @@ class EffectRanker:
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
-                            unclaimed, self.min_signature_gain, self._not_tried(), pairs)
+                            unclaimed, self.min_signature_gain, self._not_tried(twin.fault), pairs)
         return self
 
-    def _not_tried(self) -> str:
-        """Why the selection could try no candidate, in the setting's own words ("" when it could)."""
+    def _not_tried(self, fault: str) -> str:
+        """Why the selection could try no candidate on a record of a ``fault`` bearing, in the setting's own
+        words ("" when it could)."""
         if not self.candidates:
             return "the candidate list is empty (candidates=[])"
         if self.max_effects == 0:
             return "ranking.max_effects=0"
+        elsewhere = [f"{name} is told on a {' or '.join(effect_class(name).bearing_states)} bearing's record only"
+                     for name in self.candidates if not _offered_on(name, fault)]
         waiting = [f"{name} needs {' and '.join(_requires(name))}" for name in self.candidates
-                   if not set(_requires(name)) <= set(self.fixed_effects)]
+                   if _offered_on(name, fault) and not set(_requires(name)) <= set(self.fixed_effects)]
         if len(waiting) == len(self.candidates):
             return f"each candidate needs another effect in the twin first ({'; '.join(waiting)})"
+        if len(waiting) + len(elsewhere) == len(self.candidates):
+            return f"no candidate can be told on this record ({'; '.join(elsewhere + waiting)})"
         return ""
 
     def _fit_candidate(self, name, space, base, current_effects, held, current, judge: Judge, twin, matched,
@@ -965,6 +970,12 @@ def _explained(before: Comparison, after: Comparison) -> float:
 
 def _requires(name: str) -> tuple[str, ...]:
     return tuple(getattr(effect_class(name), "requires", ()))
+
+
+def _offered_on(name: str, fault: str) -> bool:
+    """Whether a record of a ``fault`` bearing can tell the effect (its class's ``bearing_states``)."""
+    states = effect_class(name).bearing_states
+    return not states or fault in states
 
 
 def signature_views(name: str) -> tuple[str, ...]:
