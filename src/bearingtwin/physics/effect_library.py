@@ -5,7 +5,7 @@ acts at the stage of the twin where the physics happens (see
 :mod:`bearingtwin.physics.effects`): the sensor path (``resonance``,
 ``second_resonance``, ``structural_mode``, ``noise``, ``clipping`` and the line effects ``tones``,
 ``unbalance``, ``misalignment``, ``looseness``, ``line_frequency``), the kinematics the
-solver reads (``slip``, ``spin_slip``, ``speed_fluctuation``) or the dynamic parameters
+solver reads (``slip``, ``spin_slip``, ``speed_fluctuation``, ``roughness``) or the dynamic parameters
 (``lubrication``, ``load_zone``, ``preload``). The sensor-path physics is also exposed as
 plain signal functions (arrays in, arrays out, batched along the leading axis) so it can
 be used and tested without a simulator. Sensor-path effects cost the twin a filter, not
@@ -587,12 +587,14 @@ class Roughness(Effect):
     Signature: a broadband floor shaped by the bearing's contact modes, lower kurtosis, a raised
     envelope floor; no lines.
 
-    Offered by the ranking on a healthy bearing's record only (``bearing_states``). A defect's impacts
-    ring the same contact modes far louder, and what a floor under them brings the twin closer in is
-    chiefly the lines view, where any floor buries the bare twin's own lines, so there it is not told
-    from a sensor's floor (on the test rig's development split a hidden white floor on an inner-race record
-    was taken for roughness). A healthy record of the same machine tells it, and a twin calibrated on one
-    keeps it for every state (``data=twin_to_real``, a ``reference=``).
+    Not among ``bearingtwin-twin``'s default candidates (``candidates=[..., roughness]`` adds it), and offered
+    on a healthy bearing's record only (``bearing_states``). A defect's impacts ring the same contact modes
+    far louder, and what a floor under them brings the twin closer in is chiefly the lines view, where any
+    floor buries the bare twin's own lines, so there it is not told from a sensor's floor (on the test rig's
+    development split a hidden white floor on an inner-race record was taken for roughness). On a healthy
+    record it stands in for the bare twin's model-form gap too: its ball-pass lines far above a real
+    bearing's, which only a floor of several micrometres buries, and a twin calibrated so carries that floor
+    to every state (``data=twin_to_real``), burying small defects (results/identifiability.md says how much).
     """
 
     name = "roughness"
