@@ -30,15 +30,15 @@ from bearingtwin.physics.solvers import fast
 
 
 @njit(nogil=True)  # not cached: nothing written beside the script
-def _stage(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines, sines, out):
+def _stage(t, state, fs, shaft, speed, cage, spin, offsets, roughness, defect, p, angles, depths, cosines, sines, out):
     """One stage as before: the geometry at ``t`` afresh, then the forces."""
-    shaft_angle, shaft_speed = fast._geometry(t, fs, shaft, speed, cage, spin, offsets, defect, angles, depths,
-                                              cosines, sines)
+    shaft_angle, shaft_speed = fast._geometry(t, fs, shaft, speed, cage, spin, offsets, roughness, defect, angles,
+                                              depths, cosines, sines)
     fast.derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, out)
 
 
 @njit(nogil=True)
-def _every_stage(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, defect, p,
+def _every_stage(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, roughness, defect, p,
                  accelerations):
     """The stepper before stage sharing: kinematics, depths and trigonometry at each of the four stages."""
     n_balls = offsets.shape[1]
@@ -49,21 +49,23 @@ def _every_stage(state, first_sample, n_samples, substeps, fs, shaft, speed, cag
         sample = first_sample + i
         for step in range(substeps):
             t = sample / fs + step * dt
-            _stage(t, state, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines, sines, k1)
+            _stage(t, state, fs, shaft, speed, cage, spin, offsets, roughness, defect, p, angles, depths, cosines,
+                   sines, k1)
             if step == 0:
                 for dof in range(4):
                     accelerations[dof, i] = k1[4 + dof]
             for m in range(8):
                 trial[m] = state[m] + 0.5 * dt * k1[m]
-            _stage(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines,
-                   sines, k2)
+            _stage(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, roughness, defect, p, angles, depths,
+                   cosines, sines, k2)
             for m in range(8):
                 trial[m] = state[m] + 0.5 * dt * k2[m]
-            _stage(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines,
-                   sines, k3)
+            _stage(t + 0.5 * dt, trial, fs, shaft, speed, cage, spin, offsets, roughness, defect, p, angles, depths,
+                   cosines, sines, k3)
             for m in range(8):
                 trial[m] = state[m] + dt * k3[m]
-            _stage(t + dt, trial, fs, shaft, speed, cage, spin, offsets, defect, p, angles, depths, cosines, sines, k4)
+            _stage(t + dt, trial, fs, shaft, speed, cage, spin, offsets, roughness, defect, p, angles, depths, cosines,
+                   sines, k4)
             for m in range(8):
                 state[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
 

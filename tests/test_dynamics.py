@@ -1,6 +1,7 @@
 """Contact stiffness, equations of motion, static equilibrium, defects and the effects hook."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,7 +18,6 @@ from bearingtwin.physics.defects import build_defect, defect_depths, max_drop_m
 from bearingtwin.physics.dynamics import DynamicParameters, contact_force, state_derivative, static_equilibrium
 from bearingtwin.physics.effects import Effect, build_effects, register_effect
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.physics.kinematics import Kinematics
 from bearingtwin.physics.simulator import simulate
 from bearingtwin.physics.solvers.fast import derivative
 from bearingtwin.signal.envelope import envelope_spectrum, peak_near
@@ -185,9 +185,7 @@ class HookProbe(Effect):
     def modify_kinematics(self, kinematics, rng):
         if not self.freeze_cage:
             return kinematics
-        frozen = np.full_like(kinematics.cage_angle_rad, kinematics.cage_angle_rad[0])
-        return Kinematics(kinematics.fs_hz, kinematics.shaft_angle_rad, kinematics.shaft_speed_rad_s, frozen,
-                          kinematics.ball_spin_angle_rad, kinematics.ball_offset_rad)
+        return replace(kinematics, cage_angle_rad=np.full_like(kinematics.cage_angle_rad, kinematics.cage_angle_rad[0]))
 
     def modify_signal(self, signal, fs, rng, shaft_hz):
         return self.gain * signal + self.noise * rng.standard_normal(signal.size)

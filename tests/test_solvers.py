@@ -11,6 +11,7 @@ from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.physics.simulator import simulate, simulate_many
 from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.dynamics import DynamicParameters, static_equilibrium
+from bearingtwin.physics.effect_library import Roughness
 from bearingtwin.physics.kinematics import rigid_kinematics
 from bearingtwin.physics.solvers.fast import (_geometry, derivative, integrate, samples_per_step,
                                               substeps_per_sample)
@@ -97,17 +98,21 @@ def _textbook_rk4(state, kinematics, defect, p, n_samples, substeps):
     return accelerations
 
 
-@pytest.mark.parametrize("fault, substeps", [("outer", 3), ("inner", 1), ("ball", 2)])
-def test_fast_solver_sharing_stage_geometry_is_textbook_rk4_to_the_bit(fault, substeps):
+@pytest.mark.parametrize("fault, substeps, rough", [("outer", 3, False), ("inner", 1, True), ("ball", 2, False)])
+def test_fast_solver_sharing_stage_geometry_is_textbook_rk4_to_the_bit(fault, substeps, rough):
     """The compiled stepper evaluates the geometry three times a step, not four; nothing else may change.
 
     1500 samples at 20 kHz (75 ms) carry each defect through the load zone at least once (the
     ball's pit first meets a race near sample 1130), and an unbalance makes the shaft's angle
-    and speed count in every stage."""
+    and speed count in every stage; rough contacts add a height read at every stage too."""
     params = DynamicParameters.from_config(BEARING, settings(eccentricity_mm=0.05))
     rest = 2.0 * np.pi * np.arange(GEOMETRY.n_balls) / GEOMETRY.n_balls
     state = static_equilibrium(params, rest)
     kinematics = rigid_kinematics(GEOMETRY, 1797.0, 20_000.0, 1501, 0.0)
+    if rough:
+        smooth = integrate(params, kinematics, build_defect(fault, GEOMETRY, SIMULATOR.defect, -np.pi / 2).as_array(),
+                           state, 0, 1500, substeps)
+        kinematics = Roughness(rms_um=0.1).modify_kinematics(kinematics, np.random.default_rng(0))
     defect = build_defect(fault, GEOMETRY, SIMULATOR.defect, -np.pi / 2).as_array()
     fast = integrate(params, kinematics, defect, state, 0, 1500, substeps)
     unpitted = defect.copy()
@@ -116,6 +121,8 @@ def test_fast_solver_sharing_stage_geometry_is_textbook_rk4_to_the_bit(fault, su
     assert np.abs(fast - bare).max() > 0.1 * np.abs(bare).max()  # the defect's impacts are in the stretch
     textbook = _textbook_rk4(np.array(state, dtype=float), kinematics, defect, params.as_array(), 1500, substeps)
     np.testing.assert_array_equal(fast, textbook)
+    if rough:
+        assert np.abs(fast - smooth).max() > 0.01 * np.abs(smooth).max()  # the height is read, not dropped
 
 
 @pytest.fixture(scope="module")

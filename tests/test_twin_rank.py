@@ -315,8 +315,8 @@ def test_an_effect_outside_the_library_is_named_where_it_is_not_pinned_on_the_li
     ([], {}, "the candidate list is empty (candidates=[])"),
     (["tones"], {"max_effects": 0}, "ranking.max_effects=0"),
     (["second_resonance"], {}, "each candidate needs another effect in the twin first (second_resonance needs resonance)"),
-    (["roughness", "second_resonance"], {}, "no candidate can be told on this record (roughness is told on a normal "
-                                            "bearing's record only; second_resonance needs resonance)"),
+    (["roughness", "second_resonance"], {}, "no candidate could be offered: roughness (offered on a healthy "
+                                            "bearing's record only); second_resonance needs resonance"),
 ])
 def test_a_selection_that_tried_nothing_says_why_not_that_nothing_paid(cfg, candidates, budget, why):
     fit = rank(cfg, twin_measurement(cfg, "outer"), candidates, op=known_operating_point(), fixed=FLOOR, **budget)
@@ -627,3 +627,23 @@ def test_a_healthy_bearings_rough_surfaces_are_told_from_a_sensors_floor(cfg, hi
         (roughness,) = [added for added in fit.added if added.effect == "roughness"]
         low, high = roughness.intervals["rms_um"]
         assert low <= 0.2 <= high and high / low < 30, roughness.intervals  # the box spans a factor of 10000
+
+
+def test_a_candidate_its_bearing_state_cannot_tell_is_passed_over_and_said_so(cfg):
+    """Named beside others on a faulty bearing's record, roughness is not offered, and the report says why."""
+    fit = rank(cfg, twin_measurement(cfg, "outer"), ["roughness", "unbalance"], op=known_operating_point(), fixed=FLOOR)
+    assert [candidate.effect for candidate in fit.ranking] == ["unbalance"]
+    why = "roughness (offered on a healthy bearing's record only)"
+    assert fit.passed_over == why and fit.as_dict()["passed_over"] == why and fit.not_tried == ""
+    assert f"Not offered on this record: {why}." in fit.summary
+
+
+def test_an_effect_naming_a_bearing_state_that_does_not_exist_is_refused_when_registered():
+    from bearingtwin.physics.effects import Effect, register_effect
+
+    class Misnamed(Effect):
+        name = "misnamed_states"
+        bearing_states = ("healthy",)
+
+    with pytest.raises(BearingTwinError, match="misnamed_states.*bearing_states must be a tuple of bearing states"):
+        register_effect(Misnamed)

@@ -579,10 +579,12 @@ class Roughness(Effect):
     floor lies flat, and only loaded balls pass it on, which modulates it at the ball-pass rate.
 
     Args:
-        rms_um: RMS of each contact's height in the band 0 - ``bandwidth_hz`` (um); a ground race's
-            roughness is 0.05-0.2 um, waviness and film variation add to it.
+        rms_um: RMS of each contact's height over 0 - ``bandwidth_hz`` at its flat spectral level
+            (``rms_um``^2 / ``bandwidth_hz`` per Hz; the low-pass's roll-off at the band's edge leaves the
+            whole height's RMS about 5 % lower); a ground race's roughness is 0.05-0.2 um, waviness and film
+            variation add to it.
         bandwidth_hz: highest frequency of the height seen in time (Hz). A grid too coarse to carry it
-            keeps the same spectral level over the band it can (the RMS is a level, not a total).
+            keeps the same spectral level over the band it can (the level is held, not the total).
 
     Signature: a broadband floor shaped by the bearing's contact modes, lower kurtosis, a raised
     envelope floor; no lines.
@@ -611,8 +613,9 @@ class Roughness(Effect):
         fs = kinematics.fs_hz
         band_hz = min(self.bandwidth_hz, 0.45 * fs)
         # White at the grid's rate with the band's spectral level (rms^2 / bandwidth), then low-passed to the band.
-        white = rng.standard_normal((kinematics.n_samples, kinematics.n_balls)) * math.sqrt(0.5 * fs / self.bandwidth_hz)
-        height = sps.sosfiltfilt(sps.butter(4, band_hz, fs=fs, output="sos"), white, axis=0) * self.rms_um * 1e-6
+        level = math.sqrt(0.5 * fs / self.bandwidth_hz) * self.rms_um * 1e-6
+        white = level * rng.standard_normal((kinematics.n_samples, kinematics.n_balls))
+        height = sps.sosfiltfilt(sps.butter(4, band_hz, fs=fs, output="sos"), white, axis=0)
         earlier = kinematics.contact_roughness_m
         return replace(kinematics, contact_roughness_m=height if earlier is None else earlier + height)
 

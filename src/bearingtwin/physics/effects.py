@@ -47,6 +47,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.dynamics import DynamicParameters
+from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.physics.kinematics import Kinematics
 
 LIBRARY_MODULE = "bearingtwin.physics.effect_library"
@@ -118,6 +119,9 @@ def register_effect(cls: type[Effect]) -> type[Effect]:
     """Class decorator: make ``cls`` available under ``cls.name`` in the ``effects`` config."""
     if not (isinstance(cls, type) and issubclass(cls, Effect)) or not cls.name:
         raise BearingTwinError(f"{cls!r} is not an Effect subclass with a non-empty name")
+    if not isinstance(cls.bearing_states, tuple) or not set(cls.bearing_states) <= set(FAULTS):
+        raise BearingTwinError(f"effect {cls.name!r}: bearing_states must be a tuple of bearing states "
+                               f"({', '.join(FAULTS)}), got {cls.bearing_states!r}")
     known = _REGISTRY.get(cls.name)
     if known is not None and known.__qualname__ != cls.__qualname__:
         raise BearingTwinError(f"effect name {cls.name!r} is already taken by {known.__module__}.{known.__qualname__}")

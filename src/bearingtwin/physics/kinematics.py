@@ -45,15 +45,18 @@ class Kinematics:
 
     def __post_init__(self) -> None:
         n = len(self.shaft_angle_rad)
-        per_ball = ("ball_offset_rad",) + (("contact_roughness_m",) if self.contact_roughness_m is not None else ())
-        for name in ("shaft_speed_rad_s", "cage_angle_rad", "ball_spin_angle_rad") + per_ball:
+        for name in ("shaft_speed_rad_s", "cage_angle_rad", "ball_spin_angle_rad", "ball_offset_rad",
+                     "contact_roughness_m"):
             array = getattr(self, name)
+            if array is None:  # smooth surfaces
+                continue
             if len(array) != n or not np.all(np.isfinite(array)):
                 raise BearingTwinError(f"kinematics.{name} must hold {n} finite samples (got shape {np.shape(array)})")
         if np.ndim(self.ball_offset_rad) != 2:
             raise BearingTwinError(f"kinematics.ball_offset_rad must have shape (n, n_balls), got {np.shape(self.ball_offset_rad)}")
-        if self.contact_roughness_m is not None and np.shape(self.contact_roughness_m) != np.shape(self.ball_offset_rad):
-            raise BearingTwinError(f"kinematics.contact_roughness_m must have shape {np.shape(self.ball_offset_rad)}, "
+        offsets_shape = np.shape(self.ball_offset_rad)
+        if self.contact_roughness_m is not None and np.shape(self.contact_roughness_m) != offsets_shape:
+            raise BearingTwinError(f"kinematics.contact_roughness_m must have shape {offsets_shape}, "
                                    f"got {np.shape(self.contact_roughness_m)}")
 
     @property
@@ -67,7 +70,7 @@ class Kinematics:
     def solver_arrays(self) -> tuple[np.ndarray, ...]:
         """The series as the compiled solvers read them, in :func:`sample_kinematics`'s and :func:`add_roughness`'s
         order: shaft, speed, cage, spin, offsets, roughness (no rows where the surfaces are smooth)."""
-        roughness = (np.zeros((0, self.n_balls)) if self.contact_roughness_m is None else self.contact_roughness_m)
+        roughness = np.zeros((0, self.n_balls)) if self.contact_roughness_m is None else self.contact_roughness_m
         return tuple(np.ascontiguousarray(a, dtype=np.float64) for a in (
             self.shaft_angle_rad, self.shaft_speed_rad_s, self.cage_angle_rad, self.ball_spin_angle_rad,
             self.ball_offset_rad, roughness))

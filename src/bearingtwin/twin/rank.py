@@ -270,6 +270,7 @@ class TwinFit:
     # measurement, no twin: :func:`views_beyond_floor`); None when no reference record was compared, and why.
     since_reference: list[dict] | None = None
     reference_note: str = ""  # why a reference record was not compared ("it is this record itself"), else ""
+    passed_over: str = ""  # candidates not offered on this record's bearing state, and why, where others were tried
 
     @property
     def final_error(self) -> float:
@@ -332,6 +333,8 @@ class TwinFit:
             head = "No effect needed" if not self.new_unexplained else "No library effect added"
             lines.append(f"{head}: the best candidate, {self.ranking[0].effect}, does not pay for its parameters on "
                          f"the {part}. Discrepancy {self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
+        if self.passed_over:
+            lines.append(f"Not offered on this record: {self.passed_over}.")
         lines += self._reference_lines()
         new = self.new_unexplained
         by = "the library" if self.ranking else "the twin"  # with nothing tried, the library was not asked
@@ -386,6 +389,7 @@ class TwinFit:
             "unexplained": self.unexplained,
             "unclaimed": None if self.unclaimed is None else self.unclaimed.as_dict(),
             "not_tried": self.not_tried,
+            "passed_over": self.passed_over,
             "since_reference": self.since_reference,
             "reference_note": self.reference_note,
             "final_error": self.final_error,
@@ -747,7 +751,8 @@ class EffectRanker:
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
-                            unclaimed, self.min_signature_gain, self._not_tried(twin.fault), pairs)
+                            unclaimed, self.min_signature_gain, self._not_tried(twin.fault), pairs,
+                            passed_over=self._passed_over(twin.fault))
         return self
 
     def _not_tried(self, fault: str) -> str:
@@ -757,15 +762,20 @@ class EffectRanker:
             return "the candidate list is empty (candidates=[])"
         if self.max_effects == 0:
             return "ranking.max_effects=0"
-        elsewhere = [f"{name} is told on a {' or '.join(effect_class(name).bearing_states)} bearing's record only"
-                     for name in self.candidates if not _offered_on(name, fault)]
+        elsewhere = [_offered_only_words(name) for name in self.candidates if not _offered_on(name, fault)]
         waiting = [f"{name} needs {' and '.join(_requires(name))}" for name in self.candidates
                    if _offered_on(name, fault) and not set(_requires(name)) <= set(self.fixed_effects)]
         if len(waiting) == len(self.candidates):
             return f"each candidate needs another effect in the twin first ({'; '.join(waiting)})"
         if len(waiting) + len(elsewhere) == len(self.candidates):
-            return f"no candidate can be told on this record ({'; '.join(elsewhere + waiting)})"
+            return f"no candidate could be offered: {'; '.join(elsewhere + waiting)}"
         return ""
+
+    def _passed_over(self, fault: str) -> str:
+        """The candidates not offered on a record of a ``fault`` bearing, and why, where others were ("" else:
+        :meth:`_not_tried` says it then)."""
+        elsewhere = [_offered_only_words(name) for name in self.candidates if not _offered_on(name, fault)]
+        return "; ".join(elsewhere) if elsewhere and not self._not_tried(fault) else ""
 
     def _fit_candidate(self, name, space, base, current_effects, held, current, judge: Judge, twin, matched,
                        seed, scorer: Judge, progress: StageProgress) -> EffectFit:
@@ -976,6 +986,15 @@ def _offered_on(name: str, fault: str) -> bool:
     """Whether a record of a ``fault`` bearing can tell the effect (its class's ``bearing_states``)."""
     states = effect_class(name).bearing_states
     return not states or fault in states
+
+
+_STATE_WORDS = {"normal": "healthy", "inner": "inner-race faulty", "ball": "ball faulty", "outer": "outer-race faulty"}
+
+
+def _offered_only_words(name: str) -> str:
+    """``roughness (offered on a healthy bearing's record only)``."""
+    states = " or ".join(_STATE_WORDS[state] for state in effect_class(name).bearing_states)
+    return f"{name} (offered on a {states} bearing's record only)"
 
 
 def signature_views(name: str) -> tuple[str, ...]:

@@ -126,8 +126,8 @@ def _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin,
     derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k3)
     for m in range(8):
         trial[m] = state[m] + dt * k3[m]
-    end_angle, end_speed = _geometry(t + dt, fs, shaft, speed, cage, spin, offsets, roughness, defect, end_angles, end_depths,
-                                     end_cosines, end_sines)
+    end_angle, end_speed = _geometry(t + dt, fs, shaft, speed, cage, spin, offsets, roughness, defect, end_angles,
+                                     end_depths, end_cosines, end_sines)
     derivative(trial, end_cosines, end_sines, end_depths, end_angle, end_speed, p, k4)
     for m in range(8):
         state[m] += dt / 6.0 * (k1[m] + 2.0 * k2[m] + 2.0 * k3[m] + k4[m])
@@ -135,7 +135,8 @@ def _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin,
 
 
 @njit(cache=True, nogil=True)  # nogil: the ranking screens candidates in threads
-def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, roughness, defect, p, accelerations):
+def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, spin, offsets, roughness, defect, p,
+             accelerations):
     """Integrate from sample ``first_sample`` over ``n_samples`` samples, in place on ``state``;
     the acceleration at each sample's start goes to ``accelerations[:, i]``.
 
@@ -161,21 +162,21 @@ def _advance(state, first_sample, n_samples, substeps, fs, shaft, speed, cage, s
         for step in range(substeps):
             t = sample / fs + step * dt
             if t != ready_at:
-                shaft_angle, shaft_speed = _geometry(t, fs, shaft, speed, cage, spin, offsets, roughness, defect, angles, depths,
-                                                     cosines, sines)
+                shaft_angle, shaft_speed = _geometry(t, fs, shaft, speed, cage, spin, offsets, roughness, defect,
+                                                     angles, depths, cosines, sines)
             derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k1)
             if step == 0:
                 for dof in range(4):
                     accelerations[dof, i] = k1[4 + dof]
             ready_at = t + dt
             _, _, shaft_angle, shaft_speed = _rk4_step(state, t, dt, k1, k2, k3, k4, trial, fs, shaft, speed, cage, spin,
-                                                       offsets, roughness, defect, p, angles, depths, cosines, sines,
-                                                       angles, depths, cosines, sines)
+                                                       offsets, roughness, defect, p, angles, depths, cosines,
+                                                       sines, angles, depths, cosines, sines)
 
 
 @njit(cache=True, nogil=True)
-def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, speed, cage, spin, offsets, roughness, defect, p,
-                          accelerations):
+def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, speed, cage, spin, offsets, roughness,
+                          defect, p, accelerations):
     """:func:`_advance` with one RK4 step over ``per_step`` samples (fewer at the end of the stretch).
 
     A step's first sample takes the derivative at its start (the step's first stage, as in
@@ -196,8 +197,8 @@ def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, s
     k_inside = np.empty(8)
     trial = np.empty(8)
     start = np.empty(8)
-    shaft_angle, shaft_speed = _geometry(first_sample / fs, fs, shaft, speed, cage, spin, offsets, roughness, defect, angles,
-                                         depths, cosines, sines)
+    shaft_angle, shaft_speed = _geometry(first_sample / fs, fs, shaft, speed, cage, spin, offsets, roughness, defect,
+                                         angles, depths, cosines, sines)
     derivative(state, cosines, sines, depths, shaft_angle, shaft_speed, p, k1)
     i = 0
     while i < n_samples:
@@ -223,8 +224,8 @@ def _advance_over_samples(state, first_sample, n_samples, per_step, fs, shaft, s
             if 2 * inside == count:
                 derivative(trial, mid_cosines, mid_sines, mid_depths, mid_angle, mid_speed, p, k_inside)
             else:
-                inside_angle, inside_speed = _geometry(t + theta * dt, fs, shaft, speed, cage, spin, offsets, roughness, defect,
-                                                       angles, depths, cosines, sines)
+                inside_angle, inside_speed = _geometry(t + theta * dt, fs, shaft, speed, cage, spin, offsets, roughness,
+                                                       defect, angles, depths, cosines, sines)
                 derivative(trial, cosines, sines, depths, inside_angle, inside_speed, p, k_inside)
             for dof in range(4):
                 accelerations[dof, i + inside] = k_inside[4 + dof]
