@@ -595,8 +595,9 @@ class Roughness(Effect):
     floor buries the bare twin's own lines, so there it is not told from a sensor's floor (on the test rig's
     development split a hidden white floor on an inner-race record was taken for roughness). On a healthy
     record it stands in for the bare twin's model-form gap too: its ball-pass lines far above a real
-    bearing's, which only a floor of several micrometres buries, and a twin calibrated so carries that floor
-    to every state (``data=twin_to_real``), burying small defects (results/identifiability.md says how much).
+    bearing's, which on one rig took a height at the search's edge (10 um) to bury, and a twin calibrated so
+    carries it to every state (``data=twin_to_real``), burying small defects (results/identifiability.md says
+    how much).
     """
 
     name = "roughness"
