@@ -710,12 +710,15 @@ def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float],
     if not lines:
         return "ambiguous", None, "no defect frequency away from the shaft's lines below the Nyquist frequency to decide"
     frequencies = np.array(list(lines.values()))
-    ratio, resolution = _envelope_prominence(signal, fs, min(2.2 * frequencies.max(), fs / 2))
+    ratio, resolution = _envelope_prominence(signal, fs, min(3.3 * frequencies.max(), fs / 2))
     at_f = _peak(ratio, resolution, frequencies, _WINDOW)
     at_fraction = _peak(ratio, resolution, frequencies * scale, _WINDOW)
-    # A witness for the rate stands with its second harmonic where that is below the Nyquist frequency: a lone line
-    # at f may be any of a fault's many envelope lines (an outer race's BPFO harmonics and their sidebands).
+    # A witness for the rate stands with its second and third harmonics where they are below the Nyquist frequency:
+    # a line at f, or two at f and 2f, may be any of a fault's many envelope lines (an outer race's BPFO harmonics,
+    # an inner race's BPFI harmonics and their shaft sidebands).
     at_f_and_2f = np.where(2.2 * frequencies < fs / 2, _comb_prominence(ratio, resolution, frequencies, _WINDOW), at_f)
+    at_f_and_2f = np.where(3.3 * frequencies < fs / 2, np.minimum(at_f_and_2f, _peak(ratio, resolution, 3 * frequencies,
+                                                                                     _WINDOW)), at_f_and_2f)
     below = {name: _comb_below(ratio, resolution, hz, shaft_hz, defect_hz, max_fraction, prominence)
              for name, hz in lines.items()}
     wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
