@@ -716,13 +716,13 @@ def _defect_witness(signal, fs, shaft_hz: float, defect_hz: Mapping[str, float],
     # A witness for the rate stands with its second and third harmonics where they are below the Nyquist frequency:
     # a line at f, or two at f and 2f, may be any of a fault's many envelope lines (an outer race's BPFO harmonics,
     # an inner race's BPFI harmonics and their shaft sidebands).
-    at_f_and_2f = np.where(2.2 * frequencies < fs / 2, _comb_prominence(ratio, resolution, frequencies, _WINDOW), at_f)
-    at_f_and_2f = np.where(3.3 * frequencies < fs / 2, np.minimum(at_f_and_2f, _peak(ratio, resolution, 3 * frequencies,
-                                                                                     _WINDOW)), at_f_and_2f)
+    with_second = np.where(2.2 * frequencies < fs / 2, _comb_prominence(ratio, resolution, frequencies, _WINDOW), at_f)
+    with_third = np.minimum(with_second, _peak(ratio, resolution, 3 * frequencies, _WINDOW))
+    as_witness = np.where(3.3 * frequencies < fs / 2, with_third, with_second)
     below = {name: _comb_below(ratio, resolution, hz, shaft_hz, defect_hz, max_fraction, prominence)
              for name, hz in lines.items()}
     wrong = [name for name, a, b in zip(lines, at_f, at_fraction) if b >= prominence and b > a]
-    right = [name for name, a, b in zip(lines, at_f_and_2f, at_fraction) if a >= prominence and b < prominence
+    right = [name for name, a, b in zip(lines, as_witness, at_fraction) if a >= prominence and b < prominence
              and not below[name]]
     if wrong and not right:
         fraction = f"1/{k}" if math.isclose(scale * k, 1.0, rel_tol=_WINDOW) else f"{scale:.3g} times"
