@@ -269,19 +269,20 @@ def check_sampling_rate(
                    harmonic_tolerance=harmonic_tolerance, search_factor=search_factor, background_hz=background_hz,
                    max_fraction=max_fraction, slip=slip)
 
+    def verdict_at(rate: float) -> str | None:
+        try:
+            return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False).verdict
+        except BearingTwinError:  # too short to check at that rate
+            return None
+
     def concluded(check: ShaftLineCheck) -> ShaftLineCheck:
         if not follow_implied:
             return check
         check = _implied_rate_checked(check, signal, options)
-        if check.verdict != "ambiguous" or not defect_hz:  # a contradiction made stands, with the rate it implies
+        if check.verdict == "contradicted" and defect_hz:  # a contradiction made stands; the rate it names is checked
+            return _series_read_as_a_defects(check, defect_hz, lambda rate: verdict_at(rate) == "consistent")
+        if check.verdict != "ambiguous" or not defect_hz:
             return check
-
-        def verdict_at(rate: float) -> str | None:
-            try:
-                return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False).verdict
-            except BearingTwinError:  # too short to check at that rate
-                return None
-
         return _defect_comb_elsewhere(check, signal, defect_hz, ratio, resolution, prominence, search_factor,
                                       harmonic_tolerance, tolerance, lambda rate: verdict_at(rate) == "consistent")
 
@@ -383,6 +384,25 @@ def check_sampling_rate(
         why = f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz){machine}; {why}"
     return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
                           reason=suspicion + why, fraction_rate_hz=rate_if_shaft)
+
+
+def _series_read_as_a_defects(check: ShaftLineCheck, defect_hz: Mapping[str, float],
+                              confirmed: Callable[[float], bool]) -> ShaftLineCheck:
+    """A contradiction whose rate was read off a strong series taken for the shaft's: where the record is not
+    ``confirmed`` at that rate, the series may be a defect's (a race's impacts form a sharp series in the spectrum
+    itself, and on a machine with a lone 1x line it is the strongest there); the rate at which it stands at that
+    defect's frequency replaces it where the record is confirmed there, said so."""
+    if check.observed_hz is None or check.implied_fs_hz is None or check.fraction or check.witness:
+        return check
+    if confirmed(check.implied_fs_hz):
+        return check
+    for name, hz in named_defect_hz(defect_hz).items():
+        rate = check.fs_hz * hz / check.observed_hz
+        if confirmed(rate):
+            return dataclasses.replace(check, implied_fs_hz=rate, reason=(
+                f"{check.reason}; but the record is not confirmed at {check.implied_fs_hz:.0f} Hz, and the series "
+                f"stands where {name} belongs at a rate of {rate:.0f} Hz, which the record confirms"))
+    return check
 
 
 def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Mapping) -> ShaftLineCheck:
