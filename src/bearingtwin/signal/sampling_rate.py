@@ -280,7 +280,8 @@ def check_sampling_rate(
             return check
         check = _implied_rate_checked(check, signal, options)
         if check.verdict == "contradicted" and defect_hz:  # a contradiction made stands; the rate it names is checked
-            return _series_read_as_a_defects(check, defect_hz, lambda rate: verdict_at(rate) == "consistent")
+            return _series_read_as_a_defects(check, defect_hz, ratio, resolution, prominence, harmonic_tolerance,
+                                             lambda rate: verdict_at(rate) == "consistent")
         if check.verdict != "ambiguous" or not defect_hz:
             return check
         return _defect_comb_elsewhere(check, signal, defect_hz, ratio, resolution, prominence, search_factor,
@@ -386,22 +387,26 @@ def check_sampling_rate(
                           reason=suspicion + why, fraction_rate_hz=rate_if_shaft)
 
 
-def _series_read_as_a_defects(check: ShaftLineCheck, defect_hz: Mapping[str, float],
+def _series_read_as_a_defects(check: ShaftLineCheck, defect_hz: Mapping[str, float], ratio: np.ndarray,
+                              resolution: float, prominence: float, window: float,
                               confirmed: Callable[[float], bool]) -> ShaftLineCheck:
-    """A contradiction whose rate was read off a strong series taken for the shaft's: where the record is not
-    ``confirmed`` at that rate, the series may be a defect's (a race's impacts form a sharp series in the spectrum
-    itself, and on a machine with a lone 1x line it is the strongest there); the rate at which it stands at that
-    defect's frequency replaces it where the record is confirmed there, said so."""
+    """A contradiction whose rate was read off a strong series taken for the shaft's: the series may be a defect's
+    instead (a race's impacts form a sharp series in the spectrum itself, and on a machine with a lone 1x line it is
+    the strongest there). Read at the rate the series' own reading names, the record confirms it by that very series,
+    so that confirms nothing; read as a defect's, the series names a rate at which the shaft's lone line must stand
+    too, below the series (``ratio``, ``resolution``: the record's prominence spectrum at the declared rate). Where
+    it does and the record is ``confirmed`` at that rate, that rate replaces the series', said so."""
     if check.observed_hz is None or check.implied_fs_hz is None or check.fraction or check.witness:
-        return check
-    if confirmed(check.implied_fs_hz):
         return check
     for name, hz in named_defect_hz(defect_hz).items():
         rate = check.fs_hz * hz / check.observed_hz
-        if confirmed(rate):
+        shaft_hz = check.expected_hz * check.fs_hz / rate  # where the shaft's line stands, read at the declared rate
+        if abs(math.log(rate / check.implied_fs_hz)) <= window or shaft_hz >= check.observed_hz:
+            continue
+        if float(_peak(ratio, resolution, np.array([shaft_hz]), window)[0]) >= prominence and confirmed(rate):
             return dataclasses.replace(check, implied_fs_hz=rate, reason=(
-                f"{check.reason}; but the record is not confirmed at {check.implied_fs_hz:.0f} Hz, and the series "
-                f"stands where {name} belongs at a rate of {rate:.0f} Hz, which the record confirms"))
+                f"{check.reason}; but that series stands where {name} belongs at a rate of {rate:.0f} Hz, and a line "
+                f"stands at {shaft_hz:.2f} Hz, where that rate puts the shaft's: the record is confirmed at {rate:.0f} Hz"))
     return check
 
 
