@@ -269,22 +269,22 @@ def check_sampling_rate(
                    harmonic_tolerance=harmonic_tolerance, search_factor=search_factor, background_hz=background_hz,
                    max_fraction=max_fraction, slip=slip)
 
-    def verdict_at(rate: float) -> str | None:
-        try:
-            return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False).verdict
-        except BearingTwinError:  # too short to check at that rate
-            return None
-
     def concluded(check: ShaftLineCheck) -> ShaftLineCheck:
         if not follow_implied:
             return check
-        check = _implied_rate_checked(check, signal, options)
-        if check.verdict == "contradicted" and defect_hz:  # a contradiction made stands; the rate it names is checked
-            return _series_read_as_a_defects(check, defect_hz, ratio, resolution, prominence, harmonic_tolerance,
-                                             lambda rate: verdict_at(rate) == "consistent")
-        if check.verdict != "ambiguous" or not defect_hz:
-            return check
-        return _defect_comb_elsewhere(check, signal, defect_hz, ratio, resolution, prominence, search_factor,
+        checked = _implied_rate_checked(check, signal, options)
+        if checked.verdict == "contradicted" and defect_hz and checked is check:  # a contradiction made stands
+            return _series_also_read_as_a_defects(check, defect_hz, ratio, resolution, prominence, harmonic_tolerance)
+        if checked.verdict != "ambiguous" or not defect_hz:
+            return checked
+
+        def verdict_at(rate: float) -> str | None:
+            try:
+                return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False).verdict
+            except BearingTwinError:  # too short to check at that rate
+                return None
+
+        return _defect_comb_elsewhere(checked, signal, defect_hz, ratio, resolution, prominence, search_factor,
                                       harmonic_tolerance, tolerance, lambda rate: verdict_at(rate) == "consistent")
 
     # The search reaches search_factor^2 on either side only to tell "no series anywhere" from "a series
@@ -387,27 +387,34 @@ def check_sampling_rate(
                           reason=suspicion + why, fraction_rate_hz=rate_if_shaft)
 
 
-def _series_read_as_a_defects(check: ShaftLineCheck, defect_hz: Mapping[str, float], ratio: np.ndarray,
-                              resolution: float, prominence: float, window: float,
-                              confirmed: Callable[[float], bool]) -> ShaftLineCheck:
-    """A contradiction whose rate was read off a strong series taken for the shaft's: the series may be a defect's
-    instead (a race's impacts form a sharp series in the spectrum itself, and on a machine with a lone 1x line it is
-    the strongest there). Read at the rate the series' own reading names, the record confirms it by that very series,
-    so that confirms nothing; read as a defect's, the series names a rate at which the shaft's lone line must stand
-    too, below the series (``ratio``, ``resolution``: the record's prominence spectrum at the declared rate). Where
-    it does and the record is ``confirmed`` at that rate, that rate replaces the series', said so."""
-    if check.observed_hz is None or check.implied_fs_hz is None or check.fraction or check.witness:
+def _series_also_read_as_a_defects(check: ShaftLineCheck, defect_hz: Mapping[str, float], ratio: np.ndarray,
+                                   resolution: float, prominence: float, window: float) -> ShaftLineCheck:
+    """A contradiction whose rate was read off a strong series taken for the shaft's, said with the series' other
+    reading where the record bears it: a race's impacts (or a ball's) form a sharp series in the spectrum itself,
+    and on a machine with a lone 1x line it is the strongest there. Read as a defect's, the series puts the rate
+    where the shaft's line stands below it; where a line stands there (``ratio``, ``resolution``: the record's
+    prominence spectrum at the declared rate), the reason names that reading too, its most prominent line first.
+    The rate named stays the shaft reading's: the record read at either rate confirms it by the series itself, and
+    a line below a shaft series (a belt's, a whirl's) can stand anywhere, so the spectrum alone does not decide."""
+    if check.observed_hz is None or check.implied_fs_hz is None or check.fraction:
         return check
+    readings = []
     for name, hz in named_defect_hz(defect_hz).items():
+        if name not in _COMB_NAMES:
+            continue
         rate = check.fs_hz * hz / check.observed_hz
         shaft_hz = check.expected_hz * check.fs_hz / rate  # where the shaft's line stands, read at the declared rate
-        if abs(math.log(rate / check.implied_fs_hz)) <= window or shaft_hz >= check.observed_hz:
+        if abs(math.log(rate / check.implied_fs_hz)) <= window or _supply_multiple(shaft_hz) is not None:
             continue
-        if float(_peak(ratio, resolution, np.array([shaft_hz]), window)[0]) >= prominence and confirmed(rate):
-            return dataclasses.replace(check, implied_fs_hz=rate, reason=(
-                f"{check.reason}; but that series stands where {name} belongs at a rate of {rate:.0f} Hz, and a line "
-                f"stands at {shaft_hz:.2f} Hz, where that rate puts the shaft's: the record is confirmed at {rate:.0f} Hz"))
-    return check
+        line = float(_peak(ratio, resolution, np.array([shaft_hz]), window)[0])
+        if line >= prominence:
+            readings.append((line, name, rate, shaft_hz))
+    if not readings:
+        return check
+    _, name, rate, shaft_hz = max(readings)
+    return dataclasses.replace(check, reason=(
+        f"{check.reason} if it is the shaft's series; read as {name}'s, it puts fs at {rate:.0f} Hz, where the line "
+        f"standing near {shaft_hz:.1f} Hz would be the shaft's 1x"))
 
 
 def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Mapping) -> ShaftLineCheck:
