@@ -762,7 +762,7 @@ class EffectRanker:
             return "the candidate list is empty (candidates=[])"
         if self.max_effects == 0:
             return "ranking.max_effects=0"
-        elsewhere = [_offered_only_words(name) for name in self.candidates if not _offered_on(name, fault)]
+        elsewhere = self._not_offered(fault)
         waiting = [f"{name} needs {' and '.join(_requires(name))}" for name in self.candidates
                    if _offered_on(name, fault) and not set(_requires(name)) <= set(self.fixed_effects)]
         if len(waiting) == len(self.candidates):
@@ -771,11 +771,13 @@ class EffectRanker:
             return f"no candidate could be offered: {'; '.join(elsewhere + waiting)}"
         return ""
 
+    def _not_offered(self, fault: str) -> list[str]:
+        """The candidates a record of a ``fault`` bearing cannot tell, each with why (:func:`_offered_only_words`)."""
+        return [_offered_only_words(name) for name in self.candidates if not _offered_on(name, fault)]
+
     def _passed_over(self, fault: str) -> str:
-        """The candidates not offered on a record of a ``fault`` bearing, and why, where others were ("" else:
-        :meth:`_not_tried` says it then)."""
-        elsewhere = [_offered_only_words(name) for name in self.candidates if not _offered_on(name, fault)]
-        return "; ".join(elsewhere) if elsewhere and not self._not_tried(fault) else ""
+        """:meth:`_not_offered`, said where other candidates were tried ("" else: :meth:`_not_tried` says it then)."""
+        return "" if self._not_tried(fault) else "; ".join(self._not_offered(fault))
 
     def _fit_candidate(self, name, space, base, current_effects, held, current, judge: Judge, twin, matched,
                        seed, scorer: Judge, progress: StageProgress) -> EffectFit:
