@@ -111,7 +111,6 @@ class CompareSettings:
     envelope_highpass_hz: float = 500.0
     envelope_dynamic_range_db: float = 40.0
     psd_detrend_order: int = 1
-    psd_continuous: bool = False
     lines_segment_s: float = 0.5
     lines_max_hz: float = 1000.0
     line_threshold_db: float = 8.0
@@ -352,9 +351,6 @@ class Comparator:
         self.lines_nperseg = int(round(s.lines_segment_s * self.fs))
         self.lines_welch = WelchPSD(self.fs, sps.get_window("blackmanharris", self.lines_nperseg))
         lines_freqs = self.lines_welch.freqs_hz
-        self.band_of_fine_bin = np.searchsorted(self.band_edges_hz, lines_freqs, side="right") - 1
-        self.band_of_fine_bin[lines_freqs >= self.fs / 2] = s.n_bands - 1
-        self.in_bands_fine = self.band_of_fine_bin >= 0
         self.lines_bins = (lines_freqs >= 0.25 * self.rpm / 60.0) & (lines_freqs <= min(s.lines_max_hz, self.fs / 2))
         self.lines_first_bin = int(np.argmax(lines_freqs >= 0.25 * self.rpm / 60.0))
         # A faulty bearing's own lines are the envelope and harmonics views' business: its defect's (its rate's
@@ -396,6 +392,9 @@ class Comparator:
                 f"(compare.envelope_segment_s={s.envelope_segment_s}, welch_segment_s={s.welch_segment_s}, "
                 f"lines_segment_s={s.lines_segment_s})"
             )
+        psd_freqs, psd = self.psd_welch(x)
+        band_power = np.bincount(self.band_of_bin[self.in_bands], weights=psd[self.in_bands], minlength=s.n_bands)
+        band_db = _db(band_power / band_power.max(), s.dynamic_range_db) + 10 * np.log10(band_power.max())
         # Blackman-Harris leaks less than 92 dB beyond 4 bins, and the spectrum is floored at the
         # dynamic range, so a strong line of a noiseless twin has no skirt of "lines" beside it.
         lines_freqs, lines_psd = self.lines_welch(x)
@@ -406,13 +405,6 @@ class Comparator:
         lines_level = np.empty_like(lines_psd)
         lines_level[lowest:] = local_level(lines_psd[lowest:], s.line_level_bins, s.line_level_percentile)
         lines_level[:lowest] = lines_level[lowest]
-        psd_freqs, psd = self.psd_welch(x)
-        if s.psd_continuous:
-            band_power = np.bincount(self.band_of_fine_bin[self.in_bands_fine], weights=lines_level[self.in_bands_fine],
-                                     minlength=s.n_bands)
-        else:
-            band_power = np.bincount(self.band_of_bin[self.in_bands], weights=psd[self.in_bands], minlength=s.n_bands)
-        band_db = _db(band_power / band_power.max(), s.dynamic_range_db) + 10 * np.log10(band_power.max())
         n_segments = max(1, 2 * x.size // self.segment - 1)
         segments, _ = cut_windows(sps.sosfiltfilt(self.highpass, x), self.segment, n_segments)
         env_freqs, env_amp = envelope_spectrum(segments, self.fs, window=self.envelope_window)
