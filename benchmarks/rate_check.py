@@ -2,8 +2,8 @@
 
 Each of the 13 CWRU records is checked (``check_sampling_rate``, the drive-end channel, the SKF 6205's defect
 frequencies as the second witness) at its true 12 kHz and at four wrong rates near a whole fraction of it
-(0.4875, 0.48, 0.52 and 0.34 of 12 kHz); the same record resampled to 25.6 kHz is checked there and at 12 kHz,
-0.48, 0.52 and 0.34 times 25.6 kHz. A wrong rate the check calls ``consistent`` is one it lets through silently;
+(0.4875, 0.48, 0.52 and 0.34 of 12 kHz) and two at the ratio of its races' defect frequencies (2/3 and 3/2); the
+same record resampled to 25.6 kHz is checked there and at 12 kHz, 0.48, 0.52, 0.34, 2/3 and 3/2 times 25.6 kHz. A wrong rate the check calls ``consistent`` is one it lets through silently;
 ``contradicted`` refuses it (and names a rate, right when within 1 % of the true one); ``ambiguous`` logs a doubt.
 
 Every CWRU record shows its shaft's harmonic series. A machine with one 1x line and nothing else is the other
@@ -31,9 +31,11 @@ from bearingtwin.data.cwru import load_cwru
 from bearingtwin.signal.sampling_rate import check_sampling_rate
 from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 
-WRONG_FACTORS = {12000.0: (5850 / 12000, 0.48, 0.52, 0.34), 25600.0: (12000 / 25600, 0.48, 0.52, 0.34)}
+WRONG_FACTORS = {12000.0: (5850 / 12000, 0.48, 0.52, 0.34, 2 / 3, 1.5),
+                 25600.0: (12000 / 25600, 0.48, 0.52, 0.34, 2 / 3, 1.5)}
 """Declared / true rate of the wrong rates tried, per true rate: near half (a supply or 2x line then sits
-near the shaft's place) and near a third."""
+near the shaft's place), near a third, and 2/3 and 3/2 (8 against 12 kHz, 32 against 48 kHz), where one race's
+defect comb stands at the other's place: the SKF 6205's BPFI is 1.51 times its BPFO."""
 RIG_FACTORS = (1.25, 0.8, 0.5, 2.0)
 """Declared / true rate of the wrong rates tried on the test rig's records."""
 RIG_SPEEDS_RPM = (1797.0, 1750.0, 1730.0)
