@@ -184,6 +184,22 @@ def test_a_speed_a_whole_factor_too_high_is_not_confirmed_by_a_harmonic_of_its_d
 
 
 @needs_data
+@pytest.mark.parametrize("declared", [8000.0, 18000.0])
+@pytest.mark.parametrize("path", sorted(CWRU.glob("12k_*_[IO]R007*.mat")), ids=lambda p: p.name)
+def test_a_races_comb_read_as_the_other_races_under_a_wrong_rate_does_not_confirm_it(path, declared):
+    """The SKF 6205's BPFI is 1.51 times its BPFO: declared at 2/3 of its rate, an inner race's comb stands at
+    BPFO's place, and at 3/2 an outer race's at BPFI's, each a defect line with its harmonics where the declared rate
+    expects one. The shaft's line stands where the true rate puts it, not at its place, and tells the two readings
+    apart: the rate is refused, and where the comb's other reading refuses it, the true rate is named."""
+    recording = load_cwru(path, check_fs=False)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    check = check_sampling_rate(recording.signal, declared, recording.rpm, defect_hz=defect_hz)
+    assert check.verdict == "contradicted", check.reason
+    if check.witness == "comb":
+        assert check.implied_fs_hz == pytest.approx(12000, rel=0.01), check.reason
+
+
+@needs_data
 @pytest.mark.parametrize("record, declared, verdict", [
     ("12k_Drive_End_IR007_0_105.mat", 6000, "contradicted"),
     ("12k_Drive_End_OR007@6_0_130.mat", 4000, "contradicted"),

@@ -275,7 +275,8 @@ def check_sampling_rate(
         checked = _implied_rate_checked(check, signal, options)
         if checked.verdict == "contradicted" and defect_hz and checked is check:  # a contradiction made stands
             return _series_also_read_as_a_defects(check, defect_hz, ratio, resolution, prominence, harmonic_tolerance)
-        if checked.verdict != "ambiguous" or not defect_hz:
+        rescued = checked.verdict == "consistent" and checked.witness in ("series", "envelope")
+        if not (checked.verdict == "ambiguous" or rescued) or not defect_hz:
             return checked
 
         def verdict_at(rate: float) -> str | None:
@@ -284,8 +285,14 @@ def check_sampling_rate(
             except BearingTwinError:  # too short to check at that rate
                 return None
 
+        def confirmed(rate: float) -> bool:
+            return verdict_at(rate) == "consistent"
+
+        if rescued:  # the defect lines read at the declared rate may be another defect's under another rate
+            return _comb_contradiction(checked, signal, defect_hz, ratio, resolution, prominence, search_factor,
+                                       harmonic_tolerance, tolerance, confirmed, conjunction="yet") or checked
         return _defect_comb_elsewhere(checked, signal, defect_hz, ratio, resolution, prominence, search_factor,
-                                      harmonic_tolerance, tolerance, lambda rate: verdict_at(rate) == "consistent")
+                                      harmonic_tolerance, tolerance, confirmed)
 
     # The search reaches search_factor^2 on either side only to tell "no series anywhere" from "a series
     # too far away"; the shaft's series is looked for within search_factor.
@@ -635,10 +642,36 @@ def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz:
     is left to stand with the rate it implies: a healthy record's dense shaft lines can put a comb anywhere."""
     combs, belongs = _defect_combs(signal, check.fs_hz, check.expected_hz, defect_hz, prominence, search_factor,
                                    window, tolerance)
+    contradiction = _comb_contradiction(check, signal, defect_hz, ratio, resolution, prominence, search_factor, window,
+                                        tolerance, confirmed, combs)
+    if contradiction is not None:
+        return contradiction
+    if belongs or not combs:
+        return check
+    name, scale = combs[0]
+    return dataclasses.replace(check, reason=f"{check.reason}; {_comb_words(defect_hz, name, scale)}, and no defect's "
+                                             f"comb stands where it belongs: fs may be {check.fs_hz / scale:.0f} Hz")
 
-    def words(name: str, scale: float) -> str:
-        return (f"the envelope's {name} comb stands at {scale:.3g} times its frequency "
-                f"({scale * named_defect_hz(defect_hz)[name]:.1f} Hz, its second harmonic too)")
+
+def _comb_words(defect_hz: Mapping[str, float], name: str, scale: float) -> str:
+    return (f"the envelope's {name} comb stands at {scale:.3g} times its frequency "
+            f"({scale * named_defect_hz(defect_hz)[name]:.1f} Hz, its second harmonic too)")
+
+
+def _comb_contradiction(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float], ratio: np.ndarray,
+                        resolution: float, prominence: float, search_factor: float, window: float, tolerance: float,
+                        confirmed: Callable[[float], bool], combs: list[tuple[str, float]] | None = None,
+                        conjunction: str = "but") -> ShaftLineCheck | None:
+    """``check`` contradicted at the rate a defect's comb standing at ``s`` times its frequency implies, where the
+    shaft's line stands ``s`` times its place too and not at its place, and the record is ``confirmed`` at that rate
+    (:func:`_defect_comb_elsewhere`); None where no comb does. ``check`` may be ``consistent`` by a defect witness
+    alone (:func:`_second_look`): a comb read at the declared rate as one defect's may be another's under another
+    rate (the SKF 6205's BPFI is 1.51 times its BPFO, so an inner race's comb declared at 2/3 of its rate stands at
+    BPFO's place), and the shaft's line, standing where that other rate puts it, tells the two apart. ``conjunction``
+    joins the finding to the reason ("yet" after a witness's "but")."""
+    if combs is None:
+        combs, _ = _defect_combs(signal, check.fs_hz, check.expected_hz, defect_hz, prominence, search_factor, window,
+                                 tolerance)
 
     def line(hz: float) -> bool:
         return float(_peak(ratio, resolution, np.array([hz]), window)[0]) >= prominence
@@ -652,13 +685,10 @@ def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz:
                 and confirmed(check.fs_hz / scale)):
             return dataclasses.replace(
                 check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb",
-                reason=f"{check.reason}; but {words(name, scale)}, and a line stands at {shaft_hz:.2f} Hz, as many "
-                       f"times the shaft's place: both fall where they belong at a rate of {check.fs_hz / scale:.0f} Hz")
-    if belongs or not combs:
-        return check
-    name, scale = combs[0]
-    return dataclasses.replace(check, reason=f"{check.reason}; {words(name, scale)}, and no defect's comb stands where "
-                                             f"it belongs: fs may be {check.fs_hz / scale:.0f} Hz")
+                reason=f"{check.reason}; {conjunction} {_comb_words(defect_hz, name, scale)}, and a line stands at "
+                       f"{shaft_hz:.2f} Hz, as many times the shaft's place: both fall where they belong at a rate of "
+                       f"{check.fs_hz / scale:.0f} Hz")
+    return None
 
 
 _COMB_NAMES = ("BPFI", "BPFO", "2 x BSF")
