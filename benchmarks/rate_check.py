@@ -14,6 +14,10 @@ its true rate and at 1.25, 0.8, 0.5 and 2 times it (a rate typed for another rig
 A speed given wrong is the same question from the other side: each CWRU record at its true 12 kHz with its
 speed given 2, 3, 5 and 10 times too high (a digit too many), the defect frequencies at that speed.
 
+Every command reads a CWRU file's three channels (drive end, fan end, base), each a witness of the file's one
+rate (``check_channels``, ``decisive_channel``): the last table declares each file at the rates acquisition
+systems record at (4 to 51.2 kHz), the verdict the record's.
+
     python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about 25 s)
 """
 
@@ -28,7 +32,8 @@ import scipy.signal
 
 from bearingtwin.config import REPO_ROOT, load_bearing
 from bearingtwin.data.cwru import load_cwru
-from bearingtwin.signal.sampling_rate import check_sampling_rate
+from bearingtwin.data.files import read_raw
+from bearingtwin.signal.sampling_rate import check_channels, check_sampling_rate, decisive_channel
 from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 
 WRONG_FACTORS = {12000.0: (5850 / 12000, 0.48, 0.52, 0.34, 2 / 3, 1.5),
@@ -41,6 +46,10 @@ RIG_FACTORS = (1.25, 0.8, 0.5, 2.0)
 RIG_SPEEDS_RPM = (1797.0, 1750.0, 1730.0)
 SPEED_FACTORS = (2, 3, 5, 10)
 """Given / true speed of the wrong speeds tried on the CWRU records."""
+DAQ_RATES_HZ = (4000.0, 6000.0, 8000.0, 10000.0, 10240.0, 12000.0, 12800.0, 16000.0, 20000.0, 20480.0, 24000.0,
+                25600.0, 32000.0, 40000.0, 44100.0, 48000.0, 50000.0, 51200.0)
+"""Rates the CWRU files are declared at with all their channels: what acquisition systems and sound cards record
+at, a half and a third of 12 kHz among them."""
 
 
 def tally(checks, true_fs: float, right_rate: Counter, wrong: Counter) -> None:
@@ -111,6 +120,18 @@ def main() -> None:
     for key, count in sorted(speeds.items()):
         state, verdict = key.split(": ")
         print(f"| {state} | {verdict} | {count} |")
+    every_right, every_wrong = Counter(), Counter()
+    for path in records:
+        raw = read_raw(path)
+        defect_hz = bearing.defect_frequencies(raw.rpm)
+        checks = []
+        for fs in DAQ_RATES_HZ:
+            by_channel = check_channels(raw.channels, fs, raw.rpm, defect_hz=defect_hz)
+            checks.append((fs, by_channel[decisive_channel(by_channel)]))
+        tally(checks, 12000.0, every_right, every_wrong)
+    print()
+    print_table(f"{len(records)} CWRU files with every channel, declared at {len(DAQ_RATES_HZ)} rates from "
+                f"{DAQ_RATES_HZ[0]:g} to {DAQ_RATES_HZ[-1]:g} Hz:", every_right, every_wrong)
 
 if __name__ == "__main__":
     main()
