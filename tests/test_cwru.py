@@ -337,6 +337,34 @@ def test_a_series_at_a_defect_frequency_is_outweighed_by_a_shaft_series_a_whole_
     assert decisive_channel({"FE": by_series}) == "FE"
 
 
+def test_a_channel_confirmed_by_a_defect_line_alone_is_outweighed_by_a_refusal_naming_a_rate_it_confirms():
+    """A defect line can stand where a wrong rate expects one (by chance, or another defect's under that rate): a
+    channel whose refusal names a rate at which its own shaft series stands at its place outweighs it; a refusal
+    whose rate is not confirmed does not, nor against a channel whose shaft series confirms the rate."""
+    def check(verdict, witness=None, matches=False, confirmed=False):
+        return ShaftLineCheck(8000.0, 1797.0, 29.95, 19.96, None if verdict != "contradicted" else 12006.0, 30.0,
+                              matches, verdict, None, witness=witness, implied_confirmed=confirmed)
+
+    by_envelope, by_series = check("consistent", witness="envelope"), check("consistent", witness="series")
+    assert decisive_channel({"FE": by_envelope, "DE": check("contradicted", confirmed=True)}) == "DE"
+    assert decisive_channel({"FE": by_series, "DE": check("contradicted", witness="comb", confirmed=True)}) == "DE"
+    assert decisive_channel({"FE": by_envelope, "DE": check("contradicted")}) == "FE"
+    by_shaft = check("consistent", matches=True)
+    assert decisive_channel({"FE": by_shaft, "DE": check("contradicted", confirmed=True)}) == "FE"
+
+
+@needs_data
+@pytest.mark.parametrize("record, declared", [("12k_Drive_End_IR007_0_105.mat", 8000.0),
+                                              ("12k_Drive_End_OR007@6_0_130.mat", 18000.0)])
+def test_a_file_whose_channels_disagree_is_refused_where_one_names_a_rate_it_confirms(record, declared):
+    """Read with its three channels at 2/3 (3/2) of its rate, the fan-end channel of an inner-race (outer-race) record
+    is confirmed by the other race's envelope comb alone, while the drive end refuses the rate naming the true one:
+    the file is refused, naming 12 kHz."""
+    with pytest.raises(BearingTwinError, match=r"12\d{3} Hz") as refusal:
+        load_cwru(CWRU / record, fs=declared, bearing=load_bearing("cwru_6205"))
+    assert f"{declared:g}" in str(refusal.value)
+
+
 @needs_data
 def test_a_wrong_rate_implies_the_true_one():
     recording = load_cwru(CWRU / "12k_Drive_End_OR007@6_0_130.mat")

@@ -62,6 +62,8 @@ class ShaftLineCheck:
             a defect frequency's) or ``envelope`` (a defect line in the envelope); ``supply`` where the strong
             series is the supply's, which leaves the rate ``ambiguous``; None otherwise.
         fraction_rate_hz: with a ``fraction``, the rate at which its in-between lines would be the shaft's series.
+        implied_confirmed: a contradiction whose implied rate the record confirms: read at it, the shaft series
+            stands at its place (``comb``: the comb and the 1x line both fall where they belong there).
     """
 
     fs_hz: float
@@ -76,6 +78,7 @@ class ShaftLineCheck:
     reason: str = ""
     witness: str | None = None
     fraction_rate_hz: float | None = None
+    implied_confirmed: bool = False
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -444,11 +447,27 @@ def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Ma
 def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> dict[str, ShaftLineCheck]:
     """:func:`check_sampling_rate` on every channel of one record with finite samples, ``options`` passed
     on: the channels share the record's rate, so each is a witness (:func:`decisive_channel`)."""
-    checks = {name: check_sampling_rate(values, fs, rpm, **options)
-              for name, values in channels.items() if np.all(np.isfinite(values))}
+    finite = {name: values for name, values in channels.items() if np.all(np.isfinite(values))}
+    checks = {name: check_sampling_rate(values, fs, rpm, **options) for name, values in finite.items()}
     if not checks:
         raise BearingTwinError("the sampling-rate check needs a channel with finite samples")
+    # Where a channel is confirmed by a defect line alone, another channel's refusal weighs as much as the rate it
+    # names holds: read at that rate, does that channel's shaft series stand at its place?
+    if any(_by_a_defect_alone(check) for check in checks.values()):
+        for name, check in checks.items():
+            if check.verdict == "contradicted" and check.implied_fs_hz and not check.implied_confirmed:
+                try:
+                    again = check_sampling_rate(finite[name], check.implied_fs_hz, rpm, **options, follow_implied=False)
+                except BearingTwinError:  # too short a record to check at that rate
+                    continue
+                if again.verdict == "consistent" and again.matches:
+                    checks[name] = dataclasses.replace(check, implied_confirmed=True)
     return checks
+
+
+def _by_a_defect_alone(check: ShaftLineCheck) -> bool:
+    """Whether ``check`` took its rate from a defect's lines alone, its shaft series not at its place."""
+    return check.verdict == "consistent" and check.witness in ("series", "envelope")
 
 
 def rate_witnesses(signal: np.ndarray, channels: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray]:
@@ -468,7 +487,9 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     between the shaft harmonics (an ambiguous ``fraction``) leave the record ambiguous unless a channel's
     defect line showed them to be real subharmonics (a consistent ``fraction``). A channel confirmed only by a
     series at a defect frequency (``witness`` ``series``) does not count where another channel's shaft series
-    stands a whole factor from its place: a wrong rate can put any series on a defect line by chance."""
+    stands a whole factor from its place: a wrong rate can put any series on a defect line by chance. Nor does a
+    channel confirmed by a defect's lines alone (``series`` or ``envelope``) where another channel refuses the rate
+    naming one it confirms (``implied_confirmed``, :func:`check_channels`)."""
     names = list(checks)
     too_low = [name for name in names if checks[name].fraction and checks[name].verdict == "contradicted"]
     if too_low:
@@ -478,6 +499,10 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     # one channel outweighs that coincidence in another.
     if any(_off_by_a_whole_factor(checks[name]) for name in names):
         names = [name for name in names if checks[name].witness != "series"] or names
+    # A defect line can stand where a wrong rate expects one by chance, or be another defect's under it (one race's
+    # comb at the other's place): a channel whose refusal names a rate it confirms outweighs that.
+    if any(checks[name].verdict == "contradicted" and checks[name].implied_confirmed for name in names):
+        names = [name for name in names if not _by_a_defect_alone(checks[name])] or names
 
     def favour(name: str) -> int:  # a channel with no series at all (noise), or only the supply's, says nothing:
         check = checks[name]          # after a contradiction
@@ -684,7 +709,7 @@ def _comb_contradiction(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Ma
         if ((whole or not at_its_place) and _supply_multiple(shaft_hz) is None and line(shaft_hz)
                 and confirmed(check.fs_hz / scale)):
             return dataclasses.replace(
-                check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb",
+                check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb", implied_confirmed=True,
                 reason=f"{check.reason}; {conjunction} {_comb_words(defect_hz, name, scale)}, and a line stands at "
                        f"{shaft_hz:.2f} Hz, as many times the shaft's place: both fall where they belong at a rate of "
                        f"{check.fs_hz / scale:.0f} Hz")
