@@ -11,7 +11,7 @@ import pytest
 
 from bearingtwin.config import REPO_ROOT, load_bearing
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.files import load_recording
+from bearingtwin.data.files import load_recording, read_raw
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig
@@ -363,6 +363,23 @@ def test_a_file_whose_channels_disagree_is_refused_where_one_names_a_rate_it_con
     with pytest.raises(BearingTwinError, match=r"12\d{3} Hz") as refusal:
         load_cwru(CWRU / record, fs=declared, bearing=load_bearing("cwru_6205"))
     assert f"{declared:g}" in str(refusal.value)
+
+
+@needs_data
+@pytest.mark.parametrize("record", ["12k_Drive_End_OR007@6_0_130.mat", "12k_Drive_End_IR007_0_105.mat"])
+@pytest.mark.parametrize("declared", [44100.0, 48000.0, 51200.0])
+def test_a_refusal_names_a_rate_the_record_does_not_refuse_in_turn(record, declared):
+    """A refusal's rate is read off the strong series nearest the shaft's place, which may be another series; the
+    record is read again at each rate named so, and one it refuses in turn is followed to the rate it names (record
+    130 at 48 kHz names 13.1 kHz, where it is refused naming 12.1 kHz): the rate named is one the record, read at
+    it, confirms, here within 1 % of its true 12 kHz."""
+    raw = read_raw(CWRU / record)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(raw.rpm)
+    checks = check_channels(raw.channels, declared, raw.rpm, defect_hz=defect_hz)
+    check = checks[decisive_channel(checks)]
+    assert check.verdict == "contradicted" and check.implied_fs_hz == pytest.approx(12000, rel=0.01), check.reason
+    again = check_channels(raw.channels, check.implied_fs_hz, raw.rpm, defect_hz=defect_hz)
+    assert again[decisive_channel(again)].verdict == "consistent"
 
 
 @needs_data

@@ -427,21 +427,38 @@ def _series_also_read_as_a_defects(check: ShaftLineCheck, defect_hz: Mapping[str
         f"standing near {shaft_hz:.1f} Hz would be the shaft's 1x"))
 
 
-def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Mapping) -> ShaftLineCheck:
+def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Mapping,
+                          max_steps: int = 3) -> ShaftLineCheck:
     """A contradiction whose implied rate is checked in turn: where the shaft series would stand between its
     harmonics at that rate, the rate at which those in-between lines are the shaft's series replaces it, said so
     (a record's 1x line is far more common than lines at half orders, and the defect lines, where given,
-    confirm it or leave it in doubt)."""
+    confirm it or leave it in doubt). Each rate named so is checked in turn, and where the record read at it is
+    refused or its in-between lines name another, that one is followed (up to ``max_steps`` rates): the first the
+    record does not refuse is named (a doubt there is no refusal), and where none is, no rate is (each series read
+    as the shaft's placed it elsewhere)."""
     if check.verdict != "contradicted" or check.fraction or not check.implied_fs_hz:
         return check
-    try:
-        again = check_sampling_rate(signal, check.implied_fs_hz, check.rpm, **options, follow_implied=False)
-    except BearingTwinError:  # the implied rate cannot be checked (too short a record at it): it stands as read
+    reason, rate = check.reason, check.implied_fs_hz
+    for step in range(max_steps):
+        try:
+            again = check_sampling_rate(signal, rate, check.rpm, **options, follow_implied=False)
+        except BearingTwinError:  # the implied rate cannot be checked (too short a record at it): it stands as read
+            break
+        # Only a refusal is followed on from a rate the in-between lines named: a doubt there (a machine's own half
+        # orders) is the record's, whatever its rate.
+        if again.verdict == "consistent" or (again.verdict == "ambiguous" and (step or not again.fraction)):
+            break
+        reason = f"{reason}; at {rate:.0f} Hz, {again.reason}"
+        following = again.implied_fs_hz or again.fraction_rate_hz
+        if not following or abs(math.log(following / rate)) <= options["tolerance"]:
+            rate = None
+            break
+        rate = following
+    else:
+        rate = None  # still refused at the last rate followed
+    if reason == check.reason:
         return check
-    if not again.fraction or again.verdict == "consistent":
-        return check
-    reason = f"{check.reason}; at {check.implied_fs_hz:.0f} Hz, {again.reason}"
-    return dataclasses.replace(check, implied_fs_hz=again.implied_fs_hz or again.fraction_rate_hz, reason=reason)
+    return dataclasses.replace(check, implied_fs_hz=rate, reason=reason if rate else f"{reason}: no rate confirmed")
 
 
 def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> dict[str, ShaftLineCheck]:
