@@ -1,6 +1,7 @@
 """Comparison views: scale-free, zero for the same signal, and naming where two signals differ."""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -92,6 +93,23 @@ def test_harmonics_view_sees_smeared_lines_as_wider():
     assert np.all(result.measured.widths_hz[2:] > 1.5 * result.twin.widths_hz[2:])
     assert "BPFO harmonics are" in result.views["harmonics"].finding
     assert "times as wide as the twin's" in result.views["harmonics"].finding
+
+
+def test_harmonics_view_names_its_largest_difference_where_the_means_cancel():
+    """The finding's widths and prominence are means over the harmonics, where differences of opposite sign cancel,
+    while the view's error is their RMS: the largest single difference is named beside them."""
+    x = impacts("outer", 2.0, seed=0)
+    comparator = Comparator(measured(x), GEOMETRY)
+    twin = comparator.profile(x)
+    assert "most apart" not in comparator.compare_profiles(twin).views["harmonics"].finding
+    k = comparator.settings.n_harmonics
+    comparator.measured = replace(twin, line_db=twin.line_db + np.array([6.0, -6.0] + [0.0] * (k - 2)))
+    view = comparator.compare_profiles(twin).views["harmonics"]
+    assert view.error_db == pytest.approx(np.sqrt(2 * 6.0**2 / (2 * k)))  # the RMS over heights and widths
+    assert "equally prominent" in view.finding  # the mean of +6 and -6 dB
+    assert view.finding.endswith("most apart, its harmonic 1 is 6.0 dB more prominent"), view.finding
+    comparator.measured = replace(twin, widths_hz=twin.widths_hz * np.array([1.0, 1.0, 3.0] + [1.0] * (k - 3)))
+    assert comparator.compare_profiles(twin).views["harmonics"].finding.endswith("its harmonic 3 is 3 times as wide")
 
 
 def test_inner_race_sidebands_sit_at_the_shaft_rate():
