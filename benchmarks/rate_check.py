@@ -18,7 +18,7 @@ Every command reads a CWRU file's three channels (drive end, fan end, base), eac
 rate (``check_channels``, ``decisive_channel``): the last table declares each file at the rates acquisition
 systems record at (4 to 51.2 kHz), the verdict the record's.
 
-    python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about 25 s)
+    python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about 50 s)
 """
 
 from __future__ import annotations
