@@ -107,9 +107,19 @@ def test_harmonics_view_names_its_largest_difference_where_the_means_cancel():
     view = comparator.compare_profiles(twin).views["harmonics"]
     assert view.error_db == pytest.approx(np.sqrt(2 * 6.0**2 / (2 * k)))  # the RMS over heights and widths
     assert "equally prominent" in view.finding  # the mean of +6 and -6 dB
-    assert view.finding.endswith("most apart, its harmonic 1 is 6.0 dB more prominent"), view.finding
+    assert view.finding.endswith("most apart, harmonic 1 is 6.0 dB more prominent"), view.finding
     comparator.measured = replace(twin, widths_hz=twin.widths_hz * np.array([1.0, 1.0, 3.0] + [1.0] * (k - 3)))
-    assert comparator.compare_profiles(twin).views["harmonics"].finding.endswith("its harmonic 3 is 3 times as wide")
+    finding = comparator.compare_profiles(twin).views["harmonics"].finding
+    assert finding.endswith("harmonic 3 is 3 times as wide as the twin's"), finding
+    # An inner race's lines: its harmonics, then the sidebands below them, then those above.
+    inner = Comparator(measured(impacts("inner", 2.0, seed=0), "inner"), GEOMETRY)
+    twin = inner.measured
+    for index, words in ((k + 1, "the sideband below harmonic 2 is 4.0 dB weaker"),
+                         (2 * k + 3, "the sideband above harmonic 4 is 4.0 dB stronger")):
+        shift = np.zeros(3 * k)
+        shift[index] = 4.0 if index >= 2 * k else -4.0
+        inner.measured = replace(twin, line_db=twin.line_db + shift)
+        assert inner.compare_profiles(twin).views["harmonics"].finding.endswith(words)
 
 
 def test_inner_race_sidebands_sit_at_the_shaft_rate():

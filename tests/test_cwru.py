@@ -7,6 +7,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import scipy.signal
 import pytest
 
 from bearingtwin.config import REPO_ROOT, load_bearing
@@ -247,7 +248,6 @@ def test_a_record_read_at_about_half_its_rate_names_its_true_rate():
     """A 2 s CWRU record resampled to 25.6 kHz and declared at 12 kHz (a user's recorder set otherwise):
     the nearest strong series implies 12.3 kHz, at which the shaft's series would stand between the
     harmonics of the supply's; the defect lines name the true 25.6 kHz."""
-    import scipy.signal
 
     recording = load_cwru(CWRU / "12k_Drive_End_IR007_3_108.mat", check_fs=False)
     at_25k6 = scipy.signal.resample_poly(recording.signal, 32, 15)
@@ -351,6 +351,27 @@ def test_a_channel_confirmed_by_a_defect_line_alone_is_outweighed_by_a_refusal_n
     assert decisive_channel({"FE": by_envelope, "DE": check("contradicted")}) == "FE"
     by_shaft = check("consistent", matches=True)
     assert decisive_channel({"FE": by_shaft, "DE": check("contradicted", confirmed=True)}) == "FE"
+
+
+def test_a_refusal_no_other_channel_confirms_does_not_outweigh_a_defect_witness_at_the_true_rate():
+    """At its true rate a file may show no shaft series: one channel a race's impacts (confirmed by them alone), another
+    some machine element's harmonic series, which refuses the rate naming the one at which it would be the shaft's.
+    Read at that rate, that series stands at the shaft's place by construction; no other channel's does, so the
+    refusal does not outweigh the impacts' witness, and the file's rate stands."""
+    fs, rpm, seconds = 12000.0, 1797.0, 10.0
+    bearing = load_bearing("cwru_6205")
+    rng = np.random.default_rng(0)
+    t = np.arange(int(fs * seconds)) / fs
+    pulses = np.diff(np.floor(t * bearing.defect_frequencies(rpm)["bpfo"]), prepend=0.0)
+    impacts = scipy.signal.sosfilt(scipy.signal.butter(2, [2500, 3500], "bandpass", fs=fs, output="sos"), pulses)
+    element_hz = 2.63 * rpm / 60  # no whole order of the shaft
+    element = sum(np.sin(2 * np.pi * m * element_hz * t) / m for m in range(1, 9))
+    channels = {"DE": impacts + 1e-3 * impacts.std() * rng.standard_normal(t.size),
+                "FE": element + 1e-3 * rng.standard_normal(t.size)}
+    checks = check_channels(channels, fs, rpm, defect_hz=bearing.defect_frequencies(rpm))
+    assert checks["DE"].verdict == "consistent" and checks["DE"].witness in ("series", "envelope"), checks["DE"].reason
+    assert checks["FE"].verdict == "contradicted" and not checks["FE"].implied_confirmed, checks["FE"].reason
+    assert checks[decisive_channel(checks)].verdict == "consistent"
 
 
 @needs_data

@@ -62,8 +62,8 @@ class ShaftLineCheck:
             a defect frequency's) or ``envelope`` (a defect line in the envelope); ``supply`` where the strong
             series is the supply's, which leaves the rate ``ambiguous``; None otherwise.
         fraction_rate_hz: with a ``fraction``, the rate at which its in-between lines would be the shaft's series.
-        implied_confirmed: a contradiction whose implied rate the record confirms: read at it, the shaft series
-            stands at its place (``comb``: the comb and the 1x line both fall where they belong there).
+        implied_confirmed: a contradiction whose implied rate another channel of the record confirms (its shaft
+            series stands at its place there; set by :func:`check_channels`).
     """
 
     fs_hz: float
@@ -275,25 +275,32 @@ def check_sampling_rate(
     def concluded(check: ShaftLineCheck) -> ShaftLineCheck:
         if not follow_implied:
             return check
+        if check.verdict == "contradicted" and defect_hz:  # a contradiction made stands, said with its other reading
+            check = _series_also_read_as_a_defects(check, defect_hz, ratio, resolution, prominence, harmonic_tolerance)
         checked = _implied_rate_checked(check, signal, options)
-        if checked.verdict == "contradicted" and defect_hz and checked is check:  # a contradiction made stands
-            return _series_also_read_as_a_defects(check, defect_hz, ratio, resolution, prominence, harmonic_tolerance)
-        rescued = checked.verdict == "consistent" and checked.witness in ("series", "envelope")
+        rescued = _by_a_defect_alone(checked)
         if not (checked.verdict == "ambiguous" or rescued) or not defect_hz:
             return checked
 
-        def verdict_at(rate: float) -> str | None:
+        def check_at(rate: float) -> ShaftLineCheck | None:
             try:
-                return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False).verdict
+                return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False)
             except BearingTwinError:  # too short to check at that rate
                 return None
 
         def confirmed(rate: float) -> bool:
-            return verdict_at(rate) == "consistent"
+            again = check_at(rate)
+            return again is not None and again.verdict == "consistent"
 
-        if rescued:  # the defect lines read at the declared rate may be another defect's under another rate
+        def by_the_shaft(rate: float) -> bool:
+            again = check_at(rate)
+            return again is not None and again.verdict == "consistent" and again.matches
+
+        if rescued:
+            # The defect lines read at the declared rate may be another defect's under another rate; that rate must be
+            # confirmed by the shaft series there, not by the same lines read as a defect's again.
             return _comb_contradiction(checked, signal, defect_hz, ratio, resolution, prominence, search_factor,
-                                       harmonic_tolerance, tolerance, confirmed, conjunction="yet") or checked
+                                       harmonic_tolerance, tolerance, by_the_shaft) or checked
         return _defect_comb_elsewhere(checked, signal, defect_hz, ratio, resolution, prominence, search_factor,
                                       harmonic_tolerance, tolerance, confirmed)
 
@@ -438,27 +445,29 @@ def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Ma
     as the shaft's placed it elsewhere)."""
     if check.verdict != "contradicted" or check.fraction or not check.implied_fs_hz:
         return check
-    reason, rate = check.reason, check.implied_fs_hz
+    reason, rate, visited = check.reason, check.implied_fs_hz, [check.fs_hz]
     for step in range(max_steps):
         try:
             again = check_sampling_rate(signal, rate, check.rpm, **options, follow_implied=False)
         except BearingTwinError:  # the implied rate cannot be checked (too short a record at it): it stands as read
             break
-        # Only a refusal is followed on from a rate the in-between lines named: a doubt there (a machine's own half
-        # orders) is the record's, whatever its rate.
+        # The first rate named is followed where its in-between lines name another (as before it was read again); from
+        # the second on, only a refusal is: a doubt there (a machine's own half orders) is the record's, whatever its rate.
         if again.verdict == "consistent" or (again.verdict == "ambiguous" and (step or not again.fraction)):
             break
         reason = f"{reason}; at {rate:.0f} Hz, {again.reason}"
+        visited.append(rate)
         following = again.implied_fs_hz or again.fraction_rate_hz
-        if not following or abs(math.log(following / rate)) <= options["tolerance"]:
-            rate = None
+        if not following or any(abs(math.log(following / seen)) <= options["tolerance"] for seen in visited):
+            rate = None  # nothing named, or a rate already read: the readings go round
             break
         rate = following
     else:
-        rate = None  # still refused at the last rate followed
+        rate = None  # the last rate named was not read: none of those read was confirmed
     if reason == check.reason:
         return check
-    return dataclasses.replace(check, implied_fs_hz=rate, reason=reason if rate else f"{reason}: no rate confirmed")
+    return dataclasses.replace(check, implied_fs_hz=rate,
+                               reason=reason if rate else f"{reason}: none of the rates read is confirmed")
 
 
 def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> dict[str, ShaftLineCheck]:
@@ -469,17 +478,24 @@ def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **
     if not checks:
         raise BearingTwinError("the sampling-rate check needs a channel with finite samples")
     # Where a channel is confirmed by a defect line alone, another channel's refusal weighs as much as the rate it
-    # names holds: read at that rate, does that channel's shaft series stand at its place?
+    # names holds. Read at that rate, the refusing channel's own series stands at the shaft's place by construction,
+    # so another channel must confirm it: its shaft series standing at its place there.
     if any(_by_a_defect_alone(check) for check in checks.values()):
         for name, check in checks.items():
-            if check.verdict == "contradicted" and check.implied_fs_hz and not check.implied_confirmed:
-                try:
-                    again = check_sampling_rate(finite[name], check.implied_fs_hz, rpm, **options, follow_implied=False)
-                except BearingTwinError:  # too short a record to check at that rate
-                    continue
-                if again.verdict == "consistent" and again.matches:
-                    checks[name] = dataclasses.replace(check, implied_confirmed=True)
+            if check.verdict == "contradicted" and check.implied_fs_hz:
+                confirmed = any(_shaft_series_at(values, check.implied_fs_hz, rpm, options)
+                                for other, values in finite.items() if other != name)
+                checks[name] = dataclasses.replace(check, implied_confirmed=confirmed)
     return checks
+
+
+def _shaft_series_at(signal: np.ndarray, fs: float, rpm: float, options: Mapping) -> bool:
+    """Whether ``signal`` read at ``fs`` shows the shaft series at its place (a record too short to tell: no)."""
+    try:
+        again = check_sampling_rate(signal, fs, rpm, **options, follow_implied=False)
+    except BearingTwinError:
+        return False
+    return again.verdict == "consistent" and again.matches
 
 
 def _by_a_defect_alone(check: ShaftLineCheck) -> bool:
@@ -506,7 +522,7 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     series at a defect frequency (``witness`` ``series``) does not count where another channel's shaft series
     stands a whole factor from its place: a wrong rate can put any series on a defect line by chance. Nor does a
     channel confirmed by a defect's lines alone (``series`` or ``envelope``) where another channel refuses the rate
-    naming one it confirms (``implied_confirmed``, :func:`check_channels`)."""
+    naming one that another channel confirms (``implied_confirmed``, :func:`check_channels`)."""
     names = list(checks)
     too_low = [name for name in names if checks[name].fraction and checks[name].verdict == "contradicted"]
     if too_low:
@@ -517,7 +533,7 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     if any(_off_by_a_whole_factor(checks[name]) for name in names):
         names = [name for name in names if checks[name].witness != "series"] or names
     # A defect line can stand where a wrong rate expects one by chance, or be another defect's under it (one race's
-    # comb at the other's place): a channel whose refusal names a rate it confirms outweighs that.
+    # comb at the other's place): a channel whose refusal names a rate another channel confirms outweighs that.
     if any(checks[name].verdict == "contradicted" and checks[name].implied_confirmed for name in names):
         names = [name for name in names if not _by_a_defect_alone(checks[name])] or names
 
@@ -703,14 +719,13 @@ def _comb_words(defect_hz: Mapping[str, float], name: str, scale: float) -> str:
 def _comb_contradiction(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float], ratio: np.ndarray,
                         resolution: float, prominence: float, search_factor: float, window: float, tolerance: float,
                         confirmed: Callable[[float], bool], combs: list[tuple[str, float]] | None = None,
-                        conjunction: str = "but") -> ShaftLineCheck | None:
+                        ) -> ShaftLineCheck | None:
     """``check`` contradicted at the rate a defect's comb standing at ``s`` times its frequency implies, where the
     shaft's line stands ``s`` times its place too and not at its place, and the record is ``confirmed`` at that rate
     (:func:`_defect_comb_elsewhere`); None where no comb does. ``check`` may be ``consistent`` by a defect witness
     alone (:func:`_second_look`): a comb read at the declared rate as one defect's may be another's under another
     rate (the SKF 6205's BPFI is 1.51 times its BPFO, so an inner race's comb declared at 2/3 of its rate stands at
-    BPFO's place), and the shaft's line, standing where that other rate puts it, tells the two apart. ``conjunction``
-    joins the finding to the reason ("yet" after a witness's "but")."""
+    BPFO's place), and the shaft's line, standing where that other rate puts it, tells the two apart."""
     if combs is None:
         combs, _ = _defect_combs(signal, check.fs_hz, check.expected_hz, defect_hz, prominence, search_factor, window,
                                  tolerance)
@@ -726,8 +741,9 @@ def _comb_contradiction(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Ma
         if ((whole or not at_its_place) and _supply_multiple(shaft_hz) is None and line(shaft_hz)
                 and confirmed(check.fs_hz / scale)):
             return dataclasses.replace(
-                check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb", implied_confirmed=True,
-                reason=f"{check.reason}; {conjunction} {_comb_words(defect_hz, name, scale)}, and a line stands at "
+                check, implied_fs_hz=check.fs_hz / scale, verdict="contradicted", witness="comb",
+                reason=f"{check.reason}; {'yet' if '; but ' in check.reason else 'but'} "
+                       f"{_comb_words(defect_hz, name, scale)}, and a line stands at "
                        f"{shaft_hz:.2f} Hz, as many times the shaft's place: both fall where they belong at a rate of "
                        f"{check.fs_hz / scale:.0f} Hz")
     return None

@@ -479,7 +479,7 @@ class Comparator:
                                  f"; sidebands {abs(sideband):.1f} dB {'stronger' if sideband >= 0 else 'weaker'}")
         # The words above are means, in which differences of opposite sign cancel; the error is an RMS, so the
         # largest single difference is named as well where it is not small.
-        harmonic_finding += self._largest_harmonic_difference(line_diff, width_db)
+        harmonic_finding += self._largest_harmonic_difference(line_diff, width_db, other)
 
         stat_db, stat_names = [], []
         for name, fm, ft in zip(FEATURE_NAMES, m.statistics, twin.statistics):
@@ -513,23 +513,24 @@ class Comparator:
         return Comparison(float(discrepancy), gain, views, m, twin, self)
 
 
-    def _largest_harmonic_difference(self, line_diff: np.ndarray, width_db: np.ndarray, least_db: float = 1.0) -> str:
+    def _largest_harmonic_difference(self, line_diff: np.ndarray, width_db: np.ndarray, other: str,
+                                     least_db: float = 1.0) -> str:
         """The harmonics view's largest single difference in words (a line's height in dB, or a harmonic's width as
-        a ratio), where it reaches ``least_db``; "" otherwise."""
+        a ratio to ``other``'s), where it reaches ``least_db``; "" otherwise."""
         k = len(self.harmonics_hz)
-        worst = int(np.argmax(np.abs(np.concatenate([line_diff, width_db]))))
-        value = float(np.concatenate([line_diff, width_db])[worst])
+        differences = np.concatenate([line_diff, width_db])
+        worst = int(np.argmax(np.abs(differences)))
+        value = float(differences[worst])
         if abs(value) < least_db:
             return ""
         if worst >= len(line_diff):
             n = worst - len(line_diff) + 1
-            return f"; most apart, its harmonic {n} is {_times(10 ** (value / 20))} as wide"
+            return f"; most apart, harmonic {n} is {_times(10 ** (value / 20))} as wide as {other}'s"
         if worst < k:
-            return f"; most apart, its harmonic {worst + 1} is {abs(value):.1f} dB {'more' if value > 0 else 'less'} prominent"
-        side = worst - k
-        below = side < k
-        return (f"; most apart, the sideband {'below' if below else 'above'} harmonic {side % k + 1} is {abs(value):.1f} "
-                f"dB {'stronger' if value > 0 else 'weaker'}")
+            return f"; most apart, harmonic {worst + 1} is {abs(value):.1f} dB {'more' if value > 0 else 'less'} prominent"
+        side = worst - k  # the sidebands below the harmonics, then those above (``line_hz``)
+        return (f"; most apart, the sideband {'below' if side < k else 'above'} harmonic {side % k + 1} is "
+                f"{abs(value):.1f} dB {'stronger' if value > 0 else 'weaker'}")
 
     def line_heights_db(self, m: Profile, twin: Profile, gain: float) -> tuple[np.ndarray, np.ndarray]:
         """How far each bin stands above ``line_threshold_db`` over the local level, in dB (0 where it
