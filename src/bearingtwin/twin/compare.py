@@ -512,7 +512,6 @@ class Comparator:
         }
         return Comparison(float(discrepancy), gain, views, m, twin, self)
 
-
     def _largest_harmonic_difference(self, line_diff: np.ndarray, width_db: np.ndarray, other: str,
                                      least_db: float = 1.0) -> str:
         """The harmonics view's largest single difference in words (a line's height in dB, or a harmonic's width as
