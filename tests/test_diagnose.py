@@ -1123,6 +1123,23 @@ def test_a_speed_that_contradicts_a_rate_the_file_states_is_named_as_the_suspect
         assert said > 5 * 1772  # the 10th harmonic's neighbourhood, which the note offers only conditionally
 
 
+@needs_cwru
+def test_a_speed_a_whole_factor_too_high_for_a_rate_the_file_states_is_named_without_a_misplaced_series(tmp_path):
+    """Given twice its speed, record 106's shaft series still stands where that speed puts it (its even harmonics),
+    and the lines between them with the defect lines refuse the speed: the note says the series stands where it
+    belongs and why the speed is refused, not that it stands elsewhere (it offered the stated speed as its reading)."""
+    from bearingtwin.data.cwru import load_cwru
+
+    signal = load_cwru(CWRU / "12k_Drive_End_IR007_1_106.mat", channel="DE", fs=12000.0).signal[:60000]
+    t = np.arange(signal.size) / 12000.0
+    (tmp_path / "r106.csv").write_text("time_s,acc_g\n" + "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(t, signal)))
+    prepared = read_record(tmp_path / "r106.csv", envelope_pipeline(), rpm=2 * 1772.0)
+    assert prepared.rate_check == "contradicted"
+    (note,) = [note for note in prepared.notes if note.startswith("the speed contradicts the record")]
+    assert "at 3544 rpm the shaft series stands where it belongs (59.07 Hz)" in note, note
+    assert "between its harmonics" in note and "check the speed given" in note and "would put it at" not in note
+
+
 @pytest.mark.parametrize("stated_rpm, order_step, seconds, verdict, words", [
     (1800.0, 1.0, 10.0, "consistent", None),
     (900.0, 1.0, 10.0, "contradicted", "at fs = 12000 Hz the shaft line says 1794 rpm"),

@@ -273,6 +273,8 @@ def test_build_from_the_config_files():
     ("cnn_bilstm", "n_filters", 0, "classifier.n_filters must be a positive integer, got 0"),
     ("cnn_bilstm", "learning_rate", 0.0, "classifier.learning_rate must be a positive number, got 0.0"),
     ("trainer", "max_epochs", "abc", "trainer.max_epochs must be a positive integer, got 'abc'"),
+    ("trainer", "accelerator", "bogus", "trainer.accelerator='bogus' is not an accelerator Lightning knows; choose auto "
+                                        "or one of gpu, cpu, cuda, mps, tpu"),
     # A sweep's job resolves only a valid progress_bar: a bad one fails that job here, in its run, not the sweep.
     ("trainer", "progress_bar", "maybe", "trainer.progress_bar must be auto, true or false, got 'maybe'"),
     ("trainer", "progress_bar", 1, "trainer.progress_bar must be auto, true or false, got 1"),  # 1 == True, no bool
@@ -285,6 +287,17 @@ def test_a_setting_of_the_wrong_kind_is_named_when_the_classifier_is_built(group
     with pytest.raises(BearingTwinError) as error:
         build_classifier(classifier, trainer, seed=0)
     assert str(error.value) == message
+
+
+@pytest.mark.skipif(torch.cuda.is_available() or torch.backends.mps.is_available(), reason="this machine has a GPU")
+@pytest.mark.parametrize("accelerator", ["gpu", "cuda"])
+def test_a_gpu_the_machine_lacks_is_named_when_the_classifier_is_built(accelerator):
+    """Lightning refused it only inside fit, after the features were built, with a traceback."""
+    trainer = OmegaConf.load(Path(CONF_DIR) / "trainer" / "default.yaml")
+    OmegaConf.update(trainer, "accelerator", accelerator)
+    classifier = OmegaConf.load(Path(CONF_DIR) / "classifier" / "cnn_bilstm.yaml")
+    with pytest.raises(BearingTwinError, match=rf"^trainer.accelerator={accelerator}: this machine has no such device"):
+        build_classifier(classifier, trainer, seed=0)
 
 
 def test_scores_reproduce_the_form_of_table3():

@@ -213,6 +213,11 @@ def _speed_or_rate_wrong(check, fs_origin: str | None = None) -> str:
     """The note on a stated speed and rate the shaft line contradicts: the line fixes only their ratio, so it names
     what either would be if the other is right; where the file states its rate itself (``fs_origin``), the speed
     is what is wrong, and the series the check found near the speed's line is no reading of the true speed."""
+    if fs_origin in RATE_THE_FILE_STATES and check.matches:  # the series stands where the speed puts it
+        return (f"the speed contradicts the record: at {check.rpm:g} rpm the shaft series stands where it belongs "
+                f"({check.expected_hz:.2f} Hz) at the rate {RATE_THE_FILE_STATES[fs_origin]} ({check.fs_hz:g} Hz), but "
+                f"{check.reason}: check the speed given. Every defect line is read where the stated values put it: "
+                "the verdict is in doubt")
     if fs_origin in RATE_THE_FILE_STATES:
         nearest = (f"; the nearest strong harmonic series, at {check.observed_hz:.2f} Hz, would put it at "
                    f"{60 * check.observed_hz:.0f} rpm if it is the shaft's" if check.observed_hz else "")

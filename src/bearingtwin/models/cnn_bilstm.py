@@ -42,6 +42,7 @@ from pathlib import Path
 import lightning as L
 import numpy as np
 import torch
+from lightning.pytorch.accelerators import AcceleratorRegistry
 from lightning.pytorch.callbacks import TQDMProgressBar
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.preprocessing import StandardScaler
@@ -188,6 +189,22 @@ def _tensor_dataset(X: np.ndarray, y: np.ndarray) -> TensorDataset:
     return TensorDataset(torch.as_tensor(X, dtype=torch.float32).unsqueeze(1), torch.as_tensor(y, dtype=torch.long))
 
 
+def check_accelerator(name) -> None:
+    """Raise naming ``trainer.accelerator`` unless Lightning knows it and this machine has it ("auto" and "gpu" are
+    Lightning's own aliases), so a run asking for a GPU that is not there fails before any data is built."""
+    known = sorted(AcceleratorRegistry.available_accelerators())
+    if name == "auto":
+        return
+    if not isinstance(name, str) or name not in (*known, "gpu"):
+        raise BearingTwinError(f"trainer.accelerator={name!r} is not an accelerator Lightning knows; "
+                               f"choose auto or one of {', '.join(['gpu', *known])}")
+    present = [key for key in known if AcceleratorRegistry[key]["accelerator"].is_available()]
+    wanted = ("cuda", "mps") if name == "gpu" else (name,)
+    if not any(key in present for key in wanted):
+        raise BearingTwinError(f"trainer.accelerator={name}: this machine has no such device (it has: "
+                               f"{', '.join(present)}); use trainer.accelerator=auto or cpu")
+
+
 class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
     """scikit-learn wrapper: ``CnnBiLstmClassifier(**params).fit(X, y).predict(X)``.
 
@@ -247,6 +264,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         for key, value in (("classifier.l2_factor", self.l2_factor), ("trainer.gradient_clip_val", self.gradient_clip_val)):
             if value is not None and not finite_number(key, value, "a non-negative number") >= 0:
                 raise BearingTwinError(f"{key} must be a non-negative number, got {value!r}")
+        check_accelerator(self.accelerator)
 
     def fit(self, X, y, eval_set: tuple | None = None) -> "CnnBiLstmClassifier":
         X, y = _check_xy(X, y)
