@@ -291,6 +291,21 @@ def test_help_lists_the_settings_each_report_takes(capsys):
     assert "repeat: run_id" in said and "table4: vmd_params" in said
 
 
+def test_the_device_a_run_computed_on_is_no_setting_of_its_method():
+    """A smoke run with trainer.accelerator=cpu beside a full run with auto showed as two rows of one method, where the
+    smaller run is to be left out as such; a classifier's own setting still makes another row."""
+    from types import SimpleNamespace
+
+    from bearingtwin.tracking.reports import _same_setting, setting_params
+
+    def run(**params):
+        return SimpleNamespace(data=SimpleNamespace(params={"classifier.kernel": "linear", "seed": "0", **params}))
+
+    on_cpu, on_auto = setting_params(run(**{"trainer.accelerator": "cpu"})), setting_params(run(**{"trainer.accelerator": "auto"}))
+    assert _same_setting(on_cpu, on_auto) and "trainer.accelerator" not in on_cpu
+    assert not _same_setting(setting_params(run(**{"classifier.kernel": "rbf"})), on_auto)
+
+
 def test_a_run_that_let_the_physics_decide_is_another_setting_than_one_that_did_not():
     """physics_first is logged as one null key when unset and as its settings when set: the two must not pass for
     one setting (averaged together, or one taken for the other's seed), while a run from before the key is plain."""

@@ -138,11 +138,12 @@ class ReportInput:
 
 
 SETTING_FREE_KEYS = ("register", "register_alias", "data.root", "data.labels", *UNHASHED_KEYS, *SIZE_KEYS, *PINNED_KEYS,
-                     "features.population", "features.iterations", "features.search_windows")
+                     "features.population", "features.iterations", "features.search_windows", "trainer.accelerator")
 """Logged params that do not make another setting of a method: where a run was registered or read its files from
 (its data's contents are the dataset key's), how it was tracked, how much it computed (a smoke run is a smaller run
 of the same setting: :func:`~bearingtwin.tracking.provenance.run_size`; the SABO-VMD features copy the search's
-size) and with how many processes. Nor does a seed (``seed``, ``simulator.seed``: any key whose last part is seed)."""
+size), with how many processes and on which device. Nor does a seed (``seed``, ``simulator.seed``: any key whose last
+part is seed)."""
 
 
 def setting_params(run) -> dict[str, str]:
