@@ -196,7 +196,7 @@ def test_an_interrupt_while_jobs_run_alone_kills_their_runs_at_once(tmp_path):
 SWEEP = """
 import os, subprocess, sys, time
 os.environ["BEARINGTWIN_SWEEP_PID"] = str(os.getpid())
-subprocess.Popen([sys.executable, "-c", sys.argv[1], sys.argv[2]])
+subprocess.Popen([sys.executable, "-c", *sys.argv[1:]])
 time.sleep(600)
 """
 WORKER = """
@@ -224,6 +224,35 @@ def test_a_worker_of_a_killed_sweep_stops_and_closes_its_run(tmp_path):
     deadline = time.monotonic() + 15
     while alive(worker) and time.monotonic() < deadline:
         time.sleep(0.2)
+    assert not alive(worker), "the worker outlived its sweep"
+    assert [r.info.status for r in runs(tmp_path)] == ["KILLED"]
+
+
+CONTROLLER = """
+import subprocess, sys, time
+subprocess.Popen([sys.executable, "-c", *sys.argv[1:]])
+time.sleep(600)
+"""
+
+
+def test_a_worker_a_controller_started_stops_when_the_sweep_is_killed(tmp_path):
+    """submitit's local launcher starts each job from a controller process of its own, which outlives the sweep: the
+    worker, the sweep's grandchild, notices the sweep gone from its ancestry, closes its run KILLED and stops (it
+    went on and ended its run FINISHED)."""
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin"}))
+    sweep = subprocess.Popen([sys.executable, "-c", SWEEP, CONTROLLER, WORKER, uri])
+    (run,) = wait_for_running(tmp_path, sweep, 1)
+    worker = int(run.data.tags["bt.pid"])
+    controllers = child_pids(sweep.pid)
+    assert worker not in controllers and any(worker in child_pids(pid) for pid in controllers)
+    sweep.kill()
+    sweep.wait(timeout=60)
+    deadline = time.monotonic() + 15
+    while alive(worker) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    for pid in controllers:  # the controller is no worker of ours: it lingers until killed
+        os.kill(pid, signal.SIGKILL)
     assert not alive(worker), "the worker outlived its sweep"
     assert [r.info.status for r in runs(tmp_path)] == ["KILLED"]
 

@@ -10,7 +10,7 @@ Three ways a run can be left open, three remedies:
 * **A dead owner** (SIGKILL, power loss): every run is tagged with the host and process
   that opened it (:func:`owner_tags`); :func:`reap_dead_runs`, called when a run or sweep
   starts, marks RUNNING runs of this host whose process is gone KILLED.
-* **An orphaned worker**: a joblib worker whose sweep process died would go on computing
+* **An orphaned worker**: a joblib or submitit worker whose sweep process died would go on computing
   and log a FINISHED run nobody waits for; :func:`watch_sweep_process` ends it instead.
 """
 
@@ -237,22 +237,39 @@ def reap_dead_runs(client: MlflowClient, experiment_id: str) -> list[str]:
 _watching = threading.Event()
 
 
+def _ancestors() -> list[int]:
+    """This process's parent, its parent's parent, ... up to init, read from ``/proc`` (Linux); where there is no
+    ``/proc``, the parent alone."""
+    chain, pid = [], os.getpid()
+    while True:
+        try:
+            with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as stat:
+                # "pid (comm) state ppid ...": comm may hold spaces and parentheses, so read after the last ")".
+                pid = int(stat.read().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            return chain or [os.getppid()]
+        if pid <= 1:
+            return chain
+        chain.append(pid)
+
+
 def watch_sweep_process(poll_s: float = 1.0) -> None:
     """In a sweep's worker process: end this process when the sweep's process is gone.
 
     Started once per worker; a no-op in the sweep's own process, where jobs run in line, and
-    where the sweep process is not the parent (remote launchers).
+    where the sweep process is no ancestor (remote launchers). A worker may be the sweep's child
+    (joblib) or its grandchild (submitit's local launcher starts each job from a controller process).
     The worker's open runs are marked KILLED first, so the store says what happened.
     """
     sweep_pid = os.environ.get(SWEEP_PID_ENV, "")
-    # The parent pid, not the sweep pid's existence, is the witness: a killed sweep process
-    # lingers as a zombie until its own parent reaps it, but its workers are re-parented at once.
-    if not sweep_pid.isdigit() or os.getppid() != int(sweep_pid) or _watching.is_set():
+    # The ancestry, not the sweep pid's existence, is the witness: a killed sweep process lingers as a zombie
+    # until its own parent reaps it, but its children are re-parented at once, and the chain up from here loses it.
+    if not sweep_pid.isdigit() or int(sweep_pid) not in _ancestors() or _watching.is_set():
         return
     _watching.set()
 
     def watch():
-        while os.getppid() == int(sweep_pid):
+        while int(sweep_pid) in _ancestors():
             time.sleep(poll_s)
         close_open_runs("KILLED")
         os._exit(128 + signal.SIGTERM)
