@@ -290,25 +290,18 @@ def check_sampling_rate(
         if not (checked.verdict == "ambiguous" or rescued) or not defect_hz:
             return checked
 
-        def check_at(rate: float) -> ShaftLineCheck | None:
-            try:
-                return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False)
-            except BearingTwinError:  # too short to check at that rate
-                return None
-
         def confirmed(rate: float) -> bool:
-            again = check_at(rate)
-            return again is not None and again.verdict == "consistent"
-
-        def by_the_shaft(rate: float) -> bool:
-            again = check_at(rate)
-            return again is not None and again.verdict == "consistent" and again.matches
+            try:
+                return check_sampling_rate(signal, rate, rpm, **options, follow_implied=False).verdict == "consistent"
+            except BearingTwinError:  # too short to check at that rate
+                return False
 
         if rescued:
             # The defect lines read at the declared rate may be another defect's under another rate; that rate must be
             # confirmed by the shaft series there, not by the same lines read as a defect's again.
             return _comb_contradiction(checked, signal, defect_hz, ratio, resolution, prominence, search_factor,
-                                       harmonic_tolerance, tolerance, by_the_shaft) or checked
+                                       harmonic_tolerance, tolerance,
+                                       lambda rate: _shaft_series_at(signal, rate, rpm, options)) or checked
         return _defect_comb_elsewhere(checked, signal, defect_hz, ratio, resolution, prominence, search_factor,
                                       harmonic_tolerance, tolerance, confirmed)
 
