@@ -749,10 +749,12 @@ class EffectRanker:
                                    base_prefix + name) for name in op.space}
         operating = self._operating_point_report(base_values, sensor, scored, intervals)
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
+        not_tried = self._not_tried(twin.fault)
+        # Where nothing was tried, not_tried says why; otherwise the candidates this state could not tell are named apart.
+        passed_over = "" if not_tried else "; ".join(self._not_offered(twin.fault))
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
-                            unclaimed, self.min_signature_gain, self._not_tried(twin.fault), pairs,
-                            passed_over=self._passed_over(twin.fault))
+                            unclaimed, self.min_signature_gain, not_tried, pairs, passed_over=passed_over)
         return self
 
     def _not_tried(self, fault: str) -> str:
@@ -774,10 +776,6 @@ class EffectRanker:
     def _not_offered(self, fault: str) -> list[str]:
         """The candidates a record of a ``fault`` bearing cannot tell, each with why (:func:`_offered_only_words`)."""
         return [_offered_only_words(name) for name in self.candidates if not _offered_on(name, fault)]
-
-    def _passed_over(self, fault: str) -> str:
-        """:meth:`_not_offered`, said where other candidates were tried ("" else: :meth:`_not_tried` says it then)."""
-        return "" if self._not_tried(fault) else "; ".join(self._not_offered(fault))
 
     def _fit_candidate(self, name, space, base, current_effects, held, current, judge: Judge, twin, matched,
                        seed, scorer: Judge, progress: StageProgress) -> EffectFit:
