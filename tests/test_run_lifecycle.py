@@ -441,3 +441,31 @@ def test_a_store_that_refuses_artifacts_fails_the_sweep_and_leaves_nothing_runni
         statuses[run.data.tags.get("bt.kind")].append(run.info.status)
     assert statuses.get("train") == ["FAILED", "FAILED"] and statuses.get("sweep") == ["FAILED"], statuses
     assert "UserWarning" not in done.stderr
+
+
+TORN_MID_WORK = """
+import os, signal, time
+from bearingtwin.tracking.lifecycle import stop_cleanly
+
+class HalfBuilt:  # as a compiler's object is when the signal lands inside its constructor
+    def __del__(self):
+        self.handle.close()
+
+@stop_cleanly
+def main():
+    global left_behind
+    left_behind = HalfBuilt()
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(10)
+
+main()
+"""
+
+
+def test_teardown_noise_after_an_interrupt_does_not_follow_its_one_line(tmp_path):
+    """Objects the signal left half built (llvmlite's, when it lands during a numba compile) fail in their
+    finalizers as the interpreter exits; the interrupt's one line stays the last on stderr."""
+    (tmp_path / "torn.py").write_text(TORN_MID_WORK)
+    done = subprocess.run([sys.executable, str(tmp_path / "torn.py")], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 128 + signal.SIGTERM, done.stderr
+    assert done.stderr.strip().splitlines() == ["interrupted by SIGTERM; no run was open"], done.stderr

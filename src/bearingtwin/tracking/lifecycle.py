@@ -59,6 +59,7 @@ class OpenRun:
 
 _open_runs: list[OpenRun] = []
 _received: list[int] = []  # the signals that arrived, for a KeyboardInterrupt a library raised in their place
+_stopping = threading.Event()  # set once an interrupt is reported and the command exits
 
 
 def owner_tags() -> dict[str, str]:
@@ -144,7 +145,10 @@ def _quiet_lost_interrupt(report_others: Callable) -> Callable:
     (the hook installed before)."""
 
     def hook(unraisable) -> None:
-        if not isinstance(unraisable.exc_value, Interrupted):
+        # Once an interrupt's one line is out, a finalizer failing as the interpreter shuts down belongs to an
+        # object the signal left half built (llvmlite's, when it lands during a numba compile): noise, not news.
+        torn_by_the_interrupt = _stopping.is_set() and sys.is_finalizing()
+        if not isinstance(unraisable.exc_value, Interrupted) and not torn_by_the_interrupt:
             report_others(unraisable)
 
     hook.quiets_lost_interrupts = True
@@ -179,6 +183,7 @@ def stop_cleanly(entry_point: Callable) -> Callable:
     @functools.wraps(entry_point)
     def wrapped(*args, **kwargs):
         _received.clear()  # a signal an earlier command in this process (a notebook's) took is not this one's
+        _stopping.clear()
         handle_signals()
         try:
             result = entry_point(*args, **kwargs)
@@ -193,6 +198,7 @@ def stop_cleanly(entry_point: Callable) -> Callable:
             closed = close_open_runs("KILLED")
             what = f"marked KILLED: {', '.join(closed)}" if closed else "no run was open"
             print(f"interrupted by {signal.Signals(signum).name}; {what}", file=sys.stderr)
+            _stopping.set()
             sys.exit(128 + signum)
         except BaseException:
             _received.clear()
