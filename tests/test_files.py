@@ -1,6 +1,9 @@
 """Generic recordings: every format round-trips its samples and facts; bad files and
 contradictions are refused with the file named."""
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.io
@@ -563,3 +566,25 @@ def test_time_stamps_read_as_the_channel_are_refused(tmp_path, signal):
     counter = Recording(np.floor(np.arange(signal.size) / 8.0), FS, source="counter")  # steps up every 8 samples
     with pytest.raises(BearingTwinError, match=r"counter: channel \? rises throughout"):
         counter.require_vibration()
+
+
+def test_compiled_kernels_are_cached_with_the_users_caches_not_beside_the_sources(tmp_path):
+    """numba's cache=True would write into __pycache__ beside the package's sources (a checkout no command writes
+    into, or an installation the user cannot write to): it goes under the user's cache folder."""
+    import subprocess
+    import sys
+
+    import bearingtwin.physics.defects as defects
+
+    sources = Path(defects.__file__).parent / "__pycache__"
+    before = set(sources.glob("*.nb*")) if sources.exists() else set()
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["XDG_CACHE_HOME"] = str(tmp_path)
+    code = ("import numpy as np; from bearingtwin.physics.defects import _pit_profile; "
+            "print(_pit_profile(0.1, 0.5, 1.0))")
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    cached = list((tmp_path / "bearingtwin" / "numba").rglob("defects._pit_profile-*.nbi"))
+    assert cached, list(tmp_path.rglob("*"))
+    after = set(sources.glob("*.nb*")) if sources.exists() else set()
+    assert after - before == set()

@@ -9,6 +9,10 @@ with oneDNN's just-in-time kernels held to SSE4.1, every x86-64 machine runs the
 (numpy's own vector code still differs in the twelfth digit of the features). The paper's network costs no
 time by it, the raw-window network 1.3x to fit (benchmarks/cpu_kernels.py). A value already set in the
 environment is kept.
+
+Numba's compiled kernels are cached with the user's other caches (``NUMBA_CACHE_DIR``, by default
+``$XDG_CACHE_HOME/bearingtwin/numba`` or ``~/.cache/bearingtwin/numba``), not in ``__pycache__`` beside the sources,
+which may be a checkout that no command writes into or an installation the user cannot write to.
 """
 
 import os
@@ -32,3 +36,11 @@ def _pin_cpu_kernels() -> None:
 
 
 _pin_cpu_kernels()
+
+
+def _numba_cache_dir() -> str:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "bearingtwin", "numba")
+
+
+os.environ.setdefault("NUMBA_CACHE_DIR", _numba_cache_dir())  # read once, when numba is first imported
