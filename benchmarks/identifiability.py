@@ -365,12 +365,22 @@ def measurement(case: dict, cfg) -> Recording:
                      unit=case["unit"])
 
 
+SPLIT_BEARING = "bearing=cwru_6205"
+"""The bearing of a split's cases: the test rig's and the twin's self-test measurements are an SKF 6205's."""
+
+
+def run_overrides(records: bool, overrides: list[str]) -> list[str]:
+    """The overrides every run composes: a split's cases are a 6205's (``SPLIT_BEARING``, before the command line's);
+    a manifest's records are run as ``bearingtwin-twin`` runs them, its defaults and the command line's overrides
+    (another bearing: ``bearing=<name>`` among them)."""
+    return list(overrides) if records else [SPLIT_BEARING, *overrides]
+
+
 def twin_config(*overrides: str):
-    """``bearingtwin-twin``'s config as every case's run composes it: the CWRU drive-end bearing, no tracking, then
-    ``overrides`` (the measured record is read by the benchmark, not by ``measured.path``)."""
+    """``bearingtwin-twin``'s config as every case's run composes it: no tracking, then ``overrides`` (the measured
+    record is read by the benchmark, not by ``measured.path``)."""
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        return compose("twin", overrides=["bearing=cwru_6205", "measured.path=unused", "tracking.enabled=false",
-                                          *overrides])
+        return compose("twin", overrides=["measured.path=unused", "tracking.enabled=false", *overrides])
 
 
 def rank(case: dict, overrides: list[str], reference: dict | None = None):
@@ -719,8 +729,9 @@ def main() -> int:
     from tqdm.auto import tqdm
 
     try:
+        overrides = run_overrides(args.records is not None, args.overrides)
         try:  # the overrides every run composes, checked once before any
-            cfg = twin_config(*args.overrides)
+            cfg = twin_config(*overrides)
         except (HydraException, OmegaConfBaseException) as error:
             raise BearingTwinError(f"overrides {' '.join(args.overrides)}: {str(error).splitlines()[0]}") from None
         if args.records is not None:
@@ -740,7 +751,8 @@ def main() -> int:
             raise BearingTwinError(f"no case of {args.records or f'the {args.split} split'} is left by {selection}")
         if args.export is not None:
             manifest = export_cases(todo, args.export, cfg)
-            print(f"{len(todo)} cases and their references written; manifest: {manifest}")
+            print(f"{len(todo)} cases and their references written; manifest: {manifest} (an SKF 6205's records: "
+                  f"run them back with --records {manifest} {SPLIT_BEARING})")
             return 0
     except BearingTwinError as error:
         print(f"error: {error}", file=sys.stderr)
@@ -749,10 +761,10 @@ def main() -> int:
     keys = list(dict.fromkeys(_reference_key(case) for case in todo))
     first_of = {key: next(case for case in todo if _reference_key(case) == key) for key in keys}
     references = dict(zip(keys, tqdm(joblib.Parallel(n_jobs=args.jobs, return_as="generator")(
-        joblib.delayed(run_reference)(first_of[key], args.overrides) for key in keys), total=len(keys),
+        joblib.delayed(run_reference)(first_of[key], overrides) for key in keys), total=len(keys),
         desc="references")))
     results = list(tqdm(joblib.Parallel(n_jobs=args.jobs, return_as="generator")(
-        joblib.delayed(run_case)(case, args.overrides, references[_reference_key(case)]) for case in todo),
+        joblib.delayed(run_case)(case, overrides, references[_reference_key(case)]) for case in todo),
         total=len(todo), desc="cases"))
     wall = time.perf_counter() - start
     table = summarize(results)

@@ -57,7 +57,8 @@ def test_exported_records_are_judged_as_the_split_judges_its_cases(exported, tmp
         rows = list(csv.DictReader(handle))
     assert [row["hidden"] for row in rows] == ["resonance", "slip"]
     assert len({row["reference"] for row in rows}) == 1  # one operating point: one reference, as in a run
-    from_files = benchmark("--records", str(exported), "--out", str(tmp_path / "records"), *QUICK, cwd=tmp_path)
+    from_files = benchmark("--records", str(exported), "--out", str(tmp_path / "records"), *QUICK, "bearing=cwru_6205",
+                           cwd=tmp_path)
     assert from_files.returncode == 0, from_files.stderr
     in_memory = benchmark(*SELECTION, "--out", str(tmp_path / "split"), *QUICK, cwd=tmp_path)
     assert in_memory.returncode == 0, in_memory.stderr
@@ -215,3 +216,15 @@ def test_cases_on_bearings_of_another_state_come_after_the_splits_own_whose_seed
     done = benchmark("--split", "dev", "--faults", "cracked", cwd=tmp_path)
     assert done.returncode == 2 and "--faults cracked: cracked is no bearing state; choose from normal, inner, ball, " \
                                    "outer" in done.stderr
+
+
+def test_a_manifests_records_are_run_with_the_twin_commands_defaults_and_a_splits_with_its_bearing(module):
+    """A user's records are run as ``bearingtwin-twin`` runs them (its default bearing unless the command line names
+    another), not as the split's SKF 6205 cases: a rig of the twin's default bearing was judged with another's."""
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        default_bearing = compose("twin", overrides=["measured.path=unused"]).bearing
+    assert default_bearing.name != "cwru_6205"  # else the test could not tell the two apart
+    records = module.twin_config(*module.run_overrides(True, []))
+    assert records.bearing == default_bearing
+    assert module.twin_config(*module.run_overrides(True, ["bearing=er16k"])).bearing.name == "er16k"
+    assert module.twin_config(*module.run_overrides(False, [])).bearing.name == "cwru_6205"
