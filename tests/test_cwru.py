@@ -96,6 +96,23 @@ def test_a_48_khz_record_named_by_its_number_is_read_at_48_khz(tmp_path):
         48000.0, "inner", 0.007, 1)
     assert load_recording(tmp_path / "110.mat").fs == 48000.0
     assert recording.meta["shaft_line"]["matches"]
+    given = load_recording(tmp_path / "110.mat", fs=12000, fs_key="measured.fs").meta["notes"]
+    assert "measured.fs=12000 Hz given, where the Data Center's catalogue lists record 110 at 48000 Hz" in given
+
+
+def test_a_rate_given_against_the_one_a_cwru_name_states_is_noted_beside_any_verdict(tmp_path):
+    """A 12k_ file read at another rate: the name is a data set's convention, not the file's statement, so the rate is
+    not refused for it, but it is said, beside a refusal (whose own suggestion may be another wrong rate: record 130
+    read at 24 kHz shows a cage-order series where the shaft's belongs) and beside a rate the shaft line bears out."""
+    from bearingtwin.cli.inspect import summarize
+
+    path = CWRU / "12k_Drive_End_OR007@6_0_130.mat"
+    note = "measured.fs=24000 Hz given, where its name states 12000 Hz"
+    assert note in load_recording(path, fs=24000, fs_key="measured.fs").meta["notes"]
+    assert not any("given, where" in n for n in load_recording(path, fs=12000, fs_key="measured.fs").meta["notes"])
+    assert not any("given, where" in n for n in load_recording(path).meta["notes"])
+    assert "fs=29904 Hz given, where its name states 12000 Hz" in summarize(path, fs=29904)["meta"]["notes"]
+    assert not any("given, where" in n for n in summarize(path)["meta"]["notes"])
 
 
 def test_declared_rate_per_record_then_the_name_then_the_default():

@@ -7,6 +7,7 @@ import pytest
 from processes import run_module
 
 from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.physics.simulator import simulate
 
 
 def run(tmp_path, *overrides):
@@ -91,3 +92,34 @@ def test_the_twin_call_it_suggests_holds_the_simulations_sensor_bearing_and_load
     assert held["sensor"]["held"] and held["sensor"]["race"] == "outer" and held["sensor"]["angle_deg"] == 60.0
     assert held["radial_load_n"] == {"value": 300.0, "unit": "N", "held": True}
     assert report["measured"]["bearing"] == "cwru_6205"
+
+
+def test_a_load_in_another_direction_is_held_in_a_frame_turned_until_the_forces_point_down(tmp_path):
+    """The twin knows a downward load only; the model is isotropic and sees only the sum of the constant forces on
+    the inner ring, so the hint turns the frame: the twin simulated as the hint says makes the same record (its
+    spectrum), where the sensor's own direction with the load left out did not hold what the simulation set."""
+    import scipy.signal
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.cli.simulate import twin_command
+    from bearingtwin.config import CONF_DIR
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["fault=normal", "simulator.sensor=outer_x", "simulator.load_x_n=-800",
+                                             "simulator.fs=12000", "simulator.duration=1.0"])
+    words = dict(word.split("=", 1) for word in twin_command(tmp_path / "r.npz", None, cfg.bearing, cfg.simulator,
+                                                              "outer_x").split()[1:])
+    weight = cfg.bearing.inner_mass_kg * cfg.simulator.gravity_m_per_s2
+    assert float(words["operating_point.radial_load_n"]) == pytest.approx(np.hypot(800, weight) - weight, abs=0.1)
+    assert float(words["operating_point.sensor_angle_deg"]) == pytest.approx(90 - np.degrees(np.arctan2(weight, 800)),
+                                                                              abs=0.1)
+    turned = cfg.copy()
+    turned.simulator.load_x_n = 0.0
+    turned.simulator.load_y_n = -float(words["operating_point.radial_load_n"])
+    turned.simulator.sensor_angle_deg = float(words["operating_point.sensor_angle_deg"])
+    spectra = []
+    for setting in (cfg, turned):
+        recording, _ = simulate(setting.fault, setting.bearing, setting.simulator, setting.effects)
+        spectra.append(scipy.signal.welch(recording.signal, recording.fs, nperseg=1024)[1])
+    level_db = 10 * np.log10(spectra[1] / spectra[0])
+    assert np.median(np.abs(level_db)) < 0.5 and abs(10 * np.log10(spectra[1].sum() / spectra[0].sum())) < 0.5

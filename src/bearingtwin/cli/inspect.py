@@ -27,7 +27,7 @@ from omegaconf import DictConfig
 from bearingtwin.checks import positive_number
 from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
                                 unknown_bearing_note)
-from bearingtwin.data.files import read_raw, resolve_fact, resolve_fs
+from bearingtwin.data.files import named_rate_note, read_raw, resolve_fact, resolve_fs
 from bearingtwin.data.real import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -111,8 +111,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     }
     if rpm_origin == "nominal":
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
-    if unknown_bearing:
-        summary["meta"]["notes"] = [*summary["meta"].get("notes", []), unknown_bearing]
+    given_rate = named_rate_note(raw, fs, "fs" if fs_origin == "option" else f"{table}: fs")
+    for note in filter(None, [unknown_bearing, given_rate]):
+        summary["meta"]["notes"] = [*summary["meta"].get("notes", []), note]
     if fs_hz is not None:  # clipping, dropouts and dead channels, as a diagnosis or the twin names them
         quality = {name: Recording(raw.channels[name], fs_hz, source=raw.path).quality_notes()
                    if np.all(np.isfinite(raw.channels[name])) else

@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
@@ -54,22 +55,36 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
     return paths
 
 
-def twin_command(out: Path, bearing: str | None, simulator: DictConfig, sensor: str) -> str:
+def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simulator: DictConfig, sensor: str) -> str:
     """The ``bearingtwin-twin`` call for a simulated record, holding what the simulation set and no file states:
-    the bearing, the sensor's race and direction and a downward load (held by a user who knows their rig), and the
+    the bearing, the sensor's race and direction and the radial load (held by a user who knows their rig), and the
     oversampling it was made with; the twin's own defaults (a housing sensor, a loaded rig) would otherwise be
-    fitted to a record they cannot match."""
+    fitted to a record they cannot match.
+
+    The twin's operating point knows a downward load only. The model is isotropic and sees only the sum of the
+    constant forces on the inner ring (the load and its weight), so a load in another direction is the same
+    record in a frame turned until that sum points down: the sensor's direction is given in that frame, and the
+    load as the sum's size less the weight the twin adds itself (where the sum is smaller than the weight, the
+    load is left to be fitted)."""
     words = [f"bearingtwin-twin measured.path={out}"]
-    if bearing and bearing != "paper":
-        words.append(f"bearing={bearing}")
+    if bearing_name and bearing_name != "paper":
+        words.append(f"bearing={bearing_name}")
     race, axis = sensor.split("_")
     angle = simulator.get("sensor_angle_deg")
     angle = float(angle) if angle is not None else (0.0 if axis == "x" else 90.0)
-    # "+ 0.0" and "0.0 -" below: a zero prints as 0, never -0
-    words += [f"operating_point.sensor={race}", f"operating_point.sensor_angle_deg={angle + 0.0:g}"]
     load_x, load_y = float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0)
-    if load_x == 0.0 and load_y <= 0.0:  # the twin's operating point knows a downward load only: another is fitted
-        words.append(f"operating_point.radial_load_n={0.0 - load_y:g}")
+    weight = float(bearing.inner_mass_kg) * float(simulator.get("gravity_m_per_s2") or 0.0)
+    sum_x, sum_y = load_x, load_y - weight
+    load = math.hypot(sum_x, sum_y) - weight
+    if load_x == 0.0 and load_y <= 0.0:
+        load = -load_y  # the twin's own frame: nothing to turn
+    elif load >= 0.0:
+        turn = -90.0 - math.degrees(math.atan2(sum_y, sum_x))  # the turn that points the forces' sum down
+        angle = (angle + turn + 180.0) % 360.0 - 180.0
+    # "+ 0.0" below: a zero prints as 0, never -0
+    words += [f"operating_point.sensor={race}", f"operating_point.sensor_angle_deg={round(angle, 1) + 0.0:g}"]
+    if load >= 0.0:
+        words.append(f"operating_point.radial_load_n={round(load, 1) + 0.0:g}")
     if oversample_factor(simulator) > 1:  # the twin heard as the record was: anti-aliased alike
         words.append(f"simulator.oversample={oversample_factor(simulator)}")
     return " ".join(words)
@@ -99,8 +114,8 @@ def main(cfg: DictConfig) -> None:
         "record": f"{recording.fault}, {recording.signal.size / recording.fs:g} s at {recording.fs:g} Hz, "
                   f"{recording.rpm:g} rpm, sensor {recording.channel} (m/s^2)",
         "written": ", ".join(path.name for path in written),
-        "next": f"{twin_command(out.resolve(), HydraConfig.get().runtime.choices.get('bearing'), cfg.simulator, recording.channel)}"
-                " holds the twin against this record",
+        "next": twin_command(out.resolve(), HydraConfig.get().runtime.choices.get("bearing"), cfg.bearing, cfg.simulator,
+                             recording.channel) + " holds the twin against this record",
     }
     print(closing_summary("bearingtwin-simulate", facts, out=str(out.parent.resolve())))
 

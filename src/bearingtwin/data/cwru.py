@@ -216,6 +216,9 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     meta = {"record": record if named is None else named, "notes": notes}
     if name is not None:
         meta.update(load_hp=name.load_hp, fault_size_in=name.fault_size_in, position=name.position)
+    if name is not None and name.rate_hz is not None:
+        meta["named_rate"] = {"hz": name.rate_hz, "by": (f"the Data Center's catalogue lists record {name.record} at"
+                                                         if name.form == "number" else "its name states")}
     if name is not None and name.end == "fan":  # the drive end's 6205 is the bearing the data set is known by
         meta["bearing"] = name.bearing
         notes.append("the fault is in the fan-end bearing (SKF 6203, conf/bearing/cwru_6203.yaml), whose own "

@@ -214,6 +214,7 @@ def recording_from_raw(
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{fault_key}={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
+    notes += filter(None, [named_rate_note(raw, fs, fs_key)])
     rpm = _resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
     # Where the speed comes from: a refusal of the rate names the speed's setting too where one gave it.
     rpm_origin = "file" if raw.rpm is not None else "config" if rpm is not None else None
@@ -230,6 +231,16 @@ def recording_from_raw(
         unit=raw.channel_units.get(name, raw.unit),
         meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes),
     )
+
+
+def named_rate_note(raw: RawRecord, fs: float | None, key: str = "fs") -> str | None:
+    """A note where a rate given as ``key`` differs from the one a data set's naming convention gives the file (a
+    CWRU file's ``12k_`` / ``48k_``, its catalogue's for a numbered file): a convention, not the file's own statement,
+    so not refused, but a rate that contradicts it is more likely a typo than a mislabelled file."""
+    named = raw.meta.get("named_rate")
+    if fs is None or not named or abs(float(fs) / named["hz"] - 1.0) <= FS_FLOAT_NOISE:
+        return None
+    return f"{key}={float(fs):g} Hz given, where {named['by']} {named['hz']:g} Hz"
 
 
 def speed_setting(recording: Recording, key: str) -> str | None:
