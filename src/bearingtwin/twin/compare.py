@@ -472,14 +472,16 @@ class Comparator:
                        else f"{_times(mean_ratio)} as wide as {other}'s")
         prominence_words = ("equally prominent" if abs(prominence) < 0.5 else
                             f"{abs(prominence):.1f} dB {'more' if prominence >= 0 else 'less'} prominent")
-        harmonic_finding = f"in the measurement {self.reference_name} harmonics are {width_words} and {prominence_words}"
+        # The words are means, in which differences of opposite sign cancel; the error is an RMS, so the largest
+        # single difference is named as well where it is not small, and the means are then said to be means.
+        largest = self._largest_harmonic_difference(line_diff, width_db, other)
+        harmonic_finding = (f"in the measurement {self.reference_name} harmonics are {'on average ' if largest else ''}"
+                            f"{width_words} and {prominence_words}")
         if self.sidebands_hz.size:
             sideband = float(np.mean(line_diff[k:]))
             harmonic_finding += ("; sidebands as strong" if abs(sideband) < 0.5 else
                                  f"; sidebands {abs(sideband):.1f} dB {'stronger' if sideband >= 0 else 'weaker'}")
-        # The words above are means, in which differences of opposite sign cancel; the error is an RMS, so the
-        # largest single difference is named as well where it is not small.
-        harmonic_finding += self._largest_harmonic_difference(line_diff, width_db, other)
+        harmonic_finding += largest
 
         stat_db, stat_names = [], []
         for name, fm, ft in zip(FEATURE_NAMES, m.statistics, twin.statistics):
