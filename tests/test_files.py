@@ -588,3 +588,13 @@ def test_compiled_kernels_are_cached_with_the_users_caches_not_beside_the_source
     assert cached, list(tmp_path.rglob("*"))
     after = set(sources.glob("*.nb*")) if sources.exists() else set()
     assert after - before == set()
+
+
+def test_a_speed_that_reads_as_a_frequency_in_hz_is_noted_with_the_rpm_it_would_be(tmp_path, signal):
+    """29.17 given as rpm is a shaft at 0.49 Hz, which the rate check then finds too slow to check: the note names the
+    likely slip (a frequency in Hz) and the speed it would be; a motor's speed gets no note."""
+    np.save(tmp_path / "r.npy", signal)
+    slow = load_recording(tmp_path / "r.npy", fs=12000, rpm=29.17, rpm_key="measured.rpm")
+    assert "measured.rpm=29.17 is a shaft at 0.486 Hz; if 29.17 is the shaft's frequency in Hz, give measured.rpm=1750.2" \
+        in slow.meta["notes"]
+    assert not any("frequency in Hz" in n for n in load_recording(tmp_path / "r.npy", fs=12000, rpm=1750).meta["notes"])

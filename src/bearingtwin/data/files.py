@@ -284,10 +284,18 @@ def same_speed(a_rpm: float, b_rpm: float) -> bool:
     return abs(a_rpm / b_rpm - 1.0) <= SPEED_TOLERANCE
 
 
+SLOW_RPM = 120.0
+"""A given speed below this is noted as possibly the shaft's frequency in Hz (a motor's 29.2 Hz typed for 1750 rpm):
+slow bearings exist (a wind turbine's main shaft turns at 10-20 rpm), so it is said, not refused."""
+
+
 def _resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str]) -> float | None:
     """The shaft speed: the file's measured one where it has one and a given ``rpm`` (setting ``key``) agrees with it
     within :data:`SPEED_TOLERANCE` (said in ``notes`` when they differ), else the given one; a given speed the
     file's contradicts is refused."""
+    if rpm is not None and rpm < SLOW_RPM and raw.rpm is None:
+        notes.append(f"{key}={rpm:g} is a shaft at {rpm / 60:.3g} Hz; if {rpm:g} is the shaft's frequency in Hz, give "
+                     f"{key}={rpm * 60:g}")
     if rpm is None or raw.rpm is None or rpm == raw.rpm:
         return raw.rpm if rpm is None else rpm
     if not same_speed(rpm, raw.rpm):
