@@ -14,6 +14,11 @@ its true rate and at 1.25, 0.8, 0.5 and 2 times it (a rate typed for another rig
 A speed given wrong is the same question from the other side: each CWRU record at its true 12 kHz with its
 speed given 2, 3, 5 and 10 times too high (a digit too many), the defect frequencies at that speed.
 
+A user's recording is often a few seconds cut from a longer one: each CWRU record's drive-end channel cut to 3, 5
+and 10 s (from its start, its middle and its end) is checked at its true rate and at the same wrong rates. And the
+twin's own records, as the README's "Your own recordings" makes them (each state, 4 s at 12 kHz, the twin's
+default bearing: no shaft line but the balls' passing series), are checked at their true rate and at those rates.
+
 Every command reads a CWRU file's three channels (drive end, fan end, base), each a witness of the file's one
 rate (``check_channels``, ``decisive_channel``): the last table declares each file at the rates acquisition
 systems record at (4 to 51.2 kHz), the verdict the record's.
@@ -30,9 +35,13 @@ from pathlib import Path
 
 import scipy.signal
 
-from bearingtwin.config import REPO_ROOT, load_bearing
+from hydra import compose, initialize_config_dir
+
+from bearingtwin.config import CONF_DIR, REPO_ROOT, load_bearing
 from bearingtwin.data.cwru import load_cwru
 from bearingtwin.data.files import read_raw
+from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.physics.simulator import CHANNELS, simulate
 from bearingtwin.signal.sampling_rate import check_channels, check_sampling_rate, decisive_channel
 from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 
@@ -46,6 +55,8 @@ RIG_FACTORS = (1.25, 0.8, 0.5, 2.0)
 RIG_SPEEDS_RPM = (1797.0, 1750.0, 1730.0)
 SPEED_FACTORS = (2, 3, 5, 10)
 """Given / true speed of the wrong speeds tried on the CWRU records."""
+CUT_SECONDS = (3, 5, 10)
+"""Lengths of the cuts of the CWRU records, s."""
 DAQ_RATES_HZ = (4000.0, 6000.0, 8000.0, 10000.0, 10240.0, 12000.0, 12800.0, 16000.0, 20000.0, 20480.0, 24000.0,
                 25600.0, 32000.0, 40000.0, 44100.0, 48000.0, 50000.0, 51200.0)
 """Rates the CWRU files are declared at with all their channels: what acquisition systems and sound cards record
@@ -120,6 +131,36 @@ def main() -> None:
     for key, count in sorted(speeds.items()):
         state, verdict = key.split(": ")
         print(f"| {state} | {verdict} | {count} |")
+    cut_right, cut_wrong = Counter(), Counter()
+    for path in records:
+        recording = load_cwru(path, check_fs=False)
+        defect_hz = bearing.defect_frequencies(recording.rpm)
+        for seconds in CUT_SECONDS:
+            size = int(seconds * 12000)
+            for start in (0, (recording.signal.size - size) // 2, recording.signal.size - size):
+                cut = recording.signal[start:start + size]
+                tally(((fs, check_sampling_rate(cut, fs, recording.rpm, defect_hz=defect_hz))
+                       for fs in (12000.0, *(12000.0 * factor for factor in WRONG_FACTORS[12000.0]))),
+                      12000.0, cut_right, cut_wrong)
+    print_table(f"{len(records)} CWRU records cut to {', '.join(map(str, CUT_SECONDS))} s (start, middle, end), 12 kHz:",
+                cut_right, cut_wrong)
+    twin_right, twin_wrong = Counter(), Counter()
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        settings = compose("simulate", overrides=["simulator.fs=12000", "simulator.duration=4"])
+    twin_bearing = BearingGeometry.from_config(settings.bearing)
+    for fault in FAULTS:
+        recording, channels = simulate(fault, settings.bearing, settings.simulator, settings.effects)
+        # Every channel the .npz holds, as the commands read it: the sensor's signal and the four race channels.
+        witnesses = {"signal": recording.signal, **dict(zip(CHANNELS, channels))}
+        defect_hz = twin_bearing.defect_frequencies(recording.rpm)
+        checks = []
+        for fs in (12000.0, *(12000.0 * factor for factor in WRONG_FACTORS[12000.0])):
+            by_channel = check_channels(witnesses, fs, recording.rpm, defect_hz=defect_hz)
+            checks.append((fs, by_channel[decisive_channel(by_channel)]))
+        tally(checks, 12000.0, twin_right, twin_wrong)
+    print_table(f"the twin's own records of {len(FAULTS)} states (4 s, 12 kHz, its default bearing, every channel):",
+                twin_right,
+                twin_wrong)
     every_right, every_wrong = Counter(), Counter()
     for path in records:
         raw = read_raw(path)
