@@ -131,6 +131,7 @@ def main() -> None:
     for key, count in sorted(speeds.items()):
         state, verdict = key.split(": ")
         print(f"| {state} | {verdict} | {count} |")
+    print()
     cut_right, cut_wrong = Counter(), Counter()
     for path in records:
         recording = load_cwru(path, check_fs=False)
