@@ -750,8 +750,12 @@ class EffectRanker:
         operating = self._operating_point_report(base_values, sensor, scored, intervals)
         floor = judge.fit_part.compare_profiles(judge.check_part.measured).discrepancy_db if judge.held_out else 0.0
         not_tried = self._not_tried(twin.fault)
-        # Where nothing was tried, not_tried says why; otherwise the candidates this state could not tell are named apart.
-        passed_over = "" if not_tried else "; ".join(self._not_offered(twin.fault))
+        # Where nothing was tried, not_tried says why; otherwise the candidates this state could not tell, and those
+        # whose required effects the twin never took, are named apart.
+        never_offered = [f"{name} (needs {' and '.join(_requires(name))}, which the twin did not take)"
+                         for name in self.candidates if _offered_on(name, twin.fault)
+                         and not set(_requires(name)) <= set(current_effects)]
+        passed_over = "" if not_tried else "; ".join(self._not_offered(twin.fault) + never_offered)
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
                             unclaimed, self.min_signature_gain, not_tried, pairs, passed_over=passed_over)
