@@ -212,6 +212,9 @@ def test_which_bearing_counts_as_given_and_which_the_record_replaces(measurement
     (["measured.path={measured}"], "measured.npy: the file does not state its sampling rate; give measured.fs=<Hz>"),
     (["measured.path={measured}", "measured.fs=12000", "measured.rpm=abc"],
      "measured.rpm='abc' must be a positive number of rev/min"),
+    (["measured.path={measured}", "measured.fs=12000", "operating_point.defect_width_mm=50"],
+     "operating_point.defect_width_mm=50 cannot be simulated: simulator.defect.width_mm must be positive and below "
+     "the ball diameter"),
 ])
 def test_bad_input_exits_nonzero_naming_the_problem(measurement, tmp_path, overrides, message):
     overrides = [o.format(missing=tmp_path / "missing.npy", measured=measurement) for o in overrides]

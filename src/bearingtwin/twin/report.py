@@ -26,13 +26,14 @@ from bearingtwin.data.files import read_raw, recording_from_raw, same_speed, spe
 from bearingtwin.data.real import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
 from bearingtwin.storage import file_digest
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel, effect_search_space
-from bearingtwin.twin.operating_point import OperatingPoint
+from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit, not_identified, view_floors, views_beyond_floor
 from bearingtwin.twin.reference import (geometry_difference, hold_reference, read_reference, refuse_reference_folder,
                                         rig_geometry)
@@ -278,6 +279,21 @@ def build_ranker(cfg: DictConfig, fault: str, progress: bool = False) -> EffectR
     return EffectRanker(operating_point=operating, progress=progress, **ranker_settings(cfg))
 
 
+def check_held_defect(cfg: DictConfig, operating: OperatingPoint, fault: str, geometry: BearingGeometry) -> None:
+    """A defect size held in ``operating_point`` that the simulator cannot make (a spall wider than a ball) is
+    refused before any run opens, naming the setting, rather than by every trial of the calibration."""
+    held = {name: operating.known[name] for name in DEFECT_PARAMETERS if name in operating.known}
+    if fault == "normal" or not held:
+        return
+    defect = dict(_plain(cfg.simulator.defect))
+    defect.update({BASE_PARAMETERS[name].key.rsplit(".", 1)[-1]: value for name, value in held.items()})
+    try:
+        build_defect(fault, geometry, defect, 0.0)
+    except BearingTwinError as error:
+        given = ", ".join(f"operating_point.{name}={value:g}" for name, value in held.items())
+        raise BearingTwinError(f"{given} cannot be simulated: {error}") from None
+
+
 def _plain(node):
     """A config node as plain Python (a block the command line replaced by a value stays that value, to be named)."""
     return OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
@@ -500,6 +516,7 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
         cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault, progress)
+    check_held_defect(cfg, ranker.operating_point, measured.fault, geometry)
     comparator = Comparator(measured, geometry, settings)  # a record too short for one comparison segment, before a run opens
     tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
