@@ -271,6 +271,9 @@ class TwinFit:
     since_reference: list[dict] | None = None
     reference_note: str = ""  # why a reference record was not compared ("it is this record itself"), else ""
     passed_over: str = ""  # candidates not offered on this record's bearing state, and why, where others were tried
+    # Candidates offered only once another effect is in the twin, which it never took (second_resonance without
+    # resonance): the report's, not the summary's (with the default candidates nearly every run has one).
+    awaiting: str = ""
 
     @property
     def final_error(self) -> float:
@@ -390,6 +393,7 @@ class TwinFit:
             "unclaimed": None if self.unclaimed is None else self.unclaimed.as_dict(),
             "not_tried": self.not_tried,
             "passed_over": self.passed_over,
+            "awaiting": self.awaiting,
             "since_reference": self.since_reference,
             "reference_note": self.reference_note,
             "final_error": self.final_error,
@@ -752,13 +756,14 @@ class EffectRanker:
         not_tried = self._not_tried(twin.fault)
         # Where nothing was tried, not_tried says why; otherwise the candidates this state could not tell, and those
         # whose required effects the twin never took, are named apart.
-        never_offered = [f"{name} (needs {' and '.join(_requires(name))}, which the twin did not take)"
-                         for name in self.candidates if _offered_on(name, twin.fault)
-                         and not set(_requires(name)) <= set(current_effects)]
-        passed_over = "" if not_tried else "; ".join(self._not_offered(twin.fault) + never_offered)
+        passed_over = "" if not_tried else "; ".join(self._not_offered(twin.fault))
+        awaiting = "" if not_tried else "; ".join(
+            f"{name} (needs {' and '.join(_requires(name))}, which the twin did not take)" for name in self.candidates
+            if _offered_on(name, twin.fault) and not set(_requires(name)) <= set(current_effects))
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
-                            unclaimed, self.min_signature_gain, not_tried, pairs, passed_over=passed_over)
+                            unclaimed, self.min_signature_gain, not_tried, pairs, passed_over=passed_over,
+                            awaiting=awaiting)
         return self
 
     def _not_tried(self, fault: str) -> str:
