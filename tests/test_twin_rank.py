@@ -510,6 +510,12 @@ def test_words_for_intervals_ranges_and_later_effects():
         ", hardly identified: its interval covers 92% of the searched -30 to -10"
     fit = EffectFit("slip", {"jitter": 0.01}, 1.0, 0.34, 3.0, 0.1, 1, "signature: smeared harmonics", comparison=None)
     assert "closes 34 % of the discrepancy" in fit.sentence() and "closes 34 % of what was left" in fit.sentence(first=False)
+    assert "may lie beyond" not in fit.sentence()
+    # An effect's value on an edge of its search range is said to be there, as a base parameter's is.
+    floor = EffectFit("noise", {"snr_db": -10.0, "spectral_slope": 0.4}, 1.0, 0.5, 3.0, 0.1, 2, "signature", comparison=None,
+                      intervals={"snr_db": [-10.0, 14.4], "spectral_slope": [0.1, 0.9]})
+    assert ("noise (snr -10 dB (-10 to 14.4), at the lower edge of the searched -10 to 50: the value may lie beyond it, "
+            "spectral slope 0.4 (0.1-0.9)) closes 50 %") in floor.sentence(), floor.sentence()
 
 
 def test_a_stated_state_the_envelope_contradicts_is_questioned(cfg):

@@ -212,8 +212,9 @@ class EffectFit:
     def sentence(self, first: bool = True) -> str:
         """The effect, its parameters and how much it closes: of the discrepancy (the first effect found), or of
         what the effects before it left; a fixed effect that changed, from what to what."""
-        values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) for k, v in self.params.items()
-                           if isinstance(v, float))
+        space = effect_search_space(self.effect)
+        values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) + (edge_words(v, *space[k][:2]) if k in space else "")
+                           for k, v in self.params.items() if isinstance(v, float))
         of = "the discrepancy" if first else "what was left"
         beside = "" if self.claimed_beside is None else f" (its signature shows only beside {self.claimed_beside})"
         if self.changed_from is None:
@@ -453,8 +454,14 @@ def identification_words(entry: Mapping) -> str:
     if share >= HARDLY_IDENTIFIED_SHARE:
         # rounded down: an interval short of the whole range never reads "100 %"
         return f", hardly identified: its interval covers {math.floor(100 * share)}% of the searched {_span(low, high)}"
+    return edge_words(entry["value"], low, high)
+
+
+def edge_words(value: float, low: float, high: float) -> str:
+    """", at the lower edge of the searched 20-5000: the value may lie beyond it" where ``value`` sits on an edge of
+    its search range, else ""."""
     for edge, side in ((low, "lower"), (high, "upper")):
-        if np.isclose(entry["value"], edge, rtol=1e-3):
+        if np.isclose(value, edge, rtol=1e-3):
             return f", at the {side} edge of the searched {_span(low, high)}: the value may lie beyond it"
     return ""
 
