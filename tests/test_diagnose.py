@@ -1124,6 +1124,23 @@ def test_a_speed_that_contradicts_a_rate_the_file_states_is_named_as_the_suspect
 
 
 @needs_cwru
+def test_a_typed_rate_the_shaft_line_contradicts_is_named_beside_the_speed(tmp_path):
+    """A rate a logger's note states was typed, not measured: record 106 (12 kHz, 1772 rpm) under a note of 48 kHz
+    with its true speed given. The note names the speed as the first suspect and the rate the series implies at
+    that speed, the true one."""
+    from bearingtwin.data.cwru import load_cwru
+
+    signal = load_cwru(CWRU / "12k_Drive_End_IR007_1_106.mat", channel="DE", fs=12000.0).signal[:120000]
+    (tmp_path / "r106.csv").write_text("Sample rate: 48000 Hz\n\nacc (g)\n" + "".join(f"{a:.6f}\n" for a in signal))
+    prepared = read_record(tmp_path / "r106.csv", envelope_pipeline(), rpm=1772.0)
+    assert prepared.rate_check == "contradicted"
+    (note,) = [note for note in prepared.notes if note.startswith("the speed contradicts the record")]
+    said = float(re.search(r"or the rate the file states is wrong: at 1772 rpm that series puts it at (\d+) Hz",
+                           note).group(1))
+    assert said == pytest.approx(12000.0, rel=0.01), note
+
+
+@needs_cwru
 def test_a_speed_a_whole_factor_too_high_for_a_rate_the_file_states_is_named_without_a_misplaced_series(tmp_path):
     """Given twice its speed, record 106's shaft series still stands where that speed puts it (its even harmonics),
     and the lines between them with the defect lines refuse the speed: the note says the series stands where it

@@ -212,7 +212,8 @@ RATE_THE_FILE_STATES = {"header": "the file states", "time column": "the file's 
 def _speed_or_rate_wrong(check, fs_origin: str | None = None) -> str:
     """The note on a stated speed and rate the shaft line contradicts: the line fixes only their ratio, so it names
     what either would be if the other is right; where the file states its rate itself (``fs_origin``), the speed
-    is what is wrong, and the series the check found near the speed's line is no reading of the true speed."""
+    is the first suspect, and the series the check found near the speed's line is no reading of the true speed;
+    a rate the file states but did not measure (a header's, a stored number, not time stamps) is named too."""
     if fs_origin in RATE_THE_FILE_STATES and check.matches:  # the series stands where the speed puts it
         return (f"the speed contradicts the record: at {check.rpm:g} rpm the shaft series stands where it belongs "
                 f"({check.expected_hz:.2f} Hz) at the rate {RATE_THE_FILE_STATES[fs_origin]} ({check.fs_hz:g} Hz), but "
@@ -221,9 +222,12 @@ def _speed_or_rate_wrong(check, fs_origin: str | None = None) -> str:
     if fs_origin in RATE_THE_FILE_STATES:
         nearest = (f"; the nearest strong harmonic series, at {check.observed_hz:.2f} Hz, would put it at "
                    f"{60 * check.observed_hz:.0f} rpm if it is the shaft's" if check.observed_hz else "")
+        # Time stamps are measured; a rate written in a header or beside the samples was typed, and may be wrong.
+        typed = (f"; or the rate {RATE_THE_FILE_STATES[fs_origin]} is wrong: at {check.rpm:g} rpm that series puts "
+                 f"it at {check.implied_fs_hz:.0f} Hz" if fs_origin != "time column" and check.implied_fs_hz else "")
         return (f"the speed contradicts the record: at {check.rpm:g} rpm the shaft line belongs at "
                 f"{check.expected_hz:.2f} Hz, and the shaft's series does not stand where that puts it at the rate "
-                f"{RATE_THE_FILE_STATES[fs_origin]} ({check.fs_hz:g} Hz): check the speed given{nearest}. "
+                f"{RATE_THE_FILE_STATES[fs_origin]} ({check.fs_hz:g} Hz): check the speed given{nearest}{typed}. "
                 "Every defect line is read where the stated values put it: the verdict is in doubt")
     words = f"speed and rate disagree: {describe_mismatch(check)}"
     if check.implied_fs_hz:  # the rate it implies at the stated speed is in describe_mismatch's words already
