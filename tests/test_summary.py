@@ -33,6 +33,19 @@ def test_training_summary_gives_accuracy_and_f1_per_class_and_says_when_nothing_
     assert "  artifacts: file:///store/artifacts/r2/artifacts" in counted
 
 
+
+def test_a_calibration_record_its_run_misreads_is_shown_per_class_and_warned_of():
+    """A twin-trained run's calibration records are where a false alarm shows first: the healthy record called
+    healthy in 10 % of its windows is said, not averaged away into a 55 % calibration accuracy."""
+    metrics = {"accuracy": 0.99, "calibration_accuracy": 0.55, "calibration_recall_normal": 0.10,
+               "calibration_recall_outer": 1.0}
+    text = training_summary("m", TrackedRun("r", metrics), "sqlite:///s.db", "/o")
+    assert "  calibration accuracy: 55.00 % (windows right: normal 10.00 %, outer 100.00 %)" in text
+    assert "  warning: the normal calibration record is called its state in under 50% of the windows" in text
+    fine = training_summary("m", TrackedRun("r", {**metrics, "calibration_recall_normal": 0.9}), "sqlite:///s.db", "/o")
+    assert "warning" not in fine
+
+
 def test_the_progress_bar_shows_for_one_watched_run_only(monkeypatch):
     assert show_progress_bar(True, in_sweep=True) and not show_progress_bar(False, in_sweep=False)
     monkeypatch.setattr("sys.stderr.isatty", lambda: True)

@@ -41,6 +41,10 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
+CALIBRATION_RECALL_WARNING = 0.5
+"""A calibration record whose windows are called its own state less often than this is warned of in the summary."""
+
+
 def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str, records: str | None = None) -> str:
     """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one), and
     ``records``: which real records a twin-trained run was calibrated and tested on."""
@@ -52,7 +56,15 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     f1 = {key.removeprefix("f1_"): value for key, value in metrics.items() if key.startswith("f1_")}
     lines["F1 per class"] = ", ".join(f"{state} {value:.3f}" for state, value in f1.items())
     if "calibration_accuracy" in metrics:
-        lines["calibration accuracy"] = percent(metrics["calibration_accuracy"])
+        recall = {key.removeprefix("calibration_recall_"): value for key, value in metrics.items()
+                  if key.startswith("calibration_recall_")}
+        per_class = f" (windows right: {', '.join(f'{state} {percent(value)}' for state, value in recall.items())})"
+        lines["calibration accuracy"] = percent(metrics["calibration_accuracy"]) + (per_class if recall else "")
+        missed = [state for state, value in recall.items() if value < CALIBRATION_RECALL_WARNING]
+        if missed:  # the records the twin was calibrated on, misread: the test records will show it too
+            lines["warning"] = (f"the {' and '.join(missed)} calibration record{'s are' if len(missed) > 1 else ' is'} "
+                                f"called {'their' if len(missed) > 1 else 'its'} state in under "
+                                f"{CALIBRATION_RECALL_WARNING:.0%} of the windows")
     from bearingtwin.models.experiment import FEATURE_GROUPS
 
     for group in FEATURE_GROUPS:  # chosen by the calibration records (band_power_by_calibration, ...)
