@@ -247,9 +247,13 @@ def _matches(checks, rate: float) -> bool:
 
 def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Recording, list[str]]:
     """The recording in the unit the model was trained in, where both state acceleration units (g, m/s^2), and
-    what was done or could not be; as it is when the model normalizes its windows (any unit is alike to it)."""
-    if pipeline.window_normalization != "none" or not (recording.unit and pipeline.unit):
+    what was done or could not be (a record stating no unit is read in the model's, said so); as it is when the
+    model normalizes its windows (any unit is alike to it)."""
+    if pipeline.window_normalization != "none" or not pipeline.unit:
         return recording, []
+    if not recording.unit:  # g and m/s^2 differ by 9.81: a level check that fires at a decade never sees it
+        return recording, [f"the file states no unit: read in {pipeline.unit}, the unit the model was trained in "
+                           "(name it in a column header, e.g. 'acc (m/s^2)', where it is another)"]
     units = acceleration_unit(recording.unit), acceleration_unit(pipeline.unit)
     if None in units:
         if recording.unit == pipeline.unit:
