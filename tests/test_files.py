@@ -157,8 +157,10 @@ def test_bad_inputs_are_named(tmp_path, signal):
         load_recording(path, channel="Q", fs=FS)
     corrupt = tmp_path / "corrupt.npz"
     corrupt.write_bytes(b"not a zip archive")
-    with pytest.raises(BearingTwinError, match="corrupt.npz: not a readable .npz"):
+    with pytest.raises(BearingTwinError, match=r"corrupt.npz: not a NumPy .npz archive \(it is no zip archive, as "
+                                               r"numpy.savez writes\)") as refused:
         read_raw(corrupt)
+    assert "pickle" not in str(refused.value)  # numpy's reading of any file that is no zip archive
 
 
 def test_a_file_its_reader_cannot_parse_is_named_whatever_the_reader_raised(tmp_path):

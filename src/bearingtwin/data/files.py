@@ -570,6 +570,9 @@ def _can_state(fact: str, value) -> bool:
 
 
 def _read_npz(path: Path) -> RawRecord:
+    with open(path, "rb") as handle:
+        if handle.read(2) != b"PK":  # numpy would take any file that is no zip archive for a pickle, and say so
+            raise BearingTwinError(f"{path}: not a NumPy .npz archive (it is no zip archive, as numpy.savez writes)")
     try:
         with np.load(path, allow_pickle=False) as archive:
             items = {name: archive[name] for name in archive.files}
