@@ -701,12 +701,13 @@ class Tones(LineEffect):
         levels_db: each line's RMS relative to the bearing signal's RMS, in dB (-40 to +20).
         level_offset_db: added to every level, in dB (what the ranking calibrates; 0 as read).
 
-    Signature: narrow lines in the PSD at frequencies unrelated to the shaft rate, the supply
-    and the defect frequencies.
+    Signature: narrow lines in the PSD that no machine effect accounts for: off the supply's
+    multiples, the shaft's 1x-3x, a looseness series and the defect frequencies (a lone higher
+    shaft order, a blade pass, among them).
     """
 
     name = "tones"
-    signature = "narrow lines unrelated to shaft, supply and defect"
+    signature = "narrow lines no machine effect accounts for (a lone higher shaft order among them)"
     signature_views = ("lines",)
     search_space = {"level_offset_db": (-10.0, 10.0, False)}
     max_lines = 5
