@@ -123,3 +123,12 @@ def test_a_load_in_another_direction_is_held_in_a_frame_turned_until_the_forces_
         spectra.append(scipy.signal.welch(recording.signal, recording.fs, nperseg=1024)[1])
     level_db = 10 * np.log10(spectra[1] / spectra[0])
     assert np.median(np.abs(level_db)) < 0.5 and abs(10 * np.log10(spectra[1].sum() / spectra[0].sum())) < 0.5
+
+
+def test_the_summary_names_the_effects_the_record_was_made_with(tmp_path):
+    """The .npz states no effects: the summary is where a user sees what went into the record (a clipping whose
+    level no sample reaches changes nothing, and its level is there to see)."""
+    made = run(tmp_path, "fault=outer", "simulator.duration=0.2", "effects=[clipping]", f"out={tmp_path / 'c.npz'}")
+    assert made.returncode == 0 and "  effects: clipping (clip_level 4.0)" in made.stdout, made.stdout
+    bare = run(tmp_path, "fault=outer", "simulator.duration=0.2", f"out={tmp_path / 'b.npz'}")
+    assert "  effects: none" in bare.stdout

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
 import numpy as np
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.checks import true_or_false
@@ -113,6 +113,8 @@ def main(cfg: DictConfig) -> None:
     facts = {
         "record": f"{recording.fault}, {recording.signal.size / recording.fs:g} s at {recording.fs:g} Hz, "
                   f"{recording.rpm:g} rpm, sensor {recording.channel} (m/s^2)",
+        "effects": "; ".join(f"{name} ({', '.join(f'{key} {value}' for key, value in params.items())})"
+                             for name, params in OmegaConf.to_container(cfg.effects, resolve=True).items()) or "none",
         "written": ", ".join(path.name for path in written),
         "next": twin_command(out.resolve(), HydraConfig.get().runtime.choices.get("bearing"), cfg.bearing, cfg.simulator,
                              recording.channel) + " holds the twin against this record",
