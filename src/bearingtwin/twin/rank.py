@@ -212,8 +212,9 @@ class EffectFit:
     def sentence(self, first: bool = True) -> str:
         """The effect, its parameters and how much it closes: of the discrepancy (the first effect found), or of
         what the effects before it left; a fixed effect that changed, from what to what."""
-        space = effect_search_space(self.effect)
-        values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) + (edge_words(v, *space[k][:2]) if k in space else "")
+        space = effect_search_space(self.effect)  # a value on an edge of its range is said to be there
+        values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) + (edge_words(v, *space[k][:2]) if k in space
+                                                                              else "")
                            for k, v in self.params.items() if isinstance(v, float))
         of = "the discrepancy" if first else "what was left"
         beside = "" if self.claimed_beside is None else f" (its signature shows only beside {self.claimed_beside})"
