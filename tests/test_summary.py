@@ -2,7 +2,8 @@
 
 import pytest
 
-from bearingtwin.cli.summary import closing_summary, open_command
+from bearingtwin.cli.summary import closing_summary
+from bearingtwin.tracking import open_command
 from bearingtwin.checks import show_progress_bar
 from bearingtwin.cli.train import training_summary
 from bearingtwin.errors import BearingTwinError

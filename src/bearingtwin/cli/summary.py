@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from typing import Mapping, Sequence
 
+from bearingtwin.tracking import open_command
+
 
 def closing_summary(
     title: str,
@@ -39,13 +41,6 @@ def closing_summary(
     if out is not None:
         body.append(f"output: {out}")
     return "\n".join([f"== {title} ==", *(f"  {line}" for line in body)])
-
-
-def open_command(tracking_uri: str) -> str:
-    """How to look at the runs of a store: a server is opened in a browser, a local store with ``mlflow ui``."""
-    if tracking_uri.startswith(("http://", "https://")):
-        return f"open {tracking_uri}"
-    return f"mlflow ui --backend-store-uri {tracking_uri}"
 
 
 def percent(fraction: float) -> str:

@@ -75,6 +75,7 @@ from bearingtwin.tracking.lifecycle import (
     register_open_run,
     start_ray_keeping_signals,
 )
+from bearingtwin.tracking import open_command
 from bearingtwin.tracking.provenance import installed_versions
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
@@ -886,7 +887,7 @@ class SweepParentRun(Callback):
                   f"{str(error).strip().splitlines()[0] if str(error).strip() else ''}); sweep run {parent_id} marked "
                   "FAILED", file=sys.stderr, flush=True)
             sys.exit(1)
-        print(f"sweep outputs: {sweep_dir} (runs: mlflow ui --backend-store-uri {tracking.uri})", flush=True)
+        print(f"sweep outputs: {sweep_dir} (runs: {open_command(tracking.uri)})", flush=True)
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
         if n_failed:
             sys.exit(1)
