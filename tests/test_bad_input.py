@@ -73,6 +73,8 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("train", ["seed=${foo}"], ["seed=${foo}: Interpolation key 'foo' not found"]),  # OmegaConf's traceback
     ("train", ["simulator.fs=-1"], ["simulator.fs=-1: the simulated data set runs the simulator at data.fs"]),  # ignored
     ("twin", ["measured.path=x.npy", "seed=${foo}"], ["seed=${foo}: Interpolation key 'foo' not found"]),
+    ("train", ["tracking.experiment="], ["tracking.experiment is empty"]),  # MLflow's traceback (an unset variable)
+    ("report", ["table4", "experiment="], ["experiment is empty"]),
 ])
 def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, module, overrides, named):
     """Hydra alone would print the options and its search path over many lines, and exit 1."""
@@ -81,6 +83,13 @@ def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, modul
     assert_one_line_exit_2(done, *named)
     assert len(done.stderr.splitlines()) == 1, done.stderr
     assert list(tmp_path.iterdir()) == []  # stopped before any output folder, store or run
+
+
+def test_a_group_the_command_needs_removed_with_tilde_is_one_line_and_exit_2(tmp_path):
+    """OmegaConf would end the run with a traceback when the task reads the group; no store is opened."""
+    done = command("train", "~classifier", cwd=tmp_path)
+    assert_one_line_exit_2(done, "classifier is needed, and ~classifier removed it")
+    assert not list(tmp_path.rglob("*.db"))
 
 
 def test_a_sweeps_config_in_one_run_says_its_parameters_are_not_swept(tmp_path):

@@ -51,6 +51,13 @@ def exit_on_user_error(task: Callable) -> Callable:
         except COMPOSITION_ERRORS as error:
             print(f"error: {composition_error_line(error)}", file=sys.stderr)
             sys.exit(2)
+        except ConfigAttributeError as error:
+            removed = [arg for arg in sys.argv[1:] if arg.startswith("~")]
+            if not removed:  # no setting of the user's took the key away: a programming error, with its traceback
+                raise
+            key = getattr(error, "full_key", "") or str(error).splitlines()[0]
+            print(f"error: {key} is needed, and {' '.join(removed)} removed it", file=sys.stderr)
+            sys.exit(2)
         except InterpolationResolutionError as error:  # seed=${foo}: a value naming a key no config has
             where = next((arg for arg in sys.argv[1:] if "${" in arg), None) or getattr(error, "full_key", "") or "a setting"
             print(f"error: {where}: {str(error).splitlines()[0]} (an interpolation ${{...}} names another setting)",
@@ -181,6 +188,8 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 if group == "simulator" and name in DATA_SET_OPERATING_POINT:
                     raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
                                            f"({cfg.data[name]}); give data.{name}=<value>")
+        if "experiment" in (cfg.get("tracking") or {}):
+            experiment_name(cfg.tracking)
         if mode != RunMode.MULTIRUN:  # a sweep's jobs are checked by SweepParentRun, each with its own values
             given = {o.partition("=")[0].lstrip("+~") for o in args.overrides}
             swept = {key.lstrip("+~"): values for key, values in (cfg.hydra.sweeper.get("params") or {}).items()
@@ -190,6 +199,15 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                       f"({'; '.join(f'{key}: {values}' for key, values in swept.items())}); add -m to sweep them",
                       file=sys.stderr)
             refuse_unknown_keys(cfg.hydra)
+
+
+def experiment_name(tracking_cfg, key: str = "tracking.experiment") -> str:
+    """``tracking_cfg.experiment``, refused in one line naming ``key`` where it is empty (an unset shell variable's
+    value), which MLflow would refuse with a traceback."""
+    name = "" if tracking_cfg.get("experiment") is None else str(tracking_cfg.experiment)
+    if not name.strip():
+        raise BearingTwinError(f"{key} is empty: name an MLflow experiment (default: bearingtwin)")
+    return name
 
 
 def compose_config(config_name: str | None = None, overrides=()) -> DictConfig:

@@ -62,7 +62,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin import cpu_kernels
-from bearingtwin.config import REPO_ROOT, exit_on_user_error, refuse_unknown_keys
+from bearingtwin.config import REPO_ROOT, exit_on_user_error, experiment_name, refuse_unknown_keys
 from bearingtwin.data.build import require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
@@ -130,7 +130,7 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
     command that only reads) a SQLite file or an experiment that is not there, which would otherwise be
     created empty."""
     uri = str(tracking_cfg.uri)
-    name = str(tracking_cfg.experiment)
+    name = experiment_name(tracking_cfg, "experiment" if must_exist else "tracking.experiment")  # a report's own key
     check_store(uri, must_exist)
     with _sqlite_init_lock(uri):
         client = MlflowClient(tracking_uri=uri)
