@@ -579,6 +579,9 @@ def test_diagnose_a_cwru_record_by_registry_alias(registered, tmp_path):
     assert record.stem in done.stdout and "mlflow ui --backend-store-uri" in done.stdout
     logged = MlflowClient(uri).search_runs([MlflowClient(uri).get_experiment_by_name("bearingtwin-diagnose").experiment_id])
     assert logged[0].info.status == "FINISHED" and logged[0].data.params["model"] == "models:/diag@champion"
+    # The alias moves; the version it named is kept beside it, in the record's verdict and on the run.
+    champion = MlflowClient(uri).get_model_version_by_alias("diag", "champion").version
+    assert result["model_version_uri"] == logged[0].data.tags["model_version_uri"] == f"models:/diag/{champion}"
 
 
 @needs_cwru

@@ -189,6 +189,25 @@ def model_identity(model_uri: str, tracking_uri: str) -> str:
     return f"{info.run_id}/{info.model_uuid}"
 
 
+def pinned_model_uri(model_uri: str, tracking_uri: str) -> str:
+    """``model_uri`` with a registry alias replaced by the version it names now (``models:/sim2real@champion`` ->
+    ``models:/sim2real/3``): an alias moves, and a verdict kept must say which model gave it. Other URIs as given."""
+    if not model_uri.startswith("models:/") or "@" not in model_uri:
+        return model_uri
+    from mlflow import MlflowClient
+    from mlflow.exceptions import MlflowException
+
+    from bearingtwin.tracking.mlflow_logging import check_store, mlflow_reason
+
+    check_store(tracking_uri, must_exist=True)
+    name, alias = model_uri.removeprefix("models:/").rsplit("@", 1)
+    try:
+        version = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri).get_model_version_by_alias(name, alias)
+    except MlflowException as error:
+        raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})") from None
+    return f"models:/{name}/{version.version}"
+
+
 def load_diagnosis_model(model_uri: str, tracking_uri: str):
     """The pyfunc model at ``model_uri`` (``models:/name@alias``, ``models:/name/version``, ``runs:/id/model``)
     and its pipeline; an unknown URI is a :class:`BearingTwinError` naming it."""

@@ -7,7 +7,7 @@ features or the physics evidence need it. It is then cut into non-overlapping wi
 whole length, every window is predicted, and the record's verdict is the state most windows
 voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 
-``record``, ``model_uri``, ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
+``record``, ``model_uri``, ``model_version_uri`` (an alias replaced by the version it named), ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
 ``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
 ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
 ``contradicted`` or ``not checked``), ``notes``, ``fault_size_in``, ``position`` and ``load_hp`` where the
@@ -289,8 +289,9 @@ def record_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, 
 
 
 def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipeline, model_uri: str,
-                       evidence_settings: dict) -> tuple[dict, PhysicsEvidence | None]:
-    """The ``diagnosis.json`` content of one record, and the physics evidence behind it."""
+                       evidence_settings: dict, model_version_uri: str | None = None) -> tuple[dict, PhysicsEvidence | None]:
+    """The ``diagnosis.json`` content of one record, and the physics evidence behind it; ``model_version_uri``: the
+    model's URI with a registry alias replaced by the version it named (``model_uri`` where there was none)."""
     recording = prepared.recording
     windows, starts = record_windows(recording.signal, pipeline.window_length)
     if np.any(np.ptp(windows, axis=1) == 0):  # said in seconds, where the features would only say which window
@@ -333,6 +334,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     result = {
         "record": Path(str(recording.source)).stem,
         "model_uri": model_uri,
+        "model_version_uri": model_version_uri or model_uri,
         "fs": recording.fs,
         "rpm": recording.rpm,
         "verdict": verdict,

@@ -28,7 +28,7 @@ from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
                                    read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
-from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, pinned_model_uri
 from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
 
@@ -181,13 +181,14 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     if beside is not None:  # one file: its row fills in what the command leaves out, as the twin's does
         table, labels = beside, row
     model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
+    pinned = pinned_model_uri(str(cfg.model), tracking_uri)  # the version an alias names now, recorded beside it
     pipeline.check_can_diagnose()
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
-    tracked = open_diagnosis_run(cfg, table, bearing) if tracking else None
+    tracked = open_diagnosis_run(cfg, table, bearing, pinned) if tracking else None
     run = DiagnosisRun(out=out)
     earlier = {path.parent.name for path in out.glob("*/diagnosis.json")}
     try:
-        diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures)
+        diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures, pinned)
     finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
         if len(records) > 1 or run.failures:
             run.files.append(write_summary(run.rows, out / "summary.csv"))
@@ -201,9 +202,11 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
 
 
 def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, model, pipeline, settings: dict,
-                     labels: dict, bad_rows: dict, table: Path | None, bearing: str | None, figures: bool) -> None:
+                     labels: dict, bad_rows: dict, table: Path | None, bearing: str | None, figures: bool,
+                     pinned_uri: str) -> None:
     """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores); a record whose labels
-    row does not read (``bad_rows``, :func:`~bearingtwin.data.real.read_labels`) fails with its row's error."""
+    row does not read (``bad_rows``, :func:`~bearingtwin.data.real.read_labels`) fails with its row's error.
+    ``pinned_uri``: the model's URI with an alias replaced by the version it names (:func:`pinned_model_uri`)."""
     out = run.out
     windows_total = windows_correct = 0
     # A bar over the files in a terminal only (None: tqdm's own test), not in a file the output goes to.
@@ -231,7 +234,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing,
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
                                    rpm_key=its_row + "rpm" if rpm_from_row else "rpm")
-            result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings)
+            result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             calibrated_on = bool(_names_of(path, table) & calibrated)
             result["calibration_record"] = calibrated_on
             if calibrated_on:
@@ -338,9 +341,11 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     return path
 
 
-def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None) -> tuple[MlflowClient, str]:
-    """The command's MLflow run in ``tracking.experiment``, opened before the first record with the model and
-    path as params (and the labels table and the bearing the run reads): an interrupt marks it KILLED."""
+def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None,
+                       pinned_uri: str) -> tuple[MlflowClient, str]:
+    """The command's MLflow run in ``tracking.experiment``, opened before the first record with the model (as given,
+    and ``pinned_uri``: the version an alias names now) and path as params (and the labels table and the bearing the
+    run reads): an interrupt marks it KILLED."""
     from mlflow.entities import Param
 
     from bearingtwin.tracking.lifecycle import owner_tags, register_open_run
@@ -348,7 +353,8 @@ def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None
 
     client, experiment_id = open_store(cfg.tracking)
     mlflow_run = client.create_run(experiment_id, run_name=f"diagnose {Path(str(cfg.path)).name} with {cfg.model}",
-                                   tags={"bt.kind": "diagnose", "model_uri": str(cfg.model), **owner_tags()})
+                                   tags={"bt.kind": "diagnose", "model_uri": str(cfg.model),
+                                         "model_version_uri": pinned_uri, **owner_tags()})
     run_id = mlflow_run.info.run_id
     register_open_run(client, run_id)
     params = {"model": cfg.model, "path": cfg.path, "labels": labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
