@@ -170,6 +170,19 @@ def test_another_rigs_model_is_not_registered_as_the_cwru_protocols(rig_folder, 
                                              "register=my_rig"])) == ("my_rig", "champion")
 
 
+
+def test_only_a_protocol_run_registers_the_protocols_model():
+    """models:/sim2real@champion is what the README diagnoses real recordings with: a smoke run of another config
+    registered under it would take it over without a word."""
+    from bearingtwin.tracking.mlflow_logging import check_registration
+
+    with pytest.raises(BearingTwinError, match=r"register=sim2real is the pre-registered protocol's model "
+                                               r"\(bearingtwin-train \+experiment=sim2real\)"):
+        check_registration(compose_train(["classifier=svm", "register=sim2real", "register_alias=champion"]))
+    assert check_registration(compose_train(["+experiment=sim2real"])) == ("sim2real", "champion")
+    assert check_registration(compose_train(["+experiment=sim2real_v8"])) == ("sim2real", "champion")  # any version
+
+
 def test_a_calibration_report_of_another_record_is_refused(rig_folder, tmp_path):
     """bearingtwin-twin writes what it held the twin against into its report: the healthy record's report given as
     the outer-race record's (two reports swapped), one made at another rate or on another bearing, is refused

@@ -666,9 +666,13 @@ def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
     name, alias = cfg.get("register"), cfg.get("register_alias")
     if alias and not name:
         raise BearingTwinError(f"register_alias={alias} needs register=<model name> (or register_alias=null)")
-    from bearingtwin.tracking.sim2real_protocol import PROTOCOL_MODEL
+    from bearingtwin.tracking.sim2real_protocol import PROTOCOL_MODEL, protocol_version
 
     data = cfg.get("data") or {}
+    if name == PROTOCOL_MODEL and protocol_version(str(cfg.get("protocol") or "")) is None:
+        # bearingtwin-diagnose model=models:/sim2real@champion is the README's diagnosis of real recordings
+        raise BearingTwinError(f"register={name} is the pre-registered protocol's model (bearingtwin-train "
+                               f"+experiment=sim2real); register this run's under a name of its own: register=<name>")
     if name == PROTOCOL_MODEL and data.get("source") == "twin_to_real" and data.get("labels"):
         raise BearingTwinError(f"register={name} is the CWRU protocol's model; a model of another rig's records "
                                "(data.labels) is registered under a name of its own: register=<your rig>")
