@@ -321,3 +321,20 @@ def test_a_run_that_let_the_physics_decide_is_another_setting_than_one_that_did_
     assert _same_setting(before, plain) and _same_setting(plain, before)
     assert not _same_setting(gated, plain) and not _same_setting(before, gated)
     assert gated["physics_first"] == "margin_db=10.0,threshold_db=20.0"
+
+
+def test_an_svms_epochs_are_no_size_of_its_run():
+    """An SVM is fitted in closed form: its logged trainer.max_epochs (the default, 100) would make a table of smoke
+    networks look smaller than one of full-size SVMs, and a full table's network rows look larger than they were."""
+    from types import SimpleNamespace
+
+    from bearingtwin.tracking.provenance import run_sizes, used_sizes
+
+    def logged(**params):
+        return SimpleNamespace(data=SimpleNamespace(params={key.replace("__", "."): str(v) for key, v in params.items()}))
+
+    svm = logged(classifier__name="svm", trainer__max_epochs=100, data__samples_per_class=150)
+    network = logged(classifier__name="cnn_bilstm", trainer__max_epochs=3, data__samples_per_class=150)
+    assert used_sizes(svm) == {"data.samples_per_class": 150.0}
+    assert used_sizes(network) == {"data.samples_per_class": 150.0, "trainer.max_epochs": 3.0}
+    assert run_sizes([svm, network])["trainer.max_epochs"] == [3.0]
