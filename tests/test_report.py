@@ -87,7 +87,8 @@ def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
     mixed = report("cwru", f"uri={uri}", "source=all", f"out={tmp_path}/c.md")  # simulated runs in a CWRU table
     assert mixed.returncode == 2 and "source=all: this report reads data.source=cwru runs only" in mixed.stderr, mixed.stderr
     assert recorded_sizes(written) == {"data.duration": [1.0], "data.samples_per_class": [12.0], "search.iterations": [1.0],
-                                       "search.population": [3.0], "search.windows": [2.0], "trainer.max_epochs": [2.0]}
+                                       "search.population": [3.0], "search.windows": [2.0], "trainer.max_epochs": [2.0],
+                                       "runs": [float(len(paper.TABLE4))]}  # one run of each method
     client = MlflowClient(uri)
     experiment_id = client.get_experiment_by_name("bearingtwin").experiment_id
     logged = client.search_runs([experiment_id], "tags.`bt.kind` = 'report' and tags.report = 'table4'")
@@ -121,6 +122,15 @@ def test_results_go_to_the_working_directory_and_smoke_runs_do_not_replace_full_
     assert recorded_sizes(full.read_text())["data.samples_per_class"] == [12.0]
     assert "Commands, from the checkout root" in full.read_text()  # the hand-written header is kept
     assert report_here(capsys, "table4", f"uri={uri}", f"out={full}")[0] == 0  # same sizes: no force needed
+    # A part of the table (one method's runs gone: another sweep's table) does not replace the whole without force:
+    # that method's row would read "not run".
+    partial = copy_store(uri, tmp_path / "partial.db")
+    for run in finished(partial, "raw+cnn_bilstm"):
+        MlflowClient(partial).delete_run(run.info.run_id)
+    before = full.read_text()
+    code, err = report_here(capsys, "table4", f"uri={partial}", f"out={full}")
+    n = len(paper.TABLE4)
+    assert code == 2 and f"runs={n - 1} (file: {n})" in err and full.read_text() == before, err
 
 
 def test_table3_per_class_beside_the_paper(uri, tmp_path):

@@ -92,7 +92,8 @@ def recorded_sizes(text: str) -> dict[str, list[float]] | None:
 
 
 def check_replacement(path: Path, sizes: dict[str, list[float]], defaults: dict[str, float], force: bool) -> None:
-    """Raise naming the settings if ``sizes`` are smaller than those of the results in ``path``.
+    """Raise naming the settings if ``sizes`` are smaller than those of the results in ``path`` (``runs``, where
+    recorded: how many runs the table was computed from).
 
     ``defaults``: the configured size of each key, assumed for a file that records none but
     already holds generated results (every committed results file is full size).
@@ -112,7 +113,7 @@ def check_replacement(path: Path, sizes: dict[str, list[float]], defaults: dict[
     ]
     if smaller:
         raise BearingTwinError(
-            f"{path}: holds results of larger runs than these ({', '.join(smaller)}); "
+            f"{path}: holds results of larger runs than these, or more of them ({', '.join(smaller)}); "
             "write elsewhere with out=<file>, or replace it with force=true"
         )
 
