@@ -133,6 +133,20 @@ def test_results_go_to_the_working_directory_and_smoke_runs_do_not_replace_full_
     assert code == 2 and f"runs={n - 1} (file: {n})" in err and full.read_text() == before, err
 
 
+
+def test_rows_of_runs_of_different_sizes_are_said_to_be_so_where_a_reader_sees_it(uri, tmp_path, capsys):
+    """The size record is an HTML comment; a table whose rows were computed at different sizes says so in words."""
+    assert report_here(capsys, "table4", f"uri={uri}", f"out={tmp_path}/same.md")[0] == 0
+    assert "different sizes" not in (tmp_path / "same.md").read_text()  # the smoke sweep: one size throughout
+    mixed = copy_store(uri, tmp_path / "mixed.db")
+    (run,) = finished(mixed, "raw+cnn_bilstm")
+    with sqlite3.connect(tmp_path / "mixed.db") as database:  # params are write-once: the store's row is edited
+        database.execute("update params set value = '7' where run_uuid = ? and key = 'trainer.max_epochs'",
+                         (run.info.run_id,))
+    assert report_here(capsys, "table4", f"uri={mixed}", f"out={tmp_path}/mixed.md")[0] == 0
+    assert "Runs of different sizes stand side by side here: trainer.max_epochs 2, 7." in (tmp_path / "mixed.md").read_text()
+
+
 def test_table3_per_class_beside_the_paper(uri, tmp_path):
     done = report("table3", f"uri={uri}", f"out={tmp_path}/table3.md")
     assert done.returncode == 0, done.stderr

@@ -567,6 +567,11 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
         if source.left_out:
             report.markdown = (report.markdown.rstrip() + "\n\nLeft out, smaller than the other runs of their method "
                                f"(a smoke run is not averaged with full-size ones): {'; '.join(source.left_out)}.\n")
+        mixed = {key: values for key, values in sizes.items() if key != "runs" and len(values) > 1}
+        if mixed:  # the record below is a comment, unseen in rendered markdown: a reader must see this
+            report.markdown = (report.markdown.rstrip() + "\n\nRuns of different sizes stand side by side here: "
+                               + "; ".join(f"{key} {', '.join(f'{value:g}' for value in values)}"
+                                           for key, values in mixed.items()) + ".\n")
         if sizes:  # printed too: what is on screen is what the file holds
             report.markdown = report.markdown.rstrip() + "\n\n" + size_record(sizes) + "\n"
         write_generated(staged, report.markdown, GENERATED)
