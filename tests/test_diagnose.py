@@ -112,7 +112,8 @@ def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_
     # A record that states no unit is read in the model's, and said so: g and m/s^2 differ by less than a decade.
     same, notes = in_model_unit(Recording(signal, FS), pipeline)
     assert same.signal is signal and notes == ["the file states no unit: read in m/s^2, the unit the model was trained "
-                                               "in (name it in a column header, e.g. 'acc (m/s^2)', where it is another)"]
+                                               "in (where it is another, state it: a CSV column header such as "
+                                               "'acc (m/s^2)', an .npz's 'unit' entry)"]
     assert pipeline.level_note(X) is None
     assert "lies more than 10 times above the 5-95 % range of the model's training windows" in pipeline.level_note(1000 * X)
     normalizing = dataclasses.replace(pipeline, window_normalization="zscore", window_level=None)

@@ -123,6 +123,14 @@ def test_a_load_in_another_direction_is_held_in_a_frame_turned_until_the_forces_
         spectra.append(scipy.signal.welch(recording.signal, recording.fs, nperseg=1024)[1])
     level_db = 10 * np.log10(spectra[1] / spectra[0])
     assert np.median(np.abs(level_db)) < 0.5 and abs(10 * np.log10(spectra[1].sum() / spectra[0].sum())) < 0.5
+    # A small load leaning the forces' sum off vertical (30 N across, 40 N up against a weight of 54 N): the frame is
+    # still turned, and the load, smaller than the weight the twin adds, left to be fitted.
+    cfg.simulator.load_x_n, cfg.simulator.load_y_n = 30.0, 40.0
+    small = dict(word.split("=", 1) for word in twin_command(tmp_path / "r.npz", None, cfg.bearing, cfg.simulator,
+                                                              "outer_x").split()[1:])
+    assert float(small["operating_point.sensor_angle_deg"]) == pytest.approx(
+        -90 - np.degrees(np.arctan2(40 - weight, 30)), abs=0.1)
+    assert "operating_point.radial_load_n" not in small
 
 
 def test_the_summary_names_the_effects_the_record_was_made_with(tmp_path):

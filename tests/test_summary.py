@@ -42,7 +42,7 @@ def test_a_calibration_record_its_run_misreads_is_shown_per_class_and_warned_of(
                "calibration_recall_outer": 1.0}
     text = training_summary("m", TrackedRun("r", metrics), "sqlite:///s.db", "/o")
     assert "  calibration accuracy: 55.00 % (windows right: normal 10.00 %, outer 100.00 %)" in text
-    assert "  warning: the normal calibration record is called its state in under 50% of the windows" in text
+    assert "  warning: the normal calibration record is called its state in under 50.00 % of the windows" in text
     fine = training_summary("m", TrackedRun("r", {**metrics, "calibration_recall_normal": 0.9}), "sqlite:///s.db", "/o")
     assert "warning" not in fine
 

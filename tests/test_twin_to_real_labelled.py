@@ -180,7 +180,10 @@ def test_only_a_protocol_run_registers_the_protocols_model():
                                                r"\(bearingtwin-train \+experiment=sim2real\)"):
         check_registration(compose_train(["classifier=svm", "register=sim2real", "register_alias=champion"]))
     assert check_registration(compose_train(["+experiment=sim2real"])) == ("sim2real", "champion")
-    assert check_registration(compose_train(["+experiment=sim2real_v8"])) == ("sim2real", "champion")  # any version
+    for version in ("sim2real_v8", "sim2real_v1"):  # any version, the first (no protocol key of its own) included
+        with initialize_config_dir(version_base="1.3", config_dir=CONF_DIR):  # as the running command sees its choices
+            cfg = compose("train", overrides=[f"+experiment={version}"], return_hydra_config=True)
+        assert check_registration(cfg) == ("sim2real", "champion")
 
 
 def test_a_calibration_report_of_another_record_is_refused(rig_folder, tmp_path):

@@ -52,11 +52,12 @@ def exit_on_user_error(task: Callable) -> Callable:
             print(f"error: {composition_error_line(error)}", file=sys.stderr)
             sys.exit(2)
         except ConfigAttributeError as error:
-            removed = [arg for arg in sys.argv[1:] if arg.startswith("~")]
-            if not removed:  # no setting of the user's took the key away: a programming error, with its traceback
+            key = str(getattr(error, "full_key", "") or "")
+            removed = [arg for arg in sys.argv[1:] if arg.startswith("~") and key
+                       and (key + ".").startswith(arg[1:].partition("=")[0] + ".")]
+            if not removed:  # no setting of the user's took this key away: a programming error, with its traceback
                 raise
-            key = getattr(error, "full_key", "") or str(error).splitlines()[0]
-            print(f"error: {key} is needed, and {' '.join(removed)} removed it", file=sys.stderr)
+            print(f"error: {key} is needed, and {removed[0]} removed it", file=sys.stderr)
             sys.exit(2)
         except InterpolationResolutionError as error:  # seed=${foo}: a value naming a key no config has
             where = next((arg for arg in sys.argv[1:] if "${" in arg), None) or getattr(error, "full_key", "") or "a setting"
@@ -188,7 +189,8 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 if group == "simulator" and name in DATA_SET_OPERATING_POINT:
                     raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
                                            f"({cfg.data[name]}); give data.{name}=<value>")
-        if "experiment" in (cfg.get("tracking") or {}):
+        tracking = cfg.get("tracking") or {}
+        if "experiment" in tracking and tracking.get("enabled") is not False:  # no store is used with tracking off
             experiment_name(cfg.tracking)
         if mode != RunMode.MULTIRUN:  # a sweep's jobs are checked by SweepParentRun, each with its own values
             given = {o.partition("=")[0].lstrip("+~") for o in args.overrides}
@@ -206,7 +208,8 @@ def experiment_name(tracking_cfg, key: str = "tracking.experiment") -> str:
     value), which MLflow would refuse with a traceback."""
     name = "" if tracking_cfg.get("experiment") is None else str(tracking_cfg.experiment)
     if not name.strip():
-        raise BearingTwinError(f"{key} is empty: name an MLflow experiment (default: bearingtwin)")
+        raise BearingTwinError(f"{key} is empty: name an MLflow experiment, or leave the setting out for the "
+                               "command's own")
     return name
 
 

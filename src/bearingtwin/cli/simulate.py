@@ -65,7 +65,7 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     constant forces on the inner ring (the load and its weight), so a load in another direction is the same
     record in a frame turned until that sum points down: the sensor's direction is given in that frame, and the
     load as the sum's size less the weight the twin adds itself (where the sum is smaller than the weight, the
-    load is left to be fitted)."""
+    direction is still turned and the load left to be fitted)."""
     words = [f"bearingtwin-twin measured.path={out}"]
     if bearing_name and bearing_name != "paper":
         words.append(f"bearing={bearing_name}")
@@ -78,7 +78,7 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     load = math.hypot(sum_x, sum_y) - weight
     if load_x == 0.0 and load_y <= 0.0:
         load = -load_y  # the twin's own frame: nothing to turn
-    elif load >= 0.0:
+    elif math.hypot(sum_x, sum_y) > 0.0:
         turn = -90.0 - math.degrees(math.atan2(sum_y, sum_x))  # the turn that points the forces' sum down
         angle = (angle + turn + 180.0) % 360.0 - 180.0
     # "+ 0.0" below: a zero prints as 0, never -0

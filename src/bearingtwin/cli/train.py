@@ -64,7 +64,7 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
         if missed:  # the records the twin was calibrated on, misread: the test records will show it too
             lines["warning"] = (f"the {' and '.join(missed)} calibration record{'s are' if len(missed) > 1 else ' is'} "
                                 f"called {'their' if len(missed) > 1 else 'its'} state in under "
-                                f"{CALIBRATION_RECALL_WARNING:.0%} of the windows")
+                                f"{percent(CALIBRATION_RECALL_WARNING)} of the windows")
     from bearingtwin.models.experiment import FEATURE_GROUPS
 
     for group in FEATURE_GROUPS:  # chosen by the calibration records (band_power_by_calibration, ...)

@@ -203,7 +203,7 @@ def pinned_model_uri(model_uri: str, tracking_uri: str) -> str:
     name, alias = model_uri.removeprefix("models:/").rsplit("@", 1)
     try:
         version = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri).get_model_version_by_alias(name, alias)
-    except MlflowException as error:
+    except (MlflowException, OSError) as error:
         raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})") from None
     return f"models:/{name}/{version.version}"
 

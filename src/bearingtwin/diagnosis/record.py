@@ -253,7 +253,8 @@ def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Re
         return recording, []
     if not recording.unit:  # g and m/s^2 differ by 9.81: a level check that fires at a decade never sees it
         return recording, [f"the file states no unit: read in {pipeline.unit}, the unit the model was trained in "
-                           "(name it in a column header, e.g. 'acc (m/s^2)', where it is another)"]
+                           "(where it is another, state it: a CSV column header such as 'acc (m/s^2)', an .npz's "
+                           "'unit' entry)"]
     units = acceleration_unit(recording.unit), acceleration_unit(pipeline.unit)
     if None in units:
         if recording.unit == pipeline.unit:

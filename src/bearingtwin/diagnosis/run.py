@@ -180,8 +180,9 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     beside, row = row_beside(cfg)
     if beside is not None:  # one file: its row fills in what the command leaves out, as the twin's does
         table, labels = beside, row
-    model, pipeline = load_diagnosis_model(str(cfg.model), tracking_uri)
-    pinned = pinned_model_uri(str(cfg.model), tracking_uri)  # the version an alias names now, recorded beside it
+    # The version an alias names now, loaded and recorded: a sweep may move the alias while this command runs.
+    pinned = pinned_model_uri(str(cfg.model), tracking_uri)
+    model, pipeline = load_diagnosis_model(pinned, tracking_uri)
     pipeline.check_can_diagnose()
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
     tracked = open_diagnosis_run(cfg, table, bearing, pinned) if tracking else None

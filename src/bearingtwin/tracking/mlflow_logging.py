@@ -50,7 +50,7 @@ import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, Mapping
 from urllib.parse import urlparse
 
 import numpy as np
@@ -589,9 +589,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "method": method,
         "features": choices.get("features", ""),
         "classifier": choices.get("classifier", ""),
-        # +experiment=<name>: a protocol's runs; a versioned protocol names itself (``protocol: sim2real_v2``),
-        # so its runs are found whichever name selected it (+experiment=sim2real selects the version in force)
-        "experiment": cfg.get("protocol") or choices.get("experiment") or "",
+        "experiment": experiment_tag(cfg, choices),
         "seed": str(cfg.seed),
         "git_commit": _git_commit(),
         "cpu_kernels": cpu_kernels(),  # the network's figures are the same wherever these are (bearingtwin/__init__)
@@ -651,6 +649,20 @@ def _server_lost(uri: str, run_id: str, error: Exception) -> BearingTwinError | 
                             "again and marks it KILLED")
 
 
+def experiment_tag(cfg: DictConfig, choices: Mapping | None = None) -> str:
+    """A run's ``experiment`` tag: +experiment=<name>, a protocol's runs. A versioned protocol names itself
+    (``protocol: sim2real_v2``), so its runs are found whichever name selected it (+experiment=sim2real selects the
+    version in force); version 1's file predates the key and is named by its choice. ``choices``: the config
+    groups chosen (Hydra's runtime choices; None: read from the running app, or from a config composed with its
+    ``hydra`` node)."""
+    if choices is None:
+        from hydra.core.hydra_config import HydraConfig
+
+        hydra_cfg = HydraConfig.get() if HydraConfig.initialized() else cfg.get("hydra")
+        choices = {} if hydra_cfg is None else hydra_cfg.runtime.choices
+    return str(cfg.get("protocol") or choices.get("experiment") or "")
+
+
 def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
     """``register`` and ``register_alias``, checked before any work is done."""
     # MLflow's own rules for the names (a name without '/' or ':'; an alias of letters, digits, '_' and '-',
@@ -669,7 +681,7 @@ def check_registration(cfg: DictConfig) -> tuple[str | None, str | None]:
     from bearingtwin.tracking.sim2real_protocol import PROTOCOL_MODEL, protocol_version
 
     data = cfg.get("data") or {}
-    if name == PROTOCOL_MODEL and protocol_version(str(cfg.get("protocol") or "")) is None:
+    if name == PROTOCOL_MODEL and protocol_version(experiment_tag(cfg)) is None:
         # bearingtwin-diagnose model=models:/sim2real@champion is the README's diagnosis of real recordings
         raise BearingTwinError(f"register={name} is the pre-registered protocol's model (bearingtwin-train "
                                f"+experiment=sim2real); register this run's under a name of its own: register=<name>")

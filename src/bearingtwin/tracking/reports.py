@@ -561,8 +561,11 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
             shutil.copy2(out, staged)
         source = ReportInput(client, experiment_id, {**settings, "out": str(staged)})
         report = function(source)
-        # A table of fewer runs (one sweep's part of it, none at all) replaces a fuller one only by force.
-        sizes = {**run_sizes(source.used_runs), "runs": [float(len(source.used_runs))]}
+        # A table of fewer runs (one sweep's part of it) replaces a fuller one only by force; a report that computed
+        # no table (sim2real keeps its tables where the store has no exploratory runs) records nothing.
+        sizes = run_sizes(source.used_runs)
+        if source.used_runs:
+            sizes["runs"] = [float(len(source.used_runs))]
         check_replacement(out, sizes, default_sizes(), force=settings.get("force") == "true")
         if source.left_out:
             report.markdown = (report.markdown.rstrip() + "\n\nLeft out, smaller than the other runs of their method "

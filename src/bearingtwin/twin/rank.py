@@ -681,7 +681,7 @@ class EffectRanker:
             remaining.remove(fit.effect)
 
         while remaining and len(added) < self.max_effects:
-            offered = [name for name in remaining if set(_requires(name)) <= set(current_effects)]
+            offered = [name for name in remaining if not _missing_requirements(name, current_effects)]
             seeds = [_screen_seed(self.seed, round_index, name) for name in offered]
             matched = _gain_matched(judge, twin.signal(base, current_effects))
             scorer = judge if round_index == 0 else later
@@ -766,8 +766,8 @@ class EffectRanker:
         # whose required effects the twin never took, are named apart.
         passed_over = "" if not_tried else "; ".join(self._not_offered(twin.fault))
         awaiting = "" if not_tried else "; ".join(
-            f"{name} (needs {' and '.join(_requires(name))}, which the twin did not take)" for name in self.candidates
-            if _offered_on(name, twin.fault) and not set(_requires(name)) <= set(current_effects))
+            f"{name} (needs {' and '.join(missing)}, which the twin did not take)" for name, missing in
+            self._waiting(twin.fault, current_effects))
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
                             unclaimed, self.min_signature_gain, not_tried, pairs, passed_over=passed_over,
@@ -782,13 +782,18 @@ class EffectRanker:
         if self.max_effects == 0:
             return "ranking.max_effects=0"
         elsewhere = self._not_offered(fault)
-        waiting = [f"{name} needs {' and '.join(_requires(name))}" for name in self.candidates
-                   if _offered_on(name, fault) and not set(_requires(name)) <= set(self.fixed_effects)]
+        waiting = [f"{name} needs {' and '.join(missing)}" for name, missing in self._waiting(fault, self.fixed_effects)]
         if len(waiting) == len(self.candidates):
             return f"each candidate needs another effect in the twin first ({'; '.join(waiting)})"
         if len(waiting) + len(elsewhere) == len(self.candidates):
             return f"no candidate could be offered: {'; '.join(elsewhere + waiting)}"
         return ""
+
+    def _waiting(self, fault: str, effects) -> list[tuple[str, tuple[str, ...]]]:
+        """The candidates a record of a ``fault`` bearing could be offered but for effects not among ``effects``,
+        each with those it still needs."""
+        return [(name, _missing_requirements(name, effects)) for name in self.candidates
+                if _offered_on(name, fault) and _missing_requirements(name, effects)]
 
     def _not_offered(self, fault: str) -> list[str]:
         """The candidates a record of a ``fault`` bearing cannot tell, each with why (:func:`_offered_only_words`)."""
@@ -995,8 +1000,10 @@ def _explained(before: Comparison, after: Comparison) -> float:
     return (before.discrepancy_db - after.discrepancy_db) / before.discrepancy_db if before.discrepancy_db > 0 else 0.0
 
 
-def _requires(name: str) -> tuple[str, ...]:
-    return tuple(getattr(effect_class(name), "requires", ()))
+def _missing_requirements(name: str, effects) -> tuple[str, ...]:
+    """The effects candidate ``name`` needs in the twin before it is offered (its class's ``requires``) that
+    ``effects`` lacks."""
+    return tuple(required for required in getattr(effect_class(name), "requires", ()) if required not in effects)
 
 
 def _offered_on(name: str, fault: str) -> bool:
