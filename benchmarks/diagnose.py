@@ -116,7 +116,7 @@ def run(model_uri: str, tracking_uri: str, args) -> None:
     print(f"load average at start: {load_average()}")
 
     start = time.perf_counter()
-    model, pipeline = load_diagnosis_model(model_uri, tracking_uri)
+    model, pipeline, _ = load_diagnosis_model(model_uri, tracking_uri)
     load_s = time.perf_counter() - start
     extractor = pipeline.extractor
     print(f"model {model_uri}: {type(extractor).__name__} (vmd_params={getattr(extractor, 'vmd_params', '-')}, "

@@ -95,6 +95,25 @@ def print_table(title: str, right_rate: Counter, wrong: Counter) -> None:
     print()
 
 
+def rates_around(true_fs: float, factors) -> tuple[float, ...]:
+    """The true rate, then the wrong ones it is declared at (``factors`` times it)."""
+    return (true_fs, *(true_fs * factor for factor in factors))
+
+
+def checks_at(signal, rates, rpm: float, defect_hz) -> list:
+    """(declared rate, check) of one channel at each of ``rates``."""
+    return [(fs, check_sampling_rate(signal, fs, rpm, defect_hz=defect_hz)) for fs in rates]
+
+
+def file_checks_at(channels, rates, rpm: float, defect_hz) -> list:
+    """(declared rate, check) of a file at each of ``rates``, every channel a witness, as the commands read it."""
+    checks = []
+    for fs in rates:
+        by_channel = check_channels(channels, fs, rpm, defect_hz=defect_hz)
+        checks.append((fs, by_channel[decisive_channel(by_channel)]))
+    return checks
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", default=os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data"),
@@ -104,23 +123,21 @@ def main() -> None:
     if not records:
         raise SystemExit(f"no CWRU records in {Path(args.data) / 'cwru'}")
     bearing = load_bearing("cwru_6205")
+    recordings = [load_cwru(path, check_fs=False) for path in records]
     right_rate, wrong, speeds = Counter(), Counter(), Counter()
-    for path in records:
-        recording = load_cwru(path, check_fs=False)
+    for recording in recordings:
         tally_speeds(recording, bearing, speeds)
         defect_hz = bearing.defect_frequencies(recording.rpm)
         for true_fs in WRONG_FACTORS:
             signal = (recording.signal if true_fs == 12000.0
                       else scipy.signal.resample_poly(recording.signal, 32, 15))  # 12 kHz -> 25.6 kHz
-            tally(((fs, check_sampling_rate(signal, fs, recording.rpm, defect_hz=defect_hz))
-                   for fs in (true_fs, *(true_fs * factor for factor in WRONG_FACTORS[true_fs]))), true_fs, right_rate, wrong)
+            tally(checks_at(signal, rates_around(true_fs, WRONG_FACTORS[true_fs]), recording.rpm, defect_hz), true_fs,
+                  right_rate, wrong)
     print_table(f"{len(records)} CWRU records, at their true rate and resampled to 25.6 kHz:", right_rate, wrong)
     rig_right, rig_wrong, states = Counter(), Counter(), Counter()
     for number, (fault, rpm) in enumerate((fault, rpm) for fault in FAULTS for rpm in RIG_SPEEDS_RPM):
         signal = simulate_rig(fault, RigOperatingPoint(rpm=rpm, fs=12000.0, duration_s=4.0), seed=number)
-        defect_hz = bearing.defect_frequencies(rpm)
-        checks = [(fs, check_sampling_rate(signal, fs, rpm, defect_hz=defect_hz))
-                  for fs in (12000.0, *(12000.0 * factor for factor in RIG_FACTORS))]
+        checks = checks_at(signal, rates_around(12000.0, RIG_FACTORS), rpm, bearing.defect_frequencies(rpm))
         tally(checks, 12000.0, rig_right, rig_wrong)
         states.update(f"{fault}: {check.verdict}" for fs, check in checks if fs != 12000.0)
     print_table(f"{len(FAULTS) * len(RIG_SPEEDS_RPM)} records of the independent test rig (one 1x line), 12 kHz:",
@@ -133,16 +150,13 @@ def main() -> None:
         print(f"| {state} | {verdict} | {count} |")
     print()
     cut_right, cut_wrong = Counter(), Counter()
-    for path in records:
-        recording = load_cwru(path, check_fs=False)
+    for recording in recordings:
         defect_hz = bearing.defect_frequencies(recording.rpm)
         for seconds in CUT_SECONDS:
             size = int(seconds * 12000)
             for start in (0, (recording.signal.size - size) // 2, recording.signal.size - size):
-                cut = recording.signal[start:start + size]
-                tally(((fs, check_sampling_rate(cut, fs, recording.rpm, defect_hz=defect_hz))
-                       for fs in (12000.0, *(12000.0 * factor for factor in WRONG_FACTORS[12000.0]))),
-                      12000.0, cut_right, cut_wrong)
+                tally(checks_at(recording.signal[start:start + size], rates_around(12000.0, WRONG_FACTORS[12000.0]),
+                                recording.rpm, defect_hz), 12000.0, cut_right, cut_wrong)
     print_table(f"{len(records)} CWRU records cut to {', '.join(map(str, CUT_SECONDS))} s (start, middle, end), 12 kHz:",
                 cut_right, cut_wrong)
     twin_right, twin_wrong = Counter(), Counter()
@@ -153,27 +167,19 @@ def main() -> None:
         recording, channels = simulate(fault, settings.bearing, settings.simulator, settings.effects)
         # Every channel the .npz holds, as the commands read it: the sensor's signal and the four race channels.
         witnesses = {"signal": recording.signal, **dict(zip(CHANNELS, channels))}
-        defect_hz = twin_bearing.defect_frequencies(recording.rpm)
-        checks = []
-        for fs in (12000.0, *(12000.0 * factor for factor in WRONG_FACTORS[12000.0])):
-            by_channel = check_channels(witnesses, fs, recording.rpm, defect_hz=defect_hz)
-            checks.append((fs, by_channel[decisive_channel(by_channel)]))
-        tally(checks, 12000.0, twin_right, twin_wrong)
+        tally(file_checks_at(witnesses, rates_around(12000.0, WRONG_FACTORS[12000.0]), recording.rpm,
+                             twin_bearing.defect_frequencies(recording.rpm)), 12000.0, twin_right, twin_wrong)
     print_table(f"the twin's own records of {len(FAULTS)} states (4 s, 12 kHz, its default bearing, every channel):",
-                twin_right,
-                twin_wrong)
+                twin_right, twin_wrong)
     every_right, every_wrong = Counter(), Counter()
     for path in records:
         raw = read_raw(path)
-        defect_hz = bearing.defect_frequencies(raw.rpm)
-        checks = []
-        for fs in DAQ_RATES_HZ:
-            by_channel = check_channels(raw.channels, fs, raw.rpm, defect_hz=defect_hz)
-            checks.append((fs, by_channel[decisive_channel(by_channel)]))
-        tally(checks, 12000.0, every_right, every_wrong)
+        tally(file_checks_at(raw.channels, DAQ_RATES_HZ, raw.rpm, bearing.defect_frequencies(raw.rpm)), 12000.0,
+              every_right, every_wrong)
     print()
     print_table(f"{len(records)} CWRU files with every channel, declared at {len(DAQ_RATES_HZ)} rates from "
                 f"{DAQ_RATES_HZ[0]:g} to {DAQ_RATES_HZ[-1]:g} Hz:", every_right, every_wrong)
+
 
 if __name__ == "__main__":
     main()

@@ -243,7 +243,7 @@ def main() -> int:
     if args.results:
         from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 
-        _, pipeline = load_diagnosis_model(args.model, args.tracking_uri)
+        _, pipeline, _ = load_diagnosis_model(args.model, args.tracking_uri)
         features = feature_rows(args.data, by_channel, pipeline)
         written.append(str(write_results(by_channel, args.results, args.model, features, weight_rows(pipeline))))
     print(f"== sim2real_other_sensors: {sum(map(len, by_channel.values()))} diagnoses; wrote {', '.join(written)}")

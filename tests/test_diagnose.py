@@ -330,7 +330,7 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
     # An artifact location of its own: MLflow's default is ./mlruns, the checkout when the suite runs there.
     run_id = client.create_run(client.create_experiment("fan_end", (tmp_path / "artifacts").as_uri())).info.run_id
     info = log_diagnosis_model(uri, client.get_run(run_id).info.experiment_id, run_id, pipeline, windows, rpm)
-    model, loaded = load_diagnosis_model(info.model_uri, uri)
+    model, loaded, _ = load_diagnosis_model(info.model_uri, uri)
     assert model_params(model) == {"rpm", "bearing"}
     served = model.predict(windows, params={"rpm": rpm, "bearing": "cwru_6203"})
     np.testing.assert_array_equal(served["state"].to_numpy(), at_its_own)

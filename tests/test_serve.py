@@ -97,7 +97,7 @@ def served(tmp_path_factory):
                                            f"out={info['folder'] / 'diagnosis'}", "figures=false", "tracking.enabled=false",
                                            cwd=info["folder"], env=info["env"], timeout=CHILD_TIMEOUT_S)
         for info in cases.values():  # meanwhile, the windows as diagnose prepares them, from the registered model
-            _, info["pipeline"] = load_diagnosis_model(model_uri, info["store_uri"])
+            _, info["pipeline"], _ = load_diagnosis_model(model_uri, info["store_uri"])
             info["prepared"] = read_record(RECORD, info["pipeline"])  # DE channel, resampled to the model's rate
             info["windows"], info["starts"] = record_windows(info["prepared"].recording.signal, info["pipeline"].window_length)
         for case, info in cases.items():

@@ -75,10 +75,11 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     load_x, load_y = float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0)
     weight = float(bearing.inner_mass_kg) * float(simulator.get("gravity_m_per_s2") or 0.0)
     sum_x, sum_y = load_x, load_y - weight
-    load = math.hypot(sum_x, sum_y) - weight
+    size = math.hypot(sum_x, sum_y)
+    load = size - weight
     if load_x == 0.0 and load_y <= 0.0:
         load = -load_y  # the twin's own frame: nothing to turn
-    elif math.hypot(sum_x, sum_y) > 0.0:
+    elif size > 0.0:
         turn = -90.0 - math.degrees(math.atan2(sum_y, sum_x))  # the turn that points the forces' sum down
         angle = (angle + turn + 180.0) % 360.0 - 180.0
     # "+ 0.0" below: a zero prints as 0, never -0

@@ -189,28 +189,23 @@ def model_identity(model_uri: str, tracking_uri: str) -> str:
     return f"{info.run_id}/{info.model_uuid}"
 
 
-def pinned_model_uri(model_uri: str, tracking_uri: str) -> str:
+def _version_named(model_uri: str, tracking_uri: str) -> str:
     """``model_uri`` with a registry alias replaced by the version it names now (``models:/sim2real@champion`` ->
-    ``models:/sim2real/3``): an alias moves, and a verdict kept must say which model gave it. Other URIs as given."""
+    ``models:/sim2real/3``); other URIs as given."""
     if not model_uri.startswith("models:/") or "@" not in model_uri:
         return model_uri
     from mlflow import MlflowClient
-    from mlflow.exceptions import MlflowException
 
-    from bearingtwin.tracking.mlflow_logging import check_store, mlflow_reason
-
-    check_store(tracking_uri, must_exist=True)
     name, alias = model_uri.removeprefix("models:/").rsplit("@", 1)
-    try:
-        version = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri).get_model_version_by_alias(name, alias)
-    except (MlflowException, OSError) as error:
-        raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})") from None
+    version = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri).get_model_version_by_alias(name, alias)
     return f"models:/{name}/{version.version}"
 
 
 def load_diagnosis_model(model_uri: str, tracking_uri: str):
-    """The pyfunc model at ``model_uri`` (``models:/name@alias``, ``models:/name/version``, ``runs:/id/model``)
-    and its pipeline; an unknown URI is a :class:`BearingTwinError` naming it."""
+    """The pyfunc model at ``model_uri`` (``models:/name@alias``, ``models:/name/version``, ``runs:/id/model``),
+    its pipeline and the URI loaded: an alias replaced by the version it names now, for an alias moves (a sweep may
+    move it while a diagnosis runs) and a verdict kept must say which model gave it. An unknown URI is a
+    :class:`BearingTwinError` naming it."""
     import mlflow
     from mlflow.exceptions import MlflowException
 
@@ -220,10 +215,11 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
     mlflow.set_tracking_uri(tracking_uri)
     mlflow.set_registry_uri(tracking_uri)
     try:
-        model = mlflow.pyfunc.load_model(model_uri)
+        version_uri = _version_named(model_uri, tracking_uri)
+        model = mlflow.pyfunc.load_model(version_uri)
     except (MlflowException, OSError) as error:
         raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})") from None
     python_model = model.unwrap_python_model()
     if not isinstance(python_model, DiagnosisModel):
         raise BearingTwinError(f"model={model_uri}: not a bearingtwin diagnosis model ({type(python_model).__name__})")
-    return model, python_model.pipeline
+    return model, python_model.pipeline, version_uri

@@ -28,7 +28,7 @@ from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
                                    read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
-from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, pinned_model_uri
+from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
 
@@ -180,9 +180,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     beside, row = row_beside(cfg)
     if beside is not None:  # one file: its row fills in what the command leaves out, as the twin's does
         table, labels = beside, row
-    # The version an alias names now, loaded and recorded: a sweep may move the alias while this command runs.
-    pinned = pinned_model_uri(str(cfg.model), tracking_uri)
-    model, pipeline = load_diagnosis_model(pinned, tracking_uri)
+    model, pipeline, pinned = load_diagnosis_model(str(cfg.model), tracking_uri)  # pinned: the version an alias named
     pipeline.check_can_diagnose()
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
     tracked = open_diagnosis_run(cfg, table, bearing, pinned) if tracking else None
@@ -207,7 +205,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                      pinned_uri: str) -> None:
     """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores); a record whose labels
     row does not read (``bad_rows``, :func:`~bearingtwin.data.real.read_labels`) fails with its row's error.
-    ``pinned_uri``: the model's URI with an alias replaced by the version it names (:func:`pinned_model_uri`)."""
+    ``pinned_uri``: the model's URI with an alias replaced by the version it names (:func:`~bearingtwin.diagnosis.mlflow_model.load_diagnosis_model`)."""
     out = run.out
     windows_total = windows_correct = 0
     # A bar over the files in a terminal only (None: tqdm's own test), not in a file the output goes to.

@@ -212,9 +212,9 @@ class EffectFit:
     def sentence(self, first: bool = True) -> str:
         """The effect, its parameters and how much it closes: of the discrepancy (the first effect found), or of
         what the effects before it left; a fixed effect that changed, from what to what."""
-        space = effect_search_space(self.effect)  # a value on an edge of its range is said to be there
-        values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) + (edge_words(v, *space[k][:2]) if k in space
-                                                                              else "")
+        space = effect_search_space(self.effect)
+        values = ", ".join(_parameter_words(k, v, self.intervals.get(k))
+                           + (edge_words(v, *space[k][:2]) if k in space else "")  # a value on its range's edge
                            for k, v in self.params.items() if isinstance(v, float))
         of = "the discrepancy" if first else "what was left"
         beside = "" if self.claimed_beside is None else f" (its signature shows only beside {self.claimed_beside})"
@@ -792,8 +792,8 @@ class EffectRanker:
     def _waiting(self, fault: str, effects) -> list[tuple[str, tuple[str, ...]]]:
         """The candidates a record of a ``fault`` bearing could be offered but for effects not among ``effects``,
         each with those it still needs."""
-        return [(name, _missing_requirements(name, effects)) for name in self.candidates
-                if _offered_on(name, fault) and _missing_requirements(name, effects)]
+        return [(name, missing) for name in self.candidates
+                if _offered_on(name, fault) and (missing := _missing_requirements(name, effects))]
 
     def _not_offered(self, fault: str) -> list[str]:
         """The candidates a record of a ``fault`` bearing cannot tell, each with why (:func:`_offered_only_words`)."""
