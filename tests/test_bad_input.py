@@ -7,6 +7,7 @@ entry point turns a BearingTwinError into that line and status 2 the same way.
 
 import logging
 import os
+import re
 import subprocess
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from processes import run_module
 
 from bearingtwin.cli.report import main as report_main
 from bearingtwin.config import CONF_DIR, REPO_ROOT, compose_config, load_bearing, refuse_unknown_keys
+from bearingtwin.data.build import check_data_settings
 from bearingtwin.data.files import read_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.windows import split_indices
@@ -166,6 +168,40 @@ def test_too_few_windows_per_class_for_a_split(tmp_path):
     labels = np.repeat(np.arange(4), 2)  # data.samples_per_class=2: 8 windows, 2 test windows for 4 classes
     with pytest.raises(BearingTwinError, match="2 in the smallest class.*raise data.samples_per_class"):
         split_indices(labels, labels, np.zeros(8), np.full(4, 100), 10, method="random")
+
+
+@pytest.mark.parametrize("overrides, named", [
+    (["data.split=blok"], "data.split='blok'"),
+    (["data=files", "data.root=.", "data.windows_per_record=0"], "data.windows_per_record"),
+])
+def test_a_bad_data_value_is_refused_before_a_run_is_opened(tmp_path, overrides, named):
+    store = f"sqlite:///{tmp_path}/mlflow.db"
+    done = command("train", *overrides, "classifier=svm", f"tracking.uri={store}", f"paths.cache_dir={tmp_path}",
+                   cwd=tmp_path)
+    assert_one_line_exit_2(done, named)
+    assert not (tmp_path / "mlflow.db").exists()  # no store opened, so no FAILED run left in it
+
+
+@pytest.mark.parametrize("overrides, named", [
+    (["data.duration=0"], "data.duration"),
+    (["data.train_fraction=1.5"], "data.train_fraction"),
+    (["data=cwru", "data.samples_per_class=true"], "data.samples_per_class"),
+    (["data=hust", "data.split=none"], "data.split='none'"),
+    (["data=files", "data.root=.", "data.rpm=-3"], "data.rpm"),
+    (["+experiment=sim2real", "data.test.windows_per_record=0"], "data.test.windows_per_record"),
+    (["data=twin_to_real"], "bearing=cwru_6205"),
+    (["data.source=tape"], "data.source='tape'"),
+])
+def test_every_data_source_checks_its_values_from_the_config_alone(overrides, named):
+    cfg = compose_config("train", overrides)
+    with pytest.raises(BearingTwinError, match=re.escape(named)):
+        check_data_settings(cfg)
+
+
+@pytest.mark.parametrize("source", [[], ["data=cwru"], ["data=hust"], ["data=files", "data.root=."],
+                                    ["+experiment=sim2real"]])
+def test_each_data_sources_defaults_pass_its_check(source):
+    check_data_settings(compose_config("train", source))
 
 
 def test_a_missing_mandatory_value_is_named(tmp_path):

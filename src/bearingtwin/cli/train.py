@@ -30,7 +30,7 @@ from omegaconf import DictConfig
 from bearingtwin.checks import show_progress_bar
 from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
-from bearingtwin.data.build import require_files
+from bearingtwin.data.build import check_data_settings, require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.tracking.lifecycle import stop_cleanly, watch_sweep_process
@@ -109,6 +109,7 @@ def train(cfg: DictConfig) -> float | None:
     records = None
     if not in_sweep:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)
+        exit_on_user_error(check_data_settings)(cfg)
         exit_on_user_error(require_files)([cfg])
         exit_on_user_error(build_effects)(cfg.get("effects"))  # their parameters, before a run is opened
         records = exit_on_user_error(twin_to_real_records)(cfg)  # for the closing summary, as read before the run

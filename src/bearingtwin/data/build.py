@@ -54,13 +54,51 @@ def _twin_to_real(cfg: DictConfig) -> WindowedDataset:
 SOURCES = {"simulated": _simulated, "cwru": _cwru, "hust": _hust, "files": _files, "twin_to_real": _twin_to_real}
 
 
-def build_dataset(cfg: DictConfig) -> WindowedDataset:
-    """The windowed dataset the composed config describes (``data``, plus ``bearing``,
-    ``simulator``, ``effects`` and ``paths`` as the source needs them)."""
+def _data_source(cfg: DictConfig) -> str:
     source = cfg.data.get("source")
     if source not in SOURCES:
         raise BearingTwinError(f"data.source={source!r} is not a data source; choose one of {', '.join(SOURCES)}")
-    return SOURCES[source](cfg)
+    return source
+
+
+def build_dataset(cfg: DictConfig) -> WindowedDataset:
+    """The windowed dataset the composed config describes (``data``, plus ``bearing``,
+    ``simulator``, ``effects`` and ``paths`` as the source needs them)."""
+    return SOURCES[_data_source(cfg)](cfg)
+
+
+def _check_simulated(cfg: DictConfig) -> None:
+    from bearingtwin.data.simulated import check_simulated_settings
+
+    check_simulated_settings(cfg.data)
+
+
+def _check_real(cfg: DictConfig) -> None:
+    from bearingtwin.data.real import check_windowing
+
+    check_windowing(cfg.data)
+
+
+def _check_files(cfg: DictConfig) -> None:
+    from bearingtwin.data.real import check_files_settings
+
+    check_files_settings(cfg.data)
+
+
+def _check_twin_to_real(cfg: DictConfig) -> None:
+    from bearingtwin.data.twin_to_real import check_twin_to_real_settings
+
+    check_twin_to_real_settings(cfg.data, cfg.bearing)
+
+
+SETTINGS_CHECKS = {"simulated": _check_simulated, "cwru": _check_real, "hust": _check_real, "files": _check_files,
+                   "twin_to_real": _check_twin_to_real}
+
+
+def check_data_settings(cfg: DictConfig) -> None:
+    """Raise naming the first bad value of the composed config's data settings (source, split, counts, rates),
+    read from the config alone: a single run refuses it before its MLflow run is opened."""
+    SETTINGS_CHECKS[_data_source(cfg)](cfg)
 
 
 

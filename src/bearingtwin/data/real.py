@@ -31,7 +31,7 @@ from bearingtwin.data.files import FORMATS, TEXT_TABLES, load_recording, speed_s
 from bearingtwin.data.hust import hust_file_name, load_hust
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
-from bearingtwin.data.windows import SPLITS, check_train_fraction, check_windows_fit, cut_windows
+from bearingtwin.data.windows import check_split, check_windows_fit, cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
@@ -46,8 +46,7 @@ def build_cwru_dataset(data_cfg, data_root: str | Path | None = None) -> Windowe
     ``data_root`` is the folder holding the .mat files (default: ``data.root``).
     """
     cfg = plain_config(data_cfg, "data config")
-    _check_split(cfg)
-    window_length, samples_per_class = _whole(cfg, "window_length"), _whole(cfg, "samples_per_class")
+    window_length, samples_per_class = check_windowing(cfg)
     paths = cwru_paths(cfg, data_root)
     bearing = load_bearing(cfg["bearing"], "data.bearing") if cfg.get("bearing") else None  # the rate check's second witness
     recordings = []
@@ -81,8 +80,7 @@ def cwru_paths(data_cfg, data_root: str | Path | None = None) -> list[Path]:
 def build_hust_dataset(data_cfg) -> WindowedDataset:
     """Windows of the HUST files of ``data.classes`` at ``data.condition`` (the paper's Table 5 set)."""
     cfg = plain_config(data_cfg, "data config")
-    _check_split(cfg)
-    window_length, samples_per_class = _whole(cfg, "window_length"), _whole(cfg, "samples_per_class")
+    window_length, samples_per_class = check_windowing(cfg)
     files = hust_paths(cfg)
     faults, paths = list(files), list(files.values())
     root, names = Path(_get(cfg, "root")), [path.name for path in paths]
@@ -129,9 +127,7 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     before ``data.rpm`` / ``data.fs``); a value the file contradicts is an error.
     """
     cfg = plain_config(data_cfg, "data config")
-    _check_split(cfg)
-    window_length, windows_per_record = _whole(cfg, "window_length"), _whole(cfg, "windows_per_record")
-    default_rpm, default_fs = _optional_setting(cfg, "rpm", "rev/min"), _optional_setting(cfg, "fs", "Hz")
+    window_length, windows_per_record, default_rpm, default_fs = check_files_settings(cfg)
     root = Path(_get(cfg, "root")).expanduser()
     if not root.is_dir():
         raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of your recordings")
@@ -558,16 +554,20 @@ def _classes(classes, allowed) -> list[str]:
     return sorted(classes, key=FAULTS.index)
 
 
-def _check_split(cfg: dict) -> None:
-    """``data.split`` and ``data.train_fraction``, checked before any file is read."""
-    if _get(cfg, "split") not in SPLITS:
-        raise BearingTwinError(f"data.split={cfg['split']!r} is not a split method; choose one of {', '.join(SPLITS)}")
-    check_train_fraction(_get(cfg, "train_fraction"))
+def check_windowing(data_cfg, count: str = "samples_per_class") -> tuple[int, int]:
+    """A real-data config's ``data.window_length`` and windows per record (``data.<count>``), after checking
+    ``data.split`` and ``data.train_fraction``: values refused before any file is read or run opened."""
+    cfg = plain_config(data_cfg, "data config")
+    check_split(_get(cfg, "split"), _get(cfg, "train_fraction"))
+    return whole_number("data.window_length", _get(cfg, "window_length")), whole_number(f"data.{count}", _get(cfg, count))
 
 
-def _whole(cfg: dict, name: str) -> int:
-    """``data.<name>`` as a positive whole number (a count of windows or samples)."""
-    return whole_number(f"data.{name}", _get(cfg, name))
+def check_files_settings(data_cfg) -> tuple[int, int, float | None, float | None]:
+    """A ``data=files`` config's window length, windows per record, and the rpm and rate (None: unset) that fill
+    in what a file does not state; checked as :func:`check_windowing`."""
+    cfg = plain_config(data_cfg, "data config")
+    return (*check_windowing(cfg, "windows_per_record"),
+            _optional_setting(cfg, "rpm", "rev/min"), _optional_setting(cfg, "fs", "Hz"))
 
 
 def _get(cfg: dict, name: str):

@@ -21,7 +21,7 @@ import numpy as np
 from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.recording import WindowedDataset
-from bearingtwin.data.windows import cut_windows
+from bearingtwin.data.windows import check_split, cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import order_identity
 from bearingtwin.physics.geometry import FAULTS
@@ -63,13 +63,9 @@ def _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_
     return signals, key
 
 
-def build_simulated_dataset(data_cfg: Mapping, bearing_cfg: Mapping, simulator_cfg: Mapping,
-                            effects_cfg: Mapping | None, cache_dir: str | os.PathLike) -> WindowedDataset:
-    """``data.samples_per_class`` windows of ``data.window_length`` samples from each simulated state.
-
-    ``data.rpm``, ``data.fs`` and ``data.duration`` replace the simulator's values; the
-    windows are spread evenly over each record by :func:`~bearingtwin.data.windows.cut_windows`.
-    """
+def check_simulated_settings(data_cfg: Mapping) -> dict:
+    """The simulated data config as a plain dict, its counts whole numbers, its operating point positive: refused,
+    naming the key, before a record is simulated or a run opened."""
     data_cfg = plain_config(data_cfg)
     if data_cfg.get("source", "simulated") != "simulated":
         raise BearingTwinError(f"data.source={data_cfg['source']!r}: build_simulated_dataset needs 'simulated'")
@@ -77,6 +73,18 @@ def build_simulated_dataset(data_cfg: Mapping, bearing_cfg: Mapping, simulator_c
         data_cfg[name] = whole_number(f"data.{name}", data_cfg[name])
     for name, unit in (("rpm", "rev/min"), ("fs", "Hz"), ("duration", "seconds")):  # named as the user set them
         positive_number(data_cfg[name], f"data.{name}", unit)
+    check_split(data_cfg.get("split"), data_cfg.get("train_fraction"))
+    return data_cfg
+
+
+def build_simulated_dataset(data_cfg: Mapping, bearing_cfg: Mapping, simulator_cfg: Mapping,
+                            effects_cfg: Mapping | None, cache_dir: str | os.PathLike) -> WindowedDataset:
+    """``data.samples_per_class`` windows of ``data.window_length`` samples from each simulated state.
+
+    ``data.rpm``, ``data.fs`` and ``data.duration`` replace the simulator's values; the
+    windows are spread evenly over each record by :func:`~bearingtwin.data.windows.cut_windows`.
+    """
+    data_cfg = check_simulated_settings(data_cfg)
     signals, records = _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir)
     windows, starts, labels, record_ids = [], [], [], []
     for label, signal in enumerate(signals):

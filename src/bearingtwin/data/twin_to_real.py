@@ -649,6 +649,30 @@ def _check_rates(recordings: list[Recording], twin_fs: float, labelled: bool) ->
                            "rate (data.files, data.calibration.records: all 12k_... or all 48k_...)")
 
 
+def check_twin_to_real_settings(data_cfg: Mapping, bearing_cfg: Mapping) -> dict:
+    """The data config as a plain dict, its counts whole numbers, after checking the values a twin-to-real run
+    needs before a record is read or a run opened: the bearing group matching the records', the twin's rate."""
+    cfg, bearing = plain_config(data_cfg), plain_config(bearing_cfg)
+    if cfg.get("source") != "twin_to_real":
+        raise BearingTwinError(f"data.source={cfg.get('source')!r}: build_twin_to_real_dataset needs 'twin_to_real'")
+    if bearing.get("name") != cfg["bearing"]:
+        raise BearingTwinError(f"data=twin_to_real simulates the {cfg['bearing']} bearing of the records: add "
+                               f"bearing={cfg['bearing']} (got bearing.name={bearing.get('name')!r})")
+    cfg["window_length"] = whole_number("data.window_length", cfg["window_length"])  # a YAML true is no count
+    simulation_jobs(cfg["twin"].get("n_jobs", 1))
+    for section in ("twin", "test"):
+        cfg[section]["windows_per_record"] = whole_number(f"data.{section}.windows_per_record",
+                                                          cfg[section]["windows_per_record"])
+    positive_number(cfg["fs"], "data.fs", "Hz")
+    n_validation = cfg["calibration"].get("validation_windows_per_record", 0)
+    if not (isinstance(n_validation, int) and not isinstance(n_validation, bool) and n_validation >= 0):
+        raise BearingTwinError(f"data.calibration.validation_windows_per_record must be an integer >= 0, got {n_validation!r}")
+    noise_level = (cfg["calibration"].get("healthy") or {}).get("noise_level", "absolute")
+    if noise_level not in ("absolute", "relative"):
+        raise BearingTwinError(f"data.calibration.healthy.noise_level={noise_level!r}: choose absolute or relative")
+    return cfg
+
+
 def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> WindowedDataset:
     """Twin windows (training) at the real records' operating points, real windows (test).
 
@@ -664,24 +688,12 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     Returns windows in the order twin (training), test records, calibration records
     (``validation``, ``calibration.validation_windows_per_record`` each; none when 0).
     """
-    cfg, bearing, simulator = plain_config(data_cfg), plain_config(bearing_cfg), plain_config(simulator_cfg)
-    if cfg.get("source") != "twin_to_real":
-        raise BearingTwinError(f"data.source={cfg.get('source')!r}: build_twin_to_real_dataset needs 'twin_to_real'")
-    if bearing.get("name") != cfg["bearing"]:
-        raise BearingTwinError(f"data=twin_to_real simulates the {cfg['bearing']} bearing of the records: add "
-                               f"bearing={cfg['bearing']} (got bearing.name={bearing.get('name')!r})")
-    cfg["window_length"] = whole_number("data.window_length", cfg["window_length"])  # a YAML true is no count
+    cfg = check_twin_to_real_settings(data_cfg, bearing_cfg)
+    bearing, simulator = plain_config(bearing_cfg), plain_config(simulator_cfg)
     n_jobs = simulation_jobs(cfg["twin"].get("n_jobs", 1))
-    for section in ("twin", "test"):
-        cfg[section]["windows_per_record"] = whole_number(f"data.{section}.windows_per_record",
-                                                          cfg[section]["windows_per_record"])
-    twin_fs = positive_number(cfg["fs"], "data.fs", "Hz")
+    twin_fs = float(cfg["fs"])
     n_validation = cfg["calibration"].get("validation_windows_per_record", 0)
-    if not (isinstance(n_validation, int) and not isinstance(n_validation, bool) and n_validation >= 0):
-        raise BearingTwinError(f"data.calibration.validation_windows_per_record must be an integer >= 0, got {n_validation!r}")
     noise_level = (cfg["calibration"].get("healthy") or {}).get("noise_level", "absolute")
-    if noise_level not in ("absolute", "relative"):
-        raise BearingTwinError(f"data.calibration.healthy.noise_level={noise_level!r}: choose absolute or relative")
     table = labels_table_of(cfg)  # read once: it is the records' truth for the protocol and the reading alike
     calibration_paths, test_paths = protocol_records(cfg, table)
     base_params, effects = merged_calibration(cfg["calibration"], table)

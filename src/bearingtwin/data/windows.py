@@ -112,6 +112,13 @@ def check_train_fraction(value) -> float:
     return fraction
 
 
+def check_split(method, train_fraction) -> float:
+    """``data.split`` (one of SPLITS) and ``data.train_fraction``, the latter returned as a float."""
+    if method not in SPLITS:
+        raise BearingTwinError(f"data.split={method!r} is not a split method; choose one of {', '.join(SPLITS)}")
+    return check_train_fraction(train_fraction)
+
+
 def split_indices(
     labels: np.ndarray,
     record_ids: np.ndarray,
@@ -143,9 +150,7 @@ def split_indices(
     Returns:
         (train_index, test_index), sorted int arrays.
     """
-    if method not in SPLITS:
-        raise BearingTwinError(f"data.split={method!r} is not a split method; choose one of {', '.join(SPLITS)}")
-    train_fraction = check_train_fraction(train_fraction)
+    train_fraction = check_split(method, train_fraction)
     labels = np.asarray(labels)
     if method == "random":
         from sklearn.model_selection import train_test_split
