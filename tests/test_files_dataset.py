@@ -445,3 +445,35 @@ def test_a_file_two_rows_name_is_refused_by_a_reader_of_its_row(tmp_path):
     with pytest.raises(BearingTwinError, match=r"labels.csv line 3: names rec.npy again \(.*labels.csv line 2 names it "
                                                r"too\); one row per record"):
         labels_row(tmp_path / "rec.npy")
+
+
+def test_a_folder_of_files_that_name_their_bearing_is_read_with_it(tmp_path, caplog):
+    """HUST exports name the ER-16K: without data.bearing, an outer-race export whose strongest series is its BPFO
+    comb (no shaft line) has its true 25.6 kHz confirmed by that bearing's lines, not logged as contradicting the
+    shaft, and the model is of the ER-16K, not of the twin's default bearing."""
+    import sys
+
+    from bearingtwin.config import load_bearing
+    from bearingtwin.models.experiment import data_bearing
+
+    sys.path.insert(0, str(REPO_ROOT / "tests" / "fixtures"))
+    import make_hust_fixtures as hust
+
+    root = tmp_path / "hust"
+    root.mkdir()
+    fs, seconds, rpm = hust.FS_HZ, 2.0, 65 * 60.0
+    bpfo = load_bearing("er16k").defect_frequencies(rpm)["bpfo"]
+    rng = np.random.default_rng(0)
+    comb = np.zeros(int(seconds * fs))
+    comb[(np.arange(0, seconds, 1 / bpfo) * fs).astype(int)] = 1.0
+    for name, signal in (("0.5X_O_65Hz.xls", comb), ("H_65Hz.xls", np.zeros(comb.size))):
+        axes = np.stack([signal + 0.01 * rng.standard_normal(comb.size) for _ in range(3)])
+        hust.write(name, hust.header_lines(comb.size) + ["Data"] + hust.rows(axes), root)
+    (root / "labels.csv").write_text("record,state\n0.5X_O_65Hz.xls,outer\nH_65Hz.xls,normal\n")
+    cfg = files_cfg(root, "data.fs=null", "data.channel=X")
+    with caplog.at_level("WARNING"):
+        dataset = build_dataset(cfg)
+    assert "contradicts" not in caplog.text
+    assert dataset.fs == fs and dataset.bearing == "er16k"
+    assert data_bearing(cfg, dataset.bearing)["name"] == "er16k"
+    assert build_dataset(files_cfg(root, "data.fs=null", "data.channel=X", "data.bearing=er16k")).bearing is None

@@ -164,6 +164,38 @@ def test_a_byte_order_mark_and_a_data_line_with_a_colon_are_read(tmp_path):
     assert read_raw(tmp_path / "bom_header" / "H_65Hz.xls").meta["header"] == original.meta["header"]  # "Title", not "\xef\xbb\xbfTitle"
 
 
+def test_an_export_saved_again_with_decimal_commas_closing_tabs_or_a_row_of_names_reads_the_same(tmp_path):
+    """A spreadsheet or a regional setting may write numbers with decimal commas, close every row with a tab, or
+    name the columns in a row below 'Data' (in their own order, with units): each reads the same axes."""
+    lines = (HUST / "0.5X_O_65Hz.xls").read_text().splitlines()
+    at = lines.index("Data")
+    header, rows = lines[:at + 1], lines[at + 1:]
+    original = read_raw(HUST / "0.5X_O_65Hz.xls")
+
+    def reorder(row: str) -> str:  # time, speed, Z, X, Y
+        time, speed, x, y, z = row.split("\t")
+        return "\t".join([time, speed, z, x, y])
+
+    variants = {
+        "comma": header + [row.replace(".", ",") for row in rows],
+        "closing_tab": header + [row + "\t" for row in rows],
+        "names": header + ["Time (s)\tSpeed\tZ (g)\tX (g)\tY (g)"] + [reorder(row) for row in rows],
+        "all_three": header + ["Time (s)\tSpeed\tX\tY\tZ\t"] + [row.replace(".", ",") + "\t" for row in rows],
+    }
+    for name, text in variants.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "0.5X_O_65Hz.xls").write_text("\r\n".join(text) + "\r\n")
+        raw = read_raw(tmp_path / name / "0.5X_O_65Hz.xls")
+        for axis in ("X", "Y", "Z"):
+            np.testing.assert_array_equal(raw.channels[axis], original.channels[axis], err_msg=f"{name}: {axis}")
+        assert raw.fs == pytest.approx(25600, rel=1e-4) and raw.fault == "outer"
+    assert "decimal commas" in " ".join(read_raw(tmp_path / "comma" / "0.5X_O_65Hz.xls").meta["notes"])
+    bad = header + ["Time\tSpeed\tX\tY\tZ"] + rows[:10] + [rows[10].replace("\t", "\tx", 1)] + rows[11:]
+    (tmp_path / "bad.xls").write_text("\n".join(bad) + "\n")
+    with pytest.raises(BearingTwinError, match=rf"bad.xls: line {at + 13} column speed: 'x.*' is not a number"):
+        read_raw(tmp_path / "bad.xls")
+
+
 def test_binary_workbook_is_named(tmp_path):
     path = tmp_path / "H_65Hz.xls"
     path.write_bytes(b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + bytes(512))
@@ -176,3 +208,10 @@ def test_fixtures_are_what_the_script_writes(tmp_path, monkeypatch):
     fixtures.main()
     for path in sorted(HUST.rglob("*.xls")):
         assert (tmp_path / path.relative_to(HUST)).read_bytes() == path.read_bytes(), path
+
+
+@pytest.mark.parametrize("condition, written", [(65, "65"), (65.0, "65"), (62.5, "62.5"), ("VS_0_40_0", "VS_0_40_0")])
+def test_a_condition_is_written_as_the_file_names_write_it(condition, written):
+    from bearingtwin.data.hust import hust_file_name
+
+    assert hust_file_name("0.5X_I", condition) == f"0.5X_I_{written}Hz.xls"

@@ -73,10 +73,16 @@ def _check_simulated(cfg: DictConfig) -> None:
     check_simulated_settings(cfg.data)
 
 
-def _check_real(cfg: DictConfig) -> None:
+def _check_cwru(cfg: DictConfig) -> None:
     from bearingtwin.data.real import check_windowing
 
     check_windowing(cfg.data)
+
+
+def _check_hust(cfg: DictConfig) -> None:
+    from bearingtwin.data.real import check_hust_settings
+
+    check_hust_settings(cfg.data)
 
 
 def _check_files(cfg: DictConfig) -> None:
@@ -91,7 +97,7 @@ def _check_twin_to_real(cfg: DictConfig) -> None:
     check_twin_to_real_settings(cfg.data, cfg.bearing)
 
 
-SETTINGS_CHECKS = {"simulated": _check_simulated, "cwru": _check_real, "hust": _check_real, "files": _check_files,
+SETTINGS_CHECKS = {"simulated": _check_simulated, "cwru": _check_cwru, "hust": _check_hust, "files": _check_files,
                    "twin_to_real": _check_twin_to_real}
 
 

@@ -14,12 +14,15 @@ states H, I, O, B, C; conditions ``<f>Hz`` (shaft Hz) or ``VS_0_40_0Hz`` (variab
 
 from __future__ import annotations
 
+import itertools
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
+from bearingtwin.checks import is_finite_number
 from bearingtwin.data.files import FS_RELATIVE_TOLERANCE, RawRecord, fs_from_time_column, load_recording
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -38,6 +41,8 @@ DATA_MARKERS = ("Data", "Data:")
 UTF8_BOM = "\ufeff".encode("utf-8").decode("latin-1")
 """A UTF-8 byte-order mark as the latin-1 reading sees it: a file saved again by an editor may start with one."""
 
+_NUMBER = re.compile(r"[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?|[-+]?(nan|NaN|inf|Inf)")
+"""A cell that is a number under either decimal mark; a first cell that is not one names the columns."""
 _NAME = re.compile(r"^(?P<prefix>0\.5X_)?(?P<state>[HIOBC])_(?P<condition>\d+(?:\.\d+)?Hz|VS_[\d_]+Hz)$")
 
 
@@ -71,15 +76,29 @@ def parse_hust_name(path: str | Path) -> HustName | None:
 
 
 def hust_file_name(class_stem: str, condition) -> str:
-    """The file name of a class (``H``, ``0.5X_I``, ...) at a condition (``65`` or ``VS_0_40_0``)."""
-    return f"{class_stem}_{condition}Hz.xls"
+    """The file name of a class (``H``, ``0.5X_I``, ...) at a condition (``65`` or ``VS_0_40_0``,
+    :func:`hust_condition`)."""
+    return f"{class_stem}_{hust_condition(condition)}Hz.xls"
+
+
+def hust_condition(value, key: str = "data.condition") -> str:
+    """A condition as the file names write it before ``Hz``: a shaft speed in Hz (``65``; ``65.0`` is ``65``) or
+    the variable-speed run ``VS_0_40_0``; anything else is refused naming ``key``."""
+    if isinstance(value, str) and re.fullmatch(r"VS_[\d_]+", value):
+        return value
+    if is_finite_number(value) and not isinstance(value, bool) and value > 0:
+        return f"{value:g}"
+    hint = " (without Hz: the file name adds it)" if isinstance(value, str) and value.endswith("Hz") else ""
+    raise BearingTwinError(f"{key}={value!r} is not a HUST condition{hint}: give the shaft speed in Hz as the file "
+                           "names write it (20, 25, ..., 80) or VS_0_40_0, the variable-speed run")
 
 
 def read_hust_raw(path: str | Path) -> RawRecord:
     """All five columns of a HUST export (speed included, NaN cells kept), with the header as meta."""
     path = Path(path)
     header, data_line = _read_header(path)
-    table = _read_table(path, data_line)
+    layout = _data_layout(path, data_line)
+    table = _read_table(path, layout)
     declared_rows = _declared_rows(header)
     if declared_rows is not None and declared_rows != table.shape[0]:
         raise BearingTwinError(
@@ -87,7 +106,12 @@ def read_hust_raw(path: str | Path) -> RawRecord:
             f"{table.shape[0]}; the file is truncated or not a single export"
         )
     name = parse_hust_name(path)
-    names, notes = _column_order(header)
+    if layout.names is None:
+        names, notes = _column_order(header.get("Legend"), "the header's Legend")
+    else:  # its first name is the time column's
+        names, notes = _column_order("\t".join(layout.names[1:]), "the row of names below the 'Data' line")
+    if layout.decimal == ",":
+        notes.append("numbers written with decimal commas")
     channels = dict(zip(names, table[:, 1:].T))
     meta = {"header": header, "data_line": data_line + 1, "bearing": BEARING, "notes": notes}
     if name is not None:
@@ -115,19 +139,19 @@ def load_hust(path: str | Path, channel: str = "X", fs: float | None = None, cha
     return load_recording(path, channel=channel, fs=fs, channel_key=channel_key, fs_key=fs_key)
 
 
-def _column_order(header: dict[str, str]) -> tuple[list[str], list[str]]:
-    """The names of the columns after time, in the order the header's ``Legend`` gives, and a note when it
-    gives none that names them: an export with its channels in another order is read by name; one whose
-    Legend names other channels (the layout was reported, not checked) by position, and said so."""
-    legend = header.get("Legend")
+def _column_order(legend: str | None, where: str) -> tuple[list[str], list[str]]:
+    """The names of the columns after time, in the order ``legend`` (tab-separated, said to be ``where``) gives,
+    and a note when it gives none that names them: an export with its channels in another order is read by
+    name; one whose legend names other channels (the layout was reported, not checked) by position, and said so."""
     if legend is None:
         return list(COLUMNS[1:]), []
     by_lower = {column.lower(): column for column in COLUMNS[1:]}
     cells = [cell.strip() for cell in legend.split("\t") if cell.strip()]
-    names = [by_lower.get(cell.lower()) for cell in cells if cell.lower() not in ("time", "t")]
+    bare = [re.sub(r"\s*[(\[].*$", "", cell).lower() for cell in cells]  # "X (g)", "Speed [rpm]": the name alone
+    names = [by_lower.get(cell) for cell in bare if cell not in ("time", "t")]
     if sorted(filter(None, names)) == sorted(COLUMNS[1:]) and len(names) == len(COLUMNS) - 1:
         return names, []
-    return list(COLUMNS[1:]), [f"the header's Legend reads {' '.join(cells)!r}, not Speed, X, Y and Z: the columns "
+    return list(COLUMNS[1:]), [f"{where} reads {' '.join(cells)!r}, not Speed, X, Y and Z: the columns "
                                f"after time are read by position as {', '.join(COLUMNS[1:])}"]
 
 
@@ -186,8 +210,42 @@ def _declared_rows(header: dict[str, str]) -> int | None:
     return int(text) if text.isdigit() else None
 
 
-def _read_table(path: Path, data_line: int) -> np.ndarray:
-    """The rows after the ``Data`` line as (n, 5) float64.
+class _DataLayout(NamedTuple):
+    """How the rows after the ``Data`` line are written: an export saved again by a spreadsheet or a regional
+    setting may name its columns in a row of their own, close every row with a tab, or write decimal commas."""
+
+    first_row: int  # 0-based index of the first line of numbers
+    names: list[str] | None  # the names a row below the Data line gives the columns, time included
+    decimal: str
+    trailing: bool  # every row ends with a tab
+
+
+LAYOUT_SAMPLE_ROWS = 20
+"""Rows after the ``Data`` line read to tell the layout of the rest."""
+
+
+def _data_layout(path: Path, data_line: int) -> _DataLayout:
+    with open(path, encoding="latin-1") as handle:
+        sample = [(index, line.rstrip("\r\n")) for index, line in itertools.islice(enumerate(handle), data_line + 1,
+                                                                                   data_line + 1 + LAYOUT_SAMPLE_ROWS)
+                  if line.strip()]
+    if not sample:
+        raise BearingTwinError(f"{path}: no data rows after the 'Data' line (line {data_line + 1})")
+    names = None
+    first_cells = sample[0][1].split("\t")
+    if not _NUMBER.fullmatch(first_cells[0].strip()):  # a row of names ("Time (s)", "Speed", "X", ...)
+        names = [cell.strip() for cell in first_cells if cell.strip()]
+        sample = sample[1:]
+    rows = [line for _, line in sample]
+    trailing = bool(rows) and all(line.endswith("\t") for line in rows)
+    cells = [cell for line in rows for cell in line.split("\t") if cell.strip()]
+    decimal = "," if any("," in cell for cell in cells) and not any("." in cell for cell in cells) else "."
+    first_row = sample[0][0] if sample else data_line + 2
+    return _DataLayout(first_row, names, decimal, trailing)
+
+
+def _read_table(path: Path, layout: _DataLayout) -> np.ndarray:
+    """The rows of numbers as (n, 5) float64.
 
     pandas' C parser reads a 262,144-row file several times faster than numpy.loadtxt
     (benchmarks/hust_read.md) but pads short rows and empty cells with NaN and names no
@@ -197,29 +255,32 @@ def _read_table(path: Path, data_line: int) -> np.ndarray:
     import pandas as pd
 
     try:
-        table = pd.read_csv(path, sep="\t", header=None, skiprows=data_line + 1, dtype=np.float64, engine="c").to_numpy()
+        table = pd.read_csv(path, sep="\t", header=None, skiprows=layout.first_row, dtype=np.float64, engine="c",
+                            decimal=layout.decimal, encoding="latin-1").to_numpy()
     except pd.errors.EmptyDataError:
-        raise BearingTwinError(f"{path}: no data rows after the 'Data' line (line {data_line + 1})") from None
+        raise BearingTwinError(f"{path}: no data rows after the 'Data' line (line {layout.first_row})") from None
     except (ValueError, pd.errors.ParserError) as error:
-        _diagnose_rows(path, data_line)
+        _diagnose_rows(path, layout)
         raise BearingTwinError(f"{path}: unreadable data rows ({error})") from None
+    if layout.trailing and table.shape[1] == len(COLUMNS) + 1 and np.isnan(table[:, -1]).all():
+        table = table[:, :-1]
     if table.shape[1] != len(COLUMNS):
         raise BearingTwinError(
             f"{path}: data rows have {table.shape[1]} columns, expected {len(COLUMNS)} ({', '.join(COLUMNS)})"
         )
     if np.isnan(table).any():
-        _diagnose_rows(path, data_line)
+        _diagnose_rows(path, layout)
     return table
 
 
-def _diagnose_rows(path: Path, data_line: int) -> None:
+def _diagnose_rows(path: Path, layout: _DataLayout) -> None:
     """Raise naming the first row that is not five numbers; NaN written as such is allowed."""
     with open(path, encoding="latin-1") as handle:
         lines = handle.read().splitlines()
-    numbered = [(number, line) for number, line in enumerate(lines, 1) if number > data_line + 1 and line.strip()]
+    numbered = [(number, line) for number, line in enumerate(lines, 1) if number > layout.first_row and line.strip()]
     last = numbered[-1][0] if numbered else 0
     for number, line in numbered:
-        cells = line.split("\t")
+        cells = (line.removesuffix("\t") if layout.trailing else line).split("\t")
         if len(cells) != len(COLUMNS):
             hint = " (truncated last row?)" if number == last else ""
             raise BearingTwinError(
@@ -229,6 +290,6 @@ def _diagnose_rows(path: Path, data_line: int) -> None:
             if not cell.strip():
                 raise BearingTwinError(f"{path}: line {number} column {column} is empty")
             try:
-                float(cell)
+                float(cell.replace(",", ".") if layout.decimal == "," else cell)
             except ValueError:
                 raise BearingTwinError(f"{path}: line {number} column {column}: {cell!r} is not a number") from None

@@ -28,7 +28,7 @@ from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.csv_file import holds_one_value, is_a_note, text_column
 from bearingtwin.data.files import FORMATS, TEXT_TABLES, load_recording, speed_setting, time_column_seconds
-from bearingtwin.data.hust import hust_file_name, load_hust
+from bearingtwin.data.hust import CHANNELS as HUST_AXES, hust_file_name, load_hust, parse_hust_name
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
 from bearingtwin.data.windows import check_split, check_windows_fit, cut_windows
@@ -80,8 +80,7 @@ def cwru_paths(data_cfg, data_root: str | Path | None = None) -> list[Path]:
 def build_hust_dataset(data_cfg) -> WindowedDataset:
     """Windows of the HUST files of ``data.classes`` at ``data.condition`` (the paper's Table 5 set)."""
     cfg = plain_config(data_cfg, "data config")
-    window_length, samples_per_class = check_windowing(cfg)
-    files = hust_paths(cfg)
+    window_length, samples_per_class, files = check_hust_settings(cfg)
     faults, paths = list(files), list(files.values())
     root, names = Path(_get(cfg, "root")), [path.name for path in paths]
     missing = [path.name for path in paths if not path.is_file()]
@@ -92,21 +91,36 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
         )
     recordings = [load_hust(path, channel=_get(cfg, "channel"), fs=_get(cfg, "fs"), channel_key="data.channel",
                             fs_key="data.fs") for path in paths]
-    for fault, recording in zip(faults, recordings):
-        if recording.fault != fault:
-            raise BearingTwinError(
-                f"{recording.source}: data.classes.{fault} names a file whose state is {recording.fault or 'combined'}"
-            )
     return windows_from_recordings(recordings, window_length, samples_per_class, "data.samples_per_class",
                                    dataset_key(paths, cfg))
 
 
 def hust_paths(data_cfg) -> dict[str, Path]:
     """The file each class of a HUST data config reads (FAULTS order), known without reading any,
-    so that a sweep can check them all before it starts."""
+    so that a sweep can check them all before it starts; a class whose file name states another state is refused."""
     cfg = plain_config(data_cfg, "data config")
     root, stems = Path(_get(cfg, "root")), _get(cfg, "classes")
-    return {fault: root / hust_file_name(stems[fault], _get(cfg, "condition")) for fault in _classes(list(stems), allowed=FAULTS)}
+    if root.is_file():
+        raise BearingTwinError(f"data.root={root} is a file; point it at the folder of the HUST files")
+    paths = {fault: root / hust_file_name(stems[fault], _get(cfg, "condition"))
+             for fault in _classes(list(stems), allowed=FAULTS)}
+    for fault, path in paths.items():
+        named = parse_hust_name(path)
+        if named is None or named.fault != fault:
+            stated = "no state" if named is None else (named.fault or "inner and outer races combined")
+            raise BearingTwinError(f"data.classes.{fault}={stems[fault]!r} names {path.name}, whose name states {stated}")
+    return paths
+
+
+def check_hust_settings(data_cfg) -> tuple[int, int, dict[str, Path]]:
+    """A HUST config's window length, windows per class and each class's file, checked as :func:`check_windowing`
+    with its axis (X, Y or Z), condition and classes, before any file is read or run opened."""
+    cfg = plain_config(data_cfg, "data config")
+    window_length, samples_per_class = check_windowing(cfg)
+    if _get(cfg, "channel") not in HUST_AXES:
+        raise BearingTwinError(f"data.channel={cfg['channel']!r} is not a HUST accelerometer axis; choose one of "
+                               f"{', '.join(HUST_AXES)}")
+    return window_length, samples_per_class, hust_paths(cfg)
 
 
 log = logging.getLogger(__name__)
@@ -139,18 +153,42 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
                        rpm_key="data.rpm" if rpm is None else "the labels row's rpm")
         for path, state, rpm, fs in rows
     ]
+    named = None if cfg.get("bearing") else bearing_the_files_name(recordings)
     if bool(_get(cfg, "check_fs")):
-        bearing = load_bearing(cfg["bearing"], "data.bearing") if cfg.get("bearing") else None
+        bearing_name = cfg.get("bearing") or named
+        bearing = load_bearing(bearing_name, "data.bearing") if bearing_name else None
         for recording, (_, _, row_rpm, row_fs) in zip(recordings, rows):
             check_stated_rate(recording, "data.fs" if row_fs is None else "the labels row's fs", "data.check_fs", bearing,
                               rpm_key="data.rpm" if row_rpm is None else "the labels row's rpm")
     labelling = [(path.name, state, rpm, fs) for path, state, rpm, fs in rows]
     # What only checks the records (check_fs, the bearing whose lines witness a rate) leaves the windows alone.
     windowed = {key: value for key, value in cfg.items() if key not in ("check_fs", "bearing")}
-    return windows_from_recordings(
+    dataset = windows_from_recordings(
         recordings, window_length, windows_per_record, "data.windows_per_record",
         dataset_key([path for path, *_ in rows], {**windowed, "labels": labelling, "pattern": None}),
     )
+    return dataclasses.replace(dataset, bearing=named)
+
+
+def bearing_the_files_name(recordings: list[Recording]) -> str | None:
+    """The ``conf/bearing`` name every recording names itself (a HUST export's ER-16K, a CWRU fan-end record's SKF
+    6203, ``bearingtwin-simulate``'s), read where no ``data.bearing`` is given; None where one names none, or names
+    one no config describes, or where they name different bearings (said: one model reads one bearing's lines)."""
+    from bearingtwin.config import unknown_bearing_note
+
+    named = {recording.meta.get("bearing") for recording in recordings}
+    if None in named or not named:
+        return None
+    if len(named) > 1:
+        log.warning("the files name different bearings (%s): the data's bearing is the config's; give "
+                    "data.bearing=<name> for the one the model is for", ", ".join(sorted(map(str, named))))
+        return None
+    name = str(named.pop())
+    unknown = unknown_bearing_note(name, "the data's bearing is the config's")
+    if unknown:
+        log.warning("data.root: %s", unknown)
+        return None
+    return name
 
 
 def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing: BearingGeometry | None = None,

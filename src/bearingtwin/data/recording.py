@@ -201,6 +201,8 @@ class WindowedDataset:
             :func:`bearingtwin.data.windows.normalize_windows`); a diagnosis repeats it.
         unit: physical unit of the windows (``m/s^2``, ``g``); "" when the records do not state one. A
             diagnosis brings a record stated in another acceleration unit to it.
+        bearing: the ``conf/bearing`` name of the bearing the records name themselves, where no setting gave one
+            (``data=files``: a folder of HUST exports names the ER-16K); None: the config's (``data.bearing``).
     """
 
     windows: np.ndarray
@@ -217,6 +219,7 @@ class WindowedDataset:
     validation: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     window_normalization: str = "none"
     unit: str = ""
+    bearing: str | None = None
 
     def __post_init__(self) -> None:
         n = len(self.windows)

@@ -177,6 +177,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     classifier, groups = checked_settings(cfg, root_dir)
     physics_first = physics_first_from(cfg)
     dataset = build_dataset(cfg)
+    check_feature_bearing(cfg, dataset.bearing)  # the bearing the records named, where no setting gave one
     if physics_first is not None and dataset.window_rpms is None:  # before the features' minutes
         raise BearingTwinError("physics_first reads each window at its shaft speed; this data states none")
     if dataset.fixed_split is not None:
@@ -217,7 +218,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         window_length=dataset.windows.shape[1],
         fs_hz=dataset.fs,
         window_normalization=dataset.window_normalization,
-        bearing=data_bearing(cfg),
+        bearing=data_bearing(cfg, dataset.bearing),
         config=plain_config(cfg),
         unit=dataset.unit,
         window_level=training_window_level(dataset, train),
@@ -343,23 +344,26 @@ def choose_feature_group(group: FeatureGroup, classifier, features: np.ndarray, 
     return without, features[:, rest], reduced, scores
 
 
-def check_feature_bearing(cfg: DictConfig) -> None:
+def check_feature_bearing(cfg: DictConfig, named: str | None = None) -> None:
     """Refuse features read at one bearing's defect orders on data of another (``data=cwru
-    features=envelope_orders`` with the twin's default ``bearing=paper``), before any work."""
+    features=envelope_orders`` with the twin's default ``bearing=paper``), before any work; ``named``: the bearing the
+    records named themselves (:attr:`WindowedDataset.bearing`), checked once they are read."""
     features = cfg.features.get("bearing")
-    data = cfg.data.get("bearing")
+    data = cfg.data.get("bearing") or named
     if features is None or data is None or features.get("name") == data:
         return
     bearing_config(data, "data.bearing")  # a name no bearing config has is named as such, not as a mismatch
-    raise BearingTwinError(f"features.bearing is {features.get('name')}, the data's bearing (data.bearing) is {data}: "
+    source = "data.bearing" if cfg.data.get("bearing") else "the one the files name"
+    raise BearingTwinError(f"features.bearing is {features.get('name')}, the data's bearing ({source}) is {data}: "
                            f"the features must read the defect orders of the bearing recorded: add bearing={data} if "
                            f"the records are of {data}, data.bearing={features.get('name')} if they are of "
                            f"{features.get('name')}")
 
 
-def data_bearing(cfg: DictConfig) -> dict:
-    """The bearing the data describe: real-data configs name theirs (``data.bearing``), the twin's is ``bearing``."""
-    name = cfg.data.get("bearing")
+def data_bearing(cfg: DictConfig, named: str | None = None) -> dict:
+    """The bearing the data describe: real-data configs name theirs (``data.bearing``), records may name theirs
+    (``named``, :attr:`WindowedDataset.bearing`), the twin's is ``bearing``."""
+    name = cfg.data.get("bearing") or named
     if name is None or name == cfg.bearing.get("name"):
         return plain_config(cfg.bearing, "bearing")
     return bearing_config(name)
