@@ -210,6 +210,40 @@ def test_each_data_sources_defaults_pass_its_check(source):
     check_data_settings(compose_config("train", source))
 
 
+GEOMETRY_6308 = "name: my6308\nball_diameter_mm: 15.081\npitch_diameter_mm: 65.0\nn_balls: 8\nouter_diameter_mm: 90.0\ninner_diameter_mm: 40.0\n"
+
+
+@pytest.mark.parametrize("text, named", [
+    ("defaults: [paper]\n" + GEOMETRY_6308.replace("ball_diameter_mm", "ball_diam_mm"),
+     "bearing=my6308: ball_diam_mm is not a bearing setting"),
+    (GEOMETRY_6308, "bearing=my6308: contact_angle_deg is missing; start the file with 'defaults: [paper]'"),
+    ("defaults: [paper]\n" + GEOMETRY_6308 + "n_balls: 8: 9\n", "my6308.yaml, line 8: not valid YAML"),
+])
+def test_a_bearing_file_of_ones_own_that_the_twin_cannot_read_as_written_is_one_line(tmp_path, text, named):
+    """A misspelt key would leave Table 1's value in its place without a word; a file without the defaults lacks
+    the masses (a KeyError deep in the simulator before); a file that is no YAML (a traceback of 89 lines)."""
+    (tmp_path / "conf" / "bearing").mkdir(parents=True)
+    (tmp_path / "conf" / "bearing" / "my6308.yaml").write_text(text)
+    assert_one_line_exit_2(command("simulate", f"hydra.searchpath=[file://{tmp_path / 'conf'}]", "bearing=my6308",
+                                   f"out={tmp_path}/x.npz", cwd=tmp_path), named)
+
+
+@pytest.mark.parametrize("overrides, named", [
+    (["bearing=conf/bearing/my6308.yaml"], "a config group takes the name of a config, not a file"),
+    (["hydra.searchpath=[file:///no/such/folder]", "bearing=my6308"], "file:///no/such/folder is not a folder"),
+    (["hydra.searchpath=[file://no/such/folder]", "bearing=my6308"], "an absolute path is file:///<path>, three slashes"),
+])
+def test_a_bearing_of_ones_own_pointed_at_wrongly_is_named_so(tmp_path, overrides, named):
+    assert_one_line_exit_2(command("simulate", *overrides, f"out={tmp_path}/x.npz", cwd=tmp_path), named)
+
+
+@pytest.mark.parametrize("name", sorted(path.stem for path in Path(CONF_DIR, "bearing").glob("*.yaml")))
+def test_every_shipped_bearing_holds_the_bearing_settings(name):
+    from bearingtwin.config import bearing_config
+
+    assert bearing_config(name)["name"] == name
+
+
 def test_a_missing_mandatory_value_is_named(tmp_path):
     assert_one_line_exit_2(command("twin", cwd=tmp_path), "measured.path is missing")
 

@@ -140,3 +140,23 @@ def test_the_summary_names_the_effects_the_record_was_made_with(tmp_path):
     assert made.returncode == 0 and "  effects: clipping (clip_level 4.0)" in made.stdout, made.stdout
     bare = run(tmp_path, "fault=outer", "simulator.duration=0.2", f"out={tmp_path / 'b.npz'}")
     assert "  effects: none" in bare.stdout
+
+
+def test_the_twin_call_it_suggests_finds_a_bearing_of_ones_own(tmp_path):
+    """The closing summary's bearingtwin-twin call carries the search path a bearing of one's own was found by
+    (run as printed, it had been refused: no such bearing config)."""
+    import shlex
+
+    from bearingtwin.config import compose_config
+
+    (tmp_path / "my conf" / "bearing").mkdir(parents=True)
+    (tmp_path / "my conf" / "bearing" / "my6308.yaml").write_text(
+        "defaults: [paper]\nname: my6308\nball_diameter_mm: 15.081\npitch_diameter_mm: 65.0\nn_balls: 8\n"
+        "outer_diameter_mm: 90.0\ninner_diameter_mm: 40.0\n")
+    result = run(tmp_path, f"hydra.searchpath=['file://{tmp_path / 'my conf'}']", "bearing=my6308",
+                 "simulator.duration=0.2", f"out={tmp_path}/x.npz")
+    assert result.returncode == 0, result.stderr
+    call = next(line for line in result.stdout.splitlines() if "next:" in line).split("next: ")[1]
+    words = shlex.split(call.removesuffix(" holds the twin against this record"))
+    assert words[0] == "bearingtwin-twin"
+    assert compose_config("twin", words[1:]).bearing.ball_diameter_mm == 15.081

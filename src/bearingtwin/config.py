@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Callable
 
 import hydra
+import yaml
 from hydra.errors import ConfigCompositionException, MissingConfigException, OverrideParseException
 from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import (ConfigAttributeError, ConfigKeyError, InterpolationResolutionError, MissingMandatoryValue,
@@ -161,9 +164,18 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         return
     name = args.config_name or config_name
     if args.multirun and args.cfg:  # Hydra's own refusal is a ValueError with a traceback
-        raise BearingTwinError(f"-m and --cfg {args.cfg} go one at a time: --cfg shows one run's config (without -m; "
-                               "a sweep's own settings: --cfg hydra)")
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        raise BearingTwinError(f"-m and --cfg {args.cfg} go one at a time: --cfg shows one run's config; leave out -m "
+                               "to see it (--cfg hydra shows the sweep's parameters under hydra.sweeper.params)")
+    for override in args.overrides:
+        key, _, value = override.partition("=")
+        group = key.lstrip("+~")
+        if Path(CONF_DIR, group).is_dir() and ("/" in value or value.endswith((".yaml", ".yml"))):
+            raise BearingTwinError(f"{override}: a config group takes the name of a config, not a file: put the file in "
+                                   f"<folder>/{group}/<name>.yaml and give {group}=<name> with "
+                                   "hydra.searchpath=[file://<folder>]")
+    refuse_absent_search_path(args.overrides)
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"), warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "provider=hydra.searchpath")  # an absent folder: named below, in one line
         app = GlobalHydra.instance().hydra
         try:
             # As Hydra's _run_hydra: -m, or else the config's hydra.mode; --cfg shows a run's config.
@@ -171,6 +183,8 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
             cfg = app.compose_config(name, list(args.overrides), run_mode=mode or RunMode.RUN)
         except COMPOSITION_ERRORS:
             raise
+        except yaml.YAMLError as error:  # a config file of the user's own that is no YAML: Hydra prints a traceback
+            raise BearingTwinError(yaml_error_line(error)) from None
         except ValueError as error:  # Hydra's own check of a group override, raised as a plain ValueError
             groups = [key.lstrip("+~") for key, _, value in (o.partition("=") for o in args.overrides)
                       if value == "null" and Path(CONF_DIR, key.lstrip("+~")).is_dir()]
@@ -189,6 +203,8 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 if group == "simulator" and name in DATA_SET_OPERATING_POINT:
                     raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
                                            f"({cfg.data[name]}); give data.{name}=<value>")
+        if "bearing" in cfg:  # a file of the user's own: a misspelt key would pass without a word
+            check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name"))
         tracking = cfg.get("tracking") or {}
         if "experiment" in tracking and tracking.get("enabled") is not False:  # no store is used with tracking off
             experiment_name(cfg.tracking)
@@ -234,7 +250,51 @@ def bearing_config(name: str, key: str = "bearing") -> dict:
         raise BearingTwinError(f"{key}={name}: no such bearing config; choose one of {', '.join(choices)}"
                                f"{own_config_hint(name)}")
     config = OmegaConf.to_container(compose_config(overrides=[f"+bearing={name}", *search_path]).bearing, resolve=True)
+    check_bearing_keys(config, name)
     return {**config, "name": name}  # a file that names none inherits its defaults' name; a bearing is its file
+
+
+def refuse_absent_search_path(overrides: list[str]) -> None:
+    """Refuse a ``hydra.searchpath`` folder that is not there, naming it (Hydra warns over two lines, then fails to
+    find the config that folder was to hold, naming the config, not the folder)."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    given = [o for o in overrides if o.partition("=")[0].lstrip("+") == "hydra.searchpath"]
+    try:
+        folders = OverridesParser.create().parse_overrides(given[-1:])[0].value() if given else []
+    except OverrideParseException:  # Hydra names it, in one line, where it composes
+        return
+    for folder in folders if isinstance(folders, list) else [folders]:
+        scheme, _, where = str(folder).rpartition("://")
+        if scheme in ("", "file") and not Path(where).is_dir():
+            slashes = " (an absolute path is file:///<path>, three slashes)" if not where.startswith("/") else ""
+            raise BearingTwinError(f"hydra.searchpath: {folder} is not a folder{slashes}")
+
+
+def yaml_error_line(error: yaml.YAMLError) -> str:
+    """A YAML parser's error as one line naming the file and line (its message runs over several)."""
+    mark = getattr(error, "problem_mark", None)
+    where = f"{mark.name}, line {mark.line + 1}" if mark is not None else "a config file"
+    return f"{where}: not valid YAML ({getattr(error, 'problem', None) or str(error).splitlines()[0]})"
+
+
+BEARING_SCHEMA = "paper"
+"""The bearing config whose settings every bearing config holds (Table 1's, with the geometry)."""
+
+
+def check_bearing_keys(bearing, name: str) -> None:
+    """Refuse a bearing config (``bearing=<name>``, a file of the user's own) whose settings are not those of
+    ``conf/bearing/paper.yaml``: a misspelt key would leave the value its defaults give in place, unnoticed; a file
+    without ``defaults: [paper]`` lacks the masses and stiffnesses the twin needs."""
+    settings = list(OmegaConf.load(Path(CONF_DIR, "bearing", f"{BEARING_SCHEMA}.yaml")))
+    unknown = [key for key in bearing if key not in settings]
+    if unknown:
+        raise BearingTwinError(f"bearing={name}: {unknown[0]} is not a bearing setting (its value would be left unused); "
+                               f"the settings are {', '.join(settings)}")
+    missing = [key for key in settings if key not in bearing]
+    if missing:
+        raise BearingTwinError(f"bearing={name}: {missing[0]} is missing; start the file with 'defaults: [paper]', as "
+                               "conf/bearing/cwru_6205.yaml does, to keep Table 1's values for the settings it does not give")
 
 
 def own_config_hint(name: str) -> str:
@@ -248,6 +308,8 @@ def search_path_override() -> list[str]:
     from hydra.core.hydra_config import HydraConfig
 
     folders = list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
+    if all(re.fullmatch(r"[\w:/.~-]+", folder) for folder in folders):  # as a user writes it: [file:///home/me/conf]
+        return [f"hydra.searchpath=[{','.join(folders)}]"] if folders else []
     quoted = ",".join("'" + folder.replace("\\", "\\\\").replace("'", "\\'") + "'" for folder in folders)
     return [f"hydra.searchpath=[{quoted}]"] if folders else []
 

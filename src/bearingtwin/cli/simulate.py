@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import math
+import shlex
 from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
@@ -14,7 +15,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.checks import true_or_false
-from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys, search_path_override
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, oversample_factor, simulate
@@ -69,6 +70,7 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     words = [f"bearingtwin-twin measured.path={out}"]
     if bearing_name and bearing_name != "paper":
         words.append(f"bearing={bearing_name}")
+        words += [shlex.quote(override) for override in search_path_override()]  # where a bearing of one's own is
     race, axis = sensor.split("_")
     angle = simulator.get("sensor_angle_deg")
     angle = float(angle) if angle is not None else (0.0 if axis == "x" else 90.0)
