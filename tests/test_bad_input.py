@@ -5,6 +5,7 @@ subprocess; where only the message does, the function behind it is called, since
 entry point turns a BearingTwinError into that line and status 2 the same way.
 """
 
+import importlib.util
 import logging
 import os
 import re
@@ -242,6 +243,20 @@ def test_every_shipped_bearing_holds_the_bearing_settings(name):
     from bearingtwin.config import bearing_config
 
     assert bearing_config(name)["name"] == name
+
+
+@pytest.mark.skipif(importlib.util.find_spec("hydra_plugins.hydra_ray_launcher") is None,
+                    reason='the ray extra is not installed (pip install -c requirements.lock -e ".[ray]")')
+def test_a_ray_address_no_cluster_answers_at_is_refused_at_once():
+    """Ray retries such an address for ever, printing a warning every 5 s."""
+    from omegaconf import OmegaConf
+    from processes import free_loopback_port
+
+    from bearingtwin.tracking.lifecycle import start_ray_keeping_signals
+
+    port = free_loopback_port()
+    with pytest.raises(BearingTwinError, match=rf"address=127.0.0.1:{port}: no Ray cluster answers there"):
+        start_ray_keeping_signals(OmegaConf.create({"address": f"127.0.0.1:{port}"}))
 
 
 def test_a_missing_mandatory_value_is_named(tmp_path):

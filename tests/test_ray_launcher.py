@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -89,7 +90,7 @@ def sweeps(tmp_path_factory):
         ray_env = child_env(f"sqlite:///{ray_dir / 'mlflow.db'}", ray_dir / "cache", **RAY_LOCAL)
         runs["ray"] = (ray_env, sweep(ray_dir, "launcher=ray", f"hydra.launcher.ray.init.address=127.0.0.1:{port}", env=ray_env))
         yield cluster_dir, {name: (env["MLFLOW_TRACKING_URI"], Path(env["BEARINGTWIN_CACHE"]), done)
-                            for name, (env, done) in runs.items()}
+                            for name, (env, done) in runs.items()}, port
     finally:
         stop(cluster)  # ray start --block ends its node's processes on SIGTERM; the group's leftovers are killed
         shutil.rmtree(ray_temp, ignore_errors=True)
@@ -105,7 +106,7 @@ def finished_runs(uri: str) -> dict[str, object]:
 
 
 def test_both_sweeps_finish_every_job(sweeps):
-    _, runs = sweeps
+    _, runs, _ = sweeps
     for name, (uri, _, done) in runs.items():
         assert done.returncode == 0, f"{name}: {done.stderr[-3000:]}"
         assert "2 jobs, 2 finished, 0 failed, 0 skipped" in done.stdout, f"{name}: {done.stdout[-2000:]}"
@@ -113,7 +114,7 @@ def test_both_sweeps_finish_every_job(sweeps):
 
 
 def test_ray_jobs_give_the_basic_launchers_results(sweeps):
-    _, runs = sweeps
+    _, runs, _ = sweeps
     basic, ray = (finished_runs(runs[name][0]) for name in ("basic", "ray"))
     assert set(ray) == set(basic)  # the same two configurations
     for digest, run in ray.items():
@@ -129,7 +130,7 @@ def test_ray_jobs_give_the_basic_launchers_results(sweeps):
 
 
 def test_ray_jobs_are_children_of_the_sweep_started_in_the_drivers_folder(sweeps):
-    cluster_dir, runs = sweeps
+    cluster_dir, runs, _ = sweeps
     uri = runs["ray"][0]
     client = MlflowClient(uri)
     experiment_id = client.get_experiment_by_name("bearingtwin").experiment_id
@@ -140,13 +141,17 @@ def test_ray_jobs_are_children_of_the_sweep_started_in_the_drivers_folder(sweeps
     children = finished_runs(uri).values()
     assert {run.data.tags.get("mlflow.parentRunId") for run in children} == {parent.info.run_id}
     assert {run.data.tags["sweep_dir"] for run in children} == {parent.data.tags["sweep_dir"]}
+    # Named as the basic launcher's jobs are, by the classifier the sweep varies (a Ray worker has an environment
+    # of its own: the sweep hands it the varied keys).
+    basic_names = sorted(run.info.run_name for run in finished_runs(runs["basic"][0]).values())
+    assert sorted(run.info.run_name for run in children) == basic_names and "classifier=svm" in " ".join(basic_names)
     # Each job's Hydra folder is in the sweep's folder, none in the cluster's working directory.
     assert len(list(Path(parent.data.tags["sweep_dir"]).glob("*/.hydra/config.yaml"))) == 2
     assert sorted(path.name for path in cluster_dir.iterdir()) == []
 
 
 def test_ray_jobs_shared_one_cache_and_left_it_whole(sweeps):
-    _, runs = sweeps
+    _, runs, _ = sweeps
     _, cache, _ = runs["ray"]
     simulated = list((cache / "simulated").iterdir())
     features = list((cache / "features").iterdir())
@@ -158,3 +163,32 @@ def test_ray_jobs_shared_one_cache_and_left_it_whole(sweeps):
             assert sorted(stored.files) == sorted(reference.files)
             for name in stored.files:
                 np.testing.assert_array_equal(stored[name], reference[name])
+
+
+def test_a_terminated_ray_sweep_leaves_no_run_running_and_names_the_runs_it_killed(sweeps, tmp_path):
+    """Ray's workers are no children of the sweep: they had gone on after SIGTERM, finishing runs the sweep had
+    named KILLED and starting new ones left RUNNING. The sweep leaves Ray first, then marks what is still open."""
+    _, _, port = sweeps
+    env = child_env(f"sqlite:///{tmp_path / 'mlflow.db'}", tmp_path / "cache", **RAY_LOCAL)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "bearingtwin.cli.train", "-m", *SMOKE, "classifier=svm", "seed=0,1,2,3,4,5",
+         "launcher=ray", f"hydra.launcher.ray.init.address=127.0.0.1:{port}"],
+        cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    client = MlflowClient(env["MLFLOW_TRACKING_URI"])
+    deadline = time.monotonic() + SWEEP_TIMEOUT_S
+    while time.monotonic() < deadline and process.poll() is None:
+        if (tmp_path / "mlflow.db").exists() and client.search_runs(
+                [e.experiment_id for e in client.search_experiments()], "attributes.status = 'FINISHED'"):
+            break
+        time.sleep(0.5)
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 143, err[-3000:]
+    (line,) = [line for line in err.splitlines() if line.startswith("interrupted by SIGTERM; marked KILLED: ")]
+    time.sleep(5)  # a worker Ray had not yet stopped would show here
+    runs = client.search_runs([e.experiment_id for e in client.search_experiments()])
+    assert "RUNNING" not in {run.info.status for run in runs}
+    named = set(line.split(": ", 1)[1].split(", "))
+    killed = {f"{'sweep' if run.data.tags['bt.kind'] == 'sweep' else 'run'} {run.info.run_id}" for run in runs
+              if run.info.status == "KILLED"}
+    assert named == killed

@@ -70,3 +70,15 @@ def test_a_local_submitit_sweep_runs_both_jobs(tmp_path):
     assert all(run.info.status == "FINISHED" and run.data.tags["mlflow.parentRunId"] == parent.info.run_id for run in runs)
     # each job ran in a process of its own, not in the sweep's
     assert len({run.data.tags["bt.pid"] for run in runs} | {parent.data.tags["bt.pid"]}) == 3
+
+
+def test_a_slurm_sweep_where_there_is_no_slurm_is_one_line_and_opens_no_run(tmp_path):
+    env = child_env(f"sqlite:///{tmp_path / 'mlflow.db'}", tmp_path / "cache")
+    env["PATH"] = os.pathsep.join(folder for folder in env["PATH"].split(os.pathsep)
+                                  if not (Path(folder) / "sbatch").exists() and not (Path(folder) / "srun").exists())
+    done = sweep(tmp_path, env, "launcher=submitit_slurm")
+    assert done.returncode == 2, done.stderr[-3000:]
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error: ")]
+    assert errors == ["error: launcher=submitit_slurm: no SLURM here (sbatch and srun not on PATH); run the sweep on "
+                      "the cluster's login node, or try it here with launcher=submitit_local"], done.stderr[-3000:]
+    assert "Traceback" not in done.stderr and not (tmp_path / "mlflow.db").exists()

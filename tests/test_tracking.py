@@ -178,6 +178,27 @@ def test_a_failing_run_is_failed_with_its_error(tmp_path):
     assert "error.txt" in {a.path for a in client.list_artifacts(in_sweep.info.run_id)}
 
 
+def test_a_job_the_interrupted_sweep_could_not_stop_stays_killed_and_a_later_one_does_not_start(tmp_path):
+    """A cluster's worker is no child of the sweep: interrupted, the sweep marks its open runs KILLED while such a
+    worker may finish its job (it had turned the run FINISHED) or start the next (a run left RUNNING)."""
+    cfg = make_cfg(tmp_path)
+    client, experiment_id = open_store(cfg.tracking)
+    sweep_dir = str(tmp_path / "multirun")
+    parent = client.create_run(experiment_id, tags={"bt.kind": "sweep", "sweep_dir": sweep_dir})
+    sweep = SweepInfo("s", sweep_dir, ("seed=0",))
+
+    def interrupted_meanwhile(cfg, root_dir):  # what the sweep's process does on SIGTERM, while this job trains
+        for run in client.search_runs([experiment_id], "attributes.status = 'RUNNING'"):
+            client.set_terminated(run.info.run_id, "KILLED")
+        return fake_train(cfg, root_dir)
+
+    assert train_tracked(cfg, CHOICES, sweep, None, interrupted_meanwhile) is None
+    assert train_tracked(make_cfg(tmp_path, seed=1), CHOICES, sweep, None, fake_train) is None
+    runs = client.search_runs([experiment_id])
+    assert [run.info.status for run in runs] == ["KILLED", "KILLED"]  # the job's and the sweep's; no run for seed 1
+    assert {run.info.run_id for run in runs} > {parent.info.run_id}
+
+
 def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog):
     cfg = make_cfg(tmp_path)
     with pytest.raises(BearingTwinError):

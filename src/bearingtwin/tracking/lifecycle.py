@@ -28,6 +28,8 @@ import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
+from bearingtwin.errors import BearingTwinError
+
 if TYPE_CHECKING:  # MLflow is imported where a run is closed: a command refusing its input need not load it
     from mlflow import MlflowClient
 
@@ -163,14 +165,39 @@ def handle_signals() -> None:
         sys.unraisablehook = _quiet_lost_interrupt(sys.unraisablehook)
 
 
+RAY_ANSWER_TIMEOUT_S = 10.0
+"""How long a Ray cluster's address is given to answer before the sweep is refused."""
+
+
 def start_ray_keeping_signals(init_cfg) -> None:
     """Start or join Ray for a sweep's Ray launcher (its ``ray.init`` settings), then handle the
     signals again: ``ray.init`` replaces SIGTERM's handler with an immediate exit, which would leave
     the sweep's runs FAILED instead of KILLED. The launcher then finds Ray running and uses it."""
     from hydra_plugins.hydra_ray_launcher._launcher_util import start_ray  # the launcher's own start, not a copy
 
-    start_ray(init_cfg)
+    address = str(init_cfg.get("address") or "")
+    host, _, port = address.rpartition(":")
+    if host and port.isdigit() and "://" not in address:  # Ray would retry an address no cluster answers at for ever
+        try:
+            socket.create_connection((host, int(port)), timeout=RAY_ANSWER_TIMEOUT_S).close()
+        except OSError as error:
+            raise BearingTwinError(f"hydra.launcher.ray.init.address={address}: no Ray cluster answers there ({error}); "
+                                   "start one (ray start --head) or leave the address out for the sweep's own") from None
+    try:
+        start_ray(init_cfg)
+    except ConnectionError as error:  # address=auto with no cluster running on this machine
+        raise BearingTwinError(f"hydra.launcher.ray.init.address={address}: {str(error).splitlines()[0]}") from None
     handle_signals()
+
+
+def stop_ray_jobs() -> None:
+    """Leave Ray, where this process drives a sweep's Ray jobs: Ray ends the tasks of a driver that leaves. Its
+    workers are no children of this process, and went on after the interrupt, finishing runs already marked KILLED
+    and starting new ones, unless Ray is left before the runs still open are marked."""
+    ray = sys.modules.get("ray")
+    if ray is not None and ray.is_initialized():
+        with contextlib.suppress(Exception):  # a cluster already gone: there is nothing left to stop
+            ray.shutdown()
 
 
 def stop_cleanly(entry_point: Callable) -> Callable:
@@ -195,6 +222,7 @@ def stop_cleanly(entry_point: Callable) -> Callable:
             # A second signal while closing the runs must not leave half of them open.
             signal.signal(signal.SIGINT, signal.SIG_IGN)
             signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            stop_ray_jobs()
             closed = close_open_runs("KILLED")
             what = f"marked KILLED: {', '.join(closed)}" if closed else "no run was open"
             print(f"interrupted by {signal.Signals(signum).name}; {what}", file=sys.stderr)

@@ -43,6 +43,7 @@ import json
 import logging
 import os
 import random
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -598,6 +599,9 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     if sweep is not None:
         tags.update(sweep=sweep.name, sweep_dir=sweep.sweep_dir, sweep_varied=" ".join(sweep.varied), sweep_job=str(sweep.job))
         parent = find_sweep_parent(client, sweep.sweep_dir)
+        if parent is not None and parent.info.status != "RUNNING":  # stopped: a job a cluster starts late stays unrun
+            log.warning("job %s not started: its sweep's run %s is %s", sweep.job, parent.info.run_id, parent.info.status)
+            return None
         if parent is not None:
             tags["mlflow.parentRunId"] = parent.info.run_id
     # A child of its sweep from its first instant: a sweep interrupted before the other tags are logged
@@ -632,6 +636,9 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         log.error("run %s FAILED: %s: %s (the sweep goes on)", run_id, type(error).__name__, error)
         return None
     raise_if_interrupted()  # a signal whose exception a C callback swallowed still stops the run: KILLED
+    if sweep is not None and client.get_run(run_id).info.status != "RUNNING":
+        # The interrupted sweep closed it (KILLED) while a worker it could not stop at once went on: as it said.
+        return None
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
     return TrackedRun(run_id, {**result.metrics, "n_train": result.n_train, "n_test": result.n_test}, model=model,
                       artifacts=run.info.artifact_uri)
@@ -857,8 +864,15 @@ class SweepParentRun(Callback):
         exit_on_user_error(require_files)(jobs)
         exit_on_user_error(refuse_alias_in_sweep)(jobs)
         self._tracking = exit_on_user_error(sweep_tracking)(config, jobs)
+        exit_on_user_error(refuse_slurm_without_slurm)(config.hydra.launcher)
+        varied = " ".join(varied_keys(jobs))  # for the jobs' run names
         if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
-            start_ray_keeping_signals(config.hydra.launcher.ray.init)  # before any run is open: Ray may not start
+            # Before any run is open: Ray may not start. Its workers have environments of their own: the varied
+            # keys are handed to them as the store and cache are (conf/launcher/ray.yaml).
+            init = OmegaConf.create(OmegaConf.to_container(config.hydra.launcher.ray.init, resolve=True))
+            init.runtime_env = {**(init.get("runtime_env") or {}),
+                                "env_vars": {**(init.get("runtime_env") or {}).get("env_vars", {}), SWEEP_VARIED_ENV: varied}}
+            exit_on_user_error(start_ray_keeping_signals)(init)
         client, experiment_id = exit_on_user_error(open_store)(self._tracking)
         reap_dead_runs(client, experiment_id)
         name = str(config.hydra.runtime.choices.get("sweep") or "cli")
@@ -870,7 +884,7 @@ class SweepParentRun(Callback):
         )
         register_open_run(client, run.info.run_id, label="sweep", with_children=True)
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
-        os.environ[SWEEP_VARIED_ENV] = " ".join(varied_keys(jobs))  # so are the keys that tell its jobs apart
+        os.environ[SWEEP_VARIED_ENV] = varied  # so are the keys that tell its jobs apart
 
     def on_multirun_end(self, config: DictConfig, **kwargs) -> None:
         jobs = self._jobs(config)
@@ -942,6 +956,16 @@ def sweep_folder(hydra_cfg) -> str:
     travels in each job's config), never from the asking process's own working directory, which on a Ray
     worker or a Slurm node may be another. It names the sweep's parent run, so both sides must agree."""
     return str((Path(str(hydra_cfg.runtime.cwd)) / str(hydra_cfg.sweep.dir)).resolve())
+
+
+def refuse_slurm_without_slurm(launcher_cfg) -> None:
+    """Refuse a SLURM launcher where SLURM's commands are not on PATH, before the sweep's run is opened (submitit
+    fails on it inside the launch, with a traceback, and leaves an empty FAILED sweep run)."""
+    if str(launcher_cfg.get("_target_", "")).endswith(".SlurmLauncher"):
+        absent = [command for command in ("sbatch", "srun") if shutil.which(command) is None]
+        if absent:
+            raise BearingTwinError(f"launcher=submitit_slurm: no SLURM here ({' and '.join(absent)} not on PATH); run "
+                                   "the sweep on the cluster's login node, or try it here with launcher=submitit_local")
 
 
 SWEEP_VARIED_ENV = "BEARINGTWIN_SWEEP_VARIED"
