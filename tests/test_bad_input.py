@@ -78,6 +78,10 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("twin", ["measured.path=x.npy", "seed=${foo}"], ["seed=${foo}: Interpolation key 'foo' not found"]),
     ("train", ["tracking.experiment="], ["tracking.experiment is empty"]),  # MLflow's traceback (an unset variable)
     ("report", ["table4", "experiment="], ["experiment is empty"]),
+    # A launcher's setting given to another launcher: the one that has it is named.
+    ("train", ["-m", "seed=0,1", "hydra.launcher.n_jobs=2"], ["hydra.launcher.n_jobs: not a setting of this launcher; "
+                                                              "launcher=joblib has it"]),
+    ("train", ["-m", "seed=0,1", "launcher=joblib", "hydra.launcher.n_job=2"], ["--cfg hydra lists the launcher's"]),
 ])
 def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, module, overrides, named):
     """Hydra alone would print the options and its search path over many lines, and exit 1."""

@@ -103,7 +103,14 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
             own = own_config_hint(option) if group == "bearing" else ""
             return f"{group}={option}: no such {group} config; choose one of {', '.join(options)}{own}"
     if isinstance(cause, (ConfigAttributeError, ConfigKeyError)) and getattr(cause, "full_key", None):
-        return f"{cause.full_key}: not a setting (no config declares it); check its spelling (--cfg job lists the settings)"
+        key = str(cause.full_key)
+        if key.startswith("hydra.launcher."):  # each launcher has settings of its own; Hydra's basic one none to speak of
+            having = launchers_with(key)
+            where = (f"; {' and '.join(f'launcher={name}' for name in having)} {'has' if len(having) == 1 else 'have'} it"
+                     if having else "; check its spelling (--cfg hydra lists the launcher's settings)")
+            return f"{key}: not a setting of this launcher{where}"
+        listing = "--cfg hydra" if key.startswith("hydra.") else "--cfg job"
+        return f"{key}: not a setting (no config declares it); check its spelling ({listing} lists the settings)"
     if isinstance(error, OverrideParseException):
         return f"{error.override}: not an override Hydra can read ({str(error).splitlines()[0]})"
     lines = []
@@ -115,6 +122,20 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
     if cause is not None:
         lines.append(str(cause).splitlines()[0])
     return "; ".join(lines) or type(error).__name__
+
+
+def launchers_with(key: str) -> list[str]:
+    """The ``conf/launcher`` options whose launcher declares ``key`` (``hydra.launcher.n_jobs``: joblib)."""
+    parent, _, leaf = key.rpartition(".")
+    having = []
+    for option in sorted(path.stem for path in Path(CONF_DIR, "launcher").glob("*.yaml")):
+        try:
+            node = OmegaConf.select(compose_config("train", [f"launcher={option}"], hydra_node=True), parent)
+        except Exception:  # a launcher whose plugin is not installed declares nothing here
+            continue
+        if node is not None and leaf in node:
+            having.append(option)
+    return having
 
 
 def hydra_command(config_name: str) -> Callable:
@@ -229,15 +250,16 @@ def experiment_name(tracking_cfg, key: str = "tracking.experiment") -> str:
     return name
 
 
-def compose_config(config_name: str | None = None, overrides=()) -> DictConfig:
-    """A config composed from ``conf/`` as Hydra would, inside a running Hydra app or outside one."""
+def compose_config(config_name: str | None = None, overrides=(), hydra_node: bool = False) -> DictConfig:
+    """A config composed from ``conf/`` as Hydra would, inside a running Hydra app or outside one; ``hydra_node``:
+    with Hydra's own settings (``hydra.launcher``, ...)."""
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
     if GlobalHydra.instance().is_initialized():
-        return compose(config_name, overrides=list(overrides))
+        return compose(config_name, overrides=list(overrides), return_hydra_config=hydra_node)
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        return compose(config_name, overrides=list(overrides))
+        return compose(config_name, overrides=list(overrides), return_hydra_config=hydra_node)
 
 
 def bearing_config(name: str, key: str = "bearing") -> dict:

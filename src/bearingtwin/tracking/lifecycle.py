@@ -27,6 +27,7 @@ import threading
 import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
+from unittest import mock
 
 from bearingtwin.errors import BearingTwinError
 
@@ -260,7 +261,10 @@ def reap_dead_runs(client: MlflowClient, experiment_id: str) -> list[str]:
     for run in running:
         pid = run.data.tags.get(PID_TAG, "")
         if pid.isdigit() and not _process_alive(int(pid)):
-            client.set_terminated(run.info.run_id, "KILLED")
+            # Without MLflow's "View run <name> at <url>" (a tracking server's run prints it as it ends), which would
+            # open this command's output naming another process's run.
+            with mock.patch.dict(os.environ, {"MLFLOW_SUPPRESS_PRINTING_URL_TO_STDOUT": "true"}):
+                client.set_terminated(run.info.run_id, "KILLED")
             client.set_tag(run.info.run_id, "bt.killed", f"process {pid} on {host} ended without closing the run")
             reaped.append(run.info.run_id)
     if reaped:

@@ -813,8 +813,8 @@ def format_sweep_summary(name: str, parent_run_id: str, outcomes: list[JobOutcom
     counts = {status: sum(o.status == status for o in outcomes) for status in ("FINISHED", "SKIPPED")}
     failed = [o for o in outcomes if o.status not in counts]
     lines = [
-        f"sweep {name} (run {parent_run_id}): {len(outcomes)} jobs, {counts['FINISHED']} finished, "
-        f"{len(failed)} failed, {counts['SKIPPED']} skipped (already finished)"
+        f"sweep {name} (run {parent_run_id}): {len(outcomes)} job{'s' * (len(outcomes) != 1)}, "
+        f"{counts['FINISHED']} finished, {len(failed)} failed, {counts['SKIPPED']} skipped (already finished)"
     ]
     for outcome in failed[:max_listed]:
         reason = outcome.reason if len(outcome.reason) <= 160 else outcome.reason[:157] + "..."
