@@ -386,6 +386,35 @@ def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_pat
         diagnose_recording(read_record(path, pipeline), None, pipeline, "models:/unused", {})
 
 
+def test_a_hust_export_of_combined_damage_or_variable_speed_is_said_so(tmp_path, monkeypatch):
+    """A C export (inner and outer races damaged together) states no state a model answers: not scored, said so,
+    and a label calling it one of the four is refused; a VS export states why it has no speed."""
+    from bearingtwin.twin.report import read_measurement
+
+    monkeypatch.syspath_prepend(str(Path(__file__).parent / "fixtures"))
+    import make_hust_fixtures as hust
+
+    monkeypatch.setattr(hust, "N_ROWS", int(0.5 * hust.FS_HZ))
+    for name in ("0.5X_C_65Hz.xls", "H_VS_0_40_0Hz.xls"):
+        hust.write(name, hust.header_lines(hust.N_ROWS) + ["Data"] + hust.rows(hust.synthetic_axes("inner", 1)), tmp_path)
+    combined = read_record(tmp_path / "0.5X_C_65Hz.xls", envelope_pipeline(), channel="X")
+    assert combined.true_state is None
+    assert any("inner and outer races damaged together (C in its name), a state this model cannot answer" in note
+               for note in combined.notes), combined.notes
+    with pytest.raises(BearingTwinError, match=r"0.5X_C_65Hz.xls: its label=outer given, but the file states inner "
+                                               r"and outer races damaged together"):
+        read_record(tmp_path / "0.5X_C_65Hz.xls", envelope_pipeline(), channel="X", true_state="outer")
+    with pytest.raises(BearingTwinError, match=r"H_VS_0_40_0Hz.xls: the file is a variable-speed run \(VS_0_40_0Hz in "
+                                               r"its name\): its speed changes over the record, and this model reads a "
+                                               r"record at one shaft speed"):
+        read_record(tmp_path / "H_VS_0_40_0Hz.xls", envelope_pipeline(), channel="X")
+    for name, words in (("0.5X_C_65Hz.xls", "inner and outer races damaged together"),
+                        ("H_VS_0_40_0Hz.xls", "a variable-speed run")):
+        with pytest.raises(BearingTwinError, match=rf"{name}: the file states {words}"):
+            read_measurement(OmegaConf.create({"path": str(tmp_path / name), "channel": "X", "fault": None,
+                                               "rpm": None, "fs": None, "check_fs": True}))
+
+
 def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
     """A HUST file records the rig's ER-16K bearing, whatever bearing the model was trained on: the evidence
     on an inner-race export (2 s in the fixtures' format) reads the ER-16K's lines and finds the fault there."""
@@ -405,8 +434,12 @@ def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
     trained_on_y.config = {"data": {"source": "hust", "channel": "Y"}}
     unasked = read_record(tmp_path / "0.5X_I_65Hz.xls", trained_on_y)
     assert unasked.recording.channel == "Y" and "channel Y, the one the model was trained on" in unasked.notes[0]
-    with pytest.raises(BearingTwinError, match="holds channels speed, X, Y, Z; choose one with channel=<name>"):
+    with pytest.raises(BearingTwinError, match="holds channels X, Y, Z; choose one with channel=<name>"):
         read_record(tmp_path / "0.5X_I_65Hz.xls", envelope_pipeline())  # a model that names no channel
+    # The export's speed column is no vibration (a tachometer's reading, not meaningful in these files).
+    with pytest.raises(BearingTwinError, match=r"channel=speed reads the export's speed column, not meaningful .*; "
+                                               r"choose one of X, Y, Z"):
+        read_record(tmp_path / "0.5X_I_65Hz.xls", envelope_pipeline(), channel="speed")
 
 
 def test_a_file_without_a_speed_is_refused_by_a_model_that_needs_one_naming_both_ways_to_give_it(tmp_path):

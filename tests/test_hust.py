@@ -215,3 +215,15 @@ def test_a_condition_is_written_as_the_file_names_write_it(condition, written):
     from bearingtwin.data.hust import hust_file_name
 
     assert hust_file_name("0.5X_I", condition) == f"0.5X_I_{written}Hz.xls"
+
+
+def test_a_label_calling_a_combined_damage_export_one_state_is_refused(tmp_path):
+    """A C export (inner and outer races damaged together) labelled outer in a labels table would train as outer."""
+    from bearingtwin.data.files import load_recording
+
+    text = (HUST / "0.5X_O_65Hz.xls").read_text()
+    (tmp_path / "0.5X_C_65Hz.xls").write_text(text)
+    with pytest.raises(BearingTwinError, match=r"0.5X_C_65Hz.xls: the labels row's state=outer given, but the file "
+                                               r"states inner and outer races damaged together \(C in its name\)"):
+        load_recording(tmp_path / "0.5X_C_65Hz.xls", channel="X", fault="outer", fault_key="the labels row's state")
+    assert load_recording(tmp_path / "0.5X_C_65Hz.xls", channel="X").fault is None

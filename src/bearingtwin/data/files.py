@@ -115,14 +115,19 @@ class RawRecord:
         ``key`` is the setting the caller reads ``name`` from, named in the error messages.
         """
         names = list(self.channels)
+        not_vibration = self.meta.get("not_vibration", {})  # a tachometer's column, a HUST export's speed
+        vibration = [channel for channel in names if channel not in not_vibration]
         if name is None:
             if self.default_channel in self.channels:
                 return self.default_channel, self.channels[self.default_channel]
             if len(names) != 1:
-                raise BearingTwinError(f"{self.path}: holds channels {', '.join(names)}; choose one with {key}=<name>"
-                                       f"{_quoting_hint(key, names)}")
+                raise BearingTwinError(f"{self.path}: holds channels {', '.join(vibration)}; choose one with {key}=<name>"
+                                       f"{_quoting_hint(key, vibration)}")
             return names[0], self.channels[names[0]]
         wanted = str(name)
+        if wanted in not_vibration:
+            raise BearingTwinError(f"{self.path}: {key}={wanted} reads {not_vibration[wanted]}; choose one of "
+                                   f"{', '.join(vibration)}")
         if wanted in self.channels:
             return wanted, self.channels[wanted]
         if isinstance(name, int) or wanted.lstrip("-").isdigit():
@@ -213,6 +218,7 @@ def recording_from_raw(
     name, signal = raw.channel(channel, channel_key)
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{fault_key}={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
+    refuse_a_label_the_file_contradicts(raw, fault, fault_key)
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     notes += filter(None, [named_rate_note(raw, fs, fs_key)])
     rpm = _resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
@@ -231,6 +237,15 @@ def recording_from_raw(
         unit=raw.channel_units.get(name, raw.unit),
         meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes),
     )
+
+
+def refuse_a_label_the_file_contradicts(raw: RawRecord, state: str | None, key: str) -> None:
+    """Refuse a bearing state given (as ``key``) to a file that states one no label fits (a HUST export's combined
+    inner and outer race damage): the file would pass as that state's."""
+    stated = raw.meta.get("unlabelled_state")
+    if state is not None and stated:
+        raise BearingTwinError(f"{raw.path}: {key}={state} given, but the file states {stated}, none of "
+                               f"{', '.join(FAULTS)}")
 
 
 def named_rate_note(raw: RawRecord, fs: float | None, key: str = "fs") -> str | None:

@@ -113,9 +113,14 @@ def read_hust_raw(path: str | Path) -> RawRecord:
     if layout.decimal == ",":
         notes.append("numbers written with decimal commas")
     channels = dict(zip(names, table[:, 1:].T))
-    meta = {"header": header, "data_line": data_line + 1, "bearing": BEARING, "notes": notes}
+    meta = {"header": header, "data_line": data_line + 1, "bearing": BEARING, "notes": notes,
+            "not_vibration": {"speed": "the export's speed column, not meaningful (the shaft speed is in the file's name)"}}
     if name is not None:
         meta.update(state=name.state, severity=name.severity, condition=name.condition)
+        if name.fault is None:  # C: no single state of the four a model or the twin knows
+            meta["unlabelled_state"] = f"inner and outer races damaged together ({name.state} in its name)"
+        if name.shaft_hz is None:
+            meta["no_speed"] = f"a variable-speed run ({name.condition} in its name): its speed changes over the record"
     fs, fs_origin = _sampling_rate(path, header, table[:, 0])
     return RawRecord(
         str(path),

@@ -150,6 +150,7 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
         load_recording(path, channel=cfg.get("channel"), fault=state,
                        rpm=rpm if rpm is not None else default_rpm, fs=fs if fs is not None else default_fs,
                        channel_key="data.channel", fs_key="data.fs" if fs is None else "the labels row's fs",
+                       fault_key="data.pattern's state" if cfg.get("pattern") else "the labels row's state",
                        rpm_key="data.rpm" if rpm is None else "the labels row's rpm")
         for path, state, rpm, fs in rows
     ]

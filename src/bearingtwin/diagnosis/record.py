@@ -30,7 +30,7 @@ import scipy.signal
 
 from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
-from bearingtwin.data.files import read_raw, recording_from_raw
+from bearingtwin.data.files import read_raw, recording_from_raw, refuse_a_label_the_file_contradicts
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import acceleration_factor, acceleration_unit, convert_acceleration
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
@@ -87,7 +87,9 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
     rate_check = "not checked"
-    if recording.rpm is None:
+    if recording.rpm is None and recording.meta.get("no_speed"):
+        notes.append(f"the file is {recording.meta['no_speed']}: no physics evidence and no rate check")
+    elif recording.rpm is None:
         notes.append("the file states no shaft speed: no physics evidence and no rate check (give rpm=<rev/min>, or "
                      "the file's speed in the rpm column of a labels.csv beside it)")
     else:
@@ -97,8 +99,12 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
     if true_state is None:  # what the file's name (CWRU) or content states
         true_state = name.fault if name is not None else recording.fault
+        if recording.meta.get("unlabelled_state"):
+            notes.append(f"the file states {recording.meta['unlabelled_state']}, a state this model cannot answer "
+                         f"(trained on {', '.join(pipeline.class_names)}): not scored")
     else:
         true_state = check_fault(true_state)
+        refuse_a_label_the_file_contradicts(raw, true_state, "its label")
         if name is not None and name.fault != true_state:  # a CWRU name speaks of one bearing, a label maybe of another
             notes.append(f"labelled {true_state} where the file name says {name.fault}: scored as {true_state}")
         elif recording.fault not in (None, true_state):
@@ -117,6 +123,9 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
             f"{recording.source}: {recording.duration:.3f} s, shorter than one window of the model's "
             f"({pipeline.window_length} samples at {pipeline.fs_hz:g} Hz, {pipeline.window_length / pipeline.fs_hz:.3f} s)"
         )
+    if pipeline.needs_rpm and recording.rpm is None and recording.meta.get("no_speed"):
+        raise BearingTwinError(f"{recording.source}: the file is {recording.meta['no_speed']}, and this model reads a "
+                               "record at one shaft speed")
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; "
                                "give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv beside it")

@@ -77,6 +77,10 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
         ("sampling rate", "measured.fs=<Hz>", fs, raw.fs),
         ("speed", "measured.rpm=<rev/min>", rpm, raw.rpm or raw.nominal_rpm),
         ("bearing state", f"measured.fault=<{'|'.join(FAULTS)}>", fault, raw.fault)) if value is None and stated is None]
+    for fact, words, twin in (("bearing state", raw.meta.get("unlabelled_state"), f"one of {', '.join(FAULTS)}"),
+                              ("speed", raw.meta.get("no_speed"), "at one speed")):
+        if words and fact in {fact for fact, _ in unknown}:  # what the file states instead: no value the twin can run
+            raise BearingTwinError(f"{path}: the file states {words}; the twin simulates {twin}")
     if unknown:
         facts, settings = zip(*unknown)
         table = f"fill them in on {row[0]}" if row else f"a row for it in a {DEFAULT_LABELS} beside it: record,state,rpm,fs"
