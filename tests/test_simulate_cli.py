@@ -160,3 +160,27 @@ def test_the_twin_call_it_suggests_finds_a_bearing_of_ones_own(tmp_path):
     words = shlex.split(call.removesuffix(" holds the twin against this record"))
     assert words[0] == "bearingtwin-twin"
     assert compose_config("twin", words[1:]).bearing.ball_diameter_mm == 15.081
+
+
+def test_an_outer_race_defect_outside_the_load_zone_leaves_no_mark_and_is_said_to(tmp_path):
+    """Under a downward load with clearance no ball is pressed at 12 o'clock: an outer-race defect there leaves the
+    record a healthy bearing's (so the file, labelled outer, would teach a classifier nothing), and the simulation
+    says so; at 6 o'clock, in the load zone, it changes the record by most of its level and nothing is said."""
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.config import CONF_DIR
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["simulator.load_y_n=-2000", "simulator.duration=0.3"])
+    healthy, _ = simulate("normal", cfg.bearing, cfg.simulator)
+    rms = {}
+    for angle in (90.0, 270.0):
+        cfg.simulator.defect.outer_angle_deg = angle
+        faulty, _ = simulate("outer", cfg.bearing, cfg.simulator)
+        rms[angle] = np.sqrt(np.mean((faulty.signal - healthy.signal) ** 2)) / np.sqrt(np.mean(healthy.signal ** 2))
+        notes = faulty.meta.get("notes", [])
+        if angle == 90.0:
+            assert notes and "at 90 deg lies outside the static load zone" in notes[0]
+        else:
+            assert not notes
+    assert rms[90.0] < 1e-3 and rms[270.0] > 0.5, rms

@@ -93,6 +93,14 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     return " ".join(words)
 
 
+def defect_words(defect: DictConfig, fault: str) -> str:
+    """The defect a record was made with, as its summary says it."""
+    where = {"outer": "at the centre of the load zone" if defect.outer_angle_deg is None
+             else f"at {defect.outer_angle_deg:g} deg (0: 3 o'clock, 90: 12 o'clock)",
+             "inner": f"at {defect.inner_angle_deg:g} deg from the shaft's start", "ball": f"on ball {defect.ball_index}"}
+    return f"{defect.width_mm:g} mm wide, {defect.depth_mm:g} mm deep, {where[fault]}"
+
+
 @hydra_command("simulate")
 @exit_on_user_error
 def main(cfg: DictConfig) -> None:
@@ -113,9 +121,15 @@ def main(cfg: DictConfig) -> None:
     if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
                          BearingGeometry.from_config(cfg.bearing))
+    bearing, simulator = cfg.bearing, cfg.simulator
     facts = {
         "record": f"{recording.fault}, {recording.signal.size / recording.fs:g} s at {recording.fs:g} Hz, "
                   f"{recording.rpm:g} rpm, sensor {recording.channel} (m/s^2)",
+        "bearing": f"{HydraConfig.get().runtime.choices.get('bearing')} ({bearing.n_balls} balls of {bearing.ball_diameter_mm:g} mm "
+                   f"on a {bearing.pitch_diameter_mm:g} mm pitch, clearance {1000 * bearing.clearance_mm:g} um)",
+        "load": f"{simulator.load_x_n:g} N along x, {simulator.load_y_n:g} N along y, and the inner ring's weight",
+        **({"defect": defect_words(simulator.defect, recording.fault)} if recording.fault != "normal" else {}),
+        **({"note": "; ".join(recording.meta["notes"])} if recording.meta.get("notes") else {}),
         "effects": "; ".join(f"{name} ({', '.join(f'{key} {value}' for key, value in params.items())})"
                              for name, params in OmegaConf.to_container(cfg.effects, resolve=True).items()) or "none",
         "written": ", ".join(path.name for path in written),

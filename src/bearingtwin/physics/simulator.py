@@ -228,6 +228,27 @@ def _plan(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg:
                  n_samples, defect, crossing, oversample)
 
 
+def unloaded_defect_note(plan: _Plan) -> str | None:
+    """A note where an outer-race defect lies outside the static load zone: the arc over which the inner race,
+    displaced through the clearance by the constant forces, presses the balls at rest. No ball carries load there,
+    so the defect may leave little or no mark on the record (only what dynamics, an unbalance say, bring).
+    Angles as ``simulator.defect.outer_angle_deg``: from the x axis (3 o'clock) towards y (12 o'clock)."""
+    if plan.defect.fault != "outer":
+        return None
+    state, clearance = plan.initial_state, plan.params.clearance_m
+    shift = math.hypot(state[0] - state[2], state[1] - state[3])  # of the inner race against the outer
+    centre = math.atan2(state[1] - state[3], state[0] - state[2])
+    half_zone = math.pi if clearance <= 0.0 else (math.acos(clearance / shift) if shift > clearance else 0.0)
+    apart = abs(math.remainder(plan.defect.angle_rad - centre, 2.0 * math.pi))
+    if apart <= half_zone + plan.defect.half_angle_rad:
+        return None
+    zone = (f"the load zone spans {math.degrees(half_zone):.0f} deg either side of {math.degrees(centre) % 360:.0f} deg"
+            if half_zone > 0.0 else "no ball is pressed at rest (the constant forces do not close the clearance)")
+    return (f"the outer-race defect at {math.degrees(plan.defect.angle_rad) % 360:.0f} deg lies outside the static load "
+            f"zone ({zone}; 0 deg is 3 o'clock, 90 deg 12 o'clock): no ball carries load over it, so the record may "
+            "show little or nothing of it")
+
+
 def sensor_signal(channels: np.ndarray, sensor: str, sensor_angle_deg: float | None = None) -> np.ndarray:
     """The acceleration an accelerometer on ``sensor``'s race reads, in m/s^2.
 
@@ -272,6 +293,9 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
     meta = {"transient_s": n_transient / fs, "contact_stiffness_n_per_m1_5": params.contact_stiffness_n_per_m1_5,
             "highest_mode_hz": highest_mode_hz, "defect_depth_m": defect.depth_m, "solver": simulator_cfg["solver"],
             "oversample": oversample}
+    unloaded = unloaded_defect_note(plan)
+    if unloaded:
+        meta["notes"] = [unloaded]
     if simulator_cfg["solver"] == "fast":
         settings = simulator_cfg["fast"]
         resolution = (grid_fs, highest_mode_hz, crossing, settings["steps_per_period"], settings["steps_per_defect"])
