@@ -206,3 +206,16 @@ def test_clipping_and_a_dropout_are_named_per_channel(capsys, monkeypatch, tmp_p
     assert "pile up at its maximum, 0.8 and its minimum, -0.8: the sensor or the converter clipped" in quality["clipped"][0]
     assert quality["held"] == ["samples from 1 s to 1.1 s are all 0 (a dropout, or a stretch held at one value): the "
                                "windows over it read no vibration"]
+
+
+def test_a_bearing_given_against_the_one_the_file_names_is_noted(tmp_path):
+    """Read with another bearing's defect lines, as asked, but not without a word (diagnose notes it, the twin
+    refuses it)."""
+    from bearingtwin.cli.inspect import summarize
+    from bearingtwin.config import load_bearing
+
+    path = tmp_path / "record.npz"
+    np.savez(path, signal=np.random.default_rng(0).standard_normal(12000), fs=12000.0, rpm=1797.0, bearing="cwru_6205")
+    summary = summarize(path, bearing=load_bearing("er16k"), bearing_name="er16k")
+    assert "bearing=er16k given, where the file names cwru_6205" in " ".join(summary["meta"]["notes"])
+    assert not any("bearing=" in note for note in summarize(path)["meta"].get("notes", []))

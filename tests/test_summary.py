@@ -57,3 +57,18 @@ def test_the_progress_bar_shows_for_one_watched_run_only(monkeypatch):
     assert not show_progress_bar("auto", in_sweep=False)
     with pytest.raises(BearingTwinError, match="trainer.progress_bar must be auto, true or false"):
         show_progress_bar("maybe", in_sweep=False)
+
+
+@pytest.mark.parametrize("overrides, words", [
+    (["data.rpm=1480", "data.fs=25600", "bearing=cwru_6205"],
+     "the twin's cwru_6205 bearing at 1480 rpm, 25600 Hz, 30 s per state"),
+    (["data=cwru", "data.load=2"], "CWRU records at 2 hp, channel DE, bearing cwru_6205"),
+    (["data=hust", "data.condition=60"], "HUST exports at 60 Hz, axis X, bearing er16k"),
+    (["data=files", "data.root=/my/rig"], "the recordings in /my/rig"),
+])
+def test_a_training_summary_says_what_the_data_were(overrides, words):
+    """The speed, rate and bearing a simulated set was made at (its params had shown the simulator's defaults)."""
+    from bearingtwin.cli.train import data_words
+    from bearingtwin.config import compose_config
+
+    assert data_words(compose_config("train", overrides)) == words

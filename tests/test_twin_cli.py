@@ -55,6 +55,7 @@ def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path
                      f"out={out}", "candidates=[resonance,slip,noise]", *FAST, *KNOWN, env={"MLFLOW_TRACKING_URI": uri})
     assert result.returncode == 0, result.stderr[-2000:]
     assert "Effects that were missing, in order: resonance" in result.stdout
+    assert "\n  bearing: paper\n" in result.stdout  # whose defect lines were read, though no file named it
     # What was said of the rig is repeated where the summary ends, held, not fitted.
     assert ("  operating point held: radial load 0 N, clearance 5 um, defect depth 0.004 mm, defect width 0.533 mm, "
             "sensor outer race, vertical") in result.stdout, result.stdout[-1500:]

@@ -303,7 +303,7 @@ def test_train_on_the_twin_and_score_the_rigs_records_end_to_end(rig_folder, rep
                       f"hydra.run.dir={tmp_path}/run", cwd=tmp_path, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     assert "calibration accuracy: " in done.stdout
-    assert "records: twin calibrated on healthy_a.npy, outer_a.npy; tested on 4 other records (per_record.csv among the artifacts)" in done.stdout
+    assert "data: twin calibrated on healthy_a.npy, outer_a.npy; tested on 4 other records (per_record.csv among the artifacts)" in done.stdout
     artifacts = next(line.split(": ", 1)[1] for line in done.stdout.splitlines() if line.strip().startswith("artifacts:"))
     assert (Path(artifacts.removeprefix("file://")) / "per_record.csv").is_file(), artifacts
     client = MlflowClient(uri)

@@ -68,6 +68,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         unknown_bearing = unknown_bearing_note(named, "its defect lines are not read")
         if unknown_bearing is None:
             bearing, bearing_name = load_bearing(str(named)), str(named)
+    elif named and bearing_name and str(named) != bearing_name:  # as diagnose says it; the twin refuses it
+        unknown_bearing = f"bearing={bearing_name} given, where the file names {named}: its defect lines are {bearing_name}'s"
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
     # replaces one the file merely declares, a speed or state there must agree with the file's.

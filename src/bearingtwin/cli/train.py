@@ -47,9 +47,10 @@ CALIBRATION_RECALL_WARNING = 0.5
 
 def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str, records: str | None = None) -> str:
     """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one), and
-    ``records``: which real records a twin-trained run was calibrated and tested on."""
+    ``records``: what the data were (:func:`data_words`; which real records a twin-trained run was calibrated and
+    tested on)."""
     metrics = tracked.metrics
-    lines = {"records": records} if records else {}
+    lines = {"data": records} if records else {}
     if "n_train" in metrics and "n_test" in metrics:
         lines["windows"] = f"{int(metrics['n_train'])} to train on, {int(metrics['n_test'])} to test on"
     lines["accuracy"] = percent(metrics["accuracy"])
@@ -84,6 +85,22 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out)
 
 
+def data_words(cfg: DictConfig) -> str | None:
+    """What a run's data are, for its closing summary: the twin's bearing and operating point, or the real
+    records' set (a twin-to-real run's records are named by :func:`twin_to_real_records`)."""
+    data = cfg.data
+    if data.source == "simulated":
+        return (f"the twin's {cfg.bearing.name} bearing at {data.rpm:g} rpm, {data.fs:g} Hz, {data.duration:g} s per "
+                "state")
+    if data.source == "cwru":
+        return f"CWRU records at {data.load} hp, channel {data.channel}, bearing {data.bearing}"
+    if data.source == "hust":
+        return f"HUST exports at {data.condition} Hz, axis {data.channel}, bearing {data.bearing}"
+    if data.source == "files":
+        return f"the recordings in {data.root}" + (f", bearing {data.bearing}" if data.get("bearing") else "")
+    return None
+
+
 def twin_to_real_records(cfg: DictConfig) -> str | None:
     """The real records a ``data=twin_to_real`` run calibrated its twin on and tested on; None for other data."""
     if cfg.data.get("source") != "twin_to_real":
@@ -112,7 +129,8 @@ def train(cfg: DictConfig) -> float | None:
         exit_on_user_error(check_data_settings)(cfg)
         exit_on_user_error(require_files)([cfg])
         exit_on_user_error(build_effects)(cfg.get("effects"))  # their parameters, before a run is opened
-        records = exit_on_user_error(twin_to_real_records)(cfg)  # for the closing summary, as read before the run
+        # For the closing summary, as read before the run.
+        records = exit_on_user_error(twin_to_real_records)(cfg) or data_words(cfg)
     # MLflow, scikit-learn and the models once the input is accepted: a refusal takes a second, not several.
     from bearingtwin.models.experiment import checked_settings, run_experiment
     from bearingtwin.tracking.mlflow_logging import method_name, run_name, sweep_info, train_tracked

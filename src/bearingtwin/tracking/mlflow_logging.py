@@ -316,6 +316,18 @@ def loggable_config(cfg: DictConfig) -> dict:
     return container
 
 
+def as_simulated(container: dict) -> dict:
+    """A simulated data set's config with the simulator's operating point as the data set ran it (``data.rpm`` ...
+    replace ``simulator.rpm`` ...): its params name the speed and rate the records were made at, not defaults unused."""
+    from bearingtwin.data.simulated import DATA_SET_OPERATING_POINT
+
+    data, simulator = container.get("data") or {}, container.get("simulator")
+    if data.get("source") != "simulated" or not isinstance(simulator, dict):
+        return container
+    return {**container, "simulator": {**simulator, **{name: data[name] for name in DATA_SET_OPERATING_POINT
+                                                      if name in data}}}
+
+
 def config_hash(cfg: DictConfig) -> str:
     """Hash of what a run computes: the resolved config without the :data:`UNHASHED_KEYS` (dotted paths), and the
     contents of the files its data is read from (:func:`~bearingtwin.data.build.input_digest`)."""
@@ -612,7 +624,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     run_id = run.info.run_id
     register_open_run(client, run_id)
     try:
-        log_params_and_tags(client, run_id, flatten(loggable_config(cfg)), tags)
+        log_params_and_tags(client, run_id, flatten(as_simulated(loggable_config(cfg))), tags)
         client.log_text(run_id, OmegaConf.to_yaml(OmegaConf.create(loggable_config(cfg))), CONFIG_ARTIFACT)
         result = train(cfg, root_dir)
         log_params_and_tags(client, run_id, {}, {"dataset_key": result.dataset_key, "features_key": result.features_key})

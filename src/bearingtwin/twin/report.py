@@ -516,7 +516,8 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     cfg, bearing_line = record_bearing(cfg, measured)
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = check_measurement(cfg.measured, measured, channels, geometry)
-    notes = {} if bearing_line is None else {"bearing": bearing_line}  # what the closing summary repeats, as logged
+    # What the closing summary repeats, as logged: the bearing whose defect lines the twin reads, always.
+    notes = {"bearing": bearing_line or str(cfg.bearing.get("name"))}
     reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
     to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
