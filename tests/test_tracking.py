@@ -176,6 +176,16 @@ def test_a_simulated_runs_params_name_the_speed_and_rate_its_records_were_made_a
     assert stored_config(client, tracked.run_id).simulator.rpm == 1797.0  # the config as composed, as it was
 
 
+def test_a_real_data_runs_name_says_which_records_unless_its_sweep_does():
+    from bearingtwin.tracking.mlflow_logging import run_name
+
+    cwru = OmegaConf.create({"seed": 0, "data": {"source": "cwru", "load": 2}, "features": {"kind": "raw"}})
+    hust = OmegaConf.create({"seed": 0, "data": {"source": "hust", "condition": 65}, "features": {"kind": "raw"}})
+    assert run_name(cwru, "raw+svm", None) == "raw+svm cwru 2hp seed=0"
+    assert run_name(hust, "raw+svm", None) == "raw+svm hust 65Hz seed=0"
+    assert run_name(cwru, "raw+svm", SweepInfo("cwru", "/s", ("data.load=2",))) == "raw+svm cwru data.load=2 seed=0"
+
+
 def test_a_failing_run_is_failed_with_its_error(tmp_path):
     cfg = make_cfg(tmp_path)
     with pytest.raises(BearingTwinError, match="samples_per_class"):

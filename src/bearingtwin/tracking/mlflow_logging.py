@@ -385,10 +385,14 @@ def earlier_model(client: MlflowClient, run_id: str) -> str:
 
 
 def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
-    """``<method> <data source> [<vmd_params> [<optimizer>]] [varied overrides] seed=<n>``: what sets
-    runs apart at a glance (the VMD settings only where the features search VMD parameters; the
-    optimizer only when it is not the default SABO)."""
-    parts = [method, str(cfg.data.get("source", ""))]
+    """``<method> <data source> [<load or condition>] [<vmd_params> [<optimizer>]] [varied overrides] seed=<n>``: what
+    sets runs apart at a glance (a CWRU load or HUST condition unless the sweep varies it; the VMD settings only where
+    the features search VMD parameters; the optimizer only when it is not the default SABO)."""
+    source = str(cfg.data.get("source", ""))
+    parts = [method, source]
+    where = {"cwru": ("load", "hp"), "hust": ("condition", "Hz")}.get(source)  # which records, where a sweep does not say
+    if where and cfg.data.get(where[0]) is not None and not (sweep and f"data.{where[0]}" in " ".join(sweep.varied)):
+        parts[-1] += f" {cfg.data[where[0]]}{where[1]}"
     features = cfg.get("features") or {}
     if features.get("kind") == "sabo_vmd":
         parts.append(str(features.get("vmd_params", "")))
