@@ -8,6 +8,7 @@ import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -348,6 +349,9 @@ def test_a_store_that_cannot_serve_is_named_before_any_work(tmp_path):
         check_store("file:///x")
     with pytest.raises(BearingTwinError, match=r"^tracking.uri=http://127.0.0.1:9: no tracking server answers there"):
         check_store("http://127.0.0.1:9")
+    with mock.patch.dict(os.environ, {"MLFLOW_TRACKING_URI": "http://127.0.0.1:9"}):  # named where the user set it
+        with pytest.raises(BearingTwinError, match=r"^MLFLOW_TRACKING_URI=http://127.0.0.1:9: no tracking server"):
+            check_store("http://127.0.0.1:9")
     missing = f"sqlite:///{tmp_path}/none/mlflow.db"
     with pytest.raises(BearingTwinError, match=r"no such store \(.*none/mlflow.db does not exist\)"):
         check_store(missing, must_exist=True)

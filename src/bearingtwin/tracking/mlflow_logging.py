@@ -145,7 +145,7 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
             body = str(error).split("Response body:", 1)[1].strip(" '\"") if "Response body:" in str(error) else ""
             what = ("the server there does not answer as an MLflow tracking server" if body.startswith("<")
                     else "the tracking server refused")
-            raise BearingTwinError(f"tracking.uri={uri}: {what} ({mlflow_reason(error)})") from None
+            raise BearingTwinError(f"{store_setting(uri)}: {what} ({mlflow_reason(error)})") from None
         if experiment is not None and experiment.lifecycle_stage == "deleted":  # MLflow refuses runs in it
             raise BearingTwinError(f"tracking.experiment={name}: deleted in {uri}; restore it (mlflow experiments "
                                    f"restore --experiment-id {experiment.experiment_id}), remove it for good (mlflow "
@@ -176,7 +176,7 @@ def check_store(uri: str, must_exist: bool = False) -> None:
     """Refuse, in one line naming ``tracking.uri``, a store that cannot serve (see :func:`open_store`)."""
     scheme = urlparse(uri).scheme
     if (scheme == "file" or (not scheme and uri != "databricks")) and os.environ.get("MLFLOW_ALLOW_FILE_STORE") != "true":
-        raise BearingTwinError(f"tracking.uri={uri}: MLflow 3 keeps runs in a database or behind a server, not in a "
+        raise BearingTwinError(f"{store_setting(uri)}: MLflow 3 keeps runs in a database or behind a server, not in a "
                                "folder; give sqlite:///<folder>/mlflow.db or http://<server>")
     if scheme in ("http", "https"):
         bound_http_retries()
@@ -185,7 +185,7 @@ def check_store(uri: str, must_exist: bool = False) -> None:
         _driver_installed(uri)
     path = _sqlite_path(uri)
     if must_exist and path is not None and not Path(path).is_file():
-        raise BearingTwinError(f"tracking.uri={uri}: no such store ({path} does not exist)")
+        raise BearingTwinError(f"{store_setting(uri)}: no such store ({path} does not exist)")
     if path is not None and Path(path).is_file():
         _check_sqlite_store(uri, Path(path), must_exist)
 
@@ -200,7 +200,7 @@ def _driver_installed(uri: str) -> None:
     except ImportError as error:  # a missing module, or a module missing its system library (unixODBC)
         hint = (" (PostgreSQL: the postgres extra, pip install -c requirements.lock -e \".[postgres]\", installs psycopg 3;"
                 " name it in the URI: postgresql+psycopg://...)" if urlparse(uri).scheme.startswith("postgres") else "")
-        raise BearingTwinError(f"tracking.uri={uri}: its database driver, {error.name or error}, is not installed{hint}") from None
+        raise BearingTwinError(f"{store_setting(uri)}: its database driver, {error.name or error}, is not installed{hint}") from None
     except Exception:  # anything else about the URI is the server's and MLflow's to report, as before
         return
 
@@ -215,13 +215,13 @@ def _check_sqlite_store(uri: str, path: Path, must_exist: bool) -> None:
             tables = {row[0] for row in database.execute("select name from sqlite_master where type = 'table'")}
     except sqlite3.DatabaseError as error:
         if getattr(error, "sqlite_errorname", "") == "SQLITE_NOTADB":
-            raise BearingTwinError(f"tracking.uri={uri}: {path} is not an SQLite database ({error})") from None
+            raise BearingTwinError(f"{store_setting(uri)}: {path} is not an SQLite database ({error})") from None
         return  # locked, or a crashed writer's journal a read-only look cannot roll back: MLflow's own connection can
     if tables and "experiments" not in tables:
-        raise BearingTwinError(f"tracking.uri={uri}: {path} is an SQLite database but not an MLflow store "
+        raise BearingTwinError(f"{store_setting(uri)}: {path} is an SQLite database but not an MLflow store "
                                f"(its tables: {', '.join(sorted(tables)[:5])}); give another file")
     if not tables and must_exist:
-        raise BearingTwinError(f"tracking.uri={uri}: {path} is empty, not an MLflow store")
+        raise BearingTwinError(f"{store_setting(uri)}: {path} is empty, not an MLflow store")
 
 
 @functools.lru_cache(maxsize=None)
@@ -229,7 +229,7 @@ def _server_answers(uri: str) -> None:
     """Ask the server's liveness route once per process; only silence is refused (:func:`server_silence`)."""
     silence = server_silence(uri)
     if silence is not None:
-        raise BearingTwinError(f"tracking.uri={uri}: no tracking server answers there ({silence})")
+        raise BearingTwinError(f"{store_setting(uri)}: no tracking server answers there ({silence})")
 
 
 def server_silence(uri: str) -> str | None:
@@ -667,9 +667,18 @@ def _server_lost(uri: str, run_id: str, error: Exception) -> BearingTwinError | 
     silence = server_silence(uri)
     if silence is None:
         return None
-    return BearingTwinError(f"tracking.uri={uri}: the tracking server stopped answering during run {run_id} ({silence}); "
+    return BearingTwinError(f"{store_setting(uri)}: the tracking server stopped answering during run {run_id} ({silence}); "
                             "the run stays RUNNING there until the next bearingtwin-train on this host finds the server "
                             "again and marks it KILLED")
+
+
+def store_setting(uri: str) -> str:
+    """The store ``uri`` as the user set it, for a message: ``MLFLOW_TRACKING_URI=<uri>`` where the environment gave
+    it (no ``tracking.uri=`` on the command line), else ``tracking.uri=<uri>``."""
+    from bearingtwin.config import given_on_command_line
+
+    from_environment = os.environ.get("MLFLOW_TRACKING_URI") == uri and not given_on_command_line("tracking.uri")
+    return f"{'MLFLOW_TRACKING_URI' if from_environment else 'tracking.uri'}={uri}"
 
 
 def experiment_tag(cfg: DictConfig, choices: Mapping | None = None) -> str:
