@@ -144,6 +144,10 @@ def test_served_model_refuses_a_wrong_window_length(served):
     status, answer = post_json(f"{info['url']}/invocations", {"inputs": short, "params": {"rpm": 1797.0}})
     assert status == 400, answer  # the caller's input, not a server crash
     assert str(pipeline.window_length) in answer["message"]  # the answer says which shape was expected
+    flat = np.ones((2, pipeline.window_length))
+    flat[0] += np.random.default_rng(0).standard_normal(pipeline.window_length)
+    status, answer = post_json(f"{info['url']}/invocations", {"inputs": flat.tolist(), "params": {"rpm": 1797.0}})
+    assert status == 400 and "window 1 of the request is constant (every sample equal)" in answer["message"], answer
 
 
 @needs_record
@@ -158,6 +162,7 @@ def test_served_model_takes_the_recorded_bearing_and_refuses_an_unknown_one(serv
     assert status == 200 and other == plain, other
     status, answer = post_json(f"{info['url']}/invocations", {"inputs": windows, "params": {"rpm": rpm, "bearing": "skf_0000"}})
     # The reason in the answer's message, not only in its stack trace (MLflow's "unexpected error" for other exceptions).
-    assert status == 400 and "bearing=skf_0000: no such bearing config" in answer["message"], answer
+    assert status == 400 and "params bearing=skf_0000: no such bearing config" in answer["message"], answer
+    assert "hydra.searchpath" not in answer["message"]  # a request cannot give a command's search path
     status, answer = post_json(f"{info['url']}/invocations", {"inputs": windows, "params": {"rpm": -5.0}})
     assert status == 400 and "rpm=-5.0 must be a positive number of rev/min" in answer["message"], answer

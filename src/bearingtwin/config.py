@@ -262,15 +262,16 @@ def compose_config(config_name: str | None = None, overrides=(), hydra_node: boo
         return compose(config_name, overrides=list(overrides), return_hydra_config=hydra_node)
 
 
-def bearing_config(name: str, key: str = "bearing") -> dict:
+def bearing_config(name: str, key: str = "bearing", own_hint: bool = True) -> dict:
     """``conf/bearing/<name>.yaml`` composed as Hydra would (its defaults chain applied), as a dict named ``name``;
     a name that is not one of those files raises naming ``key``, the setting it came from, before
-    Hydra parses it (a name may come from a served model's request)."""
+    Hydra parses it (a name may come from a served model's request: ``own_hint`` false leaves out how a command
+    finds a bearing of one's own, which a request cannot do)."""
     search_path = search_path_override()
     choices = bearing_choices(search_path)
     if name not in choices:
         raise BearingTwinError(f"{key}={name}: no such bearing config; choose one of {', '.join(choices)}"
-                               f"{own_config_hint(name)}")
+                               f"{own_config_hint(name) if own_hint else ''}")
     config = OmegaConf.to_container(compose_config(overrides=[f"+bearing={name}", *search_path]).bearing, resolve=True)
     check_bearing_keys(config, name)
     return {**config, "name": name}  # a file that names none inherits its defaults' name; a bearing is its file

@@ -57,7 +57,12 @@ class DiagnosisModel(PythonModel):
         params = params or {}
         try:
             rpm = params.get("rpm") or None  # 0, the signature's default: not given
-            return predictions_frame(self.pipeline, np.asarray(model_input, dtype=np.float64),
+            windows = np.asarray(model_input, dtype=np.float64)
+            flat = np.flatnonzero(np.ptp(windows, axis=-1) == 0) if windows.ndim == 2 and windows.size else []
+            if len(flat):  # said of the request, where the features would name an array index
+                raise BearingTwinError(f"window {flat[0]} of the request is constant (every sample equal): no vibration "
+                                       "to diagnose")
+            return predictions_frame(self.pipeline, windows,
                                      None if rpm is None else positive_number(rpm, "rpm", "rev/min"),
                                      recorded_bearing(self.pipeline, params.get("bearing")))
         except BearingTwinError as error:
@@ -79,7 +84,7 @@ _BEARINGS_LOCK = threading.Lock()
 def _bearing_config(name: str) -> dict:
     from bearingtwin.config import bearing_config
 
-    return bearing_config(name)
+    return bearing_config(name, "params bearing", own_hint=False)
 
 
 def use_one_thread_per_library() -> None:
