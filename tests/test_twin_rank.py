@@ -582,6 +582,11 @@ def test_base_parameters_the_record_does_not_identify_are_said_apart_without_the
     assert words.startswith("defect width 0.637 mm (0.395-0.934); sensor gain 1.49"), words
     assert words.endswith("Not identified by this record (anywhere in the searched range fits as well): radial load "
                           "(downward) over 20-5000 N") and "895" not in words
+    # The gain beside the one the record's unit gives at the twin's level: how much stronger the record is.
+    assert "sensor gain 27.6 (measurement unit per m/s^2; a record in m/s^2 at the twin's level gives 1)" in \
+        _operating_point_words(operating, 27.6, "m/s^2")
+    assert "sensor gain 0.5 (measurement unit per m/s^2; a record in g at the twin's level gives 0.102)" in \
+        _operating_point_words(operating, 0.5, "g")
 
 
 def test_the_sensor_directions_interval_is_read_on_the_half_turn():

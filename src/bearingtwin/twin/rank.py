@@ -57,6 +57,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from bearingtwin.data.recording import Recording
+from bearingtwin.data.units import acceleration_factor, acceleration_unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import effect_class
 from bearingtwin.physics.geometry import BearingGeometry
@@ -276,6 +277,7 @@ class TwinFit:
     # Candidates offered only once another effect is in the twin, which it never took (second_resonance without
     # resonance): the report's, not the summary's (with the default candidates nearly every run has one).
     awaiting: str = ""
+    unit: str = ""  # the measurement's unit, which the sensor gain converts the twin's m/s^2 into
 
     @property
     def final_error(self) -> float:
@@ -314,7 +316,7 @@ class TwinFit:
     @property
     def summary(self) -> str:
         part = "held-out part" if self.held_out else "record"
-        lines = ["Base parameters that differed: " + _operating_point_words(self.operating_point, self.gain) + "."]
+        lines = ["Base parameters that differed: " + _operating_point_words(self.operating_point, self.gain, self.unit) + "."]
         if self.added:
             found = "; then ".join(fit.sentence(first=index == 0) for index, fit in enumerate(self.added))
             what = "missing or changed" if any(fit.changed_from is not None for fit in self.added) else "missing"
@@ -475,7 +477,16 @@ def _parameter_words(name: str, value: float, interval=None) -> str:
     return f"{name.replace('_', ' ')} {_value(value, interval)}"
 
 
-def _operating_point_words(operating: Mapping, gain: float) -> str:
+def gain_words(gain: float, unit: str) -> str:
+    """The sensor gain beside the one a record in ``unit`` at the twin's own level would give (1 in m/s^2, 0.102
+    in g): the factor by which the record is stronger or weaker than the twin, which the gain takes up."""
+    words = f"sensor gain {_number(gain)} (measurement unit per m/s^2"
+    if acceleration_unit(unit) is None:
+        return words + ")"
+    return words + f"; a record in {acceleration_unit(unit)} at the twin's level gives {_number(acceleration_factor('m/s^2', unit))})"
+
+
+def _operating_point_words(operating: Mapping, gain: float, unit: str = "") -> str:
     """The fitted base parameters with their intervals, then, apart, those the record does not identify (any value in
     the searched range fits as well): their fitted numbers mean little, so only the range is said."""
     parts, unidentified = [], []
@@ -496,7 +507,7 @@ def _operating_point_words(operating: Mapping, gain: float) -> str:
         else:
             parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}"
                          + identification_words(entry))
-    parts.append(f"sensor gain {_number(gain)} (measurement unit per m/s^2)")
+    parts.append(gain_words(gain, unit))
     text = "; ".join(parts)
     if unidentified:
         text += (". Not identified by this record (anywhere in the searched range fits as well): "
@@ -771,7 +782,7 @@ class EffectRanker:
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
                             unclaimed, self.min_signature_gain, not_tried, pairs, passed_over=passed_over,
-                            awaiting=awaiting)
+                            awaiting=awaiting, unit=measured.unit)
         return self
 
     def _not_tried(self, fault: str) -> str:
