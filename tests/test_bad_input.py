@@ -78,6 +78,9 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("twin", ["measured.path=x.npy", "seed=${foo}"], ["seed=${foo}: Interpolation key 'foo' not found"]),
     ("train", ["tracking.experiment="], ["tracking.experiment is empty"]),  # MLflow's traceback (an unset variable)
     ("report", ["table4", "experiment="], ["experiment is empty"]),
+    # A misspelt key, or the name another data source gives a setting: the declared one is named.
+    ("train", ["trainer.max_epoch=3"], ["trainer.max_epoch: not a setting", "did you mean trainer.max_epochs?"]),
+    ("train", ["data=hust", "data.windows_per_record=3"], ["did you mean data.samples_per_class?"]),
     # A launcher's setting given to another launcher: the one that has it is named.
     ("train", ["-m", "seed=0,1", "hydra.launcher.n_jobs=2"], ["hydra.launcher.n_jobs: not a setting of this launcher; "
                                                               "launcher=joblib has it"]),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import functools
 import os
 import re
@@ -202,7 +203,16 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
             # As Hydra's _run_hydra: -m, or else the config's hydra.mode; --cfg shows a run's config.
             mode = RunMode.MULTIRUN if args.multirun else (None if args.cfg else app.get_mode(name, args.overrides))
             cfg = app.compose_config(name, list(args.overrides), run_mode=mode or RunMode.RUN)
-        except COMPOSITION_ERRORS:
+        except COMPOSITION_ERRORS as error:
+            key = getattr(error.__cause__, "full_key", None)
+            if isinstance(error.__cause__, (ConfigAttributeError, ConfigKeyError)) and key and not key.startswith("hydra."):
+                rest = [o for o in args.overrides if o.partition("=")[0].lstrip("+~") != key]
+                try:
+                    hint = closest_setting(app.compose_config(name, rest, run_mode=mode or RunMode.RUN), key)
+                except Exception:  # the rest does not compose either: Hydra's own message names the first fault
+                    hint = ""
+                if hint:
+                    raise BearingTwinError(f"{key}: not a setting (no config declares it); {hint}") from None
             raise
         except yaml.YAMLError as error:  # a config file of the user's own that is no YAML: Hydra prints a traceback
             raise BearingTwinError(yaml_error_line(error)) from None
@@ -392,6 +402,23 @@ MULTI_OPTION_GROUPS = {"effects"}
 """Config groups that take a list of options (``effects=[noise,tones]``); every other takes one."""
 
 
+NAMED_OTHERWISE = {"windows_per_record": "samples_per_class", "samples_per_class": "windows_per_record"}
+"""Settings one data source names one way and the others another (``data=files``: windows per record)."""
+
+
+def closest_setting(cfg: DictConfig, key: str) -> str:
+    """"did you mean <key>?" naming the setting beside ``key`` in ``cfg`` closest to it (a misspelling, or the name
+    another data source gives it), or "" where none is close."""
+    parent, _, leaf = key.rpartition(".")
+    node = OmegaConf.select(cfg, parent, default=None) if parent else cfg
+    if not isinstance(node, DictConfig):
+        return ""
+    names = [str(name) for name in node]
+    match = ([NAMED_OTHERWISE[leaf]] if NAMED_OTHERWISE.get(leaf) in names
+             else difflib.get_close_matches(leaf, names, n=1, cutoff=0.75))
+    return f"did you mean {parent + '.' if parent else ''}{match[0]}?" if match else ""
+
+
 def refuse_unknown_keys(hydra_cfg) -> None:
     """Raise naming a ``+key=value`` override that adds a key no config declares.
 
@@ -432,7 +459,8 @@ def refuse_unknown_keys(hydra_cfg) -> None:
         maps = [cfg if i == 0 else OmegaConf.select(cfg, ".".join(parts[:i]), default=None)
                 for i in range(len(parts)) for cfg in (declared, groups_alone)]
         if not any(isinstance(node, DictConfig) and len(node) == 0 for node in maps):
+            hint = closest_setting(declared, key)
             raise BearingTwinError(
                 f"{override.input_line}: {key} is not a setting of {config_name} (no config declares it); "
-                "check its spelling, or set a declared key without '+'"
+                + (hint or "check its spelling, or set a declared key without '+'")
             )
