@@ -401,7 +401,7 @@ def test_a_hust_export_of_combined_damage_or_variable_speed_is_said_so(tmp_path,
     assert combined.true_state is None
     assert any("inner and outer races damaged together (C in its name), a state this model cannot answer" in note
                for note in combined.notes), combined.notes
-    with pytest.raises(BearingTwinError, match=r"0.5X_C_65Hz.xls: its label=outer given, but the file states inner "
+    with pytest.raises(BearingTwinError, match=r"0.5X_C_65Hz.xls: the label=outer given, but the file states inner "
                                                r"and outer races damaged together"):
         read_record(tmp_path / "0.5X_C_65Hz.xls", envelope_pipeline(), channel="X", true_state="outer")
     with pytest.raises(BearingTwinError, match=r"H_VS_0_40_0Hz.xls: the file is a variable-speed run \(VS_0_40_0Hz in "
@@ -440,6 +440,8 @@ def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
     with pytest.raises(BearingTwinError, match=r"channel=speed reads the export's speed column, not meaningful .*; "
                                                r"choose one of X, Y, Z"):
         read_record(tmp_path / "0.5X_I_65Hz.xls", envelope_pipeline(), channel="speed")
+    with pytest.raises(BearingTwinError, match=r"channel=0 reads the export's speed column"):  # its place, too
+        read_record(tmp_path / "0.5X_I_65Hz.xls", envelope_pipeline(), channel=0)
 
 
 def test_a_file_without_a_speed_is_refused_by_a_model_that_needs_one_naming_both_ways_to_give_it(tmp_path):

@@ -176,8 +176,10 @@ def test_an_export_saved_again_with_decimal_commas_closing_tabs_or_a_row_of_name
         time, speed, x, y, z = row.split("\t")
         return "\t".join([time, speed, z, x, y])
 
+    comma_header = [line.replace("Sampling Rate\t25600", "Sampling Rate\t25600,0") for line in header]
     variants = {
-        "comma": header + [row.replace(".", ",") for row in rows],
+        "comma": comma_header + [row.replace(".", ",") for row in rows],
+        "unnamed_time": header + ["\tSpeed\tX\tY\tZ"] + rows,
         "closing_tab": header + [row + "\t" for row in rows],
         "names": header + ["Time (s)\tSpeed\tZ (g)\tX (g)\tY (g)"] + [reorder(row) for row in rows],
         "all_three": header + ["Time (s)\tSpeed\tX\tY\tZ\t"] + [row.replace(".", ",") + "\t" for row in rows],
@@ -190,6 +192,10 @@ def test_an_export_saved_again_with_decimal_commas_closing_tabs_or_a_row_of_name
             np.testing.assert_array_equal(raw.channels[axis], original.channels[axis], err_msg=f"{name}: {axis}")
         assert raw.fs == pytest.approx(25600, rel=1e-4) and raw.fault == "outer"
     assert "decimal commas" in " ".join(read_raw(tmp_path / "comma" / "0.5X_O_65Hz.xls").meta["notes"])
+    # A first row of numbers with its time cell empty is a damaged row, not a row of names.
+    (tmp_path / "blank.xls").write_text("\n".join(header + ["\t" + rows[0].split("\t", 1)[1]] + rows[1:]) + "\n")
+    with pytest.raises(BearingTwinError, match=rf"blank.xls: line {at + 2} column time is empty"):
+        read_raw(tmp_path / "blank.xls")
     bad = header + ["Time\tSpeed\tX\tY\tZ"] + rows[:10] + [rows[10].replace("\t", "\tx", 1)] + rows[11:]
     (tmp_path / "bad.xls").write_text("\n".join(bad) + "\n")
     with pytest.raises(BearingTwinError, match=rf"bad.xls: line {at + 13} column speed: 'x.*' is not a number"):

@@ -142,18 +142,19 @@ def test_the_summary_names_the_effects_the_record_was_made_with(tmp_path):
     assert "  effects: none" in bare.stdout
 
 
-def test_the_twin_call_it_suggests_finds_a_bearing_of_ones_own(tmp_path):
+@pytest.mark.parametrize("folder", ["my conf", "josé"])  # quoted for Hydra: a space, a letter outside ASCII
+def test_the_twin_call_it_suggests_finds_a_bearing_of_ones_own(tmp_path, folder):
     """The closing summary's bearingtwin-twin call carries the search path a bearing of one's own was found by
     (run as printed, it had been refused: no such bearing config)."""
     import shlex
 
     from bearingtwin.config import compose_config
 
-    (tmp_path / "my conf" / "bearing").mkdir(parents=True)
-    (tmp_path / "my conf" / "bearing" / "my6308.yaml").write_text(
+    (tmp_path / folder / "bearing").mkdir(parents=True)
+    (tmp_path / folder / "bearing" / "my6308.yaml").write_text(
         "defaults: [paper]\nname: my6308\nball_diameter_mm: 15.081\npitch_diameter_mm: 65.0\nn_balls: 8\n"
         "outer_diameter_mm: 90.0\ninner_diameter_mm: 40.0\n")
-    result = run(tmp_path, f"hydra.searchpath=['file://{tmp_path / 'my conf'}']", "bearing=my6308",
+    result = run(tmp_path, f"hydra.searchpath=['file://{tmp_path / folder}']", "bearing=my6308",
                  "simulator.duration=0.2", f"out={tmp_path}/x.npz")
     assert result.returncode == 0, result.stderr
     call = next(line for line in result.stdout.splitlines() if "next:" in line).split("next: ")[1]

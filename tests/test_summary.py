@@ -63,7 +63,8 @@ def test_the_progress_bar_shows_for_one_watched_run_only(monkeypatch):
     (["data.rpm=1480", "data.fs=25600", "bearing=cwru_6205"],
      "the twin's cwru_6205 bearing at 1480 rpm, 25600 Hz, 30 s per state"),
     (["data=cwru", "data.load=2"], "CWRU records at 2 hp, channel DE, bearing cwru_6205"),
-    (["data=hust", "data.condition=60"], "HUST exports at 60 Hz, axis X, bearing er16k"),
+    (["data=hust", "data.condition=60"], "HUST exports at 60Hz, axis X, bearing er16k"),
+    (["data=hust", "data.condition=VS_0_40_0"], "HUST exports at VS_0_40_0Hz, axis X, bearing er16k"),
     (["data=files", "data.root=/my/rig"], "the recordings in /my/rig"),
 ])
 def test_a_training_summary_says_what_the_data_were(overrides, words):

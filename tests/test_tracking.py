@@ -164,19 +164,6 @@ def test_a_run_logs_config_metrics_curves_and_tables(tmp_path):
     assert stored_config(client, run.info.run_id).classifier.hidden_units == 30
 
 
-def test_a_simulated_runs_params_name_the_speed_and_rate_its_records_were_made_at(tmp_path):
-    """A simulated data set runs the simulator at data.rpm, data.fs and data.duration: the params had shown the
-    simulator group's unused defaults beside them (simulator.rpm 1797 beside data.rpm 1480)."""
-    cfg = make_cfg(tmp_path)
-    cfg.data.update(rpm=1480.0, fs=25600.0, duration=2.0)
-    cfg.simulator.update(rpm=1797.0, fs=10000.0, duration=30.0)
-    tracked = train_tracked(cfg, CHOICES, None, None, fake_train)
-    client, _ = open_store(cfg.tracking)
-    params = client.get_run(tracked.run_id).data.params
-    assert (params["simulator.rpm"], params["simulator.fs"], params["simulator.duration"]) == ("1480.0", "25600.0", "2.0")
-    assert stored_config(client, tracked.run_id).simulator.rpm == 1797.0  # the config as composed, as it was
-
-
 def test_a_real_data_runs_name_says_which_records_unless_its_sweep_does():
     from bearingtwin.tracking.mlflow_logging import run_name
 
@@ -185,6 +172,8 @@ def test_a_real_data_runs_name_says_which_records_unless_its_sweep_does():
     assert run_name(cwru, "raw+svm", None) == "raw+svm cwru 2hp seed=0"
     assert run_name(hust, "raw+svm", None) == "raw+svm hust 65Hz seed=0"
     assert run_name(cwru, "raw+svm", SweepInfo("cwru", "/s", ("data.load=2",))) == "raw+svm cwru data.load=2 seed=0"
+    assert run_name(cwru, "raw+svm", SweepInfo("cwru", "/s", ("+cwru_condition=2hp",))) == \
+        "raw+svm cwru +cwru_condition=2hp seed=0"
 
 
 def test_a_failing_run_is_failed_with_its_error(tmp_path):

@@ -191,7 +191,7 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
     for override in args.overrides:
         key, _, value = override.partition("=")
         group = key.lstrip("+~")
-        if Path(CONF_DIR, group).is_dir() and ("/" in value or value.endswith((".yaml", ".yml"))):
+        if Path(CONF_DIR, group).is_dir() and (value.startswith(("/", "~", ".")) or value.endswith((".yaml", ".yml"))):
             raise BearingTwinError(f"{override}: a config group takes the name of a config, not a file: put the file in "
                                    f"<folder>/{group}/<name>.yaml and give {group}=<name> with "
                                    "hydra.searchpath=[file://<folder>]")
@@ -234,8 +234,9 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 if group == "simulator" and name in DATA_SET_OPERATING_POINT:
                     raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
                                            f"({cfg.data[name]}); give data.{name}=<value>")
-        if "bearing" in cfg:  # a file of the user's own: a misspelt key would pass without a word
-            check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name"))
+        if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
+            check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name")
+                               or "<the bearing keys given>")
         tracking = cfg.get("tracking") or {}
         if "experiment" in tracking and tracking.get("enabled") is not False:  # no store is used with tracking off
             experiment_name(cfg.tracking)
@@ -341,7 +342,7 @@ def search_path_override() -> list[str]:
     from hydra.core.hydra_config import HydraConfig
 
     folders = list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
-    if all(re.fullmatch(r"[\w:/.~-]+", folder) for folder in folders):  # as a user writes it: [file:///home/me/conf]
+    if all(re.fullmatch(r"[A-Za-z0-9_:/.-]+", folder) for folder in folders):  # as a user writes it: [file:///home/me/conf]
         return [f"hydra.searchpath=[{','.join(folders)}]"] if folders else []
     quoted = ",".join("'" + folder.replace("\\", "\\\\").replace("'", "\\'") + "'" for folder in folders)
     return [f"hydra.searchpath=[{quoted}]"] if folders else []

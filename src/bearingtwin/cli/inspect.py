@@ -63,13 +63,13 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     raw = read_raw(path)
     rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min")
     named = raw.meta.get("bearing")  # the file names its bearing (bearingtwin-simulate's, CWRU's fan end)
-    unknown_bearing = None
+    bearing_note = None
     if bearing is None and named:
-        unknown_bearing = unknown_bearing_note(named, "its defect lines are not read")
-        if unknown_bearing is None:
+        bearing_note = unknown_bearing_note(named, "its defect lines are not read")
+        if bearing_note is None:
             bearing, bearing_name = load_bearing(str(named)), str(named)
     elif named and bearing_name and str(named) != bearing_name:  # as diagnose says it; the twin refuses it
-        unknown_bearing = f"bearing={bearing_name} given, where the file names {named}: its defect lines are {bearing_name}'s"
+        bearing_note = f"bearing={bearing_name} given, where the file names {named}: its defect lines are {bearing_name}'s"
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
     # replaces one the file merely declares, a speed or state there must agree with the file's.
@@ -114,7 +114,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     if rpm_origin == "nominal":
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
     given_rate = named_rate_note(raw, fs, "fs" if fs_origin == "option" else f"{table}: fs")
-    for note in filter(None, [unknown_bearing, given_rate]):
+    for note in filter(None, [bearing_note, given_rate]):
         summary["meta"]["notes"] = [*summary["meta"].get("notes", []), note]
     if fs_hz is not None:  # clipping, dropouts and dead channels, as a diagnosis or the twin names them
         quality = {name: Recording(raw.channels[name], fs_hz, source=raw.path).quality_notes()

@@ -88,6 +88,8 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
 def data_words(cfg: DictConfig) -> str | None:
     """What a run's data are, for its closing summary: the twin's bearing and operating point, or the real
     records' set (a twin-to-real run's records are named by :func:`twin_to_real_records`)."""
+    from bearingtwin.data.hust import hust_condition
+
     data = cfg.data
     if data.source == "simulated":
         return (f"the twin's {cfg.bearing.name} bearing at {data.rpm:g} rpm, {data.fs:g} Hz, {data.duration:g} s per "
@@ -95,7 +97,7 @@ def data_words(cfg: DictConfig) -> str | None:
     if data.source == "cwru":
         return f"CWRU records at {data.load} hp, channel {data.channel}, bearing {data.bearing}"
     if data.source == "hust":
-        return f"HUST exports at {data.condition} Hz, axis {data.channel}, bearing {data.bearing}"
+        return f"HUST exports at {hust_condition(data.condition)}Hz, axis {data.channel}, bearing {data.bearing}"
     if data.source == "files":
         return f"the recordings in {data.root}" + (f", bearing {data.bearing}" if data.get("bearing") else "")
     return None

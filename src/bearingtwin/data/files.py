@@ -125,18 +125,17 @@ class RawRecord:
                                        f"{_quoting_hint(key, vibration)}")
             return names[0], self.channels[names[0]]
         wanted = str(name)
-        if wanted in not_vibration:
-            raise BearingTwinError(f"{self.path}: {key}={wanted} reads {not_vibration[wanted]}; choose one of "
+        found = wanted if wanted in self.channels else None
+        if found is None and (isinstance(name, int) or wanted.lstrip("-").isdigit()) and 0 <= int(wanted) < len(names):
+            found = names[int(wanted)]
+        if found in not_vibration:
+            raise BearingTwinError(f"{self.path}: {key}={wanted} reads {not_vibration[found]}; choose one of "
                                    f"{', '.join(vibration)}")
-        if wanted in self.channels:
-            return wanted, self.channels[wanted]
-        if isinstance(name, int) or wanted.lstrip("-").isdigit():
-            index = int(wanted)
-            if 0 <= index < len(names):
-                return names[index], self.channels[names[index]]
-        only = f", or {key}=null for its only one" if len(names) == 1 else ""
-        raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds channel{'s' * (len(names) != 1)} "
-                               f"{', '.join(names)} (choose with {key}=<name>{only}){_quoting_hint(key, names)}")
+        if found is not None:
+            return found, self.channels[found]
+        only = f", or {key}=null for its only one" if len(vibration) == 1 else ""
+        raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds channel{'s' * (len(vibration) != 1)} "
+                               f"{', '.join(vibration)} (choose with {key}=<name>{only}){_quoting_hint(key, vibration)}")
 
 
 def _quoting_hint(key: str, names: list[str]) -> str:

@@ -121,7 +121,7 @@ def read_hust_raw(path: str | Path) -> RawRecord:
             meta["unlabelled_state"] = f"inner and outer races damaged together ({name.state} in its name)"
         if name.shaft_hz is None:
             meta["no_speed"] = f"a variable-speed run ({name.condition} in its name): its speed changes over the record"
-    fs, fs_origin = _sampling_rate(path, header, table[:, 0])
+    fs, fs_origin = _sampling_rate(path, header, table[:, 0], layout.decimal)
     return RawRecord(
         str(path),
         "hust-xls",
@@ -186,16 +186,18 @@ def _read_header(path: Path) -> tuple[dict[str, str], int]:
     )
 
 
-def _sampling_rate(path: Path, header: dict[str, str], time_s: np.ndarray) -> tuple[float, str]:
+def _sampling_rate(path: Path, header: dict[str, str], time_s: np.ndarray, decimal: str = ".") -> tuple[float, str]:
     """The rate the header's ``Sampling Rate`` line states, checked against the time column;
-    the time column's alone when the header states none.
+    the time column's alone when the header states none. ``decimal``: the mark the data rows use (a file
+    written with decimal commas writes 25600,0, and may group thousands with points).
 
     The header is exact (25600), while the time column, printed to a microsecond, only
     approximates it (25599.9997 Hz over a whole file).
     """
     from_time = fs_from_time_column(time_s, str(path))
     written = header.get("Sampling Rate", "").split("\t")[0].strip()
-    text = written.replace(",", "")  # a thousands separator: 25,600
+    # The other mark groups thousands: 25,600 (or 25.600,0 beside decimal commas).
+    text = written.replace(".", "").replace(",", ".") if decimal == "," else written.replace(",", "")
     if not text:
         return from_time, "time column"
     try:
@@ -205,7 +207,7 @@ def _sampling_rate(path: Path, header: dict[str, str], time_s: np.ndarray) -> tu
     if not (np.isfinite(stated) and stated > 0) or abs(from_time / stated - 1.0) > FS_RELATIVE_TOLERANCE:
         raise BearingTwinError(f"{path}: the header's Sampling Rate {written!r} (read as {stated:g} Hz, a comma "
                                f"taken for a thousands separator) contradicts the time column's {from_time:.6g} Hz"
-                               if "," in written else
+                               if "," in written and decimal == "." else
                                f"{path}: the header's Sampling Rate {written} Hz contradicts the time column's {from_time:.6g} Hz")
     return stated, "header"
 
@@ -237,9 +239,11 @@ def _data_layout(path: Path, data_line: int) -> _DataLayout:
     if not sample:
         raise BearingTwinError(f"{path}: no data rows after the 'Data' line (line {data_line + 1})")
     names = None
-    first_cells = sample[0][1].split("\t")
-    if not _NUMBER.fullmatch(first_cells[0].strip()):  # a row of names ("Time (s)", "Speed", "X", ...)
-        names = [cell.strip() for cell in first_cells if cell.strip()]
+    first_cells = [cell.strip() for cell in sample[0][1].split("\t")]
+    if not any(_NUMBER.fullmatch(cell) for cell in first_cells if cell):  # names ("Time (s)", "Speed", "X", ...)
+        names = list(first_cells)  # by position: a blank cell names its column too (an unnamed time column)
+        while names and not names[-1]:  # a tab closing the row
+            names.pop()
         sample = sample[1:]
     rows = [line for _, line in sample]
     trailing = bool(rows) and all(line.endswith("\t") for line in rows)
@@ -261,9 +265,9 @@ def _read_table(path: Path, layout: _DataLayout) -> np.ndarray:
 
     try:
         table = pd.read_csv(path, sep="\t", header=None, skiprows=layout.first_row, dtype=np.float64, engine="c",
-                            decimal=layout.decimal, encoding="latin-1").to_numpy()
+                            decimal=layout.decimal).to_numpy()
     except pd.errors.EmptyDataError:
-        raise BearingTwinError(f"{path}: no data rows after the 'Data' line (line {layout.first_row})") from None
+        raise BearingTwinError(f"{path}: no data rows after the 'Data' line") from None
     except (ValueError, pd.errors.ParserError) as error:
         _diagnose_rows(path, layout)
         raise BearingTwinError(f"{path}: unreadable data rows ({error})") from None

@@ -104,7 +104,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                          f"(trained on {', '.join(pipeline.class_names)}): not scored")
     else:
         true_state = check_fault(true_state)
-        refuse_a_label_the_file_contradicts(raw, true_state, "its label")
+        refuse_a_label_the_file_contradicts(raw, true_state, "the label")
         if name is not None and name.fault != true_state:  # a CWRU name speaks of one bearing, a label maybe of another
             notes.append(f"labelled {true_state} where the file name says {name.fault}: scored as {true_state}")
         elif recording.fault not in (None, true_state):

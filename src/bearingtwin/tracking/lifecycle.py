@@ -180,7 +180,7 @@ def start_ray_keeping_signals(init_cfg) -> None:
     host, _, port = address.rpartition(":")
     if host and port.isdigit() and "://" not in address:  # Ray would retry an address no cluster answers at for ever
         try:
-            socket.create_connection((host, int(port)), timeout=RAY_ANSWER_TIMEOUT_S).close()
+            socket.create_connection((host.strip("[]"), int(port)), timeout=RAY_ANSWER_TIMEOUT_S).close()  # [::1]:6379
         except OSError as error:
             raise BearingTwinError(f"hydra.launcher.ray.init.address={address}: no Ray cluster answers there ({error}); "
                                    "start one (ray start --head) or leave the address out for the sweep's own") from None

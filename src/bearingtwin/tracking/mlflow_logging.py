@@ -316,18 +316,6 @@ def loggable_config(cfg: DictConfig) -> dict:
     return container
 
 
-def as_simulated(container: dict) -> dict:
-    """A simulated data set's config with the simulator's operating point as the data set ran it (``data.rpm`` ...
-    replace ``simulator.rpm`` ...): its params name the speed and rate the records were made at, not defaults unused."""
-    from bearingtwin.data.simulated import DATA_SET_OPERATING_POINT
-
-    data, simulator = container.get("data") or {}, container.get("simulator")
-    if data.get("source") != "simulated" or not isinstance(simulator, dict):
-        return container
-    return {**container, "simulator": {**simulator, **{name: data[name] for name in DATA_SET_OPERATING_POINT
-                                                      if name in data}}}
-
-
 def config_hash(cfg: DictConfig) -> str:
     """Hash of what a run computes: the resolved config without the :data:`UNHASHED_KEYS` (dotted paths), and the
     contents of the files its data is read from (:func:`~bearingtwin.data.build.input_digest`)."""
@@ -391,7 +379,8 @@ def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
     source = str(cfg.data.get("source", ""))
     parts = [method, source]
     where = {"cwru": ("load", "hp"), "hust": ("condition", "Hz")}.get(source)  # which records, where a sweep does not say
-    if where and cfg.data.get(where[0]) is not None and not (sweep and f"data.{where[0]}" in " ".join(sweep.varied)):
+    varied = {override.partition("=")[0].lstrip("+~") for override in (sweep.varied if sweep else ())}
+    if where and cfg.data.get(where[0]) is not None and not varied & {f"data.{where[0]}", "cwru_condition"}:
         parts[-1] += f" {cfg.data[where[0]]}{where[1]}"
     features = cfg.get("features") or {}
     if features.get("kind") == "sabo_vmd":
@@ -628,7 +617,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     run_id = run.info.run_id
     register_open_run(client, run_id)
     try:
-        log_params_and_tags(client, run_id, flatten(as_simulated(loggable_config(cfg))), tags)
+        log_params_and_tags(client, run_id, flatten(loggable_config(cfg)), tags)
         client.log_text(run_id, OmegaConf.to_yaml(OmegaConf.create(loggable_config(cfg))), CONFIG_ARTIFACT)
         result = train(cfg, root_dir)
         log_params_and_tags(client, run_id, {}, {"dataset_key": result.dataset_key, "features_key": result.features_key})
@@ -654,6 +643,8 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     raise_if_interrupted()  # a signal whose exception a C callback swallowed still stops the run: KILLED
     if sweep is not None and client.get_run(run_id).info.status != "RUNNING":
         # The interrupted sweep closed it (KILLED) while a worker it could not stop at once went on: as it said.
+        log.warning("job %s ended after its sweep was stopped: run %s stays %s", sweep.job, run_id,
+                    client.get_run(run_id).info.status)
         return None
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
     return TrackedRun(run_id, {**result.metrics, "n_train": result.n_train, "n_test": result.n_test}, model=model,
@@ -895,8 +886,8 @@ class SweepParentRun(Callback):
             # Before any run is open: Ray may not start. Its workers have environments of their own: the varied
             # keys are handed to them as the store and cache are (conf/launcher/ray.yaml).
             init = OmegaConf.create(OmegaConf.to_container(config.hydra.launcher.ray.init, resolve=True))
-            init.runtime_env = {**(init.get("runtime_env") or {}),
-                                "env_vars": {**(init.get("runtime_env") or {}).get("env_vars", {}), SWEEP_VARIED_ENV: varied}}
+            runtime_env = init.get("runtime_env") or {}
+            init.runtime_env = {**runtime_env, "env_vars": {**(runtime_env.get("env_vars") or {}), SWEEP_VARIED_ENV: varied}}
             exit_on_user_error(start_ray_keeping_signals)(init)
         client, experiment_id = exit_on_user_error(open_store)(self._tracking)
         reap_dead_runs(client, experiment_id)
