@@ -1,6 +1,8 @@
 """``data=files``: a folder of the user's recordings, labelled by labels.csv or a name pattern,
 windowed and split as CWRU's; every bad folder is refused naming the file or field."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
@@ -477,3 +479,18 @@ def test_a_folder_of_files_that_name_their_bearing_is_read_with_it(tmp_path, cap
     assert dataset.fs == fs and dataset.bearing == "er16k"
     assert data_bearing(cfg, dataset.bearing)["name"] == "er16k"
     assert build_dataset(files_cfg(root, "data.fs=null", "data.channel=X", "data.bearing=er16k")).bearing is None
+
+
+def test_a_labels_row_may_name_its_file_by_its_stem_as_a_diagnosis_reads_it(folder):
+    """bearingtwin-diagnose reads a row 'a' as a.npy's; training had refused it as no file."""
+    (folder / "labels.csv").write_text("record,state,rpm\na,normal,1797\nb.npy,normal,1797\nc,outer,1797\nd.csv,inner,1797\n")
+    dataset = build_dataset(files_cfg(folder))
+    assert sorted(Path(r).name for r in dataset.records) == ["a.npy", "b.npy", "c.npy", "d.csv"]
+    (folder / "labels.csv").write_text("record,state,rpm\na,normal,1797\na.npy,normal,1797\nc.npy,outer,1797\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 3: record 'a.npy' is labelled again \(.*line 2 names "
+                                               r"a.npy too\)"):
+        build_dataset(files_cfg(folder))
+    np.savez(folder / "c.npz", signal=np.zeros(8))
+    (folder / "labels.csv").write_text("record,state,rpm\nc,outer,1797\n")
+    with pytest.raises(BearingTwinError, match=r"line 2: record 'c' names c.npy, c.npz; give the file name"):
+        build_dataset(files_cfg(folder))

@@ -16,7 +16,7 @@ from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR
+from bearingtwin.config import CONF_DIR, REPO_ROOT
 from bearingtwin.data.build import build_dataset, input_digest
 from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol, merged_calibration
 from bearingtwin.errors import BearingTwinError
@@ -212,6 +212,33 @@ def test_a_calibration_report_of_another_record_is_refused(rig_folder, tmp_path)
     with pytest.raises(BearingTwinError, match=r"its record's bearing has n_balls=12, this one bearing\.n_balls=9"):
         build(report("outer", n_balls=12))
     assert build(report("outer")).fixed_split[1].size == 12
+    # A report written for another file (its contents' digest), and the project's CWRU study's report, the
+    # default, left in place for a rig's own records, are refused too.
+    other = report("outer")
+    written = json.loads(other.read_text())
+    written["measured"]["file"] = {"path": "/rig/outer_b.npy", "sha256": "0" * 64}
+    other.write_text(json.dumps(written))
+    with pytest.raises(BearingTwinError, match=r"a report of outer_b.npy, not of outer_a.npy \(data\.calibration\.record; "
+                                               r"their contents differ\)"):
+        build(other)
+    study = REPO_ROOT / "results" / "cwru_twin_study" / "calibration_130_min_explained_0.1" / "twin_report.json"
+    with pytest.raises(BearingTwinError, match=r"the project's CWRU study's report \(the default\), not one of "
+                                               r"outer_a.npy; run bearingtwin-twin on outer_a.npy"):
+        build(study)
+
+
+def test_a_copy_of_a_calibration_record_is_no_test_record(rig_folder, report_path, tmp_path):
+    """Scored as a test record, a copy (another name, the same contents) would count the twin's own fit as a test."""
+    import shutil
+
+    folder = tmp_path / "rig"
+    shutil.copytree(rig_folder, folder)
+    shutil.copy(folder / "healthy_a.npy", folder / "healthy_copy.npy")
+    with open(folder / "labels.csv", "a") as table:
+        table.write(f"healthy_copy.npy,normal,1797,{FS:g}\n")
+    with pytest.raises(BearingTwinError, match=r"healthy_copy.npy: the same contents as the calibration record "
+                                               r"healthy_a.npy, which the twin was fitted to"):
+        build_dataset(compose_train([*labelled(folder, report_path, f"paths.cache_dir={tmp_path}")]))
 
 
 def test_a_record_read_at_a_rate_its_shaft_line_contradicts_is_refused(tmp_path, report_path):

@@ -220,11 +220,13 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
             f"data.labels: no labels file {table}; write one with columns {','.join(LABEL_COLUMNS)} "
             f"(one row per file){alternative}"
         )
-    rows = []
+    rows, labelled_at = [], {}
     for where, record, state, rpm, fs in labels_table(table):
-        path = root / record
-        if not record or not path.is_file():
-            raise BearingTwinError(f"{where}: record {record!r} is not a file in {root}")
+        path = labelled_file(root, record, where)
+        if path in labelled_at:  # a stem and its file's name: one record named twice
+            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({labelled_at[path]} names "
+                                   f"{path.name} too); one row per record")
+        labelled_at[path] = where
         rows.append((path, state, rpm, fs))
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
@@ -341,6 +343,21 @@ def _record_stem(record: str) -> str:
     where it has no recording's suffix (``run.2024``: ``run.2024``)."""
     name = PurePath(record).name
     return PurePath(name).stem if PurePath(name).suffix.lower() in FORMATS else name
+
+
+def labelled_file(root: Path, record: str, where: str) -> Path:
+    """The file in ``root`` a labels row's ``record`` names: its file name, or its stem where it gives no recording's
+    suffix and one recording has that stem (:func:`names_file`, as a diagnosis reads a row); ``where`` names the row."""
+    path = root / record
+    if record and path.is_file():
+        return path
+    named = sorted(candidate for candidate in path.parent.glob(f"{path.name}.*") if candidate.is_file()
+                   and names_file(path.name, candidate) and candidate.suffix.lower() in FORMATS) if record else []
+    if len(named) > 1:
+        raise BearingTwinError(f"{where}: record {record!r} names {', '.join(p.name for p in named)}; give the file name")
+    if not named:
+        raise BearingTwinError(f"{where}: record {record!r} is not a file in {root}")
+    return named[0]
 
 
 def names_file(record: str, path: Path) -> bool:

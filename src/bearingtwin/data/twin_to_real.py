@@ -49,7 +49,7 @@ from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
 from bearingtwin.checks import is_finite_number, positive_number, whole_number
-from bearingtwin.config import plain_config
+from bearingtwin.config import REPO_ROOT, plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw
 from bearingtwin.data.real import rows_from_labels
@@ -267,15 +267,26 @@ def calibration_step(report_path: str | Path, step: int | str, key: str = "data.
     return dict(chosen.get("base_params") or {}), dict(chosen.get("params") or {})
 
 
-def check_report_of(report_path: str | Path, key: str, state: str, bearing_cfg: Mapping, fs: float) -> None:
-    """A calibration report must be of a record like ``<key>.record``: ``bearingtwin-twin`` writes what it held the
-    twin against into its report, and a report of another state, bearing or rate is refused (two reports swapped,
-    or one of another rig, would calibrate the twin silently wrong). A report that states none of it (written
-    before reports did) is taken as it is."""
+def check_report_of(report_path: str | Path, key: str, state: str, bearing_cfg: Mapping, fs: float,
+                    record: Path | None = None) -> None:
+    """A calibration report must be of ``<key>.record`` (the file ``record``): ``bearingtwin-twin`` writes what it
+    held the twin against into its report, and a report of another file (by its contents' digest), state, bearing or
+    rate is refused (two reports swapped, or one of another rig, would calibrate the twin silently wrong). A report
+    that states none of it (written before reports did) is taken as it is, except the project's own CWRU study's
+    (the defaults') for a record that is no CWRU record: a rig's own records with the report settings left out."""
     measured = _read_report(report_path, key).get("measured")
+    where = f"{key}.report={report_path}"
+    study = REPO_ROOT / "results" / "cwru_twin_study"
+    if record is not None and parse_cwru_name(record) is None and Path(str(report_path)).resolve().is_relative_to(study):
+        raise BearingTwinError(f"{where}: the project's CWRU study's report (the default), not one of {record.name}; "
+                               f"run bearingtwin-twin on {record.name} and give its report as {key}.report")
     if not isinstance(measured, Mapping):
         return
-    where = f"{key}.report={report_path}"
+    written_for = (measured.get("file") or {}).get("sha256")
+    if record is not None and written_for and written_for != file_digest(record):
+        raise BearingTwinError(f"{where}: a report of {Path(str(measured['file'].get('path', '?'))).name}, not of "
+                               f"{record.name} ({key}.record; their contents differ); give the report bearingtwin-twin "
+                               "wrote for that record")
     if measured.get("fault") not in (None, state):
         raise BearingTwinError(f"{where}: a report of a {measured['fault']} record, where {key}.record is {state}; "
                                "give the report bearingtwin-twin wrote for that record")
@@ -696,6 +707,12 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     noise_level = (cfg["calibration"].get("healthy") or {}).get("noise_level", "absolute")
     table = labels_table_of(cfg)  # read once: it is the records' truth for the protocol and the reading alike
     calibration_paths, test_paths = protocol_records(cfg, table)
+    digests = {path: file_digest(path) for path in calibration_paths + test_paths}  # each file read once
+    fitted_to = {digests[path]: path for path in calibration_paths}
+    for path in test_paths:
+        if digests[path] in fitted_to:  # by its contents: scored as a test, the twin's own fit would count as one
+            raise BearingTwinError(f"{path}: the same contents as the calibration record {fitted_to[digests[path]].name}, "
+                                   "which the twin was fitted to; leave the copy out of the records to test on")
     base_params, effects = merged_calibration(cfg["calibration"], table)
     hand_set = plain_config(effects_cfg) or {}
     if set(hand_set) & set(effects):
@@ -725,8 +742,8 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     if healthy.get("step"):
         reports.append(("data.calibration.healthy", healthy["record"], healthy["report"]))
     for key, name, report in reports:
-        record = calibration_records[calibration_path(cfg, table, name, f"{key}.record")]
-        check_report_of(report, key, record.fault, bearing, twin_fs)
+        path = calibration_path(cfg, table, name, f"{key}.record")
+        check_report_of(report, key, calibration_records[path].fault, bearing, twin_fs, path)
     # Operating points: speeds only (what a tachometer gives in service), never a test signal.
     rpms = operating_points_rpm(tests + list(calibration_records.values()))
     simulator.update(fs=twin_fs, duration=float(cfg["twin"]["duration"]), sensor=cfg["twin"]["sensor"])
@@ -815,7 +832,6 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     n_twin = sum(len(w) for w, _ in cuts[:n_twin_records])
     n_test = sum(len(w) for w, _ in cuts[n_twin_records:n_twin_records + len(tests)])
     index = np.arange(len(windows))
-    digests = {path: file_digest(path) for path in calibration_paths + test_paths}  # each file read once
     return WindowedDataset(
         windows=windows,
         labels=np.concatenate([np.full(len(w), label) for (w, _), label in zip(cuts, labels)]),
