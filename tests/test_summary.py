@@ -47,6 +47,18 @@ def test_a_calibration_record_its_run_misreads_is_shown_per_class_and_warned_of(
     assert "warning" not in fine
 
 
+def test_a_feature_groups_choice_says_it_was_the_classifiers_alone_where_the_physics_decides_windows_too():
+    """Calibration accuracy 100 % beside 'band power kept (calibration windows right 50 % with it)' read as a
+    contradiction: the choice is the classifier's alone, the accuracy counts the envelope's decisions too."""
+    metrics = {"accuracy": 0.9, "calibration_accuracy": 1.0, "physics_decided": 0.5, "band_power_kept": 1.0,
+               "band_power_calibration_accuracy": 0.5, "lines_only_calibration_accuracy": 0.5}
+    text = training_summary("m", TrackedRun("r", metrics), "sqlite:///s.db", "/o")
+    assert "  band power: kept (the classifier alone: calibration windows right 50.00 % with it, 50.00 % without)" in text
+    without_physics = {key: value for key, value in metrics.items() if key != "physics_decided"}
+    assert "(calibration windows right 50.00 % with it" in training_summary("m", TrackedRun("r", without_physics),
+                                                                           "sqlite:///s.db", "/o")
+
+
 def test_the_progress_bar_shows_for_one_watched_run_only(monkeypatch):
     assert show_progress_bar(True, in_sweep=True) and not show_progress_bar(False, in_sweep=False)
     monkeypatch.setattr("sys.stderr.isatty", lambda: True)

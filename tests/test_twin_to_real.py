@@ -222,7 +222,7 @@ def test_the_healthy_records_noise_joins_every_twin_after_the_fault_records_effe
     assert merged_calibration({**calibration, "healthy": {**calibration["healthy"], "step": 0}})[1] == {"slip": {"jitter": 0.01}}
     with pytest.raises(BearingTwinError, match=r"data\.calibration\.healthy: effect noise was found on both"):
         merged_calibration({**calibration, "report": str(healthy_report_path)})
-    with pytest.raises(BearingTwinError, match=r"data\.calibration\.healthy\.record=12k_Drive_End_OR007@6_0_130: not a healthy"):
+    with pytest.raises(BearingTwinError, match=r"data\.calibration\.healthy\.record=12k_Drive_End_OR007@6_0_130: its name says outer, not healthy"):
         merged_calibration({**calibration, "records": ["12k_Drive_End_OR007@6_0_130"],
                             "healthy": {**calibration["healthy"], "record": "12k_Drive_End_OR007@6_0_130"}})
 

@@ -212,6 +212,15 @@ def test_a_calibration_report_of_another_record_is_refused(rig_folder, tmp_path)
     with pytest.raises(BearingTwinError, match=r"its record's bearing has n_balls=12, this one bearing\.n_balls=9"):
         build(report("outer", n_balls=12))
     assert build(report("outer")).fixed_split[1].size == 12
+    # bearingtwin-twin's out= folder stands for the report it wrote there; an unset report is named as such.
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "twin_report.json").write_text(report("outer").read_text())
+    assert build(tmp_path / "out").fixed_split[1].size == 12
+    with pytest.raises(BearingTwinError, match=r"^data\.calibration\.report is not set; give the twin_report\.json"):
+        build_dataset(compose_train([*labelled(rig_folder, "null", f"paths.cache_dir={tmp_path}"),
+                                     "data.calibration.step=0"]))
+    with pytest.raises(BearingTwinError, match=r"a report of an inner record, where data\.calibration\.record is outer"):
+        build(report("inner"))
     # A report written for another file (its contents' digest), and the project's CWRU study's report, the
     # default, left in place for a rig's own records, are refused too.
     other = report("outer")

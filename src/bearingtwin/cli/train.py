@@ -68,10 +68,13 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
                                 f"{percent(CALIBRATION_RECALL_WARNING)} of the windows")
     from bearingtwin.models.experiment import FEATURE_GROUPS
 
+    # The choice is the classifier's own: where the envelope spectrum decides some windows (physics_first), the
+    # calibration accuracy above counts those decisions too, and the two figures differ.
+    alone = "the classifier alone: " if "physics_decided" in metrics else ""
     for group in FEATURE_GROUPS:  # chosen by the calibration records (band_power_by_calibration, ...)
         if group.kept_metric in metrics:
-            lines[group.words] = (f"{'kept' if metrics[group.kept_metric] else 'dropped'} (calibration windows right "
-                                  f"{percent(metrics[group.with_metric])} with {group.pronoun}, "
+            lines[group.words] = (f"{'kept' if metrics[group.kept_metric] else 'dropped'} ({alone}calibration windows "
+                                  f"right {percent(metrics[group.with_metric])} with {group.pronoun}, "
                                   f"{percent(metrics[group.without_metric])} without)")
     if "physics_decided" in metrics:
         lines["physics first"] = (f"{percent(metrics['physics_decided'])} of the test windows decided by the envelope "

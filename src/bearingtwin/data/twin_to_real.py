@@ -228,7 +228,11 @@ def _labelled_protocol(data_cfg: Mapping, table: LabelsTable) -> tuple[list[Path
 
 def _read_report(report_path: str | Path, key: str) -> dict:
     """The ``twin_report.json`` that ``<key>.report`` names."""
+    if report_path is None:
+        raise BearingTwinError(f"{key}.report is not set; give the twin_report.json bearingtwin-twin wrote for {key}.record")
     path = Path(str(report_path)).expanduser()
+    if path.is_dir() and (path / "twin_report.json").is_file():  # bearingtwin-twin's out= folder
+        path = path / "twin_report.json"
     if not path.is_file():
         raise BearingTwinError(f"{key}.report={path}: no such file; run bearingtwin-twin on {key}.record first "
                                "(the CWRU study: scripts/cwru_twin_study.py)")
@@ -288,7 +292,8 @@ def check_report_of(report_path: str | Path, key: str, state: str, bearing_cfg: 
                                f"{record.name} ({key}.record; their contents differ); give the report bearingtwin-twin "
                                "wrote for that record")
     if measured.get("fault") not in (None, state):
-        raise BearingTwinError(f"{where}: a report of a {measured['fault']} record, where {key}.record is {state}; "
+        article = "an" if str(measured["fault"])[:1] in "aeiou" else "a"
+        raise BearingTwinError(f"{where}: a report of {article} {measured['fault']} record, where {key}.record is {state}; "
                                "give the report bearingtwin-twin wrote for that record")
     if is_finite_number(measured.get("fs")) and not math.isclose(float(measured["fs"]), fs):
         raise BearingTwinError(f"{where}: a report of a record at {float(measured['fs']):g} Hz, where the twin "
@@ -323,7 +328,8 @@ def merged_calibration(calibration: Mapping, table: LabelsTable | None = None) -
         raise BearingTwinError(f"{key}={healthy['record']}: not among data.calibration.records "
                                f"({', '.join(map(str, calibration['records']))})")
     if state != "normal":
-        raise BearingTwinError(f"data.calibration.healthy.record={healthy['record']}: not a healthy (normal) record")
+        stated = f"labelled {state} in data.labels" if table is not None else f"its name says {state}"
+        raise BearingTwinError(f"data.calibration.healthy.record={healthy['record']}: {stated}, not healthy (normal)")
     _, healthy_effects = calibration_step(healthy["report"], healthy["step"], "data.calibration.healthy")
     if calibration["step"] == "all":  # every effect of the fault record's but the sensor path's, the healthy record's
         effects = {name: params for name, params in effects.items() if name not in healthy_effects}
