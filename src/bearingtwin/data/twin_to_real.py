@@ -625,7 +625,7 @@ def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | 
     raw = read_raw(path)
     stated = raw.fs is not None and raw.fs_origin != "declared"  # a rate a data set's convention gives is no statement
     recording = recording_from_raw(raw, channel, fs=fs if fs is not None or stated else default_fs, rpm=rpm,
-                                   fault=state, channel_key="data.channel",
+                                   fault=state, channel_key="data.channel", fault_key="the labels row's state",
                                    fs_key="data.fs" if fs is None else "the labels row's fs", rpm_key="the labels row's rpm")
     if recording.rpm is None:
         raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
