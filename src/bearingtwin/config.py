@@ -235,8 +235,7 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                     raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
                                            f"({cfg.data[name]}); give data.{name}=<value>")
         if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
-            check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name")
-                               or "<the bearing keys given>")
+            check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name"))
         tracking = cfg.get("tracking") or {}
         if "experiment" in tracking and tracking.get("enabled") is not False:  # no store is used with tracking off
             experiment_name(cfg.tracking)
@@ -316,18 +315,19 @@ BEARING_SCHEMA = "paper"
 """The bearing config whose settings every bearing config holds (Table 1's, with the geometry)."""
 
 
-def check_bearing_keys(bearing, name: str) -> None:
+def check_bearing_keys(bearing, name: str | None) -> None:
     """Refuse a bearing config (``bearing=<name>``, a file of the user's own) whose settings are not those of
     ``conf/bearing/paper.yaml``: a misspelt key would leave the value its defaults give in place, unnoticed; a file
     without ``defaults: [paper]`` lacks the masses and stiffnesses the twin needs."""
     settings = list(OmegaConf.load(Path(CONF_DIR, "bearing", f"{BEARING_SCHEMA}.yaml")))
+    where = f"bearing={name}" if name else "bearing"  # keys added with +bearing.<key>= and no bearing chosen
     unknown = [key for key in bearing if key not in settings]
     if unknown:
-        raise BearingTwinError(f"bearing={name}: {unknown[0]} is not a bearing setting (its value would be left unused); "
+        raise BearingTwinError(f"{where}: {unknown[0]} is not a bearing setting (its value would be left unused); "
                                f"the settings are {', '.join(settings)}")
     missing = [key for key in settings if key not in bearing]
     if missing:
-        raise BearingTwinError(f"bearing={name}: {missing[0]} is missing; start the file with 'defaults: [paper]', as "
+        raise BearingTwinError(f"{where}: {missing[0]} is missing; start the file with 'defaults: [paper]', as "
                                "conf/bearing/cwru_6205.yaml does, to keep Table 1's values for the settings it does not give")
 
 
