@@ -490,6 +490,9 @@ def test_a_labels_row_may_name_its_file_by_its_stem_as_a_diagnosis_reads_it(fold
     with pytest.raises(BearingTwinError, match=r"labels.csv line 3: record 'a.npy' is labelled again \(.*line 2 names "
                                                r"a.npy too\)"):
         build_dataset(files_cfg(folder))
+    np.save(folder / "e[1].npy", tone("normal", seed=2))  # a name glob would read as a pattern
+    (folder / "labels.csv").write_text("record,state,rpm\ne[1],normal,1797\nc,outer,1797\nd.csv,inner,1797\n")
+    assert sorted(Path(r).name for r in build_dataset(files_cfg(folder)).records) == ["c.npy", "d.csv", "e[1].npy"]
     np.savez(folder / "c.npz", signal=np.zeros(8))
     (folder / "labels.csv").write_text("record,state,rpm\nc,outer,1797\n")
     with pytest.raises(BearingTwinError, match=r"line 2: record 'c' names c.npy, c.npz; give the file name"):

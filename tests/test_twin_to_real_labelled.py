@@ -216,6 +216,11 @@ def test_a_calibration_report_of_another_record_is_refused(rig_folder, tmp_path)
     (tmp_path / "out").mkdir()
     (tmp_path / "out" / "twin_report.json").write_text(report("outer").read_text())
     assert build(tmp_path / "out").fixed_split[1].size == 12
+    # ... and its contents are the run's, as the file's are: a report fitted again into that folder is another run.
+    by_folder = compose_train([*labelled(rig_folder, tmp_path / "out", f"paths.cache_dir={tmp_path}")])
+    before = input_digest(by_folder)
+    (tmp_path / "out" / "twin_report.json").write_text(report("outer", fs=FS).read_text().replace("[]", "[ ]", 1))
+    assert input_digest(by_folder) != before
     with pytest.raises(BearingTwinError, match=r"^data\.calibration\.report is not set; give the twin_report\.json"):
         build_dataset(compose_train([*labelled(rig_folder, "null", f"paths.cache_dir={tmp_path}"),
                                      "data.calibration.step=0"]))

@@ -133,9 +133,11 @@ def _twin_to_real_files(cfg: DictConfig) -> list[Path]:
 def _twin_to_real_inputs(cfg: DictConfig) -> list[Path]:
     """The records and table a twin-to-real run reads, and the calibration reports that make its twin: a report
     fitted again is another run. (A missing report is named by its own setting where it is read.)"""
+    from bearingtwin.data.twin_to_real import report_file
+
     calibration = cfg.data.calibration
     reports = [calibration.get("report"), (calibration.get("healthy") or {}).get("report")]
-    return _twin_to_real_files(cfg) + [Path(str(report)).expanduser() for report in reports if report]
+    return _twin_to_real_files(cfg) + [report_file(report) for report in reports if report]
 
 
 # Every real-data source: the files a job will read, found from its config before any job

@@ -223,10 +223,10 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
     rows, labelled_at = [], {}
     for where, record, state, rpm, fs in labels_table(table):
         path = labelled_file(root, record, where)
-        if path in labelled_at:  # a stem and its file's name: one record named twice
-            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({labelled_at[path]} names "
+        if path.resolve() in labelled_at:  # a stem and its file's name (or rig/../x and x): one record named twice
+            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({labelled_at[path.resolve()]} names "
                                    f"{path.name} too); one row per record")
-        labelled_at[path] = where
+        labelled_at[path.resolve()] = where
         rows.append((path, state, rpm, fs))
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
@@ -351,8 +351,9 @@ def labelled_file(root: Path, record: str, where: str) -> Path:
     path = root / record
     if record and path.is_file():
         return path
-    named = sorted(candidate for candidate in path.parent.glob(f"{path.name}.*") if candidate.is_file()
-                   and names_file(path.name, candidate) and candidate.suffix.lower() in FORMATS) if record else []
+    named = sorted(candidate for candidate in path.parent.iterdir() if candidate.is_file()
+                   and names_file(path.name, candidate) and candidate.suffix.lower() in FORMATS
+                   ) if record and PurePath(record).name not in ("", ".", "..") and path.parent.is_dir() else []
     if len(named) > 1:
         raise BearingTwinError(f"{where}: record {record!r} names {', '.join(p.name for p in named)}; give the file name")
     if not named:

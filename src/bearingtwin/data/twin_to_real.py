@@ -226,13 +226,21 @@ def _labelled_protocol(data_cfg: Mapping, table: LabelsTable) -> tuple[list[Path
     return calibration_paths, [path for path, _ in tests]
 
 
+def report_file(report_path: str | Path) -> Path:
+    """The report a ``report`` setting names: the file, or the ``twin_report.json`` in bearingtwin-twin's ``out=``
+    folder given instead."""
+    path = Path(str(report_path)).expanduser()
+    return path / "twin_report.json" if path.is_dir() and (path / "twin_report.json").is_file() else path
+
+
 def _read_report(report_path: str | Path, key: str) -> dict:
     """The ``twin_report.json`` that ``<key>.report`` names."""
     if report_path is None:
         raise BearingTwinError(f"{key}.report is not set; give the twin_report.json bearingtwin-twin wrote for {key}.record")
-    path = Path(str(report_path)).expanduser()
-    if path.is_dir() and (path / "twin_report.json").is_file():  # bearingtwin-twin's out= folder
-        path = path / "twin_report.json"
+    path = report_file(report_path)
+    if path.is_dir():
+        raise BearingTwinError(f"{key}.report={path}: a folder without a twin_report.json; give the report "
+                               f"bearingtwin-twin wrote for {key}.record (or the out= folder it wrote it in)")
     if not path.is_file():
         raise BearingTwinError(f"{key}.report={path}: no such file; run bearingtwin-twin on {key}.record first "
                                "(the CWRU study: scripts/cwru_twin_study.py)")
@@ -280,13 +288,14 @@ def check_report_of(report_path: str | Path, key: str, state: str, bearing_cfg: 
     (the defaults') for a record that is no CWRU record: a rig's own records with the report settings left out."""
     measured = _read_report(report_path, key).get("measured")
     where = f"{key}.report={report_path}"
-    study = REPO_ROOT / "results" / "cwru_twin_study"
-    if record is not None and parse_cwru_name(record) is None and Path(str(report_path)).resolve().is_relative_to(study):
+    study = (REPO_ROOT / "results" / "cwru_twin_study").resolve()
+    if (not isinstance(measured, Mapping) and record is not None and parse_cwru_name(record) is None
+            and report_file(report_path).resolve().is_relative_to(study)):
         raise BearingTwinError(f"{where}: the project's CWRU study's report (the default), not one of {record.name}; "
                                f"run bearingtwin-twin on {record.name} and give its report as {key}.report")
     if not isinstance(measured, Mapping):
         return
-    written_for = (measured.get("file") or {}).get("sha256")
+    written_for = measured["file"].get("sha256") if isinstance(measured.get("file"), Mapping) else None
     if record is not None and written_for and written_for != file_digest(record):
         raise BearingTwinError(f"{where}: a report of {Path(str(measured['file'].get('path', '?'))).name}, not of "
                                f"{record.name} ({key}.record; their contents differ); give the report bearingtwin-twin "
@@ -713,7 +722,10 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     noise_level = (cfg["calibration"].get("healthy") or {}).get("noise_level", "absolute")
     table = labels_table_of(cfg)  # read once: it is the records' truth for the protocol and the reading alike
     calibration_paths, test_paths = protocol_records(cfg, table)
-    digests = {path: file_digest(path) for path in calibration_paths + test_paths}  # each file read once
+    try:
+        digests = {path: file_digest(path) for path in calibration_paths + test_paths}  # each file read once
+    except OSError as error:
+        raise BearingTwinError(f"{error.filename}: cannot read it ({error.strerror})") from None
     fitted_to = {digests[path]: path for path in calibration_paths}
     for path in test_paths:
         if digests[path] in fitted_to:  # by its contents: scored as a test, the twin's own fit would count as one
