@@ -315,11 +315,17 @@ BEARING_SCHEMA = "paper"
 """The bearing config whose settings every bearing config holds (Table 1's, with the geometry)."""
 
 
+@functools.cache
+def bearing_settings() -> tuple[str, ...]:
+    """The settings of ``conf/bearing/paper.yaml`` (:data:`BEARING_SCHEMA`), read once per process."""
+    return tuple(OmegaConf.load(Path(CONF_DIR, "bearing", f"{BEARING_SCHEMA}.yaml")))
+
+
 def check_bearing_keys(bearing, name: str | None) -> None:
     """Refuse a bearing config (``bearing=<name>``, a file of the user's own) whose settings are not those of
     ``conf/bearing/paper.yaml``: a misspelt key would leave the value its defaults give in place, unnoticed; a file
     without ``defaults: [paper]`` lacks the masses and stiffnesses the twin needs."""
-    settings = list(OmegaConf.load(Path(CONF_DIR, "bearing", f"{BEARING_SCHEMA}.yaml")))
+    settings = bearing_settings()
     where = f"bearing={name}" if name else "bearing"  # keys added with +bearing.<key>= and no bearing chosen
     unknown = [key for key in bearing if key not in settings]
     if unknown:

@@ -81,7 +81,7 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
     """Windows of the HUST files of ``data.classes`` at ``data.condition`` (the paper's Table 5 set)."""
     cfg = plain_config(data_cfg, "data config")
     window_length, samples_per_class, files = check_hust_settings(cfg)
-    faults, paths = list(files), list(files.values())
+    paths = list(files.values())
     root, names = Path(_get(cfg, "root")), [path.name for path in paths]
     missing = [path.name for path in paths if not path.is_file()]
     if missing:
@@ -223,10 +223,11 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
     rows, labelled_at = [], {}
     for where, record, state, rpm, fs in labels_table(table):
         path = labelled_file(root, record, where)
-        if path.resolve() in labelled_at:  # a stem and its file's name (or rig/../x and x): one record named twice
-            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({labelled_at[path.resolve()]} names "
+        same = path.resolve()  # a stem and its file's name (or rig/../x and x): one record named twice
+        if same in labelled_at:
+            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({labelled_at[same]} names "
                                    f"{path.name} too); one row per record")
-        labelled_at[path.resolve()] = where
+        labelled_at[same] = where
         rows.append((path, state, rpm, fs))
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")

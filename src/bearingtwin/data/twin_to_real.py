@@ -288,12 +288,11 @@ def check_report_of(report_path: str | Path, key: str, state: str, bearing_cfg: 
     (the defaults') for a record that is no CWRU record: a rig's own records with the report settings left out."""
     measured = _read_report(report_path, key).get("measured")
     where = f"{key}.report={report_path}"
-    study = (REPO_ROOT / "results" / "cwru_twin_study").resolve()
-    if (not isinstance(measured, Mapping) and record is not None and parse_cwru_name(record) is None
-            and report_file(report_path).resolve().is_relative_to(study)):
-        raise BearingTwinError(f"{where}: the project's CWRU study's report (the default), not one of {record.name}; "
-                               f"run bearingtwin-twin on {record.name} and give its report as {key}.report")
     if not isinstance(measured, Mapping):
+        study = (REPO_ROOT / "results" / "cwru_twin_study").resolve()
+        if record is not None and parse_cwru_name(record) is None and report_file(report_path).resolve().is_relative_to(study):
+            raise BearingTwinError(f"{where}: the project's CWRU study's report (the default), not one of {record.name}; "
+                                   f"run bearingtwin-twin on {record.name} and give its report as {key}.report")
         return
     written_for = measured["file"].get("sha256") if isinstance(measured.get("file"), Mapping) else None
     if record is not None and written_for and written_for != file_digest(record):

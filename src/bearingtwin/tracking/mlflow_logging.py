@@ -641,10 +641,10 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         log.error("run %s FAILED: %s: %s (the sweep goes on)", run_id, type(error).__name__, error)
         return None
     raise_if_interrupted()  # a signal whose exception a C callback swallowed still stops the run: KILLED
-    if sweep is not None and client.get_run(run_id).info.status != "RUNNING":
+    status = client.get_run(run_id).info.status if sweep is not None else "RUNNING"
+    if status != "RUNNING":
         # The interrupted sweep closed it (KILLED) while a worker it could not stop at once went on: as it said.
-        log.warning("job %s ended after its sweep was stopped: run %s stays %s", sweep.job, run_id,
-                    client.get_run(run_id).info.status)
+        log.warning("job %s ended after its sweep was stopped: run %s stays %s", sweep.job, run_id, status)
         return None
     client.set_terminated(run_id, RunStatus.to_string(RunStatus.FINISHED))
     return TrackedRun(run_id, {**result.metrics, "n_train": result.n_train, "n_test": result.n_test}, model=model,
