@@ -35,6 +35,7 @@ from bearingtwin.config import REPO_ROOT
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.tables import markdown_table, write_generated
+from bearingtwin.twin.rank import not_identified
 
 # The same folder the configs read: paths.data_root = $BEARINGTWIN_DATA or ../shared/data.
 DATA = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
@@ -115,15 +116,45 @@ def _spread(values: list[float], unit: str) -> str:
             f"({len(values)} records, coefficient of variation {values.std() / abs(values.mean()):.0%})")
 
 
+def rayleigh_p(resultant_length: float, n: int) -> float:
+    """The Rayleigh test's p-value of n directions whose mean resultant length is ``resultant_length``: how often
+    n directions drawn at random lie as close together (Zar, Biostatistical Analysis, eq. 27.4). Written here:
+    scipy.stats has the circular mean and spread but no test of them, and one formula is no reason for a package."""
+    r_n = n * resultant_length
+    return float(min(1.0, np.exp(np.sqrt(1 + 4 * n + 4 * (n**2 - r_n**2)) - (1 + 2 * n))))
+
+
 def _axial_spread(angles_deg: list[float]) -> str:
     """Mean and spread of directions, where a and a + 180 deg are one direction (doubled-angle
-    circular statistics: the mean resultant length R of exp(2i a) gives a spread sqrt(-2 ln R) / 2)."""
+    circular statistics: the mean resultant length R of exp(2i a) gives a spread sqrt(-2 ln R) / 2),
+    and whether they agree more than directions at random would (the Rayleigh test on the doubled angles)."""
     doubled = np.exp(2j * np.deg2rad(np.asarray(angles_deg, dtype=float)))
     resultant = np.mean(doubled)
     mean_deg = np.rad2deg(np.angle(resultant)) / 2 % 180
     spread_deg = np.rad2deg(np.sqrt(-2 * np.log(max(abs(resultant), 1e-12))) / 2)
+    p = rayleigh_p(abs(resultant), len(angles_deg))
+    agreement = ("they agree more than directions at random would" if p < 0.05 else
+                 "no more alike than directions at random: no direction is identified")
     return (f"mean {mean_deg:.0f} deg from horizontal, circular spread {spread_deg:.0f} deg "
-            f"({len(angles_deg)} records; a and a + 180 deg are one direction)")
+            f"({len(angles_deg)} records; a and a + 180 deg are one direction); Rayleigh test p {f'= {p:.2f}' if p >= 0.01 else '< 0.01'}, "
+            f"{agreement}")
+
+
+def _fitted(entry: dict, digits: str) -> str:
+    """A fitted base parameter's value with its interval, or that the record does not identify it (any value in
+    the searched range fits as well: the number alone would read as a measurement)."""
+    if not_identified(entry):
+        return f"not identified ({entry['range'][0]:{digits}}-{entry['range'][1]:{digits}})"
+    low, high = entry.get("interval") or (entry["value"], entry["value"])
+    return f"{entry['value']:{digits}} ({low:{digits}}-{high:{digits}})"
+
+
+def _direction(sensor: dict) -> str:
+    """The fitted sensor direction with its interval, or that every direction fits as well."""
+    low, high = sensor.get("interval") or (sensor["angle_deg"], sensor["angle_deg"])
+    if high - low >= 180.0:
+        return f"not identified ({sensor['angle_deg']:.0f} fitted)"
+    return f"{sensor['angle_deg']:.0f} ({low:.0f} to {high:.0f})"
 
 
 def summarize(args) -> None:
@@ -148,8 +179,8 @@ def summarize(args) -> None:
             noise.append(noise_rms_g(final["noise"]["snr_db"], _measured_rms_g(stem)))
         effects = ", ".join(report["added"]) or "none"
         rows.append([f"{stem}.mat", name.fault, str(name.load_hp), report["verdict"], effects,
-                     f"{op['sensor']['angle_deg']:.0f}", f"{op['radial_load_n']['value']:.0f}",
-                     f"{op['clearance_um']['value']:.3g}", f"{report['gain']:.3g}",
+                     _direction(op["sensor"]), _fitted(op["radial_load_n"], ".0f"),
+                     _fitted(op["clearance_um"], ".3g"), f"{report['gain']:.3g}",
                      f"{report['baseline_error']:.2f} -> {report['final_error']:.2f} ({report['floor_error']:.2f})",
                      ", ".join(u["view"] for u in report["unexplained"]) or "—"])
     table = markdown_table(["record", "state", "load hp", "verdict", "effects added", "sensor deg from horizontal",
@@ -171,8 +202,8 @@ def summarize(args) -> None:
         "own half-to-half discrepancy, the floor no twin can go below."
     )
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise BearingTwinError(f"--out={out} is a file; give the folder to write cwru_consistency.md into")
+    if (out.exists() and not out.is_dir()) or out.suffix == ".md":
+        raise BearingTwinError(f"--out={out} names a file; give the folder to write cwru_consistency.md into")
     path = out / "cwru_consistency.md"
     write_generated(path, generated, MARKER, heading=TITLE)  # the title, introduction and discussion around it are kept
     print(agreement)
@@ -181,11 +212,15 @@ def summarize(args) -> None:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("step", choices=("run", "summarize"))
-    parser.add_argument("--work", default=str(DEFAULT_WORK))
-    parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("step", choices=("run", "summarize"),
+                        help="run: bearingtwin-twin on the 13 records; summarize: the page from their reports")
+    parser.add_argument("--work", default=str(DEFAULT_WORK),
+                        help="folder of the records' twin reports, written by run and read by summarize "
+                             "(default: %(default)s)")
+    parser.add_argument("--jobs", type=int, default=1, help="run: records held against the twin at once")
     parser.add_argument("--resume", action="store_true", help="run: keep the reports --work holds already")
-    parser.add_argument("--out", default="results")
+    parser.add_argument("--out", default="results",
+                        help="summarize: folder to write cwru_consistency.md into (default: %(default)s)")
     args = parser.parse_args()
     try:
         {"run": run, "summarize": summarize}[args.step](args)

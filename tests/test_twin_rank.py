@@ -170,7 +170,9 @@ def test_the_independent_rigs_sensor_direction_is_reported_as_uncertain():
         fit = rank(rig_cfg, Recording(signal, FS, RPM, "outer", unit="g"), [], op=operating_point(sensor="outer"))
         sensor = fit.operating_point["sensor"]
         assert sensor["interval"][1] - sensor["interval"][0] >= 90.0, sensor
-        assert "within" in fit.summary and f"{sensor['interval'][0]:.0f} to {sensor['interval'][1]:.0f} deg" in fit.summary
+        assert (f"within {sensor['interval'][0]:.0f} to {sensor['interval'][1]:.0f} deg" in fit.summary
+                if sensor["interval"][1] - sensor["interval"][0] < 180.0 else
+                "its direction not identified: every direction fits as well" in fit.summary), fit.summary
 
 
 def test_the_independent_rigs_load_orders_the_fitted_one_on_an_inner_race():
@@ -590,15 +592,28 @@ def test_base_parameters_the_record_does_not_identify_are_said_apart_without_the
 
 
 def test_the_sensor_directions_interval_is_read_on_the_half_turn():
-    """0 and 180 deg are one direction: a horizontal sensor whose neighbours either side fit as well lies within
-    -30 to 30 deg, not "within 0-150 deg"."""
+    """0 and 180 deg are one direction: a horizontal sensor whose neighbours either side fit as well, the next
+    ones not, lies within -60 to 60 deg (the bound ends before the nearest directions outside it), not "within
+    0-150 deg"; a lone direction within the bound is a grid step either side, not a 0-wide interval; and where
+    every direction fits, none is identified."""
     from bearingtwin.twin.operating_point import OperatingPoint
+    from bearingtwin.twin.rank import _operating_point_words
 
     ranker = EffectRanker([], operating_point=OperatingPoint(known={}, free={}, races=("outer",)))
-    placements = [(score, {"simulator.sensor": "outer_x", "simulator.sensor_angle_deg": angle})
-                  for score, angle in ((0.0, 0.0), (1.0, 30.0), (1.0, 150.0), (50.0, 90.0))]
-    report = ranker._operating_point_report({}, placements[0][1], placements, {})
-    assert report["sensor"]["interval"] == [-30.0, 30.0] and report["sensor"]["angle_deg"] == 0.0
+
+    def interval(scores_by_angle):
+        placements = [(score, {"simulator.sensor": "outer_x", "simulator.sensor_angle_deg": angle})
+                      for angle, score in scores_by_angle.items()]
+        report = ranker._operating_point_report({}, placements[0][1], placements, {})
+        assert report["sensor"]["angle_deg"] == placements[0][1]["simulator.sensor_angle_deg"]
+        return report["sensor"]["interval"]
+
+    assert interval({0.0: 0.0, 30.0: 1.0, 150.0: 1.0, 60.0: 50.0, 90.0: 50.0, 120.0: 50.0}) == [-60.0, 60.0]
+    assert interval({90.0: 0.0, 0.0: 50.0, 30.0: 50.0, 60.0: 50.0, 120.0: 50.0, 150.0: 50.0}) == [60.0, 120.0]
+    assert interval({angle: 1.0 for angle in (0.0, 30.0, 60.0, 90.0, 120.0, 150.0)}) == [-90.0, 90.0]
+    words = _operating_point_words({"sensor": {"value": "outer race, horizontal", "race": "outer", "held": False,
+                                               "interval": [-90.0, 90.0], "races_within_bound": ["outer"]}}, 1.0)
+    assert "its direction not identified: every direction fits as well" in words and "within" not in words
 
 
 def test_a_candidate_is_screened_alike_whatever_others_are_offered_beside_it(cfg, monkeypatch):

@@ -495,8 +495,11 @@ def _operating_point_words(operating: Mapping, gain: float, unit: str = "") -> s
             continue
         if name == "sensor":
             interval = entry.get("interval")
-            within = (f" (within {interval[0]:.0f} to {interval[1]:.0f} deg)"
-                      if interval and interval[0] != interval[1] else "")
+            within = ""
+            if interval and interval[1] - interval[0] >= 180.0:
+                within = " (its direction not identified: every direction fits as well)"
+            elif interval:
+                within = f" (within {interval[0]:.0f} to {interval[1]:.0f} deg)"
             other = [r for r in entry["races_within_bound"] if r != entry["race"]]
             parts.append(f"sensor on the {entry['value']}{within}"
                          + (f", the {other[0]} race fits almost as well" if other else ""))
@@ -967,7 +970,13 @@ class EffectRanker:
         # horizontal).
         offsets = [(s["simulator.sensor_angle_deg"] - chosen + 90.0) % 180.0 - 90.0
                    for s in near if s["simulator.sensor"] == sensor["simulator.sensor"]]
-        interval = [chosen + min(offsets), chosen + max(offsets)] if op.angle_fitted else None
+        # The bound ends somewhere before the nearest grid direction outside it: a grid step either side, or the
+        # whole half turn where that reaches round (a lone direction within the bound is no 0-wide interval).
+        step = op.angle_step_deg
+        low, high = min(offsets) - step, max(offsets) + step
+        if high - low >= 180.0:
+            low, high = -90.0, 90.0
+        interval = [chosen + low, chosen + high] if op.angle_fitted else None
         report["sensor"] = {"value": describe_sensor(sensor), "race": sensor["simulator.sensor"].split("_")[0],
                             "angle_deg": sensor["simulator.sensor_angle_deg"],
                             "held": len(op.races) == 1 and not op.angle_fitted,
