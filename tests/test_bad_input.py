@@ -85,6 +85,11 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("train", ["-m", "seed=0,1", "hydra.launcher.n_jobs=2"], ["hydra.launcher.n_jobs: not a setting of this launcher; "
                                                               "launcher=joblib has it"]),
     ("train", ["-m", "seed=0,1", "launcher=joblib", "hydra.launcher.n_job=2"], ["--cfg hydra lists the launcher's"]),
+    # A setting of some options of a group, given with one that lacks it: those that have it are named, not a typo.
+    ("train", ["classifier=svm", "classifier.learning_rate=0.01"],
+     ["classifier.learning_rate: only classifier=cnn_bilstm has it, not the classifier chosen"]),
+    ("train", ["-m", "features=raw,sabo_vmd_minen", "features.vmd_params=global"],
+     ["features.vmd_params: only features=sabo_vmd_minen and features=sabo_vmd_pemie have it"]),
 ])
 def test_an_override_hydra_cannot_compose_is_one_line_and_exit_2(tmp_path, module, overrides, named):
     """Hydra alone would print the options and its search path over many lines, and exit 1."""

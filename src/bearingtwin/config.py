@@ -106,12 +106,13 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
     if isinstance(cause, (ConfigAttributeError, ConfigKeyError)) and getattr(cause, "full_key", None):
         key = str(cause.full_key)
         if key.startswith("hydra.launcher."):  # each launcher has settings of its own; Hydra's basic one none to speak of
-            having = launchers_with(key)
+            having = options_declaring(key)
             where = (f"; {' and '.join(f'launcher={name}' for name in having)} {'has' if len(having) == 1 else 'have'} it"
                      if having else "; check its spelling (--cfg hydra lists the launcher's settings)")
             return f"{key}: not a setting of this launcher{where}"
         listing = "--cfg hydra" if key.startswith("hydra.") else "--cfg job"
-        return f"{key}: not a setting (no config declares it); check its spelling ({listing} lists the settings)"
+        return options_hint(key) or \
+            f"{key}: not a setting (no config declares it); check its spelling ({listing} lists the settings)"
     if isinstance(error, OverrideParseException):
         return f"{error.override}: not an override Hydra can read ({str(error).splitlines()[0]})"
     lines = []
@@ -125,18 +126,47 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
     return "; ".join(lines) or type(error).__name__
 
 
-def launchers_with(key: str) -> list[str]:
-    """The ``conf/launcher`` options whose launcher declares ``key`` (``hydra.launcher.n_jobs``: joblib)."""
+def _group_of(key: str) -> str | None:
+    """The config group a setting belongs to (``classifier.learning_rate``: ``classifier``; a launcher's settings,
+    ``hydra.launcher.n_jobs``: ``launcher``), the longest dotted prefix that is a folder of ``conf/``."""
+    if key.startswith("hydra.launcher."):
+        return "launcher"
+    parts = key.split(".")
+    groups = [".".join(parts[:i]) for i in range(len(parts) - 1, 0, -1) if Path(CONF_DIR, *parts[:i]).is_dir()]
+    return groups[0] if groups else None
+
+
+def options_declaring(key: str, config_name: str = "train") -> list[str]:
+    """The options of the config group ``key`` belongs to whose config declares it (``hydra.launcher.n_jobs``:
+    joblib; ``features.vmd_params``: the features that tune VMD)."""
+    group = _group_of(key)
+    if group is None:
+        return []
     parent, _, leaf = key.rpartition(".")
     having = []
-    for option in sorted(path.stem for path in Path(CONF_DIR, "launcher").glob("*.yaml")):
+    for option in sorted(path.stem for path in Path(CONF_DIR, *group.split(".")).glob("*.yaml")):
         try:
-            node = OmegaConf.select(compose_config("train", [f"launcher={option}"], hydra_node=True), parent)
-        except Exception:  # a launcher whose plugin is not installed declares nothing here
+            cfg = compose_config(config_name, [f"{group}={option}"], hydra_node=group == "launcher")
+        except Exception:  # an option this command does not compose (a launcher whose plugin is not installed)
             continue
-        if node is not None and leaf in node:
+        node = OmegaConf.select(cfg, parent, default=None)
+        if isinstance(node, DictConfig) and leaf in node:
             having.append(option)
     return having
+
+
+def options_hint(key: str, config_name: str = "train") -> str:
+    """The line for a setting some options of its group declare and the one composed does not (a sweep over
+    ``classifier=svm,cnn_bilstm`` with ``classifier.learning_rate``: only the network has one); "" where no
+    option declares it."""
+    having = options_declaring(key, config_name)
+    if not having:
+        return ""
+    group = _group_of(key)
+    names = " and ".join(f"{group}={name}" for name in having)
+    one = len(having) == 1
+    return (f"{key}: only {names} {'has' if one else 'have'} it, not the {group} chosen (--cfg job shows its settings); "
+            f"give it with {'that' if one else 'one of those'}, or sweep {'it' if one else 'those'} apart from the rest")
 
 
 def hydra_command(config_name: str) -> Callable:
@@ -213,6 +243,8 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                     hint = ""
                 if hint:
                     raise BearingTwinError(f"{key}: not a setting (no config declares it); {hint}") from None
+                if options_hint(key, name):
+                    raise BearingTwinError(options_hint(key, name)) from None
             raise
         except yaml.YAMLError as error:  # a config file of the user's own that is no YAML: Hydra prints a traceback
             raise BearingTwinError(yaml_error_line(error)) from None
