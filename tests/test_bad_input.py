@@ -186,11 +186,16 @@ def test_too_few_windows_per_class_for_a_split(tmp_path):
 @pytest.mark.parametrize("overrides, named", [
     (["data.split=blok"], "data.split='blok'"),
     (["data=files", "data.root=.", "data.windows_per_record=0"], "data.windows_per_record"),
+    (["data.samples_per_class=2"], "too few windows for a stratified split: 8 windows (2 in the smallest class)"),
+    # A bad value in a swept list: refused before the sweep starts, not a FAILED run for each of its jobs.
+    (["-m", "seed=0,1,x"], "seed must be a non-negative integer, got 'x'"),
+    (["-m", "seed=0,1", "data.split=random,blok"], "data.split='blok'"),
 ])
 def test_a_bad_data_value_is_refused_before_a_run_is_opened(tmp_path, overrides, named):
     store = f"sqlite:///{tmp_path}/mlflow.db"
+    sweep_dir = [f"hydra.sweep.dir={tmp_path}/multirun"] if "-m" in overrides else []
     done = command("train", *overrides, "classifier=svm", f"tracking.uri={store}", f"paths.cache_dir={tmp_path}",
-                   cwd=tmp_path)
+                   *sweep_dir, cwd=tmp_path)
     assert_one_line_exit_2(done, named)
     assert not (tmp_path / "mlflow.db").exists()  # no store opened, so no FAILED run left in it
 

@@ -1,7 +1,7 @@
 """A real Table 4 multirun, smoke-sized, in parallel (joblib) into a fresh SQLite MLflow store.
 
-``seed=0,-1``: every seed-0 job must finish, every seed -1 job must fail (bad seed) and be
-logged FAILED while the sweep goes on, which then exits 1 with a summary naming them. The SABO methods and the raw method run as two
+``search.population=3,1``: every job of 3 must finish, every job of 1 must fail (SABO needs two candidates, which
+only the job's own feature settings check, as it starts) and be logged FAILED while the sweep goes on, which then exits 1 with a summary naming them. The SABO methods and the raw method run as two
 invocations of the same sweep: the second checks a sequential (basic launcher) sweep too.
 
 The sweep is made once per test session: tests/test_report.py reads the same store, from whichever
@@ -21,7 +21,7 @@ from processes import run_module
 
 SABO_METHODS = "+method=sabo_pemie_cnn_bilstm,sabo_minen_cnn_bilstm,sabo_pemie_svm"
 DATA = ["data.samples_per_class=12", "data.duration=1.0", "trainer.max_epochs=2"]
-SEARCH = ["search.population=3", "search.iterations=1", "search.windows=2", "features.progress=false"]
+SEARCH = ["search.iterations=1", "search.windows=2", "features.progress=false"]
 
 
 def sweep(base: Path, *args: str) -> subprocess.CompletedProcess:
@@ -30,7 +30,8 @@ def sweep(base: Path, *args: str) -> subprocess.CompletedProcess:
 
 
 def run_sabo_sweep(base: Path) -> subprocess.CompletedProcess:
-    return sweep(base, SABO_METHODS, "seed=0,-1", "launcher=joblib", *SEARCH, f"hydra.sweep.dir={base}/multirun")
+    return sweep(base, SABO_METHODS, "seed=0", "search.population=3,1", "launcher=joblib", *SEARCH,
+                 f"hydra.sweep.dir={base}/multirun")
 
 
 @functools.lru_cache(maxsize=None)
@@ -46,7 +47,7 @@ def smoke_sweep_store(base: Path) -> tuple[str, str]:
             base.mkdir(parents=True)
             sabo = run_sabo_sweep(base)
             assert sabo.returncode == 1, sabo.stderr[-3000:]  # some jobs failed: the exit status says so
-            raw = sweep(base, "+method=raw_cnn_bilstm", "seed=0", f"hydra.sweep.dir={base}/multirun_raw")
+            raw = sweep(base, "+method=raw_cnn_bilstm", "seed=0", "search.population=3", f"hydra.sweep.dir={base}/multirun_raw")
             assert raw.returncode == 0, raw.stderr[-3000:]
             summary.write_text(sabo.stdout)
     return f"sqlite:///{base}/mlflow.db", summary.read_text()
@@ -78,9 +79,9 @@ def test_every_good_job_finished_with_metrics_and_artifacts(store, tmp_path):
     finished = [r for r in training_runs(client, experiment_id) if r.info.status == "FINISHED"]
     assert sorted(r.info.run_name for r in finished) == [
         "raw+cnn_bilstm simulated seed=0",
-        "sabo_vmd_minen+cnn_bilstm simulated global seed=0",
-        "sabo_vmd_pemie+cnn_bilstm simulated global seed=0",
-        "sabo_vmd_pemie+svm simulated global seed=0",
+        "sabo_vmd_minen+cnn_bilstm simulated global search.population=3 seed=0",  # the value it varies by is named
+        "sabo_vmd_pemie+cnn_bilstm simulated global search.population=3 seed=0",
+        "sabo_vmd_pemie+svm simulated global search.population=3 seed=0",
     ]
     for run in finished:
         artifacts = {a.path for a in client.list_artifacts(run.info.run_id)}
@@ -100,7 +101,8 @@ def test_failing_jobs_are_failed_and_grouped_under_the_sweep(store):
     client, experiment_id = store
     runs = training_runs(client, experiment_id)
     failed = [r for r in runs if r.info.status == "FAILED"]
-    assert len(failed) == 3 and all("seed must be a non-negative integer" in r.data.tags["error"] for r in failed)
+    assert len(failed) == 3 and all("search.population must be an integer of at least 2" in r.data.tags["error"]
+                                    for r in failed)
     (parent,) = client.search_runs([experiment_id], "tags.`bt.kind` = 'sweep' and tags.sweep_dir LIKE '%multirun'")
     assert parent.data.tags["sweep"] == "table4" and parent.info.status == "FAILED"
     assert (parent.data.tags["n_finished"], parent.data.tags["n_failed"]) == ("3", "3")
@@ -120,7 +122,8 @@ def test_the_sweep_ends_with_a_summary_of_every_job(store, sweep_output):
     assert summary[0].endswith("6 jobs, 3 finished, 3 failed, 0 skipped (already finished)")
     failed = summary[1:]
     assert len(failed) == 3 and all(line.startswith("  FAILED: +method=") for line in failed)
-    assert all("seed=-1: BearingTwinError: seed must be a non-negative integer" in line for line in failed)
+    assert all("search.population=1: BearingTwinError: search.population must be an integer of at least 2" in line
+               for line in failed)
     assert not any("tracking.uri" in line for line in failed)  # overrides shared by every job are left out
 
 
@@ -132,7 +135,7 @@ def test_relaunching_the_sweep_skips_finished_jobs(store, tmp_path_factory):
     assert "6 jobs, 0 finished, 3 failed, 3 skipped (already finished)" in done.stdout
     after = {r.info.run_id: r.info.status for r in training_runs(client, experiment_id)}
     new = set(after) - set(before)
-    assert all(after[run_id] == "FAILED" for run_id in new) and len(new) == 3  # only the bad-seed jobs re-ran
+    assert all(after[run_id] == "FAILED" for run_id in new) and len(new) == 3  # only the failed jobs re-ran
 
 
 def test_every_finished_job_logged_its_fitted_pipeline_as_a_model(store):

@@ -54,6 +54,13 @@ def whole_number(field: str, value, minimum: int = 1) -> int:
     return int(value)
 
 
+def check_seed(seed) -> int:
+    """A run's ``seed``: a non-negative int (not 3.0 nor true: it names the run's every random draw)."""
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
+    return seed
+
+
 def positive_number(value, name: str, unit: str, where: str = "") -> float:
     """``value`` (a number, or its text from a command line or a file) as a finite positive float;
     anything else (``12k``, ``0``, ``inf``, ``true``) raises naming ``name`` and its ``unit``."""

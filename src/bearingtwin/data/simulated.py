@@ -21,7 +21,7 @@ import numpy as np
 from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.recording import WindowedDataset
-from bearingtwin.data.windows import check_split, cut_windows
+from bearingtwin.data.windows import check_split, check_stratified, cut_windows
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import order_identity
 from bearingtwin.physics.geometry import FAULTS
@@ -73,7 +73,9 @@ def check_simulated_settings(data_cfg: Mapping) -> dict:
         data_cfg[name] = whole_number(f"data.{name}", data_cfg[name])
     for name, unit in (("rpm", "rev/min"), ("fs", "Hz"), ("duration", "seconds")):  # named as the user set them
         positive_number(data_cfg[name], f"data.{name}", unit)
-    check_split(data_cfg.get("split"), data_cfg.get("train_fraction"))
+    train_fraction = check_split(data_cfg.get("split"), data_cfg.get("train_fraction"))
+    if data_cfg["split"] == "random":  # one record a state: its windows are the state's
+        check_stratified([data_cfg["samples_per_class"]] * len(FAULTS), train_fraction)
     return data_cfg
 
 

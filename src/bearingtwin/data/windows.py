@@ -119,6 +119,20 @@ def check_split(method, train_fraction) -> float:
     return check_train_fraction(train_fraction)
 
 
+def check_stratified(class_counts: Sequence[int], train_fraction: float) -> None:
+    """Raise where a stratified split of windows counted ``class_counts`` (per class) cannot give every class a
+    training and a test window at ``train_fraction``; a data source that knows its counts from its config alone
+    asks before any window is cut."""
+    n_windows, n_classes, fewest = int(sum(class_counts)), len(class_counts), int(min(class_counts))
+    n_train = int(np.floor(train_fraction * n_windows))  # as train_test_split rounds
+    if fewest < 2 or min(n_train, n_windows - n_train) < n_classes:
+        raise BearingTwinError(
+            f"too few windows for a stratified split: {n_windows} windows ({fewest} in the smallest class) cannot "
+            f"give every one of {n_classes} classes a training and a test window at data.train_fraction={train_fraction:g}; "
+            "raise data.samples_per_class (data.windows_per_record under data=files)"
+        )
+
+
 def split_indices(
     labels: np.ndarray,
     record_ids: np.ndarray,
@@ -156,14 +170,7 @@ def split_indices(
         from sklearn.model_selection import train_test_split
 
         index = np.arange(labels.size)
-        n_classes, fewest = np.unique(labels).size, np.unique(labels, return_counts=True)[1].min()
-        n_train = int(np.floor(train_fraction * labels.size))  # as train_test_split rounds
-        if fewest < 2 or min(n_train, labels.size - n_train) < n_classes:
-            raise BearingTwinError(
-                f"too few windows for a stratified split: {labels.size} windows ({fewest} in the smallest class) cannot "
-                f"give every one of {n_classes} classes a training and a test window at data.train_fraction={train_fraction:g}; "
-                "raise data.samples_per_class (data.windows_per_record under data=files)"
-            )
+        check_stratified(np.unique(labels, return_counts=True)[1], train_fraction)
         train, test = train_test_split(index, train_size=train_fraction, stratify=labels, random_state=seed)
         return np.sort(train), np.sort(test)
     record_ids, record_lengths = np.asarray(record_ids), np.asarray(record_lengths)

@@ -19,6 +19,7 @@ from omegaconf import DictConfig
 from sklearn.base import clone
 from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 
+from bearingtwin.checks import check_seed
 from bearingtwin.config import bearing_config, plain_config
 from bearingtwin.data.build import build_dataset
 from bearingtwin.data.windows import split_indices
@@ -132,9 +133,7 @@ def checked_settings(cfg: DictConfig, root_dir: str | None = None) -> tuple[obje
     """The seeded, unfitted classifier and the feature groups ``cfg`` describes, every setting of the seed, the
     classifier and the features checked before any data is built: a bad value raises, naming its key.
     ``root_dir`` is where Lightning may write."""
-    seed = cfg.seed
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
+    seed = check_seed(cfg.seed)
     seed_everything(seed)
     classifier = build_classifier(cfg.classifier, cfg.trainer, seed=seed, root_dir=root_dir)
     # The cached extraction builds its own extractor; this one checks the features' settings, and a choice among

@@ -64,7 +64,8 @@ from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin import cpu_kernels
 from bearingtwin.config import REPO_ROOT, exit_on_user_error, experiment_name, refuse_unknown_keys
-from bearingtwin.data.build import require_files
+from bearingtwin.checks import check_seed
+from bearingtwin.data.build import check_data_settings, require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.tracking.lifecycle import (
@@ -875,6 +876,9 @@ class SweepParentRun(Callback):
         jobs = exit_on_user_error(self._jobs)(config)
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
+            # A bad value in a swept list (seed=0,1,x) fails its jobs alone; refused here, it leaves no FAILED runs.
+            exit_on_user_error(check_seed)(job.seed)
+            exit_on_user_error(check_data_settings)(job)
             exit_on_user_error(build_effects)(job.get("effects"))  # their parameters, before any job starts
             exit_on_user_error(check_registration)(job)  # a bad model name, before a parent run is opened
         exit_on_user_error(require_files)(jobs)
