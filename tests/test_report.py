@@ -9,6 +9,7 @@ from processes import run_module
 
 from bearingtwin.cli.report import main
 from bearingtwin.config import REPO_ROOT
+from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.provenance import recorded_sizes
 from bearingtwin.tracking import paper
 from bearingtwin.tracking.reports import GENERATED, mean_std
@@ -137,7 +138,11 @@ def test_results_go_to_the_working_directory_and_smoke_runs_do_not_replace_full_
 def test_rows_of_runs_of_different_sizes_are_said_to_be_so_where_a_reader_sees_it(uri, tmp_path, capsys):
     """The size record is an HTML comment; a table whose rows were computed at different sizes says so in words."""
     assert report_here(capsys, "table4", f"uri={uri}", f"out={tmp_path}/same.md")[0] == 0
-    assert "different sizes" not in (tmp_path / "same.md").read_text()  # the smoke sweep: one size throughout
+    same = (tmp_path / "same.md").read_text()
+    assert "different sizes" not in same  # the smoke sweep: one size throughout
+    # ...but smaller than the configured one, which a reader of the rendered table must see beside the paper's.
+    assert "Smaller runs than the configured ones: data.duration=1 (configured " in same
+    assert "they are no measure beside the paper's" in same
     mixed = copy_store(uri, tmp_path / "mixed.db")
     (run,) = finished(mixed, "raw+cnn_bilstm")
     with sqlite3.connect(tmp_path / "mixed.db") as database:  # params are write-once: the store's row is edited
@@ -362,3 +367,26 @@ def test_an_svms_epochs_are_no_size_of_its_run():
     assert used_sizes(svm) == {"data.samples_per_class": 150.0}
     assert used_sizes(network) == {"data.samples_per_class": 150.0, "trainer.max_epochs": 3.0}
     assert run_sizes([svm, network])["trainer.max_epochs"] == [3.0]
+
+
+def test_a_variants_table_has_a_file_of_its_own():
+    """``table3 vmd_params=per_class`` had written over the global table's file."""
+    from bearingtwin.tracking.reports import report_stem
+
+    assert report_stem("table3", {}) == report_stem("table3", {"vmd_params": "global"}) == "table3"
+    assert report_stem("table3", {"vmd_params": "per_class", "uri": "x"}) == "table3_per_class"
+    assert report_stem("cwru", {"load": "1"}) == "cwru_1"
+    assert report_stem("repeat", {"run_id": "abc"}) == "repeat_abc"
+
+
+def test_larger_runs_replace_smaller_ones_however_few_they_are(tmp_path):
+    """One full-size run replaces five smoke runs; fewer runs of the same size, or smaller ones, do not."""
+    from bearingtwin.tracking.provenance import check_replacement, size_record
+
+    page = tmp_path / "table3.md"
+    page.write_text(size_record({"data.duration": [2.0], "trainer.max_epochs": [3.0], "runs": [5.0]}))
+    check_replacement(page, {"data.duration": [10.0], "trainer.max_epochs": [50.0], "runs": [1.0]}, {}, force=False)
+    for smaller in ({"data.duration": [2.0], "trainer.max_epochs": [3.0], "runs": [4.0]},
+                    {"data.duration": [10.0], "trainer.max_epochs": [2.0], "runs": [5.0]}):
+        with pytest.raises(BearingTwinError, match="holds results of larger runs than these"):
+            check_replacement(page, smaller, {}, force=False)

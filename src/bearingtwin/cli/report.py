@@ -23,7 +23,8 @@ def report_command(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="bearingtwin-report", description=__doc__.splitlines()[0],
         epilog=f"Every report takes {', '.join(f'{key}=' for key in COMMON_KEYS)} (uri: the MLflow store, default "
-               "MLFLOW_TRACKING_URI or mlruns/mlflow.db; out: the markdown file, default results/<name>.md; sweep_dir: "
+               "MLFLOW_TRACKING_URI or the checkout's mlruns/mlflow.db, wherever the command runs; out: the markdown file, "
+               "default results/<name>.md under the current folder; sweep_dir: "
                "that sweep's runs only; source: data.source, default simulated, or all; force=true: replace results "
                f"of larger runs). Further settings by report: {takes}.")
     parser.add_argument("name", help=f"report: {', '.join(sorted(REPORTS))}")
