@@ -81,6 +81,19 @@ def test_psd_view_takes_an_empty_top_band_for_the_measurement_chains_low_pass():
     assert "a low-pass in the measurement chain" in psd.what_leaves_it
 
 
+def test_a_healthy_records_shaft_harmonics_are_put_down_to_the_shaft_not_to_a_defect():
+    """A healthy record's harmonics view reads the shaft's lines in the envelope: what leaves them there is a once-per-
+    revolution modulation (unbalance, misalignment), not "a different defect geometry" of a bearing that has none."""
+    rng = np.random.default_rng(0)
+    t = np.arange(int(2.0 * FS)) / FS
+    carrier = rng.standard_normal(t.size)
+    twin = 0.1 * carrier
+    meas = twin * (1 + 0.8 * np.sin(2 * np.pi * RPM / 60 * t))
+    harmonics = Comparator(measured(meas, "normal"), GEOMETRY)(twin).views["harmonics"]
+    assert harmonics.what_leaves_it.startswith("a modulation once per revolution") and "unbalance" in harmonics.what_leaves_it
+    assert Comparator(measured(impacts("outer", 2.0, seed=0)), GEOMETRY)(twin).views["harmonics"].what_leaves_it is None
+
+
 def test_harmonics_view_sees_smeared_lines_as_wider():
     sharp = impacts("outer", 2.0, seed=0)
     rate = GEOMETRY.bpfo_hz(RPM)
@@ -339,3 +352,13 @@ def test_a_line_on_a_supply_multiple_names_the_supply_and_a_coarse_spectrum_name
     assert both.startswith("a force twice per revolution") and "too close here to tell apart" in both
     assert line_source(150.0, 30.0, 0.5).startswith("an electrical line at 3 x a 50 Hz supply (pickup")
     assert line_source(8.0, 10.0, 2.0) is None and line_source(10.0, 10.0, 2.5) is None
+    # On a defect frequency of the bearing: named as such (an outer-race record's line at 5.41 shaft orders is its
+    # BPFI, not a gear's or a blade's), the stated defect's own told apart from another's.
+    rates = {"BPFO": 107.4, "BPFI": 162.2, "BSF": 70.6}
+    assert line_source(162.0, 29.95, 0.5, rates, own="BPFO") == (
+        "this bearing's BPFI (the inner race's defect frequency): a defect on the inner race as well, or a record of "
+        "another state than the one stated")
+    assert line_source(214.8, 29.95, 0.5, rates, own="BPFO").startswith("this bearing's 2 x BPFO (the outer race's "
+                                                                         "defect frequency): the stated defect rings")
+    assert line_source(60.0, 29.95, 0.5, rates).startswith("a force twice per revolution")  # the shaft's first
+    assert line_source(130.0, 29.95, 0.5, rates) is None

@@ -530,7 +530,12 @@ def test_a_stated_state_the_envelope_contradicts_is_questioned(cfg):
     for stated in ("normal", "inner"):
         doubt = fault_check(Recording(outer.signal, FS, RPM, stated), cfg.bearing)
         assert doubt.startswith(f"measured.fault={stated}, but the envelope spectrum's defect series standing out is "
-                                "outer's") and doubt.endswith("check the stated bearing state"), doubt
+                                "the outer defect's") and doubt.endswith("check the stated bearing state"), doubt
+        # A series below its floor is said to stand below it ("stands -0.3 dB" had read as a height).
+        assert "dB over its floor" in doubt and "stands -" not in doubt and "+" not in doubt, doubt
+    from bearingtwin.twin.report import _over_its_floor
+
+    assert _over_its_floor(-3.2) == "stands 3.2 dB below its floor" and _over_its_floor(0.2) == "stands at its floor"
 
 
 def test_a_sensor_floor_40_db_below_the_bearing_is_found_where_it_lies(cfg):
@@ -589,6 +594,16 @@ def test_base_parameters_the_record_does_not_identify_are_said_apart_without_the
         _operating_point_words(operating, 27.6, "m/s^2")
     assert "sensor gain 0.5 (measurement unit per m/s^2; a record in g at the twin's level gives 0.102)" in \
         _operating_point_words(operating, 0.5, "g")
+
+
+def test_a_held_value_outside_the_searched_range_is_noted_as_perhaps_in_another_unit():
+    """A load of 2 (meant in hp) is held as given, with a note; an unloaded rig's 0 and values inside are not noted."""
+    noted = operating_point(radial_load_n=2.0, clearance_um=8.0).notes
+    assert noted == ["operating_point.radial_load_n=2 is held below the range a fit searches "
+                     f"({RANGES['radial_load_n'][0]:g}-{RANGES['radial_load_n'][1]:g} N, calibration.ranges.radial_load_n): "
+                     "check it is in N"]
+    assert operating_point(radial_load_n=0.0, clearance_um=8.0).notes == []
+    assert operating_point(radial_load_n=900.0, clearance_um=8.0).notes == []
 
 
 def test_the_sensor_directions_interval_is_read_on_the_half_turn():

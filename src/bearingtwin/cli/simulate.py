@@ -130,7 +130,8 @@ def main(cfg: DictConfig) -> None:
         "load": f"{simulator.load_x_n:g} N along x, {simulator.load_y_n:g} N along y, and the inner ring's weight",
         **({"defect": defect_words(simulator.defect, recording.fault)} if recording.fault != "normal" else {}),
         **({"note": "; ".join(recording.meta["notes"])} if recording.meta.get("notes") else {}),
-        "effects": "; ".join(f"{name} ({', '.join(f'{key} {value}' for key, value in params.items())})"
+        # A setting left at null takes its default behaviour: "reference_rms None" would read as a missing value.
+        "effects": "; ".join(f"{name} ({', '.join(f'{key} {value}' for key, value in params.items() if value is not None)})"
                              for name, params in OmegaConf.to_container(cfg.effects, resolve=True).items()) or "none",
         "written": ", ".join(path.name for path in written),
         "next": twin_command(out.resolve(), HydraConfig.get().runtime.choices.get("bearing"), cfg.bearing, cfg.simulator,

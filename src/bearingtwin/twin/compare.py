@@ -32,6 +32,7 @@ Views:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from pathlib import Path
@@ -302,6 +303,7 @@ class Comparator:
         self.rpm = float(measured.rpm)
         rates = geometry.defect_frequencies(self.rpm)
         self.reference_name = _REFERENCE_NAME[self.fault]
+        self.defect_lines_hz = {name: rates[name.lower()] for name in DEFECT_LINES}
         self.reference_hz = geometry.fault_frequency_hz(self.fault, self.rpm) or rates["shaft"]
         sideband_hz = {"inner": rates["shaft"], "ball": rates["ftf"]}.get(self.fault)
         s = self.settings
@@ -509,7 +511,8 @@ class Comparator:
         discrepancy = sum(weighted.values()) / total_weight
         views = {
             v: ViewResult(v, errors[v], weighted[v] / sum(weighted.values()) if discrepancy > 0 else 0.0, findings[v],
-                          n_points[v], {"psd": psd_cause, "lines": lines_cause}.get(v))
+                          n_points[v], {"psd": psd_cause, "lines": lines_cause,
+                                        "harmonics": SHAFT_HARMONICS_CAUSE if self.fault == "normal" else None}.get(v))
             for v in VIEWS
         }
         return Comparison(float(discrepancy), gain, views, m, twin, self)
@@ -571,16 +574,24 @@ class Comparator:
         freq, _ = peak_near(m.lines_freqs_hz, (m if diff[worst] > 0 else twin).lines_psd, m.lines_freqs_hz[peak], df)
         finding = (f"a line at {freq:.0f} Hz (shaft order {freq / (self.rpm / 60.0):.2f}) stands {abs(diff[worst]):.0f} dB "
                    f"{'higher in the measurement' if diff[worst] > 0 else 'higher in ' + other}")
-        cause = line_source(freq, self.rpm / 60.0, df) if diff[worst] > 0 else TWIN_LINE_TOO_STRONG
+        cause = (line_source(freq, self.rpm / 60.0, df, self.defect_lines_hz, _REFERENCE_NAME[self.fault])
+                 if diff[worst] > 0 else TWIN_LINE_TOO_STRONG)
         return float(np.sqrt(np.sum(diff**2) / n_lines)), finding, n_lines, cause
 
 
-def line_source(freq_hz: float, shaft_hz: float, resolution_hz: float) -> str | None:
+DEFECT_LINES = {"BPFO": "the outer race", "BPFI": "the inner race", "BSF": "a ball"}
+"""The bearing's defect frequencies a line may stand on, and the part whose defect makes it."""
+
+
+def line_source(freq_hz: float, shaft_hz: float, resolution_hz: float, defect_hz: Mapping[str, float] | None = None,
+                own: str | None = None) -> str | None:
     """What leaves a line the measurement adds at ``freq_hz``, where its place tells: on one of the shaft's first
     orders or half orders (``shaft_hz``: the shaft rate; up to 3x, where such a line is most likely the shaft's),
-    or on one of a supply's first four multiples; None elsewhere (the lines view's general answer stands), and
-    where the spectrum's bins (``resolution_hz``) are too coarse to tell a shaft order from the next half order.
-    On means within half a bin plus 0.5 % of the frequency (the line's frequency is read between bins)."""
+    on one of the bearing's defect frequencies' first three harmonics (``defect_hz``: BPFO, BPFI, BSF in Hz;
+    ``own``: the one of the record's stated fault), or on one of a supply's first four multiples; None elsewhere
+    (the lines view's general answer stands), and where the spectrum's bins (``resolution_hz``) are too coarse to
+    tell a shaft order from the next half order. On means within half a bin plus 0.5 % of the frequency (the
+    line's frequency is read between bins)."""
     if resolution_hz >= shaft_hz / 4:
         return None
 
@@ -594,6 +605,14 @@ def line_source(freq_hz: float, shaft_hz: float, resolution_hz: float) -> str | 
                  2.0: "a force twice per revolution: misalignment, or looseness",
                  3.0: "a force three times per revolution: misalignment, or looseness"}.get(
             half, "a machine that makes half orders: looseness or a rub")
+    # A defect's line in the spectrum itself (not only its envelope): a second defect, or the stated one stronger.
+    defect = next(((name, k) for name, hz in (defect_hz or {}).items() for k in (1, 2, 3) if on(k * hz)), None)
+    if defect is not None and words is None:
+        name, k = defect
+        order = name if k == 1 else f"{k} x {name}"
+        words = (f"this bearing's {order} ({DEFECT_LINES[name]}'s defect frequency"
+                 + ("): the stated defect rings stronger in this line than the twin's does" if name == own else
+                    f"): a defect on {DEFECT_LINES[name]} as well, or a record of another state than the one stated"))
     supply = next(((n, f) for f in MAINS_HZ for n in range(1, 5) if on(n * f)), None)
     if supply is not None:
         n, mains = supply
@@ -602,6 +621,10 @@ def line_source(freq_hz: float, shaft_hz: float, resolution_hz: float) -> str | 
         return f"{words}, or {electrical} (the two lie too close here to tell apart)" if words else electrical
     return words
 
+
+SHAFT_HARMONICS_CAUSE = ("a modulation once per revolution, which a healthy bearing's defect-free model does not make: "
+                         "unbalance, misalignment, a bent shaft or looseness")
+"""What leaves the shaft's harmonics in a healthy record's envelope (its harmonics view reads the shaft's, no defect's)."""
 
 TWIN_LINE_TOO_STRONG = ("a line the twin makes and the machine does not, or not as strongly: an effect of the "
                         "twin's at that frequency set too strong, or a line of the twin's own bearing model that the "

@@ -50,6 +50,21 @@ DEFECT_PARAMETERS = ("defect_depth_mm", "defect_width_mm")
 """The operating-point parameters a healthy bearing has none of."""
 
 
+def held_outside_ranges(known: Mapping, bounds: Mapping) -> list[str]:
+    """A note for each held value outside the range a fit of it would search (``calibration.ranges``): held as
+    given, but a value so far from a rig's is more often one in another unit (a load of 2 meant in hp or kN)."""
+    notes = []
+    for name, value in known.items():
+        if name not in bounds or bounds[name][0] <= value <= bounds[name][1] or value == 0:  # 0: an unloaded rig
+            continue
+        low, high = bounds[name][:2]
+        parameter = BASE_PARAMETERS[name]
+        side = "below" if value < low else "above"
+        notes.append(f"operating_point.{name}={value:g} is held {side} the range a fit searches ({low:g}-{high:g} "
+                     f"{parameter.unit}, calibration.ranges.{name}): check it is in {parameter.unit}")
+    return notes
+
+
 @dataclass
 class OperatingPoint:
     """What is held and what is fitted of the rig's operating point.
@@ -62,6 +77,7 @@ class OperatingPoint:
         angle_step_deg: grid step of the direction search when the direction is fitted.
         extra: further dotted ``bearing.*`` / ``simulator.*`` keys fitted as they are (advanced).
         extra_known: further dotted keys held at a value (those a reference fitted: ``calibration.base_held``).
+        notes: what a reader should check of the held values (one outside the range a fit would search).
     """
 
     known: dict = field(default_factory=dict)
@@ -71,6 +87,7 @@ class OperatingPoint:
     angle_step_deg: float = 30.0
     extra: dict = field(default_factory=dict)
     extra_known: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
 
     @classmethod
     def from_config(cls, operating_cfg: Mapping, ranges: Mapping, extra_base: Mapping | None,
@@ -131,7 +148,7 @@ class OperatingPoint:
                 name = own.get(taken[0], "sensor")
                 raise BearingTwinError(f"{group}.{taken[0]}: the operating point's {name} sets it; give "
                                        f"operating_point.{name} instead")
-        return cls(known, free, races, angle, angle_step_deg, extra, extra_known)
+        return cls(known, free, races, angle, angle_step_deg, extra, extra_known, held_outside_ranges(known, bounds))
 
     @property
     def space(self) -> dict[str, Bounds]:

@@ -438,10 +438,17 @@ def fault_check(measured: Recording, bearing_cfg) -> str | None:
     if shown in (None, "normal", stated) or evidence.prominence_db.get(stated, -math.inf) >= evidence.threshold_db:
         return None
     given = ("" if stated == "normal" else
-             f"; {stated}'s stands {evidence.prominence_db[stated]:+.1f} dB" if stated in evidence.prominence_db else
-             f"; {stated}'s cannot be read here")
-    return (f"measured.fault={stated}, but the envelope spectrum's defect series standing out is {shown}'s "
-            f"({evidence.prominence_db[shown]:+.1f} dB over its floor{given}): check the stated bearing state")
+             f"; the {stated} defect's series {_over_its_floor(evidence.prominence_db[stated])}"
+             if stated in evidence.prominence_db else f"; the {stated} defect's cannot be read here")
+    return (f"measured.fault={stated}, but the envelope spectrum's defect series standing out is the {shown} defect's "
+            f"({evidence.prominence_db[shown]:.1f} dB over its floor{given}): check the stated bearing state")
+
+
+def _over_its_floor(prominence_db: float) -> str:
+    """A series' prominence over its envelope floor in words: a negative one stands below it."""
+    if abs(prominence_db) < 0.5:
+        return "stands at its floor"
+    return f"stands {abs(prominence_db):.1f} dB {'over' if prominence_db > 0 else 'below'} its floor"
 
 
 def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recording, reference: Mapping,
@@ -525,6 +532,10 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     twin = twin_for(measured, cfg)
     ranker = build_ranker(cfg, measured.fault, progress)
     check_held_defect(cfg, ranker.operating_point, measured.fault, geometry)
+    for note in ranker.operating_point.notes:  # said now, and again in the closing summary
+        log.warning(note)
+    if ranker.operating_point.notes:
+        notes["held"] = "; ".join(ranker.operating_point.notes)
     comparator = Comparator(measured, geometry, settings)  # a record too short for one comparison segment, before a run opens
     tracked = open_twin_run(cfg, measured) if tracking else None
     ranker.fit(twin, measured, geometry, settings)
