@@ -66,6 +66,9 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("twin", ["measured.path=x.npy", "bearing=nope"], ["bearing=nope", "cwru_6205"]),
     ("twin", ["measured.path=x.npy", "measured.not_a_key=1"], ["measured.not_a_key", "not a setting"]),
     ("simulate", ["simulator.rpm=[1797"], ["simulator.rpm=[1797"]),
+    # A file name Hydra reads only in quotes (letters outside ASCII, brackets): the line says how to quote it.
+    ("diagnose", ["path=/tmp/泵_外圈.npz", "model=x"], ["""give the value in quotes: 'path="/tmp/泵_外圈.npz"'"""]),
+    ("twin", ["measured.path=Pumpe 3 (außen).npz"], ["""'measured.path="Pumpe 3 (außen).npz"'"""]),
     ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
     ("inspect", ["path=x.npy", "bearing=null"], ["bearing=null: a config group takes one of its options", "er16k"]),
     ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, svm"]),  # Hydra's own ValueError, a traceback

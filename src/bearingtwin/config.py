@@ -114,7 +114,13 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
         return options_hint(key) or \
             f"{key}: not a setting (no config declares it); check its spelling ({listing} lists the settings)"
     if isinstance(error, OverrideParseException):
-        return f"{error.override}: not an override Hydra can read ({str(error).splitlines()[0]})"
+        key, equals, value = error.override.partition("=")
+        # Hydra reads a bare value in a grammar of its own: spaces, brackets and letters outside ASCII (a file name
+        # in another script) need quotes, which its message does not say.
+        quoted = (f"; give the value in quotes: '{key}=\"{value}\"'"
+                  if equals and value and not (value[0] in "'\"[{" or value.isascii() and value.isprintable()
+                                               and not set(value) & set(" ()")) else "")
+        return f"{error.override}: not an override Hydra can read ({str(error).splitlines()[0]}){quoted}"
     lines = []
     for line in str(error).splitlines():
         if line.startswith("Config search path:"):  # the rest is the path, one folder a line
