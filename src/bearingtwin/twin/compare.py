@@ -32,6 +32,7 @@ Views:
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from functools import cached_property
@@ -676,7 +677,8 @@ def plot_comparison(comparison: Comparison, out_dir: str | Path, prefix: str = "
 
     def save(fig, view):
         result = comparison.views[view]
-        fig.suptitle(f"{view}: {result.error_db:.2f} dB -- {result.finding}", fontsize=8)
+        # A finding runs to two hundred characters: wrapped, not cut off at the figure's edges.
+        fig.suptitle(textwrap.fill(f"{view}: {result.error_db:.2f} dB -- {result.finding}", 120), fontsize=8)
         fig.tight_layout()
         path = out_dir / f"{prefix}_{view}.png"
         fig.savefig(path, dpi=110)
@@ -695,13 +697,16 @@ def plot_comparison(comparison: Comparison, out_dir: str | Path, prefix: str = "
 
     fig, ax = plt.subplots(figsize=(8, 4))
     measured_heights, twin_heights = c.line_heights_db(m, t, comparison.gain)
-    ax.plot(m.lines_freqs_hz, measured_heights, lw=0.8, label="measurement")
-    ax.plot(t.lines_freqs_hz, twin_heights, lw=0.8, label=f"twin x gain {comparison.gain:.3g}")
+    # The bins the view leaves out (the bearing's own lines) are gaps, not straight lines drawn across them.
+    gaps = np.flatnonzero(np.diff(m.lines_freqs_hz) > 1.5 * np.min(np.diff(m.lines_freqs_hz))) + 1
+    freqs = np.insert(m.lines_freqs_hz, gaps, np.nan)
+    ax.plot(freqs, np.insert(measured_heights, gaps, np.nan), lw=0.8, label="measurement")
+    ax.plot(freqs, np.insert(twin_heights, gaps, np.nan), lw=0.8, label=f"twin x gain {comparison.gain:.3g}")
     shaft_hz = c.rpm / 60.0
     for order in np.arange(0.5, m.lines_freqs_hz[-1] / shaft_hz, 0.5):
         ax.axvline(order * shaft_hz, color="0.85" if order % 1 else "0.6", lw=0.5)
     ax.set(xlabel="frequency (Hz); grey: shaft orders and half orders",
-           ylabel=f"line height over {c.settings.line_threshold_db:g} dB above the measurement's local level (dB)")
+           ylabel=f"line height (dB over {c.settings.line_threshold_db:g} dB\nabove the measurement's local level)")
     ax.legend(fontsize=8)
     save(fig, "lines")
 
