@@ -87,9 +87,11 @@ def test_saved_pipelines_predict_exactly_as_the_fitted_ones(tmp_path):
 
 def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_and_an_unseen_level_is_named(tmp_path):
     """Units (standard gravity between g and m/s^2) and levels travel with the saved pipeline: a record stated in
-    g is converted to the model's m/s^2 and then diagnosed exactly as the same vibration in m/s^2; one stated in
-    a unit that is no acceleration's is read as it is, and said so; windows a thousand times the training ones'
-    level are named, as a unit or gain the model never saw, while the training windows themselves are not."""
+    g, mg or mm/s^2 is converted to the model's m/s^2 and then diagnosed exactly as the same vibration in m/s^2; one
+    stated in a unit that is no acceleration's (a voltage, a velocity) is refused by a model that reads levels,
+    naming the file, the unit and what it takes, and read as it is, said so, by one that normalizes its windows;
+    windows a thousand times the training ones' level are named, as a unit or gain the model never saw, while the
+    training windows themselves are not."""
     from bearingtwin.diagnosis.record import in_model_unit
     from bearingtwin.models.experiment import training_window_level
 
@@ -102,22 +104,34 @@ def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_
     assert pipeline.unit == "m/s^2" and pipeline.window_level == pytest.approx(level)
     signal = X[16:20].ravel()  # four inner-race windows, in m/s^2
     in_g = Recording(signal / 9.80665, FS, unit="G")  # a logger's spelling of g
-    converted, notes = in_model_unit(in_g, pipeline)
-    assert notes == ["converted from g to m/s^2, the unit the model was trained in (x 9.80665)"]
+    converted, notes, check = in_model_unit(in_g, pipeline)
+    assert notes == ["converted from g to m/s^2, the unit the model was trained in (x 9.80665)"] and check == "converted"
     np.testing.assert_allclose(converted.signal, signal, rtol=1e-12)
     np.testing.assert_allclose(pipeline.predict_proba(converted.signal.reshape(4, 2048)),
                                pipeline.predict_proba(X[16:20]), atol=1e-9)
-    as_is, notes = in_model_unit(Recording(signal, FS, unit="V"), pipeline)
-    assert as_is.signal is signal and notes == ["the record is in V, the model was trained on windows in m/s^2: read as it is"]
+    for unit, factor in (("mg", 1000 / 9.80665), ("mm/s²", 1000.0), ("µg", 1e6 / 9.80665), ("m/s2", 1.0)):
+        converted, _, check = in_model_unit(Recording(signal * factor, FS, unit=unit), pipeline)
+        np.testing.assert_allclose(converted.signal, signal, rtol=1e-12, err_msg=unit)
+        assert (converted.unit, check) == ((unit, "as stated") if factor == 1.0 else ("m/s^2", "converted"))
+    with pytest.raises(BearingTwinError, match=r"^rig/a.npz: the record is in V, the model was trained on windows in "
+                                               r"m/s\^2 and reads their level, and no factor converts V \(a voltage\) "
+                                               r"into m/s\^2: divide it by the sensor's sensitivity"):
+        in_model_unit(Recording(signal, FS, unit="V", source="rig/a.npz"), pipeline)
+    with pytest.raises(BearingTwinError, match=r"^rig/v.csv: the record is in mm/s, .* no factor converts mm/s \(a "
+                                               r"velocity\) into m/s\^2: a velocity is an integrated acceleration"):
+        in_model_unit(Recording(signal, FS, unit="mm/s", source="rig/v.csv"), pipeline)
     # A record that states no unit is read in the model's, and said so: g and m/s^2 differ by less than a decade.
-    same, notes = in_model_unit(Recording(signal, FS), pipeline)
-    assert same.signal is signal and notes == ["the file states no unit: read in m/s^2, the unit the model was trained "
-                                               "in (where it is another, state it: a CSV column header such as "
-                                               "'acc (m/s^2)', an .npz's 'unit' entry)"]
+    same, notes, check = in_model_unit(Recording(signal, FS), pipeline)
+    assert same.signal is signal and check == "assumed" and notes == [
+        "the file states no unit: read as if in m/s^2, the unit the model was trained in (where it is another, state "
+        "it: a CSV column header such as 'acc (m/s^2)', an .npz's 'unit' entry)"]
     assert pipeline.level_note(X) is None
     assert "lies more than 10 times above the 5-95 % range of the model's training windows" in pipeline.level_note(1000 * X)
     normalizing = dataclasses.replace(pipeline, window_normalization="zscore", window_level=None)
-    assert normalizing.level_note(1000 * X) is None and in_model_unit(in_g, normalizing)[1] == []
+    assert normalizing.level_note(1000 * X) is None and in_model_unit(in_g, normalizing)[1:] == ([], "not needed")
+    as_is, notes, _ = in_model_unit(Recording(signal, FS, unit="mm/s"), normalizing)
+    assert as_is.signal is signal and notes[0].startswith("the record is in mm/s (a velocity), not an acceleration: "
+                                                          "read as it is, the model scaling every window to one level")
 
 
 def test_windows_of_records_in_g_and_in_m_s2_are_brought_to_one_unit():
@@ -135,6 +149,12 @@ def test_windows_of_records_in_g_and_in_m_s2_are_brought_to_one_unit():
     unstated = windows_from_recordings([in_g, dataclasses.replace(in_si, unit="")], 2048, 2, "data.windows_per_record",
                                        "key")
     assert unstated.unit == ""
+    in_mg = windows_from_recordings([in_g, dataclasses.replace(in_si, signal=signal / 9.80665 * 1000, unit="mg")], 2048,
+                                    2, "data.windows_per_record", "key")
+    assert in_mg.unit == "m/s^2" and np.allclose(in_mg.windows[:2], in_mg.windows[2:], rtol=1e-12)
+    with pytest.raises(BearingTwinError, match=r"the records state units not converted into one another \(g: a.npz, V: "
+                                               r"b.npz\); only acceleration units"):
+        windows_from_recordings([in_g, dataclasses.replace(in_si, unit="V")], 2048, 2, "data.windows_per_record", "key")
 
 
 def test_a_per_class_pipeline_refuses_to_diagnose(tmp_path):
@@ -753,6 +773,7 @@ def test_a_dead_sensor_fails_its_file_alone_and_each_failure_names_its_file_once
         "error: f/two.csv: holds channels a, b; choose one with channel=<name>",
     ]
     assert (tmp_path / "out" / "live" / "diagnosis.json").is_file() and "records diagnosed: 1 of 3" in done.stdout
+    assert f"output: {(tmp_path / 'out').resolve()}\n" in done.stdout  # out=out, named where it is from anywhere
 
 
 @pytest.mark.parametrize("overrides, message", [
@@ -1014,8 +1035,8 @@ def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data
     for row in rows.values():  # the physics is right where its evidence names the record's state
         assert row["physics_correct"] == str(row["evidence_state"] == row["true_state"]), row
     assert re.search(r"physics alone right: [\d.]+ % of the 4 with physics evidence", done.stdout), done.stdout
-    by_size = re.search(r"records right by fault size \(model, physics\): normal [01]/1, [01]/1; 0.021 in [01]/1, [01]/1; "
-                        r"0.028 in [012]/2, [12]/2", done.stdout)
+    by_size = re.search(r"records right by state and fault size \(model, physics\): normal [01]/1, [01]/1; inner 0.028 "
+                        r"in [012]/2, [12]/2; outer 0.021 in [01]/1, [01]/1", done.stdout)
     assert by_size is not None, done.stdout
 
 
@@ -1253,3 +1274,25 @@ def test_the_closing_summary_names_records_read_below_the_models_rate():
     assert lines["recorded below the model's rate (no content above their Nyquist)"] == "logger_5k"
     assert "recorded below the model's rate (no content above their Nyquist)" not in diagnosis_lines(
         DiagnosisRun(rows=rows[1:]))
+
+
+def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unseen_level_and_scores_by_state_and_size():
+    """Beside a wrong rate and a disagreement with the physics, what else puts a verdict in doubt is named: a unit
+    assumed (the file states none) and a level a decade from the training windows'. Records are scored by state, then
+    by the defect size their names give: sized and unsized records of one state are apart, never mixed with
+    another state's."""
+    from bearingtwin.cli.diagnose import diagnosis_lines
+    from bearingtwin.diagnosis.run import DiagnosisRun
+
+    def row(record, state, unit_check="as stated", level_unseen=False, **size):
+        return {"record": record, "verdict": state, "true_state": state, "correct": True, "physics_correct": True,
+                "unit_check": unit_check, "level_unseen": level_unseen, "bearing": "cwru_6205", **size}
+
+    rows = [row("wav", "inner", unit_check="assumed"), row("mg_gain", "inner", level_unseen=True),
+            row("or_a", "outer"), row("or_b", "outer"), row("ir007", "inner", fault_size_in=0.007),
+            row("healthy", "normal", unit_check="converted")]
+    lines = diagnosis_lines(DiagnosisRun(rows=rows))
+    assert lines["unit assumed (the file states none: read in the model's)"] == "wav"
+    assert lines["level a decade or more outside the model's training windows"] == "mg_gain"
+    assert lines["records right by state and fault size (model, physics)"] == (
+        "normal 1/1, 1/1; inner 0.007 in 1/1, 1/1; inner, size unknown 2/2, 2/2; outer 2/2, 2/2")

@@ -111,9 +111,11 @@ def test_generic_mat_and_wav(tmp_path, signal):
     scipy.io.wavfile.write(wav, int(FS), np.stack([pcm, -pcm], axis=1))
     raw = read_raw(wav)
     assert raw.fs == FS and raw.fs_origin == "header" and list(raw.channels) == ["0", "1"]
-    # PCM counts at the recorder's full scale, and said so
+    # PCM counts at the recorder's full scale, and said so: a unit the file states none of (which a diagnosis then
+    # reads as if in the model's, as any record stating none), not one the reader knows to be unknown
     np.testing.assert_array_equal(load_recording(wav, channel="1").signal, -pcm / 32768.0)
-    assert "integer samples (int16, as scipy reads them) scaled to the recorder's full scale (1.0)" in raw.meta["notes"][0]
+    assert raw.meta["notes"] == ["integer samples (int16, as scipy reads them) scaled to the recorder's full scale (1.0), "
+                                 "which states no physical unit"] and raw.unit == ""
     unsigned = tmp_path / "u8.wav"
     scipy.io.wavfile.write(unsigned, int(FS), np.array([128, 255, 0, 192], dtype=np.uint8))
     np.testing.assert_array_equal(read_raw(unsigned).channels["0"], [0.0, 127 / 128, -1.0, 0.5])
@@ -309,12 +311,53 @@ def test_stamps_printed_coarser_than_the_sampling_period_state_no_rate(tmp_path)
     raw = read_raw(tmp_path / "coarse.csv")
     assert raw.fs is None and "the Time (s) stamps repeat, printed coarser than the sampling period" in raw.meta["notes"][0]
     assert load_recording(tmp_path / "coarse.csv", fs=12000).fs == 12000
-    with pytest.raises(BearingTwinError, match=r"coarse.csv.*(rate|fs)"):
+    with pytest.raises(BearingTwinError, match=r"coarse.csv: the file does not state its sampling rate: the Time \(s\) "
+                                               r"stamps repeat, printed coarser than the sampling period \(to 0.0001 "
+                                               r"s\): the rate is not read from them; they span about 12000 rows a "
+                                               r"second; give fs=<Hz>$"):
         load_recording(tmp_path / "coarse.csv")
     lines[500] = f"{t[400]:.4f},0\n"
     (tmp_path / "back.csv").write_text("Time (s),acc\n" + "".join(lines))
     with pytest.raises(BearingTwinError, match=r"back.csv: the Time \(s\) column does not increase at data row 501"):
         read_raw(tmp_path / "back.csv")
+
+
+def test_a_loggers_clock_time_gives_the_time_stamps(tmp_path, signal):
+    """A logger stamps its rows with its clock's time, to nanoseconds (``2024-03-01 23:59:59.750125000``), or in a
+    ``Date`` and a ``Time`` column (``01.03.2024;23:59:59,750125``, with decimal commas): the stamps give the rate as
+    a time column's do, through midnight too, and the dates are passed over; printed to milliseconds they repeat,
+    giving none. The other columns' names state no unit by their letters (``signal``, ``gear``)."""
+    seconds = 86400 - 0.25 + np.arange(signal.size) / FS  # from a quarter of a second before midnight
+
+    def stamped(decimals: int) -> list[tuple[str, str, float]]:
+        """Each sample with the day of March and the clock time it was taken at, printed to ``decimals``."""
+        rows = []
+        for at, value in zip(seconds, signal):
+            day, rest = divmod(at, 86400)
+            hours, rest = divmod(rest, 3600)
+            minutes, second = divmod(rest, 60)
+            rows.append((f"{int(day) + 1:02d}", f"{int(hours):02d}:{int(minutes):02d}:{second:0{3 + decimals}.{decimals}f}",
+                         value))
+        return rows
+
+    (tmp_path / "iso.csv").write_text("Timestamp,acc (g),signal,gear\n" + "".join(
+        f"2024-03-{day} {time},{v:.6f},{v:.6f},{-v:.6f}\n" for day, time, v in stamped(9)))
+    raw = read_raw(tmp_path / "iso.csv")
+    assert list(raw.channels) == ["acc (g)", "signal", "gear"] and (raw.fs, raw.fs_origin) == (FS, "time column")
+    assert raw.channel_units == {"acc (g)": "g"}
+    np.testing.assert_allclose(raw.channels["gear"], -signal, atol=1e-6)
+    (tmp_path / "german.csv").write_text("Date;Time;acc (g)\n" + "".join(  # decimal commas; the date keeps its points
+        f"{day}.03.2024;" + f"{time};{v:.6f}\n".replace(".", ",") for day, time, v in stamped(6)))
+    recording = load_recording(tmp_path / "german.csv")
+    assert (recording.channel, recording.fs, recording.unit) == ("acc (g)", FS, "g")
+    np.testing.assert_allclose(recording.signal, signal, atol=1e-6)
+    assert recording.meta["notes"][0] == "column Date passed over: the clock times of Time are the time stamps"
+    (tmp_path / "ms.csv").write_text("Timestamp,acc\n" + "".join(f"2024-03-{day} {time},{v:.6f}\n"
+                                                                  for day, time, v in stamped(3)))
+    raw = read_raw(tmp_path / "ms.csv")
+    assert raw.fs is None and raw.meta["notes"][0].startswith("the Timestamp stamps repeat, printed coarser than the "
+                                                              "sampling period (to 0.001 s)")
+    assert load_recording(tmp_path / "ms.csv", fs=FS).signal.size == signal.size
 
 
 def test_mat_structs_and_cells_and_the_simulators_sensor_names(tmp_path, signal):
@@ -377,6 +420,21 @@ def test_a_matlab_7_3_file_is_read_as_the_older_formats_are(tmp_path, signal):
     np.testing.assert_array_equal(read_raw(tmp_path / "columns.mat").channels["data[1]"], -signal)  # MATLAB's N x 2
 
 
+def test_an_hdf5_file_without_matlabs_header_is_read_as_matlab_7_3_is(tmp_path, signal):
+    """h5py writes HDF5 without the 512 bytes MATLAB puts before it (scipy had called it an unknown MAT file type,
+    version 0, 0): its arrays and scalars are read as a 7.3 file's, a 2-D array along its longer axis."""
+    import h5py
+
+    with h5py.File(tmp_path / "h5py.mat", "w") as file:
+        file["acc"] = signal
+        file["both"] = np.stack([signal, -signal], axis=1)
+        file["fs"] = FS
+    raw = read_raw(tmp_path / "h5py.mat")
+    assert (raw.format, list(raw.channels), raw.fs) == ("mat", ["acc", "both[0]", "both[1]"], FS)
+    np.testing.assert_array_equal(raw.channels["acc"], signal)
+    np.testing.assert_array_equal(raw.channels["both[1]"], -signal)
+
+
 def test_csv_layouts_that_used_to_read_still_do(tmp_path, signal):
     """numpy.savetxt's header (a comment line), a single column under a name with spaces, text in a cp1252 header."""
     t = np.arange(signal.size) / FS
@@ -405,8 +463,8 @@ def test_csv_layouts_that_used_to_read_still_do(tmp_path, signal):
     ("a\tb\n1\t2\nhello, world\t3\n", r"line 3, column 1: 'hello, world' is not a number"),
     # A damaged row among the numbers is no logger's preamble: refused by its line, nothing above it dropped;
     ("time,acc\n0,0.1\n0.001,0.2\nsensor lost\n0.003,0.3\n", r"line 4 has 1 columns where the rows above have 2"),
-    # nor is a header of names above a row of units: the names would be lost to the units.
-    ("Time,Acc\ns,g\n0,0.1\n0.001,0.2\n", r"line 2, column 1: 's' is not a number"),
+    # nor is a second row of names that are no units: the names would be lost to it.
+    ("Time,Acc\nch1,ch2\n0,0.1\n0.001,0.2\n", r"line 2, column 1: 'ch1' is not a number"),
     ('time,acc\n"0,000","0,1"\n"0,001","0,2"\n', r"line 2, column 1: '0,000' is not a number \(a number written with a "
                                                 r"decimal comma\? save the file with decimal points"),
 ])
@@ -457,8 +515,7 @@ def test_a_loggers_lines_above_the_header_are_notes_not_data(tmp_path, signal):
 def test_a_loggers_notes_above_a_single_column_are_notes_too(tmp_path, signal, gap):
     """A logger exporting one channel and no time column writes notes above a header of one name: every note has
     one cell as the rows do, so the notes are told by their form (``label: value``); a line of one name above a row
-    of units is still a second header row, refused by its line, blank line between or not, as is one of two
-    names above two units."""
+    of units is the header and its units, blank line between or not, as is one of two names above two units."""
     notes = "Device: VibLogger 3000\nSerial: A1234\nSample rate: 8000 Hz\nStart: 2024-03-01 10:00:00\n"
     (tmp_path / "logger.txt").write_text(notes + gap + "acc (g)\n" + "".join(f"{v:.6f}\n" for v in signal))
     recording = load_recording(tmp_path / "logger.txt", fs=FS)
@@ -473,12 +530,34 @@ def test_a_loggers_notes_above_a_single_column_are_notes_too(tmp_path, signal, g
     with pytest.raises(BearingTwinError, match=r"logger.txt.*12000.*8000"):
         load_recording(tmp_path / "logger.txt", fs=12000.0)
     (tmp_path / "units.txt").write_text("Acceleration\n" + gap + "g\n" + "".join(f"{v:.6f}\n" for v in signal))
-    with pytest.raises(BearingTwinError, match=r"'g' is not a number"):
-        read_raw(tmp_path / "units.txt")
+    recording = load_recording(tmp_path / "units.txt", fs=FS)
+    assert (recording.channel, recording.unit, recording.signal.size) == ("Acceleration (g)", "g", signal.size)
     (tmp_path / "two.csv").write_text("time,acc\n" + gap + "s,g\n" + "".join(f"{k / FS:.6f},{v:.6f}\n"
                                                                          for k, v in enumerate(signal)))
-    with pytest.raises(BearingTwinError, match=r"'s' is not a number"):
-        read_raw(tmp_path / "two.csv")
+    recording = load_recording(tmp_path / "two.csv")
+    assert (recording.channel, recording.unit, recording.fs) == ("acc (g)", "g", FS)
+    assert "the row under the header read as the columns' units: time (s), acc (g)" in recording.meta["notes"]
+
+
+def test_a_row_of_units_under_a_loggers_header_and_names_given_without_their_unit(tmp_path, signal):
+    """Loggers write the units in a row of their own (``s;m/s²``, bracketed or not; ``-`` for a column of none),
+    under notes or not; a column is then asked for by its name, as it is by the name of a header that holds its unit
+    (``FE`` for ``FE (g)``), where no other column goes by it; a time column in milliseconds is read so."""
+    rows = "".join(f"{k / FS * 1000:.6f};{v:.6f};{v / 9.80665:.6f};{k % 2}\n".replace(".", ",")
+                   for k, v in enumerate(signal))
+    (tmp_path / "logger.csv").write_text("Device: ACC-3\nTime;Acc;Acc;Trigger\n[ms];[m/s²];(g);-\n" + rows)
+    raw = read_raw(tmp_path / "logger.csv")
+    assert list(raw.channels) == ["Acc (m/s²)", "Acc (g)", "Trigger"] and raw.fs == pytest.approx(FS)
+    assert raw.channel_units == {"Acc (m/s²)": "m/s^2", "Acc (g)": "g"}
+    assert raw.meta["notes"][0].startswith("the 1 line above the header read as notes")
+    np.testing.assert_allclose(raw.channels["Acc (g)"], signal / 9.80665, atol=1e-6)
+    with pytest.raises(BearingTwinError, match=r"logger.csv: no channel 'Acc'"):  # two columns go by it
+        load_recording(tmp_path / "logger.csv", channel="Acc")
+    (tmp_path / "cwru.csv").write_text("DE (g),FE (g),BA (g)\n" + "".join(f"{v:.6f},{-v:.6f},0\n" for v in signal))
+    recording = load_recording(tmp_path / "cwru.csv", channel="FE", fs=FS)
+    assert (recording.channel, recording.unit) == ("FE (g)", "g")
+    np.testing.assert_allclose(recording.signal, -signal, atol=1e-6)
+
 
 
 @pytest.mark.parametrize("note, rate", [
@@ -510,10 +589,15 @@ def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):
 
 
 @pytest.mark.parametrize("name, unit", [("acc_g", "g"), ("Accel_G", "g"), ("a_m/s2", "m/s^2"), ("acc_x", ""),
-                                        ("ch_1", ""), ("acc (g)", "g"), ("acc_g.1", "g")])
+                                        ("ch_1", ""), ("acc (g)", "g"), ("acc_g.1", "g"), ("accel_ms2", "m/s^2"),
+                                        ("acc_m_s2", "m/s^2"), ("acc_mps2", "m/s^2"), ("acc_mg", "mg"),
+                                        ("acc (mm/s^2)", "mm/s^2"), ("acc [mm/s²]", "mm/s^2"), ("acc (mg)", "mg"),
+                                        ("a [µg]", "µg"), ("a (Gal)", "cm/s^2"), ("v (mm/s)", "mm/s"),
+                                        ("signal", ""), ("gear", ""), ("rig_2", ""), ("speed_mm_s", "")])
 def test_an_acceleration_unit_after_an_underscore(name, unit):
-    """Loggers and scripts name a column ``acc_g`` as often as ``acc (g)``; only an acceleration unit counts there,
-    so ``acc_x`` (a direction) and ``ch_1`` state none."""
+    """Loggers and scripts name a column ``acc_g`` as often as ``acc (g)``, and write m/s² as ``ms2`` or ``m_s2``
+    there; only an acceleration unit counts after an underscore, so ``acc_x`` (a direction) and ``ch_1`` state none,
+    and a name's own letters are none (``signal`` and ``gear`` end in a g)."""
     from bearingtwin.data.files import unit_in_name
 
     assert unit_in_name(name) == unit

@@ -219,7 +219,7 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     assert sorted(name.rsplit("/", 1)[-1] for name in dataset.records) == ["ball_run1.npy", "inner_run3.txt",
                                                                             "normal_run1.npy", "outer_run2.csv"]
     assert f"{tmp_path}: left out notes.csv (its column 'date' holds text ('2024-01-02'), not samples)" in caplog.text
-    # A logger's clock time is a recording's column: kept, for its reader to name the cell it cannot read.
+    # A logger's clock time is a recording's column: kept, its reader reading the clock times as its time stamps.
     (tmp_path / "logger.csv").write_text("Timestamp,acc\n2024-01-02 10:00:00.001,0.1\n2024-01-02 10:00:00.002,0.2\n")
     assert tmp_path / "logger.csv" in recordings_and_others(tmp_path)[0]
     (tmp_path / "logger.csv").unlink()

@@ -203,7 +203,8 @@ def test_clipping_and_a_dropout_are_named_per_channel(capsys, monkeypatch, tmp_p
     code, out, _ = run(capsys, monkeypatch, f"path={path}")
     quality = json.loads(out)["quality"]
     assert code == 0 and set(quality) == {"clipped", "held"}
-    assert "pile up at its maximum, 0.8 and its minimum, -0.8: the sensor or the converter clipped" in quality["clipped"][0]
+    assert "pile up at its maximum, 0.8 and its minimum, -0.8, in " in quality["clipped"][0]
+    assert " s to 2 s: the sensor or the converter clipped" in quality["clipped"][0]  # where: up to the record's end
     assert quality["held"] == ["samples from 1 s to 1.1 s are all 0 (a dropout, or a stretch held at one value): the "
                                "windows over it read no vibration"]
 

@@ -36,13 +36,26 @@ def test_a_clipped_record_is_named_with_its_extremes():
     share, rest = note.split(" % of the samples pile up at ", 1)
     # The ringing is too fast for flat tops: the limit piles samples up (with the few just below it, within the edge).
     assert float(share) == pytest.approx(100 * np.mean(np.abs(x) >= limit), abs=0.2)
-    assert rest.startswith(f"its maximum, {limit:g} and its minimum, {-limit:g}: the sensor or the converter clipped")
+    assert rest.startswith(f"its maximum, {limit:g} and its minimum, {-limit:g}, in ")
+    assert ": the sensor or the converter clipped" in rest
     # One side alone; and an amplifier's limit reaching a 16-bit converter with a code of noise, not one value.
     (note,) = Recording(np.clip(x, -10 * limit, limit), FS).quality_notes()
-    assert f"pile up at its maximum, {limit:g}: the sensor" in note
+    assert f"pile up at its maximum, {limit:g}, in " in note and "minimum" not in note
     lsb = 20.0 / 2**16 * np.ptp(x) / 10  # a +-10 V range, the signal spanning half of it
     noisy = np.round((np.clip(x, -limit, limit) + lsb * np.random.default_rng(1).standard_normal(x.size)) / lsb) * lsb
     assert "the sensor or the converter clipped" in Recording(noisy, FS).quality_notes()[0]
+
+
+def test_a_clipped_record_is_named_with_where_it_clipped():
+    """As a dropout is: a record three times as strong from 1 s to 2 s clips there alone, in a stretch per impact."""
+    x = impacts()
+    x[int(1.0 * FS):int(2.0 * FS)] *= 3.0
+    limit = 1.5 * np.abs(impacts()).max()  # above every impact outside that second, below those within it
+    (note,) = Recording(np.clip(x, -limit, limit), FS).quality_notes()
+    clipped = np.abs(x) >= limit
+    stretches = np.count_nonzero(np.diff(clipped.astype(int)) == 1)
+    assert f"its minimum, {-limit:g}, in {stretches} stretches from 1 s to 1.99 s: the sensor" in note
+    assert 107 <= stretches  # at least one per impact within that second
 
 
 def test_a_flat_or_two_level_channel_is_no_clipping():

@@ -20,6 +20,7 @@ from omegaconf import DictConfig
 
 from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
+from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking.lifecycle import stop_cleanly
 
 if TYPE_CHECKING:
@@ -62,13 +63,19 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
                                         f"{run.scores['n_scored_physics']} with physics evidence")
     by_size = records_right_by_size(diagnosed)
     if by_size:
-        lines["records right by fault size (model, physics)"] = by_size
+        lines["records right by state and fault size (model, physics)"] = by_size
     contradicted = [row["record"] for row in diagnosed if row.get("rate_check") == "contradicted"]
     if contradicted:  # a wrong speed or rate misplaces every defect line: such a verdict is in doubt (still scored)
         lines["speed or rate wrong (the shaft line contradicts them)"] = ", ".join(contradicted)
     narrower = [row["record"] for row in diagnosed if row.get("original_fs") and row["original_fs"] < row["fs"]]
     if narrower:  # upsampled: the model reads a band these records never held, so their verdicts are in doubt
         lines["recorded below the model's rate (no content above their Nyquist)"] = ", ".join(narrower)
+    assumed = [row["record"] for row in diagnosed if row.get("unit_check") == "assumed"]
+    if assumed:  # read by a model that reads levels in its unit, which the file may not be in
+        lines["unit assumed (the file states none: read in the model's)"] = ", ".join(assumed)
+    unseen = [row["record"] for row in diagnosed if row.get("level_unseen")]
+    if unseen:  # a unit or gain the model never saw: every amplitude-dependent feature reads it as another state
+        lines["level a decade or more outside the model's training windows"] = ", ".join(unseen)
     disagreements = [row["record"] for row in diagnosed if row.get("agree") is False]
     if disagreements:
         lines["model and physics disagree on"] = ", ".join(disagreements)
@@ -78,17 +85,23 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
 
 
 def records_right_by_size(rows: list[dict]) -> str:
-    """``normal 1/1, 1/1; 0.007 in 4/4, 3/4; 0.014 in ...`` (model, then physics evidence where there is some)
-    when the names give defect sizes ("" when none does); a record without one is grouped under its true state.
-    Where the records are of several bearings, each group names its bearing (a size of another bearing is
-    another fault: ``0.007 in (cwru_6203)``)."""
+    """``normal 1/1, 1/1; inner 0.007 in 4/4, 3/4; inner, size unknown 2/2, 2/2; ...`` (model, then physics evidence
+    where there is some), records grouped by true state, then by the defect size their names give, when some name
+    gives one ("" when none does); a state's records without a size are one group, ``<state>, size unknown`` beside
+    that state's sizes. Where the records are of several bearings, each group names its bearing (a size of another
+    bearing is another fault: ``inner 0.007 in (cwru_6203)``)."""
     if not any("fault_size_in" in row for row in rows):
         return ""
-    groups: dict[str, list[dict]] = {}
     scored = [row for row in rows if "correct" in row]
     several = len({row.get("bearing") for row in scored}) > 1  # a size of another bearing is another fault
-    for row in sorted(scored, key=lambda row: (row.get("fault_size_in", 0.0), str(row.get("bearing")))):
-        name = f"{row['fault_size_in']:.3f} in" if "fault_size_in" in row else row["true_state"]
+    sized_states = {row["true_state"] for row in scored if "fault_size_in" in row}
+    groups: dict[str, list[dict]] = {}
+    order = {state: index for index, state in enumerate(FAULTS)}
+    for row in sorted(scored, key=lambda row: (order.get(row["true_state"], len(order)), "fault_size_in" not in row,
+                                               row.get("fault_size_in", 0.0), str(row.get("bearing")))):
+        state = row["true_state"]
+        name = (f"{state} {row['fault_size_in']:.3f} in" if "fault_size_in" in row else
+                f"{state}, size unknown" if state in sized_states else state)
         groups.setdefault(f"{name} ({row.get('bearing')})" if several else name, []).append(row)
 
     def physics(group: list[dict]) -> str:

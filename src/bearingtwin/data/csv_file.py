@@ -3,7 +3,9 @@
 numpy's ``loadtxt`` reads the numbers, streaming; what it cannot decide alone is decided here,
 once per file, from its first rows: the encoding, the column separator (comma, semicolon, tab
 or spaces), the decimal mark, whether the first row (or the comment line ``numpy.savetxt``
-writes above the data) names the columns, and whether every row ends with a separator. pandas'
+writes above the data) names the columns, whether a row of units follows the names (``Time,Acc`` above ``s,g``),
+which columns hold a logger's clock time (``2024-03-01 10:00:00.000083``; a ``Date`` column beside a ``Time``
+one) and whether every row ends with a separator. pandas'
 ``read_csv`` sniffs too, but guesses where this module refuses: a number whose decimal mark the
 file contradicts (``1,234`` beside ``0.5``: a thousands separator) is refused naming its line,
 never read a thousand times too small.
@@ -22,6 +24,7 @@ from typing import Iterator, NamedTuple
 
 import numpy as np
 
+from bearingtwin.data.units import quantity_of
 from bearingtwin.errors import BearingTwinError
 
 SAMPLE_LINES = 200
@@ -30,6 +33,10 @@ DECIMAL_COMMA_REMEDY = "save the file with decimal points, or separate the colum
 """What to do about numbers written with decimal commas in a comma-separated file."""
 _NUMBER_LIKE = re.compile(r"[+-]?(?:\d[\d.,]*|[.,]\d+)(?:[eE][+-]?\d+)?")
 """A cell that is a number under some decimal mark and grouping: the cells that tell the mark."""
+_CLOCK = re.compile(r"(?P<date>\d{4}-\d{1,2}-\d{1,2}|\d{4}/\d{1,2}/\d{1,2}|\d{1,2}[./-]\d{1,2}[./-]\d{2,4})?"
+                    r"(?:(?(date)(?:[ T]+))(?P<hour>\d{1,2}):(?P<minute>\d{2})(?::(?P<second>\d{2}(?:[.,]\d*)?))?Z?)?")
+"""A logger's clock time (``10:00:00.000083``, ``2024-03-01 10:00:00.000083333``, ``2024-03-01T10:00:00Z``) or a
+date alone (``01.03.2024``, ``2024-03-01``)."""
 
 
 @dataclass
@@ -40,6 +47,8 @@ class CsvTable:
     names: list[str] | None
     notes: list[str] = field(default_factory=list)
     preamble: list[str] = field(default_factory=list)  # a logger's lines above the header, stripped
+    clock: list[str] = field(default_factory=list)  # columns of clock times, as seconds of their day in values
+    dates: list[str] = field(default_factory=list)  # columns of dates alone beside them (0 in values)
 
 
 @dataclass(frozen=True)
@@ -50,6 +59,8 @@ class _Layout:
     body_start: int  # index of the first line after the header (of the first line, without one)
     trailing: bool  # every row ends with the separator
     preamble: tuple[str, ...] = ()  # a logger's lines above the header (:func:`_preamble`), stripped
+    clock: tuple[int, ...] = ()  # columns of clock times (:data:`_CLOCK`)
+    dates: tuple[int, ...] = ()  # columns of dates alone, beside a column of clock times
 
 
 class _BadLine(Exception):
@@ -65,7 +76,8 @@ def read_csv_table(path: Path) -> CsvTable:
         with open(path, encoding=layout.encoding) as handle, warnings.catch_warnings():
             warnings.filterwarnings("ignore", "loadtxt: input contained no data")  # refused below, naming the file
             values = np.loadtxt(_body_lines(handle, layout), delimiter=layout.delimiter, ndmin=2, dtype=np.float64,
-                                quotechar='"' if layout.delimiter else None)
+                                quotechar='"' if layout.delimiter else None,
+                                converters={column: clock_seconds for column in layout.clock + layout.dates} or None)
     except _BadLine as error:
         raise BearingTwinError(f"{path}: {error}") from None
     except UnicodeDecodeError:
@@ -79,7 +91,8 @@ def read_csv_table(path: Path) -> CsvTable:
         split = (f" (numbers written with decimal commas? {DECIMAL_COMMA_REMEDY})"
                  if layout.delimiter == "," and values.shape[1] == 2 * len(names) else "")
         raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}{split}")
-    return CsvTable(values, names, notes, list(layout.preamble))
+    return CsvTable(values, names, notes, list(layout.preamble), [names[column] for column in layout.clock],
+                    [names[column] for column in layout.dates])
 
 
 class TextColumn(NamedTuple):
@@ -103,6 +116,8 @@ def text_column(path: Path) -> TextColumn | None:
         return None
     rows = [_cells(head[index], layout.delimiter) for index in _content(head) if index >= layout.body_start]
     for column, name in enumerate(names):
+        if column in layout.clock + layout.dates:  # a logger's clock: a recording's stamps
+            continue
         cells = [row[column] for row in rows if column < len(row) and row[column]]
         if cells and not any(_is_number(cell, layout.decimal) for cell in cells):
             return TextColumn(names, name, cells[0])
@@ -207,9 +222,34 @@ def _row_cells(line: str, delimiter: str | None) -> list[str]:
 
 
 def _numbers_row(line: str) -> bool:
-    """Whether a line is a row of numbers under some decimal mark (a closing separator allowed)."""
+    """Whether a line is a row of numbers under some decimal mark (a closing separator allowed), clock times
+    counted as numbers."""
     cells = _row_cells(line, _delimiter(line))
-    return bool(cells) and all(_NUMBER_LIKE.fullmatch(cell) for cell in cells)
+    return bool(cells) and all(_NUMBER_LIKE.fullmatch(cell) or _is_clock(cell) for cell in cells)
+
+
+def _is_clock(cell: str) -> bool:
+    """Whether a cell is a clock time or a date (:data:`_CLOCK`)."""
+    match = _CLOCK.fullmatch(cell)
+    return match is not None and bool(match["date"] or match["hour"])
+
+
+def clock_seconds(cell: str) -> float:
+    """The seconds since midnight a clock time gives (0 for a date alone): its date is passed over, a record
+    spanning minutes, not days (a record running over midnight is unwrapped by its reader). Parsed here rather
+    than by ``datetime``, which keeps microseconds only: a logger's stamps may print nanoseconds."""
+    match = _CLOCK.fullmatch(cell.strip())
+    if match is None or not (match["date"] or match["hour"]):
+        raise ValueError(f"{cell!r} is no clock time")
+    if match["hour"] is None:
+        return 0.0
+    return 3600.0 * int(match["hour"]) + 60.0 * int(match["minute"]) + float((match["second"] or "0").replace(",", "."))
+
+
+def _units_row(cells: list[str]) -> bool:
+    """Whether a row's cells are units (``s,g``, ``[s];[m/s^2]``), a cell without one left empty or ``-``."""
+    cells = [cell.strip("()[] ") for cell in cells]
+    return any(cells) and all(cell in ("", "-") or quantity_of(cell) for cell in cells)
 
 
 _NOTE_LINE = re.compile(r"\s*[^\d\s:=][^:=]*[:=]\s*\S")
@@ -221,15 +261,20 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     above a header whose names are as many as the numbers of the rows below it, when the header is not the first
     line, no line above it is a row of numbers (a damaged row among the numbers is refused by its line), and none
     has as many cells as the numbers unless every line above reads as a note, ``label: value``. A line of as many
-    cells above the header is otherwise a second header row (names above units), refused by its line as without a
-    preamble; in a table of one column every line has one cell, so there only the notes' form tells them apart."""
+    cells above the header is otherwise a second header row, refused by its line as without a preamble; in a table
+    of one column every line has one cell, so there only the notes' form tells them apart. A row of units under the
+    header (:func:`_units_row`) is the header's."""
     numbers_rows = [_numbers_row(head[i]) for i in content]
     start = max((k + 1 for k, numbers in enumerate(numbers_rows) if not numbers), default=0)  # after the last text
     if start < 2 or start == len(content) or any(numbers_rows[:start]):
         return []
     delimiter = _delimiter(head[content[start]])
-    *above, header, numbers = [len(_row_cells(head[i], delimiter)) for i in content[:start + 1]]
-    notes = content[:start - 1]
+    header_at = start - 1 - _units_row(_row_cells(head[content[start - 1]], delimiter))  # names above a row of units
+    if header_at < 1:
+        return []
+    *above, header = [len(_row_cells(head[i], delimiter)) for i in content[:header_at + 1]]
+    numbers = len(_row_cells(head[content[start]], delimiter))
+    notes = content[:header_at]
     if header != numbers:
         return []
     return notes if numbers not in above or all(_NOTE_LINE.match(head[i]) for i in notes) else []
@@ -266,11 +311,35 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
         if split is not None:
             raise BearingTwinError(f"{path}: its row {split!r} reads as numbers written with decimal commas; "
                                    f"{DECIMAL_COMMA_REMEDY}")
+    clock = dates = ()
     if names is not None:
+        units = _row_cells(head[content[1]], delimiter) if len(content) > 1 else []
+        if _units_row(units) and len(units) <= len(names):  # each name then states its unit
+            units = ["" if unit == "-" else unit.strip("()[] ") for unit in units]  # "-": a column of no unit
+            names = [f"{name} ({unit})" if unit else name
+                     for name, unit in itertools.zip_longest(names, units, fillvalue="")]
+            body_start = content[1] + 1
+            notes.append(f"the row under the header read as the columns' units: {', '.join(names)}")
+        rows = [_row_cells(head[i], delimiter) for i in content if i >= body_start]
+        clock, dates = _clock_columns(rows, len(names))
         names, repeated = _distinct(names)
         notes += repeated
-    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, tuple(head[i].strip() for i in preamble))
+    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, tuple(head[i].strip() for i in preamble),
+                     clock, dates)
     return layout, names, notes
+
+
+def _clock_columns(rows: list[list[str]], n_columns: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """The columns whose every cell in ``rows`` is a clock time (``10:00:00.000083``, with a date or not), and,
+    where there is one, those whose every cell is a date alone (a ``Date`` column beside a ``Time`` one)."""
+    clock, dates = [], []
+    for column in range(n_columns):
+        cells = [row[column] for row in rows if column < len(row) and row[column]]
+        matches = [_CLOCK.fullmatch(cell) for cell in cells]
+        if not cells or not all(match and (match["date"] or match["hour"]) for match in matches):
+            continue
+        (clock if any(match["hour"] for match in matches) else dates).append(column)
+    return (tuple(clock), tuple(dates)) if clock else ((), ())
 
 
 def _split_by_decimal_comma(rows: list[list[str]]) -> str | None:
@@ -293,7 +362,7 @@ def _decimal_mark(path: Path, cells: list[str], delimiter: str | None) -> str:
     marks (one of them a thousands separator) is refused: which is which cannot be told."""
     if delimiter == ",":
         return "."
-    numbers = [cell for cell in cells if _NUMBER_LIKE.fullmatch(cell)]
+    numbers = [cell for cell in cells if _NUMBER_LIKE.fullmatch(cell) and not _is_clock(cell)]  # not 01.03.2024
     with_point = next((cell for cell in numbers if "." in cell), None)
     with_comma = next((cell for cell in numbers if "," in cell), None)
     grouped = next((cell for cell in numbers if cell.count(",") > 1 or cell.count(".") > 1), None)
@@ -312,7 +381,8 @@ def _body_lines(handle, layout: _Layout) -> Iterator[str]:
         if layout.trailing:
             line = line.rstrip().removesuffix(layout.delimiter)
         if layout.delimiter != "," and foreign in line and _holds_data(line):  # rare: then cell by cell
-            cell = next((c for c in _cells(line, layout.delimiter) if foreign in c and _NUMBER_LIKE.fullmatch(c)), None)
+            cell = next((c for c in _cells(line, layout.delimiter)
+                         if foreign in c and _NUMBER_LIKE.fullmatch(c) and not _is_clock(c)), None)
             if cell is not None:
                 raise _BadLine(number, f"{cell!r} is written with '{foreign}' where the rows above use "
                                        f"'{layout.decimal}' as the decimal mark (a thousands separator?)")

@@ -12,12 +12,14 @@ Formats (chosen by extension): ``.npy`` (1-D, or 2-D: the longer axis is time), 
 by ``bearingtwin-simulate``; an array named ``signal`` is the default channel), ``.csv`` / ``.txt`` / ``.tsv``
 (a text table, as spreadsheets and data loggers export it: columns are channels,
 separated by commas, semicolons, tabs or spaces, optional header row, which may state a column's unit, ``acc (g)``,
-and above which a logger's lines are notes, one of which may state the rate, ``Sample rate: 12000 Hz``:
-:data:`_RATE_NOTE`; a ``time`` / ``time_s`` / ``Time (s)`` / ``Zeit [s]`` column, or ``time_ms`` / ``t [ms]`` in
-milliseconds, gives the sampling rate too: :data:`_TIME_COLUMN`), ``.mat`` (CWRU files by
+``acc_ms2`` (:func:`unit_in_name`), or have a row of units below it, and above which a logger's lines are notes,
+one of which may state the rate, ``Sample rate: 12000 Hz``: :data:`_RATE_NOTE`; a ``time`` / ``time_s`` /
+``Time (s)`` / ``Zeit [s]`` column, or ``time_ms`` / ``t [ms]`` in milliseconds, or a column of a logger's clock
+times, ``2024-03-01 10:00:00.000083``, gives the sampling rate too: :data:`_TIME_COLUMN`), ``.mat`` (CWRU files by
 their variable names, otherwise numeric variables, and a struct's numeric fields, are channels, a rising time vector
 as long as them gives the rate as a time column does (in an ``.npz`` too), and scalars ``fs`` / ``SampleRate`` /
-``rpm`` are facts: :data:`_FACTS`; MATLAB 7.3 files too), ``.wav`` (rate from the header; integer samples scaled to the recorder's full scale, 1.0)
+``rpm`` are facts: :data:`_FACTS`; MATLAB 7.3 files too, and HDF5 files without MATLAB's header), ``.wav`` (rate
+from the header; integer samples scaled to the recorder's full scale, 1.0)
 and ``.xls`` (HUST text exports). A file a reader cannot parse (corrupt, truncated, another
 format under the extension) is refused naming the file, whatever the reading library raised.
 
@@ -37,7 +39,7 @@ import numpy as np
 
 from bearingtwin.checks import is_finite_number, positive_number
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import acceleration_unit
+from bearingtwin.data.units import acceleration_unit, quantity_of
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
@@ -58,12 +60,9 @@ _TIME_COLUMN = re.compile(
     rf"|[(\[]\s*(?P<bracketed>{_TIME_UNIT})\s*[)\]]|\s+in\s+(?P<worded>{_TIME_UNIT}))?", re.IGNORECASE)
 """Column (or variable) names read as time stamps: ``time``, ``t``, ``time_s``, ``time_ms``, ``Time (s)``,
 ``t [ms]``, ``Time [sec]``, ``time/s``, ``Timestamp``, ``Zeit [s]``, ``time in ms``, ..."""
-_UNIT_IN_NAME = re.compile(r".*?(?:[(\[]\s*(?P<unit>[^()\[\]]+?)\s*[)\]]|\s+in\s+(?P<worded>\S+))\s*")
+_UNIT_IN_NAME = re.compile(r"(?P<name>.*?)\s*(?:[(\[]\s*(?P<unit>[^()\[\]]+?)\s*[)\]]|\s+in\s+(?P<worded>\S+))\s*")
 """A channel name that states its unit at its end, in brackets or after "in": ``acceleration (m/s^2)``, ``DE [g]``,
 ``a in m/s²``."""
-_OTHER_UNITS = {"v", "mv", "mg", "mm/s", "m/s", "in/s", "ips", "um", "µm", "μm", "mil", "pa", "n", "a", "rpm", "hz"}
-"""Units besides acceleration's a channel's brackets may state (volts, velocity, displacement, ...): bracketed text
-that is none of them or of :func:`~bearingtwin.data.units.acceleration_unit`'s (``ch1 (left)``) states no unit."""
 LOWEST_FS_HZ = 200.0
 """A time column giving a slower rate than this is not a vibration record's (rather, stamps in milliseconds)."""
 
@@ -91,6 +90,8 @@ class RawRecord:
         meta: anything else read from the file or its name.
         default_channel: the channel used when none is asked for, if the format designates one.
         channel_units: a channel's own unit where its name states one (a CSV header's ``acc (g)``), over ``unit``.
+        fs_unread: why the file gives no rate where it seems to hold one (time stamps printed coarser than the
+            sampling period), for the refusal that asks for it; "" otherwise.
     """
 
     path: str
@@ -107,10 +108,12 @@ class RawRecord:
     meta: dict = field(default_factory=dict)
     default_channel: str | None = None
     channel_units: dict[str, str] = field(default_factory=dict)
+    fs_unread: str = ""
 
     def channel(self, name: str | int | None, key: str = "channel") -> tuple[str, np.ndarray]:
-        """The channel called ``name`` (or at position ``name``); when ``name`` is None, the
-        format's default channel or else the only one.
+        """The channel called ``name`` (or at position ``name``, or so called without the unit its name states:
+        ``FE`` for ``FE (g)``, where that names one channel alone); when ``name`` is None, the format's default
+        channel or else the only one.
 
         ``key`` is the setting the caller reads ``name`` from, named in the error messages.
         """
@@ -128,6 +131,9 @@ class RawRecord:
         found = wanted if wanted in self.channels else None
         if found is None and (isinstance(name, int) or wanted.lstrip("-").isdigit()) and 0 <= int(wanted) < len(names):
             found = names[int(wanted)]
+        if found is None:  # "FE" for the column headed "FE (g)", where no other column's name is FE without its unit
+            bare = [channel for channel in names if split_unit(channel)[0] == wanted]
+            found = bare[0] if len(bare) == 1 else None
         if found in not_vibration:
             raise BearingTwinError(f"{self.path}: {key}={wanted} reads {not_vibration[found]}; choose one of "
                                    f"{', '.join(vibration)}")
@@ -268,7 +274,8 @@ def resolve_fs(raw: RawRecord, fs: float | None, key: str = "fs") -> float:
     ``raw.fs_tolerance`` unless the file's is only declared."""
     if fs is None:
         if raw.fs is None:
-            raise BearingTwinError(f"{raw.path}: the file does not state its sampling rate; give {key}=<Hz>")
+            why = f": {raw.fs_unread}" if raw.fs_unread else ""
+            raise BearingTwinError(f"{raw.path}: the file does not state its sampling rate{why}; give {key}=<Hz>")
         return float(raw.fs)
     fs = positive_number(fs, key, "Hz")
     if raw.fs is not None and raw.fs_origin != "declared" and abs(fs / raw.fs - 1.0) > raw.fs_tolerance:
@@ -330,24 +337,39 @@ def time_column_seconds(name: str) -> float | None:
 def unit_in_name(name: str) -> str:
     """The unit a channel's name states at its end, in brackets (``acc (m/s2)`` -> ``m/s^2``, ``U [V]`` -> ``V``),
     after "in" (an acceleration unit: ``a in m/s²``) or after an underscore (an acceleration unit: ``acc_g``,
-    ``a_m/s2``), acceleration units in their canonical spelling; "" when it states none."""
-    name = re.sub(r"\.\d+$", "", name)  # a repeated header's "acc (g).1" too
+    ``a_m/s2``, ``accel_ms2``, ``acc_m_s2``), acceleration units in their canonical spelling; "" when it states
+    none. A name's own letters are no unit (``signal``, ``gear``): only a separate word is read as one."""
+    return split_unit(name)[1]
+
+
+def split_unit(name: str) -> tuple[str, str]:
+    """A channel's name without the unit it states at its end (``DE (g)`` -> ``DE``, ``acc_g`` -> ``acc``), and
+    that unit (:func:`unit_in_name`); the name as it is and "" when it states none."""
+    name, repeated = re.fullmatch(r"(.*?)(\.\d+)?", name).groups(default="")  # a repeated header's "acc (g).1" too
     match = _UNIT_IN_NAME.fullmatch(name)
     if match is None:
-        suffix = name.rsplit("_", 1)[1] if "_" in name else ""  # "acc_g"; "ch_1" or "acc_x" states none
-        return acceleration_unit(suffix) or ""
+        # "acc_g", "acc_m_s2" (the unit's own "/" written "_"); "ch_1" or "acc_x" states none.
+        words = name.split("_")
+        for length in (2, 1):
+            unit = acceleration_unit("/".join(words[-length:])) if len(words) > length else None
+            if unit:
+                return "_".join(words[:-length]) + repeated, unit
+        return name + repeated, ""
     if match["worded"]:  # "a in m/s²"; "speed in rig 2" states no unit
-        return acceleration_unit(match["worded"]) or ""
-    unit = match["unit"]
-    return acceleration_unit(unit) or (unit if unit.lower() in _OTHER_UNITS else "")  # "ch1 (left)" states none
+        unit = acceleration_unit(match["worded"]) or ""
+    else:  # "ch1 (left)" states none
+        unit = acceleration_unit(match["unit"]) or (match["unit"] if quantity_of(match["unit"]) else "")
+    return (match["name"] + repeated, unit) if unit else (name + repeated, "")
 
 
 def _time_stamps(path: Path, columns: dict[str, np.ndarray], notes: list[str], fs: float | None = None,
-                 variables: bool = False) -> tuple[dict[str, np.ndarray], float | None]:
-    """The channels without a column of time stamps, and the rate those stamps give (said in ``notes``): ``fs``
+                 variables: bool = False, clock: str | None = None) -> tuple[dict[str, np.ndarray], float | None, str]:
+    """The channels without a column of time stamps, the rate those stamps give (said in ``notes``): ``fs``
     when the file states one already (the stamps must agree with it), None when they are printed too coarsely to
-    give one. ``variables``: the columns are a .mat's or .npz's variables, where a name alone (``T``, a
-    temperature) does not make time stamps: only a vector as long as the other channels that rises does."""
+    give one, and then why (:attr:`RawRecord.fs_unread`; "" otherwise). ``variables``: the columns are a .mat's or
+    .npz's variables, where a name alone (``T``, a temperature) does not make time stamps: only a vector as long as
+    the other channels that rises does. ``clock``: a column of a logger's clock times (seconds of their day), the
+    stamps whatever its name."""
     def stamps(name: str) -> bool:
         if time_column_seconds(name) is None or np.squeeze(columns[name]).ndim != 1:
             return False
@@ -357,23 +379,27 @@ def _time_stamps(path: Path, columns: dict[str, np.ndarray], notes: list[str], f
         others = {np.size(values) for key, values in columns.items() if key != name}
         return vector.size > 1 and (not others or vector.size in others) and bool(np.all(np.diff(vector) > 0))
 
-    time_name = next((name for name in columns if stamps(name)), None)
+    time_name = clock or next((name for name in columns if stamps(name)), None)
     if time_name is None:
-        return columns, fs
+        return columns, fs, ""
     columns = dict(columns)
-    time_s = time_column_seconds(time_name) * np.squeeze(np.asarray(columns.pop(time_name), dtype=np.float64))
+    time_s = np.squeeze(np.asarray(columns.pop(time_name), dtype=np.float64))
+    # A clock's seconds of the day start again at midnight; a column of time stamps counts in its unit.
+    time_s = np.unwrap(time_s, period=86400.0) if clock else time_column_seconds(time_name) * time_s
     if coarse_stamps(time_s):
-        notes.append(f"the {time_name} stamps repeat, printed coarser than the sampling period: the rate is not read "
-                     "from them" + ("" if fs is not None else " (give it: fs)"))
-        return columns, fs
+        unread = (f"the {time_name} stamps repeat, printed coarser than the sampling period (to "
+                  f"{_printed_unit_s(time_s):g} s): the rate is not read from them; they span about "
+                  f"{(time_s.size - 1) / np.ptp(time_s):.0f} rows a second")
+        notes.append(unread + ("" if fs is not None else " (give it: fs)"))
+        return columns, fs, unread
     measured = fs_from_time_column(time_s, str(path), time_name)
     if fs is not None:
         if abs(measured / fs - 1.0) > FS_RELATIVE_TOLERANCE:
             raise BearingTwinError(f"{path}: its sampling rate, {fs:g} Hz, contradicts its time stamps {time_name}, "
                                    f"{measured:.6g} Hz")
-        return columns, fs
+        return columns, fs, ""
     notes.append(f"sampling rate {measured:.6g} Hz from the time stamps {time_name}")
-    return columns, measured
+    return columns, measured, ""
 
 
 def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -> float:
@@ -484,7 +510,7 @@ def _read_npy(path: Path) -> RawRecord:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as error:
         raise BearingTwinError(f"{path}: not a readable .npy file ({error})") from None
-    notes = ([f"integer samples ({array.dtype.name}): converter counts, read as they are; the physical unit is unknown"]
+    notes = ([f"integer samples ({array.dtype.name}): converter counts, read as they are, which state no physical unit"]
              if np.issubdtype(array.dtype, np.integer) else [])
     return RawRecord(str(path), "npy", _float_channels(path, {"": array} if array.ndim == 2 else {"0": array}),
                      meta={"notes": notes} if notes else {})
@@ -536,7 +562,7 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
     found = {fact: _named_fact(facts, names, fact) for fact, names in _FACTS.items()}
     fs = None if found["fs"] is None else positive_number(found["fs"][1], found["fs"][0], "Hz", f"{path}: ")
     notes = []
-    arrays, fs_from_stamps = _time_stamps(path, arrays, notes, fs, variables=True)
+    arrays, fs_from_stamps, _ = _time_stamps(path, arrays, notes, fs, variables=True)  # rising: never coarse
     if fs is None and fs_from_stamps is not None:
         fs, fs_origin = fs_from_stamps, "time column"
     else:
@@ -597,10 +623,12 @@ def _read_npz(path: Path) -> RawRecord:
 
 
 def _load_mat(path: Path) -> dict:
+    import h5py
     import scipy.io
 
     try:
-        if scipy.io.matlab.matfile_version(path)[0] == 2:  # MATLAB 7.3 (save -v7.3, and any file over 2 GB): HDF5
+        # MATLAB 7.3 (save -v7.3, and any file over 2 GB) is HDF5 after a header of MATLAB's; h5py writes HDF5 alone.
+        if h5py.is_hdf5(path):
             return _load_mat_hdf5(path)
         variables = scipy.io.loadmat(path)
     except (ValueError, OSError, TypeError, NotImplementedError) as error:
@@ -612,7 +640,8 @@ def _load_mat_hdf5(path: Path) -> dict:
     """The variables of a MATLAB 7.3 file, as :func:`scipy.io.loadmat` gives those of older ones (scipy reads
     no 7.3 file; h5py reads their HDF5, and MATLAB's own conventions are undone here): arrays in MATLAB's
     shape (HDF5 stores them transposed), text decoded from its UTF-16 codes, a struct's fields as
-    ``<struct>.<field>``, a cell array's contents as text."""
+    ``<struct>.<field>``, a cell array's contents as text. An HDF5 file without MATLAB's header (``h5py.File``'s)
+    is read alike: its arrays' orientation is told as any file's is (the longer axis is time)."""
     import h5py
 
     def value(item):
@@ -665,7 +694,7 @@ def _read_wav(path: Path) -> RawRecord:
         offset = 2.0 ** (bits - 1) if np.issubdtype(data.dtype, np.unsignedinteger) else 0.0
         data = (data.astype(np.float64) - offset) / 2.0 ** (bits - 1)
         notes.append(f"integer samples ({stored}, as scipy reads them) scaled to the recorder's full scale "
-                     "(1.0); the physical unit is unknown")
+                     "(1.0), which states no physical unit")
     channels = {"0": data} if data.ndim == 1 else {"": data.T}
     return RawRecord(str(path), "wav", _float_channels(path, channels), fs=float(fs), fs_origin="header",
                      meta={"notes": notes})
@@ -673,8 +702,9 @@ def _read_wav(path: Path) -> RawRecord:
 
 def _read_csv(path: Path) -> RawRecord:
     """Columns of numbers (:func:`~bearingtwin.data.csv_file.read_csv_table`), optionally under a header row of
-    names, which may state each column's unit in brackets (``acc (g)``). Without a header the longer axis is time,
-    as in the other formats (one row of numbers is one channel)."""
+    names, which may state each column's unit in brackets (``acc (g)``) or in a row of units below it. A column of a
+    logger's clock times gives the time stamps (beside it, a column of its dates is passed over). Without a header
+    the longer axis is time, as in the other formats (one row of numbers is one channel)."""
     from bearingtwin.data.csv_file import read_csv_table
 
     table = read_csv_table(path)
@@ -684,12 +714,17 @@ def _read_csv(path: Path) -> RawRecord:
     line, noted = rate_in_notes(path, table.preamble) or (None, None)
     if noted is not None:  # exact, where time stamps are printed to a few decimals: they must agree with it
         notes.append(f"sampling rate {noted:g} Hz from the note {line!r} above the header")
-    columns, fs = _time_stamps(path, dict(zip(table.names, table.values.T)), notes, fs=noted)
+    passed_over = table.clock[1:] + table.dates  # a logger's dates beside its clock times; a second clock
+    if passed_over:
+        notes.append(f"column{'s' * (len(passed_over) > 1)} {', '.join(passed_over)} passed over: the clock times "
+                     f"of {table.clock[0]} are the time stamps")
+    columns = {name: values for name, values in zip(table.names, table.values.T) if name not in passed_over}
+    columns, fs, fs_unread = _time_stamps(path, columns, notes, fs=noted, clock=next(iter(table.clock), None))
     units = {name: unit for name in columns if (unit := unit_in_name(name))}
     origin = "header" if noted is not None else "time column" if fs else ""
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin=origin,
                      fs_tolerance=FS_FLOAT_NOISE if noted is not None else FS_RELATIVE_TOLERANCE,
-                     meta={"notes": notes} if notes else {}, channel_units=units)
+                     meta={"notes": notes} if notes else {}, channel_units=units, fs_unread=fs_unread)
 
 
 _RATE_NOTE = re.compile(

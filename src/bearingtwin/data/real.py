@@ -557,11 +557,19 @@ def windows_from_recordings(
 
 
 def in_one_unit(recordings: list[Recording]) -> tuple[list[Recording], str]:
-    """The recordings in one unit, and its name: the one they share ("" when they state none or differ in a unit
-    that is not an acceleration's); m/s^2 when they state different acceleration units (g and m/s^2)."""
+    """The recordings in one unit, and its name: the one they share ("" when some state none); m/s^2 when they
+    state different acceleration units (g and m/s^2, mg, ...). Records stating different units of which one is no
+    acceleration unit (V beside g) are refused: their windows would differ in level by a factor nothing converts."""
     units = {acceleration_unit(recording.unit) for recording in recordings}
     if None in units:
         stated = {recording.unit for recording in recordings}
+        if len(stated - {""}) > 1:
+            first = {}
+            for recording in recordings:
+                first.setdefault(recording.unit, Path(recording.source).name)
+            raise BearingTwinError("the records state units not converted into one another (" + ", ".join(
+                f"{unit}: {name}" for unit, name in first.items() if unit) + "); only acceleration units (g, m/s^2, "
+                "mg, mm/s^2, ...) are converted: give the records all in those, or all in one unit")
         return recordings, stated.pop() if len(stated) == 1 else ""
     if len(units) == 1:
         return recordings, units.pop()

@@ -37,17 +37,17 @@ DROPOUT_NOTE_S = 0.005
 clipped peak's flat top)."""
 
 
-def piled_at(x: np.ndarray, top: float, bottom: float) -> int:
-    """How many samples of ``x`` lie within :data:`CLIP_EDGE` of the range (``top`` - ``bottom``) of ``top`` when
-    more do than in the :data:`CLIP_BAND` just below that edge, else 0. A hard limit piles samples up at one level
-    over an empty band below it, even where the clipped ringing is too fast to leave flat tops (3 kHz at 12 kHz);
-    a signal's own peaks, a sine's that repeat each period too, are outnumbered by the samples just below them.
-    Soft saturation (a gradual compression) and a limit smoothed by a low-pass after it leave no such pile: they
+def piled_at(x: np.ndarray, top: float, bottom: float) -> np.ndarray:
+    """Which samples of ``x`` (a boolean mask) lie within :data:`CLIP_EDGE` of the range (``top`` - ``bottom``) of
+    ``top`` when more do than in the :data:`CLIP_BAND` just below that edge, else none. A hard limit piles samples up
+    at one level over an empty band below it, even where the clipped ringing is too fast to leave flat tops (3 kHz
+    at 12 kHz); a signal's own peaks, a sine's that repeat each period too, are outnumbered by the samples just below
+    them. Soft saturation (a gradual compression) and a limit smoothed by a low-pass after it leave no such pile: they
     are not named. Falsely named: a noise-free tone quantized to a few codes, a half-wave rectified signal."""
     edge = top - CLIP_EDGE * (top - bottom)
-    at = int(np.count_nonzero(x >= edge))
+    at = x >= edge
     below = int(np.count_nonzero((x < edge) & (x >= edge - CLIP_BAND * (top - bottom))))
-    return at if at > below else 0
+    return at if np.count_nonzero(at) > below else np.zeros_like(at)
 
 
 def longest_held_stretch(signal: np.ndarray) -> tuple[int, int]:
@@ -131,17 +131,26 @@ class Recording:
         piles = ([] if np.unique(x).size < 1 / CLIP_BAND else
                  [(name, level, piled_at(sign * x, sign * level, sign * other)) for name, level, other, sign in
                   (("maximum", x.max(), x.min(), 1.0), ("minimum", x.min(), x.max(), -1.0))])
-        piles = [(name, level, count) for name, level, count in piles  # a side clipped on its own (one-sided too)
-                 if count >= CLIPPED_SAMPLES and count >= CLIPPED_SHARE * x.size]
-        at_extremes = sum(count for _, _, count in piles)
+        piles = [(name, level, piled) for name, level, piled in piles  # a side clipped on its own (one-sided too)
+                 if np.count_nonzero(piled) >= max(CLIPPED_SAMPLES, CLIPPED_SHARE * x.size)]
         if piles:
-            where = " and ".join(f"its {name}, {level:g}" for name, level, _ in piles)
-            notes.append(f"{100 * at_extremes / x.size:.3g} % of the samples pile up at {where}: the sensor or the "
-                         "converter clipped (saturated), which flattens the impacts; what is read from them may be off")
+            clipped = np.logical_or.reduce([piled for _, _, piled in piles])
+            what = " and ".join(f"its {name}, {level:g}" for name, level, _ in piles)
+            notes.append(f"{100 * np.count_nonzero(clipped) / x.size:.3g} % of the samples pile up at {what}, "
+                         f"{self._stretches(clipped)}: the sensor or the converter clipped (saturated), which "
+                         "flattens the impacts; what is read from them may be off")
         held = self._held_stretch(shortest_dropout_s)
         if held:
             notes.append(f"{held}: the windows over it read no vibration")
         return notes
+
+    def _stretches(self, mask: np.ndarray) -> str:
+        """Where the samples ``mask`` marks lie: "in 212 stretches from 1.2 s to 2.05 s" (the first one's start, the
+        last one's end), "in one stretch from ..."."""
+        starts = np.flatnonzero(np.diff(mask.astype(np.int8), prepend=0) == 1)
+        last_end = np.flatnonzero(mask)[-1] + 1
+        count = f"{starts.size} stretches" if starts.size > 1 else "one stretch"
+        return f"in {count} from {starts[0] / self.fs:.3g} s to {last_end / self.fs:.3g} s"
 
     def _flat(self) -> str | None:
         """What a record of one value is ("every sample is 0: no vibration recorded"), None for any other."""

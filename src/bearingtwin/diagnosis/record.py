@@ -10,7 +10,10 @@ voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 ``record``, ``model_uri``, ``model_version_uri`` (an alias replaced by the version it named), ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
 ``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
 ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
-``contradicted`` or ``not checked``), ``notes``, ``fault_size_in``, ``position`` and ``load_hp`` where the
+``contradicted`` or ``not checked``), ``unit_check`` (the record's unit against the model's: ``as stated``,
+``converted``, ``assumed`` where the file states none, ``not checked`` where the model states none, ``not needed``
+where the model normalizes its windows), ``level_unseen`` (the windows' level lies a decade or more from the
+training windows'), ``notes``, ``fault_size_in``, ``position`` and ``load_hp`` where the
 file's name gives them and, when the truth is known, ``true_state``, ``correct`` and ``physics_correct`` (the evidence
 alone). Beside them: ``source``, ``channel``, ``bearing`` (whose defect lines were read) and ``original_fs``
 (what was read), and
@@ -32,7 +35,7 @@ from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import read_raw, recording_from_raw, refuse_a_label_the_file_contradicts
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import acceleration_factor, acceleration_unit, convert_acceleration
+from bearingtwin.data.units import acceleration_factor, acceleration_unit, convert_acceleration, quantity_of
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
@@ -55,6 +58,7 @@ class PreparedRecord:
     notes: list[str] = field(default_factory=list)
     bearing: dict = field(default_factory=dict)  # the bearing the physics evidence reads defect lines of
     rate_check: str = "not checked"  # the shaft line against speed and rate: consistent, ambiguous, contradicted
+    unit_check: str = "not needed"  # the record's unit against the model's: one of UNIT_CHECKS
 
 
 CONDITION_KEYS = ("fault_size_in", "position", "load_hp")
@@ -116,7 +120,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     if not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9):
         recording, note = resample_to(recording, pipeline.fs_hz)
         notes.append(note)
-    recording, unit_notes = in_model_unit(recording, pipeline)
+    recording, unit_notes, unit_check = in_model_unit(recording, pipeline)
     notes += unit_notes
     if recording.signal.size < pipeline.window_length:
         raise BearingTwinError(
@@ -129,7 +133,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; "
                                "give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv beside it")
-    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check)
+    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check)
 
 
 def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:
@@ -254,27 +258,60 @@ def _matches(checks, rate: float) -> bool:
         return False
 
 
-def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Recording, list[str]]:
-    """The recording in the unit the model was trained in, where both state acceleration units (g, m/s^2), and
-    what was done or could not be (a record stating no unit is read in the model's, said so); as it is when the
-    model normalizes its windows (any unit is alike to it)."""
-    if pipeline.window_normalization != "none" or not pipeline.unit:
-        return recording, []
-    if not recording.unit:  # g and m/s^2 differ by 9.81: a level check that fires at a decade never sees it
-        return recording, [f"the file states no unit: read in {pipeline.unit}, the unit the model was trained in "
+UNIT_CHECKS = ("as stated", "converted", "assumed", "not checked", "not needed")
+"""How a record's unit was held against the model's (:attr:`PreparedRecord.unit_check`, :func:`in_model_unit`): the
+model's own, converted to it, assumed to be it (the file states none), not checked (the model states none), not needed
+(the model normalizes every window, so no unit's scale matters to it)."""
+
+_CONVERSION_NEEDS = {
+    "a voltage": "divide it by the sensor's sensitivity (V per g, from its data sheet or calibration) and state the "
+                 "unit that gives (an .npz's 'unit' entry, a CSV header such as 'acc (g)')",
+    "a velocity": "a velocity is an integrated acceleration, so diagnose the accelerometer's own record, in an "
+                  "acceleration unit",
+    "a displacement": "a displacement is an acceleration integrated twice, so diagnose the accelerometer's own "
+                      "record, in an acceleration unit",
+}
+"""What a record in a unit of another quantity takes to be read in an acceleration unit, in words."""
+
+
+def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Recording, list[str], str]:
+    """The recording in the unit the model was trained in, what was done (notes) and how the units were held
+    against each other (:data:`UNIT_CHECKS`): converted where both are acceleration units (g, mg, m/s^2, mm/s^2,
+    ...), read as if in the model's where the file states none (said so), refused where the two differ and one is
+    no acceleration unit (a voltage, a velocity: no factor converts it) and the model reads the windows' level. As
+    it is when the model states no unit, and when it normalizes its windows (any unit's scale is alike to it), said
+    so for a unit of another quantity than acceleration."""
+    unit, model_unit = recording.unit, pipeline.unit
+    quantity = quantity_of(unit)
+    if pipeline.window_normalization != "none":
+        if not unit or quantity == "an acceleration":
+            return recording, [], "not needed"
+        note = (f"the record is in {unit} ({quantity or 'a unit not known here'}), not an acceleration: read as it is, "
+                "the model scaling every window to one level")
+        if quantity in ("a velocity", "a displacement"):  # unlike a gain, integration changes the spectrum's shape
+            note += (f"; {quantity}'s spectrum falls off towards high frequencies against an acceleration's: hold the "
+                     "verdict against the physics evidence")
+        return recording, [note], "not needed"
+    if not model_unit:  # trained on records that state none, or saved before models kept their unit
+        return recording, [], "not checked"
+    if not unit:  # g and m/s^2 differ by 9.81: a level check that fires at a decade never sees it
+        return recording, [f"the file states no unit: read as if in {model_unit}, the unit the model was trained in "
                            "(where it is another, state it: a CSV column header such as 'acc (m/s^2)', an .npz's "
-                           "'unit' entry)"]
-    units = acceleration_unit(recording.unit), acceleration_unit(pipeline.unit)
+                           "'unit' entry)"], "assumed"
+    units = acceleration_unit(unit), acceleration_unit(model_unit)
+    if unit == model_unit or units[0] is not None and units[0] == units[1]:
+        return recording, [], "as stated"
     if None in units:
-        if recording.unit == pipeline.unit:
-            return recording, []
-        return recording, [f"the record is in {recording.unit}, the model was trained on windows in {pipeline.unit}: "
-                           "read as it is"]
-    if units[0] == units[1]:
-        return recording, []
+        other, into = (unit, model_unit) if units[0] is None else (model_unit, unit)
+        needs = (_CONVERSION_NEEDS.get(quantity, "convert it to an acceleration unit (g, m/s^2, mg, mm/s^2) and "
+                                                 "state that unit") if units[1] is not None else
+                 f"give the record in {model_unit}, as the model's training records were")
+        raise BearingTwinError(f"{recording.source}: the record is in {unit}, the model was trained on windows in "
+                               f"{model_unit} and reads their level, and no factor converts {other} "
+                               f"({quantity_of(other) or 'a unit not known here'}) into {into}: {needs}")
     converted = dataclasses.replace(recording, signal=convert_acceleration(recording.signal, *units), unit=units[1])
     return converted, [f"converted from {units[0]} to {units[1]}, the unit the model was trained in "
-                       f"(x {acceleration_factor(*units):.6g})"]
+                       f"(x {acceleration_factor(*units):.6g})"], "converted"
 
 
 def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]:
@@ -364,6 +401,8 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "bearing": prepared.bearing.get("name"),  # whose defect lines the physics (and defect-order features) read
         "original_fs": prepared.original_fs,
         "rate_check": prepared.rate_check,
+        "unit_check": prepared.unit_check,
+        "level_unseen": level is not None,
         "notes": notes,
     }
     for key in CONDITION_KEYS:  # what a CWRU name says of the record's condition, to score by it

@@ -166,7 +166,7 @@ def chosen_bearing(cfg: DictConfig) -> str | None:
 def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     """Diagnose every record ``cfg.path`` names with ``cfg.model``; write and log the results."""
     tracking_uri = str(cfg.tracking.uri)
-    out = output_folder(cfg.out)
+    out = output_folder(cfg.out).resolve()  # named in the closing summary: where it is from anywhere
     figures = true_or_false(cfg.figures, "figures")
     tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
     settings = evidence_settings(OmegaConf.to_container(cfg.evidence, resolve=True))
@@ -273,6 +273,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             windows_correct += result["windows_correct"]
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
+        row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]  # for the closing summary
         run.rows.append(row)
     scored = [row for row in run.rows if "correct" in row]
     if scored:
