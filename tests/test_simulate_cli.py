@@ -1,6 +1,7 @@
 """bearingtwin-simulate run as a user runs it: a subprocess with Hydra overrides."""
 
 import json
+import logging
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ def run(tmp_path, *overrides):
     return run_module("bearingtwin.cli.simulate", *overrides, cwd=tmp_path, timeout=300)
 
 
-def test_writes_npz_and_plots(tmp_path):
+def test_writes_npz_and_plots(tmp_path, caplog):
     out = tmp_path / "runs" / "run.npz"
     result = run(tmp_path, "fault=inner", "simulator.rpm=1797", "simulator.fs=10000", "simulator.duration=1.0",
                  "bearing=cwru_6205", "bearing.clearance_mm=0.004", f"out={out}", "plot=true")
@@ -31,6 +32,15 @@ def test_writes_npz_and_plots(tmp_path):
 
     summary = summarize(out)
     assert summary["unit"] == "m/s^2" and summary["bearing"] == "cwru_6205" and "defect_frequencies_hz" in summary
+    # Its rate is exact, and the twin has no shaft line: no check reads the balls' passing series as the shaft's
+    # (one had called the twin's own record's rate contradicted).
+    assert summary["fs_origin"] == "simulation" and summary["shaft_line_check"]["verdict"] == "not checked"
+    from bearingtwin.data.files import load_recording
+    from bearingtwin.data.real import check_stated_rate
+
+    with caplog.at_level(logging.WARNING):  # a folder of the twin's records trained on (data=files): nothing logged
+        check_stated_rate(load_recording(out), "fs", "data.check_fs", bearing=BearingGeometry(52, 25, 7.94, 39.04, 9))
+    assert not caplog.records, caplog.records
     # the inner-race defect repeats at the CWRU bearing's BPFI (1 s: 1 Hz bins)
     envelope = np.abs(np.fft.rfft(np.abs(signal) - np.abs(signal).mean()))
     bpfi = BearingGeometry(52, 25, 7.94, 39.04, 9).bpfi_hz(1797)

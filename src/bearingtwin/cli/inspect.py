@@ -27,7 +27,7 @@ from omegaconf import DictConfig
 from bearingtwin.checks import positive_number
 from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
                                 unknown_bearing_note)
-from bearingtwin.data.files import named_rate_note, read_raw, resolve_fact, resolve_fs
+from bearingtwin.data.files import RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, named_rate_note, read_raw, resolve_fact, resolve_fs
 from bearingtwin.data.real import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -122,7 +122,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
                    [f"not checked: {np.count_nonzero(~np.isfinite(raw.channels[name]))} NaN or infinite samples"]
                    for name in names if raw.channels[name].size}
         summary["quality"] = {name: notes for name, notes in quality.items() if notes}
-    if rpm is not None and fs_hz is not None:
+    if rpm is not None and fs_hz is not None and fs_origin == SIMULATED_RATE:
+        summary["shaft_line_check"] = {"verdict": "not checked", "reason": RATE_NOT_CHECKED_SIMULATED}
+    elif rpm is not None and fs_hz is not None:
         # Every channel of the file's length witnesses its one rate, as bearingtwin-diagnose and the twin read it.
         signal = raw.channels[names[0]]
         defect_hz = None if bearing is None else bearing.defect_frequencies(rpm)

@@ -16,6 +16,7 @@ from omegaconf import DictConfig, OmegaConf
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.checks import true_or_false
 from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys, search_path_override
+from bearingtwin.data.files import SIMULATOR_MARK
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, oversample_factor, simulate
@@ -116,7 +117,7 @@ def main(cfg: DictConfig) -> None:
     # witness the rate: bearingtwin-inspect and the twin read it).
     np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
              rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
-             bearing=HydraConfig.get().runtime.choices.get("bearing"))
+             bearing=HydraConfig.get().runtime.choices.get("bearing"), made_by=SIMULATOR_MARK)
     written = [out]
     if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,

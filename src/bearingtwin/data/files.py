@@ -558,6 +558,15 @@ def _fact_name(name: str) -> str:
     return re.sub(r"[\s_\-]", "", name).lower()
 
 
+SIMULATOR_MARK = "bearingtwin-simulate"
+"""The ``made_by`` fact of a record ``bearingtwin-simulate`` wrote."""
+SIMULATED_RATE = "simulation"
+"""``fs_origin`` of such a record's rate: exact by construction, and the twin has no shaft line (no residual
+unbalance) to check it by, so no rate check reads it (one had taken its balls' passing series for the shaft's)."""
+RATE_NOT_CHECKED_SIMULATED = ("sampling rate not checked: bearingtwin-simulate made this record at exactly its stated "
+                              "rate (the twin has no shaft line to check a rate by)")
+
+
 def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawRecord:
     found = {fact: _named_fact(facts, names, fact) for fact, names in _FACTS.items()}
     fs = None if found["fs"] is None else positive_number(found["fs"][1], found["fs"][0], "Hz", f"{path}: ")
@@ -567,11 +576,13 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
         fs, fs_origin = fs_from_stamps, "time column"
     else:
         fs_origin = "file" if fs is not None else ""
+    if fs_origin == "file" and facts.get("made_by") == SIMULATOR_MARK:
+        fs_origin = SIMULATED_RATE
     rpm = None if found["rpm"] is None else positive_number(found["rpm"][1], found["rpm"][0], "rev/min", f"{path}: ")
     fault = None if found["fault"] is None else found["fault"][1]
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{path}: fault {fault!r} is not a bearing state ({', '.join(FAULTS)})")
-    used = {entry[0] for entry in found.values() if entry is not None}
+    used = {entry[0] for entry in found.values() if entry is not None} | {"made_by"} & set(facts)
     names, table = facts.get("channel_names"), arrays.get("channels")  # bearingtwin-simulate's: a row per sensor
     if isinstance(names, list) and np.ndim(table) == 2 and len(names) in np.shape(table):
         rows = table if len(table) == len(names) else np.transpose(table)

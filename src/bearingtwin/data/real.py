@@ -27,7 +27,8 @@ from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.csv_file import holds_one_value, is_a_note, text_column
-from bearingtwin.data.files import FORMATS, TEXT_TABLES, load_recording, speed_setting, time_column_seconds
+from bearingtwin.data.files import (FORMATS, SIMULATED_RATE, TEXT_TABLES, load_recording, speed_setting,
+                                    time_column_seconds)
 from bearingtwin.data.hust import CHANNELS as HUST_AXES, hust_file_name, load_hust, parse_hust_name
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
@@ -200,7 +201,7 @@ def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing
     records (a time column, a header, an .npz's fs) only logged; unchecked without a speed. Without the
     record's ``bearing`` a fault record's contradiction is only logged: its defect comb can stand where the
     shaft series is looked for, and only the bearing's defect lines tell the two apart."""
-    if recording.rpm is None:
+    if recording.rpm is None or recording.meta.get("fs_origin") == SIMULATED_RATE:  # exact, and no shaft line to read
         return
     given = recording.meta.get("fs_origin") in ("config", "declared")
     require_plausible_rate(recording.signal, recording.fs, recording.rpm, recording.source, fs_key,

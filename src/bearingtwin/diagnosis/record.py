@@ -33,7 +33,8 @@ import scipy.signal
 
 from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
-from bearingtwin.data.files import read_raw, recording_from_raw, refuse_a_label_the_file_contradicts
+from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw,
+                                    refuse_a_label_the_file_contradicts)
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import acceleration_factor, acceleration_unit, convert_acceleration, quantity_of
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
@@ -96,6 +97,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     elif recording.rpm is None:
         notes.append("the file states no shaft speed: no physics evidence and no rate check (give rpm=<rev/min>, or "
                      "the file's speed in the rpm column of a labels.csv beside it)")
+    elif recording.meta.get("fs_origin") == SIMULATED_RATE:
+        notes.append(RATE_NOT_CHECKED_SIMULATED)
     else:
         recording, rate_notes, rate_check = _checked_rate(recording, record_bearing, channels=raw.channels,
                                                           declared_only=fs is None and raw.fs_origin == "declared")

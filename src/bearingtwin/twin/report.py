@@ -22,7 +22,8 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
 from bearingtwin.config import bearing_config, given_on_command_line, output_folder, unknown_bearing_note
 from bearingtwin.data.cwru import BEARING_BY_END, CHANNEL_BY_END, parse_cwru_name
-from bearingtwin.data.files import read_raw, recording_from_raw, same_speed, speed_setting
+from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw, same_speed,
+                                    speed_setting)
 from bearingtwin.data.real import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -101,7 +102,9 @@ def check_measurement(measured_cfg, recording: Recording, channels: dict,
     """The second half of :func:`load_measurement`: ``recording``'s sampling rate checked against its shaft speed
     (``bearing``'s defect lines as a second witness, every one of its file's ``channels`` a witness) unless
     ``measured.check_fs=false``, and its samples against the comparison's statistics."""
-    if true_or_false(measured_cfg.check_fs, "measured.check_fs"):
+    if recording.meta.get("fs_origin") == SIMULATED_RATE:
+        log.info("%s: %s", measured_cfg.path, RATE_NOT_CHECKED_SIMULATED)
+    elif true_or_false(measured_cfg.check_fs, "measured.check_fs"):
         # A rate given here or only declared by a data set's convention is refused when the record contradicts
         # it; one the file records itself is kept, the doubt logged.
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
