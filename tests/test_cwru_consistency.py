@@ -1,10 +1,9 @@
 """scripts/cwru_consistency.py: directions agreeing by chance are not called consistent, and a base parameter the
 record does not identify is not tabulated as a measured value."""
 
-import importlib.util
-
 import numpy as np
 import pytest
+from script_modules import load_script
 
 from bearingtwin.config import REPO_ROOT
 
@@ -13,10 +12,7 @@ SCRIPT = REPO_ROOT / "scripts" / "cwru_consistency.py"
 
 @pytest.fixture(scope="module")
 def consistency():
-    spec = importlib.util.spec_from_file_location("cwru_consistency", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(SCRIPT)
 
 
 def test_the_rayleigh_test_tells_agreeing_directions_from_random_ones(consistency):

@@ -5,7 +5,6 @@ results/identifiability.md.
 """
 
 import csv
-import importlib.util
 import io
 import json
 import subprocess
@@ -15,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
+from script_modules import load_script
 from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR
@@ -32,10 +32,7 @@ def benchmark(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 
 @pytest.fixture(scope="module")
 def module():
-    spec = importlib.util.spec_from_file_location("identifiability", SCRIPT)
-    loaded = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(loaded)
-    return loaded
+    return load_script(SCRIPT)
 
 
 @pytest.fixture(scope="module")
