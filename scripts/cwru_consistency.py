@@ -35,7 +35,7 @@ from bearingtwin.config import REPO_ROOT
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.tables import markdown_table, write_generated
-from bearingtwin.twin.rank import not_identified
+from bearingtwin.twin.rank import not_identified, sensor_not_identified
 
 # The same folder the configs read: paths.data_root = $BEARINGTWIN_DATA or ../shared/data.
 DATA = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
@@ -150,10 +150,10 @@ def _fitted(entry: dict, digits: str) -> str:
 
 
 def _direction(sensor: dict) -> str:
-    """The fitted sensor direction with its interval, or that every direction fits as well."""
-    low, high = sensor.get("interval") or (sensor["angle_deg"], sensor["angle_deg"])
-    if high - low >= 180.0:
+    """The fitted sensor direction with its interval, or that the record hardly tells one direction from another."""
+    if sensor_not_identified(sensor):
         return f"not identified ({sensor['angle_deg']:.0f} fitted)"
+    low, high = sensor.get("interval") or (sensor["angle_deg"], sensor["angle_deg"])
     return f"{sensor['angle_deg']:.0f} ({low:.0f} to {high:.0f})"
 
 

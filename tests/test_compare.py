@@ -360,5 +360,7 @@ def test_a_line_on_a_supply_multiple_names_the_supply_and_a_coarse_spectrum_name
         "another state than the one stated")
     assert line_source(214.8, 29.95, 0.5, rates, own="BPFO").startswith("this bearing's 2 x BPFO (the outer race's "
                                                                          "defect frequency): the stated defect rings")
+    assert line_source(162.0, 29.95, 0.5, rates, own="shaft").endswith("a defect on the inner race, though the record "
+                                                                       "is stated healthy")
     assert line_source(60.0, 29.95, 0.5, rates).startswith("a force twice per revolution")  # the shaft's first
     assert line_source(130.0, 29.95, 0.5, rates) is None

@@ -358,6 +358,14 @@ def test_a_loggers_clock_time_gives_the_time_stamps(tmp_path, signal):
     assert raw.fs is None and raw.meta["notes"][0].startswith("the Timestamp stamps repeat, printed coarser than the "
                                                               "sampling period (to 0.001 s)")
     assert load_recording(tmp_path / "ms.csv", fs=FS).signal.size == signal.size
+    # A logger's date line above its notes is a note, not a row of data; and a file of stamped rows without a header
+    # loses no row to being read as names: it is refused at its first stamp, as before clock columns were read.
+    (tmp_path / "dated.csv").write_text("2024-03-01 10:00:00\nSensor: A1\ntime,acc (g)\n" + "".join(
+        f"{k / FS:.6f},{v:.6f}\n" for k, v in enumerate(signal)))
+    assert (load_recording(tmp_path / "dated.csv").fs, load_recording(tmp_path / "dated.csv").signal.size) == (FS, signal.size)
+    (tmp_path / "bare.csv").write_text("".join(f"2024-03-{day} {time},{v:.6f}\n" for day, time, v in stamped(9)))
+    with pytest.raises(BearingTwinError, match="line 1, column 1: '2024-03-01 23:59:59.750000000' is not a number"):
+        read_raw(tmp_path / "bare.csv")
 
 
 def test_mat_structs_and_cells_and_the_simulators_sensor_names(tmp_path, signal):

@@ -375,7 +375,9 @@ def test_a_variants_table_has_a_file_of_its_own():
 
     assert report_stem("table3", {}) == report_stem("table3", {"vmd_params": "global"}) == "table3"
     assert report_stem("table3", {"vmd_params": "per_class", "uri": "x"}) == "table3_per_class"
-    assert report_stem("cwru", {"load": "1"}) == "cwru_1"
+    assert report_stem("cwru", {"load": "1"}) == "cwru_load1" and report_stem("hust", {"condition": "65"}) == "hust_65Hz"
+    with pytest.raises(BearingTwinError, match="condition='a/b': give a plain value"):
+        report_stem("hust", {"condition": "a/b"})
     assert report_stem("repeat", {"run_id": "abc"}) == "repeat_abc"
 
 

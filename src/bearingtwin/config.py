@@ -118,8 +118,8 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
         # Hydra reads a bare value in a grammar of its own: spaces, brackets and letters outside ASCII (a file name
         # in another script) need quotes, which its message does not say.
         quoted = (f"; give the value in quotes: '{key}=\"{value}\"'"
-                  if equals and value and not (value[0] in "'\"[{" or value.isascii() and value.isprintable()
-                                               and not set(value) & set(" ()")) else "")
+                  if equals and value and not set(value) & set("'\"") and not (
+                      value[0] in "[{" or value.isascii() and value.isprintable() and not set(value) & set(" ()")) else "")
         return f"{error.override}: not an override Hydra can read ({str(error).splitlines()[0]}){quoted}"
     lines = []
     for line in str(error).splitlines():
@@ -247,10 +247,10 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                     hint = closest_setting(app.compose_config(name, rest, run_mode=mode or RunMode.RUN), key)
                 except Exception:  # the rest does not compose either: Hydra's own message names the first fault
                     hint = ""
+                hint = (f"{key}: not a setting (no config declares it); {hint}" if hint else
+                        options_hint(key, name))  # composes every option of the group: asked once
                 if hint:
-                    raise BearingTwinError(f"{key}: not a setting (no config declares it); {hint}") from None
-                if options_hint(key, name):
-                    raise BearingTwinError(options_hint(key, name)) from None
+                    raise BearingTwinError(hint) from None
             raise
         except yaml.YAMLError as error:  # a config file of the user's own that is no YAML: Hydra prints a traceback
             raise BearingTwinError(yaml_error_line(error)) from None

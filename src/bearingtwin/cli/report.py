@@ -24,7 +24,8 @@ def report_command(argv: list[str] | None = None) -> int:
         prog="bearingtwin-report", description=__doc__.splitlines()[0],
         epilog=f"Every report takes {', '.join(f'{key}=' for key in COMMON_KEYS)} (uri: the MLflow store, default "
                "MLFLOW_TRACKING_URI or the checkout's mlruns/mlflow.db, wherever the command runs; out: the markdown file, "
-               "default results/<name>.md under the current folder; sweep_dir: "
+               "default results/<name>.md under the current folder (a variant's results/<name>_<variant>.md: "
+               "table3_per_class.md, cwru_load1.md); sweep_dir: "
                "that sweep's runs only; source: data.source, default simulated, or all; force=true: replace results "
                f"of larger runs). Further settings by report: {takes}.")
     parser.add_argument("name", help=f"report: {', '.join(sorted(REPORTS))}")

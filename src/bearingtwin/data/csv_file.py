@@ -223,9 +223,10 @@ def _row_cells(line: str, delimiter: str | None) -> list[str]:
 
 def _numbers_row(line: str) -> bool:
     """Whether a line is a row of numbers under some decimal mark (a closing separator allowed), clock times
-    counted as numbers."""
+    counted as numbers beside one at least (a logger's date line above its header, ``2024-03-01 10:00``, is none)."""
     cells = _row_cells(line, _delimiter(line))
-    return bool(cells) and all(_NUMBER_LIKE.fullmatch(cell) or _is_clock(cell) for cell in cells)
+    return (bool(cells) and all(_NUMBER_LIKE.fullmatch(cell) or _is_clock(cell) for cell in cells)
+            and any(_NUMBER_LIKE.fullmatch(cell) and not _is_clock(cell) for cell in cells))
 
 
 def _is_clock(cell: str) -> bool:
@@ -298,7 +299,7 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
         shown = "; ".join(head[i].strip() for i in preamble[:3]) + ("; ..." if len(preamble) > 3 else "")
         notes.append(f"the {len(preamble)} line{'s' * (len(preamble) > 1)} above the header read as notes, not data "
                      f"({shown})")
-    if not all(_is_number(cell, decimal) for cell in cells):
+    if not all(_is_number(cell, decimal) or _is_clock(cell) for cell in cells):  # a first row of stamps is data
         names, body_start = cells, first + 1
     elif first > 0 and head[first - 1].lstrip().startswith("#"):  # numpy.savetxt writes its header so: "# time,acc"
         above = _cells(head[first - 1].lstrip()[1:], delimiter)

@@ -558,20 +558,24 @@ def windows_from_recordings(
 
 
 def in_one_unit(recordings: list[Recording]) -> tuple[list[Recording], str]:
-    """The recordings in one unit, and its name: the one they share ("" when some state none); m/s^2 when they
+    """The recordings in one unit, and its name: the one they share ("" when none states one); m/s^2 when they
     state different acceleration units (g and m/s^2, mg, ...). Records stating different units of which one is no
     acceleration unit (V beside g) are refused: their windows would differ in level by a factor nothing converts."""
     units = {acceleration_unit(recording.unit) for recording in recordings}
     if None in units:
         stated = {recording.unit for recording in recordings}
-        if len(stated - {""}) > 1:
-            first = {}
-            for recording in recordings:
-                first.setdefault(recording.unit, Path(recording.source).name)
+        first = {}
+        for recording in recordings:
+            first.setdefault(recording.unit, Path(recording.source).name)
+        if "" in stated and len(stated) > 1:  # 9.81 apart (g beside m/s^2) or not: nothing tells
+            raise BearingTwinError(f"{first['']} states no unit, {first[next(iter(stated - {''}))]} states "
+                                   f"{next(iter(stated - {''}))}: state every record's unit (a CSV header such as "
+                                   "'acc (g)', an .npz's 'unit' entry), or none")
+        if len(stated) > 1:
             raise BearingTwinError("the records state units not converted into one another (" + ", ".join(
-                f"{unit}: {name}" for unit, name in first.items() if unit) + "); only acceleration units (g, m/s^2, "
+                f"{unit}: {name}" for unit, name in first.items()) + "); only acceleration units (g, m/s^2, "
                 "mg, mm/s^2, ...) are converted: give the records all in those, or all in one unit")
-        return recordings, stated.pop() if len(stated) == 1 else ""
+        return recordings, stated.pop()
     if len(units) == 1:
         return recordings, units.pop()
     return [dataclasses.replace(recording, signal=convert_acceleration(recording.signal, recording.unit, "m/s^2"),

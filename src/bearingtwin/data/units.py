@@ -10,45 +10,52 @@ away from an acceleration: a voltage takes the sensor's sensitivity, a velocity 
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import scipy.constants
 
 from bearingtwin.errors import BearingTwinError
 
 METRES_PER_S2 = {"m/s^2": 1.0, "mm/s^2": scipy.constants.milli, "cm/s^2": scipy.constants.centi,
+                 "in/s^2": scipy.constants.inch, "ft/s^2": scipy.constants.foot,
                  "g": scipy.constants.g, "mg": scipy.constants.milli * scipy.constants.g,
                  "µg": scipy.constants.micro * scipy.constants.g}
 """Each acceleration unit's value in m/s^2, by the unit's canonical spelling."""
 
 _PER_SECOND_SQUARED = ("/s^2", "/s2", "/s**2", "/s²", "/s/s", " s^-2", " s-2", " s⁻²", "s^-2", "s-2", "s⁻²",
-                       "s2", "ps2")
+                       "·s^-2", "·s-2", "·s⁻²", ".s^-2", ".s-2", ".s⁻²", "s2", "ps2")
 """How "per second squared" is written after a length (``m/s²``, ``m s^-2``; in a column's name ``acc_ms2``,
 ``acc_mps2``)."""
-_SPELLINGS = {**{length + per: f"{length}/s^2" for length in ("m", "mm", "cm") for per in _PER_SECOND_SQUARED},
+_SPELLINGS = {**{length + per: f"{length}/s^2" for length in ("m", "mm", "cm", "in", "ft") for per in _PER_SECOND_SQUARED},
               "gal": "cm/s^2", "g": "g", "gn": "g", "g0": "g", "mg": "mg", "µg": "µg", "μg": "µg", "ug": "µg"}
 
 _OTHER_QUANTITIES = {"v": "a voltage", "mv": "a voltage", "mm/s": "a velocity", "m/s": "a velocity",
                      "in/s": "a velocity", "ips": "a velocity", "um": "a displacement", "µm": "a displacement",
-                     "μm": "a displacement", "mil": "a displacement", "pa": "a pressure", "n": "a force",
-                     "a": "a current", "rpm": "a speed", "hz": "a frequency", "s": "a time", "ms": "a time"}
-"""Units of other quantities than acceleration a file may state (lower case), and what each measures."""
+                     "μm": "a displacement", "mil": "a displacement", "pa": "a pressure", "rpm": "a speed",
+                     "hz": "a frequency", "s": "a time", "ms": "a time"}
+"""Units of other quantities than acceleration a file may state (lower case), and what each measures. Single
+letters that label as often as they measure (``Sensor (A)``, ``(N)``) are left out; ``s`` stays, a time column's."""
 
 
-def _key(unit: str) -> str:
-    return " ".join(str(unit).split()).lower()
+def unit_key(unit: str) -> str:
+    """A unit as written, compared: lower case, single spaces, none around ``/`` and ``^``, ``sec`` as ``s``
+    (``m / s^2``, ``m/s ^2`` and ``M/sec²`` are one unit)."""
+    key = re.sub(r"\s*([/^])\s*", r"\1", " ".join(str(unit).split()).lower())
+    return re.sub(r"/sec(?=[\^²2]|$)", "/s", key)
 
 
 def acceleration_unit(unit: str) -> str | None:
     """The canonical spelling (a key of :data:`METRES_PER_S2`) of an acceleration unit a file states (``G``,
     ``m/s2``, ``mm/s²``, ``Gal`` and other spellings read too); None for any other unit (``V``, ``mm/s``) or none."""
-    return _SPELLINGS.get(_key(unit))
+    return _SPELLINGS.get(unit_key(unit))
 
 
 def quantity_of(unit: str) -> str | None:
     """What ``unit`` measures: "an acceleration" for a unit :func:`acceleration_unit` reads, another quantity for a
     unit of one (``V``: "a voltage", ``mm/s``: "a velocity", ``µm``: "a displacement"), None for text that is no
     unit known here."""
-    return "an acceleration" if acceleration_unit(unit) else _OTHER_QUANTITIES.get(_key(unit))
+    return "an acceleration" if acceleration_unit(unit) else _OTHER_QUANTITIES.get(unit_key(unit))
 
 
 def acceleration_factor(from_unit: str, to_unit: str) -> float:

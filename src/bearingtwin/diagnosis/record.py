@@ -36,7 +36,8 @@ from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw,
                                     refuse_a_label_the_file_contradicts)
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import acceleration_factor, acceleration_unit, convert_acceleration, quantity_of
+from bearingtwin.data.units import (acceleration_factor, acceleration_unit, convert_acceleration, quantity_of,
+                                    unit_key)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
@@ -280,10 +281,10 @@ _CONVERSION_NEEDS = {
 def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Recording, list[str], str]:
     """The recording in the unit the model was trained in, what was done (notes) and how the units were held
     against each other (:data:`UNIT_CHECKS`): converted where both are acceleration units (g, mg, m/s^2, mm/s^2,
-    ...), read as if in the model's where the file states none (said so), refused where the two differ and one is
-    no acceleration unit (a voltage, a velocity: no factor converts it) and the model reads the windows' level. As
-    it is when the model states no unit, and when it normalizes its windows (any unit's scale is alike to it), said
-    so for a unit of another quantity than acceleration."""
+    ...), read as if in the model's where the file states none or text no unit known here (said so), refused where
+    the record is in a voltage, a velocity or a displacement (no acceleration factor converts it) and the model reads
+    the windows' level. As it is when the model states no unit, and when it normalizes its windows (any unit's scale
+    is alike to it), said so for a unit of another quantity than acceleration."""
     unit, model_unit = recording.unit, pipeline.unit
     quantity = quantity_of(unit)
     if pipeline.window_normalization != "none":
@@ -302,16 +303,21 @@ def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Re
                            "(where it is another, state it: a CSV column header such as 'acc (m/s^2)', an .npz's "
                            "'unit' entry)"], "assumed"
     units = acceleration_unit(unit), acceleration_unit(model_unit)
-    if unit == model_unit or units[0] is not None and units[0] == units[1]:
+    if unit_key(unit) == unit_key(model_unit) or units[0] is not None and units[0] == units[1]:
         return recording, [], "as stated"
+    if units[0] is None and units[1] is not None and quantity not in _CONVERSION_NEEDS:
+        # Text no unit known here (a label in brackets, "Sensor (A)"): as good as none stated, and said so.
+        return recording, [f"the file states {unit!r}, no unit known here: read as if in {model_unit}, the unit the "
+                           "model was trained in (where it is another, state it)"], "assumed"
     if None in units:
         other, into = (unit, model_unit) if units[0] is None else (model_unit, unit)
         needs = (_CONVERSION_NEEDS.get(quantity, "convert it to an acceleration unit (g, m/s^2, mg, mm/s^2) and "
                                                  "state that unit") if units[1] is not None else
                  f"give the record in {model_unit}, as the model's training records were")
         raise BearingTwinError(f"{recording.source}: the record is in {unit}, the model was trained on windows in "
-                               f"{model_unit} and reads their level, and no factor converts {other} "
-                               f"({quantity_of(other) or 'a unit not known here'}) into {into}: {needs}")
+                               f"{model_unit} and reads their level, and {other} "
+                               f"({quantity_of(other) or 'a unit not known here'}) is not converted into {into} here: "
+                               f"{needs}")
     converted = dataclasses.replace(recording, signal=convert_acceleration(recording.signal, *units), unit=units[1])
     return converted, [f"converted from {units[0]} to {units[1]}, the unit the model was trained in "
                        f"(x {acceleration_factor(*units):.6g})"], "converted"

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import re
 import shutil
 import sys
 import tempfile
@@ -500,17 +501,22 @@ def default_tracking() -> dict:
     return OmegaConf.to_container(cfg.tracking, resolve=True)
 
 
-VARIANT_DEFAULTS = {"vmd_params": "global", "load": None, "condition": None}
-"""Report settings that choose a variant of a table, with the value the report's own file holds: another value
-names the default file after it (``table3_per_class.md``)."""
+VARIANT_DEFAULTS = {"vmd_params": ("global", "_{}"), "load": (None, "_load{}"), "condition": (None, "_{}Hz")}
+"""Report settings that choose a variant of a table, with the value the report's own file holds and the suffix
+another value adds to the default file's name (``table3_per_class.md``, ``cwru_load1.md``, ``hust_65Hz.md``)."""
 
 
 def report_stem(name: str, settings: dict[str, str]) -> str:
     """The name of a report's file and MLflow artifact, without ``.md``: a variant's table has one of its own
     (``table3 vmd_params=per_class``: ``table3_per_class``; it had replaced the global one's), a repeat's names its run."""
     stem = name if name != "repeat" else f"repeat_{settings.get('run_id')}"
-    return stem + "".join(f"_{settings[key]}" for key, default in VARIANT_DEFAULTS.items()
-                          if key in settings and settings[key] != default)
+    for key, (default, suffix) in VARIANT_DEFAULTS.items():
+        if key not in settings or settings[key] == default:
+            continue
+        if not re.fullmatch(r"[\w.-]+", settings[key]):  # it becomes part of a file's name
+            raise BearingTwinError(f"{key}={settings[key]!r}: give a plain value (letters, digits, '.', '-', '_')")
+        stem += suffix.format(settings[key])
+    return stem
 
 
 def results_path(settings: dict[str, str], name: str) -> Path:

@@ -589,7 +589,7 @@ def line_source(freq_hz: float, shaft_hz: float, resolution_hz: float, defect_hz
     """What leaves a line the measurement adds at ``freq_hz``, where its place tells: on one of the shaft's first
     orders or half orders (``shaft_hz``: the shaft rate; up to 3x, where such a line is most likely the shaft's),
     on one of the bearing's defect frequencies' first three harmonics (``defect_hz``: BPFO, BPFI, BSF in Hz;
-    ``own``: the one of the record's stated fault), or on one of a supply's first four multiples; None elsewhere
+    ``own``: the one of the record's stated fault, ``shaft`` for a healthy one), or on one of a supply's first four multiples; None elsewhere
     (the lines view's general answer stands), and where the spectrum's bins (``resolution_hz``) are too coarse to
     tell a shaft order from the next half order. On means within half a bin plus 0.5 % of the frequency (the
     line's frequency is read between bins)."""
@@ -613,6 +613,7 @@ def line_source(freq_hz: float, shaft_hz: float, resolution_hz: float, defect_hz
         order = name if k == 1 else f"{k} x {name}"
         words = (f"this bearing's {order} ({DEFECT_LINES[name]}'s defect frequency"
                  + ("): the stated defect rings stronger in this line than the twin's does" if name == own else
+                    f"): a defect on {DEFECT_LINES[name]}, though the record is stated healthy" if own == "shaft" else
                     f"): a defect on {DEFECT_LINES[name]} as well, or a record of another state than the one stated"))
     supply = next(((n, f) for f in MAINS_HZ for n in range(1, 5) if on(n * f)), None)
     if supply is not None:

@@ -431,6 +431,13 @@ HARDLY_IDENTIFIED_SHARE = 0.9
 """An interval covering this share of its search range (on the range's own scale) leaves the value hardly identified."""
 
 
+def sensor_not_identified(sensor: Mapping) -> bool:
+    """Whether a fitted sensor direction's interval (the report's ``sensor`` entry) spans the half turn: the record
+    tells hardly any direction from another."""
+    interval = sensor.get("interval")
+    return bool(interval) and interval[1] - interval[0] >= 180.0
+
+
 def not_identified(entry: Mapping) -> bool:
     """Whether a fitted base parameter's interval spans its whole search range: any value in it fits as well."""
     search, interval = entry.get("range"), entry.get("interval")
@@ -496,8 +503,9 @@ def _operating_point_words(operating: Mapping, gain: float, unit: str = "") -> s
         if name == "sensor":
             interval = entry.get("interval")
             within = ""
-            if interval and interval[1] - interval[0] >= 180.0:
-                within = " (its direction not identified: every direction fits as well)"
+            if interval and sensor_not_identified(entry):
+                within = (" (its direction not identified: every direction fits as well)" if entry.get("every_direction_fits")
+                          else " (its direction hardly identified: the directions that fit span the half turn)")
             elif interval:
                 within = f" (within {interval[0]:.0f} to {interval[1]:.0f} deg)"
             other = [r for r in entry["races_within_bound"] if r != entry["race"]]
@@ -977,10 +985,12 @@ class EffectRanker:
         if high - low >= 180.0:
             low, high = -90.0, 90.0
         interval = [chosen + low, chosen + high] if op.angle_fitted else None
+        grid = len(op.sensor_options()) // len(op.races)  # directions searched on each race
         report["sensor"] = {"value": describe_sensor(sensor), "race": sensor["simulator.sensor"].split("_")[0],
                             "angle_deg": sensor["simulator.sensor_angle_deg"],
                             "held": len(op.races) == 1 and not op.angle_fitted,
-                            "races_within_bound": races, "interval": interval}
+                            "races_within_bound": races, "interval": interval,
+                            "every_direction_fits": op.angle_fitted and len(set(offsets)) == grid}
         return report
 
 
