@@ -717,7 +717,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
     assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
     header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
-    assert header[-2:] == ["bearing", "original_fs"] and rows["pump_a"]["bearing"] and not rows["short"]["bearing"]
+    assert header[-4:] == ["bearing", "original_fs", "unit_check", "level_unseen"]  # new columns come last
+    assert rows["pump_a"]["bearing"] and not rows["short"]["bearing"] and rows["pump_a"]["unit_check"]
     assert float(rows["pump_a"]["original_fs"]) > 0 and not rows["short"]["original_fs"]
     assert "true_state" not in rows["other"] or not rows["other"]["true_state"]
     assert "shorter than one window" in rows["short"]["error"] and "NaN" in rows["nan"]["error"]
@@ -1304,7 +1305,7 @@ def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unse
             row("or_a", "outer"), row("or_b", "outer"), row("ir007", "inner", fault_size_in=0.007),
             row("healthy", "normal", unit_check="converted")]
     lines = diagnosis_lines(DiagnosisRun(rows=rows))
-    assert lines["unit assumed (the file states none: read in the model's)"] == "wav"
+    assert lines["unit assumed (the file states none known here: read in the model's)"] == "wav"
     assert lines["level a decade or more outside the model's training windows"] == "mg_gain"
     assert lines["records right by state and fault size (model, physics)"] == (
         "normal 1/1, 1/1; inner 0.007 in 1/1, 1/1; inner, size unknown 2/2, 2/2; outer 2/2, 2/2")

@@ -364,8 +364,12 @@ def test_a_loggers_clock_time_gives_the_time_stamps(tmp_path, signal):
         f"{k / FS:.6f},{v:.6f}\n" for k, v in enumerate(signal)))
     assert (load_recording(tmp_path / "dated.csv").fs, load_recording(tmp_path / "dated.csv").signal.size) == (FS, signal.size)
     (tmp_path / "bare.csv").write_text("".join(f"2024-03-{day} {time},{v:.6f}\n" for day, time, v in stamped(9)))
-    with pytest.raises(BearingTwinError, match="line 1, column 1: '2024-03-01 23:59:59.750000000' is not a number"):
+    with pytest.raises(BearingTwinError, match="line 1, column 1: '2024-03-01 23:59:59.750000000' is not a number "
+                                               r"\(a clock time: give the file a header row naming its columns"):
         read_raw(tmp_path / "bare.csv")
+    # Above a single column too, where a note's form alone tells notes from data.
+    (tmp_path / "single.csv").write_text("2024-03-01 10:00:00\nDevice: X\nacc (g)\n" + "".join(f"{v:.6f}\n" for v in signal))
+    assert load_recording(tmp_path / "single.csv", fs=FS).signal.size == signal.size
 
 
 def test_mat_structs_and_cells_and_the_simulators_sensor_names(tmp_path, signal):

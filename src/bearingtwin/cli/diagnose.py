@@ -72,7 +72,7 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["recorded below the model's rate (no content above their Nyquist)"] = ", ".join(narrower)
     assumed = [row["record"] for row in diagnosed if row.get("unit_check") == "assumed"]
     if assumed:  # read by a model that reads levels in its unit, which the file may not be in
-        lines["unit assumed (the file states none: read in the model's)"] = ", ".join(assumed)
+        lines["unit assumed (the file states none known here: read in the model's)"] = ", ".join(assumed)
     unseen = [row["record"] for row in diagnosed if row.get("level_unseen")]
     if unseen:  # a unit or gain the model never saw: every amplitude-dependent feature reads it as another state
         lines["level a decade or more outside the model's training windows"] = ", ".join(unseen)

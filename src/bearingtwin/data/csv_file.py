@@ -278,7 +278,9 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     notes = content[:header_at]
     if header != numbers:
         return []
-    return notes if numbers not in above or all(_NOTE_LINE.match(head[i]) for i in notes) else []
+    # A logger's date line ("2024-03-01 10:00:00") is a note as "Device: X" is.
+    return notes if numbers not in above or all(_NOTE_LINE.match(head[i]) or _is_clock(head[i].strip())
+                                                for i in notes) else []
 
 
 def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[str] | None, list[str]]:
@@ -412,6 +414,8 @@ def _on_its_line(path: Path, message: str, layout: _Layout) -> str:
     cell = cells[column - 1] if column <= len(cells) else ""
     comma = (f" (a number written with a decimal comma? {DECIMAL_COMMA_REMEDY})"
              if layout.delimiter == "," and re.fullmatch(r"[+-]?\d*,\d+", cell) else "")
+    if _is_clock(cell.strip()) and not layout.clock:  # stamps are read as such under a header that names the columns
+        comma = " (a clock time: give the file a header row naming its columns, and its stamps are read as time stamps)"
     return f"line {number}, column {column}: {cell!r} is not a number{comma}"
 
 

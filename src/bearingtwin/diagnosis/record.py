@@ -306,7 +306,8 @@ def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Re
     if unit_key(unit) == unit_key(model_unit) or units[0] is not None and units[0] == units[1]:
         return recording, [], "as stated"
     if units[0] is None and units[1] is not None and quantity not in _CONVERSION_NEEDS:
-        # Text no unit known here (a label in brackets, "Sensor (A)"): as good as none stated, and said so.
+        # Text no unit known here (an .npz's unit entry "A"; a CSV header's brackets it does not know are no unit):
+        # as good as none stated, and said so.
         return recording, [f"the file states {unit!r}, no unit known here: read as if in {model_unit}, the unit the "
                            "model was trained in (where it is another, state it)"], "assumed"
     if None in units:

@@ -273,7 +273,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             windows_correct += result["windows_correct"]
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
-        row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]  # for the closing summary
+        row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
         run.rows.append(row)
     scored = [row for row in run.rows if "correct" in row]
     if scored:
@@ -333,6 +333,7 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     columns.append("bearing")  # the columns before it keep the places they had before it and those after existed
     columns += [key for key in ("load_hp", "position") if any(key in row for row in rows)]
     columns.append("original_fs")  # the rate the file was read at (Hz), before any resampling to the model's
+    columns += ["unit_check", "level_unseen"]  # how its unit was read, and a level the model never saw
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
