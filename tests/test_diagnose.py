@@ -140,8 +140,10 @@ def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_
                                                           "read as it is, the model scaling every window to one level")
 
 
-def test_windows_of_records_in_g_and_in_m_s2_are_brought_to_one_unit():
+def test_windows_of_records_in_g_and_in_m_s2_are_brought_to_one_unit(caplog):
     from bearingtwin.data.real import windows_from_recordings
+
+    caplog.set_level("INFO", logger="bearingtwin.data.real")
 
     signal = fault_signal(None, seconds=1.0)
     in_g = Recording(signal / 9.80665, FS, fault="normal", unit="g", source="a.npz")
@@ -164,6 +166,7 @@ def test_windows_of_records_in_g_and_in_m_s2_are_brought_to_one_unit():
     in_mg = windows_from_recordings([in_g, dataclasses.replace(in_si, signal=signal / 9.80665 * 1000, unit="mg")], 2048,
                                     2, "data.windows_per_record", "key")
     assert in_mg.unit == "m/s^2" and np.allclose(in_mg.windows[:2], in_mg.windows[2:], rtol=1e-12)
+    assert "the records state g, mg: each converted to m/s^2" in caplog.text  # said, not done in silence
     with pytest.raises(BearingTwinError, match=r"the records state units not converted into one another \(g: a.npz, V: "
                                                r"b.npz\); only acceleration units"):
         windows_from_recordings([in_g, dataclasses.replace(in_si, unit="V")], 2048, 2, "data.windows_per_record", "key")

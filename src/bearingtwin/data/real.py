@@ -532,6 +532,7 @@ def windows_from_recordings(
     warn_of_quality(recordings)
     converted, unit = in_one_unit(recordings)
     if converted is not recordings:  # other windows than the files' own numbers: another key (and feature cache)
+        log.info("the records state %s: each converted to %s", ", ".join(sorted({r.unit for r in recordings})), unit)
         recordings, key = converted, content_key({"records": key, "unit": unit})
     windows, labels, record_ids, starts, lengths = [], [], [], [], []
     for index, recording in enumerate(recordings):
