@@ -133,10 +133,11 @@ def _axial_spread(angles_deg: list[float]) -> str:
     mean_deg = np.rad2deg(np.angle(resultant)) / 2 % 180
     spread_deg = np.rad2deg(np.sqrt(-2 * np.log(max(abs(resultant), 1e-12))) / 2)
     p = rayleigh_p(abs(resultant), len(angles_deg))
+    p_words = f"= {p:.2f}" if p >= 0.01 else "< 0.01"
     agreement = ("they agree more than directions at random would" if p < 0.05 else
                  "no more alike than directions at random: no direction is identified")
     return (f"mean {mean_deg:.0f} deg from horizontal, circular spread {spread_deg:.0f} deg "
-            f"({len(angles_deg)} records; a and a + 180 deg are one direction); Rayleigh test p {f'= {p:.2f}' if p >= 0.01 else '< 0.01'}, "
+            f"({len(angles_deg)} records; a and a + 180 deg are one direction); Rayleigh test p {p_words}, "
             f"{agreement}")
 
 

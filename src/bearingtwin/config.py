@@ -142,12 +142,13 @@ def _group_of(key: str) -> str | None:
     return groups[0] if groups else None
 
 
-def options_declaring(key: str, config_name: str = "train") -> list[str]:
+@functools.cache  # the files of conf/ only: a refusal's check and its message ask once per process
+def options_declaring(key: str, config_name: str = "train") -> tuple[str, ...]:
     """The options of the config group ``key`` belongs to whose config declares it (``hydra.launcher.n_jobs``:
     joblib; ``features.vmd_params``: the features that tune VMD)."""
     group = _group_of(key)
     if group is None:
-        return []
+        return ()
     parent, _, leaf = key.rpartition(".")
     having = []
     for option in sorted(path.stem for path in Path(CONF_DIR, *group.split(".")).glob("*.yaml")):
@@ -158,7 +159,7 @@ def options_declaring(key: str, config_name: str = "train") -> list[str]:
         node = OmegaConf.select(cfg, parent, default=None)
         if isinstance(node, DictConfig) and leaf in node:
             having.append(option)
-    return having
+    return tuple(having)
 
 
 def options_hint(key: str, config_name: str = "train") -> str:

@@ -27,7 +27,8 @@ from omegaconf import DictConfig
 from bearingtwin.checks import positive_number
 from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
                                 unknown_bearing_note)
-from bearingtwin.data.files import RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, named_rate_note, read_raw, resolve_fact, resolve_fs
+from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, named_rate_note, read_raw, resolve_fact,
+                                    resolve_fs)
 from bearingtwin.data.real import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError

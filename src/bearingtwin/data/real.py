@@ -569,9 +569,9 @@ def in_one_unit(recordings: list[Recording]) -> tuple[list[Recording], str]:
         for recording in recordings:
             first.setdefault(recording.unit, Path(recording.source).name)
         if "" in stated and len(stated) > 1:  # 9.81 apart (g beside m/s^2) or not: nothing tells
-            raise BearingTwinError(f"{first['']} states no unit, {first[next(iter(stated - {''}))]} states "
-                                   f"{next(iter(stated - {''}))}: state every record's unit (a CSV header such as "
-                                   "'acc (g)', an .npz's 'unit' entry), or none")
+            other = next(iter(stated - {""}))
+            raise BearingTwinError(f"{first['']} states no unit, {first[other]} states {other}: state every record's "
+                                   "unit (a CSV header such as 'acc (g)', an .npz's 'unit' entry), or none")
         if len(stated) > 1:
             raise BearingTwinError("the records state units not converted into one another (" + ", ".join(
                 f"{unit}: {name}" for unit, name in first.items()) + "); only acceleration units (g, m/s^2, "
