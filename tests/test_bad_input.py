@@ -59,7 +59,7 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
 
 
 @pytest.mark.parametrize("module, overrides, named", [
-    ("train", ["classifier=does_not_exist"], ["classifier=does_not_exist", "cnn_bilstm, svm"]),
+    ("train", ["classifier=does_not_exist"], ["classifier=does_not_exist", "cnn_bilstm, sklearn, svm"]),
     ("train", ["not_a_key=3"], ["not_a_key", "not a setting"]),
     ("train", ["-m", "classifier=svm,does_not_exist"], ["classifier=does_not_exist"]),  # a sweep job's, before any starts
     ("train", ["-m", "seed=0,1", "trainer.not_a_key=3"], ["trainer.not_a_key", "not a setting"]),
@@ -71,7 +71,7 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("twin", ["measured.path=Pumpe 3 (außen).npz"], ["""'measured.path="Pumpe 3 (außen).npz"'"""]),
     ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
     ("inspect", ["path=x.npy", "bearing=null"], ["bearing=null: a config group takes one of its options", "er16k"]),
-    ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, svm"]),  # Hydra's own ValueError, a traceback
+    ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, sklearn, svm"]),  # Hydra's own ValueError, a traceback
     # Hydra merges a list of a group's options into one config: a TypeError deep in the classifier, and a run left
     ("train", ["classifier=[svm,cnn_bilstm]"], ["classifier=[svm,cnn_bilstm]: choose one classifier", "-m classifier=a,b"]),
     ("train", ["--cfg", "job", "-m", "+sweep=table4"], ["-m and --cfg job go one at a time"]),  # Hydra's ValueError
@@ -129,7 +129,7 @@ def test_hydra_flags_still_work_with_the_overrides_checked_first(tmp_path):
     shown = command("twin", "--cfg", "job", "measured.path=x.npy", "bearing=er16k", cwd=tmp_path)
     assert shown.returncode == 0 and "path: x.npy" in shown.stdout, shown.stderr
     helped = command("train", "--help", cwd=tmp_path)
-    assert helped.returncode == 0 and "classifier: cnn_bilstm, svm" in helped.stdout, helped.stderr
+    assert helped.returncode == 0 and "classifier: cnn_bilstm, sklearn, svm" in helped.stdout, helped.stderr
 
 
 @pytest.mark.parametrize("module, usage, setting", [

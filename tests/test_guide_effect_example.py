@@ -1,6 +1,9 @@
 """The guide's worked example of adding an effect (docs/guide.md) runs as written and leaves its signature."""
 
+import os
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -9,7 +12,8 @@ from hydra import compose, initialize_config_dir
 
 import bearingtwin.physics.effect_library as effect_library
 from bearingtwin.config import CONF_DIR, REPO_ROOT
-from bearingtwin.physics.effects import build_effects, registered_effects
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.physics.effects import PLUGIN_GROUP, build_effects, registered_effects
 from bearingtwin.physics.simulator import simulate
 
 
@@ -40,3 +44,44 @@ def test_the_guides_effect_is_one_class_and_one_yaml_and_shows_a_line_at_the_gea
     assert spectrum[near_line].sum() > 0.99 * spectrum.sum()
     line_rms = np.sqrt(np.mean(added**2))
     assert line_rms == pytest.approx(np.sqrt(np.mean(bare.signal**2)), rel=0.02)  # level_db = 0: the signal's RMS
+
+
+def test_the_guides_effect_names_a_bad_value_when_its_config_is_read():
+    namespace = dict(vars(effect_library))
+    exec(guide_block("python", "class GearMesh"), namespace)
+    with pytest.raises(BearingTwinError, match=r"^effects\.gear_mesh\.n_teeth must be a positive integer, got -3$"):
+        build_effects({"gear_mesh": {"n_teeth": -3, "level_db": 0.0}})
+
+
+def test_an_effect_in_a_package_of_ones_own_is_found_through_its_entry_point(tmp_path):
+    """The guide's effect kept outside the checkout: a module named under the ``bearingtwin.effects`` entry points
+    (an installed package's metadata, here a dist-info folder on the path) and its YAML on hydra.searchpath;
+    a fresh ``bearingtwin-simulate`` adds the gear's line without a line of the package changed."""
+    (tmp_path / "my_rig_effects.py").write_text("from bearingtwin.physics.effect_library import *\n"
+                                                + guide_block("python", "class GearMesh"))
+    metadata = tmp_path / "my_rig_effects-0.1.dist-info"
+    metadata.mkdir()
+    (metadata / "METADATA").write_text("Metadata-Version: 2.1\nName: my-rig-effects\nVersion: 0.1\n")
+    (metadata / "entry_points.txt").write_text(f"[{PLUGIN_GROUP}]\ngear_mesh = my_rig_effects\n")
+    (tmp_path / "conf" / "effects").mkdir(parents=True)
+    (tmp_path / "conf" / "effects" / "gear_mesh.yaml").write_text(guide_block("yaml", "gear_mesh:"))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(tmp_path), os.environ.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, "-m", "bearingtwin.cli.simulate", "fault=normal", "simulator.duration=1.0",
+                           "effects=[gear_mesh]", f"hydra.searchpath=[file://{tmp_path / 'conf'}]",
+                           f"out={tmp_path / 'gear.npz'}"], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    with np.load(tmp_path / "gear.npz") as record:
+        signal, fs, rpm = record["signal"], float(record["fs"]), float(record["rpm"])
+    spectrum = np.abs(np.fft.rfft(signal)) ** 2
+    freqs = np.fft.rfftfreq(signal.size, 1.0 / fs)
+    at_mesh = spectrum[np.abs(freqs - 20 * rpm / 60) <= 2.0].sum()
+    assert at_mesh > 0.4 * spectrum.sum()  # level_db = 0: the line holds as much power as the bearing signal
+
+    (tmp_path / "my_rig_effects.py").write_text("raise RuntimeError('a bug of its own')\n")
+    broken = subprocess.run([sys.executable, "-m", "bearingtwin.cli.simulate", "fault=normal", "effects=[noise]",
+                             f"out={tmp_path / 'noise.npz'}"], cwd=tmp_path, env=env, capture_output=True, text=True,
+                            timeout=300)
+    assert broken.returncode == 2 and broken.stderr.strip().splitlines() == [
+        f"error: the effect module my_rig_effects ('{PLUGIN_GROUP}' entry point gear_mesh) fails to import: "
+        "RuntimeError: a bug of its own"]

@@ -469,8 +469,9 @@ def refuse_unknown_keys(hydra_cfg) -> None:
     """Raise naming a ``+key=value`` override that adds a key no config declares.
 
     Hydra lets ``+`` add any key, so ``+simulator.foo=1`` would be carried along unused. A
-    key may be added only into a free-form map, one a config group declares empty (``{}``, e.g.
-    ``data.fs_by_record``, ``data.twin.variants``), also when an experiment has filled it in
+    key may be added only into a free-form map: a class's arguments beside its ``_target_``
+    (``+classifier.estimator.n_estimators=300``: the class checks them), or a map a config group declares
+    empty (``{}``, e.g. ``data.fs_by_record``, ``data.twin.variants``), also when an experiment has filled it in
     (``+experiment=sim2real`` spans ``data.twin.variants.spin_slip``; ``+data.twin.variants.preload...``
     adds beside it); ``+group=option`` selects a config group and is always allowed. ``hydra_cfg``
     is a run's (or a sweep job's) ``hydra`` node; the config is composed again without the added
@@ -504,7 +505,7 @@ def refuse_unknown_keys(hydra_cfg) -> None:
         parts = key.split(".")
         maps = [cfg if i == 0 else OmegaConf.select(cfg, ".".join(parts[:i]), default=None)
                 for i in range(len(parts)) for cfg in (declared, groups_alone)]
-        if not any(isinstance(node, DictConfig) and len(node) == 0 for node in maps):
+        if not any(isinstance(node, DictConfig) and (len(node) == 0 or "_target_" in node) for node in maps):
             hint = closest_setting(declared, key)
             raise BearingTwinError(
                 f"{override.input_line}: {key} is not a setting of {config_name} (no config declares it); "

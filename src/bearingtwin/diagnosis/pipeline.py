@@ -269,12 +269,15 @@ def _extractor_from_state(state: dict):
 # The classifiers' modules are imported where they are needed: the network's pulls in Lightning,
 # which a diagnosis with an SVM model (or a model server starting up) need not wait for.
 def _save_classifier(classifier, folder: Path) -> dict:
+    from bearingtwin.models.sklearn_classifier import SklearnClassifier
     from bearingtwin.models.svm import SvmClassifier
 
     if isinstance(classifier, SvmClassifier):  # before the network's module is imported: an SVM run need not
         from bearingtwin.models.persistence import save_estimator
 
         return {"kind": "svm", "files": save_estimator(classifier, folder / "svm")}
+    if isinstance(classifier, SklearnClassifier):
+        return {"kind": "sklearn", **classifier.save(folder)}
     from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 
     if isinstance(classifier, CnnBiLstmClassifier):
@@ -287,6 +290,10 @@ def _load_classifier(state: dict, folder: Path):
         from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 
         return CnnBiLstmClassifier.load(folder / "network.pt", state)
+    if state["kind"] == "sklearn":
+        from bearingtwin.models.sklearn_classifier import SklearnClassifier
+
+        return SklearnClassifier.load(folder, state)
     if "files" not in state:  # an earlier version's svm.skops
         raise BearingTwinError(f"{folder}: the SVM was saved in skops' format by an earlier version of bearingtwin; "
                                "train the model again to diagnose with it")

@@ -39,7 +39,9 @@ the simulation:
 
 from __future__ import annotations
 
+import functools
 import importlib
+import importlib.metadata
 from typing import ClassVar, Mapping
 
 import numpy as np
@@ -52,6 +54,11 @@ from bearingtwin.physics.kinematics import Kinematics
 
 LIBRARY_MODULE = "bearingtwin.physics.effect_library"
 """Imported by :func:`build_effects` so that the effect library's classes are registered."""
+
+PLUGIN_GROUP = "bearingtwin.effects"
+"""The entry-point group of effects kept in a package of one's own: each entry names a module whose
+``@register_effect`` classes are registered when it is imported (``[project.entry-points."bearingtwin.effects"]``
+in that package's pyproject.toml), in every process that reads effects, a sweep's workers too."""
 
 _REGISTRY: dict[str, type["Effect"]] = {}
 
@@ -139,7 +146,7 @@ def effect_class(name: str) -> type[Effect]:
     """The class registered as ``name`` (its ``search_space``, ``signature_views``, ``requires``, ...)."""
     _load_library()
     if name not in _REGISTRY:
-        raise BearingTwinError(f"unknown effect {name!r}; registered: {', '.join(sorted(_REGISTRY)) or 'none'}")
+        raise BearingTwinError(f"unknown effect {name!r}; {_registered_words()}")
     return _REGISTRY[name]
 
 
@@ -175,7 +182,7 @@ def build_effects(effects_cfg: Mapping | None) -> list[Effect]:
     effects = []
     for name, arguments in in_signal_order(effects_cfg).items():
         if name not in _REGISTRY:
-            raise BearingTwinError(f"effects.{name}: unknown effect; registered: {', '.join(sorted(_REGISTRY)) or 'none'}")
+            raise BearingTwinError(f"effects.{name}: unknown effect; {_registered_words()}")
         try:
             effects.append(_REGISTRY[name](**(arguments or {})))
         except BearingTwinError as error:  # a constructor's own check names the parameter, in its block
@@ -186,9 +193,22 @@ def build_effects(effects_cfg: Mapping | None) -> list[Effect]:
     return effects
 
 
+def _registered_words() -> str:
+    return (f"registered: {', '.join(sorted(_REGISTRY)) or 'none'} (an effect of your own is registered through "
+            f"the '{PLUGIN_GROUP}' entry points of its package: docs/guide.md, Adding an effect)")
+
+
+@functools.cache
 def _load_library() -> None:
+    """Import the effect library and the modules of the :data:`PLUGIN_GROUP` entry points, once per process."""
     try:
         importlib.import_module(LIBRARY_MODULE)
     except ModuleNotFoundError as error:
         if error.name != LIBRARY_MODULE:
             raise
+    for entry in importlib.metadata.entry_points(group=PLUGIN_GROUP):
+        try:
+            entry.load()
+        except Exception as error:  # a plugin's own bug: named, not a traceback from inside the effects' lookup
+            raise BearingTwinError(f"the effect module {entry.value} ('{PLUGIN_GROUP}' entry point {entry.name}) "
+                                   f"fails to import: {type(error).__name__}: {error}") from None

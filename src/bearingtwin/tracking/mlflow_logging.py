@@ -873,12 +873,15 @@ class SweepParentRun(Callback):
             random.setstate(now)
 
     def _open_parent(self, config: DictConfig) -> None:
+        from bearingtwin.models.build import classifier_settings
+
         jobs = exit_on_user_error(self._jobs)(config)
         for job in jobs:
             exit_on_user_error(refuse_unknown_keys)(job.hydra)
             # A bad value in a swept list (seed=0,1,x) fails its jobs alone; refused here, it leaves no FAILED runs.
             exit_on_user_error(check_seed)(job.seed)
             exit_on_user_error(check_data_settings)(job)
+            exit_on_user_error(classifier_settings)(job.classifier, job.trainer)  # a config file's misspelt key
             exit_on_user_error(build_effects)(job.get("effects"))  # their parameters, before any job starts
             exit_on_user_error(check_registration)(job)  # a bad model name, before a parent run is opened
         exit_on_user_error(require_files)(jobs)

@@ -46,9 +46,9 @@ _RECORD = re.compile(r"<!-- settings of the runs behind these numbers: (\{.*?\})
 
 def used_sizes(run) -> dict[str, float]:
     """The size settings a run logged and used (search.* only where SABO-VMD searched: other features ignore it;
-    trainer.* only where a network trained: an SVM is fitted in closed form, whatever the epochs say)."""
+    trainer.* only where a network trained: other classifiers ignore the epochs)."""
     searched = run.data.params.get("features.kind") == "sabo_vmd"
-    trained = run.data.params.get("classifier.name") != "svm"
+    trained = run.data.params.get("classifier.name") == "cnn_bilstm"
     sizes = {}
     for key in SIZE_KEYS:
         if (key.startswith("search.") and not searched) or (key.startswith("trainer.") and not trained):

@@ -1,0 +1,146 @@
+"""Any scikit-learn classifier, named in its config by Hydra's ``_target_`` (``classifier=sklearn``).
+
+``conf/classifier/sklearn.yaml`` holds an ``estimator`` node that Hydra instantiates: its ``_target_`` names the
+class, every other key is a constructor argument (nested ``_target_`` nodes, e.g. a ``CalibratedClassifierCV``
+around a ``LinearSVC``, are built too). The features are standardized first, on the training set only, as for the
+SVM and the network. A diagnosis reports class probabilities, so the estimator must give them (``predict_proba``);
+one that does not (``RidgeClassifier``, ``LinearSVC``) is refused before any data is built, with the wrapper that
+adds them. Where the class takes a ``random_state`` left at None, the run's seed is given to it.
+
+A fitted model is saved with skops.io (scikit-learn's maintained safe format) and read back trusting only types of
+scikit-learn, numpy and scipy: a model file naming any other type is refused, as no file is ever unpickled.
+"""
+
+from __future__ import annotations
+
+import difflib
+import inspect
+import re
+from pathlib import Path
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin, is_classifier
+from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import StandardScaler
+
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.models.classes import training_classes
+
+TRUSTED_PACKAGES = ("sklearn", "numpy", "scipy")
+"""The packages whose types a saved model may hold (skops.io lists every other as untrusted)."""
+
+
+def make_estimator(spec: dict, random_state: int):
+    """The unfitted estimator ``spec`` describes (a ``_target_`` and its arguments), with ``random_state`` given where
+    the class takes one left at None; refused in one line when it is no classifier giving probabilities."""
+    from hydra.errors import InstantiationException
+    from hydra.utils import instantiate
+
+    if not isinstance(spec, dict) or "_target_" not in spec:
+        raise BearingTwinError("classifier.estimator needs _target_: the scikit-learn class to use (e.g. "
+                               "classifier.estimator._target_=sklearn.ensemble.RandomForestClassifier)")
+    target = spec["_target_"]
+    try:
+        estimator = instantiate(spec, _convert_="all")
+    except InstantiationException as error:  # Hydra's message runs over lines; its cause says what went wrong
+        cause = error.__cause__
+        if isinstance(cause, ImportError):  # no such class: Hydra's last line asks the question that helps
+            raise BearingTwinError(f"classifier.estimator._target_={target}: {str(cause).splitlines()[-1]}") from None
+        raise BearingTwinError(f"classifier.estimator ({target}): {_first_line(cause or error)}"
+                               + _closest_argument(target, cause)) from None
+    if not is_classifier(estimator):
+        raise BearingTwinError(f"classifier.estimator._target_={target} is not a scikit-learn classifier")
+    # scikit-learn checks its arguments' values only when fitting: checked here, before the features' minutes
+    validate = getattr(estimator, "_validate_params", None)  # absent from an estimator outside scikit-learn
+    try:
+        if validate is not None:
+            validate()
+    except (TypeError, ValueError) as error:  # scikit-learn's InvalidParameterError is both
+        raise BearingTwinError(f"classifier.estimator: {_first_line(error)}") from None
+    if not hasattr(estimator, "predict_proba"):
+        raise BearingTwinError(
+            f"classifier.estimator._target_={target} gives no class probabilities (predict_proba), which a diagnosis "
+            f"reports; wrap it: classifier.estimator._target_=sklearn.calibration.CalibratedClassifierCV "
+            f"+classifier.estimator.estimator._target_={target}")
+    if "random_state" in estimator.get_params(deep=False) and estimator.get_params(deep=False)["random_state"] is None:
+        estimator.set_params(random_state=random_state)  # one seed fixes the run
+    return estimator
+
+
+def _first_line(error: Exception) -> str:
+    return " ".join(str(error).split("\n")[0].split())
+
+
+def _closest_argument(target: str, cause: Exception | None) -> str:
+    """" (did you mean <argument>?)" for an unexpected keyword argument close to one the class takes, else ""."""
+    from hydra.utils import get_class
+
+    named = re.search(r"unexpected keyword argument '(\w+)'", str(cause))
+    if named is None:
+        return ""
+    arguments = inspect.signature(get_class(target)).parameters
+    match = difflib.get_close_matches(named.group(1), list(arguments), n=1, cutoff=0.75)
+    return f" (did you mean classifier.estimator.{match[0]}?)" if match else ""
+
+
+class SklearnClassifier(ClassifierMixin, BaseEstimator):
+    """Standardized features, then the scikit-learn classifier ``estimator`` describes.
+
+    Parameters:
+        estimator: the classifier's config as a dict, ``{"_target_": "<module>.<class>", <argument>: <value>, ...}``.
+        random_state: the run's seed, given to the class where it takes one left at None.
+
+    Fitted attributes: ``classes_``, ``model_`` (the fitted scaler + classifier pipeline).
+    """
+
+    def __init__(self, estimator: dict | None = None, random_state: int = 0) -> None:
+        self.estimator = estimator
+        self.random_state = random_state
+
+    def check_params(self) -> None:
+        """Raise :class:`BearingTwinError` naming what is wrong with ``estimator``, before any data is built."""
+        make_estimator(self.estimator, self.random_state)
+
+    def fit(self, X, y) -> "SklearnClassifier":
+        y = np.asarray(y)
+        self.classes_, _ = training_classes(y)
+        self.model_ = Pipeline([("scale", StandardScaler()),
+                                ("classifier", make_estimator(self.estimator, self.random_state))]).fit(X, y)
+        return self
+
+    def predict(self, X) -> np.ndarray:
+        return self.model_.predict(X)
+
+    def predict_proba(self, X) -> np.ndarray:
+        """(n_samples, n_classes) class probabilities, columns in ``classes_`` order."""
+        return self.model_.predict_proba(X)
+
+    def predict_with_proba(self, X) -> tuple[np.ndarray, np.ndarray]:
+        return self.predict(X), self.predict_proba(X)
+
+    def save(self, folder: Path) -> dict:
+        """Write the fitted pipeline to ``folder`` (skops.io); returns what :meth:`load` needs besides the folder."""
+        import skops.io
+
+        skops.io.dump(self.model_, Path(folder) / "sklearn.skops")
+        return {"estimator": self.estimator, "random_state": self.random_state,
+                "classes": [int(label) for label in self.classes_], "files": ["sklearn.skops"]}
+
+    @classmethod
+    def load(cls, folder: Path, state: dict) -> "SklearnClassifier":
+        """The classifier :meth:`save` wrote, its file read trusting only :data:`TRUSTED_PACKAGES`' types."""
+        import skops.io
+
+        path = Path(folder) / "sklearn.skops"
+        try:
+            types = skops.io.get_untrusted_types(file=path)
+        except (OSError, ValueError) as error:
+            raise BearingTwinError(f"{path}: not a saved model ({error})") from None
+        foreign = [name for name in types if name.split(".")[0] not in TRUSTED_PACKAGES]
+        if foreign:
+            raise BearingTwinError(f"{path}: names the type {foreign[0]}, which a model file may not hold (only "
+                                   f"{', '.join(TRUSTED_PACKAGES)} types are read)")
+        classifier = cls(state["estimator"], state["random_state"])
+        classifier.model_ = skops.io.load(path, trusted=types)
+        classifier.classes_ = np.asarray(state["classes"])
+        return classifier
