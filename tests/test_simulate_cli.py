@@ -2,6 +2,7 @@
 
 import json
 import logging
+import shlex
 
 import numpy as np
 import pytest
@@ -159,8 +160,6 @@ def test_the_summary_names_the_effects_the_record_was_made_with(tmp_path):
 def test_the_twin_call_it_suggests_finds_a_bearing_of_ones_own(tmp_path, folder):
     """The closing summary's bearingtwin-twin call carries the search path a bearing of one's own was found by
     (run as printed, it had been refused: no such bearing config)."""
-    import shlex
-
     from bearingtwin.config import compose_config
 
     (tmp_path / folder / "bearing").mkdir(parents=True)
@@ -198,3 +197,65 @@ def test_an_outer_race_defect_outside_the_load_zone_leaves_no_mark_and_is_said_t
         else:
             assert not notes
     assert rms[90.0] < 1e-3 and rms[270.0] > 0.5, rms
+
+
+@pytest.mark.parametrize("fault, rpm, short_s, long_s", [("inner", 60, 0.4, 1.2), ("ball", 120, 0.5, 1.3)])
+def test_an_inner_or_ball_defect_that_never_turns_through_the_load_zone_is_said_to(fault, rpm, short_s, long_s):
+    """At a low speed a short record may see the inner-race defect (turning with the shaft) or the ball's (turning
+    with the cage and spinning) only outside the load zone: struck by no loaded ball, the record is the healthy
+    one sample for sample, and the simulation says so, naming the duration that lets it through; a record long
+    enough for a revolution (of the shaft, of the cage) shows the fault and says nothing."""
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.config import CONF_DIR
+
+    records = {}
+    for duration in (short_s, long_s):
+        with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+            cfg = compose("simulate", overrides=[f"simulator.rpm={rpm}", f"simulator.duration={duration}"])
+        healthy, _ = simulate("normal", cfg.bearing, cfg.simulator)
+        faulty, _ = simulate(fault, cfg.bearing, cfg.simulator)
+        records[duration] = (np.max(np.abs(faulty.signal - healthy.signal)) / np.max(np.abs(healthy.signal)),
+                             faulty.meta.get("notes", []))
+    change, notes = records[short_s]
+    assert change < 1e-9 and len(notes) == 1 and "the record is a healthy bearing's" in notes[0], (change, notes)
+    revolution = "shaft" if fault == "inner" else "cage"
+    assert f"simulator.duration of a {revolution} revolution" in notes[0]
+    change, notes = records[long_s]
+    assert change > 10.0 and not notes, (change, notes)  # the defect's strikes stand far above the healthy record
+
+
+def test_a_record_describes_itself_and_names_no_bearing_whose_geometry_the_command_line_changed(tmp_path):
+    """A bearing with another ball count and pitch than its config's: the record's lines are at this geometry's
+    defect frequencies, so the file names no bearing config (a reader would take cwru_6205's BPFO, 107 Hz, for
+    this record's 146 Hz); the summary says so and its twin call holds the changed geometry. The record states
+    its load, sensor direction, defect, effects and seed, and names the sensor it read (a direction between the
+    axes is the race at that angle, not the x axis)."""
+    from bearingtwin.cli.inspect import summarize
+    from bearingtwin.config import compose_config
+
+    out = tmp_path / "r.npz"
+    result = run(tmp_path, "fault=outer", "bearing=cwru_6205", "bearing.n_balls=12", "bearing.pitch_diameter_mm=42",
+                 "simulator.duration=0.5", "simulator.fs=12000", "simulator.sensor_angle_deg=45",
+                 "simulator.load_y_n=-500", f"out={out}")
+    assert result.returncode == 0, result.stderr
+    with np.load(out) as record:
+        assert "bearing" not in record.files and str(record["sensor"]) == "inner race at 45 deg"
+        assert float(record["load_y_n"]) == -500 and float(record["sensor_angle_deg"]) == 45
+        assert float(record["defect_width_mm"]) > 0 and str(record["effects"]) == "none"
+    assert "the file names no bearing config" in result.stdout
+    call = next(line for line in result.stdout.splitlines() if "next:" in line).split("next: ")[1]
+    words = shlex.split(call.removesuffix(" holds the twin against this record"))
+    twin_cfg = compose_config("twin", words[1:])
+    assert twin_cfg.bearing.n_balls == 12 and twin_cfg.bearing.pitch_diameter_mm == 42
+    assert "operating_point.sensor_angle_deg=45" in words
+    given = BearingGeometry.from_config(twin_cfg.bearing)
+    assert given.fault_frequency_hz("outer", 1797) == pytest.approx(145.73, abs=0.01)
+    assert summarize(out).get("bearing") is None  # no bearing's lines read off a record of another geometry
+
+    kept = run(tmp_path, "fault=normal", "bearing=cwru_6205", "bearing.clearance_mm=0.01", "simulator.duration=0.2",
+               f"out={tmp_path / 'kept.npz'}")
+    assert kept.returncode == 0, kept.stderr
+    with np.load(tmp_path / "kept.npz") as record:  # a clearance moves no defect line: the bearing is still named
+        assert str(record["bearing"]) == "cwru_6205" and str(record["sensor"]) == "inner_x"
+    assert "bearing.clearance_mm=0.01" in kept.stdout.split("next: ")[1]

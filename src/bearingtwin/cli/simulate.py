@@ -15,7 +15,8 @@ from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.checks import true_or_false
-from bearingtwin.config import exit_on_user_error, hydra_command, output_folder, refuse_unknown_keys, search_path_override
+from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, output_folder, refuse_unknown_keys,
+                                search_path_override)
 from bearingtwin.data.files import SIMULATOR_MARK
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
@@ -57,11 +58,45 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
     return paths
 
 
-def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simulator: DictConfig, sensor: str) -> str:
+def bearing_overrides() -> list[str]:
+    """The command line's overrides of the bearing's own settings (``bearing.n_balls=12``), for a reader to hold."""
+    return [override for override in HydraConfig.get().overrides.task if override.lstrip("+~").startswith("bearing.")]
+
+
+DEFECT_FREQUENCY_GEOMETRY = ("n_balls", "ball_diameter_mm", "pitch_diameter_mm", "contact_angle_deg")
+"""The bearing's settings its defect frequencies depend on."""
+
+
+def geometry_changed(cfg: DictConfig) -> bool:
+    """Whether the bearing simulated has another geometry than its config's (``bearing.n_balls=12``): a record
+    naming the config would then misstate its defect frequencies, which a reader takes from the named config."""
+    simulated, named = BearingGeometry.from_config(cfg.bearing), load_bearing(HydraConfig.get().runtime.choices.get("bearing"))
+    return any(getattr(simulated, name) != getattr(named, name) for name in DEFECT_FREQUENCY_GEOMETRY)
+
+
+def record_facts(cfg: DictConfig, fault: str) -> dict:
+    """What a simulated record states beside its samples: the bearing config it was made with (none where the
+    command line changed its geometry), and the settings a reader cannot see in it (load, sensor direction,
+    defect, effects, seed), so a folder of simulated files describes itself."""
+    simulator = cfg.simulator
+    facts = {"load_x_n": simulator.load_x_n, "load_y_n": simulator.load_y_n, "seed": simulator.seed,
+             "effects": ", ".join(cfg.effects) or "none"}
+    if simulator.get("sensor_angle_deg") is not None:
+        facts["sensor_angle_deg"] = simulator.sensor_angle_deg
+    if fault != "normal":
+        facts.update(defect_width_mm=simulator.defect.width_mm, defect_depth_mm=simulator.defect.depth_mm,
+                     defect_position=defect_words(simulator.defect, fault).split(" deep, ")[1])
+    if not geometry_changed(cfg):
+        facts["bearing"] = HydraConfig.get().runtime.choices.get("bearing")
+    return facts
+
+
+def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simulator: DictConfig, sensor: str,
+                 overrides: list[str] = ()) -> str:
     """The ``bearingtwin-twin`` call for a simulated record, holding what the simulation set and no file states:
     the bearing, the sensor's race and direction and the radial load (held by a user who knows their rig), and the
     oversampling it was made with; the twin's own defaults (a housing sensor, a loaded rig) would otherwise be
-    fitted to a record they cannot match.
+    fitted to a record they cannot match. ``overrides``: the command line's of the bearing's settings, held too.
 
     The twin's operating point knows a downward load only. The model is isotropic and sees only the sum of the
     constant forces on the inner ring (the load and its weight), so a load in another direction is the same
@@ -72,6 +107,7 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     if bearing_name and bearing_name != "paper":
         words.append(f"bearing={bearing_name}")
         words += [shlex.quote(override) for override in search_path_override()]  # where a bearing of one's own is
+    words += [shlex.quote(override) for override in overrides]  # the bearing the record was made with
     race, axis = sensor.split("_")
     angle = simulator.get("sensor_angle_deg")
     angle = float(angle) if angle is not None else (0.0 if axis == "x" else 90.0)
@@ -83,8 +119,8 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     if load_x == 0.0 and load_y <= 0.0:
         load = -load_y  # the twin's own frame: nothing to turn
     elif size > 0.0:
-        turn = -90.0 - math.degrees(math.atan2(sum_y, sum_x))  # the turn that points the forces' sum down
-        angle = (angle + turn + 180.0) % 360.0 - 180.0
+        angle += -90.0 - math.degrees(math.atan2(sum_y, sum_x))  # the turn that points the forces' sum down
+    angle = (angle + 180.0) % 360.0 - 180.0  # within a half turn either side of x (400 deg is 40)
     # "+ 0.0" below: a zero prints as 0, never -0
     words += [f"operating_point.sensor={race}", f"operating_point.sensor_angle_deg={round(angle, 1) + 0.0:g}"]
     if load >= 0.0:
@@ -117,7 +153,7 @@ def main(cfg: DictConfig) -> None:
     # witness the rate: bearingtwin-inspect and the twin read it).
     np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
              rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
-             bearing=HydraConfig.get().runtime.choices.get("bearing"), made_by=SIMULATOR_MARK)
+             made_by=SIMULATOR_MARK, **record_facts(cfg, recording.fault))
     written = [out]
     if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
@@ -127,7 +163,10 @@ def main(cfg: DictConfig) -> None:
         "record": f"{recording.fault}, {recording.signal.size / recording.fs:g} s at {recording.fs:g} Hz, "
                   f"{recording.rpm:g} rpm, sensor {recording.channel} (m/s^2)",
         "bearing": f"{HydraConfig.get().runtime.choices.get('bearing')} ({bearing.n_balls} balls of {bearing.ball_diameter_mm:g} mm "
-                   f"on a {bearing.pitch_diameter_mm:g} mm pitch, clearance {1000 * bearing.clearance_mm:g} um)",
+                   f"on a {bearing.pitch_diameter_mm:g} mm pitch, clearance {1000 * bearing.clearance_mm:g} um)"
+                   + (f", its geometry changed by {' '.join(bearing_overrides())}: the file names no bearing config, "
+                      "whose defect frequencies would be another bearing's (give these overrides to a reader, as the "
+                      "twin call below does)" if geometry_changed(cfg) else ""),
         "load": f"{simulator.load_x_n:g} N along x, {simulator.load_y_n:g} N along y, and the inner ring's weight",
         **({"defect": defect_words(simulator.defect, recording.fault)} if recording.fault != "normal" else {}),
         **({"note": "; ".join(recording.meta["notes"])} if recording.meta.get("notes") else {}),
@@ -136,7 +175,7 @@ def main(cfg: DictConfig) -> None:
                              for name, params in OmegaConf.to_container(cfg.effects, resolve=True).items()) or "none",
         "written": ", ".join(path.name for path in written),
         "next": twin_command(out.resolve(), HydraConfig.get().runtime.choices.get("bearing"), cfg.bearing, cfg.simulator,
-                             recording.channel) + " holds the twin against this record",
+                             cfg.simulator.sensor, bearing_overrides()) + " holds the twin against this record",
     }
     print(closing_summary("bearingtwin-simulate", facts, out=str(out.parent.resolve())))
 

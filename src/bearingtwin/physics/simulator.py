@@ -34,7 +34,7 @@ from bearingtwin.physics.defects import Defect, build_defect, crossing_time_s
 from bearingtwin.physics.dynamics import DynamicParameters, linear_modes, static_equilibrium
 from bearingtwin.physics.effects import Effect, build_effects
 from bearingtwin.physics.geometry import FAULT_FREQUENCY, FAULTS, BearingGeometry, check_fault
-from bearingtwin.physics.kinematics import rigid_kinematics
+from bearingtwin.physics.kinematics import Kinematics, rigid_kinematics
 from bearingtwin.physics.solvers import fast, reference
 
 CHANNELS = ("inner_x", "inner_y", "outer_x", "outer_y")
@@ -235,10 +235,7 @@ def unloaded_defect_note(plan: _Plan) -> str | None:
     Angles as ``simulator.defect.outer_angle_deg``: from the x axis (3 o'clock) towards y (12 o'clock)."""
     if plan.defect.fault != "outer":
         return None
-    state, clearance = plan.initial_state, plan.params.clearance_m
-    shift = math.hypot(state[0] - state[2], state[1] - state[3])  # of the inner race against the outer
-    centre = math.atan2(state[1] - state[3], state[0] - state[2])
-    half_zone = math.pi if clearance <= 0.0 else (math.acos(clearance / shift) if shift > clearance else 0.0)
+    centre, half_zone = _static_load_zone(plan)
     apart = abs(math.remainder(plan.defect.angle_rad - centre, 2.0 * math.pi))
     if apart <= half_zone + plan.defect.half_angle_rad:
         return None
@@ -247,6 +244,63 @@ def unloaded_defect_note(plan: _Plan) -> str | None:
     return (f"the outer-race defect at {math.degrees(plan.defect.angle_rad) % 360:.0f} deg lies outside the static load "
             f"zone ({zone}; 0 deg is 3 o'clock, 90 deg 12 o'clock): no ball carries load over it, so the record may "
             "show little or nothing of it")
+
+
+def _static_load_zone(plan: _Plan) -> tuple[float, float]:
+    """The static load zone's centre and half-width (rad, from x towards y): the arc over which the inner race,
+    displaced through the clearance by the constant forces, presses the balls at rest."""
+    state, clearance = plan.initial_state, plan.params.clearance_m
+    shift = math.hypot(state[0] - state[2], state[1] - state[3])  # of the inner race against the outer
+    centre = math.atan2(state[1] - state[3], state[0] - state[2])
+    half_zone = math.pi if clearance <= 0.0 else (math.acos(clearance / shift) if shift > clearance else 0.0)
+    return centre, half_zone
+
+
+def unstruck_defect_note(plan: _Plan, kinematics: Kinematics, record: slice) -> str | None:
+    """A note where an inner-race or ball defect meets no ball inside the static load zone over the record (the
+    kinematics' grid samples ``record``): at a low speed in a short record the defect may turn through the
+    unloaded side only, and the record is then a healthy bearing's. (An outer-race defect stands still:
+    :func:`unloaded_defect_note` says where it lies.) A defect is taken as met when the angle between it and a
+    ball comes within its half-width plus one grid step's turn, so no passage falls between two samples."""
+    defect = plan.defect
+    if defect.fault not in ("inner", "ball"):
+        return None
+    centre, half_zone = _static_load_zone(plan)
+    cage, offsets = kinematics.cage_angle_rad[record], kinematics.ball_offset_rad[record]
+    ball_angles = cage[:, None] + 2.0 * math.pi * np.arange(kinematics.n_balls) / kinematics.n_balls + offsets
+
+    def within(angles: np.ndarray, half_width: float) -> np.ndarray:
+        return np.abs(np.remainder(angles + math.pi, 2.0 * math.pi) - math.pi) <= half_width
+
+    def reach(angles: np.ndarray) -> float:  # the half-width widened by the largest turn between two samples
+        return defect.half_angle_rad + float(np.max(np.abs(np.diff(angles, axis=0)), initial=0.0))
+
+    loaded = within(ball_angles - centre, half_zone)
+    if defect.fault == "inner":
+        relative = ball_angles - kinematics.shaft_angle_rad[record, None] - defect.angle_rad
+        met = within(relative, reach(relative)) & loaded
+        turn, period = "a shaft revolution", 60.0 / plan.rpm
+    else:
+        spin = kinematics.ball_spin_angle_rad[record] - defect.angle_rad
+        facing = within(spin, reach(spin)) | within(spin - math.pi, reach(spin))
+        met = facing & loaded[:, defect.ball_index]
+        turn, period = "a cage revolution", 1.0 / plan.geometry.ftf_hz(plan.rpm)
+    if met.any():
+        return None
+    missed = ("no ball passes the inner-race defect inside the load zone" if defect.fault == "inner"
+              else "the ball defect faces no race while its ball is inside the load zone")
+    return (f"{missed} in this {plan.n_samples / plan.fs:.3g} s record at {plan.rpm:g} rpm "
+            f"(the static load zone spans {math.degrees(half_zone):.0f} deg either side of "
+            f"{math.degrees(centre) % 360:.0f} deg): the record is a healthy bearing's; simulator.duration of {turn} "
+            f"({period:.3g} s) or more lets it through the load zone")
+
+
+def sensor_name(sensor: str, sensor_angle_deg: float | None = None) -> str:
+    """The sensor as a record names it: the axis (``inner_x``), or its race and direction where
+    ``sensor_angle_deg`` points it between the axes (``inner race at 45 deg``, 0 along x, 90 along y)."""
+    if sensor_angle_deg is None:
+        return sensor
+    return f"{sensor.split('_')[0]} race at {float(sensor_angle_deg) % 360.0:g} deg"
 
 
 def sensor_signal(channels: np.ndarray, sensor: str, sensor_angle_deg: float | None = None) -> np.ndarray:
@@ -293,9 +347,10 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
     meta = {"transient_s": n_transient / fs, "contact_stiffness_n_per_m1_5": params.contact_stiffness_n_per_m1_5,
             "highest_mode_hz": highest_mode_hz, "defect_depth_m": defect.depth_m, "solver": simulator_cfg["solver"],
             "oversample": oversample}
-    unloaded = unloaded_defect_note(plan)
-    if unloaded:
-        meta["notes"] = [unloaded]
+    record = slice(first + oversample * margin, first + oversample * (margin + n_samples))
+    notes = [note for note in (unloaded_defect_note(plan), unstruck_defect_note(plan, kinematics, record)) if note]
+    if notes:
+        meta["notes"] = notes
     if simulator_cfg["solver"] == "fast":
         settings = simulator_cfg["fast"]
         resolution = (grid_fs, highest_mode_hz, crossing, settings["steps_per_period"], settings["steps_per_defect"])
@@ -317,7 +372,8 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
     for effect in plan.effects:
         signal = effect.modify_signal(signal, fs, rng, rpm / 60.0)
     recording = Recording(signal=signal, fs=fs, rpm=rpm, fault=fault, source=f"simulated:{bearing_cfg.get('name', '')}",
-                          channel=simulator_cfg["sensor"], unit="m/s^2", meta=meta)
+                          channel=sensor_name(simulator_cfg["sensor"], simulator_cfg.get("sensor_angle_deg")),
+                          unit="m/s^2", meta=meta)
     return recording, channels
 
 
