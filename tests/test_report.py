@@ -225,6 +225,7 @@ def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, 
     same = report("repeat", f"uri={uri}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat.md")
     assert same.returncode == 0, same.stderr
     assert "every metric matches" in same.stdout and "| NO |" not in same.stdout
+    assert "| n_train |" in same.stdout and "| n_test |" in same.stdout  # every metric the run logged, these too
     tampered = copy_store(uri, tmp_path / "copy.db")
     MlflowClient(tampered).log_metric(run.info.run_id, "accuracy", run.data.metrics["accuracy"] - 0.1)
     # The command's exit status and table, in this process (the command itself ran above): the run trained again.
@@ -235,6 +236,27 @@ def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, 
     differs = capsys.readouterr().out
     assert code == 1 and "MISMATCH" in differs
     assert "| accuracy |" in differs and "| NO |" in differs
+
+
+def test_repeat_compares_a_training_curve_at_every_epoch(uri, tmp_path, capsys):
+    """The network's curves are metrics too: one epoch's loss logged otherwise is a mismatch, though the last
+    epoch's value and every final score agree."""
+    run = finished(uri, paper.PROPOSED)[0]
+    history = MlflowClient(uri).get_metric_history(run.info.run_id, "val_loss")
+    assert len(history) >= 2  # a curve of several epochs to tamper with below the last
+    tampered = copy_store(uri, tmp_path / "copy.db")
+    first = min(history, key=lambda point: point.step)
+    MlflowClient(tampered).log_metric(run.info.run_id, "val_loss", first.value + 1.0, step=first.step)
+    try:
+        code = main(["repeat", f"uri={tampered}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat.md"])
+    except SystemExit as stop:
+        code = stop.code
+    said = capsys.readouterr().out
+    assert code == 1 and "MISMATCH" in said
+    (row,) = [line for line in said.splitlines() if line.startswith("| val_loss (")]
+    assert f"({len(history)} epochs, the last shown)" in row and row.endswith("| NO |")
+    assert "| accuracy | " in said and all(line.endswith("| yes |") for line in said.splitlines()
+                                           if line.startswith("| accuracy |"))
 
 
 def test_bad_requests_exit_2_naming_the_problem(uri, capsys, tmp_path):

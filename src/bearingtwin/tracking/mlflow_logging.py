@@ -484,13 +484,22 @@ def log_params_and_tags(client: MlflowClient, run_id: str, params: dict[str, str
         client.log_batch(run_id, tags=tag_list[start : start + MAX_BATCH])
 
 
+def metric_series(result) -> dict[str, list[tuple[int, float]]]:
+    """Every metric a run logs, as (step, value) pairs: the scores and window counts at step 0, the training curves
+    one step per epoch."""
+    series = {key: [(0, float(value))] for key, value in result.metrics.items()}
+    for record in result.history:
+        for key, value in record.items():
+            if key != "epoch":
+                series.setdefault(key, []).append((int(record["epoch"]), float(value)))
+    series.update(n_train=[(0, float(result.n_train))], n_test=[(0, float(result.n_test))])
+    return series
+
+
 def log_result(client: MlflowClient, run_id: str, result) -> None:
     """Metrics, training curves (as stepped metrics and a PNG), confusion matrix, per-record accuracy, Table 2 / 3 artifacts."""
     now = int(time.time() * 1000)
-    metrics = [Metric(k, float(v), now, 0) for k, v in result.metrics.items()]
-    for record in result.history:
-        metrics += [Metric(k, float(v), now, int(record["epoch"])) for k, v in record.items() if k != "epoch"]
-    metrics += [Metric("n_train", result.n_train, now, 0), Metric("n_test", result.n_test, now, 0)]
+    metrics = [Metric(key, value, now, step) for key, points in metric_series(result).items() for step, value in points]
     for start in range(0, len(metrics), 1000):
         client.log_batch(run_id, metrics=metrics[start : start + 1000])
     with tempfile.TemporaryDirectory() as folder:

@@ -463,8 +463,10 @@ def cwru(source: ReportInput) -> Report:
 
 @register("repeat", keys=("run_id",))
 def repeat(source: ReportInput) -> Report:
-    """Re-run a logged run from its stored config; every metric must match (timings excepted)."""
+    """Re-run a logged run from its stored config; every metric must match, a training curve at every epoch
+    (timings excepted)."""
     from bearingtwin.models.experiment import TIMING_METRICS, run_experiment
+    from bearingtwin.tracking.mlflow_logging import metric_series
 
     run_id = source.settings.get("run_id")
     if not run_id:
@@ -476,15 +478,18 @@ def repeat(source: ReportInput) -> Report:
     if run.info.status != "FINISHED":  # a KILLED or FAILED run has no complete metrics to compare with
         raise BearingTwinError(f"run_id={run_id}: the run is {run.info.status}, not FINISHED: it logged no complete "
                                "results to repeat")
-    logged = run.data.metrics
     cfg = stored_config(source.client, run_id)
     with tempfile.TemporaryDirectory() as scratch:
-        repeated = run_experiment(cfg, root_dir=scratch).metrics
+        repeated = metric_series(run_experiment(cfg, root_dir=scratch))
+    logged = {key: sorted((point.step, point.value) for point in source.client.get_metric_history(run_id, key))
+              for key in run.data.metrics}
     rows, ok = [], True
     for key in sorted(set(repeated) - set(TIMING_METRICS)):
-        match = key in logged and logged[key] == repeated[key]
+        match = logged.get(key) == sorted(repeated[key])  # a training curve: every epoch's value
         ok &= match
-        rows.append([key, logged.get(key, "missing"), repeated[key], "yes" if match else "NO"])
+        steps = f" ({len(repeated[key])} epochs, the last shown)" if len(repeated[key]) > 1 else ""
+        rows.append([key + steps, logged[key][-1][1] if key in logged else "missing", repeated[key][-1][1],
+                     "yes" if match else "NO"])
     verdict = "every metric matches" if ok else "MISMATCH: the run is not reproducible"
     header = ["metric", "logged", "repeated", "match"]
     return Report(f"## Repeat of run {run_id}: {verdict}\n\n" + markdown_table(header, rows), ok=ok)
