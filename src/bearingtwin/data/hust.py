@@ -1,9 +1,10 @@
 """The HUST bearing data set (Zhao, Zio, Shen, RESS 2024): the seed paper's second experiment.
 
 The files are named ``.xls`` but are tab-separated text exported by the rig's software:
-a header block (``Title:``, ``DAQ Settings:``, ``Total Data Rows``, ``Legend`` ...), a line
+a header block (``Title:``, ``DAQ Settings:``, ``Total Data Rows``, ``Legend``, ``Units`` ...), a line
 reading ``Data`` (or ``Data:``), then rows of time (s), speed (not meaningful), X, Y, Z acceleration, in the
-order the ``Legend`` line names them.
+order the ``Legend`` line names them (an export of fewer channels, ``Legend Speed Y Z``, holds those alone);
+the ``Units`` line below it gives each channel's unit (``V g g g``).
 This layout was reported by users of the data and not checked against a real file here,
 so the reader finds the ``Data`` line instead of counting header lines, checks the row
 count against the header when it states one, and names the file and line on any
@@ -23,8 +24,9 @@ from typing import NamedTuple
 import numpy as np
 
 from bearingtwin.checks import is_finite_number
-from bearingtwin.data.files import FS_RELATIVE_TOLERANCE, RawRecord, fs_from_time_column, load_recording
+from bearingtwin.data.files import FS_RELATIVE_TOLERANCE, RawRecord, fs_from_time_column, read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
+from bearingtwin.data.units import acceleration_unit, quantity_of
 from bearingtwin.errors import BearingTwinError
 
 COLUMNS = ("time", "speed", "X", "Y", "Z")
@@ -44,6 +46,9 @@ UTF8_BOM = "\ufeff".encode("utf-8").decode("latin-1")
 _NUMBER = re.compile(r"[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?|[-+]?(nan|NaN|inf|Inf)")
 """A cell that is a number under either decimal mark; a first cell that is not one names the columns."""
 _NAME = re.compile(r"^(?P<prefix>0\.5X_)?(?P<state>[HIOBC])_(?P<condition>\d+(?:\.\d+)?Hz|VS_[\d_]+Hz)$")
+NAME_FORM = ("<state>_<speed>Hz.xls: <state> H, I, O, B or C, after 0.5X_ for medium damage; <speed> the shaft's "
+             "in Hz, or VS_0_40_0 for the variable-speed run; e.g. 0.5X_O_65Hz.xls")
+"""The file names :func:`parse_hust_name` reads (``_NAME``), in words, as messages give them."""
 
 
 @dataclass(frozen=True)
@@ -94,11 +99,15 @@ def hust_condition(value, key: str = "data.condition") -> str:
 
 
 def read_hust_raw(path: str | Path) -> RawRecord:
-    """All five columns of a HUST export (speed included, NaN cells kept), with the header as meta."""
+    """Every column of a HUST export (speed included, NaN cells kept) by the names its ``Legend`` gives, each
+    channel's unit from the ``Units`` row below it, with the header as meta."""
     path = Path(path)
-    header, data_line = _read_header(path)
+    header, header_rows, data_line = _read_header(path)
     layout = _data_layout(path, data_line)
-    table = _read_table(path, layout)
+    legend = _column_order(header_rows.get("Legend"), "the header's Legend")
+    # A row of names below the 'Data' line names the columns (its first, the time column's) over the Legend.
+    columns = legend if layout.names is None else _column_order(layout.names[1:], "the row of names below the 'Data' line")
+    table = _read_table(path, layout, columns)
     declared_rows = _declared_rows(header)
     if declared_rows is not None and declared_rows != table.shape[0]:
         raise BearingTwinError(
@@ -106,16 +115,25 @@ def read_hust_raw(path: str | Path) -> RawRecord:
             f"{table.shape[0]}; the file is truncated or not a single export"
         )
     name = parse_hust_name(path)
-    if layout.names is None:
-        names, notes = _column_order(header.get("Legend"), "the header's Legend")
-    else:  # its first name is the time column's
-        names, notes = _column_order("\t".join(layout.names[1:]), "the row of names below the 'Data' line")
+    notes = list(columns.notes)
     if layout.decimal == ",":
         notes.append("numbers written with decimal commas")
-    channels = dict(zip(names, table[:, 1:].T))
+    channels = dict(zip(columns.names, table[:, 1:].T))
+    units, unit_notes = _channel_units(legend, header_rows.get("Units"))
+    if layout.names is not None:  # "X (g)" in the row of names states X's unit
+        units.update({channel: unit for cell, channel in zip(layout.names[1:], columns.names)
+                      if (unit := _unit(re.sub(r"^[^(\[]*", "", cell))[0])})
+    notes += [note for channel, note in unit_notes.items() if channel in (*CHANNELS, "") and channel in (*channels, "")]
     meta = {"header": header, "data_line": data_line + 1, "bearing": BEARING, "notes": notes,
-            "not_vibration": {"speed": "the export's speed column, not meaningful (the shaft speed is in the file's name)"}}
-    if name is not None:
+            "columns_named_by": columns.named_by}
+    if "speed" in channels:
+        meta["not_vibration"] = {"speed": "the export's speed column, not meaningful (the shaft speed is in the file's "
+                                          "name)"}
+    if name is None:  # a user's own name: the reader knows no other place for the speed and the state
+        notes.append(f"the name {path.name!r} is not a HUST file name ({NAME_FORM}): its shaft speed and bearing "
+                     "state are not read from it")
+        meta["unread_name"] = "its name is not a HUST file name"
+    else:
         meta.update(state=name.state, severity=name.severity, condition=name.condition)
         if name.fault is None:  # C: no single state of the four a model or the twin knows
             meta["unlabelled_state"] = f"inner and outer races damaged together ({name.state} in its name)"
@@ -132,36 +150,105 @@ def read_hust_raw(path: str | Path) -> RawRecord:
         rpm=None if name is None else name.rpm,
         fault=None if name is None else name.fault,
         meta=meta,
+        channel_units={channel: unit for channel, unit in units.items() if channel in channels},
     )
 
 
 def load_hust(path: str | Path, channel: str = "X", fs: float | None = None, channel_key: str = "channel",
               fs_key: str = "fs") -> Recording:
     """One accelerometer axis (X, Y or Z) of a HUST file, fs checked against the time column; ``channel_key``
-    and ``fs_key`` are the settings ``channel`` and ``fs`` come from, as messages name them."""
+    and ``fs_key`` are the settings ``channel`` and ``fs`` come from, as messages name them. An export whose
+    Legend names no such axis is refused, naming the columns it names."""
     if channel not in CHANNELS:
         raise BearingTwinError(f"{channel_key}={channel!r} is not a HUST accelerometer axis; choose one of {', '.join(CHANNELS)}")
-    return load_recording(path, channel=channel, fs=fs, channel_key=channel_key, fs_key=fs_key)
+    raw = read_raw(path)
+    if raw.format == "hust-xls" and channel not in raw.channels:
+        axes = [axis for axis in CHANNELS if axis in raw.channels]
+        raise BearingTwinError(f"{raw.path}: {channel_key}={channel}, but {raw.meta['columns_named_by']} names no "
+                               f"{channel} column; choose one of {', '.join(axes)}" if axes else
+                               f"{raw.path}: {channel_key}={channel}, but {raw.meta['columns_named_by']} names no "
+                               "accelerometer axis (X, Y or Z)")
+    return recording_from_raw(raw, channel=channel, fs=fs, channel_key=channel_key, fs_key=fs_key)
 
 
-def _column_order(legend: str | None, where: str) -> tuple[list[str], list[str]]:
-    """The names of the columns after time, in the order ``legend`` (tab-separated, said to be ``where``) gives,
-    and a note when it gives none that names them: an export with its channels in another order is read by
-    name; one whose legend names other channels (the layout was reported, not checked) by position, and said so."""
+class _Columns(NamedTuple):
+    """The columns after time, as a Legend (or a row of names) gives them."""
+
+    names: list[str]  # in the file's order, as COLUMNS spells them
+    cells: list[int]  # each one's cell in the legend, where the Units row's cell beside it gives its unit
+    notes: list[str]
+    named_by: str  # the legend and what it reads, as messages name it
+    width: int  # the legend's cells, time's among them, up to its last named one
+
+
+def _column_order(legend: list[str] | None, where: str) -> _Columns:
+    """The names of the columns after time, in the order ``legend`` (its cells after the key, said to be ``where``)
+    gives, and a note when it gives none that names them: an export with its channels in another order, or with
+    some of them alone (``Speed Y Z``), is read by name; one whose legend names other channels (the layout was
+    reported, not checked) by position, and said so."""
     if legend is None:
-        return list(COLUMNS[1:]), []
+        return _Columns(list(COLUMNS[1:]), list(range(len(COLUMNS) - 1)), [], "the default order (no Legend)",
+                        len(COLUMNS) - 1)
     by_lower = {column.lower(): column for column in COLUMNS[1:]}
-    cells = [cell.strip() for cell in legend.split("\t") if cell.strip()]
-    bare = [re.sub(r"\s*[(\[].*$", "", cell).lower() for cell in cells]  # "X (g)", "Speed [rpm]": the name alone
-    names = [by_lower.get(cell) for cell in bare if cell not in ("time", "t")]
-    if sorted(filter(None, names)) == sorted(COLUMNS[1:]) and len(names) == len(COLUMNS) - 1:
-        return names, []
-    return list(COLUMNS[1:]), [f"{where} reads {' '.join(cells)!r}, not Speed, X, Y and Z: the columns "
-                               f"after time are read by position as {', '.join(COLUMNS[1:])}"]
+    written = [(index, cell.strip()) for index, cell in enumerate(legend) if cell.strip()]
+    cells = [cell for _, cell in written]
+    # "X (g)", "Speed [rpm]": the name alone; a time column's name is not one of the channels'
+    named = [(index, by_lower.get(re.sub(r"\s*[(\[].*$", "", cell).lower())) for index, cell in written
+             if re.sub(r"\s*[(\[].*$", "", cell).lower() not in ("time", "t")]
+    names = [name for _, name in named]
+    width = written[-1][0] + 1 if written else 0
+    if names and None not in names and len(set(names)) == len(names):
+        return _Columns(names, [index for index, _ in named], [], f"{where} ({', '.join(cells)})", width)
+    positions = [index for index, _ in named] if len(named) == len(COLUMNS) - 1 else list(range(len(COLUMNS) - 1))
+    return _Columns(list(COLUMNS[1:]), positions,
+                    [f"{where} reads {' '.join(cells)!r}, not Speed, X, Y and Z: the columns after time are read by "
+                     f"position as {', '.join(COLUMNS[1:])}"], f"{where} ({', '.join(cells)}, read by position)",
+                    max(width, len(COLUMNS) - 1))
 
 
-def _read_header(path: Path) -> tuple[dict[str, str], int]:
-    """Header key/value pairs and the 0-based index of the ``Data`` line."""
+def _channel_units(legend: _Columns, units: list[str] | None) -> tuple[dict[str, str], dict[str, str]]:
+    """Each channel's unit from the header's ``Units`` row (its cells after the key, beside the Legend's), and notes
+    (by channel, "" for the row) on a cell that is no unit known here; none where the row is absent or holds more
+    units than the Legend names columns (a time column's unit before them, ``s``, is passed over)."""
+    units = list(units or [])
+    while units and not units[-1]:  # a tab closing the row
+        units.pop()
+    if not units:
+        return {}, {}
+    if len(units) == legend.width + 1 and quantity_of(units[0]) == "a time":  # "Units  s  V  g  g  g"
+        units = units[1:]
+    if len(units) > legend.width:
+        return {}, {"": f"the header's Units row gives {len(units)} units ({', '.join(units)}) for the {legend.width} "
+                        f"columns {legend.named_by} names: no unit read from it"}
+    read, notes = {}, {}
+    for channel, index in zip(legend.names, legend.cells):
+        unit, unknown = _unit(units[index] if index < len(units) else "")
+        if unit:
+            read[channel] = unit
+        elif unknown:
+            notes[channel] = (f"the header's Units row gives {channel} the unit {unknown!r}, none known here: read as "
+                              "stating no unit")
+    return read, notes
+
+
+def _unit(cell: str) -> tuple[str, str]:
+    """A unit as a Units cell (or brackets after a column's name) writes it: an acceleration unit in its canonical
+    spelling (``g``, ``m/s^2``), a unit of another quantity as written (``V``); "" and the text for text that is no
+    unit known here, "" and "" for none. A UTF-8 ``m/s²`` or ``µg`` read as latin-1 is read as written."""
+    text = cell.strip().strip("()[]").strip()
+    try:
+        text = text.encode("latin-1").decode("utf-8")
+    except UnicodeError:  # written in latin-1 (or another 8-bit code page) itself
+        pass
+    if not text or text == "-":
+        return "", ""
+    unit = acceleration_unit(text) or (text if quantity_of(text) else "")
+    return unit, "" if unit else text
+
+
+def _read_header(path: Path) -> tuple[dict[str, str], dict[str, list[str]], int]:
+    """Header key/value pairs, the cells after the key of each tab-separated header line (the ``Legend`` and
+    ``Units`` rows: a cell may be empty), and the 0-based index of the ``Data`` line."""
     with open(path, "rb") as handle:
         magic = handle.read(8)
     if magic.startswith(b"\xd0\xcf\x11\xe0") or magic.startswith(b"PK\x03\x04"):
@@ -170,16 +257,20 @@ def _read_header(path: Path) -> tuple[dict[str, str], int]:
             "export it as text or point data.root at the original files"
         )
     header: dict[str, str] = {}
+    rows: dict[str, list[str]] = {}
     with open(path, encoding="latin-1") as handle:
         for index, line in enumerate(handle):
             text = line.removeprefix(UTF8_BOM).strip()
             if text in DATA_MARKERS:
-                return header, index
+                return header, rows, index
             if index >= HEADER_LINE_LIMIT:
                 break
             key, _, value = re.split(r"(\t|:)", text, maxsplit=1) if re.search(r"\t|:", text) else (text, "", "")
             if key:
                 header[key.strip()] = value.strip(" \t:")
+            first, *cells = line.removeprefix(UTF8_BOM).rstrip("\r\n").split("\t")
+            if cells and first.strip().rstrip(":").strip():
+                rows[first.strip().rstrip(":").strip()] = [cell.strip() for cell in cells]
     raise BearingTwinError(
         f"{path}: no line reading 'Data' (or 'Data:') within the first {HEADER_LINE_LIMIT} lines; expected a HUST "
         "text export (header block, a 'Data' line, then rows of time, speed, X, Y, Z)"
@@ -253,8 +344,8 @@ def _data_layout(path: Path, data_line: int) -> _DataLayout:
     return _DataLayout(first_row, names, decimal, trailing)
 
 
-def _read_table(path: Path, layout: _DataLayout) -> np.ndarray:
-    """The rows of numbers as (n, 5) float64.
+def _read_table(path: Path, layout: _DataLayout, columns: _Columns) -> np.ndarray:
+    """The rows of numbers as (n, 1 + the ``columns``' count) float64: time and the columns the Legend names.
 
     pandas' C parser reads a 262,144-row file several times faster than numpy.loadtxt
     (benchmarks/hust_read.md) but pads short rows and empty cells with NaN and names no
@@ -269,33 +360,36 @@ def _read_table(path: Path, layout: _DataLayout) -> np.ndarray:
     except pd.errors.EmptyDataError:
         raise BearingTwinError(f"{path}: no data rows after the 'Data' line") from None
     except (ValueError, pd.errors.ParserError) as error:
-        _diagnose_rows(path, layout)
+        _diagnose_rows(path, layout, columns)
         raise BearingTwinError(f"{path}: unreadable data rows ({error})") from None
-    if layout.trailing and table.shape[1] == len(COLUMNS) + 1 and np.isnan(table[:, -1]).all():
+    expected = ("time", *columns.names)
+    if layout.trailing and table.shape[1] == len(expected) + 1 and np.isnan(table[:, -1]).all():
         table = table[:, :-1]
-    if table.shape[1] != len(COLUMNS):
+    if table.shape[1] != len(expected):
+        named = f" as {columns.named_by} names them" if len(expected) != len(COLUMNS) else ""
         raise BearingTwinError(
-            f"{path}: data rows have {table.shape[1]} columns, expected {len(COLUMNS)} ({', '.join(COLUMNS)})"
+            f"{path}: data rows have {table.shape[1]} columns, expected {len(expected)} ({', '.join(expected)}){named}"
         )
     if np.isnan(table).any():
-        _diagnose_rows(path, layout)
+        _diagnose_rows(path, layout, columns)
     return table
 
 
-def _diagnose_rows(path: Path, layout: _DataLayout) -> None:
-    """Raise naming the first row that is not five numbers; NaN written as such is allowed."""
+def _diagnose_rows(path: Path, layout: _DataLayout, columns: _Columns) -> None:
+    """Raise naming the first row that is not time and the ``columns``' numbers; NaN written as such is allowed."""
+    expected = ("time", *columns.names)
     with open(path, encoding="latin-1") as handle:
         lines = handle.read().splitlines()
     numbered = [(number, line) for number, line in enumerate(lines, 1) if number > layout.first_row and line.strip()]
     last = numbered[-1][0] if numbered else 0
     for number, line in numbered:
         cells = (line.removesuffix("\t") if layout.trailing else line).split("\t")
-        if len(cells) != len(COLUMNS):
+        if len(cells) != len(expected):
             hint = " (truncated last row?)" if number == last else ""
             raise BearingTwinError(
-                f"{path}: line {number} has {len(cells)} columns, expected {len(COLUMNS)} ({', '.join(COLUMNS)}){hint}"
+                f"{path}: line {number} has {len(cells)} columns, expected {len(expected)} ({', '.join(expected)}){hint}"
             )
-        for column, cell in zip(COLUMNS, cells):
+        for column, cell in zip(expected, cells):
             if not cell.strip():
                 raise BearingTwinError(f"{path}: line {number} column {column} is empty")
             try:

@@ -95,9 +95,10 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     rate_check = "not checked"
     if recording.rpm is None and recording.meta.get("no_speed"):
         notes.append(f"the file is {recording.meta['no_speed']}: no physics evidence and no rate check")
-    elif recording.rpm is None:
-        notes.append("the file states no shaft speed: no physics evidence and no rate check (give rpm=<rev/min>, or "
-                     "the file's speed in the rpm column of a labels.csv beside it)")
+    elif recording.rpm is None:  # a HUST export under a name of one's own: why, where it says its speed
+        why = f" ({recording.meta['unread_name']}, which would give it)" if recording.meta.get("unread_name") else ""
+        notes.append(f"the file states no shaft speed{why}: no physics evidence and no rate check (give rpm=<rev/min>, "
+                     "or the file's speed in the rpm column of a labels.csv beside it)")
     elif recording.meta.get("fs_origin") == SIMULATED_RATE:
         notes.append(RATE_NOT_CHECKED_SIMULATED)
     else:

@@ -1,0 +1,200 @@
+"""HUST exports as users hand them in: each channel's unit from the header's Units row (and what a training set in
+g does with it), exports holding fewer channels than the four, and exports under names of the user's own. Every
+file here is the synthetic fixture tests/fixtures/hust/0.5X_O_65Hz.xls, edited in a temporary folder."""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+
+from bearingtwin.config import CONF_DIR
+from bearingtwin.data.files import read_raw
+from bearingtwin.data.hust import load_hust
+from bearingtwin.data.real import build_hust_dataset
+from bearingtwin.errors import BearingTwinError
+
+HUST = Path(__file__).parent / "fixtures" / "hust"
+OUTER = HUST / "0.5X_O_65Hz.xls"
+LEGEND, UNITS = "Legend\tSpeed\tX\tY\tZ", "Units\tV\tg\tg\tg"
+
+
+def export(folder: Path, name: str = "0.5X_O_65Hz.xls", legend: str = LEGEND, units: str | None = UNITS,
+           keep=(0, 1, 2, 3, 4)) -> Path:
+    """The outer-race fixture with its Legend and Units rows replaced (``units=None``: no Units row) and only the
+    data columns ``keep`` (0 time, 1 speed, 2 X, 3 Y, 4 Z), written as ``folder/name``."""
+    lines = OUTER.read_text(encoding="latin-1").splitlines()
+    at = lines.index("Data")
+    header = [legend if line == LEGEND else units if line == UNITS else line for line in lines[:at + 1]]
+    rows = ["\t".join(cells[column] for column in keep) for cells in (line.split("\t") for line in lines[at + 1:])]
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / name
+    path.write_bytes(("\n".join(line for line in header if line is not None) + "\n" + "\n".join(rows) + "\n")
+                     .encode("utf-8"))
+    return path
+
+
+def data_config(*overrides):
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        return compose(overrides=["+data=hust", "+paths=default", *overrides]).data
+
+
+# ---------------------------------------------------------------- units
+
+
+def test_the_units_row_gives_each_channel_its_unit():
+    raw = read_raw(OUTER)
+    assert raw.channel_units == {"speed": "V", "X": "g", "Y": "g", "Z": "g"}
+    for axis in "XYZ":
+        assert load_hust(OUTER, channel=axis).unit == "g"
+
+
+@pytest.mark.parametrize("legend,units,expected,note", [
+    # The Units row follows the Legend's order, whatever order that is.
+    ("Legend\tY\tZ\tSpeed\tX", "Units\tg\tg\tV\tm/s²", "m/s^2", None),
+    # A Legend naming the time column too: its unit's cell is skipped with it.
+    ("Legend\tTime\tSpeed\tX\tY\tZ", "Units\ts\tV\tmg\tg\tg", "mg", None),
+    ("Legend\tSpeed\tX\tY\tZ", "Units\ts\tV\tmg\tg\tg", "mg", None),  # the time column's unit alone, first
+    ("Legend\tSpeed\tX\tY\tZ", "Units:\tV\tG\tg\tg\t", "g", None),
+    ("Legend\tSpeed\tX\tY\tZ", "Units\tV\tV\tg\tg\tg", "", "the header's Units row gives 5 units (V, V, g, g, g) "
+                                                           "for the 4 columns the header's Legend (Speed, X, Y, Z) names: "
+                                                           "no unit read from it"),
+    ("Legend\tSpeed\tX\tY\tZ", "Units\tV\tEU\tg\tg", "", "the header's Units row gives X the unit 'EU', none known here: "
+                                                        "read as stating no unit"),
+    ("Legend\tSpeed\tX\tY\tZ", None, "", None),  # no Units row: no unit, as before
+])
+def test_the_units_row_is_read_beside_the_legend(tmp_path, legend, units, expected, note):
+    keep = (0, 3, 4, 1, 2) if legend.startswith("Legend\tY") else (0, 1, 2, 3, 4)  # the rows in the Legend's order
+    path = export(tmp_path, legend=legend, units=units, keep=keep)
+    recording = load_hust(path, channel="X")
+    assert recording.unit == expected
+    np.testing.assert_array_equal(recording.signal, load_hust(OUTER, channel="X").signal)
+    assert (note in recording.meta["notes"]) if note else not any("Units row" in n for n in recording.meta["notes"])
+
+
+def test_a_hust_training_set_states_g_and_keeps_the_files_numbers():
+    """Every HUST record states g, so the windows stay in g, the files' own numbers (as CWRU's, also all in g): only
+    records in different acceleration units are converted (to m/s^2). The model then states g."""
+    dataset = build_hust_dataset(data_config(f"data.root={HUST}", "data.window_length=256", "data.samples_per_class=12"))
+    assert dataset.unit == "g"
+    for index, path in enumerate(dataset.records):
+        signal = read_raw(path).channels["X"]
+        rows = np.flatnonzero(dataset.record_ids == index)
+        for row in rows:
+            np.testing.assert_array_equal(dataset.windows[row], signal[dataset.starts[row]:dataset.starts[row] + 256])
+
+
+def test_a_model_trained_in_g_checks_a_hust_records_unit(tmp_path):
+    """A HUST record states g: against a model trained in g its unit is 'as stated' (before: 'not checked' for a
+    model trained on HUST, 'assumed' for one trained on CWRU); a record in m/s^2 is converted for such a model."""
+    from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
+    from bearingtwin.diagnosis.record import read_record
+    from bearingtwin.features.extractor import RawFeatures
+    from bearingtwin.models.svm import SvmClassifier
+
+    windows = np.random.default_rng(0).standard_normal((8, 256))
+    in_g = DiagnosisPipeline(RawFeatures().fit(windows), SvmClassifier().fit(windows, np.arange(8) % 4), 256, 25600.0,
+                             unit="g")
+    prepared = read_record(OUTER, in_g, channel="X")
+    assert prepared.unit_check == "as stated" and prepared.recording.unit == "g"
+    in_si = export(tmp_path, units="Units\tV\tm/s^2\tm/s^2\tm/s^2")
+    converted = read_record(in_si, in_g, channel="X")
+    assert converted.unit_check == "converted"
+    np.testing.assert_allclose(converted.recording.signal, prepared.recording.signal / 9.80665)
+
+
+# ---------------------------------------------------------------- fewer channels
+
+
+@pytest.mark.parametrize("legend,keep,present,absent", [
+    ("Legend\tSpeed\tY\tZ", (0, 1, 3, 4), ("Y", "Z"), "X"),
+    ("Legend\tSpeed\tX\tY", (0, 1, 2, 3), ("X", "Y"), "Z"),
+])
+def test_an_export_of_fewer_channels_is_read_by_the_names_its_legend_gives(tmp_path, legend, keep, present, absent):
+    path = export(tmp_path, legend=legend, units="Units\tV\tg\tg", keep=keep)
+    raw = read_raw(path)
+    assert list(raw.channels) == ["speed", *present]
+    assert raw.channel_units == {"speed": "V", **{axis: "g" for axis in present}}
+    for axis in present:
+        recording = load_hust(path, channel=axis)
+        np.testing.assert_array_equal(recording.signal, load_hust(OUTER, channel=axis).signal)
+        assert recording.unit == "g" and recording.rpm == 3900 and recording.fault == "outer"
+    with pytest.raises(BearingTwinError) as refused:
+        load_hust(path, channel=absent, channel_key="data.channel")
+    cells = legend.split("\t")[1:]
+    assert str(refused.value) == (f"{path}: data.channel={absent}, but the header's Legend ({', '.join(cells)}) names "
+                                  f"no {absent} column; choose one of {', '.join(present)}")
+
+
+def test_a_hust_data_set_asking_for_a_channel_its_exports_lack_names_the_file_and_the_legend(tmp_path):
+    for stem in ("H", "0.5X_I", "0.5X_B", "0.5X_O"):
+        export(tmp_path, name=f"{stem}_65Hz.xls", legend="Legend\tSpeed\tY\tZ", units="Units\tV\tg\tg", keep=(0, 1, 3, 4))
+    with pytest.raises(BearingTwinError, match=r"H_65Hz.xls: data.channel=X, but the header's Legend \(Speed, Y, Z\) "
+                                               r"names no X column; choose one of Y, Z$"):
+        build_hust_dataset(data_config(f"data.root={tmp_path}", "data.window_length=256"))
+    dataset = build_hust_dataset(data_config(f"data.root={tmp_path}", "data.window_length=256", "data.channel=Z",
+                                             "data.samples_per_class=8"))
+    assert dataset.windows.shape == (32, 256) and dataset.unit == "g"
+
+
+def test_rows_that_do_not_match_a_shorter_legend_are_refused_naming_it(tmp_path):
+    five = export(tmp_path / "five", legend="Legend\tSpeed\tY\tZ", units="Units\tV\tg\tg")
+    with pytest.raises(BearingTwinError, match=r"0.5X_O_65Hz.xls: data rows have 5 columns, expected 4 \(time, speed, "
+                                               r"Y, Z\) as the header's Legend \(Speed, Y, Z\) names them$"):
+        read_raw(five)
+    # A Legend of all four above rows of four is refused as before.
+    with pytest.raises(BearingTwinError, match=r"data rows have 4 columns, expected 5 \(time, speed, X, Y, Z\)$"):
+        read_raw(export(tmp_path / "four", keep=(0, 1, 3, 4)))
+    short = export(tmp_path / "short", legend="Legend\tSpeed\tY\tZ", units="Units\tV\tg\tg", keep=(0, 1, 3, 4))
+    lines = short.read_text().splitlines()
+    lines[40] = "\t".join(lines[40].split("\t")[:3])
+    short.write_text("\n".join(lines) + "\n")
+    with pytest.raises(BearingTwinError, match=r"line 41 has 3 columns, expected 4 \(time, speed, Y, Z\)$"):
+        read_raw(short)
+
+
+# ---------------------------------------------------------------- names of one's own
+
+
+@pytest.mark.parametrize("name", ["0.5X_OR_65Hz.xls", "outer_65Hz.xls"])
+def test_an_export_under_a_name_of_ones_own_is_read_and_says_its_name_gives_no_speed_or_state(tmp_path, name):
+    path = export(tmp_path, name=name)
+    recording = load_hust(path)
+    assert recording.rpm is None and recording.fault is None and recording.unit == "g"
+    assert recording.meta["notes"] == [
+        f"the name {name!r} is not a HUST file name (<state>_<speed>Hz.xls: <state> H, I, O, B or C, after 0.5X_ for "
+        "medium damage; <speed> the shaft's in Hz, or VS_0_40_0 for the variable-speed run; e.g. 0.5X_O_65Hz.xls): "
+        "its shaft speed and bearing state are not read from it"]
+    assert load_hust(OUTER).meta["notes"] == []  # a HUST name says nothing of the kind
+
+
+def test_inspect_and_diagnose_say_why_an_export_under_another_name_has_no_speed(tmp_path, capsys, monkeypatch):
+    from bearingtwin.cli.inspect import main
+    from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
+    from bearingtwin.diagnosis.record import read_record
+    from bearingtwin.features.extractor import RawFeatures
+    from bearingtwin.models.svm import SvmClassifier
+
+    path = export(tmp_path, name="outer_65Hz.xls")
+    monkeypatch.setattr(sys, "argv", ["bearingtwin-inspect", f"path={path}"])
+    with pytest.raises(SystemExit) as stop:
+        main()
+        raise SystemExit(0)
+    summary = json.loads(capsys.readouterr().out)
+    assert stop.value.code == 0 and summary["rpm"] is None
+    assert summary["unit"] == {"speed": "V", "X": "g", "Y": "g", "Z": "g"}
+    assert any(note.startswith("the name 'outer_65Hz.xls' is not a HUST file name (<state>_<speed>Hz.xls")
+               for note in summary["meta"]["notes"]), summary["meta"]
+
+    windows = np.random.default_rng(0).standard_normal((8, 256))
+    pipeline = DiagnosisPipeline(RawFeatures().fit(windows), SvmClassifier().fit(windows, np.arange(8) % 4), 256,
+                                 25600.0, unit="g")
+    prepared = read_record(path, pipeline, channel="X")
+    assert prepared.recording.rpm is None and prepared.true_state is None
+    assert prepared.notes[-1] == ("the file states no shaft speed (its name is not a HUST file name, which would give "
+                                  "it): no physics evidence and no rate check (give rpm=<rev/min>, or the file's speed "
+                                  "in the rpm column of a labels.csv beside it)")
+    given = read_record(path, pipeline, channel="X", rpm=3900)  # the speed given: read at it, the name note stays
+    assert given.recording.rpm == 3900 and not any("states no shaft speed" in note for note in given.notes)
