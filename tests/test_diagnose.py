@@ -23,6 +23,7 @@ from bearingtwin.diagnosis.evidence import PhysicsFirst, check_segment, evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params, predictions_frame
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record, record_windows, resample_to
+from bearingtwin.diagnosis.run import NOT_REACHED
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import SaboVmdFeatures
@@ -1108,7 +1109,7 @@ def test_unknown_keys_are_refused(tmp_path):
 
 def test_an_interrupted_folder_is_killed_in_mlflow_and_summarised_as_far_as_it_went(registered, tmp_path):
     """The run is open while the records are diagnosed, so a Ctrl-C marks it KILLED; summary.csv lists the
-    records this run diagnosed, not an earlier run's beside them."""
+    records this run diagnosed, not an earlier run's beside them, and those it did not reach as not diagnosed."""
     import signal
     import sys
     import time
@@ -1137,9 +1138,13 @@ def test_an_interrupted_folder_is_killed_in_mlflow_and_summarised_as_far_as_it_w
     (run,) = client.search_runs([client.get_experiment_by_name("bearingtwin-diagnose").experiment_id],
                                 "tags.`bt.kind` = 'diagnose'", order_by=["attributes.start_time DESC"], max_results=1)
     assert run.info.status == "KILLED" and run.data.params["path"] == str(folder)
-    rows = [row["record"] for row in csv.DictReader(open(out / "summary.csv"))]
-    assert rows and "an_earlier_run" not in rows and len(rows) < 60
-    assert set(rows) <= {path.parent.name for path in out.glob("r*/diagnosis.json")}
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    diagnosed = [row["record"] for row in rows if not row.get("error")]
+    assert diagnosed and "an_earlier_run" not in diagnosed and len(diagnosed) < 60
+    assert set(diagnosed) <= {path.parent.name for path in out.glob("r*/diagnosis.json")}
+    # The records the interrupt left are listed as left: the summary does not read as the whole folder's.
+    left = {row["record"] for row in rows if row.get("error") == NOT_REACHED}
+    assert len(rows) == 60 and left == {f"r{index:02d}" for index in range(60)} - set(diagnosed)
 
 
 def test_a_record_of_a_state_the_model_never_learned_says_so(tmp_path):

@@ -163,6 +163,10 @@ def chosen_bearing(cfg: DictConfig) -> str | None:
     return name
 
 
+NOT_REACHED = "not diagnosed: the command was interrupted before this record"
+"""``summary.csv``'s error for the records an interrupt left, so a partial summary does not read as a whole one."""
+
+
 def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     """Diagnose every record ``cfg.path`` names with ``cfg.model``; write and log the results."""
     tracking_uri = str(cfg.tracking.uri)
@@ -188,6 +192,10 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     earlier = {path.parent.name for path in out.glob("*/diagnosis.json")}
     try:
         diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures, pinned)
+    except KeyboardInterrupt:  # an interrupt (SIGINT, SIGTERM): the records it left are listed as left, not omitted
+        reached = {row["record"] for row in run.rows}
+        run.rows += [{"record": path.stem, "error": NOT_REACHED} for path in records if path.stem not in reached]
+        raise
     finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
         if len(records) > 1 or run.failures:
             run.files.append(write_summary(run.rows, out / "summary.csv"))
