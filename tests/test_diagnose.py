@@ -22,7 +22,8 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import PhysicsFirst, check_segment, evidence_settings, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params, predictions_frame
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
-from bearingtwin.diagnosis.record import diagnose_recording, one_line, plot_diagnosis, read_record, record_windows, resample_to
+from bearingtwin.diagnosis.record import (NOISE_FREE_SIMULATION, diagnose_recording, one_line, plot_diagnosis, read_record,
+                                         record_windows, resample_to)
 from bearingtwin.diagnosis.run import NOT_REACHED
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
@@ -1317,3 +1318,21 @@ def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unse
     assert lines["level a decade or more outside the model's training windows"] == "mg_gain"
     assert lines["records right by state and fault size (model, physics)"] == (
         "normal 1/1, 1/1; inner 0.007 in 1/1, 1/1; inner, size unknown 2/2, 2/2; outer 2/2, 2/2")
+
+
+def test_a_simulated_record_without_noise_is_said_to_have_no_floor(tmp_path):
+    """A healthy twin record without a noise effect has lines at the ball-pass rate (the balls through the load
+    zone) over a floor of rounding errors: read as a measurement, they stand out as an outer-race fault would. The
+    record's own list of effects says no noise was added, and the diagnosis says what that does; with noise, not."""
+    notes, evidence = {}, {}
+    for effects in ("[]", "[noise]"):
+        path = tmp_path / f"healthy_{effects.strip('[]') or 'clean'}.npz"
+        done = run_module("bearingtwin.cli.simulate", "fault=normal", "bearing=cwru_6205", f"simulator.rpm={RPM:g}",
+                          f"simulator.fs={FS:g}", "simulator.duration=3", f"effects={effects}", f"out={path}",
+                          cwd=tmp_path)
+        assert done.returncode == 0, done.stderr[-2000:]
+        prepared = read_record(path, envelope_pipeline())
+        notes[effects] = prepared.notes
+        evidence[effects] = physics_evidence(prepared.recording.signal, FS, RPM, BEARING).evidence_state
+    assert NOISE_FREE_SIMULATION in notes["[]"] and NOISE_FREE_SIMULATION not in notes["[noise]"]
+    assert evidence == {"[]": "outer", "[noise]": "normal"}  # what the note warns of

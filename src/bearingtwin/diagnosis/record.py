@@ -67,6 +67,12 @@ CONDITION_KEYS = ("fault_size_in", "position", "load_hp")
 """What a CWRU name states of a record's condition (defect size in inches, outer-race position in o'clock, motor
 load in hp), copied into its diagnosis where known."""
 
+
+NOISE_FREE_SIMULATION = ("a record bearingtwin-simulate made without a noise effect: its floor is rounding error, so "
+                         "every line stands out of it (a healthy bearing's ball-pass lines read as an outer-race "
+                         "fault); simulate with effects=[noise] for a record like a measurement")
+"""The note on a simulated record that states effects none of which is ``noise``."""
+
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
                 true_state: str | None = None, bearing: str | None = None, fs_key: str = "fs",
                 rpm_key: str = "rpm") -> PreparedRecord:
@@ -101,6 +107,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                      "or the file's speed in the rpm column of a labels.csv beside it)")
     elif recording.meta.get("fs_origin") == SIMULATED_RATE:
         notes.append(RATE_NOT_CHECKED_SIMULATED)
+        if "noise" not in str(recording.meta.get("effects", "noise")).split(", "):  # as bearingtwin-simulate lists them
+            notes.append(NOISE_FREE_SIMULATION)
     else:
         recording, rate_notes, rate_check = _checked_rate(recording, record_bearing, channels=raw.channels,
                                                           declared_only=fs is None and raw.fs_origin == "declared")
