@@ -10,6 +10,7 @@ import logging
 import os
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -445,3 +446,17 @@ def test_an_output_folder_nothing_can_be_written_in_is_refused_before_any_work(t
     assert not (tmp_path / "new").exists()  # checked, not made: a refused run leaves nothing behind
     done = run_module("bearingtwin.cli.simulate", "simulator.duration=0.2", "out=/proc/nope/x.npz", cwd=tmp_path)
     assert done.returncode == 2 and "out=/proc/nope: nothing can be written in /proc" in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize("command", ["train", "simulate", "twin", "diagnose", "inspect", "report"])
+def test_help_into_a_pipe_its_reader_closed_ends_without_a_traceback(command):
+    """``bearingtwin-diagnose --help | head -3``: the reader leaves before the help is written (here, before it
+    starts: a pipe whose reading end is closed), and the command ends quietly, with no BrokenPipeError traceback."""
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        done = subprocess.run([sys.executable, "-m", f"bearingtwin.cli.{command}", "--help"], stdout=write_end,
+                              stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write_end)
+    assert "Traceback" not in done.stderr and "BrokenPipeError" not in done.stderr, done.stderr[-2000:]

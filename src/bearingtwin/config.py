@@ -197,7 +197,13 @@ def hydra_command(config_name: str) -> Callable:
                 exit_on_user_error(refuse_bad_overrides)(config_name, sys.argv[1:])
             if not sys.stderr.isatty():  # MLflow's download bars, like the project's own, only in a terminal
                 os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
-            return hydra_main(cfg_passthrough)
+            try:
+                result = hydra_main(cfg_passthrough)
+                sys.stdout.flush()  # here, not at exit, where a closed pipe's error is printed past any handler
+                return result
+            except BrokenPipeError:  # the reader left (``--help | head``): nothing more to say, and no traceback
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # Python's advice (the signal docs)
+                sys.exit(1)
 
         return command
 
