@@ -1,11 +1,13 @@
 """The closing block every command prints, and when training shows its progress bar."""
 
 import pytest
+from processes import run_module
 
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.tracking import open_command
 from bearingtwin.checks import show_progress_bar
 from bearingtwin.cli.train import training_summary
+from bearingtwin.config import compose_config
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.mlflow_logging import TrackedRun
 
@@ -69,6 +71,26 @@ def test_the_progress_bar_shows_for_one_watched_run_only(monkeypatch):
     assert not show_progress_bar("auto", in_sweep=False)
     with pytest.raises(BearingTwinError, match="trainer.progress_bar must be auto, true or false"):
         show_progress_bar("maybe", in_sweep=False)
+
+
+def test_the_vmd_features_bars_show_for_one_watched_run_only(monkeypatch, tmp_path):
+    """features.progress=auto (the default) as the trainer's bar: in a terminal, not in CI nor where stderr is a
+    log; a bad value is refused naming it, before any run."""
+    from bearingtwin.features.extractor import SaboVmdFeatures
+
+    monkeypatch.setattr("sys.stderr.isatty", lambda: True)
+    monkeypatch.delenv("CI", raising=False)
+    assert compose_config("train").features.progress == "auto"
+    assert SaboVmdFeatures(progress="auto").shows_progress and not SaboVmdFeatures(progress=False).shows_progress
+    monkeypatch.setattr("sys.stderr.isatty", lambda: False)  # a log file, a pipe
+    assert not SaboVmdFeatures(progress="auto").shows_progress
+    with pytest.raises(BearingTwinError, match="features.progress must be auto, true or false, got 'maybe'"):
+        SaboVmdFeatures(progress="maybe").check_params()
+    done = run_module("bearingtwin.cli.train", "features.progress=maybe", f"tracking.uri=sqlite:///{tmp_path}/m.db",
+                      cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.strip().splitlines() == [
+        "error: features.progress must be auto, true or false, got 'maybe'"]
+    assert not (tmp_path / "m.db").exists()
 
 
 @pytest.mark.parametrize("overrides, words", [

@@ -102,11 +102,12 @@ def physical_memory_bytes() -> int | None:
         return None
 
 
-def show_progress_bar(setting, in_sweep: bool) -> bool:
-    """``trainer.progress_bar``: ``auto`` shows Lightning's epoch bar only where someone watches one
-    run (a terminal, not a sweep, whose parallel jobs would interleave bars, nor CI)."""
+def show_progress_bar(setting, in_sweep: bool, key: str = "trainer.progress_bar") -> bool:
+    """A progress bar's setting (``key``: Lightning's epoch bar, ``features.progress``: the VMD features'):
+    ``auto`` shows it only where someone watches one run (a terminal, not a sweep, whose parallel jobs would
+    interleave bars, nor CI)."""
     if isinstance(setting, bool):
         return setting
     if setting != "auto":
-        raise BearingTwinError(f"trainer.progress_bar must be auto, true or false, got {setting!r}")
+        raise BearingTwinError(f"{key} must be auto, true or false, got {setting!r}")
     return not in_sweep and sys.stderr.isatty() and not os.environ.get("CI")

@@ -122,12 +122,15 @@ def twin_to_real_records(cfg: DictConfig) -> str | None:
 def train(cfg: DictConfig) -> float | None:
     hydra_cfg = HydraConfig.get()
     in_sweep = hydra_cfg.mode == RunMode.MULTIRUN
-    setting = cfg.trainer.get("progress_bar", "auto")
-    if not in_sweep:
-        cfg.trainer.progress_bar = exit_on_user_error(show_progress_bar)(setting, in_sweep)
-    else:  # a bad value is left for build_classifier, which fails this job alone, in its run
-        with contextlib.suppress(BearingTwinError):
-            cfg.trainer.progress_bar = show_progress_bar(setting, in_sweep)
+    # The bars shown (auto: for one run in a terminal): Lightning's, and the VMD features' where the features have one.
+    bars = [(cfg.trainer, "progress_bar", "trainer.progress_bar")]
+    bars += [(cfg.features, "progress", "features.progress")] if "progress" in cfg.features else []
+    for node, name, key in bars:
+        if not in_sweep:
+            node[name] = exit_on_user_error(show_progress_bar)(node.get(name, "auto"), in_sweep, key)
+        else:  # a bad value is left for the classifier's or the features' check, which fails this job alone, in its run
+            with contextlib.suppress(BearingTwinError):
+                node[name] = show_progress_bar(node.get(name, "auto"), in_sweep, key)
     records = None
     if not in_sweep:  # a sweep checks every job's before the first starts (SweepParentRun)
         exit_on_user_error(refuse_unknown_keys)(hydra_cfg)

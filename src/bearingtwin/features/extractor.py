@@ -25,7 +25,7 @@ from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, TransformerMixin
 from tqdm.auto import tqdm
 
-from bearingtwin.checks import whole_number
+from bearingtwin.checks import show_progress_bar, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.fitness import FITNESS, optimal_mode, resolve_fitness
@@ -77,7 +77,7 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
         vmd_options: keyword arguments of :func:`bearingtwin.signal.vmd` (``tol``, ``max_iter``, ...).
         seed: seeds window draws, searches and decompositions.
         n_jobs: parallel searches for ``per_sample`` (joblib).
-        progress: show tqdm progress bars.
+        progress: show tqdm progress bars: True, False, or "auto" (in a terminal, outside CI).
 
     Fitted attributes:
         vmd_params_: list of dicts ``{scope, k, alpha, fitness, optimal_imf}``; scope is ``"global"``
@@ -99,7 +99,7 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
         vmd_options: dict | None = None,
         seed: int = 0,
         n_jobs: int = 1,
-        progress: bool = True,
+        progress: bool | str = True,
     ) -> None:
         self.fitness = fitness
         self.vmd_params = vmd_params
@@ -137,6 +137,12 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"features.vmd_options.{unknown[0]} is not an option of VMD; "
                                    f"known: {', '.join(sorted(VMD_OPTIONS))}")
         resolve_fitness(self.fitness, **dict(self.fitness_params or {}))
+        show_progress_bar(self.progress, in_sweep=False, key="features.progress")
+
+    @property
+    def shows_progress(self) -> bool:
+        """Whether the bars show (``progress`` "auto": in a terminal, outside CI; a sweep's jobs have it false)."""
+        return show_progress_bar(self.progress, in_sweep=False, key="features.progress")
 
     def fit(self, X, y=None) -> "SaboVmdFeatures":
         """Search the VMD parameters (``global``: once; ``per_class``: per label; ``per_sample``: nothing to fit)."""
@@ -190,7 +196,7 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
             for index, row in groups
             for start in range(0, len(index), EXTRACTION_CHUNK)
         ]
-        for index, row in tqdm(chunks, desc="VMD features", unit="chunk", disable=not self.progress):
+        for index, row in tqdm(chunks, desc="VMD features", unit="chunk", disable=not self.shows_progress):
             features[index] = self._features(X[index], row["k"], row["alpha"])[0]
         return features, list(self.vmd_params_)
 
@@ -235,7 +241,7 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
             return self._features(X[index : index + 1], row["k"], row["alpha"])[0][0], row
 
         jobs = Parallel(n_jobs=self.n_jobs, return_as="generator")(delayed(one)(i) for i in range(len(X)))
-        results = list(tqdm(jobs, total=len(X), desc="per-sample SABO-VMD", unit="window", disable=not self.progress))
+        results = list(tqdm(jobs, total=len(X), desc="per-sample SABO-VMD", unit="window", disable=not self.shows_progress))
         return np.stack([features for features, _ in results]), [row for _, row in results]
 
 
