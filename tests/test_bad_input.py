@@ -85,6 +85,7 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     # A misspelt key, or the name another data source gives a setting: the declared one is named.
     ("train", ["trainer.max_epoch=3"], ["trainer.max_epoch: not a setting", "did you mean trainer.max_epochs?"]),
     ("train", ["data=hust", "data.windows_per_record=3"], ["did you mean data.samples_per_class?"]),
+    ("simulate", ["simulator.rmp=100"], ["simulator.rmp: not a setting", "did you mean simulator.rpm?"]),  # swapped
     # A launcher's setting given to another launcher: the one that has it is named.
     ("train", ["-m", "seed=0,1", "hydra.launcher.n_jobs=2"], ["hydra.launcher.n_jobs: not a setting of this launcher; "
                                                               "launcher=joblib has it"]),

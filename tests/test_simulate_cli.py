@@ -259,3 +259,30 @@ def test_a_record_describes_itself_and_names_no_bearing_whose_geometry_the_comma
     with np.load(tmp_path / "kept.npz") as record:  # a clearance moves no defect line: the bearing is still named
         assert str(record["bearing"]) == "cwru_6205" and str(record["sensor"]) == "inner_x"
     assert "bearing.clearance_mm=0.01" in kept.stdout.split("next: ")[1]
+
+
+def test_an_interrupt_ends_the_simulation_in_one_line_and_writes_nothing(tmp_path):
+    """Ctrl-C while the solver runs: one line on stderr and exit 130, as the other commands end, with no traceback
+    from inside the solver and no file."""
+    import os
+    import select
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "long.npz"
+    process = subprocess.Popen([sys.executable, "-m", "bearingtwin.cli.simulate", "fault=outer", "simulator.fs=48000",
+                                "simulator.duration=100", f"out={out}"], cwd=tmp_path, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE)
+    said, deadline = b"", time.monotonic() + 120
+    while b"simulate outer" not in said:  # the solver's progress bar: the simulation is under way
+        assert process.poll() is None and time.monotonic() < deadline, said[-2000:]
+        if select.select([process.stderr], [], [], 0.2)[0]:
+            said += os.read(process.stderr.fileno(), 65536)
+    process.send_signal(signal.SIGINT)
+    _, rest = process.communicate(timeout=120)
+    err = (said + rest).decode()
+    assert process.returncode == 130, err[-2000:]
+    assert err.rstrip().endswith("interrupted by SIGINT; no run was open") and "Traceback" not in err, err[-2000:]
+    assert not out.exists()

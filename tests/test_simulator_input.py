@@ -193,3 +193,17 @@ def test_a_record_of_fewer_than_two_samples_is_refused_up_front(duration, sample
 def test_non_finite_loads_and_angles_are_refused_before_the_static_equilibrium(name, value):
     message = refused("outer", settings(duration=0.1, **{name: value}), f"simulator.{name}")
     assert message.startswith(f"simulator.{name} must be ") and "equilibrium" not in message
+
+
+@pytest.mark.parametrize("name, value, said", [
+    ("inner_mass_kg", 0.0, "bearing.inner_mass_kg must be positive, got 0.0"),
+    ("outer_damping_ns_per_m", -1.0, "bearing.outer_damping_ns_per_m must not be negative, got -1.0"),
+])
+def test_a_bearing_setting_out_of_range_is_named_as_the_config_sets_it(name, value, said):
+    """The masses, dampings and support stiffnesses come from the bearing config: named bearing.<field>, as the
+    user gives them (the message had named the bare field)."""
+    assert refused("normal", settings(duration=0.2), bearing=OmegaConf.merge(BEARING, {name: value})) == said
+
+
+def test_a_missing_state_is_named_as_the_command_line_writes_it():
+    assert refused(None, settings()) == "fault=null is not a bearing state; choose one of normal, inner, ball, outer"

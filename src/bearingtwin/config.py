@@ -459,15 +459,18 @@ NAMED_OTHERWISE = {"windows_per_record": "samples_per_class", "samples_per_class
 
 
 def closest_setting(cfg: DictConfig, key: str) -> str:
-    """"did you mean <key>?" naming the setting beside ``key`` in ``cfg`` closest to it (a misspelling, or the name
-    another data source gives it), or "" where none is close."""
+    """"did you mean <key>?" naming the setting beside ``key`` in ``cfg`` closest to it (a misspelling, two letters
+    swapped, or the name another data source gives it), or "" where none is close."""
     parent, _, leaf = key.rpartition(".")
     node = OmegaConf.select(cfg, parent, default=None) if parent else cfg
     if not isinstance(node, DictConfig):
         return ""
     names = [str(name) for name in node]
     match = ([NAMED_OTHERWISE[leaf]] if NAMED_OTHERWISE.get(leaf) in names
-             else difflib.get_close_matches(leaf, names, n=1, cutoff=0.75))
+             else difflib.get_close_matches(leaf, names, n=1, cutoff=0.75)
+             or [name for name in names if sorted(name) == sorted(leaf)])  # letters swapped: rmp, a short rpm
+    if match == [leaf]:
+        match = []
     return f"did you mean {parent + '.' if parent else ''}{match[0]}?" if match else ""
 
 

@@ -32,13 +32,14 @@ from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, 
 from bearingtwin.data.real import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
 
 
 @hydra_command("inspect")
 @exit_on_user_error
-def main(cfg: DictConfig) -> None:
+def inspect_command(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
     if cfg.path is not None and not isinstance(cfg.path, (str, int, float)):
         raise BearingTwinError(f"path={cfg.path}: give one file (inspect reads one at a time)")
@@ -143,6 +144,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
             summary["defect_frequencies_hz"] = bearing.defect_frequencies(rpm)
     return summary
 
+
+main = stop_cleanly(inspect_command)  # Ctrl-C: one line and exit 130, not a traceback from inside the work
 
 if __name__ == "__main__":
     main()

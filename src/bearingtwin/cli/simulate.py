@@ -19,6 +19,7 @@ from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing,
                                 search_path_override)
 from bearingtwin.data.files import SIMULATOR_MARK
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, oversample_factor, simulate
 
@@ -140,7 +141,7 @@ def defect_words(defect: DictConfig, fault: str) -> str:
 
 @hydra_command("simulate")
 @exit_on_user_error
-def main(cfg: DictConfig) -> None:
+def simulate_command(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
     out = Path(cfg.out).expanduser()
     if out.suffix != ".npz":  # numpy would write <out>.npz and leave <out> for the user to look for
@@ -179,6 +180,8 @@ def main(cfg: DictConfig) -> None:
     }
     print(closing_summary("bearingtwin-simulate", facts, out=str(out.parent.resolve())))
 
+
+main = stop_cleanly(simulate_command)  # Ctrl-C: one line and exit 130, not a traceback from inside the work
 
 if __name__ == "__main__":
     main()

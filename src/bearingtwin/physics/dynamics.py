@@ -33,6 +33,11 @@ from bearingtwin.physics.contact import bearing_contact_stiffness
 from bearingtwin.physics.geometry import BearingGeometry
 
 
+BEARING_SETTINGS = ("inner_mass_kg", "outer_mass_kg", "inner_damping_ns_per_m", "outer_damping_ns_per_m",
+                    "inner_stiffness_n_per_m", "outer_stiffness_n_per_m")
+"""The bearing config's settings :class:`DynamicParameters` takes as they are."""
+
+
 @dataclass(frozen=True)
 class DynamicParameters:
     """Everything the equations of motion read besides the angles (SI units).
@@ -88,21 +93,25 @@ class DynamicParameters:
             raise BearingTwinError(f"simulator.eccentricity_mm must not be negative, got {simulator_cfg['eccentricity_mm']}")
         for name in ("load_x_n", "load_y_n", "gravity_m_per_s2"):  # a NaN leaves the static equilibrium unsolvable
             finite_number(f"simulator.{name}", simulator_cfg[name])
-        return cls(
-            inner_mass_kg=float(bearing_cfg["inner_mass_kg"]),
-            outer_mass_kg=float(bearing_cfg["outer_mass_kg"]),
-            inner_damping_ns_per_m=float(bearing_cfg["inner_damping_ns_per_m"]),
-            outer_damping_ns_per_m=float(bearing_cfg["outer_damping_ns_per_m"]),
-            inner_stiffness_n_per_m=float(bearing_cfg["inner_stiffness_n_per_m"]),
-            outer_stiffness_n_per_m=float(bearing_cfg["outer_stiffness_n_per_m"]),
-            contact_stiffness_n_per_m1_5=float(contact),
-            clearance_m=geometry.clearance_mm / 1000.0,
-            n_balls=geometry.n_balls,
-            eccentricity_m=float(simulator_cfg["eccentricity_mm"]) / 1000.0,
-            load_x_n=float(simulator_cfg["load_x_n"]),
-            load_y_n=float(simulator_cfg["load_y_n"]),
-            gravity_m_per_s2=float(simulator_cfg["gravity_m_per_s2"]),
-        )
+        try:
+            return cls(
+                inner_mass_kg=float(bearing_cfg["inner_mass_kg"]),
+                outer_mass_kg=float(bearing_cfg["outer_mass_kg"]),
+                inner_damping_ns_per_m=float(bearing_cfg["inner_damping_ns_per_m"]),
+                outer_damping_ns_per_m=float(bearing_cfg["outer_damping_ns_per_m"]),
+                inner_stiffness_n_per_m=float(bearing_cfg["inner_stiffness_n_per_m"]),
+                outer_stiffness_n_per_m=float(bearing_cfg["outer_stiffness_n_per_m"]),
+                contact_stiffness_n_per_m1_5=float(contact),
+                clearance_m=geometry.clearance_mm / 1000.0,
+                n_balls=geometry.n_balls,
+                eccentricity_m=float(simulator_cfg["eccentricity_mm"]) / 1000.0,
+                load_x_n=float(simulator_cfg["load_x_n"]),
+                load_y_n=float(simulator_cfg["load_y_n"]),
+                gravity_m_per_s2=float(simulator_cfg["gravity_m_per_s2"]),
+            )
+        except BearingTwinError as error:  # the range checks name a field, which the user set as bearing.<field>
+            said = str(error)
+            raise BearingTwinError(f"bearing.{said}" if said.split(" ")[0] in BEARING_SETTINGS else said) from None
 
 
 def contact_force(state: np.ndarray, ball_angles: np.ndarray, depths: np.ndarray, params: DynamicParameters) -> np.ndarray:

@@ -36,7 +36,8 @@ FAULT_FREQUENCY = {"normal": None, "inner": "bpfi", "ball": "bsf", "outer": "bpf
 def check_fault(fault: str) -> str:
     """Return ``fault`` if it names a bearing state, else raise naming the valid ones."""
     if fault not in FAULTS:
-        raise BearingTwinError(f"fault={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
+        given = "null" if fault is None else repr(fault)
+        raise BearingTwinError(f"fault={given} is not a bearing state; choose one of {', '.join(FAULTS)}")
     return fault
 
 
