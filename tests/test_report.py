@@ -259,6 +259,19 @@ def test_repeat_compares_a_training_curve_at_every_epoch(uri, tmp_path, capsys):
                                            if line.startswith("| accuracy |"))
 
 
+def test_a_sweep_folder_no_sweep_ran_in_is_said_so_with_the_folders_the_store_knows(uri, capsys, tmp_path):
+    """sweep_dir= a folder of no sweep of the store (a typo, a relative path read from elsewhere): not "run the sweep
+    first" (it ran), but where this store's sweeps did run."""
+    client = MlflowClient(uri)
+    ran = {run.data.tags["sweep_dir"] for run in client.search_runs(
+        [e.experiment_id for e in client.search_experiments()], "tags.`bt.kind` = 'sweep'")}
+    with pytest.raises(SystemExit) as exit_info:
+        main(["seeds", f"uri={uri}", f"sweep_dir={tmp_path}/no_such_sweep", f"out={tmp_path}/seeds.md"])
+    said = capsys.readouterr().err
+    assert exit_info.value.code == 2 and f"no sweep of this store ran in {tmp_path}/no_such_sweep" in said
+    assert "run the sweep first" not in said and any(folder in said for folder in ran), said
+
+
 def test_bad_requests_exit_2_naming_the_problem(uri, capsys, tmp_path):
     with pytest.raises(SystemExit) as exit_info:
         main(["table5", f"uri={uri}"])

@@ -545,3 +545,12 @@ def test_a_tracking_servers_requests_give_up_in_half_a_minute_unless_the_environ
     monkeypatch.setenv("MLFLOW_HTTP_REQUEST_MAX_RETRIES", "9")
     bound_http_retries()
     assert MLFLOW_HTTP_REQUEST_MAX_RETRIES.get() == 9
+
+
+def test_a_sweep_is_named_by_its_sweep_file_else_its_experiment():
+    """``-m +experiment=sim2real seed=0,1`` is the sim2real experiment's sweep (its parent run had read "sweep cli")."""
+    from bearingtwin.tracking.mlflow_logging import sweep_name
+
+    assert sweep_name({"sweep": "table4", "experiment": "sim2real"}) == "table4"
+    assert sweep_name({"sweep": None, "experiment": "sim2real"}) == "sim2real"
+    assert sweep_name({"classifier": "svm"}) == "cli"

@@ -907,7 +907,7 @@ class SweepParentRun(Callback):
             exit_on_user_error(start_ray_keeping_signals)(init)
         client, experiment_id = exit_on_user_error(open_store)(self._tracking)
         reap_dead_runs(client, experiment_id)
-        name = str(config.hydra.runtime.choices.get("sweep") or "cli")
+        name = sweep_name(config.hydra.runtime.choices)
         sweep_dir = sweep_folder(config.hydra)
         run = client.create_run(
             experiment_id,
@@ -982,6 +982,12 @@ def sweep_tracking(config: DictConfig, jobs: list[DictConfig]) -> DictConfig:
     return OmegaConf.create({**tracking, "uri": uris[0]})
 
 
+def sweep_name(choices) -> str:
+    """A sweep's name, as its parent run and its jobs' tags give it: the sweep file's (``+sweep=table4``), else the
+    experiment's (``+experiment=sim2real``), else ``cli`` (a sweep of command-line values alone)."""
+    return str(choices.get("sweep") or choices.get("experiment") or "cli")
+
+
 def sweep_folder(hydra_cfg) -> str:
     """The sweep's folder (``hydra.sweep.dir``) as an absolute path, the same in the sweep's process and
     in every job's: a relative one is taken from where the sweep was started (``hydra.runtime.cwd``, which
@@ -1028,7 +1034,7 @@ def sweep_info(hydra_cfg) -> SweepInfo | None:
         if o.split("=", 1)[0].lstrip("+~") in swept - {"seed", "method"}
     )
     return SweepInfo(
-        name=str(hydra_cfg.runtime.choices.get("sweep") or "cli"),
+        name=sweep_name(hydra_cfg.runtime.choices),
         sweep_dir=sweep_folder(hydra_cfg),
         varied=varied,
         job=int(hydra_cfg.job.num),

@@ -37,8 +37,9 @@ from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
-from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KEYS, UNHASHED_KEYS, find_runs, open_store,
-                                                  physics_first_rule, stored_config, sweep_run_ids)
+from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KEYS, UNHASHED_KEYS, all_experiment_ids,
+                                                  find_runs, open_store, physics_first_rule, stored_config,
+                                                  sweep_parents, sweep_run_ids)
 from bearingtwin.tracking.provenance import SIZE_KEYS, check_replacement, run_size, run_sizes, size_record, size_words
 from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
@@ -215,11 +216,19 @@ def _diff(ours, theirs: float, scale: float = 100.0, digits: int = 2) -> str:
 
 
 def _missing(what: str, source: ReportInput) -> BearingTwinError:
+    advice = "run the sweep first"
+    if "sweep_dir" in source.settings:  # a folder no sweep of this store ran in (a typo, another relative start)
+        sweep_dir = str(Path(source.settings["sweep_dir"]).resolve())
+        if not sweep_parents(source.client, sweep_dir, max_results=1):
+            known = sorted({run.data.tags.get("sweep_dir") for run in find_runs(
+                source.client, all_experiment_ids(source.client), "tags.`bt.kind` = 'sweep'", max_results=1000)} - {None})
+            advice = (f"no sweep of this store ran in {sweep_dir}; "
+                      + (f"its sweeps ran in {', '.join(known[-5:])}" if known else "it holds no sweep"))
     return BearingTwinError(
         f"no FINISHED training runs of {what} in experiment {source.settings.get('experiment')!r} "
         f"(source={source.settings.get('source', 'simulated')}"
         + (f", sweep_dir={source.settings['sweep_dir']}" if "sweep_dir" in source.settings else "")
-        + "); run the sweep first"
+        + f"); {advice}"
     )
 
 
