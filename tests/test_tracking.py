@@ -554,3 +554,16 @@ def test_a_sweep_is_named_by_its_sweep_file_else_its_experiment():
     assert sweep_name({"sweep": "table4", "experiment": "sim2real"}) == "table4"
     assert sweep_name({"sweep": None, "experiment": "sim2real"}) == "sim2real"
     assert sweep_name({"classifier": "svm"}) == "cli"
+
+
+def test_hydras_own_joblib_launcher_is_warned_of_and_the_projects_is_not(capsys):
+    """hydra/launcher=joblib (Hydra's way to choose a launcher) runs Hydra's own, on which an OS-killed job ends the
+    sweep; launcher=joblib runs the project's. The first is said in a line, the second not."""
+    from bearingtwin.config import compose_config
+    from bearingtwin.tracking.mlflow_logging import warn_of_hydras_joblib
+
+    for override, warned in (("hydra/launcher=joblib", True), ("launcher=joblib", False)):
+        launcher = compose_config("train", [override], hydra_node=True).hydra.launcher
+        warn_of_hydras_joblib(launcher)
+        said = capsys.readouterr().err
+        assert ("launcher=joblib runs the project's" in said) is warned, (override, said)

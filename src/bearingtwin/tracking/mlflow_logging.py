@@ -897,6 +897,7 @@ class SweepParentRun(Callback):
         exit_on_user_error(refuse_alias_in_sweep)(jobs)
         self._tracking = exit_on_user_error(sweep_tracking)(config, jobs)
         exit_on_user_error(refuse_slurm_without_slurm)(config.hydra.launcher)
+        warn_of_hydras_joblib(config.hydra.launcher)
         varied = " ".join(varied_keys(jobs))  # for the jobs' run names
         if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
             # Before any run is open: Ray may not start. Its workers have environments of their own: the varied
@@ -994,6 +995,20 @@ def sweep_folder(hydra_cfg) -> str:
     travels in each job's config), never from the asking process's own working directory, which on a Ray
     worker or a Slurm node may be another. It names the sweep's parent run, so both sides must agree."""
     return str((Path(str(hydra_cfg.runtime.cwd)) / str(hydra_cfg.sweep.dir)).resolve())
+
+
+HYDRAS_JOBLIB = "hydra_plugins.hydra_joblib_launcher.joblib_launcher.JoblibLauncher"
+"""Hydra's own joblib launcher (``hydra/launcher=joblib``), which ``launcher=joblib`` replaces by the project's."""
+
+
+def warn_of_hydras_joblib(launcher_cfg) -> None:
+    """A line on stderr where the sweep runs on Hydra's own joblib launcher (``hydra/launcher=joblib``, Hydra's way
+    of choosing it): a job whose process the OS kills (out of memory) ends the whole sweep there, where it fails
+    alone on the project's (``launcher=joblib``)."""
+    if str(launcher_cfg.get("_target_", "")) == HYDRAS_JOBLIB:
+        print("warning: hydra/launcher=joblib is Hydra's own joblib launcher: a job whose process is killed (out of "
+              "memory) ends the whole sweep; launcher=joblib runs the project's, where such a job fails alone",
+              file=sys.stderr, flush=True)
 
 
 def refuse_slurm_without_slurm(launcher_cfg) -> None:
