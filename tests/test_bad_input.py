@@ -73,6 +73,9 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
     ("inspect", ["path=x.npy", "bearing=null"], ["bearing=null: a config group takes one of its options", "er16k"]),
     ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, sklearn, svm"]),  # Hydra's own ValueError, a traceback
+    # A group given a map of settings: it had read as a setting only some other option has.
+    ("train", ["classifier={name: svm, C: 2}"], ["a config group takes the name of one of its options",
+                                                  "classifier=<option> classifier.<key>=<value>"]),
     # Hydra merges a list of a group's options into one config: a TypeError deep in the classifier, and a run left
     ("train", ["classifier=[svm,cnn_bilstm]"], ["classifier=[svm,cnn_bilstm]: choose one classifier", "-m classifier=a,b"]),
     ("train", ["--cfg", "job", "-m", "+sweep=table4"], ["-m and --cfg job go one at a time"]),  # Hydra's ValueError

@@ -234,6 +234,10 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
     for override in args.overrides:
         key, _, value = override.partition("=")
         group = key.lstrip("+~")
+        if Path(CONF_DIR, group).is_dir() and value.startswith("{"):  # Hydra would merge it as an option's name
+            options = ", ".join(sorted(path.stem for path in Path(CONF_DIR, group).glob("*.yaml")))
+            raise BearingTwinError(f"{override}: a config group takes the name of one of its options ({options}); "
+                                   f"give its settings apart: {group}=<option> {group}.<key>=<value>")
         if Path(CONF_DIR, group).is_dir() and (value.startswith(("/", "~", ".")) or value.endswith((".yaml", ".yml"))):
             raise BearingTwinError(f"{override}: a config group takes the name of a config, not a file: put the file in "
                                    f"<folder>/{group}/<name>.yaml and give {group}=<name> with "
