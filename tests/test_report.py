@@ -220,6 +220,15 @@ def test_a_smoke_run_is_not_averaged_with_full_size_runs_of_its_method(uri, tmp_
     assert left_out in done.stdout and left_out in (tmp_path / "table4.md").read_text()
 
 
+def repeat_here(uri, run_id, out, capsys) -> tuple[int, str]:
+    """``bearingtwin-report repeat`` in this process: its exit status and what it printed."""
+    try:
+        code = main(["repeat", f"uri={uri}", f"run_id={run_id}", f"out={out}"])
+    except SystemExit as stop:
+        code = stop.code
+    return code, capsys.readouterr().out
+
+
 def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, capsys):
     (run,) = finished(uri, "sabo_vmd_pemie+svm")
     same = report("repeat", f"uri={uri}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat.md")
@@ -229,11 +238,7 @@ def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, 
     tampered = copy_store(uri, tmp_path / "copy.db")
     MlflowClient(tampered).log_metric(run.info.run_id, "accuracy", run.data.metrics["accuracy"] - 0.1)
     # The command's exit status and table, in this process (the command itself ran above): the run trained again.
-    try:
-        code = main(["repeat", f"uri={tampered}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat2.md"])
-    except SystemExit as stop:
-        code = stop.code
-    differs = capsys.readouterr().out
+    code, differs = repeat_here(tampered, run.info.run_id, tmp_path / "repeat2.md", capsys)
     assert code == 1 and "MISMATCH" in differs
     assert "| accuracy |" in differs and "| NO |" in differs
 
@@ -247,11 +252,7 @@ def test_repeat_compares_a_training_curve_at_every_epoch(uri, tmp_path, capsys):
     tampered = copy_store(uri, tmp_path / "copy.db")
     first = min(history, key=lambda point: point.step)
     MlflowClient(tampered).log_metric(run.info.run_id, "val_loss", first.value + 1.0, step=first.step)
-    try:
-        code = main(["repeat", f"uri={tampered}", f"run_id={run.info.run_id}", f"out={tmp_path}/repeat.md"])
-    except SystemExit as stop:
-        code = stop.code
-    said = capsys.readouterr().out
+    code, said = repeat_here(tampered, run.info.run_id, tmp_path / "repeat.md", capsys)
     assert code == 1 and "MISMATCH" in said
     (row,) = [line for line in said.splitlines() if line.startswith("| val_loss (")]
     assert f"({len(history)} epochs, the last shown)" in row and row.endswith("| NO |")
