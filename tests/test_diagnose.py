@@ -1336,3 +1336,28 @@ def test_a_simulated_record_without_noise_is_said_to_have_no_floor(tmp_path):
         evidence[effects] = physics_evidence(prepared.recording.signal, FS, RPM, BEARING).evidence_state
     assert NOISE_FREE_SIMULATION in notes["[]"] and NOISE_FREE_SIMULATION not in notes["[noise]"]
     assert evidence == {"[]": "outer", "[noise]": "normal"}  # what the note warns of
+
+
+def test_a_signal_a_library_swallowed_stops_the_folder_before_its_next_record(registered, tmp_path, monkeypatch):
+    """An interrupt whose exception a library dropped (one came while the model loaded: the whole folder had been
+    diagnosed and the run FINISHED before the command stopped) is acted on before the next record: none is
+    diagnosed, and summary.csv lists each as not reached."""
+    import signal
+
+    from bearingtwin.diagnosis.run import diagnose_paths
+    from bearingtwin.tracking import lifecycle
+
+    _, uri = registered
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
+    for index in range(3):
+        np.savez(folder / f"r{index}.npz", signal=fault_signal(rates["bpfo"], seconds=3, seed=index), fs=FS, rpm=RPM)
+    cfg = compose_config("diagnose", [f"path={folder}", "model=models:/diag/1", f"out={tmp_path / 'out'}",
+                                      "figures=false", "tracking.enabled=false", f"tracking.uri={uri}"])
+    monkeypatch.setattr(lifecycle, "_received", [signal.SIGINT])  # as the handler leaves it when the raise was lost
+    with pytest.raises(lifecycle.Interrupted):
+        diagnose_paths(cfg)
+    rows = list(csv.DictReader(open(tmp_path / "out" / "summary.csv")))
+    assert [row["error"] for row in rows] == [NOT_REACHED] * 3
+    assert not list((tmp_path / "out").glob("*/diagnosis.json"))

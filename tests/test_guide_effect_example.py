@@ -1,5 +1,6 @@
 """The guide's worked example of adding an effect (docs/guide.md) runs as written and leaves its signature."""
 
+import json
 import os
 import re
 import subprocess
@@ -77,6 +78,19 @@ def test_an_effect_in_a_package_of_ones_own_is_found_through_its_entry_point(tmp
     freqs = np.fft.rfftfreq(signal.size, 1.0 / fs)
     at_mesh = spectrum[np.abs(freqs - 20 * rpm / 60) <= 2.0].sum()
     assert at_mesh > 0.4 * spectrum.sum()  # level_db = 0: the line holds as much power as the bearing signal
+
+    # The twin offers it as a candidate, its nominal parameters read from the YAML on the search path.
+    twin = subprocess.run([sys.executable, "-m", "bearingtwin.cli.twin", f"measured.path={tmp_path / 'gear.npz'}",
+                           f"hydra.searchpath=[file://{tmp_path / 'conf'}]", "candidates=[gear_mesh,noise]",
+                           "operating_point.sensor=inner", "operating_point.sensor_angle_deg=0",
+                           "operating_point.radial_load_n=0", f"out={tmp_path / 'twin'}", "tracking.enabled=false",
+                           "twin.duration=1.0", "calibration.n_trials_base=3", "calibration.n_trials_effect=6",
+                           "calibration.n_trials_refine=3", "calibration.n_polish=3", "calibration.n_polish_effect=2",
+                           "ranking.max_effects=1"],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert twin.returncode == 0, twin.stderr[-2000:]
+    report = json.loads((tmp_path / "twin" / "twin_report.json").read_text())
+    assert report["ranking"][0]["effect"] == "gear_mesh", report["ranking"][:2]
 
     (tmp_path / "my_rig_effects.py").write_text("raise RuntimeError('a bug of its own')\n")
     broken = subprocess.run([sys.executable, "-m", "bearingtwin.cli.simulate", "fault=normal", "effects=[noise]",

@@ -31,6 +31,7 @@ from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.lifecycle import raise_if_interrupted
 
 if TYPE_CHECKING:
     from mlflow import MlflowClient
@@ -231,6 +232,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         progress.write(f"{table}: passed over rows of other files that do not read: {first_messages(passed_over)}")
     calibrated = calibration_records(pipeline)
     for path in progress:
+        raise_if_interrupted()  # a signal a library swallowed (loading the model, say) stops here, not at the end
         try:
             if path.stem in refused:
                 raise BearingTwinError(refused[path.stem])
@@ -249,10 +251,10 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                                        "its verdict is no test of the model")
             folder = out / result["record"]
             folder.mkdir(parents=True, exist_ok=True)
+            written = [plot_diagnosis(result, evidence, pipeline.class_names, folder / "diagnosis.png")] if figures else []
+            # Last: a record folder holding a diagnosis.json is a finished one, also after an interrupt.
             (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
-            written = [folder / "diagnosis.json"]
-            if figures:
-                written.append(plot_diagnosis(result, evidence, pipeline.class_names, folder / "diagnosis.png"))
+            written.insert(0, folder / "diagnosis.json")
         except Exception as error:  # one record's failure, expected or not, must not lose the others'
             message = str(error) if isinstance(error, BearingTwinError) else f"{type(error).__name__}: {error}"
             if not message.startswith(f"{path}: "):  # a reader's message names the file already; name it once

@@ -12,6 +12,7 @@ noise candidate costs a projection and a filter, not a simulation.
 from __future__ import annotations
 
 import copy
+import functools
 import json
 from pathlib import Path
 from typing import Mapping
@@ -19,7 +20,7 @@ from typing import Mapping
 import numpy as np
 from omegaconf import OmegaConf
 
-from bearingtwin.config import CONF_DIR, plain_config
+from bearingtwin.config import CONF_DIR, compose_config, plain_config, search_path_override
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects, effect_class, in_signal_order, registered_effects, sensor_only
 from bearingtwin.physics.geometry import FAULTS, check_fault
@@ -27,16 +28,28 @@ from bearingtwin.physics.simulator import sensor_signal, simulate
 
 
 def effect_defaults(name: str) -> dict:
-    """The nominal parameters of effect ``name`` from ``conf/effects/<name>.yaml``."""
+    """The nominal parameters of effect ``name`` from ``conf/effects/<name>.yaml``: the checkout's, or for an effect
+    of one's own package (its ``bearingtwin.effects`` entry point) the one in a folder on ``hydra.searchpath``."""
     if name not in registered_effects():
         raise BearingTwinError(f"unknown effect {name!r}; registered: {', '.join(registered_effects())}")
     path = Path(CONF_DIR) / "effects" / f"{name}.yaml"
-    if not path.is_file():
-        raise BearingTwinError(f"effect {name!r} has no config file {path}")
-    content = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
+    content = OmegaConf.to_container(OmegaConf.load(path), resolve=True) if path.is_file() else _searched_effect(name, tuple(search_path_override()))
     if name not in content:
         raise BearingTwinError(f"{path} must nest the parameters under '{name}:'")
     return dict(content[name] or {})
+
+
+@functools.lru_cache(maxsize=None)
+def _searched_effect(name: str, search_path: tuple[str, ...]) -> dict:
+    """The effects config ``effects=[name]`` composes to with ``search_path`` (the running command's; composed once)."""
+    from hydra.errors import HydraException
+
+    try:
+        return OmegaConf.to_container(compose_config("twin", [f"effects=[{name}]", *search_path]).effects,
+                                      resolve=True)
+    except HydraException:
+        raise BearingTwinError(f"effect {name!r} has no config file: conf/effects/{name}.yaml, in the checkout or in a "
+                               "folder on hydra.searchpath") from None
 
 
 def effect_search_space(name: str) -> dict[str, tuple[float, float, bool]]:
