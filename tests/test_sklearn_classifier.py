@@ -39,13 +39,15 @@ class Foreign:  # a type of neither scikit-learn, numpy nor scipy, as a model fi
      "classifier.estimator._target_=sklearn.calibration.CalibratedClassifierCV"),
     ({"_target_": "sklearn.ensemble.RandomForestClassifer"},
      "classifier.estimator._target_=sklearn.ensemble.RandomForestClassifer: Are you sure that "
-     "'RandomForestClassifer' is importable from module 'sklearn.ensemble'?"),
+     "'RandomForestClassifer' is importable from module 'sklearn.ensemble'? "
+     "(did you mean sklearn.ensemble.RandomForestClassifier?)"),
     ({"_target_": "sklearn.ensemble.RandomForestClassifier", "n_estimator": 3},
      "unexpected keyword argument 'n_estimator' (did you mean classifier.estimator.n_estimators?)"),
     ({"_target_": "sklearn.ensemble.RandomForestClassifier", "n_estimators": -1},
      "classifier.estimator: The 'n_estimators' parameter of RandomForestClassifier must be an int in the range "
      "[1, inf). Got -1 instead."),
     ({"_target_": "sklearn.linear_model.Ridge"}, "sklearn.linear_model.Ridge is not a scikit-learn classifier"),
+    ({"_target_": "collections.OrderedDict"}, "collections.OrderedDict is not a scikit-learn classifier"),
     ({"n_estimators": 3}, "classifier.estimator needs _target_"),
 ])
 def test_an_estimator_that_cannot_serve_a_diagnosis_is_refused_in_one_line(spec, said):
@@ -63,6 +65,17 @@ def test_the_runs_seed_fixes_a_random_estimator_and_an_explicit_one_is_kept():
     fitted = SklearnClassifier(FOREST).fit(X, y)
     assert list(fitted.classes_) == [0, 1, 3] and fitted.predict_proba(X).shape == (90, 3)
     assert (fitted.predict(X) == y).mean() > 0.9  # standardized, then the forest: the classes are apart
+
+
+def test_a_setting_these_windows_cannot_meet_is_named_in_one_line():
+    """More neighbours than training windows: scikit-learn's ValueError comes from the data, when neighbours are
+    first asked for; it is said in one line naming the estimator and the windows, as every refusal of the data is
+    (it had been a traceback)."""
+    X, y = separable()
+    knn = SklearnClassifier({"_target_": "sklearn.neighbors.KNeighborsClassifier", "n_neighbors": 100}).fit(X, y)
+    with pytest.raises(BearingTwinError, match=r"^classifier\.estimator \(sklearn\.neighbors\.KNeighborsClassifier\) "
+                                               r"on 90 training windows: Expected n_neighbors <= "):
+        knn.predict(X)
 
 
 def test_a_saved_estimator_predicts_as_the_fitted_one_and_a_foreign_type_is_refused(tmp_path):
@@ -89,6 +102,9 @@ def test_a_saved_estimator_predicts_as_the_fitted_one_and_a_foreign_type_is_refu
                                           "did you mean trainer.max_epochs?"),
     ({"name": "sklearn", "estimator": FOREST, "C": 1}, None, "classifier.C: not a setting of the sklearn "
                                                              "classifier; it takes estimator"),
+    ({"name": "sklearn", "_target_": "sklearn.ensemble.RandomForestClassifier"}, None,
+     "classifier._target_: the class of classifier=sklearn goes under classifier.estimator (estimator: {_target_: "
+     "<module>.<class>, <argument>: <value>})"),
     ({"name": "random_forest", "_target_": "sklearn.ensemble.RandomForestClassifier"}, None,
      "classifier.name='random_forest' is not a classifier; choose one of cnn_bilstm, svm, sklearn (a scikit-learn "
      "class named by _target_ is classifier=sklearn's classifier.estimator)"),
@@ -108,6 +124,8 @@ def test_a_classifier_file_of_ones_own_trains_registers_and_diagnoses(tmp_path):
     (own / "forest.yaml").write_text("name: sklearn\nestimator:\n  _target_: sklearn.ensemble.RandomForestClassifier"
                                      "\n  n_estimators: 30\n")
     (own / "typo.yaml").write_text("name: svm\nkernal: linear\n")
+    (own / "forest_typo.yaml").write_text("name: sklearn\nestimator:\n  _target_: sklearn.ensemble.RandomForestClassifier"
+                                          "\n  n_estimator: 30\n")
     store = f"sqlite:///{tmp_path}/mlflow.db"
     search = f"hydra.searchpath=[file://{tmp_path / 'conf'}]"
     trained = run_module("bearingtwin.cli.train", *["classifier=forest", search, "register=forest",
@@ -130,4 +148,9 @@ def test_a_classifier_file_of_ones_own_trains_registers_and_diagnoses(tmp_path):
                                                  f"tracking.uri=sqlite:///{tmp_path}/sweep.db", *SMOKE], cwd=tmp_path)
     assert swept.returncode == 2 and swept.stderr.strip().splitlines()[-1] == (
         "error: classifier.kernal: not a setting of the svm classifier; did you mean classifier.kernel?")
+    assert not (tmp_path / "sweep.db").exists()
+    # A typo among the estimator's own arguments too (it had failed its job, in a FAILED run, and the sweep exit 1).
+    swept = run_module("bearingtwin.cli.train", *["-m", "classifier=forest,forest_typo", search,
+                                                 f"tracking.uri=sqlite:///{tmp_path}/sweep.db", *SMOKE], cwd=tmp_path)
+    assert swept.returncode == 2 and "(did you mean classifier.estimator.n_estimators?)" in swept.stderr
     assert not (tmp_path / "sweep.db").exists()

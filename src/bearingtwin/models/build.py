@@ -9,7 +9,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.checks import show_progress_bar
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.models.sklearn_classifier import SklearnClassifier
+from bearingtwin.models.sklearn_classifier import SklearnClassifier, make_estimator
 from bearingtwin.models.svm import SvmClassifier
 
 # The network's module (torch, Lightning: seconds to import) is imported only when a network is built.
@@ -53,6 +53,8 @@ def classifier_settings(classifier_cfg: DictConfig, trainer_cfg: DictConfig) -> 
     else:
         cls, trainer = (SvmClassifier if name == "svm" else SklearnClassifier), {}
     check_settings(cls, name, params, trainer)
+    if cls is SklearnClassifier:  # its estimator's arguments are its class's settings: checked as the names above
+        make_estimator(params.get("estimator"), random_state=0)
     return cls, params, trainer
 
 
@@ -62,6 +64,9 @@ def check_settings(cls: type, name: str, classifier_params: dict, trainer_params
     A config file's key reaches the constructor unchecked by Hydra (an override's is checked against the
     composed config, a file's is the config), so a misspelt one would fail there as a TypeError."""
     taken = [argument for argument in inspect.signature(cls).parameters if argument not in SET_BY_THE_RUN]
+    if cls is SklearnClassifier and "_target_" in classifier_params:
+        raise BearingTwinError("classifier._target_: the class of classifier=sklearn goes under classifier.estimator "
+                               "(estimator: {_target_: <module>.<class>, <argument>: <value>})")
     for group, params in (("classifier", classifier_params), ("trainer", trainer_params)):
         for key in params:
             if key not in taken:

@@ -14,6 +14,7 @@ scikit-learn, numpy and scipy: a model file naming any other type is refused, as
 from __future__ import annotations
 
 import difflib
+import importlib
 import inspect
 import re
 from pathlib import Path
@@ -45,10 +46,11 @@ def make_estimator(spec: dict, random_state: int):
     except InstantiationException as error:  # Hydra's message runs over lines; its cause says what went wrong
         cause = error.__cause__
         if isinstance(cause, ImportError):  # no such class: Hydra's last line asks the question that helps
-            raise BearingTwinError(f"classifier.estimator._target_={target}: {str(cause).splitlines()[-1]}") from None
+            raise BearingTwinError(f"classifier.estimator._target_={target}: {str(cause).splitlines()[-1]}"
+                                   + _closest_class(target)) from None
         raise BearingTwinError(f"classifier.estimator ({target}): {_first_line(cause or error)}"
                                + _closest_argument(target, cause)) from None
-    if not is_classifier(estimator):
+    if not (isinstance(estimator, BaseEstimator) and is_classifier(estimator)):
         raise BearingTwinError(f"classifier.estimator._target_={target} is not a scikit-learn classifier")
     # scikit-learn checks its arguments' values only when fitting: checked here, before the features' minutes
     validate = getattr(estimator, "_validate_params", None)  # absent from an estimator outside scikit-learn
@@ -71,6 +73,18 @@ def _first_line(error: Exception) -> str:
     return " ".join(str(error).split("\n")[0].split())
 
 
+def _closest_class(target: str) -> str:
+    """" (did you mean <module>.<class>?)" for a class name close to one its module holds, else ""."""
+    module_name, _, name = target.rpartition(".")
+    try:
+        module = importlib.import_module(module_name)
+    except (ImportError, ValueError):
+        return ""
+    match = difflib.get_close_matches(name, [member for member in dir(module) if not member.startswith("_")], n=1,
+                                      cutoff=0.75)
+    return f" (did you mean {module_name}.{match[0]}?)" if match else ""
+
+
 def _closest_argument(target: str, cause: Exception | None) -> str:
     """" (did you mean <argument>?)" for an unexpected keyword argument close to one the class takes, else ""."""
     from hydra.utils import get_class
@@ -90,7 +104,8 @@ class SklearnClassifier(ClassifierMixin, BaseEstimator):
         estimator: the classifier's config as a dict, ``{"_target_": "<module>.<class>", <argument>: <value>, ...}``.
         random_state: the run's seed, given to the class where it takes one left at None.
 
-    Fitted attributes: ``classes_``, ``model_`` (the fitted scaler + classifier pipeline).
+    Fitted attributes: ``classes_``, ``model_`` (the fitted scaler + classifier pipeline), ``n_windows_`` (the
+    training windows).
     """
 
     def __init__(self, estimator: dict | None = None, random_state: int = 0) -> None:
@@ -104,16 +119,26 @@ class SklearnClassifier(ClassifierMixin, BaseEstimator):
     def fit(self, X, y) -> "SklearnClassifier":
         y = np.asarray(y)
         self.classes_, _ = training_classes(y)
-        self.model_ = Pipeline([("scale", StandardScaler()),
-                                ("classifier", make_estimator(self.estimator, self.random_state))]).fit(X, y)
+        model = Pipeline([("scale", StandardScaler()), ("classifier", make_estimator(self.estimator, self.random_state))])
+        self.n_windows_ = len(y)
+        self.model_ = self._said(lambda: model.fit(X, y))
         return self
 
+    def _said(self, call):
+        """``call()``, a setting the training windows cannot meet (more neighbours than windows: scikit-learn finds
+        it fitting or predicting) refused in one line naming the estimator."""
+        try:
+            return call()
+        except ValueError as error:
+            raise BearingTwinError(f"classifier.estimator ({self.estimator['_target_']}) on {self.n_windows_} training "
+                                   f"windows: {_first_line(error)}") from None
+
     def predict(self, X) -> np.ndarray:
-        return self.model_.predict(X)
+        return self._said(lambda: self.model_.predict(X))
 
     def predict_proba(self, X) -> np.ndarray:
         """(n_samples, n_classes) class probabilities, columns in ``classes_`` order."""
-        return self.model_.predict_proba(X)
+        return self._said(lambda: self.model_.predict_proba(X))
 
     def predict_with_proba(self, X) -> tuple[np.ndarray, np.ndarray]:
         return self.predict(X), self.predict_proba(X)
@@ -124,7 +149,8 @@ class SklearnClassifier(ClassifierMixin, BaseEstimator):
 
         skops.io.dump(self.model_, Path(folder) / "sklearn.skops")
         return {"estimator": self.estimator, "random_state": self.random_state,
-                "classes": [int(label) for label in self.classes_], "files": ["sklearn.skops"]}
+                "classes": [int(label) for label in self.classes_], "n_windows": int(self.n_windows_),
+                "files": ["sklearn.skops"]}
 
     @classmethod
     def load(cls, folder: Path, state: dict) -> "SklearnClassifier":
@@ -143,4 +169,5 @@ class SklearnClassifier(ClassifierMixin, BaseEstimator):
         classifier = cls(state["estimator"], state["random_state"])
         classifier.model_ = skops.io.load(path, trusted=types)
         classifier.classes_ = np.asarray(state["classes"])
+        classifier.n_windows_ = state.get("n_windows")
         return classifier
