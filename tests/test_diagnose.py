@@ -1336,6 +1336,13 @@ def test_a_simulated_record_without_noise_is_said_to_have_no_floor(tmp_path):
         evidence[effects] = physics_evidence(prepared.recording.signal, FS, RPM, BEARING).evidence_state
     assert NOISE_FREE_SIMULATION in notes["[]"] and NOISE_FREE_SIMULATION not in notes["[noise]"]
     assert evidence == {"[]": "outer", "[noise]": "normal"}  # what the note warns of
+    # A simulation's own note travels with its record into the diagnosis (a fault it says no loaded ball met).
+    slow = tmp_path / "slow.npz"
+    done = run_module("bearingtwin.cli.simulate", "fault=inner", "bearing=cwru_6205", "simulator.rpm=60",
+                      f"simulator.fs={FS:g}", "simulator.duration=0.4", "effects=[noise]", f"out={slow}", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert any(note.startswith("the simulation noted: no ball passes the inner-race defect")
+               for note in read_record(slow, envelope_pipeline()).notes)
 
 
 def test_a_signal_a_library_swallowed_stops_the_folder_before_its_next_record(registered, tmp_path, monkeypatch):

@@ -244,6 +244,7 @@ def test_a_record_describes_itself_and_names_no_bearing_whose_geometry_the_comma
         assert float(record["load_y_n"]) == -500 and float(record["sensor_angle_deg"]) == 45
         assert float(record["defect_width_mm"]) > 0 and str(record["effects"]) == "none"
     assert "the file names no bearing config" in result.stdout
+    assert summarize(out)["meta"]["bearing_geometry"] == "12 balls of 7.94 mm on a 42 mm pitch, contact angle 0 deg"
     call = next(line for line in result.stdout.splitlines() if "next:" in line).split("next: ")[1]
     words = shlex.split(call.removesuffix(" holds the twin against this record"))
     twin_cfg = compose_config("twin", words[1:])
@@ -252,6 +253,11 @@ def test_a_record_describes_itself_and_names_no_bearing_whose_geometry_the_comma
     given = BearingGeometry.from_config(twin_cfg.bearing)
     assert given.fault_frequency_hz("outer", 1797) == pytest.approx(145.73, abs=0.01)
     assert summarize(out).get("bearing") is None  # no bearing's lines read off a record of another geometry
+    twin = run_module("bearingtwin.cli.twin", *words[1:], f"out={tmp_path / 'twin'}", "tracking.enabled=false",
+                      "twin.duration=0.5", "compare.envelope_segment_s=0.25", "compare.lines_segment_s=0.25",
+                      "calibration.n_trials_base=2", "calibration.n_polish=2", "candidates=[]", cwd=tmp_path, timeout=300)
+    assert twin.returncode == 0, twin.stderr[-2000:]  # the call runs as printed, and says the bearing it read
+    assert "  bearing: cwru_6205 bearing.n_balls=12 bearing.pitch_diameter_mm=42" in twin.stdout
 
     kept = run(tmp_path, "fault=normal", "bearing=cwru_6205", "bearing.clearance_mm=0.01", "simulator.duration=0.2",
                f"out={tmp_path / 'kept.npz'}")
@@ -259,6 +265,12 @@ def test_a_record_describes_itself_and_names_no_bearing_whose_geometry_the_comma
     with np.load(tmp_path / "kept.npz") as record:  # a clearance moves no defect line: the bearing is still named
         assert str(record["bearing"]) == "cwru_6205" and str(record["sensor"]) == "inner_x"
     assert "bearing.clearance_mm=0.01" in kept.stdout.split("next: ")[1]
+
+    unstruck = run(tmp_path, "fault=inner", "simulator.rpm=60", "simulator.duration=0.4", f"out={tmp_path / 'slow.npz'}")
+    assert unstruck.returncode == 0, unstruck.stderr
+    with np.load(tmp_path / "slow.npz") as record:  # the summary's note stays with the file it is about
+        assert "the record is a healthy bearing's" in str(record["simulation_notes"])
+    assert summarize(tmp_path / "slow.npz")["meta"]["simulation_notes"] == str(np.load(tmp_path / "slow.npz")["simulation_notes"])
 
 
 def test_an_interrupt_ends_the_simulation_in_one_line_and_writes_nothing(tmp_path):

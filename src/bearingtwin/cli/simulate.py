@@ -75,10 +75,11 @@ def geometry_changed(cfg: DictConfig) -> bool:
     return any(getattr(simulated, name) != getattr(named, name) for name in DEFECT_FREQUENCY_GEOMETRY)
 
 
-def record_facts(cfg: DictConfig, fault: str) -> dict:
+def record_facts(cfg: DictConfig, fault: str, notes: list[str]) -> dict:
     """What a simulated record states beside its samples: the bearing config it was made with (none where the
     command line changed its geometry), and the settings a reader cannot see in it (load, sensor direction,
-    defect, effects, seed), so a folder of simulated files describes itself."""
+    defect, effects, seed) and the simulation's ``notes`` (a defect no loaded ball met), so a folder of simulated
+    files describes itself."""
     simulator = cfg.simulator
     facts = {"load_x_n": simulator.load_x_n, "load_y_n": simulator.load_y_n, "seed": simulator.seed,
              "effects": ", ".join(cfg.effects) or "none"}
@@ -87,8 +88,15 @@ def record_facts(cfg: DictConfig, fault: str) -> dict:
     if fault != "normal":
         facts.update(defect_width_mm=simulator.defect.width_mm, defect_depth_mm=simulator.defect.depth_mm,
                      defect_position=defect_words(simulator.defect, fault).split(" deep, ")[1])
-    if not geometry_changed(cfg):
+    if geometry_changed(cfg):  # no config names it: its geometry in words, for a reader to see whose lines these are
+        bearing = cfg.bearing
+        facts["bearing_geometry"] = (f"{bearing.n_balls} balls of {bearing.ball_diameter_mm:g} mm on a "
+                                     f"{bearing.pitch_diameter_mm:g} mm pitch, contact angle "
+                                     f"{bearing.get('contact_angle_deg') or 0:g} deg")
+    else:
         facts["bearing"] = HydraConfig.get().runtime.choices.get("bearing")
+    if notes:
+        facts["simulation_notes"] = "; ".join(notes)  # not "notes": a reader keeps its own list of notes there
     return facts
 
 
@@ -154,7 +162,7 @@ def simulate_command(cfg: DictConfig) -> None:
     # witness the rate: bearingtwin-inspect and the twin read it).
     np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
              rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
-             made_by=SIMULATOR_MARK, **record_facts(cfg, recording.fault))
+             made_by=SIMULATOR_MARK, **record_facts(cfg, recording.fault, recording.meta.get("notes", [])))
     written = [out]
     if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
@@ -166,8 +174,9 @@ def simulate_command(cfg: DictConfig) -> None:
         "bearing": f"{HydraConfig.get().runtime.choices.get('bearing')} ({bearing.n_balls} balls of {bearing.ball_diameter_mm:g} mm "
                    f"on a {bearing.pitch_diameter_mm:g} mm pitch, clearance {1000 * bearing.clearance_mm:g} um)"
                    + (f", its geometry changed by {' '.join(bearing_overrides())}: the file names no bearing config, "
-                      "whose defect frequencies would be another bearing's (give these overrides to a reader, as the "
-                      "twin call below does)" if geometry_changed(cfg) else ""),
+                      "whose defect frequencies would be another bearing's (the twin call below holds these overrides, "
+                      "as bearingtwin-inspect takes them; a model reads a bearing by its conf/bearing file: write one "
+                      "for this bearing to diagnose with bearing=<name>)" if geometry_changed(cfg) else ""),
         "load": f"{simulator.load_x_n:g} N along x, {simulator.load_y_n:g} N along y, and the inner ring's weight",
         **({"defect": defect_words(simulator.defect, recording.fault)} if recording.fault != "normal" else {}),
         **({"note": "; ".join(recording.meta["notes"])} if recording.meta.get("notes") else {}),

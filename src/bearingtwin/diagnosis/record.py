@@ -109,6 +109,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         notes.append(RATE_NOT_CHECKED_SIMULATED)
         if "noise" not in str(recording.meta.get("effects", "noise")).split(", "):  # as bearingtwin-simulate lists them
             notes.append(NOISE_FREE_SIMULATION)
+        if recording.meta.get("simulation_notes"):  # a defect no loaded ball met: its stated state is not heard
+            notes.append(f"the simulation noted: {recording.meta['simulation_notes']}")
     else:
         recording, rate_notes, rate_check = _checked_rate(recording, record_bearing, channels=raw.channels,
                                                           declared_only=fs is None and raw.fs_origin == "declared")

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 from joblib import cpu_count
+from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
@@ -527,7 +528,9 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = check_measurement(cfg.measured, measured, channels, geometry)
     # What the closing summary repeats, as logged: the bearing whose defect lines the twin reads, always.
-    notes = {"bearing": bearing_line or str(cfg.bearing.get("name"))}
+    changed = [override for override in HydraConfig.get().overrides.task if override.startswith("bearing.")] \
+        if HydraConfig.initialized() else []  # a geometry of its own (a simulation's n_balls=12): said with its name
+    notes = {"bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *changed])}
     reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
     to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
