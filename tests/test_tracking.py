@@ -567,3 +567,33 @@ def test_hydras_own_joblib_launcher_is_warned_of_and_the_projects_is_not(capsys)
         warn_of_hydras_joblib(launcher)
         said = capsys.readouterr().err
         assert ("launcher=joblib runs the project's" in said) is warned, (override, said)
+
+
+def test_a_model_misreading_its_calibration_records_is_registered_but_not_made_the_alias(tmp_path):
+    """A twin-trained model that calls an own calibration record (the records its twin was made from) its state in
+    few windows misreads the rig: registered as a version, it is not made @champion, which a user's diagnoses
+    reach (an own rig's model at 33 % had become it); one that reads them is."""
+    from mlflow.exceptions import MlflowException
+
+    from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
+    from bearingtwin.features.extractor import RawFeatures
+    from bearingtwin.models.svm import SvmClassifier
+
+    rng = np.random.default_rng(0)
+    windows, labels = rng.normal(size=(24, 64)), np.repeat([0, 1, 2, 3], 6)
+    pipeline = DiagnosisPipeline(RawFeatures().fit(windows), SvmClassifier().fit(windows, labels), 64, 10000.0)
+    store = f"sqlite:///{tmp_path}/mlflow.db"
+    client = MlflowClient(tracking_uri=store, registry_uri=store)  # not a registry an earlier test pointed MLflow at
+    for seed, outer_recall in ((0, 0.02), (1, 0.9)):
+        result = fake_result(seed)
+        result.metrics.update(calibration_accuracy=0.5, calibration_recall_normal=0.95,
+                              calibration_recall_outer=outer_recall)
+        result.pipeline, result.example_windows = pipeline, windows[:2]
+        cfg = make_cfg(tmp_path, seed=seed)
+        cfg.register, cfg.register_alias = "my_rig", "champion"
+        tracked = train_tracked(cfg, CHOICES, None, str(tmp_path), lambda cfg, root_dir, result=result: result)
+        if outer_recall < 0.5:
+            assert "not made @champion: it misreads its outer calibration record" in tracked.model
+            with pytest.raises(MlflowException):
+                client.get_model_version_by_alias("my_rig", "champion")
+    assert int(client.get_model_version_by_alias("my_rig", "champion").version) == 2

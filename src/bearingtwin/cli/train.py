@@ -41,10 +41,6 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
-CALIBRATION_RECALL_WARNING = 0.5
-"""A calibration record whose windows are called its own state less often than this is warned of in the summary."""
-
-
 def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str, records: str | None = None) -> str:
     """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one), and
     ``records``: what the data were (:func:`data_words`; which real records a twin-trained run was calibrated and
@@ -61,11 +57,15 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
                   if key.startswith("calibration_recall_")}
         per_class = f" (windows right: {', '.join(f'{state} {percent(value)}' for state, value in recall.items())})"
         lines["calibration accuracy"] = percent(metrics["calibration_accuracy"]) + (per_class if recall else "")
-        missed = [state for state, value in recall.items() if value < CALIBRATION_RECALL_WARNING]
+        from bearingtwin.models.experiment import CALIBRATION_RECALL_WARNING, misread_calibration
+
+        missed = misread_calibration(metrics)
         if missed:  # the records the twin was calibrated on, misread: the test records will show it too
             lines["warning"] = (f"the {' and '.join(missed)} calibration record{'s are' if len(missed) > 1 else ' is'} "
                                 f"called {'their' if len(missed) > 1 else 'its'} state in under "
-                                f"{percent(CALIBRATION_RECALL_WARNING)} of the windows")
+                                f"{percent(CALIBRATION_RECALL_WARNING)} of the windows: the twin calibrated on them "
+                                "does not resemble them enough to learn from; read their twin reports (base parameters, "
+                                "effects, discrepancy left) before trusting this model")
     from bearingtwin.models.experiment import FEATURE_GROUPS
 
     # The choice is the classifier's own: where the envelope spectrum decides some windows (physics_first), the

@@ -36,6 +36,17 @@ from bearingtwin.tracking.lifecycle import signals_kept
 # Metrics that measure this machine, not the model: excluded when runs are compared for equality.
 TIMING_METRICS = ("inference_ms_per_sample",)
 
+CALIBRATION_RECALL_WARNING = 0.5
+"""A calibration record whose windows are called its own state less often than this is misread (:func:`misread_calibration`)."""
+
+
+def misread_calibration(metrics: dict) -> list[str]:
+    """The states whose calibration records (a twin-to-real run's: the records the twin was calibrated on) the
+    model calls their own state in under :data:`CALIBRATION_RECALL_WARNING` of the windows: a model that misreads
+    the very records its twin was made from misreads the rig's others too."""
+    return [key.removeprefix("calibration_recall_") for key, value in metrics.items()
+            if key.startswith("calibration_recall_") and value < CALIBRATION_RECALL_WARNING]
+
 
 @dataclass
 class ExperimentResult:

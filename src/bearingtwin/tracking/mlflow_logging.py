@@ -742,10 +742,17 @@ def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: 
     info = log_diagnosis_model(uri, experiment_id, run_id, result.pipeline, result.example_windows, result.example_rpm)
     name, alias = check_registration(cfg)
     if name:
+        from bearingtwin.models.experiment import misread_calibration
+
+        misread = misread_calibration(result.metrics)
+        withheld = alias if alias and misread else None  # not made the one a user's models:/<name>@<alias> reaches
+        alias = None if withheld else alias
         version = register_model(uri, info.model_uri, str(name), None if alias is None else str(alias))
         log.info("registered %s version %s%s", name, version, f" as @{alias}" if alias else "")
         MlflowClient(tracking_uri=uri).set_tag(run_id, "registered_model", f"{name}/{version}")
-        return f"runs:/{run_id}/model = models:/{name}/{version}" + (f" = models:/{name}@{alias}" if alias else "")
+        return (f"runs:/{run_id}/model = models:/{name}/{version}" + (f" = models:/{name}@{alias}" if alias else "")
+                + (f" (not made @{withheld}: it misreads its {' and '.join(misread)} calibration record"
+                   f"{'s' if len(misread) > 1 else ''}, as the warning says)" if withheld else ""))
     return f"runs:/{run_id}/model"
 
 
