@@ -70,6 +70,13 @@ def test_a_reference_is_of_the_same_rig_by_its_bearings_geometry_not_its_name():
         hold_reference(twin_config("bearing.n_balls=12"), recorded, "outer")
     recorded["measured"]["bearing"] = "my6205"  # the same geometry under another name
     assert hold_reference(twin_config("operating_point.clearance_um=4.0"), recorded, "outer").effects.resonance
+    # Another bearing config's report, the bearing= left out: the geometry named, and the setting that fits it.
+    recorded["measured"]["geometry"]["inner_diameter_mm"] = 25.4
+    recorded["measured"]["bearing"] = "er16k"
+    with pytest.raises(BearingTwinError, match=r"inner_diameter_mm=25.4, this one bearing.inner_diameter_mm=25.0; a "
+                                               r"reference must come from the same rig \(the report's bearing is er16k, "
+                                               r"this one cwru_6205: give bearing=er16k\)$"):
+        hold_reference(twin_config(), recorded, "outer")
 
 
 def test_a_report_records_the_geometry_a_reference_is_compared_by():

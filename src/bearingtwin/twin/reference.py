@@ -84,8 +84,11 @@ def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str 
         ours = rig_geometry(BearingGeometry.from_config(bearing_cfg))
         name = geometry_difference(recorded, ours)
         if name is not None:
+            named = measured.get("bearing")
+            hint = (f" (the report's bearing is {named}, this one {bearing_cfg.get('name')}: give bearing={named})"
+                    if named and named != bearing_cfg.get("name") else "")
             raise BearingTwinError(f"{source}: its record's bearing has {name}={recorded[name]}, this one "
-                                   f"bearing.{name}={ours[name]}; {role} must come from the same rig")
+                                   f"bearing.{name}={ours[name]}; {role} must come from the same rig{hint}")
     elif measured.get("bearing") and bearing_cfg.get("name") and measured["bearing"] != bearing_cfg.name:
         raise BearingTwinError(f"{source}: its record is of bearing {measured['bearing']}, this one of "
                                f"{bearing_cfg.name}; {role} must come from the same rig")
