@@ -298,3 +298,18 @@ def test_an_interrupt_ends_the_simulation_in_one_line_and_writes_nothing(tmp_pat
     assert process.returncode == 130, err[-2000:]
     assert err.rstrip().endswith("interrupted by SIGINT; no run was open") and "Traceback" not in err, err[-2000:]
     assert not out.exists()
+
+
+def test_no_note_of_an_unstruck_defect_where_no_static_load_zone_exists():
+    """Without gravity or a load the balls are pressed by the dynamics alone (an unbalance here): no static zone
+    to judge the defect's passages by, so nothing is said, and the defect does change the record."""
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.config import CONF_DIR
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["simulator.gravity_m_per_s2=0", "simulator.eccentricity_mm=0.05",
+                                             "simulator.duration=0.3"])
+    healthy, _ = simulate("normal", cfg.bearing, cfg.simulator)
+    faulty, _ = simulate("inner", cfg.bearing, cfg.simulator)
+    assert not faulty.meta.get("notes") and np.max(np.abs(faulty.signal - healthy.signal)) > 0

@@ -48,6 +48,9 @@ class Foreign:  # a type of neither scikit-learn, numpy nor scipy, as a model fi
      "[1, inf). Got -1 instead."),
     ({"_target_": "sklearn.linear_model.Ridge"}, "sklearn.linear_model.Ridge is not a scikit-learn classifier"),
     ({"_target_": "collections.OrderedDict"}, "collections.OrderedDict is not a scikit-learn classifier"),
+    ({"_target_": "sklearn.calibration.CalibratedClassifierCV",  # a wrapped estimator's bad value, before training
+      "estimator": {"_target_": "sklearn.svm.LinearSVC", "C": -1}},
+     "classifier.estimator: The 'C' parameter of LinearSVC must be a float in the range (0.0, inf). Got -1 instead."),
     ({"n_estimators": 3}, "classifier.estimator needs _target_"),
 ])
 def test_an_estimator_that_cannot_serve_a_diagnosis_is_refused_in_one_line(spec, said):
@@ -62,6 +65,10 @@ def test_the_runs_seed_fixes_a_random_estimator_and_an_explicit_one_is_kept():
     other = SklearnClassifier(FOREST, random_state=1).fit(X, y).predict_proba(X)
     assert np.array_equal(same[0], same[1]) and not np.array_equal(same[0], other)
     assert SklearnClassifier({**FOREST, "random_state": 7}, random_state=0).fit(X, y).model_[-1].random_state == 7
+    # A wrapped estimator's draws too: the calibration's forest is seeded, so its probabilities repeat.
+    wrapped = {"_target_": "sklearn.calibration.CalibratedClassifierCV", "estimator": FOREST}
+    again = [SklearnClassifier(wrapped, random_state=0).fit(X, y).predict_proba(X) for _ in range(2)]
+    assert np.array_equal(again[0], again[1])
     fitted = SklearnClassifier(FOREST).fit(X, y)
     assert list(fitted.classes_) == [0, 1, 3] and fitted.predict_proba(X).shape == (90, 3)
     assert (fitted.predict(X) == y).mean() > 0.9  # standardized, then the forest: the classes are apart
@@ -73,8 +80,8 @@ def test_a_setting_these_windows_cannot_meet_is_named_in_one_line():
     (it had been a traceback)."""
     X, y = separable()
     knn = SklearnClassifier({"_target_": "sklearn.neighbors.KNeighborsClassifier", "n_neighbors": 100}).fit(X, y)
-    with pytest.raises(BearingTwinError, match=r"^classifier\.estimator \(sklearn\.neighbors\.KNeighborsClassifier\) "
-                                               r"on 90 training windows: Expected n_neighbors <= "):
+    with pytest.raises(BearingTwinError, match=r"^classifier\.estimator \(sklearn\.neighbors\.KNeighborsClassifier\)"
+                                               r", fitted on 90 training windows: Expected n_neighbors <= "):
         knn.predict(X)
 
 
@@ -100,6 +107,10 @@ def test_a_saved_estimator_predicts_as_the_fitted_one_and_a_foreign_type_is_refu
                                             "it takes C, kernel, gamma"),
     ({"name": "cnn_bilstm"}, "max_epoch", "trainer.max_epoch: not a setting of the cnn_bilstm classifier; "
                                           "did you mean trainer.max_epochs?"),
+    ({"name": "cnn_bilstm", "max_epochs": 5}, None, "classifier.max_epochs: a trainer setting; give it as "
+                                                    "trainer.max_epochs"),  # had been a TypeError: given twice
+    ({"name": "cnn_bilstm"}, "foo", "trainer.foo: not a setting of the cnn_bilstm classifier; it takes gradient_clip_val, "
+                                    "max_epochs, accelerator, progress_bar"),
     ({"name": "sklearn", "estimator": FOREST, "C": 1}, None, "classifier.C: not a setting of the sklearn "
                                                              "classifier; it takes estimator"),
     ({"name": "sklearn", "_target_": "sklearn.ensemble.RandomForestClassifier"}, None,

@@ -70,12 +70,17 @@ def test_a_reference_is_of_the_same_rig_by_its_bearings_geometry_not_its_name():
         hold_reference(twin_config("bearing.n_balls=12"), recorded, "outer")
     recorded["measured"]["bearing"] = "my6205"  # the same geometry under another name
     assert hold_reference(twin_config("operating_point.clearance_um=4.0"), recorded, "outer").effects.resonance
-    # Another bearing config's report, the bearing= left out: the geometry named, and the setting that fits it.
-    recorded["measured"]["geometry"]["inner_diameter_mm"] = 25.4
-    recorded["measured"]["bearing"] = "er16k"
-    with pytest.raises(BearingTwinError, match=r"inner_diameter_mm=25.4, this one bearing.inner_diameter_mm=25.0; a "
-                                               r"reference must come from the same rig \(the report's bearing is er16k, "
-                                               r"this one cwru_6205: give bearing=er16k\)$"):
+    # Another bearing config's report, the bearing= left out: the geometry named, and the config whose geometry it is;
+    # a name whose config has another geometry is not offered (a name says nothing of the geometry).
+    from bearingtwin.config import load_bearing
+    from bearingtwin.twin.reference import rig_geometry
+
+    recorded["measured"]["geometry"], recorded["measured"]["bearing"] = rig_geometry(load_bearing("er16k")), "er16k"
+    with pytest.raises(BearingTwinError, match=r"a reference must come from the same rig \(the report's bearing is "
+                                               r"er16k, this one cwru_6205: give bearing=er16k\)$"):
+        hold_reference(twin_config(), recorded, "outer")
+    recorded["measured"]["geometry"]["n_balls"] = 13
+    with pytest.raises(BearingTwinError, match=r"must come from the same rig$"):
         hold_reference(twin_config(), recorded, "outer")
 
 

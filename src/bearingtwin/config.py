@@ -403,6 +403,16 @@ def search_path_override() -> list[str]:
     return [f"hydra.searchpath=[{quoted}]"] if folders else []
 
 
+def bearing_overrides() -> list[str]:
+    """The running command's overrides of the bearing's own settings (``bearing.n_balls=12``), as given; none
+    outside a command."""
+    from hydra.core.hydra_config import HydraConfig
+
+    if not HydraConfig.initialized():
+        return []
+    return [override for override in HydraConfig.get().overrides.task if override.lstrip("+~").startswith("bearing.")]
+
+
 def given_on_command_line(key: str) -> bool | None:
     """Whether the running Hydra command's overrides (``hydra.overrides.task``: a sweep job's own included) name
     ``key``, as a config group or a value (``bearing=cwru_6203``, ``+bearing=...``, ``~bearing``), or a key under

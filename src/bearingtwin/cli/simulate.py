@@ -15,8 +15,8 @@ from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.cli.summary import closing_summary
 from bearingtwin.checks import true_or_false
-from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, output_folder, refuse_unknown_keys,
-                                search_path_override)
+from bearingtwin.config import (bearing_overrides, exit_on_user_error, hydra_command, load_bearing, output_folder,
+                                refuse_unknown_keys, search_path_override)
 from bearingtwin.data.files import SIMULATOR_MARK
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly
@@ -57,11 +57,6 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
     figure.savefig(paths[1], dpi=120)
     plt.close(figure)
     return paths
-
-
-def bearing_overrides() -> list[str]:
-    """The command line's overrides of the bearing's own settings (``bearing.n_balls=12``), for a reader to hold."""
-    return [override for override in HydraConfig.get().overrides.task if override.lstrip("+~").startswith("bearing.")]
 
 
 DEFECT_FREQUENCY_GEOMETRY = ("n_balls", "ball_diameter_mm", "pitch_diameter_mm", "contact_angle_deg")

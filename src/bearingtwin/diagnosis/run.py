@@ -164,7 +164,7 @@ def chosen_bearing(cfg: DictConfig) -> str | None:
     return name
 
 
-NOT_REACHED = "not diagnosed: the command was interrupted before this record"
+NOT_REACHED = "not diagnosed: the command was interrupted"
 """``summary.csv``'s error for the records an interrupt left, so a partial summary does not read as a whole one."""
 
 
@@ -194,8 +194,8 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     try:
         diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures, pinned)
     except KeyboardInterrupt:  # an interrupt (SIGINT, SIGTERM): the records it left are listed as left, not omitted
-        reached = {row["record"] for row in run.rows}
-        run.rows += [{"record": path.stem, "error": NOT_REACHED} for path in records if path.stem not in reached]
+        reached = len(run.rows)  # one row per record, in the records' order
+        run.rows += [{"record": path.stem, "error": NOT_REACHED} for path in records[reached:]]
         raise
     finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
         if len(records) > 1 or run.failures:

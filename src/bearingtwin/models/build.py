@@ -18,6 +18,9 @@ CLASSIFIERS = ("cnn_bilstm", "svm", "sklearn")
 SET_BY_THE_RUN = ("random_state", "root_dir")
 """Constructor arguments the run gives (its seed, its folder), never a config."""
 
+TRAINER_SETTINGS = ("max_epochs", "gradient_clip_val", "accelerator", "progress_bar")
+"""The network's constructor arguments the ``trainer`` group gives (conf/trainer), not the ``classifier`` group."""
+
 
 def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: int, root_dir: str | None = None):
     """An unfitted scikit-learn-style classifier; every key but ``name`` is a constructor argument.
@@ -64,13 +67,17 @@ def check_settings(cls: type, name: str, classifier_params: dict, trainer_params
     A config file's key reaches the constructor unchecked by Hydra (an override's is checked against the
     composed config, a file's is the config), so a misspelt one would fail there as a TypeError."""
     taken = [argument for argument in inspect.signature(cls).parameters if argument not in SET_BY_THE_RUN]
+    misplaced = sorted(set(classifier_params) & set(TRAINER_SETTINGS) & set(taken))  # in the classifier's file
+    if misplaced:
+        raise BearingTwinError(f"classifier.{misplaced[0]}: a trainer setting; give it as trainer.{misplaced[0]}")
     if cls is SklearnClassifier and "_target_" in classifier_params:
         raise BearingTwinError("classifier._target_: the class of classifier=sklearn goes under classifier.estimator "
                                "(estimator: {_target_: <module>.<class>, <argument>: <value>})")
     for group, params in (("classifier", classifier_params), ("trainer", trainer_params)):
         for key in params:
             if key not in taken:
-                match = difflib.get_close_matches(key, taken, n=1, cutoff=0.75)
-                own = [argument for argument in taken if argument not in trainer_params]
-                hint = f"did you mean {group}.{match[0]}?" if match else f"it takes {', '.join(own)}"
+                # A key is matched against its own group's settings.
+                mine = [argument for argument in taken if (argument in TRAINER_SETTINGS) == (group == "trainer")]
+                match = difflib.get_close_matches(key, mine, n=1, cutoff=0.75)
+                hint = f"did you mean {group}.{match[0]}?" if match else f"it takes {', '.join(mine)}"
                 raise BearingTwinError(f"{group}.{key}: not a setting of the {name} classifier; {hint}")

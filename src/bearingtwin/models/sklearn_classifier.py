@@ -52,20 +52,26 @@ def make_estimator(spec: dict, random_state: int):
                                + _closest_argument(target, cause)) from None
     if not (isinstance(estimator, BaseEstimator) and is_classifier(estimator)):
         raise BearingTwinError(f"classifier.estimator._target_={target} is not a scikit-learn classifier")
-    # scikit-learn checks its arguments' values only when fitting: checked here, before the features' minutes
-    validate = getattr(estimator, "_validate_params", None)  # absent from an estimator outside scikit-learn
-    try:
-        if validate is not None:
-            validate()
-    except (TypeError, ValueError) as error:  # scikit-learn's InvalidParameterError is both
-        raise BearingTwinError(f"classifier.estimator: {_first_line(error)}") from None
+    inner = [estimator, *(value for value in estimator.get_params(deep=True).values() if isinstance(value, BaseEstimator))]
+    foreign = [type(part) for part in inner if type(part).__module__.split(".")[0] not in TRUSTED_PACKAGES]
+    if foreign:  # its model file could never be read back (load trusts no other package's types): refused now
+        raise BearingTwinError(f"classifier.estimator: {foreign[0].__module__}.{foreign[0].__qualname__} is no "
+                               f"{', '.join(TRUSTED_PACKAGES)} class; a model file holds only theirs")
+    # scikit-learn checks its arguments' values only when fitting: checked here, nested estimators' too, before the
+    # features' minutes
+    for part in inner:
+        try:
+            part._validate_params()
+        except (TypeError, ValueError) as error:  # scikit-learn's InvalidParameterError is both
+            raise BearingTwinError(f"classifier.estimator: {_first_line(error)}") from None
     if not hasattr(estimator, "predict_proba"):
         raise BearingTwinError(
             f"classifier.estimator._target_={target} gives no class probabilities (predict_proba), which a diagnosis "
             f"reports; wrap it: classifier.estimator._target_=sklearn.calibration.CalibratedClassifierCV "
             f"+classifier.estimator.estimator._target_={target}")
-    if "random_state" in estimator.get_params(deep=False) and estimator.get_params(deep=False)["random_state"] is None:
-        estimator.set_params(random_state=random_state)  # one seed fixes the run
+    unseeded = {key: random_state for key, value in estimator.get_params(deep=True).items()
+                if key.split("__")[-1] == "random_state" and value is None}
+    estimator.set_params(**unseeded)  # one seed fixes the run, a wrapped estimator's draws too
     return estimator
 
 
@@ -90,9 +96,12 @@ def _closest_argument(target: str, cause: Exception | None) -> str:
     from hydra.utils import get_class
 
     named = re.search(r"unexpected keyword argument '(\w+)'", str(cause))
+    try:
+        arguments = inspect.signature(get_class(target)).parameters if named else {}
+    except (ValueError, TypeError):  # a _target_ that is no class (a function): no arguments to match against
+        return ""
     if named is None:
         return ""
-    arguments = inspect.signature(get_class(target)).parameters
     match = difflib.get_close_matches(named.group(1), list(arguments), n=1, cutoff=0.75)
     return f" (did you mean classifier.estimator.{match[0]}?)" if match else ""
 
@@ -130,8 +139,8 @@ class SklearnClassifier(ClassifierMixin, BaseEstimator):
         try:
             return call()
         except ValueError as error:
-            raise BearingTwinError(f"classifier.estimator ({self.estimator['_target_']}) on {self.n_windows_} training "
-                                   f"windows: {_first_line(error)}") from None
+            raise BearingTwinError(f"classifier.estimator ({self.estimator['_target_']}), fitted on {self.n_windows_} "
+                                   f"training windows: {_first_line(error)}") from None
 
     def predict(self, X) -> np.ndarray:
         return self._said(lambda: self.model_.predict(X))

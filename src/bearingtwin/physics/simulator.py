@@ -263,9 +263,11 @@ def unstruck_defect_note(plan: _Plan, kinematics: Kinematics, record: slice) -> 
     :func:`unloaded_defect_note` says where it lies.) A defect is taken as met when the angle between it and a
     ball comes within its half-width plus one grid step's turn, so no passage falls between two samples."""
     defect = plan.defect
-    if defect.fault not in ("inner", "ball"):
-        return None
     centre, half_zone = _static_load_zone(plan)
+    if defect.fault not in ("inner", "ball") or half_zone == 0.0:  # no static zone: the load is the dynamics' own
+        return None
+    # At the record's rate, not the solver's finer grid: the reach below spans the samples between.
+    record = slice(record.start, record.stop, plan.oversample)
     cage, offsets = kinematics.cage_angle_rad[record], kinematics.ball_offset_rad[record]
     ball_angles = cage[:, None] + 2.0 * math.pi * np.arange(kinematics.n_balls) / kinematics.n_balls + offsets
 
@@ -285,7 +287,7 @@ def unstruck_defect_note(plan: _Plan, kinematics: Kinematics, record: slice) -> 
         facing = within(spin, reach(spin)) | within(spin - math.pi, reach(spin))
         met = facing & loaded[:, defect.ball_index]
         turn, period = "a cage revolution", 1.0 / plan.geometry.ftf_hz(plan.rpm)
-    if met.any():
+    if met.any() or plan.n_samples / plan.fs >= period:  # a whole turn through the zone: the dynamics decide
         return None
     missed = ("no ball passes the inner-race defect inside the load zone" if defect.fault == "inner"
               else "the ball defect faces no race while its ball is inside the load zone")

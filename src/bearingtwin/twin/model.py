@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import functools
 import json
+import threading
 from pathlib import Path
 from typing import Mapping
 
@@ -35,8 +36,12 @@ def effect_defaults(name: str) -> dict:
     path = Path(CONF_DIR) / "effects" / f"{name}.yaml"
     content = OmegaConf.to_container(OmegaConf.load(path), resolve=True) if path.is_file() else _searched_effect(name, tuple(search_path_override()))
     if name not in content:
-        raise BearingTwinError(f"{path} must nest the parameters under '{name}:'")
+        raise BearingTwinError(f"conf/effects/{name}.yaml must nest the parameters under '{name}:'")
     return dict(content[name] or {})
+
+
+_COMPOSING = threading.Lock()
+"""Hydra's global state is one per process: the ranking's threads compose an effect's config one at a time."""
 
 
 @functools.lru_cache(maxsize=None)
@@ -45,11 +50,12 @@ def _searched_effect(name: str, search_path: tuple[str, ...]) -> dict:
     from hydra.errors import HydraException
 
     try:
-        return OmegaConf.to_container(compose_config("twin", [f"effects=[{name}]", *search_path]).effects,
-                                      resolve=True)
-    except HydraException:
-        raise BearingTwinError(f"effect {name!r} has no config file: conf/effects/{name}.yaml, in the checkout or in a "
-                               "folder on hydra.searchpath") from None
+        with _COMPOSING:
+            composed = compose_config("twin", [f"effects=[{name}]", *search_path])
+    except HydraException as error:
+        raise BearingTwinError(f"effect {name!r}: no conf/effects/{name}.yaml in the checkout, and on hydra.searchpath "
+                               f"{str(error).splitlines()[0]}") from None
+    return OmegaConf.to_container(composed.effects, resolve=True)
 
 
 def effect_search_space(name: str) -> dict[str, tuple[float, float, bool]]:

@@ -23,6 +23,7 @@ from typing import Mapping
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number
+from bearingtwin.config import bearing_choices, load_bearing
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS
@@ -85,8 +86,9 @@ def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str 
         name = geometry_difference(recorded, ours)
         if name is not None:
             named = measured.get("bearing")
-            hint = (f" (the report's bearing is {named}, this one {bearing_cfg.get('name')}: give bearing={named})"
-                    if named and named != bearing_cfg.get("name") else "")
+            fits = named and named != bearing_cfg.get("name") and named in bearing_choices() and geometry_difference(
+                recorded, rig_geometry(load_bearing(named))) is None
+            hint = f" (the report's bearing is {named}, this one {bearing_cfg.get('name')}: give bearing={named})" if fits else ""
             raise BearingTwinError(f"{source}: its record's bearing has {name}={recorded[name]}, this one "
                                    f"bearing.{name}={ours[name]}; {role} must come from the same rig{hint}")
     elif measured.get("bearing") and bearing_cfg.get("name") and measured["bearing"] != bearing_cfg.name:

@@ -17,11 +17,11 @@ from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 from joblib import cpu_count
-from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
-from bearingtwin.config import bearing_config, given_on_command_line, output_folder, unknown_bearing_note
+from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
+                                unknown_bearing_note)
 from bearingtwin.data.cwru import BEARING_BY_END, CHANNEL_BY_END, parse_cwru_name
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw, same_speed,
                                     speed_setting)
@@ -528,9 +528,8 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = check_measurement(cfg.measured, measured, channels, geometry)
     # What the closing summary repeats, as logged: the bearing whose defect lines the twin reads, always.
-    changed = [override for override in HydraConfig.get().overrides.task if override.startswith("bearing.")] \
-        if HydraConfig.initialized() else []  # a geometry of its own (a simulation's n_balls=12): said with its name
-    notes = {"bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *changed])}
+    # A geometry of its own (a simulation's bearing.n_balls=12) is said with the name it changes.
+    notes = {"bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *bearing_overrides()])}
     reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
     to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
