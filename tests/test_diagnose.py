@@ -1108,6 +1108,16 @@ def test_unknown_keys_are_refused(tmp_path):
     assert len(changed.stderr.strip().splitlines()) == 1
 
 
+def outer_race_folder(tmp_path, count: int):
+    """A folder of ``count`` 3 s outer-race records, ``r00.npz`` ..., at the drive end's speed and rate."""
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
+    for index in range(count):
+        np.savez(folder / f"r{index:02d}.npz", signal=fault_signal(rates["bpfo"], seconds=3, seed=index), fs=FS, rpm=RPM)
+    return folder
+
+
 def test_an_interrupted_folder_is_killed_in_mlflow_and_summarised_as_far_as_it_went(registered, tmp_path):
     """The run is open while the records are diagnosed, so a Ctrl-C marks it KILLED; summary.csv lists the
     records this run diagnosed, not an earlier run's beside them, and those it did not reach as not diagnosed."""
@@ -1116,11 +1126,7 @@ def test_an_interrupted_folder_is_killed_in_mlflow_and_summarised_as_far_as_it_w
     import time
 
     base, uri = registered
-    folder = tmp_path / "recordings"
-    folder.mkdir()
-    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
-    for index in range(60):
-        np.savez(folder / f"r{index:02d}.npz", signal=fault_signal(rates["bpfo"], seconds=3, seed=index), fs=FS, rpm=RPM)
+    folder = outer_race_folder(tmp_path, 60)
     out = tmp_path / "out"
     out.mkdir()
     (out / "summary.csv").write_text("record,verdict\nan_earlier_run,normal\n")
@@ -1355,11 +1361,7 @@ def test_a_signal_a_library_swallowed_stops_the_folder_before_its_next_record(re
     from bearingtwin.tracking import lifecycle
 
     _, uri = registered
-    folder = tmp_path / "recordings"
-    folder.mkdir()
-    rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
-    for index in range(3):
-        np.savez(folder / f"r{index}.npz", signal=fault_signal(rates["bpfo"], seconds=3, seed=index), fs=FS, rpm=RPM)
+    folder = outer_race_folder(tmp_path, 3)
     cfg = compose_config("diagnose", [f"path={folder}", "model=models:/diag/1", f"out={tmp_path / 'out'}",
                                       "figures=false", "tracking.enabled=false", f"tracking.uri={uri}"])
     monkeypatch.setattr(lifecycle, "_received", [signal.SIGINT])  # as the handler leaves it when the raise was lost
