@@ -177,11 +177,18 @@ def read_manifest(manifest: Path) -> list[tuple[int, dict]]:
     try:
         with manifest.open(newline="", encoding="utf-8-sig") as handle:
             reader = csv.DictReader(handle, skipinitialspace=True)
-            header = [name.strip() for name in reader.fieldnames or []]
+            header = [name.strip().lower() for name in reader.fieldnames or []]  # Record, RPM: any case
             reader.fieldnames = header
             rows = [(reader.line_num, row) for row in reader]
     except (OSError, UnicodeDecodeError, csv.Error) as error:
         raise BearingTwinError(f"{manifest}: not a readable CSV manifest ({error})") from None
+    known = (*MANIFEST_COLUMNS, *MEASURED_COLUMNS, *SEED_COLUMNS)
+    unknown = [column for column in header if column and column not in known]
+    if unknown and ";" not in ",".join(header):  # a column no case reads would pass unseen (a speed beside rpm)
+        named = {"state": "fault", "speed": "rpm", "rate": "fs", "sampling_rate": "fs"}.get(unknown[0])
+        raise BearingTwinError(f"{manifest}: no case reads a column {unknown[0]}"
+                               + (f" (the manifest names it {named})" if named else "")
+                               + f"; columns: {', '.join(known)}")
     missing = [column for column in MANIFEST_COLUMNS if column not in header]
     if missing:
         separator = " (columns are separated by commas)" if ";" in ",".join(header) else ""

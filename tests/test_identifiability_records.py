@@ -119,10 +119,22 @@ def rewrite(manifest: Path, *extra_rows: dict, blank_lines: int = 0, text_before
     ({"fault": "inner"}, r"line 2: .*000_rig_single_outer_resonance.npz: .*fault"),
     ({"seed": "-3"}, r"line 2: seed '-3' is not a seed"),
     ({"reference_seed": "\u00b2"}, r"line 2: reference_seed '\u00b2' is not a seed"),
+    # A column no case reads (a labels table's name for the state, a speed beside rpm) had passed unseen.
+    ({"state": "outer"}, r"no case reads a column state \(the manifest names it fault\); columns: record, reference"),
+    ({"speed": "1750"}, r"no case reads a column speed \(the manifest names it rpm\)"),
 ])
 def test_a_bad_manifest_is_refused_naming_its_line(module, exported, twin_cfg, changes, message):
     with pytest.raises(BearingTwinError, match=message):
         module.cases_from_manifest(rewrite(exported, **changes), twin_cfg)
+
+
+def test_a_manifests_column_names_are_read_in_any_case(module, exported, twin_cfg):
+    """A spreadsheet's Record, Kind, RPM: read as record, kind, rpm (it had been refused as having no column record)."""
+    text = exported.read_text()
+    header, _, rest = text.partition("\n")
+    shouted = exported.parent / "shouted.csv"
+    shouted.write_text(header.title() + "\n" + rest)
+    assert len(module.cases_from_manifest(shouted, twin_cfg)) == len(module.cases_from_manifest(exported, twin_cfg))
 
 
 def test_the_line_named_is_the_files_own(module, exported, twin_cfg):
