@@ -70,9 +70,9 @@ def geometry_changed(cfg: DictConfig) -> bool:
     return any(getattr(simulated, name) != getattr(named, name) for name in DEFECT_FREQUENCY_GEOMETRY)
 
 
-def record_facts(cfg: DictConfig, fault: str, notes: list[str]) -> dict:
+def record_facts(cfg: DictConfig, fault: str, notes: list[str], changed_geometry: bool) -> dict:
     """What a simulated record states beside its samples: the bearing config it was made with (none where the
-    command line changed its geometry), and the settings a reader cannot see in it (load, sensor direction,
+    command line changed its geometry: ``changed_geometry``), and the settings a reader cannot see in it (load, sensor direction,
     defect, effects, seed) and the simulation's ``notes`` (a defect no loaded ball met), so a folder of simulated
     files describes itself."""
     simulator = cfg.simulator
@@ -82,8 +82,8 @@ def record_facts(cfg: DictConfig, fault: str, notes: list[str]) -> dict:
         facts["sensor_angle_deg"] = simulator.sensor_angle_deg
     if fault != "normal":
         facts.update(defect_width_mm=simulator.defect.width_mm, defect_depth_mm=simulator.defect.depth_mm,
-                     defect_position=defect_words(simulator.defect, fault).split(" deep, ")[1])
-    if geometry_changed(cfg):  # no config names it: its geometry in words, for a reader to see whose lines these are
+                     defect_position=defect_position(simulator.defect, fault))
+    if changed_geometry:  # no config names it: its geometry in words, for a reader to see whose lines these are
         bearing = cfg.bearing
         facts["bearing_geometry"] = (f"{bearing.n_balls} balls of {bearing.ball_diameter_mm:g} mm on a "
                                      f"{bearing.pitch_diameter_mm:g} mm pitch, contact angle "
@@ -134,12 +134,16 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     return " ".join(words)
 
 
+def defect_position(defect: DictConfig, fault: str) -> str:
+    """Where the defect of a ``fault`` record sits, in words."""
+    return {"outer": "at the centre of the load zone" if defect.outer_angle_deg is None
+            else f"at {defect.outer_angle_deg:g} deg (0: 3 o'clock, 90: 12 o'clock)",
+            "inner": f"at {defect.inner_angle_deg:g} deg from the shaft's start", "ball": f"on ball {defect.ball_index}"}[fault]
+
+
 def defect_words(defect: DictConfig, fault: str) -> str:
     """The defect a record was made with, as its summary says it."""
-    where = {"outer": "at the centre of the load zone" if defect.outer_angle_deg is None
-             else f"at {defect.outer_angle_deg:g} deg (0: 3 o'clock, 90: 12 o'clock)",
-             "inner": f"at {defect.inner_angle_deg:g} deg from the shaft's start", "ball": f"on ball {defect.ball_index}"}
-    return f"{defect.width_mm:g} mm wide, {defect.depth_mm:g} mm deep, {where[fault]}"
+    return f"{defect.width_mm:g} mm wide, {defect.depth_mm:g} mm deep, {defect_position(defect, fault)}"
 
 
 @hydra_command("simulate")
@@ -152,12 +156,13 @@ def simulate_command(cfg: DictConfig) -> None:
     output_folder(out.parent)
     plot = true_or_false(cfg.plot, "plot")
     recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)
+    changed = geometry_changed(cfg)
     out.parent.mkdir(parents=True, exist_ok=True)
     # The facts a reader needs beside the samples: rate, speed, state, unit and the bearing (its defect lines
     # witness the rate: bearingtwin-inspect and the twin read it).
     np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
              rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
-             made_by=SIMULATOR_MARK, **record_facts(cfg, recording.fault, recording.meta.get("notes", [])))
+             made_by=SIMULATOR_MARK, **record_facts(cfg, recording.fault, recording.meta.get("notes", []), changed))
     written = [out]
     if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
@@ -171,7 +176,7 @@ def simulate_command(cfg: DictConfig) -> None:
                    + (f", its geometry changed by {' '.join(bearing_overrides())}: the file names no bearing config, "
                       "whose defect frequencies would be another bearing's (the twin call below holds these overrides, "
                       "as bearingtwin-inspect takes them; a model reads a bearing by its conf/bearing file: write one "
-                      "for this bearing to diagnose with bearing=<name>)" if geometry_changed(cfg) else ""),
+                      "for this bearing to diagnose with bearing=<name>)" if changed else ""),
         "load": f"{simulator.load_x_n:g} N along x, {simulator.load_y_n:g} N along y, and the inner ring's weight",
         **({"defect": defect_words(simulator.defect, recording.fault)} if recording.fault != "normal" else {}),
         **({"note": "; ".join(recording.meta["notes"])} if recording.meta.get("notes") else {}),

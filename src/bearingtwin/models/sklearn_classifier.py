@@ -96,11 +96,11 @@ def _closest_argument(target: str, cause: Exception | None) -> str:
     from hydra.utils import get_class
 
     named = re.search(r"unexpected keyword argument '(\w+)'", str(cause))
-    try:
-        arguments = inspect.signature(get_class(target)).parameters if named else {}
-    except (ValueError, TypeError):  # a _target_ that is no class (a function): no arguments to match against
-        return ""
     if named is None:
+        return ""
+    try:
+        arguments = inspect.signature(get_class(target)).parameters
+    except (ValueError, TypeError):  # a _target_ that is no class (a function): no arguments to match against
         return ""
     match = difflib.get_close_matches(named.group(1), list(arguments), n=1, cutoff=0.75)
     return f" (did you mean classifier.estimator.{match[0]}?)" if match else ""

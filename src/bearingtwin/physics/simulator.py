@@ -263,8 +263,12 @@ def unstruck_defect_note(plan: _Plan, kinematics: Kinematics, record: slice) -> 
     :func:`unloaded_defect_note` says where it lies.) A defect is taken as met when the angle between it and a
     ball comes within its half-width plus one grid step's turn, so no passage falls between two samples."""
     defect = plan.defect
+    if defect.fault not in ("inner", "ball"):
+        return None
+    turn, period = (("a shaft revolution", 60.0 / plan.rpm) if defect.fault == "inner"
+                    else ("a cage revolution", 1.0 / plan.geometry.ftf_hz(plan.rpm)))
     centre, half_zone = _static_load_zone(plan)
-    if defect.fault not in ("inner", "ball") or half_zone == 0.0:  # no static zone: the load is the dynamics' own
+    if half_zone == 0.0 or plan.n_samples / plan.fs >= period:  # no static zone, or a whole turn: the dynamics decide
         return None
     # At the record's rate, not the solver's finer grid: the reach below spans the samples between.
     record = slice(record.start, record.stop, plan.oversample)
@@ -281,13 +285,11 @@ def unstruck_defect_note(plan: _Plan, kinematics: Kinematics, record: slice) -> 
     if defect.fault == "inner":
         relative = ball_angles - kinematics.shaft_angle_rad[record, None] - defect.angle_rad
         met = within(relative, reach(relative)) & loaded
-        turn, period = "a shaft revolution", 60.0 / plan.rpm
     else:
         spin = kinematics.ball_spin_angle_rad[record] - defect.angle_rad
         facing = within(spin, reach(spin)) | within(spin - math.pi, reach(spin))
         met = facing & loaded[:, defect.ball_index]
-        turn, period = "a cage revolution", 1.0 / plan.geometry.ftf_hz(plan.rpm)
-    if met.any() or plan.n_samples / plan.fs >= period:  # a whole turn through the zone: the dynamics decide
+    if met.any():
         return None
     missed = ("no ball passes the inner-race defect inside the load zone" if defect.fault == "inner"
               else "the ball defect faces no race while its ball is inside the load zone")

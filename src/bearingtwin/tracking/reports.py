@@ -220,10 +220,12 @@ def _missing(what: str, source: ReportInput) -> BearingTwinError:
     if "sweep_dir" in source.settings:  # a folder no sweep of this store ran in (a typo, another relative start)
         sweep_dir = str(Path(source.settings["sweep_dir"]).resolve())
         if not sweep_parents(source.client, sweep_dir, max_results=1):
-            known = sorted({run.data.tags.get("sweep_dir") for run in find_runs(
-                source.client, all_experiment_ids(source.client), "tags.`bt.kind` = 'sweep'", max_results=1000)} - {None})
+            runs = find_runs(source.client, all_experiment_ids(source.client), "tags.`bt.kind` = 'sweep'",
+                             max_results=1000)  # newest first
+            known = list(dict.fromkeys(run.data.tags["sweep_dir"] for run in runs if run.data.tags.get("sweep_dir")))
+            more = f" and {len(known) - 5} earlier" if len(known) > 5 else ""
             advice = (f"no sweep of this store ran in {sweep_dir}; "
-                      + (f"its sweeps ran in {', '.join(known[-5:])}" if known else "it holds no sweep"))
+                      + (f"its newest sweeps ran in {', '.join(known[:5])}{more}" if known else "it holds no sweep"))
     return BearingTwinError(
         f"no FINISHED training runs of {what} in experiment {source.settings.get('experiment')!r} "
         f"(source={source.settings.get('source', 'simulated')}"

@@ -34,7 +34,10 @@ def effect_defaults(name: str) -> dict:
     if name not in registered_effects():
         raise BearingTwinError(f"unknown effect {name!r}; registered: {', '.join(registered_effects())}")
     path = Path(CONF_DIR) / "effects" / f"{name}.yaml"
-    content = OmegaConf.to_container(OmegaConf.load(path), resolve=True) if path.is_file() else _searched_effect(name, tuple(search_path_override()))
+    if path.is_file():
+        content = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
+    else:  # an effect of one's own package
+        content = _searched_effect(name, tuple(search_path_override()))
     if name not in content:
         raise BearingTwinError(f"conf/effects/{name}.yaml must nest the parameters under '{name}:'")
     return dict(content[name] or {})
