@@ -635,7 +635,9 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
     rows.append(["error at least halved when a hidden effect is found", "all", *halved])
     times = [r["seconds"] for r in results]
     by_fs = {fs: np.median([r["seconds"] for r in results if r["fs"] == fs]) for fs in sorted({r["fs"] for r in results})}
-    misses = [[r["source"], r["kind"], r["fault"], ", ".join(r["hidden"]) or "none", f"{r['fs']:g}", r["unit"],
+    # A listed record's miss names its file: the reader goes back to it.
+    misses = [[*([Path(r["measured"]["path"]).name] if manifest is not None else []),
+               r["source"], r["kind"], r["fault"], ", ".join(r["hidden"]) or "none", f"{r['fs']:g}", r["unit"],
                ", ".join(r["added"]) or "none",
                ", ".join(f"{c['effect']} {c['evidence']:.1f} ({c['signature_gain']:.1f})" for c in r["rounds"][0][:3])
                if r["rounds"] else "—",
@@ -678,7 +680,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
         f"({', '.join(f'{fs / 1000:g} kHz {t:.0f} s' for fs, t in by_fs.items())}), {len(results[0]['ranking'])} "
         "candidates offered in the first round, one process per case.", "",
         "## Misses", "",
-        markdown_table(["source", "kind", "fault", "hidden", "fs", "unit", "added", "first-round evidence (signature gain)",
+        markdown_table([*(["record"] if manifest is not None else []), "source", "kind", "fault", "hidden", "fs", "unit", "added", "first-round evidence (signature gain)",
                         "unexplained views"], misses) if misses else "None.", "",
     ]
     out.mkdir(parents=True, exist_ok=True)

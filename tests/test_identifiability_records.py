@@ -72,6 +72,8 @@ def test_exported_records_are_judged_as_the_split_judges_its_cases(exported, tmp
     report = (tmp_path / "records" / "identifiability.md").read_text()
     assert "| case kind | goal | twin -> listed records |" in report
     assert str(exported) in report and "12000 Hz, g" in report
+    # resonance is no candidate here: its case is a miss, named by its file
+    assert f"| {Path(rows[0]['record']).name} | records | single | outer | resonance |" in report
 
 
 def test_the_seed_columns_reach_the_runs(module, exported, twin_cfg):

@@ -495,3 +495,32 @@ def test_a_bad_reference_is_one_line_and_exit_2(measurement, tmp_path, content, 
     (line,) = result.stderr.strip().splitlines()
     assert f"reference={reference}" in line and message in line
     assert not (tmp_path / "r").exists()
+
+
+def test_a_speed_given_twice_the_true_one_is_refused_where_the_file_records_its_rate(tmp_path):
+    """Given twice its speed, an outer race's record puts BPFO's comb on the given speed's BPFO, its second harmonic:
+    a record without a shaft series of its own (the twin's) had it confirm the speed. The lines between that comb's
+    harmonics are BPFO's own at the true speed: the speed is refused in one line naming it and the true one, though
+    the rate the file records would have only been logged; the true speed is read."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.physics.simulator import simulate
+    from bearingtwin.twin.report import load_measurement
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["bearing=er16k", "simulator.rpm=1500", "simulator.fs=25600",
+                                             "simulator.duration=2", "simulator.sensor=outer_y",
+                                             "simulator.load_y_n=-200", "effects=[noise]"])
+    recording, _ = simulate("outer", cfg.bearing, cfg.simulator, cfg.effects)
+    path = tmp_path / "record.npz"
+    np.savez(path, signal=recording.signal, fs=25600.0)  # a rate the file records, no speed
+    bearing = load_bearing("er16k")
+
+    def measured(rpm):
+        return OmegaConf.create({"path": str(path), "channel": None, "fs": None, "rpm": rpm, "fault": "outer",
+                                 "check_fs": True})
+
+    assert load_measurement(measured(1500), bearing).rpm == 1500
+    with pytest.raises(BearingTwinError, match=r"^\S*record.npz: fs = 25600 Hz contradicts the shaft speed: .*BPFO's own "
+                                               r"at a speed of 1500 rpm.*give the true speed with measured.rpm=<rev/min>"):
+        load_measurement(measured(3000), bearing)

@@ -343,19 +343,19 @@ def check_sampling_rate(
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}) nor anywhere from {expected / wide:.2f} to {expected * wide:.0f} "
                                    f"Hz: {seen}")
-            return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction))
+            return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance))
         if strong.size == 0:  # the declared rate cannot even hold the search (Nyquist below it): far too low
             check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}), and at fs = {fs:g} Hz the spectrum ends at {fs / 2:g} Hz")
-            return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction))
+            return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance))
         farther = strong[np.argmin(np.abs(np.log(beyond[strong] / expected)))]
         observed = float(beyond[farther])
         check = ShaftLineCheck(fs, rpm, expected, observed, fs * expected / observed, float(beyond_score[farther]),
                                False, "contradicted", None,
                                f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f}); "
                                f"the nearest strong one is at {observed:.2f} Hz, implying fs = {fs * expected / observed:.0f} Hz")
-        return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction))
+        return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance))
     nearest = near[np.argmin(np.abs(np.log(grid[near] / expected)))]
     observed = float(grid[nearest])
     common = dict(fs_hz=fs, rpm=rpm, expected_hz=expected, observed_hz=observed, score=float(score[nearest]))
@@ -363,7 +363,7 @@ def check_sampling_rate(
         check = ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False, verdict="contradicted",
                                reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
                                       f"implying fs = {fs * expected / observed:.0f} Hz")
-        return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction))
+        return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance))
 
     # The same series' in-between lines: n x g for n not a multiple of k, g within ``slip`` of observed / k. The
     # series taken for the shaft's may be another one that a rate near true / k puts near the shaft's place (a
@@ -560,7 +560,7 @@ def _off_by_a_whole_factor(check: ShaftLineCheck, max_factor: int = 8) -> bool:
 
 
 def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
-                 prominence: float, max_fraction: int) -> ShaftLineCheck:
+                 prominence: float, max_fraction: int, n_harmonics: int, window: float) -> ShaftLineCheck:
     """A contradiction stands unless the bearing's own lines explain it at the declared rate, or the
     supply's leave it undecided.
 
@@ -588,6 +588,15 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
     (:func:`decisive_channel`)."""
     if defect_hz:
         explained = _defect_series_named(check.observed_hz, check.expected_hz, defect_hz)
+        lower = explained and _series_below(signal, check, n_harmonics, window, prominence)
+        if lower:
+            (name, hz), m = explained, lower
+            return dataclasses.replace(
+                check, implied_fs_hz=check.fs_hz * m, verdict="contradicted", witness="series",
+                reason=f"{check.reason}; that series stands where the bearing's {name} does at {check.rpm:g} rpm "
+                       f"({hz:.2f} Hz), but lines stand between its harmonics, at multiples of "
+                       f"{check.observed_hz / m:.2f} Hz: {name}'s own at a speed of {check.rpm / m:.0f} rpm, or a "
+                       f"rate of {check.fs_hz * m:.0f} Hz")
         if explained is not None:
             name, hz = explained
             return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="series",
@@ -607,6 +616,27 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
                                           "supply, whose lines stand there whatever the shaft speed, and no whole "
                                           "multiple or fraction of the shaft line: the rate is not confirmed")
     return check
+
+
+def _series_below(signal: np.ndarray, check: ShaftLineCheck, n_harmonics: int, window: float,
+                  prominence: float) -> int | None:
+    """The k (2 .. :data:`_MAX_FRACTION`) at which the strong series at ``check.observed_hz`` stands between its
+    harmonics too, at multiples of observed / k that are no multiple of k (the first 2 x ``n_harmonics``, judged
+    by their median as the series itself is): it is then the k-th harmonics of a comb at observed / k. Under a speed
+    k times too high every defect frequency lands on its k-th harmonic, so a race's comb is read there as the
+    declared speed's; a record without a shaft series of its own (the twin's) has only its in-between lines to tell
+    the two readings apart. None where none stands, or where observed / k lies on a shaft harmonic, whose lines
+    stand there whatever the speed."""
+    hz = check.observed_hz
+    ratio, resolution = _prominence_spectrum(signal, check.fs_hz, min(1.1 * n_harmonics * hz, check.fs_hz / 2),
+                                             background_hz=5.0)
+    for k in range(2, _MAX_FRACTION + 1):
+        if not _apart_from_shaft(hz / k, check.expected_hz, 1, window):
+            continue
+        multiples = np.array([m for m in range(1, n_harmonics * k) if m % k][: 2 * n_harmonics])
+        if np.median(_peak(ratio, resolution, multiples * hz / k, window)) >= prominence:
+            return k
+    return None
 
 
 _MAX_FRACTION = 4
@@ -887,6 +917,12 @@ def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float
     return None
 
 
+def _whole_factor(ratio: float, max_factor: int = 10, tolerance: float = 0.01) -> int | None:
+    """n (2 .. ``max_factor``) where ``ratio`` lies within ``tolerance`` (relative) of it; None otherwise."""
+    n = round(ratio)
+    return n if 2 <= n <= max_factor and abs(ratio / n - 1.0) <= tolerance else None
+
+
 def describe_mismatch(check: ShaftLineCheck) -> str:
     """One sentence on why a declared rate was rejected (or could not be confirmed)."""
     return (f"fs = {check.fs_hz:g} Hz {'contradicts' if check.verdict == 'contradicted' else 'is not confirmed by'} "
@@ -896,13 +932,18 @@ def describe_mismatch(check: ShaftLineCheck) -> str:
 def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: str,
                            defect_hz: Mapping[str, float] | None = None, refuse: bool = True,
                            channels: Mapping[str, np.ndarray] | None = None,
-                           check_key: str | None = None, rpm_key: str | None = None) -> ShaftLineCheck | None:
+                           check_key: str | None = None, rpm_key: str | None = None,
+                           rate_from_file: bool = False) -> ShaftLineCheck | None:
     """The check as a command applies it: a contradicted rate raises naming ``source`` and the
     setting to correct (``fs_key``, and ``rpm_key`` where the speed was given, not read from the file: a
     speed off by a whole factor contradicts a rate as a rate off by it does); an ambiguous one is logged; a record too short to check is
     logged as unchecked (None). ``refuse=False`` only logs a contradiction: for a rate the file
     itself records (a header, a time column), which a record without a visible shaft line (a
-    simulation, a machine without unbalance) cannot contradict. ``channels``: the file's channels
+    simulation, a machine without unbalance) cannot contradict. ``rate_from_file``: the file records the rate, and
+    a contradiction naming a speed a whole factor below the one a setting gave (``rpm_key``; a rate that factor above
+    the file's: a digit too many, or twice the speed, puts every defect line on a harmonic of its own) is refused
+    all the same, naming ``rpm_key`` alone (other contradictions of such a pair stay logged: a noise-free or short
+    record's lines contradict a true rate too, at no whole factor). ``channels``: the file's channels
     of ``signal``'s length, each a witness of the one rate (:func:`check_channels`). ``check_key``: the
     setting that turns the check off, named in the refusal."""
     import logging
@@ -914,9 +955,14 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
-    if check.verdict == "contradicted" and refuse:
+    speed_too_high = (rate_from_file and rpm_key and check.verdict == "contradicted" and check.implied_fs_hz
+                      and _whole_factor(check.implied_fs_hz / fs) is not None)
+    if check.verdict == "contradicted" and (refuse or speed_too_high):
         truth = f"both {fs:g} Hz and {rpm:g} rpm are true" if rpm_key else f"{fs:g} Hz is the true one"
         off = f", or {check_key}=false if {truth}" if check_key else ""
+        if speed_too_high:
+            raise BearingTwinError(f"{source}: {describe_mismatch(check)}; the file records its rate, so give the true "
+                                   f"speed with {rpm_key}=<rev/min>{off}")
         speed = f" (or the true speed with {rpm_key}=<rev/min>)" if rpm_key else ""
         raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{speed}{off}")
     if check.verdict == "contradicted":
