@@ -76,6 +76,9 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     # A group given a map of settings: it had read as a setting only some other option has.
     ("train", ["classifier={name: svm, C: 2}"], ["a config group takes the name of one of its options",
                                                   "classifier=<option> classifier.<key>=<value>"]),
+    # effects takes a list of options: the settings go under each option's name
+    ("simulate", ["effects={noise: {snr_db: 5}}"], ["effects takes a list of its options' names",
+                                                     "effects=[<option>,...] effects.<option>.<key>=<value>"]),
     # Hydra merges a list of a group's options into one config: a TypeError deep in the classifier, and a run left
     ("train", ["classifier=[svm,cnn_bilstm]"], ["classifier=[svm,cnn_bilstm]: choose one classifier", "-m classifier=a,b"]),
     ("train", ["--cfg", "job", "-m", "+sweep=table4"], ["-m and --cfg job go one at a time"]),  # Hydra's ValueError

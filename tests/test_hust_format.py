@@ -57,6 +57,7 @@ def test_the_units_row_gives_each_channel_its_unit():
     # A Legend naming the time column too: its unit's cell is skipped with it.
     ("Legend\tTime\tSpeed\tX\tY\tZ", "Units\ts\tV\tmg\tg\tg", "mg", None),
     ("Legend\tSpeed\tX\tY\tZ", "Units\ts\tV\tmg\tg\tg", "mg", None),  # the time column's unit alone, first
+    ("Legend\tTime\tSpeed\tX\tY\tZ", "Units\tV\tmg\tg\tg", "mg", None),  # a unit per channel, none for time
     ("Legend\tSpeed\tX\tY\tZ", "Units:\tV\tG\tg\tg\t", "g", None),
     ("Legend\tSpeed\tX\tY\tZ", "Units\tV\tV\tg\tg\tg", "", "the header's Units row gives 5 units (V, V, g, g, g) "
                                                            "for the 4 columns the header's Legend (Speed, X, Y, Z) names: "

@@ -210,6 +210,14 @@ def hydra_command(config_name: str) -> Callable:
     return decorate
 
 
+def list_groups(config_name: str) -> set[str]:
+    """The config groups ``config_name``'s defaults list takes a list of options from (``- effects: []``)."""
+    path = Path(CONF_DIR, f"{config_name}.yaml")
+    defaults = OmegaConf.load(path).get("defaults", []) if path.is_file() else []
+    return {group for entry in defaults if OmegaConf.is_dict(entry)
+            for group, value in entry.items() if OmegaConf.is_list(value)}
+
+
 def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
     """Compose the config ``argv`` asks for, in the mode Hydra will run it, raising Hydra's composition error
     (and, for a single run, the :class:`BearingTwinError` of a ``+key`` no config declares).
@@ -236,6 +244,9 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         group = key.lstrip("+~")
         if Path(CONF_DIR, group).is_dir() and value.startswith("{"):  # Hydra would merge it as an option's name
             options = ", ".join(sorted(path.stem for path in Path(CONF_DIR, group).glob("*.yaml")))
+            if group in list_groups(name):  # effects=[noise,...]: each option's settings under its own name
+                raise BearingTwinError(f"{override}: {group} takes a list of its options' names ({options}); give "
+                                       f"their settings apart: {group}=[<option>,...] {group}.<option>.<key>=<value>")
             raise BearingTwinError(f"{override}: a config group takes the name of one of its options ({options}); "
                                    f"give its settings apart: {group}=<option> {group}.<key>=<value>")
         if Path(CONF_DIR, group).is_dir() and (value.startswith(("/", "~", ".")) or value.endswith((".yaml", ".yml"))):

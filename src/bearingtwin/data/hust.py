@@ -220,8 +220,11 @@ def _channel_units(legend: _Columns, units: list[str] | None) -> tuple[dict[str,
     if len(units) > legend.width:
         return {}, {"": f"the header's Units row gives {len(units)} units ({', '.join(units)}) for the {legend.width} "
                         f"columns {legend.named_by} names: no unit read from it"}
+    # One unit per channel beside a Legend of more cells (a "Time" cell among them): the units are the channels', in
+    # their order, not the Legend's cells'.
+    cells = range(len(units)) if len(units) == len(legend.names) < legend.width else legend.cells
     read, notes = {}, {}
-    for channel, index in zip(legend.names, legend.cells):
+    for channel, index in zip(legend.names, cells):
         unit, unknown = _unit(units[index] if index < len(units) else "")
         if unit:
             read[channel] = unit
