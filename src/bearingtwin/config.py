@@ -176,6 +176,39 @@ def options_hint(key: str, config_name: str = "train") -> str:
             f"give it with {'that' if one else 'one of those'}, or sweep {'it' if one else 'those'} apart from the rest")
 
 
+PRINT_ONLY_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i"}
+"""Hydra's flags that print and run nothing."""
+
+
+def _end_quietly() -> None:
+    """End the command when the reader of its output left (``| head``): exit 1, no traceback."""
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # Python's advice (the signal docs)
+    sys.exit(1)
+
+
+class _EndsWhenReaderLeaves:
+    """``sys.stdout`` whose closed pipe ends the command (SystemExit, which Hydra's and logging's handlers of
+    Exception let through) rather than raising BrokenPipeError into code that catches it and prints a traceback."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            _end_quietly()
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            _end_quietly()
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
 def hydra_command(config_name: str) -> Callable:
     """``@hydra.main`` on ``conf/<config_name>.yaml``, with the overrides checked first.
 
@@ -197,13 +230,16 @@ def hydra_command(config_name: str) -> Callable:
                 exit_on_user_error(refuse_bad_overrides)(config_name, sys.argv[1:])
             if not sys.stderr.isatty():  # MLflow's download bars, like the project's own, only in a terminal
                 os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
+            if PRINT_ONLY_FLAGS & set(sys.argv[1:]):
+                # Hydra catches a closed pipe's error where it prints these (in a logging handler, or around --cfg)
+                # and prints a traceback: the error ends the command where it is raised.
+                sys.stdout = _EndsWhenReaderLeaves(sys.stdout)
             try:
                 result = hydra_main(cfg_passthrough)
                 sys.stdout.flush()  # here, not at exit, where a closed pipe's error is printed past any handler
                 return result
             except BrokenPipeError:  # the reader left (``--help | head``): nothing more to say, and no traceback
-                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # Python's advice (the signal docs)
-                sys.exit(1)
+                _end_quietly()
 
         return command
 
