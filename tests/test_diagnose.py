@@ -11,6 +11,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+import pandas as pd
 import pytest
 from mlflow import MlflowClient
 from mlflow.exceptions import MlflowException
@@ -368,7 +369,7 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
     run_id = client.create_run(client.create_experiment("fan_end", (tmp_path / "artifacts").as_uri())).info.run_id
     info = log_diagnosis_model(uri, client.get_run(run_id).info.experiment_id, run_id, pipeline, windows, rpm)
     model, loaded, _ = load_diagnosis_model(info.model_uri, uri)
-    assert model_params(model) == {"rpm", "bearing"}
+    assert model_params(model) == {"rpm", "bearing", "fs", "unit"}
     served = model.predict(windows, params={"rpm": rpm, "bearing": "cwru_6203"})
     np.testing.assert_array_equal(served["state"].to_numpy(), at_its_own)
     np.testing.assert_array_equal(model.predict(windows, params={"rpm": rpm})["state"].to_numpy(), at_the_models)
@@ -632,8 +633,18 @@ def test_training_registers_its_model_with_signature_and_alias(registered):
     model = mlflow.pyfunc.load_model(f"runs:/{version.run_id}/model")
     signature = model.metadata.get_input_schema().inputs[0]
     params = {param["name"]: param["default"] for param in model.metadata.get_params_schema().to_dict()}
-    assert signature.shape == (-1, 2048) and params == {"rpm": 0.0, "bearing": "paper"}  # the recorded bearing: the model's
+    # the recorded bearing: the model's; the windows' rate and unit: not stated
+    assert signature.shape == (-1, 2048) and params == {"rpm": 0.0, "bearing": "paper", "fs": 0.0, "unit": ""}
     answer = model.predict(np.random.default_rng(0).standard_normal((3, 2048)))
+    # Windows at another rate than the model's would be read without a word: stated, they are refused; stated in
+    # another acceleration unit, they are converted to the model's.
+    windows = np.random.default_rng(0).standard_normal((3, 2048))
+    with pytest.raises(MlflowException, match=r"params fs 48000 Hz: the model reads windows sampled at 12000 Hz"):
+        model.predict(windows, params={"fs": 48000.0})
+    assert model.metadata.metadata["unit"] == "m/s^2"
+    pd.testing.assert_frame_equal(model.predict(windows / 9.80665, params={"fs": 12000.0, "unit": "g"}), answer)
+    with pytest.raises(MlflowException, match=r"^params unit 'V': not an acceleration unit known here; .*the model's is m/s\^2"):
+        model.predict(windows, params={"unit": "V"})
     assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer"] and len(answer) == 3
     np.testing.assert_allclose(answer[["normal", "inner", "ball", "outer"]].sum(axis=1), 1.0)
 

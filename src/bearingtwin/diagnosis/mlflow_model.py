@@ -6,14 +6,18 @@ window: ``state`` and one probability column per class (the classifier's), and `
 (``physics`` or ``classifier``) for a model whose physics may decide a window (``physics_first``).
 ``rpm`` (rev/min; 0 = not given) is needed by models whose features are read on the shaft-order
 axis and by ``physics_first`` models; ``bearing`` (a ``conf/bearing/<name>.yaml``; default the
-model's own) is the recorded bearing, whose defect orders those features and that physics read. The same model is served by
+model's own) is the recorded bearing, whose defect orders those features and that physics read. ``fs`` (Hz) and
+``unit`` (``g``, ``m/s^2``, ...), where given, are the windows' own: a rate other than the model's is refused (the
+windows' lines would stand at other frequencies, and the model reads them without a word), and windows in another
+acceleration unit are converted to the model's. The same model is served by
 ``mlflow models serve -m models:/<name>@<alias> --env-manager local`` and queried with
-``{"inputs": [[...], ...], "params": {"rpm": 1797, "bearing": "cwru_6203"}}``.
+``{"inputs": [[...], ...], "params": {"rpm": 1797, "bearing": "cwru_6203", "fs": 12000, "unit": "g"}}``.
 """
 
 from __future__ import annotations
 
 import functools
+import math
 import sys
 import tempfile
 import threading
@@ -27,6 +31,7 @@ from mlflow.protos.databricks_pb2 import INVALID_PARAMETER_VALUE
 from mlflow.pyfunc import PythonModel
 
 from bearingtwin.checks import positive_number
+from bearingtwin.data.units import METRES_PER_S2, acceleration_unit, convert_acceleration
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.provenance import installed_versions
@@ -63,11 +68,28 @@ class DiagnosisModel(PythonModel):
             if len(flat):  # said of the request, where the features would name an array index
                 raise BearingTwinError(f"window {flat[0]} of the request is constant (every sample equal): no vibration "
                                        "to diagnose")
+            windows = in_model_terms(self.pipeline, windows, params.get("fs") or None, params.get("unit") or "")
             return predictions_frame(self.pipeline, windows,
                                      None if rpm is None else positive_number(rpm, "rpm", "rev/min"),
                                      recorded_bearing(self.pipeline, params.get("bearing")))
         except BearingTwinError as error:
             raise ModelInputError(str(error)) from error
+
+
+def in_model_terms(pipeline: DiagnosisPipeline, windows: np.ndarray, fs: float | None, unit: str) -> np.ndarray:
+    """A request's ``windows`` as the model reads them: sampled at ``fs`` Hz (None: not given), refused unless it is the
+    model's rate (a window of its length at another rate is another stretch of time, which no conversion of the
+    request restores; bearingtwin-diagnose resamples a record); in ``unit`` (empty: not given), converted to the
+    model's where both are acceleration units (g and m/s^2 differ by 9.81, which no level check sees)."""
+    if fs is not None and not math.isclose(positive_number(fs, "fs", "Hz"), pipeline.fs_hz, rel_tol=1e-6):
+        raise BearingTwinError(f"params fs {fs:g} Hz: the model reads windows sampled at {pipeline.fs_hz:g} Hz; resample "
+                               "the record to it before cutting windows (bearingtwin-diagnose reads a record at any rate)")
+    if not unit or not pipeline.unit or pipeline.window_normalization == "zscore":  # nothing to hold it against
+        return windows
+    if acceleration_unit(unit) is None:
+        raise BearingTwinError(f"params unit {unit!r}: not an acceleration unit known here; give one of "
+                               f"{', '.join(METRES_PER_S2)} (the model's is {pipeline.unit})")
+    return convert_acceleration(windows, unit, pipeline.unit)
 
 
 def recorded_bearing(pipeline: DiagnosisPipeline, name: str | None) -> dict | None:
@@ -124,7 +146,8 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
     """Log ``pipeline`` as the run's MLflow model ``model``; returns MLflow's ``ModelInfo``.
 
     The signature is a float64 tensor (n, window_length) in, the prediction frame out, and
-    ``rpm`` and ``bearing`` (the model's own by default) as parameters. A model that cannot diagnose (``vmd_params=per_class``) is logged
+    ``rpm``, ``bearing`` (the model's own by default), ``fs`` and ``unit`` (the windows', not checked by default) as
+    parameters. A model that cannot diagnose (``vmd_params=per_class``) is logged
     all the same, with a signature built without predicting, and refuses at prediction time.
     """
     import mlflow
@@ -139,10 +162,11 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
     except BearingTwinError:
         output = pd.DataFrame({STATE_COLUMN: ["normal"] * len(windows), **{n: np.zeros(len(windows)) for n in pipeline.class_names}})
         can_diagnose = False
-    params = {"rpm": float(example_rpm or 0.0), "bearing": str((pipeline.bearing or {}).get("name", ""))}
-    # The signature's defaults are what a request without them gets: no speed (0), the model's own bearing.
-    # The example's speed as the default would read any window at that speed, unasked.
-    signature = infer_signature(windows, output, params={**params, "rpm": 0.0})
+    params = {"rpm": float(example_rpm or 0.0), "bearing": str((pipeline.bearing or {}).get("name", "")),
+              "fs": float(pipeline.fs_hz), "unit": pipeline.unit}
+    # The signature's defaults are what a request without them gets: no speed (0), the model's own bearing, a rate
+    # and unit not stated. The example's speed as the default would read any window at that speed, unasked.
+    signature = infer_signature(windows, output, params={**params, "rpm": 0.0, "fs": 0.0, "unit": ""})
     with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
         # A model that cannot diagnose has no example to give, by design: MLflow's warning would say it was forgotten.
         warnings.filterwarnings("ignore", message=".*An input example was not provided")
