@@ -8,18 +8,27 @@ from bearingtwin.signal.entropy import (
     permutation_entropy,
 )
 from bearingtwin.signal.envelope import cepstral_prewhiten, envelope, envelope_spectrum, peak_near
+from bearingtwin.signal.kurtogram import Kurtogram, kurtogram, spectral_kurtosis
+from bearingtwin.signal.sampling_rate import ShaftLineCheck, check_sampling_rate
 from bearingtwin.signal.vmd import vmd, vmd_batch
+from bearingtwin.signal.welch import WelchPSD
 
 __all__ = [
+    "Kurtogram",
+    "ShaftLineCheck",
+    "WelchPSD",
     "bin_indices",
     "cepstral_prewhiten",
+    "check_sampling_rate",
     "envelope",
     "envelope_entropy",
     "envelope_spectrum",
+    "kurtogram",
     "mean_mode_mutual_information",
     "mutual_information",
     "peak_near",
     "permutation_entropy",
+    "spectral_kurtosis",
     "vmd",
     "vmd_batch",
 ]
