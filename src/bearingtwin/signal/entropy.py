@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from bearingtwin.checks import whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import _as_signal, envelope
 
@@ -122,6 +123,7 @@ def bin_indices(x, n_bins: int) -> np.ndarray:
     row falls entirely into bin 0.
     """
     x = _as_signal(x)
+    n_bins = whole_number("n_bins", n_bins)  # fewer than one bin would index every sample -1
     low = x.min(axis=-1, keepdims=True)
     span = x.max(axis=-1, keepdims=True) - low
     scaled = np.divide(x - low, span, out=np.zeros_like(x), where=span > 0)

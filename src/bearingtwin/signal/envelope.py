@@ -28,6 +28,18 @@ def _as_signal(x, name: str = "x") -> np.ndarray:
     return x
 
 
+def _check_rate(fs, name: str = "fs") -> None:
+    """Refuse a sampling rate that is not a positive, finite real number of Hz.
+
+    A numpy scalar or 0-d array (a rate read from an ``.npz``) passes as it is, so the caller's
+    arithmetic stays bit for bit what it was; a bool (``True`` would be 1 Hz) or a number's text
+    does not: these functions take arrays, and only the command line reads a rate from text.
+    """
+    rate = np.asarray(fs)
+    if rate.ndim != 0 or rate.dtype.kind not in "iuf" or not (np.isfinite(rate) and rate > 0):
+        raise BearingTwinError(f"{name} must be a positive sampling rate in Hz (got {fs!r})")
+
+
 def cepstral_prewhiten(x) -> np.ndarray:
     """The signal with every frequency's magnitude set to one and its phase kept, along the last axis.
 
@@ -72,8 +84,7 @@ def envelope_spectrum(x, fs: float, *, remove_mean: bool = True, window=None) ->
             by 1 / sum(window)) so that an envelope ``c + m cos(2 pi f t)`` with f on a bin
             shows a line of height m at f: the modulation amplitude is read off directly.
     """
-    if not np.isfinite(fs) or fs <= 0:
-        raise BearingTwinError(f"fs must be a positive sampling rate in Hz (got {fs})")
+    _check_rate(fs)
     env = envelope(x)
     n = env.shape[-1]
     if remove_mean:

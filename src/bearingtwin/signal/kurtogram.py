@@ -24,14 +24,18 @@ import numpy as np
 import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal.envelope import _as_signal, _check_rate
 
 
 def spectral_kurtosis(x, fs_hz: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
     """SK per frequency along the last axis: (freqs_hz (m,), sk (..., m)), from a Hann STFT with 75 % overlap.
 
-    Bins where the signal has no power get SK = 0.
+    Bins where the signal has no power get SK = 0. ``fs_hz`` is the sampling rate in Hz; ``nperseg`` the
+    STFT window length in samples.
     """
-    x = np.asarray(x, dtype=np.float64)
+    # A NaN anywhere in a row would leave that row's SK silently zero, so refuse it as envelope() does.
+    x = _as_signal(x)
+    _check_rate(fs_hz, "fs_hz")
     if not (isinstance(nperseg, (int, np.integer)) and 4 <= nperseg <= x.shape[-1]):
         raise BearingTwinError(f"nperseg must be an integer between 4 and the signal's length {x.shape[-1]}, got {nperseg!r}")
     freqs_hz, _, coefficients = scipy.signal.stft(x, fs=fs_hz, window="hann", nperseg=nperseg,
@@ -69,9 +73,10 @@ def kurtogram(x, fs_hz: float, nperseg=(16, 32, 64, 128, 256), min_hz: float = 0
     ``min_hz`` excludes low bands (shaft harmonics, electrical lines) from the choice, as a
     demodulation band for bearing diagnosis lies above them.
     """
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim != 1 or not np.all(np.isfinite(x)):
-        raise BearingTwinError("kurtogram needs a 1-D, finite signal")
+    x = _as_signal(x)
+    if x.ndim != 1:
+        raise BearingTwinError(f"x must be one 1-D signal for the kurtogram (got shape {x.shape})")
+    _check_rate(fs_hz, "fs_hz")
     levels = [int(n) for n in nperseg if int(n) <= x.size]
     if not levels:
         raise BearingTwinError(f"the signal ({x.size} samples) is shorter than every window length {list(nperseg)}")

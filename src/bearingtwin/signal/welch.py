@@ -16,6 +16,7 @@ import numpy as np
 from scipy.signal import ShortTimeFFT
 
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal.envelope import _as_signal, _check_rate
 
 
 class WelchPSD:
@@ -31,9 +32,11 @@ class WelchPSD:
     """
 
     def __init__(self, fs_hz: float, window):
-        window = np.asarray(window, dtype=np.float64)
-        if window.ndim != 1 or window.size < 2:
-            raise BearingTwinError(f"WelchPSD needs a 1-D window of at least 2 samples, got shape {window.shape}")
+        _check_rate(fs_hz, "fs_hz")
+        # A NaN in the window would turn every PSD into NaN, so it is checked as a signal is.
+        window = _as_signal(window, "window")
+        if window.ndim != 1:
+            raise BearingTwinError(f"window must be 1-D, one weight per sample of a segment (got shape {window.shape})")
         self.nperseg = window.size
         self.noverlap = self.nperseg // 2
         self.transform = ShortTimeFFT(window, self.nperseg - self.noverlap, fs_hz, fft_mode="onesided",
@@ -41,7 +44,7 @@ class WelchPSD:
         self.freqs_hz = self.transform.f
 
     def __call__(self, x) -> tuple[np.ndarray, np.ndarray]:
-        x = np.asarray(x, dtype=np.float64)
+        x = _as_signal(x)
         n = x.shape[-1]
         if n < self.nperseg:
             raise BearingTwinError(f"a signal of {n} samples is shorter than one Welch segment ({self.nperseg})")

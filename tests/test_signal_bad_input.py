@@ -1,0 +1,76 @@
+"""The signal functions refuse bad input with one BearingTwinError line that starts with the argument at fault,
+as envelope() and vmd() always did, and give valid input exactly what they gave before."""
+
+import numpy as np
+import pytest
+import scipy.signal as sps
+
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal.entropy import bin_indices
+from bearingtwin.signal.envelope import envelope_spectrum
+from bearingtwin.signal.kurtogram import kurtogram, spectral_kurtosis
+from bearingtwin.signal.welch import WelchPSD
+
+FS = 12000.0
+SIGNALS = np.random.default_rng(0).standard_normal((3, 4096))
+WINDOW = sps.get_window("hann", 64)
+
+
+def _with_nan(x, index):
+    x = np.array(x)
+    x[index] = np.nan
+    return x
+
+
+BAD_INPUT = {
+    # a NaN in one row of a batch had left that row's SK all zeros
+    "spectral_kurtosis NaN in a row": (lambda: spectral_kurtosis(_with_nan(SIGNALS, (1, 100)), FS, 64), "x"),
+    "spectral_kurtosis fs 0": (lambda: spectral_kurtosis(SIGNALS, 0.0, 64), "fs_hz"),
+    "spectral_kurtosis fs negative": (lambda: spectral_kurtosis(SIGNALS, -1.0, 64), "fs_hz"),
+    "spectral_kurtosis fs NaN": (lambda: spectral_kurtosis(SIGNALS, np.nan, 64), "fs_hz"),
+    "spectral_kurtosis complex": (lambda: spectral_kurtosis(SIGNALS + 1j, FS, 64), "x"),
+    "spectral_kurtosis bool": (lambda: spectral_kurtosis(SIGNALS > 0, FS, 64), "x"),
+    "spectral_kurtosis 0-d": (lambda: spectral_kurtosis(np.float64(1.0), FS, 64), "x"),
+    "kurtogram fs 0": (lambda: kurtogram(SIGNALS[0], 0.0), "fs_hz"),
+    "kurtogram fs inf": (lambda: kurtogram(SIGNALS[0], np.inf), "fs_hz"),
+    "kurtogram complex": (lambda: kurtogram(SIGNALS[0] + 1j, FS), "x"),
+    "kurtogram bool": (lambda: kurtogram(SIGNALS[0] > 0, FS), "x"),
+    "kurtogram NaN": (lambda: kurtogram(_with_nan(SIGNALS[0], 7), FS), "x"),
+    "kurtogram batch": (lambda: kurtogram(SIGNALS, FS), "x"),
+    "WelchPSD fs 0": (lambda: WelchPSD(0.0, WINDOW), "fs_hz"),
+    "WelchPSD NaN window": (lambda: WelchPSD(FS, _with_nan(WINDOW, 3)), "window"),
+    "WelchPSD complex": (lambda: WelchPSD(FS, WINDOW)(SIGNALS + 1j), "x"),
+    "WelchPSD bool": (lambda: WelchPSD(FS, WINDOW)(SIGNALS > 0), "x"),
+    "WelchPSD NaN": (lambda: WelchPSD(FS, WINDOW)(_with_nan(SIGNALS, (2, 5))), "x"),
+    "WelchPSD 0-d": (lambda: WelchPSD(FS, WINDOW)(np.float64(1.0)), "x"),
+    "bin_indices 0 bins": (lambda: bin_indices(SIGNALS[0], 0), "n_bins"),
+    "bin_indices negative bins": (lambda: bin_indices(SIGNALS[0], -3), "n_bins"),
+    "envelope_spectrum fs text": (lambda: envelope_spectrum(SIGNALS[0], "12000"), "fs"),
+    "envelope_spectrum fs None": (lambda: envelope_spectrum(SIGNALS[0], None), "fs"),
+    "envelope_spectrum fs bool": (lambda: envelope_spectrum(SIGNALS[0], True), "fs"),
+}
+
+
+@pytest.mark.parametrize("call, argument", BAD_INPUT.values(), ids=BAD_INPUT.keys())
+def test_bad_input_is_refused_naming_the_argument(call, argument):
+    with pytest.raises(BearingTwinError) as refused:
+        call()
+    message = str(refused.value)
+    assert message.startswith(f"{argument} ") and "\n" not in message
+
+
+def test_valid_input_is_unchanged():
+    """Batched rows equal single calls and the STFT's own numbers, to the bit; a rate given as a numpy
+    scalar or a 0-d array (read from an .npz) still counts as the number it holds."""
+    freqs, sk = spectral_kurtosis(SIGNALS, FS, 64)
+    _, _, coefficients = sps.stft(SIGNALS, fs=FS, window="hann", nperseg=64, noverlap=48, boundary=None,
+                                  padded=False, axis=-1)
+    power = np.abs(coefficients) ** 2
+    assert np.array_equal(sk, (power**2).mean(axis=-1) / power.mean(axis=-1) ** 2 - 2.0)
+    for row, signal in zip(sk, SIGNALS):
+        row_freqs, single = spectral_kurtosis(signal, FS, 64)
+        assert np.array_equal(row_freqs, freqs) and np.array_equal(single, row)
+    for rate in (np.float64(FS), np.array(FS), 12000):
+        assert all(np.array_equal(a, b) for a, b in zip(spectral_kurtosis(SIGNALS, rate, 64), (freqs, sk)))
+        assert all(np.array_equal(a, b) for a, b in zip(envelope_spectrum(SIGNALS, rate), envelope_spectrum(SIGNALS, FS)))
+    assert np.array_equal(bin_indices(SIGNALS, 5), bin_indices(SIGNALS, 5.0))
