@@ -19,11 +19,16 @@ and 10 s (from its start, its middle and its end) is checked at its true rate an
 twin's own records, as the README's "Your own recordings" makes them (each state, 4 s at 12 kHz, the twin's
 default bearing: no shaft line but the balls' passing series), are checked at their true rate and at those rates.
 
+A speed typed beside a rate the file records (an .npz's fs, a time column) is refused only where the check
+contradicts the pair and the record is consistent with a speed a whole factor lower (``speed_a_whole_factor_lower``):
+the CWRU records, whole and cut to 5 s, and the independent rig's and the twin's (with noise) records, each at its
+true speed and 2, 3 and 10 times it.
+
 Every command reads a CWRU file's three channels (drive end, fan end, base), each a witness of the file's one
 rate (``check_channels``, ``decisive_channel``): the last table declares each file at the rates acquisition
 systems record at (4 to 51.2 kHz), the verdict the record's.
 
-    python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about 50 s)
+    python benchmarks/rate_check.py            # a table per verdict and record set on stdout (about 90 s)
 """
 
 from __future__ import annotations
@@ -42,7 +47,8 @@ from bearingtwin.data.cwru import load_cwru
 from bearingtwin.data.files import read_raw
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate
-from bearingtwin.signal.sampling_rate import check_channels, check_sampling_rate, decisive_channel
+from bearingtwin.signal.sampling_rate import (check_channels, check_sampling_rate, decisive_channel, rate_witnesses,
+                                              speed_a_whole_factor_lower)
 from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 
 WRONG_FACTORS = {12000.0: (5850 / 12000, 0.48, 0.52, 0.34, 2 / 3, 1.5),
@@ -84,6 +90,24 @@ def tally_speeds(recording, bearing, speeds: Counter) -> None:
         state = "healthy" if recording.fault == "normal" else recording.fault
         speeds[f"{state}: {check.verdict}" + (" naming the true speed" if check.verdict == "contradicted" and named
                                               else "")] += 1
+
+
+TYPED_SPEED_FACTORS = (1, 2, 3, 10)
+"""Given / true speed of the speeds typed beside a rate the file records."""
+
+
+def tally_typed_speeds(signal, fs: float, rpm: float, bearing, channels, typed: Counter) -> None:
+    """Count what a command does with ``signal`` (``channels``: its file's, witnesses) at its true ``fs`` and a speed
+    typed :data:`TYPED_SPEED_FACTORS` times the true ``rpm``: refused (naming the true speed or another), or read
+    (the check's verdict logged)."""
+    for factor in TYPED_SPEED_FACTORS:
+        given = rpm * factor
+        checks = check_channels(rate_witnesses(signal, channels), fs, given, defect_hz=bearing.defect_frequencies(given))
+        verdict = checks[decisive_channel(checks)].verdict
+        lower = (speed_a_whole_factor_lower(signal, fs, given, bearing.defect_frequencies(given), channels)
+                 if verdict == "contradicted" else None)
+        speed = "the true speed" if factor == 1 else f"{factor} x the true speed"
+        typed[(speed, f"refused naming {'it' if lower == factor else 'another'}" if lower else f"read ({verdict})")] += 1
 
 
 def print_table(title: str, right_rate: Counter, wrong: Counter) -> None:
@@ -171,6 +195,24 @@ def main() -> None:
                              twin_bearing.defect_frequencies(recording.rpm)), 12000.0, twin_right, twin_wrong)
     print_table(f"the twin's own records of {len(FAULTS)} states (4 s, 12 kHz, its default bearing, every channel):",
                 twin_right, twin_wrong)
+    typed = Counter()
+    for recording, path in zip(recordings, records):
+        tally_typed_speeds(recording.signal, 12000.0, recording.rpm, bearing, read_raw(path).channels, typed)
+        tally_typed_speeds(recording.signal[:5 * 12000], 12000.0, recording.rpm, bearing, None, typed)
+    for number, (fault, rpm) in enumerate((fault, rpm) for fault in FAULTS for rpm in RIG_SPEEDS_RPM):
+        signal = simulate_rig(fault, RigOperatingPoint(rpm=rpm, fs=12000.0, duration_s=4.0), seed=number)
+        tally_typed_speeds(signal, 12000.0, rpm, bearing, None, typed)
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        noisy = compose("simulate", overrides=["simulator.fs=12000", "simulator.duration=4", "effects=[noise]"])
+    for fault in FAULTS:
+        recording, channels = simulate(fault, noisy.bearing, noisy.simulator, noisy.effects)
+        tally_typed_speeds(recording.signal, 12000.0, recording.rpm, twin_bearing,
+                           {"signal": recording.signal, **dict(zip(CHANNELS, channels))}, typed)
+    print(f"\nA speed typed beside a rate the file records: {len(records)} CWRU records whole and cut to 5 s, "
+          f"{len(FAULTS) * len(RIG_SPEEDS_RPM)} of the independent rig, {len(FAULTS)} of the twin with noise:\n\n"
+          "| speed typed | what the command does | cases |\n|---|---|---|")
+    for (speed, action), count in sorted(typed.items()):
+        print(f"| {speed} | {action} | {count} |")
     every_right, every_wrong = Counter(), Counter()
     for path in records:
         raw = read_raw(path)

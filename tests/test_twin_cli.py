@@ -11,7 +11,7 @@ from joblib import cpu_count
 from mlflow import MlflowClient
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR, load_bearing
+from bearingtwin.config import CONF_DIR, REPO_ROOT, load_bearing
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.twin.compare import VIEWS
@@ -524,3 +524,30 @@ def test_a_speed_given_twice_the_true_one_is_refused_where_the_file_records_its_
     with pytest.raises(BearingTwinError, match=r"^\S*record.npz: fs = 25600 Hz contradicts the shaft speed: .*BPFO's own "
                                                r"at a speed of 1500 rpm.*give the true speed with measured.rpm=<rev/min>"):
         load_measurement(measured(3000), bearing)
+
+
+CWRU_RECORDS = REPO_ROOT.parent / "shared" / "data" / "cwru"
+
+
+@pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
+@pytest.mark.parametrize("name", ["12k_Drive_End_OR007@6_1_131.mat", "12k_Drive_End_IR007_1_106.mat"])
+def test_a_real_records_speed_typed_a_whole_factor_too_high_is_refused_beside_its_files_rate(tmp_path, name):
+    """A real race fault's drive-end channel in an .npz stating its rate alone: read at its true speed, refused at twice
+    and three times it (its shaft series and defect comb stand where the true speed puts them)."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.data.cwru import load_cwru
+    from bearingtwin.twin.report import load_measurement
+
+    recording = load_cwru(CWRU_RECORDS / name)
+    np.savez(tmp_path / "record.npz", signal=recording.signal, fs=recording.fs)
+
+    def measured(rpm):
+        return OmegaConf.create({"path": str(tmp_path / "record.npz"), "channel": None, "fs": None, "rpm": rpm,
+                                 "fault": recording.fault, "check_fs": True})
+
+    assert load_measurement(measured(recording.rpm), load_bearing("cwru_6205")).rpm == recording.rpm
+    for factor in (2, 3):
+        with pytest.raises(BearingTwinError, match=rf"at {recording.rpm:g} rpm \({factor} times lower\) the record's lines "
+                                                   r"stand where they belong, .*give the true speed with measured.rpm"):
+            load_measurement(measured(recording.rpm * factor), load_bearing("cwru_6205"))

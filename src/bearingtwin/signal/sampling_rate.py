@@ -917,10 +917,22 @@ def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float
     return None
 
 
-def _whole_factor(ratio: float, max_factor: int = 10, tolerance: float = 0.01) -> int | None:
-    """n (2 .. ``max_factor``) where ``ratio`` lies within ``tolerance`` (relative) of it; None otherwise."""
-    n = round(ratio)
-    return n if 2 <= n <= max_factor and abs(ratio / n - 1.0) <= tolerance else None
+def speed_a_whole_factor_lower(signal, fs: float, rpm: float, defect_hz: Mapping[str, float] | None = None,
+                               channels: Mapping[str, np.ndarray] | None = None, max_factor: int = 10) -> int | None:
+    """The least m (2 .. ``max_factor``) at which the record (every channel a witness) is ``consistent`` with a speed
+    of ``rpm`` / m at ``fs``: a speed given a whole factor too high (twice the speed, a digit too many) puts every line
+    the record holds on a harmonic of the lines expected, which a check at the given speed may leave unexplained;
+    None where no such speed is confirmed (or the record is too short to check it). ``defect_hz``: the bearing's
+    defect frequencies at ``rpm``, which scale with the speed."""
+    for m in range(2, max_factor + 1):
+        scaled = {name: hz / m for name, hz in defect_hz.items()} if defect_hz else None
+        try:
+            checks = check_channels(rate_witnesses(signal, channels), fs, rpm / m, defect_hz=scaled)
+        except BearingTwinError:  # too short a record to place a shaft line this low: nor any lower one
+            return None
+        if checks[decisive_channel(checks)].verdict == "consistent":
+            return m
+    return None
 
 
 def describe_mismatch(check: ShaftLineCheck) -> str:
@@ -940,10 +952,11 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     logged as unchecked (None). ``refuse=False`` only logs a contradiction: for a rate the file
     itself records (a header, a time column), which a record without a visible shaft line (a
     simulation, a machine without unbalance) cannot contradict. ``rate_from_file``: the file records the rate, and
-    a contradiction naming a speed a whole factor below the one a setting gave (``rpm_key``; a rate that factor above
-    the file's: a digit too many, or twice the speed, puts every defect line on a harmonic of its own) is refused
-    all the same, naming ``rpm_key`` alone (other contradictions of such a pair stay logged: a noise-free or short
-    record's lines contradict a true rate too, at no whole factor). ``channels``: the file's channels
+    a setting typed the speed (``rpm_key``): a contradiction is refused all the same where the record is consistent
+    with a speed a whole factor below it (:func:`speed_a_whole_factor_lower`), naming ``rpm_key`` alone (other
+    contradictions of such a pair stay logged: a noise-free or short record's lines contradict a true pair too; and a
+    machine's half orders can make a record consistent with half its speed: on CWRU's records cut to 5 s, one of 13
+    at its true speed). ``channels``: the file's channels
     of ``signal``'s length, each a witness of the one rate (:func:`check_channels`). ``check_key``: the
     setting that turns the check off, named in the refusal."""
     import logging
@@ -955,14 +968,15 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
-    speed_too_high = (rate_from_file and rpm_key and check.verdict == "contradicted" and check.implied_fs_hz
-                      and _whole_factor(check.implied_fs_hz / fs) is not None)
-    if check.verdict == "contradicted" and (refuse or speed_too_high):
+    lower = (speed_a_whole_factor_lower(signal, fs, rpm, defect_hz, channels)
+             if rate_from_file and rpm_key and check.verdict == "contradicted" else None)
+    if check.verdict == "contradicted" and (refuse or lower):
         truth = f"both {fs:g} Hz and {rpm:g} rpm are true" if rpm_key else f"{fs:g} Hz is the true one"
         off = f", or {check_key}=false if {truth}" if check_key else ""
-        if speed_too_high:
-            raise BearingTwinError(f"{source}: {describe_mismatch(check)}; the file records its rate, so give the true "
-                                   f"speed with {rpm_key}=<rev/min>{off}")
+        if lower:
+            raise BearingTwinError(f"{source}: {describe_mismatch(check)}; at {rpm / lower:g} rpm ({lower} times lower) "
+                                   f"the record's lines stand where they belong, and the file records its rate: give "
+                                   f"the true speed with {rpm_key}=<rev/min>{off}")
         speed = f" (or the true speed with {rpm_key}=<rev/min>)" if rpm_key else ""
         raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{speed}{off}")
     if check.verdict == "contradicted":

@@ -107,13 +107,13 @@ def check_measurement(measured_cfg, recording: Recording, channels: dict,
         log.info("%s: %s", measured_cfg.path, RATE_NOT_CHECKED_SIMULATED)
     elif true_or_false(measured_cfg.check_fs, "measured.check_fs"):
         # A rate given here or only declared by a data set's convention is refused when the record contradicts
-        # it; one the file records itself is kept, the doubt logged (a speed a setting gave a whole factor too high
-        # is refused).
+        # it; one the file records itself is kept, the doubt logged (a speed typed a whole factor too high is refused).
         rate_given = recording.meta.get("fs_origin") in ("config", "declared")
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
                                check_key="measured.check_fs", rpm_key=speed_setting(recording, "measured.rpm"),
                                defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
-                               refuse=rate_given, rate_from_file=not rate_given, channels=channels)
+                               refuse=rate_given, channels=channels,
+                               rate_from_file=not rate_given and recording.meta.get("rpm_origin") == "config")
     with np.errstate(over="ignore"):
         fourth_moment = np.mean(recording.signal**4)  # the largest power the comparison's statistics take
     if not np.isfinite(fourth_moment):
