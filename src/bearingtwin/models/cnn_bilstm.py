@@ -46,12 +46,13 @@ from lightning.pytorch.accelerators import AcceleratorRegistry
 from lightning.pytorch.callbacks import TQDMProgressBar
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.preprocessing import StandardScaler
+from sklearn.utils.validation import column_or_1d
 from torch import nn
 from torch.utils.data import DataLoader, TensorDataset
 
 from bearingtwin.checks import finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.models.classes import training_classes
+from bearingtwin.models.classes import prediction_data, training_classes, training_data
 
 LSTM_OUTPUTS = ("last", "flatten")
 
@@ -214,7 +215,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
     ``progress_bar=True`` shows Lightning's epoch bar on stderr; anything else (``trainer.progress_bar``'s
     ``auto`` before the entry point resolves it) keeps training silent.
 
-    Fitted attributes: ``classes_``, ``scaler_``, ``module_``, ``history_`` (per-epoch
+    Fitted attributes: ``classes_``, ``n_features_in_``, ``scaler_``, ``module_``, ``history_`` (per-epoch
     loss and accuracy).
     """
 
@@ -267,7 +268,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         check_accelerator(self.accelerator)
 
     def fit(self, X, y, eval_set: tuple | None = None) -> "CnnBiLstmClassifier":
-        X, y = _check_xy(X, y)
+        X, y = training_data(self, *_check_xy(X, y))
         self.check_params()
         training_classes(y)  # one state: nothing to tell apart
         L.seed_everything(self.random_state, workers=True, verbose=False)
@@ -318,7 +319,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
 
     def predict_proba(self, X) -> np.ndarray:
         """Class probabilities (n_samples, n_classes), columns in ``classes_`` order."""
-        X = _check_x(X)
+        X = prediction_data(self, _check_x(X))
         inputs = torch.as_tensor(self.scaler_.transform(X), dtype=torch.float32).unsqueeze(1)
         with torch.inference_mode(), one_torch_thread():
             return torch.softmax(self.module_(inputs), dim=1).numpy()
@@ -353,7 +354,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         classifier.scaler_.mean_ = np.asarray(state["scaler"]["mean"])
         classifier.scaler_.scale_ = np.asarray(state["scaler"]["scale"])
         classifier.scaler_.var_ = classifier.scaler_.scale_ ** 2
-        classifier.scaler_.n_features_in_ = classifier.scaler_.mean_.size
+        classifier.scaler_.n_features_in_ = classifier.n_features_in_ = classifier.scaler_.mean_.size
         module = CnnBiLstmModule(CnnBiLstmShape(**state["shape"]), classifier.learning_rate, classifier.l2_factor)
         module.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
         classifier.module_ = module.eval()
@@ -414,7 +415,9 @@ def _check_x(X) -> np.ndarray:
 
 
 def _check_xy(X, y) -> tuple[np.ndarray, np.ndarray]:
-    X, y = _check_x(X), np.asarray(y)
+    # A column of labels is raveled here (with scikit-learn's DataConversionWarning, as its classifiers do) so that
+    # labels of another length than X's are named below, before training_data would say so in scikit-learn's words.
+    X, y = _check_x(X), column_or_1d(y, warn=True)
     if y.shape != (X.shape[0],):
         raise BearingTwinError(f"labels have shape {y.shape}, expected ({X.shape[0]},) for {X.shape[0]} samples")
     return X, y

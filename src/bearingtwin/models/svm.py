@@ -27,7 +27,7 @@ from sklearn.svm import SVC
 
 from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.models.classes import state_name, training_classes
+from bearingtwin.models.classes import prediction_data, state_name, training_classes, training_data
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +77,7 @@ def converged(fit: Callable[[bool], Fitted]) -> Fitted:
 class SvmClassifier(ClassifierMixin, BaseEstimator):
     """The scaled SVM of :func:`make_svm`, with calibrated class probabilities.
 
-    Fitted attributes: ``classes_``, ``svm_`` (the pipeline that predicts), ``calibration_``
+    Fitted attributes: ``classes_``, ``n_features_in_``, ``svm_`` (the pipeline that predicts), ``calibration_``
     (a ``CalibratedClassifierCV`` around a clone of it, ``ensemble=False``: one SVM fitted on all
     training data, its sigmoid fitted on ``CALIBRATION_FOLDS``-fold cross-validated decisions).
     """
@@ -94,7 +94,7 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
 
     def fit(self, X, y) -> "SvmClassifier":
         self.check_params()  # a bad parameter named before anything is fitted
-        y = np.asarray(y)
+        X, y = training_data(self, X, y)
         self.classes_, counts = training_classes(y)
         if counts.min() < 2:
             raise BearingTwinError(f"the SVM's probabilities are calibrated by cross-validation, which needs at least 2 "
@@ -109,10 +109,12 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
         return self
 
     def predict(self, X) -> np.ndarray:
+        X = prediction_data(self, X)  # before svm_ is looked up: an unfitted classifier raises NotFittedError
         return self.svm_.predict(X)
 
     def predict_proba(self, X) -> np.ndarray:
         """(n_samples, n_classes) calibrated probabilities, columns in ``classes_`` order."""
+        X = prediction_data(self, X)
         return self.calibration_.predict_proba(X)
 
     def predict_with_proba(self, X) -> tuple[np.ndarray, np.ndarray]:
