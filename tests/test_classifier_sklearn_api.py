@@ -107,3 +107,21 @@ def test_a_built_estimator_fits_as_its_config_does():
     X, y = blobs()
     np.testing.assert_array_equal(SklearnClassifier(LogisticRegression()).fit(X, y).predict_proba(X),
                                   SklearnClassifier(LOGISTIC).fit(X, y).predict_proba(X))
+
+
+def test_a_classifier_given_no_estimator_is_the_configs_random_forest(tmp_path):
+    """SklearnClassifier() had refused to fit, asking for classifier.estimator._target_ (a command line's setting);
+    given none it is conf/classifier/sklearn.yaml's random forest, and saves and loads as one."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.config import CONF_DIR
+    from bearingtwin.models.sklearn_classifier import DEFAULT_ESTIMATOR
+
+    assert OmegaConf.to_container(OmegaConf.load(f"{CONF_DIR}/classifier/sklearn.yaml"))["estimator"] == DEFAULT_ESTIMATOR
+    X, y = blobs()
+    fitted = SklearnClassifier().fit(X, y)
+    assert isinstance(fitted.model_[-1], RandomForestClassifier)
+    expected = SklearnClassifier(dict(DEFAULT_ESTIMATOR)).fit(X, y).predict_proba(X)
+    np.testing.assert_array_equal(fitted.predict_proba(X), expected)
+    loaded = _load_classifier(_save_classifier(fitted, tmp_path), tmp_path)
+    np.testing.assert_array_equal(loaded.predict_proba(X), expected)

@@ -9,6 +9,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.entropy import bin_indices
 from bearingtwin.signal.envelope import envelope_spectrum
 from bearingtwin.signal.kurtogram import kurtogram, spectral_kurtosis
+from bearingtwin.signal.sampling_rate import check_sampling_rate
 from bearingtwin.signal.welch import WelchPSD
 
 FS = 12000.0
@@ -48,6 +49,17 @@ BAD_INPUT = {
     "envelope_spectrum fs text": (lambda: envelope_spectrum(SIGNALS[0], "12000"), "fs"),
     "envelope_spectrum fs None": (lambda: envelope_spectrum(SIGNALS[0], None), "fs"),
     "envelope_spectrum fs bool": (lambda: envelope_spectrum(SIGNALS[0], True), "fs"),
+    "WelchPSD zero window": (lambda: WelchPSD(FS, np.zeros(64)), "window"),  # every PSD had been NaN
+    # the rate check had raised ZeroDivisionError, TypeError and ValueError from inside, and read True as 1 Hz
+    "check_sampling_rate empty": (lambda: check_sampling_rate(np.zeros(0), FS, 1797.0), "signal"),
+    "check_sampling_rate fs text": (lambda: check_sampling_rate(SIGNALS[0], "12000", 1797.0), "fs"),
+    "check_sampling_rate fs bool": (lambda: check_sampling_rate(SIGNALS[0], True, 1797.0), "fs"),
+    "check_sampling_rate rpm None": (lambda: check_sampling_rate(SIGNALS[0], FS, None), "rpm"),
+    "check_sampling_rate complex": (lambda: check_sampling_rate(SIGNALS[0] + 1j, FS, 1797.0), "signal"),
+    "check_sampling_rate max_fraction 1": (lambda: check_sampling_rate(SIGNALS[0], FS, 1797.0, max_fraction=1),
+                                           "max_fraction"),
+    "check_sampling_rate tolerance negative": (lambda: check_sampling_rate(SIGNALS[0], FS, 1797.0, tolerance=-1),
+                                               "tolerance"),
 }
 
 
@@ -74,3 +86,15 @@ def test_valid_input_is_unchanged():
         assert all(np.array_equal(a, b) for a, b in zip(spectral_kurtosis(SIGNALS, rate, 64), (freqs, sk)))
         assert all(np.array_equal(a, b) for a, b in zip(envelope_spectrum(SIGNALS, rate), envelope_spectrum(SIGNALS, FS)))
     assert np.array_equal(bin_indices(SIGNALS, 5), bin_indices(SIGNALS, 5.0))
+
+
+def test_the_kurtograms_band_lies_below_its_upper_limit_and_one_window_length_is_taken():
+    """The most impulsive bin of white noise may be centred above the band's upper limit (0.49 fs): its band had
+    read (5929.7, 5880.0) Hz, low above high. Now the bin's width below the limit. A window length given as a
+    number is one level, as spectral_kurtosis takes it (it had been a TypeError)."""
+    noise = np.random.default_rng(0).standard_normal(4096)
+    result = kurtogram(noise, FS)
+    low, high = result.band_hz
+    assert result.best_nperseg == 256 and low < high <= 0.49 * FS
+    assert high - low == pytest.approx(FS / result.best_nperseg)
+    assert kurtogram(noise, FS, nperseg=16).band_hz == kurtogram(noise, FS, nperseg=(16,)).band_hz

@@ -34,10 +34,15 @@ TRUSTED_PACKAGES = ("sklearn", "numpy", "scipy")
 """The packages whose types a saved model may hold (skops.io lists every other as untrusted)."""
 
 
-def make_estimator(spec: dict | BaseEstimator, random_state: int):
+DEFAULT_ESTIMATOR = {"_target_": "sklearn.ensemble.RandomForestClassifier"}
+"""The classifier of ``SklearnClassifier()`` given none: conf/classifier/sklearn.yaml's."""
+
+
+def make_estimator(spec: dict | BaseEstimator | None, random_state: int):
     """The unfitted estimator ``spec`` describes (a ``_target_`` and its arguments; or a clone of ``spec``, a built
-    scikit-learn estimator, which is left as it is), with ``random_state`` given where the class takes one left at
-    None; refused in one line when it is no classifier giving probabilities."""
+    scikit-learn estimator, which is left as it is; None: :data:`DEFAULT_ESTIMATOR`), with ``random_state`` given
+    where the class takes one left at None; refused in one line when it is no classifier giving probabilities."""
+    spec = DEFAULT_ESTIMATOR if spec is None else spec
     if isinstance(spec, BaseEstimator):
         estimator, named = clone(spec), f"classifier.estimator ({_described(spec)})"
     else:
@@ -90,6 +95,7 @@ def _instantiate(spec: dict):
 
 def _described(spec: dict | BaseEstimator) -> str:
     """The estimator as a message names it: its config's ``_target_``, or a built one's repr on one line."""
+    spec = DEFAULT_ESTIMATOR if spec is None else spec
     return " ".join(repr(spec).split()) if isinstance(spec, BaseEstimator) else spec["_target_"]
 
 
@@ -129,7 +135,7 @@ class SklearnClassifier(ClassifierMixin, BaseEstimator):
 
     Parameters:
         estimator: the classifier's config as a dict, ``{"_target_": "<module>.<class>", <argument>: <value>, ...}``,
-            or a scikit-learn classifier (unfitted; a clone of it is fitted).
+            or a scikit-learn classifier (unfitted; a clone of it is fitted); None: a random forest, as the config's.
         random_state: the run's seed, given to the class where it takes one left at None.
 
     Fitted attributes: ``classes_``, ``n_features_in_``, ``model_`` (the fitted scaler + classifier pipeline),

@@ -28,8 +28,8 @@ def _as_signal(x, name: str = "x") -> np.ndarray:
     return x
 
 
-def _check_rate(fs, name: str = "fs") -> None:
-    """Refuse a sampling rate that is not a positive, finite real number of Hz.
+def _check_rate(fs, name: str = "fs", what: str = "sampling rate in Hz") -> None:
+    """Refuse a sampling rate (or another positive quantity, ``what``) that is not a positive, finite real number.
 
     A numpy scalar or 0-d array (a rate read from an ``.npz``) passes as it is, so the caller's
     arithmetic stays bit for bit what it was; a bool (``True`` would be 1 Hz) or a number's text
@@ -37,7 +37,7 @@ def _check_rate(fs, name: str = "fs") -> None:
     """
     rate = np.asarray(fs)
     if rate.ndim != 0 or rate.dtype.kind not in "iuf" or not (np.isfinite(rate) and rate > 0):
-        raise BearingTwinError(f"{name} must be a positive sampling rate in Hz (got {fs!r})")
+        raise BearingTwinError(f"{name} must be a positive {what} (got {fs!r})")
 
 
 def cepstral_prewhiten(x) -> np.ndarray:

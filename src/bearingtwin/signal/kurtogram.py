@@ -77,6 +77,8 @@ def kurtogram(x, fs_hz: float, nperseg=(16, 32, 64, 128, 256), min_hz: float = 0
     if x.ndim != 1:
         raise BearingTwinError(f"x must be one 1-D signal for the kurtogram (got shape {x.shape})")
     _check_rate(fs_hz, "fs_hz")
+    if isinstance(nperseg, (int, np.integer)):  # one window length, as spectral_kurtosis takes it
+        nperseg = (nperseg,)
     levels = [int(n) for n in nperseg if int(n) <= x.size]
     if not levels:
         raise BearingTwinError(f"the signal ({x.size} samples) is shorter than every window length {list(nperseg)}")
@@ -95,4 +97,6 @@ def kurtogram(x, fs_hz: float, nperseg=(16, 32, 64, 128, 256), min_hz: float = 0
     best_sk, centre, n = best
     half = fs_hz / n / 2.0
     band = (max(centre - half, fs_hz / n / 4.0), min(centre + half, 0.49 * fs_hz))
+    if band[0] >= band[1]:  # a bin centred above the band's upper limit: the bin's width below that limit
+        band = (0.49 * fs_hz - 2.0 * half, 0.49 * fs_hz)
     return Kurtogram(levels, freqs, sks, band, best_sk, n)

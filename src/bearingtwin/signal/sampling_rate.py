@@ -35,8 +35,9 @@ import scipy.fft
 import scipy.signal
 from scipy.ndimage import median_filter
 
-from bearingtwin.checks import is_finite_number
+from bearingtwin.checks import is_finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal.envelope import _as_signal, _check_rate, envelope
 
 VERDICTS = ("consistent", "contradicted", "ambiguous")
 VERDICTS_BY_FAVOUR = ("consistent", "ambiguous", "contradicted")
@@ -262,11 +263,15 @@ def check_sampling_rate(
         follow_implied: check a contradiction's implied rate in turn (False: the rate the nearest series
             implies, as read).
     """
-    signal = np.asarray(signal, dtype=np.float64)
-    if signal.ndim != 1 or not np.all(np.isfinite(signal)):
-        raise BearingTwinError("the sampling-rate check needs a 1-D, finite signal")
-    if not (fs > 0 and rpm > 0 and math.isfinite(fs) and math.isfinite(rpm)):
-        raise BearingTwinError(f"the sampling-rate check needs positive, finite fs and rpm (got fs={fs}, rpm={rpm})")
+    signal = _as_signal(signal, "signal")  # real, finite, at least 2 samples: as every signal function takes it
+    if signal.ndim != 1:
+        raise BearingTwinError(f"signal must be one 1-D record for the sampling-rate check (got shape {signal.shape})")
+    _check_rate(fs, "fs")
+    _check_rate(rpm, "rpm", "shaft speed in rev/min")
+    for name, value in (("tolerance", tolerance), ("prominence", prominence), ("harmonic_tolerance", harmonic_tolerance),
+                        ("background_hz", background_hz), ("slip", slip)):
+        _check_rate(value, name, "number")
+    n_harmonics, max_fraction = whole_number("n_harmonics", n_harmonics), whole_number("max_fraction", max_fraction, minimum=2)
     if not search_factor > 1.0:
         raise BearingTwinError(f"search_factor must exceed 1, got {search_factor}")
     expected = rpm / 60.0
@@ -838,8 +843,6 @@ def _apart_from_shaft(hz: float, shaft_hz: float, max_fraction: int, window: flo
 
 
 def _envelope_prominence(signal: np.ndarray, fs: float, top_hz: float) -> tuple[np.ndarray, float]:
-    from bearingtwin.signal.envelope import envelope
-
     return _prominence_spectrum(_once("envelope", np.asarray(signal, dtype=np.float64), envelope), fs, top_hz,
                                 background_hz=5.0)
 

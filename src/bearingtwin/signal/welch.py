@@ -37,6 +37,8 @@ class WelchPSD:
         window = _as_signal(window, "window")
         if window.ndim != 1:
             raise BearingTwinError(f"window must be 1-D, one weight per sample of a segment (got shape {window.shape})")
+        if not np.any(window):  # the PSD's scale divides by the window's power: every value would be NaN
+            raise BearingTwinError("window is all zeros: it weighs no sample of a segment")
         self.nperseg = window.size
         self.noverlap = self.nperseg // 2
         self.transform = ShortTimeFFT(window, self.nperseg - self.noverlap, fs_hz, fft_mode="onesided",
