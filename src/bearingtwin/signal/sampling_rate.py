@@ -37,7 +37,7 @@ from scipy.ndimage import median_filter
 
 from bearingtwin.checks import is_finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.envelope import _as_signal, _check_rate, envelope
+from bearingtwin.signal.envelope import _as_signal, _check_rate
 
 VERDICTS = ("consistent", "contradicted", "ambiguous")
 VERDICTS_BY_FAVOUR = ("consistent", "ambiguous", "contradicted")
@@ -843,6 +843,8 @@ def _apart_from_shaft(hz: float, shaft_hz: float, max_fraction: int, window: flo
 
 
 def _envelope_prominence(signal: np.ndarray, fs: float, top_hz: float) -> tuple[np.ndarray, float]:
+    from bearingtwin.signal.envelope import envelope
+
     return _prominence_spectrum(_once("envelope", np.asarray(signal, dtype=np.float64), envelope), fs, top_hz,
                                 background_hz=5.0)
 
