@@ -551,3 +551,20 @@ def test_a_real_records_speed_typed_a_whole_factor_too_high_is_refused_beside_it
         with pytest.raises(BearingTwinError, match=rf"at {recording.rpm:g} rpm \({factor} times lower\) the record's lines "
                                                    r"stand where they belong, .*give the true speed with measured.rpm"):
             load_measurement(measured(recording.rpm * factor), load_bearing("cwru_6205"))
+
+
+@pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
+def test_a_doubt_over_a_typed_speed_names_the_speed_the_lines_imply(tmp_path, caplog):
+    """A ball record's envelope lines do not decide: typed at twice its speed beside its file's rate, it is read with
+    a doubt, which names the speed its shaft series implies (it had named only a rate the file does not have)."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.data.cwru import load_cwru
+    from bearingtwin.twin.report import load_measurement
+
+    recording = load_cwru(CWRU_RECORDS / "12k_Drive_End_B007_1_119.mat")
+    np.savez(tmp_path / "record.npz", signal=recording.signal, fs=recording.fs)
+    measured = OmegaConf.create({"path": str(tmp_path / "record.npz"), "channel": None, "fs": None,
+                                 "rpm": 2 * recording.rpm, "fault": "ball", "check_fs": True})
+    load_measurement(measured, load_bearing("cwru_6205"))
+    assert f"or, at 12000 Hz, a speed of {recording.rpm:.0f} rpm (measured.rpm)" in caplog.text

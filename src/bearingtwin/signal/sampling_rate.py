@@ -987,5 +987,8 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     if check.verdict == "contradicted":
         log.warning("%s: %s (the rate the file records is kept)", source, describe_mismatch(check))
     if check.verdict == "ambiguous":
-        log.warning("%s: %s", source, describe_mismatch(check))
+        # Where a setting gave the speed, the rate the in-between lines imply is as well a speed that many times lower.
+        lower = (f"; or, at {fs:g} Hz, a speed of {rpm * fs / check.fraction_rate_hz:.0f} rpm ({rpm_key})"
+                 if rpm_key and check.fraction_rate_hz and check.fraction_rate_hz > fs else "")
+        log.warning("%s: %s%s", source, describe_mismatch(check), lower)
     return check
