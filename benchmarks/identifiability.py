@@ -47,12 +47,16 @@ from __future__ import annotations
 import argparse
 import csv
 import itertools
+import hashlib
 import json
+import math
 import os
+import re
 import platform
 import sys
 import tempfile
 import time
+import traceback
 from collections import Counter
 from pathlib import Path
 
@@ -262,8 +266,45 @@ def read_listed(manifest: Path, row: dict, role: str, settings: dict, bearing: B
         # Built only to refuse, before any run starts, a record too short or sampled too slowly to compare.
         Comparator(recording, bearing, compare)
     except BearingTwinError as error:
-        raise BearingTwinError(f"{where}: {error}" if str(path) in str(error) else f"{where}: {path}: {error}") from None
+        said = str(error)
+        if "does not state its" in said:  # a manifest gives each row's facts in its columns, not as measured.* settings
+            columns = re.findall(r"measured\.(\w+)=", said)
+            said = f"{said.split('; give ')[0]}; give them in the manifest's {', '.join(columns)} column" + \
+                   ("s" if len(columns) > 1 else "")
+        raise BearingTwinError(f"{where}: {said}" if str(path) in said else f"{where}: {path}: {said}") from None
     return settings, recording
+
+
+REFERENCE_RPM_TOLERANCE = 0.02
+"""How far a reference's speed may lie from its record's (relative): a motor's slip between loads, not another
+operating point."""
+
+
+def listed_case(manifest: Path, row: dict, cfg, library: set[str], bearing: BearingGeometry, compare: CompareSettings,
+                where: str) -> dict:
+    """The case one manifest row lists, its record and reference read and checked (:func:`cases_from_manifest`)."""
+    kind = (row["kind"] or "").strip()
+    if kind not in KINDS:
+        raise BearingTwinError(f"{where}: kind {kind!r} is not one of {', '.join(KINDS)}")
+    hidden = hidden_names(row, kind, library, where)
+    seeds = {column: row_seed(row, column, where) for column in SEED_COLUMNS}
+    settings = row_settings(row, cfg, where)
+    record_settings, record = read_listed(manifest, row, "record", settings, bearing, compare, where)
+    reference_settings, reference = read_listed(manifest, row, "reference", settings, bearing, compare, where)
+    # The reference holds what it fitted for the record (sensor, load, path), as bearingtwin-twin reference= does,
+    # which takes one of another state (a rig's healthy baseline) or speed; but a row pairing other states, rates or
+    # speeds may as well be a slip of the pen, which would score the record against another operating point unsaid.
+    if (reference.fault != record.fault or not math.isclose(reference.fs, record.fs, rel_tol=1e-3)
+            or not math.isclose(reference.rpm, record.rpm, rel_tol=REFERENCE_RPM_TOLERANCE)):
+        print(f"warning: {where}: the reference is {reference.fault} at {reference.fs:g} Hz and {reference.rpm:g} rpm, "
+              f"the record {record.fault} at {record.fs:g} Hz and {record.rpm:g} rpm: held as bearingtwin-twin "
+              f"reference= holds it (the benchmark's references are the same operating point: state, rate, speed within "
+              f"{REFERENCE_RPM_TOLERANCE:.0%})", file=sys.stderr)
+    return {"split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
+            "rpm": record.rpm, "fs": record.fs, "unit": record.unit or "unit not stated",
+            "operating": {}, "seed": seeds["seed"], "measured": record_settings,
+            "reference": {"seed": seeds["reference_seed"], "measured": reference_settings,
+                          "fault": reference.fault, "rpm": reference.rpm, "fs": reference.fs}}
 
 
 def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
@@ -277,27 +318,22 @@ def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
     ``+``: library names for single and pair, names the library lacks for out_of_library, empty for null);
     optional ``fs``, ``rpm``, ``fault``, ``channel`` for what the files do not state (as ``measured.*``, for the
     record and its reference), and ``seed``, ``reference_seed`` (``bearingtwin-twin``'s ``seed=`` of each run; 0
-    when not given). A record's unit does not matter: the twin's gain is fitted.
+    when not given). A record's unit does not matter: the twin's gain is fitted. Every row is checked before any
+    run, and every bad row named; a reference of another state, rate or speed than its record's is said so.
     """
     library = library_effects()
     bearing = BearingGeometry.from_config(cfg.bearing)
     compare = CompareSettings.from_config(OmegaConf.to_container(cfg.compare, resolve=True))
-    listed = []
+    listed, refused = [], []
     for line, row in read_manifest(manifest):
         where = f"{manifest}, line {line}"
-        kind = (row["kind"] or "").strip()
-        if kind not in KINDS:
-            raise BearingTwinError(f"{where}: kind {kind!r} is not one of {', '.join(KINDS)}")
-        hidden = hidden_names(row, kind, library, where)
-        seeds = {column: row_seed(row, column, where) for column in SEED_COLUMNS}
-        settings = row_settings(row, cfg, where)
-        record_settings, record = read_listed(manifest, row, "record", settings, bearing, compare, where)
-        reference_settings, reference = read_listed(manifest, row, "reference", settings, bearing, compare, where)
-        listed.append({"split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
-                       "rpm": record.rpm, "fs": record.fs, "unit": record.unit or "unit not stated",
-                       "operating": {}, "seed": seeds["seed"], "measured": record_settings,
-                       "reference": {"seed": seeds["reference_seed"], "measured": reference_settings,
-                                     "fault": reference.fault, "rpm": reference.rpm, "fs": reference.fs}})
+        try:
+            listed.append(listed_case(manifest, row, cfg, library, bearing, compare, where))
+        except BearingTwinError as error:  # every bad row is named at once: a large manifest is mended in one go
+            refused.append(str(error))
+    if refused:
+        more = f" ({len(refused)} rows refused)" if len(refused) > 1 else ""
+        raise BearingTwinError("; ".join(refused) + more)
     return listed
 
 
@@ -426,9 +462,32 @@ def reference_of(case: dict) -> dict:
 
 
 def run_reference(case: dict, overrides: list[str]) -> dict:
-    """The reference record's twin report (what ``bearingtwin-twin`` writes of it) and its time."""
-    fit, seconds = rank(reference_of(case), overrides)
+    """The reference record's twin report (what ``bearingtwin-twin`` writes of it) and its time; ``{"error": ...}``
+    where its run fails (:func:`failed`)."""
+    try:
+        fit, seconds = rank(reference_of(case), overrides)
+    except Exception as error:  # one record's failure is that case's, and the others go on
+        return failed(error)
     return {"measured": {"fault": case["fault"]}, **fit.as_dict(), "seconds": seconds}
+
+
+def failed(error: Exception) -> dict:
+    """A run that failed, in one line: the user's error as it is said, another with its type and place (printed with
+    its traceback where it happens, for a bug to be found)."""
+    if isinstance(error, BearingTwinError):
+        return {"error": str(error)}
+    traceback.print_exc()
+    return {"error": f"{type(error).__name__}: {error}"}
+
+
+def run_listed_case(case: dict, overrides: list[str], reference: dict) -> dict:
+    """:func:`run_case`, or the case with the ``error`` that stopped it or its reference."""
+    if "error" in reference:
+        return {**case, "error": f"its reference failed: {reference['error']}"}
+    try:
+        return run_case(case, overrides, reference)
+    except Exception as error:
+        return {**case, **failed(error)}
 
 
 def run_case(case: dict, overrides: list[str], reference: dict) -> dict:
@@ -608,9 +667,19 @@ DISCUSSION = "\n## Discussion\n"
 """The heading from which results/identifiability.md is written by hand (kept when the tables are regenerated)."""
 
 
-def write_results(results: list[dict], out: Path, command: str, wall_s: float, manifest: Path | None = None) -> None:
+def case_name(case: dict) -> str:
+    """A case as a reader finds it: a listed record by its file, a split's by its source, kind, fault and rate."""
+    if "measured" in case:
+        return Path(case["measured"]["path"]).name
+    return f"{case['source']} {case['kind']} {case['fault']} {'+'.join(case['hidden']) or 'none'} {case['fs']:g} Hz"
+
+
+def write_results(results: list[dict], out: Path, command: str, wall_s: float, manifest: Path | None = None,
+                  failures: list[dict] | None = None) -> None:
     """identifiability.{md,json,png} in ``out``: the goals' table per source, the confusion of single effects, how the
-    cases were made (``manifest``: the listed records'), the misses; a discussion already below the tables is kept."""
+    cases were made (``manifest``: the listed records'), the misses, the cases whose runs failed (``failures``, not
+    scored); a discussion already below the tables is kept."""
+    failures = failures or []
     table = summarize(results)
     sources = [source for source in SOURCES if source in table]
     rate = {"single": "hidden single effect added first", "pair": "both effects of a pair added",
@@ -671,7 +740,8 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
         + "; ".join(described[source] for source in sources) + ".", "",
         markdown_table(["case kind", "goal", *(SOURCES[source] for source in sources)], rows), "",
         "![cases right per kind against the goals](identifiability.png)", "",
-        f"Regenerate ({wall_s / 60:.0f} min on {machine}):", "", "```bash", command, "```", "",
+        f"Regenerate ({f'{wall_s / 60:.0f} min' if wall_s >= 90 else f'{wall_s:.0f} s'} on {machine}):", "",
+        "```bash", command, "```", "",
         "## Hidden single effects: what was added first", "",
         *(line for source in sorted(sources, key=["rig", "records", "twin"].index)
           for line in (f"### {SOURCES[source][0].upper()}{SOURCES[source][1:]}", "", confusion(results, source), "")),
@@ -682,6 +752,10 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
         "## Misses", "",
         markdown_table([*(["record"] if manifest is not None else []), "source", "kind", "fault", "hidden", "fs", "unit", "added", "first-round evidence (signature gain)",
                         "unexplained views"], misses) if misses else "None.", "",
+        *(["## Failed cases", "", "Not scored: their runs failed.", "",
+           markdown_table(["case", "kind", "hidden", "error"],
+                          [[case_name(f), f["kind"], ", ".join(f["hidden"]) or "none", f["error"]] for f in failures]),
+           ""] if failures else []),
     ]
     out.mkdir(parents=True, exist_ok=True)
     plot_rates(table, goals, out / "identifiability.png", sources)
@@ -711,7 +785,7 @@ def main() -> int:
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", default=None,
                         help="folder for identifiability.{md,json,png} (default: results for the whole test split, "
-                             "else a folder under the system's temporary directory)")
+                             "else a folder under the system's temporary directory, one per split or manifest)")
     parser.add_argument("--faults", default=None,
                         help="bearing states of the cases (default: outer,inner of a split, every listed record); "
                              "normal or ball: the split's kinds of case on such bearings too, after its own")
@@ -728,7 +802,9 @@ def main() -> int:
              and all(o.startswith("ranking.n_jobs=") for o in args.overrides))
     if args.fs is not None and (args.records is not None or not args.fs > 0):
         parser.error(f"--fs {args.fs:g}: a positive rate for a split's cases (a manifest's records have their own)")
-    name = "records" if args.records is not None else args.split
+    # A manifest's results go to a folder of its own: another manifest's run does not replace them.
+    name = (f"records-{args.records.stem}-{hashlib.sha256(str(args.records.resolve()).encode()).hexdigest()[:8]}"
+            if args.records is not None else args.split)
     if args.out is None:
         args.out = "results" if whole else str(Path(tempfile.gettempdir()) / f"bearingtwin-identifiability-{name}")
     elif not whole and Path(args.out).resolve() == (Path(__file__).resolve().parents[1] / "results"):
@@ -766,16 +842,23 @@ def main() -> int:
     except BearingTwinError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    print(f"{len(todo)} cases; results will be written to {args.out}", file=sys.stderr)
     start = time.perf_counter()
     keys = list(dict.fromkeys(_reference_key(case) for case in todo))
     first_of = {key: next(case for case in todo if _reference_key(case) == key) for key in keys}
     references = dict(zip(keys, tqdm(joblib.Parallel(n_jobs=args.jobs, return_as="generator")(
         joblib.delayed(run_reference)(first_of[key], overrides) for key in keys), total=len(keys),
         desc="references")))
-    results = list(tqdm(joblib.Parallel(n_jobs=args.jobs, return_as="generator")(
-        joblib.delayed(run_case)(case, overrides, references[_reference_key(case)]) for case in todo),
+    ran = list(tqdm(joblib.Parallel(n_jobs=args.jobs, return_as="generator")(
+        joblib.delayed(run_listed_case)(case, overrides, references[_reference_key(case)]) for case in todo),
         total=len(todo), desc="cases"))
     wall = time.perf_counter() - start
+    results, failures = [r for r in ran if "error" not in r], [r for r in ran if "error" in r]
+    for failure in failures:
+        print(f"FAILED: {case_name(failure)}: {failure['error']}", file=sys.stderr)
+    if not results:
+        print(f"error: every one of the {len(failures)} cases failed; nothing to score", file=sys.stderr)
+        return 1
     table = summarize(results)
     print_counts(table)
     states = list(dict.fromkeys(r["fault"] for r in results))
@@ -796,9 +879,16 @@ def main() -> int:
         print(f"ranking.points_per_view={points:g} ranking.view_floor_db={floor:g} decide the first round right "
               f"most often at ranking.min_signature_gain={ranking['min_signature_gain']:g} (ties: fewer points, "
               "then the lower floor)")
-        return 0
-    command = "python benchmarks/identifiability.py " + " ".join(sys.argv[1:])
-    write_results(results, Path(args.out), command.strip(), wall, args.records)
+        return 1 if failures else 0
+    # The manifest by its absolute path: the command regenerates the page from any folder.
+    arguments = [str(args.records.resolve()) if args.records is not None and argument == str(args.records) else argument
+                 for argument in sys.argv[1:]]
+    write_results(results, Path(args.out), f"python benchmarks/identifiability.py {' '.join(arguments)}", wall,
+                  args.records, failures)
+    if failures:
+        print(f"{len(failures)} of {len(ran)} cases FAILED (listed above and in the page's 'Failed cases'); the "
+              "others are scored", file=sys.stderr)
+        return 1
     return 0
 
 

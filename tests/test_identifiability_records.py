@@ -6,6 +6,7 @@ results/identifiability.md.
 
 import csv
 import io
+import re
 import json
 import subprocess
 import sys
@@ -192,8 +193,9 @@ def test_records_are_checked_as_the_twin_checks_them(module, exported, twin_cfg)
 
 def test_the_command_refuses_bad_input_in_one_line(exported, tmp_path):
     done = benchmark("--records", str(rewrite(exported, kind="triple")), cwd=tmp_path)
-    assert done.returncode == 2
-    assert done.stderr.strip().count("\n") == 0 and "kind 'triple'" in done.stderr
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    # one line, after the other rows' reading notes (every row is read, to name every bad one at once)
+    assert done.stderr.strip().splitlines()[-1].startswith("error: ") and "kind 'triple'" in done.stderr
     (tmp_path / "taken").write_text("a file, not a folder")
     done = benchmark(*SELECTION, "--export", str(tmp_path / "taken"), cwd=tmp_path)
     assert done.returncode == 2 and "--export" in done.stderr and "Traceback" not in done.stderr
@@ -239,3 +241,48 @@ def test_a_manifests_records_are_run_with_the_twin_commands_defaults_and_a_split
     assert records.bearing == default_bearing
     assert module.twin_config(*module.run_overrides(True, ["bearing=er16k"])).bearing.name == "er16k"
     assert module.twin_config(*module.run_overrides(False, [])).bearing.name == "cwru_6205"
+
+
+def test_every_bad_row_is_named_at_once_and_a_files_missing_facts_point_at_the_manifests_columns(module, exported,
+                                                                                                  twin_cfg):
+    """A manifest of several bad rows had been refused at its first, one rerun per row; a file that states no rate
+    had pointed at measured.fs=, which would set every row's."""
+    np.save(exported.parent / "bare.npy", np.load(exported.parent / "001_rig_single_outer_slip.npz")["signal"])
+    edited = rewrite(exported, {"record": "bare.npy", "reference": "reference_00.npz", "kind": "single",
+                                "hidden": "slip", "rpm": "1797", "fault": "outer"}, kind="triple")
+    with pytest.raises(BearingTwinError) as refused:
+        module.cases_from_manifest(edited, twin_cfg)
+    said = str(refused.value)
+    assert "line 2: kind 'triple'" in said and "(2 rows refused)" in said and "\n" not in said
+    assert re.search(r"line 4: .*bare.npy: the file does not state its sampling rate; give them in the manifest's fs "
+                     r"column", said), said
+
+
+def test_a_reference_of_another_rate_or_speed_is_said_so(module, exported, twin_cfg, capsys):
+    """A row pairing records of other operating points is held as bearingtwin-twin reference= holds it, and said so
+    (a slip of the pen had scored the record against another operating point unsaid)."""
+    reference = np.load(exported.parent / "reference_00.npz")
+    np.savez(exported.parent / "faster.npz", **{**reference, "rpm": 1.1 * float(reference["rpm"])})
+    module.cases_from_manifest(rewrite(exported, reference="faster.npz"), twin_cfg)
+    assert re.search(r"warning: .*line 2: the reference is outer at 12000 Hz and 1976.7 rpm, the record outer at "
+                     r"12000 Hz and 1797 rpm", capsys.readouterr().err)
+
+
+def test_a_failing_case_is_listed_and_the_others_are_scored(module, exported, twin_cfg, tmp_path, monkeypatch):
+    """One case's failure had ended the whole run, its finished cases lost: now that case is listed as failed, on
+    the results page too, and the others are scored; a case whose reference failed fails with it."""
+    listed = module.cases_from_manifest(exported, twin_cfg)
+    assert module.run_listed_case(listed[0], [], {"error": "no luck"})["error"] == "its reference failed: no luck"
+
+    def breaks(case, overrides, reference):
+        raise ValueError("a bug")
+
+    monkeypatch.setattr(module, "run_case", breaks)
+    failure = module.run_listed_case(listed[1], [], {})
+    assert failure["error"] == "ValueError: a bug" and failure["hidden"] == ["slip"]
+    scored = {**listed[0], "added": ["resonance"], "ranking": [["resonance", 1.0, 1.0, 1.0]], "rounds": [],
+              "unexplained": [], "final_error": 1.0, "baseline_error": 3.0, "seconds": 9.0}
+    module.write_results([scored], tmp_path, "python benchmarks/identifiability.py", 30.0, exported, [failure])
+    page = (tmp_path / "identifiability.md").read_text()
+    assert "## Failed cases" in page and "| 001_rig_single_outer_slip.npz | single | slip | ValueError: a bug |" in page
+    assert "Regenerate (30 s on" in page
