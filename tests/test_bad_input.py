@@ -457,7 +457,8 @@ def test_an_output_folder_nothing_can_be_written_in_is_refused_before_any_work(t
 
 @pytest.mark.parametrize("command, flag", [(command, "--help") for command in
                                            ["train", "simulate", "twin", "diagnose", "inspect", "report"]]
-                         + [("train", "--cfg job"), ("simulate", "--info")])  # Hydra prints these through logging
+                         + [("train", "--cfg job"), ("simulate", "--info"),  # Hydra prints these through logging
+                            ("train", "--cfg=job"), ("twin", "--info=config")])  # spelt as its parser reads them too
 def test_help_into_a_pipe_its_reader_closed_ends_without_a_traceback(command, flag):
     """``bearingtwin-diagnose --help | head -3``: the reader leaves before the help is written (here, before it
     starts: a pipe whose reading end is closed), and the command ends quietly, with no BrokenPipeError traceback."""

@@ -125,3 +125,28 @@ def test_a_classifier_given_no_estimator_is_the_configs_random_forest(tmp_path):
     np.testing.assert_array_equal(fitted.predict_proba(X), expected)
     loaded = _load_classifier(_save_classifier(fitted, tmp_path), tmp_path)
     np.testing.assert_array_equal(loaded.predict_proba(X), expected)
+
+
+@pytest.mark.parametrize("make", [SvmClassifier, lambda: SklearnClassifier(LOGISTIC), CnnBiLstmClassifier],
+                         ids=["svm", "sklearn", "cnn_bilstm"])
+def test_a_refused_fit_leaves_the_classifier_unfitted(make):
+    """Windows of one state are refused after the data's shape was recorded (n_features_in_): the classifier is
+    still unfitted, and predict says so (it had raised an AttributeError naming a fitted part)."""
+    X, _ = blobs()
+    classifier = make()
+    with pytest.raises(BearingTwinError, match="all of one bearing state"):
+        classifier.fit(X, np.zeros(len(X), dtype=int))
+    with pytest.raises(NotFittedError):
+        classifier.predict(X)
+
+
+def test_the_default_estimators_nested_values_are_refused_saying_how_to_set_them():
+    with pytest.raises(BearingTwinError, match=r"estimator is not given \(the config's random forest\).*a built "
+                                               r"scikit-learn estimator"):
+        SklearnClassifier().set_params(estimator__n_estimators=10)
+
+
+def test_labels_of_two_columns_are_named_by_the_network():
+    X, y = blobs()
+    with pytest.raises(BearingTwinError, match=r"labels have shape \(36, 2\), expected \(36,\)"):
+        CnnBiLstmClassifier().fit(X, np.column_stack([y, y]))

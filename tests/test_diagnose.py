@@ -643,8 +643,11 @@ def test_training_registers_its_model_with_signature_and_alias(registered):
         model.predict(windows, params={"fs": 48000.0})
     assert model.metadata.metadata["unit"] == "m/s^2"
     pd.testing.assert_frame_equal(model.predict(windows / 9.80665, params={"fs": 12000.0, "unit": "g"}), answer)
-    with pytest.raises(MlflowException, match=r"^params unit 'V': not an acceleration unit known here; .*the model's is m/s\^2"):
+    with pytest.raises(MlflowException, match=r"^params unit 'V': the record is in V, the model was trained on windows "
+                                              r"in m/s\^2 and reads their level"):
         model.predict(windows, params={"unit": "V"})
+    with pytest.raises(MlflowException, match=r"^params unit 'furlongs': no unit known here; .*the model's is m/s\^2"):
+        model.predict(windows, params={"unit": "furlongs"})
     assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer"] and len(answer) == 3
     np.testing.assert_allclose(answer[["normal", "inner", "ball", "outer"]].sum(axis=1), 1.0)
 
@@ -1381,3 +1384,24 @@ def test_a_signal_a_library_swallowed_stops_the_folder_before_its_next_record(re
     rows = list(csv.DictReader(open(tmp_path / "out" / "summary.csv")))
     assert [row["error"] for row in rows] == [NOT_REACHED] * 3
     assert not list((tmp_path / "out").glob("*/diagnosis.json"))
+
+
+def test_a_requests_unit_is_held_against_the_models_as_a_records_is():
+    """A model trained in a unit that is no acceleration (V: a rig's records in volts) reads a request in V as it is
+    and refuses one in g naming its own unit (a request's unit had been checked as an acceleration's alone: a V model
+    refused its own unit, and blamed the user's g for a unit the user never sent); a model normalizing its windows
+    reads any acceleration unit as it is."""
+    from types import SimpleNamespace
+
+    from bearingtwin.diagnosis.mlflow_model import in_model_terms
+
+    windows = np.ones((2, 8))
+    in_volts = SimpleNamespace(fs_hz=12000.0, unit="V", window_normalization="none")
+    assert in_model_terms(in_volts, windows, 12000.0, "V") is windows
+    with pytest.raises(BearingTwinError, match=r"^params unit 'g': the record is in g, the model was trained on windows "
+                                               r"in V .*give the record in V"):
+        in_model_terms(in_volts, windows, None, "g")
+    in_g = SimpleNamespace(fs_hz=12000.0, unit="g", window_normalization="none")
+    np.testing.assert_allclose(in_model_terms(in_g, windows, None, "m/s^2"), windows / 9.80665)
+    normalized = SimpleNamespace(fs_hz=12000.0, unit="g", window_normalization="zscore")
+    assert in_model_terms(normalized, windows, None, "mg") is windows

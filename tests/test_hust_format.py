@@ -58,6 +58,7 @@ def test_the_units_row_gives_each_channel_its_unit():
     ("Legend\tTime\tSpeed\tX\tY\tZ", "Units\ts\tV\tmg\tg\tg", "mg", None),
     ("Legend\tSpeed\tX\tY\tZ", "Units\ts\tV\tmg\tg\tg", "mg", None),  # the time column's unit alone, first
     ("Legend\tTime\tSpeed\tX\tY\tZ", "Units\tV\tmg\tg\tg", "mg", None),  # a unit per channel, none for time
+    ("Legend\tTime\tSpeed\tX\tY\tZ", "Units\ts\tV\tmg\tg\t", "mg", None),  # time's unit, Z's cell left empty
     ("Legend\tSpeed\tX\tY\tZ", "Units:\tV\tG\tg\tg\t", "g", None),
     ("Legend\tSpeed\tX\tY\tZ", "Units\tV\tV\tg\tg\tg", "", "the header's Units row gives 5 units (V, V, g, g, g) "
                                                            "for the 4 columns the header's Legend (Speed, X, Y, Z) names: "

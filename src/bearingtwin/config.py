@@ -176,8 +176,13 @@ def options_hint(key: str, config_name: str = "train") -> str:
             f"give it with {'that' if one else 'one of those'}, or sweep {'it' if one else 'those'} apart from the rest")
 
 
-PRINT_ONLY_FLAGS = {"--help", "-h", "--hydra-help", "--cfg", "-c", "--info", "-i"}
-"""Hydra's flags that print and run nothing."""
+def prints_only(argv: list[str]) -> bool:
+    """Whether ``argv`` asks Hydra to print and run nothing (``--help``, ``--hydra-help``, ``--cfg``, ``--info``, in
+    any spelling its parser reads: ``--cfg=job``, ``-cjob``)."""
+    from hydra._internal.utils import get_args_parser  # Hydra's own parser: the same reading of argv
+
+    args, _ = get_args_parser().parse_known_args(argv)
+    return bool(args.help or args.hydra_help or args.cfg or args.info)
 
 
 def _end_quietly() -> None:
@@ -230,7 +235,7 @@ def hydra_command(config_name: str) -> Callable:
                 exit_on_user_error(refuse_bad_overrides)(config_name, sys.argv[1:])
             if not sys.stderr.isatty():  # MLflow's download bars, like the project's own, only in a terminal
                 os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
-            if PRINT_ONLY_FLAGS & set(sys.argv[1:]):
+            if prints_only(sys.argv[1:]):
                 # Hydra catches a closed pipe's error where it prints these (in a logging handler, or around --cfg)
                 # and prints a traceback: the error ends the command where it is raised.
                 sys.stdout = _EndsWhenReaderLeaves(sys.stdout)
@@ -246,7 +251,7 @@ def hydra_command(config_name: str) -> Callable:
     return decorate
 
 
-def list_groups(config_name: str) -> set[str]:
+def _groups_taking_lists(config_name: str) -> set[str]:
     """The config groups ``config_name``'s defaults list takes a list of options from (``- effects: []``)."""
     path = Path(CONF_DIR, f"{config_name}.yaml")
     defaults = OmegaConf.load(path).get("defaults", []) if path.is_file() else []
@@ -280,7 +285,7 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         group = key.lstrip("+~")
         if Path(CONF_DIR, group).is_dir() and value.startswith("{"):  # Hydra would merge it as an option's name
             options = ", ".join(sorted(path.stem for path in Path(CONF_DIR, group).glob("*.yaml")))
-            if group in list_groups(name):  # effects=[noise,...]: each option's settings under its own name
+            if group in _groups_taking_lists(name):  # effects=[noise,...]: each option's settings under its own name
                 raise BearingTwinError(f"{override}: {group} takes a list of its options' names ({options}); give "
                                        f"their settings apart: {group}=[<option>,...] {group}.<option>.<key>=<value>")
             raise BearingTwinError(f"{override}: a config group takes the name of one of its options ({options}); "

@@ -222,7 +222,8 @@ def _channel_units(legend: _Columns, units: list[str] | None) -> tuple[dict[str,
                         f"columns {legend.named_by} names: no unit read from it"}
     # One unit per channel beside a Legend of more cells (a "Time" cell among them): the units are the channels', in
     # their order, not the Legend's cells'.
-    cells = range(len(units)) if len(units) == len(legend.names) < legend.width else legend.cells
+    cells = (range(len(units)) if len(units) == len(legend.names) < legend.width and quantity_of(units[0]) != "a time"
+             else legend.cells)
     read, notes = {}, {}
     for channel, index in zip(legend.names, cells):
         unit, unknown = _unit(units[index] if index < len(units) else "")

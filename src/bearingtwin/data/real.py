@@ -198,18 +198,16 @@ def check_stated_rate(recording: Recording, fs_key: str, check_key: str, bearing
     """The rate a setting or a labels row gave a record, checked against its shaft line as a CWRU record's declared
     one is: refused where the shaft series contradicts it (``fs_key`` named as its source, and ``rpm_key`` where
     that setting gave the speed, not the file); one the file itself
-    records (a time column, a header, an .npz's fs) only logged, but for a speed a setting gave a whole factor too
-    high (not a data set's nominal one); unchecked without a speed. Without the
+    records (a time column, a header, an .npz's fs) only logged (one data.rpm for a folder: a record whose half orders
+    read as half its speed would stop the training); unchecked without a speed. Without the
     record's ``bearing`` a fault record's contradiction is only logged: its defect comb can stand where the
     shaft series is looked for, and only the bearing's defect lines tell the two apart."""
     if recording.rpm is None or recording.meta.get("fs_origin") == SIMULATED_RATE:  # exact, and no shaft line to read
         return
     given = recording.meta.get("fs_origin") in ("config", "declared")
-    trusted = bearing is not None or recording.fault == "normal"
     require_plausible_rate(recording.signal, recording.fs, recording.rpm, recording.source, fs_key,
                            defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
-                           refuse=given and trusted, check_key=check_key,
-                           rate_from_file=not given and trusted and recording.meta.get("rpm_origin") == "config",
+                           refuse=given and (bearing is not None or recording.fault == "normal"), check_key=check_key,
                            rpm_key=speed_setting(recording, rpm_key) if rpm_key else None)
 
 

@@ -31,8 +31,8 @@ from mlflow.protos.databricks_pb2 import INVALID_PARAMETER_VALUE
 from mlflow.pyfunc import PythonModel
 
 from bearingtwin.checks import positive_number
-from bearingtwin.data.units import METRES_PER_S2, acceleration_unit, convert_acceleration
-from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
+from bearingtwin.data.units import METRES_PER_S2
+from bearingtwin.diagnosis.pipeline import DiagnosisPipeline, unit_for_model
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.provenance import installed_versions
 
@@ -79,17 +79,20 @@ class DiagnosisModel(PythonModel):
 def in_model_terms(pipeline: DiagnosisPipeline, windows: np.ndarray, fs: float | None, unit: str) -> np.ndarray:
     """A request's ``windows`` as the model reads them: sampled at ``fs`` Hz (None: not given), refused unless it is the
     model's rate (a window of its length at another rate is another stretch of time, which no conversion of the
-    request restores; bearingtwin-diagnose resamples a record); in ``unit`` (empty: not given), converted to the
-    model's where both are acceleration units (g and m/s^2 differ by 9.81, which no level check sees)."""
+    request restores; bearingtwin-diagnose resamples a record); in ``unit`` (empty: not given), held against the
+    model's as a diagnosed record's is (:func:`unit_for_model`: converted between acceleration units, g and m/s^2
+    differing by 9.81, which no level check sees), but text no unit known here is refused (a request is answered
+    without its notes, where a diagnosis would say it read it as the model's)."""
     if fs is not None and not math.isclose(positive_number(fs, "fs", "Hz"), pipeline.fs_hz, rel_tol=1e-6):
         raise BearingTwinError(f"params fs {fs:g} Hz: the model reads windows sampled at {pipeline.fs_hz:g} Hz; resample "
                                "the record to it before cutting windows (bearingtwin-diagnose reads a record at any rate)")
-    if not unit or not pipeline.unit or pipeline.window_normalization == "zscore":  # nothing to hold it against
+    if not unit:
         return windows
-    if acceleration_unit(unit) is None:
-        raise BearingTwinError(f"params unit {unit!r}: not an acceleration unit known here; give one of "
-                               f"{', '.join(METRES_PER_S2)} (the model's is {pipeline.unit})")
-    return convert_acceleration(windows, unit, pipeline.unit)
+    factor, _, check = unit_for_model(unit, pipeline, f"params unit {unit!r}")
+    if check == "assumed":
+        raise BearingTwinError(f"params unit {unit!r}: no unit known here; give one of {', '.join(METRES_PER_S2)} "
+                               f"(the model's is {pipeline.unit})")
+    return windows if factor is None else windows * factor
 
 
 def recorded_bearing(pipeline: DiagnosisPipeline, name: str | None) -> dict | None:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bearingtwin.data.units import acceleration_factor, acceleration_unit, quantity_of, unit_key
 from bearingtwin.data.windows import normalize_windows
 from bearingtwin.diagnosis.evidence import PhysicsFirst
 from bearingtwin.errors import BearingTwinError
@@ -239,6 +240,69 @@ class DiagnosisPipeline:
             window_level=None if meta.get("window_level") is None else tuple(meta["window_level"]),
             physics_first=None if meta.get("physics_first") is None else PhysicsFirst(**meta["physics_first"]),
         )
+
+
+UNIT_CHECKS = ("as stated", "converted", "assumed", "not checked", "not needed")
+"""How a record's unit was held against the model's (:attr:`PreparedRecord.unit_check`, :func:`in_model_unit`): the
+model's own, converted to it, assumed to be it (the file states none), not checked (the model states none), not needed
+(the model normalizes every window, so no unit's scale matters to it)."""
+
+_CONVERSION_NEEDS = {
+    "a voltage": "divide it by the sensor's sensitivity (V per g, from its data sheet or calibration) and state the "
+                 "unit that gives (an .npz's 'unit' entry, a CSV header such as 'acc (g)')",
+    "a velocity": "a velocity is an integrated acceleration, so diagnose the accelerometer's own record, in an "
+                  "acceleration unit",
+    "a displacement": "a displacement is an acceleration integrated twice, so diagnose the accelerometer's own "
+                      "record, in an acceleration unit",
+}
+"""What a record in a unit of another quantity takes to be read in an acceleration unit, in words."""
+
+
+def unit_for_model(unit: str, pipeline: DiagnosisPipeline, source: str) -> tuple[float | None, list[str], str]:
+    """How samples in ``unit`` (``source``'s, named in a refusal) are read by the model: the factor converting them to
+    the unit it was trained in (None: read as they are), notes, and how the units were held against each other
+    (:data:`UNIT_CHECKS`). Converted where both are acceleration units (g, mg, m/s^2, mm/s^2, ...), read as if in the
+    model's where none is stated or text no unit known here (said so), refused where the samples are a voltage, a
+    velocity or a displacement (no acceleration factor converts them) and the model reads the windows' level. As they
+    are when the model states no unit, and when it normalizes its windows (any unit's scale is alike to it), said so
+    for a unit of another quantity than acceleration."""
+    model_unit = pipeline.unit
+    quantity = quantity_of(unit)
+    if pipeline.window_normalization != "none":
+        if not unit or quantity == "an acceleration":
+            return None, [], "not needed"
+        note = (f"the record is in {unit} ({quantity or 'a unit not known here'}), not an acceleration: read as it is, "
+                "the model scaling every window to one level")
+        if quantity in ("a velocity", "a displacement"):  # unlike a gain, integration changes the spectrum's shape
+            note += (f"; {quantity}'s spectrum falls off towards high frequencies against an acceleration's: hold the "
+                     "verdict against the physics evidence")
+        return None, [note], "not needed"
+    if not model_unit:  # trained on records that state none, or saved before models kept their unit
+        return None, [], "not checked"
+    if not unit:  # g and m/s^2 differ by 9.81: a level check that fires at a decade never sees it
+        return None, [f"the file states no unit: read as if in {model_unit}, the unit the model was trained in "
+                      "(where it is another, state it: a CSV column header such as 'acc (m/s^2)', an .npz's "
+                      "'unit' entry)"], "assumed"
+    units = acceleration_unit(unit), acceleration_unit(model_unit)
+    if unit_key(unit) == unit_key(model_unit) or units[0] is not None and units[0] == units[1]:
+        return None, [], "as stated"
+    if units[0] is None and units[1] is not None and quantity not in _CONVERSION_NEEDS:
+        # Text no unit known here (an .npz's unit entry "A"; a CSV header's brackets it does not know are no unit):
+        # as good as none stated, and said so.
+        return None, [f"the file states {unit!r}, no unit known here: read as if in {model_unit}, the unit the "
+                      "model was trained in (where it is another, state it)"], "assumed"
+    if None in units:
+        other, into = (unit, model_unit) if units[0] is None else (model_unit, unit)
+        needs = (_CONVERSION_NEEDS.get(quantity, "convert it to an acceleration unit (g, m/s^2, mg, mm/s^2) and "
+                                                 "state that unit") if units[1] is not None else
+                 f"give the record in {model_unit}, as the model's training records were")
+        raise BearingTwinError(f"{source}: the record is in {unit}, the model was trained on windows in "
+                               f"{model_unit} and reads their level, and {other} "
+                               f"({quantity_of(other) or 'a unit not known here'}) is not converted into {into} here: "
+                               f"{needs}")
+    factor = acceleration_factor(*units)
+    return factor, [f"converted from {units[0]} to {units[1]}, the unit the model was trained in (x {factor:.6g})"], \
+        "converted"
 
 
 def _jsonable(value):

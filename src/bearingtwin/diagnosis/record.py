@@ -36,11 +36,10 @@ from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw,
                                     refuse_a_label_the_file_contradicts)
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import (acceleration_factor, acceleration_unit, convert_acceleration, quantity_of,
-                                    unit_key)
+from bearingtwin.data.units import acceleration_unit, convert_acceleration
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, model_params
-from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
+from bearingtwin.diagnosis.pipeline import DiagnosisPipeline, unit_for_model
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
@@ -273,66 +272,15 @@ def _matches(checks, rate: float) -> bool:
         return False
 
 
-UNIT_CHECKS = ("as stated", "converted", "assumed", "not checked", "not needed")
-"""How a record's unit was held against the model's (:attr:`PreparedRecord.unit_check`, :func:`in_model_unit`): the
-model's own, converted to it, assumed to be it (the file states none), not checked (the model states none), not needed
-(the model normalizes every window, so no unit's scale matters to it)."""
-
-_CONVERSION_NEEDS = {
-    "a voltage": "divide it by the sensor's sensitivity (V per g, from its data sheet or calibration) and state the "
-                 "unit that gives (an .npz's 'unit' entry, a CSV header such as 'acc (g)')",
-    "a velocity": "a velocity is an integrated acceleration, so diagnose the accelerometer's own record, in an "
-                  "acceleration unit",
-    "a displacement": "a displacement is an acceleration integrated twice, so diagnose the accelerometer's own "
-                      "record, in an acceleration unit",
-}
-"""What a record in a unit of another quantity takes to be read in an acceleration unit, in words."""
-
-
 def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Recording, list[str], str]:
     """The recording in the unit the model was trained in, what was done (notes) and how the units were held
-    against each other (:data:`UNIT_CHECKS`): converted where both are acceleration units (g, mg, m/s^2, mm/s^2,
-    ...), read as if in the model's where the file states none or text no unit known here (said so), refused where
-    the record is in a voltage, a velocity or a displacement (no acceleration factor converts it) and the model reads
-    the windows' level. As it is when the model states no unit, and when it normalizes its windows (any unit's scale
-    is alike to it), said so for a unit of another quantity than acceleration."""
-    unit, model_unit = recording.unit, pipeline.unit
-    quantity = quantity_of(unit)
-    if pipeline.window_normalization != "none":
-        if not unit or quantity == "an acceleration":
-            return recording, [], "not needed"
-        note = (f"the record is in {unit} ({quantity or 'a unit not known here'}), not an acceleration: read as it is, "
-                "the model scaling every window to one level")
-        if quantity in ("a velocity", "a displacement"):  # unlike a gain, integration changes the spectrum's shape
-            note += (f"; {quantity}'s spectrum falls off towards high frequencies against an acceleration's: hold the "
-                     "verdict against the physics evidence")
-        return recording, [note], "not needed"
-    if not model_unit:  # trained on records that state none, or saved before models kept their unit
-        return recording, [], "not checked"
-    if not unit:  # g and m/s^2 differ by 9.81: a level check that fires at a decade never sees it
-        return recording, [f"the file states no unit: read as if in {model_unit}, the unit the model was trained in "
-                           "(where it is another, state it: a CSV column header such as 'acc (m/s^2)', an .npz's "
-                           "'unit' entry)"], "assumed"
-    units = acceleration_unit(unit), acceleration_unit(model_unit)
-    if unit_key(unit) == unit_key(model_unit) or units[0] is not None and units[0] == units[1]:
-        return recording, [], "as stated"
-    if units[0] is None and units[1] is not None and quantity not in _CONVERSION_NEEDS:
-        # Text no unit known here (an .npz's unit entry "A"; a CSV header's brackets it does not know are no unit):
-        # as good as none stated, and said so.
-        return recording, [f"the file states {unit!r}, no unit known here: read as if in {model_unit}, the unit the "
-                           "model was trained in (where it is another, state it)"], "assumed"
-    if None in units:
-        other, into = (unit, model_unit) if units[0] is None else (model_unit, unit)
-        needs = (_CONVERSION_NEEDS.get(quantity, "convert it to an acceleration unit (g, m/s^2, mg, mm/s^2) and "
-                                                 "state that unit") if units[1] is not None else
-                 f"give the record in {model_unit}, as the model's training records were")
-        raise BearingTwinError(f"{recording.source}: the record is in {unit}, the model was trained on windows in "
-                               f"{model_unit} and reads their level, and {other} "
-                               f"({quantity_of(other) or 'a unit not known here'}) is not converted into {into} here: "
-                               f"{needs}")
-    converted = dataclasses.replace(recording, signal=convert_acceleration(recording.signal, *units), unit=units[1])
-    return converted, [f"converted from {units[0]} to {units[1]}, the unit the model was trained in "
-                       f"(x {acceleration_factor(*units):.6g})"], "converted"
+    against each other (:data:`UNIT_CHECKS`; :func:`unit_for_model`)."""
+    factor, notes, check = unit_for_model(recording.unit, pipeline, recording.source)
+    if factor is None:
+        return recording, notes, check
+    converted = dataclasses.replace(recording, signal=convert_acceleration(recording.signal, recording.unit, pipeline.unit),
+                                    unit=acceleration_unit(pipeline.unit))
+    return converted, notes, check
 
 
 def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]:

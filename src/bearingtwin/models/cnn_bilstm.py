@@ -267,6 +267,10 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
                 raise BearingTwinError(f"{key} must be a non-negative number, got {value!r}")
         check_accelerator(self.accelerator)
 
+    def __sklearn_is_fitted__(self) -> bool:
+        # fitted once the model is: a fit refused after its data were checked leaves n_features_in_ set
+        return hasattr(self, "module_")
+
     def fit(self, X, y, eval_set: tuple | None = None) -> "CnnBiLstmClassifier":
         X, y = training_data(self, *_check_xy(X, y))
         self.check_params()
@@ -417,7 +421,9 @@ def _check_x(X) -> np.ndarray:
 def _check_xy(X, y) -> tuple[np.ndarray, np.ndarray]:
     # A column of labels is raveled here (with scikit-learn's DataConversionWarning, as its classifiers do) so that
     # labels of another length than X's are named below, before training_data would say so in scikit-learn's words.
-    X, y = _check_x(X), column_or_1d(y, warn=True)
+    X, y = _check_x(X), np.asarray(y)
+    if y.ndim == 2 and y.shape[1] == 1:
+        y = column_or_1d(y, warn=True)
     if y.shape != (X.shape[0],):
         raise BearingTwinError(f"labels have shape {y.shape}, expected ({X.shape[0]},) for {X.shape[0]} samples")
     return X, y

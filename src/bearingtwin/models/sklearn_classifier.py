@@ -162,11 +162,16 @@ class SklearnClassifier(ClassifierMixin, BaseEstimator):
         """scikit-learn's, and a nested value of a config dict refused in one line saying how to set it (scikit-learn
         sets nested values only on a built estimator: a dict has no set_params)."""
         nested = next((key for key in params if key.startswith("estimator__")), None)
-        if nested and isinstance(params.get("estimator", self.estimator), dict):
-            raise BearingTwinError(f"SklearnClassifier.set_params({nested}=...): estimator is a config dict, whose "
-                                   f"values set_params does not reach; give the whole dict (estimator={{...}}) or a "
-                                   f"built scikit-learn estimator, whose parameters it does")
+        if nested and not isinstance(params.get("estimator", self.estimator), BaseEstimator):
+            given = "a config dict" if self.estimator is not None else "not given (the config's random forest)"
+            raise BearingTwinError(f"SklearnClassifier.set_params({nested}=...): estimator is {given}, whose values "
+                                   f"set_params does not reach; give the whole dict (estimator={{...}}) or a built "
+                                   f"scikit-learn estimator, whose parameters it does")
         return super().set_params(**params)
+
+    def __sklearn_is_fitted__(self) -> bool:
+        # fitted once the model is: a fit refused after its data were checked leaves n_features_in_ set
+        return hasattr(self, "model_")
 
     def fit(self, X, y) -> "SklearnClassifier":
         X, y = training_data(self, X, y)

@@ -92,6 +92,10 @@ class SvmClassifier(ClassifierMixin, BaseEstimator):
         """Raise :class:`BearingTwinError` naming the first impossible parameter."""
         make_svm(self.C, self.kernel, self.gamma, self.random_state)
 
+    def __sklearn_is_fitted__(self) -> bool:
+        # fitted once the model is: a fit refused after its data were checked leaves n_features_in_ set
+        return hasattr(self, "svm_")
+
     def fit(self, X, y) -> "SvmClassifier":
         self.check_params()  # a bad parameter named before anything is fitted
         X, y = training_data(self, X, y)

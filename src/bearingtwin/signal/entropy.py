@@ -15,7 +15,8 @@ import numpy as np
 
 from bearingtwin.checks import whole_number
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.envelope import _as_signal, envelope
+from bearingtwin.signal.envelope import envelope
+from bearingtwin.signal.inputs import as_signal
 
 BIN_RULES = ("sturges", "sqrt", "rice")
 
@@ -60,7 +61,7 @@ def permutation_entropy(x, order: int = 3, delay: int = 1, normalize: bool = Tru
     Returns:
         (...) entropy in bits (or normalized), as antropy.perm_entropy.
     """
-    x = _as_signal(x)
+    x = as_signal(x)
     if int(order) != order or not 2 <= order <= 10:
         raise BearingTwinError(f"order must be an integer in 2..10 (got {order})")
     if int(delay) != delay or delay < 1:
@@ -122,7 +123,7 @@ def bin_indices(x, n_bins: int) -> np.ndarray:
     The rightmost edge is included in the last bin, as in ``numpy.histogram``; a constant
     row falls entirely into bin 0.
     """
-    x = _as_signal(x)
+    x = as_signal(x)
     n_bins = whole_number("n_bins", n_bins)  # fewer than one bin would index every sample -1
     low = x.min(axis=-1, keepdims=True)
     span = x.max(axis=-1, keepdims=True) - low
@@ -164,8 +165,8 @@ def mutual_information(a, b, bins="sturges") -> np.ndarray:
     Returns:
         (...) mutual information in nats; I(a; a) is the entropy of a's binned distribution.
     """
-    a = _as_signal(a, "a")
-    b = _as_signal(b, "b")
+    a = as_signal(a, "a")
+    b = as_signal(b, "b")
     if a.shape != b.shape:
         raise BearingTwinError(f"a and b must have the same shape (got {a.shape} and {b.shape})")
     n_bins = _n_bins(bins, a.shape[-1])
@@ -182,7 +183,7 @@ def mean_mode_mutual_information(modes, bins="sturges") -> np.ndarray:
     Returns:
         (...) mean of I(mode_i; mode_j) over the k (k - 1) / 2 pairs i < j.
     """
-    modes = _as_signal(modes, "modes")
+    modes = as_signal(modes, "modes")
     if modes.ndim < 2 or modes.shape[-2] < 2:
         raise BearingTwinError(f"modes must have shape (..., k, n) with k >= 2 (got {modes.shape})")
     n_bins = _n_bins(bins, modes.shape[-1])

@@ -14,30 +14,7 @@ import numpy as np
 import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
-
-
-def _as_signal(x, name: str = "x") -> np.ndarray:
-    x = np.asarray(x)
-    if not np.issubdtype(x.dtype, np.number) or np.iscomplexobj(x):
-        raise BearingTwinError(f"{name} must be a real numeric array (got dtype {x.dtype})")
-    if x.ndim < 1 or x.shape[-1] < 2:
-        raise BearingTwinError(f"{name} needs at least 2 samples along its last axis (got shape {x.shape})")
-    x = x.astype(np.float64, copy=False)
-    if not np.all(np.isfinite(x)):
-        raise BearingTwinError(f"{name} contains NaN or infinite values")
-    return x
-
-
-def _check_rate(fs, name: str = "fs", what: str = "sampling rate in Hz") -> None:
-    """Refuse a sampling rate (or another positive quantity, ``what``) that is not a positive, finite real number.
-
-    A numpy scalar or 0-d array (a rate read from an ``.npz``) passes as it is, so the caller's
-    arithmetic stays bit for bit what it was; a bool (``True`` would be 1 Hz) or a number's text
-    does not: these functions take arrays, and only the command line reads a rate from text.
-    """
-    rate = np.asarray(fs)
-    if rate.ndim != 0 or rate.dtype.kind not in "iuf" or not (np.isfinite(rate) and rate > 0):
-        raise BearingTwinError(f"{name} must be a positive {what} (got {fs!r})")
+from bearingtwin.signal.inputs import as_signal, check_positive
 
 
 def cepstral_prewhiten(x) -> np.ndarray:
@@ -50,7 +27,7 @@ def cepstral_prewhiten(x) -> np.ndarray:
     so the envelope of the whitened signal shows the defect's repetition rate whatever the path.
     The output has unit power per frequency bin, whatever the input's unit.
     """
-    x = _as_signal(x)
+    x = as_signal(x)
     spectrum = np.fft.rfft(x - x.mean(axis=-1, keepdims=True), axis=-1)
     magnitude = np.abs(spectrum)
     whitened = np.where(magnitude > 0, spectrum / np.where(magnitude > 0, magnitude, 1.0), 0.0)
@@ -64,7 +41,7 @@ def envelope(x) -> np.ndarray:
     The FFT-based Hilbert transform assumes a periodic signal, so the first and last
     few samples carry edge effects when the window does not hold whole periods.
     """
-    return np.abs(scipy.signal.hilbert(_as_signal(x), axis=-1))
+    return np.abs(scipy.signal.hilbert(as_signal(x), axis=-1))
 
 
 def envelope_spectrum(x, fs: float, *, remove_mean: bool = True, window=None) -> tuple[np.ndarray, np.ndarray]:
@@ -84,7 +61,7 @@ def envelope_spectrum(x, fs: float, *, remove_mean: bool = True, window=None) ->
             by 1 / sum(window)) so that an envelope ``c + m cos(2 pi f t)`` with f on a bin
             shows a line of height m at f: the modulation amplitude is read off directly.
     """
-    _check_rate(fs)
+    check_positive(fs)
     env = envelope(x)
     n = env.shape[-1]
     if remove_mean:

@@ -24,7 +24,7 @@ import numpy as np
 import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.envelope import _as_signal, _check_rate
+from bearingtwin.signal.inputs import as_signal, check_positive
 
 
 def spectral_kurtosis(x, fs_hz: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
@@ -34,8 +34,8 @@ def spectral_kurtosis(x, fs_hz: float, nperseg: int) -> tuple[np.ndarray, np.nda
     STFT window length in samples.
     """
     # A NaN anywhere in a row would leave that row's SK silently zero, so refuse it as envelope() does.
-    x = _as_signal(x)
-    _check_rate(fs_hz, "fs_hz")
+    x = as_signal(x)
+    check_positive(fs_hz, "fs_hz")
     if not (isinstance(nperseg, (int, np.integer)) and 4 <= nperseg <= x.shape[-1]):
         raise BearingTwinError(f"nperseg must be an integer between 4 and the signal's length {x.shape[-1]}, got {nperseg!r}")
     freqs_hz, _, coefficients = scipy.signal.stft(x, fs=fs_hz, window="hann", nperseg=nperseg,
@@ -73,10 +73,10 @@ def kurtogram(x, fs_hz: float, nperseg=(16, 32, 64, 128, 256), min_hz: float = 0
     ``min_hz`` excludes low bands (shaft harmonics, electrical lines) from the choice, as a
     demodulation band for bearing diagnosis lies above them.
     """
-    x = _as_signal(x)
+    x = as_signal(x)
     if x.ndim != 1:
         raise BearingTwinError(f"x must be one 1-D signal for the kurtogram (got shape {x.shape})")
-    _check_rate(fs_hz, "fs_hz")
+    check_positive(fs_hz, "fs_hz")
     if isinstance(nperseg, (int, np.integer)):  # one window length, as spectral_kurtosis takes it
         nperseg = (nperseg,)
     levels = [int(n) for n in nperseg if int(n) <= x.size]

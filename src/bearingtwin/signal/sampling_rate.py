@@ -37,7 +37,7 @@ from scipy.ndimage import median_filter
 
 from bearingtwin.checks import is_finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.envelope import _as_signal, _check_rate
+from bearingtwin.signal.inputs import as_signal, check_positive
 
 VERDICTS = ("consistent", "contradicted", "ambiguous")
 VERDICTS_BY_FAVOUR = ("consistent", "ambiguous", "contradicted")
@@ -263,14 +263,16 @@ def check_sampling_rate(
         follow_implied: check a contradiction's implied rate in turn (False: the rate the nearest series
             implies, as read).
     """
-    signal = _as_signal(signal, "signal")  # real, finite, at least 2 samples: as every signal function takes it
+    signal = as_signal(signal, "signal")  # real, finite, at least 2 samples: as every signal function takes it
     if signal.ndim != 1:
         raise BearingTwinError(f"signal must be one 1-D record for the sampling-rate check (got shape {signal.shape})")
-    _check_rate(fs, "fs")
-    _check_rate(rpm, "rpm", "shaft speed in rev/min")
+    check_positive(fs, "fs")
+    check_positive(rpm, "rpm", "shaft speed in rev/min")
     for name, value in (("tolerance", tolerance), ("prominence", prominence), ("harmonic_tolerance", harmonic_tolerance),
-                        ("background_hz", background_hz), ("slip", slip)):
-        _check_rate(value, name, "number")
+                        ("background_hz", background_hz)):
+        check_positive(value, name, "number")
+    if not (is_finite_number(slip) and slip >= 0):  # 0: the in-between series sought at observed / k exactly
+        raise BearingTwinError(f"slip must be a non-negative number (got {slip!r})")
     n_harmonics, max_fraction = whole_number("n_harmonics", n_harmonics), whole_number("max_fraction", max_fraction, minimum=2)
     if not search_factor > 1.0:
         raise BearingTwinError(f"search_factor must exceed 1, got {search_factor}")
@@ -626,8 +628,8 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
 def _series_below(signal: np.ndarray, check: ShaftLineCheck, n_harmonics: int, window: float,
                   prominence: float) -> int | None:
     """The k (2 .. :data:`_MAX_FRACTION`) at which the strong series at ``check.observed_hz`` stands between its
-    harmonics too, at multiples of observed / k that are no multiple of k (the first 2 x ``n_harmonics``, judged
-    by their median as the series itself is): it is then the k-th harmonics of a comb at observed / k. Under a speed
+    harmonics too, at multiples of observed / k that are no multiple of k (those below its ``n_harmonics``-th
+    harmonic, at most 2 x ``n_harmonics`` of them, judged by their median as the series itself is): it is then the k-th harmonics of a comb at observed / k. Under a speed
     k times too high every defect frequency lands on its k-th harmonic, so a race's comb is read there as the
     declared speed's; a record without a shaft series of its own (the twin's) has only its in-between lines to tell
     the two readings apart. None where none stands, or where observed / k lies on a shaft harmonic, whose lines
@@ -922,22 +924,26 @@ def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float
     return None
 
 
-def speed_a_whole_factor_lower(signal, fs: float, rpm: float, defect_hz: Mapping[str, float] | None = None,
-                               channels: Mapping[str, np.ndarray] | None = None, max_factor: int = 10) -> int | None:
-    """The least m (2 .. ``max_factor``) at which the record (every channel a witness) is ``consistent`` with a speed
-    of ``rpm`` / m at ``fs``: a speed given a whole factor too high (twice the speed, a digit too many) puts every line
-    the record holds on a harmonic of the lines expected, which a check at the given speed may leave unexplained;
-    None where no such speed is confirmed (or the record is too short to check it). ``defect_hz``: the bearing's
-    defect frequencies at ``rpm``, which scale with the speed."""
+def speeds_a_whole_factor_lower(signal, fs: float, rpm: float, defect_hz: Mapping[str, float] | None = None,
+                                channels: Mapping[str, np.ndarray] | None = None, max_factor: int = 10) -> list[int]:
+    """Every m (2 .. ``max_factor``) at which the record (every channel a witness) is ``consistent`` with a speed of
+    ``rpm`` / m at ``fs``, those whose shaft series stands at its place first, then the least: a speed given a whole
+    factor too high (twice the speed, a digit too many) puts every line the record holds on a harmonic of the lines
+    expected, which a check at the given speed may leave unexplained. Under a speed M times too high the speeds M / m
+    times too high may be confirmed too (their lines are the true ones' harmonics), so more than one m may be named.
+    Empty where none is confirmed (or the record is too short to check one). ``defect_hz``: the bearing's defect
+    frequencies at ``rpm``, which scale with the speed."""
+    consistent = []
     for m in range(2, max_factor + 1):
         scaled = {name: hz / m for name, hz in defect_hz.items()} if defect_hz else None
         try:
             checks = check_channels(rate_witnesses(signal, channels), fs, rpm / m, defect_hz=scaled)
         except BearingTwinError:  # too short a record to place a shaft line this low: nor any lower one
-            return None
-        if checks[decisive_channel(checks)].verdict == "consistent":
-            return m
-    return None
+            break
+        check = checks[decisive_channel(checks)]
+        if check.verdict == "consistent":
+            consistent.append((not check.matches, m))
+    return [m for _, m in sorted(consistent)]
 
 
 def describe_mismatch(check: ShaftLineCheck) -> str:
@@ -958,7 +964,7 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     itself records (a header, a time column), which a record without a visible shaft line (a
     simulation, a machine without unbalance) cannot contradict. ``rate_from_file``: the file records the rate, and
     a setting typed the speed (``rpm_key``): a contradiction is refused all the same where the record is consistent
-    with a speed a whole factor below it (:func:`speed_a_whole_factor_lower`), naming ``rpm_key`` alone (other
+    with a speed a whole factor below it (:func:`speeds_a_whole_factor_lower`), naming ``rpm_key`` alone (other
     contradictions of such a pair stay logged: a noise-free or short record's lines contradict a true pair too; and a
     machine's half orders can make a record consistent with half its speed: on CWRU's records cut to 5 s, one of 13
     at its true speed). ``channels``: the file's channels
@@ -973,22 +979,23 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
-    lower = (speed_a_whole_factor_lower(signal, fs, rpm, defect_hz, channels)
-             if rate_from_file and rpm_key and check.verdict == "contradicted" else None)
+    lower = (speeds_a_whole_factor_lower(signal, fs, rpm, defect_hz, channels)
+             if rate_from_file and rpm_key and check.verdict == "contradicted" else [])
     if check.verdict == "contradicted" and (refuse or lower):
         truth = f"both {fs:g} Hz and {rpm:g} rpm are true" if rpm_key else f"{fs:g} Hz is the true one"
         off = f", or {check_key}=false if {truth}" if check_key else ""
         if lower:
-            raise BearingTwinError(f"{source}: {describe_mismatch(check)}; at {rpm / lower:g} rpm ({lower} times lower) "
-                                   f"the record's lines stand where they belong, and the file records its rate: give "
-                                   f"the true speed with {rpm_key}=<rev/min>{off}")
+            speeds = "; ".join(f"{rpm / m:g} rpm ({m} times lower)" for m in lower)
+            raise BearingTwinError(f"{source}: {describe_mismatch(check)}; the record's lines stand where they belong at "
+                                   f"{speeds}, and the file records its rate: give the true speed with "
+                                   f"{rpm_key}=<rev/min>{off}")
         speed = f" (or the true speed with {rpm_key}=<rev/min>)" if rpm_key else ""
         raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{speed}{off}")
     if check.verdict == "contradicted":
         log.warning("%s: %s (the rate the file records is kept)", source, describe_mismatch(check))
     if check.verdict == "ambiguous":
         # Where a setting gave the speed, the rate the in-between lines imply is as well a speed that many times lower.
-        lower = (f"; or, at {fs:g} Hz, a speed of {rpm * fs / check.fraction_rate_hz:.0f} rpm ({rpm_key})"
-                 if rpm_key and check.fraction_rate_hz and check.fraction_rate_hz > fs else "")
-        log.warning("%s: %s%s", source, describe_mismatch(check), lower)
+        speed_doubt = (f"; or, at {fs:g} Hz, a speed of {rpm * fs / check.fraction_rate_hz:.0f} rpm ({rpm_key})"
+                       if rpm_key and check.fraction_rate_hz and check.fraction_rate_hz > fs else "")
+        log.warning("%s: %s%s", source, describe_mismatch(check), speed_doubt)
     return check

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.signal import ShortTimeFFT
 
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.envelope import _as_signal, _check_rate
+from bearingtwin.signal.inputs import as_signal, check_positive
 
 
 class WelchPSD:
@@ -32,9 +32,9 @@ class WelchPSD:
     """
 
     def __init__(self, fs_hz: float, window):
-        _check_rate(fs_hz, "fs_hz")
+        check_positive(fs_hz, "fs_hz")
         # A NaN in the window would turn every PSD into NaN, so it is checked as a signal is.
-        window = _as_signal(window, "window")
+        window = as_signal(window, "window")
         if window.ndim != 1:
             raise BearingTwinError(f"window must be 1-D, one weight per sample of a segment (got shape {window.shape})")
         if not np.any(window):  # the PSD's scale divides by the window's power: every value would be NaN
@@ -46,7 +46,7 @@ class WelchPSD:
         self.freqs_hz = self.transform.f
 
     def __call__(self, x) -> tuple[np.ndarray, np.ndarray]:
-        x = _as_signal(x)
+        x = as_signal(x)
         n = x.shape[-1]
         if n < self.nperseg:
             raise BearingTwinError(f"a signal of {n} samples is shorter than one Welch segment ({self.nperseg})")
