@@ -98,3 +98,11 @@ def test_the_kurtograms_band_lies_below_its_upper_limit_and_one_window_length_is
     assert result.best_nperseg == 256 and low < high <= 0.49 * FS
     assert high - low == pytest.approx(FS / result.best_nperseg)
     assert kurtogram(noise, FS, nperseg=16).band_hz == kurtogram(noise, FS, nperseg=(16,)).band_hz
+
+
+def test_the_rate_checks_in_between_search_may_be_exact():
+    """slip=0 seeks the in-between series at observed / k exactly (a value the check had taken before its inputs were
+    checked, and must still)."""
+    t = np.arange(24000) / FS
+    record = sum(np.sin(2 * np.pi * n * 1797.0 / 60.0 * t) for n in range(1, 6))
+    assert check_sampling_rate(record, FS, 1797.0, slip=0.0).verdict == "consistent"
