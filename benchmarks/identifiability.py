@@ -46,13 +46,14 @@ from __future__ import annotations
 
 import argparse
 import csv
-import itertools
 import hashlib
+import itertools
 import json
 import math
 import os
-import re
 import platform
+import re
+import shlex
 import sys
 import tempfile
 import time
@@ -77,7 +78,7 @@ from bearingtwin.twin.compare import Comparator, CompareSettings
 from bearingtwin.twin.model import TwinModel
 from bearingtwin.twin.rank import deviance, penalty_per_parameter, signature_gain, signature_views, view_floors
 from bearingtwin.twin.reference import hold_reference
-from bearingtwin.twin.report import MAX_SEED, build_ranker, load_measurement, seed_value, twin_for
+from bearingtwin.twin.report import MAX_SEED, build_ranker, load_measurement, ranker_settings, seed_value, twin_for
 
 G = 9.80665
 SECONDS = 2.0
@@ -266,13 +267,21 @@ def read_listed(manifest: Path, row: dict, role: str, settings: dict, bearing: B
         # Built only to refuse, before any run starts, a record too short or sampled too slowly to compare.
         Comparator(recording, bearing, compare)
     except BearingTwinError as error:
-        said = str(error)
-        if "does not state its" in said:  # a manifest gives each row's facts in its columns, not as measured.* settings
-            columns = re.findall(r"measured\.(\w+)=", said)
-            said = f"{said.split('; give ')[0]}; give them in the manifest's {', '.join(columns)} column" + \
-                   ("s" if len(columns) > 1 else "")
+        said = in_manifest_words(str(error))
         raise BearingTwinError(f"{where}: {said}" if str(path) in said else f"{where}: {path}: {said}") from None
     return settings, recording
+
+
+def in_manifest_words(said: str) -> str:
+    """A reader's message about a ``measured.*`` setting said of the manifest's column that gives it per row (a
+    ``measured.fs=`` on the command line would set every row's)."""
+    if "does not state its" in said:
+        columns = re.findall(r"measured\.(\w+)=", said)
+        many = len(columns) > 1
+        return (f"{said.split('; give ')[0]}; give {'them' if many else 'it'} in the manifest's {', '.join(columns)} "
+                f"column{'s' if many else ''}")
+    said = re.sub(r"measured\.(fs|rpm|fault|channel)=(?!<)(\S+) contradicts", r"the manifest's \1 \2 contradicts", said)
+    return re.sub(r"with measured\.(fs|rpm|fault|channel)=<[^>]*>", r"in the manifest's \1 column", said)
 
 
 REFERENCE_RPM_TOLERANCE = 0.02
@@ -328,7 +337,7 @@ def cases_from_manifest(manifest: Path, cfg) -> list[dict]:
     for line, row in read_manifest(manifest):
         where = f"{manifest}, line {line}"
         try:
-            listed.append(listed_case(manifest, row, cfg, library, bearing, compare, where))
+            listed.append({**listed_case(manifest, row, cfg, library, bearing, compare, where), "line": line})
         except BearingTwinError as error:  # every bad row is named at once: a large manifest is mended in one go
             refused.append(str(error))
     if refused:
@@ -667,10 +676,50 @@ DISCUSSION = "\n## Discussion\n"
 """The heading from which results/identifiability.md is written by hand (kept when the tables are regenerated)."""
 
 
+def plural(count: int, noun: str) -> str:
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
+PATH_OPTIONS = ("--records", "--out", "--export")
+
+
+def regenerating_command(argv: list[str]) -> str:
+    """The command as the page gives it, runnable from any folder: the paths it names absolute, every word quoted
+    for a shell where it must be (``candidates=[a,b]`` would be a glob)."""
+    words = []
+    for index, word in enumerate(argv):
+        option, equals, value = word.partition("=")
+        if option in PATH_OPTIONS and equals:
+            word = f"{option}={Path(value).resolve()}"
+        elif index and argv[index - 1] in PATH_OPTIONS:
+            word = str(Path(word).resolve())
+        words.append(shlex.quote(word))
+    return " ".join(["python benchmarks/identifiability.py", *words])
+
+
+def write_failures_only(out: Path, failures: list[dict]) -> None:
+    """identifiability.md in ``out`` when every case failed: the failures alone (a page left from an earlier run would
+    read as this one's), and no earlier run's JSON or figure beside it."""
+    out.mkdir(parents=True, exist_ok=True)
+    for stale in ("identifiability.json", "identifiability.png"):
+        (out / stale).unlink(missing_ok=True)
+    (out / "identifiability.md").write_text("\n".join([
+        "# Identifiability: does the ranking name the missing physics?", "", "Every case failed: nothing is scored.", "",
+        *failed_section(failures)]))
+
+
+def failed_section(failures: list[dict]) -> list[str]:
+    return ["## Failed cases", "", "Not scored: their runs failed.", "",
+            markdown_table(["case", "kind", "hidden", "error"],
+                           [[case_name(f), f["kind"], ", ".join(f["hidden"]) or "none", f["error"]] for f in failures]),
+            ""]
+
+
 def case_name(case: dict) -> str:
     """A case as a reader finds it: a listed record by its file, a split's by its source, kind, fault and rate."""
     if "measured" in case:
-        return Path(case["measured"]["path"]).name
+        return f"{Path(case['measured']['path']).name} (line {case['line']})" if "line" in case else \
+            Path(case["measured"]["path"]).name
     return f"{case['source']} {case['kind']} {case['fault']} {'+'.join(case['hidden']) or 'none'} {case['fs']:g} Hz"
 
 
@@ -740,7 +789,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
         + "; ".join(described[source] for source in sources) + ".", "",
         markdown_table(["case kind", "goal", *(SOURCES[source] for source in sources)], rows), "",
         "![cases right per kind against the goals](identifiability.png)", "",
-        f"Regenerate ({f'{wall_s / 60:.0f} min' if wall_s >= 90 else f'{wall_s:.0f} s'} on {machine}):", "",
+        f"Regenerate ({f'{wall_s / 60:.1f} min' if wall_s >= 90 else f'{wall_s:.0f} s'} on {machine}):", "",
         "```bash", command, "```", "",
         "## Hidden single effects: what was added first", "",
         *(line for source in sorted(sources, key=["rig", "records", "twin"].index)
@@ -752,10 +801,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
         "## Misses", "",
         markdown_table([*(["record"] if manifest is not None else []), "source", "kind", "fault", "hidden", "fs", "unit", "added", "first-round evidence (signature gain)",
                         "unexplained views"], misses) if misses else "None.", "",
-        *(["## Failed cases", "", "Not scored: their runs failed.", "",
-           markdown_table(["case", "kind", "hidden", "error"],
-                          [[case_name(f), f["kind"], ", ".join(f["hidden"]) or "none", f["error"]] for f in failures]),
-           ""] if failures else []),
+        *(failed_section(failures) if failures else []),
     ]
     out.mkdir(parents=True, exist_ok=True)
     plot_rates(table, goals, out / "identifiability.png", sources)
@@ -819,6 +865,7 @@ def main() -> int:
             cfg = twin_config(*overrides)
         except (HydraException, OmegaConfBaseException) as error:
             raise BearingTwinError(f"overrides {' '.join(args.overrides)}: {str(error).splitlines()[0]}") from None
+        ranker_settings(cfg)  # a budget or rule bearingtwin-twin would refuse (calibration.n_trials_base=0)
         if args.records is not None:
             todo = cases_from_manifest(args.records, cfg)
         faults = args.faults.split(",") if args.faults else FAULTS if args.records is None else None
@@ -842,7 +889,7 @@ def main() -> int:
     except BearingTwinError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
-    print(f"{len(todo)} cases; results will be written to {args.out}", file=sys.stderr)
+    print(f"{plural(len(todo), 'case')}; results will be written to {args.out}", file=sys.stderr)
     start = time.perf_counter()
     keys = list(dict.fromkeys(_reference_key(case) for case in todo))
     first_of = {key: next(case for case in todo if _reference_key(case) == key) for key in keys}
@@ -857,7 +904,9 @@ def main() -> int:
     for failure in failures:
         print(f"FAILED: {case_name(failure)}: {failure['error']}", file=sys.stderr)
     if not results:
-        print(f"error: every one of the {len(failures)} cases failed; nothing to score", file=sys.stderr)
+        write_failures_only(Path(args.out), failures)
+        print(f"error: {'the case' if len(failures) == 1 else f'all {len(failures)} cases'} failed; nothing to score "
+              f"({Path(args.out) / 'identifiability.md'} lists {'it' if len(failures) == 1 else 'them'})", file=sys.stderr)
         return 1
     table = summarize(results)
     print_counts(table)
@@ -880,13 +929,9 @@ def main() -> int:
               f"most often at ranking.min_signature_gain={ranking['min_signature_gain']:g} (ties: fewer points, "
               "then the lower floor)")
         return 1 if failures else 0
-    # The manifest by its absolute path: the command regenerates the page from any folder.
-    arguments = [str(args.records.resolve()) if args.records is not None and argument == str(args.records) else argument
-                 for argument in sys.argv[1:]]
-    write_results(results, Path(args.out), f"python benchmarks/identifiability.py {' '.join(arguments)}", wall,
-                  args.records, failures)
+    write_results(results, Path(args.out), regenerating_command(sys.argv[1:]), wall, args.records, failures)
     if failures:
-        print(f"{len(failures)} of {len(ran)} cases FAILED (listed above and in the page's 'Failed cases'); the "
+        print(f"{len(failures)} of {plural(len(ran), 'case')} FAILED (listed above and in the page's 'Failed cases'); the "
               "others are scored", file=sys.stderr)
         return 1
     return 0

@@ -185,7 +185,10 @@ def test_records_are_checked_as_the_twin_checks_them(module, exported, twin_cfg)
     np.save(exported.parent / "bare.npy", record["signal"])
     np.save(exported.parent / "bare_reference.npy", np.load(exported.parent / "reference_00.npz")["signal"])
     halved = rewrite(exported, record="bare.npy", reference="bare_reference.npy", fs="6000", rpm="1797", fault="outer")
-    with pytest.raises(BearingTwinError, match=r"line 2: .*bare.npy.*measured.fs"):
+    # a rate half the true one reads as a speed twice the true one: both readings are named
+    with pytest.raises(BearingTwinError, match=r"line 2: .*bare.npy.*give the true rate in the manifest's fs column \(or "
+                                               r"the true speed in the manifest's rpm column: its lines stand where they "
+                                               r"belong at 898.5 rpm \(2 times lower\)\)"):
         module.cases_from_manifest(halved, twin_cfg)
     unchecked = OmegaConf.merge(twin_cfg, {"measured": {"check_fs": False}})  # measured.check_fs=false: every row
     assert module.cases_from_manifest(halved, unchecked)[0]["fs"] == 6000.0
@@ -254,7 +257,7 @@ def test_every_bad_row_is_named_at_once_and_a_files_missing_facts_point_at_the_m
         module.cases_from_manifest(edited, twin_cfg)
     said = str(refused.value)
     assert "line 2: kind 'triple'" in said and "(2 rows refused)" in said and "\n" not in said
-    assert re.search(r"line 4: .*bare.npy: the file does not state its sampling rate; give them in the manifest's fs "
+    assert re.search(r"line 4: .*bare.npy: the file does not state its sampling rate; give it in the manifest's fs "
                      r"column", said), said
 
 
@@ -284,5 +287,26 @@ def test_a_failing_case_is_listed_and_the_others_are_scored(module, exported, tw
               "unexplained": [], "final_error": 1.0, "baseline_error": 3.0, "seconds": 9.0}
     module.write_results([scored], tmp_path, "python benchmarks/identifiability.py", 30.0, exported, [failure])
     page = (tmp_path / "identifiability.md").read_text()
-    assert "## Failed cases" in page and "| 001_rig_single_outer_slip.npz | single | slip | ValueError: a bug |" in page
+    assert "## Failed cases" in page and "| 001_rig_single_outer_slip.npz (line 3) | single | slip | ValueError: a bug |" in page
     assert "Regenerate (30 s on" in page
+
+
+def test_a_run_whose_every_case_failed_leaves_no_earlier_page_to_be_read_as_its_own(module, exported, twin_cfg, tmp_path):
+    (tmp_path / "identifiability.json").write_text("[]")  # an earlier run's
+    failure = {**module.cases_from_manifest(exported, twin_cfg)[0], "error": "its reference failed: no luck"}
+    module.write_failures_only(tmp_path, [failure])
+    page = (tmp_path / "identifiability.md").read_text()
+    assert "Every case failed: nothing is scored." in page and "(line 2) | single | resonance | its reference failed" in page
+    assert not (tmp_path / "identifiability.json").exists()
+
+
+def test_the_pages_command_runs_from_any_folder(module, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    command = module.regenerating_command(["--records=recs/m.csv", "--out", "out", "candidates=[slip,tones]"])
+    assert command == (f"python benchmarks/identifiability.py --records={tmp_path}/recs/m.csv {tmp_path}/out "
+                       "'candidates=[slip,tones]'").replace(f" {tmp_path}/out", f" --out {tmp_path}/out")
+
+
+def test_a_budget_the_twin_would_refuse_is_refused_before_any_run(exported, tmp_path):
+    done = benchmark("--records", str(exported), "bearing=cwru_6205", "calibration.n_trials_base=0", cwd=tmp_path)
+    assert done.returncode == 2 and "calibration.n_trials_base" in done.stderr.strip().splitlines()[-1]

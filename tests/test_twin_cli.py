@@ -547,6 +547,14 @@ def test_a_real_records_speed_typed_a_whole_factor_too_high_is_refused_beside_it
                                  "fault": recording.fault, "check_fs": True})
 
     assert load_measurement(measured(recording.rpm), load_bearing("cwru_6205")).rpm == recording.rpm
+    # Both given by settings (a bare array): the refusal names the rate, and the speeds the lines stand at too.
+    np.save(tmp_path / "bare.npy", recording.signal)
+    bare = OmegaConf.create({"path": str(tmp_path / "bare.npy"), "channel": None, "fs": recording.fs,
+                             "rpm": 2 * recording.rpm, "fault": recording.fault, "check_fs": True})
+    with pytest.raises(BearingTwinError, match=rf"give the true rate with measured.fs=<Hz> \(or the true speed with "
+                                               rf"measured.rpm=<rev/min>: its lines stand where they belong at "
+                                               rf"{recording.rpm:g} rpm \(2 times lower\)"):
+        load_measurement(bare, load_bearing("cwru_6205"))
     for factor in (2, 3):
         with pytest.raises(BearingTwinError, match=rf"the record's lines stand where they belong at {recording.rpm:g} rpm "
                                                    rf"\({factor} times lower\).*give the true speed with measured.rpm"):

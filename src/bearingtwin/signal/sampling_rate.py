@@ -979,17 +979,19 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
+    # Where a setting gave the speed, the speeds a whole factor lower the record is consistent with are named.
     lower = (speeds_a_whole_factor_lower(signal, fs, rpm, defect_hz, channels)
-             if rate_from_file and rpm_key and check.verdict == "contradicted" else [])
+             if rpm_key and check.verdict == "contradicted" and (refuse or rate_from_file) else [])
+    speeds = "; ".join(f"{rpm / m:g} rpm ({m} times lower)" for m in lower)
     if check.verdict == "contradicted" and (refuse or lower):
         truth = f"both {fs:g} Hz and {rpm:g} rpm are true" if rpm_key else f"{fs:g} Hz is the true one"
         off = f", or {check_key}=false if {truth}" if check_key else ""
-        if lower:
-            speeds = "; ".join(f"{rpm / m:g} rpm ({m} times lower)" for m in lower)
+        if lower and rate_from_file:
             raise BearingTwinError(f"{source}: {describe_mismatch(check)}; the record's lines stand where they belong at "
                                    f"{speeds}, and the file records its rate: give the true speed with "
                                    f"{rpm_key}=<rev/min>{off}")
-        speed = f" (or the true speed with {rpm_key}=<rev/min>)" if rpm_key else ""
+        speed = (f" (or the true speed with {rpm_key}=<rev/min>{f': its lines stand where they belong at {speeds}' if lower else ''})"
+                 if rpm_key else "")
         raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{speed}{off}")
     if check.verdict == "contradicted":
         log.warning("%s: %s (the rate the file records is kept)", source, describe_mismatch(check))
