@@ -402,7 +402,8 @@ def test_a_speed_ten_times_too_high_is_refused_naming_the_speeds_setting_too(tmp
     overrides = ["data.fs=null", "data.bearing=cwru_6205", *([f"data.rpm={rpm}"] if given == "setting" else [])]
     with pytest.raises(BearingTwinError, match=rf"outer.npy: fs = 12000 Hz contradicts the shaft speed: at {rpm:g} rpm"
                                                rf".*give the true rate with the labels row's fs=<Hz> \(or the true "
-                                               rf"speed with {key}=<rev/min>\)"):
+                                               rf"speed with {key}=<rev/min>: its lines stand where they belong at "
+                                               rf"{recording.rpm:g} rpm \(10 times lower\)\)"):
         build_dataset(files_cfg(root, *overrides))
 
 
