@@ -278,8 +278,8 @@ def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Re
     factor, notes, check = unit_for_model(recording.unit, pipeline, recording.source)
     if factor is None:
         return recording, notes, check
-    converted = dataclasses.replace(recording, signal=convert_acceleration(recording.signal, recording.unit, pipeline.unit),
-                                    unit=acceleration_unit(pipeline.unit))
+    signal = convert_acceleration(recording.signal, recording.unit, pipeline.unit)
+    converted = dataclasses.replace(recording, signal=signal, unit=acceleration_unit(pipeline.unit))
     return converted, notes, check
 
 

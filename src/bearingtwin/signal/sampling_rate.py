@@ -273,7 +273,8 @@ def check_sampling_rate(
         check_positive(value, name, "number")
     if not (is_finite_number(slip) and slip >= 0):  # 0: the in-between series sought at observed / k exactly
         raise BearingTwinError(f"slip must be a non-negative number (got {slip!r})")
-    n_harmonics, max_fraction = whole_number("n_harmonics", n_harmonics), whole_number("max_fraction", max_fraction, minimum=2)
+    n_harmonics = whole_number("n_harmonics", n_harmonics)
+    max_fraction = whole_number("max_fraction", max_fraction, minimum=2)
     if not search_factor > 1.0:
         raise BearingTwinError(f"search_factor must exceed 1, got {search_factor}")
     expected = rpm / 60.0
@@ -311,6 +312,9 @@ def check_sampling_rate(
                                        lambda rate: _shaft_series_at(signal, rate, rpm, options)) or checked
         return _defect_comb_elsewhere(checked, signal, defect_hz, ratio, resolution, prominence, search_factor,
                                       harmonic_tolerance, tolerance, confirmed)
+
+    def second_look(check: ShaftLineCheck) -> ShaftLineCheck:
+        return _second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance)
 
     # The search reaches search_factor^2 on either side only to tell "no series anywhere" from "a series
     # too far away"; the shaft's series is looked for within search_factor.
@@ -350,19 +354,19 @@ def check_sampling_rate(
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}) nor anywhere from {expected / wide:.2f} to {expected * wide:.0f} "
                                    f"Hz: {seen}")
-            return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance))
+            return concluded(second_look(check))
         if strong.size == 0:  # the declared rate cannot even hold the search (Nyquist below it): far too low
             check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "contradicted", None,
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}), and at fs = {fs:g} Hz the spectrum ends at {fs / 2:g} Hz")
-            return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance))
+            return concluded(second_look(check))
         farther = strong[np.argmin(np.abs(np.log(beyond[strong] / expected)))]
         observed = float(beyond[farther])
         check = ShaftLineCheck(fs, rpm, expected, observed, fs * expected / observed, float(beyond_score[farther]),
                                False, "contradicted", None,
                                f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence {at_expected:.1f}); "
                                f"the nearest strong one is at {observed:.2f} Hz, implying fs = {fs * expected / observed:.0f} Hz")
-        return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance))
+        return concluded(second_look(check))
     nearest = near[np.argmin(np.abs(np.log(grid[near] / expected)))]
     observed = float(grid[nearest])
     common = dict(fs_hz=fs, rpm=rpm, expected_hz=expected, observed_hz=observed, score=float(score[nearest]))
@@ -370,7 +374,7 @@ def check_sampling_rate(
         check = ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False, verdict="contradicted",
                                reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
                                       f"implying fs = {fs * expected / observed:.0f} Hz")
-        return concluded(_second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance))
+        return concluded(second_look(check))
 
     # The same series' in-between lines: n x g for n not a multiple of k, g within ``slip`` of observed / k. The
     # series taken for the shaft's may be another one that a rate near true / k puts near the shaft's place (a
@@ -629,10 +633,10 @@ def _series_below(signal: np.ndarray, check: ShaftLineCheck, n_harmonics: int, w
                   prominence: float) -> int | None:
     """The k (2 .. :data:`_MAX_FRACTION`) at which the strong series at ``check.observed_hz`` stands between its
     harmonics too, at multiples of observed / k that are no multiple of k (those below its ``n_harmonics``-th
-    harmonic, at most 2 x ``n_harmonics`` of them, judged by their median as the series itself is): it is then the k-th harmonics of a comb at observed / k. Under a speed
-    k times too high every defect frequency lands on its k-th harmonic, so a race's comb is read there as the
-    declared speed's; a record without a shaft series of its own (the twin's) has only its in-between lines to tell
-    the two readings apart. None where none stands, or where observed / k lies on a shaft harmonic, whose lines
+    harmonic, at most 2 x ``n_harmonics`` of them, judged by their median as the series itself is): it is then the
+    k-th harmonics of a comb at observed / k. Under a speed k times too high every defect frequency lands on its
+    k-th harmonic, so a race's comb is read there as the declared speed's; a record without a shaft series of its
+    own (the twin's) has only its in-between lines to tell the two readings apart. None where none stands, or where observed / k lies on a shaft harmonic, whose lines
     stand there whatever the speed."""
     hz = check.observed_hz
     ratio, resolution = _prominence_spectrum(signal, check.fs_hz, min(1.1 * n_harmonics * hz, check.fs_hz / 2),
@@ -990,8 +994,8 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
             raise BearingTwinError(f"{source}: {describe_mismatch(check)}; the record's lines stand where they belong at "
                                    f"{speeds}, and the file records its rate: give the true speed with "
                                    f"{rpm_key}=<rev/min>{off}")
-        speed = (f" (or the true speed with {rpm_key}=<rev/min>{f': its lines stand where they belong at {speeds}' if lower else ''})"
-                 if rpm_key else "")
+        at_speeds = f": its lines stand where they belong at {speeds}" if lower else ""
+        speed = f" (or the true speed with {rpm_key}=<rev/min>{at_speeds})" if rpm_key else ""
         raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{speed}{off}")
     if check.verdict == "contradicted":
         log.warning("%s: %s (the rate the file records is kept)", source, describe_mismatch(check))
