@@ -303,13 +303,14 @@ def listed_case(manifest: Path, row: dict, cfg, library: set[str], bearing: Bear
     # The reference holds what it fitted for the record (sensor, load, path), as bearingtwin-twin reference= does,
     # which takes one of another state (a rig's healthy baseline) or speed; but a row pairing other states, rates or
     # speeds may as well be a slip of the pen, which would score the record against another operating point unsaid.
+    elsewhere = ""
     if (reference.fault != record.fault or not math.isclose(reference.fs, record.fs, rel_tol=1e-3)
             or not math.isclose(reference.rpm, record.rpm, rel_tol=REFERENCE_RPM_TOLERANCE)):
-        print(f"warning: {where}: the reference is {reference.fault} at {reference.fs:g} Hz and {reference.rpm:g} rpm, "
-              f"the record {record.fault} at {record.fs:g} Hz and {record.rpm:g} rpm: held as bearingtwin-twin "
-              f"reference= holds it (the benchmark's references are the same operating point: state, rate, speed within "
-              f"{REFERENCE_RPM_TOLERANCE:.0%})", file=sys.stderr)
-    return {"split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
+        elsewhere = (f"the reference is {reference.fault} at {reference.fs:g} Hz and {reference.rpm:g} rpm, the record "
+                     f"{record.fault} at {record.fs:g} Hz and {record.rpm:g} rpm")
+        print(f"warning: {where}: {elsewhere}: held as bearingtwin-twin reference= holds it (the benchmark's references "
+              f"are the same operating point: state, rate, speed within {REFERENCE_RPM_TOLERANCE:.0%})", file=sys.stderr)
+    return {"reference_elsewhere": elsewhere, "split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
             "rpm": record.rpm, "fs": record.fs, "unit": record.unit or "unit not stated",
             "operating": {}, "seed": seeds["seed"], "measured": record_settings,
             "reference": {"seed": seeds["reference_seed"], "measured": reference_settings,
@@ -778,7 +779,9 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
         made = [f"Each case is a record `{manifest}` lists, held against the twin after its reference record (the "
                 "same rig and operating point, nothing hidden), as `bearingtwin-twin reference=` holds one; the "
                 "operating point fitted there is held, the gain fitted again. "
-                f"Conditions: {'; '.join(sorted({'{:g} Hz, {}'.format(r['fs'], r['unit']) for r in results}))}."]
+                f"Conditions: {'; '.join(sorted({'{:g} Hz, {}'.format(r['fs'], r['unit']) for r in results}))}.",
+                *(f"\nHeld against a reference of another operating point: {case_name(r)}, {r['reference_elsewhere']}."
+                  for r in results if r.get("reference_elsewhere"))]
     text = [
         "# Identifiability: does the ranking name the missing physics?", "",
         "Effects hidden in a measurement, named (or not) by `bearingtwin-twin`'s compare-calibrate-rank with its "

@@ -266,9 +266,10 @@ def test_a_reference_of_another_rate_or_speed_is_said_so(module, exported, twin_
     (a slip of the pen had scored the record against another operating point unsaid)."""
     reference = np.load(exported.parent / "reference_00.npz")
     np.savez(exported.parent / "faster.npz", **{**reference, "rpm": 1.1 * float(reference["rpm"])})
-    module.cases_from_manifest(rewrite(exported, reference="faster.npz"), twin_cfg)
+    listed = module.cases_from_manifest(rewrite(exported, reference="faster.npz"), twin_cfg)
     assert re.search(r"warning: .*line 2: the reference is outer at 12000 Hz and 1976.7 rpm, the record outer at "
                      r"12000 Hz and 1797 rpm", capsys.readouterr().err)
+    assert listed[0]["reference_elsewhere"] and not listed[1]["reference_elsewhere"]  # the page says so too
 
 
 def test_a_failing_case_is_listed_and_the_others_are_scored(module, exported, twin_cfg, tmp_path, monkeypatch):
@@ -283,12 +284,14 @@ def test_a_failing_case_is_listed_and_the_others_are_scored(module, exported, tw
     monkeypatch.setattr(module, "run_case", breaks)
     failure = module.run_listed_case(listed[1], [], {})
     assert failure["error"] == "ValueError: a bug" and failure["hidden"] == ["slip"]
-    scored = {**listed[0], "added": ["resonance"], "ranking": [["resonance", 1.0, 1.0, 1.0]], "rounds": [],
+    scored = {**listed[0], "reference_elsewhere": "the reference is inner at 12000 Hz", "added": ["resonance"], "ranking": [["resonance", 1.0, 1.0, 1.0]], "rounds": [],
               "unexplained": [], "final_error": 1.0, "baseline_error": 3.0, "seconds": 9.0}
     module.write_results([scored], tmp_path, "python benchmarks/identifiability.py", 30.0, exported, [failure])
     page = (tmp_path / "identifiability.md").read_text()
     assert "## Failed cases" in page and "| 001_rig_single_outer_slip.npz (line 3) | single | slip | ValueError: a bug |" in page
     assert "Regenerate (30 s on" in page
+    assert "Held against a reference of another operating point: 000_rig_single_outer_resonance.npz (line 2), the " \
+           "reference is inner at 12000 Hz." in page
 
 
 def test_a_run_whose_every_case_failed_leaves_no_earlier_page_to_be_read_as_its_own(module, exported, twin_cfg, tmp_path):
