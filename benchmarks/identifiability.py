@@ -68,6 +68,7 @@ from omegaconf import OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin.config import CONF_DIR
+from bearingtwin.data.files import SPEED_TOLERANCE, same_speed
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
@@ -284,11 +285,6 @@ def in_manifest_words(said: str) -> str:
     return re.sub(r"with measured\.(fs|rpm|fault|channel)=<[^>]*>", r"in the manifest's \1 column", said)
 
 
-REFERENCE_RPM_TOLERANCE = 0.02
-"""How far a reference's speed may lie from its record's (relative): a motor's slip between loads, not another
-operating point."""
-
-
 def listed_case(manifest: Path, row: dict, cfg, library: set[str], bearing: BearingGeometry, compare: CompareSettings,
                 where: str) -> dict:
     """The case one manifest row lists, its record and reference read and checked (:func:`cases_from_manifest`)."""
@@ -305,16 +301,17 @@ def listed_case(manifest: Path, row: dict, cfg, library: set[str], bearing: Bear
     # speeds may as well be a slip of the pen, which would score the record against another operating point unsaid.
     elsewhere = ""
     if (reference.fault != record.fault or not math.isclose(reference.fs, record.fs, rel_tol=1e-3)
-            or not math.isclose(reference.rpm, record.rpm, rel_tol=REFERENCE_RPM_TOLERANCE)):
+            or not same_speed(reference.rpm, record.rpm)):
         elsewhere = (f"the reference is {reference.fault} at {reference.fs:g} Hz and {reference.rpm:g} rpm, the record "
                      f"{record.fault} at {record.fs:g} Hz and {record.rpm:g} rpm")
         print(f"warning: {where}: {elsewhere}: held as bearingtwin-twin reference= holds it (the benchmark's references "
-              f"are the same operating point: state, rate, speed within {REFERENCE_RPM_TOLERANCE:.0%})", file=sys.stderr)
-    return {"reference_elsewhere": elsewhere, "split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
+              f"are the same operating point: state, rate, speed within {SPEED_TOLERANCE:.0%})", file=sys.stderr)
+    return {"split": "records", "source": "records", "kind": kind, "hidden": hidden, "fault": record.fault,
             "rpm": record.rpm, "fs": record.fs, "unit": record.unit or "unit not stated",
             "operating": {}, "seed": seeds["seed"], "measured": record_settings,
             "reference": {"seed": seeds["reference_seed"], "measured": reference_settings,
-                          "fault": reference.fault, "rpm": reference.rpm, "fs": reference.fs}}
+                          "fault": reference.fault, "rpm": reference.rpm, "fs": reference.fs},
+            "reference_elsewhere": elsewhere}
 
 
 def cases_from_manifest(manifest: Path, cfg) -> list[dict]:

@@ -928,6 +928,7 @@ def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float
     return None
 
 
+@shared_transforms()  # every speed tried reads the same channels' spectra and envelopes
 def speeds_a_whole_factor_lower(signal, fs: float, rpm: float, defect_hz: Mapping[str, float] | None = None,
                                 channels: Mapping[str, np.ndarray] | None = None, max_factor: int = 10) -> list[int]:
     """Every m (2 .. ``max_factor``) at which the record (every channel a witness) is ``consistent`` with a speed of
@@ -956,6 +957,7 @@ def describe_mismatch(check: ShaftLineCheck) -> str:
             f"the shaft speed: at {check.rpm:g} rpm the shaft line belongs at {check.expected_hz:.2f} Hz, but {check.reason}")
 
 
+@shared_transforms()  # the check and the lower speeds a contradiction tries read the same channels
 def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: str,
                            defect_hz: Mapping[str, float] | None = None, refuse: bool = True,
                            channels: Mapping[str, np.ndarray] | None = None,
