@@ -585,6 +585,12 @@ def first_round_rates(results: list[dict], kinds: list[str], points_per_view: fl
                            for r in results if r["kind"] == kind])) for kind in kinds]
 
 
+def whole_percent(share: float) -> str:
+    """A share as a whole percentage with a half rounded up, as a reader rounds (5/8 -> "63%"; Python's own
+    format rounds a half to the even neighbour, "62%")."""
+    return f"{math.floor(100 * float(share) + 0.5)}%"
+
+
 def choose_decision_constants(results: list[dict], min_signature_gain: float) -> tuple[tuple[float, float], list[list[str]]]:
     """The (points_per_view, view_floor_db) whose first-round decisions are right most often, each case
     kind weighing the same; ties go to fewer points, then to the lower floor."""
@@ -593,7 +599,7 @@ def choose_decision_constants(results: list[dict], min_signature_gain: float) ->
     for floor in VIEW_FLOOR_GRID:
         for points in POINTS_GRID:
             rates = first_round_rates(results, kinds, points, floor, min_signature_gain)
-            rows.append([f"{points:g}", f"{floor:g}", *[f"{rate:.0%}" for rate in rates], f"{np.mean(rates):.0%}"])
+            rows.append([f"{points:g}", f"{floor:g}", *map(whole_percent, rates), whole_percent(np.mean(rates))])
             best = max(best, (float(np.mean(rates)), -points, -floor))
     return (-best[1], -best[2]), [["points_per_view", "view_floor_db", *kinds, "mean"], *rows]
 
@@ -605,7 +611,7 @@ def choose_signature_gain(results: list[dict], points_per_view: float, view_floo
     rows, best = [], (-1.0, 0.0)
     for gain in SIGNATURE_GAIN_GRID:
         rates = first_round_rates(results, kinds, points_per_view, view_floor_db, gain)
-        rows.append([f"{gain:g}", *[f"{rate:.0%}" for rate in rates], f"{np.mean(rates):.0%}"])
+        rows.append([f"{gain:g}", *map(whole_percent, rates), whole_percent(np.mean(rates))])
         best = max(best, (float(np.mean(rates)), -gain))
     return -best[1], [["min_signature_gain", *kinds, "mean"], *rows]
 
@@ -738,10 +744,10 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
                *((rate[kind], kind, "right") for kind in ("pair", "null", "out_of_library"))]
     rows = []
     for label, kind, key in counted:
-        row = [label, f"{goals[kind]:.0%}"]
+        row = [label, whole_percent(goals[kind])]
         for source in sources:
             entry = table.get(source, {}).get(kind)
-            row.append(f"{entry[key]}/{entry['n']} ({entry[key] / entry['n']:.0%})" if entry else "—")
+            row.append(f"{entry[key]}/{entry['n']} ({whole_percent(entry[key] / entry['n'])})" if entry else "—")
         rows.append(row)
     halved = []
     for source in sources:

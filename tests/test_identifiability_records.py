@@ -313,3 +313,9 @@ def test_the_pages_command_runs_from_any_folder(module, tmp_path, monkeypatch):
 def test_a_budget_the_twin_would_refuse_is_refused_before_any_run(exported, tmp_path):
     done = benchmark("--records", str(exported), "bearing=cwru_6205", "calibration.n_trials_base=0", cwd=tmp_path)
     assert done.returncode == 2 and "calibration.n_trials_base" in done.stderr.strip().splitlines()[-1]
+
+
+def test_a_share_is_printed_as_a_reader_rounds_it(module):
+    """Python's format rounds a half to the even neighbour (5/8 read "62%"); the results page rounds it up."""
+    assert [module.whole_percent(k / n) for k, n in ((5, 8), (1, 8), (14, 22), (2, 2), (0, 4))] == \
+        ["63%", "13%", "64%", "100%", "0%"]
