@@ -138,9 +138,10 @@ def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_
     assert "lies more than 10 times above the 5-95 % range of the model's training windows" in pipeline.level_note(1000 * X)
     normalizing = dataclasses.replace(pipeline, window_normalization="zscore", window_level=None)
     assert normalizing.level_note(1000 * X) is None and in_model_unit(in_g, normalizing)[1:] == ([], "not needed")
-    as_is, notes, _ = in_model_unit(Recording(signal, FS, unit="mm/s"), normalizing)
-    assert as_is.signal is signal and notes[0].startswith("the record is in mm/s (a velocity), not an acceleration: "
-                                                          "read as it is, the model scaling every window to one level")
+    # Scaled to one level, a VMD mode's statistics still read the waveform's shape, which a velocity's differs in.
+    with pytest.raises(BearingTwinError, match=r"^rig/v.csv: the record is in mm/s \(a velocity\): the model scales "
+                                               r"every window to one level, but its features describe the waveform"):
+        in_model_unit(Recording(signal, FS, unit="mm/s", source="rig/v.csv"), normalizing)
 
 
 def test_windows_of_records_in_g_and_in_m_s2_are_brought_to_one_unit(caplog):
@@ -239,6 +240,85 @@ def test_the_physics_decides_a_window_only_where_one_series_leaves_no_doubt():
     assert lone.decisive_state(32.0, 0.0) is None
     with pytest.raises(BearingTwinError, match="physics_first.margin_db must be a non-negative number of dB"):
         PhysicsFirst(margin_db=-1.0)
+
+
+def served_model(pipeline):
+    """The pyfunc model a model server loads, around ``pipeline``, as ``load_context`` leaves it."""
+    from bearingtwin.diagnosis.mlflow_model import DiagnosisModel
+
+    model = DiagnosisModel()
+    model.pipeline = pipeline
+    return model
+
+
+def integrated(windows: np.ndarray, times: int = 1) -> np.ndarray:
+    """``windows`` integrated ``times`` over (per line: divided by j 2 pi f), as a velocity or displacement is."""
+    frequencies = np.fft.rfftfreq(windows.shape[1], 1 / FS)
+    per_line = np.where(frequencies > 0, 1 / (2j * np.pi * np.where(frequencies > 0, frequencies, 1.0)), 0.0)
+    return np.fft.irfft(np.fft.rfft(windows, axis=1) * per_line**times, windows.shape[1], axis=1)
+
+
+def test_a_unit_is_read_or_refused_by_what_the_models_features_compute_served_as_diagnosed():
+    """A model free of scale (envelope-order features are ratios of one window's powers; or windows scaled to one
+    level) had been refused a voltage "for it reads their level" (the envelope model), or read any text as a unit,
+    a velocity too (the normalizing one). Now every model refuses a unit no reader knows, naming it; a model free of
+    scale reads a voltage (an accelerometer's volts: a gain) as it reads windows of any gain, and refuses a velocity
+    or a displacement for what its features compute: band_power, the share of the band-pass, which integration
+    lowers; the same in bearingtwin-diagnose. Features free of the spectrum's shape too (lines of the cepstrally
+    pre-whitened window, no band_power) read an integrated record as they read its acceleration."""
+    from bearingtwin.diagnosis.mlflow_model import ModelInputError, in_model_terms
+    from bearingtwin.diagnosis.record import in_model_unit
+
+    X, y = class_windows(n_per_class=6)
+    envelope = EnvelopeOrderFeatures(bearing=BEARING, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
+    stds = np.std(X, axis=1)
+    gain_free = DiagnosisPipeline(envelope, SvmClassifier().fit(envelope.transform(X, fs_hz=FS, rpm=RPM), y), 2048, FS,
+                                  bearing=BEARING, unit="g", window_level=(float(stds.min()), float(stds.max())))
+    normalizing = dataclasses.replace(gain_free, window_normalization="zscore", window_level=None, unit="")
+    windows = X[::4]
+    # What the refusal says is what the features compute: integration lowers band_power.
+    assert (gain_free.features(integrated(windows), RPM)[:, -1] < gain_free.features(windows, RPM)[:, -1] - 0.5).all()
+    for pipeline in (gain_free, normalizing):
+        model = served_model(pipeline)
+        with pytest.raises(ModelInputError, match=r"^params unit 'furlongs': no unit known here; give one of m/s\^2, "):
+            model.predict(None, windows, {"rpm": RPM, "unit": "furlongs"})
+        in_volts = model.predict(None, windows, {"rpm": RPM, "unit": "V"})
+        pd.testing.assert_frame_equal(in_volts, model.predict(None, windows * 1000, {"rpm": RPM}))
+        assert "level_unseen" not in in_volts and pipeline.level_note(windows * 1000) is None  # it reads no level
+        _, notes, check = in_model_unit(Recording(windows.ravel(), FS, unit="V"), pipeline)
+        assert check == "not needed" and notes[0].startswith("the record is in V (a voltage): read as it is, as an "
+                                                             "accelerometer's")
+        for unit, quantity in (("mm/s", "velocity"), ("µm", "displacement")):
+            reason = (rf"the record is in {unit} \(a {quantity}\): .*, but its band_power feature is the share of a "
+                      r"window's power in the band-pass \(1500-5400 Hz\), which integration lowers")
+            with pytest.raises(ModelInputError, match=rf"^params unit '{unit}': {reason}"):
+                model.predict(None, windows, {"rpm": RPM, "unit": unit})
+            with pytest.raises(BearingTwinError, match=rf"^rig/v.csv: {reason}"):
+                in_model_unit(Recording(windows.ravel(), FS, unit=unit, source="rig/v.csv"), pipeline)
+    whitened = EnvelopeOrderFeatures(bearing=BEARING, band_power=False, prewhiten="cepstral").fit(X, fs_hz=FS, rpm=RPM)
+    np.testing.assert_allclose(whitened.transform(integrated(windows), fs_hz=FS, rpm=RPM),
+                               whitened.transform(windows, fs_hz=FS, rpm=RPM), atol=0.01)
+    shape_free = dataclasses.replace(gain_free, extractor=whitened)
+    assert in_model_terms(shape_free, windows, None, "mm/s") is windows
+
+
+def test_a_served_model_that_reads_the_level_flags_each_window_of_a_level_it_never_saw():
+    """Windows in an undeclared unit or gain had been answered 200 with a confident wrong state (an SVM read outer-race
+    windows x1000 as ball): the frame of a model that reads the level now says, per window, where it lies a decade or
+    more outside the training windows' levels, by the check bearingtwin-diagnose names a record by; the columns that
+    were there are unchanged."""
+    from bearingtwin.features.extractor import RawFeatures
+    from bearingtwin.models.experiment import training_window_level
+
+    X, y = class_windows(n_per_class=6)
+    raw = RawFeatures().fit(X)
+    level = training_window_level(SimpleNamespace(windows=X, window_normalization="none"), np.arange(len(X)))
+    pipeline = DiagnosisPipeline(raw, SvmClassifier().fit(raw.transform(X), y), 2048, FS, unit="g", window_level=level)
+    windows = X[::4]
+    frame = served_model(pipeline).predict(None, np.concatenate([windows, windows[:2] * 1000, windows[:1] / 100]), {})
+    assert list(frame.columns) == ["state", "normal", "inner", "outer", "level_unseen"]
+    assert list(frame["level_unseen"]) == [False] * len(windows) + [True] * 3
+    assert pipeline.level_note(windows * 1000) is not None and pipeline.level_note(windows) is None
 
 
 def test_a_pipeline_that_puts_physics_first_overrules_its_classifier_only_where_the_physics_decides(tmp_path):
@@ -415,13 +495,25 @@ def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_pat
     notes = read_record(path, envelope_pipeline()).notes
     assert any("% of the samples pile up at its maximum" in note and "clipped" in note for note in notes), notes
     assert any(note.startswith("samples from 2 s to 2.25 s are all 0 (a dropout") for note in notes), notes
-    # A dropout that holds a whole window of the model's is refused, saying where it is in seconds.
+    # A dropout a window of the model's long or longer had failed the record: the windows it touches are left out
+    # (windows 11 to 17 of 23), said where in seconds, and the others diagnosed.
     x[int(2.0 * FS):int(3.0 * FS)] = 0.0
     scipy.io.savemat(path, {"X130_DE_time": x[:, None], "X130RPM": RPM})
     pipeline = envelope_pipeline()
-    with pytest.raises(BearingTwinError, match=r"130.mat: samples from 2 s to 3 s are all 0 \(a dropout, or a stretch "
-                                               r"held at one value\), which would spoil a whole window of the model's"):
-        diagnose_recording(read_record(path, pipeline), None, pipeline, "models:/unused", {})
+    model = SimpleNamespace(predict=lambda windows, params: predictions_frame(pipeline, windows, params["rpm"]))
+    result, _ = diagnose_recording(read_record(path, pipeline), model, pipeline, "models:/unused", {})
+    assert [window["start_s"] for window in result["windows"]] == [2048 * k / FS for k in (*range(11), *range(18, 23))]
+    assert ("samples from 2 s to 3 s are all 0 (a dropout, or a stretch held at one value): the 7 windows touching it, "
+            "from 1.88 s to 3.07 s, left out; the verdict is the other 16 of 23 windows'") in result["notes"], result["notes"]
+    assert result["verdict"] == "outer" and result["share"] == pytest.approx(
+        sum(window["state"] == "outer" for window in result["windows"]) / 16)
+    # A record every window of which touches a dropout has nothing left to read.
+    x[int(0.1 * FS):] = 0.0
+    scipy.io.savemat(path, {"X130_DE_time": x[:, None], "X130RPM": RPM})
+    with pytest.raises(BearingTwinError, match=r"130.mat: samples from 0.1 s to 4 s are all 0 \(a dropout, or a stretch "
+                                               r"held at one value\), and every window of the model's \(2048 samples\) "
+                                               r"touches one, so none reads a vibration"):
+        diagnose_recording(read_record(path, pipeline), model, pipeline, "models:/unused", {})
 
 
 def test_a_hust_export_of_combined_damage_or_variable_speed_is_said_so(tmp_path, monkeypatch):
@@ -588,6 +680,12 @@ def test_windows_tile_the_record_without_overlap():
     windows, starts = record_windows(np.arange(10_000.0), 2048)
     assert windows.shape == (4, 2048) and list(starts) == [0, 2048, 4096, 6144]
     np.testing.assert_array_equal(windows.ravel(), np.arange(4 * 2048.0))
+    # A stretch held at one value for a window's length or longer leaves out the windows it touches, no other.
+    for length, kept in ((2100, [0, 6144]), (2047, [0, 2048, 4096, 6144])):
+        signal = np.arange(10_000.0)
+        signal[3000:3000 + length] = 0.0
+        windows, starts = record_windows(signal, 2048)
+        assert list(starts) == kept and np.array_equal(windows, signal[np.add.outer(starts, np.arange(2048))])
 
 
 # ---------------------------------------------------------------- end to end
@@ -648,7 +746,8 @@ def test_training_registers_its_model_with_signature_and_alias(registered):
         model.predict(windows, params={"unit": "V"})
     with pytest.raises(MlflowException, match=r"^params unit 'furlongs': no unit known here; .*the model's is m/s\^2"):
         model.predict(windows, params={"unit": "furlongs"})
-    assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer"] and len(answer) == 3
+    # level_unseen: the VMD features read the level; the columns before it are as they were.
+    assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer", "level_unseen"] and len(answer) == 3
     np.testing.assert_allclose(answer[["normal", "inner", "ball", "outer"]].sum(axis=1), 1.0)
 
 
@@ -872,11 +971,12 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
     assert ("a.npy: the file does not state its sampling rate; give fs=<Hz> (every file's), or this file's "
             "in a labels.csv beside it (columns record,state,rpm,fs)") in unlabelled.stderr, unlabelled.stderr[-2000:]
     (tmp_path / "out" / "earlier").mkdir(parents=True)
-    (tmp_path / "out" / "earlier" / "diagnosis.json").write_text("{}")
+    (tmp_path / "out" / "earlier" / "diagnosis.json").write_text('{"record": "earlier", "model_uri": "models:/diag/1"}')
     done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/out", "figures=false",
                "tracking.enabled=false", cwd=tmp_path, uri=uri)
     assert done.returncode == 0, done.stderr[-2000:]
-    assert "holds 1 record folder of an earlier run beside this run's (earlier)" in done.stdout + done.stderr, done.stdout
+    assert "an earlier run's record outputs in out: 0 replaced by this run's, 1 removed (earlier)" in done.stdout
+    assert not (tmp_path / "out" / "earlier").exists()
     for name, (rpm, fs) in rows.items():
         result = json.loads((tmp_path / "out" / name / "diagnosis.json").read_text())
         assert (result["rpm"], result["original_fs"], result["true_state"]) == (rpm, fs, "outer")
@@ -915,6 +1015,115 @@ def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered
                "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)
     assert told.returncode == 0, told.stderr[-2000:]
     assert json.loads((tmp_path / "told" / "stated" / "diagnosis.json").read_text())["true_state"] == "outer"
+
+
+def test_a_fleets_labels_table_may_leave_the_state_out_and_give_speeds_and_rates_alone(registered, tmp_path):
+    """For a fleet the states are what is asked: a labels table without a state column (record,rpm,fs), or with its
+    state cells empty, gives each file its speed and rate, and its verdict is of unknown truth (neither true_state nor
+    correct, nothing scored); a file whose row leaves out the rate it needs is refused naming the row's fs column."""
+    _, uri = registered
+    folder = tmp_path / "fleet"
+    folder.mkdir()
+    rows = {"slow": (1500.0, 12000.0), "fast": (1797.0, 24000.0)}
+    for name, (rpm, fs) in rows.items():
+        bpfo = BearingGeometry.from_config(bearing_config("paper")).defect_frequencies(rpm)["bpfo"]
+        np.save(folder / f"{name}.npy", fault_signal(bpfo, seconds=3, fs=fs))
+    np.save(folder / "norate.npy", fault_signal(None, seconds=3))
+    for table in ("record,rpm,fs\nslow.npy,1500,12000\nfast.npy,1797,24000\nnorate.npy,1500,\n",
+                  "record,state,rpm,fs\nslow.npy,,1500,12000\nfast.npy,,1797,24000\nnorate.npy,,1500,\n"):
+        (folder / "labels.csv").write_text(table)
+        done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/out", "figures=false",
+                   "tracking.enabled=false", cwd=tmp_path, uri=uri)
+        assert done.returncode == 2 and "records diagnosed: 2 of 3" in done.stdout, done.stderr[-2000:]
+        for name, (rpm, fs) in rows.items():
+            result = json.loads((tmp_path / "out" / name / "diagnosis.json").read_text())
+            assert (result["rpm"], result["original_fs"]) == (rpm, fs) and "true_state" not in result
+            assert "correct" not in result
+        assert "records right" not in done.stdout
+        assert (f"error: {folder / 'norate.npy'}: the file does not state its sampling rate; give fs=<Hz> (or this "
+                f"file's in the fs column of its row in {folder / 'labels.csv'})") in done.stderr, done.stderr[-2000:]
+
+
+def test_a_reused_out_folder_holds_this_runs_record_outputs_alone(registered, tmp_path):
+    """Diagnosed again into the same out=, a record deleted since and one that fails now had kept the earlier run's
+    verdict and figure, which anything reading out/*/diagnosis.json took for this run's: the command's own files of
+    the earlier run are removed before the first record (a file of the user's own stays), the closing summary counts
+    the records' outputs replaced and names those removed, and each diagnosis.json names its MLflow run and when
+    it was made."""
+    from datetime import datetime, timezone
+
+    _, uri = registered
+    folder = outer_race_folder(tmp_path, 3)
+    out = tmp_path / "out"
+    first = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
+    assert first.returncode == 0, first.stderr[-2000:]
+    assert {path.parent.name for path in out.glob("*/diagnosis.png")} == {"r00", "r01", "r02"}
+    (out / "r01" / "notes.txt").write_text("bearing replaced on Monday")  # the user's own, beside the outputs
+    (folder / "r00.npz").unlink()
+    np.savez(folder / "r01.npz", signal=np.zeros(3 * int(FS)), fs=FS, rpm=RPM)  # a dead sensor now
+    started = datetime.now(timezone.utc).replace(microsecond=0)
+    again = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
+    assert again.returncode == 2, again.stderr[-2000:]
+    assert sorted(path.relative_to(out).as_posix() for path in out.rglob("*") if path.is_file()) == [
+        "r01/notes.txt", "r02/diagnosis.json", "r02/diagnosis.png", "summary.csv"]
+    assert "an earlier run's record outputs in out: 1 replaced by this run's, 2 removed (r00, r01)" in again.stdout
+    result = json.loads((out / "r02" / "diagnosis.json").read_text())
+    assert f"MLflow run: {result['run_id']}" in again.stdout
+    assert MlflowClient(uri).get_run(result["run_id"]).data.params["path"] == str(folder)
+    assert result["diagnosed_at"].endswith("+00:00")
+    assert started <= datetime.fromisoformat(result["diagnosed_at"]) <= datetime.now(timezone.utc)
+    # One file at a time, as they arrive: each run replaces its own record's outputs and leaves the others'. A
+    # diagnosis.json of someone else's (another record named, no model) is never removed, by any run.
+    (folder / "r03.npz").write_bytes((folder / "r02.npz").read_bytes())
+    (out / "notes").mkdir()
+    (out / "notes" / "diagnosis.json").write_text('{"record": "mine"}')
+    single = run("diagnose", f"path={folder / 'r03.npz'}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
+    assert single.returncode == 0, single.stderr[-2000:]
+    assert {path.parent.name for path in out.glob("*/diagnosis.json")} == {"r02", "r03", "notes"}
+    folder_run = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
+    assert folder_run.returncode == 2 and (out / "notes" / "diagnosis.json").is_file(), folder_run.stderr[-2000:]
+
+
+def test_an_interrupt_while_a_record_is_written_leaves_no_part_of_it(registered, tmp_path, monkeypatch):
+    """Interrupted while drawing a record's figure, the command had left that record's folder without its
+    diagnosis.json (and an earlier run's record beside it): out holds the records finished, and nothing else."""
+    from bearingtwin.diagnosis import run as diagnosis_run
+
+    _, uri = registered
+    folder = outer_race_folder(tmp_path, 2)
+    out = tmp_path / "out"
+    (out / "r01").mkdir(parents=True)
+    (out / "r01" / "diagnosis.json").write_text('{"record": "r01", "model_uri": "models:/diag/1", "verdict": "normal"}')  # an earlier run's
+
+    def plot_then_interrupt(result, evidence, class_names, path):
+        if result["record"] == "r01":
+            path.write_bytes(b"\x89PNG")  # a figure cut short
+            raise KeyboardInterrupt
+        return plot_diagnosis(result, evidence, class_names, path)
+
+    monkeypatch.setattr(diagnosis_run, "plot_diagnosis", plot_then_interrupt)
+    cfg = compose_config("diagnose", [f"path={folder}", "model=models:/diag/1", f"out={out}", "tracking.enabled=false",
+                                      f"tracking.uri={uri}"])
+    with pytest.raises(KeyboardInterrupt):
+        diagnosis_run.diagnose_paths(cfg)
+    assert sorted(path.relative_to(out).as_posix() for path in out.rglob("*")) == [
+        "r00", "r00/diagnosis.json", "r00/diagnosis.png", "summary.csv"]
+
+
+def test_files_of_one_record_name_in_several_folders_are_named_with_their_folders_every_clash_at_once(tmp_path):
+    """A glob over weekly folders matches m01.csv in each: a record is named by its stem, so they are refused, and
+    the refusal names each file with its folder (not m01.csv four times) and every record name that clashes."""
+    from bearingtwin.diagnosis.run import find_records
+
+    for week in ("week01", "week02"):
+        (tmp_path / week).mkdir()
+        for name in ("m01", "m02", week):
+            np.save(tmp_path / week / f"{name}.npy", np.zeros(8))
+    with pytest.raises(BearingTwinError) as refused:
+        find_records(f"{tmp_path}/week*/*.npy", None)
+    assert str(refused.value) == (f"path={tmp_path}/week*/*.npy: week01/m01.npy, week02/m01.npy share the record name "
+                                  "m01; week01/m02.npy, week02/m02.npy share the record name m02; rename them, or point "
+                                  "at one folder or file")
 
 
 def test_a_bad_labels_row_fails_its_file_alone_and_tables_of_notes_are_left_out(registered, tmp_path):
@@ -1093,7 +1302,7 @@ def test_a_cwru_record_whose_speed_variable_the_shaft_line_contradicts_is_diagno
     assert result["rate_check"] == "contradicted" and result["rpm"] == 1500.0 and result["fs"] == 12000.0
     note = next(note for note in result["notes"] if note.startswith("speed and rate disagree"))
     assert float(re.search(r"the shaft line says (\d+) rpm", note).group(1)) == pytest.approx(1772, rel=0.02)
-    assert "speed or rate wrong (the shaft line contradicts them): 12k_Drive_End_IR014_1_170" in done.stdout
+    assert "speed or rate in doubt (the shaft line contradicts them: check them): 12k_Drive_End_IR014_1_170" in done.stdout
 
 
 @pytest.mark.parametrize("overrides, message", [
@@ -1203,12 +1412,12 @@ def test_a_speed_the_shaft_line_contradicts_is_named_with_what_it_would_be_and_t
     assert result["rate_check"] == "contradicted" and "the verdict is in doubt" in note
     assert float(re.search(r"at fs = 12000 Hz the shaft line says (\d+) rpm", note).group(1)) == pytest.approx(
         1772, rel=0.02)
-    assert "speed or rate wrong (the shaft line contradicts them): r106" in done.stdout
+    assert "speed or rate in doubt (the shaft line contradicts them: check them): r106" in done.stdout
     assert "left out notes.txt" in done.stdout + done.stderr  # a file of another format is named, not dropped silently
     done = run("diagnose", "path=recordings/r106.npy", "model=models:/diag@champion", "fs=12000", "rpm=1772",
                f"out={tmp_path}/right", "tracking.enabled=false", cwd=tmp_path, uri=uri)
     result = json.loads((tmp_path / "right" / "r106" / "diagnosis.json").read_text())
-    assert done.returncode == 0 and result["rate_check"] == "consistent" and "speed or rate wrong" not in done.stdout
+    assert done.returncode == 0 and result["rate_check"] == "consistent" and "speed or rate in doubt" not in done.stdout
 
 
 @needs_cwru
@@ -1391,17 +1600,21 @@ def test_a_requests_unit_is_held_against_the_models_as_a_records_is():
     and refuses one in g naming its own unit (a request's unit had been checked as an acceleration's alone: a V model
     refused its own unit, and blamed the user's g for a unit the user never sent); a model normalizing its windows
     reads any acceleration unit as it is."""
-    from types import SimpleNamespace
-
     from bearingtwin.diagnosis.mlflow_model import in_model_terms
 
     windows = np.ones((2, 8))
-    in_volts = SimpleNamespace(fs_hz=12000.0, unit="V", window_normalization="none")
+    in_volts = DiagnosisPipeline(None, None, 8, 12000.0, unit="V")  # an extractor that reads the level (not envelope)
     assert in_model_terms(in_volts, windows, 12000.0, "V") is windows
     with pytest.raises(BearingTwinError, match=r"^params unit 'g': the record is in g, the model was trained on windows "
                                                r"in V .*give the record in V"):
         in_model_terms(in_volts, windows, None, "g")
-    in_g = SimpleNamespace(fs_hz=12000.0, unit="g", window_normalization="none")
+    in_g = dataclasses.replace(in_volts, unit="g")
     np.testing.assert_allclose(in_model_terms(in_g, windows, None, "m/s^2"), windows / 9.80665)
-    normalized = SimpleNamespace(fs_hz=12000.0, unit="g", window_normalization="zscore")
+    normalized = dataclasses.replace(in_g, window_normalization="zscore")
     assert in_model_terms(normalized, windows, None, "mg") is windows
+    # A unit no reader knows is refused, unless it is the model's own: its records all stated it.
+    in_counts = dataclasses.replace(in_volts, unit="counts")
+    assert in_model_terms(in_counts, windows, None, "counts") is windows
+    with pytest.raises(BearingTwinError, match=r"^params unit 'furlongs': the record is in furlongs, .*give the record "
+                                               r"in counts"):
+        in_model_terms(in_counts, windows, None, "furlongs")

@@ -181,6 +181,22 @@ def test_a_file_its_reader_cannot_parse_is_named_whatever_the_reader_raised(tmp_
             read_raw(tmp_path / name)
 
 
+def test_a_truncated_wav_is_refused_not_read_in_part(tmp_path):
+    """scipy reads a .wav cut short up to the cut and only warns: the part would have been diagnosed as the record."""
+    path = tmp_path / "cut.wav"
+    scipy.io.wavfile.write(path, int(FS), np.sin(np.arange(12000) / 3).astype(np.float32))
+    whole = path.read_bytes()
+    path.write_bytes(whole[:len(whole) // 3])
+    with pytest.raises(BearingTwinError, match=rf"^{tmp_path / 'cut.wav'}: not a readable \.wav file, truncated \(Reached "
+                                               rf"EOF prematurely; finished at \d+ bytes, expected {len(whole)} bytes"):
+        read_raw(path)
+    # A writer that states the RIFF size 8 bytes too large (its own header counted) left every sample in: read whole.
+    over = bytearray(whole)
+    over[4:8] = (int.from_bytes(whole[4:8], "little") + 8).to_bytes(4, "little")
+    path.write_bytes(bytes(over))
+    assert read_raw(path).channels[next(iter(read_raw(path).channels))].size == 12000
+
+
 def test_numbers_with_units_or_out_of_range_are_refused_naming_the_field(tmp_path, signal):
     path = tmp_path / "rec.npz"
     np.savez(path, signal=signal, fs=np.array("8 kHz"))
@@ -492,11 +508,14 @@ def test_a_csv_header_without_rows_is_refused_in_its_one_line_and_nothing_else(t
     """numpy warns of an empty input on its own; the refusal naming the file is all a user should read."""
     import warnings
 
-    (tmp_path / "t.csv").write_text("time_s,acc_g\n")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # a warning would fail the test before the refusal
-        with pytest.raises(BearingTwinError, match=r"t.csv: the file holds a header but no data rows"):
-            read_raw(tmp_path / "t.csv")
+    # Also under a logger's notes, and above a row of units: the header is not named as a cell that is no number.
+    for text in ("time_s,acc_g\n", "Device: logger-7\nTime (s),acc (g)\n", "Device: logger-7\nSample rate: 25600 Hz\n"
+                 "Time,Acc\ns,g\n"):
+        (tmp_path / "t.csv").write_text(text)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a warning would fail the test before the refusal
+            with pytest.raises(BearingTwinError, match=r"t.csv: the file holds a header but no data rows$"):
+                read_raw(tmp_path / "t.csv")
 
 
 @pytest.mark.parametrize("header, seconds", [("Time (sec)", 1.0), ("Time [sec]", 1.0), ("time/s", 1.0), ("Time_sec", 1.0),

@@ -188,6 +188,31 @@ def test_a_bad_row_is_its_records_concern_for_a_reader_of_some_rows_and_every_re
         labels_table_with_bad_rows(table)
 
 
+def test_a_diagnosis_reads_a_labels_table_without_states_where_training_does_not(tmp_path):
+    """For a fleet the states are what is asked: a diagnosis reads a table whose state column is left out or whose
+    state cells are empty, for its speeds and rates (the state None: unknown), while a state given must still be one;
+    training refuses either, its states being its labels."""
+    from bearingtwin.data.real import labels_table, labels_table_with_bad_rows
+
+    table = tmp_path / "labels.csv"
+    table.write_text("record,rpm,fs\na.npy,1500,12000\n")
+    assert [row[1:] for row in labels_table_with_bad_rows(table, state_required=False)[0]] == [
+        ("a.npy", None, 1500.0, 12000.0)]
+    with pytest.raises(BearingTwinError, match=r"labels.csv: no column state; the header must read record,state,rpm,fs "
+                                               r"\(rpm, fs optional\)$"):
+        labels_table(table)
+    table.write_text("record,state,rpm\na.npy,,1500\nb.npy,outter,1500\nc.npy,inner,\n")
+    rows, bad_rows = labels_table_with_bad_rows(table, state_required=False)
+    assert [row[1:] for row in rows] == [("a.npy", None, 1500.0, None), ("c.npy", "inner", None, None)]
+    assert [record for record, _ in bad_rows] == ["b.npy"]
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 2: state '' is not a bearing state"):
+        labels_table(table)
+    table.write_text("file,rpm\na.npy,1500\n")
+    with pytest.raises(BearingTwinError, match=r"labels.csv: no column record; the header must read record,state,rpm,fs "
+                                               r"\(state, rpm, fs optional\)$"):
+        labels_table_with_bad_rows(table, state_required=False)
+
+
 def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, caplog):
     """Notes, a results table and a labels table under another name beside the recordings are left out, each named
     with why; a CSV of numbers is a recording, labelled or not, and so is one with a time column beside a text column

@@ -24,7 +24,7 @@ from processes import (LOOPBACK, SMOKE, assert_done, child_env, free_loopback_po
                        start, stop, wait_until_answers)
 
 from bearingtwin.config import REPO_ROOT
-from bearingtwin.diagnosis.mlflow_model import STATE_COLUMN, load_diagnosis_model
+from bearingtwin.diagnosis.mlflow_model import LEVEL_UNSEEN_COLUMN, STATE_COLUMN, load_diagnosis_model
 from bearingtwin.diagnosis.record import read_record, record_windows
 
 CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
@@ -129,7 +129,10 @@ def test_served_model_answers_as_bearingtwin_diagnose(served, case):
     assert len(rows) == len(diagnosis["windows"])
     names = pipeline.class_names
     for index, (row, expected) in enumerate(zip(rows, diagnosis["windows"])):
-        assert set(row) == {STATE_COLUMN, *names}
+        assert set(row) == {STATE_COLUMN, *names, LEVEL_UNSEEN_COLUMN}  # the smoke models' VMD features read the level
+        # The record's windows stand at one level: each says what diagnose says of the record (a CWRU record is
+        # louder than the smoke twin's windows by more than a decade).
+        assert row[LEVEL_UNSEEN_COLUMN] is diagnosis["level_unseen"], f"window {index}"
         assert row[STATE_COLUMN] == expected["state"], f"window {index}"
         np.testing.assert_allclose([row[name] for name in names], [expected["probabilities"][name] for name in names],
                                    rtol=0, atol=PROBABILITY_TOLERANCE, err_msg=f"window {index}")

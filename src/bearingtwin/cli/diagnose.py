@@ -66,7 +66,7 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["records right by state and fault size (model, physics)"] = by_size
     contradicted = [row["record"] for row in diagnosed if row.get("rate_check") == "contradicted"]
     if contradicted:  # a wrong speed or rate misplaces every defect line: such a verdict is in doubt (still scored)
-        lines["speed or rate wrong (the shaft line contradicts them)"] = ", ".join(contradicted)
+        lines["speed or rate in doubt (the shaft line contradicts them: check them)"] = ", ".join(contradicted)
     narrower = [row["record"] for row in diagnosed if row.get("original_fs") and row["original_fs"] < row["fs"]]
     if narrower:  # upsampled: the model reads a band these records never held, so their verdicts are in doubt
         lines["recorded below the model's rate (no content above their Nyquist)"] = ", ".join(narrower)
@@ -81,6 +81,12 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["model and physics disagree on"] = ", ".join(disagreements)
     if run.failures:
         lines["could not be diagnosed"] = ", ".join(run.failures)
+    if run.earlier:  # removed before the first record (diagnose_paths): out holds this run's outputs alone
+        again = {row["record"] for row in diagnosed}
+        removed = [record for record in run.earlier if record not in again]
+        named = f" ({', '.join(removed)})" if removed else ""
+        lines["an earlier run's record outputs in out"] = (f"{len(run.earlier) - len(removed)} replaced by this run's, "
+                                                           f"{len(removed)} removed{named}")
     return lines
 
 

@@ -264,9 +264,17 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     has as many cells as the numbers unless every line above reads as a note, ``label: value``. A line of as many
     cells above the header is otherwise a second header row, refused by its line as without a preamble; in a table
     of one column every line has one cell, so there only the notes' form tells them apart. A row of units under the
-    header (:func:`_units_row`) is the header's."""
+    header (:func:`_units_row`) is the header's. Where no row of numbers follows (an export cut after its header), the
+    lines above the header are notes when every one reads as one, so the file is said to hold no data rows."""
     numbers_rows = [_numbers_row(head[i]) for i in content]
     start = max((k + 1 for k, numbers in enumerate(numbers_rows) if not numbers), default=0)  # after the last text
+    if start == len(content):  # no row of numbers: notes above a header (and its units) and no row under it, where
+        # the header, read as the first row, would be named as a cell that is not a number
+        last = head[content[-1]]
+        if _NOTE_LINE.match(last):  # a file of notes alone, no header: no recording (a folder leaves it out)
+            return []
+        notes = content[:-1 - _units_row(_row_cells(last, _delimiter(last)))]
+        return notes if all(_NOTE_LINE.match(head[i]) or _is_clock(head[i].strip()) for i in notes) else []
     if start < 2 or start == len(content) or any(numbers_rows[:start]):
         return []
     delimiter = _delimiter(head[content[start]])

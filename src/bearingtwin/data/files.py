@@ -690,15 +690,29 @@ def _read_generic_mat(path: Path, variables: dict) -> RawRecord:
     return _facts_to_record(path, "mat", facts, arrays)
 
 
+def _wav_shortfall_bytes(path: Path) -> int:
+    """How many bytes a RIFF file lacks of the size its header states (0 for another container, e.g. RF64)."""
+    with open(path, "rb") as file:
+        head = file.read(8)
+    if len(head) < 8 or head[:4] != b"RIFF":
+        return 0
+    return int.from_bytes(head[4:8], "little") + 8 - path.stat().st_size
+
+
 def _read_wav(path: Path) -> RawRecord:
     import scipy.io.wavfile
 
-    with warnings.catch_warnings(record=True) as caught:  # a truncated file is read in part, with a warning
+    with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             fs, data = scipy.io.wavfile.read(path)
         except (ValueError, OSError, EOFError) as error:
             raise BearingTwinError(f"{path}: not a readable .wav file ({error})") from None
+    # scipy reads a truncated file in part and only warns: the samples before the cut would pass for the record. It
+    # warns as well where a writer overstates the RIFF size by its 8-byte header or a pad byte, the data all there.
+    truncated = next((warning.message for warning in caught if str(warning.message).startswith("Reached EOF")), None)
+    if truncated is not None and _wav_shortfall_bytes(path) > 16:
+        raise BearingTwinError(f"{path}: not a readable .wav file, truncated ({truncated})")
     notes = [f"reading it: {warning.message}" for warning in caught]
     if np.issubdtype(data.dtype, np.integer):  # PCM counts; the unsigned 8-bit format is offset by half its range
         stored, bits = data.dtype.name, 8 * data.dtype.itemsize

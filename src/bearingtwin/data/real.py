@@ -127,7 +127,8 @@ def check_hust_settings(data_cfg) -> tuple[int, int, dict[str, Path]]:
 log = logging.getLogger(__name__)
 
 LABEL_COLUMNS = ("record", "state", "rpm", "fs")
-"""Columns of a labels table: ``record`` (file name in ``data.root``) and ``state`` are required."""
+"""Columns of a labels table: ``record`` (file name in ``data.root``) and ``state`` are required (a diagnosis may
+leave the state out: :func:`labels_table_with_bad_rows`)."""
 DEFAULT_LABELS = "labels.csv"
 """The labels table ``data=files`` reads from ``data.root`` unless ``data.labels`` names another."""
 
@@ -258,13 +259,17 @@ def labels_table(table: Path) -> list[tuple[str, str, str, float | None, float |
     return rows
 
 
-def labels_table_with_bad_rows(table: Path) -> tuple[list[tuple[str, str, str, float | None, float | None]],
-                                                     list[tuple[str, str]]]:
+def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tuple[
+        list[tuple[str, str, str | None, float | None, float | None]], list[tuple[str, str]]]:
     """The rows of a labels table that read, as :func:`labels_table` gives them, and ``(record, message)`` for
     each that does not (more values than the header has columns, a record labelled again, a state that is no
     bearing state, an rpm or fs that is no positive number), in the table's order: a bad row is its record's
     concern alone where a command reads one file's row, or each file of a folder its own. A table that cannot be
-    read, or whose header is wrong, raises: none of its rows can be read."""
+    read, or whose header is wrong, raises: none of its rows can be read.
+
+    ``state_required=False`` (a diagnosis, where a fleet's states are what is asked): the ``state`` column may be
+    left out and its cells left empty, such a row's state None (unknown) and its rpm and fs read all the same; a
+    state given must still be a bearing state. Training keeps it required: there the state is the label."""
     try:
         with open(table, newline="", encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark
             header = handle.readline()
@@ -281,9 +286,11 @@ def labels_table_with_bad_rows(table: Path) -> tuple[list[tuple[str, str, str, f
                 raise BearingTwinError(f"{table}: the header names column {twice} more than once (in any case)")
             # Unnamed columns (a trailing separator) each keep a key of their own, so a value under any of them is seen.
             reader.fieldnames = [name or f"unnamed {index}" for index, name in enumerate(columns)]
-            missing = [name for name in LABEL_COLUMNS[:2] if name not in columns]
+            required = LABEL_COLUMNS[:2] if state_required else LABEL_COLUMNS[:1]
+            missing = [name for name in required if name not in columns]
             if missing:
-                raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read {','.join(LABEL_COLUMNS)} (rpm, fs optional)")
+                raise BearingTwinError(f"{table}: no column {', '.join(missing)}; the header must read "
+                                       f"{','.join(LABEL_COLUMNS)} ({', '.join(LABEL_COLUMNS[len(required):])} optional)")
             unknown = [name for name in columns if name and name not in LABEL_COLUMNS]  # (a trailing comma: no name)
             if unknown:  # a "speed" column would be passed over, and the files read at another speed
                 raise BearingTwinError(f"{table}: column {unknown[0]!r} is not one of {', '.join(LABEL_COLUMNS)}")
@@ -307,7 +314,8 @@ def labels_table_with_bad_rows(table: Path) -> tuple[list[tuple[str, str, str, f
                                                f"({', '.join(name for name in columns if name)}); name every column in the header")
                     numbers = {key: (row.get(key) or "").replace(",", ".") if semicolons else row.get(key)
                                for key in ("rpm", "fs")}
-                    rows.append((where, record, _state(row["state"], where),
+                    state = row.get("state", "")  # no column, or an empty cell: unknown where that is allowed
+                    rows.append((where, record, _state(state, where) if state or state_required else None,
                                  _optional_number(numbers["rpm"], "rpm", "rev/min", where),
                                  _optional_number(numbers["fs"], "fs", "Hz", where)))
                 except BearingTwinError as error:
@@ -317,15 +325,16 @@ def labels_table_with_bad_rows(table: Path) -> tuple[list[tuple[str, str, str, f
     return rows, bad_rows
 
 
-def read_labels(path: Path | None) -> tuple[dict[str, tuple[str, str, float | None, float | None]],
-                                             dict[str, list[tuple[str, str]]]]:
+def read_labels(path: Path | None, state_required: bool = True) -> tuple[
+        dict[str, tuple[str, str | None, float | None, float | None]], dict[str, list[tuple[str, str]]]]:
     """``stem -> (record, state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or
     stem; :func:`names_file` says which file a row is for), and ``stem -> [(record, message), ...]``, the rows of
-    that stem that do not read (:func:`labels_table_with_bad_rows`): their records' errors, not the others'.
+    that stem that do not read (:func:`labels_table_with_bad_rows`, which ``state_required`` goes to): their
+    records' errors, not the others'.
 
     Records are named by their stem here (an output folder, a summary row), so two rows of one stem (``rec.npz`` and
     ``rec``) label neither: both are that stem's bad rows."""
-    rows, bad_rows = labels_table_with_bad_rows(path) if path is not None else ([], [])
+    rows, bad_rows = labels_table_with_bad_rows(path, state_required) if path is not None else ([], [])
     labels, lines = {}, {}
     for where, record, state, rpm, fs in rows:
         stem = _record_stem(record)
@@ -374,14 +383,15 @@ def names_file(record: str, path: Path) -> bool:
     return row.name == path.name or (row.suffix.lower() not in FORMATS and row.name == path.stem)
 
 
-def labels_row(path: Path) -> tuple[str, str, float | None, float | None] | None:
+def labels_row(path: Path, state_required: bool = True) -> tuple[str, str | None, float | None, float | None] | None:
     """``(where, state, rpm, fs)`` of the row of the ``labels.csv`` beside ``path`` that names it
     (:func:`names_file`); None when there is no such table or row. Its row alone is read: a bad row of
-    another file is that file's concern, named in a warning, while a bad row of this one raises."""
+    another file is that file's concern, named in a warning, while a bad row of this one raises.
+    ``state_required``: as :func:`labels_table_with_bad_rows` takes it."""
     table = path.parent / DEFAULT_LABELS
     if not table.is_file():
         return None
-    rows, bad_rows = labels_table_with_bad_rows(table)
+    rows, bad_rows = labels_table_with_bad_rows(table, state_required)
     its_own = [message for record, message in bad_rows if names_file(record, path)]
     if its_own:
         raise BearingTwinError(its_own[0])

@@ -50,16 +50,29 @@ def piled_at(x: np.ndarray, top: float, bottom: float) -> np.ndarray:
     return at if np.count_nonzero(at) > below else np.zeros_like(at)
 
 
+def _runs(signal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start index and length (samples) of every run of equal consecutive samples of a 1-D signal, in order."""
+    # Run boundaries: where a sample differs from the one before it.
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(signal) != 0) + 1])
+    return starts, np.diff(np.concatenate([starts, [signal.size]]))
+
+
 def longest_held_stretch(signal: np.ndarray) -> tuple[int, int]:
     """Start index and length (samples) of the longest run of equal consecutive samples of a 1-D signal."""
     signal = np.asarray(signal)
     if signal.size < 2:
         return 0, signal.size
-    # Run boundaries: where a sample differs from the one before it.
-    starts = np.concatenate([[0], np.flatnonzero(np.diff(signal) != 0) + 1])
-    lengths = np.diff(np.concatenate([starts, [signal.size]]))
+    starts, lengths = _runs(signal)
     longest = int(np.argmax(lengths))
     return int(starts[longest]), int(lengths[longest])
+
+
+def held_stretches(signal: np.ndarray, shortest: int) -> list[tuple[int, int]]:
+    """Start index and length (samples) of every run of equal consecutive samples of a 1-D signal that is
+    ``shortest`` samples long or longer (two at least: one sample is no stretch), in order."""
+    starts, lengths = _runs(np.asarray(signal))
+    held = lengths >= max(shortest, 2)
+    return list(zip(starts[held].tolist(), lengths[held].tolist()))
 
 
 @dataclass
@@ -161,9 +174,14 @@ class Recording:
         dropout, ...)"), None where it holds none so long."""
         start, length = longest_held_stretch(self.signal)
         if length > 1 and length >= seconds * self.fs:
-            return (f"samples from {start / self.fs:.3g} s to {(start + length) / self.fs:.3g} s are all "
-                    f"{self.signal[start]:g} (a dropout, or a stretch held at one value)")
+            return self.held_at(start, length)
         return None
+
+    def held_at(self, start: int, length: int) -> str:
+        """A stretch held at one value, from sample ``start`` for ``length`` samples, in seconds ("samples from 1 s
+        to 1.3 s are all 0 (a dropout, or a stretch held at one value)")."""
+        return (f"samples from {start / self.fs:.3g} s to {(start + length) / self.fs:.3g} s are all "
+                f"{self.signal[start]:g} (a dropout, or a stretch held at one value)")
 
     def require_no_held_stretch(self, seconds: float, why: str) -> None:
         """Refuse a record holding one value for ``seconds`` or longer (a dropout, a sensor saturated or

@@ -2,14 +2,17 @@
 
 ``mlflow.pyfunc.load_model("runs:/<run_id>/model").predict(windows, params={"rpm": 1797})``
 takes raw windows (n, window_length) at the model's sampling rate and returns one row per
-window: ``state`` and one probability column per class (the classifier's), and ``decided_by``
-(``physics`` or ``classifier``) for a model whose physics may decide a window (``physics_first``).
+window: ``state`` and one probability column per class (the classifier's), ``decided_by``
+(``physics`` or ``classifier``) for a model whose physics may decide a window (``physics_first``), and
+``level_unseen`` for a model that reads the windows' level (a window a decade or more outside the training windows'
+levels: an undeclared unit or gain, the answer not to be trusted).
 ``rpm`` (rev/min; 0 = not given) is needed by models whose features are read on the shaft-order
 axis and by ``physics_first`` models; ``bearing`` (a ``conf/bearing/<name>.yaml``; default the
 model's own) is the recorded bearing, whose defect orders those features and that physics read. ``fs`` (Hz) and
 ``unit`` (``g``, ``m/s^2``, ...), where given, are the windows' own: a rate other than the model's is refused (the
-windows' lines would stand at other frequencies, and the model reads them without a word), and windows in another
-acceleration unit are converted to the model's. The same model is served by
+windows' lines would stand at other frequencies, and the model reads them without a word), windows in another
+acceleration unit are converted to the model's, and a unit is refused where :func:`unit_for_model` refuses a record's
+or is no unit known here. The same model is served by
 ``mlflow models serve -m models:/<name>@<alias> --env-manager local`` and queried with
 ``{"inputs": [[...], ...], "params": {"rpm": 1797, "bearing": "cwru_6203", "fs": 12000, "unit": "g"}}``.
 """
@@ -31,7 +34,7 @@ from mlflow.protos.databricks_pb2 import INVALID_PARAMETER_VALUE
 from mlflow.pyfunc import PythonModel
 
 from bearingtwin.checks import positive_number
-from bearingtwin.data.units import METRES_PER_S2
+from bearingtwin.data.units import METRES_PER_S2, quantity_of, unit_key
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline, unit_for_model
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.provenance import installed_versions
@@ -40,6 +43,9 @@ ARTIFACT_PATH = "model"
 STATE_COLUMN = "state"
 DECIDED_BY_COLUMN = "decided_by"
 """``physics`` or ``classifier`` per window, in the frame of a model whose physics may decide a window."""
+LEVEL_UNSEEN_COLUMN = "level_unseen"
+"""Per window, in the frame of a model that reads the windows' level: a level a decade or more outside the training
+windows' (an undeclared unit or gain), where the classifier's answer is not to be trusted."""
 RUNTIME_PACKAGES = ("bearingtwin", "numpy", "scipy", "pandas", "scikit-learn", "torch", "lightning", "mlflow")
 
 
@@ -81,17 +87,20 @@ def in_model_terms(pipeline: DiagnosisPipeline, windows: np.ndarray, fs: float |
     model's rate (a window of its length at another rate is another stretch of time, which no conversion of the
     request restores; bearingtwin-diagnose resamples a record); in ``unit`` (empty: not given), held against the
     model's as a diagnosed record's is (:func:`unit_for_model`: converted between acceleration units, g and m/s^2
-    differing by 9.81, which no level check sees), but text no unit known here is refused (a request is answered
-    without its notes, where a diagnosis would say it read it as the model's)."""
+    differing by 9.81, which no level check sees; a voltage, a velocity or a displacement refused where the model
+    reads what they change), but text no unit known here is refused by every model (a request is answered without
+    its notes, where a diagnosis would say it read it as the model's)."""
     if fs is not None and not math.isclose(positive_number(fs, "fs", "Hz"), pipeline.fs_hz, rel_tol=1e-6):
         raise BearingTwinError(f"params fs {fs:g} Hz: the model reads windows sampled at {pipeline.fs_hz:g} Hz; resample "
                                "the record to it before cutting windows (bearingtwin-diagnose reads a record at any rate)")
     if not unit:
         return windows
-    factor, _, check = unit_for_model(unit, pipeline, f"params unit {unit!r}")
-    if check == "assumed":
-        raise BearingTwinError(f"params unit {unit!r}: no unit known here; give one of {', '.join(METRES_PER_S2)} "
-                               f"(the model's is {pipeline.unit})")
+    source = f"params unit {unit!r}"
+    factor, _, check = unit_for_model(unit, pipeline, source)
+    own_unit = pipeline.unit and unit_key(unit) == unit_key(pipeline.unit)  # the model's own, whatever it is
+    if not own_unit and (check == "assumed" or quantity_of(unit) is None):  # a diagnosis reads it as none stated
+        own = f" (the model's is {pipeline.unit})" if pipeline.unit else ""
+        raise BearingTwinError(f"{source}: no unit known here; give one of {', '.join(METRES_PER_S2)}{own}")
     return windows if factor is None else windows * factor
 
 
@@ -129,13 +138,17 @@ def use_one_thread_per_library() -> None:
 
 def predictions_frame(pipeline: DiagnosisPipeline, windows: np.ndarray, rpm: float | None,
                       bearing: dict | None = None) -> pd.DataFrame:
-    """``state`` and one probability column per class (the classifier's), one row per window; and who decided
-    each window (``decided_by``) when the model lets the physics decide some (``physics_first``)."""
+    """``state`` and one probability column per class (the classifier's), one row per window; who decided each window
+    (``decided_by``) when the model lets the physics decide some (``physics_first``); and whether its level lies a
+    decade or more outside the training windows' (``level_unseen``) when the model reads the level
+    (:meth:`DiagnosisPipeline.levels_unseen`)."""
     states, probabilities, by_physics = pipeline.decide(windows, rpm, bearing)
     frame = pd.DataFrame(probabilities, columns=pipeline.class_names)
     frame.insert(0, STATE_COLUMN, states)
     if pipeline.physics_first is not None:
         frame[DECIDED_BY_COLUMN] = np.where(by_physics, "physics", "classifier")
+    if pipeline.levels_seen is not None:  # flagged, not refused: a louder machine is a level unseen too
+        frame[LEVEL_UNSEEN_COLUMN] = pipeline.levels_unseen(np.std(windows, axis=1))
     return frame
 
 

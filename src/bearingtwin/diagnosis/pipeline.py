@@ -87,6 +87,38 @@ class DiagnosisPipeline:
         return isinstance(self.extractor, EnvelopeOrderFeatures)
 
     @property
+    def scale_free(self) -> str | None:
+        """Why the classifier's input does not change with the windows' scale (a unit's factor, a sensor's gain), in
+        words; None where it does: the model then reads the windows' level as it learnt it (:attr:`window_level`)."""
+        if self.window_normalization != "none":
+            return "the model scales every window to one level"
+        if isinstance(self.extractor, EnvelopeOrderFeatures):  # shares, prominences and band_power: power over power
+            return "the model's features are ratios of one window's powers"
+        return None
+
+    @property
+    def reads_spectrum_shape(self) -> str | None:
+        """What of the model's input a record integrated once or twice more than its training records changes (a
+        velocity's spectrum is an acceleration's with each line divided by its frequency), in words; None where nothing
+        does. Said of a model free of scale (:attr:`scale_free`); one that reads the level is refused other quantities
+        for that first."""
+        extractor = self.extractor
+        if not isinstance(extractor, EnvelopeOrderFeatures):
+            return ("its features describe the waveform (its samples, or statistics of a VMD mode), whose shape "
+                    "integration changes")
+        low, high = (float(edge) * self.fs_hz / 2 for edge in extractor.band_nyquist)
+        if extractor.band_power:
+            return (f"its band_power feature is the share of a window's power in the band-pass ({low:g}-{high:g} Hz), "
+                    "which integration lowers (it divides each line by its frequency, favouring the band below): the "
+                    "record would read as a bearing that rings less")
+        # Pre-whitened, every line's magnitude is one: what integration leaves is a phase shift of -90 degrees at
+        # every frequency (a sign change, integrated twice), a Hilbert transform, which leaves the envelope as it was.
+        if extractor.prewhiten == "cepstral":
+            return None
+        return (f"its defect lines are read in the envelope of the band-pass ({low:g}-{high:g} Hz), whose content "
+                f"integration tilts ({high / low:.3g} times weaker at its top than at its bottom, once integrated)")
+
+    @property
     def needs_rpm(self) -> bool:
         """Whether a diagnosis needs the shaft speed: for the features (:attr:`reads_defect_orders`) or for the
         physics that may decide a window (:attr:`physics_first`)."""
@@ -131,16 +163,29 @@ class DiagnosisPipeline:
                                    "overflow them; give the record in a unit that keeps its values within 1e150")
         return features
 
+    @property
+    def levels_seen(self) -> tuple[float, float] | None:
+        """The training windows' 5-95 % range of levels (:attr:`window_level`) a diagnosis holds windows against; None
+        where the model does not read the level (:attr:`scale_free`) or was saved before it kept its levels."""
+        return None if self.scale_free else self.window_level
+
+    def levels_unseen(self, levels) -> np.ndarray:
+        """Whether each of ``levels`` (window standard deviations, in :attr:`unit`) stands more than
+        :data:`LEVEL_FACTOR` outside the levels the model was trained on (:attr:`levels_seen`, which must be known):
+        a unit or gain the model did not see, which every amplitude-dependent feature reads as another state."""
+        low, high = self.levels_seen
+        return (np.asarray(levels) < low / LEVEL_FACTOR) | (np.asarray(levels) > high * LEVEL_FACTOR)
+
     def level_note(self, windows: np.ndarray) -> str | None:
-        """What to say when raw ``windows`` (n, window_length) stand a decade or more above or below the levels the
-        model was trained on (:attr:`window_level`): a unit or gain the model did not see, which every
-        amplitude-dependent feature reads as another state. None when they do not, or the model normalizes."""
-        if self.window_level is None:
+        """What to say when raw ``windows`` (n, window_length), a record's, stand a decade or more above or below the
+        levels the model was trained on (:meth:`levels_unseen`, of their median level). None when they do not, or the
+        model does not read the level."""
+        if self.levels_seen is None:
             return None
         level = float(np.median(np.std(windows, axis=1)))
-        low, high = self.window_level
-        if low / LEVEL_FACTOR <= level <= high * LEVEL_FACTOR:
+        if not self.levels_unseen(level):
             return None
+        low, high = self.levels_seen
         unit = f" {self.unit}" if self.unit else ""
         side = "above" if level > high else "below"
         return (f"the record's level (median window standard deviation {level:.3g}{unit}) lies more than "
@@ -245,7 +290,7 @@ class DiagnosisPipeline:
 UNIT_CHECKS = ("as stated", "converted", "assumed", "not checked", "not needed")
 """How a record's unit was held against the model's (:attr:`PreparedRecord.unit_check`, :func:`in_model_unit`): the
 model's own, converted to it, assumed to be it (the file states none), not checked (the model states none), not needed
-(the model normalizes every window, so no unit's scale matters to it)."""
+(no unit's scale matters to the model: :attr:`DiagnosisPipeline.scale_free`)."""
 
 _CONVERSION_NEEDS = {
     "a voltage": "divide it by the sensor's sensitivity (V per g, from its data sheet or calibration) and state the "
@@ -256,27 +301,26 @@ _CONVERSION_NEEDS = {
                       "record, in an acceleration unit",
 }
 """What a record in a unit of another quantity takes to be read in an acceleration unit, in words."""
+_INTEGRATED = ("a velocity", "a displacement")
+"""Quantities whose spectrum is an acceleration's tilted (each line divided by its frequency, once or twice): no factor
+of the samples, so a model free of scale is not free of them for that."""
 
 
 def unit_for_model(unit: str, pipeline: DiagnosisPipeline, source: str) -> tuple[float | None, list[str], str]:
     """How samples in ``unit`` (``source``'s, named in a refusal) are read by the model: the factor converting them to
     the unit it was trained in (None: read as they are), notes, and how the units were held against each other
-    (:data:`UNIT_CHECKS`). Converted where both are acceleration units (g, mg, m/s^2, mm/s^2, ...), read as if in the
-    model's where none is stated or text no unit known here (said so), refused where the samples are a voltage, a
-    velocity or a displacement (no acceleration factor converts them) and the model reads the windows' level. As they
-    are when the model states no unit, and when it normalizes its windows (any unit's scale is alike to it), said so
-    for a unit of another quantity than acceleration."""
+    (:data:`UNIT_CHECKS`).
+
+    A model that reads the windows' level converts them where both are acceleration units (g, mg, m/s^2, mm/s^2,
+    ...), reads them as if in its own where none is stated or text no unit known here (said so), and refuses a
+    voltage, a velocity or a displacement (no acceleration factor converts them); it reads them as they are when it
+    states no unit. A model free of scale (:attr:`DiagnosisPipeline.scale_free`) reads any unit as it is, a voltage
+    (an accelerometer's: its acceleration times a gain) too, but refuses a velocity or a displacement where its input
+    reads the spectrum's shape (:attr:`DiagnosisPipeline.reads_spectrum_shape`), which integration tilts."""
     model_unit = pipeline.unit
     quantity = quantity_of(unit)
-    if pipeline.window_normalization != "none":
-        if not unit or quantity == "an acceleration":
-            return None, [], "not needed"
-        note = (f"the record is in {unit} ({quantity or 'a unit not known here'}), not an acceleration: read as it is, "
-                "the model scaling every window to one level")
-        if quantity in ("a velocity", "a displacement"):  # unlike a gain, integration changes the spectrum's shape
-            note += (f"; {quantity}'s spectrum falls off towards high frequencies against an acceleration's: hold the "
-                     "verdict against the physics evidence")
-        return None, [note], "not needed"
+    if pipeline.scale_free:
+        return _unit_for_scale_free(unit, quantity, pipeline, source)
     if not model_unit:  # trained on records that state none, or saved before models kept their unit
         return None, [], "not checked"
     if not unit:  # g and m/s^2 differ by 9.81: a level check that fires at a decade never sees it
@@ -303,6 +347,28 @@ def unit_for_model(unit: str, pipeline: DiagnosisPipeline, source: str) -> tuple
     factor = acceleration_factor(*units)
     return factor, [f"converted from {units[0]} to {units[1]}, the unit the model was trained in (x {factor:.6g})"], \
         "converted"
+
+
+def _unit_for_scale_free(unit: str, quantity: str | None, pipeline: DiagnosisPipeline,
+                         source: str) -> tuple[None, list[str], str]:
+    """:func:`unit_for_model` for a model no unit's scale matters to: the samples as they are, or refused where they
+    are a velocity's or a displacement's and the model reads the spectrum's shape."""
+    if not unit or quantity == "an acceleration" or unit_key(unit) == unit_key(pipeline.unit):
+        return None, [], "not needed"
+    free = pipeline.scale_free
+    shape = pipeline.reads_spectrum_shape
+    if quantity in _INTEGRATED and shape:
+        raise BearingTwinError(f"{source}: the record is in {unit} ({quantity}): {free}, but {shape}; "
+                               f"{_CONVERSION_NEEDS[quantity]}")
+    if quantity in _INTEGRATED:
+        return None, [f"the record is in {unit} ({quantity}), not an acceleration: read as it is ({free}, and its "
+                      "features do not read the spectrum's shape, which integration tilts)"], "not needed"
+    if quantity == "a voltage":
+        return None, [f"the record is in {unit} (a voltage): read as it is, as an accelerometer's (its acceleration "
+                      f"times the sensor's sensitivity, a gain, and {free}); a velocity sensor's volts would read as "
+                      "another state"], "not needed"
+    described = f"{unit!r}, no unit known here" if quantity is None else f"{unit} ({quantity}), not an acceleration"
+    return None, [f"the file states {described}: read as it is ({free})"], "not needed"
 
 
 def _jsonable(value):

@@ -4,7 +4,8 @@ A record is checked against the model before anything is predicted: its sampling
 (resampled with ``scipy.signal.resample_poly`` to the model's when it differs, and said so),
 its length (at least one window), its values (finite) and its shaft speed where the model's
 features or the physics evidence need it. It is then cut into non-overlapping windows over its
-whole length, every window is predicted, and the record's verdict is the state most windows
+whole length, every window is predicted (but those touching a dropout as long as a window, which read no
+vibration: :func:`dropout_windows`), and the record's verdict is the state most windows
 voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 
 ``record``, ``model_uri``, ``model_version_uri`` (an alias replaced by the version it named), ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
@@ -12,12 +13,13 @@ voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
 ``contradicted`` or ``not checked``), ``unit_check`` (the record's unit against the model's: ``as stated``,
 ``converted``, ``assumed`` where the file states none, ``not checked`` where the model states none, ``not needed``
-where the model normalizes its windows), ``level_unseen`` (the windows' level lies a decade or more from the
+where no unit's scale matters to the model: :attr:`DiagnosisPipeline.scale_free`), ``level_unseen`` (the windows' level lies a decade or more from the
 training windows'), ``notes``, ``fault_size_in``, ``position`` and ``load_hp`` where the
 file's name gives them and, when the truth is known, ``true_state``, ``correct`` and ``physics_correct`` (the evidence
 alone). Beside them: ``source``, ``channel``, ``bearing`` (whose defect lines were read) and ``original_fs``
 (what was read), and
-``windows_correct`` with a truth (``calibration_record`` is added by :mod:`bearingtwin.diagnosis.run`).
+``windows_correct`` with a truth (``calibration_record``, ``run_id`` and ``diagnosed_at`` are added by
+:mod:`bearingtwin.diagnosis.run`).
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw,
                                     refuse_a_label_the_file_contradicts)
-from bearingtwin.data.recording import Recording
+from bearingtwin.data.recording import Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, model_params
@@ -299,9 +301,50 @@ def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]
 
 def record_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray]:
     """Non-overlapping windows over the whole record (a remainder shorter than a window is left out)
-    and their first samples."""
-    starts = np.arange(0, signal.size - window_length + 1, window_length)
+    and their first samples, but for the windows a dropout touches (:func:`dropout_windows`)."""
+    starts, touched, _ = dropout_windows(signal, window_length)
+    starts = starts[~touched]
     return signal[starts[:, None] + np.arange(window_length)], starts
+
+
+def dropout_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
+    """The first sample of every non-overlapping window over the whole record, which of them touch a dropout, and the
+    dropouts (``(start, length)`` in samples): stretches held at one value for a window's length or longer. A window
+    inside one reads no vibration (it has no features: a constant window cannot even be normalized), one reaching
+    into it a step into none; left out, the windows around it are diagnosed. A shorter dropout is only noted
+    (:meth:`~bearingtwin.data.recording.Recording.quality_notes`)."""
+    starts = np.arange(0, signal.size - window_length + 1, window_length)
+    dropouts = held_stretches(signal, window_length)
+    touched = np.zeros(starts.size, dtype=bool)
+    for dropout in dropouts:
+        touched |= _touching(starts, window_length, *dropout)
+    return starts, touched, dropouts
+
+
+def _touching(starts: np.ndarray, window_length: int, start: int, length: int) -> np.ndarray:
+    """Which windows (by their first samples) share a sample with the stretch from ``start`` for ``length``."""
+    return (starts < start + length) & (starts + window_length > start)
+
+
+def dropout_note(recording: Recording, window_length: int) -> str | None:
+    """Which windows :func:`record_windows` leaves out of ``recording``, where they and their dropouts are (in
+    seconds); None where it leaves none. A record every window of which touches a dropout is refused: no window
+    of it reads a vibration."""
+    starts, touched, dropouts = dropout_windows(recording.signal, window_length)
+    if not dropouts:
+        return None
+    if touched.all():
+        where = "; ".join(recording.held_at(*dropout) for dropout in dropouts)
+        raise BearingTwinError(f"{recording.source}: {where}, and every window of the model's ({window_length} "
+                               "samples) touches one, so none reads a vibration; cut them out of the record or choose "
+                               "another stretch")
+    parts = []
+    for dropout in dropouts:
+        over = starts[_touching(starts, window_length, *dropout)]
+        parts.append(f"{recording.held_at(*dropout)}: the {over.size} window{'s' * (over.size > 1)} touching it, from "
+                     f"{over[0] / recording.fs:.3g} s to {(over[-1] + window_length) / recording.fs:.3g} s, left out")
+    kept = int(starts.size - touched.sum())
+    return f"{'; '.join(parts)}; the verdict is the other {kept} of {starts.size} windows'"
 
 
 def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipeline, model_uri: str,
@@ -309,11 +352,12 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     """The ``diagnosis.json`` content of one record, and the physics evidence behind it; ``model_version_uri``: the
     model's URI with a registry alias replaced by the version it named (``model_uri`` where there was none)."""
     recording = prepared.recording
-    windows, starts = record_windows(recording.signal, pipeline.window_length)
-    if np.any(np.ptp(windows, axis=1) == 0):  # said in seconds, where the features would only say which window
-        recording.require_no_held_stretch(pipeline.window_length / recording.fs, "a whole window of the model's")
-    params = {"rpm": float(recording.rpm or 0.0)}
     notes = list(prepared.notes)
+    dropped = dropout_note(recording, pipeline.window_length)  # said in seconds, where the windows are left out
+    if dropped:
+        notes.append(dropped)
+    windows, starts = record_windows(recording.signal, pipeline.window_length)
+    params = {"rpm": float(recording.rpm or 0.0)}
     level = pipeline.level_note(windows)
     if level:
         notes.append(level)

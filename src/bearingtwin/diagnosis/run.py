@@ -6,16 +6,25 @@ CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or the
 ``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
 not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed, its labels row not
 reading among the reasons, is reported in ``summary.csv`` with its error and the others go on; the command then
-exits 2. A folder's or glob's tables that hold no signal are left out, and named."""
+exits 2. A folder's or glob's tables that hold no signal are left out, and named. A labels table may leave the
+state out, or a row's state empty: that file's rpm and fs are read, and its verdict is of unknown truth.
+
+A folder's or glob's run leaves ``out`` holding its own per-record outputs alone: what an earlier run wrote there
+(:data:`OUTPUT_FILES`, ``summary.csv``) is removed before the first record is diagnosed, so a record deleted since,
+or failing now, or not reached by an interrupt, leaves no verdict of the earlier run to pass for this one's; a
+single file's run replaces that record's outputs alone (:func:`remove_earlier_outputs`)."""
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import glob
 import json
 import logging
+import os
 import time
 from dataclasses import dataclass, field
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -27,7 +36,7 @@ from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.files import FORMATS
 from bearingtwin.data.real import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
                                    read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
-from bearingtwin.diagnosis.evidence import check_segment, evidence_settings
+from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
@@ -51,7 +60,8 @@ class DiagnosisRun:
     out: Path = Path(".")
     files: list[Path] = field(default_factory=list)
     scores: dict[str, float] = field(default_factory=dict)
-    run_id: str | None = None
+    run_id: str | None = None  # the command's MLflow run (None untracked), named in every diagnosis.json
+    earlier: list[str] = field(default_factory=list)  # records whose outputs an earlier run left in out, removed
 
 
 def find_records(path: str, labels_path: Path | None) -> list[Path]:
@@ -93,13 +103,14 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
             child.is_dir() for child in candidate.iterdir()) else ""
         holds = "matches" if is_glob else "holds"  # a glob that matched only the labels table
         raise BearingTwinError(f"path={path}: {holds} no recording ({', '.join(FORMATS)}){inside}")
+    # Each file as seen from the folder all of them lie in: week01/m01.csv beside week02/m01.csv from a glob.
+    common = Path(os.path.commonpath([file.parent for file in found]))
     by_stem: dict[str, list[str]] = {}
     for file in found:
-        by_stem.setdefault(file.stem, []).append(file.name)
-    clash = next((names for names in by_stem.values() if len(names) > 1), None)
-    if clash:  # a record is named by its stem: its output folder, its summary row and its labels row
-        raise BearingTwinError(f"path={path}: {', '.join(clash)} share the record name {Path(clash[0]).stem}; "
-                               "rename one or point at one file")
+        by_stem.setdefault(file.stem, []).append(file.relative_to(common).as_posix())
+    clashes = [f"{', '.join(names)} share the record name {stem}" for stem, names in by_stem.items() if len(names) > 1]
+    if clashes:  # a record is named by its stem: its output folder, its summary row and its labels row
+        raise BearingTwinError(f"path={path}: {'; '.join(clashes)}; rename them, or point at one folder or file")
     return found
 
 
@@ -107,7 +118,7 @@ def _records_named(table: Path) -> list[str]:
     """The record of every row of a labels table, whether the row reads or not; none where there is no table or
     it cannot be read (the labels are read, and refused, after the records are found)."""
     try:
-        rows, bad_rows = labels_table_with_bad_rows(table) if table.is_file() else ([], [])
+        rows, bad_rows = labels_table_with_bad_rows(table, state_required=False) if table.is_file() else ([], [])
     except BearingTwinError:
         return []
     return [record for _, record, *_ in rows] + [record for record, _ in bad_rows]
@@ -143,7 +154,7 @@ def row_beside(cfg: DictConfig) -> tuple[Path | None, dict]:
     path = Path(str(cfg.path)).expanduser()
     if cfg.labels is not None or not path.is_file():
         return None, {}
-    row = labels_row(path)
+    row = labels_row(path, state_required=False)
     if row is None:
         return None, {}
     _, state, rpm, fs = row
@@ -181,16 +192,18 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
             positive_number(cfg[name], name, unit)
     records = find_records(str(cfg.path), given_labels(cfg))  # first: an empty path= would have ./labels.csv read
     table = labels_path(cfg, records)
-    labels, bad_rows = read_labels(table)
+    labels, bad_rows = read_labels(table, state_required=False)  # a fleet's states are what is asked
     beside, row = row_beside(cfg)
     if beside is not None:  # one file: its row fills in what the command leaves out, as the twin's does
         table, labels = beside, row
     model, pipeline, pinned = load_diagnosis_model(str(cfg.model), tracking_uri)  # pinned: the version an alias named
     pipeline.check_can_diagnose()
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
+    # Once the command can diagnose (a mistyped model costs no earlier results), before the first record: an
+    # interrupted run then leaves its own records' outputs alone, never beside an earlier run's.
     tracked = open_diagnosis_run(cfg, table, bearing, pinned) if tracking else None
-    run = DiagnosisRun(out=out)
-    earlier = {path.parent.name for path in out.glob("*/diagnosis.json")}
+    earlier = remove_earlier_outputs(out, records)  # after the store answered: a failing store costs no results
+    run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier)
     try:
         diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures, pinned)
     except KeyboardInterrupt:  # an interrupt (SIGINT, SIGTERM): the records it left are listed as left, not omitted
@@ -200,13 +213,66 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
         if len(records) > 1 or run.failures:
             run.files.append(write_summary(run.rows, out / "summary.csv"))
-    left = sorted(earlier - {row["record"] for row in run.rows if "error" not in row})  # a failed record's old one too
-    if left:  # not deleted (they are a user's results), but not to be read as this run's either
-        log.warning("out=%s holds %d record folder%s of an earlier run beside this run's (%s); summary.csv lists this "
-                    "run's only", out, len(left), "s" if len(left) > 1 else "", ", ".join(left[:5]) + (", ..." if len(left) > 5 else ""))
     if tracked:
-        run.run_id = log_diagnosis(*tracked, run, len(records))
+        log_diagnosis(*tracked, run, len(records))
     return run
+
+
+OUTPUT_FILES = ("diagnosis.json", "diagnosis.png")
+"""What the command writes into each record's folder of ``out``: all it removes there, never another file."""
+
+
+def remove_earlier_outputs(out: Path, records: list[Path]) -> list[str]:
+    """Remove what an earlier run wrote into ``out`` and name the records it had written: a verdict left beside this
+    run's would pass for one of them, for a record deleted since, failing now or not reached. A run of several records
+    removes every record folder's outputs and the earlier ``summary.csv``; a run of one file only that record's (files
+    diagnosed one by one as they arrive build up their results). Only files this command wrote are removed (a
+    ``diagnosis.json`` naming its own record and a model, the ``diagnosis.png`` beside it, a ``summary.csv`` with
+    its columns), never a symlinked folder's, and a folder only when nothing else is left in it."""
+    names = None if len(records) > 1 else {records[0].stem}
+    folders = sorted(folder for folder in out.glob("*") if folder.is_dir() and not folder.is_symlink()
+                     and (names is None or folder.name in names) and _written_here(folder))
+    try:
+        summary = out / "summary.csv"
+        if names is None and summary.is_file() and summary.read_text(errors="replace").startswith(",".join(SUMMARY_COLUMNS)):
+            summary.unlink()
+        for folder in folders:
+            remove_outputs(folder)
+    except OSError as error:
+        raise BearingTwinError(f"out={out}: cannot remove an earlier run's outputs ({error.strerror}: "
+                               f"{error.filename})") from None
+    return [folder.name for folder in folders]
+
+
+def _written_here(folder: Path) -> bool:
+    """Whether ``folder`` holds a diagnosis.json this command wrote: one naming the folder's record and a model."""
+    try:
+        result = json.loads((folder / "diagnosis.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(result, dict) and result.get("record") == folder.name and "model_uri" in result
+
+
+def remove_outputs(folder: Path) -> None:
+    """Remove :data:`OUTPUT_FILES` from a record's folder, and the folder when nothing else is left in it."""
+    for name in OUTPUT_FILES:
+        (folder / name).unlink(missing_ok=True)
+    with contextlib.suppress(OSError):  # a file of the user's own keeps the folder
+        folder.rmdir()
+
+
+def write_outputs(result: dict, evidence: PhysicsEvidence | None, class_names: list[str], folder: Path,
+                  figures: bool) -> list[Path]:
+    """``diagnosis.json`` and, with ``figures``, ``diagnosis.png`` in the record's ``folder``; a write that fails or
+    is interrupted leaves neither (nor the folder it made), so no record folder holds a part of a diagnosis."""
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        written = [plot_diagnosis(result, evidence, class_names, folder / "diagnosis.png")] if figures else []
+        (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
+    except BaseException:  # an interrupt (KeyboardInterrupt) too
+        remove_outputs(folder)
+        raise
+    return [folder / "diagnosis.json", *written]
 
 
 def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, model, pipeline, settings: dict,
@@ -249,12 +315,10 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             if calibrated_on:
                 result["notes"].append("the model's twin was calibrated on this record (data.calibration.records): "
                                        "its verdict is no test of the model")
-            folder = out / result["record"]
-            folder.mkdir(parents=True, exist_ok=True)
-            written = [plot_diagnosis(result, evidence, pipeline.class_names, folder / "diagnosis.png")] if figures else []
-            # Last: a record folder holding a diagnosis.json is a finished one, also after an interrupt.
-            (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
-            written.insert(0, folder / "diagnosis.json")
+            # Which run wrote it, and when: results of different runs are told apart.
+            result["run_id"] = run.run_id
+            result["diagnosed_at"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
+            written = write_outputs(result, evidence, pipeline.class_names, out / result["record"], figures)
         except Exception as error:  # one record's failure, expected or not, must not lose the others'
             message = str(error) if isinstance(error, BearingTwinError) else f"{type(error).__name__}: {error}"
             if not message.startswith(f"{path}: "):  # a reader's message names the file already; name it once
@@ -264,6 +328,9 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                 message += (f" (or a row in {table}, which has none for it)" if table is not None else
                             f" (every file's), or this file's in a {DEFAULT_LABELS} beside it (columns record,state,rpm,fs)"
                             if not single else f" (or a row in a {DEFAULT_LABELS} beside it: record,state,rpm,fs)")
+            elif path.stem in labelled and "give fs=" in message:  # its row leaves the rate out (the speed's message
+                # names the rpm column itself)
+                message += f" (or this file's in the fs column of its row in {table})"
             if not isinstance(error, BearingTwinError):
                 log.exception("%s: unexpected failure", path)
             run.failures[path.name] = message

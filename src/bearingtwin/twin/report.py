@@ -67,7 +67,7 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
     # What neither the settings nor the file say, a labels.csv beside it may (as training and diagnose read one).
     path = Path(str(measured_cfg.path))
     given = (measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs)
-    row = labels_row(path) if None in given else None
+    row = labels_row(path, state_required=False) if None in given else None
     fault, rpm, fs = (value if value is not None else from_table
                       for value, from_table in zip(given, row[1:] if row else (None, None, None)))
     if row is not None and (fault, rpm, fs) != given:
