@@ -590,7 +590,9 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
       lines).
 
     Either makes the rate ``consistent``, with ``matches`` still false (the shaft series does not
-    stand where it belongs). Without either, a series whose fundamental is a grid's supply frequency
+    stand where it belongs). Without either, a series at half a defect comb with no line at its own fundamental
+    (:func:`_half_of_a_comb`) makes it ``ambiguous``: its even harmonics are that comb's lines. A series
+    whose fundamental is a grid's supply frequency
     or twice it (a motor's magnetic pull, strong on many machines) and no whole multiple or fraction
     of the shaft line makes it ``ambiguous`` (``witness`` ``supply``): those lines stand there whatever
     the shaft speed, so they do not place the shaft line. A truly wrong rate can put a shaft series
@@ -619,6 +621,14 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
             return dataclasses.replace(check, implied_fs_hz=check.fs_hz, verdict="consistent", witness="envelope",
                                        reason=f"{check.reason}; but the envelope lines of {witness} and its second "
                                               f"harmonic stand at their frequencies")
+        half = _half_of_a_comb(check, signal, defect_hz, prominence, window)
+        if half is not None:
+            name, hz = half
+            return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous", witness="series",
+                                       reason=f"{check.reason}; but no line stands at {check.observed_hz:.2f} Hz itself: "
+                                              f"that series is the even harmonics of the bearing's {name} ({hz:.2f} Hz "
+                                              f"at {check.rpm:g} rpm), and the shaft's own series is not seen: the rate "
+                                              "is not confirmed")
     supply = _supply_multiple(check.observed_hz)
     if check.verdict == "contradicted" and supply is not None and not _off_by_a_whole_factor(check):
         order, mains = supply
@@ -627,6 +637,28 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
                                           "supply, whose lines stand there whatever the shaft speed, and no whole "
                                           "multiple or fraction of the shaft line: the rate is not confirmed")
     return check
+
+
+def _line_stands(signal: np.ndarray, fs: float, hz: float, prominence: float, window: float) -> bool:
+    """Whether a line stands at ``hz`` in ``signal`` read at ``fs`` (its prominence at least ``prominence``)."""
+    ratio, resolution = _prominence_spectrum(signal, fs, min(2.0 * hz, fs / 2), background_hz=5.0)
+    return bool(_peak(ratio, resolution, np.array([hz]), window)[0] >= prominence)
+
+
+def _half_of_a_comb(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float], prominence: float,
+                    window: float) -> tuple[str, float] | None:
+    """(name, frequency) of the defect comb whose half ``check``'s contradicting series stands at, where no line of
+    its own stands at that fundamental: a series scored on its harmonics' median takes its even harmonics from a
+    strong comb (half the BPFO: the outer race's own lines), and a noise floor that buries the shaft's weak series
+    then leaves it to contradict the rate. None otherwise."""
+    if check.verdict != "contradicted" or check.observed_hz is None or check.fraction:
+        return None
+    hz = check.observed_hz
+    halved = [(name, comb) for name, comb in named_defect_hz(defect_hz).items()
+              if name in _COMB_NAMES and abs(math.log(2 * hz / comb)) <= 2 * window]
+    if not halved or _line_stands(signal, check.fs_hz, hz, prominence, window):
+        return None
+    return halved[0]
 
 
 def _series_below(signal: np.ndarray, check: ShaftLineCheck, n_harmonics: int, window: float,
