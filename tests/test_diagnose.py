@@ -505,6 +505,7 @@ def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_pat
     assert [window["start_s"] for window in result["windows"]] == [2048 * k / FS for k in (*range(11), *range(18, 23))]
     assert ("samples from 2 s to 3 s are all 0 (a dropout, or a stretch held at one value): the 7 windows touching it, "
             "from 1.88 s to 3.07 s, left out; the verdict is the other 16 of 23 windows'") in result["notes"], result["notes"]
+    assert sum("samples from 2 s to 3 s are all 0" in note for note in result["notes"]) == 1  # said once, not twice
     assert result["verdict"] == "outer" and result["share"] == pytest.approx(
         sum(window["state"] == "outer" for window in result["windows"]) / 16)
     # A record every window of which touches a dropout has nothing left to read.

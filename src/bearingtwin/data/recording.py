@@ -50,6 +50,10 @@ def piled_at(x: np.ndarray, top: float, bottom: float) -> np.ndarray:
     return at if np.count_nonzero(at) > below else np.zeros_like(at)
 
 
+HELD_NOTE_END = ": the windows over it read no vibration"
+"""How :meth:`Recording.quality_notes` ends its note of the longest stretch held at one value."""
+
+
 def _runs(signal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Start index and length (samples) of every run of equal consecutive samples of a 1-D signal, in order."""
     # Run boundaries: where a sample differs from the one before it.
@@ -154,7 +158,7 @@ class Recording:
                          "flattens the impacts; what is read from them may be off")
         held = self._held_stretch(shortest_dropout_s)
         if held:
-            notes.append(f"{held}: the windows over it read no vibration")
+            notes.append(f"{held}{HELD_NOTE_END}")
         return notes
 
     def _stretches(self, mask: np.ndarray) -> str:

@@ -37,7 +37,7 @@ from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw,
                                     refuse_a_label_the_file_contradicts)
-from bearingtwin.data.recording import Recording, held_stretches
+from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, model_params
@@ -354,8 +354,8 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     recording = prepared.recording
     notes = list(prepared.notes)
     dropped = dropout_note(recording, pipeline.window_length)  # said in seconds, where the windows are left out
-    if dropped:
-        notes.append(dropped)
+    if dropped:  # the longest stretch is among those it names, with what was done about it: not said twice
+        notes = [note for note in notes if not note.endswith(HELD_NOTE_END)] + [dropped]
     windows, starts = record_windows(recording.signal, pipeline.window_length)
     params = {"rpm": float(recording.rpm or 0.0)}
     level = pipeline.level_note(windows)
