@@ -61,7 +61,8 @@ class ShaftLineCheck:
         reason: one sentence explaining the verdict.
         witness: what confirmed the rate where the shaft series did not: ``series`` (the strong series is
             a defect frequency's) or ``envelope`` (a defect line in the envelope); ``supply`` where the strong
-            series is the supply's, which leaves the rate ``ambiguous``; None otherwise.
+            series is the supply's, and ``half comb`` where it stands at half a defect comb with no line of its own
+            (:func:`_half_of_a_comb`), either of which leaves the rate ``ambiguous``; None otherwise.
         fraction_rate_hz: with a ``fraction``, the rate at which its in-between lines would be the shaft's series.
         implied_confirmed: a contradiction whose implied rate another channel of the record confirms (its shaft
             series stands at its place there; set by :func:`check_channels`).
@@ -549,10 +550,10 @@ def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
     if any(checks[name].verdict == "contradicted" and checks[name].implied_confirmed for name in names):
         names = [name for name in names if not _by_a_defect_alone(checks[name])] or names
 
-    def favour(name: str) -> int:  # a channel with no series at all (noise), or only the supply's, says nothing:
-        check = checks[name]          # after a contradiction
+    def favour(name: str) -> int:  # a channel with no series at all (noise), or only the supply's or half a comb's,
+        check = checks[name]          # says nothing after a contradiction
         no_evidence = check.verdict == "ambiguous" and ((check.observed_hz is None and check.fraction is None)
-                                                         or check.witness == "supply")
+                                                         or check.witness in ("supply", "half comb"))
         return len(VERDICTS_BY_FAVOUR) if no_evidence else VERDICTS_BY_FAVOUR.index(check.verdict)
 
     best = min(names, key=favour)
@@ -590,9 +591,9 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
       lines).
 
     Either makes the rate ``consistent``, with ``matches`` still false (the shaft series does not
-    stand where it belongs). Without either, a series at half a defect comb with no line at its own fundamental
-    (:func:`_half_of_a_comb`) makes it ``ambiguous``: its even harmonics are that comb's lines. A series
-    whose fundamental is a grid's supply frequency
+    stand where it belongs). Without either, a series at half a defect comb with no line at its own fundamental,
+    the envelope's comb standing at the comb's frequency and not at half it (:func:`_half_of_a_comb`), makes it
+    ``ambiguous`` (``witness`` ``half comb``). A series whose fundamental is a grid's supply frequency
     or twice it (a motor's magnetic pull, strong on many machines) and no whole multiple or fraction
     of the shaft line makes it ``ambiguous`` (``witness`` ``supply``): those lines stand there whatever
     the shaft speed, so they do not place the shaft line. A truly wrong rate can put a shaft series
@@ -624,11 +625,11 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
         half = _half_of_a_comb(check, signal, defect_hz, prominence, window)
         if half is not None:
             name, hz = half
-            return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous", witness="series",
-                                       reason=f"{check.reason}; but no line stands at {check.observed_hz:.2f} Hz itself: "
-                                              f"that series is the even harmonics of the bearing's {name} ({hz:.2f} Hz "
-                                              f"at {check.rpm:g} rpm), and the shaft's own series is not seen: the rate "
-                                              "is not confirmed")
+            return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous", witness="half comb",
+                                       reason=f"{check.reason}; but that series lies at half the bearing's {name} "
+                                              f"({hz:.2f} Hz at {check.rpm:g} rpm) with no line at its own fundamental, "
+                                              f"and the envelope's {name} comb stands at its frequency, not at half it: "
+                                              "the shaft's own series is not seen, the rate is not confirmed")
     supply = _supply_multiple(check.observed_hz)
     if check.verdict == "contradicted" and supply is not None and not _off_by_a_whole_factor(check):
         order, mains = supply
@@ -647,18 +648,23 @@ def _line_stands(signal: np.ndarray, fs: float, hz: float, prominence: float, wi
 
 def _half_of_a_comb(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float], prominence: float,
                     window: float) -> tuple[str, float] | None:
-    """(name, frequency) of the defect comb whose half ``check``'s contradicting series stands at, where no line of
-    its own stands at that fundamental: a series scored on its harmonics' median takes its even harmonics from a
-    strong comb (half the BPFO: the outer race's own lines), and a noise floor that buries the shaft's weak series
-    then leaves it to contradict the rate. None otherwise."""
-    if check.verdict != "contradicted" or check.observed_hz is None or check.fraction:
+    """(name, frequency) of the defect comb at half of which ``check``'s contradicting series stands with no line at
+    its own fundamental, while the envelope's comb stands at the comb's frequency and not at half it; None
+    otherwise. A series scored on its harmonics' median takes its even harmonics from a strong comb (half the BPFO:
+    the outer race's own lines), and a noise floor that buries the shaft's weak series leaves it nearest the
+    shaft's place. Under a rate exactly twice too low the comb itself stands at half its frequency, its envelope
+    comb too: that is read as the rate's contradiction, not as this."""
+    if check.verdict != "contradicted" or check.observed_hz is None:
         return None
     hz = check.observed_hz
     halved = [(name, comb) for name, comb in named_defect_hz(defect_hz).items()
               if name in _COMB_NAMES and abs(math.log(2 * hz / comb)) <= 2 * window]
     if not halved or _line_stands(signal, check.fs_hz, hz, prominence, window):
         return None
-    return halved[0]
+    name, comb = halved[0]
+    ratio, resolution = _envelope_prominence(signal, check.fs_hz, min(2.2 * comb, check.fs_hz / 2))
+    at_comb, at_half = _comb_prominence(ratio, resolution, np.array([comb, comb / 2]), window)
+    return (name, comb) if at_comb >= prominence > at_half else None
 
 
 def _series_below(signal: np.ndarray, check: ShaftLineCheck, n_harmonics: int, window: float,
