@@ -944,17 +944,22 @@ def test_the_recorded_bearing_is_given_on_the_command_line(registered, tmp_path)
     assert "Unrecognized params" not in done.stderr + done.stdout
 
 
-def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered, tmp_path):
-    """Recordings that state neither speed nor rate (.npy), at two speeds, and the folder's labels.csv giving them,
-    as training reads such a folder: each file is read at its row's rate and speed (the physics evidence finds its
-    outer-race lines there) and scored against its row's state, with no labels= or rpm= on the command line."""
-    base, uri = registered
-    folder = tmp_path / "pumps"
+def two_speed_folder(folder):
+    """A folder of two outer-race .npy recordings that state neither speed nor rate, and their (rpm, fs) by name."""
     folder.mkdir()
     rows = {"slow": (1500.0, 12000.0), "fast": (1797.0, 24000.0)}
     for name, (rpm, fs) in rows.items():
         bpfo = BearingGeometry.from_config(bearing_config("paper")).defect_frequencies(rpm)["bpfo"]
         np.save(folder / f"{name}.npy", fault_signal(bpfo, seconds=3, fs=fs))
+    return folder, rows
+
+
+def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered, tmp_path):
+    """Recordings that state neither speed nor rate (.npy), at two speeds, and the folder's labels.csv giving them,
+    as training reads such a folder: each file is read at its row's rate and speed (the physics evidence finds its
+    outer-race lines there) and scored against its row's state, with no labels= or rpm= on the command line."""
+    base, uri = registered
+    folder, rows = two_speed_folder(tmp_path / "pumps")
     (folder / "labels.csv").write_text("record,state,rpm,fs\n" + "".join(f"{n}.npy,outer,{r},{f}\n" for n, (r, f) in rows.items()))
     np.save(folder / "unlabelled.npy", fault_signal(None, seconds=3))
     unlabelled = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/first", "figures=false",
@@ -1023,12 +1028,7 @@ def test_a_fleets_labels_table_may_leave_the_state_out_and_give_speeds_and_rates
     state cells empty, gives each file its speed and rate, and its verdict is of unknown truth (neither true_state nor
     correct, nothing scored); a file whose row leaves out the rate it needs is refused naming the row's fs column."""
     _, uri = registered
-    folder = tmp_path / "fleet"
-    folder.mkdir()
-    rows = {"slow": (1500.0, 12000.0), "fast": (1797.0, 24000.0)}
-    for name, (rpm, fs) in rows.items():
-        bpfo = BearingGeometry.from_config(bearing_config("paper")).defect_frequencies(rpm)["bpfo"]
-        np.save(folder / f"{name}.npy", fault_signal(bpfo, seconds=3, fs=fs))
+    folder, rows = two_speed_folder(tmp_path / "fleet")
     np.save(folder / "norate.npy", fault_signal(None, seconds=3))
     for table in ("record,rpm,fs\nslow.npy,1500,12000\nfast.npy,1797,24000\nnorate.npy,1500,\n",
                   "record,state,rpm,fs\nslow.npy,,1500,12000\nfast.npy,,1797,24000\nnorate.npy,,1500,\n"):
