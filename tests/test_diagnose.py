@@ -1083,6 +1083,18 @@ def test_a_reused_out_folder_holds_this_runs_record_outputs_alone(registered, tm
     assert {path.parent.name for path in out.glob("*/diagnosis.json")} == {"r02", "r03", "notes"}
     folder_run = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
     assert folder_run.returncode == 2 and (out / "notes" / "diagnosis.json").is_file(), folder_run.stderr[-2000:]
+    # A record named as that folder is refused rather than written over it, nor written through a linked folder.
+    (folder / "notes.npz").write_bytes((folder / "r02.npz").read_bytes())
+    (tmp_path / "elsewhere").mkdir()
+    (out / "r04").symlink_to(tmp_path / "elsewhere")
+    (folder / "r04.npz").write_bytes((folder / "r02.npz").read_bytes())
+    for name in ("notes", "r04"):
+        refused = run("diagnose", f"path={folder / (name + '.npz')}", "model=models:/diag/1", f"out={out}",
+                      cwd=tmp_path, uri=uri)
+        assert refused.returncode == 2 and "it is kept: move it or choose another out=" in refused.stderr, \
+            refused.stderr[-2000:]
+    assert json.loads((out / "notes" / "diagnosis.json").read_text()) == {"record": "mine"}
+    assert not any((tmp_path / "elsewhere").iterdir())
 
 
 def test_an_interrupt_while_a_record_is_written_leaves_no_part_of_it(registered, tmp_path, monkeypatch):

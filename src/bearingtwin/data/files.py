@@ -713,7 +713,7 @@ def _read_wav(path: Path) -> RawRecord:
     truncated = next((warning.message for warning in caught if str(warning.message).startswith("Reached EOF")), None)
     if truncated is not None and _wav_shortfall_bytes(path) > 16:
         raise BearingTwinError(f"{path}: not a readable .wav file, truncated ({truncated})")
-    notes = [f"reading it: {warning.message}" for warning in caught]
+    notes = [f"reading it: {warning.message}" for warning in caught if warning.message is not truncated]
     if np.issubdtype(data.dtype, np.integer):  # PCM counts; the unsigned 8-bit format is offset by half its range
         stored, bits = data.dtype.name, 8 * data.dtype.itemsize
         offset = 2.0 ** (bits - 1) if np.issubdtype(data.dtype, np.unsignedinteger) else 0.0

@@ -264,7 +264,15 @@ def remove_outputs(folder: Path) -> None:
 def write_outputs(result: dict, evidence: PhysicsEvidence | None, class_names: list[str], folder: Path,
                   figures: bool) -> list[Path]:
     """``diagnosis.json`` and, with ``figures``, ``diagnosis.png`` in the record's ``folder``; a write that fails or
-    is interrupted leaves neither (nor the folder it made), so no record folder holds a part of a diagnosis."""
+    is interrupted leaves neither (nor the folder it made), so no record folder holds a part of a diagnosis. A folder
+    that is a link, or that holds such a file this command did not write (its own were removed before the first
+    record), is refused rather than written through or over."""
+    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        raise BearingTwinError(f"out={folder.parent}: {folder.name} is a link or a file, not a folder this command "
+                               "made; it is kept: move it or choose another out=")
+    theirs = [folder / name for name in OUTPUT_FILES if (folder / name).exists()]
+    if theirs:
+        raise BearingTwinError(f"{theirs[0]} is not one this command wrote; it is kept: move it or choose another out=")
     folder.mkdir(parents=True, exist_ok=True)
     try:
         written = [plot_diagnosis(result, evidence, class_names, folder / "diagnosis.png")] if figures else []
