@@ -38,7 +38,7 @@ from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw,
                                     refuse_a_label_the_file_contradicts)
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
-from bearingtwin.data.units import acceleration_unit, convert_acceleration
+from bearingtwin.data.units import acceleration_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline, unit_for_model
@@ -280,7 +280,7 @@ def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Re
     factor, notes, check = unit_for_model(recording.unit, pipeline, recording.source)
     if factor is None:
         return recording, notes, check
-    signal = convert_acceleration(recording.signal, recording.unit, pipeline.unit)
+    signal = np.asarray(recording.signal, dtype=np.float64) * factor  # the factor between the two units' names
     converted = dataclasses.replace(recording, signal=signal, unit=acceleration_unit(pipeline.unit))
     return converted, notes, check
 
@@ -303,7 +303,11 @@ def record_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, 
     """Non-overlapping windows over the whole record (a remainder shorter than a window is left out)
     and their first samples, but for the windows a dropout touches (:func:`dropout_windows`)."""
     starts, touched, _ = dropout_windows(signal, window_length)
-    starts = starts[~touched]
+    return _windows_at(signal, starts[~touched], window_length)
+
+
+def _windows_at(signal: np.ndarray, starts: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray]:
+    """The windows of ``window_length`` samples beginning at ``starts``, and ``starts``."""
     return signal[starts[:, None] + np.arange(window_length)], starts
 
 
@@ -326,11 +330,11 @@ def _touching(starts: np.ndarray, window_length: int, start: int, length: int) -
     return (starts < start + length) & (starts + window_length > start)
 
 
-def dropout_note(recording: Recording, window_length: int) -> str | None:
-    """Which windows :func:`record_windows` leaves out of ``recording``, where they and their dropouts are (in
-    seconds); None where it leaves none. A record every window of which touches a dropout is refused: no window
-    of it reads a vibration."""
-    starts, touched, dropouts = dropout_windows(recording.signal, window_length)
+def dropout_note(recording: Recording, window_length: int, starts: np.ndarray, touched: np.ndarray,
+                 dropouts: list[tuple[int, int]]) -> str | None:
+    """Which windows :func:`record_windows` leaves out of ``recording`` (``starts``, ``touched``, ``dropouts``: its
+    :func:`dropout_windows`), where they and their dropouts are (in seconds); None where it leaves none. A record
+    every window of which touches a dropout is refused: no window of it reads a vibration."""
     if not dropouts:
         return None
     if touched.all():
@@ -353,10 +357,11 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     model's URI with a registry alias replaced by the version it named (``model_uri`` where there was none)."""
     recording = prepared.recording
     notes = list(prepared.notes)
-    dropped = dropout_note(recording, pipeline.window_length)  # said in seconds, where the windows are left out
+    starts, touched, dropouts = dropout_windows(recording.signal, pipeline.window_length)  # once, for note and windows
+    dropped = dropout_note(recording, pipeline.window_length, starts, touched, dropouts)  # said in seconds
     if dropped:  # the longest stretch is among those it names, with what was done about it: not said twice
         notes = [note for note in notes if not note.endswith(HELD_NOTE_END)] + [dropped]
-    windows, starts = record_windows(recording.signal, pipeline.window_length)
+    windows, starts = _windows_at(recording.signal, starts[~touched], pipeline.window_length)
     params = {"rpm": float(recording.rpm or 0.0)}
     level = pipeline.level_note(windows)
     if level:
