@@ -199,6 +199,29 @@ def test_an_outer_race_defect_outside_the_load_zone_leaves_no_mark_and_is_said_t
     assert rms[90.0] < 1e-3 and rms[270.0] > 0.5, rms
 
 
+def test_without_clearance_a_downward_load_presses_the_lower_half_only():
+    """At zero clearance the load zone spans a quarter circle either side of the load (Harris: acos(0) = 90 deg),
+    not the whole circle: an outer-race defect at 12 o'clock is struck by no loaded ball, its record is the
+    healthy one, and the simulation says so; at 4 o'clock (30 deg below horizontal), inside the zone, it shows."""
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.config import CONF_DIR
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["simulator.load_y_n=-2000", "simulator.duration=0.3",
+                                             "bearing.clearance_mm=0"])
+    healthy, _ = simulate("normal", cfg.bearing, cfg.simulator)
+    for angle, outside in ((90.0, True), (-30.0, False)):
+        cfg.simulator.defect.outer_angle_deg = angle
+        faulty, _ = simulate("outer", cfg.bearing, cfg.simulator)
+        change = np.sqrt(np.mean((faulty.signal - healthy.signal) ** 2)) / np.sqrt(np.mean(healthy.signal ** 2))
+        notes = faulty.meta.get("notes", [])
+        if outside:
+            assert change < 1e-3 and notes and "the load zone spans 90 deg either side of 27" in notes[0]
+        else:
+            assert change > 0.1 and not notes, (change, notes)
+
+
 @pytest.mark.parametrize("fault, rpm, short_s, long_s", [("inner", 60, 0.4, 1.2), ("ball", 120, 0.5, 1.3)])
 def test_an_inner_or_ball_defect_that_never_turns_through_the_load_zone_is_said_to(fault, rpm, short_s, long_s):
     """At a low speed a short record may see the inner-race defect (turning with the shaft) or the ball's (turning

@@ -57,8 +57,10 @@ def test_any_finite_defect_angle_is_an_angle():
 
 
 @pytest.mark.parametrize("fault, rpm, frequency", [("inner", 200_000.0, "BPFI"), ("outer", 30_000.0, "BPFO"),
-                                                   ("ball", 30_000.0, "BSF")])
+                                                   ("ball", 18_000.0, "2xBSF")])
 def test_the_sampling_rate_must_clear_twice_the_faults_defect_frequency(fault, rpm, frequency):
+    """A ball defect strikes both races, at twice BSF: at 18000 rpm its BSF (707 Hz) clears fs/2 = 1000 Hz, its
+    strikes (1414 Hz) do not, and would fold to 586 Hz."""
     message = refused(fault, settings(rpm=rpm, fs=2000.0, duration=0.2), "simulator.fs=2000", frequency,
                       "fs/2 = 1000 Hz")
     assert message.startswith("simulator.fs=2000 Hz cannot show the ")

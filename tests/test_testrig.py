@@ -146,6 +146,32 @@ def test_zero_clearance_gives_stribecks_constant_and_a_half_circle():
     assert zone.max_ball_load_n == pytest.approx(4.37 * 1000.0 / 9, rel=2e-3)  # Stribeck: Q_max = 4.37 Fr / Z
 
 
+def test_the_twins_clearance_is_the_gap_per_ball_half_the_rigs_catalogue_play():
+    """The twin's contact law subtracts its clearance from every ball's deflection (the paper's c_d, Harris's Pd/2);
+    the rig takes the catalogue's radial internal clearance (the total play) and subtracts half of it. The two
+    formulations' static load zones agree when the twin is given half the rig's clearance, and differ when it is
+    given the same number."""
+    from dataclasses import replace
+
+    from bearingtwin.config import compose_config
+    from bearingtwin.physics.dynamics import DynamicParameters, static_equilibrium
+
+    cfg = compose_config("simulate", ["bearing=cwru_6205", "simulator.gravity_m_per_s2=0"])
+    twin = DynamicParameters.from_config(cfg.bearing, cfg.simulator)
+    rig = RigBearing(contact_stiffness_n_per_m1_5=twin.contact_stiffness_n_per_m1_5)
+    balls = math.radians(270.0) + 2.0 * math.pi * np.arange(9) / 9  # one ball under the load
+
+    def twin_half_angle_deg(load_n: float, clearance_um: float) -> float:
+        params = replace(twin, load_y_n=-load_n, clearance_m=clearance_um * 1e-6, inner_stiffness_n_per_m=0.0)
+        state = static_equilibrium(params, balls)
+        return math.degrees(math.acos(params.clearance_m / math.hypot(state[0] - state[2], state[1] - state[3])))
+
+    for load_n, play_um in ((500.0, 6.0), (2000.0, 20.0)):
+        rig_deg = math.degrees(load_zone(rig, load_n, play_um).half_angle_rad)
+        assert twin_half_angle_deg(load_n, play_um / 2.0) == pytest.approx(rig_deg, abs=0.5)
+        assert twin_half_angle_deg(load_n, play_um) < rig_deg - 4.0
+
+
 def test_load_widens_and_clearance_narrows_the_load_zone():
     bearing = RigBearing()
     half_angles_by_load = [load_zone(bearing, load, 20.0).half_angle_rad for load in (200.0, 1000.0, 5000.0)]

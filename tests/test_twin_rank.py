@@ -140,7 +140,7 @@ def test_a_further_key_held_reaches_the_twin_and_the_report_as_held(cfg):
 
 
 @pytest.mark.parametrize("name, value, words", [("radial_load_n", -100.0, "non-negative (radial load (downward), N)"),
-                                                ("clearance_um", -3.0, "non-negative (radial internal clearance, um)"),
+                                                ("clearance_um", -3.0, "non-negative (radial clearance per ball, um)"),
                                                 ("defect_width_mm", 0.0, "positive (defect width, mm)")])
 def test_a_held_operating_point_value_out_of_its_physical_range_is_named(name, value, words):
     with pytest.raises(BearingTwinError, match=re.escape(f"operating_point.{name}={value} must be {words}")):

@@ -26,8 +26,14 @@ rolling direction only, as for a trough across the whole track: a round pit of t
 (CWRU's EDM holes) in a conforming groove lets the ball drop much less, since the contact
 ellipse, wider across the groove than such a pit, bridges it. And with massless balls and a
 smooth profile a pit can only unload a ball, never strike it on re-entry: the peak acceleration
-is capped near the ball's load over the race's mass, so above a width of about 0.36 mm the
-peaks hardly grow while the RMS and the envelope lines still do.
+is capped near the ball's load over the race's mass: under gravity alone (the paper's set-up) the
+peaks hardly grow above a width of about 0.36 mm while the RMS and the envelope lines still do;
+under a radial load of some hundred newtons they grow up to about 1-2 mm. The profile spreads entry
+and exit over w/2 each, so the edges' slope falls as d/w: once a pit is wide enough to unload its
+ball fully (about 2 mm at 500 N on the 6205), a wider one strikes more gently and the vibration
+falls (RMS at 500 N, outer race: 6, 20, 27, 18, 14 m/s^2 for 0.53, 1, 2, 4, 7 mm), where a real
+spall's edges stay sharp whatever its length. Read the twin's pits as up to about 2 mm wide (CWRU's
+seeded faults are 0.18-1.0 mm).
 """
 
 from __future__ import annotations

@@ -52,7 +52,7 @@ class DynamicParameters:
     inner_stiffness_n_per_m: float
     outer_stiffness_n_per_m: float
     contact_stiffness_n_per_m1_5: float
-    clearance_m: float  # radial internal clearance; negative = preload (every ball compressed at rest)
+    clearance_m: float  # gap per ball, half the catalogue's radial play (BearingGeometry.clearance_mm); negative = preload
     n_balls: int
     eccentricity_m: float = 0.0
     load_x_n: float = 0.0

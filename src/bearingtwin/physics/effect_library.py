@@ -1007,8 +1007,9 @@ class LoadZone(Effect):
     Args:
         radial_load_n: downward radial load on the inner race in N (belt pull, rotor weight
             beyond the model's); replaces ``simulator.load_y_n``.
-        clearance_um: radial internal clearance in micrometres: the larger it is for a given
-            load, the fewer balls carry it and the narrower the load zone.
+        clearance_um: radial clearance in micrometres, the gap per ball (half the catalogue's
+            radial internal clearance, see ``BearingGeometry.clearance_mm``): the larger it is for
+            a given load, the fewer balls carry it and the narrower the load zone.
 
     Signature: impacts are strong only inside the load zone, so a rotating defect (inner race:
     shaft rate, ball: cage rate) is amplitude-modulated: sidebands around the defect

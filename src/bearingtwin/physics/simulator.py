@@ -132,11 +132,12 @@ def _check_resolves_fault(fault: str, geometry: BearingGeometry, rpm: float, fs:
             f"{strikes_hz * duration_s:.2g} times in simulator.duration={duration_s:g} s, so the record would show no "
             f"fault; raise the speed, or the duration to at least {1.0 / strikes_hz:.3g} s"
         )
-    if frequency is not None and frequency >= fs / 2.0:
+    if strikes_hz is not None and strikes_hz >= fs / 2.0:
+        named = ("2x" if fault == "ball" else "") + FAULT_FREQUENCY[fault].upper()
         raise BearingTwinError(
-            f"simulator.fs={fs:g} Hz cannot show the {fault} fault: its defect frequency "
-            f"{FAULT_FREQUENCY[fault].upper()} {frequency:.1f} Hz at {rpm:g} rpm is at or above "
-            f"fs/2 = {fs / 2.0:g} Hz; raise simulator.fs above {2.0 * frequency:.0f} Hz or lower the speed"
+            f"simulator.fs={fs:g} Hz cannot show the {fault} fault: the defect is struck at "
+            f"{named} {strikes_hz:.1f} Hz at {rpm:g} rpm, at or above fs/2 = {fs / 2.0:g} Hz; raise simulator.fs "
+            f"above {2.0 * strikes_hz:.0f} Hz or lower the speed"
         )
 
 
@@ -252,8 +253,12 @@ def _static_load_zone(plan: _Plan) -> tuple[float, float]:
     state, clearance = plan.initial_state, plan.params.clearance_m
     shift = math.hypot(state[0] - state[2], state[1] - state[3])  # of the inner race against the outer
     centre = math.atan2(state[1] - state[3], state[0] - state[2])
-    half_zone = math.pi if clearance <= 0.0 else (math.acos(clearance / shift) if shift > clearance else 0.0)
-    return centre, half_zone
+    # A ball at angle a from the centre is pressed where shift*cos(a) exceeds the clearance (Harris: the half-angle
+    # acos(c / shift)): a quarter circle either side at zero clearance, more under preload (a negative clearance),
+    # the whole circle once the preload exceeds the shift.
+    if shift == 0.0:
+        return centre, math.pi if clearance < 0.0 else 0.0
+    return centre, math.acos(min(max(clearance / shift, -1.0), 1.0))
 
 
 def unstruck_defect_note(plan: _Plan, kinematics: Kinematics, record: slice) -> str | None:

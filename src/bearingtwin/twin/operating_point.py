@@ -1,6 +1,6 @@
 """The operating point every rig has: where the sensor sits, the load, the clearance, the defect's size.
 
-A measurement comes from a rig whose sensor position, radial load, internal clearance and
+A measurement comes from a rig whose sensor position, radial load, clearance and
 defect size the user may know only roughly. These are not *effects* (physics the twin
 lacks) but *base parameters* the twin has and must be set to before any effect can be
 judged: a twin with the sensor on the wrong race or the load zone of the wrong width
@@ -38,7 +38,7 @@ class BaseParameter:
 
 BASE_PARAMETERS = {
     "radial_load_n": BaseParameter("simulator.load_y_n", -1.0, "N", "radial load (downward)"),
-    "clearance_um": BaseParameter("bearing.clearance_mm", 1e-3, "um", "radial internal clearance"),
+    "clearance_um": BaseParameter("bearing.clearance_mm", 1e-3, "um", "radial clearance per ball"),
     "defect_depth_mm": BaseParameter("simulator.defect.depth_mm", 1.0, "mm", "defect depth"),
     "defect_width_mm": BaseParameter("simulator.defect.width_mm", 1.0, "mm", "defect width"),
 }
