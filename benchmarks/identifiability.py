@@ -774,7 +774,8 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
             f"Each case is a {SECONDS:g} s record at one of the conditions (rpm, fs, unit) "
             f"{', '.join(f'({r:g}, {f:g} Hz, {u})' for r, f, u in CONDITIONS['test'])}, an outer- or inner-race "
             "defect, and an operating point the ranking is not told "
-            f"({'; '.join(', '.join(f'{k} {v:g}' for k, v in o.items()) for o in OPERATING['test'])}). "
+            f"({'; '.join(', '.join(f'{k} {v:g}' for k, v in o.items()) for o in OPERATING['test'])}; the clearance "
+            "as each source states it: the twin's gap per ball, the rig's total play, twice that gap). "
             "Hidden parameters differ from every configured default and from the development split's, on which "
             "`ranking.points_per_view`, `ranking.view_floor_db` and `ranking.min_signature_gain` were chosen "
             "(`--split dev`)."]

@@ -1,5 +1,6 @@
 """The classifiers: the paper's CNN-BiLSTM (shape, optimizer, learning, determinism) and the SVM."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -109,6 +110,18 @@ def test_same_seed_same_model_other_seed_other_model():
     first = probabilities(3)
     np.testing.assert_array_equal(first, probabilities(3))
     assert not np.array_equal(first, probabilities(4))
+
+
+def test_whole_numbers_written_as_floats_train_as_the_ints_they_are():
+    """A sweep or a YAML may write 3.0 epochs, a batch of 16.0, 8.0 hidden units: Lightning asserted an int epoch
+    count, torch's DataLoader and LSTM refused float sizes, each after the features were built. They are the
+    ints they name: the model is the one the ints give."""
+    X, y = four_blobs(16)
+    whole = dict(max_epochs=3, batch_size=16, hidden_units=8, kernel_size=3, n_filters=4, pool_size=2)
+    as_ints = CnnBiLstmClassifier(**whole).fit(X, y)
+    as_floats = CnnBiLstmClassifier(**{name: float(value) for name, value in whole.items()}).fit(X, y)
+    np.testing.assert_array_equal(as_floats.predict_proba(X), as_ints.predict_proba(X))
+    assert as_floats.module_.shape == as_ints.module_.shape and as_floats.get_params()["max_epochs"] == 3.0
 
 
 def test_the_same_seed_gives_the_same_model_on_any_number_of_cpu_threads():
@@ -329,10 +342,14 @@ def test_a_class_without_test_windows_is_given_no_recall_or_f1():
 
 
 def test_the_epoch_progress_bar_goes_to_stderr_only_when_asked_for(capfd):
+    """The bar shows the batch's loss, and the model is the one a silent fit makes."""
     X, y = four_blobs(8)
-    CnnBiLstmClassifier(max_epochs=2, batch_size=16, progress_bar=True).fit(X, y, eval_set=(X, y))
+    shown_fit = CnnBiLstmClassifier(max_epochs=2, batch_size=16, progress_bar=True).fit(X, y, eval_set=(X, y))
     shown = capfd.readouterr()
     assert "Epoch 1" in shown.err and "Epoch" not in shown.out  # stdout is kept for a command's summary
+    assert re.search(r"loss=\d\.\d{3}", shown.err)
+    silent_fit = CnnBiLstmClassifier(max_epochs=2, batch_size=16).fit(X, y, eval_set=(X, y))
+    np.testing.assert_array_equal(shown_fit.predict_proba(X), silent_fit.predict_proba(X))
     CnnBiLstmClassifier(max_epochs=2, batch_size=16, progress_bar="auto").fit(X, y)  # unresolved auto: silent
     assert "Epoch" not in capfd.readouterr().err
 
@@ -569,3 +586,28 @@ def test_the_same_seed_gives_the_same_model_whatever_instruction_sets_the_machin
     assert here["capability"] == avx2_only["capability"] == "DEFAULT"
     assert here["probabilities"] == avx2_only["probabilities"]
     assert fit(ATEN_CPU_CAPABILITY="avx2")["capability"] == "AVX2"
+
+
+@pytest.mark.skipif(not PINS_CPU_KERNELS, reason="the pinned kernels are x86's")
+def test_torch_that_chose_its_kernels_before_bearingtwin_is_warned_of_and_recorded_as_it_runs():
+    """A script that runs a torch operation before importing bearingtwin has the machine's kernels for good: the
+    import says so, and the kernels a run records are torch's own, not the pin it could not apply. Imported
+    first, bearingtwin pins them and says nothing."""
+    import os
+    import subprocess
+    import sys
+
+    from bearingtwin import PINNED_CPU_KERNELS
+
+    unpinned = {name: value for name, value in os.environ.items() if name not in PINNED_CPU_KERNELS}
+    script = ("import torch; torch.ones(2).sum(); import bearingtwin; "
+              "print(torch.backends.cpu.get_cpu_capability().lower(), bearingtwin.cpu_kernels())")
+    late = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=unpinned, timeout=120,
+                          check=True)
+    used, recorded = late.stdout.split(" ", 1)
+    assert recorded.startswith(f"ATEN_CPU_CAPABILITY={used},")
+    assert ("import bearingtwin before torch" in late.stderr) == (used != "default")
+    early = subprocess.run([sys.executable, "-c", "import bearingtwin, torch; torch.ones(2).sum(); "
+                            "print(bearingtwin.cpu_kernels())"], capture_output=True, text=True, env=unpinned,
+                           timeout=120, check=True)
+    assert early.stdout.startswith("ATEN_CPU_CAPABILITY=default,") and "bearingtwin before torch" not in early.stderr

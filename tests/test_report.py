@@ -247,14 +247,14 @@ def test_repeat_compares_a_training_curve_at_every_epoch(uri, tmp_path, capsys):
     """The network's curves are metrics too: one epoch's loss logged otherwise is a mismatch, though the last
     epoch's value and every final score agree."""
     run = finished(uri, paper.PROPOSED)[0]
-    history = MlflowClient(uri).get_metric_history(run.info.run_id, "val_loss")
+    history = MlflowClient(uri).get_metric_history(run.info.run_id, "test_loss")
     assert len(history) >= 2  # a curve of several epochs to tamper with below the last
     tampered = copy_store(uri, tmp_path / "copy.db")
     first = min(history, key=lambda point: point.step)
-    MlflowClient(tampered).log_metric(run.info.run_id, "val_loss", first.value + 1.0, step=first.step)
+    MlflowClient(tampered).log_metric(run.info.run_id, "test_loss", first.value + 1.0, step=first.step)
     code, said = repeat_here(tampered, run.info.run_id, tmp_path / "repeat.md", capsys)
     assert code == 1 and "MISMATCH" in said
-    (row,) = [line for line in said.splitlines() if line.startswith("| val_loss (")]
+    (row,) = [line for line in said.splitlines() if line.startswith("| test_loss (")]
     assert f"({len(history)} epochs, the last shown)" in row and row.endswith("| NO |")
     assert "| accuracy | " in said and all(line.endswith("| yes |") for line in said.splitlines()
                                            if line.startswith("| accuracy |"))

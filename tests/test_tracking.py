@@ -19,6 +19,7 @@ from bearingtwin import PINNED_CPU_KERNELS, PINS_CPU_KERNELS
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.experiment import ExperimentResult
 from bearingtwin.physics.geometry import FAULTS
+from bearingtwin.tracking import mlflow_logging
 from bearingtwin.tracking.mlflow_logging import (
     SweepInfo,
     artifact_location,
@@ -212,7 +213,7 @@ def test_a_job_the_interrupted_sweep_could_not_stop_stays_killed_and_a_later_one
     assert {run.info.run_id for run in runs} > {parent.info.run_id}
 
 
-def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog):
+def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog, monkeypatch):
     cfg = make_cfg(tmp_path)
     with pytest.raises(BearingTwinError):
         train_tracked(cfg, CHOICES, None, None, failing_train)
@@ -227,6 +228,14 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog):
     with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
         assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped
     assert "by the code at 0123456789ab (this code: " in caplog.text and "tracking.skip_finished=false" in caplog.text
+    # The same commit with the checkout changed since (or then): the two differ by -dirty, and the log shows it.
+    now = mlflow_logging._git_commit().removesuffix("-dirty")
+    client.set_tag(done.run_id, "git_commit", now + "-dirty")
+    monkeypatch.setattr(mlflow_logging, "_git_commit", lambda: now)
+    caplog.clear()
+    with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
+        assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped
+    assert f"by the code at {now[:12]}-dirty (this code: {now[:12]};" in caplog.text
     train_tracked(make_cfg(tmp_path, skip_finished=False), CHOICES, None, None, fake_train)
     assert len(client.search_runs([experiment_id])) == 3
 

@@ -119,3 +119,15 @@ def test_an_effect_parameter_is_refused_before_a_run_is_opened(tmp_path):
     assert done.returncode == 2 and done.stderr.strip().splitlines() == [
         "error: effects.noise.snr_db must be finite, got [1, 2]"]
     assert not (tmp_path / "mlflow.db").exists()
+
+
+def test_stdout_holds_the_closing_summary_alone_and_log_lines_go_to_stderr(tmp_path):
+    """`bearingtwin-train ... > result.txt` keeps the closing block: Hydra's log lines (a feature cache's
+    hit, a registration) went to stdout before it."""
+    done = run_cli(["classifier=svm", "features=raw", "data.samples_per_class=12", "data.duration=1.0",
+                    f"paths.cache_dir={tmp_path}/cache", f"tracking.uri=sqlite:///{tmp_path}/m.db",
+                    f"hydra.run.dir={tmp_path}/out", "register=quiet"], tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.startswith("== bearingtwin-train: ") and "registered" not in done.stdout, done.stdout
+    assert "registered quiet version 1" in done.stderr
+    assert "registered quiet version 1" in (tmp_path / "out" / "train.log").read_text()  # the run's log keeps them

@@ -17,6 +17,8 @@ which may be a checkout that no command writes into or an installation the user 
 
 import os
 import platform
+import sys
+import warnings
 
 PINNED_CPU_KERNELS = {"ATEN_CPU_CAPABILITY": "default", "MKL_CBWR": "COMPATIBLE", "DNNL_MAX_CPU_ISA": "SSE41"}
 PINS_CPU_KERNELS = platform.machine().lower() in ("x86_64", "amd64")
@@ -25,14 +27,30 @@ PINS_CPU_KERNELS = platform.machine().lower() in ("x86_64", "amd64")
 
 def cpu_kernels() -> str:
     """The kernel settings this process runs with (``ATEN_CPU_CAPABILITY=default, ...``), as a run records them: a
-    value the environment set before bearingtwin did is what was used."""
-    return ", ".join(f"{name}={os.environ.get(name, 'the machine')}" for name in PINNED_CPU_KERNELS)
+    value the environment set before bearingtwin did is what was used, and torch's own answer where it is loaded
+    (imported before bearingtwin, it may have chosen its kernels before the pin)."""
+    settings = {name: os.environ.get(name, "the machine") for name in PINNED_CPU_KERNELS}
+    if "torch" in sys.modules:
+        settings["ATEN_CPU_CAPABILITY"] = _torch_kernels()
+    return ", ".join(f"{name}={value}" for name, value in settings.items())
+
+
+def _torch_kernels() -> str:
+    """The instruction set torch's kernels use (``default``, ``avx2``, ``avx512``); torch must be loaded."""
+    return sys.modules["torch"].backends.cpu.get_cpu_capability().lower()
 
 
 def _pin_cpu_kernels() -> None:
-    if PINS_CPU_KERNELS:
-        for name, value in PINNED_CPU_KERNELS.items():
-            os.environ.setdefault(name, value)
+    if not PINS_CPU_KERNELS:
+        return
+    for name, value in PINNED_CPU_KERNELS.items():
+        os.environ.setdefault(name, value)
+    # torch reads the pin when it first runs an operation: a script that ran one before importing bearingtwin has
+    # the machine's kernels for good, and its network may end a window apart from the same seed's elsewhere.
+    if "torch" in sys.modules and _torch_kernels() != os.environ["ATEN_CPU_CAPABILITY"]:
+        warnings.warn(f"torch chose its {_torch_kernels()} kernels before bearingtwin could pin them: a network "
+                      "trained in this process may differ from the same seed's on another machine; import "
+                      "bearingtwin before torch", stacklevel=3)
 
 
 _pin_cpu_kernels()

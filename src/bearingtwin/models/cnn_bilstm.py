@@ -59,7 +59,8 @@ LSTM_OUTPUTS = ("last", "flatten")
 
 @dataclass(frozen=True)
 class CnnBiLstmShape:
-    """Layer sizes of the network; validated so a bad config names its field."""
+    """Layer sizes of the network; validated so a bad config names its field, whole numbers made ints (a
+    sweep's ``30.0`` is 30 hidden units: torch's layers take ints only)."""
 
     input_length: int
     n_classes: int = 4
@@ -71,10 +72,12 @@ class CnnBiLstmShape:
     lstm_output: str = "last"
 
     def __post_init__(self) -> None:
-        whole_number("the network's input length", self.input_length)
-        whole_number("the number of classes", self.n_classes)
-        check_layer_settings(self.n_filters, self.kernel_size, self.pool_size, self.hidden_units, self.dropout,
-                             self.lstm_output)
+        settings = {"input_length": whole_number("the network's input length", self.input_length),
+                    "n_classes": whole_number("the number of classes", self.n_classes),
+                    **check_layer_settings(self.n_filters, self.kernel_size, self.pool_size, self.hidden_units,
+                                           self.dropout, self.lstm_output)}
+        for name, value in settings.items():
+            object.__setattr__(self, name, value)  # frozen: the checked value replaces the given one once
         if self.sequence_length < 1:
             raise BearingTwinError(
                 f"an input of {self.input_length} points is too short for classifier.kernel_size="
@@ -87,15 +90,18 @@ class CnnBiLstmShape:
         return (self.input_length - self.kernel_size + 1) // self.pool_size
 
 
-def check_layer_settings(n_filters, kernel_size, pool_size, hidden_units, dropout, lstm_output) -> None:
-    """Raise naming the first ``classifier.*`` layer setting with an impossible value (a text, a zero)."""
-    for name, value in (("n_filters", n_filters), ("kernel_size", kernel_size), ("pool_size", pool_size),
-                        ("hidden_units", hidden_units)):
-        whole_number(f"classifier.{name}", value)
-    if not 0.0 <= finite_number("classifier.dropout", dropout, "a number in [0, 1)") < 1.0:
+def check_layer_settings(n_filters, kernel_size, pool_size, hidden_units, dropout, lstm_output) -> dict:
+    """The ``classifier.*`` layer settings by name, whole numbers as ints; raise naming the first with an
+    impossible value (a text, a zero)."""
+    settings = {name: whole_number(f"classifier.{name}", value)
+                for name, value in (("n_filters", n_filters), ("kernel_size", kernel_size), ("pool_size", pool_size),
+                                    ("hidden_units", hidden_units))}
+    settings["dropout"] = finite_number("classifier.dropout", dropout, "a number in [0, 1)")
+    if not 0.0 <= settings["dropout"] < 1.0:
         raise BearingTwinError(f"classifier.dropout must lie in [0, 1), got {dropout}")
     if lstm_output not in LSTM_OUTPUTS:
         raise BearingTwinError(f"classifier.lstm_output={lstm_output!r}; choose one of {', '.join(LSTM_OUTPUTS)}")
+    return {**settings, "lstm_output": lstm_output}
 
 
 class CnnBiLstmModule(L.LightningModule):
@@ -143,7 +149,10 @@ class CnnBiLstmModule(L.LightningModule):
         return loss
 
     def training_step(self, batch, batch_idx):
-        return self._accumulate("train", batch)
+        loss = self._accumulate("train", batch)
+        if self.trainer.progress_bar_callback is not None:  # the batch's loss on the epoch bar; no logger writes it
+            self.log("loss", loss.detach(), prog_bar=True, on_step=True, on_epoch=False)
+        return loss
 
     def validation_step(self, batch, batch_idx):
         self._accumulate("val", batch)
@@ -253,19 +262,21 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
         self.random_state = random_state
         self.root_dir = root_dir
 
-    def check_params(self) -> None:
-        """Raise naming the first setting with an impossible value; :func:`build_classifier` calls it before
-        any data is built, :meth:`fit` again."""
+    def check_params(self) -> dict:
+        """The training loop's counts, ``batch_size`` and ``max_epochs``, as ints (a sweep's ``30.0`` is 30:
+        Lightning and torch take ints only); raise naming the first setting with an impossible value.
+        :func:`build_classifier` calls it before any data is built, :meth:`fit` again."""
         check_layer_settings(self.n_filters, self.kernel_size, self.pool_size, self.hidden_units, self.dropout,
                              self.lstm_output)
-        whole_number("classifier.batch_size", self.batch_size)
-        whole_number("trainer.max_epochs", self.max_epochs)
+        counts = {"batch_size": whole_number("classifier.batch_size", self.batch_size),
+                  "max_epochs": whole_number("trainer.max_epochs", self.max_epochs)}
         if not finite_number("classifier.learning_rate", self.learning_rate, "a positive number") > 0:
             raise BearingTwinError(f"classifier.learning_rate must be a positive number, got {self.learning_rate!r}")
         for key, value in (("classifier.l2_factor", self.l2_factor), ("trainer.gradient_clip_val", self.gradient_clip_val)):
             if value is not None and not finite_number(key, value, "a non-negative number") >= 0:
                 raise BearingTwinError(f"{key} must be a non-negative number, got {value!r}")
         check_accelerator(self.accelerator)
+        return counts
 
     def __sklearn_is_fitted__(self) -> bool:
         # fitted once the model is: a fit refused after its data were checked leaves n_features_in_ set
@@ -273,7 +284,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
 
     def fit(self, X, y, eval_set: tuple | None = None) -> "CnnBiLstmClassifier":
         X, y = training_data(self, *_check_xy(X, y))
-        self.check_params()
+        counts = self.check_params()
         training_classes(y)  # one state: nothing to tell apart
         L.seed_everything(self.random_state, workers=True, verbose=False)
         self.classes_, y_index = np.unique(y, return_inverse=True)
@@ -297,12 +308,12 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
                                        "learns only the classes it is trained on")
             val = (self.scaler_.transform(X_val), np.searchsorted(self.classes_, y_val))
         data = SequenceDataModule(
-            self.scaler_.transform(X), y_index, *(val or (None, None)), batch_size=self.batch_size, seed=self.random_state
+            self.scaler_.transform(X), y_index, *(val or (None, None)), batch_size=counts["batch_size"], seed=self.random_state
         )
         self.module_ = CnnBiLstmModule(shape, learning_rate=self.learning_rate, l2_factor=self.l2_factor)
         with tempfile.TemporaryDirectory() as scratch, _quiet_lightning(), one_torch_thread():
             trainer = L.Trainer(
-                max_epochs=self.max_epochs,
+                max_epochs=counts["max_epochs"],
                 gradient_clip_val=self.gradient_clip_val,
                 accelerator=self.accelerator,
                 devices=1,

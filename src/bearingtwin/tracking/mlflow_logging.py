@@ -393,6 +393,11 @@ def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
     return " ".join(part for part in (*parts, f"seed={cfg.seed}") if part)
 
 
+def _short_commit(commit: str) -> str:
+    """A commit as a person reads it: its first 12 hex digits, and ``-dirty`` where the checkout had changes."""
+    return commit[:12] + ("-dirty" if commit.endswith("-dirty") else "")
+
+
 def _git_commit() -> str:
     try:
         commit = subprocess.run(
@@ -554,10 +559,10 @@ def _plot_curves(history: list[dict], path: Path) -> None:
     figure = Figure(figsize=(8, 3.2))
     loss_axes, accuracy_axes = figure.subplots(1, 2)
     epochs = [record["epoch"] for record in history]
-    for stage in ("train", "val"):
+    for stage, label in (("train", "train"), ("test", "test (read only: never stops or chooses)")):
         if f"{stage}_loss" in history[0]:
-            loss_axes.plot(epochs, [r[f"{stage}_loss"] for r in history], label=stage)
-            accuracy_axes.plot(epochs, [r[f"{stage}_accuracy"] for r in history], label=stage)
+            loss_axes.plot(epochs, [r[f"{stage}_loss"] for r in history], label=label)
+            accuracy_axes.plot(epochs, [r[f"{stage}_accuracy"] for r in history], label=label)
     loss_axes.set(xlabel="epoch", ylabel="cross-entropy loss")
     accuracy_axes.set(xlabel="epoch", ylabel="accuracy")
     accuracy_axes.legend()
@@ -592,8 +597,8 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         done = find_finished_run(client, experiment_id, digest)
         if done is not None:
             then, now = done.data.tags.get("git_commit", "unknown"), _git_commit()
-            other_code = (f", by the code at {then[:12]} (this code: {now[:12]}; tracking.skip_finished=false runs it "
-                          "again)") if then != now else ""
+            other_code = (f", by the code at {_short_commit(then)} (this code: {_short_commit(now)}; "
+                          "tracking.skip_finished=false runs it again)") if then != now else ""
             log.info("skipped: run %s already FINISHED with this config (config_hash %s)%s", done.info.run_id, digest,
                      other_code)
             return TrackedRun(done.info.run_id, dict(done.data.metrics), skipped=True, artifacts=done.info.artifact_uri,
