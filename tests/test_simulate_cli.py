@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from processes import run_module
 
+from bearingtwin.config import compose_config
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import simulate
 
@@ -154,6 +155,23 @@ def test_the_summary_names_the_effects_the_record_was_made_with(tmp_path):
     # A setting left at null (noise's reference_rms: each signal's own) is no value to print ("reference_rms None").
     noisy = run(tmp_path, "fault=outer", "simulator.duration=0.2", "effects=[noise]", f"out={tmp_path / 'n.npz'}")
     assert "  effects: noise (snr_db " in noisy.stdout and "None" not in noisy.stdout, noisy.stdout
+
+
+def test_the_summary_says_how_far_a_ball_sinks_into_the_pit():
+    """A pit narrower than a ball is not reached to its bottom: the 0.28 mm deep pit of 0.533 mm lets a ball sink
+    some micrometres (its sagitta over the chord, less the outer race's), which is what the record shows; the
+    summary says both."""
+    from bearingtwin.cli.simulate import defect_words
+    from bearingtwin.physics.defects import max_drop_m
+
+    geometry = BearingGeometry.from_config(compose_config("simulate").bearing)
+    cfg = compose_config("simulate", ["simulator.duration=0.1"])
+    record, _ = simulate("outer", cfg.bearing, cfg.simulator)
+    sinks = max_drop_m(geometry.ball_diameter_mm / 2000, 0.533e-3, (geometry.pitch_diameter_mm
+                                                                    + geometry.ball_diameter_mm) / 2000, convex_race=False)
+    assert record.meta["defect_depth_m"] == pytest.approx(sinks, rel=1e-9) and 5e-6 < sinks < 10e-6
+    words = defect_words(cfg.simulator.defect, "outer", record.meta["defect_depth_m"])
+    assert words.startswith(f"0.533 mm wide, 0.28 mm deep (a ball sinks {sinks * 1e6:.3g} um into it), "), words
 
 
 @pytest.mark.parametrize("folder", ["my conf", "josé"])  # quoted for Hydra: a space, a letter outside ASCII

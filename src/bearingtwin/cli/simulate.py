@@ -141,9 +141,12 @@ def defect_position(defect: DictConfig, fault: str) -> str:
             "inner": f"at {defect.inner_angle_deg:g} deg from the shaft's start", "ball": f"on ball {defect.ball_index}"}[fault]
 
 
-def defect_words(defect: DictConfig, fault: str) -> str:
-    """The defect a record was made with, as its summary says it."""
-    return f"{defect.width_mm:g} mm wide, {defect.depth_mm:g} mm deep, {defect_position(defect, fault)}"
+def defect_words(defect: DictConfig, fault: str, sinks_m: float | None = None) -> str:
+    """The defect a record was made with, as its summary says it: with ``sinks_m``, how far a ball's centre
+    sinks into it (a ball rests on the edges of a pit narrower than itself: physics/defects.py)."""
+    sinks = ("" if sinks_m is None else f" (the ball sinks {sinks_m * 1e6:.3g} um as it meets the outer race)"
+             if fault == "ball" else f" (a ball sinks {sinks_m * 1e6:.3g} um into it)")
+    return f"{defect.width_mm:g} mm wide, {defect.depth_mm:g} mm deep{sinks}, {defect_position(defect, fault)}"
 
 
 @hydra_command("simulate")
@@ -178,7 +181,8 @@ def simulate_command(cfg: DictConfig) -> None:
                       "as bearingtwin-inspect takes them; a model reads a bearing by its conf/bearing file: write one "
                       "for this bearing to diagnose with bearing=<name>)" if changed else ""),
         "load": f"{simulator.load_x_n:g} N along x, {simulator.load_y_n:g} N along y, and the inner ring's weight",
-        **({"defect": defect_words(simulator.defect, recording.fault)} if recording.fault != "normal" else {}),
+        **({"defect": defect_words(simulator.defect, recording.fault, recording.meta.get("defect_depth_m"))}
+           if recording.fault != "normal" else {}),
         **({"note": "; ".join(recording.meta["notes"])} if recording.meta.get("notes") else {}),
         # A setting left at null takes its default behaviour: "reference_rms None" would read as a missing value.
         "effects": "; ".join(f"{name} ({', '.join(f'{key} {value}' for key, value in params.items() if value is not None)})"
