@@ -803,3 +803,52 @@ def test_the_transforms_of_a_channel_are_computed_once_per_record_and_change_no_
     with sampling_rate.shared_transforms():
         assert [check_channels(channels, rate, rpm, **options) for rate in rates] == afresh
     assert counted == computed_afresh
+
+
+@needs_data
+@pytest.mark.parametrize("path", sorted(CWRU.glob("12k_*.mat")), ids=lambda p: p.name)
+def test_a_tachometer_recorded_beside_the_accelerometer_is_no_witness_of_the_rate(tmp_path, path):
+    """A data-acquisition system records a once-per-revolution tachometer beside the accelerometer: its pulse comb
+    is no vibration's, and read as one it contradicted the true rate on 7 of the 12 fault records. It is left out
+    of the witnesses, no channel choice falls on it, and choosing it names what it is."""
+    from bearingtwin.signal.sampling_rate import is_pulse_train, rate_witnesses
+
+    recording = load_cwru(path)
+    t = np.arange(recording.signal.size) / recording.fs
+    tach = 5.0 * ((t * recording.rpm / 60.0) % 1.0 < 0.1)  # 5 V pulses, a tenth of a revolution long
+    assert is_pulse_train(tach) and not is_pulse_train(recording.signal)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    witnesses = rate_witnesses(recording.signal, {"acc": recording.signal, "tach": tach})
+    assert list(witnesses) == ["acc"]
+    checks = check_channels(witnesses, recording.fs, recording.rpm, defect_hz=defect_hz)
+    assert checks[decisive_channel(checks)].verdict == "consistent"
+    np.save(tmp_path / "two.npy", np.stack([recording.signal, tach]))
+    raw = read_raw(tmp_path / "two.npy")
+    assert raw.channel(None)[0] == "0"  # the only vibration among the two
+    with pytest.raises(BearingTwinError, match=r"channel=1 reads two levels only, a tachometer's pulses .*; choose one of 0$"):
+        raw.channel("1")
+
+
+@needs_data
+@pytest.mark.parametrize("name", ["12k_Drive_End_OR007@6_0_130.mat", "12k_Drive_End_IR007_1_106.mat"])
+def test_the_rate_check_reads_a_long_records_centre_and_judges_it_as_its_whole_length(monkeypatch, name):
+    """A long recording's check reads its centre's RATE_CHECK_SAMPLES, so that a multi-channel recording of minutes
+    is checked in seconds: a record ten times as long (a CWRU record tiled) is judged as it is when read whole, at
+    its true rate and at twice it."""
+    from bearingtwin.signal import sampling_rate
+
+    recording = load_cwru(CWRU / name)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    long = np.tile(recording.signal, 10)
+    assert long.size > sampling_rate.RATE_CHECK_SAMPLES > recording.signal.size
+    (read,) = sampling_rate.rate_witnesses(long, None).values()
+    start = (long.size - read.size) // 2
+    np.testing.assert_array_equal(read, long[start:start + sampling_rate.RATE_CHECK_SAMPLES])
+
+    def verdicts():
+        return [require_plausible_rate(long, fs, recording.rpm, name, "fs", defect_hz=defect_hz, refuse=False).verdict
+                for fs in (recording.fs, 2 * recording.fs)]
+
+    centre = verdicts()
+    monkeypatch.setattr(sampling_rate, "RATE_CHECK_SAMPLES", 10 * long.size)
+    assert centre == verdicts() and centre[1] == "contradicted"

@@ -386,6 +386,17 @@ def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence(tmp_path):
     assert one_line(result) == "slow: outer (100% of 1 window, p 0.90)"
 
 
+def test_a_record_whose_windows_split_between_states_says_what_the_others_said():
+    """A long recording that turned from healthy to faulty half-way wins one state by a window: the line says the
+    rest went to another (a state under a tenth of the windows is left unsaid)."""
+    windows = [{"start_s": float(i), "state": "normal" if i < 175 else "outer", "probabilities": {}} for i in range(351)]
+    windows[-1]["state"] = "ball"
+    result = {"record": "changed", "verdict": "outer", "share": 175 / 351, "mean_probability": 0.61,
+              "window_states": {"normal": 175, "inner": 0, "ball": 1, "outer": 175}, "windows": windows,
+              "evidence_state": None}
+    assert one_line(result) == "changed: outer (50% of 351 windows, p 0.61; the others: normal 50%)"
+
+
 def test_features_that_read_shaft_orders_on_the_recorded_bearing_but_not_the_models_are_named():
     pipeline = envelope_pipeline()
     on_shaft = pipeline.bands_on_shaft_harmonics(bearing_config("cwru_6203"))
@@ -472,6 +483,8 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
         model.predict(windows * 1e160, params={"rpm": rpm})  # this model reads windows as they are (no z-score)
     result, _ = diagnose_recording(prepared, model, loaded, info.model_uri, {})
     assert result["verdict"] == "outer" and result["evidence_state"] == "outer"
+    assert sum(result["window_states"].values()) == len(result["windows"])
+    assert result["window_states"]["outer"] == round(result["share"] * len(result["windows"]))
     assert "the model's features read cwru_6203's defect lines too" in result["notes"], result["notes"]
     # A bearing given wins over the file's name, and says so.
     given = read_record(path, pipeline, bearing="cwru_6205")

@@ -153,7 +153,8 @@ def test_bad_inputs_are_named(tmp_path, signal):
     path = tmp_path / "holes.npy"
     np.save(path, bad)
     assert np.isnan(read_raw(path).channels["0"]).sum() == 1
-    with pytest.raises(BearingTwinError, match="holes.npy: 2 NaN or infinite values"):
+    with pytest.raises(BearingTwinError, match=r"holes.npy: 2 NaN or infinite values in channel 0, samples 10 to 20 "
+                                               r"\(0.00125 s to 0.0025 s\); no value is made up for them"):
         load_recording(path, fs=FS)
     with pytest.raises(BearingTwinError, match=r"holes.npy: no channel 'Q'; the file holds channel 0 \(choose with channel=<name>, or channel=null for its only one\)"):
         load_recording(path, channel="Q", fs=FS)
@@ -671,6 +672,14 @@ def test_units_a_header_states_and_a_rate_under_other_names(tmp_path, signal):
     assert (unit_in_name("ch1 (left)"), unit_in_name("chan[0]"), unit_in_name("acc (g).1")) == ("", "", "g")
     np.save(tmp_path / "counts.npy", np.round(1000 * signal).astype(np.int16))
     assert "integer samples (int16)" in read_raw(tmp_path / "counts.npy").meta["notes"][0]
+    # An archive or a MATLAB file of counts says so too, whatever unit it states (g here, read as counts of g).
+    np.savez(tmp_path / "counts.npz", signal=np.round(1000 * signal).astype(np.int16), fs=FS, unit="g")
+    scipy.io.savemat(tmp_path / "counts.mat", {"acc": np.round(1000 * signal).astype(np.int16), "fs": FS})
+    for name, which in (("counts.npz", "signal (int16)"), ("counts.mat", "acc (int16)")):
+        assert any(note.startswith(f"integer samples ({which}): converter counts")
+                   for note in read_raw(tmp_path / name).meta["notes"]), name
+    np.savez(tmp_path / "volts.npz", signal=signal, fs=FS)
+    assert "notes" not in read_raw(tmp_path / "volts.npz").meta
 
 
 def test_time_stamps_read_as_the_channel_are_refused(tmp_path, signal):

@@ -42,6 +42,7 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import acceleration_unit, quantity_of
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
+from bearingtwin.signal.sampling_rate import is_pulse_train
 
 TEXT_TABLES = (".csv", ".txt", ".tsv")
 """Text tables of numbers: a spreadsheet's or data logger's export, whatever it separates its columns with."""
@@ -113,7 +114,7 @@ class RawRecord:
     def channel(self, name: str | int | None, key: str = "channel") -> tuple[str, np.ndarray]:
         """The channel called ``name`` (or at position ``name``, or so called without the unit its name states:
         ``FE`` for ``FE (g)``, where that names one channel alone); when ``name`` is None, the format's default
-        channel or else the only one.
+        channel or else the only vibration one (a tachometer's pulses beside it are none).
 
         ``key`` is the setting the caller reads ``name`` from, named in the error messages.
         """
@@ -123,10 +124,13 @@ class RawRecord:
         if name is None:
             if self.default_channel in self.channels:
                 return self.default_channel, self.channels[self.default_channel]
-            if len(names) != 1:
+            if not vibration:
+                raise BearingTwinError(f"{self.path}: its only channel{'s' * (len(names) != 1)} "
+                                       f"{', '.join(f'{n} reads {not_vibration[n]}' for n in names)}")
+            if len(vibration) > 1:
                 raise BearingTwinError(f"{self.path}: holds channels {', '.join(vibration)}; choose one with {key}=<name>"
                                        f"{_quoting_hint(key, vibration)}")
-            return names[0], self.channels[names[0]]
+            return vibration[0], self.channels[vibration[0]]
         wanted = str(name)
         found = wanted if wanted in self.channels else None
         if found is None and (isinstance(name, int) or wanted.lstrip("-").isdigit()) and 0 <= int(wanted) < len(names):
@@ -167,20 +171,33 @@ def read_raw(path: str | Path) -> RawRecord:
         if suffix == ".xls":
             from bearingtwin.data.hust import read_hust_raw
 
-            return read_hust_raw(path)
-        if suffix == ".mat":
+            raw = read_hust_raw(path)
+        elif suffix == ".mat":
             from bearingtwin.data.cwru import is_cwru_mat, read_cwru_raw
 
             variables = _load_mat(path)
-            return read_cwru_raw(path, variables) if is_cwru_mat(variables) else _read_generic_mat(path, variables)
-        if suffix in TEXT_TABLES:
-            return _read_csv(path)
-        return {".npy": _read_npy, ".npz": _read_npz, ".wav": _read_wav}[suffix](path)
+            raw = read_cwru_raw(path, variables) if is_cwru_mat(variables) else _read_generic_mat(path, variables)
+        elif suffix in TEXT_TABLES:
+            raw = _read_csv(path)
+        else:
+            raw = {".npy": _read_npy, ".npz": _read_npz, ".wav": _read_wav}[suffix](path)
     except BearingTwinError:
         raise
     except Exception as error:  # a corrupt file makes scipy, numpy and zipfile raise any type (BadZipFile, MatReadError, ...)
         said = " ".join(str(error).split())
         raise BearingTwinError(f"{path}: not a readable {suffix} file ({type(error).__name__}: {said})") from None
+    return _pulse_trains_marked(raw)
+
+
+def _pulse_trains_marked(raw: RawRecord) -> RawRecord:
+    """``raw`` with each channel of two levels only (a tachometer's pulses recorded beside the accelerometers)
+    marked as no vibration: no channel choice falls on it, and no rate check reads its comb as a shaft series."""
+    known = raw.meta.get("not_vibration", {})
+    pulses = {name: "two levels only, a tachometer's pulses (or a sensor saturated nine samples in ten), not a vibration"
+              for name, values in raw.channels.items() if name not in known and is_pulse_train(values)}
+    if pulses:
+        raw.meta["not_vibration"] = {**known, **pulses}
+    return raw
 
 
 def load_recording(
@@ -476,7 +493,7 @@ def _float_channels(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, np.n
             raise BearingTwinError(f"{path}: {which} is not real numeric (dtype {array.dtype})")
         array = np.squeeze(array)
         if array.ndim == 1:
-            channels[name or "0"] = array.astype(np.float64)
+            channels[name or "0"] = np.ascontiguousarray(array, dtype=np.float64)  # a copy only of another type
         elif array.ndim == 2:
             if array.shape[0] == array.shape[1]:
                 raise BearingTwinError(f"{path}: {which} has shape {array.shape}, so which axis is time is not "
@@ -510,10 +527,20 @@ def _read_npy(path: Path) -> RawRecord:
         array = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as error:
         raise BearingTwinError(f"{path}: not a readable .npy file ({error})") from None
-    notes = ([f"integer samples ({array.dtype.name}): converter counts, read as they are, which state no physical unit"]
-             if np.issubdtype(array.dtype, np.integer) else [])
+    notes = _counts_notes({"": array})
     return RawRecord(str(path), "npy", _float_channels(path, {"": array} if array.ndim == 2 else {"0": array}),
                      meta={"notes": notes} if notes else {})
+
+
+def _counts_notes(arrays: dict[str, np.ndarray]) -> list[str]:
+    """A note on the signal arrays held as integers: a converter's counts, read as they are (no scale is applied,
+    whatever unit the file states), so their level is no physical one."""
+    counts = {name: array.dtype.name for name, array in arrays.items() if np.issubdtype(np.asarray(array).dtype, np.integer)}
+    if not counts:
+        return []
+    which = ", ".join(f"{name} ({dtype})" if name else dtype for name, dtype in counts.items())
+    return [f"integer samples ({which}): converter counts, read as they are, which state no physical unit until "
+            "scaled by the sensor's sensitivity"]
 
 
 def _split_facts(path: Path, items: dict[str, np.ndarray]) -> tuple[dict, dict]:
@@ -572,6 +599,7 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
     fs = None if found["fs"] is None else positive_number(found["fs"][1], found["fs"][0], "Hz", f"{path}: ")
     notes = []
     arrays, fs_from_stamps, _ = _time_stamps(path, arrays, notes, fs, variables=True)  # rising: never coarse
+    notes += _counts_notes(arrays)
     if fs is None and fs_from_stamps is not None:
         fs, fs_origin = fs_from_stamps, "time column"
     else:
@@ -714,13 +742,23 @@ def _read_wav(path: Path) -> RawRecord:
     if truncated is not None and _wav_shortfall_bytes(path) > 16:
         raise BearingTwinError(f"{path}: not a readable .wav file, truncated ({truncated})")
     notes = [f"reading it: {warning.message}" for warning in caught if warning.message is not truncated]
+    columns = data.reshape(len(data), -1)
+    offset, full_scale = 0.0, 1.0
     if np.issubdtype(data.dtype, np.integer):  # PCM counts; the unsigned 8-bit format is offset by half its range
         stored, bits = data.dtype.name, 8 * data.dtype.itemsize
         offset = 2.0 ** (bits - 1) if np.issubdtype(data.dtype, np.unsignedinteger) else 0.0
-        data = (data.astype(np.float64) - offset) / 2.0 ** (bits - 1)
+        full_scale = 2.0 ** (bits - 1)
         notes.append(f"integer samples ({stored}, as scipy reads them) scaled to the recorder's full scale "
                      "(1.0), which states no physical unit")
-    channels = {"0": data} if data.ndim == 1 else {"": data.T}
+    # One channel at a time, in place: a long recording of many channels is held once as float64 beside its counts,
+    # not as several whole copies (a 400 MB file of 16-bit counts took 3.2 GB).
+    channels = {}
+    for index in range(columns.shape[1]):
+        values = columns[:, index].astype(np.float64)
+        values -= offset
+        values /= full_scale
+        channels[str(index)] = values
+    del data, columns
     return RawRecord(str(path), "wav", _float_channels(path, channels), fs=float(fs), fs_origin="header",
                      meta={"notes": notes})
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bearingtwin.checks import is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS, check_fault
 
@@ -111,9 +112,13 @@ class Recording:
         if not np.issubdtype(signal.dtype, np.number):
             raise BearingTwinError(f"{self.source}: the signal is not numeric (dtype {signal.dtype})")
         self.signal = signal.astype(np.float64, copy=False)
-        n_bad = int(np.count_nonzero(~np.isfinite(self.signal)))
-        if n_bad:
-            raise BearingTwinError(f"{self.source}: {n_bad} NaN or infinite values in channel {self.channel or '?'}")
+        bad = np.flatnonzero(~np.isfinite(self.signal))
+        if bad.size:  # where, so a user can cut the gap out (an acquisition's dropout, a logger's missing rows)
+            where = (f"samples {bad[0]} to {bad[-1]}" if bad.size > 1 else f"sample {bad[0]}") + (
+                f" ({bad[0] / self.fs:.6g} s to {bad[-1] / self.fs:.6g} s)" if is_finite_number(self.fs) and self.fs > 0 else "")
+            raise BearingTwinError(f"{self.source}: {bad.size} NaN or infinite values in channel {self.channel or '?'}, "
+                                   f"{where}; no value is made up for them: cut them out, or give the stretches before "
+                                   "and after as files of their own")
         if not self.fs > 0:
             raise BearingTwinError(f"{self.source}: sampling rate must be positive, got {self.fs}")
         if self.rpm is not None and not self.rpm > 0:

@@ -404,6 +404,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "rpm": recording.rpm,
         "verdict": verdict,
         "share": counts[verdict] / len(states),
+        "window_states": counts,  # how many windows each state won: a record that changed state shows two
         "mean_probability": float(probabilities[:, names.index(verdict)].mean()),
         "windows": [
             {"start_s": float(start / recording.fs), "state": str(state),
@@ -451,8 +452,11 @@ def one_line(result: dict) -> str:
     # The probability is the classifier's: beside windows the physics decided, said to be.
     probability = (f"{by_physics} decided by the envelope spectrum; classifier p {result['mean_probability']:.2f}"
                    if by_physics else f"p {result['mean_probability']:.2f}")
+    # A verdict its windows split on (a state that changed along a long record) says what the rest said.
+    others = [f"{state} {count / n_windows:.0%}" for state, count in result.get("window_states", {}).items()
+              if state != result["verdict"] and count >= 0.1 * n_windows]
     line = (f"{result['record']}: {result['verdict']} ({result['share']:.0%} of {n_windows} window{'s' * (n_windows != 1)}, "
-            f"{probability})")
+            f"{probability}{'; the others: ' + ', '.join(others) if others else ''})")
     if result["evidence_state"] is not None:
         prominence = result["evidence"]["prominence_db"]
         top = max(prominence, key=prominence.get, default=None)

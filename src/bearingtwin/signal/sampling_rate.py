@@ -93,6 +93,7 @@ class _Shared:
 
     results: dict = dataclasses.field(default_factory=dict)
     digests: dict = dataclasses.field(default_factory=dict)
+    centres: dict = dataclasses.field(default_factory=dict)  # a long channel's centre (a view), by the channel's id
     nbytes: int = 0
 
     def keeps(self, array: np.ndarray) -> bool:
@@ -516,11 +517,54 @@ def _by_a_defect_alone(check: ShaftLineCheck) -> bool:
     return check.verdict == "consistent" and check.witness in ("series", "envelope")
 
 
+RATE_CHECK_SAMPLES = 2**20
+"""The most samples of a channel the rate check reads, its centre's (20 s at 51.2 kHz, 87 s at 12 kHz): a shaft
+series is placed far finer than the check's 2 % within them, and a long multi-channel recording's spectra and
+envelopes then stay within :data:`SHARED_BYTES`, computed once for every rate and speed tried."""
+
+
 def rate_witnesses(signal: np.ndarray, channels: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray]:
-    """The channels of ``signal``'s file that witness its one rate (those of its length), or ``signal``
-    alone when the file gives no other."""
-    same_length = {name: values for name, values in (channels or {}).items() if np.shape(values) == np.shape(signal)}
-    return same_length or {"signal": signal}
+    """The channels of ``signal``'s file that witness its one rate (those of its length, a tachometer's pulses
+    left out: their comb is no vibration's), or ``signal`` alone when the file gives no other; each cut to its
+    centre's :data:`RATE_CHECK_SAMPLES`."""
+    same_length = {name: values for name, values in (channels or {}).items()
+                   if np.shape(values) == np.shape(signal) and not is_pulse_train(values)}
+    return {name: _centre(values) for name, values in (same_length or {"signal": signal}).items()}
+
+
+def _centre(values: np.ndarray) -> np.ndarray:
+    """``values`` cut to their centre's :data:`RATE_CHECK_SAMPLES`; within :func:`shared_transforms` one view per
+    channel for every rate tried, so its content digest is computed once."""
+    size = np.shape(values)[-1]
+    if size <= RATE_CHECK_SAMPLES:
+        return values
+    shared = _SHARED.get()
+    seen = None if shared is None else shared.centres.get(id(values))
+    if seen is not None and seen[0] is values:
+        return seen[1]
+    start = (size - RATE_CHECK_SAMPLES) // 2
+    centre = values[..., start:start + RATE_CHECK_SAMPLES]
+    if shared is not None:
+        shared.centres[id(values)] = (values, centre)
+    return centre
+
+
+def is_pulse_train(values: np.ndarray, max_samples: int = 2**16) -> bool:
+    """Whether a channel holds a pulse train (a tachometer's, a key phasor's) rather than a vibration: nine samples
+    in ten within a tenth of its range from one of its two levels (its 1st and 99th percentiles), each level held
+    by at least one sample in a hundred. A vibration spreads over its range (a sine keeps 41 % of its samples so
+    near its peaks, noise a few %); up to ``max_samples``, evenly spaced, are read."""
+    x = np.ravel(values)
+    x = x[:: max(1, x.size // max_samples)].astype(np.float64)
+    x = x[np.isfinite(x)]
+    if x.size < 100:
+        return False
+    low, high = np.percentile(x, [1.0, 99.0])
+    near = 0.1 * (high - low)
+    if not near > 0:
+        return False
+    at_low, at_high = np.abs(x - low) <= near, np.abs(x - high) <= near
+    return bool(np.mean(at_low | at_high) >= 0.9 and min(at_low.mean(), at_high.mean()) >= 0.01)
 
 
 def decisive_channel(checks: Mapping[str, ShaftLineCheck]) -> str:
