@@ -605,6 +605,10 @@ def test_a_rate_a_loggers_note_states(tmp_path, note, rate):
     (tmp_path / "log.csv").write_text(f"Logger: X\n{note}\n\nacc\n" + "0.1\n-0.2\n" * 50)
     raw = read_raw(tmp_path / "log.csv")
     assert raw.fs == rate and raw.fs_origin == ("header" if rate else "")
+    # Written as '#' comment lines, as many loggers and numpy.savetxt's header= write them, the note says the same.
+    (tmp_path / "commented.csv").write_text(f"# Logger: X\n# {note}\nacc\n" + "0.1\n-0.2\n" * 50)
+    commented = read_raw(tmp_path / "commented.csv")
+    assert commented.fs == rate and commented.fs_origin == ("header" if rate else "")
 
 
 def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):

@@ -58,7 +58,7 @@ class _Layout:
     decimal: str
     body_start: int  # index of the first line after the header (of the first line, without one)
     trailing: bool  # every row ends with the separator
-    preamble: tuple[str, ...] = ()  # a logger's lines above the header (:func:`_preamble`), stripped
+    preamble: tuple[str, ...] = ()  # a logger's lines above the header (:func:`_preamble`) and comments, stripped
     clock: tuple[int, ...] = ()  # columns of clock times (:data:`_CLOCK`)
     dates: tuple[int, ...] = ()  # columns of dates alone, beside a column of clock times
 
@@ -335,8 +335,10 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
         clock, dates = _clock_columns(rows, len(names))
         names, repeated = _distinct(names)
         notes += repeated
-    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, tuple(head[i].strip() for i in preamble),
-                     clock, dates)
+    # A logger's notes above the header, and its '#' comment lines there ("# Sample rate: 25600 Hz"), in their order.
+    above = tuple(line.lstrip().removeprefix("#").strip() for i, line in enumerate(head[:first])
+                  if i in preamble or line.lstrip().startswith("#"))
+    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, above, clock, dates)
     return layout, names, notes
 
 
