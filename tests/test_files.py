@@ -153,7 +153,7 @@ def test_bad_inputs_are_named(tmp_path, signal):
     path = tmp_path / "holes.npy"
     np.save(path, bad)
     assert np.isnan(read_raw(path).channels["0"]).sum() == 1
-    with pytest.raises(BearingTwinError, match=r"holes.npy: 2 NaN or infinite values in channel 0, samples 10 to 20 "
+    with pytest.raises(BearingTwinError, match=r"holes.npy: 2 NaN or infinite values in channel 0, the first at sample 10, the last at 20 "
                                                r"\(0.00125 s to 0.0025 s\); no value is made up for them"):
         load_recording(path, fs=FS)
     with pytest.raises(BearingTwinError, match=r"holes.npy: no channel 'Q'; the file holds channel 0 \(choose with channel=<name>, or channel=null for its only one\)"):
@@ -605,10 +605,15 @@ def test_a_rate_a_loggers_note_states(tmp_path, note, rate):
     (tmp_path / "log.csv").write_text(f"Logger: X\n{note}\n\nacc\n" + "0.1\n-0.2\n" * 50)
     raw = read_raw(tmp_path / "log.csv")
     assert raw.fs == rate and raw.fs_origin == ("header" if rate else "")
-    # Written as '#' comment lines, as many loggers and numpy.savetxt's header= write them, the note says the same.
+    # Written as '#' comment lines, as many loggers and numpy.savetxt's header= write them, the note says the same,
+    # above a header or above the numbers alone (where it is no column's name).
     (tmp_path / "commented.csv").write_text(f"# Logger: X\n# {note}\nacc\n" + "0.1\n-0.2\n" * 50)
-    commented = read_raw(tmp_path / "commented.csv")
-    assert commented.fs == rate and commented.fs_origin == ("header" if rate else "")
+    for columns in (1, 2):
+        np.savetxt(tmp_path / f"savetxt{columns}.csv", np.tile([[0.1], [-0.2]], (50, columns)), header=note, delimiter=",")
+    for name in ("commented.csv", "savetxt1.csv", "savetxt2.csv"):
+        commented = read_raw(tmp_path / name)
+        assert commented.fs == rate and commented.fs_origin == ("header" if rate else ""), name
+    assert list(read_raw(tmp_path / "savetxt1.csv").channels) == ["0"]
 
 
 def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):

@@ -121,7 +121,8 @@ def test_whole_numbers_written_as_floats_train_as_the_ints_they_are():
     as_ints = CnnBiLstmClassifier(**whole).fit(X, y)
     as_floats = CnnBiLstmClassifier(**{name: float(value) for name, value in whole.items()}).fit(X, y)
     np.testing.assert_array_equal(as_floats.predict_proba(X), as_ints.predict_proba(X))
-    assert as_floats.module_.shape == as_ints.module_.shape and as_floats.get_params()["max_epochs"] == 3.0
+    assert as_floats.module_.shape == as_ints.module_.shape
+    assert isinstance(as_floats.get_params()["max_epochs"], float)  # the parameter as given (scikit-learn's rule)
 
 
 def test_the_same_seed_gives_the_same_model_on_any_number_of_cpu_threads():

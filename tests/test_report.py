@@ -260,6 +260,20 @@ def test_repeat_compares_a_training_curve_at_every_epoch(uri, tmp_path, capsys):
                                            if line.startswith("| accuracy |"))
 
 
+def test_a_run_logged_when_the_test_curves_were_called_val_is_repeated_as_it_was(uri, tmp_path, capsys):
+    """The network's per-epoch curves on the test windows were logged as val_loss and val_accuracy before they took
+    their names test_*: such a run repeats as matching, not as missing two curves."""
+    run = finished(uri, paper.PROPOSED)[0]
+    older = copy_store(uri, tmp_path / "older.db")
+    with sqlite3.connect(older.removeprefix("sqlite:///")) as store:
+        for table in ("metrics", "latest_metrics"):
+            store.execute(f"UPDATE {table} SET key = 'val_' || substr(key, 6) WHERE key IN ('test_loss', 'test_accuracy')"
+                          " AND run_uuid = ?", (run.info.run_id,))
+    assert "val_loss" in MlflowClient(older).get_run(run.info.run_id).data.metrics
+    code, said = repeat_here(older, run.info.run_id, tmp_path / "repeat.md", capsys)
+    assert code == 0 and "every metric matches" in said and "| test_loss (" in said, said
+
+
 def test_a_sweep_folder_no_sweep_ran_in_is_said_so_with_the_folders_the_store_knows(uri, capsys, tmp_path):
     """sweep_dir= a folder of no sweep of the store (a typo, a relative path read from elsewhere): not "run the sweep
     first" (it ran), but where this store's sweeps did run."""

@@ -152,6 +152,7 @@ def test_the_summary_names_the_effects_the_record_was_made_with(tmp_path):
     assert made.returncode == 0 and "  effects: clipping (clip_level 4.0)" in made.stdout, made.stdout
     bare = run(tmp_path, "fault=outer", "simulator.duration=0.2", f"out={tmp_path / 'b.npz'}")
     assert "  effects: none" in bare.stdout
+    assert "  defect: 0.533 mm wide, 0.28 mm deep (a ball sinks 7.44 um into it)," in bare.stdout, bare.stdout
     # A setting left at null (noise's reference_rms: each signal's own) is no value to print ("reference_rms None").
     noisy = run(tmp_path, "fault=outer", "simulator.duration=0.2", "effects=[noise]", f"out={tmp_path / 'n.npz'}")
     assert "  effects: noise (snr_db " in noisy.stdout and "None" not in noisy.stdout, noisy.stdout

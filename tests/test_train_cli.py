@@ -91,6 +91,7 @@ def test_a_sweep_lives_in_the_store_its_jobs_log_to_and_only_one(tmp_path):
     done = run_cli(["-m", "--config-dir", str(tmp_path / "conf"), "+sweep=mine", *quick], tmp_path)
     assert done.returncode == 0, done.stderr[-2000:]
     assert f"runs: mlflow ui --backend-store-uri sqlite:///{tmp_path}/own.db" in done.stdout
+    assert "[HYDRA]" in done.stderr and "[HYDRA]" not in done.stdout  # Hydra's own lines beside the log's
     client = MlflowClient(f"sqlite:///{tmp_path}/own.db")
     runs = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
     assert sorted((r.data.tags["bt.kind"], r.info.status) for r in runs) == [("sweep", "FINISHED"), ("train", "FINISHED")]

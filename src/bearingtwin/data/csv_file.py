@@ -314,7 +314,9 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
     elif first > 0 and head[first - 1].lstrip().startswith("#"):  # numpy.savetxt writes its header so: "# time,acc"
         above = _cells(head[first - 1].lstrip()[1:], delimiter)
         above = above[:-1] if trailing and above and above[-1] == "" else above
-        if len(above) == len(cells) and not all(_is_number(cell, decimal) for cell in above):
+        # Names, not a note ("# Sample rate: 25600 Hz" above a column of numbers): no name holds a "key: value".
+        if len(above) == len(cells) and not all(_is_number(cell, decimal) for cell in above) \
+                and not any(re.search(r"[:=]\s*\S", cell) for cell in above):
             names = above
             notes.append("column names read from the comment line above the numbers, as numpy.savetxt writes them")
     if names is None and delimiter == ",":

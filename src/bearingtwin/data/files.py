@@ -119,18 +119,21 @@ class RawRecord:
         ``key`` is the setting the caller reads ``name`` from, named in the error messages.
         """
         names = list(self.channels)
-        not_vibration = self.meta.get("not_vibration", {})  # a tachometer's column, a HUST export's speed
-        vibration = [channel for channel in names if channel not in not_vibration]
+        not_vibration = self.meta.get("not_vibration", {})  # a HUST export's speed column: no signal at all
+        two_levels = self.meta.get("two_levels", [])  # a tachometer's pulses, or a sensor saturated most of the time
+        vibration = [channel for channel in names if channel not in not_vibration and channel not in two_levels]
         if name is None:
             if self.default_channel in self.channels:
                 return self.default_channel, self.channels[self.default_channel]
+            if not vibration:  # only pulses (or a saturated sensor): read, and said to be what they look like
+                vibration = [channel for channel in names if channel not in not_vibration]
             if not vibration:
-                raise BearingTwinError(f"{self.path}: its only channel{'s' * (len(names) != 1)} "
-                                       f"{', '.join(f'{n} reads {not_vibration[n]}' for n in names)}")
+                raise BearingTwinError(f"{self.path}: holds no vibration channel "
+                                       f"({'; '.join(f'{n} reads {why}' for n, why in not_vibration.items())})")
             if len(vibration) > 1:
                 raise BearingTwinError(f"{self.path}: holds channels {', '.join(vibration)}; choose one with {key}=<name>"
                                        f"{_quoting_hint(key, vibration)}")
-            return vibration[0], self.channels[vibration[0]]
+            return self.channel(vibration[0], key)  # said to be two levels where it is
         wanted = str(name)
         found = wanted if wanted in self.channels else None
         if found is None and (isinstance(name, int) or wanted.lstrip("-").isdigit()) and 0 <= int(wanted) < len(names):
@@ -142,6 +145,10 @@ class RawRecord:
             raise BearingTwinError(f"{self.path}: {key}={wanted} reads {not_vibration[found]}; choose one of "
                                    f"{', '.join(vibration)}")
         if found is not None:
+            if found in two_levels:
+                self.meta.setdefault("notes", []).append(
+                    f"channel {found} holds two levels only: a tachometer's pulses, or a sensor saturated nine samples "
+                    "in ten; read as asked, it is no vibration's record")
             return found, self.channels[found]
         only = f", or {key}=null for its only one" if len(vibration) == 1 else ""
         raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds channel{'s' * (len(vibration) != 1)} "
@@ -191,12 +198,11 @@ def read_raw(path: str | Path) -> RawRecord:
 
 def _pulse_trains_marked(raw: RawRecord) -> RawRecord:
     """``raw`` with each channel of two levels only (a tachometer's pulses recorded beside the accelerometers)
-    marked as no vibration: no channel choice falls on it, and no rate check reads its comb as a shaft series."""
-    known = raw.meta.get("not_vibration", {})
-    pulses = {name: "two levels only, a tachometer's pulses (or a sensor saturated nine samples in ten), not a vibration"
-              for name, values in raw.channels.items() if name not in known and is_pulse_train(values)}
+    named in ``meta["two_levels"]``: no channel choice falls on it by default (one named is read, and said to be
+    what it looks like)."""
+    pulses = [name for name, values in raw.channels.items() if is_pulse_train(values)]
     if pulses:
-        raw.meta["not_vibration"] = {**known, **pulses}
+        raw.meta["two_levels"] = pulses
     return raw
 
 
@@ -742,7 +748,7 @@ def _read_wav(path: Path) -> RawRecord:
     if truncated is not None and _wav_shortfall_bytes(path) > 16:
         raise BearingTwinError(f"{path}: not a readable .wav file, truncated ({truncated})")
     notes = [f"reading it: {warning.message}" for warning in caught if warning.message is not truncated]
-    columns = data.reshape(len(data), -1)
+    columns = data if data.ndim == 2 else data[:, None]
     offset, full_scale = 0.0, 1.0
     if np.issubdtype(data.dtype, np.integer):  # PCM counts; the unsigned 8-bit format is offset by half its range
         stored, bits = data.dtype.name, 8 * data.dtype.itemsize
@@ -771,12 +777,14 @@ def _read_csv(path: Path) -> RawRecord:
     from bearingtwin.data.csv_file import read_csv_table
 
     table = read_csv_table(path)
-    if table.names is None:
-        return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}))
-    notes = list(table.notes)
     line, noted = rate_in_notes(path, table.preamble) or (None, None)
-    if noted is not None:  # exact, where time stamps are printed to a few decimals: they must agree with it
-        notes.append(f"sampling rate {noted:g} Hz from the note {line!r} above the header")
+    above = "the header" if table.names is not None else "the numbers"
+    rate_note = [] if noted is None else [f"sampling rate {noted:g} Hz from the note {line!r} above {above}"]
+    if table.names is None:
+        return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}), fs=noted,
+                         fs_origin="header" if noted is not None else "", meta={"notes": rate_note} if rate_note else {})
+    # A noted rate is exact where time stamps are printed to a few decimals: they must agree with it.
+    notes = list(table.notes) + rate_note
     passed_over = table.clock[1:] + table.dates  # a logger's dates beside its clock times; a second clock
     if passed_over:
         notes.append(f"column{'s' * (len(passed_over) > 1)} {', '.join(passed_over)} passed over: the clock times "

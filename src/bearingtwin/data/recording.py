@@ -112,13 +112,17 @@ class Recording:
         if not np.issubdtype(signal.dtype, np.number):
             raise BearingTwinError(f"{self.source}: the signal is not numeric (dtype {signal.dtype})")
         self.signal = signal.astype(np.float64, copy=False)
-        bad = np.flatnonzero(~np.isfinite(self.signal))
-        if bad.size:  # where, so a user can cut the gap out (an acquisition's dropout, a logger's missing rows)
-            where = (f"samples {bad[0]} to {bad[-1]}" if bad.size > 1 else f"sample {bad[0]}") + (
-                f" ({bad[0] / self.fs:.6g} s to {bad[-1] / self.fs:.6g} s)" if is_finite_number(self.fs) and self.fs > 0 else "")
-            raise BearingTwinError(f"{self.source}: {bad.size} NaN or infinite values in channel {self.channel or '?'}, "
-                                   f"{where}; no value is made up for them: cut them out, or give the stretches before "
-                                   "and after as files of their own")
+        bad = ~np.isfinite(self.signal)
+        n_bad = int(np.count_nonzero(bad))
+        if n_bad:  # where, so a user can cut them out (an acquisition's dropout, a logger's missing rows)
+            first, last = int(np.argmax(bad)), self.signal.size - 1 - int(np.argmax(bad[::-1]))
+            seconds = is_finite_number(self.fs) and self.fs > 0
+            where = (f"at sample {first}" + (f" ({first / self.fs:.6g} s)" if seconds else "") if n_bad == 1 else
+                     f"the first at sample {first}, the last at {last}"
+                     + (f" ({first / self.fs:.6g} s to {last / self.fs:.6g} s)" if seconds else ""))
+            raise BearingTwinError(f"{self.source}: {n_bad} NaN or infinite values in channel {self.channel or '?'}, "
+                                   f"{where}; no value is made up for them: cut them out, or give the stretches "
+                                   "between them as files of their own")
         if not self.fs > 0:
             raise BearingTwinError(f"{self.source}: sampling rate must be positive, got {self.fs}")
         if self.rpm is not None and not self.rpm > 0:

@@ -28,12 +28,14 @@ ellipse, wider across the groove than such a pit, bridges it. And with massless 
 smooth profile a pit can only unload a ball, never strike it on re-entry: the peak acceleration
 is capped near the ball's load over the race's mass: under gravity alone (the paper's set-up) the
 peaks hardly grow above a width of about 0.36 mm while the RMS and the envelope lines still do;
-under a radial load of some hundred newtons they grow up to about 1-2 mm. The profile spreads entry
-and exit over w/2 each, so the edges' slope falls as d/w: once a pit is wide enough to unload its
-ball fully (about 2 mm at 500 N on the 6205), a wider one strikes more gently and the vibration
-falls (RMS at 500 N, outer race: 6, 20, 27, 18, 14 m/s^2 for 0.53, 1, 2, 4, 7 mm), where a real
-spall's edges stay sharp whatever its length. Read the twin's pits as up to about 2 mm wide (CWRU's
-seeded faults are 0.18-1.0 mm).
+under a radial load of some hundred newtons they keep growing. A pit deeper than the ball's deflection
+under its load (about 9 um at 500 N on the 6205, reached at about 0.6 mm wide) lifts the ball off the
+race; the ball then comes back over a distance sqrt(8 Rb delta) / pi (delta its deflection) whatever the
+width, for as long as the drop is the sagitta, growing as w^2. Once the pit's depth caps the drop (about
+3 mm wide for a 0.28 mm deep pit), the cos^2 edges spread the return over a distance growing with w, the
+strikes soften and the vibration falls (RMS at 500 N, outer race: 6, 20, 27, 18, 14 m/s^2 for 0.53, 1, 2,
+4, 7 mm), where a real spall's edges stay sharp whatever its length. Read the twin's pits as up to about
+2 mm wide (CWRU's seeded faults are 0.18-1.0 mm).
 """
 
 from __future__ import annotations

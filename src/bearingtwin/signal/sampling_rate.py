@@ -93,7 +93,7 @@ class _Shared:
 
     results: dict = dataclasses.field(default_factory=dict)
     digests: dict = dataclasses.field(default_factory=dict)
-    centres: dict = dataclasses.field(default_factory=dict)  # a long channel's centre (a view), by the channel's id
+    centres: dict = dataclasses.field(default_factory=dict)  # a long channel's centre (a view), by id and length
     nbytes: int = 0
 
     def keeps(self, array: np.ndarray) -> bool:
@@ -487,7 +487,8 @@ def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Ma
 def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **options) -> dict[str, ShaftLineCheck]:
     """:func:`check_sampling_rate` on every channel of one record with finite samples, ``options`` passed
     on: the channels share the record's rate, so each is a witness (:func:`decisive_channel`)."""
-    finite = {name: values for name, values in channels.items() if np.all(np.isfinite(values))}
+    length = _samples_to_read(fs, rpm, options.get("tolerance", 0.02))
+    finite = {name: _centre(values, length) for name, values in channels.items() if np.all(np.isfinite(values))}
     checks = {name: check_sampling_rate(values, fs, rpm, **options) for name, values in finite.items()}
     if not checks:
         raise BearingTwinError("the sampling-rate check needs a channel with finite samples")
@@ -518,34 +519,42 @@ def _by_a_defect_alone(check: ShaftLineCheck) -> bool:
 
 
 RATE_CHECK_SAMPLES = 2**20
-"""The most samples of a channel the rate check reads, its centre's (20 s at 51.2 kHz, 87 s at 12 kHz): a shaft
+"""The fewest samples of a channel the rate check reads, its centre's (20 s at 51.2 kHz, 87 s at 12 kHz): a shaft
 series is placed far finer than the check's 2 % within them, and a long multi-channel recording's spectra and
-envelopes then stay within :data:`SHARED_BYTES`, computed once for every rate and speed tried."""
+envelopes then stay within :data:`SHARED_BYTES`, computed once for every rate and speed tried. A slow shaft takes
+more (:func:`_samples_to_read`)."""
 
 
 def rate_witnesses(signal: np.ndarray, channels: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray]:
     """The channels of ``signal``'s file that witness its one rate (those of its length, a tachometer's pulses
-    left out: their comb is no vibration's), or ``signal`` alone when the file gives no other; each cut to its
-    centre's :data:`RATE_CHECK_SAMPLES`."""
+    left out: their comb is no vibration's), or ``signal`` alone when the file gives no other."""
     same_length = {name: values for name, values in (channels or {}).items()
                    if np.shape(values) == np.shape(signal) and not is_pulse_train(values)}
-    return {name: _centre(values) for name, values in (same_length or {"signal": signal}).items()}
+    return same_length or {"signal": signal}
 
 
-def _centre(values: np.ndarray) -> np.ndarray:
-    """``values`` cut to their centre's :data:`RATE_CHECK_SAMPLES`; within :func:`shared_transforms` one view per
-    channel for every rate tried, so its content digest is computed once."""
+def _samples_to_read(fs: float, rpm: float, tolerance: float) -> int:
+    """How many samples of a channel the check reads at ``rpm``: :data:`RATE_CHECK_SAMPLES`, or, where a slow shaft
+    needs more to place its line within ``tolerance`` (fs / (tolerance x shaft rate) samples), twice those, rounded
+    up to a power of two times it, so that the speeds a whole factor lower share few lengths (and transforms)."""
+    needed = 2.0 * fs / (tolerance * rpm / 60.0)
+    return RATE_CHECK_SAMPLES * 2 ** max(0, math.ceil(math.log2(needed / RATE_CHECK_SAMPLES)))
+
+
+def _centre(values: np.ndarray, length: int) -> np.ndarray:
+    """``values`` cut to their centre's ``length`` samples; within :func:`shared_transforms` one view per channel
+    and length for every rate tried, so its content digest is computed once."""
     size = np.shape(values)[-1]
-    if size <= RATE_CHECK_SAMPLES:
+    if size <= length:
         return values
     shared = _SHARED.get()
-    seen = None if shared is None else shared.centres.get(id(values))
+    seen = None if shared is None else shared.centres.get((id(values), length))
     if seen is not None and seen[0] is values:
         return seen[1]
-    start = (size - RATE_CHECK_SAMPLES) // 2
-    centre = values[..., start:start + RATE_CHECK_SAMPLES]
+    start = (size - length) // 2
+    centre = values[..., start:start + length]
     if shared is not None:
-        shared.centres[id(values)] = (values, centre)
+        shared.centres[(id(values), length)] = (values, centre)
     return centre
 
 
@@ -553,7 +562,8 @@ def is_pulse_train(values: np.ndarray, max_samples: int = 2**16) -> bool:
     """Whether a channel holds a pulse train (a tachometer's, a key phasor's) rather than a vibration: nine samples
     in ten within a tenth of its range from one of its two levels (its 1st and 99th percentiles), each level held
     by at least one sample in a hundred. A vibration spreads over its range (a sine keeps 41 % of its samples so
-    near its peaks, noise a few %); up to ``max_samples``, evenly spaced, are read."""
+    near its peaks, noise a few %); up to ``max_samples``, evenly spaced, are read. A key phasor whose pulse lasts
+    under a hundredth of a turn is not told apart: a vibration's rare impacts must not be taken for pulses."""
     x = np.ravel(values)
     x = x[:: max(1, x.size // max_samples)].astype(np.float64)
     x = x[np.isfinite(x)]

@@ -494,6 +494,8 @@ def repeat(source: ReportInput) -> Report:
         repeated = metric_series(run_experiment(cfg, root_dir=scratch))
     logged = {key: sorted((point.step, point.value) for point in source.client.get_metric_history(run_id, key))
               for key in run.data.metrics}
+    for key in [key for key in logged if key.startswith("val_")]:  # a run logged when the test curves were val_*
+        logged.setdefault(f"test_{key[4:]}", logged.pop(key))
     rows, ok = [], True
     for key in sorted(set(repeated) - set(TIMING_METRICS)):
         match = logged.get(key) == sorted(repeated[key])  # a training curve: every epoch's value
