@@ -395,6 +395,12 @@ def test_a_record_whose_windows_split_between_states_says_what_the_others_said()
               "window_states": {"normal": 175, "inner": 0, "ball": 1, "outer": 175}, "windows": windows,
               "evidence_state": None}
     assert one_line(result) == "changed: outer (50% of 351 windows, p 0.61; the others: normal 50%)"
+    # Where the envelope spectrum decided windows, the classifier's own verdict is said beside the record's.
+    for window in windows[175:]:
+        window["decided_by"] = "physics"
+    decided = {**result, "classifier_verdict": "ball", "physics_decided": 176 / 351}
+    assert one_line(decided) == ("changed: outer (50% of 351 windows, 176 decided by the envelope spectrum; classifier "
+                                 "p 0.61; the others: normal 50%; the classifier alone: ball)")
 
 
 def test_features_that_read_shaft_orders_on_the_recorded_bearing_but_not_the_models_are_named():
@@ -823,6 +829,10 @@ def test_a_model_that_puts_physics_first_is_scored_and_diagnoses_as_it_decides(t
             "series stood 20 dB or more over its floor and 10 dB above the others") in " ".join(result["notes"])
     assert (f"inner (100% of {len(deciders)} windows, {deciders.count('physics')} decided by the envelope spectrum; "
             "classifier p ") in one_line(result)
+    # The classifier's own answer, beside the verdict the physics helped make: what the model says of the record.
+    assert result["physics_decided"] == pytest.approx(deciders.count("physics") / len(deciders))
+    own = [max(window["probabilities"], key=window["probabilities"].get) for window in result["windows"]]
+    assert result["classifier_verdict"] == max(set(own), key=own.count)
 
 
 @needs_cwru

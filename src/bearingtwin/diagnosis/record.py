@@ -405,6 +405,10 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "verdict": verdict,
         "share": counts[verdict] / len(states),
         "window_states": counts,  # how many windows each state won: a record that changed state shows two
+        # What the classifier alone says, where the envelope spectrum decided windows (physics_first): the verdict
+        # above may be the physics' more than the model's.
+        "classifier_verdict": names[int(np.bincount(probabilities.argmax(axis=1), minlength=len(names)).argmax())],
+        "physics_decided": 0.0 if deciders is None else float(np.mean(deciders == "physics")),
         "mean_probability": float(probabilities[:, names.index(verdict)].mean()),
         "windows": [
             {"start_s": float(start / recording.fs), "state": str(state),
@@ -453,10 +457,14 @@ def one_line(result: dict) -> str:
     probability = (f"{by_physics} decided by the envelope spectrum; classifier p {result['mean_probability']:.2f}"
                    if by_physics else f"p {result['mean_probability']:.2f}")
     # A verdict its windows split on (a state that changed along a long record) says what the rest said.
-    others = [f"{state} {count / n_windows:.0%}" for state, count in result.get("window_states", {}).items()
-              if state != result["verdict"] and count >= 0.1 * n_windows]
+    split = [f"{state} {count / n_windows:.0%}" for state, count in result.get("window_states", {}).items()
+             if state != result["verdict"] and count >= 0.1 * n_windows]
+    asides = [f"the others: {', '.join(split)}"] if split else []
+    alone = result.get("classifier_verdict")  # where the physics decided windows, the model's own answer may differ
+    if by_physics and alone not in (None, result["verdict"]):
+        asides.append(f"the classifier alone: {alone}")
     line = (f"{result['record']}: {result['verdict']} ({result['share']:.0%} of {n_windows} window{'s' * (n_windows != 1)}, "
-            f"{probability}{'; the others: ' + ', '.join(others) if others else ''})")
+            f"{probability}{''.join(f'; {aside}' for aside in asides)})")
     if result["evidence_state"] is not None:
         prominence = result["evidence"]["prominence_db"]
         top = max(prominence, key=prominence.get, default=None)

@@ -466,7 +466,7 @@ def cwru(source: ReportInput) -> Report:
     body = _real_data_report(source, "cwru", "load", "hp", None)
     note = (
         "The paper reports no CWRU experiment, so there is no published figure to compare with. "
-        "0 hp has four classes (the healthy record exists only there), 1–3 hp the three fault classes.\n"
+        "0 hp has four classes (../shared/data holds the healthy record at 0 hp only; CWRU publishes one at each load), 1–3 hp the three fault classes.\n"
     )
     title = f"## CWRU (12k drive end, 0.007 in faults): accuracy by motor load and split (features.vmd_params={_vmd_params(source)})"
     return Report(title + "\n\n" + note + "\n" + body)
