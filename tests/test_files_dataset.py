@@ -357,6 +357,31 @@ def test_a_state_the_split_leaves_without_test_windows_stops_the_run_naming_it(t
         run_experiment(cfg, root_dir=str(tmp_path))
 
 
+def test_a_folder_of_several_recordings_a_state_trains_and_tests_on_whole_recordings(tmp_path):
+    """data.split=record through a run: of each state's three recordings two train and one tests, none on both
+    sides, and the run scores the held-out recordings; a state recorded once is refused before any feature."""
+    from bearingtwin.models.experiment import run_experiment
+
+    root = tmp_path / "mine"
+    root.mkdir()
+    rows = []
+    for state in FAULTS:
+        for take in range(3):
+            np.save(root / f"{state}_{take}.npy", tone(state, seed=10 * FAULTS.index(state) + take))
+            rows.append(f"{state}_{take}.npy,{state}\n")
+    (root / "labels.csv").write_text("record,state\n" + "".join(rows))
+    result = run_experiment(files_cfg(root, "classifier=svm", "features=raw", "data.split=record",
+                                      f"paths.cache_dir={tmp_path / 'cache'}"), root_dir=str(tmp_path))
+    tested = {row["record"] for row in result.per_record}
+    assert len(tested) == 4 and {name.rsplit("_", 1)[0] for name in tested} == set(FAULTS), tested
+    assert result.n_test == 4 * 10 and result.n_train == 8 * 10
+    (root / "labels.csv").write_text("record,state\n" + "".join(rows[:-2]))  # outer recorded once
+    with pytest.raises(BearingTwinError, match=r"data.split=record needs two records or more of each class; outer has "
+                                               r"one \(outer_0.npy\)"):
+        run_experiment(files_cfg(root, "classifier=svm", "features=raw", "data.split=record",
+                                 f"paths.cache_dir={tmp_path / 'cache'}"), root_dir=str(tmp_path))
+
+
 def test_a_folder_of_one_state_is_refused_before_any_feature_is_extracted(tmp_path, monkeypatch):
     from bearingtwin.models import experiment
 

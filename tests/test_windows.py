@@ -69,9 +69,37 @@ def test_random_split_is_stratified_and_seeded():
     assert np.bincount(labels[a[1]]).tolist() == [45, 45]
 
 
+def test_record_split_keeps_every_recording_on_one_side_and_every_class_on_both():
+    """Several recordings of each state (a user's rig, three bearings a state): the block split puts every recording
+    on both sides (its start trains, its end tests), so the test is of the same bearings; the record split keeps
+    each recording whole on one side, every class on both, seeded; a class recorded once is refused by name."""
+    n_records, per_record = 12, 10
+    record_ids = np.repeat(np.arange(n_records), per_record)
+    labels = record_ids % 4  # four states, three recordings each
+    starts = np.tile(np.arange(per_record) * 1000, n_records)
+    lengths = np.full(n_records, per_record * 1000)
+    block_train, block_test = split_indices(labels, record_ids, starts, lengths, 1000, method="block")
+    assert set(record_ids[block_train]) == set(record_ids[block_test]) == set(range(n_records))
+    train, test = split_indices(labels, record_ids, starts, lengths, 1000, method="record", seed=3)
+    assert not set(record_ids[train]) & set(record_ids[test]) and train.size + test.size == labels.size
+    assert set(labels[train]) == set(labels[test]) == {0, 1, 2, 3}
+    assert all(np.unique(record_ids[train][labels[train] == label]).size == 2 for label in range(4))  # 0.7 of 3
+    again = split_indices(labels, record_ids, starts, lengths, 1000, method="record", seed=3)
+    np.testing.assert_array_equal(again[0], train)
+    assert any(not np.array_equal(split_indices(labels, record_ids, starts, lengths, 1000, method="record", seed=seed)[0],
+                                  train) for seed in range(4, 10))
+    once = record_ids < 9  # the last three recordings left out: state 0 keeps records 0, 4, 8; state 3 keeps 3, 7
+    lonely = labels[once].copy()
+    lonely[record_ids[once] == 7] = 0  # record 7 relabelled: state 3 is recorded once, by record 3
+    with pytest.raises(BearingTwinError, match=r"^data.split=record needs two records or more of each class; outer "
+                                               r"has one \(a.wav\): give more recordings of it, or use data.split=block$"):
+        split_indices(lonely, record_ids[once], starts[once], lengths[:9], 1000, method="record",
+                      records=[f"{name}.wav" for name in "bcdaefghi"])
+
+
 def test_unknown_split_names_the_choices():
     labels, record_ids, starts, lengths = _two_records()
-    with pytest.raises(BearingTwinError, match="^data.split=.kfold. is not a split method; choose one of random, block"):
+    with pytest.raises(BearingTwinError, match="^data.split=.kfold. is not a split method; choose one of random, block, record"):
         split_indices(labels, record_ids, starts, lengths, 2048, method="kfold")
 
 

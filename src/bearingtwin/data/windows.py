@@ -21,7 +21,7 @@ from bearingtwin.checks import finite_number, physical_memory_bytes
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
-SPLITS = ("random", "block")
+SPLITS = ("random", "block", "record")
 
 BYTES_PER_WINDOW_SAMPLE = 16
 """Peak memory per sample of a data set's windows while they are cut: the float64 windows of every
@@ -153,10 +153,13 @@ def split_indices(
         starts: (n,) first sample of each window in its record.
         record_lengths: (n_records,) samples in each record.
         window_length: samples per window.
-        method: ``random`` (the paper's: stratified shuffle of windows) or ``block`` (train
+        method: ``random`` (the paper's: stratified shuffle of windows), ``block`` (train
             on windows lying wholly in the first ``train_fraction`` of their record, test on
-            windows lying wholly in the rest; windows straddling the boundary are dropped).
-        train_fraction: share of windows (random) or of each record (block) used for training.
+            windows lying wholly in the rest; windows straddling the boundary are dropped) or
+            ``record`` (whole records: of each class's records, a seeded ``train_fraction`` trains,
+            the rest tests, so no recording, and no bearing recorded once, is on both sides).
+        train_fraction: share of windows (random), of each record (block) or of each class's records
+            (record, rounded, at least one on each side) used for training.
         seed: seeds the random split.
         class_names, records: the name of each label and the source of each record, for messages
             (default: FAULTS, and records by their index).
@@ -174,6 +177,8 @@ def split_indices(
         train, test = train_test_split(index, train_size=train_fraction, stratify=labels, random_state=seed)
         return np.sort(train), np.sort(test)
     record_ids, record_lengths = np.asarray(record_ids), np.asarray(record_lengths)
+    if method == "record":
+        return _whole_records(labels, record_ids, train_fraction, seed, class_names, records)
     boundary = np.floor(record_lengths[record_ids] * train_fraction)
     ends = np.asarray(starts) + window_length
     train = np.flatnonzero(ends <= boundary)
@@ -185,6 +190,25 @@ def split_indices(
                 class_names[label], " and no ".join(missing), np.unique(record_ids[labels == label]), record_ids,
                 record_lengths, window_length, train_fraction, records))
     return train, test
+
+
+def _whole_records(labels: np.ndarray, record_ids: np.ndarray, train_fraction: float, seed: int,
+                   class_names: Sequence[str], records: Sequence[str] | None) -> tuple[np.ndarray, np.ndarray]:
+    """The ``record`` split: each class's records shuffled (seeded) and cut at ``train_fraction``, rounded, with
+    at least one record on each side. Written here because scikit-learn's grouped splitters either ignore the classes
+    (GroupShuffleSplit) or fix the fraction by a fold count (StratifiedGroupKFold)."""
+    rng = np.random.default_rng(seed)
+    training_records = []
+    for label in np.unique(labels):
+        own = np.unique(record_ids[labels == label])
+        if own.size < 2:
+            named = ", ".join(Path(records[i]).name if records is not None else f"record {i}" for i in own)
+            raise BearingTwinError(f"data.split=record needs two records or more of each class; {class_names[label]} "
+                                   f"has one ({named}): give more recordings of it, or use data.split=block")
+        n_train = min(max(int(round(train_fraction * own.size)), 1), own.size - 1)
+        training_records += rng.permutation(own)[:n_train].tolist()
+    in_training = np.isin(record_ids, training_records)
+    return np.flatnonzero(in_training), np.flatnonzero(~in_training)
 
 
 def _block_split_shortfall(name: str, missing: str, class_records: np.ndarray, record_ids: np.ndarray,
