@@ -145,10 +145,10 @@ class RawRecord:
             raise BearingTwinError(f"{self.path}: {key}={wanted} reads {not_vibration[found]}; choose one of "
                                    f"{', '.join(vibration)}")
         if found is not None:
-            if found in two_levels:
-                self.meta.setdefault("notes", []).append(
-                    f"channel {found} holds two levels only: a tachometer's pulses, or a sensor saturated nine samples "
+            said = (f"channel {found} holds two levels only: a tachometer's pulses, or a sensor saturated nine samples "
                     "in ten; read as asked, it is no vibration's record")
+            if found in two_levels and said not in self.meta.get("notes", []):  # once, however often it is asked for
+                self.meta.setdefault("notes", []).append(said)
             return found, self.channels[found]
         only = f", or {key}=null for its only one" if len(vibration) == 1 else ""
         raise BearingTwinError(f"{self.path}: no channel {name!r}; the file holds channel{'s' * (len(vibration) != 1)} "
