@@ -9,7 +9,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.entropy import bin_indices
 from bearingtwin.signal.envelope import envelope_spectrum
 from bearingtwin.signal.kurtogram import kurtogram, spectral_kurtosis
-from bearingtwin.signal.sampling_rate import check_sampling_rate
+from bearingtwin.signal.sampling_rate import check_channels, check_sampling_rate
 from bearingtwin.signal.welch import WelchPSD
 
 FS = 12000.0
@@ -58,6 +58,10 @@ BAD_INPUT = {
     "check_sampling_rate complex": (lambda: check_sampling_rate(SIGNALS[0] + 1j, FS, 1797.0), "signal"),
     "check_sampling_rate max_fraction 1": (lambda: check_sampling_rate(SIGNALS[0], FS, 1797.0, max_fraction=1),
                                            "max_fraction"),
+    # A file's channels: how many samples each is read over follows the rate and speed, refused as the check does.
+    "check_channels rpm negative": (lambda: check_channels({"a": SIGNALS[0]}, FS, -5.0), "rpm"),
+    "check_channels rpm None": (lambda: check_channels({"a": SIGNALS[0]}, FS, None), "rpm"),
+    "check_channels tolerance 0": (lambda: check_channels({"a": SIGNALS[0]}, FS, 1797.0, tolerance=0.0), "tolerance"),
     "check_sampling_rate tolerance negative": (lambda: check_sampling_rate(SIGNALS[0], FS, 1797.0, tolerance=-1),
                                                "tolerance"),
 }

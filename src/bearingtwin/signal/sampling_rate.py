@@ -537,6 +537,8 @@ def _samples_to_read(fs: float, rpm: float, tolerance: float) -> int:
     """How many samples of a channel the check reads at ``rpm``: :data:`RATE_CHECK_SAMPLES`, or, where a slow shaft
     needs more to place its line within ``tolerance`` (fs / (tolerance x shaft rate) samples), twice those, rounded
     up to a power of two times it, so that the speeds a whole factor lower share few lengths (and transforms)."""
+    if not all(is_finite_number(value) and value > 0 for value in (fs, rpm, tolerance)):
+        return RATE_CHECK_SAMPLES  # check_sampling_rate refuses such a value, naming it
     needed = 2.0 * fs / (tolerance * rpm / 60.0)
     return RATE_CHECK_SAMPLES * 2 ** max(0, math.ceil(math.log2(needed / RATE_CHECK_SAMPLES)))
 
