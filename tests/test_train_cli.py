@@ -67,6 +67,11 @@ def test_bad_value_exits_2_naming_the_field_before_a_run_is_opened(tmp_path):
         (line,) = done.stderr.strip().splitlines()
         assert line.startswith(f"error: {bad.split('=')[0]} ") and "Traceback" not in done.stderr, line
     assert not (tmp_path / "mlflow.db").exists()
+    # Nor a folder: Hydra made outputs/<date>/<time>/ with the config and an empty log; the refusal removes it.
+    assert not (tmp_path / "outputs").exists(), sorted(str(p) for p in (tmp_path / "outputs").rglob("*"))
+    (tmp_path / "outputs" / "mine").mkdir(parents=True)  # a folder of the user's beside it is kept
+    done = run_cli(["classifier=svm", "classifier.C=-1", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"], tmp_path)
+    assert done.returncode == 2 and [p.name for p in (tmp_path / "outputs").iterdir()] == ["mine"]
 
 
 def test_unknown_key_is_refused(tmp_path):

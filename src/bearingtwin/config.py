@@ -6,6 +6,7 @@ import difflib
 import functools
 import os
 import re
+import shutil
 import sys
 import tempfile
 import warnings
@@ -46,30 +47,53 @@ def exit_on_user_error(task: Callable) -> Callable:
         try:
             return task(*args, **kwargs)
         except BearingTwinError as error:
-            print(f"error: {error}", file=sys.stderr)
-            sys.exit(2)
+            _refuse(str(error))
         except MissingMandatoryValue as error:  # a ``???`` the user did not fill in
             key = getattr(error, "full_key", "") or "a mandatory value"
-            print(f"error: {key} is missing; give {key}=<value>", file=sys.stderr)
-            sys.exit(2)
+            _refuse(f"{key} is missing; give {key}=<value>")
         except COMPOSITION_ERRORS as error:
-            print(f"error: {composition_error_line(error)}", file=sys.stderr)
-            sys.exit(2)
+            _refuse(composition_error_line(error))
         except ConfigAttributeError as error:
             key = str(getattr(error, "full_key", "") or "")
             removed = [arg for arg in sys.argv[1:] if arg.startswith("~") and key
                        and (key + ".").startswith(arg[1:].partition("=")[0] + ".")]
             if not removed:  # no setting of the user's took this key away: a programming error, with its traceback
                 raise
-            print(f"error: {key} is needed, and {removed[0]} removed it", file=sys.stderr)
-            sys.exit(2)
+            _refuse(f"{key} is needed, and {removed[0]} removed it")
         except InterpolationResolutionError as error:  # seed=${foo}: a value naming a key no config has
             where = next((arg for arg in sys.argv[1:] if "${" in arg), None) or getattr(error, "full_key", "") or "a setting"
-            print(f"error: {where}: {str(error).splitlines()[0]} (an interpolation ${{...}} names another setting)",
-                  file=sys.stderr)
-            sys.exit(2)
+            _refuse(f"{where}: {str(error).splitlines()[0]} (an interpolation ${{...}} names another setting)")
 
     return wrapped
+
+
+def _refuse(message: str) -> None:
+    """A user's mistake said in one line on stderr, exit status 2, leaving no empty run folder behind."""
+    print(f"error: {message}", file=sys.stderr)
+    _drop_empty_run_folder()
+    sys.exit(2)
+
+
+def _drop_empty_run_folder() -> None:
+    """Hydra's folder of a single run refused before it did anything (it holds the run's config and an empty log
+    only) removed, and the date folder above it where that is left empty: a mistyped value leaves no folder
+    behind. A folder holding anything else, the working directory, and a sweep's job folders are kept."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    if not HydraConfig.initialized() or HydraConfig.get().mode != RunMode.RUN:
+        return
+    folder, here = Path(HydraConfig.get().runtime.output_dir).resolve(), Path.cwd().resolve()
+    if folder == here or here not in folder.parents or not folder.is_dir():
+        return
+    if any(not (entry.name == ".hydra" or (entry.suffix == ".log" and entry.is_file() and entry.stat().st_size == 0))
+           for entry in folder.iterdir()):
+        return
+    shutil.rmtree(folder, ignore_errors=True)
+    for parent in folder.parents:  # outputs/<date>/ left empty, then outputs/
+        if parent == here or not parent.is_dir() or any(parent.iterdir()):
+            break
+        parent.rmdir()
 
 
 def output_folder(path, key: str = "out") -> Path:
