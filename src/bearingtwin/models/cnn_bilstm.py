@@ -225,7 +225,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
     ``auto`` before the entry point resolves it) keeps training silent.
 
     Fitted attributes: ``classes_``, ``n_features_in_``, ``scaler_``, ``module_``, ``history_`` (per-epoch
-    loss and accuracy).
+    loss and accuracy), ``device_`` (where it trained: ``cpu``, ``cuda``, ``mps``).
     """
 
     def __init__(
@@ -328,6 +328,7 @@ class CnnBiLstmClassifier(ClassifierMixin, BaseEstimator):
                 default_root_dir=self.root_dir or scratch,
             )
             trainer.fit(self.module_, datamodule=data)
+        self.device_ = trainer.strategy.root_device.type  # where auto took it: a GPU's arithmetic is not the CPU's
         self.module_.to("cpu").eval()
         self.history_ = list(self.module_.history)
         return self

@@ -54,13 +54,15 @@ class ExperimentResult:
 
     ``metrics`` holds ``accuracy`` and ``precision_/recall_/f1_<class>`` (Table 3's form)
     as fractions; ``calibration_accuracy`` and ``calibration_recall_<class>`` on the dataset's
-    validation windows if it has any (the calibration records of a twin-to-real run; not
-    ``val_``, which names the CNN's per-epoch curves); and ``inference_ms_per_sample``.
+    validation windows if it has any (the calibration records of a twin-to-real run); and
+    ``inference_ms_per_sample``.
     ``confusion`` is counts with true classes as rows; ``history`` the per-epoch training curves (empty for the SVM);
     ``vmd_params`` the VMD parameters the features used (Table 2's form); ``per_record``
     one row per test record (``record``, ``class``, ``windows``, ``accuracy``): which file fails.
     ``pipeline`` is the fitted extractor and classifier with what a diagnosis needs (the run's model);
-    ``example_windows`` two test windows (and their shaft speed) as the model's input example.
+    ``example_windows`` two test windows (and their shaft speed) as the model's input example. ``device`` is where
+    the network trained (``cpu``, ``cuda``: ``trainer.accelerator=auto`` takes a GPU where there is one, and its
+    arithmetic ends elsewhere than the CPU's); empty for other classifiers.
     """
 
     metrics: dict[str, float]
@@ -75,6 +77,7 @@ class ExperimentResult:
     per_record: list[dict] = field(default_factory=list)
     pipeline: DiagnosisPipeline | None = None
     example_windows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    device: str = ""
     example_rpm: float | None = None
 
 
@@ -265,6 +268,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         confusion=confusion,
         class_names=tuple(dataset.class_names),
         history=curves_named_for_the_test_windows(getattr(classifier, "history_", [])),
+        device=getattr(classifier, "device_", ""),
         vmd_params=vmd_params,
         dataset_key=dataset.key,
         features_key=cache_path(cfg.features, dataset, train, cfg.paths.cache_dir).name,

@@ -635,7 +635,8 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         log_params_and_tags(client, run_id, flatten(loggable_config(cfg)), tags)
         client.log_text(run_id, OmegaConf.to_yaml(OmegaConf.create(loggable_config(cfg))), CONFIG_ARTIFACT)
         result = train(cfg, root_dir)
-        log_params_and_tags(client, run_id, {}, {"dataset_key": result.dataset_key, "features_key": result.features_key})
+        log_params_and_tags(client, run_id, {}, {"dataset_key": result.dataset_key, "features_key": result.features_key,
+                                                 **({"device": result.device} if result.device else {})})
         log_result(client, run_id, result)
         model = log_model(cfg, experiment_id, run_id, result, digest)
     except Exception as error:
