@@ -180,8 +180,8 @@ def test_a_run_with_another_physics_first_rule_than_its_versions_is_left_out(tmp
 @pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
 def test_the_rule_beside_a_classifier_that_knows_nothing_is_scored_on_the_protocols_own_windows(capsys):
     """scripts/sim2real_constant_class.py: the physics-first rule of the protocol in force with every window it
-    leaves called one state. No test record is healthy, so a constant 'normal' scores exactly the windows the
-    physics decides, and every constant scores at least those; the healthy record is called healthy only by it."""
+    leaves called one state. No test record is healthy, so a constant 'normal' scores only the windows the physics
+    decides right, and every other constant at least those; the healthy record is called healthy only by it."""
     from script_modules import load_script
 
     load_script(REPO_ROOT / "scripts" / "sim2real_constant_class.py").main([])
@@ -190,5 +190,6 @@ def test_the_rule_beside_a_classifier_that_knows_nothing_is_scored_on_the_protoc
     rows = {state: (int(right), int(healthy) if healthy != "-" else None) for state, right, healthy in re.findall(
         r"\| every window left to it called (\w+) \| [\d.]+ \((\d+)/\d+\) \| \d+/\d+ \| (\S+) \|", printed)}
     assert set(rows) == {"normal", "inner", "ball", "outer"} and 0 < decided < total
-    assert rows["normal"] == (decided, 100) and all(right >= decided for right, _ in rows.values())
+    assert rows["normal"][0] <= decided and rows["normal"][1] == 100
+    assert all(right >= rows["normal"][0] for right, _ in rows.values())
     assert all(rows[state][1] == 0 for state in ("inner", "ball", "outer"))

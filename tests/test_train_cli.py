@@ -72,6 +72,10 @@ def test_bad_value_exits_2_naming_the_field_before_a_run_is_opened(tmp_path):
     (tmp_path / "outputs" / "mine").mkdir(parents=True)  # a folder of the user's beside it is kept
     done = run_cli(["classifier=svm", "classifier.C=-1", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"], tmp_path)
     assert done.returncode == 2 and [p.name for p in (tmp_path / "outputs").iterdir()] == ["mine"]
+    # A run folder the user named may have been there before (empty): it is never removed, nor a folder above it.
+    (tmp_path / "named" / "run1").mkdir(parents=True)
+    done = run_cli(["classifier=svm", "classifier.C=-1", "hydra.run.dir=named/run1"], tmp_path)
+    assert done.returncode == 2 and (tmp_path / "named" / "run1").is_dir()
 
 
 def test_unknown_key_is_refused(tmp_path):

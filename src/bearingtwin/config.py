@@ -11,7 +11,7 @@ import sys
 import tempfile
 import warnings
 from pathlib import Path
-from typing import Callable
+from typing import Callable, NoReturn
 
 import hydra
 import yaml
@@ -67,7 +67,7 @@ def exit_on_user_error(task: Callable) -> Callable:
     return wrapped
 
 
-def _refuse(message: str) -> None:
+def _refuse(message: str) -> NoReturn:
     """A user's mistake said in one line on stderr, exit status 2, leaving no empty run folder behind."""
     print(f"error: {message}", file=sys.stderr)
     _drop_empty_run_folder()
@@ -75,23 +75,27 @@ def _refuse(message: str) -> None:
 
 
 def _drop_empty_run_folder() -> None:
-    """Hydra's folder of a single run refused before it did anything (it holds the run's config and an empty log
-    only) removed, and the date folder above it where that is left empty: a mistyped value leaves no folder
-    behind. A folder holding anything else, the working directory, and a sweep's job folders are kept."""
+    """Hydra's own folder of a single run refused before it did anything removed: ``outputs/<date>/<time>/`` (its
+    default ``hydra.run.dir``, not one the user named, which may have existed before), holding the run's config
+    and an empty log only, and the date folder and ``outputs/`` where that leaves them empty. A mistyped value then
+    leaves no folder behind."""
     from hydra.core.hydra_config import HydraConfig
     from hydra.types import RunMode
 
     if not HydraConfig.initialized() or HydraConfig.get().mode != RunMode.RUN:
         return
-    folder, here = Path(HydraConfig.get().runtime.output_dir).resolve(), Path.cwd().resolve()
-    if folder == here or here not in folder.parents or not folder.is_dir():
+    hydra_cfg = HydraConfig.get()
+    if any(override.startswith(("hydra.run.dir=", "hydra.run=")) for override in hydra_cfg.overrides.hydra):
+        return
+    folder, here = Path(hydra_cfg.runtime.output_dir).resolve(), Path.cwd().resolve()
+    if folder.parent.parent != here / "outputs" or not folder.is_dir():
         return
     if any(not (entry.name == ".hydra" or (entry.suffix == ".log" and entry.is_file() and entry.stat().st_size == 0))
            for entry in folder.iterdir()):
         return
     shutil.rmtree(folder, ignore_errors=True)
-    for parent in folder.parents:  # outputs/<date>/ left empty, then outputs/
-        if parent == here or not parent.is_dir() or any(parent.iterdir()):
+    for parent in (folder.parent, folder.parent.parent):  # outputs/<date>/, then outputs/, where left empty
+        if not parent.is_dir() or any(parent.iterdir()):
             break
         parent.rmdir()
 

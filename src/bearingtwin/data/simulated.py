@@ -76,6 +76,9 @@ def check_simulated_settings(data_cfg: Mapping) -> dict:
     train_fraction = check_split(data_cfg.get("split"), data_cfg.get("train_fraction"))
     if data_cfg["split"] == "random":  # one record a state: its windows are the state's
         check_stratified([data_cfg["samples_per_class"]] * len(FAULTS), train_fraction)
+    if data_cfg["split"] == "record":  # refused before the twin simulates a record
+        raise BearingTwinError("data.split=record needs two records or more of each state; the simulated data set has "
+                               "one a state: use data.split=random or block")
     return data_cfg
 
 

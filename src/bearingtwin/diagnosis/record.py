@@ -386,9 +386,12 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     names = pipeline.class_names
     states = frame[STATE_COLUMN].to_numpy()
     probabilities = frame[names].to_numpy()
-    counts = {name: int(np.sum(states == name)) for name in names}
-    verdict = max(names, key=lambda name: (counts[name], probabilities[:, names.index(name)].mean()))
     deciders = frame[DECIDED_BY_COLUMN].to_numpy() if DECIDED_BY_COLUMN in frame else None
+    verdict, counts = majority(states, probabilities, names)
+    # What the classifier said of the windows left to it, where the envelope spectrum decided some (physics_first):
+    # the verdict above may be the physics' more than the model's. None where the physics decided every window.
+    left = np.ones(len(states), dtype=bool) if deciders is None else deciders != "physics"
+    classifier_verdict = majority(states[left], probabilities[left], names)[0] if left.any() else None
     if deciders is not None:
         notes.append(physics_first_note(pipeline, deciders))
     evidence = None
@@ -405,10 +408,8 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "verdict": verdict,
         "share": counts[verdict] / len(states),
         "window_states": counts,  # how many windows each state won: a record that changed state shows two
-        # What the classifier alone says, where the envelope spectrum decided windows (physics_first): the verdict
-        # above may be the physics' more than the model's.
-        "classifier_verdict": names[int(np.bincount(probabilities.argmax(axis=1), minlength=len(names)).argmax())],
-        "physics_decided": 0.0 if deciders is None else float(np.mean(deciders == "physics")),
+        "classifier_verdict": classifier_verdict,
+        "physics_decided": float(np.mean(~left)),
         "mean_probability": float(probabilities[:, names.index(verdict)].mean()),
         "windows": [
             {"start_s": float(start / recording.fs), "state": str(state),
@@ -440,6 +441,12 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     return result, evidence
 
 
+def majority(states: np.ndarray, probabilities: np.ndarray, names: list[str]) -> tuple[str, dict[str, int]]:
+    """The state most windows were given, a tie broken by the mean probability, and how many each state won."""
+    counts = {name: int(np.sum(states == name)) for name in names}
+    return max(names, key=lambda name: (counts[name], probabilities[:, names.index(name)].mean())), counts
+
+
 def physics_first_note(pipeline: DiagnosisPipeline, deciders: np.ndarray) -> str:
     """How many windows the envelope spectrum decided (the model's ``physics_first``), and why it may."""
     decided = int(np.sum(deciders == "physics"))
@@ -462,7 +469,7 @@ def one_line(result: dict) -> str:
     asides = [f"the others: {', '.join(split)}"] if split else []
     alone = result.get("classifier_verdict")  # where the physics decided windows, the model's own answer may differ
     if by_physics and alone not in (None, result["verdict"]):
-        asides.append(f"the classifier alone: {alone}")
+        asides.append(f"the windows left to the classifier: {alone}")
     line = (f"{result['record']}: {result['verdict']} ({result['share']:.0%} of {n_windows} window{'s' * (n_windows != 1)}, "
             f"{probability}{''.join(f'; {aside}' for aside in asides)})")
     if result["evidence_state"] is not None:

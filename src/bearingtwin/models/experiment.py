@@ -191,7 +191,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
     ``cfg.seed`` fixes the split, weight initialisation, batch order and dropout;
     feature extraction is seeded by ``cfg.features.seed``, so seeds whose training windows are
     the same (a ``block`` or fixed split, or features fitted on no training set) share one cached
-    extraction; under a ``random`` split each seed's training windows, hence its extraction, differ.
+    extraction; under a ``random`` or ``record`` split each seed's training windows, hence its extraction, differ.
     ``root_dir`` is where Lightning may write (the Hydra run dir).
     """
     seed = cfg.seed
