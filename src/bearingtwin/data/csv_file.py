@@ -338,9 +338,9 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
         names, repeated = _distinct(names)
         notes += repeated
     # A logger's notes above the header, and its '#' comment lines there ("# Sample rate: 25600 Hz"), in their order.
-    above = tuple(line.lstrip().removeprefix("#").strip() for i, line in enumerate(head[:first])
-                  if i in preamble or line.lstrip().startswith("#"))
-    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, above, clock, dates)
+    notes_above = tuple(line.lstrip().removeprefix("#").strip() for i, line in enumerate(head[:first])
+                        if i in preamble or line.lstrip().startswith("#"))
+    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, notes_above, clock, dates)
     return layout, names, notes
 
 

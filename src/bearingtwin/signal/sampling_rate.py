@@ -1033,10 +1033,11 @@ def speeds_a_whole_factor_lower(signal, fs: float, rpm: float, defect_hz: Mappin
     Empty where none is confirmed (or the record is too short to check one). ``defect_hz``: the bearing's defect
     frequencies at ``rpm``, which scale with the speed."""
     consistent = []
+    witnesses = rate_witnesses(signal, channels)  # the same channels for every speed tried
     for m in range(2, max_factor + 1):
         scaled = {name: hz / m for name, hz in defect_hz.items()} if defect_hz else None
         try:
-            checks = check_channels(rate_witnesses(signal, channels), fs, rpm / m, defect_hz=scaled)
+            checks = check_channels(witnesses, fs, rpm / m, defect_hz=scaled)
         except BearingTwinError:  # too short a record to place a shaft line this low: nor any lower one
             break
         check = checks[decisive_channel(checks)]
