@@ -862,7 +862,11 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
     assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
     header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
-    assert header[-4:] == ["bearing", "original_fs", "unit_check", "level_unseen"]  # new columns come last
+    # new columns come last
+    assert header[-6:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
+                           "physics_decided"]
+    assert rows["pump_a"]["classifier_verdict"] == rows["pump_a"]["verdict"]  # no physics_first: the model's own
+    assert float(rows["pump_a"]["physics_decided"]) == 0.0 and not rows["short"]["physics_decided"]
     assert rows["pump_a"]["bearing"] and not rows["short"]["bearing"] and rows["pump_a"]["unit_check"]
     assert float(rows["pump_a"]["original_fs"]) > 0 and not rows["short"]["original_fs"]
     assert "true_state" not in rows["other"] or not rows["other"]["true_state"]

@@ -359,6 +359,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
+        row["classifier_verdict"] = result["classifier_verdict"] or ""  # empty where the physics decided every window
+        row["physics_decided"] = result["physics_decided"]
         run.rows.append(row)
     scored = [row for row in run.rows if "correct" in row]
     if scored:
@@ -419,6 +421,9 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     columns += [key for key in ("load_hp", "position") if any(key in row for row in rows)]
     columns.append("original_fs")  # the rate the file was read at (Hz), before any resampling to the model's
     columns += ["unit_check", "level_unseen"]  # how its unit was read, and a level the model never saw
+    # The classifier's own majority and the share of windows the envelope spectrum decided (physics_first): a
+    # verdict the physics gave is not the classifier's.
+    columns += ["classifier_verdict", "physics_decided"]
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
