@@ -819,6 +819,15 @@ def test_a_model_that_puts_physics_first_is_scored_and_diagnoses_as_it_decides(t
     # states' test windows, at most half, the races', are the physics'.
     assert 0.35 <= trained.data.metrics["physics_decided"] <= 0.5, trained.data.metrics
     assert trained.data.params["physics_first.threshold_db"] == "20"
+    # The classifier's own share of the accuracy: on the windows the physics left it, the test accuracy lies between
+    # what those windows alone give and that plus every physics-decided window right.
+    metrics = trained.data.metrics
+    share_left = 1 - metrics["physics_decided"]
+    assert (share_left * metrics["classifier_accuracy_left"] - 1e-9 <= metrics["accuracy"]
+            <= metrics["physics_decided"] + share_left * metrics["classifier_accuracy_left"] + 1e-9), metrics
+    assert 0 <= metrics["classifier_accuracy"] <= 1
+    assert (f"the rest by the classifier, right in {100 * metrics['classifier_accuracy_left']:.2f} % of them; the "
+            f"classifier alone, on every test window: {100 * metrics['classifier_accuracy']:.2f} %") in done.stdout
     assert (f"physics first: {100 * trained.data.metrics['physics_decided']:.2f} % of the test windows decided by the "
             "envelope spectrum") in done.stdout
     record = CWRU / "12k_Drive_End_IR007_1_106.mat"

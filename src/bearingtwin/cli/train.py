@@ -77,8 +77,12 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
                                   f"right {percent(metrics[group.with_metric])} with {group.pronoun}, "
                                   f"{percent(metrics[group.without_metric])} without)")
     if "physics_decided" in metrics:
+        left = (f", right in {percent(metrics['classifier_accuracy_left'])} of them"
+                if "classifier_accuracy_left" in metrics else "")
+        alone_accuracy = (f"; the classifier alone, on every test window: {percent(metrics['classifier_accuracy'])}"
+                          if "classifier_accuracy" in metrics else "")  # runs logged before it was recorded
         lines["physics first"] = (f"{percent(metrics['physics_decided'])} of the test windows decided by the envelope "
-                                  "spectrum (physics_first), the rest by the classifier")
+                                  f"spectrum (physics_first), the rest by the classifier{left}{alone_accuracy}")
     if tracked.model:
         lines["model"] = tracked.model
     if tracked.artifacts:

@@ -246,17 +246,21 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         physics_first=physics_first,
     )
 
-    def decided(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The model's labels of windows ``rows`` as a diagnosis decides them, and which the physics decided."""
+    def decided(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The model's labels of windows ``rows`` as a diagnosis decides them, which the physics decided, and the
+        classifier's own labels."""
         labels = classifier.predict(features[rows])
         rpms = None if dataset.window_rpms is None else dataset.window_rpms[rows]
-        return pipeline.overrule(labels, dataset.windows[rows], rpms)
+        return *pipeline.overrule(labels, dataset.windows[rows], rpms), labels
 
-    predicted, by_physics = decided(test)
+    predicted, by_physics, own = decided(test)
     scores, confusion = classification_scores(y[test], predicted, dataset.class_names)
     scores.update(choice)
-    if physics_first is not None:
-        scores["physics_decided"] = float(np.mean(by_physics))
+    if physics_first is not None:  # how much of the accuracy is the classifier's: a rule deciding the easy windows
+        scores["physics_decided"] = float(np.mean(by_physics))  # leaves it the hard ones, or only one state's
+        scores["classifier_accuracy"] = float(np.mean(own == y[test]))  # alone, on every test window
+        if not by_physics.all():
+            scores["classifier_accuracy_left"] = float(np.mean(own[~by_physics] == y[test][~by_physics]))
     if len(dataset.validation):  # accuracy, and recall of the classes present
         y_val = y[dataset.validation]
         validation, _ = classification_scores(y_val, decided(dataset.validation)[0], dataset.class_names)
