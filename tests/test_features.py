@@ -66,6 +66,13 @@ def test_impulsive_signals_score_higher_on_the_impulsiveness_features():
 def test_bad_signals_are_refused_with_the_reason():
     with pytest.raises(BearingTwinError, match=r"signal \(1,\) is constant"):
         time_domain_features(np.stack([np.sin(t), np.ones(N)]))
+    # Constants whose mean rounds: their variance came out 1e-33 to 1e-22, not 0, and they had been given a
+    # kurtosis of 1 and a crest factor of 1.
+    for level, length in ((0.3, 2048), (0.1, 2048), (100000.1, 1000)):
+        with pytest.raises(BearingTwinError, match="the signal is constant"):
+            time_domain_features(np.full(length, level))
+    with pytest.raises(BearingTwinError, match="real numeric array"):
+        time_domain_features(np.sin(t) + 1j)  # had been cut to its real part
     with pytest.raises(BearingTwinError, match="NaN"):
         time_domain_features(np.array([1.0, np.nan, 2.0]))
     with pytest.raises(BearingTwinError, match="at least 2 samples"):
@@ -88,6 +95,14 @@ def test_the_optimal_mode_is_the_impulsive_one():
     assert optimal_mode(modes[::-1]) == 0
     batch = np.stack([modes, modes[::-1]])
     np.testing.assert_array_equal(optimal_mode(batch), [1, 0])
+
+
+def test_a_zero_mode_is_never_the_optimal_one():
+    """A zero mode has no envelope entropy (NaN); np.argmin had chosen it, and minEn had been NaN."""
+    modes = np.stack([np.sin(t), np.zeros(N), np.zeros(N)])
+    assert optimal_mode(modes) == 0
+    assert min_envelope_entropy(modes) == pytest.approx(envelope_entropy(modes[0]))
+    assert min_envelope_entropy(np.zeros((2, N))) == np.inf  # nothing to choose: the worst fitness
 
 
 def test_min_envelope_entropy_is_the_smallest_mode_entropy():

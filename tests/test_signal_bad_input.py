@@ -6,9 +6,10 @@ import pytest
 import scipy.signal as sps
 
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.entropy import bin_indices
 from bearingtwin.signal.envelope import envelope_spectrum
+from bearingtwin.signal.entropy import bin_indices, mutual_information
 from bearingtwin.signal.kurtogram import kurtogram, spectral_kurtosis
+from bearingtwin.signal.vmd import vmd
 from bearingtwin.signal.sampling_rate import check_channels, check_sampling_rate
 from bearingtwin.signal.welch import WelchPSD
 
@@ -38,6 +39,12 @@ BAD_INPUT = {
     "kurtogram bool": (lambda: kurtogram(SIGNALS[0] > 0, FS), "x"),
     "kurtogram NaN": (lambda: kurtogram(_with_nan(SIGNALS[0], 7), FS), "x"),
     "kurtogram batch": (lambda: kurtogram(SIGNALS, FS), "x"),
+    # window lengths: a float had been a TypeError from inside, 16.9 cut to 16, () "shorter than every length []"
+    "kurtogram nperseg float": (lambda: kurtogram(SIGNALS[0], FS, nperseg=1e9), "nperseg"),
+    "kurtogram nperseg fraction": (lambda: kurtogram(SIGNALS[0], FS, nperseg=(16.9,)), "nperseg"),
+    "kurtogram nperseg empty": (lambda: kurtogram(SIGNALS[0], FS, nperseg=()), "nperseg"),
+    "kurtogram nperseg bool": (lambda: kurtogram(SIGNALS[0], FS, nperseg=(True,)), "nperseg"),
+    "vmd alpha per mode": (lambda: vmd(SIGNALS[0, :256], 3, [1000.0, 2000.0, 3000.0]), "alpha"),  # a broadcast error
     "WelchPSD fs 0": (lambda: WelchPSD(0.0, WINDOW), "fs_hz"),
     "WelchPSD NaN window": (lambda: WelchPSD(FS, _with_nan(WINDOW, 3)), "window"),
     "WelchPSD complex": (lambda: WelchPSD(FS, WINDOW)(SIGNALS + 1j), "x"),
@@ -90,6 +97,8 @@ def test_valid_input_is_unchanged():
         assert all(np.array_equal(a, b) for a, b in zip(spectral_kurtosis(SIGNALS, rate, 64), (freqs, sk)))
         assert all(np.array_equal(a, b) for a, b in zip(envelope_spectrum(SIGNALS, rate), envelope_spectrum(SIGNALS, FS)))
     assert np.array_equal(bin_indices(SIGNALS, 5), bin_indices(SIGNALS, 5.0))
+    # An empty batch is an empty answer, as every other batched function gives (it had been a reshape error).
+    assert mutual_information(np.zeros((0, 10)), np.zeros((0, 10))).shape == (0,)
 
 
 def test_the_kurtograms_band_lies_below_its_upper_limit_and_one_window_length_is_taken():

@@ -39,7 +39,14 @@ def optimal_mode(modes: np.ndarray) -> np.ndarray:
     The mode whose envelope is most concentrated in time is the most impulsive one, the one
     carrying the fault's impacts.
     """
-    return np.argmin(envelope_entropy(_check_modes(modes)), axis=-1)
+    return np.argmin(_entropy_of_modes(modes), axis=-1)
+
+
+def _entropy_of_modes(modes: np.ndarray) -> np.ndarray:
+    """Each mode's envelope entropy, a zero mode's (NaN: no envelope to normalize) taken as infinite, so it is never
+    the most impulsive mode: a decomposition of a window holding fewer components than modes leaves modes at 0."""
+    entropy = envelope_entropy(_check_modes(modes))
+    return np.where(np.isnan(entropy), np.inf, entropy)
 
 
 def pe_mie(
@@ -86,8 +93,9 @@ def pe_mie(
 
 
 def min_envelope_entropy(modes: np.ndarray) -> np.ndarray:
-    """The smallest envelope entropy over the modes, (...,) for modes (..., k, n) (the paper's minEn)."""
-    return envelope_entropy(_check_modes(modes)).min(axis=-1)
+    """The smallest envelope entropy over the modes, (...,) for modes (..., k, n) (the paper's minEn); a zero mode
+    has none, and a decomposition of zero modes only scores infinity (the worst)."""
+    return _entropy_of_modes(modes).min(axis=-1)
 
 
 FITNESS: dict[str, Callable[..., np.ndarray]] = {"pe_mie": pe_mie, "min_envelope_entropy": min_envelope_entropy}

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal.inputs import as_signal
 
 FEATURE_NAMES = (
     "mean",
@@ -52,18 +53,15 @@ def time_domain_features(x: np.ndarray) -> np.ndarray:
     Raises:
         BearingTwinError: a constant signal (kurtosis undefined) or non-finite values.
     """
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim == 0 or x.shape[-1] < 2:
-        raise BearingTwinError(f"time_domain_features: x needs at least 2 samples along its last axis, got shape {x.shape}")
-    if not np.all(np.isfinite(x)):
-        raise BearingTwinError("time_domain_features: x holds NaN or infinite values")
+    x = as_signal(x, "time_domain_features: x")
     mean = x.mean(axis=-1)
     centred = x - mean[..., None]
     variance = np.mean(centred**2, axis=-1)
-    constant = variance <= np.finfo(np.float64).tiny
+    # Every sample equal: the rounded mean leaves a variance of 1e-33 or so, not 0, for most constants.
+    constant = (np.ptp(x, axis=-1) == 0) | (variance <= np.finfo(np.float64).tiny)
     if np.any(constant):
-        first = tuple(int(i) for i in np.argwhere(constant)[0])
-        raise BearingTwinError(f"time_domain_features: signal {first} is constant, so its kurtosis is undefined")
+        which = "the signal" if x.ndim == 1 else f"signal {tuple(int(i) for i in np.argwhere(constant)[0])}"
+        raise BearingTwinError(f"time_domain_features: {which} is constant, so its kurtosis is undefined")
     magnitude = np.abs(x)
     peak = magnitude.max(axis=-1)
     rms = np.sqrt(np.mean(x**2, axis=-1))

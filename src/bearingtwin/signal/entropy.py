@@ -135,6 +135,8 @@ def _mi_from_indices(ia: np.ndarray, ib: np.ndarray, n_bins: int) -> np.ndarray:
     """Plug-in MI (nats) of pre-binned rows (..., n) -> (...)."""
     batch_shape = ia.shape[:-1]
     n = ia.shape[-1]
+    if ia.size == 0:  # an empty batch: no rows to count, an empty answer
+        return np.zeros(batch_shape)
     ia = ia.reshape(-1, n)
     ib = ib.reshape(-1, n)
     rows = ia.shape[0]

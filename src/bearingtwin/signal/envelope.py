@@ -40,6 +40,11 @@ def envelope(x) -> np.ndarray:
 
     The FFT-based Hilbert transform assumes a periodic signal, so the first and last
     few samples carry edge effects when the window does not hold whole periods.
+
+    ``x`` should have zero mean, as a band-passed signal has (every caller here band-passes or
+    high-passes first): ``|c + a(t) cos(wt)|`` is not ``a(t)``, so a DC offset ``c`` (a converter's
+    or a sensor's bias) hands the envelope the carrier instead of the modulation. As
+    ``scipy.signal.hilbert``, this function does not remove the mean itself.
     """
     return np.abs(scipy.signal.hilbert(as_signal(x), axis=-1))
 
@@ -48,7 +53,8 @@ def envelope_spectrum(x, fs: float, *, remove_mean: bool = True, window=None) ->
     """Single-sided amplitude spectrum of the Hilbert envelope.
 
     Args:
-        x: signal(s), shape (..., n), any unit; the amplitude comes out in the same unit.
+        x: signal(s), shape (..., n), any unit, zero mean (band-passed: see :func:`envelope`); the
+            amplitude comes out in the same unit.
         fs: sampling rate in Hz.
         remove_mean: subtract the envelope's mean first, so the (large) DC term does not
             leak into the low-frequency bins where the fault rates live.

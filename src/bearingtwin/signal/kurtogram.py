@@ -72,6 +72,12 @@ def kurtogram(x, fs_hz: float, nperseg=(16, 32, 64, 128, 256), min_hz: float = 0
 
     ``min_hz`` excludes low bands (shaft harmonics, electrical lines) from the choice, as a
     demodulation band for bearing diagnosis lies above them.
+
+    The best band of a signal with no transient is chance: a Gaussian signal's SK scatters by about
+    ``2 / sqrt(K)`` over the ``K`` segments a window length gives (Antoni 2006), most at the longest
+    windows. In a 2048-sample window the longest level's chance maximum reaches an SK of about 1; a
+    whole record's thousands of segments keep it near 0, so an SK well above that scatter marks
+    impacts.
     """
     x = as_signal(x)
     if x.ndim != 1:
@@ -79,7 +85,14 @@ def kurtogram(x, fs_hz: float, nperseg=(16, 32, 64, 128, 256), min_hz: float = 0
     check_positive(fs_hz, "fs_hz")
     if isinstance(nperseg, (int, np.integer)):  # one window length, as spectral_kurtosis takes it
         nperseg = (nperseg,)
-    levels = [int(n) for n in nperseg if int(n) <= x.size]
+    try:
+        lengths = list(nperseg)
+    except TypeError:
+        raise BearingTwinError(f"nperseg must be a window length or a sequence of them (samples), got {nperseg!r}") from None
+    whole = [n for n in lengths if isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 4]
+    if not lengths or len(whole) < len(lengths):
+        raise BearingTwinError(f"nperseg must hold integer window lengths of 4 samples or more, got {nperseg!r}")
+    levels = [int(n) for n in whole if n <= x.size]  # a window longer than the signal reads nothing: not a level
     if not levels:
         raise BearingTwinError(f"the signal ({x.size} samples) is shorter than every window length {list(nperseg)}")
     freqs, sks, best = [], [], (-np.inf, 0.0, levels[0])

@@ -249,6 +249,8 @@ def vmd(
     if int(k) != k:
         raise BearingTwinError(f"k must be an integer number of modes (got {k})")
     ks = np.full(x2d.shape[0], int(k), dtype=np.int64)
+    if np.ndim(alpha) != 0:  # one penalty for every mode and signal; vmd_batch takes one per signal
+        raise BearingTwinError(f"alpha must be one number (got {alpha!r}); vmd_batch takes one per signal")
     alphas = np.full(x2d.shape[0], alpha, dtype=np.float64)
     modes, omega, n_updates = _decompose(x2d, ks, alphas, tau, tol, init, max_iter, seed, dc, tol_mode)
     if single:
