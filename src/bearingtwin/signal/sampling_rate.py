@@ -51,7 +51,9 @@ class ShaftLineCheck:
         fs_hz: the declared sampling rate; rpm: the measured speed.
         expected_hz: rpm / 60.
         observed_hz: the strong shaft-harmonic series nearest to ``expected_hz`` (None if none).
-        implied_fs_hz: the rate the evidence points to (``fs_hz`` when consistent; None if unknown).
+        implied_fs_hz: the rate the evidence points to (``fs_hz`` when consistent; None if unknown), as fine
+            as the spectrum's resolution and the rates tried: within about 0.5 %, so a true 12000 Hz may read
+            12021-12064 Hz; name the nominal rate it lies near.
         score: median prominence (peak / local median spectrum) of the first harmonics at
             ``observed_hz`` (at ``expected_hz`` if nothing was observed).
         matches: ``observed_hz`` lies within the tolerance of ``expected_hz``.
