@@ -872,8 +872,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
     header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
     # new columns come last
-    assert header[-6:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
-                           "physics_decided"]
+    assert header[-8:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
+                           "physics_decided", "speed_spread", "order_tracked"]
     assert rows["pump_a"]["classifier_verdict"] == rows["pump_a"]["verdict"]  # no physics_first: the model's own
     assert float(rows["pump_a"]["physics_decided"]) == 0.0 and not rows["short"]["physics_decided"]
     assert rows["pump_a"]["bearing"] and not rows["short"]["bearing"] and rows["pump_a"]["unit_check"]
@@ -922,7 +922,10 @@ def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_befor
     assert into_file.returncode == 2 and "rec.npz is a file, not a folder" in into_file.stderr
     maybe = run("diagnose", f"path={folder}", "model=models:/diag/1", "figures=maybe", cwd=tmp_path, uri=uri)
     assert maybe.returncode == 2 and "figures=maybe: give figures=true or figures=false" in maybe.stderr
-    for done in (clash, twice, into_file, maybe):
+    spread = run("diagnose", f"path={folder}", "model=models:/diag/1", "order_tracking.unsteady=2", cwd=tmp_path,
+                 uri=uri)
+    assert spread.returncode == 2 and "order_tracking.unsteady must be a relative spread below 1" in spread.stderr
+    for done in (clash, twice, into_file, maybe, spread):
         assert len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert not (tmp_path / "diagnosis").exists()
 
@@ -1670,3 +1673,47 @@ def test_a_requests_unit_is_held_against_the_models_as_a_records_is():
     with pytest.raises(BearingTwinError, match=r"^params unit 'furlongs': the record is in furlongs, .*give the record "
                                                r"in counts"):
         in_model_terms(in_counts, windows, None, "furlongs")
+
+
+@needs_cwru
+def test_a_record_whose_speed_drifts_is_order_tracked_before_it_is_read(registered, tmp_path):
+    """A CWRU outer-race record re-timed so that its shaft swings by +-4 % once over it (a fan under a changing load):
+    its defect lines smear into their floor. The diagnosis reads the drift from the shaft series, resamples the record
+    to a steady speed and the physics evidence finds the outer race again; with order_tracking.enabled=false the
+    record is read as recorded and said to be in doubt. The steady record beside it is left as it was."""
+    from scipy.interpolate import CubicSpline
+
+    from bearingtwin.data.files import load_recording
+
+    base, uri = registered
+    recording = load_recording(CWRU / "12k_Drive_End_OR007@6_1_131.mat")
+    folder = tmp_path / "fan"
+    folder.mkdir()
+    t = np.arange(recording.signal.size - 2000) / recording.fs  # the re-timed record reads ahead by up to 0.04 s
+    ratio = 1 + 0.04 * np.sin(2 * np.pi * t / t[-1])
+    recorded_at = np.concatenate([[0.0], np.cumsum((ratio[1:] + ratio[:-1]) / 2) / recording.fs])
+    drifting = CubicSpline(np.arange(recording.signal.size) / recording.fs, recording.signal)(recorded_at)
+    for name, signal in (("drifting", drifting), ("steady", recording.signal)):
+        np.savez(folder / f"{name}.npz", signal=signal, fs=recording.fs, rpm=recording.rpm, unit="g", fault="outer")
+    results = {}
+    for option in ("true", "false"):
+        done = run("diagnose", f"path={folder}", "model=models:/diag@champion", f"out={tmp_path}/{option}",
+                   f"order_tracking.enabled={option}", "figures=false", cwd=tmp_path, uri=uri)
+        assert done.returncode == 0, done.stderr[-3000:]
+        results[option] = ({name: json.loads((tmp_path / option / name / "diagnosis.json").read_text())
+                            for name in ("drifting", "steady")}, done.stdout)
+    (tracked, steady), stdout = (results["true"][0]["drifting"], results["true"][0]["steady"]), results["true"][1]
+    assert tracked["speed"]["tracked"] and tracked["speed"]["spread"] == pytest.approx(0.08, abs=0.02)
+    assert not tracked["speed"]["in_doubt"] and tracked["speed"]["steady_rpm"] == pytest.approx(recording.rpm, rel=0.01)
+    assert any("resampled at equal steps of shaft angle to a steady" in note for note in tracked["notes"])
+    assert tracked["evidence_state"] == "outer"
+    assert "shaft speed varied: resampled to a steady speed (order tracking): drifting" in stdout
+    assert not steady["speed"]["tracked"] and steady["speed"]["spread"] < 0.01
+    as_recorded, stdout = results["false"][0]["drifting"], results["false"][1]
+    assert not as_recorded["speed"]["tracked"] and as_recorded["speed"]["in_doubt"]
+    smeared = as_recorded["evidence"]["prominence_db"]["outer"]
+    assert smeared < tracked["evidence"]["prominence_db"]["outer"] - 10, (smeared, tracked["evidence"])
+    assert "shaft speed varies, left unsteady (its lines smeared: in doubt): drifting" in stdout
+    rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "true" / "summary.csv"))}
+    assert rows["drifting"]["order_tracked"] == "True" and rows["steady"]["order_tracked"] == "False"
+    assert float(rows["drifting"]["speed_spread"]) == pytest.approx(tracked["speed"]["spread"])

@@ -67,6 +67,12 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     contradicted = [row["record"] for row in diagnosed if row.get("rate_check") == "contradicted"]
     if contradicted:  # a wrong speed or rate misplaces every defect line: such a verdict is in doubt (still scored)
         lines["speed or rate in doubt (the shaft line contradicts them: check them)"] = ", ".join(contradicted)
+    tracked = [row["record"] for row in diagnosed if row.get("order_tracked") is True]
+    if tracked:  # their verdicts read the records as steadied (order_tracking): said, so none is taken for as recorded
+        lines["shaft speed varied: resampled to a steady speed (order tracking)"] = ", ".join(tracked)
+    unsteady = [row["record"] for row in diagnosed if row.get("speed_in_doubt")]
+    if unsteady:  # every defect line smeared over the speeds the shaft passed through
+        lines["shaft speed varies, left unsteady (its lines smeared: in doubt)"] = ", ".join(unsteady)
     narrower = [row["record"] for row in diagnosed if row.get("original_fs") and row["original_fs"] < row["fs"]]
     if narrower:  # upsampled: the model reads a band these records never held, so their verdicts are in doubt
         lines["recorded below the model's rate (no content above their Nyquist)"] = ", ".join(narrower)

@@ -11,7 +11,9 @@ voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 ``record``, ``model_uri``, ``model_version_uri`` (an alias replaced by the version it named), ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
 ``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
 ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
-``contradicted`` or ``not checked``), ``unit_check`` (the record's unit against the model's: ``as stated``,
+``contradicted`` or ``not checked``), ``speed`` (how steadily the shaft turned, read from its harmonic series
+segment by segment, and whether the record was resampled to a steady speed: :func:`steadied`; null where no speed
+was known or the record is the twin's), ``unit_check`` (the record's unit against the model's: ``as stated``,
 ``converted``, ``assumed`` where the file states none, ``not checked`` where the model states none, ``not needed``
 where no unit's scale matters to the model: :attr:`DiagnosisPipeline.scale_free`), ``level_unseen`` (the windows' level lies a decade or more from the
 training windows'), ``notes``, ``fault_size_in``, ``position`` and ``load_hp`` where the
@@ -46,6 +48,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
                                                shared_transforms)
+from bearingtwin.signal.speed import UNSTEADY, order_track, speed_profile
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -62,6 +65,7 @@ class PreparedRecord:
     bearing: dict = field(default_factory=dict)  # the bearing the physics evidence reads defect lines of
     rate_check: str = "not checked"  # the shaft line against speed and rate: consistent, ambiguous, contradicted
     unit_check: str = "not needed"  # the record's unit against the model's: one of UNIT_CHECKS
+    speed: dict | None = None  # how steadily the shaft turned, and whether the record was order-tracked (steadied)
 
 
 CONDITION_KEYS = ("fault_size_in", "position", "load_hp")
@@ -76,14 +80,15 @@ NOISE_FREE_SIMULATION = ("a record bearingtwin-simulate made without a noise eff
 
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
                 true_state: str | None = None, bearing: str | None = None, fs_key: str = "fs",
-                rpm_key: str = "rpm") -> PreparedRecord:
+                rpm_key: str = "rpm", order_tracking: tuple[bool, float] = (True, UNSTEADY)) -> PreparedRecord:
     """Read one file, check it against the model and bring it to the model's sampling rate.
 
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs`` and ``rpm`` fill in what the
     file does not state and must agree with what it does (``fs_key`` and ``rpm_key`` name where they
     came from in a message); ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
-    own (a CWRU fan-end or HUST file names it) or else the model's when not given. The rate is
-    checked against the shaft line (:func:`_checked_rate`).
+    own (a CWRU fan-end or HUST file names it) or else the model's when not given. A measured record whose
+    shaft speed varies is resampled to a steady one (:func:`steadied`; ``order_tracking``: whether to, and the
+    spread of the speed above which), before its rate is checked against the shaft line (:func:`_checked_rate`).
     """
     raw = read_raw(path)
     channel, channel_note = _channel(raw, channel, pipeline)
@@ -100,6 +105,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
     rate_check = "not checked"
+    speed = None
     if recording.rpm is None and recording.meta.get("no_speed"):
         notes.append(f"the file is {recording.meta['no_speed']}: no physics evidence and no rate check")
     elif recording.rpm is None:  # a HUST export under a name of one's own: why, where it says its speed
@@ -113,7 +119,11 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         if recording.meta.get("simulation_notes"):  # a defect no loaded ball met: its stated state is not heard
             notes.append(f"the simulation noted: {recording.meta['simulation_notes']}")
     else:
-        recording, rate_notes, rate_check = _checked_rate(recording, record_bearing, channels=raw.channels,
+        recording, speed_notes, speed = steadied(recording, *order_tracking)
+        notes += speed_notes
+        # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then.
+        recording, rate_notes, rate_check = _checked_rate(recording, record_bearing,
+                                                          channels={} if speed["tracked"] else raw.channels,
                                                           declared_only=fs is None and raw.fs_origin == "declared")
         notes += rate_notes
     name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
@@ -149,7 +159,45 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; "
                                "give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv beside it")
-    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check)
+    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed)
+
+
+TRACKING_PASSES = 2
+"""How often a record is tracked at most: a strong drift smears the first profile's lines, which read the speed less
+finely than a second look at the record tracked once does."""
+
+
+def steadied(recording: Recording, track: bool, unsteady: float) -> tuple[Recording, list[str], dict]:
+    """The recording, resampled at equal steps of shaft angle where its speed varies by more than ``unsteady``
+    (:func:`~bearingtwin.signal.speed.speed_profile`, :func:`~bearingtwin.signal.speed.order_track`; up to
+    :data:`TRACKING_PASSES` times) and ``track``; a note where it varies; and ``diagnosis.json``'s ``speed``: the
+    spread read (null where the shaft series did not show in enough of the record to read it), whether the record
+    was tracked (its ``steady_rpm`` and the ``spread_after`` it), whether the speed leaves the verdict in doubt (left
+    unsteady), and the speed read segment by segment (null where not read)."""
+    profile = speed_profile(recording.signal, recording.fs, recording.rpm)
+    speed = {"spread": None if math.isnan(profile.spread) else profile.spread, "tracked": False, "in_doubt": False,
+             "segment_s": profile.segment_s, "times_s": profile.times_s.tolist(),
+             "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()]}
+    if not profile.unsteady(unsteady):
+        return recording, [], speed
+    varies = f"the shaft speed varies {profile.describe()}"
+    if not track:
+        speed["in_doubt"] = True
+        return recording, [f"{varies}: read as recorded (order_tracking.enabled=false), every defect line smeared "
+                           "over the speeds it passed through; the verdict is in doubt"], speed
+    signal, again = recording.signal, profile
+    for _ in range(TRACKING_PASSES):
+        signal, steady_rpm = order_track(signal, recording.fs, again)
+        again = speed_profile(signal, recording.fs, recording.rpm)
+        if not again.unsteady(unsteady):
+            break
+    speed.update(tracked=True, spread_after=None if math.isnan(again.spread) else again.spread, steady_rpm=steady_rpm,
+                 in_doubt=again.unsteady(unsteady))
+    note = (f"{varies}: resampled at equal steps of shaft angle to a steady {steady_rpm:.0f} rpm, its mean (computed "
+            "order tracking), so its defect lines stand still")
+    if again.unsteady(unsteady):
+        note += f"; tracked, it still varies {again.describe()}: the verdict is in doubt"
+    return dataclasses.replace(recording, signal=signal), [note], speed
 
 
 def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:
@@ -425,6 +473,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "bearing": prepared.bearing.get("name"),  # whose defect lines the physics (and defect-order features) read
         "original_fs": prepared.original_fs,
         "rate_check": prepared.rate_check,
+        "speed": prepared.speed,
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
         "notes": notes,

@@ -186,6 +186,8 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     figures = true_or_false(cfg.figures, "figures")
     tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
     settings = evidence_settings(OmegaConf.to_container(cfg.evidence, resolve=True))
+    tracking_speed = (true_or_false(cfg.order_tracking.enabled, "order_tracking.enabled"),
+                      _unsteady(cfg.order_tracking.unsteady))
     bearing = chosen_bearing(cfg)
     for name, unit in (("rpm", "rev/min"), ("fs", "Hz")):  # once, before any file: it applies to every one
         if cfg[name] is not None:
@@ -205,7 +207,8 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     earlier = remove_earlier_outputs(out, records)  # after the store answered: a failing store costs no results
     run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier)
     try:
-        diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures, pinned)
+        diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures, pinned,
+                         tracking_speed)
     except KeyboardInterrupt:  # an interrupt (SIGINT, SIGTERM): the records it left are listed as left, not omitted
         reached = len(run.rows)  # one row per record, in the records' order
         run.rows += [{"record": path.stem, "error": NOT_REACHED} for path in records[reached:]]
@@ -285,9 +288,10 @@ def write_outputs(result: dict, evidence: PhysicsEvidence | None, class_names: l
 
 def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, model, pipeline, settings: dict,
                      labels: dict, bad_rows: dict, table: Path | None, bearing: str | None, figures: bool,
-                     pinned_uri: str) -> None:
+                     pinned_uri: str, tracking_speed: tuple[bool, float]) -> None:
     """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores); a record whose labels
     row does not read (``bad_rows``, :func:`~bearingtwin.data.real.read_labels`) fails with its row's error.
+    ``tracking_speed``: whether an unsteady record is order-tracked, and the spread of its speed that is unsteady.
     ``pinned_uri``: the model's URI with an alias replaced by the version it names (:func:`~bearingtwin.diagnosis.mlflow_model.load_diagnosis_model`)."""
     out = run.out
     windows_total = windows_correct = 0
@@ -316,7 +320,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             its_row = f"{table if table else 'labels'} (its row for {path.name}): "
             prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing,
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
-                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm")
+                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=tracking_speed)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             calibrated_on = bool(_names_of(path, table) & calibrated)
             result["calibration_record"] = calibrated_on
@@ -361,6 +365,10 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
         row["classifier_verdict"] = result["classifier_verdict"] or ""  # empty where the physics decided every window
         row["physics_decided"] = result["physics_decided"]
+        speed = result["speed"] or {}  # the spread of the shaft speed read, and whether the record was steadied
+        row["speed_spread"] = "" if speed.get("spread") is None else speed["spread"]
+        row["order_tracked"] = speed.get("tracked", "")
+        row["speed_in_doubt"] = speed.get("in_doubt", False)  # for the closing summary (not a column)
         run.rows.append(row)
     scored = [row for row in run.rows if "correct" in row]
     if scored:
@@ -401,6 +409,14 @@ def _names_of(path: Path, table: Path | None) -> set[str]:
     return names
 
 
+def _unsteady(value) -> float:
+    """``order_tracking.unsteady``: a relative spread of the shaft speed, a positive number below 1."""
+    spread = positive_number(value, "order_tracking.unsteady", "relative spread of the shaft speed")
+    if spread >= 1:
+        raise BearingTwinError(f"order_tracking.unsteady must be a relative spread below 1 (0.02: 2 %), got {value}")
+    return spread
+
+
 def calibration_records(pipeline) -> set[str]:
     """The records (names as the training config gives them) a twin-trained model's twin was calibrated on."""
     data = pipeline.config.get("data") or {}
@@ -424,6 +440,7 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     # The classifier's own majority and the share of windows the envelope spectrum decided (physics_first): a
     # verdict the physics gave is not the classifier's.
     columns += ["classifier_verdict", "physics_decided"]
+    columns += ["speed_spread", "order_tracked"]  # how steadily the shaft turned; resampled to a steady speed
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only

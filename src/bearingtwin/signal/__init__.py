@@ -10,12 +10,14 @@ from bearingtwin.signal.entropy import (
 from bearingtwin.signal.envelope import cepstral_prewhiten, envelope, envelope_spectrum, peak_near
 from bearingtwin.signal.kurtogram import Kurtogram, kurtogram, spectral_kurtosis
 from bearingtwin.signal.sampling_rate import ShaftLineCheck, check_sampling_rate
+from bearingtwin.signal.speed import SpeedProfile, order_track, speed_profile
 from bearingtwin.signal.vmd import vmd, vmd_batch
 from bearingtwin.signal.welch import WelchPSD
 
 __all__ = [
     "Kurtogram",
     "ShaftLineCheck",
+    "SpeedProfile",
     "WelchPSD",
     "bin_indices",
     "cepstral_prewhiten",
@@ -26,9 +28,11 @@ __all__ = [
     "kurtogram",
     "mean_mode_mutual_information",
     "mutual_information",
+    "order_track",
     "peak_near",
     "permutation_entropy",
     "spectral_kurtosis",
+    "speed_profile",
     "vmd",
     "vmd_batch",
 ]

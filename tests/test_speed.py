@@ -1,0 +1,103 @@
+"""Reading a shaft's speed from its harmonic series, segment by segment, and resampling a record whose speed drifts to
+a steady one (computed order tracking): the speed read follows the true one, a steady record reads steady, a series
+that is not the shaft's is not read as it, and tracking makes an order-locked defect line stand again."""
+
+import numpy as np
+import pytest
+import scipy.signal
+
+from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal import envelope_spectrum, order_track, speed_profile
+
+FS = 12000.0
+RPM = 1750.0
+SECONDS = 8.0
+BPFO_ORDER = 3.585  # the CWRU drive-end 6205's outer-race order
+
+
+def machine(drift: float, seconds: float = SECONDS, shaft_lines: bool = True, seed: int = 0):
+    """A record of a shaft whose speed swings by +-``drift`` (relative) once over the record: its first five harmonics
+    (``shaft_lines``), an outer-race defect's impacts ringing a 3 kHz resonance at every BPFO-order turn, and noise;
+    and the true speed at every sample (rev/min)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * FS)) / FS
+    speed_rpm = RPM * (1 + drift * np.sin(2 * np.pi * t / seconds))
+    turns = np.cumsum(speed_rpm / 60.0) / FS  # shaft revolutions so far
+    signal = 0.5 * rng.standard_normal(t.size)
+    if shaft_lines:
+        signal += sum(np.cos(2 * np.pi * k * turns) / k for k in range(1, 6))
+    strikes = np.flatnonzero(np.diff(np.floor(BPFO_ORDER * turns)) > 0)
+    ring = np.exp(-900 * t[:120]) * np.sin(2 * np.pi * 3000 * t[:120])
+    impulses = np.zeros(t.size)
+    impulses[strikes] = 4.0
+    return signal + np.convolve(impulses, ring)[: t.size], speed_rpm
+
+
+def line_prominence(signal, order: float = BPFO_ORDER) -> float:
+    """The BPFO line of the band-passed record's envelope spectrum over the spectrum's median nearby."""
+    sos = scipy.signal.butter(4, (2000, 4000), btype="bandpass", fs=FS, output="sos")
+    freqs, amplitude = envelope_spectrum(scipy.signal.sosfiltfilt(sos, signal), FS, window="hann")
+    target = order * RPM / 60.0
+    near = (freqs > target - 20) & (freqs < target + 20)
+    line = np.abs(freqs - target) <= 0.5
+    return float(amplitude[line].max() / np.median(amplitude[near]))
+
+
+def test_the_speed_read_follows_a_drifting_shaft_and_a_steady_one_reads_steady():
+    signal, true_rpm = machine(drift=0.04)
+    profile = speed_profile(signal, FS, RPM)
+    assert profile.read.all() and profile.readable
+    truth = np.interp(profile.times_s, np.arange(true_rpm.size) / FS, true_rpm)
+    # A 1 s segment averages a speed that moves by up to 2.5 % within it: read within 0.5 % of its mean there.
+    assert np.max(np.abs(profile.rpm / truth - 1)) < 0.005, (profile.rpm, truth)
+    assert profile.spread == pytest.approx(0.08, abs=0.01) and profile.unsteady()
+    steady = speed_profile(machine(drift=0.0)[0], FS, RPM)
+    assert steady.readable and steady.spread < 0.003 and not steady.unsteady()
+    assert "of its median, 1750 rpm), read in 15 of 15 1-s segments" in steady.describe()
+
+
+def test_no_shaft_series_no_speed_read():
+    """Noise, or a defect's impacts without a shaft series, leave the speed unread: a lone line in a harmonic's search
+    window (the outer-race impacts' lines) is not taken for the shaft's, where no second harmonic agrees with it."""
+    noise = np.random.default_rng(1).standard_normal(int(SECONDS * FS))
+    assert not speed_profile(noise, FS, RPM).read.any()
+    impacts_only, _ = machine(drift=0.0, shaft_lines=False)
+    profile = speed_profile(impacts_only, FS, RPM)
+    assert not profile.readable and np.isnan(profile.spread) and not profile.unsteady()
+    short = speed_profile(noise[: int(0.8 * FS)], FS, RPM)  # shorter than one segment: nothing read, no error
+    assert short.rpm.size == 0 and not short.readable
+
+
+def test_order_tracking_makes_a_drifting_defect_line_stand_again():
+    """Under a +-4 % swing the BPFO line smears into its floor; resampled at equal steps of shaft angle it stands as
+    high as the steady machine's, the record keeps its length and its mean speed."""
+    drifting, true_rpm = machine(drift=0.04)
+    steady, _ = machine(drift=0.0)
+    tracked, steady_rpm = order_track(drifting, FS, speed_profile(drifting, FS, RPM))
+    assert abs(tracked.size - drifting.size) <= 1
+    assert steady_rpm == pytest.approx(true_rpm.mean(), rel=0.003)
+    before, after, reference = line_prominence(drifting), line_prominence(tracked), line_prominence(steady)
+    assert before < 0.3 * reference and after > 0.7 * reference, (before, after, reference)
+    assert not speed_profile(tracked, FS, RPM).unsteady()
+
+
+def test_tracking_a_steady_record_leaves_it_as_it_was():
+    signal, _ = machine(drift=0.0)
+    tracked, _ = order_track(signal, FS, speed_profile(signal, FS, RPM))
+    assert tracked.size == signal.size
+    # The speed read scatters by 0.1 %, which re-times samples by up to a few ms mid-record (the reason a steady
+    # record is not tracked at all): its level and its spectrum's lines stay what they were.
+    assert np.std(tracked) == pytest.approx(np.std(signal), rel=0.01)
+    assert line_prominence(tracked) == pytest.approx(line_prominence(signal), rel=0.1)
+
+
+@pytest.mark.parametrize("call, argument", [
+    (lambda: speed_profile(np.zeros((2, 4000)), FS, RPM), "signal must be one 1-D record"),
+    (lambda: speed_profile(np.ones(4000), FS, 0.0), "rpm must be a positive"),
+    (lambda: speed_profile(np.ones(4000), -1.0, RPM), "fs must be a positive"),
+    (lambda: speed_profile(np.ones(4000), FS, RPM, search=0.6), "search"),
+    (lambda: order_track(np.ones(4000), FS, speed_profile(np.ones(4000), FS, RPM)), "reads no segment's speed"),
+])
+def test_bad_input_is_refused_in_one_line(call, argument):
+    with pytest.raises(BearingTwinError, match=argument):
+        call()
