@@ -78,6 +78,17 @@ def test_a_dropout_is_named_with_where_it_is(seconds, named):
         assert notes == []
 
 
+def test_many_dropouts_are_counted_beside_the_longest():
+    """Twenty 20 ms gaps (a logger's lost packets) had been named as the longest one alone."""
+    x = impacts()
+    for index in range(20):
+        start = int((0.05 + 0.09 * index) * FS)
+        x[start:start + int((0.02 if index != 7 else 0.03) * FS)] = 0.0
+    (note,) = Recording(x, FS).quality_notes()
+    assert note.startswith(f"samples from {0.05 + 0.09 * 7:.3g} s to {0.05 + 0.09 * 7 + 0.03:.3g} s are all 0")
+    assert ", the longest of 20 such stretches: the windows over it read no vibration" in note
+
+
 def test_records_read_for_training_warn_of_their_clipping_naming_the_file(caplog):
     """A training run reads real records as a diagnosis does: a clipped one is named in the log, a clean one not."""
     from bearingtwin.data.real import windows_from_recordings

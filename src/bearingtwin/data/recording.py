@@ -10,6 +10,7 @@ can keep windows of one record apart.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -166,8 +167,9 @@ class Recording:
                          f"{self._stretches(clipped)}: the sensor or the converter clipped (saturated), which "
                          "flattens the impacts; what is read from them may be off")
         held = self._held_stretch(shortest_dropout_s)
-        if held:
-            notes.append(f"{held}{HELD_NOTE_END}")
+        if held:  # the longest, and how many there are: twenty short dropouts are not one
+            count = len(held_stretches(self.signal, max(2, math.ceil(shortest_dropout_s * self.fs))))
+            notes.append(f"{held}{f', the longest of {count} such stretches' if count > 1 else ''}{HELD_NOTE_END}")
         return notes
 
     def _stretches(self, mask: np.ndarray) -> str:
