@@ -528,6 +528,7 @@ def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_pat
     assert ("samples from 2 s to 3 s are all 0 (a dropout, or a stretch held at one value): the 7 windows touching it, "
             "from 1.88 s to 3.07 s, left out; the verdict is the other 16 of 23 windows'") in result["notes"], result["notes"]
     assert sum("samples from 2 s to 3 s are all 0" in note for note in result["notes"]) == 1  # said once, not twice
+    assert result["windows_left_out"] == 7
     assert result["verdict"] == "outer" and result["share"] == pytest.approx(
         sum(window["state"] == "outer" for window in result["windows"]) / 16)
     # A record every window of which touches a dropout has nothing left to read.
@@ -1580,6 +1581,27 @@ def test_the_closing_summary_names_records_read_below_the_models_rate():
     assert lines["recorded below the model's rate (no content above their Nyquist)"] == "logger_5k"
     assert "recorded below the model's rate (no content above their Nyquist)" not in diagnosis_lines(
         DiagnosisRun(rows=rows[1:]))
+
+
+def test_the_closing_summary_names_what_else_puts_a_verdict_in_doubt():
+    """A rate the shaft line left unconfirmed, windows left out over dropouts, no physics evidence, a speed steadied
+    or left unsteady: each per-record note's caveat is named in the summary too, where a fleet's reader looks."""
+    from bearingtwin.cli.diagnose import diagnosis_lines
+    from bearingtwin.diagnosis.run import DiagnosisRun
+
+    rows = [{"record": "clean", "verdict": "outer", "rate_check": "consistent", "windows_left_out": 0},
+            {"record": "lone_line", "verdict": "outer", "rate_check": "ambiguous"},
+            {"record": "gaps", "verdict": "inner", "windows_left_out": 3},
+            {"record": "no_speed", "verdict": "ball", "no_evidence": True},
+            {"record": "fan", "verdict": "inner", "order_tracked": True},
+            {"record": "run_up", "verdict": "normal", "order_tracked": True, "speed_in_doubt": True}]
+    lines = diagnosis_lines(DiagnosisRun(rows=rows))
+    assert lines["sampling rate unconfirmed by the shaft line (see their notes)"] == "lone_line"
+    assert lines["windows left out over dropouts"] == "gaps (3)"
+    assert lines["no physics evidence (no shaft speed or bearing known)"] == "no_speed"
+    assert lines["shaft speed varied: resampled to a steady speed (order tracking)"] == "fan, run_up"
+    assert lines["shaft speed varies, left unsteady (its lines smeared: in doubt)"] == "run_up"
+    assert not any("clean" in value for value in lines.values() if value != "records diagnosed")
 
 
 def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unseen_level_and_scores_by_state_and_size():

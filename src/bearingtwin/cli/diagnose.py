@@ -73,6 +73,15 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     unsteady = [row["record"] for row in diagnosed if row.get("speed_in_doubt")]
     if unsteady:  # every defect line smeared over the speeds the shaft passed through
         lines["shaft speed varies, left unsteady (its lines smeared: in doubt)"] = ", ".join(unsteady)
+    unconfirmed = [row["record"] for row in diagnosed if row.get("rate_check") == "ambiguous"]
+    if unconfirmed:  # the record's notes say why: no shaft series to check by, or one a wrong rate could fake
+        lines["sampling rate unconfirmed by the shaft line (see their notes)"] = ", ".join(unconfirmed)
+    left_out = [f"{row['record']} ({row['windows_left_out']})" for row in diagnosed if row.get("windows_left_out")]
+    if left_out:  # their verdicts stand on fewer windows than the records hold
+        lines["windows left out over dropouts"] = ", ".join(left_out)
+    unweighed = [row["record"] for row in diagnosed if row.get("no_evidence")]
+    if unweighed:  # a model's verdict alone
+        lines["no physics evidence (no shaft speed or bearing known)"] = ", ".join(unweighed)
     narrower = [row["record"] for row in diagnosed if row.get("original_fs") and row["original_fs"] < row["fs"]]
     if narrower:  # upsampled: the model reads a band these records never held, so their verdicts are in doubt
         lines["recorded below the model's rate (no content above their Nyquist)"] = ", ".join(narrower)

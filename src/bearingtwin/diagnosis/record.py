@@ -476,6 +476,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "speed": prepared.speed,
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
+        "windows_left_out": int(touched.sum()),  # touching a dropout as long as a window (dropout_windows)
         "notes": notes,
     }
     for key in CONDITION_KEYS:  # what a CWRU name says of the record's condition, to score by it
