@@ -1,7 +1,9 @@
 """bearingtwin-report on the store of a real smoke sweep: our figures beside the paper's."""
 
+import json
 import shutil
 import sqlite3
+from pathlib import Path
 
 import pytest
 from mlflow import MlflowClient
@@ -93,7 +95,10 @@ def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
     client = MlflowClient(uri)
     experiment_id = client.get_experiment_by_name("bearingtwin").experiment_id
     logged = client.search_runs([experiment_id], "tags.`bt.kind` = 'report' and tags.report = 'table4'")
-    assert logged and "table4.md" in {a.path for a in client.list_artifacts(logged[0].info.run_id)}
+    assert logged and {"table4.md", "runs.json"} <= {a.path for a in client.list_artifacts(logged[0].info.run_id)}
+    # Which runs the table came from, and by which code.
+    used = json.loads(Path(client.download_artifacts(logged[0].info.run_id, "runs.json", str(tmp_path))).read_text())
+    assert {row["method"] for row in used} == set(paper.TABLE4) and all(row["git_commit"] for row in used)
 
 
 def report_here(capsys, *args) -> tuple[int, str]:
@@ -400,6 +405,33 @@ def test_a_run_that_let_the_physics_decide_is_another_setting_than_one_that_did_
     assert _same_setting(before, plain) and _same_setting(plain, before)
     assert not _same_setting(gated, plain) and not _same_setting(before, gated)
     assert gated["physics_first"] == "margin_db=10.0,threshold_db=20.0"
+
+
+def test_a_run_with_other_effects_or_another_fixed_seed_is_another_row_not_a_seed():
+    """A stray run beside a sweep had replaced one of its seeds unlabelled: with effects=[noise] (logged as
+    effects.noise.* where the sweep logged effects={}, no key shared) or features.seed=7 (every key ending in seed had
+    been dropped). A seed that follows the run's own (data.twin.seed: ${seed}) still differs from seed to seed of one
+    setting."""
+    from types import SimpleNamespace
+
+    from bearingtwin.tracking.reports import _differing_keys, _same_setting, setting_params
+
+    def run(seed, **params):
+        return setting_params(SimpleNamespace(data=SimpleNamespace(params={
+            "classifier.kernel": "linear", "seed": str(seed), "effects": "{}", "features.seed": "0", **params})))
+
+    sweep = [run(seed) for seed in range(5)]
+    assert all(_same_setting(a, b) for a in sweep for b in sweep) and not _differing_keys(sweep[:1])
+    noisy = run(0, **{"effects.noise.snr_db": "10.0"})
+    assert noisy["effects"] == "noise(snr_db=10.0)" and not _same_setting(noisy, sweep[0])
+    assert not _same_setting(run(0, **{"features.seed": "7"}), sweep[0])
+    assert not _same_setting(run(1, **{"features.seed": "1"}), sweep[1])  # follows where the sweep's is fixed
+    following = [run(seed, **{"data.twin.seed": str(seed)}) for seed in range(5)]
+    assert all(_same_setting(a, b) for a in following for b in following)
+    assert not _same_setting(run(0, **{"data.twin.seed": "7"}), following[1])
+    assert _differing_keys([sweep[0], run(0, **{"features.seed": "7"})]) == {"features.seed"}
+    assert _differing_keys([following[0], run(1, **{"data.twin.seed": "1", "classifier.kernel": "rbf"})]) == {
+        "classifier.kernel"}
 
 
 def test_an_svms_epochs_are_no_size_of_its_run():

@@ -144,35 +144,54 @@ SETTING_FREE_KEYS = ("register", "register_alias", "data.root", "data.labels", *
 """Logged params that do not make another setting of a method: where a run was registered or read its files from
 (its data's contents are the dataset key's), how it was tracked, how much it computed (a smoke run is a smaller run
 of the same setting: :func:`~bearingtwin.tracking.provenance.run_size`; the SABO-VMD features copy the search's
-size), with how many processes and on which device. Nor does a seed (``seed``, ``simulator.seed``: any key whose last
-part is seed)."""
+size), with how many processes and on which device. Nor does the run's ``seed``; another seed (``features.seed``,
+``simulator.seed``) does where it does not follow the run's (:func:`_same_setting`)."""
+
+RUN_SEED = "__run_seed__"
+"""The key of :func:`setting_params` that holds the run's own seed, against which its other seeds are read."""
 
 
 def setting_params(run) -> dict[str, str]:
     """The params that make a run's setting: all it logged but :data:`SETTING_FREE_KEYS` (and their sub-keys), the
-    seeds, and the keys hashed only when set (:data:`HASHED_WHEN_SET_KEYS`) left unset: their null is what their
-    absence computed, while another key's null is a setting of its own. The ``physics_first`` rule is one param,
-    ``None`` for a run that did not apply it (or came before it): logged as its settings, a run that did would
-    otherwise share no key with one that did not, and pass for its setting."""
+    run's seed (kept apart, :data:`RUN_SEED`), and the keys hashed only when set (:data:`HASHED_WHEN_SET_KEYS`) left
+    unset: their null is what their absence computed, while another key's null is a setting of its own. The
+    ``physics_first`` rule and the effects are one param each (``None`` for no rule, ``{}`` for no effect): logged as
+    their settings, a run with them would otherwise share no key with one without, and pass for its setting."""
     params = {key: value for key, value in run.data.params.items()
-              if key.rsplit(".", 1)[-1] != "seed" and not (value == "None" and key in HASHED_WHEN_SET_KEYS)
-              and not key.startswith("physics_first.")
+              if key != "seed" and not (value == "None" and key in HASHED_WHEN_SET_KEYS)
+              and not key.startswith(("physics_first.", "effects"))
               and not any(key == free or key.startswith(free + ".") for free in SETTING_FREE_KEYS)}
     rule = physics_first_rule(run.data.params)
-    return {**params, "physics_first": "None" if rule is None else ",".join(f"{key}={value}"
-                                                                             for key, value in sorted(rule.items()))}
+    effects: dict[str, list[str]] = {}  # noise(snr_db=10.0, ...), each effect with its parameters
+    for key, value in sorted(run.data.params.items()):
+        if key.startswith("effects."):
+            name, _, parameter = key.removeprefix("effects.").partition(".")
+            effects.setdefault(name, []).append(f"{parameter}={value}")
+    return {**params, RUN_SEED: run.data.params.get("seed", ""),
+            "physics_first": "None" if rule is None else ",".join(f"{key}={value}" for key, value in sorted(rule.items())),
+            "effects": " ".join(f"{name}({', '.join(values)})" for name, values in effects.items()) or "{}"}
+
+
+def _follows(params: dict[str, str], key: str) -> bool:
+    """Whether ``key`` is a seed that follows the run's own (``data.twin.seed: ${seed}``): such seeds differ from run
+    to run of one setting, as the run seeds do."""
+    return key.rsplit(".", 1)[-1] == "seed" and params[key] == params.get(RUN_SEED)
 
 
 def _same_setting(params: dict[str, str], other: dict[str, str]) -> bool:
-    """Whether two runs share a setting: every param both logged is the same (a param one run's code did not have
-    yet, its default then, is no difference)."""
-    return all(other[key] == value for key, value in params.items() if key in other)
+    """Whether two runs share a setting: every param both logged is the same, or is a seed that follows each run's
+    own (a param one run's code did not have yet, its default then, is no difference). A seed held fixed
+    (``features.seed=0`` under seeds 0-4) is a setting: a run at ``features.seed=7`` is another row, not a seed."""
+    return all(other[key] == value or (_follows(params, key) and _follows(other, key))
+               for key, value in params.items() if key in other and key != RUN_SEED)
 
 
 def _differing_keys(settings: list[dict[str, str]]) -> set[str]:
-    """The params whose values differ among ``settings`` (none for one setting)."""
-    return {key for params in settings for key in params
-            if len({other.get(key) for other in settings if key in other}) > 1}
+    """The params whose values differ among ``settings`` (none for one setting), seeds that follow their runs' own
+    aside."""
+    having = {key: [params for params in settings if key in params] for params in settings for key in params}
+    return {key for key, holders in having.items() if key != RUN_SEED
+            and any(a[key] != b[key] and not (_follows(a, key) and _follows(b, key)) for a in holders for b in holders)}
 
 
 def _named(name: str, label: str) -> str:
@@ -631,6 +650,10 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
             raise BearingTwinError(f"out={out}: cannot be written ({error.strerror or error})") from None
     run = client.create_run(experiment_id, run_name=f"report {stem}", tags={"bt.kind": "report", "report": name})
     client.log_text(run.info.run_id, report.markdown, f"{stem}.md")
+    if source.used_runs:  # which runs the numbers came from, and by which code: a table traced back to its runs
+        client.log_dict(run.info.run_id, [{"run_id": used.info.run_id, **{key: used.data.tags.get(key) for key in
+                                           ("method", "seed", "git_commit", "sweep_dir")}}
+                                          for used in source.used_runs], "runs.json")
     client.set_terminated(run.info.run_id, "FINISHED" if report.ok else "FAILED")
     report.written, report.run_id = out, run.info.run_id
     return report
