@@ -126,3 +126,24 @@ def test_atomic_writes_leave_the_whole_file_or_the_old_one(tmp_path):
         save_npy_atomic(tmp_path / "a.npy", np.array([Unsaveable()], dtype=object))
     np.testing.assert_array_equal(np.load(tmp_path / "a.npy"), array)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npz"]
+
+
+def test_an_entry_computed_by_other_code_is_a_miss_while_an_edit_of_words_alone_keeps_it(tmp_path, monkeypatch):
+    """Cache entries were keyed by their configuration alone: a changed computation got the numbers of the code before
+    it. The code's key changes with the code and stays with its docstrings and comments."""
+    import bearingtwin.storage as storage
+
+    package = tmp_path / "bearingtwin"
+    (package / "physics").mkdir(parents=True)
+    module = package / "physics" / "impacts.py"
+    monkeypatch.setattr(storage, "PACKAGE", package)
+
+    def key(text: str) -> str:
+        module.write_text(text)
+        storage.code_fingerprint.cache_clear()
+        return storage.code_fingerprint("physics")
+
+    base = key('"""Impacts."""\n\ndef force(x):\n    """Hertz."""\n    return x ** 1.5\n')
+    assert key('"""Impacts, reworded."""\n\ndef force(x):\n    """Hertz, 1896."""\n    return x ** 1.5  # why\n') == base
+    assert key('"""Impacts."""\n\ndef force(x):\n    """Hertz."""\n    return x ** 1.4\n') != base
+    storage.code_fingerprint.cache_clear()

@@ -9,6 +9,7 @@ recompute and rewrite it.
 
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
 import json
@@ -92,6 +93,33 @@ def content_key(content, length: int = 16) -> str:
     sweep's jobs find one another's cached simulations and features.
     """
     return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:length]
+
+
+PACKAGE = Path(__file__).resolve().parent
+
+
+@functools.lru_cache(maxsize=None)
+def code_fingerprint(*subpackages: str) -> str:
+    """A key of the code in ``subpackages`` of bearingtwin (``"physics"``, ``"signal"``, ...) that computes a cached
+    entry: its syntax trees without docstrings (comments never enter one), so that an entry computed by other code is
+    a miss, while an edit of the words alone keeps every entry. A cache keyed by its configuration alone would hand
+    a changed computation the numbers of the code before it."""
+    digest = hashlib.sha256()
+    for source in sorted(path for name in subpackages for path in (PACKAGE / name).rglob("*.py")):
+        tree = ast.parse(source.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            body = getattr(node, "body", None)
+            if (isinstance(body, list) and body and isinstance(body[0], ast.Expr)
+                    and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str)):
+                node.body = body[1:] or [ast.Pass()]
+        digest.update(f"{source.relative_to(PACKAGE).as_posix()}\0{ast.dump(tree)}\0".encode())
+    return digest.hexdigest()[:12]
+
+
+SIMULATION_CODE = ("physics",)
+"""The subpackages whose code makes a simulated record (:func:`code_fingerprint`)."""
+FEATURE_CODE = ("features", "signal", "optim")
+"""The subpackages whose code makes a window's features."""
 
 
 @functools.lru_cache(maxsize=4096)

@@ -26,7 +26,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import order_identity
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.physics.simulator import records_identity, simulate_many
-from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
+from bearingtwin.storage import SIMULATION_CODE, code_fingerprint, content_key, load_npz_or_heal, save_npz_atomic
 
 
 DATA_SET_OPERATING_POINT = ("rpm", "fs", "duration")
@@ -52,7 +52,7 @@ def records_key(data_cfg: Mapping, bearing_cfg: Mapping, simulator_cfg: Mapping,
 def _simulated_records(data_cfg, bearing_cfg, simulator_cfg, effects_cfg, cache_dir) -> tuple[np.ndarray, str]:
     """Sensor signals (4, n) in FAULTS order, from the cache or freshly simulated (then cached)."""
     key = records_key(data_cfg, bearing_cfg, simulator_cfg, effects_cfg)
-    path = Path(cache_dir) / "simulated" / f"records-{key}.npz"
+    path = Path(cache_dir) / "simulated" / f"records-{key}-{code_fingerprint(*SIMULATION_CODE)}.npz"
     cached = load_npz_or_heal(path, "signals")
     if cached is not None:
         return cached["signals"], key

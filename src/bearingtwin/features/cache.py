@@ -22,7 +22,7 @@ import numpy as np
 from bearingtwin.data.recording import WindowedDataset
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features import NOT_AFFECTING_NUMBERS
-from bearingtwin.storage import content_key, load_npz_or_heal, save_npz_atomic
+from bearingtwin.storage import FEATURE_CODE, code_fingerprint, content_key, load_npz_or_heal, save_npz_atomic
 from bearingtwin.features.extractor import EnvelopeOrderFeatures, RawFeatures, build_feature_extractor
 
 log = logging.getLogger(__name__)
@@ -53,6 +53,7 @@ def cache_path(features_cfg, dataset: WindowedDataset, train_index, cache_dir) -
     uses_training_set = cfg.get("kind") == "sabo_vmd" and cfg.get("vmd_params", "global") in ("global", "per_class")
     material = {
         "format": CACHE_FORMAT,
+        "code": code_fingerprint(*FEATURE_CODE),  # an extraction by other code is another
         "dataset": _dataset_key(dataset),
         "features": {key: value for key, value in cfg.items() if key not in NOT_AFFECTING_NUMBERS},
         "train": hashlib.sha256(np.sort(np.asarray(train_index, dtype=np.int64)).tobytes()).hexdigest()
