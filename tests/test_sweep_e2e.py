@@ -101,6 +101,9 @@ def test_every_good_job_finished_with_metrics_and_artifacts(store, tmp_path):
 
         here = "cuda" if torch.cuda.is_available() else "mps" if torch.backends.mps.is_available() else "cpu"
         assert run.data.tags.get("device") == (here if run.data.tags["classifier"] == "cnn_bilstm" else None)
+        # How the job was asked for (its own overrides, the sweep's among them) and from which lock it was installed.
+        assert f"seed={run.data.tags['seed']}" in run.data.tags["overrides"].split()
+        assert len(run.data.tags["requirements_lock"]) == 16 and run.data.tags["version.numba"] != "absent"
 
 
 def test_failing_jobs_are_failed_and_grouped_under_the_sweep(store):

@@ -226,7 +226,8 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog, 
     # A run another version of the code finished is skipped too, and the log says by which code and how to run it again.
     client.set_tag(done.run_id, "git_commit", "0123456789abcdef")
     with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
-        assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped
+        skipped = train_tracked(cfg, CHOICES, None, None, failing_train)
+    assert skipped.skipped and skipped.other_code.startswith("at 0123456789ab (this code: ")  # for the closing summary
     assert "by the code at 0123456789ab (this code: " in caplog.text and "tracking.skip_finished=false" in caplog.text
     # The same commit with the checkout changed since (or then): the two differ by -dirty, and the log shows it.
     now = mlflow_logging._git_commit().removesuffix("-dirty")
@@ -235,7 +236,7 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog, 
     caplog.clear()
     with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
         assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped
-    assert f"by the code at {now[:12]}-dirty (this code: {now[:12]};" in caplog.text
+    assert f"by the code at {now[:12]}-dirty (this code: {now[:12]});" in caplog.text
     train_tracked(make_cfg(tmp_path, skip_finished=False), CHOICES, None, None, fake_train)
     assert len(client.search_runs([experiment_id])) == 3
 
@@ -336,6 +337,13 @@ def test_a_sweep_summary_says_what_became_of_every_job(tmp_path):
     assert summary[0] == f"sweep cli (run {parent.info.run_id}): 4 jobs, 1 finished, 2 failed, 1 skipped (already finished)"
     assert summary[1:] == ["  FAILED: seed=2: BearingTwinError: data.samples_per_class must be positive, got -3",
                            "  NOT RUN: seed=3: the job ended before its MLflow run was created (see its log)"]
+    # A job skipped for a run another commit computed is said to be so where the counts are, not only in the log.
+    client.set_tag(outcomes[1].run_id, "git_commit", "0123456789abcdef")
+    outcomes = sweep_outcomes(client, parent.info.run_id, [job(0), job(1), job(2), job(3)])
+    assert outcomes[1].reason.startswith("at 0123456789ab (this code: ")
+    assert format_sweep_summary("cli", parent.info.run_id, outcomes).splitlines()[1] == (
+        f"  1 of the skipped were computed by other code, the first {outcomes[1].reason}: "
+        "tracking.skip_finished=false runs them again")
 
 
 def test_a_store_that_cannot_serve_is_named_before_any_work(tmp_path):

@@ -88,7 +88,9 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
     if tracked.artifacts:
         lines["artifacts"] = tracked.artifacts
     if tracked.skipped:
-        lines["note"] = "an earlier run with this exact config had FINISHED, so nothing ran (tracking.skip_finished=false re-runs)"
+        lines["note"] = ("an earlier run with this exact config had FINISHED, so nothing ran"
+                         + (f", computed by the code {tracked.other_code}" if tracked.other_code else "")
+                         + " (tracking.skip_finished=false re-runs)")
     return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out)
 
 

@@ -93,7 +93,8 @@ HASHED_WHEN_SET_KEYS = ("data.labels", "data.twin.background_snr_db", "data.twin
                         "physics_first")
 """Keys hashed only when not null: each came after runs were recorded, and its null default computes what its
 absence did, so those runs keep their hashes (a resumed sweep skips them)."""
-PACKAGES = ("bearingtwin", "numpy", "scipy", "torch", "lightning", "scikit-learn", "mlflow", "optuna", "hydra-core")
+PACKAGES = ("bearingtwin", "numpy", "scipy", "torch", "lightning", "scikit-learn", "mlflow", "optuna", "hydra-core",
+            "numba", "llvmlite", "pandas")
 CONFIG_ARTIFACT = "config.yaml"
 SWEEP_RUNS_ARTIFACT = "sweep_runs.json"
 MAX_BATCH = 100  # MLflow's limit on params / tags per log_batch call
@@ -119,6 +120,7 @@ class TrackedRun:
     skipped: bool = False
     model: str = ""
     artifacts: str = ""  # where the run's files are (confusion matrix, per-class and per-record tables, model)
+    other_code: str = ""  # for a skipped run computed by other code than this: "at <commit> (this code: <commit>)"
 
 
 # ---------------------------------------------------------------- store
@@ -403,8 +405,10 @@ def _git_commit() -> str:
         commit = subprocess.run(
             ["git", "-C", str(REPO_ROOT), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10, check=True
         ).stdout.strip()
+        # A file not yet added under the code or its configs (a new module imported) changes what runs too.
         dirty = subprocess.run(
-            ["git", "-C", str(REPO_ROOT), "status", "--porcelain", "--untracked-files=no"],
+            ["git", "-C", str(REPO_ROOT), "status", "--porcelain", "--untracked-files=normal", "--", "src", "conf",
+             "pyproject.toml", "requirements.lock"],
             capture_output=True,
             text=True,
             timeout=10,
@@ -412,6 +416,29 @@ def _git_commit() -> str:
     except (OSError, subprocess.SubprocessError):
         return "unknown"
     return commit + ("-dirty" if dirty else "")
+
+
+def environment_tags() -> dict[str, str]:
+    """The command line's overrides (Hydra's, as given: the run's config is also its artifact) and the lock the
+    environment was installed from (its SHA-256, first 16 hex digits), where there are such."""
+    tags = {}
+    try:
+        from hydra.core.hydra_config import HydraConfig
+
+        tags["overrides"] = " ".join(HydraConfig.get().overrides.task)[:5000]  # MLflow's limit on a tag's value
+    except ValueError:  # not under Hydra (the Python API)
+        pass
+    lock = REPO_ROOT / "requirements.lock"
+    if lock.is_file():
+        tags["requirements_lock"] = hashlib.sha256(lock.read_bytes()).hexdigest()[:16]
+    return tags
+
+
+def computed_by_other_code(run) -> str:
+    """"at <commit> (this code: <commit>-dirty)" where ``run`` was computed by other code than this checkout's (one
+    with changes not committed counts as other than the commit without), "" where by this."""
+    then, now = run.data.tags.get("git_commit", "unknown"), _git_commit()
+    return "" if then == now else f"at {_short_commit(then)} (this code: {_short_commit(now)})"
 
 
 def _versions() -> dict[str, str]:
@@ -596,13 +623,11 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     if skips_finished(cfg.tracking, sweep):
         done = find_finished_run(client, experiment_id, digest)
         if done is not None:
-            then, now = done.data.tags.get("git_commit", "unknown"), _git_commit()
-            other_code = (f", by the code at {_short_commit(then)} (this code: {_short_commit(now)}; "
-                          "tracking.skip_finished=false runs it again)") if then != now else ""
+            other_code = computed_by_other_code(done)
             log.info("skipped: run %s already FINISHED with this config (config_hash %s)%s", done.info.run_id, digest,
-                     other_code)
+                     f", by the code {other_code}; tracking.skip_finished=false runs it again" if other_code else "")
             return TrackedRun(done.info.run_id, dict(done.data.metrics), skipped=True, artifacts=done.info.artifact_uri,
-                              model=earlier_model(client, done.info.run_id))
+                              model=earlier_model(client, done.info.run_id), other_code=other_code)
     method = method_name(choices)
     tags = {
         "bt.kind": "train",
@@ -615,6 +640,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "git_commit": _git_commit(),
         "cpu_kernels": cpu_kernels(),  # the network's figures are the same wherever these are (bearingtwin/__init__)
         **_versions(),
+        **environment_tags(),
     }
     if sweep is not None:
         tags.update(sweep=sweep.name, sweep_dir=sweep.sweep_dir, sweep_varied=" ".join(sweep.varied), sweep_job=str(sweep.job))
@@ -826,7 +852,7 @@ def sweep_outcomes(client: MlflowClient, parent_run_id: str, jobs: list[DictConf
             outcomes.append(JobOutcome(overrides, child.info.status, reason.splitlines()[0] if reason else "",
                                        child.info.run_id))
         elif (earlier := _finished_in_own_experiment(client, job, digest)) is not None:
-            outcomes.append(JobOutcome(overrides, "SKIPPED", run_id=earlier.info.run_id))
+            outcomes.append(JobOutcome(overrides, "SKIPPED", computed_by_other_code(earlier), earlier.info.run_id))
         else:
             outcomes.append(JobOutcome(overrides, "NOT RUN", "the job ended before its MLflow run was created (see its log)"))
     return outcomes
@@ -855,6 +881,10 @@ def format_sweep_summary(name: str, parent_run_id: str, outcomes: list[JobOutcom
         f"sweep {name} (run {parent_run_id}): {len(outcomes)} job{'s' * (len(outcomes) != 1)}, "
         f"{counts['FINISHED']} finished, {len(failed)} failed, {counts['SKIPPED']} skipped (already finished)"
     ]
+    by_other_code = [o for o in outcomes if o.status == "SKIPPED" and o.reason]
+    if by_other_code:  # their numbers are another code's: said where the counts are, not only in the log
+        lines.append(f"  {len(by_other_code)} of the skipped were computed by other code, the first "
+                     f"{by_other_code[0].reason}: tracking.skip_finished=false runs them again")
     for outcome in failed[:max_listed]:
         reason = outcome.reason if len(outcome.reason) <= 160 else outcome.reason[:157] + "..."
         lines.append(f"  {outcome.status}: {outcome.overrides or '(no overrides)'}: {reason}")
