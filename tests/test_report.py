@@ -240,12 +240,33 @@ def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, 
     assert same.returncode == 0, same.stderr
     assert "every metric matches" in same.stdout and "| NO |" not in same.stdout
     assert "| n_train |" in same.stdout and "| n_test |" in same.stdout  # every metric the run logged, these too
+    # Computed afresh: the run's own cache (its config names it) would have handed its features back unchanged.
+    assert "its simulation and features computed afresh" in same.stdout and "repeated by the code at " in same.stdout
     tampered = copy_store(uri, tmp_path / "copy.db")
     MlflowClient(tampered).log_metric(run.info.run_id, "accuracy", run.data.metrics["accuracy"] - 0.1)
     # The command's exit status and table, in this process (the command itself ran above): the run trained again.
     code, differs = repeat_here(tampered, run.info.run_id, tmp_path / "repeat2.md", capsys)
     assert code == 1 and "MISMATCH" in differs
     assert "| accuracy |" in differs and "| NO |" in differs
+
+
+def test_repeat_simulates_and_extracts_afresh(uri, tmp_path, capsys, monkeypatch):
+    """The stored config names the run's own cache, which would hand its simulation and features back unchanged: a
+    repeat reads and writes a cache of its own, and leaves the run's as it was."""
+    import bearingtwin.models.experiment as experiment
+    from bearingtwin.tracking.mlflow_logging import stored_config
+
+    (run,) = finished(uri, "sabo_vmd_pemie+svm")
+    own = Path(stored_config(MlflowClient(uri), run.info.run_id).paths.cache_dir)
+    before = sorted(path.name for path in own.rglob("*.npz"))
+    used = []
+    original = experiment.run_experiment
+    monkeypatch.setattr(experiment, "run_experiment", lambda cfg, root_dir: used.append(cfg.paths.cache_dir)
+                        or original(cfg, root_dir))
+    code, said = repeat_here(uri, run.info.run_id, tmp_path / "repeat.md", capsys)
+    assert code == 0 and "every metric matches" in said
+    assert len(used) == 1 and Path(used[0]).resolve() != own.resolve() and not Path(used[0]).exists()  # removed after
+    assert sorted(path.name for path in own.rglob("*.npz")) == before
 
 
 def test_repeat_compares_a_training_curve_at_every_epoch(uri, tmp_path, capsys):

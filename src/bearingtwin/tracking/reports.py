@@ -493,10 +493,11 @@ def cwru(source: ReportInput) -> Report:
 
 @register("repeat", keys=("run_id",))
 def repeat(source: ReportInput) -> Report:
-    """Re-run a logged run from its stored config; every metric must match, a training curve at every epoch
-    (timings excepted)."""
+    """Re-run a logged run from its stored config, its twin simulated and its features extracted afresh (a cache of
+    its own, removed after); every metric must match, a training curve at every epoch (timings excepted).
+    The report names the code that ran it and the code that repeated it."""
     from bearingtwin.models.experiment import TIMING_METRICS, run_experiment
-    from bearingtwin.tracking.mlflow_logging import metric_series
+    from bearingtwin.tracking.mlflow_logging import _git_commit, _short_commit, metric_series
 
     run_id = source.settings.get("run_id")
     if not run_id:
@@ -510,6 +511,7 @@ def repeat(source: ReportInput) -> Report:
                                "results to repeat")
     cfg = stored_config(source.client, run_id)
     with tempfile.TemporaryDirectory() as scratch:
+        cfg.paths.cache_dir = str(Path(scratch) / "cache")  # the run's own cache would hand back its numbers
         repeated = metric_series(run_experiment(cfg, root_dir=scratch))
     logged = {key: sorted((point.step, point.value) for point in source.client.get_metric_history(run_id, key))
               for key in run.data.metrics}
@@ -524,7 +526,9 @@ def repeat(source: ReportInput) -> Report:
                      "yes" if match else "NO"])
     verdict = "every metric matches" if ok else "MISMATCH: the run is not reproducible"
     header = ["metric", "logged", "repeated", "match"]
-    return Report(f"## Repeat of run {run_id}: {verdict}\n\n" + markdown_table(header, rows), ok=ok)
+    codes = (f"Run by the code at {_short_commit(run.data.tags.get('git_commit', 'unknown'))}, repeated by the code at "
+             f"{_short_commit(_git_commit())}, its simulation and features computed afresh.")
+    return Report(f"## Repeat of run {run_id}: {verdict}\n\n{codes}\n\n" + markdown_table(header, rows), ok=ok)
 
 
 def default_tracking() -> dict:
