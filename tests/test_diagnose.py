@@ -503,6 +503,37 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
     assert read_record(drive_end, pipeline).bearing == BEARING and not read_record(drive_end, pipeline).notes
 
 
+@pytest.mark.parametrize("fs", [FS, 48000.0])  # read at the model's rate, and resampled to it
+def test_samples_with_no_value_are_bridged_for_the_record_and_their_windows_left_out(tmp_path, fs):
+    """A logger's lost packets, written as NaN, had refused the whole record. The gaps are bridged for the readings of
+    the whole record (rate, physics evidence), and the windows touching them are left out, as a dropout's are: no value
+    is made up for the model. A record every window of which touches one is refused, naming it."""
+    rate = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)["bpfo"]
+    x = fault_signal(rate, fs=fs)
+    for start_s in (1.0, 2.5, 3.3):  # three 10 ms gaps
+        x[int(start_s * fs):int((start_s + 0.01) * fs)] = np.nan
+    path = tmp_path / "logger.npz"
+    np.savez(path, signal=x, fs=fs, rpm=RPM, unit="g")
+    pipeline = envelope_pipeline()
+    prepared = read_record(path, pipeline)
+    assert (f"{np.isnan(x).sum()} samples hold no value (NaN or infinite) in 3 stretches from 1 s to 3.31 s: bridged "
+            "for the readings of the whole record, no window touching one diagnosed") in prepared.notes
+    assert np.isfinite(prepared.recording.signal).all() and len(prepared.gaps_s) == 3
+    model = SimpleNamespace(predict=lambda windows, params: predictions_frame(pipeline, windows, params["rpm"]))
+    result, evidence = diagnose_recording(prepared, model, pipeline, "models:/unused", {})
+    starts = np.array([window["start_s"] for window in result["windows"]])
+    window_s = pipeline.window_length / FS
+    for start_s in (1.0, 2.5, 3.3):  # no window read kept a sample of a gap
+        assert not np.any((starts < start_s + 0.01) & (starts + window_s > start_s)), (start_s, starts)
+    assert result["windows_left_out"] == int(4.0 * FS) // pipeline.window_length - len(starts) > 0
+    assert f"the {result['windows_left_out']} windows touching samples with no value left out" in " ".join(result["notes"])
+    assert result["verdict"] == "outer" and evidence.evidence_state == "outer"
+    x[::int(0.1 * fs)] = np.nan  # one every 0.1 s: every window touches one
+    np.savez(path, signal=x, fs=fs, rpm=RPM, unit="g")
+    with pytest.raises(BearingTwinError, match="logger.npz: every window of the model's .* touches a stretch with no value"):
+        diagnose_recording(read_record(path, pipeline), model, pipeline, "models:/unused", {})
+
+
 def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_path):
     """Neither makes a record unreadable, both spoil what a diagnosis reads: the notes say so and where."""
     import scipy.io
@@ -1739,3 +1770,21 @@ def test_a_record_whose_speed_drifts_is_order_tracked_before_it_is_read(register
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "true" / "summary.csv"))}
     assert rows["drifting"]["order_tracked"] == "True" and rows["steady"]["order_tracked"] == "False"
     assert float(rows["drifting"]["speed_spread"]) == pytest.approx(tracked["speed"]["spread"])
+
+
+def test_a_gap_is_followed_to_where_order_tracking_moves_it():
+    """A record both unsteady and gapped: the gap's samples, re-timed by the tracking, are the ones left out."""
+    from test_speed import FS as SPEED_FS
+    from test_speed import RPM as SPEED_RPM
+    from test_speed import machine
+
+    from bearingtwin.diagnosis.record import steadied
+
+    signal, _ = machine(drift=0.04)
+    start, length = int(5.0 * SPEED_FS), int(0.02 * SPEED_FS)
+    signal[start:start + length] = 100.0  # marks the gap's samples (bridged ones are never read)
+    recording = Recording(signal, SPEED_FS, rpm=SPEED_RPM, source="gapped")
+    tracked, notes, speed, ((first, count),) = steadied(recording, True, 0.02, gaps=[(start, length)])
+    assert speed["tracked"] and first != start  # moved: the shaft ran fast before 5 s
+    marked = np.flatnonzero(tracked.signal > 50)
+    assert marked.min() >= first - 2 and marked.max() <= first + count + 2 and marked.size >= 0.9 * length

@@ -37,8 +37,8 @@ import scipy.signal
 
 from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
-from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw,
-                                    refuse_a_label_the_file_contradicts)
+from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord, read_raw,
+                                    recording_from_raw, refuse_a_label_the_file_contradicts)
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
@@ -48,7 +48,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
                                                shared_transforms)
-from bearingtwin.signal.speed import UNSTEADY, order_track, speed_profile
+from bearingtwin.signal.speed import UNSTEADY, order_track, speed_profile, steady_times
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -66,6 +66,7 @@ class PreparedRecord:
     rate_check: str = "not checked"  # the shaft line against speed and rate: consistent, ambiguous, contradicted
     unit_check: str = "not needed"  # the record's unit against the model's: one of UNIT_CHECKS
     speed: dict | None = None  # how steadily the shaft turned, and whether the record was order-tracked (steadied)
+    gaps_s: list = field(default_factory=list)  # (start, end) s of samples the file holds none of (NaN), and their reach
 
 
 CONDITION_KEYS = ("fault_size_in", "position", "load_hp")
@@ -92,8 +93,10 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     """
     raw = read_raw(path)
     channel, channel_note = _channel(raw, channel, pipeline)
+    raw, gaps_by_channel = bridged(raw)
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
+    gaps = gaps_by_channel.get(recording.channel, [])
     notes = list(recording.meta["notes"]) + channel_note + recording.quality_notes()
     named = recording.meta.get("bearing")
     if bearing is not None and named is not None and bearing != named:
@@ -119,7 +122,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         if recording.meta.get("simulation_notes"):  # a defect no loaded ball met: its stated state is not heard
             notes.append(f"the simulation noted: {recording.meta['simulation_notes']}")
     else:
-        recording, speed_notes, speed = steadied(recording, *order_tracking)
+        recording, speed_notes, speed, gaps = steadied(recording, *order_tracking, gaps=gaps)
         notes += speed_notes
         # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then.
         recording, rate_notes, rate_check = _checked_rate(recording, record_bearing,
@@ -143,7 +146,14 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         notes.append(f"true state {true_state}, which this model cannot answer: it was trained on "
                      f"{', '.join(pipeline.class_names)} only")
     original_fs = recording.fs
-    if not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9):
+    resampled = not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9)
+    # In seconds, now that the rate is settled; a resampling filter spreads a gap's edges over 10 input or output
+    # samples, whichever are longer (resample_poly's filter: 10 x max(up, down) taps at the up-sampled rate).
+    reach = 10.0 / min(recording.fs, pipeline.fs_hz) if resampled else 0.0
+    gaps_s = [(start / recording.fs - reach, (start + length) / recording.fs + reach) for start, length in gaps]
+    if gaps:
+        notes.append(gaps_note(recording, gaps))
+    if resampled:
         recording, note = resample_to(recording, pipeline.fs_hz)
         notes.append(note)
     recording, unit_notes, unit_check = in_model_unit(recording, pipeline)
@@ -159,7 +169,42 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     if pipeline.needs_rpm and recording.rpm is None:
         raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; "
                                "give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv beside it")
-    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed)
+    return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
+                          gaps_s)
+
+
+def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]]:
+    """``raw`` with each channel's NaN or infinite samples (a logger's lost packets, a CSV's empty cells) bridged by
+    straight lines between their finite neighbours, and where they were, ``(start, length)`` per channel. The bridge
+    serves the readings of the whole record (its rate, its speed, the physics evidence), which a short gap barely
+    moves; no window touching a gap is diagnosed (:func:`diagnose_recording`): no value is made up for the model. A
+    channel holding no finite sample is left as it is, and refused as such."""
+    channels, gaps = {}, {}
+    for name, values in raw.channels.items():
+        values = np.asarray(values)
+        bad = ~np.isfinite(values) if np.issubdtype(values.dtype, np.inexact) else np.zeros(values.shape, dtype=bool)
+        if values.ndim != 1 or not bad.any() or bad.all():
+            channels[name] = values
+            continue
+        index = np.arange(values.size)
+        filled = values.astype(np.float64, copy=True)
+        filled[bad] = np.interp(index[bad], index[~bad], values[~bad])
+        channels[name] = filled
+        edges = np.diff(bad.astype(np.int8), prepend=0, append=0)
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        gaps[name] = list(zip(starts.tolist(), (ends - starts).tolist()))
+    return dataclasses.replace(raw, channels=channels), gaps
+
+
+def gaps_note(recording: Recording, gaps: list[tuple[int, int]]) -> str:
+    """"120 samples hold no value (NaN) in 3 stretches from 1 s to 4.01 s: bridged for the readings of the whole
+    record, no window touching one diagnosed"."""
+    missing = sum(length for _, length in gaps)
+    stretches = f"{len(gaps)} stretches" if len(gaps) > 1 else "one stretch"
+    end = gaps[-1][0] + gaps[-1][1]
+    return (f"{missing} sample{'s' * (missing > 1)} hold no value (NaN or infinite) in {stretches} from "
+            f"{gaps[0][0] / recording.fs:.3g} s to {end / recording.fs:.3g} s: bridged for the readings of the whole "
+            "record, no window touching one diagnosed")
 
 
 TRACKING_PASSES = 2
@@ -167,26 +212,33 @@ TRACKING_PASSES = 2
 finely than a second look at the record tracked once does."""
 
 
-def steadied(recording: Recording, track: bool, unsteady: float) -> tuple[Recording, list[str], dict]:
+def steadied(recording: Recording, track: bool, unsteady: float,
+             gaps: list[tuple[int, int]] = ()) -> tuple[Recording, list[str], dict, list[tuple[int, int]]]:
     """The recording, resampled at equal steps of shaft angle where its speed varies by more than ``unsteady``
     (:func:`~bearingtwin.signal.speed.speed_profile`, :func:`~bearingtwin.signal.speed.order_track`; up to
     :data:`TRACKING_PASSES` times) and ``track``; a note where it varies; and ``diagnosis.json``'s ``speed``: the
     spread read (null where the shaft series did not show in enough of the record to read it), whether the record
     was tracked (its ``steady_rpm`` and the ``spread_after`` it), whether the speed leaves the verdict in doubt (left
-    unsteady), and the speed read segment by segment (null where not read)."""
+    unsteady), and the speed read segment by segment (null where not read); and ``gaps`` (``(start, length)``,
+    samples) where they lie in the record returned."""
     profile = speed_profile(recording.signal, recording.fs, recording.rpm)
     speed = {"spread": None if math.isnan(profile.spread) else profile.spread, "tracked": False, "in_doubt": False,
              "segment_s": profile.segment_s, "times_s": profile.times_s.tolist(),
              "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()]}
+    gaps = list(gaps)
     if not profile.unsteady(unsteady):
-        return recording, [], speed
+        return recording, [], speed, gaps
     varies = f"the shaft speed varies {profile.describe()}"
     if not track:
         speed["in_doubt"] = True
         return recording, [f"{varies}: read as recorded (order_tracking.enabled=false), every defect line smeared "
-                           "over the speeds it passed through; the verdict is in doubt"], speed
+                           "over the speeds it passed through; the verdict is in doubt"], speed, gaps
     signal, again = recording.signal, profile
     for _ in range(TRACKING_PASSES):
+        steady, _ = steady_times(again, signal.size, recording.fs)  # where each gap lies once tracked, in samples
+        first_last = [(math.floor(steady[start] * recording.fs), math.ceil(steady[start + length - 1] * recording.fs))
+                      for start, length in gaps]
+        gaps = [(first, last - first + 1) for first, last in first_last]
         signal, steady_rpm = order_track(signal, recording.fs, again)
         again = speed_profile(signal, recording.fs, recording.rpm)
         if not again.unsteady(unsteady):
@@ -197,7 +249,7 @@ def steadied(recording: Recording, track: bool, unsteady: float) -> tuple[Record
             "order tracking), so its defect lines stand still")
     if again.unsteady(unsteady):
         note += f"; tracked, it still varies {again.describe()}: the verdict is in doubt"
-    return dataclasses.replace(recording, signal=signal), [note], speed
+    return dataclasses.replace(recording, signal=signal), [note], speed, gaps
 
 
 def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:
@@ -409,6 +461,18 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     dropped = dropout_note(recording, pipeline.window_length, starts, touched, dropouts)  # said in seconds
     if dropped:  # the longest stretch is among those it names, with what was done about it: not said twice
         notes = [note for note in notes if not note.endswith(HELD_NOTE_END)] + [dropped]
+    gapped = np.zeros(starts.size, dtype=bool)
+    window_s = pipeline.window_length / recording.fs
+    for start_s, end_s in prepared.gaps_s:  # bridged (read_record), never read by the model
+        gapped |= (starts / recording.fs < end_s) & (starts / recording.fs + window_s > start_s)
+    if gapped.any():
+        if (touched | gapped).all():
+            raise BearingTwinError(f"{recording.source}: every window of the model's ({pipeline.window_length} samples) "
+                                   "touches a stretch with no value (NaN) or a dropout, so none can be read; give the "
+                                   "stretches between them as files of their own")
+        notes.append(f"the {int(gapped.sum())} window{'s' * int(gapped.sum() > 1)} touching samples with no value left "
+                     f"out; the verdict is the other {int((~(touched | gapped)).sum())} of {starts.size} windows'")
+    touched = touched | gapped
     windows, starts = _windows_at(recording.signal, starts[~touched], pipeline.window_length)
     params = {"rpm": float(recording.rpm or 0.0)}
     level = pipeline.level_note(windows)
@@ -476,7 +540,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "speed": prepared.speed,
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
-        "windows_left_out": int(touched.sum()),  # touching a dropout as long as a window (dropout_windows)
+        "windows_left_out": int(touched.sum()),  # touching a dropout as long as a window or a gap with no value
         "notes": notes,
     }
     for key in CONDITION_KEYS:  # what a CWRU name says of the record's condition, to score by it

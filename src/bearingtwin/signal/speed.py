@@ -176,6 +176,19 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
     return SpeedProfile((starts + length / 2) / fs, speeds, agreeing, segment_s, float(rpm))
 
 
+def steady_times(profile: SpeedProfile, n_samples: int, fs: float) -> tuple[np.ndarray, float]:
+    """When each of a record's ``n_samples`` samples falls on the steady time axis :func:`order_track` resamples it
+    to (s, the shaft's turns so far over its mean speed; the last sample at ``(n_samples - 1) / fs``), and that mean
+    speed (rev/min): where an instant of the record (a gap, an event) lies once it is tracked."""
+    check_positive(fs, "fs")
+    if not profile.read.any():
+        raise BearingTwinError("the speed profile reads no segment's speed: nothing to track")
+    speed = profile.rpm_at(n_samples, fs)
+    between = (speed[1:] + speed[:-1]) / 2  # over each sample interval, as the turns are summed (trapezoids)
+    mean_rpm = float(between.mean()) if between.size else float(speed[0])
+    return np.concatenate([[0.0], np.cumsum(between / (mean_rpm * fs))]), mean_rpm
+
+
 def order_track(signal, fs: float, profile: SpeedProfile) -> tuple[np.ndarray, float]:
     """``signal`` resampled at equal steps of shaft angle: as recorded by a shaft turning steadily at its mean
     speed over the record, sampled at ``fs``; and that mean speed (rev/min).
@@ -186,13 +199,7 @@ def order_track(signal, fs: float, profile: SpeedProfile) -> tuple[np.ndarray, f
     Nyquist frequency is carried across the new sample times without loss. The record keeps its length to a sample.
     """
     x = as_signal(signal, "signal")
-    check_positive(fs, "fs")
-    if not profile.read.any():
-        raise BearingTwinError("the speed profile reads no segment's speed: nothing to track")
-    speed = profile.rpm_at(x.size, fs)
-    between = (speed[1:] + speed[:-1]) / 2  # over each sample interval, as the turns are summed (trapezoids)
-    mean_rpm = float(between.mean()) if between.size else float(speed[0])
-    steady_time = np.concatenate([[0.0], np.cumsum(between / (mean_rpm * fs))])  # ends at (n - 1) / fs
+    steady_time, mean_rpm = steady_times(profile, x.size, fs)
     n_out = int(round(steady_time[-1] * fs)) + 1
     # Where each steady sample lies in the recorded time, in samples of the doubled rate.
     positions = 2.0 * np.interp(np.arange(n_out) / fs, steady_time, np.arange(x.size) / fs) * fs
