@@ -1788,3 +1788,25 @@ def test_a_gap_is_followed_to_where_order_tracking_moves_it():
     assert speed["tracked"] and first != start  # moved: the shaft ran fast before 5 s
     marked = np.flatnonzero(tracked.signal > 50)
     assert marked.min() >= first - 2 and marked.max() <= first + count + 2 and marked.size >= 0.9 * length
+
+
+@needs_cwru
+def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_series_reads(tmp_path):
+    """A nameplate's speed given for a measured one puts every defect line beside where it stands: the shaft's own
+    harmonic series names the speed it turns at. The true speed draws no such note."""
+    from bearingtwin.data.files import load_recording
+
+    recording = load_recording(CWRU / "12k_Drive_End_OR007@6_1_131.mat")  # 1772 rpm
+    pipeline = envelope_pipeline()
+    notes = {}
+    for factor in (1.0, 1.03):
+        path = tmp_path / f"pump_{factor}.npz"
+        np.savez(path, signal=recording.signal, fs=recording.fs, rpm=recording.rpm * factor, unit="g")
+        prepared = read_record(path, pipeline)
+        notes[factor] = [note for note in prepared.notes if "harmonic series reads" in note]
+        assert prepared.speed.get("off", False) == (factor != 1.0)
+    assert notes[1.0] == []
+    (note,) = notes[1.03]
+    read = float(re.search(r"reads (\d+) rpm", note).group(1))
+    assert read == pytest.approx(recording.rpm, rel=0.003) and note.endswith(f"give rpm={read:.0f}")
+    assert f"from the stated {recording.rpm * 1.03:g} rpm" in note and re.search(r", -[23]\.\d % from", note)

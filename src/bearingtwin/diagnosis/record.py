@@ -125,10 +125,15 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         recording, speed_notes, speed, gaps = steadied(recording, *order_tracking, gaps=gaps)
         notes += speed_notes
         # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then.
+        read_at = recording.fs
         recording, rate_notes, rate_check = _checked_rate(recording, record_bearing,
                                                           channels={} if speed["tracked"] else raw.channels,
                                                           declared_only=fs is None and raw.fs_origin == "declared")
         notes += rate_notes
+        off = speed_off_note(speed, recording.rpm) if recording.fs == read_at else None  # at the rate it was read at
+        if off:
+            speed["off"] = True
+            notes.append(off)
     name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
     if true_state is None:  # what the file's name (CWRU) or content states
         true_state = name.fault if name is not None else recording.fault
@@ -207,6 +212,25 @@ def gaps_note(recording: Recording, gaps: list[tuple[int, int]]) -> str:
             "record, no window touching one diagnosed")
 
 
+SPEED_OFF = (0.01, 0.08)
+"""How far (relative) the speed a record's shaft series reads may lie from the stated one before a note says so: the
+physics evidence reads each line within 1 % of where the stated speed puts it (``evidence.tolerance``); and how far it
+may lie for the note to name it: a nameplate's speed or a motor's slip is off by a few %, while a series read 10 % off
+may be a defect's comb taken for the shaft's under a speed stated twice the true one (the rate check names those)."""
+
+
+def speed_off_note(speed: dict, rpm: float) -> str | None:
+    """A note where the shaft's harmonic series, read segment by segment (:func:`steadied`), puts the speed more than
+    1 % and at most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`: a nameplate's speed given for a measured one); None
+    where it does not or cannot be read."""
+    read = speed.get("read_rpm")
+    if read is None or not SPEED_OFF[0] < abs(read / rpm - 1) <= SPEED_OFF[1]:
+        return None
+    return (f"the shaft's harmonic series reads {read:.0f} rpm, {100 * (read / rpm - 1):+.1f} % from the stated "
+            f"{rpm:g} rpm: every defect line is read where the stated speed puts it; if the sampling rate is right, "
+            f"give rpm={read:.0f}")
+
+
 TRACKING_PASSES = 2
 """How often a record is tracked at most: a strong drift smears the first profile's lines, which read the speed less
 finely than a second look at the record tracked once does."""
@@ -224,7 +248,11 @@ def steadied(recording: Recording, track: bool, unsteady: float,
     profile = speed_profile(recording.signal, recording.fs, recording.rpm)
     speed = {"spread": None if math.isnan(profile.spread) else profile.spread, "tracked": False, "in_doubt": False,
              "segment_s": profile.segment_s, "times_s": profile.times_s.tolist(),
-             "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()]}
+             "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()],
+             "read_rpm": None}
+    read_rpm = float(np.median(profile.rpm[profile.read])) if profile.readable else None
+    if read_rpm is not None and not profile.near_supply(read_rpm):  # the supply's lines are no measure of a speed
+        speed["read_rpm"] = read_rpm
     gaps = list(gaps)
     if not profile.unsteady(unsteady):
         return recording, [], speed, gaps

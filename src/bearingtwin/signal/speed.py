@@ -34,7 +34,12 @@ MIN_PROMINENCE = 5.0
 """A harmonic stands where its spectral peak is this many times its local median (14 dB)."""
 AGREEMENT = 0.005
 """The harmonics that place the shaft within this (relative) of their median speed agree; a segment's speed is read
-where two or more agree."""
+where two or more agree, the 1x or the 2x among them."""
+SUPPLY_HZ = (50.0, 60.0)
+SUPPLY_AGREEMENT = 0.005
+"""A speed whose shaft rate (or twice it) lies this close to a supply frequency may have been read from the supply's
+lines, which every motor's vibration carries (an unloaded 4-pole motor's 2x is 0.2 % below 60 Hz): such a reading
+steadies nothing (the supply is steady) but is no measure of a speed (:meth:`SpeedProfile.near_supply`)."""
 MIN_REVOLUTIONS = 20
 """The fewest shaft turns a segment holds, so that the 1x and 2x lines lie apart in its spectrum."""
 UNSTEADY = 0.02
@@ -85,6 +90,12 @@ class SpeedProfile:
         """Whether the speed read varies by more than ``tolerance`` (relative spread)."""
         return bool(self.spread > tolerance)
 
+    def near_supply(self, rpm: float) -> bool:
+        """Whether ``rpm``'s shaft rate, or twice it, lies within :data:`SUPPLY_AGREEMENT` of a supply frequency: the
+        supply's lines could pass for such a shaft series."""
+        return any(abs(multiple * rpm / 60.0 / supply - 1) <= SUPPLY_AGREEMENT
+                   for supply in SUPPLY_HZ for multiple in (1, 2))
+
     def rpm_at(self, n_samples: int, fs: float) -> np.ndarray:
         """The speed at every sample: linear between the segments read, held beyond the first and the last."""
         t = np.arange(n_samples) / fs
@@ -107,8 +118,9 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
     largest peak within ``search`` (relative) of ``k x rpm / 60`` that stands ``min_prominence`` times over its local
     median (a Hann-windowed spectrum, eight times zero-padded, the peak placed by a parabola); it places the shaft at
     its frequency / k. The segment's speed is the median of the places that lie within ``agreement`` of the
-    median of them all, where two or more do: a lone line may be anything (a supply line, a defect line), a
-    series of lines at whole multiples of one frequency is the shaft's.
+    median of them all, where two or more do and the 1x or the 2x is among them: a lone line may be anything, and a
+    defect's comb can pass for a shaft series from its 4th or 5th harmonic up (BPFO = 3.585 x shaft is the 4th
+    harmonic of a shaft 10 % slower), never from its 1st or 2nd.
 
     Args:
         signal: (n,) samples, any unit; fs: its sampling rate, Hz; rpm: the speed stated for it, rev/min.
@@ -150,7 +162,7 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
         spectrum = np.abs(scipy.fft.rfft((segment - segment.mean()) * window, n_fft))[:top_bin]
         background = scipy.ndimage.median_filter(spectrum, size=background_bins, mode="nearest")
         prominence = spectrum / np.maximum(background, np.finfo(float).tiny)
-        places = []
+        places, lowest = [], []
         for order, a, b in zip(orders, low, high):
             if b <= a + 1:  # a harmonic beyond the spectrum (a rate too low for it)
                 continue
@@ -161,13 +173,15 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
             curvature = left - 2 * centre + right
             offset = 0.5 * (left - right) / curvature if curvature < 0 else 0.0
             places.append((peak + offset) * resolution / order)
+            lowest.append(order <= 2)
         if len(places) < 2:
             continue
-        places = np.array(places)
+        places, lowest = np.array(places), np.array(lowest)
         agree = np.abs(places / np.median(places) - 1) <= agreement
-        if agree.sum() >= 2:
-            speeds[index] = 60.0 * float(np.median(places[agree]))
-            agreeing[index] = int(agree.sum())
+        if agree.sum() < 2 or not lowest[agree].any():
+            continue
+        speeds[index] = 60.0 * float(np.median(places[agree]))
+        agreeing[index] = int(agree.sum())
     # Each speed read the median of it and the reads beside it: a shaft's speed moves smoothly from segment to
     # segment, a segment whose weak lines happened to agree on a wrong place (1.6 % off in a healthy CWRU record)
     # does not.
