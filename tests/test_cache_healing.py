@@ -146,4 +146,7 @@ def test_an_entry_computed_by_other_code_is_a_miss_while_an_edit_of_words_alone_
     base = key('"""Impacts."""\n\ndef force(x):\n    """Hertz."""\n    return x ** 1.5\n')
     assert key('"""Impacts, reworded."""\n\ndef force(x):\n    """Hertz, 1896."""\n    return x ** 1.5  # why\n') == base
     assert key('"""Impacts."""\n\ndef force(x):\n    """Hertz."""\n    return x ** 1.4\n') != base
+    # A constant's words below it, as physics/ and signal/ document their constants, are words too.
+    constant = key('EXPONENT = 1.5\n"""Hertz."""\n')
+    assert key('EXPONENT = 1.5\n"""Hertz, for a point contact."""\n') == constant != key('EXPONENT = 1.4\n"""Hertz."""\n')
     storage.code_fingerprint.cache_clear()

@@ -528,6 +528,14 @@ def test_samples_with_no_value_are_bridged_for_the_record_and_their_windows_left
     assert result["windows_left_out"] == int(4.0 * FS) // pipeline.window_length - len(starts) > 0
     assert f"the {result['windows_left_out']} windows touching samples with no value left out" in " ".join(result["notes"])
     assert result["verdict"] == "outer" and evidence.evidence_state == "outer"
+    # A logger that started late and stopped early: its end gaps are no stretch held at one value (a dropout).
+    edges = x.copy()
+    edges[:int(0.3 * fs)] = edges[-int(0.2 * fs):] = np.nan
+    np.savez(path, signal=edges, fs=fs, rpm=RPM, unit="g")
+    prepared = read_record(path, pipeline)
+    assert not any("dropout" in note for note in prepared.notes), prepared.notes
+    assert any(note.startswith(f"{np.isnan(edges).sum()} samples hold no value (NaN or infinite) in 5 stretches from "
+                               "0 s to 4 s") for note in prepared.notes), prepared.notes
     x[::int(0.1 * fs)] = np.nan  # one every 0.1 s: every window touches one
     np.savez(path, signal=x, fs=fs, rpm=RPM, unit="g")
     with pytest.raises(BearingTwinError, match="logger.npz: every window of the model's .* touches a stretch with no value"):
@@ -1628,7 +1636,7 @@ def test_the_closing_summary_names_what_else_puts_a_verdict_in_doubt():
             {"record": "run_up", "verdict": "normal", "order_tracked": True, "speed_in_doubt": True}]
     lines = diagnosis_lines(DiagnosisRun(rows=rows))
     assert lines["sampling rate unconfirmed by the shaft line (see their notes)"] == "lone_line"
-    assert lines["windows left out over dropouts"] == "gaps (3)"
+    assert lines["windows left out over dropouts or samples with no value"] == "gaps (3)"
     assert lines["no physics evidence (no shaft speed or bearing known)"] == "no_speed"
     assert lines["shaft speed varied: resampled to a steady speed (order tracking)"] == "fan, run_up"
     assert lines["shaft speed varies, left unsteady (its lines smeared: in doubt)"] == "run_up"

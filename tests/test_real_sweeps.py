@@ -294,3 +294,26 @@ def test_a_run_at_other_settings_is_a_row_of_its_own_not_a_seed_that_displaces_t
         assert listed == {"sabo_vmd_pemie+svm (classifier.C=1.0, data.fs=10000.0)": "0: 90.00, 1: 92.00",
                           "sabo_vmd_pemie+svm (classifier.C=0.001, data.fs=10000.0)": "0: 20.00",
                           "sabo_vmd_pemie+svm (classifier.C=1.0, data.fs=8000.0)": "3: 70.00"}
+
+
+def test_a_sweep_whose_search_seed_follows_the_seed_is_one_row_beside_one_that_holds_it():
+    """results/table3.md's second command (features.seed=${seed}) beside the table's sweep (features.seed held at 0):
+    two rows, the first named by its held seed, the second by ${seed}, each with its seeds; not a row per seed."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        uri = f"sqlite:///{scratch}/mlflow.db"
+        client, experiment_id = open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin", "artifact_root": None}))
+        for seed, search_seed, accuracy in ((0, 0, 0.90), (1, 0, 0.92), (2, 0, 0.94), (1, 1, 0.80), (2, 2, 0.82)):
+            run = client.create_run(experiment_id, tags={"bt.kind": "train", "method": "sabo_vmd_pemie+svm",
+                                                         "seed": str(seed)})
+            for key, value in {"data.source": "simulated", "features.vmd_params": "global", "seed": str(seed),
+                               "features.seed": str(search_seed), "data.duration": "30.0"}.items():
+                client.log_param(run.info.run_id, key, value)
+            client.log_metric(run.info.run_id, "accuracy", accuracy)
+            client.set_terminated(run.info.run_id, "FINISHED")
+        out = Path(scratch) / "table4.md"
+        assert report_main(["table4", f"uri={uri}", f"out={out}"]) == 0
+        rows = {row[0]: row[2:4] for row in table_rows(generated_text(out, GENERATED), "SABO-VMD-SVM")}
+        assert rows == {"SABO-VMD-SVM (PE-MIE) (features.seed=0)": ["92.00 ± 1.63", "3"],
+                        "SABO-VMD-SVM (PE-MIE) (features.seed=${seed})": ["81.00 ± 1.00", "2"]}

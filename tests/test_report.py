@@ -442,7 +442,7 @@ def test_a_run_with_other_effects_or_another_fixed_seed_is_another_row_not_a_see
             "classifier.kernel": "linear", "seed": str(seed), "effects": "{}", "features.seed": "0", **params})))
 
     sweep = [run(seed) for seed in range(5)]
-    assert all(_same_setting(a, b) for a in sweep for b in sweep) and not _differing_keys(sweep[:1])
+    assert all(_same_setting(a, b) for a in sweep for b in sweep) and not _differing_keys([sweep])
     noisy = run(0, **{"effects.noise.snr_db": "10.0"})
     assert noisy["effects"] == "noise(snr_db=10.0)" and not _same_setting(noisy, sweep[0])
     assert not _same_setting(run(0, **{"features.seed": "7"}), sweep[0])
@@ -450,8 +450,8 @@ def test_a_run_with_other_effects_or_another_fixed_seed_is_another_row_not_a_see
     following = [run(seed, **{"data.twin.seed": str(seed)}) for seed in range(5)]
     assert all(_same_setting(a, b) for a in following for b in following)
     assert not _same_setting(run(0, **{"data.twin.seed": "7"}), following[1])
-    assert _differing_keys([sweep[0], run(0, **{"features.seed": "7"})]) == {"features.seed"}
-    assert _differing_keys([following[0], run(1, **{"data.twin.seed": "1", "classifier.kernel": "rbf"})]) == {
+    assert _differing_keys([sweep, [run(0, **{"features.seed": "7"})]]) == {"features.seed"}
+    assert _differing_keys([following, [run(1, **{"data.twin.seed": "1", "classifier.kernel": "rbf"})]]) == {
         "classifier.kernel"}
 
 

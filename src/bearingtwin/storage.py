@@ -103,23 +103,27 @@ def code_fingerprint(*subpackages: str) -> str:
     """A key of the code in ``subpackages`` of bearingtwin (``"physics"``, ``"signal"``, ...) that computes a cached
     entry: its syntax trees without docstrings (comments never enter one), so that an entry computed by other code is
     a miss, while an edit of the words alone keeps every entry. A cache keyed by its configuration alone would hand
-    a changed computation the numbers of the code before it."""
+    a changed computation the numbers of the code before it. (Another Python version dumps its trees otherwise: every
+    entry is then a miss, once.)"""
     digest = hashlib.sha256()
     for source in sorted(path for name in subpackages for path in (PACKAGE / name).rglob("*.py")):
         tree = ast.parse(source.read_text(encoding="utf-8"))
-        for node in ast.walk(tree):
-            body = getattr(node, "body", None)
-            if (isinstance(body, list) and body and isinstance(body[0], ast.Expr)
-                    and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str)):
-                node.body = body[1:] or [ast.Pass()]
+        for node in ast.walk(tree):  # every string standing as a statement: docstrings, a constant's words below it
+            for field in ("body", "orelse", "finalbody"):
+                body = getattr(node, field, None)
+                if isinstance(body, list) and body:
+                    kept = [statement for statement in body if not (isinstance(statement, ast.Expr) and isinstance(
+                        statement.value, ast.Constant) and isinstance(statement.value.value, str))]
+                    setattr(node, field, kept or [ast.Pass()])
         digest.update(f"{source.relative_to(PACKAGE).as_posix()}\0{ast.dump(tree)}\0".encode())
     return digest.hexdigest()[:12]
 
 
 SIMULATION_CODE = ("physics",)
 """The subpackages whose code makes a simulated record (:func:`code_fingerprint`)."""
-FEATURE_CODE = ("features", "signal", "optim")
-"""The subpackages whose code makes a window's features."""
+FEATURE_CODE = ("features", "signal", "optim", "physics", "data")
+"""The subpackages whose code makes a window's features, and the windows themselves (a simulated record's, a real
+one's as read and cut): a dataset's key names its configuration, not the code that made it."""
 
 
 @functools.lru_cache(maxsize=4096)

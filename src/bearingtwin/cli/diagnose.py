@@ -81,7 +81,7 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["sampling rate unconfirmed by the shaft line (see their notes)"] = ", ".join(unconfirmed)
     left_out = [f"{row['record']} ({row['windows_left_out']})" for row in diagnosed if row.get("windows_left_out")]
     if left_out:  # their verdicts stand on fewer windows than the records hold
-        lines["windows left out over dropouts"] = ", ".join(left_out)
+        lines["windows left out over dropouts or samples with no value"] = ", ".join(left_out)
     unweighed = [row["record"] for row in diagnosed if row.get("no_evidence")]
     if unweighed:  # a model's verdict alone
         lines["no physics evidence (no shaft speed or bearing known)"] = ", ".join(unweighed)

@@ -98,6 +98,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     gaps = gaps_by_channel.get(recording.channel, [])
     notes = list(recording.meta["notes"]) + channel_note + recording.quality_notes()
+    if gaps:  # where the file holds them, before any tracking moves them
+        notes.append(gaps_note(recording, gaps))
     named = recording.meta.get("bearing")
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
@@ -130,6 +132,9 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                                           channels={} if speed["tracked"] else raw.channels,
                                                           declared_only=fs is None and raw.fs_origin == "declared")
         notes += rate_notes
+        if recording.fs != read_at:  # the check found the file's rate (a CWRU record at 48 kHz): its times are shorter
+            speed.update(segment_s=speed["segment_s"] * read_at / recording.fs,
+                         times_s=[time * read_at / recording.fs for time in speed["times_s"]])
         off = speed_off_note(speed, recording.rpm) if recording.fs == read_at else None  # at the rate it was read at
         if off:
             speed["off"] = True
@@ -156,8 +161,6 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     # samples, whichever are longer (resample_poly's filter: 10 x max(up, down) taps at the up-sampled rate).
     reach = 10.0 / min(recording.fs, pipeline.fs_hz) if resampled else 0.0
     gaps_s = [(start / recording.fs - reach, (start + length) / recording.fs + reach) for start, length in gaps]
-    if gaps:
-        notes.append(gaps_note(recording, gaps))
     if resampled:
         recording, note = resample_to(recording, pipeline.fs_hz)
         notes.append(note)
@@ -188,12 +191,20 @@ def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]
     for name, values in raw.channels.items():
         values = np.asarray(values)
         bad = ~np.isfinite(values) if np.issubdtype(values.dtype, np.inexact) else np.zeros(values.shape, dtype=bool)
-        if values.ndim != 1 or not bad.any() or bad.all():
+        if values.ndim != 1 or not bad.any() or np.count_nonzero(~bad) < 2:  # nothing to bridge from: refused
             channels[name] = values
             continue
         index = np.arange(values.size)
         filled = values.astype(np.float64, copy=True)
         filled[bad] = np.interp(index[bad], index[~bad], values[~bad])
+        # At either end np.interp would hold the last value, a stretch read as a dropout: the record's own samples
+        # beside the gap, mirrored, stand there instead.
+        first, last = np.flatnonzero(~bad)[[0, -1]]
+        if first:  # sample first - 1 - j takes sample first + 1 + j's value
+            filled[:first] = np.resize(filled[first + 1:2 * first + 1][::-1], first)
+        tail = values.size - 1 - last
+        if tail:  # sample last + 1 + j takes sample last - 1 - j's value
+            filled[last + 1:] = np.resize(filled[max(last - tail, 0):last][::-1], tail)
         channels[name] = filled
         edges = np.diff(bad.astype(np.int8), prepend=0, append=0)
         starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
@@ -223,7 +234,7 @@ def speed_off_note(speed: dict, rpm: float) -> str | None:
     """A note where the shaft's harmonic series, read segment by segment (:func:`steadied`), puts the speed more than
     1 % and at most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`: a nameplate's speed given for a measured one); None
     where it does not or cannot be read."""
-    read = speed.get("read_rpm")
+    read = speed.get("steady_rpm") or speed.get("read_rpm")  # a tracked record turns at its mean speed now
     if read is None or not SPEED_OFF[0] < abs(read / rpm - 1) <= SPEED_OFF[1]:
         return None
     return (f"the shaft's harmonic series reads {read:.0f} rpm, {100 * (read / rpm - 1):+.1f} % from the stated "
@@ -231,6 +242,8 @@ def speed_off_note(speed: dict, rpm: float) -> str | None:
             f"give rpm={read:.0f}")
 
 
+TRACKING_REACH = 12
+"""How many samples either side of a gap order tracking spreads it over (its doubling filter's ten, its spline's)."""
 TRACKING_PASSES = 2
 """How often a record is tracked at most: a strong drift smears the first profile's lines, which read the speed less
 finely than a second look at the record tracked once does."""
@@ -264,9 +277,10 @@ def steadied(recording: Recording, track: bool, unsteady: float,
     signal, again = recording.signal, profile
     for _ in range(TRACKING_PASSES):
         steady, _ = steady_times(again, signal.size, recording.fs)  # where each gap lies once tracked, in samples
-        first_last = [(math.floor(steady[start] * recording.fs), math.ceil(steady[start + length - 1] * recording.fs))
-                      for start, length in gaps]
-        gaps = [(first, last - first + 1) for first, last in first_last]
+        # Widened by the reach of order_track's own resampling filter and spline (about 10 samples each side).
+        first_last = [(math.floor(steady[start] * recording.fs) - TRACKING_REACH,
+                       math.ceil(steady[start + length - 1] * recording.fs) + TRACKING_REACH) for start, length in gaps]
+        gaps = [(max(first, 0), last - max(first, 0) + 1) for first, last in first_last]
         signal, steady_rpm = order_track(signal, recording.fs, again)
         again = speed_profile(signal, recording.fs, recording.rpm)
         if not again.unsteady(unsteady):

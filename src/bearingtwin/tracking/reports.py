@@ -101,24 +101,29 @@ class ReportInput:
         found = [run for run in found  # newest first
                  if vmd_params is None or run.data.params.get("features.vmd_params", vmd_params) == vmd_params]
         # A run of its method at other settings (an ablation's classifier.C) is another row, not another seed.
-        setting, differing = {}, {}
+        setting, differing, members_of = {}, {}, {}
         params_of = {run.info.run_id: setting_params(run) for run in found}
         for (method, *_), cell_runs in _by_key(found, lambda run: (run.data.tags.get("method"), *group_by(run))).items():
-            shared: list[dict] = []  # each setting's params, every key one of its runs logged
+            settings: list[list[dict]] = []  # each setting's runs' params
             for run in cell_runs:
                 params = params_of[run.info.run_id]
-                index = next((i for i, other in enumerate(shared) if _same_setting(params, other)), len(shared))
-                if index == len(shared):
-                    shared.append({})
-                shared[index] = {**params, **shared[index]}  # a key its first run lacked is its from now on
+                # A setting whose runs share each value first: a seed-0 run at features.seed=0 is the held seed's run
+                # as much as the following one's, and the held setting is the one where it is no coincidence.
+                index = next((i for exact in (True, False) for i, members in enumerate(settings)
+                              if all(_same_setting(params, member, exact) for member in members)), len(settings))
+                if index == len(settings):
+                    settings.append([])
+                settings[index].append(params)
                 setting[run.info.run_id] = index
-            differing.setdefault(method, set()).update(_differing_keys(shared))
+                members_of[run.info.run_id] = settings[index]
+            differing.setdefault(method, set()).update(_differing_keys(settings))
         # Labelled alike in every cell of the method (each split, each load), so that rows of one setting pair up.
         for run in found:
             keys = sorted(differing[run.data.tags.get("method")])
-            params = params_of[run.info.run_id]
+            members = members_of[run.info.run_id]
             if keys:
-                self.setting_labels[run.info.run_id] = ", ".join(f"{key}={params[key]}" for key in keys if key in params)
+                self.setting_labels[run.info.run_id] = ", ".join(
+                    f"{key}={_setting_value(members, key)}" for key in keys if any(key in member for member in members))
         newest = {}
         for run in found:  # of a seed's runs the largest, the newest of those
             key = (run.data.tags.get("method"), run.data.tags.get("seed"), *group_by(run), setting[run.info.run_id])
@@ -178,20 +183,30 @@ def _follows(params: dict[str, str], key: str) -> bool:
     return key.rsplit(".", 1)[-1] == "seed" and params[key] == params.get(RUN_SEED)
 
 
-def _same_setting(params: dict[str, str], other: dict[str, str]) -> bool:
-    """Whether two runs share a setting: every param both logged is the same, or is a seed that follows each run's
-    own (a param one run's code did not have yet, its default then, is no difference). A seed held fixed
-    (``features.seed=0`` under seeds 0-4) is a setting: a run at ``features.seed=7`` is another row, not a seed."""
-    return all(other[key] == value or (_follows(params, key) and _follows(other, key))
+def _same_setting(params: dict[str, str], other: dict[str, str], exact: bool = False) -> bool:
+    """Whether two runs share a setting: every param both logged is the same, or (unless ``exact``) is a seed that
+    follows each run's own (a param one run's code did not have yet, its default then, is no difference). A seed held
+    fixed (``features.seed=0`` under seeds 0-4) is a setting: a run at ``features.seed=7`` is another row, not a seed."""
+    return all(other[key] == value or (not exact and _follows(params, key) and _follows(other, key))
                for key, value in params.items() if key in other and key != RUN_SEED)
 
 
-def _differing_keys(settings: list[dict[str, str]]) -> set[str]:
-    """The params whose values differ among ``settings`` (none for one setting), seeds that follow their runs' own
-    aside."""
-    having = {key: [params for params in settings if key in params] for params in settings for key in params}
-    return {key for key, holders in having.items() if key != RUN_SEED
-            and any(a[key] != b[key] and not (_follows(a, key) and _follows(b, key)) for a in holders for b in holders)}
+def _differing_keys(settings: list[list[dict[str, str]]]) -> set[str]:
+    """The params whose values differ between ``settings`` (each its runs' params; none for one setting), seeds that
+    follow their runs' own aside."""
+    keys = {key for members in settings for params in members for key in params if key != RUN_SEED}
+    return {key for key in keys for i, first in enumerate(settings) for second in settings[i + 1:]
+            if any(a[key] != b[key] and not (_follows(a, key) and _follows(b, key))
+                   for a in first if key in a for b in second if key in b)}
+
+
+def _setting_value(members: list[dict[str, str]], key: str) -> str:
+    """A setting's value of ``key`` for its row's label: the one its runs share, or ``${seed}`` for a seed that follows
+    each run's own."""
+    values = {member[key] for member in members if key in member}
+    if len(values) == 1:
+        return values.pop()
+    return "${seed}" if all(_follows(member, key) for member in members if key in member) else "/".join(sorted(values))
 
 
 def _named(name: str, label: str) -> str:
