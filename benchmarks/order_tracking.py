@@ -6,7 +6,7 @@ re-timed so that its shaft speed swings by +-2, +-4 or +-8 % once over the recor
 load), or runs up linearly by 16 % of its speed (-8 % to +8 % of the stated one). The envelope spectrum's evidence
 (bearingtwin.diagnosis.evidence.physics_evidence, the diagnosis' defaults) is read on each record as recorded and
 as `bearingtwin-diagnose` reads it (diagnosis.record.steadied: the speed read from the shaft series, the record
-tracked where it spreads by more than 2 %). The steady records (no drift) say whether tracking leaves them alone.
+tracked where it spreads by more than 2 % and its shaft series stands sharper tracked, then read at its mean speed). The steady records (no drift) say whether tracking leaves them alone.
 Time: speed_profile and order_track on a 10 s record at 12 kHz and a 240 s record at 51.2 kHz, in this process.
 
     python benchmarks/order_tracking.py            # about 1 min
@@ -65,8 +65,8 @@ def accuracy(data_root: Path) -> list[list[str]]:
             made = Recording(signal, recording.fs, rpm=recording.rpm, source=name)
             steady, _, speed, _ = steadied(made, True, UNSTEADY)
             tracked += speed["tracked"]
-            for how, x in (("as recorded", signal), ("steadied", steady.signal)):
-                evidence = physics_evidence(x, recording.fs, recording.rpm, bearing)
+            for how, x, rpm in (("as recorded", signal, recording.rpm), ("steadied", steady.signal, steady.rpm)):
+                evidence = physics_evidence(x, recording.fs, rpm, bearing)
                 right[how] += evidence.evidence_state == truth(name)
                 if truth(name) in ("inner", "outer"):  # the races' lines: how far they stand over their floor
                     lines[how].append(evidence.prominence_db[truth(name)])

@@ -1818,3 +1818,26 @@ def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_seri
     read = float(re.search(r"reads (\d+) rpm", note).group(1))
     assert read == pytest.approx(recording.rpm, rel=0.003) and note.endswith(f"give rpm={read:.0f}")
     assert f"from the stated {recording.rpm * 1.03:g} rpm" in note and re.search(r", -[23]\.\d % from", note)
+
+
+def test_a_steady_record_is_not_warped_by_a_misread_profile(monkeypatch):
+    """Two shafts' series (a belt drive), segments reading the supply, a swing faster than the segments resolve: each
+    can make the speed read flip between values on a steady record. Steadied to such a profile, the shaft's own series
+    stands no sharper, and the record is read as recorded, its verdict in doubt, no speed offered in the stated one's
+    place."""
+    import bearingtwin.diagnosis.record as record
+    from bearingtwin.signal.speed import SpeedProfile
+    from test_speed import FS as SPEED_FS
+    from test_speed import RPM as SPEED_RPM
+    from test_speed import machine
+
+    signal, _ = machine(drift=0.0)
+    recording = Recording(signal, SPEED_FS, rpm=SPEED_RPM, source="belt")
+    times = np.arange(0.5, 8.0, 0.5)
+    flipping = SpeedProfile(times, SPEED_RPM * np.where(np.arange(times.size) % 4 < 2, 1.0, 0.97),
+                            np.full(times.size, 3), 1.0, SPEED_RPM)
+    monkeypatch.setattr(record, "speed_profile", lambda *args, **kwargs: flipping)
+    steady, notes, speed, _ = record.steadied(recording, True, 0.02)
+    assert steady is recording and not speed["tracked"] and speed["in_doubt"] and speed["sharpening"] < 1
+    assert "shows the shaft's series no sharper" in notes[0] and "read as recorded" in notes[0]
+    assert record.speed_off_note(speed, SPEED_RPM) is None

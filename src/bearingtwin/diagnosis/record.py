@@ -48,7 +48,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
                                                shared_transforms)
-from bearingtwin.signal.speed import UNSTEADY, order_track, speed_profile, steady_times
+from bearingtwin.signal.speed import UNSTEADY, order_track, series_sharpness, speed_profile, steady_times
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -234,8 +234,8 @@ def speed_off_note(speed: dict, rpm: float) -> str | None:
     """A note where the shaft's harmonic series, read segment by segment (:func:`steadied`), puts the speed more than
     1 % and at most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`: a nameplate's speed given for a measured one); None
     where it does not or cannot be read."""
-    read = speed.get("steady_rpm") or speed.get("read_rpm")  # a tracked record turns at its mean speed now
-    if read is None or not SPEED_OFF[0] < abs(read / rpm - 1) <= SPEED_OFF[1]:
+    read = speed.get("read_rpm")  # not where the reading is in doubt (a misread profile), nor tracked (read at it)
+    if read is None or speed.get("tracked") or speed.get("in_doubt") or not SPEED_OFF[0] < abs(read / rpm - 1) <= SPEED_OFF[1]:
         return None
     return (f"the shaft's harmonic series reads {read:.0f} rpm, {100 * (read / rpm - 1):+.1f} % from the stated "
             f"{rpm:g} rpm: every defect line is read where the stated speed puts it; if the sampling rate is right, "
@@ -244,6 +244,9 @@ def speed_off_note(speed: dict, rpm: float) -> str | None:
 
 TRACKING_REACH = 12
 """How many samples either side of a gap order tracking spreads it over (its doubling filter's ten, its spline's)."""
+SHARPER = 1.25
+"""How much sharper (:func:`~bearingtwin.signal.speed.series_sharpness`) a record's shaft series must stand once
+tracked for the tracked record to be read."""
 TRACKING_PASSES = 2
 """How often a record is tracked at most: a strong drift smears the first profile's lines, which read the speed less
 finely than a second look at the record tracked once does."""
@@ -274,24 +277,38 @@ def steadied(recording: Recording, track: bool, unsteady: float,
         speed["in_doubt"] = True
         return recording, [f"{varies}: read as recorded (order_tracking.enabled=false), every defect line smeared "
                            "over the speeds it passed through; the verdict is in doubt"], speed, gaps
-    signal, again = recording.signal, profile
+    signal, again, moved = recording.signal, profile, gaps
     for _ in range(TRACKING_PASSES):
         steady, _ = steady_times(again, signal.size, recording.fs)  # where each gap lies once tracked, in samples
         # Widened by the reach of order_track's own resampling filter and spline (about 10 samples each side).
         first_last = [(math.floor(steady[start] * recording.fs) - TRACKING_REACH,
-                       math.ceil(steady[start + length - 1] * recording.fs) + TRACKING_REACH) for start, length in gaps]
-        gaps = [(max(first, 0), last - max(first, 0) + 1) for first, last in first_last]
+                       math.ceil(steady[start + length - 1] * recording.fs) + TRACKING_REACH) for start, length in moved]
+        moved = [(max(first, 0), last - max(first, 0) + 1) for first, last in first_last]
         signal, steady_rpm = order_track(signal, recording.fs, again)
         again = speed_profile(signal, recording.fs, recording.rpm)
         if not again.unsteady(unsteady):
             break
+    # Tracked to the speed the shaft turned at, its own series stands sharper than as recorded; tracked to a profile
+    # misread (two shafts' series, segments reading the supply, a swing faster than the segments resolve), it does
+    # not, and the record is read as recorded: a steady record warped would smear every line.
+    before = series_sharpness(recording.signal, recording.fs, speed["read_rpm"] or recording.rpm)
+    after = series_sharpness(signal, recording.fs, steady_rpm)
+    speed["sharpening"] = after / before if before > 0 else None
+    if not after >= SHARPER * before:
+        speed["in_doubt"] = True
+        return recording, [f"{varies}, but the record steadied to it shows the shaft's series no sharper ("
+                           f"{after / before:.2g} times its prominence as recorded): two shafts' series, a supply's "
+                           "lines or a swing faster than the segments resolve, not one speed; read as recorded, the "
+                           "verdict is in doubt"], speed, gaps
     speed.update(tracked=True, spread_after=None if math.isnan(again.spread) else again.spread, steady_rpm=steady_rpm,
                  in_doubt=again.unsteady(unsteady))
+    stated = (f" (the stated {recording.rpm:g} rpm lies {100 * (recording.rpm / steady_rpm - 1):+.1f} % from it)"
+              if abs(recording.rpm / steady_rpm - 1) > SPEED_OFF[0] else "")
     note = (f"{varies}: resampled at equal steps of shaft angle to a steady {steady_rpm:.0f} rpm, its mean (computed "
-            "order tracking), so its defect lines stand still")
+            f"order tracking), and read at that speed{stated}, so its defect lines stand still where they are sought")
     if again.unsteady(unsteady):
         note += f"; tracked, it still varies {again.describe()}: the verdict is in doubt"
-    return dataclasses.replace(recording, signal=signal), [note], speed, gaps
+    return dataclasses.replace(recording, signal=signal, rpm=steady_rpm), [note], speed, moved
 
 
 def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:

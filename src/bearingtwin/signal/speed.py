@@ -40,14 +40,18 @@ where two or more agree, the 1x or the 2x among them."""
 SUPPLY_HZ = (50.0, 60.0)
 SUPPLY_AGREEMENT = 0.005
 """A speed whose shaft rate (or twice it) lies this close to a supply frequency may have been read from the supply's
-lines, which every motor's vibration carries (an unloaded 4-pole motor's 2x is 0.2 % below 60 Hz): such a reading
-steadies nothing (the supply is steady) but is no measure of a speed (:meth:`SpeedProfile.near_supply`)."""
+lines, which every motor's vibration carries: not read (:func:`speed_profile`). An unloaded 4-pole motor's 2x lies
+0.2 % below 60 Hz, so the speed of the CWRU rig at 0 hp (1796-1797 rpm) is not read at all."""
 MIN_REVOLUTIONS = 20
 """The fewest shaft turns a segment holds, so that the 1x and 2x lines lie apart in its spectrum."""
 UNSTEADY = 0.02
 """A spread of the speeds read (max - min, relative to their median) above which a record is called unsteady: twice
 the relative width within which the physics evidence reads a line (``evidence.tolerance``, 1 %). The speeds read
 on the steady CWRU records spread by 0.3 % at most."""
+
+
+def _near_supply(rpm: float) -> bool:
+    return any(abs(multiple * rpm / 60.0 / supply - 1) <= SUPPLY_AGREEMENT for supply in SUPPLY_HZ for multiple in (1, 2))
 
 
 @dataclass(frozen=True)
@@ -92,11 +96,11 @@ class SpeedProfile:
         """Whether the speed read varies by more than ``tolerance`` (relative spread)."""
         return bool(self.spread > tolerance)
 
-    def near_supply(self, rpm: float) -> bool:
+    @staticmethod
+    def near_supply(rpm: float) -> bool:
         """Whether ``rpm``'s shaft rate, or twice it, lies within :data:`SUPPLY_AGREEMENT` of a supply frequency: the
         supply's lines could pass for such a shaft series."""
-        return any(abs(multiple * rpm / 60.0 / supply - 1) <= SUPPLY_AGREEMENT
-                   for supply in SUPPLY_HZ for multiple in (1, 2))
+        return _near_supply(rpm)
 
     def rpm_at(self, n_samples: int, fs: float) -> np.ndarray:
         """The speed at every sample: linear between the segments read, held beyond the first and the last."""
@@ -111,6 +115,47 @@ class SpeedProfile:
                 f"{self.segment_s:.3g}-s segments")
 
 
+class _SeriesSpectrum:
+    """The spectra a shaft series is read from: the record at a rate four times the series' top (a long record's
+    transforms then cost a hundredth of theirs at 51.2 kHz), each stretch's Hann-windowed magnitude up to that top
+    over its local median (the median over one shaft rate: wide against a line's few bins, narrow against the
+    spectrum's shape), and each harmonic's search window in bins."""
+
+    def __init__(self, x: np.ndarray, fs: float, shaft_hz: float, length_s: float, harmonics: int, search: float,
+                 zero_pad: int):
+        factor = int(fs // (4 * harmonics * shaft_hz * (1 + search)))
+        self.x, self.fs = (scipy.signal.resample_poly(x, 1, factor), fs / factor) if factor >= 2 else (x, fs)
+        self.length = min(int(round(length_s * self.fs)), self.x.size)
+        self.n_fft = scipy.fft.next_fast_len(zero_pad * self.length)
+        self.resolution = self.fs / self.n_fft
+        self.top_bin = min(self.n_fft // 2, int(math.ceil(harmonics * shaft_hz * (1 + search) / self.resolution)) + 2)
+        self.background_bins = 2 * max(1, int(round(0.5 * shaft_hz / self.resolution))) + 1
+        self.orders = np.arange(1, harmonics + 1)
+        self.low = np.floor(self.orders * shaft_hz * (1 - search) / self.resolution).astype(int)
+        self.high = np.minimum(np.ceil(self.orders * shaft_hz * (1 + search) / self.resolution).astype(int) + 1,
+                               self.top_bin - 1)
+        self.window = scipy.signal.get_window("hann", self.length)
+
+    def of(self, start: int) -> tuple[np.ndarray, np.ndarray]:
+        """The magnitude spectrum of the stretch from sample ``start`` and its prominence over the local median."""
+        stretch = self.x[start:start + self.length]
+        spectrum = np.abs(scipy.fft.rfft((stretch - stretch.mean()) * self.window, self.n_fft))[:self.top_bin]
+        background = scipy.ndimage.median_filter(spectrum, size=self.background_bins, mode="nearest")
+        return spectrum, spectrum / np.maximum(background, np.finfo(float).tiny)
+
+
+def _check(signal, fs, rpm, search, harmonics, agreement=AGREEMENT) -> np.ndarray:
+    x = as_signal(signal, "signal")
+    if x.ndim != 1:
+        raise BearingTwinError(f"signal must be one 1-D record (got shape {x.shape})")
+    check_positive(fs, "fs")
+    check_positive(rpm, "rpm", "shaft speed in rev/min")
+    if not 0 < search < 0.5 or not 0 < agreement < search or int(harmonics) != harmonics or harmonics < 2:
+        raise BearingTwinError(f"search (got {search}) must lie in (0, 0.5), agreement (got {agreement}) in (0, "
+                               f"search), harmonics (got {harmonics}) be a whole number of 2 or more")
+    return x
+
+
 def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, search: float = SEARCH,
                   harmonics: int = HARMONICS, min_prominence: float = MIN_PROMINENCE,
                   agreement: float = AGREEMENT) -> SpeedProfile:
@@ -122,7 +167,9 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
     its frequency / k. The segment's speed is the median of the places that lie within ``agreement`` of the
     median of them all, where two or more do and the 1x or the 2x is among them: a lone line may be anything, and a
     defect's comb can pass for a shaft series from its 4th or 5th harmonic up (BPFO = 3.585 x shaft is the 4th
-    harmonic of a shaft 10 % slower), never from its 1st or 2nd.
+    harmonic of a shaft 10 % slower), never from its 1st or 2nd. A speed that may be the supply's
+    (:meth:`SpeedProfile.near_supply`) is not read: the supply's lines are steady, and a segment reading them beside
+    segments reading the shaft would pass for a speed that varies.
 
     Args:
         signal: (n,) samples, any unit; fs: its sampling rate, Hz; rpm: the speed stated for it, rev/min.
@@ -130,46 +177,23 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
     Returns:
         :class:`SpeedProfile`; a record shorter than three segments gives one with no segment read.
     """
-    x = as_signal(signal, "signal")
-    if x.ndim != 1:
-        raise BearingTwinError(f"signal must be one 1-D record (got shape {x.shape})")
-    check_positive(fs, "fs")
-    check_positive(rpm, "rpm", "shaft speed in rev/min")
-    if not 0 < search < 0.5 or not 0 < agreement < search or int(harmonics) != harmonics or harmonics < 2:
-        raise BearingTwinError(f"search (got {search}) must lie in (0, 0.5), agreement (got {agreement}) in (0, "
-                               f"search), harmonics (got {harmonics}) be a whole number of 2 or more")
+    x = _check(signal, fs, rpm, search, harmonics, agreement)
     shaft_hz = rpm / 60.0
     segment_s = max(float(segment_s), MIN_REVOLUTIONS / shaft_hz)
-    # The series lies far below most records' Nyquist frequency: read at a rate four times its top, a long
-    # record's segments cost a hundredth of their transforms at 51.2 kHz.
-    factor = int(fs // (4 * harmonics * shaft_hz * (1 + search)))
-    if factor >= 2:
-        x, fs = scipy.signal.resample_poly(x, 1, factor), fs / factor
-    length = int(round(segment_s * fs))
-    hop = max(1, length // 2)
-    starts = np.arange(0, x.size - length + 1, hop) if x.size >= length else np.zeros(0, dtype=int)
-    n_fft = scipy.fft.next_fast_len(8 * length)
-    resolution = fs / n_fft
-    top_bin = min(n_fft // 2, int(math.ceil(harmonics * shaft_hz * (1 + search) / resolution)) + 2)
-    # The local median over one shaft rate: wide against a line's few bins, narrow against the spectrum's shape.
-    background_bins = 2 * max(1, int(round(0.5 * shaft_hz / resolution))) + 1
-    orders = np.arange(1, harmonics + 1)
-    low = np.floor(orders * shaft_hz * (1 - search) / resolution).astype(int)
-    high = np.minimum(np.ceil(orders * shaft_hz * (1 + search) / resolution).astype(int) + 1, top_bin - 1)
-    window = scipy.signal.get_window("hann", length)
+    spectra = _SeriesSpectrum(x, fs, shaft_hz, segment_s, harmonics, search, zero_pad=8)
+    length, resolution = spectra.length, spectra.resolution
+    starts = (np.arange(0, spectra.x.size - length + 1, max(1, length // 2))
+              if spectra.x.size >= int(round(segment_s * spectra.fs)) else np.zeros(0, dtype=int))
     speeds = np.full(starts.size, np.nan)
     agreeing = np.zeros(starts.size, dtype=int)
     for index, start in enumerate(starts):
-        segment = x[start:start + length]
-        spectrum = np.abs(scipy.fft.rfft((segment - segment.mean()) * window, n_fft))[:top_bin]
-        background = scipy.ndimage.median_filter(spectrum, size=background_bins, mode="nearest")
-        prominence = spectrum / np.maximum(background, np.finfo(float).tiny)
+        spectrum, prominence = spectra.of(start)
         places, lowest = [], []
-        for order, a, b in zip(orders, low, high):
+        for order, a, b in zip(spectra.orders, spectra.low, spectra.high):
             if b <= a + 1:  # a harmonic beyond the spectrum (a rate too low for it)
                 continue
             peak = a + int(np.argmax(prominence[a:b]))
-            if prominence[peak] < min_prominence or not 0 < peak < top_bin - 1:
+            if prominence[peak] < min_prominence or not 0 < peak < spectra.top_bin - 1:
                 continue
             left, centre, right = spectrum[peak - 1:peak + 2]
             curvature = left - 2 * centre + right
@@ -182,14 +206,32 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
         agree = np.abs(places / np.median(places) - 1) <= agreement
         if agree.sum() < 2 or not lowest[agree].any():
             continue
-        speeds[index] = 60.0 * float(np.median(places[agree]))
-        agreeing[index] = int(agree.sum())
-    # Each speed read the median of it and the reads beside it: a shaft's speed moves smoothly from segment to
-    # segment, a segment whose weak lines happened to agree on a wrong place (1.6 % off in a healthy CWRU record)
-    # does not.
+        speed = 60.0 * float(np.median(places[agree]))
+        if not _near_supply(speed):
+            speeds[index] = speed
+            agreeing[index] = int(agree.sum())
+    # Each speed read the median of it and the reads beside it, the ends' outer neighbour extrapolated from the two
+    # reads inside: a shaft's speed moves smoothly from segment to segment, a segment whose weak lines happened to
+    # agree on a wrong place (1.6 % off in a healthy CWRU record) does not, at either end too.
     read = np.isfinite(speeds)
-    speeds[read] = scipy.ndimage.median_filter(speeds[read], size=3, mode="nearest")
-    return SpeedProfile((starts + length / 2) / fs, speeds, agreeing, segment_s, float(rpm))
+    if read.sum() >= 3:
+        values = speeds[read]
+        padded = np.concatenate([[2 * values[1] - values[2]], values, [2 * values[-2] - values[-3]]])
+        speeds[read] = np.median(np.lib.stride_tricks.sliding_window_view(padded, 3), axis=1)
+    return SpeedProfile((starts + length / 2) / spectra.fs, speeds, agreeing, segment_s, float(rpm))
+
+
+def series_sharpness(signal, fs: float, rpm: float, *, search: float = SEARCH, harmonics: int = HARMONICS) -> float:
+    """How sharply a record's shaft series stands over the whole record: the median over its harmonics of the
+    highest prominence (over the local median) within ``search`` of ``k x rpm / 60`` in one spectrum of the whole
+    record. A speed that varies smears each line over the speeds passed, and lowers it; a record steadied to the
+    speed its shaft turned at shows it sharp again, while one steadied to a wrong profile (two shafts' series, a
+    supply's lines, a swing faster than the segments resolve) shows it no sharper, or less so."""
+    x = _check(signal, fs, rpm, search, harmonics)
+    spectra = _SeriesSpectrum(x, fs, rpm / 60.0, x.size / fs, harmonics, search, zero_pad=2)
+    _, prominence = spectra.of(0)
+    peaks = [prominence[a:b].max() for a, b in zip(spectra.low, spectra.high) if b > a + 1]
+    return float(np.median(peaks)) if peaks else math.nan
 
 
 def steady_times(profile: SpeedProfile, n_samples: int, fs: float) -> tuple[np.ndarray, float]:
