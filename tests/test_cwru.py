@@ -524,6 +524,15 @@ def test_a_strong_series_off_the_shafts_place_is_named_in_both_its_readings_wher
     other = re.search(r"if it is the shaft's series; read as BPFO's, it puts fs at (\d+) Hz, where the line standing "
                       r"near [\d.]+ Hz would be the shaft's 1x", check.reason)
     assert other and float(other.group(1)) == pytest.approx(12000.0, rel=0.01), check.reason
+    # A diagnosis' note gives the speed of both readings, the defect's first: it had named the shaft reading's alone
+    # (3.6 times the true speed) right after saying the series may be BPFO's.
+    from bearingtwin.diagnosis.record import _speed_or_rate_wrong
+
+    name, line_hz = check.defect_reading
+    assert name == "BPFO" and line_hz == pytest.approx(rpm / 60 * factor, rel=0.01)  # the 1x, read at the rate given
+    note = _speed_or_rate_wrong(check)
+    assert (f"the line near {line_hz:.1f} Hz says {60 * line_hz:.0f} rpm if the series is BPFO's, "
+            f"{rpm * check.fs_hz / check.implied_fs_hz:.0f} rpm if it is the shaft's") in note, note
     supply = check_sampling_rate(signal, 24000.0, rpm, defect_hz=defect_hz)  # its 1x would read at 59.6 Hz
     assert supply.verdict == "contradicted" and "read as" not in supply.reason, supply.reason
     # A shaft series at twice its rate, a line below it where BPFO's reading would put the 1x: the named rate

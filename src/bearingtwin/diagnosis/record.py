@@ -418,7 +418,11 @@ def _speed_or_rate_wrong(check, fs_origin: str | None = None) -> str:
                 f"{RATE_THE_FILE_STATES[fs_origin]} ({check.fs_hz:g} Hz): check the speed given{nearest}{typed}. "
                 "Every defect line is read where the stated values put it: the verdict is in doubt")
     words = f"speed and rate disagree: {describe_mismatch(check)}"
-    if check.implied_fs_hz:  # the rate it implies at the stated speed is in describe_mismatch's words already
+    if check.defect_reading:  # the series may be a defect's: the speed its 1x line below gives comes first
+        name, shaft_hz = check.defect_reading
+        words += (f"; at fs = {check.fs_hz:g} Hz the line near {shaft_hz:.1f} Hz says {60 * shaft_hz:.0f} rpm if the "
+                  f"series is {name}'s, {check.rpm * check.fs_hz / check.implied_fs_hz:.0f} rpm if it is the shaft's")
+    elif check.implied_fs_hz:  # the rate it implies at the stated speed is in describe_mismatch's words already
         implied_rpm = check.rpm * check.fs_hz / check.implied_fs_hz
         words += f"; at fs = {check.fs_hz:g} Hz the shaft line says {implied_rpm:.0f} rpm"
     return words + ". Every defect line is read where the stated values put it: the verdict is in doubt"

@@ -68,6 +68,9 @@ class ShaftLineCheck:
         fraction_rate_hz: with a ``fraction``, the rate at which its in-between lines would be the shaft's series.
         implied_confirmed: a contradiction whose implied rate another channel of the record confirms (its shaft
             series stands at its place there; set by :func:`check_channels`).
+        defect_reading: where the series taken for the shaft's reads as a defect's instead
+            (:func:`_series_also_read_as_a_defects`): that defect's name and the 1x line it puts below the series
+            (Hz, at the declared rate); None otherwise.
     """
 
     fs_hz: float
@@ -83,6 +86,7 @@ class ShaftLineCheck:
     witness: str | None = None
     fraction_rate_hz: float | None = None
     implied_confirmed: bool = False
+    defect_reading: tuple[str, float] | None = None
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -445,7 +449,7 @@ def _series_also_read_as_a_defects(check: ShaftLineCheck, defect_hz: Mapping[str
     if not readings:
         return check
     _, name, rate, shaft_hz = max(readings)
-    return dataclasses.replace(check, reason=(
+    return dataclasses.replace(check, defect_reading=(name, shaft_hz), reason=(
         f"{check.reason} if it is the shaft's series; read as {name}'s, it puts fs at {rate:.0f} Hz, where the line "
         f"standing near {shaft_hz:.1f} Hz would be the shaft's 1x"))
 
