@@ -1841,3 +1841,28 @@ def test_a_steady_record_is_not_warped_by_a_misread_profile(monkeypatch):
     assert steady is recording and not speed["tracked"] and speed["in_doubt"] and speed["sharpening"] < 1
     assert "shows the shaft's series no sharper" in notes[0] and "read as recorded" in notes[0]
     assert record.speed_off_note(speed, SPEED_RPM) is None
+
+
+def test_a_tachometer_in_the_file_steadies_a_record_whose_shaft_series_does_not_show(tmp_path):
+    """A record of a defect's impacts alone (no shaft series to read the speed from) drifting by +-4 %, with a
+    tachometer channel beside it: the diagnosis reads the speed from the pulses, tracks the record, and its
+    outer-race lines stand again; without the tachometer the record is read as recorded, nothing said."""
+    from test_speed import FS as SPEED_FS
+    from test_speed import RPM as SPEED_RPM
+    from test_speed import machine, tachometer
+
+    signal, _ = machine(drift=0.04, shaft_lines=False)
+    pipeline = envelope_pipeline()
+    evidence = {}
+    for name, channels in (("with", {"vib": signal, "tach": tachometer(0.04)}), ("without", {"vib": signal})):
+        path = tmp_path / f"{name}.npz"
+        np.savez(path, **channels, fs=SPEED_FS, rpm=SPEED_RPM, unit="g")
+        prepared = read_record(path, pipeline, channel="vib")
+        evidence[name] = physics_evidence(prepared.recording.signal, prepared.recording.fs, prepared.recording.rpm,
+                                          BEARING).prominence_db["outer"]
+        if name == "with":
+            assert prepared.speed["tracked"] and prepared.speed["source"] == "the tachometer channel tach"
+            assert any("1-s segments of the tachometer channel tach: resampled" in note for note in prepared.notes)
+        else:
+            assert not prepared.speed["tracked"] and prepared.speed["spread"] is None
+    assert evidence["with"] > evidence["without"] + 6, evidence

@@ -8,7 +8,7 @@ import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal import envelope_spectrum, order_track, speed_profile
-from bearingtwin.signal.speed import series_sharpness
+from bearingtwin.signal.speed import series_sharpness, tachometer_profile
 
 FS = 12000.0
 RPM = 1650.0  # its +-4 % swing stays clear of 1800 rpm, whose 2x is the 60 Hz supply's
@@ -88,6 +88,28 @@ def test_a_drifting_shaft_series_stands_lower_and_tracked_it_stands_as_a_steady_
     tracked, steady_rpm = order_track(drifting, FS, speed_profile(drifting, FS, RPM))
     assert series_sharpness(drifting, FS, RPM) < 0.2 * steady
     assert series_sharpness(tracked, FS, steady_rpm) > 0.5 * steady
+
+
+def tachometer(drift: float, per_turn: int = 1, seconds: float = SECONDS) -> np.ndarray:
+    """A tachometer's pulses (0 or 5 V) on the shaft of :func:`machine` (``per_turn`` marks on it)."""
+    t = np.arange(int(seconds * FS)) / FS
+    turns = np.cumsum(RPM * (1 + drift * np.sin(2 * np.pi * t / seconds)) / 60.0) / FS
+    return 5.0 * ((turns * per_turn) % 1 < 0.1)
+
+
+@pytest.mark.parametrize("per_turn", [1, 2])
+def test_a_tachometer_reads_the_speed_where_no_shaft_series_shows(per_turn):
+    """The pulses give each segment's revolutions, whatever the vibration shows: a record whose shaft series does not
+    stand out (a defect's impacts alone) is read by its tachometer; one or two marks per turn, counted from the
+    stated speed. Pulses at a rate no whole number of marks per turn puts near the stated speed read nothing."""
+    _, true_rpm = machine(drift=0.04, shaft_lines=False)
+    profile = tachometer_profile(tachometer(0.04, per_turn), FS, RPM, source="the tachometer channel tach")
+    truth = np.interp(profile.times_s, np.arange(true_rpm.size) / FS, true_rpm)
+    assert profile.read.sum() >= 13 and np.nanmax(np.abs(profile.rpm / truth - 1)) < 0.002
+    assert profile.unsteady() and profile.describe().endswith("1-s segments of the tachometer channel tach")
+    assert not tachometer_profile(tachometer(0.0), FS, RPM * 1.4).read.any()  # 1.4 marks per turn: no whole number
+    spikes = (np.random.default_rng(0).standard_normal(int(SECONDS * FS)) > 3).astype(float)  # not a shaft's pulses
+    assert not tachometer_profile(spikes, FS, RPM).readable
 
 
 def test_tracking_a_steady_record_leaves_it_as_it_was():

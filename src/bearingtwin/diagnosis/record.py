@@ -48,7 +48,8 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
                                                shared_transforms)
-from bearingtwin.signal.speed import UNSTEADY, order_track, series_sharpness, speed_profile, steady_times
+from bearingtwin.signal.speed import (UNSTEADY, order_track, series_sharpness, speed_profile, steady_times,
+                                      tachometer_profile)
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -124,7 +125,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         if recording.meta.get("simulation_notes"):  # a defect no loaded ball met: its stated state is not heard
             notes.append(f"the simulation noted: {recording.meta['simulation_notes']}")
     else:
-        recording, speed_notes, speed, gaps = steadied(recording, *order_tracking, gaps=gaps)
+        recording, speed_notes, speed, gaps = steadied(recording, *order_tracking, gaps=gaps,
+                                                       tachometer=_tachometer(raw, recording))
         notes += speed_notes
         # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then.
         read_at = recording.fs
@@ -212,6 +214,15 @@ def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]
     return dataclasses.replace(raw, channels=channels), gaps
 
 
+def _tachometer(raw: RawRecord, recording: Recording) -> tuple[str, np.ndarray] | None:
+    """The file's first two-level channel as long as the record (a tachometer's pulses), its name and samples; None
+    where the file holds none, or the record is that channel."""
+    for name in raw.meta.get("two_levels", []):
+        if name != recording.channel and np.shape(raw.channels[name]) == recording.signal.shape:
+            return name, np.asarray(raw.channels[name], dtype=np.float64)
+    return None
+
+
 def gaps_note(recording: Recording, gaps: list[tuple[int, int]]) -> str:
     """"120 samples hold no value (NaN) in 3 stretches from 1 s to 4.01 s: bridged for the readings of the whole
     record, no window touching one diagnosed"."""
@@ -252,20 +263,27 @@ TRACKING_PASSES = 2
 finely than a second look at the record tracked once does."""
 
 
-def steadied(recording: Recording, track: bool, unsteady: float,
-             gaps: list[tuple[int, int]] = ()) -> tuple[Recording, list[str], dict, list[tuple[int, int]]]:
+def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tuple[int, int]] = (),
+             tachometer: tuple[str, np.ndarray] | None = None) -> tuple[Recording, list[str], dict, list[tuple[int, int]]]:
     """The recording, resampled at equal steps of shaft angle where its speed varies by more than ``unsteady``
     (:func:`~bearingtwin.signal.speed.speed_profile`, :func:`~bearingtwin.signal.speed.order_track`; up to
     :data:`TRACKING_PASSES` times) and ``track``; a note where it varies; and ``diagnosis.json``'s ``speed``: the
     spread read (null where the shaft series did not show in enough of the record to read it), whether the record
     was tracked (its ``steady_rpm`` and the ``spread_after`` it), whether the speed leaves the verdict in doubt (left
     unsteady), and the speed read segment by segment (null where not read); and ``gaps`` (``(start, length)``,
-    samples) where they lie in the record returned."""
-    profile = speed_profile(recording.signal, recording.fs, recording.rpm)
+    samples) where they lie in the record returned. A ``tachometer`` channel (its name and pulses) recorded beside the
+    record gives the speed where its pulses read one (:func:`~bearingtwin.signal.speed.tachometer_profile`), the shaft's
+    series otherwise."""
+    profile = None
+    if tachometer is not None:
+        name, pulses = tachometer
+        profile = tachometer_profile(pulses, recording.fs, recording.rpm, source=f"the tachometer channel {name}")
+    if profile is None or not profile.readable:
+        profile = speed_profile(recording.signal, recording.fs, recording.rpm)
     speed = {"spread": None if math.isnan(profile.spread) else profile.spread, "tracked": False, "in_doubt": False,
              "segment_s": profile.segment_s, "times_s": profile.times_s.tolist(),
              "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()],
-             "read_rpm": None}
+             "read_rpm": None, "source": profile.source or "the shaft's harmonic series"}
     read_rpm = float(np.median(profile.rpm[profile.read])) if profile.readable else None
     if read_rpm is not None and not profile.near_supply(read_rpm):  # the supply's lines are no measure of a speed
         speed["read_rpm"] = read_rpm
@@ -294,11 +312,14 @@ def steadied(recording: Recording, track: bool, unsteady: float,
     before = series_sharpness(recording.signal, recording.fs, speed["read_rpm"] or recording.rpm)
     after = series_sharpness(signal, recording.fs, steady_rpm)
     speed["sharpening"] = after / before if before > 0 else None
-    if not after >= SHARPER * before:
+    # A tachometer measures the speed itself: its profile is refused only where it smears a shaft series that stood
+    # (another shaft's tachometer), while a profile read from the series must make it stand sharper.
+    if not (after >= SHARPER * before or (profile.source and after * SHARPER >= before)):
         speed["in_doubt"] = True
+        why = ("the tachometer's shaft is another than the one whose series the record shows" if profile.source else
+               "two shafts' series, a supply's lines or a swing faster than the segments resolve, not one speed")
         return recording, [f"{varies}, but the record steadied to it shows the shaft's series no sharper ("
-                           f"{after / before:.2g} times its prominence as recorded): two shafts' series, a supply's "
-                           "lines or a swing faster than the segments resolve, not one speed; read as recorded, the "
+                           f"{after / before:.2g} times its prominence as recorded): {why}; read as recorded, the "
                            "verdict is in doubt"], speed, gaps
     speed.update(tracked=True, spread_after=None if math.isnan(again.spread) else again.spread, steady_rpm=steady_rpm,
                  in_doubt=again.unsteady(unsteady))

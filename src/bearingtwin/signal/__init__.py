@@ -10,7 +10,7 @@ from bearingtwin.signal.entropy import (
 from bearingtwin.signal.envelope import cepstral_prewhiten, envelope, envelope_spectrum, peak_near
 from bearingtwin.signal.kurtogram import Kurtogram, kurtogram, spectral_kurtosis
 from bearingtwin.signal.sampling_rate import ShaftLineCheck, check_sampling_rate
-from bearingtwin.signal.speed import SpeedProfile, order_track, speed_profile, steady_times
+from bearingtwin.signal.speed import SpeedProfile, order_track, speed_profile, steady_times, tachometer_profile
 from bearingtwin.signal.vmd import vmd, vmd_batch
 from bearingtwin.signal.welch import WelchPSD
 
@@ -34,6 +34,7 @@ __all__ = [
     "spectral_kurtosis",
     "speed_profile",
     "steady_times",
+    "tachometer_profile",
     "vmd",
     "vmd_batch",
 ]

@@ -56,7 +56,8 @@ def _near_supply(rpm: float) -> bool:
 
 @dataclass(frozen=True)
 class SpeedProfile:
-    """The shaft speed read segment by segment from the shaft's harmonic series.
+    """The shaft speed read segment by segment from the shaft's harmonic series (:func:`speed_profile`) or a
+    tachometer's pulses (:func:`tachometer_profile`).
 
     Attributes:
         times_s: (n_segments,) each segment's centre, s from the record's start.
@@ -65,6 +66,7 @@ class SpeedProfile:
         harmonics: (n_segments,) how many harmonics agreed on it.
         segment_s: the segments' length, s (half-overlapping).
         stated_rpm: the speed the record was said to turn at, around which the series was sought.
+        source: what the speed was read from where it was not the shaft's series (``the tachometer channel tach``).
     """
 
     times_s: np.ndarray
@@ -72,6 +74,7 @@ class SpeedProfile:
     harmonics: np.ndarray
     segment_s: float
     stated_rpm: float
+    source: str = ""
 
     @property
     def read(self) -> np.ndarray:
@@ -112,7 +115,7 @@ class SpeedProfile:
         speeds = self.rpm[self.read]
         return (f"from {speeds.min():.0f} to {speeds.max():.0f} rpm ({100 * self.spread:.2g} % of its median, "
                 f"{np.median(speeds):.0f} rpm), read in {int(self.read.sum())} of {self.rpm.size} "
-                f"{self.segment_s:.3g}-s segments")
+                f"{self.segment_s:.3g}-s segments" + (f" of {self.source}" if self.source else ""))
 
 
 class _SeriesSpectrum:
@@ -219,6 +222,42 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
         padded = np.concatenate([[2 * values[1] - values[2]], values, [2 * values[-2] - values[-3]]])
         speeds[read] = np.median(np.lib.stride_tricks.sliding_window_view(padded, 3), axis=1)
     return SpeedProfile((starts + length / 2) / spectra.fs, speeds, agreeing, segment_s, float(rpm))
+
+
+def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0, search: float = SEARCH,
+                       source: str = "a tachometer channel") -> SpeedProfile:
+    """The shaft speed of each half-overlapping segment of a record, read from a tachometer's pulses recorded beside
+    it (``pulses``: its two-level channel, as long as the record): the revolutions each segment holds over its length.
+
+    A pulse is a rise through the middle of the channel's two levels, placed between samples by a straight line. The
+    pulses per revolution are the whole number nearest to the pulse rate over the stated ``rpm``; where that puts the
+    speed more than ``search`` from the stated one (a tachometer on another shaft, a speed stated far off), nothing is
+    read. A segment the pulses do not span is not read.
+    """
+    x = _check(pulses, fs, rpm, search, HARMONICS)
+    if x.ndim != 1:
+        raise BearingTwinError(f"pulses must be one 1-D channel (got shape {x.shape})")
+    shaft_hz = rpm / 60.0
+    segment_s = max(float(segment_s), MIN_REVOLUTIONS / shaft_hz)
+    length = int(round(segment_s * fs))
+    starts = np.arange(0, x.size - length + 1, max(1, length // 2)) if x.size >= length else np.zeros(0, dtype=int)
+    nothing = SpeedProfile((starts + length / 2) / fs, np.full(starts.size, np.nan), np.zeros(starts.size, dtype=int),
+                           segment_s, float(rpm), source)
+    middle = (x.min() + x.max()) / 2.0
+    rises = np.flatnonzero((x[:-1] < middle) & (x[1:] >= middle))
+    if rises.size < 3:
+        return nothing
+    times = (rises + (middle - x[rises]) / (x[rises + 1] - x[rises])) / fs  # where each rise crosses the middle
+    rate = (times.size - 1) / (times[-1] - times[0])
+    per_turn = max(1, int(round(rate / shaft_hz)))
+    if abs(rate / per_turn / shaft_hz - 1) > search:
+        return nothing
+    begin, end = starts / fs, (starts + length) / fs
+    spanned = (begin >= times[0]) & (end <= times[-1])
+    turns = np.arange(times.size) / per_turn
+    speeds = np.where(spanned, 60.0 * (np.interp(end, times, turns) - np.interp(begin, times, turns)) / segment_s,
+                      np.nan)
+    return SpeedProfile(nothing.times_s, speeds, np.where(spanned, per_turn, 0), segment_s, float(rpm), source)
 
 
 def series_sharpness(signal, fs: float, rpm: float, *, search: float = SEARCH, harmonics: int = HARMONICS) -> float:
