@@ -1633,13 +1633,15 @@ def test_the_closing_summary_names_what_else_puts_a_verdict_in_doubt():
             {"record": "gaps", "verdict": "inner", "windows_left_out": 3},
             {"record": "no_speed", "verdict": "ball", "no_evidence": True},
             {"record": "fan", "verdict": "inner", "order_tracked": True},
-            {"record": "run_up", "verdict": "normal", "order_tracked": True, "speed_in_doubt": True}]
+            {"record": "run_up", "verdict": "normal", "order_tracked": True, "speed_in_doubt": True},
+            {"record": "belt", "verdict": "outer", "speed_in_doubt": True, "steadying_refused": True}]
     lines = diagnosis_lines(DiagnosisRun(rows=rows))
     assert lines["sampling rate unconfirmed by the shaft line (see their notes)"] == "lone_line"
     assert lines["windows left out over dropouts or samples with no value"] == "gaps (3)"
     assert lines["no physics evidence (no shaft speed or bearing known)"] == "no_speed"
     assert lines["shaft speed varied: resampled to a steady speed (order tracking)"] == "fan, run_up"
     assert lines["shaft speed varies, left unsteady (its lines smeared: in doubt)"] == "run_up"
+    assert lines["speed read in doubt (steadied, the shaft's series stood no sharper: read as recorded)"] == "belt"
     assert not any("clean" in value for value in lines.values() if value != "records diagnosed")
 
 
@@ -1866,3 +1868,17 @@ def test_a_tachometer_in_the_file_steadies_a_record_whose_shaft_series_does_not_
         else:
             assert not prepared.speed["tracked"] and prepared.speed["spread"] is None
     assert evidence["with"] > evidence["without"] + 6, evidence
+
+
+def test_a_gap_at_the_very_end_survives_two_tracking_passes():
+    """A gap widened past the tracked record's last sample had been indexed beyond it on the second pass."""
+    from test_speed import FS as SPEED_FS
+    from test_speed import RPM as SPEED_RPM
+    from test_speed import machine
+
+    from bearingtwin.diagnosis.record import steadied
+
+    signal, _ = machine(drift=0.08)
+    recording = Recording(signal, SPEED_FS, rpm=SPEED_RPM, source="end")
+    tracked, _, speed, ((start, length),) = steadied(recording, True, 0.001, gaps=[(signal.size - 5, 5)])
+    assert speed["tracked"] and start + length <= tracked.signal.size and length >= 5

@@ -73,7 +73,10 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     tracked = [row["record"] for row in diagnosed if row.get("order_tracked") is True]
     if tracked:  # their verdicts read the records as steadied (order_tracking): said, so none is taken for as recorded
         lines["shaft speed varied: resampled to a steady speed (order tracking)"] = ", ".join(tracked)
-    unsteady = [row["record"] for row in diagnosed if row.get("speed_in_doubt")]
+    refused = [row["record"] for row in diagnosed if row.get("steadying_refused")]
+    if refused:  # the speed read flipped, but steadied to it the shaft's series stood no sharper: a misread profile
+        lines["speed read in doubt (steadied, the shaft's series stood no sharper: read as recorded)"] = ", ".join(refused)
+    unsteady = [row["record"] for row in diagnosed if row.get("speed_in_doubt") and not row.get("steadying_refused")]
     if unsteady:  # every defect line smeared over the speeds the shaft passed through
         lines["shaft speed varies, left unsteady (its lines smeared: in doubt)"] = ", ".join(unsteady)
     unconfirmed = [row["record"] for row in diagnosed if row.get("rate_check") == "ambiguous"]

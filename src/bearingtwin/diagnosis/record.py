@@ -48,8 +48,8 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
                                                shared_transforms)
-from bearingtwin.signal.speed import (UNSTEADY, order_track, series_sharpness, speed_profile, steady_times,
-                                      tachometer_profile)
+from bearingtwin.signal.speed import (UNSTEADY, order_track, series_prominences, sharpening, speed_profile,
+                                      steady_times, tachometer_profile)
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -97,10 +97,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     raw, gaps_by_channel = bridged(raw)
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
-    gaps = gaps_by_channel.get(recording.channel, [])
+    gaps = file_gaps = gaps_by_channel.get(recording.channel, [])  # the file's positions, before tracking moves them
     notes = list(recording.meta["notes"]) + channel_note + recording.quality_notes()
-    if gaps:  # where the file holds them, before any tracking moves them
-        notes.append(gaps_note(recording, gaps))
     named = recording.meta.get("bearing")
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
@@ -128,11 +126,15 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         recording, speed_notes, speed, gaps = steadied(recording, *order_tracking, gaps=gaps,
                                                        tachometer=_tachometer(raw, recording))
         notes += speed_notes
-        # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then.
-        read_at = recording.fs
-        recording, rate_notes, rate_check = _checked_rate(recording, record_bearing,
+        # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then. The
+        # rate is checked against the stated speed: a tracked record's mean speed was read from the series the check
+        # reads, and would confirm any rate near the right one.
+        read_at, steady_rpm = recording.fs, recording.rpm
+        recording, rate_notes, rate_check = _checked_rate(dataclasses.replace(recording, rpm=speed["stated_rpm"]),
+                                                          record_bearing,
                                                           channels={} if speed["tracked"] else raw.channels,
                                                           declared_only=fs is None and raw.fs_origin == "declared")
+        recording = dataclasses.replace(recording, rpm=steady_rpm)
         notes += rate_notes
         if recording.fs != read_at:  # the check found the file's rate (a CWRU record at 48 kHz): its times are shorter
             speed.update(segment_s=speed["segment_s"] * read_at / recording.fs,
@@ -158,6 +160,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         notes.append(f"true state {true_state}, which this model cannot answer: it was trained on "
                      f"{', '.join(pipeline.class_names)} only")
     original_fs = recording.fs
+    if file_gaps:  # in seconds at the rate the check settled on
+        notes.append(gaps_note(recording, file_gaps))
     resampled = not math.isclose(recording.fs, pipeline.fs_hz, rel_tol=1e-9)
     # In seconds, now that the rate is settled; a resampling filter spreads a gap's edges over 10 input or output
     # samples, whichever are longer (resample_poly's filter: 10 x max(up, down) taps at the up-sampled rate).
@@ -203,7 +207,7 @@ def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]
         # beside the gap, mirrored, stand there instead.
         first, last = np.flatnonzero(~bad)[[0, -1]]
         if first:  # sample first - 1 - j takes sample first + 1 + j's value
-            filled[:first] = np.resize(filled[first + 1:2 * first + 1][::-1], first)
+            filled[:first] = np.resize(filled[first + 1:2 * first + 1], first)[::-1]
         tail = values.size - 1 - last
         if tail:  # sample last + 1 + j takes sample last - 1 - j's value
             filled[last + 1:] = np.resize(filled[max(last - tail, 0):last][::-1], tail)
@@ -256,8 +260,8 @@ def speed_off_note(speed: dict, rpm: float) -> str | None:
 TRACKING_REACH = 12
 """How many samples either side of a gap order tracking spreads it over (its doubling filter's ten, its spline's)."""
 SHARPER = 1.25
-"""How much sharper (:func:`~bearingtwin.signal.speed.series_sharpness`) a record's shaft series must stand once
-tracked for the tracked record to be read."""
+"""How much higher (:func:`~bearingtwin.signal.speed.sharpening`) a record's shaft series must stand once tracked for
+the tracked record to be read."""
 TRACKING_PASSES = 2
 """How often a record is tracked at most: a strong drift smears the first profile's lines, which read the speed less
 finely than a second look at the record tracked once does."""
@@ -283,7 +287,7 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
     speed = {"spread": None if math.isnan(profile.spread) else profile.spread, "tracked": False, "in_doubt": False,
              "segment_s": profile.segment_s, "times_s": profile.times_s.tolist(),
              "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()],
-             "read_rpm": None, "source": profile.source or "the shaft's harmonic series"}
+             "read_rpm": None, "source": profile.source or "the shaft's harmonic series", "stated_rpm": recording.rpm}
     read_rpm = float(np.median(profile.rpm[profile.read])) if profile.readable else None
     if read_rpm is not None and not profile.near_supply(read_rpm):  # the supply's lines are no measure of a speed
         speed["read_rpm"] = read_rpm
@@ -301,7 +305,8 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
         # Widened by the reach of order_track's own resampling filter and spline (about 10 samples each side).
         first_last = [(math.floor(steady[start] * recording.fs) - TRACKING_REACH,
                        math.ceil(steady[start + length - 1] * recording.fs) + TRACKING_REACH) for start, length in moved]
-        moved = [(max(first, 0), last - max(first, 0) + 1) for first, last in first_last]
+        last_sample = int(round(steady[-1] * recording.fs))  # the tracked record's last sample
+        moved = [(max(first, 0), min(last, last_sample) - max(first, 0) + 1) for first, last in first_last]
         signal, steady_rpm = order_track(signal, recording.fs, again)
         again = speed_profile(signal, recording.fs, recording.rpm)
         if not again.unsteady(unsteady):
@@ -309,17 +314,17 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
     # Tracked to the speed the shaft turned at, its own series stands sharper than as recorded; tracked to a profile
     # misread (two shafts' series, segments reading the supply, a swing faster than the segments resolve), it does
     # not, and the record is read as recorded: a steady record warped would smear every line.
-    before = series_sharpness(recording.signal, recording.fs, speed["read_rpm"] or recording.rpm)
-    after = series_sharpness(signal, recording.fs, steady_rpm)
-    speed["sharpening"] = after / before if before > 0 else None
+    gain = sharpening(series_prominences(recording.signal, recording.fs, speed["read_rpm"] or recording.rpm),
+                      series_prominences(signal, recording.fs, steady_rpm))
+    speed["sharpening"] = None if math.isnan(gain) else gain
     # A tachometer measures the speed itself: its profile is refused only where it smears a shaft series that stood
     # (another shaft's tachometer), while a profile read from the series must make it stand sharper.
-    if not (after >= SHARPER * before or (profile.source and after * SHARPER >= before)):
-        speed["in_doubt"] = True
+    if not (gain >= SHARPER or (profile.source and not gain * SHARPER < 1)):
+        speed.update(in_doubt=True, steadying_refused=True)
         why = ("the tachometer's shaft is another than the one whose series the record shows" if profile.source else
                "two shafts' series, a supply's lines or a swing faster than the segments resolve, not one speed")
         return recording, [f"{varies}, but the record steadied to it shows the shaft's series no sharper ("
-                           f"{after / before:.2g} times its prominence as recorded): {why}; read as recorded, the "
+                           f"{gain:.2g} times its prominence as recorded): {why}; read as recorded, the "
                            "verdict is in doubt"], speed, gaps
     speed.update(tracked=True, spread_after=None if math.isnan(again.spread) else again.spread, steady_rpm=steady_rpm,
                  in_doubt=again.unsteady(unsteady))
@@ -439,7 +444,7 @@ def _speed_or_rate_wrong(check, fs_origin: str | None = None) -> str:
                 f"{RATE_THE_FILE_STATES[fs_origin]} ({check.fs_hz:g} Hz): check the speed given{nearest}{typed}. "
                 "Every defect line is read where the stated values put it: the verdict is in doubt")
     words = f"speed and rate disagree: {describe_mismatch(check)}"
-    if check.defect_reading:  # the series may be a defect's: the speed its 1x line below gives comes first
+    if check.defect_reading and check.implied_fs_hz:  # the series may be a defect's: its 1x line's speed comes first
         name, shaft_hz = check.defect_reading
         words += (f"; at fs = {check.fs_hz:g} Hz the line near {shaft_hz:.1f} Hz says {60 * shaft_hz:.0f} rpm if the "
                   f"series is {name}'s, {check.rpm * check.fs_hz / check.implied_fs_hz:.0f} rpm if it is the shaft's")

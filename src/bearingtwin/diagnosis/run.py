@@ -370,6 +370,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         row["order_tracked"] = speed.get("tracked", "")
         row["speed_in_doubt"] = speed.get("in_doubt", False)  # for the closing summary (not a column)
         row["speed_off"] = speed.get("off", False)  # the same
+        row["steadying_refused"] = speed.get("steadying_refused", False)  # the same
         row["windows_left_out"] = result["windows_left_out"]  # the same
         row["no_evidence"] = result["evidence"] is None  # the same: no speed (or bearing), no physics to hold it to
         run.rows.append(row)

@@ -213,14 +213,8 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
         if not _near_supply(speed):
             speeds[index] = speed
             agreeing[index] = int(agree.sum())
-    # Each speed read the median of it and the reads beside it, the ends' outer neighbour extrapolated from the two
-    # reads inside: a shaft's speed moves smoothly from segment to segment, a segment whose weak lines happened to
-    # agree on a wrong place (1.6 % off in a healthy CWRU record) does not, at either end too.
     read = np.isfinite(speeds)
-    if read.sum() >= 3:
-        values = speeds[read]
-        padded = np.concatenate([[2 * values[1] - values[2]], values, [2 * values[-2] - values[-3]]])
-        speeds[read] = np.median(np.lib.stride_tricks.sliding_window_view(padded, 3), axis=1)
+    speeds[read] = smoothed(speeds[read])
     return SpeedProfile((starts + length / 2) / spectra.fs, speeds, agreeing, segment_s, float(rpm))
 
 
@@ -260,17 +254,44 @@ def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0,
     return SpeedProfile(nothing.times_s, speeds, np.where(spanned, per_turn, 0), segment_s, float(rpm), source)
 
 
-def series_sharpness(signal, fs: float, rpm: float, *, search: float = SEARCH, harmonics: int = HARMONICS) -> float:
-    """How sharply a record's shaft series stands over the whole record: the median over its harmonics of the
-    highest prominence (over the local median) within ``search`` of ``k x rpm / 60`` in one spectrum of the whole
-    record. A speed that varies smears each line over the speeds passed, and lowers it; a record steadied to the
-    speed its shaft turned at shows it sharp again, while one steadied to a wrong profile (two shafts' series, a
-    supply's lines, a swing faster than the segments resolve) shows it no sharper, or less so."""
+def smoothed(reads: np.ndarray) -> np.ndarray:
+    """Speeds read in consecutive segments (those read, in order), each the median of it and the reads beside it,
+    each end's against the smoothed reads inside and their trend: a shaft's speed moves smoothly from segment to
+    segment, a segment whose weak lines happened to agree on a wrong place (1.6 % off in a healthy CWRU record) does
+    not, at the ends either. Segments not read between two reads are passed over, as if the reads were neighbours."""
+    reads = np.asarray(reads, dtype=np.float64)
+    if reads.size < 3:
+        return reads.copy()
+    if reads.size == 3:  # one read beside each end: the middle one's median, the ends held to it
+        return np.full(3, np.median(reads))
+    out = reads.copy()
+    out[1:-1] = np.median(np.lib.stride_tricks.sliding_window_view(reads, 3), axis=1)
+    out[0] = np.median([reads[0], out[1], 2 * out[1] - out[2]])
+    out[-1] = np.median([reads[-1], out[-2], 2 * out[-2] - out[-3]])
+    return out
+
+
+def series_prominences(signal, fs: float, rpm: float, *, search: float = SEARCH,
+                       harmonics: int = HARMONICS) -> np.ndarray:
+    """How high each harmonic of a record's shaft series stands over the whole record: per harmonic k, the highest
+    prominence (over the local median) within ``search`` of ``k x rpm / 60`` in one spectrum of the whole record
+    (NaN for a harmonic beyond it). A speed that varies smears each line over the speeds passed, and lowers it; a
+    record steadied to the speed its shaft turned at shows it sharp again (:func:`sharpening`)."""
     x = _check(signal, fs, rpm, search, harmonics)
     spectra = _SeriesSpectrum(x, fs, rpm / 60.0, x.size / fs, harmonics, search, zero_pad=2)
     _, prominence = spectra.of(0)
-    peaks = [prominence[a:b].max() for a, b in zip(spectra.low, spectra.high) if b > a + 1]
-    return float(np.median(peaks)) if peaks else math.nan
+    return np.array([prominence[a:b].max() if b > a + 1 else np.nan for a, b in zip(spectra.low, spectra.high)])
+
+
+def sharpening(before: np.ndarray, after: np.ndarray, min_prominence: float = MIN_PROMINENCE) -> float:
+    """How many times higher a shaft series stands ``after`` steadying than ``before`` (:func:`series_prominences`):
+    the median over the harmonics that stand (``min_prominence``) in either, for a machine may show three harmonics
+    of eight and the empty windows' noise says nothing. Steadied to a wrong profile (two shafts' series, a supply's
+    lines, a swing faster than the segments resolve) a series stands no higher, or lower; NaN where none stands."""
+    keep = (before >= min_prominence) | (after >= min_prominence)
+    if not keep.any():
+        return math.nan
+    return float(np.median(after[keep]) / np.median(before[keep]))
 
 
 def steady_times(profile: SpeedProfile, n_samples: int, fs: float) -> tuple[np.ndarray, float]:

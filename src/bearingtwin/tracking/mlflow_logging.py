@@ -402,16 +402,17 @@ def _short_commit(commit: str) -> str:
 
 @functools.lru_cache(maxsize=1)
 def _git_commit() -> str:
-    """The checkout's commit, ``-dirty`` where a tracked file changed or a file not yet added lies under the code or
-    its configs (a new module imported changes what runs); once per process, whose code is what it imported."""
+    """The checkout's commit, ``-dirty`` where a file of the code, its configs or its environment changed or a file
+    not yet added lies under the code or its configs (a new module imported changes what runs; a results page or the
+    README does not); once per process, whose code is what it imported."""
     def git(*args: str) -> str:
         return subprocess.run(["git", "-C", str(REPO_ROOT), *args], capture_output=True, text=True, timeout=10,
                               check=True).stdout.strip()
 
     try:
         commit = git("rev-parse", "HEAD")
-        dirty = git("status", "--porcelain", "--untracked-files=no") or git(
-            "status", "--porcelain", "--untracked-files=normal", "--", "src", "conf")
+        dirty = git("status", "--porcelain", "--untracked-files=no", "--", "src", "conf", "pyproject.toml",
+                    "requirements.lock") or git("status", "--porcelain", "--untracked-files=normal", "--", "src", "conf")
     except (OSError, subprocess.SubprocessError):
         return "unknown"
     return commit + ("-dirty" if dirty else "")
