@@ -220,3 +220,20 @@ def test_a_bearing_given_against_the_one_the_file_names_is_noted(tmp_path):
     summary = summarize(path, bearing=load_bearing("er16k"), bearing_name="er16k")
     assert "bearing=er16k given, where the file names cwru_6205" in " ".join(summary["meta"]["notes"])
     assert not any("bearing=" in note for note in summarize(path)["meta"].get("notes", []))
+
+
+def test_how_steadily_the_shaft_turned_is_reported_per_channel(capsys, monkeypatch, tmp_path):
+    """A drifting vibration channel and the tachometer beside it both read the swing a diagnosis would steady; a
+    channel of noise reads nothing."""
+    from test_speed import FS, RPM, machine, tachometer
+
+    drifting, _ = machine(drift=0.04)
+    noise = np.random.default_rng(1).standard_normal(drifting.size)
+    path = tmp_path / "fan.npz"
+    np.savez(path, vib=drifting, tach=tachometer(0.04), noise=noise, fs=FS, rpm=RPM)
+    code, out, _ = run(capsys, monkeypatch, f"path={path}")
+    speeds = json.loads(out)["shaft_speed"]
+    assert code == 0 and speeds["noise"] is None
+    for name in ("vib", "tach"):
+        assert speeds[name]["unsteady"] and speeds[name]["spread"] == pytest.approx(0.08, abs=0.015), speeds[name]
+        assert speeds[name]["median_rpm"] == pytest.approx(RPM, rel=0.02)

@@ -7,7 +7,8 @@ problem. With ``bearing=<name>`` the bearing's defect frequencies are added, in 
 speed is known and always as orders (multiples of the shaft speed). Whenever the rate and
 the speed are known, the sampling-rate check against the shaft line is reported too, with
 every channel of the file a witness of its one rate (the channel that decides, and each
-channel's verdict), as the commands that read the file apply it. Whenever the rate is known,
+channel's verdict), as the commands that read the file apply it, and ``shaft_speed``: how steadily the shaft turned,
+per channel (:func:`shaft_speed`). Whenever the rate is known,
 ``quality`` names per channel clipping and dropouts, with where they are (a diagnosis and the twin note them
 for the channel they read, and refuse a dead one), or why a channel was not checked.
 Settings are Hydra overrides, as for every command (``bearingtwin-inspect --help``).
@@ -35,6 +36,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
+from bearingtwin.signal.speed import speed_profile, tachometer_profile
 
 
 @hydra_command("inspect")
@@ -137,12 +139,38 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
                                                channels={name: check.verdict for name, check in checks.items()})
         except BearingTwinError as error:  # NaNs, or a record too short to resolve the shaft line
             summary["shaft_line_check"] = {"channel": names[0], "verdict": "not checked", "reason": str(error)}
+        summary["shaft_speed"] = shaft_speed(raw, names, fs_hz, rpm)
     if bearing is not None:
         summary["bearing"] = bearing_name
         summary["defect_orders"] = {key: value for key, value in bearing.defect_frequencies(60.0).items() if key != "shaft"}
         if rpm is not None:
             summary["defect_frequencies_hz"] = bearing.defect_frequencies(rpm)
     return summary
+
+
+def shaft_speed(raw, names: list[str], fs_hz: float, rpm: float) -> dict:
+    """How steadily the shaft turned, per channel, as a diagnosis reads it before it steadies a record (a tachometer's
+    pulses counted, a vibration channel's shaft series read, in 1 s segments): the spread of the speeds read, their
+    median and range, in how many segments, and whether a diagnosis would call the record unsteady; null where
+    nothing was read (no series standing out, NaN samples, a record too short)."""
+    speeds = {}
+    for name in names:
+        values = raw.channels[name]
+        if not values.size or not np.all(np.isfinite(values)):
+            speeds[name] = None
+            continue
+        try:
+            profile = (tachometer_profile(values, fs_hz, rpm) if name in raw.meta.get("two_levels", []) else
+                       speed_profile(values, fs_hz, rpm))
+        except BearingTwinError:
+            speeds[name] = None
+            continue
+        read = profile.rpm[profile.read]
+        speeds[name] = None if not profile.readable else {
+            "spread": profile.spread, "median_rpm": float(np.median(read)), "range_rpm": [float(read.min()),
+                                                                                         float(read.max())],
+            "segments_read": f"{int(profile.read.sum())} of {profile.rpm.size}", "unsteady": profile.unsteady()}
+    return speeds
 
 
 main = stop_cleanly(inspect_command)  # Ctrl-C: one line and exit 130, not a traceback from inside the work
