@@ -1841,8 +1841,7 @@ def test_a_steady_record_is_not_warped_by_a_misread_profile(monkeypatch):
     signal, _ = machine(drift=0.0)
     recording = Recording(signal, SPEED_FS, rpm=SPEED_RPM, source="belt")
     times = np.arange(0.5, 8.0, 0.5)
-    flipping = SpeedProfile(times, SPEED_RPM * np.where(np.arange(times.size) % 4 < 2, 1.0, 0.97),
-                            np.full(times.size, 3), 1.0, SPEED_RPM)
+    flipping = SpeedProfile(times, SPEED_RPM * np.where(np.arange(times.size) % 4 < 2, 1.0, 0.97), 1.0, SPEED_RPM)
     monkeypatch.setattr(record, "speed_profile", lambda *args, **kwargs: flipping)
     steady, notes, speed, _ = record.steadied(recording, True, 0.02)
     assert steady is recording and not speed["tracked"] and speed["in_doubt"] and speed["sharpening"] < 1

@@ -48,8 +48,8 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
                                                shared_transforms)
-from bearingtwin.signal.speed import (UNSTEADY, order_track, series_prominences, sharpening, speed_profile,
-                                      steady_times, tachometer_profile)
+from bearingtwin.signal.speed import (UNSTEADY, near_supply, order_track, series_prominences, sharpening,
+                                      speed_profile, steady_times, tachometer_profile)
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -289,7 +289,7 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
              "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()],
              "read_rpm": None, "source": profile.source or "the shaft's harmonic series", "stated_rpm": recording.rpm}
     read_rpm = float(np.median(profile.rpm[profile.read])) if profile.readable else None
-    if read_rpm is not None and not profile.near_supply(read_rpm):  # the supply's lines are no measure of a speed
+    if read_rpm is not None and not near_supply(read_rpm):  # the supply's lines are no measure of a speed
         speed["read_rpm"] = read_rpm
     gaps = list(gaps)
     if not profile.unsteady(unsteady):
@@ -551,9 +551,9 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     if dropped:  # the longest stretch is among those it names, with what was done about it: not said twice
         notes = [note for note in notes if not note.endswith(HELD_NOTE_END)] + [dropped]
     gapped = np.zeros(starts.size, dtype=bool)
-    window_s = pipeline.window_length / recording.fs
-    for start_s, end_s in prepared.gaps_s:  # bridged (read_record), never read by the model
-        gapped |= (starts / recording.fs < end_s) & (starts / recording.fs + window_s > start_s)
+    for start_s, end_s in prepared.gaps_s:  # bridged (read_record), never read by the model: in samples of the record
+        first = math.floor(start_s * recording.fs)
+        gapped |= _touching(starts, pipeline.window_length, first, math.ceil(end_s * recording.fs) - first)
     if gapped.any():
         if (touched | gapped).all():
             raise BearingTwinError(f"{recording.source}: every window of the model's ({pipeline.window_length} samples) "

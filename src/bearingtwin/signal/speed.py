@@ -50,7 +50,9 @@ the relative width within which the physics evidence reads a line (``evidence.to
 on the steady CWRU records spread by 0.3 % at most."""
 
 
-def _near_supply(rpm: float) -> bool:
+def near_supply(rpm: float) -> bool:
+    """Whether ``rpm``'s shaft rate, or twice it, lies within :data:`SUPPLY_AGREEMENT` of a supply frequency: the
+    supply's lines could pass for such a shaft series."""
     return any(abs(multiple * rpm / 60.0 / supply - 1) <= SUPPLY_AGREEMENT for supply in SUPPLY_HZ for multiple in (1, 2))
 
 
@@ -63,7 +65,6 @@ class SpeedProfile:
         times_s: (n_segments,) each segment's centre, s from the record's start.
         rpm: (n_segments,) the speed read there, rev/min (the median of it and the reads beside it); NaN where fewer
             than two harmonics stood and agreed.
-        harmonics: (n_segments,) how many harmonics agreed on it.
         segment_s: the segments' length, s (half-overlapping).
         stated_rpm: the speed the record was said to turn at, around which the series was sought.
         source: what the speed was read from where it was not the shaft's series (``the tachometer channel tach``).
@@ -71,7 +72,6 @@ class SpeedProfile:
 
     times_s: np.ndarray
     rpm: np.ndarray
-    harmonics: np.ndarray
     segment_s: float
     stated_rpm: float
     source: str = ""
@@ -98,12 +98,6 @@ class SpeedProfile:
     def unsteady(self, tolerance: float = UNSTEADY) -> bool:
         """Whether the speed read varies by more than ``tolerance`` (relative spread)."""
         return bool(self.spread > tolerance)
-
-    @staticmethod
-    def near_supply(rpm: float) -> bool:
-        """Whether ``rpm``'s shaft rate, or twice it, lies within :data:`SUPPLY_AGREEMENT` of a supply frequency: the
-        supply's lines could pass for such a shaft series."""
-        return _near_supply(rpm)
 
     def rpm_at(self, n_samples: int, fs: float) -> np.ndarray:
         """The speed at every sample: linear between the segments read, held beyond the first and the last."""
@@ -171,7 +165,7 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
     median of them all, where two or more do and the 1x or the 2x is among them: a lone line may be anything, and a
     defect's comb can pass for a shaft series from its 4th or 5th harmonic up (BPFO = 3.585 x shaft is the 4th
     harmonic of a shaft 10 % slower), never from its 1st or 2nd. A speed that may be the supply's
-    (:meth:`SpeedProfile.near_supply`) is not read: the supply's lines are steady, and a segment reading them beside
+    (:func:`near_supply`) is not read: the supply's lines are steady, and a segment reading them beside
     segments reading the shaft would pass for a speed that varies.
 
     Args:
@@ -188,7 +182,6 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
     starts = (np.arange(0, spectra.x.size - length + 1, max(1, length // 2))
               if spectra.x.size >= int(round(segment_s * spectra.fs)) else np.zeros(0, dtype=int))
     speeds = np.full(starts.size, np.nan)
-    agreeing = np.zeros(starts.size, dtype=int)
     for index, start in enumerate(starts):
         spectrum, prominence = spectra.of(start)
         places, lowest = [], []
@@ -210,12 +203,11 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
         if agree.sum() < 2 or not lowest[agree].any():
             continue
         speed = 60.0 * float(np.median(places[agree]))
-        if not _near_supply(speed):
+        if not near_supply(speed):
             speeds[index] = speed
-            agreeing[index] = int(agree.sum())
     read = np.isfinite(speeds)
     speeds[read] = smoothed(speeds[read])
-    return SpeedProfile((starts + length / 2) / spectra.fs, speeds, agreeing, segment_s, float(rpm))
+    return SpeedProfile((starts + length / 2) / spectra.fs, speeds, segment_s, float(rpm))
 
 
 def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0, search: float = SEARCH,
@@ -229,14 +221,11 @@ def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0,
     read. A segment the pulses do not span is not read.
     """
     x = _check(pulses, fs, rpm, search, HARMONICS)
-    if x.ndim != 1:
-        raise BearingTwinError(f"pulses must be one 1-D channel (got shape {x.shape})")
     shaft_hz = rpm / 60.0
     segment_s = max(float(segment_s), MIN_REVOLUTIONS / shaft_hz)
     length = int(round(segment_s * fs))
     starts = np.arange(0, x.size - length + 1, max(1, length // 2)) if x.size >= length else np.zeros(0, dtype=int)
-    nothing = SpeedProfile((starts + length / 2) / fs, np.full(starts.size, np.nan), np.zeros(starts.size, dtype=int),
-                           segment_s, float(rpm), source)
+    nothing = SpeedProfile((starts + length / 2) / fs, np.full(starts.size, np.nan), segment_s, float(rpm), source)
     middle = (x.min() + x.max()) / 2.0
     rises = np.flatnonzero((x[:-1] < middle) & (x[1:] >= middle))
     if rises.size < 3:
@@ -251,7 +240,7 @@ def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0,
     turns = np.arange(times.size) / per_turn
     speeds = np.where(spanned, 60.0 * (np.interp(end, times, turns) - np.interp(begin, times, turns)) / segment_s,
                       np.nan)
-    return SpeedProfile(nothing.times_s, speeds, np.where(spanned, per_turn, 0), segment_s, float(rpm), source)
+    return SpeedProfile(nothing.times_s, speeds, segment_s, float(rpm), source)
 
 
 def smoothed(reads: np.ndarray) -> np.ndarray:
