@@ -86,6 +86,8 @@ def dense_reading(model_uri: str, tracking_uri: str, data: Path, hop: int) -> di
     shares = {}
     for path in sorted(data.glob(DEV_RECORDS)):
         prepared = read_record(path, pipeline)
+        if prepared.gaps_s:  # a diagnosis leaves the windows touching them out; this reading cuts every window
+            raise SystemExit(f"{path}: samples with no value (NaN); the dense reading needs records without gaps")
         signal = prepared.recording.signal
         starts = np.arange(0, signal.size - pipeline.window_length + 1, hop)
         states, _ = pipeline.predict(signal[starts[:, None] + np.arange(pipeline.window_length)], prepared.recording.rpm,

@@ -395,13 +395,13 @@ def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
     return " ".join(part for part in (*parts, f"seed={cfg.seed}") if part)
 
 
-def _short_commit(commit: str) -> str:
+def short_commit(commit: str) -> str:
     """A commit as a person reads it: its first 12 hex digits, and ``-dirty`` where the checkout had changes."""
     return commit[:12] + ("-dirty" if commit.endswith("-dirty") else "")
 
 
 @functools.lru_cache(maxsize=1)
-def _git_commit() -> str:
+def git_commit() -> str:
     """The checkout's commit, ``-dirty`` where a file of the code, its configs or its environment changed or a file
     not yet added lies under the code or its configs (a new module imported changes what runs; a results page or the
     README does not); once per process, whose code is what it imported."""
@@ -437,8 +437,8 @@ def environment_tags() -> dict[str, str]:
 def computed_by_other_code(run) -> str:
     """"at <commit> (this code: <commit>-dirty)" where ``run`` was computed by other code than this checkout's (one
     with changes not committed counts as other than the commit without), "" where by this."""
-    then, now = run.data.tags.get("git_commit", "unknown"), _git_commit()
-    return "" if then == now else f"at {_short_commit(then)} (this code: {_short_commit(now)})"
+    then, now = run.data.tags.get("git_commit", "unknown"), git_commit()
+    return "" if then == now else f"at {short_commit(then)} (this code: {short_commit(now)})"
 
 
 def _versions() -> dict[str, str]:
@@ -637,7 +637,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "classifier": choices.get("classifier", ""),
         "experiment": experiment_tag(cfg, choices),
         "seed": str(cfg.seed),
-        "git_commit": _git_commit(),
+        "git_commit": git_commit(),
         "cpu_kernels": cpu_kernels(),  # the network's figures are the same wherever these are (bearingtwin/__init__)
         **_versions(),
         **environment_tags(),

@@ -512,7 +512,7 @@ def repeat(source: ReportInput) -> Report:
     its own, removed after); every metric must match, a training curve at every epoch (timings excepted).
     The report names the code that ran it and the code that repeated it."""
     from bearingtwin.models.experiment import TIMING_METRICS, run_experiment
-    from bearingtwin.tracking.mlflow_logging import _git_commit, _short_commit, metric_series
+    from bearingtwin.tracking.mlflow_logging import git_commit, short_commit, metric_series
 
     run_id = source.settings.get("run_id")
     if not run_id:
@@ -541,8 +541,8 @@ def repeat(source: ReportInput) -> Report:
                      "yes" if match else "NO"])
     verdict = "every metric matches" if ok else "MISMATCH: the run is not reproducible"
     header = ["metric", "logged", "repeated", "match"]
-    codes = (f"Run by the code at {_short_commit(run.data.tags.get('git_commit', 'unknown'))}, repeated by the code at "
-             f"{_short_commit(_git_commit())}, its simulation and features computed afresh.")
+    codes = (f"Run by the code at {short_commit(run.data.tags.get('git_commit', 'unknown'))}, repeated by the code at "
+             f"{short_commit(git_commit())}, its simulation and features computed afresh.")
     return Report(f"## Repeat of run {run_id}: {verdict}\n\n{codes}\n\n" + markdown_table(header, rows), ok=ok)
 
 
