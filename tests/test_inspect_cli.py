@@ -175,9 +175,18 @@ def test_a_labels_row_is_read_as_the_twin_reads_it(capsys, monkeypatch, tmp_path
     summary = json.loads(out)
     assert code == 0 and summary["fs_hz"] == 48000.0 and summary["fs_origin"] == f"{tmp_path / 'labels.csv'} line 2"
     assert summary["shaft_line_check"]["verdict"] == "contradicted"  # 130 is a 12 kHz record: the check says so
-    (tmp_path / "labels.csv").write_text("record,state,rpm\n130.mat,inner,1797\n")
+    # A speed within 1 % of the file's measured one is the file's (a motor drifts by a few rpm), as the twin and a
+    # diagnosis read it, said in a note; one further off is refused, and so is a speed given as an option.
+    (tmp_path / "labels.csv").write_text("record,state,rpm\n130.mat,outer,1790\n")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / '130.mat'}")
+    summary = json.loads(out)
+    assert code == 0 and (summary["rpm"], summary["rpm_origin"]) == (1796.0, "file")
+    assert f"{tmp_path / 'labels.csv'} line 2: rpm=1790 given; the file's measured 1796 rpm read" in summary["meta"]["notes"]
+    (tmp_path / "labels.csv").write_text("record,state,rpm\n130.mat,inner,1750\n")
     code, _, err = run(capsys, monkeypatch, f"path={tmp_path / '130.mat'}")
-    assert code == 2 and "labels.csv line 2: rpm=1797.0 contradicts the file's rpm=" in err
+    assert code == 2 and "labels.csv line 2: rpm=1750.0 contradicts the file's rpm=1796.0 (more than 1% apart)" in err
+    code, _, err = run(capsys, monkeypatch, f"path={tmp_path / '130.mat'}", "rpm=1750")
+    assert code == 2 and "rpm=1750.0 contradicts the file's rpm=1796.0" in err
 
 
 def test_the_units_a_header_states_are_reported_per_channel_where_they_differ(capsys, monkeypatch, tmp_path):

@@ -29,7 +29,7 @@ from bearingtwin.checks import positive_number
 from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
                                 unknown_bearing_note)
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, named_rate_note, read_raw, resolve_fact,
-                                    resolve_fs)
+                                    resolve_fs, resolve_speed)
 from bearingtwin.data.real import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -76,7 +76,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         bearing_note = f"bearing={bearing_name} given, where the file names {named}: its defect lines are {bearing_name}'s"
     names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
-    # replaces one the file merely declares, a speed or state there must agree with the file's.
+    # replaces one the file merely declares; a speed there or given is the file's measured one where within 1 % of it,
+    # refused further off; a state there must agree with the file's.
     row = labels_row(Path(str(path)), state_required=False) if fs is None or rpm is None else None
     table, table_state, table_rpm, table_fs = row or (None, None, None, None)
     fs_origin = "option" if fs is not None else raw.fs_origin or None
@@ -86,13 +87,15 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         else:  # a rate the file stores must agree with the row's, as training and diagnose require
             resolve_fs(raw, table_fs, f"{table}: fs")
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
-    rpm_origin = "option" if rpm is not None else None
-    if rpm is None and raw.rpm is not None:
-        rpm, rpm_origin = resolve_fact(raw, "rpm", raw.rpm, table_rpm, f"{table}: rpm"), "file"
-    elif rpm is None and table_rpm is not None:
-        rpm, rpm_origin = table_rpm, table
+    speed_notes = []  # a given speed read as the file's measured one, or one that may be in Hz
+    rpm_origin, rpm_key = ("option", "rpm") if rpm is not None else (table, f"{table}: rpm")
+    rpm = resolve_speed(raw, rpm if rpm is not None else table_rpm, rpm_key, speed_notes)
+    if raw.rpm is not None:
+        rpm_origin = "file"
     elif rpm is None and raw.nominal_rpm is not None:
         rpm, rpm_origin = raw.nominal_rpm, "nominal"
+    elif rpm is None:
+        rpm_origin = None
     fault = resolve_fact(raw, "fault", raw.fault, table_state, f"{table}: state")
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
@@ -118,7 +121,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     if rpm_origin == "nominal":
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
     given_rate = named_rate_note(raw, fs, "fs" if fs_origin == "option" else f"{table}: fs")
-    for note in filter(None, [bearing_note, given_rate]):
+    for note in filter(None, [bearing_note, given_rate, *speed_notes]):
         summary["meta"]["notes"] = [*summary["meta"].get("notes", []), note]
     if fs_hz is not None:  # clipping, dropouts and dead channels, as a diagnosis or the twin names them
         quality = {name: Recording(raw.channels[name], fs_hz, source=raw.path).quality_notes()

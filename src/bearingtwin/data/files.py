@@ -249,7 +249,7 @@ def recording_from_raw(
     refuse_a_label_the_file_contradicts(raw, fault, fault_key)
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     notes += filter(None, [named_rate_note(raw, fs, fs_key)])
-    rpm = _resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
+    rpm = resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
     # Where the speed comes from: a refusal of the rate names the speed's setting too where one gave it.
     rpm_origin = "file" if raw.rpm is not None else "config" if rpm is not None else None
     if rpm is None and raw.nominal_rpm is not None:
@@ -333,7 +333,7 @@ SLOW_RPM = 120.0
 slow bearings exist (a wind turbine's main shaft turns at 10-20 rpm), so it is said, not refused."""
 
 
-def _resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str]) -> float | None:
+def resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str]) -> float | None:
     """The shaft speed: the file's measured one where it has one and a given ``rpm`` (setting ``key``) agrees with it
     within :data:`SPEED_TOLERANCE` (said in ``notes`` when they differ), else the given one; a given speed the
     file's contradicts is refused."""
