@@ -117,7 +117,7 @@ def feature_rows(records: Path, by_channel: dict[str, list[dict]], pipeline) -> 
     pipeline (``DiagnosisPipeline.features``) on the windows ``bearingtwin-diagnose`` cut."""
     import numpy as np
 
-    from bearingtwin.diagnosis.record import read_record, record_windows
+    from bearingtwin.diagnosis.record import diagnosed_windows, read_record
 
     names = list(getattr(pipeline.extractor, "feature_names_", []))
     shown = [name for name in SHOWN_FEATURES if name in names]
@@ -127,7 +127,7 @@ def feature_rows(records: Path, by_channel: dict[str, list[dict]], pipeline) -> 
             values = []
             for d in tested(diagnoses, state):
                 prepared = read_record(records / f"{d['record']}.mat", pipeline, channel=channel, bearing="cwru_6205")
-                windows, _ = record_windows(prepared.recording.signal, pipeline.window_length)
+                windows, *_ = diagnosed_windows(prepared, pipeline.window_length)
                 values.append(pipeline.features(windows, rpm=prepared.recording.rpm)[:, [names.index(n) for n in shown]])
             median = np.median(np.concatenate(values), axis=0)
             rows.append([state, channel, *(f"{v:.2f}" for v in median)])

@@ -23,8 +23,8 @@ from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import PhysicsFirst, check_segment, evidence_settings, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params, predictions_frame
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
-from bearingtwin.diagnosis.record import (NOISE_FREE_SIMULATION, diagnose_recording, majority, one_line, plot_diagnosis,
-                                         read_record, record_windows, resample_to)
+from bearingtwin.diagnosis.record import (NOISE_FREE_SIMULATION, PreparedRecord, diagnose_recording, diagnosed_windows,
+                                         majority, one_line, plot_diagnosis, read_record, resample_to)
 from bearingtwin.diagnosis.run import NOT_REACHED
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
@@ -444,7 +444,7 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
     signal = prepared.recording.signal
     assert physics_evidence(signal, FS, rpm, prepared.bearing).evidence_state == "outer"
     assert physics_evidence(signal, FS, rpm, BEARING).evidence_state != "outer"  # the drive end's lines miss it
-    windows, _ = record_windows(signal, pipeline.window_length)
+    windows, *_ = diagnosed_windows(prepared, pipeline.window_length)
     outer_lines = [pipeline.extractor.feature_names_.index(f"{h}xbpfo") for h in (1, 2, 3)]
     at_its_own = pipeline.features(windows, rpm, prepared.bearing)[:, outer_lines]  # log10 line / floor
     at_the_models = pipeline.features(windows, rpm)[:, outer_lines]
@@ -740,15 +740,25 @@ def test_resampling_keeps_the_frequencies_and_says_what_it_did():
 
 
 def test_windows_tile_the_record_without_overlap():
-    windows, starts = record_windows(np.arange(10_000.0), 2048)
-    assert windows.shape == (4, 2048) and list(starts) == [0, 2048, 4096, 6144]
+    def windows_of(signal, gaps_s=()):
+        prepared = PreparedRecord(Recording(signal, 1000.0, source="x.npy"), None, 1000.0, gaps_s=list(gaps_s))
+        return diagnosed_windows(prepared, 2048)
+
+    windows, starts, notes, left_out = windows_of(np.arange(10_000.0))
+    assert windows.shape == (4, 2048) and list(starts) == [0, 2048, 4096, 6144] and (notes, left_out) == ([], 0)
     np.testing.assert_array_equal(windows.ravel(), np.arange(4 * 2048.0))
     # A stretch held at one value for a window's length or longer leaves out the windows it touches, no other.
     for length, kept in ((2100, [0, 6144]), (2047, [0, 2048, 4096, 6144])):
         signal = np.arange(10_000.0)
         signal[3000:3000 + length] = 0.0
-        windows, starts = record_windows(signal, 2048)
+        windows, starts, notes, left_out = windows_of(signal)
         assert list(starts) == kept and np.array_equal(windows, signal[np.add.outer(starts, np.arange(2048))])
+        assert left_out == 4 - len(kept) and len(notes) == (left_out > 0)
+    # So does a stretch with no value (bridged when read), in seconds of the record: 4.1-4.2 s touches the third.
+    windows, starts, notes, left_out = windows_of(np.arange(10_000.0), [(4.1, 4.2)])
+    assert list(starts) == [0, 2048, 6144] and left_out == 1 and notes[0].startswith("the 1 window touching samples")
+    with pytest.raises(BearingTwinError, match="x.npy: every window of the model's"):
+        windows_of(np.arange(10_000.0), [(0.0, 9.0)])
 
 
 # ---------------------------------------------------------------- end to end

@@ -25,7 +25,7 @@ from processes import (LOOPBACK, SMOKE, assert_done, child_env, free_loopback_po
 
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.diagnosis.mlflow_model import LEVEL_UNSEEN_COLUMN, STATE_COLUMN, load_diagnosis_model
-from bearingtwin.diagnosis.record import read_record, record_windows
+from bearingtwin.diagnosis.record import diagnosed_windows, read_record
 
 CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 # 1 hp outer race, 12 kHz: the simulated-data models run at 10 kHz, so diagnose resamples it first
@@ -99,7 +99,7 @@ def served(tmp_path_factory):
         for info in cases.values():  # meanwhile, the windows as diagnose prepares them, from the registered model
             _, info["pipeline"], _ = load_diagnosis_model(model_uri, info["store_uri"])
             info["prepared"] = read_record(RECORD, info["pipeline"])  # DE channel, resampled to the model's rate
-            info["windows"], info["starts"] = record_windows(info["prepared"].recording.signal, info["pipeline"].window_length)
+            info["windows"], info["starts"], *_ = diagnosed_windows(info["prepared"], info["pipeline"].window_length)
         for case, info in cases.items():
             assert_done(info["diagnose"].result(), f"bearingtwin-diagnose ({case})")
             info["diagnosis"] = json.loads((info["folder"] / "diagnosis" / RECORD.stem / "diagnosis.json").read_text())

@@ -5,12 +5,12 @@ A record is checked against the model before anything is predicted: its sampling
 its length (at least one window), its values (finite) and its shaft speed where the model's
 features or the physics evidence need it. It is then cut into non-overlapping windows over its
 whole length, every window is predicted (but those touching a dropout as long as a window, which read no
-vibration: :func:`dropout_windows`), and the record's verdict is the state most windows
+vibration, or samples with no value: :func:`diagnosed_windows`), and the record's verdict is the state most windows
 voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 
 ``record``, ``model_uri``, ``model_version_uri`` (an alias replaced by the version it named), ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
 ``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
-``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
+``windows_left_out``, ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
 ``contradicted`` or ``not checked``), ``speed`` (how steadily the shaft turned, read from its harmonic series
 segment by segment, and whether the record was resampled to a steady speed: :func:`steadied`; null where no speed
 was known or the record is the twin's), ``unit_check`` (the record's unit against the model's: ``as stated``,
@@ -488,13 +488,6 @@ def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]
     return dataclasses.replace(recording, signal=signal, fs=target_fs), note
 
 
-def record_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray]:
-    """Non-overlapping windows over the whole record (a remainder shorter than a window is left out)
-    and their first samples, but for the windows a dropout touches (:func:`dropout_windows`)."""
-    starts, touched, _ = dropout_windows(signal, window_length)
-    return _windows_at(signal, starts[~touched], window_length)
-
-
 def _windows_at(signal: np.ndarray, starts: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray]:
     """The windows of ``window_length`` samples beginning at ``starts``, and ``starts``."""
     return signal[starts[:, None] + np.arange(window_length)], starts
@@ -521,7 +514,7 @@ def _touching(starts: np.ndarray, window_length: int, start: int, length: int) -
 
 def dropout_note(recording: Recording, window_length: int, starts: np.ndarray, touched: np.ndarray,
                  dropouts: list[tuple[int, int]]) -> str | None:
-    """Which windows :func:`record_windows` leaves out of ``recording`` (``starts``, ``touched``, ``dropouts``: its
+    """Which windows :func:`diagnosed_windows` leaves out of ``recording`` (``starts``, ``touched``, ``dropouts``: its
     :func:`dropout_windows`), where they and their dropouts are (in seconds); None where it leaves none. A record
     every window of which touches a dropout is refused: no window of it reads a vibration."""
     if not dropouts:
@@ -540,29 +533,40 @@ def dropout_note(recording: Recording, window_length: int, starts: np.ndarray, t
     return f"{'; '.join(parts)}; the verdict is the other {kept} of {starts.size} windows'"
 
 
-def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipeline, model_uri: str,
-                       evidence_settings: dict, model_version_uri: str | None = None) -> tuple[dict, PhysicsEvidence | None]:
-    """The ``diagnosis.json`` content of one record, and the physics evidence behind it; ``model_version_uri``: the
-    model's URI with a registry alias replaced by the version it named (``model_uri`` where there was none)."""
+def diagnosed_windows(prepared: PreparedRecord, window_length: int) -> tuple[np.ndarray, np.ndarray, list[str], int]:
+    """The windows of ``window_length`` samples a diagnosis reads of ``prepared``'s record, their first samples, the
+    record's notes with which windows were left out, and how many: non-overlapping windows over the whole record (a
+    remainder shorter than a window left out), but for those touching a dropout as long as a window
+    (:func:`dropout_windows`) or samples with no value (bridged by :func:`read_record`, so never read by the model). A
+    record every window of which touches one is refused."""
     recording = prepared.recording
     notes = list(prepared.notes)
-    starts, touched, dropouts = dropout_windows(recording.signal, pipeline.window_length)  # once, for note and windows
-    dropped = dropout_note(recording, pipeline.window_length, starts, touched, dropouts)  # said in seconds
+    starts, touched, dropouts = dropout_windows(recording.signal, window_length)  # once, for note and windows
+    dropped = dropout_note(recording, window_length, starts, touched, dropouts)  # said in seconds
     if dropped:  # the longest stretch is among those it names, with what was done about it: not said twice
         notes = [note for note in notes if not note.endswith(HELD_NOTE_END)] + [dropped]
     gapped = np.zeros(starts.size, dtype=bool)
-    for start_s, end_s in prepared.gaps_s:  # bridged (read_record), never read by the model: in samples of the record
+    for start_s, end_s in prepared.gaps_s:  # in seconds of the file: in samples of the record as read
         first = math.floor(start_s * recording.fs)
-        gapped |= _touching(starts, pipeline.window_length, first, math.ceil(end_s * recording.fs) - first)
+        gapped |= _touching(starts, window_length, first, math.ceil(end_s * recording.fs) - first)
     if gapped.any():
         if (touched | gapped).all():
-            raise BearingTwinError(f"{recording.source}: every window of the model's ({pipeline.window_length} samples) "
+            raise BearingTwinError(f"{recording.source}: every window of the model's ({window_length} samples) "
                                    "touches a stretch with no value (NaN) or a dropout, so none can be read; give the "
                                    "stretches between them as files of their own")
         notes.append(f"the {int(gapped.sum())} window{'s' * int(gapped.sum() > 1)} touching samples with no value left "
                      f"out; the verdict is the other {int((~(touched | gapped)).sum())} of {starts.size} windows'")
     touched = touched | gapped
-    windows, starts = _windows_at(recording.signal, starts[~touched], pipeline.window_length)
+    windows, starts = _windows_at(recording.signal, starts[~touched], window_length)
+    return windows, starts, notes, int(touched.sum())
+
+
+def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipeline, model_uri: str,
+                       evidence_settings: dict, model_version_uri: str | None = None) -> tuple[dict, PhysicsEvidence | None]:
+    """The ``diagnosis.json`` content of one record, and the physics evidence behind it; ``model_version_uri``: the
+    model's URI with a registry alias replaced by the version it named (``model_uri`` where there was none)."""
+    recording = prepared.recording
+    windows, starts, notes, left_out = diagnosed_windows(prepared, pipeline.window_length)
     params = {"rpm": float(recording.rpm or 0.0)}
     level = pipeline.level_note(windows)
     if level:
@@ -629,7 +633,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "speed": prepared.speed,
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
-        "windows_left_out": int(touched.sum()),  # touching a dropout as long as a window or a gap with no value
+        "windows_left_out": left_out,  # touching a dropout as long as a window or a gap with no value
         "notes": notes,
     }
     for key in CONDITION_KEYS:  # what a CWRU name says of the record's condition, to score by it
