@@ -22,7 +22,7 @@ from bearingtwin.data.files import RawRecord, read_raw, recording_from_raw, same
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch
+from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
 
 log = logging.getLogger(__name__)
 
@@ -293,7 +293,8 @@ def load_cwru(
     """One channel of a CWRU record, its declared sampling rate checked against the shaft line.
 
     ``fs`` is the rate declared for this record (None: the data set's 12 kHz). All channels
-    of a record share one rate, so every channel is a witness: the rate stands if the shaft
+    of a record share one rate, so every channel is a witness (each of the record's length: :func:`rate_witnesses`,
+    as every command reads a file's channels): the rate stands if the shaft
     series confirms it in any of them (the fan-end channel of the fault records shows it only
     weakly). ``bearing`` (the record's bearing) adds its defect lines as a second witness,
     which tells a rate too low by a whole factor from real subharmonics. With ``check_fs`` a
@@ -311,7 +312,7 @@ def load_cwru(
     for note in recording.meta["notes"]:
         log.warning("%s: %s", path, note)
     defect_hz = None if bearing is None else bearing.defect_frequencies(recording.rpm)
-    checks = check_channels(raw.channels, recording.fs, recording.rpm, defect_hz=defect_hz, tolerance=tolerance,
+    checks = check_channels(rate_witnesses(recording.signal, raw.channels), recording.fs, recording.rpm, defect_hz=defect_hz, tolerance=tolerance,
                             prominence=prominence)
     witness = decisive_channel(checks)
     check = checks[witness]
