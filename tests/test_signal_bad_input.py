@@ -11,6 +11,7 @@ from bearingtwin.signal.entropy import bin_indices, mutual_information
 from bearingtwin.signal.kurtogram import kurtogram, spectral_kurtosis
 from bearingtwin.signal.vmd import vmd
 from bearingtwin.signal.sampling_rate import check_channels, check_sampling_rate
+from bearingtwin.signal.speed import SpeedProfile, order_track, tachometer_profile
 from bearingtwin.signal.welch import WelchPSD
 
 FS = 12000.0
@@ -71,6 +72,13 @@ BAD_INPUT = {
     "check_channels tolerance 0": (lambda: check_channels({"a": SIGNALS[0]}, FS, 1797.0, tolerance=0.0), "tolerance"),
     "check_sampling_rate tolerance negative": (lambda: check_sampling_rate(SIGNALS[0], FS, 1797.0, tolerance=-1),
                                                "tolerance"),
+    "check_sampling_rate batch": (lambda: check_sampling_rate(SIGNALS, FS, 1797.0), "signal"),
+    # Order tracking had raised scipy's "invalid shape for coordinate array" on a batch; a tachometer's error had
+    # named its pulses "signal".
+    "order_track batch": (lambda: order_track(SIGNALS, FS, SpeedProfile(np.array([0.1, 0.2]), np.array([1797.0, 1800.0]),
+                                                                        0.2, 1797.0, "signal")), "signal"),
+    "tachometer_profile batch": (lambda: tachometer_profile(SIGNALS, FS, 1797.0), "pulses"),
+    "tachometer_profile NaN": (lambda: tachometer_profile(_with_nan(SIGNALS[0], 9), FS, 1797.0), "pulses"),
 }
 
 

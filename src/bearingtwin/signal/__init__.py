@@ -1,4 +1,6 @@
-"""Signal processing in the style of scipy.signal: arrays in, arrays out, batched along the leading axis."""
+"""Signal processing in the style of scipy.signal: arrays in, arrays out, batched along the leading axis, but for
+what reads one whole record at once (the kurtogram, the rate check, the speed profiles, order tracking), which takes
+one 1-D record and refuses more in one line."""
 
 from bearingtwin.signal.entropy import (
     bin_indices,

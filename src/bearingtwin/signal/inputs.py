@@ -24,6 +24,15 @@ def as_signal(x, name: str = "x") -> np.ndarray:
     return x
 
 
+def as_record(x, name: str = "signal", reader: str = "") -> np.ndarray:
+    """``x`` as :func:`as_signal` takes it, and one 1-D record: for what reads a whole record at once (its
+    spectrum's resolution, its speed over time), refused otherwise naming ``name`` and the ``reader``."""
+    x = as_signal(x, name)
+    if x.ndim != 1:
+        raise BearingTwinError(f"{name} must be one 1-D record{f' for {reader}' if reader else ''} (got shape {x.shape})")
+    return x
+
+
 def check_positive(value, name: str = "fs", what: str = "sampling rate in Hz") -> None:
     """Refuse a sampling rate (or another positive quantity, ``what``) that is not a positive, finite real number.
 

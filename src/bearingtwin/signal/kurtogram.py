@@ -24,7 +24,7 @@ import numpy as np
 import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.inputs import as_signal, check_positive
+from bearingtwin.signal.inputs import as_record, as_signal, check_positive
 
 
 def spectral_kurtosis(x, fs_hz: float, nperseg: int) -> tuple[np.ndarray, np.ndarray]:
@@ -79,9 +79,7 @@ def kurtogram(x, fs_hz: float, nperseg=(16, 32, 64, 128, 256), min_hz: float = 0
     whole record's thousands of segments keep it near 0, so an SK well above that scatter marks
     impacts.
     """
-    x = as_signal(x)
-    if x.ndim != 1:
-        raise BearingTwinError(f"x must be one 1-D signal for the kurtogram (got shape {x.shape})")
+    x = as_record(x, "x", "the kurtogram")
     check_positive(fs_hz, "fs_hz")
     if isinstance(nperseg, (int, np.integer)):  # one window length, as spectral_kurtosis takes it
         nperseg = (nperseg,)

@@ -37,7 +37,7 @@ from scipy.ndimage import median_filter
 
 from bearingtwin.checks import is_finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.inputs import as_signal, check_positive
+from bearingtwin.signal.inputs import as_record, check_positive
 
 VERDICTS = ("consistent", "contradicted", "ambiguous")
 VERDICTS_BY_FAVOUR = ("consistent", "ambiguous", "contradicted")
@@ -271,9 +271,7 @@ def check_sampling_rate(
         follow_implied: check a contradiction's implied rate in turn (False: the rate the nearest series
             implies, as read).
     """
-    signal = as_signal(signal, "signal")  # real, finite, at least 2 samples: as every signal function takes it
-    if signal.ndim != 1:
-        raise BearingTwinError(f"signal must be one 1-D record for the sampling-rate check (got shape {signal.shape})")
+    signal = as_record(signal, "signal", "the sampling-rate check")  # real, finite, at least 2 samples, as all take it
     check_positive(fs, "fs")
     check_positive(rpm, "rpm", "shaft speed in rev/min")
     for name, value in (("tolerance", tolerance), ("prominence", prominence), ("harmonic_tolerance", harmonic_tolerance),

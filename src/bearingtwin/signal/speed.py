@@ -23,7 +23,7 @@ import scipy.ndimage
 import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.signal.inputs import as_signal, check_positive
+from bearingtwin.signal.inputs import as_record, check_positive
 
 SEARCH = 0.12
 """How far from the stated speed (relative) each segment's shaft series is sought. Up to the 8th harmonic a harmonic's
@@ -141,10 +141,8 @@ class _SeriesSpectrum:
         return spectrum, spectrum / np.maximum(background, np.finfo(float).tiny)
 
 
-def _check(signal, fs, rpm, search, harmonics, agreement=AGREEMENT) -> np.ndarray:
-    x = as_signal(signal, "signal")
-    if x.ndim != 1:
-        raise BearingTwinError(f"signal must be one 1-D record (got shape {x.shape})")
+def _check(signal, fs, rpm, search, harmonics, agreement=AGREEMENT, name="signal") -> np.ndarray:
+    x = as_record(signal, name)
     check_positive(fs, "fs")
     check_positive(rpm, "rpm", "shaft speed in rev/min")
     if not 0 < search < 0.5 or not 0 < agreement < search or int(harmonics) != harmonics or harmonics < 2:
@@ -220,7 +218,7 @@ def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0,
     speed more than ``search`` from the stated one (a tachometer on another shaft, a speed stated far off), nothing is
     read. A segment the pulses do not span is not read.
     """
-    x = _check(pulses, fs, rpm, search, HARMONICS)
+    x = _check(pulses, fs, rpm, search, HARMONICS, name="pulses")
     shaft_hz = rpm / 60.0
     segment_s = max(float(segment_s), MIN_REVOLUTIONS / shaft_hz)
     length = int(round(segment_s * fs))
@@ -306,7 +304,7 @@ def order_track(signal, fs: float, profile: SpeedProfile) -> tuple[np.ndarray, f
     0.8 of the Nyquist frequency within 0.02 dB (1.2 dB down at 0.9, where the doubling filter's transition band lies).
     The record keeps its length to a sample.
     """
-    x = as_signal(signal, "signal")
+    x = as_record(signal)
     steady_time, mean_rpm = steady_times(profile, x.size, fs)
     n_out = int(round(steady_time[-1] * fs)) + 1
     # Where each steady sample lies in the recorded time, in samples of the doubled rate.
