@@ -2,8 +2,9 @@
 
     bearingtwin-twin measured.path=<file> measured.fs=12000 measured.rpm=1797 measured.fault=outer out=<dir>
 
-Writes <dir>/twin_report.json (baseline_error, ranking, steps, final_error, summary) and
-PNG figures beside it; logs them to MLflow unless tracking.enabled=false.
+Writes <dir>/twin_report.json (the measurement, the verdict, the fitted operating point, the ranking, the effects
+added step by step and what was left unexplained: README's "Holding the twin against a measurement" lists its keys)
+and PNG figures beside it; logs them to MLflow unless tracking.enabled=false.
 """
 
 from __future__ import annotations

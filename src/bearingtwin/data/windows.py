@@ -6,7 +6,8 @@ from a 12 kHz, 10 s record do), a random split puts samples that appear in test
 windows into training windows as well: the test set is not unseen data. The
 ``block`` split trains on windows from the first part of every record and tests
 on windows from the last part, discarding any window that would straddle the
-boundary, so no sample is shared.
+boundary, so no sample is shared. The ``record`` split holds whole records out for
+testing, where a data set has several records of each state.
 """
 
 from __future__ import annotations

@@ -13,7 +13,9 @@ It is saved as plain, inspectable files, nothing from the training data or the c
 - ``network.pt`` (CNN-BiLSTM): the network's ``state_dict``, loadable on a CPU without a
   Lightning Trainer, beside the feature scaler's statistics in ``pipeline.json``;
 - ``svm.json`` and ``svm.npz`` (SVM): the fitted scikit-learn objects' state, structure and
-  arrays (:mod:`bearingtwin.models.persistence`).
+  arrays (:mod:`bearingtwin.models.persistence`);
+- ``sklearn.skops`` (any other scikit-learn classifier, ``classifier=sklearn``): the fitted
+  estimator in skops' format, read back trusting only the types of the packages it may hold.
 """
 
 from __future__ import annotations
@@ -49,8 +51,8 @@ class DiagnosisPipeline:
 
     Attributes:
         extractor: a fitted extractor of :data:`bearingtwin.features.extractor.EXTRACTORS`.
-        classifier: a fitted :class:`CnnBiLstmClassifier` or :class:`SvmClassifier`; its
-            ``classes_`` are :data:`FAULTS` indices.
+        classifier: a fitted :class:`CnnBiLstmClassifier`, :class:`SvmClassifier` or :class:`SklearnClassifier`;
+            its ``classes_`` are :data:`FAULTS` indices.
         window_length: samples per window.
         fs_hz: sampling rate the model was trained at, Hz.
         window_normalization: ``none`` or ``zscore`` (:func:`normalize_windows`).
