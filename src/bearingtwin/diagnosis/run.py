@@ -184,9 +184,9 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     tracking_uri = str(cfg.tracking.uri)
     out = output_folder(cfg.out).resolve()  # named in the closing summary: where it is from anywhere
     figures = true_or_false(cfg.figures, "figures")
-    tracking = true_or_false(cfg.tracking.enabled, "tracking.enabled")
+    logged = true_or_false(cfg.tracking.enabled, "tracking.enabled")  # to MLflow
     settings = evidence_settings(OmegaConf.to_container(cfg.evidence, resolve=True))
-    tracking_speed = (true_or_false(cfg.order_tracking.enabled, "order_tracking.enabled"),
+    order_tracking = (true_or_false(cfg.order_tracking.enabled, "order_tracking.enabled"),
                       _unsteady(cfg.order_tracking.unsteady))
     bearing = chosen_bearing(cfg)
     for name, unit in (("rpm", "rev/min"), ("fs", "Hz")):  # once, before any file: it applies to every one
@@ -203,12 +203,12 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
     # Once the command can diagnose (a mistyped model costs no earlier results), before the first record: an
     # interrupted run then leaves its own records' outputs alone, never beside an earlier run's.
-    tracked = open_diagnosis_run(cfg, table, bearing, pinned) if tracking else None
+    tracked = open_diagnosis_run(cfg, table, bearing, pinned) if logged else None
     earlier = remove_earlier_outputs(out, records)  # after the store answered: a failing store costs no results
     run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier)
     try:
         diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures, pinned,
-                         tracking_speed)
+                         order_tracking)
     except KeyboardInterrupt:  # an interrupt (SIGINT, SIGTERM): the records it left are listed as left, not omitted
         reached = len(run.rows)  # one row per record, in the records' order
         run.rows += [{"record": path.stem, "error": NOT_REACHED} for path in records[reached:]]
@@ -288,10 +288,10 @@ def write_outputs(result: dict, evidence: PhysicsEvidence | None, class_names: l
 
 def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, model, pipeline, settings: dict,
                      labels: dict, bad_rows: dict, table: Path | None, bearing: str | None, figures: bool,
-                     pinned_uri: str, tracking_speed: tuple[bool, float]) -> None:
+                     pinned_uri: str, order_tracking: tuple[bool, float]) -> None:
     """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores); a record whose labels
     row does not read (``bad_rows``, :func:`~bearingtwin.data.real.read_labels`) fails with its row's error.
-    ``tracking_speed``: whether an unsteady record is order-tracked, and the spread of its speed that is unsteady.
+    ``order_tracking``: whether an unsteady record is order-tracked, and the spread of its speed that is unsteady.
     ``pinned_uri``: the model's URI with an alias replaced by the version it names (:func:`~bearingtwin.diagnosis.mlflow_model.load_diagnosis_model`)."""
     out = run.out
     windows_total = windows_correct = 0
@@ -320,7 +320,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             its_row = f"{table if table else 'labels'} (its row for {path.name}): "
             prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing,
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
-                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=tracking_speed)
+                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=order_tracking)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             calibrated_on = bool(_names_of(path, table) & calibrated)
             result["calibration_record"] = calibrated_on
