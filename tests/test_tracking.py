@@ -19,7 +19,7 @@ from bearingtwin import PINNED_CPU_KERNELS, PINS_CPU_KERNELS
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.experiment import ExperimentResult
 from bearingtwin.physics.geometry import FAULTS
-from bearingtwin.tracking import mlflow_logging
+from bearingtwin.tracking import mlflow_logging, provenance
 from bearingtwin.tracking.mlflow_logging import (
     SweepInfo,
     artifact_location,
@@ -230,9 +230,9 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog, 
     assert skipped.skipped and skipped.other_code.startswith("at 0123456789ab (this code: ")  # for the closing summary
     assert "by the code at 0123456789ab (this code: " in caplog.text and "tracking.skip_finished=false" in caplog.text
     # The same commit with the checkout changed since (or then): the two differ by -dirty, and the log shows it.
-    now = mlflow_logging.git_commit().removesuffix("-dirty")
+    now = provenance.git_commit().removesuffix("-dirty")
     client.set_tag(done.run_id, "git_commit", now + "-dirty")
-    monkeypatch.setattr(mlflow_logging, "git_commit", lambda: now)
+    monkeypatch.setattr(provenance, "git_commit", lambda: now)
     caplog.clear()
     with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
         assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped

@@ -44,7 +44,6 @@ import logging
 import os
 import random
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -63,7 +62,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin import cpu_kernels
-from bearingtwin.config import REPO_ROOT, exit_on_user_error, experiment_name, refuse_unknown_keys
+from bearingtwin.config import exit_on_user_error, experiment_name, refuse_unknown_keys
 from bearingtwin.checks import check_seed
 from bearingtwin.data.build import check_data_settings, require_files
 from bearingtwin.errors import BearingTwinError
@@ -78,7 +77,7 @@ from bearingtwin.tracking.lifecycle import (
     start_ray_keeping_signals,
 )
 from bearingtwin.tracking import open_command
-from bearingtwin.tracking.provenance import installed_versions
+from bearingtwin.tracking.provenance import computed_by_other_code, environment_tags, git_commit, installed_versions
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
 log = logging.getLogger(__name__)
@@ -393,52 +392,6 @@ def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
     if sweep:
         parts += sweep.varied
     return " ".join(part for part in (*parts, f"seed={cfg.seed}") if part)
-
-
-def short_commit(commit: str) -> str:
-    """A commit as a person reads it: its first 12 hex digits, and ``-dirty`` where the checkout had changes."""
-    return commit[:12] + ("-dirty" if commit.endswith("-dirty") else "")
-
-
-@functools.lru_cache(maxsize=1)
-def git_commit() -> str:
-    """The checkout's commit, ``-dirty`` where a file of the code, its configs or its environment changed or a file
-    not yet added lies under the code or its configs (a new module imported changes what runs; a results page or the
-    README does not); once per process, whose code is what it imported."""
-    def git(*args: str) -> str:
-        return subprocess.run(["git", "-C", str(REPO_ROOT), *args], capture_output=True, text=True, timeout=10,
-                              check=True).stdout.strip()
-
-    try:
-        commit = git("rev-parse", "HEAD")
-        dirty = git("status", "--porcelain", "--untracked-files=no", "--", "src", "conf", "pyproject.toml",
-                    "requirements.lock") or git("status", "--porcelain", "--untracked-files=normal", "--", "src", "conf")
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return commit + ("-dirty" if dirty else "")
-
-
-def environment_tags() -> dict[str, str]:
-    """The command line's overrides (Hydra's, as given: the run's config is also its artifact) and the lock the
-    environment was installed from (its SHA-256, first 16 hex digits), where there are such."""
-    tags = {}
-    try:
-        from hydra.core.hydra_config import HydraConfig
-
-        tags["overrides"] = " ".join(HydraConfig.get().overrides.task)[:5000]  # MLflow's limit on a tag's value
-    except ValueError:  # not under Hydra (the Python API)
-        pass
-    lock = REPO_ROOT / "requirements.lock"
-    if lock.is_file():
-        tags["requirements_lock"] = hashlib.sha256(lock.read_bytes()).hexdigest()[:16]
-    return tags
-
-
-def computed_by_other_code(run) -> str:
-    """"at <commit> (this code: <commit>-dirty)" where ``run`` was computed by other code than this checkout's (one
-    with changes not committed counts as other than the commit without), "" where by this."""
-    then, now = run.data.tags.get("git_commit", "unknown"), git_commit()
-    return "" if then == now else f"at {short_commit(then)} (this code: {short_commit(now)})"
 
 
 def _versions() -> dict[str, str]:

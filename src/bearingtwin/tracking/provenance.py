@@ -1,5 +1,6 @@
-"""Where numbers come from: the package versions a run or a model was made with, and which run
-sizes produced a results file's numbers (a smoke run cannot replace a full one).
+"""Where numbers come from: the code (its commit) and the package versions a run or a model was made with, the
+command's overrides and the lock the environment came from, and which run sizes produced a results file's numbers (a
+smoke run cannot replace a full one).
 
 A table regenerated after a smoke sweep (2 s of signal, 12 windows, 2 epochs) looks just
 like the committed full-size one, with other numbers. So every generated block records the
@@ -10,11 +11,15 @@ without a record (written before records existed) counts as made at the configur
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import importlib.metadata
 import json
 import re
+import subprocess
 from pathlib import Path
 
+from bearingtwin.config import REPO_ROOT
 from bearingtwin.errors import BearingTwinError
 
 
@@ -27,6 +32,52 @@ def installed_versions(packages) -> dict[str, str | None]:
         except importlib.metadata.PackageNotFoundError:
             versions[package] = None
     return versions
+
+def short_commit(commit: str) -> str:
+    """A commit as a person reads it: its first 12 hex digits, and ``-dirty`` where the checkout had changes."""
+    return commit[:12] + ("-dirty" if commit.endswith("-dirty") else "")
+
+
+@functools.lru_cache(maxsize=1)
+def git_commit() -> str:
+    """The checkout's commit, ``-dirty`` where a file of the code, its configs or its environment changed or a file
+    not yet added lies under the code or its configs (a new module imported changes what runs; a results page or the
+    README does not); once per process, whose code is what it imported."""
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-C", str(REPO_ROOT), *args], capture_output=True, text=True, timeout=10,
+                              check=True).stdout.strip()
+
+    try:
+        commit = git("rev-parse", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no", "--", "src", "conf", "pyproject.toml",
+                    "requirements.lock") or git("status", "--porcelain", "--untracked-files=normal", "--", "src", "conf")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return commit + ("-dirty" if dirty else "")
+
+
+def environment_tags() -> dict[str, str]:
+    """The command line's overrides (Hydra's, as given: the run's config is also its artifact) and the lock the
+    environment was installed from (its SHA-256, first 16 hex digits), where there are such."""
+    tags = {}
+    try:
+        from hydra.core.hydra_config import HydraConfig
+
+        tags["overrides"] = " ".join(HydraConfig.get().overrides.task)[:5000]  # MLflow's limit on a tag's value
+    except ValueError:  # not under Hydra (the Python API)
+        pass
+    lock = REPO_ROOT / "requirements.lock"
+    if lock.is_file():
+        tags["requirements_lock"] = hashlib.sha256(lock.read_bytes()).hexdigest()[:16]
+    return tags
+
+
+def computed_by_other_code(run) -> str:
+    """"at <commit> (this code: <commit>-dirty)" where ``run`` was computed by other code than this checkout's (one
+    with changes not committed counts as other than the commit without), "" where by this."""
+    then, now = run.data.tags.get("git_commit", "unknown"), git_commit()
+    return "" if then == now else f"at {short_commit(then)} (this code: {short_commit(now)})"
+
 
 SIZE_KEYS = (
     "data.duration",

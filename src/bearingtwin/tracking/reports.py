@@ -512,7 +512,8 @@ def repeat(source: ReportInput) -> Report:
     its own, removed after); every metric must match, a training curve at every epoch (timings excepted).
     The report names the code that ran it and the code that repeated it."""
     from bearingtwin.models.experiment import TIMING_METRICS, run_experiment
-    from bearingtwin.tracking.mlflow_logging import git_commit, short_commit, metric_series
+    from bearingtwin.tracking.mlflow_logging import metric_series
+    from bearingtwin.tracking.provenance import git_commit, short_commit
 
     run_id = source.settings.get("run_id")
     if not run_id:
