@@ -5,7 +5,6 @@
 
 from __future__ import annotations
 
-import math
 import shlex
 from pathlib import Path
 
@@ -17,11 +16,12 @@ from bearingtwin.cli.summary import closing_summary
 from bearingtwin.checks import true_or_false
 from bearingtwin.config import (bearing_overrides, exit_on_user_error, hydra_command, load_bearing, output_folder,
                                 refuse_unknown_keys, search_path_override)
-from bearingtwin.data.files import SIMULATOR_MARK
+from bearingtwin.data.files import save_simulated_record
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, oversample_factor, simulate
+from bearingtwin.twin.operating_point import in_downward_load_frame
 
 
 def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geometry: BearingGeometry) -> list[Path]:
@@ -101,12 +101,7 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     the bearing, the sensor's race and direction and the radial load (held by a user who knows their rig), and the
     oversampling it was made with; the twin's own defaults (a housing sensor, a loaded rig) would otherwise be
     fitted to a record they cannot match. ``overrides``: the command line's of the bearing's settings, held too.
-
-    The twin's operating point knows a downward load only. The model is isotropic and sees only the sum of the
-    constant forces on the inner ring (the load and its weight), so a load in another direction is the same
-    record in a frame turned until that sum points down: the sensor's direction is given in that frame, and the
-    load as the sum's size less the weight the twin adds itself (where the sum is smaller than the weight, the
-    direction is still turned and the load left to be fitted)."""
+    A load in another direction than down is held as the twin can hold it (:func:`in_downward_load_frame`)."""
     words = [f"bearingtwin-twin measured.path={out}"]
     if bearing_name and bearing_name != "paper":
         words.append(f"bearing={bearing_name}")
@@ -114,20 +109,13 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
     words += [shlex.quote(override) for override in overrides]  # the bearing the record was made with
     race, axis = sensor.split("_")
     angle = simulator.get("sensor_angle_deg")
-    angle = float(angle) if angle is not None else (0.0 if axis == "x" else 90.0)
-    load_x, load_y = float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0)
-    weight = float(bearing.inner_mass_kg) * float(simulator.get("gravity_m_per_s2") or 0.0)
-    sum_x, sum_y = load_x, load_y - weight
-    size = math.hypot(sum_x, sum_y)
-    load = size - weight
-    if load_x == 0.0 and load_y <= 0.0:
-        load = -load_y  # the twin's own frame: nothing to turn
-    elif size > 0.0:
-        angle += -90.0 - math.degrees(math.atan2(sum_y, sum_x))  # the turn that points the forces' sum down
-    angle = (angle + 180.0) % 360.0 - 180.0  # within a half turn either side of x (400 deg is 40)
+    angle, load = in_downward_load_frame(
+        float(angle) if angle is not None else (0.0 if axis == "x" else 90.0),
+        float(simulator.get("load_x_n") or 0.0), float(simulator.get("load_y_n") or 0.0),
+        float(bearing.inner_mass_kg) * float(simulator.get("gravity_m_per_s2") or 0.0))
     # "+ 0.0" below: a zero prints as 0, never -0
     words += [f"operating_point.sensor={race}", f"operating_point.sensor_angle_deg={round(angle, 1) + 0.0:g}"]
-    if load >= 0.0:
+    if load is not None:
         words.append(f"operating_point.radial_load_n={round(load, 1) + 0.0:g}")
     if oversample_factor(simulator) > 1:  # the twin heard as the record was: anti-aliased alike
         words.append(f"simulator.oversample={oversample_factor(simulator)}")
@@ -161,11 +149,8 @@ def simulate_command(cfg: DictConfig) -> None:
     recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)
     changed = geometry_changed(cfg)
     out.parent.mkdir(parents=True, exist_ok=True)
-    # The facts a reader needs beside the samples: rate, speed, state, unit and the bearing (its defect lines
-    # witness the rate: bearingtwin-inspect and the twin read it).
-    np.savez(out, signal=recording.signal, channels=channels, channel_names=np.array(CHANNELS), fs=recording.fs,
-             rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
-             made_by=SIMULATOR_MARK, **record_facts(cfg, recording.fault, recording.meta.get("notes", []), changed))
+    save_simulated_record(out, recording, channels, CHANNELS,
+                          record_facts(cfg, recording.fault, recording.meta.get("notes", []), changed))
     written = [out]
     if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,

@@ -593,6 +593,18 @@ def _fact_name(name: str) -> str:
 
 SIMULATOR_MARK = "bearingtwin-simulate"
 """The ``made_by`` fact of a record ``bearingtwin-simulate`` wrote."""
+
+
+def save_simulated_record(path: Path, recording: Recording, channels: np.ndarray, channel_names, facts: dict) -> None:
+    """Write a record ``bearingtwin-simulate`` made, as :func:`read_raw` reads it back: the sensor's channel
+    (``signal``), every sensor's (``channels``, a row per one of ``channel_names``), the facts a reader needs beside
+    the samples (rate, speed, state, sensor, unit) and ``facts`` (the bearing, whose defect lines witness the rate; the
+    settings no sample shows), marked :data:`SIMULATOR_MARK`."""
+    np.savez(path, signal=recording.signal, channels=channels, channel_names=np.array(channel_names), fs=recording.fs,
+             rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
+             made_by=SIMULATOR_MARK, **facts)
+
+
 SIMULATED_RATE = "simulation"
 """``fs_origin`` of such a record's rate: exact by construction, and the twin has no shaft line (no residual
 unbalance) to check it by, so no rate check reads it (one had taken its balls' passing series for the shaft's)."""

@@ -15,6 +15,7 @@ race accelerations), so the calibration searches it on a grid inside every trial
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -187,6 +188,26 @@ class OperatingPoint:
             if value is not None:
                 start[name] = float(value) / parameter.scale if parameter else float(value)
         return start
+
+
+def in_downward_load_frame(sensor_angle_deg: float, load_x_n: float, load_y_n: float,
+                           weight_n: float) -> tuple[float, float | None]:
+    """A sensor's direction (deg from x) and a radial load (N, in x and y) as the operating point holds them, which
+    knows a downward load only: the direction, within half a turn of x, and the load, None where it is to be fitted.
+
+    The model is isotropic and sees only the sum of the constant forces on the inner ring (the load and its weight,
+    ``weight_n``), so a load in another direction is the same record in a frame turned until that sum points down: the
+    sensor's direction is given in that frame, and the load as the sum's size less the weight the twin adds itself
+    (where the sum is smaller than the weight, the direction is still turned and the load left to be fitted)."""
+    sum_x, sum_y = load_x_n, load_y_n - weight_n
+    size = math.hypot(sum_x, sum_y)
+    load = size - weight_n
+    angle = sensor_angle_deg
+    if load_x_n == 0.0 and load_y_n <= 0.0:
+        load = -load_y_n  # the twin's own frame: nothing to turn
+    elif size > 0.0:
+        angle += -90.0 - math.degrees(math.atan2(sum_y, sum_x))  # the turn that points the forces' sum down
+    return (angle + 180.0) % 360.0 - 180.0, (load if load >= 0.0 else None)  # 400 deg is 40
 
 
 def describe_sensor(sensor: Mapping) -> str:
