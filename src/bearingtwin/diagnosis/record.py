@@ -108,57 +108,11 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         named = None
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
-    rate_check = "not checked"
-    speed = None
-    if recording.rpm is None and recording.meta.get("no_speed"):
-        notes.append(f"the file is {recording.meta['no_speed']}: no physics evidence and no rate check")
-    elif recording.rpm is None:  # a HUST export under a name of one's own: why, where it says its speed
-        why = f" ({recording.meta['unread_name']}, which would give it)" if recording.meta.get("unread_name") else ""
-        notes.append(f"the file states no shaft speed{why}: no physics evidence and no rate check (give rpm=<rev/min>, "
-                     "or the file's speed in the rpm column of a labels.csv beside it)")
-    elif recording.meta.get("fs_origin") == SIMULATED_RATE:
-        notes.append(RATE_NOT_CHECKED_SIMULATED)
-        if "noise" not in str(recording.meta.get("effects", "noise")).split(", "):  # as bearingtwin-simulate lists them
-            notes.append(NOISE_FREE_SIMULATION)
-        if recording.meta.get("simulation_notes"):  # a defect no loaded ball met: its stated state is not heard
-            notes.append(f"the simulation noted: {recording.meta['simulation_notes']}")
-    else:
-        recording, speed_notes, speed, gaps = steadied(recording, *order_tracking, gaps=gaps,
-                                                       tachometer=_tachometer(raw, recording))
-        notes += speed_notes
-        # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then. The
-        # rate is checked against the stated speed: a tracked record's mean speed was read from the series the check
-        # reads, and would confirm any rate near the right one.
-        read_at, steady_rpm = recording.fs, recording.rpm
-        recording, rate_notes, rate_check = _checked_rate(dataclasses.replace(recording, rpm=speed["stated_rpm"]),
-                                                          record_bearing,
-                                                          channels={} if speed["tracked"] else raw.channels,
-                                                          declared_only=fs is None and raw.fs_origin == "declared")
-        recording = dataclasses.replace(recording, rpm=steady_rpm)
-        notes += rate_notes
-        if recording.fs != read_at:  # the check found the file's rate (a CWRU record at 48 kHz): its times are shorter
-            speed.update(segment_s=speed["segment_s"] * read_at / recording.fs,
-                         times_s=[time * read_at / recording.fs for time in speed["times_s"]])
-        off = speed_off_note(speed, recording.rpm) if recording.fs == read_at else None  # at the rate it was read at
-        if off:
-            speed["off"] = True
-            notes.append(off)
-    name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
-    if true_state is None:  # what the file's name (CWRU) or content states
-        true_state = name.fault if name is not None else recording.fault
-        if recording.meta.get("unlabelled_state"):
-            notes.append(f"the file states {recording.meta['unlabelled_state']}, a state this model cannot answer "
-                         f"(trained on {', '.join(pipeline.class_names)}): not scored")
-    else:
-        true_state = check_fault(true_state)
-        refuse_a_label_the_file_contradicts(raw, true_state, "the label")
-        if name is not None and name.fault != true_state:  # a CWRU name speaks of one bearing, a label maybe of another
-            notes.append(f"labelled {true_state} where the file name says {name.fault}: scored as {true_state}")
-        elif recording.fault not in (None, true_state):
-            raise BearingTwinError(f"{recording.source}: labelled {true_state}, but the file states fault={recording.fault}")
-    if true_state is not None and true_state not in pipeline.class_names:  # the verdict can only be wrong
-        notes.append(f"true state {true_state}, which this model cannot answer: it was trained on "
-                     f"{', '.join(pipeline.class_names)} only")
+    recording, speed_notes, rate_check, speed, gaps = _speed_and_rate(recording, raw, record_bearing, gaps,
+                                                                      order_tracking, declared_only=fs is None)
+    notes += speed_notes
+    true_state, truth_notes = _true_state(path, raw, recording, true_state, pipeline)
+    notes += truth_notes
     original_fs = recording.fs
     if file_gaps:  # in seconds at the rate the check settled on
         notes.append(gaps_note(recording, file_gaps))
@@ -185,6 +139,76 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                "give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv beside it")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
                           gaps_s)
+
+
+def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, gaps: list[tuple[int, int]],
+                    order_tracking: tuple[bool, float], declared_only: bool
+                    ) -> tuple[Recording, list[str], str, dict | None, list[tuple[int, int]]]:
+    """A measured record steadied where its shaft speed varies (:func:`steadied`), its rate checked against the shaft
+    line (:func:`_checked_rate`; ``declared_only``: no rate was given, so one the file merely declares may be
+    corrected): the record, the notes, the rate check's verdict, the speed as read (None where none was known or
+    the record is the twin's) and the ``gaps`` (``(start, length)`` samples) where steadying moved them. A record
+    without a speed, or a simulation, is said to be read without the check."""
+    notes, rate_check, speed = [], "not checked", None
+    if recording.rpm is None and recording.meta.get("no_speed"):
+        notes.append(f"the file is {recording.meta['no_speed']}: no physics evidence and no rate check")
+    elif recording.rpm is None:  # a HUST export under a name of one's own: why, where it says its speed
+        why = f" ({recording.meta['unread_name']}, which would give it)" if recording.meta.get("unread_name") else ""
+        notes.append(f"the file states no shaft speed{why}: no physics evidence and no rate check (give rpm=<rev/min>, "
+                     "or the file's speed in the rpm column of a labels.csv beside it)")
+    elif recording.meta.get("fs_origin") == SIMULATED_RATE:
+        notes.append(RATE_NOT_CHECKED_SIMULATED)
+        if "noise" not in str(recording.meta.get("effects", "noise")).split(", "):  # as bearingtwin-simulate lists them
+            notes.append(NOISE_FREE_SIMULATION)
+        if recording.meta.get("simulation_notes"):  # a defect no loaded ball met: its stated state is not heard
+            notes.append(f"the simulation noted: {recording.meta['simulation_notes']}")
+    else:
+        recording, speed_notes, speed, gaps = steadied(recording, *order_tracking, gaps=gaps,
+                                                       tachometer=_tachometer(raw, recording))
+        notes += speed_notes
+        # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then. The
+        # rate is checked against the stated speed: a tracked record's mean speed was read from the series the check
+        # reads, and would confirm any rate near the right one.
+        read_at, steady_rpm = recording.fs, recording.rpm
+        recording, rate_notes, rate_check = _checked_rate(dataclasses.replace(recording, rpm=speed["stated_rpm"]),
+                                                          record_bearing,
+                                                          channels={} if speed["tracked"] else raw.channels,
+                                                          declared_only=declared_only and raw.fs_origin == "declared")
+        recording = dataclasses.replace(recording, rpm=steady_rpm)
+        notes += rate_notes
+        if recording.fs != read_at:  # the check found the file's rate (a CWRU record at 48 kHz): its times are shorter
+            speed.update(segment_s=speed["segment_s"] * read_at / recording.fs,
+                         times_s=[time * read_at / recording.fs for time in speed["times_s"]])
+        off = speed_off_note(speed, recording.rpm) if recording.fs == read_at else None  # at the rate it was read at
+        if off:
+            speed["off"] = True
+            notes.append(off)
+    return recording, notes, rate_check, speed, gaps
+
+
+def _true_state(path, raw: RawRecord, recording: Recording, true_state: str | None,
+                pipeline: DiagnosisPipeline) -> tuple[str | None, list[str]]:
+    """The state a record is scored against, and the notes on it: the label given (``true_state``), which a file
+    that states another refuses (a CWRU name may speak of another bearing: noted), else what the file's name (CWRU) or
+    content states; None where nothing states one."""
+    notes = []
+    name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
+    if true_state is None:  # what the file's name (CWRU) or content states
+        true_state = name.fault if name is not None else recording.fault
+        if recording.meta.get("unlabelled_state"):
+            notes.append(f"the file states {recording.meta['unlabelled_state']}, a state this model cannot answer "
+                         f"(trained on {', '.join(pipeline.class_names)}): not scored")
+    else:
+        true_state = check_fault(true_state)
+        refuse_a_label_the_file_contradicts(raw, true_state, "the label")
+        if name is not None and name.fault != true_state:  # a CWRU name speaks of one bearing, a label maybe of another
+            notes.append(f"labelled {true_state} where the file name says {name.fault}: scored as {true_state}")
+        elif recording.fault not in (None, true_state):
+            raise BearingTwinError(f"{recording.source}: labelled {true_state}, but the file states fault={recording.fault}")
+    if true_state is not None and true_state not in pipeline.class_names:  # the verdict can only be wrong
+        notes.append(f"true state {true_state}, which this model cannot answer: it was trained on "
+                     f"{', '.join(pipeline.class_names)} only")
+    return true_state, notes
 
 
 def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]]:
