@@ -122,7 +122,7 @@ def test_no_folder_given_is_named_in_one_line():
 def test_a_labels_table_names_each_file_once(tmp_path):
     """Training reads files by their path in the folder: one stem in two subfolders is two records, the same
     path twice is refused naming both lines; a spreadsheet's byte-order mark and a non-positive rate are handled."""
-    from bearingtwin.data.real import labels_table
+    from bearingtwin.data.labels import labels_table
 
     table = tmp_path / "labels.csv"
     table.write_text("record,state\nhealthy/run1.npy,normal\nouter/run1.npy,outer\n", encoding="utf-8-sig")
@@ -161,7 +161,7 @@ def test_a_labels_table_names_each_file_once(tmp_path):
 def test_a_bad_row_is_its_records_concern_for_a_reader_of_some_rows_and_every_readers_for_training(tmp_path):
     """Read row by row, a table's good rows are read and each bad row is given with its record and the message that
     names its line and field; read whole (training), its first bad row refuses it. A bad header is every row's."""
-    from bearingtwin.data.real import labels_table, labels_table_with_bad_rows
+    from bearingtwin.data.labels import labels_table, labels_table_with_bad_rows
 
     table = tmp_path / "labels.csv"
     table.write_text("record,state,rpm,fs\ngood.npy,outer,1797,12000\nrpm.npy,normal,fast,12000\n"
@@ -192,7 +192,7 @@ def test_a_diagnosis_reads_a_labels_table_without_states_where_training_does_not
     """For a fleet the states are what is asked: a diagnosis reads a table whose state column is left out or whose
     state cells are empty, for its speeds and rates (the state None: unknown), while a state given must still be one;
     training refuses either, its states being its labels."""
-    from bearingtwin.data.real import labels_table, labels_table_with_bad_rows
+    from bearingtwin.data.labels import labels_table, labels_table_with_bad_rows
 
     table = tmp_path / "labels.csv"
     table.write_text("record,rpm,fs\na.npy,1500,12000\n")
@@ -217,7 +217,7 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     """Notes, a results table and a labels table under another name beside the recordings are left out, each named
     with why; a CSV of numbers is a recording, labelled or not, and so is one with a time column beside a text column
     (its reader then names the text). Labelled by file name, a run is built from the recordings alone."""
-    from bearingtwin.data.real import recordings_in, recordings_and_others
+    from bearingtwin.data.labels import recordings_in, recordings_and_others
 
     for state in ("normal", "ball"):
         np.save(tmp_path / f"{state}_run1.npy", tone(state))
@@ -483,7 +483,7 @@ def test_a_fault_records_defect_comb_does_not_get_its_right_rate_refused(tmp_pat
 
 
 def test_many_bad_rows_are_named_by_the_first_three_and_a_count():
-    from bearingtwin.data.real import first_messages
+    from bearingtwin.data.labels import first_messages
 
     assert first_messages(["a", "b"]) == "a; b"
     assert first_messages(["a", "b", "c", "d", "e"]) == "a; b; c; and 2 more"
@@ -491,7 +491,7 @@ def test_many_bad_rows_are_named_by_the_first_three_and_a_count():
 
 def test_a_file_two_rows_name_is_refused_by_a_reader_of_its_row(tmp_path):
     """rec.npy and rec both name rec.npy: a command on that file does not take the first row silently."""
-    from bearingtwin.data.real import labels_row
+    from bearingtwin.data.labels import labels_row
 
     np.save(tmp_path / "rec.npy", np.zeros(8))
     (tmp_path / "labels.csv").write_text("record,state\nrec.npy,outer\nrec,inner\n")

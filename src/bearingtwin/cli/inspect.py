@@ -30,7 +30,7 @@ from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing,
                                 unknown_bearing_note)
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, named_rate_note, read_raw, resolve_fact,
                                     resolve_fs, resolve_speed)
-from bearingtwin.data.real import labels_row
+from bearingtwin.data.labels import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly

@@ -149,7 +149,7 @@ REQUIRED_FILES = {"hust": _hust_files, "cwru": _cwru_files, "twin_to_real": _twi
 def _files_files(cfg: DictConfig) -> list[Path]:
     """What a ``data=files`` run may read: every recording in ``data.root``, the labels table and the files its
     rows name (in a subfolder too; the rows' own checks come when the data is built)."""
-    from bearingtwin.data.real import labels_path, recordings_in, rows_from_labels
+    from bearingtwin.data.labels import labels_path, recordings_in, rows_from_labels
 
     root = Path(str(cfg.data.get("root"))).expanduser()
     if not root.is_dir():

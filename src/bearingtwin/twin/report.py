@@ -25,7 +25,7 @@ from bearingtwin.config import (bearing_config, bearing_overrides, given_on_comm
 from bearingtwin.data.cwru import BEARING_BY_END, CHANNEL_BY_END, parse_cwru_name
 from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw, same_speed,
                                     speed_setting)
-from bearingtwin.data.real import DEFAULT_LABELS, labels_row
+from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.defects import build_defect
