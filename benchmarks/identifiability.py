@@ -68,7 +68,7 @@ from omegaconf import OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin.config import CONF_DIR
-from bearingtwin.data.files import SPEED_TOLERANCE, same_speed
+from bearingtwin.data.formats import SPEED_TOLERANCE, same_speed
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry

@@ -26,7 +26,7 @@ import scipy.signal
 from scipy.interpolate import CubicSpline
 
 from bearingtwin.config import REPO_ROOT, bearing_config
-from bearingtwin.data.files import load_recording
+from bearingtwin.data.formats import load_recording
 from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import physics_evidence
 from bearingtwin.diagnosis.record import steadied

@@ -49,7 +49,7 @@ from hydra import compose, initialize_config_dir
 
 from bearingtwin.config import CONF_DIR, REPO_ROOT, load_bearing
 from bearingtwin.data.cwru import load_cwru
-from bearingtwin.data.files import read_raw
+from bearingtwin.data.formats import read_raw
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate
 from bearingtwin.signal.sampling_rate import (check_channels, check_sampling_rate, decisive_channel, rate_witnesses,

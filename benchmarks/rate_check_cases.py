@@ -21,7 +21,7 @@ import rate_check as tables  # noqa: E402  (the cases and their settings are rat
 
 from bearingtwin.config import CONF_DIR, REPO_ROOT, load_bearing  # noqa: E402
 from bearingtwin.data.cwru import load_cwru  # noqa: E402
-from bearingtwin.data.files import read_raw  # noqa: E402
+from bearingtwin.data.formats import read_raw  # noqa: E402
 from bearingtwin.physics.geometry import BearingGeometry  # noqa: E402
 from bearingtwin.physics.simulator import CHANNELS, simulate  # noqa: E402
 from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig  # noqa: E402

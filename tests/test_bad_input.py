@@ -21,7 +21,7 @@ from processes import run_module
 from bearingtwin.cli.report import main as report_main
 from bearingtwin.config import CONF_DIR, REPO_ROOT, compose_config, load_bearing, refuse_unknown_keys
 from bearingtwin.data.build import check_data_settings
-from bearingtwin.data.files import read_raw
+from bearingtwin.data.formats import read_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError

@@ -12,7 +12,7 @@ import pytest
 
 from bearingtwin.config import REPO_ROOT, load_bearing
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.files import load_recording, read_raw
+from bearingtwin.data.formats import load_recording, read_raw
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig

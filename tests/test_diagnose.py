@@ -1756,7 +1756,7 @@ def test_a_record_whose_speed_drifts_is_order_tracked_before_it_is_read(register
     record is read as recorded and said to be in doubt. The steady record beside it is left as it was."""
     from scipy.interpolate import CubicSpline
 
-    from bearingtwin.data.files import load_recording
+    from bearingtwin.data.formats import load_recording
 
     base, uri = registered
     recording = load_recording(CWRU / "12k_Drive_End_OR007@6_1_131.mat")
@@ -1819,7 +1819,7 @@ def test_a_gap_is_followed_to_where_order_tracking_moves_it(monkeypatch):
 def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_series_reads(tmp_path):
     """A nameplate's speed given for a measured one puts every defect line beside where it stands: the shaft's own
     harmonic series names the speed it turns at. The true speed draws no such note."""
-    from bearingtwin.data.files import load_recording
+    from bearingtwin.data.formats import load_recording
 
     recording = load_recording(CWRU / "12k_Drive_End_OR007@6_1_131.mat")  # 1772 rpm
     pipeline = envelope_pipeline()

@@ -9,7 +9,7 @@ import pytest
 import scipy.io
 import scipy.io.wavfile
 
-from bearingtwin.data.files import load_recording, read_raw, unit_in_name
+from bearingtwin.data.formats import load_recording, read_raw, unit_in_name
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 
@@ -641,7 +641,7 @@ def test_an_acceleration_unit_after_an_underscore(name, unit):
     """Loggers and scripts name a column ``acc_g`` as often as ``acc (g)``, and write m/s² as ``ms2`` or ``m_s2``
     there; only an acceleration unit counts after an underscore, so ``acc_x`` (a direction) and ``ch_1`` state none,
     and a name's own letters are none (``signal`` and ``gear`` end in a g)."""
-    from bearingtwin.data.files import unit_in_name
+    from bearingtwin.data.formats import unit_in_name
 
     assert unit_in_name(name) == unit
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bearingtwin.data.files import read_raw
+from bearingtwin.data.formats import read_raw
 from bearingtwin.data.hust import load_hust, parse_hust_name
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope
@@ -225,7 +225,7 @@ def test_a_condition_is_written_as_the_file_names_write_it(condition, written):
 
 def test_a_label_calling_a_combined_damage_export_one_state_is_refused(tmp_path):
     """A C export (inner and outer races damaged together) labelled outer in a labels table would train as outer."""
-    from bearingtwin.data.files import load_recording
+    from bearingtwin.data.formats import load_recording
 
     text = (HUST / "0.5X_O_65Hz.xls").read_text()
     (tmp_path / "0.5X_C_65Hz.xls").write_text(text)

@@ -11,7 +11,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 
 from bearingtwin.config import CONF_DIR
-from bearingtwin.data.files import read_raw
+from bearingtwin.data.formats import read_raw
 from bearingtwin.data.hust import load_hust
 from bearingtwin.data.real import build_hust_dataset
 from bearingtwin.errors import BearingTwinError

@@ -37,7 +37,7 @@ def test_writes_npz_and_plots(tmp_path, caplog):
     # Its rate is exact, and the twin has no shaft line: no check reads the balls' passing series as the shaft's
     # (one had called the twin's own record's rate contradicted).
     assert summary["fs_origin"] == "simulation" and summary["shaft_line_check"]["verdict"] == "not checked"
-    from bearingtwin.data.files import load_recording
+    from bearingtwin.data.formats import load_recording
     from bearingtwin.data.real import check_stated_rate
 
     with caplog.at_level(logging.WARNING):  # a folder of the twin's records trained on (data=files): nothing logged

@@ -174,7 +174,7 @@ def test_which_bearing_counts_as_given_and_which_the_record_replaces(measurement
     given under another name but of the record's geometry (one of your own) is kept."""
     from omegaconf import open_dict
 
-    from bearingtwin.data.files import read_raw, recording_from_raw
+    from bearingtwin.data.formats import read_raw, recording_from_raw
     from bearingtwin.twin.report import bearing_chosen, record_bearing
 
     assert not bearing_chosen(twin_config()) and not bearing_chosen(twin_config("bearing=paper"))

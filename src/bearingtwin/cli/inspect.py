@@ -28,7 +28,7 @@ from omegaconf import DictConfig
 from bearingtwin.checks import positive_number
 from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
                                 unknown_bearing_note)
-from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, named_rate_note, read_raw, resolve_fact,
+from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, named_rate_note, read_raw, resolve_fact,
                                     resolve_fs, resolve_speed)
 from bearingtwin.data.labels import labels_row
 from bearingtwin.data.recording import Recording

@@ -16,7 +16,7 @@ from bearingtwin.cli.summary import closing_summary
 from bearingtwin.checks import true_or_false
 from bearingtwin.config import (bearing_overrides, exit_on_user_error, hydra_command, load_bearing, output_folder,
                                 refuse_unknown_keys, search_path_override)
-from bearingtwin.data.files import save_simulated_record
+from bearingtwin.data.formats import save_simulated_record
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bearingtwin.data.files import RawRecord, read_raw, recording_from_raw, same_speed
+from bearingtwin.data.formats import RawRecord, read_raw, recording_from_raw, same_speed
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from bearingtwin.checks import is_finite_number
-from bearingtwin.data.files import FS_RELATIVE_TOLERANCE, RawRecord, fs_from_time_column, read_raw, recording_from_raw
+from bearingtwin.data.formats import FS_RELATIVE_TOLERANCE, RawRecord, fs_from_time_column, read_raw, recording_from_raw
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import acceleration_unit, quantity_of
 from bearingtwin.errors import BearingTwinError

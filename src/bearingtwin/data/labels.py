@@ -15,7 +15,7 @@ from pathlib import Path, PurePath
 
 from bearingtwin.checks import positive_number
 from bearingtwin.data.csv_file import holds_one_value, is_a_note, text_column
-from bearingtwin.data.files import FORMATS, TEXT_TABLES, time_column_seconds
+from bearingtwin.data.formats import FORMATS, TEXT_TABLES, time_column_seconds
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 

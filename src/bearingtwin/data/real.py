@@ -23,7 +23,7 @@ from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.files import SIMULATED_RATE, load_recording, speed_setting
+from bearingtwin.data.formats import SIMULATED_RATE, load_recording, speed_setting
 from bearingtwin.data.hust import CHANNELS as HUST_AXES, hust_file_name, load_hust, parse_hust_name
 from bearingtwin.data.labels import rows_from_labels, rows_from_pattern
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality

@@ -51,7 +51,7 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import is_finite_number, positive_number, whole_number
 from bearingtwin.config import REPO_ROOT, plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.files import read_raw, recording_from_raw
+from bearingtwin.data.formats import read_raw, recording_from_raw
 from bearingtwin.data.labels import rows_from_labels
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_windows

@@ -37,7 +37,7 @@ import scipy.signal
 
 from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
-from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord, read_raw,
+from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord, read_raw,
                                     recording_from_raw, refuse_a_label_the_file_contradicts)
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit

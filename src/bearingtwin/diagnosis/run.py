@@ -33,7 +33,7 @@ from tqdm.auto import tqdm
 
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
-from bearingtwin.data.files import FORMATS
+from bearingtwin.data.formats import FORMATS
 from bearingtwin.data.labels import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
                                      read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings

@@ -23,7 +23,7 @@ from bearingtwin.checks import is_finite_number, non_negative_number, positive_n
 from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
                                 unknown_bearing_note)
 from bearingtwin.data.cwru import BEARING_BY_END, CHANNEL_BY_END, parse_cwru_name
-from bearingtwin.data.files import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw, same_speed,
+from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw, same_speed,
                                     speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
