@@ -141,3 +141,12 @@ def test_stdout_holds_the_closing_summary_alone_and_log_lines_go_to_stderr(tmp_p
     assert done.stdout.startswith("== bearingtwin-train: ") and "registered" not in done.stdout, done.stdout
     assert "registered quiet version 1" in done.stderr
     assert "registered quiet version 1" in (tmp_path / "out" / "train.log").read_text()  # the run's log keeps them
+    # Hydra's own logging choices replace the project's whole (a patch of the console's stream had left
+    # hydra/job_logging=disabled a handler to patch that it lacks: ValueError, exit 1).
+    done = run_cli(["classifier=svm", "features=raw", "data.samples_per_class=12", "data.duration=1.0",
+                    f"paths.cache_dir={tmp_path}/cache", f"tracking.uri=sqlite:///{tmp_path}/m.db",
+                    f"hydra.run.dir={tmp_path}/quiet", "hydra/job_logging=disabled", "hydra/hydra_logging=disabled"],
+                   tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.startswith("== bearingtwin-train: ") and "[INFO]" not in done.stderr
+    assert not (tmp_path / "quiet" / "train.log").exists()
