@@ -6,7 +6,7 @@ from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR, REPO_ROOT
+from bearingtwin.config import CONF_DIR, REPO_ROOT, refuse_bad_overrides, unread_overrides
 from bearingtwin.models.experiment import TIMING_METRICS, run_experiment
 
 # Small enough for a test, but every stage real: twin simulation, SABO-VMD, CNN-BiLSTM.
@@ -150,3 +150,21 @@ def test_stdout_holds_the_closing_summary_alone_and_log_lines_go_to_stderr(tmp_p
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.startswith("== bearingtwin-train: ") and "[INFO]" not in done.stderr
     assert not (tmp_path / "quiet" / "train.log").exists()
+
+
+def test_a_setting_the_run_never_reads_is_said_and_the_run_goes_on(capsys):
+    """The twin's settings where the data are recordings, the Lightning trainer's where the classifier is no network:
+    accepted, logged and ignored without a word, they had passed for settings of the run."""
+    overrides = ["data=cwru", "classifier=svm", "simulator.rpm=100", "effects=[noise]", "trainer.max_epochs=-3"]
+    unread = unread_overrides(compose_train(overrides), overrides)
+    assert [line.split(" not read: ")[0] for line in unread] == ["simulator.rpm=100", "effects=[noise]",
+                                                                 "trainer.max_epochs=-3"]
+    assert "data=cwru reads recordings" in unread[0] and "classifier=svm trains without it" in unread[2]
+    assert unread_overrides(compose_train(["trainer.max_epochs=3"]), ["trainer.max_epochs=3"]) == []  # the network's
+    # A sweep over the classifiers reads the trainer in some of its jobs: nothing said.
+    swept = ["classifier=svm,cnn_bilstm", "trainer.max_epochs=3"]
+    assert unread_overrides(compose_train(["trainer.max_epochs=3"]), swept) == []
+    refuse_bad_overrides("train", ["classifier=svm", "trainer.max_epochs=3"])  # said before the run, on stderr
+    assert capsys.readouterr().err == ("warning: trainer.max_epochs=3 not read: the trainer is the CNN-BiLSTM's, and "
+                                       "classifier=svm trains without it\n")
+

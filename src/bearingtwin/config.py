@@ -287,6 +287,34 @@ def _groups_taking_lists(config_name: str) -> set[str]:
             for group, value in entry.items() if OmegaConf.is_list(value)}
 
 
+RECORDED_SOURCES = ("cwru", "hust", "files")
+"""Data sources that read recordings: the twin's ``simulator`` and ``effects`` make none of their windows."""
+
+
+def unread_overrides(cfg: DictConfig, overrides: list[str]) -> list[str]:
+    """What the command line sets that the composed run never reads, each with why: the twin's settings where the data
+    are recordings, the Lightning trainer's where the classifier is no network. Said, not refused: a set of small
+    sizes (``trainer.max_epochs=2 ...``) is given to any classifier. Where the run's data or classifier is swept, its
+    jobs differ in what they read, and nothing is said of it."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    parsed = OverridesParser.create().parse_overrides(overrides)
+    swept = {o.key_or_group for o in parsed if o.is_sweep_override()}
+    swept |= {key.lstrip("+~") for key in ((cfg.get("hydra") or {}).get("sweeper") or {}).get("params") or {}}
+    source = (cfg.get("data") or {}).get("source")
+    classifier = (cfg.get("classifier") or {}).get("name")
+    unread = []
+    for override in parsed:
+        group = override.key_or_group.split(".")[0]
+        if group in ("simulator", "effects") and source in RECORDED_SOURCES and not {"data", "+experiment"} & swept:
+            unread.append(f"{override.input_line} not read: data={source} reads recordings, which the twin's simulator "
+                          "and effects do not make (they make data=simulated and data=twin_to_real)")
+        elif group == "trainer" and classifier not in (None, "cnn_bilstm") and not {"classifier", "method"} & swept:
+            unread.append(f"{override.input_line} not read: the trainer is the CNN-BiLSTM's, and classifier={classifier} "
+                          "trains without it")
+    return unread
+
+
 def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
     """Compose the config ``argv`` asks for, in the mode Hydra will run it, raising Hydra's composition error
     (and, for a single run, the :class:`BearingTwinError` of a ``+key`` no config declares).
@@ -301,13 +329,17 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
     from hydra.types import RunMode
 
     args = get_args_parser().parse_args(argv)
+    if args.multirun and args.cfg:  # Hydra's own refusal is a ValueError with a traceback
+        raise BearingTwinError(f"-m and --cfg {args.cfg} go one at a time: --cfg shows one run's config; leave out -m "
+                               "to see it (--cfg hydra shows the sweep's parameters under hydra.sweeper.params)")
+    modes = [flag for flag, given in (("-m", args.multirun), ("--cfg", args.cfg), ("--info", args.info),
+                                      ("--shell-completion", args.shell_completion)) if given]
+    if len(modes) > 1:  # as above: Hydra's refusal of the pair is a traceback
+        raise BearingTwinError(f"{' and '.join(modes)} go one at a time: give one of them")
     if args.help or args.hydra_help or args.info or args.shell_completion or args.experimental_rerun \
             or args.config_path or args.config_dir:
         return
     name = args.config_name or config_name
-    if args.multirun and args.cfg:  # Hydra's own refusal is a ValueError with a traceback
-        raise BearingTwinError(f"-m and --cfg {args.cfg} go one at a time: --cfg shows one run's config; leave out -m "
-                               "to see it (--cfg hydra shows the sweep's parameters under hydra.sweeper.params)")
     for override in args.overrides:
         key, _, value = override.partition("=")
         group = key.lstrip("+~")
@@ -363,6 +395,8 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 if group == "simulator" and name in DATA_SET_OPERATING_POINT:
                     raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
                                            f"({cfg.data[name]}); give data.{name}=<value>")
+        for warning in [] if args.cfg else unread_overrides(cfg, list(args.overrides)):  # --cfg shows, runs nothing
+            print(f"warning: {warning}", file=sys.stderr)
         if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
             check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name"))
         tracking = cfg.get("tracking") or {}
