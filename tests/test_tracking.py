@@ -573,17 +573,21 @@ def test_a_sweep_is_named_by_its_sweep_file_else_its_experiment():
     assert sweep_name({"classifier": "svm"}) == "cli"
 
 
-def test_hydras_own_joblib_launcher_is_warned_of_and_the_projects_is_not(capsys):
+def test_a_launcher_chosen_hydras_way_is_warned_of_and_the_projects_is_not(capsys):
     """hydra/launcher=joblib (Hydra's way to choose a launcher) runs Hydra's own, on which an OS-killed job ends the
-    sweep; launcher=joblib runs the project's. The first is said in a line, the second not."""
+    sweep; hydra/launcher=ray and =submitit_slurm run without the store, cache and data the project's give every job.
+    launcher=<name> runs the project's. The first are said in a line, the second not."""
     from bearingtwin.config import compose_config
-    from bearingtwin.tracking.mlflow_logging import warn_of_hydras_joblib
+    from bearingtwin.tracking.mlflow_logging import warn_of_hydras_launcher
 
-    for override, warned in (("hydra/launcher=joblib", True), ("launcher=joblib", False)):
-        launcher = compose_config("train", [override], hydra_node=True).hydra.launcher
-        warn_of_hydras_joblib(launcher)
+    for override, warned in (("hydra/launcher=joblib", "launcher=joblib runs the project's"),
+                             ("hydra/launcher=ray", "launcher=ray sets them"),
+                             ("hydra/launcher=submitit_slurm", "launcher=submitit_slurm sets them"),
+                             ("launcher=joblib", None), ("launcher=ray", None), ("launcher=submitit_slurm", None),
+                             ("hydra/launcher=basic", None)):
+        warn_of_hydras_launcher(compose_config("train", [override], hydra_node=True).hydra.runtime.choices)
         said = capsys.readouterr().err
-        assert ("launcher=joblib runs the project's" in said) is warned, (override, said)
+        assert (said.startswith(f"warning: {override} is ") and warned in said) if warned else said == "", (override, said)
 
 
 def test_a_model_misreading_its_calibration_records_is_registered_but_not_made_the_alias(tmp_path):

@@ -893,7 +893,7 @@ class SweepParentRun(Callback):
         exit_on_user_error(refuse_alias_in_sweep)(jobs)
         self._tracking = exit_on_user_error(sweep_tracking)(config, jobs)
         exit_on_user_error(refuse_slurm_without_slurm)(config.hydra.launcher)
-        warn_of_hydras_joblib(config.hydra.launcher)
+        warn_of_hydras_launcher(config.hydra.runtime.choices)
         varied = " ".join(varied_keys(jobs))  # for the jobs' run names
         if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
             # Before any run is open: Ray may not start. Its workers have environments of their own: the varied
@@ -993,18 +993,28 @@ def sweep_folder(hydra_cfg) -> str:
     return str((Path(str(hydra_cfg.runtime.cwd)) / str(hydra_cfg.sweep.dir)).resolve())
 
 
-HYDRAS_JOBLIB = "hydra_plugins.hydra_joblib_launcher.joblib_launcher.JoblibLauncher"
-"""Hydra's own joblib launcher (``hydra/launcher=joblib``), which ``launcher=joblib`` replaces by the project's."""
+LAUNCHED_HYDRAS_WAY = {
+    "joblib": "Hydra's own joblib launcher: a job whose process is killed (out of memory) ends the whole sweep; "
+              "launcher=joblib runs the project's, where such a job fails alone",
+    "ray": "Hydra's Ray launcher with its defaults: its jobs are not given the sweep's MLflow store, cache and data "
+           "folders (a worker of a cluster started elsewhere logs to its own), and it joins whatever cluster this "
+           "machine last started; launcher=ray sets them",
+    "submitit_slurm": "Hydra's submitit launcher with its defaults: its jobs are not given the sweep's MLflow store, "
+                      "cache and data folders (sbatch --export=NONE starts them without this shell's), and are "
+                      "stopped after an hour; launcher=submitit_slurm sets them (2 hours, 2 CPUs, 8 GB a job)",
+    "submitit_local": "Hydra's submitit launcher with its defaults: its jobs are stopped after an hour; "
+                      "launcher=submitit_local gives them 2 hours and a CPU each",
+}
+"""A launcher chosen Hydra's way (``hydra/launcher=<name>``) where ``launcher=<name>`` would run it with the
+project's settings (conf/launcher), and what the first lacks."""
 
 
-def warn_of_hydras_joblib(launcher_cfg) -> None:
-    """A line on stderr where the sweep runs on Hydra's own joblib launcher (``hydra/launcher=joblib``, Hydra's way
-    of choosing it): a job whose process the OS kills (out of memory) ends the whole sweep there, where it fails
-    alone on the project's (``launcher=joblib``)."""
-    if str(launcher_cfg.get("_target_", "")) == HYDRAS_JOBLIB:
-        print("warning: hydra/launcher=joblib is Hydra's own joblib launcher: a job whose process is killed (out of "
-              "memory) ends the whole sweep; launcher=joblib runs the project's, where such a job fails alone",
-              file=sys.stderr, flush=True)
+def warn_of_hydras_launcher(choices) -> None:
+    """A line on stderr where a sweep's launcher was chosen as Hydra's plugin alone (``hydra/launcher=<name>``, Hydra's
+    way of choosing one) and the project's ``launcher=<name>`` would have added its settings."""
+    name = choices.get("hydra/launcher")
+    if choices.get("launcher") is None and name in LAUNCHED_HYDRAS_WAY:
+        print(f"warning: hydra/launcher={name} is {LAUNCHED_HYDRAS_WAY[name]}", file=sys.stderr, flush=True)
 
 
 def refuse_slurm_without_slurm(launcher_cfg) -> None:
