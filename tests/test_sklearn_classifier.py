@@ -142,9 +142,11 @@ def test_a_classifier_file_of_ones_own_trains_registers_and_diagnoses(tmp_path):
     trained = run_module("bearingtwin.cli.train", *["classifier=forest", search, "register=forest",
                                                     f"tracking.uri={store}", *SMOKE], cwd=tmp_path)
     assert trained.returncode == 0, trained.stderr[-2000:]
-    assert "== bearingtwin-train: sabo_vmd_pemie+forest simulated global seed=0 ==" in trained.stdout
+    # Named and tagged by its estimator's class: every classifier=sklearn run had been "sklearn" alone.
+    assert "== bearingtwin-train: sabo_vmd_pemie+forest RandomForestClassifier simulated global seed=0 ==" in trained.stdout
     (run,) = MlflowClient(store).search_runs([MlflowClient(store).get_experiment_by_name("bearingtwin").experiment_id])
     assert run.data.params["classifier.estimator.n_estimators"] == "30" and run.info.status == "FINISHED"
+    assert run.data.tags["estimator"] == "sklearn.ensemble.RandomForestClassifier"
 
     simulated = run_module("bearingtwin.cli.simulate", *["fault=outer", "simulator.duration=1.0",
                                                         f"out={tmp_path / 'outer.npz'}"], cwd=tmp_path)

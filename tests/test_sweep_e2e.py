@@ -114,6 +114,9 @@ def test_failing_jobs_are_failed_and_grouped_under_the_sweep(store):
                                     for r in failed)
     (parent,) = client.search_runs([experiment_id], "tags.`bt.kind` = 'sweep' and tags.sweep_dir LIKE '%multirun'")
     assert parent.data.tags["sweep"] == "table4" and parent.info.status == "FAILED"
+    sweep_dir = Path(parent.data.tags["sweep_dir"])  # named by its folder's last two parts (Hydra's <date>/<time>)
+    assert parent.info.run_name == f"sweep table4 {sweep_dir.parent.name}/{sweep_dir.name}"
+    assert parent.data.tags["mlflow.user"] and "mlflow.source.name" in parent.data.tags
     assert (parent.data.tags["n_finished"], parent.data.tags["n_failed"]) == ("3", "3")
     children = [r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id]
     assert len(children) == 6 and {r.data.tags["sweep_dir"] for r in children} == {parent.data.tags["sweep_dir"]}

@@ -149,6 +149,9 @@ def test_a_run_logs_config_metrics_curves_and_tables(tmp_path):
     assert tags["config_hash"] == config_hash(cfg) and tags["dataset_key"] == "data-key"
     assert tags["method"] == "sabo_vmd_pemie+cnn_bilstm" and tags["version.torch"].startswith("2.")
     assert tags["git_commit"]
+    # MLflow's own context tags, which its UI shows and searches (a run created by MlflowClient has none of itself).
+    assert tags["mlflow.user"] and tags["mlflow.source.type"] == "LOCAL" and "mlflow.source.name" in tags
+    assert tags["mlflow.source.git.commit"] == tags["git_commit"].removesuffix("-dirty")
     assert tags["cpu_kernels"] == ", ".join(f"{name}={os.environ.get(name, 'the machine')}" for name in PINNED_CPU_KERNELS)
     if PINS_CPU_KERNELS:  # set in this process by importing bearingtwin, unless the environment set them first
         assert "the machine" not in tags["cpu_kernels"]

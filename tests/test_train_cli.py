@@ -168,3 +168,16 @@ def test_a_setting_the_run_never_reads_is_said_and_the_run_goes_on(capsys):
     assert capsys.readouterr().err == ("warning: trainer.max_epochs=3 not read: the trainer is the CNN-BiLSTM's, and "
                                        "classifier=svm trains without it\n")
 
+
+
+def test_mlflows_experiment_variable_names_every_commands_experiment(monkeypatch):
+    """MLFLOW_EXPERIMENT_NAME, which MLflow reads, is each command's experiment where set (it had been passed over
+    without a word, as MLFLOW_TRACKING_URI never was); each command's own name otherwise."""
+    from bearingtwin.config import compose_config
+
+    monkeypatch.delenv("MLFLOW_EXPERIMENT_NAME", raising=False)
+    overrides = {"train": [], "twin": ["measured.path=x.npy"], "diagnose": ["path=x.npy", "model=runs:/x/model"]}
+    assert {name: compose_config(name, o).tracking.experiment for name, o in overrides.items()} == {
+        "train": "bearingtwin", "twin": "bearingtwin-twin", "diagnose": "bearingtwin-diagnose"}
+    monkeypatch.setenv("MLFLOW_EXPERIMENT_NAME", "rig-7")
+    assert {compose_config(name, o).tracking.experiment for name, o in overrides.items()} == {"rig-7"}

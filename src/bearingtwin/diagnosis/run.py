@@ -461,12 +461,13 @@ def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None
     from mlflow.entities import Param
 
     from bearingtwin.tracking.lifecycle import owner_tags, register_open_run
+    from bearingtwin.tracking.provenance import context_tags
     from bearingtwin.tracking.mlflow_logging import open_store
 
     client, experiment_id = open_store(cfg.tracking)
     mlflow_run = client.create_run(experiment_id, run_name=f"diagnose {Path(str(cfg.path)).name} with {cfg.model}",
                                    tags={"bt.kind": "diagnose", "model_uri": str(cfg.model),
-                                         "model_version_uri": pinned_uri, **owner_tags()})
+                                         "model_version_uri": pinned_uri, **context_tags(), **owner_tags()})
     run_id = mlflow_run.info.run_id
     register_open_run(client, run_id)
     params = {"model": cfg.model, "path": cfg.path, "labels": labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,

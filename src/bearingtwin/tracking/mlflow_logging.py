@@ -77,7 +77,8 @@ from bearingtwin.tracking.lifecycle import (
     start_ray_keeping_signals,
 )
 from bearingtwin.tracking import open_command
-from bearingtwin.tracking.provenance import computed_by_other_code, environment_tags, git_commit, installed_versions
+from bearingtwin.tracking.provenance import (computed_by_other_code, context_tags, environment_tags, git_commit,
+                                             installed_versions)
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
 log = logging.getLogger(__name__)
@@ -379,7 +380,8 @@ def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
     sets runs apart at a glance (a CWRU load or HUST condition unless the sweep varies it; the VMD settings only where
     the features search VMD parameters; the optimizer only when it is not the default SABO)."""
     source = str(cfg.data.get("source", ""))
-    parts = [method, source]
+    estimator = _estimator_class(cfg)
+    parts = [f"{method} {estimator}" if estimator else method, source]
     where = {"cwru": ("load", "hp"), "hust": ("condition", "Hz")}.get(source)  # which records, where a sweep does not say
     varied = {override.partition("=")[0].lstrip("+~") for override in (sweep.varied if sweep else ())}
     if where and cfg.data.get(where[0]) is not None and not varied & {f"data.{where[0]}", "cwru_condition"}:
@@ -392,6 +394,13 @@ def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
     if sweep:
         parts += sweep.varied
     return " ".join(part for part in (*parts, f"seed={cfg.seed}") if part)
+
+
+def _estimator_class(cfg: DictConfig) -> str:
+    """The class of a ``classifier=sklearn`` run's estimator (``RandomForestClassifier``); "" for another classifier."""
+    estimator = (cfg.get("classifier") or {}).get("estimator")
+    target = estimator.get("_target_") if isinstance(estimator, (dict, DictConfig)) else None
+    return str(target).rpartition(".")[2] if target else ""
 
 
 def _versions() -> dict[str, str]:
@@ -588,6 +597,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "method": method,
         "features": choices.get("features", ""),
         "classifier": choices.get("classifier", ""),
+        **({"estimator": str(cfg.classifier.estimator._target_)} if _estimator_class(cfg) else {}),
         "experiment": experiment_tag(cfg, choices),
         "seed": str(cfg.seed),
         "git_commit": git_commit(),
@@ -607,7 +617,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     # still finds the run among its RUNNING children and marks it KILLED (its worker is killed, not told).
     child_of = {key: tags[key] for key in ("mlflow.parentRunId", "sweep_job") if key in tags}
     run = client.create_run(experiment_id, run_name=run_name(cfg, method, sweep),
-                            tags={"bt.kind": "train", **owner_tags(), **child_of})
+                            tags={"bt.kind": "train", **context_tags(), **owner_tags(), **child_of})
     run_id = run.info.run_id
     register_open_run(client, run_id)
     try:
@@ -908,8 +918,8 @@ class SweepParentRun(Callback):
         sweep_dir = sweep_folder(config.hydra)
         run = client.create_run(
             experiment_id,
-            run_name=f"sweep {name} {Path(sweep_dir).name}",
-            tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir, **owner_tags()},
+            run_name=f"sweep {name} {Path(sweep_dir).parent.name}/{Path(sweep_dir).name}",  # Hydra's <date>/<time>
+            tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir, **context_tags(), **owner_tags()},
         )
         register_open_run(client, run.info.run_id, label="sweep", with_children=True)
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it

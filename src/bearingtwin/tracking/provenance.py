@@ -79,6 +79,19 @@ def computed_by_other_code(run) -> str:
     return "" if then == now else f"at {short_commit(then)} (this code: {short_commit(now)})"
 
 
+def context_tags() -> dict[str, str]:
+    """The tags MLflow's fluent API gives a run and a run created by ``MlflowClient`` lacks: the user, the command
+    (``mlflow.source.name``, ``mlflow.source.type``) and the commit of the code (``mlflow.source.git.commit``; the
+    ``git_commit`` tag says whether the checkout had changes), as the MLflow UI shows and searches them."""
+    from mlflow.tracking.context.registry import resolve_tags
+
+    tags = resolve_tags()
+    commit = git_commit().removesuffix("-dirty")
+    if commit != "unknown":
+        tags["mlflow.source.git.commit"] = commit
+    return tags
+
+
 SIZE_KEYS = (
     "data.duration",
     "data.samples_per_class",
