@@ -52,6 +52,9 @@ class Foreign:  # a type of neither scikit-learn, numpy nor scipy, as a model fi
       "estimator": {"_target_": "sklearn.svm.LinearSVC", "C": -1}},
      "classifier.estimator: The 'C' parameter of LinearSVC must be a float in the range (0.0, inf). Got -1 instead."),
     ({"n_estimators": 3}, "classifier.estimator needs _target_"),
+    # Hydra's refusal wraps over lines mid-sentence: its first line alone had ended "because it allows".
+    ({"_target_": "os.system"}, "classifier.estimator (os.system): Target 'os.system' is blocklisted because it allows "
+                                "config data to control executable behavior"),
 ])
 def test_an_estimator_that_cannot_serve_a_diagnosis_is_refused_in_one_line(spec, said):
     with pytest.raises(BearingTwinError) as refused:

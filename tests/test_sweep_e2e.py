@@ -103,6 +103,7 @@ def test_every_good_job_finished_with_metrics_and_artifacts(store, tmp_path):
         assert run.data.tags.get("device") == (here if run.data.tags["classifier"] == "cnn_bilstm" else None)
         # How the job was asked for (its own overrides, the sweep's among them) and from which lock it was installed.
         assert f"seed={run.data.tags['seed']}" in run.data.tags["overrides"].split()
+        assert (Path(run.data.tags["output_dir"]) / "train.log").is_file()  # the job's Hydra folder, its log there
         assert len(run.data.tags["requirements_lock"]) == 16 and run.data.tags["version.numba"] != "absent"
 
 

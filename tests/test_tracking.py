@@ -84,6 +84,22 @@ def test_an_artifact_root_uri_is_kept_and_only_a_local_folder_becomes_a_file_uri
     assert artifact_location(None, "test") is None  # a server's own store
 
 
+def test_an_artifact_root_an_existing_experiment_cannot_take_is_said(tmp_path, caplog):
+    """MLflow fixes an experiment's artifact location when it is made: a later tracking.artifact_root had been
+    passed over without a word."""
+    def opened(root):
+        with caplog.at_level("WARNING", logger="bearingtwin.tracking.mlflow_logging"):
+            open_store(OmegaConf.create({"uri": f"sqlite:///{tmp_path}/m.db", "experiment": "e", "artifact_root": root}))
+        said, _ = [r.getMessage() for r in caplog.records], caplog.clear()
+        return said
+
+    assert opened(str(tmp_path / "first")) == []  # made there
+    assert opened(str(tmp_path / "first")) == [] and opened(None) == []  # there again, or no root asked for
+    (said,) = opened(str(tmp_path / "second"))
+    assert said.startswith(f"tracking.artifact_root={tmp_path / 'second'} not used: experiment e keeps its artifacts in "
+                           f"{(tmp_path / 'first' / 'e').as_uri()}")
+
+
 def test_the_sweep_folder_is_taken_from_where_the_sweep_started_not_the_asking_process(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a worker's working directory, elsewhere
     started = tmp_path / "driver"

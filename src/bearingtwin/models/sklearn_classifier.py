@@ -100,7 +100,15 @@ def _described(spec: dict | BaseEstimator) -> str:
 
 
 def _first_line(error: Exception) -> str:
-    return " ".join(str(error).split("\n")[0].split())
+    """The error's first sentence on one line: its first line, and those after it while a sentence runs on (Hydra
+    wraps a refusal over several lines mid-sentence)."""
+    lines = str(error).split("\n")
+    first = lines[0]
+    for line in lines[1:]:
+        if first.rstrip().endswith((".", ":", "!", "?")) or not line.strip():
+            break
+        first += " " + line
+    return " ".join(first.split())
 
 
 def _closest_class(target: str) -> str:

@@ -154,6 +154,11 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
                                    f"restore --experiment-id {experiment.experiment_id}), remove it for good (mlflow "
                                    "gc), or name another experiment")
         if experiment is not None:
+            given = tracking_cfg.get("artifact_root")
+            if given and not must_exist and experiment.artifact_location != artifact_location(given, name):
+                log.warning("tracking.artifact_root=%s not used: experiment %s keeps its artifacts in %s, where MLflow "
+                            "placed them when it was made; name a new experiment (tracking.experiment=) to keep them "
+                            "there", given, name, experiment.artifact_location)
             return client, experiment.experiment_id
         if must_exist:  # a reader would only find no runs, and leave a misspelled experiment behind
             names = sorted(e.name for e in client.search_experiments())
@@ -600,6 +605,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         **({"estimator": str(cfg.classifier.estimator._target_)} if _estimator_class(cfg) else {}),
         "experiment": experiment_tag(cfg, choices),
         "seed": str(cfg.seed),
+        **({"output_dir": str(root_dir)} if root_dir else {}),  # Hydra's folder of the run: its log, its checkpoints
         "git_commit": git_commit(),
         "cpu_kernels": cpu_kernels(),  # the network's figures are the same wherever these are (bearingtwin/__init__)
         **_versions(),
