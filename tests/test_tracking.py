@@ -637,3 +637,13 @@ def test_a_model_misreading_its_calibration_records_is_registered_but_not_made_t
             with pytest.raises(MlflowException):
                 client.get_model_version_by_alias("my_rig", "champion")
     assert int(client.get_model_version_by_alias("my_rig", "champion").version) == 2
+    # Each version says what it is (the registry had shown them bare), and a moved alias says from where.
+    version = client.get_model_version("my_rig", "2")
+    assert version.description.endswith("seed=1: 91.00 % of its test windows right") and version.tags["seed"] == "1"
+    assert version.tags["accuracy"] == "0.91" and version.tags["run_id"] == version.run_id
+    result = fake_result(2)
+    result.pipeline, result.example_windows = pipeline, windows[:2]
+    cfg = make_cfg(tmp_path, seed=2)
+    cfg.register, cfg.register_alias = "my_rig", "champion"
+    tracked = train_tracked(cfg, CHOICES, None, str(tmp_path), lambda cfg, root_dir: result)
+    assert tracked.model.endswith("= models:/my_rig/3 = models:/my_rig@champion (moved from version 2)")

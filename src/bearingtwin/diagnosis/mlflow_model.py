@@ -203,17 +203,29 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
         )
 
 
-def register_model(tracking_uri: str, model_uri: str, name: str, alias: str | None = None) -> str:
-    """Register a logged model under ``name`` in MLflow's Model Registry (same store); returns the version."""
+def register_model(tracking_uri: str, model_uri: str, name: str, alias: str | None = None, description: str = "",
+                   tags: dict[str, str] | None = None) -> tuple[str, str | None]:
+    """Register a logged model under ``name`` in MLflow's Model Registry (same store), with the ``description`` and
+    ``tags`` the registry shows beside the version; returns the version, and the version ``alias`` named before it
+    was moved to this one (None where it named none)."""
     import mlflow
     from mlflow import MlflowClient
+    from mlflow.exceptions import MlflowException
 
     mlflow.set_tracking_uri(tracking_uri)
     mlflow.set_registry_uri(tracking_uri)
-    version = mlflow.register_model(model_uri, name).version
+    version = str(mlflow.register_model(model_uri, name, tags=tags).version)
+    client = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri)
+    if description:
+        client.update_model_version(name, version, description=description)
+    before = None
     if alias:
-        MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri).set_registered_model_alias(name, alias, version)
-    return str(version)
+        try:
+            before = str(client.get_model_version_by_alias(name, alias).version)
+        except MlflowException:  # the alias is new
+            pass
+        client.set_registered_model_alias(name, alias, version)
+    return version, before
 
 
 def model_params(model) -> set[str]:

@@ -748,10 +748,18 @@ def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: 
         misread = misread_calibration(result.metrics)
         withheld = alias if alias and misread else None  # not made the one a user's models:/<name>@<alias> reaches
         alias = None if withheld else alias
-        version = register_model(uri, info.model_uri, str(name), None if alias is None else str(alias))
-        log.info("registered %s version %s%s", name, version, f" as @{alias}" if alias else "")
+        scored = {key: f"{result.metrics[key]:.6g}" for key in ("accuracy", "calibration_accuracy")
+                  if key in result.metrics}
+        version, before = register_model(
+            uri, info.model_uri, str(name), None if alias is None else str(alias),
+            description=(f"{MlflowClient(tracking_uri=uri).get_run(run_id).info.run_name}"
+                         + (f": {100 * result.metrics['accuracy']:.2f} % of its test windows right"
+                            if "accuracy" in result.metrics else "")),
+            tags={"run_id": run_id, "config_hash": digest, "seed": str(cfg.seed), **scored})
+        moved = f" (moved from version {before})" if before and before != version else ""
+        log.info("registered %s version %s%s%s", name, version, f" as @{alias}" if alias else "", moved)
         MlflowClient(tracking_uri=uri).set_tag(run_id, "registered_model", f"{name}/{version}")
-        return (f"runs:/{run_id}/model = models:/{name}/{version}" + (f" = models:/{name}@{alias}" if alias else "")
+        return (f"runs:/{run_id}/model = models:/{name}/{version}" + (f" = models:/{name}@{alias}{moved}" if alias else "")
                 + (f" (not made @{withheld}: it misreads its {' and '.join(misread)} calibration record"
                    f"{'s' if len(misread) > 1 else ''}, as the warning says)" if withheld else ""))
     return f"runs:/{run_id}/model"
