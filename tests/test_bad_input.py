@@ -83,6 +83,8 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("train", ["classifier=[svm,cnn_bilstm]"], ["classifier=[svm,cnn_bilstm]: choose one classifier", "-m classifier=a,b"]),
     ("train", ["--cfg", "job", "-m", "+sweep=table4"], ["-m and --cfg job go one at a time"]),  # Hydra's ValueError
     ("train", ["-m", "--info", "all", "seed=0,1"], ["-m and --info go one at a time"]),  # its traceback too
+    ("train", ["-m", "seed=interval(0,1)"], ["seed=interval(0,1): interval() asks a sweeper that draws values"]),  # exit 1
+    ("train", ["+classifier=svm"], ["+classifier=svm: classifier has a default choice", "choose it with classifier=svm"]),
     ("train", ["effects=[gear]"], ["effects=gear: no such effects config", "tones"]),  # Hydra lists no options for it
     ("train", ["seed=${foo}"], ["seed=${foo}: Interpolation key 'foo' not found"]),  # OmegaConf's traceback
     ("train", ["simulator.fs=-1"], ["simulator.fs=-1: the simulated data set runs the simulator at data.fs"]),  # ignored

@@ -149,6 +149,11 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
                   if equals and value and not set(value) & set("'\"") and not (
                       value[0] in "[{" or value.isascii() and value.isprintable() and not set(value) & set(" ()")) else "")
         return f"{error.override}: not an override Hydra can read ({str(error).splitlines()[0]}){quoted}"
+    repeated = re.match(r"Multiple values for (\S+)\. To override a value use 'override \S+: (\S+)'", str(error))
+    if repeated:  # Hydra's advice is for a defaults list; on the command line the group is chosen without +
+        group, option = repeated.groups()
+        return (f"+{group}={option}: {group} has a default choice, which + would add to; choose it with "
+                f"{group}={option}")
     lines = []
     for line in str(error).splitlines():
         if line.startswith("Config search path:"):  # the rest is the path, one folder a line
@@ -395,6 +400,13 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 if group == "simulator" and name in DATA_SET_OPERATING_POINT:
                     raise BearingTwinError(f"{override}: the simulated data set runs the simulator at data.{name} "
                                            f"({cfg.data[name]}); give data.{name}=<value>")
+        if mode == RunMode.MULTIRUN and str(cfg.hydra.sweeper.get("_target_", "")).endswith(".BasicSweeper"):
+            from hydra.core.override_parser.overrides_parser import OverridesParser
+
+            for override in OverridesParser.create().parse_overrides(list(args.overrides)):
+                if override.is_interval_sweep():  # Hydra's refusal: a traceback's last line, exit 1, once the sweep starts
+                    raise BearingTwinError(f"{override.input_line}: interval() asks a sweeper that draws values (Optuna's, "
+                                           "Nevergrad's); Hydra's basic sweeper takes lists (a,b), range() and choice()")
         for warning in [] if args.cfg else unread_overrides(cfg, list(args.overrides)):  # --cfg shows, runs nothing
             print(f"warning: {warning}", file=sys.stderr)
         if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
