@@ -24,6 +24,14 @@ def test_the_block_names_what_ran_its_results_the_run_and_how_to_open_it():
     assert open_command("http://mlflow.example:5000") == "open http://mlflow.example:5000"
 
 
+def test_a_relative_sqlite_store_is_opened_by_its_absolute_path(tmp_path, monkeypatch):
+    """sqlite:///rel.db is read from the working directory, which hydra.job.chdir=true makes the run's folder: the
+    command printed had opened another (empty) store from the folder the user is in."""
+    monkeypatch.chdir(tmp_path)
+    assert open_command("sqlite:///runs/m.db") == f"mlflow ui --backend-store-uri sqlite:///{tmp_path / 'runs' / 'm.db'}"
+    assert open_command("sqlite:////abs/m.db") == "mlflow ui --backend-store-uri sqlite:////abs/m.db"
+
+
 def test_training_summary_gives_accuracy_and_f1_per_class_and_says_when_nothing_ran():
     metrics = {"accuracy": 0.95, "f1_normal": 1.0, "f1_inner": 0.9, "precision_inner": 0.8, "inference_ms_per_sample": 1.0}
     text = training_summary("m simulated global seed=0", TrackedRun("r1", metrics), "sqlite:///s.db", "/o")
