@@ -17,7 +17,7 @@ import pytest
 from mlflow import MlflowClient
 from omegaconf import OmegaConf
 
-from bearingtwin.tracking.lifecycle import owner_tags, register_open_run, stop_cleanly
+from bearingtwin.tracking.lifecycle import STOPPING_SIGNALS, owner_tags, register_open_run, stop_cleanly
 from bearingtwin.tracking.mlflow_logging import open_store, train_tracked
 
 from test_tracking import CHOICES, fake_train, make_cfg
@@ -81,7 +81,7 @@ def alive(pid: int) -> bool:
     return state != "Z"
 
 
-@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])  # SIGHUP: a terminal closed
 def test_a_signalled_run_is_killed_with_one_line_and_128_plus_signal(tmp_path, signum):
     process = start_training(tmp_path)
     (run,) = wait_for_running(tmp_path, process, 1)
@@ -264,17 +264,21 @@ def test_a_relaunch_marks_runs_of_dead_processes_killed(tmp_path):
     dead = client.create_run(experiment_id, tags={**owner_tags(), "bt.pid": finished.stdout.strip()})
     living = client.create_run(experiment_id, tags=owner_tags())  # this test's process: alive
     foreign = client.create_run(experiment_id, tags={"bt.host": "elsewhere", "bt.pid": finished.stdout.strip()})
+    # A diagnosis's run, in an experiment of its own, whose process died: no later diagnosis had looked there.
+    elsewhere = client.create_run(client.create_experiment("bearingtwin-diagnose"),
+                                  tags={**owner_tags(), "bt.pid": finished.stdout.strip()})
     train_tracked(cfg, CHOICES, None, None, fake_train)
     status = {run.info.run_id: run.info.status for run in client.search_runs([experiment_id])}
     assert status[dead.info.run_id] == "KILLED" and "ended without closing" in client.get_run(dead.info.run_id).data.tags["bt.killed"]
     assert status[living.info.run_id] == "RUNNING" and status[foreign.info.run_id] == "RUNNING"
     assert sorted(status.values()) == ["FINISHED", "KILLED", "RUNNING", "RUNNING"]
+    assert client.get_run(elsewhere.info.run_id).info.status == "KILLED"
 
 
 def exit_status_under_stop_cleanly(entry_point) -> int:
     """The exit status ``stop_cleanly(entry_point)()`` ends with; the test process gets its own signal
     handlers back."""
-    handlers = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    handlers = {signum: signal.getsignal(signum) for signum in STOPPING_SIGNALS}
     try:
         with pytest.raises(SystemExit) as stopped:
             stop_cleanly(entry_point)()
@@ -333,7 +337,7 @@ def test_a_signal_lost_in_a_callback_prints_no_traceback_and_still_stops_the_com
 
     from bearingtwin.tracking import lifecycle
 
-    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    saved = {s: signal.getsignal(s) for s in STOPPING_SIGNALS}
     saved_hook = sys.unraisablehook
     reported = []
     try:
@@ -391,7 +395,7 @@ def test_a_signal_during_a_lightning_fit_still_kills_with_its_status(tmp_path, c
             CnnBiLstmClassifier(max_epochs=50).fit(X, y)
         return "finished"
 
-    handlers = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    handlers = {signum: signal.getsignal(signum) for signum in STOPPING_SIGNALS}
     lifecycle.handle_signals()
     try:
         assert exit_status_under_stop_cleanly(trains) == 128 + signal.SIGTERM

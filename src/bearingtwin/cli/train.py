@@ -14,7 +14,7 @@ open it, the output folder); a sweep job prints one line, the sweep as a whole i
 
 Exit status: 0 when the run (every job of a sweep) finished or was skipped as already
 finished; 1 when a sweep job failed (after all jobs ran, with a summary); 2 for bad input;
-130 / 143 on SIGINT / SIGTERM, with the open runs marked KILLED.
+130 / 143 / 129 on SIGINT / SIGTERM / SIGHUP, with the open runs marked KILLED.
 """
 
 from __future__ import annotations

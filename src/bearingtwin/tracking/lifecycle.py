@@ -2,14 +2,14 @@
 
 Three ways a run can be left open, three remedies:
 
-* **A signal** (Ctrl-C, SIGTERM from a scheduler): :func:`stop_cleanly` turns SIGINT and
-  SIGTERM into :class:`Interrupted`, marks every run this process opened and has not
+* **A signal** (Ctrl-C, SIGTERM from a scheduler, SIGHUP from a terminal closed or a connection lost):
+  :func:`stop_cleanly` turns SIGINT, SIGTERM and SIGHUP into :class:`Interrupted`, marks every run this process opened and has not
   closed KILLED (a sweep parent's still-running children too, whose worker processes
   joblib kills as the exception unwinds through it), prints one line and exits
   ``128 + signal``. Any other exception escaping an entry point marks them FAILED.
 * **A dead owner** (SIGKILL, power loss): every run is tagged with the host and process
-  that opened it (:func:`owner_tags`); :func:`reap_dead_runs`, called when a run or sweep
-  starts, marks RUNNING runs of this host whose process is gone KILLED.
+  that opened it (:func:`owner_tags`); :func:`reap_dead_runs`, called when any command opens a run or a sweep,
+  marks RUNNING runs of this host whose process is gone KILLED, in every experiment of the store.
 * **An orphaned worker**: a joblib or submitit worker whose sweep process died would go on computing
   and log a FINISHED run nobody waits for; :func:`watch_sweep_process` ends it instead.
 """
@@ -41,8 +41,13 @@ SWEEP_PID_ENV = "BEARINGTWIN_SWEEP_PID"
 """Set by the sweep's process for its workers, which inherit it: the process they live for."""
 
 
+STOPPING_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+"""The signals that stop a command with its runs KILLED: Ctrl-C, a scheduler's, a closed terminal's (none on
+Windows)."""
+
+
 class Interrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM arrived. A KeyboardInterrupt, so that no ``except Exception`` on the
+    """SIGINT, SIGTERM or SIGHUP arrived. A KeyboardInterrupt, so that no ``except Exception`` on the
     way up mistakes it for a failed computation, and so that a library waiting outside Python
     stops waiting as it does on Ctrl-C: Ray's ``ray.get`` turns a KeyboardInterrupt raised by a
     signal handler into its own, which is why the signal is also remembered (``_received``)."""
@@ -159,8 +164,8 @@ def _quiet_lost_interrupt(report_others: Callable) -> Callable:
 
 
 def handle_signals() -> None:
-    """SIGINT and SIGTERM raise :class:`Interrupted` in the main thread (see :func:`stop_cleanly`)."""
-    for signum in (signal.SIGINT, signal.SIGTERM):
+    """SIGINT, SIGTERM and SIGHUP raise :class:`Interrupted` in the main thread (see :func:`stop_cleanly`)."""
+    for signum in STOPPING_SIGNALS:
         signal.signal(signum, _raise_interrupted)
     if not getattr(sys.unraisablehook, "quiets_lost_interrupts", False):  # once, around whatever hook was there
         sys.unraisablehook = _quiet_lost_interrupt(sys.unraisablehook)
@@ -204,8 +209,8 @@ def stop_ray_jobs() -> None:
 def stop_cleanly(entry_point: Callable) -> Callable:
     """Wrap a command's ``main`` so that no run it opened outlives it in state RUNNING.
 
-    SIGINT / SIGTERM: open runs KILLED, one line on stderr, exit status 128 + signal number
-    (130, 143). An exception: open runs FAILED, then the exception goes on as before.
+    SIGINT / SIGTERM / SIGHUP: open runs KILLED, one line on stderr, exit status 128 + signal number
+    (130, 143, 129). An exception: open runs FAILED, then the exception goes on as before.
     """
 
     @functools.wraps(entry_point)
@@ -221,8 +226,8 @@ def stop_cleanly(entry_point: Callable) -> Callable:
             signum = stop.signum if isinstance(stop, Interrupted) else (_received or [signal.SIGINT])[-1]
             _received.clear()  # handled: a process that goes on (a test's) starts afresh
             # A second signal while closing the runs must not leave half of them open.
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+            for ignored in STOPPING_SIGNALS:
+                signal.signal(ignored, signal.SIG_IGN)
             stop_ray_jobs()
             closed = close_open_runs("KILLED")
             what = f"marked KILLED: {', '.join(closed)}" if closed else "no run was open"
@@ -247,15 +252,18 @@ def _process_alive(pid: int) -> bool:
     return True
 
 
-def reap_dead_runs(client: MlflowClient, experiment_id: str) -> list[str]:
-    """Mark KILLED the RUNNING runs opened on this host by a process that no longer exists.
+def reap_dead_runs(client: MlflowClient) -> list[str]:
+    """Mark KILLED the RUNNING runs of the store opened on this host by a process that no longer exists, in every
+    experiment (a diagnosis's, a twin's and a training's live in experiments of their own).
 
     Only this host's runs can be judged (a pid means nothing elsewhere); a run without
     owner tags (logged by another tool) is left alone. Returns the ids marked.
     """
+    from bearingtwin.tracking.mlflow_logging import all_experiment_ids
+
     host = socket.gethostname()
     running = client.search_runs(
-        [experiment_id], f"attributes.status = 'RUNNING' and tags.`{HOST_TAG}` = '{host}'", max_results=1000
+        all_experiment_ids(client), f"attributes.status = 'RUNNING' and tags.`{HOST_TAG}` = '{host}'", max_results=1000
     )
     reaped = []
     for run in running:

@@ -585,7 +585,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     check_registration(cfg)
     client, experiment_id = open_store(cfg.tracking)
     if sweep is None:  # a sweep's process reaps once for all its jobs
-        reap_dead_runs(client, experiment_id)
+        reap_dead_runs(client)
     digest = config_hash(cfg)
     if skips_finished(cfg.tracking, sweep):
         done = find_finished_run(client, experiment_id, digest)
@@ -927,7 +927,7 @@ class SweepParentRun(Callback):
             init.runtime_env = {**runtime_env, "env_vars": {**(runtime_env.get("env_vars") or {}), SWEEP_VARIED_ENV: varied}}
             exit_on_user_error(start_ray_keeping_signals)(init)
         client, experiment_id = exit_on_user_error(open_store)(self._tracking)
-        reap_dead_runs(client, experiment_id)
+        reap_dead_runs(client)
         name = sweep_name(config.hydra.runtime.choices)
         sweep_dir = sweep_folder(config.hydra)
         run = client.create_run(

@@ -393,7 +393,7 @@ def open_twin_run(cfg: DictConfig, measured: Recording) -> tuple[MlflowClient, s
     from bearingtwin.tracking.mlflow_logging import flatten, loggable_config, open_store
 
     client, experiment_id = open_store(cfg.tracking)
-    reap_dead_runs(client, experiment_id)
+    reap_dead_runs(client)
     run = client.create_run(experiment_id, run_name=f"twin {Path(str(measured.source)).name} {measured.fault}",
                             tags={"bt.kind": "twin", "measured": str(measured.source), **context_tags(), **owner_tags()})
     run_id = run.info.run_id

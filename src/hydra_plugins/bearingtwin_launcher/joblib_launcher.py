@@ -144,12 +144,10 @@ class _SweepStore:
     def mark_dead_workers_runs(self) -> None:
         """Runs left RUNNING by the workers the pool lost, KILLED: their jobs run again, in new runs."""
         from bearingtwin.tracking.lifecycle import reap_dead_runs
-        from bearingtwin.tracking.mlflow_logging import all_experiment_ids
 
         try:
             client, _ = self._client_and_parent()
-            for experiment_id in all_experiment_ids(client):
-                reap_dead_runs(client, experiment_id)
+            reap_dead_runs(client)
         except Exception as error:  # the store's bookkeeping, not the jobs
             log.warning("could not mark the lost workers' runs KILLED: %s: %s", type(error).__name__, error)
 
