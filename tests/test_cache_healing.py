@@ -150,3 +150,34 @@ def test_an_entry_computed_by_other_code_is_a_miss_while_an_edit_of_words_alone_
     constant = key('EXPONENT = 1.5\n"""Hertz."""\n')
     assert key('EXPONENT = 1.5\n"""Hertz, for a point contact."""\n') == constant != key('EXPONENT = 1.4\n"""Hertz."""\n')
     storage.code_fingerprint.cache_clear()
+
+
+def test_a_cache_that_cannot_take_an_entry_is_said_and_the_numbers_computed_are_used(dataset, tmp_path,  # noqa: F811
+                                                                                   caplog):
+    """A read-only shared cache or a full disk: the features had been computed in full, then lost to a PermissionError
+    or 'No space left on device' traceback, the run FAILED. Now one warning names the entry, and the run goes on with
+    the numbers it computed."""
+    import errno
+
+    from bearingtwin.storage import save_npy_atomic
+
+    cfg = small_cfg()
+    train = np.arange(0, len(dataset), 2)
+    expected, _, _ = extract_features(cfg, dataset, train, tmp_path / "good")
+    blocked = tmp_path / "not_a_folder"
+    blocked.write_text("a file where the cache's folder would be")  # no folder can be made under it, even by root
+    with caplog.at_level(logging.WARNING):
+        features, _, _ = extract_features(cfg, dataset, train, blocked)
+    np.testing.assert_array_equal(features, expected)
+    (said,) = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert said.startswith(f"cache entry {blocked}/features/") and "the run goes on" in said
+    caplog.clear()
+
+    class DiskFull:  # np.save pickles objects it cannot store as arrays; this one meets a full disk part-way
+        def __reduce__(self):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    with caplog.at_level(logging.WARNING):
+        save_npy_atomic(tmp_path / "full" / "a.npy", np.array([DiskFull()], dtype=object))
+    assert list((tmp_path / "full").iterdir()) == []  # no partial entry, no temporary file
+    assert "not written (No space left on device)" in caplog.records[0].getMessage()

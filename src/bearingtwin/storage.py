@@ -4,12 +4,14 @@ A cache entry is never the only copy of anything: it can always be recomputed fr
 configuration. So an entry that cannot be read (a truncated, empty or bit-flipped file
 left by a full disk, a crash or bad storage) is not an error but a miss:
 :func:`load_npz_or_heal` logs one line naming the file, removes it and lets the caller
-recompute and rewrite it.
+recompute and rewrite it. Nor is an entry that cannot be written (a read-only shared cache,
+a full disk) an error: one line says so, and the numbers just computed go on to be used.
 """
 
 from __future__ import annotations
 
 import ast
+import contextlib
 import functools
 import hashlib
 import json
@@ -37,21 +39,36 @@ def _write_atomic(path: str | Path, write) -> None:
     """``write(stream)`` into a temporary file in ``path``'s folder, then moved into place.
 
     ``os.replace`` is atomic on one file system: a parallel job finds either nothing or the
-    whole file, and two jobs writing the same entry leave one complete copy.
+    whole file, and two jobs writing the same entry leave one complete copy. A cache folder
+    that cannot take the entry (read-only, full) is said in one line and the entry left unwritten:
+    the numbers it would keep are in the caller's hands, and computing them again next time costs
+    less than the run a refusal here would throw away.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
+    temporary = None
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")
         with os.fdopen(handle, "wb") as stream:
             write(stream)
         # mkstemp makes the file private (0600); the entry gets the mode any new file would (the umask's), so a
         # team's shared cache is readable by the team.
         os.chmod(temporary, 0o666 & ~_UMASK)
         os.replace(temporary, path)
+    except OSError as error:
+        _remove(temporary)
+        log.warning("cache entry %s not written (%s); the run goes on, and computes it again next time",
+                    path, error.strerror or error)
     except BaseException:
-        Path(temporary).unlink(missing_ok=True)
+        _remove(temporary)
         raise
+
+
+def _remove(temporary: str | None) -> None:
+    """A temporary file left by a write that did not finish, removed where it was made."""
+    if temporary is not None:
+        with contextlib.suppress(OSError):
+            Path(temporary).unlink(missing_ok=True)
 
 
 def _read_umask() -> int:
@@ -81,8 +98,12 @@ def load_npz_or_heal(path: str | Path, *names: str) -> dict[str, np.ndarray] | N
         with np.load(path, allow_pickle=False) as stored:
             return {name: np.array(stored[name]) for name in names}
     except Exception as error:  # any failure to read means the entry is unusable; it is recomputed
-        log.warning("cache entry %s is unreadable (%s: %s); removed, recomputing it", path, type(error).__name__, error)
-        path.unlink(missing_ok=True)
+        try:
+            path.unlink(missing_ok=True)
+            done = "removed"
+        except OSError as removal:  # a read-only shared cache: read past, as a miss, every time until someone fixes it
+            done = f"left in place ({removal.strerror or removal})"
+        log.warning("cache entry %s is unreadable (%s: %s); %s, recomputing it", path, type(error).__name__, error, done)
         return None
 
 
