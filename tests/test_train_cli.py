@@ -1,5 +1,7 @@
 """The training entry point: config composition, whole-pipeline determinism, bad input."""
 
+import os
+
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
@@ -181,3 +183,16 @@ def test_mlflows_experiment_variable_names_every_commands_experiment(monkeypatch
         "train": "bearingtwin", "twin": "bearingtwin-twin", "diagnose": "bearingtwin-diagnose"}
     monkeypatch.setenv("MLFLOW_EXPERIMENT_NAME", "rig-7")
     assert {compose_config(name, o).tracking.experiment for name, o in overrides.items()} == {"rig-7"}
+
+
+def test_without_home_the_cache_is_the_users_own_not_a_folder_everyone_shares(monkeypatch):
+    """HOME unset (a cron job, a service) had put the cache in /tmp/.cache/bearingtwin, which every user of the machine
+    shares and may plant entries in; now the user's home from the password database, as Python finds it."""
+    import pwd
+
+    from bearingtwin.config import compose_config
+
+    for name in ("HOME", "BEARINGTWIN_CACHE", "XDG_CACHE_HOME"):
+        monkeypatch.delenv(name, raising=False)
+    home = pwd.getpwuid(os.getuid()).pw_dir
+    assert compose_config("train", []).paths.cache_dir == f"{home}/.cache/bearingtwin"

@@ -27,6 +27,8 @@ CONF_DIR = str(REPO_ROOT / "conf")
 
 # ``${bt_repo:}`` in a config resolves to the checkout, so default paths work from any cwd.
 OmegaConf.register_new_resolver("bt_repo", lambda: str(REPO_ROOT), replace=True)
+# The user's home: HOME, else the password database's (os.path.expanduser), never a folder every user shares (/tmp).
+OmegaConf.register_new_resolver("bt_home", lambda: os.path.expanduser("~"), replace=True)
 
 
 COMPOSITION_ERRORS = (ConfigCompositionException, OverrideParseException)
