@@ -647,3 +647,39 @@ def test_a_model_misreading_its_calibration_records_is_registered_but_not_made_t
     cfg.register, cfg.register_alias = "my_rig", "champion"
     tracked = train_tracked(cfg, CHOICES, None, str(tmp_path), lambda cfg, root_dir: result)
     assert tracked.model.endswith("= models:/my_rig/3 = models:/my_rig@champion (moved from version 2)")
+
+
+def test_a_store_whose_making_was_interrupted_is_made_anew_and_an_older_one_is_named(tmp_path, monkeypatch):
+    """Ctrl-C in the first seconds of a first command had left a store of half its tables, on which every later
+    command failed with a page of SQLAlchemy traceback. A new store is now made beside its place and moved there
+    whole; a store of older tables is refused in one line saying how to upgrade it."""
+    import sqlite3
+
+    from mlflow.tracking import _tracking_service
+
+    uri = f"sqlite:///{tmp_path}/m.db"
+    tracking = OmegaConf.create({"uri": uri, "experiment": "e", "artifact_root": None})
+    made = []
+
+    def interrupted(self, *args, **kwargs):
+        made.append(self)
+        raise KeyboardInterrupt  # while MLflow makes the new store's tables
+
+    with monkeypatch.context() as patched:
+        patched.setattr(_tracking_service.client.TrackingServiceClient, "search_experiments", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            open_store(tracking)
+    assert made and not (tmp_path / "m.db").exists()  # nothing half made where the store belongs
+    client, _ = open_store(tracking)  # made anew, whole
+    assert {e.name for e in client.search_experiments()} == {"e", "Default"} and not list(tmp_path.glob("*.making"))
+    import shutil
+
+    shutil.copy(tmp_path / "m.db", tmp_path / "old.db")  # another URI: MLflow checks a store's tables once a process
+    uri = f"sqlite:///{tmp_path}/old.db"
+    with sqlite3.connect(tmp_path / "old.db") as database:  # as a store of an older MLflow has it
+        database.execute("update alembic_version set version_num = 'bf29a5ff90ea'")
+    with pytest.raises(BearingTwinError) as refused:
+        open_store(OmegaConf.create({"uri": uri, "experiment": "f", "artifact_root": None}))
+    assert str(refused.value) == (f"tracking.uri={uri}: the store's tables are older than this MLflow's (found version "
+                                  f"bf29a5ff90ea); back the store up and upgrade it (mlflow db upgrade {uri}), or, where "
+                                  "its making was stopped, move it aside for a new one")

@@ -43,6 +43,7 @@ import json
 import logging
 import os
 import random
+import re
 import shutil
 import sys
 import tempfile
@@ -137,11 +138,22 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
     name = experiment_name(tracking_cfg, "experiment" if must_exist else "tracking.experiment")  # a report's own key
     check_store(uri, must_exist)
     with _sqlite_init_lock(uri):
-        client = MlflowClient(tracking_uri=uri)
         try:
+            _make_sqlite_store_whole(uri)
+            client = MlflowClient(tracking_uri=uri)  # an SQL store checks its tables' version here
             experiment = client.get_experiment_by_name(name)  # creates the schema of a new database
-        except MlflowException as error:
-            if urlparse(uri).scheme not in ("http", "https"):
+        except Exception as error:
+            if _sqlite_path(uri) and "already exists" in str(error):  # an older store's making or upgrade interrupted
+                found = re.search(r"table \S+ already exists", str(error))
+                raise BearingTwinError(f"{store_setting(uri)}: the store's tables are half made ("
+                                       f"{found[0] if found else 'a table already exists'}, as its upgrade or making "
+                                       "was stopped); move the file aside and run again for a new store") from None
+            older = re.search(r"out-of-date database schema \((found version \S+)", str(error))
+            if older:  # MLflow's message is a paragraph under a traceback
+                raise BearingTwinError(f"{store_setting(uri)}: the store's tables are older than this MLflow's "
+                                       f"({older[1].rstrip(',')}); back the store up and upgrade it (mlflow db upgrade "
+                                       f"{uri}), or, where its making was stopped, move it aside for a new one") from None
+            if not isinstance(error, MlflowException) or urlparse(uri).scheme not in ("http", "https"):
                 raise
             # A reply of HTML: another service on the port, a proxy's page. Else MLflow's own refusal (a login it
             # asks for, a store it cannot read), said as it says it.
@@ -297,6 +309,23 @@ def _sqlite_path(uri: str, sibling: str | None = None) -> str | None:
         return None
     path = Path(uri.removeprefix("sqlite:///").split("?")[0])  # a query (?timeout=30) is the driver's
     return str(path if sibling is None else path.parent / sibling)
+
+
+def _make_sqlite_store_whole(uri: str) -> None:
+    """A new SQLite store made whole beside its place, then moved there: MLflow makes its tables one by one, and a
+    first command interrupted while it did (Ctrl-C within its first seconds) left a store every later command
+    failed on ("table ... already exists"). Called under :func:`_sqlite_init_lock`; an existing store is left as it
+    is (an empty file counts as none)."""
+    database = _sqlite_path(uri)
+    if database is None or (Path(database).is_file() and Path(database).stat().st_size > 0):
+        return
+    query = uri.partition("?")[2]
+    for earlier in Path(database).parent.glob(f"{Path(database).name}.*.making"):  # attempts interrupted
+        earlier.unlink(missing_ok=True)
+    # A name of its own each time: MLflow keeps a store per URI for the process, bound to the file it first opened.
+    making = Path(f"{database}.{os.getpid()}-{time.monotonic_ns()}.making")
+    MlflowClient(tracking_uri=f"sqlite:///{making}" + (f"?{query}" if query else "")).search_experiments()
+    os.replace(making, database)
 
 
 @contextlib.contextmanager
