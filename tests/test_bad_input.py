@@ -85,6 +85,8 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("train", ["-m", "--info", "all", "seed=0,1"], ["-m and --info go one at a time"]),  # its traceback too
     ("train", ["-m", "seed=interval(0,1)"], ["seed=interval(0,1): interval() asks a sweeper that draws values"]),  # exit 1
     ("train", ["+classifier=svm"], ["+classifier=svm: classifier has a default choice", "choose it with classifier=svm"]),
+    # Hydra's folder for the run, or the sweep, that cannot be made: Hydra's traceback, exit 1 (a FAILED sweep run)
+    ("train", ["hydra.run.dir=/dev/null/run"], ["hydra.run.dir=/dev/null/run: /dev/null is a file, not a folder"]),
     ("train", ["effects=[gear]"], ["effects=gear: no such effects config", "tones"]),  # Hydra lists no options for it
     ("train", ["seed=${foo}"], ["seed=${foo}: Interpolation key 'foo' not found"]),  # OmegaConf's traceback
     ("train", ["simulator.fs=-1"], ["simulator.fs=-1: the simulated data set runs the simulator at data.fs"]),  # ignored
@@ -475,3 +477,12 @@ def test_help_into_a_pipe_its_reader_closed_ends_without_a_traceback(command, fl
         os.close(write_end)
     assert "Traceback" not in done.stderr and "BrokenPipeError" not in done.stderr, done.stderr[-2000:]
     assert "Logging error" not in done.stderr, done.stderr[-2000:]
+
+
+def test_a_sweeps_folder_that_cannot_be_made_is_refused_before_it_starts():
+    """Hydra's own refusal came once the sweep had started: a traceback, exit 1, and a FAILED sweep run."""
+    from bearingtwin.config import refuse_bad_overrides
+
+    with pytest.raises(BearingTwinError, match=r"^hydra.sweep.dir=/dev/null/sweep: /dev/null is a file, not a folder$"):
+        refuse_bad_overrides("train", ["-m", "seed=0,1", "hydra.sweep.dir=/dev/null/sweep"])
+

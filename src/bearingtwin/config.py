@@ -409,6 +409,9 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 if override.is_interval_sweep():  # Hydra's refusal: a traceback's last line, exit 1, once the sweep starts
                     raise BearingTwinError(f"{override.input_line}: interval() asks a sweeper that draws values (Optuna's, "
                                            "Nevergrad's); Hydra's basic sweeper takes lists (a,b), range() and choice()")
+        if not args.cfg and cfg.hydra.get("output_subdir") is not None:  # Hydra writes its .hydra folder there
+            key = "hydra.sweep.dir" if mode == RunMode.MULTIRUN else "hydra.run.dir"
+            output_folder(OmegaConf.select(cfg, key), key)  # Hydra's own refusal: a traceback, exit 1
         for warning in [] if args.cfg else unread_overrides(cfg, list(args.overrides)):  # --cfg shows, runs nothing
             print(f"warning: {warning}", file=sys.stderr)
         if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
