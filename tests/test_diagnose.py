@@ -975,7 +975,23 @@ def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_befor
     spread = run("diagnose", f"path={folder}", "model=models:/diag/1", "order_tracking.unsteady=2", cwd=tmp_path,
                  uri=uri)
     assert spread.returncode == 2 and "order_tracking.unsteady must be a relative spread below 1" in spread.stderr
-    for done in (clash, twice, into_file, maybe, spread):
+    # An out= another diagnosis is writing into (a job started again before the last ended): the two had each removed
+    # the other's outputs as an earlier run's, and left a folder of both.
+    import fcntl
+    import os
+
+    (tmp_path / "busy").mkdir()
+    (tmp_path / "busy" / "theirs.txt").write_text("another run's")
+    held = os.open(tmp_path / "busy", os.O_RDONLY)
+    try:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        busy = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path / 'busy'}", cwd=tmp_path,
+                   uri=uri)
+    finally:
+        os.close(held)
+    assert busy.returncode == 2 and f"out={tmp_path / 'busy'}: another bearingtwin-diagnose is writing there" in busy.stderr
+    assert [path.name for path in (tmp_path / "busy").iterdir()] == ["theirs.txt"]
+    for done in (clash, twice, into_file, maybe, spread, busy):
         assert len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert not (tmp_path / "diagnosis").exists()
 

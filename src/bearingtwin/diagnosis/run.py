@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import fcntl
 import glob
 import json
 import logging
@@ -201,24 +202,47 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     model, pipeline, pinned = load_diagnosis_model(str(cfg.model), tracking_uri)  # pinned: the version an alias named
     pipeline.check_can_diagnose()
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
-    # Once the command can diagnose (a mistyped model costs no earlier results), before the first record: an
-    # interrupted run then leaves its own records' outputs alone, never beside an earlier run's.
-    tracked = open_diagnosis_run(cfg, table, bearing, pinned) if logged else None
-    earlier = remove_earlier_outputs(out, records)  # after the store answered: a failing store costs no results
-    run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier)
-    try:
-        diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures, pinned,
-                         order_tracking)
-    except KeyboardInterrupt:  # an interrupt (SIGINT, SIGTERM): the records it left are listed as left, not omitted
-        reached = len(run.rows)  # one row per record, in the records' order
-        run.rows += [{"record": path.stem, "error": NOT_REACHED} for path in records[reached:]]
-        raise
-    finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
-        if len(records) > 1 or run.failures:
-            run.files.append(write_summary(run.rows, out / "summary.csv"))
-    if tracked:
-        log_diagnosis(*tracked, run, len(records))
+    with writing_alone(out):
+        # Once the command can diagnose (a mistyped model costs no earlier results), before the first record: an
+        # interrupted run then leaves its own records' outputs alone, never beside an earlier run's.
+        tracked = open_diagnosis_run(cfg, table, bearing, pinned) if logged else None
+        earlier = remove_earlier_outputs(out, records)  # after the store answered: a failing store costs no results
+        run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier)
+        try:
+            diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures,
+                             pinned, order_tracking)
+        except KeyboardInterrupt:  # an interrupt (SIGINT, SIGTERM): the records it left are listed as left, not omitted
+            reached = len(run.rows)  # one row per record, in the records' order
+            run.rows += [{"record": path.stem, "error": NOT_REACHED} for path in records[reached:]]
+            raise
+        finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
+            if len(records) > 1 or run.failures:
+                run.files.append(write_summary(run.rows, out / "summary.csv"))
+        if tracked:
+            log_diagnosis(*tracked, run, len(records))
     return run
+
+
+@contextlib.contextmanager
+def writing_alone(out: Path):
+    """``out`` claimed for this command while it writes there (a lock on the folder, which the system releases when
+    the process ends, however it ends): two diagnoses into one folder (a job started again before the last ended)
+    had each removed the other's outputs as an earlier run's and left a folder of both. A folder made for the claim
+    and left empty is removed."""
+    made = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    handle = os.open(out, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise BearingTwinError(f"out={out}: another bearingtwin-diagnose is writing there; wait for it to end, or "
+                                   "give this one an out= of its own") from None
+        yield
+    finally:
+        os.close(handle)
+        if made and not any(out.iterdir()):
+            out.rmdir()
 
 
 OUTPUT_FILES = ("diagnosis.json", "diagnosis.png")
