@@ -270,6 +270,9 @@ def hydra_command(config_name: str) -> Callable:
                 exit_on_user_error(refuse_bad_overrides)(config_name, sys.argv[1:])
             if not sys.stderr.isatty():  # MLflow's download bars, like the project's own, only in a terminal
                 os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
+            # stdout holds the closing block alone, which names the run and how to open it; a tracking server's runs
+            # had added MLflow's "View run <name> at <url>" lines to it as they ended.
+            os.environ.setdefault("MLFLOW_SUPPRESS_PRINTING_URL_TO_STDOUT", "true")
             if prints_only(sys.argv[1:]):
                 # Hydra catches a closed pipe's error where it prints these (in a logging handler, or around --cfg)
                 # and prints a traceback: the error ends the command where it is raised.
