@@ -1912,3 +1912,23 @@ def test_a_gap_at_the_very_end_survives_two_tracking_passes():
     recording = Recording(signal, SPEED_FS, rpm=SPEED_RPM, source="end")
     tracked, _, speed, ((start, length),) = steadied(recording, True, 0.001, gaps=[(signal.size - 5, 5)])
     assert speed["tracked"] and start + length <= tracked.signal.size and length >= 5
+
+
+def test_a_diagnosis_the_disk_cannot_take_fails_its_record_in_one_line_and_leaves_no_part(tmp_path, monkeypatch):
+    """A full disk under out=: each record's failure had been a page of traceback (600 lines over a folder)."""
+    import errno
+
+    from bearingtwin.diagnosis import run as diagnosis_run
+
+    def disk_full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(diagnosis_run, "plot_diagnosis", disk_full)
+    with pytest.raises(BearingTwinError) as refused:
+        diagnosis_run.write_outputs({"record": "r"}, None, list(FAULTS), tmp_path / "out" / "r", figures=True)
+    assert str(refused.value) == (f"out={tmp_path / 'out'}: r's diagnosis cannot be written there (No space left on "
+                                  "device)")
+    assert not (tmp_path / "out" / "r").exists()
+    monkeypatch.setattr("builtins.open", disk_full)
+    with pytest.raises(BearingTwinError, match=r"summary.csv cannot be written there \(No space left on device\)$"):
+        diagnosis_run.write_summary([{"record": "r"}], tmp_path / "out" / "summary.csv")

@@ -300,12 +300,16 @@ def write_outputs(result: dict, evidence: PhysicsEvidence | None, class_names: l
     theirs = [folder / name for name in OUTPUT_FILES if (folder / name).exists()]
     if theirs:
         raise BearingTwinError(f"{theirs[0]} is not one this command wrote; it is kept: move it or choose another out=")
-    folder.mkdir(parents=True, exist_ok=True)
     try:
+        folder.mkdir(parents=True, exist_ok=True)
         written = [plot_diagnosis(result, evidence, class_names, folder / "diagnosis.png")] if figures else []
         (folder / "diagnosis.json").write_text(json.dumps(result, indent=1))
-    except BaseException:  # an interrupt (KeyboardInterrupt) too
-        remove_outputs(folder)
+    except BaseException as error:  # an interrupt (KeyboardInterrupt) too
+        with contextlib.suppress(OSError):  # a full disk may refuse even the cleaning up
+            remove_outputs(folder)
+        if isinstance(error, OSError):  # a full disk, a read-only folder: the record's failure, said in a line
+            raise BearingTwinError(f"out={folder.parent}: {folder.name}'s diagnosis cannot be written there "
+                                   f"({error.strerror or error})") from None
         raise
     return [folder / "diagnosis.json", *written]
 
@@ -469,11 +473,15 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     # verdict the physics gave is not the classifier's.
     columns += ["classifier_verdict", "physics_decided"]
     columns += ["speed_spread", "order_tracked"]  # how steadily the shaft turned; resampled to a steady speed
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
-        writer.writeheader()
-        writer.writerows(rows)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
+            writer.writeheader()
+            writer.writerows(rows)
+    except OSError as error:
+        raise BearingTwinError(f"out={path.parent}: {path.name} cannot be written there ({error.strerror or error})") \
+            from None
     return path
 
 
