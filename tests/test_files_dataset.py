@@ -229,11 +229,15 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     (tmp_path / "readme.txt").write_text("rig B")
     (tmp_path / "mounting.jpg").write_bytes(b"\xff\xd8\xff")
     np.savetxt(tmp_path / "inner_run3.txt", tone("inner"), delimiter="\t")  # a logger's text export is a recording
+    (tmp_path / "loop.npy").symlink_to(tmp_path / "loop.npy")  # a link to itself, and one whose target is gone:
+    (tmp_path / "gone.npy").symlink_to(tmp_path / "moved_away.npy")  # had been passed over without a word
     recordings, others = recordings_and_others(tmp_path)
     assert [path.name for path in recordings] == ["ball_run1.npy", "inner_run3.txt", "logger.csv", "normal_run1.npy",
                                                   "outer_run2.csv"]
     assert recordings_in(tmp_path) == recordings
-    assert others == {"mounting.jpg": "not .npy, .npz, .csv, .txt, .tsv, .mat, .wav, .xls",
+    nothing = "a link to nothing (its target is gone, or it links back to itself)"
+    assert others == {"gone.npy": nothing, "loop.npy": nothing,
+                      "mounting.jpg": "not .npy, .npz, .csv, .txt, .tsv, .mat, .wav, .xls",
                       "notes.csv": "its column 'date' holds text ('2024-01-02'), not samples",
                       "readme.txt": "no row of numbers (notes, or a table of text), not samples",
                       "results.csv": "its column 'record' holds text ('normal_run1'), not samples",

@@ -240,6 +240,9 @@ def recordings_and_others(folder: Path) -> tuple[list[Path], dict[str, str]]:
     hidden files (a name starting with '.') are neither."""
     recordings, others = [], {}
     for path in sorted(folder.iterdir()):
+        if path.is_symlink() and not path.exists() and not path.name.startswith("."):
+            others[path.name] = "a link to nothing (its target is gone, or it links back to itself)"
+            continue
         if not path.is_file() or path.name == DEFAULT_LABELS or path.name.startswith("."):  # ._x.npy: macOS metadata
             continue
         if path.suffix.lower() not in FORMATS:
