@@ -683,3 +683,34 @@ def test_a_store_whose_making_was_interrupted_is_made_anew_and_an_older_one_is_n
     assert str(refused.value) == (f"tracking.uri={uri}: the store's tables are older than this MLflow's (found version "
                                   f"bf29a5ff90ea); back the store up and upgrade it (mlflow db upgrade {uri}), or, where "
                                   "its making was stopped, move it aside for a new one")
+
+
+def test_a_sweep_whose_tracking_server_went_away_runs_no_more_jobs_and_ends_in_one_line(tmp_path, monkeypatch, caplog,
+                                                                                      capsys):
+    """A server gone mid-sweep: each job left had spent half a minute in MLflow's retries before failing, and the sweep
+    had ended, after another minute, with exit 2 and a raw exception. Now a job finding the server silent is not run,
+    and the sweep ends at once with one line and exit 1, its parent left for the next command that finds the server."""
+    from bearingtwin.tracking import lifecycle, mlflow_logging
+    from bearingtwin.tracking.mlflow_logging import SweepParentRun
+
+    uri = "http://127.0.0.1:9"  # nothing answers there
+    monkeypatch.setattr(mlflow_logging, "server_silence", lambda uri: "Connection refused")
+    cfg = make_cfg(tmp_path, uri=uri)
+    trained = []
+    with caplog.at_level("ERROR", logger="bearingtwin.tracking.mlflow_logging"):
+        assert train_tracked(cfg, CHOICES, SweepInfo("cli", str(tmp_path / "multirun"), job=3), None,
+                             lambda cfg, root_dir: trained.append(1)) is None
+    assert trained == [] and caplog.messages == [
+        f"job 3 not run: tracking.uri={uri}: the tracking server does not answer (Connection refused)"]
+    callback = SweepParentRun()
+    callback._random_state, callback._tracking, callback._parent_id = None, OmegaConf.create({"uri": uri}), "p1"
+    lifecycle.register_open_run(None, "p1", label="sweep", with_children=True)
+    monkeypatch.setattr(callback, "_jobs", lambda config: [])
+    hydra = OmegaConf.create({"hydra": {"runtime": {"cwd": str(tmp_path)}, "sweep": {"dir": str(tmp_path / "m")}}})
+    with pytest.raises(SystemExit) as ended:
+        callback.on_multirun_end(hydra)
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert ended.value.code == 1 and line.startswith(
+        f"error: the sweep's outcome could not be recorded: tracking.uri={uri}: the tracking server stopped answering "
+        "(Connection refused); its runs stay as they are there")
+    assert lifecycle.close_open_runs("FAILED") == []  # nothing left for the exit to try to close on a silent server

@@ -143,8 +143,8 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
             client = MlflowClient(tracking_uri=uri)  # an SQL store checks its tables' version here
             experiment = client.get_experiment_by_name(name)  # creates the schema of a new database
         except Exception as error:
-            if _sqlite_path(uri) and "already exists" in str(error):  # an older store's making or upgrade interrupted
-                found = re.search(r"table \S+ already exists", str(error))
+            if _sqlite_path(uri) and re.search(r"already exists|duplicate column name", str(error)):  # an older store's
+                found = re.search(r"table \S+ already exists|duplicate column name: \S+", str(error))  # making stopped
                 raise BearingTwinError(f"{store_setting(uri)}: the store's tables are half made ("
                                        f"{found[0] if found else 'a table already exists'}, as its upgrade or making "
                                        "was stopped); move the file aside and run again for a new store") from None
@@ -612,6 +612,11 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     it is re-raised so the entry point exits non-zero.
     """
     check_registration(cfg)
+    silence = server_silence(str(cfg.tracking.uri)) if sweep is not None and _is_server(str(cfg.tracking.uri)) else None
+    if silence is not None:  # gone since the sweep began (a job before this one said when): not run, at once
+        log.error("job %s not run: %s: the tracking server does not answer (%s)", sweep.job,
+                  store_setting(str(cfg.tracking.uri)), silence)
+        return None
     client, experiment_id = open_store(cfg.tracking)
     if sweep is None:  # a sweep's process reaps once for all its jobs
         reap_dead_runs(client)
@@ -691,9 +696,13 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
                       artifacts=run.info.artifact_uri)
 
 
+def _is_server(uri: str) -> bool:
+    return urlparse(uri).scheme in ("http", "https")
+
+
 def _server_lost(uri: str, run_id: str, error: Exception) -> BearingTwinError | None:
     """The error to stop with when ``error`` came from a tracking server that no longer answers (None otherwise)."""
-    if not isinstance(error, MlflowException) or urlparse(uri).scheme not in ("http", "https"):
+    if not isinstance(error, MlflowException) or not _is_server(uri):
         return None
     silence = server_silence(uri)
     if silence is None:
@@ -965,6 +974,7 @@ class SweepParentRun(Callback):
             tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir, **context_tags(), **owner_tags()},
         )
         register_open_run(client, run.info.run_id, label="sweep", with_children=True)
+        self._parent_id = run.info.run_id
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
         os.environ[SWEEP_VARIED_ENV] = varied  # so are the keys that tell its jobs apart
 
@@ -973,6 +983,15 @@ class SweepParentRun(Callback):
         # The store resolved at the start: a job may have changed what the config's interpolations read since
         # (MLflow sets MLFLOW_TRACKING_URI as a job logs its model).
         tracking = self._tracking
+        uri = str(tracking.uri)
+        silence = server_silence(uri) if _is_server(uri) else None
+        if silence is not None:  # MLflow would retry each of the calls below for half a minute, then fail anyway
+            forget_open_run(self._parent_id)  # nothing can close it now; the next command that finds the server does
+            print(f"error: the sweep's outcome could not be recorded: {store_setting(uri)}: the tracking server stopped "
+                  f"answering ({silence}); its runs stay as they are there until a command on this host finds the "
+                  f"server again and marks those left RUNNING KILLED (sweep outputs: {sweep_folder(config.hydra)})",
+                  file=sys.stderr, flush=True)
+            sys.exit(1)
         client, _ = exit_on_user_error(open_store)(tracking)
         sweep_dir = sweep_folder(config.hydra)
         parent = find_sweep_parent(client, sweep_dir)
