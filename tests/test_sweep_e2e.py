@@ -118,6 +118,11 @@ def test_failing_jobs_are_failed_and_grouped_under_the_sweep(store):
     sweep_dir = Path(parent.data.tags["sweep_dir"])  # named by its folder's last two parts (Hydra's <date>/<time>)
     assert parent.info.run_name == f"sweep table4 {sweep_dir.parent.name}/{sweep_dir.name}"
     assert parent.data.tags["mlflow.user"] and "mlflow.source.name" in parent.data.tags
+    assert "search.population=3,1" in parent.data.tags["overrides"]  # the command's, its swept list as given
+    finished = [r.data.metrics["accuracy"] for r in runs
+                if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id and r.info.status == "FINISHED"]
+    assert parent.data.metrics["accuracy_mean"] == pytest.approx(np.mean(finished))  # its jobs' at a glance
+    assert parent.data.metrics["accuracy_max"] == pytest.approx(max(finished))
     assert (parent.data.tags["n_finished"], parent.data.tags["n_failed"]) == ("3", "3")
     children = [r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id]
     assert len(children) == 6 and {r.data.tags["sweep_dir"] for r in children} == {parent.data.tags["sweep_dir"]}

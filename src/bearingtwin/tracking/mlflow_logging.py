@@ -971,7 +971,8 @@ class SweepParentRun(Callback):
         run = client.create_run(
             experiment_id,
             run_name=f"sweep {name} {Path(sweep_dir).parent.name}/{Path(sweep_dir).name}",  # Hydra's <date>/<time>
-            tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir, **context_tags(), **owner_tags()},
+            tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir, **context_tags(), **owner_tags(),
+                  "overrides": " ".join(config.hydra.overrides.task)[:5000]},  # the command's, swept lists as given
         )
         register_open_run(client, run.info.run_id, label="sweep", with_children=True)
         self._parent_id = run.info.run_id
@@ -1007,6 +1008,14 @@ class SweepParentRun(Callback):
             for tag, count in (("n_finished", sum(o.status == "FINISHED" for o in outcomes)), ("n_failed", n_failed),
                                ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
                 client.set_tag(parent_id, tag, str(count))
+            # Its jobs' accuracies at a glance, where the runs list shows the sweep beside others.
+            scores = [client.get_run(o.run_id).data.metrics.get("accuracy") for o in outcomes
+                      if o.status in ("FINISHED", "SKIPPED")]
+            scores = [score for score in scores if score is not None]
+            if scores:
+                client.log_batch(parent_id, metrics=[Metric(key, float(value), int(time.time() * 1000), 0) for key, value in
+                                                     (("accuracy_mean", np.mean(scores)), ("accuracy_std", np.std(scores)),
+                                                      ("accuracy_min", min(scores)), ("accuracy_max", max(scores)))])
             # The runs the sweep stands for, those it skipped included (they carry another sweep's sweep_dir):
             # what `bearingtwin-report sweep_dir=<this sweep>` reads.
             client.log_dict(parent_id, [o.run_id for o in outcomes if o.status in ("FINISHED", "SKIPPED")],
