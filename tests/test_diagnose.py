@@ -991,6 +991,15 @@ def test_records_a_folder_cannot_tell_apart_and_a_file_for_out_are_refused_befor
         os.close(held)
     assert busy.returncode == 2 and f"out={tmp_path / 'busy'}: another bearingtwin-diagnose is writing there" in busy.stderr
     assert [path.name for path in (tmp_path / "busy").iterdir()] == ["theirs.txt"]
+    # Files diagnosed one by one as they arrive, each its own record's outputs: side by side, into a new folder.
+    held = os.open(tmp_path / "busy", os.O_RDONLY)
+    try:
+        fcntl.flock(held, fcntl.LOCK_SH)  # as another one-file diagnosis holds it
+        beside = run("diagnose", f"path={folder / 'rec.npz'}", "model=models:/diag/1", f"out={tmp_path / 'busy'}",
+                     "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    finally:
+        os.close(held)
+    assert beside.returncode == 0 and (tmp_path / "busy" / "rec" / "diagnosis.json").is_file(), beside.stderr[-2000:]
     for done in (clash, twice, into_file, maybe, spread, busy):
         assert len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert not (tmp_path / "diagnosis").exists()

@@ -473,3 +473,15 @@ def test_teardown_noise_after_an_interrupt_does_not_follow_its_one_line(tmp_path
     done = subprocess.run([sys.executable, str(tmp_path / "torn.py")], capture_output=True, text=True, timeout=60)
     assert done.returncode == 128 + signal.SIGTERM, done.stderr
     assert done.stderr.strip().splitlines() == ["interrupted by SIGTERM; no run was open"], done.stderr
+
+
+def test_a_command_started_under_nohup_keeps_ignoring_a_hangup():
+    """nohup asks a command to outlive its terminal: its SIGHUP, ignored, had been taken over (a sweep under nohup was
+    KILLED at logout); without nohup a hangup stops it as Ctrl-C does."""
+    probe = ("import signal; from bearingtwin.tracking.lifecycle import handle_signals; handle_signals(); "
+             "print(signal.getsignal(signal.SIGHUP) == signal.SIG_IGN)")
+    under_nohup = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
+                                 preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    plain = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL))  # whatever runs the tests
+    assert (under_nohup.stdout.strip(), plain.stdout.strip()) == ("True", "False")

@@ -202,7 +202,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     model, pipeline, pinned = load_diagnosis_model(str(cfg.model), tracking_uri)  # pinned: the version an alias named
     pipeline.check_can_diagnose()
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
-    with writing_alone(out):
+    with writing_alone(out, whole_folder=len(records) > 1):
         # Once the command can diagnose (a mistyped model costs no earlier results), before the first record: an
         # interrupted run then leaves its own records' outputs alone, never beside an earlier run's.
         tracked = open_diagnosis_run(cfg, table, bearing, pinned) if logged else None
@@ -224,25 +224,36 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
 
 
 @contextlib.contextmanager
-def writing_alone(out: Path):
+def writing_alone(out: Path, whole_folder: bool):
     """``out`` claimed for this command while it writes there (a lock on the folder, which the system releases when
-    the process ends, however it ends): two diagnoses into one folder (a job started again before the last ended)
-    had each removed the other's outputs as an earlier run's and left a folder of both. A folder made for the claim
-    and left empty is removed."""
-    made = not out.exists()
+    the process ends, however it ends): a command over several records (``whole_folder``), which removes an earlier
+    run's outputs of every record, alone; commands over one file each (one record folder's outputs apiece), side by
+    side. Two diagnoses of a folder into one ``out`` (a job started again before the last ended) had each removed the
+    other's outputs as an earlier run's and left a folder of both. Where the file system locks nothing (some network
+    file systems refuse a folder's lock), the command goes on unclaimed. Folders made for the claim and left empty are
+    removed."""
+    made = []  # the folders the claim makes, inner first
+    for folder in (out, *out.parents):
+        if folder.exists():
+            break
+        made.append(folder)
     out.mkdir(parents=True, exist_ok=True)
     handle = os.open(out, os.O_RDONLY)
     try:
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(handle, (fcntl.LOCK_EX if whole_folder else fcntl.LOCK_SH) | fcntl.LOCK_NB)
         except BlockingIOError:
             raise BearingTwinError(f"out={out}: another bearingtwin-diagnose is writing there; wait for it to end, or "
                                    "give this one an out= of its own") from None
+        except OSError as error:
+            log.info("out=%s not claimed (%s): its file system locks no folder", out, error.strerror or error)
         yield
     finally:
+        for folder in made:  # inner first, while still claimed: no other command's files are in an empty folder
+            with contextlib.suppress(OSError):
+                if not any(folder.iterdir()):
+                    folder.rmdir()
         os.close(handle)
-        if made and not any(out.iterdir()):
-            out.rmdir()
 
 
 OUTPUT_FILES = ("diagnosis.json", "diagnosis.png")

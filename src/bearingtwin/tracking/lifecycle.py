@@ -41,9 +41,13 @@ SWEEP_PID_ENV = "BEARINGTWIN_SWEEP_PID"
 """Set by the sweep's process for its workers, which inherit it: the process they live for."""
 
 
-STOPPING_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+# A command started under nohup (or by anything that ignores SIGHUP for it) keeps ignoring it: it was asked to outlive
+# its terminal. Read once, at import, before any handler of this module is installed.
+_HANGUP_IGNORED = hasattr(signal, "SIGHUP") and signal.getsignal(signal.SIGHUP) == signal.SIG_IGN
+STOPPING_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
+                         if hasattr(signal, name) and not (name == "SIGHUP" and _HANGUP_IGNORED))
 """The signals that stop a command with its runs KILLED: Ctrl-C, a scheduler's, a closed terminal's (none on
-Windows)."""
+Windows; not under nohup)."""
 
 
 class Interrupted(KeyboardInterrupt):
