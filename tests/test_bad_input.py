@@ -485,4 +485,8 @@ def test_a_sweeps_folder_that_cannot_be_made_is_refused_before_it_starts():
 
     with pytest.raises(BearingTwinError, match=r"^hydra.sweep.dir=/dev/null/sweep: /dev/null is a file, not a folder$"):
         refuse_bad_overrides("train", ["-m", "seed=0,1", "hydra.sweep.dir=/dev/null/sweep"])
+    # A folder named by what Hydra sets as the run starts is left for Hydra to make (it had been refused).
+    refuse_bad_overrides("train", ["classifier=svm", "hydra.run.dir=outputs/${hydra:runtime.choices.classifier}", "--cfg",
+                                   "job"])
+    refuse_bad_overrides("train", ["classifier=svm", "hydra.run.dir=/tmp/${hydra:runtime.choices.classifier}/run"])
 

@@ -163,9 +163,12 @@ def test_a_setting_the_run_never_reads_is_said_and_the_run_goes_on(capsys):
                                                                  "trainer.max_epochs=-3"]
     assert "data=cwru reads recordings" in unread[0] and "classifier=svm trains without it" in unread[2]
     assert unread_overrides(compose_train(["trainer.max_epochs=3"]), ["trainer.max_epochs=3"]) == []  # the network's
-    # A sweep over the classifiers reads the trainer in some of its jobs: nothing said.
+    # A sweep over the classifiers reads the trainer in some of its jobs: nothing said (composed, the sweep's config
+    # shows one classifier of them, here the SVM).
     swept = ["classifier=svm,cnn_bilstm", "trainer.max_epochs=3"]
-    assert unread_overrides(compose_train(["trainer.max_epochs=3"]), swept) == []
+    assert unread_overrides(compose_train(["classifier=svm", "trainer.max_epochs=3"]), swept) == []
+    swept = ["data=cwru,simulated", "simulator.rpm=100"]
+    assert unread_overrides(compose_train(["data=cwru", "simulator.rpm=100"]), swept) == []
     refuse_bad_overrides("train", ["classifier=svm", "trainer.max_epochs=3"])  # said before the run, on stderr
     assert capsys.readouterr().err == ("warning: trainer.max_epochs=3 not read: the trainer is the CNN-BiLSTM's, and "
                                        "classifier=svm trains without it\n")

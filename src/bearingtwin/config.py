@@ -27,8 +27,14 @@ CONF_DIR = str(REPO_ROOT / "conf")
 
 # ``${bt_repo:}`` in a config resolves to the checkout, so default paths work from any cwd.
 OmegaConf.register_new_resolver("bt_repo", lambda: str(REPO_ROOT), replace=True)
-# The user's home: HOME, else the password database's (os.path.expanduser), never a folder every user shares (/tmp).
-OmegaConf.register_new_resolver("bt_home", lambda: os.path.expanduser("~"), replace=True)
+def _home() -> str:
+    """The user's home: HOME, else the password database's (``os.path.expanduser``); for a user with neither, a folder
+    of the user's own in the temporary folder. Never one every user shares (/tmp/.cache), nor a relative ``~``."""
+    home = os.path.expanduser("~")
+    return home if os.path.isabs(home) else os.path.join(tempfile.gettempdir(), f"bearingtwin-{os.getuid()}")
+
+
+OmegaConf.register_new_resolver("bt_home", _home, replace=True)
 
 
 COMPOSITION_ERRORS = (ConfigCompositionException, OverrideParseException)
@@ -316,7 +322,7 @@ def unread_overrides(cfg: DictConfig, overrides: list[str]) -> list[str]:
     unread = []
     for override in parsed:
         group = override.key_or_group.split(".")[0]
-        if group in ("simulator", "effects") and source in RECORDED_SOURCES and not {"data", "+experiment"} & swept:
+        if group in ("simulator", "effects") and source in RECORDED_SOURCES and not {"data", "experiment"} & swept:
             unread.append(f"{override.input_line} not read: data={source} reads recordings, which the twin's simulator "
                           "and effects do not make (they make data=simulated and data=twin_to_real)")
         elif group == "trainer" and classifier not in (None, "cnn_bilstm") and not {"classifier", "method"} & swept:
@@ -414,7 +420,12 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                                            "Nevergrad's); Hydra's basic sweeper takes lists (a,b), range() and choice()")
         if not args.cfg and cfg.hydra.get("output_subdir") is not None:  # Hydra writes its .hydra folder there
             key = "hydra.sweep.dir" if mode == RunMode.MULTIRUN else "hydra.run.dir"
-            output_folder(OmegaConf.select(cfg, key), key)  # Hydra's own refusal: a traceback, exit 1
+            try:
+                folder = OmegaConf.select(cfg, key)
+            except Exception:  # it reads what Hydra sets as the run starts (${hydra:runtime.choices.classifier})
+                folder = None
+            if folder is not None:
+                output_folder(folder, key)  # Hydra's own refusal: a traceback, exit 1
         for warning in [] if args.cfg else unread_overrides(cfg, list(args.overrides)):  # --cfg shows, runs nothing
             print(f"warning: {warning}", file=sys.stderr)
         if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
