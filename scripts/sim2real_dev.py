@@ -82,12 +82,14 @@ def dense_reading(model_uri: str, tracking_uri: str, data: Path, hop: int) -> di
     from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
     from bearingtwin.diagnosis.record import read_record
 
-    _, pipeline = load_diagnosis_model(model_uri, tracking_uri)
+    _, pipeline, _ = load_diagnosis_model(model_uri, tracking_uri)
     shares = {}
     for path in sorted(data.glob(DEV_RECORDS)):
         prepared = read_record(path, pipeline)
         if prepared.gaps_s:  # a diagnosis leaves the windows touching them out; this reading cuts every window
-            raise SystemExit(f"{path}: samples with no value (NaN); the dense reading needs records without gaps")
+            print(f"error: {path}: samples with no value (NaN); the dense reading needs records without gaps",
+                  file=sys.stderr)
+            sys.exit(2)
         signal = prepared.recording.signal
         starts = np.arange(0, signal.size - pipeline.window_length + 1, hop)
         states, _ = pipeline.predict(signal[starts[:, None] + np.arange(pipeline.window_length)], prepared.recording.rpm,

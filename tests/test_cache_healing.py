@@ -181,3 +181,26 @@ def test_a_cache_that_cannot_take_an_entry_is_said_and_the_numbers_computed_are_
         save_npy_atomic(tmp_path / "full" / "a.npy", np.array([DiskFull()], dtype=object))
     assert list((tmp_path / "full").iterdir()) == []  # no partial entry, no temporary file
     assert "not written (No space left on device)" in caplog.records[0].getMessage()
+
+
+def test_a_cache_that_takes_no_entries_simulates_the_twins_variants_once_each(tmp_path, monkeypatch, caplog):
+    """The parallel workers hand their records back through the cache: into one that takes no entries, every variant
+    had been simulated by a worker, lost, and simulated again where it was read. Now they are simulated where read,
+    once, and the warning says why."""
+    import joblib
+
+    from bearingtwin.data import twin_to_real
+
+    def no_workers(*args, **kwargs):
+        raise AssertionError("workers started for a cache that takes no entries")
+
+    monkeypatch.setattr(joblib, "Parallel", no_workers)
+    blocked = tmp_path / "not_a_folder"
+    blocked.write_text("a file where the cache's folder would be")
+    simulator = {**OmegaConf.to_container(SIMULATOR, resolve=True), "duration": 0.3}
+    variants = [(simulator, {}), ({**simulator, "seed": 1}, {})]
+    with caplog.at_level(logging.WARNING):
+        twin_to_real.simulate_variants(["outer"], [1797.0], OmegaConf.to_container(BEARING, resolve=True), variants,
+                                       blocked, n_jobs=2)
+    (said,) = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert said == f"{blocked / 'twin_to_real'} takes no new entries: the twin's 2 variants are simulated one by one, as they are read"

@@ -652,37 +652,48 @@ def test_a_model_misreading_its_calibration_records_is_registered_but_not_made_t
 def test_a_store_whose_making_was_interrupted_is_made_anew_and_an_older_one_is_named(tmp_path, monkeypatch):
     """Ctrl-C in the first seconds of a first command had left a store of half its tables, on which every later
     command failed with a page of SQLAlchemy traceback. A new store is now made beside its place and moved there
-    whole; a store of older tables is refused in one line saying how to upgrade it."""
+    whole; a store of older tables is refused in one line saying how to upgrade it, one half made in one line too."""
+    import shutil
     import sqlite3
 
-    from mlflow.tracking import _tracking_service
+    import mlflow.store.db.utils
 
     uri = f"sqlite:///{tmp_path}/m.db"
     tracking = OmegaConf.create({"uri": uri, "experiment": "e", "artifact_root": None})
-    made = []
+    made = mlflow.store.db.utils._initialize_tables
 
-    def interrupted(self, *args, **kwargs):
-        made.append(self)
-        raise KeyboardInterrupt  # while MLflow makes the new store's tables
+    def interrupted(engine):  # MLflow's first tables made, then Ctrl-C before the rest
+        with engine.begin() as connection:
+            connection.exec_driver_sql("create table experiments (experiment_id integer)")
+        raise KeyboardInterrupt
 
     with monkeypatch.context() as patched:
-        patched.setattr(_tracking_service.client.TrackingServiceClient, "search_experiments", interrupted)
+        patched.setattr(mlflow.store.db.utils, "_initialize_tables", interrupted)
         with pytest.raises(KeyboardInterrupt):
             open_store(tracking)
-    assert made and not (tmp_path / "m.db").exists()  # nothing half made where the store belongs
-    client, _ = open_store(tracking)  # made anew, whole
-    assert {e.name for e in client.search_experiments()} == {"e", "Default"} and not list(tmp_path.glob("*.making"))
-    import shutil
-
+    assert mlflow.store.db.utils._initialize_tables is made
+    assert not (tmp_path / "m.db").exists() and list(tmp_path.glob("m.db.*.making"))  # nothing half made in its place
+    client, _ = open_store(tracking)  # made anew, whole; the interrupted attempt's file gone
+    assert {e.name for e in client.search_experiments()} == {"e", "Default"} and not list(tmp_path.glob("*.making*"))
     shutil.copy(tmp_path / "m.db", tmp_path / "old.db")  # another URI: MLflow checks a store's tables once a process
-    uri = f"sqlite:///{tmp_path}/old.db"
+    older = f"sqlite:///{tmp_path}/old.db"
     with sqlite3.connect(tmp_path / "old.db") as database:  # as a store of an older MLflow has it
         database.execute("update alembic_version set version_num = 'bf29a5ff90ea'")
     with pytest.raises(BearingTwinError) as refused:
-        open_store(OmegaConf.create({"uri": uri, "experiment": "f", "artifact_root": None}))
-    assert str(refused.value) == (f"tracking.uri={uri}: the store's tables are older than this MLflow's (found version "
-                                  f"bf29a5ff90ea); back the store up and upgrade it (mlflow db upgrade {uri}), or, where "
-                                  "its making was stopped, move it aside for a new one")
+        open_store(OmegaConf.create({"uri": older, "experiment": "f", "artifact_root": None}))
+    assert str(refused.value) == (f"tracking.uri={older}: the store's tables are older than this MLflow's (found version "
+                                  f"bf29a5ff90ea); back the store up and upgrade it (mlflow db upgrade {older}), or, "
+                                  "where its making was stopped, move it aside for a new one")
+
+    def half_made(*args, **kwargs):  # as MLflow fails on a store whose upgrade stopped half way
+        raise RuntimeError("(sqlite3.OperationalError) table secrets already exists [SQL: CREATE TABLE secrets (...)]")
+
+    monkeypatch.setattr(mlflow_logging, "MlflowClient", half_made)
+    with pytest.raises(BearingTwinError) as refused:
+        open_store(tracking)
+    assert str(refused.value) == (f"tracking.uri={uri}: the store's tables are half made (table secrets already exists,"
+                                  " as its upgrade or making was stopped); move the file aside and run again for a new "
+                                  "store")
 
 
 def test_a_sweep_whose_tracking_server_went_away_runs_no_more_jobs_and_ends_in_one_line(tmp_path, monkeypatch, caplog,

@@ -64,6 +64,17 @@ def _write_atomic(path: str | Path, write) -> None:
         raise
 
 
+def takes_entries(folder: str | Path) -> bool:
+    """Whether new cache entries can be written into ``folder`` (made if missing): a read-only shared cache or a
+    full disk cannot take them."""
+    try:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            return True
+    except OSError:
+        return False
+
+
 def _remove(temporary: str | None) -> None:
     """A temporary file left by a write that did not finish, removed where it was made."""
     if temporary is not None:

@@ -61,7 +61,7 @@ from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import records_identity, simulate
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
 from bearingtwin.storage import (SIMULATION_CODE, code_fingerprint, content_key, file_digest, load_npz_or_heal,
-                                 save_npz_atomic)
+                                 save_npz_atomic, takes_entries)
 from bearingtwin.twin.reference import require_same_bearing
 
 log = logging.getLogger(__name__)
@@ -451,6 +451,10 @@ def simulate_variants(faults, rpms, bearing_cfg: Mapping, variants: Sequence[tup
                if not _records_path(faults, rpms, bearing_cfg, setting, effects, cache_dir, variant)[0].is_file()]
     if joblib.effective_n_jobs(n_jobs) < 2 or len(missing) < 2:
         return  # simulated one by one where they are read
+    if not takes_entries(Path(cache_dir) / "twin_to_real"):  # the workers hand their records back through it
+        log.warning("%s takes no new entries: the twin's %d variants are simulated one by one, as they are read",
+                    Path(cache_dir) / "twin_to_real", len(missing))
+        return
     results = joblib.Parallel(n_jobs=n_jobs, return_as="generator_unordered")(
         joblib.delayed(_simulated_key)(faults, rpms, bearing_cfg, setting, effects, cache_dir, variant)
         for variant, setting, effects in missing)

@@ -317,21 +317,25 @@ def _make_sqlite_store_whole(uri: str) -> None:
     failed on ("table ... already exists"). Called under :func:`_sqlite_init_lock`; an existing store is left as it
     is (an empty file counts as none)."""
     database = _sqlite_path(uri)
-    if database is None or (Path(database).is_file() and Path(database).stat().st_size > 0):
+    if database in (None, ":memory:") or (Path(database).is_file() and Path(database).stat().st_size > 0):
         return
     query = uri.partition("?")[2]
-    for earlier in Path(database).parent.glob(f"{Path(database).name}.*.making"):  # attempts interrupted
+    for earlier in Path(database).parent.glob(f"{Path(database).name}.*.making*"):  # attempts interrupted, journals
         earlier.unlink(missing_ok=True)
     # A name of its own each time: MLflow keeps a store per URI for the process, bound to the file it first opened.
     making = Path(f"{database}.{os.getpid()}-{time.monotonic_ns()}.making")
-    MlflowClient(tracking_uri=f"sqlite:///{making}" + (f"?{query}" if query else "")).search_experiments()
+    maker = MlflowClient(tracking_uri=f"sqlite:///{making}" + (f"?{query}" if query else ""))
+    maker.search_experiments()
+    engine = getattr(maker._tracking_client.store, "engine", None)  # its connections, to a file renamed below
+    if engine is not None:
+        engine.dispose()
     os.replace(making, database)
 
 
 @contextlib.contextmanager
 def _sqlite_init_lock(uri: str):
     database = _sqlite_path(uri)
-    if database is None:
+    if database in (None, ":memory:"):  # no file, nothing another process could be making
         yield
         return
     Path(database).parent.mkdir(parents=True, exist_ok=True)
