@@ -426,8 +426,6 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 folder = None
             if folder is not None:
                 output_folder(folder, key)  # Hydra's own refusal: a traceback, exit 1
-        for warning in [] if args.cfg else unread_overrides(cfg, list(args.overrides)):  # --cfg shows, runs nothing
-            print(f"warning: {warning}", file=sys.stderr)
         if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
             check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name"))
         tracking = cfg.get("tracking") or {}
@@ -442,6 +440,9 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                       f"({'; '.join(f'{key}: {values}' for key, values in swept.items())}); add -m to sweep them",
                       file=sys.stderr)
             refuse_unknown_keys(cfg.hydra)
+        # Last: a command refused above says one line, not a warning beside it.
+        for warning in [] if args.cfg else unread_overrides(cfg, list(args.overrides)):  # --cfg shows, runs nothing
+            print(f"warning: {warning}", file=sys.stderr)
 
 
 def experiment_name(tracking_cfg, key: str = "tracking.experiment") -> str:

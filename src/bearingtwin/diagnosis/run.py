@@ -150,7 +150,7 @@ def labels_path(cfg: DictConfig, records: list[Path]) -> Path | None:
 
 def row_beside(cfg: DictConfig) -> tuple[Path | None, dict]:
     """For one file given without ``labels=``: the ``labels.csv`` beside it and its row (``stem -> (record, state,
-    rpm, fs)``), read as the twin and inspect read it (:func:`~bearingtwin.data.real.labels_row`: that row alone);
+    rpm, fs)``), read as the twin and inspect read it (:func:`~bearingtwin.data.labels.labels_row`: that row alone);
     ``(None, {})`` when there is none."""
     path = Path(str(cfg.path)).expanduser()
     if cfg.labels is not None or not path.is_file():
@@ -208,16 +208,23 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
         tracked = open_diagnosis_run(cfg, table, bearing, pinned) if logged else None
         earlier = remove_earlier_outputs(out, records)  # after the store answered: a failing store costs no results
         run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier)
+        interrupted = False
         try:
             diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures,
                              pinned, order_tracking)
         except KeyboardInterrupt:  # an interrupt (SIGINT, SIGTERM): the records it left are listed as left, not omitted
             reached = len(run.rows)  # one row per record, in the records' order
             run.rows += [{"record": path.stem, "error": NOT_REACHED} for path in records[reached:]]
+            interrupted = True
             raise
         finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
             if len(records) > 1 or run.failures:
-                run.files.append(write_summary(run.rows, out / "summary.csv"))
+                try:
+                    run.files.append(write_summary(run.rows, out / "summary.csv"))
+                except BearingTwinError as error:
+                    if not interrupted:
+                        raise
+                    log.warning("%s", error)  # said; the interrupt, not the disk, ends the command (its runs KILLED)
         if tracked:
             log_diagnosis(*tracked, run, len(records))
     return run
@@ -329,7 +336,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                      labels: dict, bad_rows: dict, table: Path | None, bearing: str | None, figures: bool,
                      pinned_uri: str, order_tracking: tuple[bool, float]) -> None:
     """Diagnose ``records`` one by one into ``run`` (its rows, files, failures and scores); a record whose labels
-    row does not read (``bad_rows``, :func:`~bearingtwin.data.real.read_labels`) fails with its row's error.
+    row does not read (``bad_rows``, :func:`~bearingtwin.data.labels.read_labels`) fails with its row's error.
     ``order_tracking``: whether an unsteady record is order-tracked, and the spread of its speed that is unsteady.
     ``pinned_uri``: the model's URI with an alias replaced by the version it names (:func:`~bearingtwin.diagnosis.mlflow_model.load_diagnosis_model`)."""
     out = run.out

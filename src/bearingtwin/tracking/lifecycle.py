@@ -8,8 +8,9 @@ Three ways a run can be left open, three remedies:
   joblib kills as the exception unwinds through it), prints one line and exits
   ``128 + signal``. Any other exception escaping an entry point marks them FAILED.
 * **A dead owner** (SIGKILL, power loss): every run is tagged with the host and process
-  that opened it (:func:`owner_tags`); :func:`reap_dead_runs`, called when any command opens a run or a sweep,
-  marks RUNNING runs of this host whose process is gone KILLED, in every experiment of the store.
+  that opened it (:func:`owner_tags`); :func:`reap_dead_runs`, called when a training, a sweep, a twin or a
+  diagnosis opens its run, marks RUNNING runs of this host whose process is gone KILLED, in every experiment of the
+  store.
 * **An orphaned worker**: a joblib or submitit worker whose sweep process died would go on computing
   and log a FINISHED run nobody waits for; :func:`watch_sweep_process` ends it instead.
 """

@@ -79,7 +79,7 @@ from bearingtwin.tracking.lifecycle import (
 )
 from bearingtwin.tracking import open_command
 from bearingtwin.tracking.provenance import (computed_by_other_code, context_tags, environment_tags, git_commit,
-                                             installed_versions)
+                                             installed_versions, overrides_tag)
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
 log = logging.getLogger(__name__)
@@ -153,7 +153,7 @@ def open_store(tracking_cfg: DictConfig, must_exist: bool = False) -> tuple[Mlfl
                 raise BearingTwinError(f"{store_setting(uri)}: the store's tables are older than this MLflow's "
                                        f"({older[1].rstrip(',')}); back the store up and upgrade it (mlflow db upgrade "
                                        f"{uri}), or, where its making was stopped, move it aside for a new one") from None
-            if not isinstance(error, MlflowException) or urlparse(uri).scheme not in ("http", "https"):
+            if not isinstance(error, MlflowException) or not _is_server(uri):
                 raise
             # A reply of HTML: another service on the port, a proxy's page. Else MLflow's own refusal (a login it
             # asks for, a store it cannot read), said as it says it.
@@ -414,9 +414,10 @@ def earlier_model(client: MlflowClient, run_id: str) -> str:
 
 
 def run_name(cfg: DictConfig, method: str, sweep: SweepInfo | None) -> str:
-    """``<method> <data source> [<load or condition>] [<vmd_params> [<optimizer>]] [varied overrides] seed=<n>``: what
-    sets runs apart at a glance (a CWRU load or HUST condition unless the sweep varies it; the VMD settings only where
-    the features search VMD parameters; the optimizer only when it is not the default SABO)."""
+    """``<method> [<estimator class>] <data source> [<load or condition>] [<vmd_params> [<optimizer>]] [varied
+    overrides] seed=<n>``: what sets runs apart at a glance (a ``classifier=sklearn`` run's estimator class; a CWRU
+    load or HUST condition unless the sweep varies it; the VMD settings only where the features search VMD
+    parameters; the optimizer only when it is not the default SABO)."""
     source = str(cfg.data.get("source", ""))
     estimator = _estimator_class(cfg)
     parts = [f"{method} {estimator}" if estimator else method, source]
@@ -976,7 +977,7 @@ class SweepParentRun(Callback):
             experiment_id,
             run_name=f"sweep {name} {Path(sweep_dir).parent.name}/{Path(sweep_dir).name}",  # Hydra's <date>/<time>
             tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir, **context_tags(), **owner_tags(),
-                  "overrides": " ".join(config.hydra.overrides.task)[:5000]},  # the command's, swept lists as given
+                  "overrides": overrides_tag(config.hydra.overrides.task)},  # the command's, swept lists as given
         )
         register_open_run(client, run.info.run_id, label="sweep", with_children=True)
         self._parent_id = run.info.run_id

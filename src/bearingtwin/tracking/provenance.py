@@ -19,7 +19,6 @@ import re
 import subprocess
 from pathlib import Path
 
-from bearingtwin.config import REPO_ROOT
 from bearingtwin.errors import BearingTwinError
 
 
@@ -43,6 +42,8 @@ def git_commit() -> str:
     """The checkout's commit, ``-dirty`` where a file of the code, its configs or its environment changed or a file
     not yet added lies under the code or its configs (a new module imported changes what runs; a results page or the
     README does not); once per process, whose code is what it imported."""
+    from bearingtwin.config import REPO_ROOT  # here: a served model imports this module, and need not load Hydra
+
     def git(*args: str) -> str:
         return subprocess.run(["git", "-C", str(REPO_ROOT), *args], capture_output=True, text=True, timeout=10,
                               check=True).stdout.strip()
@@ -63,9 +64,11 @@ def environment_tags() -> dict[str, str]:
     try:
         from hydra.core.hydra_config import HydraConfig
 
-        tags["overrides"] = " ".join(HydraConfig.get().overrides.task)[:5000]  # MLflow's limit on a tag's value
+        tags["overrides"] = overrides_tag(HydraConfig.get().overrides.task)
     except ValueError:  # not under Hydra (the Python API)
         pass
+    from bearingtwin.config import REPO_ROOT
+
     lock = REPO_ROOT / "requirements.lock"
     if lock.is_file():
         tags["requirements_lock"] = hashlib.sha256(lock.read_bytes()).hexdigest()[:16]
@@ -77,6 +80,11 @@ def computed_by_other_code(run) -> str:
     with changes not committed counts as other than the commit without), "" where by this."""
     then, now = run.data.tags.get("git_commit", "unknown"), git_commit()
     return "" if then == now else f"at {short_commit(then)} (this code: {short_commit(now)})"
+
+
+def overrides_tag(overrides) -> str:
+    """A command's overrides as one tag's value, within MLflow's limit on one (5000 characters)."""
+    return " ".join(overrides)[:5000]
 
 
 def context_tags() -> dict[str, str]:
