@@ -1186,8 +1186,10 @@ def test_a_reused_out_folder_holds_this_runs_record_outputs_alone(registered, tm
         "r01/notes.txt", "r02/diagnosis.json", "r02/diagnosis.png", "summary.csv"]
     assert "an earlier run's record outputs in out: 1 replaced by this run's, 2 removed (r00, r01)" in again.stdout
     result = json.loads((out / "r02" / "diagnosis.json").read_text())
-    assert f"MLflow run: {result['run_id']}" in again.stdout
-    assert MlflowClient(uri).get_run(result["run_id"]).data.params["path"] == str(folder)
+    client = MlflowClient(uri)
+    experiment = client.get_experiment(client.get_run(result["run_id"]).info.experiment_id).name
+    assert f"MLflow run: {result['run_id']} in experiment {experiment}  (" in again.stdout  # the one it is in
+    assert client.get_run(result["run_id"]).data.params["path"] == str(folder)
     assert result["diagnosed_at"].endswith("+00:00")
     assert started <= datetime.fromisoformat(result["diagnosed_at"]) <= datetime.now(timezone.utc)
     # One file at a time, as they arrive: each run replaces its own record's outputs and leaves the others'. A

@@ -735,3 +735,17 @@ def test_a_speed_that_reads_as_a_frequency_in_hz_is_noted_with_the_rpm_it_would_
     assert "measured.rpm=29.17 is a shaft at 0.486 Hz; if 29.17 is the shaft's frequency in Hz, give measured.rpm=1750.2" \
         in slow.meta["notes"]
     assert not any("frequency in Hz" in n for n in load_recording(tmp_path / "r.npy", fs=12000, rpm=1750).meta["notes"])
+
+
+def test_scripts_written_to_the_readers_former_module_name_keep_running_and_are_told_the_new_one():
+    """The guide's Python example once imported ``load_recording`` from ``bearingtwin.data.files``: such a script
+    reads its records as before, warned where the readers now live."""
+    import importlib
+    import sys
+
+    from bearingtwin.data import formats
+
+    sys.modules.pop("bearingtwin.data.files", None)
+    with pytest.warns(DeprecationWarning, match="bearingtwin.data.formats"):
+        former = importlib.import_module("bearingtwin.data.files")
+    assert former.load_recording is formats.load_recording and former.read_raw is formats.read_raw

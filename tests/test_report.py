@@ -155,6 +155,13 @@ def test_rows_of_runs_of_different_sizes_are_said_to_be_so_where_a_reader_sees_i
                          (run.info.run_id,))
     assert report_here(capsys, "table4", f"uri={mixed}", f"out={tmp_path}/mixed.md")[0] == 0
     assert "Runs of different sizes stand side by side here: trainer.max_epochs 2, 7." in (tmp_path / "mixed.md").read_text()
+    assert "several versions of the code" not in same  # the smoke sweep: one commit
+    # Numbers of another version of the code beside this one's: said in words, not only in the run's runs.json.
+    MlflowClient(mixed).set_tag(run.info.run_id, "git_commit", "0123456789abcdef0123-dirty")
+    assert report_here(capsys, "table4", f"uri={mixed}", f"out={tmp_path}/mixed.md")[0] == 0
+    said = (tmp_path / "mixed.md").read_text()
+    assert "Runs of several versions of the code stand side by side here: " in said
+    assert "0123456789ab-dirty (1 run)" in said
 
 
 def test_table3_per_class_beside_the_paper(uri, tmp_path):

@@ -21,6 +21,9 @@ def test_the_block_names_what_ran_its_results_the_run_and_how_to_open_it():
         "  output: /out",
     ]
     assert closing_summary("t", ["a line"]) == "== t ==\n  a line"  # nothing logged, nothing written: no such lines
+    # The experiment the run is in: MLFLOW_EXPERIMENT_NAME in the shell changes it, and the list a user opens first.
+    assert "  MLflow run: abc123 in experiment rig-7  (mlflow ui" in closing_summary(
+        "t", [], "abc123", "sqlite:////data/mlflow.db", experiment="rig-7")
     assert open_command("http://mlflow.example:5000") == "open http://mlflow.example:5000"
 
 

@@ -98,7 +98,7 @@ def experiment_runs(client: MlflowClient, name: str, kind: str) -> list:
 def test_every_sweep_job_finished_on_the_server_with_its_results(team, tmp_path):
     uri, _, _, _, logs = team
     assert "2 jobs, 2 finished, 0 failed, 0 skipped" in logs["sweep"].read_text()
-    assert f"(runs: open {uri})" in logs["sweep"].read_text()  # a server is opened, not given to mlflow ui as a store
+    assert f"(runs in experiment bearingtwin: open {uri})" in logs["sweep"].read_text()  # a server is opened, not a store
     client = MlflowClient(uri)
     (parent,) = experiment_runs(client, "bearingtwin", "sweep")
     assert parent.info.status == "FINISHED"

@@ -131,14 +131,16 @@ PACKAGE = Path(__file__).resolve().parent
 
 
 @functools.lru_cache(maxsize=None)
-def code_fingerprint(*subpackages: str) -> str:
-    """A key of the code in ``subpackages`` of bearingtwin (``"physics"``, ``"signal"``, ...) that computes a cached
-    entry: its syntax trees without docstrings (comments never enter one), so that an entry computed by other code is
-    a miss, while an edit of the words alone keeps every entry. A cache keyed by its configuration alone would hand
-    a changed computation the numbers of the code before it. (Another Python version dumps its trees otherwise: every
-    entry is then a miss, once.)"""
+def code_fingerprint(*parts: str) -> str:
+    """A key of the code in ``parts`` of bearingtwin (subpackages, ``"physics"``, ``"signal"``, ..., or modules,
+    ``"data/recording.py"``) that computes a cached entry: its syntax trees without docstrings (comments never enter
+    one), so that an entry computed by other code is a miss, while an edit of the words alone keeps every entry. A
+    cache keyed by its configuration alone would hand a changed computation the numbers of the code before it.
+    (Another Python version dumps its trees otherwise: every entry is then a miss, once.)"""
     digest = hashlib.sha256()
-    for source in sorted(path for name in subpackages for path in (PACKAGE / name).rglob("*.py")):
+    modules = {path for name in parts
+               for path in ([PACKAGE / name] if name.endswith(".py") else (PACKAGE / name).rglob("*.py"))}
+    for source in sorted(modules):
         tree = ast.parse(source.read_text(encoding="utf-8"))
         for node in ast.walk(tree):  # every string standing as a statement: docstrings, a constant's words below it
             for field in ("body", "orelse", "finalbody"):
@@ -151,8 +153,11 @@ def code_fingerprint(*subpackages: str) -> str:
     return digest.hexdigest()[:12]
 
 
-SIMULATION_CODE = ("physics",)
-"""The subpackages whose code makes a simulated record (:func:`code_fingerprint`)."""
+SIMULATION_CODE = ("physics", "data/recording.py")
+"""The code that makes a simulated record (:func:`code_fingerprint`)."""
+TWIN_RECORDS_CODE = (*SIMULATION_CODE, "data/twin_to_real.py")
+"""The code that makes the twin's records for a real data set: the simulation's, and each record's seed drawn from
+the configured one (:func:`~bearingtwin.data.twin_to_real.twin_signals`), which no configuration key names."""
 FEATURE_CODE = ("features", "signal", "optim", "physics", "data")
 """The subpackages whose code makes a window's features, and the windows themselves (a simulated record's, a real
 one's as read and cut): a dataset's key names its configuration, not the code that made it."""

@@ -36,7 +36,8 @@ def diagnose(cfg: DictConfig) -> None:
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")  # one bar: over the files
     run = diagnose_paths(cfg)
     print(closing_summary(f"bearingtwin-diagnose: {cfg.path} with {cfg.model}", diagnosis_lines(run), run.run_id,
-                          str(cfg.tracking.uri) if run.run_id else None, str(run.out)))
+                          str(cfg.tracking.uri) if run.run_id else None, str(run.out),
+                          str(cfg.tracking.experiment) if run.run_id else None))
     if run.failures:
         for reason in run.failures.values():  # each names its file
             print(f"error: {reason}", file=sys.stderr)

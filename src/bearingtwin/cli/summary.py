@@ -6,7 +6,7 @@ short block on stdout::
     == bearingtwin-train: sabo_vmd_pemie+cnn_bilstm simulated global seed=0 ==
       accuracy: 96.00 %
       F1 per class: normal 1.000, inner 0.950, ball 0.930, outer 0.960
-      MLflow run: 3f2c...  (mlflow ui --backend-store-uri sqlite:////home/me/bearingtwin/mlruns/mlflow.db)
+      MLflow run: 3f2c... in experiment bearingtwin  (mlflow ui --backend-store-uri sqlite:////home/me/...)
       output: /home/me/bearingtwin/outputs/2026-01-01/12-00-00
 
 Progress bars and warnings go to stderr, so ``cmd > result.txt`` keeps just this block.
@@ -25,6 +25,7 @@ def closing_summary(
     run_id: str | None = None,
     tracking_uri: str | None = None,
     out: str | None = None,
+    experiment: str | None = None,
 ) -> str:
     """The closing block of a command, ready to print.
 
@@ -34,10 +35,12 @@ def closing_summary(
         run_id: the MLflow run that holds everything; omitted when nothing was logged.
         tracking_uri: the MLflow store of ``run_id``; gives the command that opens it.
         out: the folder or file the command wrote; omitted when None.
+        experiment: the MLflow experiment of ``run_id`` (a ``MLFLOW_EXPERIMENT_NAME`` in the shell changes it).
     """
     body = [f"{label}: {value}" for label, value in lines.items()] if isinstance(lines, Mapping) else list(lines)
     if run_id is not None:
-        body.append(f"MLflow run: {run_id}" + (f"  ({open_command(tracking_uri)})" if tracking_uri else ""))
+        body.append(f"MLflow run: {run_id}" + (f" in experiment {experiment}" if experiment else "")
+                    + (f"  ({open_command(tracking_uri)})" if tracking_uri else ""))
     if out is not None:
         body.append(f"output: {out}")
     return "\n".join([f"== {title} ==", *(f"  {line}" for line in body)])

@@ -41,7 +41,8 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
-def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str, records: str | None = None) -> str:
+def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str, records: str | None = None,
+                     experiment: str | None = None) -> str:
     """Accuracy and F1 per class of a finished run (calibration accuracy when the data set has one), and
     ``records``: what the data were (:func:`data_words`; which real records a twin-trained run was calibrated and
     tested on)."""
@@ -91,7 +92,7 @@ def training_summary(name: str, tracked: TrackedRun, tracking_uri: str, out: str
         lines["note"] = ("an earlier run with this exact config had FINISHED, so nothing ran"
                          + (f", computed by the code {tracked.other_code}" if tracked.other_code else "")
                          + " (tracking.skip_finished=false re-runs)")
-    return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out)
+    return closing_summary(f"bearingtwin-train: {name}", lines, tracked.run_id, tracking_uri, out, experiment)
 
 
 def data_words(cfg: DictConfig) -> str | None:
@@ -168,7 +169,7 @@ def train(cfg: DictConfig) -> float | None:
         return None
     name = run_name(cfg, method_name(choices), sweep)
     if sweep is None:
-        print(training_summary(name, tracked, str(cfg.tracking.uri), output_dir, records))
+        print(training_summary(name, tracked, str(cfg.tracking.uri), output_dir, records, str(cfg.tracking.experiment)))
     else:
         print(f"{name}: accuracy {percent(tracked.metrics['accuracy'])} (MLflow run {tracked.run_id})")
     return tracked.metrics.get("accuracy")

@@ -75,7 +75,8 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
         lines = {"reference": f"{cfg.reference} (its operating point held where this run gives none; its effects "
                               f"kept: {kept})", **lines}
     title = f"bearingtwin-twin: {Path(str(cfg.measured.path)).name}"
-    return closing_summary(title, lines, run_id, str(cfg.tracking.uri) if run_id else None, str(files[0].parent.resolve()))
+    return closing_summary(title, lines, run_id, str(cfg.tracking.uri) if run_id else None,
+                           str(files[0].parent.resolve()), str(cfg.tracking.experiment) if run_id else None)
 
 
 @hydra_command("twin")

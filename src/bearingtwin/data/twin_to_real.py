@@ -60,7 +60,7 @@ from bearingtwin.physics.effects import build_effects, effect_class, in_signal_o
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import records_identity, simulate
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
-from bearingtwin.storage import (SIMULATION_CODE, code_fingerprint, content_key, file_digest, load_npz_or_heal,
+from bearingtwin.storage import (TWIN_RECORDS_CODE, code_fingerprint, content_key, file_digest, load_npz_or_heal,
                                  save_npz_atomic, takes_entries)
 from bearingtwin.twin.reference import require_same_bearing
 
@@ -415,7 +415,7 @@ def _records_path(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, ef
     """Where :func:`twin_signals` caches these records, and their key (what they are simulated from)."""
     key = content_key({"bearing": bearing_cfg, "simulator": records_identity(simulator_cfg), "effects": effects,
                        **order_identity(effects), "faults": list(faults), "rpms": list(rpms), "variant": variant})
-    return Path(cache_dir) / "twin_to_real" / f"records-{key}-{code_fingerprint(*SIMULATION_CODE)}.npz", key
+    return Path(cache_dir) / "twin_to_real" / f"records-{key}-{code_fingerprint(*TWIN_RECORDS_CODE)}.npz", key
 
 
 def simulation_jobs(value) -> int:

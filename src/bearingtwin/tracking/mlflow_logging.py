@@ -1032,7 +1032,8 @@ class SweepParentRun(Callback):
                   f"{str(error).strip().splitlines()[0] if str(error).strip() else ''}); sweep run {parent_id} marked "
                   "FAILED", file=sys.stderr, flush=True)
             sys.exit(1)
-        print(f"sweep outputs: {sweep_dir} (runs: {open_command(tracking.uri)})", flush=True)
+        print(f"sweep outputs: {sweep_dir} (runs in experiment {tracking.experiment}: {open_command(tracking.uri)})",
+              flush=True)
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
         if n_failed:
             sys.exit(1)

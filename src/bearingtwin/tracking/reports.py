@@ -26,6 +26,7 @@ import re
 import shutil
 import sys
 import tempfile
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -40,8 +41,8 @@ from bearingtwin.tracking import paper
 from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KEYS, UNHASHED_KEYS, all_experiment_ids,
                                                   find_runs, open_store, physics_first_rule, stored_config,
                                                   sweep_parents, sweep_run_ids)
-from bearingtwin.tracking.provenance import (SIZE_KEYS, check_replacement, context_tags, run_size, run_sizes, size_record,
-                                             size_words)
+from bearingtwin.tracking.provenance import (SIZE_KEYS, check_replacement, context_tags, run_size, run_sizes,
+                                             short_commit, size_record, size_words)
 from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
 # uri / experiment: the store; out: the markdown file (default results/<name>.md in the working
@@ -653,6 +654,11 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
             report.markdown = (report.markdown.rstrip() + "\n\nRuns of different sizes stand side by side here: "
                                + "; ".join(f"{key} {', '.join(f'{value:g}' for value in values)}"
                                            for key, values in mixed.items()) + ".\n")
+        commits = Counter(used.data.tags.get("git_commit", "unknown") for used in source.used_runs)
+        if len(commits) > 1:  # a table's numbers computed by several versions of the code: runs.json names each run's
+            report.markdown = (report.markdown.rstrip() + "\n\nRuns of several versions of the code stand side by side "
+                               "here: " + ", ".join(f"{short_commit(commit)} ({count} run{'s' * (count != 1)})"
+                                                    for commit, count in commits.most_common()) + ".\n")
         # The paper's pipeline's sizes; a twin's and its test records' are each sim2real protocol version's own.
         below = {key: min(values) for key, values in sizes.items()
                  if key in defaults and not key.startswith(("data.twin.", "data.test.")) and min(values) < defaults[key]}
