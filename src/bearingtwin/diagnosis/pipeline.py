@@ -154,10 +154,11 @@ class DiagnosisPipeline:
                       "this model's physics_first reads a window's defect lines at the shaft's speed")
             raise BearingTwinError(f"rpm: {reason}; give the shaft speed")
         windows = normalize_windows(windows, self.window_normalization)
-        if self.reads_defect_orders:
-            features = self._extractor_at(bearing).transform(windows, fs_hz=self.fs_hz, rpm=rpm)
-        else:
-            features = self.extractor.transform(windows)
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below in one line, not warned of
+            if self.reads_defect_orders:
+                features = self._extractor_at(bearing).transform(windows, fs_hz=self.fs_hz, rpm=rpm)
+            else:
+                features = self.extractor.transform(windows)
         overflowed = np.flatnonzero(~np.isfinite(features).all(axis=1))
         if overflowed.size:  # values so large that powers of them overflow (1e154 and above)
             raise BearingTwinError(f"windows {_listed(overflowed)} "
