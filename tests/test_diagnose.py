@@ -1946,3 +1946,18 @@ def test_a_diagnosis_the_disk_cannot_take_fails_its_record_in_one_line_and_leave
     monkeypatch.setattr("builtins.open", disk_full)
     with pytest.raises(BearingTwinError, match=r"summary.csv cannot be written there \(No space left on device\)$"):
         diagnosis_run.write_summary([{"record": "r"}], tmp_path / "out" / "summary.csv")
+
+
+def test_under_hydra_job_chdir_the_records_are_read_from_where_the_command_started(registered, tmp_path):
+    """hydra.job.chdir=true starts the task in its run's folder: a relative path= had been looked for there and
+    refused as no such file. Inputs are read from where the command started (as hydra.utils.to_absolute_path
+    reads them); out= is what the run writes, in its run's folder."""
+    _, uri = registered
+    outer_race_folder(tmp_path, 2)
+    done = run("diagnose", "path=recordings", "model=models:/diag/1", "hydra.job.chdir=true", "hydra.run.dir=runs/one",
+               cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert {path.parent.name for path in (tmp_path / "runs" / "one" / "diagnosis").glob("*/diagnosis.json")} == {
+        "r00", "r01"}
+    result = json.loads((tmp_path / "runs" / "one" / "diagnosis" / "r00" / "diagnosis.json").read_text())
+    assert MlflowClient(uri).get_run(result["run_id"]).data.params["path"] == str(tmp_path / "recordings")

@@ -101,7 +101,7 @@ def test_a_sweep_lives_in_the_store_its_jobs_log_to_and_only_one(tmp_path):
              f"paths.cache_dir={tmp_path}/cache", f"hydra.sweep.dir={tmp_path}/multirun"]
     done = run_cli(["-m", "--config-dir", str(tmp_path / "conf"), "+sweep=mine", *quick], tmp_path)
     assert done.returncode == 0, done.stderr[-2000:]
-    assert f"runs: mlflow ui --backend-store-uri sqlite:///{tmp_path}/own.db" in done.stdout
+    assert f"runs in experiment bearingtwin: mlflow ui --backend-store-uri sqlite:///{tmp_path}/own.db" in done.stdout
     assert "[HYDRA]" in done.stderr and "[HYDRA]" not in done.stdout  # Hydra's own lines beside the log's
     client = MlflowClient(f"sqlite:///{tmp_path}/own.db")
     runs = client.search_runs([client.get_experiment_by_name("bearingtwin").experiment_id])
@@ -199,3 +199,36 @@ def test_without_home_the_cache_is_the_users_own_not_a_folder_everyone_shares(mo
         monkeypatch.delenv(name, raising=False)
     home = pwd.getpwuid(os.getuid()).pw_dir
     assert compose_config("train", []).paths.cache_dir == f"{home}/.cache/bearingtwin"
+
+
+def test_under_hydra_job_chdir_inputs_and_a_sqlite_store_are_read_from_the_launch_folder(tmp_path):
+    """What the user names relative to where they started stays there when the task runs in its run's folder; URIs
+    of other kinds, home-relative and absolute paths, and what the run writes (out=) are left as given."""
+    from hydra.core.hydra_config import HydraConfig
+    from omegaconf import open_dict
+
+    from bearingtwin.config import compose_config, inputs_from_launch_folder
+
+    def read_in_job(cfg) -> tuple:
+        HydraConfig.instance().set_config(cfg)
+        try:
+            inputs_from_launch_folder(cfg)
+        finally:
+            HydraConfig.instance().cfg = None  # as outside a Hydra app, for the tests after this one
+        return cfg.path, cfg.labels, cfg.model, cfg.tracking.uri, cfg.out
+
+    def composed(chdir: str, uri: str):
+        cfg = compose_config("diagnose", ["model=runs:/abc/model", f"tracking.uri={uri}", f"hydra.job.chdir={chdir}"],
+                             hydra_node=True)
+        with open_dict(cfg):
+            cfg.path, cfg.labels = "records/*.mat", "~/labels.csv"  # a glob, a home-relative file
+            cfg.hydra.runtime.cwd = str(tmp_path)
+        return cfg
+
+    given = ("records/*.mat", "~/labels.csv", "runs:/abc/model", "sqlite:///stores/team.db", "diagnosis")
+    # Hydra's default: the task starts where the command did, and nothing changes.
+    assert read_in_job(composed("false", "sqlite:///stores/team.db")) == given
+    assert read_in_job(composed("true", "sqlite:///stores/team.db")) == (
+        f"{tmp_path}/records/*.mat", "~/labels.csv", "runs:/abc/model", f"sqlite:///{tmp_path}/stores/team.db",
+        "diagnosis")
+    assert read_in_job(composed("true", "http://mlflow.example:5000"))[3] == "http://mlflow.example:5000"

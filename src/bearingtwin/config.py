@@ -268,7 +268,13 @@ def hydra_command(config_name: str) -> Callable:
     """
 
     def decorate(task: Callable) -> Callable:
-        hydra_main = hydra.main(version_base="1.3", config_path=CONF_DIR, config_name=config_name)(task)
+        @functools.wraps(task)
+        def task_reading_inputs_from_launch_folder(cfg: DictConfig):
+            inputs_from_launch_folder(cfg)
+            return task(cfg)
+
+        hydra_main = hydra.main(version_base="1.3", config_path=CONF_DIR,
+                                config_name=config_name)(task_reading_inputs_from_launch_folder)
 
         @functools.wraps(task)
         def command(cfg_passthrough: DictConfig | None = None):
@@ -293,6 +299,36 @@ def hydra_command(config_name: str) -> Callable:
         return command
 
     return decorate
+
+
+INPUT_PATH_KEYS = ("path", "labels", "reference", "measured.path", "paths.data_root", "paths.cache_dir", "data.root",
+                   "data.labels", "data.calibration.report", "data.calibration.healthy.report", "tracking.artifact_root",
+                   "tracking.uri")
+"""Settings that name a file or folder the user reads from (or a store): taken from the folder the command was started
+in, also where ``hydra.job.chdir=true`` starts the task in its run's folder. An ``out=`` is what the run writes, and
+stays in the run's folder there."""
+
+
+def inputs_from_launch_folder(cfg: DictConfig) -> None:
+    """Under ``hydra.job.chdir=true``, each of ``cfg``'s :data:`INPUT_PATH_KEYS` given as a relative path (the file of
+    a ``sqlite:///`` store too) made absolute from the folder the command was started in, as Hydra's
+    :func:`hydra.utils.to_absolute_path` makes it; without it, nothing changes (the task starts in that folder)."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.utils import to_absolute_path
+    from omegaconf import open_dict
+
+    if not HydraConfig.initialized() or not HydraConfig.get().job.get("chdir"):
+        return
+    for key in INPUT_PATH_KEYS:
+        value = OmegaConf.select(cfg, key, default=None, throw_on_missing=False)
+        if not isinstance(value, str):
+            continue
+        scheme = "sqlite:///" if value.startswith("sqlite:///") else ""
+        path = value[len(scheme):]
+        if not path or "://" in path or path.startswith("~") or path == ":memory:" or Path(path).is_absolute():
+            continue  # a URI of another kind, a home-relative path (expanded where it is read), a path in full
+        with open_dict(cfg):
+            OmegaConf.update(cfg, key, scheme + to_absolute_path(path))
 
 
 def _groups_taking_lists(config_name: str) -> set[str]:
