@@ -205,16 +205,20 @@ def test_under_hydra_job_chdir_inputs_and_a_sqlite_store_are_read_from_the_launc
     """What the user names relative to where they started stays there when the task runs in its run's folder; URIs
     of other kinds, home-relative and absolute paths, and what the run writes (out=) are left as given."""
     from hydra.core.hydra_config import HydraConfig
-    from omegaconf import open_dict
+    from omegaconf import OmegaConf, open_dict
 
     from bearingtwin.config import compose_config, inputs_from_launch_folder
 
-    def read_in_job(cfg) -> tuple:
+    def in_job(cfg):
         HydraConfig.instance().set_config(cfg)
         try:
             inputs_from_launch_folder(cfg)
         finally:
             HydraConfig.instance().cfg = None  # as outside a Hydra app, for the tests after this one
+        return cfg
+
+    def read_in_job(cfg) -> tuple:
+        cfg = in_job(cfg)
         return cfg.path, cfg.labels, cfg.model, cfg.tracking.uri, cfg.out
 
     def composed(chdir: str, uri: str):
@@ -232,3 +236,9 @@ def test_under_hydra_job_chdir_inputs_and_a_sqlite_store_are_read_from_the_launc
         f"{tmp_path}/records/*.mat", "~/labels.csv", "runs:/abc/model", f"sqlite:///{tmp_path}/stores/team.db",
         "diagnosis")
     assert read_in_job(composed("true", "http://mlflow.example:5000"))[3] == "http://mlflow.example:5000"
+    unresolved = composed("true", "sqlite:///stores/team.db")
+    with open_dict(unresolved):
+        unresolved.labels = "${data_root_not_given}/labels.csv"  # left for the command to name, as without chdir
+    in_job(unresolved)
+    assert OmegaConf.to_container(unresolved, resolve=False)["labels"] == "${data_root_not_given}/labels.csv"
+    assert unresolved.path == f"{tmp_path}/records/*.mat"

@@ -320,7 +320,10 @@ def inputs_from_launch_folder(cfg: DictConfig) -> None:
     if not HydraConfig.initialized() or not HydraConfig.get().job.get("chdir"):
         return
     for key in INPUT_PATH_KEYS:
-        value = OmegaConf.select(cfg, key, default=None, throw_on_missing=False)
+        try:
+            value = OmegaConf.select(cfg, key, default=None, throw_on_missing=False)
+        except InterpolationResolutionError:  # it names a value not given: the task says so, as it would without this
+            continue
         if not isinstance(value, str):
             continue
         scheme = "sqlite:///" if value.startswith("sqlite:///") else ""
