@@ -85,6 +85,7 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("train", ["-m", "--info", "all", "seed=0,1"], ["-m and --info go one at a time"]),  # its traceback too
     ("train", ["-m", "seed=interval(0,1)"], ["seed=interval(0,1): interval() asks a sweeper that draws values"]),  # exit 1
     ("train", ["+classifier=svm"], ["+classifier=svm: classifier has a default choice", "choose it with classifier=svm"]),
+    ("train", ["-cd", "my_conf"], ["--config-dir my_conf: no such folder"]),  # Hydra's three lines, exit 1
     # Hydra's folder for the run, or the sweep, that cannot be made: Hydra's traceback, exit 1 (a FAILED sweep run)
     ("train", ["hydra.run.dir=/dev/null/run"], ["hydra.run.dir=/dev/null/run: /dev/null is a file, not a folder"]),
     ("train", ["effects=[gear]"], ["effects=gear: no such effects config", "tones"]),  # Hydra lists no options for it

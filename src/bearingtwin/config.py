@@ -391,6 +391,9 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                                       ("--shell-completion", args.shell_completion)) if given]
     if len(modes) > 1:  # as above: Hydra's refusal of the pair is a traceback
         raise BearingTwinError(f"{' and '.join(modes)} go one at a time: give one of them")
+    if args.config_dir and not Path(args.config_dir).expanduser().is_dir():  # Hydra's refusal: three lines, exit 1
+        raise BearingTwinError(f"--config-dir {args.config_dir}: no such folder (it holds configs of one's own, "
+                               "beside the project's)")
     if args.help or args.hydra_help or args.info or args.shell_completion or args.experimental_rerun \
             or args.config_path or args.config_dir:
         return
