@@ -162,3 +162,31 @@ def test_every_finished_job_logged_its_fitted_pipeline_as_a_model(store):
     for run in finished:
         models = client.search_logged_models([experiment_id], filter_string=f"source_run_id = '{run.info.run_id}'")
         assert [(m.name, str(m.status)) for m in models] == [("model", "READY")]
+
+
+def test_a_sweep_run_in_its_jobs_folders_reads_and_skips_as_one_started_where_it_is(tmp_path):
+    """hydra.job.chdir=true: each job reads data.root=recs and the sqlite:///store.db from where the sweep started.
+    The sweep's own check hashed the jobs' configs with the paths as typed, the jobs with the paths they read: run
+    again, its skipped jobs had been reported NOT RUN and the sweep FAILED."""
+    recordings = tmp_path / "recs"
+    recordings.mkdir()
+    rng = np.random.default_rng(0)
+    rows = ["record,state"]
+    for state in ("normal", "inner", "outer", "ball"):
+        for index in range(2):
+            np.savez(recordings / f"{state}{index}.npz", signal=rng.normal(size=12000), fs=12000.0, rpm=1797.0)
+            rows.append(f"{state}{index},{state}")
+    (recordings / "labels.csv").write_text("\n".join(rows) + "\n")
+    args = ["-m", "data=files", "data.root=recs", "data.windows_per_record=6", "classifier=svm", "features=raw",
+            "tracking.experiment=rig_a,rig_b", "hydra.job.chdir=true", "tracking.uri=sqlite:///store.db",
+            f"paths.cache_dir={tmp_path}/cache"]
+    first = run_module("bearingtwin.cli.train", *args, cwd=tmp_path, timeout=600)
+    assert first.returncode == 0, first.stderr[-3000:]
+    assert "2 jobs, 2 finished" in first.stdout and (tmp_path / "store.db").is_file()
+    assert "(runs in experiments bearingtwin, rig_a, rig_b: mlflow ui" in first.stdout  # the sweep's run, the jobs
+    again = run_module("bearingtwin.cli.train", *args, cwd=tmp_path, timeout=600)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert "2 jobs, 0 finished, 0 failed, 2 skipped (already finished)" in again.stdout
+    client = MlflowClient(f"sqlite:///{tmp_path}/store.db")
+    runs = client.search_runs([e.experiment_id for e in client.search_experiments()], "tags.`bt.kind` = 'train'")
+    assert len(runs) == 2 and {run.data.params["data.root"] for run in runs} == {str(recordings)}

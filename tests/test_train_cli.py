@@ -222,10 +222,10 @@ def test_under_hydra_job_chdir_inputs_and_a_sqlite_store_are_read_from_the_launc
         return cfg.path, cfg.labels, cfg.model, cfg.tracking.uri, cfg.out
 
     def composed(chdir: str, uri: str):
-        cfg = compose_config("diagnose", ["model=runs:/abc/model", f"tracking.uri={uri}", f"hydra.job.chdir={chdir}"],
-                             hydra_node=True)
+        cfg = compose_config("diagnose", ["model=runs:/abc/model", f"hydra.job.chdir={chdir}"], hydra_node=True)
         with open_dict(cfg):
             cfg.path, cfg.labels = "records/*.mat", "~/labels.csv"  # a glob, a home-relative file
+            cfg.tracking.uri = uri
             cfg.hydra.runtime.cwd = str(tmp_path)
         return cfg
 
@@ -235,7 +235,13 @@ def test_under_hydra_job_chdir_inputs_and_a_sqlite_store_are_read_from_the_launc
     assert read_in_job(composed("true", "sqlite:///stores/team.db")) == (
         f"{tmp_path}/records/*.mat", "~/labels.csv", "runs:/abc/model", f"sqlite:///{tmp_path}/stores/team.db",
         "diagnosis")
-    assert read_in_job(composed("true", "http://mlflow.example:5000"))[3] == "http://mlflow.example:5000"
+    for uri in ("http://mlflow.example:5000", "databricks", "file:mlruns", "sqlite:////srv/team.db"):  # as given
+        assert read_in_job(composed("true", uri))[3] == uri
+    assert read_in_job(composed("true", "sqlite:///~/team.db"))[3] == f"sqlite:///{tmp_path}/~/team.db"  # as SQLite
+    artifacts = composed("true", "sqlite:///stores/team.db")
+    with open_dict(artifacts):
+        artifacts.tracking.artifact_root = "mlflow-artifacts:/team"  # a server's artifact store, not a folder
+    assert in_job(artifacts).tracking.artifact_root == "mlflow-artifacts:/team"
     unresolved = composed("true", "sqlite:///stores/team.db")
     with open_dict(unresolved):
         unresolved.labels = "${data_root_not_given}/labels.csv"  # left for the command to name, as without chdir

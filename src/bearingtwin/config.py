@@ -12,6 +12,7 @@ import tempfile
 import warnings
 from pathlib import Path
 from typing import Callable, NoReturn
+from urllib.parse import urlparse
 
 import hydra
 import yaml
@@ -304,34 +305,43 @@ def hydra_command(config_name: str) -> Callable:
 INPUT_PATH_KEYS = ("path", "labels", "reference", "measured.path", "paths.data_root", "paths.cache_dir", "data.root",
                    "data.labels", "data.calibration.report", "data.calibration.healthy.report", "tracking.artifact_root",
                    "tracking.uri")
-"""Settings that name a file or folder the user reads from (or a store): taken from the folder the command was started
-in, also where ``hydra.job.chdir=true`` starts the task in its run's folder. An ``out=`` is what the run writes, and
-stays in the run's folder there."""
+"""Settings that name a file or folder the user gives (records and labels read, a cache, a store, an artifact folder):
+taken from the folder the command was started in, also where ``hydra.job.chdir=true`` starts the task in its run's
+folder. An ``out=`` is what the run writes, and stays in the run's folder there."""
 
 
 def inputs_from_launch_folder(cfg: DictConfig) -> None:
-    """Under ``hydra.job.chdir=true``, each of ``cfg``'s :data:`INPUT_PATH_KEYS` given as a relative path (the file of
-    a ``sqlite:///`` store too) made absolute from the folder the command was started in, as Hydra's
-    :func:`hydra.utils.to_absolute_path` makes it; without it, nothing changes (the task starts in that folder)."""
+    """Under ``hydra.job.chdir=true``, :func:`absolute_inputs` from the folder the command was started in, as Hydra's
+    :func:`hydra.utils.to_absolute_path` reads a path; without it, nothing changes (the task starts in that folder)."""
     from hydra.core.hydra_config import HydraConfig
-    from hydra.utils import to_absolute_path
+
+    if HydraConfig.initialized() and HydraConfig.get().job.get("chdir"):
+        absolute_inputs(cfg, str(HydraConfig.get().runtime.cwd))
+
+
+def absolute_inputs(cfg: DictConfig, launch_folder: str) -> None:
+    """Each of ``cfg``'s :data:`INPUT_PATH_KEYS` given as a relative path (the file of a ``sqlite:///`` store too)
+    made absolute from ``launch_folder``; URIs of other kinds (``http:``, ``databricks``, ``mlflow-artifacts:``,
+    ``file:``), home-relative paths (expanded where they are read) and absolute ones are left as given. A sweep's
+    jobs and the sweep that waits for them read the same values by it (their config hashes)."""
     from omegaconf import open_dict
 
-    if not HydraConfig.initialized() or not HydraConfig.get().job.get("chdir"):
-        return
     for key in INPUT_PATH_KEYS:
         try:
             value = OmegaConf.select(cfg, key, default=None, throw_on_missing=False)
         except InterpolationResolutionError:  # it names a value not given: the task says so, as it would without this
             continue
-        if not isinstance(value, str):
+        if not isinstance(value, str) or not value:
             continue
-        scheme = "sqlite:///" if value.startswith("sqlite:///") else ""
-        path = value[len(scheme):]
-        if not path or "://" in path or path.startswith("~") or path == ":memory:" or Path(path).is_absolute():
-            continue  # a URI of another kind, a home-relative path (expanded where it is read), a path in full
-        with open_dict(cfg):
-            OmegaConf.update(cfg, key, scheme + to_absolute_path(path))
+        if value.startswith("sqlite:///"):  # the store's file: SQLAlchemy reads it from the working folder, ~ included
+            scheme, path = "sqlite:///", value[len("sqlite:///"):]
+        elif len(urlparse(value).scheme) > 1 or key == "tracking.uri" or value.startswith("~"):
+            continue  # a URI (one letter is a drive, not a scheme), a store of another kind, or a home-relative path
+        else:
+            scheme, path = "", value
+        if path and path != ":memory:" and not Path(path).is_absolute():
+            with open_dict(cfg):
+                OmegaConf.update(cfg, key, scheme + str(Path(launch_folder) / path))
 
 
 def _groups_taking_lists(config_name: str) -> set[str]:
@@ -391,7 +401,7 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                                       ("--shell-completion", args.shell_completion)) if given]
     if len(modes) > 1:  # as above: Hydra's refusal of the pair is a traceback
         raise BearingTwinError(f"{' and '.join(modes)} go one at a time: give one of them")
-    if args.config_dir and not Path(args.config_dir).expanduser().is_dir():  # Hydra's refusal: three lines, exit 1
+    if args.config_dir and not Path(args.config_dir).is_dir():  # Hydra's refusal: three lines, exit 1 (no ~ read)
         raise BearingTwinError(f"--config-dir {args.config_dir}: no such folder (it holds configs of one's own, "
                                "beside the project's)")
     if args.help or args.hydra_help or args.info or args.shell_completion or args.experimental_rerun \

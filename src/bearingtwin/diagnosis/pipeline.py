@@ -159,11 +159,12 @@ class DiagnosisPipeline:
                 features = self._extractor_at(bearing).transform(windows, fs_hz=self.fs_hz, rpm=rpm)
             else:
                 features = self.extractor.transform(windows)
-        overflowed = np.flatnonzero(~np.isfinite(features).all(axis=1))
-        if overflowed.size:  # values so large that powers of them overflow (1e154 and above)
-            raise BearingTwinError(f"windows {_listed(overflowed)} "
-                                   f"(counted from 0): features not finite, values up to {np.max(np.abs(windows)):.3g} "
-                                   "overflow them; give the record in a unit that keeps its values within 1e150")
+        unreadable = np.flatnonzero(~np.isfinite(features).all(axis=1))
+        if unreadable.size:
+            largest = float(np.max(np.abs(windows[unreadable])))
+            why = (f"values up to {largest:.3g} overflow them; give the record in a unit that keeps its values within "
+                   "1e150" if largest > 1e150 else f"values up to {largest:.3g}")
+            raise BearingTwinError(f"windows {_listed(unreadable)} (counted from 0): features not finite, {why}")
         return features
 
     @property

@@ -63,7 +63,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin import cpu_kernels
-from bearingtwin.config import exit_on_user_error, experiment_name, refuse_unknown_keys
+from bearingtwin.config import absolute_inputs, exit_on_user_error, experiment_name, refuse_unknown_keys
 from bearingtwin.checks import check_seed
 from bearingtwin.data.build import check_data_settings, require_files
 from bearingtwin.errors import BearingTwinError
@@ -719,10 +719,15 @@ def _server_lost(uri: str, run_id: str, error: Exception) -> BearingTwinError | 
 
 def store_setting(uri: str) -> str:
     """The store ``uri`` as the user set it, for a message: ``MLFLOW_TRACKING_URI=<uri>`` where the environment gave
-    it (no ``tracking.uri=`` on the command line), else ``tracking.uri=<uri>``."""
+    it (no ``tracking.uri=`` on the command line; a relative SQLite file's, read from the launch folder under
+    ``hydra.job.chdir=true``, too), else ``tracking.uri=<uri>``."""
     from bearingtwin.config import given_on_command_line
 
-    from_environment = os.environ.get("MLFLOW_TRACKING_URI") == uri and not given_on_command_line("tracking.uri")
+    given = os.environ.get("MLFLOW_TRACKING_URI", "")
+    given_file, read_file = _sqlite_path(given), _sqlite_path(uri)
+    same = given == uri or bool(given_file and read_file and not Path(given_file).is_absolute()
+                                and read_file.endswith(f"/{given_file}"))
+    from_environment = bool(given) and same and not given_on_command_line("tracking.uri")
     return f"{'MLFLOW_TRACKING_URI' if from_environment else 'tracking.uri'}={uri}"
 
 
@@ -834,7 +839,10 @@ def sweep_job_configs(config: DictConfig) -> Iterator[DictConfig]:
     loader = GlobalHydra.instance().config_loader()
     for batch in BasicSweeper.split_arguments(overrides, None):
         for job in batch:
-            yield loader.load_sweep_config(config, list(job))
+            job_config = loader.load_sweep_config(config, list(job))
+            if job_config.hydra.job.get("chdir"):  # the paths its task will read, as it will read them
+                absolute_inputs(job_config, str(config.hydra.runtime.cwd))
+            yield job_config
 
 
 @dataclass(frozen=True)
@@ -1032,8 +1040,9 @@ class SweepParentRun(Callback):
                   f"{str(error).strip().splitlines()[0] if str(error).strip() else ''}); sweep run {parent_id} marked "
                   "FAILED", file=sys.stderr, flush=True)
             sys.exit(1)
-        print(f"sweep outputs: {sweep_dir} (runs in experiment {tracking.experiment}: {open_command(tracking.uri)})",
-              flush=True)
+        experiments = sorted({str(job.tracking.experiment) for job in jobs} | {str(tracking.experiment)})
+        print(f"sweep outputs: {sweep_dir} (runs in experiment{'s' * (len(experiments) > 1)} {', '.join(experiments)}: "
+              f"{open_command(tracking.uri)})", flush=True)
         print(format_sweep_summary(parent.data.tags.get("sweep", "cli"), parent_id, outcomes), flush=True)
         if n_failed:
             sys.exit(1)
