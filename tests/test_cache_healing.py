@@ -149,26 +149,25 @@ def test_an_entry_computed_by_other_code_is_a_miss_while_an_edit_of_words_alone_
     # A constant's words below it, as physics/ and signal/ document their constants, are words too.
     constant = key('EXPONENT = 1.5\n"""Hertz."""\n')
     assert key('EXPONENT = 1.5\n"""Hertz, for a point contact."""\n') == constant != key('EXPONENT = 1.4\n"""Hertz."""\n')
-    # A module named beside a subpackage: the twin's records draw each record's seed outside physics/, in code no
-    # configuration key names, and a changed draw had been served the records of the one before it.
+    # A module named beside a subpackage (the Recording a simulation returns, in data/): its edits change the key,
+    # the other modules of its package do not.
     (package / "data").mkdir()
-    seeds = package / "data" / "twin_to_real.py"
-    seeds.write_text("def seed(n):\n    return n\n")
+    container = package / "data" / "recording.py"
+    container.write_text("def signal(x):\n    return x\n")
     storage.code_fingerprint.cache_clear()
-    with_seeds = storage.code_fingerprint("physics", "data/twin_to_real.py")
-    assert with_seeds != storage.code_fingerprint("physics")
-    seeds.write_text("def seed(n):\n    return n + 1\n")
+    with_container = storage.code_fingerprint("physics", "data/recording.py")
+    assert with_container != storage.code_fingerprint("physics")
+    container.write_text("def signal(x):\n    return -x\n")
     storage.code_fingerprint.cache_clear()
-    changed = storage.code_fingerprint("physics", "data/twin_to_real.py")
-    assert changed != with_seeds
+    changed = storage.code_fingerprint("physics", "data/recording.py")
+    assert changed != with_container
     (package / "data" / "other.py").write_text("X = 1\n")  # a module beside it, not named, is not read
     storage.code_fingerprint.cache_clear()
-    assert storage.code_fingerprint("physics", "data/twin_to_real.py") == changed
+    assert storage.code_fingerprint("physics", "data/recording.py") == changed
     storage.code_fingerprint.cache_clear()
-    from bearingtwin.storage import SIMULATION_CODE, TWIN_RECORDS_CODE
     monkeypatch.undo()
-    assert "data/twin_to_real.py" in TWIN_RECORDS_CODE and all(
-        (storage.PACKAGE / part).exists() for part in TWIN_RECORDS_CODE + SIMULATION_CODE)
+    from bearingtwin.storage import SIMULATION_CODE
+    assert all((storage.PACKAGE / part).exists() for part in SIMULATION_CODE)
 
 
 def test_a_cache_that_cannot_take_an_entry_is_said_and_the_numbers_computed_are_used(dataset, tmp_path,  # noqa: F811

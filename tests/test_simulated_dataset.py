@@ -103,3 +103,23 @@ def test_effects_that_act_in_another_order_are_other_records():
 
     assert key({"noise": noise, "resonance": resonance}) != key({"resonance": resonance, "noise": noise})
     assert key({"clipping": clipping, "unbalance": unbalance}) == key({"unbalance": unbalance, "clipping": clipping})
+
+
+def test_records_at_several_speeds_each_have_their_own_noise_and_are_drawn_alike_every_time():
+    """The twin's records for a real data set: one per state and speed, fault-major, each with a seed of its own
+    (the configured seed, the variant, the state, the speed's place), so no two share a noise realization, and the
+    same settings give the same numbers."""
+    from bearingtwin.physics.simulator import simulate_at_speeds
+
+    simulator = {**OmegaConf.to_container(SIMULATOR), "fs": 12000, "duration": 0.2}
+    effects = OmegaConf.to_container(OmegaConf.load(f"{CONF_DIR}/effects/noise.yaml"))
+    signals = simulate_at_speeds(["outer", "inner"], [1797.0, 1750.0], BEARING, simulator, effects)
+    assert signals.shape == (4, 2400)
+    np.testing.assert_array_equal(signals, simulate_at_speeds(["outer", "inner"], [1797.0, 1750.0], BEARING,
+                                                              simulator, effects))
+    same_speed = simulate_at_speeds(["outer"], [1797.0, 1797.0], BEARING, simulator, effects)
+    assert not np.allclose(same_speed[0], same_speed[1])  # the speed's place alone parts their noise
+    variant = simulate_at_speeds(["outer"], [1797.0], BEARING, simulator, effects, variant=1)
+    assert not np.allclose(variant[0], signals[0])
+    np.testing.assert_array_equal(signals[1], simulate_at_speeds(["outer"], [1797.0, 1750.0], BEARING, simulator,
+                                                                 effects)[1])  # fault-major: outer at 1750 rpm

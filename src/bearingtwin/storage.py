@@ -155,9 +155,6 @@ def code_fingerprint(*parts: str) -> str:
 
 SIMULATION_CODE = ("physics", "data/recording.py")
 """The code that makes a simulated record (:func:`code_fingerprint`)."""
-TWIN_RECORDS_CODE = (*SIMULATION_CODE, "data/twin_to_real.py")
-"""The code that makes the twin's records for a real data set: the simulation's, and each record's seed drawn from
-the configured one (:func:`~bearingtwin.data.twin_to_real.twin_signals`), which no configuration key names."""
 FEATURE_CODE = ("features", "signal", "optim", "physics", "data")
 """The subpackages whose code makes a window's features, and the windows themselves (a simulated record's, a real
 one's as read and cut): a dataset's key names its configuration, not the code that made it."""

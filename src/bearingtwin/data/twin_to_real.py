@@ -58,9 +58,9 @@ from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_w
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects, effect_class, in_signal_order, order_identity, sensor_only
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
-from bearingtwin.physics.simulator import records_identity, simulate
+from bearingtwin.physics.simulator import records_identity, simulate, simulate_at_speeds
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
-from bearingtwin.storage import (TWIN_RECORDS_CODE, code_fingerprint, content_key, file_digest, load_npz_or_heal,
+from bearingtwin.storage import (SIMULATION_CODE, code_fingerprint, content_key, file_digest, load_npz_or_heal,
                                  save_npz_atomic, takes_entries)
 from bearingtwin.twin.reference import require_same_bearing
 
@@ -388,24 +388,13 @@ def operating_points_rpm(recordings: list[Recording]) -> list[float]:
 
 def twin_signals(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, effects: Mapping,
                  cache_dir: str | os.PathLike, variant: int | None = None) -> tuple[np.ndarray, str]:
-    """Sensor signals (len(faults) * len(rpms), n) in m/s^2, fault-major; cached by their config.
-
-    Every record gets its own seed for the twin's random effects, derived from
-    ``simulator.seed`` (and the index of the ``twin.variants`` combination, if any), so
-    two operating points or two variants do not share one noise realization.
-    """
+    """:func:`~bearingtwin.physics.simulator.simulate_at_speeds`' records (each with its own seed), cached by their
+    config; and their key."""
     path, key = _records_path(faults, rpms, bearing_cfg, simulator_cfg, effects, cache_dir, variant)
     cached = load_npz_or_heal(path, "signals")
     if cached is not None:
         return cached["signals"], key
-    signals = []
-    for fault in faults:
-        for index, rpm in enumerate(rpms):
-            entropy = [whole_number("simulator.seed", simulator_cfg["seed"], minimum=0), *([] if variant is None else [variant]), FAULTS.index(fault), index]
-            seed = int(np.random.SeedSequence(entropy).generate_state(1)[0])
-            recording, _ = simulate(fault, bearing_cfg, {**simulator_cfg, "rpm": float(rpm), "seed": seed}, effects)
-            signals.append(recording.signal)
-    signals = np.stack(signals)
+    signals = simulate_at_speeds(faults, rpms, bearing_cfg, simulator_cfg, effects, variant)
     save_npz_atomic(path, signals=signals)
     return signals, key
 
@@ -415,7 +404,7 @@ def _records_path(faults, rpms, bearing_cfg: Mapping, simulator_cfg: Mapping, ef
     """Where :func:`twin_signals` caches these records, and their key (what they are simulated from)."""
     key = content_key({"bearing": bearing_cfg, "simulator": records_identity(simulator_cfg), "effects": effects,
                        **order_identity(effects), "faults": list(faults), "rpms": list(rpms), "variant": variant})
-    return Path(cache_dir) / "twin_to_real" / f"records-{key}-{code_fingerprint(*TWIN_RECORDS_CODE)}.npz", key
+    return Path(cache_dir) / "twin_to_real" / f"records-{key}-{code_fingerprint(*SIMULATION_CODE)}.npz", key
 
 
 def simulation_jobs(value) -> int:

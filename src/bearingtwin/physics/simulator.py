@@ -386,6 +386,26 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
     return recording, channels
 
 
+def simulate_at_speeds(faults: Sequence[str], rpms: Sequence[float], bearing_cfg: Mapping, simulator_cfg: Mapping,
+                       effects_cfg: Mapping | None = None, variant: int | None = None) -> np.ndarray:
+    """Sensor signals ``(len(faults) * len(rpms), n)`` in m/s^2, fault-major: each state at each speed (rev/min).
+
+    Every record gets its own seed for the twin's random effects, derived from ``simulator.seed`` (and ``variant``,
+    the index of a combination of settings, if any), the state and the speed's place, so two operating points or two
+    variants do not share one noise realization.
+    """
+    seed = whole_number("simulator.seed", simulator_cfg["seed"], minimum=0)
+    signals = []
+    for fault in faults:
+        for index, rpm in enumerate(rpms):
+            scope = [seed, *([] if variant is None else [variant]), FAULTS.index(fault), index]
+            record_seed = int(np.random.SeedSequence(scope).generate_state(1)[0])
+            recording, _ = simulate(fault, bearing_cfg, {**simulator_cfg, "rpm": float(rpm), "seed": record_seed},
+                                    effects_cfg)
+            signals.append(recording.signal)
+    return np.stack(signals)
+
+
 def simulate_many(faults: Sequence[str], bearing_cfg: Mapping, simulator_cfg: Mapping,
                   effects_cfg: Mapping | None = None, n_jobs: int = 1) -> list[tuple[Recording, np.ndarray]]:
     """:func:`simulate` for several bearing states, in parallel processes when ``n_jobs`` > 1."""
