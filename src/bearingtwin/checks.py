@@ -3,7 +3,8 @@ raises :class:`BearingTwinError` naming the field.
 
 A YAML ``true`` is no number here (Python counts it as the integer 1); only :func:`positive_number`
 reads a number's text (``fs=12000`` on a command line, a cell of a CSV file). :func:`physical_memory_bytes`
-bounds settings whose arrays would not fit (a simulation's length, a data set's windows).
+bounds settings whose arrays would not fit (a simulation's length, a data set's windows). :func:`derived_seed`
+draws the seed of one part of a run from the run's checked seed.
 """
 
 from __future__ import annotations
@@ -59,6 +60,15 @@ def check_seed(seed) -> int:
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise BearingTwinError(f"seed must be a non-negative integer, got {seed!r}")
     return seed
+
+
+def derived_seed(seed: int, *scope: int) -> int:
+    """An independent, reproducible seed for one part of a run (a simulated record, a class's search, a candidate's
+    screen), drawn from the run's ``seed`` and the part's place ``scope`` (non-negative ints) by numpy's
+    ``SeedSequence``: no two parts share one random stream, and a part's seed does not depend on the others."""
+    import numpy as np
+
+    return int(np.random.SeedSequence([int(seed), *scope]).generate_state(1)[0])
 
 
 def positive_number(value, name: str, unit: str, where: str = "") -> float:

@@ -25,7 +25,7 @@ from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, TransformerMixin
 from tqdm.auto import tqdm
 
-from bearingtwin.checks import show_progress_bar, whole_number
+from bearingtwin.checks import derived_seed, show_progress_bar, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.fitness import FITNESS, optimal_mode, resolve_fitness
@@ -55,11 +55,6 @@ def _check_labels(y, n: int, mode: str) -> np.ndarray:
     if y.shape != (n,):
         raise BearingTwinError(f"y has shape {y.shape}, expected ({n},) labels for {n} windows")
     return y
-
-
-def _seed_for(seed: int, *scope: int) -> int:
-    """An independent, reproducible seed for one search (a class, a window)."""
-    return int(np.random.SeedSequence([int(seed), *scope]).generate_state(1)[0])
 
 
 class SaboVmdFeatures(TransformerMixin, BaseEstimator):
@@ -154,7 +149,7 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
         elif self.vmd_params == "per_class":
             y = _check_labels(y, len(X), self.vmd_params)
             self.vmd_params_ = [
-                self._search_row(label.item(), self._draw(X[y == label], rng), _seed_for(self.seed, int(label)))
+                self._search_row(label.item(), self._draw(X[y == label], rng), derived_seed(self.seed, int(label)))
                 for label in np.unique(y)
             ]
         else:
@@ -237,7 +232,7 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
 
     def _extract_per_sample(self, X: np.ndarray) -> tuple[np.ndarray, list[dict]]:
         def one(index: int) -> tuple[np.ndarray, dict]:
-            row = self._search_row(index, X[index : index + 1], _seed_for(self.seed, index))
+            row = self._search_row(index, X[index : index + 1], derived_seed(self.seed, index))
             return self._features(X[index : index + 1], row["k"], row["alpha"])[0][0], row
 
         jobs = Parallel(n_jobs=self.n_jobs, return_as="generator")(delayed(one)(i) for i in range(len(X)))

@@ -25,7 +25,7 @@ import numpy as np
 import scipy.signal
 from tqdm.auto import tqdm
 
-from bearingtwin.checks import finite_number, is_finite_number, physical_memory_bytes, whole_number
+from bearingtwin.checks import derived_seed, finite_number, is_finite_number, physical_memory_bytes, whole_number
 from bearingtwin.config import plain_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -398,8 +398,7 @@ def simulate_at_speeds(faults: Sequence[str], rpms: Sequence[float], bearing_cfg
     signals = []
     for fault in faults:
         for index, rpm in enumerate(rpms):
-            scope = [seed, *([] if variant is None else [variant]), FAULTS.index(fault), index]
-            record_seed = int(np.random.SeedSequence(scope).generate_state(1)[0])
+            record_seed = derived_seed(seed, *([] if variant is None else [variant]), FAULTS.index(fault), index)
             recording, _ = simulate(fault, bearing_cfg, {**simulator_cfg, "rpm": float(rpm), "seed": record_seed},
                                     effects_cfg)
             signals.append(recording.signal)

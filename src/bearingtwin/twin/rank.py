@@ -56,6 +56,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 from tqdm.auto import tqdm
 
+from bearingtwin.checks import derived_seed
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import acceleration_factor, acceleration_unit
 from bearingtwin.errors import BearingTwinError
@@ -997,7 +998,7 @@ class EffectRanker:
 def _screen_seed(seed: int, round_index: int, name: str) -> int:
     """The seed of a candidate's screen in a round: from the run's seed, the round and the effect's name, so a
     candidate is screened alike whatever others are offered beside it (``candidates=[...]`` narrowed or not)."""
-    return int(np.random.SeedSequence([seed, round_index, zlib.crc32(name.encode())]).generate_state(1)[0])
+    return derived_seed(seed, round_index, zlib.crc32(name.encode()))
 
 
 def _key(values: Mapping) -> tuple:
