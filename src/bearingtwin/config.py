@@ -28,6 +28,8 @@ CONF_DIR = str(REPO_ROOT / "conf")
 
 # ``${bt_repo:}`` in a config resolves to the checkout, so default paths work from any cwd.
 OmegaConf.register_new_resolver("bt_repo", lambda: str(REPO_ROOT), replace=True)
+
+
 def _home() -> str:
     """The user's home: HOME, else the password database's (``os.path.expanduser``); for a user with neither, a folder
     of the user's own in the temporary folder. Never one every user shares (/tmp/.cache), nor a relative ``~``."""

@@ -798,15 +798,16 @@ def log_model(cfg: DictConfig, experiment_id: str, run_id: str, result, digest: 
         alias = None if withheld else alias
         scored = {key: f"{result.metrics[key]:.6g}" for key in ("accuracy", "calibration_accuracy")
                   if key in result.metrics}
+        client = MlflowClient(tracking_uri=uri)
         version, before = register_model(
             uri, info.model_uri, str(name), None if alias is None else str(alias),
-            description=(f"{MlflowClient(tracking_uri=uri).get_run(run_id).info.run_name}"
+            description=(f"{client.get_run(run_id).info.run_name}"
                          + (f": {100 * result.metrics['accuracy']:.2f} % of its test windows right"
                             if "accuracy" in result.metrics else "")),
             tags={"run_id": run_id, "config_hash": digest, "seed": str(cfg.seed), **scored})
         moved = f" (moved from version {before})" if before and before != version else ""
         log.info("registered %s version %s%s%s", name, version, f" as @{alias}" if alias else "", moved)
-        MlflowClient(tracking_uri=uri).set_tag(run_id, "registered_model", f"{name}/{version}")
+        client.set_tag(run_id, "registered_model", f"{name}/{version}")
         return (f"runs:/{run_id}/model = models:/{name}/{version}" + (f" = models:/{name}@{alias}{moved}" if alias else "")
                 + (f" (not made @{withheld}: it misreads its {' and '.join(misread)} calibration record"
                    f"{'s' if len(misread) > 1 else ''}, as the warning says)" if withheld else ""))
@@ -854,6 +855,7 @@ class JobOutcome:
     status: str
     reason: str = ""
     run_id: str | None = None  # the job's run, or for a skipped job the earlier FINISHED run it stands for
+    accuracy: float | None = None  # that run's, where it logged one
 
 
 def sweep_outcomes(client: MlflowClient, parent_run_id: str, jobs: list[DictConfig]) -> list[JobOutcome]:
@@ -878,9 +880,10 @@ def sweep_outcomes(client: MlflowClient, parent_run_id: str, jobs: list[DictConf
             if child.info.status == "KILLED" and not reason:
                 reason = "interrupted"
             outcomes.append(JobOutcome(overrides, child.info.status, reason.splitlines()[0] if reason else "",
-                                       child.info.run_id))
+                                       child.info.run_id, child.data.metrics.get("accuracy")))
         elif (earlier := _finished_in_own_experiment(client, job, digest)) is not None:
-            outcomes.append(JobOutcome(overrides, "SKIPPED", computed_by_other_code(earlier), earlier.info.run_id))
+            outcomes.append(JobOutcome(overrides, "SKIPPED", computed_by_other_code(earlier), earlier.info.run_id,
+                                       earlier.data.metrics.get("accuracy")))
         else:
             outcomes.append(JobOutcome(overrides, "NOT RUN", "the job ended before its MLflow run was created (see its log)"))
     return outcomes
@@ -1022,9 +1025,7 @@ class SweepParentRun(Callback):
                                ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
                 client.set_tag(parent_id, tag, str(count))
             # Its jobs' accuracies at a glance, where the runs list shows the sweep beside others.
-            scores = [client.get_run(o.run_id).data.metrics.get("accuracy") for o in outcomes
-                      if o.status in ("FINISHED", "SKIPPED")]
-            scores = [score for score in scores if score is not None]
+            scores = [o.accuracy for o in outcomes if o.status in ("FINISHED", "SKIPPED") and o.accuracy is not None]
             if scores:
                 client.log_batch(parent_id, metrics=[Metric(key, float(value), int(time.time() * 1000), 0) for key, value in
                                                      (("accuracy_mean", np.mean(scores)), ("accuracy_std", np.std(scores)),

@@ -32,6 +32,7 @@ def installed_versions(packages) -> dict[str, str | None]:
             versions[package] = None
     return versions
 
+
 def short_commit(commit: str) -> str:
     """A commit as a person reads it: its first 12 hex digits, and ``-dirty`` where the checkout had changes."""
     return commit[:12] + ("-dirty" if commit.endswith("-dirty") else "")
