@@ -510,17 +510,14 @@ def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None
     run reads): an interrupt marks it KILLED."""
     from mlflow.entities import Param
 
-    from bearingtwin.tracking.lifecycle import owner_tags, reap_dead_runs, register_open_run
-    from bearingtwin.tracking.provenance import context_tags
+    from bearingtwin.tracking.lifecycle import open_owned_run, reap_dead_runs
     from bearingtwin.tracking.mlflow_logging import open_store
 
     client, experiment_id = open_store(cfg.tracking)
     reap_dead_runs(client)
-    mlflow_run = client.create_run(experiment_id, run_name=f"diagnose {Path(str(cfg.path)).name} with {cfg.model}",
-                                   tags={"bt.kind": "diagnose", "model_uri": str(cfg.model),
-                                         "model_version_uri": pinned_uri, **context_tags(), **owner_tags()})
-    run_id = mlflow_run.info.run_id
-    register_open_run(client, run_id)
+    run_id = open_owned_run(client, experiment_id, f"diagnose {Path(str(cfg.path)).name} with {cfg.model}",
+                            {"bt.kind": "diagnose", "model_uri": str(cfg.model),
+                             "model_version_uri": pinned_uri}).info.run_id
     params = {"model": cfg.model, "path": cfg.path, "labels": labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
               "bearing": bearing}
     client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])

@@ -85,6 +85,18 @@ def register_open_run(client: MlflowClient, run_id: str, label: str = "run", wit
     _open_runs.append(OpenRun(client, run_id, label, with_children))
 
 
+def open_owned_run(client: MlflowClient, experiment_id: str, run_name: str, tags: dict[str, str], label: str = "run",
+                   with_children: bool = False):
+    """A new run of this process, returned: tagged with ``tags``, MLflow's context (the user, the command, the commit:
+    :func:`~bearingtwin.tracking.provenance.context_tags`) and its owner (:func:`owner_tags`, which
+    :func:`reap_dead_runs` reads), and closed for it if the process stops early (:func:`register_open_run`)."""
+    from bearingtwin.tracking.provenance import context_tags
+
+    run = client.create_run(experiment_id, run_name=run_name, tags={**tags, **context_tags(), **owner_tags()})
+    register_open_run(client, run.info.run_id, label, with_children)
+    return run
+
+
 def forget_open_run(run_id: str) -> None:
     """Stop closing ``run_id`` for this process: its store can no longer be reached (a tracking server gone)."""
     _open_runs[:] = [run for run in _open_runs if run.run_id != run_id]

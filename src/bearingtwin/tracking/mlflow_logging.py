@@ -71,15 +71,14 @@ from bearingtwin.physics.effects import build_effects
 from bearingtwin.tracking.lifecycle import (
     SWEEP_PID_ENV,
     forget_open_run,
-    owner_tags,
+    open_owned_run,
     raise_if_interrupted,
     reap_dead_runs,
-    register_open_run,
     start_ray_keeping_signals,
 )
 from bearingtwin.tracking import open_command
-from bearingtwin.tracking.provenance import (computed_by_other_code, context_tags, environment_tags, git_commit,
-                                             installed_versions, overrides_tag)
+from bearingtwin.tracking.provenance import (computed_by_other_code, environment_tags, git_commit, installed_versions,
+                                             overrides_tag)
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
 log = logging.getLogger(__name__)
@@ -661,10 +660,8 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     # A child of its sweep from its first instant: a sweep interrupted before the other tags are logged
     # still finds the run among its RUNNING children and marks it KILLED (its worker is killed, not told).
     child_of = {key: tags[key] for key in ("mlflow.parentRunId", "sweep_job") if key in tags}
-    run = client.create_run(experiment_id, run_name=run_name(cfg, method, sweep),
-                            tags={"bt.kind": "train", **context_tags(), **owner_tags(), **child_of})
+    run = open_owned_run(client, experiment_id, run_name(cfg, method, sweep), {"bt.kind": "train", **child_of})
     run_id = run.info.run_id
-    register_open_run(client, run_id)
     try:
         log_params_and_tags(client, run_id, flatten(loggable_config(cfg)), tags)
         client.log_text(run_id, OmegaConf.to_yaml(OmegaConf.create(loggable_config(cfg))), CONFIG_ARTIFACT)
@@ -984,14 +981,11 @@ class SweepParentRun(Callback):
         reap_dead_runs(client)
         name = sweep_name(config.hydra.runtime.choices)
         sweep_dir = sweep_folder(config.hydra)
-        run = client.create_run(
-            experiment_id,
-            run_name=f"sweep {name} {Path(sweep_dir).parent.name}/{Path(sweep_dir).name}",  # Hydra's <date>/<time>
-            tags={"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir, **context_tags(), **owner_tags(),
-                  "overrides": overrides_tag(config.hydra.overrides.task)},  # the command's, swept lists as given
-        )
-        register_open_run(client, run.info.run_id, label="sweep", with_children=True)
-        self._parent_id = run.info.run_id
+        self._parent_id = open_owned_run(
+            client, experiment_id, f"sweep {name} {Path(sweep_dir).parent.name}/{Path(sweep_dir).name}",  # <date>/<time>
+            {"bt.kind": "sweep", "sweep": name, "sweep_dir": sweep_dir,
+             "overrides": overrides_tag(config.hydra.overrides.task)},  # the command's, swept lists as given
+            label="sweep", with_children=True).info.run_id
         os.environ[SWEEP_PID_ENV] = str(os.getpid())  # inherited by joblib's workers, which watch it
         os.environ[SWEEP_VARIED_ENV] = varied  # so are the keys that tell its jobs apart
 

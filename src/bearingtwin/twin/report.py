@@ -388,16 +388,13 @@ def open_twin_run(cfg: DictConfig, measured: Recording) -> tuple[MlflowClient, s
     that cannot serve is named before any work."""
     from mlflow.entities import Param
 
-    from bearingtwin.tracking.lifecycle import owner_tags, reap_dead_runs, register_open_run
-    from bearingtwin.tracking.provenance import context_tags
+    from bearingtwin.tracking.lifecycle import open_owned_run, reap_dead_runs
     from bearingtwin.tracking.mlflow_logging import flatten, loggable_config, open_store
 
     client, experiment_id = open_store(cfg.tracking)
     reap_dead_runs(client)
-    run = client.create_run(experiment_id, run_name=f"twin {Path(str(measured.source)).name} {measured.fault}",
-                            tags={"bt.kind": "twin", "measured": str(measured.source), **context_tags(), **owner_tags()})
-    run_id = run.info.run_id
-    register_open_run(client, run_id)
+    run_id = open_owned_run(client, experiment_id, f"twin {Path(str(measured.source)).name} {measured.fault}",
+                            {"bt.kind": "twin", "measured": str(measured.source)}).info.run_id
     params = [Param(k[:250], str(v)[:6000]) for k, v in flatten(loggable_config(cfg)).items()]
     for first in range(0, len(params), 100):  # MLflow takes at most 100 params per batch
         client.log_batch(run_id, params=params[first:first + 100])
