@@ -6,6 +6,8 @@ left by a full disk, a crash or bad storage) is not an error but a miss:
 :func:`load_npz_or_heal` logs one line naming the file, removes it and lets the caller
 recompute and rewrite it. Nor is an entry that cannot be written (a read-only shared cache,
 a full disk) an error: one line says so, and the numbers just computed go on to be used.
+Every read marks its entry used, so what no command has used for a while can be told apart and
+removed (:func:`cache_entries`, ``bearingtwin-cache``).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import json
 import logging
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -100,14 +103,16 @@ def load_npz_or_heal(path: str | Path, *names: str) -> dict[str, np.ndarray] | N
     caught here and not in a computation later. An unreadable entry is logged (file and
     reason), removed and reported as a miss. (Should another job replace the entry in the
     instant between the failed read and the removal, its good copy goes too: one more
-    recomputation, never a wrong number.)
+    recomputation, never a wrong number.) An entry read is marked used (:func:`mark_used`).
     """
     path = Path(path)
-    if not path.exists():
-        return None
     try:
         with np.load(path, allow_pickle=False) as stored:
-            return {name: np.array(stored[name]) for name in names}
+            arrays = {name: np.array(stored[name]) for name in names}
+        mark_used(path)
+        return arrays
+    except (FileNotFoundError, NotADirectoryError):  # never written (or removed by ``bearingtwin-cache remove=true``)
+        return None
     except Exception as error:  # any failure to read means the entry is unusable; it is recomputed
         try:
             path.unlink(missing_ok=True)
@@ -171,3 +176,65 @@ def file_digest(path: Path) -> str:
     their files)."""
     stat = Path(path).stat()
     return _cached_digest(Path(path).resolve(), stat.st_size, stat.st_mtime_ns)
+
+
+NUMBA_FOLDER = "numba"
+"""Numba's compiled kernels, in the cache's folder by default (``bearingtwin/__init__.py``): numba's own files, which
+it reads without marking them used, so they are reported but never removed one by one."""
+
+
+@dataclass(frozen=True)
+class CacheEntry:
+    """One cached file: where it is, its size in bytes, and when a command last wrote or read it (POSIX seconds)."""
+
+    path: Path
+    size_bytes: int
+    last_used_s: float
+
+
+def mark_used(path: Path) -> None:
+    """Set ``path``'s modification time to now: an entry's time is when a command last used it, which is what
+    :func:`cache_entries` reports and ``bearingtwin-cache unused_days=`` removes by."""
+    with contextlib.suppress(OSError):  # a read-only shared cache, or another user's entry: its time stays as written
+        os.utime(path)
+
+
+def cache_entries(root: str | Path) -> dict[str, list[CacheEntry]]:
+    """Every cache entry under ``root`` by kind, the subfolder it lies in (``simulated``, ``twin_to_real``,
+    ``features``; a temporary file a killed write left behind is one too, last used when it was written), sorted by
+    path. :data:`NUMBA_FOLDER` is left out; a missing ``root`` holds nothing."""
+    root = Path(root)
+    kinds: dict[str, list[CacheEntry]] = {}
+    for folder in sorted(root.iterdir()) if root.is_dir() else ():
+        if not folder.is_dir() or folder.name == NUMBA_FOLDER:
+            continue
+        entries = kinds.setdefault(folder.name, [])
+        for path in sorted(folder.rglob("*")):
+            with contextlib.suppress(FileNotFoundError):  # removed by another command while listed
+                stat = path.stat()
+                if path.is_file():
+                    entries.append(CacheEntry(path, stat.st_size, stat.st_mtime))
+    return kinds
+
+
+def folder_bytes(folder: str | Path) -> int:
+    """The size of every file under ``folder`` in bytes (0 if it does not exist)."""
+    total = 0
+    for path in Path(folder).rglob("*"):
+        with contextlib.suppress(FileNotFoundError):
+            if path.is_file():
+                total += path.stat().st_size
+    return total
+
+
+def remove_entries(entries: list[CacheEntry]) -> list[tuple[CacheEntry, OSError]]:
+    """Remove each of ``entries``, one by one (a command that needs one later computes it again); those that could
+    not be removed (a read-only shared cache, another user's entry), each with its error. One gone already counts as
+    removed."""
+    failed = []
+    for entry in entries:
+        try:
+            entry.path.unlink(missing_ok=True)
+        except OSError as error:
+            failed.append((entry, error))
+    return failed

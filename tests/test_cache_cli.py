@@ -1,0 +1,157 @@
+"""bearingtwin-cache: what the cache holds per kind, entries marked used when read, and the removal of those no
+command has used for a while; bad settings refused in one line."""
+
+import os
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from bearingtwin.cli.cache import main
+from bearingtwin.data.simulated import build_simulated_dataset
+from bearingtwin.storage import load_npz_or_heal, save_npz_atomic
+
+from test_cache_healing import BEARING, DATA, SIMULATOR, only_file
+
+DAY_S = 86400
+
+
+def run(capsys, monkeypatch, *overrides):
+    """``bearingtwin-cache <overrides>`` in this process: exit status, stdout, stderr."""
+    monkeypatch.setattr(sys, "argv", ["bearingtwin-cache", *overrides])
+    with pytest.raises(SystemExit) as stop:
+        main()
+        raise SystemExit(0)
+    out, err = capsys.readouterr()
+    return stop.value.code, out, err
+
+
+def age(path, days: float) -> None:
+    """Make ``path`` look last used ``days`` ago."""
+    then = time.time() - days * DAY_S
+    os.utime(path, (then, then))
+
+
+def entry(folder, name: str, size: int, days: float):
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / name
+    path.write_bytes(b"x" * size)
+    age(path, days)
+    return path
+
+
+@pytest.fixture
+def cache(tmp_path):
+    """A cache of every kind: two entries unused for 40 days (one a temporary file a killed write left), two used
+    yesterday, and numba's kernels, as old."""
+    root = tmp_path / "cache"
+    files = {
+        "old simulated": entry(root / "simulated", "records-a.npz", 1500, 40),
+        "new simulated": entry(root / "simulated", "records-b.npz", 500, 1),
+        "old twin": entry(root / "twin_to_real", "records-cabc123.tmp", 2000, 40),
+        "new features": entry(root / "features", "features-d.npz", 3000, 1),
+        "numba": entry(root / "numba" / "bearingtwin", "kernel.nbi", 700, 40),
+    }
+    return root, files
+
+
+def test_the_report_counts_each_kind_and_removes_nothing(cache, capsys, monkeypatch):
+    root, files = cache
+    code, out, err = run(capsys, monkeypatch, f"paths.cache_dir={root}")
+    assert code == 0 and err == ""
+    lines = out.splitlines()
+    assert lines[0] == f"cache: {root}"
+    simulated = next(line for line in lines if line.split()[0] == "simulated")
+    assert "2 entries" in simulated and "2.0 kB" in simulated  # 1500 + 500 bytes
+    twin = next(line for line in lines if line.split()[0] == "twin_to_real")
+    assert "1 entry " in twin and "2.0 kB" in twin
+    numba = next(line for line in lines if line.split()[0] == "numba")
+    assert "700 B" in numba and "numba's own" in numba
+    total = next(line for line in lines if line.split()[0] == "total")
+    assert "4 entries" in total and "7.0 kB" in total  # numba's kernels are not entries
+    assert all(path.exists() for path in files.values())
+
+
+def test_unused_days_lists_what_remove_removes_and_numba_stays(cache, capsys, monkeypatch):
+    root, files = cache
+    code, out, _ = run(capsys, monkeypatch, f"paths.cache_dir={root}", "unused_days=30")
+    assert code == 0 and out.splitlines()[-1] == "unused for 30 days: 2 entries, 3.5 kB; remove=true removes them"
+    assert all(path.exists() for path in files.values())
+
+    code, out, _ = run(capsys, monkeypatch, f"paths.cache_dir={root}", "unused_days=30", "remove=true")
+    assert code == 0 and out.splitlines()[-1] == "removed (unused for 30 days): 2 entries, 3.5 kB freed"
+    assert {name for name, path in files.items() if path.exists()} == {"new simulated", "new features", "numba"}
+
+    code, out, _ = run(capsys, monkeypatch, f"paths.cache_dir={root}", "unused_days=0", "remove=true")
+    assert code == 0 and out.splitlines()[-1] == "removed (every entry): 2 entries, 3.5 kB freed"
+    assert {name for name, path in files.items() if path.exists()} == {"numba"}
+
+
+def test_an_entry_that_cannot_be_removed_is_named_the_others_go_and_the_exit_status_says_so(cache, capsys,
+                                                                                            monkeypatch):
+    root, files = cache
+    unlink = type(files["old twin"]).unlink
+
+    def refuse_one(path, missing_ok=False):
+        if path == files["old twin"]:
+            raise PermissionError(13, "Permission denied", str(path))
+        unlink(path, missing_ok=missing_ok)
+
+    monkeypatch.setattr(type(files["old twin"]), "unlink", refuse_one)
+    code, out, err = run(capsys, monkeypatch, f"paths.cache_dir={root}", "unused_days=30", "remove=true")
+    assert code == 1
+    assert out.splitlines()[-1] == "removed (unused for 30 days): 1 entry, 1.5 kB freed"
+    assert err.strip() == f"1 entry could not be removed (Permission denied), {files['old twin']} among them"
+    assert files["old twin"].exists() and not files["old simulated"].exists()
+
+
+def test_a_missing_cache_is_empty_and_not_made(tmp_path, capsys, monkeypatch):
+    code, out, _ = run(capsys, monkeypatch, f"paths.cache_dir={tmp_path / 'none'}", "unused_days=1", "remove=true")
+    assert code == 0 and out.splitlines()[0] == f"cache: {tmp_path / 'none'} (empty: nothing cached yet)"
+    assert not (tmp_path / "none").exists()
+
+
+@pytest.mark.parametrize("overrides, named", [
+    (["unused_days=-1"], "unused_days must be a number of days, 0 or more, got -1"),
+    (["unused_days=soon"], "unused_days must be a number of days, 0 or more, got 'soon'"),
+    (["remove=true"], "remove=true removes the entries unused for unused_days=<days>"),
+    (["unused_days=3", "remove=maybe"], "remove must be true or false, got 'maybe'"),
+])
+def test_bad_settings_are_refused_in_one_line(cache, capsys, monkeypatch, overrides, named):
+    root, files = cache
+    code, out, err = run(capsys, monkeypatch, f"paths.cache_dir={root}", *overrides)
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1 and err.startswith(f"error: {named}"), err
+    assert all(path.exists() for path in files.values())
+
+
+def test_a_file_for_the_cache_is_refused(tmp_path, capsys, monkeypatch):
+    (tmp_path / "cache").write_text("not a folder")
+    code, _, err = run(capsys, monkeypatch, f"paths.cache_dir={tmp_path / 'cache'}")
+    assert code == 2 and err.strip() == f"error: paths.cache_dir={tmp_path / 'cache'} is a file, not the cache's folder"
+
+
+def test_a_simulated_dataset_read_from_the_cache_is_marked_used(tmp_path):
+    first = build_simulated_dataset(DATA, BEARING, SIMULATOR, {}, tmp_path)
+    path = only_file(tmp_path / "simulated")
+    age(path, 40)
+    again = build_simulated_dataset(DATA, BEARING, SIMULATOR, {}, tmp_path)  # a hit: read, not simulated
+    np.testing.assert_array_equal(again.windows, first.windows)
+    assert time.time() - path.stat().st_mtime < DAY_S
+
+
+def test_a_hit_in_a_cache_that_cannot_be_marked_is_still_read(tmp_path, monkeypatch, caplog):
+    path = tmp_path / "entry.npz"
+    save_npz_atomic(path, signals=np.arange(3.0))
+    age(path, 40)
+
+    def read_only(*args, **kwargs):
+        raise PermissionError(30, "Read-only file system")
+
+    monkeypatch.setattr(os, "utime", read_only)
+    np.testing.assert_array_equal(load_npz_or_heal(path, "signals")["signals"], np.arange(3.0))
+    assert not caplog.records and time.time() - path.stat().st_mtime > 30 * DAY_S
+
+
+def test_an_entry_removed_before_it_is_read_is_a_miss_without_a_warning(tmp_path, caplog):
+    assert load_npz_or_heal(tmp_path / "gone.npz", "signals") is None and not caplog.records
