@@ -96,6 +96,8 @@ def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
     experiment_id = client.get_experiment_by_name("bearingtwin").experiment_id
     logged = client.search_runs([experiment_id], "tags.`bt.kind` = 'report' and tags.report = 'table4'")
     assert logged and {"table4.md", "runs.json"} <= {a.path for a in client.list_artifacts(logged[0].info.run_id)}
+    # Its owner named, as every command's run: a report stopped while it logs is closed by the next command.
+    assert {"bt.pid", "bt.host", "mlflow.user"} <= set(logged[0].data.tags) and logged[0].info.status == "FINISHED"
     # Which runs the table came from, and by which code.
     used = json.loads(Path(client.download_artifacts(logged[0].info.run_id, "runs.json", str(tmp_path))).read_text())
     assert {row["method"] for row in used} == set(paper.TABLE4) and all(row["git_commit"] for row in used)

@@ -41,7 +41,8 @@ from bearingtwin.tracking import paper
 from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KEYS, UNHASHED_KEYS, all_experiment_ids,
                                                   find_runs, open_store, physics_first_rule, stored_config,
                                                   sweep_parents, sweep_run_ids)
-from bearingtwin.tracking.provenance import (SIZE_KEYS, check_replacement, context_tags, run_size, run_sizes,
+from bearingtwin.tracking.lifecycle import open_owned_run
+from bearingtwin.tracking.provenance import (SIZE_KEYS, check_replacement, run_size, run_sizes,
                                              short_commit, size_record, size_words)
 from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
@@ -675,8 +676,7 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
                 shutil.move(str(written), out.parent / written.name)
         except OSError as error:
             raise BearingTwinError(f"out={out}: cannot be written ({error.strerror or error})") from None
-    run = client.create_run(experiment_id, run_name=f"report {stem}",
-                            tags={"bt.kind": "report", "report": name, **context_tags()})
+    run = open_owned_run(client, experiment_id, f"report {stem}", {"bt.kind": "report", "report": name})
     client.log_text(run.info.run_id, report.markdown, f"{stem}.md")
     if source.used_runs:  # which runs the numbers came from, and by which code: a table traced back to its runs
         client.log_dict(run.info.run_id, [{"run_id": used.info.run_id, **{key: used.data.tags.get(key) for key in
