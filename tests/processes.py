@@ -203,3 +203,14 @@ def run_module(module: str, *args: str, cwd=None, env: dict | None = None,
     with _lock:
         _idle.append(server)
     return done
+
+
+def run_here(main, name: str, capsys, monkeypatch, *overrides: str) -> tuple[int, str, str]:
+    """``<name> <overrides>`` run by its entry point ``main`` in this process, as its console script would be: exit
+    status, stdout, stderr."""
+    monkeypatch.setattr(sys, "argv", [name, *overrides])
+    with pytest.raises(SystemExit) as stop:
+        main()
+        raise SystemExit(0)
+    out, err = capsys.readouterr()
+    return stop.value.code, out, err

@@ -2,7 +2,6 @@
 command has used for a while; bad settings refused in one line."""
 
 import os
-import sys
 import time
 
 import numpy as np
@@ -12,6 +11,7 @@ from bearingtwin.cli.cache import main
 from bearingtwin.data.simulated import build_simulated_dataset
 from bearingtwin.storage import load_npz_or_heal, save_npz_atomic
 
+from processes import run_here
 from test_cache_healing import BEARING, DATA, SIMULATOR, only_file
 
 DAY_S = 86400
@@ -19,12 +19,7 @@ DAY_S = 86400
 
 def run(capsys, monkeypatch, *overrides):
     """``bearingtwin-cache <overrides>`` in this process: exit status, stdout, stderr."""
-    monkeypatch.setattr(sys, "argv", ["bearingtwin-cache", *overrides])
-    with pytest.raises(SystemExit) as stop:
-        main()
-        raise SystemExit(0)
-    out, err = capsys.readouterr()
-    return stop.value.code, out, err
+    return run_here(main, "bearingtwin-cache", capsys, monkeypatch, *overrides)
 
 
 def age(path, days: float) -> None:

@@ -13,18 +13,15 @@ import pytest
 from bearingtwin.cli.inspect import main
 from bearingtwin.config import REPO_ROOT
 
+from processes import run_here
+
 HUST = Path(__file__).parent / "fixtures" / "hust"
 CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
 
 
 def run(capsys, monkeypatch, *overrides):
     """``bearingtwin-inspect <overrides>`` in this process: exit status, stdout, stderr."""
-    monkeypatch.setattr(sys, "argv", ["bearingtwin-inspect", *overrides])
-    with pytest.raises(SystemExit) as stop:
-        main()
-        raise SystemExit(0)
-    out, err = capsys.readouterr()
-    return stop.value.code, out, err
+    return run_here(main, "bearingtwin-inspect", capsys, monkeypatch, *overrides)
 
 
 def test_hust_file_with_er16k_defect_frequencies(capsys, monkeypatch):
