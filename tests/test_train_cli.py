@@ -201,6 +201,23 @@ def test_without_home_the_cache_is_the_users_own_not_a_folder_everyone_shares(mo
     assert compose_config("train", []).paths.cache_dir == f"{home}/.cache/bearingtwin"
 
 
+def test_an_empty_environment_variable_is_read_as_unset(monkeypatch):
+    """``BEARINGTWIN_CACHE=`` had put the cache in the current folder, ``XDG_CACHE_HOME=`` at /bearingtwin, and
+    ``BEARINGTWIN_DATA=`` read the data from the current folder; empty, each now means its default, as the XDG base
+    directory specification and MLflow read theirs (``MLFLOW_TRACKING_URI=``: MLflow's own default store)."""
+    from bearingtwin.config import REPO_ROOT, compose_config
+
+    monkeypatch.setenv("HOME", "/home/someone")
+    for name in ("BEARINGTWIN_CACHE", "XDG_CACHE_HOME", "BEARINGTWIN_DATA", "MLFLOW_TRACKING_URI", "MLFLOW_EXPERIMENT_NAME"):
+        monkeypatch.setenv(name, "")
+    cfg = compose_config("train", [])
+    assert cfg.paths.cache_dir == "/home/someone/.cache/bearingtwin"
+    assert cfg.paths.data_root == f"{REPO_ROOT}/../shared/data"
+    assert (cfg.tracking.uri, cfg.tracking.experiment) == (f"sqlite:///{REPO_ROOT}/mlruns/mlflow.db", "bearingtwin")
+    monkeypatch.setenv("XDG_CACHE_HOME", "/var/cache/someone")
+    assert compose_config("train", []).paths.cache_dir == "/var/cache/someone/bearingtwin"
+
+
 def test_under_hydra_job_chdir_inputs_and_a_sqlite_store_are_read_from_the_launch_folder(tmp_path):
     """What the user names relative to where they started stays there when the task runs in its run's folder; URIs
     of other kinds, home-relative and absolute paths, and what the run writes (out=) are left as given."""

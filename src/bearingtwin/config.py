@@ -40,6 +40,16 @@ def _home() -> str:
 OmegaConf.register_new_resolver("bt_home", _home, replace=True)
 
 
+def _environment(name: str, default: str) -> str:
+    """``${bt_env:NAME,default}``: the environment variable, or ``default`` where it is unset or empty, as the XDG base
+    directory specification and MLflow read theirs (``oc.env`` keeps an empty value: ``BEARINGTWIN_CACHE=`` had put the
+    cache in the current folder, ``XDG_CACHE_HOME=`` at /bearingtwin)."""
+    return os.environ.get(name) or default
+
+
+OmegaConf.register_new_resolver("bt_env", _environment, replace=True)
+
+
 COMPOSITION_ERRORS = (ConfigCompositionException, OverrideParseException)
 """What Hydra raises for overrides it cannot compose into a config (MissingConfigException is one)."""
 
