@@ -19,6 +19,7 @@ import hashlib
 import json
 import logging
 import os
+import stat
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -178,9 +179,12 @@ def file_digest(path: Path) -> str:
     return _cached_digest(Path(path).resolve(), stat.st_size, stat.st_mtime_ns)
 
 
-NUMBA_FOLDER = "numba"
-"""Numba's compiled kernels, in the cache's folder by default (``bearingtwin/__init__.py``): numba's own files, which
-it reads without marking them used, so they are reported but never removed one by one."""
+CACHE_KINDS = ("simulated", "twin_to_real", "features")
+"""The cache's subfolders, one per kind of entry (:mod:`bearingtwin.data.simulated`, :mod:`bearingtwin.data.twin_to_real`,
+:mod:`bearingtwin.features.cache`): an entry is a ``.npz`` file in one of them, or the ``.tmp`` file a write that did not
+finish left there. Nothing else in the cache's folder is the project's to list or remove."""
+TEMPORARY_GRACE_S = 3600.0
+"""How long a temporary file is left alone whatever ``unused_days`` says: a running write may still be filling it."""
 
 
 @dataclass(frozen=True)
@@ -193,48 +197,74 @@ class CacheEntry:
 
 
 def mark_used(path: Path) -> None:
-    """Set ``path``'s modification time to now: an entry's time is when a command last used it, which is what
-    :func:`cache_entries` reports and ``bearingtwin-cache unused_days=`` removes by."""
-    with contextlib.suppress(OSError):  # a read-only shared cache, or another user's entry: its time stays as written
+    """Set ``path``'s times to now: an entry's time is when a command last used it, which ``bearingtwin-cache
+    unused_days=`` removes by."""
+    with contextlib.suppress(OSError):  # another user's entry, a read-only cache: its access time (_last_used) tells
         os.utime(path)
 
 
+def holds_entry(path: Path) -> bool:
+    """Whether the cache entry at ``path`` exists, marked used if it does: a command that will read it later keeps a
+    pruning by ``unused_days`` from removing it meanwhile."""
+    if not path.is_file():
+        return False
+    mark_used(path)
+    return True
+
+
+def _last_used(stat: os.stat_result) -> float:
+    """When a command last used the entry: its modification time (set by every write, and by every read its reader
+    may change the file's times), or its access time where that is later. Linux sets the access time on a read by any
+    user at least once a day (``relatime``, its default), so a teammate's reads keep a shared entry too; under
+    ``noatime`` only the first of the two counts."""
+    return max(stat.st_mtime, stat.st_atime)
+
+
 def cache_entries(root: str | Path) -> dict[str, list[CacheEntry]]:
-    """Every cache entry under ``root`` by kind, the subfolder it lies in (``simulated``, ``twin_to_real``,
-    ``features``; a temporary file a killed write left behind is one too, last used when it was written), sorted by
-    path. :data:`NUMBA_FOLDER` is left out; a missing ``root`` holds nothing."""
-    root = Path(root)
+    """The entries of each of :data:`CACHE_KINDS` under ``root`` whose folder exists, sorted by path. A kind's folder
+    that is a symbolic link is not followed, nor is a linked entry, so nothing outside ``root`` is listed (and
+    removed by :func:`remove_unused`); a file that vanishes while it is listed is left out."""
     kinds: dict[str, list[CacheEntry]] = {}
-    for folder in sorted(root.iterdir()) if root.is_dir() else ():
-        if not folder.is_dir() or folder.name == NUMBA_FOLDER:
+    for kind in CACHE_KINDS:
+        folder = Path(root) / kind
+        if folder.is_symlink() or not folder.is_dir():
             continue
-        entries = kinds.setdefault(folder.name, [])
-        for path in sorted(folder.rglob("*")):
-            with contextlib.suppress(FileNotFoundError):  # removed by another command while listed
-                stat = path.stat()
-                if path.is_file():
-                    entries.append(CacheEntry(path, stat.st_size, stat.st_mtime))
+        entries = kinds.setdefault(kind, [])
+        for path in sorted(folder.iterdir()):
+            if path.suffix not in (".npz", ".tmp"):
+                continue
+            with contextlib.suppress(OSError):
+                status = path.lstat()
+                if stat.S_ISREG(status.st_mode):
+                    entries.append(CacheEntry(path, status.st_size, _last_used(status)))
     return kinds
 
 
-def folder_bytes(folder: str | Path) -> int:
-    """The size of every file under ``folder`` in bytes (0 if it does not exist)."""
-    total = 0
-    for path in Path(folder).rglob("*"):
-        with contextlib.suppress(FileNotFoundError):
-            if path.is_file():
-                total += path.stat().st_size
-    return total
+def unused_entries(kinds: dict[str, list[CacheEntry]], unused_s: float, now_s: float) -> list[CacheEntry]:
+    """The entries of ``kinds`` no command has used for ``unused_s`` seconds before ``now_s`` (a temporary file for
+    :data:`TEMPORARY_GRACE_S` at least)."""
+    return [entry for entries in kinds.values() for entry in entries
+            if now_s - entry.last_used_s >= _unused_for(entry.path, unused_s)]
 
 
-def remove_entries(entries: list[CacheEntry]) -> list[tuple[CacheEntry, OSError]]:
-    """Remove each of ``entries``, one by one (a command that needs one later computes it again); those that could
-    not be removed (a read-only shared cache, another user's entry), each with its error. One gone already counts as
-    removed."""
-    failed = []
-    for entry in entries:
+def _unused_for(path: Path, unused_s: float) -> float:
+    return max(unused_s, TEMPORARY_GRACE_S) if path.suffix == ".tmp" else unused_s
+
+
+def remove_unused(kinds: dict[str, list[CacheEntry]], unused_s: float,
+                  now_s: float) -> tuple[list[CacheEntry], list[tuple[CacheEntry, OSError]]]:
+    """Remove the :func:`unused_entries`, one by one, each looked at again first: one a command has read or rewritten
+    since it was listed stays. Returns those removed, and those that could not be (a read-only shared cache, a folder
+    of another user's), each with its error; a command that needs one later computes it again."""
+    removed, failed = [], []
+    for entry in unused_entries(kinds, unused_s, now_s):
         try:
-            entry.path.unlink(missing_ok=True)
+            if now_s - _last_used(entry.path.lstat()) < _unused_for(entry.path, unused_s):
+                continue
+            entry.path.unlink()
+            removed.append(entry)
+        except FileNotFoundError:  # removed by another command meanwhile
+            continue
         except OSError as error:
             failed.append((entry, error))
-    return failed
+    return removed, failed
