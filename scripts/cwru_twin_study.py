@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -47,14 +46,14 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from bearingtwin.config import CONF_DIR, REPO_ROOT
+from bearingtwin.config import CONF_DIR, REPO_ROOT, data_root
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.tracking.tables import write_generated
 from bearingtwin.twin.compare import Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.report import load_measurement, twin_for
 
-DATA = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+DATA = data_root() / "cwru"
 COMMITTED_STUDY = REPO_ROOT / "results" / "cwru_twin_study"
 RECORDS = [
     "normal_0_97",

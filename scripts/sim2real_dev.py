@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bearingtwin.config import REPO_ROOT
+from bearingtwin.config import data_root
 
 DEV_RECORDS = "*_0_*.mat"  # 105 inner, 118 ball (development), 97 healthy (false alarms), 130 outer (calibration)
 
@@ -35,7 +35,7 @@ DEV_RECORDS = "*_0_*.mat"  # 105 inner, 118 ball (development), 97 healthy (fals
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
-    parser.add_argument("--data", default=os.path.join(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data"), "cwru"),
+    parser.add_argument("--data", default=str(data_root() / "cwru"),
                         help="folder of the CWRU .mat files (default: $BEARINGTWIN_DATA/cwru, as training reads them)")
     parser.add_argument("--work", default=None, help="folder for the store, logs and diagnoses (default: a temporary one)")
     parser.add_argument("--hop", type=int, default=1024, help="samples between the starts of the dense reading's windows")

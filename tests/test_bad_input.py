@@ -19,7 +19,7 @@ from hydra import compose, initialize_config_dir
 from processes import run_module
 
 from bearingtwin.cli.report import main as report_main
-from bearingtwin.config import CONF_DIR, REPO_ROOT, compose_config, load_bearing, refuse_unknown_keys
+from bearingtwin.config import CONF_DIR, compose_config, data_root, load_bearing, refuse_unknown_keys
 from bearingtwin.data.build import check_data_settings
 from bearingtwin.data.formats import read_raw
 from bearingtwin.data.recording import Recording
@@ -30,7 +30,7 @@ from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.twin.compare import Comparator
 from bearingtwin.twin.report import load_measurement, twin_for
 
-CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+CWRU = data_root() / "cwru"
 RECORD_130 = CWRU / "12k_Drive_End_OR007@6_0_130.mat"
 
 

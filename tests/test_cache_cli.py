@@ -196,3 +196,31 @@ def test_a_hit_in_a_cache_that_cannot_be_marked_is_still_read(tmp_path, monkeypa
 
 def test_an_entry_removed_before_it_is_read_is_a_miss_without_a_warning(tmp_path, caplog):
     assert load_npz_or_heal(tmp_path / "gone.npz", "signals") is None and not caplog.records
+
+
+def test_a_read_marks_an_entry_at_most_hourly(tmp_path):
+    """A mark writes the file's metadata, which on a network file system makes every other machine read the entry
+    afresh: a read within the hour leaves the times as they were, one after it marks."""
+    path = tmp_path / "entry.npz"
+    save_npz_atomic(path, signals=np.arange(3.0))
+    age(path, 0.01)  # used a quarter of an hour ago
+    before = path.stat().st_mtime
+    load_npz_or_heal(path, "signals")
+    assert path.stat().st_mtime == before
+    age(path, 0.1)  # two and a half hours ago
+    load_npz_or_heal(path, "signals")
+    assert time.time() - path.stat().st_mtime < 60
+
+
+def test_an_entry_removed_by_another_machine_while_read_is_a_plain_miss(tmp_path, monkeypatch, caplog):
+    """On a network file system a file removed elsewhere while read gives ESTALE: a miss, not an unreadable entry."""
+    import errno
+
+    path = tmp_path / "entry.npz"
+    save_npz_atomic(path, signals=np.arange(3.0))
+
+    def stale(*args, **kwargs):
+        raise OSError(errno.ESTALE, "Stale file handle")
+
+    monkeypatch.setattr(np, "load", stale)
+    assert load_npz_or_heal(path, "signals") is None and not caplog.records and path.exists()

@@ -2,7 +2,6 @@
 
 Runs on the real files in ../shared/data/cwru (or $BEARINGTWIN_DATA/cwru)."""
 
-import os
 import re
 from pathlib import Path
 
@@ -10,7 +9,7 @@ import numpy as np
 import scipy.signal
 import pytest
 
-from bearingtwin.config import REPO_ROOT, load_bearing
+from bearingtwin.config import data_root, load_bearing
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.formats import load_recording, read_raw
 from bearingtwin.errors import BearingTwinError
@@ -19,7 +18,7 @@ from bearingtwin.testrig import RigOperatingPoint, simulate_rig
 from bearingtwin.signal.sampling_rate import (ShaftLineCheck, check_channels, check_sampling_rate, decisive_channel,
                                               require_plausible_rate)
 
-CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+CWRU = data_root() / "cwru"
 needs_data = pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason=f"CWRU files not found in {CWRU}")
 
 # Multiples of shaft speed from the README (SKF 6205-2RS JEM).

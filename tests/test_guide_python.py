@@ -1,15 +1,13 @@
 """The guide's "From Python" example runs as written: the twin, the signal functions, a real record's features
 and a classifier fitted and scored in a script."""
 
-import os
 import re
-from pathlib import Path
 
 import pytest
 
-from bearingtwin.config import REPO_ROOT
+from bearingtwin.config import REPO_ROOT, data_root
 
-DATA = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data"))
+DATA = data_root()
 
 
 @pytest.mark.skipif(not (DATA / "cwru" / "normal_0_97.mat").is_file(), reason=f"CWRU records not found in {DATA}")

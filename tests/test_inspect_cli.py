@@ -2,7 +2,6 @@
 the file and problem otherwise, and the bearing's defect frequencies from conf/bearing."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -11,12 +10,12 @@ import numpy as np
 import pytest
 
 from bearingtwin.cli.inspect import main
-from bearingtwin.config import REPO_ROOT
+from bearingtwin.config import data_root
 
 from processes import run_here
 
 HUST = Path(__file__).parent / "fixtures" / "hust"
-CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+CWRU = data_root() / "cwru"
 
 
 def run(capsys, monkeypatch, *overrides):

@@ -36,7 +36,7 @@ from mlflow import MlflowClient
 from omegaconf import OmegaConf
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR, REPO_ROOT
+from bearingtwin.config import CONF_DIR, REPO_ROOT, data_root
 
 DOCUMENTS = ("README.md", "docs/guide.md")
 
@@ -95,11 +95,6 @@ def document_commands(document: str) -> list[str]:
             if line and not line.startswith("#"):
                 commands += [part.strip() for part in line.split("&&")]
     return commands
-
-
-def data_root() -> Path:
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        return Path(compose("train").paths.data_root).resolve()
 
 
 def compose_train(overrides: list[str]):
@@ -207,7 +202,7 @@ def test_every_guide_command_is_accepted_as_written():
 def test_every_documented_command_runs_as_written(tmp_path, documents):
     documented = [(document, command) for document in documents for command in document_commands(document)]
     assert {document for document, command in documented if command.startswith("bearingtwin-train")} == set(documents)
-    root = data_root()
+    root = data_root().resolve()
     uri = f"sqlite:///{tmp_path}/mlflow.db"
     env = {**os.environ, "MLFLOW_TRACKING_URI": uri}
     before = checkout_state()

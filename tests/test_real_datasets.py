@@ -1,20 +1,19 @@
 """Datasets from real records: CWRU (real files) and HUST (fixtures), labels as FAULTS indices,
 honest block splits versus the paper's leaky random split."""
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 
-from bearingtwin.config import COMPOSITION_ERRORS, CONF_DIR, REPO_ROOT
+from bearingtwin.config import COMPOSITION_ERRORS, CONF_DIR, data_root
 from bearingtwin.data.real import build_cwru_dataset, build_hust_dataset
 from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
-CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+CWRU = data_root() / "cwru"
 HUST = Path(__file__).parent / "fixtures" / "hust"
 needs_cwru = pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason=f"CWRU files not found in {CWRU}")
 

@@ -11,23 +11,21 @@ for window. Runs on ../shared/data/cwru (or $BEARINGTWIN_DATA/cwru).
 from __future__ import annotations
 
 import json
-import os
 import sys
 import urllib.error
 import urllib.request
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import numpy as np
 import pytest
 from processes import (LOOPBACK, SMOKE, assert_done, child_env, free_loopback_port, kill_running_commands, run_module,
                        start, stop, wait_until_answers)
 
-from bearingtwin.config import REPO_ROOT
+from bearingtwin.config import data_root
 from bearingtwin.diagnosis.mlflow_model import LEVEL_UNSEEN_COLUMN, STATE_COLUMN, load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnosed_windows, read_record
 
-CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+CWRU = data_root() / "cwru"
 # 1 hp outer race, 12 kHz: the simulated-data models run at 10 kHz, so diagnose resamples it first
 # and the posted windows must be the resampled ones.
 RECORD = CWRU / "12k_Drive_End_OR007@6_1_131.mat"

@@ -218,6 +218,20 @@ def test_an_empty_environment_variable_is_read_as_unset(monkeypatch):
     assert compose_config("train", []).paths.cache_dir == "/var/cache/someone/bearingtwin"
 
 
+def test_bt_env_gives_text_like_oc_env_and_says_when_a_variable_has_no_default(monkeypatch):
+    from omegaconf import OmegaConf
+
+    import bearingtwin.config  # noqa: F401  (registers the resolver)
+
+    monkeypatch.delenv("BT_UNSET", raising=False)
+    cfg = OmegaConf.create({"n": "${bt_env:BT_UNSET,30}", "none": "${bt_env:BT_UNSET,null}", "bare": "${bt_env:BT_UNSET}"})
+    assert cfg.n == "30" and cfg.none is None
+    with pytest.raises(Exception, match="environment variable 'BT_UNSET' is not set"):
+        cfg.bare
+    monkeypatch.setenv("BT_UNSET", "sqlite:///a,b.db")
+    assert cfg.n == "sqlite:///a,b.db" and cfg.bare == "sqlite:///a,b.db"
+
+
 def test_under_hydra_job_chdir_inputs_and_a_sqlite_store_are_read_from_the_launch_folder(tmp_path):
     """What the user names relative to where they started stays there when the task runs in its run's folder; URIs
     of other kinds, home-relative and absolute paths, and what the run writes (out=) are left as given."""

@@ -61,4 +61,5 @@ def _numba_cache_dir() -> str:
     return os.path.join(base, "bearingtwin", "numba")
 
 
-os.environ.setdefault("NUMBA_CACHE_DIR", _numba_cache_dir())  # read once, when numba is first imported
+if not os.environ.get("NUMBA_CACHE_DIR"):  # read once, when numba is first imported; empty reads as unset
+    os.environ["NUMBA_CACHE_DIR"] = _numba_cache_dir()

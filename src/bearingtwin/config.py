@@ -40,14 +40,26 @@ def _home() -> str:
 OmegaConf.register_new_resolver("bt_home", _home, replace=True)
 
 
-def _environment(name: str, default: str) -> str:
-    """``${bt_env:NAME,default}``: the environment variable, or ``default`` where it is unset or empty, as the XDG base
-    directory specification and MLflow read theirs (``oc.env`` keeps an empty value: ``BEARINGTWIN_CACHE=`` had put the
-    cache in the current folder, ``XDG_CACHE_HOME=`` at /bearingtwin)."""
-    return os.environ.get(name) or default
+def _environment(name: str, *default) -> str | None:
+    """``${bt_env:NAME,default}``: the environment variable, or ``default`` where it is unset or empty, as MLflow reads
+    its variables and the XDG base directory specification its paths (``oc.env`` keeps an empty value:
+    ``BEARINGTWIN_CACHE=`` had put the cache in the current folder, ``XDG_CACHE_HOME=`` at /bearingtwin). A default is
+    text, as ``oc.env``'s; ``null`` stays None."""
+    value = os.environ.get(name)
+    if value:
+        return value
+    if not default:
+        raise ValueError(f"environment variable {name!r} is not set, and ${{bt_env:{name}}} gives no default")
+    return None if default[0] is None else str(default[0])
 
 
 OmegaConf.register_new_resolver("bt_env", _environment, replace=True)
+
+
+def data_root() -> Path:
+    """The folder of real measurements as the configs read it (``paths.data_root``: BEARINGTWIN_DATA, else
+    ../shared/data beside the checkout), for scripts and tests that read records without a command's config."""
+    return Path(OmegaConf.create({"paths": OmegaConf.load(Path(CONF_DIR) / "paths" / "default.yaml")}).paths.data_root)
 
 
 COMPOSITION_ERRORS = (ConfigCompositionException, OverrideParseException)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import errno
 import functools
 import hashlib
 import json
@@ -21,6 +22,7 @@ import logging
 import os
 import stat
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -115,6 +117,8 @@ def load_npz_or_heal(path: str | Path, *names: str) -> dict[str, np.ndarray] | N
     except (FileNotFoundError, NotADirectoryError):  # never written (or removed by ``bearingtwin-cache remove=true``)
         return None
     except Exception as error:  # any failure to read means the entry is unusable; it is recomputed
+        if isinstance(error, OSError) and error.errno == errno.ESTALE:  # removed by another machine (NFS) while read
+            return None
         try:
             path.unlink(missing_ok=True)
             done = "removed"
@@ -175,8 +179,8 @@ def _cached_digest(path: Path, size: int, modified_ns: int) -> str:
 def file_digest(path: Path) -> str:
     """SHA-256 of a file's contents, computed once per process for a file unchanged since (a sweep's jobs share
     their files)."""
-    stat = Path(path).stat()
-    return _cached_digest(Path(path).resolve(), stat.st_size, stat.st_mtime_ns)
+    status = Path(path).stat()
+    return _cached_digest(Path(path).resolve(), status.st_size, status.st_mtime_ns)
 
 
 CACHE_KINDS = ("simulated", "twin_to_real", "features")
@@ -196,14 +200,20 @@ class CacheEntry:
     last_used_s: float
 
 
+MARK_INTERVAL_S = 3600.0
+"""How often a read marks an entry used: days are what ``unused_days`` counts, and a mark is a write of the file's
+metadata, which on a network file system makes every other machine read the entry afresh."""
+
+
 def mark_used(path: Path) -> None:
-    """Set ``path``'s times to now: an entry's time is when a command last used it, which ``bearingtwin-cache
-    unused_days=`` removes by."""
+    """Set ``path``'s times to now, unless they were set less than :data:`MARK_INTERVAL_S` ago: an entry's modification
+    time is when a command last wrote or read it, which ``bearingtwin-cache unused_days=`` removes by."""
     with contextlib.suppress(OSError):  # another user's entry, a read-only cache: its access time (_last_used) tells
-        os.utime(path)
+        if time.time() - os.stat(path).st_mtime > MARK_INTERVAL_S:
+            os.utime(path)
 
 
-def holds_entry(path: Path) -> bool:
+def mark_used_if_present(path: Path) -> bool:
     """Whether the cache entry at ``path`` exists, marked used if it does: a command that will read it later keeps a
     pruning by ``unused_days`` from removing it meanwhile."""
     if not path.is_file():
@@ -212,12 +222,12 @@ def holds_entry(path: Path) -> bool:
     return True
 
 
-def _last_used(stat: os.stat_result) -> float:
-    """When a command last used the entry: its modification time (set by every write, and by every read its reader
-    may change the file's times), or its access time where that is later. Linux sets the access time on a read by any
-    user at least once a day (``relatime``, its default), so a teammate's reads keep a shared entry too; under
-    ``noatime`` only the first of the two counts."""
-    return max(stat.st_mtime, stat.st_atime)
+def _last_used(status: os.stat_result) -> float:
+    """When a command last used the entry: its modification time (set by every write, and by the reads of those who
+    may write the file), or its access time where that is later. Linux sets the access time on a read by any user at
+    least once a day (``relatime``, its default), so a teammate's reads keep a shared entry too; under ``noatime``
+    only the first of the two counts, and a backup that reads every file keeps every entry."""
+    return max(status.st_mtime, status.st_atime)
 
 
 def cache_entries(root: str | Path) -> dict[str, list[CacheEntry]]:

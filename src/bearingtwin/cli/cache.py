@@ -1,6 +1,6 @@
 """``bearingtwin-cache [unused_days=<days> [remove=true]]``: what the cache holds, and what no command has used lately.
 
-The cache (``paths.cache_dir``: ``BEARINGTWIN_CACHE``, else ``~/.cache/bearingtwin``) keeps every simulated dataset,
+The cache (``paths.cache_dir``: ``BEARINGTWIN_CACHE``, else ``$XDG_CACHE_HOME/bearingtwin`` or ``~/.cache/bearingtwin``) keeps every simulated dataset,
 twin record and feature table a command computed, keyed by its configuration and its code, and nothing removes them:
 a team's shared cache grows with every configuration and every upgrade of the code. Every read of an entry marks it
 used (:func:`~bearingtwin.storage.mark_used`), so ``unused_days=<days>`` counts the entries no command has written or
@@ -112,10 +112,10 @@ def _size(entries: list[CacheEntry]) -> str:
 
 
 def _bytes(size: float) -> str:
-    """A size as people read it: 512 B, 3.4 kB, 120.0 MB, 1.6 GB (powers of 1000, as ``du --si`` counts)."""
+    """A size as people read it: 512 B, 3.4 kB, 120.0 MB, 1.6 GB, 2.1 TB (powers of 1000, as ``du --si`` counts)."""
     if size < 1000:
         return f"{size:.0f} B"
-    for unit in ("kB", "MB", "GB"):
+    for unit in ("kB", "MB", "GB", "TB"):
         size /= 1000
         if size < 1000:
             break

@@ -60,7 +60,7 @@ from bearingtwin.physics.effects import build_effects, effect_class, in_signal_o
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import records_identity, simulate, simulate_at_speeds
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
-from bearingtwin.storage import (SIMULATION_CODE, code_fingerprint, content_key, file_digest, holds_entry,
+from bearingtwin.storage import (SIMULATION_CODE, code_fingerprint, content_key, file_digest, mark_used_if_present,
                                  load_npz_or_heal, save_npz_atomic, takes_entries)
 from bearingtwin.twin.reference import require_same_bearing
 
@@ -437,7 +437,7 @@ def simulate_variants(faults, rpms, bearing_cfg: Mapping, variants: Sequence[tup
     numbered = [(variant_number(index, len(variants)), setting, effects)
                 for index, (setting, effects) in enumerate(variants)]
     missing = [(variant, setting, effects) for variant, setting, effects in numbered
-               if not holds_entry(_records_path(faults, rpms, bearing_cfg, setting, effects, cache_dir, variant)[0])]
+               if not mark_used_if_present(_records_path(faults, rpms, bearing_cfg, setting, effects, cache_dir, variant)[0])]
     if joblib.effective_n_jobs(n_jobs) < 2 or len(missing) < 2:
         return  # simulated one by one where they are read
     if not takes_entries(Path(cache_dir) / "twin_to_real"):  # the workers hand their records back through it
