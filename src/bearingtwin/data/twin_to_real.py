@@ -60,8 +60,8 @@ from bearingtwin.physics.effects import build_effects, effect_class, in_signal_o
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import records_identity, simulate, simulate_at_speeds
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
-from bearingtwin.storage import (SIMULATION_CODE, code_fingerprint, content_key, file_digest, mark_used_if_present,
-                                 load_npz_or_heal, save_npz_atomic, takes_entries)
+from bearingtwin.storage import (SIMULATION_CODE, code_fingerprint, content_key, file_digest, load_npz_or_heal,
+                                 mark_used_if_present, save_npz_atomic, takes_entries)
 from bearingtwin.twin.reference import require_same_bearing
 
 log = logging.getLogger(__name__)
