@@ -5,6 +5,7 @@ subprocess; where only the message does, the function behind it is called, since
 entry point turns a BearingTwinError into that line and status 2 the same way.
 """
 
+import importlib.metadata
 import importlib.util
 import logging
 import os
@@ -70,6 +71,7 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     # A file name Hydra reads only in quotes (letters outside ASCII, brackets): the line says how to quote it.
     ("diagnose", ["path=/tmp/泵_外圈.npz", "model=x"], ["""give the value in quotes: 'path="/tmp/泵_外圈.npz"'"""]),
     ("twin", ["measured.path=Pumpe 3 (außen).npz"], ["""'measured.path="Pumpe 3 (außen).npz"'"""]),
+    ("diagnose", ["path=cwru/12k_*_[123]_*.mat", "model=x"], ["""'path="cwru/12k_*_[123]_*.mat"'"""]),  # a glob's range
     ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
     ("inspect", ["path=x.npy", "bearing=null"], ["bearing=null: a config group takes one of its options", "er16k"]),
     ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, sklearn, svm"]),  # Hydra's own ValueError, a traceback
@@ -462,8 +464,23 @@ def test_an_output_folder_nothing_can_be_written_in_is_refused_before_any_work(t
     assert done.returncode == 2 and "out=/proc/nope: nothing can be written in /proc" in done.stderr, done.stderr
 
 
-@pytest.mark.parametrize("command, flag", [(command, "--help") for command in
-                                           ["train", "simulate", "twin", "diagnose", "inspect", "report"]]
+COMMANDS = sorted(entry.value.split(":")[0].rpartition(".")[2] for entry in
+                  importlib.metadata.entry_points(group="console_scripts") if entry.name.startswith("bearingtwin-"))
+"""Every command the package installs (its console scripts), by module name under bearingtwin.cli."""
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_installed_command_helps_with_its_usage(tmp_path, command):
+    """A help text is a template Hydra fills in (``$APP_NAME``): a ``$`` of its own prose had made one a
+    KeyError traceback."""
+    assert len(COMMANDS) >= 7
+    helped = run_module(f"bearingtwin.cli.{command}", "--help", cwd=tmp_path)
+    assert helped.returncode == 0, helped.stderr[-2000:]
+    assert f"usage: bearingtwin-{command}" in helped.stdout.lower(), helped.stdout[-2000:]  # argparse's or Hydra's
+    assert "Traceback" not in helped.stderr and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command, flag", [(command, "--help") for command in COMMANDS]
                          + [("train", "--cfg job"), ("simulate", "--info"),  # Hydra prints these through logging
                             ("train", "--cfg=job"), ("twin", "--info=config")])  # spelt as its parser reads them too
 def test_help_into_a_pipe_its_reader_closed_ends_without_a_traceback(command, flag):
