@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import functools
 import re
 import shutil
 import sys
@@ -39,7 +40,8 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
 from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KEYS, UNHASHED_KEYS, all_experiment_ids,
-                                                  find_runs, open_store, physics_first_rule, stored_config,
+                                                  find_runs, flatten, loggable_config, method_name, open_store,
+                                                  physics_first_rule, stored_config,
                                                   sweep_parents, sweep_run_ids)
 from bearingtwin.tracking.lifecycle import open_owned_run
 from bearingtwin.tracking.provenance import (SIZE_KEYS, check_replacement, run_size, run_sizes,
@@ -77,13 +79,16 @@ class ReportInput:
         of them share one (:func:`setting_params`): a table gives each setting a row of its own."""
         return self.setting_labels.get(run.info.run_id, "")
 
-    def training_runs(self, extra_filter: str = "", group_by: Callable = lambda run: (), vmd_params: str | None = None) -> list:
+    def training_runs(self, extra_filter: str = "", group_by: Callable = lambda run: (), vmd_params: str | None = None,
+                      beside_paper: bool = False) -> list:
         """FINISHED training runs, newest per (method, seed, ``group_by(run)``).
 
         Restricted to ``source`` (default ``simulated``) and, if given, ``sweep_dir``. With
         ``vmd_params``, SABO-VMD runs must have used it, so that a later ``per_class`` or
         ``per_sample`` run of the same method and seed does not displace the one a table is about;
-        runs without VMD parameters (raw features) always count.
+        runs without VMD parameters (raw features) always count. ``beside_paper``: the runs stand beside the paper's
+        figures, so a run's settings are read against its method's as configured too (:func:`configured_setting`),
+        and those it differs in are named in its row, as another setting of its method's would be.
         """
         clauses = ["tags.`bt.kind` = 'train'", "attributes.status = 'FINISHED'"]
         source = self.settings.get("source", "simulated")
@@ -122,11 +127,18 @@ class ReportInput:
             differing.setdefault(method, set()).update(_differing_keys(settings))
         # Labelled alike in every cell of the method (each split, each load), so that rows of one setting pair up.
         for run in found:
-            keys = sorted(differing[run.data.tags.get("method")])
+            method = run.data.tags.get("method")
+            keys = sorted(differing[method])
             members = members_of[run.info.run_id]
-            if keys:
-                self.setting_labels[run.info.run_id] = ", ".join(
-                    f"{key}={_setting_value(members, key)}" for key in keys if any(key in member for member in members))
+            simulated = self.settings.get("source", "simulated") == "simulated"  # the data of the paper's tables
+            configured = configured_setting(method) if beside_paper and simulated else None
+            if configured is not None:  # a lone run at other settings had stood as the method itself, beside the paper
+                keys += sorted(key for key in _differing_keys([members, [configured]])
+                               if key not in differing[method] and key not in PAPER_TABLE_CHOICES)
+            label = [f"{key}={_setting_value(members, key)}" for key in _named_by_group(keys)
+                     if any(key in member for member in members)]
+            if label:
+                self.setting_labels[run.info.run_id] = ", ".join(label)
         newest = {}
         for run in found:  # of a seed's runs the largest, the newest of those
             key = (run.data.tags.get("method"), run.data.tags.get("seed"), *group_by(run), setting[run.info.run_id])
@@ -159,23 +171,53 @@ RUN_SEED = "__run_seed__"
 """The key of :func:`setting_params` that holds the run's own seed, against which its other seeds are read."""
 
 
+def _named_by_group(keys: list[str]) -> list[str]:
+    """``keys`` without the settings of a config group whose choice is among them (``bearing.name=cwru_6203`` stands
+    for that bearing's diameters and ball count, which its config gives)."""
+    chosen = {key.removesuffix(".name") for key in keys if key.endswith(".name")}
+    return [key for key in keys if key.endswith(".name") or key.rpartition(".")[0] not in chosen]
+
+
+PAPER_TABLE_CHOICES = ("features.vmd_params",)
+"""Settings a report beside the paper chooses its runs by (``vmd_params=``): said in its title, not in each row."""
+
+
+@functools.lru_cache(maxsize=None)
+def configured_setting(method: str) -> dict[str, str] | None:
+    """The setting (:func:`setting_params`) of a Table 4 ``method`` (``sabo_vmd_pemie+svm``) as ``conf/method/``
+    configures it, read as its training run logs it; None for a method no config there composes."""
+    from hydra import compose, initialize_config_dir
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        for path in sorted((Path(CONF_DIR) / "method").glob("*.yaml")):
+            overrides = [f"+method={path.stem}"]
+            if method_name(compose("train", overrides, return_hydra_config=True).hydra.runtime.choices) == method:
+                return params_setting(flatten(loggable_config(compose("train", overrides))))
+    return None
+
+
 def setting_params(run) -> dict[str, str]:
+    """:func:`params_setting` of the params ``run`` logged."""
+    return params_setting(run.data.params)
+
+
+def params_setting(logged: dict[str, str]) -> dict[str, str]:
     """The params that make a run's setting: all it logged but :data:`SETTING_FREE_KEYS` (and their sub-keys), the
     run's seed (kept apart, :data:`RUN_SEED`), and the keys hashed only when set (:data:`HASHED_WHEN_SET_KEYS`) left
     unset: their null is what their absence computed, while another key's null is a setting of its own. The
     ``physics_first`` rule and the effects are one param each (``None`` for no rule, ``{}`` for no effect): logged as
     their settings, a run with them would otherwise share no key with one without, and pass for its setting."""
-    params = {key: value for key, value in run.data.params.items()
+    params = {key: value for key, value in logged.items()
               if key != "seed" and not (value == "None" and key in HASHED_WHEN_SET_KEYS)
               and not key.startswith(("physics_first.", "effects"))
               and not any(key == free or key.startswith(free + ".") for free in SETTING_FREE_KEYS)}
-    rule = physics_first_rule(run.data.params)
+    rule = physics_first_rule(logged)
     effects: dict[str, list[str]] = {}  # noise(snr_db=10.0, ...), each effect with its parameters
-    for key, value in sorted(run.data.params.items()):
+    for key, value in sorted(logged.items()):
         if key.startswith("effects."):
             name, _, parameter = key.removeprefix("effects.").partition(".")
             effects.setdefault(name, []).append(f"{parameter}={value}")
-    return {**params, RUN_SEED: run.data.params.get("seed", ""),
+    return {**params, RUN_SEED: logged.get("seed", ""),
             "physics_first": "None" if rule is None else ",".join(f"{key}={value}" for key, value in sorted(rule.items())),
             "effects": " ".join(f"{name}({', '.join(values)})" for name, values in effects.items()) or "{}"}
 
@@ -283,7 +325,7 @@ def _vmd_params(source: ReportInput) -> str:
 @register("table3", keys=("vmd_params",))
 def table3(source: ReportInput) -> Report:
     """Table 3: per-class precision / recall / F1 of the proposed method over seeds, and accuracy."""
-    found = source.training_runs(f"tags.method = '{paper.PROPOSED}'", vmd_params=_vmd_params(source))
+    found = source.training_runs(f"tags.method = '{paper.PROPOSED}'", vmd_params=_vmd_params(source), beside_paper=True)
     if not found:
         raise _missing(f"{paper.PROPOSED} with features.vmd_params={_vmd_params(source)}", source)
     return Report("\n".join(_table3(runs, label, _vmd_params(source))
@@ -312,7 +354,7 @@ def table4(source: ReportInput) -> Report:
     and the CPU inference time per sample that the paper only calls "milliseconds"."""
     rows = []
     for method, published in paper.TABLE4.items():
-        runs = source.training_runs(f"tags.method = '{method}'", vmd_params=_vmd_params(source))
+        runs = source.training_runs(f"tags.method = '{method}'", vmd_params=_vmd_params(source), beside_paper=True)
         for label, chosen in (_by_key(runs, source.setting) or {"": []}).items():
             accuracy = _accuracies(chosen)
             latency = [run.data.metrics["inference_ms_per_sample"] for run in chosen
@@ -334,7 +376,7 @@ def vmd_params(source: ReportInput) -> Report:
     def scope(run) -> tuple[str]:
         return (run.data.params.get("features.vmd_params", "?"),)
 
-    runs = source.training_runs(f"tags.method = '{paper.PROPOSED}'", group_by=scope)
+    runs = source.training_runs(f"tags.method = '{paper.PROPOSED}'", group_by=scope, beside_paper=True)
     if not runs:
         raise _missing(paper.PROPOSED, source)
     rows = []
@@ -355,7 +397,7 @@ def vmd_params(source: ReportInput) -> Report:
 @register("seeds", keys=("vmd_params",))
 def seeds(source: ReportInput) -> Report:
     """Every seed's accuracy per method; the paper's five seeds beside the proposed method."""
-    runs = source.training_runs(vmd_params=_vmd_params(source))
+    runs = source.training_runs(vmd_params=_vmd_params(source), beside_paper=True)
     if not runs:
         raise _missing("any method", source)
     rows = []
