@@ -34,11 +34,11 @@ from pathlib import Path
 import numpy as np
 from omegaconf import OmegaConf
 
-from bearingtwin.config import CONF_DIR, REPO_ROOT
+from bearingtwin.config import CONF_DIR, data_root
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import diagnose_recording, read_record, resample_to
 
-CWRU = Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data")) / "cwru"
+CWRU = data_root() / "cwru"
 DEFAULT_RECORD = CWRU / "12k_Drive_End_IR007_1_106.mat"  # 10.1 s at 12 kHz, 1 hp inner race
 # The proposed method at smoke size: default features (SABO-VMD pe_mie, vmd_params=global) and classifier (CNN-BiLSTM).
 TRAIN_OVERRIDES = ["data=cwru", "data.samples_per_class=30", "trainer.max_epochs=3", "search.population=6",

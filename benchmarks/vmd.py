@@ -26,7 +26,7 @@ import numpy as np
 import scipy.io
 from vmdpy import VMD
 
-from bearingtwin.config import REPO_ROOT
+from bearingtwin.config import data_root
 from bearingtwin.data.windows import cut_windows
 from bearingtwin.signal import mean_mode_mutual_information, permutation_entropy, vmd, vmd_batch
 
@@ -74,7 +74,7 @@ def main() -> None:
     parser.add_argument("--n-signals", type=int, default=600)
     parser.add_argument("--n-reference", type=int, default=20)
     parser.add_argument(
-        "--data-root", type=Path, default=Path(os.environ.get("BEARINGTWIN_DATA", REPO_ROOT.parent / "shared" / "data"))
+        "--data-root", type=Path, default=data_root()
     )
     args = parser.parse_args()
 

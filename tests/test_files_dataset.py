@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 
-from bearingtwin.config import CONF_DIR, REPO_ROOT
+from bearingtwin.config import CONF_DIR, REPO_ROOT, data_root
 from bearingtwin.data.build import build_dataset
 from bearingtwin.data.cwru import load_cwru
 from bearingtwin.data.windows import split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
-CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
+CWRU = data_root() / "cwru"
 
 FS = 8000.0
 TONES_HZ = {"normal": 150.0, "inner": 410.0, "ball": 730.0, "outer": 1210.0}

@@ -7,14 +7,14 @@ from pathlib import Path
 import pytest
 from mlflow import MlflowClient
 
-from bearingtwin.config import REPO_ROOT
+from bearingtwin.config import REPO_ROOT, data_root
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.sim2real_protocol import (headline_markdown, per_record_markdown, plot_headline,
                                                     protocol_headline, protocol_runs,
                                                     protocol_version, protocol_versions,
                                                     version_in_force)
 
-CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
+CWRU = data_root() / "cwru"
 TEST_RECORDS = {"12k_Drive_End_IR007_1_106": 0.75, "12k_Drive_End_OR007@6_1_131": 1.0}
 PROTOCOL_WINDOWS = {"sim2real_v1": {"data.window_length": 2048, "data.test.windows_per_record": 50},
                     "sim2real_v2": {"data.window_length": 4096, "data.test.windows_per_record": 25}}

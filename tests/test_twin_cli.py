@@ -11,7 +11,7 @@ from joblib import cpu_count
 from mlflow import MlflowClient
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR, REPO_ROOT, load_bearing
+from bearingtwin.config import CONF_DIR, data_root, load_bearing
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.twin.compare import VIEWS
@@ -526,7 +526,7 @@ def test_a_speed_given_twice_the_true_one_is_refused_where_the_file_records_its_
         load_measurement(measured(3000), bearing)
 
 
-CWRU_RECORDS = REPO_ROOT.parent / "shared" / "data" / "cwru"
+CWRU_RECORDS = data_root() / "cwru"
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")

@@ -15,7 +15,7 @@ from mlflow import MlflowClient
 from omegaconf import OmegaConf, open_dict
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR
+from bearingtwin.config import CONF_DIR, data_root
 from bearingtwin.data.build import build_dataset
 from bearingtwin.data.cwru import load_cwru
 from bearingtwin.data.twin_to_real import (TWIN_PREFIX, check_protocol, healthy_twin_rms, merged_calibration,
@@ -24,7 +24,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking.reports import run_report
 
-DATA = Path(CONF_DIR).parent.parent / "shared" / "data" / "cwru"
+DATA = data_root() / "cwru"
 pytestmark = pytest.mark.skipif(not (DATA / "normal_0_97.mat").is_file(), reason="CWRU records not present")
 
 CALIBRATION = {"normal_0_97", "12k_Drive_End_OR007@6_0_130"}

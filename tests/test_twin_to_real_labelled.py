@@ -16,7 +16,7 @@ from hydra import compose, initialize_config_dir
 from mlflow import MlflowClient
 from processes import run_module
 
-from bearingtwin.config import CONF_DIR, REPO_ROOT
+from bearingtwin.config import CONF_DIR, REPO_ROOT, data_root
 from bearingtwin.data.build import build_dataset, input_digest
 from bearingtwin.data.twin_to_real import TWIN_PREFIX, check_protocol, merged_calibration
 from bearingtwin.errors import BearingTwinError
@@ -374,7 +374,7 @@ def test_train_on_the_twin_and_score_the_rigs_records_end_to_end(rig_folder, rep
         report.stderr[-2000:]
 
 
-CWRU = Path(CONF_DIR).parent.parent / "shared" / "data" / "cwru"
+CWRU = data_root() / "cwru"
 
 
 @pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason="CWRU records not present")
