@@ -697,6 +697,24 @@ def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_p
         load_cwru(tmp_path / "3009.mat")
 
 
+def test_a_file_holding_another_catalogued_records_variables_is_refused(tmp_path):
+    """``105.mat`` (inner race) holding ``X118_*`` (a ball record) is a copy under the wrong name: read as its name it
+    had been scored as an inner race. The catalogue names both, so the refusal names both."""
+    import scipy.io
+
+    samples = np.random.default_rng(2).standard_normal((24000, 1))
+    for name in ("12k_Drive_End_IR007_0_105.mat", "105.mat"):
+        scipy.io.savemat(tmp_path / name, {"X118_DE_time": samples, "X118RPM": 1796.0})
+        with pytest.raises(BearingTwinError, match=(
+                rf"{re.escape(name)}: holds record 118's variables \(X118_\*: B007_0 at 12 kHz, drive end in the Data "
+                r"Center's catalogue\), while its name gives record 105 \(IR007_0 at 12 kHz, drive end\): name the file "
+                r"by the record it holds$")):
+            read_raw(tmp_path / name)
+    scipy.io.savemat(tmp_path / "111.mat", {"X107_DE_time": samples, "X107RPM": 1750.0})  # IR007_2 at 48 kHz, not 12
+    with pytest.raises(BearingTwinError, match=r"holds record 107's variables .*IR007_2 at 12 kHz.*IR007_2 at 48 kHz"):
+        read_raw(tmp_path / "111.mat")
+
+
 def test_a_file_holding_two_records_gives_the_one_its_name_names(tmp_path):
     """The Data Center's 99.mat holds X098_* beside its own X099_*."""
     import scipy.io

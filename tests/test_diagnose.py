@@ -19,7 +19,7 @@ from mlflow.exceptions import MlflowException
 from omegaconf import OmegaConf
 from processes import run_module
 
-from bearingtwin.config import REPO_ROOT, bearing_config, compose_config
+from bearingtwin.config import bearing_config, compose_config, data_root
 from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import PhysicsFirst, check_segment, evidence_settings, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params, predictions_frame
@@ -34,7 +34,7 @@ from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 from bearingtwin.models.svm import SvmClassifier
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 
-CWRU = REPO_ROOT.parent / "shared" / "data" / "cwru"
+CWRU = data_root() / "cwru"
 needs_cwru = pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
 BEARING = bearing_config("cwru_6205")
 FS = 12000.0
@@ -414,12 +414,51 @@ def test_features_that_read_shaft_orders_on_the_recorded_bearing_but_not_the_mod
     assert pipeline.bands_on_shaft_harmonics(BEARING) == []
 
 
-def envelope_pipeline() -> DiagnosisPipeline:
-    """A small envelope-order SVM pipeline on synthetic windows at ``FS``, for the drive end's bearing."""
+def envelope_pipeline(bearing: dict = BEARING) -> DiagnosisPipeline:
+    """A small envelope-order SVM pipeline on synthetic windows at ``FS``, for ``bearing`` (the drive end's)."""
     X, y = class_windows(n_per_class=6)
-    envelope = EnvelopeOrderFeatures(bearing=BEARING, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
+    envelope = EnvelopeOrderFeatures(bearing=bearing, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
     return DiagnosisPipeline(envelope, SvmClassifier().fit(envelope.transform(X, fs_hz=FS, rpm=RPM), y), 2048, FS,
-                             bearing=BEARING)
+                             bearing=bearing)
+
+
+@needs_cwru
+def test_a_cwru_record_is_read_at_the_bearing_it_was_made_on_whatever_the_models():
+    """A drive-end fault record names the SKF 6205 by its name's end, as a fan-end one names the 6203: read at
+    the model's bearing's orders (a 6203 model here) its outer-race lines had been taken for inner-race ones.
+    A healthy record's bearing is the one under the accelerometer read."""
+    pipeline = envelope_pipeline(bearing_config("cwru_6203"))
+    prepared = read_record(CWRU / "12k_Drive_End_OR007@6_1_131.mat", pipeline)
+    assert prepared.bearing == BEARING
+    assert any("the record's bearing is cwru_6205, the model was trained on cwru_6203" in note
+               for note in prepared.notes), prepared.notes
+    rpm = prepared.recording.rpm
+    assert physics_evidence(prepared.recording.signal, FS, rpm, prepared.bearing).evidence_state == "outer"
+    assert read_record(CWRU / "normal_0_97.mat", pipeline).bearing == BEARING
+    assert read_record(CWRU / "normal_0_97.mat", pipeline, channel="FE").bearing == bearing_config("cwru_6203")
+
+
+@needs_cwru
+def test_a_rate_given_against_the_names_one_that_the_shaft_line_bears_out_is_refused(tmp_path):
+    """``fs=48000`` for a ``12k_`` file had been read at it, its verdict wrong and only "in doubt"; the name and the
+    shaft line are two witnesses against one typed number. A file whose name is the wrong one is read at the rate
+    given where the shaft line bears that out, the name's rate noted."""
+    import scipy.io
+
+    pipeline = envelope_pipeline()
+    path = CWRU / "12k_Drive_End_OR007@6_1_131.mat"
+    with pytest.raises(BearingTwinError, match=(
+            r"12k_Drive_End_OR007@6_1_131.mat: fs=48000 Hz given, where its name states 12000 Hz, and the shaft line "
+            r"stands where it belongs at 12000 Hz, not at 48000 Hz: leave fs out for this file$")):
+        read_record(path, pipeline, fs=48000)
+    assert read_record(path, pipeline, fs=12000).rate_check == "consistent"
+    misnamed = tmp_path / "48k_Drive_End_OR007@6_1_136.mat"  # 12 kHz samples under a 48 kHz record's name
+    stored = scipy.io.loadmat(path)
+    scipy.io.savemat(misnamed, {key.replace("X131", "X136"): value for key, value in stored.items()
+                                if not key.startswith("__")})
+    prepared = read_record(misnamed, pipeline, fs=12000)
+    assert prepared.original_fs == 12000 and prepared.rate_check == "consistent"
+    assert any("fs=12000 Hz given, where its name states 48000 Hz" in note for note in prepared.notes), prepared.notes
 
 
 def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, monkeypatch):
@@ -898,6 +937,22 @@ def test_a_model_that_puts_physics_first_is_scored_and_diagnoses_as_it_decides(t
     assert result["physics_decided"] == pytest.approx(deciders.count("physics") / len(deciders))
     left = [window["state"] for window in result["windows"] if window["decided_by"] == "classifier"]
     assert result["classifier_verdict"] == (max(FAULTS, key=left.count) if left else None)
+    # A record the model was trained on (0 hp), under its own name or another, is said to be no test of it, and
+    # the score over the records it never saw stands beside the score over all.
+    folder = tmp_path / "records"
+    folder.mkdir()
+    for source, name in ((CWRU / "12k_Drive_End_IR007_0_105.mat", "12k_Drive_End_IR007_0_105.mat"),
+                         (CWRU / "12k_Drive_End_IR007_0_105.mat", "IR007_0.mat"), (record, record.name)):
+        (folder / name).write_bytes(source.read_bytes())
+    done = run("diagnose", f"path={folder}", f"model=runs:/{trained.info.run_id}/model", f"out={tmp_path}/folder",
+               "figures=false", cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-3000:]
+    seen = {path.parent.name: json.loads(path.read_text()) for path in (tmp_path / "folder").glob("*/diagnosis.json")}
+    assert {name: result["training_record"] for name, result in seen.items()} == {
+        "12k_Drive_End_IR007_0_105": True, "IR007_0": True, record.stem: False}
+    assert ("the model was trained on windows of this record (the same contents): its verdict is no test of the model"
+            in seen["IR007_0"]["notes"])
+    assert " of 3 with a known state; 100.00 % of the 1 the model was not trained on" in done.stdout, done.stdout
 
 
 @needs_cwru
@@ -1334,6 +1389,20 @@ def test_bad_models_fail_in_one_line(registered, tmp_path):
     assert len(bearing.stderr.strip().splitlines()) == 1 and not (tmp_path / "diagnosis").exists()
 
 
+def test_the_model_of_a_run_that_did_not_finish_is_refused_saying_so(tmp_path):
+    """A training stopped while it logged its model leaves the run KILLED and the model part-written: MLflow's
+    reason alone (no MLmodel file in a temporary folder) did not say why."""
+    from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    client = MlflowClient(uri)
+    run_id = client.create_run(client.create_experiment("bearingtwin")).info.run_id
+    client.set_terminated(run_id, "KILLED")
+    with pytest.raises(BearingTwinError, match=(rf"^model=runs:/{run_id}/model: cannot load it from .*; its run "
+                                                rf"{run_id} ended KILLED, so its model may not have been logged whole$")):
+        load_diagnosis_model(f"runs:/{run_id}/model", uri)
+
+
 def test_a_bearing_of_the_users_own_outside_the_checkout_is_found_through_hydras_search_path(registered, tmp_path):
     base, uri = registered
     (tmp_path / "conf" / "bearing").mkdir(parents=True)
@@ -1411,8 +1480,11 @@ def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data
     for row in rows.values():  # the physics is right where its evidence names the record's state
         assert row["physics_correct"] == str(row["evidence_state"] == row["true_state"]), row
     assert re.search(r"physics alone right: [\d.]+ % of the 4 with physics evidence", done.stdout), done.stdout
-    by_size = re.search(r"records right by state and fault size \(model, physics\): normal [01]/1, [01]/1; inner 0.028 "
-                        r"in [012]/2, [12]/2; outer 0.021 in [01]/1, [01]/1", done.stdout)
+    # Each group names its bearing: the names with an end (and the healthy record's DE) name the 6205, the Data
+    # Center's label (OR021@3_2) none, so it is read at the model's.
+    by_size = re.search(r"records right by state and fault size \(model, physics\): normal \(cwru_6205\) [01]/1, [01]/1; "
+                        r"inner 0.028 in \(cwru_6205\) [012]/2, [12]/2; outer 0.021 in \(paper\) [01]/1, [01]/1",
+                        done.stdout)
     assert by_size is not None, done.stdout
 
 

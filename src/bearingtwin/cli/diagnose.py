@@ -44,6 +44,16 @@ def diagnose(cfg: DictConfig) -> None:
         sys.exit(2)
 
 
+UNSEEN_WORDS = {("calibrated",): "the model's twin was not calibrated on", ("trained",): "the model was not trained on",
+                ("calibrated", "trained"): "the model was neither trained on nor its twin calibrated on"}
+"""The records a score over the records the model never saw counts, by how it saw the others."""
+
+
+def unseen_words(rows: list[dict]) -> str:
+    """Which records a score over the unseen ones counts (:data:`UNSEEN_WORDS`), by how the model saw the others."""
+    return UNSEEN_WORDS[tuple(sorted({how for row in rows for how, seen in row.get("seen", {}).items() if seen}))]
+
+
 def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     """Verdicts, scores where the truth is known, disagreements with the physics, failures."""
     diagnosed = [row for row in run.rows if "error" not in row]
@@ -57,7 +67,7 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["records right"] = f"{percent(run.scores['accuracy_records'])} of {run.scores['n_scored']} with a known state"
         if "n_scored_tested" in run.scores:
             lines["records right"] += (f"; {percent(run.scores['accuracy_records_tested'])} of the "
-                                       f"{run.scores['n_scored_tested']} the model's twin was not calibrated on")
+                                       f"{run.scores['n_scored_tested']} {unseen_words(diagnosed)}")
         lines["windows right"] = percent(run.scores["accuracy_windows"])
     if "accuracy_records_physics" in run.scores:
         lines["physics alone right"] = (f"{percent(run.scores['accuracy_records_physics'])} of the "

@@ -199,8 +199,9 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     if len(by_record) == 1:
         record = next(iter(by_record))
         if named is not None and named != record:
+            _refuse_another_catalogued_record(path, named, record)
             notes.append(f"its variables are X{record:03d}_* while the name says record {named}; read as the name's "
-                         "record (the Data Center's 0.028 in files are packaged so)")
+                         f"record (the Data Center packages some files so: 3001.mat holds X056_*)")
     elif named in by_record:
         record = named
         others = ", ".join(f"X{other:03d}_*" for other in sorted(by_record) if other != named)
@@ -219,8 +220,9 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     if name is not None and name.rate_hz is not None:
         meta["named_rate"] = {"hz": name.rate_hz, "by": (f"the Data Center's catalogue lists record {name.record} at"
                                                          if name.form == "number" else "its name states")}
-    if name is not None and name.end == "fan":  # the drive end's 6205 is the bearing the data set is known by
+    if name is not None and name.end is not None:  # the faulty bearing; a healthy record's is the channel's (recorded_bearing)
         meta["bearing"] = name.bearing
+    if name is not None and name.end == "fan":  # the drive end's 6205 is the bearing the data set is known by
         notes.append("the fault is in the fan-end bearing (SKF 6203, conf/bearing/cwru_6203.yaml), whose own "
                      "accelerometer, FE, is read unless a channel is named")
     channels = by_record[record]
@@ -240,6 +242,32 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         # The faulty bearing's own accelerometer; the drive end's for the healthy records, the one the data set is known by.
         default_channel=CHANNEL_BY_END[name.end] if name is not None and name.end else "DE",
     )
+
+
+def _refuse_another_catalogued_record(path: Path, named: int, held: int) -> None:
+    """Refuse a file whose variables are those of a record the catalogue lists as another condition, rate or bearing
+    end than the record its name gives (``105.mat`` holding ``X118_*``, a ball record): a copy under the wrong
+    name, which read as its name would be scored against the wrong truth. Numbers outside the catalogue pass (the
+    Data Center's own 0.028 in files hold ``X056_*`` and the like)."""
+    if named in DATA_CENTER_CATALOGUE and held in DATA_CENTER_CATALOGUE and (
+            DATA_CENTER_CATALOGUE[named] != DATA_CENTER_CATALOGUE[held]):
+        def words(number: int) -> str:
+            label, rate_hz, end = DATA_CENTER_CATALOGUE[number]
+            return f"{label} at {rate_hz / 1000:g} kHz, {end} end"
+        raise BearingTwinError(f"{path}: holds record {held}'s variables (X{held:03d}_*: {words(held)} in the Data "
+                               f"Center's catalogue), while its name gives record {named} ({words(named)}): name the "
+                               "file by the record it holds")
+
+
+def recorded_bearing(recording: Recording) -> str | None:
+    """The ``conf/bearing`` name of the bearing a record was made on: the one its file names (a CWRU fault record's
+    by its name's end, a HUST export's ER-16K, ``bearingtwin-simulate``'s), else, for a healthy CWRU record (no
+    faulty bearing), the one under the accelerometer read (DE: the SKF 6205, FE: the SKF 6203); None for a record
+    that names none (a fault record whose name gives no end, as the Data Center's labels do: the user's to say)."""
+    named = recording.meta.get("bearing")
+    if named is None and recording.meta.get("format") == "cwru-mat" and recording.fault == "normal":
+        named = BEARING_BY_END.get({channel: end for end, channel in CHANNEL_BY_END.items()}.get(recording.channel))
+    return None if named is None else str(named)
 
 
 def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[str]:

@@ -261,6 +261,22 @@ def _version_named(model_uri: str, tracking_uri: str) -> str:
     return f"models:/{name}/{version.version}"
 
 
+def _unfinished_run_words(model_uri: str, tracking_uri: str) -> str:
+    """For a ``runs:/<id>/...`` model that cannot be loaded, the words saying that its run did not finish (a run
+    stopped while it logged its model leaves the model part-written), else ""."""
+    if not model_uri.startswith("runs:/"):
+        return ""
+    from mlflow import MlflowClient
+    from mlflow.exceptions import MlflowException
+
+    run_id = model_uri.removeprefix("runs:/").split("/", 1)[0]
+    try:
+        status = MlflowClient(tracking_uri=tracking_uri).get_run(run_id).info.status
+    except MlflowException:  # no such run: MLflow's own reason says so
+        return ""
+    return "" if status == "FINISHED" else f"; its run {run_id} ended {status}, so its model may not have been logged whole"
+
+
 def load_diagnosis_model(model_uri: str, tracking_uri: str):
     """The pyfunc model at ``model_uri`` (``models:/name@alias``, ``models:/name/version``, ``runs:/id/model``),
     its pipeline and the URI loaded: an alias replaced by the version it names now, for an alias moves (a sweep may
@@ -278,7 +294,8 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
         version_uri = _version_named(model_uri, tracking_uri)
         model = mlflow.pyfunc.load_model(version_uri)
     except (MlflowException, OSError) as error:
-        raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})") from None
+        raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})"
+                               f"{_unfinished_run_words(model_uri, tracking_uri)}") from None
     python_model = model.unwrap_python_model()
     if not isinstance(python_model, DiagnosisModel):
         raise BearingTwinError(f"model={model_uri}: not a bearingtwin diagnosis model ({type(python_model).__name__})")

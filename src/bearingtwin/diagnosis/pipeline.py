@@ -63,6 +63,9 @@ class DiagnosisPipeline:
             the levels the classifier has seen; None when the windows are normalized (any level is alike).
         physics_first: where the envelope spectrum leaves no doubt, it decides the window instead of the
             classifier (:class:`PhysicsFirst`); None: the classifier decides every window.
+        training_records: file name -> SHA-256 of its contents, for every recorded file whose windows the
+            classifier was trained on (none for simulated data): a diagnosis of such a file, under any name, is no
+            test of the model.
     """
 
     extractor: object
@@ -76,6 +79,7 @@ class DiagnosisPipeline:
     unit: str = ""
     window_level: tuple[float, float] | None = None
     physics_first: PhysicsFirst | None = None
+    training_records: dict = field(default_factory=dict)
 
     @property
     def class_names(self) -> list[str]:
@@ -260,6 +264,7 @@ class DiagnosisPipeline:
             "unit": self.unit,
             "window_level": None if self.window_level is None else [float(v) for v in self.window_level],
             "physics_first": None if self.physics_first is None else asdict(self.physics_first),
+            "training_records": self.training_records,
             "extractor": _extractor_state(self.extractor),
             "classifier": _save_classifier(self.classifier, folder),
         }
@@ -288,6 +293,7 @@ class DiagnosisPipeline:
             unit=meta.get("unit", ""),  # models saved before these were recorded: unit and levels unknown
             window_level=None if meta.get("window_level") is None else tuple(meta["window_level"]),
             physics_first=None if meta.get("physics_first") is None else PhysicsFirst(**meta["physics_first"]),
+            training_records=meta.get("training_records", {}),  # models saved before they were recorded: none known
         )
 
 

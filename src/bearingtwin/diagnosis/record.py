@@ -36,7 +36,7 @@ import numpy as np
 import scipy.signal
 
 from bearingtwin.config import unknown_bearing_note
-from bearingtwin.data.cwru import parse_cwru_name
+from bearingtwin.data.cwru import parse_cwru_name, recorded_bearing
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord, read_raw,
                                     recording_from_raw, refuse_a_label_the_file_contradicts)
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
@@ -88,8 +88,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs`` and ``rpm`` fill in what the
     file does not state and must agree with what it does (``fs_key`` and ``rpm_key`` name where they
     came from in a message); ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
-    own (a CWRU fan-end or HUST file names it) or else the model's when not given. A measured record whose
-    shaft speed varies is resampled to a steady one (:func:`steadied`; ``order_tracking``: whether to, and the
+    own (:func:`~bearingtwin.data.cwru.recorded_bearing`: a CWRU or HUST file names it) or else the model's when
+    not given. A measured record whose shaft speed varies is resampled to a steady one (:func:`steadied`; ``order_tracking``: whether to, and the
     spread of the speed above which), before its rate is checked against the shaft line (:func:`_checked_rate`).
     """
     raw = read_raw(path)
@@ -99,7 +99,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     gaps = file_gaps = gaps_by_channel.get(recording.channel, [])  # the file's positions, before tracking moves them
     notes = list(recording.meta["notes"]) + channel_note + recording.quality_notes()
-    named = recording.meta.get("bearing")
+    named = recorded_bearing(recording)
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
     unknown = None if bearing is not None or named is None else unknown_bearing_note(named, "read as the model's")
@@ -109,7 +109,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
     recording, speed_notes, rate_check, speed, gaps = _speed_and_rate(recording, raw, record_bearing, gaps,
-                                                                      order_tracking, declared_only=fs is None)
+                                                                      order_tracking, given_as=None if fs is None else fs_key)
     notes += speed_notes
     true_state, truth_notes = _true_state(path, raw, recording, true_state, pipeline)
     notes += truth_notes
@@ -142,11 +142,11 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
 
 
 def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, gaps: list[tuple[int, int]],
-                    order_tracking: tuple[bool, float], declared_only: bool
+                    order_tracking: tuple[bool, float], given_as: str | None
                     ) -> tuple[Recording, list[str], str, dict | None, list[tuple[int, int]]]:
     """A measured record steadied where its shaft speed varies (:func:`steadied`), its rate checked against the shaft
-    line (:func:`_checked_rate`; ``declared_only``: no rate was given, so one the file merely declares may be
-    corrected): the record, the notes, the rate check's verdict, the speed as read (None where none was known or
+    line (:func:`_checked_rate`; ``given_as``: the setting a rate was given as, None where none was, so that one the
+    file merely declares may be corrected): the record, the notes, the rate check's verdict, the speed as read (None where none was known or
     the record is the twin's) and the ``gaps`` (``(start, length)`` samples) where steadying moved them. A record
     without a speed, or a simulation, is said to be read without the check."""
     notes, rate_check, speed = [], "not checked", None
@@ -173,7 +173,8 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, 
         recording, rate_notes, rate_check = _checked_rate(dataclasses.replace(recording, rpm=speed["stated_rpm"]),
                                                           record_bearing,
                                                           channels={} if speed["tracked"] else raw.channels,
-                                                          declared_only=declared_only and raw.fs_origin == "declared")
+                                                          declared_only=given_as is None and raw.fs_origin == "declared",
+                                                          given_as=given_as)
         recording = dataclasses.replace(recording, rpm=steady_rpm)
         notes += rate_notes
         if recording.fs != read_at:  # the check found the file's rate (a CWRU record at 48 kHz): its times are shorter
@@ -394,7 +395,7 @@ def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dic
 
 @shared_transforms()  # every rate tried reads the same channels
 def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
-                  channels: dict[str, np.ndarray]) -> tuple[Recording, list[str], str]:
+                  channels: dict[str, np.ndarray], given_as: str | None = None) -> tuple[Recording, list[str], str]:
     """The recording after the sampling-rate check (shaft series, and the bearing's defect lines as a
     second witness), what the check said, and its verdict (:attr:`PreparedRecord.rate_check`). Every channel of the file is a witness
     (:func:`check_channels`): a fan-end accelerometer may show the shaft series too weakly, the
@@ -407,7 +408,9 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz). A rate and speed the shaft
     line contradicts, with no other rate of the data set consistent, are kept, and the note says that one
     of the two is wrong (the line cannot tell which): a speed variable a tachometer got wrong must not cost
-    the record its diagnosis, only its certainty.
+    the record its diagnosis, only its certainty. A rate given (as the setting ``given_as``) that the shaft line
+    contradicts where it confirms the rate the data set's naming gives the file (a CWRU ``12k_`` name, its
+    catalogue's number) is refused: two witnesses against one typed number.
     """
     defect_hz = BearingGeometry.from_config(bearing).defect_frequencies(recording.rpm) if bearing else None
 
@@ -430,6 +433,12 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
         doubt = [f"sampling rate unconfirmed: {describe_mismatch(declared)}"]
     else:
         doubt = []
+    named_hz = (recording.meta.get("named_rate") or {}).get("hz")
+    if (given_as and declared.verdict == "contradicted" and named_hz and named_hz != recording.fs
+            and _matches(checks, named_hz)):
+        raise BearingTwinError(f"{recording.source}: {given_as}={recording.fs:g} Hz given, where "
+                               f"{recording.meta['named_rate']['by']} {named_hz:g} Hz, and the shaft line stands where it "
+                               f"belongs at {named_hz:g} Hz, not at {recording.fs:g} Hz: leave {given_as} out for this file")
     if not declared_only:
         return recording, doubt, declared.verdict
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between

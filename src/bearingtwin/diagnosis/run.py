@@ -41,6 +41,7 @@ from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evide
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.storage import file_digest
 from bearingtwin.tracking.lifecycle import raise_if_interrupted
 
 if TYPE_CHECKING:
@@ -354,7 +355,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     passed_over = [message for stem, rows in bad_rows.items() for _, message in rows if stem not in refused]
     if passed_over and single:  # as inspect and the twin say it of the table beside a file
         progress.write(f"{table}: passed over rows of other files that do not read: {first_messages(passed_over)}")
-    calibrated = calibration_records(pipeline)
+    calibrated, trained = calibration_records(pipeline), set(pipeline.training_records.values())
     for path in progress:
         raise_if_interrupted()  # a signal a library swallowed (loading the model, say) stops here, not at the end
         try:
@@ -369,10 +370,14 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                                    rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=order_tracking)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             calibrated_on = bool(_names_of(path, table) & calibrated)
-            result["calibration_record"] = calibrated_on
+            trained_on = bool(trained) and file_digest(path) in trained  # by contents: a copy is no new record
+            result["calibration_record"], result["training_record"] = calibrated_on, trained_on
             if calibrated_on:
                 result["notes"].append("the model's twin was calibrated on this record (data.calibration.records): "
                                        "its verdict is no test of the model")
+            if trained_on:
+                result["notes"].append("the model was trained on windows of this record (the same contents): its "
+                                       "verdict is no test of the model")
             # Which run wrote it, and when: results of different runs are told apart.
             result["run_id"] = run.run_id
             result["diagnosed_at"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
@@ -400,7 +405,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             progress.write(f"{result['record']}: {note}")
         progress.write(one_line(result))
         row = {name: result[name] for name in SUMMARY_COLUMNS}
-        row["calibrated_on"] = calibrated_on
+        row["seen"] = {"calibrated": calibrated_on, "trained": trained_on}  # by the model (not a column)
         row.update({key: result[key] for key in CONDITION_KEYS if key in result})
         if "true_state" in result:
             row.update({name: result[name] for name in TRUTH_COLUMNS if name in result})
@@ -424,8 +429,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if scored:
         run.scores = {"accuracy_records": sum(row["correct"] for row in scored) / len(scored),
                       "accuracy_windows": windows_correct / windows_total, "n_scored": len(scored)}
-    tested = [row for row in scored if not row["calibrated_on"]]
-    if tested and len(tested) < len(scored):  # records the model's twin was fitted to are no test of it
+    tested = [row for row in scored if not any(row["seen"].values())]
+    if tested and len(tested) < len(scored):  # records the model learnt from, or its twin was fitted to, test nothing
         run.scores["accuracy_records_tested"] = sum(row["correct"] for row in tested) / len(tested)
         run.scores["n_scored_tested"] = len(tested)
     with_physics = [row for row in scored if "physics_correct" in row]

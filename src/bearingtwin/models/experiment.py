@@ -31,6 +31,7 @@ from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import build_feature_extractor
 from bearingtwin.models.build import build_classifier
 from bearingtwin.models.classes import training_classes
+from bearingtwin.storage import file_digest
 from bearingtwin.tracking.lifecycle import signals_kept
 
 # Metrics that measure this machine, not the model: excluded when runs are compared for equality.
@@ -244,6 +245,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         unit=dataset.unit,
         window_level=training_window_level(dataset, train),
         physics_first=physics_first,
+        training_records=training_records(dataset, train),
     )
 
     def decided(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -291,6 +293,13 @@ def training_window_level(dataset, train: np.ndarray) -> tuple[float, float] | N
         return None
     low, high = np.percentile(np.std(dataset.windows[train], axis=1), [5, 95])
     return float(low), float(high)
+
+
+def training_records(dataset, train: np.ndarray) -> dict[str, str]:
+    """File name -> SHA-256 of every recorded file the training windows ``train`` come from (a simulated record,
+    known by its simulator key, has none): what a diagnosis needs to say that a record taught the model."""
+    paths = {Path(dataset.records[record]) for record in np.unique(dataset.record_ids[train])}
+    return {path.name: file_digest(path) for path in sorted(paths) if path.is_file()}
 
 
 @dataclass(frozen=True)

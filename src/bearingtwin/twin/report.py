@@ -22,7 +22,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
 from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
                                 unknown_bearing_note)
-from bearingtwin.data.cwru import BEARING_BY_END, CHANNEL_BY_END, parse_cwru_name
+from bearingtwin.data.cwru import recorded_bearing
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw, same_speed,
                                     speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
@@ -129,22 +129,6 @@ DEFAULT_BEARING = "paper"
 (:func:`record_bearing`)."""
 
 
-def named_bearing(measured: Recording, path) -> str | None:
-    """The bearing config a record names: its file's (a CWRU fan-end record's SKF 6203, a HUST file's ER-16K,
-    ``bearingtwin-simulate``'s), else a CWRU drive-end fault record's SKF 6205 by its name (long, or a catalogued
-    number), else, for a healthy CWRU record (no faulty bearing), the bearing under the accelerometer read (DE: the
-    SKF 6205, FE: the SKF 6203); None for a record that names none (a fault record whose name gives no end, as the
-    Data Center's labels do: the faulty bearing is the user's to say)."""
-    named = measured.meta.get("bearing")
-    if named is None and measured.meta.get("format") == "cwru-mat":
-        cwru_name = parse_cwru_name(str(path))
-        if cwru_name is not None and cwru_name.end is not None:
-            named = cwru_name.bearing
-        elif measured.fault == "normal":
-            named = BEARING_BY_END.get({channel: end for end, channel in CHANNEL_BY_END.items()}.get(measured.channel))
-    return None if named is None else str(named)
-
-
 def bearing_chosen(cfg: DictConfig) -> bool:
     """Whether the twin's bearing was chosen rather than left at :data:`DEFAULT_BEARING`.
 
@@ -160,7 +144,7 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
     """The ``twin`` config with the bearing the record was made on, and the line the closing summary gives it
     (None when there is nothing to say: the record names no bearing, or the one chosen).
 
-    A record that names its bearing (:func:`named_bearing`) is read with it: when no bearing was chosen
+    A record that names its bearing (:func:`~bearingtwin.data.cwru.recorded_bearing`) is read with it: when no bearing was chosen
     (:func:`bearing_chosen`), that bearing's config replaces the default's (a line says so); a bearing chosen that
     is neither the record's by name nor of its geometry (the fields a reference's bearing is compared by,
     :func:`~bearingtwin.twin.reference.geometry_difference`) is refused, naming both, before a run opens or anything is
@@ -168,7 +152,7 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
     no ``conf/bearing`` config describes cannot be read: the twin's stays, and the doubt is logged and returned.
     """
     path, ours = cfg.measured.path, cfg.bearing.get("name")
-    named = named_bearing(measured, path)
+    named = recorded_bearing(measured)
     if named is None or named == ours:
         return cfg, None
     chosen = bearing_chosen(cfg)
