@@ -227,6 +227,20 @@ def test_a_bearing_given_against_the_one_the_file_names_is_noted(tmp_path):
     assert not any("bearing=" in note for note in summarize(path)["meta"].get("notes", []))
 
 
+def test_a_shaft_speed_a_supplys_lines_could_pass_for_is_not_read_and_says_why(tmp_path):
+    """At 1797 rpm twice the shaft rate is 59.9 Hz, a 60 Hz supply's line: the CWRU 0 hp records' speed had been
+    reported null with no reason."""
+    from bearingtwin.cli.inspect import summarize
+
+    t = np.arange(4 * 12000) / 12000.0
+    shaft = sum(np.sin(2 * np.pi * k * 1797 / 60 * t) / k for k in range(1, 8))
+    np.savez(tmp_path / "r.npz", signal=shaft + 0.1 * np.random.default_rng(0).standard_normal(t.size), fs=12000.0,
+             rpm=1797.0)
+    summary = summarize(tmp_path / "r.npz")
+    assert summary["shaft_speed"] == {"signal": None}
+    assert "lies near a supply frequency (50, 60 Hz)" in summary["shaft_speed_not_read"]["signal"], summary
+
+
 def test_how_steadily_the_shaft_turned_is_reported_per_channel(capsys, monkeypatch, tmp_path):
     """A drifting vibration channel and the tachometer beside it both read the swing a diagnosis would steady; a
     channel of noise reads nothing."""
@@ -237,8 +251,10 @@ def test_how_steadily_the_shaft_turned_is_reported_per_channel(capsys, monkeypat
     path = tmp_path / "fan.npz"
     np.savez(path, vib=drifting, tach=tachometer(0.04), noise=noise, fs=FS, rpm=RPM)
     code, out, _ = run(capsys, monkeypatch, f"path={path}")
-    speeds = json.loads(out)["shaft_speed"]
+    summary = json.loads(out)
+    speeds = summary["shaft_speed"]
     assert code == 0 and speeds["noise"] is None
+    assert summary["shaft_speed_not_read"] == {"noise": "no shaft series stood out in enough segments to read a speed"}
     for name in ("vib", "tach"):
         assert speeds[name]["unsteady"] and speeds[name]["spread"] == pytest.approx(0.08, abs=0.015), speeds[name]
         assert speeds[name]["median_rpm"] == pytest.approx(RPM, rel=0.02)

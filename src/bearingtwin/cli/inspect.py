@@ -8,7 +8,8 @@ speed is known and always as orders (multiples of the shaft speed). Whenever the
 the speed are known, the sampling-rate check against the shaft line is reported too, with
 every channel of the file a witness of its one rate (the channel that decides, and each
 channel's verdict), as the commands that read the file apply it, and ``shaft_speed``: how steadily the shaft turned,
-per channel (:func:`shaft_speed`). Whenever the rate is known,
+per channel (:func:`shaft_speed`; a channel read null has its reason in ``shaft_speed_not_read``). Whenever the rate
+is known,
 ``quality`` names per channel clipping and dropouts, with where they are (a diagnosis and the twin note them
 for the channel they read, and refuse a dead one), or why a channel was not checked.
 Settings are Hydra overrides, as for every command (``bearingtwin-inspect --help``).
@@ -36,7 +37,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
-from bearingtwin.signal.speed import speed_profile, tachometer_profile
+from bearingtwin.signal.speed import SUPPLY_HZ, near_supply, speed_profile, tachometer_profile
 
 
 @hydra_command("inspect")
@@ -142,7 +143,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
                                                channels={name: check.verdict for name, check in checks.items()})
         except BearingTwinError as error:  # NaNs, or a record too short to resolve the shaft line
             summary["shaft_line_check"] = {"channel": names[0], "verdict": "not checked", "reason": str(error)}
-        summary["shaft_speed"] = shaft_speed(raw, names, fs_hz, rpm)
+        summary["shaft_speed"], not_read = shaft_speed(raw, names, fs_hz, rpm)
+        if not_read:  # beside, so that each channel's entry keeps its shape (an object, or null)
+            summary["shaft_speed_not_read"] = not_read
     if bearing is not None:
         summary["bearing"] = bearing_name
         summary["defect_orders"] = {key: value for key, value in bearing.defect_frequencies(60.0).items() if key != "shaft"}
@@ -151,29 +154,37 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     return summary
 
 
-def shaft_speed(raw, names: list[str], fs_hz: float, rpm: float) -> dict:
+def shaft_speed(raw, names: list[str], fs_hz: float, rpm: float) -> tuple[dict, dict]:
     """How steadily the shaft turned, per channel, as a diagnosis reads it before it steadies a record (a tachometer's
     pulses counted, a vibration channel's shaft series read, in 1 s segments): the spread of the speeds read, their
     median and range, in how many segments, and whether a diagnosis would call the record unsteady; null where
-    nothing was read (no series standing out, NaN samples, a record too short)."""
-    speeds = {}
+    nothing was read, and then, in the second dict, why (NaN samples, a record too short, a speed a supply's lines
+    could pass for, no series standing out)."""
+    speeds, not_read = {}, {}
     for name in names:
         values = raw.channels[name]
+        speeds[name] = None
         if not values.size or not np.all(np.isfinite(values)):
-            speeds[name] = None
+            not_read[name] = "no samples" if not values.size else "NaN or infinite samples"
             continue
+        pulses = name in raw.meta.get("two_levels", [])
         try:
-            profile = (tachometer_profile(values, fs_hz, rpm) if name in raw.meta.get("two_levels", []) else
-                       speed_profile(values, fs_hz, rpm))
-        except BearingTwinError:
-            speeds[name] = None
+            profile = tachometer_profile(values, fs_hz, rpm) if pulses else speed_profile(values, fs_hz, rpm)
+        except BearingTwinError as error:
+            not_read[name] = str(error)
+            continue
+        if not profile.readable:
+            not_read[name] = (f"at {rpm:g} rpm the shaft rate or twice it lies near a supply frequency "
+                              f"({', '.join(f'{hz:g}' for hz in SUPPLY_HZ)} Hz), whose lines could pass for its series: "
+                              "not read" if near_supply(rpm) and not pulses else
+                              "no shaft series stood out in enough segments to read a speed")
             continue
         read = profile.rpm[profile.read]
-        speeds[name] = None if not profile.readable else {
+        speeds[name] = {
             "spread": profile.spread, "median_rpm": float(np.median(read)), "range_rpm": [float(read.min()),
                                                                                          float(read.max())],
             "segments_read": f"{int(profile.read.sum())} of {profile.rpm.size}", "unsteady": profile.unsteady()}
-    return speeds
+    return speeds, not_read
 
 
 main = stop_cleanly(inspect_command)  # Ctrl-C: one line and exit 130, not a traceback from inside the work
