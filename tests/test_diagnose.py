@@ -459,6 +459,11 @@ def test_a_rate_given_against_the_names_one_that_the_shaft_line_bears_out_is_ref
     prepared = read_record(misnamed, pipeline, fs=12000)
     assert prepared.original_fs == 12000 and prepared.rate_check == "consistent"
     assert any("fs=12000 Hz given, where its name states 48000 Hz" in note for note in prepared.notes), prepared.notes
+    # Given no rate, the name's 48 kHz is contradicted and the Data Center's other rate bears the record out.
+    found = read_record(misnamed, pipeline)
+    assert found.original_fs == 12000 and found.rate_check == "consistent"
+    assert ("the shaft line stands where it belongs at 12000 Hz, not at the declared 48000 Hz: read at 12000 Hz"
+            in found.notes), found.notes
 
 
 def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, monkeypatch):

@@ -405,8 +405,9 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     convention (a CWRU file's) is tried against the data set's rates, and the highest rate under which
     the shaft's harmonic series stands where it belongs is the record's: read at a whole-number fraction of its
     true rate, a record puts a higher shaft harmonic onto the expected line, so a lower rate can seem
-    to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz). A rate and speed the shaft
-    line contradicts, with no other rate of the data set consistent, are kept, and the note says that one
+    to fit, a higher one cannot (the CWRU healthy baselines exist at 48 kHz); a lower one is the record's only where
+    the declared rate is contradicted. A rate and speed the shaft line contradicts, with no other rate of the data set
+    consistent, are kept, and the note says that one
     of the two is wrong (the line cannot tell which): a speed variable a tachometer got wrong must not cost
     the record its diagnosis, only its certainty. A rate given (as the setting ``given_as``) that the shaft line
     contradicts where it confirms the rate the data set's naming gives the file (a CWRU ``12k_`` name, its
@@ -442,12 +443,18 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     if not declared_only:
         return recording, doubt, declared.verdict
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between
-    # lines (a machine's half orders) may leave the higher rate's verdict ambiguous, never contradicted.
-    higher = [rate for rate in CWRU_RATES_HZ if rate > recording.fs and _matches(checks, rate)]
-    if not higher:
+    # lines (a machine's half orders) may leave the higher rate's verdict ambiguous, never contradicted. A lower
+    # rate is tried only where the declared one is contradicted (a 48 kHz name on 12 kHz samples): nothing
+    # higher then stands where it belongs for it to fake.
+    contradicted = declared.verdict == "contradicted"
+    others = [rate for rate in CWRU_RATES_HZ
+              if (rate > recording.fs or contradicted and rate < recording.fs) and _matches(checks, rate)]
+    if not others:
         return recording, doubt, declared.verdict
-    rate = max(higher)
-    note = f"the shaft line stands where it belongs at {rate:g} Hz, not only at the declared {recording.fs:g} Hz: read at {rate:g} Hz"
+    rate = max(others)
+    at_declared = "not at" if contradicted else "not only at"
+    note = (f"the shaft line stands where it belongs at {rate:g} Hz, {at_declared} the declared {recording.fs:g} Hz: "
+            f"read at {rate:g} Hz")
     return dataclasses.replace(recording, fs=rate), [note], check(rate).verdict
 
 
