@@ -697,6 +697,29 @@ def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_p
         load_cwru(tmp_path / "3009.mat")
 
 
+@needs_data
+def test_a_record_names_the_bearing_it_was_made_on_as_every_command_reads_it(tmp_path):
+    """A fault record's name gives its faulty bearing's end; a healthy record has none, so the bearing is the one
+    under the accelerometer read; a Data Center label gives no end. bearing_the_files_name (data=files) and inspect
+    read it as diagnose and the twin do: a folder of the healthy record and drive-end faults is the 6205's."""
+    from bearingtwin.cli.inspect import summarize
+    from bearingtwin.data.formats import file_bearing
+    from bearingtwin.data.real import bearing_the_files_name
+
+    def named(path, channel=None):
+        recording = load_recording(path, channel=channel)
+        return file_bearing(recording.meta, recording.channel)
+
+    assert named(CWRU / "12k_Drive_End_IR007_0_105.mat") == named(CWRU / "normal_0_97.mat") == "cwru_6205"
+    assert named(CWRU / "normal_0_97.mat", "FE") == "cwru_6203" and named(CWRU / "12k_Drive_End_IR007_0_105.mat", "BA") == "cwru_6205"
+    (tmp_path / "IR007_0.mat").write_bytes((CWRU / "12k_Drive_End_IR007_0_105.mat").read_bytes())
+    assert named(tmp_path / "IR007_0.mat") is None
+    recordings = [load_recording(CWRU / name) for name in ("normal_0_97.mat", "12k_Drive_End_OR007@6_0_130.mat")]
+    assert bearing_the_files_name(recordings) == "cwru_6205"
+    assert summarize(CWRU / "normal_0_97.mat")["bearing"] == "cwru_6205"
+    assert summarize(CWRU / "normal_0_97.mat", channel="FE")["bearing"] == "cwru_6203"
+
+
 def test_a_file_holding_another_catalogued_records_variables_is_refused(tmp_path):
     """``105.mat`` (inner race) holding ``X118_*`` (a ball record) is a copy under the wrong name: read as its name it
     had been scored as an inner race. The catalogue names both, so the refusal names both."""

@@ -449,7 +449,7 @@ def test_a_rate_given_against_the_names_one_that_the_shaft_line_bears_out_is_ref
     path = CWRU / "12k_Drive_End_OR007@6_1_131.mat"
     with pytest.raises(BearingTwinError, match=(
             r"12k_Drive_End_OR007@6_1_131.mat: fs=48000 Hz given, where its name states 12000 Hz, and the shaft line "
-            r"stands where it belongs at 12000 Hz, not at 48000 Hz: leave fs out for this file$")):
+            r"stands where it belongs at 12000 Hz, not at 48000 Hz: give this file no rate \(its name's is read\)$")):
         read_record(path, pipeline, fs=48000)
     assert read_record(path, pipeline, fs=12000).rate_check == "consistent"
     misnamed = tmp_path / "48k_Drive_End_OR007@6_1_136.mat"  # 12 kHz samples under a 48 kHz record's name
@@ -1406,6 +1406,10 @@ def test_the_model_of_a_run_that_did_not_finish_is_refused_saying_so(tmp_path):
     with pytest.raises(BearingTwinError, match=(rf"^model=runs:/{run_id}/model: cannot load it from .*; its run "
                                                 rf"{run_id} ended KILLED, so its model may not have been logged whole$")):
         load_diagnosis_model(f"runs:/{run_id}/model", uri)
+    # A run whose process died unseen is still RUNNING: it has not "ended".
+    running = client.create_run(client.get_experiment_by_name("bearingtwin").experiment_id).info.run_id
+    with pytest.raises(BearingTwinError, match=rf"; its run {running} is still marked RUNNING: its process may have "):
+        load_diagnosis_model(f"runs:/{running}/model", uri)
 
 
 def test_a_bearing_of_the_users_own_outside_the_checkout_is_found_through_hydras_search_path(registered, tmp_path):

@@ -1,6 +1,7 @@
 """bearingtwin-report on the store of a real smoke sweep: our figures beside the paper's."""
 
 import json
+import os
 import shutil
 import sqlite3
 from pathlib import Path
@@ -73,6 +74,7 @@ def test_table4_puts_each_method_beside_the_paper(uri, tmp_path):
     for method, published in paper.TABLE4.items():
         (run,) = finished(uri, method)
         ours = 100 * run.data.metrics["accuracy"]
+        assert lines[method].startswith(f"| {paper.TABLE4_NAMES[method]} | ")  # at its configured settings: no label
         assert f"| {ours:.2f} ± 0.00 | 1 | {published:.2f} | {ours - published:+.2f} |" in lines[method]
     written = (tmp_path / "table4.md").read_text()
     assert generated_text(tmp_path / "table4.md", GENERATED) == done.stdout.strip()  # between the markers
@@ -109,7 +111,7 @@ def test_a_lone_run_at_other_settings_than_its_methods_is_named_so_beside_the_pa
     from the method as configured (conf/method/); a run at the configured settings stays unlabelled
     (test_table4_puts_each_method_beside_the_paper)."""
     uri = f"sqlite:///{tmp_path}/mlflow.db"
-    env = dict(__import__("os").environ, MLFLOW_TRACKING_URI=uri)
+    env = dict(os.environ, MLFLOW_TRACKING_URI=uri)
     done = run_module("bearingtwin.cli.train", *SMOKE, "+method=sabo_pemie_svm", "bearing=cwru_6203", "data.fs=12000",
                       f"hydra.run.dir={tmp_path}/run", cwd=tmp_path, env=env, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
@@ -117,6 +119,20 @@ def test_a_lone_run_at_other_settings_than_its_methods_is_named_so_beside_the_pa
     assert done.returncode == 0, done.stderr
     (row,) = [line for line in done.stdout.splitlines() if "| sabo_vmd_pemie+svm |" in line]
     assert row.startswith("| SABO-VMD-SVM (PE-MIE) (bearing.name=cwru_6203, data.fs=12000) | sabo_vmd_pemie+svm | "), row
+
+
+def test_a_setting_is_told_by_its_values_not_by_how_they_were_typed():
+    """``data.fs=10000`` on the command line logs 10000, the config's default 10000.0: one setting. A bearing's own
+    diameters stand behind its name; a ball count changed beside it is named."""
+    from bearingtwin.tracking.reports import _differing_keys, _given_by_bearing_choice
+
+    typed, default = {"data.fs": "10000", "__run_seed__": "0"}, {"data.fs": "10000.0", "__run_seed__": "1"}
+    assert _differing_keys([[typed], [default]]) == set()
+    assert _differing_keys([[typed], [{"data.fs": "12000", "__run_seed__": "2"}]]) == {"data.fs"}
+    own = [{"bearing.name": "cwru_6203", "bearing.n_balls": "8", "bearing.pitch_diameter_mm": "28.499"}]
+    changed = [{"bearing.name": "cwru_6203", "bearing.n_balls": "7", "bearing.pitch_diameter_mm": "28.499"}]
+    assert _given_by_bearing_choice("bearing.n_balls", own) and _given_by_bearing_choice("bearing.pitch_diameter_mm", own)
+    assert not _given_by_bearing_choice("bearing.n_balls", changed) and not _given_by_bearing_choice("bearing.name", own)
 
 
 def report_here(capsys, *args) -> tuple[int, str]:

@@ -29,8 +29,8 @@ from omegaconf import DictConfig
 from bearingtwin.checks import positive_number
 from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
                                 unknown_bearing_note)
-from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, named_rate_note, read_raw, resolve_fact,
-                                    resolve_fs, resolve_speed)
+from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
+                                    read_raw, resolve_fact, resolve_fs, resolve_speed)
 from bearingtwin.data.labels import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -67,7 +67,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     """The inspect report of one file as a JSON-ready dict."""
     raw = read_raw(path)
     rpm = None if rpm is None else positive_number(rpm, "rpm", "rev/min")
-    named = raw.meta.get("bearing")  # the file names its bearing (bearingtwin-simulate's, CWRU's fan end)
+    # The bearing the file names (bearingtwin-simulate's, a CWRU record's), as diagnose and the twin read it
+    named = file_bearing(raw.meta, raw.default_channel if channel is None else raw.channel(channel)[0])
     bearing_note = None
     if bearing is None and named:
         bearing_note = unknown_bearing_note(named, "its defect lines are not read")
@@ -121,7 +122,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     }
     if rpm_origin == "nominal":
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
-    given_rate = named_rate_note(raw, fs, "fs" if fs_origin == "option" else f"{table}: fs")
+    given_rate = named_rate_note(raw.meta, fs, "fs" if fs_origin == "option" else f"{table}: fs")
     for note in filter(None, [bearing_note, given_rate, *speed_notes]):
         summary["meta"]["notes"] = [*summary["meta"].get("notes", []), note]
     if fs_hz is not None:  # clipping, dropouts and dead channels, as a diagnosis or the twin names them

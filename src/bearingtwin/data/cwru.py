@@ -201,7 +201,7 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         if named is not None and named != record:
             _refuse_another_catalogued_record(path, named, record)
             notes.append(f"its variables are X{record:03d}_* while the name says record {named}; read as the name's "
-                         f"record (the Data Center packages some files so: 3001.mat holds X056_*)")
+                         "record (the Data Center packages some files so: 3001.mat holds X056_*)")
     elif named in by_record:
         record = named
         others = ", ".join(f"X{other:03d}_*" for other in sorted(by_record) if other != named)
@@ -220,8 +220,10 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     if name is not None and name.rate_hz is not None:
         meta["named_rate"] = {"hz": name.rate_hz, "by": (f"the Data Center's catalogue lists record {name.record} at"
                                                          if name.form == "number" else "its name states")}
-    if name is not None and name.end is not None:  # the faulty bearing; a healthy record's is the channel's (recorded_bearing)
+    if name is not None and name.end is not None:  # the faulty bearing
         meta["bearing"] = name.bearing
+    elif name is not None and name.fault == "normal":  # no faulty bearing: the one under the accelerometer read
+        meta["bearing_by_channel"] = {CHANNEL_BY_END[end]: bearing for end, bearing in BEARING_BY_END.items()}
     if name is not None and name.end == "fan":  # the drive end's 6205 is the bearing the data set is known by
         notes.append("the fault is in the fan-end bearing (SKF 6203, conf/bearing/cwru_6203.yaml), whose own "
                      "accelerometer, FE, is read unless a channel is named")
@@ -257,17 +259,6 @@ def _refuse_another_catalogued_record(path: Path, named: int, held: int) -> None
         raise BearingTwinError(f"{path}: holds record {held}'s variables (X{held:03d}_*: {words(held)} in the Data "
                                f"Center's catalogue), while its name gives record {named} ({words(named)}): name the "
                                "file by the record it holds")
-
-
-def recorded_bearing(recording: Recording) -> str | None:
-    """The ``conf/bearing`` name of the bearing a record was made on: the one its file names (a CWRU fault record's
-    by its name's end, a HUST export's ER-16K, ``bearingtwin-simulate``'s), else, for a healthy CWRU record (no
-    faulty bearing), the one under the accelerometer read (DE: the SKF 6205, FE: the SKF 6203); None for a record
-    that names none (a fault record whose name gives no end, as the Data Center's labels do: the user's to say)."""
-    named = recording.meta.get("bearing")
-    if named is None and recording.meta.get("format") == "cwru-mat" and recording.fault == "normal":
-        named = BEARING_BY_END.get({channel: end for end, channel in CHANNEL_BY_END.items()}.get(recording.channel))
-    return None if named is None else str(named)
 
 
 def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[str]:

@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -248,7 +249,7 @@ def recording_from_raw(
         raise BearingTwinError(f"{fault_key}={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
     refuse_a_label_the_file_contradicts(raw, fault, fault_key)
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
-    notes += filter(None, [named_rate_note(raw, fs, fs_key)])
+    notes += filter(None, [named_rate_note(raw.meta, fs, fs_key)])
     rpm = resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
     # Where the speed comes from: a refusal of the rate names the speed's setting too where one gave it.
     rpm_origin = "file" if raw.rpm is not None else "config" if rpm is not None else None
@@ -276,14 +277,25 @@ def refuse_a_label_the_file_contradicts(raw: RawRecord, state: str | None, key: 
                                f"{', '.join(FAULTS)}")
 
 
-def named_rate_note(raw: RawRecord, fs: float | None, key: str = "fs") -> str | None:
-    """A note where a rate given as ``key`` differs from the one a data set's naming convention gives the file (a
-    CWRU file's ``12k_`` / ``48k_``, its catalogue's for a numbered file): a convention, not the file's own statement,
-    so not refused, but a rate that contradicts it is more likely a typo than a mislabelled file."""
-    named = raw.meta.get("named_rate")
+def named_rate_note(meta: Mapping, fs: float | None, key: str = "fs") -> str | None:
+    """A note where a rate given as ``key`` differs from the one a data set's naming convention gives the file
+    (``meta["named_rate"]``: a CWRU file's ``12k_`` / ``48k_``, its catalogue's for a numbered file): a convention,
+    not the file's own statement, so not refused on reading; a rate that contradicts it is more likely a typo than a
+    mislabelled file, and a diagnosis refuses it where the shaft line bears the name's rate out
+    (:func:`bearingtwin.diagnosis.record.read_record`)."""
+    named = meta.get("named_rate")
     if fs is None or not named or abs(float(fs) / named["hz"] - 1.0) <= FS_FLOAT_NOISE:
         return None
     return f"{key}={float(fs):g} Hz given, where {named['by']} {named['hz']:g} Hz"
+
+
+def file_bearing(meta: Mapping, channel: str | None) -> str | None:
+    """The ``conf/bearing`` name of the bearing a file was recorded on, as it names it: its own (a CWRU fault
+    record's by its name's end, a HUST export's ER-16K, ``bearingtwin-simulate``'s), else, for a file of several
+    bearings' accelerometers (a healthy CWRU record: DE on the SKF 6205, FE on the 6203), the one under ``channel``;
+    None where it names none (a CWRU label such as ``IR007_0`` gives no end: the user's to say)."""
+    named = meta.get("bearing") or meta.get("bearing_by_channel", {}).get(channel)
+    return None if named is None else str(named)
 
 
 def speed_setting(recording: Recording, key: str) -> str | None:

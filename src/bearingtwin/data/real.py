@@ -23,7 +23,7 @@ from bearingtwin.checks import positive_number, whole_number
 from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
-from bearingtwin.data.formats import SIMULATED_RATE, load_recording, speed_setting
+from bearingtwin.data.formats import SIMULATED_RATE, file_bearing, load_recording, speed_setting
 from bearingtwin.data.hust import CHANNELS as HUST_AXES, hust_file_name, load_hust, parse_hust_name
 from bearingtwin.data.labels import rows_from_labels, rows_from_pattern
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
@@ -163,12 +163,13 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
 
 
 def bearing_the_files_name(recordings: list[Recording]) -> str | None:
-    """The ``conf/bearing`` name every recording names itself (a HUST export's ER-16K, a CWRU fan-end record's SKF
-    6203, ``bearingtwin-simulate``'s), read where no ``data.bearing`` is given; None where one names none, or names
-    one no config describes, or where they name different bearings (said: one model reads one bearing's lines)."""
+    """The ``conf/bearing`` name every recording names itself (:func:`~bearingtwin.data.formats.file_bearing`: a HUST
+    export's ER-16K, a CWRU record's SKF 6205 or 6203, ``bearingtwin-simulate``'s), read where no ``data.bearing`` is
+    given; None where one names none, or names one no config describes, or where they name different bearings (said:
+    one model reads one bearing's lines)."""
     from bearingtwin.config import unknown_bearing_note
 
-    named = {recording.meta.get("bearing") for recording in recordings}
+    named = {file_bearing(recording.meta, recording.channel) for recording in recordings}
     if None in named or not named:
         return None
     if len(named) > 1:

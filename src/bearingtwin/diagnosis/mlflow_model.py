@@ -274,7 +274,12 @@ def _unfinished_run_words(model_uri: str, tracking_uri: str) -> str:
         status = MlflowClient(tracking_uri=tracking_uri).get_run(run_id).info.status
     except MlflowException:  # no such run: MLflow's own reason says so
         return ""
-    return "" if status == "FINISHED" else f"; its run {run_id} ended {status}, so its model may not have been logged whole"
+    if status == "FINISHED":
+        return ""
+    if status in ("FAILED", "KILLED"):
+        return f"; its run {run_id} ended {status}, so its model may not have been logged whole"
+    return (f"; its run {run_id} is still marked {status}: its process may have stopped before it logged its model "
+            "whole (the next bearingtwin command on that machine marks such a run KILLED)")
 
 
 def load_diagnosis_model(model_uri: str, tracking_uri: str):

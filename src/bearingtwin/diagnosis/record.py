@@ -36,9 +36,10 @@ import numpy as np
 import scipy.signal
 
 from bearingtwin.config import unknown_bearing_note
-from bearingtwin.data.cwru import parse_cwru_name, recorded_bearing
-from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord, read_raw,
-                                    recording_from_raw, refuse_a_label_the_file_contradicts)
+from bearingtwin.data.cwru import parse_cwru_name
+from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord,
+                                    file_bearing, named_rate_note, read_raw, recording_from_raw,
+                                    refuse_a_label_the_file_contradicts)
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
@@ -88,9 +89,10 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs`` and ``rpm`` fill in what the
     file does not state and must agree with what it does (``fs_key`` and ``rpm_key`` name where they
     came from in a message); ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
-    own (:func:`~bearingtwin.data.cwru.recorded_bearing`: a CWRU or HUST file names it) or else the model's when
-    not given. A measured record whose shaft speed varies is resampled to a steady one (:func:`steadied`; ``order_tracking``: whether to, and the
-    spread of the speed above which), before its rate is checked against the shaft line (:func:`_checked_rate`).
+    own (:func:`~bearingtwin.data.formats.file_bearing`: a CWRU or HUST file names it) or else the model's when
+    not given. A measured record whose shaft speed varies is resampled to a steady one (:func:`steadied`;
+    ``order_tracking``: whether to, and the spread of the speed above which), before its rate is checked against the
+    shaft line (:func:`_checked_rate`).
     """
     raw = read_raw(path)
     channel, channel_note = _channel(raw, channel, pipeline)
@@ -99,7 +101,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     gaps = file_gaps = gaps_by_channel.get(recording.channel, [])  # the file's positions, before tracking moves them
     notes = list(recording.meta["notes"]) + channel_note + recording.quality_notes()
-    named = recorded_bearing(recording)
+    named = file_bearing(recording.meta, recording.channel)
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
     unknown = None if bearing is not None or named is None else unknown_bearing_note(named, "read as the model's")
@@ -146,8 +148,8 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, 
                     ) -> tuple[Recording, list[str], str, dict | None, list[tuple[int, int]]]:
     """A measured record steadied where its shaft speed varies (:func:`steadied`), its rate checked against the shaft
     line (:func:`_checked_rate`; ``given_as``: the setting a rate was given as, None where none was, so that one the
-    file merely declares may be corrected): the record, the notes, the rate check's verdict, the speed as read (None where none was known or
-    the record is the twin's) and the ``gaps`` (``(start, length)`` samples) where steadying moved them. A record
+    file merely declares may be corrected): the record, the notes, the rate check's verdict, the speed as read (None
+    where none was known or the record is the twin's) and the ``gaps`` (``(start, length)`` samples) where steadying moved them. A record
     without a speed, or a simulation, is said to be read without the check."""
     notes, rate_check, speed = [], "not checked", None
     if recording.rpm is None and recording.meta.get("no_speed"):
@@ -434,12 +436,11 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
         doubt = [f"sampling rate unconfirmed: {describe_mismatch(declared)}"]
     else:
         doubt = []
+    against_name = named_rate_note(recording.meta, recording.fs, given_as) if given_as else None
     named_hz = (recording.meta.get("named_rate") or {}).get("hz")
-    if (given_as and declared.verdict == "contradicted" and named_hz and named_hz != recording.fs
-            and _matches(checks, named_hz)):
-        raise BearingTwinError(f"{recording.source}: {given_as}={recording.fs:g} Hz given, where "
-                               f"{recording.meta['named_rate']['by']} {named_hz:g} Hz, and the shaft line stands where it "
-                               f"belongs at {named_hz:g} Hz, not at {recording.fs:g} Hz: leave {given_as} out for this file")
+    if against_name and declared.verdict == "contradicted" and _matches(checks, named_hz):
+        raise BearingTwinError(f"{recording.source}: {against_name}, and the shaft line stands where it belongs at "
+                               f"{named_hz:g} Hz, not at {recording.fs:g} Hz: give this file no rate (its name's is read)")
     if not declared_only:
         return recording, doubt, declared.verdict
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between

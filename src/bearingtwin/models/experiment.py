@@ -296,10 +296,13 @@ def training_window_level(dataset, train: np.ndarray) -> tuple[float, float] | N
 
 
 def training_records(dataset, train: np.ndarray) -> dict[str, str]:
-    """File name -> SHA-256 of every recorded file the training windows ``train`` come from (a simulated record,
-    known by its simulator key, has none): what a diagnosis needs to say that a record taught the model."""
-    paths = {Path(dataset.records[record]) for record in np.unique(dataset.record_ids[train])}
-    return {path.name: file_digest(path) for path in sorted(paths) if path.is_file()}
+    """Path (from the folder the files share) -> SHA-256 of every recorded file the training windows ``train`` come
+    from (a simulated record, known by its simulator key, has none): what a diagnosis needs to say that a record
+    taught the model. The digests decide; the paths tell a reader which files they were."""
+    paths = sorted({path for record in np.unique(dataset.record_ids[train])
+                    if (path := Path(dataset.records[record]).resolve()).is_file()})
+    shared = Path(os.path.commonpath(paths)) if len(paths) > 1 else None
+    return {(path.relative_to(shared).as_posix() if shared else path.name): file_digest(path) for path in paths}
 
 
 @dataclass(frozen=True)

@@ -33,9 +33,9 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-from omegaconf import OmegaConf
+from omegaconf import OmegaConf, open_dict
 
-from bearingtwin.config import CONF_DIR
+from bearingtwin.config import CONF_DIR, bearing_config, compose_config
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
@@ -135,8 +135,8 @@ class ReportInput:
             if configured is not None:  # a lone run at other settings had stood as the method itself, beside the paper
                 keys += sorted(key for key in _differing_keys([members, [configured]])
                                if key not in differing[method] and key not in PAPER_TABLE_CHOICES)
-            label = [f"{key}={_setting_value(members, key)}" for key in _named_by_group(keys)
-                     if any(key in member for member in members)]
+            label = [f"{key}={_setting_value(members, key)}" for key in keys
+                     if any(key in member for member in members) and not _given_by_bearing_choice(key, members)]
             if label:
                 self.setting_labels[run.info.run_id] = ", ".join(label)
         newest = {}
@@ -171,29 +171,43 @@ RUN_SEED = "__run_seed__"
 """The key of :func:`setting_params` that holds the run's own seed, against which its other seeds are read."""
 
 
-def _named_by_group(keys: list[str]) -> list[str]:
-    """``keys`` without the settings of a config group whose choice is among them (``bearing.name=cwru_6203`` stands
-    for that bearing's diameters and ball count, which its config gives)."""
-    chosen = {key.removesuffix(".name") for key in keys if key.endswith(".name")}
-    return [key for key in keys if key.endswith(".name") or key.rpartition(".")[0] not in chosen]
+def _given_by_bearing_choice(key: str, members: list[dict[str, str]]) -> bool:
+    """Whether ``key`` is a bearing setting whose value in every run of a setting is its chosen bearing's own
+    (``bearing.name=cwru_6203`` stands for that bearing's diameters and ball count; a ball count changed beside
+    it stays in the label)."""
+    if not key.startswith("bearing.") or key == "bearing.name":
+        return False
+    names = {member.get("bearing.name") for member in members}
+    if len(names) != 1 or None in names:
+        return False
+    try:
+        own = flatten(bearing_config(names.pop()), "bearing.")
+    except BearingTwinError:  # a bearing of its user's own, not on this search path: its settings are named
+        return False
+    return all(key in own and _same_value(member[key], own[key]) for member in members if key in member)
 
 
 PAPER_TABLE_CHOICES = ("features.vmd_params",)
 """Settings a report beside the paper chooses its runs by (``vmd_params=``): said in its title, not in each row."""
 
 
-@functools.lru_cache(maxsize=None)
 def configured_setting(method: str) -> dict[str, str] | None:
     """The setting (:func:`setting_params`) of a Table 4 ``method`` (``sabo_vmd_pemie+svm``) as ``conf/method/``
     configures it, read as its training run logs it; None for a method no config there composes."""
-    from hydra import compose, initialize_config_dir
+    return _configured_settings().get(method)
 
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
-        for path in sorted((Path(CONF_DIR) / "method").glob("*.yaml")):
-            overrides = [f"+method={path.stem}"]
-            if method_name(compose("train", overrides, return_hydra_config=True).hydra.runtime.choices) == method:
-                return params_setting(flatten(loggable_config(compose("train", overrides))))
-    return None
+
+@functools.lru_cache(maxsize=None)
+def _configured_settings() -> dict[str, dict[str, str]]:
+    """Method name -> its setting as ``conf/method/<file>`` composed into the train config gives it."""
+    settings = {}
+    for path in sorted((Path(CONF_DIR) / "method").glob("*.yaml")):
+        cfg = compose_config("train", [f"+method={path.stem}"], hydra_node=True)
+        method = method_name(cfg.hydra.runtime.choices)
+        with open_dict(cfg):
+            del cfg["hydra"]  # Hydra's node resolves only in a running job; a run logs none of it
+        settings[method] = params_setting(flatten(loggable_config(cfg)))
+    return settings
 
 
 def setting_params(run) -> dict[str, str]:
@@ -222,6 +236,17 @@ def params_setting(logged: dict[str, str]) -> dict[str, str]:
             "effects": " ".join(f"{name}({', '.join(values)})" for name, values in effects.items()) or "{}"}
 
 
+def _same_value(logged: str, other: str) -> bool:
+    """Whether two logged values are one: the same text, or the same number however written (``data.fs=10000`` on
+    the command line logs ``10000``, the config's default ``10000.0``)."""
+    if logged == other:
+        return True
+    try:
+        return float(logged) == float(other)
+    except ValueError:
+        return False
+
+
 def _follows(params: dict[str, str], key: str) -> bool:
     """Whether ``key`` is a seed that follows the run's own (``data.twin.seed: ${seed}``): such seeds differ from run
     to run of one setting, as the run seeds do."""
@@ -232,7 +257,7 @@ def _same_setting(params: dict[str, str], other: dict[str, str], exact: bool = F
     """Whether two runs share a setting: every param both logged is the same, or (unless ``exact``) is a seed that
     follows each run's own (a param one run's code did not have yet, its default then, is no difference). A seed held
     fixed (``features.seed=0`` under seeds 0-4) is a setting: a run at ``features.seed=7`` is another row, not a seed."""
-    return all(other[key] == value or (not exact and _follows(params, key) and _follows(other, key))
+    return all(_same_value(other[key], value) or (not exact and _follows(params, key) and _follows(other, key))
                for key, value in params.items() if key in other and key != RUN_SEED)
 
 
@@ -241,7 +266,7 @@ def _differing_keys(settings: list[list[dict[str, str]]]) -> set[str]:
     follow their runs' own aside."""
     keys = {key for members in settings for params in members for key in params if key != RUN_SEED}
     return {key for key in keys for i, first in enumerate(settings) for second in settings[i + 1:]
-            if any(a[key] != b[key] and not (_follows(a, key) and _follows(b, key))
+            if any(not _same_value(a[key], b[key]) and not (_follows(a, key) and _follows(b, key))
                    for a in first if key in a for b in second if key in b)}
 
 
@@ -249,8 +274,8 @@ def _setting_value(members: list[dict[str, str]], key: str) -> str:
     """A setting's value of ``key`` for its row's label: the one its runs share, or ``${seed}`` for a seed that follows
     each run's own."""
     values = {member[key] for member in members if key in member}
-    if len(values) == 1:
-        return values.pop()
+    if len(values) == 1 or all(_same_value(value, min(values)) for value in values):  # 12000 and 12000.0 alike
+        return min(values)
     return "${seed}" if all(_follows(member, key) for member in members if key in member) else "/".join(sorted(values))
 
 

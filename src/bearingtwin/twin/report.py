@@ -22,9 +22,8 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
 from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
                                 unknown_bearing_note)
-from bearingtwin.data.cwru import recorded_bearing
-from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, read_raw, recording_from_raw, same_speed,
-                                    speed_setting)
+from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, read_raw,
+                                    recording_from_raw, same_speed, speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -144,15 +143,15 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
     """The ``twin`` config with the bearing the record was made on, and the line the closing summary gives it
     (None when there is nothing to say: the record names no bearing, or the one chosen).
 
-    A record that names its bearing (:func:`~bearingtwin.data.cwru.recorded_bearing`) is read with it: when no bearing was chosen
-    (:func:`bearing_chosen`), that bearing's config replaces the default's (a line says so); a bearing chosen that
+    A record that names its bearing (:func:`~bearingtwin.data.formats.file_bearing`) is read with it: when no bearing
+    was chosen (:func:`bearing_chosen`), that bearing's config replaces the default's (a line says so); a bearing chosen that
     is neither the record's by name nor of its geometry (the fields a reference's bearing is compared by,
     :func:`~bearingtwin.twin.reference.geometry_difference`) is refused, naming both, before a run opens or anything is
     written: the twin would be calibrated to another bearing's defect frequencies. A bearing the record names that
     no ``conf/bearing`` config describes cannot be read: the twin's stays, and the doubt is logged and returned.
     """
     path, ours = cfg.measured.path, cfg.bearing.get("name")
-    named = recorded_bearing(measured)
+    named = file_bearing(measured.meta, measured.channel)
     if named is None or named == ours:
         return cfg, None
     chosen = bearing_chosen(cfg)
