@@ -135,3 +135,21 @@ def test_a_report_missing_what_a_reference_gives_is_named(tmp_path, change, mess
         read_reference(path)
     path.write_text(json.dumps(report()))
     assert read_reference(path)["operating_point"]["radial_load_n"]["value"] == 650.0
+
+
+def test_an_earlier_runs_out_folder_names_its_report(tmp_path):
+    """reference=<out> of the earlier run had been refused as "no such file"; the folder's twin_report.json is read,
+    and an out= that is that folder is still refused."""
+    import json
+
+    from bearingtwin.twin.reference import read_reference, refuse_reference_folder
+
+    (tmp_path / "earlier").mkdir()
+    (tmp_path / "earlier" / "twin_report.json").write_text(json.dumps(report()))
+    assert read_reference(tmp_path / "earlier")["operating_point"]["radial_load_n"]["value"] == 650.0
+    with pytest.raises(BearingTwinError, match=rf"^reference={tmp_path}/empty/twin_report.json: no such file"):
+        (tmp_path / "empty").mkdir()
+        read_reference(tmp_path / "empty")
+    with pytest.raises(BearingTwinError, match="is the folder of reference="):
+        refuse_reference_folder(tmp_path / "earlier", tmp_path / "earlier")
+    refuse_reference_folder(tmp_path / "earlier", tmp_path / "later")

@@ -30,10 +30,17 @@ from bearingtwin.physics.simulator import CHANNELS
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, RACES
 
 
+def reference_file(reference) -> Path:
+    """The report ``reference=`` names: the file given, or the ``twin_report.json`` of an earlier run's ``out=``
+    folder given instead."""
+    path = Path(str(reference)).expanduser()
+    return path / "twin_report.json" if path.is_dir() else path
+
+
 def read_reference(path) -> dict:
-    """The ``twin_report.json`` at ``path``, checked to hold what a reference gives: an operating point
-    of numbers with the sensor's race and direction, and the final twin's effects."""
-    path = Path(str(path)).expanduser()
+    """The ``twin_report.json`` at ``path`` (or in that folder), checked to hold what a reference gives: an
+    operating point of numbers with the sensor's race and direction, and the final twin's effects."""
+    path = reference_file(path)
     where = f"reference={path}"
     if not path.is_file():
         raise BearingTwinError(f"{where}: no such file (give the twin_report.json of an earlier bearingtwin-twin run)")
@@ -99,7 +106,7 @@ def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str 
 def refuse_reference_folder(reference, out: Path) -> None:
     """Refuse an ``out=`` folder that holds the reference's report: this run would write its own report and
     figures over the reference's."""
-    reference = Path(str(reference)).expanduser().resolve()
+    reference = reference_file(reference).resolve()
     if reference.parent == out.expanduser().resolve():
         raise BearingTwinError(f"out={out} is the folder of reference={reference}: this run's report and figures "
                                "would overwrite the reference's; give this run a folder of its own")
