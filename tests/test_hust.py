@@ -233,3 +233,14 @@ def test_a_label_calling_a_combined_damage_export_one_state_is_refused(tmp_path)
                                                r"states inner and outer races damaged together \(C in its name\)"):
         load_recording(tmp_path / "0.5X_C_65Hz.xls", channel="X", fault="outer", fault_key="the labels row's state")
     assert load_recording(tmp_path / "0.5X_C_65Hz.xls", channel="X").fault is None
+
+
+def test_inspect_reads_the_axes_and_lists_the_speed_column_without_checking_it():
+    """The exports' speed column holds zeros: inspect had checked the rate on it and called it a dead channel."""
+    from bearingtwin.cli.inspect import summarize
+
+    summary = summarize(FIXTURES / "hust" / "0.5X_O_65Hz.xls")
+    assert summary["channels"] == ["speed", "X", "Y", "Z"] and summary["nan_count"]["speed"] == 0
+    assert "speed" not in summary["quality"] and "speed" not in summary["shaft_speed"]
+    check = summary["shaft_line_check"]
+    assert check["channel"] == "X" and "speed" not in check.get("channels", {}), check

@@ -76,7 +76,10 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
             bearing, bearing_name = load_bearing(str(named)), str(named)
     elif named and bearing_name and str(named) != bearing_name:  # as diagnose says it; the twin refuses it
         bearing_note = f"bearing={bearing_name} given, where the file names {named}: its defect lines are {bearing_name}'s"
-    names = [raw.channel(channel)[0]] if channel is not None else list(raw.channels)
+    # A column that is no vibration (a HUST export's speed column, every sample 0) is listed, never read as one.
+    vibration = {name: values for name, values in raw.channels.items() if name not in raw.meta.get("not_vibration", {})}
+    names = [raw.channel(channel)[0]] if channel is not None else list(vibration) or list(raw.channels)
+    listed = names if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
     # replaces one the file merely declares; a speed there or given is the file's measured one where within 1 % of it,
     # refused further off; a state there must agree with the file's.
@@ -116,8 +119,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "unit": unit,
         "n_samples": n_samples,
         "duration_s": None if fs_hz is None or isinstance(n_samples, dict) else n_samples / fs_hz,
-        "nan_count": {name: int(np.count_nonzero(np.isnan(raw.channels[name]))) for name in names},
-        "inf_count": {name: int(np.count_nonzero(np.isinf(raw.channels[name]))) for name in names},
+        # Of every column read, a speed column's too (a file fact); the checks below read the vibration alone.
+        "nan_count": {name: int(np.count_nonzero(np.isnan(raw.channels[name]))) for name in listed},
+        "inf_count": {name: int(np.count_nonzero(np.isinf(raw.channels[name]))) for name in listed},
         "meta": {key: value for key, value in raw.meta.items() if key != "header"},
     }
     if rpm_origin == "nominal":
@@ -138,7 +142,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         signal = raw.channels[names[0]]
         defect_hz = None if bearing is None else bearing.defect_frequencies(rpm)
         try:
-            checks = check_channels(rate_witnesses(signal, raw.channels), fs_hz, rpm, defect_hz=defect_hz)
+            checks = check_channels(rate_witnesses(signal, vibration), fs_hz, rpm, defect_hz=defect_hz)
             decisive = decisive_channel(checks)
             summary["shaft_line_check"] = dict(checks[decisive].as_dict(), channel=decisive,
                                                channels={name: check.verdict for name, check in checks.items()})
