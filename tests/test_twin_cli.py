@@ -388,6 +388,10 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
     assert held["defect_depth_mm"] == {"value": first["operating_point"]["defect_depth_mm"]["value"], "unit": "mm",
                                        "held": True}
     assert held["sensor"]["angle_deg"] == first["operating_point"]["sensor"]["angle_deg"] and held["sensor"]["held"]
+    # The direction was left to fit and the reference filled it in: marked where the reference's record fitted any.
+    unmarked = not first["operating_point"]["sensor"].get("every_direction_fits")
+    assert held["sensor"].get("identified_by_reference", True) is unmarked
+    assert f"sensor {held['sensor']['value']}{'' if unmarked else ' (not identified by the reference record)'}" in result.stdout
     assert [entry["effect"] for entry in report["ranking"]] == ["unbalance", "resonance"]
     assert report["ranking"][1]["changed_from"] == first["steps"][-1]["params"]["resonance"]
     assert report["added"] == ["unbalance"]
@@ -481,6 +485,19 @@ def test_a_value_held_from_a_reference_that_did_not_identify_it_is_marked():
     assert "identified_by_reference" not in operating["clearance_um"]  # the user gave it
     assert "identified_by_reference" not in operating["defect_depth_mm"]  # the reference identified it
     assert "identified_by_reference" not in operating["defect_width_mm"]  # fitted here, not held
+    # Nearly any value fitting is as good as none (the summary's "hardly identified"); a sensor direction every
+    # direction fitted for is one, held when only its race was given.
+    hardly = {"value": 0.5, "interval": [0.1, 1.6], "range": [0.1, 2.0], "scale": "log"}
+    sensor = {"value": "outer race, vertical", "race": "outer", "angle_deg": 90.0, "interval": [0.0, 180.0],
+              "every_direction_fits": True}
+    held = {"defect_width_mm": {"value": 0.5, "unit": "mm", "held": True},
+            "sensor": {"value": "outer race, vertical", "held": True}}
+    mark_unidentified_by_reference(held, {"defect_width_mm": hardly, "sensor": sensor},
+                                   taken={"defect_width_mm", "sensor_angle_deg"})
+    assert held["defect_width_mm"]["identified_by_reference"] is False and held["sensor"]["identified_by_reference"] is False
+    given = {"sensor": {"value": "outer race, vertical", "held": True}}  # operating_point.sensor_angle_deg=90 given
+    mark_unidentified_by_reference(given, {"sensor": sensor}, taken=set())
+    assert "identified_by_reference" not in given["sensor"]
 
 
 @pytest.mark.parametrize("content, message", [

@@ -449,6 +449,23 @@ def not_identified(entry: Mapping) -> bool:
     return interval[0] <= low + slack and interval[1] >= high - slack
 
 
+def interval_share(entry: Mapping) -> float:
+    """The share of its search range a fitted base parameter's interval covers, on the range's own scale (0 in
+    reports older than the ``scale`` key, and where there is no interval: none claimed)."""
+    search, interval = entry.get("range"), entry.get("interval")
+    if not search or not interval or not entry.get("scale"):
+        return 0.0
+    bounds = (search[0], search[1], entry["scale"] == "log")
+    return to_unit(bounds, interval[1]) - to_unit(bounds, interval[0])
+
+
+def hardly_identified(entry: Mapping) -> bool:
+    """Whether a fitted operating-point value means little: any value in its search range fits as well, or nearly
+    any (:data:`HARDLY_IDENTIFIED_SHARE`), or, for the sensor, any direction."""
+    return (not_identified(entry) or interval_share(entry) >= HARDLY_IDENTIFIED_SHARE
+            or sensor_not_identified(entry) or bool(entry.get("every_direction_fits")))
+
+
 def identification_words(entry: Mapping) -> str:
     """What a fitted base parameter's interval says against its search range: nothing when it is inside, else that
     the value sits at an edge of the range, or that any value (or nearly any) in the range fits: then the number
@@ -459,9 +476,7 @@ def identification_words(entry: Mapping) -> str:
     low, high = search
     if not_identified(entry):
         return f", not identified: anywhere in the searched {_span(low, high)} fits as well"
-    bounds = (low, high, entry.get("scale") == "log")
-    # the share of the range on its own scale (unknown in reports older than the key: none claimed)
-    share = to_unit(bounds, interval[1]) - to_unit(bounds, interval[0]) if entry.get("scale") else 0.0
+    share = interval_share(entry)
     if share >= HARDLY_IDENTIFIED_SHARE:
         # rounded down: an interval short of the whole range never reads "100 %"
         return f", hardly identified: its interval covers {math.floor(100 * share)}% of the searched {_span(low, high)}"

@@ -35,7 +35,7 @@ from bearingtwin.storage import file_digest
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, OperatingPoint
-from bearingtwin.twin.rank import EffectRanker, TwinFit, not_identified, view_floors, views_beyond_floor
+from bearingtwin.twin.rank import EffectRanker, TwinFit, hardly_identified, view_floors, views_beyond_floor
 from bearingtwin.twin.reference import (geometry_difference, hold_reference, read_reference, refuse_reference_folder,
                                         rig_geometry)
 
@@ -480,12 +480,14 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
 
 def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set[str]) -> None:
     """Mark the held values (``identified_by_reference: false``) that came from a reference whose own record did
-    not identify them (any value in its searched range fitted as well): numbers that mean little. ``taken``: the
-    names this run's config left to fit, which the reference filled in (a value a user gives is not marked)."""
+    not identify them (any value, or nearly any, in its searched range fitted as well; for the sensor, any
+    direction): numbers that mean little. ``taken``: the names this run's config left to fit, which the reference
+    filled in (a value a user gives is not marked; the sensor's is its direction, ``sensor_angle_deg``)."""
     for name, entry in operating.items():
         before = earlier.get(name)
-        if entry.get("held") and name in taken and isinstance(before, Mapping) and (
-                not_identified(before) or before.get("identified_by_reference") is False):  # or held unidentified there
+        left_to_fit = name in taken or name == "sensor" and "sensor_angle_deg" in taken
+        if entry.get("held") and left_to_fit and isinstance(before, Mapping) and (
+                hardly_identified(before) or before.get("identified_by_reference") is False):  # or held so there
             entry["identified_by_reference"] = False
 
 
