@@ -206,6 +206,24 @@ def test_unknown_effect_and_bad_parameters_are_named():
     assert all(_REGISTRY[name].__module__ == lib.__name__ for name in LIBRARY)
 
 
+@pytest.mark.parametrize("effect", [{"resonance": {"natural_frequency_hz": 3000.0, "damping_ratio": 0.05}},
+                                    {"structural_mode": {"natural_frequency_hz": 3000.0, "damping_ratio": 0.05,
+                                                         "level_db": 10.0}}])
+def test_a_mode_above_nyquist_is_refused_before_the_solver_runs(effect, monkeypatch):
+    """At fs = 2 kHz a 3 kHz mode cannot ring: refused before the solver's minutes, not after them."""
+    from hydra import compose, initialize_config_dir
+
+    from bearingtwin.physics import simulator
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("simulate", overrides=["simulator.fs=2000", "simulator.duration=0.2"])
+    monkeypatch.setattr(simulator, "static_equilibrium", lambda *args: pytest.fail("the solver's set-up ran"))
+    name = next(iter(effect))
+    with pytest.raises(BearingTwinError, match=rf"^{name}.natural_frequency_hz=3000.0 must lie below the Nyquist "
+                                               r"frequency 1000.0 Hz$"):
+        simulator.simulate("outer", cfg.bearing, cfg.simulator, effect)
+
+
 def test_lubricated_contacts_damp_the_impacts_in_both_solvers():
     """The contact-damping extension of the hook: both solvers agree, and the film drains the contact modes."""
     from hydra import compose, initialize_config_dir

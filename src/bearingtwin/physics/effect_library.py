@@ -82,6 +82,14 @@ def mode_band_pass(x: np.ndarray, fs: float, natural_frequency_hz: float, dampin
     return _second_order_filter(x, fs, natural_frequency_hz, damping_ratio, effect, base_excitation=False)
 
 
+def _below_nyquist(natural_frequency_hz: float, fs: float, effect: str) -> None:
+    """Refuse a mode at or above the Nyquist frequency of ``fs`` (Hz): no digital filter rings there."""
+    if natural_frequency_hz >= fs / 2:
+        raise BearingTwinError(
+            f"{effect}.natural_frequency_hz={natural_frequency_hz} must lie below the Nyquist frequency {fs / 2} Hz"
+        )
+
+
 def _second_order_filter(x: np.ndarray, fs: float, natural_frequency_hz: float, damping_ratio: float, effect: str,
                          base_excitation: bool) -> np.ndarray:
     """(2 zeta wn s + [wn^2 if base_excitation]) / (s^2 + 2 zeta wn s + wn^2), digitised by the bilinear
@@ -90,10 +98,7 @@ def _second_order_filter(x: np.ndarray, fs: float, natural_frequency_hz: float, 
     fs = _positive("fs", fs)
     natural_frequency_hz = _positive(f"{effect}.natural_frequency_hz", natural_frequency_hz)
     damping_ratio = _positive(f"{effect}.damping_ratio", damping_ratio)
-    if natural_frequency_hz >= fs / 2:
-        raise BearingTwinError(
-            f"{effect}.natural_frequency_hz={natural_frequency_hz} must lie below the Nyquist frequency {fs / 2} Hz"
-        )
+    _below_nyquist(natural_frequency_hz, fs, effect)
     wn = 2 * math.pi * natural_frequency_hz
     k = wn / math.tan(wn / (2 * fs))
     b1, b0 = 2 * damping_ratio * wn, (wn**2 if base_excitation else 0.0)
@@ -370,6 +375,9 @@ class Resonance(Effect):
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         return base_excitation_filter(signal, fs, self.natural_frequency_hz, self.damping_ratio, self.name)
 
+    def check_rate(self, fs: float) -> None:
+        _below_nyquist(self.natural_frequency_hz, fs, self.name)
+
     @classmethod
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:
         """The mode where the measurement's PSD stands highest over the twin's, and its width.
@@ -439,6 +447,9 @@ class StructuralMode(Effect):
     def modify_signal(self, signal: np.ndarray, fs: float, rng: np.random.Generator, shaft_hz: float) -> np.ndarray:
         mode = mode_band_pass(signal, fs, self.natural_frequency_hz, self.damping_ratio, self.name)
         return signal + 10 ** (self.level_db / 20.0) * mode
+
+    def check_rate(self, fs: float) -> None:
+        _below_nyquist(self.natural_frequency_hz, fs, self.name)
 
     @classmethod
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:

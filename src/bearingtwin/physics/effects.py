@@ -114,6 +114,10 @@ class Effect:
         """The sensor signal sampled at ``fs`` (Hz) with a shaft turning at ``shaft_hz`` (Hz)."""
         return signal
 
+    def check_rate(self, fs: float) -> None:
+        """Refuse a sampling rate ``fs`` (Hz) the effect cannot act at (a mode above Nyquist), before the solver
+        runs: ``modify_signal`` would refuse it only after the simulation."""
+
 
 def sensor_only(effect: "Effect | type[Effect]") -> bool:
     """Whether an effect (instance or class) acts on the sensor path alone: it overrides neither

@@ -198,6 +198,8 @@ def _plan(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_cfg:
     geometry = BearingGeometry.from_config(bearing_cfg)
     _check_resolves_fault(fault, geometry, rpm, fs, float(simulator_cfg["duration"]))
     effects = build_effects(effects_cfg)
+    for effect in effects:  # before the solver's minutes, not after them
+        effect.check_rate(fs)
 
     params = DynamicParameters.from_config(bearing_cfg, simulator_cfg)
     for effect in effects:
