@@ -104,7 +104,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     fault = resolve_fact(raw, "fault", raw.fault, table_state, f"{table}: state")
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
-    units = {name: raw.channel_units.get(name, raw.unit) for name in names}  # one, or each channel's where they differ
+    units = {name: raw.channel_units.get(name, raw.unit) for name in listed}  # one, or each channel's where they differ
     unit = (next(iter(units.values()), "") or None) if len(set(units.values())) <= 1 else units
     summary = {
         "file": raw.path,
@@ -119,7 +119,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "unit": unit,
         "n_samples": n_samples,
         "duration_s": None if fs_hz is None or isinstance(n_samples, dict) else n_samples / fs_hz,
-        # Of every column read, a speed column's too (a file fact); the checks below read the vibration alone.
+        # Of every column read, a speed column's too (file facts, as the units above); the checks below read the
+        # vibration alone.
         "nan_count": {name: int(np.count_nonzero(np.isnan(raw.channels[name]))) for name in listed},
         "inf_count": {name: int(np.count_nonzero(np.isinf(raw.channels[name]))) for name in listed},
         "meta": {key: value for key, value in raw.meta.items() if key != "header"},
