@@ -63,9 +63,9 @@ class DiagnosisPipeline:
             the levels the classifier has seen; None when the windows are normalized (any level is alike).
         physics_first: where the envelope spectrum leaves no doubt, it decides the window instead of the
             classifier (:class:`PhysicsFirst`); None: the classifier decides every window.
-        training_records: file name -> SHA-256 of its contents, for every recorded file whose windows the
-            classifier was trained on (none for simulated data): a diagnosis of such a file, under any name, is no
-            test of the model.
+        training_records: path (from the folder the files share) -> SHA-256 of its contents, for every recorded
+            file whose windows the classifier was trained on (none for simulated data): a diagnosis of such a file,
+            under any name, is no test of the model.
     """
 
     extractor: object

@@ -149,8 +149,8 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, 
     """A measured record steadied where its shaft speed varies (:func:`steadied`), its rate checked against the shaft
     line (:func:`_checked_rate`; ``given_as``: the setting a rate was given as, None where none was, so that one the
     file merely declares may be corrected): the record, the notes, the rate check's verdict, the speed as read (None
-    where none was known or the record is the twin's) and the ``gaps`` (``(start, length)`` samples) where steadying moved them. A record
-    without a speed, or a simulation, is said to be read without the check."""
+    where none was known or the record is the twin's) and the ``gaps`` (``(start, length)`` samples) where steadying
+    moved them. A record without a speed, or a simulation, is said to be read without the check."""
     notes, rate_check, speed = [], "not checked", None
     if recording.rpm is None and recording.meta.get("no_speed"):
         notes.append(f"the file is {recording.meta['no_speed']}: no physics evidence and no rate check")
@@ -175,7 +175,6 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, 
         recording, rate_notes, rate_check = _checked_rate(dataclasses.replace(recording, rpm=speed["stated_rpm"]),
                                                           record_bearing,
                                                           channels={} if speed["tracked"] else raw.channels,
-                                                          declared_only=given_as is None and raw.fs_origin == "declared",
                                                           given_as=given_as)
         recording = dataclasses.replace(recording, rpm=steady_rpm)
         notes += rate_notes
@@ -396,8 +395,8 @@ def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dic
 
 
 @shared_transforms()  # every rate tried reads the same channels
-def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
-                  channels: dict[str, np.ndarray], given_as: str | None = None) -> tuple[Recording, list[str], str]:
+def _checked_rate(recording: Recording, bearing: dict, channels: dict[str, np.ndarray],
+                  given_as: str | None = None) -> tuple[Recording, list[str], str]:
     """The recording after the sampling-rate check (shaft series, and the bearing's defect lines as a
     second witness), what the check said, and its verdict (:attr:`PreparedRecord.rate_check`). Every channel of the file is a witness
     (:func:`check_channels`): a fan-end accelerometer may show the shaft series too weakly, the
@@ -441,7 +440,7 @@ def _checked_rate(recording: Recording, bearing: dict, declared_only: bool,
     if against_name and declared.verdict == "contradicted" and _matches(checks, named_hz):
         raise BearingTwinError(f"{recording.source}: {against_name}, and the shaft line stands where it belongs at "
                                f"{named_hz:g} Hz, not at {recording.fs:g} Hz: give this file no rate (its name's is read)")
-    if not declared_only:
+    if given_as or recording.meta.get("fs_origin") != "declared":  # a rate given, or one the file itself states
         return recording, doubt, declared.verdict
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between
     # lines (a machine's half orders) may leave the higher rate's verdict ambiguous, never contradicted. A lower

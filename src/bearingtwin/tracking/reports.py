@@ -126,11 +126,11 @@ class ReportInput:
                 members_of[run.info.run_id] = settings[index]
             differing.setdefault(method, set()).update(_differing_keys(settings))
         # Labelled alike in every cell of the method (each split, each load), so that rows of one setting pair up.
+        simulated = self.settings.get("source", "simulated") == "simulated"  # the data of the paper's tables
         for run in found:
             method = run.data.tags.get("method")
             keys = sorted(differing[method])
             members = members_of[run.info.run_id]
-            simulated = self.settings.get("source", "simulated") == "simulated"  # the data of the paper's tables
             configured = configured_setting(method) if beside_paper and simulated else None
             if configured is not None:  # a lone run at other settings had stood as the method itself, beside the paper
                 keys += sorted(key for key in _differing_keys([members, [configured]])
@@ -180,11 +180,20 @@ def _given_by_bearing_choice(key: str, members: list[dict[str, str]]) -> bool:
     names = {member.get("bearing.name") for member in members}
     if len(names) != 1 or None in names:
         return False
+    own = _bearing_settings(names.pop())
+    return own is not None and all(key in own and _same_value(member[key], own[key])
+                                   for member in members if key in member)
+
+
+@functools.lru_cache(maxsize=None)
+def _bearing_settings(name: str) -> dict[str, str] | None:
+    """``conf/bearing/<name>.yaml``'s settings as a run logs them (``bearing.n_balls``: ``"9"``), composed once per
+    report however many runs and keys ask; None for a bearing of its user's own, not on this search path (its
+    settings are then named)."""
     try:
-        own = flatten(bearing_config(names.pop()), "bearing.")
-    except BearingTwinError:  # a bearing of its user's own, not on this search path: its settings are named
-        return False
-    return all(key in own and _same_value(member[key], own[key]) for member in members if key in member)
+        return flatten(bearing_config(name), "bearing.")
+    except BearingTwinError:
+        return None
 
 
 PAPER_TABLE_CHOICES = ("features.vmd_params",)
