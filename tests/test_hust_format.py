@@ -15,6 +15,7 @@ from bearingtwin.data.formats import read_raw
 from bearingtwin.data.hust import load_hust
 from bearingtwin.data.real import build_hust_dataset
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.signal.sampling_rate import rate_witnesses
 
 HUST = Path(__file__).parent / "fixtures" / "hust"
 OUTER = HUST / "0.5X_O_65Hz.xls"
@@ -200,3 +201,12 @@ def test_inspect_and_diagnose_say_why_an_export_under_another_name_has_no_speed(
                                   "in the rpm column of a labels.csv beside it)")
     given = read_record(path, pipeline, channel="X", rpm=3900)  # the speed given: read at it, the name note stays
     assert given.recording.rpm == 3900 and not any("states no shaft speed" in note for note in given.notes)
+
+
+def test_the_speed_column_of_a_hust_export_witnesses_no_rate():
+    """The export's speed column (every sample 0) is listed, but the rate check's witnesses are its vibration
+    channels alone: a flat column has no shaft line to confirm or contradict a rate with."""
+    raw = read_raw(OUTER)
+    assert list(raw.channels) == ["speed", "X", "Y", "Z"] and not np.any(raw.channels["speed"])
+    assert list(raw.vibration_channels) == ["X", "Y", "Z"]
+    assert list(rate_witnesses(raw.channels["X"], raw.vibration_channels)) == ["X", "Y", "Z"]

@@ -258,3 +258,26 @@ def test_how_steadily_the_shaft_turned_is_reported_per_channel(capsys, monkeypat
     for name in ("vib", "tach"):
         assert speeds[name]["unsteady"] and speeds[name]["spread"] == pytest.approx(0.08, abs=0.015), speeds[name]
         assert speeds[name]["median_rpm"] == pytest.approx(RPM, rel=0.02)
+
+
+def test_levels_of_each_vibration_channel(capsys, monkeypatch, tmp_path):
+    """A sine's crest factor is sqrt(2) and its kurtosis 1.5; Gaussian noise's kurtosis 3; a flat channel has none."""
+    t = np.arange(20000) / 10000.0
+    noise = np.random.default_rng(0).normal(0.0, 2.0, t.size)
+    path = tmp_path / "x.npy"
+    np.save(path, np.stack([0.5 + 3.0 * np.sin(2 * np.pi * 50.0 * t), noise, np.full(t.size, 4.0)]))
+    code, out, _ = run(capsys, monkeypatch, f"path={path}", "fs=10000")
+    levels = json.loads(out)["levels"]
+    assert code == 0 and set(levels) == {"0", "1", "2"}
+    sine = levels["0"]
+    assert sine["mean"] == pytest.approx(0.5, abs=1e-9) and sine["peak"] == pytest.approx(3.5, rel=1e-6)
+    assert sine["rms"] == pytest.approx(np.sqrt(0.25 + 4.5), rel=1e-9)
+    assert sine["crest_factor"] == pytest.approx(3.5 / np.sqrt(4.75), rel=1e-6)
+    assert sine["kurtosis"] == pytest.approx(1.5, rel=1e-3)
+    assert levels["1"]["kurtosis"] == pytest.approx(3.0, abs=0.15) and levels["1"]["rms"] == pytest.approx(2.0, rel=0.02)
+    assert levels["2"] is None
+
+
+def test_levels_leave_out_a_hust_exports_speed_column(capsys, monkeypatch):
+    code, out, _ = run(capsys, monkeypatch, f"path={HUST / '0.5X_O_65Hz.xls'}")
+    assert code == 0 and list(json.loads(out)["levels"]) == ["X", "Y", "Z"]

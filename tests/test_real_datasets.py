@@ -1,6 +1,7 @@
 """Datasets from real records: CWRU (real files) and HUST (fixtures), labels as FAULTS indices,
 honest block splits versus the paper's leaky random split."""
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -106,9 +107,25 @@ def test_hust_missing_files_are_listed(tmp_path):
     assert "needs H_60Hz.xls, 0.5X_I_60Hz.xls" in message and "data.root=<dir>" in message
 
 
-def test_hust_record_shorter_than_a_window_is_named():
-    with pytest.raises(BearingTwinError, match="H_65Hz.xls: 1280 samples, shorter than one window of 2048"):
+def test_hust_record_shorter_than_a_window_is_named_with_the_window_it_holds():
+    with pytest.raises(BearingTwinError) as error:
         build_hust_dataset(data_config("hust", f"data.root={HUST}"))
+    assert str(error.value).endswith("H_65Hz.xls: 1280 samples, shorter than one window of data.window_length=2048; "
+                                     "give data.window_length=1280 or less")
+
+
+def test_more_windows_than_a_record_holds_distinct_are_warned_of(caplog):
+    """1280 samples hold 1280 - 1024 + 1 = 257 windows of 1024 that differ in their start; asking 300 repeats some."""
+    with caplog.at_level(logging.WARNING, logger="bearingtwin"):
+        build_hust_dataset(data_config("hust", f"data.root={HUST}", "data.window_length=1024",
+                                       "data.samples_per_class=300"))
+    assert "1280 samples hold 257 distinct windows of data.window_length=1024, fewer than data.samples_per_class=300" \
+        in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="bearingtwin"):
+        build_hust_dataset(data_config("hust", f"data.root={HUST}", "data.window_length=1024",
+                                       "data.samples_per_class=257"))
+    assert "distinct windows" not in caplog.text
 
 
 @pytest.mark.parametrize("setting, message", [

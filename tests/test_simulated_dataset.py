@@ -84,6 +84,18 @@ def test_records_simulated_before_oversample_existed_keep_their_cache_key():
     assert records_key(data, bearing, {**simulator, "oversample": 4}, None) != records_key(data, bearing, before, None)
 
 
+def test_a_whole_number_typed_with_a_decimal_point_is_the_same_record():
+    """``data.duration=1`` and ``data.duration=1.0`` simulate the same samples: one cache entry, one key."""
+    from bearingtwin.data.simulated import records_key
+
+    bearing = OmegaConf.to_container(BEARING)
+    simulator = OmegaConf.to_container(SIMULATOR)
+    as_int, as_float = ({"rpm": 1797, "fs": 10000, "duration": whole} for whole in (1, 1.0))
+    assert records_key(as_int, bearing, simulator, None) == records_key(as_float, bearing, simulator, None)
+    assert records_key({**as_int, "duration": 1.5}, bearing, simulator, None) != records_key(as_int, bearing, simulator, None)
+    assert records_key({**as_int, "rpm": 1797.5}, bearing, simulator, None) != records_key(as_int, bearing, simulator, None)
+
+
 def test_effects_that_act_in_another_order_are_other_records():
     """A resonance filters a noise floor added before it, not one added after: the cache tells the two apart.
     Clipping acts last wherever it is listed, so its place in the list does not."""

@@ -132,9 +132,21 @@ def content_key(content, length: int = 16) -> str:
     """A stable hex key for JSON-able ``content`` (dict order ignored; non-JSON values by ``str``).
 
     Equal configurations give equal keys in every process and session, which is what lets a
-    sweep's jobs find one another's cached simulations and features.
+    sweep's jobs find one another's cached simulations and features. A whole number is one key however it is
+    typed (``data.duration=1`` and ``data.duration=1.0`` simulate the same record).
     """
-    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()[:length]
+    return hashlib.sha256(json.dumps(_whole_numbers_as_int(content), sort_keys=True, default=str).encode()).hexdigest()[:length]
+
+
+def _whole_numbers_as_int(content):
+    """``content`` with every float that holds a whole number as that int, in its dicts, lists and tuples."""
+    if isinstance(content, float) and content.is_integer():
+        return int(content)
+    if isinstance(content, dict):
+        return {key: _whole_numbers_as_int(value) for key, value in content.items()}
+    if isinstance(content, (list, tuple)):
+        return [_whole_numbers_as_int(value) for value in content]
+    return content
 
 
 PACKAGE = Path(__file__).resolve().parent

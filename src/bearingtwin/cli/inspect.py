@@ -11,7 +11,9 @@ channel's verdict), as the commands that read the file apply it, and ``shaft_spe
 per channel (:func:`shaft_speed`; a channel read null has its reason in ``shaft_speed_not_read``). Whenever the rate
 is known,
 ``quality`` names per channel clipping and dropouts, with where they are (a diagnosis and the twin note them
-for the channel they read, and refuse a dead one), or why a channel was not checked.
+for the channel they read, and refuse a dead one), or why a channel was not checked. ``levels`` gives each vibration
+channel's mean, RMS, peak (largest magnitude), crest factor and kurtosis, in the file's unit (a first look at how
+impulsive a record is: kurtosis 3 for Gaussian noise, far above for a defect's impacts).
 Settings are Hydra overrides, as for every command (``bearingtwin-inspect --help``).
 """
 
@@ -34,6 +36,7 @@ from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE
 from bearingtwin.data.labels import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
 from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
@@ -77,7 +80,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     elif named and bearing_name and str(named) != bearing_name:  # as diagnose says it; the twin refuses it
         bearing_note = f"bearing={bearing_name} given, where the file names {named}: its defect lines are {bearing_name}'s"
     # A column that is no vibration (a HUST export's speed column, every sample 0) is listed, never read as one.
-    vibration = {name: values for name, values in raw.channels.items() if name not in raw.meta.get("not_vibration", {})}
+    vibration = raw.vibration_channels
     names = [raw.channel(channel)[0]] if channel is not None else list(vibration) or list(raw.channels)
     listed = names if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
@@ -123,6 +126,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         # vibration alone.
         "nan_count": {name: int(np.count_nonzero(np.isnan(raw.channels[name]))) for name in listed},
         "inf_count": {name: int(np.count_nonzero(np.isinf(raw.channels[name]))) for name in listed},
+        "levels": levels(raw, names),
         "meta": {key: value for key, value in raw.meta.items() if key != "header"},
     }
     if rpm_origin == "nominal":
@@ -158,6 +162,23 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         if rpm is not None:
             summary["defect_frequencies_hz"] = bearing.defect_frequencies(rpm)
     return summary
+
+
+def levels(raw, names: list[str]) -> dict:
+    """Each of ``names``'s mean, RMS, peak (largest magnitude), crest factor and kurtosis (Pearson's) over its finite
+    samples, as :func:`~bearingtwin.features.time_domain.time_domain_features` computes them; null for a channel with
+    fewer than two finite samples or one value throughout."""
+    read = {}
+    for name in names:
+        values = raw.channels[name]
+        values = values[np.isfinite(values)]
+        if values.size < 2 or np.ptp(values) == 0:
+            read[name] = None
+            continue
+        features = dict(zip(FEATURE_NAMES, time_domain_features(values).tolist()))
+        read[name] = {"mean": features["mean"], "rms": features["rms"], "peak": float(np.max(np.abs(values))),
+                      "crest_factor": features["crest_factor"], "kurtosis": features["kurtosis"]}
+    return read
 
 
 def shaft_speed(raw, names: list[str], fs_hz: float, rpm: float) -> tuple[dict, dict]:

@@ -331,7 +331,7 @@ def load_cwru(
     for note in recording.meta["notes"]:
         log.warning("%s: %s", path, note)
     defect_hz = None if bearing is None else bearing.defect_frequencies(recording.rpm)
-    checks = check_channels(rate_witnesses(recording.signal, raw.channels), recording.fs, recording.rpm, defect_hz=defect_hz, tolerance=tolerance,
+    checks = check_channels(rate_witnesses(recording.signal, raw.vibration_channels), recording.fs, recording.rpm, defect_hz=defect_hz, tolerance=tolerance,
                             prominence=prominence)
     witness = decisive_channel(checks)
     check = checks[witness]

@@ -112,6 +112,13 @@ class RawRecord:
     channel_units: dict[str, str] = field(default_factory=dict)
     fs_unread: str = ""
 
+    @property
+    def vibration_channels(self) -> dict[str, np.ndarray]:
+        """The channels that may hold a vibration: every one but those the format says hold none (a HUST export's
+        speed column, every sample 0), which neither witness a rate nor are read as a record."""
+        not_vibration = self.meta.get("not_vibration", {})
+        return {name: values for name, values in self.channels.items() if name not in not_vibration}
+
     def channel(self, name: str | int | None, key: str = "channel") -> tuple[str, np.ndarray]:
         """The channel called ``name`` (or at position ``name``, or so called without the unit its name states:
         ``FE`` for ``FE (g)``, where that names one channel alone); when ``name`` is None, the format's default
@@ -120,14 +127,14 @@ class RawRecord:
         ``key`` is the setting the caller reads ``name`` from, named in the error messages.
         """
         names = list(self.channels)
-        not_vibration = self.meta.get("not_vibration", {})  # a HUST export's speed column: no signal at all
+        not_vibration = self.meta.get("not_vibration", {})
         two_levels = self.meta.get("two_levels", [])  # a tachometer's pulses, or a sensor saturated most of the time
-        vibration = [channel for channel in names if channel not in not_vibration and channel not in two_levels]
+        vibration = [channel for channel in self.vibration_channels if channel not in two_levels]
         if name is None:
             if self.default_channel in self.channels:
                 return self.default_channel, self.channels[self.default_channel]
             if not vibration:  # only pulses (or a saturated sensor): read, and said to be what they look like
-                vibration = [channel for channel in names if channel not in not_vibration]
+                vibration = list(self.vibration_channels)
             if not vibration:
                 raise BearingTwinError(f"{self.path}: holds no vibration channel "
                                        f"({'; '.join(f'{n} reads {why}' for n, why in not_vibration.items())})")

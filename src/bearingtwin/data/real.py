@@ -211,11 +211,15 @@ def windows_from_recordings(
     if len(rates) != 1:
         listing = ", ".join(f"{Path(r.source).name}: {r.fs:g} Hz" for r in recordings)
         raise BearingTwinError(f"the records have different sampling rates ({listing}); windows would span different times")
-    for recording in recordings:
-        if recording.signal.size < window_length:
-            raise BearingTwinError(
-                f"{recording.source}: {recording.signal.size} samples, shorter than one window of {window_length}"
-            )
+    shortest = min(recordings, key=lambda recording: recording.signal.size)
+    if shortest.signal.size < window_length:
+        raise BearingTwinError(f"{shortest.source}: {shortest.signal.size} samples, shorter than one window of "
+                               f"data.window_length={window_length}; give data.window_length={shortest.signal.size} or less")
+    distinct = shortest.signal.size - window_length + 1  # windows that differ by at least one sample's start
+    if distinct < windows_per_record:
+        log.warning("%s: %d samples hold %d distinct windows of data.window_length=%d, fewer than %s=%d: some windows "
+                    "repeat (a shorter data.window_length or fewer windows per record avoids it)",
+                    shortest.source, shortest.signal.size, distinct, window_length, count_key, windows_per_record)
     check_windows_fit(len(recordings), window_length, windows_per_record, count_key)
     warn_of_quality(recordings)
     converted, unit = in_one_unit(recordings)

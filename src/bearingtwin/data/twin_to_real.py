@@ -635,7 +635,7 @@ def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | 
     recording.require_vibration()
     if check_fs and not stated:  # a rate the labels row or data.fs gives, not the file: the shaft line is its witness
         try:
-            checks = check_channels(rate_witnesses(recording.signal, raw.channels), recording.fs, recording.rpm,
+            checks = check_channels(rate_witnesses(recording.signal, raw.vibration_channels), recording.fs, recording.rpm,
                                     defect_hz=geometry.defect_frequencies(recording.rpm), tolerance=tolerance)
         except BearingTwinError:  # too short to resolve the shaft line: nothing to check the rate by
             return recording

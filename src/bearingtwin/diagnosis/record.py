@@ -174,7 +174,7 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, 
         read_at, steady_rpm = recording.fs, recording.rpm
         recording, rate_notes, rate_check = _checked_rate(dataclasses.replace(recording, rpm=speed["stated_rpm"]),
                                                           record_bearing,
-                                                          channels={} if speed["tracked"] else raw.channels,
+                                                          channels={} if speed["tracked"] else raw.vibration_channels,
                                                           given_as=given_as)
         recording = dataclasses.replace(recording, rpm=steady_rpm)
         notes += rate_notes

@@ -94,7 +94,7 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
     # e.g. a nominal speed the twin will run at; a clipping (which the library's `clipping` may then explain)
     for note in [*recording.meta.get("notes", []), *recording.quality_notes()]:
         log.warning("%s: %s", measured_cfg.path, note)
-    return recording, raw.channels
+    return recording, raw.vibration_channels
 
 
 def check_measurement(measured_cfg, recording: Recording, channels: dict,
