@@ -210,3 +210,13 @@ def test_the_speed_column_of_a_hust_export_witnesses_no_rate():
     assert list(raw.channels) == ["speed", "X", "Y", "Z"] and not np.any(raw.channels["speed"])
     assert list(raw.vibration_channels) == ["X", "Y", "Z"]
     assert list(rate_witnesses(raw.channels["X"], raw.vibration_channels)) == ["X", "Y", "Z"]
+
+
+def test_the_twin_holds_a_hust_export_against_its_vibration_channels_alone():
+    """The channels the twin's rate check reads as witnesses (:func:`read_measurement`'s second value)."""
+    from bearingtwin.twin.report import read_measurement
+
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("twin", overrides=[f"measured.path={OUTER}", "measured.channel=Y", "bearing=er16k"])
+    recording, witnesses = read_measurement(cfg.measured)
+    assert list(witnesses) == ["X", "Y", "Z"] and recording.rpm == 3900

@@ -265,10 +265,12 @@ def test_levels_of_each_vibration_channel(capsys, monkeypatch, tmp_path):
     t = np.arange(20000) / 10000.0
     noise = np.random.default_rng(0).normal(0.0, 2.0, t.size)
     path = tmp_path / "x.npy"
-    np.save(path, np.stack([0.5 + 3.0 * np.sin(2 * np.pi * 50.0 * t), noise, np.full(t.size, 4.0)]))
+    tiny = np.zeros(t.size)
+    tiny[::2] = 1e-160  # a variance below the smallest normal float: constant as far as a kurtosis goes
+    np.save(path, np.stack([0.5 + 3.0 * np.sin(2 * np.pi * 50.0 * t), noise, np.full(t.size, 4.0), tiny]))
     code, out, _ = run(capsys, monkeypatch, f"path={path}", "fs=10000")
     levels = json.loads(out)["levels"]
-    assert code == 0 and set(levels) == {"0", "1", "2"}
+    assert code == 0 and set(levels) == {"0", "1", "2", "3"} and levels["3"] is None
     sine = levels["0"]
     assert sine["mean"] == pytest.approx(0.5, abs=1e-9) and sine["peak"] == pytest.approx(3.5, rel=1e-6)
     assert sine["rms"] == pytest.approx(np.sqrt(0.25 + 4.5), rel=1e-9)
@@ -281,3 +283,28 @@ def test_levels_of_each_vibration_channel(capsys, monkeypatch, tmp_path):
 def test_levels_leave_out_a_hust_exports_speed_column(capsys, monkeypatch):
     code, out, _ = run(capsys, monkeypatch, f"path={HUST / '0.5X_O_65Hz.xls'}")
     assert code == 0 and list(json.loads(out)["levels"]) == ["X", "Y", "Z"]
+
+
+def long_hust_export(folder: Path, seconds: float = 4.0) -> Path:
+    """A HUST export of ``seconds`` at 25.6 kHz under the outer-race fixture's header: a 65 Hz shaft line and its
+    harmonics over noise on X, Y and Z, and the speed column every export holds, 0 throughout."""
+    lines = (HUST / "0.5X_O_65Hz.xls").read_text(encoding="latin-1").splitlines()
+    header = lines[:lines.index("Data") + 1]
+    fs, rng = 25600, np.random.default_rng(0)
+    t = np.arange(int(seconds * fs)) / fs
+    shaft = sum(np.sin(2 * np.pi * 65.0 * k * t + k) / k for k in (1, 2, 3))
+    axes = [0.2 * gain * shaft + 0.05 * rng.standard_normal(t.size) for gain in (1.0, 0.7, 0.4)]
+    rows = np.column_stack([t, np.zeros(t.size), *axes])
+    path = folder / "0.5X_O_65Hz.xls"
+    text = "\n".join(header) + "\n" + "\n".join("\t".join(f"{value:.6f}" for value in row) for row in rows) + "\n"
+    path.write_text(text.replace("Total Data Rows\t1280", f"Total Data Rows\t{t.size}"), encoding="latin-1")
+    return path
+
+
+def test_a_hust_exports_speed_column_witnesses_no_rate(capsys, monkeypatch, tmp_path):
+    """Long enough for the shaft line, the rate is witnessed by the vibration channels alone: the speed column,
+    flat, would leave the check ambiguous and could be the channel that decides."""
+    code, out, _ = run(capsys, monkeypatch, f"path={long_hust_export(tmp_path)}")
+    check = json.loads(out)["shaft_line_check"]
+    assert code == 0 and set(check["channels"]) == {"X", "Y", "Z"} and check["channel"] in ("X", "Y", "Z")
+    assert check["verdict"] == "consistent", check

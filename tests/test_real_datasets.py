@@ -111,7 +111,10 @@ def test_hust_record_shorter_than_a_window_is_named_with_the_window_it_holds():
     with pytest.raises(BearingTwinError) as error:
         build_hust_dataset(data_config("hust", f"data.root={HUST}"))
     assert str(error.value).endswith("H_65Hz.xls: 1280 samples, shorter than one window of data.window_length=2048; "
-                                     "give data.window_length=1280 or less")
+                                     "data.window_length=1131 or less gives data.samples_per_class=150 distinct windows")
+    with pytest.raises(BearingTwinError) as error:
+        build_hust_dataset(data_config("hust", f"data.root={HUST}", "data.samples_per_class=2000"))
+    assert str(error.value).endswith("a data.window_length well below 1280 and fewer windows (data.samples_per_class)")
 
 
 def test_more_windows_than_a_record_holds_distinct_are_warned_of(caplog):
@@ -119,8 +122,9 @@ def test_more_windows_than_a_record_holds_distinct_are_warned_of(caplog):
     with caplog.at_level(logging.WARNING, logger="bearingtwin"):
         build_hust_dataset(data_config("hust", f"data.root={HUST}", "data.window_length=1024",
                                        "data.samples_per_class=300"))
-    assert "1280 samples hold 257 distinct windows of data.window_length=1024, fewer than data.samples_per_class=300" \
-        in caplog.text
+    assert ("(the shortest record): 1280 samples hold 257 distinct windows of data.window_length=1024, fewer than "
+            "data.samples_per_class=300: some windows repeat (a shorter data.window_length or a lower "
+            "data.samples_per_class avoids it)") in caplog.text
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="bearingtwin"):
         build_hust_dataset(data_config("hust", f"data.root={HUST}", "data.window_length=1024",

@@ -6,7 +6,7 @@ be read at all (missing, empty, truncated, non-numeric) exits 2 naming the file 
 problem. With ``bearing=<name>`` the bearing's defect frequencies are added, in Hz when the
 speed is known and always as orders (multiples of the shaft speed). Whenever the rate and
 the speed are known, the sampling-rate check against the shaft line is reported too, with
-every channel of the file a witness of its one rate (the channel that decides, and each
+every vibration channel of the file a witness of its one rate (the channel that decides, and each
 channel's verdict), as the commands that read the file apply it, and ``shaft_speed``: how steadily the shaft turned,
 per channel (:func:`shaft_speed`; a channel read null has its reason in ``shaft_speed_not_read``). Whenever the rate
 is known,
@@ -143,7 +143,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     if rpm is not None and fs_hz is not None and fs_origin == SIMULATED_RATE:
         summary["shaft_line_check"] = {"verdict": "not checked", "reason": RATE_NOT_CHECKED_SIMULATED}
     elif rpm is not None and fs_hz is not None:
-        # Every channel of the file's length witnesses its one rate, as bearingtwin-diagnose and the twin read it.
+        # Every vibration channel of the file's length witnesses its one rate, as bearingtwin-diagnose and the twin read it.
         signal = raw.channels[names[0]]
         defect_hz = None if bearing is None else bearing.defect_frequencies(rpm)
         try:
@@ -167,17 +167,23 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
 def levels(raw, names: list[str]) -> dict:
     """Each of ``names``'s mean, RMS, peak (largest magnitude), crest factor and kurtosis (Pearson's) over its finite
     samples, as :func:`~bearingtwin.features.time_domain.time_domain_features` computes them; null for a channel with
-    fewer than two finite samples or one value throughout."""
+    fewer than two finite samples, one value throughout, or levels beyond a float's range."""
     read = {}
     for name in names:
         values = raw.channels[name]
         values = values[np.isfinite(values)]
-        if values.size < 2 or np.ptp(values) == 0:
-            read[name] = None
+        read[name] = None
+        if values.size < 2:
             continue
-        features = dict(zip(FEATURE_NAMES, time_domain_features(values).tolist()))
-        read[name] = {"mean": features["mean"], "rms": features["rms"], "peak": float(np.max(np.abs(values))),
-                      "crest_factor": features["crest_factor"], "kurtosis": features["kurtosis"]}
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):
+                features = dict(zip(FEATURE_NAMES, time_domain_features(values).tolist()))
+        except BearingTwinError:  # constant (to within the float's resolution): no kurtosis, no crest factor
+            continue
+        levels = {"mean": features["mean"], "rms": features["rms"], "peak": float(np.max(np.abs(values))),
+                  "crest_factor": features["crest_factor"], "kurtosis": features["kurtosis"]}
+        if all(np.isfinite(value) for value in levels.values()):  # JSON has no NaN
+            read[name] = levels
     return read
 
 

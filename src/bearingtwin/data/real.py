@@ -212,14 +212,20 @@ def windows_from_recordings(
         listing = ", ".join(f"{Path(r.source).name}: {r.fs:g} Hz" for r in recordings)
         raise BearingTwinError(f"the records have different sampling rates ({listing}); windows would span different times")
     shortest = min(recordings, key=lambda recording: recording.signal.size)
-    if shortest.signal.size < window_length:
-        raise BearingTwinError(f"{shortest.source}: {shortest.signal.size} samples, shorter than one window of "
-                               f"data.window_length={window_length}; give data.window_length={shortest.signal.size} or less")
-    distinct = shortest.signal.size - window_length + 1  # windows that differ by at least one sample's start
+    size = shortest.signal.size
+    # The longest window of which the record holds windows_per_record that differ by at least one sample's start.
+    distinct_length = size - windows_per_record + 1
+    if size < window_length:
+        remedy = (f"data.window_length={distinct_length} or less gives {count_key}={windows_per_record} distinct windows"
+                  if distinct_length >= 1 else f"a data.window_length well below {size} and fewer windows ({count_key})")
+        raise BearingTwinError(f"{shortest.source}: {size} samples, shorter than one window of "
+                               f"data.window_length={window_length}; {remedy}")
+    distinct = size - window_length + 1
     if distinct < windows_per_record:
-        log.warning("%s: %d samples hold %d distinct windows of data.window_length=%d, fewer than %s=%d: some windows "
-                    "repeat (a shorter data.window_length or fewer windows per record avoids it)",
-                    shortest.source, shortest.signal.size, distinct, window_length, count_key, windows_per_record)
+        log.warning("%s (the shortest record): %d samples hold %d distinct window%s of data.window_length=%d, fewer "
+                    "than %s=%d: some windows repeat (a shorter data.window_length or a lower %s avoids it)",
+                    shortest.source, size, distinct, "" if distinct == 1 else "s", window_length, count_key,
+                    windows_per_record, count_key)
     check_windows_fit(len(recordings), window_length, windows_per_record, count_key)
     warn_of_quality(recordings)
     converted, unit = in_one_unit(recordings)

@@ -57,7 +57,7 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
 
 def read_measurement(measured_cfg) -> tuple[Recording, dict]:
     """The first half of :func:`load_measurement`: the record read, with fs, rpm and bearing state all known, and
-    every channel of its file (the rate check's witnesses); its rate is not checked yet, so that the bearing it
+    every vibration channel of its file (the rate check's witnesses; a HUST export's speed column is none); its rate is not checked yet, so that the bearing it
     names (:func:`record_bearing`) can be settled first, whose defect lines are the check's second witness."""
     if OmegaConf.is_missing(measured_cfg, "path"):
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .txt, .tsv, .mat, .wav or .xls)")
@@ -100,7 +100,7 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
 def check_measurement(measured_cfg, recording: Recording, channels: dict,
                       bearing: BearingGeometry | None = None) -> Recording:
     """The second half of :func:`load_measurement`: ``recording``'s sampling rate checked against its shaft speed
-    (``bearing``'s defect lines as a second witness, every one of its file's ``channels`` a witness) unless
+    (``bearing``'s defect lines as a second witness, every one of its file's vibration ``channels`` a witness) unless
     ``measured.check_fs=false``, and its samples against the comparison's statistics."""
     if recording.meta.get("fs_origin") == SIMULATED_RATE:
         log.info("%s: %s", measured_cfg.path, RATE_NOT_CHECKED_SIMULATED)
