@@ -229,7 +229,10 @@ def test_a_fixed_effect_among_the_candidates_is_found_changed_and_held_otherwise
 
     unchanged = rank(cfg, twin_measurement(cfg, "outer", {"unbalance": {"level_db": -14.0}}), ["unbalance"],
                      op=known_operating_point(), fixed=fixed)
-    assert unchanged.added == [] and unchanged.ranking[0].evidence <= 0, unchanged.summary
+    # Tried as changed, its best fit is the held level: nothing found to fit, and not ranked.
+    assert unchanged.added == [] and unchanged.ranking == [] and unchanged.found_nothing == ["unbalance"], \
+        unchanged.summary
+    assert unchanged.verdict == "no effect needed" and "No effect needed: no candidate changed the twin" in unchanged.summary
 
 
 def test_a_later_round_screens_each_candidate_with_the_kept_effects_free(cfg, monkeypatch):
@@ -287,6 +290,21 @@ def test_a_measurement_that_lacks_nothing_gets_no_effect(cfg):
     assert fit.added == [] and len(fit.steps) == 1
     assert fit.ranking[0].evidence <= 0  # the best candidate does not pay for its parameters
     assert fit.summary.splitlines()[1].startswith("No effect needed")
+
+
+def test_a_candidate_that_changes_nothing_is_not_ranked_and_is_named(cfg):
+    """On a record that lacks nothing, clipping's best level lies above every peak: the twin with it is the twin
+    without. Such a candidate found nothing to fit; ranked, it would stand above every candidate that made the
+    twin worse and read as the best of them."""
+    fit = rank(cfg, twin_measurement(cfg, "inner"), ["clipping", "resonance", "unbalance"],
+               op=known_operating_point("inner"), fixed=FLOOR)
+    assert fit.added == [] and fit.found_nothing == ["clipping"], fit.rounds
+    (screen,) = [entry for entry in fit.rounds[0] if entry["effect"] == "clipping"]  # tried, and recorded as such
+    assert screen["views"] == fit.as_dict()["steps"][0]["views"]
+    assert sorted(entry.effect for entry in fit.ranking) == ["resonance", "unbalance"]
+    assert fit.as_dict()["found_nothing"] == ["clipping"]
+    assert "Found nothing to fit: clipping (at its best fit the twin was as it was before it was tried" in fit.summary
+    assert fit.verdict == "no effect needed"
 
 
 def with_gear_mesh(measured: Recording) -> Recording:

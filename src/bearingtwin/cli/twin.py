@@ -32,7 +32,7 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
     describes; ``check``: the envelope questions the stated state)."""
     if fit.added:
         found = ", ".join(added.effect + (" (changed)" if added.changed_from is not None else "") for added in fit.added)
-    elif not fit.ranking:
+    elif not fit.ranking and not fit.found_nothing:
         found = f"no effect tried: {fit.not_tried}"
     elif fit.unclaimed is not None:
         found = f"none claimed ({fit.unclaimed.effect} paid only outside its signature's views)"

@@ -279,6 +279,10 @@ class TwinFit:
     # resonance): the report's, not the summary's (with the default candidates nearly every run has one).
     awaiting: str = ""
     unit: str = ""  # the measurement's unit, which the sensor gain converts the twin's m/s^2 into
+    # First-round candidates whose best fit left the twin as it was (a clipping level above every peak, tones where
+    # no line stands out, a held effect tried as changed and found as held): they found nothing to fit, so they are
+    # not ranked, where they would stand above every candidate that made the twin worse.
+    found_nothing: list[str] = field(default_factory=list)
 
     @property
     def final_error(self) -> float:
@@ -302,7 +306,7 @@ class TwinFit:
     def verdict(self) -> str:
         if self.added:
             return "effects missing"
-        if not self.ranking:  # what is left unexplained was never offered a candidate: the summary names its views
+        if not self.ranking and not self.found_nothing:  # never offered a candidate: the summary names the views left
             return "no effect tried"
         return "unexplained discrepancy" if self.new_unexplained or self.unclaimed is not None else "no effect needed"
 
@@ -333,14 +337,18 @@ class TwinFit:
         elif self.unclaimed is not None:
             lines.append(f"No library effect claimed: {self._unclaimed_words()}. Discrepancy {self.baseline_error:.2f} dB "
                          f"({self.own_discrepancy_words}).")
-        elif not self.ranking:
+        elif not self.ranking and not self.found_nothing:
             lines.append(f"No effect tried: {self.not_tried}. Discrepancy "
                          f"{self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
         else:
             # "Needed" only where nothing new is left unexplained; otherwise the library simply has nothing that pays.
             head = "No effect needed" if not self.new_unexplained else "No library effect added"
-            lines.append(f"{head}: the best candidate, {self.ranking[0].effect}, does not pay for its parameters on "
-                         f"the {part}. Discrepancy {self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
+            best = (f"the best candidate, {self.ranking[0].effect}, does not pay for its parameters on the {part}"
+                    if self.ranking else "no candidate changed the twin")
+            lines.append(f"{head}: {best}. Discrepancy {self.baseline_error:.2f} dB ({self.own_discrepancy_words}).")
+        if self.found_nothing:
+            lines.append(f"Found nothing to fit: {', '.join(self.found_nothing)} (at its best fit the twin was as it "
+                         "was before it was tried: nothing to clip, no line to add, or an effect held as it was).")
         if self.passed_over:
             lines.append(f"Not offered on this record: {self.passed_over}.")
         lines += self._reference_lines()
@@ -397,6 +405,7 @@ class TwinFit:
             "unexplained": self.unexplained,
             "unclaimed": None if self.unclaimed is None else self.unclaimed.as_dict(),
             "not_tried": self.not_tried,
+            "found_nothing": self.found_nothing,
             "passed_over": self.passed_over,
             "awaiting": self.awaiting,
             "since_reference": self.since_reference,
@@ -681,6 +690,7 @@ class EffectRanker:
 
         # 2. Effects, greedily, each judged on the held-out part.
         ranking: list[EffectFit] = []
+        found_nothing: list[str] = []
         rounds: list[list[dict]] = []
         added: list[EffectFit] = []
         pairs: list[dict] = []
@@ -736,7 +746,8 @@ class EffectRanker:
                             "n_parameters": fit.n_parameters, "signature_gain": fit.signature_gain,
                             "views": _view_errors(fit.comparison)} for fit in fits])
             if round_index == 0:
-                ranking = fits
+                found_nothing = [fit.effect for fit in fits if _view_errors(fit.comparison) == _view_errors(current)]
+                ranking = [fit for fit in fits if fit.effect not in found_nothing]
             best = fits[0]
             if best.evidence <= 0:
                 break
@@ -809,7 +820,7 @@ class EffectRanker:
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
                             unclaimed, self.min_signature_gain, not_tried, pairs, passed_over=passed_over,
-                            awaiting=awaiting, unit=measured.unit)
+                            awaiting=awaiting, unit=measured.unit, found_nothing=found_nothing)
         return self
 
     def _not_tried(self, fault: str) -> str:
