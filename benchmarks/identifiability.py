@@ -803,7 +803,7 @@ def write_results(results: list[dict], out: Path, command: str, wall_s: float, m
           for line in (f"### {SOURCES[source][0].upper()}{SOURCES[source][1:]}", "", confusion(results, source), "")),
         "## How the cases were made", "", *made, "",
         f"Speed: median compare-calibrate-rank {np.median(times):.0f} s per case "
-        f"({', '.join(f'{fs / 1000:g} kHz {t:.0f} s' for fs, t in by_fs.items())}), {len(results[0]['rounds'][0])} "
+        f"({', '.join(f'{fs / 1000:g} kHz {t:.0f} s' for fs, t in by_fs.items())}), {len((results[0]['rounds'] or [[]])[0])} "
         "candidates offered in the first round, one process per case.", "",
         "## Misses", "",
         markdown_table([*(["record"] if manifest is not None else []), "source", "kind", "fault", "hidden", "fs", "unit", "added", "first-round evidence (signature gain)",
