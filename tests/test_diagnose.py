@@ -835,6 +835,21 @@ def test_a_model_that_cannot_diagnose_is_logged_without_mlflows_warning_of_a_for
     assert "An input example was not provided" not in (base / "diag_per_class.stderr").read_text()
 
 
+def test_loading_a_registered_model_writes_nothing_into_its_store(registered):
+    """MLflow loads a models:/ URI of a local store in place and writes its registered_model_meta beside the model:
+    a diagnosis reads the store, and a team's may be read-only to it. The model is loaded from a copy instead."""
+    base, uri = registered
+
+    def files():
+        return {path: path.stat().st_mtime_ns for path in base.rglob("*")
+                if path.is_file() and path.name != "mlflow.db" and "cache" not in path.relative_to(base).parts}
+
+    before = files()
+    model, pipeline, pinned = load_diagnosis_model("models:/diag@champion", uri)
+    assert pinned.startswith("models:/diag/") and pipeline is not None
+    assert files() == before
+
+
 def test_training_registers_its_model_with_signature_and_alias(registered):
     import mlflow
 

@@ -19,8 +19,10 @@ or is no unit known here. The same model is served by
 
 from __future__ import annotations
 
+import atexit
 import functools
 import math
+import shutil
 import sys
 import tempfile
 import threading
@@ -282,6 +284,13 @@ def _unfinished_run_words(model_uri: str, tracking_uri: str) -> str:
             "whole (the next bearingtwin command on that machine marks such a run KILLED)")
 
 
+def _download_folder() -> str:
+    """A new temporary folder, removed when the process ends (the loaded model may read its files until then)."""
+    folder = tempfile.mkdtemp(prefix="bearingtwin-model-")
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder
+
+
 def load_diagnosis_model(model_uri: str, tracking_uri: str):
     """The pyfunc model at ``model_uri`` (``models:/name@alias``, ``models:/name/version``, ``runs:/id/model``),
     its pipeline and the URI loaded: an alias replaced by the version it names now, for an alias moves (a sweep may
@@ -297,7 +306,10 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
     mlflow.set_registry_uri(tracking_uri)
     try:
         version_uri = _version_named(model_uri, tracking_uri)
-        model = mlflow.pyfunc.load_model(version_uri)
+        # Into a folder of this process's own: from a local store MLflow would load a models:/ URI in place and write
+        # its registered_model_meta into the store's artifacts, which a diagnosis must leave as they are (a team's
+        # store may be read-only to its users).
+        model = mlflow.pyfunc.load_model(version_uri, dst_path=_download_folder())
     except (MlflowException, OSError) as error:
         raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})"
                                f"{_unfinished_run_words(model_uri, tracking_uri)}") from None
