@@ -115,6 +115,22 @@ def test_the_report_writes_the_protocols_block_and_keeps_the_exploratory_tables_
     assert "exploratory tables of earlier sweeps" in text and "prose" in text
 
 
+@pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
+def test_the_report_into_a_new_file_holds_the_protocols_result_without_exploratory_runs(tmp_path, capsys):
+    """A user's own out= (no file there yet) and a store with the protocol's run alone: the report is its result."""
+    from bearingtwin.tracking.reports import GENERATED, run_report
+
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    client = MlflowClient(uri)
+    experiment_id = client.create_experiment("bearingtwin", artifact_location=(tmp_path / "artifacts").as_uri())
+    log_protocol_run(client, experiment_id, 0, 0.8, "normal_0_97")
+    out = tmp_path / "reports" / "sim2real.md"
+    run_report("sim2real", {"uri": uri, "experiment": "bearingtwin", "out": str(out), "data_root": str(CWRU)})
+    text = out.read_text()
+    assert text.count(GENERATED) == 2 and "| v1 (2026-11-23) (`+experiment=sim2real_v1`, seeds 0) | 80.0 ± 0.0 |" in text
+    assert "the report holds the pre-registered protocol's result alone" in capsys.readouterr().err
+
+
 def test_a_run_that_departs_from_its_protocol_is_left_out_with_a_warning(tmp_path, caplog):
     from bearingtwin.config import compose_config
     from bearingtwin.tracking.mlflow_logging import flatten, loggable_config

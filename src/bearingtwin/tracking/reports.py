@@ -873,6 +873,10 @@ def sim2real(source: ReportInput) -> Report:
     protocol, written = write_sim2real_protocol(source)  # its own block, at the top of the file when it has one
     rows = _sim2real_rows(source)
     if not rows:
+        if protocol:  # a file without the protocol's own block (a new out=): the protocol's result is the report
+            print("sim2real: no exploratory twin-to-real runs in the store; the report holds the pre-registered "
+                  "protocol's result alone", file=sys.stderr)
+            return Report(protocol)
         kept = generated_text(results_path(source.settings, "sim2real.md"), GENERATED)
         if not (written and kept is not None):
             raise _missing("data.source=twin_to_real on CWRU records (a run on another rig's labelled records, "
