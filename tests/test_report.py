@@ -342,8 +342,8 @@ def test_a_run_logged_when_the_test_curves_were_called_val_is_repeated_as_it_was
 
 
 def test_a_sweep_folder_no_sweep_ran_in_is_said_so_with_the_folders_the_store_knows(uri, capsys, tmp_path):
-    """sweep_dir= a folder of no sweep of the store (a typo, a relative path read from elsewhere): not "run the sweep
-    first" (it ran), but where this store's sweeps did run."""
+    """sweep_dir= a folder of no sweep of the store (a typo, a relative path read from elsewhere): not "train them
+    first" (they ran), but where this store's sweeps did run."""
     client = MlflowClient(uri)
     ran = {run.data.tags["sweep_dir"] for run in client.search_runs(
         [e.experiment_id for e in client.search_experiments()], "tags.`bt.kind` = 'sweep'")}
@@ -351,7 +351,22 @@ def test_a_sweep_folder_no_sweep_ran_in_is_said_so_with_the_folders_the_store_kn
         main(["seeds", f"uri={uri}", f"sweep_dir={tmp_path}/no_such_sweep", f"out={tmp_path}/seeds.md"])
     said = capsys.readouterr().err
     assert exit_info.value.code == 2 and f"no sweep of this store ran in {tmp_path}/no_such_sweep" in said
-    assert "run the sweep first" not in said and any(folder in said for folder in ran), said
+    assert "train them first" not in said and any(folder in said for folder in ran), said
+
+
+@pytest.mark.parametrize("report, command", [
+    ("table4", "bearingtwin-train -m +sweep=table4 launcher=joblib"),
+    ("seeds", "bearingtwin-train -m +sweep=table4 launcher=joblib"),
+    ("vmd_params", "bearingtwin-train -m +sweep=vmd_params launcher=joblib"),
+    ("cwru", "bearingtwin-train -m +sweep=cwru launcher=joblib"),
+])
+def test_a_report_with_no_runs_names_the_command_that_trains_them(capsys, tmp_path, report, command):
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    MlflowClient(uri).create_experiment("bearingtwin", (tmp_path / "artifacts").as_uri())  # a store, no runs
+    with pytest.raises(SystemExit) as exit_info:
+        main([report, f"uri={uri}", f"out={tmp_path}/{report}.md"])
+    said = capsys.readouterr().err
+    assert exit_info.value.code == 2 and said.rstrip().endswith(f"train them first: {command}"), said
 
 
 def test_bad_requests_exit_2_naming_the_problem(uri, capsys, tmp_path):
@@ -362,7 +377,7 @@ def test_bad_requests_exit_2_naming_the_problem(uri, capsys, tmp_path):
         main(["table4", f"uri={uri}", "colour=blue"])
     assert "table4 does not take colour" in capsys.readouterr().err
     for setting, allowed in (("vmd_params=bogus", "global, per_class, per_sample"), ("source=bogus", "simulated, cwru")):
-        with pytest.raises(SystemExit) as exit_info:  # it would find no runs, and say "run the sweep first"
+        with pytest.raises(SystemExit) as exit_info:  # it would find no runs, and say "train them first"
             main(["table4", f"uri={uri}", setting])
         assert exit_info.value.code == 2 and f"{setting}: choose one of {allowed}" in capsys.readouterr().err
     with pytest.raises(SystemExit):

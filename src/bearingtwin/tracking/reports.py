@@ -328,8 +328,14 @@ def _diff(ours, theirs: float, scale: float = 100.0, digits: int = 2) -> str:
     return f"{np.mean(ours) * scale - theirs:+.{digits}f}"
 
 
-def _missing(what: str, source: ReportInput) -> BearingTwinError:
-    advice = "run the sweep first"
+def _sweep(name: str) -> str:
+    """The command that trains a report's runs: the sweep ``conf/sweep/<name>.yaml``."""
+    return f"bearingtwin-train -m +sweep={name} launcher=joblib"
+
+
+def _missing(what: str, source: ReportInput, command: str) -> BearingTwinError:
+    """The error of a report with no runs to read: what it looked for, where, and the ``command`` that trains them."""
+    advice = f"train them first: {command}"
     if "sweep_dir" in source.settings:  # a folder no sweep of this store ran in (a typo, another relative start)
         sweep_dir = str(Path(source.settings["sweep_dir"]).resolve())
         if not sweep_parents(source.client, sweep_dir, max_results=1):
@@ -361,7 +367,7 @@ def table3(source: ReportInput) -> Report:
     """Table 3: per-class precision / recall / F1 of the proposed method over seeds, and accuracy."""
     found = source.training_runs(f"tags.method = '{paper.PROPOSED}'", vmd_params=_vmd_params(source), beside_paper=True)
     if not found:
-        raise _missing(f"{paper.PROPOSED} with features.vmd_params={_vmd_params(source)}", source)
+        raise _missing(f"{paper.PROPOSED} with features.vmd_params={_vmd_params(source)}", source, _sweep("table3"))
     return Report("\n".join(_table3(runs, label, _vmd_params(source))
                              for label, runs in _by_key(found, source.setting).items()))
 
@@ -397,7 +403,7 @@ def table4(source: ReportInput) -> Report:
             rows.append([_named(paper.TABLE4_NAMES[method], label), method, ours[0], ours[1], f"{published:.2f}", ours[2],
                          _pm(latency, 1.0) if latency else ""])
     if all(row[3] == "0" for row in rows):
-        raise _missing("any Table 4 method", source)
+        raise _missing("any Table 4 method", source, _sweep("table4"))
     header = ["method", "config", "ours accuracy % (mean ± std)", "seeds", "paper %", "ours − paper", "inference ms / sample (CPU)"]
     title = f"## Table 4: comparison of methods (accuracy; SABO-VMD features.vmd_params={_vmd_params(source)})"
     return Report(title + "\n\n" + markdown_table(header, rows))
@@ -412,7 +418,7 @@ def vmd_params(source: ReportInput) -> Report:
 
     runs = source.training_runs(f"tags.method = '{paper.PROPOSED}'", group_by=scope, beside_paper=True)
     if not runs:
-        raise _missing(paper.PROPOSED, source)
+        raise _missing(paper.PROPOSED, source, _sweep("vmd_params"))
     rows = []
     for (value, label), chosen in sorted(_by_key(runs, lambda run: (scope(run)[0], source.setting(run))).items()):
         accuracy = _accuracies(chosen)
@@ -433,7 +439,7 @@ def seeds(source: ReportInput) -> Report:
     """Every seed's accuracy per method; the paper's five seeds beside the proposed method."""
     runs = source.training_runs(vmd_params=_vmd_params(source), beside_paper=True)
     if not runs:
-        raise _missing("any method", source)
+        raise _missing("any method", source, _sweep("table4"))
     rows = []
     for method in sorted({run.data.tags.get("method") for run in runs}):
         ordered = sorted((r for r in runs if r.data.tags.get("method") == method), key=lambda r: int(r.data.tags["seed"]))
@@ -497,7 +503,7 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
     share samples with training windows; the block split does not. Their difference in
     accuracy is therefore a measurement of that leakage.
     """
-    source = _on_data_source(source, data_source)
+    source = _on_data_source(source, _sweep(data_source))
     wanted = f"params.`data.{condition}` = '{source.settings[condition]}'" if condition in source.settings else ""
 
     def group(run) -> tuple[str, ...]:
@@ -509,7 +515,7 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
     runs = source.training_runs(wanted, group_by=group, vmd_params=_vmd_params(source))
     if not runs:
         at = f" at {condition}={source.settings[condition]}" if wanted else ""
-        raise _missing(f"data.source={data_source}{at} with features.vmd_params={_vmd_params(source)}", source)
+        raise _missing(f"data.source={data_source}{at} with features.vmd_params={_vmd_params(source)}", source, _sweep(data_source))
     groups: dict[tuple, list] = {}
     for run in runs:
         groups.setdefault((run.data.tags.get("method"), *group(run), source.setting(run)), []).append(run)
@@ -684,7 +690,7 @@ def check_report_settings(name: str, settings: dict[str, str]) -> None:
         raise BearingTwinError(f"{name} does not take {', '.join(sorted(unknown))}; it takes {', '.join(COMMON_KEYS + keys)}")
     if settings.get("force", "false") not in ("true", "false"):
         raise BearingTwinError(f"force={settings['force']!r}: give force=true or force=false")
-    # A value no run can carry would only find no runs ("run the sweep first"): named instead.
+    # A value no run can carry would only find no runs ("train them first"): named instead.
     from bearingtwin.data.build import SOURCES
     from bearingtwin.features.extractor import VMD_PARAMS
 
@@ -880,7 +886,8 @@ def sim2real(source: ReportInput) -> Report:
         kept = generated_text(results_path(source.settings, "sim2real.md"), GENERATED)
         if not (written and kept is not None):
             raise _missing("data.source=twin_to_real on CWRU records (a run on another rig's labelled records, "
-                           "data.labels, is scored in its own per_record.csv)", source)
+                           "data.labels, is scored in its own per_record.csv)", source,
+                           f"bearingtwin-train +experiment=sim2real (the protocol), or {_sweep('sim2real')}")
         print("sim2real: no exploratory twin-to-real runs in the store; the protocol's block is rewritten, "
               "the exploratory tables are left as they are", file=sys.stderr)
         return Report(kept)
