@@ -147,7 +147,7 @@ def test_an_entry_that_cannot_be_removed_is_named_the_others_go_and_the_exit_sta
 def test_a_missing_cache_is_empty_and_not_made(tmp_path, capsys, monkeypatch):
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     code, out, _ = run(capsys, monkeypatch, f"paths.cache_dir={tmp_path / 'none'}", "unused_days=1", "remove=true")
-    assert code == 0 and out.splitlines() == [f"cache: {tmp_path / 'none'} (empty: nothing cached yet)",
+    assert code == 0 and out.splitlines() == [f"cache: {tmp_path / 'none'} (no such folder: nothing cached yet)",
                                               "removed (unused for 1 day): 0 entries, 0 B freed"]
     assert not (tmp_path / "none").exists()
 

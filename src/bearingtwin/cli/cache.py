@@ -74,7 +74,8 @@ def usage_table(root: Path, kinds: dict[str, list[CacheEntry]]) -> str:
     a kind's folder that is a link (not followed), the total, and numba's compiled kernels."""
     linked = [kind for kind in CACHE_KINDS if (root / kind).is_symlink()]
     if not kinds and not linked:
-        lines = [f"cache: {root} (empty: nothing cached yet)"]
+        # A folder not there is a fresh machine's cache, or a misspelt path: said as such, not only "empty".
+        lines = [f"cache: {root} ({'empty' if root.is_dir() else 'no such folder'}: nothing cached yet)"]
     else:
         rows = [(kind, _count(entries), _size(entries), _used_span(entries)) for kind, entries in kinds.items()]
         rows += [(kind, "", "", f"a link to {os.readlink(root / kind)}: not followed") for kind in linked]
