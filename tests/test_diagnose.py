@@ -399,6 +399,11 @@ def test_a_record_whose_windows_split_between_states_says_what_the_others_said()
     states = np.array([window["state"] for window in windows])
     even = np.tile([[0.2, 0.1, 0.2, 0.5]], (351, 1))  # outer most probable: it wins the tie of windows
     assert majority(states, even, list(FAULTS)) == ("outer", {"normal": 175, "inner": 0, "ball": 1, "outer": 175})
+    # A tie the envelope spectrum decided windows of goes to its state, however sure the classifier was of the other.
+    two = np.array(["inner", "ball"])
+    sure_of_ball = np.array([[0.0, 1e-6, 1.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
+    assert majority(two, sure_of_ball, list(FAULTS))[0] == "ball"
+    assert majority(two, sure_of_ball, list(FAULTS), np.array(["physics", "classifier"]))[0] == "inner"
     # Where the envelope spectrum decided windows, the classifier's own verdict is said beside the record's.
     for window in windows[175:]:
         window["decided_by"] = "physics"

@@ -632,7 +632,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     states = frame[STATE_COLUMN].to_numpy()
     probabilities = frame[names].to_numpy()
     deciders = frame[DECIDED_BY_COLUMN].to_numpy() if DECIDED_BY_COLUMN in frame else None
-    verdict, counts = majority(states, probabilities, names)
+    verdict, counts = majority(states, probabilities, names, deciders)
     # What the classifier said of the windows left to it, where the envelope spectrum decided some (physics_first):
     # the verdict above may be the physics' more than the model's. None where the physics decided every window.
     left = np.ones(len(states), dtype=bool) if deciders is None else deciders != "physics"
@@ -688,10 +688,15 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     return result, evidence
 
 
-def majority(states: np.ndarray, probabilities: np.ndarray, names: list[str]) -> tuple[str, dict[str, int]]:
-    """The state most windows were given, a tie broken by the mean probability, and how many each state won."""
+def majority(states: np.ndarray, probabilities: np.ndarray, names: list[str],
+             deciders: np.ndarray | None = None) -> tuple[str, dict[str, int]]:
+    """The state most windows were given, and how many each state won. A tie goes to the state the envelope spectrum
+    decided more windows of (``deciders``: a defect series standing 20 dB over its floor and 10 dB above the others
+    is stronger evidence than a classifier's call), then to the higher mean probability."""
     counts = {name: int(np.sum(states == name)) for name in names}
-    return max(names, key=lambda name: (counts[name], probabilities[:, names.index(name)].mean())), counts
+    by_physics = {name: 0 if deciders is None else int(np.sum((states == name) & (deciders == "physics")))
+                  for name in names}
+    return max(names, key=lambda name: (counts[name], by_physics[name], probabilities[:, names.index(name)].mean())), counts
 
 
 def physics_first_note(pipeline: DiagnosisPipeline, deciders: np.ndarray) -> str:
