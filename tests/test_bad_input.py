@@ -464,6 +464,17 @@ def test_an_output_folder_nothing_can_be_written_in_is_refused_before_any_work(t
     assert done.returncode == 2 and "out=/proc/nope: nothing can be written in /proc" in done.stderr, done.stderr
 
 
+def test_an_empty_output_folder_is_refused_not_read_as_the_current_one(tmp_path):
+    from bearingtwin.config import output_folder
+
+    for empty in ("", "  "):
+        with pytest.raises(BearingTwinError, match=rf"^out must name a folder, got {empty!r}$"):
+            output_folder(empty)
+    done = run_module("bearingtwin.cli.diagnose", "path=x.npz", "model=models:/any/1", "out=", cwd=tmp_path)
+    assert done.returncode == 2 and "out must name a folder, got ''" in done.stderr, done.stderr
+    assert not any(tmp_path.iterdir())
+
+
 COMMANDS = sorted(target.split(":")[0].rpartition(".")[2] for target in
                   tomllib.loads((REPO_ROOT / "pyproject.toml").read_text())["project"]["scripts"].values())
 """Every command the package installs (pyproject.toml's scripts), by module name under bearingtwin.cli."""

@@ -135,7 +135,10 @@ def _drop_empty_run_folder() -> None:
 
 def output_folder(path, key: str = "out") -> Path:
     """``path`` as a folder to write into, refused in one line when it or a folder above it is a file:
-    checked before any work, so a typo in ``out=`` costs nothing."""
+    checked before any work, so a typo in ``out=`` costs nothing. An empty value is refused too: it would be the
+    current folder, which the user did not name."""
+    if not str(path).strip():
+        raise BearingTwinError(f"{key} must name a folder, got {str(path)!r}")
     path = Path(str(path)).expanduser()
     for part in (path, *path.parents):
         if part.exists():
