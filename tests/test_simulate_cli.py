@@ -355,3 +355,13 @@ def test_no_note_of_an_unstruck_defect_where_no_static_load_zone_exists():
     healthy, _ = simulate("normal", cfg.bearing, cfg.simulator)
     faulty, _ = simulate("inner", cfg.bearing, cfg.simulator)
     assert not faulty.meta.get("notes") and np.max(np.abs(faulty.signal - healthy.signal)) > 0
+
+
+def test_an_outer_race_angle_past_a_turn_is_said_as_the_angle_it_is():
+    from omegaconf import OmegaConf
+
+    from bearingtwin.cli.simulate import defect_position
+
+    said = defect_position(OmegaConf.create({"outer_angle_deg": 400.0}), "outer")
+    assert said == "at 40 deg (0: 3 o'clock, 90: 12 o'clock)"
+    assert defect_position(OmegaConf.create({"outer_angle_deg": -90.0}), "outer").startswith("at 270 deg ")

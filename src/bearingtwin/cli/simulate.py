@@ -125,7 +125,7 @@ def twin_command(out: Path, bearing_name: str | None, bearing: DictConfig, simul
 def defect_position(defect: DictConfig, fault: str) -> str:
     """Where the defect of a ``fault`` record sits, in words."""
     return {"outer": "at the centre of the load zone" if defect.outer_angle_deg is None
-            else f"at {defect.outer_angle_deg:g} deg (0: 3 o'clock, 90: 12 o'clock)",
+            else f"at {defect.outer_angle_deg % 360:g} deg (0: 3 o'clock, 90: 12 o'clock)",  # as the note says it
             "inner": f"at {defect.inner_angle_deg:g} deg from the shaft's start", "ball": f"on ball {defect.ball_index}"}[fault]
 
 
