@@ -362,6 +362,8 @@ def test_an_outer_race_angle_past_a_turn_is_said_as_the_angle_it_is():
 
     from bearingtwin.cli.simulate import defect_position
 
-    said = defect_position(OmegaConf.create({"outer_angle_deg": 400.0}), "outer")
-    assert said == "at 40 deg (0: 3 o'clock, 90: 12 o'clock)"
-    assert defect_position(OmegaConf.create({"outer_angle_deg": -90.0}), "outer").startswith("at 270 deg ")
+    def defect(angle_deg):
+        return OmegaConf.create({"outer_angle_deg": angle_deg, "inner_angle_deg": 0.0, "ball_index": 0})
+
+    assert defect_position(defect(400.0), "outer") == "at 40 deg (0: 3 o'clock, 90: 12 o'clock)"
+    assert defect_position(defect(-90.0), "outer").startswith("at 270 deg ")
