@@ -503,7 +503,7 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
     share samples with training windows; the block split does not. Their difference in
     accuracy is therefore a measurement of that leakage.
     """
-    source = _on_data_source(source, _sweep(data_source))
+    source = _on_data_source(source, data_source)
     wanted = f"params.`data.{condition}` = '{source.settings[condition]}'" if condition in source.settings else ""
 
     def group(run) -> tuple[str, ...]:
