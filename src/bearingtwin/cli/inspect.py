@@ -180,10 +180,10 @@ def levels(raw, names: list[str]) -> dict:
                 features = dict(zip(FEATURE_NAMES, time_domain_features(values).tolist()))
         except BearingTwinError:  # constant (to within the float's resolution): no kurtosis, no crest factor
             continue
-        levels = {"mean": features["mean"], "rms": features["rms"], "peak": float(np.max(np.abs(values))),
-                  "crest_factor": features["crest_factor"], "kurtosis": features["kurtosis"]}
-        if all(np.isfinite(value) for value in levels.values()):  # JSON has no NaN
-            read[name] = levels
+        channel_levels = {"mean": features["mean"], "rms": features["rms"], "peak": float(np.max(np.abs(values))),
+                          "crest_factor": features["crest_factor"], "kurtosis": features["kurtosis"]}
+        if all(np.isfinite(value) for value in channel_levels.values()):  # JSON has no NaN
+            read[name] = channel_levels
     return read
 
 

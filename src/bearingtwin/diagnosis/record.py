@@ -398,9 +398,9 @@ def _record_bearing(named: str | None, pipeline: DiagnosisPipeline) -> tuple[dic
 def _checked_rate(recording: Recording, bearing: dict, channels: dict[str, np.ndarray],
                   given_as: str | None = None) -> tuple[Recording, list[str], str]:
     """The recording after the sampling-rate check (shaft series, and the bearing's defect lines as a
-    second witness), what the check said, and its verdict (:attr:`PreparedRecord.rate_check`). Every vibration channel of the file is a witness
-    (:func:`check_channels`): a fan-end accelerometer may show the shaft series too weakly, the
-    drive end's beside it does not.
+    second witness), what the check said, and its verdict (:attr:`PreparedRecord.rate_check`). Every vibration
+    channel of the file is a witness (:func:`check_channels`): a fan-end accelerometer may show the shaft series too
+    weakly, the drive end's beside it does not.
 
     A rate the file states is kept (a doubt is reported). A rate only declared by the data set's
     convention (a CWRU file's) is tried against the data set's rates, and the highest rate under which

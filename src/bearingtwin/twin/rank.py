@@ -746,7 +746,8 @@ class EffectRanker:
                             "n_parameters": fit.n_parameters, "signature_gain": fit.signature_gain,
                             "views": _view_errors(fit.comparison)} for fit in fits])
             if round_index == 0:
-                found_nothing = [fit.effect for fit in fits if _view_errors(fit.comparison) == _view_errors(current)]
+                as_it_was = _view_errors(current)
+                found_nothing = [fit.effect for fit in fits if _view_errors(fit.comparison) == as_it_was]
                 ranking = [fit for fit in fits if fit.effect not in found_nothing]
             best = fits[0]
             if best.evidence <= 0:

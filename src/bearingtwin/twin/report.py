@@ -57,8 +57,9 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
 
 def read_measurement(measured_cfg) -> tuple[Recording, dict]:
     """The first half of :func:`load_measurement`: the record read, with fs, rpm and bearing state all known, and
-    every vibration channel of its file (the rate check's witnesses; a HUST export's speed column is none); its rate is not checked yet, so that the bearing it
-    names (:func:`record_bearing`) can be settled first, whose defect lines are the check's second witness."""
+    every vibration channel of its file (the rate check's witnesses; a HUST export's speed column is none); its rate
+    is not checked yet, so that the bearing it names (:func:`record_bearing`) can be settled first, whose defect lines
+    are the check's second witness."""
     if OmegaConf.is_missing(measured_cfg, "path"):
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .txt, .tsv, .mat, .wav or .xls)")
     true_or_false(measured_cfg.check_fs, "measured.check_fs")  # before the file is read
