@@ -303,6 +303,33 @@ def test_a_unit_is_read_or_refused_by_what_the_models_features_compute_served_as
     assert in_model_terms(shape_free, windows, None, "mm/s") is windows
 
 
+def test_a_shaft_speed_well_beyond_the_training_windows_speeds_is_named_and_kept_with_the_saved_model(tmp_path):
+    """The training windows' slowest and fastest speed travel with the saved pipeline; a record more than a quarter
+    below the slowest or above the fastest is named (a 600 rev/min record had been called normal with no word), one
+    within that margin is not, and a model saved before the speeds were kept says nothing of any speed."""
+    from bearingtwin.models.experiment import training_speeds
+
+    dataset = SimpleNamespace(window_rpms=np.array([1730.0, 1797.0, 1750.0, np.nan]))
+    assert training_speeds(dataset, np.arange(3)) == (1730.0, 1797.0)
+    assert training_speeds(dataset, np.array([3])) is None  # no speed known among the windows trained on
+    assert training_speeds(SimpleNamespace(window_rpms=None), np.arange(3)) is None
+    X, y = class_windows()
+    vmd = SaboVmdFeatures(population=3, iterations=1, search_windows=2, vmd_options={"max_iter": 60}, progress=False)
+    fitted = DiagnosisPipeline(vmd.fit(X, y), SvmClassifier().fit(vmd.transform(X), y), 2048, FS, bearing=BEARING,
+                               speeds_rpm=(1730.0, 1797.0))
+    pipeline = DiagnosisPipeline.load(fitted.save(tmp_path / "model"))
+    assert pipeline.speeds_rpm == (1730.0, 1797.0)
+    assert pipeline.speed_note(600.0) == (
+        "the shaft speed (600 rev/min) lies more than 25% below the slowest (1730) of the model's training windows: the "
+        "model reads a record at a speed it never learnt; hold its verdict against the physics evidence")
+    assert "above the fastest (1797)" in pipeline.speed_note(1797.0 * 1.26)
+    assert [pipeline.speed_note(rpm) for rpm in (1730.0 / 1.24, 1772.0, 1797.0 * 1.24, None)] == [None] * 4
+    meta = json.loads((tmp_path / "model" / "pipeline.json").read_text())
+    del meta["speeds_rpm"]  # as a model saved before the speeds were kept
+    (tmp_path / "model" / "pipeline.json").write_text(json.dumps(meta))
+    assert DiagnosisPipeline.load(tmp_path / "model").speed_note(60.0) is None
+
+
 def test_a_served_model_that_reads_the_level_flags_each_window_of_a_level_it_never_saw():
     """Windows in an undeclared unit or gain had been answered 200 with a confident wrong state (an SVM read outer-race
     windows x1000 as ball): the frame of a model that reads the level now says, per window, where it lies a decade or
@@ -1005,8 +1032,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
     header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
     # new columns come last
-    assert header[-8:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
-                           "physics_decided", "speed_spread", "order_tracked"]
+    assert header[-9:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
+                           "physics_decided", "speed_spread", "order_tracked", "speed_unseen"]
     assert rows["pump_a"]["classifier_verdict"] == rows["pump_a"]["verdict"]  # no physics_first: the model's own
     assert float(rows["pump_a"]["physics_decided"]) == 0.0 and not rows["short"]["physics_decided"]
     assert rows["pump_a"]["bearing"] and not rows["short"]["bearing"] and rows["pump_a"]["unit_check"]
@@ -1283,6 +1310,17 @@ def test_a_reused_out_folder_holds_this_runs_record_outputs_alone(registered, tm
     single = run("diagnose", f"path={folder / 'r03.npz'}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
     assert single.returncode == 0, single.stderr[-2000:]
     assert {path.parent.name for path in out.glob("*/diagnosis.json")} == {"r02", "r03", "notes"}
+    # ... and their rows of summary.csv: each one-file run's row beside the rows of the files before it. A failing
+    # file's run had written a summary.csv of its own row alone over the folder's.
+    rows = {row["record"]: row for row in csv.DictReader(open(out / "summary.csv"))}
+    assert list(rows) == ["r01", "r02", "r03"] and rows["r03"]["verdict"] == rows["r02"]["verdict"] != ""
+    assert rows["r01"]["error"].endswith("r01.npz: every sample is 0: no vibration recorded")
+    (folder / "r05.npz").write_bytes(b"not an npz")
+    failing = run("diagnose", f"path={folder / 'r05.npz'}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
+    assert failing.returncode == 2 and failing.stderr.startswith(f"error: {folder / 'r05.npz'}: "), failing.stderr[-2000:]
+    rows = {row["record"]: row for row in csv.DictReader(open(out / "summary.csv"))}
+    assert list(rows) == ["r01", "r02", "r03", "r05"] and rows["r05"]["error"] and rows["r03"]["verdict"]
+    (folder / "r05.npz").unlink()
     folder_run = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
     assert folder_run.returncode == 2 and (out / "notes" / "diagnosis.json").is_file(), folder_run.stderr[-2000:]
     # A record named as that folder is refused rather than written over it, nor written through a linked folder.
@@ -1297,6 +1335,41 @@ def test_a_reused_out_folder_holds_this_runs_record_outputs_alone(registered, tm
             refused.stderr[-2000:]
     assert json.loads((out / "notes" / "diagnosis.json").read_text()) == {"record": "mine"}
     assert not any((tmp_path / "elsewhere").iterdir())
+
+
+def test_a_record_far_slower_than_the_models_training_speed_or_of_a_window_or_two_is_named_so(registered, tmp_path):
+    """The smoke model learnt the bearing at 1797 rev/min: a record at 600 rev/min is read as the model never learnt
+    (its note, summary.csv's speed_unseen, a line of the closing summary), as is a verdict resting on one window;
+    a record at the model's own speed and long enough gets neither note. A user's summary.csv in out= is kept and
+    the folder refused before any record is read."""
+    _, uri = registered
+    folder = tmp_path / "f"
+    folder.mkdir()
+    np.savez(folder / "slow.npz", signal=fault_signal(None, seconds=3), fs=FS, rpm=600.0)
+    np.savez(folder / "usual.npz", signal=fault_signal(None, seconds=3, seed=1), fs=FS, rpm=RPM)
+    np.savez(folder / "short.npz", signal=fault_signal(None, seconds=0.3, seed=2), fs=FS, rpm=RPM)
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "summary.csv").write_text("machine,owner\npump 3,me\n")
+    refused = run("diagnose", "path=f", "model=models:/diag/1", "out=mine", "figures=false", "tracking.enabled=false",
+                  cwd=tmp_path, uri=uri)
+    assert refused.returncode == 2 and refused.stderr == (
+        f"error: {tmp_path / 'mine' / 'summary.csv'} is not one this command wrote; it is kept: move it or choose "
+        "another out=\n")
+    assert (tmp_path / "mine" / "summary.csv").read_text() == "machine,owner\npump 3,me\n"
+    done = run("diagnose", "path=f", "model=models:/diag/1", "out=out", "figures=false", "tracking.enabled=false",
+               cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-2000:]
+    notes = {name: json.loads((tmp_path / "out" / name / "diagnosis.json").read_text())["notes"]
+             for name in ("slow", "usual", "short")}
+    assert any(note.startswith("the shaft speed (600 rev/min) lies more than 25% below the slowest (1797) of the "
+                               "model's training windows") for note in notes["slow"])
+    assert "the verdict rests on 1 window of the model's 2048 samples (0.171 s): a longer record gives a surer one" \
+        in notes["short"]
+    assert not any("shaft speed (" in note or "rests on" in note for note in notes["usual"] + notes["short"][:-1])
+    rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
+    assert {name: row["speed_unseen"] for name, row in rows.items()} == {"short": "False", "slow": "True",
+                                                                         "usual": "False"}
+    assert "shaft speed well beyond the model's training windows' (see their notes): slow\n" in done.stdout
 
 
 def test_an_interrupt_while_a_record_is_written_leaves_no_part_of_it(registered, tmp_path, monkeypatch):
@@ -1584,11 +1657,13 @@ def test_an_interrupted_folder_is_killed_in_mlflow_and_summarised_as_far_as_it_w
     import sys
     import time
 
+    from bearingtwin.diagnosis.run import SUMMARY_COLUMNS
+
     base, uri = registered
     folder = outer_race_folder(tmp_path, 60)
     out = tmp_path / "out"
     out.mkdir()
-    (out / "summary.csv").write_text("record,verdict\nan_earlier_run,normal\n")
+    (out / "summary.csv").write_text(",".join(SUMMARY_COLUMNS) + "\nan_earlier_run,normal\n")  # the command's own
     process = subprocess.Popen([sys.executable, "-m", "bearingtwin.cli.diagnose", f"path={folder}", "model=models:/diag/1",
                                 f"out={out}", "figures=false"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True, env={**os.environ, "MLFLOW_TRACKING_URI": uri})
@@ -2047,6 +2122,48 @@ def test_a_diagnosis_the_disk_cannot_take_fails_its_record_in_one_line_and_leave
     monkeypatch.setattr("builtins.open", disk_full)
     with pytest.raises(BearingTwinError, match=r"summary.csv cannot be written there \(No space left on device\)$"):
         diagnosis_run.write_summary([{"record": "r"}], tmp_path / "out" / "summary.csv")
+    with pytest.raises(BearingTwinError, match=r"summary.csv cannot be written there \(No space left on device\)$"):
+        diagnosis_run.update_summary([{"record": "r"}], tmp_path / "out" / "summary.csv")
+
+
+def test_a_one_file_row_takes_its_records_place_in_the_summary_and_a_failed_write_puts_the_earlier_back(
+        tmp_path, monkeypatch):
+    """update_summary: a record's row replaces its earlier row where it stood, a new record's is added last, the
+    columns follow the rows' values (an error column while a row holds one); a write the disk refuses leaves the
+    earlier summary as it was."""
+    import errno
+    import io
+
+    from bearingtwin.diagnosis import run as diagnosis_run
+
+    path = tmp_path / "summary.csv"
+    diagnosis_run.write_summary([{"record": "a", "verdict": "inner", "share": 1.0},
+                                 {"record": "b", "error": "b.npz: not an npz"}], path)
+    diagnosis_run.update_summary([{"record": "b", "verdict": "outer", "share": 0.75}], path)
+    assert [(row["record"], row["verdict"], row["share"]) for row in csv.DictReader(open(path))] == [
+        ("a", "inner", "1.0"), ("b", "outer", "0.75")]
+    assert "error" not in open(path).readline()  # no row holds one now
+    diagnosis_run.update_summary([{"record": "c", "error": "c.csv: holds channels a, b"}], path)
+    rows = list(csv.DictReader(open(path)))
+    assert [(row["record"], row["error"]) for row in rows] == [("a", ""), ("b", ""), ("c", "c.csv: holds channels a, b")]
+    before = path.read_bytes()
+    real_open = open
+
+    class FullDisk(io.TextIOWrapper):
+        def write(self, text):
+            if text != before.decode():  # the merged summary is refused; putting the earlier back is not
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return super().write(text)
+
+    def opened(file, mode="r", **kwargs):
+        handle = real_open(file, mode, **kwargs)
+        return FullDisk(handle.detach(), newline="") if "a" in mode else handle
+
+    monkeypatch.setattr(diagnosis_run, "open", opened, raising=False)
+    with pytest.raises(BearingTwinError, match=r"summary.csv cannot be written there \(No space left on device\)$"):
+        diagnosis_run.update_summary([{"record": "d", "verdict": "normal"}], path)
+    monkeypatch.undo()
+    assert path.read_bytes() == before
 
 
 def test_under_hydra_job_chdir_the_records_are_read_from_where_the_command_started(registered, tmp_path):

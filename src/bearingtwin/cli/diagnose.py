@@ -108,6 +108,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     unseen = [row["record"] for row in diagnosed if row.get("level_unseen")]
     if unseen:  # a unit or gain the model never saw: every amplitude-dependent feature reads it as another state
         lines["level a decade or more outside the model's training windows"] = ", ".join(unseen)
+    faster_or_slower = [row["record"] for row in diagnosed if row.get("speed_unseen")]
+    if faster_or_slower:  # read by a model that never learnt the bearing at such a speed (their notes give it)
+        lines["shaft speed well beyond the model's training windows' (see their notes)"] = ", ".join(faster_or_slower)
     disagreements = [row["record"] for row in diagnosed if row.get("agree") is False]
     if disagreements:
         lines["model and physics disagree on"] = ", ".join(disagreements)

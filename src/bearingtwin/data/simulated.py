@@ -109,5 +109,6 @@ def build_simulated_dataset(data_cfg: Mapping, bearing_cfg: Mapping, simulator_c
         key=content_key({"records": records, "samples_per_class": data_cfg["samples_per_class"],
                      "window_length": data_cfg["window_length"]}),
         record_lengths=[signal.size for signal in signals],
+        record_rpms=[float(data_cfg["rpm"])] * len(FAULTS),  # every state simulated at the data set's speed
         unit="m/s^2",  # the simulator's sensor reads acceleration in m/s^2
     )

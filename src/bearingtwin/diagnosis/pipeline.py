@@ -42,6 +42,9 @@ earlier version reads as it always did; one with the key is saved as :data:`FORM
 refuses rather than diagnose without the rule its scores were made with."""
 LEVEL_FACTOR = 10.0
 """How far outside the training windows' levels a record may lie before a diagnosis says so."""
+SPEED_MARGIN = 1.25
+"""How far beyond the training windows' shaft speeds (a factor, above the fastest or below the slowest) a record's
+speed may lie before a diagnosis says so: a plain margin over the speeds seen, not a value fitted to any result."""
 PIPELINE_FILE = "pipeline.json"
 
 
@@ -61,6 +64,8 @@ class DiagnosisPipeline:
         unit: the unit of the training windows (``m/s^2``, ``g``; "" when the data did not state one).
         window_level: the 5th and 95th percentiles of the training windows' standard deviation, in ``unit``:
             the levels the classifier has seen; None when the windows are normalized (any level is alike).
+        speeds_rpm: the slowest and fastest shaft speed of the training windows, rev/min; None where the data stated
+            none (or the model was saved before they were kept).
         physics_first: where the envelope spectrum leaves no doubt, it decides the window instead of the
             classifier (:class:`PhysicsFirst`); None: the classifier decides every window.
         training_records: path (from the folder the files share) -> SHA-256 of its contents, for every recorded
@@ -78,6 +83,7 @@ class DiagnosisPipeline:
     config_hash: str = ""
     unit: str = ""
     window_level: tuple[float, float] | None = None
+    speeds_rpm: tuple[float, float] | None = None
     physics_first: PhysicsFirst | None = None
     training_records: dict = field(default_factory=dict)
 
@@ -200,6 +206,21 @@ class DiagnosisPipeline:
                 f"{LEVEL_FACTOR:g} times {side} the 5-95 % range of the model's training windows ({low:.3g}-{high:.3g}"
                 f"{unit}): check the record's unit and gain; the model reads amplitudes as it learnt them")
 
+    def speed_note(self, rpm: float | None) -> str | None:
+        """What to say when a record's shaft speed ``rpm`` (rev/min) lies more than :data:`SPEED_MARGIN` beyond the
+        speeds the model was trained at (:attr:`speeds_rpm`): impacts, resonances and the noise floor stand otherwise
+        at other speeds, so the model reads such a record as it never learnt. None when it does not, or either is
+        unknown."""
+        if self.speeds_rpm is None or rpm is None:
+            return None
+        low, high = self.speeds_rpm
+        if low / SPEED_MARGIN <= rpm <= high * SPEED_MARGIN:
+            return None
+        side = f"above the fastest ({high:.0f})" if rpm > high else f"below the slowest ({low:.0f})"
+        return (f"the shaft speed ({rpm:.0f} rev/min) lies more than {SPEED_MARGIN - 1:.0%} {side} of the model's "
+                "training windows: the model reads a record at a speed it never learnt; hold its verdict against the "
+                "physics evidence")
+
     def _extractor_at(self, bearing: dict | None):
         """The defect-order extractor reading ``bearing``'s orders (the model's own for None or the same bearing)."""
         if bearing and bearing != self.extractor.bearing:
@@ -263,6 +284,7 @@ class DiagnosisPipeline:
             "config": self.config,
             "unit": self.unit,
             "window_level": None if self.window_level is None else [float(v) for v in self.window_level],
+            "speeds_rpm": None if self.speeds_rpm is None else [float(v) for v in self.speeds_rpm],
             "physics_first": None if self.physics_first is None else asdict(self.physics_first),
             "training_records": self.training_records,
             "extractor": _extractor_state(self.extractor),
@@ -292,6 +314,7 @@ class DiagnosisPipeline:
             config_hash=meta["config_hash"],
             unit=meta.get("unit", ""),  # models saved before these were recorded: unit and levels unknown
             window_level=None if meta.get("window_level") is None else tuple(meta["window_level"]),
+            speeds_rpm=None if meta.get("speeds_rpm") is None else tuple(meta["speeds_rpm"]),  # unknown: saved before
             physics_first=None if meta.get("physics_first") is None else PhysicsFirst(**meta["physics_first"]),
             training_records=meta.get("training_records", {}),  # models saved before they were recorded: none known
         )

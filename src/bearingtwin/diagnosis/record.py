@@ -54,6 +54,9 @@ from bearingtwin.signal.speed import (UNSTEADY, near_supply, order_track, series
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
+FEW_WINDOWS = 3
+"""Fewer windows than this and a diagnosis says its verdict rests on them: below three, no majority outvotes one
+misread window."""
 
 
 @dataclass
@@ -611,6 +614,13 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     level = pipeline.level_note(windows)
     if level:
         notes.append(level)
+    speed_unseen = pipeline.speed_note(recording.rpm)
+    if speed_unseen:
+        notes.append(speed_unseen)
+    if len(windows) < FEW_WINDOWS:  # a majority of one or two windows: one misread window decides it
+        notes.append(f"the verdict rests on {len(windows)} window{'s' * (len(windows) > 1)} of the model's "
+                     f"{pipeline.window_length} samples ({pipeline.window_length / recording.fs:.3g} s): a longer "
+                     "record gives a surer one")
     if prepared.bearing and prepared.bearing != pipeline.bearing:
         if not pipeline.needs_rpm:
             notes.append("the model's features do not depend on the bearing")
@@ -673,6 +683,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "speed": prepared.speed,
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
+        "speed_unseen": speed_unseen is not None,
         "windows_left_out": left_out,  # touching a dropout as long as a window or a gap with no value
         "notes": notes,
     }

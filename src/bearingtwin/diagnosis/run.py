@@ -12,7 +12,8 @@ state out, or a row's state empty: that file's rpm and fs are read, and its verd
 A folder's or glob's run leaves ``out`` holding its own per-record outputs alone: what an earlier run wrote there
 (:data:`OUTPUT_FILES`, ``summary.csv``) is removed before the first record is diagnosed, so a record deleted since,
 or failing now, or not reached by an interrupt, leaves no verdict of the earlier run to pass for this one's; a
-single file's run replaces that record's outputs alone (:func:`remove_earlier_outputs`)."""
+single file's run replaces that record's outputs alone (:func:`remove_earlier_outputs`) and its row of the
+``summary.csv`` there (:func:`update_summary`), which it writes when the file fails and there is none."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ import contextlib
 import csv
 import fcntl
 import glob
+import io
 import json
 import logging
 import os
@@ -219,9 +221,11 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
             interrupted = True
             raise
         finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
-            if len(records) > 1 or run.failures:
-                try:
-                    run.files.append(write_summary(run.rows, out / "summary.csv"))
+            summary = out / "summary.csv"
+            if len(records) > 1 or run.failures or _summary_written_here(summary):
+                try:  # one file's row into the rows earlier runs wrote (files diagnosed one by one as they arrive)
+                    run.files.append(write_summary(run.rows, summary) if len(records) > 1 else
+                                     update_summary(run.rows, summary))
                 except BearingTwinError as error:
                     if not interrupted:
                         raise
@@ -278,9 +282,11 @@ def remove_earlier_outputs(out: Path, records: list[Path]) -> list[str]:
     names = None if len(records) > 1 else {records[0].stem}
     folders = sorted(folder for folder in out.glob("*") if folder.is_dir() and not folder.is_symlink()
                      and (names is None or folder.name in names) and _written_here(folder))
+    summary = out / "summary.csv"
+    if names is None and summary.exists() and not _summary_written_here(summary):
+        raise BearingTwinError(f"{summary} is not one this command wrote; it is kept: move it or choose another out=")
     try:
-        summary = out / "summary.csv"
-        if names is None and summary.is_file() and summary.read_text(errors="replace").startswith(",".join(SUMMARY_COLUMNS)):
+        if names is None and summary.exists():
             summary.unlink()
         for folder in folders:
             remove_outputs(folder)
@@ -288,6 +294,15 @@ def remove_earlier_outputs(out: Path, records: list[Path]) -> list[str]:
         raise BearingTwinError(f"out={out}: cannot remove an earlier run's outputs ({error.strerror}: "
                                f"{error.filename})") from None
     return [folder.name for folder in folders]
+
+
+def _summary_written_here(path: Path) -> bool:
+    """Whether ``path`` is a ``summary.csv`` this command wrote (a file that starts with its columns)."""
+    try:
+        with open(path, errors="replace") as handle:
+            return handle.readline().startswith(",".join(SUMMARY_COLUMNS))
+    except OSError:
+        return False
 
 
 def _written_here(folder: Path) -> bool:
@@ -414,6 +429,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
+        row["speed_unseen"] = result["speed_unseen"]
         row["classifier_verdict"] = result["classifier_verdict"] or ""  # empty where the physics decided every window
         row["physics_decided"] = result["physics_decided"]
         speed = result["speed"] or {}  # the spread of the shaft speed read, and whether the record was steadied
@@ -481,6 +497,56 @@ def calibration_records(pipeline) -> set[str]:
 
 
 def write_summary(rows: list[dict], path: Path) -> Path:
+    """``summary.csv`` of ``rows`` at ``path``, written over whatever an earlier run left there."""
+    text = summary_text(rows)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "w", newline="") as handle:
+            handle.write(text)
+    except OSError as error:
+        raise _unwritable(path, error) from None
+    return path
+
+
+def update_summary(rows: list[dict], path: Path) -> Path:
+    """``summary.csv`` at ``path`` with ``rows`` in place of the rows of the same records, the other records' rows
+    kept: a one-file run adds its record to the summary of the files diagnosed before it, never over them. Runs
+    side by side take turns (an exclusive lock on the file while it is read and written); a file this command did
+    not write is refused and kept; a write that fails puts the earlier contents back."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "a+", newline="") as handle:
+            fcntl.flock(handle, fcntl.LOCK_EX)  # released when the file is closed
+            handle.seek(0)
+            earlier = handle.read()
+            if earlier and not earlier.startswith(",".join(SUMMARY_COLUMNS)):
+                raise BearingTwinError(f"{path} is not one this command wrote; it is kept: move it or choose another "
+                                       "out=")
+            # A row read back holds every column of the file; its empty cells were no value of that record's.
+            kept = [{name: value for name, value in row.items() if value != ""}
+                    for row in csv.DictReader(earlier.splitlines())]
+            replaced = {row["record"]: row for row in rows}
+            merged = [replaced.pop(row.get("record"), row) for row in kept] + list(replaced.values())
+            text = summary_text(merged)
+            handle.truncate(0)  # appended from the start ("a+"): the whole file in one write
+            try:
+                handle.write(text)
+                handle.flush()
+            except OSError:
+                handle.truncate(0)
+                handle.write(earlier)
+                raise
+    except OSError as error:
+        raise _unwritable(path, error) from None
+    return path
+
+
+def _unwritable(path: Path, error: OSError) -> BearingTwinError:
+    return BearingTwinError(f"out={path.parent}: {path.name} cannot be written there ({error.strerror or error})")
+
+
+def summary_text(rows: list[dict]) -> str:
+    """The CSV text of ``summary.csv``: one row per record, the columns its rows hold values of."""
     columns = list(SUMMARY_COLUMNS)
     if any("fault_size_in" in row for row in rows):
         columns.append("fault_size_in")
@@ -496,16 +562,12 @@ def write_summary(rows: list[dict], path: Path) -> Path:
     # verdict the physics gave is not the classifier's.
     columns += ["classifier_verdict", "physics_decided"]
     columns += ["speed_spread", "order_tracked"]  # how steadily the shaft turned; resampled to a steady speed
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
-            writer.writeheader()
-            writer.writerows(rows)
-    except OSError as error:
-        raise BearingTwinError(f"out={path.parent}: {path.name} cannot be written there ({error.strerror or error})") \
-            from None
-    return path
+    columns.append("speed_unseen")  # a shaft speed well beyond the model's training windows'
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
+    writer.writeheader()
+    writer.writerows(rows)
+    return text.getvalue()
 
 
 def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None,

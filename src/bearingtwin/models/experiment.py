@@ -244,6 +244,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         config=plain_config(cfg),
         unit=dataset.unit,
         window_level=training_window_level(dataset, train),
+        speeds_rpm=training_speeds(dataset, train),
         physics_first=physics_first,
         training_records=training_records(dataset, train),
     )
@@ -293,6 +294,15 @@ def training_window_level(dataset, train: np.ndarray) -> tuple[float, float] | N
         return None
     low, high = np.percentile(np.std(dataset.windows[train], axis=1), [5, 95])
     return float(low), float(high)
+
+
+def training_speeds(dataset, train: np.ndarray) -> tuple[float, float] | None:
+    """The slowest and fastest shaft speed of the training windows ``train``, rev/min (None where none is known)."""
+    if dataset.window_rpms is None:
+        return None
+    rpms = np.asarray(dataset.window_rpms[train], dtype=float)
+    rpms = rpms[np.isfinite(rpms)]
+    return (float(rpms.min()), float(rpms.max())) if rpms.size else None
 
 
 def training_records(dataset, train: np.ndarray) -> dict[str, str]:
