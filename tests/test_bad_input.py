@@ -88,6 +88,12 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("train", ["-m", "seed=interval(0,1)"], ["seed=interval(0,1): interval() asks a sweeper that draws values"]),  # exit 1
     ("train", ["+classifier=svm"], ["+classifier=svm: classifier has a default choice", "choose it with classifier=svm"]),
     ("train", ["-cd", "my_conf"], ["--config-dir my_conf: no such folder"]),  # Hydra's three lines, exit 1
+    # A flag for a setting, or a record given bare: argparse's usage over many lines, exit 2; Hydra's parse error.
+    ("diagnose", ["--model", "models:/m@champion", "path=r.npz"], ["--model: not a flag of this command; settings are "
+                                                                   "given as key=value: model=<value>"]),
+    ("train", ["--seed=3"], ["--seed=3: not a flag of this command", "seed=3 (--help lists them)"]),
+    ("inspect", ["recs/pump 3.mat"], ["recs/pump 3.mat: a file, folder or glob is given as path='recs/pump 3.mat'"]),
+    ("diagnose", ["cwru/*.mat", "model=x"], ["cwru/*.mat: a file, folder or glob is given as path='cwru/*.mat'"]),
     # Hydra's folder for the run, or the sweep, that cannot be made: Hydra's traceback, exit 1 (a FAILED sweep run)
     ("train", ["hydra.run.dir=/dev/null/run"], ["hydra.run.dir=/dev/null/run: /dev/null is a file, not a folder"]),
     ("train", ["effects=[gear]"], ["effects=gear: no such effects config", "tones"]),  # Hydra lists no options for it

@@ -79,8 +79,16 @@ def test_bad_input_exits_non_zero_naming_the_field(tmp_path, overrides, field):
 
 def test_an_output_that_is_not_an_npz_archive_is_refused_before_simulating(tmp_path):
     """numpy would write out.txt.npz and the summary would point at out.txt."""
+    from bearingtwin.data.formats import read_raw
+
     result = run(tmp_path, f"out={tmp_path / 'out.txt'}", "simulator.duration=0.1")
     assert result.returncode == 2 and "give out=<name>.npz" in result.stderr and not list(tmp_path.glob("out.txt*"))
+    # An archive's name in capitals is an archive's name: written as given (numpy's own savez had added .npz to it),
+    # and read back.
+    upper = run(tmp_path, f"out={tmp_path / 'OUT.NPZ'}", "simulator.duration=0.1", "plot=false")
+    assert upper.returncode == 0, upper.stderr[-2000:]
+    assert sorted(path.name for path in tmp_path.glob("OUT*")) == ["OUT.NPZ"]
+    assert read_raw(tmp_path / "OUT.NPZ").fs > 0
 
 
 def test_the_twin_call_it_suggests_holds_the_simulations_sensor_bearing_and_load(tmp_path):

@@ -407,6 +407,12 @@ def unread_overrides(cfg: DictConfig, overrides: list[str]) -> list[str]:
     return unread
 
 
+def _top_level_keys(config_name: str) -> set[str]:
+    """The keys ``conf/<config_name>.yaml`` itself sets (none for a config of the user's own, ``--config-name``)."""
+    path = Path(CONF_DIR, f"{config_name}.yaml")
+    return set(OmegaConf.load(path)) if path.is_file() else set()
+
+
 def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
     """Compose the config ``argv`` asks for, in the mode Hydra will run it, raising Hydra's composition error
     (and, for a single run, the :class:`BearingTwinError` of a ``+key`` no config declares).
@@ -420,7 +426,11 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
     from hydra.core.global_hydra import GlobalHydra
     from hydra.types import RunMode
 
-    args = get_args_parser().parse_args(argv)
+    args, flags = get_args_parser().parse_known_args(argv)
+    if flags:  # argparse's refusal: its whole usage and a line at the end, as if the command had failed to start
+        key, _, value = flags[0].lstrip("-").partition("=")
+        raise BearingTwinError(f"{flags[0]}: not a flag of this command; settings are given as key=value: "
+                               f"{key}={value or '<value>'} (--help lists them)")
     if args.multirun and args.cfg:  # Hydra's own refusal is a ValueError with a traceback
         raise BearingTwinError(f"-m and --cfg {args.cfg} go one at a time: --cfg shows one run's config; leave out -m "
                                "to see it (--cfg hydra shows the sweep's parameters under hydra.sweeper.params)")
@@ -436,7 +446,10 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         return
     name = args.config_name or config_name
     for override in args.overrides:
-        key, _, value = override.partition("=")
+        key, equals, value = override.partition("=")
+        if not equals and not override.startswith(("+", "~")) and "path" in _top_level_keys(name) \
+                and (Path(override).expanduser().exists() or set(override) & set("/.*")):
+            raise BearingTwinError(f"{override}: a file, folder or glob is given as path='{override}'")
         group = key.lstrip("+~")
         if Path(CONF_DIR, group).is_dir() and value.startswith("{"):  # Hydra would merge it as an option's name
             options = ", ".join(sorted(path.stem for path in Path(CONF_DIR, group).glob("*.yaml")))

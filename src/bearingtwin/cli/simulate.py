@@ -142,7 +142,7 @@ def defect_words(defect: DictConfig, fault: str, sinks_m: float | None = None) -
 def simulate_command(cfg: DictConfig) -> None:
     refuse_unknown_keys(HydraConfig.get())
     out = Path(cfg.out).expanduser()
-    if out.suffix != ".npz":  # numpy would write <out>.npz and leave <out> for the user to look for
+    if out.suffix.lower() != ".npz":  # numpy would write <out>.npz and leave <out> for the user to look for
         raise BearingTwinError(f"out={cfg.out}: bearingtwin-simulate writes an .npz archive; give out=<name>.npz")
     output_folder(out.parent)
     plot = true_or_false(cfg.plot, "plot")

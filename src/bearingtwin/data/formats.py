@@ -619,9 +619,10 @@ def save_simulated_record(path: Path, recording: Recording, channels: np.ndarray
     (``signal``), every sensor's (``channels``, a row per one of ``channel_names``), the facts a reader needs beside
     the samples (rate, speed, state, sensor, unit) and ``facts`` (the bearing, whose defect lines witness the rate; the
     settings no sample shows), marked :data:`SIMULATOR_MARK`."""
-    np.savez(path, signal=recording.signal, channels=channels, channel_names=np.array(channel_names), fs=recording.fs,
-             rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
-             made_by=SIMULATOR_MARK, **facts)
+    with open(path, "wb") as handle:  # by a handle: numpy adds ".npz" to a name that ends ".NPZ"
+        np.savez(handle, signal=recording.signal, channels=channels, channel_names=np.array(channel_names),
+                 fs=recording.fs, rpm=recording.rpm, fault=recording.fault, sensor=recording.channel,
+                 unit=recording.unit, made_by=SIMULATOR_MARK, **facts)
 
 
 SIMULATED_RATE = "simulation"
