@@ -2129,8 +2129,8 @@ def test_a_diagnosis_the_disk_cannot_take_fails_its_record_in_one_line_and_leave
 def test_a_one_file_row_takes_its_records_place_in_the_summary_and_a_failed_write_puts_the_earlier_back(
         tmp_path, monkeypatch):
     """update_summary: a record's row replaces its earlier row where it stood, a new record's is added last, the
-    columns follow the rows' values (an error column while a row holds one); a write the disk refuses leaves the
-    earlier summary as it was."""
+    columns follow the rows' values (an error column while a row holds one), a cell of two lines is read back whole;
+    a write the disk refuses leaves the earlier summary as it was."""
     import errno
     import io
 
@@ -2143,9 +2143,11 @@ def test_a_one_file_row_takes_its_records_place_in_the_summary_and_a_failed_writ
     assert [(row["record"], row["verdict"], row["share"]) for row in csv.DictReader(open(path))] == [
         ("a", "inner", "1.0"), ("b", "outer", "0.75")]
     assert "error" not in open(path).readline()  # no row holds one now
-    diagnosis_run.update_summary([{"record": "c", "error": "c.csv: holds channels a, b"}], path)
-    rows = list(csv.DictReader(open(path)))
-    assert [(row["record"], row["error"]) for row in rows] == [("a", ""), ("b", ""), ("c", "c.csv: holds channels a, b")]
+    diagnosis_run.update_summary([{"record": "c", "error": "c.csv: holds channels a, b\nchoose one"}], path)
+    diagnosis_run.update_summary([{"record": "a", "verdict": "ball"}], path)  # a cell of two lines read back whole
+    rows = list(csv.DictReader(open(path, newline="")))
+    assert [(row["record"], row["verdict"], row["error"]) for row in rows] == [
+        ("a", "ball", ""), ("b", "outer", ""), ("c", "", "c.csv: holds channels a, b\nchoose one")]
     before = path.read_bytes()
     real_open = open
 

@@ -524,7 +524,7 @@ def update_summary(rows: list[dict], path: Path) -> Path:
                                        "out=")
             # A row read back holds every column of the file; its empty cells were no value of that record's.
             kept = [{name: value for name, value in row.items() if value != ""}
-                    for row in csv.DictReader(earlier.splitlines())]
+                    for row in csv.DictReader(io.StringIO(earlier, newline=""))]  # a cell may hold a line break
             replaced = {row["record"]: row for row in rows}
             merged = [replaced.pop(row.get("record"), row) for row in kept] + list(replaced.values())
             text = summary_text(merged)
