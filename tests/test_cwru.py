@@ -99,6 +99,7 @@ def test_a_48_khz_record_named_by_its_number_is_read_at_48_khz(tmp_path):
     assert "measured.fs=12000 Hz given, where the Data Center's catalogue lists record 110 at 48000 Hz" in given
 
 
+@needs_data
 def test_a_rate_given_against_the_one_a_cwru_name_states_is_noted_beside_any_verdict(tmp_path):
     """A 12k_ file read at another rate: the name is a data set's convention, not the file's statement, so the rate is
     not refused for it, but it is said, beside a refusal (whose own suggestion may be another wrong rate: record 130
