@@ -843,6 +843,32 @@ def test_windows_tile_the_record_without_overlap():
 # ---------------------------------------------------------------- end to end
 
 
+def test_a_rate_too_low_to_hold_the_bearings_defect_lines_is_refused_naming_the_rate_in_khz_it_may_be(tmp_path):
+    """Resampled to the model's 12 kHz, a record at 25.6 Hz (25.6 kHz written in Hz) was diagnosed on nothing and
+    called normal. Whatever gave the rate (the file, fs=, a speed-less record read at the model's training speed),
+    a rate whose Nyquist frequency lies below BPFI is refused; one just above it is read."""
+    pipeline = envelope_pipeline()
+    signal = fault_signal(None, seconds=3)
+    np.savez(tmp_path / "stated.npz", signal=signal[:300], fs=25.6, rpm=RPM)
+    with pytest.raises(BearingTwinError, match=(
+            r"stated.npz: the rate the file states, 25.6 Hz, is too low to diagnose: the Nyquist frequency, 12.8 Hz, "
+            r"lies below the inner-race defect line \(BPFI\) at 1797 rev/min \(162.2 Hz\): a record shows this "
+            r"bearing's faults above fs = 324 Hz; if 25.6 kHz was meant, the file must state 25600 Hz$")):
+        read_record(tmp_path / "stated.npz", pipeline)
+    np.savez(tmp_path / "bare.npz", signal=signal[:300])
+    with pytest.raises(BearingTwinError, match=r"bare.npz: fs=12 Hz is too low to diagnose: .* if 12 kHz was meant, "
+                                               r"give 12000 Hz$"):
+        read_record(tmp_path / "bare.npz", pipeline, fs=12, rpm=RPM)
+    with pytest.raises(BearingTwinError, match=r"fs=12 Hz is too low .* at 3600 rev/min .*\(the slowest of the "
+                                               r"model's training windows': the record states no speed\)"):
+        read_record(tmp_path / "bare.npz", dataclasses.replace(pipeline, speeds_rpm=(3600.0, 3600.0)), fs=12)
+    # A rate no kHz reading rescues is named without that guess; BPFI at 1797 rev/min is 162.2 Hz: 330 Hz holds it.
+    with pytest.raises(BearingTwinError, match=r"fs=0.2 Hz is too low .*faults above fs = 324 Hz$"):
+        read_record(tmp_path / "bare.npz", pipeline, fs=0.2, rpm=RPM)
+    np.savez(tmp_path / "low.npz", signal=signal[:1000])
+    assert read_record(tmp_path / "low.npz", pipeline, fs=330, rpm=RPM).original_fs == 330
+
+
 def run(module: str, *args: str, cwd: Path, uri: str) -> subprocess.CompletedProcess:
     env = {**__import__("os").environ, "MLFLOW_TRACKING_URI": uri}
     return run_module(f"bearingtwin.cli.{module}", *args, cwd=cwd, env=env, timeout=600)
@@ -1123,15 +1149,19 @@ def test_a_dead_sensor_fails_its_file_alone_and_each_failure_names_its_file_once
     folder.mkdir()
     np.savez(folder / "dead.npz", signal=np.full(30000, 0.5), fs=FS, rpm=RPM)
     np.savez(folder / "live.npz", signal=fault_signal(None, seconds=3), fs=FS, rpm=RPM)
+    np.savez(folder / "slow.npz", signal=fault_signal(None, seconds=3)[:300], fs=25.6, rpm=RPM)  # 25.6 kHz meant
     (folder / "two.csv").write_text("time,a,b\n" + "".join(f"{i / FS},{i % 3},{i % 5}\n" for i in range(3000)))
     done = run("diagnose", "path=f/*", "model=models:/diag/1", "out=out", "figures=false", "tracking.enabled=false",
                cwd=tmp_path, uri=uri)
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert [line for line in done.stderr.splitlines() if line.startswith("error: ")] == [
         "error: f/dead.npz: every sample is 0.5: no vibration recorded",
+        "error: f/slow.npz: the rate the file states, 25.6 Hz, is too low to diagnose: the Nyquist frequency, 12.8 Hz, "
+        "lies below the inner-race defect line (BPFI) at 1797 rev/min (162.2 Hz): a record shows this bearing's "
+        "faults above fs = 324 Hz; if 25.6 kHz was meant, the file must state 25600 Hz",
         "error: f/two.csv: holds channels a, b; choose one with channel=<name>",
     ]
-    assert (tmp_path / "out" / "live" / "diagnosis.json").is_file() and "records diagnosed: 1 of 3" in done.stdout
+    assert (tmp_path / "out" / "live" / "diagnosis.json").is_file() and "records diagnosed: 1 of 4" in done.stdout
     assert f"output: {(tmp_path / 'out').resolve()}\n" in done.stdout  # out=out, named where it is from anywhere
 
 

@@ -9,7 +9,7 @@ import pytest
 import scipy.io
 import scipy.io.wavfile
 
-from bearingtwin.data.formats import load_recording, read_raw, unit_in_name
+from bearingtwin.data.formats import load_recording, read_raw, resolve_fs, unit_in_name
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 
@@ -616,6 +616,32 @@ def test_a_rate_a_loggers_note_states(tmp_path, note, rate):
     assert list(read_raw(tmp_path / "savetxt1.csv").channels) == ["0"]
 
 
+def test_a_noted_rate_is_read_with_the_files_decimal_mark_or_named_as_not_read(tmp_path):
+    """Among numbers written with decimal commas '25,6 kHz' is 25.6 kHz (it had been passed over: no rate stated), and
+    '25.600 Hz' may be 25.6 Hz or 25600 Hz (a thousands point): not misread as 25.6 Hz, but named where the file is
+    said to state no rate, as '12,800 Hz' is among decimal points. A spreadsheet's two cells ('Sample rate;25600')
+    state a rate as a note does, and a single column of decimal commas under notes gets the decimal-comma remedy."""
+    rows = "".join(f"{value:.4f};{-value:.4f}\n".replace(".", ",") for value in np.linspace(-1, 1, 200))
+    for note, rate in [("Sampling frequency:\t25,6 kHz", 25600.0), ("Sample rate;25600", 25600.0),
+                       ("Sample rate\t12000", 12000.0), ("Sample rate: 25.600 Hz", None)]:
+        (tmp_path / "comma.csv").write_text(f"Device: X\n{note}\nDate;2026-11-29\n\nacc x [g];acc y [g]\n{rows}")
+        raw = read_raw(tmp_path / "comma.csv")
+        assert (raw.fs, list(raw.channels)) == (rate, ["acc x [g]", "acc y [g]"]), note
+    with pytest.raises(BearingTwinError, match=(
+            r"comma.csv: the file does not state its sampling rate: its note 'Sample rate: 25.600 Hz' writes the rate so "
+            r"that it reads as more than one number \(a thousands separator, or a decimal mark other than its numbers' "
+            r"','\); give fs=<Hz>$")):
+        resolve_fs(raw, None)
+    (tmp_path / "point.csv").write_text("Sample rate: 12,800 Hz\n\nacc\n" + "0.1\n-0.2\n" * 50)
+    with pytest.raises(BearingTwinError, match=r"its note 'Sample rate: 12,800 Hz' writes the rate so that it reads as "
+                                               r"more than one number .* other than its numbers' '\.'\); give fs"):
+        resolve_fs(read_raw(tmp_path / "point.csv"), None)
+    (tmp_path / "one.csv").write_text("Device: X\nSample rate: 25600 Hz\n\nacc [g]\n" + "0,1\n-0,2\n" * 50)
+    with pytest.raises(BearingTwinError, match=r"one.csv: the header names 1 columns but the rows have 2 \(numbers "
+                                               r"written with decimal commas\? save the file with decimal points"):
+        read_raw(tmp_path / "one.csv")
+
+
 def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):
     """Printed to a few decimals the time stamps only approximate the rate the note states exactly: within 1 % the
     note's is kept, beyond it the two contradict each other and the file is refused naming both."""
@@ -703,6 +729,36 @@ def test_time_stamps_read_as_the_channel_are_refused(tmp_path, signal):
     counter = Recording(np.floor(np.arange(signal.size) / 8.0), FS, source="counter")  # steps up every 8 samples
     with pytest.raises(BearingTwinError, match=r"counter: channel \? rises throughout"):
         counter.require_vibration()
+
+
+def test_a_column_of_text_beside_the_numbers_is_passed_over_and_named(tmp_path, signal):
+    """A logger's status column ('OK') had made the whole file unreadable, its vibration named or not; a table of
+    text alone is still refused by its first cell, and a stray word in a column of numbers by its line."""
+    t = np.arange(signal.size) / FS
+    (tmp_path / "logger.csv").write_text("time,acc_g,status,temp\n" + "".join(
+        f"{a:.6f},{b:.6f},OK,{20 + i % 3}\n" for i, (a, b) in enumerate(zip(t, signal))))
+    raw = read_raw(tmp_path / "logger.csv")
+    assert list(raw.channels) == ["acc_g", "temp"] and raw.fs == pytest.approx(FS, rel=1e-6)
+    assert "column 'status' holds text, not numbers: passed over" in raw.meta["notes"]
+    np.testing.assert_allclose(load_recording(tmp_path / "logger.csv", channel="acc_g").signal, signal, atol=1e-6)
+    (tmp_path / "words.csv").write_text("name,verdict\nrun1,ok\nrun2,bad\n")
+    with pytest.raises(BearingTwinError, match=r"words.csv: line 2, column 1: 'run1' is not a number"):
+        read_raw(tmp_path / "words.csv")
+    (tmp_path / "stray.csv").write_text("acc,status\n0.1,OK\n0.2,OK\nlost,OK\n0.3,OK\n")
+    with pytest.raises(BearingTwinError, match=r"stray.csv: line 4, column 1: 'lost' is not a number"):
+        read_raw(tmp_path / "stray.csv")
+
+
+def test_levels_no_vibration_reaches_in_any_unit_are_refused(signal):
+    """At 1e150 a record's squared envelope overflowed and its NaN prominences decided windows; at 1e-200 squares
+    vanish. Both are refused as numbers scaled wrong; 1e9 (a g in ng) and 1e-6 (in Mm/s^2) are vibrations."""
+    for scale in (1e150, 1e-200):
+        with pytest.raises(BearingTwinError, match=r"huge: channel \?'s largest magnitude, .*, lies outside 1e-30 to "
+                                                   r"1e\+30, where a vibration lies in any unit: the numbers are scaled "
+                                                   r"wrong or are no vibration$"):
+            Recording(scale * signal, FS, source="huge").require_vibration()
+    for scale in (1e9, 1e-6):
+        Recording(scale * signal, FS, source="fine").require_vibration()
 
 
 def test_compiled_kernels_are_cached_with_the_users_caches_not_beside_the_sources(tmp_path):

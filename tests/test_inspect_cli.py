@@ -227,6 +227,20 @@ def test_a_bearing_given_against_the_one_the_file_names_is_noted(tmp_path):
     assert not any("bearing=" in note for note in summarize(path)["meta"].get("notes", []))
 
 
+def test_a_rate_too_low_for_the_bearings_defect_lines_is_noted(tmp_path):
+    """25.6 Hz (25.6 kHz written in Hz) holds no defect line of the 6205 at 1797 rev/min: reported, as diagnose
+    refuses it; 12 kHz holds them all."""
+    from bearingtwin.cli.inspect import summarize
+
+    signal = np.random.default_rng(0).standard_normal(3000)
+    np.savez(tmp_path / "low.npz", signal=signal, fs=25.6, rpm=1797.0, bearing="cwru_6205")
+    np.savez(tmp_path / "usual.npz", signal=signal, fs=12000.0, rpm=1797.0, bearing="cwru_6205")
+    assert ("a rate of 25.6 Hz is too low for a diagnosis: the Nyquist frequency, 12.8 Hz, lies "
+            "below the inner-race defect line (BPFI) at 1797 rev/min (162.2 Hz)") in " ".join(
+        summarize(tmp_path / "low.npz")["meta"]["notes"])
+    assert not any("too low" in note for note in summarize(tmp_path / "usual.npz")["meta"].get("notes", []))
+
+
 def test_a_shaft_speed_a_supplys_lines_could_pass_for_is_not_read_and_says_why(tmp_path):
     """At 1797 rpm twice the shaft rate is 59.9 Hz, a 60 Hz supply's line: the CWRU 0 hp records' speed had been
     reported null with no reason."""

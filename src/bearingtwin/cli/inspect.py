@@ -132,7 +132,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     if rpm_origin == "nominal":
         summary["meta"]["notes"] = [*raw.meta.get("notes", []), raw.nominal_rpm_note]
     given_rate = named_rate_note(raw.meta, fs, "fs" if fs_origin == "option" else f"{table}: fs")
-    for note in filter(None, [bearing_note, given_rate, *speed_notes]):
+    too_low = None if bearing is None or rpm is None or fs_hz is None else bearing.rate_too_low(fs_hz, rpm)
+    too_low = too_low and f"a rate of {fs_hz:g} Hz is too low for a diagnosis: {too_low}"
+    for note in filter(None, [bearing_note, given_rate, *speed_notes, too_low]):
         summary["meta"]["notes"] = [*summary["meta"].get("notes", []), note]
     if fs_hz is not None:  # clipping, dropouts and dead channels, as a diagnosis or the twin names them
         quality = {name: Recording(raw.channels[name], fs_hz, source=raw.path).quality_notes()

@@ -49,6 +49,7 @@ class CsvTable:
     preamble: list[str] = field(default_factory=list)  # a logger's lines above the header, stripped
     clock: list[str] = field(default_factory=list)  # columns of clock times, as seconds of their day in values
     dates: list[str] = field(default_factory=list)  # columns of dates alone beside them (0 in values)
+    decimal: str = "."  # the decimal mark its numbers are written with
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,7 @@ class _Layout:
     preamble: tuple[str, ...] = ()  # a logger's lines above the header (:func:`_preamble`) and comments, stripped
     clock: tuple[int, ...] = ()  # columns of clock times (:data:`_CLOCK`)
     dates: tuple[int, ...] = ()  # columns of dates alone, beside a column of clock times
+    text: tuple[int, ...] = ()  # named columns whose every cell in the first rows is text (:func:`_text_columns`)
 
 
 class _BadLine(Exception):
@@ -72,11 +74,22 @@ def read_csv_table(path: Path) -> CsvTable:
     """The table in ``path``; a file that is no such table is refused naming the file and, where one is
     to blame, its line."""
     _, layout, names, notes = _head_and_layout(path)
+    every_name = names  # the layout's column indices count them all
+    # A logger's status or comment column beside the numbers is passed over; a table of text alone is left to
+    # loadtxt, which names its first cell.
+    passed_over = layout.text if names is not None and len(layout.text) < len(names) else ()
+    if passed_over:
+        shown = ", ".join(repr(names[column]) for column in passed_over)
+        notes = [*notes, f"column{'s' * (len(passed_over) > 1)} {shown} hold{'s' * (len(passed_over) == 1)} text, not "
+                         "numbers: passed over"]
+        names = [name for column, name in enumerate(names) if column not in passed_over]
     try:
         with open(path, encoding=layout.encoding) as handle, warnings.catch_warnings():
             warnings.filterwarnings("ignore", "loadtxt: input contained no data")  # refused below, naming the file
             values = np.loadtxt(_body_lines(handle, layout), delimiter=layout.delimiter, ndmin=2, dtype=np.float64,
                                 quotechar='"' if layout.delimiter else None,
+                                usecols=[column for column in range(len(names) + len(passed_over))
+                                         if column not in passed_over] if passed_over else None,
                                 converters={column: clock_seconds for column in layout.clock + layout.dates} or None)
     except _BadLine as error:
         raise BearingTwinError(f"{path}: {error}") from None
@@ -91,8 +104,8 @@ def read_csv_table(path: Path) -> CsvTable:
         split = (f" (numbers written with decimal commas? {DECIMAL_COMMA_REMEDY})"
                  if layout.delimiter == "," and values.shape[1] == 2 * len(names) else "")
         raise BearingTwinError(f"{path}: the header names {len(names)} columns but the rows have {values.shape[1]}{split}")
-    return CsvTable(values, names, notes, list(layout.preamble), [names[column] for column in layout.clock],
-                    [names[column] for column in layout.dates])
+    return CsvTable(values, names, notes, list(layout.preamble), [every_name[column] for column in layout.clock],
+                    [every_name[column] for column in layout.dates], layout.decimal)
 
 
 class TextColumn(NamedTuple):
@@ -112,16 +125,11 @@ def text_column(path: Path) -> TextColumn | None:
         head, layout, names, _ = _head_and_layout(path)
     except BearingTwinError:
         return None
-    if names is None:  # the first row is numbers, so no column is text throughout
+    if not layout.text:  # every column holds numbers (or the first row does: no header, no column text throughout)
         return None
     rows = [_cells(head[index], layout.delimiter) for index in _content(head) if index >= layout.body_start]
-    for column, name in enumerate(names):
-        if column in layout.clock + layout.dates:  # a logger's clock: a recording's stamps
-            continue
-        cells = [row[column] for row in rows if column < len(row) and row[column]]
-        if cells and not any(_is_number(cell, layout.decimal) for cell in cells):
-            return TextColumn(names, name, cells[0])
-    return None
+    column = layout.text[0]
+    return TextColumn(names, names[column], next(row[column] for row in rows if column < len(row) and row[column]))
 
 
 def is_a_note(path: Path) -> bool:
@@ -253,8 +261,10 @@ def _units_row(cells: list[str]) -> bool:
     return any(cells) and all(cell in ("", "-") or quantity_of(cell) for cell in cells)
 
 
-_NOTE_LINE = re.compile(r"\s*[^\d\s:=][^:=]*[:=]\s*\S")
-"""A logger's note: a label, then ``:`` or ``=``, then its value (``Sample rate: 12000 Hz``, ``Serial = A1234``)."""
+_NOTE_LINE = re.compile(r"\s*[^\d\s:=][^:=]*[:=]\s*\S|\s*[^\W\d][^;\t]*[;\t]\s*[-+]?\d[^;\t]*$")
+"""A logger's note: a label, then ``:`` or ``=``, then its value (``Sample rate: 12000 Hz``, ``Serial = A1234``); or a
+label and a number in two cells, as a spreadsheet exports them (``Sample rate;25600``, ``Date<tab>2026-11-29``), which
+a header's names (``ch1;ch2``) never are."""
 
 
 def _preamble(head: list[str], content: list[int]) -> list[int]:
@@ -284,8 +294,8 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     *above, header = [len(_row_cells(head[i], delimiter)) for i in content[:header_at + 1]]
     numbers = len(_row_cells(head[content[start]], delimiter))
     notes = content[:header_at]
-    if header != numbers:
-        return []
+    if header != numbers and not (delimiter == "," and numbers == 2 * header):  # decimal commas split each number
+        return []  # in two: the notes are read, and the table refused with the remedy (read_csv_table)
     # A logger's date line ("2024-03-01 10:00:00") is a note as "Device: X" is.
     return notes if numbers not in above or all(_NOTE_LINE.match(head[i]) or _is_clock(head[i].strip())
                                                 for i in notes) else []
@@ -324,7 +334,7 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
         if split is not None:
             raise BearingTwinError(f"{path}: its row {split!r} reads as numbers written with decimal commas; "
                                    f"{DECIMAL_COMMA_REMEDY}")
-    clock = dates = ()
+    clock = dates = text = ()
     if names is not None:
         units = _row_cells(head[content[1]], delimiter) if len(content) > 1 else []
         if _units_row(units) and len(units) <= len(names):  # each name then states its unit
@@ -335,13 +345,21 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
             notes.append(f"the row under the header read as the columns' units: {', '.join(names)}")
         rows = [_row_cells(head[i], delimiter) for i in content if i >= body_start]
         clock, dates = _clock_columns(rows, len(names))
+        text = tuple(column for column in range(len(names)) if column not in clock + dates and
+                     _text_throughout([row[column] for row in rows if column < len(row) and row[column]], decimal))
         names, repeated = _distinct(names)
         notes += repeated
     # A logger's notes above the header, and its '#' comment lines there ("# Sample rate: 25600 Hz"), in their order.
     notes_above = tuple(line.lstrip().removeprefix("#").strip() for i, line in enumerate(head[:first])
                         if i in preamble or line.lstrip().startswith("#"))
-    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, notes_above, clock, dates)
+    layout = _Layout(encoding, delimiter, decimal, body_start, trailing, notes_above, clock, dates, text)
     return layout, names, notes
+
+
+def _text_throughout(cells: list[str], decimal: str) -> bool:
+    """Whether a column's non-empty ``cells`` in the first rows are all text (``OK``, a status, a comment): a stray
+    word among numbers is no text column but a damaged record, which the reader names by its line."""
+    return bool(cells) and not any(_is_number(cell, decimal) for cell in cells)
 
 
 def _clock_columns(rows: list[list[str]], n_columns: int) -> tuple[tuple[int, ...], tuple[int, ...]]:

@@ -809,12 +809,16 @@ def _read_csv(path: Path) -> RawRecord:
     from bearingtwin.data.csv_file import read_csv_table
 
     table = read_csv_table(path)
-    line, noted = rate_in_notes(path, table.preamble) or (None, None)
+    line, noted = rate_in_notes(path, table.preamble, table.decimal) or (None, None)
     above = "the header" if table.names is not None else "the numbers"
     rate_note = [] if noted is None else [f"sampling rate {noted:g} Hz from the note {line!r} above {above}"]
+    note_unread = "" if line is None or noted is not None else (
+        f"its note {line!r} writes the rate so that it reads as more than one number (a thousands separator, or a "
+        f"decimal mark other than its numbers' '{table.decimal}')")
     if table.names is None:
         return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}), fs=noted,
-                         fs_origin="header" if noted is not None else "", meta={"notes": rate_note} if rate_note else {})
+                         fs_origin="header" if noted is not None else "", meta={"notes": rate_note} if rate_note else {},
+                         fs_unread=note_unread)
     # A noted rate is exact where time stamps are printed to a few decimals: they must agree with it.
     notes = list(table.notes) + rate_note
     passed_over = table.clock[1:] + table.dates  # a logger's dates beside its clock times; a second clock
@@ -827,29 +831,35 @@ def _read_csv(path: Path) -> RawRecord:
     origin = "header" if noted is not None else "time column" if fs else ""
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin=origin,
                      fs_tolerance=FS_FLOAT_NOISE if noted is not None else FS_RELATIVE_TOLERANCE,
-                     meta={"notes": notes} if notes else {}, channel_units=units, fs_unread=fs_unread)
+                     meta={"notes": notes} if notes else {}, channel_units=units,
+                     fs_unread=fs_unread or ("" if fs else note_unread))
 
 
 _RATE_NOTE = re.compile(
-    r"(?:sampl(?:e|ing)[ _-]*(?:rate|frequency|freq)\s*(?:\([^)]*\)|\[[^\]]*\])?\s*[:=]\s*"
-    r"(?P<value>\d+(?:\.\d+)?(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|s/s|sps|samples/s)?"
-    r"|fs\s*[:=]\s*(?P<fs_value>\d+(?:\.\d+)?(?:[eE][+-]?\d+)?)\s*(?P<fs_unit>k?hz|s/s|sps|samples/s))"
+    r"(?:sampl(?:e|ing)[ _-]*(?:rate|frequency|freq)\s*(?:\([^)]*\)|\[[^\]]*\])?\s*[:=;\t]\s*"
+    r"(?P<value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|s/s|sps|samples/s)?"
+    r"|fs\s*[:=]\s*(?P<fs_value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<fs_unit>k?hz|s/s|sps|samples/s))"
     r"\s*(?:$|[;(]|,(?!\d))", re.IGNORECASE)
 """A logger's note stating its rate: ``Sample rate: 12000 Hz``, ``Sampling frequency [Hz] = 25.6 kHz``, ``fs: 48000
-Hz``; the number (Hz unless kHz) ends the note or a part of it. A bare ``fs`` needs its unit (``FS: 10``, a sensor's
-full scale, states no rate), and a number with a thousands separator (``12,800 Hz``, ``12.000,0 Hz``) is read as no
-rate rather than misread: the user gives it (``fs=``)."""
+Hz``, ``Sample rate;25600`` (two cells of a spreadsheet's export); the number (Hz unless kHz) ends the note or a part of it. A bare ``fs`` needs its unit (``FS: 10``, a sensor's
+full scale, states no rate)."""
 
 
-def rate_in_notes(path: Path, lines: list[str]) -> tuple[str, float] | None:
+def rate_in_notes(path: Path, lines: list[str], decimal: str = ".") -> tuple[str, float | None] | None:
     """The first of a logger's notes (its lines above the header) that states the sampling rate, and the rate in Hz
-    (no unit: Hz); None when none does. A stated rate that is no positive number is refused, naming the line."""
+    (no unit: Hz); None when none does. The number is read with the file's ``decimal`` mark (``25,6 kHz`` among
+    numbers written with decimal commas); one that reads more than one way (``12,800 Hz``, ``12.000,0 Hz``, or
+    ``25.600 Hz`` among decimal commas: a thousands separator?) is a rate not read, None, rather than a misread one:
+    the user gives it (``fs=``). A stated rate that is no positive number is refused, naming the line."""
     for line in lines:
         match = _RATE_NOTE.match(line.strip())
         if match is None:
             continue
         value, unit = (match["value"], match["unit"]) if match["value"] else (match["fs_value"], match["fs_unit"])
-        rate = float(value) * (1000.0 if (unit or "").lower() == "khz" else 1.0)
+        marks = re.findall(r"[.,]", value)
+        if marks and marks != [decimal]:
+            return line, None
+        rate = float(value.replace(",", ".")) * (1000.0 if (unit or "").lower() == "khz" else 1.0)
         if not (math.isfinite(rate) and rate > 0):
             raise BearingTwinError(f"{path}: the note {line!r} above the header states no positive sampling rate")
         return line, rate

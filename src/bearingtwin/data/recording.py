@@ -39,6 +39,12 @@ DROPOUT_NOTE_S = 0.005
 clipped peak's flat top)."""
 
 
+LEVEL_RANGE = (1e-30, 1e30)
+"""The largest magnitude a record may reach, in whatever unit: no vibration comes near either end (1 g is 1e9 ng and
+1e-6 Mm/s^2), and squared levels beyond it leave a float's range in a spectrum or an RMS of a long record, which
+would then read as infinite or NaN evidence rather than as a record scaled wrong."""
+
+
 def piled_at(x: np.ndarray, top: float, bottom: float) -> np.ndarray:
     """Which samples of ``x`` (a boolean mask) lie within :data:`CLIP_EDGE` of the range (``top`` - ``bottom``) of
     ``top`` when more do than in the :data:`CLIP_BAND` just below that edge, else none. A hard limit piles samples up
@@ -138,6 +144,11 @@ class Recording:
         flat = self._flat()
         if flat:
             raise BearingTwinError(f"{self.source}: {flat}")
+        peak = float(np.nanmax(np.abs(self.signal)))  # NaN gaps are bridged or named elsewhere
+        if not LEVEL_RANGE[0] <= peak <= LEVEL_RANGE[1]:
+            raise BearingTwinError(f"{self.source}: channel {self.channel or '?'}'s largest magnitude, {peak:.3g}, lies "
+                                   f"outside {LEVEL_RANGE[0]:g} to {LEVEL_RANGE[1]:g}, where a vibration lies in any "
+                                   "unit: the numbers are scaled wrong or are no vibration")
         steps = np.diff(self.signal)
         if steps.size >= 2 and (np.all(steps >= 0) or np.all(steps <= 0)):  # not flat: ptp > 0 above
             raise BearingTwinError(

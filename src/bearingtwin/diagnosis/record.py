@@ -113,6 +113,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         named = None
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
+    _refuse_a_rate_too_low(recording, record_bearing, pipeline, given_as=None if fs is None else fs_key)
     recording, speed_notes, rate_check, speed, gaps = _speed_and_rate(recording, raw, record_bearing, gaps,
                                                                       order_tracking, given_as=None if fs is None else fs_key)
     notes += speed_notes
@@ -144,6 +145,27 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                "give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv beside it")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
                           gaps_s)
+
+
+def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: DiagnosisPipeline,
+                           given_as: str | None) -> None:
+    """Refuse a record whose rate cannot hold the recorded bearing's defect lines
+    (:meth:`~bearingtwin.physics.geometry.BearingGeometry.rate_too_low`): resampled to the model's rate it would be
+    diagnosed on nothing, and such a rate is most often one in kHz written as Hz (a logger's ``25.6``). At the record's
+    speed, or at the slowest of the model's training windows' for a record without one (where a faster shaft puts
+    the lines higher still); a record neither states nor the model knows a speed of is not checked."""
+    rpm = recording.rpm or (pipeline.speeds_rpm[0] if pipeline.speeds_rpm else None)
+    if not bearing or rpm is None:
+        return
+    why = BearingGeometry.from_config(bearing).rate_too_low(recording.fs, rpm)
+    if why is None:
+        return
+    stated = f"{given_as}={recording.fs:g} Hz" if given_as else f"the rate the file states, {recording.fs:g} Hz,"
+    speed = "" if recording.rpm else " (the slowest of the model's training windows': the record states no speed)"
+    kilohertz = 1000 * recording.fs
+    in_khz = (f"; if {recording.fs:g} kHz was meant, {'give' if given_as else 'the file must state'} {kilohertz:g} Hz"
+              if BearingGeometry.from_config(bearing).rate_too_low(kilohertz, rpm) is None else "")
+    raise BearingTwinError(f"{recording.source}: {stated} is too low to diagnose: {why}{speed}{in_khz}")
 
 
 def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, gaps: list[tuple[int, int]],

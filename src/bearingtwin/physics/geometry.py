@@ -33,6 +33,11 @@ FAULT_FREQUENCY = {"normal": None, "inner": "bpfi", "ball": "bsf", "outer": "bpf
 """The key in :meth:`BearingGeometry.defect_frequencies` of each state's fundamental defect frequency."""
 
 
+_LINE_NAMES = {"shaft": "shaft line", "bpfi": "inner-race defect line (BPFI)", "bpfo": "outer-race defect line (BPFO)",
+               "bsf": "ball spin line (BSF)", "ftf": "cage line (FTF)"}
+"""The keys of :meth:`BearingGeometry.defect_frequencies` in a message's words."""
+
+
 def check_fault(fault: str) -> str:
     """Return ``fault`` if it names a bearing state, else raise naming the valid ones."""
     if fault not in FAULTS:
@@ -152,6 +157,17 @@ class BearingGeometry:
             "bsf": self.bsf_hz(rpm),
             "ftf": self.ftf_hz(rpm),
         }
+
+    def rate_too_low(self, fs_hz: float, rpm: float) -> str | None:
+        """Why a record sampled at ``fs_hz`` cannot show this bearing's faults at ``rpm`` (rev/min), None where it can:
+        a rate whose Nyquist frequency lies below the highest defect line (the inner race's) records no line of a
+        fault in one race at least, and no resampling brings it back."""
+        lines = self.defect_frequencies(rpm)
+        name = max(lines, key=lines.get)
+        if fs_hz > 2.0 * lines[name]:
+            return None
+        return (f"the Nyquist frequency, {fs_hz / 2:g} Hz, lies below the {_LINE_NAMES[name]} at {rpm:g} rev/min "
+                f"({lines[name]:.1f} Hz): a record shows this bearing's faults above fs = {2 * lines[name]:.0f} Hz")
 
     def describe_orders(self) -> str:
         """The outer- and inner-race defect frequencies as orders of the shaft, as messages name a bearing by them."""
