@@ -389,6 +389,18 @@ def test_a_pipeline_that_puts_physics_first_overrules_its_classifier_only_where_
         vmd_gated.predict(windows)
 
 
+def test_the_physics_first_note_says_what_the_classifier_decided_and_not_a_rest_where_none_was_left():
+    from bearingtwin.diagnosis.record import physics_first_note
+
+    pipeline = SimpleNamespace(physics_first=SimpleNamespace(threshold_db=20.0, margin_db=10.0))
+    some = physics_first_note(pipeline, np.array(["physics", "classifier", "classifier"]))
+    assert some.startswith("1 of 3 windows decided by the envelope spectrum, where one defect series stood 20 dB or "
+                           "more over its floor and 10 dB above the others; the classifier decided the rest")
+    every = physics_first_note(pipeline, np.array(["physics", "physics"]))
+    assert every.startswith("2 of 2 windows") and "the classifier decided none (probabilities" in every
+    assert "the rest" not in every
+
+
 def test_a_defect_series_on_shaft_harmonics_is_not_read_as_evidence(tmp_path):
     """On the CWRU fan end's SKF 6203, 2 x BSF is 3.988 shaft orders: a machine's 4 x shaft line (impacts once
     a quarter turn, as a four-bladed fan or a twice-line-frequency electrical line at 1797 rpm gives) is not

@@ -228,13 +228,15 @@ def test_samples_by_channels_arrays_are_read_along_their_long_axis(tmp_path, sig
         "data[0]": signal.size, "data[1]": signal.size}
 
 
-def test_csv_time_columns_in_seconds_or_milliseconds_gaps_and_a_byte_order_mark(tmp_path, signal):
+def test_csv_time_columns_in_seconds_milli_micro_or_nanoseconds_gaps_and_a_byte_order_mark(tmp_path, signal):
     t = np.arange(signal.size) / FS
     def write(name, header, time, values=signal, encoding="utf-8"):
         lines = [header] + [f"{float(a)!r},{float(b)!r}" for a, b in zip(time, values)]
         (tmp_path / name).write_text("\n".join(lines) + "\n", encoding=encoding)
         return tmp_path / name
     assert read_raw(write("ms.csv", "time_ms,acc", 1000 * t)).fs == pytest.approx(FS)
+    for header, scale in (("Time [µs],acc", 1e6), ("t in microseconds,acc", 1e6), ("time_ns,acc", 1e9)):
+        assert read_raw(write("fine.csv", header, scale * t, encoding="utf-8")).fs == pytest.approx(FS), header
     assert list(read_raw(write("bom.csv", "time,acc", t, encoding="utf-8-sig")).channels) == ["acc"]
     with pytest.raises(BearingTwinError, match=r"stamps.csv: the time column gives 8 samples per second.*head it time_ms"):
         read_raw(write("stamps.csv", "time,acc", 1000 * t))
@@ -747,6 +749,17 @@ def test_a_column_of_text_beside_the_numbers_is_passed_over_and_named(tmp_path, 
     (tmp_path / "stray.csv").write_text("acc,status\n0.1,OK\n0.2,OK\nlost,OK\n0.3,OK\n")
     with pytest.raises(BearingTwinError, match=r"stray.csv: line 4, column 1: 'lost' is not a number"):
         read_raw(tmp_path / "stray.csv")
+
+
+def test_a_spreadsheets_row_numbers_are_no_channel_to_choose(tmp_path, signal):
+    """A column 'Nr' counting 1, 2, 3 beside the vibration had forced channel=; it is read as sample numbers, and
+    refused by name where chosen."""
+    (tmp_path / "rows.csv").write_text("Nr;acc [g]\n" + "".join(f"{i + 1};{a:.6f}\n" for i, a in enumerate(signal)))
+    raw = read_raw(tmp_path / "rows.csv")
+    assert raw.channel(None)[0] == "acc [g]" and list(raw.vibration_channels) == ["acc [g]"]
+    with pytest.raises(BearingTwinError, match=r"rows.csv: channel=Nr reads sample numbers \(1, 2, ...\), not a "
+                                               r"vibration; choose one of acc \[g\]"):
+        raw.channel("Nr")
 
 
 def test_levels_no_vibration_reaches_in_any_unit_are_refused(signal):

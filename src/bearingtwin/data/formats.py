@@ -56,12 +56,14 @@ FS_FLOAT_NOISE = 1e-9
 """A rate the file states exactly (an ``.npz`` / ``.mat`` ``fs``, a ``.wav`` header) must be repeated
 exactly; this much relative difference is float rounding (12000 written as 12000.000000000002)."""
 
-_TIME_UNIT = r"s|secs?|seconds?|ms|msecs?|milliseconds?"
+_TIME_UNIT = r"s|secs?|seconds?|ms|msecs?|milliseconds?|us|µs|μs|usecs?|microseconds?|ns|nanoseconds?"
 _TIME_COLUMN = re.compile(
     rf"(?:t|time|timestamp|time stamp|zeit|tiempo)\s*(?:[_/]\s*(?P<suffix>{_TIME_UNIT})"
     rf"|[(\[]\s*(?P<bracketed>{_TIME_UNIT})\s*[)\]]|\s+in\s+(?P<worded>{_TIME_UNIT}))?", re.IGNORECASE)
 """Column (or variable) names read as time stamps: ``time``, ``t``, ``time_s``, ``time_ms``, ``Time (s)``,
-``t [ms]``, ``Time [sec]``, ``time/s``, ``Timestamp``, ``Zeit [s]``, ``time in ms``, ..."""
+``t [ms]``, ``Time [sec]``, ``time/s``, ``Timestamp``, ``Zeit [s]``, ``time in ms``, ``time_us``, ``t [µs]``, ..."""
+_TIME_UNIT_SECONDS = (("micro", 1e-6), ("u", 1e-6), ("µ", 1e-6), ("μ", 1e-6), ("n", 1e-9), ("m", 1e-3), ("", 1.0))
+"""A time unit's length in seconds by how it begins (``microseconds`` before ``ms``), the first that fits."""
 _UNIT_IN_NAME = re.compile(r"(?P<name>.*?)\s*(?:[(\[]\s*(?P<unit>[^()\[\]]+?)\s*[)\]]|\s+in\s+(?P<worded>\S+))\s*")
 """A channel name that states its unit at its end, in brackets or after "in": ``acceleration (m/s^2)``, ``DE [g]``,
 ``a in m/s²``."""
@@ -369,11 +371,13 @@ def resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str])
 
 
 def time_column_seconds(name: str) -> float | None:
-    """The unit in seconds of a column of time stamps called ``name`` (1e-3 for ``time_ms``), None for another column."""
+    """The unit in seconds of a column of time stamps called ``name`` (1e-3 for ``time_ms``, 1e-6 for ``t [µs]``),
+    None for another column."""
     match = _TIME_COLUMN.fullmatch(name.strip().rsplit(".", 1)[-1])  # a struct's field: info.time
     if match is None:
         return None
-    return 1e-3 if (match["suffix"] or match["bracketed"] or match["worded"] or "").lower().startswith("m") else 1.0
+    unit = (match["suffix"] or match["bracketed"] or match["worded"] or "s").lower()
+    return next(seconds for start, seconds in _TIME_UNIT_SECONDS if unit.startswith(start))
 
 
 def unit_in_name(name: str) -> str:
@@ -829,9 +833,14 @@ def _read_csv(path: Path) -> RawRecord:
     columns, fs, fs_unread = _time_stamps(path, columns, notes, fs=noted, clock=next(iter(table.clock), None))
     units = {name: unit for name in columns if (unit := unit_in_name(name))}
     origin = "header" if noted is not None else "time column" if fs else ""
+    # A spreadsheet's row numbers ("Nr", "Index") beside the vibration are no channel to choose among.
+    counters = {name: f"sample numbers ({values[0]:g}, {values[1]:g}, ...), not a vibration"
+                for name, values in columns.items() if len(columns) > 1 and values.size > 2
+                and values[0] == np.round(values[0]) and np.all(np.diff(values) == 1)}
+    meta = {"notes": notes} if notes else {}
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin=origin,
                      fs_tolerance=FS_FLOAT_NOISE if noted is not None else FS_RELATIVE_TOLERANCE,
-                     meta={"notes": notes} if notes else {}, channel_units=units,
+                     meta=dict(meta, not_vibration=counters) if counters else meta, channel_units=units,
                      fs_unread=fs_unread or ("" if fs else note_unread))
 
 
@@ -841,8 +850,8 @@ _RATE_NOTE = re.compile(
     r"|fs\s*[:=]\s*(?P<fs_value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<fs_unit>k?hz|s/s|sps|samples/s))"
     r"\s*(?:$|[;(]|,(?!\d))", re.IGNORECASE)
 """A logger's note stating its rate: ``Sample rate: 12000 Hz``, ``Sampling frequency [Hz] = 25.6 kHz``, ``fs: 48000
-Hz``, ``Sample rate;25600`` (two cells of a spreadsheet's export); the number (Hz unless kHz) ends the note or a part of it. A bare ``fs`` needs its unit (``FS: 10``, a sensor's
-full scale, states no rate)."""
+Hz``, ``Sample rate;25600`` (two cells of a spreadsheet's export); the number (Hz unless kHz) ends the note or a part
+of it. A bare ``fs`` needs its unit (``FS: 10``, a sensor's full scale, states no rate)."""
 
 
 def rate_in_notes(path: Path, lines: list[str], decimal: str = ".") -> tuple[str, float | None] | None:

@@ -736,9 +736,10 @@ def physics_first_note(pipeline: DiagnosisPipeline, deciders: np.ndarray) -> str
     """How many windows the envelope spectrum decided (the model's ``physics_first``), and why it may."""
     decided = int(np.sum(deciders == "physics"))
     gate = pipeline.physics_first
+    rest = ("the classifier decided none (" if decided == len(deciders) else "the classifier decided the rest (their ")
     return (f"{decided} of {len(deciders)} windows decided by the envelope spectrum, where one defect series stood "
-            f"{gate.threshold_db:g} dB or more over its floor and {gate.margin_db:g} dB above the others; the classifier "
-            "decided the rest (their probabilities are the classifier's throughout)")
+            f"{gate.threshold_db:g} dB or more over its floor and {gate.margin_db:g} dB above the others; {rest}"
+            "probabilities are the classifier's throughout)")
 
 
 def one_line(result: dict) -> str:
