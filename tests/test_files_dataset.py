@@ -144,6 +144,11 @@ def test_a_labels_table_names_each_file_once(tmp_path):
         labels_table(table)
     table.write_text("record;state;rpm;fs\nrun1.npy;normal;1797,5;12000\n")  # a decimal-comma spreadsheet's
     assert [row[1:] for row in labels_table(table)] == [("run1.npy", "normal", 1797.5, 12000.0)]
+    table.write_text("record;state;rpm;fs\nrun1.npy;normal;1797;12.000\n")  # its point groups thousands: 12 or 12000?
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs '12.000' reads two ways in a table of semicolons "
+                                               r"\(a spreadsheet's with decimal commas\): 12 or 12000; write it without "
+                                               r"the point$"):
+        labels_table(table)
     table.write_text("record,state,speed\nrun1.npy,normal,1500\n")  # passed over, the file would be read at another
     with pytest.raises(BearingTwinError, match=r"labels.csv: column 'speed' is not one of record, state, rpm, fs$"):
         labels_table(table)

@@ -128,8 +128,7 @@ def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tupl
                     if beyond:
                         raise BearingTwinError(f"{where}: more values than the header has columns "
                                                f"({', '.join(name for name in columns if name)}); name every column in the header")
-                    numbers = {key: (row.get(key) or "").replace(",", ".") if semicolons else row.get(key)
-                               for key in ("rpm", "fs")}
+                    numbers = {key: _number_cell(row.get(key), key, semicolons, where) for key in ("rpm", "fs")}
                     state = row.get("state", "")  # no column, or an empty cell: unknown where that is allowed
                     rows.append((where, record, _state(state, where) if state or state_required else None,
                                  _optional_number(numbers["rpm"], "rpm", "rev/min", where),
@@ -332,6 +331,19 @@ def _state(value: str, where: str) -> str:
     if value not in FAULTS:
         raise BearingTwinError(f"{where}: state {value!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
     return value
+
+
+def _number_cell(value: str | None, name: str, semicolons: bool, where: str) -> str | None:
+    """A labels row's rpm or fs cell as a number with a decimal point. A table of semicolons is a spreadsheet's
+    with decimal commas, whose point groups thousands: ``12.000`` there is refused as reading two ways (12 Hz read
+    for 12 kHz had been resampled and diagnosed), ``1797,5`` read as 1797.5."""
+    if not (value and semicolons):
+        return value
+    if re.fullmatch(r"\d{1,3}(?:\.\d{3})+", value):
+        raise BearingTwinError(f"{where}: {name} {value!r} reads two ways in a table of semicolons (a spreadsheet's with "
+                               f"decimal commas): {float(value):g} or {int(value.replace('.', ''))}; write it without "
+                               "the point")
+    return value.replace(",", ".")
 
 
 def _optional_number(value: str | None, name: str, unit: str, where: str) -> float | None:
