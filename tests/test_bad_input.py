@@ -75,6 +75,10 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
     ("inspect", ["path=x.npy", "bearing=null"], ["bearing=null: a config group takes one of its options", "er16k"]),
     ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, sklearn, svm"]),  # Hydra's own ValueError, a traceback
+    # A bearing by its number: Hydra reads 6205 as an int, its ValueError a traceback.
+    ("twin", ["measured.path=x.npy", "bearing=6205"], ["bearing=6205: a config group takes the name of one of its "
+                                                       "options (cwru_6203, cwru_6205, er16k, paper): bearing=cwru_6205?"]),
+    ("diagnose", ["path=x.npy", "model=runs:/x/model", "bearing=6205.0"], ["bearing=6205.0: a config group takes"]),
     # A group given a map of settings: it had read as a setting only some other option has.
     ("train", ["classifier={name: svm, C: 2}"], ["a config group takes the name of one of its options",
                                                   "classifier=<option> classifier.<key>=<value>"]),

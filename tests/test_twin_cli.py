@@ -55,7 +55,9 @@ def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path
                      f"out={out}", "candidates=[resonance,slip,noise]", *FAST, *KNOWN, env={"MLFLOW_TRACKING_URI": uri})
     assert result.returncode == 0, result.stderr[-2000:]
     assert "Effects that were missing, in order: resonance" in result.stdout
-    assert "\n  bearing: paper\n" in result.stdout  # whose defect lines were read, though no file named it
+    # whose defect lines were read, though no file named it: the default, said to be one
+    assert ("\n  bearing: paper, the default: the record names no bearing; give bearing=<name> (a conf/bearing config, "
+            "or one's own) for the defect frequencies of the bearing it was made on\n") in result.stdout
     # What was said of the rig is repeated where the summary ends, held, not fitted.
     assert ("  operating point held: radial load 0 N, clearance 5 um, defect depth 0.004 mm, defect width 0.533 mm, "
             "sensor outer race, vertical") in result.stdout, result.stdout[-1500:]
@@ -201,6 +203,11 @@ def test_which_bearing_counts_as_given_and_which_the_record_replaces(measurement
         for given in ("cwru_6205", "cwru_6203"):
             cfg = twin_config(f"measured.path={label}", f"bearing={given}")
             assert record_bearing(cfg, recording_from_raw(read_raw(label), channel=channel)) == (cfg, None)
+    # A record that names no bearing is held against the default one, said so; against one chosen, without a word.
+    bare = recording_from_raw(read_raw(measurement), fs=12000)
+    kept, line = record_bearing(twin_config(f"measured.path={measurement}"), bare)
+    assert kept.bearing.name == "paper" and line.startswith("paper, the default: the record names no bearing; give bearing=")
+    assert record_bearing(twin_config(f"measured.path={measurement}", "bearing=cwru_6205"), bare)[1] is None
     healthy = recording_from_raw(read_raw(cwru_record(tmp_path, "normal_0_97.mat", np.load(measurement))), channel="DE")
     assert record_bearing(twin_config(f"measured.path={tmp_path / 'normal_0_97.mat'}"), healthy)[0].bearing.name == "cwru_6205"
 
@@ -227,6 +234,24 @@ def test_bad_input_exits_nonzero_naming_the_problem(measurement, tmp_path, overr
     assert message in result.stderr
     assert "Traceback" not in result.stderr
     assert not (tmp_path / "r" / "twin_report.json").exists()
+
+
+def test_a_velocity_or_displacement_record_is_refused_and_a_voltage_held_as_an_accelerometers(measurement, tmp_path):
+    """Integrated, a record's spectrum is tilted: the twin had fitted a gain to a velocity and explained the tilt as
+    a quieter path. A voltage is an accelerometer's record times its sensitivity, which the fitted gain takes."""
+    from bearingtwin.twin.report import load_measurement
+
+    signal = np.load(measurement)[:6000]
+    for header, refused in (("velocity (mm/s)", "a velocity"), ("x (um)", "a displacement"), ("acc (V)", None)):
+        (tmp_path / "r.csv").write_text(f"{header}\n" + "".join(f"{value:.6g}\n" for value in signal))
+        cfg = twin_config(f"measured.path={tmp_path / 'r.csv'}", "measured.fs=12000", "measured.rpm=1797",
+                          "measured.fault=outer").measured
+        if refused is None:
+            assert load_measurement(cfg).unit == "V"
+            continue
+        with pytest.raises(BearingTwinError, match=rf"r.csv: the record is in .* \({refused}\); the twin simulates an "
+                                                   r"accelerometer's record, whose spectrum integration tilts"):
+            load_measurement(cfg)
 
 
 @pytest.mark.parametrize("switch", ["measured.check_fs", "tracking.enabled"])

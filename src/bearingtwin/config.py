@@ -486,13 +486,21 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         except yaml.YAMLError as error:  # a config file of the user's own that is no YAML: Hydra prints a traceback
             raise BearingTwinError(yaml_error_line(error)) from None
         except ValueError as error:  # Hydra's own check of a group override, raised as a plain ValueError
-            groups = [key.lstrip("+~") for key, _, value in (o.partition("=") for o in args.overrides)
-                      if value == "null" and Path(CONF_DIR, key.lstrip("+~")).is_dir()]
+            # null, or a value Hydra reads as a number or a truth value (bearing=6205, an SKF bearing by its number)
+            groups = [(key.lstrip("+~"), value) for key, _, value in (o.partition("=") for o in args.overrides)
+                      if Path(CONF_DIR, key.lstrip("+~")).is_dir() and value
+                      and isinstance(yaml.safe_load(value), (type(None), bool, int, float))]
             if not groups:
                 return
-            options = sorted(path.stem for path in Path(CONF_DIR, groups[0]).glob("*.yaml"))
-            raise BearingTwinError(f"{groups[0]}=null: a config group takes one of its options ({', '.join(options)}); "
-                                   "leave it out for its default") from error
+            group, value = groups[0]
+            options = sorted(path.stem for path in Path(CONF_DIR, group).glob("*.yaml"))
+            if value == "null":
+                raise BearingTwinError(f"{group}=null: a config group takes one of its options ({', '.join(options)}); "
+                                       "leave it out for its default") from error
+            holding = [option for option in options if value in option]
+            hint = f": {' or '.join(f'{group}={option}' for option in holding)}?" if holding else ""
+            raise BearingTwinError(f"{group}={value}: a config group takes the name of one of its options "
+                                   f"({', '.join(options)}){hint}") from error
         except Exception:  # not a composition error: Hydra meets it again when it composes, and reports it
             return
         if cfg.get("data", {}).get("source") == "simulated":  # the data set's operating point is the simulator's

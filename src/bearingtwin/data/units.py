@@ -30,6 +30,10 @@ _PER_SECOND_SQUARED = ("/s^2", "/s2", "/s**2", "/s²", "/s/s", " s^-2", " s-2", 
 _SPELLINGS = {**{length + per: f"{length}/s^2" for length in ("m", "mm", "cm", "in", "ft") for per in _PER_SECOND_SQUARED},
               "gal": "cm/s^2", "g": "g", "gn": "g", "g0": "g", "mg": "mg", "µg": "µg", "μg": "µg", "ug": "µg"}
 
+INTEGRATED_QUANTITIES = ("a velocity", "a displacement")
+"""Quantities an acceleration integrated once or twice gives: their spectrum is the acceleration's tilted (each line
+divided by its frequency, once or twice), which no gain undoes, so a model or a twin free of scale is not free of them."""
+
 _OTHER_QUANTITIES = {"v": "a voltage", "mv": "a voltage", "mm/s": "a velocity", "m/s": "a velocity",
                      "in/s": "a velocity", "ips": "a velocity", "um": "a displacement", "µm": "a displacement",
                      "μm": "a displacement", "mil": "a displacement", "pa": "a pressure", "rpm": "a speed",

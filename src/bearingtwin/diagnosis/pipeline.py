@@ -27,7 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bearingtwin.data.units import acceleration_factor, acceleration_unit, quantity_of, unit_key
+from bearingtwin.data.units import (INTEGRATED_QUANTITIES, acceleration_factor, acceleration_unit, quantity_of,
+                                    unit_key)
 from bearingtwin.data.windows import normalize_windows
 from bearingtwin.diagnosis.evidence import PhysicsFirst
 from bearingtwin.errors import BearingTwinError
@@ -334,9 +335,6 @@ _CONVERSION_NEEDS = {
                       "record, in an acceleration unit",
 }
 """What a record in a unit of another quantity takes to be read in an acceleration unit, in words."""
-_INTEGRATED = ("a velocity", "a displacement")
-"""Quantities whose spectrum is an acceleration's tilted (each line divided by its frequency, once or twice): no factor
-of the samples, so a model free of scale is not free of them for that."""
 
 
 def unit_for_model(unit: str, pipeline: DiagnosisPipeline, source: str) -> tuple[float | None, list[str], str]:
@@ -390,10 +388,10 @@ def _unit_for_scale_free(unit: str, quantity: str | None, pipeline: DiagnosisPip
         return None, [], "not needed"
     free = pipeline.scale_free
     shape = pipeline.reads_spectrum_shape
-    if quantity in _INTEGRATED and shape:
+    if quantity in INTEGRATED_QUANTITIES and shape:
         raise BearingTwinError(f"{source}: the record is in {unit} ({quantity}): {free}, but {shape}; "
                                f"{_CONVERSION_NEEDS[quantity]}")
-    if quantity in _INTEGRATED:
+    if quantity in INTEGRATED_QUANTITIES:
         return None, [f"the record is in {unit} ({quantity}), not an acceleration: read as it is ({free}, and its "
                       "features do not read the spectrum's shape, which integration tilts)"], "not needed"
     if quantity == "a voltage":

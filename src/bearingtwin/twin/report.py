@@ -25,6 +25,7 @@ from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE
                                     recording_from_raw, same_speed, speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
+from bearingtwin.data.units import INTEGRATED_QUANTITIES, quantity_of
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.effects import build_effects
@@ -91,6 +92,11 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
                                    channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
                                    fault_key="measured.fault")
     recording.require_vibration()  # before the rate check, which a flat record cannot answer
+    quantity = quantity_of(recording.unit or "")
+    if quantity in INTEGRATED_QUANTITIES:  # a gain would be fitted to it, and the tilt explained as physics
+        raise BearingTwinError(f"{path}: the record is in {recording.unit} ({quantity}); the twin simulates an "
+                               "accelerometer's record, whose spectrum integration tilts: hold it against the "
+                               "accelerometer's own record, in an acceleration unit (or its voltage)")
     # e.g. a nominal speed the twin will run at; a clipping (which the library's `clipping` may then explain)
     for note in [*recording.meta.get("notes", []), *recording.quality_notes()]:
         log.warning("%s: %s", measured_cfg.path, note)
@@ -135,7 +141,8 @@ def bearing_chosen(cfg: DictConfig) -> bool:
 
 def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, str | None]:
     """The ``twin`` config with the bearing the record was made on, and the line the closing summary gives it
-    (None when there is nothing to say: the record names no bearing, or the one chosen).
+    (None when there is nothing to say: the record names the bearing chosen, or names none and one was chosen; a
+    record that names none, held against the default bearing, is said to be, and logged).
 
     A record that names its bearing (:func:`~bearingtwin.data.formats.file_bearing`) is read with it: when no bearing
     was chosen (:func:`bearing_chosen`), that bearing's config replaces the default's (a line says so); a bearing chosen that
@@ -146,9 +153,14 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
     """
     path, ours = cfg.measured.path, cfg.bearing.get("name")
     named = file_bearing(measured.meta, measured.channel)
+    chosen = bearing_chosen(cfg)
+    if named is None and not chosen:  # a user's own record, held against the paper's bearing unless told otherwise
+        line = (f"{ours}, the default: the record names no bearing; give bearing=<name> (a conf/bearing config, or "
+                "one's own) for the defect frequencies of the bearing it was made on")
+        log.warning("%s: %s", path, line)
+        return cfg, line
     if named is None or named == ours:
         return cfg, None
-    chosen = bearing_chosen(cfg)
     unknown = unknown_bearing_note(named, f"the twin reads {ours}'s defect frequencies"
                                    + (", unchecked against it" if chosen else ""))
     if unknown is not None:
