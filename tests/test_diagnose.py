@@ -2085,6 +2085,23 @@ def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_seri
     assert f"from the stated {recording.rpm * 1.03:g} rpm" in note and re.search(r", -[23]\.\d % from", note)
 
 
+@needs_cwru
+def test_a_stated_speed_a_tachometer_contradicts_is_named_with_the_speed_it_reads_near_the_supplys_lines_too(tmp_path):
+    """Record 130 turns at 1797 rpm, within 0.2 % of 1800 rpm, whose shaft rate is half the 60 Hz supply's: a shaft
+    series read there may be the supply's, and no speed is offered from it. A tachometer's pulses measure the shaft
+    itself: stated at 1750 rpm, the record had been read there without a word, its verdict ball."""
+    from bearingtwin.data.formats import load_recording
+
+    recording = load_recording(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
+    t = np.arange(recording.signal.size) / recording.fs
+    pulses = 5.0 * ((t * 1797.0 / 60.0) % 1 < 0.1)
+    np.savez(tmp_path / "pump.npz", vib=recording.signal, tach=pulses, fs=recording.fs, rpm=1750.0, unit="g")
+    prepared = read_record(tmp_path / "pump.npz", envelope_pipeline(), channel="vib")
+    assert prepared.speed["source"] == "the tachometer channel tach" and prepared.speed["off"]
+    assert ("the tachometer channel tach reads 1797 rpm, +2.7 % from the stated 1750 rpm: every defect line is read "
+            "where the stated speed puts it; if the sampling rate is right, give rpm=1797") in prepared.notes
+
+
 def test_a_steady_record_is_not_warped_by_a_misread_profile(monkeypatch):
     """Two shafts' series (a belt drive), segments reading the supply, a swing faster than the segments resolve: each
     can make the speed read flip between values on a steady record. Steadied to such a profile, the shaft's own series

@@ -80,7 +80,7 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["speed or rate in doubt (the shaft line contradicts them: check them)"] = ", ".join(contradicted)
     off = [row["record"] for row in diagnosed if row.get("speed_off")]
     if off:  # every defect line looked for beside where it stands (their notes give the speed read)
-        lines["shaft series reads another speed than the one stated (see their notes)"] = ", ".join(off)
+        lines["speed read (shaft series or tachometer) another than the one stated (see their notes)"] = ", ".join(off)
     tracked = [row["record"] for row in diagnosed if row.get("order_tracked") is True]
     if tracked:  # their verdicts read the records as steadied (order_tracking): said, so none is taken for as recorded
         lines["shaft speed varied: resampled to a steady speed (order tracking)"] = ", ".join(tracked)

@@ -297,13 +297,13 @@ may be a defect's comb taken for the shaft's under a speed stated twice the true
 
 
 def speed_off_note(speed: dict, rpm: float) -> str | None:
-    """A note where the shaft's harmonic series, read segment by segment (:func:`steadied`), puts the speed more than
-    1 % and at most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`: a nameplate's speed given for a measured one); None
-    where it does not or cannot be read."""
+    """A note where the shaft's harmonic series or a tachometer, read segment by segment (:func:`steadied`), puts the
+    speed more than 1 % and at most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`: a nameplate's speed given for a
+    measured one); None where it does not or cannot be read."""
     read = speed.get("read_rpm")  # not where the reading is in doubt (a misread profile), nor tracked (read at it)
     if read is None or speed.get("tracked") or speed.get("in_doubt") or not SPEED_OFF[0] < abs(read / rpm - 1) <= SPEED_OFF[1]:
         return None
-    return (f"the shaft's harmonic series reads {read:.0f} rpm, {100 * (read / rpm - 1):+.1f} % from the stated "
+    return (f"{speed['source']} reads {read:.0f} rpm, {100 * (read / rpm - 1):+.1f} % from the stated "
             f"{rpm:g} rpm: every defect line is read where the stated speed puts it; if the sampling rate is right, "
             f"give rpm={read:.0f}")
 
@@ -340,7 +340,8 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
              "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()],
              "read_rpm": None, "source": profile.source or "the shaft's harmonic series", "stated_rpm": recording.rpm}
     read_rpm = float(np.median(profile.rpm[profile.read])) if profile.readable else None
-    if read_rpm is not None and not near_supply(read_rpm):  # the supply's lines are no measure of a speed
+    # The supply's lines are no measure of a speed where the shaft's series is read; a tachometer measures the shaft.
+    if read_rpm is not None and (profile.source or not near_supply(read_rpm)):
         speed["read_rpm"] = read_rpm
     gaps = list(gaps)
     if not profile.unsteady(unsteady):
