@@ -644,6 +644,32 @@ def test_a_noted_rate_is_read_with_the_files_decimal_mark_or_named_as_not_read(t
         read_raw(tmp_path / "one.csv")
 
 
+def test_a_loggers_notes_give_the_shaft_speed_and_the_unit(tmp_path):
+    """'Speed: 1796 rpm' and 'Unit: g' above the header had been passed over, the record read as if in m/s^2, 9.81
+    times too low; a speed in Hz is read in rev/min, one with no unit is not read (rev/min or Hz?) and said so, a
+    column's own unit stands over the note's. Above a single column, the last note ('Units: m/s^2') had become its
+    name."""
+    column = "0.1\n-0.2\n" * 50
+    (tmp_path / "log.csv").write_text("Device: X\nSample rate: 12 kHz\nSpeed: 1796 rpm\nUnit: g\n\nacc\n" + column)
+    raw = read_raw(tmp_path / "log.csv")
+    assert (raw.fs, raw.rpm, raw.unit, list(raw.channels)) == (12000.0, 1796.0, "g", ["acc"])
+    assert "shaft speed 1796 rpm from the note 'Speed: 1796 rpm'" in raw.meta["notes"]
+    assert load_recording(tmp_path / "log.csv").unit == "g"
+    (tmp_path / "hz.csv").write_text("Shaft speed [Hz]: 29,9\nEinheit: m/s²\n\nacc (mg);b\n" + "0,1;0,3\n-0,2;0,1\n" * 50)
+    raw = read_raw(tmp_path / "hz.csv")
+    assert raw.rpm == pytest.approx(1794.0) and raw.unit == "m/s^2"
+    assert [load_recording(raw.path, channel=name, fs=FS).unit for name in ("acc", "b")] == ["mg", "m/s^2"]
+    (tmp_path / "bare.csv").write_text("Speed: 1796\nUnit: furlongs\n\nacc\n" + column)
+    raw = read_raw(tmp_path / "bare.csv")
+    assert raw.rpm is None and raw.unit == ""
+    assert "the note 'Speed: 1796' is not read as the shaft speed (a positive number in rev/min or Hz, its unit " \
+           "stated): give rpm=" in raw.meta["notes"]
+    assert "the note 'Unit: furlongs' names no unit known here: not read" in raw.meta["notes"]
+    (tmp_path / "one.csv").write_text("Device: X\nSample rate: 12000 Hz\nUnits: m/s^2\n" + column)
+    raw = read_raw(tmp_path / "one.csv")
+    assert (raw.fs, raw.unit, list(raw.channels)) == (12000.0, "m/s^2", ["0"])
+
+
 def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):
     """Printed to a few decimals the time stamps only approximate the rate the note states exactly: within 1 % the
     note's is kept, beyond it the two contradict each other and the file is refused naming both."""

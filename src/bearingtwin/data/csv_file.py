@@ -296,6 +296,8 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     notes = content[:header_at]
     if header != numbers and not (delimiter == "," and numbers == 2 * header):  # decimal commas split each number
         return []  # in two: the notes are read, and the table refused with the remedy (read_csv_table)
+    if numbers == 1 and header_at == start - 1 and all(_NOTE_LINE.match(head[i]) for i in content[:start]):
+        return content[:start]  # a single column under notes alone ("Units: m/s^2" last): no header, no name
     # A logger's date line ("2024-03-01 10:00:00") is a note as "Device: X" is.
     return notes if numbers not in above or all(_NOTE_LINE.match(head[i]) or _is_clock(head[i].strip())
                                                 for i in notes) else []

@@ -819,10 +819,12 @@ def _read_csv(path: Path) -> RawRecord:
     note_unread = "" if line is None or noted is not None else (
         f"its note {line!r} writes the rate so that it reads as more than one number (a thousands separator, or a "
         f"decimal mark other than its numbers' '{table.decimal}')")
+    noted_rpm, noted_unit, said = speed_and_unit_in_notes(table.preamble, table.decimal)
+    rate_note += said
     if table.names is None:
         return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}), fs=noted,
                          fs_origin="header" if noted is not None else "", meta={"notes": rate_note} if rate_note else {},
-                         fs_unread=note_unread)
+                         fs_unread=note_unread, rpm=noted_rpm, unit=noted_unit)
     # A noted rate is exact where time stamps are printed to a few decimals: they must agree with it.
     notes = list(table.notes) + rate_note
     passed_over = table.clock[1:] + table.dates  # a logger's dates beside its clock times; a second clock
@@ -841,6 +843,7 @@ def _read_csv(path: Path) -> RawRecord:
     return RawRecord(str(path), "csv", _float_channels(path, columns), fs=fs, fs_origin=origin,
                      fs_tolerance=FS_FLOAT_NOISE if noted is not None else FS_RELATIVE_TOLERANCE,
                      meta=dict(meta, not_vibration=counters) if counters else meta, channel_units=units,
+                     rpm=noted_rpm, unit=noted_unit,
                      fs_unread=fs_unread or ("" if fs else note_unread))
 
 
@@ -854,6 +857,53 @@ Hz``, ``Sample rate;25600`` (two cells of a spreadsheet's export); the number (H
 of it. A bare ``fs`` needs its unit (``FS: 10``, a sensor's full scale, states no rate)."""
 
 
+def _noted_number(value: str, decimal: str) -> float | None:
+    """A note's number read with the file's ``decimal`` mark; None where it reads more than one way (a thousands
+    separator, or the other mark: ``12,800`` among decimal points, ``25.600`` among decimal commas)."""
+    marks = re.findall(r"[.,]", value)
+    if marks and marks != [decimal]:
+        return None
+    return float(value.replace(",", "."))
+
+
+_SPEED_NOTE = re.compile(
+    r"(?:(?:shaft|motor|rotor|rotational|rotating)[ _-]*)?(?P<key>speed|rpm|drehzahl)\s*"
+    r"(?:\((?P<bracketed>[^)]*)\)|\[(?P<squared>[^\]]*)\])?\s*[:=;\t]\s*(?P<value>\d+(?:[.,]\d+)*)\s*"
+    r"(?P<unit>rpm|r/min|rev/min|1/min|min-1|min⁻¹|u/min|hz)?\s*(?:$|[;(]|,(?!\d))", re.IGNORECASE)
+"""A logger's note stating the shaft speed: ``Speed: 1796 rpm``, ``Shaft speed [Hz] = 29.9``, ``RPM: 1796``; the
+speed needs its unit (rev/min or Hz) unless the label is ``rpm``."""
+_PER_MINUTE = ("rpm", "r/min", "rev/min", "1/min", "min-1", "min⁻¹", "u/min")
+_UNIT_NOTE = re.compile(r"(?:units?|einheit|engineering units?|eu)\s*[:=;\t]\s*(?P<unit>[^;,]+?)\s*$", re.IGNORECASE)
+"""A logger's note stating the samples' unit: ``Unit: g``, ``Units = m/s^2``, ``Einheit: m/s²``."""
+
+
+def speed_and_unit_in_notes(lines: list[str], decimal: str = ".") -> tuple[float | None, str, list[str]]:
+    """The shaft speed (rev/min) and the samples' unit a logger's notes above the header state (None and "" where they
+    state none), and notes on what was read or why a note was not: a speed with no unit (rev/min or Hz?), a unit no
+    quantity of which is known here."""
+    rpm, unit, said = None, "", []
+    for line in lines:
+        speed = _SPEED_NOTE.match(line.strip())
+        if speed is not None and rpm is None:
+            number = _noted_number(speed["value"], decimal)
+            stated = (speed["unit"] or speed["bracketed"] or speed["squared"] or "").strip().lower()
+            stated = stated or ("rpm" if speed["key"].lower() == "rpm" else "")
+            if number is None or not number > 0 or stated not in (*_PER_MINUTE, "hz"):
+                said.append(f"the note {line!r} is not read as the shaft speed (a positive number in rev/min or Hz, "
+                            "its unit stated): give rpm=")
+                continue
+            rpm = number * (60.0 if stated == "hz" else 1.0)
+            said.append(f"shaft speed {rpm:g} rpm from the note {line!r}")
+        named = _UNIT_NOTE.match(line.strip())
+        if named is not None and not unit:
+            if quantity_of(named["unit"]) is None:
+                said.append(f"the note {line!r} names no unit known here: not read")
+                continue
+            unit = acceleration_unit(named["unit"]) or named["unit"]
+            said.append(f"unit {unit} from the note {line!r}, for every column that states none")
+    return rpm, unit, said
+
+
 def rate_in_notes(path: Path, lines: list[str], decimal: str = ".") -> tuple[str, float | None] | None:
     """The first of a logger's notes (its lines above the header) that states the sampling rate, and the rate in Hz
     (no unit: Hz); None when none does. The number is read with the file's ``decimal`` mark (``25,6 kHz`` among
@@ -865,10 +915,10 @@ def rate_in_notes(path: Path, lines: list[str], decimal: str = ".") -> tuple[str
         if match is None:
             continue
         value, unit = (match["value"], match["unit"]) if match["value"] else (match["fs_value"], match["fs_unit"])
-        marks = re.findall(r"[.,]", value)
-        if marks and marks != [decimal]:
+        number = _noted_number(value, decimal)
+        if number is None:
             return line, None
-        rate = float(value.replace(",", ".")) * (1000.0 if (unit or "").lower() == "khz" else 1.0)
+        rate = number * (1000.0 if (unit or "").lower() == "khz" else 1.0)
         if not (math.isfinite(rate) and rate > 0):
             raise BearingTwinError(f"{path}: the note {line!r} above the header states no positive sampling rate")
         return line, rate

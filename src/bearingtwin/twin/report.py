@@ -142,7 +142,7 @@ def bearing_chosen(cfg: DictConfig) -> bool:
 def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, str | None]:
     """The ``twin`` config with the bearing the record was made on, and the line the closing summary gives it
     (None when there is nothing to say: the record names the bearing chosen, or names none and one was chosen; a
-    record that names none, held against the default bearing, is said to be, and logged).
+    record that names none, held against the default bearing, is said to be).
 
     A record that names its bearing (:func:`~bearingtwin.data.formats.file_bearing`) is read with it: when no bearing
     was chosen (:func:`bearing_chosen`), that bearing's config replaces the default's (a line says so); a bearing chosen that
@@ -157,8 +157,7 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
     if named is None and not chosen:  # a user's own record, held against the paper's bearing unless told otherwise
         line = (f"{ours}, the default: the record names no bearing; give bearing=<name> (a conf/bearing config, or "
                 "one's own) for the defect frequencies of the bearing it was made on")
-        log.warning("%s: %s", path, line)
-        return cfg, line
+        return cfg, line  # said where the closing summary names the bearing
     if named is None or named == ours:
         return cfg, None
     unknown = unknown_bearing_note(named, f"the twin reads {ours}'s defect frequencies"
