@@ -62,7 +62,7 @@ class _Layout:
     preamble: tuple[str, ...] = ()  # a logger's lines above the header (:func:`_preamble`) and comments, stripped
     clock: tuple[int, ...] = ()  # columns of clock times (:data:`_CLOCK`)
     dates: tuple[int, ...] = ()  # columns of dates alone, beside a column of clock times
-    text: tuple[int, ...] = ()  # named columns whose every cell in the first rows is text (:func:`_text_columns`)
+    text: tuple[int, ...] = ()  # named columns whose every cell in the first rows is text (:func:`_text_throughout`)
 
 
 class _BadLine(Exception):
@@ -88,7 +88,7 @@ def read_csv_table(path: Path) -> CsvTable:
             warnings.filterwarnings("ignore", "loadtxt: input contained no data")  # refused below, naming the file
             values = np.loadtxt(_body_lines(handle, layout), delimiter=layout.delimiter, ndmin=2, dtype=np.float64,
                                 quotechar='"' if layout.delimiter else None,
-                                usecols=[column for column in range(len(names) + len(passed_over))
+                                usecols=[column for column in range(len(every_name))
                                          if column not in passed_over] if passed_over else None,
                                 converters={column: clock_seconds for column in layout.clock + layout.dates} or None)
     except _BadLine as error:

@@ -815,18 +815,18 @@ def _read_csv(path: Path) -> RawRecord:
     table = read_csv_table(path)
     line, noted = rate_in_notes(path, table.preamble, table.decimal) or (None, None)
     above = "the header" if table.names is not None else "the numbers"
-    rate_note = [] if noted is None else [f"sampling rate {noted:g} Hz from the note {line!r} above {above}"]
+    read_in_notes = [] if noted is None else [f"sampling rate {noted:g} Hz from the note {line!r} above {above}"]
     note_unread = "" if line is None or noted is not None else (
         f"its note {line!r} writes the rate so that it reads as more than one number (a thousands separator, or a "
         f"decimal mark other than its numbers' '{table.decimal}')")
     noted_rpm, noted_unit, said = speed_and_unit_in_notes(table.preamble, table.decimal)
-    rate_note += said
+    read_in_notes += said
     if table.names is None:
         return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}), fs=noted,
-                         fs_origin="header" if noted is not None else "", meta={"notes": rate_note} if rate_note else {},
+                         fs_origin="header" if noted is not None else "", meta={"notes": read_in_notes} if read_in_notes else {},
                          fs_unread=note_unread, rpm=noted_rpm, unit=noted_unit)
     # A noted rate is exact where time stamps are printed to a few decimals: they must agree with it.
-    notes = list(table.notes) + rate_note
+    notes = list(table.notes) + read_in_notes
     passed_over = table.clock[1:] + table.dates  # a logger's dates beside its clock times; a second clock
     if passed_over:
         notes.append(f"column{'s' * (len(passed_over) > 1)} {', '.join(passed_over)} passed over: the clock times "

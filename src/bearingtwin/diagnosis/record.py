@@ -113,9 +113,10 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         named = None
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
-    _refuse_a_rate_too_low(recording, record_bearing, pipeline, given_as=None if fs is None else fs_key)
+    given_as = None if fs is None else fs_key  # the setting a rate was given as, None where the file's is read
+    _refuse_a_rate_too_low(recording, record_bearing, pipeline, given_as)
     recording, speed_notes, rate_check, speed, gaps = _speed_and_rate(recording, raw, record_bearing, gaps,
-                                                                      order_tracking, given_as=None if fs is None else fs_key)
+                                                                      order_tracking, given_as)
     notes += speed_notes
     true_state, truth_notes = _true_state(path, raw, recording, true_state, pipeline)
     notes += truth_notes
@@ -157,14 +158,15 @@ def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: Diagno
     rpm = recording.rpm or (pipeline.speeds_rpm[0] if pipeline.speeds_rpm else None)
     if not bearing or rpm is None:
         return
-    why = BearingGeometry.from_config(bearing).rate_too_low(recording.fs, rpm)
+    geometry = BearingGeometry.from_config(bearing)
+    why = geometry.rate_too_low(recording.fs, rpm)
     if why is None:
         return
     stated = f"{given_as}={recording.fs:g} Hz" if given_as else f"the rate the file states, {recording.fs:g} Hz,"
     speed = "" if recording.rpm else " (the slowest of the model's training windows': the record states no speed)"
     kilohertz = 1000 * recording.fs
     in_khz = (f"; if {recording.fs:g} kHz was meant, {'give' if given_as else 'the file must state'} {kilohertz:g} Hz"
-              if BearingGeometry.from_config(bearing).rate_too_low(kilohertz, rpm) is None else "")
+              if geometry.rate_too_low(kilohertz, rpm) is None else "")
     raise BearingTwinError(f"{recording.source}: {stated} is too low to diagnose: {why}{speed}{in_khz}")
 
 
