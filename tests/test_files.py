@@ -141,6 +141,23 @@ def test_a_rate_the_file_states_exactly_must_be_given_exactly_one_measured_from_
         load_recording(csv, fs=8100)
 
 
+def test_a_rate_given_a_thousand_times_from_the_time_stamps_reads_them_as_in_another_unit(tmp_path, signal):
+    """Seconds under a header of milliseconds give a rate a thousand times too high; the rate given, a thousand times
+    lower, is read and said to be, where another factor is still a contradiction; a short record's refusal names the
+    rate its stamps gave."""
+    csv = tmp_path / "rec.csv"
+    np.savetxt(csv, np.column_stack([np.arange(signal.size) / FS, signal]), delimiter=",", header="time [ms],acc",
+               comments="", fmt="%.9f")
+    assert read_raw(csv).fs == pytest.approx(FS * 1000)
+    recording = load_recording(csv, fs=FS)
+    assert recording.fs == FS and recording.meta["fs_origin"] == "config"
+    assert ("fs=8000 Hz given, 0.001 times the 8e+06 Hz the file's time stamps give: read as stamps in another unit "
+            "than their column's name states") in recording.meta["notes"]
+    for other in (FS * 100, FS * 1000 * 1.05):
+        with pytest.raises(BearingTwinError, match=r"contradicts the file's 8e\+06 Hz \(from its time column\)"):
+            load_recording(csv, fs=other)
+
+
 def test_bad_inputs_are_named(tmp_path, signal):
     unknown = tmp_path / "rec.parquet"
     unknown.write_text("x")

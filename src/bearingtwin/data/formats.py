@@ -252,13 +252,18 @@ def recording_from_raw(
     """The validated Recording of one channel of an already read file (see :func:`load_recording`)."""
     # A rate the file records stays the file's when the user repeats it (resolve_fs refuses any other);
     # a given rate replaces a merely declared one, or fills in a missing one.
-    fs_origin = raw.fs_origin if fs is None or (raw.fs is not None and raw.fs_origin != "declared") else "config"
+    factor = restamped(raw, fs)
+    fs_origin = (raw.fs_origin if fs is None or (raw.fs is not None and raw.fs_origin != "declared" and factor is None)
+                 else "config")
     name, signal = raw.channel(channel, channel_key)
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{fault_key}={fault!r} is not a bearing state; choose one of {', '.join(FAULTS)}")
     refuse_a_label_the_file_contradicts(raw, fault, fault_key)
     notes = list(raw.meta.get("notes", []))  # what reading did that the user should know
     notes += filter(None, [named_rate_note(raw.meta, fs, fs_key)])
+    if factor is not None:
+        notes.append(f"{fs_key}={fs:g} Hz given, {factor:g} times the {raw.fs:.6g} Hz the file's time stamps give: "
+                     "read as stamps in another unit than their column's name states")
     rpm = resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
     # Where the speed comes from: a refusal of the rate names the speed's setting too where one gave it.
     rpm_origin = "file" if raw.rpm is not None else "config" if rpm is not None else None
@@ -313,16 +318,32 @@ def speed_setting(recording: Recording, key: str) -> str | None:
     return key if recording.meta.get("rpm_origin") in ("config", "nominal") else None
 
 
+STAMP_UNIT_FACTORS = (1e-6, 1e-3, 1e3, 1e6)
+"""Ratios of a given rate to the one a file's time stamps give that say the stamps are in another unit than their
+column's name states (seconds under a header of ms or µs, milliseconds under one of s): such a rate is read, and said
+to be, where any other ratio is a contradiction."""
+
+
+def restamped(raw: RawRecord, fs: float | None) -> float | None:
+    """The factor (:data:`STAMP_UNIT_FACTORS`) by which a given rate ``fs`` stands from the rate ``raw``'s time stamps
+    give, within their tolerance; None where the rate is not the stamps' or stands by no such factor."""
+    if fs is None or raw.fs is None or raw.fs_origin != "time column":
+        return None
+    return next((factor for factor in STAMP_UNIT_FACTORS if abs(fs / (raw.fs * factor) - 1.0) <= raw.fs_tolerance), None)
+
+
 def resolve_fs(raw: RawRecord, fs: float | None, key: str = "fs") -> float:
     """The sampling rate to use: the user's (given as setting ``key``), checked against the file's within
-    ``raw.fs_tolerance`` unless the file's is only declared."""
+    ``raw.fs_tolerance`` unless the file's is only declared, or is its time stamps' and the user's stands a factor of
+    a thousand or a million from it (:func:`restamped`)."""
     if fs is None:
         if raw.fs is None:
             why = f": {raw.fs_unread}" if raw.fs_unread else ""
             raise BearingTwinError(f"{raw.path}: the file does not state its sampling rate{why}; give {key}=<Hz>")
         return float(raw.fs)
     fs = positive_number(fs, key, "Hz")
-    if raw.fs is not None and raw.fs_origin != "declared" and abs(fs / raw.fs - 1.0) > raw.fs_tolerance:
+    if (raw.fs is not None and raw.fs_origin != "declared" and abs(fs / raw.fs - 1.0) > raw.fs_tolerance
+            and restamped(raw, fs) is None):
         origin = {"file": "stored in it", "header": "in its header"}.get(raw.fs_origin, f"from its {raw.fs_origin}")
         raise BearingTwinError(f"{raw.path}: {key}={fs:g} Hz contradicts the file's {raw.fs:g} Hz ({origin})")
     return fs
