@@ -25,11 +25,13 @@ from bearingtwin.diagnosis.evidence import PhysicsFirst, check_segment, evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params, predictions_frame
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.diagnosis.record import (NOISE_FREE_SIMULATION, PreparedRecord, diagnose_recording, diagnosed_windows,
-                                         majority, one_line, plot_diagnosis, read_record, resample_to)
+                                         extrapolation_note, majority, one_line, plot_diagnosis, read_record,
+                                         resample_to)
 from bearingtwin.diagnosis.run import NOT_REACHED
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import SaboVmdFeatures
+from bearingtwin.features.time_domain import FEATURE_NAMES
 from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 from bearingtwin.models.svm import SvmClassifier
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
@@ -330,6 +332,43 @@ def test_a_shaft_speed_well_beyond_the_training_windows_speeds_is_named_and_kept
     assert DiagnosisPipeline.load(tmp_path / "model").speed_note(60.0) is None
 
 
+def test_a_window_whose_features_lie_well_beyond_every_training_windows_is_named_with_the_feature(tmp_path):
+    """An SVM had given every window of a record unlike its training windows the same confident probabilities, and the
+    diagnosis had reported them as a verdict: the training features' range now travels with the saved model, a window
+    with a feature more than a quarter of that range beyond it is named with the feature, one within the margin is
+    not, and the training windows themselves never are."""
+    X, y = class_windows()
+    vmd = SaboVmdFeatures(population=3, iterations=1, search_windows=2, vmd_options={"max_iter": 60}, progress=False)
+    features = vmd.fit(X, y).transform(X)
+    low, high = features.min(axis=0), features.max(axis=0)
+    fitted = DiagnosisPipeline(vmd, SvmClassifier().fit(features, y), 2048, FS, bearing=BEARING,
+                               feature_range=(tuple(low), tuple(high)))
+    pipeline = DiagnosisPipeline.load(fitted.save(tmp_path / "model"))
+    np.testing.assert_array_equal(pipeline.feature_range, (low, high))
+    assert list(pipeline.features_unseen(features)) == [""] * len(features)
+    kurtosis = list(FEATURE_NAMES).index("kurtosis")
+    probes = np.repeat(features[:1], 3, axis=0)
+    probes[0, kurtosis] = high[kurtosis] + 0.3 * (high[kurtosis] - low[kurtosis])  # beyond the margin
+    probes[1, kurtosis] = high[kurtosis] + 0.2 * (high[kurtosis] - low[kurtosis])  # within it
+    probes[2, kurtosis] = low[kurtosis] - 0.3 * (high[kurtosis] - low[kurtosis])  # below, beyond it
+    assert list(pipeline.features_unseen(probes)) == ["kurtosis", "", "kurtosis"]
+    # A square wave at the training windows' level: no bearing's vibration; every window is named.
+    square = 0.3 * np.sign(np.sin(2 * np.pi * 50 * np.arange(4 * 2048) / FS)).reshape(4, 2048)
+    frame = served_model(pipeline).predict(None, np.concatenate([X[::8], square]), {})
+    assert list(frame.columns)[-1] == "feature_unseen"
+    assert (frame["feature_unseen"][: len(X[::8])] == "").all() and (frame["feature_unseen"][-4:] != "").all()
+    assert DiagnosisPipeline(vmd, fitted.classifier, 2048, FS).features_unseen(probes).tolist() == [""] * 3  # unkept
+
+
+def test_the_extrapolation_note_counts_the_classifiers_windows_and_names_the_features_most_often_beyond():
+    unseen = np.array(["kurtosis", "crest_factor", "kurtosis", "kurtosis", "rms"])
+    assert extrapolation_note(unseen, 5).startswith("all 5 windows the classifier decided hold a feature beyond")
+    assert extrapolation_note(unseen, 8) == (
+        "5 of the 8 windows the classifier decided hold a feature beyond its range over the training windows by more "
+        "than 25% of that range (kurtosis in 3, rms in 1, crest_factor in 1 windows): the classifier extrapolates "
+        "there, and its probabilities do not say so; hold its verdict against the physics evidence")
+
+
 def test_a_served_model_that_reads_the_level_flags_each_window_of_a_level_it_never_saw():
     """Windows in an undeclared unit or gain had been answered 200 with a confident wrong state (an SVM read outer-race
     windows x1000 as ball): the frame of a model that reads the level now says, per window, where it lies a decade or
@@ -365,7 +404,8 @@ def test_a_pipeline_that_puts_physics_first_overrules_its_classifier_only_where_
     ball = fault_signal(2 * rates["bsf"], seconds=2 * 2048 / FS, seed=9).reshape(2, 2048)
     windows = np.concatenate([outer, noise, ball])
     assert list(plain.predict(windows, RPM)[0][:4]) == ["inner"] * 4
-    states, probabilities, by_physics = gated.decide(windows, RPM)
+    decision = gated.decide(windows, RPM)
+    states, probabilities, by_physics = decision.states, decision.probabilities, decision.by_physics
     assert list(states[:4]) == ["outer"] * 4 and by_physics[:4].all()
     assert list(states[4:]) == list(plain.predict(windows, RPM)[0][4:]) and not by_physics[4:].any()  # ball: unknown
     np.testing.assert_array_equal(probabilities, plain.predict_proba(windows, RPM))  # the classifier's, throughout
@@ -464,6 +504,22 @@ def envelope_pipeline(bearing: dict = BEARING) -> DiagnosisPipeline:
     envelope = EnvelopeOrderFeatures(bearing=bearing, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
     return DiagnosisPipeline(envelope, SvmClassifier().fit(envelope.transform(X, fs_hz=FS, rpm=RPM), y), 2048, FS,
                              bearing=bearing)
+
+
+def test_a_record_stamped_in_seconds_under_a_header_of_milliseconds_names_the_rate_its_stamps_gave(tmp_path):
+    """Read a thousand times too fast, a 3 s record had been called shorter than one window, with no word of the
+    stamps: the refusal names the rate they gave, and the rate given then reads the record."""
+    path = tmp_path / "pump.csv"
+    signal = fault_signal(None, seconds=3)
+    np.savetxt(path, np.column_stack([np.arange(signal.size) / FS, signal]), delimiter=",", header="time [ms],acc",
+               comments="", fmt="%.9f")
+    pipeline = envelope_pipeline()
+    with pytest.raises(BearingTwinError, match=r"pump.csv: 0.003 s, shorter than one window of the model's .*; read at "
+                                               r"1.2e\+07 Hz, the rate its time stamps give: if their values are in "
+                                               r"another unit than the column's name states, give fs=<Hz>$"):
+        read_record(path, pipeline, rpm=RPM)
+    prepared = read_record(path, pipeline, fs=FS, rpm=RPM)
+    assert prepared.recording.fs == FS and prepared.recording.duration == pytest.approx(3.0)
 
 
 @needs_cwru
@@ -952,7 +1008,8 @@ def test_training_registers_its_model_with_signature_and_alias(registered):
     with pytest.raises(MlflowException, match=r"^params unit 'furlongs': no unit known here; .*the model's is m/s\^2"):
         model.predict(windows, params={"unit": "furlongs"})
     # level_unseen: the VMD features read the level; the columns before it are as they were.
-    assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer", "level_unseen"] and len(answer) == 3
+    assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer", "level_unseen", "feature_unseen"]
+    assert len(answer) == 3
     np.testing.assert_allclose(answer[["normal", "inner", "ball", "outer"]].sum(axis=1), 1.0)
 
 
@@ -1070,8 +1127,9 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
     header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
     # new columns come last
-    assert header[-9:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
-                           "physics_decided", "speed_spread", "order_tracked", "speed_unseen"]
+    assert header[-10:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
+                            "physics_decided", "speed_spread", "order_tracked", "speed_unseen", "features_unseen"]
+    assert 0.0 <= float(rows["pump_a"]["features_unseen"]) <= 1.0 and not rows["short"]["features_unseen"]
     assert rows["pump_a"]["classifier_verdict"] == rows["pump_a"]["verdict"]  # no physics_first: the model's own
     assert float(rows["pump_a"]["physics_decided"]) == 0.0 and not rows["short"]["physics_decided"]
     assert rows["pump_a"]["bearing"] and not rows["short"]["bearing"] and rows["pump_a"]["unit_check"]
@@ -1080,6 +1138,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert "shorter than one window" in rows["short"]["error"] and "NaN" in rows["nan"]["error"]
     assert "cut.wav: not a readable .wav file" in rows["cut"]["error"] and "Traceback" not in done.stderr
     assert "told.npz: labelled outer, but the file states fault=inner" in rows["told"]["error"]
+    # A failed record's row says which state went unanswered, where its labels row gives one.
+    assert rows["told"]["true_state"] == "outer" and not rows["told"]["correct"] and not rows["short"]["true_state"]
     assert "rows for gone.npz, other.npy, which" in done.stdout
     assert rows["pump_a"]["true_state"] == "outer" and rows["pump_a"]["evidence_state"] == "outer"
     notes = json.loads((tmp_path / "out" / "pump_a" / "diagnosis.json").read_text())["notes"]

@@ -22,7 +22,8 @@ from processes import (LOOPBACK, SMOKE, assert_done, child_env, free_loopback_po
                        start, stop, wait_until_answers)
 
 from bearingtwin.config import data_root
-from bearingtwin.diagnosis.mlflow_model import LEVEL_UNSEEN_COLUMN, STATE_COLUMN, load_diagnosis_model
+from bearingtwin.diagnosis.mlflow_model import (FEATURE_UNSEEN_COLUMN, LEVEL_UNSEEN_COLUMN, STATE_COLUMN,
+                                                load_diagnosis_model)
 from bearingtwin.diagnosis.record import diagnosed_windows, read_record
 
 CWRU = data_root() / "cwru"
@@ -127,10 +128,12 @@ def test_served_model_answers_as_bearingtwin_diagnose(served, case):
     assert len(rows) == len(diagnosis["windows"])
     names = pipeline.class_names
     for index, (row, expected) in enumerate(zip(rows, diagnosis["windows"])):
-        assert set(row) == {STATE_COLUMN, *names, LEVEL_UNSEEN_COLUMN}  # the smoke models' VMD features read the level
+        # The smoke models' VMD features read the level and kept their training range.
+        assert set(row) == {STATE_COLUMN, *names, LEVEL_UNSEEN_COLUMN, FEATURE_UNSEEN_COLUMN}
         # The record's windows stand at one level: each says what diagnose says of the record (a CWRU record is
         # louder than the smoke twin's windows by more than a decade).
         assert row[LEVEL_UNSEEN_COLUMN] is diagnosis["level_unseen"], f"window {index}"
+        assert row[FEATURE_UNSEEN_COLUMN] == expected.get("feature_unseen", ""), f"window {index}"
         assert row[STATE_COLUMN] == expected["state"], f"window {index}"
         np.testing.assert_allclose([row[name] for name in names], [expected["probabilities"][name] for name in names],
                                    rtol=0, atol=PROBABILITY_TOLERANCE, err_msg=f"window {index}")

@@ -111,6 +111,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     faster_or_slower = [row["record"] for row in diagnosed if row.get("speed_unseen")]
     if faster_or_slower:  # read by a model that never learnt the bearing at such a speed (their notes give it)
         lines["shaft speed well beyond the model's training windows' (see their notes)"] = ", ".join(faster_or_slower)
+    extrapolated = [row["record"] for row in diagnosed if (row.get("features_unseen") or 0.0) >= 0.5]
+    if extrapolated:  # the classifier read most windows beyond every training window's features, unawares
+        lines["most windows' features beyond the model's training windows' (see their notes)"] = ", ".join(extrapolated)
     disagreements = [row["record"] for row in diagnosed if row.get("agree") is False]
     if disagreements:
         lines["model and physics disagree on"] = ", ".join(disagreements)

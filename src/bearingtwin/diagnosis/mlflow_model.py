@@ -5,7 +5,8 @@ takes raw windows (n, window_length) at the model's sampling rate and returns on
 window: ``state`` and one probability column per class (the classifier's), ``decided_by``
 (``physics`` or ``classifier``) for a model whose physics may decide a window (``physics_first``), and
 ``level_unseen`` for a model that reads the windows' level (a window a decade or more outside the training windows'
-levels: an undeclared unit or gain, the answer not to be trusted).
+levels: an undeclared unit or gain, the answer not to be trusted), and ``feature_unseen`` for a model that kept its
+training features' range (the feature lying farthest beyond it, "" where none does: the classifier extrapolates).
 ``rpm`` (rev/min; 0 = not given) is needed by models whose features are read on the shaft-order
 axis and by ``physics_first`` models; ``bearing`` (a ``conf/bearing/<name>.yaml``; default the
 model's own) is the recorded bearing, whose defect orders those features and that physics read. ``fs`` (Hz) and
@@ -48,6 +49,9 @@ DECIDED_BY_COLUMN = "decided_by"
 LEVEL_UNSEEN_COLUMN = "level_unseen"
 """Per window, in the frame of a model that reads the windows' level: a level a decade or more outside the training
 windows' (an undeclared unit or gain), where the classifier's answer is not to be trusted."""
+FEATURE_UNSEEN_COLUMN = "feature_unseen"
+"""Per window, in the frame of a model that kept its training features' range: the feature lying farthest beyond it
+(by more than a quarter of its width), "" where none does: where the classifier extrapolates, unawares."""
 RUNTIME_PACKAGES = ("bearingtwin", "numpy", "scipy", "pandas", "scikit-learn", "torch", "lightning", "mlflow")
 
 
@@ -143,14 +147,17 @@ def predictions_frame(pipeline: DiagnosisPipeline, windows: np.ndarray, rpm: flo
     """``state`` and one probability column per class (the classifier's), one row per window; who decided each window
     (``decided_by``) when the model lets the physics decide some (``physics_first``); and whether its level lies a
     decade or more outside the training windows' (``level_unseen``) when the model reads the level
-    (:meth:`DiagnosisPipeline.levels_unseen`)."""
-    states, probabilities, by_physics = pipeline.decide(windows, rpm, bearing)
-    frame = pd.DataFrame(probabilities, columns=pipeline.class_names)
-    frame.insert(0, STATE_COLUMN, states)
+    (:meth:`DiagnosisPipeline.levels_unseen`); and the feature lying farthest beyond the training windows' range
+    (``feature_unseen``, "" where none does) when the model kept that range (:meth:`DiagnosisPipeline.features_unseen`)."""
+    decision = pipeline.decide(windows, rpm, bearing)
+    frame = pd.DataFrame(decision.probabilities, columns=pipeline.class_names)
+    frame.insert(0, STATE_COLUMN, decision.states)
     if pipeline.physics_first is not None:
-        frame[DECIDED_BY_COLUMN] = np.where(by_physics, "physics", "classifier")
+        frame[DECIDED_BY_COLUMN] = np.where(decision.by_physics, "physics", "classifier")
     if pipeline.levels_seen is not None:  # flagged, not refused: a louder machine is a level unseen too
         frame[LEVEL_UNSEEN_COLUMN] = pipeline.levels_unseen(np.std(windows, axis=1))
+    if pipeline.feature_range is not None:  # flagged, not refused: the physics may still decide such a window
+        frame[FEATURE_UNSEEN_COLUMN] = decision.unseen.astype(str)
     return frame
 
 

@@ -34,6 +34,7 @@ from bearingtwin.diagnosis.evidence import PhysicsFirst
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
 from bearingtwin.features.extractor import EXTRACTORS
+from bearingtwin.features.time_domain import FEATURE_NAMES
 from bearingtwin.physics.geometry import FAULTS
 
 FORMAT = 2  # bump when the saved layout changes
@@ -46,6 +47,9 @@ LEVEL_FACTOR = 10.0
 SPEED_MARGIN = 1.25
 """How far beyond the training windows' shaft speeds (a factor, above the fastest or below the slowest) a record's
 speed may lie before a diagnosis says so: a plain margin over the speeds seen, not a value fitted to any result."""
+RANGE_MARGIN = 0.25
+"""How far beyond the training windows' range of a feature (a share of that range's width) a window's feature may lie
+before a diagnosis says the classifier extrapolates: a plain margin over the values seen, not fitted to any result."""
 PIPELINE_FILE = "pipeline.json"
 
 
@@ -72,6 +76,10 @@ class DiagnosisPipeline:
         training_records: path (from the folder the files share) -> SHA-256 of its contents, for every recorded
             file whose windows the classifier was trained on (none for simulated data): a diagnosis of such a file,
             under any name, is no test of the model.
+        feature_range: the smallest and the largest value of each feature over the training windows, in the
+            classifier's column order: where a window's lie well beyond them (:meth:`features_unseen`) the classifier
+            extrapolates, and its probabilities do not say so. None for the raw windows (their samples are no
+            features; :attr:`window_level` holds their level) or a model saved before it was kept.
     """
 
     extractor: object
@@ -87,6 +95,7 @@ class DiagnosisPipeline:
     speeds_rpm: tuple[float, float] | None = None
     physics_first: PhysicsFirst | None = None
     training_records: dict = field(default_factory=dict)
+    feature_range: tuple[tuple[float, ...], tuple[float, ...]] | None = None
 
     @property
     def class_names(self) -> list[str]:
@@ -222,6 +231,29 @@ class DiagnosisPipeline:
                 "training windows: the model reads a record at a speed it never learnt; hold its verdict against the "
                 "physics evidence")
 
+    @property
+    def feature_names(self) -> list[str]:
+        """The classifier's input columns by name (the nine time-domain statistics of a VMD mode, or the defect-order
+        features an extractor names)."""
+        return list(getattr(self.extractor, "feature_names_", FEATURE_NAMES))
+
+    def features_unseen(self, features: np.ndarray) -> np.ndarray:
+        """Per row of ``features`` (the classifier's input, as :meth:`features` gives it), the name of the feature
+        lying farthest beyond the training windows' range (:attr:`feature_range`) by more than :data:`RANGE_MARGIN`
+        of its width, "" where none does or the range is not known."""
+        unseen = np.full(len(features), "", dtype=object)
+        if self.feature_range is None:
+            return unseen
+        low, high = (np.asarray(edge, dtype=np.float64) for edge in self.feature_range)
+        # A feature constant over the training windows: any other value lies beyond it; its width is one of the
+        # value's own rounding errors rather than zero, for a quotient.
+        width = np.maximum(high - low, 1e-9 * np.maximum(np.abs(high), 1.0))
+        beyond = np.maximum(low - features, features - high) / width
+        farthest = np.argmax(beyond, axis=1)
+        outside = beyond[np.arange(len(features)), farthest] > RANGE_MARGIN
+        unseen[outside] = np.asarray(self.feature_names, dtype=object)[farthest[outside]]
+        return unseen
+
     def _extractor_at(self, bearing: dict | None):
         """The defect-order extractor reading ``bearing``'s orders (the model's own for None or the same bearing)."""
         if bearing and bearing != self.extractor.bearing:
@@ -243,15 +275,17 @@ class DiagnosisPipeline:
 
     def predict(self, windows, rpm=None, bearing: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Each window's state name and the classifier's probabilities (:meth:`decide`)."""
-        states, probabilities, _ = self.decide(windows, rpm, bearing)
-        return states, probabilities
+        decision = self.decide(windows, rpm, bearing)
+        return decision.states, decision.probabilities
 
-    def decide(self, windows, rpm=None, bearing: dict | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Each window's state name, the classifier's probabilities, and whether the physics decided the window
-        (:attr:`physics_first`) rather than the classifier."""
-        labels, probabilities = self.classifier.predict_with_proba(self.features(windows, rpm, bearing))
+    def decide(self, windows, rpm=None, bearing: dict | None = None) -> "Decision":
+        """Each window's state name, the classifier's probabilities, whether the physics decided the window
+        (:attr:`physics_first`) rather than the classifier, and the feature it saw least (:meth:`features_unseen`)."""
+        features = self.features(windows, rpm, bearing)
+        labels, probabilities = self.classifier.predict_with_proba(features)
         labels, by_physics = self.overrule(labels, windows, rpm, bearing)
-        return np.array([FAULTS[int(label)] for label in labels]), probabilities, by_physics
+        return Decision(np.array([FAULTS[int(label)] for label in labels]), probabilities, by_physics,
+                        self.features_unseen(features))
 
     def overrule(self, labels: np.ndarray, windows, rpm, bearing: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The classifier's ``labels`` (:data:`FAULTS` indices) of raw ``windows``, each window where the envelope
@@ -288,6 +322,8 @@ class DiagnosisPipeline:
             "speeds_rpm": None if self.speeds_rpm is None else [float(v) for v in self.speeds_rpm],
             "physics_first": None if self.physics_first is None else asdict(self.physics_first),
             "training_records": self.training_records,
+            "feature_range": None if self.feature_range is None else [[float(v) for v in edge]
+                                                                      for edge in self.feature_range],
             "extractor": _extractor_state(self.extractor),
             "classifier": _save_classifier(self.classifier, folder),
         }
@@ -318,7 +354,26 @@ class DiagnosisPipeline:
             speeds_rpm=None if meta.get("speeds_rpm") is None else tuple(meta["speeds_rpm"]),  # unknown: saved before
             physics_first=None if meta.get("physics_first") is None else PhysicsFirst(**meta["physics_first"]),
             training_records=meta.get("training_records", {}),  # models saved before they were recorded: none known
+            feature_range=None if meta.get("feature_range") is None else tuple(map(tuple, meta["feature_range"])),
         )
+
+
+@dataclass
+class Decision:
+    """What :meth:`DiagnosisPipeline.decide` says of each of n windows.
+
+    Attributes:
+        states: (n,) state names.
+        probabilities: (n, n_classes) the classifier's, columns in :attr:`DiagnosisPipeline.class_names` order.
+        by_physics: (n,) whether the envelope spectrum decided the window (:attr:`DiagnosisPipeline.physics_first`).
+        unseen: (n,) the feature lying farthest beyond the training windows' range, "" where none does
+            (:meth:`DiagnosisPipeline.features_unseen`).
+    """
+
+    states: np.ndarray
+    probabilities: np.ndarray
+    by_physics: np.ndarray
+    unseen: np.ndarray
 
 
 UNIT_CHECKS = ("as stated", "converted", "assumed", "not checked", "not needed")

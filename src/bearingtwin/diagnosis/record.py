@@ -9,14 +9,15 @@ vibration, or samples with no value: :func:`diagnosed_windows`), and the record'
 voted for. :func:`diagnose_recording` returns the ``diagnosis.json`` contract:
 
 ``record``, ``model_uri``, ``model_version_uri`` (an alias replaced by the version it named), ``fs``, ``rpm``, ``verdict``, ``share``, ``mean_probability``,
-``windows`` (``start_s``, ``state``, ``probabilities``), ``evidence``, ``evidence_state``, ``agree``,
+``windows`` (``start_s``, ``state``, ``probabilities``; ``decided_by`` and ``feature_unseen`` where the model gives them), ``evidence``, ``evidence_state``, ``agree``,
 ``windows_left_out``, ``rate_check`` (the shaft line against the speed and rate: ``consistent``, ``ambiguous``,
 ``contradicted`` or ``not checked``), ``speed`` (how steadily the shaft turned, read from its harmonic series
 segment by segment, and whether the record was resampled to a steady speed: :func:`steadied`; null where no speed
 was known or the record is the twin's), ``unit_check`` (the record's unit against the model's: ``as stated``,
 ``converted``, ``assumed`` where the file states none, ``not checked`` where the model states none, ``not needed``
 where no unit's scale matters to the model: :attr:`DiagnosisPipeline.scale_free`), ``level_unseen`` (the windows' level lies a decade or more from the
-training windows'), ``notes``, ``fault_size_in``, ``position`` and ``load_hp`` where the
+training windows'), ``features_unseen`` (the share of windows the classifier decided on a feature well beyond every
+training window's; null for a model that kept no such range: :meth:`DiagnosisPipeline.features_unseen`), ``notes``, ``fault_size_in``, ``position`` and ``load_hp`` where the
 file's name gives them and, when the truth is known, ``true_state``, ``correct`` and ``physics_correct`` (the evidence
 alone). Beside them: ``source``, ``channel``, ``bearing`` (whose defect lines were read) and ``original_fs``
 (what was read), and
@@ -43,8 +44,8 @@ from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
-from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, STATE_COLUMN, model_params
-from bearingtwin.diagnosis.pipeline import DiagnosisPipeline, unit_for_model
+from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, FEATURE_UNSEEN_COLUMN, STATE_COLUMN, model_params
+from bearingtwin.diagnosis.pipeline import RANGE_MARGIN, DiagnosisPipeline, unit_for_model
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
@@ -134,10 +135,15 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     recording, unit_notes, unit_check = in_model_unit(recording, pipeline)
     notes += unit_notes
     if recording.signal.size < pipeline.window_length:
+        # Stamps in seconds under a header of milliseconds read a rate a thousand times too high, the record as
+        # that much shorter: the rate is named where the stamps gave it.
+        stamped = (f"; read at {original_fs:.6g} Hz, the rate its time stamps give: if their values are in another unit "
+                   "than the column's name states, give fs=<Hz>" if recording.meta.get("fs_origin") == "time column"
+                   else "")
         raise BearingTwinError(
             f"{recording.source}: {recording.duration:.3f} s, shorter than one window of the model's "
             f"({pipeline.window_length} samples at {pipeline.fs_hz:g} Hz, {pipeline.window_length / pipeline.fs_hz:.3f} s)"
-        )
+            f"{stamped}")
     if pipeline.needs_rpm and recording.rpm is None and recording.meta.get("no_speed"):
         raise BearingTwinError(f"{recording.source}: the file is {recording.meta['no_speed']}, and this model reads a "
                                "record at one shaft speed")
@@ -674,6 +680,10 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
     classifier_verdict = majority(states[left], probabilities[left], names)[0] if left.any() else None
     if deciders is not None:
         notes.append(physics_first_note(pipeline, deciders))
+    unseen = frame[FEATURE_UNSEEN_COLUMN].to_numpy() if FEATURE_UNSEEN_COLUMN in frame else None
+    extrapolated = None if unseen is None else left & (unseen != "")
+    if extrapolated is not None and extrapolated.any():
+        notes.append(extrapolation_note(unseen[extrapolated], int(left.sum())))
     evidence = None
     if recording.rpm is not None and prepared.bearing:
         evidence = physics_evidence(recording.signal, recording.fs, recording.rpm, prepared.bearing, **evidence_settings)
@@ -694,7 +704,8 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "windows": [
             {"start_s": float(start / recording.fs), "state": str(state),
              "probabilities": {name: float(p) for name, p in zip(names, row)},
-             **({} if deciders is None else {"decided_by": str(deciders[index])})}
+             **({} if deciders is None else {"decided_by": str(deciders[index])}),
+             **({} if unseen is None or not unseen[index] else {"feature_unseen": str(unseen[index])})}
             for index, (start, state, row) in enumerate(zip(starts, states, probabilities))
         ],
         "evidence": None if evidence is None else evidence.as_dict(),
@@ -709,6 +720,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
         "speed_unseen": speed_unseen is not None,
+        "features_unseen": None if extrapolated is None else float(np.mean(extrapolated)),
         "windows_left_out": left_out,  # touching a dropout as long as a window or a gap with no value
         "notes": notes,
     }
@@ -745,6 +757,17 @@ def physics_first_note(pipeline: DiagnosisPipeline, deciders: np.ndarray) -> str
             "probabilities are the classifier's throughout)")
 
 
+def extrapolation_note(unseen: np.ndarray, decided: int) -> str:
+    """What to say of the ``decided`` windows the classifier decided, of which those named in ``unseen`` (each window's
+    feature farthest beyond the training windows' range) hold a feature well beyond it."""
+    names, counts = np.unique(unseen, return_counts=True)
+    named = ", ".join(f"{name} in {count}" for count, name in sorted(zip(counts, names), reverse=True)[:3])
+    counted = f"all {decided}" if len(unseen) == decided else f"{len(unseen)} of the {decided}"
+    return (f"{counted} windows the classifier decided hold a feature beyond its range over the "
+            f"training windows by more than {RANGE_MARGIN:.0%} of that range ({named} windows): the classifier "
+            "extrapolates there, and its probabilities do not say so; hold its verdict against the physics evidence")
+
+
 def one_line(result: dict) -> str:
     """What a reliability engineer reads first: verdict, confidence, physics, truth."""
     n_windows = len(result["windows"])
@@ -756,6 +779,8 @@ def one_line(result: dict) -> str:
     split = [f"{state} {count / n_windows:.0%}" for state, count in result.get("window_states", {}).items()
              if state != result["verdict"] and count >= 0.1 * n_windows]
     asides = [f"the others: {', '.join(split)}"] if split else []
+    if (result.get("features_unseen") or 0.0) >= 0.5:  # a probability of a model extrapolating is no confidence
+        asides.append(f"{result['features_unseen']:.0%} of windows beyond the model's training features")
     alone = result.get("classifier_verdict")  # where the physics decided windows, the model's own answer may differ
     if by_physics and alone not in (None, result["verdict"]):
         asides.append(f"the windows left to the classifier: {alone}")

@@ -36,6 +36,7 @@ from tqdm.auto import tqdm
 
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
+from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import FORMATS
 from bearingtwin.data.labels import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
                                      read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
@@ -412,7 +413,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             if not isinstance(error, BearingTwinError):
                 log.exception("%s: unexpected failure", path)
             run.failures[path.name] = message
-            run.rows.append({"record": path.stem, "error": message})
+            run.rows.append({"record": path.stem, "error": message, **stated_truth(path, labelled)})
             progress.write(f"{path.stem}: FAILED - {message}")
             continue
         run.files += written
@@ -430,6 +431,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
         row["speed_unseen"] = result["speed_unseen"]
+        row["features_unseen"] = "" if result["features_unseen"] is None else result["features_unseen"]
         row["classifier_verdict"] = result["classifier_verdict"] or ""  # empty where the physics decided every window
         row["physics_decided"] = result["physics_decided"]
         speed = result["speed"] or {}  # the spread of the shaft speed read, and whether the record was steadied
@@ -545,6 +547,15 @@ def _unwritable(path: Path, error: OSError) -> BearingTwinError:
     return BearingTwinError(f"out={path.parent}: {path.name} cannot be written there ({error.strerror or error})")
 
 
+def stated_truth(path: Path, labelled: dict) -> dict:
+    """The true state of a record that could not be diagnosed, as its labels row or its CWRU name states it (none where
+    neither does): a failed record's row says which state went unanswered."""
+    state = labelled.get(path.stem, (None, None))[1]
+    name = parse_cwru_name(path) if path.suffix.lower() == ".mat" else None
+    state = state or (name.fault if name is not None else None)
+    return {} if state is None else {"true_state": state}
+
+
 def summary_text(rows: list[dict]) -> str:
     """The CSV text of ``summary.csv``: one row per record, the columns its rows hold values of."""
     columns = list(SUMMARY_COLUMNS)
@@ -563,6 +574,7 @@ def summary_text(rows: list[dict]) -> str:
     columns += ["classifier_verdict", "physics_decided"]
     columns += ["speed_spread", "order_tracked"]  # how steadily the shaft turned; resampled to a steady speed
     columns.append("speed_unseen")  # a shaft speed well beyond the model's training windows'
+    columns.append("features_unseen")  # the share of windows the classifier decided beyond its training features
     text = io.StringIO()
     writer = csv.DictWriter(text, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
     writer.writeheader()

@@ -28,7 +28,7 @@ from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.cache import cache_path, extract_features
 from bearingtwin.features.envelope_orders import EnvelopeOrderFeatures
-from bearingtwin.features.extractor import build_feature_extractor
+from bearingtwin.features.extractor import RawFeatures, build_feature_extractor
 from bearingtwin.models.build import build_classifier
 from bearingtwin.models.classes import training_classes
 from bearingtwin.storage import file_digest
@@ -247,6 +247,8 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         speeds_rpm=training_speeds(dataset, train),
         physics_first=physics_first,
         training_records=training_records(dataset, train),
+        feature_range=None if isinstance(extractor, RawFeatures) else (tuple(features[train].min(axis=0)),
+                                                                       tuple(features[train].max(axis=0))),
     )
 
     def decided(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
