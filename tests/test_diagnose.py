@@ -20,6 +20,7 @@ from omegaconf import OmegaConf
 from processes import run_module
 
 from bearingtwin.config import bearing_config, compose_config, data_root
+from bearingtwin.data.formats import load_recording
 from bearingtwin.data.recording import Recording
 from bearingtwin.diagnosis.evidence import PhysicsFirst, check_segment, evidence_settings, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params, predictions_frame
@@ -1091,9 +1092,14 @@ def test_a_model_that_puts_physics_first_is_scored_and_diagnoses_as_it_decides(t
     for source, name in ((CWRU / "12k_Drive_End_IR007_0_105.mat", "12k_Drive_End_IR007_0_105.mat"),
                          (CWRU / "12k_Drive_End_IR007_0_105.mat", "IR007_0.mat"), (record, record.name)):
         (folder / name).write_bytes(source.read_bytes())
+    # The shaft's frequency in Hz typed for its speed: what reading the record noted is printed above its failure.
+    np.savez(folder / "in_hz.npz", signal=load_recording(record).signal, fs=FS)
+    (folder / "labels.csv").write_text("record,state,rpm\nin_hz,inner,29.95\n")
     done = run("diagnose", f"path={folder}", f"model=runs:/{trained.info.run_id}/model", f"out={tmp_path}/folder",
                "figures=false", cwd=tmp_path, uri=uri)
-    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.returncode == 2, done.stderr[-3000:]
+    assert re.search(r"in_hz: .*rpm=29.95 is a shaft at 0.499 Hz; if 29.95 is the shaft's frequency in Hz, give .*"
+                     r"rpm=1797\nin_hz: .*\nin_hz: FAILED - .*in_hz.npz: at 29.95 rpm a window resolves", done.stdout)
     seen = {path.parent.name: json.loads(path.read_text()) for path in (tmp_path / "folder").glob("*/diagnosis.json")}
     assert {name: result["training_record"] for name, result in seen.items()} == {
         "12k_Drive_End_IR007_0_105": True, "IR007_0": True, record.stem: False}
@@ -2064,7 +2070,6 @@ def test_a_record_whose_speed_drifts_is_order_tracked_before_it_is_read(register
     record is read as recorded and said to be in doubt. The steady record beside it is left as it was."""
     from scipy.interpolate import CubicSpline
 
-    from bearingtwin.data.formats import load_recording
 
     base, uri = registered
     recording = load_recording(CWRU / "12k_Drive_End_OR007@6_1_131.mat")
@@ -2127,7 +2132,6 @@ def test_a_gap_is_followed_to_where_order_tracking_moves_it(monkeypatch):
 def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_series_reads(tmp_path):
     """A nameplate's speed given for a measured one puts every defect line beside where it stands: the shaft's own
     harmonic series names the speed it turns at. The true speed draws no such note."""
-    from bearingtwin.data.formats import load_recording
 
     recording = load_recording(CWRU / "12k_Drive_End_OR007@6_1_131.mat")  # 1772 rpm
     pipeline = envelope_pipeline()
@@ -2150,7 +2154,6 @@ def test_a_stated_speed_a_tachometer_contradicts_is_named_with_the_speed_it_read
     """Record 130 turns at 1797 rpm, within 0.2 % of 1800 rpm, whose shaft rate is half the 60 Hz supply's: a shaft
     series read there may be the supply's, and no speed is offered from it. A tachometer's pulses measure the shaft
     itself: stated at 1750 rpm, the record had been read there without a word, its verdict ball."""
-    from bearingtwin.data.formats import load_recording
 
     recording = load_recording(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
     t = np.arange(recording.signal.size) / recording.fs

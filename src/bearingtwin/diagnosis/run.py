@@ -374,6 +374,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     calibrated, trained = calibration_records(pipeline), set(pipeline.training_records.values())
     for path in progress:
         raise_if_interrupted()  # a signal a library swallowed (loading the model, say) stops here, not at the end
+        prepared = None
         try:
             if path.stem in refused:
                 raise BearingTwinError(refused[path.stem])
@@ -414,6 +415,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                 log.exception("%s: unexpected failure", path)
             run.failures[path.name] = message
             run.rows.append({"record": path.stem, "error": message, **stated_truth(path, labelled)})
+            for note in [] if prepared is None else prepared.notes:  # what reading it found may say why it failed
+                progress.write(f"{path.stem}: {note}")
             progress.write(f"{path.stem}: FAILED - {message}")
             continue
         run.files += written
