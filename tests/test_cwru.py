@@ -878,6 +878,10 @@ def test_a_tachometer_recorded_beside_the_accelerometer_is_no_witness_of_the_rat
     assert raw.channel("1")[0] == raw.channel("1")[0] == "1"  # asked for, it is read, and said (once) to be what it is
     assert raw.meta["notes"] == ["channel 1 holds two levels only: a tachometer's pulses, or a sensor saturated nine "
                                  "samples in ten; read as asked, it is no vibration's record"]
+    # Where nothing states the speed, the pulses give it, at the one mark a turn the record's shaft series confirms.
+    read = load_recording(tmp_path / "two.npy", fs=recording.fs)
+    assert read.meta["rpm_origin"] == "tachometer" and read.rpm == pytest.approx(recording.rpm, rel=1e-3)
+    assert f"shaft speed {recording.rpm:.0f} rpm from the tachometer channel 1: 1 pulse per revolution" in read.meta["notes"][0]
     np.save(tmp_path / "tach.npy", tach)  # a file of pulses alone is read, and said to be so
     assert load_recording(tmp_path / "tach.npy", fs=recording.fs).meta["notes"][0].startswith("channel 0 holds two levels")
 

@@ -2165,6 +2165,30 @@ def test_a_stated_speed_a_tachometer_contradicts_is_named_with_the_speed_it_read
             "where the stated speed puts it; if the sampling rate is right, give rpm=1797") in prepared.notes
 
 
+@needs_cwru
+def test_a_record_that_states_no_speed_is_read_at_the_one_its_tachometer_gives_or_refused_naming_the_choices(tmp_path):
+    """A file of an accelerometer and a tachometer's pulses, no speed stated: a model that reads shaft orders had
+    refused it, asking for the speed the pulses hold. One mark a turn, which the shaft series confirms, is read and
+    said; two marks a turn leave two speeds the series cannot tell apart, named in the refusal."""
+    recording = load_recording(CWRU / "12k_Drive_End_IR007_1_106.mat")
+    t = np.arange(recording.signal.size) / recording.fs
+    for marks in (1, 2):
+        np.savez(tmp_path / f"marks{marks}.npz", vib=recording.signal, fs=recording.fs, unit="g",
+                 tach=5.0 * ((t * marks * recording.rpm / 60.0) % 1 < 0.1))
+    prepared = read_record(tmp_path / "marks1.npz", envelope_pipeline())
+    assert prepared.recording.rpm == pytest.approx(recording.rpm, rel=1e-3)
+    assert prepared.notes[0] == ("shaft speed 1772 rpm from the tachometer channel tach: 1 pulse per revolution, the "
+                                 "one count at which the record's shaft series stands clearly highest (8 of its first 8 "
+                                 "harmonics standing)")
+    assert prepared.rate_check == "consistent" and prepared.speed["source"] == "the tachometer channel tach"
+    with pytest.raises(BearingTwinError, match=r"marks2.npz: the file does not state the shaft speed \(its tachometer "
+                                               r"channel tach pulses 59.07 times a second: 3544 rpm at 1 pulse per "
+                                               r"revolution or 1772 rpm at 2 pulses per revolution, which the record's "
+                                               r"shaft series does not tell apart\) and this model needs it; give rpm="):
+        read_record(tmp_path / "marks2.npz", envelope_pipeline())
+    assert read_record(tmp_path / "marks2.npz", envelope_pipeline(), rpm=1772).recording.rpm == 1772
+
+
 def test_a_steady_record_is_not_warped_by_a_misread_profile(monkeypatch):
     """Two shafts' series (a belt drive), segments reading the supply, a swing faster than the segments resolve: each
     can make the speed read flip between values on a steady record. Steadied to such a profile, the shaft's own series

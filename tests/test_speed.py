@@ -8,7 +8,7 @@ import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal import envelope_spectrum, order_track, speed_profile
-from bearingtwin.signal.speed import series_prominences, sharpening, smoothed, tachometer_profile
+from bearingtwin.signal.speed import series_prominences, sharpening, smoothed, tachometer_profile, tachometer_speed
 
 FS = 12000.0
 RPM = 1650.0  # its +-4 % swing stays clear of 1800 rpm, whose 2x is the 60 Hz supply's
@@ -125,6 +125,39 @@ def test_a_tachometer_reads_the_speed_where_no_shaft_series_shows(per_turn):
     assert not tachometer_profile(tachometer(0.0), FS, RPM * 1.4).read.any()  # 1.4 marks per turn: no whole number
     spikes = (np.random.default_rng(0).standard_normal(int(SECONDS * FS)) > 3).astype(float)  # not a shaft's pulses
     assert not tachometer_profile(spikes, FS, RPM).readable
+
+
+@pytest.mark.parametrize("per_turn", [1, 3])
+def test_a_record_that_states_no_speed_reads_it_from_its_tachometer_at_the_marks_per_turn_its_shaft_series_confirms(
+        per_turn):
+    """Where nothing states the speed, the pulses give it up to their count per revolution: the count is the one at
+    which the record's shaft series stands clearly highest (a slower speed stands only some of its lines, a faster one
+    on a machine of five harmonics only one or two)."""
+    signal, _ = machine(drift=0.0)
+    reading = tachometer_speed(tachometer(0.0, per_turn), signal, FS)
+    assert reading.per_turn == per_turn and reading.rpm == pytest.approx(RPM, rel=1e-4)
+    assert reading.pulse_hz == pytest.approx(per_turn * RPM / 60.0, rel=1e-4) and reading.standing >= 4
+
+
+def test_a_tachometer_speed_no_shaft_series_settles_is_not_read_and_says_why():
+    """A record whose shaft series does not show confirms no count of pulses per turn; a machine whose half orders
+    stand as high as its whole ones (looseness) cannot tell one mark a turn from two: neither is read, each says why,
+    the second naming the speeds the pulses may give."""
+    quiet, _ = machine(drift=0.0, shaft_lines=False)
+    unconfirmed = tachometer_speed(tachometer(0.0), quiet, FS)
+    assert unconfirmed.rpm is None and not unconfirmed.alternatives
+    assert unconfirmed.describe_unconfirmed() == (
+        "pulses 27.5 times a second, a speed the record's shaft series does not confirm at any whole number of pulses "
+        "per revolution up to 64")
+    signal, _ = machine(drift=0.0)
+    t = np.arange(signal.size) / FS
+    loose = signal + sum(np.cos(2 * np.pi * (k - 0.5) * RPM / 60.0 * t) / k for k in range(1, 9))
+    ambiguous = tachometer_speed(tachometer(0.0), loose, FS)
+    assert ambiguous.rpm is None and ambiguous.alternatives == (1, 2)
+    assert ambiguous.describe_unconfirmed() == (
+        "pulses 27.5 times a second: 1650 rpm at 1 pulse per revolution or 825 rpm at 2 pulses per revolution, which "
+        "the record's shaft series does not tell apart")
+    assert tachometer_speed(np.zeros(signal.size), signal, FS).describe_unconfirmed() == "holds fewer than three pulses"
 
 
 def test_tracking_a_steady_record_leaves_it_as_it_was():

@@ -572,6 +572,41 @@ CWRU_RECORDS = data_root() / "cwru"
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
+def test_a_measurement_that_states_no_speed_is_held_at_the_one_its_tachometer_gives(tmp_path):
+    """A file of an accelerometer and a tachometer, no speed stated: the twin had refused it, asking for the speed
+    the pulses hold. Read at one mark a turn (the record's shaft series confirms it), it is held at that speed, said
+    so; at two marks a turn the series cannot tell 1772 rpm from 3544 rpm, and the refusal names both; a stated speed
+    the pulses contradict is said to be."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.data.formats import load_recording
+    from bearingtwin.twin.report import read_measurement
+
+    recording = load_recording(CWRU_RECORDS / "12k_Drive_End_IR007_1_106.mat")
+    t = np.arange(recording.signal.size) / recording.fs
+    for marks in (1, 2):
+        np.savez(tmp_path / f"marks{marks}.npz", acc=recording.signal, fs=recording.fs,
+                 tach=5.0 * ((t * marks * 1772.0 / 60.0) % 1 < 0.1))
+    np.savez(tmp_path / "stated.npz", acc=recording.signal, fs=recording.fs, rpm=1300.0,
+             tach=5.0 * ((t * 1772.0 / 60.0) % 1 < 0.1))
+
+    def measured(name):
+        return OmegaConf.create({"path": str(tmp_path / name), "channel": None, "fs": None, "rpm": None,
+                                 "fault": "inner", "check_fs": True})
+
+    held, _ = read_measurement(measured("marks1.npz"))
+    assert held.rpm == pytest.approx(1772.0, rel=1e-3) and held.meta["rpm_origin"] == "tachometer"
+    with pytest.raises(BearingTwinError, match=r"marks2.npz: the file does not state its speed \(its tachometer channel "
+                                               r"tach pulses 59.07 times a second: 3544 rpm at 1 pulse per revolution or "
+                                               r"1772 rpm at 2 pulses per revolution, which the record's shaft series "
+                                               r"does not tell apart\); give measured.rpm=<rev/min>"):
+        read_measurement(measured("marks2.npz"))
+    stated, _ = read_measurement(measured("stated.npz"))
+    assert stated.rpm == 1300.0 and ("the tachometer channel tach pulses 29.53 times a second, 1772 rpm at 1 pulse per "
+                                     "revolution, not near the stated 1300 rpm") in " ".join(stated.meta["notes"])
+
+
+@pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
 @pytest.mark.parametrize("name", ["12k_Drive_End_OR007@6_1_131.mat", "12k_Drive_End_IR007_1_106.mat"])
 def test_a_real_records_speed_typed_a_whole_factor_too_high_is_refused_beside_its_files_rate(tmp_path, name):
     """A real race fault's drive-end channel in an .npz stating its rate alone: read at its true speed, refused at twice

@@ -32,7 +32,8 @@ from bearingtwin.checks import positive_number
 from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
                                 unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
-                                    read_raw, resolve_fact, resolve_fs, resolve_speed)
+                                    read_raw, resolve_fact, resolve_fs, resolve_speed, speed_from_tachometer,
+                                    tachometer_channel)
 from bearingtwin.data.labels import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -63,6 +64,15 @@ def inspect_command(cfg: DictConfig) -> None:
     except BrokenPipeError:  # the reader (`| head`) stopped reading; the Python docs' way out, without a traceback
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         sys.exit(1)
+
+
+def _vibration_read(raw, channel) -> str | None:
+    """The channel a diagnosis or the twin would read (``channel``, else the file's default or only vibration
+    channel); None where the file leaves the choice to the user."""
+    try:
+        return raw.channel(channel)[0]
+    except BearingTwinError:
+        return None
 
 
 def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | None = None,
@@ -104,6 +114,12 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         rpm, rpm_origin = raw.nominal_rpm, "nominal"
     elif rpm is None:
         rpm_origin = None
+        read = _vibration_read(raw, channel)
+        tachometer = None if read is None or fs_hz is None else tachometer_channel(raw, read)
+        if tachometer is not None:  # as diagnose and the twin read a speed the file states no other way
+            rpm, said = speed_from_tachometer(raw.channels[tachometer], tachometer, raw.channels[read], fs_hz)
+            rpm_origin = None if rpm is None else "tachometer"
+            speed_notes.append(said if rpm is not None else f"the file states no shaft speed, and {said}")
     fault = resolve_fact(raw, "fault", raw.fault, table_state, f"{table}: state")
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
@@ -116,7 +132,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         "fs_hz": fs_hz,
         "fs_origin": fs_origin,
         "rpm": rpm,
-        # option, file, nominal (the data set's speed for the file's condition) or a labels.csv line beside the file
+        # option, file, nominal (the data set's speed for the file's condition), tachometer (its pulses, counted per
+        # turn by the shaft series) or a labels.csv line beside the file
         "rpm_origin": rpm_origin,
         "fault": fault,
         "unit": unit,

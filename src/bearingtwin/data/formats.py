@@ -44,6 +44,7 @@ from bearingtwin.data.units import acceleration_unit, quantity_of
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.signal.sampling_rate import is_pulse_train
+from bearingtwin.signal.speed import HARMONICS, SEARCH, pulse_rate, pulse_times, tachometer_speed
 
 TEXT_TABLES = (".csv", ".txt", ".tsv")
 """Text tables of numbers: a spreadsheet's or data logger's export, whatever it separates its columns with."""
@@ -270,16 +271,68 @@ def recording_from_raw(
     if rpm is None and raw.nominal_rpm is not None:
         rpm, rpm_origin = raw.nominal_rpm, "nominal"
         notes.append(raw.nominal_rpm_note)
+    fs = resolve_fs(raw, fs, fs_key)
+    unread = {}
+    tachometer = tachometer_channel(raw, name)
+    if rpm is None and tachometer is not None:  # a tachometer's pulses beside the record may give it
+        rpm, said = speed_from_tachometer(raw.channels[tachometer], tachometer, signal, fs)
+        if rpm is not None:
+            rpm_origin = "tachometer"
+            notes.append(said)
+        else:
+            unread["speed_unread"] = said
+    elif tachometer is not None:
+        notes += filter(None, [pulses_off_note(tachometer, raw.channels[tachometer], fs, rpm)])
     return Recording(
         signal=signal,
-        fs=resolve_fs(raw, fs, fs_key),
+        fs=fs,
         rpm=rpm,
         fault=resolve_fact(raw, "fault", raw.fault, fault, fault_key),
         source=raw.path,
         channel=name,
         unit=raw.channel_units.get(name, raw.unit),
-        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes),
+        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes, **unread),
     )
+
+
+def tachometer_channel(raw: RawRecord, channel: str) -> str | None:
+    """The file's first two-level channel beside ``channel`` and as long as it (a tachometer's pulses); None where the
+    file holds none."""
+    length = np.shape(raw.channels[channel])
+    return next((other for other in raw.meta.get("two_levels", [])
+                 if other != channel and np.shape(raw.channels[other]) == length), None)
+
+
+def speed_from_tachometer(pulses: np.ndarray, name: str, signal: np.ndarray, fs: float) -> tuple[float | None, str]:
+    """The shaft speed (rev/min) a tachometer channel (``name``, its ``pulses``) gives a record that states none
+    (:func:`~bearingtwin.signal.speed.tachometer_speed`: its pulses per revolution confirmed by the record's shaft
+    series), and a note saying so; or None and why it gives none."""
+    if not (np.isfinite(signal).all() and np.isfinite(pulses).all()):
+        return None, f"its tachometer channel {name} is not read: the record holds samples with no value"
+    reading = tachometer_speed(pulses, signal, fs)
+    if reading.rpm is None:
+        return None, f"its tachometer channel {name} {reading.describe_unconfirmed()}"
+    count = f"{reading.per_turn} pulse{'s' * (reading.per_turn > 1)}"
+    return reading.rpm, (f"shaft speed {reading.rpm:.0f} rpm from the tachometer channel {name}: {count} per "
+                         "revolution, the one count at which the record's shaft series stands clearly highest "
+                         f"({reading.standing} of its first {HARMONICS} harmonics standing)")
+
+
+def pulses_off_note(name: str, pulses: np.ndarray, fs: float, rpm: float) -> str | None:
+    """A note where a tachometer channel's pulses give no speed within :data:`~bearingtwin.signal.speed.SEARCH` of
+    the stated ``rpm`` at any whole number of pulses per revolution (where
+    :func:`~bearingtwin.signal.speed.tachometer_profile` reads none): a speed stated far off, or a tachometer on
+    another shaft; None where they give one, or the channel holds too few pulses to say."""
+    times = pulse_times(pulses, fs)
+    if times.size < 3:
+        return None
+    rate = pulse_rate(times)
+    per_turn = max(1, round(rate / (rpm / 60.0)))
+    if abs(60.0 * rate / per_turn / rpm - 1.0) <= SEARCH:
+        return None
+    return (f"the tachometer channel {name} pulses {rate:.4g} times a second, {60.0 * rate / per_turn:.0f} rpm at "
+            f"{per_turn} pulse{'s' * (per_turn > 1)} per revolution, not near the stated {rpm:g} rpm at any whole "
+            "number of pulses per revolution: check the stated speed, or whether the tachometer watches another shaft")
 
 
 def refuse_a_label_the_file_contradicts(raw: RawRecord, state: str | None, key: str) -> None:

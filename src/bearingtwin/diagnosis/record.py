@@ -40,7 +40,7 @@ from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord,
                                     file_bearing, named_rate_note, read_raw, recording_from_raw,
-                                    refuse_a_label_the_file_contradicts)
+                                    refuse_a_label_the_file_contradicts, tachometer_channel)
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
@@ -148,8 +148,10 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
         raise BearingTwinError(f"{recording.source}: the file is {recording.meta['no_speed']}, and this model reads a "
                                "record at one shaft speed")
     if pipeline.needs_rpm and recording.rpm is None:
-        raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed and this model needs it; "
-                               "give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv beside it")
+        unread = f" ({recording.meta['speed_unread']})" if recording.meta.get("speed_unread") else ""
+        raise BearingTwinError(f"{recording.source}: the file does not state the shaft speed{unread} and this model "
+                               "needs it; give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv "
+                               "beside it")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
                           gaps_s)
 
@@ -188,7 +190,8 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, 
     if recording.rpm is None and recording.meta.get("no_speed"):
         notes.append(f"the file is {recording.meta['no_speed']}: no physics evidence and no rate check")
     elif recording.rpm is None:  # a HUST export under a name of one's own: why, where it says its speed
-        why = f" ({recording.meta['unread_name']}, which would give it)" if recording.meta.get("unread_name") else ""
+        why = (f" ({recording.meta['unread_name']}, which would give it)" if recording.meta.get("unread_name") else
+               f" ({recording.meta['speed_unread']})" if recording.meta.get("speed_unread") else "")
         notes.append(f"the file states no shaft speed{why}: no physics evidence and no rate check (give rpm=<rev/min>, "
                      "or the file's speed in the rpm column of a labels.csv beside it)")
     elif recording.meta.get("fs_origin") == SIMULATED_RATE:
@@ -280,10 +283,8 @@ def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]
 def _tachometer(raw: RawRecord, recording: Recording) -> tuple[str, np.ndarray] | None:
     """The file's first two-level channel as long as the record (a tachometer's pulses), its name and samples; None
     where the file holds none, or the record is that channel."""
-    for name in raw.meta.get("two_levels", []):
-        if name != recording.channel and np.shape(raw.channels[name]) == recording.signal.shape:
-            return name, np.asarray(raw.channels[name], dtype=np.float64)
-    return None
+    name = tachometer_channel(raw, recording.channel)
+    return None if name is None else (name, np.asarray(raw.channels[name], dtype=np.float64))
 
 
 def gaps_note(recording: Recording, gaps: list[tuple[int, int]]) -> str:

@@ -224,12 +224,10 @@ def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0,
     length = int(round(segment_s * fs))
     starts = np.arange(0, x.size - length + 1, max(1, length // 2)) if x.size >= length else np.zeros(0, dtype=int)
     nothing = SpeedProfile((starts + length / 2) / fs, np.full(starts.size, np.nan), segment_s, float(rpm), source)
-    middle = (x.min() + x.max()) / 2.0
-    rises = np.flatnonzero((x[:-1] < middle) & (x[1:] >= middle))
-    if rises.size < 3:
+    times = pulse_times(x, fs)
+    if times.size < 3:
         return nothing
-    times = (rises + (middle - x[rises]) / (x[rises + 1] - x[rises])) / fs  # where each rise crosses the middle
-    rate = (times.size - 1) / (times[-1] - times[0])
+    rate = pulse_rate(times)
     per_turn = max(1, int(round(rate / shaft_hz)))
     if abs(rate / per_turn / shaft_hz - 1) > search:
         return nothing
@@ -239,6 +237,102 @@ def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0,
     speeds = np.where(spanned, 60.0 * (np.interp(end, times, turns) - np.interp(begin, times, turns)) / segment_s,
                       np.nan)
     return SpeedProfile(nothing.times_s, speeds, segment_s, float(rpm), source)
+
+
+def pulse_times(pulses, fs: float) -> np.ndarray:
+    """When each pulse of a two-level channel (a tachometer's) begins, s from its first sample: each rise through the
+    middle of its two levels, placed between samples by a straight line."""
+    x = as_record(pulses, "pulses")
+    check_positive(fs, "fs")
+    middle = (x.min() + x.max()) / 2.0
+    rises = np.flatnonzero((x[:-1] < middle) & (x[1:] >= middle))
+    return (rises + (middle - x[rises]) / (x[rises + 1] - x[rises])) / fs
+
+
+def pulse_rate(times_s: np.ndarray) -> float:
+    """Pulses a second over the span of their times ``times_s`` (:func:`pulse_times`, at least two)."""
+    return (times_s.size - 1) / (times_s[-1] - times_s[0])
+
+
+MAX_PULSES_PER_TURN = 64
+"""The most pulses a revolution is tried at where a record states no speed (:func:`tachometer_speed`): a key phasor
+or a reflective mark gives one, a toothed wheel or a simple encoder a few dozen; a fine encoder's thousands are a
+speed no shaft series can settle."""
+STANDING_HARMONICS = 3
+"""How many of the shaft series' first :data:`HARMONICS` harmonics must stand (:data:`MIN_PROMINENCE`) at a speed the
+pulses give for the record to confirm it: a lone line may be anything."""
+SERIES_MARGIN = 2.0
+"""How many times higher the median prominence of one speed's harmonics must stand than any other's the pulses give
+for the record to tell that speed apart (:func:`tachometer_speed`)."""
+PULSE_SPEED_SEARCH = 0.01
+"""How far (relative) from where a tachometer's speed puts each harmonic of the shaft series it is sought: the
+pulses give the mean speed exactly; a drift within the record smears the lines by about as much."""
+
+@dataclass(frozen=True)
+class TachometerSpeed:
+    """A shaft speed read from a tachometer's pulses where a record states none (:func:`tachometer_speed`).
+
+    Attributes:
+        pulse_hz: the pulses a second over the record (NaN where fewer than three pulses were found).
+        per_turn: the pulses per revolution the record's shaft series confirmed; None where it confirmed none.
+        standing: how many of the shaft series' first :data:`HARMONICS` harmonics stand at that speed.
+        alternatives: where the series stands as fully at several speeds and tells none apart, their pulses per
+            revolution, fewest first (empty otherwise).
+    """
+
+    pulse_hz: float
+    per_turn: int | None
+    standing: int = 0
+    alternatives: tuple[int, ...] = ()
+
+    @property
+    def rpm(self) -> float | None:
+        """The shaft speed, rev/min; None where the pulses per revolution were not confirmed."""
+        return None if self.per_turn is None else 60.0 * self.pulse_hz / self.per_turn
+
+    def describe_unconfirmed(self) -> str:
+        """Why no speed was read, in words: "... pulses 29.9 times a second: 1796 rpm at 1 pulse per revolution or 898
+        at 2, which the record's shaft series does not tell apart"."""
+        if math.isnan(self.pulse_hz):
+            return "holds fewer than three pulses"
+        if not self.alternatives:
+            return (f"pulses {self.pulse_hz:.4g} times a second, a speed the record's shaft series does not confirm at "
+                    f"any whole number of pulses per revolution up to {MAX_PULSES_PER_TURN}")
+        speeds = [f"{60.0 * self.pulse_hz / count:.0f} rpm at {count} pulse{'s' * (count > 1)} per revolution"
+                  for count in self.alternatives]
+        return (f"pulses {self.pulse_hz:.4g} times a second: {', '.join(speeds[:-1])} or {speeds[-1]}, which the "
+                "record's shaft series does not tell apart")
+
+
+def tachometer_speed(pulses, signal, fs: float, *, max_per_turn: int = MAX_PULSES_PER_TURN,
+                     min_standing: int = STANDING_HARMONICS) -> TachometerSpeed:
+    """The shaft speed a tachometer's ``pulses`` give, recorded beside a vibration ``signal`` (both at ``fs`` Hz) that
+    states none: the pulse rate over a whole number of pulses per revolution, from 1 to ``max_per_turn``, confirmed by
+    the signal's shaft series (:func:`series_prominences`, each harmonic sought within :data:`PULSE_SPEED_SEARCH`).
+
+    Of the speeds whose 1x line stands, the one at which the most harmonics stand (at least ``min_standing``) is read:
+    a speed a whole number of times too slow stands only every other line, or fewer (its half orders, as a rule, do
+    not). A speed a whole number of times too fast stands every line where the true one's harmonics all stand (a
+    tachometer of several pulses a turn on a machine rich in harmonics), as a slow one does on a machine that makes
+    half orders: where several speeds stand as many, none is read (their counts of pulses are the
+    ``alternatives``). Neither the strongest 1x nor the fewest pulses decide between them: a shaft's 2x outstands
+    its 1x on many machines (misalignment; the CWRU inner-race records), and a tachometer may give several pulses a
+    turn, so either rule would read a speed a whole number of times off, unawares."""
+    times = pulse_times(pulses, fs)
+    if times.size < 3:
+        return TachometerSpeed(math.nan, None)
+    rate = pulse_rate(times)
+    standing, height = {}, {}
+    for per_turn in range(1, int(max_per_turn) + 1):
+        # A speed too slow for the record to resolve its harmonics stands none (NaN).
+        prominence = np.nan_to_num(series_prominences(signal, fs, 60.0 * rate / per_turn, search=PULSE_SPEED_SEARCH))
+        if prominence[0] >= MIN_PROMINENCE and np.sum(prominence >= MIN_PROMINENCE) >= min_standing:
+            standing[per_turn], height[per_turn] = int(np.sum(prominence >= MIN_PROMINENCE)), float(np.median(prominence))
+    if not height:
+        return TachometerSpeed(rate, None)
+    best = max(height, key=height.get)
+    near = tuple(count for count in height if height[count] * SERIES_MARGIN > height[best])
+    return TachometerSpeed(rate, best, standing[best]) if len(near) == 1 else TachometerSpeed(rate, None, 0, near)
 
 
 def smoothed(reads: np.ndarray) -> np.ndarray:

@@ -75,9 +75,11 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
             f"{name}={value:g}" if isinstance(value, float) else f"{name}={value}"
             for name, value, was in zip(("state", "rpm", "fs"), (fault, rpm, fs), given) if was is None and value is not None),
             row[0])
+    # A tachometer's pulses beside the record may give its speed once its rate is known (recording_from_raw).
+    pulses = raw.meta.get("two_levels") and len(raw.channels) > 1
     unknown = [(fact, setting) for fact, setting, value, stated in (
         ("sampling rate", "measured.fs=<Hz>", fs, raw.fs),
-        ("speed", "measured.rpm=<rev/min>", rpm, raw.rpm or raw.nominal_rpm),
+        ("speed", "measured.rpm=<rev/min>", rpm, raw.rpm or raw.nominal_rpm or pulses or None),
         ("bearing state", f"measured.fault=<{'|'.join(FAULTS)}>", fault, raw.fault)) if value is None and stated is None]
     for fact, words, twin in (("bearing state", raw.meta.get("unlabelled_state"), f"one of {', '.join(FAULTS)}"),
                               ("speed", raw.meta.get("no_speed"), "at one speed")):
@@ -91,6 +93,11 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
     recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=fs, rpm=rpm, fault=fault,
                                    channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
                                    fault_key="measured.fault")
+    if recording.rpm is None:  # its tachometer gave none
+        why = f" ({recording.meta['speed_unread']})" if recording.meta.get("speed_unread") else ""
+        raise BearingTwinError(f"{path}: the file does not state its speed{why}; give measured.rpm=<rev/min>"
+                               + (f" (or fill it in on {row[0]})" if row else
+                                  f" (or a row for it in a {DEFAULT_LABELS} beside it)"))
     recording.require_vibration()  # before the rate check, which a flat record cannot answer
     quantity = quantity_of(recording.unit or "")
     if quantity in INTEGRATED_QUANTITIES:  # a gain would be fitted to it, and the tilt explained as physics
