@@ -212,6 +212,27 @@ def test_which_bearing_counts_as_given_and_which_the_record_replaces(measurement
     assert record_bearing(twin_config(f"measured.path={tmp_path / 'normal_0_97.mat'}"), healthy)[0].bearing.name == "cwru_6205"
 
 
+def test_a_record_that_names_no_bearing_is_read_with_its_references_unless_one_is_given(measurement):
+    """Held against a baseline of another bearing than the default, a later record that names none had been refused
+    until the baseline's bearing was given again: the reference's bearing is read where no bearing= is given, said
+    so, while one given, or one the record names, stays; a reference whose geometry its bearing's name no longer
+    gives (a bearing.* override) gives none."""
+    from bearingtwin.data.formats import read_raw, recording_from_raw
+    from bearingtwin.twin.reference import rig_geometry
+    from bearingtwin.twin.report import record_bearing, reference_bearing
+
+    report = {"measured": {"bearing": "cwru_6205", "geometry": rig_geometry(load_bearing("cwru_6205"))}}
+    assert reference_bearing(report) == "cwru_6205"
+    changed = {"measured": {"bearing": "cwru_6205", "geometry": {**report["measured"]["geometry"], "n_balls": 12}}}
+    assert reference_bearing(changed) is None and reference_bearing({"measured": {"bearing": "mine"}}) is None
+    assert reference_bearing(None) is None
+    bare = recording_from_raw(read_raw(measurement), fs=12000)
+    adopted, line = record_bearing(twin_config(f"measured.path={measurement}"), bare, "cwru_6205")
+    assert adopted.bearing.name == "cwru_6205" and line == "cwru_6205, the reference's (no bearing= given)"
+    given = twin_config(f"measured.path={measurement}", "bearing=cwru_6203")
+    assert record_bearing(given, bare, "cwru_6205") == (given, None)  # refused later, against the reference's geometry
+
+
 @pytest.mark.parametrize("overrides, message", [
     (["measured.path={missing}", "measured.fs=12000"], "missing.npy"),
     (["measured.path={measured}", "measured.fs=600"], "measured.fs=600 Hz is too low"),
@@ -416,7 +437,7 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
     # The direction was left to fit and the reference filled it in: marked where the reference's record fitted any.
     unmarked = not first["operating_point"]["sensor"].get("every_direction_fits")
     assert held["sensor"].get("identified_by_reference", True) is unmarked
-    assert f"sensor {held['sensor']['value']}{'' if unmarked else ' (not identified by the reference record)'}" in result.stdout
+    assert f"sensor {held['sensor']['value']}{'' if unmarked else ' (the reference record hardly identified it)'}" in result.stdout
     # The held resonance, tried as changed, is found as held: nothing to fit, not ranked.
     assert [entry["effect"] for entry in report["ranking"]] == ["unbalance"] and report["found_nothing"] == ["resonance"]
     assert report["added"] == ["unbalance"]

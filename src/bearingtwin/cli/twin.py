@@ -56,7 +56,7 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
     held = [(f"{name} {entry['value']}" if isinstance(entry["value"], str)  # the sensor: "outer race, vertical"
              else f"{name.removesuffix('_' + entry['unit'].lower()).replace('_', ' ')} {entry['value']:.4g} "
                   f"{entry['unit']}".rstrip())
-            + (" (not identified by the reference record)" if entry.get("identified_by_reference") is False else "")
+            + (" (the reference record hardly identified it)" if entry.get("identified_by_reference") is False else "")
             for name, entry in fit.operating_point.items() if entry.get("held")]
     if held:  # given with operating_point.*, or held from a reference's report
         lines["operating point held"] = ", ".join(held)

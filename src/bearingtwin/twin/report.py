@@ -19,8 +19,8 @@ from joblib import cpu_count
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
-from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
-                                unknown_bearing_note)
+from bearingtwin.config import (bearing_choices, bearing_config, bearing_overrides, given_on_command_line,
+                                load_bearing, output_folder, unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, read_raw,
                                     recording_from_raw, same_speed, speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
@@ -146,7 +146,17 @@ def bearing_chosen(cfg: DictConfig) -> bool:
     return cfg.bearing.get("name") != DEFAULT_BEARING or bool(given_on_command_line("bearing"))
 
 
-def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, str | None]:
+def reference_bearing(reference: Mapping | None) -> str | None:
+    """The bearing config a reference's record was read with, where its name still gives the geometry the report
+    recorded (a report of ``bearing.n_balls=12`` keeps the name of the bearing it changed); None otherwise."""
+    measured = (reference or {}).get("measured") or {}
+    name, recorded = measured.get("bearing"), measured.get("geometry")
+    if not name or name not in bearing_choices() or not isinstance(recorded, Mapping):
+        return None
+    return name if geometry_difference(recorded, rig_geometry(load_bearing(name))) is None else None
+
+
+def record_bearing(cfg: DictConfig, measured: Recording, reference: str | None = None) -> tuple[DictConfig, str | None]:
     """The ``twin`` config with the bearing the record was made on, and the line the closing summary gives it
     (None when there is nothing to say: the record names the bearing chosen, or names none and one was chosen; a
     record that names none, held against the default bearing, is said to be).
@@ -161,6 +171,9 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
     path, ours = cfg.measured.path, cfg.bearing.get("name")
     named = file_bearing(measured.meta, measured.channel)
     chosen = bearing_chosen(cfg)
+    if named is None and not chosen and reference is not None:  # a later record of the reference's rig
+        return _with_bearing(cfg, bearing_config(reference, "the reference's bearing")), \
+            f"{reference}, the reference's (no bearing= given)"
     if named is None and not chosen:  # a user's own record, held against the paper's bearing unless told otherwise
         line = (f"{ours}, the default: the record names no bearing; give bearing=<name> (a conf/bearing config, or "
                 "one's own) for the defect frequencies of the bearing it was made on")
@@ -180,13 +193,18 @@ def record_bearing(cfg: DictConfig, measured: Recording) -> tuple[DictConfig, st
         raise BearingTwinError(f"{path}: the record's bearing is {named} ({record.describe_orders()}), the one given is "
                                f"{ours} ({given.describe_orders()}): give bearing={named} for the record's defect "
                                "frequencies")
+    log.info("%s: the record's bearing is %s and no bearing= was given: the twin reads it (%s), not %s's",
+             path, named, record.describe_orders(), ours)
+    return _with_bearing(cfg, own), f"{named}, the record's own (no bearing= given; {record.describe_orders()})"
+
+
+def _with_bearing(cfg: DictConfig, bearing) -> DictConfig:
+    """A copy of the ``twin`` config with ``bearing`` (a bearing config) in place of its own."""
     adopted = copy.deepcopy(cfg)
     OmegaConf.set_readonly(adopted, False)
     with open_dict(adopted):
-        adopted.bearing = own
-    log.info("%s: the record's bearing is %s and no bearing= was given: the twin reads it (%s), not %s's",
-             path, named, record.describe_orders(), ours)
-    return adopted, f"{named}, the record's own (no bearing= given; {record.describe_orders()})"
+        adopted.bearing = bearing
+    return adopted
 
 
 MAX_SEED = 2**31 - 1
@@ -520,13 +538,13 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     measured, channels = read_measurement(cfg.measured)
     # The record's own bearing replaces the default one, and another chosen is refused, before its defect lines
     # witness the rate, the MLflow run opens (with the config: the bearing used) or anything is written.
-    cfg, bearing_line = record_bearing(cfg, measured)
+    reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
+    cfg, bearing_line = record_bearing(cfg, measured, reference_bearing(reference))
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = check_measurement(cfg.measured, measured, channels, geometry)
     # What the closing summary repeats, as logged: the bearing whose defect lines the twin reads, always.
     # A geometry of its own (a simulation's bearing.n_balls=12) is said with the name it changes.
     notes = {"bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *bearing_overrides()])}
-    reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
     to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
         cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
