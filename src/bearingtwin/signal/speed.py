@@ -268,6 +268,7 @@ PULSE_SPEED_SEARCH = 0.01
 """How far (relative) from where a tachometer's speed puts each harmonic of the shaft series it is sought: the
 pulses give the mean speed exactly; a drift within the record smears the lines by about as much."""
 
+
 @dataclass(frozen=True)
 class TachometerSpeed:
     """A shaft speed read from a tachometer's pulses where a record states none (:func:`tachometer_speed`).
@@ -276,8 +277,8 @@ class TachometerSpeed:
         pulse_hz: the pulses a second over the record (NaN where fewer than three pulses were found).
         per_turn: the pulses per revolution the record's shaft series confirmed; None where it confirmed none.
         standing: how many of the shaft series' first :data:`HARMONICS` harmonics stand at that speed.
-        alternatives: where the series stands as fully at several speeds and tells none apart, their pulses per
-            revolution, fewest first (empty otherwise).
+        alternatives: where the series stands about as high at several speeds and tells none apart, their pulses
+            per revolution, fewest first (empty otherwise).
     """
 
     pulse_hz: float
@@ -310,14 +311,15 @@ def tachometer_speed(pulses, signal, fs: float, *, max_per_turn: int = MAX_PULSE
     states none: the pulse rate over a whole number of pulses per revolution, from 1 to ``max_per_turn``, confirmed by
     the signal's shaft series (:func:`series_prominences`, each harmonic sought within :data:`PULSE_SPEED_SEARCH`).
 
-    Of the speeds whose 1x line stands, the one at which the most harmonics stand (at least ``min_standing``) is read:
-    a speed a whole number of times too slow stands only every other line, or fewer (its half orders, as a rule, do
-    not). A speed a whole number of times too fast stands every line where the true one's harmonics all stand (a
-    tachometer of several pulses a turn on a machine rich in harmonics), as a slow one does on a machine that makes
-    half orders: where several speeds stand as many, none is read (their counts of pulses are the
-    ``alternatives``). Neither the strongest 1x nor the fewest pulses decide between them: a shaft's 2x outstands
-    its 1x on many machines (misalignment; the CWRU inner-race records), and a tachometer may give several pulses a
-    turn, so either rule would read a speed a whole number of times off, unawares."""
+    Of the speeds whose 1x line stands with at least ``min_standing`` harmonics standing, the one whose harmonics
+    stand highest (their median prominence) is read where it stands :data:`SERIES_MARGIN` times higher than every
+    other's: a speed a whole number of times too slow stands only every other line, or fewer (its half orders, as a
+    rule, do not), which halves its median or worse. A speed a whole number of times too fast stands every line where
+    the true one's harmonics all stand (a tachometer of several pulses a turn on a machine rich in harmonics), as a
+    slow one does on a machine that makes half orders: where several speeds stand within that margin, none is read
+    (their counts of pulses are the ``alternatives``). Neither the strongest 1x nor the fewest pulses decide between
+    them: a shaft's 2x outstands its 1x on many machines (misalignment; the CWRU inner-race records), and a tachometer
+    may give several pulses a turn, so either rule would read a speed a whole number of times off, unawares."""
     times = pulse_times(pulses, fs)
     if times.size < 3:
         return TachometerSpeed(math.nan, None)
