@@ -658,10 +658,15 @@ def test_a_noted_rate_is_read_with_the_files_decimal_mark_or_named_as_not_read(t
     with pytest.raises(BearingTwinError, match=r"its note 'Sample rate: 12,800 Hz' writes the rate so that it reads as "
                                                r"more than one number .* other than its numbers' '\.'\); give fs"):
         resolve_fs(read_raw(tmp_path / "point.csv"), None)
-    (tmp_path / "one.csv").write_text("Device: X\nSample rate: 25600 Hz\n\nacc [g]\n" + "0,1\n-0,2\n" * 50)
-    with pytest.raises(BearingTwinError, match=r"one.csv: the header names 1 columns but the rows have 2 \(numbers "
+    # One column under its header: its comma can only be a decimal mark, where each row is a number's two parts.
+    (tmp_path / "one.csv").write_text("Device: X\nSample rate: 25600 Hz\n\nacc [g]\n" + "0,1\n-0,25\n" * 50)
+    one = read_raw(tmp_path / "one.csv")
+    np.testing.assert_array_equal(one.channels["acc [g]"], [0.1, -0.25] * 50)
+    assert "one column under its header, each number written with a decimal comma ('0,1'): read so" in one.meta["notes"]
+    (tmp_path / "two.csv").write_text("Device: X\nSample rate: 25600 Hz\n\nacc [g]\n" + "0,1\n-0,-0.2\n" * 50)
+    with pytest.raises(BearingTwinError, match=r"two.csv: the header names 1 columns but the rows have 2 \(numbers "
                                                r"written with decimal commas\? save the file with decimal points"):
-        read_raw(tmp_path / "one.csv")
+        read_raw(tmp_path / "two.csv")  # a second column's own sign and point: two columns, one name
 
 
 def test_a_loggers_notes_give_the_shaft_speed_and_the_unit(tmp_path):
@@ -789,6 +794,26 @@ def test_a_column_of_text_beside_the_numbers_is_passed_over_and_named(tmp_path, 
     assert list(raw.channels) == ["acc_g", "temp"] and raw.fs == pytest.approx(FS, rel=1e-6)
     assert "column 'status' holds text, not numbers: passed over" in raw.meta["notes"]
     np.testing.assert_allclose(load_recording(tmp_path / "logger.csv", channel="acc_g").signal, signal, atol=1e-6)
+
+
+@pytest.mark.parametrize("notes, header, row", [
+    ("Speed: 1748 rpm\n", "time_s,acc [mg],status", "{t:.7f},{a:.3f},OK"),
+    ("Sample rate: 8000 Hz\n", "status,acc [mg]", "OK,{a:.3f}"),
+    ("Device: VibLog 3000\nSample rate: 8,0 kHz\nSpeed: 1748 rpm\n", "Nr;acc [mg];status", "{i};{a_comma};OK"),
+])
+def test_a_loggers_notes_above_a_table_with_a_text_column_are_notes_and_the_text_passed_over(tmp_path, signal, notes,
+                                                                                             header, row):
+    """Notes above the header and a status column had each been read alone, but together the header was refused as
+    a row whose first cell is not a number: the status column made no row below a row of numbers."""
+    rows = "".join(row.format(t=i / FS, a=1000 * a, a_comma=f"{1000 * a:.3f}".replace(".", ","), i=i + 1) + "\n"
+                   for i, a in enumerate(signal))
+    (tmp_path / "logger.csv").write_text(notes + header + "\n" + rows)
+    recording = load_recording(tmp_path / "logger.csv")
+    assert recording.channel == "acc [mg]" and recording.fs == pytest.approx(FS, rel=1e-4)
+    np.testing.assert_allclose(recording.signal, 1000 * signal, atol=1e-3)
+    assert "column 'status' holds text, not numbers: passed over" in recording.meta["notes"]
+    assert recording.meta["notes"][0].startswith("the ") and "above the header read as notes" in recording.meta["notes"][0]
+    assert recording.rpm == (None if "Speed" not in notes else 1748.0)
 
 
 def test_a_spreadsheets_row_numbers_are_no_channel_to_choose(tmp_path, signal):

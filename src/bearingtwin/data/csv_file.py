@@ -237,6 +237,23 @@ def _numbers_row(line: str) -> bool:
             and any(_NUMBER_LIKE.fullmatch(cell) and not _is_clock(cell) for cell in cells))
 
 
+def _data_rows(head: list[str], content: list[int]) -> list[bool]:
+    """Per line of ``content``, whether it is a row of the table's data: a row of numbers (:func:`_numbers_row`), or,
+    where the last row holds text beside its numbers (a logger's ``status`` column), a row of as many cells whose cells
+    are numbers wherever the last row's are (a header's names and a logger's notes are not)."""
+    last = _row_cells(head[content[-1]], _delimiter(head[content[-1]]))
+    numeric = [bool(_NUMBER_LIKE.fullmatch(cell)) or _is_clock(cell) for cell in last]
+    if all(numeric) or not any(numeric):
+        return [_numbers_row(head[i]) for i in content]
+
+    def like_last(line: str) -> bool:
+        cells = _row_cells(line, _delimiter(line))
+        return len(cells) == len(last) and all(bool(_NUMBER_LIKE.fullmatch(cell)) or _is_clock(cell)
+                                               for cell, number in zip(cells, numeric) if number)
+
+    return [_numbers_row(head[i]) or like_last(head[i]) for i in content]
+
+
 def _is_clock(cell: str) -> bool:
     """Whether a cell is a clock time or a date (:data:`_CLOCK`)."""
     match = _CLOCK.fullmatch(cell)
@@ -276,7 +293,7 @@ def _preamble(head: list[str], content: list[int]) -> list[int]:
     of one column every line has one cell, so there only the notes' form tells them apart. A row of units under the
     header (:func:`_units_row`) is the header's. Where no row of numbers follows (an export cut after its header), the
     lines above the header are notes when every one reads as one, so the file is said to hold no data rows."""
-    numbers_rows = [_numbers_row(head[i]) for i in content]
+    numbers_rows = _data_rows(head, content)
     start = max((k + 1 for k, numbers in enumerate(numbers_rows) if not numbers), default=0)  # after the last text
     if start == len(content):  # no row of numbers: notes above a header (and its units) and no row under it, where
         # the header, read as the first row, would be named as a cell that is not a number
@@ -351,6 +368,10 @@ def _layout(path: Path, head: list[str], encoding: str) -> tuple[_Layout, list[s
                      _text_throughout([row[column] for row in rows if column < len(row) and row[column]], decimal))
         names, repeated = _distinct(names)
         notes += repeated
+    if names is not None and len(names) == 1 and delimiter == "," and _one_column_of_decimal_commas(
+            [_row_cells(head[i], delimiter) for i in content if i >= body_start]):
+        delimiter, decimal = ";", ","  # no line holds a semicolon: each is one cell, its comma the decimal mark
+        notes.append("one column under its header, each number written with a decimal comma ('0,1'): read so")
     # A logger's notes above the header, and its '#' comment lines there ("# Sample rate: 25600 Hz"), in their order.
     notes_above = tuple(line.lstrip().removeprefix("#").strip() for i, line in enumerate(head[:first])
                         if i in preamble or line.lstrip().startswith("#"))
@@ -390,6 +411,14 @@ def _split_by_decimal_comma(rows: list[list[str]]) -> str | None:
                 any(re.fullmatch(r"0\d+", cell) for cell in row[1:]) or row[0] == "-0"):
             return ",".join(row)
     return None
+
+
+def _one_column_of_decimal_commas(rows: list[list[str]]) -> bool:
+    """Whether the rows under a header of one name are that one column's numbers written with decimal commas: every
+    row two cells, a whole number and a fraction's digits (``-0,1``); a second column's numbers would carry their own
+    signs, points or exponents somewhere."""
+    return bool(rows) and all(len(row) == 2 and re.fullmatch(r"[-+]?\d+", row[0].strip())
+                              and re.fullmatch(r"\d+", row[1].strip()) for row in rows)
 
 
 def _decimal_mark(path: Path, cells: list[str], delimiter: str | None) -> str:
