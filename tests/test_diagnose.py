@@ -136,8 +136,8 @@ def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_
     # A record that states no unit is read in the model's, and said so: g and m/s^2 differ by less than a decade.
     same, notes, check = in_model_unit(Recording(signal, FS), pipeline)
     assert same.signal is signal and check == "assumed" and notes == [
-        "the file states no unit: read as if in m/s^2, the unit the model was trained in (where it is another, state "
-        "it: a CSV column header such as 'acc (m/s^2)', an .npz's 'unit' entry)"]
+        "the file states no unit: read as if in m/s^2, the unit the model was trained in (where it is another, give "
+        "unit=<unit>, or state it in the file: a CSV column header such as 'acc (m/s^2)', an .npz's 'unit' entry)"]
     assert pipeline.level_note(X) is None
     assert "lies more than 10 times above the 5-95 % range of the model's training windows" in pipeline.level_note(1000 * X)
     normalizing = dataclasses.replace(pipeline, window_normalization="zscore", window_level=None)
@@ -505,6 +505,29 @@ def envelope_pipeline(bearing: dict = BEARING) -> DiagnosisPipeline:
     envelope = EnvelopeOrderFeatures(bearing=bearing, line_measure="prominence").fit(X, fs_hz=FS, rpm=RPM)
     return DiagnosisPipeline(envelope, SvmClassifier().fit(envelope.transform(X, fs_hz=FS, rpm=RPM), y), 2048, FS,
                              bearing=bearing)
+
+
+def test_a_unit_given_fills_in_for_a_file_that_states_none_and_is_refused_against_one_that_states_another(tmp_path):
+    """A float WAV in g, read by a model of m/s^2 as if in m/s^2 (9.81 times too weak, within the level check's
+    decade), had been called inner where it was outer, and only another file format could say its unit: unit=g
+    converts it; a unit the file contradicts, or text no unit known here, is refused naming the setting."""
+    import scipy.io.wavfile
+
+    path = tmp_path / "pump.wav"
+    scipy.io.wavfile.write(path, int(FS), (fault_signal(None, seconds=2) / 9.80665).astype(np.float32))
+    from bearingtwin.features.extractor import RawFeatures
+
+    X, y = class_windows(n_per_class=4)
+    pipeline = DiagnosisPipeline(RawFeatures().fit(X), SvmClassifier().fit(X, y), 2048, FS, unit="m/s^2")  # reads levels
+    assert read_record(path, pipeline, rpm=RPM).unit_check == "assumed"
+    given = read_record(path, pipeline, rpm=RPM, unit="g")
+    assert given.unit_check == "converted" and given.recording.unit == "m/s^2"
+    np.savez(tmp_path / "stated.npz", signal=fault_signal(None, seconds=2), fs=FS, unit="m/s^2")
+    with pytest.raises(BearingTwinError, match=r"stated.npz: unit=g contradicts the file's unit, m/s\^2$"):
+        read_record(tmp_path / "stated.npz", pipeline, rpm=RPM, unit="g")
+    assert read_record(tmp_path / "stated.npz", pipeline, rpm=RPM, unit="m/s2").unit_check == "as stated"
+    with pytest.raises(BearingTwinError, match=r"^unit='furlongs' is no unit known here; give one such as g"):
+        read_record(path, pipeline, rpm=RPM, unit="furlongs")
 
 
 def test_a_record_stamped_in_seconds_under_a_header_of_milliseconds_names_the_rate_its_stamps_gave(tmp_path):

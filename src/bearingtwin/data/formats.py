@@ -40,7 +40,7 @@ import numpy as np
 
 from bearingtwin.checks import is_finite_number, positive_number
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import acceleration_unit, quantity_of
+from bearingtwin.data.units import acceleration_unit, quantity_of, same_unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.signal.sampling_rate import is_pulse_train
@@ -249,8 +249,11 @@ def recording_from_raw(
     fs_key: str = "fs",
     rpm_key: str = "rpm",
     fault_key: str = "fault",
+    unit: str | None = None,
+    unit_key: str = "unit",
 ) -> Recording:
-    """The validated Recording of one channel of an already read file (see :func:`load_recording`)."""
+    """The validated Recording of one channel of an already read file (see :func:`load_recording`); ``unit`` (setting
+    ``unit_key``) is the samples' unit where the file states none (:func:`resolve_unit`)."""
     # A rate the file records stays the file's when the user repeats it (resolve_fs refuses any other);
     # a given rate replaces a merely declared one, or fills in a missing one.
     factor = restamped(raw, fs)
@@ -290,9 +293,25 @@ def recording_from_raw(
         fault=resolve_fact(raw, "fault", raw.fault, fault, fault_key),
         source=raw.path,
         channel=name,
-        unit=raw.channel_units.get(name, raw.unit),
+        unit=resolve_unit(raw, name, unit, unit_key),
         meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes, **unread),
     )
+
+
+def resolve_unit(raw: RawRecord, channel: str, unit: str | None, key: str = "unit") -> str:
+    """The unit of ``channel``'s samples: the file's (its own, or the file's for every channel), else the one given
+    (setting ``key``), which must be a unit known here (:func:`~bearingtwin.data.units.quantity_of`); a given unit the
+    file contradicts is refused ("" where neither states one)."""
+    stated = raw.channel_units.get(channel, raw.unit)
+    if unit is None or not str(unit).strip():
+        return stated
+    unit = str(unit).strip()
+    if quantity_of(unit) is None:
+        raise BearingTwinError(f"{key}={unit!r} is no unit known here; give one such as g, mg, m/s^2, mm/s^2 (an "
+                               "acceleration), V, mm/s or um")
+    if stated and not same_unit(stated, unit):
+        raise BearingTwinError(f"{raw.path}: {key}={unit} contradicts the file's unit, {stated}")
+    return stated or unit
 
 
 def tachometer_channel(raw: RawRecord, channel: str) -> str | None:

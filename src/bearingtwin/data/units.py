@@ -55,6 +55,12 @@ def acceleration_unit(unit: str) -> str | None:
     return _SPELLINGS.get(unit_key(unit))
 
 
+def same_unit(a: str, b: str) -> bool:
+    """Whether two units as written are one (:func:`unit_key`), or two spellings of one acceleration unit (``m/s2``,
+    ``m/s^2``)."""
+    return unit_key(a) == unit_key(b) or acceleration_unit(a) is not None and acceleration_unit(a) == acceleration_unit(b)
+
+
 def quantity_of(unit: str) -> str | None:
     """What ``unit`` measures: "an acceleration" for a unit :func:`acceleration_unit` reads, another quantity for a
     unit of one (``V``: "a voltage", ``mm/s``: "a velocity", ``µm``: "a displacement"), None for text that is no

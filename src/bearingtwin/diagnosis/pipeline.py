@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from bearingtwin.data.units import (INTEGRATED_QUANTITIES, acceleration_factor, acceleration_unit, quantity_of,
-                                    unit_key)
+                                    same_unit, unit_key)
 from bearingtwin.data.windows import normalize_windows
 from bearingtwin.diagnosis.evidence import PhysicsFirst
 from bearingtwin.errors import BearingTwinError
@@ -411,10 +411,10 @@ def unit_for_model(unit: str, pipeline: DiagnosisPipeline, source: str) -> tuple
         return None, [], "not checked"
     if not unit:  # g and m/s^2 differ by 9.81: a level check that fires at a decade never sees it
         return None, [f"the file states no unit: read as if in {model_unit}, the unit the model was trained in "
-                      "(where it is another, state it: a CSV column header such as 'acc (m/s^2)', an .npz's "
-                      "'unit' entry)"], "assumed"
+                      "(where it is another, give unit=<unit>, or state it in the file: a CSV column header such as "
+                      "'acc (m/s^2)', an .npz's 'unit' entry)"], "assumed"
     units = acceleration_unit(unit), acceleration_unit(model_unit)
-    if unit_key(unit) == unit_key(model_unit) or units[0] is not None and units[0] == units[1]:
+    if same_unit(unit, model_unit):
         return None, [], "as stated"
     if units[0] is None and units[1] is not None and quantity not in _CONVERSION_NEEDS:
         # Text no unit known here (an .npz's unit entry "A"; a CSV header's brackets it does not know are no unit):

@@ -382,7 +382,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             fs, fs_from_row = _fact(cfg.fs, row_fs, command_first=single)
             rpm, rpm_from_row = _fact(cfg.rpm, row_rpm, command_first=single)
             its_row = f"{table if table else 'labels'} (its row for {path.name}): "
-            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing,
+            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing, unit=cfg.get("unit"),
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
                                    rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=order_tracking)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
@@ -601,7 +601,7 @@ def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None
                             {"bt.kind": "diagnose", "model_uri": str(cfg.model),
                              "model_version_uri": pinned_uri}).info.run_id
     params = {"model": cfg.model, "path": cfg.path, "labels": labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
-              "bearing": bearing}
+              "unit": cfg.get("unit"), "bearing": bearing}
     client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])
     return client, run_id
 
