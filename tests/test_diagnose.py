@@ -1178,6 +1178,9 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
         assert row["correct"] == str(row["verdict"] == row["true_state"]), row
     assert "resampled 48000 Hz -> 12000 Hz" in done.stdout
     assert "records right: " in done.stdout and "of 2 with a known state" in done.stdout
+    # No bearing= and no file naming one known here: the model's stood in, which the closing summary says.
+    assert re.search(r"\n  bearing: \w+ \(the model's, for every record: no bearing= given and the files name none; "
+                     r"where they are of another bearing, give bearing=<name>", done.stdout), done.stdout
     assert f"error: {folder / 'short.npz'}: 0.008 s, shorter than one window of the model's (" in done.stderr
 
 

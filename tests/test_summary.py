@@ -110,7 +110,9 @@ def test_the_vmd_features_bars_show_for_one_watched_run_only(monkeypatch, tmp_pa
     (["data=cwru", "data.load=2"], "CWRU records at 2 hp, channel DE, bearing cwru_6205"),
     (["data=hust", "data.condition=60"], "HUST exports at 60Hz, axis X, bearing er16k"),
     (["data=hust", "data.condition=VS_0_40_0"], "HUST exports at VS_0_40_0Hz, axis X, bearing er16k"),
-    (["data=files", "data.root=/my/rig"], "the recordings in /my/rig"),
+    (["data=files", "data.root=/my/rig"],
+     "the recordings in /my/rig, bearing as the files name it, else the twin's paper (no data.bearing= given)"),
+    (["data=files", "data.root=/my/rig", "data.bearing=cwru_6203"], "the recordings in /my/rig, bearing cwru_6203"),
 ])
 def test_a_training_summary_says_what_the_data_were(overrides, words):
     """The speed, rate and bearing a simulated set was made at (its params had shown the simulator's defaults)."""

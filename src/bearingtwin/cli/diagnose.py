@@ -63,6 +63,11 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     bearings = sorted({row["bearing"] for row in diagnosed if row.get("bearing")})
     if bearings:  # whose defect lines were read: bearing=, the file's own, else the model's
         lines["bearing"] = ", ".join(bearings)
+        unnamed = [row["record"] for row in diagnosed if row.get("bearing_given") is False]
+        if unnamed:  # a user's own files: the model's bearing stood in, which may not be theirs
+            lines["bearing"] += (f" (the model's, for {'every record' if len(unnamed) == len(diagnosed) else ', '.join(unnamed)}"
+                                 ": no bearing= given and the files name none; where they are of another bearing, give "
+                                 "bearing=<name>: the physics evidence reads the defect lines of the bearing named)")
     if run.scores:
         lines["records right"] = f"{percent(run.scores['accuracy_records'])} of {run.scores['n_scored']} with a known state"
         if "n_scored_tested" in run.scores:

@@ -109,7 +109,9 @@ def data_words(cfg: DictConfig) -> str | None:
     if data.source == "hust":
         return f"HUST exports at {hust_condition(data.condition)}Hz, axis {data.channel}, bearing {data.bearing}"
     if data.source == "files":
-        return f"the recordings in {data.root}" + (f", bearing {data.bearing}" if data.get("bearing") else "")
+        return f"the recordings in {data.root}, bearing " + (
+            data.bearing if data.get("bearing") else f"as the files name it, else the twin's {cfg.bearing.name} (no "
+                                                     "data.bearing= given)")
     return None
 
 

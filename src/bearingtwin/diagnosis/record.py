@@ -73,6 +73,7 @@ class PreparedRecord:
     unit_check: str = "not needed"  # the record's unit against the model's: one of UNIT_CHECKS
     speed: dict | None = None  # how steadily the shaft turned, and whether the record was order-tracked (steadied)
     gaps_s: list = field(default_factory=list)  # (start, end) s of samples the file holds none of (NaN), and their reach
+    bearing_given: bool = True  # whether bearing= or the file named the bearing, rather than the model's standing in
 
 
 CONDITION_KEYS = ("fault_size_in", "position", "load_hp")
@@ -154,7 +155,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                "needs it; give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv "
                                "beside it")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
-                          gaps_s)
+                          gaps_s, bearing_given=(bearing or named) is not None)
 
 
 def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: DiagnosisPipeline,
@@ -716,6 +717,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "source": str(recording.source),
         "channel": recording.channel,
         "bearing": prepared.bearing.get("name"),  # whose defect lines the physics (and defect-order features) read
+        "bearing_given": prepared.bearing_given,  # named by bearing= or the file, not the model's standing in
         "original_fs": prepared.original_fs,
         "rate_check": prepared.rate_check,
         "speed": prepared.speed,

@@ -431,6 +431,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             windows_total += len(result["windows"])
             windows_correct += result["windows_correct"]
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
+        row["bearing_given"] = result["bearing_given"]  # for the closing summary (not a column)
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
         row["speed_unseen"] = result["speed_unseen"]
