@@ -1504,6 +1504,11 @@ def test_a_record_far_slower_than_the_models_training_speed_or_of_a_window_or_tw
     assert {name: row["speed_unseen"] for name, row in rows.items()} == {"short": "False", "slow": "True",
                                                                          "usual": "False"}
     assert "shaft speed well beyond the model's training windows' (see their notes): slow\n" in done.stdout
+    # 0.3 s at 1797 rev/min, or 3 s at 600, cannot place the shaft line finely enough to check the rate: said of them,
+    # in the closing summary too.
+    assert [rows[name]["rate_check"] == "not checked" for name in ("short", "slow", "usual")] == [True, True, False]
+    assert ("sampling rate not checked (too short for the shaft line to confirm it: see their notes): short, slow\n"
+            in done.stdout)
 
 
 def test_an_interrupt_while_a_record_is_written_leaves_no_part_of_it(registered, tmp_path, monkeypatch):

@@ -438,6 +438,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         row["features_unseen"] = "" if result["features_unseen"] is None else result["features_unseen"]
         row["classifier_verdict"] = result["classifier_verdict"] or ""  # empty where the physics decided every window
         row["physics_decided"] = result["physics_decided"]
+        # A measured record with a speed whose rate the shaft line could not check (too short to resolve it).
+        row["rate_unchecked"] = result["rate_check"] == "not checked" and result["speed"] is not None  # (not a column)
         speed = result["speed"] or {}  # the spread of the shaft speed read, and whether the record was steadied
         row["speed_spread"] = "" if speed.get("spread") is None else speed["spread"]
         row["order_tracked"] = speed.get("tracked", "")
