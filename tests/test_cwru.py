@@ -488,6 +488,21 @@ def test_a_defect_comb_and_the_shaft_line_both_off_by_one_factor_refuse_the_rate
 
 
 @needs_data
+def test_a_shaft_series_standing_weakly_at_its_place_leaves_the_rate_in_doubt_where_a_stronger_one_stands_elsewhere():
+    """5 s of the healthy record at its true rate and speed had been refused as 4016 Hz: a series of its 3x lines
+    stood higher than its own, which stood at its place (1x 32 times its floor). That is left in doubt. The same lines
+    read under a rate twice too low put the true shaft's series at half the place, and its 2x at it: still refused."""
+    recording = load_cwru(CWRU / "normal_0_97.mat")
+    cut = recording.signal[:5 * 12000]
+    bearing = load_bearing("cwru_6205")
+    doubt = check_sampling_rate(cut, 12000.0, recording.rpm, defect_hz=bearing.defect_frequencies(recording.rpm))
+    assert doubt.verdict == "ambiguous" and doubt.witness == "weak shaft series", doubt.reason
+    assert "but the shaft's own series stands where the declared rate puts it, weaker" in doubt.reason
+    halved = check_sampling_rate(cut, 6000.0, recording.rpm, defect_hz=bearing.defect_frequencies(recording.rpm))
+    assert halved.verdict == "contradicted", halved.reason
+
+
+@needs_data
 @pytest.mark.parametrize("record, snr_db, seed", [("12k_Drive_End_OR007@6_0_130.mat", 40, [8, 40]),
                                                   ("12k_Drive_End_OR007@6_0_130.mat", 30, [8, 30]),
                                                   ("12k_Drive_End_OR007@6_2_132.mat", 40, [10, 40])])

@@ -64,7 +64,9 @@ class ShaftLineCheck:
         witness: what confirmed the rate where the shaft series did not: ``series`` (the strong series is
             a defect frequency's) or ``envelope`` (a defect line in the envelope); ``supply`` where the strong
             series is the supply's, and ``half comb`` where it stands at half a defect comb with no line of its own
-            (:func:`_half_of_a_comb`), either of which leaves the rate ``ambiguous``; None otherwise.
+            (:func:`_half_of_a_comb`), and ``weak shaft series`` where the shaft's own series stands at its place,
+            below a strong series' prominence (:func:`_weak_shaft_series`), each of which leaves the rate ``ambiguous``;
+            None otherwise.
         fraction_rate_hz: with a ``fraction``, the rate at which its in-between lines would be the shaft's series.
         implied_confirmed: a contradiction whose implied rate another channel of the record confirms (its shaft
             series stands at its place there; set by :func:`check_channels`).
@@ -377,10 +379,14 @@ def check_sampling_rate(
     observed = float(grid[nearest])
     common = dict(fs_hz=fs, rpm=rpm, expected_hz=expected, observed_hz=observed, score=float(score[nearest]))
     if abs(observed / expected - 1.0) > tolerance:
-        check = ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False, verdict="contradicted",
-                               reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
-                                      f"implying fs = {fs * expected / observed:.0f} Hz")
-        return concluded(second_look(check))
+        check = second_look(ShaftLineCheck(**common, implied_fs_hz=fs * expected / observed, matches=False,
+                                           verdict="contradicted",
+                                           reason=f"the nearest strong harmonic series is at {observed:.2f} Hz, "
+                                                  f"implying fs = {fs * expected / observed:.0f} Hz"))
+        if check.verdict == "contradicted" and check.witness is None:
+            check = _weak_shaft_series(check, ratio, resolution, at_expected, scores, prominence, harmonic_tolerance,
+                                       slip, max_fraction)
+        return concluded(check)
 
     # The same series' in-between lines: n x g for n not a multiple of k, g within ``slip`` of observed / k. The
     # series taken for the shaft's may be another one that a rate near true / k puts near the shaft's place (a
@@ -698,6 +704,30 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
                                           "supply, whose lines stand there whatever the shaft speed, and no whole "
                                           "multiple or fraction of the shaft line: the rate is not confirmed")
     return check
+
+
+def _weak_shaft_series(check: ShaftLineCheck, ratio: np.ndarray, resolution: float, at_expected: float,
+                       scores: Callable[[np.ndarray], np.ndarray], prominence: float, window: float, slip: float,
+                       max_fraction: int) -> ShaftLineCheck:
+    """``check``'s contradiction left in doubt (``witness`` ``weak shaft series``) where the shaft's own series stands
+    where the declared rate puts it, below the strong series' prominence (a short record's coarse lines; a machine
+    whose other lines outstand its shaft's): its median prominence (``at_expected``) half the threshold, its 1x line
+    the whole, and no series standing as high within ``slip`` of 1 / k of its place (k = 2 .. ``max_fraction``). Under
+    a rate too high the 1x line would be a fraction's of the true shaft's, which stands that high on no machine as a
+    rule; under a rate too low by about k (or a speed typed k times too high) it is the true k-th harmonic, and the
+    true shaft's series stands at 1 / k of its place. ``check`` as it was otherwise."""
+    expected = check.expected_hz
+    first = float(_peak(ratio, resolution, np.array([expected]), window)[0])
+    if at_expected < prominence / 2 or first < prominence:
+        return check
+    n_steps = int(math.ceil(math.log((1 + slip) / (1 - slip)) / window)) + 1
+    fractions = np.outer(expected / np.arange(2, max_fraction + 1), np.geomspace(1 - slip, 1 + slip, n_steps))
+    if np.any(scores(fractions[fractions > 2 * resolution]) >= min(at_expected, prominence)):
+        return check
+    return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous", witness="weak shaft series",
+                               reason=f"{check.reason}; but the shaft's own series stands where the declared rate puts "
+                                      f"it, weaker (median prominence {at_expected:.0f}, its 1x line {first:.0f}): the "
+                                      "rate is not contradicted, nor confirmed")
 
 
 def _line_stands(signal: np.ndarray, fs: float, hz: float, prominence: float, window: float) -> bool:
