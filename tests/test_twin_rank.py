@@ -613,6 +613,12 @@ def test_base_parameters_the_record_does_not_identify_are_said_apart_without_the
         _operating_point_words(operating, 27.6, "m/s^2")
     assert "sensor gain 0.5 (measurement unit per m/s^2; a record in g at the twin's level gives 0.102)" in \
         _operating_point_words(operating, 0.5, "g")
+    # The load sets the twin's level too: the gain, fitted beside a load the record does not fix, is not fixed either
+    # (two cuts of one record had read 0.254 and 0.474); held or identified, it is.
+    assert ("sensor gain 1.49 (measurement unit per m/s^2), not identified apart from the radial load (downward), "
+            "which sets the twin's level too: only their product with it, the record's level, is") in words
+    held = {**operating, "radial_load_n": {**operating["radial_load_n"], "held": True}}
+    assert "not identified apart" not in _operating_point_words(held, 1.49)
 
 
 def test_a_held_value_outside_the_searched_range_is_noted_as_perhaps_in_another_unit():

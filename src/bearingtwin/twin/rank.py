@@ -543,7 +543,14 @@ def _operating_point_words(operating: Mapping, gain: float, unit: str = "") -> s
         else:
             parts.append(f"{label} {_value(entry['value'], entry.get('interval'), entry.get('unit', ''))}"
                          + identification_words(entry))
-    parts.append(gain_words(gain, unit))
+    # The twin's level moves with what sets its impacts' force: where the record fixes one of those only loosely, the
+    # gain takes up what it leaves, and only their product (the record's level) is the record's.
+    loose = [BASE_PARAMETERS[name].description for name, entry in operating.items()
+             if name in BASE_PARAMETERS and not entry.get("held") and hardly_identified(entry)]
+    verb = "sets" if len(loose) == 1 else "set"
+    parts.append(gain_words(gain, unit) + (f", not identified apart from the {' and the '.join(loose)}, which {verb} "
+                                           "the twin's level too: only their product with it, the record's level, is"
+                                           if loose else ""))
     text = "; ".join(parts)
     if unidentified:
         text += (". Not identified by this record (anywhere in the searched range fits as well): "
