@@ -100,8 +100,8 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["sampling rate unconfirmed by the shaft line (see their notes)"] = ", ".join(unconfirmed)
     unchecked = [row["record"] for row in diagnosed if row.get("rate_unchecked")]
     if unchecked:  # too short for the shaft line to place the rate: a wrong one given goes unnoticed
-        lines["sampling rate not checked (too short for the shaft line to confirm it: see their notes)"] = \
-            ", ".join(unchecked)
+        key = "sampling rate not checked (too short for the shaft line to confirm it: see their notes)"
+        lines[key] = ", ".join(unchecked)
     left_out = [f"{row['record']} ({row['windows_left_out']})" for row in diagnosed if row.get("windows_left_out")]
     if left_out:  # their verdicts stand on fewer windows than the records hold
         lines["windows left out over dropouts or samples with no value"] = ", ".join(left_out)
