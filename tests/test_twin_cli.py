@@ -453,16 +453,21 @@ def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one
     assert line and abs(float(line.group(1)) - 1797 / 60) <= 4.0  # the shaft's line, at the 4 Hz lines resolution here
     assert f"since the reference record: lines: {line.group(0)}" in result.stdout
 
-    # Another record of the unchanged rig: nothing changed since the reference, so whatever the twin still misses is
-    # the rig's own, and no effect is needed.
+    # Another record of the unchanged rig, through a sensor four times as sensitive: nothing changed since the
+    # reference in the shapes the views compare, so whatever the twin still misses is the rig's own, and no effect is
+    # needed; the level, which a gain between the two records takes up there, is compared apart and named.
     again = TwinModel("outer", cfg.bearing, cfg.simulator, seed=13).signal(
         {"simulator.defect.depth_mm": 0.004}, {"resonance": {"natural_frequency_hz": 2400.0, "damping_ratio": 0.07}})
-    np.save(tmp_path / "again.npy", again / 9.81)
+    np.save(tmp_path / "again.npy", 4 * again / 9.81)
     null = run_cli(f"measured.path={tmp_path / 'again.npy'}", f"out={tmp_path / 'again'}",
                    "candidates=[resonance,unbalance]", f"reference={tmp_path / 'baseline' / 'twin_report.json'}", *common)
     assert null.returncode == 0, null.stderr[-2000:]
     unchanged = json.loads((tmp_path / "again" / "twin_report.json").read_text())
     assert unchanged["since_reference"] == [] and unchanged["added"] == []
+    assert unchanged["level_since_reference_db"] == pytest.approx(20 * np.log10(4), abs=1.0)
+    assert re.search(r"since the reference record: the overall level is 1\d\.\d dB above the reference record's "
+                     r"\(x [\d.]+\): a louder machine, or a sensor, mount or gain that changed; nothing else changed",
+                     null.stdout), null.stdout
     assert unchanged["verdict"] == "no effect needed" and "verdict: no effect needed\n" in null.stdout
     assert "nothing changed beyond the measurement's own part-to-part scatter" in unchanged["summary"]
     # What the twin still misses there is said to be the rig's own, view by view.

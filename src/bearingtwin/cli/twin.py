@@ -61,8 +61,10 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
     if held:  # given with operating_point.*, or held from a reference's report
         lines["operating point held"] = ", ".join(held)
     if fit.since_reference is not None:
-        lines["since the reference record"] = ("; ".join(f"{entry['view']}: {entry['where']}" for entry in fit.since_reference)
-                                               or "nothing changed beyond the measurement's own scatter")
+        changes = [f"{entry['view']}: {entry['where']}" for entry in fit.since_reference]
+        shapes = "; ".join(changes) or ("nothing else changed beyond the measurement's own scatter" if fit.level_change
+                                        else "nothing changed beyond the measurement's own scatter")
+        lines["since the reference record"] = "; ".join(filter(None, [fit.level_change, shapes]))
     elif fit.reference_note:
         lines["since the reference record"] = f"not compared: {fit.reference_note}"
     if cfg.effects:  # known present, in every step: the summary says so, as it says the reference's

@@ -250,6 +250,11 @@ class Step:
                 "base_params": self.base_params, "views": _view_errors(self.comparison)}
 
 
+LEVEL_CHANGE_DB = 6.0
+"""How far (dB) a measurement's overall level may lie from its reference record's before the report names the change:
+twice or half the amplitude, a plain step a vibration analyst notes, not fitted to any result."""
+
+
 @dataclass
 class TwinFit:
     """Outcome of calibrating and ranking: what the report and the CLI write."""
@@ -274,6 +279,9 @@ class TwinFit:
     # measurement, no twin: :func:`views_beyond_floor`); None when no reference record was compared, and why.
     since_reference: list[dict] | None = None
     reference_note: str = ""  # why a reference record was not compared ("it is this record itself"), else ""
+    # This measurement's overall level over the reference record's, dB, in one unit (None: not compared, or a unit
+    # of either unknown); the views above compare shapes after a gain between the two.
+    level_since_reference_db: float | None = None
     passed_over: str = ""  # candidates not offered on this record's bearing state, and why, where others were tried
     # Candidates offered only once another effect is in the twin, which it never took (second_resonance without
     # resonance): the report's, not the summary's (with the default candidates nearly every run has one).
@@ -362,18 +370,31 @@ class TwinFit:
                          f"Such a mark is left by {left['what_leaves_it']}.")
         return "\n".join(lines)
 
+    @property
+    def level_change(self) -> str:
+        """The overall level's change since the reference record, in words, where it is :data:`LEVEL_CHANGE_DB` or
+        more ("" otherwise): the views compare shapes after a gain between the two records, which takes it up."""
+        level = self.level_since_reference_db
+        if level is None or abs(level) < LEVEL_CHANGE_DB:
+            return ""
+        return (f"the overall level is {abs(level):.1f} dB {'above' if level > 0 else 'below'} the reference record's "
+                f"(x {10 ** (level / 20):.3g}): a {'louder' if level > 0 else 'quieter'} machine, or a sensor, mount or "
+                "gain that changed")
+
     def _reference_lines(self) -> list[str]:
         """What changed since the reference record, measured against it directly (or why it was not)."""
         if self.since_reference is None:
             return [f"Not compared with the reference record: {self.reference_note}."] if self.reference_note else []
+        level = f" Beside the shapes, {self.level_change}." if self.level_change else ""
         if not self.since_reference:
             also = (f" What was added ({', '.join(fit.effect for fit in self.added)}) was then in the reference record "
                     "too, where it was not found." if self.added else "")
             return ["Since the reference record (this measurement against it, no twin): nothing changed beyond the "
-                    f"measurement's own part-to-part scatter.{also}"]
+                    f"measurement's own part-to-part scatter{' in the shapes the views compare' if level else ''}."
+                    f"{also}{level}"]
         changes = "; ".join(f"the {entry['view']} view ({entry['error_db']:.1f} dB, {entry['error_db'] / entry['floor_db']:.0f} "
                             f"times the measurement's own): {entry['where']}" for entry in self.since_reference)
-        return [f"Changed since the reference record (this measurement against it, no twin): {changes}."]
+        return [f"Changed since the reference record (this measurement against it, no twin): {changes}.{level}"]
 
     def _unclaimed_words(self) -> str:
         fit = self.unclaimed
@@ -409,6 +430,7 @@ class TwinFit:
             "passed_over": self.passed_over,
             "awaiting": self.awaiting,
             "since_reference": self.since_reference,
+            "level_since_reference_db": self.level_since_reference_db,
             "reference_note": self.reference_note,
             "final_error": self.final_error,
             "summary": self.summary,

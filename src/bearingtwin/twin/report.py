@@ -25,7 +25,7 @@ from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE
                                     recording_from_raw, same_speed, speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import INTEGRATED_QUANTITIES, quantity_of
+from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_factor, acceleration_unit, quantity_of
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.effects import build_effects
@@ -506,6 +506,12 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
         return
     fit.since_reference = views_beyond_floor(comparison, view_floors(fit.repeatability_db, view_floor_db),
                                              comparator.settings.weights)
+    # The views compare shapes after a gain fitted between the two records: their levels are compared apart, in one
+    # unit (a record in g against one in m/s^2 differs by 9.81 in its numbers alone).
+    units = acceleration_unit(measured.unit or ""), acceleration_unit(earlier.unit or "")
+    if comparison.gain > 0 and (units[0] is not None and units[1] is not None or measured.unit == earlier.unit):
+        factor = acceleration_factor(units[1], units[0]) if units[0] and units[1] else 1.0
+        fit.level_since_reference_db = 20.0 * math.log10(comparison.gain / factor)
 
 
 def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set[str]) -> None:
