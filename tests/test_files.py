@@ -715,11 +715,14 @@ def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):
                                         ("acc_m_s2", "m/s^2"), ("acc_mps2", "m/s^2"), ("acc_mg", "mg"),
                                         ("acc (mm/s^2)", "mm/s^2"), ("acc [mm/s²]", "mm/s^2"), ("acc (mg)", "mg"),
                                         ("a [µg]", "µg"), ("a (Gal)", "cm/s^2"), ("v (mm/s)", "mm/s"),
-                                        ("signal", ""), ("gear", ""), ("rig_2", ""), ("speed_mm_s", "")])
+                                        ("signal", ""), ("gear", ""), ("rig_2", ""), ("vel_mm_s", "mm/s"),
+                                        ("vel_ips", "ips"), ("velocity_mm/s", "mm/s"), ("gap_um", "um"),
+                                        ("time_s", ""), ("volt_v", ""), ("speed_rpm", "")])
 def test_an_acceleration_unit_after_an_underscore(name, unit):
     """Loggers and scripts name a column ``acc_g`` as often as ``acc (g)``, and write m/s² as ``ms2`` or ``m_s2``
-    there; only an acceleration unit counts after an underscore, so ``acc_x`` (a direction) and ``ch_1`` state none,
-    and a name's own letters are none (``signal`` and ``gear`` end in a g)."""
+    there; after an underscore an acceleration unit counts, and a velocity's or displacement's (``vel_mm_s`` had been
+    read as an acceleration, its spectrum's tilt taken for physics), so ``acc_x`` (a direction), ``ch_1``, ``time_s``
+    and ``speed_rpm`` state none, and a name's own letters are none (``signal`` and ``gear`` end in a g)."""
     from bearingtwin.data.formats import unit_in_name
 
     assert unit_in_name(name) == unit

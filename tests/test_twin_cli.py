@@ -597,6 +597,26 @@ def test_a_speed_given_twice_the_true_one_is_refused_where_the_file_records_its_
 CWRU_RECORDS = data_root() / "cwru"
 
 
+def test_a_unit_given_for_a_measurement_that_states_none_is_read_and_a_velocity_refused(measurement, tmp_path):
+    """A WAV or a bare .npy cannot state its unit, and the twin had no setting for it: a velocity record passed for an
+    acceleration, its tilt fitted as physics. measured.unit fills it in; a velocity is refused as a stated one is, and
+    a unit a file contradicts is refused naming the setting."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.twin.report import read_measurement
+
+    def measured(path, unit):
+        return OmegaConf.create({"path": str(path), "channel": None, "fs": 12000, "rpm": 1797, "fault": "outer",
+                                 "check_fs": False, "unit": unit})
+
+    assert read_measurement(measured(measurement, "g"))[0].unit == "g"
+    with pytest.raises(BearingTwinError, match=r"measured.npy: the record is in mm/s \(a velocity\); the twin simulates"):
+        read_measurement(measured(measurement, "mm/s"))
+    np.savez(tmp_path / "stated.npz", signal=np.load(measurement), fs=12000.0, unit="m/s^2")
+    with pytest.raises(BearingTwinError, match=r"stated.npz: measured.unit=g contradicts the file's unit, m/s\^2$"):
+        read_measurement(measured(tmp_path / "stated.npz", "g"))
+
+
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
 def test_a_measurement_that_states_no_speed_is_held_at_the_one_its_tachometer_gives(tmp_path):
     """A file of an accelerometer and a tachometer, no speed stated: the twin had refused it, asking for the speed

@@ -40,7 +40,7 @@ import numpy as np
 
 from bearingtwin.checks import is_finite_number, positive_number
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import acceleration_unit, quantity_of, same_unit
+from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_unit, quantity_of, same_unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.signal.sampling_rate import is_pulse_train
@@ -476,7 +476,8 @@ def time_column_seconds(name: str) -> float | None:
 def unit_in_name(name: str) -> str:
     """The unit a channel's name states at its end, in brackets (``acc (m/s2)`` -> ``m/s^2``, ``U [V]`` -> ``V``),
     after "in" (an acceleration unit: ``a in m/s²``) or after an underscore (an acceleration unit: ``acc_g``,
-    ``a_m/s2``, ``accel_ms2``, ``acc_m_s2``), acceleration units in their canonical spelling; "" when it states
+    ``a_m/s2``, ``accel_ms2``, ``acc_m_s2``; a velocity's or displacement's: ``vel_mm_s``, ``vel_ips``, ``gap_um``),
+    acceleration units in their canonical spelling; "" when it states
     none. A name's own letters are no unit (``signal``, ``gear``): only a separate word is read as one."""
     return split_unit(name)[1]
 
@@ -487,10 +488,12 @@ def split_unit(name: str) -> tuple[str, str]:
     name, repeated = re.fullmatch(r"(.*?)(\.\d+)?", name).groups(default="")  # a repeated header's "acc (g).1" too
     match = _UNIT_IN_NAME.fullmatch(name)
     if match is None:
-        # "acc_g", "acc_m_s2" (the unit's own "/" written "_"); "ch_1" or "acc_x" states none.
+        # "acc_g", "acc_m_s2" (the unit's own "/" written "_"); "vel_mm_s", "vel_ips" too, a velocity or a
+        # displacement being what must not pass for an acceleration; "ch_1" or "acc_x" states none.
         words = name.split("_")
         for length in (2, 1):
-            unit = acceleration_unit("/".join(words[-length:])) if len(words) > length else None
+            written = "/".join(words[-length:]) if len(words) > length else ""
+            unit = acceleration_unit(written) or (written if quantity_of(written) in INTEGRATED_QUANTITIES else None)
             if unit:
                 return "_".join(words[:-length]) + repeated, unit
         return name + repeated, ""
