@@ -77,7 +77,8 @@ def test_a_reference_is_of_the_same_rig_by_its_bearings_geometry_not_its_name():
 
     recorded["measured"]["geometry"], recorded["measured"]["bearing"] = rig_geometry(load_bearing("er16k")), "er16k"
     with pytest.raises(BearingTwinError, match=r"a reference must come from the same rig \(the report's bearing is "
-                                               r"er16k, this one cwru_6205: give bearing=er16k\)$"):
+                                               r"er16k, this one cwru_6205: give bearing=er16k if this record is of "
+                                               r"it, or make the reference again with bearing=cwru_6205\)$"):
         hold_reference(twin_config(), recorded, "outer")
     recorded["measured"]["geometry"]["n_balls"] = 13
     with pytest.raises(BearingTwinError, match=r"must come from the same rig$"):

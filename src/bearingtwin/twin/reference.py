@@ -95,7 +95,10 @@ def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str 
             named = measured.get("bearing")
             fits = named and named != bearing_cfg.get("name") and named in bearing_choices() and geometry_difference(
                 recorded, rig_geometry(load_bearing(named))) is None
-            hint = f" (the report's bearing is {named}, this one {bearing_cfg.get('name')}: give bearing={named})" if fits else ""
+            ours_name = bearing_cfg.get("name")
+            # Either run may be the one read with the wrong bearing (a baseline left at the default): both ways out.
+            hint = (f" (the report's bearing is {named}, this one {ours_name}: give bearing={named} if this record is "
+                    f"of it, or make the reference again with bearing={ours_name})" if fits else "")
             raise BearingTwinError(f"{source}: its record's bearing has {name}={recorded[name]}, this one "
                                    f"bearing.{name}={ours[name]}; {role} must come from the same rig{hint}")
     elif measured.get("bearing") and bearing_cfg.get("name") and measured["bearing"] != bearing_cfg.name:
