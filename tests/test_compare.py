@@ -42,6 +42,16 @@ def measured(x: np.ndarray, fault: str = "outer") -> Recording:
     return Recording(x, FS, RPM, fault, source="test.npy")
 
 
+def test_a_defect_line_too_low_for_the_envelope_segment_names_the_speed_that_put_it_there():
+    """A speed given in Hz (29.9 for 1797 rev/min) puts BPFO near 1.8 Hz: the refusal had named only the envelope
+    segment's resolution, not the file nor the speed behind it."""
+    record = replace(measured(impacts("outer", 2.0, seed=0)), rpm=29.95, source="pump.npz")
+    with pytest.raises(BearingTwinError, match=r"^pump.npz: compare.envelope_segment_s=.* too coarse for BPFO at 1.8 Hz, "
+                                               r"where 29.95 rev/min puts it \(a speed given in Hz\? 29.95 Hz is 1797 "
+                                               r"rev/min\)"):
+        Comparator(record, GEOMETRY)
+
+
 def test_identical_signals_compare_to_zero_at_any_gain():
     x = impacts("outer", 2.0, seed=0)
     comparator = Comparator(measured(x), GEOMETRY)

@@ -323,9 +323,12 @@ class Comparator:
         self.segment = int(round(s.envelope_segment_s * self.fs))
         self.env_df = self.fs / self.segment
         if self.env_df > self.reference_hz / 4:
+            # A line this low is most often a speed given in Hz, not a slow machine: the speed is named with it.
             raise BearingTwinError(
-                f"compare.envelope_segment_s={s.envelope_segment_s} resolves only {self.env_df:.1f} Hz, too coarse "
-                f"for {self.reference_name} at {self.reference_hz:.1f} Hz"
+                f"{measured.source}: compare.envelope_segment_s={s.envelope_segment_s} resolves only "
+                f"{self.env_df:.1f} Hz, too coarse for {self.reference_name} at {self.reference_hz:.1f} Hz, where "
+                f"{self.rpm:g} rev/min puts it (a speed given in Hz? {self.rpm:g} Hz is {60 * self.rpm:g} rev/min); "
+                "for a shaft that slow, give a longer compare.envelope_segment_s"
             )
         if not 0 < s.envelope_highpass_hz < self.fs / 2:
             raise BearingTwinError(
