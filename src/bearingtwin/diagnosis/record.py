@@ -50,8 +50,8 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
                                                shared_transforms)
-from bearingtwin.signal.speed import (UNSTEADY, near_supply, order_track, series_prominences, sharpening,
-                                      speed_profile, steady_times, tachometer_profile)
+from bearingtwin.signal.speed import (SPEED_OFF, UNSTEADY, near_supply, order_track, series_prominences,
+                                      sharpening, speed_off_words, speed_profile, steady_times, tachometer_profile)
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -300,23 +300,14 @@ def gaps_note(recording: Recording, gaps: list[tuple[int, int]]) -> str:
             "record, no window touching one diagnosed")
 
 
-SPEED_OFF = (0.01, 0.08)
-"""How far (relative) the speed a record's shaft series reads may lie from the stated one before a note says so: the
-physics evidence reads each line within 1 % of where the stated speed puts it (``evidence.tolerance``); and how far it
-may lie for the note to name it: a nameplate's speed or a motor's slip is off by a few %, while a series read 10 % off
-may be a defect's comb taken for the shaft's under a speed stated twice the true one (the rate check names those)."""
-
-
 def speed_off_note(speed: dict, rpm: float) -> str | None:
     """A note where the shaft's harmonic series or a tachometer, read segment by segment (:func:`steadied`), puts the
-    speed more than 1 % and at most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`: a nameplate's speed given for a
-    measured one); None where it does not or cannot be read."""
+    speed more than 1 % and at most 8 % from the stated ``rpm`` (:func:`~bearingtwin.signal.speed.speed_off_words`: a
+    nameplate's speed given for a measured one); None where it does not or cannot be read."""
     read = speed.get("read_rpm")  # not where the reading is in doubt (a misread profile), nor tracked (read at it)
-    if read is None or speed.get("tracked") or speed.get("in_doubt") or not SPEED_OFF[0] < abs(read / rpm - 1) <= SPEED_OFF[1]:
+    if read is None or speed.get("tracked") or speed.get("in_doubt"):
         return None
-    return (f"{speed['source']} reads {read:.0f} rpm, {100 * (read / rpm - 1):+.1f} % from the stated "
-            f"{rpm:g} rpm: every defect line is read where the stated speed puts it; if the sampling rate is right, "
-            f"give rpm={read:.0f}")
+    return speed_off_words(read, rpm, speed["source"])
 
 
 TRACKING_REACH = 12

@@ -239,6 +239,23 @@ def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0,
     return SpeedProfile(nothing.times_s, speeds, segment_s, float(rpm), source)
 
 
+SPEED_OFF = (0.01, 0.08)
+"""How far (relative) the speed a record's shaft series reads may lie from the stated one before a note says so: the
+physics evidence reads each line within 1 % of where the stated speed puts it (``evidence.tolerance``); and how far it
+may lie for the note to name it: a nameplate's speed or a motor's slip is off by a few %, while a series read 10 % off
+may be a defect's comb taken for the shaft's under a speed stated twice the true one (the rate check names those)."""
+
+
+def speed_off_words(read_rpm: float, rpm: float, source: str, key: str = "rpm") -> str | None:
+    """What to say where ``source`` (the shaft's harmonic series, a tachometer) reads ``read_rpm`` more than 1 % and at
+    most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`), the speed's setting ``key``; None where it does not."""
+    if not SPEED_OFF[0] < abs(read_rpm / rpm - 1) <= SPEED_OFF[1]:
+        return None
+    return (f"{source} reads {read_rpm:.0f} rpm, {100 * (read_rpm / rpm - 1):+.1f} % from the stated "
+            f"{rpm:g} rpm: every defect line is read where the stated speed puts it; if the sampling rate is right, "
+            f"give {key}={read_rpm:.0f}")
+
+
 def pulse_times(pulses, fs: float) -> np.ndarray:
     """When each pulse of a two-level channel (a tachometer's) begins, s from its first sample: each rise through the
     middle of its two levels, placed between samples by a straight line."""

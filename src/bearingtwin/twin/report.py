@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Mapping
 
+import numpy as np
 from joblib import cpu_count
 from omegaconf import DictConfig, OmegaConf, open_dict
 
@@ -31,6 +32,7 @@ from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
+from bearingtwin.signal.speed import near_supply, speed_off_words, speed_profile
 from bearingtwin.storage import file_digest
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel, effect_search_space
@@ -128,6 +130,23 @@ def check_measurement(measured_cfg, recording: Recording, channels: dict,
                                refuse=rate_given, channels=channels,
                                rate_from_file=not rate_given and recording.meta.get("rpm_origin") == "config")
     return recording
+
+
+def speed_read_off(measured: Recording) -> str | None:
+    """What to say where the record's shaft series puts its speed 1-8 % from the stated one
+    (:func:`~bearingtwin.signal.speed.speed_off_words`: a nameplate's speed given for a measured one, which the rate
+    check lets through within its 2 %); None where it does not, cannot be read, or the speed is read from a tachometer
+    or the record is the twin's own (its shaft lines stand at the nominal speed)."""
+    if measured.meta.get("fs_origin") == SIMULATED_RATE or measured.meta.get("rpm_origin") == "tachometer":
+        return None
+    profile = speed_profile(measured.signal, measured.fs, measured.rpm)
+    if not profile.readable:
+        return None
+    read = float(np.median(profile.rpm[profile.read]))
+    if near_supply(read):  # the supply's lines are no measure of a speed
+        return None
+    key = "the file's rpm" if measured.meta.get("rpm_origin") == "file" else "measured.rpm"  # a file's is not overridden
+    return speed_off_words(read, measured.rpm, "the shaft's harmonic series", key)
 
 
 DEFAULT_BEARING = "paper"
@@ -551,6 +570,10 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     # What the closing summary repeats, as logged: the bearing whose defect lines the twin reads, always.
     # A geometry of its own (a simulation's bearing.n_balls=12) is said with the name it changes.
     notes = {"bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *bearing_overrides()])}
+    off = speed_read_off(measured)
+    if off:  # said now, and again in the closing summary: every defect line is sought beside where it stands
+        log.warning("%s: %s", cfg.measured.path, off)
+        notes["speed"] = off
     to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
         cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
