@@ -272,6 +272,12 @@ def test_how_steadily_the_shaft_turned_is_reported_per_channel(capsys, monkeypat
     for name in ("vib", "tach"):
         assert speeds[name]["unsteady"] and speeds[name]["spread"] == pytest.approx(0.08, abs=0.015), speeds[name]
         assert speeds[name]["median_rpm"] == pytest.approx(RPM, rel=0.02)
+    # No speed stated (nor a tachometer beside it): why none is read stands where a reader looks for the speed.
+    np.savez(tmp_path / "bare.npz", vib=drifting, fs=FS)
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'bare.npz'}")
+    bare = json.loads(out)
+    assert code == 0 and bare["shaft_speed"] is None and bare["shaft_speed_not_read"] == (
+        "the file states no shaft speed: give rpm=<rev/min> (or the rpm column of a labels.csv beside it)")
 
 
 def test_levels_of_each_vibration_channel(capsys, monkeypatch, tmp_path):

@@ -175,6 +175,10 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         summary["shaft_speed"], not_read = shaft_speed(raw, names, fs_hz, rpm)
         if not_read:  # beside, so that each channel's entry keeps its shape (an object, or null)
             summary["shaft_speed_not_read"] = not_read
+    elif rpm is None and fs_hz is not None:  # nothing to read a speed around: said, where a reader looks for it
+        summary["shaft_speed"] = None
+        summary["shaft_speed_not_read"] = ("the file states no shaft speed: give rpm=<rev/min> (or the rpm column of a "
+                                           "labels.csv beside it)")
     if bearing is not None:
         summary["bearing"] = bearing_name
         summary["defect_orders"] = {key: value for key, value in bearing.defect_frequencies(60.0).items() if key != "shaft"}
