@@ -218,8 +218,8 @@ def test_a_record_that_names_no_bearing_is_read_with_its_references_unless_one_i
     so, while one given, or one the record names, stays; a reference whose geometry its bearing's name no longer
     gives (a bearing.* override) gives none."""
     from bearingtwin.data.formats import read_raw, recording_from_raw
-    from bearingtwin.twin.reference import rig_geometry
-    from bearingtwin.twin.report import record_bearing, reference_bearing
+    from bearingtwin.twin.reference import reference_bearing, rig_geometry
+    from bearingtwin.twin.report import record_bearing
 
     report = {"measured": {"bearing": "cwru_6205", "geometry": rig_geometry(load_bearing("cwru_6205"))}}
     assert reference_bearing(report) == "cwru_6205"

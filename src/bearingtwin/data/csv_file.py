@@ -233,8 +233,13 @@ def _numbers_row(line: str) -> bool:
     """Whether a line is a row of numbers under some decimal mark (a closing separator allowed), clock times
     counted as numbers beside one at least (a logger's date line above its header, ``2024-03-01 10:00``, is none)."""
     cells = _row_cells(line, _delimiter(line))
-    return (bool(cells) and all(_NUMBER_LIKE.fullmatch(cell) or _is_clock(cell) for cell in cells)
+    return (bool(cells) and all(_number_or_clock(cell) for cell in cells)
             and any(_NUMBER_LIKE.fullmatch(cell) and not _is_clock(cell) for cell in cells))
+
+
+def _number_or_clock(cell: str) -> bool:
+    """Whether a cell is a number under some decimal mark or a clock time (:func:`_is_clock`)."""
+    return bool(_NUMBER_LIKE.fullmatch(cell)) or _is_clock(cell)
 
 
 def _data_rows(head: list[str], content: list[int]) -> list[bool]:
@@ -242,14 +247,13 @@ def _data_rows(head: list[str], content: list[int]) -> list[bool]:
     where the last row holds text beside its numbers (a logger's ``status`` column), a row of as many cells whose cells
     are numbers wherever the last row's are (a header's names and a logger's notes are not)."""
     last = _row_cells(head[content[-1]], _delimiter(head[content[-1]]))
-    numeric = [bool(_NUMBER_LIKE.fullmatch(cell)) or _is_clock(cell) for cell in last]
+    numeric = [_number_or_clock(cell) for cell in last]
     if all(numeric) or not any(numeric):
         return [_numbers_row(head[i]) for i in content]
 
     def like_last(line: str) -> bool:
         cells = _row_cells(line, _delimiter(line))
-        return len(cells) == len(last) and all(bool(_NUMBER_LIKE.fullmatch(cell)) or _is_clock(cell)
-                                               for cell, number in zip(cells, numeric) if number)
+        return len(cells) == len(last) and all(_number_or_clock(cell) for cell, number in zip(cells, numeric) if number)
 
     return [_numbers_row(head[i]) or like_last(head[i]) for i in content]
 

@@ -44,7 +44,7 @@ from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_unit, qua
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.signal.sampling_rate import is_pulse_train
-from bearingtwin.signal.speed import HARMONICS, SEARCH, pulse_rate, pulse_times, tachometer_speed
+from bearingtwin.signal.speed import HARMONICS, pulse_rate, pulse_times, pulses_per_turn, tachometer_speed
 
 TEXT_TABLES = (".csv", ".txt", ".tsv")
 """Text tables of numbers: a spreadsheet's or data logger's export, whatever it separates its columns with."""
@@ -346,9 +346,9 @@ def pulses_off_note(name: str, pulses: np.ndarray, fs: float, rpm: float) -> str
     if times.size < 3:
         return None
     rate = pulse_rate(times)
-    per_turn = max(1, round(rate / (rpm / 60.0)))
-    if abs(60.0 * rate / per_turn / rpm - 1.0) <= SEARCH:
+    if pulses_per_turn(rate, rpm) is not None:
         return None
+    per_turn = max(1, round(rate / (rpm / 60.0)))  # the nearest count, to say what speed the pulses give
     return (f"the tachometer channel {name} pulses {rate:.4g} times a second, {60.0 * rate / per_turn:.0f} rpm at "
             f"{per_turn} pulse{'s' * (per_turn > 1)} per revolution, not near the stated {rpm:g} rpm at any whole "
             "number of pulses per revolution: check the stated speed, or whether the tachometer watches another shaft")

@@ -50,8 +50,8 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
                                                shared_transforms)
-from bearingtwin.signal.speed import (SPEED_OFF, UNSTEADY, near_supply, order_track, series_prominences,
-                                      sharpening, speed_off_words, speed_profile, steady_times, tachometer_profile)
+from bearingtwin.signal.speed import (SPEED_OFF, UNSTEADY, order_track, series_prominences, sharpening,
+                                      speed_off_words, speed_profile, steady_times, tachometer_profile)
 
 CWRU_RATES_HZ = (12000.0, 48000.0)  # the rates the CWRU Bearing Data Center recorded at
 MAX_RESAMPLE_DENOMINATOR = 1000
@@ -340,11 +340,8 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
     speed = {"spread": None if math.isnan(profile.spread) else profile.spread, "tracked": False, "in_doubt": False,
              "segment_s": profile.segment_s, "times_s": profile.times_s.tolist(),
              "rpm": [None if math.isnan(value) else value for value in profile.rpm.tolist()],
-             "read_rpm": None, "source": profile.source or "the shaft's harmonic series", "stated_rpm": recording.rpm}
-    read_rpm = float(np.median(profile.rpm[profile.read])) if profile.readable else None
-    # The supply's lines are no measure of a speed where the shaft's series is read; a tachometer measures the shaft.
-    if read_rpm is not None and (profile.source or not near_supply(read_rpm)):
-        speed["read_rpm"] = read_rpm
+             "read_rpm": profile.read_rpm, "source": profile.source or "the shaft's harmonic series",
+             "stated_rpm": recording.rpm}
     gaps = list(gaps)
     if not profile.unsteady(unsteady):
         return recording, [], speed, gaps

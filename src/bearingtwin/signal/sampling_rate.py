@@ -392,10 +392,9 @@ def check_sampling_rate(
     # series taken for the shaft's may be another one that a rate near true / k puts near the shaft's place (a
     # motor's supply line, a slip above twice the shaft's), the shaft's own series then a slip from observed / k.
     in_between, fundamentals = {}, {}
-    n_steps = int(math.ceil(math.log((1 + slip) / (1 - slip)) / harmonic_tolerance)) + 1
     for k in range(2, max_fraction + 1):
         n = np.array([m for m in range(1, n_harmonics * k) if m % k][: 2 * n_harmonics])
-        trial = observed / k * np.geomspace(1 - slip, 1 + slip, n_steps)
+        trial = observed / k * _within_slip(slip, harmonic_tolerance)
         trial_scores = np.median(_peak(ratio, resolution, np.outer(n, trial), harmonic_tolerance), axis=0)
         # A line's window is wider than the trial step: of the equal best, the fundamental nearest observed / k.
         tied = np.flatnonzero(trial_scores >= trial_scores.max())
@@ -706,6 +705,12 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
     return check
 
 
+def _within_slip(slip: float, window: float) -> np.ndarray:
+    """Factors from 1 - ``slip`` to 1 + ``slip`` in geometric steps of a search ``window`` (relative): the places a
+    series a motor's slip from another may stand at, no line falling between two trials' windows."""
+    return np.geomspace(1 - slip, 1 + slip, int(math.ceil(math.log((1 + slip) / (1 - slip)) / window)) + 1)
+
+
 def _weak_shaft_series(check: ShaftLineCheck, ratio: np.ndarray, resolution: float, at_expected: float,
                        scores: Callable[[np.ndarray], np.ndarray], prominence: float, window: float, slip: float,
                        max_fraction: int) -> ShaftLineCheck:
@@ -720,8 +725,7 @@ def _weak_shaft_series(check: ShaftLineCheck, ratio: np.ndarray, resolution: flo
     first = float(_peak(ratio, resolution, np.array([expected]), window)[0])
     if at_expected < prominence / 2 or first < prominence:
         return check
-    n_steps = int(math.ceil(math.log((1 + slip) / (1 - slip)) / window)) + 1
-    fractions = np.outer(expected / np.arange(2, max_fraction + 1), np.geomspace(1 - slip, 1 + slip, n_steps))
+    fractions = np.outer(expected / np.arange(2, max_fraction + 1), _within_slip(slip, window))
     if np.any(scores(fractions[fractions > 2 * resolution]) >= min(at_expected, prominence)):
         return check
     return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous", witness="weak shaft series",

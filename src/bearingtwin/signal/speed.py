@@ -95,6 +95,16 @@ class SpeedProfile:
         speeds = self.rpm[self.read]
         return float((speeds.max() - speeds.min()) / np.median(speeds))
 
+    @property
+    def read_rpm(self) -> float | None:
+        """The median speed read, rev/min; None where the profile is not :attr:`readable`, or it was read from the
+        shaft's series at a speed the supply's lines could pass for (:func:`near_supply`): a tachometer measures the
+        shaft, the supply's lines are no measure of a speed."""
+        if not self.readable:
+            return None
+        read = float(np.median(self.rpm[self.read]))
+        return read if self.source or not near_supply(read) else None
+
     def unsteady(self, tolerance: float = UNSTEADY) -> bool:
         """Whether the speed read varies by more than ``tolerance`` (relative spread)."""
         return bool(self.spread > tolerance)
@@ -227,9 +237,8 @@ def tachometer_profile(pulses, fs: float, rpm: float, *, segment_s: float = 1.0,
     times = pulse_times(x, fs)
     if times.size < 3:
         return nothing
-    rate = pulse_rate(times)
-    per_turn = max(1, int(round(rate / shaft_hz)))
-    if abs(rate / per_turn / shaft_hz - 1) > search:
+    per_turn = pulses_per_turn(pulse_rate(times), rpm, search)
+    if per_turn is None:
         return nothing
     begin, end = starts / fs, (starts + length) / fs
     spanned = (begin >= times[0]) & (end <= times[-1])
@@ -269,6 +278,14 @@ def pulse_times(pulses, fs: float) -> np.ndarray:
 def pulse_rate(times_s: np.ndarray) -> float:
     """Pulses a second over the span of their times ``times_s`` (:func:`pulse_times`, at least two)."""
     return (times_s.size - 1) / (times_s[-1] - times_s[0])
+
+
+def pulses_per_turn(pulse_hz: float, rpm: float, search: float = SEARCH) -> int | None:
+    """The whole number of pulses a revolution nearest ``pulse_hz`` over the shaft rate ``rpm`` / 60 gives, where the
+    speed it puts the shaft at lies within ``search`` (relative) of ``rpm``; None where none does (a speed stated far
+    off, a tachometer on another shaft)."""
+    per_turn = max(1, int(round(pulse_hz / (rpm / 60.0))))
+    return per_turn if abs(60.0 * pulse_hz / per_turn / rpm - 1.0) <= search else None
 
 
 MAX_PULSES_PER_TURN = 64

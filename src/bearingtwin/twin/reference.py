@@ -83,6 +83,16 @@ def geometry_difference(recorded: Mapping, ours: Mapping) -> str | None:
                 None)
 
 
+def reference_bearing(report: Mapping | None) -> str | None:
+    """The bearing config a report's record was read with, where its name still gives the geometry the report
+    recorded (a report of ``bearing.n_balls=12`` keeps the name of the bearing it changed); None otherwise."""
+    measured = (report or {}).get("measured") or {}
+    name, recorded = measured.get("bearing"), measured.get("geometry")
+    if not name or name not in bearing_choices() or not isinstance(recorded, Mapping):
+        return None
+    return name if geometry_difference(recorded, rig_geometry(load_bearing(name))) is None else None
+
+
 def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str = "a reference") -> None:
     """Refuse a reference whose record's bearing has another geometry than ``bearing_cfg``, naming the field: a name
     says nothing of the geometry (``bearing.name=my6206 bearing.n_balls=12`` keeps the name). A report written
@@ -92,10 +102,8 @@ def require_same_bearing(bearing_cfg, measured: Mapping, source: str, role: str 
         ours = rig_geometry(BearingGeometry.from_config(bearing_cfg))
         name = geometry_difference(recorded, ours)
         if name is not None:
-            named = measured.get("bearing")
-            fits = named and named != bearing_cfg.get("name") and named in bearing_choices() and geometry_difference(
-                recorded, rig_geometry(load_bearing(named))) is None
-            ours_name = bearing_cfg.get("name")
+            named, ours_name = measured.get("bearing"), bearing_cfg.get("name")
+            fits = named != ours_name and reference_bearing({"measured": measured}) is not None
             # Either run may be the one read with the wrong bearing (a baseline left at the default): both ways out.
             hint = (f" (the report's bearing is {named}, this one {ours_name}: give bearing={named} if this record is "
                     f"of it, or make the reference again with bearing={ours_name})" if fits else "")

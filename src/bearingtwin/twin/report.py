@@ -15,13 +15,12 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Mapping
 
-import numpy as np
 from joblib import cpu_count
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
-from bearingtwin.config import (bearing_choices, bearing_config, bearing_overrides, given_on_command_line,
-                                load_bearing, output_folder, unknown_bearing_note)
+from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
+                                unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, read_raw,
                                     recording_from_raw, same_speed, speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
@@ -32,14 +31,14 @@ from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
 from bearingtwin.signal.sampling_rate import require_plausible_rate
-from bearingtwin.signal.speed import near_supply, speed_off_words, speed_profile
+from bearingtwin.signal.speed import speed_off_words, speed_profile
 from bearingtwin.storage import file_digest
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
 from bearingtwin.twin.model import TwinModel, effect_search_space
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit, hardly_identified, view_floors, views_beyond_floor
-from bearingtwin.twin.reference import (geometry_difference, hold_reference, read_reference, refuse_reference_folder,
-                                        rig_geometry)
+from bearingtwin.twin.reference import (geometry_difference, hold_reference, read_reference, reference_bearing,
+                                        refuse_reference_folder, rig_geometry)
 
 if TYPE_CHECKING:
     from mlflow import MlflowClient
@@ -139,11 +138,8 @@ def speed_read_off(measured: Recording) -> str | None:
     or the record is the twin's own (its shaft lines stand at the nominal speed)."""
     if measured.meta.get("fs_origin") == SIMULATED_RATE or measured.meta.get("rpm_origin") == "tachometer":
         return None
-    profile = speed_profile(measured.signal, measured.fs, measured.rpm)
-    if not profile.readable:
-        return None
-    read = float(np.median(profile.rpm[profile.read]))
-    if near_supply(read):  # the supply's lines are no measure of a speed
+    read = speed_profile(measured.signal, measured.fs, measured.rpm).read_rpm
+    if read is None:
         return None
     key = "the file's rpm" if measured.meta.get("rpm_origin") == "file" else "measured.rpm"  # a file's is not overridden
     return speed_off_words(read, measured.rpm, "the shaft's harmonic series", key)
@@ -163,16 +159,6 @@ def bearing_chosen(cfg: DictConfig) -> bool:
     ``paper`` counts as the default there.
     """
     return cfg.bearing.get("name") != DEFAULT_BEARING or bool(given_on_command_line("bearing"))
-
-
-def reference_bearing(reference: Mapping | None) -> str | None:
-    """The bearing config a reference's record was read with, where its name still gives the geometry the report
-    recorded (a report of ``bearing.n_balls=12`` keeps the name of the bearing it changed); None otherwise."""
-    measured = (reference or {}).get("measured") or {}
-    name, recorded = measured.get("bearing"), measured.get("geometry")
-    if not name or name not in bearing_choices() or not isinstance(recorded, Mapping):
-        return None
-    return name if geometry_difference(recorded, rig_geometry(load_bearing(name))) is None else None
 
 
 def record_bearing(cfg: DictConfig, measured: Recording, reference: str | None = None) -> tuple[DictConfig, str | None]:
