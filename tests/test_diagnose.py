@@ -36,6 +36,7 @@ from bearingtwin.features.time_domain import FEATURE_NAMES
 from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 from bearingtwin.models.svm import SvmClassifier
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
+from bearingtwin.signal.sampling_rate import check_channels
 
 CWRU = data_root() / "cwru"
 needs_cwru = pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
@@ -688,7 +689,8 @@ def test_samples_with_no_value_are_bridged_for_the_record_and_their_windows_left
     pipeline = envelope_pipeline()
     prepared = read_record(path, pipeline)
     assert (f"{np.isnan(x).sum()} samples hold no value (NaN or infinite) in 3 stretches from 1 s to 3.31 s: bridged "
-            "for the readings of the whole record, no window touching one diagnosed") in prepared.notes
+            "for the readings of the whole record (the sampling rate checked on the longest stretch without one), no "
+            "window touching one diagnosed") in prepared.notes
     assert np.isfinite(prepared.recording.signal).all() and len(prepared.gaps_s) == 3
     model = SimpleNamespace(predict=lambda windows, params: predictions_frame(pipeline, windows, params["rpm"]))
     result, evidence = diagnose_recording(prepared, model, pipeline, "models:/unused", {})
@@ -711,6 +713,37 @@ def test_samples_with_no_value_are_bridged_for_the_record_and_their_windows_left
     np.savez(path, signal=x, fs=fs, rpm=RPM, unit="g")
     with pytest.raises(BearingTwinError, match="logger.npz: every window of the model's .* touches a stretch with no value"):
         diagnose_recording(read_record(path, pipeline), model, pipeline, "models:/unused", {})
+
+
+@pytest.mark.skipif(not (CWRU / "12k_Drive_End_OR007@6_1_131.mat").exists(), reason="CWRU record 131 not present")
+@pytest.mark.parametrize("gap", [(60000, 10), (60000, 500)])
+def test_a_gap_in_a_real_record_leaves_its_sampling_rate_confirmed(tmp_path, gap):
+    """Ten lost samples in the middle of CWRU record 131 (10 s): any value in their place is a click whose flat
+    spectrum fills the quiet band where the shaft's lines stand, and the rate check, reading the whole bridged record,
+    had called 12 kHz contradicted (fs = 3005 Hz; with 500 samples lost, 6687 Hz). The check reads the longest stretch
+    without a gap, and confirms the rate as it does on the whole record; the note says which stretch it read and where
+    the gap is, as one stretch."""
+    import scipy.io
+
+    variables = scipy.io.loadmat(CWRU / "12k_Drive_End_OR007@6_1_131.mat")
+    x = variables["X131_DE_time"].ravel().copy()
+    rpm = float(variables["X131RPM"].ravel()[0])
+    start, length = gap
+    x[start:start + length] = np.nan
+    path = tmp_path / "logger.npz"
+    np.savez(path, signal=x, fs=12000.0, rpm=rpm, unit="g")
+    prepared = read_record(path, envelope_pipeline(), bearing="cwru_6205")
+    assert prepared.rate_check == "consistent", prepared.notes
+    assert not any("contradicts" in note or "disagree" in note for note in prepared.notes), prepared.notes
+    assert any(note.startswith(f"{length} samples hold no value (NaN or infinite) in one stretch at "
+                               f"{start / 12000:.4g} s:") for note in prepared.notes), prepared.notes
+    # The check itself: a channel with no value somewhere is read on its longest stretch of values, not refused.
+    bridged_line = x.copy()
+    bridged_line[start:start + length] = np.linspace(x[start - 1], x[start + length], length + 2)[1:-1]
+    assert check_channels({"DE": bridged_line}, 12000.0, rpm)["DE"].verdict == "contradicted"  # what the bridge did
+    assert check_channels({"DE": x}, 12000.0, rpm)["DE"].verdict == "consistent"
+    with pytest.raises(BearingTwinError, match="needs a channel with finite samples"):
+        check_channels({"DE": np.full(1000, np.nan)}, 12000.0, rpm)
 
 
 def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_path):

@@ -118,7 +118,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     notes += bearing_note
     given_as = None if fs is None else fs_key  # the setting a rate was given as, None where the file's is read
     _refuse_a_rate_too_low(recording, record_bearing, pipeline, given_as)
-    recording, speed_notes, rate_check, speed, gaps = _speed_and_rate(recording, raw, record_bearing, gaps,
+    recording, speed_notes, rate_check, speed, gaps = _speed_and_rate(recording, raw, record_bearing, gaps_by_channel,
                                                                       order_tracking, given_as)
     notes += speed_notes
     true_state, truth_notes = _true_state(path, raw, recording, true_state, pipeline)
@@ -180,14 +180,17 @@ def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: Diagno
     raise BearingTwinError(f"{recording.source}: {stated} is too low to diagnose: {why}{speed}{in_khz}")
 
 
-def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, gaps: list[tuple[int, int]],
-                    order_tracking: tuple[bool, float], given_as: str | None
-                    ) -> tuple[Recording, list[str], str, dict | None, list[tuple[int, int]]]:
+def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict,
+                    gaps_by_channel: dict[str, list[tuple[int, int]]], order_tracking: tuple[bool, float],
+                    given_as: str | None) -> tuple[Recording, list[str], str, dict | None, list[tuple[int, int]]]:
     """A measured record steadied where its shaft speed varies (:func:`steadied`), its rate checked against the shaft
     line (:func:`_checked_rate`; ``given_as``: the setting a rate was given as, None where none was, so that one the
     file merely declares may be corrected): the record, the notes, the rate check's verdict, the speed as read (None
-    where none was known or the record is the twin's) and the ``gaps`` (``(start, length)`` samples) where steadying
-    moved them. A record without a speed, or a simulation, is said to be read without the check."""
+    where none was known or the record is the twin's) and the record's gaps (``(start, length)`` samples; each
+    channel's in ``gaps_by_channel``, as :func:`bridged` found them) where steadying moved them. The check reads no
+    bridged gap (:func:`gaps_unread`). A record without a speed, or a simulation, is said to be read without the
+    check."""
+    gaps = gaps_by_channel.get(recording.channel, [])
     notes, rate_check, speed = [], "not checked", None
     if recording.rpm is None and recording.meta.get("no_speed"):
         notes.append(f"the file is {recording.meta['no_speed']}: no physics evidence and no rate check")
@@ -210,10 +213,11 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict, 
         # rate is checked against the stated speed: a tracked record's mean speed was read from the series the check
         # reads, and would confirm any rate near the right one.
         read_at, steady_rpm = recording.fs, recording.rpm
+        witnesses = ({recording.channel: gaps_unread(recording.signal, gaps)} if speed["tracked"] else
+                     {name: gaps_unread(values, gaps_by_channel.get(name, []))
+                      for name, values in raw.vibration_channels.items()})
         recording, rate_notes, rate_check = _checked_rate(dataclasses.replace(recording, rpm=speed["stated_rpm"]),
-                                                          record_bearing,
-                                                          channels={} if speed["tracked"] else raw.vibration_channels,
-                                                          given_as=given_as)
+                                                          record_bearing, channels=witnesses, given_as=given_as)
         recording = dataclasses.replace(recording, rpm=steady_rpm)
         notes += rate_notes
         if recording.fs != read_at:  # the check found the file's rate (a CWRU record at 48 kHz): its times are shorter
@@ -282,6 +286,18 @@ def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]
     return dataclasses.replace(raw, channels=channels), gaps
 
 
+def gaps_unread(values: np.ndarray, gaps: list[tuple[int, int]]) -> np.ndarray:
+    """``values`` with its ``gaps`` (``(start, length)`` samples, :func:`bridged`'s) NaN again, for the sampling-rate
+    check, which reads a channel's longest stretch of finite samples: a bridge's click buries a shaft's lines
+    (:func:`~bearingtwin.signal.sampling_rate.longest_finite_stretch`); ``values`` itself where it has none."""
+    if not gaps:
+        return values
+    marked = np.asarray(values, dtype=np.float64).copy()
+    for start, length in gaps:
+        marked[max(start, 0):start + length] = np.nan
+    return marked
+
+
 def _tachometer(raw: RawRecord, recording: Recording) -> tuple[str, np.ndarray] | None:
     """The file's first two-level channel as long as the record (a tachometer's pulses), its name and samples; None
     where the file holds none, or the record is that channel."""
@@ -290,14 +306,17 @@ def _tachometer(raw: RawRecord, recording: Recording) -> tuple[str, np.ndarray] 
 
 
 def gaps_note(recording: Recording, gaps: list[tuple[int, int]]) -> str:
-    """"120 samples hold no value (NaN) in 3 stretches from 1 s to 4.01 s: bridged for the readings of the whole
-    record, no window touching one diagnosed"."""
+    """"120 samples hold no value (NaN or infinite) in 3 stretches from 1 s to 4.01 s: bridged for the readings of the
+    whole record (the sampling rate checked on the longest stretch without one), no window touching one diagnosed"."""
     missing = sum(length for _, length in gaps)
-    stretches = f"{len(gaps)} stretches" if len(gaps) > 1 else "one stretch"
-    end = gaps[-1][0] + gaps[-1][1]
-    return (f"{missing} sample{'s' * (missing > 1)} hold no value (NaN or infinite) in {stretches} from "
-            f"{gaps[0][0] / recording.fs:.3g} s to {end / recording.fs:.3g} s: bridged for the readings of the whole "
-            "record, no window touching one diagnosed")
+    if len(gaps) > 1:
+        where = (f"in {len(gaps)} stretches from {gaps[0][0] / recording.fs:.4g} s to "
+                 f"{(gaps[-1][0] + gaps[-1][1]) / recording.fs:.4g} s")
+    else:
+        where = f"in one stretch at {gaps[0][0] / recording.fs:.4g} s"
+    return (f"{missing} sample{'s' * (missing > 1)} hold{'s' * (missing == 1)} no value (NaN or infinite) {where}: "
+            "bridged for the readings of the whole record (the sampling rate checked on the longest stretch without "
+            "one), no window touching one diagnosed")
 
 
 def speed_off_note(speed: dict, rpm: float) -> str | None:
