@@ -1677,6 +1677,48 @@ def test_the_model_of_a_run_that_did_not_finish_is_refused_saying_so(tmp_path):
         load_diagnosis_model(f"runs:/{running}/model", uri)
 
 
+def test_a_model_that_cannot_be_loaded_is_refused_naming_what_the_store_holds(tmp_path):
+    """MLflow's reasons alone ("Registered Model with name=nosuch not found", "Logged model with ID 'diag' not found"
+    for a name without a version, 18 artifact schemes listed for a typo) did not say what to give instead: the
+    refusal names the registered models, a model's versions and aliases, what a run of the project's that holds no
+    model is, and the forms a model URI takes."""
+    from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    client = MlflowClient(uri, registry_uri=uri)
+    experiment = client.create_experiment("bearingtwin")
+    with pytest.raises(BearingTwinError, match=r"^model=models:/nosuch/1: cannot load it from .*; no model is "
+                                               r"registered there$"):
+        load_diagnosis_model("models:/nosuch/1", uri)
+    for name in ("diag", "other"):
+        client.create_registered_model(name)
+    for _ in range(2):
+        run_id = client.create_run(experiment).info.run_id
+        client.create_model_version("diag", f"runs:/{run_id}/model", run_id)
+    client.set_registered_model_alias("diag", "champion", "2")
+    with pytest.raises(BearingTwinError, match=r"^model=models:/nosuch/1: cannot load it .*; registered there: diag, "
+                                               r"other$"):
+        load_diagnosis_model("models:/nosuch/1", uri)
+    with pytest.raises(BearingTwinError, match=r"^model=models:/diag@prod: cannot load it .*\(Registered model alias "
+                                               r"prod not found\); diag's versions: 1, 2, its aliases: @champion "
+                                               r"\(version 2\)$"):
+        load_diagnosis_model("models:/diag@prod", uri)
+    with pytest.raises(BearingTwinError, match=r"^model=models:/diag: gives no version or alias; diag's versions: 1, 2, "
+                                               r"its aliases: @champion \(version 2\) \(give one: models:/diag/<version> "
+                                               r"or models:/diag@<alias>\)$"):
+        load_diagnosis_model("models:/diag", uri)
+    for typo in ("modles:/diag/1", "run:/abc/model"):
+        with pytest.raises(BearingTwinError, match=rf"^model={typo}: {typo.split(':')[0]}:/ is no model URI here; give "
+                                                   r"runs:/<run id>/model, models:/<name>/<version> or "
+                                                   r"models:/<name>@<alias>, or a model's folder$"):
+            load_diagnosis_model(typo, uri)
+    sweep = client.create_run(experiment, tags={"bt.kind": "sweep"}).info.run_id
+    client.set_terminated(sweep, "FAILED")  # a sweep one of whose jobs failed: no model was ever meant to be there
+    with pytest.raises(BearingTwinError, match=rf"; run {sweep} is a sweep's parent run, which holds no model: its "
+                                               r"jobs' runs do$"):
+        load_diagnosis_model(f"runs:/{sweep}/model", uri)
+
+
 def test_a_bearing_of_the_users_own_outside_the_checkout_is_found_through_hydras_search_path(registered, tmp_path):
     base, uri = registered
     (tmp_path / "conf" / "bearing").mkdir(parents=True)

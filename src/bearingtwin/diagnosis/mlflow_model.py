@@ -23,6 +23,7 @@ from __future__ import annotations
 import atexit
 import functools
 import math
+import re
 import shutil
 import sys
 import tempfile
@@ -270,9 +271,53 @@ def _version_named(model_uri: str, tracking_uri: str) -> str:
     return f"models:/{name}/{version.version}"
 
 
+MODEL_URI_FORMS = "runs:/<run id>/model, models:/<name>/<version> or models:/<name>@<alias>"
+"""What ``model=`` takes from a store, as an error names it (a model's folder on disk too)."""
+WHAT_A_RUN_HOLDS = {"sweep": "a sweep's parent run, which holds no model: its jobs' runs do",
+                    "diagnose": "a diagnosis run, which holds verdicts, not a model",
+                    "twin": "a bearingtwin-twin run, which holds a twin report, not a model",
+                    "report": "a bearingtwin-report run, which holds a results table, not a model"}
+"""The runs of the project's own that log no model (tag ``bt.kind``), in words."""
+MOST_NAMED = 10
+"""At most this many registered models or versions are named in an error (the newest first)."""
+
+
+def _registry_words(model_uri: str, tracking_uri: str) -> str:
+    """For a ``models:/`` URI that cannot be loaded, what the registry holds under its name (or at all), so that the
+    one meant can be given: its versions and aliases, or the registered models' names; "" for another URI."""
+    if not model_uri.startswith("models:/"):
+        return ""
+    from mlflow import MlflowClient
+    from mlflow.exceptions import MlflowException
+
+    client = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri)
+    name = re.split(r"[/@]", model_uri.removeprefix("models:/"), maxsplit=1)[0]
+    try:
+        model = client.get_registered_model(name)
+    except MlflowException:  # no model of that name: the names there are
+        try:
+            names = [model.name for model in client.search_registered_models(max_results=MOST_NAMED + 1)]
+        except MlflowException:
+            return ""
+        listed = ", ".join(names[:MOST_NAMED]) + (", ..." if len(names) > MOST_NAMED else "")
+        return f"; registered there: {listed}" if names else "; no model is registered there"
+    try:
+        versions = sorted(int(v.version) for v in client.search_model_versions(f"name = '{name}'"))
+    except MlflowException:
+        versions = []
+    aliases = ", ".join(f"@{alias} (version {version})" for alias, version in sorted(model.aliases.items()))
+    newest = [str(v) for v in versions[-MOST_NAMED:]]
+    words = f"; {name}'s versions: {', '.join(newest)}" if versions else f"; {name} has no version"
+    words += f", its aliases: {aliases}" if aliases else ", no alias"
+    if "/" not in model_uri.removeprefix(f"models:/{name}") and "@" not in model_uri.removeprefix(f"models:/{name}"):
+        words += f" (give one: models:/{name}/<version> or models:/{name}@<alias>)"
+    return words
+
+
 def _unfinished_run_words(model_uri: str, tracking_uri: str) -> str:
-    """For a ``runs:/<id>/...`` model that cannot be loaded, the words saying that its run did not finish (a run
-    stopped while it logged its model leaves the model part-written), else ""."""
+    """For a ``runs:/<id>/...`` model that cannot be loaded, the words saying that its run holds no model (a sweep's
+    parent, a diagnosis) or did not finish (a run stopped while it logged its model leaves the model part-written),
+    else ""."""
     if not model_uri.startswith("runs:/"):
         return ""
     from mlflow import MlflowClient
@@ -280,9 +325,12 @@ def _unfinished_run_words(model_uri: str, tracking_uri: str) -> str:
 
     run_id = model_uri.removeprefix("runs:/").split("/", 1)[0]
     try:
-        status = MlflowClient(tracking_uri=tracking_uri).get_run(run_id).info.status
+        run = MlflowClient(tracking_uri=tracking_uri).get_run(run_id)
     except MlflowException:  # no such run: MLflow's own reason says so
         return ""
+    status, kind = run.info.status, run.data.tags.get("bt.kind")
+    if kind in WHAT_A_RUN_HOLDS:
+        return f"; run {run_id} is {WHAT_A_RUN_HOLDS[kind]}"
     if status == "FINISHED":
         return ""
     if status in ("FAILED", "KILLED"):
@@ -311,6 +359,8 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
     check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
     mlflow.set_tracking_uri(tracking_uri)
     mlflow.set_registry_uri(tracking_uri)
+    if model_uri.startswith("models:/") and not re.search(r"[/@]", model_uri.removeprefix("models:/")):
+        raise BearingTwinError(f"model={model_uri}: gives no version or alias{_registry_words(model_uri, tracking_uri)}")
     try:
         version_uri = _version_named(model_uri, tracking_uri)
         # Into a folder of this process's own: from a local store MLflow would load a models:/ URI in place and write
@@ -318,8 +368,13 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
         # store may be read-only to its users).
         model = mlflow.pyfunc.load_model(version_uri, dst_path=_download_folder())
     except (MlflowException, OSError) as error:
+        scheme = re.match(r"([A-Za-z][\w+.-]*):/", model_uri)
+        if scheme and scheme[1] not in ("runs", "models") and not Path(model_uri).exists():  # modles:/, run:/
+            raise BearingTwinError(f"model={model_uri}: {scheme[1]}:/ is no model URI here; give {MODEL_URI_FORMS}, "
+                                   "or a model's folder") from None
         raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})"
-                               f"{_unfinished_run_words(model_uri, tracking_uri)}") from None
+                               f"{_unfinished_run_words(model_uri, tracking_uri)}"
+                               f"{_registry_words(model_uri, tracking_uri)}") from None
     python_model = model.unwrap_python_model()
     if not isinstance(python_model, DiagnosisModel):
         raise BearingTwinError(f"model={model_uri}: not a bearingtwin diagnosis model ({type(python_model).__name__})")
