@@ -79,6 +79,9 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("twin", ["measured.path=x.npy", "bearing=6205"], ["bearing=6205: a config group takes the name of one of its "
                                                        "options (cwru_6203, cwru_6205, er16k, paper): bearing=cwru_6205?"]),
     ("diagnose", ["path=x.npy", "model=runs:/x/model", "bearing=6205.0"], ["bearing=6205.0: a config group takes"]),
+    # A unit or scale for every file, refused once before any is read (each file had failed alike, a run open).
+    ("diagnose", ["path=x.npy", "model=x", "unit=furlongs"], ["unit='furlongs' is no unit known here"]),
+    ("diagnose", ["path=x.npy", "model=x", "scale=10"], ["scale=10 needs unit=<unit>"]),
     # A group given a map of settings: it had read as a setting only some other option has.
     ("train", ["classifier={name: svm, C: 2}"], ["a config group takes the name of one of its options",
                                                   "classifier=<option> classifier.<key>=<value>"]),

@@ -123,7 +123,9 @@ def test_a_record_in_g_is_read_by_a_model_trained_in_m_s2_as_the_same_vibration_
         assert (converted.unit, check) == ((unit, "as stated") if factor == 1.0 else ("m/s^2", "converted"))
     with pytest.raises(BearingTwinError, match=r"^rig/a.npz: the record is in V, the model was trained on windows in "
                                                r"m/s\^2 and reads their level, and V \(a voltage\) is not converted "
-                                               r"into m/s\^2 here: divide it by the sensor's sensitivity"):
+                                               r"into m/s\^2 here: give scale=<1 / the sensor's sensitivity> "
+                                               r"unit=<its acceleration unit> \(a 100 mV/g sensor's volts: scale=10 "
+                                               r"unit=g"):
         in_model_unit(Recording(signal, FS, unit="V", source="rig/a.npz"), pipeline)
     with pytest.raises(BearingTwinError, match=r"^rig/v.csv: the record is in mm/s, .* mm/s \(a velocity\) is not "
                                                r"converted into m/s\^2 here: a velocity is an integrated acceleration"):
@@ -529,6 +531,36 @@ def test_a_unit_given_fills_in_for_a_file_that_states_none_and_is_refused_agains
     assert read_record(tmp_path / "stated.npz", pipeline, rpm=RPM, unit="m/s2").unit_check == "as stated"
     with pytest.raises(BearingTwinError, match=r"^unit='furlongs' is no unit known here; give one such as g"):
         read_record(path, pipeline, rpm=RPM, unit="furlongs")
+
+
+def test_a_scale_reads_a_loggers_volts_or_full_scale_fractions_in_the_unit_given(tmp_path):
+    """An int16 WAV of a 100 mV/g accelerometer on a +-5 V logger holds 1 g as 0.02 of full scale: read as if in the
+    model's g, 50 times too weak (within the level check's decade), and volts were refused with no setting to read them
+    by. scale= multiplies the samples, unit= naming the unit they are then in; the file's own unit is what it converts
+    from, and a scale without a unit, or not a positive number, is refused naming the setting."""
+    import scipy.io.wavfile
+
+    from bearingtwin.features.extractor import RawFeatures
+
+    X, y = class_windows(n_per_class=4)
+    pipeline = DiagnosisPipeline(RawFeatures().fit(X), SvmClassifier().fit(X, y), 2048, FS, unit="g")  # reads levels
+    in_g = fault_signal(None, seconds=2)
+    path = tmp_path / "logger.wav"
+    scipy.io.wavfile.write(path, int(FS), np.round(in_g * 0.02 * 32767).astype(np.int16))
+    prepared = read_record(path, pipeline, rpm=RPM, unit="g", scale=50)
+    assert prepared.unit_check == "as stated" and prepared.recording.unit == "g"
+    np.testing.assert_allclose(prepared.recording.signal, in_g, atol=50 / 32767)
+    assert "samples x 50 read in g (scale=50 unit=g)" in prepared.notes
+    np.savez(tmp_path / "volts.npz", signal=in_g * 0.1, fs=FS, unit="V")  # 100 mV/g
+    volts = read_record(tmp_path / "volts.npz", pipeline, rpm=RPM, unit="g", scale=10)
+    np.testing.assert_allclose(volts.recording.signal, in_g, rtol=1e-12)
+    assert "samples x 10 read in g (scale=10 unit=g; the file states V)" in volts.notes
+    with pytest.raises(BearingTwinError, match=r"^scale=10 needs unit=<unit>: the unit the samples are in once "
+                                               r"multiplied by 10"):
+        read_record(tmp_path / "volts.npz", pipeline, rpm=RPM, scale=10)
+    with pytest.raises(BearingTwinError, match=r"^scale=-1 must be a positive number of the unit given per unit of the file's "
+                                               r"samples"):
+        read_record(path, pipeline, rpm=RPM, unit="g", scale=-1)
 
 
 def test_a_record_stamped_in_seconds_under_a_header_of_milliseconds_names_the_rate_its_stamps_gave(tmp_path):

@@ -115,7 +115,8 @@ def test_generic_mat_and_wav(tmp_path, signal):
     # reads as if in the model's, as any record stating none), not one the reader knows to be unknown
     np.testing.assert_array_equal(load_recording(wav, channel="1").signal, -pcm / 32768.0)
     assert raw.meta["notes"] == ["integer samples (int16, as scipy reads them) scaled to the recorder's full scale (1.0), "
-                                 "which states no physical unit"] and raw.unit == ""
+                                 "which states no physical unit: a scale and a unit given read it in one (scale=50 "
+                                 "unit=g where full scale is 50 g)"] and raw.unit == ""
     unsigned = tmp_path / "u8.wav"
     scipy.io.wavfile.write(unsigned, int(FS), np.array([128, 255, 0, 192], dtype=np.uint8))
     np.testing.assert_array_equal(read_raw(unsigned).channels["0"], [0.0, 127 / 128, -1.0, 0.5])

@@ -615,6 +615,13 @@ def test_a_unit_given_for_a_measurement_that_states_none_is_read_and_a_velocity_
     np.savez(tmp_path / "stated.npz", signal=np.load(measurement), fs=12000.0, unit="m/s^2")
     with pytest.raises(BearingTwinError, match=r"stated.npz: measured.unit=g contradicts the file's unit, m/s\^2$"):
         read_measurement(measured(tmp_path / "stated.npz", "g"))
+    # A logger's volts, read through the sensor's sensitivity (scale: g per V).
+    np.savez(tmp_path / "volts.npz", signal=0.1 * np.load(measurement), fs=12000.0, unit="V")
+    volts = OmegaConf.merge(measured(tmp_path / "volts.npz", "g"), {"scale": 10})
+    recording = read_measurement(volts)[0]
+    assert recording.unit == "g" and "samples x 10 read in g (measured.scale=10 measured.unit=g; the file states V)" in \
+        recording.meta["notes"]
+    np.testing.assert_allclose(recording.signal, np.load(measurement), rtol=1e-12)
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")

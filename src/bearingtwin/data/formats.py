@@ -251,9 +251,12 @@ def recording_from_raw(
     fault_key: str = "fault",
     unit: str | None = None,
     unit_key: str = "unit",
+    scale: float | None = None,
+    scale_key: str = "scale",
 ) -> Recording:
     """The validated Recording of one channel of an already read file (see :func:`load_recording`); ``unit`` (setting
-    ``unit_key``) is the samples' unit where the file states none (:func:`resolve_unit`)."""
+    ``unit_key``) is the samples' unit where the file states none (:func:`resolve_unit`), or, with ``scale`` (setting
+    ``scale_key``), the unit the samples are in once multiplied by it (:func:`scaled`)."""
     # A rate the file records stays the file's when the user repeats it (resolve_fs refuses any other);
     # a given rate replaces a merely declared one, or fills in a missing one.
     factor = restamped(raw, fs)
@@ -286,6 +289,10 @@ def recording_from_raw(
             unread["speed_unread"] = said
     elif tachometer is not None:
         notes += filter(None, [pulses_off_note(tachometer, raw.channels[tachometer], fs, rpm)])
+    if scale is None:
+        unit = resolve_unit(raw, name, unit, unit_key)
+    else:
+        signal, unit = scaled(raw, name, signal, scale, unit, scale_key, unit_key, notes)
     return Recording(
         signal=signal,
         fs=fs,
@@ -293,9 +300,18 @@ def recording_from_raw(
         fault=resolve_fact(raw, "fault", raw.fault, fault, fault_key),
         source=raw.path,
         channel=name,
-        unit=resolve_unit(raw, name, unit, unit_key),
+        unit=unit,
         meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes, **unread),
     )
+
+
+def known_unit(unit, key: str) -> str:
+    """``unit`` (setting ``key``) as given, where it is a unit known here (:func:`~bearingtwin.data.units.quantity_of`)."""
+    unit = str(unit).strip()
+    if quantity_of(unit) is None:
+        raise BearingTwinError(f"{key}={unit!r} is no unit known here; give one such as g, mg, m/s^2, mm/s^2 (an "
+                               "acceleration), V, mm/s or um")
+    return unit
 
 
 def resolve_unit(raw: RawRecord, channel: str, unit: str | None, key: str = "unit") -> str:
@@ -305,13 +321,27 @@ def resolve_unit(raw: RawRecord, channel: str, unit: str | None, key: str = "uni
     stated = raw.channel_units.get(channel, raw.unit)
     if unit is None or not str(unit).strip():
         return stated
-    unit = str(unit).strip()
-    if quantity_of(unit) is None:
-        raise BearingTwinError(f"{key}={unit!r} is no unit known here; give one such as g, mg, m/s^2, mm/s^2 (an "
-                               "acceleration), V, mm/s or um")
+    unit = known_unit(unit, key)
     if stated and not same_unit(stated, unit):
         raise BearingTwinError(f"{raw.path}: {key}={unit} contradicts the file's unit, {stated}")
     return stated or unit
+
+
+def scaled(raw: RawRecord, channel: str, signal: np.ndarray, scale, unit: str | None, scale_key: str, unit_key: str,
+           notes: list[str]) -> tuple[np.ndarray, str]:
+    """``channel``'s samples multiplied by ``scale`` (setting ``scale_key``), and ``unit`` (setting ``unit_key``), the
+    unit they are in then: a logger's WAV of full-scale fractions (``scale=50 unit=g`` where its +-5 V hold +-50 g of a
+    100 mV/g accelerometer), or volts read through the sensor's sensitivity (``scale=10 unit=g`` for 100 mV/g). The file's
+    own unit, if it states one, is what the scale converts from, so it is no contradiction: said in ``notes``."""
+    scale = positive_number(scale, scale_key, "the unit given per unit of the file's samples")
+    if unit is None or not str(unit).strip():
+        raise BearingTwinError(f"{scale_key}={scale:g} needs {unit_key}=<unit>: the unit the samples are in once "
+                               f"multiplied by {scale:g} (g for a sensitivity in V per g)")
+    unit = known_unit(unit, unit_key)
+    stated = raw.channel_units.get(channel, raw.unit)
+    notes.append(f"samples x {scale:g} read in {unit} ({scale_key}={scale:g} {unit_key}={unit}"
+                 f"{f'; the file states {stated}' if stated else ''})")
+    return np.asarray(signal, dtype=np.float64) * scale, unit
 
 
 def tachometer_channel(raw: RawRecord, channel: str) -> str | None:
@@ -887,7 +917,8 @@ def _read_wav(path: Path) -> RawRecord:
         offset = 2.0 ** (bits - 1) if np.issubdtype(data.dtype, np.unsignedinteger) else 0.0
         full_scale = 2.0 ** (bits - 1)
         notes.append(f"integer samples ({stored}, as scipy reads them) scaled to the recorder's full scale "
-                     "(1.0), which states no physical unit")
+                     "(1.0), which states no physical unit: a scale and a unit given read it in one (scale=50 unit=g "
+                     "where full scale is 50 g)")
     # One channel at a time, in place: a long recording of many channels is held once as float64 beside its counts,
     # not as several whole copies (a 400 MB file of 16-bit counts took 3.2 GB).
     channels = {}

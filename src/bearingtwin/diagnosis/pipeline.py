@@ -382,8 +382,8 @@ model's own, converted to it, assumed to be it (the file states none), not check
 (no unit's scale matters to the model: :attr:`DiagnosisPipeline.scale_free`)."""
 
 _CONVERSION_NEEDS = {
-    "a voltage": "divide it by the sensor's sensitivity (V per g, from its data sheet or calibration) and state the "
-                 "unit that gives (an .npz's 'unit' entry, a CSV header such as 'acc (g)')",
+    "a voltage": "give scale=<1 / the sensor's sensitivity> unit=<its acceleration unit> (a 100 mV/g sensor's volts: "
+                 "scale=10 unit=g; its data sheet or calibration gives the sensitivity)",
     "a velocity": "a velocity is an integrated acceleration, so diagnose the accelerometer's own record, in an "
                   "acceleration unit",
     "a displacement": "a displacement is an acceleration integrated twice, so diagnose the accelerometer's own "

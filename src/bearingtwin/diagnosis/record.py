@@ -89,12 +89,13 @@ NOISE_FREE_SIMULATION = ("a record bearingtwin-simulate made without a noise eff
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
                 true_state: str | None = None, bearing: str | None = None, fs_key: str = "fs",
                 rpm_key: str = "rpm", order_tracking: tuple[bool, float] = (True, UNSTEADY),
-                unit: str | None = None) -> PreparedRecord:
+                unit: str | None = None, scale: float | None = None) -> PreparedRecord:
     """Read one file, check it against the model and bring it to the model's sampling rate.
 
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs``, ``rpm`` and ``unit`` fill in what the
     file does not state and must agree with what it does (``fs_key`` and ``rpm_key`` name where they
-    came from in a message); ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
+    came from in a message), ``unit`` naming the unit of the samples multiplied by ``scale`` where one is given
+    (:func:`~bearingtwin.data.formats.scaled`); ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
     own (:func:`~bearingtwin.data.formats.file_bearing`: a CWRU or HUST file names it) or else the model's when
     not given. A measured record whose shaft speed varies is resampled to a steady one (:func:`steadied`;
     ``order_tracking``: whether to, and the spread of the speed above which), before its rate is checked against the
@@ -103,7 +104,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     raw = read_raw(path)
     channel, channel_note = _channel(raw, channel, pipeline)
     raw, gaps_by_channel = bridged(raw)
-    recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key, unit=unit)
+    recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key, unit=unit, scale=scale)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     gaps = file_gaps = gaps_by_channel.get(recording.channel, [])  # the file's positions, before tracking moves them
     notes = list(recording.meta["notes"]) + channel_note + recording.quality_notes()

@@ -37,7 +37,7 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.cwru import parse_cwru_name
-from bearingtwin.data.formats import FORMATS
+from bearingtwin.data.formats import FORMATS, known_unit
 from bearingtwin.data.labels import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
                                      read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings
@@ -194,9 +194,14 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     order_tracking = (true_or_false(cfg.order_tracking.enabled, "order_tracking.enabled"),
                       _unsteady(cfg.order_tracking.unsteady))
     bearing = chosen_bearing(cfg)
-    for name, unit in (("rpm", "rev/min"), ("fs", "Hz")):  # once, before any file: it applies to every one
-        if cfg[name] is not None:
+    for name, unit in (("rpm", "rev/min"), ("fs", "Hz"), ("scale", "the unit given per unit of the file's samples")):
+        if cfg.get(name) is not None:  # once, before any file: it applies to every one
             positive_number(cfg[name], name, unit)
+    if cfg.get("unit") is not None:
+        known_unit(cfg.unit, "unit")
+    if cfg.get("scale") is not None and cfg.get("unit") is None:
+        raise BearingTwinError(f"scale={cfg.scale} needs unit=<unit>: the unit the samples are in once multiplied by "
+                               "it (g for a sensitivity in V per g)")
     records = find_records(str(cfg.path), given_labels(cfg))  # first: an empty path= would have ./labels.csv read
     table = labels_path(cfg, records)
     labels, bad_rows = read_labels(table, state_required=False)  # a fleet's states are what is asked
@@ -383,6 +388,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             rpm, rpm_from_row = _fact(cfg.rpm, row_rpm, command_first=single)
             its_row = f"{table if table else 'labels'} (its row for {path.name}): "
             prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing, unit=cfg.get("unit"),
+                                   scale=cfg.get("scale"),
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
                                    rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=order_tracking)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
@@ -604,7 +610,7 @@ def open_diagnosis_run(cfg: DictConfig, labels: Path | None, bearing: str | None
                             {"bt.kind": "diagnose", "model_uri": str(cfg.model),
                              "model_version_uri": pinned_uri}).info.run_id
     params = {"model": cfg.model, "path": cfg.path, "labels": labels, "channel": cfg.channel, "fs": cfg.fs, "rpm": cfg.rpm,
-              "unit": cfg.get("unit"), "bearing": bearing}
+              "unit": cfg.get("unit"), "scale": cfg.get("scale"), "bearing": bearing}
     client.log_batch(run_id, params=[Param(key, str(value)[:6000]) for key, value in params.items()])
     return client, run_id
 

@@ -93,7 +93,8 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
                                f"(or {table})")
     recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=fs, rpm=rpm, fault=fault,
                                    channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
-                                   fault_key="measured.fault", unit=measured_cfg.get("unit"), unit_key="measured.unit")
+                                   fault_key="measured.fault", unit=measured_cfg.get("unit"), unit_key="measured.unit",
+                                   scale=measured_cfg.get("scale"), scale_key="measured.scale")
     if recording.rpm is None:  # its tachometer gave none
         why = f" ({recording.meta['speed_unread']})" if recording.meta.get("speed_unread") else ""
         raise BearingTwinError(f"{path}: the file does not state its speed{why}; give measured.rpm=<rev/min>"
