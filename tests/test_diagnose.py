@@ -741,9 +741,15 @@ def test_samples_with_no_value_are_bridged_for_the_record_and_their_windows_left
     assert not any("dropout" in note for note in prepared.notes), prepared.notes
     assert any(note.startswith(f"{np.isnan(edges).sum()} samples hold no value (NaN or infinite) in 5 stretches from "
                                "0 s to 4 s") for note in prepared.notes), prepared.notes
-    x[::int(0.1 * fs)] = np.nan  # one every 0.1 s: every window touches one
+    x[::int(0.1 * fs)] = np.nan  # one every 0.1 s: every window touches one, and no stretch between two holds one
     np.savez(path, signal=x, fs=fs, rpm=RPM, unit="g")
-    with pytest.raises(BearingTwinError, match="logger.npz: every window of the model's .* touches a stretch with no value"):
+    with pytest.raises(BearingTwinError, match=r"logger.npz: every window of the model's .* touches a stretch with no "
+                                               r"value .*; no stretch between them holds one \(the longest: \d+ samples\)$"):
+        diagnose_recording(read_record(path, pipeline), model, pipeline, "models:/unused", {})
+    x[int(0.5 * fs)] = 0.0  # 0.2 s between two, a window's length and more, which no window of the grid falls in
+    np.savez(path, signal=x, fs=fs, rpm=RPM, unit="g")
+    with pytest.raises(BearingTwinError, match=r"; the longest stretch between them, \d+ samples from 0.4\d* s, holds "
+                                               r"one: give each such stretch as a file of its own$"):
         diagnose_recording(read_record(path, pipeline), model, pipeline, "models:/unused", {})
 
 

@@ -174,6 +174,10 @@ def test_bad_inputs_are_named(tmp_path, signal):
     with pytest.raises(BearingTwinError, match=r"holes.npy: 2 NaN or infinite values in channel 0, the first at sample 10, the last at 20 "
                                                r"\(0.00125 s to 0.0025 s\); no value is made up for them"):
         load_recording(path, fs=FS)
+    np.save(path, np.full(100, np.nan))  # nothing between the gaps to give on its own
+    with pytest.raises(BearingTwinError, match=r"holes.npy: channel 0 holds no value: every one of its 100 samples is "
+                                               r"NaN or infinite$"):
+        load_recording(path, fs=FS)
     with pytest.raises(BearingTwinError, match=r"holes.npy: no channel 'Q'; the file holds channel 0 \(choose with channel=<name>, or channel=null for its only one\)"):
         load_recording(path, channel="Q", fs=FS)
     corrupt = tmp_path / "corrupt.npz"

@@ -121,6 +121,9 @@ class Recording:
         self.signal = signal.astype(np.float64, copy=False)
         bad = ~np.isfinite(self.signal)
         n_bad = int(np.count_nonzero(bad))
+        if n_bad == self.signal.size:
+            raise BearingTwinError(f"{self.source}: channel {self.channel or '?'} holds no value: every one of its "
+                                   f"{n_bad} samples is NaN or infinite")
         if n_bad:  # where, so a user can cut them out (an acquisition's dropout, a logger's missing rows)
             first, last = int(np.argmax(bad)), self.signal.size - 1 - int(np.argmax(bad[::-1]))
             seconds = is_finite_number(self.fs) and self.fs > 0

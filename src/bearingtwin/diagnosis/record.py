@@ -48,8 +48,8 @@ from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, FEATURE_UNSEEN
 from bearingtwin.diagnosis.pipeline import RANGE_MARGIN, DiagnosisPipeline, unit_for_model
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
-from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, rate_witnesses,
-                                               shared_transforms)
+from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, longest_run,
+                                              rate_witnesses, shared_transforms)
 from bearingtwin.signal.speed import (SPEED_OFF, UNSTEADY, order_track, series_prominences, sharpening,
                                       speed_off_words, speed_profile, steady_times, tachometer_profile)
 
@@ -592,6 +592,15 @@ def dropout_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray,
     return starts, touched, dropouts
 
 
+def _longest_stretch_between(n_samples: int, stretches: list[tuple[int, int]]) -> tuple[int, int]:
+    """The longest run of samples of a record of ``n_samples`` outside every one of ``stretches`` (``(start,
+    length)``), as ``(start, length)``."""
+    free = np.ones(n_samples, dtype=bool)
+    for start, length in stretches:
+        free[max(start, 0):max(start + length, 0)] = False
+    return longest_run(free)
+
+
 def _touching(starts: np.ndarray, window_length: int, start: int, length: int) -> np.ndarray:
     """Which windows (by their first samples) share a sample with the stretch from ``start`` for ``length``."""
     return (starts < start + length) & (starts + window_length > start)
@@ -631,14 +640,19 @@ def diagnosed_windows(prepared: PreparedRecord, window_length: int) -> tuple[np.
     if dropped:  # the longest stretch is among those it names, with what was done about it: not said twice
         notes = [note for note in notes if not note.endswith(HELD_NOTE_END)] + [dropped]
     gapped = np.zeros(starts.size, dtype=bool)
+    unread = list(dropouts)
     for start_s, end_s in prepared.gaps_s:  # in seconds of the file: in samples of the record as read
         first = math.floor(start_s * recording.fs)
-        gapped |= _touching(starts, window_length, first, math.ceil(end_s * recording.fs) - first)
+        unread.append((first, math.ceil(end_s * recording.fs) - first))
+        gapped |= _touching(starts, window_length, *unread[-1])
     if gapped.any():
         if (touched | gapped).all():
+            start, length = _longest_stretch_between(recording.signal.size, unread)
+            where = (f"the longest stretch between them, {length} samples from {start / recording.fs:.4g} s, holds one: "
+                     "give each such stretch as a file of its own" if length >= window_length else
+                     f"no stretch between them holds one (the longest: {length} samples)")
             raise BearingTwinError(f"{recording.source}: every window of the model's ({window_length} samples) "
-                                   "touches a stretch with no value (NaN) or a dropout, so none can be read; give the "
-                                   "stretches between them as files of their own")
+                                   f"touches a stretch with no value (NaN) or a dropout, so none can be read; {where}")
         notes.append(f"the {int(gapped.sum())} window{'s' * int(gapped.sum() > 1)} touching samples with no value left "
                      f"out; the verdict is the other {int((~(touched | gapped)).sum())} of {starts.size} windows'")
     touched = touched | gapped

@@ -516,21 +516,27 @@ def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **
     return checks
 
 
+def longest_run(mask: np.ndarray) -> tuple[int, int]:
+    """Start and length of the longest run of True in a 1-D boolean ``mask``; ``(0, 0)`` where it holds none."""
+    edges = np.diff(np.asarray(mask, dtype=np.int8), prepend=0, append=0)
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    if not starts.size:
+        return 0, 0
+    longest = int(np.argmax(ends - starts))
+    return int(starts[longest]), int(ends[longest] - starts[longest])
+
+
 def longest_finite_stretch(values: np.ndarray) -> np.ndarray:
-    """``values`` itself where every sample is finite, else its longest run of finite samples (empty where it has
-    none). Any value put in a gap's place is a click whose flat spectrum fills the quiet band below a few hundred Hz
-    where a shaft's lines stand: ten samples bridged by a straight line in the middle of a 10 s record (a ten
-    thousandth of its energy) took a CWRU record's shaft series from a median prominence of 70 to 4."""
+    """``values`` itself where every sample is finite, else its longest run of finite samples (:func:`longest_run`;
+    empty where it has none). Any value put in a gap's place is a click whose flat spectrum fills the quiet band below a
+    few hundred Hz where a shaft's lines stand: ten samples bridged by a straight line in the middle of a 10 s record
+    (a ten thousandth of its energy) took a CWRU record's shaft series from a median prominence of 70 to 4."""
     values = np.asarray(values)
     finite = np.isfinite(values)
     if finite.all():
         return values
-    edges = np.diff(finite.astype(np.int8), prepend=0, append=0)
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    if not starts.size:
-        return values[:0]
-    longest = int(np.argmax(ends - starts))
-    return values[starts[longest]:ends[longest]]
+    start, length = longest_run(finite)
+    return values[start:start + length]
 
 
 def _shaft_series_at(signal: np.ndarray, fs: float, rpm: float, options: Mapping) -> bool:
