@@ -891,3 +891,20 @@ def test_scripts_written_to_the_readers_former_module_name_keep_running_and_are_
     with pytest.warns(DeprecationWarning, match="bearingtwin.data.formats"):
         former = importlib.import_module("bearingtwin.data.files")
     assert former.load_recording is formats.load_recording and former.read_raw is formats.read_raw
+
+
+def test_numbers_under_names_not_read_as_a_rate_or_speed_are_named_where_one_is_missing(tmp_path, signal):
+    """A .mat holding `fsamp` and `n_rpm` had been refused as stating no rate, though inspect listed both: the refusal
+    names the numbers the file holds under names not read as one, and so does the note of a speed not stated."""
+    import scipy.io
+
+    path = tmp_path / "pump.mat"
+    scipy.io.savemat(path, {"acc": signal, "fsamp": FS, "n_rpm": 1748.0})
+    with pytest.raises(BearingTwinError, match=r"pump.mat: the file does not state its sampling rate: it holds "
+                                               r"fsamp=\d+, n_rpm=1748, under names not read as one; give fs=<Hz>$"):
+        load_recording(path)
+    recording = load_recording(path, fs=FS)
+    assert recording.rpm is None
+    assert recording.meta["speed_unread"] == f"it holds fsamp={FS:g}, n_rpm=1748, under names not read as one"
+    scipy.io.savemat(path, {"acc": signal, "fs": FS, "rpm": 1748.0})  # read as facts: nothing else to name
+    assert load_recording(path).rpm == 1748.0 and "speed_unread" not in load_recording(path).meta

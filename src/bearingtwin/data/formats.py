@@ -779,6 +779,10 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
     if fault is not None and fault not in FAULTS:
         raise BearingTwinError(f"{path}: fault {fault!r} is not a bearing state ({', '.join(FAULTS)})")
     used = {entry[0] for entry in found.values() if entry is not None} | {"made_by"} & set(facts)
+    # Numbers under names not read as a fact (a .mat's fsamp, n_rpm): where a rate or speed is missing, named with it.
+    numbers = ", ".join(f"{key}={value:g}" for key, value in facts.items()
+                        if key not in used and is_finite_number(value) and value > 0)
+    unread = f"it holds {numbers}, under names not read as one" if numbers else ""
     names, table = facts.get("channel_names"), arrays.get("channels")  # bearingtwin-simulate's: a row per sensor
     if isinstance(names, list) and np.ndim(table) == 2 and len(names) in np.shape(table):
         rows = table if len(table) == len(names) else np.transpose(table)
@@ -794,8 +798,10 @@ def _facts_to_record(path: Path, fmt: str, facts: dict, arrays: dict) -> RawReco
         rpm=rpm,
         fault=fault,
         unit="" if found["unit"] is None else str(found["unit"][1]),
-        meta={**{k: v for k, v in facts.items() if k not in used}, **({"notes": notes} if notes else {})},
+        meta={**{k: v for k, v in facts.items() if k not in used}, **({"notes": notes} if notes else {}),
+              **({"speed_unread": unread} if rpm is None and unread else {})},
         default_channel="signal" if fmt == "npz" else None,
+        fs_unread="" if fs is not None else unread,
     )
 
 
