@@ -247,3 +247,15 @@ def test_raw_extraction_returns_the_windows_uncached(dataset, tmp_path):
     features, table, _ = extract_features({"name": "raw", "kind": "raw"}, dataset, [0, 1], tmp_path)
     np.testing.assert_array_equal(features, dataset.windows)
     assert table == [] and not os.path.exists(tmp_path / "features")
+
+
+@pytest.mark.parametrize("vmd_params", ["global", "per_sample"])
+def test_windows_too_short_for_the_modes_searched_are_refused_naming_the_window_length(vmd_params):
+    """data.window_length=7 had reached VMD and failed there ("k must be an integer between 1 and the signal length 7
+    (got [7, 7, ...])"), naming no setting: a window must give each of the most modes searched two spectral bins."""
+    extractor = SaboVmdFeatures(population=2, iterations=1, search_windows=2, vmd_params=vmd_params, progress=False)
+    X, y = np.random.default_rng(0).standard_normal((4, 39)), np.array([0, 0, 1, 1])
+    with pytest.raises(BearingTwinError, match=r"^windows of 39 samples are too short for VMD into up to 10 modes "
+                                               r"\(features.k_range\): give data.window_length=40 or more"):
+        extractor.fit_transform(X, y)
+    assert extractor.set_params(k_range=(3, 9)).fit_transform(X[:, :36], y).shape == (4, 9)

@@ -134,6 +134,15 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
         resolve_fitness(self.fitness, **dict(self.fitness_params or {}))
         show_progress_bar(self.progress, in_sweep=False, key="features.progress")
 
+    def _check_length(self, X: np.ndarray) -> np.ndarray:
+        """``X``, whose windows must give each of the most modes searched (``k_range``'s upper end) two bins of their
+        one-sided spectrum at least: VMD splits that spectrum among its modes."""
+        k_max = int(max(self.k_range))
+        if X.shape[1] < 4 * k_max:
+            raise BearingTwinError(f"windows of {X.shape[1]} samples are too short for VMD into up to {k_max} modes "
+                                   f"(features.k_range): give data.window_length={4 * k_max} or more (the paper: 2048)")
+        return X
+
     @property
     def shows_progress(self) -> bool:
         """Whether the bars show (``progress`` "auto": in a terminal, outside CI; a sweep's jobs have it false)."""
@@ -142,7 +151,7 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
     def fit(self, X, y=None) -> "SaboVmdFeatures":
         """Search the VMD parameters (``global``: once; ``per_class``: per label; ``per_sample``: nothing to fit)."""
         self.check_params()
-        X = _check_windows(X)
+        X = self._check_length(_check_windows(X))
         rng = np.random.default_rng(self.seed)
         if self.vmd_params == "global":
             self.vmd_params_ = [self._search_row("global", self._draw(X, rng), self.seed)]
@@ -173,7 +182,7 @@ class SaboVmdFeatures(TransformerMixin, BaseEstimator):
         """
         if not hasattr(self, "vmd_params_"):
             raise BearingTwinError("SaboVmdFeatures: call fit before transform")
-        X = _check_windows(X)
+        X = self._check_length(_check_windows(X))
         if self.vmd_params == "per_sample":
             return self._extract_per_sample(X)
         features = np.empty((len(X), len(FEATURE_NAMES)))
