@@ -369,8 +369,11 @@ def test_the_extrapolation_note_counts_the_classifiers_windows_and_names_the_fea
     assert extrapolation_note(unseen, 5).startswith("all 5 windows the classifier decided hold a feature beyond")
     assert extrapolation_note(unseen, 8) == (
         "5 of the 8 windows the classifier decided hold a feature beyond its range over the training windows by more "
-        "than 25% of that range (kurtosis in 3, rms in 1, crest_factor in 1 windows): the classifier extrapolates "
-        "there, and its probabilities do not say so; hold its verdict against the physics evidence")
+        "than 25% of that range (kurtosis in 3 windows, rms in 1 window, crest_factor in 1 window): the classifier "
+        "extrapolates there, and its probabilities do not say so; hold its verdict against the physics evidence")
+    assert extrapolation_note(np.array(["rms"]), 1).startswith("the one window the classifier decided holds a feature "
+                                                                "beyond its range over the training windows by more "
+                                                                "than 25% of that range (rms in 1 window)")
 
 
 def test_a_served_model_that_reads_the_level_flags_each_window_of_a_level_it_never_saw():

@@ -743,6 +743,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "original_fs": prepared.original_fs,
         "rate_check": prepared.rate_check,
         "speed": prepared.speed,
+        "unit": recording.unit or None,  # of the samples read (the model's, where they were converted to it)
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
         "speed_unseen": speed_unseen is not None,
@@ -787,10 +788,12 @@ def extrapolation_note(unseen: np.ndarray, decided: int) -> str:
     """What to say of the ``decided`` windows the classifier decided, of which those named in ``unseen`` (each window's
     feature farthest beyond the training windows' range) hold a feature well beyond it."""
     names, counts = np.unique(unseen, return_counts=True)
-    named = ", ".join(f"{name} in {count}" for count, name in sorted(zip(counts, names), reverse=True)[:3])
-    counted = f"all {decided}" if len(unseen) == decided else f"{len(unseen)} of the {decided}"
-    return (f"{counted} windows the classifier decided hold a feature beyond its range over the "
-            f"training windows by more than {RANGE_MARGIN:.0%} of that range ({named} windows): the classifier "
+    named = ", ".join(f"{name} in {count} window{'s' * int(count != 1)}"
+                      for count, name in sorted(zip(counts, names), reverse=True)[:3])
+    counted = ("the one window" if decided == 1 else f"all {decided} windows" if len(unseen) == decided else
+               f"{len(unseen)} of the {decided} windows")
+    return (f"{counted} the classifier decided hold{'s' * (len(unseen) == 1)} a feature beyond its range over the "
+            f"training windows by more than {RANGE_MARGIN:.0%} of that range ({named}): the classifier "
             "extrapolates there, and its probabilities do not say so; hold its verdict against the physics evidence")
 
 
@@ -834,14 +837,14 @@ def plot_diagnosis(result: dict, evidence: PhysicsEvidence | None, class_names: 
         top.plot(times, [w["probabilities"][name] for w in result["windows"]], marker=".", lw=1, label=name)
     top.set(xlabel="window start (s)", ylabel="class probability", ylim=(-0.02, 1.02),
             title=f"{result['record']}: {result['verdict']} ({result['share']:.0%} of windows)")
-    top.legend(loc="upper right", ncol=len(class_names))
+    top.legend(loc="center left", bbox_to_anchor=(1.01, 0.5))  # beside the traces, which reach every corner
     if evidence is None or not evidence.lines_hz:
         bottom.text(0.5, 0.5, "no shaft speed: physics evidence not computed" if evidence is None else
                     "no defect series can be read apart from the shaft's lines", ha="center", va="center")
         bottom.set_axis_off()
     else:
         top_line = max(max(lines) for lines in evidence.lines_hz.values())
-        shown = evidence.freqs_hz <= 1.15 * top_line
+        shown = evidence.freqs_hz <= 1.25 * top_line  # past the last line read, so a line just beyond stands whole
         bottom.semilogy(evidence.freqs_hz[shown], evidence.spectrum[shown], color="k", lw=0.7)
         colors = {"inner": "tab:blue", "ball": "tab:green", "outer": "tab:red"}
         for state, lines in evidence.lines_hz.items():
@@ -849,9 +852,11 @@ def plot_diagnosis(result: dict, evidence: PhysicsEvidence | None, class_names: 
                 bottom.axvline(line, color=colors[state], ls="--", lw=0.9,
                                label=f"{state} {evidence.prominence_db[state]:+.1f} dB" if index == 0 else None)
         low, high = evidence.band_hz
-        bottom.set(xlabel="frequency (Hz)", ylabel="squared-envelope PSD (unit$^4$/Hz)",
+        unit = result.get("unit") or "unit"
+        bottom.set(xlabel="frequency (Hz)",
+                   ylabel=f"squared-envelope PSD ({f'({unit})' if '/' in unit else unit}$^4$/Hz)",
                    title=f"envelope of {low:.0f}-{high:.0f} Hz: physics says {evidence.evidence_state}")
-        bottom.legend(loc="upper right")
+        bottom.legend(loc="center left", bbox_to_anchor=(1.01, 0.5))
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     return path
