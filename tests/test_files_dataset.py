@@ -114,7 +114,7 @@ def test_a_bad_folder_is_refused_naming_the_file_or_field(folder, change, messag
 def test_no_folder_given_is_named_in_one_line():
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose("train", overrides=["data=files"])
-    with pytest.raises(BearingTwinError, match=r"^data.root: Missing mandatory value") as error:
+    with pytest.raises(BearingTwinError, match=r"^data.root is missing; give data.root=<value>$") as error:
         build_dataset(cfg)
     assert "\n" not in str(error.value)
 

@@ -500,7 +500,7 @@ def test_bad_candidates_and_keys_are_named(cfg):
     with pytest.raises(BearingTwinError, match="calibration.base.simulator.defect.depth_mm.0: no such"):
         op = OperatingPoint.from_config({}, RANGES, {"simulator.defect.depth_mm.0": [0.1, 1.0]}, "outer")
         rank(cfg, measured, [], op=op)
-    with pytest.raises(BearingTwinError, match=r"^simulator.defect.depth_mm: Missing mandatory value"):
+    with pytest.raises(BearingTwinError, match=r"^simulator.defect.depth_mm is missing; give simulator.defect.depth_mm=<value>$"):
         TwinModel("outer", cfg.bearing, {**OmegaConf.to_container(cfg.simulator), "defect": {"depth_mm": "???"}}, 0)
     with pytest.raises(BearingTwinError, match=r"^calibration: every trial was rejected by the model: effects.noise: "
                                                r"bad parameters .*unexpected keyword argument 'colour'"):

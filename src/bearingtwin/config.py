@@ -705,6 +705,9 @@ def plain_config(cfg, name: str = "config") -> dict:
     if isinstance(cfg, DictConfig):
         try:
             return OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
+        except MissingMandatoryValue as error:  # said as exit_on_user_error says a command's own ???
+            key = getattr(error, "full_key", None) or name
+            raise BearingTwinError(f"{key} is missing; give {key}=<value>") from None
         except OmegaConfBaseException as error:  # its message runs over several lines; keep the first, name the key
             raise BearingTwinError(f"{getattr(error, 'full_key', None) or name}: {str(error).splitlines()[0]}") from None
     return dict(cfg or {})
