@@ -370,6 +370,11 @@ def test_a_report_with_no_runs_names_the_command_that_trains_them(capsys, tmp_pa
 
 
 def test_bad_requests_exit_2_naming_the_problem(uri, capsys, tmp_path):
+    with pytest.raises(SystemExit) as exit_info:  # argparse had called key=value required too
+        main([])
+    assert exit_info.value.code == 2 and capsys.readouterr().err.splitlines()[-1] == (
+        "bearingtwin-report: error: the report's name is required: one of cwru, hust, repeat, seeds, sim2real, table3, "
+        "table4, vmd_params")
     with pytest.raises(SystemExit) as exit_info:
         main(["table5", f"uri={uri}"])
     assert exit_info.value.code == 2 and "unknown report 'table5'" in capsys.readouterr().err

@@ -28,9 +28,13 @@ def report_command(argv: list[str] | None = None) -> int:
                "table3_per_class.md, cwru_load1.md); sweep_dir: "
                "that sweep's runs only; source: data.source, default simulated, or all; force=true: replace results "
                f"of larger runs). Further settings by report: {takes}.")
-    parser.add_argument("name", help=f"report: {', '.join(sorted(REPORTS))}")
+    # Optional to argparse, so that its error names the one argument required (with a required positional before a
+    # nargs="*" one it names both).
+    parser.add_argument("name", nargs="?", help=f"report: {', '.join(sorted(REPORTS))}")
     parser.add_argument("settings", nargs="*", metavar="key=value")
     args = parser.parse_args(argv)
+    if args.name is None:
+        parser.error(f"the report's name is required: one of {', '.join(sorted(REPORTS))}")
     # A report reads one small artifact per run: MLflow's per-download progress bar would bury the table.
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
     try:
