@@ -2292,8 +2292,13 @@ def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_seri
     assert notes[1.0] == []
     (note,) = notes[1.03]
     read = float(re.search(r"reads (\d+) rpm", note).group(1))
-    assert read == pytest.approx(recording.rpm, rel=0.003) and note.endswith(f"give rpm={read:.0f}")
+    # The file states the speed, which no setting overrides: the file is to be corrected. A speed given is to be given.
+    assert read == pytest.approx(recording.rpm, rel=0.003)
+    assert note.endswith(f"the file's speed is off: correct it to {read:.0f} rpm")
     assert f"from the stated {recording.rpm * 1.03:g} rpm" in note and re.search(r", -[23]\.\d % from", note)
+    np.savez(tmp_path / "pump.npz", signal=recording.signal, fs=recording.fs, unit="g")
+    given = read_record(tmp_path / "pump.npz", pipeline, rpm=round(recording.rpm * 1.03))
+    assert any(note.endswith(f"give rpm={read:.0f}") for note in given.notes), given.notes
 
 
 @needs_cwru
@@ -2308,8 +2313,13 @@ def test_a_stated_speed_a_tachometer_contradicts_is_named_with_the_speed_it_read
     np.savez(tmp_path / "pump.npz", vib=recording.signal, tach=pulses, fs=recording.fs, rpm=1750.0, unit="g")
     prepared = read_record(tmp_path / "pump.npz", envelope_pipeline(), channel="vib")
     assert prepared.speed["source"] == "the tachometer channel tach" and prepared.speed["off"]
+    # The file states its speed, which no setting overrides (rpm=1797 is refused as contradicting it): the note had
+    # said "give rpm=1797", a way out that was none.
     assert ("the tachometer channel tach reads 1797 rpm, +2.7 % from the stated 1750 rpm: every defect line is read "
-            "where the stated speed puts it; if the sampling rate is right, give rpm=1797") in prepared.notes
+            "where the stated speed puts it; if the sampling rate is right, the file's speed is off: correct it to 1797 "
+            "rpm") in prepared.notes
+    with pytest.raises(BearingTwinError, match=r"rpm=1797.0 contradicts the file's rpm=1750.0"):
+        read_record(tmp_path / "pump.npz", envelope_pipeline(), channel="vib", rpm=1797)
 
 
 @needs_cwru

@@ -224,7 +224,9 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict,
         if recording.fs != read_at:  # the check found the file's rate (a CWRU record at 48 kHz): its times are shorter
             speed.update(segment_s=speed["segment_s"] * read_at / recording.fs,
                          times_s=[time * read_at / recording.fs for time in speed["times_s"]])
-        off = speed_off_note(speed, recording.rpm) if recording.fs == read_at else None  # at the rate it was read at
+        # A speed the file states is not overridden (a given one the file contradicts is refused): the file is named.
+        key = None if recording.meta.get("rpm_origin") == "file" else "rpm"
+        off = speed_off_note(speed, recording.rpm, key) if recording.fs == read_at else None  # at the rate it was read at
         if off:
             speed["off"] = True
             notes.append(off)
@@ -320,14 +322,14 @@ def gaps_note(recording: Recording, gaps: list[tuple[int, int]]) -> str:
             "one), no window touching one diagnosed")
 
 
-def speed_off_note(speed: dict, rpm: float) -> str | None:
+def speed_off_note(speed: dict, rpm: float, key: str | None = "rpm") -> str | None:
     """A note where the shaft's harmonic series or a tachometer, read segment by segment (:func:`steadied`), puts the
     speed more than 1 % and at most 8 % from the stated ``rpm`` (:func:`~bearingtwin.signal.speed.speed_off_words`: a
     nameplate's speed given for a measured one); None where it does not or cannot be read."""
     read = speed.get("read_rpm")  # not where the reading is in doubt (a misread profile), nor tracked (read at it)
     if read is None or speed.get("tracked") or speed.get("in_doubt"):
         return None
-    return speed_off_words(read, rpm, speed["source"])
+    return speed_off_words(read, rpm, speed["source"], key)
 
 
 TRACKING_REACH = 12
