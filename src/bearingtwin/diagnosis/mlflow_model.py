@@ -359,8 +359,6 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
     check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
     mlflow.set_tracking_uri(tracking_uri)
     mlflow.set_registry_uri(tracking_uri)
-    if model_uri.startswith("models:/") and not re.search(r"[/@]", model_uri.removeprefix("models:/")):
-        raise BearingTwinError(f"model={model_uri}: gives no version or alias{_registry_words(model_uri, tracking_uri)}")
     try:
         version_uri = _version_named(model_uri, tracking_uri)
         # Into a folder of this process's own: from a local store MLflow would load a models:/ URI in place and write
