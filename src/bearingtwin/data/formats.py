@@ -327,17 +327,23 @@ def resolve_unit(raw: RawRecord, channel: str, unit: str | None, key: str = "uni
     return stated or unit
 
 
+def scale_and_unit(scale, unit, scale_key: str = "scale", unit_key: str = "unit") -> tuple[float, str]:
+    """A scale given (setting ``scale_key``) as a positive number, and the unit the samples are in once multiplied by
+    it (``unit_key``), which it needs, as a unit known here (:func:`known_unit`)."""
+    scale = positive_number(scale, scale_key, "the unit given per unit of the file's samples")
+    if unit is None or not str(unit).strip():
+        raise BearingTwinError(f"{scale_key}={scale:g} needs {unit_key}=<unit>: the unit the samples are in once "
+                               f"multiplied by {scale:g} (g for a sensitivity in V per g)")
+    return scale, known_unit(unit, unit_key)
+
+
 def scaled(raw: RawRecord, channel: str, signal: np.ndarray, scale, unit: str | None, scale_key: str, unit_key: str,
            notes: list[str]) -> tuple[np.ndarray, str]:
     """``channel``'s samples multiplied by ``scale`` (setting ``scale_key``), and ``unit`` (setting ``unit_key``), the
     unit they are in then: a logger's WAV of full-scale fractions (``scale=50 unit=g`` where its +-5 V hold +-50 g of a
     100 mV/g accelerometer), or volts read through the sensor's sensitivity (``scale=10 unit=g`` for 100 mV/g). The file's
     own unit, if it states one, is what the scale converts from, so it is no contradiction: said in ``notes``."""
-    scale = positive_number(scale, scale_key, "the unit given per unit of the file's samples")
-    if unit is None or not str(unit).strip():
-        raise BearingTwinError(f"{scale_key}={scale:g} needs {unit_key}=<unit>: the unit the samples are in once "
-                               f"multiplied by {scale:g} (g for a sensitivity in V per g)")
-    unit = known_unit(unit, unit_key)
+    scale, unit = scale_and_unit(scale, unit, scale_key, unit_key)
     stated = raw.channel_units.get(channel, raw.unit)
     notes.append(f"samples x {scale:g} read in {unit} ({scale_key}={scale:g} {unit_key}={unit}"
                  f"{f'; the file states {stated}' if stated else ''})")

@@ -309,7 +309,7 @@ def _registry_words(model_uri: str, tracking_uri: str) -> str:
     newest = [str(v) for v in versions[-MOST_NAMED:]]
     words = f"; {name}'s versions: {', '.join(newest)}" if versions else f"; {name} has no version"
     words += f", its aliases: {aliases}" if aliases else ", no alias"
-    if "/" not in model_uri.removeprefix(f"models:/{name}") and "@" not in model_uri.removeprefix(f"models:/{name}"):
+    if model_uri == f"models:/{name}":  # neither a version nor an alias
         words += f" (give one: models:/{name}/<version> or models:/{name}@<alias>)"
     return words
 

@@ -49,7 +49,7 @@ from bearingtwin.diagnosis.pipeline import RANGE_MARGIN, DiagnosisPipeline, unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, longest_run,
-                                              rate_witnesses, shared_transforms)
+                                              rate_witnesses, shared_transforms, true_runs)
 from bearingtwin.signal.speed import (SPEED_OFF, UNSTEADY, order_track, series_prominences, sharpening,
                                       speed_off_words, speed_profile, steady_times, tachometer_profile)
 
@@ -283,9 +283,8 @@ def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]
         if tail:  # sample last + 1 + j takes sample last - 1 - j's value
             filled[last + 1:] = np.resize(filled[max(last - tail, 0):last][::-1], tail)
         channels[name] = filled
-        edges = np.diff(bad.astype(np.int8), prepend=0, append=0)
-        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-        gaps[name] = list(zip(starts.tolist(), (ends - starts).tolist()))
+        starts, lengths = true_runs(bad)
+        gaps[name] = list(zip(starts.tolist(), lengths.tolist()))
     return dataclasses.replace(raw, channels=channels), gaps
 
 
@@ -645,8 +644,9 @@ def diagnosed_windows(prepared: PreparedRecord, window_length: int) -> tuple[np.
     unread = list(dropouts)
     for start_s, end_s in prepared.gaps_s:  # in seconds of the file: in samples of the record as read
         first = math.floor(start_s * recording.fs)
-        unread.append((first, math.ceil(end_s * recording.fs) - first))
-        gapped |= _touching(starts, window_length, *unread[-1])
+        gap = (first, math.ceil(end_s * recording.fs) - first)
+        unread.append(gap)
+        gapped |= _touching(starts, window_length, *gap)
     if gapped.any():
         if (touched | gapped).all():
             start, length = _longest_stretch_between(recording.signal.size, unread)

@@ -37,7 +37,7 @@ from tqdm.auto import tqdm
 from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.cwru import parse_cwru_name
-from bearingtwin.data.formats import FORMATS, known_unit
+from bearingtwin.data.formats import FORMATS, known_unit, scale_and_unit
 from bearingtwin.data.labels import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
                                      read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings
@@ -194,14 +194,13 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     order_tracking = (true_or_false(cfg.order_tracking.enabled, "order_tracking.enabled"),
                       _unsteady(cfg.order_tracking.unsteady))
     bearing = chosen_bearing(cfg)
-    for name, unit in (("rpm", "rev/min"), ("fs", "Hz"), ("scale", "the unit given per unit of the file's samples")):
-        if cfg.get(name) is not None:  # once, before any file: it applies to every one
+    for name, unit in (("rpm", "rev/min"), ("fs", "Hz")):  # once, before any file: it applies to every one
+        if cfg[name] is not None:
             positive_number(cfg[name], name, unit)
-    if cfg.get("unit") is not None:
+    if cfg.get("scale") is not None:
+        scale_and_unit(cfg.scale, cfg.get("unit"))
+    elif cfg.get("unit") is not None:
         known_unit(cfg.unit, "unit")
-    if cfg.get("scale") is not None and cfg.get("unit") is None:
-        raise BearingTwinError(f"scale={cfg.scale} needs unit=<unit>: the unit the samples are in once multiplied by "
-                               "it (g for a sensitivity in V per g)")
     records = find_records(str(cfg.path), given_labels(cfg))  # first: an empty path= would have ./labels.csv read
     table = labels_path(cfg, records)
     labels, bad_rows = read_labels(table, state_required=False)  # a fleet's states are what is asked

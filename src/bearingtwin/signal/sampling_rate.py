@@ -516,14 +516,20 @@ def check_channels(channels: Mapping[str, np.ndarray], fs: float, rpm: float, **
     return checks
 
 
+def true_runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and length of every run of True in a 1-D boolean ``mask``, in order."""
+    edges = np.diff(np.asarray(mask, dtype=np.int8), prepend=0, append=0)
+    starts = np.flatnonzero(edges == 1)
+    return starts, np.flatnonzero(edges == -1) - starts
+
+
 def longest_run(mask: np.ndarray) -> tuple[int, int]:
     """Start and length of the longest run of True in a 1-D boolean ``mask``; ``(0, 0)`` where it holds none."""
-    edges = np.diff(np.asarray(mask, dtype=np.int8), prepend=0, append=0)
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    starts, lengths = true_runs(mask)
     if not starts.size:
         return 0, 0
-    longest = int(np.argmax(ends - starts))
-    return int(starts[longest]), int(ends[longest] - starts[longest])
+    longest = int(np.argmax(lengths))
+    return int(starts[longest]), int(lengths[longest])
 
 
 def longest_finite_stretch(values: np.ndarray) -> np.ndarray:
