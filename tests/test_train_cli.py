@@ -212,7 +212,7 @@ def test_an_empty_environment_variable_is_read_as_unset(monkeypatch):
         monkeypatch.setenv(name, "")
     cfg = compose_config("train", [])
     assert cfg.paths.cache_dir == "/home/someone/.cache/bearingtwin"
-    assert cfg.paths.data_root == f"{REPO_ROOT}/../shared/data"
+    assert cfg.paths.data_root == str(REPO_ROOT.parent / "shared" / "data")  # printed without a ".." in it
     assert (cfg.tracking.uri, cfg.tracking.experiment) == (f"sqlite:///{REPO_ROOT}/mlruns/mlflow.db", "bearingtwin")
     monkeypatch.setenv("XDG_CACHE_HOME", "/var/cache/someone")
     assert compose_config("train", []).paths.cache_dir == "/var/cache/someone/bearingtwin"

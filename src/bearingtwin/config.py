@@ -28,6 +28,9 @@ CONF_DIR = str(REPO_ROOT / "conf")
 
 # ``${bt_repo:}`` in a config resolves to the checkout, so default paths work from any cwd.
 OmegaConf.register_new_resolver("bt_repo", lambda: str(REPO_ROOT), replace=True)
+# ``${bt_normpath:<path>}``: ``<path>`` with its ``..`` taken out, as a command prints it (/work/shared/data, not
+# /work/main/../shared/data).
+OmegaConf.register_new_resolver("bt_normpath", os.path.normpath, replace=True)
 
 
 def _home() -> str:

@@ -163,16 +163,25 @@ def code_fingerprint(*parts: str) -> str:
     modules = {path for name in parts
                for path in ([PACKAGE / name] if name.endswith(".py") else (PACKAGE / name).rglob("*.py"))}
     for source in sorted(modules):
-        tree = ast.parse(source.read_text(encoding="utf-8"))
-        for node in ast.walk(tree):  # every string standing as a statement: docstrings, a constant's words below it
-            for field in ("body", "orelse", "finalbody"):
-                body = getattr(node, field, None)
-                if isinstance(body, list) and body:
-                    kept = [statement for statement in body if not (isinstance(statement, ast.Expr) and isinstance(
-                        statement.value, ast.Constant) and isinstance(statement.value.value, str))]
-                    setattr(node, field, kept or [ast.Pass()])
-        digest.update(f"{source.relative_to(PACKAGE).as_posix()}\0{ast.dump(tree)}\0".encode())
+        tree = _tree_without_words(source.read_text(encoding="utf-8"))
+        digest.update(f"{source.relative_to(PACKAGE).as_posix()}\0{tree}\0".encode())
     return digest.hexdigest()[:12]
+
+
+@functools.lru_cache(maxsize=None)
+def _tree_without_words(source: str) -> str:
+    """The dump of a module's syntax tree without the strings standing as statements (docstrings, a constant's words
+    below it), parsed once per process for one text: the simulation's and the features' fingerprints share the
+    physics modules."""
+    tree = ast.parse(source)
+    for node in ast.walk(tree):
+        for field in ("body", "orelse", "finalbody"):
+            body = getattr(node, field, None)
+            if isinstance(body, list) and body:
+                kept = [statement for statement in body if not (isinstance(statement, ast.Expr) and isinstance(
+                    statement.value, ast.Constant) and isinstance(statement.value.value, str))]
+                setattr(node, field, kept or [ast.Pass()])
+    return ast.dump(tree)
 
 
 SIMULATION_CODE = ("physics", "data/recording.py")

@@ -77,6 +77,7 @@ class DiagnosisModel(PythonModel):
         try:
             rpm = params.get("rpm") or None  # 0, the signature's default: not given
             windows = np.asarray(model_input, dtype=np.float64)
+            self.pipeline.check_window_shape(windows)
             flat = np.flatnonzero(np.ptp(windows, axis=-1) == 0) if windows.ndim == 2 and windows.size else []
             if len(flat):  # said of the request, where the features would name an array index
                 raise BearingTwinError(f"window {flat[0]} of the request is constant (every sample equal): no vibration "
@@ -178,6 +179,7 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
     """
     import mlflow
     from mlflow.models import Model, infer_signature
+    from mlflow.types import Schema, TensorSpec
 
     mlflow.set_tracking_uri(tracking_uri)  # Model.log resolves the store globally; jobs in one process run one at a time
     mlflow.set_experiment(experiment_id=experiment_id)
@@ -193,6 +195,9 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
     # The signature's defaults are what a request without them gets: no speed (0), the model's own bearing, a rate
     # and unit not stated. The example's speed as the default would read any window at that speed, unasked.
     signature = infer_signature(windows, output, params={**params, "rpm": 0.0, "fs": 0.0, "unit": ""})
+    # Windows of any length pass MLflow's check to meet the pipeline's (check_window_shape), which names the length
+    # the model reads in a line: MLflow's refusal of a shape prints the whole request back (tens of kB).
+    signature.inputs = Schema([TensorSpec(np.dtype(np.float64), (-1, -1))])
     with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
         # A model that cannot diagnose has no example to give, by design: MLflow's warning would say it was forgotten.
         warnings.filterwarnings("ignore", message=".*An input example was not provided")

@@ -154,6 +154,14 @@ class DiagnosisPipeline:
                 "label's VMD parameters, so it cannot diagnose an unlabeled window (retrain with features.vmd_params=global)"
             )
 
+    def check_window_shape(self, windows: np.ndarray) -> None:
+        """Refuse ``windows`` that are not one window of the model's length a row, naming the length it reads."""
+        if windows.ndim != 2 or windows.shape[1] != self.window_length:
+            given = f"windows of {windows.shape[1]} samples" if windows.ndim == 2 else f"an array of shape {windows.shape}"
+            raise BearingTwinError(f"{given}: the model reads windows of {self.window_length} samples at {self.fs_hz:g} "
+                                   "Hz, one a row; cut the record into such windows (bearingtwin-diagnose reads a whole "
+                                   "record)")
+
     def features(self, windows, rpm=None, bearing: dict | None = None) -> np.ndarray:
         """The classifier's input for raw ``windows`` (n, window_length) at ``fs_hz``; ``rpm`` per window or one.
 
@@ -163,8 +171,7 @@ class DiagnosisPipeline:
         """
         self.check_can_diagnose()
         windows = np.asarray(windows, dtype=np.float64)
-        if windows.ndim != 2 or windows.shape[1] != self.window_length:
-            raise BearingTwinError(f"windows must have shape (n, {self.window_length}), got {windows.shape}")
+        self.check_window_shape(windows)
         unreadable = np.flatnonzero(~np.isfinite(windows).all(axis=1))
         if unreadable.size:
             raise BearingTwinError(f"windows {_listed(unreadable)} (of {len(windows)}, counted from 0) hold NaN or "
