@@ -72,6 +72,7 @@ def test_an_unknown_added_key_is_refused(tmp_path, module, overrides):
     ("diagnose", ["path=/tmp/泵_外圈.npz", "model=x"], ["""give the value in quotes: 'path="/tmp/泵_外圈.npz"'"""]),
     ("twin", ["measured.path=Pumpe 3 (außen).npz"], ["""'measured.path="Pumpe 3 (außen).npz"'"""]),
     ("diagnose", ["path=cwru/12k_*_[123]_*.mat", "model=x"], ["""'path="cwru/12k_*_[123]_*.mat"'"""]),  # a glob's range
+    ("twin", ["measured.path=x.npy", "measured.unit=m/s^2"], ["""give the value in quotes: 'measured.unit="m/s^2"'"""]),
     ("inspect", ["--cfg", "job", "path=x.npy", "bearing=nope"], ["bearing=nope", "er16k"]),
     ("inspect", ["path=x.npy", "bearing=null"], ["bearing=null: a config group takes one of its options", "er16k"]),
     ("train", ["classifier=null"], ["classifier=null", "cnn_bilstm, sklearn, svm"]),  # Hydra's own ValueError, a traceback

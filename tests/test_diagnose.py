@@ -599,6 +599,25 @@ def test_a_cwru_record_is_read_at_the_bearing_it_was_made_on_whatever_the_models
 
 
 @needs_cwru
+def test_a_speed_given_at_half_that_the_cage_lines_witness_is_named_with_the_speed_the_shaft_series_stands_at(tmp_path):
+    """An outer-race record's samples, its speed given at half: the cage's envelope lines, read at their second
+    harmonic, had confirmed the rate and the speed, and the record was diagnosed at half its speed with no doubt. The
+    shaft series stands where it belongs at twice the speed given: the note names that speed, the verdict in doubt."""
+    from bearingtwin.data.cwru import load_cwru
+
+    recording = load_cwru(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
+    np.save(tmp_path / "pump.npy", recording.signal)
+    pipeline = envelope_pipeline()
+    half = read_record(tmp_path / "pump.npy", pipeline, fs=12000, rpm=recording.rpm / 2, bearing="cwru_6205")
+    assert half.rate_check == "contradicted"
+    assert any(note.startswith(f"the speed contradicts the record: at {recording.rpm / 2:g} rpm") and
+               f"stand where they belong at {recording.rpm:g} rpm (2 times the stated): check the speed given" in note
+               for note in half.notes), half.notes
+    true = read_record(tmp_path / "pump.npy", pipeline, fs=12000, rpm=recording.rpm, bearing="cwru_6205")
+    assert true.rate_check == "consistent", true.notes
+
+
+@needs_cwru
 def test_a_rate_given_against_the_names_one_that_the_shaft_line_bears_out_is_refused(tmp_path):
     """``fs=48000`` for a ``12k_`` file had been read at it, its verdict wrong and only "in doubt"; the name and the
     shaft line are two witnesses against one typed number. A file whose name is the wrong one is read at the rate

@@ -715,6 +715,34 @@ def test_a_real_records_speed_typed_a_whole_factor_too_high_is_refused_beside_it
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
+def test_a_real_records_speed_typed_at_half_is_refused_though_its_cage_lines_witness_it(tmp_path):
+    """An outer-race record's drive-end channel as a bare array, its speed typed at half: the shaft series stands at
+    twice the speed's place, but the cage's envelope lines, read at their second harmonic, had witnessed the rate, and
+    the twin was fitted at half the speed, its summary blaming a gear mesh for the record's own lines. Refused naming
+    the speed, twice the one typed, at which the shaft series stands at its place; the true speed is read."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.data.cwru import load_cwru
+    from bearingtwin.twin.report import load_measurement
+
+    recording = load_cwru(CWRU_RECORDS / "12k_Drive_End_OR007@6_0_130.mat")
+    np.save(tmp_path / "bare.npy", recording.signal)
+
+    def measured(rpm):
+        return OmegaConf.create({"path": str(tmp_path / "bare.npy"), "channel": None, "fs": recording.fs, "rpm": rpm,
+                                 "fault": recording.fault, "check_fs": True})
+
+    half = recording.rpm / 2
+    with pytest.raises(BearingTwinError, match=rf"bare.npy: measured.rpm={half:g} puts the shaft line at "
+                                               rf"{half / 60:.2f} Hz, but .*; the shaft series and the record's lines "
+                                               rf"stand where they belong at {recording.rpm:g} rpm \(2 times higher\): "
+                                               rf"give the true speed with measured.rpm=<rev/min>, or "
+                                               rf"measured.check_fs=false if {half:g} rpm is true$"):
+        load_measurement(measured(half), load_bearing("cwru_6205"))
+    assert load_measurement(measured(recording.rpm), load_bearing("cwru_6205")).rpm == recording.rpm
+
+
+@pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
 def test_a_doubt_over_a_typed_speed_names_the_speed_the_lines_imply(tmp_path, caplog):
     """A ball record's envelope lines do not decide: typed at twice its speed beside its file's rate, it is read with
     a doubt, which names the speed its shaft series implies (it had named only a rate the file does not have)."""

@@ -182,11 +182,10 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
             f"{key}: not a setting (no config declares it); check its spelling ({listing} lists the settings)"
     if isinstance(error, OverrideParseException):
         key, equals, value = error.override.partition("=")
-        # Hydra reads a bare value in a grammar of its own: spaces, brackets (a glob's [123]) and letters outside
-        # ASCII (a file name in another script) need quotes, which its message does not say.
+        # Hydra reads a bare value in a grammar of its own: spaces, brackets (a glob's [123]), a caret (m/s^2) and
+        # letters outside ASCII (a file name in another script) need quotes, which its message does not say.
         quoted = (f"; give the value in quotes: '{key}=\"{value}\"'"
-                  if equals and value and not set(value) & set("'\"") and not (
-                      value[0] in "[{" or value.isascii() and value.isprintable() and not set(value) & set(" ()[]{}")) else "")
+                  if equals and value and not set(value) & set("'\"") and value[0] not in "[{" else "")
         return f"{error.override}: not an override Hydra can read ({str(error).splitlines()[0]}){quoted}"
     repeated = re.match(r"Multiple values for (\S+)\. To override a value use 'override \S+: (\S+)'", str(error))
     if repeated:  # Hydra's advice is for a defaults list; on the command line the group is chosen without +

@@ -49,7 +49,7 @@ from bearingtwin.diagnosis.pipeline import RANGE_MARGIN, DiagnosisPipeline, unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, longest_run,
-                                              rate_witnesses, shared_transforms, true_runs)
+                                              rate_witnesses, shared_transforms, speeds_a_whole_factor_off, true_runs)
 from bearingtwin.signal.speed import (SPEED_OFF, UNSTEADY, order_track, series_prominences, sharpening,
                                       speed_off_words, speed_profile, steady_times, tachometer_profile)
 
@@ -475,6 +475,16 @@ def _checked_rate(recording: Recording, bearing: dict, channels: dict[str, np.nd
         declared = check(recording.fs)
     except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
         return recording, [f"sampling rate not checked ({error})"], "not checked"
+    higher = (speeds_a_whole_factor_off(recording.signal, recording.fs, recording.rpm, defect_hz, channels,
+                                        max_factor=4, higher=True)
+              if declared.verdict == "consistent" and not declared.matches else [])
+    if higher:  # the speed's own place holds no shaft series; the cage's or a defect's lines, read at harmonics, do
+        speeds = "; ".join(f"{recording.rpm * m:g} rpm ({m} times the stated)" for m in higher)
+        doubt = [f"the speed contradicts the record: at {recording.rpm:g} rpm the shaft line belongs at "
+                 f"{declared.expected_hz:.2f} Hz, but {declared.reason.split('; but ')[0]}; the shaft series and the "
+                 f"record's lines stand where they belong at {speeds}: check the speed given. Every defect line is "
+                 "read where the stated values put it: the verdict is in doubt"]
+        return recording, doubt, "contradicted"
     if declared.verdict == "contradicted":
         doubt = [_speed_or_rate_wrong(declared, recording.meta.get("fs_origin"))]
     elif declared.verdict == "ambiguous":

@@ -1093,25 +1093,29 @@ def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float
 
 
 @shared_transforms()  # every speed tried reads the same channels' spectra and envelopes
-def speeds_a_whole_factor_lower(signal, fs: float, rpm: float, defect_hz: Mapping[str, float] | None = None,
-                                channels: Mapping[str, np.ndarray] | None = None, max_factor: int = 10) -> list[int]:
+def speeds_a_whole_factor_off(signal, fs: float, rpm: float, defect_hz: Mapping[str, float] | None = None,
+                              channels: Mapping[str, np.ndarray] | None = None, max_factor: int = 10,
+                              higher: bool = False) -> list[int]:
     """Every m (2 .. ``max_factor``) at which the record (every channel a witness) is ``consistent`` with a speed of
-    ``rpm`` / m at ``fs``, those whose shaft series stands at its place first, then the least: a speed given a whole
-    factor too high (twice the speed, a digit too many) puts every line the record holds on a harmonic of the lines
-    expected, which a check at the given speed may leave unexplained. Under a speed M times too high the speeds M / m
-    times too high may be confirmed too (their lines are the true ones' harmonics), so more than one m may be named.
-    Empty where none is confirmed (or the record is too short to check one). ``defect_hz``: the bearing's defect
-    frequencies at ``rpm``, which scale with the speed."""
+    ``rpm`` / m at ``fs`` (``higher``: ``rpm`` * m, and only where the shaft series stands at its place), those whose
+    shaft series stands at its place first, then the least. A speed given a whole factor too high (twice the speed, a
+    digit too many) puts every line the record holds on a harmonic of the lines expected, which a check at the given
+    speed may leave unexplained. Under a speed M times too high the speeds M / m times too high may be confirmed too
+    (their lines are the true ones' harmonics), so more than one m may be named. A speed a whole factor too low (half
+    the speed) is the other way round: the record's shaft series stands at a multiple of its place, and the cage's or a
+    defect's lines, read at their harmonics, may still witness it. Empty where none is confirmed (or the record is too
+    short to check one). ``defect_hz``: the bearing's defect frequencies at ``rpm``, which scale with the speed."""
     consistent = []
     witnesses = rate_witnesses(signal, channels)  # the same channels for every speed tried
     for m in range(2, max_factor + 1):
-        scaled = {name: hz / m for name, hz in defect_hz.items()} if defect_hz else None
+        factor = m if higher else 1 / m
+        scaled = {name: hz * factor for name, hz in defect_hz.items()} if defect_hz else None
         try:
-            checks = check_channels(witnesses, fs, rpm / m, defect_hz=scaled)
+            checks = check_channels(witnesses, fs, rpm * factor, defect_hz=scaled)
         except BearingTwinError:  # too short a record to place a shaft line this low: nor any lower one
             break
         check = checks[decisive_channel(checks)]
-        if check.verdict == "consistent":
+        if check.verdict == "consistent" and (check.matches or not higher):
             consistent.append((not check.matches, m))
     return [m for _, m in sorted(consistent)]
 
@@ -1135,10 +1139,12 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     itself records (a header, a time column), which a record without a visible shaft line (a
     simulation, a machine without unbalance) cannot contradict. ``rate_from_file``: the file records the rate, and
     a setting typed the speed (``rpm_key``): a contradiction is refused all the same where the record is consistent
-    with a speed a whole factor below it (:func:`speeds_a_whole_factor_lower`), naming ``rpm_key`` alone (other
+    with a speed a whole factor below it (:func:`speeds_a_whole_factor_off`), naming ``rpm_key`` alone (other
     contradictions of such a pair stay logged: a noise-free or short record's lines contradict a true pair too; and a
     machine's half orders can make a record consistent with half its speed: on CWRU's records cut to 5 s, one of 13
-    at its true speed). ``channels``: the file's channels
+    at its true speed). A speed a setting gave that the cage's or a defect's lines witness where the shaft's series does
+    not stand, while the series stands at its place under a speed a whole factor higher, is refused naming ``rpm_key``
+    (half the speed typed: the defect lines, read at their second harmonics, witness it). ``channels``: the file's channels
     of ``signal``'s length, each a witness of the one rate (:func:`check_channels`). ``check_key``: the
     setting that turns the check off, named in the refusal."""
     import logging
@@ -1151,7 +1157,15 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
     # Where a setting gave the speed, the speeds a whole factor lower the record is consistent with are named.
-    lower = (speeds_a_whole_factor_lower(signal, fs, rpm, defect_hz, channels)
+    if rpm_key and check.verdict == "consistent" and not check.matches:  # witnessed by lines, not the shaft's series
+        higher = speeds_a_whole_factor_off(signal, fs, rpm, defect_hz, channels, max_factor=4, higher=True)
+        if higher:
+            speeds = "; ".join(f"{rpm * m:g} rpm ({m} times higher)" for m in higher)
+            off = f", or {check_key}=false if {rpm:g} rpm is true" if check_key else ""
+            raise BearingTwinError(f"{source}: {rpm_key}={rpm:g} puts the shaft line at {check.expected_hz:.2f} Hz, but "
+                                   f"{check.reason.split('; but ')[0]}; the shaft series and the record's lines stand "
+                                   f"where they belong at {speeds}: give the true speed with {rpm_key}=<rev/min>{off}")
+    lower = (speeds_a_whole_factor_off(signal, fs, rpm, defect_hz, channels)
              if rpm_key and check.verdict == "contradicted" and (refuse or rate_from_file) else [])
     speeds = "; ".join(f"{rpm / m:g} rpm ({m} times lower)" for m in lower)
     if check.verdict == "contradicted" and (refuse or lower):
