@@ -55,6 +55,8 @@ def test_cli_writes_the_report_contract_and_logs_to_mlflow(measurement, tmp_path
                      f"out={out}", "candidates=[resonance,slip,noise]", *FAST, *KNOWN, env={"MLFLOW_TRACKING_URI": uri})
     assert result.returncode == 0, result.stderr[-2000:]
     assert "Effects that were missing, in order: resonance" in result.stdout
+    # what the twin was held against, wherever each value came from (here settings; an .npy states no unit)
+    assert "\n  record: outer, 1797 rpm, 12000 Hz, its unit not stated\n" in result.stdout, result.stdout[-1500:]
     # whose defect lines were read, though no file named it: the default, said to be one
     assert ("\n  bearing: paper, the default: the record names no bearing; give bearing=<name> (a conf/bearing config, "
             "or one's own) for the defect frequencies of the bearing it was made on\n") in result.stdout

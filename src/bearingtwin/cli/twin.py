@@ -52,9 +52,11 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
                           else " (too short to hold out half: its own is unknown)"),
         "written": f"{files[0].name} and {len(files) - 1} figures",
     }
-    # A value held from a reference that its own record did not identify is a number that means little: said so.
+    # A value held from a reference that its own record did not identify is a number that means little: said so, and
+    # given to two digits.
     held = [(f"{name} {entry['value']}" if isinstance(entry["value"], str)  # the sensor: "outer race, vertical"
-             else f"{name.removesuffix('_' + entry['unit'].lower()).replace('_', ' ')} {entry['value']:.4g} "
+             else f"{name.removesuffix('_' + entry['unit'].lower()).replace('_', ' ')} "
+                  f"{entry['value']:{'.2g' if entry.get('identified_by_reference') is False else '.4g'}} "
                   f"{entry['unit']}".rstrip())
             + (" (the reference record hardly identified it)" if entry.get("identified_by_reference") is False else "")
             for name, entry in fit.operating_point.items() if entry.get("held")]

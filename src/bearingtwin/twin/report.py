@@ -492,9 +492,10 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
         if Path(path).resolve() == Path(measured.source).resolve():
             raise BearingTwinError("it is this record itself")
         if not (is_finite_number(about.get("fs")) and math.isclose(float(about["fs"]), measured.fs, rel_tol=1e-9)):
-            raise BearingTwinError(f"its record was taken at {about.get('fs')} Hz, this one at {measured.fs:g} Hz")
+            raise BearingTwinError(f"its record was taken at {_number_words(about.get('fs'))} Hz, this one at {measured.fs:g} Hz")
         if not (is_finite_number(about.get("rpm")) and same_speed(float(about["rpm"]), measured.rpm)):
-            raise BearingTwinError(f"its record was taken at {about.get('rpm')} rpm, this one at {measured.rpm:g} rpm")
+            raise BearingTwinError(f"its record was taken at {_number_words(about.get('rpm'))} rpm, this one at "
+                                   f"{measured.rpm:g} rpm")
         raw = read_raw(path)
         if "channel" not in about and len(raw.channels) > 1:
             raise BearingTwinError(f"its report does not say which of its record's channels ({', '.join(map(str, raw.channels))}) "
@@ -533,6 +534,20 @@ def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set
             entry["identified_by_reference"] = False
 
 
+def record_words(measured: Recording, channels: Mapping) -> str:
+    """What the twin was held against, as the closing summary says it: state, speed, rate, unit and, of a file of
+    several vibration channels (``channels``), the channel, wherever each came from (the file, a labels table, a
+    setting)."""
+    unit = f"in {measured.unit}" if measured.unit else "its unit not stated"
+    channel = f", channel {measured.channel}" if measured.channel is not None and len(channels) > 1 else ""
+    return f"{measured.fault}, {measured.rpm:g} rpm, {measured.fs:g} Hz, {unit}{channel}"
+
+
+def _number_words(value) -> str:
+    """A number a report holds as a reader would write it (1796, not 1796.0); anything else as it is."""
+    return f"{value:g}" if is_finite_number(value) else str(value)
+
+
 def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Path], str | None, dict[str, str]]:
     """Everything ``bearingtwin-twin`` does; returns the fit, the files written, the MLflow run id (None when
     tracking is disabled) and what the closing summary repeats of what was logged: ``bearing`` (the record's own,
@@ -556,7 +571,8 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     measured = check_measurement(cfg.measured, measured, channels, geometry)
     # What the closing summary repeats, as logged: the bearing whose defect lines the twin reads, always.
     # A geometry of its own (a simulation's bearing.n_balls=12) is said with the name it changes.
-    notes = {"bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *bearing_overrides()])}
+    notes = {"record": record_words(measured, channels),
+             "bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *bearing_overrides()])}
     off = speed_read_off(measured)
     if off:  # said now, and again in the closing summary: every defect line is sought beside where it stands
         log.warning("%s: %s", cfg.measured.path, off)
