@@ -717,6 +717,29 @@ def test_a_real_records_speed_typed_a_whole_factor_too_high_is_refused_beside_it
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
+def test_a_rate_given_against_the_names_one_that_the_shaft_line_bears_out_is_refused_in_a_line():
+    """``measured.fs=48000`` for a ``12k_`` file had been refused on the shaft series alone, in a paragraph naming
+    three candidate rates; the name and the shaft line are two witnesses against one typed number, as a diagnosis
+    says. The name's own rate given is read."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.twin.report import load_measurement
+
+    path = CWRU_RECORDS / "12k_Drive_End_OR007@6_1_131.mat"
+
+    def measured(fs):
+        return OmegaConf.create({"path": str(path), "channel": None, "fs": fs, "rpm": None, "fault": None,
+                                 "check_fs": True})
+
+    with pytest.raises(BearingTwinError, match=(
+            r"12k_Drive_End_OR007@6_1_131.mat: measured.fs=48000 Hz given, where its name states 12000 Hz, and the "
+            r"shaft line stands where it belongs at 12000 Hz, not at 48000 Hz: give this file no rate \(its name's is "
+            r"read\)$")):
+        load_measurement(measured(48000), load_bearing("cwru_6205"))
+    assert load_measurement(measured(12000), load_bearing("cwru_6205")).fs == 12000
+
+
+@pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")
 def test_a_real_records_speed_typed_at_half_is_refused_though_its_cage_lines_witness_it(tmp_path):
     """An outer-race record's drive-end channel as a bare array, its speed typed at half: the shaft series stands at
     twice the speed's place, but the cage's envelope lines, read at their second harmonic, had witnessed the rate, and

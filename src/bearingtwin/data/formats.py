@@ -411,6 +411,14 @@ def named_rate_note(meta: Mapping, fs: float | None, key: str = "fs") -> str | N
     return f"{key}={float(fs):g} Hz given, where {named['by']} {named['hz']:g} Hz"
 
 
+def rate_against_name_error(source: str, against_name: str, named_hz: float, fs: float) -> BearingTwinError:
+    """The refusal of a rate given against the one the file's name gives (:func:`named_rate_note`), where the shaft
+    line contradicts the rate given and stands where it belongs at the name's: two witnesses against one typed
+    number."""
+    return BearingTwinError(f"{source}: {against_name}, and the shaft line stands where it belongs at {named_hz:g} Hz, "
+                            f"not at {fs:g} Hz: give this file no rate (its name's is read)")
+
+
 def file_bearing(meta: Mapping, channel: str | None) -> str | None:
     """The ``conf/bearing`` name of the bearing a file was recorded on, as it names it: its own (a CWRU fault
     record's by its name's end, a HUST export's ER-16K, ``bearingtwin-simulate``'s), else, for a file of several

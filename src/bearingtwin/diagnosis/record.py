@@ -39,8 +39,8 @@ import scipy.signal
 from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord,
-                                    file_bearing, named_rate_note, read_raw, recording_from_raw,
-                                    refuse_a_label_the_file_contradicts, tachometer_channel)
+                                    file_bearing, named_rate_note, rate_against_name_error, read_raw,
+                                    recording_from_raw, refuse_a_label_the_file_contradicts, tachometer_channel)
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
@@ -494,8 +494,7 @@ def _checked_rate(recording: Recording, bearing: dict, channels: dict[str, np.nd
     against_name = named_rate_note(recording.meta, recording.fs, given_as) if given_as else None
     named_hz = (recording.meta.get("named_rate") or {}).get("hz")
     if against_name and declared.verdict == "contradicted" and _matches(checks, named_hz):
-        raise BearingTwinError(f"{recording.source}: {against_name}, and the shaft line stands where it belongs at "
-                               f"{named_hz:g} Hz, not at {recording.fs:g} Hz: give this file no rate (its name's is read)")
+        raise rate_against_name_error(recording.source, against_name, named_hz, recording.fs)
     if given_as or recording.meta.get("fs_origin") != "declared":  # a rate given, or one the file itself states
         return recording, doubt, declared.verdict
     # The series standing where it belongs is what a lower rate can fake and a higher one cannot; in-between
