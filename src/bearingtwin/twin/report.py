@@ -407,12 +407,18 @@ def plot_steps(fit: TwinFit, out_dir: Path) -> list[Path]:
     left.set(ylabel="discrepancy (dB)", title="error against effects added")
     names = [f.effect for f in fit.ranking]
     right.barh(range(len(names)), [100 * f.explained for f in fit.ranking])
+    # The order is the evidence's, not the share's: a share closed in many views' points may not pay for more
+    # parameters, so each bar carries the number it is ranked by.
+    for row, candidate in enumerate(fit.ranking):
+        right.annotate(f" evidence {candidate.evidence:+.3g}", (max(100 * candidate.explained, 0.0), row),
+                       va="center", fontsize=7)
     right.set_yticks(range(len(names)), names, fontsize=8)
     right.invert_yaxis()
     right.axvline(0.0, color="k", lw=0.8)
+    right.margins(x=0.25)
     # A candidate fitted on one half may leave the other half further off: a negative share, shown as such.
     right.set(xlabel="share of the held-out discrepancy closed (%; below 0: it grew)",
-              title="each candidate alone on the calibrated twin")
+              title="each candidate alone, ranked by evidence (> 0: it pays)")
     fig.tight_layout()
     path = out_dir / STEPS_FIGURE
     fig.savefig(path, dpi=110)
