@@ -500,8 +500,8 @@ def test_a_reference_record_that_cannot_be_compared_says_why(measurement, tmp_pa
                           ({"path": str(tmp_path / "two.npz"), "channel": None}, "does not say which of its record's channels"),
                           ({"path": str(tmp_path / "two.npz"), "channel": "b"},
                            "read on channel b, this one on 0, which its file holds too: another sensor"),
-                          ({"fs": 25600.0}, "taken at 25600.0 Hz, this one at 12000 Hz"),
-                          ({"rpm": 1750.0}, "taken at 1750.0 rpm, this one at 1797 rpm")]:
+                          ({"fs": 25600.0}, "taken at 25600 Hz, this one at 12000 Hz"),
+                          ({"rpm": 1750.0}, "taken at 1750 rpm, this one at 1797 rpm")]:
         fit = SimpleNamespace(repeatability_db={v: 0.5 for v in VIEWS}, since_reference=None, reference_note="")
         given = {key: value for key, value in {**about, **change}.items() if value is not None}
         compare_with_reference(fit, comparator, measured, {"measured": given}, 0.5)
