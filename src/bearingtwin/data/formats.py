@@ -403,20 +403,12 @@ def named_rate_note(meta: Mapping, fs: float | None, key: str = "fs") -> str | N
     """A note where a rate given as ``key`` differs from the one a data set's naming convention gives the file
     (``meta["named_rate"]``: a CWRU file's ``12k_`` / ``48k_``, its catalogue's for a numbered file): a convention,
     not the file's own statement, so not refused on reading; a rate that contradicts it is more likely a typo than a
-    mislabelled file, and a diagnosis refuses it where the shaft line bears the name's rate out
-    (:func:`bearingtwin.diagnosis.record.read_record`)."""
+    mislabelled file, and a diagnosis and the twin refuse it where the shaft line bears the name's rate out
+    (:func:`bearingtwin.signal.sampling_rate.rate_against_name_error`)."""
     named = meta.get("named_rate")
     if fs is None or not named or abs(float(fs) / named["hz"] - 1.0) <= FS_FLOAT_NOISE:
         return None
     return f"{key}={float(fs):g} Hz given, where {named['by']} {named['hz']:g} Hz"
-
-
-def rate_against_name_error(source: str, against_name: str, named_hz: float, fs: float) -> BearingTwinError:
-    """The refusal of a rate given against the one the file's name gives (:func:`named_rate_note`), where the shaft
-    line contradicts the rate given and stands where it belongs at the name's: two witnesses against one typed
-    number."""
-    return BearingTwinError(f"{source}: {against_name}, and the shaft line stands where it belongs at {named_hz:g} Hz, "
-                            f"not at {fs:g} Hz: give this file no rate (its name's is read)")
 
 
 def file_bearing(meta: Mapping, channel: str | None) -> str | None:

@@ -39,8 +39,8 @@ import scipy.signal
 from bearingtwin.config import unknown_bearing_note
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord,
-                                    file_bearing, named_rate_note, rate_against_name_error, read_raw,
-                                    recording_from_raw, refuse_a_label_the_file_contradicts, tachometer_channel)
+                                    file_bearing, named_rate_note, read_raw, recording_from_raw,
+                                    refuse_a_label_the_file_contradicts, tachometer_channel)
 from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
@@ -49,7 +49,8 @@ from bearingtwin.diagnosis.pipeline import RANGE_MARGIN, DiagnosisPipeline, unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import BearingGeometry, check_fault
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, describe_mismatch, longest_run,
-                                              rate_witnesses, shared_transforms, speeds_a_whole_factor_off, true_runs)
+                                              rate_against_name_error, rate_witnesses, series_elsewhere_words,
+                                              series_stands_at, shared_transforms, speeds_lines_alone_hide, true_runs)
 from bearingtwin.signal.speed import (SPEED_OFF, UNSTEADY, order_track, series_prominences, sharpening,
                                       speed_off_words, speed_profile, steady_times, tachometer_profile)
 
@@ -464,26 +465,20 @@ def _checked_rate(recording: Recording, bearing: dict, channels: dict[str, np.nd
 
     witnesses = rate_witnesses(recording.signal, channels)
 
-    def checks(rate: float):
-        return check_channels(witnesses, rate, recording.rpm, defect_hz=defect_hz)
-
     def check(rate: float):
-        at_rate = checks(rate)
+        at_rate = check_channels(witnesses, rate, recording.rpm, defect_hz=defect_hz)
         return at_rate[decisive_channel(at_rate)]
 
     try:
         declared = check(recording.fs)
     except BearingTwinError as error:  # too short to resolve the shaft line: say so, do not refuse
         return recording, [f"sampling rate not checked ({error})"], "not checked"
-    higher = (speeds_a_whole_factor_off(recording.signal, recording.fs, recording.rpm, defect_hz, channels,
-                                        max_factor=4, higher=True)
-              if declared.verdict == "consistent" and not declared.matches else [])
+    higher = speeds_lines_alone_hide(declared, recording.signal, defect_hz, channels)
     if higher:  # the speed's own place holds no shaft series; the cage's or a defect's lines, read at harmonics, do
         speeds = "; ".join(f"{recording.rpm * m:g} rpm ({m} times the stated)" for m in higher)
         doubt = [f"the speed contradicts the record: at {recording.rpm:g} rpm the shaft line belongs at "
-                 f"{declared.expected_hz:.2f} Hz, but {declared.reason.split('; but ')[0]}; the shaft series and the "
-                 f"record's lines stand where they belong at {speeds}: check the speed given. Every defect line is "
-                 "read where the stated values put it: the verdict is in doubt"]
+                 f"{declared.expected_hz:.2f} Hz, but {series_elsewhere_words(declared, speeds)}: check the speed "
+                 "given. Every defect line is read where the stated values put it: the verdict is in doubt"]
         return recording, doubt, "contradicted"
     if declared.verdict == "contradicted":
         doubt = [_speed_or_rate_wrong(declared, recording.meta.get("fs_origin"))]
@@ -493,7 +488,8 @@ def _checked_rate(recording: Recording, bearing: dict, channels: dict[str, np.nd
         doubt = []
     against_name = named_rate_note(recording.meta, recording.fs, given_as) if given_as else None
     named_hz = (recording.meta.get("named_rate") or {}).get("hz")
-    if against_name and declared.verdict == "contradicted" and _matches(checks, named_hz):
+    if against_name and declared.verdict == "contradicted" and series_stands_at(recording.signal, named_hz,
+                                                                                recording.rpm, defect_hz, channels):
         raise rate_against_name_error(recording.source, against_name, named_hz, recording.fs)
     if given_as or recording.meta.get("fs_origin") != "declared":  # a rate given, or one the file itself states
         return recording, doubt, declared.verdict
@@ -503,7 +499,8 @@ def _checked_rate(recording: Recording, bearing: dict, channels: dict[str, np.nd
     # higher then stands where it belongs for it to fake.
     contradicted = declared.verdict == "contradicted"
     others = [rate for rate in CWRU_RATES_HZ
-              if (rate > recording.fs or contradicted and rate < recording.fs) and _matches(checks, rate)]
+              if (rate > recording.fs or contradicted and rate < recording.fs)
+              and series_stands_at(recording.signal, rate, recording.rpm, defect_hz, channels)]
     if not others:
         return recording, doubt, declared.verdict
     rate = max(others)
@@ -547,15 +544,6 @@ def _speed_or_rate_wrong(check, fs_origin: str | None = None) -> str:
         implied_rpm = check.rpm * check.fs_hz / check.implied_fs_hz
         words += f"; at fs = {check.fs_hz:g} Hz the shaft line says {implied_rpm:.0f} rpm"
     return words + ". Every defect line is read where the stated values put it: the verdict is in doubt"
-
-
-def _matches(checks, rate: float) -> bool:
-    """Whether the shaft series stands where it belongs at ``rate`` in a channel of the file; a record too
-    short to tell at that rate (fewer seconds at a higher rate) does not."""
-    try:
-        return any(check.matches for check in checks(rate).values())
-    except BearingTwinError:
-        return False
 
 
 def in_model_unit(recording: Recording, pipeline: DiagnosisPipeline) -> tuple[Recording, list[str], str]:

@@ -1120,6 +1120,42 @@ def speeds_a_whole_factor_off(signal, fs: float, rpm: float, defect_hz: Mapping[
     return [m for _, m in sorted(consistent)]
 
 
+def speeds_lines_alone_hide(check: ShaftLineCheck, signal, defect_hz: Mapping[str, float] | None = None,
+                            channels: Mapping[str, np.ndarray] | None = None) -> list[int]:
+    """Where ``check`` took its speed from the cage's or a defect's lines alone (:func:`_by_a_defect_alone`), the m
+    (2 .. 4) under whose ``rpm * m`` the shaft series stands at its place (:func:`speeds_a_whole_factor_off`): a speed
+    typed a whole factor too low, its lines read at their harmonics. Empty otherwise."""
+    if not _by_a_defect_alone(check):
+        return []
+    return speeds_a_whole_factor_off(signal, check.fs_hz, check.rpm, defect_hz, channels, max_factor=4, higher=True)
+
+
+def series_elsewhere_words(check: ShaftLineCheck, speeds: str) -> str:
+    """What ``check`` read at the speed given, then where the shaft series and the lines stand (``speeds``, in words):
+    the reason of a speed :func:`speeds_lines_alone_hide` finds a whole factor too low."""
+    return (f"{check.reason.split('; but ')[0]}; the shaft series and the record's lines stand where they belong at "
+            f"{speeds}")
+
+
+def series_stands_at(signal, fs: float, rpm: float, defect_hz: Mapping[str, float] | None = None,
+                     channels: Mapping[str, np.ndarray] | None = None) -> bool:
+    """Whether the shaft series stands where it belongs at ``fs`` in a channel of the file (``channels`` witnesses,
+    :func:`check_channels`); a record too short to tell at that rate (fewer seconds at a higher rate) does not."""
+    try:
+        checks = check_channels(rate_witnesses(signal, channels), fs, rpm, defect_hz=defect_hz)
+    except BearingTwinError:
+        return False
+    return any(check.matches for check in checks.values())
+
+
+def rate_against_name_error(source: str, against_name: str, named_hz: float, fs: float) -> BearingTwinError:
+    """The refusal of a rate given against the one the file's name gives (``against_name``, the data layer's
+    ``named_rate_note``), where the shaft line contradicts the rate given and stands where it belongs at the name's:
+    two witnesses against one typed number."""
+    return BearingTwinError(f"{source}: {against_name}, and the shaft line stands where it belongs at {named_hz:g} Hz, "
+                            f"not at {fs:g} Hz: give this file no rate (its name's is read)")
+
+
 def describe_mismatch(check: ShaftLineCheck) -> str:
     """One sentence on why a declared rate was rejected (or could not be confirmed)."""
     return (f"fs = {check.fs_hz:g} Hz {'contradicts' if check.verdict == 'contradicted' else 'is not confirmed by'} "
@@ -1131,7 +1167,8 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
                            defect_hz: Mapping[str, float] | None = None, refuse: bool = True,
                            channels: Mapping[str, np.ndarray] | None = None,
                            check_key: str | None = None, rpm_key: str | None = None,
-                           rate_from_file: bool = False) -> ShaftLineCheck | None:
+                           rate_from_file: bool = False, against_name: str | None = None,
+                           named_hz: float | None = None) -> ShaftLineCheck | None:
     """The check as a command applies it: a contradicted rate raises naming ``source`` and the
     setting to correct (``fs_key``, and ``rpm_key`` where the speed was given, not read from the file: a
     speed off by a whole factor contradicts a rate as a rate off by it does); an ambiguous one is logged; a record too short to check is
@@ -1144,7 +1181,9 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     machine's half orders can make a record consistent with half its speed: on CWRU's records cut to 5 s, one of 13
     at its true speed). A speed a setting gave that the cage's or a defect's lines witness where the shaft's series does
     not stand, while the series stands at its place under a speed a whole factor higher, is refused naming ``rpm_key``
-    (half the speed typed: the defect lines, read at their second harmonics, witness it). ``channels``: the file's channels
+    (half the speed typed: the defect lines, read at their second harmonics, witness it). ``against_name``: the note
+    that the rate given differs from ``named_hz``, the one the file's name gives (``named_rate_note``): refused where the
+    shaft line contradicts the rate given and stands at its place at the name's. ``channels``: the file's channels
     of ``signal``'s length, each a witness of the one rate (:func:`check_channels`). ``check_key``: the
     setting that turns the check off, named in the refusal."""
     import logging
@@ -1156,15 +1195,15 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
     except BearingTwinError as error:
         log.warning("%s: sampling rate not checked: %s", source, error)
         return None
+    if against_name and check.verdict == "contradicted" and series_stands_at(signal, named_hz, rpm, defect_hz, channels):
+        raise rate_against_name_error(source, against_name, named_hz, fs)
+    higher = speeds_lines_alone_hide(check, signal, defect_hz, channels) if rpm_key else []
+    if higher:
+        speeds = "; ".join(f"{rpm * m:g} rpm ({m} times higher)" for m in higher)
+        off = f", or {check_key}=false if {rpm:g} rpm is true" if check_key else ""
+        raise BearingTwinError(f"{source}: {rpm_key}={rpm:g} puts the shaft line at {check.expected_hz:.2f} Hz, but "
+                               f"{series_elsewhere_words(check, speeds)}: give the true speed with {rpm_key}=<rev/min>{off}")
     # Where a setting gave the speed, the speeds a whole factor lower the record is consistent with are named.
-    if rpm_key and check.verdict == "consistent" and not check.matches:  # witnessed by lines, not the shaft's series
-        higher = speeds_a_whole_factor_off(signal, fs, rpm, defect_hz, channels, max_factor=4, higher=True)
-        if higher:
-            speeds = "; ".join(f"{rpm * m:g} rpm ({m} times higher)" for m in higher)
-            off = f", or {check_key}=false if {rpm:g} rpm is true" if check_key else ""
-            raise BearingTwinError(f"{source}: {rpm_key}={rpm:g} puts the shaft line at {check.expected_hz:.2f} Hz, but "
-                                   f"{check.reason.split('; but ')[0]}; the shaft series and the record's lines stand "
-                                   f"where they belong at {speeds}: give the true speed with {rpm_key}=<rev/min>{off}")
     lower = (speeds_a_whole_factor_off(signal, fs, rpm, defect_hz, channels)
              if rpm_key and check.verdict == "contradicted" and (refuse or rate_from_file) else [])
     speeds = "; ".join(f"{rpm / m:g} rpm ({m} times lower)" for m in lower)

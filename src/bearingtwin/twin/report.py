@@ -22,7 +22,7 @@ from bearingtwin.checks import is_finite_number, non_negative_number, positive_n
 from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
                                 unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
-                                    rate_against_name_error, read_raw, recording_from_raw, same_speed, speed_setting)
+                                    read_raw, recording_from_raw, same_speed, speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_factor, acceleration_unit, quantity_of
@@ -30,7 +30,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
-from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses, require_plausible_rate
+from bearingtwin.signal.sampling_rate import require_plausible_rate
 from bearingtwin.signal.speed import speed_off_words, speed_profile
 from bearingtwin.storage import file_digest
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
@@ -124,31 +124,17 @@ def check_measurement(measured_cfg, recording: Recording, channels: dict,
         # A rate given here or only declared by a data set's convention is refused when the record contradicts
         # it; one the file records itself is kept, the doubt logged (a speed typed a whole factor too high is refused).
         rate_given = recording.meta.get("fs_origin") in ("config", "declared")
-        defect_hz = bearing.defect_frequencies(recording.rpm) if bearing is not None else None
-        refuse_a_rate_against_the_name(recording, str(measured_cfg.path), channels, defect_hz)
+        # A rate given against the one the file's name gives (a CWRU 12k_ file read at 48 kHz), as a diagnosis says.
+        against_name = (named_rate_note(recording.meta, recording.fs, "measured.fs")
+                        if recording.meta.get("fs_origin") == "config" else None)
         require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
                                check_key="measured.check_fs", rpm_key=speed_setting(recording, "measured.rpm"),
-                               defect_hz=defect_hz, refuse=rate_given, channels=channels,
-                               rate_from_file=not rate_given and recording.meta.get("rpm_origin") == "config")
+                               defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
+                               refuse=rate_given, channels=channels,
+                               rate_from_file=not rate_given and recording.meta.get("rpm_origin") == "config",
+                               against_name=against_name,
+                               named_hz=(recording.meta.get("named_rate") or {}).get("hz"))
     return recording
-
-
-def refuse_a_rate_against_the_name(recording: Recording, source: str, channels: dict, defect_hz) -> None:
-    """Refuse ``measured.fs`` given against the rate the file's name gives (a CWRU ``12k_`` file read at 48 kHz)
-    where the shaft line contradicts it and stands where it belongs at the name's rate, as a diagnosis does."""
-    against_name = (named_rate_note(recording.meta, recording.fs, "measured.fs")
-                    if recording.meta.get("fs_origin") == "config" else None)
-    if against_name is None:
-        return
-    named_hz = recording.meta["named_rate"]["hz"]
-    witnesses = rate_witnesses(recording.signal, channels)
-    try:
-        given = check_channels(witnesses, recording.fs, recording.rpm, defect_hz=defect_hz)
-        named = check_channels(witnesses, named_hz, recording.rpm, defect_hz=defect_hz)
-    except BearingTwinError:  # too short to place the shaft line at one of the two rates: the usual check says so
-        return
-    if given[decisive_channel(given)].verdict == "contradicted" and any(check.matches for check in named.values()):
-        raise rate_against_name_error(source, against_name, named_hz, recording.fs)
 
 
 def speed_read_off(measured: Recording) -> str | None:
