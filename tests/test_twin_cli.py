@@ -765,6 +765,16 @@ def test_a_real_records_speed_typed_at_half_is_refused_though_its_cage_lines_wit
                                                rf"measured.check_fs=false if {half:g} rpm is true$"):
         load_measurement(measured(half), load_bearing("cwru_6205"))
     assert load_measurement(measured(recording.rpm), load_bearing("cwru_6205")).rpm == recording.rpm
+    # Typed at two thirds: its BPFO comb and its shaft line stand 1.5 times their places, where one rate puts both.
+    # Which of the two settings is wrong no line tells: both readings lead, the evidence after them (the line had
+    # opened with the rate and a series' reading it then overturned).
+    with pytest.raises(BearingTwinError) as refused:
+        load_measurement(measured(1200.0), load_bearing("cwru_6205"))
+    assert re.match(r"^\S*bare.npy: measured.fs=12000 and measured.rpm=1200 do not fit the record: its lines stand where "
+                    r"about 1800 rpm puts them at 12000 Hz \(1.5 times the speed given\), or about 8000 Hz at 1200 rpm; "
+                    r"give the true speed with measured.rpm=<rev/min> or the true rate with measured.fs=<Hz>, or "
+                    r"measured.check_fs=false if both 12000 Hz and 1200 rpm are true \(fs = 12000 Hz contradicts .*BPFO "
+                    r"comb stands at 1.5 times its frequency", str(refused.value)), str(refused.value)
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")

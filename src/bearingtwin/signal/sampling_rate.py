@@ -1156,6 +1156,12 @@ def rate_against_name_error(source: str, against_name: str, named_hz: float, fs:
                             f"not at {fs:g} Hz: give this file no rate (its name's is read)")
 
 
+def _three_digits(value: float) -> str:
+    """``value`` to three significant digits, written out (1799.4 -> 1800, 8005 -> 8000): an implied rate or speed
+    is as fine as the spectrum's resolution, about 0.5 %."""
+    return f"{float(f'{value:.3g}'):g}"
+
+
 def describe_mismatch(check: ShaftLineCheck) -> str:
     """One sentence on why a declared rate was rejected (or could not be confirmed)."""
     return (f"fs = {check.fs_hz:g} Hz {'contradicts' if check.verdict == 'contradicted' else 'is not confirmed by'} "
@@ -1214,6 +1220,17 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
             raise BearingTwinError(f"{source}: {describe_mismatch(check)}; the record's lines stand where they belong at "
                                    f"{speeds}, and the file records its rate: give the true speed with "
                                    f"{rpm_key}=<rev/min>{off}")
+        if rpm_key and check.implied_fs_hz and (check.witness == "comb" or check.implied_confirmed) and not lower:
+            # Both typed, and the rate the lines imply confirmed there (a defect's comb and the shaft's line agree on
+            # it, or another channel does): no line tells a speed off from a rate off, so both readings come first, in
+            # the settings' words, and the evidence after them. A rate implied by the nearest series alone is no
+            # reading to lead with (CWRU 130 typed at 1500 rpm: its nearest series implies 721 rpm).
+            factor = fs / check.implied_fs_hz
+            raise BearingTwinError(
+                f"{source}: {fs_key}={fs:g} and {rpm_key}={rpm:g} do not fit the record: its lines stand where about "
+                f"{_three_digits(rpm * factor)} rpm puts them at {fs:g} Hz ({factor:.2g} times the speed given), or about "
+                f"{_three_digits(check.implied_fs_hz)} Hz at {rpm:g} rpm; give the true speed with {rpm_key}=<rev/min> or "
+                f"the true rate with {fs_key}=<Hz>{off} ({describe_mismatch(check)})")
         at_speeds = f": its lines stand where they belong at {speeds}" if lower else ""
         speed = f" (or the true speed with {rpm_key}=<rev/min>{at_speeds})" if rpm_key else ""
         raise BearingTwinError(f"{source}: {describe_mismatch(check)}; give the true rate with {fs_key}=<Hz>{speed}{off}")
