@@ -111,6 +111,25 @@ def test_every_channel_of_a_file_witnesses_its_rate_as_the_commands_read_it(caps
     assert check["channels"] == {"DE": "contradicted", "FE": "consistent", "BA": "contradicted"}
 
 
+@pytest.mark.skipif(not CWRU.is_dir(), reason=f"CWRU records not present in {CWRU}")
+def test_a_speed_given_at_half_that_the_cage_lines_bear_out_is_doubted(capsys, monkeypatch, tmp_path):
+    """Record 130's drive-end channel as a bare array, its speed given at half: the cage's envelope lines, read at
+    their second harmonic, make the rate consistent, as the twin and a diagnosis found; the twin refuses the speed and
+    a diagnosis doubts it, and the summary had said nothing. It names the speed the shaft series stands at."""
+    from scipy.io import loadmat
+
+    record = loadmat(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
+    np.save(tmp_path / "bare.npy", record["X130_DE_time"].ravel())
+    given = [f"path={tmp_path / 'bare.npy'}", "fs=12000", "bearing=cwru_6205"]
+    code, out, _ = run(capsys, monkeypatch, *given, "rpm=898")
+    check = json.loads(out)["shaft_line_check"]
+    assert code == 0 and check["verdict"] == "consistent" and check["witness"] == "envelope"
+    assert check["speed_doubt"].endswith("stand where they belong at 1796 rpm (2 times higher); only the cage's or a "
+                                         "defect's lines bear out 898 rpm, read at their harmonics: check the speed")
+    code, out, _ = run(capsys, monkeypatch, *given, "rpm=1796")
+    assert "speed_doubt" not in json.loads(out)["shaft_line_check"]
+
+
 def test_what_a_file_leaves_unsaid_is_read_from_a_labels_table_beside_it(capsys, monkeypatch, tmp_path):
     fs, rpm = 12000.0, 1797.0
     t = np.arange(int(4 * fs)) / fs

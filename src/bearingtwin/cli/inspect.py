@@ -40,7 +40,8 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
 from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry
-from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, rate_witnesses
+from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, rate_witnesses, series_elsewhere_words,
+                                              speeds_lines_alone_hide)
 from bearingtwin.signal.speed import SUPPLY_HZ, near_supply, speed_profile, tachometer_profile
 
 
@@ -170,6 +171,14 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
             decisive = decisive_channel(checks)
             summary["shaft_line_check"] = dict(checks[decisive].as_dict(), channel=decisive,
                                                channels={name: check.verdict for name, check in checks.items()})
+            # A speed a whole factor too low that the cage's or a defect's lines alone bear out, read at their
+            # harmonics: the twin refuses it and a diagnosis doubts it, so the summary says it too.
+            higher = speeds_lines_alone_hide(checks[decisive], signal, defect_hz, vibration)
+            if higher:
+                speeds = "; ".join(f"{rpm * m:g} rpm ({m} times higher)" for m in higher)
+                summary["shaft_line_check"]["speed_doubt"] = (
+                    f"{series_elsewhere_words(checks[decisive], speeds)}; only the cage's or a defect's lines bear out "
+                    f"{rpm:g} rpm, read at their harmonics: check the speed")
         except BearingTwinError as error:  # NaNs, or a record too short to resolve the shaft line
             summary["shaft_line_check"] = {"channel": names[0], "verdict": "not checked", "reason": str(error)}
         summary["shaft_speed"], not_read = shaft_speed(raw, names, fs_hz, rpm)
