@@ -1,6 +1,6 @@
 """No run left RUNNING: signals sent to real training processes, a sweep's workers, dead owners.
 
-The training processes simulate 10 s of each bearing state into a fresh cache, which
+The training processes simulate 10 s (40 s where they are stopped early) of each bearing state into a fresh cache, which
 takes several seconds: long enough to be caught with a run open.
 """
 
@@ -22,11 +22,14 @@ from bearingtwin.tracking.mlflow_logging import open_store, train_tracked
 
 from test_tracking import CHOICES, fake_train, make_cfg
 
-SLOW = ["classifier=svm", "features=raw", "data.duration=10", "data.samples_per_class=12"]
+SLOW = ["classifier=svm", "features=raw", "data.samples_per_class=12"]
 
 
-def start_training(base: Path, *args: str) -> subprocess.Popen:
-    command = [sys.executable, "-m", "bearingtwin.cli.train", *args, *SLOW,
+def start_training(base: Path, *args: str, duration_s: float = 10) -> subprocess.Popen:
+    """``bearingtwin-train`` simulating ``duration_s`` of each state: a test that stops it early gives it longer, so
+    that on a loaded machine the signal still finds the run open (at 10 s, polled while the suite ran on both cores,
+    a run had finished between the poll that saw it RUNNING and the signal)."""
+    command = [sys.executable, "-m", "bearingtwin.cli.train", *args, *SLOW, f"data.duration={duration_s:g}",
                f"tracking.uri=sqlite:///{base}/mlflow.db", f"paths.cache_dir={base}/cache"]
     return subprocess.Popen(command, cwd=base, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
@@ -83,7 +86,7 @@ def alive(pid: int) -> bool:
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])  # SIGHUP: a terminal closed
 def test_a_signalled_run_is_killed_with_one_line_and_128_plus_signal(tmp_path, signum):
-    process = start_training(tmp_path)
+    process = start_training(tmp_path, duration_s=40)
     (run,) = wait_for_running(tmp_path, process, 1)
     assert run.data.tags["bt.pid"] == str(process.pid)
     process.send_signal(signum)
