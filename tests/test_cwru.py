@@ -752,6 +752,16 @@ def test_a_file_holding_another_catalogued_records_variables_is_refused(tmp_path
     scipy.io.savemat(tmp_path / "111.mat", {"X107_DE_time": samples, "X107RPM": 1750.0})  # IR007_2 at 48 kHz, not 12
     with pytest.raises(BearingTwinError, match=r"holds record 107's variables .*IR007_2 at 12 kHz.*IR007_2 at 48 kHz"):
         read_raw(tmp_path / "111.mat")
+    # A label names no record, but a condition: an outer race's record under an inner race's label had been scored as
+    # an inner race (the record's own label, of either rate, passes).
+    scipy.io.savemat(tmp_path / "IR007_1.mat", {"X131_DE_time": samples, "X131RPM": 1772.0})
+    with pytest.raises(BearingTwinError, match=(
+            r"IR007_1.mat: holds record 131's variables \(X131_\*: OR007@6_1 at 12 kHz, drive end in the Data Center's "
+            r"catalogue\), while its name is the label IR007_1: name the file by the record it holds$")):
+        read_raw(tmp_path / "IR007_1.mat")
+    for held in (106, 110):  # IR007_1 at 12 and at 48 kHz
+        scipy.io.savemat(tmp_path / "IR007_1.mat", {f"X{held}_DE_time": samples, f"X{held}RPM": 1772.0})
+        assert read_raw(tmp_path / "IR007_1.mat").meta["record"] == held
 
 
 def test_a_file_holding_two_records_gives_the_one_its_name_names(tmp_path):

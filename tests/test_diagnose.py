@@ -1151,6 +1151,10 @@ def test_diagnose_a_cwru_record_by_registry_alias(registered, tmp_path):
     assert "converted from g to m/s^2, the unit the model was trained in (x 9.80665)" in result["notes"]
     assert result["agree"] == (result["verdict"] == "outer")
     assert (tmp_path / "out" / record.stem / "diagnosis.png").stat().st_size > 10_000
+    # The summary is begun by the first file's run, so files diagnosed one by one build it up (it had been written
+    # for one file only when it failed).
+    (row,) = csv.DictReader(open(tmp_path / "out" / "summary.csv"))
+    assert (row["record"], row["verdict"], row["true_state"]) == (record.stem, result["verdict"], "outer")
     assert record.stem in done.stdout and "mlflow ui --backend-store-uri" in done.stdout
     logged = MlflowClient(uri).search_runs([MlflowClient(uri).get_experiment_by_name("bearingtwin-diagnose").experiment_id])
     assert logged[0].info.status == "FINISHED" and logged[0].data.params["model"] == "models:/diag@champion"

@@ -2,8 +2,8 @@
 
     bearingtwin-diagnose path=<file | folder | glob> model=models:/<name>@<alias> out=<dir>
 
-Writes <out>/<record>/diagnosis.json and diagnosis.png per record, <out>/summary.csv for
-several, prints one line per record and a closing summary (verdicts, scores, disagreements); logs to MLflow (experiment
+Writes <out>/<record>/diagnosis.json and diagnosis.png per record, and <out>/summary.csv (a row
+per record), prints one line per record and a closing summary (verdicts, scores, disagreements); logs to MLflow (experiment
 ``bearingtwin-diagnose``) unless tracking.enabled=false. Exit status 2 when any record could
 not be diagnosed (the others are still diagnosed) or the model cannot be used.
 """

@@ -198,6 +198,8 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
     notes = []
     if len(by_record) == 1:
         record = next(iter(by_record))
+        if name is not None and name.form == "label":
+            _refuse_another_condition(path, name, record)
         if named is not None and named != record:
             _refuse_another_catalogued_record(path, named, record)
             notes.append(f"its variables are X{record:03d}_* while the name says record {named}; read as the name's "
@@ -259,6 +261,21 @@ def _refuse_another_catalogued_record(path: Path, named: int, held: int) -> None
         raise BearingTwinError(f"{path}: holds record {held}'s variables (X{held:03d}_*: {words(held)} in the Data "
                                f"Center's catalogue), while its name gives record {named} ({words(named)}): name the "
                                "file by the record it holds")
+
+
+def _refuse_another_condition(path: Path, label: CwruName, held: int) -> None:
+    """Refuse a file named by a Data Center label (``IR007_1.mat``) whose variables are those of a record the
+    catalogue lists under another condition (``X131_*``: OR007@6_1): read as its name, it would be scored against the
+    wrong truth. A label names no record, so only the condition is compared; a number outside the catalogue passes."""
+    if held not in DATA_CENTER_CATALOGUE:
+        return
+    text, rate_hz, end = DATA_CENTER_CATALOGUE[held]
+    catalogued = _parse_condition(text)
+    if (catalogued.fault, catalogued.load_hp, catalogued.fault_size_in, catalogued.position) != (
+            label.fault, label.load_hp, label.fault_size_in, label.position):
+        raise BearingTwinError(f"{path}: holds record {held}'s variables (X{held:03d}_*: {text} at {rate_hz / 1000:g} kHz, "
+                               f"{end} end in the Data Center's catalogue), while its name is the label {path.stem}: "
+                               "name the file by the record it holds")
 
 
 def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[str]:

@@ -309,8 +309,8 @@ def known_unit(unit, key: str) -> str:
     """``unit`` (setting ``key``) as given, where it is a unit known here (:func:`~bearingtwin.data.units.quantity_of`)."""
     unit = str(unit).strip()
     if quantity_of(unit) is None:
-        raise BearingTwinError(f"{key}={unit!r} is no unit known here; give one such as g, mg, m/s^2, mm/s^2 (an "
-                               "acceleration), V, mm/s or um")
+        raise BearingTwinError(f"{key}={unit!r} is no unit known here; give one such as g, mg, m/s2, mm/s2 (an "
+                               "acceleration; a caret, m/s^2, only in quotes), V, mm/s or um")
     return unit
 
 

@@ -1,6 +1,6 @@
 """Everything ``bearingtwin-diagnose`` does: find the records, diagnose each, score, write, log.
 
-Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; for several records
+Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; and
 ``<out>/summary.csv`` (one row per record; ``true_state, correct`` when the truth is known from
 CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or the
 ``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
@@ -13,7 +13,7 @@ A folder's or glob's run leaves ``out`` holding its own per-record outputs alone
 (:data:`OUTPUT_FILES`, ``summary.csv``) is removed before the first record is diagnosed, so a record deleted since,
 or failing now, or not reached by an interrupt, leaves no verdict of the earlier run to pass for this one's; a
 single file's run replaces that record's outputs alone (:func:`remove_earlier_outputs`) and its row of the
-``summary.csv`` there (:func:`update_summary`), which it writes when the file fails and there is none."""
+``summary.csv`` there (:func:`update_summary`), begun by the first such run."""
 
 from __future__ import annotations
 
@@ -227,14 +227,13 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
             raise
         finally:  # interrupted too: the summary of the records diagnosed, not an earlier run's left beside them
             summary = out / "summary.csv"
-            if len(records) > 1 or run.failures or _summary_written_here(summary):
-                try:  # one file's row into the rows earlier runs wrote (files diagnosed one by one as they arrive)
-                    run.files.append(write_summary(run.rows, summary) if len(records) > 1 else
-                                     update_summary(run.rows, summary))
-                except BearingTwinError as error:
-                    if not interrupted:
-                        raise
-                    log.warning("%s", error)  # said; the interrupt, not the disk, ends the command (its runs KILLED)
+            try:  # one file's row into the rows earlier runs wrote (files diagnosed one by one as they arrive)
+                run.files.append(write_summary(run.rows, summary) if len(records) > 1 else
+                                 update_summary(run.rows, summary))
+            except BearingTwinError as error:
+                if not interrupted:
+                    raise
+                log.warning("%s", error)  # said; the interrupt, not the disk, ends the command (its runs KILLED)
         if tracked:
             log_diagnosis(*tracked, run, len(records))
     return run
