@@ -202,6 +202,22 @@ def test_a_speed_a_whole_factor_too_high_is_not_confirmed_by_a_harmonic_of_its_d
 
 
 @needs_data
+def test_a_record_at_four_times_its_declared_rate_is_followed_to_its_true_rate():
+    """An inner race's record resampled to 48 kHz and declared at 12: its shaft series' in-between lines and its BPFI
+    line at half its place name 24 kHz, where they stand at half their places again. The rate named is checked in
+    turn and followed to 48 kHz; it had named 24 kHz, and only a second run at that rate named the true one."""
+    import scipy.signal
+
+    recording = load_cwru(CWRU / "12k_Drive_End_IR007_1_106.mat")
+    at_48k = scipy.signal.resample_poly(recording.signal, 4, 1)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(recording.rpm)
+    check = check_sampling_rate(at_48k, 12000.0, recording.rpm, defect_hz=defect_hz)
+    assert check.verdict == "contradicted" and check.implied_fs_hz == pytest.approx(48000.0, rel=0.005), check.reason
+    assert "a rate of 24000 Hz; at 24000 Hz, the shaft series also stands between its harmonics" in check.reason
+    assert check_sampling_rate(at_48k, 48000.0, recording.rpm, defect_hz=defect_hz).verdict == "consistent"
+
+
+@needs_data
 @pytest.mark.parametrize("declared", [8000.0, 18000.0])
 @pytest.mark.parametrize("path", sorted(CWRU.glob("12k_*_[IO]R007*.mat")), ids=lambda p: p.name)
 def test_a_races_comb_read_as_the_other_races_under_a_wrong_rate_does_not_confirm_it(path, declared):

@@ -423,8 +423,13 @@ def check_sampling_rate(
         machine = (", or the machine makes lines between its shaft orders (looseness and rubs make half orders)"
                    if whole and fraction == 2 else "")
         why = f": fs may be {rate_if_shaft:.0f} Hz ({times} times {fs:.0f} Hz){machine}; {why}"
-    return ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
-                          reason=suspicion + why, fraction_rate_hz=rate_if_shaft)
+    check = ShaftLineCheck(**common, implied_fs_hz=implied, matches=True, verdict=verdict, fraction=fraction,
+                           reason=suspicion + why, fraction_rate_hz=rate_if_shaft)
+    # A rate the in-between lines and a defect line name is checked in turn, as any contradiction's (a record at 48 kHz
+    # declared at 12: its lines at half their places name 24 kHz, where they stand at half their places again); where
+    # the rates followed confirm none, the first stands as named (a speed ten times too high wanders off otherwise).
+    followed = _implied_rate_checked(check, signal, options) if follow_implied else check
+    return followed if followed.implied_fs_hz else check
 
 
 def _series_also_read_as_a_defects(check: ShaftLineCheck, defect_hz: Mapping[str, float], ratio: np.ndarray,
@@ -466,7 +471,7 @@ def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Ma
     refused or its in-between lines name another, that one is followed (up to ``max_steps`` rates): the first the
     record does not refuse is named (a doubt there is no refusal), and where none is, no rate is (each series read
     as the shaft's placed it elsewhere)."""
-    if check.verdict != "contradicted" or check.fraction or not check.implied_fs_hz:
+    if check.verdict != "contradicted" or not check.implied_fs_hz:
         return check
     reason, rate, visited = check.reason, check.implied_fs_hz, [check.fs_hz]
     for step in range(max_steps):
