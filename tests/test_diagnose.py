@@ -2010,6 +2010,18 @@ def test_a_speed_the_shaft_line_contradicts_is_named_with_what_it_would_be_and_t
                f"out={tmp_path}/right", "tracking.enabled=false", cwd=tmp_path, uri=uri)
     result = json.loads((tmp_path / "right" / "r106" / "diagnosis.json").read_text())
     assert done.returncode == 0 and result["rate_check"] == "consistent" and "speed or rate in doubt" not in done.stdout
+    # Resampled to 25.6 kHz and declared at 12: the rate note's chain ends near 25.6 kHz (840 rpm at 12 kHz); the speed
+    # the shaft series read at the refused rate is no speed, and its "give rpm=..." had stood beside it.
+    import scipy.signal
+
+    np.save(tmp_path / "r106_25k6.npy", scipy.signal.resample_poly(np.load(tmp_path / "recordings" / "r106.npy"), 32, 15))
+    done = run("diagnose", "path=r106_25k6.npy", "model=models:/diag@champion", "fs=12000", "rpm=1772",
+               f"out={tmp_path}/fast", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    result = json.loads((tmp_path / "fast" / "r106_25k6" / "diagnosis.json").read_text())
+    assert done.returncode == 0 and result["rate_check"] == "contradicted", result["notes"]
+    note = next(note for note in result["notes"] if note.startswith("speed and rate disagree"))
+    assert re.search(r"implying fs = 25[3-9]\d\d Hz; at fs = 12000 Hz the shaft line says", note), note
+    assert not any("if the sampling rate is right" in note for note in result["notes"]), result["notes"]
 
 
 @needs_cwru

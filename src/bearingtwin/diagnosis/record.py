@@ -227,7 +227,10 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict,
                          times_s=[time * read_at / recording.fs for time in speed["times_s"]])
         # A speed the file states is not overridden (a given one the file contradicts is refused): the file is named.
         key = None if recording.meta.get("rpm_origin") == "file" else "rpm"
-        off = speed_off_note(speed, recording.rpm, key) if recording.fs == read_at else None  # at the rate it was read at
+        # At the rate it was read at, and not where the rate check refused that rate: the series read off it is then
+        # no speed (a 25.6 kHz record declared at 12: the rate note's 840 rpm, beside a "give rpm=1687" the series said).
+        off = (speed_off_note(speed, recording.rpm, key)
+               if recording.fs == read_at and rate_check != "contradicted" else None)
         if off:
             speed["off"] = True
             notes.append(off)
