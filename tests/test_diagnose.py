@@ -1603,6 +1603,8 @@ def test_a_record_far_slower_than_the_models_training_speed_or_of_a_window_or_tw
     assert {name: row["speed_unseen"] for name, row in rows.items()} == {"short": "False", "slow": "True",
                                                                          "usual": "False"}
     assert "shaft speed well beyond the model's training windows' (see their notes): slow\n" in done.stdout
+    # The one-window verdict is a line of the closing summary too, as every other doubt is (it had been its note's alone).
+    assert "verdict on one or two windows (a longer record gives a surer one): short\n" in done.stdout
     # 0.3 s at 1797 rev/min, or 3 s at 600, cannot place the shaft line finely enough to check the rate: said of them,
     # in the closing summary too.
     assert [rows[name]["rate_check"] == "not checked" for name in ("short", "slow", "usual")] == [True, True, False]

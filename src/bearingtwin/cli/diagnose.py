@@ -105,6 +105,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     left_out = [f"{row['record']} ({row['windows_left_out']})" for row in diagnosed if row.get("windows_left_out")]
     if left_out:  # their verdicts stand on fewer windows than the records hold
         lines["windows left out over dropouts or samples with no value"] = ", ".join(left_out)
+    few = [row["record"] for row in diagnosed if row.get("few_windows")]
+    if few:  # a majority of one or two windows: one misread window decides it
+        lines["verdict on one or two windows (a longer record gives a surer one)"] = ", ".join(few)
     unweighed = [row["record"] for row in diagnosed if row.get("no_evidence")]
     if unweighed:  # a model's verdict alone
         lines["no physics evidence (no shaft speed or bearing known)"] = ", ".join(unweighed)

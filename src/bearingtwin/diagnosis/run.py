@@ -42,7 +42,8 @@ from bearingtwin.data.labels import (DEFAULT_LABELS, first_messages, labels_row,
                                      read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
-from bearingtwin.diagnosis.record import CONDITION_KEYS, diagnose_recording, one_line, plot_diagnosis, read_record
+from bearingtwin.diagnosis.record import (CONDITION_KEYS, FEW_WINDOWS, diagnose_recording, one_line, plot_diagnosis,
+                                         read_record)
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.storage import file_digest
 from bearingtwin.tracking.lifecycle import raise_if_interrupted
@@ -439,6 +440,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
         row["speed_unseen"] = result["speed_unseen"]
+        row["few_windows"] = len(result["windows"]) < FEW_WINDOWS  # for the closing summary (not a column)
         row["features_unseen"] = "" if result["features_unseen"] is None else result["features_unseen"]
         row["classifier_verdict"] = result["classifier_verdict"] or ""  # empty where the physics decided every window
         row["physics_decided"] = result["physics_decided"]
