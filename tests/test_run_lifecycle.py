@@ -86,6 +86,9 @@ def alive(pid: int) -> bool:
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])  # SIGHUP: a terminal closed
 def test_a_signalled_run_is_killed_with_one_line_and_128_plus_signal(tmp_path, signum):
+    if signum == signal.SIGHUP and signal.getsignal(signal.SIGHUP) == signal.SIG_IGN:
+        # Started under nohup, the training inherits the ignored hang-up and keeps it, as a nohup'd command should.
+        pytest.skip("SIGHUP is ignored in this process (nohup): the training rightly ignores it too")
     process = start_training(tmp_path, duration_s=40)
     (run,) = wait_for_running(tmp_path, process, 1)
     assert run.data.tags["bt.pid"] == str(process.pid)
