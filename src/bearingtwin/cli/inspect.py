@@ -175,9 +175,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
             # harmonics: the twin refuses it and a diagnosis doubts it, so the summary says it too.
             higher = speeds_lines_alone_hide(checks[decisive], signal, defect_hz, vibration)
             if higher:
-                speeds = "; ".join(f"{rpm * m:g} rpm ({m} times higher)" for m in higher)
                 summary["shaft_line_check"]["speed_doubt"] = (
-                    f"{series_elsewhere_words(checks[decisive], speeds)}; only the cage's or a defect's lines bear out "
+                    f"{series_elsewhere_words(checks[decisive], higher)}; only the cage's or a defect's lines bear out "
                     f"{rpm:g} rpm, read at their harmonics: check the speed")
         except BearingTwinError as error:  # NaNs, or a record too short to resolve the shaft line
             summary["shaft_line_check"] = {"channel": names[0], "verdict": "not checked", "reason": str(error)}

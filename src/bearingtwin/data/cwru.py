@@ -255,12 +255,15 @@ def _refuse_another_catalogued_record(path: Path, named: int, held: int) -> None
     Data Center's own 0.028 in files hold ``X056_*`` and the like)."""
     if named in DATA_CENTER_CATALOGUE and held in DATA_CENTER_CATALOGUE and (
             DATA_CENTER_CATALOGUE[named] != DATA_CENTER_CATALOGUE[held]):
-        def words(number: int) -> str:
-            label, rate_hz, end = DATA_CENTER_CATALOGUE[number]
-            return f"{label} at {rate_hz / 1000:g} kHz, {end} end"
-        raise BearingTwinError(f"{path}: holds record {held}'s variables (X{held:03d}_*: {words(held)} in the Data "
-                               f"Center's catalogue), while its name gives record {named} ({words(named)}): name the "
-                               "file by the record it holds")
+        raise BearingTwinError(f"{path}: holds record {held}'s variables (X{held:03d}_*: {_catalogue_words(held)} in the "
+                               f"Data Center's catalogue), while its name gives record {named} ({_catalogue_words(named)}): "
+                               "name the file by the record it holds")
+
+
+def _catalogue_words(number: int) -> str:
+    """What the Data Center's catalogue lists record ``number`` as: "OR007@6_1 at 12 kHz, drive end"."""
+    label, rate_hz, end = DATA_CENTER_CATALOGUE[number]
+    return f"{label} at {rate_hz / 1000:g} kHz, {end} end"
 
 
 def _refuse_another_condition(path: Path, label: CwruName, held: int) -> None:
@@ -269,13 +272,12 @@ def _refuse_another_condition(path: Path, label: CwruName, held: int) -> None:
     wrong truth. A label names no record, so only the condition is compared; a number outside the catalogue passes."""
     if held not in DATA_CENTER_CATALOGUE:
         return
-    text, rate_hz, end = DATA_CENTER_CATALOGUE[held]
-    catalogued = _parse_condition(text)
+    catalogued = _parse_condition(DATA_CENTER_CATALOGUE[held][0])
     if (catalogued.fault, catalogued.load_hp, catalogued.fault_size_in, catalogued.position) != (
             label.fault, label.load_hp, label.fault_size_in, label.position):
-        raise BearingTwinError(f"{path}: holds record {held}'s variables (X{held:03d}_*: {text} at {rate_hz / 1000:g} kHz, "
-                               f"{end} end in the Data Center's catalogue), while its name is the label {path.stem}: "
-                               "name the file by the record it holds")
+        raise BearingTwinError(f"{path}: holds record {held}'s variables (X{held:03d}_*: {_catalogue_words(held)} in the "
+                               f"Data Center's catalogue), while its name is the label {path.stem}: name the file by the "
+                               "record it holds")
 
 
 def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[str]:

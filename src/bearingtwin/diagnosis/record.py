@@ -478,10 +478,9 @@ def _checked_rate(recording: Recording, bearing: dict, channels: dict[str, np.nd
         return recording, [f"sampling rate not checked ({error})"], "not checked"
     higher = speeds_lines_alone_hide(declared, recording.signal, defect_hz, channels)
     if higher:  # the speed's own place holds no shaft series; the cage's or a defect's lines, read at harmonics, do
-        speeds = "; ".join(f"{recording.rpm * m:g} rpm ({m} times the stated)" for m in higher)
         doubt = [f"the speed contradicts the record: at {recording.rpm:g} rpm the shaft line belongs at "
-                 f"{declared.expected_hz:.2f} Hz, but {series_elsewhere_words(declared, speeds)}: check the speed "
-                 "given. Every defect line is read where the stated values put it: the verdict is in doubt"]
+                 f"{declared.expected_hz:.2f} Hz, but {series_elsewhere_words(declared, higher, 'the stated')}: "
+                 "check the speed given. Every defect line is read where the stated values put it: the verdict is in doubt"]
         return recording, doubt, "contradicted"
     if declared.verdict == "contradicted":
         doubt = [_speed_or_rate_wrong(declared, recording.meta.get("fs_origin"))]

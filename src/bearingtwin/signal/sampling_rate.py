@@ -28,7 +28,7 @@ import functools
 import hashlib
 import math
 from dataclasses import asdict, dataclass
-from typing import Callable, Mapping
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import scipy.fft
@@ -1135,9 +1135,11 @@ def speeds_lines_alone_hide(check: ShaftLineCheck, signal, defect_hz: Mapping[st
     return speeds_a_whole_factor_off(signal, check.fs_hz, check.rpm, defect_hz, channels, max_factor=4, higher=True)
 
 
-def series_elsewhere_words(check: ShaftLineCheck, speeds: str) -> str:
-    """What ``check`` read at the speed given, then where the shaft series and the lines stand (``speeds``, in words):
-    the reason of a speed :func:`speeds_lines_alone_hide` finds a whole factor too low."""
+def series_elsewhere_words(check: ShaftLineCheck, multiples: Sequence[int], compared: str = "higher") -> str:
+    """What ``check`` read at the speed given, then the speeds ``multiples`` times it where the shaft series and the
+    lines stand, each "(m times ``compared``)": the reason of a speed :func:`speeds_lines_alone_hide` finds a whole
+    factor too low."""
+    speeds = "; ".join(f"{check.rpm * m:g} rpm ({m} times {compared})" for m in multiples)
     return (f"{check.reason.split('; but ')[0]}; the shaft series and the record's lines stand where they belong at "
             f"{speeds}")
 
@@ -1210,10 +1212,9 @@ def require_plausible_rate(signal, fs: float, rpm: float, source: str, fs_key: s
         raise rate_against_name_error(source, against_name, named_hz, fs)
     higher = speeds_lines_alone_hide(check, signal, defect_hz, channels) if rpm_key else []
     if higher:
-        speeds = "; ".join(f"{rpm * m:g} rpm ({m} times higher)" for m in higher)
         off = f", or {check_key}=false if {rpm:g} rpm is true" if check_key else ""
         raise BearingTwinError(f"{source}: {rpm_key}={rpm:g} puts the shaft line at {check.expected_hz:.2f} Hz, but "
-                               f"{series_elsewhere_words(check, speeds)}: give the true speed with {rpm_key}=<rev/min>{off}")
+                               f"{series_elsewhere_words(check, higher)}: give the true speed with {rpm_key}=<rev/min>{off}")
     # Where a setting gave the speed, the speeds a whole factor lower the record is consistent with are named.
     lower = (speeds_a_whole_factor_off(signal, fs, rpm, defect_hz, channels)
              if rpm_key and check.verdict == "contradicted" and (refuse or rate_from_file) else [])
