@@ -753,7 +753,9 @@ def test_samples_with_no_value_are_bridged_for_the_record_and_their_windows_left
     for start_s in (1.0, 2.5, 3.3):  # no window read kept a sample of a gap
         assert not np.any((starts < start_s + 0.01) & (starts + window_s > start_s)), (start_s, starts)
     assert result["windows_left_out"] == int(4.0 * FS) // pipeline.window_length - len(starts) > 0
-    assert f"the {result['windows_left_out']} windows touching samples with no value left out" in " ".join(result["notes"])
+    said = re.search(rf"the {result['windows_left_out']} windows touching samples with no value, from (\S+) s to "
+                     r"(\S+) s, left out", " ".join(result["notes"]))
+    assert said and float(said[1]) <= 1.0 and 3.31 <= float(said[2]) < 3.31 + window_s, result["notes"]
     assert result["verdict"] == "outer" and evidence.evidence_state == "outer"
     # A logger that started late and stopped early: its end gaps are no stretch held at one value (a dropout).
     edges = x.copy()

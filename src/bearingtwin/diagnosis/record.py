@@ -654,8 +654,10 @@ def diagnosed_windows(prepared: PreparedRecord, window_length: int) -> tuple[np.
                      f"no stretch between them holds one (the longest: {length} samples)")
             raise BearingTwinError(f"{recording.source}: every window of the model's ({window_length} samples) "
                                    f"touches a stretch with no value (NaN) or a dropout, so none can be read; {where}")
-        notes.append(f"the {int(gapped.sum())} window{'s' * int(gapped.sum() > 1)} touching samples with no value left "
-                     f"out; the verdict is the other {int((~(touched | gapped)).sum())} of {starts.size} windows'")
+        over = starts[gapped]
+        notes.append(f"the {over.size} window{'s' * (over.size > 1)} touching samples with no value, from "
+                     f"{over[0] / recording.fs:.3g} s to {(over[-1] + window_length) / recording.fs:.3g} s, left out; "
+                     f"the verdict is the other {int((~(touched | gapped)).sum())} of {starts.size} windows'")
     touched = touched | gapped
     windows, starts = _windows_at(recording.signal, starts[~touched], window_length)
     return windows, starts, notes, int(touched.sum())
