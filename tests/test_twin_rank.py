@@ -330,6 +330,14 @@ def test_an_effect_outside_the_library_is_named_where_it_is_not_pinned_on_the_li
     assert "gear mesh" in lines["what_leaves_it"]
     # Nothing is "needed" beside a discrepancy the library cannot explain: the library has nothing that pays.
     assert fit.summary.splitlines()[1].startswith("No library effect added: the best candidate")
+    # A cause a view's mark names that the library holds was a candidate: said so, not left to read as untried (the
+    # psd view's band names a structural resonance).
+    for left in fit.unexplained:
+        said = next(line for line in fit.summary.splitlines() if f"the {left['view']} view (" in line)
+        named = [name for name in ("resonance", "unbalance", "misalignment", "looseness") if name in left["what_leaves_it"]]
+        assert (said.endswith(f"; the library's {' and '.join(named)} {'were' if len(named) > 1 else 'was'} tried here and not added.") if named
+                else "tried here" not in said), said
+    assert "the library's resonance was tried here and not added" in fit.summary, fit.summary
 
 
 @pytest.mark.parametrize("candidates, budget, why", [

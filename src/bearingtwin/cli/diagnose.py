@@ -76,7 +76,7 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["windows right"] = percent(run.scores["accuracy_windows"])
     if "accuracy_records_physics" in run.scores:
         lines["physics alone right"] = (f"{percent(run.scores['accuracy_records_physics'])} of the "
-                                        f"{run.scores['n_scored_physics']} with physics evidence")
+                                        f"{run.scores['n_scored_physics']} with a known state and physics evidence")
     by_size = records_right_by_size(diagnosed)
     if by_size:
         lines["records right by state and fault size (model, physics)"] = by_size

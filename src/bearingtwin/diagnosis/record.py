@@ -74,6 +74,7 @@ class PreparedRecord:
     unit_check: str = "not needed"  # the record's unit against the model's: one of UNIT_CHECKS
     speed: dict | None = None  # how steadily the shaft turned, and whether the record was order-tracked (steadied)
     gaps_s: list = field(default_factory=list)  # (start, end) s of samples the file holds none of (NaN), and their reach
+    dropouts_s: list = field(default_factory=list)  # (start, end, words) of a window's length held at one value: dropouts
     bearing_given: bool = True  # whether bearing= or the file named the bearing, rather than the model's standing in
 
 
@@ -133,6 +134,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     # samples, whichever are longer (resample_poly's filter: 10 x max(up, down) taps at the up-sampled rate).
     reach = 10.0 / min(recording.fs, pipeline.fs_hz) if resampled else 0.0
     gaps_s = [(start / recording.fs - reach, (start + length) / recording.fs + reach) for start, length in gaps]
+    dropouts_s = dropouts(recording, pipeline.window_length / pipeline.fs_hz, reach)  # before resampling smooths them
     if resampled:
         recording, note = resample_to(recording, pipeline.fs_hz)
         notes.append(note)
@@ -157,7 +159,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                "needs it; give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv "
                                "beside it")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
-                          gaps_s, bearing_given=(bearing or named) is not None)
+                          gaps_s, dropouts_s, bearing_given=(bearing or named) is not None)
 
 
 def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: DiagnosisPipeline,
@@ -578,18 +580,23 @@ def _windows_at(signal: np.ndarray, starts: np.ndarray, window_length: int) -> t
     return signal[starts[:, None] + np.arange(window_length)], starts
 
 
-def dropout_windows(signal: np.ndarray, window_length: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
-    """The first sample of every non-overlapping window over the whole record, which of them touch a dropout, and the
-    dropouts (``(start, length)`` in samples): stretches held at one value for a window's length or longer. A window
-    inside one reads no vibration (it has no features: a constant window cannot even be normalized), one reaching
-    into it a step into none; left out, the windows around it are diagnosed. A shorter dropout is only noted
-    (:meth:`~bearingtwin.data.recording.Recording.quality_notes`)."""
-    starts = np.arange(0, signal.size - window_length + 1, window_length)
-    dropouts = held_stretches(signal, window_length)
-    touched = np.zeros(starts.size, dtype=bool)
-    for dropout in dropouts:
-        touched |= _touching(starts, window_length, *dropout)
-    return starts, touched, dropouts
+def dropouts(recording: Recording, window_s: float, reach_s: float = 0.0) -> list[tuple[float, float, str]]:
+    """The stretches of ``recording`` held at one value for ``window_s`` (a model's window) or longer, each as its
+    start and end in seconds, widened by ``reach_s`` either side (a resampling filter's spread of their edges), and in
+    words (:meth:`~bearingtwin.data.recording.Recording.held_at`). A window inside one reads no vibration (it has no
+    features: a constant window cannot even be normalized), one reaching into it a step into none: such windows are
+    left out (:func:`diagnosed_windows`), and a shorter stretch only noted
+    (:meth:`~bearingtwin.data.recording.Recording.quality_notes`). Read at the record's own rate: resampled to a model's,
+    a held stretch holds one value no longer."""
+    shortest = math.ceil(window_s * recording.fs - 1e-9)
+    return [(start / recording.fs - reach_s, (start + length) / recording.fs + reach_s, recording.held_at(start, length))
+            for start, length in held_stretches(recording.signal, shortest)]
+
+
+def _in_samples(start_s: float, end_s: float, fs: float) -> tuple[int, int]:
+    """A stretch from ``start_s`` to ``end_s`` as ``(first sample, length)`` at ``fs``, every sample it reaches."""
+    first = math.floor(start_s * fs)
+    return first, math.ceil(end_s * fs) - first
 
 
 def _longest_stretch_between(n_samples: int, stretches: list[tuple[int, int]]) -> tuple[int, int]:
@@ -606,58 +613,51 @@ def _touching(starts: np.ndarray, window_length: int, start: int, length: int) -
     return (starts < start + length) & (starts + window_length > start)
 
 
-def dropout_note(recording: Recording, window_length: int, starts: np.ndarray, touched: np.ndarray,
-                 dropouts: list[tuple[int, int]]) -> str | None:
-    """Which windows :func:`diagnosed_windows` leaves out of ``recording`` (``starts``, ``touched``, ``dropouts``: its
-    :func:`dropout_windows`), where they and their dropouts are (in seconds); None where it leaves none. A record
-    every window of which touches a dropout is refused: no window of it reads a vibration."""
-    if not dropouts:
-        return None
-    if touched.all():
-        where = "; ".join(recording.held_at(*dropout) for dropout in dropouts)
-        raise BearingTwinError(f"{recording.source}: {where}, and every window of the model's ({window_length} "
-                               "samples) touches one, so none reads a vibration; cut them out of the record or choose "
-                               "another stretch")
-    parts = []
-    for dropout in dropouts:
-        over = starts[_touching(starts, window_length, *dropout)]
-        parts.append(f"{recording.held_at(*dropout)}: the {over.size} window{'s' * (over.size > 1)} touching it, from "
-                     f"{over[0] / recording.fs:.3g} s to {(over[-1] + window_length) / recording.fs:.3g} s, left out")
-    kept = int(starts.size - touched.sum())
-    return f"{'; '.join(parts)}; the verdict is the other {kept} of {starts.size} windows'"
+def _spans(starts: np.ndarray, window_length: int, fs: float) -> str:
+    """Windows beginning at ``starts`` (samples, in order), those in a row joined: "from 0.41 s to 0.61 s and from
+    2.46 s to 2.87 s"."""
+    runs = np.split(starts, np.flatnonzero(np.diff(starts) > window_length) + 1)
+    return " and ".join(f"from {run[0] / fs:.3g} s to {(run[-1] + window_length) / fs:.3g} s" for run in runs)
 
 
 def diagnosed_windows(prepared: PreparedRecord, window_length: int) -> tuple[np.ndarray, np.ndarray, list[str], int]:
     """The windows of ``window_length`` samples a diagnosis reads of ``prepared``'s record, their first samples, the
     record's notes with which windows were left out, and how many: non-overlapping windows over the whole record (a
-    remainder shorter than a window left out), but for those touching a dropout as long as a window
-    (:func:`dropout_windows`) or samples with no value (bridged by :func:`read_record`, so never read by the model). A
-    record every window of which touches one is refused."""
+    remainder shorter than a window left out), but for those touching a dropout (``prepared.dropouts_s``,
+    :func:`dropouts`) or samples with no value (bridged by :func:`read_record`, so never read by the model), each named
+    with the span of its windows. A record every window of which touches one is refused."""
     recording = prepared.recording
     notes = list(prepared.notes)
-    starts, touched, dropouts = dropout_windows(recording.signal, window_length)  # once, for note and windows
-    dropped = dropout_note(recording, window_length, starts, touched, dropouts)  # said in seconds
-    if dropped:  # the longest stretch is among those it names, with what was done about it: not said twice
-        notes = [note for note in notes if not note.endswith(HELD_NOTE_END)] + [dropped]
-    gapped = np.zeros(starts.size, dtype=bool)
-    unread = list(dropouts)
-    for start_s, end_s in prepared.gaps_s:  # in seconds of the file: in samples of the record as read
-        first = math.floor(start_s * recording.fs)
-        gap = (first, math.ceil(end_s * recording.fs) - first)
-        unread.append(gap)
+    starts = np.arange(0, recording.signal.size - window_length + 1, window_length)
+    held = [(_in_samples(start_s, end_s, recording.fs), words) for start_s, end_s, words in prepared.dropouts_s]
+    gaps = [_in_samples(start_s, end_s, recording.fs) for start_s, end_s in prepared.gaps_s]
+    by_dropout = [_touching(starts, window_length, *stretch) for stretch, _ in held]
+    touched, gapped = np.zeros(starts.size, dtype=bool), np.zeros(starts.size, dtype=bool)
+    for over in by_dropout:
+        touched |= over
+    for gap in gaps:
         gapped |= _touching(starts, window_length, *gap)
+    if touched.all():
+        raise BearingTwinError(f"{recording.source}: {'; '.join(words for _, words in held)}, and every window of the "
+                               f"model's ({window_length} samples) touches one, so none reads a vibration; cut them "
+                               "out of the record or choose another stretch")
+    if (touched | gapped).all():
+        start, length = _longest_stretch_between(recording.signal.size, [stretch for stretch, _ in held] + gaps)
+        where = (f"the longest stretch between them, {length} samples from {start / recording.fs:.4g} s, holds one: "
+                 "give each such stretch as a file of its own" if length >= window_length else
+                 f"no stretch between them holds one (the longest: {length} samples)")
+        raise BearingTwinError(f"{recording.source}: every window of the model's ({window_length} samples) "
+                               f"touches a stretch with no value (NaN) or a dropout, so none can be read; {where}")
+    kept = f"the verdict is the other {int((~(touched | gapped)).sum())} of {starts.size} windows'"
+    if held:  # the stretches are among those the record's notes name, with what was done about them: not said twice
+        parts = [f"{words}: the {int(over.sum())} window{'s' * int(over.sum() > 1)} touching it, "
+                 f"{_spans(starts[over], window_length, recording.fs)}, left out" for (_, words), over in zip(held, by_dropout)]
+        said = "; ".join(parts) + ("" if gapped.any() else f"; {kept}")  # the count once, after the gaps' where they are
+        notes = [note for note in notes if not note.endswith(HELD_NOTE_END)] + [said]
     if gapped.any():
-        if (touched | gapped).all():
-            start, length = _longest_stretch_between(recording.signal.size, unread)
-            where = (f"the longest stretch between them, {length} samples from {start / recording.fs:.4g} s, holds one: "
-                     "give each such stretch as a file of its own" if length >= window_length else
-                     f"no stretch between them holds one (the longest: {length} samples)")
-            raise BearingTwinError(f"{recording.source}: every window of the model's ({window_length} samples) "
-                                   f"touches a stretch with no value (NaN) or a dropout, so none can be read; {where}")
         over = starts[gapped]
-        notes.append(f"the {over.size} window{'s' * (over.size > 1)} touching samples with no value, from "
-                     f"{over[0] / recording.fs:.3g} s to {(over[-1] + window_length) / recording.fs:.3g} s, left out; "
-                     f"the verdict is the other {int((~(touched | gapped)).sum())} of {starts.size} windows'")
+        notes.append(f"the {over.size} window{'s' * (over.size > 1)} touching samples with no value, "
+                     f"{_spans(over, window_length, recording.fs)}, left out; {kept}")
     touched = touched | gapped
     windows, starts = _windows_at(recording.signal, starts[~touched], window_length)
     return windows, starts, notes, int(touched.sum())

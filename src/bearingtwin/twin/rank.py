@@ -362,12 +362,18 @@ class TwinFit:
         lines += self._reference_lines()
         new = self.new_unexplained
         by = "the library" if self.ranking else "the twin"  # with nothing tried, the library was not asked
+        added = {fit.effect for fit in self.added}
         for left in self.unexplained:
             own = "the measurement's own" if self.held_out else f"the {left['floor_db']:.1f} dB counted at least"
             since = "" if left in new else ", unchanged since the reference record (the rig's own, not new)"
+            # A cause the library holds was a candidate: said so, or the mark's causes read as left untried.
+            tried = [fit.effect for fit in self.ranking
+                     if fit.effect not in added and fit.effect.replace("_", " ") in left["what_leaves_it"]]
+            verdict = (f"; the library's {' and '.join(tried)} {'were' if len(tried) > 1 else 'was'} tried here and not "
+                       "added" if tried else "")
             lines.append(f"Not explained by {by}{since}: the {left['view']} view ({left['error_db']:.1f} dB, "
                          f"{left['error_db'] / left['floor_db']:.0f} times {own}): {left['where']}. "
-                         f"Such a mark is left by {left['what_leaves_it']}.")
+                         f"Such a mark is left by {left['what_leaves_it']}{verdict}.")
         return "\n".join(lines)
 
     @property
