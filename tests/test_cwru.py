@@ -15,8 +15,8 @@ from bearingtwin.data.formats import load_recording, read_raw
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope_spectrum
 from bearingtwin.testrig import RigOperatingPoint, simulate_rig
-from bearingtwin.signal.sampling_rate import (ShaftLineCheck, check_channels, check_sampling_rate, decisive_channel,
-                                              require_plausible_rate)
+from bearingtwin.signal.sampling_rate import (ShaftLineCheck, _shaft_comb_words, check_channels, check_sampling_rate,
+                                              decisive_channel, require_plausible_rate)
 
 CWRU = data_root() / "cwru"
 needs_data = pytest.mark.skipif(not (CWRU / "normal_0_97.mat").is_file(), reason=f"CWRU files not found in {CWRU}")
@@ -965,3 +965,23 @@ def test_a_slow_shaft_is_checked_over_as_many_samples_as_its_line_needs():
     assert fs / RATE_CHECK_SAMPLES > 0.02 * rpm / 60  # the fewest samples read would not place it
     check = require_plausible_rate(signal, fs, rpm, "slow", "fs")
     assert check is not None and check.verdict == "consistent" and check.matches
+
+
+def test_an_envelope_comb_near_the_shaft_rate_is_named_as_the_shafts_own_at_a_speed_off_as_well_as_a_rate():
+    """An inner race's envelope carries the shaft's modulation at 1x. Where the shaft speeds up 3 % over the record
+    (1750 to 1802 rpm, 1750 stated) that comb stands 1.2 % above the stated shaft rate, beyond the 1 % within which
+    it reads as the shaft's: the rate stays unconfirmed, and beside the rate it would imply (42 kHz, no rate of
+    this record) the check names the shaft's own modulation at a speed that far off."""
+    fs, seconds = 12000.0, 6.0
+    steady = simulate_rig("inner", RigOperatingPoint(rpm=1750.0, fs=fs, duration_s=1.05 * seconds), seed=1)
+    t = np.arange(int(seconds * fs)) / fs
+    drifting = np.interp(t + 0.015 * t**2 / seconds, np.arange(steady.size) / fs, steady)
+    check = check_sampling_rate(drifting, fs, 1750.0, defect_hz=load_bearing("cwru_6205").defect_frequencies(1750.0))
+    assert check.verdict == "ambiguous", check.reason
+    said = re.search(r"fs may be (\d+) Hz, or it is the shaft's 1x modulation at a speed \+(\d\.\d) % from the one "
+                     r"stated$", check.reason)
+    assert said and abs(float(said[1]) - fs / 0.282) < 0.02 * fs / 0.282 and 1.0 < float(said[2]) < 3.0, check.reason
+    # A comb between shaft orders is no shaft's: only the rate is named.
+    assert _shaft_comb_words(1.5 * check.expected_hz, check) == ""
+    assert _shaft_comb_words(2.04 * check.expected_hz, check) == (", or it is the shaft's 2x modulation at a speed "
+                                                                  "+2.0 % from the one stated")

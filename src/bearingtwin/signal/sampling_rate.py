@@ -38,6 +38,7 @@ from scipy.ndimage import median_filter
 from bearingtwin.checks import is_finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.inputs import as_record, check_positive
+from bearingtwin.signal.speed import SPEED_OFF
 
 VERDICTS = ("consistent", "contradicted", "ambiguous")
 VERDICTS_BY_FAVOUR = ("consistent", "ambiguous", "contradicted")
@@ -919,7 +920,20 @@ def _defect_comb_elsewhere(check: ShaftLineCheck, signal: np.ndarray, defect_hz:
         return check
     name, scale = combs[0]
     return dataclasses.replace(check, reason=f"{check.reason}; {_comb_words(defect_hz, name, scale)}, and no defect's "
-                                             f"comb stands where it belongs: fs may be {check.fs_hz / scale:.0f} Hz")
+                                             f"comb stands where it belongs: fs may be {check.fs_hz / scale:.0f} Hz"
+                                             f"{_shaft_comb_words(scale * named_defect_hz(defect_hz)[name], check)}")
+
+
+def _shaft_comb_words(comb_hz: float, check: ShaftLineCheck) -> str:
+    """Where a comb at ``comb_hz`` stands within :data:`~bearingtwin.signal.speed.SPEED_OFF` of a shaft order (1x to
+    3x; ``check``'s expected shaft line), that it may be the shaft's own modulation of the envelope (an inner race's,
+    an unbalance's) at a speed that far from the one stated ("" elsewhere): beside it 1 % from a shaft order, the
+    comb is read as the shaft's, and a speed a little further off (a nameplate's, a drifting one) moves it out."""
+    order = round(comb_hz / check.expected_hz)
+    off = comb_hz / (order * check.expected_hz) - 1 if 1 <= order <= 3 else math.inf
+    if not abs(off) <= SPEED_OFF[1]:
+        return ""
+    return f", or it is the shaft's {order}x modulation at a speed {100 * off:+.1f} % from the one stated"
 
 
 def _comb_words(defect_hz: Mapping[str, float], name: str, scale: float) -> str:
