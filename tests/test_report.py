@@ -14,7 +14,7 @@ from bearingtwin.cli.report import main
 from bearingtwin.config import REPO_ROOT
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.tracking.provenance import recorded_sizes
-from bearingtwin.tracking import paper
+from bearingtwin.tracking import paper, reports
 from bearingtwin.tracking.reports import GENERATED, mean_std
 from bearingtwin.tracking.tables import generated_text
 
@@ -293,20 +293,30 @@ def test_repeat_reproduces_a_logged_run_and_catches_a_difference(uri, tmp_path, 
 
 def test_repeat_simulates_and_extracts_afresh(uri, tmp_path, capsys, monkeypatch):
     """The stored config names the run's own cache, which would hand its simulation and features back unchanged: a
-    repeat reads and writes a cache of its own, and leaves the run's as it was."""
+    repeat reads and writes a cache of its own, and leaves the run's as it was. Its progress bars are the repeat's
+    own (none into a log), not those the run showed in its terminal."""
     import bearingtwin.models.experiment as experiment
     from bearingtwin.tracking.mlflow_logging import stored_config
 
     (run,) = finished(uri, "sabo_vmd_pemie+svm")
     own = Path(stored_config(MlflowClient(uri), run.info.run_id).paths.cache_dir)
     before = sorted(path.name for path in own.rglob("*.npz"))
+
+    def as_run_in_a_terminal(client, run_id):  # its bars shown: the repeat shows them as it is run (here, a log)
+        cfg = stored_config(client, run_id)
+        cfg.trainer.progress_bar = cfg.features.progress = True
+        return cfg
+
+    monkeypatch.setattr(reports, "stored_config", as_run_in_a_terminal)
     used = []
     original = experiment.run_experiment
-    monkeypatch.setattr(experiment, "run_experiment", lambda cfg, root_dir: used.append(cfg.paths.cache_dir)
-                        or original(cfg, root_dir))
+    monkeypatch.setattr(experiment, "run_experiment", lambda cfg, root_dir: used.append(
+        (cfg.paths.cache_dir, cfg.trainer.progress_bar, cfg.features.progress)) or original(cfg, root_dir))
     code, said = repeat_here(uri, run.info.run_id, tmp_path / "repeat.md", capsys)
     assert code == 0 and "every metric matches" in said
-    assert len(used) == 1 and Path(used[0]).resolve() != own.resolve() and not Path(used[0]).exists()  # removed after
+    ((cache_dir, *bars),) = used
+    assert Path(cache_dir).resolve() != own.resolve() and not Path(cache_dir).exists()  # removed after
+    assert bars == [False, False]
     assert sorted(path.name for path in own.rglob("*.npz")) == before
 
 

@@ -9,11 +9,12 @@ import shlex
 from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from bearingtwin.cli.summary import closing_summary
-from bearingtwin.checks import true_or_false
+from bearingtwin.checks import show_progress_bar, true_or_false
 from bearingtwin.config import (bearing_overrides, exit_on_user_error, hydra_command, load_bearing, output_folder,
                                 refuse_unknown_keys, search_path_override)
 from bearingtwin.data.formats import save_simulated_record
@@ -146,7 +147,9 @@ def simulate_command(cfg: DictConfig) -> None:
         raise BearingTwinError(f"out={cfg.out}: bearingtwin-simulate writes an .npz archive; give out=<name>.npz")
     output_folder(out.parent)
     plot = true_or_false(cfg.plot, "plot")
-    recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=True)
+    # The bar (auto: in a terminal, for one simulation) as the twin's and training's, never into a log.
+    progress = show_progress_bar("auto", in_sweep=HydraConfig.get().mode == RunMode.MULTIRUN)
+    recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=progress)
     changed = geometry_changed(cfg)
     out.parent.mkdir(parents=True, exist_ok=True)
     save_simulated_record(out, recording, channels, CHANNELS,
