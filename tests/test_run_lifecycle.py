@@ -273,9 +273,13 @@ def test_a_relaunch_marks_runs_of_dead_processes_killed(tmp_path):
     # A diagnosis's run, in an experiment of its own, whose process died: no later diagnosis had looked there.
     elsewhere = client.create_run(client.create_experiment("bearingtwin-diagnose"),
                                   tags={**owner_tags(), "bt.pid": finished.stdout.strip()})
+    # A model the dead process was logging is FAILED with its run; the living process's is left to finish.
+    models = {run.info.run_id: client.create_logged_model(experiment_id, source_run_id=run.info.run_id).model_id
+              for run in (dead, living)}
     train_tracked(cfg, CHOICES, None, None, fake_train)
     status = {run.info.run_id: run.info.status for run in client.search_runs([experiment_id])}
     assert status[dead.info.run_id] == "KILLED" and "ended without closing" in client.get_run(dead.info.run_id).data.tags["bt.killed"]
+    assert [client.get_logged_model(models[run.info.run_id]).status for run in (dead, living)] == ["FAILED", "PENDING"]
     assert status[living.info.run_id] == "RUNNING" and status[foreign.info.run_id] == "RUNNING"
     assert sorted(status.values()) == ["FINISHED", "KILLED", "RUNNING", "RUNNING"]
     assert client.get_run(elsewhere.info.run_id).info.status == "KILLED"
@@ -321,6 +325,8 @@ def test_a_signal_a_library_reraises_as_its_own_keyboard_interrupt_still_kills_w
     # the runs are still KILLED and the status is still the signal's (143 for SIGTERM, not Ctrl-C's 130).
     client, experiment_id = open_store(make_cfg(tmp_path).tracking)
     run_id = client.create_run(experiment_id).info.run_id
+    # Stopped while its model was being logged: MLflow's logged model, left PENDING without its files, is FAILED.
+    half_written = client.create_logged_model(experiment_id, source_run_id=run_id, name="model").model_id
 
     def waits_like_ray():
         register_open_run(client, run_id)
@@ -331,6 +337,7 @@ def test_a_signal_a_library_reraises_as_its_own_keyboard_interrupt_still_kills_w
 
     assert exit_status_under_stop_cleanly(waits_like_ray) == 128 + signal.SIGTERM
     assert client.get_run(run_id).info.status == "KILLED"
+    assert client.get_logged_model(half_written).status == "FAILED"
     assert "interrupted by SIGTERM" in capsys.readouterr().err
 
 

@@ -125,13 +125,27 @@ def close_open_runs(status: str) -> list[str]:
                 for child in children:
                     run.client.set_terminated(child.info.run_id, status)
                     closed.append(f"run {child.info.run_id}")
-            if run.client.get_run(run.run_id).info.status == "RUNNING":
+                    fail_pending_models(run.client, child.info)
+            info = run.client.get_run(run.run_id).info
+            if info.status == "RUNNING":
                 run.client.set_terminated(run.run_id, status)
                 closed.append(f"{run.label} {run.run_id}")
+                fail_pending_models(run.client, info)
         except MlflowException as error:
             log.error("could not mark %s %s %s: %s", run.label, run.run_id, status, error)
     _open_runs.clear()
     return closed
+
+
+def fail_pending_models(client: MlflowClient, run_info) -> list[str]:
+    """Mark FAILED the logged models (MLflow 3's) of a run that ended while their upload was under way (``run_info``:
+    the run's ``RunInfo``): left PENDING, without their files, they read as still being written and load as an error.
+    Returns their ids."""
+    pending = [model.model_id for model in client.search_logged_models(
+        [run_info.experiment_id], filter_string=f"source_run_id = '{run_info.run_id}'") if model.status == "PENDING"]
+    for model_id in pending:
+        client.finalize_logged_model(model_id, "FAILED")
+    return pending
 
 
 def _raise_interrupted(signum, frame):
@@ -290,6 +304,7 @@ def reap_dead_runs(client: MlflowClient) -> list[str]:
             # open this command's output naming another process's run.
             with mock.patch.dict(os.environ, {"MLFLOW_SUPPRESS_PRINTING_URL_TO_STDOUT": "true"}):
                 client.set_terminated(run.info.run_id, "KILLED")
+            fail_pending_models(client, run.info)
             client.set_tag(run.info.run_id, "bt.killed", f"process {pid} on {host} ended without closing the run")
             reaped.append(run.info.run_id)
     if reaped:
