@@ -67,6 +67,10 @@ def test_a_local_submitit_sweep_runs_both_jobs(tmp_path):
     (parent,) = client.search_runs([experiment_id], "tags.`bt.kind` = 'sweep'")
     runs = client.search_runs([experiment_id], "tags.`bt.kind` = 'train'")
     assert sorted(run.data.tags["seed"] for run in runs) == ["0", "1"]
+    # The jobs' workers print their lines to their own logs: the closing summary gives each job's accuracy.
+    by_seed = {run.data.tags["seed"]: run.data.metrics["accuracy"] for run in runs}
+    assert (f"  accuracy: {100 * by_seed['0']:.2f} % (seed=0); {100 * by_seed['1']:.2f} % (seed=1)"
+            in done.stdout.splitlines()), done.stdout[-2000:]
     assert all(run.info.status == "FINISHED" and run.data.tags["mlflow.parentRunId"] == parent.info.run_id for run in runs)
     # each job ran in a process of its own, not in the sweep's
     assert len({run.data.tags["bt.pid"] for run in runs} | {parent.data.tags["bt.pid"]}) == 3

@@ -138,7 +138,9 @@ def test_the_sweep_ends_with_a_summary_of_every_job(store, sweep_output):
     summary = lines[next(i for i, line in enumerate(lines) if line.startswith("sweep table4 (run ")):]  # after the jobs' lines
     assert summary[0].startswith("sweep table4 (run ")
     assert summary[0].endswith("6 jobs, 3 finished, 3 failed, 0 skipped (already finished)")
-    failed = summary[1:]
+    # The three finished jobs' accuracies, each with the overrides that tell it apart, then the failed jobs.
+    assert summary[1].startswith("  accuracy: ") and summary[1].count(" % (+method=") == 3, summary[1]
+    failed = summary[2:]
     assert len(failed) == 3 and all(line.startswith("  FAILED: +method=") for line in failed)
     assert all("search.population=1: BearingTwinError: search.population must be an integer of at least 2" in line
                for line in failed)

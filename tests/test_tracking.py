@@ -354,8 +354,15 @@ def test_a_sweep_summary_says_what_became_of_every_job(tmp_path):
     assert outcomes[2].reason == "BearingTwinError: data.samples_per_class must be positive, got -3"
     summary = format_sweep_summary("cli", parent.info.run_id, outcomes).splitlines()
     assert summary[0] == f"sweep cli (run {parent.info.run_id}): 4 jobs, 1 finished, 2 failed, 1 skipped (already finished)"
-    assert summary[1:] == ["  FAILED: seed=2: BearingTwinError: data.samples_per_class must be positive, got -3",
+    # Each finished job's accuracy, the skipped one's too (its earlier run's), as no launcher's worker may have shown it.
+    finished = {o.overrides: o.accuracy for o in outcomes if o.status in ("FINISHED", "SKIPPED")}
+    assert summary[1] == f"  accuracy: {100 * finished['seed=0']:.2f} % (seed=0); {100 * finished['seed=1']:.2f} % (seed=1)"
+    assert summary[2:] == ["  FAILED: seed=2: BearingTwinError: data.samples_per_class must be positive, got -3",
                            "  NOT RUN: seed=3: the job ended before its MLflow run was created (see its log)"]
+    many = format_sweep_summary("cli", parent.info.run_id, outcomes, max_listed=1).splitlines()
+    low, high = sorted(finished.values())
+    assert many[1] == (f"  accuracy: {100 * low:.2f} % to {100 * high:.2f} %, mean {50 * (low + high):.2f} % over 2 jobs "
+                       "(each in its run)")
     # A job skipped for a run another commit computed is said to be so where the counts are, not only in the log.
     client.set_tag(outcomes[1].run_id, "git_commit", "0123456789abcdef")
     outcomes = sweep_outcomes(client, parent.info.run_id, [job(0), job(1), job(2), job(3)])

@@ -65,6 +65,7 @@ from omegaconf.errors import OmegaConfBaseException
 from bearingtwin import cpu_kernels
 from bearingtwin.config import absolute_inputs, exit_on_user_error, experiment_name, refuse_unknown_keys
 from bearingtwin.checks import check_seed
+from bearingtwin.cli.summary import percent
 from bearingtwin.data.build import check_data_settings, require_files
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.effects import build_effects
@@ -902,7 +903,9 @@ def _task_config(job: DictConfig) -> DictConfig:
 
 
 def format_sweep_summary(name: str, parent_run_id: str, outcomes: list[JobOutcome], max_listed: int = 15) -> str:
-    """One screen: the counts, then each job that did not finish with its overrides and reason."""
+    """One screen: the counts, the accuracies of the jobs that finished (each with its overrides, up to
+    ``max_listed``; their range beyond: a launcher's workers may print their own lines to their logs alone), then each
+    job that did not finish with its overrides and reason."""
     counts = {status: sum(o.status == status for o in outcomes) for status in ("FINISHED", "SKIPPED")}
     failed = [o for o in outcomes if o.status not in counts]
     lines = [
@@ -913,6 +916,13 @@ def format_sweep_summary(name: str, parent_run_id: str, outcomes: list[JobOutcom
     if by_other_code:  # their numbers are another code's: said where the counts are, not only in the log
         lines.append(f"  {len(by_other_code)} of the skipped were computed by other code, the first "
                      f"{by_other_code[0].reason}: tracking.skip_finished=false runs them again")
+    scored = [o for o in outcomes if o.status in counts and o.accuracy is not None]
+    if len(scored) > max_listed:
+        accuracies = [o.accuracy for o in scored]
+        lines.append(f"  accuracy: {percent(min(accuracies))} to {percent(max(accuracies))}, mean "
+                     f"{percent(float(np.mean(accuracies)))} over {len(scored)} jobs (each in its run)")
+    elif scored:
+        lines.append("  accuracy: " + "; ".join(f"{percent(o.accuracy)} ({o.overrides or 'no overrides'})" for o in scored))
     for outcome in failed[:max_listed]:
         reason = outcome.reason if len(outcome.reason) <= 160 else outcome.reason[:157] + "..."
         lines.append(f"  {outcome.status}: {outcome.overrides or '(no overrides)'}: {reason}")
