@@ -69,6 +69,7 @@ def test_writes_npz_and_plots(tmp_path, caplog):
     # ... and messages naming no field, after simulating or over two lines.
     (["simulator.duration=1e-5"], "simulator.duration"),
     (["simulator.load_y_n=inf"], "simulator.load_y_n"),
+    (["progress=maybe"], "progress must be auto, true or false"),
 ])
 def test_bad_input_exits_non_zero_naming_the_field(tmp_path, overrides, field):
     result = run(tmp_path, *overrides, f"out={tmp_path / 'x.npz'}")
@@ -336,10 +337,10 @@ def test_an_interrupt_ends_the_simulation_in_one_line_and_writes_nothing(tmp_pat
 
     out = tmp_path / "long.npz"
     process = subprocess.Popen([sys.executable, "-m", "bearingtwin.cli.simulate", "fault=outer", "simulator.fs=48000",
-                                "simulator.duration=100", f"out={out}"], cwd=tmp_path, stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE)
+                                "simulator.duration=100", f"out={out}", "progress=true"], cwd=tmp_path,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     said, deadline = b"", time.monotonic() + 120
-    while b"simulate outer" not in said:  # the solver's progress bar: the simulation is under way
+    while b"simulate outer" not in said:  # the solver's progress bar (asked for in a log): the simulation is under way
         assert process.poll() is None and time.monotonic() < deadline, said[-2000:]
         if select.select([process.stderr], [], [], 0.2)[0]:
             said += os.read(process.stderr.fileno(), 65536)

@@ -147,8 +147,8 @@ def simulate_command(cfg: DictConfig) -> None:
         raise BearingTwinError(f"out={cfg.out}: bearingtwin-simulate writes an .npz archive; give out=<name>.npz")
     output_folder(out.parent)
     plot = true_or_false(cfg.plot, "plot")
-    # The bar (auto: in a terminal, for one simulation) as the twin's and training's, never into a log.
-    progress = show_progress_bar("auto", in_sweep=HydraConfig.get().mode == RunMode.MULTIRUN)
+    # The bar (auto: in a terminal, for one simulation) as the twin's and training's, never into a log unless asked.
+    progress = show_progress_bar(cfg.progress, in_sweep=HydraConfig.get().mode == RunMode.MULTIRUN, key="progress")
     recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=progress)
     changed = geometry_changed(cfg)
     out.parent.mkdir(parents=True, exist_ok=True)
