@@ -86,9 +86,9 @@ def dense_reading(model_uri: str, tracking_uri: str, data: Path, hop: int) -> di
     shares = {}
     for path in sorted(data.glob(DEV_RECORDS)):
         prepared = read_record(path, pipeline)
-        if prepared.gaps_s:  # a diagnosis leaves the windows touching them out; this reading cuts every window
-            print(f"error: {path}: samples with no value (NaN); the dense reading needs records without gaps",
-                  file=sys.stderr)
+        if prepared.gaps_s or prepared.dropouts_s:  # a diagnosis leaves the windows touching them out; this cuts all
+            print(f"error: {path}: samples with no value (NaN) or a dropout; the dense reading needs records without "
+                  "either", file=sys.stderr)
             sys.exit(2)
         signal = prepared.recording.signal
         starts = np.arange(0, signal.size - pipeline.window_length + 1, hop)

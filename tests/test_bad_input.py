@@ -236,7 +236,9 @@ def test_a_bad_data_value_is_refused_before_a_run_is_opened(tmp_path, overrides,
 @pytest.mark.parametrize("overrides, named", [
     (["data.duration=0"], "data.duration"),
     (["data.duration=0.1"], "data.duration=0.1 s at data.fs=10000 Hz gives 1000 samples a state, shorter than one "
-                            "window of data.window_length=2048: give data.duration=0.205 or more"),
+                            "window of data.window_length=2048: give data.duration=0.2048 or more"),
+    # Counted as the simulator keeps them (round(1023.6) = 1024, one short); the duration suggested gives 1026.
+    (["data.fs=12000", "data.window_length=1025", "data.duration=0.0853"], "give data.duration=0.0855 or more"),
     (["data.train_fraction=1.5"], "data.train_fraction"),
     (["data=cwru", "data.samples_per_class=true"], "data.samples_per_class"),
     (["data=hust", "data.split=none"], "data.split='none'"),

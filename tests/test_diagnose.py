@@ -25,8 +25,8 @@ from bearingtwin.data.recording import Recording, held_stretches
 from bearingtwin.diagnosis.evidence import PhysicsFirst, check_segment, evidence_settings, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model, log_diagnosis_model, model_params, predictions_frame
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline
-from bearingtwin.diagnosis.record import (NOISE_FREE_SIMULATION, PreparedRecord, diagnose_recording, diagnosed_windows,
-                                         dropouts, extrapolation_note, majority, one_line, plot_diagnosis, read_record,
+from bearingtwin.diagnosis.record import (NOISE_FREE_SIMULATION, PreparedRecord, _in_samples, diagnose_recording,
+                                         diagnosed_windows, dropouts, extrapolation_note, majority, one_line, plot_diagnosis, read_record,
                                          resample_to)
 from bearingtwin.diagnosis.run import NOT_REACHED
 from bearingtwin.errors import BearingTwinError
@@ -834,7 +834,7 @@ def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_pat
     result, _ = diagnose_recording(read_record(path, pipeline), model, pipeline, "models:/unused", {})
     assert [window["start_s"] for window in result["windows"]] == [2048 * k / FS for k in (*range(11), *range(18, 23))]
     assert ("samples from 2 s to 3 s are all 0 (a dropout, or a stretch held at one value): the 7 windows touching it, "
-            "from 1.88 s to 3.07 s, left out; the verdict is the other 16 of 23 windows'") in result["notes"], result["notes"]
+            "from 1.877 s to 3.072 s, left out; the verdict is the other 16 of 23 windows'") in result["notes"], result["notes"]
     assert sum("samples from 2 s to 3 s are all 0" in note for note in result["notes"]) == 1  # said once, not twice
     assert result["windows_left_out"] == 7
     assert result["verdict"] == "outer" and result["share"] == pytest.approx(
@@ -1034,6 +1034,10 @@ def test_windows_tile_the_record_without_overlap():
         windows, starts, notes, left_out = windows_of(signal)
         assert list(starts) == kept and np.array_equal(windows, signal[np.add.outer(starts, np.arange(2048))])
         assert left_out == 4 - len(kept) and len(notes) == (left_out > 0)
+    # A stretch on window boundaries, turned into seconds and back (3072 / 10000 * 10000 is 3071.9999...), touches its
+    # own windows alone.
+    assert _in_samples(3072 / 10000, 5120 / 10000, 10000.0) == (3072, 2048)
+    assert _in_samples(12288 / 12000, 14336 / 12000, 12000.0) == (12288, 2048)
     # So does a stretch with no value (bridged when read), in seconds of the record: 4.1-4.2 s touches the third.
     windows, starts, notes, left_out = windows_of(np.arange(10_000.0), [(4.1, 4.2)])
     assert list(starts) == [0, 2048, 6144] and left_out == 1 and notes[0].startswith("the 1 window touching samples")

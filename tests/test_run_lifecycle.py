@@ -285,6 +285,25 @@ def test_a_relaunch_marks_runs_of_dead_processes_killed(tmp_path):
     assert client.get_run(elsewhere.info.run_id).info.status == "KILLED"
 
 
+def test_a_store_without_logged_models_still_has_its_runs_closed(tmp_path, monkeypatch):
+    """A tracking server of MLflow 2 has no logged models to search: the runs are closed all the same."""
+    from mlflow.exceptions import MlflowException
+
+    from bearingtwin.tracking.lifecycle import close_open_runs
+
+    client, experiment_id = open_store(make_cfg(tmp_path).tracking)
+    sweep = client.create_run(experiment_id).info.run_id
+    jobs = [client.create_run(experiment_id, tags={"mlflow.parentRunId": sweep}).info.run_id for _ in range(2)]
+
+    def no_such_endpoint(*args, **kwargs):
+        raise MlflowException("404: no logged-model endpoint on this server")
+
+    monkeypatch.setattr(client, "search_logged_models", no_such_endpoint)
+    register_open_run(client, sweep, label="sweep", with_children=True)
+    assert sorted(close_open_runs("KILLED")) == sorted([f"run {job}" for job in jobs] + [f"sweep {sweep}"])
+    assert [client.get_run(run_id).info.status for run_id in (*jobs, sweep)] == ["KILLED"] * 3
+
+
 def exit_status_under_stop_cleanly(entry_point) -> int:
     """The exit status ``stop_cleanly(entry_point)()`` ends with; the test process gets its own signal
     handlers back."""

@@ -739,3 +739,14 @@ def test_an_effect_naming_a_bearing_state_that_does_not_exist_is_refused_when_re
 
     with pytest.raises(BearingTwinError, match="misnamed_states.*bearing_states must be a tuple of bearing states"):
         register_effect(Misnamed)
+
+
+def test_each_library_effect_named_otherwise_among_a_marks_causes_is_so_named_there():
+    """A cause the summary names for an unexplained mark is matched to the library effect that was tried for it: by
+    the effect's own name, or by the words the causes use for it (``CAUSE_WORDS``), which must stand there."""
+    from bearingtwin.physics.effects import registered_effects
+    from bearingtwin.twin.rank import CAUSE_WORDS, WHAT_LEAVES_IT
+
+    causes = " ".join(WHAT_LEAVES_IT.values())
+    assert set(CAUSE_WORDS) <= set(registered_effects())
+    assert [words for words in CAUSE_WORDS.values() if words not in causes] == []

@@ -12,6 +12,7 @@ simulated again.
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import Mapping
@@ -73,11 +74,12 @@ def check_simulated_settings(data_cfg: Mapping) -> dict:
         data_cfg[name] = whole_number(f"data.{name}", data_cfg[name])
     for name, unit in (("rpm", "rev/min"), ("fs", "Hz"), ("duration", "seconds")):  # named as the user set them
         positive_number(data_cfg[name], f"data.{name}", unit)
-    if data_cfg["duration"] * data_cfg["fs"] < data_cfg["window_length"]:  # no window to cut: said in the settings' words
+    samples = round(data_cfg["duration"] * data_cfg["fs"])  # as the simulator keeps them
+    if samples < data_cfg["window_length"]:  # no window to cut: said in the settings' words
+        shortest_s = math.ceil(1e4 * data_cfg["window_length"] / data_cfg["fs"]) / 1e4  # 0.1 ms steps, rounded up
         raise BearingTwinError(f"data.duration={data_cfg['duration']:g} s at data.fs={data_cfg['fs']:g} Hz gives "
-                               f"{data_cfg['duration'] * data_cfg['fs']:.0f} samples a state, shorter than one window "
-                               f"of data.window_length={data_cfg['window_length']}: give data.duration="
-                               f"{data_cfg['window_length'] / data_cfg['fs']:.3g} or more")
+                               f"{samples} samples a state, shorter than one window of data.window_length="
+                               f"{data_cfg['window_length']}: give data.duration={shortest_s:g} or more")
     train_fraction = check_split(data_cfg.get("split"), data_cfg.get("train_fraction"))
     if data_cfg["split"] == "random":  # one record a state: its windows are the state's
         check_stratified([data_cfg["samples_per_class"]] * len(FAULTS), train_fraction)

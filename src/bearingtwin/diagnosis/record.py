@@ -587,16 +587,18 @@ def dropouts(recording: Recording, window_s: float, reach_s: float = 0.0) -> lis
     features: a constant window cannot even be normalized), one reaching into it a step into none: such windows are
     left out (:func:`diagnosed_windows`), and a shorter stretch only noted
     (:meth:`~bearingtwin.data.recording.Recording.quality_notes`). Read at the record's own rate: resampled to a model's,
-    a held stretch holds one value no longer."""
+    a held stretch holds one value no longer. So it does not once order tracking has steadied a record whose speed
+    varies (:func:`steadied`): such a record's dropouts are not found."""
     shortest = math.ceil(window_s * recording.fs - 1e-9)
     return [(start / recording.fs - reach_s, (start + length) / recording.fs + reach_s, recording.held_at(start, length))
             for start, length in held_stretches(recording.signal, shortest)]
 
 
 def _in_samples(start_s: float, end_s: float, fs: float) -> tuple[int, int]:
-    """A stretch from ``start_s`` to ``end_s`` as ``(first sample, length)`` at ``fs``, every sample it reaches."""
-    first = math.floor(start_s * fs)
-    return first, math.ceil(end_s * fs) - first
+    """A stretch from ``start_s`` to ``end_s`` as ``(first sample, length)`` at ``fs``, every sample it reaches; a
+    stretch given in samples and turned into seconds comes back as it was (3072 / 10000 * 10000 is 3071.9999...)."""
+    first = math.floor(start_s * fs + 1e-6)
+    return first, math.ceil(end_s * fs - 1e-6) - first
 
 
 def _longest_stretch_between(n_samples: int, stretches: list[tuple[int, int]]) -> tuple[int, int]:
@@ -614,10 +616,10 @@ def _touching(starts: np.ndarray, window_length: int, start: int, length: int) -
 
 
 def _spans(starts: np.ndarray, window_length: int, fs: float) -> str:
-    """Windows beginning at ``starts`` (samples, in order), those in a row joined: "from 0.41 s to 0.61 s and from
-    2.46 s to 2.87 s"."""
+    """Windows beginning at ``starts`` (samples, in order), those in a row joined: "from 0.4096 s to 0.6144 s and from
+    2.458 s to 2.867 s"."""
     runs = np.split(starts, np.flatnonzero(np.diff(starts) > window_length) + 1)
-    return " and ".join(f"from {run[0] / fs:.3g} s to {(run[-1] + window_length) / fs:.3g} s" for run in runs)
+    return " and ".join(f"from {run[0] / fs:.4g} s to {(run[-1] + window_length) / fs:.4g} s" for run in runs)
 
 
 def diagnosed_windows(prepared: PreparedRecord, window_length: int) -> tuple[np.ndarray, np.ndarray, list[str], int]:
@@ -637,7 +639,7 @@ def diagnosed_windows(prepared: PreparedRecord, window_length: int) -> tuple[np.
         touched |= over
     for gap in gaps:
         gapped |= _touching(starts, window_length, *gap)
-    if touched.all():
+    if held and touched.all():
         raise BearingTwinError(f"{recording.source}: {'; '.join(words for _, words in held)}, and every window of the "
                                f"model's ({window_length} samples) touches one, so none reads a vibration; cut them "
                                "out of the record or choose another stretch")

@@ -140,11 +140,18 @@ def close_open_runs(status: str) -> list[str]:
 def fail_pending_models(client: MlflowClient, run_info) -> list[str]:
     """Mark FAILED the logged models (MLflow 3's) of a run that ended while their upload was under way (``run_info``:
     the run's ``RunInfo``): left PENDING, without their files, they read as still being written and load as an error.
-    Returns their ids."""
-    pending = [model.model_id for model in client.search_logged_models(
-        [run_info.experiment_id], filter_string=f"source_run_id = '{run_info.run_id}'") if model.status == "PENDING"]
-    for model_id in pending:
-        client.finalize_logged_model(model_id, "FAILED")
+    Returns their ids; none where the store cannot say (a tracking server of MLflow 2 has no logged models), which
+    must not keep the runs after this one from being closed."""
+    from mlflow.exceptions import MlflowException
+
+    try:
+        pending = [model.model_id for model in client.search_logged_models(
+            [run_info.experiment_id], filter_string=f"source_run_id = '{run_info.run_id}'") if model.status == "PENDING"]
+        for model_id in pending:
+            client.finalize_logged_model(model_id, "FAILED")
+    except MlflowException as error:
+        log.warning("run %s: its logged models could not be checked: %s", run_info.run_id, error)
+        return []
     return pending
 
 
@@ -304,8 +311,8 @@ def reap_dead_runs(client: MlflowClient) -> list[str]:
             # open this command's output naming another process's run.
             with mock.patch.dict(os.environ, {"MLFLOW_SUPPRESS_PRINTING_URL_TO_STDOUT": "true"}):
                 client.set_terminated(run.info.run_id, "KILLED")
-            fail_pending_models(client, run.info)
             client.set_tag(run.info.run_id, "bt.killed", f"process {pid} on {host} ended without closing the run")
+            fail_pending_models(client, run.info)
             reaped.append(run.info.run_id)
     if reaped:
         log.warning("marked KILLED %d run(s) left RUNNING by processes that died: %s", len(reaped), ", ".join(reaped))

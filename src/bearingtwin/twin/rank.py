@@ -82,6 +82,11 @@ WHAT_LEAVES_IT = {
     "statistics": "non-stationary events: spikes, dropouts, bursts or saturation of the sensor",
 }
 
+CAUSE_WORDS = {"clipping": "saturation", "line_frequency": "electrical line", "load_zone": "load-zone",
+               "structural_mode": "structural resonance"}
+"""How a library effect is named among the causes of a mark the library left unexplained (:data:`WHAT_LEAVES_IT`,
+and :func:`~bearingtwin.twin.compare.line_source` for a line), where not by its name with spaces for underscores."""
+
 
 def _view_errors(comparison: Comparison) -> dict[str, float]:
     return {v: comparison.views[v].error_db for v in VIEWS}
@@ -367,8 +372,8 @@ class TwinFit:
             own = "the measurement's own" if self.held_out else f"the {left['floor_db']:.1f} dB counted at least"
             since = "" if left in new else ", unchanged since the reference record (the rig's own, not new)"
             # A cause the library holds was a candidate: said so, or the mark's causes read as left untried.
-            tried = [fit.effect for fit in self.ranking
-                     if fit.effect not in added and fit.effect.replace("_", " ") in left["what_leaves_it"]]
+            tried = [fit.effect for fit in self.ranking if fit.effect not in added
+                     and CAUSE_WORDS.get(fit.effect, fit.effect.replace("_", " ")) in left["what_leaves_it"]]
             verdict = (f"; the library's {' and '.join(tried)} {'were' if len(tried) > 1 else 'was'} tried here and not "
                        "added" if tried else "")
             lines.append(f"Not explained by {by}{since}: the {left['view']} view ({left['error_db']:.1f} dB, "
