@@ -2335,6 +2335,30 @@ def test_a_gap_is_followed_to_where_order_tracking_moves_it(monkeypatch):
     assert marked.min() >= first - 2 and marked.max() <= first + count + 2 and marked.size >= 0.9 * length
 
 
+def test_a_dropout_is_followed_to_where_order_tracking_moves_it(tmp_path, monkeypatch):
+    """A record both unsteady and holding a dropout: tracked, the stretch holds one value no longer, so it is found
+    as the file holds it and its windows left out where the tracking moved it."""
+    from test_speed import FS as SPEED_FS
+    from test_speed import RPM as SPEED_RPM
+    from test_speed import machine
+
+    import bearingtwin.diagnosis.record as record
+
+    monkeypatch.setattr(record, "sharpening", lambda before, after: 10.0)  # as for a gap, above: this test's is the place
+    signal, _ = machine(drift=0.04)
+    start, length = int(5.0 * SPEED_FS), int(0.5 * SPEED_FS)
+    signal[start:start + length] = signal[start]  # a logger holding its last value for half a second
+    np.savez(tmp_path / "unsteady.npz", signal=signal, fs=SPEED_FS, rpm=SPEED_RPM, unit="g")
+    pipeline = envelope_pipeline()
+    prepared = read_record(tmp_path / "unsteady.npz", pipeline)
+    assert prepared.speed["tracked"] and not held_stretches(prepared.recording.signal, pipeline.window_length)
+    ((first_s, last_s, words),) = prepared.dropouts_s
+    assert words.startswith("samples from 5 s to 5.5 s are all ") and first_s != pytest.approx(5.0, abs=0.01)  # moved
+    windows, starts, notes, left_out = diagnosed_windows(prepared, pipeline.window_length)
+    assert left_out >= 3 and any(note.startswith(words) for note in notes), notes
+    assert not np.any((starts < last_s * FS) & (starts + pipeline.window_length > first_s * FS))
+
+
 @needs_cwru
 def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_series_reads(tmp_path):
     """A nameplate's speed given for a measured one puts every defect line beside where it stands: the shaft's own

@@ -121,8 +121,12 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     notes += bearing_note
     given_as = None if fs is None else fs_key  # the setting a rate was given as, None where the file's is read
     _refuse_a_rate_too_low(recording, record_bearing, pipeline, given_as)
-    recording, speed_notes, rate_check, speed, gaps = _speed_and_rate(recording, raw, record_bearing, gaps_by_channel,
-                                                                      order_tracking, given_as)
+    window_s = pipeline.window_length / pipeline.fs_hz
+    # The file's held stretches, before order tracking or resampling smooths them: from a quarter of a window at the
+    # rate read (the check may settle on one up to four times higher), those shorter than a window left below.
+    as_read, held = recording, held_stretches(recording.signal, math.ceil(window_s * recording.fs / 4))
+    recording, speed_notes, rate_check, speed, gaps, held_now = _speed_and_rate(
+        recording, raw, record_bearing, gaps_by_channel, order_tracking, given_as, held)
     notes += speed_notes
     true_state, truth_notes = _true_state(path, raw, recording, true_state, pipeline)
     notes += truth_notes
@@ -134,7 +138,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     # samples, whichever are longer (resample_poly's filter: 10 x max(up, down) taps at the up-sampled rate).
     reach = 10.0 / min(recording.fs, pipeline.fs_hz) if resampled else 0.0
     gaps_s = [(start / recording.fs - reach, (start + length) / recording.fs + reach) for start, length in gaps]
-    dropouts_s = dropouts(recording, pipeline.window_length / pipeline.fs_hz, reach)  # before resampling smooths them
+    dropouts_s = dropouts(as_read, window_s, reach, fs=recording.fs, held=held, held_now=held_now)
     if resampled:
         recording, note = resample_to(recording, pipeline.fs_hz)
         notes.append(note)
@@ -186,14 +190,15 @@ def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: Diagno
 
 def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict,
                     gaps_by_channel: dict[str, list[tuple[int, int]]], order_tracking: tuple[bool, float],
-                    given_as: str | None) -> tuple[Recording, list[str], str, dict | None, list[tuple[int, int]]]:
+                    given_as: str | None, held: list[tuple[int, int]] = ()
+                    ) -> tuple[Recording, list[str], str, dict | None, list[tuple[int, int]], list[tuple[int, int]]]:
     """A measured record steadied where its shaft speed varies (:func:`steadied`), its rate checked against the shaft
     line (:func:`_checked_rate`; ``given_as``: the setting a rate was given as, None where none was, so that one the
     file merely declares may be corrected): the record, the notes, the rate check's verdict, the speed as read (None
     where none was known or the record is the twin's) and the record's gaps (``(start, length)`` samples; each
-    channel's in ``gaps_by_channel``, as :func:`bridged` found them) where steadying moved them. The check reads no
-    bridged gap (:func:`gaps_unread`). A record without a speed, or a simulation, is said to be read without the
-    check."""
+    channel's in ``gaps_by_channel``, as :func:`bridged` found them) and its ``held`` stretches (``(start, length)``)
+    where steadying moved them. The check reads no bridged gap (:func:`gaps_unread`). A record without a speed, or a
+    simulation, is said to be read without the check."""
     gaps = gaps_by_channel.get(recording.channel, [])
     notes, rate_check, speed = [], "not checked", None
     if recording.rpm is None and recording.meta.get("no_speed"):
@@ -210,8 +215,9 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict,
         if recording.meta.get("simulation_notes"):  # a defect no loaded ball met: its stated state is not heard
             notes.append(f"the simulation noted: {recording.meta['simulation_notes']}")
     else:
-        recording, speed_notes, speed, gaps = steadied(recording, *order_tracking, gaps=gaps,
-                                                       tachometer=_tachometer(raw, recording))
+        recording, speed_notes, speed, moved = steadied(recording, *order_tracking, gaps=[*gaps, *held],
+                                                        tachometer=_tachometer(raw, recording))
+        gaps, held = moved[:len(gaps)], moved[len(gaps):]
         notes += speed_notes
         # The file's other channels witness the rate as recorded, not as steadied: the steadied channel alone then. The
         # rate is checked against the stated speed: a tracked record's mean speed was read from the series the check
@@ -236,7 +242,7 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict,
         if off:
             speed["off"] = True
             notes.append(off)
-    return recording, notes, rate_check, speed, gaps
+    return recording, notes, rate_check, speed, gaps, list(held)
 
 
 def _true_state(path, raw: RawRecord, recording: Recording, true_state: str | None,
@@ -580,18 +586,25 @@ def _windows_at(signal: np.ndarray, starts: np.ndarray, window_length: int) -> t
     return signal[starts[:, None] + np.arange(window_length)], starts
 
 
-def dropouts(recording: Recording, window_s: float, reach_s: float = 0.0) -> list[tuple[float, float, str]]:
-    """The stretches of ``recording`` held at one value for ``window_s`` (a model's window) or longer, each as its
-    start and end in seconds, widened by ``reach_s`` either side (a resampling filter's spread of their edges), and in
-    words (:meth:`~bearingtwin.data.recording.Recording.held_at`). A window inside one reads no vibration (it has no
-    features: a constant window cannot even be normalized), one reaching into it a step into none: such windows are
-    left out (:func:`diagnosed_windows`), and a shorter stretch only noted
-    (:meth:`~bearingtwin.data.recording.Recording.quality_notes`). Read at the record's own rate: resampled to a model's,
-    a held stretch holds one value no longer. So it does not once order tracking has steadied a record whose speed
-    varies (:func:`steadied`): such a record's dropouts are not found."""
-    shortest = math.ceil(window_s * recording.fs - 1e-9)
-    return [(start / recording.fs - reach_s, (start + length) / recording.fs + reach_s, recording.held_at(start, length))
-            for start, length in held_stretches(recording.signal, shortest)]
+def dropouts(recording: Recording, window_s: float, reach_s: float = 0.0, fs: float | None = None,
+             held: list[tuple[int, int]] | None = None,
+             held_now: list[tuple[int, int]] | None = None) -> list[tuple[float, float, str]]:
+    """The stretches of ``recording`` (as the file holds it) held at one value for ``window_s`` (a model's window) or
+    longer at ``fs`` (the rate the record is read at; its own by default), each as its start and end in seconds of the
+    record diagnosed, widened by ``reach_s`` either side (a resampling filter's spread of their edges), and in words
+    (:meth:`~bearingtwin.data.recording.Recording.held_at`, in the file's samples). ``held``: its held stretches
+    (:func:`~bearingtwin.data.recording.held_stretches`; found here where None), ``held_now``: where each lies in the
+    record diagnosed once order tracking has moved them (:func:`steadied`; where they were by default). Found as
+    the file holds them: steadied or resampled to a model's rate, a held stretch holds one value no longer. A window
+    inside one reads no vibration (it has no features: a constant window cannot even be normalized), one reaching
+    into it a step into none: such windows are left out (:func:`diagnosed_windows`), and a shorter stretch only
+    noted (:meth:`~bearingtwin.data.recording.Recording.quality_notes`)."""
+    fs = recording.fs if fs is None else fs
+    shortest = math.ceil(window_s * fs - 1e-9)
+    held = held_stretches(recording.signal, shortest) if held is None else held
+    in_file = recording if fs == recording.fs else dataclasses.replace(recording, fs=fs)
+    return [(start / fs - reach_s, (start + length) / fs + reach_s, in_file.held_at(*stretch))
+            for stretch, (start, length) in zip(held, held if held_now is None else held_now) if stretch[1] >= shortest]
 
 
 def _in_samples(start_s: float, end_s: float, fs: float) -> tuple[int, int]:
