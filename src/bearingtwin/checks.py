@@ -112,6 +112,13 @@ def physical_memory_bytes() -> int | None:
         return None
 
 
+def progress_bar_settings(cfg) -> list[tuple[object, str, str]]:
+    """The progress bars a training's config sets, as ``(node, name, key)``: Lightning's epoch bar, and the VMD
+    features' where the features have one."""
+    bars = [(cfg.trainer, "progress_bar", "trainer.progress_bar")]
+    return bars + ([(cfg.features, "progress", "features.progress")] if "progress" in cfg.features else [])
+
+
 def show_progress_bar(setting, in_sweep: bool, key: str = "trainer.progress_bar") -> bool:
     """A progress bar's setting (``key``: Lightning's epoch bar, ``features.progress``: the VMD features'):
     ``auto`` shows it only where someone watches one run (a terminal, not a sweep, whose parallel jobs would

@@ -27,7 +27,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig
 
-from bearingtwin.checks import show_progress_bar
+from bearingtwin.checks import progress_bar_settings, show_progress_bar
 from bearingtwin.cli.summary import closing_summary, percent
 from bearingtwin.config import exit_on_user_error, hydra_command, refuse_unknown_keys
 from bearingtwin.data.build import check_data_settings, require_files
@@ -131,10 +131,8 @@ def twin_to_real_records(cfg: DictConfig) -> str | None:
 def train(cfg: DictConfig) -> float | None:
     hydra_cfg = HydraConfig.get()
     in_sweep = hydra_cfg.mode == RunMode.MULTIRUN
-    # The bars shown (auto: for one run in a terminal): Lightning's, and the VMD features' where the features have one.
-    bars = [(cfg.trainer, "progress_bar", "trainer.progress_bar")]
-    bars += [(cfg.features, "progress", "features.progress")] if "progress" in cfg.features else []
-    for node, name, key in bars:
+    # The bars shown (auto: for one run in a terminal).
+    for node, name, key in progress_bar_settings(cfg):
         if not in_sweep:
             node[name] = exit_on_user_error(show_progress_bar)(node.get(name, "auto"), in_sweep, key)
         else:  # a bad value is left for the classifier's or the features' check, which fails this job alone, in its run

@@ -137,7 +137,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     # In seconds, now that the rate is settled; a resampling filter spreads a gap's edges over 10 input or output
     # samples, whichever are longer (resample_poly's filter: 10 x max(up, down) taps at the up-sampled rate).
     reach = 10.0 / min(recording.fs, pipeline.fs_hz) if resampled else 0.0
-    gaps_s = [(start / recording.fs - reach, (start + length) / recording.fs + reach) for start, length in gaps]
+    gaps_s = [_in_seconds(start, length, recording.fs, reach) for start, length in gaps]
     dropouts_s = dropouts(as_read, window_s, reach, fs=recording.fs, held=held, held_now=held_now)
     if resampled:
         recording, note = resample_to(recording, pipeline.fs_hz)
@@ -603,8 +603,14 @@ def dropouts(recording: Recording, window_s: float, reach_s: float = 0.0, fs: fl
     shortest = math.ceil(window_s * fs - 1e-9)
     held = held_stretches(recording.signal, shortest) if held is None else held
     in_file = recording if fs == recording.fs else dataclasses.replace(recording, fs=fs)
-    return [(start / fs - reach_s, (start + length) / fs + reach_s, in_file.held_at(*stretch))
-            for stretch, (start, length) in zip(held, held if held_now is None else held_now) if stretch[1] >= shortest]
+    return [(*_in_seconds(*now, fs, reach_s), in_file.held_at(*stretch))
+            for stretch, now in zip(held, held if held_now is None else held_now) if stretch[1] >= shortest]
+
+
+def _in_seconds(start: int, length: int, fs: float, reach_s: float = 0.0) -> tuple[float, float]:
+    """A stretch of ``length`` samples from ``start`` as its start and end in seconds at ``fs``, widened by ``reach_s``
+    either side (:func:`_in_samples` turns it back)."""
+    return start / fs - reach_s, (start + length) / fs + reach_s
 
 
 def _in_samples(start_s: float, end_s: float, fs: float) -> tuple[int, int]:

@@ -35,7 +35,7 @@ from typing import Callable
 import numpy as np
 from omegaconf import OmegaConf, open_dict
 
-from bearingtwin.checks import show_progress_bar
+from bearingtwin.checks import progress_bar_settings, show_progress_bar
 from bearingtwin.config import CONF_DIR, bearing_config, compose_config
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
@@ -613,9 +613,8 @@ def repeat(source: ReportInput) -> Report:
                                "results to repeat")
     cfg = stored_config(source.client, run_id)
     # The bars as this command shows them (a terminal, or a log), not as the run did: they change no number.
-    for node, name in ((cfg.trainer, "progress_bar"), (cfg.features, "progress")):
-        if name in node:
-            node[name] = show_progress_bar("auto", in_sweep=False)
+    for node, name, key in progress_bar_settings(cfg):
+        node[name] = show_progress_bar("auto", in_sweep=False, key=key)
     with tempfile.TemporaryDirectory() as scratch:
         cfg.paths.cache_dir = str(Path(scratch) / "cache")  # the run's own cache would hand back its numbers
         repeated = metric_series(run_experiment(cfg, root_dir=scratch))
