@@ -72,6 +72,9 @@ def test_a_local_submitit_sweep_runs_both_jobs(tmp_path):
     assert (f"  accuracy: {100 * by_seed['0']:.2f} % (seed=0); {100 * by_seed['1']:.2f} % (seed=1)"
             in done.stdout.splitlines()), done.stdout[-2000:]
     assert all(run.info.status == "FINISHED" and run.data.tags["mlflow.parentRunId"] == parent.info.run_id for run in runs)
+    # A sweep of command-line values is named by what its jobs vary, in its parent and in each job's own process.
+    assert parent.info.run_name.startswith("sweep over seed ") and "sweep over seed (run " in done.stdout
+    assert {run.data.tags["sweep"] for run in runs} == {parent.data.tags["sweep"]} == {"over seed"}
     # each job ran in a process of its own, not in the sweep's
     assert len({run.data.tags["bt.pid"] for run in runs} | {parent.data.tags["bt.pid"]}) == 3
 

@@ -596,6 +596,8 @@ def test_a_sweep_is_named_by_its_sweep_file_else_its_experiment():
 
     assert sweep_name({"sweep": "table4", "experiment": "sim2real"}) == "table4"
     assert sweep_name({"sweep": None, "experiment": "sim2real"}) == "sim2real"
+    # A sweep of command-line values alone is named by the keys its jobs differ in, not by a word they all share.
+    assert sweep_name({"classifier": "svm"}, ["classifier", "seed"]) == "over classifier, seed"
     assert sweep_name({"classifier": "svm"}) == "cli"
 
 

@@ -51,7 +51,7 @@ import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator, Mapping
+from typing import Iterator, Mapping, Sequence
 from urllib.parse import urlparse
 
 import numpy as np
@@ -979,7 +979,8 @@ class SweepParentRun(Callback):
         self._tracking = exit_on_user_error(sweep_tracking)(config, jobs)
         exit_on_user_error(refuse_slurm_without_slurm)(config.hydra.launcher)
         warn_of_hydras_launcher(config.hydra.runtime.choices)
-        varied = " ".join(varied_keys(jobs))  # for the jobs' run names
+        varied_list = varied_keys(jobs)
+        varied = " ".join(varied_list)  # for the jobs' run names
         if str(config.hydra.launcher.get("_target_", "")).endswith(".ray_launcher.RayLauncher"):
             # Before any run is open: Ray may not start. Its workers have environments of their own: the varied
             # keys are handed to them as the store and cache are (conf/launcher/ray.yaml).
@@ -989,7 +990,7 @@ class SweepParentRun(Callback):
             exit_on_user_error(start_ray_keeping_signals)(init)
         client, experiment_id = exit_on_user_error(open_store)(self._tracking)
         reap_dead_runs(client)
-        name = sweep_name(config.hydra.runtime.choices)
+        name = sweep_name(config.hydra.runtime.choices, varied_list)
         sweep_dir = sweep_folder(config.hydra)
         self._parent_id = open_owned_run(
             client, experiment_id, f"sweep {name} {Path(sweep_dir).parent.name}/{Path(sweep_dir).name}",  # <date>/<time>
@@ -1080,10 +1081,11 @@ def sweep_tracking(config: DictConfig, jobs: list[DictConfig]) -> DictConfig:
     return OmegaConf.create({**tracking, "uri": uris[0]})
 
 
-def sweep_name(choices) -> str:
+def sweep_name(choices, varied: Sequence[str] = ()) -> str:
     """A sweep's name, as its parent run and its jobs' tags give it: the sweep file's (``+sweep=table4``), else the
-    experiment's (``+experiment=sim2real``), else ``cli`` (a sweep of command-line values alone)."""
-    return str(choices.get("sweep") or choices.get("experiment") or "cli")
+    experiment's (``+experiment=sim2real``), else the keys a sweep of command-line values alone varies
+    (``over classifier, seed``; ``cli`` where its jobs do not differ)."""
+    return str(choices.get("sweep") or choices.get("experiment") or ("over " + ", ".join(varied) if varied else "cli"))
 
 
 def sweep_folder(hydra_cfg) -> str:
@@ -1156,7 +1158,7 @@ def sweep_info(hydra_cfg) -> SweepInfo | None:
         if o.split("=", 1)[0].lstrip("+~") in swept - {"seed", "method"}
     )
     return SweepInfo(
-        name=sweep_name(hydra_cfg.runtime.choices),
+        name=sweep_name(hydra_cfg.runtime.choices, os.environ.get(SWEEP_VARIED_ENV, "").split()),
         sweep_dir=sweep_folder(hydra_cfg),
         varied=varied,
         job=int(hydra_cfg.job.num),
