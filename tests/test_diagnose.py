@@ -2376,10 +2376,18 @@ def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_seri
     assert notes[1.0] == []
     (note,) = notes[1.03]
     read = float(re.search(r"reads (\d+) rpm", note).group(1))
-    # The file states the speed, which no setting overrides: the file is to be corrected. A speed given is to be given.
     assert read == pytest.approx(recording.rpm, rel=0.003)
-    assert note.endswith(f"the file's speed is off: correct it to {read:.0f} rpm")
+    assert note.endswith(f"give rpm={read:.0f}")
     assert f"from the stated {recording.rpm * 1.03:g} rpm" in note and re.search(r", -[23]\.\d % from", note)
+    # The remedy works although the file states its own speed: the shaft's series bears the given speed out, and the
+    # record is read at it, said so; a speed the series does not bear out stays refused, naming what it reads.
+    followed = read_record(tmp_path / "pump_1.03.npz", pipeline, rpm=read)
+    assert followed.recording.rpm == read and not followed.speed.get("off", False)
+    assert (f"rpm={read:g} given against the file's {recording.rpm * 1.03:g} rpm: the shaft's harmonic series reads "
+            f"{read:.0f} rpm, so the given speed is read") in followed.notes
+    with pytest.raises(BearingTwinError, match=rf"rpm=1700.0 contradicts the file's rpm={recording.rpm * 1.03!r} \(more "
+                                               rf"than 1% apart\); the shaft's harmonic series reads {read:.0f} rpm$"):
+        read_record(tmp_path / "pump_1.03.npz", pipeline, rpm=1700)
     np.savez(tmp_path / "pump.npz", signal=recording.signal, fs=recording.fs, unit="g")
     given = read_record(tmp_path / "pump.npz", pipeline, rpm=round(recording.rpm * 1.03))
     assert any(note.endswith(f"give rpm={read:.0f}") for note in given.notes), given.notes
@@ -2397,13 +2405,13 @@ def test_a_stated_speed_a_tachometer_contradicts_is_named_with_the_speed_it_read
     np.savez(tmp_path / "pump.npz", vib=recording.signal, tach=pulses, fs=recording.fs, rpm=1750.0, unit="g")
     prepared = read_record(tmp_path / "pump.npz", envelope_pipeline(), channel="vib")
     assert prepared.speed["source"] == "the tachometer channel tach" and prepared.speed["off"]
-    # The file states its speed, which no setting overrides (rpm=1797 is refused as contradicting it): the note had
-    # said "give rpm=1797", a way out that was none.
     assert ("the tachometer channel tach reads 1797 rpm, +2.7 % from the stated 1750 rpm: every defect line is read "
-            "where the stated speed puts it; if the sampling rate is right, the file's speed is off: correct it to 1797 "
-            "rpm") in prepared.notes
-    with pytest.raises(BearingTwinError, match=r"rpm=1797.0 contradicts the file's rpm=1750.0"):
-        read_record(tmp_path / "pump.npz", envelope_pipeline(), channel="vib", rpm=1797)
+            "where the stated speed puts it; if the sampling rate is right, give rpm=1797") in prepared.notes
+    # The file states its speed; the way out the note names works, the tachometer bearing the given speed out.
+    followed = read_record(tmp_path / "pump.npz", envelope_pipeline(), channel="vib", rpm=1797)
+    assert followed.recording.rpm == 1797 and not followed.speed.get("off", False)
+    assert ("rpm=1797 given against the file's 1750 rpm: the tachometer channel tach reads 1797 rpm, so the given "
+            "speed is read") in followed.notes
 
 
 @needs_cwru

@@ -347,3 +347,21 @@ def test_a_hust_exports_speed_column_witnesses_no_rate(capsys, monkeypatch, tmp_
     check = json.loads(out)["shaft_line_check"]
     assert code == 0 and set(check["channels"]) == {"X", "Y", "Z"} and check["channel"] in ("X", "Y", "Z")
     assert check["verdict"] == "consistent", check
+
+
+@pytest.mark.skipif(not (CWRU / "12k_Drive_End_OR007@6_1_131.mat").is_file(), reason=f"CWRU record 131 not in {CWRU}")
+def test_a_given_speed_the_record_bears_out_is_read_over_the_one_its_file_stamps(capsys, monkeypatch, tmp_path):
+    """A logger that stamps the nameplate's speed (1826 rpm) on a motor turning at 1772: the speed given is read where
+    the record's shaft series reads it, with its origin the option's; a speed it does not read stays refused."""
+    from scipy.io import loadmat
+
+    signal = loadmat(CWRU / "12k_Drive_End_OR007@6_1_131.mat")["X131_DE_time"].ravel()
+    np.savez(tmp_path / "stamped.npz", signal=signal, fs=12000.0, rpm=1826.0, unit="g")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'stamped.npz'}", "rpm=1772")
+    summary = json.loads(out)
+    assert code == 0 and (summary["rpm"], summary["rpm_origin"]) == (1772.0, "option"), out
+    assert any(note.startswith("rpm=1772 given against the file's 1826 rpm: the shaft's harmonic series reads 177")
+               for note in summary["meta"]["notes"]), summary["meta"]["notes"]
+    code, _, err = run(capsys, monkeypatch, f"path={tmp_path / 'stamped.npz'}", "rpm=1700")
+    assert code == 2 and err.strip().endswith("rpm=1700.0 contradicts the file's rpm=1826.0 (more than 1% apart); "
+                                              "the shaft's harmonic series reads 1772 rpm"), err

@@ -113,7 +113,9 @@ def test_a_speed_the_file_contradicts_is_named_as_the_twins_setting(measurement,
     result = run_cli(f"measured.path={tmp_path / 'stated.npz'}", "measured.rpm=1750", f"out={tmp_path / 'r'}",
                      "tracking.enabled=false", *FAST, cwd=tmp_path)
     assert result.returncode == 2 and result.stderr.strip().splitlines() == [
-        f"error: {tmp_path / 'stated.npz'}: measured.rpm=1750.0 contradicts the file's rpm=1797.0 (more than 1% apart)"], result.stderr
+        f"error: {tmp_path / 'stated.npz'}: measured.rpm=1750.0 contradicts the file's rpm=1797.0 (more than 1% apart); "
+        "no speed could be read off the record itself to decide between them (a tachometer channel's, or the shaft's "
+        "harmonic series' away from the supply's lines)"], result.stderr
 
 
 def cwru_record(folder, name, samples):

@@ -33,7 +33,7 @@ from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing,
                                 unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
                                     read_raw, resolve_fact, resolve_fs, resolve_speed, speed_from_tachometer,
-                                    tachometer_channel)
+                                    speed_reader, tachometer_channel)
 from bearingtwin.data.labels import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
@@ -108,14 +108,15 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     fs_hz = resolve_fs(raw, fs) if (fs is not None or raw.fs is not None) else None
     speed_notes = []  # a given speed read as the file's measured one, or one that may be in Hz
     rpm_origin, rpm_key = ("option", "rpm") if rpm is not None else (table, f"{table}: rpm")
-    rpm = resolve_speed(raw, rpm if rpm is not None else table_rpm, rpm_key, speed_notes)
-    if raw.rpm is not None:
+    read = _vibration_read(raw, channel)
+    reader = None if read is None or fs_hz is None else speed_reader(raw, read, raw.channels[read], fs_hz)
+    rpm = resolve_speed(raw, rpm if rpm is not None else table_rpm, rpm_key, speed_notes, reader)
+    if raw.rpm is not None and rpm == raw.rpm:
         rpm_origin = "file"
     elif rpm is None and raw.nominal_rpm is not None:
         rpm, rpm_origin = raw.nominal_rpm, "nominal"
     elif rpm is None:
         rpm_origin = None
-        read = _vibration_read(raw, channel)
         tachometer = None if read is None or fs_hz is None else tachometer_channel(raw, read)
         if tachometer is not None:  # as diagnose and the twin read a speed the file states no other way
             rpm, said = speed_from_tachometer(raw.channels[tachometer], tachometer, raw.channels[read], fs_hz)

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,7 +44,8 @@ from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_unit, qua
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.signal.sampling_rate import is_pulse_train
-from bearingtwin.signal.speed import HARMONICS, pulse_rate, pulse_times, pulses_per_turn, tachometer_speed
+from bearingtwin.signal.speed import (HARMONICS, pulse_rate, pulse_times, pulses_per_turn, speed_profile,
+                                     tachometer_profile, tachometer_speed)
 
 TEXT_TABLES = (".csv", ".txt", ".tsv")
 """Text tables of numbers: a spreadsheet's or data logger's export, whatever it separates its columns with."""
@@ -271,13 +272,14 @@ def recording_from_raw(
     if factor is not None:
         notes.append(f"{fs_key}={fs:g} Hz given, {factor:g} times the {raw.fs:.6g} Hz the file's time stamps give: "
                      "read as stamps in another unit than their column's name states")
-    rpm = resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes)
+    fs = resolve_fs(raw, fs, fs_key)
+    rpm = resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes,
+                        speed_reader(raw, name, signal, fs))
     # Where the speed comes from: a refusal of the rate names the speed's setting too where one gave it.
-    rpm_origin = "file" if raw.rpm is not None else "config" if rpm is not None else None
+    rpm_origin = "file" if raw.rpm is not None and rpm == raw.rpm else "config" if rpm is not None else None
     if rpm is None and raw.nominal_rpm is not None:
         rpm, rpm_origin = raw.nominal_rpm, "nominal"
         notes.append(raw.nominal_rpm_note)
-    fs = resolve_fs(raw, fs, fs_key)
     unread = {}
     tachometer = tachometer_channel(raw, name)
     if rpm is None and tachometer is not None:  # a tachometer's pulses beside the record may give it
@@ -483,20 +485,52 @@ SLOW_RPM = 120.0
 slow bearings exist (a wind turbine's main shaft turns at 10-20 rpm), so it is said, not refused."""
 
 
-def resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str]) -> float | None:
+def resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str],
+                  read_speed: Callable[[float], tuple[float | None, str]] | None = None) -> float | None:
     """The shaft speed: the file's measured one where it has one and a given ``rpm`` (setting ``key``) agrees with it
-    within :data:`SPEED_TOLERANCE` (said in ``notes`` when they differ), else the given one; a given speed the
-    file's contradicts is refused."""
+    within :data:`SPEED_TOLERANCE` (said in ``notes`` when they differ), else the given one. A given speed the file's
+    contradicts is read where the record itself bears it out against the file's (``read_speed``: what the record
+    reads around a stated speed, :func:`speed_reader`; a logger may stamp a nameplate's speed), refused otherwise."""
     if rpm is not None and rpm < SLOW_RPM and raw.rpm is None:
         notes.append(f"{key}={rpm:g} is a shaft at {rpm / 60:.3g} Hz; if {rpm:g} is the shaft's frequency in Hz, give "
                      f"{key}={rpm * 60:g}")
     if rpm is None or raw.rpm is None or rpm == raw.rpm:
         return raw.rpm if rpm is None else rpm
-    if not same_speed(rpm, raw.rpm):
-        raise BearingTwinError(f"{raw.path}: {key}={rpm!r} contradicts the file's rpm={raw.rpm!r} "
-                               f"(more than {SPEED_TOLERANCE:.0%} apart)")
-    notes.append(f"{key}={rpm:g} given; the file's measured {raw.rpm:g} rpm read")
-    return float(raw.rpm)
+    if same_speed(rpm, raw.rpm):
+        notes.append(f"{key}={rpm:g} given; the file's measured {raw.rpm:g} rpm read")
+        return float(raw.rpm)
+    read, source = read_speed(rpm) if read_speed is not None else (None, "")
+    if read is not None and same_speed(read, rpm) and not same_speed(read, raw.rpm):
+        notes.append(f"{key}={rpm:g} given against the file's {raw.rpm:g} rpm: {source} reads {read:.0f} rpm, so the "
+                     "given speed is read")
+        return rpm
+    if read is None and read_speed is not None:  # sought around the file's speed, what the record reads, for the message
+        read, source = read_speed(raw.rpm)
+    reading = (f"; {source} reads {read:.0f} rpm" if read is not None else
+               "; no speed could be read off the record itself to decide between them (a tachometer channel's, or "
+               "the shaft's harmonic series' away from the supply's lines)" if read_speed is not None else "")
+    raise BearingTwinError(f"{raw.path}: {key}={rpm!r} contradicts the file's rpm={raw.rpm!r} "
+                           f"(more than {SPEED_TOLERANCE:.0%} apart){reading}")
+
+
+def speed_reader(raw: RawRecord, channel: str, signal: np.ndarray,
+                 fs: float) -> Callable[[float], tuple[float | None, str]]:
+    """What the record itself reads as its speed around a stated one (rev/min), and what it was read from: a
+    tachometer's pulses recorded beside ``channel`` (:func:`tachometer_channel`) where they read one, else the shaft's
+    harmonic series of ``signal`` (:func:`~bearingtwin.signal.speed.speed_profile`); None where neither does."""
+    tachometer = tachometer_channel(raw, channel)
+
+    def read(rpm: float) -> tuple[float | None, str]:
+        if not np.isfinite(signal).all():  # a record with gaps is read whole only once they are bridged
+            return None, ""
+        if tachometer is not None and np.isfinite(raw.channels[tachometer]).all():
+            source = f"the tachometer channel {tachometer}"
+            profile = tachometer_profile(raw.channels[tachometer], fs, rpm, source=source)
+            if profile.readable:
+                return profile.read_rpm, source
+        return speed_profile(signal, fs, rpm).read_rpm, "the shaft's harmonic series"
+
+    return read
 
 
 def time_column_seconds(name: str) -> float | None:

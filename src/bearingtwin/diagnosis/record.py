@@ -233,11 +233,9 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict,
         if recording.fs != read_at:  # the check found the file's rate (a CWRU record at 48 kHz): its times are shorter
             speed.update(segment_s=speed["segment_s"] * read_at / recording.fs,
                          times_s=[time * read_at / recording.fs for time in speed["times_s"]])
-        # A speed the file states is not overridden (a given one the file contradicts is refused): the file is named.
-        key = None if recording.meta.get("rpm_origin") == "file" else "rpm"
         # At the rate it was read at, and not where the rate check refused that rate: the series read off it is then
         # no speed (a 25.6 kHz record declared at 12: the rate note's 840 rpm, beside a "give rpm=1687" the series said).
-        off = (speed_off_note(speed, recording.rpm, key)
+        off = (speed_off_note(speed, recording.rpm)
                if recording.fs == read_at and rate_check != "contradicted" else None)
         if off:
             speed["off"] = True
@@ -333,14 +331,14 @@ def gaps_note(recording: Recording, gaps: list[tuple[int, int]]) -> str:
             "one), no window touching one diagnosed")
 
 
-def speed_off_note(speed: dict, rpm: float, key: str | None = "rpm") -> str | None:
+def speed_off_note(speed: dict, rpm: float) -> str | None:
     """A note where the shaft's harmonic series or a tachometer, read segment by segment (:func:`steadied`), puts the
     speed more than 1 % and at most 8 % from the stated ``rpm`` (:func:`~bearingtwin.signal.speed.speed_off_words`: a
     nameplate's speed given for a measured one); None where it does not or cannot be read."""
     read = speed.get("read_rpm")  # not where the reading is in doubt (a misread profile), nor tracked (read at it)
     if read is None or speed.get("tracked") or speed.get("in_doubt"):
         return None
-    return speed_off_words(read, rpm, speed["source"], key)
+    return speed_off_words(read, rpm, speed["source"])
 
 
 TRACKING_REACH = 12

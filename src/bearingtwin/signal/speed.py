@@ -255,16 +255,15 @@ may lie for the note to name it: a nameplate's speed or a motor's slip is off by
 may be a defect's comb taken for the shaft's under a speed stated twice the true one (the rate check names those)."""
 
 
-def speed_off_words(read_rpm: float, rpm: float, source: str, key: str | None = "rpm") -> str | None:
+def speed_off_words(read_rpm: float, rpm: float, source: str, key: str = "rpm") -> str | None:
     """What to say where ``source`` (the shaft's harmonic series, a tachometer) reads ``read_rpm`` more than 1 % and at
-    most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`), the speed's setting ``key`` (None: the file states it, and
-    no setting overrides a file's speed); None where it does not."""
+    most 8 % from the stated ``rpm`` (:data:`SPEED_OFF`), the speed's setting ``key`` (which a file stating the wrong
+    speed yields to where the record reads the given one); None where it does not."""
     if not SPEED_OFF[0] < abs(read_rpm / rpm - 1) <= SPEED_OFF[1]:
         return None
-    remedy = f"give {key}={read_rpm:.0f}" if key else f"the file's speed is off: correct it to {read_rpm:.0f} rpm"
     return (f"{source} reads {read_rpm:.0f} rpm, {100 * (read_rpm / rpm - 1):+.1f} % from the stated "
             f"{rpm:g} rpm: every defect line is read where the stated speed puts it; if the sampling rate is right, "
-            f"{remedy}")
+            f"give {key}={read_rpm:.0f}")
 
 
 def pulse_times(pulses, fs: float) -> np.ndarray:

@@ -147,8 +147,7 @@ def speed_read_off(measured: Recording) -> str | None:
     read = speed_profile(measured.signal, measured.fs, measured.rpm).read_rpm
     if read is None:
         return None
-    key = None if measured.meta.get("rpm_origin") == "file" else "measured.rpm"  # a file's is not overridden
-    return speed_off_words(read, measured.rpm, "the shaft's harmonic series", key)
+    return speed_off_words(read, measured.rpm, "the shaft's harmonic series", "measured.rpm")
 
 
 DEFAULT_BEARING = "paper"
