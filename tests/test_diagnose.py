@@ -2576,3 +2576,39 @@ def test_under_hydra_job_chdir_the_records_are_read_from_where_the_command_start
         "r00", "r01"}
     result = json.loads((tmp_path / "runs" / "one" / "diagnosis" / "r00" / "diagnosis.json").read_text())
     assert MlflowClient(uri).get_run(result["run_id"]).data.params["path"] == str(tmp_path / "recordings")
+
+
+@needs_cwru
+def test_a_cwru_record_saved_as_npy_or_csv_under_its_long_name_is_read_as_its_mat_is(tmp_path):
+    """A CWRU record converted to .npy (or a headerless CSV) keeps its long name and loses what the .mat held beside
+    its samples: the name's state, rate, load (its nominal speed) and bearing are read, as from a .mat of that name,
+    where the file itself states none; the state is scored, a label may name another (as for a .mat); a number or a
+    label alone says too little of an unknown file, and what the file states itself wins."""
+    from scipy.io import loadmat
+
+    samples = loadmat(CWRU / "12k_Drive_End_IR007_1_106.mat")["X106_DE_time"].ravel()
+    pipeline = envelope_pipeline()
+    as_mat = read_record(CWRU / "12k_Drive_End_IR007_1_106.mat", pipeline)
+    np.save(tmp_path / "12k_Drive_End_IR007_1_106.npy", samples)
+    np.savetxt(tmp_path / "12k_Drive_End_IR007_1_106.csv", samples[:, None])
+    for suffix in (".npy", ".csv"):
+        prepared = read_record(tmp_path / f"12k_Drive_End_IR007_1_106{suffix}", pipeline)
+        assert (prepared.recording.fs, prepared.true_state, prepared.rate_check) == (12000.0, "inner", as_mat.rate_check)
+        assert prepared.recording.rpm == 1772.0 and prepared.recording.meta["rpm_origin"] == "nominal"  # the .mat's: 1772
+        assert prepared.recording.meta["bearing"] == "cwru_6205" and prepared.recording.meta["fault_size_in"] == 0.007
+        assert ("read by its CWRU name: state inner, rate 12 kHz (declared, checked), the drive-end bearing (cwru_6205)"
+                in prepared.notes), prepared.notes
+    relabelled = read_record(tmp_path / "12k_Drive_End_IR007_1_106.npy", pipeline, true_state="outer")
+    assert relabelled.true_state == "outer" and "labelled outer where the file name says inner: scored as outer" in relabelled.notes
+    # 48k_ names its rate; the fan end its bearing.
+    np.save(tmp_path / "12k_Fan_End_B014_2_288.npy", samples)
+    fan = load_recording(tmp_path / "12k_Fan_End_B014_2_288.npy")
+    assert (fan.fault, fan.rpm, fan.meta["bearing"]) == ("ball", 1750.0, "cwru_6203")
+    # What the file states wins over the name; a bare number or label names nothing of a file not the Data Center's.
+    np.savez(tmp_path / "48k_Drive_End_OR007@6_0_135.npz", signal=samples, fs=12000.0, rpm=1772.0, fault="outer")
+    stated = load_recording(tmp_path / "48k_Drive_End_OR007@6_0_135.npz")
+    assert (stated.fs, stated.rpm, stated.fault) == (12000.0, 1772.0, "outer")
+    for bare in ("106.npy", "IR007_1.npy"):
+        np.save(tmp_path / bare, samples)
+        with pytest.raises(BearingTwinError, match="does not state its sampling rate"):
+            load_recording(tmp_path / bare)

@@ -297,6 +297,39 @@ def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[st
     return notes
 
 
+def facts_from_long_name(raw: RawRecord) -> RawRecord:
+    """``raw``, a file of another format than the Data Center's .mat (a record's samples saved as ``.npy``, ``.csv``,
+    ``.wav``) under a CWRU long name (``12k_Drive_End_IR014_1_170.npy``, ``normal_0_97.csv``), with what that name
+    says filled in where the file states none itself, as a .mat of that name is read: the state, the declared rate
+    (checked like a .mat's), the Data Center's nominal speed for its load, the faulty bearing, the record's number,
+    load, size and position. Other names, a number or a Data Center label alone, say too little of an unknown file to
+    be read as CWRU's: it is returned as it is."""
+    name = parse_cwru_name(raw.path)
+    if name is None or name.form != "long":
+        return raw
+    taken = []
+    if raw.fault is None:
+        raw.fault = name.fault
+        raw.meta["fault_from_name"] = True  # a label may speak of another bearing than the name, as for a .mat
+        taken.append(f"state {name.fault}")
+    if raw.fs is None:
+        raw.fs, raw.fs_origin = (DECLARED_FS_HZ if name.rate_hz is None else name.rate_hz), "declared"
+        if name.rate_hz is not None:
+            raw.meta["named_rate"] = {"hz": name.rate_hz, "by": "its name states"}
+        taken.append(f"rate {raw.fs / 1000:g} kHz (declared, checked)")
+    if raw.rpm is None and raw.nominal_rpm is None:
+        raw.nominal_rpm = NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp)
+        raw.nominal_rpm_note = (f"speed {raw.nominal_rpm:g} rpm: the Data Center's nominal speed at {name.load_hp} hp "
+                                "(the file states none)")
+    if name.end is not None and "bearing" not in raw.meta:
+        raw.meta["bearing"] = name.bearing
+        taken.append(f"the {name.end}-end bearing ({name.bearing})")
+    raw.meta.update(record=name.record, load_hp=name.load_hp, fault_size_in=name.fault_size_in, position=name.position)
+    if taken:
+        raw.meta.setdefault("notes", []).append(f"read by its CWRU name: {', '.join(taken)}")
+    return raw
+
+
 def named_record(path: str | Path) -> int | None:
     """The record a file's name gives: the long form's (``..._0_130.mat``) or the Data Center's own number
     (``130.mat``, in its catalogue or not); None for a name that gives none (a Data Center label's)."""

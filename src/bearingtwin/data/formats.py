@@ -200,6 +200,10 @@ def read_raw(path: str | Path) -> RawRecord:
             raw = _read_csv(path)
         else:
             raw = {".npy": _read_npy, ".npz": _read_npz, ".wav": _read_wav}[suffix](path)
+        if raw.format not in ("cwru-mat", "hust-xls"):  # a CWRU record saved in another format, by its name
+            from bearingtwin.data.cwru import facts_from_long_name
+
+            raw = facts_from_long_name(raw)
     except BearingTwinError:
         raise
     except Exception as error:  # a corrupt file makes scipy, numpy and zipfile raise any type (BadZipFile, MatReadError, ...)

@@ -249,7 +249,7 @@ def _true_state(path, raw: RawRecord, recording: Recording, true_state: str | No
     that states another refuses (a CWRU name may speak of another bearing: noted), else what the file's name (CWRU) or
     content states; None where nothing states one."""
     notes = []
-    name = parse_cwru_name(path) if raw.format == "cwru-mat" else None
+    name = parse_cwru_name(path) if raw.format == "cwru-mat" or raw.meta.get("fault_from_name") else None
     if true_state is None:  # what the file's name (CWRU) or content states
         true_state = name.fault if name is not None else recording.fault
         if recording.meta.get("unlabelled_state"):

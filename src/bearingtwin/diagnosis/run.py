@@ -563,7 +563,9 @@ def stated_truth(path: Path, labelled: dict) -> dict:
     """The true state of a record that could not be diagnosed, as its labels row or its CWRU name states it (none where
     neither does): a failed record's row says which state went unanswered."""
     state = labelled.get(path.stem, (None, None))[1]
-    name = parse_cwru_name(path) if path.suffix.lower() == ".mat" else None
+    name = parse_cwru_name(path)
+    if name is not None and path.suffix.lower() != ".mat" and name.form != "long":  # read by a long name only
+        name = None
     state = state or (name.fault if name is not None else None)
     return {} if state is None else {"true_state": state}
 
