@@ -90,6 +90,28 @@ def test_unknown_key_is_refused(tmp_path):
     assert not (tmp_path / "mlflow.db").exists()
 
 
+def test_a_key_no_config_declares_in_an_experiment_file_of_ones_own_is_refused_naming_the_file(tmp_path):
+    """``seeed: 3`` or ``trainer: {max_epoch: 5}`` in an experiment of one's own had been carried along unread (logged as
+    a param beside the default that ran), where the same typo on the command line is refused: refused alike, in a
+    single run and in a sweep, before a store is opened. Filling in a map a config declares null (``physics_first``)
+    or a class's arguments is not a typo."""
+    (tmp_path / "conf" / "experiment").mkdir(parents=True)
+    for name, body in (("typo", "seeed: 3\n"), ("nested", "trainer:\n  max_epoch: 5\n"),
+                       ("fine", "seed: 3\nphysics_first:\n  threshold_db: 20.0\n  margin_db: 10.0\n")):
+        (tmp_path / "conf" / "experiment" / f"{name}.yaml").write_text(f"# @package _global_\n{body}")
+    store = [f"tracking.uri=sqlite:///{tmp_path}/mlflow.db", f"hydra.sweep.dir={tmp_path}/multirun"]
+    for mode, (name, said) in ((["--config-dir", str(tmp_path / "conf")], ("typo", "seeed is not a setting of train (no config declares it); did you mean seed?")),
+                               (["-m", "--config-dir", str(tmp_path / "conf")], ("nested", "trainer.max_epoch is not a setting of train (no config "
+                                                                "declares it); did you mean trainer.max_epochs?"))):
+        done = run_cli([*mode, f"+experiment={name}", "seed=0,1" if "-m" in mode else "seed=0", "classifier=svm",
+                        *store], tmp_path)
+        assert done.returncode == 2 and done.stderr.strip().splitlines() == [f"error: +experiment={name}: {said}"], (
+            done.stderr[-2000:])
+    assert not (tmp_path / "mlflow.db").exists()
+    fine = run_cli(["--config-dir", str(tmp_path / "conf"), "+experiment=fine", "classifier=svm", "--cfg", "job"], tmp_path)
+    assert fine.returncode == 0 and "threshold_db: 20.0" in fine.stdout, fine.stderr[-2000:]
+
+
 def test_a_sweep_lives_in_the_store_its_jobs_log_to_and_only_one(tmp_path):
     """The store a sweep file's params set is the jobs' and so the parent run's (the sweep's own config lacks it,
     and MLflow sets MLFLOW_TRACKING_URI as a job logs its model); jobs over several stores are refused, before any

@@ -11,7 +11,7 @@ import sys
 import tempfile
 import warnings
 from pathlib import Path
-from typing import Callable, NoReturn
+from typing import Callable, Iterator, NoReturn
 from urllib.parse import urlparse
 
 import hydra
@@ -739,6 +739,41 @@ def closest_setting(cfg: DictConfig, key: str) -> str:
     return f"did you mean {parent + '.' if parent else ''}{match[0]}?" if match else ""
 
 
+def _free_form(cfgs: list[DictConfig], key: str) -> bool:
+    """Whether some map on ``key``'s path, in any of ``cfgs``, takes keys no config declares: a class's arguments
+    beside its ``_target_``, or a map a config group declares empty (``{}``)."""
+    parts = key.split(".")
+    maps = [cfg if i == 0 else OmegaConf.select(cfg, ".".join(parts[:i]), default=None)
+            for i in range(len(parts)) for cfg in cfgs]
+    return any(isinstance(node, DictConfig) and (len(node) == 0 or "_target_" in node) for node in maps)
+
+
+def _leaf_keys(node, prefix: str = "") -> Iterator[str]:
+    """The dotted keys of ``node``'s values (a plain container's; a list is one value)."""
+    for name, value in node.items():
+        key = f"{prefix}{name}"
+        if isinstance(value, dict) and value:
+            yield from _leaf_keys(value, key + ".")
+        else:
+            yield key
+
+
+def _refuse_undeclared_keys_of_file(config_name: str, chosen_as: str, without: DictConfig, with_file: DictConfig) -> None:
+    """Refuse a config file chosen with ``+group=option`` (``chosen_as``: an experiment's, a sweep's) that sets a key
+    no config declares (``seeed: 3`` in an experiment would be carried along unread, the run taking the default):
+    ``with_file`` composed with it, ``without`` with the same groups' choices and not it."""
+    absent = object()
+    for key in _leaf_keys(OmegaConf.to_container(with_file, resolve=False)):
+        parts = key.split(".")
+        declared_null = any(OmegaConf.select(without, ".".join(parts[:i]), default=absent) is None
+                            for i in range(1, len(parts)))  # a map a config declares null, the file filling it in
+        if (OmegaConf.select(without, key, default=absent) is absent and not declared_null
+                and not _free_form([without, with_file], key)):
+            hint = closest_setting(without, key)
+            raise BearingTwinError(f"{chosen_as}: {key} is not a setting of {config_name} (no config declares it)"
+                                   + (f"; {hint}" if hint else ""))
+
+
 def refuse_unknown_keys(hydra_cfg) -> None:
     """Raise naming a ``+key=value`` override that adds a key no config declares.
 
@@ -764,22 +799,26 @@ def refuse_unknown_keys(hydra_cfg) -> None:
             raise BearingTwinError(f"{group}={override.get_value_element_as_str()}: choose one {group} (a list merges "
                                    f"their settings into one config); to run each, sweep them: -m {group}=a,b")
     added = [o for o in overrides if (o.is_add() or o.is_force_add()) and o.key_or_group not in groups]
-    if not added:
-        return
-    declared = compose_config(config_name, [o.input_line for o in overrides if o not in added])
     added_groups = {o.key_or_group for o in overrides if (o.is_add() or o.is_force_add()) and o.key_or_group in groups}
+    if not added and not added_groups:
+        return
     chosen = [f"{group}={choice}" for group, choice in hydra_cfg.runtime.choices.items()
               if not group.startswith("hydra") and group not in added_groups and isinstance(choice, str)]
     groups_alone = compose_config(config_name, chosen)
+    for group in sorted(added_groups):  # an experiment's or a sweep's file may set only what some config declares
+        choice = hydra_cfg.runtime.choices.get(group)
+        if isinstance(choice, str):
+            _refuse_undeclared_keys_of_file(config_name, f"+{group}={choice}", groups_alone,
+                                            compose_config(config_name, [*chosen, f"+{group}={choice}"]))
+    if not added:
+        return
+    declared = compose_config(config_name, [o.input_line for o in overrides if o not in added])
     for override in added:
         key = override.key_or_group
         if OmegaConf.select(declared, key, default=None) is not None:
             continue  # ``++key=`` on a declared key
         # Free-form: some map on the key's path is empty as composed, or as the groups alone declare it.
-        parts = key.split(".")
-        maps = [cfg if i == 0 else OmegaConf.select(cfg, ".".join(parts[:i]), default=None)
-                for i in range(len(parts)) for cfg in (declared, groups_alone)]
-        if not any(isinstance(node, DictConfig) and (len(node) == 0 or "_target_" in node) for node in maps):
+        if not _free_form([declared, groups_alone], key):
             hint = closest_setting(declared, key)
             raise BearingTwinError(
                 f"{override.input_line}: {key} is not a setting of {config_name} (no config declares it); "
