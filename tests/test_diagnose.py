@@ -1256,8 +1256,10 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     folder = tmp_path / "recordings"
     folder.mkdir()
     rates = BearingGeometry.from_config(BEARING).defect_frequencies(RPM)
-    # It names a bearing no config here describes (a user's own, simulated with hydra.searchpath): read as the model's.
-    np.savez(folder / "pump_a.npz", signal=fault_signal(rates["bpfo"], seconds=3), fs=FS, rpm=RPM, bearing="rig_b_6206")
+    np.savez(folder / "pump_a.npz", signal=fault_signal(rates["bpfo"], seconds=3), fs=FS, rpm=RPM)
+    # It names a bearing no config here describes (a user's own, simulated with hydra.searchpath): its defect lines
+    # are unknown, and no other bearing's stand in for them.
+    np.savez(folder / "own.npz", signal=fault_signal(rates["bpfo"], seconds=3), fs=FS, rpm=RPM, bearing="rig_b_6206")
     np.savez(folder / "pump_b.npz", signal=fault_signal(None, seconds=3, seed=5), fs=48000.0, rpm=RPM)  # resampled
     np.savez(folder / "short.npz", signal=fault_signal(None, seconds=100 / FS), fs=FS)
     np.savez(folder / "nan.npz", signal=np.full(30000, np.nan), fs=FS)
@@ -1272,7 +1274,7 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
                f"out={tmp_path}/out", "rpm=1797", cwd=tmp_path, uri=uri)
     assert done.returncode == 2  # some records failed, the others were diagnosed
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
-    assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other"}
+    assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other", "own"}
     header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
     # new columns come last
     assert header[-10:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
@@ -1290,8 +1292,9 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     assert rows["told"]["true_state"] == "outer" and not rows["told"]["correct"] and not rows["short"]["true_state"]
     assert "rows for gone.npz, other.npy, which" in done.stdout
     assert rows["pump_a"]["true_state"] == "outer" and rows["pump_a"]["evidence_state"] == "outer"
-    notes = json.loads((tmp_path / "out" / "pump_a" / "diagnosis.json").read_text())["notes"]
-    assert any(note.startswith("the file names bearing rig_b_6206, which no conf/bearing config here") for note in notes)
+    assert rows["own"]["error"] == (f"{folder / 'own.npz'}: the file names bearing rig_b_6206, which no conf/bearing "
+                                    "config here describes: its defect frequencies are unknown here (give bearing=<name>, "
+                                    "with hydra.searchpath for one of your own)")
     assert rows["pump_b"]["true_state"] == "normal"
     for row in (rows["pump_a"], rows["pump_b"]):  # right means the verdict is the row's state
         assert row["correct"] == str(row["verdict"] == row["true_state"]), row

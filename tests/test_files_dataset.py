@@ -111,6 +111,22 @@ def test_a_bad_folder_is_refused_naming_the_file_or_field(folder, change, messag
     assert message in str(error.value) and "\n" not in str(error.value)
 
 
+def test_files_that_name_a_bearing_no_config_describes_are_refused_unless_data_bearing_says_which(folder):
+    """A folder of one's own simulations (``bearingtwin-simulate bearing=skf_6206`` with a search path) trained without
+    it had been read with the config's bearing, a log line aside: refused, naming data.bearing; given, it is read."""
+    for name in ("a", "b", "c"):
+        np.savez(folder / f"{name}.npz", signal=np.load(folder / f"{name}.npy"), bearing="skf_6206")
+        (folder / f"{name}.npy").unlink()
+    (folder / "d.csv").unlink()
+    (folder / "labels.csv").write_text("record,state,rpm\na.npz,normal,1797\nb.npz,normal,1797\nc.npz,outer,1797\n")
+    with pytest.raises(BearingTwinError) as error:
+        build_dataset(files_cfg(folder))
+    assert str(error.value) == ("data.root: the file names bearing skf_6206, which no conf/bearing config here describes: "
+                                "its defect frequencies are unknown here (give data.bearing=<name>, with hydra.searchpath "
+                                "for one of your own)")
+    assert build_dataset(files_cfg(folder, "data.bearing=paper")).windows.shape == (30, 512)
+
+
 def test_no_folder_given_is_named_in_one_line():
     with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
         cfg = compose("train", overrides=["data=files"])

@@ -158,6 +158,22 @@ def test_a_record_that_names_its_bearing_is_read_with_it_when_no_bearing_is_give
     assert re.search(r"discrepancy: \d+\.\d\d dB, no effect added, the measurement's own", result.stdout), result.stdout
 
 
+def test_a_record_naming_a_bearing_no_config_describes_is_refused_unless_one_is_given(measurement, tmp_path):
+    """A simulation of one's own bearing held against the twin without its search path had been calibrated to the
+    paper's defect lines, a warning aside (a 0.28 mm defect fitted as 0.002 mm): refused in one line before a store
+    is opened; with a bearing given, it is read with that one, said."""
+    np.savez(tmp_path / "own.npz", signal=np.load(measurement), fs=12000.0, rpm=1797.0, fault="outer", bearing="skf_6206")
+    result = run_cli(f"measured.path={tmp_path / 'own.npz'}", f"out={tmp_path / 'r'}", "candidates=[]", *FAST,
+                     env={"MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path / 'mlflow.db'}"}, cwd=tmp_path)
+    assert result.returncode == 2 and result.stderr.strip().splitlines() == [
+        f"error: {tmp_path / 'own.npz'}: the file names bearing skf_6206, which no conf/bearing config here describes: "
+        "its defect frequencies are unknown here (give bearing=<name>, with hydra.searchpath for one of your own)"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["own.npz"]  # no store, no report folder
+    given = run_cli(f"measured.path={tmp_path / 'own.npz'}", "bearing=paper", f"out={tmp_path / 'r'}", "candidates=[]",
+                    "tracking.enabled=false", "figures=false", *FAST, cwd=tmp_path)
+    assert given.returncode == 0 and "the file names bearing skf_6206" in given.stderr, given.stderr[-2000:]
+
+
 @pytest.mark.parametrize("given", ["cwru_6203", "paper"])  # paper: the default's name, but given
 def test_a_bearing_given_that_is_not_the_records_is_refused_before_a_run_opens(measurement, tmp_path, given):
     """A drive-end record run with another bearing= was calibrated to that bearing's defect frequencies, a warning

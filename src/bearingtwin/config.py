@@ -685,13 +685,22 @@ def bearing_choices(overrides: list[str] = ()) -> list[str]:
     return sorted(path.stem for path in Path(CONF_DIR, "bearing").glob("*.yaml"))
 
 
-def unknown_bearing_note(named: str, consequence: str) -> str | None:
+def unknown_bearing_note(named: str, consequence: str, key: str = "bearing") -> str | None:
     """A note when ``named``, the bearing a file names, is no bearing config this command finds (its search path
-    included), saying ``consequence``; None when it is one."""
+    included), saying ``consequence`` and the setting ``key`` that names one; None when it is one."""
     if str(named) in bearing_choices(search_path_override()):
         return None
     return (f"the file names bearing {named}, which no conf/bearing config here describes: {consequence} (give "
-            "bearing=<name>, with hydra.searchpath for one of your own)")
+            f"{key}=<name>, with hydra.searchpath for one of your own)")
+
+
+def refuse_unknown_bearing(named: str, source: str, key: str = "bearing") -> None:
+    """Refuse a record (``source``: its file, or the data's setting) whose file names a bearing no config this command
+    finds, where no ``key`` says which to read: another bearing's defect lines stood in for its own, read without a
+    word beyond a log line (a twin fitted a defect of 0.002 mm for one of 0.28 mm)."""
+    note = unknown_bearing_note(named, "its defect frequencies are unknown here", key)
+    if note is not None:
+        raise BearingTwinError(f"{source}: {note}")
 
 
 def load_bearing(name: str, key: str = "bearing"):

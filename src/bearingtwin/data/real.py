@@ -165,9 +165,9 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
 def bearing_the_files_name(recordings: list[Recording]) -> str | None:
     """The ``conf/bearing`` name every recording names itself (:func:`~bearingtwin.data.formats.file_bearing`: a HUST
     export's ER-16K, a CWRU record's SKF 6205 or 6203, ``bearingtwin-simulate``'s), read where no ``data.bearing`` is
-    given; None where one names none, or names one no config describes, or where they name different bearings (said:
-    one model reads one bearing's lines)."""
-    from bearingtwin.config import unknown_bearing_note
+    given; None where one names none, or where they name different bearings (said: one model reads one bearing's
+    lines); refused where they name one no config describes."""
+    from bearingtwin.config import refuse_unknown_bearing
 
     named = {file_bearing(recording.meta, recording.channel) for recording in recordings}
     if None in named or not named:
@@ -177,10 +177,7 @@ def bearing_the_files_name(recordings: list[Recording]) -> str | None:
                     "data.bearing=<name> for the one the model is for", ", ".join(sorted(map(str, named))))
         return None
     name = str(named.pop())
-    unknown = unknown_bearing_note(name, "the data's bearing is the config's")
-    if unknown:
-        log.warning("data.root: %s", unknown)
-        return None
+    refuse_unknown_bearing(name, "data.root", "data.bearing")
     return name
 
 

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 import scipy.signal
 
-from bearingtwin.config import unknown_bearing_note
+from bearingtwin.config import refuse_unknown_bearing
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord,
                                     file_bearing, named_rate_note, read_raw, recording_from_raw,
@@ -113,10 +113,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     named = file_bearing(recording.meta, recording.channel)
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
-    unknown = None if bearing is not None or named is None else unknown_bearing_note(named, "read as the model's")
-    if unknown:
-        notes.append(unknown)
-        named = None
+    if bearing is None and named is not None and named != (pipeline.bearing or {}).get("name"):  # the model carries its own
+        refuse_unknown_bearing(named, recording.source)
     record_bearing, bearing_note = _record_bearing(bearing or named, pipeline)
     notes += bearing_note
     given_as = None if fs is None else fs_key  # the setting a rate was given as, None where the file's is read

@@ -20,7 +20,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
 from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
-                                unknown_bearing_note)
+                                refuse_unknown_bearing, unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
                                     read_raw, recording_from_raw, same_speed, speed_setting)
 from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
@@ -190,8 +190,9 @@ def record_bearing(cfg: DictConfig, measured: Recording, reference: str | None =
         return cfg, line  # said where the closing summary names the bearing
     if named is None or named == ours:
         return cfg, None
-    unknown = unknown_bearing_note(named, f"the twin reads {ours}'s defect frequencies"
-                                   + (", unchecked against it" if chosen else ""))
+    if not chosen:
+        refuse_unknown_bearing(named, path)
+    unknown = unknown_bearing_note(named, f"the twin reads {ours}'s defect frequencies, unchecked against it")
     if unknown is not None:
         log.warning("%s: %s", path, unknown)
         return cfg, unknown
