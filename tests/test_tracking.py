@@ -368,7 +368,7 @@ def test_a_sweep_summary_says_what_became_of_every_job(tmp_path):
     outcomes = sweep_outcomes(client, parent.info.run_id, [job(0), job(1), job(2), job(3)])
     assert outcomes[1].reason.startswith("at 0123456789ab (this code: ")
     assert format_sweep_summary("cli", parent.info.run_id, outcomes).splitlines()[1] == (
-        f"  1 of the skipped were computed by other code, the first {outcomes[1].reason}: "
+        f"  1 of the skipped was computed by other code, the first {outcomes[1].reason}: "
         "tracking.skip_finished=false runs them again")
 
 

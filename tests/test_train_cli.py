@@ -112,6 +112,15 @@ def test_a_key_no_config_declares_in_an_experiment_file_of_ones_own_is_refused_n
     assert fine.returncode == 0 and "threshold_db: 20.0" in fine.stdout, fine.stderr[-2000:]
 
 
+def test_a_misspelt_key_in_a_sweep_is_named_with_the_setting_it_is_closest_to(tmp_path):
+    """``-m classifer=svm,knn`` is composed job by job; the line had said "check its spelling", where a single run's
+    names the setting meant."""
+    done = run_cli(["-m", "classifer=svm,sklearn", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"], tmp_path)
+    assert done.returncode == 2 and done.stderr.strip().splitlines() == [
+        "error: classifer: not a setting (no config declares it); did you mean classifier?"], done.stderr[-2000:]
+    assert not (tmp_path / "mlflow.db").exists()
+
+
 def test_a_sweep_lives_in_the_store_its_jobs_log_to_and_only_one(tmp_path):
     """The store a sweep file's params set is the jobs' and so the parent run's (the sweep's own config lacks it,
     and MLflow sets MLFLOW_TRACKING_URI as a job logs its model); jobs over several stores are refused, before any

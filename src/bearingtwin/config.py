@@ -156,6 +156,22 @@ def output_folder(path, key: str = "out") -> Path:
     return path
 
 
+_command_config: list[str] = []
+"""The config of the command running in this process (:func:`hydra_command` sets it): a sweep's jobs are composed
+before Hydra's own config of the run, which names it, is set."""
+
+
+def _closest_in_running_config(key: str) -> str:
+    """"did you mean <key>?" (:func:`closest_setting`) against the running command's config as its defaults compose it,
+    for a key a sweep's job could not compose (``-m classifer=svm,knn``); "" outside a command or where none is close."""
+    if not _command_config:
+        return ""
+    try:
+        return closest_setting(compose_config(_command_config[-1]), key)
+    except Exception:  # the defaults do not compose either: the plain line says enough
+        return ""
+
+
 def composition_error_line(error: ConfigCompositionException | OverrideParseException) -> str:
     """Hydra's message for a config it could not compose, on one line naming the group or key at fault.
 
@@ -178,8 +194,9 @@ def composition_error_line(error: ConfigCompositionException | OverrideParseExce
                      if having else "; check its spelling (--cfg hydra lists the launcher's settings)")
             return f"{key}: not a setting of this launcher{where}"
         listing = "--cfg hydra" if key.startswith("hydra.") else "--cfg job"
-        return options_hint(key) or \
-            f"{key}: not a setting (no config declares it); check its spelling ({listing} lists the settings)"
+        closest = "" if key.startswith("hydra.") else _closest_in_running_config(key)
+        return options_hint(key) or (f"{key}: not a setting (no config declares it); "
+                                     + (closest or f"check its spelling ({listing} lists the settings)"))
     if isinstance(error, OverrideParseException):
         key, equals, value = error.override.partition("=")
         # Hydra reads a bare value in a grammar of its own: spaces, brackets (a glob's [123]), a caret (m/s^2) and
@@ -308,6 +325,7 @@ def hydra_command(config_name: str) -> Callable:
 
         @functools.wraps(task)
         def command(cfg_passthrough: DictConfig | None = None):
+            _command_config.append(config_name)
             if cfg_passthrough is None:  # run as a command: the overrides are on the command line
                 exit_on_user_error(refuse_bad_overrides)(config_name, sys.argv[1:])
             if not sys.stderr.isatty():  # MLflow's download bars, like the project's own, only in a terminal

@@ -914,7 +914,8 @@ def format_sweep_summary(name: str, parent_run_id: str, outcomes: list[JobOutcom
     ]
     by_other_code = [o for o in outcomes if o.status == "SKIPPED" and o.reason]
     if by_other_code:  # their numbers are another code's: said where the counts are, not only in the log
-        lines.append(f"  {len(by_other_code)} of the skipped were computed by other code, the first "
+        lines.append(f"  {len(by_other_code)} of the skipped {'was' if len(by_other_code) == 1 else 'were'} computed by "
+                     "other code, the first "
                      f"{by_other_code[0].reason}: tracking.skip_finished=false runs them again")
     scored = [o for o in outcomes if o.status in counts and o.accuracy is not None]
     if len(scored) > max_listed:
