@@ -1804,6 +1804,15 @@ def test_a_model_that_cannot_be_loaded_is_refused_naming_what_the_store_holds(tm
                                                    r"runs:/<run id>/model, models:/<name>/<version> or "
                                                    r"models:/<name>@<alias>, or a model's folder$"):
             load_diagnosis_model(typo, uri)
+    # A bare name or a folder on disk had been answered with MLflow's words of a download.
+    forms = r"give runs:/<run id>/model, models:/<name>/<version> or models:/<name>@<alias>, or a model's folder"
+    with pytest.raises(BearingTwinError, match=rf"^model=diag: no such folder, nor a model URI; {forms} \(one holding "
+                                               r"MLmodel\); diag's versions: 1, 2, its aliases: @champion \(version 2\)"):
+        load_diagnosis_model("diag", uri)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(BearingTwinError, match=rf"^model={tmp_path / 'empty'}: a folder without an MLmodel file; {forms} "
+                                               r"\(one holding MLmodel\)$"):
+        load_diagnosis_model(str(tmp_path / "empty"), uri)
     sweep = client.create_run(experiment, tags={"bt.kind": "sweep"}).info.run_id
     client.set_terminated(sweep, "FAILED")  # a sweep one of whose jobs failed: no model was ever meant to be there
     with pytest.raises(BearingTwinError, match=rf"; run {sweep} is a sweep's parent run, which holds no model: its "
