@@ -8,7 +8,8 @@ import scipy.signal
 
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal import envelope_spectrum, order_track, speed_profile
-from bearingtwin.signal.speed import series_prominences, sharpening, smoothed, tachometer_profile, tachometer_speed
+from bearingtwin.signal.speed import (series_prominences, sharpening, smoothed, supply_comb, tachometer_profile,
+                                     tachometer_speed)
 
 FS = 12000.0
 RPM = 1650.0  # its +-4 % swing stays clear of 1800 rpm, whose 2x is the 60 Hz supply's
@@ -181,3 +182,20 @@ def test_bad_input_is_refused_in_one_line(call, argument):
     with pytest.raises(BearingTwinError, match=argument) as refused:
         call()
     assert "\n" not in str(refused.value)
+
+
+def test_a_four_pole_motors_100_hz_comb_is_no_shaft_series_at_four_times_its_speed():
+    """On a 50 Hz supply a 4-pole motor turns at about 1480 rpm, and its magnetic pull's comb (100, 200, 300 Hz) lies
+    within 1.4 % of the shaft series of a speed four times that: a plant's right speed had been called a quarter of
+    the true one (the twin refused the record). Only a comb within 0.5 % of the supply or twice it is passed over: a
+    2-pole motor's shaft at 2960 rpm (49.3 Hz) is a shaft."""
+    from bearingtwin.config import load_bearing
+    from bearingtwin.signal.sampling_rate import speeds_a_whole_factor_off
+    from bearingtwin.testrig import RigOperatingPoint, simulate_rig
+
+    bearing = load_bearing("cwru_6205")
+    point = RigOperatingPoint(rpm=1480, fs=12000, duration_s=8.0, radial_load_n=800, unit="g", defect_width_mm=0.6)
+    record = simulate_rig("outer", point, effects={"line_frequency": {"supply_hz": 50.0, "level_db": 0.0}}, seed=3)
+    assert speeds_a_whole_factor_off(record, 12000.0, 1480.0, bearing.defect_frequencies(1480.0), higher=True,
+                                      max_factor=4) == []
+    assert [supply_comb(hz) for hz in (99.7, 120.2, 50.1, 98.67, 49.33)] == [True, True, True, False, False]

@@ -38,7 +38,7 @@ from scipy.ndimage import median_filter
 from bearingtwin.checks import is_finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.inputs import as_record, check_positive
-from bearingtwin.signal.speed import SPEED_OFF
+from bearingtwin.signal.speed import SPEED_OFF, supply_comb
 
 VERDICTS = ("consistent", "contradicted", "ambiguous")
 VERDICTS_BY_FAVOUR = ("consistent", "ambiguous", "contradicted")
@@ -1134,6 +1134,8 @@ def speeds_a_whole_factor_off(signal, fs: float, rpm: float, defect_hz: Mapping[
         except BearingTwinError:  # too short a record to place a shaft line this low: nor any lower one
             break
         check = checks[decisive_channel(checks)]
+        if higher and check.matches and supply_comb(check.observed_hz):  # a 4-pole motor's 100 Hz comb, not its shaft
+            continue
         if check.verdict == "consistent" and (check.matches or not higher):
             consistent.append((not check.matches, m))
     return [m for _, m in sorted(consistent)]

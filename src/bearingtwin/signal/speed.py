@@ -56,6 +56,13 @@ def near_supply(rpm: float) -> bool:
     return any(abs(multiple * rpm / 60.0 / supply - 1) <= SUPPLY_AGREEMENT for supply in SUPPLY_HZ for multiple in (1, 2))
 
 
+def supply_comb(hz: float) -> bool:
+    """Whether a harmonic series at ``hz`` may be the supply's comb: its fundamental within :data:`SUPPLY_AGREEMENT` of a
+    supply frequency or twice it (a motor's magnetic pull: 100 Hz on a 50 Hz supply, 4.05 times a 4-pole motor's
+    shaft at 1480 rpm), which no speed moves."""
+    return any(abs(hz / (multiple * supply) - 1) <= SUPPLY_AGREEMENT for supply in SUPPLY_HZ for multiple in (1, 2))
+
+
 @dataclass(frozen=True)
 class SpeedProfile:
     """The shaft speed read segment by segment from the shaft's harmonic series (:func:`speed_profile`) or a
