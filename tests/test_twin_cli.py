@@ -662,7 +662,7 @@ def test_a_speed_given_a_few_percent_off_is_named_with_the_one_the_shaft_series_
                                                   "rpm": rpm, "fault": "outer", "check_fs": False}))[0]
 
     assert speed_read_off(measured(1800)) == (
-        "the shaft's harmonic series reads 1772 rpm, -1.6 % from the stated 1800 rpm: every defect line is read where "
+        "the shaft's harmonic series reads 1772 rpm, -1.5 % from the stated 1800 rpm: every defect line is read where "
         "the stated speed puts it; if the sampling rate is right, give measured.rpm=1772")
     assert speed_read_off(measured(1772)) is None
 
