@@ -722,15 +722,24 @@ def test_a_loggers_noted_rate_and_its_time_stamps_must_agree(tmp_path, signal):
                                         ("a [µg]", "µg"), ("a (Gal)", "cm/s^2"), ("v (mm/s)", "mm/s"),
                                         ("signal", ""), ("gear", ""), ("rig_2", ""), ("vel_mm_s", "mm/s"),
                                         ("vel_ips", "ips"), ("velocity_mm/s", "mm/s"), ("gap_um", "um"),
-                                        ("time_s", ""), ("volt_v", ""), ("speed_rpm", "")])
+                                        ("time_s", ""), ("volt_v", ""), ("speed_rpm", ""),
+                                        # a velocity a plant's logger names by its word alone, or with a
+                                        # detector's word after its unit: none may pass for an acceleration in g
+                                        ("Velocity", "Velocity"), ("vel_mms", "mms"), ("vel_x", "vel"),
+                                        ("Velocity [mm/s RMS]", "mm/s RMS"), ("Velocity (mm/s pk)", "mm/s pk"),
+                                        ("Displacement (pump 2)", "Displacement"), ("level", ""), ("travel_x", ""),
+                                        ("Accel (G's)", "g"), ("acc (g pk)", "g")])
 def test_an_acceleration_unit_after_an_underscore(name, unit):
     """Loggers and scripts name a column ``acc_g`` as often as ``acc (g)``, and write m/s² as ``ms2`` or ``m_s2``
     there; after an underscore an acceleration unit counts, and a velocity's or displacement's (``vel_mm_s`` had been
     read as an acceleration, its spectrum's tilt taken for physics), so ``acc_x`` (a direction), ``ch_1``, ``time_s``
     and ``speed_rpm`` state none, and a name's own letters are none (``signal`` and ``gear`` end in a g)."""
     from bearingtwin.data.formats import unit_in_name
+    from bearingtwin.data.units import INTEGRATED_QUANTITIES, quantity_of
 
     assert unit_in_name(name) == unit
+    if name.lower().startswith(("vel", "disp")):
+        assert quantity_of(unit) in INTEGRATED_QUANTITIES
 
 
 def test_units_a_header_states_and_a_rate_under_other_names(tmp_path, signal):

@@ -40,7 +40,7 @@ import numpy as np
 
 from bearingtwin.checks import is_finite_number, positive_number
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_unit, quantity_of, same_unit
+from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_unit, quantity_of, quantity_word, same_unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.signal.sampling_rate import is_pulse_train
@@ -551,8 +551,9 @@ def unit_in_name(name: str) -> str:
     """The unit a channel's name states at its end, in brackets (``acc (m/s2)`` -> ``m/s^2``, ``U [V]`` -> ``V``),
     after "in" (an acceleration unit: ``a in m/s²``) or after an underscore (an acceleration unit: ``acc_g``,
     ``a_m/s2``, ``accel_ms2``, ``acc_m_s2``; a velocity's or displacement's: ``vel_mm_s``, ``vel_ips``, ``gap_um``),
-    acceleration units in their canonical spelling; "" when it states
-    none. A name's own letters are no unit (``signal``, ``gear``): only a separate word is read as one."""
+    acceleration units in their canonical spelling; where it states none, the word calling it a velocity or a
+    displacement (``Velocity``: :func:`~bearingtwin.data.units.quantity_word`), else "". A name's own letters are no
+    unit (``signal``, ``gear``): only a separate word is read as one."""
     return split_unit(name)[1]
 
 
@@ -570,12 +571,14 @@ def split_unit(name: str) -> tuple[str, str]:
             unit = acceleration_unit(written) or (written if quantity_of(written) in INTEGRATED_QUANTITIES else None)
             if unit:
                 return "_".join(words[:-length]) + repeated, unit
-        return name + repeated, ""
+        return name + repeated, quantity_word(name)
     if match["worded"]:  # "a in m/s²"; "speed in rig 2" states no unit
         unit = acceleration_unit(match["worded"]) or ""
     else:  # "ch1 (left)" states none
         unit = acceleration_unit(match["unit"]) or (match["unit"] if quantity_of(match["unit"]) else "")
-    return (match["name"] + repeated, unit) if unit else (name + repeated, "")
+    # A velocity's channel that names no unit ("Velocity", "vel (pump 2)") is named so by its word: not read as an
+    # acceleration in the model's unit.
+    return (match["name"] + repeated, unit) if unit else (name + repeated, quantity_word(name))
 
 
 def _time_stamps(path: Path, columns: dict[str, np.ndarray], notes: list[str], fs: float | None = None,

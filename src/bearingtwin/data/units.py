@@ -28,13 +28,13 @@ _PER_SECOND_SQUARED = ("/s^2", "/s2", "/s**2", "/s²", "/s/s", " s^-2", " s-2", 
 """How "per second squared" is written after a length (``m/s²``, ``m s^-2``; in a column's name ``acc_ms2``,
 ``acc_mps2``)."""
 _SPELLINGS = {**{length + per: f"{length}/s^2" for length in ("m", "mm", "cm", "in", "ft") for per in _PER_SECOND_SQUARED},
-              "gal": "cm/s^2", "g": "g", "gn": "g", "g0": "g", "mg": "mg", "µg": "µg", "μg": "µg", "ug": "µg"}
+              "gal": "cm/s^2", "g": "g", "g's": "g", "gn": "g", "g0": "g", "mg": "mg", "µg": "µg", "μg": "µg", "ug": "µg"}
 
 INTEGRATED_QUANTITIES = ("a velocity", "a displacement")
 """Quantities an acceleration integrated once or twice gives: their spectrum is the acceleration's tilted (each line
 divided by its frequency, once or twice), which no gain undoes, so a model or a twin free of scale is not free of them."""
 
-_OTHER_QUANTITIES = {"v": "a voltage", "mv": "a voltage", "mm/s": "a velocity", "m/s": "a velocity",
+_OTHER_QUANTITIES = {"v": "a voltage", "mv": "a voltage", "mm/s": "a velocity", "m/s": "a velocity", "mms": "a velocity",
                      "in/s": "a velocity", "ips": "a velocity", "um": "a displacement", "µm": "a displacement",
                      "μm": "a displacement", "mil": "a displacement", "pa": "a pressure", "rpm": "a speed",
                      "hz": "a frequency", "s": "a time", "ms": "a time"}
@@ -42,11 +42,26 @@ _OTHER_QUANTITIES = {"v": "a voltage", "mv": "a voltage", "mm/s": "a velocity", 
 letters that label as often as they measure (``Sensor (A)``, ``(N)``) are left out; ``s`` stays, a time column's."""
 
 
+QUANTITY_WORDS = {"velocity": "a velocity", "vel": "a velocity", "displacement": "a displacement",
+                  "disp": "a displacement", "displ": "a displacement"}
+"""Words a channel's name may call an integrated quantity by where it states no unit (``Velocity``, ``vel_x``): such a
+record must not pass for an acceleration in the model's unit."""
+
+_AMPLITUDE_QUALIFIER = re.compile(r"\s+(?:rms|pk|peak|0-pk|0-p|pk-pk|p-p|pp)$")
+"""A detector's word after a unit (``mm/s RMS``, ``g pk``): of how a meter reads a level, not of the unit."""
+
+
 def unit_key(unit: str) -> str:
-    """A unit as written, compared: lower case, single spaces, none around ``/`` and ``^``, ``sec`` as ``s``
-    (``m / s^2``, ``m/s ^2`` and ``M/sec²`` are one unit)."""
+    """A unit as written, compared: lower case, single spaces, none around ``/`` and ``^``, ``sec`` as ``s``, a
+    detector's word after it left out (``m / s^2``, ``m/s ^2``, ``M/sec²`` and ``m/s² RMS`` are one unit)."""
     key = re.sub(r"\s*([/^])\s*", r"\1", " ".join(str(unit).split()).lower())
-    return re.sub(r"/sec(?=[\^²2]|$)", "/s", key)
+    return _AMPLITUDE_QUALIFIER.sub("", re.sub(r"/sec(?=[\^²2]|$)", "/s", key))
+
+
+def quantity_word(name: str) -> str:
+    """The word of a channel's ``name`` that calls it an integrated quantity (:data:`QUANTITY_WORDS`: ``Velocity``,
+    ``vel`` in ``vel_x``), as written; "" where none does (``level``, ``travel``: a word's own letters are no word)."""
+    return next((word for word in re.split(r"[^A-Za-z]+", name) if word.lower() in QUANTITY_WORDS), "")
 
 
 def acceleration_unit(unit: str) -> str | None:
@@ -65,7 +80,9 @@ def quantity_of(unit: str) -> str | None:
     """What ``unit`` measures: "an acceleration" for a unit :func:`acceleration_unit` reads, another quantity for a
     unit of one (``V``: "a voltage", ``mm/s``: "a velocity", ``µm``: "a displacement"), None for text that is no
     unit known here."""
-    return "an acceleration" if acceleration_unit(unit) else _OTHER_QUANTITIES.get(unit_key(unit))
+    if acceleration_unit(unit):
+        return "an acceleration"
+    return _OTHER_QUANTITIES.get(unit_key(unit)) or QUANTITY_WORDS.get(unit_key(unit))
 
 
 def acceleration_factor(from_unit: str, to_unit: str) -> float:
