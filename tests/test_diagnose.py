@@ -2039,11 +2039,15 @@ def test_a_speed_the_shaft_line_contradicts_is_named_with_what_it_would_be_and_t
     assert float(re.search(r"at fs = 12000 Hz the shaft line says (\d+) rpm", note).group(1)) == pytest.approx(
         1772, rel=0.02)
     assert "speed or rate in doubt (the shaft line contradicts them: check them): r106" in done.stdout
+    # ...and on the record's own line, which is read first: the verdict's confidence says nothing of it.
+    (line,) = [line for line in done.stdout.splitlines() if re.match(r"r106: \w+ \(\d+% of \d+ windows", line)]
+    assert line.endswith(" - IN DOUBT: the shaft line contradicts the speed or rate"), line
     assert "left out notes.txt" in done.stdout + done.stderr  # a file of another format is named, not dropped silently
     done = run("diagnose", "path=recordings/r106.npy", "model=models:/diag@champion", "fs=12000", "rpm=1772",
                f"out={tmp_path}/right", "tracking.enabled=false", cwd=tmp_path, uri=uri)
     result = json.loads((tmp_path / "right" / "r106" / "diagnosis.json").read_text())
     assert done.returncode == 0 and result["rate_check"] == "consistent" and "speed or rate in doubt" not in done.stdout
+    assert "IN DOUBT" not in done.stdout
     # Resampled to 25.6 kHz and declared at 12: the rate note's chain ends near 25.6 kHz (840 rpm at 12 kHz); the speed
     # the shaft series read at the refused rate is no speed, and its "give rpm=..." had stood beside it.
     import scipy.signal

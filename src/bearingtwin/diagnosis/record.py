@@ -841,6 +841,16 @@ def one_line(result: dict) -> str:
         line += f"; physics: {result['evidence_state']}" + (f" ({top} lines {prominence[top]:+.1f} dB)" if top else "")
         if not result["agree"]:
             line += " - DISAGREES with the model"
+    # What leaves the verdict in doubt, where it is read first (the notes say why at length): a confident verdict on a
+    # record read at a wrong rate, or a dead sensor's bias called healthy, had said so only in the closing summary.
+    doubts = [words for flagged, words in (
+        (result.get("rate_check") == "contradicted", "the shaft line contradicts the speed or rate"),
+        (result.get("level_unseen"), "its level lies a decade from the model's training windows: check unit and gain"),
+        ((result.get("speed") or {}).get("off"), "its shaft turns 1-8 % from the speed stated"),
+        ((result.get("speed") or {}).get("in_doubt"), "its speed varies"),
+    ) if flagged]
+    if doubts:
+        line += f" - IN DOUBT: {'; '.join(doubts)}"
     if "true_state" in result:
         line += f"; true {result['true_state']}: {'right' if result['correct'] else 'WRONG'}"
     return line
