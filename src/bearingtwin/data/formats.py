@@ -1029,12 +1029,20 @@ def _read_csv(path: Path) -> RawRecord:
 
 _RATE_NOTE = re.compile(
     r"(?:sampl(?:e|ing)[ _-]*(?:rate|frequency|freq)\s*(?:\([^)]*\)|\[[^\]]*\])?\s*[:=;\t]\s*"
-    r"(?P<value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|s/s|sps|samples/s)?"
-    r"|fs\s*[:=]\s*(?P<fs_value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<fs_unit>k?hz|s/s|sps|samples/s))"
+    r"(?P<value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<unit>k?hz|k?s/s|k?sps|k?samples/s)?"
+    r"|fs\s*[:=]\s*(?P<fs_value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<fs_unit>k?hz|k?s/s|k?sps|k?samples/s))"
     r"\s*(?:$|[;(]|,(?!\d))", re.IGNORECASE)
 """A logger's note stating its rate: ``Sample rate: 12000 Hz``, ``Sampling frequency [Hz] = 25.6 kHz``, ``fs: 48000
-Hz``, ``Sample rate;25600`` (two cells of a spreadsheet's export); the number (Hz unless kHz) ends the note or a part
-of it. A bare ``fs`` needs its unit (``FS: 10``, a sensor's full scale, states no rate)."""
+Hz``, ``Sample rate: 51.2 kS/s``, ``Sample rate;25600`` (two cells of a spreadsheet's export); the number (Hz unless
+a k is before its unit) ends the note or a part of it. A bare ``fs`` needs its unit (``FS: 10``, a sensor's full
+scale, states no rate)."""
+_INTERVAL_NOTE = re.compile(
+    r"(?:sampl(?:e|ing)[ _-]*(?:interval|period)|delta[ _-]*t|dt)\s*(?:\((?P<bracketed>[^)]*)\)|\[(?P<squared>[^\]]*)\])?"
+    r"\s*[:=;\t]\s*(?P<value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<unit>s|ms|µs|us)?\s*(?:$|[;(]|,(?!\d))",
+    re.IGNORECASE)
+"""A logger's note stating the time between samples instead: ``Sampling interval: 1.953125e-05 s``, ``dt [ms] =
+0.02``; its unit stated (s, ms or µs), beside the number or in brackets after the label."""
+_SECONDS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "us": 1e-6}
 
 
 def _noted_number(value: str, decimal: str) -> float | None:
@@ -1092,13 +1100,26 @@ def rate_in_notes(path: Path, lines: list[str], decimal: str = ".") -> tuple[str
     the user gives it (``fs=``). A stated rate that is no positive number is refused, naming the line."""
     for line in lines:
         match = _RATE_NOTE.match(line.strip())
-        if match is None:
+        interval = None if match is not None else _INTERVAL_NOTE.match(line.strip())
+        per = (interval["unit"] or interval["bracketed"] or interval["squared"] or "").strip().lower() if interval else ""
+        if match is None and per not in _SECONDS:  # an interval's unit stated, or it is no note of the rate
             continue
+        if match is None:
+            number = _noted_number(interval["value"], decimal)
+            if number is None:
+                return line, None
+            rate = 1.0 / (number * _SECONDS[per]) if number > 0 else 0.0
+            # To the digits the interval was printed with: 8.333e-05 s is 12000 Hz, not 12000.48.
+            digits = max(1, len(re.sub(r"\D", "", re.split(r"[eE]", interval["value"])[0]).lstrip("0")))
+            rate = float(f"{rate:.{digits}g}") if math.isfinite(rate) else rate
+            if not (math.isfinite(rate) and rate > 0):
+                raise BearingTwinError(f"{path}: the note {line!r} above the header states no positive sampling interval")
+            return line, rate
         value, unit = (match["value"], match["unit"]) if match["value"] else (match["fs_value"], match["fs_unit"])
         number = _noted_number(value, decimal)
         if number is None:
             return line, None
-        rate = number * (1000.0 if (unit or "").lower() == "khz" else 1.0)
+        rate = number * (1000.0 if (unit or "").lower().startswith("k") else 1.0)
         if not (math.isfinite(rate) and rate > 0):
             raise BearingTwinError(f"{path}: the note {line!r} above the header states no positive sampling rate")
         return line, rate
