@@ -794,11 +794,11 @@ def test_time_stamps_read_as_the_channel_are_refused(tmp_path, signal):
     """The stamps of a time column its reader took for a channel only rise, and a coarse counter only steps up: no
     vibration does."""
     t = np.arange(signal.size) / FS
-    np.savetxt(tmp_path / "plain.csv", np.column_stack([t, signal]), delimiter=",")
-    with pytest.raises(BearingTwinError, match=r"plain.csv: channel 0 rises throughout, from 0 to 0.511875: time "
+    np.savetxt(tmp_path / "plain.csv", np.column_stack([t, signal]), delimiter=",", header="a,b", comments="")
+    with pytest.raises(BearingTwinError, match=r"plain.csv: channel a rises throughout, from 0 to 0.511875: time "
                                                r"stamps or sample numbers, not a vibration"):
-        load_recording(tmp_path / "plain.csv", channel=0, fs=FS).require_vibration()
-    load_recording(tmp_path / "plain.csv", channel=1, fs=FS).require_vibration()
+        load_recording(tmp_path / "plain.csv", channel="a", fs=FS).require_vibration()
+    load_recording(tmp_path / "plain.csv", channel="b", fs=FS).require_vibration()
     counter = Recording(np.floor(np.arange(signal.size) / 8.0), FS, source="counter")  # steps up every 8 samples
     with pytest.raises(BearingTwinError, match=r"counter: channel \? rises throughout"):
         counter.require_vibration()
@@ -920,3 +920,17 @@ def test_numbers_under_names_not_read_as_a_rate_or_speed_are_named_where_one_is_
     assert recording.meta["speed_unread"] == f"it holds fsamp={FS:g}, n_rpm=1748, under names not read as one"
     scipy.io.savemat(path, {"acc": signal, "fs": FS, "rpm": 1748.0})  # read as facts: nothing else to name
     assert load_recording(path).rpm == 1748.0 and "speed_unread" not in load_recording(path).meta
+
+
+def test_a_headerless_table_whose_first_column_rises_in_even_steps_reads_it_as_time_stamps(tmp_path, signal):
+    """``time,accel`` rows with no header (a plant logger's two-column export): the first column had been a channel to
+    choose, and the rate asked for, beside stamps that give it. Two vibration channels are still both channels."""
+    t = np.arange(signal.size) / FS
+    np.savetxt(tmp_path / "stamped.csv", np.column_stack([t, signal]), delimiter=",", fmt="%.7f")
+    raw = read_raw(tmp_path / "stamped.csv")
+    assert raw.fs == FS and list(raw.channels) == ["1"]
+    np.testing.assert_allclose(raw.channels["1"], signal, atol=1e-6)
+    assert any(note.startswith("column 0 rises in even steps") for note in raw.meta["notes"])
+    np.savetxt(tmp_path / "two.csv", np.column_stack([signal, -signal]), delimiter=",", fmt="%.7f")
+    two = read_raw(tmp_path / "two.csv")
+    assert two.fs is None and list(two.channels) == ["0", "1"]

@@ -621,6 +621,26 @@ def _time_stamps(path: Path, columns: dict[str, np.ndarray], notes: list[str], f
     return columns, measured, ""
 
 
+def _unnamed_time_stamps(channels: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], float | None]:
+    """A headerless table's columns without its first where that one is time stamps in seconds (``0.0000000,
+    -0.0721`` rows: two columns, the first rising in steps within 1 % of one another to a rate of
+    :data:`LOWEST_FS_HZ` or more), and the rate they give; the columns as they are and None otherwise. A vibration
+    channel never rises throughout."""
+    if len(channels) < 2:
+        return channels, None
+    first, *rest = channels
+    steps = np.diff(channels[first])
+    if steps.size < 2 or not np.all(np.isfinite(steps)) or np.any(steps <= 0):
+        return channels, None
+    typical = float(np.median(steps))
+    if np.max(np.abs(steps / typical - 1)) > 0.01:
+        return channels, None
+    rate = float((steps.size) / (channels[first][-1] - channels[first][0]))
+    if rate < LOWEST_FS_HZ:  # stamps in another unit than seconds, or no stamps: not guessed
+        return channels, None
+    return {name: channels[name] for name in rest}, fs_from_time_column(channels[first], "", "0")
+
+
 def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -> float:
     """Sampling rate in Hz from a time column: samples per second over the whole span.
 
@@ -1002,7 +1022,12 @@ def _read_csv(path: Path) -> RawRecord:
     noted_rpm, noted_unit, said = speed_and_unit_in_notes(table.preamble, table.decimal)
     read_in_notes += said
     if table.names is None:
-        return RawRecord(str(path), "csv", _float_channels(path, {"": table.values}), fs=noted,
+        channels, stamped = _unnamed_time_stamps(_float_channels(path, {"": table.values}))
+        if stamped is not None and noted is None:
+            noted = stamped
+            read_in_notes.append(f"column 0 rises in even steps, with no header to name it: read as time stamps in "
+                                 f"seconds, sampling rate {stamped:.6g} Hz")
+        return RawRecord(str(path), "csv", channels, fs=noted,
                          fs_origin="header" if noted is not None else "", meta={"notes": read_in_notes} if read_in_notes else {},
                          fs_unread=note_unread, rpm=noted_rpm, unit=noted_unit)
     # A noted rate is exact where time stamps are printed to a few decimals: they must agree with it.
