@@ -101,3 +101,16 @@ def test_records_read_for_training_warn_of_their_clipping_naming_the_file(caplog
         windows_from_recordings(recordings, 2048, 4, "data.samples_per_class", "key")
     warned = [record.getMessage() for record in caplog.records]
     assert len(warned) == 1 and warned[0].startswith("clipped.npy: ") and "the sensor or the converter clipped" in warned[0]
+
+
+def test_a_few_isolated_spikes_are_named_and_a_faults_recurring_impacts_are_not():
+    """A cable knocked four times in 10 s had left no word, while its spikes buried the envelope spectrum's defect lines
+    (physics: normal on an inner-race record). Strong impacts at a defect rate are the vibration's own: no note."""
+    x = impacts(seconds=10.0)
+    for start in (1.5, 4.0, 6.25, 9.0):
+        x[int(start * FS):int(start * FS) + 3] += 40.0
+    (note,) = Recording(x, FS).quality_notes()
+    assert note.startswith("4 isolated spikes, up to ") and " at 1.5, 4, 6.25, 9 s: a cable knock" in note, note
+    strong = impacts(seconds=10.0)
+    strong[::112] += 40.0  # 107 a second, as a fault's impacts recur
+    assert not any("spike" in note for note in Recording(strong, FS).quality_notes())
