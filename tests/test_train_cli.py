@@ -112,6 +112,15 @@ def test_a_key_no_config_declares_in_an_experiment_file_of_ones_own_is_refused_n
     assert fine.returncode == 0 and "threshold_db: 20.0" in fine.stdout, fine.stderr[-2000:]
 
 
+def test_another_commands_config_named_with_cn_is_refused_in_one_line(tmp_path):
+    """``bearingtwin-train -cn simulate`` ran simulate.yaml as training's config and failed on a key it lacks, with
+    Hydra's multi-line error and exit 1."""
+    done = run_cli(["-cn", "simulate", f"tracking.uri=sqlite:///{tmp_path}/mlflow.db"], tmp_path)
+    assert done.returncode == 2 and done.stderr.strip().splitlines() == [
+        "error: -cn simulate: conf/simulate.yaml is bearingtwin-simulate's config, without this command's settings; "
+        "this command composes conf/train.yaml (a copy of it of your own: -cd <folder> -cn <name>)"], done.stderr[-2000:]
+
+
 def test_a_misspelt_key_in_a_sweep_is_named_with_the_setting_it_is_closest_to(tmp_path):
     """``-m classifer=svm,knn`` is composed job by job; the line had said "check its spelling", where a single run's
     names the setting meant."""

@@ -458,6 +458,12 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                                       ("--shell-completion", args.shell_completion)) if given]
     if len(modes) > 1:  # as above: Hydra's refusal of the pair is a traceback
         raise BearingTwinError(f"{' and '.join(modes)} go one at a time: give one of them")
+    other = args.config_name
+    if other and other != config_name and not args.config_dir and not args.config_path and (
+            Path(CONF_DIR) / f"{other}.yaml").is_file():  # Hydra ran it, and the task failed on a key it lacks
+        raise BearingTwinError(f"-cn {other}: conf/{other}.yaml is bearingtwin-{other}'s config, without this command's "
+                               f"settings; this command composes conf/{config_name}.yaml (a copy of it of your own: "
+                               "-cd <folder> -cn <name>)")
     if args.config_dir and not Path(args.config_dir).is_dir():  # Hydra's refusal: three lines, exit 1 (no ~ read)
         raise BearingTwinError(f"--config-dir {args.config_dir}: no such folder (it holds configs of one's own, "
                                "beside the project's)")
