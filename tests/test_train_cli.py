@@ -182,7 +182,9 @@ def test_stdout_holds_the_closing_summary_alone_and_log_lines_go_to_stderr(tmp_p
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.startswith("== bearingtwin-train: ") and "registered" not in done.stdout, done.stdout
     assert "registered quiet version 1" in done.stderr
-    assert "registered quiet version 1" in (tmp_path / "out" / "train.log").read_text()  # the run's log keeps them
+    log_text = (tmp_path / "out" / "train.log").read_text()
+    assert "registered quiet version 1" in log_text  # the run's log keeps them, and what the run came to
+    assert done.stdout.strip() in log_text and done.stderr.count("== bearingtwin-train: ") == 0
     # Hydra's own logging choices replace the project's whole (a patch of the console's stream had left
     # hydra/job_logging=disabled a handler to patch that it lacks: ValueError, exit 1).
     done = run_cli(["classifier=svm", "features=raw", "data.samples_per_class=12", "data.duration=1.0",

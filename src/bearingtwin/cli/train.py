@@ -169,10 +169,21 @@ def train(cfg: DictConfig) -> float | None:
         return None
     name = run_name(cfg, method_name(choices), sweep)
     if sweep is None:
-        print(training_summary(name, tracked, str(cfg.tracking.uri), output_dir, records, str(cfg.tracking.experiment)))
+        summary = training_summary(name, tracked, str(cfg.tracking.uri), output_dir, records, str(cfg.tracking.experiment))
     else:
-        print(f"{name}: accuracy {percent(tracked.metrics['accuracy'])} (MLflow run {tracked.run_id})")
+        summary = f"{name}: accuracy {percent(tracked.metrics['accuracy'])} (MLflow run {tracked.run_id})"
+    print(summary)
+    _into_log_file(summary)
     return tracked.metrics.get("accuracy")
+
+
+def _into_log_file(text: str) -> None:
+    """``text`` into the run's ``train.log`` too (Hydra's file handler), not again on the console: the log kept in
+    the run's folder had ended at the features line, without what the run came to."""
+    record = logging.LogRecord(log.name, logging.INFO, __file__, 0, text, None, None)
+    for handler in logging.getLogger().handlers:
+        if isinstance(handler, logging.FileHandler):
+            handler.handle(record)
 
 
 main = stop_cleanly(train)
