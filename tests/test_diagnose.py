@@ -2404,6 +2404,12 @@ def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_seri
     with pytest.raises(BearingTwinError, match=rf"rpm=1700.0 contradicts the file's rpm={recording.rpm * 1.03!r} \(more "
                                                rf"than 1% apart\); the shaft's harmonic series reads {read:.0f} rpm$"):
         read_record(tmp_path / "pump_1.03.npz", pipeline, rpm=1700)
+    # Twice or half a file's right speed: every other harmonic stands where the given speed's would, but the file's
+    # own speed is borne out as well: refused.
+    np.savez(tmp_path / "right.npz", signal=recording.signal, fs=recording.fs, rpm=recording.rpm, unit="g")
+    for factor in (2.0, 0.5):
+        with pytest.raises(BearingTwinError, match=rf"contradicts the file's rpm={recording.rpm!r}"):
+            read_record(tmp_path / "right.npz", pipeline, rpm=recording.rpm * factor)
     np.savez(tmp_path / "pump.npz", signal=recording.signal, fs=recording.fs, unit="g")
     given = read_record(tmp_path / "pump.npz", pipeline, rpm=round(recording.rpm * 1.03))
     assert any(note.endswith(f"give rpm={read:.0f}") for note in given.notes), given.notes

@@ -627,6 +627,7 @@ def test_a_row_of_units_under_a_loggers_header_and_names_given_without_their_uni
     ("Sample rate: 12000 Hz, 24 bit", 12000.0), ("Sample rate: 51.2 kS/s", 51200.0), ("Sampling rate: 25.6 ksps", 25600.0),
     # The time between samples, to the digits it was printed with; its unit stated.
     ("Sampling interval: 1.953125e-05 s", 51200.0), ("dt [ms] = 0.02", 50000.0), ("Delta t: 8.333e-05 s", 12000.0),
+    ("dt [ms] = 0.04", 25000.0), ("Sampling interval: 4 us", 250000.0), ("dt [μs] = 20", 50000.0),
     ("dt: 0.5", None),
     # No rate rather than a misread one: a sensor's full scale, a bare number under fs, thousands separators.
     ("FS: 50 g", None), ("FS: 10", None), ("Sample rate: 12,800 Hz", None), ("Sample rate: 12.000,0 Hz", None),

@@ -114,3 +114,19 @@ def test_a_few_isolated_spikes_are_named_and_a_faults_recurring_impacts_are_not(
     strong = impacts(seconds=10.0)
     strong[::112] += 40.0  # 107 a second, as a fault's impacts recur
     assert not any("spike" in note for note in Recording(strong, FS).quality_notes())
+    # A knock rings for milliseconds: one spike, not one per crossing. A fault's impacts varying in strength from one
+    # to the next (log-normal) stand far beyond the typical level again and again: their own train, no spike.
+    t = np.arange(int(10 * FS)) / FS
+    ringing = impacts(seconds=10.0)
+    for start in (2.0, 7.0):
+        after = (t >= start) & (t < start + 0.005)
+        ringing[after] += 60.0 * np.exp(-(t[after] - start) * 800) * np.sin(2 * np.pi * 3000 * (t[after] - start))
+    (note,) = Recording(ringing, FS).quality_notes()
+    assert note.startswith("2 isolated spikes") and " at 2, 7 s: " in note, note
+    rng = np.random.default_rng(1)
+    tail = 0.2 * rng.standard_normal(t.size)
+    for start in np.arange(0.0, 10.0, 1 / 107.0):
+        after = (t >= start) & (t < start + 0.01)
+        tail[after] += (rng.lognormal(1.0, 0.8) * np.exp(-(t[after] - start) * 800)
+                        * np.sin(2 * np.pi * 3000 * (t[after] - start)))
+    assert not any("spike" in note for note in Recording(tail, FS).quality_notes())

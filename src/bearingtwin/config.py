@@ -663,12 +663,14 @@ def own_config_hint(name: str) -> str:
     return f", or describe yours in <folder>/bearing/{name}.yaml and add hydra.searchpath=[file://<folder>]"
 
 
-def search_path_override() -> list[str]:
+def search_path_override(folders: list[str] | None = None) -> list[str]:
     """The running Hydra command's ``hydra.searchpath`` (the folders a user added, a bearing of their own among
-    them) as an override for a config composed inside the command; none outside a command (a served model)."""
+    them), or ``folders``, as an override for a config composed inside the command; none outside a command (a served
+    model)."""
     from hydra.core.hydra_config import HydraConfig
 
-    folders = list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
+    if folders is None:
+        folders = list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
     if all(re.fullmatch(r"[A-Za-z0-9_:/.-]+", folder) for folder in folders):  # as a user writes it: [file:///home/me/conf]
         return [f"hydra.searchpath=[{','.join(folders)}]"] if folders else []
     quoted = ",".join("'" + folder.replace("\\", "\\\\").replace("'", "\\'") + "'" for folder in folders)
@@ -795,13 +797,16 @@ def _refuse_undeclared_keys_of_file(config_name: str, chosen_as: str, without: D
     """Refuse a config file chosen with ``+group=option`` (``chosen_as``: an experiment's, a sweep's) that sets a key
     no config declares (``seeed: 3`` in an experiment would be carried along unread, the run taking the default):
     ``with_file`` composed with it, ``without`` with the same groups' choices and not it."""
-    absent = object()
+    declared = OmegaConf.to_container(without, resolve=False)  # a mandatory ??? is declared, as its text
     for key in _leaf_keys(OmegaConf.to_container(with_file, resolve=False)):
-        parts = key.split(".")
-        declared_null = any(OmegaConf.select(without, ".".join(parts[:i]), default=absent) is None
-                            for i in range(1, len(parts)))  # a map a config declares null, the file filling it in
-        if (OmegaConf.select(without, key, default=absent) is absent and not declared_null
-                and not _free_form([without, with_file], key)):
+        node, parts = declared, key.split(".")
+        for part in parts:  # as far as the configs declare the key's path; a map declared null the file fills in
+            if not isinstance(node, dict) or part not in node:
+                break
+            node = node[part]
+        else:
+            continue
+        if node is not None and not _free_form([without, with_file], key):
             hint = closest_setting(without, key)
             raise BearingTwinError(f"{chosen_as}: {key} is not a setting of {config_name} (no config declares it)"
                                    + (f"; {hint}" if hint else ""))
@@ -835,8 +840,10 @@ def refuse_unknown_keys(hydra_cfg) -> None:
     added_groups = {o.key_or_group for o in overrides if (o.is_add() or o.is_force_add()) and o.key_or_group in groups}
     if not added and not added_groups:
         return
-    chosen = [f"{group}={choice}" for group, choice in hydra_cfg.runtime.choices.items()
-              if not group.startswith("hydra") and group not in added_groups and isinstance(choice, str)]
+    # The user's own config folders, where an experiment or a group's option of their own is found.
+    searched = search_path_override(list(hydra_cfg.searchpath or []))
+    chosen = [*searched, *(f"{group}={choice}" for group, choice in hydra_cfg.runtime.choices.items()
+                           if not group.startswith("hydra") and group not in added_groups and isinstance(choice, str))]
     groups_alone = compose_config(config_name, chosen)
     for group in sorted(added_groups):  # an experiment's or a sweep's file may set only what some config declares
         choice = hydra_cfg.runtime.choices.get(group)
@@ -845,7 +852,7 @@ def refuse_unknown_keys(hydra_cfg) -> None:
                                             compose_config(config_name, [*chosen, f"+{group}={choice}"]))
     if not added:
         return
-    declared = compose_config(config_name, [o.input_line for o in overrides if o not in added])
+    declared = compose_config(config_name, [*searched, *(o.input_line for o in overrides if o not in added)])
     for override in added:
         key = override.key_or_group
         if OmegaConf.select(declared, key, default=None) is not None:

@@ -305,7 +305,9 @@ def facts_from_long_name(raw: RawRecord) -> RawRecord:
     load, size and position. Other names, a number or a Data Center label alone, say too little of an unknown file to
     be read as CWRU's: it is returned as it is."""
     name = parse_cwru_name(raw.path)
-    if name is None or name.form != "long":
+    # A healthy record's name states no rate: only the Data Center's own numbers (97-100) make it CWRU's, not a
+    # user's normal_0_1.csv.
+    if name is None or name.form != "long" or (name.rate_hz is None and name.record not in DATA_CENTER_CATALOGUE):
         return raw
     taken = []
     if raw.fault is None:
@@ -317,10 +319,10 @@ def facts_from_long_name(raw: RawRecord) -> RawRecord:
         if name.rate_hz is not None:
             raw.meta["named_rate"] = {"hz": name.rate_hz, "by": "its name states"}
         taken.append(f"rate {raw.fs / 1000:g} kHz (declared, checked)")
-    if raw.rpm is None and raw.nominal_rpm is None:
-        raw.nominal_rpm = NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp)
-        raw.nominal_rpm_note = (f"speed {raw.nominal_rpm:g} rpm: the Data Center's nominal speed at {name.load_hp} hp "
-                                "(the file states none)")
+    nominal = NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp)  # none for a load the Data Center never ran (4-9 hp)
+    if raw.rpm is None and raw.nominal_rpm is None and nominal is not None:
+        raw.nominal_rpm = nominal
+        raw.nominal_rpm_note = f"speed {nominal:g} rpm: the Data Center's nominal speed at {name.load_hp} hp (the file states none)"
     if name.end is not None and "bearing" not in raw.meta:
         raw.meta["bearing"] = name.bearing
         taken.append(f"the {name.end}-end bearing ({name.bearing})")

@@ -40,7 +40,8 @@ import numpy as np
 
 from bearingtwin.checks import is_finite_number, positive_number
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_unit, quantity_of, quantity_word, same_unit
+from bearingtwin.data.units import (INTEGRATED_QUANTITIES, QUANTITY_WORDS, acceleration_unit, quantity_of, quantity_word,
+                                    same_unit)
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.signal.sampling_rate import is_pulse_train
@@ -325,9 +326,14 @@ def resolve_unit(raw: RawRecord, channel: str, unit: str | None, key: str = "uni
     (setting ``key``), which must be a unit known here (:func:`~bearingtwin.data.units.quantity_of`); a given unit the
     file contradicts is refused ("" where neither states one)."""
     stated = raw.channel_units.get(channel, raw.unit)
+    word = stated if stated.lower() in QUANTITY_WORDS else ""  # "vel": a quantity named, no unit
+    if word and raw.unit and quantity_of(raw.unit) == quantity_of(word):
+        stated = raw.unit  # the file's note gives the unit the channel's word names the quantity of
     if unit is None or not str(unit).strip():
         return stated
     unit = known_unit(unit, key)
+    if word and stated == word and quantity_of(unit) == quantity_of(word):
+        return unit  # the unit of the quantity the channel's name says (Velocity, unit=mm/s)
     if stated and not same_unit(stated, unit):
         raise BearingTwinError(f"{raw.path}: {key}={unit} contradicts the file's unit, {stated}")
     return stated or unit
@@ -504,12 +510,18 @@ def resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str],
         notes.append(f"{key}={rpm:g} given; the file's measured {raw.rpm:g} rpm read")
         return float(raw.rpm)
     read, source = read_speed(rpm) if read_speed is not None else (None, "")
-    if read is not None and same_speed(read, rpm) and not same_speed(read, raw.rpm):
+    # Sought around the file's speed too: a shaft at twice or half the given speed puts every other harmonic where
+    # the given one's would stand, so the given speed is borne out only where the file's is not.
+    at_file, file_source = read_speed(raw.rpm) if read_speed is not None else (None, "")
+    if (read is not None and same_speed(read, rpm) and not same_speed(read, raw.rpm)
+            and not (at_file is not None and same_speed(at_file, raw.rpm))):
         notes.append(f"{key}={rpm:g} given against the file's {raw.rpm:g} rpm: {source} reads {read:.0f} rpm, so the "
                      "given speed is read")
         return rpm
-    if read is None and read_speed is not None:  # sought around the file's speed, what the record reads, for the message
-        read, source = read_speed(raw.rpm)
+    if at_file is not None and same_speed(at_file, raw.rpm):
+        read, source = at_file, file_source
+    elif read is None:
+        read, source = at_file, file_source
     reading = (f"; {source} reads {read:.0f} rpm" if read is not None else
                "; no speed could be read off the record itself to decide between them (a tachometer channel's, or "
                "the shaft's harmonic series' away from the supply's lines)" if read_speed is not None else "")
@@ -527,11 +539,11 @@ def speed_reader(raw: RawRecord, channel: str, signal: np.ndarray,
     def read(rpm: float) -> tuple[float | None, str]:
         if not np.isfinite(signal).all():  # a record with gaps is read whole only once they are bridged
             return None, ""
-        if tachometer is not None and np.isfinite(raw.channels[tachometer]).all():
+        if tachometer is not None:  # the shaft itself, where its pulses read a speed; none where they do not
             source = f"the tachometer channel {tachometer}"
-            profile = tachometer_profile(raw.channels[tachometer], fs, rpm, source=source)
-            if profile.readable:
-                return profile.read_rpm, source
+            if not np.isfinite(raw.channels[tachometer]).all():
+                return None, source
+            return tachometer_profile(raw.channels[tachometer], fs, rpm, source=source).read_rpm, source
         return speed_profile(signal, fs, rpm).read_rpm, "the shaft's harmonic series"
 
     return read
@@ -1063,11 +1075,11 @@ a k is before its unit) ends the note or a part of it. A bare ``fs`` needs its u
 scale, states no rate)."""
 _INTERVAL_NOTE = re.compile(
     r"(?:sampl(?:e|ing)[ _-]*(?:interval|period)|delta[ _-]*t|dt)\s*(?:\((?P<bracketed>[^)]*)\)|\[(?P<squared>[^\]]*)\])?"
-    r"\s*[:=;\t]\s*(?P<value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<unit>s|ms|µs|us)?\s*(?:$|[;(]|,(?!\d))",
+    r"\s*[:=;\t]\s*(?P<value>\d+(?:[.,]\d+)*(?:[eE][+-]?\d+)?)\s*(?P<unit>s|ms|µs|μs|us)?\s*(?:$|[;(]|,(?!\d))",
     re.IGNORECASE)
 """A logger's note stating the time between samples instead: ``Sampling interval: 1.953125e-05 s``, ``dt [ms] =
 0.02``; its unit stated (s, ms or µs), beside the number or in brackets after the label."""
-_SECONDS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "us": 1e-6}
+_SECONDS = {"s": 1.0, "ms": 1e-3, "µs": 1e-6, "μs": 1e-6, "us": 1e-6}
 
 
 def _noted_number(value: str, decimal: str) -> float | None:
@@ -1134,9 +1146,14 @@ def rate_in_notes(path: Path, lines: list[str], decimal: str = ".") -> tuple[str
             if number is None:
                 return line, None
             rate = 1.0 / (number * _SECONDS[per]) if number > 0 else 0.0
-            # To the digits the interval was printed with: 8.333e-05 s is 12000 Hz, not 12000.48.
+            # The rate to the digits the interval was printed with, where that rate's interval prints as the note
+            # does: 8.333e-05 s is 12000 Hz, not 12000.48; 0.04 ms stays 25000 Hz.
             digits = max(1, len(re.sub(r"\D", "", re.split(r"[eE]", interval["value"])[0]).lstrip("0")))
-            rate = float(f"{rate:.{digits}g}") if math.isfinite(rate) else rate
+            rounded = float(f"{rate:.{digits}g}") if math.isfinite(rate) and rate > 0 else rate
+            if rounded > 0 and math.isclose(float(f"{1.0 / rounded / _SECONDS[per]:.{digits}g}"), number, rel_tol=1e-9):
+                rate = rounded
+            elif math.isfinite(rate):
+                rate = float(f"{rate:.12g}")  # a division's float noise off: 0.04 ms is 25000 Hz, not 24999.999999999996
             if not (math.isfinite(rate) and rate > 0):
                 raise BearingTwinError(f"{path}: the note {line!r} above the header states no positive sampling interval")
             return line, rate

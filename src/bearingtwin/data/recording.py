@@ -46,6 +46,11 @@ records; a cable knock or an electrical transient stands 100 or more."""
 SPIKES_PER_S = 1.0
 """Spikes as rare as this or rarer are isolated events, not a fault's impacts, which recur at a defect rate (tens to
 hundreds a second)."""
+SPIKE_OVER_PEAKS = 3.0
+"""... and a spike stands this many times over the record's typical largest deviation in a second (the median over
+its seconds): a fault's strongest impacts, a tail of the same train, stand within it."""
+SPIKE_MERGE_S = 0.01
+"""Crossings closer than this are one spike: a knock rings for a few milliseconds."""
 
 LEVEL_RANGE = (1e-30, 1e30)
 """The largest magnitude a record may reach, in whatever unit: no vibration comes near either end (1 g is 1e9 ng and
@@ -205,11 +210,18 @@ class Recording:
         typical = 1.4826 * float(np.median(deviation))
         if typical == 0:
             return None
-        beyond = deviation >= SPIKE_LEVEL * typical
-        starts = np.flatnonzero(np.diff(beyond.astype(np.int8), prepend=0) == 1)
-        if starts.size == 0 or starts.size > SPIKES_PER_S * self.signal.size / self.fs:
+        threshold = SPIKE_LEVEL * typical
+        second, seconds = max(1, int(self.fs)), deviation.size // max(1, int(self.fs))
+        if seconds >= 3:  # over the strongest deviation a typical second holds: no tail of the vibration's own
+            peaks = deviation[:seconds * second].reshape(seconds, second).max(axis=1)
+            threshold = max(threshold, SPIKE_OVER_PEAKS * float(np.median(peaks)))
+        beyond = np.flatnonzero(deviation >= threshold)
+        if beyond.size == 0:
             return None
-        at = ", ".join(f"{start / self.fs:.3g}" for start in starts[:5]) + (", ..." if starts.size > 5 else "")
+        starts = beyond[np.concatenate([[True], np.diff(beyond) > SPIKE_MERGE_S * self.fs])]  # a knock's ringing is one
+        if starts.size > SPIKES_PER_S * self.signal.size / self.fs:
+            return None
+        at = ", ".join(f"{start / self.fs:.4g}" for start in starts[:5]) + (", ..." if starts.size > 5 else "")
         return (f"{starts.size} isolated spike{'s' * (starts.size > 1)}, up to {deviation.max() / typical:.0f} times "
                 f"the record's typical level, at {at} s: a cable knock or an electrical transient, not a bearing's "
                 "impacts, which recur; each lifts the envelope spectrum's floor, which may hide the defect lines")
