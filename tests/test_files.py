@@ -929,7 +929,7 @@ def test_a_headerless_table_whose_first_column_rises_in_even_steps_reads_it_as_t
     t = np.arange(signal.size) / FS
     np.savetxt(tmp_path / "stamped.csv", np.column_stack([t, signal]), delimiter=",", fmt="%.7f")
     raw = read_raw(tmp_path / "stamped.csv")
-    assert raw.fs == FS and list(raw.channels) == ["1"]
+    assert raw.fs == FS and list(raw.channels) == ["1"] and raw.fs_origin == "time column"
     np.testing.assert_allclose(raw.channels["1"], signal, atol=1e-6)
     assert any(note.startswith("column 0 rises in even steps") for note in raw.meta["notes"])
     np.savetxt(tmp_path / "two.csv", np.column_stack([signal, -signal]), delimiter=",", fmt="%.7f")

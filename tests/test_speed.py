@@ -199,3 +199,25 @@ def test_a_four_pole_motors_100_hz_comb_is_no_shaft_series_at_four_times_its_spe
     assert speeds_a_whole_factor_off(record, 12000.0, 1480.0, bearing.defect_frequencies(1480.0), higher=True,
                                       max_factor=4) == []
     assert [supply_comb(hz) for hz in (99.7, 120.2, 50.1, 98.67, 49.33)] == [True, True, True, False, False]
+
+
+def test_a_speed_stated_a_little_off_is_read_past_a_defects_comb_and_another_shafts_pair_is_not_a_speed():
+    """CWRU 131 (1772 rpm, an outer-race fault) stated at 1740: its BPFO comb takes half the harmonics' windows, and
+    the median of all the places had fallen between the two series and agreed with neither (4 of 19 segments read, no
+    speed); the shaft's own group holding its 1x and 2x is read. A pair of 1x and 2x lines beside a larger series
+    without them (another shaft's upper harmonics) is no speed."""
+    from bearingtwin.config import data_root
+    from bearingtwin.data.formats import load_recording
+
+    path = data_root() / "cwru" / "12k_Drive_End_OR007@6_1_131.mat"
+    if not path.is_file():
+        pytest.skip(f"CWRU record 131 not in {path.parent}")
+    signal = load_recording(path).signal
+    assert speed_profile(signal, 12000.0, 1740.0).read_rpm == pytest.approx(1772.0, rel=0.003)
+    fs, t = 12000.0, np.arange(int(10 * 12000)) / 12000.0
+    two_shafts = 0.05 * np.random.default_rng(0).standard_normal(t.size)
+    for order in range(3, 9):
+        two_shafts += np.sin(2 * np.pi * order * 1730.0 / 60.0 * t)
+    for order in (1, 2):
+        two_shafts += np.sin(2 * np.pi * order * 1.06 * 1730.0 / 60.0 * t)
+    assert speed_profile(two_shafts, fs, 1780.0).read_rpm is None

@@ -96,7 +96,8 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     listed = names if channel is not None else list(raw.channels)
     # What the options leave unsaid, a labels.csv beside the file may say, read as the twin reads it: a rate there
     # replaces one the file merely declares; a speed there or given is the file's measured one where within 1 % of it,
-    # refused further off; a state there must agree with the file's.
+    # read further off where the record's tachometer or shaft series bears it out, refused otherwise; a state there
+    # must agree with the file's.
     row = labels_row(Path(str(path)), state_required=False) if fs is None or rpm is None else None
     table, table_state, table_rpm, table_fs = row or (None, None, None, None)
     fs_origin = "option" if fs is not None else raw.fs_origin or None

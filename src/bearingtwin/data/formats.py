@@ -237,7 +237,8 @@ def load_recording(
     """One validated channel of a file.
 
     ``fs`` and ``rpm`` fill in what the file does not declare; where it does, a different
-    value is an error rather than a silent override (a ``declared`` data-set convention is
+    value is an error rather than a silent override (a speed the record's own tachometer or shaft series bears out
+    against the file's is read, said: :func:`resolve_speed`; a ``declared`` data-set convention is
     the exception: the user's value wins). Non-finite samples raise: nothing is dropped.
     ``channel_key``, ``fs_key``, ``rpm_key`` and ``fault_key`` are the settings ``channel``, ``fs``, ``rpm`` and
     ``fault`` come from, as messages name them.
@@ -1035,12 +1036,16 @@ def _read_csv(path: Path) -> RawRecord:
     read_in_notes += said
     if table.names is None:
         channels, stamped = _unnamed_time_stamps(_float_channels(path, {"": table.values}))
-        if stamped is not None and noted is None:
-            noted = stamped
+        if stamped is not None and noted is not None and abs(stamped / noted - 1.0) > FS_RELATIVE_TOLERANCE:
+            raise BearingTwinError(f"{path}: its sampling rate, {noted:g} Hz, contradicts its time stamps (column 0), "
+                                   f"{stamped:.6g} Hz")
+        origin = "header" if noted is not None else "time column" if stamped is not None else ""
+        if origin == "time column":
             read_in_notes.append(f"column 0 rises in even steps, with no header to name it: read as time stamps in "
                                  f"seconds, sampling rate {stamped:.6g} Hz")
-        return RawRecord(str(path), "csv", channels, fs=noted,
-                         fs_origin="header" if noted is not None else "", meta={"notes": read_in_notes} if read_in_notes else {},
+        return RawRecord(str(path), "csv", channels, fs=noted if noted is not None else stamped, fs_origin=origin,
+                         fs_tolerance=FS_RELATIVE_TOLERANCE if origin == "time column" else FS_FLOAT_NOISE,
+                         meta={"notes": read_in_notes} if read_in_notes else {},
                          fs_unread=note_unread, rpm=noted_rpm, unit=noted_unit)
     # A noted rate is exact where time stamps are printed to a few decimals: they must agree with it.
     notes = list(table.notes) + read_in_notes

@@ -129,7 +129,8 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     ``<root>/labels.csv``: columns ``record,state[,rpm,fs]``, one row per file) or, when
     ``data.pattern`` is set, from the regular expression's ``state`` group matched on every
     readable file's name. ``rpm`` and ``fs`` fill in what a file does not state (a row's value
-    before ``data.rpm`` / ``data.fs``); a value the file contradicts is an error.
+    before ``data.rpm`` / ``data.fs``); a value the file contradicts is an error (a speed the record itself bears out
+    against the file's excepted: :func:`~bearingtwin.data.formats.resolve_speed`).
     """
     cfg = plain_config(data_cfg, "data config")
     window_length, windows_per_record, default_rpm, default_fs = check_files_settings(cfg)

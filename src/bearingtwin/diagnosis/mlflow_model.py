@@ -375,8 +375,8 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
         if scheme and scheme[1] not in ("runs", "models") and not Path(model_uri).exists():  # modles:/, run:/
             raise BearingTwinError(f"model={model_uri}: {scheme[1]}:/ is no model URI here; give {MODEL_URI_FORMS}, "
                                    "or a model's folder") from None
-        if scheme is None:  # a path on disk, or a registered model's bare name: MLflow's words are of its download
-            where = Path(model_uri)
+        where = Path(model_uri)
+        if scheme is None and not (where / "MLmodel").is_file():  # a path, or a bare name: MLflow speaks of a download
             what = ("a folder without an MLmodel file" if where.is_dir() else "a file, not a model's folder"
                     if where.exists() else "no such folder, nor a model URI")
             bare_name = not where.exists() and "/" not in model_uri  # sim2real for models:/sim2real@champion

@@ -847,7 +847,7 @@ def one_line(result: dict) -> str:
         (result.get("rate_check") == "contradicted", "the shaft line contradicts the speed or rate"),
         (result.get("level_unseen"), "its level lies a decade from the model's training windows: check unit and gain"),
         ((result.get("speed") or {}).get("off"), "its shaft turns 1-8 % from the speed stated"),
-        ((result.get("speed") or {}).get("in_doubt"), "its speed varies"),
+        ((result.get("speed") or {}).get("in_doubt"), "its speed varies, or its reading was refused"),
     ) if flagged]
     if doubts:
         line += f" - IN DOUBT: {'; '.join(doubts)}"

@@ -217,9 +217,10 @@ def speed_profile(signal, fs: float, rpm: float, *, segment_s: float = 1.0, sear
         # The largest group of places that agree with one of them, the 1x or the 2x among it: where a stated speed a
         # little off lets a defect's comb take half the windows, the median of all the places falls between the two
         # and agrees with neither (CWRU 131 stated at 1740 rpm had been read in 4 of its 19 segments).
+        # A larger group without them (another shaft's upper harmonics, a defect's comb) leaves the segment unread.
         groups = np.abs(places[:, None] / places[None, :] - 1) <= agreement
         agree = groups[max(range(places.size), key=lambda i: (lowest[groups[i]].any(), int(groups[i].sum())))]
-        if agree.sum() < 2 or not lowest[agree].any():
+        if agree.sum() < 2 or not lowest[agree].any() or agree.sum() < groups.sum(axis=1).max():
             continue
         speed = 60.0 * float(np.median(places[agree]))
         if not near_supply(speed):
