@@ -580,6 +580,15 @@ def test_a_record_stamped_in_seconds_under_a_header_of_milliseconds_names_the_ra
         read_record(path, pipeline, rpm=RPM)
     prepared = read_record(path, pipeline, fs=FS, rpm=RPM)
     assert prepared.recording.fs == FS and prepared.recording.duration == pytest.approx(3.0)
+    # At a rate no ratio of small integers brings to the model's (8 kHz stamped as ms: 8 MHz), the resampling's
+    # refusal had said nothing of the stamps.
+    slow = fault_signal(None, seconds=3)[::3]  # 4 kHz: 4 MHz read
+    np.savetxt(tmp_path / "slow.csv", np.column_stack([np.arange(slow.size) / 4093.0, slow]), delimiter=",",
+               header="time [ms],acc", comments="", fmt="%.9f")
+    with pytest.raises(BearingTwinError, match=r"slow.csv: cannot resample 4.093e\+06 Hz to the model's 12000 Hz by a "
+                                               r"ratio of small integers; 4.093e\+06 Hz is the rate its time stamps "
+                                               r"give: if their values are in another unit"):
+        read_record(tmp_path / "slow.csv", pipeline, rpm=RPM)
 
 
 @needs_cwru

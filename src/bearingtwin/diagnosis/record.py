@@ -567,8 +567,10 @@ def resample_to(recording: Recording, target_fs: float) -> tuple[Recording, str]
     """The recording at ``target_fs`` by polyphase resampling (``scipy.signal.resample_poly``), and a note."""
     ratio = Fraction(target_fs / recording.fs).limit_denominator(MAX_RESAMPLE_DENOMINATOR)
     if ratio == 0 or abs(float(ratio) * recording.fs - target_fs) > 1e-6 * target_fs:
+        stamped = (f"; {recording.fs:g} Hz is the rate its time stamps give: if their values are in another unit than "
+                   "the column's name states, give fs=<Hz>" if recording.meta.get("fs_origin") == "time column" else "")
         raise BearingTwinError(f"{recording.source}: cannot resample {recording.fs:g} Hz to the model's "
-                               f"{target_fs:g} Hz by a ratio of small integers")
+                               f"{target_fs:g} Hz by a ratio of small integers{stamped}")
     signal = scipy.signal.resample_poly(recording.signal, ratio.numerator, ratio.denominator)
     note = f"resampled {recording.fs:g} Hz -> {target_fs:g} Hz (resample_poly, up {ratio.numerator}, down {ratio.denominator})"
     if target_fs > recording.fs:  # the model's features span a band the record never held
