@@ -158,6 +158,19 @@ def test_a_record_that_names_its_bearing_is_read_with_it_when_no_bearing_is_give
     assert re.search(r"discrepancy: \d+\.\d\d dB, no effect added, the measurement's own", result.stdout), result.stdout
 
 
+def test_a_record_of_unknown_state_is_held_at_the_state_its_envelope_spectrum_names(measurement, tmp_path):
+    """A plant's record states no bearing state, which is what its user wants to know: the twin had refused it, asking
+    for measured.fault. The record's envelope spectrum names it (this one's outer-race lines), said in the log and the
+    closing summary, and the twin is held at it."""
+    result = run_cli(f"measured.path={measurement}", "measured.fs=12000", "measured.rpm=1797", f"out={tmp_path / 'r'}",
+                     "candidates=[]", "tracking.enabled=false", "figures=false", *FAST, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert re.search(r"\n  state: outer, as the record's envelope spectrum names it \(outer lines \+\d+\.\d dB over "
+                     r"their floor; no state was given\): give measured.fault= where it is known\n", result.stdout), (
+        result.stdout)
+    assert json.loads((tmp_path / "r" / "twin_report.json").read_text())["measured"]["fault"] == "outer"
+
+
 def test_a_record_naming_a_bearing_no_config_describes_is_refused_unless_one_is_given(measurement, tmp_path):
     """A simulation of one's own bearing held against the twin without its search path had been calibrated to the
     paper's defect lines, a warning aside (a 0.28 mm defect fitted as 0.002 mm): refused in one line before a store

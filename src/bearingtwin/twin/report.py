@@ -8,6 +8,7 @@ simulator to its operating point, rank the candidate effects, write
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import logging
 import math
@@ -19,7 +20,7 @@ from joblib import cpu_count
 from omegaconf import DictConfig, OmegaConf, open_dict
 
 from bearingtwin.checks import is_finite_number, non_negative_number, positive_number, true_or_false, whole_number
-from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder,
+from bearingtwin.config import (bearing_config, bearing_overrides, given_on_command_line, output_folder, plain_config,
                                 refuse_unknown_bearing, unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
                                     read_raw, recording_from_raw, same_speed, speed_setting)
@@ -49,6 +50,31 @@ REPORT_NAME = "twin_report.json"
 STEPS_FIGURE = "error_steps.png"
 
 
+def state_by_evidence(measured: Recording, cfg) -> tuple[Recording, str | None]:
+    """``measured`` with the bearing state its envelope spectrum names (:func:`~bearingtwin.diagnosis.evidence.
+    physics_evidence`: the defect series standing 6 dB or more over its floor, highest) where neither the settings,
+    the file nor a labels row states one (a plant's record, its state what the user wants to know), and a line saying
+    so; as it is, and None, where one was stated. Refused where the spectrum names none either: the twin simulates one
+    state."""
+    if measured.fault is not None:
+        return measured, None
+    from bearingtwin.diagnosis.evidence import physics_evidence
+
+    evidence = physics_evidence(measured.signal, measured.fs, measured.rpm, plain_config(cfg.bearing, "bearing"))
+    state = evidence.evidence_state
+    if state is None:
+        raise BearingTwinError(f"{cfg.measured.path}: the file does not state its bearing state, and its envelope "
+                               f"spectrum cannot name one on this bearing ({'; '.join(evidence.unreadable.values())}); "
+                               f"give measured.fault=<{'|'.join(FAULTS)}>")
+    prominence = evidence.prominence_db.get(state)
+    standing = (f"{state} lines {prominence:+.1f} dB over their floor" if prominence is not None else
+                f"no defect series {evidence.threshold_db:g} dB over its floor")
+    line = (f"{state}, as the record's envelope spectrum names it ({standing}; no state was given): give "
+            "measured.fault= where it is known")
+    log.warning("%s: held as %s", cfg.measured.path, line)
+    return dataclasses.replace(measured, fault=state), line
+
+
 def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Recording:
     """The measured record the config points at, with fs, rpm and bearing state all known, and
     its sampling rate checked against its shaft speed (``bearing``'s defect lines as a second witness)."""
@@ -56,11 +82,12 @@ def load_measurement(measured_cfg, bearing: BearingGeometry | None = None) -> Re
     return check_measurement(measured_cfg, recording, channels, bearing)
 
 
-def read_measurement(measured_cfg) -> tuple[Recording, dict]:
-    """The first half of :func:`load_measurement`: the record read, with fs, rpm and bearing state all known, and
-    every vibration channel of its file (the rate check's witnesses; a HUST export's speed column is none); its rate
-    is not checked yet, so that the bearing it names (:func:`record_bearing`) can be settled first, whose defect lines
-    are the check's second witness."""
+def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recording, dict]:
+    """The first half of :func:`load_measurement`: the record read, with fs, rpm and bearing state all known (the state
+    may stay unknown where not ``state_required``: :func:`state_by_evidence` then gives it), and every vibration
+    channel of its file (the rate check's witnesses; a HUST export's speed column is none); its rate is not checked
+    yet, so that the bearing it names (:func:`record_bearing`) can be settled first, whose defect lines are the check's
+    second witness."""
     if OmegaConf.is_missing(measured_cfg, "path"):
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .txt, .tsv, .mat, .wav or .xls)")
     true_or_false(measured_cfg.check_fs, "measured.check_fs")  # before the file is read
@@ -81,7 +108,8 @@ def read_measurement(measured_cfg) -> tuple[Recording, dict]:
     unknown = [(fact, setting) for fact, setting, value, stated in (
         ("sampling rate", "measured.fs=<Hz>", fs, raw.fs),
         ("speed", "measured.rpm=<rev/min>", rpm, raw.rpm or raw.nominal_rpm or pulses or None),
-        ("bearing state", f"measured.fault=<{'|'.join(FAULTS)}>", fault, raw.fault)) if value is None and stated is None]
+        ("bearing state", f"measured.fault=<{'|'.join(FAULTS)}>", fault, raw.fault if state_required else "evidence"))
+        if value is None and stated is None]
     for fact, words, twin in (("bearing state", raw.meta.get("unlabelled_state"), f"one of {', '.join(FAULTS)}"),
                               ("speed", raw.meta.get("no_speed"), "at one speed")):
         if words and fact in {fact for fact, _ in unknown}:  # what the file states instead: no value the twin can run
@@ -573,17 +601,20 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     if cfg.get("reference") is not None:
         refuse_reference_folder(cfg.reference, out)
     BearingGeometry.from_config(cfg.bearing)  # a bad bearing.* value is named before the file is read
-    measured, channels = read_measurement(cfg.measured)
+    measured, channels = read_measurement(cfg.measured, state_required=False)
     # The record's own bearing replaces the default one, and another chosen is refused, before its defect lines
     # witness the rate, the MLflow run opens (with the config: the bearing used) or anything is written.
     reference = read_reference(cfg.reference) if cfg.get("reference") is not None else None
     cfg, bearing_line = record_bearing(cfg, measured, reference_bearing(reference))
     geometry = BearingGeometry.from_config(cfg.bearing)
     measured = check_measurement(cfg.measured, measured, channels, geometry)
+    measured, state_line = state_by_evidence(measured, cfg)
     # What the closing summary repeats, as logged: the bearing whose defect lines the twin reads, always.
     # A geometry of its own (a simulation's bearing.n_balls=12) is said with the name it changes.
     notes = {"record": record_words(measured, channels),
              "bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *bearing_overrides()])}
+    if state_line:
+        notes["state"] = state_line
     off = speed_read_off(measured)
     if off:  # said now, and again in the closing summary: every defect line is sought beside where it stands
         log.warning("%s: %s", cfg.measured.path, off)
