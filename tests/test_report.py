@@ -133,6 +133,11 @@ def test_a_setting_is_told_by_its_values_not_by_how_they_were_typed():
     changed = [{"bearing.name": "cwru_6203", "bearing.n_balls": "7", "bearing.pitch_diameter_mm": "28.499"}]
     assert _given_by_bearing_choice("bearing.n_balls", own) and _given_by_bearing_choice("bearing.pitch_diameter_mm", own)
     assert not _given_by_bearing_choice("bearing.n_balls", changed) and not _given_by_bearing_choice("bearing.name", own)
+    # A bearing of the user's own, no config of it here (the report is no Hydra command: no search path): its name
+    # stands for the geometry every run naming it logged alike, and no longer where two runs logged two.
+    mine = [{"bearing.name": "skf_6206", "bearing.n_balls": "9"}]
+    assert _given_by_bearing_choice("bearing.n_balls", mine, {("skf_6206", "bearing.n_balls"): {"9"}})
+    assert not _given_by_bearing_choice("bearing.n_balls", mine, {("skf_6206", "bearing.n_balls"): {"9", "10"}})
 
 
 def report_here(capsys, *args) -> tuple[int, str]:

@@ -30,7 +30,7 @@ import tempfile
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Mapping
 
 import numpy as np
 from omegaconf import OmegaConf, open_dict
@@ -126,6 +126,12 @@ class ReportInput:
                 setting[run.info.run_id] = index
                 members_of[run.info.run_id] = settings[index]
             differing.setdefault(method, set()).update(_differing_keys(settings))
+        # A bearing of the user's own (no config of it here) stands for the geometry every run naming it logged alike.
+        geometry_of: dict[tuple[str, str], set[str]] = {}
+        for params in params_of.values():
+            for key, value in params.items():
+                if key.startswith("bearing.") and params.get("bearing.name") is not None:
+                    geometry_of.setdefault((params["bearing.name"], key), set()).add(value)
         # Labelled alike in every cell of the method (each split, each load), so that rows of one setting pair up.
         simulated = self.settings.get("source", "simulated") == "simulated"  # the data of the paper's tables
         for run in found:
@@ -137,7 +143,8 @@ class ReportInput:
                 keys += sorted(key for key in _differing_keys([members, [configured]])
                                if key not in differing[method] and key not in PAPER_TABLE_CHOICES)
             label = [f"{key}={_setting_value(members, key)}" for key in keys
-                     if any(key in member for member in members) and not _given_by_bearing_choice(key, members)]
+                     if any(key in member for member in members)
+                     and not _given_by_bearing_choice(key, members, geometry_of)]
             if label:
                 self.setting_labels[run.info.run_id] = ", ".join(label)
         newest = {}
@@ -172,18 +179,22 @@ RUN_SEED = "__run_seed__"
 """The key of :func:`setting_params` that holds the run's own seed, against which its other seeds are read."""
 
 
-def _given_by_bearing_choice(key: str, members: list[dict[str, str]]) -> bool:
+def _given_by_bearing_choice(key: str, members: list[dict[str, str]],
+                             geometry_of: Mapping[tuple[str, str], set[str]] | None = None) -> bool:
     """Whether ``key`` is a bearing setting whose value in every run of a setting is its chosen bearing's own
     (``bearing.name=cwru_6203`` stands for that bearing's diameters and ball count; a ball count changed beside
-    it stays in the label)."""
+    it stays in the label). A bearing of the user's own, which no config here describes, stands for the values every
+    run of the report naming it logged alike (``geometry_of``: (name, key) -> the values logged)."""
     if not key.startswith("bearing.") or key == "bearing.name":
         return False
     names = {member.get("bearing.name") for member in members}
     if len(names) != 1 or None in names:
         return False
-    own = _bearing_settings(names.pop())
-    return own is not None and all(key in own and _same_value(member[key], own[key])
-                                   for member in members if key in member)
+    name = names.pop()
+    own = _bearing_settings(name)
+    if own is None:
+        return len((geometry_of or {}).get((name, key), ())) == 1
+    return all(key in own and _same_value(member[key], own[key]) for member in members if key in member)
 
 
 @functools.lru_cache(maxsize=None)
