@@ -935,3 +935,11 @@ def test_a_headerless_table_whose_first_column_rises_in_even_steps_reads_it_as_t
     np.savetxt(tmp_path / "two.csv", np.column_stack([signal, -signal]), delimiter=",", fmt="%.7f")
     two = read_raw(tmp_path / "two.csv")
     assert two.fs is None and list(two.channels) == ["0", "1"]
+
+
+def test_a_universal_file_export_is_named_as_such(tmp_path):
+    """An analyzer's UFF 58 export saved as .txt had been refused as "line 3, column 1: 'Accel DE' is not a number"."""
+    (tmp_path / "pump.txt").write_text("    -1\n    58\nAccel DE\nNONE\n" + " -2.77602E-01 -4.43448E-02\n" * 20 + "    -1\n")
+    with pytest.raises(BearingTwinError, match=r"pump.txt: a Universal File Format export \(data set 58\), not a table "
+                                               r"of numbers: not read here; export the time records as a table"):
+        read_raw(tmp_path / "pump.txt")

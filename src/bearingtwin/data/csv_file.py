@@ -163,6 +163,11 @@ def _head_and_layout(path: Path) -> tuple[list[str], _Layout, list[str] | None, 
     """The file's first lines, the layout they show, the names its header gives and notes (:func:`_layout`);
     a file that is no text is refused."""
     head, encoding = _head(path)
+    lines = [line.strip() for line in head[:2]]
+    if len(lines) == 2 and lines[0] == "-1" and lines[1].isdigit():  # a Universal File's first data set opens so
+        raise BearingTwinError(f"{path}: a Universal File Format export (data set {lines[1]}), not a table of numbers: "
+                               "not read here; export the time records as a table (time, acceleration columns) or "
+                               "save them as .npz")
     return (head, *_layout(path, head, encoding))
 
 
