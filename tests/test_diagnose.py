@@ -2050,13 +2050,15 @@ def test_a_speed_the_shaft_line_contradicts_is_named_with_what_it_would_be_and_t
     assert "speed or rate in doubt (the shaft line contradicts them: check them): r106" in done.stdout
     # ...and on the record's own line, which is read first: the verdict's confidence says nothing of it.
     (line,) = [line for line in done.stdout.splitlines() if re.match(r"r106: \w+ \(\d+% of \d+ windows", line)]
-    assert line.endswith(" - IN DOUBT: the shaft line contradicts the speed or rate"), line
+    # The .npy states no unit either, and this model reads levels.
+    assert line.endswith(" - IN DOUBT: the shaft line contradicts the speed or rate; its unit is assumed to be the "
+                         "model's, which reads levels: give unit="), line
     assert "left out notes.txt" in done.stdout + done.stderr  # a file of another format is named, not dropped silently
     done = run("diagnose", "path=recordings/r106.npy", "model=models:/diag@champion", "fs=12000", "rpm=1772",
                f"out={tmp_path}/right", "tracking.enabled=false", cwd=tmp_path, uri=uri)
     result = json.loads((tmp_path / "right" / "r106" / "diagnosis.json").read_text())
     assert done.returncode == 0 and result["rate_check"] == "consistent" and "speed or rate in doubt" not in done.stdout
-    assert "IN DOUBT" not in done.stdout
+    assert "the shaft line contradicts" not in done.stdout
     # Resampled to 25.6 kHz and declared at 12: the rate note's chain ends near 25.6 kHz (840 rpm at 12 kHz); the speed
     # the shaft series read at the refused rate is no speed, and its "give rpm=..." had stood beside it.
     import scipy.signal
@@ -2413,6 +2415,9 @@ def test_a_stated_speed_a_few_percent_off_is_named_with_the_speed_the_shaft_seri
     with pytest.raises(BearingTwinError, match=rf"rpm=1700.0 contradicts the file's rpm={recording.rpm * 1.03!r} \(more "
                                                rf"than 1% apart\); the shaft's harmonic series reads {read:.0f} rpm$"):
         read_record(tmp_path / "pump_1.03.npz", pipeline, rpm=1700)
+    for factor in (0.5, 3.0):  # half or three times the true speed: some harmonics stand where it puts them, refused
+        with pytest.raises(BearingTwinError, match=rf"the shaft's harmonic series reads {read:.0f} rpm$"):
+            read_record(tmp_path / "pump_1.03.npz", pipeline, rpm=read * factor)
     # Twice or half a file's right speed: every other harmonic stands where the given speed's would, but the file's
     # own speed is borne out as well: refused.
     np.savez(tmp_path / "right.npz", signal=recording.signal, fs=recording.fs, rpm=recording.rpm, unit="g")
@@ -2627,8 +2632,8 @@ def test_a_cwru_record_saved_as_npy_or_csv_under_its_long_name_is_read_as_its_ma
         assert (prepared.recording.fs, prepared.true_state, prepared.rate_check) == (12000.0, "inner", as_mat.rate_check)
         assert prepared.recording.rpm == 1772.0 and prepared.recording.meta["rpm_origin"] == "nominal"  # the .mat's: 1772
         assert prepared.recording.meta["bearing"] == "cwru_6205" and prepared.recording.meta["fault_size_in"] == 0.007
-        assert ("read by its CWRU name: state inner, rate 12 kHz (declared, checked), the drive-end bearing (cwru_6205)"
-                in prepared.notes), prepared.notes
+        assert ("read by its CWRU name: state inner, rate 12 kHz (declared, checked), unit g, the drive-end bearing "
+                "(cwru_6205)" in prepared.notes), prepared.notes
     relabelled = read_record(tmp_path / "12k_Drive_End_IR007_1_106.npy", pipeline, true_state="outer")
     assert relabelled.true_state == "outer" and "labelled outer where the file name says inner: scored as outer" in relabelled.notes
     # 48k_ names its rate; the fan end its bearing.

@@ -301,8 +301,8 @@ def facts_from_long_name(raw: RawRecord) -> RawRecord:
     """``raw``, a file of another format than the Data Center's .mat (a record's samples saved as ``.npy``, ``.csv``,
     ``.wav``) under a CWRU long name (``12k_Drive_End_IR014_1_170.npy``, ``normal_0_97.csv``), with what that name
     says filled in where the file states none itself, as a .mat of that name is read: the state, the declared rate
-    (checked like a .mat's), the Data Center's nominal speed for its load, the faulty bearing, the record's number,
-    load, size and position. Other names, a number or a Data Center label alone, say too little of an unknown file to
+    (checked like a .mat's), the Data Center's nominal speed for its load, its unit (g), the faulty bearing, the
+    record's number, load, size and position. Other names, a number or a Data Center label alone, say too little of an unknown file to
     be read as CWRU's: it is returned as it is."""
     name = parse_cwru_name(raw.path)
     # A healthy record's name states no rate: only the Data Center's own numbers (97-100) make it CWRU's, not a
@@ -323,6 +323,9 @@ def facts_from_long_name(raw: RawRecord) -> RawRecord:
     if raw.rpm is None and raw.nominal_rpm is None and nominal is not None:
         raw.nominal_rpm = nominal
         raw.nominal_rpm_note = f"speed {nominal:g} rpm: the Data Center's nominal speed at {name.load_hp} hp (the file states none)"
+    if not raw.unit and not raw.channel_units:  # the Data Center's records are in g, as its .mat files say
+        raw.unit = "g"
+        taken.append("unit g")
     if name.end is not None and "bearing" not in raw.meta:
         raw.meta["bearing"] = name.bearing
         taken.append(f"the {name.end}-end bearing ({name.bearing})")

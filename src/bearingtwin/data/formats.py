@@ -511,17 +511,15 @@ def resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str],
         notes.append(f"{key}={rpm:g} given; the file's measured {raw.rpm:g} rpm read")
         return float(raw.rpm)
     read, source = read_speed(rpm) if read_speed is not None else (None, "")
-    # Sought around the file's speed too: a shaft at twice or half the given speed puts every other harmonic where
-    # the given one's would stand, so the given speed is borne out only where the file's is not.
+    # Sought around the file's speed too, which must read the given speed or none: a shaft at twice, half or a third
+    # of the given speed puts some of its harmonics where the given one's would stand, and the series sought around
+    # the given speed reads it there.
     at_file, file_source = read_speed(raw.rpm) if read_speed is not None else (None, "")
-    if (read is not None and same_speed(read, rpm) and not same_speed(read, raw.rpm)
-            and not (at_file is not None and same_speed(at_file, raw.rpm))):
+    if read is not None and same_speed(read, rpm) and (at_file is None or same_speed(at_file, rpm)):
         notes.append(f"{key}={rpm:g} given against the file's {raw.rpm:g} rpm: {source} reads {read:.0f} rpm, so the "
                      "given speed is read")
         return rpm
-    if at_file is not None and same_speed(at_file, raw.rpm):
-        read, source = at_file, file_source
-    elif read is None:
+    if at_file is not None:  # what the record reads near the speed its file states, for the message
         read, source = at_file, file_source
     reading = (f"; {source} reads {read:.0f} rpm" if read is not None else
                "; no speed could be read off the record itself to decide between them (a tachometer channel's, or "

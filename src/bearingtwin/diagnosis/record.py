@@ -848,6 +848,7 @@ def one_line(result: dict) -> str:
     doubts = [words for flagged, words in (
         (result.get("rate_check") == "contradicted", "the shaft line contradicts the speed or rate"),
         (result.get("level_unseen"), "its level lies a decade from the model's training windows: check unit and gain"),
+        (result.get("unit_check") == "assumed", "its unit is assumed to be the model's, which reads levels: give unit="),
         ((result.get("speed") or {}).get("off"), "its shaft turns 1-8 % from the speed stated"),
         ((result.get("speed") or {}).get("in_doubt"), "its speed varies, or its reading was refused"),
     ) if flagged]
