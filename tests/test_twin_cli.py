@@ -168,6 +168,7 @@ def test_a_record_of_unknown_state_is_held_at_the_state_its_envelope_spectrum_na
     assert re.search(r"\n  state: outer, as the record's envelope spectrum names it \(outer lines \+\d+\.\d dB over "
                      r"their floor; no state was given\): give measured.fault= where it is known\n", result.stdout), (
         result.stdout)
+    assert "\n  record: outer (by its envelope spectrum: see state), 1797 rpm, 12000 Hz" in result.stdout, result.stdout
     assert json.loads((tmp_path / "r" / "twin_report.json").read_text())["measured"]["fault"] == "outer"
 
 

@@ -573,13 +573,14 @@ def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set
             entry["identified_by_reference"] = False
 
 
-def record_words(measured: Recording, channels: Mapping) -> str:
+def record_words(measured: Recording, channels: Mapping, inferred_state: bool = False) -> str:
     """What the twin was held against, as the closing summary says it: state, speed, rate, unit and, of a file of
     several vibration channels (``channels``), the channel, wherever each came from (the file, a labels table, a
-    setting)."""
+    setting); a state the record's envelope spectrum named (``inferred_state``: none was stated) is said to be."""
     unit = f"in {measured.unit}" if measured.unit else "its unit not stated"
     channel = f", channel {measured.channel}" if measured.channel is not None and len(channels) > 1 else ""
-    return f"{measured.fault}, {measured.rpm:g} rpm, {measured.fs:g} Hz, {unit}{channel}"
+    state = f"{measured.fault} (by its envelope spectrum: see state)" if inferred_state else measured.fault
+    return f"{state}, {measured.rpm:g} rpm, {measured.fs:g} Hz, {unit}{channel}"
 
 
 def _number_words(value) -> str:
@@ -611,7 +612,7 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     measured, state_line = state_by_evidence(measured, cfg)
     # What the closing summary repeats, as logged: the bearing whose defect lines the twin reads, always.
     # A geometry of its own (a simulation's bearing.n_balls=12) is said with the name it changes.
-    notes = {"record": record_words(measured, channels),
+    notes = {"record": record_words(measured, channels, inferred_state=state_line is not None),
              "bearing": bearing_line or " ".join([str(cfg.bearing.get("name")), *bearing_overrides()])}
     if state_line:
         notes["state"] = state_line
