@@ -845,6 +845,8 @@ def test_a_clipped_record_and_a_dropout_are_named_in_the_diagnosis_notes(tmp_pat
     assert ("samples from 2 s to 3 s are all 0 (a dropout, or a stretch held at one value): the 7 windows touching it, "
             "from 1.877 s to 3.072 s, left out; the verdict is the other 16 of 23 windows'") in result["notes"], result["notes"]
     assert sum("samples from 2 s to 3 s are all 0" in note for note in result["notes"]) == 1  # said once, not twice
+    # The clipping puts the verdict in doubt where it is read first, the record's own line.
+    assert result["clipped"] and " - IN DOUBT: it clipped, which flattens the impacts; true outer" in one_line(result)
     assert result["windows_left_out"] == 7
     assert result["verdict"] == "outer" and result["share"] == pytest.approx(
         sum(window["state"] == "outer" for window in result["windows"]) / 16)

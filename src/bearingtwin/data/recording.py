@@ -71,6 +71,9 @@ def piled_at(x: np.ndarray, top: float, bottom: float) -> np.ndarray:
     return at if np.count_nonzero(at) > below else np.zeros_like(at)
 
 
+CLIPPED_NOTE_END = (": the sensor or the converter clipped (saturated), which flattens the impacts; what is read from "
+                    "them may be off")
+"""How :meth:`Recording.quality_notes` ends its note of a clipped record."""
 HELD_NOTE_END = ": the windows over it read no vibration"
 """How :meth:`Recording.quality_notes` ends its note of the longest stretch held at one value."""
 
@@ -191,8 +194,7 @@ class Recording:
             clipped = np.logical_or.reduce([piled for _, _, piled in piles])
             what = " and ".join(f"its {name}, {level:g}" for name, level, _ in piles)
             notes.append(f"{100 * np.count_nonzero(clipped) / x.size:.3g} % of the samples pile up at {what}, "
-                         f"{self._stretches(clipped)}: the sensor or the converter clipped (saturated), which "
-                         "flattens the impacts; what is read from them may be off")
+                         f"{self._stretches(clipped)}{CLIPPED_NOTE_END}")
         spikes = self._spikes()
         if spikes:
             notes.append(spikes)

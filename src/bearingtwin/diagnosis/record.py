@@ -41,7 +41,7 @@ from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord,
                                     file_bearing, named_rate_note, read_raw, recording_from_raw,
                                     refuse_a_label_the_file_contradicts, tachometer_channel)
-from bearingtwin.data.recording import HELD_NOTE_END, Recording, held_stretches
+from bearingtwin.data.recording import CLIPPED_NOTE_END, HELD_NOTE_END, Recording, held_stretches
 from bearingtwin.data.units import acceleration_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, FEATURE_UNSEEN_COLUMN, STATE_COLUMN, model_params
@@ -76,6 +76,7 @@ class PreparedRecord:
     gaps_s: list = field(default_factory=list)  # (start, end) s of samples the file holds none of (NaN), and their reach
     dropouts_s: list = field(default_factory=list)  # (start, end, words) of a window's length held at one value: dropouts
     bearing_given: bool = True  # whether bearing= or the file named the bearing, rather than the model's standing in
+    clipped: bool = False  # the sensor or the converter saturated (Recording.quality_notes)
 
 
 CONDITION_KEYS = ("fault_size_in", "position", "load_hp")
@@ -109,7 +110,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key, unit=unit, scale=scale)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     gaps = file_gaps = gaps_by_channel.get(recording.channel, [])  # the file's positions, before tracking moves them
-    notes = list(recording.meta["notes"]) + channel_note + recording.quality_notes()
+    quality = recording.quality_notes()
+    notes = list(recording.meta["notes"]) + channel_note + quality
     named = file_bearing(recording.meta, recording.channel)
     if bearing is not None and named is not None and bearing != named:
         notes.append(f"bearing={bearing} given, where the file names {named}: read as {bearing}")
@@ -161,7 +163,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                "needs it; give rpm=<rev/min>, or the file's speed in the rpm column of a labels.csv "
                                "beside it")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
-                          gaps_s, dropouts_s, bearing_given=(bearing or named) is not None)
+                          gaps_s, dropouts_s, bearing_given=(bearing or named) is not None,
+                          clipped=any(note.endswith(CLIPPED_NOTE_END) for note in quality))
 
 
 def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: DiagnosisPipeline,
@@ -768,6 +771,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "unit": recording.unit or None,  # of the samples read (the model's, where they were converted to it)
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
+        "clipped": prepared.clipped,
         "speed_unseen": speed_unseen is not None,
         "features_unseen": None if extrapolated is None else float(np.mean(extrapolated)),
         "windows_left_out": left_out,  # touching a dropout as long as a window or a gap with no value
@@ -849,6 +853,7 @@ def one_line(result: dict) -> str:
         (result.get("rate_check") == "contradicted", "the shaft line contradicts the speed or rate"),
         (result.get("level_unseen"), "its level lies a decade from the model's training windows: check unit and gain"),
         (result.get("unit_check") == "assumed", "its unit is assumed to be the model's, which reads levels: give unit="),
+        (result.get("clipped"), "it clipped, which flattens the impacts"),
         ((result.get("speed") or {}).get("off"), "its shaft turns 1-8 % from the speed stated"),
         ((result.get("speed") or {}).get("in_doubt"), "its speed varies, or its reading was refused"),
     ) if flagged]
