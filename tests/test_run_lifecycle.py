@@ -517,3 +517,32 @@ def test_a_command_started_under_nohup_keeps_ignoring_a_hangup():
     plain = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
                            preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL))  # whatever runs the tests
     assert (under_nohup.stdout.strip(), plain.stdout.strip()) == ("True", "False")
+
+
+def test_a_run_that_ends_well_while_a_dead_process_is_sought_stays_finished(tmp_path):
+    """A command opening a store marks KILLED the RUNNING runs of processes gone. A training whose run it found
+    RUNNING, and whose process then ended well (the run FINISHED) before it looked for the process, had been marked
+    KILLED: its summary named a run the store called killed (seen in the README's replay, commands sharing a store)."""
+    import socket
+
+    from bearingtwin.tracking.lifecycle import reap_dead_runs
+
+    client = MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    experiment = client.create_experiment("x")
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead_pid = ended.stdout.strip()  # a process that has ended
+    stale = client.create_run(experiment, tags={"bt.host": socket.gethostname(), "bt.pid": dead_pid})
+    client.set_terminated(stale.info.run_id, "FINISHED")  # ended well after the search below saw it RUNNING
+    gone = client.create_run(experiment, tags={"bt.host": socket.gethostname(), "bt.pid": dead_pid})  # truly left open
+    searched = [client.get_run(gone.info.run_id), stale]  # what the search returned: both RUNNING then
+
+    class Seen:  # the store as the reaper's search saw it a moment earlier
+        def __getattr__(self, name):
+            return getattr(client, name)
+
+        def search_runs(self, *args, **kwargs):
+            return searched
+
+    assert reap_dead_runs(Seen()) == [gone.info.run_id]
+    assert client.get_run(stale.info.run_id).info.status == "FINISHED"
+    assert client.get_run(gone.info.run_id).info.status == "KILLED"

@@ -306,7 +306,10 @@ def reap_dead_runs(client: MlflowClient) -> list[str]:
     reaped = []
     for run in running:
         pid = run.data.tags.get(PID_TAG, "")
-        if pid.isdigit() and not _process_alive(int(pid)):
+        # Read again once the process is found gone: a run that ended well between the search and now is FINISHED,
+        # which no KILLED may overwrite (a training's run in a store another command was opening).
+        if (pid.isdigit() and not _process_alive(int(pid))
+                and client.get_run(run.info.run_id).info.status == "RUNNING"):
             # Without MLflow's "View run <name> at <url>" (a tracking server's run prints it as it ends), which would
             # open this command's output naming another process's run.
             with mock.patch.dict(os.environ, {"MLFLOW_SUPPRESS_PRINTING_URL_TO_STDOUT": "true"}):
