@@ -11,7 +11,7 @@ import sys
 import tempfile
 import warnings
 from pathlib import Path
-from typing import Callable, Iterator, NoReturn
+from typing import Callable, NoReturn
 from urllib.parse import urlparse
 
 import hydra
@@ -750,6 +750,18 @@ def plain_config(cfg, name: str = "config") -> dict:
     return dict(cfg or {})
 
 
+def flatten(container: dict, prefix: str = "") -> dict[str, str]:
+    """``{"a": {"b": 1}}`` -> ``{"a.b": "1"}``; lists become their string form."""
+    flat = {}
+    for key, value in container.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict) and value:
+            flat.update(flatten(value, f"{name}."))
+        else:
+            flat[name] = str(value)
+    return flat
+
+
 MULTI_OPTION_GROUPS = {"effects"}
 """Config groups that take a list of options (``effects=[noise,tones]``); every other takes one."""
 
@@ -783,22 +795,12 @@ def _free_form(cfgs: list[DictConfig], key: str) -> bool:
     return any(isinstance(node, DictConfig) and (len(node) == 0 or "_target_" in node) for node in maps)
 
 
-def _leaf_keys(node, prefix: str = "") -> Iterator[str]:
-    """The dotted keys of ``node``'s values (a plain container's; a list is one value)."""
-    for name, value in node.items():
-        key = f"{prefix}{name}"
-        if isinstance(value, dict) and value:
-            yield from _leaf_keys(value, key + ".")
-        else:
-            yield key
-
-
 def _refuse_undeclared_keys_of_file(config_name: str, chosen_as: str, without: DictConfig, with_file: DictConfig) -> None:
     """Refuse a config file chosen with ``+group=option`` (``chosen_as``: an experiment's, a sweep's) that sets a key
     no config declares (``seeed: 3`` in an experiment would be carried along unread, the run taking the default):
     ``with_file`` composed with it, ``without`` with the same groups' choices and not it."""
     declared = OmegaConf.to_container(without, resolve=False)  # a mandatory ??? is declared, as its text
-    for key in _leaf_keys(OmegaConf.to_container(with_file, resolve=False)):
+    for key in flatten(OmegaConf.to_container(with_file, resolve=False)):
         node, parts = declared, key.split(".")
         for part in parts:  # as far as the configs declare the key's path; a map declared null the file fills in
             if not isinstance(node, dict) or part not in node:

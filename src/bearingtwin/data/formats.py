@@ -646,10 +646,11 @@ def _unnamed_time_stamps(channels: dict[str, np.ndarray]) -> tuple[dict[str, np.
     typical = float(np.median(steps))
     if np.max(np.abs(steps / typical - 1)) > 0.01:
         return channels, None
-    rate = float((steps.size) / (channels[first][-1] - channels[first][0]))
-    if rate < LOWEST_FS_HZ:  # stamps in another unit than seconds, or no stamps: not guessed
+    try:
+        rate = fs_from_time_column(channels[first], "", "0")
+    except BearingTwinError:  # too slow for stamps in seconds (another unit, or no stamps): not guessed
         return channels, None
-    return {name: channels[name] for name in rest}, fs_from_time_column(channels[first], "", "0")
+    return {name: channels[name] for name in rest}, rate
 
 
 def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -> float:

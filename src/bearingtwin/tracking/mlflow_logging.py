@@ -63,7 +63,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict
 from omegaconf.errors import OmegaConfBaseException
 
 from bearingtwin import cpu_kernels
-from bearingtwin.config import absolute_inputs, exit_on_user_error, experiment_name, refuse_unknown_keys
+from bearingtwin.config import absolute_inputs, exit_on_user_error, experiment_name, flatten, refuse_unknown_keys
 from bearingtwin.checks import check_seed
 from bearingtwin.cli.summary import percent
 from bearingtwin.data.build import check_data_settings, require_files
@@ -376,18 +376,6 @@ def config_hash(cfg: DictConfig) -> str:
         elif isinstance(node, dict) and (key in UNHASHED_KEYS or node.get(leaf, "set") is None):
             node.pop(leaf, None)
     return hashlib.sha256(OmegaConf.to_yaml(OmegaConf.create(container)).encode()).hexdigest()[:16]
-
-
-def flatten(container: dict, prefix: str = "") -> dict[str, str]:
-    """``{"a": {"b": 1}}`` -> ``{"a.b": "1"}``; lists become their string form."""
-    flat = {}
-    for key, value in container.items():
-        name = f"{prefix}{key}"
-        if isinstance(value, dict) and value:
-            flat.update(flatten(value, f"{name}."))
-        else:
-            flat[name] = str(value)
-    return flat
 
 
 def physics_first_rule(params: dict) -> dict[str, float] | None:
