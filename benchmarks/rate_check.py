@@ -20,7 +20,7 @@ twin's own records, as the README's "Your own recordings" makes them (each state
 default bearing: no shaft line but the balls' passing series), are checked at their true rate and at those rates.
 
 A speed typed beside a rate the file records (an .npz's fs, a time column) is refused only where the check
-contradicts the pair and the record is consistent with a speed a whole factor lower (``speeds_a_whole_factor_lower``):
+contradicts the pair and the record is consistent with a speed a whole factor lower (``speeds_a_whole_factor_off``):
 the CWRU records, whole and cut to 5 s, and the independent rig's and the twin's (with noise) records, each at its
 true speed and 2, 3 and 10 times it.
 
@@ -53,7 +53,7 @@ from bearingtwin.data.formats import read_raw
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.simulator import CHANNELS, simulate
 from bearingtwin.signal.sampling_rate import (check_channels, check_sampling_rate, decisive_channel, rate_witnesses,
-                                              speeds_a_whole_factor_lower)
+                                              speeds_a_whole_factor_off)
 from bearingtwin.testrig import FAULTS, RigOperatingPoint, simulate_rig
 
 WRONG_FACTORS = {12000.0: (5850 / 12000, 0.48, 0.52, 0.34, 2 / 3, 1.5),
@@ -111,7 +111,7 @@ def tally_typed_speeds(signal, fs: float, rpm: float, bearing, channels, typed: 
         given = rpm * factor
         checks = check_channels(rate_witnesses(signal, channels), fs, given, defect_hz=bearing.defect_frequencies(given))
         verdict = checks[decisive_channel(checks)].verdict
-        lower = (speeds_a_whole_factor_lower(signal, fs, given, bearing.defect_frequencies(given), channels)
+        lower = (speeds_a_whole_factor_off(signal, fs, given, bearing.defect_frequencies(given), channels)
                  if verdict == "contradicted" else [])
         speed = "the true speed" if factor == 1 else f"{factor} x the true speed"
         named = ("it first" if lower[0] == factor else "it among others" if factor in lower else "others") if lower else ""

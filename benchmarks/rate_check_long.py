@@ -3,7 +3,7 @@
 A data-acquisition system writes minutes at 51.2 kHz over several accelerometers. Here CWRU record 130's three
 channels (drive end, fan end, base), resampled from 12 to 51.2 kHz and repeated to 30-240 s, stand for
 such a file, and its speed is typed three times too high: the check contradicts the pair, and then tries every
-speed a whole factor lower (``speeds_a_whole_factor_lower``), the path that reads every channel's spectrum and envelope
+speed a whole factor lower (``speeds_a_whole_factor_off``), the path that reads every channel's spectrum and envelope
 most often. Each case runs in a fresh process, which reports its wall time and peak memory (resident set).
 
     python benchmarks/rate_check_long.py                         # this checkout's check (about 1 min)

@@ -637,7 +637,7 @@ def test_a_motors_supply_lines_do_not_contradict_the_rate():
     supply = sum(3.0 * np.sin(2 * np.pi * k * 100.0 * t) / k for k in range(1, 7))
     check = check_sampling_rate(noise + supply, fs, rpm)
     assert check.verdict == "ambiguous" and check.implied_fs_hz is None, check.reason
-    assert "Hz is 2 x the 50 Hz supply" in check.reason
+    assert "2 x the 50 Hz supply" in check.reason
     # As a command applies it to a rate the user gave (refused when contradicted): kept, the doubt logged.
     assert require_plausible_rate(noise + supply, fs, rpm, "record.csv", "measured.fs").verdict == "ambiguous"
     shaft_read_fast = sum(3.0 * np.sin(2 * np.pi * k * 120.0 * t) / k for k in range(1, 7))
@@ -732,8 +732,9 @@ def test_the_data_centers_0028_in_packaging_is_read_with_its_nominal_speed(tmp_p
 @needs_data
 def test_a_record_names_the_bearing_it_was_made_on_as_every_command_reads_it(tmp_path):
     """A fault record's name gives its faulty bearing's end; a healthy record has none, so the bearing is the one
-    under the accelerometer read; a Data Center label gives no end. bearing_the_files_name (data=files) and inspect
-    read it as diagnose and the twin do: a folder of the healthy record and drive-end faults is the 6205's."""
+    under the accelerometer read; a Data Center label gives no end, its catalogued variables do.
+    bearing_the_files_name (data=files) and inspect read it as diagnose and the twin do: a folder of the healthy
+    record and drive-end faults is the 6205's."""
     from bearingtwin.cli.inspect import summarize
     from bearingtwin.data.formats import file_bearing
     from bearingtwin.data.real import bearing_the_files_name
@@ -745,7 +746,8 @@ def test_a_record_names_the_bearing_it_was_made_on_as_every_command_reads_it(tmp
     assert named(CWRU / "12k_Drive_End_IR007_0_105.mat") == named(CWRU / "normal_0_97.mat") == "cwru_6205"
     assert named(CWRU / "normal_0_97.mat", "FE") == "cwru_6203" and named(CWRU / "12k_Drive_End_IR007_0_105.mat", "BA") == "cwru_6205"
     (tmp_path / "IR007_0.mat").write_bytes((CWRU / "12k_Drive_End_IR007_0_105.mat").read_bytes())
-    assert named(tmp_path / "IR007_0.mat") is None
+    # A Data Center label gives no end, but the catalogued record whose variables the file holds does (X105: drive end).
+    assert named(tmp_path / "IR007_0.mat") == "cwru_6205"
     recordings = [load_recording(CWRU / name) for name in ("normal_0_97.mat", "12k_Drive_End_OR007@6_0_130.mat")]
     assert bearing_the_files_name(recordings) == "cwru_6205"
     assert summarize(CWRU / "normal_0_97.mat")["bearing"] == "cwru_6205"
@@ -985,3 +987,45 @@ def test_an_envelope_comb_near_the_shaft_rate_is_named_as_the_shafts_own_at_a_sp
     assert _shaft_comb_words(1.5 * check.expected_hz, check) == ""
     assert _shaft_comb_words(2.04 * check.expected_hz, check) == (", or it is the shaft's 2x modulation at a speed "
                                                                   "+2.0 % from the one stated")
+
+
+def test_a_label_named_file_is_read_as_the_catalogued_record_its_variables_are(tmp_path):
+    """A mirror names the fan end's records by the drive end's labels (``IR007_0.mat`` holding ``X278_*``): read as a
+    drive-end record it had been diagnosed on the wrong accelerometer with the wrong bearing's lines, unsaid. A long
+    name the catalogue contradicts is read as it says, and said so; a fan-end record without its FE channel is refused
+    rather than read off the drive end's accelerometer."""
+    x = np.random.default_rng(0).standard_normal((12000, 1))
+    rpm = np.array([[1797.0]])
+    scipy.io.savemat(tmp_path / "IR007_0.mat", {"X278_DE_time": x, "X278_FE_time": x, "X278RPM": rpm})
+    label = read_raw(tmp_path / "IR007_0.mat")
+    assert (label.meta["bearing"], label.channel(None)[0], label.fs) == ("cwru_6203", "FE", 12000.0)
+    assert ("its variables are X278_*, which the Data Center's catalogue lists as IR007_0 at 12 kHz, fan end: read so"
+            in label.meta["notes"])
+    (tmp_path / "drive").mkdir()
+    scipy.io.savemat(tmp_path / "drive" / "IR007_0.mat", {"X105_DE_time": x, "X105_FE_time": x, "X105RPM": rpm})
+    drive = read_raw(tmp_path / "drive" / "IR007_0.mat")
+    assert (drive.meta["bearing"], drive.channel(None)[0]) == ("cwru_6205", "DE")
+    scipy.io.savemat(tmp_path / "12k_Drive_End_IR007_0_278.mat", {"X278_DE_time": x, "X278RPM": rpm})
+    contradicted = read_raw(tmp_path / "12k_Drive_End_IR007_0_278.mat")
+    assert contradicted.meta["bearing"] == "cwru_6205" and any(
+        note.startswith("the Data Center's catalogue lists record 278 as IR007_0 at 12 kHz, fan end, where the name "
+                        "says 12 kHz, drive end") for note in contradicted.meta["notes"])
+    scipy.io.savemat(tmp_path / "12k_Fan_End_IR007_1_279.mat", {"X279_DE_time": x, "X279_BA_time": x, "X279RPM": rpm})
+    with pytest.raises(BearingTwinError, match=r"12k_Fan_End_IR007_1_279.mat: holds no FE channel, the accelerometer on "
+                                               r"the bearing it records \(it holds DE, BA\); choose one with channel"):
+        read_raw(tmp_path / "12k_Fan_End_IR007_1_279.mat").channel(None)
+
+
+def test_a_loose_machines_half_orders_are_no_defect_comb_a_speed_a_whole_factor_lower_would_put_there():
+    """A loose outer-race machine (the independent rig's rattle, 2 s at 48 kHz) fills its envelope with half orders:
+    on so short a record the comb at a seventh of BPFO (0.512 x shaft) falls a bin or two from them, and read as a
+    defect's comb under a speed seven times lower it had refused a right rate and speed (the twin exited 2). Its BPFO
+    line standing at its frequency now says the half orders are real."""
+    from bearingtwin.testrig import RigOperatingPoint, simulate_rig
+
+    point = RigOperatingPoint(rpm=1797, fs=48000, duration_s=2.0, radial_load_n=500.0, unit="g")
+    record = simulate_rig("outer", point, {"looseness": {"level_db": 0.0}}, seed=9)
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(1797.0)
+    check = check_sampling_rate(record, 48000.0, 1797.0, defect_hz=defect_hz)
+    assert check.verdict == "consistent" and check.fraction == 2, check.reason
+    assert "the envelope line of bpfo stands at its frequency: real subharmonics" in check.reason

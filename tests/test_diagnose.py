@@ -891,11 +891,43 @@ def test_a_hust_export_of_combined_damage_or_variable_speed_is_said_so(tmp_path,
                                                r"its name\): its speed changes over the record, and this model reads a "
                                                r"record at one shaft speed"):
         read_record(tmp_path / "H_VS_0_40_0Hz.xls", envelope_pipeline(), channel="X")
-    for name, words in (("0.5X_C_65Hz.xls", "inner and outer races damaged together"),
-                        ("H_VS_0_40_0Hz.xls", "a variable-speed run")):
-        with pytest.raises(BearingTwinError, match=rf"{name}: the file states {words}"):
-            read_measurement(OmegaConf.create({"path": str(tmp_path / name), "channel": "X", "fault": None,
-                                               "rpm": None, "fs": None, "check_fs": True}))
+    # A speed given does not make a run-up one speed's: refused (it had been read at the speed given, no doubt said).
+    with pytest.raises(BearingTwinError, match=r"H_VS_0_40_0Hz.xls: rpm=1500 given, but the file is a variable-speed "
+                                               r"run \(VS_0_40_0Hz in its name\): its speed changes over the record: no "
+                                               r"one speed describes it"):
+        read_record(tmp_path / "H_VS_0_40_0Hz.xls", envelope_pipeline(), channel="X", rpm=1500)
+    # The twin refuses either file, whether it is told the state or speed, holds a state the envelope spectrum names
+    # (a combined damage had been held as the inner race's) or is given a speed.
+    for name, words, rpm in (("0.5X_C_65Hz.xls", "inner and outer races damaged together", None),
+                             ("H_VS_0_40_0Hz.xls", "a variable-speed run", None),
+                             ("H_VS_0_40_0Hz.xls", "a variable-speed run", 1500)):
+        for state_required in (True, False):
+            with pytest.raises(BearingTwinError, match=rf"{name}: (the file states {words}|measured.rpm=1500 given)"):
+                read_measurement(OmegaConf.create({"path": str(tmp_path / name), "channel": "X", "fault": None,
+                                                   "rpm": rpm, "fs": None, "check_fs": True}),
+                                 state_required=state_required)
+
+
+def test_a_variable_speed_export_diagnosed_by_a_model_reading_no_speed_is_in_doubt_on_its_own_line(tmp_path,
+                                                                                                       monkeypatch):
+    """A model that reads no speed diagnoses a VS export, but a run-up read as if at one speed is no verdict to trust:
+    it had been scored with no doubt said. Its damage level (HUST's medium or severe) goes into the diagnosis."""
+    from bearingtwin.features.extractor import RawFeatures
+
+    monkeypatch.syspath_prepend(str(Path(__file__).parent / "fixtures"))
+    import make_hust_fixtures as hust
+
+    monkeypatch.setattr(hust, "N_ROWS", int(0.5 * hust.FS_HZ))
+    hust.write("0.5X_O_VS_0_40_0Hz.xls", hust.header_lines(hust.N_ROWS) + ["Data"] +
+               hust.rows(hust.synthetic_axes("outer", 1)), tmp_path)
+    windows = np.random.default_rng(0).standard_normal((8, 256))
+    pipeline = DiagnosisPipeline(RawFeatures().fit(windows), SvmClassifier().fit(windows, np.arange(8) % 4), 256,
+                                 hust.FS_HZ, unit="g")
+    model = SimpleNamespace(predict=lambda frame, params: predictions_frame(pipeline, frame, None))
+    result, _ = diagnose_recording(read_record(tmp_path / "0.5X_O_VS_0_40_0Hz.xls", pipeline, channel="X"), model,
+                                   pipeline, "models:/unused", {})
+    assert result["speed_varies"] and result["severity"] == "medium" and result["true_state"] == "outer"
+    assert " - IN DOUBT: the file is a variable-speed run, read as if at one speed" in one_line(result), one_line(result)
 
 
 def test_a_hust_record_is_read_at_the_er16k_defect_lines(tmp_path, monkeypatch):
@@ -1904,16 +1936,18 @@ def test_cwru_records_at_48_khz_or_packaged_without_a_speed_are_read_as_the_data
     assert tuple(rows["3003"][key] for key in condition) == ("inner", "0.028", "", "2", "12000.0")
     assert tuple(rows["OR021@3_2"][key] for key in condition) == ("outer", "0.021", "3", "2", "12000.0")
     assert json.loads((tmp_path / "out" / "3003" / "diagnosis.json").read_text())["rpm"] == 1750.0  # 2 hp's nominal
-    assert "states no rate and no bearing end" in done.stdout  # the label's
+    # The label's record is the catalogue's (X248: OR021@3_2 at 12 kHz, drive end), which gives its rate and bearing.
+    assert "which the Data Center's catalogue lists as OR021@3_2 at 12 kHz, drive end: read so" in done.stdout
     for row in rows.values():  # the physics is right where its evidence names the record's state
         assert row["physics_correct"] == str(row["evidence_state"] == row["true_state"]), row
     assert re.search(r"physics alone right: [\d.]+ % of the 4 with a known state and physics evidence", done.stdout), done.stdout
-    # Each group names its bearing: the names with an end (and the healthy record's DE) name the 6205, the Data
-    # Center's label (OR021@3_2) none, so it is read at the model's.
-    by_size = re.search(r"records right by state and fault size \(model, physics\): normal \(cwru_6205\) [01]/1, [01]/1; "
-                        r"inner 0.028 in \(cwru_6205\) [012]/2, [12]/2; outer 0.021 in \(paper\) [01]/1, [01]/1",
+    # Every record is of the 6205; read at two rates, the groups name theirs, and the outer race its position.
+    by_size = re.search(r"records right by state and fault size \(model, physics\): normal at 48 kHz [01]/1, [01]/1; "
+                        r"inner 0.028 in at 12 kHz [012]/2, [12]/2; outer 0.021 in @3 at 12 kHz [01]/1, [01]/1",
                         done.stdout)
     assert by_size is not None, done.stdout
+    assert "read at another rate than declared (the shaft line refused it: see their notes): normal_1_98 (12000 -> " \
+           "48000 Hz)" in done.stdout
 
 
 @needs_cwru
@@ -2225,6 +2259,16 @@ def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unse
     assert lines["level a decade or more outside the model's training windows"] == "mg_gain"
     assert lines["records right by state and fault size (model, physics)"] == (
         "normal 1/1, 1/1; inner 0.007 in 1/1, 1/1; inner, size unknown 2/2, 2/2; outer 2/2, 2/2")
+    # A HUST name's damage groups as a size does; an outer race's position apart; a record of no known state named.
+    rows = [row("h", "normal", severity="none"), row("o_m", "outer", severity="medium"),
+            row("o_s", "outer", severity="severe"), row("or3", "outer", fault_size_in=0.021, position="3"),
+            row("or6", "outer", fault_size_in=0.021, position="6"), {"record": "c", "verdict": "inner"}]
+    lines = diagnosis_lines(DiagnosisRun(rows=rows, scores={"accuracy_records": 1.0, "n_scored": 5,
+                                                            "accuracy_windows": 1.0}))
+    assert lines["records right by state and fault size (model, physics)"] == (
+        "normal 1/1, 1/1; outer 0.021 in @3 1/1, 1/1; outer 0.021 in @6 1/1, 1/1; outer medium 1/1, 1/1; "
+        "outer severe 1/1, 1/1")
+    assert lines["not scored (no state known, or one the model cannot answer: see their notes)"] == "c"
 
 
 def test_a_simulated_record_without_noise_is_said_to_have_no_floor(tmp_path):

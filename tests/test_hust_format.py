@@ -220,3 +220,97 @@ def test_the_twin_holds_a_hust_export_against_its_vibration_channels_alone():
         cfg = compose("twin", overrides=[f"measured.path={OUTER}", "measured.channel=Y", "bearing=er16k"])
     recording, witnesses = read_measurement(cfg.measured)
     assert list(witnesses) == ["X", "Y", "Z"] and recording.rpm == 3900
+
+
+# ---------------------------------------------------------------- exports as other software versions write them
+
+
+@pytest.mark.parametrize("legend,keep,note", [
+    ("Legend\tDrehzahl\tZ\tY\tX", (0, 1, 4, 3, 2), "'Drehzahl', no name known here, as the speed column"),
+    ("Legend\tTacho\tZ\tY\tX", (0, 1, 4, 3, 2), None),
+    ("Legend\tSpeed\tY\tX\tZ axis", (0, 1, 3, 2, 4), None),
+    ("Legend\tRPM\tAcc X\tAcc Y\tAcc Z", (0, 1, 2, 3, 4), None),
+])
+def test_an_export_whose_legend_names_its_axes_in_other_words_or_order_is_read_by_their_names(tmp_path, legend, keep,
+                                                                                               note):
+    """A Legend that names the axes in another order beside a cell no name known here reads had been read by
+    position, whole: the Z axis was taken for X, without a word in a training run."""
+    path = export(tmp_path, legend=legend, units=None, keep=keep)
+    raw = read_raw(path)
+    for axis in ("X", "Y", "Z"):
+        np.testing.assert_array_equal(raw.channels[axis], read_raw(OUTER).channels[axis])
+    column_notes = [said for said in raw.meta["notes"] if "speed column" in said or "by position" in said]
+    assert len(column_notes) == (note is not None) and all(note in said for said in column_notes), column_notes
+
+
+def test_a_legend_naming_an_axis_where_its_position_reads_another_beside_unknown_cells_is_refused(tmp_path):
+    odd = export(tmp_path, legend="Legend\tCh0\tZ\tCh2\tX", units=None, keep=(0, 1, 4, 3, 2))
+    with pytest.raises(BearingTwinError) as refused:
+        read_raw(odd)
+    message = str(refused.value)
+    assert message.startswith(f"{odd}: the header's Legend reads 'Ch0 Z Ch2 X': it names Z where the reported layout")
+    assert "'Ch0', 'Ch2'" in message and "\n" not in message
+
+
+@pytest.mark.parametrize("name,state,rpm", [("h_65hz.xls", "normal", 3900), ("0.5x_i_65Hz.xls", "inner", 3900),
+                                            ("H_65HZ.XLS", "normal", 3900), ("0.5X_b_65Hz.xls", "ball", 3900),
+                                            ("0.5x_o_vs_0_40_0hz.xls", "outer", None)])
+def test_a_hust_file_name_in_other_letter_case_states_its_state_and_speed(tmp_path, name, state, rpm):
+    from bearingtwin.data.hust import parse_hust_name
+
+    named = parse_hust_name(tmp_path / name)
+    assert (named.fault, named.rpm) == (state, rpm)
+    assert named.condition in ("65Hz", "VS_0_40_0Hz")
+
+
+def test_a_hust_data_set_finds_its_files_under_names_in_another_letter_case(tmp_path):
+    for stem in ("h", "0.5x_i", "0.5X_b", "0.5x_O"):
+        (tmp_path / f"{stem}_65hz.xls").write_bytes(OUTER.read_bytes())
+    from bearingtwin.data.real import hust_paths
+
+    paths = hust_paths(data_config(f"data.root={tmp_path}", "data.condition=65"))
+    assert sorted(path.name for path in paths.values()) == ["0.5X_b_65hz.xls", "0.5x_O_65hz.xls", "0.5x_i_65hz.xls",
+                                                            "h_65hz.xls"]
+
+
+def _edited(tmp_path: Path, name: str, edit) -> Path:
+    lines = OUTER.read_text(encoding="latin-1").splitlines()
+    path = tmp_path / name
+    path.write_text("\n".join(edit(lines)) + "\n", encoding="latin-1")
+    return path
+
+
+def test_exports_of_other_software_versions_are_read_with_what_they_state(tmp_path):
+    """An upper-case DATA line, a rate written with its unit, a blank speed column (never read), a time column
+    printed coarser than a sample period, or counting milliseconds: each had refused the file."""
+    reference = read_raw(OUTER)
+    at = OUTER.read_text(encoding="latin-1").splitlines().index("Data")
+
+    def rows_with(column, text):
+        return lambda lines: lines[:at + 1] + ["\t".join(text(c) if i == column else c for i, c in
+                                                         enumerate(line.split("\t"))) for line in lines[at + 1:]]
+
+    cases = {
+        "upper_data": lambda lines: [("DATA" if line == "Data" else line) for line in lines],
+        "hz": lambda lines: [(line + " Hz" if line.startswith("Sampling Rate") else line) for line in lines],
+        "khz": lambda lines: [("Sampling Rate\t25.6 kHz" if line.startswith("Sampling Rate") else line)
+                              for line in lines],
+        "blank_speed": rows_with(1, lambda cell: ""),
+        "coarse_time": rows_with(0, lambda cell: f"{float(cell):.4f}"),
+        "ms_time": rows_with(0, lambda cell: f"{1000 * float(cell):.6f}"),
+    }
+    for folder, edit in cases.items():
+        (tmp_path / folder).mkdir()
+        path = _edited(tmp_path / folder, "0.5X_O_65Hz.xls", edit)
+        raw = read_raw(path)
+        assert raw.fs == 25600.0, folder
+        np.testing.assert_array_equal(raw.channels["X"], reference.channels["X"])
+        assert load_hust(path).rpm == 3900
+        said = " ".join(raw.meta["notes"])
+        assert ("coarser than a sample period" in said) == (folder == "coarse_time"), (folder, said)
+        assert ("counts milliseconds" in said) == (folder == "ms_time"), (folder, said)
+    wrong = _edited(tmp_path, "0.5X_I_65Hz.xls",
+                    lambda lines: [("Sampling Rate\t51.2 kHz" if line.startswith("Sampling Rate") else line)
+                                   for line in lines])
+    with pytest.raises(BearingTwinError, match="Sampling Rate 51.2 kHz contradicts the time column's 25600"):
+        read_raw(wrong)

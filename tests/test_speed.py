@@ -201,6 +201,28 @@ def test_a_four_pole_motors_100_hz_comb_is_no_shaft_series_at_four_times_its_spe
     assert [supply_comb(hz) for hz in (99.7, 120.2, 50.1, 98.67, 49.33)] == [True, True, True, False, False]
 
 
+def test_a_healthy_four_pole_motors_100_hz_comb_leaves_the_rate_unconfirmed_not_contradicted():
+    """A healthy bearing shows no shaft series, and the strongest series near the shaft's place is a 4-pole motor's
+    magnetic pull (100, 200, 300 Hz on a 50 Hz supply at 1480 rpm), within a trial window of four times the shaft
+    line: the rate had been called contradicted (fs = 2975 Hz) and the verdict put in doubt. Its lines stand at the
+    supply's multiples, not at four times the shaft's, so the rate stands unconfirmed. A shaft series a whole factor
+    off (4 x 24.67 Hz, 1.3 % from 100 Hz) still contradicts it."""
+    from bearingtwin.config import load_bearing
+    from bearingtwin.signal.sampling_rate import check_sampling_rate
+    from bearingtwin.testrig import RigOperatingPoint, simulate_rig
+
+    defect_hz = load_bearing("cwru_6205").defect_frequencies(1480.0)
+    point = RigOperatingPoint(rpm=1480, fs=12000, duration_s=8.0, radial_load_n=800, unit="g")
+    record = simulate_rig("normal", point, effects={"line_frequency": {"supply_hz": 50.0, "level_db": 0.0}}, seed=1)
+    check = check_sampling_rate(record, 12000.0, 1480.0, defect_hz=defect_hz)
+    assert (check.verdict, check.witness, check.implied_fs_hz) == ("ambiguous", "supply", None), check.reason
+    assert "multiples of 100.00 Hz, 2 x the 50 Hz supply" in check.reason
+    t = np.arange(record.size) / 12000.0
+    shaft_at_four_times = sum(np.sin(2 * np.pi * k * 4 * 1480.0 / 60.0 * t) / k for k in range(1, 7))
+    wrong = check_sampling_rate(0.05 * record / record.std() + shaft_at_four_times, 12000.0, 1480.0, defect_hz=defect_hz)
+    assert wrong.verdict == "contradicted" and wrong.implied_fs_hz == pytest.approx(3000.0, rel=0.01), wrong.reason
+
+
 def test_a_speed_stated_a_little_off_is_read_past_a_defects_comb_and_another_shafts_pair_is_not_a_speed():
     """CWRU 131 (1772 rpm, an outer-race fault) stated at 1740: its BPFO comb takes half the harmonics' windows, and
     the median of all the places had fallen between the two series and agreed with neither (4 of 19 segments read, no

@@ -226,13 +226,14 @@ def test_which_bearing_counts_as_given_and_which_the_record_replaces(measurement
     assert record_bearing(own, measured) == (own, None)
     with pytest.raises(BearingTwinError, match=r"the one given is cwru_6203 \(BPFO 3\.053.*give bearing=cwru_6205"):
         record_bearing(twin_config(f"measured.path={record}", "bearing=cwru_6203"), measured)
-    # A fault record named by the Data Center's label names no end: which bearing is faulty is the user's to say,
-    # on either channel; a healthy one's bearing is the one under the accelerometer read.
+    # A fault record named by the Data Center's label, its variables of no catalogued record, names no end: which
+    # bearing is faulty is the user's to say, on either channel; a healthy one's bearing is the one under the
+    # accelerometer read. (Variables of a catalogued record, X105_*, name its end: tests/test_cwru.py.)
     import scipy.io
 
     samples = np.load(measurement)[:, None]
     label = tmp_path / "IR007_0.mat"
-    scipy.io.savemat(label, {"X105_DE_time": samples, "X105_FE_time": samples, "X105RPM": np.array([[1797.0]])})
+    scipy.io.savemat(label, {"X999_DE_time": samples, "X999_FE_time": samples, "X999RPM": np.array([[1797.0]])})
     for channel in ("DE", "FE"):
         for given in ("cwru_6205", "cwru_6203"):
             cfg = twin_config(f"measured.path={label}", f"bearing={given}")
@@ -824,3 +825,58 @@ def test_a_doubt_over_a_typed_speed_names_the_speed_the_lines_imply(tmp_path, ca
                                  "rpm": 2 * recording.rpm, "fault": "ball", "check_fs": True})
     load_measurement(measured, load_bearing("cwru_6205"))
     assert f"or, at 12000 Hz, a speed of {recording.rpm:.0f} rpm (measured.rpm)" in caplog.text
+
+
+def test_a_state_given_against_the_labels_row_beside_the_file_is_held_and_said(tmp_path, caplog):
+    """measured.fault=inner on a file whose labels.csv row says normal: the given state holds for the one file the
+    command names (as diagnose's rpm= and fs= do), but it had been held without a word."""
+    import logging
+
+    from omegaconf import OmegaConf
+
+    from bearingtwin.testrig import RigOperatingPoint, simulate_rig
+    from bearingtwin.twin.report import read_measurement
+
+    np.save(tmp_path / "healthy.npy", simulate_rig("normal", RigOperatingPoint(rpm=1797, fs=12000, duration_s=1.0,
+                                                                                 unit="g"), seed=0))
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs\nhealthy.npy,normal,1797,12000\n")
+
+    def measured(fault):
+        return OmegaConf.create({"path": str(tmp_path / "healthy.npy"), "channel": None, "fs": None, "rpm": None,
+                                 "fault": fault, "check_fs": False, "unit": "g"})
+
+    with caplog.at_level(logging.WARNING, logger="bearingtwin.twin.report"):
+        recording, _ = read_measurement(measured("inner"))
+    assert recording.fault == "inner" and recording.rpm == 1797.0
+    said = [record.getMessage() for record in caplog.records if "says otherwise" in record.getMessage()]
+    assert len(said) == 1 and "measured.fault=inner given where" in said[0] and "(state=normal)" in said[0], said
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="bearingtwin.twin.report"):
+        assert read_measurement(measured("normal"))[0].fault == "normal"
+    assert not any("says otherwise" in record.getMessage() for record in caplog.records)
+
+
+def test_a_rate_the_file_records_that_the_shaft_line_contradicts_is_kept_and_marked_for_the_summary(tmp_path):
+    """A logger's note types 1743 rpm for a shaft at 1797 (its time stamps give the rate): the rate is kept, the
+    contradiction had been logged only, and the closing summary read as if nothing were in doubt."""
+    from omegaconf import OmegaConf
+
+    from bearingtwin.testrig import RigOperatingPoint, simulate_rig
+    from bearingtwin.twin.report import check_measurement, read_measurement
+
+    point = RigOperatingPoint(rpm=1797, fs=12000, duration_s=2.0, radial_load_n=500.0, unit="g")
+    x = simulate_rig("outer", point, {"unbalance": {"level_db": 6.0}}, seed=3)
+    t = np.arange(x.size) / 12000.0
+    for name, speed in (("typed_off.csv", 1743), ("typed_right.csv", 1797)):
+        with open(tmp_path / name, "w") as handle:
+            handle.write(f"Speed: {speed} rpm\ntime_s,acc (g)\n")
+            handle.writelines(f"{a:.6f},{b:.6e}\n" for a, b in zip(t, x))
+    bearing = load_bearing("cwru_6205")
+    marked = {}
+    for name in ("typed_off.csv", "typed_right.csv"):
+        cfg = OmegaConf.create({"path": str(tmp_path / name), "channel": None, "fs": None, "rpm": None,
+                                "fault": "outer", "check_fs": True})
+        recording, channels = read_measurement(cfg)
+        marked[name] = check_measurement(cfg, recording, channels, bearing).meta.get("rate_contradicted")
+    assert marked["typed_off.csv"].startswith("fs = 12000 Hz contradicts the shaft speed: at 1743 rpm"), marked
+    assert marked["typed_right.csv"] is None

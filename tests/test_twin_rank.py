@@ -532,7 +532,9 @@ def test_words_for_intervals_ranges_and_later_effects():
     assert identification_words(most) == ", hardly identified: its interval covers 91% of the searched 20-5000"
     assert identification_words({**most, "scale": "linear"}) == ", hardly identified: its interval covers 99% of the searched 20-5000"
     assert identification_words({**most, "interval": [38.0, 1568.0]}) == ""  # 67 % of the range on its log scale
-    assert identification_words({key: most[key] for key in ("value", "interval", "range")}) == ""  # scale unknown
+    # Scale unknown (a report older than the key): no share, but its interval still reaches the range's edge.
+    assert identification_words({key: most[key] for key in ("value", "interval", "range")}) == (
+        ", its interval reaching the upper edge of the searched 20-5000: the value may lie beyond it")
     negative = {"value": -20.0, "interval": [-30.0, -10.0], "range": [-30.0, -10.0], "scale": "linear"}
     assert identification_words(negative) == ", not identified: anywhere in the searched -30 to -10 fits as well"
     assert identification_words({**negative, "interval": [-29.0, -10.5]}) == \
@@ -545,6 +547,14 @@ def test_words_for_intervals_ranges_and_later_effects():
                       intervals={"snr_db": [-10.0, 14.4], "spectral_slope": [0.1, 0.9]})
     assert ("noise (snr -10 dB (-10 to 14.4), at the lower edge of the searched -10 to 50: the value may lie beyond it, "
             "spectral slope 0.4 (0.1-0.9)) closes 50 %") in floor.sentence(), floor.sentence()
+    # An interval reaching an edge says the value may lie beyond it; a level says what it is relative to.
+    line = EffectFit("unbalance", {"level_db": 19.6}, 1.0, 0.7, 3.0, 0.1, 1, "signature", comparison=None,
+                     intervals={"level_db": [8.85, 20.0]})
+    assert ("unbalance (level 19.6 dB (8.85-20) re the bearing signal's RMS, its interval reaching the upper edge of the "
+            "searched -60 to 20: the value may lie beyond it) closes 70 %") in line.sentence(), line.sentence()
+    clipped = EffectFit("clipping", {"clip_level": 2.35}, 1.0, 0.6, 3.0, 0.1, 1, "signature", comparison=None,
+                        intervals={"clip_level": [1.34, 4.26]})
+    assert "clipping (clip level 2.35 (1.34-4.26) times the RMS) closes 60 %" in clipped.sentence(), clipped.sentence()
 
 
 def test_a_stated_state_the_envelope_contradicts_is_questioned(cfg):
@@ -750,3 +760,20 @@ def test_each_library_effect_named_otherwise_among_a_marks_causes_is_so_named_th
     causes = " ".join(WHAT_LEAVES_IT.values())
     assert set(CAUSE_WORDS) <= set(registered_effects())
     assert [words for words in CAUSE_WORDS.values() if words not in causes] == []
+
+
+def test_a_level_not_compared_with_the_reference_records_says_why():
+    """A record of no stated unit against a reference in m/s^2: their numbers are of two scales, so the overall level
+    is not compared, which had gone unsaid (the summary read as if the level had not changed)."""
+    from bearingtwin.twin.rank import TwinFit
+
+    fit = TwinFit(operating_point={}, base_params={}, gain=1.0, baseline_error=1.0, ranking=[], steps=[], added=[],
+                  unexplained=[], floor_error=0.1, held_out=True)
+    fit.since_reference = []
+    assert fit.level_change == "" and "overall level" not in " ".join(fit._reference_lines())
+    fit.level_not_compared = "this record's unit is not stated, the reference record's m/s^2 (give measured.unit=<unit>)"
+    assert fit.level_change == ("the overall level is not compared with the reference record's: this record's unit is "
+                                "not stated, the reference record's m/s^2 (give measured.unit=<unit>)")
+    assert fit.level_change in fit._reference_lines()[0]
+    fit.level_since_reference_db = 12.0
+    assert fit.level_change.startswith("the overall level is 12.0 dB above the reference record's")

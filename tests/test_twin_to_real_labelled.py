@@ -8,6 +8,7 @@ table states), so nothing here needs the CWRU files. The calibration reports are
 
 import csv
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -367,6 +368,17 @@ def test_train_on_the_twin_and_score_the_rigs_records_end_to_end(rig_folder, rep
                " of the model" in diagnosis["notes"] and diagnosis["calibration_record"] is True
     inner = json.loads((tmp_path / "diagnosis" / "inner_b" / "diagnosis.json").read_text())
     assert not any("calibrated on this record" in note for note in inner["notes"]) and inner["calibration_record"] is False
+    # A copy of a calibration record under a name of its own is known by its contents (the Data Center's 97.mat had
+    # been scored as a record the twin never saw).
+    (tmp_path / "copies").mkdir()
+    shutil.copy(rig_folder / "healthy_a.npy", tmp_path / "copies" / "97.npy")
+    healthy_rpm, healthy_fs = next(row.split(",")[2:] for row in (rig_folder / "labels.csv").read_text().splitlines()
+                                   if row.startswith("healthy_a"))
+    copied = run_module("bearingtwin.cli.diagnose", f"path={tmp_path / 'copies' / '97.npy'}", f"rpm={healthy_rpm}",
+                        f"fs={healthy_fs}", f"model=runs:/{run.info.run_id}/model", f"out={tmp_path}/copies_diagnosis",
+                        "figures=false", f"tracking.uri={uri}", cwd=tmp_path, timeout=300)
+    assert copied.returncode == 0, copied.stderr[-3000:]
+    assert json.loads((tmp_path / "copies_diagnosis" / "97" / "diagnosis.json").read_text())["calibration_record"] is True
     # Another rig's run is no row of the CWRU report: with no CWRU run in the store, the report has nothing to show.
     report = run_module("bearingtwin.cli.report", "sim2real", f"uri={uri}", f"out={tmp_path}/sim2real.md",
                         cwd=tmp_path, timeout=300)

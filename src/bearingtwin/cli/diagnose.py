@@ -80,6 +80,13 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     by_size = records_right_by_size(diagnosed)
     if by_size:
         lines["records right by state and fault size (model, physics)"] = by_size
+    unscored = [row["record"] for row in diagnosed if "correct" not in row]
+    if run.scores and unscored:  # a score over some records: which it leaves out
+        lines["not scored (no state known, or one the model cannot answer: see their notes)"] = ", ".join(unscored)
+    reread = [f"{row['record']} ({row['declared_fs']:g} -> {row['original_fs']:g} Hz)" for row in diagnosed
+              if row.get("declared_fs")]
+    if reread:  # the rate the name, catalogue or data set declared was refused by the shaft line: the file is mislabelled
+        lines["read at another rate than declared (the shaft line refused it: see their notes)"] = ", ".join(reread)
     contradicted = [row["record"] for row in diagnosed if row.get("rate_check") == "contradicted"]
     if contradicted:  # a wrong speed or rate misplaces every defect line: such a verdict is in doubt (still scored)
         lines["speed or rate in doubt (the shaft line contradicts them: check them)"] = ", ".join(contradicted)
@@ -140,24 +147,41 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     return lines
 
 
+DAMAGE_ORDER = {"none": 0, "medium": 1, "severe": 2}
+"""A HUST name's damage levels, smallest first."""
+
+
+def _size(row: dict) -> tuple[float, str] | None:
+    """The defect size a record's name states, as (a key to sort by, words): a CWRU name's in inches, a HUST name's
+    damage level; None where its name states none."""
+    if "fault_size_in" in row:
+        return row["fault_size_in"], f"{row['fault_size_in']:.3f} in"
+    if row.get("severity") in ("medium", "severe"):
+        return DAMAGE_ORDER[row["severity"]], row["severity"]
+    return None
+
+
 def records_right_by_size(rows: list[dict]) -> str:
     """``normal 1/1, 1/1; inner 0.007 in 4/4, 3/4; inner, size unknown 2/2, 2/2; ...`` (model, then physics evidence
-    where there is some), records grouped by true state, then by the defect size their names give, when some name
-    gives one ("" when none does); a state's records without a size are one group, ``<state>, size unknown`` beside
-    that state's sizes. Where the records are of several bearings, each group names its bearing (a size of another
-    bearing is another fault: ``inner 0.007 in (cwru_6203)``)."""
-    if not any("fault_size_in" in row for row in rows):
-        return ""
+    where there is some), records grouped by true state, then by the defect size their names give (CWRU's in inches,
+    HUST's damage, ``inner medium``), when some name gives one ("" when none does), then by an outer race's defect
+    position (``outer 0.021 in @3``) and, where the records were read at several rates, by the rate (``at 48 kHz``);
+    a state's records without a size are one group, ``<state>, size unknown`` beside that state's sizes. Where the records are of several bearings,
+    each group names its bearing (a size of another bearing is another fault: ``inner 0.007 in (cwru_6203)``)."""
     scored = [row for row in rows if "correct" in row]
+    if not any(_size(row) for row in scored):
+        return ""
     several = len({row.get("bearing") for row in scored}) > 1  # a size of another bearing is another fault
-    sized_states = {row["true_state"] for row in scored if "fault_size_in" in row}
+    several_rates = len({row.get("original_fs") for row in scored}) > 1
+    sized_states = {row["true_state"] for row in scored if _size(row)}
     groups: dict[str, list[dict]] = {}
     order = {state: index for index, state in enumerate(FAULTS)}
-    for row in sorted(scored, key=lambda row: (order.get(row["true_state"], len(order)), "fault_size_in" not in row,
-                                               row.get("fault_size_in", 0.0), str(row.get("bearing")))):
-        state = row["true_state"]
-        name = (f"{state} {row['fault_size_in']:.3f} in" if "fault_size_in" in row else
-                f"{state}, size unknown" if state in sized_states else state)
+    for row in sorted(scored, key=lambda row: (order.get(row["true_state"], len(order)), _size(row) is None,
+                                               (_size(row) or (0.0, ""))[0], str(row.get("bearing")))):
+        state, size = row["true_state"], _size(row)
+        name = (f"{state} {size[1]}" if size else f"{state}, size unknown" if state in sized_states else state)
+        name += f" @{row['position']}" if row.get("position") else ""  # an outer race's defect, in o'clock
+        name += f" at {row['original_fs'] / 1000:g} kHz" if several_rates and row.get("original_fs") else ""
         groups.setdefault(f"{name} ({row.get('bearing')})" if several else name, []).append(row)
 
     def physics(group: list[dict]) -> str:

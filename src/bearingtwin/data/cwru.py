@@ -200,6 +200,9 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         record = next(iter(by_record))
         if name is not None and name.form == "label":
             _refuse_another_condition(path, name, record)
+            name, known = _label_read_by_its_record(name, record)
+            notes += known
+        notes += _catalogue_disagrees(name)
         if named is not None and named != record:
             _refuse_another_catalogued_record(path, named, record)
             notes.append(f"its variables are X{record:03d}_* while the name says record {named}; read as the name's "
@@ -221,7 +224,7 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         meta.update(load_hp=name.load_hp, fault_size_in=name.fault_size_in, position=name.position)
     if name is not None and name.rate_hz is not None:
         meta["named_rate"] = {"hz": name.rate_hz, "by": (f"the Data Center's catalogue lists record {name.record} at"
-                                                         if name.form == "number" else "its name states")}
+                                                         if name.form in ("number", "label") else "its name states")}
     if name is not None and name.end is not None:  # the faulty bearing
         meta["bearing"] = name.bearing
     elif name is not None and name.fault == "normal":  # no faulty bearing: the one under the accelerometer read
@@ -280,6 +283,30 @@ def _refuse_another_condition(path: Path, label: CwruName, held: int) -> None:
                                "record it holds")
 
 
+def _label_read_by_its_record(label: CwruName, held: int) -> tuple[CwruName, list[str]]:
+    """A file named by a Data Center label (``IR007_0.mat``), read as the catalogued record whose variables it holds
+    (``X278_*``: IR007_0 at 12 kHz, fan end), which names the rate and the faulty bearing's end that the label leaves
+    unsaid (a mirror names the fan end's records by the same labels as the drive end's, in a folder of their own);
+    the label as it is where the record is not catalogued or healthy (whose rate is in doubt)."""
+    if held not in DATA_CENTER_CATALOGUE or label.fault == "normal":
+        return label, []
+    _, rate_hz, end = DATA_CENTER_CATALOGUE[held]
+    return replace(label, record=held, rate_hz=rate_hz, end=end), [
+        f"its variables are X{held:03d}_*, which the Data Center's catalogue lists as {_catalogue_words(held)}: read so"]
+
+
+def _catalogue_disagrees(name: CwruName | None) -> list[str]:
+    """A note where a long name gives a catalogued record another rate or faulty bearing's end than the catalogue does
+    (``12k_Drive_End_IR007_0_278.mat``: 278 is a fan-end record): read as the name says, which the rate check checks."""
+    if name is None or name.form != "long" or name.record not in DATA_CENTER_CATALOGUE or name.fault == "normal":
+        return []
+    _, rate_hz, end = DATA_CENTER_CATALOGUE[name.record]
+    if (rate_hz, end) == (name.rate_hz, name.end):
+        return []
+    return [f"the Data Center's catalogue lists record {name.record} as {_catalogue_words(name.record)}, where the name "
+            f"says {name.rate_hz / 1000:g} kHz, {name.end} end: read as the name says; check which the file holds"]
+
+
 def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[str]:
     """What a reader should know of a name: what a label or an uncatalogued number leaves unsaid, and a measured
     speed that belongs to another load than the name's."""
@@ -288,7 +315,7 @@ def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[st
                "fan-end record)")
     if name is None and path.stem.isdigit():
         notes.append(f"record {path.stem} is not in the Data Center's catalogue: {read_as}")
-    elif name is not None and name.form == "label" and name.fault != "normal":
+    elif name is not None and name.form == "label" and name.fault != "normal" and name.end is None:
         notes.append(f"the name {path.stem} (the Data Center's label) states no rate and no bearing end: {read_as}")
     nominal = NOMINAL_RPM_BY_LOAD_HP.get(name.load_hp) if name is not None else None
     if nominal is not None and rpm is not None and not same_speed(rpm, nominal):

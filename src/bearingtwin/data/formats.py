@@ -143,6 +143,9 @@ class RawRecord:
             if not vibration:
                 raise BearingTwinError(f"{self.path}: holds no vibration channel "
                                        f"({'; '.join(f'{n} reads {why}' for n, why in not_vibration.items())})")
+            if len(vibration) > 1 and self.format == "cwru-mat" and self.default_channel is not None:
+                raise BearingTwinError(f"{self.path}: holds no {self.default_channel} channel, the accelerometer on the "
+                                       f"bearing it records (it holds {', '.join(vibration)}); choose one with {key}=<name>")
             if len(vibration) > 1:
                 raise BearingTwinError(f"{self.path}: holds channels {', '.join(vibration)}; choose one with {key}=<name>"
                                        f"{_quoting_hint(key, vibration)}")
@@ -279,6 +282,9 @@ def recording_from_raw(
         notes.append(f"{fs_key}={fs:g} Hz given, {factor:g} times the {raw.fs:.6g} Hz the file's time stamps give: "
                      "read as stamps in another unit than their column's name states")
     fs = resolve_fs(raw, fs, fs_key)
+    if rpm is not None and raw.meta.get("no_speed"):  # a run-up read at one speed puts every line in the wrong place
+        raise BearingTwinError(f"{raw.path}: {rpm_key}={rpm} given, but the file is {raw.meta['no_speed']}: no one "
+                               "speed describes it")
     rpm = resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes,
                         speed_reader(raw, name, signal, fs))
     # Where the speed comes from: a refusal of the rate names the speed's setting too where one gave it.

@@ -24,7 +24,8 @@ from typing import NamedTuple
 import numpy as np
 
 from bearingtwin.checks import is_finite_number
-from bearingtwin.data.formats import FS_RELATIVE_TOLERANCE, RawRecord, fs_from_time_column, read_raw, recording_from_raw
+from bearingtwin.data.formats import (FS_RELATIVE_TOLERANCE, RawRecord, coarse_stamps, fs_from_time_column, read_raw,
+                                      recording_from_raw)
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import acceleration_unit, quantity_of
 from bearingtwin.errors import BearingTwinError
@@ -38,14 +39,16 @@ BEARING = "er16k"
 
 HEADER_LINE_LIMIT = 200
 """The ``Data`` line must appear within this many lines; the reported header has about 21."""
-DATA_MARKERS = ("Data", "Data:")
-"""The line that ends the header: ``Data`` as reported, ``Data:`` as the header's other keys are written."""
+DATA_MARKERS = ("data", "data:")
+"""The line that ends the header, in lower case: ``Data`` as reported, ``Data:`` as the header's other keys are
+written, ``DATA`` as another version of the software may write it."""
 UTF8_BOM = "\ufeff".encode("utf-8").decode("latin-1")
 """A UTF-8 byte-order mark as the latin-1 reading sees it: a file saved again by an editor may start with one."""
 
 _NUMBER = re.compile(r"[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?|[-+]?(nan|NaN|inf|Inf)")
 """A cell that is a number under either decimal mark; a first cell that is not one names the columns."""
-_NAME = re.compile(r"^(?P<prefix>0\.5X_)?(?P<state>[HIOBC])_(?P<condition>\d+(?:\.\d+)?Hz|VS_[\d_]+Hz)$")
+_NAME = re.compile(r"^(?P<prefix>0\.5X_)?(?P<state>[HIOBC])_(?P<condition>\d+(?:\.\d+)?Hz|VS_[\d_]+Hz)$", re.IGNORECASE)
+"""Letters in either case: a copy through another operating system or archive may change them (``h_65hz.xls``)."""
 NAME_FORM = ("<state>_<speed>Hz.xls: <state> H, I, O, B or C, after 0.5X_ for medium damage; <speed> the shaft's "
              "in Hz, or VS_0_40_0 for the variable-speed run; e.g. 0.5X_O_65Hz.xls")
 """The file names :func:`parse_hust_name` reads (``_NAME``), in words, as messages give them."""
@@ -74,7 +77,7 @@ def parse_hust_name(path: str | Path) -> HustName | None:
     match = _NAME.match(Path(path).stem)
     if match is None:
         return None
-    state, condition = match["state"], match["condition"]
+    state, condition = match["state"].upper(), match["condition"].upper().replace("HZ", "Hz")  # as the data set writes them
     severity = "none" if state == "H" else ("medium" if match["prefix"] else "severe")
     shaft_hz = None if condition.startswith("VS_") else float(condition[:-2])
     return HustName(state=state, severity=severity, condition=condition, shaft_hz=shaft_hz)
@@ -104,9 +107,13 @@ def read_hust_raw(path: str | Path) -> RawRecord:
     path = Path(path)
     header, header_rows, data_line = _read_header(path)
     layout = _data_layout(path, data_line)
-    legend = _column_order(header_rows.get("Legend"), "the header's Legend")
-    # A row of names below the 'Data' line names the columns (its first, the time column's) over the Legend.
-    columns = legend if layout.names is None else _column_order(layout.names[1:], "the row of names below the 'Data' line")
+    try:
+        legend = _column_order(header_rows.get("Legend"), "the header's Legend")
+        # A row of names below the 'Data' line names the columns (its first, the time column's) over the Legend.
+        columns = (legend if layout.names is None else
+                   _column_order(layout.names[1:], "the row of names below the 'Data' line"))
+    except BearingTwinError as error:
+        raise BearingTwinError(f"{path}: {error}") from None
     table = _read_table(path, layout, columns)
     declared_rows = _declared_rows(header)
     if declared_rows is not None and declared_rows != table.shape[0]:
@@ -139,7 +146,8 @@ def read_hust_raw(path: str | Path) -> RawRecord:
             meta["unlabelled_state"] = f"inner and outer races damaged together ({name.state} in its name)"
         if name.shaft_hz is None:
             meta["no_speed"] = f"a variable-speed run ({name.condition} in its name): its speed changes over the record"
-    fs, fs_origin = _sampling_rate(path, header, table[:, 0], layout.decimal)
+    fs, fs_origin, rate_note = _sampling_rate(path, header, table[:, 0], layout.decimal)
+    notes += [rate_note] if rate_note else []
     return RawRecord(
         str(path),
         "hust-xls",
@@ -181,25 +189,59 @@ class _Columns(NamedTuple):
     width: int  # the legend's cells, time's among them, up to its last named one
 
 
+_SPEED_NAMES = ("speed", "tacho", "tach", "tachometer", "rpm", "shaft speed", "rotating speed", "rotational speed")
+"""Names a rig's software may give the speed column (the column is never read: the file's name gives the speed)."""
+_AXIS_NAME = re.compile(r"^(?:(?:acc(?:el(?:eration)?)?|vib(?:ration)?|ch(?:annel)?)[\s_.-]*)?(?P<axis>[xyz])"
+                        r"(?:[\s_.-]*(?:axis|acc(?:el(?:eration)?)?|dir(?:ection)?))?$", re.IGNORECASE)
+"""An accelerometer axis as a Legend may name it: ``X``, ``x axis``, ``Z-axis``, ``Acc X``, ``Acceleration Y``."""
+
+
+def _column_name(cell: str) -> str | None:
+    """The column (``speed``, ``X``, ``Y``, ``Z``) a Legend cell names, its unit in brackets aside; None for another."""
+    bare = re.sub(r"\s*[(\[].*$", "", cell).strip()
+    if bare.lower() in _SPEED_NAMES:
+        return "speed"
+    axis = _AXIS_NAME.match(bare)
+    return axis["axis"].upper() if axis else None
+
+
 def _column_order(legend: list[str] | None, where: str) -> _Columns:
     """The names of the columns after time, in the order ``legend`` (its cells after the key, said to be ``where``)
     gives, and a note when it gives none that names them: an export with its channels in another order, or with
-    some of them alone (``Speed Y Z``), is read by name; one whose legend names other channels (the layout was
-    reported, not checked) by position, and said so."""
+    some of them alone (``Speed Y Z``), is read by name; one that names X, Y and Z and one other cell (``Tacho Z Y X``)
+    reads the axes by name and that cell as the speed column; one whose legend names no column known here (the
+    layout was reported, not checked) by position, and said so. A legend that names an axis where the position would
+    read another, beside cells it does not name, is refused: neither reading can be trusted."""
     if legend is None:
         return _Columns(list(COLUMNS[1:]), list(range(len(COLUMNS) - 1)), [], "the default order (no Legend)",
                         len(COLUMNS) - 1)
-    by_lower = {column.lower(): column for column in COLUMNS[1:]}
     written = [(index, cell.strip()) for index, cell in enumerate(legend) if cell.strip()]
     cells = [cell for _, cell in written]
     # "X (g)", "Speed [rpm]": the name alone; a time column's name is not one of the channels'
-    named = [(index, by_lower.get(re.sub(r"\s*[(\[].*$", "", cell).lower())) for index, cell in written
-             if re.sub(r"\s*[(\[].*$", "", cell).lower() not in ("time", "t")]
-    names = [name for _, name in named]
+    named = [(index, cell, _column_name(cell)) for index, cell in written
+             if re.sub(r"\s*[(\[].*$", "", cell).strip().lower() not in ("time", "t")]
+    names = [name for _, _, name in named]
     width = written[-1][0] + 1 if written else 0
-    if names and None not in names and len(set(names)) == len(names):
-        return _Columns(names, [index for index, _ in named], [], f"{where} ({', '.join(cells)})", width)
-    positions = [index for index, _ in named] if len(named) == len(COLUMNS) - 1 else list(range(len(COLUMNS) - 1))
+    known = [name for name in names if name]
+    unknown = [cell for _, cell, name in named if name is None]
+    if known and len(set(known)) == len(known):
+        if not unknown:
+            return _Columns(names, [index for index, _, _ in named], [], f"{where} ({', '.join(cells)})", width)
+        if set(CHANNELS) <= set(known) and len(unknown) == 1 and "speed" not in known:
+            return _Columns(["speed" if name is None else name for name in names], [index for index, _, _ in named],
+                            [f"{where} reads {' '.join(cells)!r}: X, Y and Z are read by their names, and "
+                             f"{unknown[0]!r}, no name known here, as the speed column (which is not read)"],
+                            f"{where} ({', '.join(cells)}; {unknown[0]} read as the speed column)", width)
+    by_position = COLUMNS[1:]
+    misplaced = [(name, by_position[place]) for place, name in enumerate(names[:len(by_position)])
+                 if name and name != by_position[place]]
+    if misplaced or len(set(known)) != len(known):
+        clash = (f"it names {misplaced[0][0]} where the reported layout (speed, X, Y, Z) has {misplaced[0][1]}"
+                 if misplaced else "it names a column twice")
+        raise BearingTwinError(f"{where} reads {' '.join(cells)!r}: {clash}, beside cells no name known here reads "
+                               f"({', '.join(repr(cell) for cell in unknown) or 'none'}), so its columns can be read "
+                               "neither by name nor by position; name them Speed, X, Y and Z")
+    positions = [index for index, _, _ in named] if len(named) == len(COLUMNS) - 1 else list(range(len(COLUMNS) - 1))
     return _Columns(list(COLUMNS[1:]), positions,
                     [f"{where} reads {' '.join(cells)!r}, not Speed, X, Y and Z: the columns after time are read by "
                      f"position as {', '.join(COLUMNS[1:])}"], f"{where} ({', '.join(cells)}, read by position)",
@@ -265,7 +307,7 @@ def _read_header(path: Path) -> tuple[dict[str, str], dict[str, list[str]], int]
     with open(path, encoding="latin-1") as handle:
         for index, line in enumerate(handle):
             text = line.removeprefix(UTF8_BOM).strip()
-            if text in DATA_MARKERS:
+            if text.lower() in DATA_MARKERS:
                 return header, rows, index
             if index >= HEADER_LINE_LIMIT:
                 break
@@ -281,30 +323,49 @@ def _read_header(path: Path) -> tuple[dict[str, str], dict[str, list[str]], int]
     )
 
 
-def _sampling_rate(path: Path, header: dict[str, str], time_s: np.ndarray, decimal: str = ".") -> tuple[float, str]:
-    """The rate the header's ``Sampling Rate`` line states, checked against the time column;
-    the time column's alone when the header states none. ``decimal``: the mark the data rows use (a file
-    written with decimal commas writes 25600,0, and may group thousands with points).
+def _sampling_rate(path: Path, header: dict[str, str], time_s: np.ndarray,
+                   decimal: str = ".") -> tuple[float, str, str | None]:
+    """The rate the header's ``Sampling Rate`` line states (``25600``, ``25600 Hz``, ``25.6 kHz``), checked against the
+    time column; the time column's alone when the header states none; and a note where the time column could not
+    check it. ``decimal``: the mark the data rows use (a file written with decimal commas writes 25600,0, and may
+    group thousands with points).
 
-    The header is exact (25600), while the time column, printed to a microsecond, only
-    approximates it (25599.9997 Hz over a whole file).
+    The header is exact (25600), while the time column, printed to a microsecond, only approximates it (25599.9997
+    Hz over a whole file). A time column printed coarser than a sample period (to 0.0001 s at 25.6 kHz) repeats its
+    stamps and states no rate, and one counting milliseconds gives a thousandth of the header's: the header's rate
+    is taken, said so.
     """
-    from_time = fs_from_time_column(time_s, str(path))
     written = header.get("Sampling Rate", "").split("\t")[0].strip()
+    if not written:
+        return fs_from_time_column(time_s, str(path)), "time column", None
+    number, unit = re.fullmatch(r"(.*?)\s*((?:k|K)?(?:Hz|HZ|hz|S/s|SPS|sps|Sa/s))?", written).groups()
     # The other mark groups thousands: 25,600 (or 25.600,0 beside decimal commas).
-    text = written.replace(".", "").replace(",", ".") if decimal == "," else written.replace(",", "")
-    if not text:
-        return from_time, "time column"
+    text = number.replace(".", "").replace(",", ".") if decimal == "," else number.replace(",", "")
     try:
-        stated = float(text)
+        stated = float(text) * (1000.0 if unit and unit[0] in "kK" else 1.0)
     except ValueError:
         raise BearingTwinError(f"{path}: the header's Sampling Rate {written!r} is not a number") from None
-    if not (np.isfinite(stated) and stated > 0) or abs(from_time / stated - 1.0) > FS_RELATIVE_TOLERANCE:
+    if not (np.isfinite(stated) and stated > 0):
+        raise BearingTwinError(f"{path}: the header's Sampling Rate {written!r} is not a positive number")
+    if coarse_stamps(time_s):
+        return stated, "header", (f"the time column repeats its stamps, printed coarser than a sample period: the "
+                                  f"header's Sampling Rate ({stated:g} Hz) is taken unchecked")
+    try:
+        from_time = fs_from_time_column(time_s, str(path))
+    except BearingTwinError:
+        span_s = float(time_s[-1] - time_s[0]) if time_s.size > 1 else 0.0
+        in_ms = span_s > 0 and abs((time_s.size - 1) / span_s * 1000.0 / stated - 1.0) <= FS_RELATIVE_TOLERANCE
+        if not in_ms:
+            raise
+        return stated, "header", (f"the time column counts milliseconds (it spans {span_s:g} for "
+                                  f"{time_s.size} rows): the header's Sampling Rate ({stated:g} Hz) agrees with it so")
+    if abs(from_time / stated - 1.0) > FS_RELATIVE_TOLERANCE:
         raise BearingTwinError(f"{path}: the header's Sampling Rate {written!r} (read as {stated:g} Hz, a comma "
                                f"taken for a thousands separator) contradicts the time column's {from_time:.6g} Hz"
                                if "," in written and decimal == "." else
-                               f"{path}: the header's Sampling Rate {written} Hz contradicts the time column's {from_time:.6g} Hz")
-    return stated, "header"
+                               f"{path}: the header's Sampling Rate {written}{'' if unit else ' Hz'} contradicts the time column's "
+                               f"{from_time:.6g} Hz")
+    return stated, "header", None
 
 
 def _declared_rows(header: dict[str, str]) -> int | None:
@@ -394,6 +455,8 @@ def _diagnose_rows(path: Path, layout: _DataLayout, columns: _Columns) -> None:
                 f"{path}: line {number} has {len(cells)} columns, expected {len(expected)} ({', '.join(expected)}){hint}"
             )
         for column, cell in zip(expected, cells):
+            if not cell.strip() and column == "speed":  # a column never read (the name gives the speed) may be blank
+                continue
             if not cell.strip():
                 raise BearingTwinError(f"{path}: line {number} column {column} is empty")
             try:

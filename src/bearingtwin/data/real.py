@@ -88,6 +88,9 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
         )
     recordings = [load_hust(path, channel=_get(cfg, "channel"), fs=_get(cfg, "fs"), channel_key="data.channel",
                             fs_key="data.fs") for path in paths]
+    for recording in recordings:  # how each file was read (its columns by position, its rate unchecked ...), as CWRU's
+        for note in [*recording.meta.get("notes", []), *filter(None, [recording.meta.get("no_speed")])]:
+            log.warning("%s: %s", recording.source, note)
     return windows_from_recordings(recordings, window_length, samples_per_class, "data.samples_per_class",
                                    dataset_key(paths, cfg))
 
@@ -99,7 +102,7 @@ def hust_paths(data_cfg) -> dict[str, Path]:
     root, stems = Path(_get(cfg, "root")), _get(cfg, "classes")
     if root.is_file():
         raise BearingTwinError(f"data.root={root} is a file; point it at the folder of the HUST files")
-    paths = {fault: root / hust_file_name(stems[fault], _get(cfg, "condition"))
+    paths = {fault: _in_any_case(root, hust_file_name(stems[fault], _get(cfg, "condition")))
              for fault in _classes(list(stems), allowed=FAULTS)}
     for fault, path in paths.items():
         named = parse_hust_name(path)
@@ -107,6 +110,16 @@ def hust_paths(data_cfg) -> dict[str, Path]:
             stated = "no state" if named is None else (named.fault or "inner and outer races combined")
             raise BearingTwinError(f"data.classes.{fault}={stems[fault]!r} names {path.name}, whose name states {stated}")
     return paths
+
+
+def _in_any_case(root: Path, name: str) -> Path:
+    """``root / name``, or the one file of ``root`` whose name differs from it in letter case alone (``h_65hz.xls``: a
+    copy through another operating system or archive may change the case); ``root / name`` where there is none."""
+    path = root / name
+    if path.is_file() or not root.is_dir():
+        return path
+    same = [other for other in root.iterdir() if other.name.lower() == name.lower() and other.is_file()]
+    return same[0] if len(same) == 1 else path
 
 
 def check_hust_settings(data_cfg) -> tuple[int, int, dict[str, Path]]:

@@ -76,6 +76,9 @@ class DiagnosisPipeline:
         training_records: path (from the folder the files share) -> SHA-256 of its contents, for every recorded
             file whose windows the classifier was trained on (none for simulated data): a diagnosis of such a file,
             under any name, is no test of the model.
+        calibration_records: record name -> SHA-256 of its contents, for every record a twin-trained model's twin
+            was calibrated on: a diagnosis of such a record, under any name (the Data Center's ``97.mat`` as much as
+            ``normal_0_97.mat``), is no test of the model.
         feature_range: the smallest and the largest value of each feature over the training windows, in the
             classifier's column order: where a window's lie well beyond them (:meth:`features_unseen`) the classifier
             extrapolates, and its probabilities do not say so. None for the raw windows (their samples are no
@@ -96,6 +99,7 @@ class DiagnosisPipeline:
     physics_first: PhysicsFirst | None = None
     training_records: dict = field(default_factory=dict)
     feature_range: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    calibration_records: dict = field(default_factory=dict)
 
     @property
     def class_names(self) -> list[str]:
@@ -329,6 +333,7 @@ class DiagnosisPipeline:
             "speeds_rpm": None if self.speeds_rpm is None else [float(v) for v in self.speeds_rpm],
             "physics_first": None if self.physics_first is None else asdict(self.physics_first),
             "training_records": self.training_records,
+            "calibration_records": self.calibration_records,
             "feature_range": None if self.feature_range is None else [[float(v) for v in edge]
                                                                       for edge in self.feature_range],
             "extractor": _extractor_state(self.extractor),
@@ -362,6 +367,7 @@ class DiagnosisPipeline:
             physics_first=None if meta.get("physics_first") is None else PhysicsFirst(**meta["physics_first"]),
             training_records=meta.get("training_records", {}),  # models saved before they were recorded: none known
             feature_range=None if meta.get("feature_range") is None else tuple(map(tuple, meta["feature_range"])),
+            calibration_records=meta.get("calibration_records", {}),  # saved before they were recorded: by name only
         )
 
 

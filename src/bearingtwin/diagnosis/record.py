@@ -77,11 +77,13 @@ class PreparedRecord:
     dropouts_s: list = field(default_factory=list)  # (start, end, words) of a window's length held at one value: dropouts
     bearing_given: bool = True  # whether bearing= or the file named the bearing, rather than the model's standing in
     clipped: bool = False  # the sensor or the converter saturated (Recording.quality_notes)
+    declared_fs: float | None = None  # the rate the file, its name or its data set declared, where the check read another
 
 
-CONDITION_KEYS = ("fault_size_in", "position", "load_hp")
-"""What a CWRU name states of a record's condition (defect size in inches, outer-race position in o'clock, motor
-load in hp), copied into its diagnosis where known."""
+CONDITION_KEYS = ("fault_size_in", "position", "load_hp", "severity")
+"""What a data set's file name states of a record's condition (CWRU: defect size in inches, outer-race position in
+o'clock, motor load in hp; HUST: the damage, ``medium`` or ``severe``, ``none`` for a healthy bearing), copied into
+its diagnosis where known."""
 
 
 NOISE_FREE_SIMULATION = ("a record bearingtwin-simulate made without a noise effect: its floor is rounding error, so "
@@ -164,7 +166,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                "beside it")
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
                           gaps_s, dropouts_s, bearing_given=(bearing or named) is not None,
-                          clipped=any(note.endswith(CLIPPED_NOTE_END) for note in quality))
+                          clipped=any(note.endswith(CLIPPED_NOTE_END) for note in quality),
+                          declared_fs=None if as_read.fs == original_fs else as_read.fs)
 
 
 def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: DiagnosisPipeline,
@@ -422,9 +425,11 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
 
 def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:
     """The channel to read: the one asked for, else the file's own default, else, in a file of several, the channel
-    the model was trained on when the file has one of that name (a HUST export's X axis), said in a note."""
+    the model was trained on when the file has one of that name (a HUST export's X axis), said in a note. A CWRU
+    file's default is the accelerometer on the bearing it records: where it lacks that one, no other stands in."""
     trained = (pipeline.config.get("data") or {}).get("channel")
     if channel is not None or raw.default_channel in raw.channels or len(raw.channels) == 1 \
+            or raw.format == "cwru-mat" \
             or not isinstance(trained, str) or trained not in raw.channels:
         return channel, []
     return trained, [f"channel {trained}, the one the model was trained on (channel=<name> reads another)"]
@@ -766,6 +771,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "bearing": prepared.bearing.get("name"),  # whose defect lines the physics (and defect-order features) read
         "bearing_given": prepared.bearing_given,  # named by bearing= or the file, not the model's standing in
         "original_fs": prepared.original_fs,
+        "declared_fs": prepared.declared_fs,  # where the rate check read the record at another rate than declared
         "rate_check": prepared.rate_check,
         "speed": prepared.speed,
         "unit": recording.unit or None,  # of the samples read (the model's, where they were converted to it)
@@ -773,11 +779,12 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "level_unseen": level is not None,
         "clipped": prepared.clipped,
         "speed_unseen": speed_unseen is not None,
+        "speed_varies": bool(recording.meta.get("no_speed")),  # a file stating a variable-speed run (HUST's VS_...)
         "features_unseen": None if extrapolated is None else float(np.mean(extrapolated)),
         "windows_left_out": left_out,  # touching a dropout as long as a window or a gap with no value
         "notes": notes,
     }
-    for key in CONDITION_KEYS:  # what a CWRU name says of the record's condition, to score by it
+    for key in CONDITION_KEYS:  # what the file's name says of the record's condition, to score by it
         if recording.meta.get(key) is not None:
             result[key] = recording.meta[key]
     if prepared.true_state is not None:
@@ -856,6 +863,7 @@ def one_line(result: dict) -> str:
         (result.get("clipped"), "it clipped, which flattens the impacts"),
         ((result.get("speed") or {}).get("off"), "its shaft turns 1-8 % from the speed stated"),
         ((result.get("speed") or {}).get("in_doubt"), "its speed varies, or its reading was refused"),
+        (result.get("speed_varies"), "the file is a variable-speed run, read as if at one speed"),
     ) if flagged]
     if doubts:
         line += f" - IN DOUBT: {'; '.join(doubts)}"

@@ -376,6 +376,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if passed_over and single:  # as inspect and the twin say it of the table beside a file
         progress.write(f"{table}: passed over rows of other files that do not read: {first_messages(passed_over)}")
     calibrated, trained = calibration_records(pipeline), set(pipeline.training_records.values())
+    calibrated_digests = set(pipeline.calibration_records.values())
     for path in progress:
         raise_if_interrupted()  # a signal a library swallowed (loading the model, say) stops here, not at the end
         prepared = None
@@ -391,8 +392,10 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
                                    rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=order_tracking)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
-            calibrated_on = bool(_names_of(path, table) & calibrated)
-            trained_on = bool(trained) and file_digest(path) in trained  # by contents: a copy is no new record
+            digest = file_digest(path) if trained or calibrated_digests else None
+            # By contents as well as names: a copy (the Data Center's 97.mat for normal_0_97.mat) is no new record.
+            calibrated_on = bool(_names_of(path, table) & calibrated) or digest in calibrated_digests
+            trained_on = digest in trained
             result["calibration_record"], result["training_record"] = calibrated_on, trained_on
             if calibrated_on:
                 result["notes"].append("the model's twin was calibrated on this record (data.calibration.records): "
@@ -436,6 +439,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             windows_total += len(result["windows"])
             windows_correct += result["windows_correct"]
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
+        row["declared_fs"] = result["declared_fs"]  # for the closing summary (not a column)
         row["bearing_given"] = result["bearing_given"]  # for the closing summary (not a column)
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
@@ -580,7 +584,7 @@ def summary_text(rows: list[dict]) -> str:
     if any("error" in row for row in rows):
         columns.append("error")
     columns.append("bearing")  # the columns before it keep the places they had before it and those after existed
-    columns += [key for key in ("load_hp", "position") if any(key in row for row in rows)]
+    columns += [key for key in ("load_hp", "position", "severity") if any(key in row for row in rows)]
     columns.append("original_fs")  # the rate the file was read at (Hz), before any resampling to the model's
     columns += ["unit_check", "level_unseen"]  # how its unit was read, and a level the model never saw
     # The classifier's own majority and the share of windows the envelope spectrum decided (physics_first): a

@@ -247,6 +247,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         speeds_rpm=training_speeds(dataset, train),
         physics_first=physics_first,
         training_records=training_records(dataset, train),
+        calibration_records=calibration_records(cfg.data),
         feature_range=None if isinstance(extractor, RawFeatures) else (tuple(features[train].min(axis=0)),
                                                                        tuple(features[train].max(axis=0))),
     )
@@ -315,6 +316,16 @@ def training_records(dataset, train: np.ndarray) -> dict[str, str]:
                     if (path := Path(dataset.records[record]).resolve()).is_file()})
     shared = Path(os.path.commonpath(paths)) if len(paths) > 1 else None
     return {(path.relative_to(shared).as_posix() if shared else path.name): file_digest(path) for path in paths}
+
+
+def calibration_records(data_cfg) -> dict[str, str]:
+    """Name -> SHA-256 of each record a twin-trained model's twin was calibrated on (none for other data): what a
+    diagnosis needs to know such a record under any name."""
+    if data_cfg.get("source") != "twin_to_real":
+        return {}
+    from bearingtwin.data.twin_to_real import check_protocol
+
+    return {path.name: file_digest(path) for path in check_protocol(data_cfg)[0]}
 
 
 @dataclass(frozen=True)

@@ -323,7 +323,8 @@ def check_sampling_rate(
                                       harmonic_tolerance, tolerance, confirmed)
 
     def second_look(check: ShaftLineCheck) -> ShaftLineCheck:
-        return _second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance)
+        return _second_look(check, signal, defect_hz, prominence, max_fraction, n_harmonics, harmonic_tolerance,
+                            ratio, resolution)
 
     # The search reaches search_factor^2 on either side only to tell "no series anywhere" from "a series
     # too far away"; the shaft's series is looked for within search_factor.
@@ -675,7 +676,8 @@ def _off_by_a_whole_factor(check: ShaftLineCheck, max_factor: int = 8) -> bool:
 
 
 def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[str, float] | None,
-                 prominence: float, max_fraction: int, n_harmonics: int, window: float) -> ShaftLineCheck:
+                 prominence: float, max_fraction: int, n_harmonics: int, window: float, ratio: np.ndarray,
+                 resolution: float) -> ShaftLineCheck:
     """A contradiction stands unless the bearing's own lines explain it at the declared rate, or the
     supply's leave it undecided.
 
@@ -698,8 +700,9 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
     the envelope's comb standing at the comb's frequency and not at half it (:func:`_half_of_a_comb`), makes it
     ``ambiguous`` (``witness`` ``half comb``). A series whose fundamental is a grid's supply frequency
     or twice it (a motor's magnetic pull, strong on many machines) and no whole multiple or fraction
-    of the shaft line makes it ``ambiguous`` (``witness`` ``supply``): those lines stand there whatever
-    the shaft speed, so they do not place the shaft line. A truly wrong rate can put a shaft series
+    of the shaft line, or one whose lines stand nearer the supply's multiples than the shaft's
+    (:func:`_nearer_the_supply`), makes it ``ambiguous`` (``witness`` ``supply``): those lines stand
+    there whatever the shaft speed, so they do not place the shaft line. A truly wrong rate can put a shaft series
     there by chance (about 2 % of wrong pairs of common rates and speeds by a factor that is no whole
     number): it is then logged, not refused, and another channel's contradiction still decides
     (:func:`decisive_channel`)."""
@@ -734,13 +737,29 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
                                               f"and the envelope's {name} comb stands at its frequency, not at half it: "
                                               "the shaft's own series is not seen, the rate is not confirmed")
     supply = _supply_multiple(check.observed_hz)
-    if check.verdict == "contradicted" and supply is not None and not _off_by_a_whole_factor(check):
+    if check.verdict == "contradicted" and supply is not None:
         order, mains = supply
-        return dataclasses.replace(check, implied_fs_hz=None, verdict="ambiguous", witness="supply",
-                                   reason=f"{check.reason}; but {check.observed_hz:.2f} Hz is {order} x the {mains:g} Hz "
-                                          "supply, whose lines stand there whatever the shaft speed, and no whole "
-                                          "multiple or fraction of the shaft line: the rate is not confirmed")
+        lines_hz = _refined_fundamental(ratio, resolution, np.arange(1, n_harmonics + 1), check.observed_hz, window)
+        if not _off_by_a_whole_factor(check) or _nearer_the_supply(lines_hz, order * mains, check.expected_hz):
+            return dataclasses.replace(
+                check, implied_fs_hz=None, verdict="ambiguous", witness="supply",
+                reason=f"{check.reason}; but its lines stand at multiples of {lines_hz:.2f} Hz, {order} x the {mains:g} "
+                       "Hz supply, whose lines stand there whatever the shaft speed, nearer those than any whole "
+                       "multiple or fraction of the shaft line: the rate is not confirmed")
     return check
+
+
+def _nearer_the_supply(lines_hz: float, supply_hz: float, shaft_hz: float, max_factor: int = 8) -> bool:
+    """Whether a series' fundamental ``lines_hz``, placed finer than the trial grid that found it, stands nearer
+    ``supply_hz`` (a supply frequency or twice it) than any whole multiple or fraction (up to ``max_factor``) of the
+    shaft line ``shaft_hz``, where a wrong rate would put the shaft's own series. A 4-pole motor on a 50 Hz supply
+    turns at about 1480 rpm: its magnetic pull's comb (100, 200, 300 Hz) lies 1.4 % from four times its shaft line,
+    within a trial window of both, and its lines stand at the supply's multiples. A record read at a quarter of its
+    rate puts the shaft series of a 60 Hz motor at 1797 rpm at 119.8 Hz, 0.17 % from 120 Hz: its lines stand at four
+    times the shaft line's, and the contradiction stays."""
+    factors = np.arange(2, max_factor + 1, dtype=float)
+    shaft_places_hz = shaft_hz * np.concatenate([factors, 1 / factors])
+    return abs(math.log(lines_hz / supply_hz)) < float(np.min(np.abs(np.log(lines_hz / shaft_places_hz))))
 
 
 def _within_slip(slip: float, window: float) -> np.ndarray:
@@ -1031,6 +1050,18 @@ def _apart_from_shaft(hz: float, shaft_hz: float, max_fraction: int, window: flo
     return bool(np.min(np.abs(hz / shaft_hz - fractions) / (hz / shaft_hz)) > 2 * window)
 
 
+def _on_half_orders(lines_hz: np.ndarray, shaft_hz: float, resolution: float) -> bool:
+    """Whether every line of ``lines_hz`` lies within reach of a half order of the shaft: a loose machine's comb (its
+    rattle's half orders fill its envelope too), which on a record of a few seconds also stands under a defect line's
+    fraction whose lines fall a bin or two from it (the SKF 6205's BPFO / 7 is 0.512 x shaft), and says nothing of the
+    speed. Within reach: a search window (at least a bin of ``resolution`` Hz) and a line's main lobe (two bins under
+    the Hann window) apart."""
+    half_order_hz = shaft_hz / 2
+    nearest_hz = np.round(lines_hz / half_order_hz) * half_order_hz
+    reach_hz = np.maximum(_WINDOW * lines_hz, resolution) + 2 * resolution
+    return bool(np.all(np.abs(lines_hz - nearest_hz) <= reach_hz))
+
+
 def _envelope_prominence(signal: np.ndarray, fs: float, top_hz: float) -> tuple[np.ndarray, float]:
     from bearingtwin.signal.envelope import envelope
 
@@ -1095,7 +1126,8 @@ def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float
     (a speed m times lower than the one ``hz`` was computed at), for the largest m (2 .. ``max_fraction``) whose
     comb stands (its median ``prominence``; under a speed M times too high the combs at M's divisors stand too);
     None where none does. A comb is its first three lines j x ``hz`` / m with j no multiple of m (a multiple
-    would be ``hz``'s own harmonics); one whose fundamental lies on a shaft harmonic, within two windows of
+    would be ``hz``'s own harmonics); one whose lines all lie on the shaft's half orders (:func:`_on_half_orders`),
+    whose fundamental lies on a shaft harmonic, within two windows of
     another defect frequency (the outer race's BPFO is Z x FTF: a cage line is no speed m times lower) or below
     three bins of the spectrum (the envelope's slope towards 0 Hz) is passed over."""
     others = [float(value) for value in defect_hz.values() if value and not math.isclose(float(value), hz)]
@@ -1105,6 +1137,8 @@ def _comb_below(ratio: np.ndarray, resolution: float, hz: float, shaft_hz: float
                 abs(fundamental / other - 1.0) <= 2 * _WINDOW for other in others):
             continue
         multiples = [j for j in range(1, 2 * m) if j % m][:3]
+        if _on_half_orders(fundamental * np.array(multiples), shaft_hz, resolution):
+            continue
         score = float(np.median(_peak(ratio, resolution, fundamental * np.array(multiples), _WINDOW)))
         if score >= prominence:
             return m, score

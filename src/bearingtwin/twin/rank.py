@@ -220,8 +220,8 @@ class EffectFit:
         """The effect, its parameters and how much it closes: of the discrepancy (the first effect found), or of
         what the effects before it left; a fixed effect that changed, from what to what."""
         space = effect_search_space(self.effect)
-        values = ", ".join(_parameter_words(k, v, self.intervals.get(k))
-                           + (edge_words(v, *space[k][:2]) if k in space else "")  # a value on its range's edge
+        values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) + _reference_words(self.effect, k)
+                           + (_range_words(v, self.intervals.get(k), space[k]) if k in space else "")
                            for k, v in self.params.items() if isinstance(v, float))
         of = "the discrepancy" if first else "what was left"
         beside = "" if self.claimed_beside is None else f" (its signature shows only beside {self.claimed_beside})"
@@ -287,6 +287,7 @@ class TwinFit:
     # This measurement's overall level over the reference record's, dB, in one unit (None: not compared, or a unit
     # of either unknown); the views above compare shapes after a gain between the two.
     level_since_reference_db: float | None = None
+    level_not_compared: str = ""  # why the overall level was not held against the reference record's (their units)
     passed_over: str = ""  # candidates not offered on this record's bearing state, and why, where others were tried
     # Candidates offered only once another effect is in the twin, which it never took (second_resonance without
     # resonance): the report's, not the summary's (with the default candidates nearly every run has one).
@@ -341,9 +342,11 @@ class TwinFit:
             lines.append(f"Effects that were {what}, in order: {found}. "
                          f"Discrepancy {self.baseline_error:.2f} -> {self.final_error:.2f} dB on the {part} "
                          f"({self.own_discrepancy_words}).")
-            if self.margin is not None and self.margin < CLEAR_MARGIN and self.added[0].effect == self.ranking[0].effect:
+            if self.margin is not None and self.added[0].effect == self.ranking[0].effect:
                 runner = self.ranking[1].effect
                 lines.append(f"Uncertain: {self.ranking[0].effect} leads {runner} by only {self.margin:.1f} "
+                             "information-criterion units." if self.margin < CLEAR_MARGIN else
+                             f"{self.ranking[0].effect} leads the runner-up, {runner}, by {self.margin:.1f} "
                              "information-criterion units.")
             if self.unclaimed is not None:
                 lines.append(f"Not claimed: {self._unclaimed_words()}.")
@@ -374,7 +377,7 @@ class TwinFit:
             # A cause the library holds was a candidate: said so, or the mark's causes read as left untried.
             tried = [fit.effect for fit in self.ranking if fit.effect not in added
                      and CAUSE_WORDS.get(fit.effect, fit.effect.replace("_", " ")) in left["what_leaves_it"]]
-            verdict = (f"; the library's {' and '.join(tried)} {'were' if len(tried) > 1 else 'was'} tried here and not "
+            verdict = (f"; the library's {_listed(tried)} {'were' if len(tried) > 1 else 'was'} tried here and not "
                        "added" if tried else "")
             lines.append(f"Not explained by {by}{since}: the {left['view']} view ({left['error_db']:.1f} dB, "
                          f"{left['error_db'] / left['floor_db']:.0f} times {own}): {left['where']}. "
@@ -386,6 +389,8 @@ class TwinFit:
         """The overall level's change since the reference record, in words, where it is :data:`LEVEL_CHANGE_DB` or
         more ("" otherwise): the views compare shapes after a gain between the two records, which takes it up."""
         level = self.level_since_reference_db
+        if level is None and self.level_not_compared:
+            return f"the overall level is not compared with the reference record's: {self.level_not_compared}"
         if level is None or abs(level) < LEVEL_CHANGE_DB:
             return ""
         return (f"the overall level is {abs(level):.1f} dB {'above' if level > 0 else 'below'} the reference record's "
@@ -409,7 +414,7 @@ class TwinFit:
 
     def _unclaimed_words(self) -> str:
         fit = self.unclaimed
-        views = " and ".join(signature_views(fit.effect))
+        views = _listed(list(signature_views(fit.effect)))
         moved = (f"come only {fit.signature_gain:.1f} deviance units closer" if fit.signature_gain >= 0.05 else
                  "come no closer" if fit.signature_gain > -0.05 else
                  f"move {-fit.signature_gain:.1f} deviance units farther")
@@ -442,6 +447,7 @@ class TwinFit:
             "awaiting": self.awaiting,
             "since_reference": self.since_reference,
             "level_since_reference_db": self.level_since_reference_db,
+            "level_not_compared": self.level_not_compared or None,
             "reference_note": self.reference_note,
             "final_error": self.final_error,
             "summary": self.summary,
@@ -449,6 +455,11 @@ class TwinFit:
 
 
 _UNITS = {"_hz": "Hz", "_db": "dB", "_n": "N", "_um": "um", "_mm": "mm", "_deg": "deg", "_ns_per_m": "N s/m"}
+
+
+def _listed(names: list[str]) -> str:
+    """"a", "a and b", "a, b and c"."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
 
 
 def _number(value: float) -> str:
@@ -522,7 +533,35 @@ def identification_words(entry: Mapping) -> str:
     if share >= HARDLY_IDENTIFIED_SHARE:
         # rounded down: an interval short of the whole range never reads "100 %"
         return f", hardly identified: its interval covers {math.floor(100 * share)}% of the searched {_span(low, high)}"
+    for end, edge, side in ((interval[0], low, "lower"), (interval[1], high, "upper")):
+        if not edge_words(entry["value"], low, high) and np.isclose(end, edge, rtol=1e-3):
+            return f", its interval reaching the {side} edge of the searched {_span(low, high)}: the value may lie beyond it"
     return edge_words(entry["value"], low, high)
+
+
+PARAMETER_REFERENCES = {"clip_level": "times the RMS", "one_x_db": "re the 2x line",
+                        "half_order_db": "re the whole orders' lines", "fundamental_db": "re the 2x supply line",
+                        "level_db": "re the bearing signal's RMS"}
+"""What an effect parameter's number is relative to, as an engineer reads it beside the number
+(:mod:`bearingtwin.physics.effect_library`'s docstrings); by effect where one differs (:data:`EFFECT_REFERENCES`)."""
+EFFECT_REFERENCES = {("structural_mode", "level_db"): "re the direct path at its natural frequency",
+                     ("tones", "level_offset_db"): "on every line's level as read"}
+
+
+def _reference_words(effect: str, name: str) -> str:
+    """" re the bearing signal's RMS" for a line's ``level_db``: what the parameter's number is relative to."""
+    words = EFFECT_REFERENCES.get((effect, name), PARAMETER_REFERENCES.get(name))
+    return f" {words}" if words else ""
+
+
+def _range_words(value: float, interval, search: tuple) -> str:
+    """What an effect parameter's value and interval say against its search range ``(low, high, log)``, as a base
+    parameter's are said (:func:`identification_words`): hardly or not identified, or on an edge."""
+    low, high, log = search[:3]
+    if interval is None:
+        return edge_words(value, low, high)
+    return identification_words({"range": (low, high), "interval": interval, "value": value,
+                                 "scale": "log" if log else "linear"})
 
 
 def edge_words(value: float, low: float, high: float) -> str:
@@ -856,7 +895,7 @@ class EffectRanker:
         # whose required effects the twin never took, are named apart.
         passed_over = "" if not_tried else "; ".join(self._not_offered(twin.fault))
         awaiting = "" if not_tried else "; ".join(
-            f"{name} (needs {' and '.join(missing)}, which the twin did not take)" for name, missing in
+            f"{name} (needs {_listed(list(missing))}, which the twin did not take)" for name, missing in
             self._waiting(twin.fault, current_effects))
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
@@ -872,7 +911,7 @@ class EffectRanker:
         if self.max_effects == 0:
             return "ranking.max_effects=0"
         elsewhere = self._not_offered(fault)
-        waiting = [f"{name} needs {' and '.join(missing)}" for name, missing in self._waiting(fault, self.fixed_effects)]
+        waiting = [f"{name} needs {_listed(list(missing))}" for name, missing in self._waiting(fault, self.fixed_effects)]
         if len(waiting) == len(self.candidates):
             return f"each candidate needs another effect in the twin first ({'; '.join(waiting)})"
         if len(waiting) + len(elsewhere) == len(self.candidates):

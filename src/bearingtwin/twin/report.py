@@ -31,7 +31,7 @@ from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.effects import build_effects
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry
-from bearingtwin.signal.sampling_rate import require_plausible_rate
+from bearingtwin.signal.sampling_rate import describe_mismatch, require_plausible_rate
 from bearingtwin.signal.speed import speed_off_words, speed_profile
 from bearingtwin.storage import file_digest
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
@@ -98,6 +98,15 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     row = labels_row(path, state_required=False) if None in given else None
     fault, rpm, fs = (value if value is not None else from_table
                       for value, from_table in zip(given, row[1:] if row else (None, None, None)))
+    overridden = [f"measured.{key}={value:g}" if isinstance(value, float) else f"measured.{key}={value}"
+                  for key, value, from_table in zip(("fault", "rpm", "fs"), given, row[1:] if row else ())
+                  if value is not None and from_table is not None and value != from_table]
+    if overridden:  # the command's value holds for the one file it names, as diagnose's does, but not unsaid
+        log.warning("%s: %s given where %s says otherwise (%s): the given %s held", path, ", ".join(overridden), row[0],
+                    ", ".join(f"{key}={value:g}" if isinstance(value, float) else f"{key}={value}"
+                              for key, value, given_value in zip(("state", "rpm", "fs"), row[1:], given)
+                              if given_value is not None and value is not None and value != given_value),
+                    "value is" if len(overridden) == 1 else "values are")
     if row is not None and (fault, rpm, fs) != given:
         log.info("%s: %s read from %s", path, ", ".join(
             f"{name}={value:g}" if isinstance(value, float) else f"{name}={value}"
@@ -112,7 +121,7 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
         if value is None and stated is None]
     for fact, words, twin in (("bearing state", raw.meta.get("unlabelled_state"), f"one of {', '.join(FAULTS)}"),
                               ("speed", raw.meta.get("no_speed"), "at one speed")):
-        if words and fact in {fact for fact, _ in unknown}:  # what the file states instead: no value the twin can run
+        if words:  # what the file states instead: no value the twin can run, and none given or read stands for it
             raise BearingTwinError(f"{path}: the file states {words}; the twin simulates {twin}")
     if unknown:
         facts, settings = zip(*unknown)
@@ -155,13 +164,15 @@ def check_measurement(measured_cfg, recording: Recording, channels: dict,
         # A rate given against the one the file's name gives (a CWRU 12k_ file read at 48 kHz), as a diagnosis says.
         against_name = (named_rate_note(recording.meta, recording.fs, "measured.fs")
                         if recording.meta.get("fs_origin") == "config" else None)
-        require_plausible_rate(recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
-                               check_key="measured.check_fs", rpm_key=speed_setting(recording, "measured.rpm"),
-                               defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
-                               refuse=rate_given, channels=channels,
-                               rate_from_file=not rate_given and recording.meta.get("rpm_origin") == "config",
-                               against_name=against_name,
-                               named_hz=(recording.meta.get("named_rate") or {}).get("hz"))
+        check = require_plausible_rate(
+            recording.signal, recording.fs, recording.rpm, str(measured_cfg.path), "measured.fs",
+            check_key="measured.check_fs", rpm_key=speed_setting(recording, "measured.rpm"),
+            defect_hz=bearing.defect_frequencies(recording.rpm) if bearing is not None else None,
+            refuse=rate_given, channels=channels,
+            rate_from_file=not rate_given and recording.meta.get("rpm_origin") == "config",
+            against_name=against_name, named_hz=(recording.meta.get("named_rate") or {}).get("hz"))
+        if check is not None and check.verdict == "contradicted":  # kept (the file records its rate), in doubt
+            recording.meta["rate_contradicted"] = describe_mismatch(check)
     return recording
 
 
@@ -558,6 +569,9 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
     if comparison.gain > 0 and (units[0] is not None and units[1] is not None or measured.unit == earlier.unit):
         factor = acceleration_factor(units[1], units[0]) if units[0] and units[1] else 1.0
         fit.level_since_reference_db = 20.0 * math.log10(comparison.gain / factor)
+    elif comparison.gain > 0:  # a record of no stated unit beside one in m/s^2 (or the other way): numbers of two scales
+        fit.level_not_compared = (f"this record's unit is {measured.unit or 'not stated'}, the reference record's "
+                                  f"{earlier.unit or 'not stated'} (give measured.unit=<unit>)")
 
 
 def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set[str]) -> None:
@@ -620,6 +634,10 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     if off:  # said now, and again in the closing summary: every defect line is sought beside where it stands
         log.warning("%s: %s", cfg.measured.path, off)
         notes["speed"] = off
+    elif measured.meta.get("rate_contradicted"):  # logged by the check; the summary is what a user reads last
+        notes["speed"] = (f"IN DOUBT: the shaft line contradicts the speed or rate ({measured.meta['rate_contradicted']}): "
+                          "every defect line is sought where the stated values put it: check the speed and the rate "
+                          "the record was read at")
     to_fit = {name for name, value in cfg.operating_point.items() if value is None} | set(cfg.calibration.base)
     if reference is not None:  # an earlier record of this rig: what it found is held
         cfg = hold_reference(cfg, reference, measured.fault, source=f"reference={cfg.reference}")
