@@ -993,7 +993,8 @@ def test_a_label_named_file_is_read_as_the_catalogued_record_its_variables_are(t
     """A mirror names the fan end's records by the drive end's labels (``IR007_0.mat`` holding ``X278_*``): read as a
     drive-end record it had been diagnosed on the wrong accelerometer with the wrong bearing's lines, unsaid. A long
     name the catalogue contradicts is read as it says, and said so; a fan-end record without its FE channel is refused
-    rather than read off the drive end's accelerometer."""
+    rather than read off the drive end's accelerometer, where it holds several others, and its one other read, said
+    so."""
     x = np.random.default_rng(0).standard_normal((12000, 1))
     rpm = np.array([[1797.0]])
     scipy.io.savemat(tmp_path / "IR007_0.mat", {"X278_DE_time": x, "X278_FE_time": x, "X278RPM": rpm})
@@ -1009,11 +1010,22 @@ def test_a_label_named_file_is_read_as_the_catalogued_record_its_variables_are(t
     contradicted = read_raw(tmp_path / "12k_Drive_End_IR007_0_278.mat")
     assert contradicted.meta["bearing"] == "cwru_6205" and any(
         note.startswith("the Data Center's catalogue lists record 278 as IR007_0 at 12 kHz, fan end, where the name "
-                        "says 12 kHz, drive end") for note in contradicted.meta["notes"])
+                        "says IR007_0 at 12 kHz, drive end") for note in contradicted.meta["notes"])
+    scipy.io.savemat(tmp_path / "12k_Drive_End_B007_0_105.mat", {"X105_DE_time": x, "X105RPM": rpm})
+    assert ("the Data Center's catalogue lists record 105 as IR007_0 at 12 kHz, drive end, where the name says B007_0 "
+            "at 12 kHz, drive end: read as the name says; check which the file holds"
+            in read_raw(tmp_path / "12k_Drive_End_B007_0_105.mat").meta["notes"])
+    assert not any("catalogue lists" in note for note in read_raw(CWRU / "12k_Drive_End_OR007@6_1_131.mat").meta["notes"])
     scipy.io.savemat(tmp_path / "12k_Fan_End_IR007_1_279.mat", {"X279_DE_time": x, "X279_BA_time": x, "X279RPM": rpm})
     with pytest.raises(BearingTwinError, match=r"12k_Fan_End_IR007_1_279.mat: holds no FE channel, the accelerometer on "
-                                               r"the bearing it records \(it holds DE, BA\); choose one with channel"):
+                                               r"the faulty bearing \(it holds DE, BA\); choose one with channel"):
         read_raw(tmp_path / "12k_Fan_End_IR007_1_279.mat").channel(None)
+    (tmp_path / "one").mkdir()
+    scipy.io.savemat(tmp_path / "one" / "12k_Fan_End_IR007_1_279.mat", {"X279_DE_time": x, "X279RPM": rpm})
+    alone = read_raw(tmp_path / "one" / "12k_Fan_End_IR007_1_279.mat")
+    assert alone.channel(None)[0] == "DE" and ("it holds no FE channel, the accelerometer on the faulty fan-end bearing: "
+                                               "its one channel, DE, is read") in alone.meta["notes"]
+    assert not any("FE, is read unless" in note for note in alone.meta["notes"])
 
 
 def test_a_loose_machines_half_orders_are_no_defect_comb_a_speed_a_whole_factor_lower_would_put_there():

@@ -733,7 +733,7 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
     # A bearing given wins over the file's name, and says so.
     given = read_record(path, pipeline, bearing="cwru_6205")
     assert given.bearing == BEARING and any("bearing=cwru_6205 given, where the file names cwru_6203" in n for n in given.notes)
-    drive_end = tmp_path / "12k_Drive_End_OR014@3_1_198.mat"
+    drive_end = tmp_path / "12k_Drive_End_OR014@6_1_198.mat"
     scipy.io.savemat(drive_end, {"X198_DE_time": fan, "X198RPM": rpm})
     assert read_record(drive_end, pipeline).bearing == BEARING and not read_record(drive_end, pipeline).notes
 
@@ -2261,13 +2261,14 @@ def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unse
         "normal 1/1, 1/1; inner 0.007 in 1/1, 1/1; inner, size unknown 2/2, 2/2; outer 2/2, 2/2")
     # A HUST name's damage groups as a size does; an outer race's position apart; a record of no known state named.
     rows = [row("h", "normal", severity="none"), row("o_m", "outer", severity="medium"),
-            row("o_s", "outer", severity="severe"), row("or3", "outer", fault_size_in=0.021, position="3"),
-            row("or6", "outer", fault_size_in=0.021, position="6"), {"record": "c", "verdict": "inner"}]
+            row("o_s", "outer", severity="severe"), row("or6", "outer", fault_size_in=0.021, position="6"),
+            row("or12", "outer", fault_size_in=0.021, position="12"), row("or3", "outer", fault_size_in=0.021, position="3"),
+            {"record": "c", "verdict": "inner"}]
     lines = diagnosis_lines(DiagnosisRun(rows=rows, scores={"accuracy_records": 1.0, "n_scored": 5,
                                                             "accuracy_windows": 1.0}))
     assert lines["records right by state and fault size (model, physics)"] == (
-        "normal 1/1, 1/1; outer 0.021 in @3 1/1, 1/1; outer 0.021 in @6 1/1, 1/1; outer medium 1/1, 1/1; "
-        "outer severe 1/1, 1/1")
+        "normal 1/1, 1/1; outer 0.021 in @3 1/1, 1/1; outer 0.021 in @6 1/1, 1/1; outer 0.021 in @12 1/1, 1/1; "
+        "outer medium 1/1, 1/1; outer severe 1/1, 1/1")
     assert lines["not scored (no state known, or one the model cannot answer: see their notes)"] == "c"
 
 

@@ -250,6 +250,18 @@ def test_a_legend_naming_an_axis_where_its_position_reads_another_beside_unknown
     message = str(refused.value)
     assert message.startswith(f"{odd}: the header's Legend reads 'Ch0 Z Ch2 X': it names Z where the reported layout")
     assert "'Ch0', 'Ch2'" in message and "\n" not in message
+    twice = export(tmp_path / "twice", legend="Legend\tSpeed\tX\tX\tZ", units=None)
+    with pytest.raises(BearingTwinError, match=r"Legend reads 'Speed X X Z': it names X twice, so its columns cannot"):
+        read_raw(twice)
+    # A time cell named otherwise than Time or t, before the four columns named in full, is the time column's.
+    for time_cell in ("Time_s", "Timestamp", "Zeit"):
+        timed = export(tmp_path / time_cell, legend=f"Legend\t{time_cell}\tSpeed\tX\tY\tZ", units=None)
+        np.testing.assert_array_equal(read_raw(timed).channels["Z"], read_raw(OUTER).channels["Z"])
+    # A bad header Legend does not refuse a file whose row of names below Data names its columns.
+    named_below = _edited(tmp_path, "0.5X_O_65Hz.xls", lambda lines: [
+        *("Legend\tCh0\tZ\tCh2\tX" if line == LEGEND else line for line in lines[:lines.index("Data") + 1]),
+        "Time\tSpeed\tX\tY\tZ", *lines[lines.index("Data") + 1:]])
+    np.testing.assert_array_equal(read_raw(named_below).channels["X"], read_raw(OUTER).channels["X"])
 
 
 @pytest.mark.parametrize("name,state,rpm", [("h_65hz.xls", "normal", 3900), ("0.5x_i_65Hz.xls", "inner", 3900),

@@ -186,7 +186,7 @@ def test_bad_input_is_refused_in_one_line(call, argument):
 
 def test_a_four_pole_motors_100_hz_comb_is_no_shaft_series_at_four_times_its_speed():
     """On a 50 Hz supply a 4-pole motor turns at about 1480 rpm, and its magnetic pull's comb (100, 200, 300 Hz) lies
-    within 1.4 % of the shaft series of a speed four times that: a plant's right speed had been called a quarter of
+    within 1.35 % of the shaft series of a speed four times that: a plant's right speed had been called a quarter of
     the true one (the twin refused the record). Only a comb within 0.5 % of the supply or twice it is passed over: a
     2-pole motor's shaft at 2960 rpm (49.3 Hz) is a shaft."""
     from bearingtwin.config import load_bearing
@@ -206,7 +206,7 @@ def test_a_healthy_four_pole_motors_100_hz_comb_leaves_the_rate_unconfirmed_not_
     magnetic pull (100, 200, 300 Hz on a 50 Hz supply at 1480 rpm), within a trial window of four times the shaft
     line: the rate had been called contradicted (fs = 2975 Hz) and the verdict put in doubt. Its lines stand at the
     supply's multiples, not at four times the shaft's, so the rate stands unconfirmed. A shaft series a whole factor
-    off (4 x 24.67 Hz, 1.3 % from 100 Hz) still contradicts it."""
+    off (4 x 24.67 Hz, 1.35 % from 100 Hz) still contradicts it."""
     from bearingtwin.config import load_bearing
     from bearingtwin.signal.sampling_rate import check_sampling_rate
     from bearingtwin.testrig import RigOperatingPoint, simulate_rig

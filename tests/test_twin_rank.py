@@ -777,3 +777,9 @@ def test_a_level_not_compared_with_the_reference_records_says_why():
     assert fit.level_change in fit._reference_lines()[0]
     fit.level_since_reference_db = 12.0
     assert fit.level_change.startswith("the overall level is 12.0 dB above the reference record's")
+    # The advice names the side that states no unit.
+    from bearingtwin.twin.report import level_not_compared_words
+
+    assert level_not_compared_words(None, "m/s^2").endswith("(give measured.unit=<unit>)")
+    assert level_not_compared_words("g", None) == ("this record's unit is g, the reference record's not stated (its "
+                                                   "report's measured.unit, given when it was made, would state it)")

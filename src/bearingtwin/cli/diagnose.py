@@ -177,7 +177,8 @@ def records_right_by_size(rows: list[dict]) -> str:
     groups: dict[str, list[dict]] = {}
     order = {state: index for index, state in enumerate(FAULTS)}
     for row in sorted(scored, key=lambda row: (order.get(row["true_state"], len(order)), _size(row) is None,
-                                               (_size(row) or (0.0, ""))[0], str(row.get("bearing")))):
+                                               (_size(row) or (0.0, ""))[0], int(row.get("position") or 0),
+                                               row.get("original_fs") or 0.0, str(row.get("bearing")))):
         state, size = row["true_state"], _size(row)
         name = (f"{state} {size[1]}" if size else f"{state}, size unknown" if state in sized_states else state)
         name += f" @{row['position']}" if row.get("position") else ""  # an outer race's defect, in o'clock

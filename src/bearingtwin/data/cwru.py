@@ -115,7 +115,8 @@ class CwruName:
 
     fault: str
     load_hp: int
-    record: int | None  # None for a label, which names no record (mirrors file 12 and 48 kHz records under one label)
+    record: int | None  # None for a label, which names no record (mirrors file 12 and 48 kHz records under one label),
+    # until the variables it holds name a catalogued one (read_cwru_raw)
     fault_size_in: float | None = None  # defect diameter in inches (0.007 for "007")
     position: str | None = None  # outer-race defect position in o'clock ("6"), None elsewhere
     rate_hz: float | None = None  # sampling rate the name states ("48k_..." -> 48000), None when it states none
@@ -229,10 +230,14 @@ def read_cwru_raw(path: str | Path, variables: dict) -> RawRecord:
         meta["bearing"] = name.bearing
     elif name is not None and name.fault == "normal":  # no faulty bearing: the one under the accelerometer read
         meta["bearing_by_channel"] = {CHANNEL_BY_END[end]: bearing for end, bearing in BEARING_BY_END.items()}
-    if name is not None and name.end == "fan":  # the drive end's 6205 is the bearing the data set is known by
+    channels = by_record[record]
+    own = CHANNEL_BY_END[name.end] if name is not None and name.end else None  # the faulty bearing's accelerometer
+    if name is not None and name.end == "fan" and own in channels:  # the 6205 is the bearing the data set is known by
         notes.append("the fault is in the fan-end bearing (SKF 6203, conf/bearing/cwru_6203.yaml), whose own "
                      "accelerometer, FE, is read unless a channel is named")
-    channels = by_record[record]
+    if own is not None and own not in channels and len(channels) == 1:  # the one the file holds is read, said so
+        notes.append(f"it holds no {own} channel, the accelerometer on the faulty {name.end}-end bearing: its one "
+                     f"channel, {next(iter(channels))}, is read")
     return RawRecord(
         str(path),
         "cwru-mat",
@@ -296,15 +301,22 @@ def _label_read_by_its_record(label: CwruName, held: int) -> tuple[CwruName, lis
 
 
 def _catalogue_disagrees(name: CwruName | None) -> list[str]:
-    """A note where a long name gives a catalogued record another rate or faulty bearing's end than the catalogue does
-    (``12k_Drive_End_IR007_0_278.mat``: 278 is a fan-end record): read as the name says, which the rate check checks."""
+    """A note where a long name gives a catalogued record another condition, rate or faulty bearing's end than the
+    catalogue does (``12k_Drive_End_IR007_0_278.mat``: 278 is a fan-end record; ``12k_Drive_End_B007_0_105.mat``: 105
+    is an inner-race one): read as the name says (the rate check checks its rate)."""
     if name is None or name.form != "long" or name.record not in DATA_CENTER_CATALOGUE or name.fault == "normal":
         return []
-    _, rate_hz, end = DATA_CENTER_CATALOGUE[name.record]
-    if (rate_hz, end) == (name.rate_hz, name.end):
+    label, rate_hz, end = DATA_CENTER_CATALOGUE[name.record]
+    catalogued = _parse_condition(label)
+    condition = (name.fault, name.load_hp, name.fault_size_in, name.position)
+    if (rate_hz, end) == (name.rate_hz, name.end) and condition == (
+            catalogued.fault, catalogued.load_hp, catalogued.fault_size_in, catalogued.position):
         return []
+    code = {state: letters for letters, state in STATES.items()}[name.fault]
+    says = (f"{code}{round(1000 * name.fault_size_in):03d}{'@' + name.position if name.position else ''}_{name.load_hp} "
+            f"at {name.rate_hz / 1000:g} kHz, {name.end} end")
     return [f"the Data Center's catalogue lists record {name.record} as {_catalogue_words(name.record)}, where the name "
-            f"says {name.rate_hz / 1000:g} kHz, {name.end} end: read as the name says; check which the file holds"]
+            f"says {says}: read as the name says; check which the file holds"]
 
 
 def _name_notes(path: Path, name: CwruName | None, rpm: float | None) -> list[str]:
@@ -373,14 +385,28 @@ def named_record(path: str | Path) -> int | None:
 def declared_fs_hz(path: str | Path, default_hz: float, by_record: dict | None = None) -> float:
     """The sampling rate declared for the record at ``path``: its entry in ``by_record`` (record number -> Hz,
     ``data.fs_by_record``) if any, else the rate its name states (``48k_Drive_End_...``, or the Data Center's
-    catalogue for a number-named file such as ``110.mat``), else ``default_hz`` (``data.fs``; the healthy records'
-    names and the Data Center's labels state no rate)."""
+    catalogue for a number-named file such as ``110.mat``, or for a label-named one the catalogued record whose
+    variables it holds), else ``default_hz`` (``data.fs``; the healthy records' names state no rate)."""
     by_record = {int(key): float(value) for key, value in (by_record or {}).items()}
     record = named_record(path)
     if record in by_record:
         return by_record[record]
     name = parse_cwru_name(path)
+    if name is not None and name.form == "label" and name.fault != "normal":  # as read_cwru_raw reads it
+        name = _label_read_by_its_record(name, _held_record(path))[0]
     return float(default_hz) if name is None or name.rate_hz is None else float(name.rate_hz)
+
+
+def _held_record(path: str | Path) -> int | None:
+    """The record number of the one record whose variables a .mat file holds, read off their names alone
+    (``scipy.io.whosmat``: no samples loaded); None where it holds several or none, or is no MATLAB 5 file."""
+    import scipy.io
+
+    try:
+        numbers = {int(match[1]) for variable, *_ in scipy.io.whosmat(str(path)) if (match := _VARIABLE.match(variable))}
+    except (OSError, ValueError, NotImplementedError, TypeError):  # absent, damaged, or MATLAB 7.3 (HDF5)
+        return None
+    return next(iter(numbers)) if len(numbers) == 1 else None
 
 
 def load_cwru(

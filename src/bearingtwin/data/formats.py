@@ -143,9 +143,9 @@ class RawRecord:
             if not vibration:
                 raise BearingTwinError(f"{self.path}: holds no vibration channel "
                                        f"({'; '.join(f'{n} reads {why}' for n, why in not_vibration.items())})")
-            if len(vibration) > 1 and self.format == "cwru-mat" and self.default_channel is not None:
+            if len(vibration) > 1 and self.format == "cwru-mat" and self.meta.get("bearing"):  # a fault's own sensor
                 raise BearingTwinError(f"{self.path}: holds no {self.default_channel} channel, the accelerometer on the "
-                                       f"bearing it records (it holds {', '.join(vibration)}); choose one with {key}=<name>")
+                                       f"faulty bearing (it holds {', '.join(vibration)}); choose one with {key}=<name>")
             if len(vibration) > 1:
                 raise BearingTwinError(f"{self.path}: holds channels {', '.join(vibration)}; choose one with {key}=<name>"
                                        f"{_quoting_hint(key, vibration)}")
@@ -434,7 +434,8 @@ def file_bearing(meta: Mapping, channel: str | None) -> str | None:
     """The ``conf/bearing`` name of the bearing a file was recorded on, as it names it: its own (a CWRU fault
     record's by its name's end, a HUST export's ER-16K, ``bearingtwin-simulate``'s), else, for a file of several
     bearings' accelerometers (a healthy CWRU record: DE on the SKF 6205, FE on the 6203), the one under ``channel``;
-    None where it names none (a CWRU label such as ``IR007_0`` gives no end: the user's to say)."""
+    None where it names none (a CWRU label such as ``IR007_0`` gives no end, unless the variables it holds are a
+    catalogued record's: the user's to say)."""
     named = meta.get("bearing") or meta.get("bearing_by_channel", {}).get(channel)
     return None if named is None else str(named)
 

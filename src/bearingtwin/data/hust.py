@@ -107,13 +107,20 @@ def read_hust_raw(path: str | Path) -> RawRecord:
     path = Path(path)
     header, header_rows, data_line = _read_header(path)
     layout = _data_layout(path, data_line)
+    # A row of names below the 'Data' line names the columns (its first, the time column's) over the Legend, which
+    # then gives the units' places alone, and cannot refuse the file.
     try:
         legend = _column_order(header_rows.get("Legend"), "the header's Legend")
-        # A row of names below the 'Data' line names the columns (its first, the time column's) over the Legend.
-        columns = (legend if layout.names is None else
-                   _column_order(layout.names[1:], "the row of names below the 'Data' line"))
+    except BearingTwinError as error:
+        if layout.names is None:
+            raise BearingTwinError(f"{path}: {error}") from None
+        legend = None
+    try:
+        columns = legend if layout.names is None else _column_order(layout.names[1:],
+                                                                    "the row of names below the 'Data' line")
     except BearingTwinError as error:
         raise BearingTwinError(f"{path}: {error}") from None
+    legend = legend or columns
     table = _read_table(path, layout, columns)
     declared_rows = _declared_rows(header)
     if declared_rows is not None and declared_rows != table.shape[0]:
@@ -196,6 +203,12 @@ _AXIS_NAME = re.compile(r"^(?:(?:acc(?:el(?:eration)?)?|vib(?:ration)?|ch(?:anne
 """An accelerometer axis as a Legend may name it: ``X``, ``x axis``, ``Z-axis``, ``Acc X``, ``Acceleration Y``."""
 
 
+def _time_name(cell: str) -> bool:
+    """Whether a Legend cell names the time column (``Time``, ``t``, ``Time (s)``, ``Time_s``, ``Timestamp``)."""
+    bare = re.sub(r"\s*[(\[].*$", "", cell).strip().lower()
+    return bare in ("t", "t_s") or bare.startswith("time")
+
+
 def _column_name(cell: str) -> str | None:
     """The column (``speed``, ``X``, ``Y``, ``Z``) a Legend cell names, its unit in brackets aside; None for another."""
     bare = re.sub(r"\s*[(\[].*$", "", cell).strip()
@@ -208,8 +221,8 @@ def _column_name(cell: str) -> str | None:
 def _column_order(legend: list[str] | None, where: str) -> _Columns:
     """The names of the columns after time, in the order ``legend`` (its cells after the key, said to be ``where``)
     gives, and a note when it gives none that names them: an export with its channels in another order, or with
-    some of them alone (``Speed Y Z``), is read by name; one that names X, Y and Z and one other cell (``Tacho Z Y X``)
-    reads the axes by name and that cell as the speed column; one whose legend names no column known here (the
+    some of them alone (``Speed Y Z``), is read by name; one that names X, Y and Z and one other cell (``Drehzahl Z Y
+    X``) reads the axes by name and that cell as the speed column; one whose legend names no column known here (the
     layout was reported, not checked) by position, and said so. A legend that names an axis where the position would
     read another, beside cells it does not name, is refused: neither reading can be trusted."""
     if legend is None:
@@ -218,8 +231,10 @@ def _column_order(legend: list[str] | None, where: str) -> _Columns:
     written = [(index, cell.strip()) for index, cell in enumerate(legend) if cell.strip()]
     cells = [cell for _, cell in written]
     # "X (g)", "Speed [rpm]": the name alone; a time column's name is not one of the channels'
-    named = [(index, cell, _column_name(cell)) for index, cell in written
-             if re.sub(r"\s*[(\[].*$", "", cell).strip().lower() not in ("time", "t")]
+    named = [(index, cell, _column_name(cell)) for index, cell in written if not _time_name(cell)]
+    # A first cell no name reads before the four columns named in full is the time column's, however it is called.
+    if len(named) == len(COLUMNS) and named[0][2] is None and {name for _, _, name in named[1:]} == set(COLUMNS[1:]):
+        named = named[1:]
     names = [name for _, _, name in named]
     width = written[-1][0] + 1 if written else 0
     known = [name for name in names if name]
@@ -233,14 +248,17 @@ def _column_order(legend: list[str] | None, where: str) -> _Columns:
                              f"{unknown[0]!r}, no name known here, as the speed column (which is not read)"],
                             f"{where} ({', '.join(cells)}; {unknown[0]} read as the speed column)", width)
     by_position = COLUMNS[1:]
+    twice = sorted({name for name in known if known.count(name) > 1})
+    if twice:
+        raise BearingTwinError(f"{where} reads {' '.join(cells)!r}: it names {' and '.join(twice)} twice, so its "
+                               "columns cannot be told apart; name them Speed, X, Y and Z")
     misplaced = [(name, by_position[place]) for place, name in enumerate(names[:len(by_position)])
                  if name and name != by_position[place]]
-    if misplaced or len(set(known)) != len(known):
-        clash = (f"it names {misplaced[0][0]} where the reported layout (speed, X, Y, Z) has {misplaced[0][1]}"
-                 if misplaced else "it names a column twice")
-        raise BearingTwinError(f"{where} reads {' '.join(cells)!r}: {clash}, beside cells no name known here reads "
-                               f"({', '.join(repr(cell) for cell in unknown) or 'none'}), so its columns can be read "
-                               "neither by name nor by position; name them Speed, X, Y and Z")
+    if misplaced:
+        raise BearingTwinError(f"{where} reads {' '.join(cells)!r}: it names {misplaced[0][0]} where the reported "
+                               f"layout (speed, X, Y, Z) has {misplaced[0][1]}, beside cells no name known here reads "
+                               f"({', '.join(repr(cell) for cell in unknown)}), so its columns can be read neither by "
+                               "name nor by position; name them Speed, X, Y and Z")
     positions = [index for index, _, _ in named] if len(named) == len(COLUMNS) - 1 else list(range(len(COLUMNS) - 1))
     return _Columns(list(COLUMNS[1:]), positions,
                     [f"{where} reads {' '.join(cells)!r}, not Speed, X, Y and Z: the columns after time are read by "

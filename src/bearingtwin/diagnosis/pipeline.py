@@ -76,9 +76,9 @@ class DiagnosisPipeline:
         training_records: path (from the folder the files share) -> SHA-256 of its contents, for every recorded
             file whose windows the classifier was trained on (none for simulated data): a diagnosis of such a file,
             under any name, is no test of the model.
-        calibration_records: record name -> SHA-256 of its contents, for every record a twin-trained model's twin
-            was calibrated on: a diagnosis of such a record, under any name (the Data Center's ``97.mat`` as much as
-            ``normal_0_97.mat``), is no test of the model.
+        calibration_records: path (from the folder the files share) -> SHA-256 of its contents, for every record a
+            twin-trained model's twin was calibrated on: a diagnosis of such a record, under any name (the Data
+            Center's ``97.mat`` as much as ``normal_0_97.mat``), is no test of the model.
         feature_range: the smallest and the largest value of each feature over the training windows, in the
             classifier's column order: where a window's lie well beyond them (:meth:`features_unseen`) the classifier
             extrapolates, and its probabilities do not say so. None for the raw windows (their samples are no

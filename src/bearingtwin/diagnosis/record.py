@@ -426,10 +426,10 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
 def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:
     """The channel to read: the one asked for, else the file's own default, else, in a file of several, the channel
     the model was trained on when the file has one of that name (a HUST export's X axis), said in a note. A CWRU
-    file's default is the accelerometer on the bearing it records: where it lacks that one, no other stands in."""
+    fault record's default is the accelerometer on its faulty bearing: where it lacks that one, no other stands in."""
     trained = (pipeline.config.get("data") or {}).get("channel")
     if channel is not None or raw.default_channel in raw.channels or len(raw.channels) == 1 \
-            or raw.format == "cwru-mat" \
+            or (raw.format == "cwru-mat" and raw.meta.get("bearing")) \
             or not isinstance(trained, str) or trained not in raw.channels:
         return channel, []
     return trained, [f"channel {trained}, the one the model was trained on (channel=<name> reads another)"]

@@ -247,7 +247,7 @@ def run_experiment(cfg: DictConfig, root_dir: str | None = None) -> ExperimentRe
         speeds_rpm=training_speeds(dataset, train),
         physics_first=physics_first,
         training_records=training_records(dataset, train),
-        calibration_records=calibration_records(cfg.data),
+        calibration_records=calibration_record_digests(cfg.data),
         feature_range=None if isinstance(extractor, RawFeatures) else (tuple(features[train].min(axis=0)),
                                                                        tuple(features[train].max(axis=0))),
     )
@@ -312,20 +312,25 @@ def training_records(dataset, train: np.ndarray) -> dict[str, str]:
     """Path (from the folder the files share) -> SHA-256 of every recorded file the training windows ``train`` come
     from (a simulated record, known by its simulator key, has none): what a diagnosis needs to say that a record
     taught the model. The digests decide; the paths tell a reader which files they were."""
-    paths = sorted({path for record in np.unique(dataset.record_ids[train])
-                    if (path := Path(dataset.records[record]).resolve()).is_file()})
+    return _digests({path for record in np.unique(dataset.record_ids[train])
+                     if (path := Path(dataset.records[record]).resolve()).is_file()})
+
+
+def _digests(paths) -> dict[str, str]:
+    """Path (from the folder ``paths`` share) -> SHA-256 of its contents: two files of one name in two folders apart."""
+    paths = sorted(paths)
     shared = Path(os.path.commonpath(paths)) if len(paths) > 1 else None
     return {(path.relative_to(shared).as_posix() if shared else path.name): file_digest(path) for path in paths}
 
 
-def calibration_records(data_cfg) -> dict[str, str]:
-    """Name -> SHA-256 of each record a twin-trained model's twin was calibrated on (none for other data): what a
-    diagnosis needs to know such a record under any name."""
+def calibration_record_digests(data_cfg) -> dict[str, str]:
+    """Path (from the folder they share) -> SHA-256 of each record a twin-trained model's twin was calibrated on (none
+    for other data): what a diagnosis needs to know such a record under any name."""
     if data_cfg.get("source") != "twin_to_real":
         return {}
     from bearingtwin.data.twin_to_real import check_protocol
 
-    return {path.name: file_digest(path) for path in check_protocol(data_cfg)[0]}
+    return _digests({Path(path).resolve() for path in check_protocol(data_cfg)[0]})
 
 
 @dataclass(frozen=True)

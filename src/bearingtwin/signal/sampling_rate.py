@@ -740,7 +740,13 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
     if check.verdict == "contradicted" and supply is not None:
         order, mains = supply
         lines_hz = _refined_fundamental(ratio, resolution, np.arange(1, n_harmonics + 1), check.observed_hz, window)
-        if not _off_by_a_whole_factor(check) or _nearer_the_supply(lines_hz, order * mains, check.expected_hz):
+        if not _off_by_a_whole_factor(check):
+            return dataclasses.replace(
+                check, implied_fs_hz=None, verdict="ambiguous", witness="supply",
+                reason=f"{check.reason}; but {check.observed_hz:.2f} Hz is {order} x the {mains:g} Hz supply, whose "
+                       "lines stand there whatever the shaft speed, and no whole multiple or fraction of the shaft "
+                       "line: the rate is not confirmed")
+        if _nearer_the_supply(lines_hz, order * mains, check.expected_hz):
             return dataclasses.replace(
                 check, implied_fs_hz=None, verdict="ambiguous", witness="supply",
                 reason=f"{check.reason}; but its lines stand at multiples of {lines_hz:.2f} Hz, {order} x the {mains:g} "
@@ -753,7 +759,7 @@ def _nearer_the_supply(lines_hz: float, supply_hz: float, shaft_hz: float, max_f
     """Whether a series' fundamental ``lines_hz``, placed finer than the trial grid that found it, stands nearer
     ``supply_hz`` (a supply frequency or twice it) than any whole multiple or fraction (up to ``max_factor``) of the
     shaft line ``shaft_hz``, where a wrong rate would put the shaft's own series. A 4-pole motor on a 50 Hz supply
-    turns at about 1480 rpm: its magnetic pull's comb (100, 200, 300 Hz) lies 1.4 % from four times its shaft line,
+    turns at about 1480 rpm: its magnetic pull's comb (100, 200, 300 Hz) lies 1.35 % from four times its shaft line,
     within a trial window of both, and its lines stand at the supply's multiples. A record read at a quarter of its
     rate puts the shaft series of a 60 Hz motor at 1797 rpm at 119.8 Hz, 0.17 % from 120 Hz: its lines stand at four
     times the shaft line's, and the contradiction stays."""
@@ -1058,7 +1064,8 @@ def _on_half_orders(lines_hz: np.ndarray, shaft_hz: float, resolution: float) ->
     the Hann window) apart."""
     half_order_hz = shaft_hz / 2
     nearest_hz = np.round(lines_hz / half_order_hz) * half_order_hz
-    reach_hz = np.maximum(_WINDOW * lines_hz, resolution) + 2 * resolution
+    # At most a quarter of the half orders' spacing: where the bins are coarser, no comb tells itself from them.
+    reach_hz = np.minimum(np.maximum(_WINDOW * lines_hz, resolution) + 2 * resolution, half_order_hz / 4)
     return bool(np.all(np.abs(lines_hz - nearest_hz) <= reach_hz))
 
 

@@ -95,19 +95,11 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     # What neither the settings nor the file say, a labels.csv beside it may (as training and diagnose read one).
     path = Path(str(measured_cfg.path))
     given = (measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs)
-    row = labels_row(path, state_required=False) if None in given else None
+    row = labels_row(path, state_required=False) if None in given else _readable_row(path)
     fault, rpm, fs = (value if value is not None else from_table
                       for value, from_table in zip(given, row[1:] if row else (None, None, None)))
-    overridden = [f"measured.{key}={value:g}" if isinstance(value, float) else f"measured.{key}={value}"
-                  for key, value, from_table in zip(("fault", "rpm", "fs"), given, row[1:] if row else ())
-                  if value is not None and from_table is not None and value != from_table]
-    if overridden:  # the command's value holds for the one file it names, as diagnose's does, but not unsaid
-        log.warning("%s: %s given where %s says otherwise (%s): the given %s held", path, ", ".join(overridden), row[0],
-                    ", ".join(f"{key}={value:g}" if isinstance(value, float) else f"{key}={value}"
-                              for key, value, given_value in zip(("state", "rpm", "fs"), row[1:], given)
-                              if given_value is not None and value is not None and value != given_value),
-                    "value is" if len(overridden) == 1 else "values are")
-    if row is not None and (fault, rpm, fs) != given:
+    _say_what_the_row_says_otherwise(path, given, row)
+    if row is not None and None in given and (fault, rpm, fs) != given:
         log.info("%s: %s read from %s", path, ", ".join(
             f"{name}={value:g}" if isinstance(value, float) else f"{name}={value}"
             for name, value, was in zip(("state", "rpm", "fs"), (fault, rpm, fs), given) if was is None and value is not None),
@@ -147,6 +139,35 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     for note in [*recording.meta.get("notes", []), *recording.quality_notes()]:
         log.warning("%s: %s", measured_cfg.path, note)
     return recording, raw.vibration_channels
+
+
+def _readable_row(path: Path) -> tuple | None:
+    """The row of the labels.csv beside ``path`` where the settings give every value it could fill in: read only to
+    say where it disagrees, so a row that does not read is passed over (as it was before it was read at all)."""
+    try:
+        return labels_row(path, state_required=False)
+    except BearingTwinError:
+        return None
+
+
+def _say_what_the_row_says_otherwise(path: Path, given: tuple, row: tuple | None) -> None:
+    """Log where a state, speed (beyond :func:`same_speed`) or rate given (``given``: measured.fault, .rpm, .fs)
+    differs from the labels row's (``row``: where, state, rpm, fs): the command's value holds for the one file it
+    names, as diagnose's does, but not unsaid."""
+    if row is None:
+        return
+    differ = [(key, value, from_table) for key, value, from_table in zip(("fault", "rpm", "fs"), given, row[1:])
+              if value is not None and from_table is not None
+              and not (same_speed(float(value), float(from_table)) if key == "rpm" else value == from_table)]
+    if not differ:
+        return
+    def words(value) -> str:
+        return f"{value:g}" if isinstance(value, float) else str(value)
+
+    log.warning("%s: %s given where %s says %s: the given %s held", path,
+                ", ".join(f"measured.{key}={words(value)}" for key, value, _ in differ), row[0],
+                ", ".join(f"{'state' if key == 'fault' else key}={words(from_table)}" for key, _, from_table in differ),
+                "value is" if len(differ) == 1 else "values are")
 
 
 def check_measurement(measured_cfg, recording: Recording, channels: dict,
@@ -570,8 +591,18 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
         factor = acceleration_factor(units[1], units[0]) if units[0] and units[1] else 1.0
         fit.level_since_reference_db = 20.0 * math.log10(comparison.gain / factor)
     elif comparison.gain > 0:  # a record of no stated unit beside one in m/s^2 (or the other way): numbers of two scales
-        fit.level_not_compared = (f"this record's unit is {measured.unit or 'not stated'}, the reference record's "
-                                  f"{earlier.unit or 'not stated'} (give measured.unit=<unit>)")
+        fit.level_not_compared = level_not_compared_words(measured.unit, earlier.unit)
+
+
+def level_not_compared_words(unit: str | None, reference_unit: str | None) -> str:
+    """Why a record's level is not compared with its reference record's: the units of the two (``unit``,
+    ``reference_unit``), one of them not an acceleration unit known here, and how to say the one not stated."""
+    words = f"this record's unit is {unit or 'not stated'}, the reference record's {reference_unit or 'not stated'}"
+    if not unit:
+        return words + " (give measured.unit=<unit>)"
+    if not reference_unit:
+        return words + " (its report's measured.unit, given when it was made, would state it)"
+    return words
 
 
 def mark_unidentified_by_reference(operating: dict, earlier: Mapping, taken: set[str]) -> None:
