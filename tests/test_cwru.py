@@ -1041,3 +1041,13 @@ def test_a_loose_machines_half_orders_are_no_defect_comb_a_speed_a_whole_factor_
     check = check_sampling_rate(record, 48000.0, 1797.0, defect_hz=defect_hz)
     assert check.verdict == "consistent" and check.fraction == 2, check.reason
     assert "the envelope line of bpfo stands at its frequency: real subharmonics" in check.reason
+
+
+def test_training_declares_a_label_named_file_at_its_catalogued_records_rate(tmp_path):
+    """A diagnosis reads ``IR007_1.mat`` holding ``X110_*`` (IR007_1 at 48 kHz in the catalogue) at 48 kHz; data=cwru
+    declares the same file at that rate too, not at data.fs."""
+    x = np.zeros((4800, 1))
+    scipy.io.savemat(tmp_path / "IR007_1.mat", {"X110_DE_time": x, "X110RPM": np.array([[1772.0]])})
+    scipy.io.savemat(tmp_path / "B007_1.mat", {"X999_DE_time": x})  # no catalogued record: data.fs
+    assert declared_fs_hz(tmp_path / "IR007_1.mat", 12000) == 48000.0 == read_raw(tmp_path / "IR007_1.mat").fs
+    assert declared_fs_hz(tmp_path / "B007_1.mat", 12000) == 12000.0

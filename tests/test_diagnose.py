@@ -702,7 +702,7 @@ def test_a_fan_end_record_is_read_at_its_own_bearings_defect_lines(tmp_path, mon
     run_id = client.create_run(client.create_experiment("fan_end", (tmp_path / "artifacts").as_uri())).info.run_id
     info = log_diagnosis_model(uri, client.get_run(run_id).info.experiment_id, run_id, pipeline, windows, rpm)
     model, loaded, _ = load_diagnosis_model(info.model_uri, uri)
-    assert model_params(model) == {"rpm", "bearing", "fs", "unit"}
+    assert model_params(model) == {"rpm", "bearing", "fs", "unit", "scale"}
     served = model.predict(windows, params={"rpm": rpm, "bearing": "cwru_6203"})
     np.testing.assert_array_equal(served["state"].to_numpy(), at_its_own)
     np.testing.assert_array_equal(model.predict(windows, params={"rpm": rpm})["state"].to_numpy(), at_the_models)
@@ -1175,7 +1175,7 @@ def test_training_registers_its_model_with_signature_and_alias(registered):
     # the recorded bearing: the model's; the windows' rate and unit: not stated
     # windows of any length pass MLflow's shape check, to meet the model's own refusal naming its length, recorded here
     assert signature.shape == (-1, -1) and model.metadata.metadata["window_length"] == 2048
-    assert params == {"rpm": 0.0, "bearing": "paper", "fs": 0.0, "unit": ""}
+    assert params == {"rpm": 0.0, "bearing": "paper", "fs": 0.0, "unit": "", "scale": 0.0}
     answer = model.predict(np.random.default_rng(0).standard_normal((3, 2048)))
     # Windows at another rate than the model's would be read without a word: stated, they are refused; stated in
     # another acceleration unit, they are converted to the model's.
@@ -1189,6 +1189,12 @@ def test_training_registers_its_model_with_signature_and_alias(registered):
         model.predict(windows, params={"unit": "V"})
     with pytest.raises(MlflowException, match=r"^params unit 'furlongs': no unit known here; .*the model's is m/s\^2"):
         model.predict(windows, params={"unit": "furlongs"})
+    # A sensor's volts at 100 mV/g read as the unit refusal advises: scale 10 makes them g, then converted (it had
+    # been dropped by the served signature, the windows read as g unscaled).
+    volts = windows / 9.80665 / 10.0
+    pd.testing.assert_frame_equal(model.predict(volts, params={"unit": "g", "scale": 10.0}), answer)
+    with pytest.raises(MlflowException, match=r"scale"):
+        model.predict(volts, params={"unit": "g", "scale": -1.0})
     # level_unseen: the VMD features read the level; the columns before it are as they were.
     assert list(answer.columns) == ["state", "normal", "inner", "ball", "outer", "level_unseen", "feature_unseen"]
     assert len(answer) == 3
@@ -2270,6 +2276,9 @@ def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unse
         "normal 1/1, 1/1; outer 0.021 in @3 1/1, 1/1; outer 0.021 in @6 1/1, 1/1; outer 0.021 in @12 1/1, 1/1; "
         "outer medium 1/1, 1/1; outer severe 1/1, 1/1")
     assert lines["not scored (no state known, or one the model cannot answer: see their notes)"] == "c"
+    rows[1]["named_state"] = "inner"
+    assert diagnosis_lines(DiagnosisRun(rows=rows))[
+        "labelled otherwise than their names say (scored by the label: check it)"] == "o_m (outer, named inner)"
 
 
 def test_a_simulated_record_without_noise_is_said_to_have_no_floor(tmp_path):
@@ -2682,7 +2691,8 @@ def test_a_cwru_record_saved_as_npy_or_csv_under_its_long_name_is_read_as_its_ma
         assert ("read by its CWRU name: state inner, rate 12 kHz (declared, checked), unit g, the drive-end bearing "
                 "(cwru_6205)" in prepared.notes), prepared.notes
     relabelled = read_record(tmp_path / "12k_Drive_End_IR007_1_106.npy", pipeline, true_state="outer")
-    assert relabelled.true_state == "outer" and "labelled outer where the file name says inner: scored as outer" in relabelled.notes
+    assert relabelled.true_state == "outer" and relabelled.named_state == "inner"
+    assert "labelled outer where the file name says inner: scored as outer" in relabelled.notes
     # 48k_ names its rate; the fan end its bearing.
     np.save(tmp_path / "12k_Fan_End_B014_2_288.npy", samples)
     fan = load_recording(tmp_path / "12k_Fan_End_B014_2_288.npy")
@@ -2695,3 +2705,31 @@ def test_a_cwru_record_saved_as_npy_or_csv_under_its_long_name_is_read_as_its_ma
         np.save(tmp_path / bare, samples)
         with pytest.raises(BearingTwinError, match="does not state its sampling rate"):
             load_recording(tmp_path / bare)
+
+
+def test_a_healthy_cwru_record_without_the_drive_end_channel_is_read_on_the_models_channel(tmp_path):
+    """A healthy record records both bearings, so the model's channel stands in for a missing DE, said so; a fault
+    record's own accelerometer has no stand-in (tests/test_cwru.py)."""
+    import scipy.io
+
+    from bearingtwin.diagnosis.record import _channel
+
+    x = np.random.default_rng(1).standard_normal((12000, 1))
+    scipy.io.savemat(tmp_path / "normal_0_97.mat", {"X097_FE_time": x, "X097_BA_time": x, "X097RPM": np.array([[1797.0]])})
+    on_fe = dataclasses.replace(envelope_pipeline(), config={"data": {"channel": "FE"}})
+    from bearingtwin.data.formats import read_raw
+
+    assert _channel(read_raw(tmp_path / "normal_0_97.mat"), None, on_fe) == (
+        "FE", ["channel FE, the one the model was trained on (channel=<name> reads another)"])
+
+
+def test_a_glob_with_two_stars_reaches_the_folder_itself_and_every_folder_below(tmp_path):
+    """``records/**/*.npy`` had matched one folder down only, leaving the records beside it out without a word."""
+    from bearingtwin.diagnosis.run import find_records
+
+    for folder in (tmp_path, tmp_path / "sub", tmp_path / "sub" / "deeper"):
+        folder.mkdir(exist_ok=True)
+        np.save(folder / f"{folder.name}_record.npy", np.zeros(8))
+    found = find_records(str(tmp_path / "**" / "*.npy"), None)
+    assert sorted(path.relative_to(tmp_path).as_posix() for path in found) == sorted([
+        f"{tmp_path.name}_record.npy", "sub/deeper/deeper_record.npy", "sub/sub_record.npy"])

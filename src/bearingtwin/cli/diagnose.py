@@ -83,6 +83,10 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     unscored = [row["record"] for row in diagnosed if "correct" not in row]
     if run.scores and unscored:  # a score over some records: which it leaves out
         lines["not scored (no state known, or one the model cannot answer: see their notes)"] = ", ".join(unscored)
+    relabelled = [f"{row['record']} ({row['true_state']}, named {row['named_state']})" for row in diagnosed
+                  if row.get("named_state")]
+    if relabelled:  # scored by the label, which may be the wrong one: the score moves with it
+        lines["labelled otherwise than their names say (scored by the label: check it)"] = ", ".join(relabelled)
     reread = [f"{row['record']} ({row['declared_fs']:g} -> {row['original_fs']:g} Hz)" for row in diagnosed
               if row.get("declared_fs")]
     if reread:  # the rate the name, catalogue or data set declared was refused by the shaft line: the file is mislabelled

@@ -13,7 +13,9 @@ model's own) is the recorded bearing, whose defect orders those features and tha
 ``unit`` (``g``, ``m/s^2``, ...), where given, are the windows' own: a rate other than the model's is refused (the
 windows' lines would stand at other frequencies, and the model reads them without a word), windows in another
 acceleration unit are converted to the model's, and a unit is refused where :func:`unit_for_model` refuses a record's
-or is no unit known here. The same model is served by
+or is no unit known here; ``scale`` (0 = not given) multiplies the windows first, ``unit`` then naming the
+product's (a 100 mV/g sensor's volts: ``"scale": 10, "unit": "g"``), as ``bearingtwin-diagnose``'s ``scale=`` does.
+The same model is served by
 ``mlflow models serve -m models:/<name>@<alias> --env-manager local`` and queried with
 ``{"inputs": [[...], ...], "params": {"rpm": 1797, "bearing": "cwru_6203", "fs": 12000, "unit": "g"}}``.
 """
@@ -82,6 +84,9 @@ class DiagnosisModel(PythonModel):
             if len(flat):  # said of the request, where the features would name an array index
                 raise BearingTwinError(f"window {flat[0]} of the request is constant (every sample equal): no vibration "
                                        "to diagnose")
+            scale = params.get("scale") or None  # 0, the signature's default: not given
+            if scale is not None:  # a sensor's volts times 1 / its sensitivity: the unit given is then the product's
+                windows = windows * positive_number(scale, "scale", "factor the samples are multiplied by")
             windows = in_model_terms(self.pipeline, windows, params.get("fs") or None, params.get("unit") or "")
             return predictions_frame(self.pipeline, windows,
                                      None if rpm is None else positive_number(rpm, "rpm", "rev/min"),
@@ -194,7 +199,7 @@ def log_diagnosis_model(tracking_uri: str, experiment_id: str, run_id: str, pipe
               "fs": float(pipeline.fs_hz), "unit": pipeline.unit}
     # The signature's defaults are what a request without them gets: no speed (0), the model's own bearing, a rate
     # and unit not stated. The example's speed as the default would read any window at that speed, unasked.
-    signature = infer_signature(windows, output, params={**params, "rpm": 0.0, "fs": 0.0, "unit": ""})
+    signature = infer_signature(windows, output, params={**params, "rpm": 0.0, "fs": 0.0, "unit": "", "scale": 0.0})
     # Windows of any length pass MLflow's check to meet the pipeline's (check_window_shape), which names the length
     # the model reads in a line: MLflow's refusal of a shape prints the whole request back (tens of kB).
     signature.inputs = Schema([TensorSpec(np.dtype(np.float64), (-1, -1))])

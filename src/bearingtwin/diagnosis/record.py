@@ -78,6 +78,7 @@ class PreparedRecord:
     bearing_given: bool = True  # whether bearing= or the file named the bearing, rather than the model's standing in
     clipped: bool = False  # the sensor or the converter saturated (Recording.quality_notes)
     declared_fs: float | None = None  # the rate the file, its name or its data set declared, where the check read another
+    named_state: str | None = None  # the state the file's name gives, where a label given says another (scored by it)
 
 
 CONDITION_KEYS = ("fault_size_in", "position", "load_hp", "severity")
@@ -130,7 +131,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     recording, speed_notes, rate_check, speed, gaps, held_now = _speed_and_rate(
         recording, raw, record_bearing, gaps_by_channel, order_tracking, given_as, held)
     notes += speed_notes
-    true_state, truth_notes = _true_state(path, raw, recording, true_state, pipeline)
+    true_state, truth_notes, named_state = _true_state(path, raw, recording, true_state, pipeline)
     notes += truth_notes
     original_fs = recording.fs
     if file_gaps:  # in seconds at the rate the check settled on
@@ -167,7 +168,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     return PreparedRecord(recording, true_state, original_fs, notes, record_bearing, rate_check, unit_check, speed,
                           gaps_s, dropouts_s, bearing_given=(bearing or named) is not None,
                           clipped=any(note.endswith(CLIPPED_NOTE_END) for note in quality),
-                          declared_fs=None if as_read.fs == original_fs else as_read.fs)
+                          declared_fs=None if as_read.fs == original_fs else as_read.fs, named_state=named_state)
 
 
 def _refuse_a_rate_too_low(recording: Recording, bearing: dict, pipeline: DiagnosisPipeline,
@@ -248,11 +249,12 @@ def _speed_and_rate(recording: Recording, raw: RawRecord, record_bearing: dict,
 
 
 def _true_state(path, raw: RawRecord, recording: Recording, true_state: str | None,
-                pipeline: DiagnosisPipeline) -> tuple[str | None, list[str]]:
-    """The state a record is scored against, and the notes on it: the label given (``true_state``), which a file
-    that states another refuses (a CWRU name may speak of another bearing: noted), else what the file's name (CWRU) or
-    content states; None where nothing states one."""
-    notes = []
+                pipeline: DiagnosisPipeline) -> tuple[str | None, list[str], str | None]:
+    """The state a record is scored against, the notes on it, and the state its name gives where a label given
+    says another (None otherwise): the label given (``true_state``), which a file that states another refuses (a CWRU
+    name may speak of another bearing: noted, and scored by the label), else what the file's name (CWRU) or content
+    states; None where nothing states one."""
+    notes, against = [], None
     name = parse_cwru_name(path) if raw.format == "cwru-mat" or raw.meta.get("fault_from_name") else None
     if true_state is None:  # what the file's name (CWRU) or content states
         true_state = name.fault if name is not None else recording.fault
@@ -264,12 +266,13 @@ def _true_state(path, raw: RawRecord, recording: Recording, true_state: str | No
         refuse_a_label_the_file_contradicts(raw, true_state, "the label")
         if name is not None and name.fault != true_state:  # a CWRU name speaks of one bearing, a label maybe of another
             notes.append(f"labelled {true_state} where the file name says {name.fault}: scored as {true_state}")
+            against = name.fault
         elif recording.fault not in (None, true_state):
             raise BearingTwinError(f"{recording.source}: labelled {true_state}, but the file states fault={recording.fault}")
     if true_state is not None and true_state not in pipeline.class_names:  # the verdict can only be wrong
         notes.append(f"true state {true_state}, which this model cannot answer: it was trained on "
                      f"{', '.join(pipeline.class_names)} only")
-    return true_state, notes
+    return true_state, notes, against
 
 
 def bridged(raw: RawRecord) -> tuple[RawRecord, dict[str, list[tuple[int, int]]]]:
@@ -772,6 +775,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "bearing_given": prepared.bearing_given,  # named by bearing= or the file, not the model's standing in
         "original_fs": prepared.original_fs,
         "declared_fs": prepared.declared_fs,  # where the rate check read the record at another rate than declared
+        "named_state": prepared.named_state,  # the file name's state, where the label scored by says another
         "rate_check": prepared.rate_check,
         "speed": prepared.speed,
         "unit": recording.unit or None,  # of the samples read (the model's, where they were converted to it)

@@ -71,8 +71,8 @@ class DiagnosisRun:
 
 
 def find_records(path: str, labels_path: Path | None) -> list[Path]:
-    """The recordings ``path`` names: one file, every readable file of a folder, or a glob; a table that holds
-    no signal (notes, results, a labels table under another name) is left out of a folder or glob, and named."""
+    """The recordings ``path`` names: one file, every readable file of a folder, or a glob (``**`` reaching every
+    folder below); a table that holds no signal (notes, results, a labels table under another name) is left out of a folder or glob, and named."""
     if not path.strip():  # Path("") is the working directory, which the user did not name
         raise BearingTwinError("path is empty: give path=<file | folder | glob>")
     candidate = Path(path).expanduser()
@@ -89,7 +89,8 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
     elif candidate.is_file():
         return [candidate]  # named on its own: read as a recording, its reader naming what it is not
     elif is_glob:
-        matched = sorted(Path(p) for p in glob.glob(str(candidate)) if Path(p).is_file())
+        # ** reaches every folder below (records/**/*.csv holds records/*.csv too), as a shell's globstar does.
+        matched = sorted(Path(p) for p in glob.glob(str(candidate), recursive=True) if Path(p).is_file())
         if not matched:
             raise BearingTwinError(f"path={path}: the pattern matches no file")
         reasons = {p: why_not_a_recording(p) for p in matched}
@@ -440,6 +441,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             windows_correct += result["windows_correct"]
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
         row["declared_fs"] = result["declared_fs"]  # for the closing summary (not a column)
+        row["named_state"] = result["named_state"]  # for the closing summary (not a column)
         row["bearing_given"] = result["bearing_given"]  # for the closing summary (not a column)
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
