@@ -374,3 +374,16 @@ def test_a_line_on_a_supply_multiple_names_the_supply_and_a_coarse_spectrum_name
                                                                        "is stated healthy")
     assert line_source(60.0, 29.95, 0.5, rates).startswith("a force twice per revolution")  # the shaft's first
     assert line_source(130.0, 29.95, 0.5, rates) is None
+
+
+def test_a_line_whose_peak_lies_in_a_band_the_lines_view_leaves_out_is_named_at_its_peak():
+    """Twice a 50 Hz supply (100 Hz) lies within the band left to the envelope views around BPFO (107 Hz at 1797 rpm):
+    the lines view sees its skirt alone, and had named "a line at 98 Hz (shaft order 3.27)"."""
+    from bearingtwin.config import load_bearing
+    from bearingtwin.testrig import RigOperatingPoint, simulate_rig
+
+    point = RigOperatingPoint(rpm=1797, fs=12000, duration_s=2.0, radial_load_n=500.0, unit="g")
+    supplied = simulate_rig("outer", point, {"line_frequency": {"supply_hz": 50.0, "level_db": -3.0}}, seed=5)
+    comparator = Comparator(Recording(supplied, 12000.0, 1797.0, "outer"), load_bearing("cwru_6205"))
+    finding = comparator(simulate_rig("outer", point, {}, seed=6)).views["lines"].finding
+    assert finding.startswith("a line at 100 Hz (shaft order 3.34) stands"), finding
