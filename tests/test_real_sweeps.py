@@ -169,9 +169,9 @@ def test_hust_report_sets_the_papers_figure_beside_each_speed(hust_store, capsys
     assert {row[0] for row in table_rows((base / "hust65.md").read_text(), "")} & {"60 Hz", "70 Hz"} == set()
 
 
-def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion, dataset_key="records"):
+def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion, dataset_key="records", **params):
     """A FINISHED cwru training run carrying what train_tracked logs that the report reads (a class with no test
-    windows has no recall)."""
+    windows has no recall), and ``params`` (dotted keys as ``data__samples_per_class``)."""
     confusion = np.asarray(confusion)
     labels = [FAULTS.index(name) for name in classes]
     full = np.zeros((4, 4), dtype=int)
@@ -179,7 +179,8 @@ def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion, d
     run = client.create_run(experiment_id, tags={"bt.kind": "train", "method": paper.PROPOSED, "seed": str(seed),
                                                  "dataset_key": dataset_key})
     run_id = run.info.run_id
-    for key, value in {"data.source": "cwru", "data.load": str(load), "data.split": split, "data.classes": str(list(classes))}.items():
+    for key, value in {"data.source": "cwru", "data.load": str(load), "data.split": split, "data.classes": str(list(classes)),
+                       **{key.replace("__", "."): str(value) for key, value in params.items()}}.items():
         client.log_param(run_id, key, value)
     client.log_metric(run_id, "accuracy", np.trace(full) / full.sum())
     for index, name in enumerate(FAULTS):
@@ -238,6 +239,15 @@ def test_runs_on_other_classes_or_recordings_are_other_rows_not_seeds(tmp_path):
         ("normal inner outer (dataset records)", "1")]
     untested = next(row for row in rows if row[3] == "normal inner ball outer (dataset records)")
     assert "ball —" in untested[6]
+    # A smoke-size run beside a full one: its row says its size, not only its dataset's key.
+    log_cwru_run(client, experiment_id, 3, list(FAULTS), "block", 0, np.eye(4, dtype=int) * 10, dataset_key="small",
+                 data__samples_per_class=40, trainer__max_epochs=10)
+    log_cwru_run(client, experiment_id, 3, list(FAULTS), "block", 0, np.eye(4, dtype=int) * 10, dataset_key="full",
+                 data__samples_per_class=300, trainer__max_epochs=150)
+    assert report_main(["cwru", f"uri={uri}", f"out={out}"]) == 0
+    assert sorted(row[3] for row in table_rows(generated_text(out, GENERATED), "3 hp")) == [
+        "normal inner ball outer (dataset full; windows per class 300, epochs 150)",
+        "normal inner ball outer (dataset small; windows per class 40, epochs 10)"]
 
 
 def test_reports_without_runs_say_what_is_missing(tmp_path, capsys):

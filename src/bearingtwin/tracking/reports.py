@@ -543,8 +543,11 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
         names, confusion = _summed_confusion(source, chosen)
         row = [f"{value} {unit}", split, _named(method, label), _pm(accuracy[key]), str(len(chosen)), recalls,
                _top_confusions(confusion, names)]
-        if several_data:
-            row.insert(3, f"{classes} (dataset {data[:8]})")
+        if several_data:  # told apart by what a reader sees of them too: a smoke-size run's few windows and epochs
+            sizes = ", ".join(f"{words} {chosen[0].data.params[key]}" for key, words in (
+                ("data.samples_per_class", "windows per class"), ("trainer.max_epochs", "epochs"))
+                if key in chosen[0].data.params)
+            row.insert(3, f"{classes} (dataset {data[:8]}{'; ' + sizes if sizes else ''})")
         if paper_figures is not None:
             published = paper_figures.get(_number(value)) if method == paper.PROPOSED else None
             row += ["—", ""] if published is None else [f"{published:.2f}", _diff(accuracy[key], published)]
