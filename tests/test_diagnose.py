@@ -534,6 +534,13 @@ def test_a_unit_given_fills_in_for_a_file_that_states_none_and_is_refused_agains
     assert read_record(tmp_path / "stated.npz", pipeline, rpm=RPM, unit="m/s2").unit_check == "as stated"
     with pytest.raises(BearingTwinError, match=r"^unit='furlongs' is no unit known here; give one such as g"):
         read_record(path, pipeline, rpm=RPM, unit="furlongs")
+    # A folder's unit= is for its files that state none (unit_fills_in): one that states its own keeps it, said so
+    # (a folder of a logger's WAVs in g beside files in m/s^2 had failed every file that stated m/s^2).
+    in_folder = read_record(tmp_path / "stated.npz", pipeline, rpm=RPM, unit="g", unit_fills_in=True)
+    assert in_folder.unit_check == "as stated" and in_folder.recording.unit == "m/s^2"
+    assert "unit=g given for the files that state none; this one states m/s^2: read in it" in in_folder.notes
+    filled = read_record(path, pipeline, rpm=RPM, unit="g", unit_fills_in=True)
+    assert filled.unit_check == "converted" and not any("files that state none" in note for note in filled.notes)
 
 
 def test_a_scale_reads_a_loggers_volts_or_full_scale_fractions_in_the_unit_given(tmp_path):

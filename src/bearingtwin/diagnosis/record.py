@@ -40,9 +40,9 @@ from bearingtwin.config import refuse_unknown_bearing
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, RawRecord,
                                     file_bearing, named_rate_note, read_raw, recording_from_raw,
-                                    refuse_a_label_the_file_contradicts, tachometer_channel)
+                                    refuse_a_label_the_file_contradicts, resolve_unit, tachometer_channel)
 from bearingtwin.data.recording import CLIPPED_NOTE_END, HELD_NOTE_END, Recording, held_stretches
-from bearingtwin.data.units import acceleration_unit
+from bearingtwin.data.units import acceleration_unit, same_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, FEATURE_UNSEEN_COLUMN, STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import RANGE_MARGIN, DiagnosisPipeline, unit_for_model
@@ -95,13 +95,15 @@ NOISE_FREE_SIMULATION = ("a record bearingtwin-simulate made without a noise eff
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
                 true_state: str | None = None, bearing: str | None = None, fs_key: str = "fs",
                 rpm_key: str = "rpm", order_tracking: tuple[bool, float] = (True, UNSTEADY),
-                unit: str | None = None, scale: float | None = None) -> PreparedRecord:
+                unit: str | None = None, scale: float | None = None, unit_fills_in: bool = False) -> PreparedRecord:
     """Read one file, check it against the model and bring it to the model's sampling rate.
 
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs``, ``rpm`` and ``unit`` fill in what the
     file does not state and must agree with what it does (``fs_key`` and ``rpm_key`` name where they
     came from in a message), ``unit`` naming the unit of the samples multiplied by ``scale`` where one is given
-    (:func:`~bearingtwin.data.formats.scaled`); ``bearing`` (a ``conf/bearing`` name) is the recorded bearing, the file's
+    (:func:`~bearingtwin.data.formats.scaled`); ``unit_fills_in`` (a folder's run, ``unit`` given for every file): a
+    file that states its own unit is read in it, said so, where one alone would be refused; ``bearing`` (a
+    ``conf/bearing`` name) is the recorded bearing, the file's
     own (:func:`~bearingtwin.data.formats.file_bearing`: a CWRU or HUST file names it) or else the model's when
     not given. A measured record whose shaft speed varies is resampled to a steady one (:func:`steadied`;
     ``order_tracking``: whether to, and the spread of the speed above which), before its rate is checked against the
@@ -110,6 +112,12 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     raw = read_raw(path)
     channel, channel_note = _channel(raw, channel, pipeline)
     raw, gaps_by_channel = bridged(raw)
+    own_unit = _own_unit(raw, channel) if unit_fills_in and unit is not None and scale is None else ""
+    if own_unit:  # a folder's unit= is for the files that cannot say theirs: one that does keeps it
+        if not same_unit(own_unit, str(unit)):
+            channel_note.append(f"unit={unit} given for the files that state none; this one states {own_unit}: read "
+                                "in it")
+        unit = None
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key, unit=unit, scale=scale)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     gaps = file_gaps = gaps_by_channel.get(recording.channel, [])  # the file's positions, before tracking moves them
@@ -424,6 +432,16 @@ def steadied(recording: Recording, track: bool, unsteady: float, gaps: list[tupl
     if again.unsteady(unsteady):
         note += f"; tracked, it still varies {again.describe()}: the verdict is in doubt"
     return dataclasses.replace(recording, signal=signal, rpm=steady_rpm), [note], speed, moved
+
+
+def _own_unit(raw: RawRecord, channel) -> str:
+    """The unit the file states for the channel read (``channel``, else its own choice); "" where it states none, or
+    the channel cannot be read (said by the reading itself)."""
+    try:
+        name, _ = raw.channel(channel)
+    except BearingTwinError:
+        return ""
+    return resolve_unit(raw, name, None)
 
 
 def _channel(raw, channel, pipeline: DiagnosisPipeline) -> tuple[str | int | None, list[str]]:

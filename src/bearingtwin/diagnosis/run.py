@@ -391,7 +391,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing, unit=cfg.get("unit"),
                                    scale=cfg.get("scale"),
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
-                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=order_tracking)
+                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=order_tracking,
+                                   unit_fills_in=not single)
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             digest = file_digest(path) if trained or calibrated_digests else None
             # By contents as well as names: a copy (the Data Center's 97.mat for normal_0_97.mat) is no new record.
