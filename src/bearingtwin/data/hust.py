@@ -203,15 +203,20 @@ _AXIS_NAME = re.compile(r"^(?:(?:acc(?:el(?:eration)?)?|vib(?:ration)?|ch(?:anne
 """An accelerometer axis as a Legend may name it: ``X``, ``x axis``, ``Z-axis``, ``Acc X``, ``Acceleration Y``."""
 
 
+def _bare_name(cell: str) -> str:
+    """A Legend cell's name, its unit in brackets aside (``X (g)``, ``Speed [rpm]``)."""
+    return re.sub(r"\s*[(\[].*$", "", cell).strip()
+
+
 def _time_name(cell: str) -> bool:
     """Whether a Legend cell names the time column (``Time``, ``t``, ``Time (s)``, ``Time_s``, ``Timestamp``)."""
-    bare = re.sub(r"\s*[(\[].*$", "", cell).strip().lower()
+    bare = _bare_name(cell).lower()
     return bare in ("t", "t_s") or bare.startswith("time")
 
 
 def _column_name(cell: str) -> str | None:
     """The column (``speed``, ``X``, ``Y``, ``Z``) a Legend cell names, its unit in brackets aside; None for another."""
-    bare = re.sub(r"\s*[(\[].*$", "", cell).strip()
+    bare = _bare_name(cell)
     if bare.lower() in _SPEED_NAMES:
         return "speed"
     axis = _AXIS_NAME.match(bare)

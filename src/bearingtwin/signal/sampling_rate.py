@@ -739,13 +739,13 @@ def _second_look(check: ShaftLineCheck, signal: np.ndarray, defect_hz: Mapping[s
     supply = _supply_multiple(check.observed_hz)
     if check.verdict == "contradicted" and supply is not None:
         order, mains = supply
-        lines_hz = _refined_fundamental(ratio, resolution, np.arange(1, n_harmonics + 1), check.observed_hz, window)
         if not _off_by_a_whole_factor(check):
             return dataclasses.replace(
                 check, implied_fs_hz=None, verdict="ambiguous", witness="supply",
                 reason=f"{check.reason}; but {check.observed_hz:.2f} Hz is {order} x the {mains:g} Hz supply, whose "
                        "lines stand there whatever the shaft speed, and no whole multiple or fraction of the shaft "
                        "line: the rate is not confirmed")
+        lines_hz = _refined_fundamental(ratio, resolution, np.arange(1, n_harmonics + 1), check.observed_hz, window)
         if _nearer_the_supply(lines_hz, order * mains, check.expected_hz):
             return dataclasses.replace(
                 check, implied_fs_hz=None, verdict="ambiguous", witness="supply",
@@ -763,8 +763,7 @@ def _nearer_the_supply(lines_hz: float, supply_hz: float, shaft_hz: float, max_f
     within a trial window of both, and its lines stand at the supply's multiples. A record read at a quarter of its
     rate puts the shaft series of a 60 Hz motor at 1797 rpm at 119.8 Hz, 0.17 % from 120 Hz: its lines stand at four
     times the shaft line's, and the contradiction stays."""
-    factors = np.arange(2, max_factor + 1, dtype=float)
-    shaft_places_hz = shaft_hz * np.concatenate([factors, 1 / factors])
+    shaft_places_hz = shaft_hz * _whole_factors(max_factor)
     return abs(math.log(lines_hz / supply_hz)) < float(np.min(np.abs(np.log(lines_hz / shaft_places_hz))))
 
 
@@ -892,11 +891,16 @@ def named_defect_hz(defect_hz: Mapping[str, float]) -> dict[str, float]:
     return named
 
 
+def _whole_factors(max_factor: int) -> np.ndarray:
+    """n and 1 / n for n = 2 .. ``max_factor``: where a rate off by a whole factor moves a line."""
+    factors = np.arange(2, max_factor + 1, dtype=float)
+    return np.concatenate([factors, 1 / factors])
+
+
 def _a_whole_factor_from(hz: float, lines_hz, max_factor: int, tolerance: float) -> bool:
     """Whether ``hz`` lies within ``tolerance`` (relative) of n or 1 / n times one of ``lines_hz``, n = 2 ..
     ``max_factor``: where a rate off by that whole factor puts those lines."""
-    factors = np.arange(2, max_factor + 1, dtype=float)
-    scaled = np.outer(lines_hz, np.concatenate([factors, 1 / factors]))
+    scaled = np.outer(lines_hz, _whole_factors(max_factor))
     return bool(np.min(np.abs(np.log(hz / scaled))) <= tolerance)
 
 
