@@ -1493,6 +1493,28 @@ def two_speed_folder(folder):
     return folder, rows
 
 
+def test_a_folders_labels_give_each_file_its_unit_which_a_file_stating_another_refuses(registered, tmp_path):
+    """A logger's .npy in g beside a file in m/s^2, in one folder: each row's unit is its file's (the command's
+    unit= would be every file's), read and converted to the model's; a row's unit the file contradicts fails that
+    file alone, naming its row."""
+    base, uri = registered
+    folder = tmp_path / "plant"
+    folder.mkdir()
+    np.save(folder / "logger.npy", fault_signal(None, seconds=3) / 9.80665)
+    np.savez(folder / "stated.npz", signal=fault_signal(None, seconds=3), fs=FS, unit="m/s^2")
+    np.savez(folder / "other.npz", signal=fault_signal(None, seconds=3), fs=FS, unit="m/s^2")
+    (folder / "labels.csv").write_text(f"record,state,rpm,fs,unit\nlogger.npy,outer,{RPM},{FS:g},g\n"
+                                       f"stated.npz,outer,{RPM},,m/s^2\nother.npz,outer,{RPM},,g\n")
+    done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/out", "figures=false",
+               "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert done.returncode == 2, done.stderr[-2000:]
+    logger = json.loads((tmp_path / "out" / "logger" / "diagnosis.json").read_text())
+    assert logger["unit_check"] == "converted", logger["notes"]
+    assert json.loads((tmp_path / "out" / "stated" / "diagnosis.json").read_text())["unit_check"] == "as stated"
+    assert (f"other.npz: {folder / 'labels.csv'} (its row for other.npz): unit=g contradicts the file's unit, m/s^2"
+            in done.stderr), done.stderr[-2000:]
+
+
 def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered, tmp_path):
     """Recordings that state neither speed nor rate (.npy), at two speeds, and the folder's labels.csv giving them,
     as training reads such a folder: each file is read at its row's rate and speed (the physics evidence finds its
@@ -2623,7 +2645,7 @@ def test_a_diagnosis_the_disk_cannot_take_fails_its_record_in_one_line_and_leave
 def test_a_one_file_row_takes_its_records_place_in_the_summary_and_a_failed_write_puts_the_earlier_back(
         tmp_path, monkeypatch):
     """update_summary: a record's row replaces its earlier row where it stood, a new record's is added last, the
-    columns follow the rows' values (an error column while a row holds one), a cell of two lines is read back whole;
+    columns are the same whatever the rows hold (an error column with none in it), a cell of two lines is read back whole;
     a write the disk refuses leaves the earlier summary as it was."""
     import errno
     import io
@@ -2636,7 +2658,7 @@ def test_a_one_file_row_takes_its_records_place_in_the_summary_and_a_failed_writ
     diagnosis_run.update_summary([{"record": "b", "verdict": "outer", "share": 0.75}], path)
     assert [(row["record"], row["verdict"], row["share"]) for row in csv.DictReader(open(path))] == [
         ("a", "inner", "1.0"), ("b", "outer", "0.75")]
-    assert "error" not in open(path).readline()  # no row holds one now
+    assert open(path).readline().rstrip("\n").split(",") == list(diagnosis_run.SUMMARY_FIELDS)  # every run's header
     diagnosis_run.update_summary([{"record": "c", "error": "c.csv: holds channels a, b\nchoose one"}], path)
     diagnosis_run.update_summary([{"record": "a", "verdict": "ball"}], path)  # a cell of two lines read back whole
     rows = list(csv.DictReader(open(path, newline="")))

@@ -75,6 +75,34 @@ def test_labels_table_gives_each_file_its_state_and_the_split_keeps_records_apar
     assert build_dataset(files_cfg(folder)).key != dataset.key
 
 
+def test_a_labels_rows_unit_reads_a_file_that_states_none_beside_files_that_state_theirs(tmp_path):
+    """A logger's WAV states no unit: beside .npz files in m/s^2 it had refused the folder ("states no unit"), whatever
+    the user knew. Its row's unit reads it (in g, converted to m/s^2 with the others); a row's unit the file
+    contradicts, or one no unit known here, is refused naming the row."""
+    import scipy.io.wavfile
+
+    root = tmp_path / "plant"
+    root.mkdir()
+    signal = tone("normal")
+    scipy.io.wavfile.write(root / "pump.wav", int(FS), (signal / 9.80665).astype(np.float32))  # the logger's, in g
+    for state in ("inner", "ball", "outer"):
+        np.savez(root / f"{state}.npz", signal=tone(state), fs=FS, unit="m/s^2")
+    rows = "".join(f"{state}.npz,{state},1797\n" for state in ("inner", "ball", "outer"))
+    (root / "labels.csv").write_text("record,state,rpm\npump.wav,normal,1797\n" + rows)
+    with pytest.raises(BearingTwinError, match=r"pump.wav states no unit, inner.npz states m/s\^2"):
+        build_dataset(files_cfg(root))
+    (root / "labels.csv").write_text("record,state,rpm,unit\npump.wav,normal,1797,g\n" + rows)
+    dataset = build_dataset(files_cfg(root))
+    assert dataset.unit == "m/s^2"  # the WAV's windows in the others' unit, its samples 9.81 times larger
+    np.testing.assert_allclose(dataset.windows[0], signal[:512], rtol=1e-6)
+    (root / "labels.csv").write_text("record,state,rpm,unit\npump.wav,normal,1797,g\n" + rows.replace(",1797\n", ",1797,g\n"))
+    with pytest.raises(BearingTwinError, match=r"inner.npz: the labels row's unit=g contradicts the file's unit, m/s\^2$"):
+        build_dataset(files_cfg(root))
+    (root / "labels.csv").write_text("record,state,rpm,unit\npump.wav,normal,1797,gee\n" + rows)
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 2: unit='gee' is no unit known here"):
+        build_dataset(files_cfg(root))
+
+
 def test_a_file_name_pattern_labels_instead_of_a_table(tmp_path):
     for state in ("normal", "ball"):
         np.save(tmp_path / f"{state}_run1.npy", tone(state))
@@ -142,15 +170,15 @@ def test_a_labels_table_names_each_file_once(tmp_path):
 
     table = tmp_path / "labels.csv"
     table.write_text("record,state\nhealthy/run1.npy,normal\nouter/run1.npy,outer\n", encoding="utf-8-sig")
-    assert [(record, state) for _, record, state, _, _ in labels_table(table)] == [
+    assert [(row.record, row.state) for row in labels_table(table)] == [
         ("healthy/run1.npy", "normal"), ("outer/run1.npy", "outer")]
     table.write_text("record,state\nrun1.npy,normal\n./run1.npy,outer\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv line 3: record './run1.npy' is labelled again \(line 2\)"):
         labels_table(table)
     table.write_text("record,state,\nrun1.npy,normal,\n")  # a spreadsheet's trailing comma
-    assert [state for _, _, state, _, _ in labels_table(table)] == ["normal"]
+    assert [row.state for row in labels_table(table)] == ["normal"]
     table.write_text("record,state\nrun1.npy,normal,\n")  # ... on the rows only
-    assert [state for _, _, state, _, _ in labels_table(table)] == ["normal"]
+    assert [row.state for row in labels_table(table)] == ["normal"]
     table.write_text("record,state,,\nrun1.npy,normal,\nrun2.npy,outer,1750,\n")  # ... under a column of no name
     with pytest.raises(BearingTwinError, match=r"labels.csv line 3: more values than the header has columns"):
         labels_table(table)
@@ -159,14 +187,14 @@ def test_a_labels_table_names_each_file_once(tmp_path):
                                                r"\(record, state\); name every column in the header"):
         labels_table(table)
     table.write_text("record;state;rpm;fs\nrun1.npy;normal;1797,5;12000\n")  # a decimal-comma spreadsheet's
-    assert [row[1:] for row in labels_table(table)] == [("run1.npy", "normal", 1797.5, 12000.0)]
+    assert [row[1:] for row in labels_table(table)] == [("run1.npy", "normal", 1797.5, 12000.0, None)]
     table.write_text("record;state;rpm;fs\nrun1.npy;normal;1797;12.000\n")  # its point groups thousands: 12 or 12000?
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs '12.000' reads two ways in a table of semicolons "
                                                r"\(a spreadsheet's with decimal commas\): 12 or 12000; write it without "
                                                r"the point$"):
         labels_table(table)
     table.write_text("record,state,speed\nrun1.npy,normal,1500\n")  # passed over, the file would be read at another
-    with pytest.raises(BearingTwinError, match=r"labels.csv: column 'speed' is not one of record, state, rpm, fs$"):
+    with pytest.raises(BearingTwinError, match=r"labels.csv: column 'speed' is not one of record, state, rpm, fs, unit$"):
         labels_table(table)
     table.write_text("record,state\n\nrun1.npy,normal\n\nrun2.npy,cracked\n")  # blank lines count as lines
     with pytest.raises(BearingTwinError, match=r"labels.csv line 5: state 'cracked'"):
@@ -189,7 +217,7 @@ def test_a_bad_row_is_its_records_concern_for_a_reader_of_some_rows_and_every_re
                      "state.npy,outter,1797,12000\nfs.npy,normal,1797,-5\ngood.npy,inner,1797,12000\n"
                      "wide.npy,normal,1797,12000,3\n")
     rows, bad_rows = labels_table_with_bad_rows(table)
-    assert [row[1:] for row in rows] == [("good.npy", "outer", 1797.0, 12000.0)]
+    assert [row[1:] for row in rows] == [("good.npy", "outer", 1797.0, 12000.0, None)]
     assert [record for record, _ in bad_rows] == ["rpm.npy", "state.npy", "fs.npy", "good.npy", "wide.npy"]
     messages = [message for _, message in bad_rows]
     assert all(message.startswith(f"{table} line {line}: ") for message, line in zip(messages, range(3, 8)))
@@ -203,7 +231,7 @@ def test_a_bad_row_is_its_records_concern_for_a_reader_of_some_rows_and_every_re
     with pytest.raises(BearingTwinError, match=r"labels.csv: no column state"):
         labels_table_with_bad_rows(table)
     table.write_text("Record,State,RPM,Fs\ngood.npy,outer,1797,12000\n")  # as a spreadsheet capitalizes them
-    assert [row[1:] for row in labels_table_with_bad_rows(table)[0]] == [("good.npy", "outer", 1797.0, 12000.0)]
+    assert [row[1:] for row in labels_table_with_bad_rows(table)[0]] == [("good.npy", "outer", 1797.0, 12000.0, None)]
     table.write_text("record,state,rpm,RPM\ngood.npy,outer,1797,1750\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv: the header names column rpm more than once \(in any case\)"):
         labels_table_with_bad_rows(table)
@@ -218,19 +246,19 @@ def test_a_diagnosis_reads_a_labels_table_without_states_where_training_does_not
     table = tmp_path / "labels.csv"
     table.write_text("record,rpm,fs\na.npy,1500,12000\n")
     assert [row[1:] for row in labels_table_with_bad_rows(table, state_required=False)[0]] == [
-        ("a.npy", None, 1500.0, 12000.0)]
-    with pytest.raises(BearingTwinError, match=r"labels.csv: no column state; the header must read record,state,rpm,fs "
-                                               r"\(rpm, fs optional\)$"):
+        ("a.npy", None, 1500.0, 12000.0, None)]
+    with pytest.raises(BearingTwinError, match=r"labels.csv: no column state; the header must read "
+                                               r"record,state,rpm,fs,unit \(rpm, fs, unit optional\)$"):
         labels_table(table)
     table.write_text("record,state,rpm\na.npy,,1500\nb.npy,outter,1500\nc.npy,inner,\n")
     rows, bad_rows = labels_table_with_bad_rows(table, state_required=False)
-    assert [row[1:] for row in rows] == [("a.npy", None, 1500.0, None), ("c.npy", "inner", None, None)]
+    assert [row[1:] for row in rows] == [("a.npy", None, 1500.0, None, None), ("c.npy", "inner", None, None, None)]
     assert [record for record, _ in bad_rows] == ["b.npy"]
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: state '' is not a bearing state"):
         labels_table(table)
     table.write_text("file,rpm\na.npy,1500\n")
-    with pytest.raises(BearingTwinError, match=r"labels.csv: no column record; the header must read record,state,rpm,fs "
-                                               r"\(state, rpm, fs optional\)$"):
+    with pytest.raises(BearingTwinError, match=r"labels.csv: no column record; the header must read "
+                                               r"record,state,rpm,fs,unit \(state, rpm, fs, unit optional\)$"):
         labels_table_with_bad_rows(table, state_required=False)
 
 

@@ -317,12 +317,41 @@ def test_a_record_describes_itself_and_names_no_bearing_whose_geometry_the_comma
     with np.load(tmp_path / "kept.npz") as record:  # a clearance moves no defect line: the bearing is still named
         assert str(record["bearing"]) == "cwru_6205" and str(record["sensor"]) == "inner_x"
     assert "bearing.clearance_mm=0.01" in kept.stdout.split("next: ")[1]
+    with np.load(tmp_path / "kept.npz") as record:  # what the named config does not say is the record's own
+        assert str(record["settings"]) == "fault=normal bearing=cwru_6205 bearing.clearance_mm=0.01 simulator.duration=0.2"
 
     unstruck = run(tmp_path, "fault=inner", "simulator.rpm=60", "simulator.duration=0.4", f"out={tmp_path / 'slow.npz'}")
     assert unstruck.returncode == 0, unstruck.stderr
     with np.load(tmp_path / "slow.npz") as record:  # the summary's note stays with the file it is about
         assert "the record is a healthy bearing's" in str(record["simulation_notes"])
     assert summarize(tmp_path / "slow.npz")["meta"]["simulation_notes"] == str(np.load(tmp_path / "slow.npz")["simulation_notes"])
+
+
+def test_a_write_the_disk_refuses_leaves_no_partial_file_and_an_earlier_one_as_it_was(tmp_path):
+    """A file-size limit (as a full disk) had left a truncated .npz no reader opens, over the good one of an earlier
+    run at that path, with a traceback: now one line, exit 2, and the earlier file untouched. Without gravity the
+    summary names no inner ring's weight among the loads."""
+    import resource
+    import subprocess
+    import sys
+
+    out = tmp_path / "r.npz"
+    first = run(tmp_path, "fault=outer", "simulator.duration=0.2", "simulator.gravity_m_per_s2=0", f"out={out}")
+    assert first.returncode == 0, first.stderr
+    assert "  load: 0 N along x, 0 N along y (no gravity)" in first.stdout
+    before = out.read_bytes()
+
+    def limited():  # Python ignores SIGXFSZ: a write past the limit fails with EFBIG, as on a full disk
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000))
+
+    refused = subprocess.run([sys.executable, "-m", "bearingtwin.cli.simulate", "fault=outer", "simulator.fs=48000",
+                              "simulator.duration=2", f"out={out}"], cwd=tmp_path, capture_output=True, text=True,
+                             preexec_fn=limited, timeout=300)
+    assert refused.returncode == 2, refused.stderr[-2000:]
+    assert refused.stderr.strip().splitlines()[-1] == (
+        f"error: out={out}: cannot be written (File too large); nothing was written, and a file already there is as "
+        "it was")
+    assert out.read_bytes() == before and sorted(path.name for path in tmp_path.glob("r*")) == ["r.npz"]
 
 
 def test_an_interrupt_ends_the_simulation_in_one_line_and_writes_nothing(tmp_path):

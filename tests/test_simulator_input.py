@@ -88,6 +88,18 @@ def test_a_fault_the_record_never_strikes_is_refused():
         refused(fault, settings(duration=0.2, defect={"depth_mm": 0.0}), "simulator.defect.depth_mm must be positive")
 
 
+def test_a_defect_of_the_callers_own_without_every_setting_or_with_text_for_a_size_is_refused_naming_it():
+    """The Python API takes a defect dict of the caller's own: one with a width alone had failed on a bare
+    KeyError ('depth_mm'), a size given as text on a TypeError."""
+    defect = settings()["defect"]
+    partial = {"width_mm": 0.5}
+    with pytest.raises(BearingTwinError, match=r"^simulator.defect has no depth_mm, outer_angle_deg, inner_angle_deg, "
+                                               r"ball_index, ball_angle_deg; give every one of width_mm, depth_mm"):
+        simulate("outer", BEARING, {**settings(duration=0.2), "defect": partial}, None)
+    refused("inner", {**settings(duration=0.2), "defect": {**defect, "width_mm": "wide"}},
+            "simulator.defect.width_mm must be a width in mm, got 'wide'")
+
+
 def test_the_data_set_path_is_refused_before_any_state_is_simulated(monkeypatch):
     """simulate_many (the simulated data set's path) checks every state first: the healthy one, first in
     FAULTS, is not simulated only for the inner race's to be refused after it."""

@@ -657,6 +657,15 @@ def test_a_unit_given_for_a_measurement_that_states_none_is_read_and_a_velocity_
     assert recording.unit == "g" and "samples x 10 read in g (measured.scale=10 measured.unit=g; the file states V)" in \
         recording.meta["notes"]
     np.testing.assert_allclose(recording.signal, np.load(measurement), rtol=1e-12)
+    # A labels row beside the file gives its unit where the settings do not, as a diagnosis reads it; against the
+    # file's own it is refused naming the row, and a unit given on the command line holds, the row's said.
+    (tmp_path / "labels.csv").write_text("record,state,unit\nplain.npy,outer,g\nstated.npz,outer,g\n")
+    np.save(tmp_path / "plain.npy", np.load(measurement))
+    assert read_measurement(measured(tmp_path / "plain.npy", None))[0].unit == "g"
+    with pytest.raises(BearingTwinError, match=r"stated.npz: \S*labels.csv line 3: unit=g contradicts the file's unit, "
+                                               r"m/s\^2$"):
+        read_measurement(measured(tmp_path / "stated.npz", None))
+    assert read_measurement(measured(tmp_path / "plain.npy", "m/s^2"))[0].unit == "m/s^2"
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")

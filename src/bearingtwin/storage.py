@@ -42,13 +42,22 @@ def save_npy_atomic(path: str | Path, array: np.ndarray) -> None:
 
 
 def _write_atomic(path: str | Path, write) -> None:
+    """``write(stream)`` into the cache entry ``path`` (:func:`write_atomic`). A cache folder that cannot take the
+    entry (read-only, full) is said in one line and the entry left unwritten: the numbers it would keep are in the
+    caller's hands, and computing them again next time costs less than the run a refusal here would throw away."""
+    try:
+        write_atomic(path, write)
+    except OSError as error:
+        log.warning("cache entry %s not written (%s); the run goes on, and computes it again next time",
+                    path, error.strerror or error)
+
+
+def write_atomic(path: str | Path, write) -> None:
     """``write(stream)`` into a temporary file in ``path``'s folder, then moved into place.
 
     ``os.replace`` is atomic on one file system: a parallel job finds either nothing or the
-    whole file, and two jobs writing the same entry leave one complete copy. A cache folder
-    that cannot take the entry (read-only, full) is said in one line and the entry left unwritten:
-    the numbers it would keep are in the caller's hands, and computing them again next time costs
-    less than the run a refusal here would throw away.
+    whole file, and two jobs writing the same entry leave one complete copy. A write that fails (a full disk, a
+    file-size limit) raises ``OSError`` and leaves no partial file, and whatever ``path`` held before as it was.
     """
     path = Path(path)
     temporary = None
@@ -61,10 +70,6 @@ def _write_atomic(path: str | Path, write) -> None:
         # team's shared cache is readable by the team.
         os.chmod(temporary, 0o666 & ~_UMASK)
         os.replace(temporary, path)
-    except OSError as error:
-        _remove(temporary)
-        log.warning("cache entry %s not written (%s); the run goes on, and computes it again next time",
-                    path, error.strerror or error)
     except BaseException:
         _remove(temporary)
         raise

@@ -98,8 +98,12 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     # replaces one the file merely declares; a speed there or given is the file's measured one where within 1 % of it,
     # read further off where the record's tachometer or shaft series bears it out, refused otherwise; a state there
     # must agree with the file's.
-    row = labels_row(Path(str(path)), state_required=False) if fs is None or rpm is None else None
-    table, table_state, table_rpm, table_fs = row or (None, None, None, None)
+    units = {name: raw.channel_units.get(name, raw.unit) for name in listed}  # one, or each channel's where they differ
+    unit = (next(iter(units.values()), "") or None) if len(set(units.values())) <= 1 else units
+    row = labels_row(Path(str(path)), state_required=False) if fs is None or rpm is None or unit is None else None
+    table, table_state, table_rpm, table_fs, table_unit = (row.where, *row[2:]) if row else (None,) * 5
+    if unit is None and table_unit is not None:  # the samples' unit the file does not state, as a diagnosis reads it
+        unit = table_unit
     fs_origin = "option" if fs is not None else raw.fs_origin or None
     if fs is None and table_fs is not None:
         if raw.fs is None or raw.fs_origin == "declared":
@@ -126,8 +130,6 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     fault = resolve_fact(raw, "fault", raw.fault, table_state, f"{table}: state")
     lengths = {name: int(raw.channels[name].size) for name in names}
     n_samples = next(iter(lengths.values())) if len(set(lengths.values())) == 1 else lengths
-    units = {name: raw.channel_units.get(name, raw.unit) for name in listed}  # one, or each channel's where they differ
-    unit = (next(iter(units.values()), "") or None) if len(set(units.values())) <= 1 else units
     summary = {
         "file": raw.path,
         "format": raw.format,

@@ -60,6 +60,9 @@ def _plot(out: Path, signal: np.ndarray, fs: float, rpm: float, fault: str, geom
     return paths
 
 
+OUTPUT_SETTINGS = ("out", "plot", "progress")
+"""The command line's settings of where and how the record is written, not of what it is."""
+
 DEFECT_FREQUENCY_GEOMETRY = ("n_balls", "ball_diameter_mm", "pitch_diameter_mm", "contact_angle_deg")
 """The bearing's settings its defect frequencies depend on."""
 
@@ -74,11 +77,15 @@ def geometry_changed(cfg: DictConfig) -> bool:
 def record_facts(cfg: DictConfig, fault: str, notes: list[str], changed_geometry: bool) -> dict:
     """What a simulated record states beside its samples: the bearing config it was made with (none where the
     command line changed its geometry: ``changed_geometry``), and the settings a reader cannot see in it (load, sensor direction,
-    defect, effects, seed) and the simulation's ``notes`` (a defect no loaded ball met), so a folder of simulated
+    defect, effects, seed, and every setting the command line changed) and the simulation's ``notes`` (a defect no loaded ball met), so a folder of simulated
     files describes itself."""
     simulator = cfg.simulator
     facts = {"load_x_n": simulator.load_x_n, "load_y_n": simulator.load_y_n, "seed": simulator.seed,
-             "effects": ", ".join(cfg.effects) or "none"}
+             "effects": ", ".join(cfg.effects) or "none",
+             # Every setting the command line changed (a clearance, the masses, an oversampling, an unbalance,
+             # gravity): what the record was made with beyond the named bearing config's.
+             "settings": " ".join(override for override in HydraConfig.get().overrides.task
+                                  if override.partition("=")[0].lstrip("+~") not in OUTPUT_SETTINGS)}
     if simulator.get("sensor_angle_deg") is not None:
         facts["sensor_angle_deg"] = simulator.sensor_angle_deg
     if fault != "normal":
@@ -151,9 +158,12 @@ def simulate_command(cfg: DictConfig) -> None:
     progress = show_progress_bar(cfg.progress, in_sweep=HydraConfig.get().mode == RunMode.MULTIRUN, key="progress")
     recording, channels = simulate(cfg.fault, cfg.bearing, cfg.simulator, cfg.effects, progress=progress)
     changed = geometry_changed(cfg)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    save_simulated_record(out, recording, channels, CHANNELS,
-                          record_facts(cfg, recording.fault, recording.meta.get("notes", []), changed))
+    try:
+        save_simulated_record(out, recording, channels, CHANNELS,
+                              record_facts(cfg, recording.fault, recording.meta.get("notes", []), changed))
+    except OSError as error:  # a full disk, a file-size limit: nothing written, an earlier file there kept
+        raise BearingTwinError(f"out={cfg.out}: cannot be written ({error.strerror or error}); nothing was written, "
+                               "and a file already there is as it was") from None
     written = [out]
     if plot:
         written += _plot(out, recording.signal, recording.fs, recording.rpm, recording.fault,
@@ -168,7 +178,8 @@ def simulate_command(cfg: DictConfig) -> None:
                       "whose defect frequencies would be another bearing's (the twin call below holds these overrides, "
                       "as bearingtwin-inspect takes them; a model reads a bearing by its conf/bearing file: write one "
                       "for this bearing to diagnose with bearing=<name>)" if changed else ""),
-        "load": f"{simulator.load_x_n:g} N along x, {simulator.load_y_n:g} N along y, and the inner ring's weight",
+        "load": f"{simulator.load_x_n:g} N along x, {simulator.load_y_n:g} N along y"
+                + (", and the inner ring's weight" if simulator.get("gravity_m_per_s2") else " (no gravity)"),
         **({"defect": defect_words(simulator.defect, recording.fault, recording.meta.get("defect_depth_m"))}
            if recording.fault != "normal" else {}),
         **({"note": "; ".join(recording.meta["notes"])} if recording.meta.get("notes") else {}),

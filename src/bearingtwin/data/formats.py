@@ -47,6 +47,7 @@ from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.signal.sampling_rate import is_pulse_train
 from bearingtwin.signal.speed import (HARMONICS, pulse_rate, pulse_times, pulses_per_turn, speed_profile,
                                      tachometer_profile, tachometer_speed)
+from bearingtwin.storage import write_atomic
 
 TEXT_TABLES = (".csv", ".txt", ".tsv")
 """Text tables of numbers: a spreadsheet's or data logger's export, whatever it separates its columns with."""
@@ -236,17 +237,20 @@ def load_recording(
     fs_key: str = "fs",
     rpm_key: str = "rpm",
     fault_key: str = "fault",
+    unit: str | None = None,
+    unit_key: str = "unit",
 ) -> Recording:
     """One validated channel of a file.
 
-    ``fs`` and ``rpm`` fill in what the file does not declare; where it does, a different
+    ``fs``, ``rpm`` and ``unit`` fill in what the file does not declare; where it does, a different
     value is an error rather than a silent override (a speed the record's own tachometer or shaft series bears out
     against the file's is read, said: :func:`resolve_speed`; a ``declared`` data-set convention is
     the exception: the user's value wins). Non-finite samples raise: nothing is dropped.
-    ``channel_key``, ``fs_key``, ``rpm_key`` and ``fault_key`` are the settings ``channel``, ``fs``, ``rpm`` and
-    ``fault`` come from, as messages name them.
+    ``channel_key``, ``fs_key``, ``rpm_key``, ``fault_key`` and ``unit_key`` are the settings ``channel``, ``fs``,
+    ``rpm``, ``fault`` and ``unit`` come from, as messages name them.
     """
-    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key, fs_key, rpm_key, fault_key)
+    return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key, fs_key, rpm_key, fault_key, unit,
+                              unit_key)
 
 
 def recording_from_raw(
@@ -834,11 +838,14 @@ def save_simulated_record(path: Path, recording: Recording, channels: np.ndarray
     """Write a record ``bearingtwin-simulate`` made, as :func:`read_raw` reads it back: the sensor's channel
     (``signal``), every sensor's (``channels``, a row per one of ``channel_names``), the facts a reader needs beside
     the samples (rate, speed, state, sensor, unit) and ``facts`` (the bearing, whose defect lines witness the rate; the
-    settings no sample shows), marked :data:`SIMULATOR_MARK`."""
-    with open(path, "wb") as handle:  # by a handle: numpy adds ".npz" to a name that ends ".NPZ"
-        np.savez(handle, signal=recording.signal, channels=channels, channel_names=np.array(channel_names),
-                 fs=recording.fs, rpm=recording.rpm, fault=recording.fault, sensor=recording.channel,
-                 unit=recording.unit, made_by=SIMULATOR_MARK, **facts)
+    settings no sample shows), marked :data:`SIMULATOR_MARK`. Written whole or not at all
+    (:func:`~bearingtwin.storage.write_atomic`: a full disk raises ``OSError`` and leaves an earlier file there as it
+    was)."""
+    # By a stream: numpy adds ".npz" to a name that ends ".NPZ".
+    write_atomic(path, lambda stream: np.savez(
+        stream, signal=recording.signal, channels=channels, channel_names=np.array(channel_names), fs=recording.fs,
+        rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
+        made_by=SIMULATOR_MARK, **facts))
 
 
 SIMULATED_RATE = "simulation"

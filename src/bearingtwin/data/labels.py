@@ -12,25 +12,51 @@ import csv
 import logging
 import re
 from pathlib import Path, PurePath
+from typing import NamedTuple
 
 from bearingtwin.checks import positive_number
 from bearingtwin.data.csv_file import holds_one_value, is_a_note, text_column
-from bearingtwin.data.formats import FORMATS, TEXT_TABLES, time_column_seconds
+from bearingtwin.data.formats import FORMATS, TEXT_TABLES, known_unit, time_column_seconds
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
 log = logging.getLogger(__name__)
 
-LABEL_COLUMNS = ("record", "state", "rpm", "fs")
+LABEL_COLUMNS = ("record", "state", "rpm", "fs", "unit")
 """Columns of a labels table: ``record`` (file name in ``data.root``) and ``state`` are required (a diagnosis may
-leave the state out: :func:`labels_table_with_bad_rows`)."""
+leave the state out: :func:`labels_table_with_bad_rows`); ``rpm``, ``fs`` and ``unit`` give what a file does not
+state (a logger's WAVs in g beside files in m/s^2: one folder)."""
+
+
+class LabelsRow(NamedTuple):
+    """A row of a labels table that reads: ``where`` (its file and line, for messages), the ``record`` it names, its
+    bearing ``state`` (None: unknown, where a diagnosis allows it), and the shaft speed ``rpm`` (rev/min), sampling
+    rate ``fs`` (Hz) and ``unit`` of the samples it gives (None: not given)."""
+
+    where: str
+    record: str
+    state: str | None
+    rpm: float | None
+    fs: float | None
+    unit: str | None
+
+
+class LabelledFile(NamedTuple):
+    """A recording of a labelled folder as training reads it: its file, its ``state``, and the ``rpm``, ``fs`` and
+    ``unit`` its labels row gives (None: the file's own, or the setting's)."""
+
+    path: Path
+    state: str
+    rpm: float | None = None
+    fs: float | None = None
+    unit: str | None = None
 DEFAULT_LABELS = "labels.csv"
 """The labels table ``data=files`` reads from ``data.root`` unless ``data.labels`` names another."""
 
 
 def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pattern=<regex with a (?P<state>...) group>",
-                     warn_unlisted: bool = True) -> list[tuple[Path, str, float | None, float | None]]:
-    """``(file, state, rpm, fs)`` per row of the labels table ``data.labels`` (default ``<root>/labels.csv``);
+                     warn_unlisted: bool = True) -> list[LabelledFile]:
+    """A :class:`LabelledFile` per row of the labels table ``data.labels`` (default ``<root>/labels.csv``);
     ``alternative`` ends the message when there is no such table; ``warn_unlisted``: say which recordings of
     ``root`` the table leaves out (where the data is built, not in the checks before it)."""
     table = labels_path(root, cfg)
@@ -40,23 +66,23 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
             f"(one row per file){alternative}"
         )
     rows, labelled_at = [], {}
-    for where, record, state, rpm, fs in labels_table(table):
-        path = labelled_file(root, record, where)
+    for row in labels_table(table):
+        path = labelled_file(root, row.record, row.where)
         same = path.resolve()  # a stem and its file's name (or rig/../x and x): one record named twice
         if same in labelled_at:
-            raise BearingTwinError(f"{where}: record {record!r} is labelled again ({labelled_at[same]} names "
+            raise BearingTwinError(f"{row.where}: record {row.record!r} is labelled again ({labelled_at[same]} names "
                                    f"{path.name} too); one row per record")
-        labelled_at[same] = where
-        rows.append((path, state, rpm, fs))
+        labelled_at[same] = row.where
+        rows.append(LabelledFile(path, row.state, row.rpm, row.fs, row.unit))
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
     recordings, others = recordings_and_others(root)
-    unlisted = sorted(set(recordings) - {path for path, *_ in rows} - {table})
+    unlisted = sorted(set(recordings) - {row.path for row in rows} - {table})
     if warn_unlisted:
         if unlisted:
             log.warning("%s: %s not labelled in %s, left out", root, ", ".join(path.name for path in unlisted), table.name)
         warn_left_out(root, {name: reason for name, reason in others.items()
-                             if root / name not in {path for path, *_ in rows} and root / name != table})
+                             if root / name not in {row.path for row in rows} and root / name != table})
     return rows
 
 
@@ -65,8 +91,8 @@ def labels_path(root: Path, cfg: dict) -> Path:
     return Path(str(cfg.get("labels") or root / DEFAULT_LABELS)).expanduser()
 
 
-def labels_table(table: Path) -> list[tuple[str, str, str, float | None, float | None]]:
-    """``(where, record, state, rpm, fs)`` per row of a labels table (columns ``record,state[,rpm,fs]``);
+def labels_table(table: Path) -> list[LabelsRow]:
+    """A :class:`LabelsRow` per row of a labels table (columns ``record,state[,rpm,fs,unit]``);
     ``where`` is the file and line, for messages. A bad header raises, and so does a bad row (naming its line and
     field): what reads every row, a training set, would otherwise be built without that record."""
     rows, bad_rows = labels_table_with_bad_rows(table)
@@ -76,25 +102,25 @@ def labels_table(table: Path) -> list[tuple[str, str, str, float | None, float |
 
 
 def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tuple[
-        list[tuple[str, str, str | None, float | None, float | None]], list[tuple[str, str]]]:
+        list[LabelsRow], list[tuple[str, str]]]:
     """The rows of a labels table that read, as :func:`labels_table` gives them, and ``(record, message)`` for
     each that does not (more values than the header has columns, a record labelled again, a state that is no
-    bearing state, an rpm or fs that is no positive number), in the table's order: a bad row is its record's
+    bearing state, an rpm or fs that is no positive number, a unit not known here), in the table's order: a bad row is its record's
     concern alone where a command reads one file's row, or each file of a folder its own. A table that cannot be
     read, or whose header is wrong, raises: none of its rows can be read.
 
     ``state_required=False`` (a diagnosis, where a fleet's states are what is asked): the ``state`` column may be
-    left out and its cells left empty, such a row's state None (unknown) and its rpm and fs read all the same; a
+    left out and its cells left empty, such a row's state None (unknown) and its rpm, fs and unit read all the same; a
     state given must still be a bearing state. Training keeps it required: there the state is the label."""
     try:
         with open(table, newline="", encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark
             header = handle.readline()
             handle.seek(0)
             # A spreadsheet set to a decimal comma separates its columns with semicolons (the table holds no decimals
-            # beside rpm and fs, which such a spreadsheet writes with commas too).
+            # beside rpm and fs, which such a spreadsheet writes with commas too; a unit holds no comma).
             semicolons = ";" in header and "," not in header
             reader = csv.DictReader(handle, delimiter=";" if semicolons else ",")
-            # Record,State,RPM,Fs as a spreadsheet capitalizes them: the same columns.
+            # Record,State,RPM,Fs,Unit as a spreadsheet capitalizes them: the same columns.
             columns = [name.strip().lower() if name.strip().lower() in LABEL_COLUMNS else name.strip()
                        for name in reader.fieldnames or []]
             twice = next((name for name in LABEL_COLUMNS if columns.count(name) > 1), None)
@@ -130,9 +156,11 @@ def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tupl
                                                f"({', '.join(name for name in columns if name)}); name every column in the header")
                     numbers = {key: _number_cell(row.get(key), key, semicolons, where) for key in ("rpm", "fs")}
                     state = row.get("state", "")  # no column, or an empty cell: unknown where that is allowed
-                    rows.append((where, record, _state(state, where) if state or state_required else None,
-                                 _optional_number(numbers["rpm"], "rpm", "rev/min", where),
-                                 _optional_number(numbers["fs"], "fs", "Hz", where)))
+                    unit = row.get("unit", "")
+                    rows.append(LabelsRow(where, record, _state(state, where) if state or state_required else None,
+                                          _optional_number(numbers["rpm"], "rpm", "rev/min", where),
+                                          _optional_number(numbers["fs"], "fs", "Hz", where),
+                                          known_unit(unit, f"{where}: unit") if unit else None))
                 except BearingTwinError as error:
                     bad_rows.append((record, str(error)))
     except (OSError, UnicodeDecodeError) as error:
@@ -141,8 +169,8 @@ def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tupl
 
 
 def read_labels(path: Path | None, state_required: bool = True) -> tuple[
-        dict[str, tuple[str, str | None, float | None, float | None]], dict[str, list[tuple[str, str]]]]:
-    """``stem -> (record, state, rpm, fs)`` from a labels table (``record,state[,rpm,fs]``; record: file name or
+        dict[str, LabelsRow], dict[str, list[tuple[str, str]]]]:
+    """``stem -> row`` (:class:`LabelsRow`) from a labels table (``record,state[,rpm,fs,unit]``; record: file name or
     stem; :func:`names_file` says which file a row is for), and ``stem -> [(record, message), ...]``, the rows of
     that stem that do not read (:func:`labels_table_with_bad_rows`, which ``state_required`` goes to): their
     records' errors, not the others'.
@@ -151,14 +179,15 @@ def read_labels(path: Path | None, state_required: bool = True) -> tuple[
     ``rec``) label neither: both are that stem's bad rows."""
     rows, bad_rows = labels_table_with_bad_rows(path, state_required) if path is not None else ([], [])
     labels, lines = {}, {}
-    for where, record, state, rpm, fs in rows:
-        stem = _record_stem(record)
+    for row in rows:
+        stem = _record_stem(row.record)
         if stem in lines:
-            message = f"{where}: record {record!r} is labelled again ({lines[stem]} names {stem} too); one row per record"
-            bad_rows += [(labels.pop(stem)[0], message)] if stem in labels else []
-            bad_rows.append((record, message))
+            message = (f"{row.where}: record {row.record!r} is labelled again ({lines[stem]} names {stem} too); one row "
+                       "per record")
+            bad_rows += [(labels.pop(stem).record, message)] if stem in labels else []
+            bad_rows.append((row.record, message))
             continue
-        labels[stem], lines[stem] = (record, state, rpm, fs), where
+        labels[stem], lines[stem] = row, row.where
     refused: dict[str, list[tuple[str, str]]] = {}
     for record, message in bad_rows:  # a.npz's and a.npy's rows share the stem a: each kept, for its own file
         refused.setdefault(_record_stem(record), []).append((record, message))
@@ -198,8 +227,8 @@ def names_file(record: str, path: Path) -> bool:
     return row.name == path.name or (row.suffix.lower() not in FORMATS and row.name == path.stem)
 
 
-def labels_row(path: Path, state_required: bool = True) -> tuple[str, str | None, float | None, float | None] | None:
-    """``(where, state, rpm, fs)`` of the row of the ``labels.csv`` beside ``path`` that names it
+def labels_row(path: Path, state_required: bool = True) -> LabelsRow | None:
+    """The row (:class:`LabelsRow`) of the ``labels.csv`` beside ``path`` that names it
     (:func:`names_file`); None when there is no such table or row. Its row alone is read: a bad row of
     another file is that file's concern, named in a warning, while a bad row of this one raises.
     ``state_required``: as :func:`labels_table_with_bad_rows` takes it."""
@@ -210,9 +239,10 @@ def labels_row(path: Path, state_required: bool = True) -> tuple[str, str | None
     its_own = [message for record, message in bad_rows if names_file(record, path)]
     if its_own:
         raise BearingTwinError(its_own[0])
-    naming = [(where, state, rpm, fs) for where, record, state, rpm, fs in rows if names_file(record, path)]
+    naming = [row for row in rows if names_file(row.record, path)]
     if len(naming) > 1:  # rec.npy and rec both name rec.npy
-        raise BearingTwinError(f"{naming[1][0]}: names {path.name} again ({naming[0][0]} names it too); one row per record")
+        raise BearingTwinError(f"{naming[1].where}: names {path.name} again ({naming[0].where} names it too); one row "
+                               "per record")
     own = naming[0] if naming else None
     if bad_rows:
         log.warning("%s: %s; passed over rows of other files that do not read: %s", path.name,
@@ -299,8 +329,9 @@ def warn_left_out(where: str | Path, others: dict[str, str]) -> None:
         log.warning("%s: left out %s (%s)", where, ", ".join(names), reason)
 
 
-def rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, None]]:
-    """``(file, state, None, None)`` for every readable file in ``root``, the state from its name."""
+def rows_from_pattern(root: Path, cfg: dict) -> list[LabelledFile]:
+    """A :class:`LabelledFile` for every readable file in ``root``, the state from its name (its rpm, fs and unit
+    the file's own, or the settings')."""
     if cfg.get("labels"):
         raise BearingTwinError("data.labels and data.pattern both set; label the files one way")
     try:
@@ -323,7 +354,7 @@ def rows_from_pattern(root: Path, cfg: dict) -> list[tuple[Path, str, None, None
         match = pattern.search(path.name)
         if match is None:
             raise BearingTwinError(f"{path}: data.pattern={cfg['pattern']!r} does not match its name; rename it or move it out of data.root")
-        rows.append((path, _state(match["state"], f"{path} (data.pattern)"), None, None))
+        rows.append(LabelledFile(path, _state(match["state"], f"{path} (data.pattern)")))
     return rows
 
 

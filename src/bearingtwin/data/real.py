@@ -139,9 +139,9 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     """Windows of every labelled recording in ``data.root``: the user's own data, checked as CWRU's.
 
     The state of each file comes from the labels table ``data.labels`` (default
-    ``<root>/labels.csv``: columns ``record,state[,rpm,fs]``, one row per file) or, when
+    ``<root>/labels.csv``: columns ``record,state[,rpm,fs,unit]``, one row per file) or, when
     ``data.pattern`` is set, from the regular expression's ``state`` group matched on every
-    readable file's name. ``rpm`` and ``fs`` fill in what a file does not state (a row's value
+    readable file's name. ``rpm``, ``fs`` and ``unit`` fill in what a file does not state (a row's rpm and fs
     before ``data.rpm`` / ``data.fs``); a value the file contradicts is an error (a speed the record itself bears out
     against the file's excepted: :func:`~bearingtwin.data.formats.resolve_speed`).
     """
@@ -152,26 +152,28 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
         raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of your recordings")
     rows = rows_from_pattern(root, cfg) if cfg.get("pattern") else rows_from_labels(root, cfg)
     recordings = [
-        load_recording(path, channel=cfg.get("channel"), fault=state,
-                       rpm=rpm if rpm is not None else default_rpm, fs=fs if fs is not None else default_fs,
-                       channel_key="data.channel", fs_key="data.fs" if fs is None else "the labels row's fs",
+        load_recording(row.path, channel=cfg.get("channel"), fault=row.state,
+                       rpm=row.rpm if row.rpm is not None else default_rpm, fs=row.fs if row.fs is not None else default_fs,
+                       channel_key="data.channel", fs_key="data.fs" if row.fs is None else "the labels row's fs",
                        fault_key="data.pattern's state" if cfg.get("pattern") else "the labels row's state",
-                       rpm_key="data.rpm" if rpm is None else "the labels row's rpm")
-        for path, state, rpm, fs in rows
+                       rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm",
+                       unit=row.unit, unit_key="the labels row's unit")
+        for row in rows
     ]
     named = None if cfg.get("bearing") else bearing_the_files_name(recordings)
     if bool(_get(cfg, "check_fs")):
         bearing_name = cfg.get("bearing") or named
         bearing = load_bearing(bearing_name, "data.bearing") if bearing_name else None
-        for recording, (_, _, row_rpm, row_fs) in zip(recordings, rows):
-            check_stated_rate(recording, "data.fs" if row_fs is None else "the labels row's fs", "data.check_fs", bearing,
-                              rpm_key="data.rpm" if row_rpm is None else "the labels row's rpm")
-    labelling = [(path.name, state, rpm, fs) for path, state, rpm, fs in rows]
+        for recording, row in zip(recordings, rows):
+            check_stated_rate(recording, "data.fs" if row.fs is None else "the labels row's fs", "data.check_fs", bearing,
+                              rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm")
+    # A row's unit where it gives one: the key of a table without units stays what it was before they could be given.
+    labelling = [(row.path.name, row.state, row.rpm, row.fs, *([row.unit] if row.unit else [])) for row in rows]
     # What only checks the records (check_fs, the bearing whose lines witness a rate) leaves the windows alone.
     windowed = {key: value for key, value in cfg.items() if key not in ("check_fs", "bearing")}
     dataset = windows_from_recordings(
         recordings, window_length, windows_per_record, "data.windows_per_record",
-        dataset_key([path for path, *_ in rows], {**windowed, "labels": labelling, "pattern": None}),
+        dataset_key([row.path for row in rows], {**windowed, "labels": labelling, "pattern": None}),
     )
     return dataclasses.replace(dataset, bearing=named)
 

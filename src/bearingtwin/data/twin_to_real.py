@@ -52,7 +52,7 @@ from bearingtwin.checks import is_finite_number, positive_number, whole_number
 from bearingtwin.config import REPO_ROOT, plain_config
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.formats import read_raw, recording_from_raw
-from bearingtwin.data.labels import rows_from_labels
+from bearingtwin.data.labels import LabelledFile, rows_from_labels
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
@@ -100,26 +100,26 @@ def test_files(data_cfg: Mapping) -> list[Path]:
 
 @dataclass(frozen=True)
 class LabelsTable:
-    """The rows of a labels table (``data.labels``): each record's file in ``root``, its state, and the rpm
-    and fs the row gives (None: the file's own)."""
+    """The rows of a labels table (``data.labels``): each record's file in ``root``, its state, and the rpm,
+    fs and unit the row gives (None: the file's own)."""
 
     root: Path
-    rows: list[tuple[Path, str, float | None, float | None]]
+    rows: list[LabelledFile]
 
     def written(self, path: Path) -> str:
         """The record as the table writes it (``sub/run.npy``)."""
         return path.relative_to(self.root).as_posix() if path.is_relative_to(self.root) else str(path)
 
-    def named(self, name, key: str) -> tuple[Path, str, float | None, float | None]:
+    def named(self, name, key: str) -> LabelledFile:
         """The row of the record ``name``: its file as the table writes it (``sub/run.npy``) or its file name
         (``run.npy``), either without the extension (``sub/run``, ``run``); ``key`` names the setting."""
         def names(path: Path) -> set[str]:
             written = self.written(path)
             return {written, written.removesuffix(path.suffix), path.name, path.stem}
 
-        matches = [row for row in self.rows if str(name) in names(row[0])]
+        matches = [row for row in self.rows if str(name) in names(row.path)]
         if len(matches) != 1:
-            listed = ", ".join(self.written(row[0]) for row in (matches or self.rows))
+            listed = ", ".join(self.written(row.path) for row in (matches or self.rows))
             raise BearingTwinError(f"{key}: {name} is {'no' if not matches else 'more than one'} record of the labels "
                                    f"table ({listed}){'; name it by its path in the table' if matches else ''}")
         return matches[0]
@@ -193,7 +193,7 @@ def protocol_records(data_cfg: Mapping, table: LabelsTable | None) -> tuple[list
 def calibration_path(data_cfg: Mapping, table: LabelsTable | None, name: str,
                      key: str = "data.calibration.records") -> Path:
     """The file of the record ``name``: its labels row's (``table``), else the CWRU record of that stem in ``data.root``."""
-    return table.named(name, key)[0] if table is not None else Path(data_cfg["root"]) / f"{name}.mat"
+    return table.named(name, key).path if table is not None else Path(data_cfg["root"]) / f"{name}.mat"
 
 
 def _check_calibration_record(calibration: Mapping, calibration_paths: list[Path], path: Path) -> None:
@@ -217,7 +217,7 @@ def _labelled_protocol(data_cfg: Mapping, table: LabelsTable) -> tuple[list[Path
     _check_calibration_record(calibration, calibration_paths,
                               calibration_path(data_cfg, table, calibration["record"], "data.calibration.record"))
     simulated = [check_fault(fault) for fault in data_cfg["twin"]["classes"]]
-    tests = [(path, state) for path, state, *_ in table.rows if path not in calibration_paths]
+    tests = [(row.path, row.state) for row in table.rows if row.path not in calibration_paths]
     if not tests:
         raise BearingTwinError("data.labels: every labelled record is a calibration record; label the records to test on too")
     for path, state in tests:
@@ -329,7 +329,7 @@ def merged_calibration(calibration: Mapping, table: LabelsTable | None = None) -
     key = "data.calibration.healthy.record"
     if table is not None:
         path, state, *_ = table.named(healthy["record"], key)
-        among = path in {table.named(name, "data.calibration.records")[0] for name in calibration["records"]}
+        among = path in {table.named(name, "data.calibration.records").path for name in calibration["records"]}
     else:
         state = getattr(parse_cwru_name(f"{healthy['record']}.mat"), "fault", None)
         among = healthy["record"] in calibration["records"]
@@ -618,17 +618,19 @@ def effect_variants(effects: Mapping, variants: Mapping | None) -> list[tuple[st
     return combinations
 
 
-def read_labelled_record(path: Path, state: str, rpm: float | None, fs: float | None, channel, default_fs: float,
-                         geometry: BearingGeometry, tolerance: float, check_fs: bool = True) -> Recording:
-    """A labelled record (its labels row's ``state``, ``rpm`` and ``fs``) at the rate the row or the file states
+def read_labelled_record(row: LabelledFile, channel, default_fs: float, geometry: BearingGeometry, tolerance: float,
+                         check_fs: bool = True) -> Recording:
+    """A labelled record (its labels ``row``: the file, its state, rpm, fs and unit) at the rate the row or the file states
     (:func:`_check_rates` judges it against ``data.fs``), else at ``default_fs`` (``data.fs``): a rate the file does
     not record is checked against the shaft line as a CWRU record's declared one is, and refused where the shaft
     series contradicts it (``check_fs=False``: not checked)."""
+    path, fs = row.path, row.fs
     raw = read_raw(path)
     stated = raw.fs is not None and raw.fs_origin != "declared"  # a rate a data set's convention gives is no statement
-    recording = recording_from_raw(raw, channel, fs=fs if fs is not None or stated else default_fs, rpm=rpm,
-                                   fault=state, channel_key="data.channel", fault_key="the labels row's state",
-                                   fs_key="data.fs" if fs is None else "the labels row's fs", rpm_key="the labels row's rpm")
+    recording = recording_from_raw(raw, channel, fs=fs if fs is not None or stated else default_fs, rpm=row.rpm,
+                                   fault=row.state, channel_key="data.channel", fault_key="the labels row's state",
+                                   fs_key="data.fs" if fs is None else "the labels row's fs", rpm_key="the labels row's rpm",
+                                   unit=row.unit, unit_key="the labels row's unit")
     if recording.rpm is None:
         raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
                                "(the twin runs at each record's speed)")
@@ -731,7 +733,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                                "(data.calibration); set only effects the calibration did not find")
     effects = {**effects, **hand_set}  # after the calibrated ones of the same stage: preload replaces load_zone's clearance
 
-    labelled = {path: (state, rpm, fs) for path, state, rpm, fs in (table.rows if table else [])}
+    labelled = {row.path: row for row in (table.rows if table else [])}
 
     def measured(path: Path) -> Recording:
         if table is None:
@@ -740,7 +742,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                                     "data.check_fs=false",
                              check_fs=bool(cfg["check_fs"]), tolerance=float(cfg["fs_check_tolerance"]),
                              bearing=BearingGeometry.from_config(bearing))
-        return read_labelled_record(path, *labelled[path], channel=cfg["channel"], default_fs=twin_fs,
+        return read_labelled_record(labelled[path], channel=cfg["channel"], default_fs=twin_fs,
                                     geometry=BearingGeometry.from_config(bearing),
                                     tolerance=float(cfg["fs_check_tolerance"]), check_fs=bool(cfg["check_fs"]))
 
@@ -861,7 +863,9 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                              # a null hearing option is what its absence was: the key stays that of earlier runs
                              {"twin": {k: v for k, v in cfg["twin"].items()
                                        if not (k in HEARING_KEYS and v is None) and k != "n_jobs"}}),
-                         **({"labels": [(p.name, digests[p], *labelled[p]) for p in calibration_paths + test_paths]}
+                         # a row's unit where it gives one: a table without units keeps the key it had before
+                         **({"labels": [(p.name, digests[p], *labelled[p][1:4], *filter(None, [labelled[p].unit]))
+                                        for p in calibration_paths + test_paths]}
                             if table else {})}),
         record_lengths=record_lengths + [r.signal.size for r in tests + validation_records],
         fixed_split=(index[:n_twin], index[n_twin:n_twin + n_test]),

@@ -95,11 +95,12 @@ NOISE_FREE_SIMULATION = ("a record bearingtwin-simulate made without a noise eff
 def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=None, rpm=None,
                 true_state: str | None = None, bearing: str | None = None, fs_key: str = "fs",
                 rpm_key: str = "rpm", order_tracking: tuple[bool, float] = (True, UNSTEADY),
-                unit: str | None = None, scale: float | None = None, unit_fills_in: bool = False) -> PreparedRecord:
+                unit: str | None = None, scale: float | None = None, unit_fills_in: bool = False,
+                unit_key: str = "unit") -> PreparedRecord:
     """Read one file, check it against the model and bring it to the model's sampling rate.
 
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs``, ``rpm`` and ``unit`` fill in what the
-    file does not state and must agree with what it does (``fs_key`` and ``rpm_key`` name where they
+    file does not state and must agree with what it does (``fs_key``, ``rpm_key`` and ``unit_key`` name where they
     came from in a message), ``unit`` naming the unit of the samples multiplied by ``scale`` where one is given
     (:func:`~bearingtwin.data.formats.scaled`); ``unit_fills_in`` (a folder's run, ``unit`` given for every file): a
     file that states its own unit is read in it, said so, where one alone would be refused; ``bearing`` (a
@@ -118,7 +119,8 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
             channel_note.append(f"unit={unit} given for the files that state none; this one states {own_unit}: read "
                                 "in it")
         unit = None
-    recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key, unit=unit, scale=scale)
+    recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key, unit=unit,
+                                   unit_key=unit_key, scale=scale)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     gaps = file_gaps = gaps_by_channel.get(recording.channel, [])  # the file's positions, before tracking moves them
     quality = recording.quality_notes()

@@ -3,7 +3,7 @@
 Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; and
 ``<out>/summary.csv`` (one row per record; ``true_state, correct`` when the truth is known from
 CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or the
-``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs]``, whose ``rpm`` and ``fs`` fill in what a file does
+``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs,unit]``, whose ``rpm``, ``fs`` and ``unit`` fill in what a file does
 not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed, its labels row not
 reading among the reasons, is reported in ``summary.csv`` with its error and the others go on; the command then
 exits 2. A folder's or glob's tables that hold no signal are left out, and named. A labels table may leave the
@@ -38,8 +38,8 @@ from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import FORMATS, known_unit, scale_and_unit
-from bearingtwin.data.labels import (DEFAULT_LABELS, first_messages, labels_row, labels_table_with_bad_rows, names_file,
-                                     read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
+from bearingtwin.data.labels import (DEFAULT_LABELS, LabelsRow, first_messages, labels_row, labels_table_with_bad_rows,
+                                     names_file, read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import (CONDITION_KEYS, FEW_WINDOWS, diagnose_recording, one_line, plot_diagnosis,
@@ -53,6 +53,19 @@ if TYPE_CHECKING:
 
 SUMMARY_COLUMNS = ("record", "verdict", "share", "mean_probability", "evidence_state", "agree", "rate_check")
 TRUTH_COLUMNS = ("true_state", "correct", "physics_correct")
+SUMMARY_FIELDS = (
+    *SUMMARY_COLUMNS, "fault_size_in", *TRUTH_COLUMNS, "error", "bearing", "load_hp", "position", "severity",
+    "original_fs",  # the rate the file was read at (Hz), before any resampling to the model's
+    "unit_check", "level_unseen",  # how its unit was read, and a level the model never saw
+    # The classifier's own majority and the share of windows the envelope spectrum decided (physics_first): a verdict
+    # the physics gave is not the classifier's.
+    "classifier_verdict", "physics_decided",
+    "speed_spread", "order_tracked",  # how steadily the shaft turned; resampled to a steady speed
+    "speed_unseen",  # a shaft speed well beyond the model's training windows'
+    "features_unseen",  # the share of windows the classifier decided beyond its training features
+)
+"""``summary.csv``'s columns, in every run: a record's own values, its truth where known, the error of one that failed,
+its condition and how it was read."""
 
 log = logging.getLogger(__name__)
 
@@ -128,7 +141,7 @@ def _records_named(table: Path) -> list[str]:
         rows, bad_rows = labels_table_with_bad_rows(table, state_required=False) if table.is_file() else ([], [])
     except BearingTwinError:
         return []
-    return [record for _, record, *_ in rows] + [record for record, _ in bad_rows]
+    return [row.record for row in rows] + [record for record, _ in bad_rows]
 
 
 def given_labels(cfg: DictConfig) -> Path | None:
@@ -155,8 +168,8 @@ def labels_path(cfg: DictConfig, records: list[Path]) -> Path | None:
 
 
 def row_beside(cfg: DictConfig) -> tuple[Path | None, dict]:
-    """For one file given without ``labels=``: the ``labels.csv`` beside it and its row (``stem -> (record, state,
-    rpm, fs)``), read as the twin and inspect read it (:func:`~bearingtwin.data.labels.labels_row`: that row alone);
+    """For one file given without ``labels=``: the ``labels.csv`` beside it and its row (``stem -> row``, a
+    :class:`~bearingtwin.data.labels.LabelsRow`), read as the twin and inspect read it (:func:`~bearingtwin.data.labels.labels_row`: that row alone);
     ``(None, {})`` when there is none."""
     path = Path(str(cfg.path)).expanduser()
     if cfg.labels is not None or not path.is_file():
@@ -164,8 +177,7 @@ def row_beside(cfg: DictConfig) -> tuple[Path | None, dict]:
     row = labels_row(path, state_required=False)
     if row is None:
         return None, {}
-    _, state, rpm, fs = row
-    return path.parent / DEFAULT_LABELS, {path.stem: (path.name, state, rpm, fs)}
+    return path.parent / DEFAULT_LABELS, {path.stem: row._replace(record=path.name)}
 
 
 def chosen_bearing(cfg: DictConfig) -> str | None:
@@ -368,7 +380,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     labelled = _rows_of(records, labels)
     refused = {path.stem: message for path in records for record, message in bad_rows.get(path.stem, [])
                if names_file(record, path)}
-    unlisted = sorted([row[0] for stem, row in labels.items() if stem not in labelled]
+    unlisted = sorted([row.record for stem, row in labels.items() if stem not in labelled]
                       + [record for stem, rows in bad_rows.items() for record, _ in rows if stem not in refused])
     single = Path(str(cfg.path)).expanduser().is_file()
     if unlisted and not single:  # a table of a folder, not of the one file given
@@ -384,15 +396,18 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         try:
             if path.stem in refused:
                 raise BearingTwinError(refused[path.stem])
-            _, state, row_rpm, row_fs = labelled.get(path.stem, (None, None, None, None))
-            fs, fs_from_row = _fact(cfg.fs, row_fs, command_first=single)
-            rpm, rpm_from_row = _fact(cfg.rpm, row_rpm, command_first=single)
+            row = labelled.get(path.stem) or LabelsRow("", path.name, None, None, None, None)
+            fs, fs_from_row = _fact(cfg.fs, row.fs, command_first=single)
+            rpm, rpm_from_row = _fact(cfg.rpm, row.rpm, command_first=single)
+            # A scale's unit is the product's, which no row's unit of the file's own samples replaces.
+            unit, unit_from_row = _fact(cfg.get("unit"), None if cfg.get("scale") else row.unit, command_first=single)
             its_row = f"{table if table else 'labels'} (its row for {path.name}): "
-            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, state, bearing, unit=cfg.get("unit"),
+            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, row.state, bearing, unit=unit,
                                    scale=cfg.get("scale"),
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
-                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm", order_tracking=order_tracking,
-                                   unit_fills_in=not single)
+                                   rpm_key=its_row + "rpm" if rpm_from_row else "rpm",
+                                   unit_key=its_row + "unit" if unit_from_row else "unit", order_tracking=order_tracking,
+                                   unit_fills_in=not (single or unit_from_row))
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             digest = file_digest(path) if trained or calibrated_digests else None
             # By contents as well as names: a copy (the Data Center's 97.mat for normal_0_97.mat) is no new record.
@@ -476,15 +491,15 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         run.scores["n_scored_physics"] = len(with_physics)
 
 
-def _rows_of(records: list[Path], rows: dict[str, tuple]) -> dict[str, tuple]:
-    """The rows (``stem -> (record, ...)``) that name one of ``records``: by its file name, or by its stem where the
+def _rows_of(records: list[Path], rows: dict[str, LabelsRow]) -> dict[str, LabelsRow]:
+    """The rows (``stem -> row``) that name one of ``records``: by its file name, or by its stem where the
     row gives no suffix (a row for a.npz is not a.npy's). One file per stem (:func:`find_records`)."""
     by_stem = {path.stem: path for path in records}
-    return {stem: row for stem, row in rows.items() if stem in by_stem and names_file(row[0], by_stem[stem])}
+    return {stem: row for stem, row in rows.items() if stem in by_stem and names_file(row.record, by_stem[stem])}
 
 
 def _fact(command, row, command_first: bool):
-    """A file's speed or rate, and whether its labels row gave it: the row comes first where the command's value is
+    """A file's speed, rate or unit, and whether its labels row gave it: the row comes first where the command's value is
     every file's of a folder, the command's where it names the one file given."""
     if (command_first and command is not None) or row is None:
         return command, False
@@ -569,7 +584,7 @@ def _unwritable(path: Path, error: OSError) -> BearingTwinError:
 def stated_truth(path: Path, labelled: dict) -> dict:
     """The true state of a record that could not be diagnosed, as its labels row or its CWRU name states it (none where
     neither does): a failed record's row says which state went unanswered."""
-    state = labelled.get(path.stem, (None, None))[1]
+    state = labelled[path.stem].state if path.stem in labelled else None
     name = parse_cwru_name(path)
     if name is not None and path.suffix.lower() != ".mat" and name.form != "long":  # read by a long name only
         name = None
@@ -578,26 +593,11 @@ def stated_truth(path: Path, labelled: dict) -> dict:
 
 
 def summary_text(rows: list[dict]) -> str:
-    """The CSV text of ``summary.csv``: one row per record, the columns its rows hold values of."""
-    columns = list(SUMMARY_COLUMNS)
-    if any("fault_size_in" in row for row in rows):
-        columns.append("fault_size_in")
-    if any("true_state" in row for row in rows):
-        columns += TRUTH_COLUMNS
-    if any("error" in row for row in rows):
-        columns.append("error")
-    columns.append("bearing")  # the columns before it keep the places they had before it and those after existed
-    columns += [key for key in ("load_hp", "position", "severity") if any(key in row for row in rows)]
-    columns.append("original_fs")  # the rate the file was read at (Hz), before any resampling to the model's
-    columns += ["unit_check", "level_unseen"]  # how its unit was read, and a level the model never saw
-    # The classifier's own majority and the share of windows the envelope spectrum decided (physics_first): a
-    # verdict the physics gave is not the classifier's.
-    columns += ["classifier_verdict", "physics_decided"]
-    columns += ["speed_spread", "order_tracked"]  # how steadily the shaft turned; resampled to a steady speed
-    columns.append("speed_unseen")  # a shaft speed well beyond the model's training windows'
-    columns.append("features_unseen")  # the share of windows the classifier decided beyond its training features
+    """The CSV text of ``summary.csv``: one row per record under :data:`SUMMARY_FIELDS`, the same columns in every run
+    (a cell a record has no value for is empty), so a script reading several runs' summaries finds each by name and
+    place."""
     text = io.StringIO()
-    writer = csv.DictWriter(text, fieldnames=columns, restval="", extrasaction="ignore")  # its columns only
+    writer = csv.DictWriter(text, fieldnames=SUMMARY_FIELDS, restval="", extrasaction="ignore")  # its columns only
     writer.writeheader()
     writer.writerows(rows)
     return text.getvalue()

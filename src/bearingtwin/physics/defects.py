@@ -96,6 +96,10 @@ def max_drop_m(ball_radius_m: float, width_m: float, race_radius_m: float = math
     return _sagitta(ball_radius_m, width_m) + (race if convex_race else -race)
 
 
+DEFECT_KEYS = ("width_mm", "depth_mm", "outer_angle_deg", "inner_angle_deg", "ball_index", "ball_angle_deg")
+"""The settings of ``simulator.defect``, each read whatever the fault (the data set simulates all four from one)."""
+
+
 def build_defect(fault: str, geometry: BearingGeometry, defect_cfg, load_zone_angle_rad: float) -> Defect:
     """The defect of ``fault`` from the ``simulator.defect`` config.
 
@@ -103,8 +107,12 @@ def build_defect(fault: str, geometry: BearingGeometry, defect_cfg, load_zone_an
     ``load_zone_angle_rad`` (where the static load presses the balls hardest).
     """
     check_fault(fault)
-    width_m = defect_cfg["width_mm"] / 1000.0
-    depth_m = defect_cfg["depth_mm"] / 1000.0
+    missing = [key for key in DEFECT_KEYS if key not in defect_cfg]
+    if missing:  # a defect of the caller's own (the Python API) without them would fail on a bare KeyError
+        raise BearingTwinError(f"simulator.defect has no {', '.join(missing)}; give every one of {', '.join(DEFECT_KEYS)} "
+                               "(conf/simulator/default.yaml's defect holds them all)")
+    width_m = finite_number("simulator.defect.width_mm", defect_cfg["width_mm"], "a width in mm") / 1000.0
+    depth_m = finite_number("simulator.defect.depth_mm", defect_cfg["depth_mm"], "a depth in mm") / 1000.0
     if not width_m > 0 or width_m >= geometry.ball_diameter_mm / 1000.0:
         raise BearingTwinError(
             f"simulator.defect.width_mm must be positive and below the ball diameter "

@@ -24,9 +24,9 @@ from bearingtwin.config import (bearing_config, bearing_overrides, given_on_comm
                                 refuse_unknown_bearing, unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
                                     read_raw, recording_from_raw, same_speed, speed_setting)
-from bearingtwin.data.labels import DEFAULT_LABELS, labels_row
+from bearingtwin.data.labels import DEFAULT_LABELS, LabelsRow, labels_row
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_factor, acceleration_unit, quantity_of
+from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_factor, acceleration_unit, quantity_of, same_unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.defects import build_defect
 from bearingtwin.physics.effects import build_effects
@@ -94,16 +94,18 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     raw = read_raw(measured_cfg.path)
     # What neither the settings nor the file say, a labels.csv beside it may (as training and diagnose read one).
     path = Path(str(measured_cfg.path))
-    given = (measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs)
-    row = labels_row(path, state_required=False) if None in given else _readable_row(path)
-    fault, rpm, fs = (value if value is not None else from_table
-                      for value, from_table in zip(given, row[1:] if row else (None, None, None)))
-    _say_what_the_row_says_otherwise(path, given, row)
-    if row is not None and None in given and (fault, rpm, fs) != given:
+    # A scale's unit is the product's, which no row's unit of the file's own samples replaces.
+    scaled = measured_cfg.get("scale") is not None
+    given = (measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs, measured_cfg.get("unit") or None)
+    row = labels_row(path, state_required=False) if None in given[:3] else _readable_row(path)
+    from_row = (row.state, row.rpm, row.fs, None if scaled else row.unit) if row else (None,) * 4
+    fault, rpm, fs, unit = (value if value is not None else from_table for value, from_table in zip(given, from_row))
+    _say_what_the_row_says_otherwise(path, given, from_row, row)
+    if row is not None and (fault, rpm, fs, unit) != given:
         log.info("%s: %s read from %s", path, ", ".join(
             f"{name}={value:g}" if isinstance(value, float) else f"{name}={value}"
-            for name, value, was in zip(("state", "rpm", "fs"), (fault, rpm, fs), given) if was is None and value is not None),
-            row[0])
+            for name, value, was in zip(("state", "rpm", "fs", "unit"), (fault, rpm, fs, unit), given)
+            if was is None and value is not None), row.where)
     # A tachometer's pulses beside the record may give its speed once its rate is known (recording_from_raw).
     pulses = raw.meta.get("two_levels") and len(raw.channels) > 1
     unknown = [(fact, setting) for fact, setting, value, stated in (
@@ -117,17 +119,18 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
             raise BearingTwinError(f"{path}: the file states {words}; the twin simulates {twin}")
     if unknown:
         facts, settings = zip(*unknown)
-        table = f"fill them in on {row[0]}" if row else f"a row for it in a {DEFAULT_LABELS} beside it: record,state,rpm,fs"
+        table = f"fill them in on {row.where}" if row else f"a row for it in a {DEFAULT_LABELS} beside it: record,state,rpm,fs"
         raise BearingTwinError(f"{path}: the file does not state its {', '.join(facts)}; give {' '.join(settings)} "
                                f"(or {table})")
     recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=fs, rpm=rpm, fault=fault,
                                    channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
-                                   fault_key="measured.fault", unit=measured_cfg.get("unit"), unit_key="measured.unit",
+                                   fault_key="measured.fault", unit=unit,
+                                   unit_key="measured.unit" if given[3] or unit is None else f"{row.where}: unit",
                                    scale=measured_cfg.get("scale"), scale_key="measured.scale")
     if recording.rpm is None:  # its tachometer gave none
         why = f" ({recording.meta['speed_unread']})" if recording.meta.get("speed_unread") else ""
         raise BearingTwinError(f"{path}: the file does not state its speed{why}; give measured.rpm=<rev/min>"
-                               + (f" (or fill it in on {row[0]})" if row else
+                               + (f" (or fill it in on {row.where})" if row else
                                   f" (or a row for it in a {DEFAULT_LABELS} beside it)"))
     recording.require_vibration()  # before the rate check, which a flat record cannot answer
     quantity = quantity_of(recording.unit or "")
@@ -141,7 +144,7 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     return recording, raw.vibration_channels
 
 
-def _readable_row(path: Path) -> tuple | None:
+def _readable_row(path: Path) -> LabelsRow | None:
     """The row of the labels.csv beside ``path`` where the settings give every value it could fill in: read only to
     say where it disagrees, so a row that does not read is passed over (as it was before it was read at all)."""
     try:
@@ -150,22 +153,23 @@ def _readable_row(path: Path) -> tuple | None:
         return None
 
 
-def _say_what_the_row_says_otherwise(path: Path, given: tuple, row: tuple | None) -> None:
-    """Log where a state, speed (beyond :func:`same_speed`) or rate given (``given``: measured.fault, .rpm, .fs)
-    differs from the labels row's (``row``: where, state, rpm, fs): the command's value holds for the one file it
-    names, as diagnose's does, but not unsaid."""
+def _say_what_the_row_says_otherwise(path: Path, given: tuple, from_row: tuple, row: LabelsRow | None) -> None:
+    """Log where a state, speed (beyond :func:`same_speed`), rate or unit given (``given``: measured.fault, .rpm, .fs,
+    .unit) differs from the labels row's (``from_row``, the same four of ``row``): the command's value holds for the
+    one file it names, as diagnose's does, but not unsaid."""
     if row is None:
         return
-    differ = [(key, value, from_table) for key, value, from_table in zip(("fault", "rpm", "fs"), given, row[1:])
+    differ = [(key, value, from_table) for key, value, from_table in zip(("fault", "rpm", "fs", "unit"), given, from_row)
               if value is not None and from_table is not None
-              and not (same_speed(float(value), float(from_table)) if key == "rpm" else value == from_table)]
+              and not (same_speed(float(value), float(from_table)) if key == "rpm" else
+                       same_unit(str(value), str(from_table)) if key == "unit" else value == from_table)]
     if not differ:
         return
     def words(value) -> str:
         return f"{value:g}" if isinstance(value, float) else str(value)
 
     log.warning("%s: %s given where %s says %s: the given %s held", path,
-                ", ".join(f"measured.{key}={words(value)}" for key, value, _ in differ), row[0],
+                ", ".join(f"measured.{key}={words(value)}" for key, value, _ in differ), row.where,
                 ", ".join(f"{'state' if key == 'fault' else key}={words(from_table)}" for key, _, from_table in differ),
                 "value is" if len(differ) == 1 else "values are")
 
