@@ -762,6 +762,59 @@ def test_each_library_effect_named_otherwise_among_a_marks_causes_is_so_named_th
     assert [words for words in CAUSE_WORDS.values() if words not in causes] == []
 
 
+def test_a_reference_record_that_states_no_unit_is_read_in_the_one_its_run_was_given(tmp_path):
+    """A baseline .npy read with measured.unit=g, its report saying so: read again for a later record's comparison,
+    it had been read with no unit, and the level of every later record in g was "not compared" (a machine grown
+    louder never said on a rig of WAVs or .npy files). Read in g, the level is compared; a scale given then is too."""
+    from bearingtwin.storage import file_digest
+    from bearingtwin.twin.compare import VIEWS, Comparator
+    from bearingtwin.twin.rank import TwinFit
+    from bearingtwin.twin.report import compare_with_reference
+
+    geometry = BearingGeometry(52, 25, 7.94, 39.04, 9)
+    rng = np.random.default_rng(0)
+    base = rng.standard_normal(24000)
+    np.save(tmp_path / "baseline.npy", base)
+    path = tmp_path / "baseline.npy"
+    reference = {"measured": {"path": str(path), "file": {"path": str(path), "sha256": file_digest(path)},
+                              "fs": 12000.0, "rpm": 1797.0, "unit": "g", "channel": 0}}
+    later = Recording(2 * rng.standard_normal(24000), 12000.0, 1797.0, "outer", source=str(tmp_path / "later.npy"),
+                      unit="g")
+
+    def level(report):
+        fit = TwinFit(operating_point={}, base_params={}, gain=1.0, baseline_error=1.0, ranking=[], steps=[], added=[],
+                      unexplained=[], floor_error=0.1, held_out=True, repeatability_db=dict.fromkeys(VIEWS, 1.0))
+        compare_with_reference(fit, Comparator(later, geometry), later, report, 3.0)
+        assert not fit.reference_note, fit.reference_note
+        return fit.level_since_reference_db, fit.level_not_compared
+
+    compared, _ = level(reference)
+    assert compared == pytest.approx(20 * math.log10(2), abs=0.3)
+    np.save(path, base / 10)  # volts of a 100 mV/g sensor, read with measured.scale=10 measured.unit=g
+    scaled = {"measured": {**reference["measured"], "scale": 10, "file": {"path": str(path), "sha256": file_digest(path)}}}
+    compared, _ = level(scaled)
+    assert compared == pytest.approx(20 * math.log10(2), abs=0.3)
+
+
+def test_a_runner_up_close_behind_that_does_not_pay_for_its_parameters_is_said_so():
+    """"slip leads unbalance by only 1.5 units" read as if unbalance were a rival explanation, where it did not pay
+    for its parameters at all (evidence -1.1): the runner-up's words say so; one that pays is named plainly."""
+    from bearingtwin.twin.rank import EffectFit, Step, TwinFit
+
+    def candidate(name, evidence):
+        return EffectFit(effect=name, params={}, error=1.0, explained=0.3, evidence=evidence, drop_per_point=0.0,
+                         n_parameters=1, signature="", comparison=None)
+
+    first = candidate("slip", 0.4)
+    fit = TwinFit(operating_point={}, base_params={}, gain=1.0, baseline_error=2.0, ranking=[first, candidate(
+        "unbalance", -1.1)], steps=[Step({}, 2.0, None), Step({"slip": {}}, 1.0, None)], added=[first], unexplained=[],
+        floor_error=0.1, held_out=True)
+    assert ("Uncertain: slip leads unbalance (which does not pay for its parameters) by only 1.5 information-criterion "
+            "units.") in fit.summary
+    fit.ranking[1] = candidate("unbalance", 0.1)
+    assert "Uncertain: slip leads unbalance by only 0.3 information-criterion units." in fit.summary
+
+
 def test_a_level_not_compared_with_the_reference_records_says_why():
     """A record of no stated unit against a reference in m/s^2: their numbers are of two scales, so the overall level
     is not compared, which had gone unsaid (the summary read as if the level had not changed)."""

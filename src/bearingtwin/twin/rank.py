@@ -344,6 +344,8 @@ class TwinFit:
                          f"({self.own_discrepancy_words}).")
             if self.margin is not None and self.added[0].effect == self.ranking[0].effect:
                 runner = self.ranking[1].effect
+                if self.ranking[1].evidence <= 0:  # close behind, yet short of what its parameters cost
+                    runner += " (which does not pay for its parameters)"
                 lines.append(f"Uncertain: {self.ranking[0].effect} leads {runner} by only {self.margin:.1f} "
                              "information-criterion units." if self.margin < CLEAR_MARGIN else
                              f"{self.ranking[0].effect} leads the runner-up, {runner}, by {self.margin:.1f} "

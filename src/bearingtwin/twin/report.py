@@ -575,8 +575,12 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
         if "channel" not in about and len(raw.channels) > 1:
             raise BearingTwinError(f"its report does not say which of its record's channels ({', '.join(map(str, raw.channels))}) "
                                    "was read")
+        # In the unit its run read it in: a WAV's or an .npy's was given (measured.unit, with measured.scale), and
+        # read without it the record would state none, its level never compared with this one's.
         earlier = recording_from_raw(raw, channel=about.get("channel"), fs=float(about["fs"]),
-                                     channel_key="the reference report's measured.channel")
+                                     channel_key="the reference report's measured.channel",
+                                     unit=about.get("unit") or None, unit_key="the reference report's measured.unit",
+                                     scale=about.get("scale"), scale_key="the reference report's measured.scale")
         # Channel names differ between formats (a .mat's DE, an export's `signal`): only a file that holds this
         # record's channel too, and was read on another, says the reference is another sensor's.
         if str(earlier.channel) != str(measured.channel) and str(measured.channel) in map(str, raw.channels):
@@ -693,6 +697,7 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     record = Path(str(cfg.measured.path)).expanduser().resolve()  # a later run may start in another folder
     about = {"path": str(cfg.measured.path), "file": {"path": str(record), "sha256": file_digest(record)},
              "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm, "unit": measured.unit,
+             "scale": cfg.measured.get("scale"),
              "channel": measured.channel, "bearing": cfg.bearing.get("name"), "geometry": rig_geometry(geometry),
              "reference": cfg.get("reference"), "fault_check": check}
     files = write_report(ranker.fit_, out, figures, about)
