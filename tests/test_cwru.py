@@ -602,6 +602,12 @@ def test_a_record_without_any_harmonic_series_leaves_its_rate_unconfirmed_not_co
     assert "nothing to check the rate against" in alone.reason
     lone = check_sampling_rate(noise + 3.0 * np.sin(2 * np.pi * 30.0 * t), fs, rpm)  # unbalance alone, no harmonics
     assert lone.verdict == "ambiguous" and "a lone line stands at 30.00 Hz" in lone.reason, lone.reason
+    # A speed given 3 % high puts the search window on the line's skirt: the line is named where its peak stands, with
+    # the speed that would put the shaft's line there (it had been said to stand at 30.85 Hz, on the stated place).
+    off = check_sampling_rate(noise + 3.0 * np.sin(2 * np.pi * 30.0 * t), fs, 1851.0)
+    assert off.verdict == "ambiguous" and ("a lone line without harmonics stands at 30.00 Hz (prominence " in off.reason
+                                           and "2.8 % below the shaft line's place at 1851 rpm: if it is the shaft's, "
+                                           "the speed is about 1800 rpm (or the rate 12340 Hz)" in off.reason), off.reason
     series = sum(np.sin(2 * np.pi * k * 210.0 * t) / k for k in range(1, 8))  # 7 x the expected 30 Hz
     far = check_sampling_rate(noise + series, fs, rpm)
     assert far.verdict == "contradicted" and far.observed_hz == pytest.approx(210.0, rel=0.005)

@@ -212,6 +212,29 @@ def _peak(ratio: np.ndarray, resolution: float, frequencies_hz: np.ndarray, rela
     return np.maximum.reduceat(np.append(ratio, -np.inf), bounds)[::2].reshape(frequencies_hz.shape)
 
 
+def _lone_line_words(ratio: np.ndarray, resolution: float, expected_hz: float, rpm: float, fs: float,
+                     prominence: float) -> str:
+    """What stands near the shaft line's place (``expected_hz``) in a record with no harmonic series: the lone line
+    nearest it within a tenth of the shaft rate, named where its peak stands (a search window on the place may hold
+    only the skirt of a line beside it), and, where that lies more than a bin and 1 % from the place (a speed given
+    3 % high), the speed that would put the shaft's line there; else nothing."""
+    low, high = _search_bins(np.array([expected_hz]), resolution, 0.1, ratio.size)
+    window = ratio[low[0]:high[0]]
+    peaks = [index for index in range(1, window.size - 1)
+             if window[index] >= prominence and window[index] >= window[index - 1] and window[index] >= window[index + 1]]
+    if not peaks:
+        return "nothing to check the rate against"
+    top = low[0] + min(peaks, key=lambda index: abs((low[0] + index) * resolution - expected_hz))
+    line_hz, lone = top * resolution, float(ratio[top])
+    if abs(line_hz - expected_hz) <= max(resolution, 0.01 * expected_hz):  # on its place, to a bin or 1 %
+        return (f"a lone line stands at {line_hz:.2f} Hz (prominence {lone:.0f}) without harmonics, which a 2x line "
+                "read at half the rate would show as well")
+    return (f"a lone line without harmonics stands at {line_hz:.2f} Hz (prominence {lone:.0f}), "
+            f"{100 * abs(line_hz / expected_hz - 1):.1f} % {'below' if line_hz < expected_hz else 'above'} the shaft "
+            f"line's place at {rpm:g} rpm: if it is the shaft's, the speed is about {rpm * line_hz / expected_hz:.0f} "
+            f"rpm (or the rate {fs * expected_hz / line_hz:.0f} Hz)")
+
+
 def _refined_fundamental(ratio: np.ndarray, resolution: float, multiples: np.ndarray, fundamental_hz: float,
                          relative_width: float) -> float:
     """The fundamental of a series from where its lines stand: the median over ``multiples`` n of (the
@@ -356,10 +379,7 @@ def check_sampling_rate(
             # Nothing anywhere contradicts the declared rate, and nothing confirms it: a machine without
             # unbalance, a simulation, a channel far from the shaft. A lone line where the shaft's belongs does
             # not confirm it either: read at half its rate, a record's 2x line stands there too.
-            lone = float(_peak(ratio, resolution, np.array([expected]), harmonic_tolerance)[0])
-            seen = (f"a lone line stands at {expected:.2f} Hz (prominence {lone:.0f}) without harmonics, which a "
-                    f"2x line read at half the rate would show as well" if lone >= prominence else
-                    "nothing to check the rate against")
+            seen = _lone_line_words(ratio, resolution, expected, rpm, fs, prominence)
             check = ShaftLineCheck(fs, rpm, expected, None, None, at_expected, False, "ambiguous", None,
                                    f"no shaft harmonic series stands out near {expected:.2f} Hz (prominence "
                                    f"{at_expected:.1f}) nor anywhere from {expected / wide:.2f} to {expected * wide:.0f} "
