@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import shutil
 import sqlite3
 from pathlib import Path
@@ -200,7 +201,40 @@ def test_rows_of_runs_of_different_sizes_are_said_to_be_so_where_a_reader_sees_i
     assert report_here(capsys, "table4", f"uri={mixed}", f"out={tmp_path}/mixed.md")[0] == 0
     said = (tmp_path / "mixed.md").read_text()
     assert "Runs of several versions of the code stand side by side here: " in said
-    assert "0123456789ab-dirty (1 run)" in said
+    assert re.search(r"0123456789ab-dirty code [0-9a-f]{12} \(1 run\)", said), said  # with the key of its code
+    # Two states of one commit with changes not committed are two versions, told apart by their code's key (the same
+    # git_commit tag had read as one version).
+    client = MlflowClient(mixed)
+    for other in client.search_runs(run.info.experiment_id, "attributes.status = 'FINISHED'"):
+        client.set_tag(other.info.run_id, "git_commit", "0123456789abcdef0123-dirty")
+        client.set_tag(other.info.run_id, "code", "aaaaaaaaaaaa" if other.info.run_id == run.info.run_id else "bbbbbbbbbbbb")
+    assert report_here(capsys, "table4", f"uri={mixed}", f"out={tmp_path}/mixed.md")[0] == 0
+    said = (tmp_path / "mixed.md").read_text()
+    assert "0123456789ab-dirty code aaaaaaaaaaaa (1 run)" in said and "0123456789ab-dirty code bbbbbbbbbbbb (" in said
+
+
+def test_a_run_larger_than_configured_is_a_row_of_its_own_not_the_methods_seeds(uri, tmp_path, capsys):
+    """An epochs ablation (trainer.max_epochs=1500 against the configured 100) had replaced a method's configured
+    seeds as 'a larger run of the method', its row unnamed: a size beyond the configured one is a setting of its own,
+    named in its row, while a smaller one (a smoke run) stays a smaller run of the same setting."""
+    from types import SimpleNamespace
+
+    from bearingtwin.tracking.reports import setting_params
+
+    def logged(epochs):
+        return SimpleNamespace(data=SimpleNamespace(params={"classifier.name": "cnn_bilstm", "seed": "0",
+                                                            "trainer.max_epochs": str(epochs)}))
+
+    assert setting_params(logged(1500))["trainer.max_epochs"] == "1500"
+    assert "trainer.max_epochs" not in setting_params(logged(100)) and "trainer.max_epochs" not in setting_params(logged(3))
+    longer = copy_store(uri, tmp_path / "longer.db")
+    (run,) = finished(longer, "raw+cnn_bilstm")
+    with sqlite3.connect(tmp_path / "longer.db") as database:
+        database.execute("update params set value = '1500' where run_uuid = ? and key = 'trainer.max_epochs'",
+                         (run.info.run_id,))
+    assert report_here(capsys, "table4", f"uri={longer}", f"out={tmp_path}/longer.md")[0] == 0
+    table = (tmp_path / "longer.md").read_text()
+    assert "trainer.max_epochs=1500" in table.split("Runs of different sizes")[0], table
 
 
 def test_table3_per_class_beside_the_paper(uri, tmp_path):

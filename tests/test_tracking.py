@@ -256,6 +256,21 @@ def test_finished_configs_are_skipped_and_failed_ones_retried(tmp_path, caplog, 
     with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
         assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped
     assert f"by the code at {now[:12]}-dirty (this code: {now[:12]});" in caplog.text
+    # Two states of one commit with changes not committed: the same git_commit tag, told apart by the code's key (a
+    # sweep re-launched after an edit had reused the runs of the code before it, unsaid).
+    client.set_tag(done.run_id, "git_commit", now + "-dirty")
+    client.set_tag(done.run_id, "code", "0123456789ab")
+    monkeypatch.setattr(provenance, "git_commit", lambda: now + "-dirty")
+    caplog.clear()
+    with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
+        assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped
+    assert (f"by the code at {now[:12]}-dirty with other changes not committed (code 0123456789ab; this code: "
+            f"{provenance.code_tag()});") in caplog.text
+    client.set_tag(done.run_id, "code", provenance.code_tag())  # this very code: nothing to say
+    caplog.clear()
+    with caplog.at_level("INFO", logger="bearingtwin.tracking.mlflow_logging"):
+        assert train_tracked(cfg, CHOICES, None, None, failing_train).skipped
+    assert "by the code at" not in caplog.text
     train_tracked(make_cfg(tmp_path, skip_finished=False), CHOICES, None, None, fake_train)
     assert len(client.search_runs([experiment_id])) == 3
 

@@ -78,8 +78,8 @@ from bearingtwin.tracking.lifecycle import (
     start_ray_keeping_signals,
 )
 from bearingtwin.tracking import open_command
-from bearingtwin.tracking.provenance import (computed_by_other_code, environment_tags, git_commit, installed_versions,
-                                             overrides_tag)
+from bearingtwin.tracking.provenance import (code_tag, computed_by_other_code, environment_tags, git_commit,
+                                             installed_versions, overrides_tag)
 from bearingtwin.tracking.tables import csv_table, markdown_table
 
 log = logging.getLogger(__name__)
@@ -634,6 +634,7 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
         "seed": str(cfg.seed),
         **({"output_dir": str(root_dir)} if root_dir else {}),  # Hydra's folder of the run: its log, its checkpoints
         "git_commit": git_commit(),
+        "code": code_tag(),  # two states of one commit with changes not committed told apart
         "cpu_kernels": cpu_kernels(),  # the network's figures are the same wherever these are (bearingtwin/__init__)
         **_versions(),
         **environment_tags(),

@@ -76,11 +76,34 @@ def environment_tags() -> dict[str, str]:
     return tags
 
 
+def code_tag() -> str:
+    """The ``code`` tag of a run: a key of every module of bearingtwin (:func:`~bearingtwin.storage.code_fingerprint`),
+    which tells apart two states of one commit with changes not committed, where ``git_commit`` reads
+    ``<commit>-dirty`` for both."""
+    from bearingtwin.storage import code_fingerprint
+
+    return code_fingerprint(".")
+
+
 def computed_by_other_code(run) -> str:
     """"at <commit> (this code: <commit>-dirty)" where ``run`` was computed by other code than this checkout's (one
-    with changes not committed counts as other than the commit without), "" where by this."""
+    with changes not committed counts as other than the commit without, and two such states of one commit as two
+    where the run's ``code`` tag says so), "" where by this."""
     then, now = run.data.tags.get("git_commit", "unknown"), git_commit()
-    return "" if then == now else f"at {short_commit(then)} (this code: {short_commit(now)})"
+    if then != now:
+        return f"at {short_commit(then)} (this code: {short_commit(now)})"
+    then_code = run.data.tags.get("code")
+    if then_code and then_code != code_tag():
+        return f"at {short_commit(then)} with other changes not committed (code {then_code}; this code: {code_tag()})"
+    return ""
+
+
+def code_version(tags: dict) -> str:
+    """A run's version of the code in words, from its tags: its commit, and where it had changes not committed, the
+    key of its code (:func:`code_tag`), so that two such states of one commit are two versions."""
+    commit = tags.get("git_commit", "unknown")
+    dirty_code = tags.get("code") if commit.endswith("-dirty") else None
+    return short_commit(commit) + (f" code {dirty_code}" if dirty_code else "")
 
 
 def overrides_tag(overrides) -> str:

@@ -45,8 +45,8 @@ from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KE
                                                   physics_first_rule, stored_config,
                                                   sweep_parents, sweep_run_ids)
 from bearingtwin.tracking.lifecycle import open_owned_run
-from bearingtwin.tracking.provenance import (SIZE_KEYS, check_replacement, run_size, run_sizes,
-                                             short_commit, size_record, size_words)
+from bearingtwin.tracking.provenance import (SIZE_KEYS, check_replacement, code_version, run_size, run_sizes,
+                                             size_record, size_words, used_sizes)
 from bearingtwin.tracking.tables import check_generated_target, generated_text, markdown_table, write_generated
 
 # uri / experiment: the store; out: the markdown file (default results/<name>.md in the working
@@ -227,13 +227,20 @@ def _configured_settings() -> dict[str, dict[str, str]]:
         method = method_name(cfg.hydra.runtime.choices)
         with open_dict(cfg):
             del cfg["hydra"]  # Hydra's node resolves only in a running job; a run logs none of it
-        settings[method] = params_setting(flatten(loggable_config(cfg)))
+        # With the configured sizes, against which a run's size beyond them is a setting (setting_params).
+        sizes = {key: f"{value:g}" for key, value in default_sizes().items()}
+        settings[method] = {**params_setting(flatten(loggable_config(cfg))), **sizes}
     return settings
 
 
 def setting_params(run) -> dict[str, str]:
-    """:func:`params_setting` of the params ``run`` logged."""
-    return params_setting(run.data.params)
+    """:func:`params_setting` of the params ``run`` logged, and each size it used beyond the configured one
+    (:func:`default_sizes`): an ablation's ``trainer.max_epochs=1500`` is a setting of its own, where as a larger run
+    of its method's setting it had replaced the five configured seeds in the paper's tables, unnamed. A smaller
+    size (a smoke run) stays a smaller run of the same setting."""
+    configured = default_sizes()
+    beyond = {key: f"{value:g}" for key, value in used_sizes(run).items() if value > configured.get(key, value)}
+    return {**params_setting(run.data.params), **beyond}
 
 
 def params_setting(logged: dict[str, str]) -> dict[str, str]:
@@ -684,6 +691,7 @@ def results_path(settings: dict[str, str], name: str) -> Path:
     return Path(settings.get("out") or Path.cwd() / "results" / name).expanduser()
 
 
+@functools.lru_cache(maxsize=1)
 def default_sizes() -> dict[str, float]:
     """The configured size of every :data:`SIZE_KEYS` setting (simulated and twin-to-real data)."""
     from bearingtwin.config import compose_config
@@ -755,11 +763,11 @@ def run_report(name: str, settings: dict[str, str]) -> Report:
             report.markdown = (report.markdown.rstrip() + "\n\nRuns of different sizes stand side by side here: "
                                + "; ".join(f"{key} {', '.join(f'{value:g}' for value in values)}"
                                            for key, values in mixed.items()) + ".\n")
-        commits = Counter(used.data.tags.get("git_commit", "unknown") for used in source.used_runs)
+        commits = Counter(code_version(used.data.tags) for used in source.used_runs)
         if len(commits) > 1:  # a table's numbers computed by several versions of the code: runs.json names each run's
             report.markdown = (report.markdown.rstrip() + "\n\nRuns of several versions of the code stand side by side "
-                               "here: " + ", ".join(f"{short_commit(commit)} ({count} run{'s' * (count != 1)})"
-                                                    for commit, count in commits.most_common()) + ".\n")
+                               "here: " + ", ".join(f"{version} ({count} run{'s' * (count != 1)})"
+                                                    for version, count in commits.most_common()) + ".\n")
         # The paper's pipeline's sizes; a twin's and its test records' are each sim2real protocol version's own.
         below = {key: min(values) for key, values in sizes.items()
                  if key in defaults and not key.startswith(("data.twin.", "data.test.")) and min(values) < defaults[key]}
