@@ -2308,6 +2308,12 @@ def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unse
     rows[1]["named_state"] = "inner"
     assert diagnosis_lines(DiagnosisRun(rows=rows))[
         "labelled otherwise than their names say (scored by the label: check it)"] == "o_m (outer, named inner)"
+    # Every record scored one the model was trained on: said to be no test of it (the score had stood alone).
+    trained = [{**row("a", "outer"), "seen": {"trained": True}}, {**row("b", "normal"), "seen": {"trained": True}}]
+    scores = {"accuracy_records": 1.0, "n_scored": 2, "accuracy_windows": 1.0}
+    assert diagnosis_lines(DiagnosisRun(rows=trained, scores=scores))["records right"] == (
+        "100.00 % of 2 with a known state; none the model was not trained on: no test of the model")
+    assert diagnosis_lines(DiagnosisRun(rows=rows, scores=scores))["records right"] == "100.00 % of 2 with a known state"
 
 
 def test_a_simulated_record_without_noise_is_said_to_have_no_floor(tmp_path):

@@ -70,9 +70,12 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
                                  "bearing=<name>: the physics evidence reads the defect lines of the bearing named)")
     if run.scores:
         lines["records right"] = f"{percent(run.scores['accuracy_records'])} of {run.scores['n_scored']} with a known state"
+        seen = [row for row in diagnosed if "correct" in row and any(row.get("seen", {}).values())]
         if "n_scored_tested" in run.scores:
             lines["records right"] += (f"; {percent(run.scores['accuracy_records_tested'])} of the "
                                        f"{run.scores['n_scored_tested']} {unseen_words(diagnosed)}")
+        elif seen:  # every record scored was one the model learnt from (or its twin was fitted to): no test of it
+            lines["records right"] += f"; none {unseen_words(seen)}: no test of the model"
         lines["windows right"] = percent(run.scores["accuracy_windows"])
     if "accuracy_records_physics" in run.scores:
         lines["physics alone right"] = (f"{percent(run.scores['accuracy_records_physics'])} of the "

@@ -86,7 +86,7 @@ class DiagnosisModel(PythonModel):
                                        "to diagnose")
             scale = params.get("scale") or None  # 0, the signature's default: not given
             if scale is not None:  # a sensor's volts times 1 / its sensitivity: the unit given is then the product's
-                windows = windows * positive_number(scale, "scale", "factor the samples are multiplied by")
+                windows = windows * positive_number(scale, "scale", "the unit given per unit of the samples")
             windows = in_model_terms(self.pipeline, windows, params.get("fs") or None, params.get("unit") or "")
             return predictions_frame(self.pipeline, windows,
                                      None if rpm is None else positive_number(rpm, "rpm", "rev/min"),
