@@ -1513,6 +1513,17 @@ def test_a_folders_labels_give_each_file_its_unit_which_a_file_stating_another_r
     assert json.loads((tmp_path / "out" / "stated" / "diagnosis.json").read_text())["unit_check"] == "as stated"
     assert (f"other.npz: {folder / 'labels.csv'} (its row for other.npz): unit=g contradicts the file's unit, m/s^2"
             in done.stderr), done.stderr[-2000:]
+    # A logger's volts beside: its row's scale (g per V) and unit read it, the others as before.
+    np.savez(folder / "volts.npz", signal=fault_signal(None, seconds=3) / 9.80665 / 10, fs=FS, unit="V")
+    (folder / "labels.csv").write_text(f"record,state,rpm,fs,unit,scale\nlogger.npy,outer,{RPM},{FS:g},g,\n"
+                                       f"stated.npz,outer,{RPM},,m/s^2,\nother.npz,outer,{RPM},,,\n"
+                                       f"volts.npz,outer,{RPM},,g,10\n")
+    done = run("diagnose", f"path={folder}", "model=models:/diag/1", f"out={tmp_path}/out2", "figures=false",
+               "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert done.returncode == 0, done.stderr[-2000:]
+    volts = json.loads((tmp_path / "out2" / "volts" / "diagnosis.json").read_text())
+    assert volts["unit_check"] == "converted" and any(
+        "samples x 10 read in g" in note and "(its row for volts.npz): scale=10" in note for note in volts["notes"]), volts
 
 
 def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered, tmp_path):

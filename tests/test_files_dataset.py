@@ -78,7 +78,8 @@ def test_labels_table_gives_each_file_its_state_and_the_split_keeps_records_apar
 def test_a_labels_rows_unit_reads_a_file_that_states_none_beside_files_that_state_theirs(tmp_path):
     """A logger's WAV states no unit: beside .npz files in m/s^2 it had refused the folder ("states no unit"), whatever
     the user knew. Its row's unit reads it (in g, converted to m/s^2 with the others); a row's unit the file
-    contradicts, or one no unit known here, is refused naming the row."""
+    contradicts, or one no unit known here, is refused naming the row. An integer WAV's row gives its full scale
+    (scale), which training had no way to take."""
     import scipy.io.wavfile
 
     root = tmp_path / "plant"
@@ -100,6 +101,15 @@ def test_a_labels_rows_unit_reads_a_file_that_states_none_beside_files_that_stat
         build_dataset(files_cfg(root))
     (root / "labels.csv").write_text("record,state,rpm,unit\npump.wav,normal,1797,gee\n" + rows)
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: unit='gee' is no unit known here"):
+        build_dataset(files_cfg(root))
+    # An integer WAV holds fractions of its recorder's full scale: its row's scale (5 g) reads it in g.
+    counts = np.round(signal / 9.80665 / 5 * 32767).astype(np.int16)
+    (root / "pump.wav").unlink()
+    scipy.io.wavfile.write(root / "pump.wav", int(FS), counts)
+    (root / "labels.csv").write_text("record,state,rpm,unit,scale\npump.wav,normal,1797,g,5\n" + rows)
+    np.testing.assert_allclose(build_dataset(files_cfg(root)).windows[0], signal[:512], atol=5 * 9.80665 / 32767)
+    (root / "labels.csv").write_text("record,state,rpm,scale\npump.wav,normal,1797,5\n" + rows)
+    with pytest.raises(BearingTwinError, match=r"labels.csv line 2: scale 5 needs a unit in the row"):
         build_dataset(files_cfg(root))
 
 
@@ -187,14 +197,14 @@ def test_a_labels_table_names_each_file_once(tmp_path):
                                                r"\(record, state\); name every column in the header"):
         labels_table(table)
     table.write_text("record;state;rpm;fs\nrun1.npy;normal;1797,5;12000\n")  # a decimal-comma spreadsheet's
-    assert [row[1:] for row in labels_table(table)] == [("run1.npy", "normal", 1797.5, 12000.0, None)]
+    assert [row[1:5] for row in labels_table(table)] == [("run1.npy", "normal", 1797.5, 12000.0)]
     table.write_text("record;state;rpm;fs\nrun1.npy;normal;1797;12.000\n")  # its point groups thousands: 12 or 12000?
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: fs '12.000' reads two ways in a table of semicolons "
                                                r"\(a spreadsheet's with decimal commas\): 12 or 12000; write it without "
                                                r"the point$"):
         labels_table(table)
     table.write_text("record,state,speed\nrun1.npy,normal,1500\n")  # passed over, the file would be read at another
-    with pytest.raises(BearingTwinError, match=r"labels.csv: column 'speed' is not one of record, state, rpm, fs, unit$"):
+    with pytest.raises(BearingTwinError, match=r"labels.csv: column 'speed' is not one of record, state, rpm, fs, unit, scale$"):
         labels_table(table)
     table.write_text("record,state\n\nrun1.npy,normal\n\nrun2.npy,cracked\n")  # blank lines count as lines
     with pytest.raises(BearingTwinError, match=r"labels.csv line 5: state 'cracked'"):
@@ -217,7 +227,7 @@ def test_a_bad_row_is_its_records_concern_for_a_reader_of_some_rows_and_every_re
                      "state.npy,outter,1797,12000\nfs.npy,normal,1797,-5\ngood.npy,inner,1797,12000\n"
                      "wide.npy,normal,1797,12000,3\n")
     rows, bad_rows = labels_table_with_bad_rows(table)
-    assert [row[1:] for row in rows] == [("good.npy", "outer", 1797.0, 12000.0, None)]
+    assert [row[1:5] for row in rows] == [("good.npy", "outer", 1797.0, 12000.0)]
     assert [record for record, _ in bad_rows] == ["rpm.npy", "state.npy", "fs.npy", "good.npy", "wide.npy"]
     messages = [message for _, message in bad_rows]
     assert all(message.startswith(f"{table} line {line}: ") for message, line in zip(messages, range(3, 8)))
@@ -231,7 +241,7 @@ def test_a_bad_row_is_its_records_concern_for_a_reader_of_some_rows_and_every_re
     with pytest.raises(BearingTwinError, match=r"labels.csv: no column state"):
         labels_table_with_bad_rows(table)
     table.write_text("Record,State,RPM,Fs\ngood.npy,outer,1797,12000\n")  # as a spreadsheet capitalizes them
-    assert [row[1:] for row in labels_table_with_bad_rows(table)[0]] == [("good.npy", "outer", 1797.0, 12000.0, None)]
+    assert [row[1:5] for row in labels_table_with_bad_rows(table)[0]] == [("good.npy", "outer", 1797.0, 12000.0)]
     table.write_text("record,state,rpm,RPM\ngood.npy,outer,1797,1750\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv: the header names column rpm more than once \(in any case\)"):
         labels_table_with_bad_rows(table)
@@ -245,20 +255,20 @@ def test_a_diagnosis_reads_a_labels_table_without_states_where_training_does_not
 
     table = tmp_path / "labels.csv"
     table.write_text("record,rpm,fs\na.npy,1500,12000\n")
-    assert [row[1:] for row in labels_table_with_bad_rows(table, state_required=False)[0]] == [
-        ("a.npy", None, 1500.0, 12000.0, None)]
+    assert [row[1:5] for row in labels_table_with_bad_rows(table, state_required=False)[0]] == [
+        ("a.npy", None, 1500.0, 12000.0)]
     with pytest.raises(BearingTwinError, match=r"labels.csv: no column state; the header must read "
-                                               r"record,state,rpm,fs,unit \(rpm, fs, unit optional\)$"):
+                                               r"record,state,rpm,fs,unit,scale \(rpm, fs, unit, scale optional\)$"):
         labels_table(table)
     table.write_text("record,state,rpm\na.npy,,1500\nb.npy,outter,1500\nc.npy,inner,\n")
     rows, bad_rows = labels_table_with_bad_rows(table, state_required=False)
-    assert [row[1:] for row in rows] == [("a.npy", None, 1500.0, None, None), ("c.npy", "inner", None, None, None)]
+    assert [row[1:5] for row in rows] == [("a.npy", None, 1500.0, None), ("c.npy", "inner", None, None)]
     assert [record for record, _ in bad_rows] == ["b.npy"]
     with pytest.raises(BearingTwinError, match=r"labels.csv line 2: state '' is not a bearing state"):
         labels_table(table)
     table.write_text("file,rpm\na.npy,1500\n")
     with pytest.raises(BearingTwinError, match=r"labels.csv: no column record; the header must read "
-                                               r"record,state,rpm,fs,unit \(state, rpm, fs, unit optional\)$"):
+                                               r"record,state,rpm,fs,unit,scale \(state, rpm, fs, unit, scale optional\)$"):
         labels_table_with_bad_rows(table, state_required=False)
 
 

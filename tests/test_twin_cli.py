@@ -666,6 +666,11 @@ def test_a_unit_given_for_a_measurement_that_states_none_is_read_and_a_velocity_
                                                r"m/s\^2$"):
         read_measurement(measured(tmp_path / "stated.npz", None))
     assert read_measurement(measured(tmp_path / "plain.npy", "m/s^2"))[0].unit == "m/s^2"
+    # A row's scale reads a logger's volts through the sensor's sensitivity, its unit the product's.
+    (tmp_path / "labels.csv").write_text("record,state,unit,scale\nvolts.npz,outer,g,10\n")
+    from_row = read_measurement(measured(tmp_path / "volts.npz", None))[0]
+    assert from_row.unit == "g" and from_row.meta["scale"] == 10.0
+    np.testing.assert_allclose(from_row.signal, np.load(measurement), rtol=1e-12)
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")

@@ -239,18 +239,21 @@ def load_recording(
     fault_key: str = "fault",
     unit: str | None = None,
     unit_key: str = "unit",
+    scale: float | None = None,
+    scale_key: str = "scale",
 ) -> Recording:
     """One validated channel of a file.
 
-    ``fs``, ``rpm`` and ``unit`` fill in what the file does not declare; where it does, a different
+    ``fs``, ``rpm`` and ``unit`` fill in what the file does not declare (``scale`` multiplies the samples first,
+    ``unit`` then naming the product's: :func:`scaled`); where it does, a different
     value is an error rather than a silent override (a speed the record's own tachometer or shaft series bears out
     against the file's is read, said: :func:`resolve_speed`; a ``declared`` data-set convention is
     the exception: the user's value wins). Non-finite samples raise: nothing is dropped.
-    ``channel_key``, ``fs_key``, ``rpm_key``, ``fault_key`` and ``unit_key`` are the settings ``channel``, ``fs``,
-    ``rpm``, ``fault`` and ``unit`` come from, as messages name them.
+    ``channel_key``, ``fs_key``, ``rpm_key``, ``fault_key``, ``unit_key`` and ``scale_key`` are the settings
+    ``channel``, ``fs``, ``rpm``, ``fault``, ``unit`` and ``scale`` come from, as messages name them.
     """
     return recording_from_raw(read_raw(path), channel, fs, rpm, fault, channel_key, fs_key, rpm_key, fault_key, unit,
-                              unit_key)
+                              unit_key, scale, scale_key)
 
 
 def recording_from_raw(

@@ -22,16 +22,18 @@ from bearingtwin.physics.geometry import FAULTS
 
 log = logging.getLogger(__name__)
 
-LABEL_COLUMNS = ("record", "state", "rpm", "fs", "unit")
+LABEL_COLUMNS = ("record", "state", "rpm", "fs", "unit", "scale")
 """Columns of a labels table: ``record`` (file name in ``data.root``) and ``state`` are required (a diagnosis may
 leave the state out: :func:`labels_table_with_bad_rows`); ``rpm``, ``fs`` and ``unit`` give what a file does not
-state (a logger's WAVs in g beside files in m/s^2: one folder)."""
+state (a logger's WAVs in g beside files in m/s^2: one folder), and ``scale`` multiplies its samples, ``unit`` then
+naming the product's (an integer WAV whose full scale is 5 g: ``scale`` 5, ``unit`` g)."""
 
 
 class LabelsRow(NamedTuple):
     """A row of a labels table that reads: ``where`` (its file and line, for messages), the ``record`` it names, its
     bearing ``state`` (None: unknown, where a diagnosis allows it), and the shaft speed ``rpm`` (rev/min), sampling
-    rate ``fs`` (Hz) and ``unit`` of the samples it gives (None: not given)."""
+    rate ``fs`` (Hz) and ``unit`` of the samples it gives, and the ``scale`` they are multiplied by first, ``unit``
+    then the product's (None: not given)."""
 
     where: str
     record: str
@@ -39,17 +41,19 @@ class LabelsRow(NamedTuple):
     rpm: float | None
     fs: float | None
     unit: str | None
+    scale: float | None = None
 
 
 class LabelledFile(NamedTuple):
-    """A recording of a labelled folder as training reads it: its file, its ``state``, and the ``rpm``, ``fs`` and
-    ``unit`` its labels row gives (None: the file's own, or the setting's)."""
+    """A recording of a labelled folder as training reads it: its file, its ``state``, and the ``rpm``, ``fs``,
+    ``unit`` and ``scale`` its labels row gives (None: the file's own, or the setting's)."""
 
     path: Path
     state: str
     rpm: float | None = None
     fs: float | None = None
     unit: str | None = None
+    scale: float | None = None
 DEFAULT_LABELS = "labels.csv"
 """The labels table ``data=files`` reads from ``data.root`` unless ``data.labels`` names another."""
 
@@ -73,7 +77,7 @@ def rows_from_labels(root: Path, cfg: dict, alternative: str = " or give data.pa
             raise BearingTwinError(f"{row.where}: record {row.record!r} is labelled again ({labelled_at[same]} names "
                                    f"{path.name} too); one row per record")
         labelled_at[same] = row.where
-        rows.append(LabelledFile(path, row.state, row.rpm, row.fs, row.unit))
+        rows.append(LabelledFile(path, row.state, row.rpm, row.fs, row.unit, row.scale))
     if not rows:
         raise BearingTwinError(f"{table}: lists no recordings")
     recordings, others = recordings_and_others(root)
@@ -92,7 +96,7 @@ def labels_path(root: Path, cfg: dict) -> Path:
 
 
 def labels_table(table: Path) -> list[LabelsRow]:
-    """A :class:`LabelsRow` per row of a labels table (columns ``record,state[,rpm,fs,unit]``);
+    """A :class:`LabelsRow` per row of a labels table (columns ``record,state[,rpm,fs,unit,scale]``);
     ``where`` is the file and line, for messages. A bad header raises, and so does a bad row (naming its line and
     field): what reads every row, a training set, would otherwise be built without that record."""
     rows, bad_rows = labels_table_with_bad_rows(table)
@@ -105,22 +109,23 @@ def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tupl
         list[LabelsRow], list[tuple[str, str]]]:
     """The rows of a labels table that read, as :func:`labels_table` gives them, and ``(record, message)`` for
     each that does not (more values than the header has columns, a record labelled again, a state that is no
-    bearing state, an rpm or fs that is no positive number, a unit not known here), in the table's order: a bad row is its record's
+    bearing state, an rpm, fs or scale that is no positive number, a unit not known here, a scale without a unit), in
+    the table's order: a bad row is its record's
     concern alone where a command reads one file's row, or each file of a folder its own. A table that cannot be
     read, or whose header is wrong, raises: none of its rows can be read.
 
     ``state_required=False`` (a diagnosis, where a fleet's states are what is asked): the ``state`` column may be
-    left out and its cells left empty, such a row's state None (unknown) and its rpm, fs and unit read all the same; a
+    left out and its cells left empty, such a row's state None (unknown) and its other cells read all the same; a
     state given must still be a bearing state. Training keeps it required: there the state is the label."""
     try:
         with open(table, newline="", encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark
             header = handle.readline()
             handle.seek(0)
             # A spreadsheet set to a decimal comma separates its columns with semicolons (the table holds no decimals
-            # beside rpm and fs, which such a spreadsheet writes with commas too; a unit holds no comma).
+            # beside rpm, fs and scale, which such a spreadsheet writes with commas too; a unit holds no comma).
             semicolons = ";" in header and "," not in header
             reader = csv.DictReader(handle, delimiter=";" if semicolons else ",")
-            # Record,State,RPM,Fs,Unit as a spreadsheet capitalizes them: the same columns.
+            # Record,State,RPM,Fs,Unit,Scale as a spreadsheet capitalizes them: the same columns.
             columns = [name.strip().lower() if name.strip().lower() in LABEL_COLUMNS else name.strip()
                        for name in reader.fieldnames or []]
             twice = next((name for name in LABEL_COLUMNS if columns.count(name) > 1), None)
@@ -154,13 +159,18 @@ def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tupl
                     if beyond:
                         raise BearingTwinError(f"{where}: more values than the header has columns "
                                                f"({', '.join(name for name in columns if name)}); name every column in the header")
-                    numbers = {key: _number_cell(row.get(key), key, semicolons, where) for key in ("rpm", "fs")}
+                    numbers = {key: _number_cell(row.get(key), key, semicolons, where) for key in ("rpm", "fs", "scale")}
                     state = row.get("state", "")  # no column, or an empty cell: unknown where that is allowed
                     unit = row.get("unit", "")
+                    scale = _optional_number(numbers["scale"], "scale", "the unit given per unit of the file's samples",
+                                             where)
+                    if scale is not None and not unit:  # a product of no unit would be read in the file's
+                        raise BearingTwinError(f"{where}: scale {scale:g} needs a unit in the row: the unit the "
+                                               f"samples are in once multiplied by {scale:g} (g for a full scale in g)")
                     rows.append(LabelsRow(where, record, _state(state, where) if state or state_required else None,
                                           _optional_number(numbers["rpm"], "rpm", "rev/min", where),
                                           _optional_number(numbers["fs"], "fs", "Hz", where),
-                                          known_unit(unit, f"{where}: unit") if unit else None))
+                                          known_unit(unit, f"{where}: unit") if unit else None, scale))
                 except BearingTwinError as error:
                     bad_rows.append((record, str(error)))
     except (OSError, UnicodeDecodeError) as error:
@@ -170,7 +180,7 @@ def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tupl
 
 def read_labels(path: Path | None, state_required: bool = True) -> tuple[
         dict[str, LabelsRow], dict[str, list[tuple[str, str]]]]:
-    """``stem -> row`` (:class:`LabelsRow`) from a labels table (``record,state[,rpm,fs,unit]``; record: file name or
+    """``stem -> row`` (:class:`LabelsRow`) from a labels table (``record,state[,rpm,fs,unit,scale]``; record: file name or
     stem; :func:`names_file` says which file a row is for), and ``stem -> [(record, message), ...]``, the rows of
     that stem that do not read (:func:`labels_table_with_bad_rows`, which ``state_required`` goes to): their
     records' errors, not the others'.
@@ -365,7 +375,7 @@ def _state(value: str, where: str) -> str:
 
 
 def _number_cell(value: str | None, name: str, semicolons: bool, where: str) -> str | None:
-    """A labels row's rpm or fs cell as a number with a decimal point. A table of semicolons is a spreadsheet's
+    """A labels row's rpm, fs or scale cell as a number with a decimal point. A table of semicolons is a spreadsheet's
     with decimal commas, whose point groups thousands: ``12.000`` there is refused as reading two ways (12 Hz read
     for 12 kHz had been resampled and diagnosed), ``1797,5`` read as 1797.5."""
     if not (value and semicolons):
@@ -378,5 +388,5 @@ def _number_cell(value: str | None, name: str, semicolons: bool, where: str) -> 
 
 
 def _optional_number(value: str | None, name: str, unit: str, where: str) -> float | None:
-    """A labels row's rpm or fs: None where the cell is empty, else a positive number (:func:`positive_number`)."""
+    """A labels row's rpm, fs or scale: None where the cell is empty, else a positive number (:func:`positive_number`)."""
     return positive_number(value, name, unit, f"{where}: ") if value else None

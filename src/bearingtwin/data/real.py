@@ -139,9 +139,10 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     """Windows of every labelled recording in ``data.root``: the user's own data, checked as CWRU's.
 
     The state of each file comes from the labels table ``data.labels`` (default
-    ``<root>/labels.csv``: columns ``record,state[,rpm,fs,unit]``, one row per file) or, when
+    ``<root>/labels.csv``: columns ``record,state[,rpm,fs,unit,scale]``, one row per file) or, when
     ``data.pattern`` is set, from the regular expression's ``state`` group matched on every
-    readable file's name. ``rpm``, ``fs`` and ``unit`` fill in what a file does not state (a row's rpm and fs
+    readable file's name. ``rpm``, ``fs`` and ``unit`` fill in what a file does not state, ``scale`` multiplying its
+    samples first (a row's rpm and fs
     before ``data.rpm`` / ``data.fs``); a value the file contradicts is an error (a speed the record itself bears out
     against the file's excepted: :func:`~bearingtwin.data.formats.resolve_speed`).
     """
@@ -157,7 +158,8 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
                        channel_key="data.channel", fs_key="data.fs" if row.fs is None else "the labels row's fs",
                        fault_key="data.pattern's state" if cfg.get("pattern") else "the labels row's state",
                        rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm",
-                       unit=row.unit, unit_key="the labels row's unit")
+                       unit=row.unit, unit_key="the labels row's unit", scale=row.scale,
+                       scale_key="the labels row's scale")
         for row in rows
     ]
     named = None if cfg.get("bearing") else bearing_the_files_name(recordings)
@@ -168,7 +170,8 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
             check_stated_rate(recording, "data.fs" if row.fs is None else "the labels row's fs", "data.check_fs", bearing,
                               rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm")
     # A row's unit where it gives one: the key of a table without units stays what it was before they could be given.
-    labelling = [(row.path.name, row.state, row.rpm, row.fs, *([row.unit] if row.unit else [])) for row in rows]
+    labelling = [(row.path.name, row.state, row.rpm, row.fs, *([row.unit] if row.unit else []),
+                  *([row.scale] if row.scale else [])) for row in rows]
     # What only checks the records (check_fs, the bearing whose lines witness a rate) leaves the windows alone.
     windowed = {key: value for key, value in cfg.items() if key not in ("check_fs", "bearing")}
     dataset = windows_from_recordings(

@@ -96,12 +96,12 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                 true_state: str | None = None, bearing: str | None = None, fs_key: str = "fs",
                 rpm_key: str = "rpm", order_tracking: tuple[bool, float] = (True, UNSTEADY),
                 unit: str | None = None, scale: float | None = None, unit_fills_in: bool = False,
-                unit_key: str = "unit") -> PreparedRecord:
+                unit_key: str = "unit", scale_key: str = "scale") -> PreparedRecord:
     """Read one file, check it against the model and bring it to the model's sampling rate.
 
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs``, ``rpm`` and ``unit`` fill in what the
-    file does not state and must agree with what it does (``fs_key``, ``rpm_key`` and ``unit_key`` name where they
-    came from in a message), ``unit`` naming the unit of the samples multiplied by ``scale`` where one is given
+    file does not state and must agree with what it does (``fs_key``, ``rpm_key``, ``unit_key`` and ``scale_key`` name
+    where they came from in a message), ``unit`` naming the unit of the samples multiplied by ``scale`` where one is given
     (:func:`~bearingtwin.data.formats.scaled`); ``unit_fills_in`` (a folder's run, ``unit`` given for every file): a
     file that states its own unit is read in it, said so, where one alone would be refused; ``bearing`` (a
     ``conf/bearing`` name) is the recorded bearing, the file's
@@ -120,7 +120,7 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
                                 "in it")
         unit = None
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key, unit=unit,
-                                   unit_key=unit_key, scale=scale)
+                                   unit_key=unit_key, scale=scale, scale_key=scale_key)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose
     gaps = file_gaps = gaps_by_channel.get(recording.channel, [])  # the file's positions, before tracking moves them
     quality = recording.quality_notes()

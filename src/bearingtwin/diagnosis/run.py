@@ -3,7 +3,7 @@
 Per record ``<out>/<record stem>/diagnosis.json`` and ``diagnosis.png``; and
 ``<out>/summary.csv`` (one row per record; ``true_state, correct`` when the truth is known from
 CWRU file names, the files themselves or a labels table: ``labels=<csv>`` or the
-``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs,unit]``, whose ``rpm``, ``fs`` and ``unit`` fill in what a file does
+``labels.csv`` of the folder the files lie in, columns ``record,state[,rpm,fs,unit,scale]``, whose ``rpm``, ``fs`` and ``unit`` fill in what a file does
 not state, before the command's ``rpm=`` / ``fs=``). A record that cannot be diagnosed, its labels row not
 reading among the reasons, is reported in ``summary.csv`` with its error and the others go on; the command then
 exits 2. A folder's or glob's tables that hold no signal are left out, and named. A labels table may leave the
@@ -399,14 +399,13 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             row = labelled.get(path.stem) or LabelsRow("", path.name, None, None, None, None)
             fs, fs_from_row = _fact(cfg.fs, row.fs, command_first=single)
             rpm, rpm_from_row = _fact(cfg.rpm, row.rpm, command_first=single)
-            # A scale's unit is the product's, which no row's unit of the file's own samples replaces.
-            unit, unit_from_row = _fact(cfg.get("unit"), None if cfg.get("scale") else row.unit, command_first=single)
+            scale, unit, unit_from_row = _scale_and_unit(cfg, row, single)
             its_row = f"{table if table else 'labels'} (its row for {path.name}): "
-            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, row.state, bearing, unit=unit,
-                                   scale=cfg.get("scale"),
+            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, row.state, bearing, unit=unit, scale=scale,
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
                                    rpm_key=its_row + "rpm" if rpm_from_row else "rpm",
-                                   unit_key=its_row + "unit" if unit_from_row else "unit", order_tracking=order_tracking,
+                                   unit_key=its_row + "unit" if unit_from_row else "unit",
+                                   scale_key=its_row + "scale" if unit_from_row else "scale", order_tracking=order_tracking,
                                    unit_fills_in=not (single or unit_from_row))
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             digest = file_digest(path) if trained or calibrated_digests else None
@@ -504,6 +503,18 @@ def _fact(command, row, command_first: bool):
     if (command_first and command is not None) or row is None:
         return command, False
     return row, True
+
+
+def _scale_and_unit(cfg: DictConfig, row: LabelsRow, single: bool) -> tuple[float | None, str | None, bool]:
+    """A file's scale and unit, and whether its labels row gave them: a scale comes with its unit (the product's, no
+    file's own), from the row or from the command (the row's first for a folder's file, the command's for the one
+    file given, as :func:`_fact` orders them); without a scale, the unit alone is the file's, by :func:`_fact`."""
+    if row.scale is not None and not (single and cfg.get("scale") is not None):
+        return row.scale, row.unit, True
+    if cfg.get("scale") is not None:
+        return cfg.get("scale"), cfg.get("unit"), False
+    unit, from_row = _fact(cfg.get("unit"), row.unit, command_first=single)
+    return None, unit, from_row
 
 
 def _names_of(path: Path, table: Path | None) -> set[str]:

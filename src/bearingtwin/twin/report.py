@@ -100,6 +100,9 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     row = labels_row(path, state_required=False) if None in given[:3] else _readable_row(path)
     from_row = (row.state, row.rpm, row.fs, None if scaled else row.unit) if row else (None,) * 4
     fault, rpm, fs, unit = (value if value is not None else from_table for value, from_table in zip(given, from_row))
+    scale, scale_key = measured_cfg.get("scale"), "measured.scale"
+    if not scaled and given[3] is None and row is not None and row.scale is not None:  # the row's scale, with its unit
+        scale, scale_key = row.scale, f"{row.where}: scale"
     _say_what_the_row_says_otherwise(path, given, from_row, row)
     if row is not None and (fault, rpm, fs, unit) != given:
         log.info("%s: %s read from %s", path, ", ".join(
@@ -126,7 +129,9 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
                                    channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
                                    fault_key="measured.fault", unit=unit,
                                    unit_key="measured.unit" if given[3] or unit is None else f"{row.where}: unit",
-                                   scale=measured_cfg.get("scale"), scale_key="measured.scale")
+                                   scale=scale, scale_key=scale_key)
+    if scale is not None:  # what a later run reads this record with again, as its reference (twin_report.json)
+        recording.meta["scale"] = float(scale)
     if recording.rpm is None:  # its tachometer gave none
         why = f" ({recording.meta['speed_unread']})" if recording.meta.get("speed_unread") else ""
         raise BearingTwinError(f"{path}: the file does not state its speed{why}; give measured.rpm=<rev/min>"
@@ -697,7 +702,7 @@ def run_twin(cfg: DictConfig, progress: bool = False) -> tuple[TwinFit, list[Pat
     record = Path(str(cfg.measured.path)).expanduser().resolve()  # a later run may start in another folder
     about = {"path": str(cfg.measured.path), "file": {"path": str(record), "sha256": file_digest(record)},
              "fault": measured.fault, "fs": measured.fs, "rpm": measured.rpm, "unit": measured.unit,
-             "scale": cfg.measured.get("scale"),
+             "scale": measured.meta.get("scale"),
              "channel": measured.channel, "bearing": cfg.bearing.get("name"), "geometry": rig_geometry(geometry),
              "reference": cfg.get("reference"), "fault_check": check}
     files = write_report(ranker.fit_, out, figures, about)
