@@ -1332,9 +1332,12 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     rows = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out" / "summary.csv"))}
     assert set(rows) == {"pump_a", "pump_b", "short", "nan", "cut", "told", "other", "own"}
     header = open(tmp_path / "out" / "summary.csv").readline().strip().split(",")
-    # new columns come last
-    assert header[-10:] == ["bearing", "original_fs", "unit_check", "level_unseen", "classifier_verdict",
-                            "physics_decided", "speed_spread", "order_tracked", "speed_unseen", "features_unseen"]
+    # The same columns in every run, whatever its records hold (the conditional ones had moved those after them).
+    from bearingtwin.diagnosis.run import SUMMARY_FIELDS
+
+    assert header == list(SUMMARY_FIELDS) and header[-10:] == [
+        "severity", "original_fs", "unit_check", "level_unseen", "classifier_verdict", "physics_decided", "speed_spread",
+        "order_tracked", "speed_unseen", "features_unseen"]
     assert 0.0 <= float(rows["pump_a"]["features_unseen"]) <= 1.0 and not rows["short"]["features_unseen"]
     assert rows["pump_a"]["classifier_verdict"] == rows["pump_a"]["verdict"]  # no physics_first: the model's own
     assert float(rows["pump_a"]["physics_decided"]) == 0.0 and not rows["short"]["physics_decided"]
@@ -1491,6 +1494,26 @@ def two_speed_folder(folder):
         bpfo = BearingGeometry.from_config(bearing_config("paper")).defect_frequencies(rpm)["bpfo"]
         np.save(folder / f"{name}.npy", fault_signal(bpfo, seconds=3, fs=fs))
     return folder, rows
+
+
+def test_a_files_scale_and_unit_come_whole_from_its_row_or_from_the_command():
+    """A scale's unit is the product's, a unit without one the file's own: the two come from one place. A folder's
+    row that gives a unit is its file's, even beside a command's scale (a WAV already in g had been multiplied by the
+    volts' scale); for the one file given, the command's unit holds, never paired with the row's scale."""
+    from bearingtwin.data.labels import LabelsRow
+    from bearingtwin.diagnosis.run import _scale_and_unit
+
+    def cfg(unit=None, scale=None):
+        return OmegaConf.create({"unit": unit, "scale": scale})
+
+    in_g, volts, bare = (LabelsRow("t", "a.wav", None, None, None, "g"), LabelsRow("t", "b.npz", None, None, None, "g", 10.0),
+                         LabelsRow("t", "c.npy", None, None, None, None))
+    assert _scale_and_unit(cfg("g", 10), in_g, single=False) == (None, "g", True)
+    assert _scale_and_unit(cfg("g", 10), volts, single=False) == (10.0, "g", True)
+    assert _scale_and_unit(cfg("g", 10), bare, single=False) == (10, "g", False)
+    assert _scale_and_unit(cfg("m/s^2"), volts, single=True) == (None, "m/s^2", False)
+    assert _scale_and_unit(cfg(), volts, single=True) == (10.0, "g", True)
+    assert _scale_and_unit(cfg(), bare, single=True) == (None, None, False)
 
 
 def test_a_folders_labels_give_each_file_its_unit_which_a_file_stating_another_refuses(registered, tmp_path):

@@ -144,6 +144,21 @@ def test_what_a_file_leaves_unsaid_is_read_from_a_labels_table_beside_it(capsys,
     assert summary["shaft_line_check"]["verdict"] == "consistent"
     code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'outer_a.npy'}", "rpm=1800")
     assert json.loads(out)["rpm_origin"] == "option"  # an option given wins over the table
+    # A row's unit is the samples' where the file states none; its scale is said, the levels staying the file's own;
+    # a unit the file contradicts is said too (inspect had failed on any row once the table took a unit).
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs,unit\nouter_a.npy,outer,1797,12000,g\n")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'outer_a.npy'}")
+    assert code == 0 and json.loads(out)["unit"] == "g"
+    (tmp_path / "labels.csv").write_text("record,state,rpm,fs,unit,scale\nouter_a.npy,outer,1797,12000,g,5\n")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'outer_a.npy'}")
+    summary = json.loads(out)
+    assert code == 0 and summary["unit"] is None and (f"{where} reads its samples x 5 in g (scale, unit): the levels here "
+                                                      "are the file's own samples, before it") in summary["meta"]["notes"]
+    np.savez(tmp_path / "stated.npz", signal=np.load(tmp_path / "outer_a.npy"), fs=fs, rpm=rpm, unit="m/s^2")
+    (tmp_path / "labels.csv").write_text("record,state,unit\nstated.npz,outer,g\n")
+    code, out, _ = run(capsys, monkeypatch, f"path={tmp_path / 'stated.npz'}")
+    assert code == 0 and (f"{where} gives unit g, which the file's m/s^2 contradicts: training, a diagnosis and the twin "
+                          "refuse it") in json.loads(out)["meta"]["notes"]
 
 
 def test_a_bad_row_of_another_file_is_passed_over_and_named_and_the_files_own_refuses_it(capsys, caplog, monkeypatch,

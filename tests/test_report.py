@@ -213,28 +213,29 @@ def test_rows_of_runs_of_different_sizes_are_said_to_be_so_where_a_reader_sees_i
     assert "0123456789ab-dirty code aaaaaaaaaaaa (1 run)" in said and "0123456789ab-dirty code bbbbbbbbbbbb (" in said
 
 
-def test_a_run_larger_than_configured_is_a_row_of_its_own_not_the_methods_seeds(uri, tmp_path, capsys):
-    """An epochs ablation (trainer.max_epochs=1500 against the configured 100) had replaced a method's configured
-    seeds as 'a larger run of the method', its row unnamed: a size beyond the configured one is a setting of its own,
-    named in its row, while a smaller one (a smoke run) stays a smaller run of the same setting."""
+def test_a_run_larger_than_configured_is_a_row_of_its_own_not_the_methods_seeds(uri, tmp_path, capsys, monkeypatch):
+    """An epochs ablation (trainer.max_epochs=1500 against the configured 100) had replaced a method's five
+    configured seeds as 'a larger run of the method', its row unnamed: a size beyond the configured one is a setting
+    of its own, named in its row, while a smaller one (a smoke run) stays a smaller run of the same setting."""
     from types import SimpleNamespace
 
-    from bearingtwin.tracking.reports import setting_params
+    from bearingtwin.tracking import reports
 
-    def logged(epochs):
-        return SimpleNamespace(data=SimpleNamespace(params={"classifier.name": "cnn_bilstm", "seed": "0",
-                                                            "trainer.max_epochs": str(epochs)}))
+    def logged(run_id, seed, epochs, start):
+        return SimpleNamespace(info=SimpleNamespace(run_id=run_id, start_time=start), data=SimpleNamespace(
+            tags={"method": "raw+cnn_bilstm", "seed": str(seed)},
+            params={"classifier.name": "cnn_bilstm", "features.kind": "raw", "seed": str(seed),
+                    "trainer.max_epochs": str(epochs)}))
 
-    assert setting_params(logged(1500))["trainer.max_epochs"] == "1500"
-    assert "trainer.max_epochs" not in setting_params(logged(100)) and "trainer.max_epochs" not in setting_params(logged(3))
-    longer = copy_store(uri, tmp_path / "longer.db")
-    (run,) = finished(longer, "raw+cnn_bilstm")
-    with sqlite3.connect(tmp_path / "longer.db") as database:
-        database.execute("update params set value = '1500' where run_uuid = ? and key = 'trainer.max_epochs'",
-                         (run.info.run_id,))
-    assert report_here(capsys, "table4", f"uri={longer}", f"out={tmp_path}/longer.md")[0] == 0
-    table = (tmp_path / "longer.md").read_text()
-    assert "trainer.max_epochs=1500" in table.split("Runs of different sizes")[0], table
+    configured = [logged(f"c{seed}", seed, 100, seed) for seed in range(5)]
+    runs = [logged("long", 0, 1500, 10), logged("smoke", 7, 3, 11), *configured][::-1]
+    monkeypatch.setattr(reports, "find_runs", lambda *args: sorted(runs, key=lambda run: -run.info.start_time))
+    source = reports.ReportInput(None, "0", {})
+    kept = source.training_runs(beside_paper=True)
+    assert sorted(run.info.run_id for run in kept) == ["c0", "c1", "c2", "c3", "c4", "long"]
+    assert source.setting(next(run for run in kept if run.info.run_id == "long")) == "trainer.max_epochs=1500"
+    assert {source.setting(run) for run in kept if run.info.run_id != "long"} == {"trainer.max_epochs=100"}
+    assert source.left_out == ["raw+cnn_bilstm seed 7 (trainer.max_epochs=3)"]  # the smoke run, smaller
 
 
 def test_table3_per_class_beside_the_paper(uri, tmp_path):

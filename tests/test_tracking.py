@@ -613,7 +613,7 @@ def test_a_sweep_is_named_by_its_sweep_file_else_its_experiment():
     assert sweep_name({"sweep": None, "experiment": "sim2real"}) == "sim2real"
     # A sweep of command-line values alone is named by the keys its jobs differ in, not by a word they all share.
     assert sweep_name({"classifier": "svm"}, ["classifier", "seed"]) == "over classifier, seed"
-    assert sweep_name({"classifier": "svm"}) == "of one job"  # nothing varied: "sweep cli" had read as a name
+    assert sweep_name({"classifier": "svm"}) == "of one setting"  # nothing varied: "sweep cli" had read as a name
 
 
 def test_a_launcher_chosen_hydras_way_is_warned_of_and_the_projects_is_not(capsys):

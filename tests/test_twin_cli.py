@@ -632,7 +632,7 @@ def test_a_speed_given_twice_the_true_one_is_refused_where_the_file_records_its_
 CWRU_RECORDS = data_root() / "cwru"
 
 
-def test_a_unit_given_for_a_measurement_that_states_none_is_read_and_a_velocity_refused(measurement, tmp_path):
+def test_a_unit_given_for_a_measurement_that_states_none_is_read_and_a_velocity_refused(measurement, tmp_path, caplog):
     """A WAV or a bare .npy cannot state its unit, and the twin had no setting for it: a velocity record passed for an
     acceleration, its tilt fitted as physics. measured.unit fills it in; a velocity is refused as a stated one is, and
     a unit a file contradicts is refused naming the setting."""
@@ -671,6 +671,9 @@ def test_a_unit_given_for_a_measurement_that_states_none_is_read_and_a_velocity_
     from_row = read_measurement(measured(tmp_path / "volts.npz", None))[0]
     assert from_row.unit == "g" and from_row.meta["scale"] == 10.0
     np.testing.assert_allclose(from_row.signal, np.load(measurement), rtol=1e-12)
+    with caplog.at_level("WARNING"):  # a unit given holds for the one file, the row's scale said not applied
+        assert read_measurement(measured(tmp_path / "volts.npz", "V"))[0].unit == "V"
+    assert "labels.csv line 2 gives scale 10, not applied: the measured.unit and measured.scale given hold" in caplog.text
 
 
 @pytest.mark.skipif(not CWRU_RECORDS.is_dir(), reason=f"CWRU records not present in {CWRU_RECORDS}")

@@ -777,7 +777,7 @@ def test_a_reference_record_that_states_no_unit_is_read_in_the_one_its_run_was_g
     np.save(tmp_path / "baseline.npy", base)
     path = tmp_path / "baseline.npy"
     reference = {"measured": {"path": str(path), "file": {"path": str(path), "sha256": file_digest(path)},
-                              "fs": 12000.0, "rpm": 1797.0, "unit": "g", "channel": 0}}
+                              "fs": 12000.0, "rpm": 1797.0, "unit": "g", "scale": None, "channel": 0}}
     later = Recording(2 * rng.standard_normal(24000), 12000.0, 1797.0, "outer", source=str(tmp_path / "later.npy"),
                       unit="g")
 
@@ -794,6 +794,10 @@ def test_a_reference_record_that_states_no_unit_is_read_in_the_one_its_run_was_g
     scaled = {"measured": {**reference["measured"], "scale": 10, "file": {"path": str(path), "sha256": file_digest(path)}}}
     compared, _ = level(scaled)
     assert compared == pytest.approx(20 * math.log10(2), abs=0.3)
+    # A report made before reports kept a scale may hold a scaled product's unit: read as the file states itself.
+    older = {"measured": {key: value for key, value in scaled["measured"].items() if key != "scale"}}
+    assert level(older) == (None, "this record's unit is g, the reference record's not stated (its report's "
+                                  "measured.unit, given when it was made, would state it)")
 
 
 def test_a_runner_up_close_behind_that_does_not_pay_for_its_parameters_is_said_so():

@@ -36,6 +36,7 @@ from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE
                                     speed_reader, tachometer_channel)
 from bearingtwin.data.labels import labels_row
 from bearingtwin.data.recording import Recording
+from bearingtwin.data.units import same_unit
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.features.time_domain import FEATURE_NAMES, time_domain_features
 from bearingtwin.tracking.lifecycle import stop_cleanly
@@ -101,9 +102,10 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     units = {name: raw.channel_units.get(name, raw.unit) for name in listed}  # one, or each channel's where they differ
     unit = (next(iter(units.values()), "") or None) if len(set(units.values())) <= 1 else units
     row = labels_row(Path(str(path)), state_required=False) if fs is None or rpm is None or unit is None else None
-    table, table_state, table_rpm, table_fs, table_unit = (row.where, *row[2:]) if row else (None,) * 5
-    if unit is None and table_unit is not None:  # the samples' unit the file does not state, as a diagnosis reads it
-        unit = table_unit
+    table, table_state, table_rpm, table_fs = (row.where, row.state, row.rpm, row.fs) if row else (None,) * 4
+    unit_note = _row_unit_note(row, unit)
+    if unit is None and row is not None and row.unit is not None and row.scale is None:
+        unit = row.unit  # the samples' unit the file does not state, as a diagnosis reads it
     fs_origin = "option" if fs is not None else raw.fs_origin or None
     if fs is None and table_fs is not None:
         if raw.fs is None or raw.fs_origin == "declared":
@@ -156,7 +158,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     given_rate = named_rate_note(raw.meta, fs, "fs" if fs_origin == "option" else f"{table}: fs")
     too_low = None if bearing is None or rpm is None or fs_hz is None else bearing.rate_too_low(fs_hz, rpm)
     too_low = too_low and f"a rate of {fs_hz:g} Hz is too low for a diagnosis: {too_low}"
-    for note in filter(None, [bearing_note, given_rate, *speed_notes, too_low]):
+    for note in filter(None, [bearing_note, given_rate, *speed_notes, too_low, unit_note]):
         summary["meta"]["notes"] = [*summary["meta"].get("notes", []), note]
     if fs_hz is not None:  # clipping, dropouts and dead channels, as a diagnosis or the twin names them
         quality = {name: Recording(raw.channels[name], fs_hz, source=raw.path).quality_notes()
@@ -197,6 +199,21 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
         if rpm is not None:
             summary["defect_frequencies_hz"] = bearing.defect_frequencies(rpm)
     return summary
+
+
+def _row_unit_note(row, unit) -> str | None:
+    """What the labels row beside the file says of its samples' unit that the summary's ``unit`` and levels (the
+    file's own samples) do not: a scale a reading multiplies them by first, or a unit the file contradicts (which
+    training, a diagnosis and the twin refuse)."""
+    if row is None or row.unit is None:
+        return None
+    if row.scale is not None:
+        return (f"{row.where} reads its samples x {row.scale:g} in {row.unit} (scale, unit): the levels here are the "
+                "file's own samples, before it")
+    if isinstance(unit, str) and unit and not same_unit(unit, row.unit):
+        return (f"{row.where} gives unit {row.unit}, which the file's {unit} contradicts: training, a diagnosis and the "
+                "twin refuse it")
+    return None
 
 
 def levels(raw, names: list[str]) -> dict:

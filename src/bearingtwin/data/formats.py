@@ -326,12 +326,14 @@ def recording_from_raw(
     )
 
 
-def known_unit(unit, key: str) -> str:
-    """``unit`` (setting ``key``) as given, where it is a unit known here (:func:`~bearingtwin.data.units.quantity_of`)."""
+def known_unit(unit, key: str, on_command_line: bool = True) -> str:
+    """``unit`` (setting ``key``) as given, where it is a unit known here (:func:`~bearingtwin.data.units.quantity_of`);
+    ``on_command_line``: the refusal says how a caret is quoted for the shell (not for a table's cell)."""
     unit = str(unit).strip()
     if quantity_of(unit) is None:
-        raise BearingTwinError(f"{key}={unit!r} is no unit known here; give one such as g, mg, m/s2, mm/s2 (an "
-                               "acceleration; a caret, m/s^2, only in quotes), V, mm/s or um")
+        accelerations = "g, mg, m/s2, mm/s2 (an acceleration; a caret, m/s^2, only in quotes)" if on_command_line else \
+            "g, mg, m/s^2, mm/s^2 (an acceleration)"
+        raise BearingTwinError(f"{key}={unit!r} is no unit known here; give one such as {accelerations}, V, mm/s or um")
     return unit
 
 
@@ -844,8 +846,8 @@ def save_simulated_record(path: Path, recording: Recording, channels: np.ndarray
     settings no sample shows), marked :data:`SIMULATOR_MARK`. Written whole or not at all
     (:func:`~bearingtwin.storage.write_atomic`: a full disk raises ``OSError`` and leaves an earlier file there as it
     was)."""
-    # By a stream: numpy adds ".npz" to a name that ends ".NPZ".
-    write_atomic(path, lambda stream: np.savez(
+    # By a stream: numpy adds ".npz" to a name that ends ".NPZ"; through a link, to the file it names.
+    write_atomic(Path(path).resolve(), lambda stream: np.savez(
         stream, signal=recording.signal, channels=channels, channel_names=np.array(channel_names), fs=recording.fs,
         rpm=recording.rpm, fault=recording.fault, sensor=recording.channel, unit=recording.unit,
         made_by=SIMULATOR_MARK, **facts))

@@ -170,7 +170,8 @@ def labels_table_with_bad_rows(table: Path, state_required: bool = True) -> tupl
                     rows.append(LabelsRow(where, record, _state(state, where) if state or state_required else None,
                                           _optional_number(numbers["rpm"], "rpm", "rev/min", where),
                                           _optional_number(numbers["fs"], "fs", "Hz", where),
-                                          known_unit(unit, f"{where}: unit") if unit else None, scale))
+                                          known_unit(unit, f"{where}: unit", on_command_line=False) if unit else None,
+                                          scale))
                 except BearingTwinError as error:
                     bad_rows.append((record, str(error)))
     except (OSError, UnicodeDecodeError) as error:

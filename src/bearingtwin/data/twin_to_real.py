@@ -101,7 +101,7 @@ def test_files(data_cfg: Mapping) -> list[Path]:
 @dataclass(frozen=True)
 class LabelsTable:
     """The rows of a labels table (``data.labels``): each record's file in ``root``, its state, and the rpm,
-    fs and unit the row gives (None: the file's own)."""
+    fs, unit and scale the row gives (None: the file's own)."""
 
     root: Path
     rows: list[LabelledFile]

@@ -506,15 +506,15 @@ def _fact(command, row, command_first: bool):
 
 
 def _scale_and_unit(cfg: DictConfig, row: LabelsRow, single: bool) -> tuple[float | None, str | None, bool]:
-    """A file's scale and unit, and whether its labels row gave them: a scale comes with its unit (the product's, no
-    file's own), from the row or from the command (the row's first for a folder's file, the command's for the one
-    file given, as :func:`_fact` orders them); without a scale, the unit alone is the file's, by :func:`_fact`."""
-    if row.scale is not None and not (single and cfg.get("scale") is not None):
+    """A file's scale and unit, and whether its labels row gave them. The two come whole from one place, as a scale's
+    unit is the product's and a unit without one the file's own: from the row where it gives a unit, for a folder's
+    file (the command's are every file's), unless the command gives either for the one file it names; else from the
+    command (a row's unit alone is never multiplied by the command's scale, nor a row's scale paired with the
+    command's unit)."""
+    command_gives = cfg.get("scale") is not None or cfg.get("unit") is not None
+    if row.unit is not None and not (single and command_gives):
         return row.scale, row.unit, True
-    if cfg.get("scale") is not None:
-        return cfg.get("scale"), cfg.get("unit"), False
-    unit, from_row = _fact(cfg.get("unit"), row.unit, command_first=single)
-    return None, unit, from_row
+    return cfg.get("scale"), cfg.get("unit"), False
 
 
 def _names_of(path: Path, table: Path | None) -> set[str]:

@@ -1039,7 +1039,7 @@ class SweepParentRun(Callback):
         experiments = sorted({str(job.tracking.experiment) for job in jobs} | {str(tracking.experiment)})
         print(f"sweep outputs: {sweep_dir} (runs in experiment{'s' * (len(experiments) > 1)} {', '.join(experiments)}: "
               f"{open_command(tracking.uri)})", flush=True)
-        print(format_sweep_summary(parent.data.tags.get("sweep", "of one job"), parent_id, outcomes), flush=True)
+        print(format_sweep_summary(parent.data.tags.get("sweep", "of one setting"), parent_id, outcomes), flush=True)
         if n_failed:
             sys.exit(1)
 
@@ -1074,8 +1074,9 @@ def sweep_tracking(config: DictConfig, jobs: list[DictConfig]) -> DictConfig:
 def sweep_name(choices, varied: Sequence[str] = ()) -> str:
     """A sweep's name, as its parent run and its jobs' tags give it: the sweep file's (``+sweep=table4``), else the
     experiment's (``+experiment=sim2real``), else the keys a sweep of command-line values alone varies
-    (``over classifier, seed``; ``of one job`` where nothing varies)."""
-    return str(choices.get("sweep") or choices.get("experiment") or ("over " + ", ".join(varied) if varied else "of one job"))
+    (``over classifier, seed``; ``of one setting`` where nothing varies: one job, or the same one repeated)."""
+    return str(choices.get("sweep") or choices.get("experiment") or ("over " + ", ".join(varied) if varied else
+                                                                      "of one setting"))
 
 
 def sweep_folder(hydra_cfg) -> str:

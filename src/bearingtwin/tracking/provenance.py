@@ -92,8 +92,8 @@ def computed_by_other_code(run) -> str:
     then, now = run.data.tags.get("git_commit", "unknown"), git_commit()
     if then != now:
         return f"at {short_commit(then)} (this code: {short_commit(now)})"
-    then_code = run.data.tags.get("code")
-    if then_code and then_code != code_tag():
+    then_code = run.data.tags.get("code")  # of a checkout with changes only: at a clean commit the commit says it all
+    if then.endswith("-dirty") and then_code and then_code != code_tag():
         return f"at {short_commit(then)} with other changes not committed (code {then_code}; this code: {code_tag()})"
     return ""
 

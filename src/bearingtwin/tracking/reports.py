@@ -234,13 +234,14 @@ def _configured_settings() -> dict[str, dict[str, str]]:
 
 
 def setting_params(run) -> dict[str, str]:
-    """:func:`params_setting` of the params ``run`` logged, and each size it used beyond the configured one
-    (:func:`default_sizes`): an ablation's ``trainer.max_epochs=1500`` is a setting of its own, where as a larger run
-    of its method's setting it had replaced the five configured seeds in the paper's tables, unnamed. A smaller
-    size (a smoke run) stays a smaller run of the same setting."""
+    """:func:`params_setting` of the params ``run`` logged, and each size it used, read as the configured one
+    (:func:`default_sizes`) where it is no larger: an ablation's ``trainer.max_epochs=1500`` is a setting of its own,
+    where as a larger run of its method's setting it had replaced the five configured seeds in the paper's tables,
+    unnamed, while a smaller size (a smoke run) stays a smaller run of the configured setting
+    (:meth:`ReportInput.training_runs` keeps the largest)."""
     configured = default_sizes()
-    beyond = {key: f"{value:g}" for key, value in used_sizes(run).items() if value > configured.get(key, value)}
-    return {**params_setting(run.data.params), **beyond}
+    sizes = {key: f"{max(value, configured[key]):g}" for key, value in used_sizes(run).items() if key in configured}
+    return {**params_setting(run.data.params), **sizes}
 
 
 def params_setting(logged: dict[str, str]) -> dict[str, str]:

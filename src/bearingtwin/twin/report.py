@@ -97,12 +97,15 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     # A scale's unit is the product's, which no row's unit of the file's own samples replaces.
     scaled = measured_cfg.get("scale") is not None
     given = (measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs, measured_cfg.get("unit") or None)
-    row = labels_row(path, state_required=False) if None in given[:3] else _readable_row(path)
+    row = labels_row(path, state_required=False) if None in given else _readable_row(path)
     from_row = (row.state, row.rpm, row.fs, None if scaled else row.unit) if row else (None,) * 4
     fault, rpm, fs, unit = (value if value is not None else from_table for value, from_table in zip(given, from_row))
     scale, scale_key = measured_cfg.get("scale"), "measured.scale"
     if not scaled and given[3] is None and row is not None and row.scale is not None:  # the row's scale, with its unit
         scale, scale_key = row.scale, f"{row.where}: scale"
+    elif row is not None and row.scale is not None and not (scaled and math.isclose(float(scale), row.scale)):
+        log.warning("%s: %s gives scale %g, not applied: the measured.unit and measured.scale given hold for the one "
+                    "file they name", path, row.where, row.scale)
     _say_what_the_row_says_otherwise(path, given, from_row, row)
     if row is not None and (fault, rpm, fs, unit) != given:
         log.info("%s: %s read from %s", path, ", ".join(
@@ -581,11 +584,16 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
             raise BearingTwinError(f"its report does not say which of its record's channels ({', '.join(map(str, raw.channels))}) "
                                    "was read")
         # In the unit its run read it in: a WAV's or an .npy's was given (measured.unit, with measured.scale), and
-        # read without it the record would state none, its level never compared with this one's.
+        # read without it the record would state none, its level never compared with this one's. A report that
+        # keeps no scale (made before reports kept one) may hold a scaled product's unit: its record is read as
+        # it states itself, as then.
+        kept = "scale" in about
         earlier = recording_from_raw(raw, channel=about.get("channel"), fs=float(about["fs"]),
                                      channel_key="the reference report's measured.channel",
-                                     unit=about.get("unit") or None, unit_key="the reference report's measured.unit",
-                                     scale=about.get("scale"), scale_key="the reference report's measured.scale")
+                                     unit=(about.get("unit") or None) if kept else None,
+                                     unit_key="the reference report's measured.unit",
+                                     scale=about.get("scale") if kept else None,
+                                     scale_key="the reference report's measured.scale")
         # Channel names differ between formats (a .mat's DE, an export's `signal`): only a file that holds this
         # record's channel too, and was read on another, says the reference is another sensor's.
         if str(earlier.channel) != str(measured.channel) and str(measured.channel) in map(str, raw.channels):
