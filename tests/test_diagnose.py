@@ -434,6 +434,14 @@ def test_a_pipeline_that_puts_physics_first_overrules_its_classifier_only_where_
     with pytest.raises(BearingTwinError, match="rpm: this model's physics_first reads a window's defect lines at the "
                                                "shaft's speed; give the shaft speed"):
         vmd_gated.predict(windows)
+    # Served, the refusal says where a request gives the speed (one beside "inputs" is read nowhere).
+    from bearingtwin.diagnosis.mlflow_model import DiagnosisModel
+
+    served = DiagnosisModel()
+    served.pipeline = vmd_gated
+    with pytest.raises(BearingTwinError, match=r'give the shaft speed \(a request gives it under "params", beside '
+                                               r'"inputs": \{"params": \{"rpm": 1797\}\}\)$'):
+        served.predict(None, windows, params={"rpm": 0.0})
 
 
 def test_the_physics_first_note_says_what_the_classifier_decided_and_not_a_rest_where_none_was_left():
@@ -587,6 +595,13 @@ def test_a_record_stamped_in_seconds_under_a_header_of_milliseconds_names_the_ra
         read_record(path, pipeline, rpm=RPM)
     prepared = read_record(path, pipeline, fs=FS, rpm=RPM)
     assert prepared.recording.fs == FS and prepared.recording.duration == pytest.approx(3.0)
+    # A record stamped right that is just short (0.1 s at 12 kHz) is not sent after its stamps' unit.
+    short = tmp_path / "short.csv"
+    np.savetxt(short, np.column_stack([np.arange(1200) / FS, signal[:1200]]), delimiter=",", header="time [s],acc",
+               comments="", fmt="%.9f")
+    with pytest.raises(BearingTwinError, match=r"short.csv: 0.100 s, shorter than one window of the model's \(\d+ samples "
+                                               r"at 12000 Hz, [\d.]+ s\)$"):
+        read_record(short, pipeline, rpm=RPM)
     # At a rate no ratio of small integers brings to the model's (8 kHz stamped as ms: 8 MHz), the resampling's
     # refusal had said nothing of the stamps.
     slow = fault_signal(None, seconds=3)[::3]  # 4 kHz: 4 MHz read

@@ -437,6 +437,10 @@ def test_no_measurement_given_is_named():
 
     with pytest.raises(BearingTwinError, match=r"^measured.path is missing: give measured.path=<file>"):
         load_measurement(OmegaConf.create({"path": "???", "channel": None, "fs": None, "rpm": None, "fault": None}))
+    # A path to nothing is named by its setting, as diagnose's path= is (it had read "/x.mat: no such file").
+    with pytest.raises(BearingTwinError, match=r"^measured.path=/nonexistent/x.mat: no such file$"):
+        load_measurement(OmegaConf.create({"path": "/nonexistent/x.mat", "channel": None, "fs": None, "rpm": None,
+                                           "fault": None, "check_fs": True}))
 
 
 def test_a_reference_record_holds_its_operating_point_and_effects_so_the_new_one_names_what_changed(

@@ -312,7 +312,8 @@ def dataset_key(paths: list[Path], cfg: dict) -> str:
 
 def _find_cwru_file(root: Path, stems: dict, fault: str, load: int) -> Path:
     if not root.is_dir():
-        raise BearingTwinError(f"data.root={root} is not a folder; point it at the CWRU .mat files")
+        raise BearingTwinError(f"data.root={root} is not a folder; point it at the CWRU .mat files (by default "
+                               "<paths.data_root>/cwru: paths.data_root=<folder>, or BEARINGTWIN_DATA=<folder>)")
     matches = sorted(
         path
         for path in root.glob("*.mat")

@@ -92,7 +92,10 @@ class DiagnosisModel(PythonModel):
                                      None if rpm is None else positive_number(rpm, "rpm", "rev/min"),
                                      recorded_bearing(self.pipeline, params.get("bearing")))
         except BearingTwinError as error:
-            raise ModelInputError(str(error)) from error
+            message = str(error)
+            if message.startswith("rpm: ") and not params.get("rpm"):  # a speed beside "inputs" is read nowhere
+                message += ' (a request gives it under "params", beside "inputs": {"params": {"rpm": 1797}})'
+            raise ModelInputError(message) from error
 
 
 def in_model_terms(pipeline: DiagnosisPipeline, windows: np.ndarray, fs: float | None, unit: str) -> np.ndarray:

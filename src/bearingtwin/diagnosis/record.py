@@ -87,6 +87,10 @@ o'clock, motor load in hp; HUST: the damage, ``medium`` or ``severe``, ``none`` 
 its diagnosis where known."""
 
 
+HIGHEST_RECORDER_RATE_HZ = 204800.0
+"""The highest rate common vibration recorders sample at: a rate a record's time stamps give above it is more likely
+stamps in another unit than their column's name states."""
+
 NOISE_FREE_SIMULATION = ("a record bearingtwin-simulate made without a noise effect: its floor is rounding error, so "
                          "every line stands out of it (a healthy bearing's ball-pass lines read as an outer-race "
                          "fault); simulate with effects=[noise] for a record like a measurement")
@@ -159,10 +163,11 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     notes += unit_notes
     if recording.signal.size < pipeline.window_length:
         # Stamps in seconds under a header of milliseconds read a rate a thousand times too high, the record as
-        # that much shorter: the rate is named where the stamps gave it.
+        # that much shorter: the rate is named where the stamps gave it, above any a vibration recorder samples at
+        # (a record of a tenth of a second at 12 kHz is just short).
         stamped = (f"; read at {original_fs:.6g} Hz, the rate its time stamps give: if their values are in another unit "
-                   "than the column's name states, give fs=<Hz>" if recording.meta.get("fs_origin") == "time column"
-                   else "")
+                   "than the column's name states, give fs=<Hz>"
+                   if recording.meta.get("fs_origin") == "time column" and original_fs > HIGHEST_RECORDER_RATE_HZ else "")
         raise BearingTwinError(
             f"{recording.source}: {recording.duration:.3f} s, shorter than one window of the model's "
             f"({pipeline.window_length} samples at {pipeline.fs_hz:g} Hz, {pipeline.window_length / pipeline.fs_hz:.3f} s)"

@@ -91,6 +91,8 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     if OmegaConf.is_missing(measured_cfg, "path"):
         raise BearingTwinError("measured.path is missing: give measured.path=<file> (.npy, .npz, .csv, .txt, .tsv, .mat, .wav or .xls)")
     true_or_false(measured_cfg.check_fs, "measured.check_fs")  # before the file is read
+    if not Path(str(measured_cfg.path)).expanduser().exists():  # named by its setting, as diagnose's path= is
+        raise BearingTwinError(f"measured.path={measured_cfg.path}: no such file")
     raw = read_raw(measured_cfg.path)
     # What neither the settings nor the file say, a labels.csv beside it may (as training and diagnose read one).
     path = Path(str(measured_cfg.path))
