@@ -25,7 +25,7 @@ from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.formats import SIMULATED_RATE, file_bearing, load_recording, speed_setting
 from bearingtwin.data.hust import CHANNELS as HUST_AXES, hust_file_name, load_hust, parse_hust_name
-from bearingtwin.data.labels import rows_from_labels, rows_from_pattern
+from bearingtwin.data.labels import first_messages, rows_from_labels, rows_from_pattern
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
 from bearingtwin.data.windows import check_split, check_windows_fit, cut_windows
@@ -152,23 +152,20 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
     if not root.is_dir():
         raise BearingTwinError(f"data.root={root} is not a folder; point it at the folder of your recordings")
     rows = rows_from_pattern(root, cfg) if cfg.get("pattern") else rows_from_labels(root, cfg)
-    recordings = [
-        load_recording(row.path, channel=cfg.get("channel"), fault=row.state,
-                       rpm=row.rpm if row.rpm is not None else default_rpm, fs=row.fs if row.fs is not None else default_fs,
-                       channel_key="data.channel", fs_key="data.fs" if row.fs is None else "the labels row's fs",
-                       fault_key="data.pattern's state" if cfg.get("pattern") else "the labels row's state",
-                       rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm",
-                       unit=row.unit, unit_key="the labels row's unit", scale=row.scale,
-                       scale_key="the labels row's scale")
-        for row in rows
-    ]
+    recordings = every_file_or_refused(rows, lambda row: load_recording(
+        row.path, channel=cfg.get("channel"), fault=row.state,
+        rpm=row.rpm if row.rpm is not None else default_rpm, fs=row.fs if row.fs is not None else default_fs,
+        channel_key="data.channel", fs_key="data.fs" if row.fs is None else "the labels row's fs",
+        fault_key="data.pattern's state" if cfg.get("pattern") else "the labels row's state",
+        rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm",
+        unit=row.unit, unit_key="the labels row's unit", scale=row.scale, scale_key="the labels row's scale"))
     named = None if cfg.get("bearing") else bearing_the_files_name(recordings)
     if bool(_get(cfg, "check_fs")):
         bearing_name = cfg.get("bearing") or named
         bearing = load_bearing(bearing_name, "data.bearing") if bearing_name else None
-        for recording, row in zip(recordings, rows):
-            check_stated_rate(recording, "data.fs" if row.fs is None else "the labels row's fs", "data.check_fs", bearing,
-                              rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm")
+        every_file_or_refused(list(zip(recordings, rows)), lambda pair: check_stated_rate(
+            pair[0], "data.fs" if pair[1].fs is None else "the labels row's fs", "data.check_fs", bearing,
+            rpm_key="data.rpm" if pair[1].rpm is None else "the labels row's rpm"))
     # A row's unit where it gives one: the key of a table without units stays what it was before they could be given.
     labelling = [(row.path.name, row.state, row.rpm, row.fs, *([row.unit] if row.unit else []),
                   *([row.scale] if row.scale else [])) for row in rows]
@@ -179,6 +176,22 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
         dataset_key([row.path for row in rows], {**windowed, "labels": labelling, "pattern": None}),
     )
     return dataclasses.replace(dataset, bearing=named)
+
+
+def every_file_or_refused(items: list, read) -> list:
+    """``read(item)`` of every item (a labels row, a recording), or one refusal naming each that failed (the first
+    three messages and a count): a folder with three bad files is mended in one pass, not three runs."""
+    done, refusals = [], []
+    for item in items:
+        try:
+            done.append(read(item))
+        except BearingTwinError as error:
+            refusals.append(str(error))
+    if len(refusals) == 1:
+        raise BearingTwinError(refusals[0])
+    if refusals:
+        raise BearingTwinError(f"{len(refusals)} of {len(items)} files refused: {first_messages(refusals)}")
+    return done
 
 
 def bearing_the_files_name(recordings: list[Recording]) -> str | None:
