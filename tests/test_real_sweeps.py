@@ -254,7 +254,9 @@ def test_reports_without_runs_say_what_is_missing(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         report_main(["hust", f"uri=sqlite:///{tmp_path}/empty.db", f"out={tmp_path}/x.md"])
     assert exit_.value.code == 2  # a typo in uri= would otherwise create an empty store and say it has no runs
-    assert f"no such store ({tmp_path}/empty.db does not exist)" in capsys.readouterr().err
+    # Named by the key this command takes (uri=), not the training config's tracking.uri=.
+    assert f"error: uri=sqlite:///{tmp_path}/empty.db: no such store ({tmp_path}/empty.db does not exist)" in \
+        capsys.readouterr().err
     from omegaconf import OmegaConf
 
     from bearingtwin.tracking.mlflow_logging import open_store

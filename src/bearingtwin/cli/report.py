@@ -37,13 +37,18 @@ def report_command(argv: list[str] | None = None) -> int:
         parser.error(f"the report's name is required: one of {', '.join(sorted(REPORTS))}")
     # A report reads one small artifact per run: MLflow's per-download progress bar would bury the table.
     os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
+    settings = {}
     try:
         malformed = [item for item in args.settings if "=" not in item]
         if malformed:
             raise BearingTwinError(f"settings are key=value, got {', '.join(malformed)}")
-        report = run_report(args.name, dict(item.split("=", 1) for item in args.settings))
+        settings = dict(item.split("=", 1) for item in args.settings)
+        report = run_report(args.name, settings)
     except BearingTwinError as error:
-        print(f"error: {error}", file=sys.stderr)
+        message = str(error)
+        if "uri" in settings and message.startswith("tracking.uri="):  # the store by the key this command takes
+            message = message.replace("tracking.uri=", "uri=", 1)
+        print(f"error: {message}", file=sys.stderr)
         sys.exit(2)
     print(report.markdown)
     print(f"written: {report.written} (MLflow run {report.run_id})", file=sys.stderr)  # stdout is the report itself
