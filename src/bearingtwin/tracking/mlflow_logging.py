@@ -843,6 +843,7 @@ class JobOutcome:
     reason: str = ""
     run_id: str | None = None  # the job's run, or for a skipped job the earlier FINISHED run it stands for
     accuracy: float | None = None  # that run's, where it logged one
+    method: str = ""  # that run's method (features+classifier), where it logged one
 
 
 def sweep_outcomes(client: MlflowClient, parent_run_id: str, jobs: list[DictConfig]) -> list[JobOutcome]:
@@ -867,13 +868,31 @@ def sweep_outcomes(client: MlflowClient, parent_run_id: str, jobs: list[DictConf
             if child.info.status == "KILLED" and not reason:
                 reason = "interrupted"
             outcomes.append(JobOutcome(overrides, child.info.status, reason.splitlines()[0] if reason else "",
-                                       child.info.run_id, child.data.metrics.get("accuracy")))
+                                       child.info.run_id, child.data.metrics.get("accuracy"),
+                                       child.data.tags.get("method", "")))
         elif (earlier := _finished_in_own_experiment(client, job, digest)) is not None:
             outcomes.append(JobOutcome(overrides, "SKIPPED", computed_by_other_code(earlier), earlier.info.run_id,
-                                       earlier.data.metrics.get("accuracy")))
+                                       earlier.data.metrics.get("accuracy"), earlier.data.tags.get("method", "")))
         else:
             outcomes.append(JobOutcome(overrides, "NOT RUN", "the job ended before its MLflow run was created (see its log)"))
     return outcomes
+
+
+def sweep_accuracies(outcomes: list[JobOutcome]) -> dict[str, float]:
+    """A sweep's jobs' accuracies at a glance, where the runs list shows it beside others: their mean, spread, least
+    and most (``accuracy_mean``, ...) where they are of one method; of each method apart (``accuracy_mean/<method>``,
+    its ``+`` a ``-``, which a metric's name cannot hold) where they are of several, whose mean together is of
+    nothing."""
+    by_method: dict[str, list[float]] = {}
+    for outcome in outcomes:
+        if outcome.status in ("FINISHED", "SKIPPED") and outcome.accuracy is not None:
+            by_method.setdefault(outcome.method, []).append(outcome.accuracy)
+    metrics = {}
+    for method, scores in by_method.items():
+        suffix = f"/{method.replace('+', '-')}" if len(by_method) > 1 else ""
+        metrics.update({f"accuracy_mean{suffix}": np.mean(scores), f"accuracy_std{suffix}": np.std(scores),
+                        f"accuracy_min{suffix}": min(scores), f"accuracy_max{suffix}": max(scores)})
+    return metrics
 
 
 def _finished_in_own_experiment(client: MlflowClient, job: DictConfig, digest: str):
@@ -1019,12 +1038,8 @@ class SweepParentRun(Callback):
             for tag, count in (("n_finished", sum(o.status == "FINISHED" for o in outcomes)), ("n_failed", n_failed),
                                ("n_skipped", sum(o.status == "SKIPPED" for o in outcomes))):
                 client.set_tag(parent_id, tag, str(count))
-            # Its jobs' accuracies at a glance, where the runs list shows the sweep beside others.
-            scores = [o.accuracy for o in outcomes if o.status in ("FINISHED", "SKIPPED") and o.accuracy is not None]
-            if scores:
-                client.log_batch(parent_id, metrics=[Metric(key, float(value), int(time.time() * 1000), 0) for key, value in
-                                                     (("accuracy_mean", np.mean(scores)), ("accuracy_std", np.std(scores)),
-                                                      ("accuracy_min", min(scores)), ("accuracy_max", max(scores)))])
+            client.log_batch(parent_id, metrics=[Metric(key, float(value), int(time.time() * 1000), 0)
+                                                 for key, value in sweep_accuracies(outcomes).items()])
             # The runs the sweep stands for, those it skipped included (they carry another sweep's sweep_dir):
             # what `bearingtwin-report sweep_dir=<this sweep>` reads.
             client.log_dict(parent_id, [o.run_id for o in outcomes if o.status in ("FINISHED", "SKIPPED")],
