@@ -573,6 +573,21 @@ def test_a_scale_reads_a_loggers_volts_or_full_scale_fractions_in_the_unit_given
     volts = read_record(tmp_path / "volts.npz", pipeline, rpm=RPM, unit="g", scale=10)
     np.testing.assert_allclose(volts.recording.signal, in_g, rtol=1e-12)
     assert "samples x 10 read in g (scale=10 unit=g; the file states V)" in volts.notes
+    # A file in one acceleration unit is converted to another by the units themselves: a scale naming another (scale=1
+    # unit=g on a file in m/s^2, read 9.81 times too strong) is refused; one in its own unit corrects a gain.
+    np.savez(tmp_path / "si.npz", signal=in_g * 9.80665, fs=FS, unit="m/s^2")
+    with pytest.raises(BearingTwinError, match=r"si.npz: unit=g with scale=1, but the file states its samples in m/s\^2, "
+                                               r"which is converted to g by itself"):
+        read_record(tmp_path / "si.npz", pipeline, rpm=RPM, unit="g", scale=1)
+    gained = read_record(tmp_path / "si.npz", pipeline, rpm=RPM, unit="m/s^2", scale=2)
+    np.testing.assert_allclose(gained.recording.signal, 2 * in_g, rtol=1e-9)  # in the model's g
+    # A folder's scale= reads the files that state no unit or volts; one in g or m/s^2 keeps its own, said so (a file
+    # in g beside volts had been multiplied by the volts' scale).
+    kept = read_record(tmp_path / "si.npz", pipeline, rpm=RPM, unit="g", scale=10, unit_fills_in=True)
+    np.testing.assert_allclose(kept.recording.signal, in_g, rtol=1e-9)
+    assert "scale=10 unit=g given for the files that state none or volts; this one states m/s^2: read in it" in kept.notes
+    folder_volts = read_record(tmp_path / "volts.npz", pipeline, rpm=RPM, unit="g", scale=10, unit_fills_in=True)
+    np.testing.assert_allclose(folder_volts.recording.signal, in_g, rtol=1e-12)
     with pytest.raises(BearingTwinError, match=r"^scale=10 needs unit=<unit>: the unit the samples are in once "
                                                r"multiplied by 10"):
         read_record(tmp_path / "volts.npz", pipeline, rpm=RPM, scale=10)
@@ -1562,6 +1577,16 @@ def test_a_folders_labels_give_each_file_its_unit_which_a_file_stating_another_r
     volts = json.loads((tmp_path / "out2" / "volts" / "diagnosis.json").read_text())
     assert volts["unit_check"] == "converted" and any(
         "samples x 10 read in g" in note and "(its row for volts.npz): scale=10" in note for note in volts["notes"]), volts
+    # The one file given with unit=: the command's unit holds, and the row's scale is said not applied.
+    (tmp_path / "one").mkdir()
+    np.save(tmp_path / "one" / "counts.npy", fault_signal(None, seconds=3) / 9.80665 / 5)  # full scale 5 g
+    (tmp_path / "one" / "labels.csv").write_text(f"record,state,rpm,fs,unit,scale\ncounts.npy,outer,{RPM},{FS:g},g,5\n")
+    one = run("diagnose", f"path={tmp_path / 'one' / 'counts.npy'}", "model=models:/diag/1", "unit=g",
+              f"out={tmp_path}/out3", "figures=false", "tracking.enabled=false", cwd=tmp_path, uri=uri)
+    assert one.returncode == 0, one.stderr[-2000:]
+    notes = json.loads((tmp_path / "out3" / "counts" / "diagnosis.json").read_text())["notes"]
+    assert any("labels.csv line 2 gives scale 5 (unit g), not applied: the unit= and scale= given hold" in note
+               for note in notes), notes
 
 
 def test_a_folders_own_labels_give_each_file_its_truth_speed_and_rate(registered, tmp_path):

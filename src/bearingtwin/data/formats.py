@@ -370,11 +370,20 @@ def scaled(raw: RawRecord, channel: str, signal: np.ndarray, scale, unit: str | 
     """``channel``'s samples multiplied by ``scale`` (setting ``scale_key``), and ``unit`` (setting ``unit_key``), the
     unit they are in then: a logger's WAV of full-scale fractions (``scale=50 unit=g`` where its +-5 V hold +-50 g of a
     100 mV/g accelerometer), or volts read through the sensor's sensitivity (``scale=10 unit=g`` for 100 mV/g). The file's
-    own unit, if it states one, is what the scale converts from, so it is no contradiction: said in ``notes``."""
+    own unit, if it states one, is what the scale converts from, so it is no contradiction: said in ``notes``; but
+    samples the file states in one acceleration unit are converted to another by the units themselves, so a scale
+    naming another (``scale=1 unit=g`` on a file in m/s^2: read 9.81 times too strong) is refused, while one in the
+    file's own unit (a gain corrected) is read."""
     scale, unit = scale_and_unit(scale, unit, scale_key, unit_key)
-    stated = raw.channel_units.get(channel, raw.unit)
-    notes.append(f"samples x {scale:g} read in {unit} ({scale_key}={scale:g} {unit_key}={unit}"
-                 f"{f'; the file states {stated}' if stated else ''})")
+    stated = resolve_unit(raw, channel, None)
+    if acceleration_unit(stated) and acceleration_unit(unit) and not same_unit(stated, unit):
+        raise BearingTwinError(f"{raw.path}: {unit_key}={unit} with {scale_key}={scale:g}, but the file states its samples "
+                               f"in {stated}, which is converted to {unit} by itself: give no scale, or one in {stated} "
+                               "(a gain to correct)")
+    prefix = scale_key.removesuffix("scale")  # one source of both (a labels row's, not a config node's): named once
+    given = (f"{prefix}scale={scale:g} unit={unit}" if prefix and not prefix.endswith(".") and unit_key == prefix + "unit" else
+             f"{scale_key}={scale:g} {unit_key}={unit}")
+    notes.append(f"samples x {scale:g} read in {unit} ({given}{f'; the file states {stated}' if stated else ''})")
     return np.asarray(signal, dtype=np.float64) * scale, unit
 
 

@@ -98,10 +98,14 @@ def labels_path(root: Path, cfg: dict) -> Path:
 def labels_table(table: Path) -> list[LabelsRow]:
     """A :class:`LabelsRow` per row of a labels table (columns ``record,state[,rpm,fs,unit,scale]``);
     ``where`` is the file and line, for messages. A bad header raises, and so does a bad row (naming its line and
-    field): what reads every row, a training set, would otherwise be built without that record."""
+    field; several, the first three and a count, so a table is mended in one pass): what reads every row, a training
+    set, would otherwise be built without that record."""
     rows, bad_rows = labels_table_with_bad_rows(table)
-    if bad_rows:
+    if len(bad_rows) == 1:
         raise BearingTwinError(bad_rows[0][1])
+    if bad_rows:
+        raise BearingTwinError(f"{len(bad_rows)} rows of {table} do not read: "
+                               f"{first_messages([message for _, message in bad_rows])}")
     return rows
 
 

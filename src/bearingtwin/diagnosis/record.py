@@ -42,7 +42,7 @@ from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE
                                     file_bearing, named_rate_note, read_raw, recording_from_raw,
                                     refuse_a_label_the_file_contradicts, resolve_unit, tachometer_channel)
 from bearingtwin.data.recording import CLIPPED_NOTE_END, HELD_NOTE_END, Recording, held_stretches
-from bearingtwin.data.units import acceleration_unit, same_unit
+from bearingtwin.data.units import acceleration_unit, quantity_of, same_unit
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, physics_evidence
 from bearingtwin.diagnosis.mlflow_model import DECIDED_BY_COLUMN, FEATURE_UNSEEN_COLUMN, STATE_COLUMN, model_params
 from bearingtwin.diagnosis.pipeline import RANGE_MARGIN, DiagnosisPipeline, unit_for_model
@@ -106,8 +106,9 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     ``channel`` (default: the format's, e.g. CWRU's drive end), ``fs``, ``rpm`` and ``unit`` fill in what the
     file does not state and must agree with what it does (``fs_key``, ``rpm_key``, ``unit_key`` and ``scale_key`` name
     where they came from in a message), ``unit`` naming the unit of the samples multiplied by ``scale`` where one is given
-    (:func:`~bearingtwin.data.formats.scaled`); ``unit_fills_in`` (a folder's run, ``unit`` given for every file): a
-    file that states its own unit is read in it, said so, where one alone would be refused; ``bearing`` (a
+    (:func:`~bearingtwin.data.formats.scaled`); ``unit_fills_in`` (a folder's run, ``unit`` and ``scale`` given for
+    every file): a file that states its own unit is read in it, said so, where one alone would be refused (a ``scale``
+    still reads one in volts); ``bearing`` (a
     ``conf/bearing`` name) is the recorded bearing, the file's
     own (:func:`~bearingtwin.data.formats.file_bearing`: a CWRU or HUST file names it) or else the model's when
     not given. A measured record whose shaft speed varies is resampled to a steady one (:func:`steadied`;
@@ -117,12 +118,16 @@ def read_record(path: str | Path, pipeline: DiagnosisPipeline, channel=None, fs=
     raw = read_raw(path)
     channel, channel_note = _channel(raw, channel, pipeline)
     raw, gaps_by_channel = bridged(raw)
-    own_unit = _own_unit(raw, channel) if unit_fills_in and unit is not None and scale is None else ""
-    if own_unit:  # a folder's unit= is for the files that cannot say theirs: one that does keeps it
-        if not same_unit(own_unit, str(unit)):
-            channel_note.append(f"unit={unit} given for the files that state none; this one states {own_unit}: read "
-                                "in it")
-        unit = None
+    own_unit = _own_unit(raw, channel) if unit_fills_in and unit is not None else ""
+    # A folder's unit= is for the files that cannot say theirs, and its scale= for those too and those in volts (a
+    # logger's counts, a sensor's V): one that states another unit keeps it (a file in g beside them is not
+    # multiplied by the volts' scale).
+    if own_unit and not (scale is not None and quantity_of(own_unit) == "a voltage"):
+        if scale is not None or not same_unit(own_unit, str(unit)):
+            given = f"unit={unit}" if scale is None else f"scale={scale} unit={unit}"
+            channel_note.append(f"{given} given for the files that state none{'' if scale is None else ' or volts'}; "
+                                f"this one states {own_unit}: read in it")
+        unit, scale = None, None
     recording = recording_from_raw(raw, channel, fs=fs, rpm=rpm, fs_key=fs_key, rpm_key=rpm_key, unit=unit,
                                    unit_key=unit_key, scale=scale, scale_key=scale_key)
     recording.require_vibration()  # first: a flat record has no shaft line to check its rate by, nothing to diagnose

@@ -407,6 +407,9 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
                                    unit_key=its_row + "unit" if unit_from_row else "unit",
                                    scale_key=its_row + "scale" if unit_from_row else "scale", order_tracking=order_tracking,
                                    unit_fills_in=not (single or unit_from_row))
+            if row.scale is not None and not unit_from_row:  # the command's unit holds: the row's scale said unread
+                prepared.notes.append(f"{row.where} gives scale {row.scale:g} (unit {row.unit}), not applied: the unit= "
+                                      "and scale= given hold for the one file they name")
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             digest = file_digest(path) if trained or calibrated_digests else None
             # By contents as well as names: a copy (the Data Center's 97.mat for normal_0_97.mat) is no new record.
