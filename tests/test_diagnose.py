@@ -1366,8 +1366,8 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     from bearingtwin.diagnosis.run import SUMMARY_FIELDS
 
     assert header == list(SUMMARY_FIELDS) and header[-10:] == [
-        "severity", "original_fs", "unit_check", "level_unseen", "classifier_verdict", "physics_decided", "speed_spread",
-        "order_tracked", "speed_unseen", "features_unseen"]
+        "original_fs", "unit_check", "level_unseen", "classifier_verdict", "physics_decided", "speed_spread",
+        "order_tracked", "speed_unseen", "features_unseen", "scale"]
     assert 0.0 <= float(rows["pump_a"]["features_unseen"]) <= 1.0 and not rows["short"]["features_unseen"]
     assert rows["pump_a"]["classifier_verdict"] == rows["pump_a"]["verdict"]  # no physics_first: the model's own
     assert float(rows["pump_a"]["physics_decided"]) == 0.0 and not rows["short"]["physics_decided"]
@@ -1575,6 +1575,8 @@ def test_a_folders_labels_give_each_file_its_unit_which_a_file_stating_another_r
                "tracking.enabled=false", cwd=tmp_path, uri=uri)
     assert done.returncode == 0, done.stderr[-2000:]
     volts = json.loads((tmp_path / "out2" / "volts" / "diagnosis.json").read_text())
+    summary = {row["record"]: row for row in csv.DictReader(open(tmp_path / "out2" / "summary.csv"))}
+    assert volts["scale"] == 10.0 and (summary["volts"]["scale"], summary["logger"]["scale"]) == ("10.0", "")
     assert volts["unit_check"] == "converted" and any(
         "samples x 10 read in g" in note and "(its row for volts.npz): scale=10" in note for note in volts["notes"]), volts
     # The one file given with unit=: the command's unit holds, and the row's scale is said not applied.

@@ -299,7 +299,7 @@ def recording_from_raw(
     if rpm is None and raw.nominal_rpm is not None:
         rpm, rpm_origin = raw.nominal_rpm, "nominal"
         notes.append(raw.nominal_rpm_note)
-    unread = {}
+    reading = {}  # what reading the file found beside its notes: a speed it could not read, the scale applied
     tachometer = tachometer_channel(raw, name)
     if rpm is None and tachometer is not None:  # a tachometer's pulses beside the record may give it
         rpm, said = speed_from_tachometer(raw.channels[tachometer], tachometer, signal, fs)
@@ -307,13 +307,14 @@ def recording_from_raw(
             rpm_origin = "tachometer"
             notes.append(said)
         else:
-            unread["speed_unread"] = said
+            reading["speed_unread"] = said
     elif tachometer is not None:
         notes += filter(None, [pulses_off_note(tachometer, raw.channels[tachometer], fs, rpm)])
     if scale is None:
         unit = resolve_unit(raw, name, unit, unit_key)
     else:
         signal, unit = scaled(raw, name, signal, scale, unit, scale_key, unit_key, notes)
+        reading["scale"] = float(scale)  # what the samples were multiplied by: a later reading repeats it
     return Recording(
         signal=signal,
         fs=fs,
@@ -322,7 +323,7 @@ def recording_from_raw(
         source=raw.path,
         channel=name,
         unit=unit,
-        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes, **unread),
+        meta=dict(raw.meta, format=raw.format, fs_origin=fs_origin, rpm_origin=rpm_origin, notes=notes, **reading),
     )
 
 

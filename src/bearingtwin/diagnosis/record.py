@@ -809,6 +809,7 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         "rate_check": prepared.rate_check,
         "speed": prepared.speed,
         "unit": recording.unit or None,  # of the samples read (the model's, where they were converted to it)
+        "scale": recording.meta.get("scale"),  # what the file's samples were multiplied by (scale=, a labels row's)
         "unit_check": prepared.unit_check,
         "level_unseen": level is not None,
         "clipped": prepared.clipped,

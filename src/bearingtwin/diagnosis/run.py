@@ -63,6 +63,7 @@ SUMMARY_FIELDS = (
     "speed_spread", "order_tracked",  # how steadily the shaft turned; resampled to a steady speed
     "speed_unseen",  # a shaft speed well beyond the model's training windows'
     "features_unseen",  # the share of windows the classifier decided beyond its training features
+    "scale",  # what the file's samples were multiplied by (scale=, or its labels row's), empty where nothing
 )
 """``summary.csv``'s columns, in every run: a record's own values, its truth where known, the error of one that failed,
 its condition and how it was read."""
@@ -463,6 +464,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         row["bearing_given"] = result["bearing_given"]  # for the closing summary (not a column)
         row["fs"] = result["fs"]  # the model's rate, read at (not a column of summary.csv)
         row["unit_check"], row["level_unseen"] = result["unit_check"], result["level_unseen"]
+        row["scale"] = "" if result["scale"] is None else result["scale"]
         row["speed_unseen"] = result["speed_unseen"]
         row["few_windows"] = len(result["windows"]) < FEW_WINDOWS  # for the closing summary (not a column)
         row["features_unseen"] = "" if result["features_unseen"] is None else result["features_unseen"]

@@ -135,8 +135,6 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
                                    fault_key="measured.fault", unit=unit,
                                    unit_key="measured.unit" if given[3] or unit is None else f"{row.where}: unit",
                                    scale=scale, scale_key=scale_key)
-    if scale is not None:  # what a later run reads this record with again, as its reference (twin_report.json)
-        recording.meta["scale"] = float(scale)
     if recording.rpm is None:  # its tachometer gave none
         why = f" ({recording.meta['speed_unread']})" if recording.meta.get("speed_unread") else ""
         raise BearingTwinError(f"{path}: the file does not state its speed{why}; give measured.rpm=<rev/min>"
