@@ -1530,11 +1530,13 @@ def test_a_files_scale_and_unit_come_whole_from_its_row_or_from_the_command():
     """A scale's unit is the product's, a unit without one the file's own: the two come from one place. A folder's
     row that gives a unit is its file's, even beside a command's scale (a WAV already in g had been multiplied by the
     volts' scale); for the one file given, the command's unit holds, never paired with the row's scale."""
-    from bearingtwin.data.labels import LabelsRow
-    from bearingtwin.diagnosis.run import _scale_and_unit
+    from bearingtwin.data.labels import LabelsRow, scale_and_unit_given
+
+    def _scale_and_unit(command, row, single):  # the command's (scale, unit), as diagnose passes them
+        return scale_and_unit_given(command["scale"], command["unit"], row, command_first=single)
 
     def cfg(unit=None, scale=None):
-        return OmegaConf.create({"unit": unit, "scale": scale})
+        return {"unit": unit, "scale": scale}
 
     in_g, volts, bare = (LabelsRow("t", "a.wav", None, None, None, "g"), LabelsRow("t", "b.npz", None, None, None, "g", 10.0),
                          LabelsRow("t", "c.npy", None, None, None, None))

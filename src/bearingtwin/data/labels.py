@@ -54,6 +54,19 @@ class LabelledFile(NamedTuple):
     fs: float | None = None
     unit: str | None = None
     scale: float | None = None
+
+    def unit_settings(self) -> dict:
+        """The row's ``unit`` and ``scale`` as :func:`~bearingtwin.data.formats.load_recording` takes them, each named
+        as the row's in a message."""
+        return {"unit": self.unit, "unit_key": "the labels row's unit", "scale": self.scale,
+                "scale_key": "the labels row's scale"}
+
+    def key_facts(self) -> tuple:
+        """What a dataset's key holds of the row: its state, rpm and fs, and its unit and scale where it gives them (a
+        table without them keeps the key it had before they could be given)."""
+        return (self.state, self.rpm, self.fs, *filter(None, [self.unit, self.scale]))
+
+
 DEFAULT_LABELS = "labels.csv"
 """The labels table ``data=files`` reads from ``data.root`` unless ``data.labels`` names another."""
 
@@ -214,6 +227,18 @@ def _record_stem(record: str) -> str:
     where it has no recording's suffix (``run.2024``: ``run.2024``)."""
     name = PurePath(record).name
     return PurePath(name).stem if PurePath(name).suffix.lower() in FORMATS else name
+
+
+def scale_and_unit_given(scale, unit, row: LabelsRow | None, command_first: bool) -> tuple:
+    """A file's scale and unit, and whether its labels ``row`` gave them, beside the command's ``scale`` and ``unit``.
+    The two come whole from one place, as a scale's unit is the product's and a unit without one the file's own: from
+    the row where it gives a unit, unless the command gives either and comes first (``command_first``: it names the one
+    file); else from the command (a row's unit alone is never multiplied by the command's scale, nor a row's scale
+    paired with the command's unit)."""
+    command_gives = scale is not None or unit is not None
+    if row is not None and row.unit is not None and not (command_first and command_gives):
+        return row.scale, row.unit, True
+    return scale, unit, False
 
 
 def labelled_file(root: Path, record: str, where: str) -> Path:

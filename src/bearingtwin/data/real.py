@@ -157,8 +157,7 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
         rpm=row.rpm if row.rpm is not None else default_rpm, fs=row.fs if row.fs is not None else default_fs,
         channel_key="data.channel", fs_key="data.fs" if row.fs is None else "the labels row's fs",
         fault_key="data.pattern's state" if cfg.get("pattern") else "the labels row's state",
-        rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm",
-        unit=row.unit, unit_key="the labels row's unit", scale=row.scale, scale_key="the labels row's scale"))
+        rpm_key="data.rpm" if row.rpm is None else "the labels row's rpm", **row.unit_settings()))
     named = None if cfg.get("bearing") else bearing_the_files_name(recordings)
     if bool(_get(cfg, "check_fs")):
         bearing_name = cfg.get("bearing") or named
@@ -166,9 +165,7 @@ def build_files_dataset(data_cfg) -> WindowedDataset:
         every_file_or_refused(list(zip(recordings, rows)), lambda pair: check_stated_rate(
             pair[0], "data.fs" if pair[1].fs is None else "the labels row's fs", "data.check_fs", bearing,
             rpm_key="data.rpm" if pair[1].rpm is None else "the labels row's rpm"))
-    # A row's unit where it gives one: the key of a table without units stays what it was before they could be given.
-    labelling = [(row.path.name, row.state, row.rpm, row.fs, *([row.unit] if row.unit else []),
-                  *([row.scale] if row.scale else [])) for row in rows]
+    labelling = [(row.path.name, *row.key_facts()) for row in rows]
     # What only checks the records (check_fs, the bearing whose lines witness a rate) leaves the windows alone.
     windowed = {key: value for key, value in cfg.items() if key not in ("check_fs", "bearing")}
     dataset = windows_from_recordings(

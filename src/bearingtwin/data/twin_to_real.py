@@ -630,8 +630,7 @@ def read_labelled_record(row: LabelledFile, channel, default_fs: float, geometry
     recording = recording_from_raw(raw, channel, fs=fs if fs is not None or stated else default_fs, rpm=row.rpm,
                                    fault=row.state, channel_key="data.channel", fault_key="the labels row's state",
                                    fs_key="data.fs" if fs is None else "the labels row's fs", rpm_key="the labels row's rpm",
-                                   unit=row.unit, unit_key="the labels row's unit", scale=row.scale,
-                                   scale_key="the labels row's scale")
+                                   **row.unit_settings())
     if recording.rpm is None:
         raise BearingTwinError(f"{path}: states no shaft speed; give it in the labels table's rpm column "
                                "(the twin runs at each record's speed)")
@@ -864,9 +863,7 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
                              # a null hearing option is what its absence was: the key stays that of earlier runs
                              {"twin": {k: v for k, v in cfg["twin"].items()
                                        if not (k in HEARING_KEYS and v is None) and k != "n_jobs"}}),
-                         # a row's unit where it gives one: a table without units keeps the key it had before
-                         **({"labels": [(p.name, digests[p], *labelled[p][1:4],
-                                         *filter(None, [labelled[p].unit, labelled[p].scale]))
+                         **({"labels": [(p.name, digests[p], *labelled[p].key_facts())
                                         for p in calibration_paths + test_paths]}
                             if table else {})}),
         record_lengths=record_lengths + [r.signal.size for r in tests + validation_records],

@@ -39,7 +39,8 @@ from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import FORMATS, known_unit, scale_and_unit
 from bearingtwin.data.labels import (DEFAULT_LABELS, LabelsRow, first_messages, labels_row, labels_table_with_bad_rows,
-                                     names_file, read_labels, recordings_and_others, warn_left_out, why_not_a_recording)
+                                     names_file, read_labels, recordings_and_others, scale_and_unit_given, warn_left_out,
+                                     why_not_a_recording)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import (CONDITION_KEYS, FEW_WINDOWS, diagnose_recording, one_line, plot_diagnosis,
@@ -397,20 +398,21 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
         try:
             if path.stem in refused:
                 raise BearingTwinError(refused[path.stem])
-            row = labelled.get(path.stem) or LabelsRow("", path.name, None, None, None, None)
-            fs, fs_from_row = _fact(cfg.fs, row.fs, command_first=single)
-            rpm, rpm_from_row = _fact(cfg.rpm, row.rpm, command_first=single)
-            scale, unit, unit_from_row = _scale_and_unit(cfg, row, single)
+            table_row = labelled.get(path.stem) or LabelsRow("", path.name, None, None, None, None)
+            fs, fs_from_row = _fact(cfg.fs, table_row.fs, command_first=single)
+            rpm, rpm_from_row = _fact(cfg.rpm, table_row.rpm, command_first=single)
+            scale, unit, unit_from_row = scale_and_unit_given(cfg.get("scale"), cfg.get("unit"), table_row,
+                                                              command_first=single)
             its_row = f"{table if table else 'labels'} (its row for {path.name}): "
-            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, row.state, bearing, unit=unit, scale=scale,
+            prepared = read_record(path, pipeline, cfg.channel, fs, rpm, table_row.state, bearing, unit=unit, scale=scale,
                                    fs_key=its_row + "fs" if fs_from_row else "fs",
                                    rpm_key=its_row + "rpm" if rpm_from_row else "rpm",
                                    unit_key=its_row + "unit" if unit_from_row else "unit",
                                    scale_key=its_row + "scale" if unit_from_row else "scale", order_tracking=order_tracking,
                                    unit_fills_in=not (single or unit_from_row))
-            if row.scale is not None and not unit_from_row:  # the command's unit holds: the row's scale said unread
-                prepared.notes.append(f"{row.where} gives scale {row.scale:g} (unit {row.unit}), not applied: the unit= "
-                                      "and scale= given hold for the one file they name")
+            if table_row.scale is not None and not unit_from_row:  # the command's unit holds: the row's scale unread
+                prepared.notes.append(f"{table_row.where} gives scale {table_row.scale:g} (unit {table_row.unit}), not "
+                                      "applied: the unit= and scale= given hold for the one file they name")
             result, evidence = diagnose_recording(prepared, model, pipeline, str(cfg.model), settings, pinned_uri)
             digest = file_digest(path) if trained or calibrated_digests else None
             # By contents as well as names: a copy (the Data Center's 97.mat for normal_0_97.mat) is no new record.
@@ -503,23 +505,11 @@ def _rows_of(records: list[Path], rows: dict[str, LabelsRow]) -> dict[str, Label
 
 
 def _fact(command, row, command_first: bool):
-    """A file's speed, rate or unit, and whether its labels row gave it: the row comes first where the command's value is
+    """A file's speed or rate, and whether its labels row gave it: the row comes first where the command's value is
     every file's of a folder, the command's where it names the one file given."""
     if (command_first and command is not None) or row is None:
         return command, False
     return row, True
-
-
-def _scale_and_unit(cfg: DictConfig, row: LabelsRow, single: bool) -> tuple[float | None, str | None, bool]:
-    """A file's scale and unit, and whether its labels row gave them. The two come whole from one place, as a scale's
-    unit is the product's and a unit without one the file's own: from the row where it gives a unit, for a folder's
-    file (the command's are every file's), unless the command gives either for the one file it names; else from the
-    command (a row's unit alone is never multiplied by the command's scale, nor a row's scale paired with the
-    command's unit)."""
-    command_gives = cfg.get("scale") is not None or cfg.get("unit") is not None
-    if row.unit is not None and not (single and command_gives):
-        return row.scale, row.unit, True
-    return cfg.get("scale"), cfg.get("unit"), False
 
 
 def _names_of(path: Path, table: Path | None) -> set[str]:

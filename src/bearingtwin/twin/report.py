@@ -24,7 +24,7 @@ from bearingtwin.config import (bearing_config, bearing_overrides, given_on_comm
                                 refuse_unknown_bearing, unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
                                     read_raw, recording_from_raw, same_speed, speed_setting)
-from bearingtwin.data.labels import DEFAULT_LABELS, LabelsRow, labels_row
+from bearingtwin.data.labels import DEFAULT_LABELS, LabelsRow, labels_row, scale_and_unit_given
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import INTEGRATED_QUANTITIES, acceleration_factor, acceleration_unit, quantity_of, same_unit
 from bearingtwin.errors import BearingTwinError
@@ -101,11 +101,13 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
     given = (measured_cfg.fault, measured_cfg.rpm, measured_cfg.fs, measured_cfg.get("unit") or None)
     row = labels_row(path, state_required=False) if None in given else _readable_row(path)
     from_row = (row.state, row.rpm, row.fs, None if scaled else row.unit) if row else (None,) * 4
-    fault, rpm, fs, unit = (value if value is not None else from_table for value, from_table in zip(given, from_row))
-    scale, scale_key = measured_cfg.get("scale"), "measured.scale"
-    if not scaled and given[3] is None and row is not None and row.scale is not None:  # the row's scale, with its unit
-        scale, scale_key = row.scale, f"{row.where}: scale"
-    elif row is not None and row.scale is not None and not (scaled and math.isclose(float(scale), row.scale)):
+    fault, rpm, fs = (value if value is not None else from_table for value, from_table in zip(given[:3], from_row))
+    # The settings' scale and unit for the one file they name, else the row's pair, as a diagnosis of one file reads it.
+    scale, unit, pair_from_row = scale_and_unit_given(measured_cfg.get("scale"), given[3], row, command_first=True)
+    unit_key, scale_key = (f"{row.where}: unit", f"{row.where}: scale") if pair_from_row else ("measured.unit",
+                                                                                               "measured.scale")
+    if not pair_from_row and row is not None and row.scale is not None and not (
+            scale is not None and math.isclose(float(scale), row.scale)):
         log.warning("%s: %s gives scale %g, not applied: the measured.unit and measured.scale given hold for the one "
                     "file they name", path, row.where, row.scale)
     _say_what_the_row_says_otherwise(path, given, from_row, row)
@@ -132,9 +134,8 @@ def read_measurement(measured_cfg, state_required: bool = True) -> tuple[Recordi
                                f"(or {table})")
     recording = recording_from_raw(raw, channel=measured_cfg.channel, fs=fs, rpm=rpm, fault=fault,
                                    channel_key="measured.channel", fs_key="measured.fs", rpm_key="measured.rpm",
-                                   fault_key="measured.fault", unit=unit,
-                                   unit_key="measured.unit" if given[3] or unit is None else f"{row.where}: unit",
-                                   scale=scale, scale_key=scale_key)
+                                   fault_key="measured.fault", unit=unit, unit_key=unit_key, scale=scale,
+                                   scale_key=scale_key)
     if recording.rpm is None:  # its tachometer gave none
         why = f" ({recording.meta['speed_unread']})" if recording.meta.get("speed_unread") else ""
         raise BearingTwinError(f"{path}: the file does not state its speed{why}; give measured.rpm=<rev/min>"
