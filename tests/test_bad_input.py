@@ -24,10 +24,13 @@ from bearingtwin.config import CONF_DIR, REPO_ROOT, compose_config, data_root, l
 from bearingtwin.data.build import check_data_settings
 from bearingtwin.data.formats import read_raw
 from bearingtwin.data.recording import Recording
-from bearingtwin.data.windows import split_indices
+from bearingtwin.data.windows import cut_windows, split_indices
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.models.experiment import run_experiment
 from bearingtwin.physics.geometry import BearingGeometry
+from bearingtwin.signal import order_track, peak_near
+from bearingtwin.signal.entropy import mutual_information
+from bearingtwin.signal.vmd import vmd
 from bearingtwin.twin.compare import Comparator
 from bearingtwin.twin.report import load_measurement, twin_for
 
@@ -543,3 +546,18 @@ def test_a_sweeps_folder_that_cannot_be_made_is_refused_before_it_starts():
                                    "job"])
     refuse_bad_overrides("train", ["classifier=svm", "hydra.run.dir=/tmp/${hydra:runtime.choices.classifier}/run"])
 
+
+
+@pytest.mark.parametrize("call, said", [
+    (lambda x: vmd(x, None, 2000.0), "k must be a positive integer, got None"),
+    (lambda x: vmd(x, 3, "2000"), "alpha must be a finite number, got '2000'"),
+    (lambda x: mutual_information(x, x, bins=None), "bins must be a positive integer"),
+    (lambda x: cut_windows(x, 2048.5, 5), "window_length must be a positive integer, got 2048.5"),
+    (lambda x: order_track(x, 12000.0, None), "profile must be a SpeedProfile"),
+    (lambda x: peak_near(np.arange(10.0), np.ones(10), 5.0, "2"), "tolerance_hz must be non-negative (got '2')"),
+])
+def test_a_signal_function_given_a_wrong_type_names_the_argument(call, said):
+    """From Python, a None, a text number or a fractional length had ended in a TypeError or IndexError deep inside."""
+    with pytest.raises(BearingTwinError) as error:
+        call(np.random.default_rng(0).standard_normal(12000))
+    assert said in str(error.value)

@@ -102,3 +102,11 @@ def test_peak_near_stays_within_half_a_bin_at_a_band_edge():
     peak_freq, peak_amp = peak_near(freqs, amplitude, target_hz=46.0, tolerance_hz=3.0)
     assert 43.0 <= float(peak_freq) <= 49.0
     assert float(peak_amp) == pytest.approx(2e-3)
+
+
+@pytest.mark.parametrize("window", [np.zeros(256), np.full(256, np.nan), np.r_[np.ones(128), -np.ones(128)]])
+def test_a_window_that_weighs_nothing_is_refused(window):
+    """The amplitude is scaled by the window's sum: zeros, a NaN or a zero-sum taper had given NaN or inf lines."""
+    x = np.random.default_rng(0).standard_normal(256)
+    with pytest.raises(BearingTwinError, match="window must hold finite weights with a positive sum"):
+        envelope_spectrum(x, 12000.0, window=window)

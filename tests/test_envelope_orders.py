@@ -181,3 +181,30 @@ def test_a_subset_of_rates_reads_those_columns_alone_and_the_same_values(bearing
     loaded = EnvelopeOrderFeatures.__new__(EnvelopeOrderFeatures)
     loaded.__setstate__(old)
     assert np.array_equal(loaded.transform(windows, fs_hz=FS_HZ, rpm=1797.0), every)
+
+
+def test_in_a_pipeline_the_operating_point_travels_as_metadata_and_the_columns_are_named(bearing):
+    """scikit-learn's own composition: the windows' rate and speeds routed to fit and transform, the
+    classifier told inner-race from outer-race impacts by the envelope orders alone."""
+    import sklearn
+    from sklearn.model_selection import cross_val_score
+    from sklearn.pipeline import Pipeline
+
+    from bearingtwin.models.svm import SvmClassifier
+
+    rng = np.random.default_rng(3)
+    rpm = 1797.0
+    geometry = BearingGeometry.from_config(bearing)
+    rates = geometry.defect_frequencies(rpm)
+    X = np.stack([ringing_impacts(rates[name], rng) for name in ["bpfi", "bpfo"] * 10])
+    y = np.array(["inner", "outer"] * 10)
+    with sklearn.config_context(enable_metadata_routing=True):
+        features = EnvelopeOrderFeatures(bearing=geometry)  # the geometry itself does, as its config does
+        features.set_fit_request(fs_hz=True, rpm=True).set_transform_request(fs_hz=True, rpm=True)
+        pipeline = Pipeline([("features", features), ("svm", SvmClassifier())])
+        scores = cross_val_score(pipeline, X, y, cv=2, params={"fs_hz": FS_HZ, "rpm": rpm}, error_score="raise")
+        assert scores.min() == 1.0
+        pipeline.fit(X, y, fs_hz=FS_HZ, rpm=rpm)
+        assert list(pipeline.predict(X[:2], fs_hz=FS_HZ, rpm=rpm)) == ["inner", "outer"]
+    names = pipeline[0].get_feature_names_out()
+    assert list(names) == pipeline[0].feature_names_ and names[-1] == "band_power_log10"

@@ -46,3 +46,10 @@ def test_the_kurtogram_finds_the_band_an_impact_train_rings():
     assert max(at_tone) < 0.0  # a stationary line is less impulsive than Gaussian noise
     with pytest.raises(BearingTwinError, match="shorter than every window length"):
         kurtogram(signal[:10], FS)
+
+
+@pytest.mark.parametrize("level", [0.0, 3.5])
+def test_a_constant_signal_names_no_band(level):
+    """Every band's kurtosis is 0 / 0 on a dead channel: a band had been named by chance."""
+    with pytest.raises(BearingTwinError, match=r"^x is constant \(every sample 3.5\)" if level else r"^x is constant"):
+        kurtogram(np.full(1000, level), 12000.0)

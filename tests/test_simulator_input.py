@@ -221,3 +221,28 @@ def test_a_bearing_setting_out_of_range_is_named_as_the_config_sets_it(name, val
 
 def test_a_missing_state_is_named_as_the_command_line_writes_it():
     assert refused(None, settings()) == "fault=null is not a bearing state; choose one of normal, inner, ball, outer"
+
+
+@pytest.mark.parametrize("changes, named, meant", [
+    ({"durration": 2.0}, "simulator.durration", "simulator.duration"),
+    ({"defect": {"width_mmm": 2.0}}, "simulator.defect.width_mmm", "simulator.defect.width_mm"),
+    ({"fast": {"steps_per_perod": 40}}, "simulator.fast.steps_per_perod", "simulator.fast.steps_per_period")])
+def test_a_misspelt_setting_is_refused_naming_the_one_meant(changes, named, meant):
+    """From Python a mapping takes any key: a misspelt duration had simulated the default 2 s, unsaid."""
+    simulator_cfg = settings()
+    for key, value in changes.items():
+        simulator_cfg[key] = {**simulator_cfg[key], **value} if isinstance(value, dict) else value
+    assert f"did you mean {meant}?" in refused("outer", simulator_cfg, named)
+
+
+def test_a_hand_written_mapping_names_the_first_setting_it_lacks_and_may_leave_out_null_ones():
+    message = refused("outer", {"fs": 12000.0, "duration": 0.1, "rpm": 1797.0}, "simulator has no solver, sensor, seed")
+    assert "compose_config" in message
+    lean = {key: value for key, value in settings(duration=0.05).items() if value is not None}
+    assert simulate("outer", BEARING, lean)[0].signal.size == 500  # sensor_angle_deg, oversample: null by default
+
+
+@pytest.mark.parametrize("bearing", [BearingGeometry.from_config(OmegaConf.to_container(BEARING)), "paper"])
+def test_a_bearing_given_as_its_geometry_or_name_is_refused_saying_what_to_give(bearing):
+    message = refused("outer", settings(duration=0.05), "bearing", "bearing_config", bearing=bearing)
+    assert type(bearing).__name__ in message

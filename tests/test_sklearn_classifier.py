@@ -103,6 +103,15 @@ def test_a_saved_estimator_predicts_as_the_fitted_one_and_a_foreign_type_is_refu
         _load_classifier(state, tmp_path)
 
 
+def test_a_classifier_fitted_on_state_names_saves_and_predicts_them(tmp_path):
+    """Labels as a user's own table gives them ("ball", "outer"): save had cast every class to an int."""
+    X, y = separable()
+    names = np.array(["normal", "inner", "outer", "ball"])[y]
+    fitted = SklearnClassifier().fit(X, names)
+    loaded = _load_classifier(_save_classifier(fitted, tmp_path), tmp_path)
+    assert list(loaded.classes_) == sorted(set(names)) and np.array_equal(loaded.predict(X), fitted.predict(X))
+
+
 @pytest.mark.parametrize("classifier, trainer_key, said", [
     ({"name": "svm", "kernal": "linear"}, None, "classifier.kernal: not a setting of the svm classifier; "
                                                 "did you mean classifier.kernel?"),

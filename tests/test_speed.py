@@ -243,3 +243,17 @@ def test_a_speed_stated_a_little_off_is_read_past_a_defects_comb_and_another_sha
     for order in (1, 2):
         two_shafts += np.sin(2 * np.pi * order * 1.06 * 1730.0 / 60.0 * t)
     assert speed_profile(two_shafts, fs, 1780.0).read_rpm is None
+
+
+def test_a_shaft_on_the_supply_s_lines_is_said_to_be_unreadable_and_why():
+    """At 1797 rpm (CWRU's 0 hp) the shaft's 2x is the 60 Hz supply's place: never read as a speed, which the
+    refusal says, rather than leaving a user to take the record for a broken one."""
+    t = np.arange(int(4 * FS)) / FS
+    signal = sum(np.cos(2 * np.pi * k * 1797.0 / 60.0 * t) / k for k in range(1, 6))
+    signal = signal + 0.1 * np.random.default_rng(0).standard_normal(t.size)
+    profile = speed_profile(signal, FS, 1797.0)
+    assert not profile.read.any()
+    with pytest.raises(BearingTwinError, match=r"at 1797 rpm the shaft's lines stand where the supply's do"):
+        order_track(signal, FS, profile)
+    readable = speed_profile(sum(np.cos(2 * np.pi * k * RPM / 60.0 * t) / k for k in range(1, 6)), FS, RPM)
+    assert readable.read.all()  # the same series at 1650 rpm

@@ -11,7 +11,7 @@ import sys
 import tempfile
 import warnings
 from pathlib import Path
-from typing import Callable, NoReturn
+from typing import Callable, Mapping, NoReturn
 from urllib.parse import urlparse
 
 import hydra
@@ -747,6 +747,9 @@ def plain_config(cfg, name: str = "config") -> dict:
             raise BearingTwinError(f"{key} is missing; give {key}=<value>") from None
         except OmegaConfBaseException as error:  # its message runs over several lines; keep the first, name the key
             raise BearingTwinError(f"{getattr(error, 'full_key', None) or name}: {str(error).splitlines()[0]}") from None
+    if cfg is not None and not isinstance(cfg, Mapping):  # a bearing's name or its BearingGeometry, from Python
+        raise BearingTwinError(f"{name}: give a mapping of settings (a composed config's node, or for a bearing "
+                               f"bearing_config('<name>')), got {type(cfg).__name__} {str(cfg)[:60]!r}")
     return dict(cfg or {})
 
 

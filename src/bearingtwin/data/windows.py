@@ -18,7 +18,7 @@ from typing import Sequence
 
 import numpy as np
 
-from bearingtwin.checks import finite_number, physical_memory_bytes
+from bearingtwin.checks import finite_number, physical_memory_bytes, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics.geometry import FAULTS
 
@@ -58,7 +58,8 @@ def cut_windows(signal: np.ndarray, window_length: int, n_windows: int) -> tuple
     signal = np.asarray(signal)
     if signal.ndim != 1:
         raise BearingTwinError(f"cut_windows takes a 1-D signal, got shape {signal.shape}")
-    starts = window_starts(signal.size, window_length, n_windows)
+    window_length = whole_number("window_length", window_length)  # 2048.0 is 2048; 2048.5 no length
+    starts = window_starts(signal.size, window_length, whole_number("n_windows", n_windows))
     return signal[starts[:, None] + np.arange(window_length)], starts
 
 

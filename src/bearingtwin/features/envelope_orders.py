@@ -77,7 +77,14 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
 
     ``fit`` / ``transform`` take the windows' operating point as keyword arguments, because it
     belongs to the data, not to the extractor: ``fs_hz`` (one rate) and ``rpm`` (one shaft speed
-    per window, rev/min, or one for all).
+    per window, rev/min, or one for all). In a scikit-learn ``Pipeline`` they travel as metadata::
+
+        sklearn.set_config(enable_metadata_routing=True)
+        features = EnvelopeOrderFeatures(bearing=bearing_config("cwru_6205"))
+        features.set_fit_request(fs_hz=True, rpm=True).set_transform_request(fs_hz=True, rpm=True)
+        pipeline = Pipeline([("features", features), ("svm", SvmClassifier())])
+        pipeline.fit(X, y, fs_hz=12000.0, rpm=rpm).predict(X_new, fs_hz=12000.0, rpm=rpm_new)
+        cross_val_score(pipeline, X, y, params={"fs_hz": 12000.0, "rpm": rpm})
 
     Args:
         bearing: the bearing config group (``conf/bearing/*.yaml``): geometry -> defect orders.
@@ -219,6 +226,12 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
     def fit_transform(self, X, y=None, *, fs_hz: float, rpm) -> np.ndarray:
         return self.fit(X, y, fs_hz=fs_hz, rpm=rpm).transform(X, fs_hz=fs_hz, rpm=rpm)
 
+    def get_feature_names_out(self, input_features=None) -> np.ndarray:
+        """The columns' names (``feature_names_``), as scikit-learn's transformers give them."""
+        if not hasattr(self, "feature_names_"):
+            raise BearingTwinError("EnvelopeOrderFeatures: call fit before get_feature_names_out")
+        return np.asarray(self.feature_names_, dtype=object)
+
     @staticmethod
     def _check(X, fs_hz: float, rpm) -> tuple[np.ndarray, np.ndarray]:
         """Windows as float64 (n, L) and each window's shaft rate in Hz."""
@@ -231,7 +244,10 @@ class EnvelopeOrderFeatures(TransformerMixin, BaseEstimator):
             raise BearingTwinError(f"fs_hz must be a positive sampling rate, got {fs_hz}")
         if rpm is None:
             raise BearingTwinError("rpm: envelope-order features need each window's shaft speed; this data source gives none")
-        rpm = np.broadcast_to(np.asarray(rpm, dtype=np.float64), (len(X),))
+        rpm = np.asarray(rpm, dtype=np.float64)
+        if rpm.shape not in ((), (len(X),)):
+            raise BearingTwinError(f"rpm must be one speed or one per window ({len(X)}), got shape {rpm.shape}")
+        rpm = np.broadcast_to(rpm, (len(X),))
         if not np.all(np.isfinite(rpm) & (rpm > 0)):
             raise BearingTwinError("rpm must be positive and finite for every window")
         return X, rpm / 60.0

@@ -218,7 +218,7 @@ class SklearnClassifier(ClassifierMixin, BaseEstimator):
         # A built estimator is no JSON: the file holds it (fitted), and load takes it back from there
         return {"estimator": self.estimator if isinstance(self.estimator, dict) else None,
                 "random_state": self.random_state,
-                "classes": [int(label) for label in self.classes_], "n_windows": int(self.n_windows_),
+                "classes": self.classes_.tolist(), "n_windows": int(self.n_windows_),
                 "files": ["sklearn.skops"]}
 
     @classmethod

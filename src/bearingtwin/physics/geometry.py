@@ -101,7 +101,13 @@ class BearingGeometry:
 
     @classmethod
     def from_config(cls, bearing_cfg: Mapping) -> "BearingGeometry":
-        """The geometry part of a ``conf/bearing/*.yaml`` config (masses, stiffnesses etc. are ignored)."""
+        """The geometry part of a ``conf/bearing/*.yaml`` config (masses, stiffnesses etc. are ignored); a geometry
+        given as one is taken as it is."""
+        if isinstance(bearing_cfg, cls):
+            return bearing_cfg
+        if not isinstance(bearing_cfg, Mapping):  # a bearing's name, from Python
+            raise BearingTwinError(f"bearing: give the bearing's config (bearingtwin.config.bearing_config('<name>')) "
+                                   f"or its BearingGeometry, got {type(bearing_cfg).__name__} {str(bearing_cfg)[:60]!r}")
         names = [f.name for f in fields(cls)]
         missing = [name for name in names[:5] if name not in bearing_cfg]
         if missing:

@@ -17,16 +17,20 @@ stage does before its converter (``scipy.signal.resample_poly``).
 
 from __future__ import annotations
 
+import difflib
+import functools
 import math
+from pathlib import Path
 from typing import Mapping, NamedTuple, Sequence
 
 import joblib
 import numpy as np
 import scipy.signal
+from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
 from bearingtwin.checks import derived_seed, finite_number, is_finite_number, physical_memory_bytes, whole_number
-from bearingtwin.config import plain_config
+from bearingtwin.config import CONF_DIR, plain_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics import solvers
@@ -76,7 +80,32 @@ def _record_samples(simulator_cfg: Mapping) -> int:
     return round(samples)
 
 
+@functools.lru_cache(maxsize=1)
+def declared_settings() -> dict:
+    """Every setting the simulator reads, nested, with its default: ``conf/simulator/default.yaml``."""
+    return OmegaConf.to_container(OmegaConf.load(Path(CONF_DIR) / "simulator" / "default.yaml"))
+
+
+def _check_declared(given: Mapping, declared: Mapping, prefix: str = "simulator.") -> None:
+    """Refuse a setting the simulator does not read: a misspelt ``durration`` would leave the default at work,
+    unsaid."""
+    for key, value in given.items():
+        if key not in declared:
+            close = difflib.get_close_matches(str(key), [str(name) for name in declared], n=1, cutoff=0.75)
+            hint = f"did you mean {prefix}{close[0]}?" if close else f"its settings here: {', '.join(declared)}"
+            raise BearingTwinError(f"{prefix}{key} is not a setting of the simulator; {hint}")
+        if isinstance(declared[key], dict) and isinstance(value, Mapping):
+            _check_declared(value, declared[key], f"{prefix}{key}.")
+
+
 def _check_settings(simulator_cfg: Mapping) -> None:
+    declared = declared_settings()
+    _check_declared(simulator_cfg, declared)
+    # A hand-written mapping may leave out a setting whose default is null; a defect's own are its to name.
+    missing = [key for key, default in declared.items() if key not in simulator_cfg and default is not None]
+    if missing:
+        raise BearingTwinError(f"simulator has no {', '.join(missing)}; a config composed from conf/ "
+                               "(bearingtwin.config.compose_config('simulate')) holds every setting")
     for name in ("rpm", "fs", "duration", "settle_decades"):
         value = simulator_cfg[name]
         if not (is_finite_number(value) and value > 0):
@@ -339,7 +368,7 @@ def simulate(fault: str, bearing_cfg: Mapping, simulator_cfg: Mapping, effects_c
         recording: the sensor channel in m/s^2 after the effects' sensor path.
         channels: (4, n) accelerations in m/s^2 of the races, rows in :data:`CHANNELS` order.
     """
-    bearing_cfg, simulator_cfg = plain_config(bearing_cfg), plain_config(simulator_cfg)
+    bearing_cfg, simulator_cfg = plain_config(bearing_cfg, "bearing"), plain_config(simulator_cfg, "simulator")
     plan = _plan(fault, bearing_cfg, simulator_cfg, effects_cfg)
     rpm, fs, params, defect, crossing = plan.rpm, plan.fs, plan.params, plan.defect, plan.crossing_s
     highest_mode_hz, n_transient, n_samples = plan.highest_mode_hz, plan.n_transient, plan.n_samples
@@ -410,7 +439,8 @@ def simulate_at_speeds(faults: Sequence[str], rpms: Sequence[float], bearing_cfg
 def simulate_many(faults: Sequence[str], bearing_cfg: Mapping, simulator_cfg: Mapping,
                   effects_cfg: Mapping | None = None, n_jobs: int = 1) -> list[tuple[Recording, np.ndarray]]:
     """:func:`simulate` for several bearing states, in parallel processes when ``n_jobs`` > 1."""
-    bearing_cfg, simulator_cfg, effects_cfg = plain_config(bearing_cfg), plain_config(simulator_cfg), plain_config(effects_cfg)
+    bearing_cfg, simulator_cfg = plain_config(bearing_cfg, "bearing"), plain_config(simulator_cfg, "simulator")
+    effects_cfg = plain_config(effects_cfg, "effects")
     concurrent = max(1, min(len(faults), joblib.effective_n_jobs(n_jobs)))
     for fault in faults:  # every state's checks before any simulation starts: the cheap parts, run again in the jobs
         _plan(fault, bearing_cfg, simulator_cfg, effects_cfg, concurrent)

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from bearingtwin.checks import whole_number
+from bearingtwin.checks import is_finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.envelope import envelope
 from bearingtwin.signal.inputs import as_signal
@@ -112,7 +112,7 @@ def _n_bins(bins, n: int) -> int:
         if bins == "rice":
             return int(math.ceil(2.0 * n ** (1.0 / 3.0)))
         raise BearingTwinError(f"bins must be a positive integer or one of {BIN_RULES} (got {bins!r})")
-    if int(bins) != bins or bins < 1:
+    if not is_finite_number(bins) or int(bins) != bins or bins < 1:
         raise BearingTwinError(f"bins must be a positive integer or one of {BIN_RULES} (got {bins!r})")
     return int(bins)
 

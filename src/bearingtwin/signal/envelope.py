@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.signal
 
+from bearingtwin.checks import finite_number, is_finite_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.inputs import as_signal, check_positive
 
@@ -83,6 +84,8 @@ def envelope_spectrum(x, fs: float, *, remove_mean: bool = True, window=None) ->
         taper = np.asarray(window, dtype=np.float64)
         if taper.shape != (n,):
             raise BearingTwinError(f"window must have shape ({n},) to match the signal (got {taper.shape})")
+    if not (np.all(np.isfinite(taper)) and taper.sum() > 0):  # the amplitude's scale divides by the sum
+        raise BearingTwinError("window must hold finite weights with a positive sum: it scales the amplitude")
     amplitude = np.abs(np.fft.rfft(env * taper, axis=-1)) / taper.sum()
     last = None if n % 2 else -1  # an even length has a Nyquist bin, which is not doubled
     amplitude[..., 1:last] *= 2.0
@@ -114,8 +117,9 @@ def peak_near(freqs_hz, amplitude, target_hz: float, tolerance_hz: float, *, int
         raise BearingTwinError(
             f"amplitude's last axis must match freqs_hz (got amplitude {amplitude.shape}, freqs_hz {freqs_hz.shape})"
         )
-    if not tolerance_hz >= 0:
-        raise BearingTwinError(f"tolerance_hz must be non-negative (got {tolerance_hz})")
+    finite_number("target_hz", target_hz, "a frequency in Hz")
+    if not (is_finite_number(tolerance_hz) and tolerance_hz >= 0):
+        raise BearingTwinError(f"tolerance_hz must be non-negative (got {tolerance_hz!r})")
     in_band = np.flatnonzero(np.abs(freqs_hz - target_hz) <= tolerance_hz)
     if in_band.size == 0:
         raise BearingTwinError(

@@ -81,6 +81,8 @@ def kurtogram(x, fs_hz: float, nperseg=(16, 32, 64, 128, 256), min_hz: float = 0
     """
     x = as_record(x, "x", "the kurtogram")
     check_positive(fs_hz, "fs_hz")
+    if np.ptp(x) == 0:  # every band's kurtosis 0 / 0: a band would be named by chance (a dead channel)
+        raise BearingTwinError(f"x is constant (every sample {x[0]:g}): it has no spectral kurtosis to choose a band by")
     if isinstance(nperseg, (int, np.integer)):  # one window length, as spectral_kurtosis takes it
         nperseg = (nperseg,)
     try:

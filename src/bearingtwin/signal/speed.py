@@ -430,7 +430,11 @@ def steady_times(profile: SpeedProfile, n_samples: int, fs: float) -> tuple[np.n
     speed (rev/min): where an instant of the record (a gap, an event) lies once it is tracked."""
     check_positive(fs, "fs")
     if not profile.read.any():
-        raise BearingTwinError("the speed profile reads no segment's speed: nothing to track")
+        # A shaft series the supply's lines could pass for is never read as a speed: say so, or it reads as a fault.
+        why = (f" (at {profile.stated_rpm:g} rpm the shaft's lines stand where the supply's do, which are never read as a "
+               "speed: give the record's tachometer channel)" if not profile.source and near_supply(profile.stated_rpm)
+               else "")
+        raise BearingTwinError(f"the speed profile reads no segment's speed{why}: nothing to track")
     speed = profile.rpm_at(n_samples, fs)
     between = (speed[1:] + speed[:-1]) / 2  # over each sample interval, as the turns are summed (trapezoids)
     mean_rpm = float(between.mean()) if between.size else float(speed[0])
@@ -448,6 +452,9 @@ def order_track(signal, fs: float, profile: SpeedProfile) -> tuple[np.ndarray, f
     The record keeps its length to a sample.
     """
     x = as_record(signal)
+    if not isinstance(profile, SpeedProfile):
+        raise BearingTwinError(f"profile must be a SpeedProfile (speed_profile's or tachometer_profile's), got "
+                               f"{type(profile).__name__}")
     steady_time, mean_rpm = steady_times(profile, x.size, fs)
     n_out = int(round(steady_time[-1] * fs)) + 1
     # Where each steady sample lies in the recorded time, in samples of the doubled rate.

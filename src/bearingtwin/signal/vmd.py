@@ -35,6 +35,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from bearingtwin.checks import finite_number, whole_number
 from bearingtwin.errors import BearingTwinError
 
 INITS = ("zero", "linear", "random")
@@ -246,11 +247,10 @@ def vmd(
     x = _validate(x, tau, tol, tol_mode, max_iter)
     single = x.ndim == 1
     x2d = np.atleast_2d(x)
-    if int(k) != k:
-        raise BearingTwinError(f"k must be an integer number of modes (got {k})")
-    ks = np.full(x2d.shape[0], int(k), dtype=np.int64)
+    ks = np.full(x2d.shape[0], whole_number("k", k), dtype=np.int64)  # "3" or None: no number of modes
     if np.ndim(alpha) != 0:  # one penalty for every mode and signal; vmd_batch takes one per signal
         raise BearingTwinError(f"alpha must be one number (got {alpha!r}); vmd_batch takes one per signal")
+    finite_number("alpha", alpha)  # "2000" or None: no penalty
     alphas = np.full(x2d.shape[0], alpha, dtype=np.float64)
     modes, omega, n_updates = _decompose(x2d, ks, alphas, tau, tol, init, max_iter, seed, dc, tol_mode)
     if single:
