@@ -277,10 +277,13 @@ GEOMETRY_6308 = "name: my6308\nball_diameter_mm: 15.081\npitch_diameter_mm: 65.0
      "bearing=my6308: ball_diam_mm is not a bearing setting"),
     (GEOMETRY_6308, "bearing=my6308: contact_angle_deg is missing; start the file with 'defaults: [paper]'"),
     ("defaults: [paper]\n" + GEOMETRY_6308 + "n_balls: 8: 9\n", "my6308.yaml, line 8: not valid YAML"),
+    ("defaults: [paper]\n" + GEOMETRY_6308.replace("n_balls: 8\n", ""),
+     "my6308.yaml: gives no n_balls; a bearing's file states its sizes"),
 ])
 def test_a_bearing_file_of_ones_own_that_the_twin_cannot_read_as_written_is_one_line(tmp_path, text, named):
     """A misspelt key would leave Table 1's value in its place without a word; a file without the defaults lacks
-    the masses (a KeyError deep in the simulator before); a file that is no YAML (a traceback of 89 lines)."""
+    the masses (a KeyError deep in the simulator before); a file that is no YAML (a traceback of 89 lines); a size left
+    out had been Table 1's, its 9 balls in place of 8 (every defect frequency off, exit 0)."""
     (tmp_path / "conf" / "bearing").mkdir(parents=True)
     (tmp_path / "conf" / "bearing" / "my6308.yaml").write_text(text)
     assert_one_line_exit_2(command("simulate", f"hydra.searchpath=[file://{tmp_path / 'conf'}]", "bearing=my6308",

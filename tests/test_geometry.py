@@ -124,3 +124,16 @@ def test_bearingtwin_inspect_refuses_the_contact_angle_through_the_geometry(caps
     out, err = capsys.readouterr()
     assert stop.value.code == 2 and out == ""
     assert err.startswith("error: bearing.contact_angle_deg must lie in [0, 90)") and len(err.splitlines()) == 1
+
+
+def test_a_whole_number_of_balls_written_as_a_float_is_that_many_balls():
+    """n_balls: 8.0 from a YAML or bearing.n_balls=9.0 passed the checks and then failed the kinematics, which index
+    the balls, on a TypeError; 8.5 stays refused."""
+    from bearingtwin.physics.kinematics import rigid_kinematics
+
+    cfg = OmegaConf.to_container(OmegaConf.load(f"{CONF_DIR}/bearing/paper.yaml"))
+    geometry = BearingGeometry.from_config({**cfg, "n_balls": 9.0})
+    assert type(geometry.n_balls) is int and geometry == BearingGeometry.from_config(cfg)
+    assert rigid_kinematics(geometry, 1797.0, 12000.0, 100, 0.0) is not None
+    with pytest.raises(BearingTwinError, match="bearing.n_balls must be an integer of at least 3, got 8.5"):
+        BearingGeometry.from_config({**cfg, "n_balls": 8.5})

@@ -749,3 +749,28 @@ def test_a_sweep_whose_tracking_server_went_away_runs_no_more_jobs_and_ends_in_o
         f"error: the sweep's outcome could not be recorded: tracking.uri={uri}: the tracking server stopped answering "
         "(Connection refused); its runs stay as they are there")
     assert lifecycle.close_open_runs("FAILED") == []  # nothing left for the exit to try to close on a silent server
+
+
+def test_reading_the_commit_leaves_the_checkout_s_git_index_as_it_was(tmp_path, monkeypatch):
+    """A tracked run reads the commit with git status, which refreshes a stale index and rewrites it under its lock:
+    beside a user's own git command in the same checkout, one of the two would fail on the lock."""
+    import subprocess
+
+    import bearingtwin.config
+
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True,
+                       env={**os.environ, "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t",
+                            "GIT_COMMITTER_EMAIL": "t@t"})
+
+    git("init", "-q")
+    (tmp_path / "src").mkdir()
+    (tmp_path / "src" / "module.py").write_text("x = 1\n")
+    git("add", ".")
+    git("commit", "-qm", "one")
+    index = tmp_path / ".git" / "index"
+    os.utime(tmp_path / "src" / "module.py", (1e9, 1e9))  # the index's stat data stale, its content the same
+    before = index.stat().st_mtime_ns, index.read_bytes()
+    monkeypatch.setattr(bearingtwin.config, "REPO_ROOT", tmp_path)
+    assert not provenance.git_commit.__wrapped__().endswith("-dirty")
+    assert (index.stat().st_mtime_ns, index.read_bytes()) == before

@@ -554,6 +554,8 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
                 output_folder(folder, key)  # Hydra's own refusal: a traceback, exit 1
         if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
             check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name"))
+            if cfg.hydra.runtime.choices.get("bearing"):  # chosen by its file's name, not only +bearing.<key>=
+                check_sizes_stated(cfg.hydra.runtime.choices.bearing, [str(f) for f in cfg.hydra.searchpath])
         tracking = cfg.get("tracking") or {}
         if "experiment" in tracking and tracking.get("enabled") is not False:  # no store is used with tracking off
             experiment_name(cfg.tracking)
@@ -605,6 +607,7 @@ def bearing_config(name: str, key: str = "bearing", own_hint: bool = True) -> di
                                f"{own_config_hint(name) if own_hint else ''}")
     config = OmegaConf.to_container(compose_config(overrides=[f"+bearing={name}", *search_path]).bearing, resolve=True)
     check_bearing_keys(config, name)
+    check_sizes_stated(name)
     return {**config, "name": name}  # a file that names none inherits its defaults' name; a bearing is its file
 
 
@@ -656,6 +659,37 @@ def check_bearing_keys(bearing, name: str | None) -> None:
     if missing:
         raise BearingTwinError(f"{where}: {missing[0]} is missing; start the file with 'defaults: [paper]', as "
                                "conf/bearing/cwru_6205.yaml does, to keep Table 1's values for the settings it does not give")
+
+
+def bearing_file(name: str, search_path: list[str] | None = None) -> Path | None:
+    """The YAML file ``bearing=<name>`` names: the project's ``conf/bearing/<name>.yaml``, else the first folder of
+    ``search_path`` (the running command's ``hydra.searchpath`` where not given) that holds ``bearing/<name>.yaml``;
+    None where no folder does (a package's)."""
+    from hydra.core.hydra_config import HydraConfig
+
+    if search_path is None:
+        search_path = list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
+    for folder in [str(CONF_DIR), *search_path]:
+        if not folder.startswith("pkg://"):
+            path = Path(folder.removeprefix("file://")) / "bearing" / f"{name}.yaml"
+            if path.is_file():
+                return path
+    return None
+
+
+def check_sizes_stated(name: str, search_path: list[str] | None = None) -> None:
+    """Refuse a bearing file that leaves a size (:data:`~bearingtwin.physics.geometry.SIZE_KEYS`) to its defaults:
+    ``defaults: [paper]`` would put Table 1's bearing's balls in its place, and every defect frequency with them."""
+    from bearingtwin.physics.geometry import SIZE_KEYS
+
+    path = bearing_file(name, search_path)
+    if path is None or name == BEARING_SCHEMA:
+        return
+    stated = OmegaConf.load(path)  # as written: its defaults not applied
+    missing = [key for key in SIZE_KEYS if key not in stated]
+    if missing:
+        raise BearingTwinError(f"{path}: gives no {', '.join(missing)}; a bearing's file states its sizes "
+                               f"({', '.join(SIZE_KEYS)}), or its defaults would give Table 1's bearing's")
 
 
 def own_config_hint(name: str) -> str:

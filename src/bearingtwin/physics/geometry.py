@@ -53,6 +53,11 @@ def shaft_frequency_hz(rpm: float) -> float:
     return rpm / 60.0
 
 
+SIZE_KEYS = ("outer_diameter_mm", "inner_diameter_mm", "ball_diameter_mm", "pitch_diameter_mm", "n_balls")
+"""The settings that size a bearing and, with its contact angle (0 for the deep-groove bearing the twin is made for,
+where not given), fix its defect frequencies: a bearing's own config file states each."""
+
+
 @dataclass(frozen=True)
 class BearingGeometry:
     """Geometry of a deep-groove ball bearing (lengths in mm, angle in degrees).
@@ -97,7 +102,8 @@ class BearingGeometry:
                 f"{self.pitch_diameter_mm:g} spans {inner_race_mm:g} to {outer_race_mm:g} mm across; the balls must "
                 f"lie between the rings, bearing.inner_diameter_mm={self.inner_diameter_mm:g} and "
                 f"bearing.outer_diameter_mm={self.outer_diameter_mm:g}")
-        ball_count(self.n_balls, self.ball_diameter_mm, self.pitch_diameter_mm)
+        # 8.0 balls from a YAML or an override are 8: the kinematics index them
+        object.__setattr__(self, "n_balls", ball_count(self.n_balls, self.ball_diameter_mm, self.pitch_diameter_mm))
 
     @classmethod
     def from_config(cls, bearing_cfg: Mapping) -> "BearingGeometry":
@@ -109,7 +115,7 @@ class BearingGeometry:
             raise BearingTwinError(f"bearing: give the bearing's config (bearingtwin.config.bearing_config('<name>')) "
                                    f"or its BearingGeometry, got {type(bearing_cfg).__name__} {str(bearing_cfg)[:60]!r}")
         names = [f.name for f in fields(cls)]
-        missing = [name for name in names[:5] if name not in bearing_cfg]
+        missing = [name for name in SIZE_KEYS if name not in bearing_cfg]
         if missing:
             raise BearingTwinError(f"bearing config lacks {', '.join('bearing.' + m for m in missing)}")
         return cls(**{name: bearing_cfg[name] for name in names if name in bearing_cfg})

@@ -15,6 +15,7 @@ import functools
 import hashlib
 import importlib.metadata
 import json
+import os
 import re
 import subprocess
 from pathlib import Path
@@ -46,8 +47,10 @@ def git_commit() -> str:
     from bearingtwin.config import REPO_ROOT  # here: a served model imports this module, and need not load Hydra
 
     def git(*args: str) -> str:
+        # GIT_OPTIONAL_LOCKS=0: a status that may refresh the index would take its lock and rewrite it, under a user's
+        # own git command in the same checkout.
         return subprocess.run(["git", "-C", str(REPO_ROOT), *args], capture_output=True, text=True, timeout=10,
-                              check=True).stdout.strip()
+                              check=True, env={**os.environ, "GIT_OPTIONAL_LOCKS": "0"}).stdout.strip()
 
     try:
         commit = git("rev-parse", "HEAD")
