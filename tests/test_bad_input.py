@@ -290,6 +290,21 @@ def test_a_bearing_file_of_ones_own_that_the_twin_cannot_read_as_written_is_one_
                                    f"out={tmp_path}/x.npz", cwd=tmp_path), named)
 
 
+def test_a_bearing_file_may_take_its_sizes_from_another_bearings_file_or_the_command_line(tmp_path):
+    """Only Table 1's sizes standing in for a bearing's own are refused: a 6205 of C3 play inherits the 6205's, and
+    a size left out of the file may be given as bearing.<size>=."""
+    from bearingtwin.config import refuse_bad_overrides
+
+    (tmp_path / "bearing").mkdir()
+    (tmp_path / "bearing" / "my6205c3.yaml").write_text("defaults: [cwru_6205, _self_]\nname: my6205c3\nclearance_mm: 0.012\n")
+    (tmp_path / "bearing" / "my6308.yaml").write_text("defaults: [paper]\n" + GEOMETRY_6308.replace("n_balls: 8\n", ""))
+    search_path = f"hydra.searchpath=[file://{tmp_path}]"
+    refuse_bad_overrides("simulate", [search_path, "bearing=my6205c3"])
+    refuse_bad_overrides("simulate", [search_path, "bearing=my6308", "bearing.n_balls=8"])
+    with pytest.raises(BearingTwinError, match="my6308.yaml: gives no n_balls"):
+        refuse_bad_overrides("simulate", [search_path, "bearing=my6308"])
+
+
 @pytest.mark.parametrize("overrides, named", [
     (["bearing=conf/bearing/my6308.yaml"], "a config group takes the name of a config, not a file"),
     (["hydra.searchpath=[file:///no/such/folder]", "bearing=my6308"], "file:///no/such/folder is not a folder"),
@@ -557,7 +572,7 @@ def test_a_sweeps_folder_that_cannot_be_made_is_refused_before_it_starts():
     (lambda x: mutual_information(x, x, bins=None), "bins must be a positive integer"),
     (lambda x: cut_windows(x, 2048.5, 5), "window_length must be a positive integer, got 2048.5"),
     (lambda x: order_track(x, 12000.0, None), "profile must be a SpeedProfile"),
-    (lambda x: peak_near(np.arange(10.0), np.ones(10), 5.0, "2"), "tolerance_hz must be non-negative (got '2')"),
+    (lambda x: peak_near(np.arange(10.0), np.ones(10), 5.0, "2"), "tolerance_hz must be a non-negative number, got '2'"),
 ])
 def test_a_signal_function_given_a_wrong_type_names_the_argument(call, said):
     """From Python, a None, a text number or a fractional length had ended in a TypeError or IndexError deep inside."""

@@ -235,7 +235,7 @@ def test_a_misspelt_setting_is_refused_naming_the_one_meant(changes, named, mean
     assert f"did you mean {meant}?" in refused("outer", simulator_cfg, named)
 
 
-def test_a_hand_written_mapping_names_the_first_setting_it_lacks_and_may_leave_out_null_ones():
+def test_a_hand_written_mapping_names_the_settings_it_lacks_and_may_leave_out_null_ones():
     message = refused("outer", {"fs": 12000.0, "duration": 0.1, "rpm": 1797.0}, "simulator has no solver, sensor, seed")
     assert "compose_config" in message
     lean = {key: value for key, value in settings(duration=0.05).items() if value is not None}

@@ -555,7 +555,8 @@ def refuse_bad_overrides(config_name: str, argv: list[str]) -> None:
         if isinstance(cfg.get("bearing"), DictConfig):  # a file of the user's own: a misspelt key would pass unseen
             check_bearing_keys(cfg.bearing, cfg.hydra.runtime.choices.get("bearing") or cfg.bearing.get("name"))
             if cfg.hydra.runtime.choices.get("bearing"):  # chosen by its file's name, not only +bearing.<key>=
-                check_sizes_stated(cfg.hydra.runtime.choices.bearing, [str(f) for f in cfg.hydra.searchpath])
+                check_sizes_stated(cfg.hydra.runtime.choices.bearing, [str(f) for f in cfg.hydra.searchpath],
+                                   [o for o in args.overrides if o.lstrip("+~").startswith("bearing.")])
         tracking = cfg.get("tracking") or {}
         if "experiment" in tracking and tracking.get("enabled") is not False:  # no store is used with tracking off
             experiment_name(cfg.tracking)
@@ -677,19 +678,40 @@ def bearing_file(name: str, search_path: list[str] | None = None) -> Path | None
     return None
 
 
-def check_sizes_stated(name: str, search_path: list[str] | None = None) -> None:
-    """Refuse a bearing file that leaves a size (:data:`~bearingtwin.physics.geometry.SIZE_KEYS`) to its defaults:
-    ``defaults: [paper]`` would put Table 1's bearing's balls in its place, and every defect frequency with them."""
+def check_sizes_stated(name: str, search_path: list[str] | None = None, overrides: list[str] | None = None) -> None:
+    """Refuse a bearing file that leaves a size (:data:`~bearingtwin.physics.geometry.SIZE_KEYS`) to Table 1's
+    ``paper.yaml``: ``defaults: [paper]`` would put that bearing's 9 balls in its place, and every defect frequency with
+    them. A size counts as given in the file, in a bearing file of its defaults other than ``paper``
+    (``defaults: [cwru_6205]``), or on the command line (``overrides``, the running command's where not given)."""
     from bearingtwin.physics.geometry import SIZE_KEYS
 
     path = bearing_file(name, search_path)
     if path is None or name == BEARING_SCHEMA:
         return
-    stated = OmegaConf.load(path)  # as written: its defaults not applied
-    missing = [key for key in SIZE_KEYS if key not in stated]
+    overrides = bearing_overrides() if overrides is None else overrides
+    on_command_line = {override.lstrip("+~").partition("=")[0].removeprefix("bearing.") for override in overrides}
+    missing = [key for key in SIZE_KEYS if key not in _sizes_stated(path, search_path) | on_command_line]
     if missing:
         raise BearingTwinError(f"{path}: gives no {', '.join(missing)}; a bearing's file states its sizes "
-                               f"({', '.join(SIZE_KEYS)}), or its defaults would give Table 1's bearing's")
+                               f"({', '.join(SIZE_KEYS)}) or takes them from another bearing's file: left to "
+                               "'defaults: [paper]', they would be Table 1's bearing's")
+
+
+def _sizes_stated(path: Path, search_path: list[str] | None, seen: tuple[Path, ...] = ()) -> set[str]:
+    """The sizes the bearing file ``path`` states, itself or through the bearing files of its defaults but Table 1's
+    (one not found on disk, a package's, is taken to state them all: nothing says otherwise)."""
+    from bearingtwin.physics.geometry import SIZE_KEYS
+
+    content = OmegaConf.load(path)  # as written: its defaults not applied
+    stated = {key for key in SIZE_KEYS if key in content}
+    for entry in content.get("defaults") or []:
+        other_name = str(entry).removeprefix("/bearing/") if isinstance(entry, str) else BEARING_SCHEMA
+        if other_name in ("_self_", BEARING_SCHEMA):
+            continue
+        other = bearing_file(other_name, search_path)
+        stated |= (set(SIZE_KEYS) if other is None or other in seen
+                   else _sizes_stated(other, search_path, (*seen, path)))
+    return stated
 
 
 def own_config_hint(name: str) -> str:

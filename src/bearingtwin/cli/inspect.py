@@ -43,7 +43,7 @@ from bearingtwin.tracking.lifecycle import stop_cleanly
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.signal.sampling_rate import (check_channels, decisive_channel, rate_witnesses, series_elsewhere_words,
                                               speeds_lines_alone_hide)
-from bearingtwin.signal.speed import SUPPLY_HZ, near_supply, speed_profile, tachometer_profile
+from bearingtwin.signal.speed import speed_profile, tachometer_profile
 
 
 @hydra_command("inspect")
@@ -259,10 +259,7 @@ def shaft_speed(raw, names: list[str], fs_hz: float, rpm: float) -> tuple[dict, 
             not_read[name] = str(error)
             continue
         if not profile.readable:
-            not_read[name] = (f"at {rpm:g} rpm the shaft rate or twice it lies near a supply frequency "
-                              f"({', '.join(f'{hz:g}' for hz in SUPPLY_HZ)} Hz), whose lines could pass for its series: "
-                              "not read" if near_supply(rpm) and not pulses else
-                              "no shaft series stood out in enough segments to read a speed")
+            not_read[name] = profile.unread_words()
             continue
         read = profile.rpm[profile.read]
         speeds[name] = {

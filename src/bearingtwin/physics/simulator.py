@@ -17,7 +17,6 @@ stage does before its converter (``scipy.signal.resample_poly``).
 
 from __future__ import annotations
 
-import difflib
 import functools
 import math
 from pathlib import Path
@@ -26,11 +25,11 @@ from typing import Mapping, NamedTuple, Sequence
 import joblib
 import numpy as np
 import scipy.signal
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 from tqdm.auto import tqdm
 
 from bearingtwin.checks import derived_seed, finite_number, is_finite_number, physical_memory_bytes, whole_number
-from bearingtwin.config import CONF_DIR, plain_config
+from bearingtwin.config import CONF_DIR, closest_setting, plain_config
 from bearingtwin.data.recording import Recording
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics import solvers
@@ -81,28 +80,28 @@ def _record_samples(simulator_cfg: Mapping) -> int:
 
 
 @functools.lru_cache(maxsize=1)
-def declared_settings() -> dict:
-    """Every setting the simulator reads, nested, with its default: ``conf/simulator/default.yaml``."""
-    return OmegaConf.to_container(OmegaConf.load(Path(CONF_DIR) / "simulator" / "default.yaml"))
+def declared_settings() -> DictConfig:
+    """Every setting the simulator reads, nested, with its default: ``conf/simulator/default.yaml`` under ``simulator``."""
+    return OmegaConf.create({"simulator": OmegaConf.load(Path(CONF_DIR) / "simulator" / "default.yaml")})
 
 
-def _check_declared(given: Mapping, declared: Mapping, prefix: str = "simulator.") -> None:
+def _check_declared(given: Mapping, prefix: str = "simulator") -> None:
     """Refuse a setting the simulator does not read: a misspelt ``durration`` would leave the default at work,
     unsaid."""
+    declared = OmegaConf.select(declared_settings(), prefix)
     for key, value in given.items():
         if key not in declared:
-            close = difflib.get_close_matches(str(key), [str(name) for name in declared], n=1, cutoff=0.75)
-            hint = f"did you mean {prefix}{close[0]}?" if close else f"its settings here: {', '.join(declared)}"
-            raise BearingTwinError(f"{prefix}{key} is not a setting of the simulator; {hint}")
-        if isinstance(declared[key], dict) and isinstance(value, Mapping):
-            _check_declared(value, declared[key], f"{prefix}{key}.")
+            hint = closest_setting(declared_settings(), f"{prefix}.{key}") or f"its settings: {', '.join(declared)}"
+            raise BearingTwinError(f"{prefix}.{key} is not a setting of the simulator; {hint}")
+        if isinstance(declared[key], DictConfig) and isinstance(value, Mapping):
+            _check_declared(value, f"{prefix}.{key}")
 
 
 def _check_settings(simulator_cfg: Mapping) -> None:
-    declared = declared_settings()
-    _check_declared(simulator_cfg, declared)
+    _check_declared(simulator_cfg)
     # A hand-written mapping may leave out a setting whose default is null; a defect's own are its to name.
-    missing = [key for key, default in declared.items() if key not in simulator_cfg and default is not None]
+    missing = [key for key, default in declared_settings().simulator.items()
+               if key not in simulator_cfg and default is not None]
     if missing:
         raise BearingTwinError(f"simulator has no {', '.join(missing)}; a config composed from conf/ "
                                "(bearingtwin.config.compose_config('simulate')) holds every setting")

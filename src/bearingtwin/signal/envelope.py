@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.signal
 
-from bearingtwin.checks import finite_number, is_finite_number
+from bearingtwin.checks import finite_number, non_negative_number
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.signal.inputs import as_signal, check_positive
 
@@ -118,8 +118,7 @@ def peak_near(freqs_hz, amplitude, target_hz: float, tolerance_hz: float, *, int
             f"amplitude's last axis must match freqs_hz (got amplitude {amplitude.shape}, freqs_hz {freqs_hz.shape})"
         )
     finite_number("target_hz", target_hz, "a frequency in Hz")
-    if not (is_finite_number(tolerance_hz) and tolerance_hz >= 0):
-        raise BearingTwinError(f"tolerance_hz must be non-negative (got {tolerance_hz!r})")
+    non_negative_number("tolerance_hz", tolerance_hz)
     in_band = np.flatnonzero(np.abs(freqs_hz - target_hz) <= tolerance_hz)
     if in_band.size == 0:
         raise BearingTwinError(

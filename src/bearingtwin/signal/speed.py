@@ -112,6 +112,17 @@ class SpeedProfile:
         read = float(np.median(self.rpm[self.read]))
         return read if self.source or not near_supply(read) else None
 
+    def unread_words(self) -> str:
+        """Why the profile is not :attr:`readable`, in words ("" where it is)."""
+        if self.readable:
+            return ""
+        if not self.source and self.rpm.size and near_supply(self.stated_rpm):
+            return (f"at {self.stated_rpm:g} rpm the shaft rate or twice it lies near a supply frequency "
+                    f"({', '.join(f'{hz:g}' for hz in SUPPLY_HZ)} Hz), whose lines could pass for its series: not read")
+        if not self.rpm.size:
+            return f"the record is shorter than one segment of {self.segment_s:g} s"
+        return f"no {'pulse train' if self.source else 'shaft series'} stood out in enough segments to read a speed"
+
     def unsteady(self, tolerance: float = UNSTEADY) -> bool:
         """Whether the speed read varies by more than ``tolerance`` (relative spread)."""
         return bool(self.spread > tolerance)
@@ -430,11 +441,7 @@ def steady_times(profile: SpeedProfile, n_samples: int, fs: float) -> tuple[np.n
     speed (rev/min): where an instant of the record (a gap, an event) lies once it is tracked."""
     check_positive(fs, "fs")
     if not profile.read.any():
-        # A shaft series the supply's lines could pass for is never read as a speed: say so, or it reads as a fault.
-        why = (f" (at {profile.stated_rpm:g} rpm the shaft's lines stand where the supply's do, which are never read as a "
-               "speed: give the record's tachometer channel)" if not profile.source and near_supply(profile.stated_rpm)
-               else "")
-        raise BearingTwinError(f"the speed profile reads no segment's speed{why}: nothing to track")
+        raise BearingTwinError(f"the speed profile reads no segment's speed ({profile.unread_words()}): nothing to track")
     speed = profile.rpm_at(n_samples, fs)
     between = (speed[1:] + speed[:-1]) / 2  # over each sample interval, as the turns are summed (trapezoids)
     mean_rpm = float(between.mean()) if between.size else float(speed[0])
