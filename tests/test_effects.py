@@ -15,7 +15,7 @@ from bearingtwin.config import CONF_DIR
 from bearingtwin.errors import BearingTwinError
 from bearingtwin.physics import effect_library as lib
 from bearingtwin.physics.dynamics import DynamicParameters, contact_force, linear_modes, static_equilibrium
-from bearingtwin.physics.effects import _REGISTRY, build_effects, registered_effects
+from bearingtwin.physics.effects import _REGISTRY, build_effects, effect_class, registered_effects
 from bearingtwin.physics.geometry import BearingGeometry
 from bearingtwin.physics.kinematics import rigid_kinematics
 
@@ -42,9 +42,23 @@ def test_every_effect_has_a_yaml_a_search_space_and_a_signature(name):
     arguments = set(inspect.signature(type(effect).__init__).parameters) - {"self"}
     assert set(content[name]) == arguments
     assert effect.signature and set(effect.search_space) <= arguments
-    for parameter, (low, high, log) in effect.search_space.items():
-        assert low < high and (not log or low > 0)
-        assert low <= content[name][parameter] <= high
+    for fs in (12000.0, 25600.0, 48000.0):
+        for parameter, (low, high, log) in type(effect).search_space_at(fs).items():
+            assert low < high < math.inf and (not log or low > 0)
+            assert low <= content[name][parameter] <= high
+
+
+@pytest.mark.parametrize("name", ["resonance", "second_resonance", "structural_mode"])
+def test_a_mode_is_searched_as_high_as_the_rate_lets_a_record_show_it(name):
+    """A stud-mounted accelerometer rings at 10-30 kHz: at 48 kHz the search reaches 21.6 kHz, at 12 kHz 5.4 kHz,
+    below the Nyquist frequency where the mode's filter is refused."""
+    cls = effect_class(name)
+    for fs in (12000.0, 25600.0, 48000.0):
+        low, high, log = cls.search_space_at(fs)["natural_frequency_hz"]
+        assert (low, log) == (300.0, True) and high == pytest.approx(0.45 * fs)
+        with pytest.raises(BearingTwinError, match="Nyquist"):
+            build_effects({name: {**_yaml(name)[name], "natural_frequency_hz": fs / 2}})[0].check_rate(fs)
+        build_effects({name: {**_yaml(name)[name], "natural_frequency_hz": high}})[0].check_rate(fs)
 
 
 def test_composed_effects_keep_their_order():
@@ -586,6 +600,18 @@ def test_a_structural_mode_raises_its_band_and_leaves_the_rest_of_the_spectrum()
     assert 0.015 <= guess["damping_ratio"] <= 0.06  # within a factor 2: the ratio is smoothed over 250 Hz
     assert guess["level_db"] == pytest.approx(20.0, abs=6.0)  # a start for the search: smoothing lowers the peak
     assert lib.StructuralMode.initial_guess(x, x, FS, SHAFT_HZ) is None  # nothing raised: no mode to read
+
+
+@pytest.mark.parametrize("mode", [lib.Resonance(natural_frequency_hz=12000.0, damping_ratio=0.03),
+                                  lib.StructuralMode(natural_frequency_hz=12000.0, damping_ratio=0.03, level_db=20.0)])
+def test_a_mode_above_a_few_khz_is_read_where_it_rings_on_a_fast_record(mode):
+    """A mount ringing at 12 kHz on a 48 kHz record: the first guess reads it there, not at the top of a box a
+    slower rate would need (the search reaches 0.45 fs)."""
+    fs = 48000.0
+    x = np.random.default_rng(2).standard_normal(int(fs))
+    guess = type(mode).initial_guess(mode.modify_signal(x, fs, None, SHAFT_HZ), x, fs, SHAFT_HZ)
+    assert guess["natural_frequency_hz"] == pytest.approx(12000.0, rel=0.02)
+    assert 0.015 <= guess["damping_ratio"] <= 0.06
 
 
 def test_line_effects_are_deterministic_under_a_seeded_rng():

@@ -254,9 +254,11 @@ def test_a_later_round_screens_each_candidate_with_the_kept_effects_free(cfg, mo
     (second_round,) = fit.rounds[1]  # the one candidate left, screened on top of the first
     other = second_round["effect"]
     screens = [space for space in searched if space and not any(k.startswith(("base:", "effect:")) for k in space)]
-    expected = sorted([f"{other}:{k}" for k in effect_search_space(other)] + [f"{first}:{k}" for k in effect_search_space(first)])
+    fs = FS  # the rate twin_measurement records at
+    expected = sorted([f"{other}:{k}" for k in effect_search_space(other, fs)]
+                      + [f"{first}:{k}" for k in effect_search_space(first, fs)])
     assert screens[-1] == expected  # the candidate and the kept effect; the fixed noise floor stays as given
-    assert second_round["n_parameters"] == len(effect_search_space(other))  # the kept effect's were paid for already
+    assert second_round["n_parameters"] == len(effect_search_space(other, fs))  # the kept effect's were paid for already
 
 
 def test_later_rounds_weigh_the_views_by_their_own_points_and_fit_the_same(cfg):
@@ -539,21 +541,22 @@ def test_words_for_intervals_ranges_and_later_effects():
     assert identification_words(negative) == ", not identified: anywhere in the searched -30 to -10 fits as well"
     assert identification_words({**negative, "interval": [-29.0, -10.5]}) == \
         ", hardly identified: its interval covers 92% of the searched -30 to -10"
-    fit = EffectFit("slip", {"jitter": 0.01}, 1.0, 0.34, 3.0, 0.1, 1, "signature: smeared harmonics", comparison=None)
+    fit = EffectFit("slip", {"jitter": 0.01}, 1.0, 0.34, 3.0, 0.1, 1, "signature: smeared harmonics", comparison=None,
+                    space=effect_search_space("slip", FS))
     assert "closes 34 % of the discrepancy" in fit.sentence() and "closes 34 % of what was left" in fit.sentence(first=False)
     assert "may lie beyond" not in fit.sentence()
     # An effect's value on an edge of its search range is said to be there, as a base parameter's is.
     floor = EffectFit("noise", {"snr_db": -10.0, "spectral_slope": 0.4}, 1.0, 0.5, 3.0, 0.1, 2, "signature", comparison=None,
-                      intervals={"snr_db": [-10.0, 14.4], "spectral_slope": [0.1, 0.9]})
+                      space=effect_search_space("noise", FS), intervals={"snr_db": [-10.0, 14.4], "spectral_slope": [0.1, 0.9]})
     assert ("noise (snr -10 dB (-10 to 14.4), at the lower edge of the searched -10 to 50: the value may lie beyond it, "
             "spectral slope 0.4 (0.1-0.9)) closes 50 %") in floor.sentence(), floor.sentence()
     # An interval reaching an edge says the value may lie beyond it; a level says what it is relative to.
     line = EffectFit("unbalance", {"level_db": 19.6}, 1.0, 0.7, 3.0, 0.1, 1, "signature", comparison=None,
-                     intervals={"level_db": [8.85, 20.0]})
+                     space=effect_search_space("unbalance", FS), intervals={"level_db": [8.85, 20.0]})
     assert ("unbalance (level 19.6 dB (8.85-20) re the bearing signal's RMS, its interval reaching the upper edge of the "
             "searched -60 to 20: the value may lie beyond it) closes 70 %") in line.sentence(), line.sentence()
     clipped = EffectFit("clipping", {"clip_level": 2.35}, 1.0, 0.6, 3.0, 0.1, 1, "signature", comparison=None,
-                        intervals={"clip_level": [1.34, 4.26]})
+                        space=effect_search_space("clipping", FS), intervals={"clip_level": [1.34, 4.26]})
     assert "clipping (clip level 2.35 (1.34-4.26) times the RMS) closes 60 %" in clipped.sentence(), clipped.sentence()
 
 
@@ -807,7 +810,7 @@ def test_a_runner_up_close_behind_that_does_not_pay_for_its_parameters_is_said_s
 
     def candidate(name, evidence):
         return EffectFit(effect=name, params={}, error=1.0, explained=0.3, evidence=evidence, drop_per_point=0.0,
-                         n_parameters=1, signature="", comparison=None)
+                         n_parameters=1, signature="", comparison=None, space=effect_search_space(name, FS))
 
     first = candidate("slip", 0.4)
     fit = TwinFit(operating_point={}, base_params={}, gain=1.0, baseline_error=2.0, ranking=[first, candidate(

@@ -41,6 +41,12 @@ from bearingtwin.signal.envelope import peak_near
 from bearingtwin.signal.sampling_rate import MAINS_HZ
 
 
+MODE_REACH_OF_FS = 0.45
+"""The highest natural frequency a mode effect is searched at, as a fraction of the sampling rate: 90 % of
+Nyquist, where a recorder's anti-alias filter starts to roll its spectrum off, and as far as a mode's first guess
+reads it. A stud-mounted accelerometer's own resonance and many housing modes lie far above a few kHz, and a
+record sampled fast enough shows them."""
+
 MAX_LEVEL_DB = 300.0
 """The largest level or ratio in dB an effect takes (10^15 in amplitude): far beyond any sensor's range, and well
 inside what a float holds once raised to a power (1e6 dB overflowed, after the whole simulation)."""
@@ -322,6 +328,12 @@ def _fluctuated_angle(angle_rad: np.ndarray, factor: np.ndarray) -> np.ndarray:
     return angle_rad[0] + np.concatenate([[0.0], np.cumsum(steps)])
 
 
+def _mode_search_space(search_space: dict, fs: float) -> dict:
+    """``search_space`` with the natural frequency searched up to :data:`MODE_REACH_OF_FS` of ``fs`` (Hz)."""
+    low, _, log = search_space["natural_frequency_hz"]
+    return {**search_space, "natural_frequency_hz": (low, MODE_REACH_OF_FS * fs, log)}
+
+
 def _psd_ratio_peak(measured: np.ndarray, twin: np.ndarray, fs: float,
                     search_space: dict) -> tuple[float, float, float] | None:
     """Where the measurement's PSD stands highest over the twin's: frequency (Hz), damping ratio
@@ -336,7 +348,7 @@ def _psd_ratio_peak(measured: np.ndarray, twin: np.ndarray, fs: float,
     _, twin_psd = sps.welch(np.asarray(twin, dtype=np.float64), fs=fs, nperseg=nperseg)
     ratio = measured_psd / np.maximum(twin_psd, np.finfo(float).tiny)
     ratio = np.convolve(ratio, np.ones(5) / 5, mode="same")
-    band = (freqs_hz >= low) & (freqs_hz <= min(high, 0.45 * fs))
+    band = (freqs_hz >= low) & (freqs_hz <= high)
     if not band.any():
         return None
     excess = ratio[band] / np.median(ratio[band])
@@ -355,8 +367,9 @@ class Resonance(Effect):
     """Transmission path from the bearing to the sensor: a mount or housing mode.
 
     Args:
-        natural_frequency_hz: the path's natural frequency (accelerometer mounts and housings:
-            1-6 kHz).
+        natural_frequency_hz: the path's natural frequency (housings and magnet mounts: 1-6 kHz; a
+            stud-mounted accelerometer: 10-30 kHz), searched from 300 Hz up to
+            :data:`MODE_REACH_OF_FS` of the record's sampling rate.
         damping_ratio: its damping ratio zeta (0.02-0.1 for bolted steel).
 
     Signature: a band of raised energy around the natural frequency (peak gain ~1/(2 zeta))
@@ -366,7 +379,7 @@ class Resonance(Effect):
     name = "resonance"
     signature = "band energy around the natural frequency"
     signature_views = ("psd",)
-    search_space = {"natural_frequency_hz": (300.0, 5000.0, True), "damping_ratio": (0.01, 0.3, True)}
+    search_space = {"natural_frequency_hz": (300.0, math.inf, True), "damping_ratio": (0.01, 0.3, True)}  # see search_space_at
 
     def __init__(self, natural_frequency_hz: float, damping_ratio: float):
         self.natural_frequency_hz = _positive(f"{self.name}.natural_frequency_hz", natural_frequency_hz)
@@ -379,13 +392,17 @@ class Resonance(Effect):
         _below_nyquist(self.natural_frequency_hz, fs, self.name)
 
     @classmethod
+    def search_space_at(cls, fs: float) -> dict[str, tuple[float, float, bool]]:
+        return _mode_search_space(cls.search_space, fs)
+
+    @classmethod
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:
         """The mode where the measurement's PSD stands highest over the twin's, and its width.
 
         A mode in the path multiplies the twin's spectrum by its transmissibility, so the ratio
         of the two PSDs peaks at the natural frequency; its half-power width is 2 zeta f_n.
         """
-        peak = _psd_ratio_peak(measured, twin, fs, cls.search_space)
+        peak = _psd_ratio_peak(measured, twin, fs, cls.search_space_at(fs))
         return None if peak is None else {"natural_frequency_hz": peak[0], "damping_ratio": peak[1]}
 
 
@@ -399,8 +416,8 @@ class SecondResonance(Resonance):
     equally well), so it ``requires`` ``resonance`` to be in the twin already.
 
     Args:
-        natural_frequency_hz: the second mode's natural frequency (0.3-6 kHz; below or above
-            the first).
+        natural_frequency_hz: the second mode's natural frequency (below or above the first; searched
+            as the first's).
         damping_ratio: its damping ratio zeta (0.01-0.1).
 
     Signature: a second band of raised energy (peak gain ~1/(2 zeta)) where the twin with one
@@ -424,7 +441,8 @@ class StructuralMode(Effect):
     the spectrum stays as it is.
 
     Args:
-        natural_frequency_hz: the mode's natural frequency (housings and frames: 0.3-5 kHz).
+        natural_frequency_hz: the mode's natural frequency (housings, frames and covers: 0.3 kHz to
+            tens of kHz), searched from 300 Hz up to :data:`MODE_REACH_OF_FS` of the record's sampling rate.
         damping_ratio: its damping ratio zeta.
         level_db: ``g`` in dB, the mode's peak response relative to the direct path's at the
             natural frequency.
@@ -436,8 +454,8 @@ class StructuralMode(Effect):
     name = "structural_mode"
     signature = "a raised band around the natural frequency, the rest of the spectrum unchanged"
     signature_views = ("psd",)
-    search_space = {"natural_frequency_hz": (300.0, 5000.0, True), "damping_ratio": (0.01, 0.3, True),
-                    "level_db": (-10.0, 40.0, False)}
+    search_space = {"natural_frequency_hz": (300.0, math.inf, True), "damping_ratio": (0.01, 0.3, True),
+                    "level_db": (-10.0, 40.0, False)}  # see search_space_at
 
     def __init__(self, natural_frequency_hz: float, damping_ratio: float, level_db: float):
         self.natural_frequency_hz = _positive(f"{self.name}.natural_frequency_hz", natural_frequency_hz)
@@ -452,12 +470,16 @@ class StructuralMode(Effect):
         _below_nyquist(self.natural_frequency_hz, fs, self.name)
 
     @classmethod
+    def search_space_at(cls, fs: float) -> dict[str, tuple[float, float, bool]]:
+        return _mode_search_space(cls.search_space, fs)
+
+    @classmethod
     def initial_guess(cls, measured: np.ndarray, twin: np.ndarray, fs: float, shaft_hz: float) -> dict | None:
         """The band where the measurement's PSD stands highest over the twin's, its width and height.
 
         With the mode added, the power ratio at the natural frequency is (1 + g)^2.
         """
-        peak = _psd_ratio_peak(measured, twin, fs, cls.search_space)
+        peak = _psd_ratio_peak(measured, twin, fs, cls.search_space_at(fs))
         if peak is None:
             return None
         natural_hz, zeta, excess = peak

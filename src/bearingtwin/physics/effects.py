@@ -118,6 +118,12 @@ class Effect:
         """Refuse a sampling rate ``fs`` (Hz) the effect cannot act at (a mode above Nyquist), before the solver
         runs: ``modify_signal`` would refuse it only after the simulation."""
 
+    @classmethod
+    def search_space_at(cls, fs: float) -> dict[str, tuple[float, float, bool]]:
+        """The box (low, high, log scale) each fitted parameter is searched in on a record sampled at ``fs`` (Hz):
+        the class's ``search_space``, which most effects declare whatever the rate; empty when it declares none."""
+        return dict(getattr(cls, "search_space", {}))
+
 
 def sensor_only(effect: "Effect | type[Effect]") -> bool:
     """Whether an effect (instance or class) acts on the sensor path alone: it overrides neither

@@ -61,12 +61,17 @@ def _searched_effect(name: str, search_path: tuple[str, ...]) -> dict:
     return OmegaConf.to_container(composed.effects, resolve=True)
 
 
-def effect_search_space(name: str) -> dict[str, tuple[float, float, bool]]:
-    """The box each of the effect's fitted parameters is searched in (its class's ``search_space``)."""
-    space = getattr(effect_class(name), "search_space", None)
-    if not space:
+def check_calibratable(name: str) -> None:
+    """Refuse an effect (by name) that declares no ``search_space``: the twin has nothing of it to fit."""
+    if not getattr(effect_class(name), "search_space", None):
         raise BearingTwinError(f"effect {name!r} declares no search_space, so it cannot be calibrated")
-    return dict(space)
+
+
+def effect_search_space(name: str, fs: float) -> dict[str, tuple[float, float, bool]]:
+    """The box each of the effect's fitted parameters is searched in on a record sampled at ``fs`` (Hz) (its class's
+    ``search_space_at``: a mode's natural frequency reaches as high as the rate lets a record show it)."""
+    check_calibratable(name)
+    return effect_class(name).search_space_at(fs)
 
 
 SENSOR_KEYS = ("simulator.sensor", "simulator.sensor_angle_deg")

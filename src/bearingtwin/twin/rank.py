@@ -210,6 +210,7 @@ class EffectFit:
     n_parameters: int
     signature: str
     comparison: Comparison = field(repr=False)
+    space: dict = field(repr=False)  # the box its parameters were searched in (effect_search_space at the record's rate)
     signature_gain: float = 0.0  # the deviance drop on the held-out part within the views its signature shows in
     intervals: dict = field(default_factory=dict)
     kept_params: dict = field(default_factory=dict, repr=False)  # the kept effects as re-fitted with this one
@@ -219,16 +220,15 @@ class EffectFit:
     def sentence(self, first: bool = True) -> str:
         """The effect, its parameters and how much it closes: of the discrepancy (the first effect found), or of
         what the effects before it left; a fixed effect that changed, from what to what."""
-        space = effect_search_space(self.effect)
         values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) + _reference_words(self.effect, k)
-                           + (_range_words(v, self.intervals.get(k), space[k]) if k in space else "")
+                           + (_range_words(v, self.intervals.get(k), self.space[k]) if k in self.space else "")
                            for k, v in self.params.items() if isinstance(v, float))
         of = "the discrepancy" if first else "what was left"
         beside = "" if self.claimed_beside is None else f" (its signature shows only beside {self.claimed_beside})"
         if self.changed_from is None:
             return f"{self.effect} ({values}) closes {100 * self.explained:.0f} % of {of}{beside}; {self.signature}"
         held = ", ".join(_parameter_words(k, float(self.changed_from[k])) for k in self.params
-                         if k in effect_search_space(self.effect) and k in self.changed_from)
+                         if k in self.space and k in self.changed_from)
         return (f"{self.effect}, changed from the held {held} to {values}, closes {100 * self.explained:.0f} % of "
                 f"{of}{beside}; {self.signature}")
 
@@ -730,7 +730,7 @@ class EffectRanker:
 
     def _fit(self, twin: TwinModel, measured: Recording, geometry: BearingGeometry, settings: CompareSettings | None,
              progress: StageProgress) -> "EffectRanker":
-        spaces = {name: effect_search_space(name) for name in self.candidates}
+        spaces = {name: effect_search_space(name, measured.fs) for name in self.candidates}
         held = set(self.fixed_effects)  # at their given values; a fixed effect found changed is fitted from then on
         judge = Judge.for_measurement(measured, geometry, settings or CompareSettings(), self.points_per_view,
                                       self.view_floor_db)
@@ -866,7 +866,7 @@ class EffectRanker:
         def final_deviance(values, effects):
             return judge.deviance(judge.fit_part(twin.signal(op.to_base(values, sensor), effects)))
 
-        n_intervals = len(op.space) + sum(len(effect_search_space(fit.effect)) for fit in added)
+        n_intervals = len(op.space) + sum(len(fit.space) for fit in added)
         progress.stage("intervals", 1 + 2 * len(SLICE_STEPS) * n_intervals)  # at most, both ways at every step
         best_deviance = final_deviance(base_values, current_effects)
         least = min(last_fit.error, best_deviance)  # a sensor placement tried after the last fit may fit better
@@ -879,7 +879,7 @@ class EffectRanker:
 
         for fit in added:
             fit.params = current_effects[fit.effect]  # as the last re-fit left it, which the report states
-            space = effect_search_space(fit.effect)
+            space = fit.space
 
             def with_params(params, name=fit.effect):
                 return final_deviance(base_values, {**current_effects, name: {**current_effects[name], **params}})
@@ -946,7 +946,7 @@ class EffectRanker:
         nominal = changed_from or {**effect_defaults(name), **(_initial_guess(name, judge, matched) or {})}
         kept = [other for other in current_effects if other not in held and other != name]
         trial_effects = {**current_effects, name: nominal}
-        joint, start = _effects_space(trial_effects, [name, *kept])
+        joint, start = _effects_space(trial_effects, [name, *kept], judge.fit_part.fs)
 
         def with_effect(params):
             return _with_effect_params(trial_effects, params)
@@ -958,7 +958,7 @@ class EffectRanker:
         drop = (scorer.deviance(current) - scorer.deviance(checked)) / scorer.points_per_view
         evidence = scorer.points_per_view * drop - len(space) * scorer.penalty_per_parameter
         return EffectFit(name, effects[name], checked.discrepancy_db, _explained(current, checked), evidence, drop,
-                         len(space), _signature(name), checked,
+                         len(space), _signature(name), checked, space,
                          scorer.signature_gain(current, checked, signature_views(name)),
                          kept_params={other: effects[other] for other in kept}, changed_from=changed_from)
 
@@ -984,7 +984,7 @@ class EffectRanker:
             kept = [other for other in current_effects if other not in held and other not in names]
             trial_effects = {**current_effects, **lead.kept_params, lead.effect: lead.params,
                              follower.effect: follower.params}
-            joint, start = _effects_space(trial_effects, [*names, *kept])
+            joint, start = _effects_space(trial_effects, [*names, *kept], judge.fit_part.fs)
             progress.stage(f"pair {' + '.join(names)}", self.n_trials_effect + self.n_polish_effect)
             fit = minimize(progress.counted(lambda p: judge.deviance(judge.fit_part(twin.signal(
                 base, _with_effect_params(trial_effects, p))))), joint, self.n_trials_effect,
@@ -1028,7 +1028,7 @@ class EffectRanker:
         op = self.operating_point
         effects = {**current_effects, **best.kept_params, best.effect: best.params}
         fitted = [name for name in effects if name not in held]
-        effects_space, effects_start = _effects_space(effects, fitted, prefix="effect:")
+        effects_space, effects_start = _effects_space(effects, fitted, judge.fit_part.fs, prefix="effect:")
         space = {**{f"base:{k}": v for k, v in op.space.items()}, **effects_space}
         angle = sensor["simulator.sensor_angle_deg"]
         if op.angle_fitted:  # a direction: half a turn either side of the one placed reaches every other
@@ -1113,12 +1113,12 @@ def _key(values: Mapping) -> tuple:
     return tuple(sorted((k, float(v)) for k, v in values.items()))
 
 
-def _effects_space(effects: Mapping, names: Sequence[str], prefix: str = "") -> tuple[dict, dict]:
-    """The search space of the named effects' parameters, keyed ``<prefix><effect>:<parameter>``, and its
-    start: their values in ``effects``."""
+def _effects_space(effects: Mapping, names: Sequence[str], fs: float, prefix: str = "") -> tuple[dict, dict]:
+    """The search space of the named effects' parameters on a record sampled at ``fs`` (Hz), keyed
+    ``<prefix><effect>:<parameter>``, and its start: their values in ``effects``."""
     space, start = {}, {}
     for name in names:
-        for parameter, bounds in effect_search_space(name).items():
+        for parameter, bounds in effect_search_space(name, fs).items():
             space[f"{prefix}{name}:{parameter}"] = bounds
             if parameter in effects[name]:
                 start[f"{prefix}{name}:{parameter}"] = effects[name][parameter]

@@ -35,7 +35,7 @@ from bearingtwin.signal.sampling_rate import describe_mismatch, require_plausibl
 from bearingtwin.signal.speed import speed_off_words, speed_profile
 from bearingtwin.storage import file_digest
 from bearingtwin.twin.compare import VIEWS, Comparator, CompareSettings, plot_comparison
-from bearingtwin.twin.model import TwinModel, effect_search_space
+from bearingtwin.twin.model import TwinModel, check_calibratable
 from bearingtwin.twin.operating_point import BASE_PARAMETERS, DEFECT_PARAMETERS, OperatingPoint
 from bearingtwin.twin.rank import EffectRanker, TwinFit, hardly_identified, view_floors, views_beyond_floor
 from bearingtwin.twin.reference import (geometry_difference, hold_reference, read_reference, reference_bearing,
@@ -350,7 +350,7 @@ def candidate_names(candidates, fixed_effects: Mapping) -> list[str]:
         if name in candidates[:index]:
             raise BearingTwinError(f"candidates: {name} is named twice")
         try:
-            effect_search_space(name)
+            check_calibratable(name)
         except BearingTwinError as error:
             raise BearingTwinError(f"candidates: {error}") from None
     return candidates
