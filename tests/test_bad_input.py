@@ -314,6 +314,15 @@ def test_a_bearing_of_ones_own_pointed_at_wrongly_is_named_so(tmp_path, override
     assert_one_line_exit_2(command("simulate", *overrides, f"out={tmp_path}/x.npz", cwd=tmp_path), named)
 
 
+def test_a_search_path_given_as_the_bearing_folder_itself_names_the_folder_meant(tmp_path):
+    """``<folder>/bearing`` where ``<folder>`` is meant: Hydra found no bearing=my6308 and listed the project's."""
+    (tmp_path / "conf" / "bearing").mkdir(parents=True)
+    (tmp_path / "conf" / "bearing" / "my6308.yaml").write_text("defaults: [paper]\n" + GEOMETRY_6308)
+    assert_one_line_exit_2(command("simulate", f"hydra.searchpath=[file://{tmp_path}/conf/bearing]", "bearing=my6308",
+                                   f"out={tmp_path}/x.npz", cwd=tmp_path),
+                           f"is a bearing folder itself; give the folder that holds it, file://{tmp_path}/conf")
+
+
 @pytest.mark.parametrize("name", sorted(path.stem for path in Path(CONF_DIR, "bearing").glob("*.yaml")))
 def test_every_shipped_bearing_holds_the_bearing_settings(name):
     from bearingtwin.config import bearing_config

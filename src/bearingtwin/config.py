@@ -627,6 +627,11 @@ def refuse_absent_search_path(overrides: list[str]) -> None:
         if scheme in ("", "file") and not Path(where).is_dir():
             slashes = " (an absolute path is file:///<path>, three slashes)" if not where.startswith("/") else ""
             raise BearingTwinError(f"hydra.searchpath: {folder} is not a folder{slashes}")
+        group = Path(where).name
+        if (scheme in ("", "file") and Path(CONF_DIR, group).is_dir() and not Path(where, group).is_dir()
+                and any(Path(where).glob("*.yaml"))):  # conf/bearing given where conf is meant: Hydra finds nothing
+            raise BearingTwinError(f"hydra.searchpath: {folder} is a {group} folder itself; give the folder that holds "
+                                   f"it, {scheme + '://' if scheme else ''}{Path(where).parent}")
 
 
 def yaml_error_line(error: yaml.YAMLError) -> str:
