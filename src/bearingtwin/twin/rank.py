@@ -284,8 +284,8 @@ class TwinFit:
     # measurement, no twin: :func:`views_beyond_floor`); None when no reference record was compared, and why.
     since_reference: list[dict] | None = None
     reference_note: str = ""  # why a reference record was not compared ("it is this record itself"), else ""
-    # This measurement's overall level over the reference record's, dB, in one unit (None: not compared, or a unit
-    # of either unknown); the views above compare shapes after a gain between the two.
+    # This measurement's overall (RMS) level over the reference record's, dB, in one unit (None: not compared, or a
+    # unit of either unknown); the views above compare shapes after a gain between the two.
     level_since_reference_db: float | None = None
     level_not_compared: str = ""  # why the overall level was not held against the reference record's (their units)
     passed_over: str = ""  # candidates not offered on this record's bearing state, and why, where others were tried

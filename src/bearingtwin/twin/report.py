@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Mapping
 
+import numpy as np
 from joblib import cpu_count
 from omegaconf import DictConfig, OmegaConf, open_dict
 
@@ -607,12 +608,14 @@ def compare_with_reference(fit: TwinFit, comparator: Comparator, measured: Recor
     fit.since_reference = views_beyond_floor(comparison, view_floors(fit.repeatability_db, view_floor_db),
                                              comparator.settings.weights)
     # The views compare shapes after a gain fitted between the two records: their levels are compared apart, in one
-    # unit (a record in g against one in m/s^2 differs by 9.81 in its numbers alone).
+    # unit (a record in g against one in m/s^2 differs by 9.81 in its numbers alone), as the overall RMS a vibration
+    # analyst trends (the gain, a typical band's change, understates a defect's: 9.6 dB where the RMS rose 18 dB).
     units = acceleration_unit(measured.unit or ""), acceleration_unit(earlier.unit or "")
-    if comparison.gain > 0 and (units[0] is not None and units[1] is not None or measured.unit == earlier.unit):
+    rms = [float(np.std(signal)) for signal in (measured.signal, earlier.signal)]  # about the mean: a DC offset is no level
+    if min(rms) > 0 and (units[0] is not None and units[1] is not None or measured.unit == earlier.unit):
         factor = acceleration_factor(units[1], units[0]) if units[0] and units[1] else 1.0
-        fit.level_since_reference_db = 20.0 * math.log10(comparison.gain / factor)
-    elif comparison.gain > 0:  # a record of no stated unit beside one in m/s^2 (or the other way): numbers of two scales
+        fit.level_since_reference_db = 20.0 * math.log10(rms[0] / (rms[1] * factor))
+    elif min(rms) > 0:  # a record of no stated unit beside one in m/s^2 (or the other way): numbers of two scales
         fit.level_not_compared = level_not_compared_words(measured.unit, earlier.unit)
 
 
