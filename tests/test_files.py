@@ -117,6 +117,10 @@ def test_generic_mat_and_wav(tmp_path, signal):
     assert raw.meta["notes"] == ["integer samples (int16, as scipy reads them) scaled to the recorder's full scale (1.0), "
                                  "which states no physical unit: a scale and a unit given read it in one (scale=50 "
                                  "unit=g where full scale is 50 g)"] and raw.unit == ""
+    # Read with a scale and a unit, the advice is taken and not given again beside what was done
+    assert load_recording(wav, channel="0", scale=5, unit="g").meta["notes"] == [
+        "integer samples (int16, as scipy reads them) scaled to the recorder's full scale (1.0)",
+        "samples x 5 read in g (scale=5 unit=g)"]
     unsigned = tmp_path / "u8.wav"
     scipy.io.wavfile.write(unsigned, int(FS), np.array([128, 255, 0, 192], dtype=np.uint8))
     np.testing.assert_array_equal(read_raw(unsigned).channels["0"], [0.0, 127 / 128, -1.0, 0.5])

@@ -366,6 +366,11 @@ def scale_and_unit(scale, unit, scale_key: str = "scale", unit_key: str = "unit"
     return scale, known_unit(unit, unit_key)
 
 
+FULL_SCALE_HINT = (", which states no physical unit: a scale and a unit given read it in one (scale=50 unit=g where "
+                   "full scale is 50 g)")
+"""What a WAV's note on its full-scale fractions advises, left out once a scale and a unit are given."""
+
+
 def scaled(raw: RawRecord, channel: str, signal: np.ndarray, scale, unit: str | None, scale_key: str, unit_key: str,
            notes: list[str]) -> tuple[np.ndarray, str]:
     """``channel``'s samples multiplied by ``scale`` (setting ``scale_key``), and ``unit`` (setting ``unit_key``), the
@@ -384,6 +389,7 @@ def scaled(raw: RawRecord, channel: str, signal: np.ndarray, scale, unit: str | 
     prefix = scale_key.removesuffix("scale")  # one source of both (a labels row's, not a config node's): named once
     given = (f"{prefix}scale={scale:g} unit={unit}" if prefix and not prefix.endswith(".") and unit_key == prefix + "unit" else
              f"{scale_key}={scale:g} {unit_key}={unit}")
+    notes[:] = [note.removesuffix(FULL_SCALE_HINT) for note in notes]  # the advice taken: not given again beside it
     notes.append(f"samples x {scale:g} read in {unit} ({given}{f'; the file states {stated}' if stated else ''})")
     return np.asarray(signal, dtype=np.float64) * scale, unit
 
@@ -1031,8 +1037,7 @@ def _read_wav(path: Path) -> RawRecord:
         offset = 2.0 ** (bits - 1) if np.issubdtype(data.dtype, np.unsignedinteger) else 0.0
         full_scale = 2.0 ** (bits - 1)
         notes.append(f"integer samples ({stored}, as scipy reads them) scaled to the recorder's full scale "
-                     "(1.0), which states no physical unit: a scale and a unit given read it in one (scale=50 unit=g "
-                     "where full scale is 50 g)")
+                     f"(1.0){FULL_SCALE_HINT}")
     # One channel at a time, in place: a long recording of many channels is held once as float64 beside its counts,
     # not as several whole copies (a 400 MB file of 16-bit counts took 3.2 GB).
     channels = {}
