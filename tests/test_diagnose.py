@@ -1722,6 +1722,21 @@ def test_a_reused_out_folder_holds_this_runs_record_outputs_alone(registered, tm
     single = run("diagnose", f"path={folder / 'r03.npz'}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
     assert single.returncode == 0, single.stderr[-2000:]
     assert {path.parent.name for path in out.glob("*/diagnosis.json")} == {"r02", "r03", "notes"}
+    # A logger's next day gives a file of the same name in another folder: it would have replaced r03's verdict,
+    # another file's, with one line of the summary to say so. Refused before any run is opened; r03 itself again is not.
+    (tmp_path / "next_day").mkdir()
+    (tmp_path / "next_day" / "r03.npz").write_bytes((folder / "r02.npz").read_bytes())
+    runs_before = len(MlflowClient(uri).search_runs([e.experiment_id for e in MlflowClient(uri).search_experiments()]))
+    other_day = run("diagnose", f"path={tmp_path / 'next_day' / 'r03.npz'}", "model=models:/diag/1", f"out={out}",
+                    cwd=tmp_path, uri=uri)
+    assert other_day.returncode == 2 and other_day.stderr.strip() == (
+        f"error: out={out} holds r03's diagnosis of {folder / 'r03.npz'}, which {tmp_path / 'next_day' / 'r03.npz'} would "
+        f"replace: give another out= (one per folder or day), or remove {out / 'r03'} to replace it"), other_day.stderr
+    assert json.loads((out / "r03" / "diagnosis.json").read_text())["source"] == str(folder / "r03.npz")
+    assert len(MlflowClient(uri).search_runs([e.experiment_id for e in MlflowClient(uri).search_experiments()])) \
+        == runs_before
+    single = run("diagnose", f"path={folder / 'r03.npz'}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
+    assert single.returncode == 0, single.stderr[-2000:]
     # ... and their rows of summary.csv: each one-file run's row beside the rows of the files before it. A failing
     # file's run had written a summary.csv of its own row alone over the folder's.
     rows = {row["record"]: row for row in csv.DictReader(open(out / "summary.csv"))}

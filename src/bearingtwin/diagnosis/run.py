@@ -229,6 +229,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     with writing_alone(out, whole_folder=len(records) > 1):
         # Once the command can diagnose (a mistyped model costs no earlier results), before the first record: an
         # interrupted run then leaves its own records' outputs alone, never beside an earlier run's.
+        refuse_replacing_another_file(out, records)
         tracked = open_diagnosis_run(cfg, table, bearing, pinned) if logged else None
         earlier = remove_earlier_outputs(out, records)  # after the store answered: a failing store costs no results
         run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier)
@@ -323,6 +324,29 @@ def _summary_written_here(path: Path) -> bool:
             return handle.readline().startswith(",".join(SUMMARY_COLUMNS))
     except OSError:
         return False
+
+
+def refuse_replacing_another_file(out: Path, records: list[Path]) -> None:
+    """Refuse one file whose record folder in ``out`` holds the diagnosis of another file of its name (a logger's dated
+    folders give motor1.npz every day): that verdict, another day's, would be lost, as a folder's run or a glob refuses
+    two files of one name."""
+    folder = out / records[0].stem
+    if len(records) > 1 or folder.is_symlink() or not _written_here(folder):
+        return
+    earlier = _diagnosed_source(folder)
+    if earlier is not None and earlier != records[0].resolve():
+        raise BearingTwinError(f"out={out} holds {records[0].stem}'s diagnosis of {earlier}, which {records[0]} would "
+                               f"replace: give another out= (one per folder or day), or remove {folder} to replace it")
+
+
+def _diagnosed_source(folder: Path) -> Path | None:
+    """The file a record folder's ``diagnosis.json`` diagnosed, resolved; None where it names none as an absolute path
+    (a relative one depends on where that run started)."""
+    try:
+        source = Path(str(json.loads((folder / "diagnosis.json").read_text()).get("source")))
+    except (OSError, ValueError, AttributeError):
+        return None
+    return source.resolve() if source.is_absolute() else None
 
 
 def _written_here(folder: Path) -> bool:
