@@ -1737,6 +1737,14 @@ def test_a_reused_out_folder_holds_this_runs_record_outputs_alone(registered, tm
         == runs_before
     single = run("diagnose", f"path={folder / 'r03.npz'}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
     assert single.returncode == 0, single.stderr[-2000:]
+    assert "another model" not in single.stdout
+    # Rows of records another model diagnosed stay beside a one-file run's: the closing summary names them.
+    r02 = json.loads((out / "r02" / "diagnosis.json").read_text())
+    (out / "r02" / "diagnosis.json").write_text(json.dumps({**r02, "model_version_uri": "models:/other/3"}))
+    single = run("diagnose", f"path={folder / 'r03.npz'}", "model=models:/diag/1", f"out={out}", cwd=tmp_path, uri=uri)
+    assert single.returncode == 0, single.stderr[-2000:]
+    assert re.search(r"summary.csv also holds records another model diagnosed: +models:/other/3: r02\n", single.stdout), \
+        single.stdout
     # ... and their rows of summary.csv: each one-file run's row beside the rows of the files before it. A failing
     # file's run had written a summary.csv of its own row alone over the folder's.
     rows = {row["record"]: row for row in csv.DictReader(open(out / "summary.csv"))}

@@ -145,6 +145,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["model and physics disagree on"] = ", ".join(disagreements)
     if run.failures:
         lines["could not be diagnosed"] = ", ".join(run.failures)
+    if run.other_models:  # rows summary.csv keeps beside a one-file run's: their verdicts are another model's
+        lines["summary.csv also holds records another model diagnosed"] = "; ".join(
+            f"{uri}: {', '.join(records)}" for uri, records in run.other_models.items())
     if run.earlier:  # removed before the first record (diagnose_paths): out holds this run's outputs alone
         again = {row["record"] for row in diagnosed}
         removed = [record for record in run.earlier if record not in again]

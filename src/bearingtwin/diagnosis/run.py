@@ -83,6 +83,9 @@ class DiagnosisRun:
     scores: dict[str, float] = field(default_factory=dict)
     run_id: str | None = None  # the command's MLflow run (None untracked), named in every diagnosis.json
     earlier: list[str] = field(default_factory=list)  # records whose outputs an earlier run left in out, removed
+    # One file's run: the records of out diagnosed by another model than this run's (its version -> their names), whose
+    # rows summary.csv keeps beside this one's.
+    other_models: dict[str, list[str]] = field(default_factory=dict)
 
 
 def find_records(path: str, labels_path: Path | None) -> list[Path]:
@@ -251,9 +254,24 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
                 if not interrupted:
                     raise
                 log.warning("%s", error)  # said; the interrupt, not the disk, ends the command (its runs KILLED)
+        if len(records) == 1:
+            run.other_models = models_beside(out, records[0].stem, pinned)
         if tracked:
             log_diagnosis(*tracked, run, len(records))
     return run
+
+
+def models_beside(out: Path, record: str, model_version_uri: str) -> dict[str, list[str]]:
+    """The models (their versions) other than ``model_version_uri`` that diagnosed the records of ``out`` but
+    ``record``, each with their names: summary.csv keeps their rows beside a one-file run's."""
+    others: dict[str, list[str]] = {}
+    for folder in sorted(out.iterdir()):
+        if folder.name != record and folder.is_dir() and not folder.is_symlink() and _written_here(folder):
+            with contextlib.suppress(OSError, ValueError):
+                used = json.loads((folder / "diagnosis.json").read_text()).get("model_version_uri")
+                if used and used != model_version_uri:
+                    others.setdefault(str(used), []).append(folder.name)
+    return others
 
 
 @contextlib.contextmanager
