@@ -2,6 +2,7 @@
 
 import json
 import logging
+import os
 import shlex
 
 import numpy as np
@@ -327,6 +328,25 @@ def test_a_record_describes_itself_and_names_no_bearing_whose_geometry_the_comma
     assert summarize(tmp_path / "slow.npz")["meta"]["simulation_notes"] == str(np.load(tmp_path / "slow.npz")["simulation_notes"])
 
 
+def test_a_library_cache_the_disk_refuses_is_one_line(tmp_path):
+    """numba saves a kernel it compiled to its cache: on a full disk (here a file-size limit and an empty cache) that
+    write had ended the command in a numba traceback; its file is not named (numba's error names none)."""
+    import resource
+    import subprocess
+    import sys
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1_000, 1_000))
+
+    refused = subprocess.run([sys.executable, "-m", "bearingtwin.cli.simulate", "fault=outer", "simulator.fs=48000",
+                              "simulator.duration=0.1", f"out={tmp_path / 'r.npz'}"], cwd=tmp_path, capture_output=True,
+                             text=True, preexec_fn=limited, timeout=300,
+                             env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")})
+    assert refused.returncode == 2, refused.stderr[-2000:]
+    assert refused.stderr.strip() == ("error: a file could not be written (File too large): free some space, or raise "
+                                      "the file-size limit, and run it again"), refused.stderr[-2000:]
+
+
 def test_a_write_the_disk_refuses_leaves_no_partial_file_and_an_earlier_one_as_it_was(tmp_path):
     """A file-size limit (as a full disk) had left a truncated .npz no reader opens, over the good one of an earlier
     run at that path, with a traceback: now one line, exit 2, and the earlier file untouched. Without gravity the
@@ -344,6 +364,11 @@ def test_a_write_the_disk_refuses_leaves_no_partial_file_and_an_earlier_one_as_i
     def limited():  # Python ignores SIGXFSZ: a write past the limit fails with EFBIG, as on a full disk
         resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000))
 
+    # numba compiles the solver's 48 kHz kernel once and saves it to its cache: a fresh clone's first run at that rate
+    # would meet the limit there (one line too: the test before), not at the record.
+    warm = run(tmp_path, "fault=outer", "simulator.fs=48000", "simulator.duration=0.1", f"out={tmp_path / 'warm.npz'}")
+    assert warm.returncode == 0, warm.stderr
+    (tmp_path / "warm.npz").unlink()
     refused = subprocess.run([sys.executable, "-m", "bearingtwin.cli.simulate", "fault=outer", "simulator.fs=48000",
                               "simulator.duration=2", f"out={out}"], cwd=tmp_path, capture_output=True, text=True,
                              preexec_fn=limited, timeout=300)

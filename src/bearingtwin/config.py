@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import errno
 import functools
 import os
 import re
@@ -99,6 +100,13 @@ def exit_on_user_error(task: Callable) -> Callable:
         except InterpolationResolutionError as error:  # seed=${foo}: a value naming a key no config has
             where = next((arg for arg in sys.argv[1:] if "${" in arg), None) or getattr(error, "full_key", "") or "a setting"
             _refuse(f"{where}: {str(error).splitlines()[0]} (an interpolation ${{...}} names another setting)")
+        except OSError as error:
+            # A full disk or a file-size limit where no step of ours wrote: a library's own cache (numba's compiled
+            # kernels) is one line too, naming the file; any other OSError is a traceback, as a fault of ours is.
+            if error.errno not in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):
+                raise
+            what = f"{error.filename}: cannot be written" if error.filename else "a file could not be written"
+            _refuse(f"{what} ({error.strerror}): free some space, or raise the file-size limit, and run it again")
 
     return wrapped
 
