@@ -266,11 +266,10 @@ def models_beside(out: Path, record: str, model_version_uri: str) -> dict[str, l
     ``record``, each with their names: summary.csv keeps their rows beside a one-file run's."""
     others: dict[str, list[str]] = {}
     for folder in sorted(out.iterdir()):
-        if folder.name != record and folder.is_dir() and not folder.is_symlink() and _written_here(folder):
-            with contextlib.suppress(OSError, ValueError):
-                used = json.loads((folder / "diagnosis.json").read_text()).get("model_version_uri")
-                if used and used != model_version_uri:
-                    others.setdefault(str(used), []).append(folder.name)
+        diagnosis = _written_here(folder) if folder.name != record and not folder.is_symlink() else None
+        used = diagnosis and diagnosis.get("model_version_uri")
+        if used and used != model_version_uri:
+            others.setdefault(str(used), []).append(folder.name)
     return others
 
 
@@ -319,8 +318,8 @@ def remove_earlier_outputs(out: Path, records: list[Path]) -> list[str]:
     ``diagnosis.json`` naming its own record and a model, the ``diagnosis.png`` beside it, a ``summary.csv`` with
     its columns), never a symlinked folder's, and a folder only when nothing else is left in it."""
     names = None if len(records) > 1 else {records[0].stem}
-    folders = sorted(folder for folder in out.glob("*") if folder.is_dir() and not folder.is_symlink()
-                     and (names is None or folder.name in names) and _written_here(folder))
+    folders = sorted(folder for folder in out.glob("*") if not folder.is_symlink()
+                     and (names is None or folder.name in names) and _written_here(folder) is not None)
     summary = out / "summary.csv"
     if names is None and summary.exists() and not _summary_written_here(summary):
         raise BearingTwinError(f"{summary} is not one this command wrote; it is kept: move it or choose another out=")
@@ -349,31 +348,23 @@ def refuse_replacing_another_file(out: Path, records: list[Path]) -> None:
     folders give motor1.npz every day): that verdict, another day's, would be lost, as a folder's run or a glob refuses
     two files of one name."""
     folder = out / records[0].stem
-    if len(records) > 1 or folder.is_symlink() or not _written_here(folder):
-        return
-    earlier = _diagnosed_source(folder)
+    diagnosis = None if len(records) > 1 or folder.is_symlink() else _written_here(folder)
+    # A relative source depends on where that run started: only an absolute one names the file it diagnosed.
+    source = Path(str(diagnosis.get("source"))) if diagnosis else None
+    earlier = source.resolve() if source is not None and source.is_absolute() else None
     if earlier is not None and earlier != records[0].resolve():
         raise BearingTwinError(f"out={out} holds {records[0].stem}'s diagnosis of {earlier}, which {records[0]} would "
                                f"replace: give another out= (one per folder or day), or remove {folder} to replace it")
 
 
-def _diagnosed_source(folder: Path) -> Path | None:
-    """The file a record folder's ``diagnosis.json`` diagnosed, resolved; None where it names none as an absolute path
-    (a relative one depends on where that run started)."""
-    try:
-        source = Path(str(json.loads((folder / "diagnosis.json").read_text()).get("source")))
-    except (OSError, ValueError, AttributeError):
-        return None
-    return source.resolve() if source.is_absolute() else None
-
-
-def _written_here(folder: Path) -> bool:
-    """Whether ``folder`` holds a diagnosis.json this command wrote: one naming the folder's record and a model."""
+def _written_here(folder: Path) -> dict | None:
+    """The diagnosis.json ``folder`` holds where this command wrote it (one naming the folder's record and a model),
+    else None."""
     try:
         result = json.loads((folder / "diagnosis.json").read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(result, dict) and result.get("record") == folder.name and "model_uri" in result
+    except (OSError, ValueError):  # no such file (a plain file for a folder among them), or not JSON
+        return None
+    return result if isinstance(result, dict) and result.get("record") == folder.name and "model_uri" in result else None
 
 
 def remove_outputs(folder: Path) -> None:
