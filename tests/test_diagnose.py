@@ -1193,6 +1193,41 @@ def test_loading_a_registered_model_writes_nothing_into_its_store(registered):
     assert files() == before
 
 
+def test_a_registry_apart_from_the_tracking_store_is_the_one_mlflow_serves_from(registered, tmp_path, monkeypatch):
+    """MLFLOW_REGISTRY_URI names the Model Registry that MLflow's own tools read (mlflow.pyfunc.load_model, mlflow
+    models serve): a model registered with it set is there, not in the tracking store, and a diagnosis loads it from
+    there; a registry that is not there is named by that variable."""
+    import mlflow
+
+    from bearingtwin.diagnosis.mlflow_model import register_model
+
+    _, uri = registered
+    run_id = MlflowClient(tracking_uri=uri, registry_uri=uri).get_model_version_by_alias("diag", "champion").run_id
+    registry = f"sqlite:///{tmp_path}/registry.db"
+    MlflowClient(registry).search_registered_models()  # a new store's tables, as a team's registry has them
+
+    def started_with(registry_uri):  # the variable as the process was started with it
+        monkeypatch.setenv("MLFLOW_REGISTRY_URI", registry_uri)
+        monkeypatch.setattr("bearingtwin.tracking.mlflow_logging.USER_REGISTRY_URI", registry_uri)
+
+    try:
+        started_with(registry)
+        version, _ = register_model(uri, f"runs:/{run_id}/model", "apart", "champion")
+        found = MlflowClient(tracking_uri=uri, registry_uri=registry).get_model_version_by_alias("apart", "champion")
+        assert str(found.version) == version
+        assert "apart" not in {model.name for model in MlflowClient(tracking_uri=uri, registry_uri=uri).search_registered_models()}
+        mlflow.set_tracking_uri(uri)
+        mlflow.set_registry_uri(registry)
+        assert mlflow.pyfunc.load_model("models:/apart@champion").metadata.run_id == run_id
+        _, pipeline, pinned = load_diagnosis_model("models:/apart@champion", uri)
+        assert pinned == f"models:/apart/{version}" and pipeline is not None
+        started_with(f"sqlite:///{tmp_path}/absent.db")
+        with pytest.raises(BearingTwinError, match=rf"^MLFLOW_REGISTRY_URI=sqlite:///{tmp_path}/absent.db: no such store"):
+            load_diagnosis_model("models:/apart@champion", uri)
+    finally:
+        mlflow.set_registry_uri(uri)  # MLflow's global, as the other tests of this store leave it
+
+
 def test_training_registers_its_model_with_signature_and_alias(registered):
     import mlflow
 
