@@ -1228,6 +1228,18 @@ def test_a_registry_apart_from_the_tracking_store_is_the_one_mlflow_serves_from(
         mlflow.set_registry_uri(uri)  # MLflow's global, as the other tests of this store leave it
 
 
+def test_a_models_own_folder_is_read_without_a_store(registered, tmp_path):
+    """A model downloaded to a folder names everything it needs: reading it asks for no tracking store (with none
+    set, the checkout's default store had been refused as missing before the folder was looked at)."""
+    import mlflow
+
+    _, uri = registered
+    mlflow.set_tracking_uri(uri)
+    folder = mlflow.artifacts.download_artifacts("models:/diag@champion", dst_path=str(tmp_path / "model"))
+    _, pipeline, loaded = load_diagnosis_model(folder, f"sqlite:///{tmp_path}/absent.db")
+    assert loaded == folder and pipeline is not None and not (tmp_path / "absent.db").exists()
+
+
 def test_training_registers_its_model_with_signature_and_alias(registered):
     import mlflow
 

@@ -378,7 +378,8 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
 
     from bearingtwin.tracking.mlflow_logging import check_store, mlflow_reason
 
-    check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
+    if not (Path(model_uri).expanduser() / "MLmodel").is_file():  # a model's own folder is read without a store
+        check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
     if model_uri.startswith("models:/") and registry_uri(tracking_uri) != tracking_uri:
         check_store(registry_uri(tracking_uri), must_exist=True)
     mlflow.set_tracking_uri(tracking_uri)

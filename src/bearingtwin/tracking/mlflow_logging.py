@@ -195,6 +195,9 @@ def mlflow_reason(error: Exception) -> str:
 def check_store(uri: str, must_exist: bool = False) -> None:
     """Refuse, in one line naming ``tracking.uri``, a store that cannot serve (see :func:`open_store`)."""
     scheme = urlparse(uri).scheme
+    if not scheme and Path(uri).expanduser().is_file():  # a database file named as a path (MLflow reads a folder so)
+        raise BearingTwinError(f"{store_setting(uri)}: a file's path, not a store's URI; give "
+                               f"sqlite:///{Path(uri).expanduser().resolve()} for the SQLite store in it")
     if (scheme == "file" or (not scheme and uri != "databricks")) and os.environ.get("MLFLOW_ALLOW_FILE_STORE") != "true":
         raise BearingTwinError(f"{store_setting(uri)}: MLflow 3 keeps runs in a database or behind a server, not in a "
                                "folder; give sqlite:///<folder>/mlflow.db or http://<server>")
