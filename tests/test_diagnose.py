@@ -2409,6 +2409,7 @@ def test_the_closing_summary_names_what_else_puts_a_verdict_in_doubt():
             {"record": "lone_line", "verdict": "outer", "rate_check": "ambiguous"},
             {"record": "gaps", "verdict": "inner", "windows_left_out": 3},
             {"record": "no_speed", "verdict": "ball", "no_evidence": True},
+            {"record": "H_VS_0_40_0Hz", "verdict": "normal", "no_evidence": True, "speed_varies": True},
             {"record": "fan", "verdict": "inner", "order_tracked": True},
             {"record": "run_up", "verdict": "normal", "order_tracked": True, "speed_in_doubt": True},
             {"record": "belt", "verdict": "outer", "speed_in_doubt": True, "steadying_refused": True}]
@@ -2416,6 +2417,7 @@ def test_the_closing_summary_names_what_else_puts_a_verdict_in_doubt():
     assert lines["sampling rate unconfirmed by the shaft line (see their notes)"] == "lone_line"
     assert lines["windows left out over dropouts or samples with no value"] == "gaps (3)"
     assert lines["no physics evidence (no shaft speed or bearing known)"] == "no_speed"
+    assert lines["no physics evidence (variable-speed runs: no one speed to read their lines at)"] == "H_VS_0_40_0Hz"
     assert lines["shaft speed varied: resampled to a steady speed (order tracking)"] == "fan, run_up"
     assert lines["shaft speed varies, left unsteady (its lines smeared: in doubt)"] == "run_up"
     assert lines["speed read in doubt (steadied, the shaft's series stood no sharper: read as recorded)"] == "belt"
