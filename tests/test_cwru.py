@@ -455,6 +455,18 @@ def test_a_refusal_names_a_rate_the_record_does_not_refuse_in_turn(record, decla
 
 
 @needs_data
+def test_readings_that_lead_back_to_the_declared_rate_do_not_contradict_it():
+    """2 s of record 105 with no defect frequency to decide: its shaft series is weak at the declared 12 kHz, the strong
+    series nearest its place (226.7 Hz) read as the shaft's puts the rate at 1585 Hz, and there the in-between lines
+    put it back at 12 kHz. A rate its readings lead back to is in doubt, not refused (the whole record confirms it)."""
+    recording = load_cwru(CWRU / "12k_Drive_End_IR007_0_105.mat")
+    check = check_sampling_rate(recording.signal[:24000], 12000.0, recording.rpm)
+    assert check.verdict == "ambiguous" and check.implied_fs_hz is None, check.reason
+    assert check.reason.endswith("the readings lead back to the declared 12000 Hz, which none contradicts")
+    assert check_sampling_rate(recording.signal, 12000.0, recording.rpm).verdict == "consistent"
+
+
+@needs_data
 def test_a_wrong_rate_implies_the_true_one():
     recording = load_cwru(CWRU / "12k_Drive_End_OR007@6_0_130.mat")
     check = check_sampling_rate(recording.signal, 11000.0, recording.rpm)

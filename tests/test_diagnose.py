@@ -1193,6 +1193,53 @@ def test_loading_a_registered_model_writes_nothing_into_its_store(registered):
     assert files() == before
 
 
+def test_a_registry_apart_from_the_tracking_store_is_the_one_mlflow_serves_from(registered, tmp_path, monkeypatch):
+    """MLFLOW_REGISTRY_URI names the Model Registry that MLflow's own tools read (mlflow.pyfunc.load_model, mlflow
+    models serve): a model registered with it set is there, not in the tracking store, and a diagnosis loads it from
+    there; a registry that is not there is named by that variable."""
+    import mlflow
+
+    from bearingtwin.diagnosis.mlflow_model import register_model
+
+    _, uri = registered
+    run_id = MlflowClient(tracking_uri=uri, registry_uri=uri).get_model_version_by_alias("diag", "champion").run_id
+    registry = f"sqlite:///{tmp_path}/registry.db"
+    MlflowClient(registry).search_registered_models()  # a new store's tables, as a team's registry has them
+
+    def started_with(registry_uri):  # the variable as the process was started with it
+        monkeypatch.setenv("MLFLOW_REGISTRY_URI", registry_uri)
+        monkeypatch.setattr("bearingtwin.tracking.mlflow_logging.USER_REGISTRY_URI", registry_uri)
+
+    try:
+        started_with(registry)
+        version, _ = register_model(uri, f"runs:/{run_id}/model", "apart", "champion")
+        found = MlflowClient(tracking_uri=uri, registry_uri=registry).get_model_version_by_alias("apart", "champion")
+        assert str(found.version) == version
+        assert "apart" not in {model.name for model in MlflowClient(tracking_uri=uri, registry_uri=uri).search_registered_models()}
+        mlflow.set_tracking_uri(uri)
+        mlflow.set_registry_uri(registry)
+        assert mlflow.pyfunc.load_model("models:/apart@champion").metadata.run_id == run_id
+        _, pipeline, pinned = load_diagnosis_model("models:/apart@champion", uri)
+        assert pinned == f"models:/apart/{version}" and pipeline is not None
+        started_with(f"sqlite:///{tmp_path}/absent.db")
+        with pytest.raises(BearingTwinError, match=rf"^MLFLOW_REGISTRY_URI=sqlite:///{tmp_path}/absent.db: no such store"):
+            load_diagnosis_model("models:/apart@champion", uri)
+    finally:
+        mlflow.set_registry_uri(uri)  # MLflow's global, as the other tests of this store leave it
+
+
+def test_a_models_own_folder_is_read_without_a_store(registered, tmp_path):
+    """A model downloaded to a folder names everything it needs: reading it asks for no tracking store (with none
+    set, the checkout's default store had been refused as missing before the folder was looked at)."""
+    import mlflow
+
+    _, uri = registered
+    mlflow.set_tracking_uri(uri)
+    folder = mlflow.artifacts.download_artifacts("models:/diag@champion", dst_path=str(tmp_path / "model"))
+    _, pipeline, loaded = load_diagnosis_model(folder, f"sqlite:///{tmp_path}/absent.db")
+    assert loaded == folder and pipeline is not None and not (tmp_path / "absent.db").exists()
+
+
 def test_training_registers_its_model_with_signature_and_alias(registered):
     import mlflow
 
@@ -2362,6 +2409,7 @@ def test_the_closing_summary_names_what_else_puts_a_verdict_in_doubt():
             {"record": "lone_line", "verdict": "outer", "rate_check": "ambiguous"},
             {"record": "gaps", "verdict": "inner", "windows_left_out": 3},
             {"record": "no_speed", "verdict": "ball", "no_evidence": True},
+            {"record": "H_VS_0_40_0Hz", "verdict": "normal", "no_evidence": True, "speed_varies": True},
             {"record": "fan", "verdict": "inner", "order_tracked": True},
             {"record": "run_up", "verdict": "normal", "order_tracked": True, "speed_in_doubt": True},
             {"record": "belt", "verdict": "outer", "speed_in_doubt": True, "steadying_refused": True}]
@@ -2369,6 +2417,7 @@ def test_the_closing_summary_names_what_else_puts_a_verdict_in_doubt():
     assert lines["sampling rate unconfirmed by the shaft line (see their notes)"] == "lone_line"
     assert lines["windows left out over dropouts or samples with no value"] == "gaps (3)"
     assert lines["no physics evidence (no shaft speed or bearing known)"] == "no_speed"
+    assert lines["no physics evidence (variable-speed runs: no one speed to read their lines at)"] == "H_VS_0_40_0Hz"
     assert lines["shaft speed varied: resampled to a steady speed (order tracking)"] == "fan, run_up"
     assert lines["shaft speed varies, left unsteady (its lines smeared: in doubt)"] == "run_up"
     assert lines["speed read in doubt (steadied, the shaft's series stood no sharper: read as recorded)"] == "belt"

@@ -380,3 +380,18 @@ def test_a_given_speed_the_record_bears_out_is_read_over_the_one_its_file_stamps
     code, _, err = run(capsys, monkeypatch, f"path={tmp_path / 'stamped.npz'}", "rpm=1700")
     assert code == 2 and err.strip().endswith("rpm=1700.0 contradicts the file's rpm=1826.0 (more than 1% apart); "
                                               "the shaft's harmonic series reads 1772 rpm"), err
+
+
+def test_a_variable_speed_export_asks_for_no_speed_and_refuses_one(capsys, monkeypatch, tmp_path):
+    """A HUST VS_ run states its speed varies: inspect says so where it had asked for rpm=, and refuses a speed given
+    for it, as a diagnosis does (one speed puts every line of a run-up in the wrong place)."""
+    variable = tmp_path / "H_VS_0_40_0Hz.xls"
+    variable.write_bytes((HUST / "H_65Hz.xls").read_bytes())
+    code, out, _ = run(capsys, monkeypatch, f"path={variable}")
+    summary = json.loads(out)
+    assert code == 0 and summary["shaft_speed"] is None
+    assert summary["shaft_speed_not_read"].startswith("the file is a variable-speed run (VS_0_40_0Hz in its name)")
+    code, _, err = run(capsys, monkeypatch, f"path={variable}", "rpm=1200")
+    assert code == 2 and err.strip().splitlines() == [
+        f"error: {variable}: rpm=1200.0 given, but the file is a variable-speed run (VS_0_40_0Hz in its name): its "
+        "speed changes over the record: no one speed describes it"]

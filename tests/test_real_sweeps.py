@@ -169,9 +169,10 @@ def test_hust_report_sets_the_papers_figure_beside_each_speed(hust_store, capsys
     assert {row[0] for row in table_rows((base / "hust65.md").read_text(), "")} & {"60 Hz", "70 Hz"} == set()
 
 
-def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion, dataset_key="records", **params):
-    """A FINISHED cwru training run carrying what train_tracked logs that the report reads (a class with no test
-    windows has no recall), and ``params`` (dotted keys as ``data__samples_per_class``)."""
+def log_real_run(client, experiment_id, data, classes, split, seed, confusion, dataset_key="records", **params):
+    """A FINISHED real-data training run carrying what train_tracked logs that the report reads (a class with no test
+    windows has no recall): ``data``, the data.* params naming its source, condition and classes; and ``params``
+    (dotted keys as ``data__samples_per_class``)."""
     confusion = np.asarray(confusion)
     labels = [FAULTS.index(name) for name in classes]
     full = np.zeros((4, 4), dtype=int)
@@ -179,7 +180,7 @@ def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion, d
     run = client.create_run(experiment_id, tags={"bt.kind": "train", "method": paper.PROPOSED, "seed": str(seed),
                                                  "dataset_key": dataset_key})
     run_id = run.info.run_id
-    for key, value in {"data.source": "cwru", "data.load": str(load), "data.split": split, "data.classes": str(list(classes)),
+    for key, value in {**data, "data.split": split,
                        **{key.replace("__", "."): str(value) for key, value in params.items()}}.items():
         client.log_param(run_id, key, value)
     client.log_metric(run_id, "accuracy", np.trace(full) / full.sum())
@@ -188,6 +189,44 @@ def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion, d
             client.log_metric(run_id, f"recall_{name}", full[index, index] / full[index].sum())
     client.log_text(run_id, csv_table(["true \\ predicted", *FAULTS], [[n, *row] for n, row in zip(FAULTS, full)]), "confusion_matrix.csv")
     client.set_terminated(run_id, "FINISHED")
+
+
+def log_cwru_run(client, experiment_id, load, classes, split, seed, confusion, dataset_key="records", **params):
+    log_real_run(client, experiment_id, {"data.source": "cwru", "data.load": str(load), "data.classes": str(list(classes))},
+                 classes, split, seed, confusion, dataset_key, **params)
+
+
+def log_hust_run(client, experiment_id, condition, stems, split, seed, confusion, channel="X", dataset_key="records"):
+    log_real_run(client, experiment_id, {"data.source": "hust", "data.condition": condition, "data.channel": channel,
+                                         **{f"data.classes.{fault}": stem for fault, stem in stems.items()}},
+                 list(stems), split, seed, confusion, dataset_key)
+
+
+def test_a_hust_run_on_other_files_than_the_papers_stands_beside_no_paper_figure_and_says_what_it_read(tmp_path, capsys):
+    """A run on the severe faults (H, I, B, O) or on channel Y is another experiment than Table 5's (the medium faults
+    on X): its row names the files and channel it read and stands beside no paper figure. A condition logged as 65.0
+    is the same 65 Hz as the files name it, for the table's rows and for condition= alike."""
+    uri = f"sqlite:///{tmp_path}/mlflow.db"
+    client, experiment_id = open_store(OmegaConf.create({"uri": uri, "experiment": "bearingtwin", "artifact_root": None}))
+    perfect = np.eye(4, dtype=int) * 10
+    log_hust_run(client, experiment_id, "65", paper.HUST_CLASSES, "random", 0, perfect)
+    log_hust_run(client, experiment_id, "65.0", paper.HUST_CLASSES, "random", 1, perfect)
+    severe = {"normal": "H", "inner": "I", "ball": "B", "outer": "O"}
+    log_hust_run(client, experiment_id, "65", severe, "random", 0, perfect, dataset_key="severe")
+    log_hust_run(client, experiment_id, "65", paper.HUST_CLASSES, "random", 0, perfect, channel="Y", dataset_key="y")
+    out = tmp_path / "hust.md"
+    for condition in ([], ["condition=65.0"], ["condition=65"]):
+        assert report_main(["hust", f"uri={uri}", f"out={out}", *condition]) == 0
+        rows = {row[3]: row for row in table_rows(generated_text(out, GENERATED), "65 Hz")}
+        assert sorted(rows) == ["H, 0.5X_I, 0.5X_B, 0.5X_O, channel X (dataset records)",
+                                "H, 0.5X_I, 0.5X_B, 0.5X_O, channel Y (dataset y)", "H, I, B, O, channel X (dataset severe)"]
+        papers = rows["H, 0.5X_I, 0.5X_B, 0.5X_O, channel X (dataset records)"]
+        assert papers[5] == "2" and papers[8:] == [f"{paper.HUST[65]:.2f}", f"{100 - paper.HUST[65]:+.2f}"]
+        assert rows["H, I, B, O, channel X (dataset severe)"][8] == "—"
+        assert rows["H, 0.5X_I, 0.5X_B, 0.5X_O, channel Y (dataset y)"][8] == "—"
+    with pytest.raises(SystemExit) as exit_:
+        report_main(["hust", f"uri={uri}", f"out={out}", "condition=65Hz"])
+    assert exit_.value.code == 2 and "condition='65Hz' is not a HUST condition (without Hz" in capsys.readouterr().err
 
 
 def test_cwru_report_measures_leakage_as_random_minus_block(tmp_path, capsys):
@@ -235,19 +274,23 @@ def test_runs_on_other_classes_or_recordings_are_other_rows_not_seeds(tmp_path):
     assert report_main(["cwru", f"uri={uri}", f"out={out}"]) == 0
     rows = table_rows(generated_text(out, GENERATED), "1 hp")
     assert sorted((row[3], row[5]) for row in rows) == [
-        ("normal inner ball outer (dataset other)", "1"), ("normal inner ball outer (dataset records)", "1"),
-        ("normal inner outer (dataset records)", "1")]
-    untested = next(row for row in rows if row[3] == "normal inner ball outer (dataset records)")
+        ("normal, inner, ball, outer (dataset other)", "1"), ("normal, inner, ball, outer (dataset records)", "1"),
+        ("normal, inner, outer (dataset records)", "1")]
+    untested = next(row for row in rows if row[3] == "normal, inner, ball, outer (dataset records)")
     assert "ball —" in untested[6]
     # A smoke-size run beside a full one: its row says its size, not only its dataset's key.
     log_cwru_run(client, experiment_id, 3, list(FAULTS), "block", 0, np.eye(4, dtype=int) * 10, dataset_key="small",
-                 data__samples_per_class=40, trainer__max_epochs=10)
+                 data__samples_per_class=40, trainer__max_epochs=10, classifier__name="cnn_bilstm")
     log_cwru_run(client, experiment_id, 3, list(FAULTS), "block", 0, np.eye(4, dtype=int) * 10, dataset_key="full",
-                 data__samples_per_class=300, trainer__max_epochs=150)
+                 data__samples_per_class=300, trainer__max_epochs=150, classifier__name="cnn_bilstm")
+    # An SVM logs the trainer's epochs too, which it never runs: its row gives none.
+    log_cwru_run(client, experiment_id, 3, list(FAULTS), "block", 0, np.eye(4, dtype=int) * 10, dataset_key="svm",
+                 data__samples_per_class=40, trainer__max_epochs=100, classifier__name="svm")
     assert report_main(["cwru", f"uri={uri}", f"out={out}"]) == 0
     assert sorted(row[3] for row in table_rows(generated_text(out, GENERATED), "3 hp")) == [
-        "normal inner ball outer (dataset full; windows per class 300, epochs 150)",
-        "normal inner ball outer (dataset small; windows per class 40, epochs 10)"]
+        "normal, inner, ball, outer (dataset full; windows per class 300, epochs 150)",
+        "normal, inner, ball, outer (dataset small; windows per class 40, epochs 10)",
+        "normal, inner, ball, outer (dataset svm; windows per class 40)"]
 
 
 def test_reports_without_runs_say_what_is_missing(tmp_path, capsys):

@@ -546,3 +546,24 @@ def test_a_run_that_ends_well_while_a_dead_process_is_sought_stays_finished(tmp_
     assert reap_dead_runs(Seen()) == [gone.info.run_id]
     assert client.get_run(stale.info.run_id).info.status == "FINISHED"
     assert client.get_run(gone.info.run_id).info.status == "KILLED"
+
+
+def test_a_run_whose_pid_belongs_to_another_pid_space_is_left_running(tmp_path):
+    """A container sharing the host's name (host networking) numbers its processes apart: a training there, alive, had
+    been marked KILLED by a diagnosis here that could not see its pid. A run opened in another pid space (another pid
+    namespace, or this host before a reboot) is left alone; one of this space whose process is gone is marked KILLED,
+    as is one tagged before runs named their space."""
+    import socket
+
+    from bearingtwin.tracking.lifecycle import SPACE_TAG, owner_tags, pid_space, reap_dead_runs
+
+    assert pid_space() and owner_tags()[SPACE_TAG] == pid_space()  # Linux: /proc gives the boot and the namespace
+    client = MlflowClient(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    experiment = client.create_experiment("x")
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    owner = {"bt.host": socket.gethostname(), "bt.pid": ended.stdout.strip()}  # a pid no process of this space has
+    elsewhere = client.create_run(experiment, tags={**owner, SPACE_TAG: "another-boot pid:[4026531836]"})
+    here = client.create_run(experiment, tags={**owner, SPACE_TAG: pid_space()})
+    untagged = client.create_run(experiment, tags=owner)
+    assert sorted(reap_dead_runs(client)) == sorted([here.info.run_id, untagged.info.run_id])
+    assert client.get_run(elsewhere.info.run_id).info.status == "RUNNING"

@@ -394,6 +394,11 @@ def test_a_store_that_cannot_serve_is_named_before_any_work(tmp_path):
 
     with pytest.raises(BearingTwinError, match=r"^tracking.uri=file:///x: MLflow 3 keeps runs in a database"):
         check_store("file:///x")
+    database = tmp_path / "mlflow.db"
+    MlflowClient(f"sqlite:///{database}").search_experiments()  # a store, named by its file's path
+    with pytest.raises(BearingTwinError, match=rf"^tracking.uri={database}: a file's path, not a store's URI; give "
+                                               rf"sqlite:///{database} for the SQLite store in it$"):
+        check_store(str(database))
     with pytest.raises(BearingTwinError, match=r"^tracking.uri=http://127.0.0.1:9: no tracking server answers there"):
         check_store("http://127.0.0.1:9")
     with mock.patch.dict(os.environ, {"MLFLOW_TRACKING_URI": "http://127.0.0.1:9"}):  # named where the user set it

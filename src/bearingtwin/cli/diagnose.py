@@ -122,9 +122,13 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
     few = [row["record"] for row in diagnosed if row.get("few_windows")]
     if few:  # a majority of one or two windows: one misread window decides it
         lines["verdict on one or two windows (a longer record gives a surer one)"] = ", ".join(few)
-    unweighed = [row["record"] for row in diagnosed if row.get("no_evidence")]
-    if unweighed:  # a model's verdict alone
-        lines["no physics evidence (no shaft speed or bearing known)"] = ", ".join(unweighed)
+    unweighed = [row for row in diagnosed if row.get("no_evidence")]
+    varying = [row["record"] for row in unweighed if row.get("speed_varies")]
+    if varying:  # a model's verdict alone: no one speed to read the defect lines at
+        lines["no physics evidence (variable-speed runs: no one speed to read their lines at)"] = ", ".join(varying)
+    if len(varying) < len(unweighed):  # a model's verdict alone
+        lines["no physics evidence (no shaft speed or bearing known)"] = ", ".join(
+            row["record"] for row in unweighed if not row.get("speed_varies"))
     narrower = [row["record"] for row in diagnosed if row.get("original_fs") and row["original_fs"] < row["fs"]]
     if narrower:  # upsampled: the model reads a band these records never held, so their verdicts are in doubt
         lines["recorded below the model's rate (no content above their Nyquist)"] = ", ".join(narrower)

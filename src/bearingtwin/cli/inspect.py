@@ -32,8 +32,8 @@ from bearingtwin.checks import positive_number
 from bearingtwin.config import (exit_on_user_error, hydra_command, load_bearing, refuse_unknown_keys,
                                 unknown_bearing_note)
 from bearingtwin.data.formats import (RATE_NOT_CHECKED_SIMULATED, SIMULATED_RATE, file_bearing, named_rate_note,
-                                    read_raw, resolve_fact, resolve_fs, resolve_speed, speed_from_tachometer,
-                                    speed_reader, tachometer_channel)
+                                    read_raw, refuse_one_speed_for_a_varying_run, resolve_fact, resolve_fs, resolve_speed,
+                                    speed_from_tachometer, speed_reader, tachometer_channel)
 from bearingtwin.data.labels import labels_row
 from bearingtwin.data.recording import Recording
 from bearingtwin.data.units import same_unit
@@ -117,6 +117,7 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
     rpm_origin, rpm_key = ("option", "rpm") if rpm is not None else (table, f"{table}: rpm")
     read = _vibration_read(raw, channel)
     reader = None if read is None or fs_hz is None else speed_reader(raw, read, raw.channels[read], fs_hz)
+    refuse_one_speed_for_a_varying_run(raw, rpm if rpm is not None else table_rpm, rpm_key)
     rpm = resolve_speed(raw, rpm if rpm is not None else table_rpm, rpm_key, speed_notes, reader)
     if raw.rpm is not None and rpm == raw.rpm:
         rpm_origin = "file"
@@ -191,7 +192,9 @@ def summarize(path, bearing: BearingGeometry | None = None, bearing_name: str | 
             summary["shaft_speed_not_read"] = not_read
     elif rpm is None and fs_hz is not None:  # nothing to read a speed around: said, where a reader looks for it
         summary["shaft_speed"] = None
-        summary["shaft_speed_not_read"] = ("the file states no shaft speed: give rpm=<rev/min> (or the rpm column of a "
+        summary["shaft_speed_not_read"] = (f"the file is {raw.meta['no_speed']}: no one speed describes it, and none is "
+                                           "checked against" if raw.meta.get("no_speed") else
+                                           "the file states no shaft speed: give rpm=<rev/min> (or the rpm column of a "
                                            "labels.csv beside it)")
     if bearing is not None:
         summary["bearing"] = bearing_name

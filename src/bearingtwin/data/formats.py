@@ -289,9 +289,7 @@ def recording_from_raw(
         notes.append(f"{fs_key}={fs:g} Hz given, {factor:g} times the {raw.fs:.6g} Hz the file's time stamps give: "
                      "read as stamps in another unit than their column's name states")
     fs = resolve_fs(raw, fs, fs_key)
-    if rpm is not None and raw.meta.get("no_speed"):  # a run-up read at one speed puts every line in the wrong place
-        raise BearingTwinError(f"{raw.path}: {rpm_key}={rpm} given, but the file is {raw.meta['no_speed']}: no one "
-                               "speed describes it")
+    refuse_one_speed_for_a_varying_run(raw, rpm, rpm_key)
     rpm = resolve_speed(raw, None if rpm is None else positive_number(rpm, rpm_key, "rev/min"), rpm_key, notes,
                         speed_reader(raw, name, signal, fs))
     # Where the speed comes from: a refusal of the rate names the speed's setting too where one gave it.
@@ -526,6 +524,14 @@ def same_speed(a_rpm: float, b_rpm: float) -> bool:
 SLOW_RPM = 120.0
 """A given speed below this is noted as possibly the shaft's frequency in Hz (a motor's 29.2 Hz typed for 1750 rpm):
 slow bearings exist (a wind turbine's main shaft turns at 10-20 rpm), so it is said, not refused."""
+
+
+def refuse_one_speed_for_a_varying_run(raw: RawRecord, rpm, rpm_key: str = "rpm") -> None:
+    """Refuse a speed given for a file that states its speed varies (HUST's VS_ runs): a run-up read at one speed puts
+    every line in the wrong place."""
+    if rpm is not None and raw.meta.get("no_speed"):
+        raise BearingTwinError(f"{raw.path}: {rpm_key}={rpm} given, but the file is {raw.meta['no_speed']}: no one "
+                               "speed describes it")
 
 
 def resolve_speed(raw: RawRecord, rpm: float | None, key: str, notes: list[str],

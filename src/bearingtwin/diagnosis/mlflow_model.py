@@ -43,6 +43,7 @@ from bearingtwin.checks import positive_number
 from bearingtwin.data.units import METRES_PER_S2, quantity_of, unit_key
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline, unit_for_model
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.tracking.mlflow_logging import registry_uri
 from bearingtwin.tracking.provenance import installed_versions
 
 ARTIFACT_PATH = "model"
@@ -236,9 +237,9 @@ def register_model(tracking_uri: str, model_uri: str, name: str, alias: str | No
     from mlflow.exceptions import MlflowException
 
     mlflow.set_tracking_uri(tracking_uri)
-    mlflow.set_registry_uri(tracking_uri)
+    mlflow.set_registry_uri(registry_uri(tracking_uri))
     version = str(mlflow.register_model(model_uri, name, tags=tags).version)
-    client = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri)
+    client = MlflowClient(tracking_uri=tracking_uri, registry_uri=registry_uri(tracking_uri))
     if description:
         client.update_model_version(name, version, description=description)
     before = None
@@ -264,12 +265,20 @@ def model_identity(model_uri: str, tracking_uri: str) -> str:
     from mlflow.exceptions import MlflowException
 
     mlflow.set_tracking_uri(tracking_uri)
-    mlflow.set_registry_uri(tracking_uri)
+    mlflow.set_registry_uri(registry_uri(tracking_uri))
     try:
         info = mlflow.models.get_model_info(model_uri)
     except (MlflowException, OSError) as error:
-        raise BearingTwinError(f"model={model_uri}: not found in {tracking_uri} ({str(error).strip().splitlines()[0]})") from None
+        raise BearingTwinError(f"model={model_uri}: not found in {_store_of(model_uri, tracking_uri)} "
+                               f"({str(error).strip().splitlines()[0]})") from None
     return f"{info.run_id}/{info.model_uuid}"
+
+
+def _store_of(model_uri: str, tracking_uri: str) -> str:
+    """The store a model URI is read from, as a message names it: a ``models:/`` URI's registry (MLFLOW_REGISTRY_URI
+    where it is not the tracking store), else the tracking store."""
+    registry = registry_uri(tracking_uri)
+    return f"the registry {registry}" if model_uri.startswith("models:/") and registry != tracking_uri else tracking_uri
 
 
 def _version_named(model_uri: str, tracking_uri: str) -> str:
@@ -280,7 +289,7 @@ def _version_named(model_uri: str, tracking_uri: str) -> str:
     from mlflow import MlflowClient
 
     name, alias = model_uri.removeprefix("models:/").rsplit("@", 1)
-    version = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri).get_model_version_by_alias(name, alias)
+    version = MlflowClient(tracking_uri=tracking_uri, registry_uri=registry_uri(tracking_uri)).get_model_version_by_alias(name, alias)
     return f"models:/{name}/{version.version}"
 
 
@@ -303,7 +312,7 @@ def _registry_words(model_uri: str, tracking_uri: str) -> str:
     from mlflow import MlflowClient
     from mlflow.exceptions import MlflowException
 
-    client = MlflowClient(tracking_uri=tracking_uri, registry_uri=tracking_uri)
+    client = MlflowClient(tracking_uri=tracking_uri, registry_uri=registry_uri(tracking_uri))
     name = re.split(r"[/@]", model_uri.removeprefix("models:/"), maxsplit=1)[0]
     try:
         model = client.get_registered_model(name)
@@ -369,9 +378,12 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
 
     from bearingtwin.tracking.mlflow_logging import check_store, mlflow_reason
 
-    check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
+    if not (Path(model_uri).expanduser() / "MLmodel").is_file():  # a model's own folder is read without a store
+        check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
+    if model_uri.startswith("models:/") and registry_uri(tracking_uri) != tracking_uri:
+        check_store(registry_uri(tracking_uri), must_exist=True)
     mlflow.set_tracking_uri(tracking_uri)
-    mlflow.set_registry_uri(tracking_uri)
+    mlflow.set_registry_uri(registry_uri(tracking_uri))
     try:
         version_uri = _version_named(model_uri, tracking_uri)
         # Into a folder of this process's own: from a local store MLflow would load a models:/ URI in place and write
@@ -391,7 +403,7 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
             raise BearingTwinError(f"model={model_uri}: {what}; give {MODEL_URI_FORMS}, or a model's folder (one "
                                    "holding MLmodel)"
                                    + (_registry_words("models:/" + model_uri, tracking_uri) if bare_name else "")) from None
-        raise BearingTwinError(f"model={model_uri}: cannot load it from {tracking_uri} ({mlflow_reason(error)})"
+        raise BearingTwinError(f"model={model_uri}: cannot load it from {_store_of(model_uri, tracking_uri)} ({mlflow_reason(error)})"
                                f"{_unfinished_run_words(model_uri, tracking_uri)}"
                                f"{_registry_words(model_uri, tracking_uri)}") from None
     python_model = model.unwrap_python_model()

@@ -21,6 +21,9 @@ SET_BY_THE_RUN = ("random_state", "root_dir")
 TRAINER_SETTINGS = ("max_epochs", "gradient_clip_val", "accelerator", "progress_bar")
 """The network's constructor arguments the ``trainer`` group gives (conf/trainer), not the ``classifier`` group."""
 
+TRAINED_BY_THE_TRAINER = ("cnn_bilstm",)
+"""The classifiers the ``trainer`` group (epochs, clipping) applies to; the others ignore it."""
+
 
 def build_classifier(classifier_cfg: DictConfig, trainer_cfg: DictConfig, seed: int, root_dir: str | None = None):
     """An unfitted scikit-learn-style classifier; every key but ``name`` is a constructor argument.
@@ -49,7 +52,7 @@ def classifier_settings(classifier_cfg: DictConfig, trainer_cfg: DictConfig) -> 
                 if "_target_" in params else "")
         raise BearingTwinError(f"classifier.name={name!r} is not a classifier; choose one of {', '.join(CLASSIFIERS)}"
                                + hint)
-    if name == "cnn_bilstm":
+    if name in TRAINED_BY_THE_TRAINER:
         from bearingtwin.models.cnn_bilstm import CnnBiLstmClassifier
 
         cls, trainer = CnnBiLstmClassifier, OmegaConf.to_container(trainer_cfg, resolve=True)

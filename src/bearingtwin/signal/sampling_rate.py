@@ -508,6 +508,11 @@ def _implied_rate_checked(check: ShaftLineCheck, signal: np.ndarray, options: Ma
         reason = f"{reason}; at {rate:.0f} Hz, {again.reason}"
         visited.append(rate)
         following = again.implied_fs_hz or again.fraction_rate_hz
+        if following and abs(math.log(following / check.fs_hz)) <= options["tolerance"]:
+            # Back at the declared rate: the strong series read as the shaft's stands between the shaft's harmonics
+            # there, which is what the declared rate's own lines make. Nothing read contradicts it (nor confirms it).
+            return dataclasses.replace(check, verdict="ambiguous", implied_fs_hz=None, reason=(
+                f"{reason}: the readings lead back to the declared {check.fs_hz:g} Hz, which none contradicts"))
         if not following or any(abs(math.log(following / seen)) <= options["tolerance"] for seen in visited):
             rate = None  # nothing named, or a rate already read: the readings go round
             break

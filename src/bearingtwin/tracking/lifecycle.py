@@ -38,6 +38,8 @@ if TYPE_CHECKING:  # MLflow is imported where a run is closed: a command refusin
 log = logging.getLogger(__name__)
 
 HOST_TAG, PID_TAG = "bt.host", "bt.pid"
+SPACE_TAG = "bt.pid_space"
+"""Tag of the boot and pid namespace a run's owner pid belongs to (:func:`pid_space`)."""
 SWEEP_PID_ENV = "BEARINGTWIN_SWEEP_PID"
 """Set by the sweep's process for its workers, which inherit it: the process they live for."""
 
@@ -75,9 +77,22 @@ _received: list[int] = []  # the signals that arrived, for a KeyboardInterrupt a
 _stopping = threading.Event()  # set once an interrupt is reported and the command exits
 
 
+@functools.cache
+def pid_space() -> str:
+    """What a pid names here: this boot and this pid namespace (Linux's ``/proc``; "" where there is none). Containers
+    sharing the host's name, and machines of one name, number their processes apart: a pid seen from another space
+    says nothing of whether its process lives."""
+    try:
+        boot = open("/proc/sys/kernel/random/boot_id").read().strip()
+        return f"{boot} {os.readlink('/proc/self/ns/pid')}"
+    except OSError:
+        return ""
+
+
 def owner_tags() -> dict[str, str]:
     """Tags naming the process that opens a run, so a later process can tell whether it died."""
-    return {HOST_TAG: socket.gethostname(), PID_TAG: str(os.getpid())}
+    space = pid_space()
+    return {HOST_TAG: socket.gethostname(), PID_TAG: str(os.getpid()), **({SPACE_TAG: space} if space else {})}
 
 
 def register_open_run(client: MlflowClient, run_id: str, label: str = "run", with_children: bool = False) -> None:
@@ -294,8 +309,10 @@ def reap_dead_runs(client: MlflowClient) -> list[str]:
     """Mark KILLED the RUNNING runs of the store opened on this host by a process that no longer exists, in every
     experiment (a diagnosis's, a twin's and a training's live in experiments of their own).
 
-    Only this host's runs can be judged (a pid means nothing elsewhere); a run without
-    owner tags (logged by another tool) is left alone. Returns the ids marked.
+    Only this host's runs can be judged (a pid means nothing elsewhere), and of them only those opened in this
+    process's pid space (:func:`pid_space`: another container of the same host name, or this host before a reboot,
+    numbers its processes apart); a run without owner tags (logged by another tool) is left alone. Returns the ids
+    marked.
     """
     from bearingtwin.tracking.mlflow_logging import all_experiment_ids
 
@@ -306,6 +323,8 @@ def reap_dead_runs(client: MlflowClient) -> list[str]:
     reaped = []
     for run in running:
         pid = run.data.tags.get(PID_TAG, "")
+        if run.data.tags.get(SPACE_TAG, pid_space()) != pid_space():  # (a run tagged before the space was: as before)
+            continue
         # Read again once the process is found gone: a run that ended well between the search and now is FINISHED,
         # which no KILLED may overwrite (a training's run in a store another command was opening).
         if (pid.isdigit() and not _process_alive(int(pid))

@@ -195,6 +195,9 @@ def mlflow_reason(error: Exception) -> str:
 def check_store(uri: str, must_exist: bool = False) -> None:
     """Refuse, in one line naming ``tracking.uri``, a store that cannot serve (see :func:`open_store`)."""
     scheme = urlparse(uri).scheme
+    if not scheme and Path(uri).expanduser().is_file():  # a database file named as a path (MLflow reads a folder so)
+        raise BearingTwinError(f"{store_setting(uri)}: a file's path, not a store's URI; give "
+                               f"sqlite:///{Path(uri).expanduser().resolve()} for the SQLite store in it")
     if (scheme == "file" or (not scheme and uri != "databricks")) and os.environ.get("MLFLOW_ALLOW_FILE_STORE") != "true":
         raise BearingTwinError(f"{store_setting(uri)}: MLflow 3 keeps runs in a database or behind a server, not in a "
                                "folder; give sqlite:///<folder>/mlflow.db or http://<server>")
@@ -604,7 +607,8 @@ def train_tracked(cfg: DictConfig, choices: dict, sweep: SweepInfo | None, root_
     a sweep it is logged and swallowed so the sweep goes on (returns None), in a single run
     it is re-raised so the entry point exits non-zero.
     """
-    check_registration(cfg)
+    if check_registration(cfg)[0] and registry_uri(str(cfg.tracking.uri)) != str(cfg.tracking.uri):
+        check_store(registry_uri(str(cfg.tracking.uri)))  # refused before the training, not after it
     silence = server_silence(str(cfg.tracking.uri)) if sweep is not None and _is_server(str(cfg.tracking.uri)) else None
     if silence is not None:  # gone since the sweep began (a job before this one said when): not run, at once
         log.error("job %s not run: %s: the tracking server does not answer (%s)", sweep.job,
@@ -704,6 +708,18 @@ def _server_lost(uri: str, run_id: str, error: Exception) -> BearingTwinError | 
                             "again and marks it KILLED")
 
 
+USER_REGISTRY_URI = os.environ.get("MLFLOW_REGISTRY_URI") or None
+"""``MLFLOW_REGISTRY_URI`` as the process was started with it: MLflow's ``set_registry_uri`` writes the variable too
+(for its subprocesses), so read later it would give the last store this process registered in."""
+
+
+def registry_uri(tracking_uri: str) -> str:
+    """The Model Registry's store: ``MLFLOW_REGISTRY_URI`` where the user set it, as MLflow's own tools read it
+    (``mlflow.pyfunc.load_model``, ``mlflow models serve``), else the tracking store, as theirs default to: a model
+    registered here is the one they serve, and one they serve is one a diagnosis finds."""
+    return USER_REGISTRY_URI or tracking_uri
+
+
 def store_setting(uri: str) -> str:
     """The store ``uri`` as the user set it, for a message: ``MLFLOW_TRACKING_URI=<uri>`` where the environment gave
     it (no ``tracking.uri=`` on the command line; a relative SQLite file's, read from the launch folder under
@@ -711,6 +727,8 @@ def store_setting(uri: str) -> str:
     from bearingtwin.config import given_on_command_line
 
     given = os.environ.get("MLFLOW_TRACKING_URI", "")
+    if uri == USER_REGISTRY_URI and uri != given and not given_on_command_line("tracking.uri"):
+        return f"MLFLOW_REGISTRY_URI={uri}"
     given_file, read_file = _sqlite_path(given), _sqlite_path(uri)
     same = given == uri or bool(given_file and read_file and not Path(given_file).is_absolute()
                                 and read_file.endswith(f"/{given_file}"))

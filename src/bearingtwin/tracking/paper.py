@@ -39,3 +39,7 @@ TABLE4_NAMES = {
 
 # Section 4.2: the proposed method on the HUST data set, by shaft speed in Hz.
 HUST = {60: 95.00, 65: 97.78, 70: 99.44}
+HUST_CLASSES = {"normal": "H", "inner": "0.5X_I", "ball": "0.5X_B", "outer": "0.5X_O"}
+"""The files (name stems) of its four classes: healthy and the medium (0.5X_) faults, as Table 5 uses them."""
+HUST_CHANNEL = "X"
+"""The accelerometer axis it reads."""

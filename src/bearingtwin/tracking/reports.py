@@ -37,7 +37,9 @@ from omegaconf import OmegaConf, open_dict
 
 from bearingtwin.checks import progress_bar_settings, show_progress_bar
 from bearingtwin.config import CONF_DIR, bearing_config, compose_config
+from bearingtwin.data.hust import hust_condition
 from bearingtwin.errors import BearingTwinError
+from bearingtwin.models.build import TRAINED_BY_THE_TRAINER
 from bearingtwin.physics.geometry import FAULTS
 from bearingtwin.tracking import paper
 from bearingtwin.tracking.mlflow_logging import (HASHED_WHEN_SET_KEYS, PINNED_KEYS, UNHASHED_KEYS, all_experiment_ids,
@@ -480,6 +482,23 @@ def _data_classes(run) -> list[str]:
     return [fault for fault in FAULTS if f"data.classes.{fault}" in params]
 
 
+def _data_set(run) -> str:
+    """What a real-data run read, as a reader tells runs apart by it: its classes' files (HUST's name stems, or CWRU's
+    classes) and the accelerometer channel."""
+    params = run.data.params
+    stems = [params[f"data.classes.{fault}"] for fault in FAULTS if f"data.classes.{fault}" in params]
+    classes = ", ".join(stems or _data_classes(run))
+    return f"{classes}, channel {params['data.channel']}" if "data.channel" in params else classes
+
+
+def _the_papers_hust_data(run) -> bool:
+    """Whether a HUST run read the files the paper's Table 5 reads (the medium faults, channel X): only those stand
+    beside its figures."""
+    params = run.data.params
+    return (len(_data_classes(run)) == len(paper.HUST_CLASSES) and params.get("data.channel") == paper.HUST_CHANNEL
+            and all(params.get(f"data.classes.{fault}") == stem for fault, stem in paper.HUST_CLASSES.items()))
+
+
 def _confusion(source: ReportInput, run) -> tuple[tuple[str, ...], np.ndarray]:
     """A run's confusion matrix and the class names of its rows and columns."""
     with tempfile.TemporaryDirectory() as folder:
@@ -516,53 +535,68 @@ def _on_data_source(source: ReportInput, data_source: str) -> ReportInput:
     return dataclasses.replace(source, settings={**source.settings, "source": data_source})  # the same used and left-out lists
 
 
-def _real_data_report(source: ReportInput, data_source: str, condition: str, unit: str, paper_figures: dict | None) -> str:
+def _real_data_report(source: ReportInput, data_source: str, condition: str, unit: str, paper_figures: dict | None,
+                      as_written: Callable[[object, str], str] = lambda value, key: str(value),
+                      papers_data: Callable = lambda run: True) -> str:
     """Accuracy and per-class recall per (method, ``data.<condition>``, split), and random − block.
 
     The random split shuffles overlapping windows of one record per class, so test windows
     share samples with training windows; the block split does not. Their difference in
-    accuracy is therefore a measurement of that leakage.
+    accuracy is therefore a measurement of that leakage. ``as_written(value, key)``: a condition as the data source
+    reads it (HUST's ``65.0`` is ``65``), the setting's and every run's alike; ``papers_data(run)``: whether a run
+    read the data the paper's figures are of (other classes or channels stand beside none).
     """
     source = _on_data_source(source, data_source)
-    wanted = f"params.`data.{condition}` = '{source.settings[condition]}'" if condition in source.settings else ""
+    wanted = as_written(source.settings[condition], condition) if condition in source.settings else None
+
+    def written(run) -> str:
+        value = run.data.params.get(f"data.{condition}", "?")
+        try:
+            return as_written(value, condition)
+        except BearingTwinError:  # a run logged before the source read its conditions so: as it was logged
+            return value
 
     def group(run) -> tuple[str, ...]:
-        # Runs on other classes or other recordings are other experiments, not seeds of one: the dataset key
+        # Runs on other classes, channels or recordings are other experiments, not seeds of one: the dataset key
         # hashes the files' contents, wherever they lie.
-        return (run.data.params.get(f"data.{condition}", "?"), run.data.params.get("data.split", "?"),
-                " ".join(_data_classes(run)), run.data.tags.get("dataset_key", ""))
+        return (written(run), run.data.params.get("data.split", "?"), _data_set(run), run.data.tags.get("dataset_key", ""))
 
-    runs = source.training_runs(wanted, group_by=group, vmd_params=_vmd_params(source))
+    runs = [run for run in source.training_runs(group_by=group, vmd_params=_vmd_params(source))
+            if wanted is None or written(run) == wanted]
     if not runs:
-        at = f" at {condition}={source.settings[condition]}" if wanted else ""
+        at = f" at {condition}={wanted}" if wanted is not None else ""
         raise _missing(f"data.source={data_source}{at} with features.vmd_params={_vmd_params(source)}", source, _sweep(data_source))
     groups: dict[tuple, list] = {}
     for run in runs:
         groups.setdefault((run.data.tags.get("method"), *group(run), source.setting(run)), []).append(run)
     order = sorted(groups, key=lambda key: (key[0], _number(key[1]) is None, _number(key[1]) or 0.0, *key[1:]))
-    # A cell (method, condition, split) holding runs on several class sets or recordings: each row says which.
+    # A cell (method, condition, split) holding runs on several class sets or recordings, or runs on data other than
+    # the paper's beside its figures: each row says which.
     several_data = len({key[:3] for key in groups}) < len({key[:5] for key in groups})
+    show_data = several_data or paper_figures is not None and not all(papers_data(groups[key][0]) for key in groups)
     rows, accuracy = [], {}
     for key in order:
-        method, value, split, classes, data, label = key
+        method, value, split, data_set, data, label = key
         chosen = groups[key]
         accuracy[key] = _accuracies(chosen)
-        recalls = ", ".join(f"{name} {_recall(chosen, name)}" for name in classes.split())
+        recalls = ", ".join(f"{name} {_recall(chosen, name)}" for name in _data_classes(chosen[0]))
         names, confusion = _summed_confusion(source, chosen)
         row = [f"{value} {unit}", split, _named(method, label), _pm(accuracy[key]), str(len(chosen)), recalls,
                _top_confusions(confusion, names)]
-        if several_data:  # told apart by what a reader sees of them too: a smoke-size run's few windows and epochs
-            sizes = ", ".join(f"{words} {chosen[0].data.params[key]}" for key, words in (
+        if show_data:  # told apart by what a reader sees of them too: a smoke-size run's few windows and epochs
+            params = chosen[0].data.params
+            sizes = ", ".join(f"{words} {params[key]}" for key, words in (
                 ("data.samples_per_class", "windows per class"), ("trainer.max_epochs", "epochs"))
-                if key in chosen[0].data.params)
-            row.insert(3, f"{classes} (dataset {data[:8]}{'; ' + sizes if sizes else ''})")
+                if key in params and (key != "trainer.max_epochs" or params.get("classifier.name") in TRAINED_BY_THE_TRAINER))
+            row.insert(3, f"{data_set} (dataset {data[:8]}{'; ' + sizes if sizes else ''})")
         if paper_figures is not None:
-            published = paper_figures.get(_number(value)) if method == paper.PROPOSED else None
+            published = (paper_figures.get(_number(value)) if method == paper.PROPOSED and papers_data(chosen[0])
+                         else None)
             row += ["—", ""] if published is None else [f"{published:.2f}", _diff(accuracy[key], published)]
         rows.append(row)
     header = [condition, "split", "method", "accuracy % (mean ± std)", "seeds", "recall % by class", "confusions (true→predicted, summed over seeds)"]
-    if several_data:
-        header.insert(3, "classes (dataset key)")
+    if show_data:
+        header.insert(3, "data read (dataset key)")
     if paper_figures is not None:
         header += ["paper %", "ours − paper"]
     gaps = []
@@ -592,7 +626,9 @@ def _number(text: str) -> float | None:
 def hust(source: ReportInput) -> Report:
     """The HUST experiment (section 4.2) by shaft speed and split, beside the paper's figures."""
     figures = {float(hz): value for hz, value in paper.HUST.items()}
-    body = _real_data_report(source, "hust", "condition", "Hz", figures)
+    body = _real_data_report(source, "hust", "condition", "Hz", figures, papers_data=_the_papers_hust_data,
+                             as_written=lambda value, key: hust_condition(value if _number(value) is None
+                                                                          else _number(value), key))
     note = (
         "The paper gives one accuracy per speed for its proposed method, from a 70 / 30 partition it does "
         "not describe further (95 % = 171 / 180 test windows: 150 windows per class, as here); applying "
