@@ -164,6 +164,29 @@ def test_a_byte_order_mark_and_a_data_line_with_a_colon_are_read(tmp_path):
     assert read_raw(tmp_path / "bom_header" / "H_65Hz.xls").meta["header"] == original.meta["header"]  # "Title", not "\xef\xbb\xbfTitle"
 
 
+def test_lines_of_tabs_alone_are_skipped_as_blank_lines(tmp_path):
+    """A spreadsheet saving an export again leaves lines of tabs alone after the data (pandas read each as a row of
+    NaN: refused against Total Data Rows, or as a time column with no rate); one among the rows, or one of more tabs
+    than a row has cells, is skipped too."""
+    text = (HUST / "H_65Hz.xls").read_text()
+    lines = text.splitlines()
+    original = read_raw(HUST / "H_65Hz.xls")
+    at = lines.index("Data") + 100
+    variants = {
+        "after": text + "\t\t\t\t\n\t\t\t\t\n",
+        "after_crlf": text.replace("\n", "\r\n") + "\t\t\t\t\r\n",
+        "no_total": "\n".join(line for line in lines if not line.startswith("Total Data Rows")) + "\n\t\t\t\t\n",
+        "among_rows": "\n".join(lines[:at] + ["\t\t\t\t", ""] + lines[at:]) + "\n",
+        "more_tabs": text + "\t\t\t\t\t\t\t\n",
+    }
+    for name, content in variants.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "H_65Hz.xls").write_bytes(content.encode())
+        raw = read_raw(tmp_path / name / "H_65Hz.xls")
+        np.testing.assert_array_equal(raw.channels["X"], original.channels["X"], err_msg=name)
+        assert raw.fs == 25600, name
+
+
 def test_an_export_saved_again_with_decimal_commas_closing_tabs_or_a_row_of_names_reads_the_same(tmp_path):
     """A spreadsheet or a regional setting may write numbers with decimal commas, close every row with a tab, or
     name the columns in a row below 'Data' (in their own order, with units): each reads the same axes."""
