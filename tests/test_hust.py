@@ -187,6 +187,21 @@ def test_lines_of_tabs_alone_are_skipped_as_blank_lines(tmp_path):
         assert raw.fs == 25600, name
 
 
+def test_a_time_stamp_that_is_not_finite_is_named_by_its_row(tmp_path):
+    lines = [line for line in (HUST / "H_65Hz.xls").read_text().splitlines()
+             if not line.startswith(("Sampling Rate", "Total Data Rows"))]  # the time column alone gives the rate
+    at = lines.index("Data")
+    lines[at + 7] = "nan" + lines[at + 7][lines[at + 7].index("\t"):]
+    (tmp_path / "H_65Hz.xls").write_text("\n".join(lines) + "\n")
+    with pytest.raises(BearingTwinError, match=r"H_65Hz.xls: the time column holds nan at data row 7: a sampling rate "
+                                               r"needs every stamp finite$"):
+        read_raw(tmp_path / "H_65Hz.xls")
+    (tmp_path / "one.xls").write_text("\n".join(lines[:at + 2]) + "\n")
+    with pytest.raises(BearingTwinError, match=r"one.xls: the time column holds 1 value: a sampling rate needs at "
+                                               r"least two$"):
+        read_raw(tmp_path / "one.xls")
+
+
 def test_an_export_saved_again_with_decimal_commas_closing_tabs_or_a_row_of_names_reads_the_same(tmp_path):
     """A spreadsheet or a regional setting may write numbers with decimal commas, close every row with a tab, or
     name the columns in a row below 'Data' (in their own order, with units): each reads the same axes."""
