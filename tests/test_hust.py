@@ -122,6 +122,20 @@ def test_damaged_files_name_file_and_problem(name, problem):
     assert name in str(error.value) and problem in str(error.value)
 
 
+def test_a_copy_cut_short_after_a_tab_or_within_a_number_is_said_to_be_truncated(tmp_path):
+    lines = (HUST / "H_65Hz.xls").read_text().splitlines()
+    at = next(index for index in range(lines.index("Data") + 50, len(lines)) if "\t-" in lines[index][-7:])  # Z < 0
+    kept, cut = "\n".join(lines[:at]) + "\n", lines[at][:lines[at].rindex("\t") + 1]
+    for name, text, problem in [("after_tab.xls", kept + cut, "column Z is empty"),
+                                ("in_number.xls", kept + cut + "-", "column Z: '-' is not a number")]:
+        (tmp_path / name).write_text(text)
+        with pytest.raises(BearingTwinError, match=rf"{name}: line {at + 1} {problem} \(truncated last row\?\)$"):
+            read_raw(tmp_path / name)
+    (tmp_path / "inside.xls").write_text(kept + cut + "\n" + "\n".join(lines[at + 1:]) + "\n")  # not the last line
+    with pytest.raises(BearingTwinError, match=rf"inside.xls: line {at + 1} column Z is empty$"):
+        read_raw(tmp_path / "inside.xls")
+
+
 def test_nan_cell_is_counted_raw_and_refused_when_loaded():
     path = HUST / "damaged" / "nan_cell.xls"
     raw = read_raw(path)

@@ -480,8 +480,9 @@ def _diagnose_rows(path: Path, layout: _DataLayout, columns: _Columns) -> frozen
     last = numbered[-1][0] if numbered else 0
     for number, line in numbered:
         cells = (line.removesuffix("\t") if layout.trailing else line).split("\t")
+        # A copy cut short ends in too few cells, an empty one (cut after a tab) or part of a number ('-', '1e').
+        hint = " (truncated last row?)" if number == last else ""
         if len(cells) != len(expected):
-            hint = " (truncated last row?)" if number == last else ""
             raise BearingTwinError(
                 f"{path}: line {number} has {len(cells)} columns, expected {len(expected)} ({', '.join(expected)}){hint}"
             )
@@ -489,10 +490,11 @@ def _diagnose_rows(path: Path, layout: _DataLayout, columns: _Columns) -> frozen
             if not cell.strip() and column == "speed":  # a column never read (the name gives the speed) may be blank
                 continue
             if not cell.strip():
-                raise BearingTwinError(f"{path}: line {number} column {column} is empty")
+                raise BearingTwinError(f"{path}: line {number} column {column} is empty{hint}")
             try:
                 float(cell.replace(",", ".") if layout.decimal == "," else cell)
             except ValueError:
-                raise BearingTwinError(f"{path}: line {number} column {column}: {cell!r} is not a number") from None
+                raise BearingTwinError(f"{path}: line {number} column {column}: {cell!r} is not a number"
+                                       f"{hint}") from None
     return frozenset(index for index, line in enumerate(lines) if index >= layout.first_row and not line.strip()
                      and "\t" in line)
