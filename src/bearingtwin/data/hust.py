@@ -323,7 +323,7 @@ def _read_header(path: Path) -> tuple[dict[str, str], dict[str, list[str]], int]
     if magic.startswith(b"\xd0\xcf\x11\xe0") or magic.startswith(b"PK\x03\x04"):
         raise BearingTwinError(
             f"{path}: is a binary Excel workbook, not the tab-separated text export the HUST files are; "
-            "export it as text or point data.root at the original files"
+            "save it as tab-separated text, or give the original exports instead"
         )
     header: dict[str, str] = {}
     rows: dict[str, list[str]] = {}
