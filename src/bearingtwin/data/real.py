@@ -113,13 +113,16 @@ def hust_paths(data_cfg) -> dict[str, Path]:
 
 
 def _in_any_case(root: Path, name: str) -> Path:
-    """``root / name``, or the one file of ``root`` whose name differs from it in letter case alone (``h_65hz.xls``: a
-    copy through another operating system or archive may change the case); ``root / name`` where there is none."""
-    path = root / name
-    if path.is_file() or not root.is_dir():
-        return path
-    same = [other for other in root.iterdir() if other.name.lower() == name.lower() and other.is_file()]
-    return same[0] if len(same) == 1 else path
+    """The file of ``root`` named ``name`` in any letter case (``h_65hz.xls``: a copy through another operating
+    system or archive may change the case); ``root / name`` where there is none. Two such files (``H_65Hz.xls``
+    beside ``h_65hz.xls``) are refused: which one the data set means, nothing tells."""
+    if not root.is_dir():
+        return root / name
+    same = sorted(other.name for other in root.iterdir() if other.name.lower() == name.lower() and other.is_file())
+    if len(same) > 1:
+        raise BearingTwinError(f"{root}: {len(same)} files are {name} in one letter case or another "
+                               f"({', '.join(same)}); keep one of them in the folder")
+    return root / (same[0] if same else name)
 
 
 def check_hust_settings(data_cfg) -> tuple[int, int, dict[str, Path]]:
