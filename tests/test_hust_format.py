@@ -299,6 +299,14 @@ def test_two_files_that_are_one_hust_name_in_other_letter_cases_are_refused_nami
         hust_paths(data_config(f"data.root={tmp_path}", "data.condition=65"))
 
 
+def test_a_hust_data_set_missing_its_files_names_the_conditions_the_folder_holds(tmp_path):
+    for stem in ("H", "0.5X_I", "0.5X_B", "0.5X_O"):
+        (tmp_path / f"{stem}_65Hz.xls").write_bytes(OUTER.read_bytes())
+    with pytest.raises(BearingTwinError, match=rf"HUST files missing in {tmp_path}: H_56Hz.xls, .*0.5X_O_56Hz.xls; "
+                                               rf"{tmp_path} holds HUST files for data.condition=65\. This data set"):
+        build_hust_dataset(data_config(f"data.root={tmp_path}", "data.condition=56"))
+
+
 def _edited(tmp_path: Path, name: str, edit) -> Path:
     lines = OUTER.read_text(encoding="latin-1").splitlines()
     path = tmp_path / name
