@@ -2908,6 +2908,17 @@ def test_a_healthy_cwru_record_without_the_drive_end_channel_is_read_on_the_mode
         "FE", ["channel FE, the one the model was trained on (channel=<name> reads another)"])
 
 
+def test_a_folder_or_a_glob_passes_over_excels_lock_files(tmp_path):
+    """Excel leaves ~$<name>.xls beside a workbook open in it: found by a folder or by *.xls, it had been read and
+    refused as a binary workbook, as ._<name> files, which macOS leaves, never were."""
+    from bearingtwin.diagnosis.run import find_records
+
+    (tmp_path / "H_65Hz.xls").write_bytes((Path(__file__).parent / "fixtures" / "hust" / "H_65Hz.xls").read_bytes())
+    (tmp_path / "~$H_65Hz.xls").write_bytes(b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + bytes(154))
+    for path in (tmp_path, tmp_path / "*.xls"):
+        assert [found.name for found in find_records(str(path), None)] == ["H_65Hz.xls"], path
+
+
 def test_a_glob_with_two_stars_reaches_the_folder_itself_and_every_folder_below(tmp_path):
     """``records/**/*.npy`` had matched one folder down only, leaving the records beside it out without a word."""
     from bearingtwin.diagnosis.run import find_records

@@ -329,6 +329,11 @@ def test_tables_that_hold_no_signal_are_no_recordings_of_a_folder(tmp_path, capl
     # A hidden file is no recording, whatever its suffix (macOS leaves ._<name> beside every file it copies).
     (tmp_path / "._normal_run1.npy").write_bytes(b"\x00\x05\x16\x07")
     assert "._normal_run1.npy" not in [path.name for path in recordings_and_others(tmp_path)[0]]
+    # Nor is Excel's lock file beside a workbook open in it, though its name ends .xls (it had been read and refused
+    # as a binary workbook).
+    (tmp_path / "~$outer_run2.xls").write_bytes(b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + bytes(154))
+    assert "~$outer_run2.xls" not in [path.name for path in recordings_and_others(tmp_path)[0]]
+    assert "~$outer_run2.xls" not in recordings_and_others(tmp_path)[1]
     # Notes in words, a table of text and an empty file under .txt or .tsv are passed over even where the pattern
     # names them; a table of numbers under .tsv is a recording.
     (tmp_path / "inner_notes.txt").write_text("Rig B: the inner-race runs, sensor on the housing.\nTimes: 10 s each.\n")

@@ -122,6 +122,20 @@ def test_damaged_files_name_file_and_problem(name, problem):
     assert name in str(error.value) and problem in str(error.value)
 
 
+def test_a_copy_cut_short_after_a_tab_or_within_a_number_is_said_to_be_truncated(tmp_path):
+    lines = (HUST / "H_65Hz.xls").read_text().splitlines()
+    at = next(index for index in range(lines.index("Data") + 50, len(lines)) if "\t-" in lines[index][-7:])  # Z < 0
+    kept, cut = "\n".join(lines[:at]) + "\n", lines[at][:lines[at].rindex("\t") + 1]
+    for name, text, problem in [("after_tab.xls", kept + cut, "column Z is empty"),
+                                ("in_number.xls", kept + cut + "-", "column Z: '-' is not a number")]:
+        (tmp_path / name).write_text(text)
+        with pytest.raises(BearingTwinError, match=rf"{name}: line {at + 1} {problem} \(truncated last row\?\)$"):
+            read_raw(tmp_path / name)
+    (tmp_path / "inside.xls").write_text(kept + cut + "\n" + "\n".join(lines[at + 1:]) + "\n")  # not the last line
+    with pytest.raises(BearingTwinError, match=rf"inside.xls: line {at + 1} column Z is empty$"):
+        read_raw(tmp_path / "inside.xls")
+
+
 def test_nan_cell_is_counted_raw_and_refused_when_loaded():
     path = HUST / "damaged" / "nan_cell.xls"
     raw = read_raw(path)
@@ -162,6 +176,44 @@ def test_a_byte_order_mark_and_a_data_line_with_a_colon_are_read(tmp_path):
         np.testing.assert_array_equal(raw.channels["X"], original.channels["X"])
         assert raw.fs == pytest.approx(25600, rel=1e-4)
     assert read_raw(tmp_path / "bom_header" / "H_65Hz.xls").meta["header"] == original.meta["header"]  # "Title", not "\xef\xbb\xbfTitle"
+
+
+def test_lines_of_tabs_alone_are_skipped_as_blank_lines(tmp_path):
+    """A spreadsheet saving an export again leaves lines of tabs alone after the data (pandas read each as a row of
+    NaN: refused against Total Data Rows, or as a time column with no rate); one among the rows, or one of more tabs
+    than a row has cells, is skipped too."""
+    text = (HUST / "H_65Hz.xls").read_text()
+    lines = text.splitlines()
+    original = read_raw(HUST / "H_65Hz.xls")
+    at = lines.index("Data") + 100
+    variants = {
+        "after": text + "\t\t\t\t\n\t\t\t\t\n",
+        "after_crlf": text.replace("\n", "\r\n") + "\t\t\t\t\r\n",
+        "no_total": "\n".join(line for line in lines if not line.startswith("Total Data Rows")) + "\n\t\t\t\t\n",
+        "among_rows": "\n".join(lines[:at] + ["\t\t\t\t", ""] + lines[at:]) + "\n",
+        "more_tabs": text + "\t\t\t\t\t\t\t\n",
+    }
+    for name, content in variants.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "H_65Hz.xls").write_bytes(content.encode())
+        raw = read_raw(tmp_path / name / "H_65Hz.xls")
+        np.testing.assert_array_equal(raw.channels["X"], original.channels["X"], err_msg=name)
+        assert raw.fs == 25600, name
+
+
+def test_a_time_stamp_that_is_not_finite_is_named_by_its_row(tmp_path):
+    lines = [line for line in (HUST / "H_65Hz.xls").read_text().splitlines()
+             if not line.startswith(("Sampling Rate", "Total Data Rows"))]  # the time column alone gives the rate
+    at = lines.index("Data")
+    lines[at + 7] = "nan" + lines[at + 7][lines[at + 7].index("\t"):]
+    (tmp_path / "H_65Hz.xls").write_text("\n".join(lines) + "\n")
+    with pytest.raises(BearingTwinError, match=r"H_65Hz.xls: the time column holds nan at data row 7: a sampling rate "
+                                               r"needs every stamp finite$"):
+        read_raw(tmp_path / "H_65Hz.xls")
+    (tmp_path / "one.xls").write_text("\n".join(lines[:at + 2]) + "\n")
+    with pytest.raises(BearingTwinError, match=r"one.xls: the time column holds 1 value: a sampling rate needs at "
+                                               r"least two$"):
+        read_raw(tmp_path / "one.xls")
 
 
 def test_an_export_saved_again_with_decimal_commas_closing_tabs_or_a_row_of_names_reads_the_same(tmp_path):
@@ -205,8 +257,10 @@ def test_an_export_saved_again_with_decimal_commas_closing_tabs_or_a_row_of_name
 def test_binary_workbook_is_named(tmp_path):
     path = tmp_path / "H_65Hz.xls"
     path.write_bytes(b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + bytes(512))
-    with pytest.raises(BearingTwinError, match="H_65Hz.xls: is a binary Excel workbook"):
+    with pytest.raises(BearingTwinError, match="H_65Hz.xls: is a binary Excel workbook") as error:
         load_hust(path)
+    # Read for data.root, bearingtwin-diagnose's path= or bearingtwin-twin's measured.path=: no one setting named.
+    assert str(error.value).endswith("save it as tab-separated text, or give the original exports instead")
 
 
 def test_fixtures_are_what_the_script_writes(tmp_path, monkeypatch):

@@ -285,6 +285,28 @@ def test_a_hust_data_set_finds_its_files_under_names_in_another_letter_case(tmp_
                                                             "h_65hz.xls"]
 
 
+@pytest.mark.parametrize("names", [("H_65Hz.xls", "h_65hz.xls"), ("H_65HZ.xls", "h_65hz.xls")])
+def test_two_files_that_are_one_hust_name_in_other_letter_cases_are_refused_naming_both(tmp_path, names):
+    """The exact name had been taken silently beside another copy, and two in other cases reported missing."""
+    for stem in ("0.5X_I", "0.5X_B", "0.5X_O"):
+        (tmp_path / f"{stem}_65Hz.xls").write_bytes(OUTER.read_bytes())
+    (tmp_path / names[0]).write_bytes(OUTER.read_bytes())
+    (tmp_path / names[1]).write_bytes((HUST / "H_65Hz.xls").read_bytes())  # another record
+    from bearingtwin.data.real import hust_paths
+
+    with pytest.raises(BearingTwinError, match=rf"^{tmp_path}: 2 files are H_65Hz.xls in one letter case or another "
+                                               rf"\({names[0]}, {names[1]}\); keep one of them in the folder$"):
+        hust_paths(data_config(f"data.root={tmp_path}", "data.condition=65"))
+
+
+def test_a_hust_data_set_missing_its_files_names_the_conditions_the_folder_holds(tmp_path):
+    for stem in ("H", "0.5X_I", "0.5X_B", "0.5X_O"):
+        (tmp_path / f"{stem}_65Hz.xls").write_bytes(OUTER.read_bytes())
+    with pytest.raises(BearingTwinError, match=rf"HUST files missing in {tmp_path}: H_56Hz.xls, .*0.5X_O_56Hz.xls; "
+                                               rf"{tmp_path} holds HUST files for data.condition=65\. This data set"):
+        build_hust_dataset(data_config(f"data.root={tmp_path}", "data.condition=56"))
+
+
 def _edited(tmp_path: Path, name: str, edit) -> Path:
     lines = OUTER.read_text(encoding="latin-1").splitlines()
     path = tmp_path / name

@@ -85,6 +85,26 @@ def test_require_files_names_only_the_absent_files_and_data_root(tmp_path):
     assert str(FIXTURES) in message and "data.root=" in message
 
 
+def test_missing_hust_files_are_named_with_the_conditions_the_folder_holds_or_its_subfolder_that_holds_them(tmp_path):
+    def hust(root, condition):
+        return OmegaConf.create({"data": {"source": "hust", "root": str(root), "condition": condition,
+                                          "classes": dict(zip(FAULTS, HUST_STEMS))}})
+
+    (tmp_path / "hust").mkdir()
+    for path in FIXTURES.glob("*_65Hz.xls"):
+        shutil.copy(path, tmp_path / "hust")
+    shutil.copy(FIXTURES / "H_65Hz.xls", tmp_path / "hust" / "h_vs_0_40_0hz.xls")
+    shutil.copy(FIXTURES / "H_65Hz.xls", tmp_path / "hust" / "0.5X_O_60Hz.xls")
+    with pytest.raises(BearingTwinError) as error:
+        require_files([hust(tmp_path / "hust", 56)])
+    assert f"; {tmp_path}/hust holds HUST files for data.condition=60, 65, VS_0_40_0. Put" in str(error.value)
+    # An archive unpacked one level down: the folder holds none, its subfolder all of them.
+    with pytest.raises(BearingTwinError) as error:
+        require_files([hust(tmp_path, 65)])
+    assert (f"; {tmp_path} holds no HUST file, but its subfolder hust does: data.root={tmp_path}/hust. Put"
+            in str(error.value)) and len(str(error.value).splitlines()) == 1
+
+
 def test_hust_sweep_on_absent_files_exits_2_and_logs_nothing(tmp_path):
     present = tmp_path / "hust"
     present.mkdir()

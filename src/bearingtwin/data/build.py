@@ -210,9 +210,13 @@ def require_files(cfgs: Iterable[DictConfig]) -> None:
         folders = ", ".join(sorted({str(path.parent) for path in missing}))
         sources = "/".join(sorted({needed[path].upper() for path in missing}))
         found = [path.name for path in needed if path not in missing]
+        from bearingtwin.data.real import hust_folder_holds
+
+        held = [note for folder in sorted({path.parent for path in missing if needed[path] == "hust"})
+                if (note := hust_folder_holds(folder))]  # another condition's files, or the files one folder down
         problems.insert(0,
             f"{sources} data files missing from {folders}: {', '.join(path.name for path in missing)}"
-            + (f" (found: {', '.join(found)})" if found else "")
+            + (f" (found: {', '.join(found)})" if found else "") + "".join(f"; {note}" for note in held)
             + ". Put all of them in one folder and pass data.root=<that folder>"
         )
     if problems:

@@ -701,8 +701,13 @@ def fs_from_time_column(time_s: np.ndarray, source: str, column: str = "time") -
     at 12000 Hz, as a file's stated rate would be (another rate would need resampling).
     """
     time_s = np.asarray(time_s, dtype=np.float64)
-    if time_s.size < 2 or not np.all(np.isfinite(time_s)):
-        raise BearingTwinError(f"{source}: the time column needs at least two finite values to give a sampling rate")
+    if time_s.size < 2:
+        raise BearingTwinError(f"{source}: the {column} column holds {time_s.size} "
+                               f"value{'' if time_s.size == 1 else 's'}: a sampling rate needs at least two")
+    if not np.all(np.isfinite(time_s)):
+        row = int(np.argmax(~np.isfinite(time_s)))
+        raise BearingTwinError(f"{source}: the {column} column holds {time_s[row]:g} at data row {row + 1}: a sampling "
+                               "rate needs every stamp finite")
     steps = np.diff(time_s)
     if np.any(steps <= 0):  # a stamp that goes back before one that repeats (stamps printed coarsely repeat)
         row = int(np.argmax(steps < 0) if np.any(steps < 0) else np.argmax(steps == 0)) + 1

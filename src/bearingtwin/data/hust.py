@@ -323,7 +323,7 @@ def _read_header(path: Path) -> tuple[dict[str, str], dict[str, list[str]], int]
     if magic.startswith(b"\xd0\xcf\x11\xe0") or magic.startswith(b"PK\x03\x04"):
         raise BearingTwinError(
             f"{path}: is a binary Excel workbook, not the tab-separated text export the HUST files are; "
-            "export it as text or point data.root at the original files"
+            "save it as tab-separated text, or give the original exports instead"
         )
     header: dict[str, str] = {}
     rows: dict[str, list[str]] = {}
@@ -432,23 +432,29 @@ def _data_layout(path: Path, data_line: int) -> _DataLayout:
     return _DataLayout(first_row, names, decimal, trailing)
 
 
-def _read_table(path: Path, layout: _DataLayout, columns: _Columns) -> np.ndarray:
+def _read_table(path: Path, layout: _DataLayout, columns: _Columns, tabs_only: frozenset[int] = frozenset()
+                ) -> np.ndarray:
     """The rows of numbers as (n, 1 + the ``columns``' count) float64: time and the columns the Legend names.
 
     pandas' C parser reads a 262,144-row file several times faster than numpy.loadtxt
     (benchmarks/hust_read.md) but pads short rows and empty cells with NaN and names no
     line on a bad cell; so whenever it fails or returns a NaN, the rows are re-checked one
     by one to tell a NaN written in the file from a damaged row and to name the line.
+    It skips blank lines but reads a line of tabs alone (a spreadsheet saving the file again leaves them after the
+    data) as a row of NaN, or as too many cells: the re-check finds those lines (``tabs_only``, 0-based), and the
+    rows are read again without them, as blank lines.
     """
     import pandas as pd
 
+    skipped = sorted({*range(layout.first_row), *tabs_only}) if tabs_only else layout.first_row
     try:
-        table = pd.read_csv(path, sep="\t", header=None, skiprows=layout.first_row, dtype=np.float64, engine="c",
+        table = pd.read_csv(path, sep="\t", header=None, skiprows=skipped, dtype=np.float64, engine="c",
                             decimal=layout.decimal).to_numpy()
     except pd.errors.EmptyDataError:
         raise BearingTwinError(f"{path}: no data rows after the 'Data' line") from None
     except (ValueError, pd.errors.ParserError) as error:
-        _diagnose_rows(path, layout, columns)
+        if (found := _diagnose_rows(path, layout, columns)) and not tabs_only:
+            return _read_table(path, layout, columns, found)
         raise BearingTwinError(f"{path}: unreadable data rows ({error})") from None
     expected = ("time", *columns.names)
     if layout.trailing and table.shape[1] == len(expected) + 1 and np.isnan(table[:, -1]).all():
@@ -458,22 +464,25 @@ def _read_table(path: Path, layout: _DataLayout, columns: _Columns) -> np.ndarra
         raise BearingTwinError(
             f"{path}: data rows have {table.shape[1]} columns, expected {len(expected)} ({', '.join(expected)}){named}"
         )
-    if np.isnan(table).any():
-        _diagnose_rows(path, layout, columns)
+    # Read again without its lines of tabs, the table's NaN are written in the file (the re-check allowed them).
+    if not tabs_only and np.isnan(table).any() and (found := _diagnose_rows(path, layout, columns)):
+        return _read_table(path, layout, columns, found)
     return table
 
 
-def _diagnose_rows(path: Path, layout: _DataLayout, columns: _Columns) -> None:
-    """Raise naming the first row that is not time and the ``columns``' numbers; NaN written as such is allowed."""
+def _diagnose_rows(path: Path, layout: _DataLayout, columns: _Columns) -> frozenset[int]:
+    """Raise naming the first row that is not time and the ``columns``' numbers; NaN written as such is allowed.
+    Blank lines are passed over; those holding a tab (which pandas reads as a row) are returned, 0-based."""
     expected = ("time", *columns.names)
-    with open(path, encoding="latin-1") as handle:
-        lines = handle.read().splitlines()
+    with open(path, encoding="latin-1") as handle:  # lines as _data_layout counts them, and pandas
+        lines = [line.rstrip("\r\n") for line in handle]
     numbered = [(number, line) for number, line in enumerate(lines, 1) if number > layout.first_row and line.strip()]
     last = numbered[-1][0] if numbered else 0
     for number, line in numbered:
         cells = (line.removesuffix("\t") if layout.trailing else line).split("\t")
+        # A copy cut short ends in too few cells, an empty one (cut after a tab) or part of a number ('-', '1e').
+        hint = " (truncated last row?)" if number == last else ""
         if len(cells) != len(expected):
-            hint = " (truncated last row?)" if number == last else ""
             raise BearingTwinError(
                 f"{path}: line {number} has {len(cells)} columns, expected {len(expected)} ({', '.join(expected)}){hint}"
             )
@@ -481,8 +490,11 @@ def _diagnose_rows(path: Path, layout: _DataLayout, columns: _Columns) -> None:
             if not cell.strip() and column == "speed":  # a column never read (the name gives the speed) may be blank
                 continue
             if not cell.strip():
-                raise BearingTwinError(f"{path}: line {number} column {column} is empty")
+                raise BearingTwinError(f"{path}: line {number} column {column} is empty{hint}")
             try:
                 float(cell.replace(",", ".") if layout.decimal == "," else cell)
             except ValueError:
-                raise BearingTwinError(f"{path}: line {number} column {column}: {cell!r} is not a number") from None
+                raise BearingTwinError(f"{path}: line {number} column {column}: {cell!r} is not a number"
+                                       f"{hint}") from None
+    return frozenset(index for index, line in enumerate(lines) if index >= layout.first_row and not line.strip()
+                     and "\t" in line)

@@ -298,6 +298,11 @@ def first_messages(messages: list[str], shown: int = 3) -> str:
     return "; ".join(messages[:shown]) + (f"; and {more} more" if more > 0 else "")
 
 
+NOT_LISTED = (".", "~$")
+"""How the names of a folder's files that are no one's data begin: hidden files (macOS leaves ._<name> beside every
+file it copies) and Excel's lock files (~$<name> beside a workbook open in Excel, a few bytes of its own format)."""
+
+
 def recordings_in(folder: Path) -> list[Path]:
     """The files of a folder bearingtwin reads as recordings, sorted (:func:`recordings_and_others`)."""
     return recordings_and_others(folder)[0]
@@ -306,13 +311,15 @@ def recordings_in(folder: Path) -> list[Path]:
 def recordings_and_others(folder: Path) -> tuple[list[Path], dict[str, str]]:
     """A folder's recordings, sorted by name, and why each of its other files is none (``name -> reason``): a format
     bearingtwin does not read, or a text table of something else or a note (:func:`why_not_a_recording`). The labels table and
-    hidden files (a name starting with '.') are neither."""
+    hidden and lock files (:data:`NOT_LISTED`) are neither."""
     recordings, others = [], {}
     for path in sorted(folder.iterdir()):
-        if path.is_symlink() and not path.exists() and not path.name.startswith("."):
+        if path.name.startswith(NOT_LISTED):
+            continue
+        if path.is_symlink() and not path.exists():
             others[path.name] = "a link to nothing (its target is gone, or it links back to itself)"
             continue
-        if not path.is_file() or path.name == DEFAULT_LABELS or path.name.startswith("."):  # ._x.npy: macOS metadata
+        if not path.is_file() or path.name == DEFAULT_LABELS:
             continue
         if path.suffix.lower() not in FORMATS:
             others[path.name] = f"not {', '.join(FORMATS)}"

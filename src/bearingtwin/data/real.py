@@ -24,7 +24,7 @@ from bearingtwin.config import load_bearing, plain_config
 from bearingtwin.storage import content_key, file_digest
 from bearingtwin.data.cwru import declared_fs_hz, load_cwru, parse_cwru_name
 from bearingtwin.data.formats import SIMULATED_RATE, file_bearing, load_recording, speed_setting
-from bearingtwin.data.hust import CHANNELS as HUST_AXES, hust_file_name, load_hust, parse_hust_name
+from bearingtwin.data.hust import CHANNELS as HUST_AXES, HustName, hust_file_name, load_hust, parse_hust_name
 from bearingtwin.data.labels import first_messages, rows_from_labels, rows_from_pattern
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.units import acceleration_unit, convert_acceleration
@@ -82,9 +82,10 @@ def build_hust_dataset(data_cfg) -> WindowedDataset:
     root, names = Path(_get(cfg, "root")), [path.name for path in paths]
     missing = [path.name for path in paths if not path.is_file()]
     if missing:
+        held = hust_folder_holds(root)
         raise BearingTwinError(
-            f"HUST files missing in {root}: {', '.join(missing)}. This data set needs {', '.join(names)} "
-            f"(from the HUST bearing data set); put them in one folder and pass data.root=<dir>"
+            f"HUST files missing in {root}: {', '.join(missing)}{f'; {held}' if held else ''}. This data set needs "
+            f"{', '.join(names)} (from the HUST bearing data set); put them in one folder and pass data.root=<dir>"
         )
     recordings = [load_hust(path, channel=_get(cfg, "channel"), fs=_get(cfg, "fs"), channel_key="data.channel",
                             fs_key="data.fs") for path in paths]
@@ -112,14 +113,40 @@ def hust_paths(data_cfg) -> dict[str, Path]:
     return paths
 
 
+def hust_folder_holds(root: Path) -> str:
+    """What a folder short of a condition's HUST files holds, as a refusal says it: the conditions its HUST files
+    are at (``/data holds HUST files for data.condition=60, 65, VS_0_40_0``), or, holding none, the subfolders
+    one level down that hold some (an archive unpacked into a folder of its own); "" where it holds neither."""
+    if not root.is_dir():
+        return ""
+    here = _hust_names(root)
+    if here:
+        conditions = sorted({(name.shaft_hz is None, name.shaft_hz or 0.0, name.condition.removesuffix("Hz"))
+                             for name in here})  # by speed, the variable-speed run last
+        return f"{root} holds HUST files for data.condition={', '.join(condition for *_, condition in conditions)}"
+    below = sorted(folder.name for folder in root.iterdir() if folder.is_dir() and _hust_names(folder))
+    if len(below) == 1:
+        return f"{root} holds no HUST file, but its subfolder {below[0]} does: data.root={root / below[0]}"
+    return f"{root} holds no HUST file, but its subfolders {', '.join(below)} do" if below else ""
+
+
+def _hust_names(folder: Path) -> list[HustName]:
+    """What the names of a folder's HUST files say (:func:`~bearingtwin.data.hust.parse_hust_name`)."""
+    return [name for path in folder.iterdir() if path.suffix.lower() == ".xls" and path.is_file()
+            and (name := parse_hust_name(path)) is not None]
+
+
 def _in_any_case(root: Path, name: str) -> Path:
-    """``root / name``, or the one file of ``root`` whose name differs from it in letter case alone (``h_65hz.xls``: a
-    copy through another operating system or archive may change the case); ``root / name`` where there is none."""
-    path = root / name
-    if path.is_file() or not root.is_dir():
-        return path
-    same = [other for other in root.iterdir() if other.name.lower() == name.lower() and other.is_file()]
-    return same[0] if len(same) == 1 else path
+    """The file of ``root`` named ``name`` in any letter case (``h_65hz.xls``: a copy through another operating
+    system or archive may change the case); ``root / name`` where there is none. Two such files (``H_65Hz.xls``
+    beside ``h_65hz.xls``) are refused: which one the data set means, nothing tells."""
+    if not root.is_dir():
+        return root / name
+    same = sorted(other.name for other in root.iterdir() if other.name.lower() == name.lower() and other.is_file())
+    if len(same) > 1:
+        raise BearingTwinError(f"{root}: {len(same)} files are {name} in one letter case or another "
+                               f"({', '.join(same)}); keep one of them in the folder")
+    return root / (same[0] if same else name)
 
 
 def check_hust_settings(data_cfg) -> tuple[int, int, dict[str, Path]]:

@@ -38,9 +38,9 @@ from bearingtwin.checks import positive_number, true_or_false
 from bearingtwin.config import bearing_config, output_folder
 from bearingtwin.data.cwru import parse_cwru_name
 from bearingtwin.data.formats import FORMATS, known_unit, scale_and_unit
-from bearingtwin.data.labels import (DEFAULT_LABELS, LabelsRow, first_messages, labels_row, labels_table_with_bad_rows,
-                                     names_file, read_labels, recordings_and_others, scale_and_unit_given, warn_left_out,
-                                     why_not_a_recording)
+from bearingtwin.data.labels import (DEFAULT_LABELS, NOT_LISTED, LabelsRow, first_messages, labels_row,
+                                     labels_table_with_bad_rows, names_file, read_labels, recordings_and_others,
+                                     scale_and_unit_given, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings
 from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
 from bearingtwin.diagnosis.record import (CONDITION_KEYS, FEW_WINDOWS, diagnose_recording, one_line, plot_diagnosis,
@@ -108,7 +108,8 @@ def find_records(path: str, labels_path: Path | None) -> list[Path]:
         return [candidate]  # named on its own: read as a recording, its reader naming what it is not
     elif is_glob:
         # ** reaches every folder below (records/**/*.csv holds records/*.csv too), as a shell's globstar does.
-        matched = sorted(Path(p) for p in glob.glob(str(candidate), recursive=True) if Path(p).is_file())
+        matched = sorted(Path(p) for p in glob.glob(str(candidate), recursive=True)
+                         if Path(p).is_file() and not Path(p).name.startswith(NOT_LISTED))  # *.xls meets ~$x.xls
         if not matched:
             raise BearingTwinError(f"path={path}: the pattern matches no file")
         reasons = {p: why_not_a_recording(p) for p in matched}
