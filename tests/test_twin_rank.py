@@ -588,6 +588,33 @@ def test_a_sensor_floor_40_db_below_the_bearing_is_found_where_it_lies(cfg):
     low, high = noise.intervals["snr_db"]
     assert 33.0 < noise.params["snr_db"] < 47.0 and low <= 40.0 <= high, (noise.params, noise.intervals)
     assert low > 20.0, noise.intervals  # a faint floor is told from a loud one: the interval is no whole box
+    # The level its ratio refers to, which a later run holding this one as its reference keeps the floor at.
+    twin = TwinModel("outer", cfg.bearing, cfg.simulator, seed=0)
+    assert fit.noise_reference_rms == pytest.approx(np.sqrt(np.mean(twin.signal(fit.base_params) ** 2)), rel=1e-9)
+
+
+def test_a_noise_held_at_its_absolute_level_is_the_ratio_on_its_own_twin_and_the_sensors_floor_on_another(cfg):
+    """``level_under`` gives the RMS a noise's ratio refers to: the twin before the noise, a resonance acting after
+    it left out (it filters the noise, not that level). At that absolute level the noise is the same twin as the
+    ratio, sample for sample; under a defect 25 times deeper the ratio's floor rises as much with the bearing's signal, the
+    absolute level's stays where it was, as a sensor's floor does."""
+    twin = TwinModel("outer", cfg.bearing, cfg.simulator, seed=3)
+    shallow, deep = TRUTH, {**TRUTH, "simulator.defect.depth_mm": 0.1}
+    noise = {"snr_db": 0.0, "spectral_slope": 1.0}
+    mode = {"resonance": {"natural_frequency_hz": 2500.0, "damping_ratio": 0.05}}
+    effects = {"noise": noise, **mode}
+    level = twin.level_under("noise", shallow, effects)
+    assert level == pytest.approx(np.sqrt(np.mean(twin.signal(shallow) ** 2)), rel=1e-12)
+    absolute = {**effects, "noise": {**noise, "reference_rms": level}}
+    np.testing.assert_allclose(twin.signal(shallow, absolute), twin.signal(shallow, effects), rtol=1e-9, atol=1e-12)
+
+    def floor_rms(base, with_noise):
+        return np.sqrt(np.mean((twin.signal(base, with_noise) - twin.signal(base, mode)) ** 2))
+
+    louder = twin.level_under("noise", deep, effects) / level
+    assert louder > 1.5  # the deeper defect's own signal
+    assert floor_rms(deep, absolute) == pytest.approx(floor_rms(shallow, absolute), rel=1e-9)
+    assert floor_rms(deep, effects) / floor_rms(shallow, effects) == pytest.approx(louder, rel=1e-6)
 
 
 def test_a_noise_floor_the_operating_point_took_up_is_claimed_after_their_joint_refit(tmp_path):

@@ -41,6 +41,20 @@ def test_what_the_config_leaves_to_fit_takes_the_references_value_and_what_it_gi
     assert cfg.operating_point.radial_load_n is None and list(cfg.effects) == ["noise"]  # the given config untouched
 
 
+def test_a_references_noise_is_held_at_the_absolute_level_its_report_gives():
+    """The floor is the sensor's: kept at the reference's level (``noise_reference_rms``), not as a ratio to this twin's
+    signal, which a defect grown since would raise. A noise already at an absolute level keeps its own; a report
+    without the level (or without noise) leaves the noise as it was fitted."""
+    noise = {"snr_db": -20.0, "spectral_slope": 0.5, "reference_rms": None}
+    held = hold_reference(twin_config(), {**report(effects={"noise": noise}), "noise_reference_rms": 0.03}, "outer")
+    assert dict(held.effects.noise) == {**noise, "reference_rms": 0.03}
+    already = {**noise, "reference_rms": 0.5}
+    held = hold_reference(twin_config(), {**report(effects={"noise": already}), "noise_reference_rms": 0.03}, "outer")
+    assert held.effects.noise.reference_rms == 0.5
+    assert hold_reference(twin_config(), report(effects={"noise": noise}), "outer").effects.noise.reference_rms is None
+    assert "noise" not in hold_reference(twin_config(), {**report(), "noise_reference_rms": 0.03}, "outer").effects
+
+
 def test_a_reference_of_another_bearing_state_gives_no_defect_size():
     held = hold_reference(twin_config(), report(fault="normal"), "inner")
     assert held.operating_point.defect_depth_mm is None and held.operating_point.radial_load_n == 650.0
@@ -122,6 +136,7 @@ def test_a_report_that_does_not_say_its_bearing_state_gives_no_defect_size():
     (lambda r: r["operating_point"].pop("sensor"), "operating_point gives no sensor"),
     (lambda r: r.update(steps={"0": {"params": {}}}), "not a twin_report.json"),
     (lambda r: r.update(measured="outer"), "measured is not a mapping"),
+    (lambda r: r.update(noise_reference_rms=-0.1), "noise_reference_rms=-0.1 is not a positive number"),
 ])
 def test_a_report_missing_what_a_reference_gives_is_named(tmp_path, change, message):
     import json

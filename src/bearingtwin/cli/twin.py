@@ -75,7 +75,9 @@ def twin_summary(cfg: DictConfig, fit: TwinFit, files: list[Path], run_id: str |
             f"; tried as changed: {', '.join(tried)}" if tried else "")
     lines = {**(notes or {}), **lines}
     if cfg.get("reference") is not None:
-        kept = ", ".join(name for name in fit.steps[0].effects if name not in cfg.effects) or "none"
+        kept = ", ".join(name + (" (its floor at the reference's absolute level)" if name == "noise" and params.get(
+            "reference_rms") is not None else "") for name, params in fit.steps[0].effects.items()
+            if name not in cfg.effects) or "none"
         lines = {"reference": f"{cfg.reference} (its operating point held where this run gives none; its effects "
                               f"kept: {kept})", **lines}
     title = f"bearingtwin-twin: {Path(str(cfg.measured.path)).name}"

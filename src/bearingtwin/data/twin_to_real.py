@@ -56,7 +56,7 @@ from bearingtwin.data.labels import LabelledFile, rows_from_labels
 from bearingtwin.data.recording import Recording, WindowedDataset, warn_of_quality
 from bearingtwin.data.windows import check_windows_fit, cut_windows, normalize_windows
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effects import build_effects, effect_class, in_signal_order, order_identity, sensor_only
+from bearingtwin.physics.effects import acting_before, build_effects, order_identity
 from bearingtwin.physics.geometry import FAULTS, BearingGeometry, check_fault
 from bearingtwin.physics.simulator import records_identity, simulate, simulate_at_speeds
 from bearingtwin.signal.sampling_rate import check_channels, decisive_channel, describe_mismatch, rate_witnesses
@@ -372,10 +372,7 @@ def healthy_twin_rms(report_path: str | Path, step: int | str, healthy: Recordin
     absolute noise floor.
     """
     base_params, effects = calibration_step(report_path, step, "data.calibration.healthy")
-    names = list(in_signal_order(effects))
-    after = names[names.index("noise") + 1:] if "noise" in effects else []
-    effects = {name: params for name, params in effects.items()
-               if name != "noise" and not (name in after and sensor_only(effect_class(name)))}
+    effects = acting_before("noise", effects) if "noise" in effects else effects
     bearing, simulator = with_base_params(bearing_cfg, simulator_cfg, base_params, report_path)
     recording, _ = simulate("normal", bearing, {**simulator, "rpm": float(healthy.rpm)}, effects)
     return float(recording.signal.std())

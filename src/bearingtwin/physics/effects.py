@@ -172,6 +172,16 @@ def in_signal_order(effects_cfg: Mapping) -> dict:
     return dict(sorted(effects_cfg.items(), key=lambda item: records_last(item[0])))  # a stable sort
 
 
+def acting_before(name: str, effects_cfg: Mapping) -> dict:
+    """The effects of ``effects_cfg`` that shape the signal effect ``name`` acts on: every one acting inside the
+    simulation, and those on the sensor path before it in signal order (a resonance found after a noise filters
+    the noise, not the signal the noise's level refers to)."""
+    ordered = list(in_signal_order(effects_cfg))
+    after = ordered[ordered.index(name) + 1:]
+    return {other: params for other, params in effects_cfg.items()
+            if other != name and not (other in after and sensor_only(effect_class(other)))}
+
+
 def order_identity(effects_cfg: Mapping | None) -> dict:
     """What a cache key of simulations needs beside the effects mapping, which a content hash reads in any order:
     the order they act in (:func:`in_signal_order`), where there are several (one effect alone, or none, keeps

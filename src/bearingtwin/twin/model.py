@@ -23,7 +23,8 @@ from omegaconf import OmegaConf
 
 from bearingtwin.config import CONF_DIR, compose_config, plain_config, search_path_override
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.physics.effects import build_effects, effect_class, in_signal_order, registered_effects, sensor_only
+from bearingtwin.physics.effects import (acting_before, build_effects, effect_class, in_signal_order,
+                                         registered_effects, sensor_only)
 from bearingtwin.physics.geometry import FAULTS, check_fault
 from bearingtwin.physics.simulator import sensor_signal, simulate
 
@@ -129,6 +130,11 @@ class TwinModel:
                 node = node[part]
             node[leaf] = float(value)  # the sensor keys select what is read of a simulation: never set here
         return cfg
+
+    def level_under(self, name: str, base: Mapping, effects: Mapping[str, Mapping]) -> float:
+        """RMS (m/s^2) of the signal that effect ``name`` of ``effects`` acts on in this twin with base parameters
+        ``base``: the level a ratio it was fitted as refers to (``noise.snr_db``)."""
+        return float(np.sqrt(np.mean(self.signal(base, acting_before(name, effects)) ** 2)))
 
     def signal(self, base: Mapping | None = None, effects: Mapping[str, Mapping] | None = None) -> np.ndarray:
         """The sensor signal (m/s^2) with base parameters ``base`` and ``effects`` in the order they act."""

@@ -297,6 +297,10 @@ class TwinFit:
     # no line stands out, a held effect tried as changed and found as held): they found nothing to fit, so they are
     # not ranked, where they would stand above every candidate that made the twin worse.
     found_nothing: list[str] = field(default_factory=list)
+    # RMS (m/s^2) of the final twin's signal its noise acts on, which noise.snr_db refers to (None: no noise, or one
+    # at an absolute level already): a later run that takes this report as its reference holds the noise at this
+    # absolute level, the sensor's floor, where the ratio would scale it with whatever the bearing's signal became.
+    noise_reference_rms: float | None = None
 
     @property
     def final_error(self) -> float:
@@ -449,6 +453,7 @@ class TwinFit:
             "awaiting": self.awaiting,
             "since_reference": self.since_reference,
             "level_since_reference_db": self.level_since_reference_db,
+            "noise_reference_rms": self.noise_reference_rms,
             "level_not_compared": self.level_not_compared or None,
             "reference_note": self.reference_note,
             "final_error": self.final_error,
@@ -899,10 +904,13 @@ class EffectRanker:
         awaiting = "" if not_tried else "; ".join(
             f"{name} (needs {_listed(list(missing))}, which the twin did not take)" for name, missing in
             self._waiting(twin.fault, current_effects))
+        relative_noise = "noise" in current_effects and current_effects["noise"].get("reference_rms") is None
         self.fit_ = TwinFit(operating, dict(base), current.gain, steps[0].error, ranking, steps, added,
                             judge.unexplained(current), floor, judge.held_out, rounds, dict(judge.repeatability_db),
                             unclaimed, self.min_signature_gain, not_tried, pairs, passed_over=passed_over,
-                            awaiting=awaiting, unit=measured.unit, found_nothing=found_nothing)
+                            awaiting=awaiting, unit=measured.unit, found_nothing=found_nothing,
+                            noise_reference_rms=twin.level_under("noise", base, current_effects) if relative_noise
+                            else None)
         return self
 
     def _not_tried(self, fault: str) -> str:

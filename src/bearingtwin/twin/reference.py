@@ -6,7 +6,10 @@ resonance that appeared, a supply line, clipping) is the question. So a user fir
 twin against a baseline record (``bearingtwin-twin ... out=baseline``) and then against the new
 one with ``reference=baseline/twin_report.json``: the reference's operating point is held
 wherever the new run would otherwise fit it, and its effects are kept in the twin at their fitted
-values; as candidates they are tried changed (an unbalance grown since the reference). A defect's size is held only from a reference of the same bearing state (a
+values; as candidates they are tried changed (an unbalance grown since the reference). Its noise is
+kept at the absolute level it had there (``noise.reference_rms``, the report's ``noise_reference_rms``),
+not as a ratio to the new twin's signal: the floor is the sensor's and the machine's, and a grown
+defect must not raise it. A defect's size is held only from a reference of the same bearing state (a
 healthy reference has none; a report that does not say its state gives none either). A reference
 of a bearing of another geometry is refused, and so is an ``out=`` folder that holds the reference.
 """
@@ -63,6 +66,9 @@ def read_reference(path) -> dict:
                 raise BearingTwinError(f"{where}: operating_point.sensor gives no race (inner or outer) and angle_deg")
         elif not (isinstance(entry, dict) and is_finite_number(entry.get("value"))):
             raise BearingTwinError(f"{where}: operating_point.{name} has no numeric value")
+    level = report.get("noise_reference_rms")
+    if level is not None and not (is_finite_number(level) and level > 0):
+        raise BearingTwinError(f"{where}: noise_reference_rms={level!r} is not a positive number (m/s^2) or null")
     effects = report["steps"][-1].get("params") if isinstance(report["steps"][-1], dict) else None
     if not isinstance(effects, dict) or not all(isinstance(params, dict) for params in effects.values()):
         raise BearingTwinError(f"{where}: steps[-1].params is not the final twin's effects (name -> parameters)")
@@ -130,8 +136,9 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
     sensor takes the reference's race and direction unless the config names a direction itself;
     further keys the config would fit (``calibration.base``) are held at the reference's values
     (``calibration.base_held``), so this run's report lists them as held, as a later run reads them.
-    The reference's effects (its final twin's, with their fitted parameters) come first in
-    ``effects``, the config's own after them; those among ``candidates`` stay there, to be tried as changed.
+    The reference's effects (its final twin's, with their fitted parameters; its noise at the absolute level the
+    report gives, ``noise_reference_rms``) come first in ``effects``, the config's own after them; those among
+    ``candidates`` stay there, to be tried as changed.
     """
     held = copy.deepcopy(cfg)
     OmegaConf.set_readonly(held, False)
@@ -139,6 +146,10 @@ def hold_reference(cfg: DictConfig, report: Mapping, fault: str, source: str = "
     measured = report.get("measured") or {}
     require_same_bearing(cfg.bearing, measured, source)
     effects = dict(report["steps"][-1]["params"])
+    level = report.get("noise_reference_rms")
+    if "noise" in effects and effects["noise"].get("reference_rms") is None and level is not None:
+        # The sensor's floor, in the twin's m/s^2: as a ratio to this twin's signal, a grown defect would raise it.
+        effects["noise"] = {**effects["noise"], "reference_rms": float(level)}
     clash = sorted(set(effects) & set(cfg.effects))
     if clash:
         raise BearingTwinError(f"effects.{clash[0]}: the reference already keeps {clash[0]} at its fitted values; "
