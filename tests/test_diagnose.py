@@ -1240,6 +1240,25 @@ def test_a_models_own_folder_is_read_without_a_store(registered, tmp_path):
     assert loaded == folder and pipeline is not None and not (tmp_path / "absent.db").exists()
 
 
+def test_a_model_whose_run_was_deleted_is_said_to_be(registered):
+    """A registered model whose run its owner deleted still loads (the version keeps its model); the diagnosis says
+    the run is deleted, as it says every other doubt about what it read."""
+    from bearingtwin.diagnosis.mlflow_model import deleted_run_words
+
+    _, uri = registered
+    client = MlflowClient(tracking_uri=uri, registry_uri=uri)
+    model, _, _ = load_diagnosis_model("models:/diag@champion", uri)
+    assert deleted_run_words(model, "models:/diag@champion", uri) == ""
+    run_id = model.metadata.run_id
+    client.delete_run(run_id)
+    try:
+        model, _, _ = load_diagnosis_model("models:/diag@champion", uri)
+        assert deleted_run_words(model, "models:/diag@champion", uri) == (
+            f"the run that logged it ({run_id}) is deleted in {uri}")
+    finally:
+        client.restore_run(run_id)
+
+
 def test_training_registers_its_model_with_signature_and_alias(registered):
     import mlflow
 

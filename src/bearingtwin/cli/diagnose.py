@@ -149,6 +149,8 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         lines["model and physics disagree on"] = ", ".join(disagreements)
     if run.failures:
         lines["could not be diagnosed"] = ", ".join(run.failures)
+    if run.model_note:  # loaded all the same: a model its owner removed is said to be
+        lines["the model"] = run.model_note
     if run.other_models:  # rows summary.csv keeps beside a one-file run's: their verdicts are another model's
         lines["summary.csv also holds records another model diagnosed"] = "; ".join(
             f"{uri}: {', '.join(records)}" for uri, records in run.other_models.items())

@@ -368,6 +368,21 @@ def _download_folder() -> str:
     return folder
 
 
+def deleted_run_words(model, model_uri: str, tracking_uri: str) -> str:
+    """Where the run that logged a model loaded from a store is deleted there (its owner removed it; ``mlflow gc``
+    removes its files for good), that, in words; "" otherwise, and for a model read from its own folder."""
+    from mlflow import MlflowClient
+
+    run_id = model.metadata.run_id
+    if not run_id or (Path(model_uri).expanduser() / "MLmodel").is_file():
+        return ""
+    try:
+        run = MlflowClient(tracking_uri=tracking_uri).get_run(run_id)
+    except MlflowException:  # gone for good: the model was loaded all the same (a registered version keeps its own)
+        return f"the run that logged it ({run_id}) is no longer in {tracking_uri}"
+    return f"the run that logged it ({run_id}) is deleted in {tracking_uri}" if run.info.lifecycle_stage == "deleted" else ""
+
+
 def load_diagnosis_model(model_uri: str, tracking_uri: str):
     """The pyfunc model at ``model_uri`` (``models:/name@alias``, ``models:/name/version``, ``runs:/id/model``),
     its pipeline and the URI loaded: an alias replaced by the version it names now, for an alias moves (a sweep may

@@ -42,7 +42,7 @@ from bearingtwin.data.labels import (DEFAULT_LABELS, NOT_LISTED, LabelsRow, firs
                                      labels_table_with_bad_rows, names_file, read_labels, recordings_and_others,
                                      scale_and_unit_given, warn_left_out, why_not_a_recording)
 from bearingtwin.diagnosis.evidence import PhysicsEvidence, check_segment, evidence_settings
-from bearingtwin.diagnosis.mlflow_model import load_diagnosis_model
+from bearingtwin.diagnosis.mlflow_model import deleted_run_words, load_diagnosis_model
 from bearingtwin.diagnosis.record import (CONDITION_KEYS, FEW_WINDOWS, diagnose_recording, one_line, plot_diagnosis,
                                          read_record)
 from bearingtwin.errors import BearingTwinError
@@ -86,6 +86,7 @@ class DiagnosisRun:
     # One file's run: the records of out diagnosed by another model than this run's (its version -> their names), whose
     # rows summary.csv keeps beside this one's.
     other_models: dict[str, list[str]] = field(default_factory=dict)
+    model_note: str = ""  # what the store says of the model's run where it says anything (deleted), else ""
 
 
 def find_records(path: str, labels_path: Path | None) -> list[Path]:
@@ -228,6 +229,9 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
     if beside is not None:  # one file: its row fills in what the command leaves out, as the twin's does
         table, labels = beside, row
     model, pipeline, pinned = load_diagnosis_model(str(cfg.model), tracking_uri)  # pinned: the version an alias named
+    model_note = deleted_run_words(model, str(cfg.model), tracking_uri)
+    if model_note:
+        log.warning("model=%s: %s", cfg.model, model_note)
     pipeline.check_can_diagnose()
     check_segment(settings["segment_s"], pipeline.fs_hz)  # every record is read at the model's rate
     with writing_alone(out, whole_folder=len(records) > 1):
@@ -236,7 +240,7 @@ def diagnose_paths(cfg: DictConfig) -> DiagnosisRun:
         refuse_replacing_another_file(out, records)
         tracked = open_diagnosis_run(cfg, table, bearing, pinned) if logged else None
         earlier = remove_earlier_outputs(out, records)  # after the store answered: a failing store costs no results
-        run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier)
+        run = DiagnosisRun(out=out, run_id=tracked[1] if tracked else None, earlier=earlier, model_note=model_note)
         interrupted = False
         try:
             diagnose_records(run, records, cfg, model, pipeline, settings, labels, bad_rows, table, bearing, figures,
