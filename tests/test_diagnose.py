@@ -1206,9 +1206,8 @@ def test_a_registry_apart_from_the_tracking_store_is_the_one_mlflow_serves_from(
     registry = f"sqlite:///{tmp_path}/registry.db"
     MlflowClient(registry).search_registered_models()  # a new store's tables, as a team's registry has them
 
-    def started_with(registry_uri):  # the variable as the process was started with it
+    def started_with(registry_uri):  # the variable as the user set it
         monkeypatch.setenv("MLFLOW_REGISTRY_URI", registry_uri)
-        monkeypatch.setattr("bearingtwin.tracking.mlflow_logging.USER_REGISTRY_URI", registry_uri)
 
     try:
         started_with(registry)
@@ -1221,6 +1220,10 @@ def test_a_registry_apart_from_the_tracking_store_is_the_one_mlflow_serves_from(
         assert mlflow.pyfunc.load_model("models:/apart@champion").metadata.run_id == run_id
         _, pipeline, pinned = load_diagnosis_model("models:/apart@champion", uri)
         assert pinned == f"models:/apart/{version}" and pipeline is not None
+        assert os.environ["MLFLOW_REGISTRY_URI"] == registry  # as the user set it, whatever MLflow was pointed at
+        monkeypatch.delenv("MLFLOW_REGISTRY_URI")
+        load_diagnosis_model("models:/diag@champion", uri)  # the tracking store's registry: no variable left behind
+        assert "MLFLOW_REGISTRY_URI" not in os.environ
         started_with(f"sqlite:///{tmp_path}/absent.db")
         with pytest.raises(BearingTwinError, match=rf"^MLFLOW_REGISTRY_URI=sqlite:///{tmp_path}/absent.db: no such store"):
             load_diagnosis_model("models:/apart@champion", uri)

@@ -234,9 +234,12 @@ def test_a_hust_run_on_other_files_than_the_papers_stands_beside_no_paper_figure
     severe = {"normal": "H", "inner": "I", "ball": "B", "outer": "O"}
     log_hust_run(client, experiment_id, "65", severe, "random", 0, perfect, dataset_key="severe")
     log_hust_run(client, experiment_id, "65", paper.HUST_CLASSES, "random", 0, perfect, channel="Y", dataset_key="y")
-    out = tmp_path / "hust.md"
-    for condition in ([], ["condition=65.0"], ["condition=65"]):
+    log_hust_run(client, experiment_id, "60", paper.HUST_CLASSES, "random", 0, perfect, dataset_key="sixty")
+    for index, condition in enumerate(([], ["condition=65.0"], ["condition=65"])):
+        out = tmp_path / f"hust{index}.md"
         assert report_main(["hust", f"uri={uri}", f"out={out}", *condition]) == 0
+        # The runs behind the numbers: those of the condition asked for alone (its record counts no 60 Hz run).
+        assert f'"runs": [{4.0 if condition else 5.0}]' in out.read_text()
         rows = {row[3]: row for row in table_rows(generated_text(out, GENERATED), "65 Hz")}
         assert sorted(rows) == ["H, 0.5X_I, 0.5X_B, 0.5X_O, channel X (dataset records)",
                                 "H, 0.5X_I, 0.5X_B, 0.5X_O, channel Y (dataset y)", "H, I, B, O, channel X (dataset severe)"]
@@ -245,7 +248,7 @@ def test_a_hust_run_on_other_files_than_the_papers_stands_beside_no_paper_figure
         assert rows["H, I, B, O, channel X (dataset severe)"][8] == "—"
         assert rows["H, 0.5X_I, 0.5X_B, 0.5X_O, channel Y (dataset y)"][8] == "—"
     with pytest.raises(SystemExit) as exit_:
-        report_main(["hust", f"uri={uri}", f"out={out}", "condition=65Hz"])
+        report_main(["hust", f"uri={uri}", f"out={tmp_path / 'hust.md'}", "condition=65Hz"])
     assert exit_.value.code == 2 and "condition='65Hz' is not a HUST condition (without Hz" in capsys.readouterr().err
 
 

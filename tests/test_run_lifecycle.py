@@ -548,6 +548,7 @@ def test_a_run_that_ends_well_while_a_dead_process_is_sought_stays_finished(tmp_
     assert client.get_run(gone.info.run_id).info.status == "KILLED"
 
 
+@pytest.mark.skipif(not Path("/proc/self/ns/pid").exists(), reason="no /proc pid namespace to name (not Linux)")
 def test_a_run_whose_pid_belongs_to_another_pid_space_is_left_running(tmp_path):
     """A container sharing the host's name (host networking) numbers its processes apart: a training there, alive, had
     been marked KILLED by a diagnosis here that could not see its pid. A run opened in another pid space (another pid

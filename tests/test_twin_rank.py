@@ -555,6 +555,12 @@ def test_words_for_intervals_ranges_and_later_effects():
                      space=effect_search_space("unbalance", FS), intervals={"level_db": [8.85, 20.0]})
     assert ("unbalance (level 19.6 dB (8.85-20) re the bearing signal's RMS, its interval reaching the upper edge of the "
             "searched -60 to 20: the value may lie beyond it) closes 70 %") in line.sentence(), line.sentence()
+    # A reference's noise tried as changed: its absolute level, held and never searched, is no fitted value of it.
+    held = {"snr_db": -10.0, "spectral_slope": 0.4, "reference_rms": 0.0312}
+    changed = EffectFit("noise", {**held, "snr_db": 5.0}, 1.0, 0.5, 3.0, 0.1, 2, "signature", comparison=None,
+                        space=effect_search_space("noise", FS), changed_from=held)
+    assert changed.sentence().startswith("noise, changed from the held snr -10 dB, spectral slope 0.4 to snr 5 dB, "
+                                         "spectral slope 0.4, closes"), changed.sentence()
     clipped = EffectFit("clipping", {"clip_level": 2.35}, 1.0, 0.6, 3.0, 0.1, 1, "signature", comparison=None,
                         space=effect_search_space("clipping", FS), intervals={"clip_level": [1.34, 4.26]})
     assert "clipping (clip level 2.35 (1.34-4.26) times the RMS) closes 60 %" in clipped.sentence(), clipped.sentence()

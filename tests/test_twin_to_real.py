@@ -262,6 +262,47 @@ def test_an_unknown_noise_level_is_refused_before_any_simulation(report_path, he
         build_dataset(cfg)
 
 
+def test_a_healthy_report_whose_noise_a_reference_held_keeps_its_level(report_path, healthy_report_path, tmp_path,
+                                                                        monkeypatch):
+    """A healthy record's report made with reference= gives its noise at the reference's absolute level, which its
+    snr_db refers to: noise_level=absolute keeps that level (the healthy twin's would change the floor), and
+    noise_level=relative, which has no ratio to keep, is refused before any simulation."""
+    import bearingtwin.data.twin_to_real as twin_to_real
+
+    held = tmp_path / "held" / "twin_report.json"
+    held.parent.mkdir()
+    steps = json.loads(healthy_report_path.read_text())["steps"]
+    steps[1]["params"]["noise"]["reference_rms"] = 0.25
+    held.write_text(json.dumps({"steps": steps}))
+
+    class Simulated(Exception):
+        pass
+
+    def simulated(*args, **kwargs):
+        raise Simulated(args)
+
+    def overwritten(*args, **kwargs):
+        raise AssertionError("the held level was replaced by the healthy twin's")
+
+    monkeypatch.setattr(twin_to_real, "simulate", simulated)
+    monkeypatch.setattr(twin_to_real, "simulate_variants", simulated)
+    monkeypatch.setattr(twin_to_real, "healthy_twin_rms", overwritten)
+
+    def dataset(noise_level):
+        return build_dataset(compose_train(SMALL + [
+            f"data.calibration.report={report_path}", "data.calibration.step=0",
+            f"data.calibration.healthy.report={held}", "data.calibration.healthy.step=1",
+            f"data.calibration.healthy.noise_level={noise_level}", f"paths.cache_dir={tmp_path}"]))
+
+    with pytest.raises(BearingTwinError, match=r"^data\.calibration\.healthy\.noise_level=relative: the calibration's "
+                                               r"noise is held at an absolute level \(reference_rms=0\.25 m/s\^2"):
+        dataset("relative")
+    with pytest.raises(Simulated) as reached:
+        dataset("absolute")
+    variants = reached.value.args[0][3]
+    assert all(effects["noise"]["reference_rms"] == 0.25 for _, effects in variants)
+
+
 @pytest.fixture(scope="module")
 def white_noise_report_path(tmp_path_factory):
     """A healthy record's report whose noise is white (its level in a short window is then tight), fitted on a

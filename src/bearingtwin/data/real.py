@@ -131,8 +131,13 @@ def hust_folder_holds(root: Path) -> str:
 
 
 def _hust_names(folder: Path) -> list[HustName]:
-    """What the names of a folder's HUST files say (:func:`~bearingtwin.data.hust.parse_hust_name`)."""
-    return [name for path in folder.iterdir() if path.suffix.lower() == ".xls" and path.is_file()
+    """What the names of a folder's HUST files say (:func:`~bearingtwin.data.hust.parse_hust_name`); none for a folder
+    that cannot be listed (lost+found at a mount's root)."""
+    try:
+        paths = list(folder.iterdir())
+    except OSError:
+        return []
+    return [name for path in paths if path.suffix.lower() == ".xls" and path.is_file()
             and (name := parse_hust_name(path)) is not None]
 
 

@@ -758,8 +758,14 @@ def build_twin_to_real_dataset(data_cfg, bearing_cfg, simulator_cfg, effects_cfg
     rpms = operating_points_rpm(tests + list(calibration_records.values()))
     simulator.update(fs=twin_fs, duration=float(cfg["twin"]["duration"]), sensor=cfg["twin"]["sensor"])
     # Only noise found on the healthy record has a healthy twin to refer to; noise found on the
-    # fault record keeps the ratio it was fitted as.
-    if noise_level == "absolute" and healthy.get("step") and "noise" in calibration_step(
+    # fault record keeps the ratio it was fitted as. A report made with reference= gives its noise at an absolute
+    # level already (the reference's), which its snr_db refers to: kept, and no ratio to hold it as.
+    held_level = (effects.get("noise") or {}).get("reference_rms")
+    if held_level is not None and noise_level == "relative":
+        raise BearingTwinError(f"data.calibration.healthy.noise_level=relative: the calibration's noise is held at an "
+                               f"absolute level (reference_rms={held_level:g} m/s^2, as a bearingtwin-twin run with "
+                               "reference= holds it), not as a ratio; give noise_level=absolute")
+    if noise_level == "absolute" and held_level is None and healthy.get("step") and "noise" in calibration_step(
             healthy["report"], healthy["step"], "data.calibration.healthy")[1]:
         effects["noise"] = {**effects["noise"], "reference_rms": healthy_twin_rms(
             healthy["report"], healthy["step"], calibration_records[calibration_path(cfg, table, healthy["record"])],

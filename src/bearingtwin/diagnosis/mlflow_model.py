@@ -43,7 +43,7 @@ from bearingtwin.checks import positive_number
 from bearingtwin.data.units import METRES_PER_S2, quantity_of, unit_key
 from bearingtwin.diagnosis.pipeline import DiagnosisPipeline, unit_for_model
 from bearingtwin.errors import BearingTwinError
-from bearingtwin.tracking.mlflow_logging import registry_uri
+from bearingtwin.tracking.mlflow_logging import registry_uri, use_registry
 from bearingtwin.tracking.provenance import installed_versions
 
 ARTIFACT_PATH = "model"
@@ -237,7 +237,7 @@ def register_model(tracking_uri: str, model_uri: str, name: str, alias: str | No
     from mlflow.exceptions import MlflowException
 
     mlflow.set_tracking_uri(tracking_uri)
-    mlflow.set_registry_uri(registry_uri(tracking_uri))
+    use_registry(tracking_uri)
     version = str(mlflow.register_model(model_uri, name, tags=tags).version)
     client = MlflowClient(tracking_uri=tracking_uri, registry_uri=registry_uri(tracking_uri))
     if description:
@@ -265,7 +265,7 @@ def model_identity(model_uri: str, tracking_uri: str) -> str:
     from mlflow.exceptions import MlflowException
 
     mlflow.set_tracking_uri(tracking_uri)
-    mlflow.set_registry_uri(registry_uri(tracking_uri))
+    use_registry(tracking_uri)
     try:
         info = mlflow.models.get_model_info(model_uri)
     except (MlflowException, OSError) as error:
@@ -398,7 +398,7 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
     if model_uri.startswith("models:/") and registry_uri(tracking_uri) != tracking_uri:
         check_store(registry_uri(tracking_uri), must_exist=True)
     mlflow.set_tracking_uri(tracking_uri)
-    mlflow.set_registry_uri(registry_uri(tracking_uri))
+    use_registry(tracking_uri)
     try:
         version_uri = _version_named(model_uri, tracking_uri)
         # Into a folder of this process's own: from a local store MLflow would load a models:/ URI in place and write

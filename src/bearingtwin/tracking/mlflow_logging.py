@@ -708,16 +708,26 @@ def _server_lost(uri: str, run_id: str, error: Exception) -> BearingTwinError | 
                             "again and marks it KILLED")
 
 
-USER_REGISTRY_URI = os.environ.get("MLFLOW_REGISTRY_URI") or None
-"""``MLFLOW_REGISTRY_URI`` as the process was started with it: MLflow's ``set_registry_uri`` writes the variable too
-(for its subprocesses), so read later it would give the last store this process registered in."""
-
-
 def registry_uri(tracking_uri: str) -> str:
     """The Model Registry's store: ``MLFLOW_REGISTRY_URI`` where the user set it, as MLflow's own tools read it
     (``mlflow.pyfunc.load_model``, ``mlflow models serve``), else the tracking store, as theirs default to: a model
     registered here is the one they serve, and one they serve is one a diagnosis finds."""
-    return USER_REGISTRY_URI or tracking_uri
+    return os.environ.get("MLFLOW_REGISTRY_URI") or tracking_uri
+
+
+def use_registry(tracking_uri: str) -> str:
+    """Point MLflow's own calls (``register_model``, ``pyfunc.load_model``) at :func:`registry_uri`, and return it,
+    leaving ``MLFLOW_REGISTRY_URI`` as the user set it: MLflow's ``set_registry_uri`` writes the variable too, which
+    this process, and every process it starts, would then read as the user's."""
+    import mlflow
+
+    registry, before = registry_uri(tracking_uri), os.environ.get("MLFLOW_REGISTRY_URI")
+    mlflow.set_registry_uri(registry)
+    if before is None:
+        os.environ.pop("MLFLOW_REGISTRY_URI", None)
+    else:
+        os.environ["MLFLOW_REGISTRY_URI"] = before
+    return registry
 
 
 def store_setting(uri: str) -> str:
@@ -727,7 +737,7 @@ def store_setting(uri: str) -> str:
     from bearingtwin.config import given_on_command_line
 
     given = os.environ.get("MLFLOW_TRACKING_URI", "")
-    if uri == USER_REGISTRY_URI and uri != given and not given_on_command_line("tracking.uri"):
+    if uri == os.environ.get("MLFLOW_REGISTRY_URI") and uri != given and not given_on_command_line("tracking.uri"):
         return f"MLFLOW_REGISTRY_URI={uri}"
     given_file, read_file = _sqlite_path(given), _sqlite_path(uri)
     same = given == uri or bool(given_file and read_file and not Path(given_file).is_absolute()

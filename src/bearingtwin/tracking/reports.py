@@ -83,13 +83,14 @@ class ReportInput:
         return self.setting_labels.get(run.info.run_id, "")
 
     def training_runs(self, extra_filter: str = "", group_by: Callable = lambda run: (), vmd_params: str | None = None,
-                      beside_paper: bool = False) -> list:
+                      beside_paper: bool = False, keep: Callable = lambda run: True) -> list:
         """FINISHED training runs, newest per (method, seed, ``group_by(run)``).
 
         Restricted to ``source`` (default ``simulated``) and, if given, ``sweep_dir``. With
         ``vmd_params``, SABO-VMD runs must have used it, so that a later ``per_class`` or
         ``per_sample`` run of the same method and seed does not displace the one a table is about;
-        runs without VMD parameters (raw features) always count. ``beside_paper``: the runs stand beside the paper's
+        runs without VMD parameters (raw features) always count. ``keep(run)``: a further choice the store's search
+        cannot make (a condition read as the data source reads it), made before any run counts. ``beside_paper``: the runs stand beside the paper's
         figures, so a run's settings are read against its method's as configured too (:func:`configured_setting`),
         and those it differs in are named in its row, as another setting of its method's would be.
         """
@@ -110,7 +111,8 @@ class ReportInput:
         else:
             found = find_runs(self.client, self.experiment_id, " and ".join(clauses))
         found = [run for run in found  # newest first
-                 if vmd_params is None or run.data.params.get("features.vmd_params", vmd_params) == vmd_params]
+                 if (vmd_params is None or run.data.params.get("features.vmd_params", vmd_params) == vmd_params)
+                 and keep(run)]
         # A run of its method at other settings (an ablation's classifier.C) is another row, not another seed.
         setting, differing, members_of = {}, {}, {}
         params_of = {run.info.run_id: setting_params(run) for run in found}
@@ -561,8 +563,8 @@ def _real_data_report(source: ReportInput, data_source: str, condition: str, uni
         # hashes the files' contents, wherever they lie.
         return (written(run), run.data.params.get("data.split", "?"), _data_set(run), run.data.tags.get("dataset_key", ""))
 
-    runs = [run for run in source.training_runs(group_by=group, vmd_params=_vmd_params(source))
-            if wanted is None or written(run) == wanted]
+    runs = source.training_runs(group_by=group, vmd_params=_vmd_params(source),
+                                keep=lambda run: wanted is None or written(run) == wanted)
     if not runs:
         at = f" at {condition}={wanted}" if wanted is not None else ""
         raise _missing(f"data.source={data_source}{at} with features.vmd_params={_vmd_params(source)}", source, _sweep(data_source))

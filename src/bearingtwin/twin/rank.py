@@ -222,7 +222,8 @@ class EffectFit:
         what the effects before it left; a fixed effect that changed, from what to what."""
         values = ", ".join(_parameter_words(k, v, self.intervals.get(k)) + _reference_words(self.effect, k)
                            + (_range_words(v, self.intervals.get(k), self.space[k]) if k in self.space else "")
-                           for k, v in self.params.items() if isinstance(v, float))
+                           for k, v in self.params.items()  # a held effect's settings not searched stay as held: unsaid
+                           if isinstance(v, float) and (k in self.space or k not in (self.changed_from or {})))
         of = "the discrepancy" if first else "what was left"
         beside = "" if self.claimed_beside is None else f" (its signature shows only beside {self.claimed_beside})"
         if self.changed_from is None:
