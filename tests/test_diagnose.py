@@ -1403,6 +1403,11 @@ def test_a_model_that_puts_physics_first_is_scored_and_diagnoses_as_it_decides(t
     assert ("the model was trained on windows of this record (the same contents): its verdict is no test of the model"
             in seen["IR007_0"]["notes"])
     assert " of 3 with a known state; 100.00 % of the 1 the model was not trained on" in done.stdout, done.stdout
+    # Scored over windows, the share the envelope spectrum decided is said, and the classifier's own score beside it,
+    # as summary.csv's counts give them.
+    rows = [row for row in csv.DictReader(open(tmp_path / "folder" / "summary.csv")) if row["windows_right"]]
+    windows, alone = (sum(int(row[key]) for row in rows) for key in ("windows", "classifier_windows_right"))
+    assert f"the classifier alone: {100 * alone / windows:.2f} %)" in done.stdout, done.stdout
 
 
 @needs_cwru
@@ -1434,9 +1439,9 @@ def test_a_folder_goes_on_past_bad_files_and_scores_against_labels(registered, t
     # The same columns in every run, whatever its records hold (the conditional ones had moved those after them).
     from bearingtwin.diagnosis.run import SUMMARY_FIELDS
 
-    assert header == list(SUMMARY_FIELDS) and header[-10:] == [
+    assert header == list(SUMMARY_FIELDS) and header[-13:] == [
         "original_fs", "unit_check", "level_unseen", "classifier_verdict", "physics_decided", "speed_spread",
-        "order_tracked", "speed_unseen", "features_unseen", "scale"]
+        "order_tracked", "speed_unseen", "features_unseen", "scale", "windows", "windows_right", "classifier_windows_right"]
     assert 0.0 <= float(rows["pump_a"]["features_unseen"]) <= 1.0 and not rows["short"]["features_unseen"]
     assert rows["pump_a"]["classifier_verdict"] == rows["pump_a"]["verdict"]  # no physics_first: the model's own
     assert float(rows["pump_a"]["physics_decided"]) == 0.0 and not rows["short"]["physics_decided"]
@@ -2456,7 +2461,8 @@ def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unse
 
     def row(record, state, unit_check="as stated", level_unseen=False, **size):
         return {"record": record, "verdict": state, "true_state": state, "correct": True, "physics_correct": True,
-                "unit_check": unit_check, "level_unseen": level_unseen, "bearing": "cwru_6205", **size}
+                "unit_check": unit_check, "level_unseen": level_unseen, "bearing": "cwru_6205", "windows": 10,
+                "windows_right": 9, "classifier_windows_right": 4, **size}
 
     rows = [row("wav", "inner", unit_check="assumed"), row("mg_gain", "inner", level_unseen=True),
             row("or_a", "outer"), row("or_b", "outer"), row("ir007", "inner", fault_size_in=0.007),
@@ -2466,6 +2472,15 @@ def test_the_closing_summary_names_records_read_in_an_assumed_unit_or_at_an_unse
     assert lines["level a decade or more outside the model's training windows"] == "mg_gain"
     assert lines["records right by state and fault size (model, physics)"] == (
         "normal 1/1, 1/1; inner 0.007 in 1/1, 1/1; inner, size unknown 2/2, 2/2; outer 2/2, 2/2")
+    # Windows too, over the same groups; where the envelope spectrum decided some, the classifier's own beside them.
+    assert lines["windows right by state and fault size (model)"] == (
+        "normal 90.00 % of 10; inner 0.007 in 90.00 % of 10; inner, size unknown 90.00 % of 20; outer 90.00 % of 20")
+    scores = {"accuracy_records": 1.0, "n_scored": 6, "accuracy_windows": 0.9, "share_windows_physics_decided": 0.5,
+              "accuracy_windows_classifier": 0.4}
+    lines = diagnosis_lines(DiagnosisRun(rows=rows, scores=scores))
+    assert lines["windows right"] == "90.00 % (the envelope spectrum decided 50.00 % of them; the classifier alone: 40.00 %)"
+    assert lines["windows right by state and fault size (model, classifier alone)"].startswith(
+        "normal 90.00 % of 10, classifier alone 40.00 %; inner 0.007 in 90.00 % of 10, classifier alone 40.00 %;")
     # A HUST name's damage groups as a size does; an outer race's position apart; a record of no known state named.
     rows = [row("h", "normal", severity="none"), row("o_m", "outer", severity="medium"),
             row("o_s", "outer", severity="severe"), row("or6", "outer", fault_size_in=0.021, position="6"),

@@ -826,6 +826,9 @@ def diagnose_recording(prepared: PreparedRecord, model, pipeline: DiagnosisPipel
         result["true_state"] = prepared.true_state
         result["correct"] = bool(verdict == prepared.true_state)
         result["windows_correct"] = int(np.sum(states == prepared.true_state))
+        # The classifier's own answer on every window, where the envelope spectrum decided some (physics_first) too.
+        result["classifier_windows_correct"] = int(np.sum(np.asarray(names)[probabilities.argmax(axis=1)]
+                                                          == prepared.true_state))
         if evidence is not None and evidence.evidence_state is not None:  # an answer the physics gave
             result["physics_correct"] = bool(evidence.evidence_state == prepared.true_state)
     return result, evidence

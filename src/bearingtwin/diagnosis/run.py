@@ -65,6 +65,9 @@ SUMMARY_FIELDS = (
     "speed_unseen",  # a shaft speed well beyond the model's training windows'
     "features_unseen",  # the share of windows the classifier decided beyond its training features
     "scale",  # what the file's samples were multiplied by (scale=, or its labels row's), empty where nothing
+    # Its windows, those right where its truth is known, and those the classifier alone got right (the same where the
+    # envelope spectrum decided none): what a score over windows, or over the classifier alone, sums.
+    "windows", "windows_right", "classifier_windows_right",
 )
 """``summary.csv``'s columns, in every run: a record's own values, its truth where known, the error of one that failed,
 its condition and how it was read."""
@@ -414,7 +417,7 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     ``order_tracking``: whether an unsteady record is order-tracked, and the spread of its speed that is unsteady.
     ``pinned_uri``: the model's URI with an alias replaced by the version it names (:func:`~bearingtwin.diagnosis.mlflow_model.load_diagnosis_model`)."""
     out = run.out
-    windows_total = windows_correct = 0
+    windows_total = windows_correct = classifier_correct = physics_decided = 0
     # A bar over the files in a terminal only (None: tqdm's own test), not in a file the output goes to.
     progress = tqdm(records, desc="diagnose", unit="file", disable=True if len(records) < 2 else None)
     labelled = _rows_of(records, labels)
@@ -498,6 +501,11 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
             row.update({name: result[name] for name in TRUTH_COLUMNS if name in result})
             windows_total += len(result["windows"])
             windows_correct += result["windows_correct"]
+            classifier_correct += result["classifier_windows_correct"]
+            physics_decided += sum(window.get("decided_by") == "physics" for window in result["windows"])
+            row["windows_right"], row["classifier_windows_right"] = (result["windows_correct"],
+                                                                     result["classifier_windows_correct"])
+        row["windows"] = len(result["windows"])
         row["bearing"], row["original_fs"] = result["bearing"], result["original_fs"]
         row["declared_fs"] = result["declared_fs"]  # for the closing summary (not a column)
         row["named_state"] = result["named_state"]  # for the closing summary (not a column)
@@ -525,6 +533,9 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if scored:
         run.scores = {"accuracy_records": sum(row["correct"] for row in scored) / len(scored),
                       "accuracy_windows": windows_correct / windows_total, "n_scored": len(scored)}
+        if physics_decided:  # a model that lets the envelope spectrum decide where it leaves no doubt (physics_first)
+            run.scores["share_windows_physics_decided"] = physics_decided / windows_total
+            run.scores["accuracy_windows_classifier"] = classifier_correct / windows_total
     tested = [row for row in scored if not any(row["seen"].values())]
     if tested and len(tested) < len(scored):  # records the model learnt from, or its twin was fitted to, test nothing
         run.scores["accuracy_records_tested"] = sum(row["correct"] for row in tested) / len(tested)
