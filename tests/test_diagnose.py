@@ -1408,6 +1408,10 @@ def test_a_model_that_puts_physics_first_is_scored_and_diagnoses_as_it_decides(t
     rows = [row for row in csv.DictReader(open(tmp_path / "folder" / "summary.csv")) if row["windows_right"]]
     windows, alone = (sum(int(row[key]) for row in rows) for key in ("windows", "classifier_windows_right"))
     assert f"the classifier alone: {100 * alone / windows:.2f} %)" in done.stdout, done.stdout
+    # As the records, the windows of the one record the model never saw are scored apart.
+    unseen = next(row for row in rows if row["record"] == record.stem)
+    assert (f"; {100 * int(unseen['windows_right']) / int(unseen['windows']):.2f} % of the windows of the 1 the model "
+            "was not trained on") in done.stdout, done.stdout
 
 
 @needs_cwru

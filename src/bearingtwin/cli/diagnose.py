@@ -80,6 +80,9 @@ def diagnosis_lines(run: DiagnosisRun) -> dict[str, str]:
         if "share_windows_physics_decided" in run.scores:  # the model's score is the physics' on those windows
             lines["windows right"] += (f" (the envelope spectrum decided {percent(run.scores['share_windows_physics_decided'])}"
                                        f" of them; the classifier alone: {percent(run.scores['accuracy_windows_classifier'])})")
+        if "accuracy_windows_tested" in run.scores:  # as the records: those the model learnt from test nothing
+            lines["windows right"] += (f"; {percent(run.scores['accuracy_windows_tested'])} of the windows of the "
+                                       f"{run.scores['n_scored_tested']} {unseen_words(diagnosed)}")
     if "accuracy_records_physics" in run.scores:
         lines["physics alone right"] = (f"{percent(run.scores['accuracy_records_physics'])} of the "
                                         f"{run.scores['n_scored_physics']} with a known state and physics evidence")

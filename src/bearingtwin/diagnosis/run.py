@@ -540,6 +540,8 @@ def diagnose_records(run: DiagnosisRun, records: list[Path], cfg: DictConfig, mo
     if tested and len(tested) < len(scored):  # records the model learnt from, or its twin was fitted to, test nothing
         run.scores["accuracy_records_tested"] = sum(row["correct"] for row in tested) / len(tested)
         run.scores["n_scored_tested"] = len(tested)
+        run.scores["accuracy_windows_tested"] = (sum(row["windows_right"] for row in tested)
+                                                 / sum(row["windows"] for row in tested))
     with_physics = [row for row in scored if "physics_correct" in row]
     if with_physics:  # the envelope analysis alone, on the same records: what the model must beat
         run.scores["accuracy_records_physics"] = sum(row["physics_correct"] for row in with_physics) / len(with_physics)
