@@ -237,9 +237,9 @@ def register_model(tracking_uri: str, model_uri: str, name: str, alias: str | No
     from mlflow.exceptions import MlflowException
 
     mlflow.set_tracking_uri(tracking_uri)
-    use_registry(tracking_uri)
+    registry = use_registry(tracking_uri)
     version = str(mlflow.register_model(model_uri, name, tags=tags).version)
-    client = MlflowClient(tracking_uri=tracking_uri, registry_uri=registry_uri(tracking_uri))
+    client = MlflowClient(tracking_uri=tracking_uri, registry_uri=registry)
     if description:
         client.update_model_version(name, version, description=description)
     before = None
@@ -368,13 +368,18 @@ def _download_folder() -> str:
     return folder
 
 
+def _own_folder(model_uri: str) -> bool:
+    """Whether ``model_uri`` is a model's own folder on disk (one holding MLmodel), read without any store."""
+    return (Path(model_uri).expanduser() / "MLmodel").is_file()
+
+
 def deleted_run_words(model, model_uri: str, tracking_uri: str) -> str:
     """Where the run that logged a model loaded from a store is deleted there (its owner removed it; ``mlflow gc``
     removes its files for good), that, in words; "" otherwise, and for a model read from its own folder."""
     from mlflow import MlflowClient
 
     run_id = model.metadata.run_id
-    if not run_id or (Path(model_uri).expanduser() / "MLmodel").is_file():
+    if not run_id or _own_folder(model_uri):
         return ""
     try:
         run = MlflowClient(tracking_uri=tracking_uri).get_run(run_id)
@@ -393,12 +398,12 @@ def load_diagnosis_model(model_uri: str, tracking_uri: str):
 
     from bearingtwin.tracking.mlflow_logging import check_store, mlflow_reason
 
-    if not (Path(model_uri).expanduser() / "MLmodel").is_file():  # a model's own folder is read without a store
+    if not _own_folder(model_uri):
         check_store(tracking_uri, must_exist=True)  # a server that does not answer, a store that is not there
-    if model_uri.startswith("models:/") and registry_uri(tracking_uri) != tracking_uri:
-        check_store(registry_uri(tracking_uri), must_exist=True)
     mlflow.set_tracking_uri(tracking_uri)
-    use_registry(tracking_uri)
+    registry = use_registry(tracking_uri)
+    if model_uri.startswith("models:/") and registry != tracking_uri:
+        check_store(registry, must_exist=True)
     try:
         version_uri = _version_named(model_uri, tracking_uri)
         # Into a folder of this process's own: from a local store MLflow would load a models:/ URI in place and write
